@@ -1,0 +1,138 @@
+// `mca bench`: named benchmark scenes, timed as automaton-steps per second (median of repeats).
+// Each repeat starts from the same snapshot taken after the ball has hit, so contacts and breaking are
+// active during the timed steps.
+#include <algorithm>
+#include <chrono>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+#include <thread>
+
+#include "app/commands.hpp"
+#include "mca/error.hpp"
+#include "sim/simulation.hpp"
+
+namespace mca::app {
+namespace {
+
+struct BenchScene {
+  std::string name;
+  std::string description;
+  SceneDef scene;
+  int warmup_steps;  // steps before timing: the ball is in contact by then
+};
+
+// A concrete wall of nx x ny x nz automata (d = 0.05 m) standing on the ground, struck at its centre by
+// a steel ball that starts just short of it.
+SceneDef wall_scene(const std::string& name, int nx, int ny, int nz, int walls, double d) {
+  SceneDef s;
+  s.name = name;
+  s.source = "<bench " + name + ">";
+  s.solver.spacing = d;
+  s.heterogeneity.preset = "medium";
+  heterogeneity_preset("medium", s.heterogeneity.shares);
+  s.ground.enabled = true;
+  const double wx = nx * d, wy = ny * d, wz = nz * d, gap = 6 * d;
+  const double ball = std::max(3 * d, 0.1 * std::min(wx, wz));
+  for (int k = 0; k < walls; ++k) {
+    ObjectDef o;
+    o.name = fmt::format("wall{}", k);
+    o.size = {wx, wy, wz};
+    o.position = {k * (wx + gap), 0, 0.5 * wz};
+    s.objects.push_back(o);
+    ProjectileDef p;
+    p.name = fmt::format("ball{}", k);
+    p.radius = ball;
+    p.position = {k * (wx + gap), -0.5 * wy - ball - 0.6 * d, 0.5 * wz};
+    p.velocity = {0, 60, 0};
+    s.projectiles.push_back(p);
+  }
+  s.output.duration = 0.01;
+  return s;
+}
+
+std::vector<BenchScene> scenes() {
+  return {
+      {"wall_3k", "the paper's single wall: 30 x 4 x 25 automata, ball at 60 m/s", wall_scene("wall_3k", 30, 4, 25, 1, 0.05), 200},
+      {"walls_12k", "the paper's four walls: 4 x (30 x 4 x 25) automata, a ball each", wall_scene("walls_12k", 30, 4, 25, 4, 0.05), 200},
+      {"wall_357k", "a 101 x 35 x 101 lattice wall (357,035 automata), ball at 60 m/s", wall_scene("wall_357k", 101, 35, 101, 1, 0.02), 100},
+  };
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+}  // namespace
+
+std::vector<std::string> bench_names() {
+  std::vector<std::string> n;
+  for (const auto& s : scenes()) n.push_back(s.name);
+  return n;
+}
+
+int bench(const std::vector<std::string>& names, bool json, int threads_requested, int repeats, int steps) {
+  auto all = scenes();
+  std::vector<BenchScene> chosen;
+  if (names.empty()) chosen = all;
+  for (const auto& n : names) {
+    auto it = std::find_if(all.begin(), all.end(), [&](const BenchScene& b) { return b.name == n; });
+    if (it == all.end())
+      throw Error(fmt::format("unknown benchmark '{}'; the benchmarks are: {}", n, fmt::join(bench_names(), ", ")));
+    chosen.push_back(*it);
+  }
+  if (repeats < 1) throw Error(fmt::format("--repeats {} must be at least 1", repeats));
+  if (steps < 1) throw Error(fmt::format("--steps {} must be at least 1", steps));
+  const int threads = threads_requested > 0 ? threads_requested : tbb::info::default_concurrency();
+  tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+  nlohmann::json out = nlohmann::json::array();
+  if (!json)
+    fmt::print("machine: {} hardware threads, using {}; median of {} runs of {} steps each\n",
+               std::thread::hardware_concurrency(), threads, repeats, steps);
+  for (const auto& b : chosen) {
+    Simulation sim(b.scene);
+    sim.advance(b.warmup_steps);
+    const State snapshot = sim.state();
+    const std::size_t n = sim.model().size();
+    std::vector<double> rates, walls;
+    std::int64_t broken_before = snapshot.broken_by[0] + snapshot.broken_by[1], broken_after = 0;
+    std::size_t contacts = 0;
+    for (int r = 0; r < repeats; ++r) {
+      sim.backend().upload(snapshot);
+      const auto t0 = std::chrono::steady_clock::now();
+      sim.advance(steps);
+      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      walls.push_back(wall);
+      rates.push_back(static_cast<double>(n) * steps / wall);
+      broken_after = sim.state().broken_by[0] + sim.state().broken_by[1];
+      contacts = sim.state().contacts.size();
+    }
+    const double med = median(rates);
+    if (json) {
+      out.push_back({{"name", b.name}, {"description", b.description}, {"automata", n},
+                     {"links", sim.model().link_count()}, {"steps", steps}, {"repeats", repeats}, {"threads", threads},
+                     {"median_wall_seconds", median(walls)}, {"automaton_steps_per_second", med},
+                     {"all_automaton_steps_per_second", rates},
+                     {"links_broken_during_timed_steps", broken_after - broken_before},
+                     {"contact_pairs_at_end", contacts}});
+    } else {
+      fmt::print("{:<10} {:>8} automata {:>8} links  {} steps  {:.3f} s  {:7.2f} M automaton-steps/s  "
+                 "(runs: {:.2f}; {} links broke in the timed steps, {} contact pairs)\n",
+                 b.name, n, sim.model().link_count(), steps, median(walls), med / 1e6,
+                 fmt::join(std::vector<double>([&] {
+                             std::vector<double> m;
+                             for (double r : rates) m.push_back(r / 1e6);
+                             return m;
+                           }()),
+                           " "),
+                 broken_after - broken_before, contacts);
+    }
+  }
+  if (json) fmt::print("{}\n", out.dump(2));
+  return 0;
+}
+
+}  // namespace mca::app

@@ -1,0 +1,29 @@
+#pragma once
+// The `mca` subcommands, as functions the CLI (main.cpp) and the end-to-end tests call.
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace mca::app {
+
+struct RunOptions {
+  std::optional<std::string> scene;    // path; none = the built-in default scene
+  std::optional<std::string> out;      // default out/<scene name>
+  int threads = 0;                     // 0 = all cores
+  std::optional<double> duration;      // overrides output.duration
+  std::optional<std::int64_t> steps;   // run exactly this many steps instead of a duration
+  std::optional<std::uint64_t> seed;   // overrides solver.seed
+  std::optional<int> checkpoint_every; // overrides output.checkpoint_every
+  std::optional<bool> vtk;             // overrides output.vtk
+  bool quiet = false;                  // no progress bar
+};
+
+int run(const RunOptions& options);
+int resume(const std::string& out_dir, int threads, bool quiet);
+int info(const std::optional<std::string>& scene, bool json);
+int bench(const std::vector<std::string>& names, bool json, int threads, int repeats, int steps);
+// Names of the built-in benchmark scenes.
+std::vector<std::string> bench_names();
+
+}  // namespace mca::app

@@ -1,0 +1,146 @@
+#include "app/frame_output.hpp"
+
+#include <fmt/format.h>
+#include <fstream>
+
+#include "io/output_files.hpp"
+#include "io/vtk_writer.hpp"
+
+namespace mca::app {
+
+FrameWriter::FrameWriter(std::filesystem::path dir, const Model& model, bool vtk, bool links)
+    : dir_(std::move(dir)), model_(model), vtk_(vtk), links_(links) {
+  if (vtk_) std::filesystem::create_directories(dir_ / "frames");
+  initial_degree_.resize(model.size());
+  for (std::size_t a = 0; a < model.size(); ++a) initial_degree_[a] = model.adj_begin[a + 1] - model.adj_begin[a];
+}
+
+analysis::Fragments FrameWriter::fragments(const State& s) const {
+  return analysis::label_fragments(model_.size(), model_.link_i.data(), model_.link_j.data(), s.intact.data(),
+                                   model_.link_count());
+}
+
+FrameStats FrameWriter::stats(std::int64_t frame, const State& s, const analysis::Fragments& frags) const {
+  FrameStats st;
+  st.frame = frame;
+  st.time = s.time;
+  st.energy = compute_energies(model_, s);
+  st.broken_displacement = s.broken_by[0];
+  st.broken_stress = s.broken_by[1];
+  st.fragments = frags.count;
+  std::vector<double> mass(static_cast<std::size_t>(frags.count), 0.0);
+  for (std::size_t a = 0; a < model_.size(); ++a) mass[frags.id[a]] += model_.mass[a];
+  double largest = 0;
+  for (double m : mass) largest = std::max(largest, m);
+  st.largest_share = model_.total_mass > 0 ? largest / model_.total_mass : 0;
+  st.grip_force = s.grip_force;
+  return st;
+}
+
+void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis::Fragments& frags) {
+  if (!vtk_) return;
+  const std::size_t n = model_.size();
+  std::vector<float> disp(3 * n), damage(n), seq(n), smean(n);
+  std::vector<std::int32_t> group(n), cls(n), object(n);
+  for (std::size_t a = 0; a < n; ++a) {
+    const Vec3 d = s.x[a] - model_.position0[a];
+    disp[3 * a] = d.x;
+    disp[3 * a + 1] = d.y;
+    disp[3 * a + 2] = d.z;
+    std::uint32_t broken = 0;
+    for (std::uint32_t k = model_.adj_begin[a]; k < model_.adj_begin[a + 1]; ++k) broken += !s.intact[model_.adj_link[k]];
+    damage[a] = initial_degree_[a] ? static_cast<float>(broken) / static_cast<float>(initial_degree_[a]) : 0.0f;
+    seq[a] = von_mises(s.s[a]);
+    smean[a] = mean_stress(s.s[a]);
+    group[a] = model_.group[a];
+    cls[a] = model_.strength_class[a];
+    object[a] = model_.object[a];
+  }
+  const float* xyz = reinterpret_cast<const float*>(s.x.data());
+  std::vector<io::PointField> fields = {
+      {"velocity", 3, reinterpret_cast<const float*>(s.v.data()), nullptr},
+      {"displacement", 3, disp.data(), nullptr},
+      {"angular_velocity", 3, reinterpret_cast<const float*>(s.w.data()), nullptr},
+      {"group", 1, nullptr, group.data()},
+      {"strength_class", 1, nullptr, cls.data()},
+      {"object", 1, nullptr, object.data()},
+      {"fragment", 1, nullptr, frags.id.data()},
+      {"damage", 1, damage.data(), nullptr},
+      {"equivalent_stress", 1, seq.data(), nullptr},
+      {"mean_stress", 1, smean.data(), nullptr},
+      {"radius", 1, model_.radius.data(), nullptr},
+  };
+  std::vector<std::array<std::uint32_t, 2>> lines;
+  if (links_) {
+    for (std::size_t l = 0; l < model_.link_count(); ++l)
+      if (s.intact[l]) lines.push_back({model_.link_i[l], model_.link_j[l]});
+  }
+  const std::string name = fmt::format("frames/automata_{:06d}.vtu", frame);
+  io::write_vtu(dir_ / name, n, xyz, fields, links_ ? &lines : nullptr);
+  automata_pvd_.emplace_back(s.time, name);
+  io::write_pvd(dir_ / "automata.pvd", automata_pvd_);
+
+  if (!model_.projectiles.empty()) {
+    const std::size_t np = model_.projectiles.size();
+    std::vector<float> pxyz(3 * np), pvel(3 * np), prad(np);
+    for (std::size_t p = 0; p < np; ++p) {
+      const auto& ps = s.projectiles[p];
+      pxyz[3 * p] = ps.position.x;
+      pxyz[3 * p + 1] = ps.position.y;
+      pxyz[3 * p + 2] = ps.position.z;
+      pvel[3 * p] = ps.velocity.x;
+      pvel[3 * p + 1] = ps.velocity.y;
+      pvel[3 * p + 2] = ps.velocity.z;
+      prad[p] = model_.projectiles[p].radius;
+    }
+    const std::string pname = fmt::format("frames/projectiles_{:06d}.vtu", frame);
+    io::write_vtu(dir_ / pname, np, pxyz.data(),
+                  {{"velocity", 3, pvel.data(), nullptr}, {"radius", 1, prad.data(), nullptr}});
+    projectile_pvd_.emplace_back(s.time, pname);
+    io::write_pvd(dir_ / "projectiles.pvd", projectile_pvd_);
+  }
+}
+
+void FrameWriter::restore(std::int64_t frames, double frame_interval) {
+  automata_pvd_.clear();
+  projectile_pvd_.clear();
+  if (!vtk_) return;
+  for (std::int64_t f = 0; f < frames; ++f) {
+    automata_pvd_.emplace_back(f * frame_interval, fmt::format("frames/automata_{:06d}.vtu", f));
+    if (!model_.projectiles.empty())
+      projectile_pvd_.emplace_back(f * frame_interval, fmt::format("frames/projectiles_{:06d}.vtu", f));
+  }
+}
+
+std::vector<std::string> FrameWriter::stats_header(const Model& model) {
+  std::vector<std::string> h = {"frame", "time", "kinetic_energy", "elastic_energy", "projectile_kinetic_energy",
+                                "gravity_work", "grip_work", "total_energy", "broken_displacement",
+                                "broken_stress", "broken_total", "fragments", "largest_fragment_mass_share"};
+  for (const auto& g : model.grip_names) {
+    h.push_back(g + "_force_x");
+    h.push_back(g + "_force_y");
+    h.push_back(g + "_force_z");
+  }
+  return h;
+}
+
+std::string FrameWriter::format_row(const FrameStats& r) const {
+  const auto& e = r.energy;
+  std::string line = fmt::format("{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{},{},{},{},{:.6f}", r.frame,
+                                 r.time, e.kinetic, e.elastic, e.projectile_kinetic, e.gravity_work, e.grip_work,
+                                 e.kinetic + e.elastic + e.projectile_kinetic, r.broken_displacement, r.broken_stress,
+                                 r.broken_displacement + r.broken_stress, r.fragments, r.largest_share);
+  for (const auto& f : r.grip_force) line += fmt::format(",{:.9g},{:.9g},{:.9g}", f.x, f.y, f.z);
+  return line;
+}
+
+void FrameWriter::write_stats(const std::vector<std::string>& rows) const {
+  io::write_file_atomic(dir_ / "stats.csv", [&](std::ostream& os) {
+    const auto h = stats_header(model_);
+    for (std::size_t k = 0; k < h.size(); ++k) os << (k ? "," : "") << h[k];
+    os << "\n";
+    for (const auto& r : rows) os << r << "\n";
+  }, false);
+}
+
+}  // namespace mca::app

@@ -1,0 +1,49 @@
+#pragma once
+// What a run writes per frame and at its end: VTK frames and their .pvd collections, stats.csv and
+// summary.json. Only reads the state.
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "analysis/fragments.hpp"
+#include "backend/backend.hpp"
+#include "core/model.hpp"
+#include "core/state.hpp"
+
+namespace mca::app {
+
+struct FrameStats {
+  std::int64_t frame = 0;
+  double time = 0;
+  Energies energy;
+  std::int64_t broken_displacement = 0, broken_stress = 0;
+  std::int32_t fragments = 0;
+  double largest_share = 0;
+  std::vector<Vec3> grip_force;
+};
+
+class FrameWriter {
+ public:
+  FrameWriter(std::filesystem::path dir, const Model& model, bool vtk, bool links);
+  // Fragments of the state (for stats and VTK).
+  analysis::Fragments fragments(const State& s) const;
+  FrameStats stats(std::int64_t frame, const State& s, const analysis::Fragments& frags) const;
+  void write_frame(std::int64_t frame, const State& s, const analysis::Fragments& frags);
+  std::string format_row(const FrameStats& row) const;
+  // Rewrites stats.csv (header + rows, each row from format_row) atomically.
+  void write_stats(const std::vector<std::string>& rows) const;
+  // Rebuild the .pvd lists after a resume (frames 0..frames-1 exist on disk).
+  void restore(std::int64_t frames, double frame_interval);
+  static std::vector<std::string> stats_header(const Model& model);
+
+ private:
+  std::filesystem::path dir_;
+  const Model& model_;
+  bool vtk_, links_;
+  std::vector<std::pair<double, std::string>> automata_pvd_, projectile_pvd_;
+  std::vector<std::uint32_t> initial_degree_;
+};
+
+}  // namespace mca::app

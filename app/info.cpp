@@ -1,0 +1,67 @@
+// `mca info`: what a scene will cost before running it.
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "app/commands.hpp"
+#include "io/scene_io.hpp"
+#include "lattice/lattice.hpp"
+#include "sim/simulation.hpp"
+
+namespace mca::app {
+
+int info(const std::optional<std::string>& path, bool json) {
+  const SceneDef scene = path ? io::load_scene_file(*path) : io::load_default_scene();
+  const Simulation sim(scene);
+  const Model& m = sim.model();
+  const std::int64_t frames = sim.frame_count();
+  const std::int64_t steps = frames * sim.steps_per_frame();
+  const double stable = lattice::stable_time_step(m, scene.solver.safety);
+  const std::size_t bytes = estimate_memory_bytes(m.size(), m.link_count());
+  if (json) {
+    nlohmann::json j;
+    j["scene"] = scene.name;
+    j["scene_file"] = scene.source;
+    j["automata"] = m.size();
+    j["links"] = m.link_count();
+    j["spacing"] = m.spacing;
+    j["time_step"] = m.dt;
+    j["stable_time_step"] = stable;
+    j["steps_per_frame"] = sim.steps_per_frame();
+    j["frames"] = frames;
+    j["steps"] = steps;
+    j["duration"] = scene.output.duration;
+    j["memory_bytes"] = bytes;
+    j["total_mass"] = m.total_mass;
+    nlohmann::json objs = nlohmann::json::array();
+    std::vector<std::size_t> count(m.object_names.size(), 0);
+    for (auto o : m.object) ++count[o];
+    for (std::size_t o = 0; o < m.object_names.size(); ++o) objs.push_back({{"name", m.object_names[o]}, {"automata", count[o]}});
+    j["objects"] = objs;
+    std::array<std::size_t, 4> classes{};
+    for (auto c : m.strength_class) ++classes[c - 1];
+    j["strength_classes"] = classes;
+    j["materials"] = m.group_names;
+    j["projectiles"] = m.projectiles.size();
+    fmt::print("{}\n", j.dump(2));
+    return 0;
+  }
+  fmt::print("scene            {} ({})\n", scene.name, scene.source);
+  fmt::print("automata         {}\n", m.size());
+  std::vector<std::size_t> count(m.object_names.size(), 0);
+  for (auto o : m.object) ++count[o];
+  for (std::size_t o = 0; o < m.object_names.size(); ++o) fmt::print("  object {:<9} {}\n", m.object_names[o], count[o]);
+  fmt::print("links            {}\n", m.link_count());
+  fmt::print("spacing          {:.4g} m\n", m.spacing);
+  fmt::print("time step        {:.4g} s (stable {:.4g} s at C = {:g})\n", m.dt, stable, scene.solver.safety);
+  fmt::print("steps per frame  {} ({} frames at {:g} /s, {} steps for {:g} s)\n", sim.steps_per_frame(), frames,
+             scene.output.frame_rate, steps, scene.output.duration);
+  std::array<std::size_t, 4> classes{};
+  for (auto c : m.strength_class) ++classes[c - 1];
+  fmt::print("strength classes {} / {} / {} / {} (classes 1..4)\n", classes[0], classes[1], classes[2], classes[3]);
+  fmt::print("materials        {}\n", fmt::join(m.group_names, ", "));
+  fmt::print("projectiles      {}\n", m.projectiles.size());
+  fmt::print("memory estimate  {:.1f} MB\n", bytes / 1e6);
+  return 0;
+}
+
+}  // namespace mca::app

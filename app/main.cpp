@@ -1,0 +1,81 @@
+// The `mca` command: run, resume, info, bench.
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <fmt/format.h>
+
+#include "app/commands.hpp"
+#include "mca/error.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"mca: fracture of heterogeneous materials with movable cellular automata"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "mca 0.1.0");
+
+  mca::app::RunOptions ro;
+  std::string scene_path, out_dir;
+  double duration = 0;
+  std::int64_t steps = 0;
+  std::uint64_t seed = 0;
+  int checkpoint_every = 0;
+  auto* run = app.add_subcommand("run", "Run a scene (the built-in wall_ball scene if none is given)");
+  run->add_option("scene", scene_path, "Scene file (TOML, see docs/scene-format.md)");
+  run->add_option("--out", out_dir, "Output folder (default out/<scene name>)");
+  run->add_option("--threads", ro.threads, "Worker threads (0 = all cores)");
+  auto* dur_opt = run->add_option("--duration", duration, "Simulated time [s] (overrides output.duration)");
+  auto* steps_opt = run->add_option("--steps", steps, "Run exactly this many steps");
+  dur_opt->excludes(steps_opt);
+  auto* seed_opt = run->add_option("--seed", seed, "Seed of the strength classes (overrides solver.seed)");
+  auto* ck_opt = run->add_option("--checkpoint-every", checkpoint_every, "Write a checkpoint every N frames");
+  bool no_vtk = false;
+  run->add_flag("--no-vtk", no_vtk, "Do not write per-frame VTK files (stats and summary only)");
+  run->add_flag("-q,--quiet", ro.quiet, "No progress output");
+
+  std::string resume_dir;
+  int resume_threads = 0;
+  bool resume_quiet = false;
+  auto* resume = app.add_subcommand("resume", "Continue a run from the newest checkpoint in its output folder");
+  resume->add_option("dir", resume_dir, "Output folder of the run")->required();
+  resume->add_option("--threads", resume_threads, "Worker threads (0 = all cores)");
+  resume->add_flag("-q,--quiet", resume_quiet, "No progress output");
+
+  std::string info_scene;
+  bool info_json = false;
+  auto* info = app.add_subcommand("info", "Automata, links, time step, steps per frame and memory of a scene");
+  info->add_option("scene", info_scene, "Scene file (default: the built-in scene)");
+  info->add_flag("--json", info_json, "Machine-readable output");
+
+  std::vector<std::string> bench_names;
+  bool bench_json = false;
+  int bench_threads = 0, bench_repeats = 5, bench_steps = 50;
+  auto* bench = app.add_subcommand("bench", "Benchmarks: automaton-steps per second on named scenes");
+  bench->add_option("names", bench_names, "Benchmarks to run (default all): " + fmt::format("{}", fmt::join(mca::app::bench_names(), ", ")));
+  bench->add_flag("--json", bench_json, "Machine-readable output");
+  bench->add_option("--threads", bench_threads, "Worker threads (0 = all cores)");
+  bench->add_option("--repeats", bench_repeats, "Timed runs per benchmark (the median is reported)");
+  bench->add_option("--steps", bench_steps, "Steps per timed run");
+
+  CLI11_PARSE(app, argc, argv);
+  try {
+    if (run->parsed()) {
+      if (!scene_path.empty()) ro.scene = scene_path;
+      if (!out_dir.empty()) ro.out = out_dir;
+      if (dur_opt->count()) ro.duration = duration;
+      if (steps_opt->count()) ro.steps = steps;
+      if (seed_opt->count()) ro.seed = seed;
+      if (ck_opt->count()) ro.checkpoint_every = checkpoint_every;
+      if (no_vtk) ro.vtk = false;
+      return mca::app::run(ro);
+    }
+    if (resume->parsed()) return mca::app::resume(resume_dir, resume_threads, resume_quiet);
+    if (info->parsed())
+      return mca::app::info(info_scene.empty() ? std::nullopt : std::optional<std::string>(info_scene), info_json);
+    if (bench->parsed()) return mca::app::bench(bench_names, bench_json, bench_threads, bench_repeats, bench_steps);
+  } catch (const mca::Error& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,312 @@
+// `mca run` and `mca resume`: step a scene frame by frame, write outputs, show progress.
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <fmt/format.h>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+#include <unistd.h>
+
+#include "app/commands.hpp"
+#include "app/frame_output.hpp"
+#include "io/checkpoint.hpp"
+#include "io/output_files.hpp"
+#include "io/scene_io.hpp"
+#include "mca/error.hpp"
+#include "sim/simulation.hpp"
+
+namespace mca::app {
+namespace {
+
+std::atomic<bool> g_interrupted{false};
+extern "C" void on_sigint(int) { g_interrupted = true; }
+
+std::string human_time(double s) {
+  if (s < 60) return fmt::format("{:.0f}s", s);
+  if (s < 3600) return fmt::format("{:.0f}m{:02.0f}s", std::floor(s / 60), std::fmod(s, 60));
+  return fmt::format("{:.0f}h{:02.0f}m", std::floor(s / 3600), std::fmod(s / 60, 60));
+}
+
+int thread_count(int requested) {
+  if (requested < 0) throw Error(fmt::format("--threads {} is negative; give 0 (all cores) or a count", requested));
+  return requested == 0 ? tbb::info::default_concurrency() : requested;
+}
+
+struct Plan {
+  std::int64_t total_steps = 0;
+  std::int64_t total_frames = 0;  // frames after frame 0
+};
+
+Plan make_plan(const Simulation& sim, const std::optional<std::int64_t>& steps) {
+  Plan p;
+  const int spf = sim.steps_per_frame();
+  p.total_steps = steps ? *steps : sim.frame_count() * spf;
+  p.total_frames = (p.total_steps + spf - 1) / spf;
+  return p;
+}
+
+void write_summary(const std::filesystem::path& dir, const Simulation& sim, const FrameWriter& writer,
+                   const analysis::Fragments& frags, double wall, std::int64_t steps_run, int threads,
+                   const std::string& status) {
+  const Model& m = sim.model();
+  const State& s = sim.state();
+  nlohmann::json j;
+  j["scene"] = sim.scene().name;
+  j["scene_file"] = sim.scene().source;
+  j["status"] = status;
+  j["automata"] = m.size();
+  j["links"] = m.link_count();
+  j["spacing"] = m.spacing;
+  j["time_step"] = m.dt;
+  j["steps"] = s.step;
+  j["steps_per_frame"] = sim.steps_per_frame();
+  j["simulated_time"] = s.time;
+  j["threads"] = threads;
+  j["wall_seconds"] = wall;
+  j["automaton_steps_per_second"] = wall > 0 ? static_cast<double>(steps_run) * m.size() / wall : 0.0;
+  j["broken_links"] = {{"displacement", s.broken_by[0]}, {"stress", s.broken_by[1]},
+                       {"total", s.broken_by[0] + s.broken_by[1]}};
+  j["intact_links"] = m.link_count() - static_cast<std::size_t>(s.broken_by[0] + s.broken_by[1]);
+  const auto infos = analysis::describe_fragments(frags, m.mass.data(), reinterpret_cast<const float*>(s.x.data()),
+                                                  reinterpret_cast<const float*>(s.v.data()));
+  const Energies e = sim.energies();
+  j["energy"] = {{"kinetic", e.kinetic}, {"elastic", e.elastic}, {"projectile_kinetic", e.projectile_kinetic},
+                 {"gravity_work", e.gravity_work}, {"grip_work", e.grip_work}};
+  j["total_mass"] = m.total_mass;
+  j["fragment_count"] = frags.count;
+  // The list is capped so a run with 10^5 loose automata stays readable; the rest is summed up.
+  constexpr std::size_t kListed = 10000;
+  nlohmann::json list = nlohmann::json::array();
+  double rest_mass = 0;
+  std::int64_t rest_automata = 0;
+  for (const auto& f : infos) {
+    if (list.size() < kListed) {
+      list.push_back({{"id", f.id}, {"automata", f.automata}, {"mass", f.mass}, {"centre", f.centre},
+                      {"velocity", f.velocity}, {"box_min", f.box_min}, {"box_max", f.box_max}});
+    } else {
+      rest_mass += f.mass;
+      rest_automata += f.automata;
+    }
+  }
+  j["fragments"] = list;
+  j["unlisted_fragments"] = {{"count", infos.size() > kListed ? infos.size() - kListed : 0},
+                             {"automata", rest_automata}, {"mass", rest_mass}};
+  nlohmann::json proj = nlohmann::json::array();
+  for (std::size_t p = 0; p < m.projectiles.size(); ++p) {
+    const auto& ps = s.projectiles[p];
+    proj.push_back({{"name", m.projectiles[p].name},
+                    {"position", {ps.position.x, ps.position.y, ps.position.z}},
+                    {"velocity", {ps.velocity.x, ps.velocity.y, ps.velocity.z}}});
+  }
+  j["projectiles"] = proj;
+  j["state_hash"] = fmt::format("{:016x}", state_hash(s));
+  (void)writer;
+  io::write_file_atomic(dir / "summary.json", [&](std::ostream& os) { os << j.dump(2) << "\n"; }, false);
+}
+
+// The first `frames` data rows of an earlier run's stats.csv (for resume).
+std::vector<std::string> read_back_stats(const std::filesystem::path& dir, std::int64_t frames) {
+  std::ifstream in(dir / "stats.csv");
+  std::vector<std::string> rows;
+  std::string line;
+  if (!std::getline(in, line)) return rows;  // header
+  while (static_cast<std::int64_t>(rows.size()) < frames && std::getline(in, line)) rows.push_back(line);
+  return rows;
+}
+
+struct Loop {
+  Simulation& sim;
+  std::filesystem::path dir;
+  int threads;
+  bool quiet;
+  int checkpoint_every;
+  Plan plan;
+  std::int64_t frame = 0;      // frames written so far
+  double wall_before = 0;      // wall seconds of earlier sessions (resume)
+  std::vector<std::string> rows;  // stats.csv lines
+};
+
+void save_checkpoint(const Loop& L, double wall) {
+  const auto ckdir = L.dir / "checkpoints";
+  std::filesystem::create_directories(ckdir);
+  io::Checkpoint cp;
+  cp.scene = L.sim.scene();
+  cp.state = L.sim.state();
+  cp.frame = L.frame;
+  cp.total_steps = L.plan.total_steps;
+  cp.wall_seconds = wall;
+  io::write_checkpoint(ckdir / fmt::format("frame_{:06d}.mcack", L.frame - 1), cp);
+  // Keep the two newest: the last one could be cut short by a crash while being renamed.
+  std::vector<std::filesystem::path> all;
+  for (const auto& e : std::filesystem::directory_iterator(ckdir))
+    if (e.path().extension() == ".mcack") all.push_back(e.path());
+  std::sort(all.begin(), all.end());
+  for (std::size_t k = 0; k + 2 < all.size(); ++k) std::filesystem::remove(all[k]);
+}
+
+int run_loop(Loop& L, FrameWriter& writer) {
+  Simulation& sim = L.sim;
+  const Model& m = sim.model();
+  const bool tty = !L.quiet && isatty(STDERR_FILENO);
+  const auto start = std::chrono::steady_clock::now();
+  const std::int64_t first_step = sim.state().step;
+  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+  std::signal(SIGINT, on_sigint);
+  std::signal(SIGTERM, on_sigint);
+  g_interrupted = false;
+  double last_print = -1;
+  const int spf = sim.steps_per_frame();
+  const double e_start = [&] {
+    const Energies e = sim.energies();
+    return e.kinetic + e.elastic + e.projectile_kinetic - e.gravity_work - e.grip_work;
+  }();
+
+  while (sim.state().step < L.plan.total_steps) {
+    const int n = static_cast<int>(std::min<std::int64_t>(spf, L.plan.total_steps - sim.state().step));
+    const StepHealth h = sim.advance(n);
+    const auto frags = writer.fragments(sim.state());
+    FrameStats st = writer.stats(L.frame, sim.state(), frags);
+    const double e_now = st.energy.kinetic + st.energy.elastic + st.energy.projectile_kinetic;
+    const double budget = e_start + st.energy.gravity_work + st.energy.grip_work;
+    const bool blowup = e_now > 10.0 * std::max(budget, 1e-12) && e_now > 1e-9;
+    if (h.flags != kHealthy || blowup) {
+      if (tty) fmt::print(stderr, "\n");
+      fmt::print(stderr,
+                 "error: the run became unstable at step {} (t = {:.6g} s): {}. Likely cause: the time step is too "
+                 "large for the stiffest spring (a very stiff material, a strengthening law with a large alpha, or "
+                 "solver.time_step set by hand). Fix: lower solver.safety (now {:g}) or remove solver.time_step. "
+                 "The last good frame ({}) is on disk in {}.\n",
+                 h.step >= 0 ? h.step : sim.state().step, sim.state().time,
+                 h.flags ? fmt::format("a non-finite position or velocity at automaton {}", h.automaton)
+                         : fmt::format("kinetic + elastic energy {:.3g} J is over 10x the energy put in ({:.3g} J)",
+                                       e_now, budget),
+                 sim.scene().solver.safety, L.frame - 1, L.dir.string());
+      return 3;
+    }
+    writer.write_frame(L.frame, sim.state(), frags);
+    L.rows.push_back(writer.format_row(st));
+    writer.write_stats(L.rows);
+    ++L.frame;
+    const double wall = elapsed();
+    if (L.checkpoint_every > 0 && (L.frame - 1) % L.checkpoint_every == 0) save_checkpoint(L, L.wall_before + wall);
+
+    if (!L.quiet && (tty ? wall - last_print > 0.2 : wall - last_print > 10.0) ) {
+      last_print = wall;
+      const double done = static_cast<double>(sim.state().step - first_step);
+      const double left = static_cast<double>(L.plan.total_steps - sim.state().step);
+      const double rate = wall > 0 ? done * m.size() / wall : 0;
+      const double eta = done > 0 ? wall * left / done : 0;
+      const double frac = static_cast<double>(sim.state().step) / static_cast<double>(L.plan.total_steps);
+      const int bar = static_cast<int>(frac * 30);
+      fmt::print(stderr, "{}[{}{}] {:3.0f}%  t={:.4g}/{:.4g} s  frame {}/{}  {:.2f} M automaton-steps/s  broken {}  "
+                 "ETA {}{}",
+                 tty ? "\r" : "", std::string(bar, '#'), std::string(30 - bar, '.'), 100 * frac, sim.state().time,
+                 L.plan.total_steps * static_cast<double>(m.dt), L.frame - 1, L.plan.total_frames, rate / 1e6,
+                 sim.state().broken_by[0] + sim.state().broken_by[1], human_time(eta), tty ? "   " : "\n");
+    }
+    if (g_interrupted) {
+      save_checkpoint(L, L.wall_before + wall);
+      write_summary(L.dir, sim, writer, frags, L.wall_before + wall, sim.state().step - first_step, L.threads,
+                    "interrupted");
+      fmt::print(stderr, "{}interrupted after frame {}; a checkpoint is saved. Continue with: mca resume {}\n",
+                 tty ? "\n" : "", L.frame - 1, L.dir.string());
+      return 130;
+    }
+  }
+  const double wall = elapsed();
+  const auto frags = writer.fragments(sim.state());
+  write_summary(L.dir, sim, writer, frags, L.wall_before + wall, sim.state().step - first_step, L.threads,
+                "finished");
+  if (!L.quiet) {
+    const State& s = sim.state();
+    fmt::print(stderr, "{}done: {} automata, {} steps in {:.1f} s ({:.2f} M automaton-steps/s on {} threads); "
+               "broken links {} (displacement {}, stress {}); {} fragments.\noutput: {}\n",
+               tty ? "\n" : "", m.size(), s.step - first_step, wall,
+               wall > 0 ? (s.step - first_step) * static_cast<double>(m.size()) / wall / 1e6 : 0.0, L.threads,
+               s.broken_by[0] + s.broken_by[1], s.broken_by[0], s.broken_by[1], frags.count, L.dir.string());
+  }
+  return 0;
+}
+
+}  // namespace
+
+int run(const RunOptions& o) {
+  SceneDef scene = o.scene ? io::load_scene_file(*o.scene) : io::load_default_scene();
+  if (o.duration) {
+    if (!(*o.duration > 0)) throw Error(fmt::format("--duration {} must be a positive number of seconds", *o.duration));
+    scene.output.duration = *o.duration;
+  }
+  if (o.steps && *o.steps <= 0) throw Error(fmt::format("--steps {} must be a positive number of steps", *o.steps));
+  if (o.seed) scene.solver.seed = *o.seed;
+  if (o.checkpoint_every) {
+    if (*o.checkpoint_every < 0)
+      throw Error(fmt::format("--checkpoint-every {} must be 0 (off) or a number of frames", *o.checkpoint_every));
+    scene.output.checkpoint_every = *o.checkpoint_every;
+  }
+  if (o.vtk) scene.output.vtk = *o.vtk;
+  const int threads = thread_count(o.threads);
+  tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+  const std::filesystem::path dir = o.out ? std::filesystem::path(*o.out) : std::filesystem::path("out") / scene.name;
+  io::prepare_output_dir(dir);
+
+  if (!o.quiet) fmt::print(stderr, "mca: scene '{}' ({}): building...\n", scene.name, scene.source);
+  Simulation sim(scene);
+  const Plan plan = make_plan(sim, o.steps);
+  if (!o.quiet) {
+    fmt::print(stderr, "mca: {} automata, {} links, time step {:.4g} s, {} steps per frame, {} frames, {} steps, "
+               "{} threads\n",
+               sim.model().size(), sim.model().link_count(), sim.model().dt, sim.steps_per_frame(), plan.total_frames,
+               plan.total_steps, threads);
+  }
+  // The scene as run (overrides applied), so the folder says what produced it.
+  io::write_file_atomic(dir / "scene.toml", [&](std::ostream& os) { os << io::scene_to_toml(scene); }, false);
+  for (const char* stale : {"summary.json"}) std::filesystem::remove(dir / stale);
+  std::filesystem::remove_all(dir / "checkpoints");
+  std::filesystem::remove_all(dir / "frames");
+  FrameWriter writer(dir, sim.model(), scene.output.vtk, scene.output.links);
+  Loop L{sim, dir, threads, o.quiet, scene.output.checkpoint_every, plan, 0, 0.0, {}};
+  // Frame 0: the initial state.
+  const auto frags = writer.fragments(sim.state());
+  L.rows.push_back(writer.format_row(writer.stats(0, sim.state(), frags)));
+  writer.write_frame(0, sim.state(), frags);
+  writer.write_stats(L.rows);
+  L.frame = 1;
+  return run_loop(L, writer);
+}
+
+int resume(const std::string& out_dir, int threads_requested, bool quiet) {
+  const std::filesystem::path dir(out_dir);
+  const auto ckdir = dir / "checkpoints";
+  std::vector<std::filesystem::path> all;
+  std::error_code ec;
+  if (std::filesystem::is_directory(ckdir, ec))
+    for (const auto& e : std::filesystem::directory_iterator(ckdir))
+      if (e.path().extension() == ".mcack") all.push_back(e.path());
+  if (all.empty())
+    throw Error(fmt::format("no checkpoint in '{}': a run writes them with --checkpoint-every N (or when stopped "
+                            "with Ctrl-C); pass that run's --out folder",
+                            ckdir.string()));
+  std::sort(all.begin(), all.end());
+  io::Checkpoint cp = io::read_checkpoint(all.back());
+  const int threads = thread_count(threads_requested);
+  tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+  if (!quiet)
+    fmt::print(stderr, "mca: resuming '{}' from {} (frame {}, step {})\n", cp.scene.name, all.back().string(),
+               cp.frame - 1, cp.state.step);
+  Simulation sim(cp.scene, cp.state);
+  Plan plan;
+  plan.total_steps = cp.total_steps;
+  plan.total_frames = (plan.total_steps + sim.steps_per_frame() - 1) / sim.steps_per_frame();
+  FrameWriter writer(dir, sim.model(), cp.scene.output.vtk, cp.scene.output.links);
+  writer.restore(cp.frame, sim.frame_interval());
+  Loop L{sim, dir, threads, quiet, cp.scene.output.checkpoint_every, plan, 0, 0.0, {}};
+  L.frame = cp.frame;
+  L.wall_before = cp.wall_seconds;
+  L.rows = read_back_stats(dir, cp.frame);
+  return run_loop(L, writer);
+}
+
+}  // namespace mca::app

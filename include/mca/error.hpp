@@ -1,0 +1,15 @@
+#pragma once
+// User-facing errors. Thrown only at the edges (scene parsing, model building, the command line,
+// output folders), never from inside a step. The message names the file, the key, the bad value and
+// the fix; the command prints it and exits non-zero.
+#include <stdexcept>
+#include <string>
+
+namespace mca {
+
+class Error : public std::runtime_error {
+ public:
+  explicit Error(const std::string& message) : std::runtime_error(message) {}
+};
+
+}  // namespace mca

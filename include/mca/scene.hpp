@@ -1,0 +1,143 @@
+#pragma once
+// Plain definition structs with defaults (one place validates them: validate_scene). The TOML reader
+// fills them; C++ users may fill them directly. Units are SI throughout; angles in degrees.
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace mca {
+
+using Vec3d = std::array<double, 3>;
+
+enum class StrengtheningLaw { none, exponential, quadratic };  // paper eq. 7
+
+struct MaterialDef {
+  std::string name = "concrete";
+  double youngs_modulus = 30e9;         // E [Pa], > 0
+  double poisson_ratio = 0.2;           // nu, in (-1, 0.5)
+  double density = 2400.0;              // rho [kg/m^3], > 0
+  double tensile_strength = 3.0e6;      // sigma_b in tension [Pa], > 0
+  double compressive_strength = 30e6;   // [Pa], >= tensile; equal to tensile -> von Mises criterion
+  double fracture_strain = 1.5e-4;      // eps_b of the displacement criterion, > 0
+  double friction = 0.6;                // Coulomb mu of contacts, >= 0
+  double restitution = 0.2;             // coefficient of restitution of contacts, in (0, 1]
+  StrengtheningLaw strengthening = StrengtheningLaw::none;
+  double strengthening_alpha = 0.0;     // alpha of eq. 7 (>= 0)
+};
+
+// Built-in materials: concrete, glass, ceramic, granite, steel.
+const std::vector<MaterialDef>& builtin_materials();
+// The built-in material of that name, or nullptr.
+const MaterialDef* find_builtin_material(const std::string& name);
+
+struct HeterogeneityDef {
+  // Share P(c) of automata in strength class c = 1..4 (index 0..3); must sum to 1 within 1e-6.
+  std::array<double, 4> shares = {0.0, 0.0, 0.0, 1.0};
+  std::string preset = "none";  // none | low | medium | high | custom (informative once resolved)
+  // Strength factor k_c of class c (default c/4): strengths and fracture strain are scaled by it.
+  std::array<double, 4> class_factors = {0.25, 0.5, 0.75, 1.0};
+  // 0: classes drawn independently per automaton (the paper). > 0: Voronoi grains of about this
+  // size [m], each grain one class.
+  double grain_size = 0.0;
+};
+// Shares of the paper's presets (section 5.1): low 0/0/10/90 %, medium 0/15/20/65 %, high 20/25/25/30 %,
+// none 0/0/0/100 %. Returns false for an unknown name.
+bool heterogeneity_preset(const std::string& name, std::array<double, 4>& shares);
+
+enum class Shape { box, sphere, cylinder };
+
+// Assigns a material group to the automata of an object whose centres lie inside the region.
+// Coordinates are in the scene (world) frame. Later regions win over earlier ones.
+struct RegionDef {
+  Shape shape = Shape::box;       // box or sphere
+  Vec3d center = {0, 0, 0};
+  Vec3d size = {1, 1, 1};         // box: full extents along world axes
+  double radius = 0.5;            // sphere
+  std::string material;
+};
+
+struct ObjectDef {
+  std::string name = "object";
+  Shape shape = Shape::box;
+  Vec3d size = {1, 1, 1};          // box: full extents (object frame)
+  double radius = 0.5;             // sphere, cylinder
+  double height = 1.0;             // cylinder, along the object's local z axis
+  Vec3d position = {0, 0, 0};      // centre
+  Vec3d rotation = {0, 0, 0};      // degrees about x, then y, then z (applied in that order)
+  Vec3d velocity = {0, 0, 0};      // initial velocity [m/s]
+  std::string material = "concrete";
+  std::vector<RegionDef> regions;
+  std::optional<HeterogeneityDef> heterogeneity;  // overrides the scene's
+};
+
+// A rigid sphere. Dynamic by default (momentum exchange with the automata); kinematic keeps its velocity.
+struct ProjectileDef {
+  std::string name = "ball";
+  double radius = 0.1;             // [m]
+  std::string material = "steel";  // stiffness, friction, restitution; density unless given below
+  double density = 0.0;            // [kg/m^3]; 0 = the material's
+  Vec3d position = {0, 0, 0};
+  Vec3d velocity = {0, 0, 0};
+  Vec3d angular_velocity = {0, 0, 0};  // [rad/s]
+  bool kinematic = false;
+};
+
+// A boundary condition: the automata whose initial centres lie in the box move at a fixed velocity
+// (zero holds them). The force the grip exerts is reported in stats.csv.
+struct GripDef {
+  std::string name = "grip";
+  Vec3d min = {0, 0, 0};
+  Vec3d max = {0, 0, 0};
+  Vec3d velocity = {0, 0, 0};
+};
+
+struct GroundDef {
+  bool enabled = false;
+  double height = 0.0;       // along the up axis (the axis gravity points down)
+  double friction = 0.6;
+  double restitution = 0.3;
+};
+
+struct SolverDef {
+  double spacing = 0.05;                 // lattice spacing d [m], > 0
+  std::int64_t target_automata = 0;      // > 0: choose d so the count lands within 2 %
+  double safety = 0.2;                   // C of the stable step, in (0, 1]
+  double time_step = 0.0;                // 0: automatic; else used as given (must be <= the stable one)
+  Vec3d gravity = {0, 0, -9.81};         // [m/s^2]; the up axis is the one opposite gravity (z if zero)
+  double link_damping = 0.0;             // viscous damping of links, share of critical, in [0, 1]
+  double local_damping = 0.0;            // Cundall local damping alpha, in [0, 0.2]
+  double stress_coefficient = 1.0;       // K_v of the equivalent-stress criterion, > 0
+  double skin = 0.1;                     // contact search skin, share of d, in (0, 1]
+  std::uint64_t seed = 1;
+  double max_memory_gb = 16.0;           // refuse models whose estimate exceeds this
+};
+
+struct OutputDef {
+  double duration = 0.05;       // simulated time [s]
+  double frame_rate = 500.0;    // output frames per simulated second
+  bool links = false;           // also write intact links as VTK lines
+  bool vtk = true;              // write per-frame VTK files
+  int checkpoint_every = 0;     // frames between checkpoints; 0 = none
+};
+
+struct SceneDef {
+  std::string name = "scene";
+  std::string source = "<built-in>";     // file the scene came from, for messages
+  std::vector<MaterialDef> materials;    // user materials; built-ins are always available
+  HeterogeneityDef heterogeneity;
+  std::vector<ObjectDef> objects;
+  std::vector<ProjectileDef> projectiles;
+  std::vector<GripDef> grips;
+  GroundDef ground;
+  SolverDef solver;
+  OutputDef output;
+};
+
+// Checks ranges and references; throws mca::Error naming the scene file, the key, the value and the fix.
+void validate_scene(const SceneDef& scene);
+// The material of that name: a user material first, then a built-in. Throws mca::Error if unknown.
+const MaterialDef& resolve_material(const SceneDef& scene, const std::string& name, const std::string& key);
+
+}  // namespace mca

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages that building, testing and running mca need.
+# Idempotent: re-running it when everything is there takes about a second.
+# Run as root (or through sudo). Set MCA_SETUP_PARAVIEW=1 to also install ParaView
+# (pvbatch), used only to check the VTK output by eye.
+set -euo pipefail
+
+packages=(
+  cmake g++ ninja-build pkg-config git
+  libgtest-dev libgmock-dev libbenchmark-dev
+  libtbb-dev libtomlplusplus-dev libcli11-dev libfmt-dev nlohmann-json3-dev
+)
+if [[ "${MCA_SETUP_PARAVIEW:-0}" == 1 ]]; then
+  packages+=(paraview python3-paraview xvfb xauth)
+fi
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]} == 0)); then
+  echo "setup: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+SUDO=""
+if [[ $(id -u) -ne 0 ]]; then
+  command -v sudo >/dev/null || { echo "setup: run as root (missing: ${missing[*]})" >&2; exit 1; }
+  SUDO=sudo
+fi
+echo "setup: installing ${missing[*]}"
+$SUDO apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -1,0 +1,129 @@
+#include "analysis/fragments.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+
+namespace mca::analysis {
+
+namespace {
+
+class UnionFind {
+ public:
+  explicit UnionFind(std::size_t n) : parent_(n), size_(n, 1) {
+    std::iota(parent_.begin(), parent_.end(), std::uint32_t{0});
+  }
+
+  std::uint32_t find(std::uint32_t a) {
+    std::uint32_t root = a;
+    while (parent_[root] != root) root = parent_[root];
+    while (parent_[a] != root) {  // full path compression
+      const std::uint32_t next = parent_[a];
+      parent_[a] = root;
+      a = next;
+    }
+    return root;
+  }
+
+  void unite(std::uint32_t a, std::uint32_t b) {
+    a = find(a);
+    b = find(b);
+    if (a == b) return;
+    if (size_[a] < size_[b]) std::swap(a, b);
+    parent_[b] = a;
+    size_[a] += size_[b];
+  }
+
+  std::uint32_t size(std::uint32_t root) const { return size_[root]; }
+
+ private:
+  std::vector<std::uint32_t> parent_, size_;
+};
+
+}  // namespace
+
+Fragments label_fragments(std::size_t n_automata, const std::uint32_t* link_i, const std::uint32_t* link_j,
+                          const std::uint8_t* link_intact, std::size_t n_links) {
+  if (n_automata > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
+    throw std::out_of_range(fmt::format("label_fragments: {} automata exceed int32 ids", n_automata));
+
+  UnionFind uf(n_automata);
+  for (std::size_t k = 0; k < n_links; ++k) {
+    if (!link_intact[k]) continue;
+    if (link_i[k] >= n_automata || link_j[k] >= n_automata)
+      throw std::out_of_range(fmt::format("label_fragments: link {} ({}, {}) refers past {} automata", k,
+                                          link_i[k], link_j[k], n_automata));
+    uf.unite(link_i[k], link_j[k]);
+  }
+
+  // Scanning automata in index order meets each root first at its smallest member, which is the
+  // tie-break key, so a stable sort by size alone gives the documented order.
+  std::vector<std::uint32_t> root_of(n_automata);
+  std::vector<std::int32_t> slot(n_automata, -1);  // root -> position in `roots`
+  std::vector<std::uint32_t> roots;
+  for (std::uint32_t a = 0; a < n_automata; ++a) {
+    const std::uint32_t r = uf.find(a);
+    root_of[a] = r;
+    if (slot[r] < 0) {
+      slot[r] = static_cast<std::int32_t>(roots.size());
+      roots.push_back(r);
+    }
+  }
+  std::stable_sort(roots.begin(), roots.end(),
+                   [&](std::uint32_t a, std::uint32_t b) { return uf.size(a) > uf.size(b); });
+  for (std::size_t k = 0; k < roots.size(); ++k) slot[roots[k]] = static_cast<std::int32_t>(k);
+
+  Fragments result;
+  result.count = static_cast<std::int32_t>(roots.size());
+  result.id.resize(n_automata);
+  for (std::size_t a = 0; a < n_automata; ++a) result.id[a] = slot[root_of[a]];
+  return result;
+}
+
+std::vector<FragmentInfo> describe_fragments(const Fragments& fragments, const float* mass, const float* xyz,
+                                             const float* vel) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  std::vector<FragmentInfo> info(static_cast<std::size_t>(fragments.count));
+  // Plain sums back the zero-mass fallback; kept in the same pass to read the arrays once.
+  std::vector<std::array<double, 6>> plain(info.size(), std::array<double, 6>{});
+  for (std::size_t f = 0; f < info.size(); ++f) {
+    info[f].id = static_cast<std::int32_t>(f);
+    info[f].box_min = {kInf, kInf, kInf};
+    info[f].box_max = {-kInf, -kInf, -kInf};
+  }
+  for (std::size_t a = 0; a < fragments.id.size(); ++a) {
+    FragmentInfo& f = info[static_cast<std::size_t>(fragments.id[a])];
+    auto& p = plain[static_cast<std::size_t>(fragments.id[a])];
+    const double m = mass[a];
+    f.automata += 1;
+    f.mass += m;
+    for (int c = 0; c < 3; ++c) {
+      const double x = xyz[3 * a + c];
+      const double v = vel[3 * a + c];
+      f.centre[c] += m * x;
+      f.velocity[c] += m * v;
+      p[c] += x;
+      p[3 + c] += v;
+      f.box_min[c] = std::min(f.box_min[c], x);
+      f.box_max[c] = std::max(f.box_max[c], x);
+    }
+  }
+  for (std::size_t k = 0; k < info.size(); ++k) {
+    FragmentInfo& f = info[k];
+    for (int c = 0; c < 3; ++c) {
+      if (f.mass > 0.0) {
+        f.centre[c] /= f.mass;
+        f.velocity[c] /= f.mass;
+      } else {
+        f.centre[c] = plain[k][c] / static_cast<double>(f.automata);
+        f.velocity[c] = plain[k][3 + c] / static_cast<double>(f.automata);
+      }
+    }
+  }
+  return info;
+}
+
+}  // namespace mca::analysis

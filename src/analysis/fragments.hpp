@@ -1,0 +1,34 @@
+#pragma once
+// Fragments: the connected components of the automata under intact links.
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace mca::analysis {
+
+struct Fragments {
+  std::vector<std::int32_t> id;  // per automaton; 0 = the largest fragment
+  std::int32_t count = 0;
+};
+
+// Union-find over the links with link_intact[k] != 0. Ids are numbered by size, largest first; equal
+// sizes are ordered by the smallest automaton index they contain, so the labelling depends only on
+// the link state, not on link order. Throws std::out_of_range for a link index >= n_automata.
+Fragments label_fragments(std::size_t n_automata, const std::uint32_t* link_i, const std::uint32_t* link_j,
+                          const std::uint8_t* link_intact, std::size_t n_links);
+
+struct FragmentInfo {
+  std::int32_t id = 0;
+  std::int64_t automata = 0;
+  double mass = 0.0;
+  std::array<double, 3> centre{}, velocity{}, box_min{}, box_max{};  // box of the automaton centres
+};
+
+// One entry per fragment in id order. `mass` has one value per automaton, `xyz` and `vel` three.
+// Centre is mass-weighted and velocity is momentum / mass; a fragment of zero total mass falls back
+// to the plain average of its automata.
+std::vector<FragmentInfo> describe_fragments(const Fragments& fragments, const float* mass, const float* xyz,
+                                             const float* vel);
+
+}  // namespace mca::analysis

@@ -1,0 +1,54 @@
+#pragma once
+// One backend interface, several implementations (CPU now; CUDA later). Every backend computes the
+// same function with the physics headers in src/physics; the CPU backend is the reference.
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "core/model.hpp"
+#include "core/state.hpp"
+
+namespace mca {
+
+// Health flags a step returns (never an exception from inside a step). Each says what to change.
+enum HealthFlag : std::uint32_t {
+  kHealthy = 0,
+  // A position or velocity became NaN or infinite: the time step is too large for the stiffest
+  // spring (lower solver.safety or solver.time_step), or a material constant is extreme.
+  kNonFinite = 1u << 0,
+};
+
+struct StepHealth {
+  std::uint32_t flags = kHealthy;
+  std::int64_t step = -1;             // first step that raised a flag
+  std::int64_t automaton = -1;        // an automaton where it was seen
+};
+
+class Backend {
+ public:
+  virtual ~Backend() = default;
+  virtual std::string name() const = 0;
+  virtual void upload(const State& state) = 0;
+  // Advances n steps; stops early at the first step that raises a health flag.
+  virtual StepHealth step(int n) = 0;
+  virtual void download(State& state) const = 0;
+  virtual const State& state() const = 0;
+};
+
+std::unique_ptr<Backend> make_cpu_backend(const Model& model);
+
+// Initial state of a model: automata at rest in the lattice (with their object's velocity), all links
+// intact, projectiles at their start.
+State initial_state(const Model& model);
+
+struct Energies {
+  double kinetic = 0;             // automata, translation + rotation [J]
+  double elastic = 0;             // links (normal, many-body, shear) + contacts [J]
+  double projectile_kinetic = 0;  // [J]
+  double gravity_work = 0;        // work gravity did on automata and projectiles since the start [J]
+  double grip_work = 0;           // work the grips did [J]
+};
+// Reference (serial, double accumulation) energies of a state.
+Energies compute_energies(const Model& model, const State& state);
+
+}  // namespace mca

@@ -1,0 +1,549 @@
+// The CPU backend: the reference implementation of a step (physics.md secs. 3-7).
+//
+// A step is a sequence of passes over index ranges (links or automata), each a plain loop body that a
+// thread pool (oneTBB here) or a CUDA grid can drive:
+//   A links:    geometry and strain of intact links
+//   B automata: many-body terms P_i (volumetric strain of each automaton)
+//   C links:    pair forces and torques (link_law.hpp)
+//   contacts:   unlinked pairs, projectiles, written per pair and added to automata in pair order
+//   D automata: gather forces in a fixed order, averaged stress, ground, gravity, integrate
+//   E links:    fracture criteria on the step's state; breaks are applied after the pass
+// Links write their forces; automata gather them in link order. No floating-point atomics, no
+// order-dependent reductions: results are bitwise identical for any thread count.
+#include <algorithm>
+#include <cmath>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "backend/backend.hpp"
+#include "grid/uniform_grid.hpp"
+#include "physics/contact_law.hpp"
+#include "physics/fracture.hpp"
+#include "physics/integrate.hpp"
+#include "physics/link_law.hpp"
+
+namespace mca {
+namespace {
+
+constexpr std::size_t kChunk = 4096;  // fixed work chunks: per-chunk results are combined in chunk order
+
+template <class F>
+void parallel_range(std::size_t n, F&& body) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t k = r.begin(); k != r.end(); ++k) body(k);
+                    });
+}
+
+template <class F>
+void parallel_chunks(std::size_t n, F&& body) {
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    body(c, c * kChunk, std::min(n, (c + 1) * kChunk));
+  });
+}
+
+float harmonic(float a, float b) { return a + b > 0.0f ? 2.0f * a * b / (a + b) : 0.0f; }
+
+class CpuBackend final : public Backend {
+ public:
+  explicit CpuBackend(const Model& m) : M_(m) {
+    const std::size_t n = m.size(), L = m.link_count();
+    link_n_.resize(L);
+    link_eps_.resize(L);
+    link_f_.resize(L);
+    link_t_.resize(L);
+    many_body_.resize(n * 3);
+    ext_f_.resize(n);
+    ext_t_.resize(n);
+    ext_s_.resize(n);
+    has_ext_.assign(n, 0);
+    grip_members_.resize(m.grip_velocity.size());
+    for (std::size_t a = 0; a < n; ++a)
+      if (m.grip[a] >= 0) grip_members_[m.grip[a]].push_back(static_cast<std::uint32_t>(a));
+    r_max_ = 0;
+    for (float r : m.radius) r_max_ = std::max(r_max_, r);
+  }
+
+  std::string name() const override { return "cpu"; }
+  void upload(const State& s) override {
+    S_ = s;
+    if (S_.x_at_rebuild.size() != S_.x.size()) rebuild_contacts();
+  }
+  void download(State& s) const override { s = S_; }
+  const State& state() const override { return S_; }
+
+  StepHealth step(int steps) override {
+    StepHealth h;
+    for (int k = 0; k < steps; ++k) {
+      const std::int64_t bad = one_step();
+      if (bad >= 0) {
+        h.flags |= kNonFinite;
+        h.step = S_.step;
+        h.automaton = bad;
+        break;
+      }
+    }
+    return h;
+  }
+
+ private:
+  std::int64_t one_step();
+  void link_geometry_pass();
+  void many_body_pass();
+  void link_force_pass();
+  void contact_pass();
+  void projectile_pass();
+  std::int64_t automaton_pass(float& max_move2);
+  void fracture_pass();
+  void rebuild_contacts();
+  bool linked(std::uint32_t i, std::uint32_t j) const;
+
+  const Model& M_;
+  State S_;
+  // scratch, rebuilt every step
+  std::vector<Vec3> link_n_, link_f_, link_t_;
+  std::vector<float> link_eps_, many_body_;
+  std::vector<Vec3> ext_f_, ext_t_;
+  std::vector<Sym3> ext_s_;
+  std::vector<std::uint8_t> has_ext_;
+  std::vector<std::vector<std::uint32_t>> grip_members_;
+  std::vector<std::uint32_t> new_pairs_;
+  UniformGrid grid_;
+  float r_max_ = 0;
+  bool force_rebuild_ = false;
+};
+
+bool CpuBackend::linked(std::uint32_t i, std::uint32_t j) const {
+  for (std::uint32_t k = M_.adj_begin[i]; k < M_.adj_begin[i + 1]; ++k) {
+    const std::uint32_t l = M_.adj_link[k];
+    if (S_.intact[l] && (M_.link_i[l] == j || M_.link_j[l] == j)) return true;
+  }
+  return false;
+}
+
+void CpuBackend::link_geometry_pass() {
+  parallel_range(M_.link_count(), [&](std::size_t l) {
+    if (!S_.intact[l]) return;
+    const LinkGeometry g = link_geometry(S_.x[M_.link_i[l]], S_.x[M_.link_j[l]], M_.link_r0[l]);
+    link_n_[l] = g.n;
+    link_eps_[l] = g.eps;
+  });
+}
+
+void CpuBackend::many_body_pass() {
+  parallel_range(M_.size(), [&](std::size_t a) {
+    float sum[3] = {0, 0, 0};
+    int cnt[3] = {0, 0, 0};
+    for (std::uint32_t k = M_.adj_begin[a]; k < M_.adj_begin[a + 1]; ++k) {
+      const std::uint32_t l = M_.adj_link[k];
+      if (!S_.intact[l]) continue;
+      sum[M_.link_axis[l]] += link_eps_[l];
+      ++cnt[M_.link_axis[l]];
+    }
+    float theta = 0;
+    for (int ax = 0; ax < 3; ++ax)
+      if (cnt[ax]) theta += sum[ax] / static_cast<float>(cnt[ax]);
+    const float lam = M_.groups[M_.group[a]].lame_lambda;
+    for (int ax = 0; ax < 3; ++ax) many_body_[3 * a + ax] = cnt[ax] ? lam * theta / static_cast<float>(cnt[ax]) : 0.0f;
+  });
+}
+
+void CpuBackend::link_force_pass() {
+  const float dt = M_.dt;
+  parallel_range(M_.link_count(), [&](std::size_t l) {
+    if (!S_.intact[l]) return;
+    const std::uint32_t i = M_.link_i[l], j = M_.link_j[l];
+    const GroupParams& gi = M_.groups[M_.group[i]];
+    const GroupParams& gj = M_.groups[M_.group[j]];
+    const float eps = link_eps_[l];
+    const float e = std::fabs(eps);
+    const float fi = strengthening_factor(gi.strengthening, gi.strengthening_alpha, e);
+    const float fj = strengthening_factor(gj.strengthening, gj.strengthening_alpha, e);
+    const float G = harmonic(gi.shear_modulus * fi, gj.shear_modulus * fj);
+    const int ax = M_.link_axis[l];
+    LinkInput in;
+    in.g = {link_n_[l], M_.link_r0[l] * (1.0f + eps), eps};
+    in.r0 = M_.link_r0[l];
+    in.area = M_.link_area[l];
+    in.shear_modulus = G;
+    in.many_body = many_body_[3 * i + ax] * fi + many_body_[3 * j + ax] * fj;
+    in.damping = 0.0f;
+    if (M_.link_damping > 0.0f) {
+      const float k = (2.0f * G + 0.5f * (gi.lame_lambda + gj.lame_lambda)) * in.area / in.r0;
+      const float m_eff = M_.mass[i] * M_.mass[j] / (M_.mass[i] + M_.mass[j]);
+      in.damping = 2.0f * M_.link_damping * std::sqrt(k * m_eff);
+    }
+    in.vi = S_.v[i];
+    in.vj = S_.v[j];
+    in.wi = S_.w[i];
+    in.wj = S_.w[j];
+    in.ut = S_.link_ut[l];
+    in.dt = dt;
+    const LinkOutput out = link_force(in);
+    link_f_[l] = out.force_i;
+    link_t_[l] = out.torque;
+    S_.link_ut[l] = out.ut;
+    S_.link_sigma[l] = out.sigma;
+    S_.link_tau[l] = out.tau;
+  });
+}
+
+// Contact parameters of two automata (or an automaton and a body): springs of a link in compression
+// over the pair's size, damping from the restitution (physics.md sec. 6).
+struct PairContact {
+  float kn, kt, cn, mu;
+};
+
+PairContact contact_params(const GroupParams& a, const GroupParams& b, float length, float m_eff) {
+  PairContact c;
+  c.kn = harmonic(a.youngs, b.youngs) * length;
+  c.kt = kShearFactor * harmonic(a.shear_modulus, b.shear_modulus) * length;
+  const float zeta = restitution_damping_ratio(0.5f * (a.restitution + b.restitution));
+  c.cn = 2.0f * zeta * std::sqrt(c.kn * m_eff);
+  c.mu = 0.5f * (a.friction + b.friction);
+  return c;
+}
+
+void CpuBackend::contact_pass() {
+  auto& C = S_.contacts;
+  if (C.empty()) return;
+  struct Out {
+    Vec3 f, ti, tj, n;
+    float ri, rj;
+    bool on;
+  };
+  std::vector<Out> out(C.size());
+  const float dt = M_.dt;
+  parallel_range(C.size(), [&](std::size_t p) {
+    ContactPair& cp = C[p];
+    const std::uint32_t i = cp.i, j = cp.j;
+    const Vec3 d = S_.x[j] - S_.x[i];
+    const float dist = length(d);
+    const float ri = M_.radius[i], rj = M_.radius[j];
+    const float overlap = ri + rj - dist;
+    if (overlap <= 0.0f || dist <= 0.0f) {
+      cp.ut = Vec3{};
+      out[p].on = false;
+      return;
+    }
+    const Vec3 n = d * (1.0f / dist);
+    const float m_eff = M_.mass[i] * M_.mass[j] / (M_.mass[i] + M_.mass[j]);
+    const PairContact pc = contact_params(M_.groups[M_.group[i]], M_.groups[M_.group[j]], ri + rj, m_eff);
+    ContactInput in;
+    in.n = n;
+    in.overlap = overlap;
+    in.vrel = (S_.v[j] + cross(S_.w[j], -rj * n)) - (S_.v[i] + cross(S_.w[i], ri * n));
+    in.kn = pc.kn;
+    in.kt = pc.kt;
+    in.cn = pc.cn;
+    in.mu = pc.mu;
+    in.ut = cp.ut;
+    in.dt = dt;
+    const ContactOutput o = contact_force(in);
+    cp.ut = o.ut;
+    out[p] = {o.force_i, cross(ri * n, o.ft), cross(rj * n, o.ft), n, ri, rj, true};
+  });
+  // Add to the automata in pair order (deterministic).
+  for (std::size_t p = 0; p < C.size(); ++p) {
+    if (!out[p].on) continue;
+    const Out& o = out[p];
+    const std::uint32_t i = C[p].i, j = C[p].j;
+    ext_f_[i] += o.f;
+    ext_f_[j] -= o.f;
+    ext_t_[i] += o.ti;
+    ext_t_[j] += o.tj;
+    ext_s_[i] += sym_outer(o.n, o.f, o.ri);
+    ext_s_[j] += sym_outer(o.n, o.f, o.rj);
+    has_ext_[i] = has_ext_[j] = 1;
+  }
+}
+
+void CpuBackend::projectile_pass() {
+  const float dt = M_.dt;
+  const std::size_t n = M_.size();
+  for (std::size_t p = 0; p < M_.projectiles.size(); ++p) {
+    const ProjectileParams& P = M_.projectiles[p];
+    ProjectileState& ps = S_.projectiles[p];
+    // Candidates: automata touching the sphere, found per fixed chunk and joined in chunk order.
+    const std::size_t chunks = (n + kChunk - 1) / kChunk;
+    std::vector<std::vector<std::uint32_t>> found(chunks);
+    const Vec3 c = ps.position;
+    parallel_chunks(n, [&](std::size_t ch, std::size_t b, std::size_t e) {
+      for (std::size_t a = b; a < e; ++a) {
+        const Vec3 d = S_.x[a] - c;
+        const float reach = P.radius + M_.radius[a];
+        if (dot(d, d) < reach * reach) found[ch].push_back(static_cast<std::uint32_t>(a));
+      }
+    });
+    std::vector<BodyContact> next;
+    std::size_t old = 0;
+    Vec3 fsum, tsum;
+    const GroupParams& pg = M_.groups[P.group];
+    for (const auto& list : found)
+      for (std::uint32_t a : list) {
+        while (old < ps.contacts.size() && ps.contacts[old].automaton < a) ++old;
+        const Vec3 ut_prev = (old < ps.contacts.size() && ps.contacts[old].automaton == a) ? ps.contacts[old].ut : Vec3{};
+        const Vec3 d = c - S_.x[a];  // from the automaton to the projectile
+        const float dist = length(d);
+        if (dist <= 0.0f) continue;
+        const Vec3 nrm = d * (1.0f / dist);
+        const float ra = M_.radius[a];
+        const float m_eff = P.kinematic ? M_.mass[a] : M_.mass[a] * P.mass / (M_.mass[a] + P.mass);
+        const PairContact pc = contact_params(M_.groups[M_.group[a]], pg, 2.0f * ra, m_eff);
+        ContactInput in;
+        in.n = nrm;
+        in.overlap = P.radius + ra - dist;
+        in.vrel = (ps.velocity + cross(ps.angular_velocity, -P.radius * nrm)) - (S_.v[a] + cross(S_.w[a], ra * nrm));
+        in.kn = pc.kn;
+        in.kt = pc.kt;
+        in.cn = pc.cn;
+        in.mu = pc.mu;
+        in.ut = ut_prev;
+        in.dt = dt;
+        const ContactOutput o = contact_force(in);
+        if (o.fn <= 0.0f && length(o.ut) == 0.0f) continue;
+        next.push_back({a, o.ut});
+        ext_f_[a] += o.force_i;
+        ext_t_[a] += cross(ra * nrm, o.ft);
+        ext_s_[a] += sym_outer(nrm, o.force_i, ra);
+        has_ext_[a] = 1;
+        fsum -= o.force_i;
+        tsum += cross(P.radius * nrm, o.ft);
+      }
+    ps.contacts.swap(next);
+    ps.force = fsum;
+    if (!P.kinematic) {
+      ps.velocity += (fsum * (1.0f / P.mass) + M_.gravity) * dt;
+      ps.angular_velocity += tsum * (dt / P.inertia);
+      ps.orientation = integrate_orientation(ps.orientation, ps.angular_velocity, dt);
+    }
+    ps.position += ps.velocity * dt;
+  }
+}
+
+std::int64_t CpuBackend::automaton_pass(float& max_move2) {
+  const float dt = M_.dt;
+  const std::size_t n = M_.size();
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  std::vector<float> chunk_move(chunks, 0.0f);
+  std::vector<std::int64_t> chunk_bad(chunks, -1);
+  parallel_chunks(n, [&](std::size_t ch, std::size_t b, std::size_t e) {
+    float move2 = 0;
+    for (std::size_t a = b; a < e; ++a) {
+      const float m = M_.mass[a];
+      Vec3 f = M_.gravity * m;
+      Vec3 t;
+      Sym3 s;
+      for (std::uint32_t k = M_.adj_begin[a]; k < M_.adj_begin[a + 1]; ++k) {
+        const std::uint32_t l = M_.adj_link[k];
+        if (!S_.intact[l]) continue;
+        if (M_.link_i[l] == a) f += link_f_[l];
+        else f -= link_f_[l];
+        t += link_t_[l];
+        // Love average (physics.md sec. 3): (r0/2) sym(n (x) F) is the same seen from either end.
+        s += sym_outer(link_n_[l], link_f_[l], 0.5f * M_.link_r0[l]);
+      }
+      if (has_ext_[a]) {
+        f += ext_f_[a];
+        t += ext_t_[a];
+        s += ext_s_[a];
+        ext_f_[a] = Vec3{};
+        ext_t_[a] = Vec3{};
+        ext_s_[a] = Sym3{};
+        has_ext_[a] = 0;
+      }
+      const float r = M_.radius[a];
+      if (M_.ground) {
+        const float above = dot(S_.x[a], M_.up) - M_.ground_height;
+        const float overlap = r - above;
+        if (overlap > 0.0f) {
+          const GroupParams& g = M_.groups[M_.group[a]];
+          const Vec3 nrm = -M_.up;  // from the automaton to the ground
+          ContactInput in;
+          in.n = nrm;
+          in.overlap = overlap;
+          in.vrel = -(S_.v[a] + cross(S_.w[a], r * nrm));
+          in.kn = g.youngs * 2.0f * r;
+          in.kt = kShearFactor * g.shear_modulus * 2.0f * r;
+          in.cn = 2.0f * restitution_damping_ratio(M_.ground_restitution) * std::sqrt(in.kn * m);
+          in.mu = M_.ground_friction;
+          in.ut = S_.ground_ut[a];
+          in.dt = dt;
+          const ContactOutput o = contact_force(in);
+          S_.ground_ut[a] = o.ut;
+          f += o.force_i;
+          t += cross(r * nrm, o.ft);
+          s += sym_outer(nrm, o.force_i, r);
+        } else {
+          S_.ground_ut[a] = Vec3{};
+        }
+      }
+      const float inv_v = 1.0f / M_.volume[a];
+      s.xx *= inv_v; s.yy *= inv_v; s.zz *= inv_v; s.xy *= inv_v; s.yz *= inv_v; s.zx *= inv_v;
+      S_.s[a] = s;
+      Body body{S_.x[a], S_.v[a], S_.w[a], S_.q[a]};
+      if (M_.grip[a] >= 0) {
+        // Held: moves with the grip, does not turn. ext_f_ keeps the force the body puts on the grip.
+        body.v = M_.grip_velocity[M_.grip[a]];
+        body.x += body.v * dt;
+        body.w = Vec3{};
+        ext_f_[a] = f;
+      } else {
+        integrate_body(body, f, t, 1.0f / m, 1.0f / M_.inertia[a], dt, M_.local_damping);
+      }
+      if (!std::isfinite(body.x.x + body.x.y + body.x.z + body.v.x + body.v.y + body.v.z + body.w.x + body.w.y + body.w.z)) {
+        if (chunk_bad[ch] < 0) chunk_bad[ch] = static_cast<std::int64_t>(a);
+      }
+      S_.x[a] = body.x;
+      S_.v[a] = body.v;
+      S_.w[a] = body.w;
+      S_.q[a] = body.q;
+      const Vec3 dm = body.x - S_.x_at_rebuild[a];
+      move2 = std::max(move2, dot(dm, dm));
+    }
+    chunk_move[ch] = move2;
+  });
+  max_move2 = 0;
+  for (float v : chunk_move) max_move2 = std::max(max_move2, v);
+  // Grip forces: the force the grip exerts is minus what the body pushes on it.
+  for (std::size_t g = 0; g < grip_members_.size(); ++g) {
+    Vec3 f;
+    for (std::uint32_t a : grip_members_[g]) {
+      f -= ext_f_[a];
+      ext_f_[a] = Vec3{};
+    }
+    S_.grip_force[g] = f;
+    S_.grip_work[g] += static_cast<double>(dot(f, M_.grip_velocity[g])) * dt;
+  }
+  for (std::int64_t b : chunk_bad)
+    if (b >= 0) return b;
+  return -1;
+}
+
+void CpuBackend::fracture_pass() {
+  const std::size_t L = M_.link_count();
+  const std::size_t chunks = (L + kChunk - 1) / kChunk;
+  std::vector<std::vector<std::pair<std::uint32_t, std::uint8_t>>> found(chunks);
+  parallel_chunks(L, [&](std::size_t ch, std::size_t b, std::size_t e) {
+    for (std::size_t l = b; l < e; ++l) {
+      if (!S_.intact[l]) continue;
+      const std::uint32_t i = M_.link_i[l], j = M_.link_j[l];
+      const GroupParams& gi = M_.groups[M_.group[i]];
+      const GroupParams& gj = M_.groups[M_.group[j]];
+      const float ki = M_.class_factor[i], kj = M_.class_factor[j];
+      PairStrength ps;
+      ps.tensile = std::min(ki * gi.tensile_strength, kj * gj.tensile_strength);
+      ps.compressive = std::min(ki * gi.compressive_strength, kj * gj.compressive_strength);
+      ps.strain = std::min(ki * gi.fracture_strain, kj * gj.fracture_strain);
+      const float p = 0.5f * (mean_stress(S_.s[i]) + mean_stress(S_.s[j]));
+      const float r0 = M_.link_r0[l];
+      const int crit = link_break_criterion(link_eps_[l] * r0, r0, S_.link_sigma[l], S_.link_tau[l], p, ps,
+                                            M_.stress_coefficient);
+      if (crit >= 0) found[ch].push_back({static_cast<std::uint32_t>(l), static_cast<std::uint8_t>(crit)});
+    }
+  });
+  std::vector<ContactPair> fresh;
+  for (const auto& list : found)
+    for (const auto& [l, crit] : list) {
+      S_.intact[l] = 0;
+      S_.link_ut[l] = Vec3{};
+      S_.breaks.push_back({S_.step, l, static_cast<BreakCriterion>(crit)});
+      ++S_.broken_by[crit];
+      fresh.push_back({M_.link_i[l], M_.link_j[l], Vec3{}});
+    }
+  if (fresh.empty()) return;
+  // The broken pair touches at once: it joins the contact list now, not at the next rebuild.
+  auto less = [](const ContactPair& a, const ContactPair& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; };
+  std::sort(fresh.begin(), fresh.end(), less);
+  std::vector<ContactPair> merged;
+  merged.reserve(S_.contacts.size() + fresh.size());
+  std::merge(S_.contacts.begin(), S_.contacts.end(), fresh.begin(), fresh.end(), std::back_inserter(merged), less);
+  S_.contacts.swap(merged);
+}
+
+void CpuBackend::rebuild_contacts() {
+  const std::size_t n = M_.size();
+  const float skin = M_.skin;
+  grid_.build(S_.x.data(), n, 2.0f * r_max_ + skin);
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  std::vector<std::vector<ContactPair>> found(chunks);
+  parallel_chunks(n, [&](std::size_t ch, std::size_t b, std::size_t e) {
+    std::vector<std::uint32_t> js;
+    for (std::size_t a = b; a < e; ++a) {
+      const std::uint32_t i = static_cast<std::uint32_t>(a);
+      const Vec3 xi = S_.x[i];
+      js.clear();
+      grid_.for_each_candidate(xi, [&](std::uint32_t j) {
+        if (j <= i) return;
+        const Vec3 d = S_.x[j] - xi;
+        const float reach = M_.radius[i] + M_.radius[j] + skin;
+        if (dot(d, d) < reach * reach && !linked(i, j)) js.push_back(j);
+      });
+      std::sort(js.begin(), js.end());
+      for (std::uint32_t j : js) found[ch].push_back({i, j, Vec3{}});
+    }
+  });
+  std::vector<ContactPair> next;
+  for (auto& list : found) next.insert(next.end(), list.begin(), list.end());
+  // Carry the tangential history of pairs that stay in the list (both lists sorted by (i, j)).
+  std::size_t o = 0;
+  for (auto& c : next) {
+    while (o < S_.contacts.size() &&
+           (S_.contacts[o].i < c.i || (S_.contacts[o].i == c.i && S_.contacts[o].j < c.j)))
+      ++o;
+    if (o < S_.contacts.size() && S_.contacts[o].i == c.i && S_.contacts[o].j == c.j) c.ut = S_.contacts[o].ut;
+  }
+  S_.contacts.swap(next);
+  S_.x_at_rebuild = S_.x;
+}
+
+std::int64_t CpuBackend::one_step() {
+  link_geometry_pass();
+  many_body_pass();
+  link_force_pass();
+  contact_pass();
+  projectile_pass();
+  float max_move2 = 0;
+  const std::int64_t bad = automaton_pass(max_move2);
+  fracture_pass();
+  ++S_.step;
+  S_.time = static_cast<double>(S_.step) * M_.dt;
+  // Verlet-style list: rebuild once any automaton has moved half the skin since the last rebuild.
+  const float half = 0.5f * M_.skin;
+  if (max_move2 > half * half) rebuild_contacts();
+  return bad;
+}
+
+}  // namespace
+
+std::unique_ptr<Backend> make_cpu_backend(const Model& model) { return std::make_unique<CpuBackend>(model); }
+
+State initial_state(const Model& m) {
+  State s;
+  const std::size_t n = m.size(), L = m.link_count();
+  s.x = m.position0;
+  s.v = m.velocity0;
+  s.w.assign(n, Vec3{});
+  s.q.assign(n, Quat{});
+  s.s.assign(n, Sym3{});
+  s.ground_ut.assign(n, Vec3{});
+  s.intact.assign(L, 1);
+  s.link_ut.assign(L, Vec3{});
+  s.link_sigma.assign(L, 0.0f);
+  s.link_tau.assign(L, 0.0f);
+  for (const auto& p : m.projectiles) {
+    ProjectileState ps;
+    ps.position = p.position;
+    ps.velocity = p.velocity;
+    ps.angular_velocity = p.angular_velocity;
+    s.projectiles.push_back(ps);
+  }
+  s.grip_work.assign(m.grip_velocity.size(), 0.0);
+  s.grip_force.assign(m.grip_velocity.size(), Vec3{});
+  for (std::size_t a = 0; a < n; ++a)
+    if (m.grip[a] >= 0) s.v[a] = m.grip_velocity[m.grip[a]];
+  return s;
+}
+
+}  // namespace mca

@@ -1,0 +1,75 @@
+// Energies of a state, in double, serially: the measuring stick of the energy test and of stats.csv.
+// The elastic energy is the potential the link law derives from (link_law.hpp):
+//   W = sum_links [G_ij eps^2 V + k_t |u_t|^2 / 2] + sum_i lambda_i theta_i^2 V / 2 + contact springs.
+#include <cmath>
+
+#include "backend/backend.hpp"
+#include "physics/contact_law.hpp"
+#include "physics/link_law.hpp"
+
+namespace mca {
+
+namespace {
+double harmonic_d(double a, double b) { return a + b > 0 ? 2 * a * b / (a + b) : 0; }
+double sq(Vec3 v) { return static_cast<double>(v.x) * v.x + static_cast<double>(v.y) * v.y + static_cast<double>(v.z) * v.z; }
+}  // namespace
+
+Energies compute_energies(const Model& m, const State& s) {
+  Energies e;
+  const std::size_t n = m.size();
+  for (std::size_t a = 0; a < n; ++a) {
+    e.kinetic += 0.5 * m.mass[a] * sq(s.v[a]) + 0.5 * m.inertia[a] * sq(s.w[a]);
+    const Vec3 dx = s.x[a] - m.position0[a];
+    e.gravity_work += m.mass[a] * (static_cast<double>(m.gravity.x) * dx.x + static_cast<double>(m.gravity.y) * dx.y +
+                                   static_cast<double>(m.gravity.z) * dx.z);
+  }
+  // Links: shear and 2G part per link; volumetric strain per automaton for the many-body part.
+  std::vector<double> sum(3 * n, 0.0);
+  std::vector<int> cnt(3 * n, 0);
+  for (std::size_t l = 0; l < m.link_count(); ++l) {
+    if (!s.intact[l]) continue;
+    const std::uint32_t i = m.link_i[l], j = m.link_j[l];
+    const LinkGeometry g = link_geometry(s.x[i], s.x[j], m.link_r0[l]);
+    const double G = harmonic_d(m.groups[m.group[i]].shear_modulus, m.groups[m.group[j]].shear_modulus);
+    const double V = static_cast<double>(m.link_area[l]) * m.link_r0[l];
+    const double kt = kShearFactor * G * m.link_area[l] / m.link_r0[l];
+    e.elastic += G * g.eps * g.eps * V + 0.5 * kt * sq(s.link_ut[l]);
+    const int ax = m.link_axis[l];
+    sum[3 * i + ax] += g.eps;
+    sum[3 * j + ax] += g.eps;
+    ++cnt[3 * i + ax];
+    ++cnt[3 * j + ax];
+  }
+  for (std::size_t a = 0; a < n; ++a) {
+    double theta = 0;
+    for (int ax = 0; ax < 3; ++ax)
+      if (cnt[3 * a + ax]) theta += sum[3 * a + ax] / cnt[3 * a + ax];
+    e.elastic += 0.5 * m.groups[m.group[a]].lame_lambda * theta * theta * m.volume[a];
+  }
+  // Contacts between automata (springs as in the backend).
+  for (const auto& c : s.contacts) {
+    const double dist = std::sqrt(sq(s.x[c.j] - s.x[c.i]));
+    const double overlap = m.radius[c.i] + m.radius[c.j] - dist;
+    if (overlap <= 0) continue;
+    const auto& gi = m.groups[m.group[c.i]];
+    const auto& gj = m.groups[m.group[c.j]];
+    const double len = m.radius[c.i] + m.radius[c.j];
+    const double kn = harmonic_d(gi.youngs, gj.youngs) * len;
+    const double kt = kShearFactor * harmonic_d(gi.shear_modulus, gj.shear_modulus) * len;
+    e.elastic += 0.5 * kn * overlap * overlap + 0.5 * kt * sq(c.ut);
+  }
+  for (std::size_t p = 0; p < m.projectiles.size(); ++p) {
+    const auto& P = m.projectiles[p];
+    const auto& ps = s.projectiles[p];
+    e.projectile_kinetic += 0.5 * P.mass * sq(ps.velocity) + 0.5 * P.inertia * sq(ps.angular_velocity);
+    if (!P.kinematic) {
+      const Vec3 dx = ps.position - P.position;
+      e.gravity_work += P.mass * (static_cast<double>(m.gravity.x) * dx.x + static_cast<double>(m.gravity.y) * dx.y +
+                                  static_cast<double>(m.gravity.z) * dx.z);
+    }
+  }
+  for (double w : s.grip_work) e.grip_work += w;
+  return e;
+}
+
+}  // namespace mca

@@ -1,0 +1,354 @@
+// The one place that checks a SceneDef. Parsing (src/io) checks syntax and types; this checks ranges
+// and references, so that scenes built in C++ get the same messages as scenes read from TOML.
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include <mca/error.hpp>
+#include <mca/scene.hpp>
+
+namespace mca {
+
+namespace {
+
+// Shortest text that reads back as the same double, in exponent form for large and tiny magnitudes
+// so that 3e+10 is not shown as 30000000000.
+std::string num(double v) {
+  const double a = std::fabs(v);
+  if (std::isfinite(v) && a != 0.0 && (a >= 1e5 || a < 1e-3)) {
+    for (int p = 0; p <= 17; ++p) {
+      std::string s = fmt::format("{:.{}e}", v, p);
+      if (std::strtod(s.c_str(), nullptr) == v) return s;
+    }
+  }
+  return fmt::format("{}", v);
+}
+
+std::string vec(const Vec3d& v) { return fmt::format("[{}, {}, {}]", num(v[0]), num(v[1]), num(v[2])); }
+
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diag = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      const bool same = std::tolower(static_cast<unsigned char>(a[i - 1])) ==
+                        std::tolower(static_cast<unsigned char>(b[j - 1]));
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (same ? 0 : 1)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+// "; did you mean 'x'?" for the closest candidate within a third of the word's length (at least 2
+// edits), else the list of candidates.
+std::string suggestion(std::string_view word, const std::vector<std::string>& candidates) {
+  std::string best;
+  std::size_t best_d = std::string::npos;
+  for (const std::string& c : candidates) {
+    const std::size_t d = edit_distance(word, c);
+    if (d < best_d) {
+      best_d = d;
+      best = c;
+    }
+  }
+  const std::size_t limit = std::max<std::size_t>(2, word.size() / 3);
+  if (!best.empty() && best_d <= limit) return fmt::format("; did you mean '{}'?", best);
+  std::string list;
+  for (const std::string& c : candidates) list += (list.empty() ? "" : ", ") + c;
+  return fmt::format("; known: {}", list);
+}
+
+class Checker {
+ public:
+  explicit Checker(const SceneDef& scene) : scene_(scene) {}
+
+  [[noreturn]] void fail(const std::string& message) const {
+    throw Error(fmt::format("{}: {}", scene_.source, message));
+  }
+
+  void finite(const std::string& key, double v) const {
+    if (!std::isfinite(v)) fail(fmt::format("{} = {} is not a finite number; give a finite value", key, num(v)));
+  }
+  void finite(const std::string& key, const Vec3d& v) const {
+    for (double x : v) {
+      if (!std::isfinite(x)) fail(fmt::format("{} = {} has a non-finite component; give finite values", key, vec(v)));
+    }
+  }
+
+  // Checks lo < v (or lo <= v) and v < hi (or v <= hi); the range text and the fix go in the message.
+  void range(const std::string& key, double v, double lo, bool lo_closed, double hi, bool hi_closed,
+             const std::string& range_text, const std::string& fix) const {
+    const bool ok = std::isfinite(v) && (lo_closed ? v >= lo : v > lo) && (hi_closed ? v <= hi : v < hi);
+    if (!ok) fail(fmt::format("{} = {} is out of range: must be {}; {}", key, num(v), range_text, fix));
+  }
+  void positive(const std::string& key, double v, const std::string& fix) const {
+    range(key, v, 0.0, false, INFINITY, false, "> 0", fix);
+  }
+  void non_negative(const std::string& key, double v, const std::string& fix) const {
+    range(key, v, 0.0, true, INFINITY, false, ">= 0", fix);
+  }
+
+ private:
+  const SceneDef& scene_;
+};
+
+void check_material(const Checker& c, const MaterialDef& m, std::size_t i) {
+  const std::string p = fmt::format("material[{}]", i);
+  if (m.name.empty()) c.fail(fmt::format("{}.name is empty; give the material a name objects can refer to", p));
+  // Quoting the name after the key path lets a user find the [[material]] block either way.
+  const std::string q = fmt::format("(material \"{}\")", m.name);
+  // The key path comes first in the message, then the value, then the name.
+  auto range = [&](const char* k, double v, double lo, bool lc, double hi, bool hc, const std::string& text,
+                   const std::string& fix) {
+    const bool ok = std::isfinite(v) && (lc ? v >= lo : v > lo) && (hc ? v <= hi : v < hi);
+    if (!ok) c.fail(fmt::format("{}.{} = {} {} is out of range: must be {}; {}", p, k, num(v), q, text, fix));
+  };
+  range("youngs_modulus", m.youngs_modulus, 0, false, INFINITY, false, "> 0 [Pa]",
+        "use e.g. 30e9 for concrete, 200e9 for steel (the unit is Pa, not GPa)");
+  range("poisson_ratio", m.poisson_ratio, -1, false, 0.5, false, "in (-1, 0.5) (0.5 is incompressible)",
+        "use e.g. 0.2 for concrete");
+  range("density", m.density, 0, false, INFINITY, false, "> 0 [kg/m^3]", "use e.g. 2400 for concrete");
+  range("tensile_strength", m.tensile_strength, 0, false, INFINITY, false, "> 0 [Pa]",
+        "use e.g. 3e6 for concrete (the unit is Pa, not MPa)");
+  if (!std::isfinite(m.compressive_strength) || m.compressive_strength < m.tensile_strength) {
+    c.fail(fmt::format("{}.compressive_strength = {} {} is out of range: must be >= tensile_strength = {} [Pa]; "
+                       "brittle materials are about 10x stronger in compression (concrete: 30e6); set it equal "
+                       "to tensile_strength for a von Mises criterion",
+                       p, num(m.compressive_strength), q, num(m.tensile_strength)));
+  }
+  range("fracture_strain", m.fracture_strain, 0, false, INFINITY, false, "> 0",
+        "use about 1.5 x tensile_strength / youngs_modulus so the stress criterion governs in slow tension");
+  range("friction", m.friction, 0, true, INFINITY, false, ">= 0", "use e.g. 0.6 for concrete, 0 for frictionless");
+  range("restitution", m.restitution, 0, false, 1, true, "in (0, 1]", "use e.g. 0.2 for concrete, 1 for elastic");
+  range("strengthening_alpha", m.strengthening_alpha, 0, true, INFINITY, false, ">= 0",
+        "use 0 for linear elasticity");
+  switch (m.strengthening) {
+    case StrengtheningLaw::none:
+    case StrengtheningLaw::exponential:
+    case StrengtheningLaw::quadratic:
+      break;
+    default:
+      c.fail(fmt::format("{}.strengthening {} is not a known law; use \"none\", \"exponential\" or \"quadratic\"", p, q));
+  }
+}
+
+void check_heterogeneity(const Checker& c, const HeterogeneityDef& h, const std::string& p) {
+  static const std::vector<std::string> presets = {"none", "low", "medium", "high", "custom"};
+  if (std::find(presets.begin(), presets.end(), h.preset) == presets.end()) {
+    c.fail(fmt::format("{}.preset = \"{}\" is not a preset{}; use none, low, medium or high, or give shares", p,
+                       h.preset, suggestion(h.preset, presets)));
+  }
+  const std::string shares = fmt::format("[{}, {}, {}, {}]", num(h.shares[0]), num(h.shares[1]), num(h.shares[2]),
+                                         num(h.shares[3]));
+  double sum = 0.0;
+  for (std::size_t i = 0; i < 4; ++i) {
+    if (!std::isfinite(h.shares[i]) || h.shares[i] < 0.0) {
+      c.fail(fmt::format("{}.shares = {}: share of class {} is {}, must be >= 0; shares are fractions of the "
+                         "automata in strength classes 1..4, e.g. [0, 0.15, 0.2, 0.65]",
+                         p, shares, i + 1, num(h.shares[i])));
+    }
+    sum += h.shares[i];
+  }
+  if (std::fabs(sum - 1.0) > 1e-6) {
+    c.fail(fmt::format("{}.shares = {} sum to {}, must sum to 1 (within 1e-6); they are fractions, not "
+                       "percentages: e.g. [0, 0.15, 0.2, 0.65]",
+                       p, shares, num(sum)));
+  }
+  if (h.preset != "custom") {
+    std::array<double, 4> expected{};
+    heterogeneity_preset(h.preset, expected);
+    if (expected != h.shares) {
+      c.fail(fmt::format("{}.preset = \"{}\" but shares = {} are not that preset's; fill shares with "
+                         "mca::heterogeneity_preset(), or set preset = \"custom\"",
+                         p, h.preset, shares));
+    }
+  }
+  const std::string factors = fmt::format("[{}, {}, {}, {}]", num(h.class_factors[0]), num(h.class_factors[1]),
+                                          num(h.class_factors[2]), num(h.class_factors[3]));
+  for (std::size_t i = 0; i < 4; ++i) {
+    if (!std::isfinite(h.class_factors[i]) || h.class_factors[i] <= 0.0) {
+      c.fail(fmt::format("{}.class_factors = {}: factor of class {} is {}, must be > 0; the default is "
+                         "[0.25, 0.5, 0.75, 1]",
+                         p, factors, i + 1, num(h.class_factors[i])));
+    }
+    if (i > 0 && h.class_factors[i] < h.class_factors[i - 1]) {
+      c.fail(fmt::format("{}.class_factors = {} must be non-decreasing (class 1 is the weakest); the default is "
+                         "[0.25, 0.5, 0.75, 1]",
+                         p, factors));
+    }
+  }
+  c.non_negative(p + ".grain_size", h.grain_size,
+                 "use 0 for classes drawn per automaton, or a grain size in metres (a few lattice spacings)");
+}
+
+}  // namespace
+
+const MaterialDef& resolve_material(const SceneDef& scene, const std::string& name, const std::string& key) {
+  for (const MaterialDef& m : scene.materials) {
+    if (m.name == name) return m;
+  }
+  if (const MaterialDef* m = find_builtin_material(name)) return *m;
+  std::vector<std::string> names;
+  for (const MaterialDef& m : scene.materials) names.push_back(m.name);
+  for (const MaterialDef& m : builtin_materials()) {
+    if (std::find(names.begin(), names.end(), m.name) == names.end()) names.push_back(m.name);
+  }
+  std::string hint = suggestion(name, names);
+  if (hint.rfind("; did", 0) != 0) hint = fmt::format("; known materials: {}", hint.substr(std::strlen("; known: ")));
+  throw Error(fmt::format("{}: {} = \"{}\" is not a known material{} (define others in [[material]] blocks)",
+                          scene.source, key, name, hint));
+}
+
+void validate_scene(const SceneDef& scene) {
+  const Checker c(scene);
+
+  // Solver.
+  c.positive("solver.spacing", scene.solver.spacing, "give the lattice spacing in metres, e.g. 0.05");
+  if (scene.solver.target_automata < 0) {
+    c.fail(fmt::format("solver.target_automata = {} is out of range: must be >= 0; use 0 to take solver.spacing "
+                       "as given",
+                       scene.solver.target_automata));
+  }
+  c.range("solver.safety", scene.solver.safety, 0, false, 1, true, "in (0, 1]", "use 0.2 (the default)");
+  c.non_negative("solver.time_step", scene.solver.time_step, "use 0 for the automatic stable step");
+  c.finite("solver.gravity", scene.solver.gravity);
+  c.range("solver.link_damping", scene.solver.link_damping, 0, true, 1, true, "in [0, 1] (share of critical)",
+          "use 0 for none, or a few per cent (0.02)");
+  c.range("solver.local_damping", scene.solver.local_damping, 0, true, 0.2, true, "in [0, 0.2]",
+          "use 0 for none; Cundall's local damping is usually 0.05 to 0.2 for quasi-static runs");
+  c.positive("solver.stress_coefficient", scene.solver.stress_coefficient, "use 1 (the default)");
+  c.range("solver.skin", scene.solver.skin, 0, false, 1, true, "in (0, 1] (share of the spacing)",
+          "use 0.1 (the default)");
+  c.positive("solver.max_memory_gb", scene.solver.max_memory_gb, "give the memory limit in GB, e.g. 16");
+
+  // Output.
+  c.positive("output.duration", scene.output.duration, "give the simulated time in seconds, e.g. 0.05");
+  c.positive("output.frame_rate", scene.output.frame_rate,
+             "give output frames per simulated second, e.g. 500");
+  if (scene.output.checkpoint_every < 0) {
+    c.fail(fmt::format("output.checkpoint_every = {} is out of range: must be >= 0; use 0 for no checkpoints or "
+                       "a number of frames",
+                       scene.output.checkpoint_every));
+  }
+
+  // Materials.
+  for (std::size_t i = 0; i < scene.materials.size(); ++i) {
+    check_material(c, scene.materials[i], i);
+    for (std::size_t j = 0; j < i; ++j) {
+      if (scene.materials[j].name == scene.materials[i].name) {
+        c.fail(fmt::format("material[{}].name = \"{}\" duplicates material[{}]; give each [[material]] a distinct "
+                           "name",
+                           i, scene.materials[i].name, j));
+      }
+    }
+  }
+
+  check_heterogeneity(c, scene.heterogeneity, "heterogeneity");
+
+  // Objects.
+  if (scene.objects.empty()) {
+    c.fail("the scene has no objects; add at least one [[object]] block (e.g. shape = \"box\", size = [2, 0.2, "
+           "1.5], material = \"concrete\")");
+  }
+  for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+    const ObjectDef& o = scene.objects[i];
+    const std::string p = fmt::format("object[{}]", i);
+    if (o.name.empty()) c.fail(fmt::format("{}.name is empty; give the object a name", p));
+    for (std::size_t j = 0; j < i; ++j) {
+      if (scene.objects[j].name == o.name) {
+        c.fail(fmt::format("{}.name = \"{}\" duplicates object[{}]; give each [[object]] a distinct name", p,
+                           o.name, j));
+      }
+    }
+    switch (o.shape) {
+      case Shape::box:
+        for (double s : o.size) {
+          if (!std::isfinite(s) || s <= 0.0) {
+            c.fail(fmt::format("{}.size = {} is out of range: every extent must be > 0 [m]; give the full box "
+                               "extents, e.g. [2, 0.2, 1.5]",
+                               p, vec(o.size)));
+          }
+        }
+        break;
+      case Shape::sphere:
+        c.positive(p + ".radius", o.radius, "give the sphere radius in metres");
+        break;
+      case Shape::cylinder:
+        c.positive(p + ".radius", o.radius, "give the cylinder radius in metres");
+        c.positive(p + ".height", o.height, "give the cylinder height in metres (along its local z axis)");
+        break;
+      default:
+        c.fail(fmt::format("{}.shape is not a known shape; use \"box\", \"sphere\" or \"cylinder\"", p));
+    }
+    c.finite(p + ".position", o.position);
+    c.finite(p + ".rotation", o.rotation);
+    c.finite(p + ".velocity", o.velocity);
+    resolve_material(scene, o.material, p + ".material");
+    if (o.heterogeneity) check_heterogeneity(c, *o.heterogeneity, p + ".heterogeneity");
+    for (std::size_t r = 0; r < o.regions.size(); ++r) {
+      const RegionDef& g = o.regions[r];
+      const std::string rp = fmt::format("{}.region[{}]", p, r);
+      if (g.shape == Shape::box) {
+        for (double s : g.size) {
+          if (!std::isfinite(s) || s <= 0.0) {
+            c.fail(fmt::format("{}.size = {} is out of range: every extent must be > 0 [m]", rp, vec(g.size)));
+          }
+        }
+      } else if (g.shape == Shape::sphere) {
+        c.positive(rp + ".radius", g.radius, "give the region's radius in metres");
+      } else {
+        c.fail(fmt::format("{}.shape: a region is a \"box\" or a \"sphere\"", rp));
+      }
+      c.finite(rp + ".center", g.center);
+      resolve_material(scene, g.material, rp + ".material");
+    }
+  }
+
+  // Projectiles.
+  for (std::size_t i = 0; i < scene.projectiles.size(); ++i) {
+    const ProjectileDef& b = scene.projectiles[i];
+    const std::string p = fmt::format("projectile[{}]", i);
+    c.positive(p + ".radius", b.radius, "give the ball radius in metres, e.g. 0.12");
+    resolve_material(scene, b.material, p + ".material");
+    c.non_negative(p + ".density", b.density, "use 0 to take the material's density");
+    c.finite(p + ".position", b.position);
+    c.finite(p + ".velocity", b.velocity);
+    c.finite(p + ".angular_velocity", b.angular_velocity);
+  }
+
+  // Grips.
+  static const char* const axes[] = {"x", "y", "z"};
+  for (std::size_t i = 0; i < scene.grips.size(); ++i) {
+    const GripDef& g = scene.grips[i];
+    const std::string p = fmt::format("grip[{}]", i);
+    c.finite(p + ".min", g.min);
+    c.finite(p + ".max", g.max);
+    c.finite(p + ".velocity", g.velocity);
+    for (int a = 0; a < 3; ++a) {
+      if (!(g.min[a] < g.max[a])) {
+        c.fail(fmt::format("{} \"{}\": min = {} and max = {} give an empty box: min must be < max on every axis, "
+                           "but on {} min = {} >= max = {}; widen the box so it holds the automata centres",
+                           p, g.name, vec(g.min), vec(g.max), axes[a], num(g.min[a]), num(g.max[a])));
+      }
+    }
+  }
+
+  // Ground.
+  c.finite("ground.height", scene.ground.height);
+  c.non_negative("ground.friction", scene.ground.friction, "use e.g. 0.6, or 0 for a frictionless ground");
+  c.range("ground.restitution", scene.ground.restitution, 0, false, 1, true, "in (0, 1]", "use e.g. 0.3");
+}
+
+}  // namespace mca

@@ -1,0 +1,63 @@
+#pragma once
+// The mutable state of a run (physics.md sec. 2). Checkpoints save exactly this, plus the scene.
+#include <cstdint>
+#include <vector>
+
+#include "core/math.hpp"
+
+namespace mca {
+
+enum class BreakCriterion : std::uint8_t { displacement = 0, stress = 1 };
+
+struct BreakRecord {
+  std::int64_t step;
+  std::uint32_t link;
+  BreakCriterion criterion;
+};
+
+// An unlinked pair within contact range, with its tangential spring history (physics.md sec. 6).
+struct ContactPair {
+  std::uint32_t i, j;  // i < j
+  Vec3 ut;             // accumulated tangential displacement
+};
+
+// Contact history of a projectile or the ground with one automaton.
+struct BodyContact {
+  std::uint32_t automaton;
+  Vec3 ut;
+};
+
+struct ProjectileState {
+  Vec3 position, velocity, angular_velocity;
+  Quat orientation;
+  Vec3 force;                         // contact force of the last step (for statistics)
+  std::vector<BodyContact> contacts;  // sorted by automaton
+};
+
+struct State {
+  std::int64_t step = 0;
+  double time = 0;
+
+  // automata
+  std::vector<Vec3> x, v, w;
+  std::vector<Quat> q;
+  std::vector<Sym3> s;          // averaged (Love) stress of the last step
+  std::vector<Vec3> ground_ut;  // tangential history with the ground (zero when not touching)
+
+  // links
+  std::vector<std::uint8_t> intact;
+  std::vector<Vec3> link_ut;    // tangential displacement in the pair's frame
+  std::vector<float> link_sigma, link_tau;  // pair stresses of the last step
+
+  std::vector<ContactPair> contacts;        // sorted by (i, j)
+  std::vector<Vec3> x_at_rebuild;           // positions when the contact list was last rebuilt
+
+  std::vector<ProjectileState> projectiles;
+
+  std::vector<BreakRecord> breaks;
+  std::int64_t broken_by[2] = {0, 0};       // by BreakCriterion
+  std::vector<double> grip_work;            // work done by each grip [J]
+  std::vector<Vec3> grip_force;             // force each grip exerts on the body in the last step [N]
+};
+
+}  // namespace mca

@@ -1,0 +1,52 @@
+#pragma once
+// Uniform grid for the neighbour search (paper sec. 5.2): points are binned by cell with a counting
+// sort; cells are hashed into a table of about twice the point count, so fragments flying far apart
+// cost no memory. A query visits the 27 cells around a point and skips hash buckets already visited,
+// so every candidate is reported once. Cell indices use floor, so negative coordinates work.
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "core/math.hpp"
+
+namespace mca {
+
+class UniformGrid {
+ public:
+  // cell_size must be >= the largest interaction distance queried.
+  void build(const Vec3* x, std::size_t n, float cell_size);
+
+  // Calls f(j) for every point j in the 27 cells around p (each at most once; includes far ones).
+  template <class F>
+  void for_each_candidate(Vec3 p, F&& f) const {
+    const std::int64_t c[3] = {cell_of(p.x), cell_of(p.y), cell_of(p.z)};
+    std::uint32_t seen[27];
+    int n_seen = 0;
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const std::uint32_t b = bucket(c[0] + dx, c[1] + dy, c[2] + dz);
+          bool dup = false;
+          for (int s = 0; s < n_seen; ++s) dup = dup || seen[s] == b;
+          if (dup) continue;
+          seen[n_seen++] = b;
+          for (std::uint32_t k = begin_[b]; k < begin_[b + 1]; ++k) f(items_[k]);
+        }
+  }
+
+  float cell_size() const { return cell_; }
+
+ private:
+  std::int64_t cell_of(float v) const { return static_cast<std::int64_t>(std::floor(v * inv_cell_)); }
+  std::uint32_t bucket(std::int64_t i, std::int64_t j, std::int64_t k) const {
+    const std::uint64_t h = static_cast<std::uint64_t>(i) * 73856093ull ^ static_cast<std::uint64_t>(j) * 19349663ull ^
+                            static_cast<std::uint64_t>(k) * 83492791ull;
+    return static_cast<std::uint32_t>(h & mask_);
+  }
+
+  float cell_ = 1, inv_cell_ = 1;
+  std::uint64_t mask_ = 0;
+  std::vector<std::uint32_t> begin_, items_;
+};
+
+}  // namespace mca

@@ -1,0 +1,717 @@
+// TOML scene files <-> SceneDef. This file checks syntax, keys and types (with line numbers);
+// ranges and references are validate_scene's job, so C++-built scenes get the same checks.
+#include "io/scene_io.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <optional>
+#include <sstream>
+#include <vector>
+
+#include <fmt/format.h>
+#include <toml++/toml.h>
+
+#include <mca/error.hpp>
+
+#include "io/default_scene.hpp"
+
+namespace mca::io {
+
+namespace {
+
+// Shortest text that reads back as the same double; exponent form for large and tiny magnitudes
+// (3e+10, 1.5e-4) so that moduli and strains stay readable.
+std::string num(double v) {
+  const double a = std::fabs(v);
+  if (std::isfinite(v) && a != 0.0 && (a >= 1e5 || a < 1e-3)) {
+    for (int p = 0; p <= 17; ++p) {
+      std::string s = fmt::format("{:.{}e}", v, p);
+      if (std::strtod(s.c_str(), nullptr) != v) continue;
+      // fmt pads the exponent to two digits ("1.5e-04"); TOML allows it, people do not write it.
+      const std::size_t e = s.find('e');
+      std::size_t d = e + 2;
+      while (d + 1 < s.size() && s[d] == '0') s.erase(d, 1);
+      if (s[e + 1] == '+') s.erase(e + 1, 1);
+      return s;
+    }
+  }
+  return fmt::format("{}", v);
+}
+
+// A TOML float: num() plus ".0" where it would otherwise read as an integer.
+std::string toml_double(double v) {
+  std::string s = num(v);
+  if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
+  return s;
+}
+
+std::string toml_string(std::string_view s) {
+  std::string out = "\"";
+  for (const char ch : s) {
+    const auto c = static_cast<unsigned char>(ch);
+    switch (ch) {
+      case '"': out += "\\\""; break;
+      case '\\': out += "\\\\"; break;
+      case '\b': out += "\\b"; break;
+      case '\t': out += "\\t"; break;
+      case '\n': out += "\\n"; break;
+      case '\f': out += "\\f"; break;
+      case '\r': out += "\\r"; break;
+      default:
+        if (c < 0x20 || c == 0x7f) {
+          out += fmt::format("\\u{:04X}", static_cast<unsigned>(c));
+        } else {
+          out += ch;
+        }
+    }
+  }
+  return out + "\"";
+}
+
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diag = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      const bool same = std::tolower(static_cast<unsigned char>(a[i - 1])) ==
+                        std::tolower(static_cast<unsigned char>(b[j - 1]));
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (same ? 0 : 1)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+// "; did you mean 'x'?" for the closest candidate within a third of the word's length (at least 2
+// edits), else the list of candidates.
+std::string suggestion(std::string_view word, const std::vector<std::string>& candidates) {
+  std::string best;
+  std::size_t best_d = std::string::npos;
+  for (const std::string& c : candidates) {
+    const std::size_t d = edit_distance(word, c);
+    if (d < best_d) {
+      best_d = d;
+      best = c;
+    }
+  }
+  const std::size_t limit = std::max<std::size_t>(2, word.size() / 3);
+  if (!best.empty() && best_d <= limit) return fmt::format("; did you mean '{}'?", best);
+  std::string list;
+  for (const std::string& c : candidates) list += (list.empty() ? "" : ", ") + c;
+  return fmt::format("; allowed: {}", list);
+}
+
+const char* type_name(const toml::node& n) {
+  switch (n.type()) {
+    case toml::node_type::string: return "a string";
+    case toml::node_type::integer: return "an integer";
+    case toml::node_type::floating_point: return "a float";
+    case toml::node_type::boolean: return "a boolean";
+    case toml::node_type::array: return "an array";
+    case toml::node_type::table: return "a table";
+    case toml::node_type::date: return "a date";
+    case toml::node_type::time: return "a time";
+    case toml::node_type::date_time: return "a date-time";
+    default: return "nothing";
+  }
+}
+
+// The value as written, for messages (strings quoted, arrays and tables abbreviated).
+std::string shown(const toml::node& n) {
+  if (const auto* s = n.as_string()) return toml_string(s->get());
+  if (const auto* f = n.as_floating_point()) return num(f->get());
+  if (const auto* i = n.as_integer()) return fmt::format("{}", i->get());
+  if (const auto* b = n.as_boolean()) return b->get() ? "true" : "false";
+  if (const auto* a = n.as_array()) return fmt::format("[...] ({} elements)", a->size());
+  if (n.is_table()) return "{...}";
+  std::ostringstream os;
+  n.visit([&](const auto& v) { os << v; });
+  return os.str();
+}
+
+class Reader {
+ public:
+  explicit Reader(std::string source) : source_(std::move(source)) {}
+
+  const std::string& source() const { return source_; }
+
+  std::string at(const toml::source_region& r) const {
+    return fmt::format("{}:{}:{}", source_, r.begin.line, r.begin.column);
+  }
+
+  [[noreturn]] void fail(const toml::source_region& r, const std::string& message) const {
+    throw Error(fmt::format("{}: {}", at(r), message));
+  }
+
+  [[noreturn]] void wrong_type(const toml::node& n, const std::string& key, const std::string& expected) const {
+    std::string hint;
+    if (const auto* s = n.as_string()) {
+      char* end = nullptr;
+      const std::string& text = s->get();
+      std::strtod(text.c_str(), &end);
+      if (!text.empty() && end == text.c_str() + text.size() && expected.find("number") != std::string::npos) {
+        hint = fmt::format("; write it without quotes: {} = {}", key.substr(key.rfind('.') + 1), text);
+      }
+    } else if (n.is_floating_point() && expected.find("integer") != std::string::npos) {
+      hint = "; write it without a decimal point";
+    }
+    fail(n.source(), fmt::format("{} is {} ({}), expected {}{}", key, type_name(n), shown(n), expected, hint));
+  }
+
+ private:
+  std::string source_;
+};
+
+// One TOML table and its key path ("solver", "material[0]", "object[1].region[0]") for messages.
+class Table {
+ public:
+  Table(const Reader& rd, const toml::table& t, std::string path, std::string section)
+      : rd_(rd), t_(t), path_(std::move(path)), section_(std::move(section)) {}
+
+  const Reader& reader() const { return rd_; }
+  const toml::table& raw() const { return t_; }
+  const std::string& path() const { return path_; }
+
+  std::string key(std::string_view k) const {
+    return path_.empty() ? std::string(k) : fmt::format("{}.{}", path_, k);
+  }
+
+  void allow(const std::vector<std::string>& keys) const {
+    for (auto&& [k, v] : t_) {
+      if (std::find(keys.begin(), keys.end(), k.str()) != keys.end()) continue;
+      rd_.fail(k.source(), fmt::format("unknown key '{}' in {}{}", k.str(), section_, suggestion(k.str(), keys)));
+    }
+  }
+
+  const toml::node* get(std::string_view k) const { return t_.get(k); }
+
+  // Integers are accepted where floats are expected.
+  bool number(std::string_view k, double& out) const {
+    const toml::node* n = t_.get(k);
+    if (!n) return false;
+    out = to_number(*n, key(k));
+    return true;
+  }
+
+  bool integer(std::string_view k, std::int64_t& out) const {
+    const toml::node* n = t_.get(k);
+    if (!n) return false;
+    const auto* v = n->as_integer();
+    if (!v) rd_.wrong_type(*n, key(k), "an integer");
+    out = v->get();
+    return true;
+  }
+
+  bool boolean(std::string_view k, bool& out) const {
+    const toml::node* n = t_.get(k);
+    if (!n) return false;
+    const auto* v = n->as_boolean();
+    if (!v) rd_.wrong_type(*n, key(k), "a boolean (true or false)");
+    out = v->get();
+    return true;
+  }
+
+  bool string(std::string_view k, std::string& out) const {
+    const toml::node* n = t_.get(k);
+    if (!n) return false;
+    const auto* v = n->as_string();
+    if (!v) rd_.wrong_type(*n, key(k), "a string (in quotes)");
+    out = v->get();
+    return true;
+  }
+
+  template <std::size_t N>
+  bool numbers(std::string_view k, std::array<double, N>& out, const char* form) const {
+    const toml::node* n = t_.get(k);
+    if (!n) return false;
+    const std::string expected = fmt::format("an array of {} numbers {}", N, form);
+    const auto* a = n->as_array();
+    if (!a) rd_.wrong_type(*n, key(k), expected);
+    if (a->size() != N) {
+      rd_.fail(n->source(), fmt::format("{} has {} element{}, expected {}", key(k), a->size(),
+                                        a->size() == 1 ? "" : "s", expected));
+    }
+    for (std::size_t i = 0; i < N; ++i) out[i] = to_number(*a->get(i), fmt::format("{}[{}]", key(k), i));
+    return true;
+  }
+
+  bool vec3(std::string_view k, Vec3d& out) const { return numbers(k, out, "[x, y, z]"); }
+
+  // A sub-table ([solver], [object.heterogeneity]); nullopt when absent.
+  std::optional<Table> table(std::string_view k, std::string section) const {
+    const toml::node* n = t_.get(k);
+    if (!n) return std::nullopt;
+    const auto* t = n->as_table();
+    if (!t) rd_.wrong_type(*n, key(k), fmt::format("a table ({})", section));
+    return Table(rd_, *t, key(k), std::move(section));
+  }
+
+  // An array of tables ([[material]], [[object.region]]), element i with path key(k)[i].
+  std::vector<Table> tables(std::string_view k, const std::string& section) const {
+    std::vector<Table> out;
+    const toml::node* n = t_.get(k);
+    if (!n) return out;
+    const auto* a = n->as_array();
+    if (!a) {
+      const std::string plain = section.substr(1, section.size() - 2);  // "[[material]]" -> "[material]"
+      rd_.fail(n->source(), fmt::format("{} is {}, expected an array of tables: write each block as {}{}", key(k),
+                                        type_name(*n), section,
+                                        n->is_table() ? fmt::format(", not {}", plain) : std::string()));
+    }
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      const toml::node& e = *a->get(i);
+      const std::string path = fmt::format("{}[{}]", key(k), i);
+      const auto* t = e.as_table();
+      if (!t) rd_.wrong_type(e, path, fmt::format("a table ({})", section));
+      out.emplace_back(rd_, *t, path, section);
+    }
+    return out;
+  }
+
+  // A string naming one of `choices`; `what` reads e.g. "a shape".
+  std::optional<std::string> choice(std::string_view k, const std::vector<std::string>& choices,
+                                    const char* what) const {
+    std::string s;
+    if (!string(k, s)) return std::nullopt;
+    if (std::find(choices.begin(), choices.end(), s) == choices.end()) {
+      std::string list;
+      for (const std::string& c : choices) list += fmt::format("{}\"{}\"", list.empty() ? "" : ", ", c);
+      std::string fix = suggestion(s, choices);
+      if (fix.rfind("; did", 0) != 0) fix.clear();
+      rd_.fail(t_.get(k)->source(),
+               fmt::format("{} = \"{}\" is not {}{}; use one of {}", key(k), s, what, fix, list));
+    }
+    return s;
+  }
+
+ private:
+  double to_number(const toml::node& n, const std::string& key) const {
+    if (const auto* f = n.as_floating_point()) return f->get();
+    if (const auto* i = n.as_integer()) return static_cast<double>(i->get());
+    rd_.wrong_type(n, key, "a number (float or integer)");
+  }
+
+  const Reader& rd_;
+  const toml::table& t_;
+  std::string path_;
+  std::string section_;
+};
+
+const std::vector<std::string> kHeterogeneityKeys = {"preset", "shares", "class_factors", "grain_size"};
+
+HeterogeneityDef read_heterogeneity(const Table& tb, HeterogeneityDef h) {
+  tb.allow(kHeterogeneityKeys);
+  const toml::node* preset_node = tb.get("preset");
+  const toml::node* shares_node = tb.get("shares");
+  if (preset_node && shares_node) {
+    tb.reader().fail(shares_node->source(),
+                     fmt::format("{} and {} (line {}) are both given; give either preset = \"none|low|medium|high\" "
+                                 "or shares = [p1, p2, p3, p4], not both",
+                                 tb.key("shares"), tb.key("preset"), preset_node->source().begin.line));
+  }
+  std::string preset;
+  if (tb.string("preset", preset)) {
+    if (preset == "custom") {
+      tb.reader().fail(preset_node->source(),
+                       fmt::format("{} = \"custom\" is implied by shares; remove preset and give "
+                                   "shares = [p1, p2, p3, p4] instead",
+                                   tb.key("preset")));
+    }
+    if (!heterogeneity_preset(preset, h.shares)) {
+      const std::vector<std::string> names = {"none", "low", "medium", "high"};
+      std::string fix = suggestion(preset, names);
+      if (fix.rfind("; did", 0) != 0) fix.clear();
+      tb.reader().fail(preset_node->source(),
+                       fmt::format("{} = \"{}\" is not a preset{}; use \"none\", \"low\", \"medium\" or \"high\", "
+                                   "or give shares = [p1, p2, p3, p4]",
+                                   tb.key("preset"), preset, fix));
+    }
+    h.preset = preset;
+  }
+  if (tb.numbers("shares", h.shares, "[p1, p2, p3, p4] (class 1 = weakest)")) h.preset = "custom";
+  tb.numbers("class_factors", h.class_factors, "[k1, k2, k3, k4]");
+  tb.number("grain_size", h.grain_size);
+  return h;
+}
+
+Shape to_shape(const std::string& s) {
+  if (s == "sphere") return Shape::sphere;
+  if (s == "cylinder") return Shape::cylinder;
+  return Shape::box;
+}
+
+const char* shape_name(Shape s) {
+  switch (s) {
+    case Shape::sphere: return "sphere";
+    case Shape::cylinder: return "cylinder";
+    default: return "box";
+  }
+}
+
+const char* law_name(StrengtheningLaw l) {
+  switch (l) {
+    case StrengtheningLaw::exponential: return "exponential";
+    case StrengtheningLaw::quadratic: return "quadratic";
+    default: return "none";
+  }
+}
+
+MaterialDef read_material(const Table& tb, const std::vector<MaterialDef>& earlier) {
+  tb.allow({"name", "base", "youngs_modulus", "poisson_ratio", "density", "tensile_strength",
+            "compressive_strength", "fracture_strain", "friction", "restitution", "strengthening",
+            "strengthening_alpha"});
+  MaterialDef m;  // no base: the struct's defaults (concrete)
+  std::string base;
+  if (tb.string("base", base)) {
+    const MaterialDef* found = nullptr;
+    for (const MaterialDef& e : earlier) {
+      if (e.name == base) found = &e;
+    }
+    if (!found) found = find_builtin_material(base);
+    if (!found) {
+      std::vector<std::string> names;
+      for (const MaterialDef& e : earlier) names.push_back(e.name);
+      for (const MaterialDef& b : builtin_materials()) names.push_back(b.name);
+      tb.reader().fail(tb.get("base")->source(),
+                       fmt::format("{} = \"{}\" is not a built-in or earlier material{}", tb.key("base"), base,
+                                   suggestion(base, names)));
+    }
+    m = *found;
+  }
+  if (!tb.string("name", m.name)) {
+    tb.reader().fail(tb.raw().source(), fmt::format("{} has no name; add name = \"...\" (objects and projectiles "
+                                                    "refer to materials by name)",
+                                                    tb.path()));
+  }
+  tb.number("youngs_modulus", m.youngs_modulus);
+  tb.number("poisson_ratio", m.poisson_ratio);
+  tb.number("density", m.density);
+  tb.number("tensile_strength", m.tensile_strength);
+  tb.number("compressive_strength", m.compressive_strength);
+  tb.number("fracture_strain", m.fracture_strain);
+  tb.number("friction", m.friction);
+  tb.number("restitution", m.restitution);
+  if (auto law = tb.choice("strengthening", {"none", "exponential", "quadratic"}, "a strengthening law")) {
+    m.strengthening = *law == "exponential" ? StrengtheningLaw::exponential
+                      : *law == "quadratic" ? StrengtheningLaw::quadratic
+                                            : StrengtheningLaw::none;
+  }
+  tb.number("strengthening_alpha", m.strengthening_alpha);
+  return m;
+}
+
+RegionDef read_region(const Table& tb) {
+  tb.allow({"shape", "center", "size", "radius", "material"});
+  RegionDef r;
+  if (auto s = tb.choice("shape", {"box", "sphere"}, "a region shape")) r.shape = to_shape(*s);
+  tb.vec3("center", r.center);
+  tb.vec3("size", r.size);
+  tb.number("radius", r.radius);
+  if (!tb.string("material", r.material)) {
+    tb.reader().fail(tb.raw().source(),
+                     fmt::format("{} has no material; add material = \"...\" (the group its automata get)", tb.path()));
+  }
+  return r;
+}
+
+ObjectDef read_object(const Table& tb, std::size_t index, const HeterogeneityDef& scene_heterogeneity) {
+  tb.allow({"name", "shape", "size", "radius", "height", "position", "rotation", "velocity", "material",
+            "heterogeneity", "region"});
+  ObjectDef o;
+  if (index > 0) o.name = fmt::format("object{}", index);
+  tb.string("name", o.name);
+  if (auto s = tb.choice("shape", {"box", "sphere", "cylinder"}, "a shape")) o.shape = to_shape(*s);
+  tb.vec3("size", o.size);
+  tb.number("radius", o.radius);
+  tb.number("height", o.height);
+  tb.vec3("position", o.position);
+  tb.vec3("rotation", o.rotation);
+  tb.vec3("velocity", o.velocity);
+  tb.string("material", o.material);
+  if (auto h = tb.table("heterogeneity", "[object.heterogeneity]")) {
+    o.heterogeneity = read_heterogeneity(*h, scene_heterogeneity);
+  }
+  for (const Table& r : tb.tables("region", "[[object.region]]")) o.regions.push_back(read_region(r));
+  return o;
+}
+
+ProjectileDef read_projectile(const Table& tb, std::size_t index) {
+  tb.allow({"name", "radius", "material", "density", "position", "velocity", "angular_velocity", "kinematic"});
+  ProjectileDef p;
+  if (index > 0) p.name = fmt::format("ball{}", index);
+  tb.string("name", p.name);
+  tb.number("radius", p.radius);
+  tb.string("material", p.material);
+  tb.number("density", p.density);
+  tb.vec3("position", p.position);
+  tb.vec3("velocity", p.velocity);
+  tb.vec3("angular_velocity", p.angular_velocity);
+  tb.boolean("kinematic", p.kinematic);
+  return p;
+}
+
+GripDef read_grip(const Table& tb, std::size_t index) {
+  tb.allow({"name", "min", "max", "velocity"});
+  GripDef g;
+  if (index > 0) g.name = fmt::format("grip{}", index);
+  tb.string("name", g.name);
+  if (!tb.vec3("min", g.min) || !tb.vec3("max", g.max)) {
+    tb.reader().fail(tb.raw().source(), fmt::format("{} needs both min = [x, y, z] and max = [x, y, z] (the box "
+                                                    "whose automata it holds)",
+                                                    tb.path()));
+  }
+  tb.vec3("velocity", g.velocity);
+  return g;
+}
+
+SceneDef read_scene(const Table& root, const std::string& source) {
+  root.allow({"name", "solver", "output", "heterogeneity", "material", "object", "projectile", "grip", "ground"});
+  SceneDef scene;
+  scene.source = source;
+  scene.name = std::filesystem::path(source).stem().string();
+  if (scene.name.empty()) scene.name = "scene";
+  root.string("name", scene.name);
+
+  if (auto tb = root.table("solver", "[solver]")) {
+    tb->allow({"spacing", "target_automata", "safety", "time_step", "gravity", "link_damping", "local_damping",
+               "stress_coefficient", "skin", "seed", "max_memory_gb"});
+    SolverDef& s = scene.solver;
+    tb->number("spacing", s.spacing);
+    tb->integer("target_automata", s.target_automata);
+    tb->number("safety", s.safety);
+    tb->number("time_step", s.time_step);
+    tb->vec3("gravity", s.gravity);
+    tb->number("link_damping", s.link_damping);
+    tb->number("local_damping", s.local_damping);
+    tb->number("stress_coefficient", s.stress_coefficient);
+    tb->number("skin", s.skin);
+    std::int64_t seed = 0;
+    // TOML integers are signed 64-bit: seeds above 2^63-1 are written (and read) as their two's
+    // complement, so every std::uint64_t seed round-trips.
+    if (tb->integer("seed", seed)) s.seed = static_cast<std::uint64_t>(seed);
+    tb->number("max_memory_gb", s.max_memory_gb);
+  }
+
+  if (auto tb = root.table("output", "[output]")) {
+    tb->allow({"duration", "frame_rate", "links", "vtk", "checkpoint_every"});
+    OutputDef& o = scene.output;
+    tb->number("duration", o.duration);
+    tb->number("frame_rate", o.frame_rate);
+    tb->boolean("links", o.links);
+    tb->boolean("vtk", o.vtk);
+    std::int64_t every = 0;
+    if (tb->integer("checkpoint_every", every)) {
+      if (every < std::numeric_limits<int>::min() || every > std::numeric_limits<int>::max()) {
+        root.reader().fail(tb->get("checkpoint_every")->source(),
+                           fmt::format("output.checkpoint_every = {} is out of range: must be in [0, {}]", every,
+                                       std::numeric_limits<int>::max()));
+      }
+      o.checkpoint_every = static_cast<int>(every);
+    }
+  }
+
+  if (auto tb = root.table("heterogeneity", "[heterogeneity]")) {
+    scene.heterogeneity = read_heterogeneity(*tb, scene.heterogeneity);
+  }
+
+  if (auto tb = root.table("ground", "[ground]")) {
+    tb->allow({"enabled", "height", "friction", "restitution"});
+    tb->boolean("enabled", scene.ground.enabled);
+    tb->number("height", scene.ground.height);
+    tb->number("friction", scene.ground.friction);
+    tb->number("restitution", scene.ground.restitution);
+  }
+
+  for (const Table& tb : root.tables("material", "[[material]]")) {
+    scene.materials.push_back(read_material(tb, scene.materials));
+  }
+  const std::vector<Table> objects = root.tables("object", "[[object]]");
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    scene.objects.push_back(read_object(objects[i], i, scene.heterogeneity));
+  }
+  const std::vector<Table> projectiles = root.tables("projectile", "[[projectile]]");
+  for (std::size_t i = 0; i < projectiles.size(); ++i) {
+    scene.projectiles.push_back(read_projectile(projectiles[i], i));
+  }
+  const std::vector<Table> grips = root.tables("grip", "[[grip]]");
+  for (std::size_t i = 0; i < grips.size(); ++i) scene.grips.push_back(read_grip(grips[i], i));
+  return scene;
+}
+
+// Writing.
+
+std::string vec(const Vec3d& v) {
+  return fmt::format("[{}, {}, {}]", toml_double(v[0]), toml_double(v[1]), toml_double(v[2]));
+}
+
+std::string arr4(const std::array<double, 4>& v) {
+  return fmt::format("[{}, {}, {}, {}]", toml_double(v[0]), toml_double(v[1]), toml_double(v[2]),
+                     toml_double(v[3]));
+}
+
+void write_heterogeneity(std::string& out, const HeterogeneityDef& h) {
+  std::array<double, 4> preset_shares{};
+  // A named preset is written by name (it reads back to the same shares, bit for bit); anything else
+  // as explicit shares, which reads back as preset "custom".
+  if (h.preset != "custom" && heterogeneity_preset(h.preset, preset_shares) && preset_shares == h.shares) {
+    out += fmt::format("preset = {}  # shares = {}\n", toml_string(h.preset), arr4(h.shares));
+  } else {
+    out += fmt::format("shares = {}\n", arr4(h.shares));
+  }
+  out += fmt::format("class_factors = {}\n", arr4(h.class_factors));
+  out += fmt::format("grain_size = {}\n", toml_double(h.grain_size));
+}
+
+}  // namespace
+
+SceneDef parse_scene(std::string_view toml_text, const std::string& source) {
+  toml::table root;
+  try {
+    root = toml::parse(toml_text, source);
+  } catch (const toml::parse_error& e) {
+    const toml::source_region& r = e.source();
+    throw Error(fmt::format("{}:{}:{}: TOML syntax error: {}", source, r.begin.line, r.begin.column,
+                            e.description()));
+  }
+  const Reader reader(source);
+  SceneDef scene = read_scene(Table(reader, root, "", "the top level"), source);
+  validate_scene(scene);
+  return scene;
+}
+
+SceneDef load_scene_file(const std::filesystem::path& path) {
+  std::error_code ec;
+  const auto status = std::filesystem::status(path, ec);
+  if (!std::filesystem::exists(status)) {
+    throw Error(fmt::format("{}: scene file not found (current directory: {}); check the path, or start from "
+                            "one of the example scenes in the scenes/ folder",
+                            path.string(), std::filesystem::current_path(ec).string()));
+  }
+  if (std::filesystem::is_directory(status)) {
+    throw Error(fmt::format("{}: is a directory, not a scene file; give the path of a .toml file", path.string()));
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    throw Error(fmt::format("{}: cannot open the scene file ({}); check its permissions", path.string(),
+                            std::strerror(errno)));
+  }
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) {
+    throw Error(fmt::format("{}: reading the scene file failed ({}); check the file and the disk", path.string(),
+                            std::strerror(errno)));
+  }
+  return parse_scene(text, path.string());
+}
+
+SceneDef load_default_scene() {
+  return parse_scene(kDefaultSceneToml, fmt::format("<built-in>/{}", kDefaultSceneName));
+}
+
+std::string scene_to_toml(const SceneDef& s) {
+  std::string out;
+  out += "# Written by mca (scene_to_toml); every key is given. Format: docs/scene-format.md\n";
+  out += fmt::format("name = {}\n", toml_string(s.name));
+
+  out += "\n[solver]\n";
+  out += fmt::format("spacing = {}\n", toml_double(s.solver.spacing));
+  out += fmt::format("target_automata = {}\n", s.solver.target_automata);
+  out += fmt::format("safety = {}\n", toml_double(s.solver.safety));
+  out += fmt::format("time_step = {}\n", toml_double(s.solver.time_step));
+  out += fmt::format("gravity = {}\n", vec(s.solver.gravity));
+  out += fmt::format("link_damping = {}\n", toml_double(s.solver.link_damping));
+  out += fmt::format("local_damping = {}\n", toml_double(s.solver.local_damping));
+  out += fmt::format("stress_coefficient = {}\n", toml_double(s.solver.stress_coefficient));
+  out += fmt::format("skin = {}\n", toml_double(s.solver.skin));
+  out += fmt::format("seed = {}\n", static_cast<std::int64_t>(s.solver.seed));
+  out += fmt::format("max_memory_gb = {}\n", toml_double(s.solver.max_memory_gb));
+
+  out += "\n[output]\n";
+  out += fmt::format("duration = {}\n", toml_double(s.output.duration));
+  out += fmt::format("frame_rate = {}\n", toml_double(s.output.frame_rate));
+  out += fmt::format("links = {}\n", s.output.links);
+  out += fmt::format("vtk = {}\n", s.output.vtk);
+  out += fmt::format("checkpoint_every = {}\n", s.output.checkpoint_every);
+
+  out += "\n[heterogeneity]\n";
+  write_heterogeneity(out, s.heterogeneity);
+
+  out += "\n[ground]\n";
+  out += fmt::format("enabled = {}\n", s.ground.enabled);
+  out += fmt::format("height = {}\n", toml_double(s.ground.height));
+  out += fmt::format("friction = {}\n", toml_double(s.ground.friction));
+  out += fmt::format("restitution = {}\n", toml_double(s.ground.restitution));
+
+  for (const MaterialDef& m : s.materials) {
+    out += "\n[[material]]\n";
+    out += fmt::format("name = {}\n", toml_string(m.name));
+    out += fmt::format("youngs_modulus = {}\n", toml_double(m.youngs_modulus));
+    out += fmt::format("poisson_ratio = {}\n", toml_double(m.poisson_ratio));
+    out += fmt::format("density = {}\n", toml_double(m.density));
+    out += fmt::format("tensile_strength = {}\n", toml_double(m.tensile_strength));
+    out += fmt::format("compressive_strength = {}\n", toml_double(m.compressive_strength));
+    out += fmt::format("fracture_strain = {}\n", toml_double(m.fracture_strain));
+    out += fmt::format("friction = {}\n", toml_double(m.friction));
+    out += fmt::format("restitution = {}\n", toml_double(m.restitution));
+    out += fmt::format("strengthening = {}\n", toml_string(law_name(m.strengthening)));
+    out += fmt::format("strengthening_alpha = {}\n", toml_double(m.strengthening_alpha));
+  }
+
+  for (const ObjectDef& o : s.objects) {
+    out += "\n[[object]]\n";
+    out += fmt::format("name = {}\n", toml_string(o.name));
+    out += fmt::format("shape = {}\n", toml_string(shape_name(o.shape)));
+    out += fmt::format("size = {}\n", vec(o.size));
+    out += fmt::format("radius = {}\n", toml_double(o.radius));
+    out += fmt::format("height = {}\n", toml_double(o.height));
+    out += fmt::format("position = {}\n", vec(o.position));
+    out += fmt::format("rotation = {}\n", vec(o.rotation));
+    out += fmt::format("velocity = {}\n", vec(o.velocity));
+    out += fmt::format("material = {}\n", toml_string(o.material));
+    if (o.heterogeneity) {
+      out += "\n[object.heterogeneity]\n";
+      write_heterogeneity(out, *o.heterogeneity);
+    }
+    for (const RegionDef& r : o.regions) {
+      out += "\n[[object.region]]\n";
+      out += fmt::format("shape = {}\n", toml_string(shape_name(r.shape)));
+      out += fmt::format("center = {}\n", vec(r.center));
+      out += fmt::format("size = {}\n", vec(r.size));
+      out += fmt::format("radius = {}\n", toml_double(r.radius));
+      out += fmt::format("material = {}\n", toml_string(r.material));
+    }
+  }
+
+  for (const ProjectileDef& p : s.projectiles) {
+    out += "\n[[projectile]]\n";
+    out += fmt::format("name = {}\n", toml_string(p.name));
+    out += fmt::format("radius = {}\n", toml_double(p.radius));
+    out += fmt::format("material = {}\n", toml_string(p.material));
+    out += fmt::format("density = {}\n", toml_double(p.density));
+    out += fmt::format("position = {}\n", vec(p.position));
+    out += fmt::format("velocity = {}\n", vec(p.velocity));
+    out += fmt::format("angular_velocity = {}\n", vec(p.angular_velocity));
+    out += fmt::format("kinematic = {}\n", p.kinematic);
+  }
+
+  for (const GripDef& g : s.grips) {
+    out += "\n[[grip]]\n";
+    out += fmt::format("name = {}\n", toml_string(g.name));
+    out += fmt::format("min = {}\n", vec(g.min));
+    out += fmt::format("max = {}\n", vec(g.max));
+    out += fmt::format("velocity = {}\n", vec(g.velocity));
+  }
+  return out;
+}
+
+}  // namespace mca::io

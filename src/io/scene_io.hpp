@@ -1,0 +1,26 @@
+#pragma once
+// Scene files (TOML, docs/scene-format.md) to and from SceneDef.
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+#include <mca/scene.hpp>
+
+namespace mca::io {
+
+// Parses a scene and validates it (validate_scene). `source` names the text in messages (usually the
+// file path) and gives the scene's name when the text has no `name` key (its stem). Throws mca::Error
+// with "source:line:column" for syntax errors, unknown keys (with a did-you-mean) and wrong types.
+SceneDef parse_scene(std::string_view toml_text, const std::string& source);
+
+// Reads and parses a scene file; a missing or unreadable file is an mca::Error naming the path.
+SceneDef load_scene_file(const std::filesystem::path& path);
+
+// The built-in default scene (scenes/wall_ball.toml, compiled in).
+SceneDef load_default_scene();
+
+// The complete scene as TOML, every key written, such that parse_scene(scene_to_toml(s), s.source)
+// gives back s exactly (doubles are written in their shortest round-tripping form).
+std::string scene_to_toml(const SceneDef& scene);
+
+}  // namespace mca::io

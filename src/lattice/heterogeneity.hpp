@@ -1,0 +1,21 @@
+#pragma once
+// Strength classes (paper sec. 5.1, physics.md sec. 5): drawn from P(c) per automaton, or per grain.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "core/math.hpp"
+#include "mca/scene.hpp"
+
+namespace mca::lattice {
+
+// Class 1..4 for u uniform in [0, 1) under the shares P(c).
+int class_from_uniform(double u, const std::array<double, 4>& shares);
+
+// Classes for points given in an object's own frame (lattice coordinates, metres). Independent draws
+// are keyed by (seed, object, point index); grains are Voronoi cells around one jittered seed point per
+// cube of side grain_size, each grain drawing its class once, keyed by (seed, object, cube).
+std::vector<std::uint8_t> assign_classes(const std::vector<Vec3>& local_points, const HeterogeneityDef& het,
+                                         std::uint64_t seed, std::uint32_t object_index);
+
+}  // namespace mca::lattice

@@ -1,0 +1,93 @@
+#pragma once
+// The many-body MCA law of a linked pair (physics.md sec. 3; paper eqs. 5, 6, 8-12), written once for
+// every backend.
+//
+// Normal stress.  sigma_ij = 2 G_ij eps_ij + P_i + P_j, where P_i = lambda_i * theta_i / n_a(i) is the
+// many-body term of automaton i: theta_i is i's volumetric strain (the sum over the three lattice axes
+// of the mean strain of its intact links along that axis) and n_a(i) the number of i's intact links
+// along this link's axis a. In an interior automaton P_i + P_j = lambda (theta_i + theta_j) / 2, which is
+// the note's D * (sigma_mean_i + sigma_mean_j) / 2 with sigma_mean = K theta / 3 (D K / 3 = lambda), so a
+// block returns Hooke's law with the input E and nu. We take sigma_mean from the current volumetric
+// strain instead of the previous step's averaged stress: with the one-step lag the lambda part of the
+// stiffness acts on a delayed strain, which is a negative damping and makes undamped runs blow up (see
+// docs/model-notes.md). This form is the gradient of
+//   W = sum_links G_ij eps_ij^2 V + sum_i lambda_i theta_i^2 V / 2,
+// so the law conserves energy exactly up to the integrator, and unequal materials need no extra solve.
+//
+// Shear (paper eq. 10, contact point at mid-distance).  The tangential displacement u_t of j's contact
+// point relative to i's is integrated from V_s and kept tangent; F_t = k_s G S u_t / r0 acts on i, -F_t on
+// j, and both automata feel the torque (r/2) n x F_t.
+#include "core/math.hpp"
+
+namespace mca {
+
+// Shear stiffness factor of the link: a free-rotating cubic lattice in simple shear gives each pair half
+// the engineering shear strain, so k_s = 2 returns G (checked by the shear-modulus test).
+inline constexpr float kShearFactor = 2.0f;
+
+// E(e) / E0 of paper eq. 7: 0 none, 1 exponential E0 exp(alpha e), 2 quadratic E0 (1 + alpha e^2).
+MCA_HD float strengthening_factor(int law, float alpha, float e) {
+  if (law == 1) return std::exp(alpha * e);
+  if (law == 2) return 1.0f + alpha * e * e;
+  return 1.0f;
+}
+
+struct LinkGeometry {
+  Vec3 n;     // unit vector from i to j
+  float r;    // current distance
+  float eps;  // pair strain h / r0, positive in tension
+};
+
+MCA_HD LinkGeometry link_geometry(Vec3 xi, Vec3 xj, float r0) {
+  const Vec3 d = xj - xi;
+  const float r = length(d);
+  const float inv = r > 0.0f ? 1.0f / r : 0.0f;
+  return {d * inv, r, (r - r0) / r0};
+}
+
+struct LinkInput {
+  LinkGeometry g;
+  float r0, area;
+  float shear_modulus;      // G_ij of the pair, strengthening applied
+  float many_body;          // P_i + P_j, strengthening applied
+  float damping;            // viscous coefficient [N s/m] of relative motion (0: none)
+  Vec3 vi, vj, wi, wj;
+  Vec3 ut;                  // tangential displacement of the previous step
+  float dt;
+};
+
+struct LinkOutput {
+  Vec3 force_i;   // force on i (on j: the opposite)
+  Vec3 torque;    // torque on both i and j
+  Vec3 ut;        // updated tangential displacement
+  float sigma;    // normal stress (tension > 0)
+  float tau;      // shear stress magnitude
+};
+
+MCA_HD Vec3 keep_tangent(Vec3 ut, Vec3 n) {
+  // Rotate the stored displacement with the pair: drop its normal part, keep its length.
+  const float before = dot(ut, ut);
+  if (before == 0.0f) return ut;
+  const Vec3 p = ut - dot(ut, n) * n;
+  const float after = dot(p, p);
+  return after > 0.0f ? p * std::sqrt(before / after) : Vec3{};
+}
+
+MCA_HD LinkOutput link_force(const LinkInput& in) {
+  const Vec3 n = in.g.n;
+  LinkOutput out;
+  out.sigma = 2.0f * in.shear_modulus * in.g.eps + in.many_body;  // paper eq. 5, phi = 2G
+  // Relative velocity of j's contact point with respect to i's (paper eq. 10).
+  const Vec3 vrel = (in.vj - in.vi) - (0.5f * in.g.r) * cross(in.wi + in.wj, n);
+  const float vn = dot(vrel, n);
+  const Vec3 vs = vrel - vn * n;
+  out.ut = keep_tangent(in.ut, n) + vs * in.dt;
+  const float ks = kShearFactor * in.shear_modulus * in.area / in.r0;  // tangential spring [N/m]
+  const Vec3 ft = ks * out.ut + in.damping * vs;
+  out.tau = kShearFactor * in.shear_modulus * length(out.ut) / in.r0;
+  out.force_i = (out.sigma * in.area + in.damping * vn) * n + ft;  // paper eqs. 11, 12
+  out.torque = cross((0.5f * in.g.r) * n, ft);
+  return out;
+}
+
+}  // namespace mca

@@ -1,0 +1,48 @@
+#pragma once
+// A run of one scene: the model built from the SceneDef, a backend stepping it, and the frame clock.
+// The command line, tests and benchmarks all go through this class.
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "backend/backend.hpp"
+#include "core/model.hpp"
+#include "core/state.hpp"
+#include "mca/scene.hpp"
+
+namespace mca {
+
+class Simulation {
+ public:
+  // Builds the model (throws mca::Error for scenes that cannot be built). The time step is the
+  // stable one, shortened so that a whole number of steps fills each output frame.
+  explicit Simulation(const SceneDef& scene);
+  // Continues from a saved state (checkpoint) of the same scene.
+  Simulation(const SceneDef& scene, const State& state);
+
+  const SceneDef& scene() const { return scene_; }
+  const Model& model() const { return model_; }
+  // The backend's current state (no copy).
+  const State& state() const { return backend_->state(); }
+  Backend& backend() { return *backend_; }
+
+  StepHealth advance(int steps) { return backend_->step(steps); }
+  Energies energies() const { return compute_energies(model_, state()); }
+
+  int steps_per_frame() const { return steps_per_frame_; }
+  double frame_interval() const { return steps_per_frame_ * static_cast<double>(model_.dt); }
+  // Frames in the scene's duration (at least 1).
+  std::int64_t frame_count() const;
+
+ private:
+  SceneDef scene_;
+  Model model_;
+  std::unique_ptr<Backend> backend_;
+  int steps_per_frame_ = 1;
+};
+
+// FNV-1a hash over the state's positions, velocities, rotations, link states, contacts and projectiles:
+// equal hashes mean bitwise equal states (determinism and checkpoint tests, summary.json).
+std::uint64_t state_hash(const State& state);
+
+}  // namespace mca

@@ -1,0 +1,517 @@
+// Scene files: every example parses, scene_to_toml round-trips, and each kind of user error gives a
+// message naming the key, the value and (for parse errors) the line.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include <mca/error.hpp>
+#include <mca/scene.hpp>
+
+#include "io/scene_io.hpp"
+
+namespace {
+
+using mca::io::parse_scene;
+
+// The error message of parsing `text`, or "" if it parsed.
+std::string parse_error(const std::string& text, const std::string& source = "scene.toml") {
+  try {
+    parse_scene(text, source);
+  } catch (const mca::Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// A valid minimal scene to break in one place.
+const std::string kMinimal = R"(name = "t"
+[[object]]
+name = "wall"
+size = [1, 0.2, 1]
+material = "concrete"
+)";
+
+#define EXPECT_HAS(message, part) EXPECT_NE((message).find(part), std::string::npos) << "message: " << (message)
+
+TEST(SceneIo, EveryExampleSceneParses) {
+  const std::filesystem::path dir = std::filesystem::path(MCA_SOURCE_DIR) / "scenes";
+  int count = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    if (entry.path().extension() != ".toml") continue;
+    SCOPED_TRACE(entry.path().string());
+    mca::SceneDef scene;
+    ASSERT_NO_THROW(scene = mca::io::load_scene_file(entry.path()));
+    EXPECT_EQ(scene.name, entry.path().stem().string());
+    EXPECT_FALSE(scene.objects.empty());
+    ++count;
+  }
+  EXPECT_GE(count, 6);
+}
+
+TEST(SceneIo, DefaultSceneIsTheWallAndBall) {
+  const mca::SceneDef s = mca::io::load_default_scene();
+  EXPECT_EQ(s.name, "wall_ball");
+  ASSERT_EQ(s.objects.size(), 1u);
+  EXPECT_EQ(s.objects[0].size, (mca::Vec3d{2.0, 0.2, 1.5}));
+  EXPECT_DOUBLE_EQ(s.objects[0].position[2] - s.objects[0].size[2] / 2, 0.0);  // on the ground
+  EXPECT_EQ(s.heterogeneity.preset, "medium");
+  EXPECT_EQ(s.heterogeneity.shares, (std::array<double, 4>{0.0, 0.15, 0.20, 0.65}));
+  ASSERT_EQ(s.projectiles.size(), 1u);
+  EXPECT_EQ(s.projectiles[0].material, "steel");
+  EXPECT_DOUBLE_EQ(s.projectiles[0].velocity[1], 40.0);
+  EXPECT_TRUE(s.ground.enabled);
+}
+
+TEST(SceneIo, TensionBarGripsTakeOneLayerEach) {
+  const auto s = mca::io::load_scene_file(std::filesystem::path(MCA_SOURCE_DIR) / "scenes/tension_bar.toml");
+  ASSERT_EQ(s.grips.size(), 2u);
+  const double d = s.solver.spacing;
+  const double x0 = s.objects[0].position[0] - s.objects[0].size[0] / 2;
+  const double x1 = s.objects[0].position[0] + s.objects[0].size[0] / 2;
+  EXPECT_LT(s.grips[0].max[0], x0 + 1.5 * d);
+  EXPECT_GT(s.grips[0].max[0], x0 + 0.5 * d);
+  EXPECT_GT(s.grips[1].min[0], x1 - 1.5 * d);
+  EXPECT_LT(s.grips[1].min[0], x1 - 0.5 * d);
+  EXPECT_EQ(s.solver.gravity, (mca::Vec3d{0, 0, 0}));
+  EXPECT_FALSE(s.ground.enabled);
+}
+
+TEST(SceneIo, IntegersAreAcceptedAsFloatsAndDefaultsFillTheRest) {
+  const mca::SceneDef s = parse_scene(kMinimal + "[solver]\nspacing = 1\n", "dir/my_scene.toml");
+  EXPECT_EQ(s.solver.spacing, 1.0);
+  EXPECT_EQ(s.name, "t");
+  EXPECT_EQ(s.source, "dir/my_scene.toml");
+  EXPECT_EQ(parse_scene("[[object]]\n", "dir/my_scene.toml").name, "my_scene");  // the file stem
+}
+
+TEST(SceneIo, MaterialBaseCopiesThenOverrides) {
+  const mca::SceneDef s = parse_scene(kMinimal + R"(
+[[material]]
+name = "weak"
+base = "granite"
+tensile_strength = 5e6
+)",
+                                      "m.toml");
+  ASSERT_EQ(s.materials.size(), 1u);
+  EXPECT_EQ(s.materials[0].name, "weak");
+  EXPECT_EQ(s.materials[0].youngs_modulus, 50e9);
+  EXPECT_EQ(s.materials[0].tensile_strength, 5e6);
+}
+
+void expect_same(const mca::HeterogeneityDef& a, const mca::HeterogeneityDef& b) {
+  EXPECT_EQ(a.shares, b.shares);
+  EXPECT_EQ(a.preset, b.preset);
+  EXPECT_EQ(a.class_factors, b.class_factors);
+  EXPECT_EQ(a.grain_size, b.grain_size);
+}
+
+// Every member, compared exactly (doubles bit for bit through ==).
+void expect_same(const mca::SceneDef& a, const mca::SceneDef& b) {
+  EXPECT_EQ(a.name, b.name);
+  EXPECT_EQ(a.source, b.source);
+  ASSERT_EQ(a.materials.size(), b.materials.size());
+  for (std::size_t i = 0; i < a.materials.size(); ++i) {
+    const auto &x = a.materials[i], &y = b.materials[i];
+    EXPECT_EQ(x.name, y.name);
+    EXPECT_EQ(x.youngs_modulus, y.youngs_modulus);
+    EXPECT_EQ(x.poisson_ratio, y.poisson_ratio);
+    EXPECT_EQ(x.density, y.density);
+    EXPECT_EQ(x.tensile_strength, y.tensile_strength);
+    EXPECT_EQ(x.compressive_strength, y.compressive_strength);
+    EXPECT_EQ(x.fracture_strain, y.fracture_strain);
+    EXPECT_EQ(x.friction, y.friction);
+    EXPECT_EQ(x.restitution, y.restitution);
+    EXPECT_EQ(x.strengthening, y.strengthening);
+    EXPECT_EQ(x.strengthening_alpha, y.strengthening_alpha);
+  }
+  expect_same(a.heterogeneity, b.heterogeneity);
+  ASSERT_EQ(a.objects.size(), b.objects.size());
+  for (std::size_t i = 0; i < a.objects.size(); ++i) {
+    const auto &x = a.objects[i], &y = b.objects[i];
+    EXPECT_EQ(x.name, y.name);
+    EXPECT_EQ(x.shape, y.shape);
+    EXPECT_EQ(x.size, y.size);
+    EXPECT_EQ(x.radius, y.radius);
+    EXPECT_EQ(x.height, y.height);
+    EXPECT_EQ(x.position, y.position);
+    EXPECT_EQ(x.rotation, y.rotation);
+    EXPECT_EQ(x.velocity, y.velocity);
+    EXPECT_EQ(x.material, y.material);
+    ASSERT_EQ(x.heterogeneity.has_value(), y.heterogeneity.has_value());
+    if (x.heterogeneity) expect_same(*x.heterogeneity, *y.heterogeneity);
+    ASSERT_EQ(x.regions.size(), y.regions.size());
+    for (std::size_t r = 0; r < x.regions.size(); ++r) {
+      EXPECT_EQ(x.regions[r].shape, y.regions[r].shape);
+      EXPECT_EQ(x.regions[r].center, y.regions[r].center);
+      EXPECT_EQ(x.regions[r].size, y.regions[r].size);
+      EXPECT_EQ(x.regions[r].radius, y.regions[r].radius);
+      EXPECT_EQ(x.regions[r].material, y.regions[r].material);
+    }
+  }
+  ASSERT_EQ(a.projectiles.size(), b.projectiles.size());
+  for (std::size_t i = 0; i < a.projectiles.size(); ++i) {
+    const auto &x = a.projectiles[i], &y = b.projectiles[i];
+    EXPECT_EQ(x.name, y.name);
+    EXPECT_EQ(x.radius, y.radius);
+    EXPECT_EQ(x.material, y.material);
+    EXPECT_EQ(x.density, y.density);
+    EXPECT_EQ(x.position, y.position);
+    EXPECT_EQ(x.velocity, y.velocity);
+    EXPECT_EQ(x.angular_velocity, y.angular_velocity);
+    EXPECT_EQ(x.kinematic, y.kinematic);
+  }
+  ASSERT_EQ(a.grips.size(), b.grips.size());
+  for (std::size_t i = 0; i < a.grips.size(); ++i) {
+    EXPECT_EQ(a.grips[i].name, b.grips[i].name);
+    EXPECT_EQ(a.grips[i].min, b.grips[i].min);
+    EXPECT_EQ(a.grips[i].max, b.grips[i].max);
+    EXPECT_EQ(a.grips[i].velocity, b.grips[i].velocity);
+  }
+  EXPECT_EQ(a.ground.enabled, b.ground.enabled);
+  EXPECT_EQ(a.ground.height, b.ground.height);
+  EXPECT_EQ(a.ground.friction, b.ground.friction);
+  EXPECT_EQ(a.ground.restitution, b.ground.restitution);
+  EXPECT_EQ(a.solver.spacing, b.solver.spacing);
+  EXPECT_EQ(a.solver.target_automata, b.solver.target_automata);
+  EXPECT_EQ(a.solver.safety, b.solver.safety);
+  EXPECT_EQ(a.solver.time_step, b.solver.time_step);
+  EXPECT_EQ(a.solver.gravity, b.solver.gravity);
+  EXPECT_EQ(a.solver.link_damping, b.solver.link_damping);
+  EXPECT_EQ(a.solver.local_damping, b.solver.local_damping);
+  EXPECT_EQ(a.solver.stress_coefficient, b.solver.stress_coefficient);
+  EXPECT_EQ(a.solver.skin, b.solver.skin);
+  EXPECT_EQ(a.solver.seed, b.solver.seed);
+  EXPECT_EQ(a.solver.max_memory_gb, b.solver.max_memory_gb);
+  EXPECT_EQ(a.output.duration, b.output.duration);
+  EXPECT_EQ(a.output.frame_rate, b.output.frame_rate);
+  EXPECT_EQ(a.output.links, b.output.links);
+  EXPECT_EQ(a.output.vtk, b.output.vtk);
+  EXPECT_EQ(a.output.checkpoint_every, b.output.checkpoint_every);
+}
+
+TEST(SceneIo, RoundTripOfEveryMember) {
+  mca::SceneDef s;
+  s.name = "round \"trip\"\\ scene";
+  s.source = "rt.toml";
+  mca::MaterialDef m = *mca::find_builtin_material("glass");
+  m.name = "odd";
+  m.youngs_modulus = 1.0 / 3.0 * 1e11;
+  m.poisson_ratio = 0.1 + 0.2;
+  m.fracture_strain = 1.234567890123456789e-7;
+  m.strengthening = mca::StrengtheningLaw::quadratic;
+  m.strengthening_alpha = 12345.678901234;
+  s.materials.push_back(m);
+  m.name = "exp";
+  m.strengthening = mca::StrengtheningLaw::exponential;
+  m.density = 7000.000000000001;  // needs 16 significant digits
+  s.materials.push_back(m);
+  s.heterogeneity.shares = {0.1, 0.2, 0.3, 0.4};
+  s.heterogeneity.preset = "custom";
+  s.heterogeneity.class_factors = {0.1, 0.1, 0.7, 1.0 / 3.0 + 1.0};
+  s.heterogeneity.grain_size = 0.07;
+
+  mca::ObjectDef o;
+  o.name = "wall";
+  o.size = {2.0, 0.2, 1.5};
+  o.position = {-0.0, 1e-20, 0.75};
+  o.rotation = {10, 20.5, -30};
+  o.velocity = {0.1, 0.2, 0.3};
+  o.material = "odd";
+  mca::RegionDef r;
+  r.shape = mca::Shape::sphere;
+  r.center = {0.1, 0.2, 0.3};
+  r.radius = 0.15;
+  r.material = "exp";
+  o.regions.push_back(r);
+  r.shape = mca::Shape::box;
+  r.material = "steel";
+  o.regions.push_back(r);
+  s.objects.push_back(o);
+  o.name = "pillar";
+  o.shape = mca::Shape::cylinder;
+  o.radius = 0.3;
+  o.height = 2.0;
+  o.regions.clear();
+  mca::HeterogeneityDef h;
+  mca::heterogeneity_preset("high", h.shares);
+  h.preset = "high";
+  h.grain_size = 0.2;
+  o.heterogeneity = h;
+  s.objects.push_back(o);
+  o.name = "rock";
+  o.shape = mca::Shape::sphere;
+  h.preset = "custom";  // shares equal to a preset's, but declared custom: must stay custom
+  o.heterogeneity = h;
+  s.objects.push_back(o);
+
+  mca::ProjectileDef p;
+  p.radius = 0.12;
+  p.position = {0, -0.5, 0.75};
+  p.velocity = {0, 40, 0};
+  p.angular_velocity = {1, 2, 3};
+  s.projectiles.push_back(p);
+  p.name = "other";
+  p.kinematic = true;
+  p.density = 1234.5;
+  p.material = "odd";
+  s.projectiles.push_back(p);
+
+  mca::GripDef g;
+  g.min = {-1, -1, -1};
+  g.max = {0.011, 1, 1};
+  s.grips.push_back(g);
+  g.name = "pull";
+  g.velocity = {0.02, 0, 0};
+  s.grips.push_back(g);
+
+  s.ground.enabled = true;
+  s.ground.height = -0.25;
+  s.ground.friction = 0.0;
+  s.ground.restitution = 1.0;
+  s.solver.spacing = 0.0123;
+  s.solver.target_automata = 123456789;
+  s.solver.safety = 0.15;
+  s.solver.time_step = 1.1e-7;
+  s.solver.gravity = {0, -9.80665, 0};
+  s.solver.link_damping = 0.02;
+  s.solver.local_damping = 0.2;
+  s.solver.stress_coefficient = 1.1;
+  s.solver.skin = 0.3;
+  s.solver.seed = 0xFEDCBA9876543210ull;  // above 2^63: written as a negative TOML integer
+  s.solver.max_memory_gb = 3.5;
+  s.output.duration = 0.1;
+  s.output.frame_rate = 333.3;
+  s.output.links = true;
+  s.output.vtk = false;
+  s.output.checkpoint_every = 7;
+  ASSERT_NO_THROW(mca::validate_scene(s));
+
+  const std::string text = mca::io::scene_to_toml(s);
+  mca::SceneDef back;
+  ASSERT_NO_THROW(back = parse_scene(text, s.source)) << text;
+  expect_same(s, back);
+  EXPECT_EQ(mca::io::scene_to_toml(back), text);
+
+  // The example scenes round-trip too.
+  for (const char* name : {"wall_ball", "four_walls", "tension_bar", "heterogeneity_high"}) {
+    const auto file = std::filesystem::path(MCA_SOURCE_DIR) / "scenes" / (std::string(name) + ".toml");
+    const mca::SceneDef a = mca::io::load_scene_file(file);
+    expect_same(a, parse_scene(mca::io::scene_to_toml(a), a.source));
+  }
+}
+
+TEST(SceneIo, RoundTripOfRandomDoubles) {
+  std::mt19937_64 rng(12345);
+  std::uniform_real_distribution<double> mantissa(-1.0, 1.0);
+  std::uniform_int_distribution<int> exponent(-300, 300);
+  mca::SceneDef s;
+  s.objects.emplace_back();
+  for (int i = 0; i < 2000; ++i) {
+    for (double& g : s.solver.gravity) g = std::ldexp(mantissa(rng), exponent(rng) / (i % 2 ? 1 : 30));
+    s.objects[0].position = {mantissa(rng), mantissa(rng) * 1e5, mantissa(rng) * 1e-4};
+    const mca::SceneDef back = parse_scene(mca::io::scene_to_toml(s), s.source);
+    ASSERT_EQ(back.solver.gravity, s.solver.gravity) << mca::io::scene_to_toml(s);
+    ASSERT_EQ(back.objects[0].position, s.objects[0].position);
+  }
+}
+
+TEST(SceneIo, UnknownKeyGivesLineAndSuggestion) {
+  const std::string text = kMinimal + "\n[[material]]\nname = \"weak\"\nyoungs_modulos = 1e9\n";
+  const std::string msg = parse_error(text);
+  EXPECT_HAS(msg, "scene.toml:9:1:");
+  EXPECT_HAS(msg, "unknown key 'youngs_modulos' in [[material]]");
+  EXPECT_HAS(msg, "did you mean 'youngs_modulus'?");
+
+  const std::string top = parse_error("materials = 1\n" + kMinimal);
+  EXPECT_HAS(top, "scene.toml:1:1:");
+  EXPECT_HAS(top, "did you mean 'material'?");
+
+  const std::string section = parse_error(kMinimal + "[solvr]\nspacing = 0.1\n");
+  EXPECT_HAS(section, "unknown key 'solvr'");
+  EXPECT_HAS(section, "did you mean 'solver'?");
+}
+
+TEST(SceneIo, WrongTypeNamesKeyLineAndTypes) {
+  const std::string msg = parse_error(kMinimal + "[solver]\nspacing = \"0.05\"\n");
+  EXPECT_HAS(msg, "scene.toml:7:11:");
+  EXPECT_HAS(msg, "solver.spacing");
+  EXPECT_HAS(msg, "is a string");
+  EXPECT_HAS(msg, "expected a number");
+  EXPECT_HAS(msg, "without quotes");
+
+  const std::string arr = parse_error(kMinimal + "position = [1, 2]\n");
+  EXPECT_HAS(arr, "scene.toml:6:12:");
+  EXPECT_HAS(arr, "object[0].position has 2 elements, expected an array of 3 numbers");
+
+  const std::string elem = parse_error(kMinimal + "velocity = [1, true, 3]\n");
+  EXPECT_HAS(elem, "object[0].velocity[1] is a boolean");
+
+  const std::string integer = parse_error(kMinimal + "[solver]\nseed = 1.5\n");
+  EXPECT_HAS(integer, "solver.seed is a float (1.5), expected an integer");
+
+  const std::string table = parse_error("[object]\nname = \"x\"\n");
+  EXPECT_HAS(table, "write each block as [[object]], not [object]");
+
+  const std::string shape = parse_error(kMinimal + "shape = \"spher\"\n");
+  EXPECT_HAS(shape, "scene.toml:6:9:");
+  EXPECT_HAS(shape, "object[0].shape = \"spher\" is not a shape; did you mean 'sphere'?");
+}
+
+TEST(SceneIo, SyntaxErrorHasLineAndColumn) {
+  const std::string msg = parse_error("name = \"x\"\n[solver\nspacing = 1\n", "bad.toml");
+  EXPECT_HAS(msg, "bad.toml:2:");
+  EXPECT_HAS(msg, "TOML syntax error");
+}
+
+TEST(SceneIo, OutOfRangeYoungsModulus) {
+  const std::string msg =
+      parse_error(kMinimal + "\n[[material]]\nname = \"weak\"\nyoungs_modulus = -3e9\n", "wall.toml");
+  EXPECT_HAS(msg, "wall.toml: material[0].youngs_modulus = -3e+09");
+  EXPECT_HAS(msg, "\"weak\"");
+  EXPECT_HAS(msg, "must be > 0");
+}
+
+TEST(SceneIo, PoissonRatioOutsideOpenInterval) {
+  for (const char* bad : {"0.5", "0.6", "-1"}) {
+    const std::string msg =
+        parse_error(kMinimal + "\n[[material]]\nname = \"weak\"\npoisson_ratio = " + bad + "\n", "wall.toml");
+    EXPECT_HAS(msg, "wall.toml: material[0].poisson_ratio = " + std::string(bad));
+    EXPECT_HAS(msg, "must be in (-1, 0.5) (0.5 is incompressible); use e.g. 0.2 for concrete");
+  }
+  EXPECT_EQ(parse_error(kMinimal + "\n[[material]]\nname = \"ok\"\npoisson_ratio = 0.49\n"), "");
+}
+
+TEST(SceneIo, SharesMustSumToOne) {
+  const std::string msg = parse_error(kMinimal + "[heterogeneity]\nshares = [0, 15, 20, 65]\n");
+  EXPECT_HAS(msg, "scene.toml: heterogeneity.shares = [0, 15, 20, 65] sum to 100");
+  EXPECT_HAS(msg, "must sum to 1");
+
+  const std::string negative = parse_error(kMinimal + "[heterogeneity]\nshares = [-0.1, 0.1, 0.2, 0.8]\n");
+  EXPECT_HAS(negative, "heterogeneity.shares");
+  EXPECT_HAS(negative, "must be >= 0");
+
+  const std::string object = parse_error(kMinimal + "[object.heterogeneity]\nshares = [0.5, 0.5, 0.5, 0.5]\n");
+  EXPECT_HAS(object, "object[0].heterogeneity.shares");
+
+  EXPECT_EQ(parse_error(kMinimal + "[heterogeneity]\nshares = [0.1, 0.2, 0.3, 0.4]\n"), "");
+}
+
+TEST(SceneIo, ClassFactorsPositiveNonDecreasing) {
+  EXPECT_HAS(parse_error(kMinimal + "[heterogeneity]\nclass_factors = [0, 0.5, 0.75, 1]\n"),
+             "heterogeneity.class_factors");
+  EXPECT_HAS(parse_error(kMinimal + "[heterogeneity]\nclass_factors = [0.5, 0.25, 0.75, 1]\n"), "non-decreasing");
+}
+
+TEST(SceneIo, PresetAndSharesBothGiven) {
+  const std::string msg = parse_error(kMinimal + "[heterogeneity]\npreset = \"low\"\nshares = [0, 0, 0.1, 0.9]\n");
+  EXPECT_HAS(msg, "scene.toml:8:");
+  EXPECT_HAS(msg, "heterogeneity.shares and heterogeneity.preset (line 7) are both given");
+
+  const std::string unknown = parse_error(kMinimal + "[heterogeneity]\npreset = \"meduim\"\n");
+  EXPECT_HAS(unknown, "heterogeneity.preset = \"meduim\" is not a preset; did you mean 'medium'?");
+}
+
+TEST(SceneIo, ZeroSpacing) {
+  const std::string msg = parse_error(kMinimal + "[solver]\nspacing = 0\n", "wall.toml");
+  EXPECT_HAS(msg, "wall.toml: solver.spacing = 0 is out of range: must be > 0");
+}
+
+TEST(SceneIo, ZeroSizeAndRadius) {
+  EXPECT_HAS(parse_error("[[object]]\nsize = [1, 0, 1]\n"), "object[0].size = [1, 0, 1] is out of range");
+  EXPECT_HAS(parse_error(kMinimal + "[[projectile]]\nradius = -0.1\n"),
+             "projectile[0].radius = -0.1 is out of range: must be > 0");
+}
+
+TEST(SceneIo, UnknownMaterialWithSuggestion) {
+  const std::string msg = parse_error("[[object]]\nmaterial = \"concret\"\n", "wall.toml");
+  EXPECT_HAS(msg, "wall.toml: object[0].material = \"concret\" is not a known material; did you mean 'concrete'?");
+
+  const std::string user =
+      parse_error("[[material]]\nname = \"mortar\"\n[[object]]\nmaterial = \"morter\"\n", "wall.toml");
+  EXPECT_HAS(user, "did you mean 'mortar'?");
+
+  const std::string base = parse_error(kMinimal + "[[material]]\nname = \"x\"\nbase = \"stell\"\n");
+  EXPECT_HAS(base, "scene.toml:8:8:");
+  EXPECT_HAS(base, "material[0].base = \"stell\"");
+  EXPECT_HAS(base, "did you mean 'steel'?");
+}
+
+TEST(SceneIo, DuplicateNames) {
+  EXPECT_HAS(parse_error(kMinimal + "[[object]]\nname = \"wall\"\n"),
+             "object[1].name = \"wall\" duplicates object[0]");
+  EXPECT_HAS(parse_error(kMinimal + "[[material]]\nname = \"a\"\n[[material]]\nname = \"a\"\n"),
+             "material[1].name = \"a\" duplicates material[0]");
+  // Unnamed objects get distinct default names.
+  EXPECT_EQ(parse_error("[[object]]\n[[object]]\n"), "");
+}
+
+TEST(SceneIo, SceneWithoutObjects) {
+  EXPECT_HAS(parse_error("name = \"empty\"\n"), "the scene has no objects");
+}
+
+TEST(SceneIo, OutputAndGripRanges) {
+  EXPECT_HAS(parse_error(kMinimal + "[output]\nduration = 0\n"), "output.duration = 0 is out of range");
+  EXPECT_HAS(parse_error(kMinimal + "[output]\nframe_rate = -5\n"), "output.frame_rate = -5 is out of range");
+  EXPECT_HAS(parse_error(kMinimal + "[output]\ncheckpoint_every = -1\n"), "output.checkpoint_every = -1");
+  const std::string grip = parse_error(kMinimal + "[[grip]]\nmin = [0, 0, 0]\nmax = [1, 0, 1]\n");
+  EXPECT_HAS(grip, "grip[0]");
+  EXPECT_HAS(grip, "on y min = 0 >= max = 0");
+}
+
+TEST(SceneIo, MissingFile) {
+  try {
+    mca::io::load_scene_file("/nonexistent/dir/no_such_scene.toml");
+    FAIL() << "no error for a missing file";
+  } catch (const mca::Error& e) {
+    const std::string msg = e.what();
+    EXPECT_HAS(msg, "/nonexistent/dir/no_such_scene.toml");
+    EXPECT_HAS(msg, "not found");
+  }
+}
+
+TEST(SceneIo, ValidateSceneChecksCppBuiltScenes) {
+  mca::SceneDef s;
+  s.source = "code";
+  s.objects.emplace_back();
+  EXPECT_NO_THROW(mca::validate_scene(s));
+  s.heterogeneity.preset = "medium";  // shares left at the default: not the preset's
+  try {
+    mca::validate_scene(s);
+    FAIL() << "preset/shares mismatch accepted";
+  } catch (const mca::Error& e) {
+    EXPECT_HAS(std::string(e.what()), "heterogeneity.preset = \"medium\"");
+  }
+  EXPECT_TRUE(mca::heterogeneity_preset("medium", s.heterogeneity.shares));
+  EXPECT_NO_THROW(mca::validate_scene(s));
+  EXPECT_THROW(mca::resolve_material(s, "unobtainium", "object[0].material"), mca::Error);
+  EXPECT_EQ(&mca::resolve_material(s, "steel", "k"), mca::find_builtin_material("steel"));
+}
+
+TEST(SceneIo, BuiltinMaterialsAreValidAndStressGoverns) {
+  mca::SceneDef s;
+  s.objects.emplace_back();
+  s.materials = mca::builtin_materials();
+  ASSERT_EQ(s.materials.size(), 5u);
+  s.materials.clear();
+  for (mca::MaterialDef m : mca::builtin_materials()) {
+    m.name += "_copy";
+    s.materials.push_back(m);
+    // Brittle materials: the displacement criterion must not pre-empt the stress criterion.
+    if (m.compressive_strength > m.tensile_strength) {
+      EXPECT_NEAR(m.fracture_strain, 1.5 * m.tensile_strength / m.youngs_modulus, 1e-12) << m.name;
+    }
+  }
+  EXPECT_NO_THROW(mca::validate_scene(s));
+  std::array<double, 4> shares{};
+  for (const char* p : {"none", "low", "medium", "high"}) {
+    ASSERT_TRUE(mca::heterogeneity_preset(p, shares));
+    EXPECT_NEAR(shares[0] + shares[1] + shares[2] + shares[3], 1.0, 1e-12);
+  }
+  EXPECT_FALSE(mca::heterogeneity_preset("extreme", shares));
+}
+
+}  // namespace

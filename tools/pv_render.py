@@ -1,0 +1,131 @@
+"""Render an mca VTK output (.pvd series or single .vtu) to a PNG with ParaView, and print what was read.
+
+Usage (no display needed):
+    xvfb-run -a pvbatch tools/pv_render.py OUT/series.pvd out.png [--field NAME] [--time last]
+        [--size 1280x720] [--point-size 6]
+
+--field   point array to colour by (vectors by magnitude); default: 'damage' if present, else the first
+--time    'first', 'last' (default), a step index such as '#3', or a time value (the nearest step is used)
+
+The printed summary (time steps, points, cells, arrays with ranges) is what ParaView itself read, which
+makes this a check of the writer against the real client as well as a quick look at a run.
+"""
+import argparse
+import os
+import sys
+
+from paraview.simple import (ColorBy, GetActiveViewOrCreate, GetDisplayProperties, OpenDataFile,
+                             PVDReader, ResetCamera, SaveScreenshot, Show, UpdatePipeline)
+
+
+def parse_args():
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("input", help=".pvd series or .vtu file")
+    p.add_argument("png", help="PNG to write")
+    p.add_argument("--field", default=None)
+    p.add_argument("--time", default="last")
+    p.add_argument("--size", default="1280x720")
+    p.add_argument("--point-size", type=float, default=6.0)
+    return p.parse_args()
+
+
+# vtkType.h codes of the array types mca writes.
+VTK_TYPE_NAMES = {3: "UInt8", 6: "Int32", 10: "Float32", 11: "Float64", 12: "Int64"}
+
+
+def fail(message):
+    print(f"pv_render: {message}", file=sys.stderr)
+    sys.exit(1)
+
+
+def pick_time(times, spec):
+    if not times:
+        return None
+    if spec == "first":
+        return times[0]
+    if spec == "last":
+        return times[-1]
+    if spec.startswith("#"):
+        index = int(spec[1:])
+        if not -len(times) <= index < len(times):
+            fail(f"--time {spec}: the series has {len(times)} steps")
+        return times[index]
+    try:
+        wanted = float(spec)
+    except ValueError:
+        fail(f"--time {spec!r}: use first, last, #INDEX or a time value")
+    return min(times, key=lambda t: abs(t - wanted))
+
+
+def main():
+    args = parse_args()
+    if not os.path.isfile(args.input):
+        fail(f"{args.input} does not exist")
+    try:
+        width, height = (int(v) for v in args.size.lower().split("x"))
+    except ValueError:
+        fail(f"--size {args.size!r}: use WIDTHxHEIGHT, e.g. 1280x720")
+
+    if args.input.lower().endswith(".pvd"):
+        reader = PVDReader(FileName=os.path.abspath(args.input))
+    else:
+        reader = OpenDataFile(os.path.abspath(args.input))
+    if reader is None:
+        fail(f"ParaView has no reader for {args.input}")
+
+    times = list(getattr(reader, "TimestepValues", None) or [])
+    if isinstance(times, float):
+        times = [times]
+    time = pick_time(times, args.time)
+    if time is None:
+        UpdatePipeline(proxy=reader)
+    else:
+        UpdatePipeline(time=time, proxy=reader)
+
+    info = reader.GetDataInformation()
+    point_info = reader.PointData
+    names = list(point_info.keys())
+    print(f"file: {args.input}")
+    print(f"time steps: {len(times)}" + (f" ({', '.join(f'{t:g}' for t in times)})" if times else ""))
+    print(f"shown time: {time if time is not None else 'n/a'}")
+    print(f"points: {info.GetNumberOfPoints()}  cells: {info.GetNumberOfCells()}")
+    print(f"point arrays: {len(names)}")
+    for name in names:
+        array = point_info[name]
+        ranges = ", ".join(f"[{lo:g}, {hi:g}]" for lo, hi in
+                           (array.GetRange(c) for c in range(array.GetNumberOfComponents())))
+        print(f"  {name}: {array.GetNumberOfComponents()} component(s) {VTK_TYPE_NAMES.get(array.GetDataType(), array.GetDataType())} range {ranges}")
+
+    field = args.field or ("damage" if "damage" in names else (names[0] if names else None))
+    if args.field and args.field not in names:
+        fail(f"--field {args.field}: not a point array here; choose one of {', '.join(names) or '(none)'}")
+
+    view = GetActiveViewOrCreate("RenderView")
+    view.ViewSize = [width, height]
+    if time is not None:
+        view.ViewTime = time
+    display = Show(reader, view)
+    # Vertex cells draw as points and the optional link lines as lines under 'Surface'.
+    display.SetRepresentationType("Surface")
+    display.PointSize = args.point_size
+    display.RenderPointsAsSpheres = 1
+    display.LineWidth = 1.0
+    if field:
+        components = point_info[field].GetNumberOfComponents()
+        if components > 1:
+            ColorBy(display, ("POINTS", field, "Magnitude"))
+        else:
+            ColorBy(display, ("POINTS", field))
+        display.RescaleTransferFunctionToDataRange(False, True)
+        display.SetScalarBarVisibility(view, True)
+        print(f"coloured by: {field}" + (" (magnitude)" if components > 1 else ""))
+
+    view.CameraPosition = [1.0, -1.6, 1.0]
+    view.CameraFocalPoint = [0.0, 0.0, 0.0]
+    view.CameraViewUp = [0.0, 0.0, 1.0]
+    ResetCamera(view)
+    SaveScreenshot(args.png, view, ImageResolution=[width, height])
+    print(f"wrote {args.png}")
+
+
+main()
