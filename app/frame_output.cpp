@@ -40,10 +40,14 @@ FrameStats FrameWriter::stats(std::int64_t frame, const State& s, const analysis
 void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis::Fragments& frags) {
   if (!vtk_) return;
   const std::size_t n = model_.size();
-  std::vector<float> disp(3 * n), damage(n), seq(n), smean(n);
+  std::vector<float> xyz(3 * n), disp(3 * n), damage(n), seq(n), smean(n);
   std::vector<std::int32_t> group(n), cls(n), object(n);
   for (std::size_t a = 0; a < n; ++a) {
-    const Vec3 d = s.x[a] - model_.position0[a];
+    const Vec3 p = to_vec3(s.x[a]);
+    xyz[3 * a] = p.x;
+    xyz[3 * a + 1] = p.y;
+    xyz[3 * a + 2] = p.z;
+    const Vec3 d = delta(to_dvec3(model_.position0[a]), s.x[a]);
     disp[3 * a] = d.x;
     disp[3 * a + 1] = d.y;
     disp[3 * a + 2] = d.z;
@@ -56,7 +60,6 @@ void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis
     cls[a] = model_.strength_class[a];
     object[a] = model_.object[a];
   }
-  const float* xyz = reinterpret_cast<const float*>(s.x.data());
   std::vector<io::PointField> fields = {
       {"velocity", 3, reinterpret_cast<const float*>(s.v.data()), nullptr},
       {"displacement", 3, disp.data(), nullptr},
@@ -76,7 +79,7 @@ void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis
       if (s.intact[l]) lines.push_back({model_.link_i[l], model_.link_j[l]});
   }
   const std::string name = fmt::format("frames/automata_{:06d}.vtu", frame);
-  io::write_vtu(dir_ / name, n, xyz, fields, links_ ? &lines : nullptr);
+  io::write_vtu(dir_ / name, n, xyz.data(), fields, links_ ? &lines : nullptr);
   automata_pvd_.emplace_back(s.time, name);
   io::write_pvd(dir_ / "automata.pvd", automata_pvd_);
 
@@ -85,9 +88,9 @@ void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis
     std::vector<float> pxyz(3 * np), pvel(3 * np), prad(np);
     for (std::size_t p = 0; p < np; ++p) {
       const auto& ps = s.projectiles[p];
-      pxyz[3 * p] = ps.position.x;
-      pxyz[3 * p + 1] = ps.position.y;
-      pxyz[3 * p + 2] = ps.position.z;
+      pxyz[3 * p] = static_cast<float>(ps.position.x);
+      pxyz[3 * p + 1] = static_cast<float>(ps.position.y);
+      pxyz[3 * p + 2] = static_cast<float>(ps.position.z);
       pvel[3 * p] = ps.velocity.x;
       pvel[3 * p + 1] = ps.velocity.y;
       pvel[3 * p + 2] = ps.velocity.z;

@@ -171,6 +171,13 @@ void expect_same(const mca::SceneDef& a, const mca::SceneDef& b) {
     EXPECT_EQ(a.grips[i].max, b.grips[i].max);
     EXPECT_EQ(a.grips[i].velocity, b.grips[i].velocity);
   }
+  ASSERT_EQ(a.loads.size(), b.loads.size());
+  for (std::size_t i = 0; i < a.loads.size(); ++i) {
+    EXPECT_EQ(a.loads[i].name, b.loads[i].name);
+    EXPECT_EQ(a.loads[i].min, b.loads[i].min);
+    EXPECT_EQ(a.loads[i].max, b.loads[i].max);
+    EXPECT_EQ(a.loads[i].force, b.loads[i].force);
+  }
   EXPECT_EQ(a.ground.enabled, b.ground.enabled);
   EXPECT_EQ(a.ground.height, b.ground.height);
   EXPECT_EQ(a.ground.friction, b.ground.friction);
@@ -267,6 +274,15 @@ TEST(SceneIo, RoundTripOfEveryMember) {
   g.name = "pull";
   g.velocity = {0.02, 0, 0};
   s.grips.push_back(g);
+
+  mca::LoadDef l;
+  l.min = {0.5, -1, 1.4};
+  l.max = {1.0, 1, 1.6};
+  l.force = {0, 0, -1.0 / 3.0 * 1e3};
+  s.loads.push_back(l);
+  l.name = "shear";
+  l.force = {1e-9, 2.5e7, -0.0};
+  s.loads.push_back(l);
 
   s.ground.enabled = true;
   s.ground.height = -0.25;
@@ -460,6 +476,60 @@ TEST(SceneIo, OutputAndGripRanges) {
   const std::string grip = parse_error(kMinimal + "[[grip]]\nmin = [0, 0, 0]\nmax = [1, 0, 1]\n");
   EXPECT_HAS(grip, "grip[0]");
   EXPECT_HAS(grip, "on y min = 0 >= max = 0");
+}
+
+TEST(SceneIo, LoadsParseWithDefaultNames) {
+  const mca::SceneDef s = parse_scene(kMinimal + R"(
+[[load]]
+min = [-0.5, -0.1, 0.4]
+max = [0.5, 0.1, 0.6]
+force = [0, 0, -25]
+
+[[load]]
+min = [0, 0, 0]
+max = [1, 1, 1]
+
+[[load]]
+name = "push"
+min = [0, 0, 0]
+max = [1, 1, 1]
+force = [3.5, 0, 0]
+)");
+  ASSERT_EQ(s.loads.size(), 3u);
+  EXPECT_EQ(s.loads[0].name, "load");
+  EXPECT_EQ(s.loads[0].min, (mca::Vec3d{-0.5, -0.1, 0.4}));
+  EXPECT_EQ(s.loads[0].max, (mca::Vec3d{0.5, 0.1, 0.6}));
+  EXPECT_EQ(s.loads[0].force, (mca::Vec3d{0, 0, -25}));
+  EXPECT_EQ(s.loads[1].name, "load1");
+  EXPECT_EQ(s.loads[1].force, (mca::Vec3d{0, 0, 0}));  // the default
+  EXPECT_EQ(s.loads[2].name, "push");
+  EXPECT_EQ(s.loads[2].force, (mca::Vec3d{3.5, 0, 0}));
+  EXPECT_TRUE(s.grips.empty());
+}
+
+TEST(SceneIo, LoadErrors) {
+  // kMinimal is 5 lines; then a blank line, [[load]], min and max put the misspelt key on line 10.
+  const std::string key = parse_error(kMinimal + "\n[[load]]\nmin = [0, 0, 0]\nmax = [1, 1, 1]\nforse = [0, 0, 1]\n");
+  EXPECT_HAS(key, "scene.toml:10:1:");
+  EXPECT_HAS(key, "unknown key 'forse' in [[load]]; did you mean 'force'?");
+
+  const std::string missing = parse_error(kMinimal + "[[load]]\nmin = [0, 0, 0]\nforce = [0, 0, 1]\n");
+  EXPECT_HAS(missing, "load[0] needs both min = [x, y, z] and max = [x, y, z]");
+
+  const std::string type = parse_error(kMinimal + "[[load]]\nmin = [0, 0, 0]\nmax = [1, 1, 1]\nforce = 10\n");
+  EXPECT_HAS(type, "scene.toml:9:9:");
+  EXPECT_HAS(type, "load[0].force is an integer (10), expected an array of 3 numbers");
+
+  const std::string table = parse_error(kMinimal + "[load]\nmin = [0, 0, 0]\n");
+  EXPECT_HAS(table, "write each block as [[load]], not [load]");
+
+  const std::string empty = parse_error(kMinimal + "[[load]]\nname = \"top\"\nmin = [0, 0, 1]\nmax = [1, 1, 1]\n");
+  EXPECT_HAS(empty, "scene.toml: load[0] \"top\"");
+  EXPECT_HAS(empty, "on z min = 1 >= max = 1");
+
+  // TOML has nan and inf; validate_scene must reject them (the parser only checks types).
+  const std::string nan = parse_error(kMinimal + "[[load]]\nmin = [0, 0, 0]\nmax = [1, 1, 1]\nforce = [0, nan, 0]\n");
+  EXPECT_HAS(nan, "scene.toml: load[0].force = [0, nan, 0] has a non-finite component");
 }
 
 TEST(SceneIo, MissingFile) {

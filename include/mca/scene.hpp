@@ -93,6 +93,15 @@ struct GripDef {
   Vec3d velocity = {0, 0, 0};
 };
 
+// A constant force on each automaton whose initial centre lies in the box (e.g. a surface traction
+// times the face area d^2 of one automaton). Several loads on one automaton add up.
+struct LoadDef {
+  std::string name = "load";
+  Vec3d min = {0, 0, 0};
+  Vec3d max = {0, 0, 0};
+  Vec3d force = {0, 0, 0};  // [N] per automaton
+};
+
 struct GroundDef {
   bool enabled = false;
   double height = 0.0;       // along the up axis (the axis gravity points down)
@@ -130,6 +139,7 @@ struct SceneDef {
   std::vector<ObjectDef> objects;
   std::vector<ProjectileDef> projectiles;
   std::vector<GripDef> grips;
+  std::vector<LoadDef> loads;
   GroundDef ground;
   SolverDef solver;
   OutputDef output;

@@ -48,7 +48,10 @@ struct Energies {
   double gravity_work = 0;        // work gravity did on automata and projectiles since the start [J]
   double grip_work = 0;           // work the grips did [J]
 };
-// Reference (serial, double accumulation) energies of a state.
+// Reference (serial, double accumulation) energies of a state, taken at the positions of the last
+// force evaluation with velocities in step with them (see energy.cpp).
 Energies compute_energies(const Model& model, const State& state);
+// Energies of exactly the positions and velocities given.
+Energies compute_energies_at(const Model& model, const State& state);
 
 }  // namespace mca

@@ -40,6 +40,7 @@ struct Model {
   std::vector<float> class_factor;         // k_c of the automaton's class
   std::vector<std::int16_t> object;        // index of the scene object it came from
   std::vector<std::int16_t> grip;          // index of the grip holding it, -1 if free
+  std::vector<Vec3> load;                  // constant external force; empty when the scene has no loads
 
   // --- links (stored once per pair, i < j) ---
   std::vector<std::uint32_t> link_i, link_j;

@@ -345,6 +345,23 @@ void validate_scene(const SceneDef& scene) {
     }
   }
 
+  // Loads. The box test is the grips' (initial centres inside [min, max]), so an empty box is the same
+  // mistake; a non-finite force would turn every loaded automaton's position into NaN on the first step.
+  for (std::size_t i = 0; i < scene.loads.size(); ++i) {
+    const LoadDef& l = scene.loads[i];
+    const std::string p = fmt::format("load[{}]", i);
+    c.finite(p + ".min", l.min);
+    c.finite(p + ".max", l.max);
+    c.finite(p + ".force", l.force);
+    for (int a = 0; a < 3; ++a) {
+      if (!(l.min[a] < l.max[a])) {
+        c.fail(fmt::format("{} \"{}\": min = {} and max = {} give an empty box: min must be < max on every axis, "
+                           "but on {} min = {} >= max = {}; widen the box so it holds the automata centres",
+                           p, l.name, vec(l.min), vec(l.max), axes[a], num(l.min[a]), num(l.max[a])));
+      }
+    }
+  }
+
   // Ground.
   c.finite("ground.height", scene.ground.height);
   c.non_negative("ground.friction", scene.ground.friction, "use e.g. 0.6, or 0 for a frictionless ground");

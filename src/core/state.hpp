@@ -28,7 +28,8 @@ struct BodyContact {
 };
 
 struct ProjectileState {
-  Vec3 position, velocity, angular_velocity;
+  DVec3 position;
+  Vec3 velocity, angular_velocity;
   Quat orientation;
   Vec3 force;                         // contact force of the last step (for statistics)
   std::vector<BodyContact> contacts;  // sorted by automaton
@@ -39,9 +40,14 @@ struct State {
   double time = 0;
 
   // automata
-  std::vector<Vec3> x, v, w;
+  std::vector<DVec3> x;         // positions (double: see math.hpp)
+  std::vector<Vec3> v, w;
   std::vector<Quat> q;
   std::vector<Sym3> s;          // averaged (Love) stress of the last step
+  // Force and torque applied in the last step, at the positions x - dt v. With them a state gives the
+  // velocities in step with those positions (velocity Verlet's v_n = v_{n+1/2} - dt/2 a_n), which the
+  // energy bookkeeping needs: the stored v is the half-step velocity of the symplectic Euler update.
+  std::vector<Vec3> f, t;
   std::vector<Vec3> ground_ut;  // tangential history with the ground (zero when not touching)
 
   // links
@@ -50,7 +56,7 @@ struct State {
   std::vector<float> link_sigma, link_tau;  // pair stresses of the last step
 
   std::vector<ContactPair> contacts;        // sorted by (i, j)
-  std::vector<Vec3> x_at_rebuild;           // positions when the contact list was last rebuilt
+  std::vector<DVec3> x_at_rebuild;           // positions when the contact list was last rebuilt
 
   std::vector<ProjectileState> projectiles;
 

@@ -2,9 +2,9 @@
 
 namespace mca {
 
-void UniformGrid::build(const Vec3* x, std::size_t n, float cell_size) {
+void UniformGrid::build(const DVec3* x, std::size_t n, double cell_size) {
   cell_ = cell_size;
-  inv_cell_ = 1.0f / cell_size;
+  inv_cell_ = 1.0 / cell_size;
   std::size_t table = 64;
   while (table < 2 * n) table *= 2;
   mask_ = table - 1;

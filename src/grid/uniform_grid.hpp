@@ -14,11 +14,11 @@ namespace mca {
 class UniformGrid {
  public:
   // cell_size must be >= the largest interaction distance queried.
-  void build(const Vec3* x, std::size_t n, float cell_size);
+  void build(const DVec3* x, std::size_t n, double cell_size);
 
   // Calls f(j) for every point j in the 27 cells around p (each at most once; includes far ones).
   template <class F>
-  void for_each_candidate(Vec3 p, F&& f) const {
+  void for_each_candidate(DVec3 p, F&& f) const {
     const std::int64_t c[3] = {cell_of(p.x), cell_of(p.y), cell_of(p.z)};
     std::uint32_t seen[27];
     int n_seen = 0;
@@ -34,17 +34,17 @@ class UniformGrid {
         }
   }
 
-  float cell_size() const { return cell_; }
+  double cell_size() const { return cell_; }
 
  private:
-  std::int64_t cell_of(float v) const { return static_cast<std::int64_t>(std::floor(v * inv_cell_)); }
+  std::int64_t cell_of(double v) const { return static_cast<std::int64_t>(std::floor(v * inv_cell_)); }
   std::uint32_t bucket(std::int64_t i, std::int64_t j, std::int64_t k) const {
     const std::uint64_t h = static_cast<std::uint64_t>(i) * 73856093ull ^ static_cast<std::uint64_t>(j) * 19349663ull ^
                             static_cast<std::uint64_t>(k) * 83492791ull;
     return static_cast<std::uint32_t>(h & mask_);
   }
 
-  float cell_ = 1, inv_cell_ = 1;
+  double cell_ = 1, inv_cell_ = 1;
   std::uint64_t mask_ = 0;
   std::vector<std::uint32_t> begin_, items_;
 };

@@ -85,6 +85,8 @@ void write_checkpoint(const std::filesystem::path& path, const Checkpoint& cp) {
     w.vec(s.w);
     w.vec(s.q);
     w.vec(s.s);
+    w.vec(s.f);
+    w.vec(s.t);
     w.vec(s.ground_ut);
     w.vec(s.intact);
     w.vec(s.link_ut);
@@ -135,6 +137,8 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   r.vec(s.w);
   r.vec(s.q);
   r.vec(s.s);
+  r.vec(s.f);
+  r.vec(s.t);
   r.vec(s.ground_ut);
   r.vec(s.intact);
   r.vec(s.link_ut);
@@ -146,7 +150,7 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   if (np > 1000000) r.need(data.size());
   s.projectiles.resize(np);
   for (auto& p : s.projectiles) {
-    p.position = r.pod<Vec3>();
+    p.position = r.pod<DVec3>();
     p.velocity = r.pod<Vec3>();
     p.angular_velocity = r.pod<Vec3>();
     p.orientation = r.pod<Quat>();

@@ -475,8 +475,23 @@ GripDef read_grip(const Table& tb, std::size_t index) {
   return g;
 }
 
+LoadDef read_load(const Table& tb, std::size_t index) {
+  tb.allow({"name", "min", "max", "force"});
+  LoadDef l;
+  if (index > 0) l.name = fmt::format("load{}", index);
+  tb.string("name", l.name);
+  if (!tb.vec3("min", l.min) || !tb.vec3("max", l.max)) {
+    tb.reader().fail(tb.raw().source(), fmt::format("{} needs both min = [x, y, z] and max = [x, y, z] (the box "
+                                                    "whose automata it pushes)",
+                                                    tb.path()));
+  }
+  tb.vec3("force", l.force);
+  return l;
+}
+
 SceneDef read_scene(const Table& root, const std::string& source) {
-  root.allow({"name", "solver", "output", "heterogeneity", "material", "object", "projectile", "grip", "ground"});
+  root.allow({"name", "solver", "output", "heterogeneity", "material", "object", "projectile", "grip", "load",
+              "ground"});
   SceneDef scene;
   scene.source = source;
   scene.name = std::filesystem::path(source).stem().string();
@@ -546,6 +561,8 @@ SceneDef read_scene(const Table& root, const std::string& source) {
   }
   const std::vector<Table> grips = root.tables("grip", "[[grip]]");
   for (std::size_t i = 0; i < grips.size(); ++i) scene.grips.push_back(read_grip(grips[i], i));
+  const std::vector<Table> loads = root.tables("load", "[[load]]");
+  for (std::size_t i = 0; i < loads.size(); ++i) scene.loads.push_back(read_load(loads[i], i));
   return scene;
 }
 
@@ -710,6 +727,14 @@ std::string scene_to_toml(const SceneDef& s) {
     out += fmt::format("min = {}\n", vec(g.min));
     out += fmt::format("max = {}\n", vec(g.max));
     out += fmt::format("velocity = {}\n", vec(g.velocity));
+  }
+
+  for (const LoadDef& l : s.loads) {
+    out += "\n[[load]]\n";
+    out += fmt::format("name = {}\n", toml_string(l.name));
+    out += fmt::format("min = {}\n", vec(l.min));
+    out += fmt::format("max = {}\n", vec(l.max));
+    out += fmt::format("force = {}\n", vec(l.force));
   }
   return out;
 }

@@ -334,6 +334,26 @@ Model build_model(const SceneDef& scene) {
     }
   }
 
+  // Loads: constant forces on the automata whose initial centre lies in the box (they add up).
+  for (std::size_t l = 0; l < scene.loads.size(); ++l) {
+    const LoadDef& ld = scene.loads[l];
+    if (M.load.empty()) M.load.assign(n, Vec3{});
+    std::size_t held = 0;
+    for (std::size_t a = 0; a < n; ++a) {
+      const Vec3 p = M.position0[a];
+      if (p.x >= ld.min[0] && p.x <= ld.max[0] && p.y >= ld.min[1] && p.y <= ld.max[1] && p.z >= ld.min[2] &&
+          p.z <= ld.max[2]) {
+        M.load[a] += to_vec3(ld.force);
+        ++held;
+      }
+    }
+    if (held == 0) {
+      throw Error(fmt::format("{}: load[{}] '{}' (min {}, max {}) acts on no automaton; make its box contain the "
+                              "centres of the automata to load (spacing {:.4g} m)",
+                              scene.source, l, ld.name, fmt_vec(ld.min), fmt_vec(ld.max), d));
+    }
+  }
+
   // Projectiles: rigid spheres; refuse one that starts inside or touching an object.
   for (std::size_t p = 0; p < scene.projectiles.size(); ++p) {
     const ProjectileDef& pd = scene.projectiles[p];

@@ -15,11 +15,13 @@ MCA_HD Vec3 local_damped(Vec3 f, Vec3 v, float alpha) {
 }
 
 struct Body {
-  Vec3 x, v, w;
+  DVec3 x;
+  Vec3 v, w;
   Quat q;
 };
 
-MCA_HD void integrate_body(Body& b, Vec3 f, Vec3 t, float inv_m, float inv_j, float dt, float alpha) {
+// f and t come back as applied (after local damping).
+MCA_HD void integrate_body(Body& b, Vec3& f, Vec3& t, float inv_m, float inv_j, float dt, float alpha) {
   if (alpha > 0.0f) {
     f = local_damped(f, b.v, alpha);
     t = local_damped(t, b.w, alpha);

@@ -3,9 +3,12 @@
 // every backend.
 //
 // Normal stress.  sigma_ij = 2 G_ij eps_ij + P_i + P_j, where P_i = lambda_i * theta_i / n_a(i) is the
-// many-body term of automaton i: theta_i is i's volumetric strain (the sum over the three lattice axes
-// of the mean strain of its intact links along that axis) and n_a(i) the number of i's intact links
-// along this link's axis a. In an interior automaton P_i + P_j = lambda (theta_i + theta_j) / 2, which is
+// many-body term of automaton i: theta_i is i's volumetric strain and n_a(i) the number of i's intact
+// links along this link's lattice axis a. The strain of i along an axis is the mean strain of its links
+// along it; an axis with no intact link is a free surface on both sides, so its strain is the one that
+// makes its normal stress vanish, 2 G e_f + lambda theta = 0 (volumetric_strain below). A bar one
+// automaton thick thus has Young's modulus E, a plate one automaton thick is in plane stress, and a block
+// has Hooke's law with the input E and nu. In an interior automaton P_i + P_j = lambda (theta_i + theta_j) / 2, which is
 // the note's D * (sigma_mean_i + sigma_mean_j) / 2 with sigma_mean = K theta / 3 (D K / 3 = lambda), so a
 // block returns Hooke's law with the input E and nu. We take sigma_mean from the current volumetric
 // strain instead of the previous step's averaged stress: with the one-step lag the lambda part of the
@@ -32,14 +35,27 @@ MCA_HD float strengthening_factor(int law, float alpha, float e) {
   return 1.0f;
 }
 
+// Volumetric strain of an automaton from, per lattice axis, the summed strain and count of its intact
+// links along it. Axes without links are free: e_f = -lambda theta / (2 G) each, so
+// theta = sum_linked / (1 + n_free lambda / (2 G)).
+MCA_HD float volumetric_strain(const float sum[3], const int cnt[3], float lambda, float shear_modulus) {
+  float linked = 0.0f;
+  int free_axes = 0;
+  for (int a = 0; a < 3; ++a) {
+    if (cnt[a]) linked += sum[a] / static_cast<float>(cnt[a]);
+    else ++free_axes;
+  }
+  return linked / (1.0f + static_cast<float>(free_axes) * lambda / (2.0f * shear_modulus));
+}
+
 struct LinkGeometry {
   Vec3 n;     // unit vector from i to j
   float r;    // current distance
   float eps;  // pair strain h / r0, positive in tension
 };
 
-MCA_HD LinkGeometry link_geometry(Vec3 xi, Vec3 xj, float r0) {
-  const Vec3 d = xj - xi;
+MCA_HD LinkGeometry link_geometry(DVec3 xi, DVec3 xj, float r0) {
+  const Vec3 d = delta(xi, xj);
   const float r = length(d);
   const float inv = r > 0.0f ? 1.0f / r : 0.0f;
   return {d * inv, r, (r - r0) / r0};

@@ -141,11 +141,10 @@ void CpuBackend::many_body_pass() {
       sum[M_.link_axis[l]] += link_eps_[l];
       ++cnt[M_.link_axis[l]];
     }
-    float theta = 0;
+    const GroupParams& g = M_.groups[M_.group[a]];
+    const float theta = volumetric_strain(sum, cnt, g.lame_lambda, g.shear_modulus);
     for (int ax = 0; ax < 3; ++ax)
-      if (cnt[ax]) theta += sum[ax] / static_cast<float>(cnt[ax]);
-    const float lam = M_.groups[M_.group[a]].lame_lambda;
-    for (int ax = 0; ax < 3; ++ax) many_body_[3 * a + ax] = cnt[ax] ? lam * theta / static_cast<float>(cnt[ax]) : 0.0f;
+      many_body_[3 * a + ax] = cnt[ax] ? g.lame_lambda * theta / static_cast<float>(cnt[ax]) : 0.0f;
   });
 }
 
@@ -218,7 +217,7 @@ void CpuBackend::contact_pass() {
   parallel_range(C.size(), [&](std::size_t p) {
     ContactPair& cp = C[p];
     const std::uint32_t i = cp.i, j = cp.j;
-    const Vec3 d = S_.x[j] - S_.x[i];
+    const Vec3 d = delta(S_.x[i], S_.x[j]);
     const float dist = length(d);
     const float ri = M_.radius[i], rj = M_.radius[j];
     const float overlap = ri + rj - dist;
@@ -268,10 +267,10 @@ void CpuBackend::projectile_pass() {
     // Candidates: automata touching the sphere, found per fixed chunk and joined in chunk order.
     const std::size_t chunks = (n + kChunk - 1) / kChunk;
     std::vector<std::vector<std::uint32_t>> found(chunks);
-    const Vec3 c = ps.position;
+    const DVec3 c = ps.position;
     parallel_chunks(n, [&](std::size_t ch, std::size_t b, std::size_t e) {
       for (std::size_t a = b; a < e; ++a) {
-        const Vec3 d = S_.x[a] - c;
+        const Vec3 d = delta(c, S_.x[a]);
         const float reach = P.radius + M_.radius[a];
         if (dot(d, d) < reach * reach) found[ch].push_back(static_cast<std::uint32_t>(a));
       }
@@ -284,7 +283,7 @@ void CpuBackend::projectile_pass() {
       for (std::uint32_t a : list) {
         while (old < ps.contacts.size() && ps.contacts[old].automaton < a) ++old;
         const Vec3 ut_prev = (old < ps.contacts.size() && ps.contacts[old].automaton == a) ? ps.contacts[old].ut : Vec3{};
-        const Vec3 d = c - S_.x[a];  // from the automaton to the projectile
+        const Vec3 d = delta(S_.x[a], c);  // from the automaton to the projectile
         const float dist = length(d);
         if (dist <= 0.0f) continue;
         const Vec3 nrm = d * (1.0f / dist);
@@ -353,9 +352,11 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
         ext_s_[a] = Sym3{};
         has_ext_[a] = 0;
       }
+      if (!M_.load.empty()) f += M_.load[a];
       const float r = M_.radius[a];
       if (M_.ground) {
-        const float above = dot(S_.x[a], M_.up) - M_.ground_height;
+        const DVec3& xa = S_.x[a];
+        const float above = static_cast<float>(xa.x * M_.up.x + xa.y * M_.up.y + xa.z * M_.up.z - M_.ground_height);
         const float overlap = r - above;
         if (overlap > 0.0f) {
           const GroupParams& g = M_.groups[M_.group[a]];
@@ -392,6 +393,8 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
       } else {
         integrate_body(body, f, t, 1.0f / m, 1.0f / M_.inertia[a], dt, M_.local_damping);
       }
+      S_.f[a] = f;
+      S_.t[a] = t;
       if (!std::isfinite(body.x.x + body.x.y + body.x.z + body.v.x + body.v.y + body.v.z + body.w.x + body.w.y + body.w.z)) {
         if (chunk_bad[ch] < 0) chunk_bad[ch] = static_cast<std::int64_t>(a);
       }
@@ -399,7 +402,7 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
       S_.v[a] = body.v;
       S_.w[a] = body.w;
       S_.q[a] = body.q;
-      const Vec3 dm = body.x - S_.x_at_rebuild[a];
+      const Vec3 dm = delta(S_.x_at_rebuild[a], body.x);
       move2 = std::max(move2, dot(dm, dm));
     }
     chunk_move[ch] = move2;
@@ -472,11 +475,11 @@ void CpuBackend::rebuild_contacts() {
     std::vector<std::uint32_t> js;
     for (std::size_t a = b; a < e; ++a) {
       const std::uint32_t i = static_cast<std::uint32_t>(a);
-      const Vec3 xi = S_.x[i];
+      const DVec3 xi = S_.x[i];
       js.clear();
       grid_.for_each_candidate(xi, [&](std::uint32_t j) {
         if (j <= i) return;
-        const Vec3 d = S_.x[j] - xi;
+        const Vec3 d = delta(xi, S_.x[j]);
         const float reach = M_.radius[i] + M_.radius[j] + skin;
         if (dot(d, d) < reach * reach && !linked(i, j)) js.push_back(j);
       });
@@ -522,11 +525,14 @@ std::unique_ptr<Backend> make_cpu_backend(const Model& model) { return std::make
 State initial_state(const Model& m) {
   State s;
   const std::size_t n = m.size(), L = m.link_count();
-  s.x = m.position0;
+  s.x.resize(n);
+  for (std::size_t a = 0; a < n; ++a) s.x[a] = to_dvec3(m.position0[a]);
   s.v = m.velocity0;
   s.w.assign(n, Vec3{});
   s.q.assign(n, Quat{});
   s.s.assign(n, Sym3{});
+  s.f.assign(n, Vec3{});
+  s.t.assign(n, Vec3{});
   s.ground_ut.assign(n, Vec3{});
   s.intact.assign(L, 1);
   s.link_ut.assign(L, Vec3{});
@@ -534,7 +540,7 @@ State initial_state(const Model& m) {
   s.link_tau.assign(L, 0.0f);
   for (const auto& p : m.projectiles) {
     ProjectileState ps;
-    ps.position = p.position;
+    ps.position = to_dvec3(p.position);
     ps.velocity = p.velocity;
     ps.angular_velocity = p.angular_velocity;
     s.projectiles.push_back(ps);

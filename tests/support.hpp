@@ -1,0 +1,51 @@
+#pragma once
+// Small scene builders and measurements shared by the physics tests.
+#include <cmath>
+#include <random>
+
+#include "mca/scene.hpp"
+#include "sim/simulation.hpp"
+
+namespace mca::test {
+
+// A test material: concrete-like elasticity; strengths so high nothing breaks unless a test lowers them.
+inline MaterialDef test_material(double E = 30e9, double nu = 0.2, double rho = 2400) {
+  MaterialDef m;
+  m.name = "testmat";
+  m.youngs_modulus = E;
+  m.poisson_ratio = nu;
+  m.density = rho;
+  m.tensile_strength = 1e30;
+  m.compressive_strength = 1e30;
+  m.fracture_strain = 1e30;
+  return m;
+}
+
+// A box of nx x ny x nz automata with spacing d centred at the origin, no gravity, no ground.
+inline SceneDef block_scene(int nx, int ny, int nz, double d = 0.01, MaterialDef mat = test_material()) {
+  SceneDef s;
+  s.name = "test";
+  s.source = "<test>";
+  s.solver.spacing = d;
+  s.solver.gravity = {0, 0, 0};
+  s.materials.push_back(mat);
+  ObjectDef o;
+  o.name = "block";
+  o.material = mat.name;
+  o.size = {nx * d, ny * d, nz * d};
+  s.objects.push_back(o);
+  s.output.duration = 1.0;
+  s.output.frame_rate = 1.0;  // one long frame: the automatic step is used as is
+  return s;
+}
+
+// Box [lo, hi] around the automata whose index along `axis` is `layer` (0-based) in a block of n cells.
+inline void layer_box(int n, int layer, int axis, double d, Vec3d& lo, Vec3d& hi) {
+  lo = {-1e9, -1e9, -1e9};
+  hi = {1e9, 1e9, 1e9};
+  const double c = (layer - 0.5 * (n - 1)) * d;
+  lo[axis] = c - 0.25 * d;
+  hi[axis] = c + 0.25 * d;
+}
+
+}  // namespace mca::test

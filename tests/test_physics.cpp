@@ -1,0 +1,265 @@
+// The physics contract (physics.md sec. 8): conservation, elastic constants, shear modulus, wave speed,
+// tensile strength. Each test measures the model against an analytic answer.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "support.hpp"
+
+namespace mca {
+namespace {
+
+using test::block_scene;
+using test::test_material;
+
+struct Momenta {
+  double p[3] = {0, 0, 0}, l[3] = {0, 0, 0};
+  double p_scale = 0, l_scale = 0;
+};
+
+Momenta momenta(const Model& m, const State& s) {
+  Momenta r;
+  for (std::size_t a = 0; a < m.size(); ++a) {
+    const double mv[3] = {m.mass[a] * static_cast<double>(s.v[a].x), m.mass[a] * static_cast<double>(s.v[a].y),
+                          m.mass[a] * static_cast<double>(s.v[a].z)};
+    const double x[3] = {s.x[a].x, s.x[a].y, s.x[a].z};
+    const double jw[3] = {m.inertia[a] * static_cast<double>(s.w[a].x), m.inertia[a] * static_cast<double>(s.w[a].y),
+                          m.inertia[a] * static_cast<double>(s.w[a].z)};
+    const double xl[3] = {x[1] * mv[2] - x[2] * mv[1] + jw[0], x[2] * mv[0] - x[0] * mv[2] + jw[1],
+                          x[0] * mv[1] - x[1] * mv[0] + jw[2]};
+    for (int k = 0; k < 3; ++k) {
+      r.p[k] += mv[k];
+      r.l[k] += xl[k];
+    }
+    r.p_scale += std::sqrt(mv[0] * mv[0] + mv[1] * mv[1] + mv[2] * mv[2]);
+    r.l_scale += std::sqrt(xl[0] * xl[0] + xl[1] * xl[1] + xl[2] * xl[2]);
+  }
+  return r;
+}
+
+void randomise_velocities(Simulation& sim, double v_scale, double w_scale, unsigned seed) {
+  State s = sim.state();
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (std::size_t a = 0; a < s.v.size(); ++a) {
+    s.v[a] = Vec3{u(rng), u(rng), u(rng)} * static_cast<float>(v_scale);
+    s.w[a] = Vec3{u(rng), u(rng), u(rng)} * static_cast<float>(w_scale);
+  }
+  sim.backend().upload(s);
+}
+
+TEST(Physics, MomentumIsConservedWhileTheBlockBreaks) {
+  // Real concrete strengths: links break and broken pairs collide, all through pair forces.
+  MaterialDef mat = test_material();
+  mat.tensile_strength = 3e6;
+  mat.compressive_strength = 30e6;
+  mat.fracture_strain = 1.5e-4;
+  Simulation sim(block_scene(6, 6, 6, 0.01, mat));
+  randomise_velocities(sim, 2.0, 200.0, 7);
+  const Momenta before = momenta(sim.model(), sim.state());
+  sim.advance(1000);
+  const Momenta after = momenta(sim.model(), sim.state());
+  EXPECT_GT(sim.state().broken_by[0] + sim.state().broken_by[1], 100) << "the test should exercise fracture";
+  EXPECT_GT(sim.state().contacts.size(), 0u) << "the test should exercise contacts";
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_LT(std::fabs(after.p[k] - before.p[k]) / before.p_scale, 1e-5) << "linear momentum, axis " << k;
+    EXPECT_LT(std::fabs(after.l[k] - before.l[k]) / before.l_scale, 1e-5) << "angular momentum, axis " << k;
+  }
+}
+
+TEST(Physics, EnergyIsConservedWithoutDampingOrFracture) {
+  Simulation sim(block_scene(8, 8, 8));
+  randomise_velocities(sim, 0.1, 10.0, 11);  // strains about 3e-5: linear, well above float32 noise
+  const Energies e0 = sim.energies();
+  const double total0 = e0.kinetic + e0.elastic;
+  double worst = 0;
+  for (int k = 0; k < 100; ++k) {
+    sim.advance(100);
+    const Energies e = sim.energies();
+    worst = std::max(worst, std::fabs(e.kinetic + e.elastic - total0) / total0);
+  }
+  const Energies e = sim.energies();
+  EXPECT_GT(e.elastic, 0.2 * total0) << "energy should move between kinetic and elastic";
+  EXPECT_LT(worst, 0.01) << "kinetic + elastic energy drifted over 10,000 steps";
+}
+
+// Mean strain of intact links along `axis` (and the mean lateral shear slopes) in the central region.
+struct StrainProbe {
+  double axial[3] = {0, 0, 0};
+  int count[3] = {0, 0, 0};
+  double slope_xy = 0, slope_yx = 0;  // d u_x / d y from y-links, d u_y / d x from x-links
+  int n_xy = 0, n_yx = 0;
+};
+
+StrainProbe probe(const Model& m, const State& s, double half_width) {
+  StrainProbe p;
+  for (std::size_t l = 0; l < m.link_count(); ++l) {
+    const Vec3 a0 = m.position0[m.link_i[l]], b0 = m.position0[m.link_j[l]];
+    const Vec3 mid = (a0 + b0) * 0.5f;
+    if (std::fabs(mid.x) > half_width || std::fabs(mid.y) > half_width || std::fabs(mid.z) > half_width) continue;
+    const Vec3 d = delta(s.x[m.link_i[l]], s.x[m.link_j[l]]);
+    const int ax = m.link_axis[l];
+    const double r0 = m.link_r0[l];
+    p.axial[ax] += (length(d) - r0) / r0;
+    ++p.count[ax];
+    if (ax == 1) { p.slope_xy += d.x / r0; ++p.n_xy; }
+    if (ax == 0) { p.slope_yx += d.y / r0; ++p.n_yx; }
+  }
+  for (int a = 0; a < 3; ++a) p.axial[a] /= std::max(1, p.count[a]);
+  p.slope_xy /= std::max(1, p.n_xy);
+  p.slope_yx /= std::max(1, p.n_yx);
+  return p;
+}
+
+// Run with local damping until the block is at rest (kinetic energy no longer matters).
+void relax(Simulation& sim, int max_steps) {
+  double prev = -1;
+  for (int k = 0; k < max_steps; k += 200) {
+    sim.advance(200);
+    const double ke = sim.energies().kinetic;
+    const double el = sim.energies().elastic;
+    if (ke < 1e-8 * el && prev >= 0 && ke <= prev) break;
+    prev = ke;
+  }
+}
+
+TEST(Physics, BlockInUniaxialStressReturnsYoungsModulusAndPoissonRatio) {
+  const int n = 20;
+  const double d = 0.01, E = 30e9, nu = 0.2, sigma = 1e6;
+  SceneDef sc = block_scene(n, n, n, d, test_material(E, nu));
+  sc.solver.local_damping = 0.2;
+  for (int side = 0; side < 2; ++side) {
+    LoadDef ld;
+    test::layer_box(n, side ? n - 1 : 0, 0, d, ld.min, ld.max);
+    ld.force = {(side ? 1.0 : -1.0) * sigma * d * d, 0, 0};
+    sc.loads.push_back(ld);
+  }
+  Simulation sim(sc);
+  relax(sim, 20000);
+  const StrainProbe p = probe(sim.model(), sim.state(), 0.25 * n * d);
+  const double E_measured = sigma / p.axial[0];
+  const double nu_y = -p.axial[1] / p.axial[0], nu_z = -p.axial[2] / p.axial[0];
+  EXPECT_NEAR(E_measured / E, 1.0, 0.02) << "E measured " << E_measured;
+  EXPECT_NEAR(nu_y / nu, 1.0, 0.02) << "nu measured (y) " << nu_y;
+  EXPECT_NEAR(nu_z / nu, 1.0, 0.02) << "nu measured (z) " << nu_z;
+}
+
+TEST(Physics, BlockInSimpleShearReturnsShearModulus) {
+  const int n = 20;
+  const double d = 0.01, E = 30e9, nu = 0.2, tau = 1e6;
+  SceneDef sc = block_scene(n, n, n, d, test_material(E, nu));
+  sc.solver.local_damping = 0.2;
+  // Shear tractions on the four faces normal to x and y: balanced in force and moment.
+  for (int side = 0; side < 2; ++side) {
+    const double sgn = side ? 1.0 : -1.0;
+    LoadDef top;
+    test::layer_box(n, side ? n - 1 : 0, 1, d, top.min, top.max);
+    top.force = {sgn * tau * d * d, 0, 0};
+    sc.loads.push_back(top);
+    LoadDef right;
+    test::layer_box(n, side ? n - 1 : 0, 0, d, right.min, right.max);
+    right.force = {0, sgn * tau * d * d, 0};
+    sc.loads.push_back(right);
+  }
+  Simulation sim(sc);
+  relax(sim, 20000);
+  // Engineering shear strain of the block, as a lab measures it: the mean displacement of the loaded
+  // layers over the distance between them (the surface layers carry the traction, so the strain near
+  // them is part of the block's response).
+  const Model& m = sim.model();
+  const State& s = sim.state();
+  double ux[2] = {0, 0}, uy[2] = {0, 0};
+  int cx[2] = {0, 0}, cy[2] = {0, 0};
+  const float lo = static_cast<float>(-0.5 * (n - 1) * d + 0.25 * d), hi = -lo;
+  for (std::size_t a = 0; a < m.size(); ++a) {
+    const Vec3 p0 = m.position0[a];
+    const Vec3 u = delta(to_dvec3(p0), s.x[a]);
+    if (p0.y < lo) { ux[0] += u.x; ++cx[0]; }
+    if (p0.y > hi) { ux[1] += u.x; ++cx[1]; }
+    if (p0.x < lo) { uy[0] += u.y; ++cy[0]; }
+    if (p0.x > hi) { uy[1] += u.y; ++cy[1]; }
+  }
+  const double span = (n - 1) * d;
+  const double gamma = (ux[1] / cx[1] - ux[0] / cx[0]) / span + (uy[1] / cy[1] - uy[0] / cy[0]) / span;
+  const double G = E / (2 * (1 + nu));
+  EXPECT_NEAR((tau / gamma) / G, 1.0, 0.03) << "G measured " << tau / gamma << ", expected " << G;
+}
+
+TEST(Physics, WaveInABarTravelsAtTheBarSpeed) {
+  const int n = 400;
+  const double d = 0.01, E = 30e9, rho = 2400;
+  Simulation sim(block_scene(n, 1, 1, d, test_material(E, 0.2, rho)));
+  State s = sim.state();
+  s.v[0] = Vec3{1.0f, 0, 0};  // a kick at the left end (strains of 1e-4: well above float32 noise)
+  sim.backend().upload(s);
+  const int st1 = 100, st2 = 300;  // stations (automaton index = cell along x)
+  double t1 = -1, t2 = -1, peak1 = 0, peak2 = 0;
+  // First pass: the first peak velocity at each station; the arrival is when it first reaches half of it.
+  std::vector<std::pair<double, double>> v1, v2;
+  const double c = std::sqrt(E / rho);
+  const int steps = static_cast<int>(1.3 * (st2 * d / c) / sim.model().dt);
+  for (int k = 0; k < steps; ++k) {
+    sim.advance(1);
+    v1.emplace_back(sim.state().time, sim.state().v[st1].x);
+    v2.emplace_back(sim.state().time, sim.state().v[st2].x);
+  }
+  // Arrival: the first time the station's velocity reaches half of its peak (the first, largest one;
+  // the run ends before the reflection from the far end comes back).
+  auto arrival = [](const std::vector<std::pair<double, double>>& v, double& peak) {
+    peak = 0;
+    for (const auto& e : v) peak = std::max(peak, e.second);
+    for (const auto& e : v)
+      if (e.second >= 0.5 * peak) return e.first;
+    return -1.0;
+  };
+  t1 = arrival(v1, peak1);
+  t2 = arrival(v2, peak2);
+  ASSERT_GT(t1, 0);
+  ASSERT_GT(t2, t1);
+  const double speed = (st2 - st1) * d / (t2 - t1);
+  EXPECT_NEAR(speed / c, 1.0, 0.03) << "wave speed " << speed << " m/s, bar speed " << c;
+}
+
+// Pull a bar slowly from one end (the other held) and read the grip force at the first break.
+double breaking_stress(double tensile, double fracture_strain, int& criterion) {
+  const int n = 20;
+  const double d = 0.01;
+  MaterialDef mat = test_material();
+  mat.tensile_strength = tensile;
+  mat.compressive_strength = tensile;
+  mat.fracture_strain = fracture_strain;
+  SceneDef sc = block_scene(n, 1, 1, d, mat);
+  sc.solver.link_damping = 0.3;
+  GripDef hold, pull;
+  test::layer_box(n, 0, 0, d, hold.min, hold.max);
+  test::layer_box(n, n - 1, 0, d, pull.min, pull.max);
+  pull.velocity = {0.002, 0, 0};
+  sc.grips = {hold, pull};
+  Simulation sim(sc);
+  double peak = 0;
+  for (int k = 0; k < 2000000 && sim.state().broken_by[0] + sim.state().broken_by[1] == 0; ++k) {
+    peak = std::max(peak, static_cast<double>(sim.state().grip_force[1].x));
+    sim.advance(1);
+  }
+  criterion = sim.state().breaks.empty() ? -1 : static_cast<int>(sim.state().breaks.front().criterion);
+  return peak / (d * d);
+}
+
+TEST(Physics, BarBreaksAtItsTensileStrength) {
+  int criterion = -1;
+  const double s = breaking_stress(3e6, 1.5e-4, criterion);  // sigma_t / E = 1e-4 < eps_b: stress governs
+  EXPECT_EQ(criterion, static_cast<int>(BreakCriterion::stress));
+  EXPECT_NEAR(s / 3e6, 1.0, 0.05) << "breaking stress " << s;
+}
+
+TEST(Physics, BarBreaksAtItsFractureStrainWhenThatComesFirst) {
+  int criterion = -1;
+  const double s = breaking_stress(3e6, 0.5e-4, criterion);  // E eps_b = 1.5 MPa < sigma_t
+  EXPECT_EQ(criterion, static_cast<int>(BreakCriterion::displacement));
+  EXPECT_NEAR(s / (30e9 * 0.5e-4), 1.0, 0.05) << "breaking stress " << s;
+}
+
+}  // namespace
+}  // namespace mca
