@@ -44,7 +44,7 @@ SceneDef wall_scene(const std::string& name, int nx, int ny, int nz, int walls, 
     ProjectileDef p;
     p.name = fmt::format("ball{}", k);
     p.radius = ball;
-    p.position = {k * (wx + gap), -0.5 * wy - ball - 0.6 * d, 0.5 * wz};
+    p.position = {k * (wx + gap), -0.5 * wy - ball - 0.05 * d, 0.5 * wz};  // 0.05 d from contact
     p.velocity = {0, 60, 0};
     s.projectiles.push_back(p);
   }
@@ -54,9 +54,9 @@ SceneDef wall_scene(const std::string& name, int nx, int ny, int nz, int walls, 
 
 std::vector<BenchScene> scenes() {
   return {
-      {"wall_3k", "the paper's single wall: 30 x 4 x 25 automata, ball at 60 m/s", wall_scene("wall_3k", 30, 4, 25, 1, 0.05), 200},
-      {"walls_12k", "the paper's four walls: 4 x (30 x 4 x 25) automata, a ball each", wall_scene("walls_12k", 30, 4, 25, 4, 0.05), 200},
-      {"wall_357k", "a 101 x 35 x 101 lattice wall (357,035 automata), ball at 60 m/s", wall_scene("wall_357k", 101, 35, 101, 1, 0.02), 100},
+      {"wall_3k", "the paper's single wall: 30 x 4 x 25 automata, ball at 60 m/s", wall_scene("wall_3k", 30, 4, 25, 1, 0.05), 300},
+      {"walls_12k", "the paper's four walls: 4 x (30 x 4 x 25) automata, a ball each", wall_scene("walls_12k", 30, 4, 25, 4, 0.05), 300},
+      {"wall_357k", "a 101 x 35 x 101 lattice wall (357,035 automata), ball at 60 m/s", wall_scene("wall_357k", 101, 35, 101, 1, 0.02), 150},
   };
 }
 

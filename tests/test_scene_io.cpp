@@ -494,7 +494,8 @@ name = "push"
 min = [0, 0, 0]
 max = [1, 1, 1]
 force = [3.5, 0, 0]
-)");
+)",
+                                      "scene.toml");
   ASSERT_EQ(s.loads.size(), 3u);
   EXPECT_EQ(s.loads[0].name, "load");
   EXPECT_EQ(s.loads[0].min, (mca::Vec3d{-0.5, -0.1, 0.4}));

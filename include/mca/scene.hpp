@@ -118,7 +118,7 @@ struct SolverDef {
   double link_damping = 0.0;             // viscous damping of links, share of critical, in [0, 1]
   double local_damping = 0.0;            // Cundall local damping alpha, in [0, 0.2]
   double stress_coefficient = 1.0;       // K_v of the equivalent-stress criterion, > 0
-  double skin = 0.1;                     // contact search skin, share of d, in (0, 1]
+  double skin = 0.3;                     // contact search skin, share of d, in (0, 1]
   std::uint64_t seed = 1;
   double max_memory_gb = 16.0;           // refuse models whose estimate exceeds this
 };

@@ -11,7 +11,10 @@
 // Links write their forces; automata gather them in link order. No floating-point atomics, no
 // order-dependent reductions: results are bitwise identical for any thread count.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -45,6 +48,44 @@ void parallel_chunks(std::size_t n, F&& body) {
 
 float harmonic(float a, float b) { return a + b > 0.0f ? 2.0f * a * b / (a + b) : 0.0f; }
 
+// Wall time per pass, summed over steps, printed when the backend is destroyed if MCA_PROFILE is set.
+struct PassProfile {
+  bool on = std::getenv("MCA_PROFILE") != nullptr;
+  double seconds[8] = {};
+  std::int64_t steps = 0;
+  ~PassProfile() {
+    if (!on || steps == 0) return;
+    static const char* names[8] = {"link geometry", "many-body", "link forces", "contacts", "projectiles",
+                                   "automata", "fracture", "contact list"};
+    double total = 0;
+    for (double t : seconds) total += t;
+    std::fprintf(stderr, "cpu backend profile over %lld steps (%.3f s):\n", static_cast<long long>(steps), total);
+    for (int k = 0; k < 8; ++k)
+      std::fprintf(stderr, "  %-14s %8.3f ms/step  %5.1f %%\n", names[k], 1e3 * seconds[k] / steps,
+                   100 * seconds[k] / total);
+  }
+};
+
+class PassTimer {
+ public:
+  explicit PassTimer(PassProfile& p) : p_(p) {
+    if (p_.on) {
+      ++p_.steps;
+      last_ = std::chrono::steady_clock::now();
+    }
+  }
+  void lap(int k) {
+    if (!p_.on) return;
+    const auto now = std::chrono::steady_clock::now();
+    p_.seconds[k] += std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+  }
+
+ private:
+  PassProfile& p_;
+  std::chrono::steady_clock::time_point last_;
+};
+
 class CpuBackend final : public Backend {
  public:
   explicit CpuBackend(const Model& m) : M_(m) {
@@ -52,7 +93,22 @@ class CpuBackend final : public Backend {
     link_n_.resize(L);
     link_eps_.resize(L);
     link_f_.resize(L);
-    link_t_.resize(L);
+    // Pair constants that do not change during the run (without strengthening).
+    link_G_.resize(L);
+    for (std::size_t l = 0; l < L; ++l) {
+      const GroupParams& gi = m.groups[m.group[m.link_i[l]]];
+      const GroupParams& gj = m.groups[m.group[m.link_j[l]]];
+      link_G_[l] = harmonic(gi.shear_modulus, gj.shear_modulus);
+      if (m.link_damping > 0.0f) {
+        // Share of the critical damping of the pair's normal spring.
+        if (link_c_.empty()) link_c_.resize(L);
+        const float k = (2.0f * link_G_[l] + 0.5f * (gi.lame_lambda + gj.lame_lambda)) * m.link_area[l] / m.link_r0[l];
+        const float mi = m.mass[m.link_i[l]], mj = m.mass[m.link_j[l]];
+        link_c_[l] = 2.0f * m.link_damping * std::sqrt(k * mi * mj / (mi + mj));
+      }
+    }
+    for (const auto& g : m.groups) strengthening_ = strengthening_ || g.strengthening != 0;
+    mean_s_.resize(n);
     many_body_.resize(n * 3);
     ext_f_.resize(n);
     ext_t_.resize(n);
@@ -68,6 +124,7 @@ class CpuBackend final : public Backend {
   std::string name() const override { return "cpu"; }
   void upload(const State& s) override {
     S_ = s;
+    for (std::size_t a = 0; a < S_.s.size(); ++a) mean_s_[a] = mean_stress(S_.s[a]);
     if (S_.x_at_rebuild.size() != S_.x.size()) rebuild_contacts();
   }
   void download(State& s) const override { s = S_; }
@@ -95,15 +152,17 @@ class CpuBackend final : public Backend {
   void contact_pass();
   void projectile_pass();
   std::int64_t automaton_pass(float& max_move2);
-  void fracture_pass();
   void rebuild_contacts();
   bool linked(std::uint32_t i, std::uint32_t j) const;
 
   const Model& M_;
   State S_;
   // scratch, rebuilt every step
-  std::vector<Vec3> link_n_, link_f_, link_t_;
+  std::vector<Vec3> link_n_, link_f_;
   std::vector<float> link_eps_, many_body_;
+  std::vector<float> link_G_, link_c_;  // pair shear modulus and damping coefficient
+  std::vector<float> mean_s_;           // mean of the averaged stress s of each automaton
+  bool strengthening_ = false;
   std::vector<Vec3> ext_f_, ext_t_;
   std::vector<Sym3> ext_s_;
   std::vector<std::uint8_t> has_ext_;
@@ -111,7 +170,7 @@ class CpuBackend final : public Backend {
   std::vector<std::uint32_t> new_pairs_;
   UniformGrid grid_;
   float r_max_ = 0;
-  bool force_rebuild_ = false;
+  PassProfile profile_;
 };
 
 bool CpuBackend::linked(std::uint32_t i, std::uint32_t j) const {
@@ -148,44 +207,79 @@ void CpuBackend::many_body_pass() {
   });
 }
 
+// Pair forces (link_law.hpp) and, from the same state, the fracture criteria (fracture.hpp): a link
+// whose stress or stretch is over its strength this step carries no force from this step on. The mean
+// stress p of the Drucker-Prager form is the averaged stress of the two automata from the previous
+// step (the current one needs this step's forces). Breaks are collected per fixed chunk and applied in
+// link order, so the result does not depend on the thread count.
 void CpuBackend::link_force_pass() {
   const float dt = M_.dt;
-  parallel_range(M_.link_count(), [&](std::size_t l) {
-    if (!S_.intact[l]) return;
-    const std::uint32_t i = M_.link_i[l], j = M_.link_j[l];
-    const GroupParams& gi = M_.groups[M_.group[i]];
-    const GroupParams& gj = M_.groups[M_.group[j]];
-    const float eps = link_eps_[l];
-    const float e = std::fabs(eps);
-    const float fi = strengthening_factor(gi.strengthening, gi.strengthening_alpha, e);
-    const float fj = strengthening_factor(gj.strengthening, gj.strengthening_alpha, e);
-    const float G = harmonic(gi.shear_modulus * fi, gj.shear_modulus * fj);
-    const int ax = M_.link_axis[l];
-    LinkInput in;
-    in.g = {link_n_[l], M_.link_r0[l] * (1.0f + eps), eps};
-    in.r0 = M_.link_r0[l];
-    in.area = M_.link_area[l];
-    in.shear_modulus = G;
-    in.many_body = many_body_[3 * i + ax] * fi + many_body_[3 * j + ax] * fj;
-    in.damping = 0.0f;
-    if (M_.link_damping > 0.0f) {
-      const float k = (2.0f * G + 0.5f * (gi.lame_lambda + gj.lame_lambda)) * in.area / in.r0;
-      const float m_eff = M_.mass[i] * M_.mass[j] / (M_.mass[i] + M_.mass[j]);
-      in.damping = 2.0f * M_.link_damping * std::sqrt(k * m_eff);
+  const std::size_t L = M_.link_count();
+  std::vector<std::vector<std::pair<std::uint32_t, std::uint8_t>>> found((L + kChunk - 1) / kChunk);
+  parallel_chunks(L, [&](std::size_t ch, std::size_t b, std::size_t e_end) {
+    for (std::size_t l = b; l < e_end; ++l) {
+      if (!S_.intact[l]) continue;
+      const std::uint32_t i = M_.link_i[l], j = M_.link_j[l];
+      const GroupParams& gi = M_.groups[M_.group[i]];
+      const GroupParams& gj = M_.groups[M_.group[j]];
+      const float eps = link_eps_[l];
+      float fi = 1.0f, fj = 1.0f, G = link_G_[l], damping = link_c_.empty() ? 0.0f : link_c_[l];
+      if (strengthening_) {
+        const float e = std::fabs(eps);
+        fi = strengthening_factor(gi.strengthening, gi.strengthening_alpha, e);
+        fj = strengthening_factor(gj.strengthening, gj.strengthening_alpha, e);
+        G = harmonic(gi.shear_modulus * fi, gj.shear_modulus * fj);
+      }
+      const int ax = M_.link_axis[l];
+      const float r0 = M_.link_r0[l];
+      LinkInput in;
+      in.g = {link_n_[l], r0 * (1.0f + eps), eps};
+      in.r0 = r0;
+      in.area = M_.link_area[l];
+      in.shear_modulus = G;
+      in.many_body = many_body_[3 * i + ax] * fi + many_body_[3 * j + ax] * fj;
+      in.damping = damping;
+      in.vi = S_.v[i];
+      in.vj = S_.v[j];
+      in.wi = S_.w[i];
+      in.wj = S_.w[j];
+      in.ut = S_.link_ut[l];
+      in.dt = dt;
+      const LinkOutput out = link_force(in);
+      S_.link_sigma[l] = out.sigma;
+      S_.link_tau[l] = out.tau;
+      const float ki = M_.class_factor[i], kj = M_.class_factor[j];
+      PairStrength ps;
+      ps.tensile = std::min(ki * gi.tensile_strength, kj * gj.tensile_strength);
+      ps.compressive = std::min(ki * gi.compressive_strength, kj * gj.compressive_strength);
+      ps.strain = std::min(ki * gi.fracture_strain, kj * gj.fracture_strain);
+      const float p = 0.5f * (mean_s_[i] + mean_s_[j]);
+      const int crit = link_break_criterion(eps * r0, r0, out.sigma, out.tau, p, ps, M_.stress_coefficient);
+      if (crit >= 0) {
+        found[ch].push_back({static_cast<std::uint32_t>(l), static_cast<std::uint8_t>(crit)});
+        continue;  // S_.intact[l] is cleared below, in link order
+      }
+      link_f_[l] = out.force_i;
+      S_.link_ut[l] = out.ut;
     }
-    in.vi = S_.v[i];
-    in.vj = S_.v[j];
-    in.wi = S_.w[i];
-    in.wj = S_.w[j];
-    in.ut = S_.link_ut[l];
-    in.dt = dt;
-    const LinkOutput out = link_force(in);
-    link_f_[l] = out.force_i;
-    link_t_[l] = out.torque;
-    S_.link_ut[l] = out.ut;
-    S_.link_sigma[l] = out.sigma;
-    S_.link_tau[l] = out.tau;
   });
+  std::vector<ContactPair> fresh;
+  for (const auto& list : found)
+    for (const auto& [l, crit] : list) {
+      S_.intact[l] = 0;
+      S_.link_ut[l] = Vec3{};
+      S_.breaks.push_back({S_.step, l, static_cast<BreakCriterion>(crit)});
+      ++S_.broken_by[crit];
+      fresh.push_back({M_.link_i[l], M_.link_j[l], Vec3{}});
+    }
+  if (fresh.empty()) return;
+  // The broken pair touches at once: it joins the contact list now, not at the next rebuild.
+  auto less = [](const ContactPair& a, const ContactPair& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; };
+  std::sort(fresh.begin(), fresh.end(), less);
+  std::vector<ContactPair> merged;
+  merged.reserve(S_.contacts.size() + fresh.size());
+  std::merge(S_.contacts.begin(), S_.contacts.end(), fresh.begin(), fresh.end(), std::back_inserter(merged), less);
+  S_.contacts.swap(merged);
 }
 
 // Contact parameters of two automata (or an automaton and a body): springs of a link in compression
@@ -339,7 +433,8 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
         if (!S_.intact[l]) continue;
         if (M_.link_i[l] == a) f += link_f_[l];
         else f -= link_f_[l];
-        t += link_t_[l];
+        // Torque (r/2) n x F_t on both ends; n x F = n x F_t, and r = r0 (1 + eps).
+        t += cross(link_n_[l], link_f_[l]) * (0.5f * M_.link_r0[l] * (1.0f + link_eps_[l]));
         // Love average (physics.md sec. 3): (r0/2) sym(n (x) F) is the same seen from either end.
         s += sym_outer(link_n_[l], link_f_[l], 0.5f * M_.link_r0[l]);
       }
@@ -383,6 +478,7 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
       const float inv_v = 1.0f / M_.volume[a];
       s.xx *= inv_v; s.yy *= inv_v; s.zz *= inv_v; s.xy *= inv_v; s.yz *= inv_v; s.zx *= inv_v;
       S_.s[a] = s;
+      mean_s_[a] = mean_stress(s);
       Body body{S_.x[a], S_.v[a], S_.w[a], S_.q[a]};
       if (M_.grip[a] >= 0) {
         // Held: moves with the grip, does not turn. ext_f_ keeps the force the body puts on the grip.
@@ -424,47 +520,6 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
   return -1;
 }
 
-void CpuBackend::fracture_pass() {
-  const std::size_t L = M_.link_count();
-  const std::size_t chunks = (L + kChunk - 1) / kChunk;
-  std::vector<std::vector<std::pair<std::uint32_t, std::uint8_t>>> found(chunks);
-  parallel_chunks(L, [&](std::size_t ch, std::size_t b, std::size_t e) {
-    for (std::size_t l = b; l < e; ++l) {
-      if (!S_.intact[l]) continue;
-      const std::uint32_t i = M_.link_i[l], j = M_.link_j[l];
-      const GroupParams& gi = M_.groups[M_.group[i]];
-      const GroupParams& gj = M_.groups[M_.group[j]];
-      const float ki = M_.class_factor[i], kj = M_.class_factor[j];
-      PairStrength ps;
-      ps.tensile = std::min(ki * gi.tensile_strength, kj * gj.tensile_strength);
-      ps.compressive = std::min(ki * gi.compressive_strength, kj * gj.compressive_strength);
-      ps.strain = std::min(ki * gi.fracture_strain, kj * gj.fracture_strain);
-      const float p = 0.5f * (mean_stress(S_.s[i]) + mean_stress(S_.s[j]));
-      const float r0 = M_.link_r0[l];
-      const int crit = link_break_criterion(link_eps_[l] * r0, r0, S_.link_sigma[l], S_.link_tau[l], p, ps,
-                                            M_.stress_coefficient);
-      if (crit >= 0) found[ch].push_back({static_cast<std::uint32_t>(l), static_cast<std::uint8_t>(crit)});
-    }
-  });
-  std::vector<ContactPair> fresh;
-  for (const auto& list : found)
-    for (const auto& [l, crit] : list) {
-      S_.intact[l] = 0;
-      S_.link_ut[l] = Vec3{};
-      S_.breaks.push_back({S_.step, l, static_cast<BreakCriterion>(crit)});
-      ++S_.broken_by[crit];
-      fresh.push_back({M_.link_i[l], M_.link_j[l], Vec3{}});
-    }
-  if (fresh.empty()) return;
-  // The broken pair touches at once: it joins the contact list now, not at the next rebuild.
-  auto less = [](const ContactPair& a, const ContactPair& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; };
-  std::sort(fresh.begin(), fresh.end(), less);
-  std::vector<ContactPair> merged;
-  merged.reserve(S_.contacts.size() + fresh.size());
-  std::merge(S_.contacts.begin(), S_.contacts.end(), fresh.begin(), fresh.end(), std::back_inserter(merged), less);
-  S_.contacts.swap(merged);
-}
-
 void CpuBackend::rebuild_contacts() {
   const std::size_t n = M_.size();
   const float skin = M_.skin;
@@ -502,19 +557,26 @@ void CpuBackend::rebuild_contacts() {
 }
 
 std::int64_t CpuBackend::one_step() {
+  PassTimer timer(profile_);
   link_geometry_pass();
+  timer.lap(0);
   many_body_pass();
+  timer.lap(1);
   link_force_pass();
+  timer.lap(2);
   contact_pass();
+  timer.lap(3);
   projectile_pass();
+  timer.lap(4);
   float max_move2 = 0;
   const std::int64_t bad = automaton_pass(max_move2);
-  fracture_pass();
+  timer.lap(5);
   ++S_.step;
   S_.time = static_cast<double>(S_.step) * M_.dt;
   // Verlet-style list: rebuild once any automaton has moved half the skin since the last rebuild.
   const float half = 0.5f * M_.skin;
   if (max_move2 > half * half) rebuild_contacts();
+  timer.lap(7);
   return bad;
 }
 
