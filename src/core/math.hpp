@@ -64,7 +64,9 @@ MCA_HD Quat integrate_orientation(Quat q, Vec3 om, float dt) {
          q.x + h * (om.x * q.w + om.y * q.z - om.z * q.y),
          q.y + h * (om.y * q.w + om.z * q.x - om.x * q.z),
          q.z + h * (om.z * q.w + om.x * q.y - om.y * q.x)};
-  const float inv = 1.0f / std::sqrt(r.w * r.w + r.x * r.x + r.y * r.y + r.z * r.z);
+  // |r|^2 = 1 + O(dt^2 omega^2): one Newton step for 1/sqrt, (3 - |r|^2) / 2, renormalises to float
+  // precision without a square root or a division.
+  const float inv = 0.5f * (3.0f - (r.w * r.w + r.x * r.x + r.y * r.y + r.z * r.z));
   return {r.w * inv, r.x * inv, r.y * inv, r.z * inv};
 }
 

@@ -53,7 +53,7 @@ struct State {
   // links
   std::vector<std::uint8_t> intact;
   std::vector<Vec3> link_ut;    // tangential displacement in the pair's frame
-  std::vector<float> link_sigma, link_tau;  // pair stresses of the last step
+  std::vector<float> link_sigma;  // normal stress of the last step (shear: k_s G |link_ut| / r0)
 
   std::vector<ContactPair> contacts;        // sorted by (i, j)
   std::vector<DVec3> x_at_rebuild;           // positions when the contact list was last rebuilt

@@ -91,7 +91,6 @@ void write_checkpoint(const std::filesystem::path& path, const Checkpoint& cp) {
     w.vec(s.intact);
     w.vec(s.link_ut);
     w.vec(s.link_sigma);
-    w.vec(s.link_tau);
     w.vec(s.contacts);
     w.vec(s.x_at_rebuild);
     w.pod<std::uint64_t>(s.projectiles.size());
@@ -143,7 +142,6 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   r.vec(s.intact);
   r.vec(s.link_ut);
   r.vec(s.link_sigma);
-  r.vec(s.link_tau);
   r.vec(s.contacts);
   r.vec(s.x_at_rebuild);
   const auto np = r.pod<std::uint64_t>();

@@ -6,29 +6,25 @@
 namespace mca {
 
 struct PairStrength {
-  float tensile;      // k_c * sigma_t of the weaker automaton
-  float compressive;  // k_c * sigma_c of the weaker automaton
-  float strain;       // k_c * eps_b, the smaller of the two
+  float tensile;  // k_c * sigma_t of the weaker automaton
+  float ratio;    // sigma_t / sigma_c of the pair (weaker automaton's strengths), in (0, 1]
+  float strain;   // k_c * eps_b, the smaller of the two
 };
 
 // Equivalent stress of a pair from its own normal and shear stress (q = sqrt(sigma^2 + 3 tau^2)) and the
 // mean stress p of its two automata, in the Drucker-Prager form sigma_eq = A q + B p, compared with the
 // tensile strength. A, B make uniaxial tension fail at sigma_t and uniaxial compression at sigma_c:
 // A + B/3 = 1, A - B/3 = sigma_t / sigma_c. Equal strengths give A = 1, B = 0 (von Mises).
-MCA_HD float equivalent_stress(float sigma, float tau, float p, float tensile, float compressive) {
-  const float q = std::sqrt(sigma * sigma + 3.0f * tau * tau);
-  const float inv_a = tensile / compressive;
-  const float A = 0.5f * (1.0f + inv_a);
-  const float B = 1.5f * (1.0f - inv_a);
-  return A * q + B * p;
+MCA_HD float equivalent_stress(float sigma, float tau2, float p, float ratio) {
+  const float q = std::sqrt(sigma * sigma + 3.0f * tau2);
+  return 0.5f * (1.0f + ratio) * q + 1.5f * (1.0f - ratio) * p;
 }
 
 // -1: stays linked; 0: breaks by the displacement criterion; 1: by the equivalent-stress criterion.
-MCA_HD int link_break_criterion(float h, float r0, float sigma, float tau, float p, const PairStrength& s,
+MCA_HD int link_break_criterion(float h, float r0, float sigma, float tau2, float p, const PairStrength& s,
                                 float stress_coefficient) {
   if (h > r0 * s.strain) return 0;
-  if (equivalent_stress(sigma, tau, p, s.tensile, s.compressive) >= stress_coefficient * s.tensile)
-    return 1;
+  if (equivalent_stress(sigma, tau2, p, s.ratio) >= stress_coefficient * s.tensile) return 1;
   return -1;
 }
 

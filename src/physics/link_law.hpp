@@ -19,7 +19,7 @@
 //
 // Shear (paper eq. 10, contact point at mid-distance).  The tangential displacement u_t of j's contact
 // point relative to i's is integrated from V_s and kept tangent; F_t = k_s G S u_t / r0 acts on i, -F_t on
-// j, and both automata feel the torque (r/2) n x F_t.
+// j, and both automata feel the torque (r/2) n x F_t (= (r/2) n x F, since n x n = 0).
 #include "core/math.hpp"
 
 namespace mca {
@@ -35,36 +35,46 @@ MCA_HD float strengthening_factor(int law, float alpha, float e) {
   return 1.0f;
 }
 
+// 1 / n for the link counts of one axis (at most 2 in a lattice): a multiply instead of a division.
+MCA_HD float inverse_count(int n) { return n == 1 ? 1.0f : (n == 2 ? 0.5f : 1.0f / static_cast<float>(n)); }
+
+// free_factor[f] = 1 / (1 + f lambda / (2 G)) of the automaton's group, for f = 0..3 free axes.
+MCA_HD void free_axis_factors(float lambda, float shear_modulus, float free_factor[4]) {
+  for (int f = 0; f < 4; ++f) free_factor[f] = 1.0f / (1.0f + static_cast<float>(f) * lambda / (2.0f * shear_modulus));
+}
+
 // Volumetric strain of an automaton from, per lattice axis, the summed strain and count of its intact
 // links along it. Axes without links are free: e_f = -lambda theta / (2 G) each, so
 // theta = sum_linked / (1 + n_free lambda / (2 G)).
-MCA_HD float volumetric_strain(const float sum[3], const int cnt[3], float lambda, float shear_modulus) {
+MCA_HD float volumetric_strain(const float sum[3], const int cnt[3], const float free_factor[4]) {
   float linked = 0.0f;
   int free_axes = 0;
   for (int a = 0; a < 3; ++a) {
-    if (cnt[a]) linked += sum[a] / static_cast<float>(cnt[a]);
+    if (cnt[a]) linked += sum[a] * inverse_count(cnt[a]);
     else ++free_axes;
   }
-  return linked / (1.0f + static_cast<float>(free_axes) * lambda / (2.0f * shear_modulus));
+  return linked * free_factor[free_axes];
 }
 
+// Link direction and strain; inv_r0 = 1 / r0 (precomputed: no division per link).
 struct LinkGeometry {
   Vec3 n;     // unit vector from i to j
   float r;    // current distance
   float eps;  // pair strain h / r0, positive in tension
 };
 
-MCA_HD LinkGeometry link_geometry(DVec3 xi, DVec3 xj, float r0) {
+MCA_HD LinkGeometry link_geometry(DVec3 xi, DVec3 xj, float r0, float inv_r0) {
   const Vec3 d = delta(xi, xj);
   const float r = length(d);
   const float inv = r > 0.0f ? 1.0f / r : 0.0f;
-  return {d * inv, r, (r - r0) / r0};
+  return {d * inv, r, (r - r0) * inv_r0};  // r - r0 is exact (Sterbenz): eps keeps its relative precision
 }
 
 struct LinkInput {
   LinkGeometry g;
-  float r0, area;
-  float shear_modulus;      // G_ij of the pair, strengthening applied
+  float area;
+  float two_g;              // 2 G_ij of the pair, strengthening applied
+  float kt;                 // tangential spring k_s G_ij S / r0 [N/m], strengthening applied
   float many_body;          // P_i + P_j, strengthening applied
   float damping;            // viscous coefficient [N s/m] of relative motion (0: none)
   Vec3 vi, vj, wi, wj;
@@ -73,36 +83,27 @@ struct LinkInput {
 };
 
 struct LinkOutput {
-  Vec3 force_i;   // force on i (on j: the opposite)
-  Vec3 torque;    // torque on both i and j
+  Vec3 force_i;   // force on i (on j: the opposite); the torque on both is (r/2) n x force_i
   Vec3 ut;        // updated tangential displacement
   float sigma;    // normal stress (tension > 0)
-  float tau;      // shear stress magnitude
+  float tau2;     // shear stress squared, (kt |ut| / S)^2
 };
-
-MCA_HD Vec3 keep_tangent(Vec3 ut, Vec3 n) {
-  // Rotate the stored displacement with the pair: drop its normal part, keep its length.
-  const float before = dot(ut, ut);
-  if (before == 0.0f) return ut;
-  const Vec3 p = ut - dot(ut, n) * n;
-  const float after = dot(p, p);
-  return after > 0.0f ? p * std::sqrt(before / after) : Vec3{};
-}
 
 MCA_HD LinkOutput link_force(const LinkInput& in) {
   const Vec3 n = in.g.n;
   LinkOutput out;
-  out.sigma = 2.0f * in.shear_modulus * in.g.eps + in.many_body;  // paper eq. 5, phi = 2G
+  out.sigma = in.two_g * in.g.eps + in.many_body;  // paper eq. 5, phi = 2G
   // Relative velocity of j's contact point with respect to i's (paper eq. 10).
   const Vec3 vrel = (in.vj - in.vi) - (0.5f * in.g.r) * cross(in.wi + in.wj, n);
   const float vn = dot(vrel, n);
   const Vec3 vs = vrel - vn * n;
-  out.ut = keep_tangent(in.ut, n) + vs * in.dt;
-  const float ks = kShearFactor * in.shear_modulus * in.area / in.r0;  // tangential spring [N/m]
-  const Vec3 ft = ks * out.ut + in.damping * vs;
-  out.tau = kShearFactor * in.shear_modulus * length(out.ut) / in.r0;
+  // The stored displacement turns with the pair: its normal part is dropped (a second-order loss of
+  // length under rotation, which only dissipates).
+  out.ut = (in.ut - dot(in.ut, n) * n) + vs * in.dt;
+  const Vec3 ft = in.kt * out.ut + in.damping * vs;
+  const float tau_s = in.kt / in.area;
+  out.tau2 = tau_s * tau_s * dot(out.ut, out.ut);
   out.force_i = (out.sigma * in.area + in.damping * vn) * n + ft;  // paper eqs. 11, 12
-  out.torque = cross((0.5f * in.g.r) * n, ft);
   return out;
 }
 

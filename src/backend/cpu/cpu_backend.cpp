@@ -11,6 +11,7 @@
 // Links write their forces; automata gather them in link order. No floating-point atomics, no
 // order-dependent reductions: results are bitwise identical for any thread count.
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -92,13 +93,35 @@ class CpuBackend final : public Backend {
     const std::size_t n = m.size(), L = m.link_count();
     link_n_.resize(L);
     link_eps_.resize(L);
-    link_f_.resize(L);
+    link_out_.resize(L);
     // Pair constants that do not change during the run (without strengthening).
     link_G_.resize(L);
+    link_kt_.resize(L);
+    link_strength_.resize(L);
+    link_inv_r0_.resize(L);
+    for (std::size_t l = 0; l < L; ++l) link_inv_r0_[l] = 1.0f / m.link_r0[l];
+    free_factor_.resize(m.groups.size());
+    for (std::size_t g = 0; g < m.groups.size(); ++g)
+      free_axis_factors(m.groups[g].lame_lambda, m.groups[g].shear_modulus, free_factor_[g].data());
+    inv_mass_.resize(n);
+    inv_inertia_.resize(n);
+    inv_volume_.resize(n);
+    for (std::size_t a = 0; a < n; ++a) {
+      inv_mass_[a] = 1.0f / m.mass[a];
+      inv_inertia_[a] = 1.0f / m.inertia[a];
+      inv_volume_[a] = 1.0f / m.volume[a];
+    }
     for (std::size_t l = 0; l < L; ++l) {
       const GroupParams& gi = m.groups[m.group[m.link_i[l]]];
       const GroupParams& gj = m.groups[m.group[m.link_j[l]]];
       link_G_[l] = harmonic(gi.shear_modulus, gj.shear_modulus);
+      link_kt_[l] = kShearFactor * link_G_[l] * m.link_area[l] / m.link_r0[l];
+      // Strengths of the weaker automaton (physics.md sec. 4), scaled by the class factors.
+      const std::uint32_t i = m.link_i[l], j = m.link_j[l];
+      const float ki = m.class_factor[i], kj = m.class_factor[j];
+      const float tensile = std::min(ki * gi.tensile_strength, kj * gj.tensile_strength);
+      const float compressive = std::min(ki * gi.compressive_strength, kj * gj.compressive_strength);
+      link_strength_[l] = {tensile, tensile / compressive, std::min(ki * gi.fracture_strain, kj * gj.fracture_strain)};
       if (m.link_damping > 0.0f) {
         // Share of the critical damping of the pair's normal spring.
         if (link_c_.empty()) link_c_.resize(L);
@@ -158,9 +181,20 @@ class CpuBackend final : public Backend {
   const Model& M_;
   State S_;
   // scratch, rebuilt every step
-  std::vector<Vec3> link_n_, link_f_;
+  // Per link, written by the link pass and gathered by both ends in the automaton pass.
+  struct LinkGather {
+    Vec3 force;   // on i; j gets the opposite
+    Vec3 torque;  // on both
+    Sym3 stress;  // (r0/2) sym(n (x) F), for both averages
+  };
+  std::vector<Vec3> link_n_;
+  std::vector<LinkGather> link_out_;
   std::vector<float> link_eps_, many_body_;
-  std::vector<float> link_G_, link_c_;  // pair shear modulus and damping coefficient
+  std::vector<float> link_G_, link_kt_, link_c_;  // pair shear modulus, shear spring, damping
+  std::vector<float> inv_mass_, inv_inertia_, inv_volume_;
+  std::vector<PairStrength> link_strength_;
+  std::vector<float> link_inv_r0_;
+  std::vector<std::array<float, 4>> free_factor_;  // per group, see volumetric_strain
   std::vector<float> mean_s_;           // mean of the averaged stress s of each automaton
   bool strengthening_ = false;
   std::vector<Vec3> ext_f_, ext_t_;
@@ -184,7 +218,7 @@ bool CpuBackend::linked(std::uint32_t i, std::uint32_t j) const {
 void CpuBackend::link_geometry_pass() {
   parallel_range(M_.link_count(), [&](std::size_t l) {
     if (!S_.intact[l]) return;
-    const LinkGeometry g = link_geometry(S_.x[M_.link_i[l]], S_.x[M_.link_j[l]], M_.link_r0[l]);
+    const LinkGeometry g = link_geometry(S_.x[M_.link_i[l]], S_.x[M_.link_j[l]], M_.link_r0[l], link_inv_r0_[l]);
     link_n_[l] = g.n;
     link_eps_[l] = g.eps;
   });
@@ -200,10 +234,9 @@ void CpuBackend::many_body_pass() {
       sum[M_.link_axis[l]] += link_eps_[l];
       ++cnt[M_.link_axis[l]];
     }
-    const GroupParams& g = M_.groups[M_.group[a]];
-    const float theta = volumetric_strain(sum, cnt, g.lame_lambda, g.shear_modulus);
-    for (int ax = 0; ax < 3; ++ax)
-      many_body_[3 * a + ax] = cnt[ax] ? g.lame_lambda * theta / static_cast<float>(cnt[ax]) : 0.0f;
+    const int grp = M_.group[a];
+    const float lam_theta = M_.groups[grp].lame_lambda * volumetric_strain(sum, cnt, free_factor_[grp].data());
+    for (int ax = 0; ax < 3; ++ax) many_body_[3 * a + ax] = cnt[ax] ? lam_theta * inverse_count(cnt[ax]) : 0.0f;
   });
 }
 
@@ -217,50 +250,65 @@ void CpuBackend::link_force_pass() {
   const std::size_t L = M_.link_count();
   std::vector<std::vector<std::pair<std::uint32_t, std::uint8_t>>> found((L + kChunk - 1) / kChunk);
   parallel_chunks(L, [&](std::size_t ch, std::size_t b, std::size_t e_end) {
+    const std::uint8_t* __restrict intact = S_.intact.data();
+    const std::uint32_t* __restrict li = M_.link_i.data();
+    const std::uint32_t* __restrict lj = M_.link_j.data();
+    const float* __restrict leps = link_eps_.data();
+    const Vec3* __restrict ln = link_n_.data();
+    const float* __restrict mb = many_body_.data();
+    const Vec3* __restrict v = S_.v.data();
+    const Vec3* __restrict w = S_.w.data();
+    Vec3* __restrict ut = S_.link_ut.data();
+    LinkGather* __restrict lf = link_out_.data();
+    float* __restrict sigma = S_.link_sigma.data();
+    const float* __restrict ms = mean_s_.data();
     for (std::size_t l = b; l < e_end; ++l) {
-      if (!S_.intact[l]) continue;
-      const std::uint32_t i = M_.link_i[l], j = M_.link_j[l];
-      const GroupParams& gi = M_.groups[M_.group[i]];
-      const GroupParams& gj = M_.groups[M_.group[j]];
-      const float eps = link_eps_[l];
-      float fi = 1.0f, fj = 1.0f, G = link_G_[l], damping = link_c_.empty() ? 0.0f : link_c_[l];
+      if (!intact[l]) continue;
+      const std::uint32_t i = li[l], j = lj[l];
+      const float eps = leps[l];
+      float fi = 1.0f, fj = 1.0f, two_g = 2.0f * link_G_[l], kt = link_kt_[l];
       if (strengthening_) {
+        const GroupParams& gi = M_.groups[M_.group[i]];
+        const GroupParams& gj = M_.groups[M_.group[j]];
         const float e = std::fabs(eps);
         fi = strengthening_factor(gi.strengthening, gi.strengthening_alpha, e);
         fj = strengthening_factor(gj.strengthening, gj.strengthening_alpha, e);
-        G = harmonic(gi.shear_modulus * fi, gj.shear_modulus * fj);
+        const float G = harmonic(gi.shear_modulus * fi, gj.shear_modulus * fj);
+        two_g = 2.0f * G;
+        kt = kShearFactor * G * M_.link_area[l] / M_.link_r0[l];
       }
       const int ax = M_.link_axis[l];
       const float r0 = M_.link_r0[l];
       LinkInput in;
-      in.g = {link_n_[l], r0 * (1.0f + eps), eps};
-      in.r0 = r0;
+      in.g = {ln[l], r0 * (1.0f + eps), eps};
       in.area = M_.link_area[l];
-      in.shear_modulus = G;
-      in.many_body = many_body_[3 * i + ax] * fi + many_body_[3 * j + ax] * fj;
-      in.damping = damping;
-      in.vi = S_.v[i];
-      in.vj = S_.v[j];
-      in.wi = S_.w[i];
-      in.wj = S_.w[j];
-      in.ut = S_.link_ut[l];
+      in.two_g = two_g;
+      in.kt = kt;
+      in.many_body = mb[3 * i + ax] * fi + mb[3 * j + ax] * fj;
+      in.damping = link_c_.empty() ? 0.0f : link_c_[l];
+      in.vi = v[i];
+      in.vj = v[j];
+      in.wi = w[i];
+      in.wj = w[j];
+      in.ut = ut[l];
       in.dt = dt;
       const LinkOutput out = link_force(in);
-      S_.link_sigma[l] = out.sigma;
-      S_.link_tau[l] = out.tau;
-      const float ki = M_.class_factor[i], kj = M_.class_factor[j];
-      PairStrength ps;
-      ps.tensile = std::min(ki * gi.tensile_strength, kj * gj.tensile_strength);
-      ps.compressive = std::min(ki * gi.compressive_strength, kj * gj.compressive_strength);
-      ps.strain = std::min(ki * gi.fracture_strain, kj * gj.fracture_strain);
-      const float p = 0.5f * (mean_s_[i] + mean_s_[j]);
-      const int crit = link_break_criterion(eps * r0, r0, out.sigma, out.tau, p, ps, M_.stress_coefficient);
+      sigma[l] = out.sigma;
+      const float p = 0.5f * (ms[i] + ms[j]);
+      const int crit = link_break_criterion(eps * r0, r0, out.sigma, out.tau2, p, link_strength_[l],
+                                            M_.stress_coefficient);
       if (crit >= 0) {
         found[ch].push_back({static_cast<std::uint32_t>(l), static_cast<std::uint8_t>(crit)});
         continue;  // S_.intact[l] is cleared below, in link order
       }
-      link_f_[l] = out.force_i;
-      S_.link_ut[l] = out.ut;
+      // What both ends gather: the force, the torque (r/2) n x F_t = (r/2) n x F (n x n = 0, r = r0 (1 + eps))
+      // and the Love average term (r0/2) sym(n (x) F) of physics.md sec. 3, the same from either end.
+      const Vec3 hf = out.force_i * (0.5f * r0);
+      const Vec3 nl = in.g.n;
+      lf[l] = {out.force_i, cross(nl, hf) * (1.0f + eps),
+               {nl.x * hf.x, nl.y * hf.y, nl.z * hf.z, 0.5f * (nl.x * hf.y + nl.y * hf.x),
+                0.5f * (nl.y * hf.z + nl.z * hf.y), 0.5f * (nl.z * hf.x + nl.x * hf.z)}};
+      ut[l] = out.ut;
     }
   });
   std::vector<ContactPair> fresh;
@@ -423,20 +471,25 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
   std::vector<std::int64_t> chunk_bad(chunks, -1);
   parallel_chunks(n, [&](std::size_t ch, std::size_t b, std::size_t e) {
     float move2 = 0;
+    // Plain local pointers: the compiler cannot keep vector internals in registers across the stores.
+    const std::uint32_t* __restrict adj_begin = M_.adj_begin.data();
+    const std::uint32_t* __restrict adj_link = M_.adj_link.data();
+    const std::uint32_t* __restrict link_i = M_.link_i.data();
+    const std::uint8_t* __restrict intact = S_.intact.data();
+    const LinkGather* __restrict lf = link_out_.data();
     for (std::size_t a = b; a < e; ++a) {
       const float m = M_.mass[a];
       Vec3 f = M_.gravity * m;
       Vec3 t;
       Sym3 s;
-      for (std::uint32_t k = M_.adj_begin[a]; k < M_.adj_begin[a + 1]; ++k) {
-        const std::uint32_t l = M_.adj_link[k];
-        if (!S_.intact[l]) continue;
-        if (M_.link_i[l] == a) f += link_f_[l];
-        else f -= link_f_[l];
-        // Torque (r/2) n x F_t on both ends; n x F = n x F_t, and r = r0 (1 + eps).
-        t += cross(link_n_[l], link_f_[l]) * (0.5f * M_.link_r0[l] * (1.0f + link_eps_[l]));
-        // Love average (physics.md sec. 3): (r0/2) sym(n (x) F) is the same seen from either end.
-        s += sym_outer(link_n_[l], link_f_[l], 0.5f * M_.link_r0[l]);
+      for (std::uint32_t k = adj_begin[a]; k < adj_begin[a + 1]; ++k) {
+        const std::uint32_t l = adj_link[k];
+        if (!intact[l]) continue;
+        const LinkGather& g = lf[l];
+        if (link_i[l] == a) f += g.force;
+        else f -= g.force;
+        t += g.torque;
+        s += g.stress;
       }
       if (has_ext_[a]) {
         f += ext_f_[a];
@@ -471,11 +524,11 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
           f += o.force_i;
           t += cross(r * nrm, o.ft);
           s += sym_outer(nrm, o.force_i, r);
-        } else {
-          S_.ground_ut[a] = Vec3{};
+        } else if (S_.ground_ut[a].x != 0.0f || S_.ground_ut[a].y != 0.0f || S_.ground_ut[a].z != 0.0f) {
+          S_.ground_ut[a] = Vec3{};  // written only when it changes: most automata never touch the ground
         }
       }
-      const float inv_v = 1.0f / M_.volume[a];
+      const float inv_v = inv_volume_[a];
       s.xx *= inv_v; s.yy *= inv_v; s.zz *= inv_v; s.xy *= inv_v; s.yz *= inv_v; s.zx *= inv_v;
       S_.s[a] = s;
       mean_s_[a] = mean_stress(s);
@@ -487,7 +540,7 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
         body.w = Vec3{};
         ext_f_[a] = f;
       } else {
-        integrate_body(body, f, t, 1.0f / m, 1.0f / M_.inertia[a], dt, M_.local_damping);
+        integrate_body(body, f, t, inv_mass_[a], inv_inertia_[a], dt, M_.local_damping);
       }
       S_.f[a] = f;
       S_.t[a] = t;
@@ -599,7 +652,6 @@ State initial_state(const Model& m) {
   s.intact.assign(L, 1);
   s.link_ut.assign(L, Vec3{});
   s.link_sigma.assign(L, 0.0f);
-  s.link_tau.assign(L, 0.0f);
   for (const auto& p : m.projectiles) {
     ProjectileState ps;
     ps.position = to_dvec3(p.position);

@@ -59,7 +59,7 @@ Energies compute_energies_at(const Model& m, const State& s) {
   for (std::size_t l = 0; l < m.link_count(); ++l) {
     if (!s.intact[l]) continue;
     const std::uint32_t i = m.link_i[l], j = m.link_j[l];
-    const LinkGeometry g = link_geometry(s.x[i], s.x[j], m.link_r0[l]);
+    const LinkGeometry g = link_geometry(s.x[i], s.x[j], m.link_r0[l], 1.0f / m.link_r0[l]);
     const double G = harmonic_d(m.groups[m.group[i]].shear_modulus, m.groups[m.group[j]].shear_modulus);
     const double V = static_cast<double>(m.link_area[l]) * m.link_r0[l];
     const double kt = kShearFactor * G * m.link_area[l] / m.link_r0[l];
