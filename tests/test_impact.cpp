@@ -23,6 +23,7 @@ Outcome impact(double speed, const std::string& preset, std::uint64_t seed) {
   s.projectiles[0].position = {0, -0.075 - 0.08 - 0.01, 0.3};
   s.projectiles[0].velocity = {0, speed, 0};
   s.heterogeneity.preset = preset;
+  s.heterogeneity.grain_size = 0;  // independent classes per automaton, as in the paper
   heterogeneity_preset(preset, s.heterogeneity.shares);
   s.solver.seed = seed;
   s.output.frame_rate = 1000;

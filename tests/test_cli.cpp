@@ -1,0 +1,215 @@
+// End to end through the `mca` command: files written, JSON contents, resume, and bad input.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <sys/wait.h>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Result {
+  int code = -1;
+  std::string output;  // stdout and stderr
+};
+
+Result mca(const std::string& args) {
+  const std::string cmd = std::string(MCA_BINARY) + " " + args + " 2>&1";
+  Result r;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf{};
+  std::size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.output.append(buf.data(), n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("mca_cli_" + name);
+  fs::remove_all(d);
+  return d;
+}
+
+std::string read(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// The default wall, smaller and shorter so the test runs in seconds.
+fs::path small_scene(const fs::path& dir, const std::string& extra = "") {
+  fs::create_directories(dir);
+  const fs::path p = dir / "small.toml";
+  std::ofstream(p) << R"(name = "small"
+[solver]
+spacing = 0.05
+[output]
+duration = 0.004
+frame_rate = 1000
+[heterogeneity]
+preset = "medium"
+[ground]
+enabled = true
+[[object]]
+name = "wall"
+size = [0.6, 0.15, 0.5]
+position = [0, 0, 0.25]
+[[projectile]]
+radius = 0.08
+position = [0, -0.17, 0.25]
+velocity = [0, 60, 0]
+)" << extra;
+  return p;
+}
+
+TEST(Cli, RunWritesFramesStatsAndSummary) {
+  const fs::path d = fresh_dir("run");
+  const fs::path scene = small_scene(d);
+  const Result r = mca("run " + scene.string() + " --out " + (d / "out").string() + " --threads 2");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("done:"), std::string::npos) << r.output;
+  const fs::path out = d / "out";
+  for (const char* f : {"automata.pvd", "projectiles.pvd", "stats.csv", "summary.json", "scene.toml",
+                        "frames/automata_000000.vtu", "frames/automata_000004.vtu"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  for (const auto& e : fs::recursive_directory_iterator(out))
+    EXPECT_NE(e.path().extension(), ".tmp") << "left a temporary file: " << e.path();
+
+  const auto j = nlohmann::json::parse(read(out / "summary.json"));
+  EXPECT_EQ(j["scene"], "small");
+  EXPECT_EQ(j["status"], "finished");
+  EXPECT_EQ(j["automata"], 12 * 3 * 10);
+  EXPECT_GT(j["broken_links"]["total"].get<int>(), 0);
+  EXPECT_GT(j["automaton_steps_per_second"].get<double>(), 0);
+  double mass = 0;
+  std::int64_t automata = 0;
+  for (const auto& f : j["fragments"]) {
+    mass += f["mass"].get<double>();
+    automata += f["automata"].get<std::int64_t>();
+  }
+  mass += j["unlisted_fragments"]["mass"].get<double>();
+  EXPECT_NEAR(mass, j["total_mass"].get<double>(), 1e-9 * j["total_mass"].get<double>());
+  EXPECT_EQ(automata, 360);
+  EXPECT_EQ(j["fragment_count"].get<std::size_t>(), j["fragments"].size());
+  // Largest first.
+  for (std::size_t k = 1; k < j["fragments"].size(); ++k)
+    EXPECT_GE(j["fragments"][k - 1]["automata"].get<int>(), j["fragments"][k]["automata"].get<int>());
+
+  // stats.csv: a header and one row per frame (0..4), broken links never decrease.
+  std::istringstream csv(read(out / "stats.csv"));
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line.rfind("frame,time,kinetic_energy", 0), 0u) << line;
+  int rows = 0;
+  long last_broken = -1;
+  while (std::getline(csv, line)) {
+    ++rows;
+    std::vector<std::string> cells;
+    std::stringstream ls(line);
+    for (std::string c; std::getline(ls, c, ',');) cells.push_back(c);
+    ASSERT_GE(cells.size(), 13u);
+    const long broken = std::stol(cells[10]);
+    EXPECT_GE(broken, last_broken);
+    last_broken = broken;
+  }
+  EXPECT_EQ(rows, 5);
+  EXPECT_NE(read(out / "automata.pvd").find("frames/automata_000004.vtu"), std::string::npos);
+}
+
+TEST(Cli, ResumedRunEndsBitwiseEqualToAnUninterruptedOne) {
+  const fs::path d = fresh_dir("resume");
+  const fs::path scene = small_scene(d);
+  const fs::path a = d / "a";
+  ASSERT_EQ(mca("run " + scene.string() + " --out " + a.string() + " -q").code, 0);
+  // Build the interrupted run: frames 0..2 with a checkpoint at frame 2.
+  const fs::path c = d / "c2";
+  ASSERT_EQ(mca("run " + scene.string() + " --out " + c.string() + " -q --checkpoint-every 2").code, 0);
+  std::vector<fs::path> cks;
+  for (const auto& e : fs::directory_iterator(c / "checkpoints")) cks.push_back(e.path());
+  std::sort(cks.begin(), cks.end());
+  ASSERT_GE(cks.size(), 2u);
+  fs::remove(cks.back());  // the newest (frame 4) is "lost": resume starts from frame 2
+  fs::remove(c / "summary.json");
+  const Result r = mca("resume " + c.string() + " -q");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto ja = nlohmann::json::parse(read(a / "summary.json"));
+  const auto jc = nlohmann::json::parse(read(c / "summary.json"));
+  EXPECT_EQ(ja["state_hash"], jc["state_hash"]);
+  EXPECT_EQ(ja["steps"], jc["steps"]);
+  EXPECT_EQ(read(a / "stats.csv"), read(c / "stats.csv"));
+}
+
+TEST(Cli, InfoReportsTheModel) {
+  const fs::path d = fresh_dir("info");
+  const Result r = mca("info " + small_scene(d).string() + " --json");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto j = nlohmann::json::parse(r.output);
+  EXPECT_EQ(j["automata"], 360);
+  EXPECT_GT(j["links"].get<int>(), 0);
+  EXPECT_GT(j["time_step"].get<double>(), 0);
+  EXPECT_GT(j["steps_per_frame"].get<int>(), 0);
+  EXPECT_GT(j["memory_bytes"].get<double>(), 0);
+  const Result text = mca("info");
+  EXPECT_EQ(text.code, 0);
+  EXPECT_NE(text.output.find("4800"), std::string::npos) << text.output;
+}
+
+TEST(Cli, BadInputFailsWithAClearMessage) {
+  const fs::path d = fresh_dir("bad");
+  // Missing scene file: names the file.
+  Result r = mca("run " + (d / "nope.toml").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("nope.toml"), std::string::npos) << r.output;
+  // Unknown key: did-you-mean and the line.
+  fs::create_directories(d);
+  std::ofstream(d / "typo.toml") << "[solver]\nspacnig = 0.05\n[[object]]\nsize = [1, 1, 1]\n";
+  r = mca("run " + (d / "typo.toml").string() + " --out " + (d / "o").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("spacing"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(":2:"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(d / "o" / "summary.json"));
+  // Projectile inside the object.
+  const fs::path inside = small_scene(d / "inside");
+  std::string text = read(inside);
+  text.replace(text.find("position = [0, -0.17, 0.25]"), 27, "position = [0, 0.0, 0.25]");
+  std::ofstream(inside) << text;
+  r = mca("run " + inside.string() + " --out " + (d / "o2").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("projectile[0]"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("move the projectile"), std::string::npos) << r.output;
+  // Unwritable output folder (a path under a regular file fails even as root).
+  std::ofstream(d / "file") << "x";
+  r = mca("run " + small_scene(d / "w").string() + " --out " + (d / "file" / "out").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find((d / "file" / "out").string()), std::string::npos) << r.output;
+  // Too many automata for the memory limit, with the estimate.
+  const fs::path huge = small_scene(d / "huge");
+  text = read(huge);
+  text.replace(text.find("spacing = 0.05"), 14, "spacing = 0.0005\nmax_memory_gb = 1");
+  std::ofstream(huge) << text;
+  r = mca("run " + huge.string() + " --out " + (d / "o3").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("GB"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("spacing"), std::string::npos) << r.output;
+  // Command-line values.
+  r = mca("run --duration -1");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.output.find("--duration"), std::string::npos) << r.output;
+  r = mca("bench no_such_bench");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("wall_357k"), std::string::npos) << r.output;
+  r = mca("resume " + (d / "empty").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("checkpoint"), std::string::npos) << r.output;
+}
+
+}  // namespace
