@@ -18,6 +18,7 @@ SceneDef small_impact() {
   SceneDef s = io::load_default_scene();
   s.objects[0].size = {0.8, 0.2, 0.6};
   s.objects[0].position = {0, 0, 0.3};
+  s.projectiles[0].radius = 0.1;
   s.projectiles[0].position = {0, -0.25, 0.3};
   s.projectiles[0].velocity = {0, 80, 0};
   s.output.frame_rate = 1000;

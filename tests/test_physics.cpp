@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "support.hpp"
@@ -64,6 +65,8 @@ TEST(Physics, MomentumIsConservedWhileTheBlockBreaks) {
   EXPECT_GT(sim.state().broken_by[0] + sim.state().broken_by[1], 100) << "the test should exercise fracture";
   EXPECT_GT(sim.state().contacts.size(), 0u) << "the test should exercise contacts";
   for (int k = 0; k < 3; ++k) {
+    std::printf("momentum axis %d: linear %.2g, angular %.2g (relative change)\n", k,
+                std::fabs(after.p[k] - before.p[k]) / before.p_scale, std::fabs(after.l[k] - before.l[k]) / before.l_scale);
     EXPECT_LT(std::fabs(after.p[k] - before.p[k]) / before.p_scale, 1e-5) << "linear momentum, axis " << k;
     EXPECT_LT(std::fabs(after.l[k] - before.l[k]) / before.l_scale, 1e-5) << "angular momentum, axis " << k;
   }
@@ -83,6 +86,7 @@ TEST(Physics, EnergyIsConservedWithoutDampingOrFracture) {
   const Energies e = sim.energies();
   EXPECT_GT(e.elastic, 0.2 * total0) << "energy should move between kinetic and elastic";
   EXPECT_LT(worst, 0.01) << "kinetic + elastic energy drifted over 10,000 steps";
+  std::printf("energy: largest relative change of kinetic + elastic over 10,000 steps %.3g\n", worst);
 }
 
 // Mean strain of intact links along `axis` (and the mean lateral shear slopes) in the central region.
@@ -141,6 +145,7 @@ TEST(Physics, BlockInUniaxialStressReturnsYoungsModulusAndPoissonRatio) {
   const StrainProbe p = probe(sim.model(), sim.state(), 0.25 * n * d);
   const double E_measured = sigma / p.axial[0];
   const double nu_y = -p.axial[1] / p.axial[0], nu_z = -p.axial[2] / p.axial[0];
+  std::printf("uniaxial stress: E %.4g (input %.4g), nu %.4f / %.4f (input %.2f)\n", E_measured, E, nu_y, nu_z, nu);
   EXPECT_NEAR(E_measured / E, 1.0, 0.02) << "E measured " << E_measured;
   EXPECT_NEAR(nu_y / nu, 1.0, 0.02) << "nu measured (y) " << nu_y;
   EXPECT_NEAR(nu_z / nu, 1.0, 0.02) << "nu measured (z) " << nu_z;
@@ -184,6 +189,7 @@ TEST(Physics, BlockInSimpleShearReturnsShearModulus) {
   const double span = (n - 1) * d;
   const double gamma = (ux[1] / cx[1] - ux[0] / cx[0]) / span + (uy[1] / cy[1] - uy[0] / cy[0]) / span;
   const double G = E / (2 * (1 + nu));
+  std::printf("simple shear: G %.4g (expected %.4g)\n", tau / gamma, G);
   EXPECT_NEAR((tau / gamma) / G, 1.0, 0.03) << "G measured " << tau / gamma << ", expected " << G;
 }
 
@@ -219,6 +225,7 @@ TEST(Physics, WaveInABarTravelsAtTheBarSpeed) {
   ASSERT_GT(t1, 0);
   ASSERT_GT(t2, t1);
   const double speed = (st2 - st1) * d / (t2 - t1);
+  std::printf("bar wave: %.1f m/s (sqrt(E/rho) = %.1f m/s)\n", speed, c);
   EXPECT_NEAR(speed / c, 1.0, 0.03) << "wave speed " << speed << " m/s, bar speed " << c;
 }
 
@@ -244,6 +251,8 @@ double breaking_stress(double tensile, double fracture_strain, int& criterion) {
     sim.advance(1);
   }
   criterion = sim.state().breaks.empty() ? -1 : static_cast<int>(sim.state().breaks.front().criterion);
+  std::printf("tension bar: breaks at %.4g Pa by criterion %d (tensile %.3g Pa, E eps_b %.3g Pa)\n", peak / (d * d),
+              criterion, tensile, 30e9 * fracture_strain);
   return peak / (d * d);
 }
 

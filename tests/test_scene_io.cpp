@@ -62,7 +62,8 @@ TEST(SceneIo, DefaultSceneIsTheWallAndBall) {
   EXPECT_EQ(s.heterogeneity.shares, (std::array<double, 4>{0.0, 0.15, 0.20, 0.65}));
   ASSERT_EQ(s.projectiles.size(), 1u);
   EXPECT_EQ(s.projectiles[0].material, "steel");
-  EXPECT_DOUBLE_EQ(s.projectiles[0].velocity[1], 40.0);
+  EXPECT_DOUBLE_EQ(s.projectiles[0].velocity[1], 30.0);
+  EXPECT_DOUBLE_EQ(s.heterogeneity.grain_size, 0.2);
   EXPECT_TRUE(s.ground.enabled);
 }
 

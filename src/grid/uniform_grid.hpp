@@ -13,8 +13,9 @@ namespace mca {
 
 class UniformGrid {
  public:
-  // cell_size must be >= the largest interaction distance queried.
-  void build(const DVec3* x, std::size_t n, double cell_size);
+  // cell_size must be >= the largest interaction distance queried. With ids, only those points are
+  // binned (and reported by their id); without, points 0..n-1.
+  void build(const DVec3* x, std::size_t n, double cell_size, const std::uint32_t* ids = nullptr);
 
   // Calls f(j) for every point j in the 27 cells around p (each at most once; includes far ones).
   template <class F>

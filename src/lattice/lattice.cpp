@@ -206,8 +206,9 @@ Model build_model(const SceneDef& scene) {
         "increase solver.spacing (memory falls with its cube) or raise solver.max_memory_gb if the machine has it",
         scene.source, bytes / 1e9, n_est, d, scene.solver.max_memory_gb));
   }
-  if (n_est > std::numeric_limits<std::uint32_t>::max() / 4) {
-    throw Error(fmt::format("{}: {} automata are more than this build supports (about 1e9); increase solver.spacing",
+  // Links are addressed with 29 bits in the backends' adjacency (3 links per automaton).
+  if (n_est > (std::int64_t{1} << 29) / 3) {
+    throw Error(fmt::format("{}: {} automata are more than this build supports (about 1.8e8); increase solver.spacing",
                             scene.source, n_est));
   }
 

@@ -132,6 +132,14 @@ class CpuBackend final : public Backend {
     }
     for (const auto& g : m.groups) strengthening_ = strengthening_ || g.strengthening != 0;
     mean_s_.resize(n);
+    // Adjacency with the link's axis and which end the automaton is packed in (no extra reads).
+    adj_code_.resize(m.adj_link.size());
+    for (std::size_t a = 0; a < n; ++a)
+      for (std::uint32_t k = m.adj_begin[a]; k < m.adj_begin[a + 1]; ++k) {
+        const std::uint32_t l = m.adj_link[k];
+        adj_code_[k] = l | (static_cast<std::uint32_t>(m.link_axis[l]) << kAxisShift) | (m.link_j[l] == a ? kIsJ : 0u);
+      }
+    intact_count_.resize(n);
     many_body_.resize(n * 3);
     ext_f_.resize(n);
     ext_t_.resize(n);
@@ -147,6 +155,11 @@ class CpuBackend final : public Backend {
   std::string name() const override { return "cpu"; }
   void upload(const State& s) override {
     S_ = s;
+    for (std::size_t a = 0; a < M_.size(); ++a) {
+      std::uint32_t c = 0;
+      for (std::uint32_t k = M_.adj_begin[a]; k < M_.adj_begin[a + 1]; ++k) c += S_.intact[M_.adj_link[k]];
+      intact_count_[a] = static_cast<std::uint8_t>(std::min<std::uint32_t>(c, 255));
+    }
     for (std::size_t a = 0; a < S_.s.size(); ++a) mean_s_[a] = mean_stress(S_.s[a]);
     if (S_.x_at_rebuild.size() != S_.x.size()) rebuild_contacts();
   }
@@ -156,6 +169,9 @@ class CpuBackend final : public Backend {
   StepHealth step(int steps) override {
     StepHealth h;
     for (int k = 0; k < steps; ++k) {
+      // What is only read between calls (the averaged stress tensor, the applied forces) is written on
+      // the last step; every step needs only the mean stress.
+      last_step_ = k + 1 == steps;
       const std::int64_t bad = one_step();
       if (bad >= 0) {
         h.flags |= kNonFinite;
@@ -185,8 +201,10 @@ class CpuBackend final : public Backend {
   struct LinkGather {
     Vec3 force;   // on i; j gets the opposite
     Vec3 torque;  // on both
-    Sym3 stress;  // (r0/2) sym(n (x) F), for both averages
+    float trace;  // (r0/2) n . F: the link's share of the trace of both automata's averaged stress
+    float unused;
   };
+  bool last_step_ = true;
   std::vector<Vec3> link_n_;
   std::vector<LinkGather> link_out_;
   std::vector<float> link_eps_, many_body_;
@@ -194,6 +212,11 @@ class CpuBackend final : public Backend {
   std::vector<float> inv_mass_, inv_inertia_, inv_volume_;
   std::vector<PairStrength> link_strength_;
   std::vector<float> link_inv_r0_;
+  std::vector<std::uint8_t> intact_count_;  // intact links per automaton (6: boxed in, see rebuild)
+  std::vector<std::uint32_t> exposed_;
+  // adj_link with bits 29-30 = the link's axis and bit 31 = "this automaton is the link's j".
+  static constexpr std::uint32_t kLinkMask = (1u << 29) - 1, kAxisShift = 29, kIsJ = 1u << 31;
+  std::vector<std::uint32_t> adj_code_;
   std::vector<std::array<float, 4>> free_factor_;  // per group, see volumetric_strain
   std::vector<float> mean_s_;           // mean of the averaged stress s of each automaton
   bool strengthening_ = false;
@@ -229,10 +252,12 @@ void CpuBackend::many_body_pass() {
     float sum[3] = {0, 0, 0};
     int cnt[3] = {0, 0, 0};
     for (std::uint32_t k = M_.adj_begin[a]; k < M_.adj_begin[a + 1]; ++k) {
-      const std::uint32_t l = M_.adj_link[k];
+      const std::uint32_t code = adj_code_[k];
+      const std::uint32_t l = code & kLinkMask;
       if (!S_.intact[l]) continue;
-      sum[M_.link_axis[l]] += link_eps_[l];
-      ++cnt[M_.link_axis[l]];
+      const int ax = static_cast<int>((code >> kAxisShift) & 3u);
+      sum[ax] += link_eps_[l];
+      ++cnt[ax];
     }
     const int grp = M_.group[a];
     const float lam_theta = M_.groups[grp].lame_lambda * volumetric_strain(sum, cnt, free_factor_[grp].data());
@@ -302,12 +327,10 @@ void CpuBackend::link_force_pass() {
         continue;  // S_.intact[l] is cleared below, in link order
       }
       // What both ends gather: the force, the torque (r/2) n x F_t = (r/2) n x F (n x n = 0, r = r0 (1 + eps))
-      // and the Love average term (r0/2) sym(n (x) F) of physics.md sec. 3, the same from either end.
+      // and the trace of the Love average term (r0/2) sym(n (x) F) of physics.md sec. 3.
       const Vec3 hf = out.force_i * (0.5f * r0);
       const Vec3 nl = in.g.n;
-      lf[l] = {out.force_i, cross(nl, hf) * (1.0f + eps),
-               {nl.x * hf.x, nl.y * hf.y, nl.z * hf.z, 0.5f * (nl.x * hf.y + nl.y * hf.x),
-                0.5f * (nl.y * hf.z + nl.z * hf.y), 0.5f * (nl.z * hf.x + nl.x * hf.z)}};
+      lf[l] = {out.force_i, cross(nl, hf) * (1.0f + eps), dot(nl, hf), 0.0f};
       ut[l] = out.ut;
     }
   });
@@ -315,6 +338,8 @@ void CpuBackend::link_force_pass() {
   for (const auto& list : found)
     for (const auto& [l, crit] : list) {
       S_.intact[l] = 0;
+      --intact_count_[M_.link_i[l]];
+      --intact_count_[M_.link_j[l]];
       S_.link_ut[l] = Vec3{};
       S_.breaks.push_back({S_.step, l, static_cast<BreakCriterion>(crit)});
       ++S_.broken_by[crit];
@@ -473,23 +498,25 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
     float move2 = 0;
     // Plain local pointers: the compiler cannot keep vector internals in registers across the stores.
     const std::uint32_t* __restrict adj_begin = M_.adj_begin.data();
-    const std::uint32_t* __restrict adj_link = M_.adj_link.data();
-    const std::uint32_t* __restrict link_i = M_.link_i.data();
+    const std::uint32_t* __restrict adj_code = adj_code_.data();
     const std::uint8_t* __restrict intact = S_.intact.data();
     const LinkGather* __restrict lf = link_out_.data();
     for (std::size_t a = b; a < e; ++a) {
       const float m = M_.mass[a];
       Vec3 f = M_.gravity * m;
       Vec3 t;
-      Sym3 s;
+      Sym3 s;          // averaged stress: links only on the last step, contacts always
+      float trace = 0;  // trace of the links' part
       for (std::uint32_t k = adj_begin[a]; k < adj_begin[a + 1]; ++k) {
-        const std::uint32_t l = adj_link[k];
+        const std::uint32_t code = adj_code[k];
+        const std::uint32_t l = code & kLinkMask;
         if (!intact[l]) continue;
         const LinkGather& g = lf[l];
-        if (link_i[l] == a) f += g.force;
-        else f -= g.force;
+        if (code & kIsJ) f -= g.force;
+        else f += g.force;
         t += g.torque;
-        s += g.stress;
+        trace += g.trace;
+        if (last_step_) s += sym_outer(link_n_[l], g.force, 0.5f * M_.link_r0[l]);
       }
       if (has_ext_[a]) {
         f += ext_f_[a];
@@ -529,9 +556,13 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
         }
       }
       const float inv_v = inv_volume_[a];
-      s.xx *= inv_v; s.yy *= inv_v; s.zz *= inv_v; s.xy *= inv_v; s.yz *= inv_v; s.zx *= inv_v;
-      S_.s[a] = s;
-      mean_s_[a] = mean_stress(s);
+      if (last_step_) {
+        s.xx *= inv_v; s.yy *= inv_v; s.zz *= inv_v; s.xy *= inv_v; s.yz *= inv_v; s.zx *= inv_v;
+        S_.s[a] = s;
+        mean_s_[a] = mean_stress(s);
+      } else {
+        mean_s_[a] = (trace + s.xx + s.yy + s.zz) * inv_v * (1.0f / 3.0f);
+      }
       Body body{S_.x[a], S_.v[a], S_.w[a], S_.q[a]};
       if (M_.grip[a] >= 0) {
         // Held: moves with the grip, does not turn. ext_f_ keeps the force the body puts on the grip.
@@ -542,8 +573,10 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
       } else {
         integrate_body(body, f, t, inv_mass_[a], inv_inertia_[a], dt, M_.local_damping);
       }
-      S_.f[a] = f;
-      S_.t[a] = t;
+      if (last_step_) {
+        S_.f[a] = f;
+        S_.t[a] = t;
+      }
       if (!std::isfinite(body.x.x + body.x.y + body.x.z + body.v.x + body.v.y + body.v.z + body.w.x + body.w.y + body.w.z)) {
         if (chunk_bad[ch] < 0) chunk_bad[ch] = static_cast<std::int64_t>(a);
       }
@@ -574,15 +607,22 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
 }
 
 void CpuBackend::rebuild_contacts() {
-  const std::size_t n = M_.size();
   const float skin = M_.skin;
-  grid_.build(S_.x.data(), n, 2.0f * r_max_ + skin);
+  // Only exposed automata can touch anything but their linked neighbours: one with all six lattice
+  // links intact is boxed in by automata at distance ~d, and its diagonal neighbours (1.41 d) are out of
+  // reach (r_i + r_j + skin < 1.41 d for skin < 0.41 d). In a struck wall that is the surface and the
+  // damage, a small share of the automata.
+  exposed_.clear();
+  for (std::size_t a = 0; a < M_.size(); ++a)
+    if (intact_count_[a] < 6) exposed_.push_back(static_cast<std::uint32_t>(a));
+  const std::size_t n = exposed_.size();
+  grid_.build(S_.x.data(), n, 2.0f * r_max_ + skin, exposed_.data());
   const std::size_t chunks = (n + kChunk - 1) / kChunk;
   std::vector<std::vector<ContactPair>> found(chunks);
   parallel_chunks(n, [&](std::size_t ch, std::size_t b, std::size_t e) {
     std::vector<std::uint32_t> js;
-    for (std::size_t a = b; a < e; ++a) {
-      const std::uint32_t i = static_cast<std::uint32_t>(a);
+    for (std::size_t k = b; k < e; ++k) {
+      const std::uint32_t i = exposed_[k];
       const DVec3 xi = S_.x[i];
       js.clear();
       grid_.for_each_candidate(xi, [&](std::uint32_t j) {
