@@ -239,37 +239,48 @@ bool CpuBackend::linked(std::uint32_t i, std::uint32_t j) const {
 }
 
 void CpuBackend::link_geometry_pass() {
-  parallel_range(M_.link_count(), [&](std::size_t l) {
-    if (!S_.intact[l]) return;
-    const LinkGeometry g = link_geometry(S_.x[M_.link_i[l]], S_.x[M_.link_j[l]], M_.link_r0[l], link_inv_r0_[l]);
-    link_n_[l] = g.n;
-    link_eps_[l] = g.eps;
+  const std::uint8_t* __restrict intact = S_.intact.data();
+  const std::uint32_t* __restrict li = M_.link_i.data();
+  const std::uint32_t* __restrict lj = M_.link_j.data();
+  const DVec3* __restrict x = S_.x.data();
+  const float* __restrict r0 = M_.link_r0.data();
+  const float* __restrict inv_r0 = link_inv_r0_.data();
+  Vec3* __restrict ln = link_n_.data();
+  float* __restrict leps = link_eps_.data();
+  parallel_range(M_.link_count(), [=](std::size_t l) {  // pointers by value: no reload per link
+    if (!intact[l]) return;
+    const LinkGeometry g = link_geometry(x[li[l]], x[lj[l]], r0[l], inv_r0[l]);
+    ln[l] = g.n;
+    leps[l] = g.eps;
   });
 }
 
 void CpuBackend::many_body_pass() {
-  parallel_range(M_.size(), [&](std::size_t a) {
+  const std::uint32_t* __restrict adj_begin = M_.adj_begin.data();
+  const std::uint32_t* __restrict adj_code = adj_code_.data();
+  const std::uint8_t* __restrict intact = S_.intact.data();
+  const float* __restrict leps = link_eps_.data();
+  const std::uint8_t* __restrict group = M_.group.data();
+  float* __restrict mb = many_body_.data();
+  const GroupParams* groups = M_.groups.data();
+  const std::array<float, 4>* free_factor = free_factor_.data();
+  parallel_range(M_.size(), [=](std::size_t a) {  // pointers by value: no reload per automaton
     float sum[3] = {0, 0, 0};
     int cnt[3] = {0, 0, 0};
-    for (std::uint32_t k = M_.adj_begin[a]; k < M_.adj_begin[a + 1]; ++k) {
-      const std::uint32_t code = adj_code_[k];
+    for (std::uint32_t k = adj_begin[a]; k < adj_begin[a + 1]; ++k) {
+      const std::uint32_t code = adj_code[k];
       const std::uint32_t l = code & kLinkMask;
-      if (!S_.intact[l]) continue;
+      if (!intact[l]) continue;
       const int ax = static_cast<int>((code >> kAxisShift) & 3u);
-      sum[ax] += link_eps_[l];
+      sum[ax] += leps[l];
       ++cnt[ax];
     }
-    const int grp = M_.group[a];
-    const float lam_theta = M_.groups[grp].lame_lambda * volumetric_strain(sum, cnt, free_factor_[grp].data());
-    for (int ax = 0; ax < 3; ++ax) many_body_[3 * a + ax] = cnt[ax] ? lam_theta * inverse_count(cnt[ax]) : 0.0f;
+    const int grp = group[a];
+    const float lam_theta = groups[grp].lame_lambda * volumetric_strain(sum, cnt, free_factor[grp].data());
+    for (int ax = 0; ax < 3; ++ax) mb[3 * a + ax] = cnt[ax] ? lam_theta * inverse_count(cnt[ax]) : 0.0f;
   });
 }
 
-// Pair forces (link_law.hpp) and, from the same state, the fracture criteria (fracture.hpp): a link
-// whose stress or stretch is over its strength this step carries no force from this step on. The mean
-// stress p of the Drucker-Prager form is the averaged stress of the two automata from the previous
-// step (the current one needs this step's forces). Breaks are collected per fixed chunk and applied in
-// link order, so the result does not depend on the thread count.
 void CpuBackend::link_force_pass() {
   const float dt = M_.dt;
   const std::size_t L = M_.link_count();
@@ -287,12 +298,21 @@ void CpuBackend::link_force_pass() {
     LinkGather* __restrict lf = link_out_.data();
     float* __restrict sigma = S_.link_sigma.data();
     const float* __restrict ms = mean_s_.data();
+    const std::uint8_t* __restrict axis = M_.link_axis.data();
+    const float* __restrict r0s = M_.link_r0.data();
+    const float* __restrict areas = M_.link_area.data();
+    const float* __restrict Gs = link_G_.data();
+    const float* __restrict kts = link_kt_.data();
+    const float* __restrict damps = link_c_.empty() ? nullptr : link_c_.data();
+    const PairStrength* __restrict strengths = link_strength_.data();
+    const bool strengthening = strengthening_;
+    const float kv = M_.stress_coefficient;
     for (std::size_t l = b; l < e_end; ++l) {
       if (!intact[l]) continue;
       const std::uint32_t i = li[l], j = lj[l];
       const float eps = leps[l];
-      float fi = 1.0f, fj = 1.0f, two_g = 2.0f * link_G_[l], kt = link_kt_[l];
-      if (strengthening_) {
+      float fi = 1.0f, fj = 1.0f, two_g = 2.0f * Gs[l], kt = kts[l];
+      if (strengthening) {
         const GroupParams& gi = M_.groups[M_.group[i]];
         const GroupParams& gj = M_.groups[M_.group[j]];
         const float e = std::fabs(eps);
@@ -302,15 +322,15 @@ void CpuBackend::link_force_pass() {
         two_g = 2.0f * G;
         kt = kShearFactor * G * M_.link_area[l] / M_.link_r0[l];
       }
-      const int ax = M_.link_axis[l];
-      const float r0 = M_.link_r0[l];
+      const int ax = axis[l];
+      const float r0 = r0s[l];
       LinkInput in;
       in.g = {ln[l], r0 * (1.0f + eps), eps};
-      in.area = M_.link_area[l];
+      in.area = areas[l];
       in.two_g = two_g;
       in.kt = kt;
       in.many_body = mb[3 * i + ax] * fi + mb[3 * j + ax] * fj;
-      in.damping = link_c_.empty() ? 0.0f : link_c_[l];
+      in.damping = damps ? damps[l] : 0.0f;
       in.vi = v[i];
       in.vj = v[j];
       in.wi = w[i];
@@ -320,8 +340,7 @@ void CpuBackend::link_force_pass() {
       const LinkOutput out = link_force(in);
       sigma[l] = out.sigma;
       const float p = 0.5f * (ms[i] + ms[j]);
-      const int crit = link_break_criterion(eps * r0, r0, out.sigma, out.tau2, p, link_strength_[l],
-                                            M_.stress_coefficient);
+      const int crit = link_break_criterion(eps * r0, r0, out.sigma, out.tau2, p, strengths[l], kv);
       if (crit >= 0) {
         found[ch].push_back({static_cast<std::uint32_t>(l), static_cast<std::uint8_t>(crit)});
         continue;  // S_.intact[l] is cleared below, in link order
@@ -501,9 +520,24 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
     const std::uint32_t* __restrict adj_code = adj_code_.data();
     const std::uint8_t* __restrict intact = S_.intact.data();
     const LinkGather* __restrict lf = link_out_.data();
+    const float* __restrict mass = M_.mass.data();
+    const std::int16_t* __restrict grip = M_.grip.data();
+    const float* __restrict inv_mass = inv_mass_.data();
+    const float* __restrict inv_inertia = inv_inertia_.data();
+    const float* __restrict inv_volume = inv_volume_.data();
+    DVec3* __restrict xs = S_.x.data();
+    Vec3* __restrict vs = S_.v.data();
+    Vec3* __restrict ws = S_.w.data();
+    Quat* __restrict qs = S_.q.data();
+    const DVec3* __restrict x_ref = S_.x_at_rebuild.data();
+    const std::uint8_t* __restrict has_ext = has_ext_.data();
+    float* __restrict mean_s = mean_s_.data();
+    const Vec3 gravity = M_.gravity;
+    const bool last = last_step_, ground = M_.ground, loads = !M_.load.empty();
+    const float alpha = M_.local_damping;
     for (std::size_t a = b; a < e; ++a) {
-      const float m = M_.mass[a];
-      Vec3 f = M_.gravity * m;
+      const float m = mass[a];
+      Vec3 f = gravity * m;
       Vec3 t;
       Sym3 s;          // averaged stress: links only on the last step, contacts always
       float trace = 0;  // trace of the links' part
@@ -516,9 +550,9 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
         else f += g.force;
         t += g.torque;
         trace += g.trace;
-        if (last_step_) s += sym_outer(link_n_[l], g.force, 0.5f * M_.link_r0[l]);
+        if (last) s += sym_outer(link_n_[l], g.force, 0.5f * M_.link_r0[l]);
       }
-      if (has_ext_[a]) {
+      if (has_ext[a]) {
         f += ext_f_[a];
         t += ext_t_[a];
         s += ext_s_[a];
@@ -527,9 +561,9 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
         ext_s_[a] = Sym3{};
         has_ext_[a] = 0;
       }
-      if (!M_.load.empty()) f += M_.load[a];
+      if (loads) f += M_.load[a];
       const float r = M_.radius[a];
-      if (M_.ground) {
+      if (ground) {
         const DVec3& xa = S_.x[a];
         const float above = static_cast<float>(xa.x * M_.up.x + xa.y * M_.up.y + xa.z * M_.up.z - M_.ground_height);
         const float overlap = r - above;
@@ -555,36 +589,36 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
           S_.ground_ut[a] = Vec3{};  // written only when it changes: most automata never touch the ground
         }
       }
-      const float inv_v = inv_volume_[a];
-      if (last_step_) {
+      const float inv_v = inv_volume[a];
+      if (last) {
         s.xx *= inv_v; s.yy *= inv_v; s.zz *= inv_v; s.xy *= inv_v; s.yz *= inv_v; s.zx *= inv_v;
         S_.s[a] = s;
-        mean_s_[a] = mean_stress(s);
+        mean_s[a] = mean_stress(s);
       } else {
-        mean_s_[a] = (trace + s.xx + s.yy + s.zz) * inv_v * (1.0f / 3.0f);
+        mean_s[a] = (trace + s.xx + s.yy + s.zz) * inv_v * (1.0f / 3.0f);
       }
-      Body body{S_.x[a], S_.v[a], S_.w[a], S_.q[a]};
-      if (M_.grip[a] >= 0) {
+      Body body{xs[a], vs[a], ws[a], qs[a]};
+      if (grip[a] >= 0) {
         // Held: moves with the grip, does not turn. ext_f_ keeps the force the body puts on the grip.
-        body.v = M_.grip_velocity[M_.grip[a]];
+        body.v = M_.grip_velocity[grip[a]];
         body.x += body.v * dt;
         body.w = Vec3{};
         ext_f_[a] = f;
       } else {
-        integrate_body(body, f, t, inv_mass_[a], inv_inertia_[a], dt, M_.local_damping);
+        integrate_body(body, f, t, inv_mass[a], inv_inertia[a], dt, alpha);
       }
-      if (last_step_) {
+      if (last) {
         S_.f[a] = f;
         S_.t[a] = t;
       }
       if (!std::isfinite(body.x.x + body.x.y + body.x.z + body.v.x + body.v.y + body.v.z + body.w.x + body.w.y + body.w.z)) {
         if (chunk_bad[ch] < 0) chunk_bad[ch] = static_cast<std::int64_t>(a);
       }
-      S_.x[a] = body.x;
-      S_.v[a] = body.v;
-      S_.w[a] = body.w;
-      S_.q[a] = body.q;
-      const Vec3 dm = delta(S_.x_at_rebuild[a], body.x);
+      xs[a] = body.x;
+      vs[a] = body.v;
+      ws[a] = body.w;
+      qs[a] = body.q;
+      const Vec3 dm = delta(x_ref[a], body.x);
       move2 = std::max(move2, dot(dm, dm));
     }
     chunk_move[ch] = move2;
