@@ -48,8 +48,8 @@ Plan make_plan(const Simulation& sim, const std::optional<std::int64_t>& steps) 
   return p;
 }
 
-void write_summary(const std::filesystem::path& dir, const Simulation& sim, const FrameWriter& writer,
-                   const analysis::Fragments& frags, double wall, std::int64_t steps_run, int threads,
+void write_summary(const std::filesystem::path& dir, const Simulation& sim, const analysis::Fragments& frags,
+                   double wall, std::int64_t steps_run, int threads,
                    const std::string& status) {
   const Model& m = sim.model();
   const State& s = sim.state();
@@ -105,7 +105,6 @@ void write_summary(const std::filesystem::path& dir, const Simulation& sim, cons
   }
   j["projectiles"] = proj;
   j["state_hash"] = fmt::format("{:016x}", state_hash(s));
-  (void)writer;
   io::write_file_atomic(dir / "summary.json", [&](std::ostream& os) { os << j.dump(2) << "\n"; }, false);
 }
 
@@ -195,7 +194,8 @@ int run_loop(Loop& L, FrameWriter& writer) {
     const double wall = elapsed();
     if (L.checkpoint_every > 0 && (L.frame - 1) % L.checkpoint_every == 0) save_checkpoint(L, L.wall_before + wall);
 
-    if (!L.quiet && (tty ? wall - last_print > 0.2 : wall - last_print > 10.0) ) {
+    const bool finished = sim.state().step >= L.plan.total_steps;
+    if (!L.quiet && (finished || (tty ? wall - last_print > 0.2 : wall - last_print > 10.0))) {
       last_print = wall;
       const double done = static_cast<double>(sim.state().step - first_step);
       const double left = static_cast<double>(L.plan.total_steps - sim.state().step);
@@ -211,7 +211,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
     }
     if (g_interrupted) {
       save_checkpoint(L, L.wall_before + wall);
-      write_summary(L.dir, sim, writer, frags, L.wall_before + wall, sim.state().step - first_step, L.threads,
+      write_summary(L.dir, sim, frags, L.wall_before + wall, sim.state().step - first_step, L.threads,
                     "interrupted");
       fmt::print(stderr, "{}interrupted after frame {}; a checkpoint is saved. Continue with: mca resume {}\n",
                  tty ? "\n" : "", L.frame - 1, L.dir.string());
@@ -220,7 +220,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
   }
   const double wall = elapsed();
   const auto frags = writer.fragments(sim.state());
-  write_summary(L.dir, sim, writer, frags, L.wall_before + wall, sim.state().step - first_step, L.threads,
+  write_summary(L.dir, sim, frags, L.wall_before + wall, sim.state().step - first_step, L.threads,
                 "finished");
   if (!L.quiet) {
     const State& s = sim.state();
