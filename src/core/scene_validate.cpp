@@ -328,21 +328,24 @@ void validate_scene(const SceneDef& scene) {
     c.finite(p + ".angular_velocity", b.angular_velocity);
   }
 
-  // Grips.
+  // Grips and loads act on the automata whose initial centres lie in [min, max].
   static const char* const axes[] = {"x", "y", "z"};
+  auto check_box = [&](const std::string& p, const std::string& name, const Vec3d& lo, const Vec3d& hi) {
+    c.finite(p + ".min", lo);
+    c.finite(p + ".max", hi);
+    for (int a = 0; a < 3; ++a) {
+      if (!(lo[a] < hi[a])) {
+        c.fail(fmt::format("{} \"{}\": min = {} and max = {} give an empty box: min must be < max on every axis, "
+                           "but on {} min = {} >= max = {}; widen the box so it holds the automata centres",
+                           p, name, vec(lo), vec(hi), axes[a], num(lo[a]), num(hi[a])));
+      }
+    }
+  };
   for (std::size_t i = 0; i < scene.grips.size(); ++i) {
     const GripDef& g = scene.grips[i];
     const std::string p = fmt::format("grip[{}]", i);
-    c.finite(p + ".min", g.min);
-    c.finite(p + ".max", g.max);
+    check_box(p, g.name, g.min, g.max);
     c.finite(p + ".velocity", g.velocity);
-    for (int a = 0; a < 3; ++a) {
-      if (!(g.min[a] < g.max[a])) {
-        c.fail(fmt::format("{} \"{}\": min = {} and max = {} give an empty box: min must be < max on every axis, "
-                           "but on {} min = {} >= max = {}; widen the box so it holds the automata centres",
-                           p, g.name, vec(g.min), vec(g.max), axes[a], num(g.min[a]), num(g.max[a])));
-      }
-    }
   }
 
   // Loads. The box test is the grips' (initial centres inside [min, max]), so an empty box is the same
@@ -350,16 +353,8 @@ void validate_scene(const SceneDef& scene) {
   for (std::size_t i = 0; i < scene.loads.size(); ++i) {
     const LoadDef& l = scene.loads[i];
     const std::string p = fmt::format("load[{}]", i);
-    c.finite(p + ".min", l.min);
-    c.finite(p + ".max", l.max);
+    check_box(p, l.name, l.min, l.max);
     c.finite(p + ".force", l.force);
-    for (int a = 0; a < 3; ++a) {
-      if (!(l.min[a] < l.max[a])) {
-        c.fail(fmt::format("{} \"{}\": min = {} and max = {} give an empty box: min must be < max on every axis, "
-                           "but on {} min = {} >= max = {}; widen the box so it holds the automata centres",
-                           p, l.name, vec(l.min), vec(l.max), axes[a], num(l.min[a]), num(l.max[a])));
-      }
-    }
   }
 
   // Ground.

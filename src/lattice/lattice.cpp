@@ -116,6 +116,11 @@ GroupParams group_params(const MaterialDef& m) {
   return g;
 }
 
+// The automata of grips and loads: initial centre inside [lo, hi].
+bool inside_box(Vec3 p, const Vec3d& lo, const Vec3d& hi) {
+  return p.x >= lo[0] && p.x <= hi[0] && p.y >= lo[1] && p.y <= hi[1] && p.z >= lo[2] && p.z <= hi[2];
+}
+
 Vec3 to_vec3(const Vec3d& v) { return {static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2])}; }
 
 std::string fmt_vec(const Vec3d& v) { return fmt::format("[{:g}, {:g}, {:g}]", v[0], v[1], v[2]); }
@@ -320,10 +325,7 @@ Model build_model(const SceneDef& scene) {
     M.grip_velocity.push_back(to_vec3(gd.velocity));
     std::size_t held = 0;
     for (std::size_t a = 0; a < n; ++a) {
-      const Vec3 p = M.position0[a];
-      const bool in = p.x >= gd.min[0] && p.x <= gd.max[0] && p.y >= gd.min[1] && p.y <= gd.max[1] &&
-                      p.z >= gd.min[2] && p.z <= gd.max[2];
-      if (in && M.grip[a] < 0) {
+      if (M.grip[a] < 0 && inside_box(M.position0[a], gd.min, gd.max)) {
         M.grip[a] = static_cast<std::int16_t>(g);
         ++held;
       }
@@ -341,9 +343,7 @@ Model build_model(const SceneDef& scene) {
     if (M.load.empty()) M.load.assign(n, Vec3{});
     std::size_t held = 0;
     for (std::size_t a = 0; a < n; ++a) {
-      const Vec3 p = M.position0[a];
-      if (p.x >= ld.min[0] && p.x <= ld.max[0] && p.y >= ld.min[1] && p.y <= ld.max[1] && p.z >= ld.min[2] &&
-          p.z <= ld.max[2]) {
+      if (inside_box(M.position0[a], ld.min, ld.max)) {
         M.load[a] += to_vec3(ld.force);
         ++held;
       }
