@@ -41,6 +41,14 @@ TEST(Determinism, SameStateForAnyThreadCount) {
   EXPECT_EQ(one, run_with_threads(8, steps));
 }
 
+TEST(Determinism, SameStateHoweverTheStepsAreGroupedIntoCalls) {
+  Simulation a(small_impact()), b(small_impact());
+  a.advance(1200);
+  for (int k = 0; k < 12; ++k) b.advance(100);
+  EXPECT_GT(a.state().broken_by[0] + a.state().broken_by[1], 0);
+  EXPECT_EQ(state_hash(a.state()), state_hash(b.state()));
+}
+
 TEST(Determinism, CheckpointRestoresALockstepTwin) {
   Simulation a(small_impact());
   a.advance(2000);

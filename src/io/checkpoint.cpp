@@ -85,6 +85,7 @@ void write_checkpoint(const std::filesystem::path& path, const Checkpoint& cp) {
     w.vec(s.w);
     w.vec(s.q);
     w.vec(s.s);
+    w.vec(s.mean_stress);
     w.vec(s.f);
     w.vec(s.t);
     w.vec(s.ground_ut);
@@ -136,6 +137,7 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   r.vec(s.w);
   r.vec(s.q);
   r.vec(s.s);
+  r.vec(s.mean_stress);
   r.vec(s.f);
   r.vec(s.t);
   r.vec(s.ground_ut);

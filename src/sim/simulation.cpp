@@ -59,6 +59,7 @@ std::uint64_t state_hash(const State& s) {
   f.vec(s.q);
   f.vec(s.intact);
   f.vec(s.link_ut);
+  f.vec(s.mean_stress);
   for (const auto& c : s.contacts) {
     f.bytes(&c.i, sizeof c.i);
     f.bytes(&c.j, sizeof c.j);

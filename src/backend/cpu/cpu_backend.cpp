@@ -131,7 +131,6 @@ class CpuBackend final : public Backend {
       }
     }
     for (const auto& g : m.groups) strengthening_ = strengthening_ || g.strengthening != 0;
-    mean_s_.resize(n);
     // Adjacency with the link's axis and which end the automaton is packed in (no extra reads).
     adj_code_.resize(m.adj_link.size());
     for (std::size_t a = 0; a < n; ++a)
@@ -160,7 +159,6 @@ class CpuBackend final : public Backend {
       for (std::uint32_t k = M_.adj_begin[a]; k < M_.adj_begin[a + 1]; ++k) c += S_.intact[M_.adj_link[k]];
       intact_count_[a] = static_cast<std::uint8_t>(std::min<std::uint32_t>(c, 255));
     }
-    for (std::size_t a = 0; a < S_.s.size(); ++a) mean_s_[a] = mean_stress(S_.s[a]);
     if (S_.x_at_rebuild.size() != S_.x.size()) rebuild_contacts();
   }
   void download(State& s) const override { s = S_; }
@@ -218,7 +216,6 @@ class CpuBackend final : public Backend {
   static constexpr std::uint32_t kLinkMask = (1u << 29) - 1, kAxisShift = 29, kIsJ = 1u << 31;
   std::vector<std::uint32_t> adj_code_;
   std::vector<std::array<float, 4>> free_factor_;  // per group, see volumetric_strain
-  std::vector<float> mean_s_;           // mean of the averaged stress s of each automaton
   bool strengthening_ = false;
   std::vector<Vec3> ext_f_, ext_t_;
   std::vector<Sym3> ext_s_;
@@ -297,7 +294,7 @@ void CpuBackend::link_force_pass() {
     Vec3* __restrict ut = S_.link_ut.data();
     LinkGather* __restrict lf = link_out_.data();
     float* __restrict sigma = S_.link_sigma.data();
-    const float* __restrict ms = mean_s_.data();
+    const float* __restrict ms = S_.mean_stress.data();
     const std::uint8_t* __restrict axis = M_.link_axis.data();
     const float* __restrict r0s = M_.link_r0.data();
     const float* __restrict areas = M_.link_area.data();
@@ -531,7 +528,7 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
     Quat* __restrict qs = S_.q.data();
     const DVec3* __restrict x_ref = S_.x_at_rebuild.data();
     const std::uint8_t* __restrict has_ext = has_ext_.data();
-    float* __restrict mean_s = mean_s_.data();
+    float* __restrict mean_s = S_.mean_stress.data();
     const Vec3 gravity = M_.gravity;
     const bool last = last_step_, ground = M_.ground, loads = !M_.load.empty();
     const float alpha = M_.local_damping;
@@ -539,8 +536,9 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
       const float m = mass[a];
       Vec3 f = gravity * m;
       Vec3 t;
-      Sym3 s;          // averaged stress: links only on the last step, contacts always
-      float trace = 0;  // trace of the links' part
+      Sym3 s;               // contacts, ground, projectiles: every step
+      Sym3 s_links;         // links: on the last step only
+      float trace = 0;      // trace of the links' part: every step
       for (std::uint32_t k = adj_begin[a]; k < adj_begin[a + 1]; ++k) {
         const std::uint32_t code = adj_code[k];
         const std::uint32_t l = code & kLinkMask;
@@ -550,7 +548,7 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
         else f += g.force;
         t += g.torque;
         trace += g.trace;
-        if (last) s += sym_outer(link_n_[l], g.force, 0.5f * M_.link_r0[l]);
+        if (last) s_links += sym_outer(link_n_[l], g.force, 0.5f * M_.link_r0[l]);
       }
       if (has_ext[a]) {
         f += ext_f_[a];
@@ -591,12 +589,14 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
       }
       const float inv_v = inv_volume[a];
       if (last) {
-        s.xx *= inv_v; s.yy *= inv_v; s.zz *= inv_v; s.xy *= inv_v; s.yz *= inv_v; s.zx *= inv_v;
-        S_.s[a] = s;
-        mean_s[a] = mean_stress(s);
-      } else {
-        mean_s[a] = (trace + s.xx + s.yy + s.zz) * inv_v * (1.0f / 3.0f);
+        Sym3 total = s_links;
+        total += s;
+        total.xx *= inv_v; total.yy *= inv_v; total.zz *= inv_v;
+        total.xy *= inv_v; total.yz *= inv_v; total.zx *= inv_v;
+        S_.s[a] = total;
       }
+      // From the traces on every step, so the dynamics do not depend on how steps are grouped into calls.
+      mean_s[a] = (trace + s.xx + s.yy + s.zz) * inv_v * (1.0f / 3.0f);
       Body body{xs[a], vs[a], ws[a], qs[a]};
       if (grip[a] >= 0) {
         // Held: moves with the grip, does not turn. ext_f_ keeps the force the body puts on the grip.
@@ -720,6 +720,7 @@ State initial_state(const Model& m) {
   s.w.assign(n, Vec3{});
   s.q.assign(n, Quat{});
   s.s.assign(n, Sym3{});
+  s.mean_stress.assign(n, 0.0f);
   s.f.assign(n, Vec3{});
   s.t.assign(n, Vec3{});
   s.ground_ut.assign(n, Vec3{});
