@@ -212,4 +212,28 @@ TEST(Cli, BadInputFailsWithAClearMessage) {
   EXPECT_NE(r.output.find("checkpoint"), std::string::npos) << r.output;
 }
 
+TEST(Cli, UnstableRunStopsWithTheCauseAndKeepsTheLastGoodFrame) {
+  const fs::path d = fresh_dir("unstable");
+  // An exponential strengthening with a huge alpha stiffens the links far beyond the step's bound.
+  const fs::path scene = small_scene(d, R"(
+[[material]]
+name = "stiffening"
+base = "concrete"
+strengthening = "exponential"
+strengthening_alpha = 100000.0
+tensile_strength = 1e12
+compressive_strength = 1e12
+fracture_strain = 10.0
+)");
+  std::string text = read(scene);
+  text.replace(text.find("position = [0, 0, 0.25]"), 23, "position = [0, 0, 0.25]\nmaterial = \"stiffening\"");
+  std::ofstream(scene) << text;
+  const Result r = mca("run " + scene.string() + " --out " + (d / "out").string() + " -q");
+  EXPECT_EQ(r.code, 3) << r.output;
+  EXPECT_NE(r.output.find("unstable"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("solver.safety"), std::string::npos) << r.output;
+  EXPECT_TRUE(fs::exists(d / "out" / "frames" / "automata_000000.vtu"));
+  EXPECT_FALSE(fs::exists(d / "out" / "summary.json"));
+}
+
 }  // namespace
