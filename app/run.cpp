@@ -108,6 +108,17 @@ void write_summary(const std::filesystem::path& dir, const Simulation& sim, cons
   io::write_file_atomic(dir / "summary.json", [&](std::ostream& os) { os << j.dump(2) << "\n"; }, false);
 }
 
+void remove_own_files(const std::filesystem::path& dir, const std::string& prefix, const std::string& extension) {
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir, ec)) return;
+  std::vector<std::filesystem::path> doomed;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    if (e.is_regular_file() && name.rfind(prefix, 0) == 0 && e.path().extension() == extension) doomed.push_back(e.path());
+  }
+  for (const auto& p : doomed) std::filesystem::remove(p);
+}
+
 // The first `frames` data rows of an earlier run's stats.csv (for resume).
 std::vector<std::string> read_back_stats(const std::filesystem::path& dir, std::int64_t frames) {
   std::ifstream in(dir / "stats.csv");
@@ -265,9 +276,12 @@ int run(const RunOptions& o) {
   }
   // The scene as run (overrides applied), so the folder says what produced it.
   io::write_file_atomic(dir / "scene.toml", [&](std::ostream& os) { os << io::scene_to_toml(scene); }, false);
-  for (const char* stale : {"summary.json"}) std::filesystem::remove(dir / stale);
-  std::filesystem::remove_all(dir / "checkpoints");
-  std::filesystem::remove_all(dir / "frames");
+  // Outputs of an earlier run in this folder would mix with this one's; only files this program writes
+  // are removed, anything else a user keeps there stays.
+  std::filesystem::remove(dir / "summary.json");
+  remove_own_files(dir / "checkpoints", "frame_", ".mcack");
+  remove_own_files(dir / "frames", "automata_", ".vtu");
+  remove_own_files(dir / "frames", "projectiles_", ".vtu");
   FrameWriter writer(dir, sim.model(), scene.output.vtk, scene.output.links);
   Loop L{sim, dir, threads, o.quiet, scene.output.checkpoint_every, plan, 0, 0.0, {}};
   // Frame 0: the initial state.
