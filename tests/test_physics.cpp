@@ -151,6 +151,32 @@ TEST(Physics, BlockInUniaxialStressReturnsYoungsModulusAndPoissonRatio) {
   EXPECT_NEAR(nu_z / nu, 1.0, 0.02) << "nu measured (z) " << nu_z;
 }
 
+TEST(Physics, StrengtheningLawStiffensABarAsEquation7Says) {
+  // A bar under end loads, relaxed: the secant modulus at strain e is E0 exp(alpha e) (paper eq. 7).
+  const int n = 10;
+  const double d = 0.01, E = 30e9, alpha = 3000, sigma = 4e6;
+  MaterialDef mat = test_material(E, 0.2);
+  mat.strengthening = StrengtheningLaw::exponential;
+  mat.strengthening_alpha = alpha;
+  SceneDef sc = block_scene(n, 1, 1, d, mat);
+  sc.solver.local_damping = 0.2;
+  for (int side = 0; side < 2; ++side) {
+    LoadDef ld;
+    test::layer_box(n, side ? n - 1 : 0, 0, d, ld.min, ld.max);
+    ld.force = {(side ? 1.0 : -1.0) * sigma * d * d, 0, 0};
+    sc.loads.push_back(ld);
+  }
+  Simulation sim(sc);
+  sim.advance(40000);  // about 60 round trips of the bar's wave: at rest with local damping
+  // Interior links (the end automata have one link, which weights their many-body term fully).
+  const StrainProbe p = probe(sim.model(), sim.state(), 0.3 * n * d);
+  const double e = p.axial[0];
+  std::printf("strengthening: strain %.4g, secant modulus %.4g, E0 exp(alpha e) = %.4g\n", e, sigma / e,
+              E * std::exp(alpha * e));
+  EXPECT_GT(E * std::exp(alpha * e) / E, 1.2) << "the test should be in the nonlinear range";
+  EXPECT_NEAR((sigma / e) / (E * std::exp(alpha * e)), 1.0, 0.02);
+}
+
 TEST(Physics, BlockInSimpleShearReturnsShearModulus) {
   const int n = 20;
   const double d = 0.01, E = 30e9, nu = 0.2, tau = 1e6;
