@@ -129,17 +129,22 @@ void relax(Simulation& sim, int max_steps) {
   }
 }
 
-TEST(Physics, BlockInUniaxialStressReturnsYoungsModulusAndPoissonRatio) {
-  const int n = 20;
-  const double d = 0.01, E = 30e9, nu = 0.2, sigma = 1e6;
-  SceneDef sc = block_scene(n, n, n, d, test_material(E, nu));
-  sc.solver.local_damping = 0.2;
+// Tension sigma on the end faces normal to x of a block n automata long (one automaton's share each).
+void pull_x_faces(SceneDef& sc, int n, double d, double sigma) {
   for (int side = 0; side < 2; ++side) {
     LoadDef ld;
     test::layer_box(n, side ? n - 1 : 0, 0, d, ld.min, ld.max);
     ld.force = {(side ? 1.0 : -1.0) * sigma * d * d, 0, 0};
     sc.loads.push_back(ld);
   }
+}
+
+TEST(Physics, BlockInUniaxialStressReturnsYoungsModulusAndPoissonRatio) {
+  const int n = 20;
+  const double d = 0.01, E = 30e9, nu = 0.2, sigma = 1e6;
+  SceneDef sc = block_scene(n, n, n, d, test_material(E, nu));
+  sc.solver.local_damping = 0.2;
+  pull_x_faces(sc, n, d, sigma);
   Simulation sim(sc);
   relax(sim, 20000);
   const StrainProbe p = probe(sim.model(), sim.state(), 0.25 * n * d);
@@ -160,12 +165,7 @@ TEST(Physics, StrengtheningLawStiffensABarAsEquation7Says) {
   mat.strengthening_alpha = alpha;
   SceneDef sc = block_scene(n, 1, 1, d, mat);
   sc.solver.local_damping = 0.2;
-  for (int side = 0; side < 2; ++side) {
-    LoadDef ld;
-    test::layer_box(n, side ? n - 1 : 0, 0, d, ld.min, ld.max);
-    ld.force = {(side ? 1.0 : -1.0) * sigma * d * d, 0, 0};
-    sc.loads.push_back(ld);
-  }
+  pull_x_faces(sc, n, d, sigma);
   Simulation sim(sc);
   sim.advance(40000);  // about 60 round trips of the bar's wave: at rest with local damping
   // Interior links (the end automata have one link, which weights their many-body term fully).
