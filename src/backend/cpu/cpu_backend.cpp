@@ -528,6 +528,7 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
     Quat* __restrict qs = S_.q.data();
     const DVec3* __restrict x_ref = S_.x_at_rebuild.data();
     const std::uint8_t* __restrict has_ext = has_ext_.data();
+    const std::uint8_t* __restrict intact_count = intact_count_.data();
     float* __restrict mean_s = S_.mean_stress.data();
     const Vec3 gravity = M_.gravity;
     const bool last = last_step_, ground = M_.ground, loads = !M_.load.empty();
@@ -618,8 +619,12 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
       vs[a] = body.v;
       ws[a] = body.w;
       qs[a] = body.q;
-      const Vec3 dm = delta(x_ref[a], body.x);
-      move2 = std::max(move2, dot(dm, dm));
+      // Only exposed automata are in the contact list (see rebuild_contacts), so only their motion
+      // can make it stale.
+      if (intact_count[a] < 6) {
+        const Vec3 dm = delta(x_ref[a], body.x);
+        move2 = std::max(move2, dot(dm, dm));
+      }
     }
     chunk_move[ch] = move2;
   });
