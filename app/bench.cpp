@@ -11,7 +11,7 @@
 
 #include "app/commands.hpp"
 #include "mca/error.hpp"
-#include "sim/simulation.hpp"
+#include "sim/engine.hpp"
 
 namespace mca::app {
 namespace {
@@ -93,7 +93,7 @@ int bench(const std::vector<std::string>& names, bool json, int threads_requeste
     fmt::print("machine: {} hardware threads, using {}; median of {} runs of {} steps each\n",
                std::thread::hardware_concurrency(), threads, repeats, steps);
   for (const auto& b : chosen) {
-    Simulation sim(b.scene);
+    Engine sim(b.scene);
     sim.advance(b.warmup_steps);
     const State snapshot = sim.state();
     const std::size_t n = sim.model().size();

@@ -5,13 +5,13 @@
 #include "app/commands.hpp"
 #include "io/scene_io.hpp"
 #include "lattice/lattice.hpp"
-#include "sim/simulation.hpp"
+#include "sim/engine.hpp"
 
 namespace mca::app {
 
 int info(const std::optional<std::string>& path, bool json) {
   const SceneDef scene = path ? io::load_scene_file(*path) : io::load_default_scene();
-  const Simulation sim(scene);
+  const Engine sim(scene);
   const Model& m = sim.model();
   const std::int64_t frames = sim.frame_count();
   const std::int64_t steps = frames * sim.steps_per_frame();

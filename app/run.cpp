@@ -16,7 +16,7 @@
 #include "io/output_files.hpp"
 #include "io/scene_io.hpp"
 #include "mca/error.hpp"
-#include "sim/simulation.hpp"
+#include "sim/engine.hpp"
 
 namespace mca::app {
 namespace {
@@ -40,7 +40,7 @@ struct Plan {
   std::int64_t total_frames = 0;  // frames after frame 0
 };
 
-Plan make_plan(const Simulation& sim, const std::optional<std::int64_t>& steps) {
+Plan make_plan(const Engine& sim, const std::optional<std::int64_t>& steps) {
   Plan p;
   const int spf = sim.steps_per_frame();
   p.total_steps = steps ? *steps : sim.frame_count() * spf;
@@ -48,7 +48,7 @@ Plan make_plan(const Simulation& sim, const std::optional<std::int64_t>& steps) 
   return p;
 }
 
-void write_summary(const std::filesystem::path& dir, const Simulation& sim, const analysis::Fragments& frags,
+void write_summary(const std::filesystem::path& dir, const Engine& sim, const analysis::Fragments& frags,
                    double wall, std::int64_t steps_run, int threads,
                    const std::string& status) {
   const Model& m = sim.model();
@@ -130,7 +130,7 @@ std::vector<std::string> read_back_stats(const std::filesystem::path& dir, std::
 }
 
 struct Loop {
-  Simulation& sim;
+  Engine& sim;
   std::filesystem::path dir;
   int threads;
   bool quiet;
@@ -160,7 +160,7 @@ void save_checkpoint(const Loop& L, double wall) {
 }
 
 int run_loop(Loop& L, FrameWriter& writer) {
-  Simulation& sim = L.sim;
+  Engine& sim = L.sim;
   const Model& m = sim.model();
   const bool tty = !L.quiet && isatty(STDERR_FILENO);
   const auto start = std::chrono::steady_clock::now();
@@ -266,7 +266,7 @@ int run(const RunOptions& o) {
   io::prepare_output_dir(dir);
 
   if (!o.quiet) fmt::print(stderr, "mca: scene '{}' ({}): building...\n", scene.name, scene.source);
-  Simulation sim(scene);
+  Engine sim(scene);
   const Plan plan = make_plan(sim, o.steps);
   if (!o.quiet) {
     fmt::print(stderr, "mca: {} automata, {} links, time step {:.4g} s, {} steps per frame, {} frames, {} steps, "
@@ -312,7 +312,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet) {
   if (!quiet)
     fmt::print(stderr, "mca: resuming '{}' from {} (frame {}, step {})\n", cp.scene.name, all.back().string(),
                cp.frame - 1, cp.state.step);
-  Simulation sim(cp.scene, cp.state);
+  Engine sim(cp.scene, cp.state);
   Plan plan;
   plan.total_steps = cp.total_steps;
   plan.total_frames = (plan.total_steps + sim.steps_per_frame() - 1) / sim.steps_per_frame();

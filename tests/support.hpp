@@ -4,7 +4,7 @@
 #include <random>
 
 #include "mca/scene.hpp"
-#include "sim/simulation.hpp"
+#include "sim/engine.hpp"
 
 namespace mca::test {
 

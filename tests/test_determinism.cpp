@@ -27,7 +27,7 @@ SceneDef small_impact() {
 
 std::uint64_t run_with_threads(int threads, int steps) {
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
-  Simulation sim(small_impact());
+  Engine sim(small_impact());
   sim.advance(steps);
   EXPECT_GT(sim.state().broken_by[0] + sim.state().broken_by[1], 0) << "the ball should break links";
   return state_hash(sim.state());
@@ -42,7 +42,7 @@ TEST(Determinism, SameStateForAnyThreadCount) {
 }
 
 TEST(Determinism, SameStateHoweverTheStepsAreGroupedIntoCalls) {
-  Simulation a(small_impact()), b(small_impact());
+  Engine a(small_impact()), b(small_impact());
   a.advance(1200);
   for (int k = 0; k < 12; ++k) b.advance(100);
   EXPECT_GT(a.state().broken_by[0] + a.state().broken_by[1], 0);
@@ -50,7 +50,7 @@ TEST(Determinism, SameStateHoweverTheStepsAreGroupedIntoCalls) {
 }
 
 TEST(Determinism, CheckpointRestoresALockstepTwin) {
-  Simulation a(small_impact());
+  Engine a(small_impact());
   a.advance(2000);
   const auto path = std::filesystem::temp_directory_path() / "mca_test_lockstep.mcack";
   io::Checkpoint cp;
@@ -63,7 +63,7 @@ TEST(Determinism, CheckpointRestoresALockstepTwin) {
   std::filesystem::remove(path);
   EXPECT_EQ(back.frame, 3);
   EXPECT_EQ(back.total_steps, 5000);
-  Simulation b(back.scene, back.state);
+  Engine b(back.scene, back.state);
   ASSERT_EQ(state_hash(a.state()), state_hash(b.state()));
   for (int k = 0; k < 300; ++k) {
     a.advance(5);
@@ -76,7 +76,7 @@ TEST(Determinism, CheckpointRestoresALockstepTwin) {
 
 TEST(Determinism, DamagedCheckpointIsRefusedWithAClearError) {
   const auto path = std::filesystem::temp_directory_path() / "mca_test_cut.mcack";
-  Simulation a(small_impact());
+  Engine a(small_impact());
   io::Checkpoint cp;
   cp.scene = a.scene();
   cp.state = a.state();

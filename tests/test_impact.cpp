@@ -27,7 +27,7 @@ Outcome impact(double speed, const std::string& preset, std::uint64_t seed) {
   heterogeneity_preset(preset, s.heterogeneity.shares);
   s.solver.seed = seed;
   s.output.frame_rate = 1000;
-  Simulation sim(s);
+  Engine sim(s);
   sim.advance(static_cast<int>(0.004 / sim.model().dt));  // 4 ms: the ball has gone through the contact
   const State& st = sim.state();
   const auto fr = analysis::label_fragments(sim.model().size(), sim.model().link_i.data(), sim.model().link_j.data(),

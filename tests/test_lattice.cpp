@@ -92,7 +92,7 @@ TEST(Lattice, SeveralObjectsAndAKinematicProjectile) {
   p.velocity = {0, 5, 0};
   p.kinematic = true;
   s.projectiles.push_back(p);
-  Simulation sim(s);
+  Engine sim(s);
   EXPECT_EQ(sim.model().size(), 54u);
   EXPECT_EQ(sim.model().object_names.size(), 2u);
   sim.advance(2000);

@@ -40,7 +40,7 @@ Momenta momenta(const Model& m, const State& s) {
   return r;
 }
 
-void randomise_velocities(Simulation& sim, double v_scale, double w_scale, unsigned seed) {
+void randomise_velocities(Engine& sim, double v_scale, double w_scale, unsigned seed) {
   State s = sim.state();
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
@@ -57,7 +57,7 @@ TEST(Physics, MomentumIsConservedWhileTheBlockBreaks) {
   mat.tensile_strength = 3e6;
   mat.compressive_strength = 30e6;
   mat.fracture_strain = 1.5e-4;
-  Simulation sim(block_scene(6, 6, 6, 0.01, mat));
+  Engine sim(block_scene(6, 6, 6, 0.01, mat));
   randomise_velocities(sim, 2.0, 200.0, 7);
   const Momenta before = momenta(sim.model(), sim.state());
   sim.advance(1000);
@@ -73,7 +73,7 @@ TEST(Physics, MomentumIsConservedWhileTheBlockBreaks) {
 }
 
 TEST(Physics, EnergyIsConservedWithoutDampingOrFracture) {
-  Simulation sim(block_scene(8, 8, 8));
+  Engine sim(block_scene(8, 8, 8));
   randomise_velocities(sim, 0.1, 10.0, 11);  // strains about 3e-5: linear, well above float32 noise
   const Energies e0 = sim.energies();
   const double total0 = e0.kinetic + e0.elastic;
@@ -118,7 +118,7 @@ StrainProbe probe(const Model& m, const State& s, double half_width) {
 }
 
 // Run with local damping until the block is at rest (kinetic energy no longer matters).
-void relax(Simulation& sim, int max_steps) {
+void relax(Engine& sim, int max_steps) {
   double prev = -1;
   for (int k = 0; k < max_steps; k += 200) {
     sim.advance(200);
@@ -145,7 +145,7 @@ TEST(Physics, BlockInUniaxialStressReturnsYoungsModulusAndPoissonRatio) {
   SceneDef sc = block_scene(n, n, n, d, test_material(E, nu));
   sc.solver.local_damping = 0.2;
   pull_x_faces(sc, n, d, sigma);
-  Simulation sim(sc);
+  Engine sim(sc);
   relax(sim, 20000);
   const StrainProbe p = probe(sim.model(), sim.state(), 0.25 * n * d);
   const double E_measured = sigma / p.axial[0];
@@ -166,7 +166,7 @@ TEST(Physics, StrengtheningLawStiffensABarAsEquation7Says) {
   SceneDef sc = block_scene(n, 1, 1, d, mat);
   sc.solver.local_damping = 0.2;
   pull_x_faces(sc, n, d, sigma);
-  Simulation sim(sc);
+  Engine sim(sc);
   sim.advance(40000);  // about 60 round trips of the bar's wave: at rest with local damping
   // Interior links (the end automata have one link, which weights their many-body term fully).
   const StrainProbe p = probe(sim.model(), sim.state(), 0.3 * n * d);
@@ -194,7 +194,7 @@ TEST(Physics, BlockInSimpleShearReturnsShearModulus) {
     right.force = {0, sgn * tau * d * d, 0};
     sc.loads.push_back(right);
   }
-  Simulation sim(sc);
+  Engine sim(sc);
   relax(sim, 20000);
   // Engineering shear strain of the block, as a lab measures it: the mean displacement of the loaded
   // layers over the distance between them (the surface layers carry the traction, so the strain near
@@ -222,7 +222,7 @@ TEST(Physics, BlockInSimpleShearReturnsShearModulus) {
 TEST(Physics, WaveInABarTravelsAtTheBarSpeed) {
   const int n = 400;
   const double d = 0.01, E = 30e9, rho = 2400;
-  Simulation sim(block_scene(n, 1, 1, d, test_material(E, 0.2, rho)));
+  Engine sim(block_scene(n, 1, 1, d, test_material(E, 0.2, rho)));
   State s = sim.state();
   s.v[0] = Vec3{1.0f, 0, 0};  // a kick at the left end (strains of 1e-4: well above float32 noise)
   sim.backend().upload(s);
@@ -270,7 +270,7 @@ double breaking_stress(double tensile, double fracture_strain, int& criterion) {
   test::layer_box(n, n - 1, 0, d, pull.min, pull.max);
   pull.velocity = {0.002, 0, 0};
   sc.grips = {hold, pull};
-  Simulation sim(sc);
+  Engine sim(sc);
   double peak = 0;
   for (int k = 0; k < 2000000 && sim.state().broken_by[0] + sim.state().broken_by[1] == 0; ++k) {
     peak = std::max(peak, static_cast<double>(sim.state().grip_force[1].x));

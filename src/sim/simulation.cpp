@@ -1,76 +1,60 @@
-#include "sim/simulation.hpp"
+// mca::Simulation (include/mca/simulation.hpp): the public wrapper around the Engine.
+#include "mca/simulation.hpp"
 
-#include <cmath>
-
-#include "lattice/lattice.hpp"
+#include "analysis/fragments.hpp"
+#include "sim/engine.hpp"
 
 namespace mca {
 
-namespace {
-Model build_for_frames(const SceneDef& scene, int& steps_per_frame) {
-  Model m = lattice::build_model(scene);
-  const double frame = 1.0 / scene.output.frame_rate;
-  const double stable = m.dt;
-  steps_per_frame = static_cast<int>(std::max(1.0, std::ceil(frame / stable - 1e-9)));
-  if (scene.solver.time_step <= 0) m.dt = static_cast<float>(frame / steps_per_frame);
-  return m;
-}
-}  // namespace
-
-Simulation::Simulation(const SceneDef& scene) : scene_(scene) {
-  model_ = build_for_frames(scene_, steps_per_frame_);
-  backend_ = make_cpu_backend(model_);
-  backend_->upload(initial_state(model_));
-}
-
-Simulation::Simulation(const SceneDef& scene, const State& state) : scene_(scene) {
-  model_ = build_for_frames(scene_, steps_per_frame_);
-  backend_ = make_cpu_backend(model_);
-  backend_->upload(state);
-}
-
-std::int64_t Simulation::frame_count() const {
-  return std::max<std::int64_t>(1, std::llround(scene_.output.duration * scene_.output.frame_rate));
-}
-
-namespace {
-struct Fnv {
-  std::uint64_t h = 1469598103934665603ull;
-  void bytes(const void* p, std::size_t n) {
-    const auto* c = static_cast<const unsigned char*>(p);
-    for (std::size_t k = 0; k < n; ++k) {
-      h ^= c[k];
-      h *= 1099511628211ull;
-    }
-  }
-  template <class T>
-  void vec(const std::vector<T>& v) {
-    bytes(v.data(), v.size() * sizeof(T));
-  }
+struct Simulation::Impl {
+  explicit Impl(const SceneDef& scene) : engine(scene) {}
+  Engine engine;
 };
-}  // namespace
 
-std::uint64_t state_hash(const State& s) {
-  Fnv f;
-  f.bytes(&s.step, sizeof s.step);
-  f.vec(s.x);
-  f.vec(s.v);
-  f.vec(s.w);
-  f.vec(s.q);
-  f.vec(s.intact);
-  f.vec(s.link_ut);
-  f.vec(s.mean_stress);
-  for (const auto& c : s.contacts) {
-    f.bytes(&c.i, sizeof c.i);
-    f.bytes(&c.j, sizeof c.j);
-    f.bytes(&c.ut, sizeof c.ut);
+Simulation::Simulation(const SceneDef& scene) : impl_(std::make_unique<Impl>(scene)) {}
+Simulation::~Simulation() = default;
+Simulation::Simulation(Simulation&&) noexcept = default;
+Simulation& Simulation::operator=(Simulation&&) noexcept = default;
+
+std::size_t Simulation::automata() const { return impl_->engine.model().size(); }
+std::size_t Simulation::links() const { return impl_->engine.model().link_count(); }
+double Simulation::time_step() const { return impl_->engine.model().dt; }
+int Simulation::steps_per_frame() const { return impl_->engine.steps_per_frame(); }
+double Simulation::time() const { return impl_->engine.state().time; }
+
+StepStatus Simulation::advance(int steps) {
+  return impl_->engine.advance(steps).flags == kHealthy ? StepStatus::ok : StepStatus::unstable;
+}
+
+Frame Simulation::frame() const {
+  const Model& m = impl_->engine.model();
+  const State& s = impl_->engine.state();
+  const std::size_t n = m.size();
+  Frame f;
+  f.step = s.step;
+  f.time = s.time;
+  f.position.resize(n);
+  f.velocity.resize(n);
+  f.orientation.resize(n);
+  f.damage.resize(n);
+  for (std::size_t a = 0; a < n; ++a) {
+    const Vec3 p = to_vec3(s.x[a]);
+    f.position[a] = {p.x, p.y, p.z};
+    f.velocity[a] = {s.v[a].x, s.v[a].y, s.v[a].z};
+    f.orientation[a] = {s.q[a].w, s.q[a].x, s.q[a].y, s.q[a].z};
+    const std::uint32_t begin = m.adj_begin[a], end = m.adj_begin[a + 1];
+    std::uint32_t broken = 0;
+    for (std::uint32_t k = begin; k < end; ++k) broken += !s.intact[m.adj_link[k]];
+    f.damage[a] = end > begin ? static_cast<float>(broken) / static_cast<float>(end - begin) : 0.0f;
   }
-  for (const auto& p : s.projectiles) {
-    f.bytes(&p.position, sizeof p.position);
-    f.bytes(&p.velocity, sizeof p.velocity);
-    f.bytes(&p.angular_velocity, sizeof p.angular_velocity);
-  }
-  return f.h;
+  const auto frags = analysis::label_fragments(n, m.link_i.data(), m.link_j.data(), s.intact.data(), m.link_count());
+  f.fragment = frags.id;
+  f.fragments = frags.count;
+  for (const auto& p : s.projectiles)
+    f.projectile_position.push_back({static_cast<float>(p.position.x), static_cast<float>(p.position.y),
+                                     static_cast<float>(p.position.z)});
+  f.broken_links = s.broken_by[0] + s.broken_by[1];
+  return f;
 }
 
 }  // namespace mca

@@ -1,6 +1,7 @@
 #pragma once
 // A run of one scene: the model built from the SceneDef, a backend stepping it, and the frame clock.
-// The command line, tests and benchmarks all go through this class.
+// The command line, tests and benchmarks use it directly; C++ users get mca::Simulation
+// (include/mca/simulation.hpp), which wraps it without exposing the model and state types.
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -12,13 +13,13 @@
 
 namespace mca {
 
-class Simulation {
+class Engine {
  public:
   // Builds the model (throws mca::Error for scenes that cannot be built). The time step is the
   // stable one, shortened so that a whole number of steps fills each output frame.
-  explicit Simulation(const SceneDef& scene);
+  explicit Engine(const SceneDef& scene);
   // Continues from a saved state (checkpoint) of the same scene.
-  Simulation(const SceneDef& scene, const State& state);
+  Engine(const SceneDef& scene, const State& state);
 
   const SceneDef& scene() const { return scene_; }
   const Model& model() const { return model_; }
