@@ -33,6 +33,31 @@ TEST(Lattice, SphereAndCylinderFillTheirVolume) {
   EXPECT_NEAR(lattice::count_automata(s, 0.01) / cyl, 1.0, 0.02);
 }
 
+TEST(Lattice, CountWithoutBuildingMatchesTheBuiltLattice) {
+  for (Shape shape : {Shape::sphere, Shape::cylinder}) {
+    for (double d : {0.013, 0.01, 0.037, 0.05}) {
+      SceneDef s = test::block_scene(1, 1, 1, d);
+      s.objects[0].shape = shape;
+      s.objects[0].radius = 0.2;
+      s.objects[0].height = 0.23;
+      EXPECT_EQ(lattice::count_automata(s, d), static_cast<std::int64_t>(lattice::build_model(s).size()))
+          << "shape " << static_cast<int>(shape) << ", d " << d;
+    }
+  }
+}
+
+TEST(Lattice, ATinySpacingIsRefusedByTheMemoryCheckNotByExhaustingMemory) {
+  SceneDef s = test::block_scene(1, 1, 1, 1e-4);
+  s.objects[0].shape = Shape::sphere;
+  s.objects[0].radius = 1.0;  // about 4e12 automata
+  try {
+    lattice::build_model(s);
+    FAIL() << "a 4e12-automata sphere was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("GB"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Lattice, RotationAndPositionPlaceTheObject) {
   SceneDef s = test::block_scene(10, 2, 2, 0.1);
   s.objects[0].rotation = {0, 0, 90};  // the long axis now along y

@@ -52,40 +52,71 @@ std::int64_t cells_along(double extent, double d) {
   return std::max<std::int64_t>(1, static_cast<std::int64_t>(std::llround(extent / d)));
 }
 
-ObjectLattice object_lattice(const ObjectDef& o, double d) {
-  ObjectLattice L;
-  double ext[3];
+// Cells per axis and the centre of cell (0,0,0) in the object frame.
+void lattice_frame(const ObjectDef& o, double d, std::int64_t n[3], double origin[3]) {
+  double ext[3] = {0, 0, 0};
   switch (o.shape) {
     case Shape::box: ext[0] = o.size[0]; ext[1] = o.size[1]; ext[2] = o.size[2]; break;
     case Shape::sphere: ext[0] = ext[1] = ext[2] = 2 * o.radius; break;
     case Shape::cylinder: ext[0] = ext[1] = 2 * o.radius; ext[2] = o.height; break;
   }
   for (int a = 0; a < 3; ++a) {
-    L.n[a] = cells_along(ext[a], d);
-    L.origin[a] = -0.5 * static_cast<double>(L.n[a] - 1) * d;
+    n[a] = cells_along(ext[a], d);
+    origin[a] = -0.5 * static_cast<double>(n[a] - 1) * d;
   }
+}
+
+// Whether the cell centre (x, y, z) of the object frame lies in the shape.
+bool inside_shape(const ObjectDef& o, double x, double y, double z) {
+  if (o.shape == Shape::sphere) return x * x + y * y + z * z <= o.radius * o.radius;
+  if (o.shape == Shape::cylinder) return x * x + y * y <= o.radius * o.radius && std::fabs(z) <= 0.5 * o.height;
+  return true;
+}
+
+ObjectLattice object_lattice(const ObjectDef& o, double d) {
+  ObjectLattice L;
+  lattice_frame(o, d, L.n, L.origin);
   const std::int64_t total = L.n[0] * L.n[1] * L.n[2];
   L.inside.assign(static_cast<std::size_t>(total), 1);
   if (o.shape == Shape::box) return L;
   std::size_t c = 0;
   for (std::int64_t k = 0; k < L.n[2]; ++k)
     for (std::int64_t j = 0; j < L.n[1]; ++j)
-      for (std::int64_t i = 0; i < L.n[0]; ++i, ++c) {
-        const double x = L.origin[0] + i * d, y = L.origin[1] + j * d, z = L.origin[2] + k * d;
-        bool in = false;
-        if (o.shape == Shape::sphere) in = x * x + y * y + z * z <= o.radius * o.radius;
-        else in = x * x + y * y <= o.radius * o.radius && std::fabs(z) <= 0.5 * o.height;
-        L.inside[c] = in ? 1 : 0;
-      }
+      for (std::int64_t i = 0; i < L.n[0]; ++i, ++c)
+        L.inside[c] = inside_shape(o, L.origin[0] + i * d, L.origin[1] + j * d, L.origin[2] + k * d) ? 1 : 0;
   return L;
 }
 
+// The count object_lattice would give, without allocating it: row by row along x, where the inside
+// cells of a sphere or cylinder row form one interval around x = 0 (its ends found by bisection with
+// the same test), so that a tiny spacing is refused by the memory check instead of exhausting memory.
 std::int64_t object_count(const ObjectDef& o, double d) {
-  if (o.shape == Shape::box) {
-    return cells_along(o.size[0], d) * cells_along(o.size[1], d) * cells_along(o.size[2], d);
-  }
-  const ObjectLattice L = object_lattice(o, d);
-  return static_cast<std::int64_t>(std::count(L.inside.begin(), L.inside.end(), 1));
+  std::int64_t n[3];
+  double origin[3];
+  lattice_frame(o, d, n, origin);
+  if (o.shape == Shape::box) return n[0] * n[1] * n[2];
+  std::int64_t count = 0;
+  const std::int64_t mid = n[0] / 2;  // the cell nearest x = 0 (its centre is at |x| <= d/2)
+  for (std::int64_t k = 0; k < n[2]; ++k)
+    for (std::int64_t j = 0; j < n[1]; ++j) {
+      const double y = origin[1] + j * d, z = origin[2] + k * d;
+      auto in = [&](std::int64_t i) { return inside_shape(o, origin[0] + i * d, y, z); };
+      if (!in(mid)) continue;
+      std::int64_t lo = 0, hi = mid;  // first inside cell in [0, mid]
+      while (lo < hi) {
+        const std::int64_t m = (lo + hi) / 2;
+        if (in(m)) hi = m;
+        else lo = m + 1;
+      }
+      std::int64_t a = mid, b = n[0] - 1;  // last inside cell in [mid, n-1]
+      while (a < b) {
+        const std::int64_t m = (a + b + 1) / 2;
+        if (in(m)) a = m;
+        else b = m - 1;
+      }
+      count += a - lo + 1;
+    }
+  return count;
 }
 
 bool inside_region(const RegionDef& r, const Vec3d& p) {
@@ -125,6 +156,25 @@ Vec3 to_vec3(const Vec3d& v) { return {static_cast<float>(v[0]), static_cast<flo
 
 std::string fmt_vec(const Vec3d& v) { return fmt::format("[{:g}, {:g}, {:g}]", v[0], v[1], v[2]); }
 
+double shapes_volume(const SceneDef& scene) {
+  double volume = 0;
+  for (const auto& o : scene.objects) {
+    if (o.shape == Shape::box) volume += o.size[0] * o.size[1] * o.size[2];
+    else if (o.shape == Shape::sphere) volume += 4.0 / 3.0 * std::numbers::pi * std::pow(o.radius, 3);
+    else volume += std::numbers::pi * o.radius * o.radius * o.height;
+  }
+  return volume;
+}
+
+void refuse_over_memory(const SceneDef& scene, double d, double automata, bool approximate) {
+  const double bytes = static_cast<double>(estimate_memory_bytes(1, 3)) * automata;
+  if (bytes <= scene.solver.max_memory_gb * 1e9) return;
+  throw Error(fmt::format(
+      "{}: the scene needs about {:.1f} GB for {}{:.4g} automata at spacing {:.4g} m, over solver.max_memory_gb = "
+      "{:g}; increase solver.spacing (memory falls with its cube) or raise solver.max_memory_gb if the machine has it",
+      scene.source, bytes / 1e9, approximate ? "about " : "", automata, d, scene.solver.max_memory_gb));
+}
+
 }  // namespace
 
 std::int64_t count_automata(const SceneDef& scene, double spacing) {
@@ -134,12 +184,7 @@ std::int64_t count_automata(const SceneDef& scene, double spacing) {
 }
 
 double spacing_for_target(const SceneDef& scene, std::int64_t target) {
-  double volume = 0;
-  for (const auto& o : scene.objects) {
-    if (o.shape == Shape::box) volume += o.size[0] * o.size[1] * o.size[2];
-    else if (o.shape == Shape::sphere) volume += 4.0 / 3.0 * std::numbers::pi * std::pow(o.radius, 3);
-    else volume += std::numbers::pi * o.radius * o.radius * o.height;
-  }
+  const double volume = shapes_volume(scene);
   // The count falls as d grows; bisect on d between generous bounds, keep the closest count seen.
   double lo = std::cbrt(volume / target) * 0.25, hi = std::cbrt(volume / target) * 4.0;
   double best_d = lo;
@@ -202,15 +247,12 @@ Model build_model(const SceneDef& scene) {
   Model M;
   M.spacing = static_cast<float>(d);
 
-  // Memory check before allocating anything large.
+  // Memory check before allocating anything large: first from the shapes' volume (so an absurd spacing
+  // is refused at once: a lattice fills a shape to within a few cells of its surface, so half the
+  // volume estimate is a safe lower bound), then from the exact count.
+  refuse_over_memory(scene, d, 0.5 * shapes_volume(scene) / (d * d * d), true);
   const std::int64_t n_est = count_automata(scene, d);
-  const std::size_t bytes = estimate_memory_bytes(static_cast<std::size_t>(n_est), static_cast<std::size_t>(n_est) * 3);
-  if (static_cast<double>(bytes) > scene.solver.max_memory_gb * 1e9) {
-    throw Error(fmt::format(
-        "{}: the scene needs about {:.1f} GB for {} automata at spacing {:.4g} m, over solver.max_memory_gb = {:g}; "
-        "increase solver.spacing (memory falls with its cube) or raise solver.max_memory_gb if the machine has it",
-        scene.source, bytes / 1e9, n_est, d, scene.solver.max_memory_gb));
-  }
+  refuse_over_memory(scene, d, static_cast<double>(n_est), false);
   // Links are addressed with 29 bits in the backends' adjacency (3 links per automaton).
   if (n_est > (std::int64_t{1} << 29) / 3) {
     throw Error(fmt::format("{}: {} automata are more than this build supports (about 1.8e8); increase solver.spacing",
