@@ -1,8 +1,10 @@
 #include "sim/engine.hpp"
 
 #include <cmath>
+#include <fmt/format.h>
 
 #include "lattice/lattice.hpp"
+#include "mca/error.hpp"
 
 namespace mca {
 
@@ -11,7 +13,13 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame) {
   Model m = lattice::build_model(scene);
   const double frame = 1.0 / scene.output.frame_rate;
   const double stable = m.dt;
-  steps_per_frame = static_cast<int>(std::max(1.0, std::ceil(frame / stable - 1e-9)));
+  const double steps = std::max(1.0, std::ceil(frame / stable - 1e-9));
+  if (steps > 1e9) {
+    throw Error(fmt::format("{}: output.frame_rate = {:g} asks for {:.3g} steps of {:.3g} s per frame; raise "
+                            "output.frame_rate (frames per simulated second) so a frame is at most 1e9 steps",
+                            scene.source, scene.output.frame_rate, steps, stable));
+  }
+  steps_per_frame = static_cast<int>(steps);
   if (scene.solver.time_step <= 0) m.dt = static_cast<float>(frame / steps_per_frame);
   return m;
 }

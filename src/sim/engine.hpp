@@ -20,6 +20,9 @@ class Engine {
   explicit Engine(const SceneDef& scene);
   // Continues from a saved state (checkpoint) of the same scene.
   Engine(const SceneDef& scene, const State& state);
+  // The backend keeps a reference to the model member: an Engine stays where it was built.
+  Engine(const Engine&) = delete;
+  Engine& operator=(const Engine&) = delete;
 
   const SceneDef& scene() const { return scene_; }
   const Model& model() const { return model_; }
