@@ -3,14 +3,36 @@
 // a normal spring with a damper set by the coefficient of restitution, never pulling, and Coulomb
 // friction with a tangential spring whose history is kept per contact.
 #include "core/math.hpp"
+#include "core/model.hpp"
+#include "physics/link_law.hpp"  // kShearFactor
 
 namespace mca {
+
+// Two springs in series of equal length: 2 a b / (a + b) (pair moduli, contact stiffnesses).
+MCA_HD float harmonic(float a, float b) { return a + b > 0.0f ? 2.0f * a * b / (a + b) : 0.0f; }
 
 // Damping ratio that gives restitution e for a linear spring-dashpot: zeta = -ln e / sqrt(pi^2 + ln^2 e).
 MCA_HD float restitution_damping_ratio(float e) {
   if (e >= 1.0f) return 0.0f;
   const float l = std::log(e);
   return -l / std::sqrt(9.8696044f + l * l);
+}
+
+// Contact parameters of two automata (or an automaton and a body): springs of a link in compression over
+// the pair's size `length`, damping from the restitution (physics.md sec. 6). Used by the backends and by
+// the energy bookkeeping, so both see the same springs.
+struct PairContact {
+  float kn, kt, cn, mu;
+};
+
+MCA_HD PairContact contact_params(const GroupParams& a, const GroupParams& b, float length, float m_eff) {
+  PairContact c;
+  c.kn = harmonic(a.youngs, b.youngs) * length;
+  c.kt = kShearFactor * harmonic(a.shear_modulus, b.shear_modulus) * length;
+  const float zeta = restitution_damping_ratio(0.5f * (a.restitution + b.restitution));
+  c.cn = 2.0f * zeta * std::sqrt(c.kn * m_eff);
+  c.mu = 0.5f * (a.friction + b.friction);
+  return c;
 }
 
 struct ContactInput {

@@ -47,8 +47,6 @@ void parallel_chunks(std::size_t n, F&& body) {
   });
 }
 
-float harmonic(float a, float b) { return a + b > 0.0f ? 2.0f * a * b / (a + b) : 0.0f; }
-
 // Wall time per pass, summed over steps, printed when the backend is destroyed if MCA_PROFILE is set.
 struct PassProfile {
   bool on = std::getenv("MCA_PROFILE") != nullptr;
@@ -369,22 +367,6 @@ void CpuBackend::link_force_pass() {
   merged.reserve(S_.contacts.size() + fresh.size());
   std::merge(S_.contacts.begin(), S_.contacts.end(), fresh.begin(), fresh.end(), std::back_inserter(merged), less);
   S_.contacts.swap(merged);
-}
-
-// Contact parameters of two automata (or an automaton and a body): springs of a link in compression
-// over the pair's size, damping from the restitution (physics.md sec. 6).
-struct PairContact {
-  float kn, kt, cn, mu;
-};
-
-PairContact contact_params(const GroupParams& a, const GroupParams& b, float length, float m_eff) {
-  PairContact c;
-  c.kn = harmonic(a.youngs, b.youngs) * length;
-  c.kt = kShearFactor * harmonic(a.shear_modulus, b.shear_modulus) * length;
-  const float zeta = restitution_damping_ratio(0.5f * (a.restitution + b.restitution));
-  c.cn = 2.0f * zeta * std::sqrt(c.kn * m_eff);
-  c.mu = 0.5f * (a.friction + b.friction);
-  return c;
 }
 
 void CpuBackend::contact_pass() {

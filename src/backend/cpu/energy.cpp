@@ -11,7 +11,6 @@
 namespace mca {
 
 namespace {
-double harmonic_d(double a, double b) { return a + b > 0 ? 2 * a * b / (a + b) : 0; }
 double sq(Vec3 v) { return static_cast<double>(v.x) * v.x + static_cast<double>(v.y) * v.y + static_cast<double>(v.z) * v.z; }
 }  // namespace
 
@@ -60,7 +59,7 @@ Energies compute_energies_at(const Model& m, const State& s) {
     if (!s.intact[l]) continue;
     const std::uint32_t i = m.link_i[l], j = m.link_j[l];
     const LinkGeometry g = link_geometry(s.x[i], s.x[j], m.link_r0[l], 1.0f / m.link_r0[l]);
-    const double G = harmonic_d(m.groups[m.group[i]].shear_modulus, m.groups[m.group[j]].shear_modulus);
+    const double G = harmonic(m.groups[m.group[i]].shear_modulus, m.groups[m.group[j]].shear_modulus);
     const double V = static_cast<double>(m.link_area[l]) * m.link_r0[l];
     const double kt = kShearFactor * G * m.link_area[l] / m.link_r0[l];
     e.elastic += G * g.eps * g.eps * V + 0.5 * kt * sq(s.link_ut[l]);
@@ -75,11 +74,9 @@ Energies compute_energies_at(const Model& m, const State& s) {
     const double dist = std::sqrt(sq(delta(s.x[c.i], s.x[c.j])));
     const double overlap = m.radius[c.i] + m.radius[c.j] - dist;
     if (overlap <= 0) continue;
-    const auto& gi = m.groups[m.group[c.i]];
-    const auto& gj = m.groups[m.group[c.j]];
-    const double len = m.radius[c.i] + m.radius[c.j];
-    const double kn = harmonic_d(gi.youngs, gj.youngs) * len;
-    const double kt = kShearFactor * harmonic_d(gi.shear_modulus, gj.shear_modulus) * len;
+    const PairContact pc = contact_params(m.groups[m.group[c.i]], m.groups[m.group[c.j]],
+                                          m.radius[c.i] + m.radius[c.j], 0.0f);
+    const double kn = pc.kn, kt = pc.kt;
     e.elastic += 0.5 * kn * overlap * overlap + 0.5 * kt * sq(c.ut);
   }
   for (std::size_t p = 0; p < m.projectiles.size(); ++p) {
