@@ -35,11 +35,12 @@ struct Reader {
   const std::string& data;
   const std::filesystem::path& path;
   std::size_t at = 0;
-  void need(std::size_t n) {
-    if (at + n > data.size())
-      throw Error(fmt::format("checkpoint '{}' is truncated (wanted {} bytes at offset {}, file has {}); use an "
-                              "earlier checkpoint or start the run again",
-                              path.string(), n, at, data.size()));
+  // n items of `size` bytes must follow; written without products so a damaged count cannot overflow.
+  void need(std::size_t n, std::size_t size = 1) {
+    if (n > (data.size() - at) / size)
+      throw Error(fmt::format("checkpoint '{}' is truncated (wanted {} items of {} bytes at offset {}, file has {} "
+                              "bytes); use an earlier checkpoint or start the run again",
+                              path.string(), n, size, at, data.size()));
   }
   template <class T>
   T pod() {
@@ -52,8 +53,7 @@ struct Reader {
   template <class T>
   void vec(std::vector<T>& v) {
     const auto n = pod<std::uint64_t>();
-    if (n > data.size() / sizeof(T) + 1) need(n * sizeof(T));
-    need(n * sizeof(T));
+    need(n, sizeof(T));
     v.resize(n);
     std::memcpy(v.data(), data.data() + at, n * sizeof(T));
     at += n * sizeof(T);
@@ -147,7 +147,8 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   r.vec(s.contacts);
   r.vec(s.x_at_rebuild);
   const auto np = r.pod<std::uint64_t>();
-  if (np > 1000000) r.need(data.size());
+  // Each projectile takes at least its fixed fields and its contact count.
+  r.need(np, sizeof(DVec3) + 3 * sizeof(Vec3) + sizeof(Quat) + sizeof(std::uint64_t));
   s.projectiles.resize(np);
   for (auto& p : s.projectiles) {
     p.position = r.pod<DVec3>();
