@@ -141,6 +141,17 @@ struct Loop {
   std::vector<std::string> rows;  // stats.csv lines
 };
 
+// The checkpoints in a folder, oldest first (names carry the zero-padded frame number).
+std::vector<std::filesystem::path> checkpoint_files(const std::filesystem::path& ckdir) {
+  std::vector<std::filesystem::path> all;
+  std::error_code ec;
+  if (std::filesystem::is_directory(ckdir, ec))
+    for (const auto& e : std::filesystem::directory_iterator(ckdir))
+      if (e.path().extension() == ".mcack") all.push_back(e.path());
+  std::sort(all.begin(), all.end());
+  return all;
+}
+
 void save_checkpoint(const Loop& L, double wall) {
   const auto ckdir = L.dir / "checkpoints";
   std::filesystem::create_directories(ckdir);
@@ -152,10 +163,7 @@ void save_checkpoint(const Loop& L, double wall) {
   cp.wall_seconds = wall;
   io::write_checkpoint(ckdir / fmt::format("frame_{:06d}.mcack", L.frame - 1), cp);
   // Keep the two newest: the last one could be cut short by a crash while being renamed.
-  std::vector<std::filesystem::path> all;
-  for (const auto& e : std::filesystem::directory_iterator(ckdir))
-    if (e.path().extension() == ".mcack") all.push_back(e.path());
-  std::sort(all.begin(), all.end());
+  const auto all = checkpoint_files(ckdir);
   for (std::size_t k = 0; k + 2 < all.size(); ++k) std::filesystem::remove(all[k]);
 }
 
@@ -296,16 +304,11 @@ int run(const RunOptions& o) {
 int resume(const std::string& out_dir, int threads_requested, bool quiet) {
   const std::filesystem::path dir(out_dir);
   const auto ckdir = dir / "checkpoints";
-  std::vector<std::filesystem::path> all;
-  std::error_code ec;
-  if (std::filesystem::is_directory(ckdir, ec))
-    for (const auto& e : std::filesystem::directory_iterator(ckdir))
-      if (e.path().extension() == ".mcack") all.push_back(e.path());
+  const auto all = checkpoint_files(ckdir);
   if (all.empty())
     throw Error(fmt::format("no checkpoint in '{}': a run writes them with --checkpoint-every N (or when stopped "
                             "with Ctrl-C); pass that run's --out folder",
                             ckdir.string()));
-  std::sort(all.begin(), all.end());
   io::Checkpoint cp = io::read_checkpoint(all.back());
   const int threads = thread_count(threads_requested);
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
