@@ -47,7 +47,7 @@ void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis
     xyz[3 * a] = p.x;
     xyz[3 * a + 1] = p.y;
     xyz[3 * a + 2] = p.z;
-    const Vec3 d = delta(to_dvec3(model_.position0[a]), s.x[a]);
+    const Vec3 d = delta(model_.position0[a], s.x[a]);
     disp[3 * a] = d.x;
     disp[3 * a + 1] = d.y;
     disp[3 * a + 2] = d.z;

@@ -4,7 +4,6 @@
 
 #include "app/commands.hpp"
 #include "io/scene_io.hpp"
-#include "lattice/lattice.hpp"
 #include "sim/engine.hpp"
 
 namespace mca::app {
@@ -14,8 +13,7 @@ int info(const std::optional<std::string>& path, bool json) {
   const Engine sim(scene);
   const Model& m = sim.model();
   const std::int64_t frames = sim.frame_count();
-  const std::int64_t steps = frames * sim.steps_per_frame();
-  const double stable = lattice::stable_time_step(m, scene.solver.safety);
+  const std::int64_t steps = sim.total_steps();
   const std::size_t bytes = estimate_memory_bytes(m.size(), m.link_count());
   if (json) {
     nlohmann::json j;
@@ -25,7 +23,9 @@ int info(const std::optional<std::string>& path, bool json) {
     j["links"] = m.link_count();
     j["spacing"] = m.spacing;
     j["time_step"] = m.dt;
-    j["stable_time_step"] = stable;
+    j["critical_time_step"] = m.critical_dt;
+    j["time_step_limited_by"] = m.dt_limited_by;
+    j["simulated_time"] = static_cast<double>(steps) * m.dt;
     j["steps_per_frame"] = sim.steps_per_frame();
     j["frames"] = frames;
     j["steps"] = steps;
@@ -52,9 +52,10 @@ int info(const std::optional<std::string>& path, bool json) {
   for (std::size_t o = 0; o < m.object_names.size(); ++o) fmt::print("  object {:<9} {}\n", m.object_names[o], count[o]);
   fmt::print("links            {}\n", m.link_count());
   fmt::print("spacing          {:.4g} m\n", m.spacing);
-  fmt::print("time step        {:.4g} s (stable {:.4g} s at C = {:g})\n", m.dt, stable, scene.solver.safety);
-  fmt::print("steps per frame  {} ({} frames at {:g} /s, {} steps for {:g} s)\n", sim.steps_per_frame(), frames,
-             scene.output.frame_rate, steps, scene.output.duration);
+  fmt::print("time step        {:.4g} s (C = {:g} of the critical {:.4g} s, set by {})\n", m.dt, scene.solver.safety,
+             m.critical_dt, m.dt_limited_by);
+  fmt::print("steps per frame  {} ({} frames at {:g} /s, {} steps: {:.6g} s simulated)\n", sim.steps_per_frame(), frames,
+             scene.output.frame_rate, steps, static_cast<double>(steps) * m.dt);
   std::array<std::size_t, 4> classes{};
   for (auto c : m.strength_class) ++classes[c - 1];
   fmt::print("strength classes {} / {} / {} / {} (classes 1..4)\n", classes[0], classes[1], classes[2], classes[3]);

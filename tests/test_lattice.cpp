@@ -17,7 +17,7 @@ TEST(Lattice, BoxHasFaceLinksOnly) {
   EXPECT_EQ(m.link_count(), 3u * 3 * 2 + 4u * 2 * 2 + 4u * 3 * 1);  // x, y and z links
   for (std::size_t l = 0; l < m.link_count(); ++l) {
     EXPECT_LT(m.link_i[l], m.link_j[l]);
-    EXPECT_NEAR(length(m.position0[m.link_j[l]] - m.position0[m.link_i[l]]), m.link_r0[l], 1e-6);
+    EXPECT_NEAR(length(delta(m.position0[m.link_i[l]], m.position0[m.link_j[l]])), m.link_r0[l], 1e-6);
   }
 }
 
@@ -64,7 +64,8 @@ TEST(Lattice, RotationAndPositionPlaceTheObject) {
   s.objects[0].position = {5, -3, 1};
   const Model m = lattice::build_model(s);
   float xmin = 1e9, xmax = -1e9, ymin = 1e9, ymax = -1e9;
-  for (const Vec3& p : m.position0) {
+  for (const DVec3& pd : m.position0) {
+    const Vec3 p = to_vec3(pd);
     xmin = std::min(xmin, p.x);
     xmax = std::max(xmax, p.x);
     ymin = std::min(ymin, p.y);
@@ -88,7 +89,7 @@ TEST(Lattice, RegionsAssignMaterialGroups) {
   ASSERT_EQ(m.groups.size(), 2u);
   std::size_t in_region = 0;
   for (std::size_t a = 0; a < m.size(); ++a) {
-    const bool inside = length(m.position0[a]) <= 0.03f;
+    const bool inside = length(to_vec3(m.position0[a])) <= 0.03f;
     EXPECT_EQ(m.group_names[m.group[a]], inside ? "granite" : "testmat");
     in_region += inside;
   }

@@ -22,7 +22,12 @@ struct MaterialDef {
   double compressive_strength = 30e6;   // [Pa], >= tensile; equal to tensile -> von Mises criterion
   double fracture_strain = 1.5e-4;      // eps_b of the displacement criterion, > 0
   double friction = 0.6;                // Coulomb mu of contacts, >= 0
-  double restitution = 0.2;             // coefficient of restitution of contacts, in (0, 1]
+  double restitution = 0.2;             // coefficient of restitution of contacts, in [0.01, 1]
+  // Rolling and twisting resistance of contacts (mu_r, mu_t: the torque caps are mu R F_n). A loose
+  // automaton is a cube that contacts see as a sphere; 0.3 makes debris stop rolling within a few
+  // times its size instead of rolling on for ever. >= 0.
+  double rolling_friction = 0.3;
+  double twisting_friction = 0.3;
   StrengtheningLaw strengthening = StrengtheningLaw::none;
   double strengthening_alpha = 0.0;     // alpha of eq. 7 (>= 0)
 };
@@ -106,13 +111,15 @@ struct GroundDef {
   bool enabled = false;
   double height = 0.0;       // along the up axis (the axis gravity points down)
   double friction = 0.6;
-  double restitution = 0.3;
+  double restitution = 0.3;       // in [0.01, 1]
+  double rolling_friction = 0.3;  // rolling and twisting resistance (see MaterialDef)
+  double twisting_friction = 0.3;
 };
 
 struct SolverDef {
   double spacing = 0.05;                 // lattice spacing d [m], > 0
   std::int64_t target_automata = 0;      // > 0: choose d so the count lands within 2 %
-  double safety = 0.2;                   // C of the stable step, in (0, 1]
+  double safety = 0.5;                   // C: the step is C x the critical step (time_step.cpp), in (0, 1]
   double time_step = 0.0;                // 0: automatic; else used as given (must be <= the stable one)
   Vec3d gravity = {0, 0, -9.81};         // [m/s^2]; the up axis is the one opposite gravity (z if zero)
   double link_damping = 0.0;             // viscous damping of links, share of critical, in [0, 1]

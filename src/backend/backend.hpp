@@ -16,12 +16,18 @@ enum HealthFlag : std::uint32_t {
   // A position or velocity became NaN or infinite: the time step is too large for the stiffest
   // spring (lower solver.safety or solver.time_step), or a material constant is extreme.
   kNonFinite = 1u << 0,
+  // Kinetic + elastic energy grew past 10x the energy the run had at its start plus the work put in
+  // since (gravity, grips, loads, kinematic projectiles): a blow-up that is still finite. Raised by
+  // Engine::advance, which checks the energy after each call (physics.md sec. 7).
+  kEnergyGrowth = 1u << 1,
 };
 
 struct StepHealth {
   std::uint32_t flags = kHealthy;
   std::int64_t step = -1;             // first step that raised a flag
-  std::int64_t automaton = -1;        // an automaton where it was seen
+  std::int64_t automaton = -1;        // an automaton where a non-finite value was seen
+  std::int64_t projectile = -1;       // a projectile where a non-finite value was seen
+  double energy = 0, budget = 0;      // kEnergyGrowth: the energy and the budget it exceeded [J]
 };
 
 class Backend {
@@ -43,10 +49,16 @@ State initial_state(const Model& model);
 
 struct Energies {
   double kinetic = 0;             // automata, translation + rotation [J]
-  double elastic = 0;             // links (normal, many-body, shear) + contacts [J]
+  double elastic = 0;             // links (normal, many-body, shear) + contact springs [J]
+  double contact = 0;             // the contact springs' part of `elastic` [J]
   double projectile_kinetic = 0;  // [J]
   double gravity_work = 0;        // work gravity did on automata and projectiles since the start [J]
   double grip_work = 0;           // work the grips did [J]
+  double load_work = 0;           // work the [[load]] forces did [J]
+  double projectile_work = 0;     // work the kinematic projectiles did [J]
+  // What the bodies hold, and what was put in from outside since the start.
+  double total() const { return kinetic + elastic + projectile_kinetic; }
+  double external_work() const { return gravity_work + grip_work + load_work + projectile_work; }
 };
 // Reference (serial, double accumulation) energies of a state, taken at the positions of the last
 // force evaluation with velocities in step with them (see energy.cpp).

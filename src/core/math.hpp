@@ -51,6 +51,9 @@ MCA_HD DVec3& operator+=(DVec3& a, Vec3 b) {
   a.x += b.x; a.y += b.y; a.z += b.z;
   return a;
 }
+MCA_HD double dot(DVec3 a, DVec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+// b - a in double.
+MCA_HD DVec3 ddelta(DVec3 a, DVec3 b) { return {b.x - a.x, b.y - a.y, b.z - a.z}; }
 
 // Unit quaternion (w, x, y, z) for the orientation of an automaton.
 struct Quat {

@@ -11,15 +11,29 @@
 
 namespace mca {
 
+// Strengthening law of a material (paper eq. 7; the functions are in physics/link_law.hpp).
+struct Strengthening {
+  int law = 0;      // 0 none, 1 exponential E0 exp(alpha e), 2 quadratic E0 (1 + alpha e^2)
+  float alpha = 0;  // alpha of eq. 7
+  float cap = 0;    // |e| beyond which the modulus stops growing (the largest breaking strain)
+};
+
 // Material constants of one automata group, in the form the step uses (physics.md sec. 3).
 struct GroupParams {
   float youngs = 0, poisson = 0, density = 0;
   float shear_modulus = 0;   // G = E / (2 (1 + nu))
   float lame_lambda = 0;     // lambda = E nu / ((1 + nu)(1 - 2 nu)) = D * K / 3
   float tensile_strength = 0, compressive_strength = 0, fracture_strain = 0;
-  float friction = 0, restitution = 0;
-  int strengthening = 0;     // 0 none, 1 exponential, 2 quadratic (paper eq. 7)
-  float strengthening_alpha = 0;
+  float friction = 0, restitution = 0, rolling_friction = 0, twisting_friction = 0;
+  Strengthening strengthening;
+};
+
+// What a pair of materials (or a material and the ground) brings to a contact (physics/contact_law.hpp).
+struct ContactMaterial {
+  float youngs = 0, shear = 0;  // E_12, G_12: harmonic means (the rigid ground counts as infinite)
+  float restitution = 0;        // the pair's coefficient of restitution
+  float zeta = 0;               // damping ratio of the clipped dashpot for it (continuous time)
+  float friction = 0, rolling = 0, twisting = 0;
 };
 
 struct ProjectileParams {
@@ -27,18 +41,24 @@ struct ProjectileParams {
   float radius = 0, mass = 0, inertia = 0;
   int group = 0;             // material of the projectile (index into Model::groups)
   bool kinematic = false;
-  Vec3 position, velocity, angular_velocity;
+  // Damping ratios of its contacts with automata (per group) and the ground (see Model::zeta_pair).
+  std::vector<float> zeta_automata;
+  float zeta_ground = 0;
+  DVec3 position;
+  Vec3 velocity, angular_velocity;
 };
 
 struct Model {
   // --- automata (n) ---
-  std::vector<Vec3> position0;    // initial centres
+  // Initial centres, double like the state's positions: rest lengths and initial strains are formed
+  // from them (a float32 centre 1 km from the origin is off by 3e-5 m, a strain of 6e-4 on a 5 cm link).
+  std::vector<DVec3> position0;
   std::vector<Vec3> velocity0;    // initial velocities
   std::vector<float> mass, radius, inertia, volume;
   std::vector<std::uint8_t> group;         // index into groups
   std::vector<std::uint8_t> strength_class;  // 1..4
   std::vector<float> class_factor;         // k_c of the automaton's class
-  std::vector<std::int16_t> object;        // index of the scene object it came from
+  std::vector<std::int32_t> object;        // index of the scene object it came from
   std::vector<std::int16_t> grip;          // index of the grip holding it, -1 if free
   std::vector<Vec3> load;                  // constant external force; empty when the scene has no loads
 
@@ -51,22 +71,31 @@ struct Model {
 
   // --- scene-level ---
   std::vector<GroupParams> groups;
+  // Contact materials: contact[a * groups + b] for groups a, b; ground_contact[a] against the ground.
+  std::vector<ContactMaterial> contact, ground_contact;
+  // Damping ratios of the contact dashpots calibrated for the time step dt (lattice::set_time_step): the
+  // clipped law integrated at dt returns each pair's restitution. Automata of groups a, b:
+  // zeta_pair[a * groups + b]; on the ground: zeta_ground[a]; projectiles p, q: zeta_projectiles[p * P + q].
+  std::vector<float> zeta_pair, zeta_ground, zeta_projectiles;
   std::vector<std::string> group_names;
   std::vector<std::string> object_names;
   std::vector<ProjectileParams> projectiles;
   std::vector<Vec3> grip_velocity;
   std::vector<std::string> grip_names;
   bool ground = false;
-  float ground_height = 0, ground_friction = 0, ground_restitution = 0;
+  float ground_height = 0;
   Vec3 gravity;
   Vec3 up{0, 0, 1};
   float spacing = 0;             // lattice spacing d
   float dt = 0;                  // time step
+  double critical_dt = 0;        // critical step of the integration (lattice/time_step.cpp)
+  std::string dt_limited_by;     // what sets the critical step
   float skin = 0;                // contact search skin [m]
   float link_damping = 0, local_damping = 0, stress_coefficient = 1;
   double total_mass = 0;
 
   std::size_t size() const { return mass.size(); }
+  const ContactMaterial& contact_material(std::size_t a, std::size_t b) const { return contact[a * groups.size() + b]; }
   std::size_t link_count() const { return link_i.size(); }
 };
 

@@ -131,7 +131,13 @@ void check_material(const Checker& c, const MaterialDef& m, std::size_t i) {
   range("fracture_strain", m.fracture_strain, 0, false, INFINITY, false, "> 0",
         "use about 1.5 x tensile_strength / youngs_modulus so the stress criterion governs in slow tension");
   range("friction", m.friction, 0, true, INFINITY, false, ">= 0", "use e.g. 0.6 for concrete, 0 for frictionless");
-  range("restitution", m.restitution, 0, false, 1, true, "in (0, 1]", "use e.g. 0.2 for concrete, 1 for elastic");
+  range("restitution", m.restitution, 0.01, true, 1, true, "in [0.01, 1]",
+        "use e.g. 0.2 for concrete, 1 for elastic (below 0.01 the contact dashpot would have to be so stiff that "
+        "it sets the time step)");
+  range("rolling_friction", m.rolling_friction, 0, true, 1, true, "in [0, 1]",
+        "use 0.3 (the default) for debris that stops rolling, 0 for none");
+  range("twisting_friction", m.twisting_friction, 0, true, 1, true, "in [0, 1]",
+        "use 0.3 (the default), 0 for none");
   range("strengthening_alpha", m.strengthening_alpha, 0, true, INFINITY, false, ">= 0",
         "use 0 for linear elasticity");
   switch (m.strengthening) {
@@ -221,7 +227,9 @@ void validate_scene(const SceneDef& scene) {
                        "as given",
                        scene.solver.target_automata));
   }
-  c.range("solver.safety", scene.solver.safety, 0, false, 1, true, "in (0, 1]", "use 0.2 (the default)");
+  c.range("solver.safety", scene.solver.safety, 0, false, 1, true,
+          "in (0, 1] (the share of the critical time step; 1 is the stability limit of the linear lattice)",
+          "use 0.5 (the default)");
   c.non_negative("solver.time_step", scene.solver.time_step, "use 0 for the automatic stable step");
   c.finite("solver.gravity", scene.solver.gravity);
   c.range("solver.link_damping", scene.solver.link_damping, 0, true, 1, true, "in [0, 1] (share of critical)",
@@ -229,8 +237,11 @@ void validate_scene(const SceneDef& scene) {
   c.range("solver.local_damping", scene.solver.local_damping, 0, true, 0.2, true, "in [0, 0.2]",
           "use 0 for none; Cundall's local damping is usually 0.05 to 0.2 for quasi-static runs");
   c.positive("solver.stress_coefficient", scene.solver.stress_coefficient, "use 1 (the default)");
-  c.range("solver.skin", scene.solver.skin, 0, false, 1, true, "in (0, 1] (share of the spacing)",
-          "use 0.1 (the default)");
+  // Automata with six intact links are left out of the contact search: their nearest unlinked
+  // neighbours sit at sqrt(2) d, out of reach only while r_i + r_j + skin = d + skin < sqrt(2) d.
+  c.range("solver.skin", scene.solver.skin, 0, false, 0.4, true, "in (0, 0.4] (share of the spacing; above about "
+          "0.41 the diagonal neighbours of an intact automaton would enter the contact search, which skips them)",
+          "use 0.3 (the default)");
   c.positive("solver.max_memory_gb", scene.solver.max_memory_gb, "give the memory limit in GB, e.g. 16");
 
   // Output.
@@ -360,7 +371,11 @@ void validate_scene(const SceneDef& scene) {
   // Ground.
   c.finite("ground.height", scene.ground.height);
   c.non_negative("ground.friction", scene.ground.friction, "use e.g. 0.6, or 0 for a frictionless ground");
-  c.range("ground.restitution", scene.ground.restitution, 0, false, 1, true, "in (0, 1]", "use e.g. 0.3");
+  c.range("ground.restitution", scene.ground.restitution, 0.01, true, 1, true, "in [0.01, 1]", "use e.g. 0.3");
+  c.range("ground.rolling_friction", scene.ground.rolling_friction, 0, true, 1, true, "in [0, 1]",
+          "use 0.3 (the default), 0 for none");
+  c.range("ground.twisting_friction", scene.ground.twisting_friction, 0, true, 1, true, "in [0, 1]",
+          "use 0.3 (the default), 0 for none");
 }
 
 }  // namespace mca

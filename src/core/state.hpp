@@ -15,24 +15,38 @@ struct BreakRecord {
   BreakCriterion criterion;
 };
 
-// An unlinked pair within contact range, with its tangential spring history (physics.md sec. 6).
-struct ContactPair {
-  std::uint32_t i, j;  // i < j
-  Vec3 ut;             // accumulated tangential displacement
+// Spring histories of a contact (physics/contact_law.hpp): zero while the pair is apart.
+struct ContactHistory {
+  Vec3 ut;  // accumulated tangential displacement
+  Vec3 mr;  // rolling (tangential part) and twisting (normal part) spring torque on the first body
 };
 
-// Contact history of a projectile or the ground with one automaton.
+// An unlinked pair within contact range (physics.md sec. 6).
+struct ContactPair {
+  std::uint32_t i, j;  // i < j
+  ContactHistory h;
+};
+
+// A contact of a projectile or the ground with one automaton (the automaton is the first body).
 struct BodyContact {
   std::uint32_t automaton;
-  Vec3 ut;
+  ContactHistory h;
+};
+
+// A contact between two projectiles p < q (p is the first body).
+struct ProjectilePair {
+  std::uint32_t p, q;
+  ContactHistory h;
 };
 
 struct ProjectileState {
   DVec3 position;
   Vec3 velocity, angular_velocity;
   Quat orientation;
-  Vec3 force;                         // contact force of the last step (for statistics)
+  Vec3 force;                         // force the automata put on it in the last step (for statistics)
   std::vector<BodyContact> contacts;  // sorted by automaton
+  ContactHistory ground;              // its contact with the ground
+  double work = 0;                    // work a kinematic projectile did on the automata since the start [J]
 };
 
 struct State {
@@ -49,20 +63,23 @@ struct State {
   // velocities in step with those positions (velocity Verlet's v_n = v_{n+1/2} - dt/2 a_n), which the
   // energy bookkeeping needs: the stored v is the half-step velocity of the symplectic Euler update.
   std::vector<Vec3> f, t;
-  std::vector<Vec3> ground_ut;  // tangential history with the ground (zero when not touching)
 
   // links
   std::vector<std::uint8_t> intact;
   std::vector<Vec3> link_ut;    // tangential displacement in the pair's frame
-  std::vector<float> link_sigma;  // normal stress of the last step (shear: k_s G |link_ut| / r0)
 
   std::vector<ContactPair> contacts;        // sorted by (i, j)
-  std::vector<DVec3> x_at_rebuild;           // positions when the contact list was last rebuilt
+  std::vector<BodyContact> ground_contacts;  // automata within reach of the ground, sorted by automaton
+  std::vector<DVec3> x_at_rebuild;           // positions when the contact lists were last rebuilt
 
   std::vector<ProjectileState> projectiles;
+  std::vector<ProjectilePair> projectile_contacts;  // sorted by (p, q)
 
   std::vector<BreakRecord> breaks;
   std::int64_t broken_by[2] = {0, 0};       // by BreakCriterion
+  // Total energy of the run's start (kinetic + elastic, frame 0): with the external work it is the
+  // budget the blow-up check compares the energy with, kept across checkpoints.
+  double initial_energy = 0;
   std::vector<double> grip_work;            // work done by each grip [J]
   std::vector<Vec3> grip_force;             // force each grip exerts on the body in the last step [N]
 };

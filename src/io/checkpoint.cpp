@@ -88,11 +88,10 @@ void write_checkpoint(const std::filesystem::path& path, const Checkpoint& cp) {
     w.vec(s.mean_stress);
     w.vec(s.f);
     w.vec(s.t);
-    w.vec(s.ground_ut);
     w.vec(s.intact);
     w.vec(s.link_ut);
-    w.vec(s.link_sigma);
     w.vec(s.contacts);
+    w.vec(s.ground_contacts);
     w.vec(s.x_at_rebuild);
     w.pod<std::uint64_t>(s.projectiles.size());
     for (const auto& p : s.projectiles) {
@@ -102,10 +101,14 @@ void write_checkpoint(const std::filesystem::path& path, const Checkpoint& cp) {
       w.pod(p.orientation);
       w.pod(p.force);
       w.vec(p.contacts);
+      w.pod(p.ground);
+      w.pod(p.work);
     }
+    w.vec(s.projectile_contacts);
     w.vec(s.breaks);
     w.pod(s.broken_by[0]);
     w.pod(s.broken_by[1]);
+    w.pod(s.initial_energy);
     w.vec(s.grip_work);
     w.vec(s.grip_force);
     os.write(kMagic, sizeof kMagic);  // end marker: a file cut short fails to load
@@ -140,11 +143,10 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   r.vec(s.mean_stress);
   r.vec(s.f);
   r.vec(s.t);
-  r.vec(s.ground_ut);
   r.vec(s.intact);
   r.vec(s.link_ut);
-  r.vec(s.link_sigma);
   r.vec(s.contacts);
+  r.vec(s.ground_contacts);
   r.vec(s.x_at_rebuild);
   const auto np = r.pod<std::uint64_t>();
   // Each projectile takes at least its fixed fields and its contact count.
@@ -157,10 +159,14 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
     p.orientation = r.pod<Quat>();
     p.force = r.pod<Vec3>();
     r.vec(p.contacts);
+    p.ground = r.pod<ContactHistory>();
+    p.work = r.pod<double>();
   }
+  r.vec(s.projectile_contacts);
   r.vec(s.breaks);
   s.broken_by[0] = r.pod<std::int64_t>();
   s.broken_by[1] = r.pod<std::int64_t>();
+  s.initial_energy = r.pod<double>();
   r.vec(s.grip_work);
   r.vec(s.grip_force);
   r.need(8);

@@ -369,8 +369,8 @@ const char* law_name(StrengtheningLaw l) {
 
 MaterialDef read_material(const Table& tb, const std::vector<MaterialDef>& earlier) {
   tb.allow({"name", "base", "youngs_modulus", "poisson_ratio", "density", "tensile_strength",
-            "compressive_strength", "fracture_strain", "friction", "restitution", "strengthening",
-            "strengthening_alpha"});
+            "compressive_strength", "fracture_strain", "friction", "restitution", "rolling_friction",
+            "twisting_friction", "strengthening", "strengthening_alpha"});
   MaterialDef m;  // no base: the struct's defaults (concrete)
   std::string base;
   if (tb.string("base", base)) {
@@ -402,6 +402,8 @@ MaterialDef read_material(const Table& tb, const std::vector<MaterialDef>& earli
   tb.number("fracture_strain", m.fracture_strain);
   tb.number("friction", m.friction);
   tb.number("restitution", m.restitution);
+  tb.number("rolling_friction", m.rolling_friction);
+  tb.number("twisting_friction", m.twisting_friction);
   if (auto law = tb.choice("strengthening", {"none", "exponential", "quadratic"}, "a strengthening law")) {
     m.strengthening = *law == "exponential" ? StrengtheningLaw::exponential
                       : *law == "quadratic" ? StrengtheningLaw::quadratic
@@ -541,11 +543,13 @@ SceneDef read_scene(const Table& root, const std::string& source) {
   }
 
   if (auto tb = root.table("ground", "[ground]")) {
-    tb->allow({"enabled", "height", "friction", "restitution"});
+    tb->allow({"enabled", "height", "friction", "restitution", "rolling_friction", "twisting_friction"});
     tb->boolean("enabled", scene.ground.enabled);
     tb->number("height", scene.ground.height);
     tb->number("friction", scene.ground.friction);
     tb->number("restitution", scene.ground.restitution);
+    tb->number("rolling_friction", scene.ground.rolling_friction);
+    tb->number("twisting_friction", scene.ground.twisting_friction);
   }
 
   for (const Table& tb : root.tables("material", "[[material]]")) {
@@ -668,6 +672,8 @@ std::string scene_to_toml(const SceneDef& s) {
   out += fmt::format("height = {}\n", toml_double(s.ground.height));
   out += fmt::format("friction = {}\n", toml_double(s.ground.friction));
   out += fmt::format("restitution = {}\n", toml_double(s.ground.restitution));
+  out += fmt::format("rolling_friction = {}\n", toml_double(s.ground.rolling_friction));
+  out += fmt::format("twisting_friction = {}\n", toml_double(s.ground.twisting_friction));
 
   for (const MaterialDef& m : s.materials) {
     out += "\n[[material]]\n";
@@ -680,6 +686,8 @@ std::string scene_to_toml(const SceneDef& s) {
     out += fmt::format("fracture_strain = {}\n", toml_double(m.fracture_strain));
     out += fmt::format("friction = {}\n", toml_double(m.friction));
     out += fmt::format("restitution = {}\n", toml_double(m.restitution));
+    out += fmt::format("rolling_friction = {}\n", toml_double(m.rolling_friction));
+    out += fmt::format("twisting_friction = {}\n", toml_double(m.twisting_friction));
     out += fmt::format("strengthening = {}\n", toml_string(law_name(m.strengthening)));
     out += fmt::format("strengthening_alpha = {}\n", toml_double(m.strengthening_alpha));
   }

@@ -6,6 +6,7 @@
 #include <limits>
 #include <map>
 #include <numbers>
+#include <unordered_map>
 
 #include "lattice/heterogeneity.hpp"
 #include "mca/error.hpp"
@@ -129,7 +130,54 @@ bool inside_region(const RegionDef& r, const Vec3d& p) {
   return true;
 }
 
-GroupParams group_params(const MaterialDef& m) {
+// The smallest and largest class factors any object of the scene uses: they scale the breaking strains.
+std::pair<double, double> class_factor_range(const SceneDef& scene) {
+  const auto& f = scene.heterogeneity.class_factors;
+  double lo = *std::min_element(f.begin(), f.end()), hi = *std::max_element(f.begin(), f.end());
+  for (const auto& o : scene.objects)
+    if (o.heterogeneity) {
+      const auto& g = o.heterogeneity->class_factors;
+      lo = std::min(lo, *std::min_element(g.begin(), g.end()));
+      hi = std::max(hi, *std::max_element(g.begin(), g.end()));
+    }
+  return {lo, hi};
+}
+
+// The step computes in float32 (math.hpp): a value it stores must be a normal, finite float. A density of
+// 1e-50 or a modulus of 1e39 would otherwise become 0 or inf and the run NaN.
+float as_float32(const SceneDef& scene, const std::string& what, double v, const std::string& fix) {
+  const double a = std::fabs(v);
+  if (!(a >= std::numeric_limits<float>::min() && a <= std::numeric_limits<float>::max())) {
+    throw Error(fmt::format("{}: {} = {:.6g} does not fit the float32 arithmetic of the solver (magnitudes from "
+                            "1.2e-38 to 3.4e38); {}",
+                            scene.source, what, v, fix));
+  }
+  return static_cast<float>(v);
+}
+
+// The smallest strain at which a link may break: below it, float32 rounding of the per-step strain and
+// velocity updates (relative 6e-8) is a visible share of the threshold.
+constexpr double kMinBreakingStrain = 1e-6;
+
+GroupParams group_params(const SceneDef& scene, const MaterialDef& m, const std::string& key,
+                         std::pair<double, double> class_factors) {
+  const std::string q = fmt::format("{} (material \"{}\")", key, m.name);
+  const std::string units = "check the units (Pa, kg/m^3)";
+  as_float32(scene, q + ".youngs_modulus", m.youngs_modulus, units);
+  as_float32(scene, q + ".density", m.density, units);
+  as_float32(scene, q + ".tensile_strength", m.tensile_strength, units);
+  as_float32(scene, q + ".compressive_strength", m.compressive_strength, units);
+  as_float32(scene, q + ".fracture_strain", m.fracture_strain, "use e.g. 1.5e-4 for concrete");
+  const double breaking = class_factors.first * std::min(m.fracture_strain, m.tensile_strength / m.youngs_modulus);
+  if (breaking < kMinBreakingStrain) {
+    throw Error(fmt::format(
+        "{}: {} breaks at a strain of {:.3g} (the smaller of fracture_strain = {:g} and tensile_strength / "
+        "youngs_modulus = {:g} / {:g}, times the weakest class factor {:g}), below the {:g} that the float32 "
+        "arithmetic of the solver resolves; check youngs_modulus (Pa) and the strengths, or raise them",
+        scene.source, q, breaking, m.fracture_strain, m.tensile_strength, m.youngs_modulus, class_factors.first,
+        kMinBreakingStrain));
+  }
+  const double class_factor_max = class_factors.second;
   GroupParams g;
   const double E = m.youngs_modulus, nu = m.poisson_ratio;
   g.youngs = static_cast<float>(E);
@@ -142,17 +190,37 @@ GroupParams group_params(const MaterialDef& m) {
   g.fracture_strain = static_cast<float>(m.fracture_strain);
   g.friction = static_cast<float>(m.friction);
   g.restitution = static_cast<float>(m.restitution);
-  g.strengthening = static_cast<int>(m.strengthening);
-  g.strengthening_alpha = static_cast<float>(m.strengthening_alpha);
+  g.rolling_friction = static_cast<float>(m.rolling_friction);
+  g.twisting_friction = static_cast<float>(m.twisting_friction);
+  g.strengthening.law = static_cast<int>(m.strengthening);
+  g.strengthening.alpha = static_cast<float>(m.strengthening_alpha);
+  // The law stops at the largest strain a link of this material reaches: its breaking strain in
+  // tension, the strain of its compressive strength in compression (link_law.hpp).
+  if (g.strengthening.law != 0) {
+    g.strengthening.cap = static_cast<float>(class_factor_max * std::max(m.fracture_strain, m.compressive_strength / E));
+    // The time step shrinks with the square root of the largest factor: refuse laws that would stiffen
+    // the material more than 1e4-fold before it breaks.
+    const double f = strengthening_factor(g.strengthening, g.strengthening.cap);
+    if (!(f <= 1e4)) {
+      throw Error(fmt::format(
+          "{}: {} has a {} strengthening law with alpha = {:g} that reaches a factor of {:.3g} at the largest strain "
+          "a link of it can have ({:.3g}: fracture_strain, or compressive_strength / youngs_modulus, times the "
+          "largest class factor); the time step would shrink {:.3g}-fold. Lower strengthening_alpha, or the "
+          "fracture_strain and compressive_strength that cap the law (at most a factor of 1e4)",
+          scene.source, q, m.strengthening == StrengtheningLaw::exponential ? "an exponential" : "a quadratic",
+          m.strengthening_alpha, f, g.strengthening.cap, std::sqrt(f)));
+    }
+  }
   return g;
 }
 
 // The automata of grips and loads: initial centre inside [lo, hi].
-bool inside_box(Vec3 p, const Vec3d& lo, const Vec3d& hi) {
+bool inside_box(DVec3 p, const Vec3d& lo, const Vec3d& hi) {
   return p.x >= lo[0] && p.x <= hi[0] && p.y >= lo[1] && p.y <= hi[1] && p.z >= lo[2] && p.z <= hi[2];
 }
 
 Vec3 to_vec3(const Vec3d& v) { return {static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2])}; }
+DVec3 to_dvec3(const Vec3d& v) { return {v[0], v[1], v[2]}; }
 
 std::string fmt_vec(const Vec3d& v) { return fmt::format("[{:g}, {:g}, {:g}]", v[0], v[1], v[2]); }
 
@@ -175,7 +243,119 @@ void refuse_over_memory(const SceneDef& scene, double d, double automata, bool a
       scene.source, bytes / 1e9, approximate ? "about " : "", automata, d, scene.solver.max_memory_gb));
 }
 
+// Objects may touch (automata of two objects d apart: an unlinked contact, as two stacked boxes) but
+// not overlap: overlapping automata would start pressed into each other by up to their whole size, a
+// stored energy of the order of E d^3 per pair that throws the objects apart (measured: two boxes
+// overlapping by 0.1 m released 3e7 J). Objects whose boxes of automata meet are checked automaton by
+// automaton through a hash of cells of size d.
+void refuse_overlaps(const SceneDef& scene, const Model& M) {
+  const std::size_t n_obj = scene.objects.size();
+  if (n_obj < 2) return;
+  struct Box {
+    double lo[3], hi[3];
+    std::size_t first = 0, last = 0;  // automata [first, last)
+  };
+  std::vector<Box> boxes(n_obj);
+  for (std::size_t a = 0, o = 0; o < n_obj; ++o) {
+    Box& b = boxes[o];
+    b.first = a;
+    for (int k = 0; k < 3; ++k) {
+      b.lo[k] = INFINITY;
+      b.hi[k] = -INFINITY;
+    }
+    for (; a < M.size() && static_cast<std::size_t>(M.object[a]) == o; ++a) {
+      const double p[3] = {M.position0[a].x, M.position0[a].y, M.position0[a].z};
+      for (int k = 0; k < 3; ++k) {
+        b.lo[k] = std::min(b.lo[k], p[k] - M.radius[a]);
+        b.hi[k] = std::max(b.hi[k], p[k] + M.radius[a]);
+      }
+    }
+    b.last = a;
+  }
+  // Object pairs whose boxes meet, found by a sweep along x.
+  std::vector<std::size_t> order(n_obj);
+  for (std::size_t o = 0; o < n_obj; ++o) order[o] = o;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return boxes[a].lo[0] < boxes[b].lo[0]; });
+  const double d = M.spacing;
+  for (std::size_t u = 0; u < n_obj; ++u) {
+    const Box& A = boxes[order[u]];
+    for (std::size_t v = u + 1; v < n_obj && boxes[order[v]].lo[0] < A.hi[0]; ++v) {
+      const Box& B = boxes[order[v]];
+      bool meet = true;
+      for (int k = 1; k < 3; ++k) meet = meet && B.lo[k] < A.hi[k] && A.lo[k] < B.hi[k];
+      if (!meet) continue;
+      // The smaller object goes into the hash; the other's automata look up the 27 cells around them.
+      const bool a_small = A.last - A.first <= B.last - B.first;
+      const Box& H = a_small ? A : B;
+      const Box& Q = a_small ? B : A;
+      auto key = [&](double x, double y, double z) {
+        const auto c = [&](double t) { return static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(t / d))); };
+        return c(x) * 73856093ull ^ c(y) * 19349663ull ^ c(z) * 83492791ull;
+      };
+      std::unordered_multimap<std::uint64_t, std::uint32_t> cells;
+      cells.reserve(H.last - H.first);
+      for (std::size_t a = H.first; a < H.last; ++a)
+        cells.emplace(key(M.position0[a].x, M.position0[a].y, M.position0[a].z), static_cast<std::uint32_t>(a));
+      for (std::size_t q = Q.first; q < Q.last; ++q) {
+        const DVec3 p = M.position0[q];
+        for (int dz = -1; dz <= 1; ++dz)
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+              const auto range = cells.equal_range(key(p.x + dx * d, p.y + dy * d, p.z + dz * d));
+              for (auto it = range.first; it != range.second; ++it) {
+                const std::uint32_t h = it->second;
+                const DVec3 dd = ddelta(p, M.position0[h]);
+                const double dist = std::sqrt(dot(dd, dd));
+                const double reach = static_cast<double>(M.radius[q]) + M.radius[h];
+                if (dist >= reach * (1 - 1e-6)) continue;
+                const ObjectDef &oq = scene.objects[M.object[q]], &oh = scene.objects[M.object[h]];
+                throw Error(fmt::format(
+                    "{}: object '{}' overlaps object '{}': their automata at [{:.6g}, {:.6g}, {:.6g}] and [{:.6g}, "
+                    "{:.6g}, {:.6g}] are {:.4g} m apart, {:.4g} m closer than the {:.4g} m at which automata touch. "
+                    "Objects may touch but not overlap (overlapping automata would start compressed and throw "
+                    "the objects apart); move them apart (by at least {:.4g} m here), or make one object with "
+                    "[[object.region]] blocks for two materials",
+                    scene.source, oq.name, oh.name, p.x, p.y, p.z, M.position0[h].x, M.position0[h].y,
+                    M.position0[h].z, dist, reach - dist, reach, reach - dist));
+              }
+            }
+      }
+    }
+  }
+}
+
 }  // namespace
+
+void set_time_step(Model& M, float dt) {
+  M.dt = dt;
+  const std::size_t G = M.groups.size(), P = M.projectiles.size();
+  const double d = M.spacing;
+  auto zeta = [&](const ContactMaterial& c, double length, double m_eff) {
+    return discrete_damping_ratio(c.restitution, std::sqrt(c.youngs * length / m_eff) * dt);
+  };
+  auto mass = [&](std::size_t g) { return M.groups[g].density * d * d * d; };
+  M.zeta_pair.assign(G * G, 0.0f);
+  M.zeta_ground.assign(G, 0.0f);
+  for (std::size_t a = 0; a < G; ++a) {
+    for (std::size_t b = 0; b < G; ++b) M.zeta_pair[a * G + b] = zeta(M.contact_material(a, b), d, mass(a) * mass(b) / (mass(a) + mass(b)));
+    M.zeta_ground[a] = zeta(M.ground_contact[a], d, mass(a));
+  }
+  M.zeta_projectiles.assign(P * P, 0.0f);
+  for (std::size_t p = 0; p < P; ++p) {
+    ProjectileParams& A = M.projectiles[p];
+    A.zeta_automata.assign(G, 0.0f);
+    for (std::size_t g = 0; g < G; ++g)
+      A.zeta_automata[g] = zeta(M.contact_material(g, A.group), 2 * std::min<double>(0.5 * d, A.radius),
+                                A.kinematic ? mass(g) : mass(g) * A.mass / (mass(g) + A.mass));
+    A.zeta_ground = zeta(M.ground_contact[A.group], 2.0 * A.radius, A.mass);
+    for (std::size_t q = 0; q < P; ++q) {
+      const ProjectileParams& B = M.projectiles[q];
+      if (q == p || (A.kinematic && B.kinematic)) continue;
+      const double m_eff = A.kinematic ? B.mass : B.kinematic ? A.mass : A.mass * B.mass / (A.mass + B.mass);
+      M.zeta_projectiles[p * P + q] = zeta(M.contact_material(A.group, B.group), 2 * std::min(A.radius, B.radius), m_eff);
+    }
+  }
+}
 
 std::int64_t count_automata(const SceneDef& scene, double spacing) {
   std::int64_t n = 0;
@@ -215,50 +395,34 @@ double scene_spacing(const SceneDef& scene) {
                                           : scene.solver.spacing;
 }
 
-double stable_time_step(const Model& model, double safety) {
-  // Only the groups automata are made of: a projectile's material enters through its contact spring.
-  std::vector<char> used(model.groups.size(), 0);
-  double m_min = std::numeric_limits<double>::max();
-  for (std::size_t a = 0; a < model.size(); ++a) {
-    used[model.group[a]] = 1;
-    m_min = std::min<double>(m_min, model.mass[a]);
-  }
-  double cp_max = 0, k_max = 0;
-  const double d = model.spacing;
-  for (std::size_t gi = 0; gi < model.groups.size(); ++gi) {
-    if (!used[gi]) continue;
-    const auto& g = model.groups[gi];
-    const double m = 2.0 * g.shear_modulus + g.lame_lambda;  // P-wave modulus
-    cp_max = std::max(cp_max, std::sqrt(m / g.density));
-    // Stiffest spring an automaton feels: a link (2G + lambda of both ends) or a projectile contact.
-    k_max = std::max(k_max, (2.0 * g.shear_modulus + 2.0 * g.lame_lambda) * d);
-    for (const auto& p : model.projectiles) {
-      const auto& pg = model.groups[p.group];
-      k_max = std::max(k_max, 2.0 * g.youngs * pg.youngs / (g.youngs + pg.youngs) * d);
-    }
-  }
-  if (cp_max == 0) return 0;
-  return std::min(safety * d / cp_max, safety * std::sqrt(m_min / k_max));
-}
-
 Model build_model(const SceneDef& scene) {
   validate_scene(scene);
-  const double d = scene_spacing(scene);
+  // The spacing is rounded to float once: the rest length r0 = d is stored in float32, and the centres
+  // (double) are laid out with the same d, so an intact lattice starts with a strain of exactly zero (up
+  // to the double rounding of the centres) instead of the 3e-8 of a float-rounded r0.
+  const double d = static_cast<double>(static_cast<float>(scene_spacing(scene)));
   Model M;
   M.spacing = static_cast<float>(d);
 
   // Memory check before allocating anything large: first from the shapes' volume (so an absurd spacing
   // is refused at once: a lattice fills a shape to within a few cells of its surface, so half the
   // volume estimate is a safe lower bound), then from the exact count.
-  refuse_over_memory(scene, d, 0.5 * shapes_volume(scene) / (d * d * d), true);
+  // Links are addressed with 29 bits in the backends' adjacency (3 links per automaton).
+  constexpr double kMaxAutomata = static_cast<double>((std::int64_t{1} << 29) / 3);
+  auto refuse_count = [&](double n, bool approximate) {
+    if (n <= kMaxAutomata) return;
+    throw Error(fmt::format("{}: {}{:.4g} automata at spacing {:.4g} m are more than this build supports (about "
+                            "1.8e8); increase solver.spacing",
+                            scene.source, approximate ? "about " : "", n, d));
+  };
+  const double n_volume = 0.5 * shapes_volume(scene) / (d * d * d);
+  refuse_over_memory(scene, d, n_volume, true);
+  refuse_count(n_volume, true);
   const std::int64_t n_est = count_automata(scene, d);
   refuse_over_memory(scene, d, static_cast<double>(n_est), false);
-  // Links are addressed with 29 bits in the backends' adjacency (3 links per automaton).
-  if (n_est > (std::int64_t{1} << 29) / 3) {
-    throw Error(fmt::format("{}: {} automata are more than this build supports (about 1.8e8); increase solver.spacing",
-                            scene.source, n_est));
-  }
+  refuse_count(static_cast<double>(n_est), false);
 
+  const auto class_factors = class_factor_range(scene);
   std::map<std::string, int> group_index;
   auto group_of = [&](const std::string& name, const std::string& key) {
     auto it = group_index.find(name);
@@ -266,7 +430,11 @@ Model build_model(const SceneDef& scene) {
     if (group_index.size() >= 255) throw Error(fmt::format("{}: more than 255 materials in one scene", scene.source));
     const MaterialDef& m = resolve_material(scene, name, key);
     const int idx = static_cast<int>(M.groups.size());
-    M.groups.push_back(group_params(m));
+    M.groups.push_back(group_params(scene, m, key, class_factors));
+    const double mass = m.density * d * d * d;
+    const std::string fix = fmt::format("check the density (kg/m^3) and solver.spacing ({:g} m)", d);
+    as_float32(scene, fmt::format("the mass of an automaton of material \"{}\"", name), mass, fix);
+    as_float32(scene, fmt::format("the moment of inertia of an automaton of material \"{}\"", name), mass * d * d / 6, fix);
     M.group_names.push_back(name);
     group_index.emplace(name, idx);
     return idx;
@@ -300,14 +468,14 @@ Model build_model(const SceneDef& scene) {
           for (std::size_t rr = 0; rr < o.regions.size(); ++rr)
             if (inside_region(o.regions[rr], wp)) g = region_groups[rr];
           const float mass = M.groups[g].density * fd * fd * fd;
-          M.position0.push_back(to_vec3(wp));
+          M.position0.push_back(to_dvec3(wp));
           M.velocity0.push_back(to_vec3(o.velocity));
           M.mass.push_back(mass);
           M.radius.push_back(0.5f * fd);
           M.inertia.push_back(mass * fd * fd / 6.0f);  // cube of side d about a central axis
           M.volume.push_back(fd * fd * fd);
           M.group.push_back(static_cast<std::uint8_t>(g));
-          M.object.push_back(static_cast<std::int16_t>(oi));
+          M.object.push_back(static_cast<std::int32_t>(oi));
           M.grip.push_back(-1);
           local.push_back(to_vec3(lp));
         }
@@ -342,6 +510,8 @@ Model build_model(const SceneDef& scene) {
     }
   }
 
+  refuse_overlaps(scene, M);
+
   // Automaton -> links adjacency (CSR), each automaton's links in link order.
   const std::size_t n = M.size();
   M.adj_begin.assign(n + 1, 0);
@@ -363,6 +533,7 @@ Model build_model(const SceneDef& scene) {
   // Grips: automata whose initial centre lies in the box (first grip wins).
   for (std::size_t g = 0; g < scene.grips.size(); ++g) {
     const GripDef& gd = scene.grips[g];
+    if (g >= 32767) throw Error(fmt::format("{}: more than 32767 grips; merge grips that move alike", scene.source));
     M.grip_names.push_back(gd.name);
     M.grip_velocity.push_back(to_vec3(gd.velocity));
     std::size_t held = 0;
@@ -407,17 +578,20 @@ Model build_model(const SceneDef& scene) {
     const double rho = pd.density > 0 ? pd.density : M.groups[pp.group].density;
     pp.radius = static_cast<float>(pd.radius);
     const double mass = rho * 4.0 / 3.0 * std::numbers::pi * pd.radius * pd.radius * pd.radius;
-    pp.mass = static_cast<float>(mass);
-    pp.inertia = static_cast<float>(0.4 * mass * pd.radius * pd.radius);
+    const std::string fix = fmt::format("check its radius (m) and density (kg/m^3); the automata here weigh {:.3g} kg",
+                                        M.mass.empty() ? 0.0 : M.mass[0]);
+    pp.mass = as_float32(scene, key + " mass", mass, fix);
+    pp.inertia = as_float32(scene, key + " moment of inertia", 0.4 * mass * pd.radius * pd.radius, fix);
+    as_float32(scene, key + ".radius", pd.radius, fix);
     pp.kinematic = pd.kinematic;
-    pp.position = to_vec3(pd.position);
+    pp.position = to_dvec3(pd.position);
     pp.velocity = to_vec3(pd.velocity);
     pp.angular_velocity = to_vec3(pd.angular_velocity);
     for (std::size_t a = 0; a < n; ++a) {
-      const Vec3 dd = M.position0[a] - pp.position;
+      const DVec3 dd = ddelta(pp.position, M.position0[a]);
       const double reach = pd.radius + M.radius[a];
       if (dot(dd, dd) < reach * reach) {
-        const double gap = reach - length(dd);
+        const double gap = reach - std::sqrt(dot(dd, dd));
         throw Error(fmt::format(
             "{}: {}.position = {} puts '{}' (radius {:g} m) inside object '{}': it overlaps the automaton at "
             "[{:.4g}, {:.4g}, {:.4g}] by {:.3g} m; move the projectile clear of the object (at least {:.3g} m "
@@ -434,23 +608,53 @@ Model build_model(const SceneDef& scene) {
   M.up = gl > 0 ? M.gravity * (-1.0f / gl) : Vec3{0, 0, 1};
   M.ground = scene.ground.enabled;
   M.ground_height = static_cast<float>(scene.ground.height);
-  M.ground_friction = static_cast<float>(scene.ground.friction);
-  M.ground_restitution = static_cast<float>(scene.ground.restitution);
+  // Contact materials of every pair of groups and of every group with the ground (contact_law.hpp): the
+  // moduli in series, the pair's mean friction, rolling and twisting coefficients and restitution; the
+  // ground brings its own coefficients and is rigid.
+  const std::size_t ng = M.groups.size();
+  M.contact.resize(ng * ng);
+  M.ground_contact.resize(ng);
+  for (std::size_t a = 0; a < ng; ++a) {
+    const GroupParams& A = M.groups[a];
+    for (std::size_t b = 0; b < ng; ++b) {
+      const GroupParams& B = M.groups[b];
+      ContactMaterial& c = M.contact[a * ng + b];
+      c.youngs = harmonic(A.youngs, B.youngs);
+      c.shear = harmonic(A.shear_modulus, B.shear_modulus);
+      c.restitution = 0.5f * (A.restitution + B.restitution);
+      c.zeta = restitution_damping_ratio(c.restitution);
+      c.friction = 0.5f * (A.friction + B.friction);
+      c.rolling = 0.5f * (A.rolling_friction + B.rolling_friction);
+      c.twisting = 0.5f * (A.twisting_friction + B.twisting_friction);
+    }
+    ContactMaterial& g = M.ground_contact[a];
+    g.youngs = harmonic(A.youngs, INFINITY);
+    g.shear = harmonic(A.shear_modulus, INFINITY);
+    g.restitution = static_cast<float>(scene.ground.restitution);
+    g.zeta = restitution_damping_ratio(g.restitution);
+    g.friction = static_cast<float>(scene.ground.friction);
+    g.rolling = static_cast<float>(scene.ground.rolling_friction);
+    g.twisting = static_cast<float>(scene.ground.twisting_friction);
+  }
   M.skin = static_cast<float>(scene.solver.skin * d);
   M.link_damping = static_cast<float>(scene.solver.link_damping);
   M.local_damping = static_cast<float>(scene.solver.local_damping);
   M.stress_coefficient = static_cast<float>(scene.solver.stress_coefficient);
 
-  const double stable = stable_time_step(M, scene.solver.safety);
+  const TimeStepBound critical = critical_time_step(M);
+  M.critical_dt = critical.dt;
+  M.dt_limited_by = critical.limited_by;
   if (scene.solver.time_step > 0) {
-    if (scene.solver.time_step > stable * (1 + 1e-9)) {
-      throw Error(fmt::format("{}: solver.time_step = {:g} s is above the stable step {:.4g} s of this scene "
-                              "(C = {:g}); remove solver.time_step to use the automatic step, or set it below {:.4g}",
-                              scene.source, scene.solver.time_step, stable, scene.solver.safety, stable));
+    if (scene.solver.time_step > critical.dt) {
+      throw Error(fmt::format("{}: solver.time_step = {:g} s is above the critical step {:.4g} s of this scene (set by "
+                              "{}), where the integration becomes unstable; remove solver.time_step to use "
+                              "solver.safety x the critical step, or set it below {:.4g}",
+                              scene.source, scene.solver.time_step, critical.dt, critical.limited_by,
+                              scene.solver.safety * critical.dt));
     }
-    M.dt = static_cast<float>(scene.solver.time_step);
+    set_time_step(M, static_cast<float>(scene.solver.time_step));
   } else {
-    M.dt = static_cast<float>(stable);
+    set_time_step(M, static_cast<float>(scene.solver.safety * critical.dt));
   }
   return M;
 }

@@ -3,6 +3,7 @@
 // mode), face-neighbour links, material groups by region, strength classes, projectiles, grips and the
 // stable time step. Never calls the solver.
 #include <cstdint>
+#include <string>
 
 #include "core/model.hpp"
 #include "mca/scene.hpp"
@@ -16,8 +17,17 @@ double spacing_for_target(const SceneDef& scene, std::int64_t target);
 // The spacing a scene asks for (target_automata wins over spacing when given).
 double scene_spacing(const SceneDef& scene);
 
-// Stable time step of a built model (physics.md sec. 7): min(C d / c_p, C sqrt(m_min / k_max)).
-double stable_time_step(const Model& model, double safety);
+// Critical time step of a built model (time_step.cpp, physics.md sec. 7): above it symplectic Euler is
+// unstable; `limited_by` names what sets it (for messages).
+struct TimeStepBound {
+  double dt = 0;
+  std::string limited_by;
+};
+TimeStepBound critical_time_step(const Model& model);
+
+// Sets the model's time step and calibrates the contact dashpots for it (Model::zeta_pair): called by
+// build_model and again by whoever shortens the step (the Engine fits a whole number of steps in a frame).
+void set_time_step(Model& model, float dt);
 
 // Builds the model. Throws mca::Error for scenes that cannot be built (projectile inside an object,
 // empty grip, memory estimate over the limit, ...).

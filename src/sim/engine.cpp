@@ -9,10 +9,15 @@
 namespace mca {
 
 namespace {
-Model build_for_frames(const SceneDef& scene, int& steps_per_frame) {
+Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t& total_steps) {
   Model m = lattice::build_model(scene);
   const double frame = 1.0 / scene.output.frame_rate;
   const double stable = m.dt;
+  if (scene.solver.time_step > 0 && frame < stable * (1 - 1e-9)) {
+    throw Error(fmt::format("{}: output.frame_rate = {:g} asks for frames of {:.3g} s, shorter than solver.time_step = "
+                            "{:g} s; lower output.frame_rate to at most {:.6g}, or remove solver.time_step",
+                            scene.source, scene.output.frame_rate, frame, scene.solver.time_step, 1.0 / stable));
+  }
   const double steps = std::max(1.0, std::ceil(frame / stable - 1e-9));
   if (steps > 1e9) {
     throw Error(fmt::format("{}: output.frame_rate = {:g} asks for {:.3g} steps of {:.3g} s per frame; raise "
@@ -20,25 +25,57 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame) {
                             scene.source, scene.output.frame_rate, steps, stable));
   }
   steps_per_frame = static_cast<int>(steps);
-  if (scene.solver.time_step <= 0) m.dt = static_cast<float>(frame / steps_per_frame);
+  // The automatic step is shortened so that a whole number of steps fills each frame.
+  if (scene.solver.time_step <= 0) lattice::set_time_step(m, static_cast<float>(frame / steps_per_frame));
+  const double total = std::round(scene.output.duration / static_cast<double>(m.dt));
+  if (total > 9e15) {
+    throw Error(fmt::format("{}: output.duration = {:g} s is {:.3g} steps of {:.3g} s; shorten it", scene.source,
+                            scene.output.duration, total, m.dt));
+  }
+  total_steps = std::max<std::int64_t>(1, static_cast<std::int64_t>(total));
   return m;
 }
 }  // namespace
 
 Engine::Engine(const SceneDef& scene) : scene_(scene) {
-  model_ = build_for_frames(scene_, steps_per_frame_);
+  model_ = build_for_frames(scene_, steps_per_frame_, total_steps_);
   backend_ = make_cpu_backend(model_);
   backend_->upload(initial_state(model_));
+  init_energy();
 }
 
 Engine::Engine(const SceneDef& scene, const State& state) : scene_(scene) {
-  model_ = build_for_frames(scene_, steps_per_frame_);
+  model_ = build_for_frames(scene_, steps_per_frame_, total_steps_);
   backend_ = make_cpu_backend(model_);
   backend_->upload(state);
+  init_energy();
 }
 
-std::int64_t Engine::frame_count() const {
-  return std::max<std::int64_t>(1, std::llround(scene_.output.duration * scene_.output.frame_rate));
+// A run's energy budget starts from its first state; a resumed run keeps the value of its checkpoint.
+void Engine::init_energy() {
+  last_check_ = state().step;
+  if (state().step != 0) return;
+  State s = state();
+  s.initial_energy = compute_energies(model_, s).total();
+  backend_->upload(s);
+}
+
+StepHealth Engine::advance(int steps) {
+  StepHealth h = backend_->step(steps);
+  const State& s = state();
+  if (h.flags == kHealthy && s.step - last_check_ >= kEnergyCheckInterval) {
+    last_check_ = s.step;
+    const Energies e = energies();
+    const double budget = s.initial_energy + e.external_work();
+    // 10x the budget (physics.md sec. 7), with a floor for runs that start at rest with nothing put in.
+    if (e.total() > 10.0 * std::max(budget, 0.0) && e.total() > 1e-9) {
+      h.flags |= kEnergyGrowth;
+      h.step = s.step;
+      h.energy = e.total();
+      h.budget = budget;
+    }
+  }
+  return h;
 }
 
 namespace {
@@ -52,32 +89,83 @@ struct Fnv {
     }
   }
   template <class T>
+  void pod(const T& v) {
+    static_assert(std::has_unique_object_representations_v<T> || std::is_floating_point_v<T>,
+                  "hash structs with padding field by field");
+    bytes(&v, sizeof v);
+  }
+  template <class T>
   void vec(const std::vector<T>& v) {
+    pod(v.size());
     bytes(v.data(), v.size() * sizeof(T));
+  }
+  void history(const ContactHistory& c) {
+    bytes(&c.ut, sizeof c.ut);
+    bytes(&c.mr, sizeof c.mr);
   }
 };
 }  // namespace
 
 std::uint64_t state_hash(const State& s) {
+  // Every field, so that two states with equal hashes evolve identically (Determinism.StateHashCovers...
+  // perturbs each one). Structs are hashed field by field: padding bytes hold no state.
   Fnv f;
-  f.bytes(&s.step, sizeof s.step);
+  f.pod(s.step);
+  f.pod(s.time);
   f.vec(s.x);
   f.vec(s.v);
   f.vec(s.w);
   f.vec(s.q);
+  f.vec(s.s);
+  f.vec(s.mean_stress);
+  f.vec(s.f);
+  f.vec(s.t);
   f.vec(s.intact);
   f.vec(s.link_ut);
-  f.vec(s.mean_stress);
+  f.pod(s.contacts.size());
   for (const auto& c : s.contacts) {
-    f.bytes(&c.i, sizeof c.i);
-    f.bytes(&c.j, sizeof c.j);
-    f.bytes(&c.ut, sizeof c.ut);
+    f.pod(c.i);
+    f.pod(c.j);
+    f.history(c.h);
   }
+  f.pod(s.ground_contacts.size());
+  for (const auto& c : s.ground_contacts) {
+    f.pod(c.automaton);
+    f.history(c.h);
+  }
+  f.vec(s.x_at_rebuild);
+  f.pod(s.projectiles.size());
   for (const auto& p : s.projectiles) {
     f.bytes(&p.position, sizeof p.position);
     f.bytes(&p.velocity, sizeof p.velocity);
     f.bytes(&p.angular_velocity, sizeof p.angular_velocity);
+    f.bytes(&p.orientation, sizeof p.orientation);
+    f.bytes(&p.force, sizeof p.force);
+    f.pod(p.contacts.size());
+    for (const auto& c : p.contacts) {
+      f.pod(c.automaton);
+      f.history(c.h);
+    }
+    f.history(p.ground);
+    f.pod(p.work);
   }
+  f.pod(s.projectile_contacts.size());
+  for (const auto& c : s.projectile_contacts) {
+    f.pod(c.p);
+    f.pod(c.q);
+    f.history(c.h);
+  }
+  f.pod(s.breaks.size());
+  for (const auto& b : s.breaks) {
+    f.pod(b.step);
+    f.pod(b.link);
+    f.pod(b.criterion);
+  }
+  f.pod(s.broken_by[0]);
+  f.pod(s.broken_by[1]);
+  f.pod(s.initial_energy);
+  f.vec(s.grip_work);
+  f.vec(s.grip_force);
   return f.h;
 }
 

@@ -30,23 +30,35 @@ class Engine {
   const State& state() const { return backend_->state(); }
   Backend& backend() { return *backend_; }
 
-  StepHealth advance(int steps) { return backend_->step(steps); }
+  // Advances n steps. Stops at the first step with a non-finite value (kNonFinite), and flags
+  // kEnergyGrowth when kinetic + elastic energy exceeds 10x the start's energy plus the work put in
+  // since (checked after the call once kEnergyCheckInterval steps have passed since the last check).
+  StepHealth advance(int steps);
   Energies energies() const { return compute_energies(model_, state()); }
 
   int steps_per_frame() const { return steps_per_frame_; }
   double frame_interval() const { return steps_per_frame_ * static_cast<double>(model_.dt); }
+  // Steps in the scene's duration: round(duration / dt), at least 1; the last frame is shorter when
+  // the duration is not a whole number of frames.
+  std::int64_t total_steps() const { return total_steps_; }
   // Frames in the scene's duration (at least 1).
-  std::int64_t frame_count() const;
+  std::int64_t frame_count() const { return (total_steps_ + steps_per_frame_ - 1) / steps_per_frame_; }
+
+  static constexpr std::int64_t kEnergyCheckInterval = 256;
 
  private:
+  void init_energy();
+
   SceneDef scene_;
   Model model_;
   std::unique_ptr<Backend> backend_;
   int steps_per_frame_ = 1;
+  std::int64_t total_steps_ = 1;
+  std::int64_t last_check_ = 0;  // step of the last energy check
 };
 
-// FNV-1a hash over the state's positions, velocities, rotations, link states, contacts and projectiles:
-// equal hashes mean bitwise equal states (determinism and checkpoint tests, summary.json).
+// FNV-1a hash over every field of the state: equal hashes mean bitwise equal states (determinism and
+// checkpoint tests, summary.json).
 std::uint64_t state_hash(const State& state);
 
 }  // namespace mca

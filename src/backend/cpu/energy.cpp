@@ -1,7 +1,12 @@
-// Energies of a state, in double, serially: the measuring stick of the energy test and of stats.csv.
-// The elastic energy is the potential the link law derives from (link_law.hpp):
-//   W = sum_links [G_ij eps^2 V + k_t |u_t|^2 / 2] + sum_i [lambda_i theta_i^2 / 2 + G_i sum_free e_f^2] V
-//       + contact springs.
+// Energies of a state, in double, serially: the measuring stick of the energy tests, of stats.csv and of
+// the blow-up check. Every force of the step is the gradient of one of these terms or does work that is
+// counted here (damping and sliding only take energy out):
+//   links      sum_links [G_ij V (F_i(e) + F_j(e)) + k_t(e) |u_t|^2 / 2]     (F(e) = e^2 / 2 without
+//   many-body  sum_i lambda_i theta_i L_i V / 2                              strengthening; link_law.hpp)
+//   contacts   k_n delta^2 / 2 + k_t |u_t|^2 / 2 + rolling and twisting springs, for automaton pairs, the
+//              ground, projectiles (contact_law.hpp)
+//   kinetic    automata and projectiles, translation and rotation
+//   work       gravity, [[load]] forces, grips, kinematic projectiles
 #include <cmath>
 
 #include "backend/backend.hpp"
@@ -12,6 +17,7 @@ namespace mca {
 
 namespace {
 double sq(Vec3 v) { return static_cast<double>(v.x) * v.x + static_cast<double>(v.y) * v.y + static_cast<double>(v.z) * v.z; }
+double dotd(Vec3 a, Vec3 b) { return static_cast<double>(a.x) * b.x + static_cast<double>(a.y) * b.y + static_cast<double>(a.z) * b.z; }
 }  // namespace
 
 Energies compute_energies(const Model& m, const State& s_end) {
@@ -48,47 +54,86 @@ Energies compute_energies_at(const Model& m, const State& s) {
   const std::size_t n = m.size();
   for (std::size_t a = 0; a < n; ++a) {
     e.kinetic += 0.5 * m.mass[a] * sq(s.v[a]) + 0.5 * m.inertia[a] * sq(s.w[a]);
-    const Vec3 dx = delta(to_dvec3(m.position0[a]), s.x[a]);
-    e.gravity_work += m.mass[a] * (static_cast<double>(m.gravity.x) * dx.x + static_cast<double>(m.gravity.y) * dx.y +
-                                   static_cast<double>(m.gravity.z) * dx.z);
+    const Vec3 dx = delta(m.position0[a], s.x[a]);
+    e.gravity_work += m.mass[a] * dotd(m.gravity, dx);
+    if (!m.load.empty()) e.load_work += dotd(m.load[a], dx);
   }
-  // Links: shear and 2G part per link; volumetric strain per automaton for the many-body part.
+  // Links: the 2G and shear parts per link; per automaton and axis the sum of strengthened strains for
+  // the many-body part.
   std::vector<double> sum(3 * n, 0.0);
   std::vector<int> cnt(3 * n, 0);
   for (std::size_t l = 0; l < m.link_count(); ++l) {
     if (!s.intact[l]) continue;
     const std::uint32_t i = m.link_i[l], j = m.link_j[l];
+    const GroupParams &gi = m.groups[m.group[i]], &gj = m.groups[m.group[j]];
     const LinkGeometry g = link_geometry(s.x[i], s.x[j], m.link_r0[l], 1.0f / m.link_r0[l]);
-    const double G = harmonic(m.groups[m.group[i]].shear_modulus, m.groups[m.group[j]].shear_modulus);
+    const double G = harmonic(gi.shear_modulus, gj.shear_modulus);
     const double V = static_cast<double>(m.link_area[l]) * m.link_r0[l];
-    const double kt = kShearFactor * G * m.link_area[l] / m.link_r0[l];
-    e.elastic += G * g.eps * g.eps * V + 0.5 * kt * sq(s.link_ut[l]);
+    const double f_mean = 0.5 * (strengthening_factor(gi.strengthening, g.eps) + strengthening_factor(gj.strengthening, g.eps));
+    const double kt = kShearFactor * G * m.link_area[l] / m.link_r0[l] * f_mean;
+    e.elastic += G * V * (strengthening_energy(gi.strengthening, g.eps) + strengthening_energy(gj.strengthening, g.eps)) +
+                 0.5 * kt * sq(s.link_ut[l]);
     const int ax = m.link_axis[l];
-    sum[3 * i + ax] += g.eps;
-    sum[3 * j + ax] += g.eps;
+    sum[3 * i + ax] += strengthened_strain(gi.strengthening, g.eps).s;
+    sum[3 * j + ax] += strengthened_strain(gj.strengthening, g.eps).s;
     ++cnt[3 * i + ax];
     ++cnt[3 * j + ax];
   }
-  // Contacts between automata (springs as in the backend).
+  for (std::size_t a = 0; a < n; ++a) {
+    const GroupParams& g = m.groups[m.group[a]];
+    double L = 0;
+    int free_axes = 0;
+    for (int ax = 0; ax < 3; ++ax) {
+      if (cnt[3 * a + ax]) L += sum[3 * a + ax] / cnt[3 * a + ax];
+      else ++free_axes;
+    }
+    const double theta = L / (1.0 + free_axes * static_cast<double>(g.lame_lambda) / (2.0 * g.shear_modulus));
+    e.elastic += 0.5 * g.lame_lambda * theta * L * m.volume[a];
+  }
+  // Contact springs (as in the backend; the dashpots, which only dissipate, do not enter).
+  double contact = 0;
   for (const auto& c : s.contacts) {
-    const double dist = std::sqrt(sq(delta(s.x[c.i], s.x[c.j])));
-    const double overlap = m.radius[c.i] + m.radius[c.j] - dist;
-    if (overlap <= 0) continue;
-    const PairContact pc = contact_params(m.groups[m.group[c.i]], m.groups[m.group[c.j]],
-                                          m.radius[c.i] + m.radius[c.j], 0.0f);
-    const double kn = pc.kn, kt = pc.kt;
-    e.elastic += 0.5 * kn * overlap * overlap + 0.5 * kt * sq(c.ut);
+    const SphereGap gap = sphere_gap(s.x[c.i], s.x[c.j], static_cast<double>(m.radius[c.i]) + m.radius[c.j]);
+    const ContactSprings cs = body_contact_springs(m.contact_material(m.group[c.i], m.group[c.j]), 0.0f, m.radius[c.i],
+                                                   m.radius[c.j], 1.0f, 1.0f);
+    contact += contact_energy(cs, gap.overlap, c.h.ut, c.h.mr, gap.n);
+  }
+  for (const auto& c : s.ground_contacts) {
+    const std::uint32_t a = c.automaton;
+    const ContactSprings cs = body_contact_springs(m.ground_contact[m.group[a]], 0.0f, m.radius[a], INFINITY, 1.0f, 1.0f);
+    contact += contact_energy(cs, ground_overlap(s.x[a], m.up, m.ground_height, m.radius[a]), c.h.ut, c.h.mr, -m.up);
   }
   for (std::size_t p = 0; p < m.projectiles.size(); ++p) {
     const auto& P = m.projectiles[p];
     const auto& ps = s.projectiles[p];
     e.projectile_kinetic += 0.5 * P.mass * sq(ps.velocity) + 0.5 * P.inertia * sq(ps.angular_velocity);
-    if (!P.kinematic) {
-      const Vec3 dx = delta(to_dvec3(P.position), ps.position);
-      e.gravity_work += P.mass * (static_cast<double>(m.gravity.x) * dx.x + static_cast<double>(m.gravity.y) * dx.y +
-                                  static_cast<double>(m.gravity.z) * dx.z);
+    if (P.kinematic) {
+      e.projectile_work += ps.work;
+    } else {
+      e.gravity_work += P.mass * dotd(m.gravity, delta(P.position, ps.position));
+    }
+    for (const auto& c : ps.contacts) {
+      const std::uint32_t a = c.automaton;
+      const SphereGap gap = sphere_gap(s.x[a], ps.position, static_cast<double>(P.radius) + m.radius[a]);
+      const ContactSprings cs = body_contact_springs(m.contact_material(m.group[a], P.group), 0.0f, m.radius[a], P.radius,
+                                                     1.0f, 1.0f);
+      contact += contact_energy(cs, gap.overlap, c.h.ut, c.h.mr, gap.n);
+    }
+    if (m.ground) {
+      const ContactSprings cs = body_contact_springs(m.ground_contact[P.group], 0.0f, P.radius, INFINITY, 1.0f, 1.0f);
+      contact += contact_energy(cs, ground_overlap(ps.position, m.up, m.ground_height, P.radius), ps.ground.ut,
+                                ps.ground.mr, -m.up);
     }
   }
+  for (const auto& c : s.projectile_contacts) {
+    const auto &A = m.projectiles[c.p], &B = m.projectiles[c.q];
+    const SphereGap gap = sphere_gap(s.projectiles[c.p].position, s.projectiles[c.q].position,
+                                     static_cast<double>(A.radius) + B.radius);
+    const ContactSprings cs = body_contact_springs(m.contact_material(A.group, B.group), 0.0f, A.radius, B.radius, 1.0f, 1.0f);
+    contact += contact_energy(cs, gap.overlap, c.h.ut, c.h.mr, gap.n);
+  }
+  e.contact = contact;
+  e.elastic += contact;
   for (double w : s.grip_work) e.grip_work += w;
   return e;
 }

@@ -1,0 +1,286 @@
+// The critical time step of a model (physics.md sec. 7, docs/model-notes.md "Time step").
+//
+// Symplectic Euler is stable while omega dt < 2 for the highest angular frequency omega of the linearised
+// system M x'' = -K x, and with a dashpot of damping ratio zeta while omega dt < 2 (sqrt(1 + zeta^2) -
+// zeta). omega^2 is the largest eigenvalue of M^-1/2 K M^-1/2; it is bounded here by the block
+// Gershgorin theorem: for every automaton, the largest eigenvalue of its own 3x3 block plus the norms of
+// the blocks that couple it to other bodies, for its translation (mass m) and its rotation (J), with
+// every stiffness it can feel:
+//   links      the 2G normal spring k = 2 G S / r0, the shear spring k_t = k_s G S / r0 with its lever
+//              r0/2 to both rotations, the many-body term lambda V theta L / 2 (a rank-one coupling of every
+//              automaton in the stencil of each volumetric strain), all at the strengthening factor of the
+//              cap (the largest the law reaches);
+//   contacts   a face without a link can hold a contact with an automaton of the same material (k_n, k_t,
+//              rolling, twisting), and a fully broken automaton holds six; the ground and a projectile
+//              add one contact each;
+//   projectiles every automaton they can touch at once (about 4 pi (R + r)^2 / d^2), the ground, each
+//              other.
+// The dashpots (link damping, the contact dashpots of the restitution, the rolling dashpots) enter through
+// the same row sums of the damping matrix: zeta = c / (2 omega) per body. Gershgorin overestimates omega
+// (measured on an intact 6^3 block, nu = 0.2: the bound 1.39x the true value from power iteration), so
+// C = 1 is stable for the linear system; contacts and large rotations are not linear, hence the default
+// safety below 1.
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+#include <limits>
+#include <numbers>
+
+#include "lattice/lattice.hpp"
+#include "physics/contact_law.hpp"
+#include "physics/link_law.hpp"
+
+namespace mca::lattice {
+namespace {
+
+// Row sums of one body's translation (u) and rotation (w) rows: the largest eigenvalue of its diagonal
+// block per lattice axis, plus the coupling norms, in mass-normalised units; and the same for dashpots.
+struct Rows {
+  double diag_u[3] = {0, 0, 0}, diag_w[3] = {0, 0, 0};  // per lattice axis (diagonal blocks)
+  double off_u = 0, off_w = 0;                         // sums of coupling norms
+  double damp_u = 0, damp_w = 0;                       // damping row sums (diagonal and coupling)
+  double omega2() const {
+    const double du = std::max({diag_u[0], diag_u[1], diag_u[2]}), dw = std::max({diag_w[0], diag_w[1], diag_w[2]});
+    return std::max(du + off_u, dw + off_w);
+  }
+  // Critical step of this body alone, with its dashpots.
+  double critical() const {
+    const double du = std::max({diag_u[0], diag_u[1], diag_u[2]}) + off_u;
+    const double dw = std::max({diag_w[0], diag_w[1], diag_w[2]}) + off_w;
+    double best = std::numeric_limits<double>::infinity();
+    for (auto [w2, c] : {std::pair{du, damp_u}, std::pair{dw, damp_w}}) {
+      if (!(w2 > 0)) continue;
+      const double w = std::sqrt(w2), zeta = c / (2 * w);
+      best = std::min(best, 2.0 / w * (std::sqrt(1 + zeta * zeta) - zeta));
+    }
+    return best;
+  }
+};
+
+// Adds a two-body spring set (normal k_n, tangential k_t with levers ra, rb to the rotations, a rotational
+// spring kr and a twisting spring kw) to body a's rows, seen from a: a's mass ma, inertia ja; the other
+// body's mb, jb (infinite for the ground). `axis` is the lattice axis of the normal for links (-1: any
+// direction, which bounds the diagonal block by the largest of k_n and k_t on every axis).
+void add_pair(Rows& r, int axis, double kn, double kt, double ra, double rb, double kr, double ma, double ja,
+              double mb, double jb, double cn, double ct, double cr) {
+  const bool rigid = !std::isfinite(mb);
+  for (int c = 0; c < 3; ++c) {
+    const double k_u = axis < 0 ? std::max(kn, kt) : (c == axis ? kn : kt);
+    const double k_w = axis < 0 ? kt * ra * ra + kr : (c == axis ? kr : kt * ra * ra + kr);
+    r.diag_u[c] += k_u / ma;
+    r.diag_w[c] += k_w / ja;
+  }
+  const double mu = std::sqrt(ma), muj = std::sqrt(ja);
+  // Own rotation from the shear lever.
+  r.off_u += kt * ra / (mu * muj);
+  r.off_w += kt * ra / (mu * muj);
+  if (!rigid) {
+    const double sb = std::sqrt(mb), sjb = std::sqrt(jb);
+    r.off_u += std::max(kn, kt) / (mu * sb) + kt * rb / (mu * sjb);
+    r.off_w += kt * ra / (muj * sb) + (kt * ra * rb + kr) / (muj * sjb);
+  }
+  // Dashpots: the normal one acts along n, the tangential one (link damping) across, the rotational one
+  // on the relative rotation.
+  const double c_u = std::max(cn, ct);
+  r.damp_u += c_u / ma + (rigid ? 0.0 : c_u / (mu * std::sqrt(mb)));
+  r.damp_w += cr / ja + ct * ra * ra / ja + (rigid ? 0.0 : (cr + ct * ra * rb) / (muj * std::sqrt(jb)));
+}
+
+// A contact's springs with the damping ratio of continuous time (the bound does not depend on the step).
+ContactSprings springs(const ContactMaterial& c, float ra, float rb, double m_eff, double j_eff) {
+  return body_contact_springs(c, c.zeta, ra, rb, static_cast<float>(m_eff), static_cast<float>(j_eff));
+}
+
+}  // namespace
+
+TimeStepBound critical_time_step(const Model& M) {
+  const std::size_t n = M.size(), G = M.groups.size();
+  TimeStepBound out;
+  out.dt = std::numeric_limits<double>::infinity();
+  if (n == 0) return out;
+  const double d = M.spacing;
+  const double m_min = *std::min_element(M.mass.begin(), M.mass.end());
+  const double j_min = *std::min_element(M.inertia.begin(), M.inertia.end());
+  std::vector<char> used(G, 0);
+  for (std::size_t a = 0; a < n; ++a) used[M.group[a]] = 1;
+  std::vector<double> fmax(G, 1.0);
+  for (std::size_t g = 0; g < G; ++g) fmax[g] = strengthening_factor(M.groups[g].strengthening, M.groups[g].strengthening.cap);
+
+  // (1) Links and face contacts. Every face of an automaton holds a link (normal 2 G S / r0, shear
+  // k_s G S / r0, both times the strengthening factor) or a contact (normal E_12 d, the same shear). The
+  // model's K is at most that of the periodic lattice where every face has the largest normal and shear
+  // stiffness and every automaton the smallest mass and inertia (K only grows and M only shrinks, so the
+  // largest eigenvalue can only grow; a finite lattice's K is a restriction of the periodic one). A
+  // plane-wave analysis of that lattice (tools/ not needed: its maximum is at k = 0 for the rotation and
+  // at the checkerboard for the translation) gives
+  //   omega^2 = max(2 k_S d^2 / J, (4 k_N + 8 k_S) / m),
+  // the uniform rotation (every face sheared by d theta) and the checkerboard translation; for nu = 0
+  // it is 24 G / (rho d^2), and a power iteration on a 6^3 block gives 23.2 G / (rho d^2).
+  double kN = 0, kS = 0, kr = 0, kw = 0;
+  for (std::size_t g = 0; g < G; ++g) {
+    if (!used[g]) continue;
+    const GroupParams& A = M.groups[g];
+    kN = std::max(kN, 2.0 * A.shear_modulus * fmax[g] * d);
+    kS = std::max(kS, kShearFactor * A.shear_modulus * fmax[g] * d);
+    for (std::size_t h = 0; h < G; ++h) {
+      if (!used[h]) continue;
+      const ContactSprings c = springs(M.contact_material(g, h), 0.5f * d, 0.5f * d, 1.0f, 1.0f);
+      kN = std::max<double>(kN, c.kn);
+      kS = std::max<double>(kS, c.kt);
+      kr = std::max<double>(kr, c.kr);
+      kw = std::max<double>(kw, c.kw);
+    }
+  }
+  double omega2 = std::max(2 * kS * d * d / j_min, (4 * kN + 8 * kS) / m_min);
+  // Rolling and twisting springs of face contacts (Gershgorin on the rotations: 2 k per contact, four
+  // rolling and two twisting faces about any axis).
+  omega2 += (8 * kr + 4 * kw) / j_min;
+
+  // (2) The many-body term, lambda V theta L / 2 per automaton: a sum of rank-one terms lambda V ff g g^T
+  // over each automaton's stencil (g the gradient of L). Its largest eigenvalue is bounded by Gershgorin,
+  // automaton by automaton, since surfaces (axes with one link, where the automaton's own displacement
+  // enters L with 1 / d) raise it above the interior's 9 lambda / (rho d^2). Weyl's inequality adds it
+  // to (1). A negative lambda (nu < 0) makes the term negative and is left out.
+  {
+    std::vector<std::array<int, 3>> count(n, {0, 0, 0});
+    for (std::size_t l = 0; l < M.link_count(); ++l) {
+      ++count[M.link_i[l]][M.link_axis[l]];
+      ++count[M.link_j[l]][M.link_axis[l]];
+    }
+    std::vector<double> self(n, 0.0), total(n, 0.0), scale(n, 0.0), row(n, 0.0);
+    for (std::size_t a = 0; a < n; ++a) {
+      const GroupParams& g = M.groups[M.group[a]];
+      int single = 0, linked = 0, free_axes = 0;
+      for (int ax = 0; ax < 3; ++ax) {
+        single += count[a][ax] == 1;
+        linked += count[a][ax] > 0;
+        free_axes += count[a][ax] == 0;
+      }
+      self[a] = std::sqrt(static_cast<double>(single)) / d;  // the automaton's own displacement in L
+      total[a] = linked / d + self[a];                          // sum of |g| over the stencil
+      const double ff = 1.0 / (1.0 + free_axes * g.lame_lambda / (2.0 * g.shear_modulus));
+      scale[a] = std::max(0.0, static_cast<double>(g.lame_lambda)) * fmax[M.group[a]] * M.volume[a] * ff;
+      row[a] += scale[a] * self[a] * total[a];
+    }
+    for (std::size_t l = 0; l < M.link_count(); ++l)
+      for (int end = 0; end < 2; ++end) {
+        const std::uint32_t c = end ? M.link_j[l] : M.link_i[l], a = end ? M.link_i[l] : M.link_j[l];
+        row[a] += scale[c] / (count[c][M.link_axis[l]] * d) * total[c];
+      }
+    double mb = 0;
+    for (std::size_t a = 0; a < n; ++a) mb = std::max(mb, row[a] / std::sqrt(M.mass[a] * m_min));
+    omega2 += mb;
+  }
+
+  // (3) One-sided contacts of an automaton: the ground, a projectile (Weyl again: the largest eigenvalue
+  // of the contact's own element, by Gershgorin over its rows).
+  double damping = 0;  // the same bounds for the dashpots: the largest eigenvalue of M^-1 C
+  {
+    double one_sided = 0, one_sided_c = 0;
+    for (std::size_t g = 0; g < G; ++g) {
+      if (!used[g]) continue;
+      const double m = M.groups[g].density * d * d * d, j = m * d * d / 6, r = 0.5 * d;
+      if (M.ground) {
+        Rows e;
+        const ContactSprings c = springs(M.ground_contact[g], r, INFINITY, m, j);
+        add_pair(e, -1, c.kn, c.kt, r, 0, c.kr + c.kw, m, j, INFINITY, INFINITY, c.cn / 3, 0, 0);
+        one_sided = std::max(one_sided, e.omega2());
+        one_sided_c = std::max(one_sided_c, std::max(e.damp_u, e.damp_w));
+      }
+      // A projectile contact couples a light automaton to a heavy sphere touching many of them at once.
+      // Each contact's matrix [H X; X^T L] (H on the projectile, L on the automaton) is at most
+      // 2 diag(H, L); summed over the contacts, the automata get 2 L each and the projectile 2 sum H.
+      for (const ProjectileParams& P : M.projectiles) {
+        Rows e;
+        const ContactSprings c = springs(M.contact_material(g, P.group), r, P.radius,
+                                                      P.kinematic ? m : reduced(m, P.mass),
+                                                      P.kinematic ? j : reduced(j, P.inertia));
+        add_pair(e, -1, c.kn, c.kt, r, 0, c.kr + c.kw, m, j, INFINITY, INFINITY, c.cn / 3, 0, 0);
+        one_sided = std::max(one_sided, 2 * e.omega2());
+        one_sided_c = std::max(one_sided_c, 2 * std::max(e.damp_u, e.damp_w));
+      }
+    }
+    omega2 += one_sided;
+    damping += one_sided_c;
+  }
+
+  // Dashpots of the links (linear: as (1), 12 c / m for the bounding lattice) and of face contacts. A
+  // contact dashpot is clipped (it cannot pull), which damps the high modes far less than a linear one:
+  // measured thresholds (a compressed, fully broken 8^3 block at e = 0.01, 0.05, 0.1) lie at 2.9x, 1.9x
+  // and 1.7x the linear bound, so it enters at a third of its linear value (4 c_n / m for the bounding
+  // lattice). The rolling and twisting dashpots act on the relative rotation of two bodies in contact,
+  // which the two highest modes (uniform rotation, checkerboard translation) do not have; they are left
+  // out (a compressed, fully broken block with them stays stable up to the undamped limit).
+  {
+    double c_link = 0;
+    for (std::size_t l = 0; l < M.link_count() && M.link_damping > 0; ++l) {
+      const std::uint32_t i = M.link_i[l], j = M.link_j[l];
+      const GroupParams &gi = M.groups[M.group[i]], &gj = M.groups[M.group[j]];
+      const double Gij = harmonic(gi.shear_modulus, gj.shear_modulus);
+      const double k = (2 * Gij + 0.5 * (gi.lame_lambda + gj.lame_lambda)) * M.link_area[l] / M.link_r0[l];
+      c_link = std::max(c_link, 2 * M.link_damping * std::sqrt(k * M.mass[i] * M.mass[j] / (M.mass[i] + M.mass[j])));
+    }
+    double cn = 0;
+    for (std::size_t g = 0; g < G; ++g)
+      for (std::size_t h = 0; h < G; ++h) {
+        if (!used[g] || !used[h]) continue;
+        const double mg = M.groups[g].density * d * d * d, mh = M.groups[h].density * d * d * d;
+        const ContactSprings c = springs(M.contact_material(g, h), 0.5f * d, 0.5f * d,
+                                                      reduced(mg, mh), reduced(mg, mh) * d * d / 6);
+        cn = std::max<double>(cn, c.cn);
+      }
+    damping += 12 * c_link / m_min + 4 * cn / 3 / m_min;
+  }
+
+  auto critical = [](double w2, double c) { return (std::sqrt(4 * w2 + c * c) - c) / w2; };
+  out.dt = critical(omega2, damping);
+  out.limited_by = "the links and contacts of the automata";
+
+  // Projectiles: as many automata as fit around one at once (4 pi (R + r)^2 / d^2), each contact's H
+  // twice (see above), plus the ground and the other projectiles.
+  for (const ProjectileParams& P : M.projectiles) {
+    if (P.kinematic) continue;
+    Rows rp;
+    for (std::size_t g = 0; g < G; ++g) {
+      if (!used[g]) continue;
+      const double m = M.groups[g].density * d * d * d, j = m * d * d / 6, r = 0.5 * d;
+      const double touching = std::min<double>(n, std::ceil(4 * std::numbers::pi * std::pow(P.radius + r, 2) / (d * d)));
+      const ContactSprings c = springs(M.contact_material(g, P.group), r, P.radius, reduced(m, P.mass),
+                                                    reduced(j, P.inertia));
+      Rows e;
+      add_pair(e, -1, c.kn, c.kt, P.radius, 0, c.kr + c.kw, P.mass, P.inertia, INFINITY, INFINITY, c.cn / 3, 0, 0);
+      const double k = 2 * touching;
+      if (e.omega2() * k > rp.omega2()) {
+        rp = Rows{};
+        for (int a = 0; a < 3; ++a) {
+          rp.diag_u[a] = e.diag_u[a] * k;
+          rp.diag_w[a] = e.diag_w[a] * k;
+        }
+        rp.off_u = e.off_u * k;
+        rp.off_w = e.off_w * k;
+        rp.damp_u = e.damp_u * k;
+        rp.damp_w = e.damp_w * k;
+      }
+    }
+    if (M.ground) {
+      const ContactSprings g = springs(M.ground_contact[P.group], P.radius, INFINITY, P.mass, P.inertia);
+      add_pair(rp, -1, g.kn, g.kt, P.radius, 0, g.kr + g.kw, P.mass, P.inertia, INFINITY, INFINITY, g.cn / 3, 0, 0);
+    }
+    for (const ProjectileParams& Q : M.projectiles) {
+      if (&Q == &P) continue;
+      const double mb = Q.kinematic ? INFINITY : Q.mass, jb = Q.kinematic ? INFINITY : Q.inertia;
+      const ContactSprings c = springs(M.contact_material(P.group, Q.group), P.radius, Q.radius,
+                                                    Q.kinematic ? P.mass : reduced(P.mass, Q.mass),
+                                                    Q.kinematic ? P.inertia : reduced(P.inertia, Q.inertia));
+      add_pair(rp, -1, c.kn, c.kt, P.radius, Q.radius, c.kr + c.kw, P.mass, P.inertia, mb, jb, c.cn / 3, 0, 0);
+    }
+    const double dt = rp.critical();
+    if (dt < out.dt) {
+      out.dt = dt;
+      out.limited_by = fmt::format("projectile '{}' (mass {:.3g} kg) against the automata it can touch", P.name, P.mass);
+    }
+  }
+  return out;
+}
+
+}  // namespace mca::lattice

@@ -1,0 +1,317 @@
+// Rest, energy and stability: a body at rest stays at rest, far from the origin too; the energy
+// bookkeeping counts every term the forces derive from and every external work; the time step stays
+// below the stability limit; a blow-up is caught by the library.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "lattice/lattice.hpp"
+#include "mca/error.hpp"
+#include "mca/simulation.hpp"
+#include "physics/link_law.hpp"
+#include "support.hpp"
+
+namespace mca {
+namespace {
+
+using test::block_scene;
+using test::test_material;
+
+double max_link_strain(const Model& m, const State& s) {
+  double worst = 0;
+  for (std::size_t l = 0; l < m.link_count(); ++l) {
+    if (!s.intact[l]) continue;
+    const LinkGeometry g = link_geometry(s.x[m.link_i[l]], s.x[m.link_j[l]], m.link_r0[l], 1.0f / m.link_r0[l]);
+    worst = std::max(worst, static_cast<double>(std::fabs(g.eps)));
+  }
+  return worst;
+}
+
+// A free concrete block, rotated and 1 km from the origin, with no gravity: every centre carries the
+// rounding of a large coordinate, which float32 rest lengths turned into strains that grew until links
+// broke (the default wall at 100 m lost 154 links in 834 steps).
+TEST(Rest, AFreeBlockFarFromTheOriginStaysAtRestForAMillionSteps) {
+  SceneDef s = block_scene(4, 4, 4, 0.05, MaterialDef{});
+  s.materials.clear();
+  s.objects[0].material = "concrete";
+  s.objects[0].position = {1000, -1000, 1000};
+  s.objects[0].rotation = {10, 20, 30};
+  Engine sim(s);
+  const double strain0 = max_link_strain(sim.model(), sim.state());
+  std::printf("block at 1 km: initial strain %.3g\n", strain0);
+  EXPECT_LT(strain0, 1e-9);
+  double worst_energy = 0;
+  for (int k = 0; k < 100; ++k) {
+    ASSERT_EQ(sim.advance(10000).flags, kHealthy);
+    worst_energy = std::max(worst_energy, sim.energies().total());
+  }
+  const double strain = max_link_strain(sim.model(), sim.state());
+  std::printf("block at 1 km after 1e6 steps: strain %.3g, largest energy %.3g J\n", strain, worst_energy);
+  EXPECT_EQ(sim.state().broken_by[0] + sim.state().broken_by[1], 0);
+  // The double rounding of the centres at 1 km (1e-13 m) still heats the block, linearly and slowly:
+  // 1e-9 after 1e6 steps, 1e-5 of concrete's breaking strain. (float32 rest lengths: 6e-4 at the start.)
+  EXPECT_LT(strain, 1e-8);
+  // The energy of a strain of 1e-8 in every link of this block is about 1e-7 J.
+  EXPECT_LT(worst_energy, 1e-7);
+}
+
+// A 0.1 x 0.1 x 1.5 m concrete column standing on the ground under gravity: it settles onto the ground
+// (the ground's dashpot takes some energy out) and comes to rest; its energy (kinetic + elastic +
+// contact - gravity work) must never grow (it grew until the run stopped at 1.4 s).
+TEST(Rest, AStandingColumnKeepsItsEnergyForAMillionSteps) {
+  SceneDef s;
+  s.name = "column";
+  s.source = "<test>";
+  ObjectDef o;
+  o.size = {0.1, 0.1, 1.5};
+  o.position = {0, 0, 0.75};
+  s.objects.push_back(o);
+  s.ground.enabled = true;
+  s.output.duration = 1;
+  s.output.frame_rate = 1;
+  Engine sim(s);
+  const double start = sim.energies().total();
+  double highest = start, scale = 0;
+  std::vector<double> kinetic;
+  for (int k = 0; k < 100; ++k) {
+    ASSERT_EQ(sim.advance(10000).flags, kHealthy);
+    const Energies e = sim.energies();
+    highest = std::max(highest, e.total() - e.external_work());
+    scale = std::max(scale, std::fabs(e.gravity_work));
+    kinetic.push_back(e.kinetic);
+  }
+  std::printf("column: energy balance at most %.4g J above its start (gravity work %.3g J); kinetic %.3g J "
+              "after 0.1 of the run, %.3g J at the end\n",
+              highest - start, scale, kinetic[9], kinetic.back());
+  EXPECT_LT(highest - start, 1e-3 * scale);
+  EXPECT_EQ(sim.state().broken_by[0] + sim.state().broken_by[1], 0);
+  EXPECT_LT(kinetic.back(), 1e-3 * scale) << "the column should come to rest";
+}
+
+// Energy of an 8^3 block released from a uniform expansion, at several Poisson ratios and time steps:
+// the many-body (volumetric) energy is part of the elastic energy, so kinetic + elastic is conserved.
+struct EnergyCase {
+  double nu, safety;
+};
+void PrintTo(const EnergyCase& c, std::ostream* os) { *os << "nu " << c.nu << ", C " << c.safety; }
+std::string case_name(const ::testing::TestParamInfo<EnergyCase>& info) {
+  return "nu" + std::to_string(static_cast<int>(info.param.nu * 100)) + "_C" +
+         std::to_string(static_cast<int>(info.param.safety * 1000));
+}
+
+class EnergyConservation : public ::testing::TestWithParam<EnergyCase> {};
+class FullSpectrumEnergy : public ::testing::TestWithParam<EnergyCase> {};
+
+TEST_P(EnergyConservation, BlockReleasedFromAnExpansion) {
+  const auto [nu, safety] = GetParam();
+  SceneDef s = block_scene(8, 8, 8, 0.01, test_material(30e9, nu));
+  s.solver.safety = safety;
+  Engine sim(s);
+  State st = sim.state();
+  for (auto& x : st.x) {
+    x.x *= 1 + 1e-4;
+    x.y *= 1 + 1e-4;
+    x.z *= 1 + 1e-4;
+  }
+  sim.backend().upload(st);
+  const double e0 = sim.energies().total();
+  double worst = 0, most_kinetic = 0;
+  for (int k = 0; k < 100; ++k) {
+    sim.advance(100);
+    const Energies e = sim.energies();
+    worst = std::max(worst, std::fabs(e.total() - e0) / e0);
+    most_kinetic = std::max(most_kinetic, e.kinetic);
+  }
+  std::printf("expansion, nu %.2f, C %.2f: largest change %.3g %% over 10,000 steps\n", nu, safety, 100 * worst);
+  EXPECT_GT(most_kinetic, 0.3 * e0) << "the energy should move between elastic and kinetic";
+  EXPECT_LT(worst, 0.01);
+}
+
+TEST_P(FullSpectrumEnergy, BlockWithRandomVelocities) {
+  // Every mode excited, up to the highest: the measured energy differs from the conserved one of the
+  // integrator by O((omega dt)^2), 2.8 % at the default C = 0.5 and within 1 % up to C = 0.3.
+  const auto [nu, safety] = GetParam();
+  SceneDef s = block_scene(8, 8, 8, 0.01, test_material(30e9, nu));
+  s.solver.safety = safety;
+  Engine sim(s);
+  State st = sim.state();
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (std::size_t a = 0; a < st.v.size(); ++a) {
+    st.v[a] = Vec3{u(rng), u(rng), u(rng)} * 0.1f;
+    st.w[a] = Vec3{u(rng), u(rng), u(rng)} * 10.0f;
+  }
+  sim.backend().upload(st);
+  const double e0 = sim.energies().total();
+  double worst = 0;
+  for (int k = 0; k < 100; ++k) {
+    sim.advance(100);
+    worst = std::max(worst, std::fabs(sim.energies().total() - e0) / e0);
+  }
+  std::printf("random velocities, nu %.2f, C %.2f: largest change %.3g %% over 10,000 steps\n", nu, safety,
+              100 * worst);
+  EXPECT_LT(worst, 0.01);
+}
+
+INSTANTIATE_TEST_SUITE_P(PoissonAndStep, EnergyConservation,
+                         ::testing::Values(EnergyCase{0.0, 0.125}, EnergyCase{0.0, 0.25}, EnergyCase{0.0, 0.5},
+                                           EnergyCase{0.2, 0.125}, EnergyCase{0.2, 0.25}, EnergyCase{0.2, 0.5},
+                                           EnergyCase{0.35, 0.125}, EnergyCase{0.35, 0.25}, EnergyCase{0.35, 0.5}),
+                         case_name);
+INSTANTIATE_TEST_SUITE_P(PoissonAndStep, FullSpectrumEnergy,
+                         ::testing::Values(EnergyCase{0.0, 0.125}, EnergyCase{0.0, 0.25}, EnergyCase{0.2, 0.125},
+                                           EnergyCase{0.2, 0.25}, EnergyCase{0.35, 0.125}, EnergyCase{0.35, 0.25}),
+                         case_name);
+
+// The strengthening law (paper eq. 7) is part of the energy: a block released from an expansion with an
+// exponential law conserves kinetic + elastic like the linear one.
+TEST(Energy, StrengtheningKeepsTheEnergy) {
+  MaterialDef mat = test_material();
+  mat.strengthening = StrengtheningLaw::exponential;
+  mat.strengthening_alpha = 3000;
+  mat.fracture_strain = 1e-3;
+  mat.tensile_strength = 30e6;
+  mat.compressive_strength = 30e6;
+  SceneDef s = block_scene(6, 6, 6, 0.01, mat);
+  Engine sim(s);
+  State st = sim.state();
+  for (auto& x : st.x) x.x *= 1 + 1.5e-4;  // f = exp(0.45) = 1.6 at the start
+  sim.backend().upload(st);
+  const double e0 = sim.energies().total();
+  double worst = 0;
+  for (int k = 0; k < 100; ++k) {
+    sim.advance(100);
+    worst = std::max(worst, std::fabs(sim.energies().total() - e0) / e0);
+  }
+  std::printf("strengthening: largest change %.3g %% over 10,000 steps\n", 100 * worst);
+  EXPECT_EQ(sim.state().broken_by[0] + sim.state().broken_by[1], 0);
+  EXPECT_LT(worst, 0.01);
+}
+
+// A cantilever under a [[load]] with no gravity: the load's work is counted, so the run is not taken for
+// a blow-up (it stopped at its first frame) and kinetic + elastic - load work is conserved.
+TEST(Energy, ALoadsWorkIsCounted) {
+  SceneDef s = block_scene(20, 2, 2, 0.01);
+  GripDef hold;
+  test::layer_box(20, 0, 0, 0.01, hold.min, hold.max);
+  s.grips.push_back(hold);
+  LoadDef load;
+  test::layer_box(20, 19, 0, 0.01, load.min, load.max);
+  load.force = {0, 0, -200};
+  s.loads.push_back(load);
+  Engine sim(s);
+  double worst = 0, most_work = 0;
+  for (int k = 0; k < 50; ++k) {
+    const StepHealth h = sim.advance(Engine::kEnergyCheckInterval);
+    ASSERT_EQ(h.flags, kHealthy) << "step " << h.step << ": energy " << h.energy << " over budget " << h.budget;
+    const Energies e = sim.energies();
+    most_work = std::max(most_work, e.load_work);
+    worst = std::max(worst, std::fabs(e.total() - e.external_work()));
+  }
+  std::printf("cantilever: load work up to %.4g J, largest |energy - work| %.3g J\n", most_work, worst);
+  EXPECT_GT(most_work, 0);
+  EXPECT_LT(worst, 0.01 * most_work);
+}
+
+// Contacts store energy in their springs: a frictionless, perfectly elastic block bouncing on the ground
+// keeps kinetic + elastic + contact energy - gravity work.
+TEST(Energy, ContactSpringsAreCounted) {
+  SceneDef s = block_scene(3, 3, 3, 0.05, MaterialDef{});
+  s.materials.clear();
+  MaterialDef m = test_material();
+  m.restitution = 1;
+  m.friction = 0;
+  m.rolling_friction = 0;
+  m.twisting_friction = 0;
+  s.materials.push_back(m);
+  s.objects[0].material = m.name;
+  s.objects[0].position = {0, 0, 0.08};
+  s.objects[0].velocity = {0, 0, -1};
+  s.solver.gravity = {0, 0, -9.81};
+  s.ground.enabled = true;
+  s.ground.restitution = 1;
+  s.ground.friction = 0;
+  s.ground.rolling_friction = 0;
+  s.ground.twisting_friction = 0;
+  Engine sim(s);
+  const Energies e0 = sim.energies();
+  const double b0 = e0.total() - e0.external_work();
+  double worst = 0, most_contact = 0;
+  for (int k = 0; k < 400; ++k) {
+    sim.advance(25);
+    const Energies e = sim.energies();
+    most_contact = std::max(most_contact, e.contact);
+    worst = std::max(worst, std::fabs(e.total() - e.external_work() - b0) / b0);
+  }
+  std::printf("bouncing block: contact energy up to %.3g J, largest change of the balance %.3g %%\n", most_contact,
+              100 * worst);
+  EXPECT_GT(most_contact, 0.1 * b0) << "the block should have hit the ground";
+  EXPECT_LT(worst, 0.01);
+}
+
+// safety = 1 is the stability limit of the linear lattice: an undamped block kept at C = 1 for 5,000
+// steps (at which the old d / c_p step grew the energy 1e32-fold at C = 0.8) keeps its energy.
+TEST(Stability, AnUndampedBlockAtTheLimitIsStable) {
+  for (double nu : {0.0, 0.2, 0.45}) {
+    SceneDef s = block_scene(6, 6, 6, 0.01, test_material(30e9, nu));
+    s.solver.safety = 1.0;
+    Engine sim(s);
+    State st = sim.state();
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    for (std::size_t a = 0; a < st.v.size(); ++a) {
+      st.v[a] = Vec3{u(rng), u(rng), u(rng)} * 0.1f;
+      st.w[a] = Vec3{u(rng), u(rng), u(rng)} * 10.0f;
+    }
+    sim.backend().upload(st);
+    const double e0 = sim.energies().total();
+    sim.advance(5000);
+    const double e1 = sim.energies().total();
+    std::printf("C = 1, nu %.2f: energy %.4g -> %.4g J\n", nu, e0, e1);
+    EXPECT_LT(e1, 1.2 * e0) << "nu " << nu;
+  }
+}
+
+// The critical step includes every stiffness: the shear springs with the rotations, strengthening,
+// the contacts. A step above it is refused when given by hand.
+TEST(Stability, ATimeStepAboveTheCriticalOneIsRefused) {
+  SceneDef s = block_scene(4, 4, 4, 0.01);
+  const Model m = lattice::build_model(s);
+  EXPECT_GT(m.critical_dt, 0);
+  s.solver.time_step = 1.01 * m.critical_dt;
+  try {
+    lattice::build_model(s);
+    FAIL() << "a time step above the critical one was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("critical"), std::string::npos) << e.what();
+  }
+  // Strengthening shortens the step with the square root of its largest factor (here e^3 = 20; the
+  // contact dashpots, which it does not stiffen, keep the ratio below sqrt(20)).
+  MaterialDef mat = test_material();
+  mat.strengthening = StrengtheningLaw::exponential;
+  mat.strengthening_alpha = 3000;
+  mat.fracture_strain = 1e-3;
+  mat.tensile_strength = 30e6;
+  mat.compressive_strength = 30e6;
+  const Model hard = lattice::build_model(block_scene(4, 4, 4, 0.01, mat));
+  EXPECT_LT(hard.critical_dt, m.critical_dt / std::sqrt(10.0));
+}
+
+// A blow-up that stays finite is caught by the library (Engine::advance, and so Simulation::advance),
+// not only by the command: here a state far above its recorded starting energy.
+TEST(Stability, TheLibraryFlagsEnergyGrowth) {
+  Engine sim(block_scene(4, 4, 4, 0.01));
+  State st = sim.state();
+  for (auto& v : st.v) v = Vec3{1, 0, 0};  // 1 m/s with a starting energy of zero: nothing put it in
+  st.initial_energy = 0;
+  sim.backend().upload(st);
+  StepHealth h;
+  for (int k = 0; k < 4 && h.flags == kHealthy; ++k) h = sim.advance(100);
+  EXPECT_TRUE(h.flags & kEnergyGrowth);
+  EXPECT_GT(h.energy, 10 * h.budget);
+}
+
+}  // namespace
+}  // namespace mca

@@ -1,0 +1,238 @@
+// The contact law (physics/contact_law.hpp) against the answers of rigid-body mechanics: restitution of
+// automata, projectiles and the ground; Coulomb friction on an incline; rolling resistance; momentum
+// exchange between projectiles.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+
+#include "support.hpp"
+
+namespace mca {
+namespace {
+
+MaterialDef contact_material(double restitution, double friction = 0.6, double rolling = 0.3) {
+  MaterialDef m = test::test_material();
+  m.name = "contactmat";
+  m.restitution = restitution;
+  m.friction = friction;
+  m.rolling_friction = rolling;
+  m.twisting_friction = rolling;
+  return m;
+}
+
+SceneDef empty_scene(const MaterialDef& m) {
+  SceneDef s;
+  s.name = "contact";
+  s.source = "<test>";
+  s.materials.push_back(m);
+  s.solver.spacing = 0.05;
+  s.solver.gravity = {0, 0, 0};
+  s.output.duration = 10;
+  s.output.frame_rate = 1;
+  return s;
+}
+
+ObjectDef cube(const MaterialDef& m, Vec3d position, Vec3d velocity, int cells = 1, double d = 0.05) {
+  ObjectDef o;
+  o.name = "cube" + std::to_string(static_cast<int>(position[0] * 1000)) + "_" + std::to_string(static_cast<int>(position[2] * 1000));
+  o.material = m.name;
+  o.size = {cells * d, cells * d, cells * d};
+  o.position = position;
+  o.velocity = velocity;
+  return o;
+}
+
+// Steps until `done` holds (or max_steps); returns the steps taken.
+template <class F>
+int run_until(Engine& sim, F done, int max_steps, int chunk = 10) {
+  int k = 0;
+  while (k < max_steps && !done()) {
+    sim.advance(chunk);
+    k += chunk;
+  }
+  return k;
+}
+
+// One automaton hits the ground at 1 m/s (no gravity, so the rebound speed is the restitution).
+TEST(Contacts, AnAutomatonRebouncesFromTheGroundWithItsRestitution) {
+  for (double e : {0.1, 0.3, 0.5, 0.7, 0.9}) {
+    MaterialDef m = contact_material(0.5, 0.0, 0.0);
+    SceneDef s = empty_scene(m);
+    s.ground.enabled = true;
+    s.ground.restitution = e;
+    s.ground.friction = 0;
+    s.solver.gravity = {0, 0, -1e-9};  // the ground's up axis is z
+    s.objects.push_back(cube(m, {0, 0, 0.026}, {0, 0, -1}));
+    Engine sim(s);
+    run_until(sim, [&] { return sim.state().x[0].z > 0.03; }, 200000);
+    const double rebound = sim.state().v[0].z;
+    std::printf("ground restitution %.1f: rebound %.4f\n", e, rebound);
+    EXPECT_NEAR(rebound, e, 0.02) << "restitution " << e;
+  }
+}
+
+// Two loose automata meet head-on at 1 m/s each: their relative speed after is e times that before, and
+// momentum is kept.
+TEST(Contacts, TwoAutomataRebouncWithTheirRestitution) {
+  for (double e : {0.1, 0.5, 0.9}) {
+    MaterialDef m = contact_material(e, 0.0, 0.0);
+    SceneDef s = empty_scene(m);
+    s.objects.push_back(cube(m, {-0.026, 0, 0}, {1, 0, 0}));
+    s.objects.push_back(cube(m, {0.026, 0, 0}, {-1, 0, 0}));
+    Engine sim(s);
+    run_until(sim, [&] { return sim.state().x[1].x - sim.state().x[0].x > 0.06; }, 200000);
+    const double rel = sim.state().v[1].x - sim.state().v[0].x;
+    const double p = sim.state().v[0].x + sim.state().v[1].x;
+    std::printf("automaton pair restitution %.1f: relative speed after %.4f, momentum %.2g\n", e, rel / 2, p);
+    EXPECT_NEAR(rel / 2, e, 0.02) << "restitution " << e;
+    EXPECT_NEAR(p, 0.0, 1e-6);
+  }
+}
+
+// A block of 2 x 2 x 2 automata on a held slab of automata, with gravity tilted by an angle from the
+// slab's normal (an incline): it stays when tan(angle) < mu and slides with a = g (sin - mu cos) when
+// tan(angle) > mu (Coulomb friction between automata, physics.md sec. 6). Rolling resistance between the
+// automata of block and slab adds a little to the sliding resistance (measured: mu_r = 0.3 acts like
+// mu + 0.06).
+double incline_slide(double deg, double mu, double rolling, double T) {
+  const double d = 0.05, g = 9.81, a = deg * std::numbers::pi / 180;
+  MaterialDef m = contact_material(0.2, mu, rolling);
+  SceneDef s = empty_scene(m);
+  s.solver.gravity = {g * std::sin(a), 0, -g * std::cos(a)};
+  ObjectDef slab = cube(m, {0, 0, 0}, {0, 0, 0});
+  slab.name = "slab";
+  slab.size = {20 * d, 4 * d, d};
+  ObjectDef block = cube(m, {-0.2, 0, 1.5 * d}, {0, 0, 0}, 2);  // touching the slab: d between layers
+  block.name = "block";
+  s.objects = {slab, block};
+  GripDef hold;
+  hold.min = {-1, -1, -0.25 * d};
+  hold.max = {1, 1, 0.25 * d};
+  s.grips.push_back(hold);
+  Engine sim(s);
+  auto block_x = [&] {
+    double x = 0;
+    int k = 0;
+    for (std::size_t i = 0; i < sim.model().size(); ++i)
+      if (sim.model().object[i] == 1) {
+        x += sim.state().x[i].x;
+        ++k;
+      }
+    return x / k;
+  };
+  const double x0 = block_x();
+  EXPECT_EQ(sim.advance(static_cast<int>(T / sim.model().dt)).flags, kHealthy);
+  return block_x() - x0;
+}
+
+double rigid_slide(double deg, double mu, double T) {
+  const double a = deg * std::numbers::pi / 180;
+  return std::tan(a) > mu ? 0.5 * 9.81 * (std::sin(a) - mu * std::cos(a)) * T * T : 0.0;
+}
+
+TEST(Contacts, ABlockOnAnInclineSlidesOnlyPastTheFrictionAngle) {
+  const double mu = 0.4, T = 0.2;
+  const double stay = incline_slide(15, mu, 0.3, T);
+  const double slide = incline_slide(35, mu, 0.0, T);
+  const double slide_rolling = incline_slide(35, mu, 0.3, T);
+  std::printf("incline, mu %.1f: 15 deg moved %.5f m; 35 deg moved %.4f m (rigid block %.4f m), with rolling "
+              "resistance 0.3 %.4f m (rigid block at mu + 0.1: %.4f m)\n",
+              mu, stay, slide, rigid_slide(35, mu, T), slide_rolling, rigid_slide(35, mu + 0.1, T));
+  EXPECT_LT(std::fabs(stay), 1e-3);
+  EXPECT_NEAR(slide / rigid_slide(35, mu, T), 1.0, 0.05);
+  EXPECT_LT(slide_rolling, rigid_slide(35, mu, T));
+  EXPECT_GT(slide_rolling, rigid_slide(35, mu + 0.1, T));
+}
+
+// A loose automaton rolling on the ground: rolling resistance stops it within a few times its size
+// (without it, it rolled on at 0.6 of its sliding speed for ever); with rolling_friction = 0 it keeps
+// rolling.
+TEST(Contacts, RollingResistanceStopsARollingAutomaton) {
+  for (double rolling : {0.0, 0.3}) {
+    MaterialDef m = contact_material(0.2, 0.6, rolling);
+    SceneDef s = empty_scene(m);
+    s.solver.gravity = {0, 0, -9.81};
+    s.ground.enabled = true;
+    s.ground.rolling_friction = rolling;
+    s.ground.twisting_friction = rolling;
+    s.objects.push_back(cube(m, {0, 0, 0.025}, {1, 0, 0}));
+    Engine sim(s);
+    sim.advance(static_cast<int>(1.0 / sim.model().dt));
+    const double v = sim.state().v[0].x, x = sim.state().x[0].x;
+    std::printf("rolling friction %.1f: after 1 s v = %.3f m/s, travelled %.3f m\n", rolling, v, x);
+    if (rolling == 0) {
+      EXPECT_GT(v, 0.5) << "with no rolling resistance the automaton should roll on";
+    } else {
+      EXPECT_LT(std::fabs(v), 0.01) << "the automaton should have stopped";
+      EXPECT_LT(x, 0.5);
+    }
+  }
+}
+
+SceneDef ball_scene(double restitution) {
+  MaterialDef m = contact_material(restitution, 0.0, 0.0);
+  SceneDef s = empty_scene(m);
+  s.objects.push_back(cube(m, {5, 5, 0.025}, {0, 0, 0}));  // a scene needs an object: far away
+  return s;
+}
+
+ProjectileDef ball(const std::string& name, Vec3d position, Vec3d velocity, double radius = 0.1) {
+  ProjectileDef p;
+  p.name = name;
+  p.material = "contactmat";
+  p.radius = radius;
+  p.position = position;
+  p.velocity = velocity;
+  return p;
+}
+
+// A ball dropped on the ground bounces to e^2 times its height (it fell through the ground).
+TEST(Contacts, ABallBouncesOnTheGround) {
+  for (double e : {0.3, 0.8}) {
+    SceneDef s = ball_scene(e);
+    s.solver.gravity = {0, 0, -9.81};
+    s.ground.enabled = true;
+    s.ground.restitution = e;
+    s.ground.friction = 0;
+    const double h = 0.5;
+    s.projectiles.push_back(ball("ball", {0, 0, 0.1 + h}, {0, 0, 0}));
+    Engine sim(s);
+    const auto& p = sim.state().projectiles[0];
+    double lowest = 1e9;
+    // Fall, bounce, and record the top of the first rebound.
+    run_until(sim, [&] { lowest = std::min(lowest, p.position.z); return p.velocity.z > 0; }, 10000000, 100);
+    double top = 0;
+    run_until(sim, [&] { top = std::max(top, p.position.z); return p.velocity.z < 0; }, 10000000, 100);
+    std::printf("ball on the ground, e %.1f: lowest centre %.4f m, rebound %.4f m (e^2 h = %.4f m)\n", e, lowest,
+                top - 0.1, e * e * h);
+    EXPECT_GT(lowest, 0.09) << "the ball went into the ground";
+    EXPECT_NEAR((top - 0.1) / (e * e * h), 1.0, 0.05);
+  }
+}
+
+// Two balls head-on: momentum is exchanged (equal masses and e = 1 swap their velocities; in general
+// the relative speed after is e times that before) and the total is kept. They passed through each other.
+TEST(Contacts, TwoBallsExchangeMomentum) {
+  for (double e : {1.0, 0.5}) {
+    SceneDef s = ball_scene(e);
+    s.projectiles.push_back(ball("a", {-0.3, 0, 1}, {2, 0, 0}));
+    s.projectiles.push_back(ball("b", {0.3, 0, 1}, {-1, 0, 0}, 0.15));
+    Engine sim(s);
+    const auto& P = sim.model().projectiles;
+    const auto& S = sim.state().projectiles;
+    const double p0 = P[0].mass * 2.0 + P[1].mass * -1.0;
+    run_until(sim, [&] { return S[1].position.x - S[0].position.x > 0.6; }, 10000000, 100);
+    const double p1 = P[0].mass * S[0].velocity.x + P[1].mass * S[1].velocity.x;
+    const double rel = S[1].velocity.x - S[0].velocity.x;
+    std::printf("two balls, e %.1f: velocities after %.4f, %.4f; relative %.4f (expected %.4f); momentum %.6g -> %.6g\n",
+                e, S[0].velocity.x, S[1].velocity.x, rel, 3 * e, p0, p1);
+    EXPECT_LT(S[0].position.x, S[1].position.x) << "the balls passed through each other";
+    EXPECT_NEAR(p1, p0, 1e-5 * std::fabs(p0) + 1e-9);
+    EXPECT_NEAR(rel / 3, e, 0.02);
+  }
+}
+
+}  // namespace
+}  // namespace mca
