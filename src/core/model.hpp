@@ -25,6 +25,7 @@ struct GroupParams {
   float lame_lambda = 0;     // lambda = E nu / ((1 + nu)(1 - 2 nu)) = D * K / 3
   float tensile_strength = 0, compressive_strength = 0, fracture_strain = 0;
   float friction = 0, restitution = 0, rolling_friction = 0, twisting_friction = 0;
+  float damping_time = 0;    // Kelvin-Voigt viscosity time tau [s] (physics/link_law.hpp, link_dashpot)
   Strengthening strengthening;
 };
 

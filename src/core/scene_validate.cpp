@@ -138,6 +138,8 @@ void check_material(const Checker& c, const MaterialDef& m, std::size_t i) {
         "use 0.3 (the default) for debris that stops rolling, 0 for none");
   range("twisting_friction", m.twisting_friction, 0, true, 1, true, "in [0, 1]",
         "use 0.3 (the default), 0 for none");
+  range("damping_time", m.damping_time, 0, true, 1e-3, true, "in [0, 1e-3] [s]",
+        "use 5e-6 (the default: damps the lattice-scale ringing of impacts), 0 for an undamped material");
   range("strengthening_alpha", m.strengthening_alpha, 0, true, INFINITY, false, ">= 0",
         "use 0 for linear elasticity");
   switch (m.strengthening) {

@@ -370,7 +370,7 @@ const char* law_name(StrengtheningLaw l) {
 MaterialDef read_material(const Table& tb, const std::vector<MaterialDef>& earlier) {
   tb.allow({"name", "base", "youngs_modulus", "poisson_ratio", "density", "tensile_strength",
             "compressive_strength", "fracture_strain", "friction", "restitution", "rolling_friction",
-            "twisting_friction", "strengthening", "strengthening_alpha"});
+            "twisting_friction", "damping_time", "strengthening", "strengthening_alpha"});
   MaterialDef m;  // no base: the struct's defaults (concrete)
   std::string base;
   if (tb.string("base", base)) {
@@ -404,6 +404,7 @@ MaterialDef read_material(const Table& tb, const std::vector<MaterialDef>& earli
   tb.number("restitution", m.restitution);
   tb.number("rolling_friction", m.rolling_friction);
   tb.number("twisting_friction", m.twisting_friction);
+  tb.number("damping_time", m.damping_time);
   if (auto law = tb.choice("strengthening", {"none", "exponential", "quadratic"}, "a strengthening law")) {
     m.strengthening = *law == "exponential" ? StrengtheningLaw::exponential
                       : *law == "quadratic" ? StrengtheningLaw::quadratic
@@ -688,6 +689,7 @@ std::string scene_to_toml(const SceneDef& s) {
     out += fmt::format("restitution = {}\n", toml_double(m.restitution));
     out += fmt::format("rolling_friction = {}\n", toml_double(m.rolling_friction));
     out += fmt::format("twisting_friction = {}\n", toml_double(m.twisting_friction));
+    out += fmt::format("damping_time = {}\n", toml_double(m.damping_time));
     out += fmt::format("strengthening = {}\n", toml_string(law_name(m.strengthening)));
     out += fmt::format("strengthening_alpha = {}\n", toml_double(m.strengthening_alpha));
   }

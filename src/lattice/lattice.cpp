@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <fmt/format.h>
 #include <limits>
 #include <map>
@@ -192,6 +193,7 @@ GroupParams group_params(const SceneDef& scene, const MaterialDef& m, const std:
   g.restitution = static_cast<float>(m.restitution);
   g.rolling_friction = static_cast<float>(m.rolling_friction);
   g.twisting_friction = static_cast<float>(m.twisting_friction);
+  g.damping_time = static_cast<float>(m.damping_time);
   g.strengthening.law = static_cast<int>(m.strengthening);
   g.strengthening.alpha = static_cast<float>(m.strengthening_alpha);
   // The law stops at the largest strain a link of this material reaches: its breaking strain in

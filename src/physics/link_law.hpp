@@ -106,6 +106,28 @@ MCA_HD float volumetric_strain(const float sum[3], const int cnt[3], const float
   return linked * free_factor[free_axes];
 }
 
+// Viscous coefficients [N s/m] of a link's dashpots on the relative velocity of its ends. Normal: the
+// materials' viscosity, Kelvin-Voigt c = tau k (tau the mean of the two materials' damping_time, k the
+// pair's normal stiffness: a stiffness-proportional damping that gives a mode of angular frequency omega
+// the ratio tau omega / 2), plus solver.link_damping, a share of the critical damping of that spring.
+// Tangential: the share alone. The viscosity damps the lattice-scale ringing of a sudden load (the
+// highest modes, omega ~ 3 c_p / d) the more the finer the lattice, and the vibrations of a body hardly
+// (see docs/model-notes.md on drops); on the normal motion alone it does as well as on both in the drop
+// tests and leaves the step alone for the highest mode (the uniform rotation, which has no normal motion).
+struct LinkDashpots {
+  float normal, tangential;
+};
+
+MCA_HD LinkDashpots link_dashpots(float k_normal, float m_i, float m_j, float tau, float share) {
+  const float critical = 2.0f * share * std::sqrt(k_normal * m_i * m_j / (m_i + m_j));
+  return {tau * k_normal + critical, critical};
+}
+
+// Normal stiffness of a link [N/m] for the dashpot and the time step: (2 G_ij + (lambda_i + lambda_j) / 2) S / r0.
+MCA_HD float link_normal_stiffness(float G_ij, float lambda_i, float lambda_j, float area, float r0) {
+  return (2.0f * G_ij + 0.5f * (lambda_i + lambda_j)) * area / r0;
+}
+
 // Link direction and strain; inv_r0 = 1 / r0 (precomputed: no division per link).
 struct LinkGeometry {
   Vec3 n;     // unit vector from i to j
@@ -144,7 +166,7 @@ struct LinkInput {
   float kt;                 // tangential spring k_s G_ij S / r0 [N/m], strengthening applied
   float kt_slope;           // d kt / dr [N/m^2] under strengthening (0 without): the normal force the
                             // strain dependence of kt adds, so the pair keeps its energy
-  float damping;            // viscous coefficient [N s/m] of relative motion (0: none)
+  LinkDashpots damping;     // viscous coefficients [N s/m] of the relative motion (0: none)
   Vec3 vi, vj, wi, wj;
   Vec3 ut;                  // tangential displacement of the previous step
   float dt;
@@ -167,13 +189,13 @@ MCA_HD LinkOutput link_force(const LinkInput& in) {
   // The stored displacement turns with the pair: its normal part is dropped (a second-order loss of
   // length under rotation, which only dissipates).
   out.ut = (in.ut - dot(in.ut, n) * n) + vs * in.dt;
-  const Vec3 ft = in.kt * out.ut + in.damping * vs;
+  const Vec3 ft = in.kt * out.ut + in.damping.tangential * vs;
   const float tau_s = in.kt / in.area;
   const float ut2 = dot(out.ut, out.ut);
   out.tau2 = tau_s * tau_s * ut2;
   // d/dr (kt |u_t|^2 / 2): zero unless strengthening makes kt depend on the strain.
   out.sigma = in.sigma + 0.5f * in.kt_slope * ut2 / in.area;
-  out.force_i = (out.sigma * in.area + in.damping * vn) * n + ft;  // paper eqs. 11, 12
+  out.force_i = (out.sigma * in.area + in.damping.normal * vn) * n + ft;  // paper eqs. 11, 12
   return out;
 }
 

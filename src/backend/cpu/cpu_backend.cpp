@@ -126,12 +126,11 @@ class CpuBackend final : public Backend {
       const float tensile = std::min(ki * gi.tensile_strength, kj * gj.tensile_strength);
       const float compressive = std::min(ki * gi.compressive_strength, kj * gj.compressive_strength);
       link_strength_[l] = {tensile, tensile / compressive, std::min(ki * gi.fracture_strain, kj * gj.fracture_strain)};
-      if (m.link_damping > 0.0f) {
-        // Share of the critical damping of the pair's normal spring.
+      const float tau = 0.5f * (gi.damping_time + gj.damping_time);
+      if (m.link_damping > 0.0f || tau > 0.0f) {
         if (link_c_.empty()) link_c_.resize(L);
-        const float k = (2.0f * link_G_[l] + 0.5f * (gi.lame_lambda + gj.lame_lambda)) * m.link_area[l] / m.link_r0[l];
-        const float mi = m.mass[m.link_i[l]], mj = m.mass[m.link_j[l]];
-        link_c_[l] = 2.0f * m.link_damping * std::sqrt(k * mi * mj / (mi + mj));
+        const float k = link_normal_stiffness(link_G_[l], gi.lame_lambda, gj.lame_lambda, m.link_area[l], m.link_r0[l]);
+        link_c_[l] = link_dashpots(k, m.mass[i], m.mass[j], tau, m.link_damping);
       }
     }
     for (const auto& g : m.groups) strengthening_ = strengthening_ || g.strengthening.law != 0;
@@ -229,7 +228,8 @@ class CpuBackend final : public Backend {
   std::vector<Vec3> link_n_;
   std::vector<LinkGather> link_out_;
   std::vector<float> link_eps_, many_body_;
-  std::vector<float> link_G_, link_kt_, link_c_;  // pair shear modulus, shear spring, damping
+  std::vector<float> link_G_, link_kt_;  // pair shear modulus, shear spring
+  std::vector<LinkDashpots> link_c_;     // dashpots (empty when the scene has none)
   std::vector<float> inv_mass_, inv_inertia_, inv_volume_;
   std::vector<PairStrength> link_strength_;
   std::vector<float> link_inv_r0_;
@@ -332,7 +332,7 @@ void CpuBackend::link_force_pass() {
     const float* __restrict areas = M_.link_area.data();
     const float* __restrict Gs = link_G_.data();
     const float* __restrict kts = link_kt_.data();
-    const float* __restrict damps = link_c_.empty() ? nullptr : link_c_.data();
+    const LinkDashpots* __restrict damps = link_c_.empty() ? nullptr : link_c_.data();
     const PairStrength* __restrict strengths = link_strength_.data();
     const std::uint8_t* __restrict group = M_.group.data();
     const GroupParams* groups = M_.groups.data();
@@ -360,7 +360,7 @@ void CpuBackend::link_force_pass() {
       in.sigma = link_normal_stress(Gs[l], eps, si, sj, mb[3 * i + ax], mb[3 * j + ax]);
       in.kt = kt;
       in.kt_slope = kt_slope;
-      in.damping = damps ? damps[l] : 0.0f;
+      in.damping = damps ? damps[l] : LinkDashpots{0.0f, 0.0f};
       in.vi = v[i];
       in.vj = v[j];
       in.wi = w[i];
