@@ -91,5 +91,85 @@ TEST(Determinism, DamagedCheckpointIsRefusedWithAClearError) {
   std::filesystem::remove(path);
 }
 
+// state_hash must cover everything that can change the future (README: equal hashes mean bitwise equal
+// states): perturbing any one field of a state changes it. A new field changes sizeof(State) and so
+// fails the static_assert until it is hashed here, in state_hash, and in the checkpoints.
+static_assert(sizeof(State) == 472 && sizeof(ProjectileState) == 136,
+              "State changed: hash the new field in state_hash (sim/engine.cpp), save it in checkpoints "
+              "(io/checkpoint.cpp), check it in check_state, perturb it below, then update these sizes");
+
+TEST(Determinism, StateHashCoversEveryField) {
+  Engine sim(small_impact());
+  sim.advance(2000);
+  State base = sim.state();
+  // Every list holds at least one entry, so each can be perturbed.
+  if (base.contacts.empty()) base.contacts.push_back({0, 1, {}});
+  if (base.ground_contacts.empty()) base.ground_contacts.push_back({0, {}});
+  if (base.projectiles[0].contacts.empty()) base.projectiles[0].contacts.push_back({0, {}});
+  if (base.projectile_contacts.empty()) base.projectile_contacts.push_back({0, 1, {}});
+  if (base.breaks.empty()) base.breaks.push_back({1, 0, BreakCriterion::stress});
+  if (base.grip_work.empty()) {
+    base.grip_work.push_back(0);
+    base.grip_force.push_back({});
+  }
+  const std::uint64_t h0 = state_hash(base);
+  int checked = 0;
+  auto expect_changes = [&](const char* field, auto&& perturb) {
+    State s = base;
+    perturb(s);
+    EXPECT_NE(state_hash(s), h0) << field << " is not covered by state_hash";
+    ++checked;
+  };
+  const float eps = 1e-3f;
+  expect_changes("step", [](State& s) { ++s.step; });
+  expect_changes("time", [](State& s) { s.time += 1e-9; });
+  expect_changes("x", [](State& s) { s.x[7].y += 1e-12; });
+  expect_changes("v", [&](State& s) { s.v[7].z += eps; });
+  expect_changes("w", [&](State& s) { s.w[7].x += eps; });
+  expect_changes("q", [&](State& s) { s.q[7].w -= eps; });
+  expect_changes("s", [&](State& s) { s.s[7].xy += 1; });
+  expect_changes("mean_stress", [&](State& s) { s.mean_stress[7] += 1; });
+  expect_changes("f", [&](State& s) { s.f[7].x += 1; });
+  expect_changes("t", [&](State& s) { s.t[7].x += 1; });
+  expect_changes("intact", [](State& s) { s.intact[3] ^= 1; });
+  expect_changes("link_ut", [&](State& s) { s.link_ut[3].x += eps; });
+  expect_changes("contacts.i", [](State& s) { s.contacts[0].i += 1; });
+  expect_changes("contacts.ut", [&](State& s) { s.contacts[0].h.ut.x += eps; });
+  expect_changes("contacts.mr", [&](State& s) { s.contacts[0].h.mr.z += eps; });
+  expect_changes("ground_contacts.automaton", [](State& s) { s.ground_contacts[0].automaton += 1; });
+  expect_changes("ground_contacts.mr", [&](State& s) { s.ground_contacts[0].h.mr.x += eps; });
+  expect_changes("x_at_rebuild", [](State& s) { s.x_at_rebuild[5].x += 1e-9; });
+  expect_changes("projectile position", [](State& s) { s.projectiles[0].position.x += 1e-9; });
+  expect_changes("projectile velocity", [&](State& s) { s.projectiles[0].velocity.x += eps; });
+  expect_changes("projectile angular velocity", [&](State& s) { s.projectiles[0].angular_velocity.x += eps; });
+  expect_changes("projectile orientation", [&](State& s) { s.projectiles[0].orientation.x += eps; });
+  expect_changes("projectile force", [&](State& s) { s.projectiles[0].force.x += 1; });
+  expect_changes("projectile contacts", [&](State& s) { s.projectiles[0].contacts[0].h.ut.y += eps; });
+  expect_changes("projectile ground", [&](State& s) { s.projectiles[0].ground.ut.y += eps; });
+  expect_changes("projectile work", [](State& s) { s.projectiles[0].work += 1; });
+  expect_changes("projectile_contacts", [&](State& s) { s.projectile_contacts[0].h.mr.y += eps; });
+  expect_changes("breaks", [](State& s) {
+    s.breaks[0].criterion = s.breaks[0].criterion == BreakCriterion::stress ? BreakCriterion::displacement
+                                                                             : BreakCriterion::stress;
+  });
+  expect_changes("broken_by", [](State& s) { ++s.broken_by[1]; });
+  expect_changes("initial_energy", [](State& s) { s.initial_energy += 1; });
+  expect_changes("grip_work", [](State& s) { s.grip_work[0] += 1; });
+  expect_changes("grip_force", [](State& s) { s.grip_force[0].x += 1; });
+  EXPECT_EQ(checked, 32);
+}
+
+// The default scene's state after 3,000 steps, as this code computes it. A change of this value means
+// the results changed: intended (a physics change: update the value and say so in the commit) or not
+// (a compiler flag, an FMA, an order of summation: find it). Bitwise determinism across builds and
+// machines is promised (README), so this is compared exactly.
+TEST(Determinism, TheDefaultSceneGivesItsStoredHash) {
+  Engine sim(io::load_default_scene());
+  ASSERT_EQ(sim.advance(3000).flags, kHealthy);
+  const std::uint64_t h = state_hash(sim.state());
+  std::printf("default scene after 3,000 steps: state_hash %016llx\n", static_cast<unsigned long long>(h));
+  EXPECT_EQ(h, 0xfd686fcadb72b0fbull) << std::hex << "state_hash " << h;
+}
+
 }  // namespace
 }  // namespace mca

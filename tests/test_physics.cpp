@@ -131,6 +131,19 @@ TEST(Physics, BlockInUniaxialStressReturnsYoungsModulusAndPoissonRatio) {
   Engine sim(sc);
   relax(sim, 20000);
   const StrainProbe p = probe(sim.model(), sim.state(), 0.25 * n * d);
+  // The interior carries the applied stress (the faces parallel to the load are free): its averaged
+  // stress agrees, so applied stress over interior strain is the interior modulus.
+  double sxx = 0;
+  int count = 0;
+  for (std::size_t a = 0; a < sim.model().size(); ++a) {
+    const DVec3 q = sim.model().position0[a];
+    const double half = 0.25 * n * d;
+    if (std::fabs(q.x) > half || std::fabs(q.y) > half || std::fabs(q.z) > half) continue;
+    sxx += sim.state().s[a].xx;
+    ++count;
+  }
+  sxx /= count;
+  EXPECT_NEAR(sxx / sigma, 1.0, 0.02) << "interior stress " << sxx;
   const double E_measured = sigma / p.axial[0];
   const double nu_y = -p.axial[1] / p.axial[0], nu_z = -p.axial[2] / p.axial[0];
   std::printf("uniaxial stress: E %.4g (input %.4g), nu %.4f / %.4f (input %.2f)\n", E_measured, E, nu_y, nu_z, nu);
@@ -164,12 +177,19 @@ TEST(Physics, StrengtheningLawStiffensABarAsEquation7Says) {
   EXPECT_NEAR((sigma / e) / (E * std::exp(alpha * e)), 1.0, 0.02);
 }
 
+// Simple shear: tractions on the four faces normal to x and y, balanced in force and moment. G is
+// measured twice: in the interior, from the averaged (Love) stress and the link slopes of the central
+// region, which tests the law itself; and as a lab does, from the traction and the displacement of the
+// loaded faces. The surface layers of a lattice are softer in shear (a surface automaton misses a link, so
+// it turns by gamma / 6 and shears its in-surface links by gamma / 3 instead of gamma / 2): the interior
+// carries 4 % more than the applied traction, and the faces' G approaches the bulk value as 1 / n
+// (-2.7 % at 20^3, -1.8 % at 30^3). Dividing the applied traction by the interior strain mixes the two
+// and gives a G 4-6 % low that is neither.
 TEST(Physics, BlockInSimpleShearReturnsShearModulus) {
-  const int n = 20;
+  const int n = 30;
   const double d = 0.01, E = 30e9, nu = 0.2, tau = 1e6;
   SceneDef sc = block_scene(n, n, n, d, test_material(E, nu));
   sc.solver.local_damping = 0.2;
-  // Shear tractions on the four faces normal to x and y: balanced in force and moment.
   for (int side = 0; side < 2; ++side) {
     const double sgn = side ? 1.0 : -1.0;
     LoadDef top;
@@ -182,12 +202,24 @@ TEST(Physics, BlockInSimpleShearReturnsShearModulus) {
     sc.loads.push_back(right);
   }
   Engine sim(sc);
-  relax(sim, 20000);
-  // Engineering shear strain of the block, as a lab measures it: the mean displacement of the loaded
-  // layers over the distance between them (the surface layers carry the traction, so the strain near
-  // them is part of the block's response).
+  relax(sim, 40000);
   const Model& m = sim.model();
   const State& s = sim.state();
+  const double G = E / (2 * (1 + nu));
+  // Interior: Love stress and link slopes of the central region (half the block's width).
+  const double half = 0.25 * n * d;
+  const StrainProbe p = probe(m, s, half);
+  double sxy = 0;
+  int count = 0;
+  for (std::size_t a = 0; a < m.size(); ++a) {
+    const DVec3 q = m.position0[a];
+    if (std::fabs(q.x) > half || std::fabs(q.y) > half || std::fabs(q.z) > half) continue;
+    sxy += s.s[a].xy;
+    ++count;
+  }
+  sxy /= count;
+  const double gamma_inside = p.slope_xy + p.slope_yx;
+  // Faces: the mean displacement of the loaded layers over the distance between them.
   double ux[2] = {0, 0}, uy[2] = {0, 0};
   int cx[2] = {0, 0}, cy[2] = {0, 0};
   const float lo = static_cast<float>(-0.5 * (n - 1) * d + 0.25 * d), hi = -lo;
@@ -200,10 +232,11 @@ TEST(Physics, BlockInSimpleShearReturnsShearModulus) {
     if (p0.x > hi) { uy[1] += u.y; ++cy[1]; }
   }
   const double span = (n - 1) * d;
-  const double gamma = (ux[1] / cx[1] - ux[0] / cx[0]) / span + (uy[1] / cy[1] - uy[0] / cy[0]) / span;
-  const double G = E / (2 * (1 + nu));
-  std::printf("simple shear: G %.4g (expected %.4g)\n", tau / gamma, G);
-  EXPECT_NEAR((tau / gamma) / G, 1.0, 0.03) << "G measured " << tau / gamma << ", expected " << G;
+  const double gamma_faces = (ux[1] / cx[1] - ux[0] / cx[0]) / span + (uy[1] / cy[1] - uy[0] / cy[0]) / span;
+  std::printf("simple shear, %d^3: interior G %.4g (stress %.4g over strain %.4g), faces G %.4g (expected %.4g)\n", n,
+              sxy / gamma_inside, sxy, gamma_inside, tau / gamma_faces, G);
+  EXPECT_NEAR((sxy / gamma_inside) / G, 1.0, 0.02) << "interior G " << sxy / gamma_inside << ", expected " << G;
+  EXPECT_NEAR((tau / gamma_faces) / G, 1.0, 0.02) << "faces G " << tau / gamma_faces << ", expected " << G;
 }
 
 TEST(Physics, WaveInABarTravelsAtTheBarSpeed) {
