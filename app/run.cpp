@@ -270,7 +270,9 @@ int run(const RunOptions& o) {
   if (o.vtk) scene.output.vtk = *o.vtk;
   const int threads = thread_count(o.threads);
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
-  const std::filesystem::path dir = o.out ? std::filesystem::path(*o.out) : std::filesystem::path("out") / scene.name;
+  // The scene's name is shown as it is; only a sanitised form of it names the default folder.
+  const std::filesystem::path dir =
+      o.out ? std::filesystem::path(*o.out) : std::filesystem::path("out") / io::scene_folder_name(scene.name);
   io::prepare_output_dir(dir);
 
   if (!o.quiet) fmt::print(stderr, "mca: scene '{}' ({}): building...\n", scene.name, scene.source);

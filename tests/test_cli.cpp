@@ -19,8 +19,9 @@ struct Result {
   std::string output;  // stdout and stderr
 };
 
-Result mca(const std::string& args) {
-  const std::string cmd = std::string(MCA_BINARY) + " " + args + " 2>&1";
+// Runs a shell command line.
+Result shell(const std::string& command) {
+  const std::string cmd = "(" + command + ") 2>&1";
   Result r;
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return r;
@@ -31,6 +32,8 @@ Result mca(const std::string& args) {
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
 }
+
+Result mca(const std::string& args) { return shell(std::string(MCA_BINARY) + " " + args); }
 
 fs::path fresh_dir(const std::string& name) {
   const fs::path d = fs::temp_directory_path() / ("mca_cli_" + name);
@@ -237,3 +240,52 @@ fracture_strain = 10.0
 }
 
 }  // namespace
+
+namespace {
+
+// Runs `mca args` with `dir` as the current folder.
+Result mca_in(const fs::path& dir, const std::string& args) {
+  return shell("cd '" + dir.string() + "' && " + std::string(MCA_BINARY) + " " + args);
+}
+
+// The small scene under another name (written as a TOML literal string, so any text but ' fits).
+fs::path named_scene(const fs::path& dir, const std::string& name) {
+  const fs::path p = small_scene(dir);
+  std::string text = read(p);
+  text.replace(text.find("name = \"small\""), 14, "name = '" + name + "'");
+  std::ofstream(p) << text;
+  return p;
+}
+
+}  // namespace
+
+TEST(Cli, SceneNameCannotPickTheOutputFolder) {
+  const fs::path d = fresh_dir("scene_name");
+  const fs::path work = d / "work";
+  fs::create_directories(work);
+  // Files of an earlier run in the current folder, which a name of ".." would replace or delete.
+  std::ofstream(work / "stats.csv") << "keep me\n";
+  std::ofstream(work / "summary.json") << "{}\n";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"../escaped", "___escaped"}, {(d / "abs").string(), ""}, {"..", "__"}, {".", "_"},
+      {"a/b", "a_b"}, {"", "scene"}, {"my scene \xC3\xA9", "my_scene__"}};
+  for (const auto& [name, folder] : cases) {
+    SCOPED_TRACE(name);
+    const Result r = mca_in(work, "run " + named_scene(d / "scenes", name).string() + " -q --steps 1 --no-vtk");
+    ASSERT_EQ(r.code, 0) << r.output;
+    if (!folder.empty()) {
+      EXPECT_TRUE(fs::exists(work / "out" / folder / "summary.json")) << folder;
+    }
+    // Everything the run wrote is in a direct child of out/.
+    for (const auto& e : fs::directory_iterator(work / "out")) EXPECT_TRUE(e.is_directory()) << e.path();
+  }
+  EXPECT_FALSE(fs::exists(d / "escaped"));
+  EXPECT_FALSE(fs::exists(work / "escaped"));
+  EXPECT_FALSE(fs::exists(d / "abs"));
+  EXPECT_EQ(read(work / "stats.csv"), "keep me\n");
+  EXPECT_EQ(read(work / "summary.json"), "{}\n");
+  EXPECT_FALSE(fs::exists(work / "scene.toml"));
+  // The name itself is kept for display.
+  const auto j = nlohmann::json::parse(read(work / "out" / "___escaped" / "summary.json"));
+  EXPECT_EQ(j["scene"], "../escaped");
+}

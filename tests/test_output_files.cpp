@@ -2,10 +2,13 @@
 
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #include <unistd.h>
 
@@ -131,4 +134,40 @@ TEST(OutputFiles, PrepareOnARegularFileThrows) {
   const fs::path file = dir.path() / "plain_file";
   std::ofstream(file) << "x";
   EXPECT_THROW(prepare_output_dir(file), mca::Error);
+}
+
+// The default output folder is out/<folder name of the scene name>; a scene file from anywhere must not
+// pick where the run writes or deletes files.
+TEST(OutputFiles, SceneNameGivesADirectChildOfOut) {
+  using mca::io::scene_folder_name;
+  EXPECT_EQ(scene_folder_name("wall_ball"), "wall_ball");
+  EXPECT_EQ(scene_folder_name("wall-ball.v2"), "wall-ball.v2");
+  const std::vector<std::string> hostile = {
+      "../escaped", "/tmp/abs", "..", ".", "a/b", "", "my scene", "b\xC3\xA9ton \xE6\x97\xA5\xE6\x9C\xAC",
+      "a\\b", "x/../../y", "...", ".hidden", "-rf", std::string(1000, 'a'), std::string("nul\0byte", 8),
+      "tab\there", "/", "./"};
+  for (const auto& name : hostile) {
+    const std::string f = scene_folder_name(name);
+    SCOPED_TRACE(name);
+    ASSERT_FALSE(f.empty());
+    EXPECT_LE(f.size(), 100u);
+    EXPECT_NE(f, ".");
+    EXPECT_NE(f, "..");
+    EXPECT_NE(f.front(), '.');  // no hidden folders, and neither "." nor ".."
+    EXPECT_NE(f.front(), '-');  // not mistaken for an option in a shell command
+    for (const char c : f)
+      EXPECT_TRUE(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-') << f;
+    const fs::path p = fs::path("out") / f;
+    EXPECT_EQ(p.parent_path(), fs::path("out"));
+    EXPECT_EQ(p.filename().string(), f);
+  }
+  EXPECT_EQ(scene_folder_name("a/b"), "a_b");
+  EXPECT_EQ(scene_folder_name("my scene"), "my_scene");
+  EXPECT_EQ(scene_folder_name(""), "scene");
+  // One '_' per character, not per UTF-8 byte.
+  EXPECT_EQ(scene_folder_name("b\xC3\xA9ton"), "b_ton");
+  // Distinct hostile names still give stable, readable folders.
+  EXPECT_EQ(scene_folder_name("../escaped"), "___escaped");
+  EXPECT_EQ(scene_folder_name(".."), "__");
+  EXPECT_EQ(scene_folder_name("-rf"), "_rf");
 }

@@ -42,6 +42,27 @@ void prepare_output_dir(const fs::path& dir) {
   if (!fs::remove(probe, ec) || ec) throw fail(ec ? ec.message() : "could not remove a probe file");
 }
 
+std::string scene_folder_name(const std::string& scene_name) {
+  // Only characters that mean nothing to a path or a shell survive; every other character becomes '_'
+  // (one per UTF-8 character, not per byte, so "béton" reads as "b_ton"). A leading '.' would give a
+  // hidden folder or "."/".." (the output folder's parent), a leading '-' an option: both become '_'.
+  constexpr std::size_t kMaxLength = 100;  // well under the 255 bytes of a file name
+  std::string folder;
+  for (const char ch : scene_name) {
+    if (folder.size() == kMaxLength) break;
+    const auto c = static_cast<unsigned char>(ch);
+    if ((c & 0xC0) == 0x80) continue;  // a UTF-8 continuation byte: its character already gave '_'
+    const bool plain = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+                       c == '-' || c == '.';
+    folder += plain ? ch : '_';
+  }
+  for (char& c : folder) {
+    if (c != '.' && c != '-') break;
+    c = '_';
+  }
+  return folder.empty() ? "scene" : folder;
+}
+
 void write_file_atomic(const fs::path& path, const std::function<void(std::ostream&)>& write,
                        bool binary) {
   fs::path tmp = path;
