@@ -1,6 +1,7 @@
 // `mca run` and `mca resume`: step a scene frame by frame, write outputs, show progress.
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <fmt/format.h>
@@ -17,6 +18,7 @@
 #include "io/scene_io.hpp"
 #include "mca/error.hpp"
 #include "sim/engine.hpp"
+#include "sim/state_check.hpp"
 
 namespace mca::app {
 namespace {
@@ -35,6 +37,10 @@ int thread_count(int requested) {
   return requested == 0 ? tbb::info::default_concurrency() : requested;
 }
 
+// More steps than any run can take (1e15: a year at 3e7 steps per second), and few enough that step and
+// frame arithmetic stays far from overflowing 64 bits.
+constexpr std::int64_t kMaxSteps = 1'000'000'000'000'000;
+
 struct Plan {
   std::int64_t total_steps = 0;
   std::int64_t total_frames = 0;  // frames after frame 0
@@ -45,6 +51,30 @@ Plan make_plan(const Engine& sim, const std::optional<std::int64_t>& steps) {
   const int spf = sim.steps_per_frame();
   p.total_steps = steps ? *steps : sim.frame_count() * spf;
   p.total_frames = (p.total_steps + spf - 1) / spf;
+  return p;
+}
+
+// The frame clock of a checkpoint: the run writes frame k at step min(k * spf, total_steps) and saves a
+// checkpoint right after a frame, with `frame` the count of frames written. Counters that disagree
+// (a damaged or edited file) would make resume list or write absurd numbers of frames.
+Plan resume_plan(const io::Checkpoint& cp, int spf, const std::string& source) {
+  const auto fail = [&](const std::string& what) {
+    return Error(fmt::format("{}: {}; the file is damaged or was edited: use an earlier checkpoint (remove this "
+                             "one) or start the run again",
+                             source, what));
+  };
+  if (cp.total_steps <= 0 || cp.total_steps > kMaxSteps)
+    throw fail(fmt::format("the run's step count {} is outside 1..{}", cp.total_steps, kMaxSteps));
+  Plan p;
+  p.total_steps = cp.total_steps;
+  p.total_frames = p.total_steps / spf + (p.total_steps % spf != 0);
+  if (cp.frame < 1 || cp.frame - 1 > p.total_frames)
+    throw fail(fmt::format("frame {} is outside the run's frames 0..{}", cp.frame - 1, p.total_frames));
+  const std::int64_t step = std::min(p.total_steps, (cp.frame - 1) * spf);
+  if (cp.state.step != step)
+    throw fail(fmt::format("its state is at step {}, but frame {} is at step {}", cp.state.step, cp.frame - 1, step));
+  if (!std::isfinite(cp.wall_seconds) || cp.wall_seconds < 0)
+    throw fail(fmt::format("the wall time {} is not a time", cp.wall_seconds));
   return p;
 }
 
@@ -161,6 +191,7 @@ void save_checkpoint(const Loop& L, double wall) {
   cp.frame = L.frame;
   cp.total_steps = L.plan.total_steps;
   cp.wall_seconds = wall;
+  cp.model_fingerprint = model_fingerprint(L.sim.model());
   io::write_checkpoint(ckdir / fmt::format("frame_{:06d}.mcack", L.frame - 1), cp);
   // Keep the two newest: the last one could be cut short by a crash while being renamed.
   const auto all = checkpoint_files(ckdir);
@@ -317,10 +348,11 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet) {
   if (!quiet)
     fmt::print(stderr, "mca: resuming '{}' from {} (frame {}, step {})\n", cp.scene.name, all.back().string(),
                cp.frame - 1, cp.state.step);
-  Engine sim(cp.scene, cp.state);
-  Plan plan;
-  plan.total_steps = cp.total_steps;
-  plan.total_frames = (plan.total_steps + sim.steps_per_frame() - 1) / sim.steps_per_frame();
+  // The file is untrusted: the model rebuilt from its scene must be the one it was saved from, and the
+  // state must fit that model, before a backend is given the state.
+  const std::string source = fmt::format("checkpoint '{}'", all.back().string());
+  Engine sim(cp.scene, cp.state, source, cp.model_fingerprint);
+  const Plan plan = resume_plan(cp, sim.steps_per_frame(), source);
   FrameWriter writer(dir, sim.model(), cp.scene.output.vtk, cp.scene.output.links);
   writer.restore(cp.frame, sim.frame_interval());
   Loop L{sim, dir, threads, quiet, cp.scene.output.checkpoint_every, plan, 0, 0.0, {}};

@@ -1,7 +1,9 @@
 // End to end through the `mca` command: files written, JSON contents, resume, and bad input.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
+#include <cstring>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -288,4 +290,70 @@ TEST(Cli, SceneNameCannotPickTheOutputFolder) {
   // The name itself is kept for display.
   const auto j = nlohmann::json::parse(read(work / "out" / "___escaped" / "summary.json"));
   EXPECT_EQ(j["scene"], "../escaped");
+}
+
+namespace {
+
+// `mca args` stopped after a minute: a damaged input must fail fast, not run away (exit code 124).
+Result mca_timed(const std::string& args) { return shell("timeout 60 " + std::string(MCA_BINARY) + " " + args); }
+
+// A run of the small scene with a checkpoint every 2 frames; returns the newest checkpoint (frame 4).
+fs::path checkpointed_run(const fs::path& d) {
+  const Result r = mca("run " + small_scene(d).string() + " --out " + (d / "out").string() +
+                       " -q --no-vtk --checkpoint-every 2");
+  EXPECT_EQ(r.code, 0) << r.output;
+  std::vector<fs::path> cks;
+  for (const auto& e : fs::directory_iterator(d / "out" / "checkpoints")) cks.push_back(e.path());
+  std::sort(cks.begin(), cks.end());
+  return cks.empty() ? fs::path() : cks.front();  // frame 2: the run still has frames to go
+}
+
+}  // namespace
+
+// The embedded scene of a checkpoint edited in place (same length): the rebuilt model is not the one
+// the state was saved from. Resuming must refuse, not run on (or crash on) a mismatched state.
+TEST(Cli, TamperedCheckpointIsRefusedOnResume) {
+  const std::vector<std::pair<std::string, std::string>> edits = {
+      {"size = [0.6, 0.15, 0.5]", "size = [0.6, 0.15, 0.3]"},       // fewer automata than the state holds
+      {"size = [0.6, 0.15, 0.5]", "size = [0.6, 0.15, 0.7]"},       // more
+      {"position = [0.0, 0.0, 0.25]", "position = [0.0, 0.0, 0.35]"},  // same counts, another model
+      {"radius = 0.08", "radius = 0.07"}};                           // same automata, another ball
+  int k = 0;
+  for (const auto& [from, to] : edits) {
+    SCOPED_TRACE(to);
+    const fs::path d = fresh_dir("tamper" + std::to_string(k++));
+    const fs::path ck = checkpointed_run(d);
+    ASSERT_FALSE(ck.empty());
+    std::string bytes = read(ck);
+    const auto at = bytes.find(from);
+    ASSERT_NE(at, std::string::npos) << "the embedded scene has no '" << from << "'";
+    bytes.replace(at, from.size(), to);
+    std::ofstream(ck, std::ios::binary | std::ios::trunc) << bytes;
+    for (const auto& e : fs::directory_iterator(d / "out" / "checkpoints"))
+      if (e.path() != ck) fs::remove(e.path());
+    const Result r = mca_timed("resume " + (d / "out").string() + " -q");
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find(ck.string()), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("start the run again"), std::string::npos) << r.output;
+  }
+}
+
+// Frame and step counters of a checkpoint that do not fit each other are refused too (a huge frame
+// number would otherwise make resume list 2^40 frames).
+TEST(Cli, CheckpointWithAnAbsurdFrameIsRefused) {
+  const fs::path d = fresh_dir("absurd_frame");
+  const fs::path ck = checkpointed_run(d);
+  ASSERT_FALSE(ck.empty());
+  std::string bytes = read(ck);
+  // Layout: magic (8), scene length (8), scene text, model fingerprint (8), frame (8).
+  std::uint64_t len = 0;
+  std::memcpy(&len, bytes.data() + 8, 8);
+  const std::int64_t frame = std::int64_t{1} << 40;
+  std::memcpy(bytes.data() + 16 + len + 8, &frame, 8);
+  std::ofstream(ck, std::ios::binary | std::ios::trunc) << bytes;
+  for (const auto& e : fs::directory_iterator(d / "out" / "checkpoints"))
+    if (e.path() != ck) fs::remove(e.path());
+  const Result r = mca_timed("resume " + (d / "out").string() + " -q");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("frame"), std::string::npos) << r.output;
 }

@@ -1,6 +1,8 @@
 #pragma once
 // Checkpoints: the scene (as TOML) and the full state, links and contact histories included, so that
-// a resumed run ends bitwise equal to an uninterrupted one.
+// a resumed run ends bitwise equal to an uninterrupted one. A checkpoint file is untrusted input when it
+// is read back: read_checkpoint only guarantees well-formed arrays; whether the state fits the model of
+// the embedded scene is for check_state and model_fingerprint (sim/state_check.hpp) to decide.
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -16,11 +18,14 @@ struct Checkpoint {
   std::int64_t frame = 0;       // frames written so far (the next frame to write is this one)
   std::int64_t total_steps = 0;  // steps the run is to reach
   double wall_seconds = 0;      // wall time spent before the checkpoint
+  std::uint64_t model_fingerprint = 0;  // model_fingerprint() of the model the state belongs to
   std::string scene_toml;
 };
 
+// Equal checkpoints give byte-identical files (no padding bytes are written).
 void write_checkpoint(const std::filesystem::path& path, const Checkpoint& cp);
-// Throws mca::Error naming the file when it is missing, truncated or not a checkpoint.
+// Throws mca::Error naming the file when it is missing, truncated, damaged, of an older format or not a
+// checkpoint. Never allocates much more than the file's size, whatever its counts say.
 Checkpoint read_checkpoint(const std::filesystem::path& path);
 
 }  // namespace mca::io

@@ -5,6 +5,7 @@
 
 #include "lattice/lattice.hpp"
 #include "mca/error.hpp"
+#include "sim/state_check.hpp"
 
 namespace mca {
 
@@ -31,8 +32,22 @@ Engine::Engine(const SceneDef& scene) : scene_(scene) {
   backend_->upload(initial_state(model_));
 }
 
-Engine::Engine(const SceneDef& scene, const State& state) : scene_(scene) {
+Engine::Engine(const SceneDef& scene, const State& state, const std::string& source,
+               std::optional<std::uint64_t> fingerprint)
+    : scene_(scene) {
   model_ = build_for_frames(scene_, steps_per_frame_);
+  // The fingerprint first: when the scene was edited, "another model" is the cause to report, not the
+  // first array whose size it changed.
+  if (fingerprint) {
+    const std::uint64_t rebuilt = model_fingerprint(model_);
+    if (rebuilt != *fingerprint)
+      throw Error(fmt::format("{}: its embedded scene does not give the model the state was saved from (model "
+                              "fingerprint {:016x}, saved {:016x}): the file was edited or damaged, or written by "
+                              "another version of mca; use an earlier checkpoint (remove this one) or start the "
+                              "run again",
+                              source, rebuilt, *fingerprint));
+  }
+  check_state(model_, state, source);
   backend_ = make_cpu_backend(model_);
   backend_->upload(state);
 }
