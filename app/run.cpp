@@ -138,6 +138,12 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
   io::write_file_atomic(dir / "summary.json", [&](std::ostream& os) { os << j.dump(2) << "\n"; }, false);
 }
 
+// Temporary files a killed run left behind (their names are unique per process, so nothing else
+// would ever replace them).
+void remove_stale_temporaries(const std::filesystem::path& dir) {
+  for (const char* sub : {"", "frames", "checkpoints"}) io::remove_stale_temporaries(dir / sub);
+}
+
 void remove_own_files(const std::filesystem::path& dir, const std::string& prefix, const std::string& extension) {
   std::error_code ec;
   if (!std::filesystem::is_directory(dir, ec)) return;
@@ -323,6 +329,7 @@ int run(const RunOptions& o) {
   remove_own_files(dir / "checkpoints", "frame_", ".mcack");
   remove_own_files(dir / "frames", "automata_", ".vtu");
   remove_own_files(dir / "frames", "projectiles_", ".vtu");
+  remove_stale_temporaries(dir);
   FrameWriter writer(dir, sim.model(), scene.output.vtk, scene.output.links);
   Loop L{sim, dir, threads, o.quiet, scene.output.checkpoint_every, plan, 0, 0.0, {}};
   // Frame 0: the initial state.
@@ -336,6 +343,7 @@ int run(const RunOptions& o) {
 
 int resume(const std::string& out_dir, int threads_requested, bool quiet) {
   const std::filesystem::path dir(out_dir);
+  remove_stale_temporaries(dir);
   const auto ckdir = dir / "checkpoints";
   const auto all = checkpoint_files(ckdir);
   if (all.empty())

@@ -189,7 +189,7 @@ void write_checkpoint(const std::filesystem::path& path, const Checkpoint& cp) {
     w(cp.model_fingerprint, cp.frame, cp.total_steps, cp.wall_seconds);
     w(cp.state);
     w.raw(kMagic, sizeof kMagic);  // end marker: a file cut short fails to load
-  });
+  }, true, Durability::synced);  // a resume depends on it: on the disk before the older ones are removed
 }
 
 Checkpoint read_checkpoint(const std::filesystem::path& path) {
