@@ -174,7 +174,6 @@ struct Loop {
   Plan plan;
   std::int64_t frame = 0;      // frames written so far
   double wall_before = 0;      // wall seconds of earlier sessions (resume)
-  std::vector<std::string> rows;  // stats.csv lines
 };
 
 // The checkpoints in a folder, oldest first (names carry the zero-padded frame number).
@@ -244,8 +243,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
       return 3;
     }
     writer.write_frame(L.frame, sim.state(), frags);
-    L.rows.push_back(writer.format_row(st));
-    writer.write_stats(L.rows);
+    writer.append_stats(writer.format_row(st));
     ++L.frame;
     const double wall = elapsed();
     if (L.checkpoint_every > 0 && (L.frame - 1) % L.checkpoint_every == 0) save_checkpoint(L, L.wall_before + wall);
@@ -329,14 +327,17 @@ int run(const RunOptions& o) {
   remove_own_files(dir / "checkpoints", "frame_", ".mcack");
   remove_own_files(dir / "frames", "automata_", ".vtu");
   remove_own_files(dir / "frames", "projectiles_", ".vtu");
+  // The collections too: this run may write no projectile frames (no projectiles) or no frames at all
+  // (--no-vtk), and a collection left from an earlier run would list frames that were just removed.
+  std::filesystem::remove(dir / "automata.pvd");
+  std::filesystem::remove(dir / "projectiles.pvd");
   remove_stale_temporaries(dir);
   FrameWriter writer(dir, sim.model(), scene.output.vtk, scene.output.links);
-  Loop L{sim, dir, threads, o.quiet, scene.output.checkpoint_every, plan, 0, 0.0, {}};
+  Loop L{sim, dir, threads, o.quiet, scene.output.checkpoint_every, plan, 0, 0.0};
   // Frame 0: the initial state.
   const auto frags = writer.fragments(sim.state());
-  L.rows.push_back(writer.format_row(writer.stats(0, sim.state(), frags)));
   writer.write_frame(0, sim.state(), frags);
-  writer.write_stats(L.rows);
+  writer.start_stats({writer.format_row(writer.stats(0, sim.state(), frags))});
   L.frame = 1;
   return run_loop(L, writer);
 }
@@ -363,10 +364,17 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet) {
   const Plan plan = resume_plan(cp, sim.steps_per_frame(), source);
   FrameWriter writer(dir, sim.model(), cp.scene.output.vtk, cp.scene.output.links);
   writer.restore(cp.frame, sim.frame_interval());
-  Loop L{sim, dir, threads, quiet, cp.scene.output.checkpoint_every, plan, 0, 0.0, {}};
+  Loop L{sim, dir, threads, quiet, cp.scene.output.checkpoint_every, plan, 0, 0.0};
   L.frame = cp.frame;
   L.wall_before = cp.wall_seconds;
-  L.rows = read_back_stats(dir, cp.frame);
+  // Rows past the checkpoint (frames the interrupted run wrote after it) are dropped: they are written
+  // again as the run continues.
+  const auto rows = read_back_stats(dir, cp.frame);
+  if (static_cast<std::int64_t>(rows.size()) < cp.frame)
+    fmt::print(stderr, "warning: {} has {} of the {} rows up to the checkpoint; the rows of frames {}..{} will be "
+               "missing from it\n",
+               (dir / "stats.csv").string(), rows.size(), cp.frame, rows.size(), cp.frame - 1);
+  writer.start_stats(rows);
   return run_loop(L, writer);
 }
 

@@ -357,3 +357,28 @@ TEST(Cli, CheckpointWithAnAbsurdFrameIsRefused) {
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_NE(r.output.find("frame"), std::string::npos) << r.output;
 }
+
+// A new run in a folder replaces what an earlier run wrote there; collections (.pvd) of frames that
+// this run does not write must go too, or ParaView opens frames that were deleted.
+TEST(Cli, RerunRemovesStaleFrameCollections) {
+  const fs::path d = fresh_dir("rerun_pvd");
+  const fs::path out = d / "out";
+  ASSERT_EQ(mca("run " + small_scene(d).string() + " --out " + out.string() + " -q --steps 2").code, 0);
+  ASSERT_TRUE(fs::exists(out / "projectiles.pvd"));
+  ASSERT_TRUE(fs::exists(out / "automata.pvd"));
+  // The same wall without its ball: no projectile frames, so no projectiles.pvd.
+  const fs::path no_ball = small_scene(d / "no_ball");
+  std::string text = read(no_ball);
+  text.erase(text.find("[[projectile]]"));
+  std::ofstream(no_ball) << text;
+  Result r = mca("run " + no_ball.string() + " --out " + out.string() + " -q --steps 2");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_FALSE(fs::exists(out / "projectiles.pvd"));
+  EXPECT_TRUE(fs::exists(out / "automata.pvd"));
+  // No VTK at all: no automata.pvd either.
+  r = mca("run " + small_scene(d).string() + " --out " + out.string() + " -q --steps 2 --no-vtk");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_FALSE(fs::exists(out / "automata.pvd"));
+  EXPECT_FALSE(fs::exists(out / "projectiles.pvd"));
+  EXPECT_FALSE(fs::exists(out / "frames" / "automata_000000.vtu"));
+}
