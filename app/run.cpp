@@ -176,17 +176,6 @@ struct Loop {
   double wall_before = 0;      // wall seconds of earlier sessions (resume)
 };
 
-// The checkpoints in a folder, oldest first (names carry the zero-padded frame number).
-std::vector<std::filesystem::path> checkpoint_files(const std::filesystem::path& ckdir) {
-  std::vector<std::filesystem::path> all;
-  std::error_code ec;
-  if (std::filesystem::is_directory(ckdir, ec))
-    for (const auto& e : std::filesystem::directory_iterator(ckdir))
-      if (e.path().extension() == ".mcack") all.push_back(e.path());
-  std::sort(all.begin(), all.end());
-  return all;
-}
-
 void save_checkpoint(const Loop& L, double wall) {
   const auto ckdir = L.dir / "checkpoints";
   std::filesystem::create_directories(ckdir);
@@ -197,9 +186,10 @@ void save_checkpoint(const Loop& L, double wall) {
   cp.total_steps = L.plan.total_steps;
   cp.wall_seconds = wall;
   cp.model_fingerprint = model_fingerprint(L.sim.model());
-  io::write_checkpoint(ckdir / fmt::format("frame_{:06d}.mcack", L.frame - 1), cp);
-  // Keep the two newest: the last one could be cut short by a crash while being renamed.
-  const auto all = checkpoint_files(ckdir);
+  io::write_checkpoint(ckdir / io::checkpoint_name(L.frame - 1), cp);
+  // Keep the two newest: the newest may still be refused on resume (a damaged disk, an edit), and then
+  // the one before is the way back.
+  const auto all = io::list_checkpoints(ckdir);
   for (std::size_t k = 0; k + 2 < all.size(); ++k) std::filesystem::remove(all[k]);
 }
 
@@ -346,7 +336,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet) {
   const std::filesystem::path dir(out_dir);
   remove_stale_temporaries(dir);
   const auto ckdir = dir / "checkpoints";
-  const auto all = checkpoint_files(ckdir);
+  const auto all = io::list_checkpoints(ckdir);
   if (all.empty())
     throw Error(fmt::format("no checkpoint in '{}': a run writes them with --checkpoint-every N (or when stopped "
                             "with Ctrl-C); pass that run's --out folder",

@@ -351,5 +351,25 @@ TEST(Checkpoint, OlderFormatIsRefusedWithAClearMessage) {
   fs::remove(p);
 }
 
+TEST(Checkpoint, NamesSortByFrameNumberPastAMillion) {
+  EXPECT_EQ(io::checkpoint_name(7), "frame_000007.mcack");
+  EXPECT_EQ(io::checkpoint_name(999999), "frame_999999.mcack");
+  EXPECT_EQ(io::checkpoint_name(1000000), "frame_1000000.mcack");
+  const fs::path dir = temp_file("names");
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  for (const char* name : {"frame_1000000.mcack", "frame_999999.mcack", "frame_000002.mcack", "frame_12.mcack",
+                           "frame_abc.mcack", "frame_.mcack", "notes.mcack", "frame_000003.mcack.1.2.tmp",
+                           "frame_-5.mcack", "frame_99999999999999999999999.mcack"})
+    std::ofstream(dir / name) << "x";
+  fs::create_directories(dir / "frame_000001.mcack");  // a folder, not a checkpoint
+  std::vector<std::string> names;
+  for (const auto& p : io::list_checkpoints(dir)) names.push_back(p.filename().string());
+  EXPECT_EQ(names, (std::vector<std::string>{"frame_000002.mcack", "frame_12.mcack", "frame_999999.mcack",
+                                             "frame_1000000.mcack"}));
+  EXPECT_TRUE(io::list_checkpoints(dir / "missing").empty());
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace mca

@@ -382,3 +382,17 @@ TEST(Cli, RerunRemovesStaleFrameCollections) {
   EXPECT_FALSE(fs::exists(out / "projectiles.pvd"));
   EXPECT_FALSE(fs::exists(out / "frames" / "automata_000000.vtu"));
 }
+
+// Checkpoint names carry the frame zero-padded to six digits; past frame 999999 they grow a digit, and
+// text order would put frame_1000000 before frame_999999. Resume must take the newest by number.
+TEST(Cli, ResumeTakesTheNewestCheckpointByFrameNumber) {
+  const fs::path d = fresh_dir("ck_order");
+  checkpointed_run(d);
+  const fs::path ckdir = d / "out" / "checkpoints";
+  ASSERT_TRUE(fs::exists(ckdir / "frame_000004.mcack"));
+  fs::rename(ckdir / "frame_000002.mcack", ckdir / "frame_999999.mcack");
+  fs::rename(ckdir / "frame_000004.mcack", ckdir / "frame_1000000.mcack");
+  const Result r = mca("resume " + (d / "out").string());
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("frame_1000000.mcack"), std::string::npos) << r.output;
+}

@@ -6,6 +6,8 @@
 #include <fmt/format.h>
 #include <fstream>
 #include <iterator>
+#include <string_view>
+#include <utility>
 #include <type_traits>
 
 #include "io/output_files.hpp"
@@ -180,6 +182,32 @@ struct Reader {
 };
 
 }  // namespace
+
+std::string checkpoint_name(std::int64_t frame) { return fmt::format("frame_{:06d}.mcack", frame); }
+
+std::vector<std::filesystem::path> list_checkpoints(const std::filesystem::path& dir) {
+  constexpr std::string_view prefix = "frame_", suffix = ".mcack";
+  std::vector<std::pair<std::int64_t, std::filesystem::path>> found;
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir, ec)) return {};
+  for (const auto& e : std::filesystem::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.size() <= prefix.size() + suffix.size() || name.compare(0, prefix.size(), prefix) != 0 ||
+        name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0 || !e.is_regular_file(ec))
+      continue;
+    const std::string digits = name.substr(prefix.size(), name.size() - prefix.size() - suffix.size());
+    // 18 digits at most: the number fits an int64 without a check.
+    if (digits.size() > 18 || !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }))
+      continue;
+    found.emplace_back(std::stoll(digits), e.path());
+  }
+  // Equal numbers ("frame_12" and "frame_000012") are ordered by name, so the order never depends on
+  // the folder's listing order.
+  std::sort(found.begin(), found.end());
+  std::vector<std::filesystem::path> paths;
+  for (auto& [frame, path] : found) paths.push_back(std::move(path));
+  return paths;
+}
 
 void write_checkpoint(const std::filesystem::path& path, const Checkpoint& cp) {
   write_file_atomic(path, [&](std::ostream& os) {

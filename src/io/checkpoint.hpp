@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "core/state.hpp"
 #include "mca/scene.hpp"
@@ -21,6 +22,13 @@ struct Checkpoint {
   std::uint64_t model_fingerprint = 0;  // model_fingerprint() of the model the state belongs to
   std::string scene_toml;
 };
+
+// "frame_NNNNNN.mcack" for the checkpoint saved after frame N: six digits, more past 999999.
+std::string checkpoint_name(std::int64_t frame);
+// The checkpoints (regular files named by checkpoint_name) in `dir`, oldest first by the frame number
+// in their names: as text, frame_1000000 would sort before frame_999999. Other files are ignored; a
+// missing folder has none.
+std::vector<std::filesystem::path> list_checkpoints(const std::filesystem::path& dir);
 
 // Equal checkpoints give byte-identical files (no padding bytes are written).
 void write_checkpoint(const std::filesystem::path& path, const Checkpoint& cp);
