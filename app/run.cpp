@@ -46,11 +46,25 @@ struct Plan {
   std::int64_t total_frames = 0;  // frames after frame 0
 };
 
+// `steps` is checked against kMaxSteps by run(), before the model is built.
 Plan make_plan(const Engine& sim, const std::optional<std::int64_t>& steps) {
   Plan p;
   const int spf = sim.steps_per_frame();
-  p.total_steps = steps ? *steps : sim.frame_count() * spf;
-  p.total_frames = (p.total_steps + spf - 1) / spf;
+  if (steps) {
+    p.total_steps = *steps;
+  } else {
+    // In double first: frames * steps per frame overflows 64 bits for an absurd duration.
+    const OutputDef& out = sim.scene().output;
+    const double total = std::max(1.0, std::round(out.duration * out.frame_rate)) * spf;
+    if (!(total <= static_cast<double>(kMaxSteps)))
+      throw Error(fmt::format("{}: output.duration = {:g} s is {:.3g} steps of {:.3g} s, more than the {:.0e} a run "
+                              "can take; give a shorter output.duration (or --duration)",
+                              sim.scene().source, out.duration, total, sim.model().dt,
+                              static_cast<double>(kMaxSteps)));
+    p.total_steps = sim.frame_count() * spf;
+  }
+  // Rounded up without forming total_steps + spf - 1.
+  p.total_frames = p.total_steps / spf + (p.total_steps % spf != 0);
   return p;
 }
 
@@ -280,12 +294,17 @@ int run_loop(Loop& L, FrameWriter& writer) {
 }  // namespace
 
 int run(const RunOptions& o) {
+  if (o.out && o.out->empty())
+    throw Error("--out is empty; give the output folder, or leave out --out for the default out/<scene name>");
+  if (o.steps && (*o.steps <= 0 || *o.steps > kMaxSteps))
+    throw Error(fmt::format("--steps {} is out of range: must be 1..{:.0e} (a run of more steps would not end); "
+                            "give a smaller number of steps, or --duration",
+                            *o.steps, static_cast<double>(kMaxSteps)));
   SceneDef scene = o.scene ? io::load_scene_file(*o.scene) : io::load_default_scene();
   if (o.duration) {
     if (!(*o.duration > 0)) throw Error(fmt::format("--duration {} must be a positive number of seconds", *o.duration));
     scene.output.duration = *o.duration;
   }
-  if (o.steps && *o.steps <= 0) throw Error(fmt::format("--steps {} must be a positive number of steps", *o.steps));
   if (o.seed) scene.solver.seed = *o.seed;
   if (o.checkpoint_every) {
     if (*o.checkpoint_every < 0)
@@ -333,6 +352,8 @@ int run(const RunOptions& o) {
 }
 
 int resume(const std::string& out_dir, int threads_requested, bool quiet) {
+  // An empty path would silently mean the current folder.
+  if (out_dir.empty()) throw Error("mca resume: the folder is empty (\"\"); give the --out folder of the run to continue");
   const std::filesystem::path dir(out_dir);
   remove_stale_temporaries(dir);
   const auto ckdir = dir / "checkpoints";

@@ -396,3 +396,27 @@ TEST(Cli, ResumeTakesTheNewestCheckpointByFrameNumber) {
   EXPECT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("frame_1000000.mcack"), std::string::npos) << r.output;
 }
+
+// Step counts near 2^63 overflowed the frame arithmetic (negative frame counts, a run that never ends);
+// an empty --out was silently ignored (the run went to out/<name>).
+TEST(Cli, AbsurdStepCountsAndEmptyFoldersAreRefused) {
+  const fs::path d = fresh_dir("absurd_cli");
+  const fs::path scene = small_scene(d);
+  const std::string out = " --out " + (d / "o").string();
+  for (const std::string steps : {"9223372036854775807", "9223372036854775000", "1000000000000001"}) {
+    const Result r = mca_timed("run " + scene.string() + out + " --steps " + steps);
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("--steps " + steps), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("frames, "), std::string::npos) << "a plan was made: " << r.output;
+  }
+  Result r = mca_timed("run " + scene.string() + out + " --duration 1e300");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("output.duration"), std::string::npos) << r.output;
+  r = mca_in(d, "run " + scene.string() + " --out '' -q --steps 1");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("--out"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(d / "out")) << "an empty --out fell back to out/<name>";
+  r = mca_in(d, "resume ''");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("folder"), std::string::npos) << r.output;
+}
