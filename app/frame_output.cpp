@@ -22,7 +22,7 @@ FrameWriter::FrameWriter(std::filesystem::path dir, const Model& model, bool vtk
 
 analysis::Fragments FrameWriter::fragments(const State& s) const {
   return analysis::label_fragments(model_.size(), model_.link_i.data(), model_.link_j.data(), s.intact.data(),
-                                   model_.link_count());
+                                   model_.link_count(), model_.mass.data());
 }
 
 FrameStats FrameWriter::stats(std::int64_t frame, const State& s, const analysis::Fragments& frags) const {

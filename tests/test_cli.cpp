@@ -105,9 +105,9 @@ TEST(Cli, RunWritesFramesStatsAndSummary) {
   EXPECT_NEAR(mass, j["total_mass"].get<double>(), 1e-9 * j["total_mass"].get<double>());
   EXPECT_EQ(automata, 360);
   EXPECT_EQ(j["fragment_count"].get<std::size_t>(), j["fragments"].size());
-  // Largest first.
+  // Heaviest first.
   for (std::size_t k = 1; k < j["fragments"].size(); ++k)
-    EXPECT_GE(j["fragments"][k - 1]["automata"].get<int>(), j["fragments"][k]["automata"].get<int>());
+    EXPECT_GE(j["fragments"][k - 1]["mass"].get<double>(), j["fragments"][k]["mass"].get<double>());
 
   // stats.csv: a header and one row per frame (0..4), broken links never decrease.
   std::istringstream csv(read(out / "stats.csv"));
@@ -419,4 +419,25 @@ TEST(Cli, AbsurdStepCountsAndEmptyFoldersAreRefused) {
   r = mca_in(d, "resume ''");
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_NE(r.output.find("folder"), std::string::npos) << r.output;
+}
+
+// "Largest first" means by mass: a small steel block outweighs a larger concrete wall.
+TEST(Cli, FragmentsAreListedHeaviestFirst) {
+  const fs::path d = fresh_dir("heaviest");
+  // 12 x 3 x 10 = 360 concrete automata (2400 kg/m^3) and 7 x 3 x 7 = 147 steel ones (7850 kg/m^3).
+  const fs::path scene = small_scene(d, R"(
+[[object]]
+name = "steel_block"
+size = [0.35, 0.15, 0.35]
+position = [1.5, 0, 0.175]
+material = "steel"
+)");
+  const Result r = mca("run " + scene.string() + " --out " + (d / "out").string() + " -q --steps 1 --no-vtk");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto j = nlohmann::json::parse(read(d / "out" / "summary.json"));
+  ASSERT_GE(j["fragments"].size(), 2u);
+  EXPECT_EQ(j["fragments"][0]["automata"], 147) << j["fragments"].dump();
+  EXPECT_EQ(j["fragments"][1]["automata"], 360) << j["fragments"].dump();
+  for (std::size_t k = 1; k < j["fragments"].size(); ++k)
+    EXPECT_GE(j["fragments"][k - 1]["mass"].get<double>(), j["fragments"][k]["mass"].get<double>());
 }
