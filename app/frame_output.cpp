@@ -1,10 +1,15 @@
 #include "app/frame_output.hpp"
 
+#include <cerrno>
+#include <cstring>
+#include <fcntl.h>
 #include <fmt/format.h>
 #include <fstream>
+#include <unistd.h>
 
 #include "io/output_files.hpp"
 #include "io/vtk_writer.hpp"
+#include "mca/error.hpp"
 
 namespace mca::app {
 
@@ -17,7 +22,7 @@ FrameWriter::FrameWriter(std::filesystem::path dir, const Model& model, bool vtk
 
 analysis::Fragments FrameWriter::fragments(const State& s) const {
   return analysis::label_fragments(model_.size(), model_.link_i.data(), model_.link_j.data(), s.intact.data(),
-                                   model_.link_count());
+                                   model_.link_count(), model_.mass.data());
 }
 
 FrameStats FrameWriter::stats(std::int64_t frame, const State& s, const analysis::Fragments& frags) const {
@@ -137,13 +142,42 @@ std::string FrameWriter::format_row(const FrameStats& r) const {
   return line;
 }
 
-void FrameWriter::write_stats(const std::vector<std::string>& rows) const {
-  io::write_file_atomic(dir_ / "stats.csv", [&](std::ostream& os) {
+FrameWriter::~FrameWriter() {
+  if (stats_fd_ >= 0) ::close(stats_fd_);
+}
+
+// stats.csv grows by one row per frame. Rewriting it whole each frame (atomically, like the other
+// files) made a run quadratic in its frame count; appending keeps it linear, and a row is one write
+// call, so a reader or a killed run sees only whole rows.
+void FrameWriter::start_stats(const std::vector<std::string>& rows) {
+  const auto path = dir_ / "stats.csv";
+  if (stats_fd_ >= 0) ::close(stats_fd_);
+  stats_fd_ = -1;
+  io::write_file_atomic(path, [&](std::ostream& os) {
     const auto h = stats_header(model_);
     for (std::size_t k = 0; k < h.size(); ++k) os << (k ? "," : "") << h[k];
     os << "\n";
     for (const auto& r : rows) os << r << "\n";
   }, false);
+  stats_fd_ = ::open(path.c_str(), O_WRONLY | O_APPEND | O_CLOEXEC);
+  if (stats_fd_ < 0)
+    throw Error(fmt::format("could not open '{}' to append to it: {}; check the --out folder", path.string(),
+                            std::strerror(errno)));
+}
+
+void FrameWriter::append_stats(const std::string& row) {
+  const auto path = dir_ / "stats.csv";
+  if (stats_fd_ < 0) throw Error(fmt::format("'{}' was not started (start_stats)", path.string()));
+  const std::string line = row + "\n";
+  std::size_t done = 0;
+  while (done < line.size()) {
+    const ssize_t n = ::write(stats_fd_, line.data() + done, line.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0)
+      throw Error(fmt::format("could not write '{}': {}; check free disk space and the --out folder", path.string(),
+                              n < 0 ? std::strerror(errno) : "nothing written"));
+    done += static_cast<std::size_t>(n);
+  }
 }
 
 }  // namespace mca::app

@@ -27,13 +27,19 @@ struct FrameStats {
 class FrameWriter {
  public:
   FrameWriter(std::filesystem::path dir, const Model& model, bool vtk, bool links);
+  ~FrameWriter();
+  FrameWriter(const FrameWriter&) = delete;
+  FrameWriter& operator=(const FrameWriter&) = delete;
   // Fragments of the state (for stats and VTK).
   analysis::Fragments fragments(const State& s) const;
   FrameStats stats(std::int64_t frame, const State& s, const analysis::Fragments& frags) const;
   void write_frame(std::int64_t frame, const State& s, const analysis::Fragments& frags);
   std::string format_row(const FrameStats& row) const;
-  // Rewrites stats.csv (header + rows, each row from format_row) atomically.
-  void write_stats(const std::vector<std::string>& rows) const;
+  // Starts stats.csv: header + `rows` (each from format_row), written atomically. Once per run (a new
+  // run: frame 0; a resume: the rows up to its checkpoint).
+  void start_stats(const std::vector<std::string>& rows);
+  // Appends one row (one write call, so readers see whole rows). Throws mca::Error naming the file.
+  void append_stats(const std::string& row);
   // Rebuild the .pvd lists after a resume (frames 0..frames-1 exist on disk).
   void restore(std::int64_t frames, double frame_interval);
   static std::vector<std::string> stats_header(const Model& model);
@@ -44,6 +50,7 @@ class FrameWriter {
   bool vtk_, links_;
   std::vector<std::pair<double, std::string>> automata_pvd_, projectile_pvd_;
   std::vector<std::uint32_t> initial_degree_;
+  int stats_fd_ = -1;  // stats.csv, open for appending after start_stats
 };
 
 }  // namespace mca::app

@@ -19,7 +19,7 @@ int main(int argc, char** argv) {
   int checkpoint_every = 0;
   auto* run = app.add_subcommand("run", "Run a scene (the built-in wall_ball scene if none is given)");
   run->add_option("scene", scene_path, "Scene file (TOML, see docs/scene-format.md)");
-  run->add_option("--out", out_dir, "Output folder (default out/<scene name>)");
+  auto* out_opt = run->add_option("--out", out_dir, "Output folder (default out/<scene name>, see docs/scene-format.md)");
   run->add_option("--threads", ro.threads, "Worker threads (0 = all cores)");
   auto* dur_opt = run->add_option("--duration", duration, "Simulated time [s] (overrides output.duration)");
   auto* steps_opt = run->add_option("--steps", steps, "Run exactly this many steps");
@@ -58,7 +58,7 @@ int main(int argc, char** argv) {
   try {
     if (run->parsed()) {
       if (!scene_path.empty()) ro.scene = scene_path;
-      if (!out_dir.empty()) ro.out = out_dir;
+      if (out_opt->count()) ro.out = out_dir;  // given but empty is an error, not the default
       if (dur_opt->count()) ro.duration = duration;
       if (steps_opt->count()) ro.steps = steps;
       if (seed_opt->count()) ro.seed = seed;

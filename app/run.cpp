@@ -1,6 +1,7 @@
 // `mca run` and `mca resume`: step a scene frame by frame, write outputs, show progress.
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <fmt/format.h>
@@ -17,6 +18,7 @@
 #include "io/scene_io.hpp"
 #include "mca/error.hpp"
 #include "sim/engine.hpp"
+#include "sim/state_check.hpp"
 
 namespace mca::app {
 namespace {
@@ -35,16 +37,45 @@ int thread_count(int requested) {
   return requested == 0 ? tbb::info::default_concurrency() : requested;
 }
 
+constexpr std::int64_t kMaxSteps = Engine::kMaxSteps;
+
 struct Plan {
   std::int64_t total_steps = 0;
   std::int64_t total_frames = 0;  // frames after frame 0
 };
 
+// `steps` is checked against kMaxSteps by run(), before the model is built.
 Plan make_plan(const Engine& sim, const std::optional<std::int64_t>& steps) {
   Plan p;
   const int spf = sim.steps_per_frame();
+  // The Engine refuses durations past kMaxSteps when it builds the model.
   p.total_steps = steps ? *steps : sim.total_steps();
-  p.total_frames = (p.total_steps + spf - 1) / spf;
+  // Rounded up without forming total_steps + spf - 1.
+  p.total_frames = p.total_steps / spf + (p.total_steps % spf != 0);
+  return p;
+}
+
+// The frame clock of a checkpoint: the run writes frame k at step min(k * spf, total_steps) and saves a
+// checkpoint right after a frame, with `frame` the count of frames written. Counters that disagree
+// (a damaged or edited file) would make resume list or write absurd numbers of frames.
+Plan resume_plan(const io::Checkpoint& cp, int spf, const std::string& source) {
+  const auto fail = [&](const std::string& what) {
+    return Error(fmt::format("{}: {}; the file is damaged or was edited: use an earlier checkpoint (remove this "
+                             "one) or start the run again",
+                             source, what));
+  };
+  if (cp.total_steps <= 0 || cp.total_steps > kMaxSteps)
+    throw fail(fmt::format("the run's step count {} is outside 1..{}", cp.total_steps, kMaxSteps));
+  Plan p;
+  p.total_steps = cp.total_steps;
+  p.total_frames = p.total_steps / spf + (p.total_steps % spf != 0);
+  if (cp.frame < 1 || cp.frame - 1 > p.total_frames)
+    throw fail(fmt::format("frame {} is outside the run's frames 0..{}", cp.frame - 1, p.total_frames));
+  const std::int64_t step = std::min(p.total_steps, (cp.frame - 1) * spf);
+  if (cp.state.step != step)
+    throw fail(fmt::format("its state is at step {}, but frame {} is at step {}", cp.state.step, cp.frame - 1, step));
+  if (!std::isfinite(cp.wall_seconds) || cp.wall_seconds < 0)
+    throw fail(fmt::format("the wall time {} is not a time", cp.wall_seconds));
   return p;
 }
 
@@ -108,6 +139,12 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
   io::write_file_atomic(dir / "summary.json", [&](std::ostream& os) { os << j.dump(2) << "\n"; }, false);
 }
 
+// Temporary files a killed run left behind (their names are unique per process, so nothing else
+// would ever replace them).
+void remove_stale_temporaries(const std::filesystem::path& dir) {
+  for (const char* sub : {"", "frames", "checkpoints"}) io::remove_stale_temporaries(dir / sub);
+}
+
 void remove_own_files(const std::filesystem::path& dir, const std::string& prefix, const std::string& extension) {
   std::error_code ec;
   if (!std::filesystem::is_directory(dir, ec)) return;
@@ -138,19 +175,7 @@ struct Loop {
   Plan plan;
   std::int64_t frame = 0;      // frames written so far
   double wall_before = 0;      // wall seconds of earlier sessions (resume)
-  std::vector<std::string> rows;  // stats.csv lines
 };
-
-// The checkpoints in a folder, oldest first (names carry the zero-padded frame number).
-std::vector<std::filesystem::path> checkpoint_files(const std::filesystem::path& ckdir) {
-  std::vector<std::filesystem::path> all;
-  std::error_code ec;
-  if (std::filesystem::is_directory(ckdir, ec))
-    for (const auto& e : std::filesystem::directory_iterator(ckdir))
-      if (e.path().extension() == ".mcack") all.push_back(e.path());
-  std::sort(all.begin(), all.end());
-  return all;
-}
 
 void save_checkpoint(const Loop& L, double wall) {
   const auto ckdir = L.dir / "checkpoints";
@@ -161,9 +186,11 @@ void save_checkpoint(const Loop& L, double wall) {
   cp.frame = L.frame;
   cp.total_steps = L.plan.total_steps;
   cp.wall_seconds = wall;
-  io::write_checkpoint(ckdir / fmt::format("frame_{:06d}.mcack", L.frame - 1), cp);
-  // Keep the two newest: the last one could be cut short by a crash while being renamed.
-  const auto all = checkpoint_files(ckdir);
+  cp.model_fingerprint = model_fingerprint(L.sim.model());
+  io::write_checkpoint(ckdir / io::checkpoint_name(L.frame - 1), cp);
+  // Keep the two newest: the newest may still be refused on resume (a damaged disk, an edit), and then
+  // the one before is the way back.
+  const auto all = io::list_checkpoints(ckdir);
   for (std::size_t k = 0; k + 2 < all.size(); ++k) std::filesystem::remove(all[k]);
 }
 
@@ -206,8 +233,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
       return 3;
     }
     writer.write_frame(L.frame, sim.state(), frags);
-    L.rows.push_back(writer.format_row(st));
-    writer.write_stats(L.rows);
+    writer.append_stats(writer.format_row(st));
     ++L.frame;
     const double wall = elapsed();
     if (L.checkpoint_every > 0 && (L.frame - 1) % L.checkpoint_every == 0) save_checkpoint(L, L.wall_before + wall);
@@ -254,12 +280,17 @@ int run_loop(Loop& L, FrameWriter& writer) {
 }  // namespace
 
 int run(const RunOptions& o) {
+  if (o.out && o.out->empty())
+    throw Error("--out is empty; give the output folder, or leave out --out for the default out/<scene name>");
+  if (o.steps && (*o.steps <= 0 || *o.steps > kMaxSteps))
+    throw Error(fmt::format("--steps {} is out of range: must be 1..{:.0e} (a run of more steps would not end); "
+                            "give a smaller number of steps, or --duration",
+                            *o.steps, static_cast<double>(kMaxSteps)));
   SceneDef scene = o.scene ? io::load_scene_file(*o.scene) : io::load_default_scene();
   if (o.duration) {
     if (!(*o.duration > 0)) throw Error(fmt::format("--duration {} must be a positive number of seconds", *o.duration));
     scene.output.duration = *o.duration;
   }
-  if (o.steps && *o.steps <= 0) throw Error(fmt::format("--steps {} must be a positive number of steps", *o.steps));
   if (o.seed) scene.solver.seed = *o.seed;
   if (o.checkpoint_every) {
     if (*o.checkpoint_every < 0)
@@ -269,7 +300,9 @@ int run(const RunOptions& o) {
   if (o.vtk) scene.output.vtk = *o.vtk;
   const int threads = thread_count(o.threads);
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
-  const std::filesystem::path dir = o.out ? std::filesystem::path(*o.out) : std::filesystem::path("out") / scene.name;
+  // The scene's name is shown as it is; only a sanitised form of it names the default folder.
+  const std::filesystem::path dir =
+      o.out ? std::filesystem::path(*o.out) : std::filesystem::path("out") / io::scene_folder_name(scene.name);
   io::prepare_output_dir(dir);
 
   if (!o.quiet) fmt::print(stderr, "mca: scene '{}' ({}): building...\n", scene.name, scene.source);
@@ -289,21 +322,28 @@ int run(const RunOptions& o) {
   remove_own_files(dir / "checkpoints", "frame_", ".mcack");
   remove_own_files(dir / "frames", "automata_", ".vtu");
   remove_own_files(dir / "frames", "projectiles_", ".vtu");
+  // The collections too: this run may write no projectile frames (no projectiles) or no frames at all
+  // (--no-vtk), and a collection left from an earlier run would list frames that were just removed.
+  std::filesystem::remove(dir / "automata.pvd");
+  std::filesystem::remove(dir / "projectiles.pvd");
+  remove_stale_temporaries(dir);
   FrameWriter writer(dir, sim.model(), scene.output.vtk, scene.output.links);
-  Loop L{sim, dir, threads, o.quiet, scene.output.checkpoint_every, plan, 0, 0.0, {}};
+  Loop L{sim, dir, threads, o.quiet, scene.output.checkpoint_every, plan, 0, 0.0};
   // Frame 0: the initial state.
   const auto frags = writer.fragments(sim.state());
-  L.rows.push_back(writer.format_row(writer.stats(0, sim.state(), frags)));
   writer.write_frame(0, sim.state(), frags);
-  writer.write_stats(L.rows);
+  writer.start_stats({writer.format_row(writer.stats(0, sim.state(), frags))});
   L.frame = 1;
   return run_loop(L, writer);
 }
 
 int resume(const std::string& out_dir, int threads_requested, bool quiet) {
+  // An empty path would silently mean the current folder.
+  if (out_dir.empty()) throw Error("mca resume: the folder is empty (\"\"); give the --out folder of the run to continue");
   const std::filesystem::path dir(out_dir);
+  remove_stale_temporaries(dir);
   const auto ckdir = dir / "checkpoints";
-  const auto all = checkpoint_files(ckdir);
+  const auto all = io::list_checkpoints(ckdir);
   if (all.empty())
     throw Error(fmt::format("no checkpoint in '{}': a run writes them with --checkpoint-every N (or when stopped "
                             "with Ctrl-C); pass that run's --out folder",
@@ -314,16 +354,24 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet) {
   if (!quiet)
     fmt::print(stderr, "mca: resuming '{}' from {} (frame {}, step {})\n", cp.scene.name, all.back().string(),
                cp.frame - 1, cp.state.step);
-  Engine sim(cp.scene, cp.state);
-  Plan plan;
-  plan.total_steps = cp.total_steps;
-  plan.total_frames = (plan.total_steps + sim.steps_per_frame() - 1) / sim.steps_per_frame();
+  // The file is untrusted: the model rebuilt from its scene must be the one it was saved from, and the
+  // state must fit that model, before a backend is given the state.
+  const std::string source = fmt::format("checkpoint '{}'", all.back().string());
+  Engine sim(cp.scene, cp.state, source, cp.model_fingerprint);
+  const Plan plan = resume_plan(cp, sim.steps_per_frame(), source);
   FrameWriter writer(dir, sim.model(), cp.scene.output.vtk, cp.scene.output.links);
   writer.restore(cp.frame, sim.frame_interval());
-  Loop L{sim, dir, threads, quiet, cp.scene.output.checkpoint_every, plan, 0, 0.0, {}};
+  Loop L{sim, dir, threads, quiet, cp.scene.output.checkpoint_every, plan, 0, 0.0};
   L.frame = cp.frame;
   L.wall_before = cp.wall_seconds;
-  L.rows = read_back_stats(dir, cp.frame);
+  // Rows past the checkpoint (frames the interrupted run wrote after it) are dropped: they are written
+  // again as the run continues.
+  const auto rows = read_back_stats(dir, cp.frame);
+  if (static_cast<std::int64_t>(rows.size()) < cp.frame)
+    fmt::print(stderr, "warning: {} has {} of the {} rows up to the checkpoint; the rows of frames {}..{} will be "
+               "missing from it\n",
+               (dir / "stats.csv").string(), rows.size(), cp.frame, rows.size(), cp.frame - 1);
+  writer.start_stats(rows);
   return run_loop(L, writer);
 }
 

@@ -1,7 +1,9 @@
 // End to end through the `mca` command: files written, JSON contents, resume, and bad input.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
+#include <cstring>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -14,6 +16,8 @@
 
 #include "io/checkpoint.hpp"
 
+namespace mcaio = mca::io;
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -23,8 +27,9 @@ struct Result {
   std::string output;  // stdout and stderr
 };
 
-Result mca(const std::string& args) {
-  const std::string cmd = std::string(MCA_BINARY) + " " + args + " 2>&1";
+// Runs a shell command line.
+Result shell(const std::string& command) {
+  const std::string cmd = "(" + command + ") 2>&1";
   Result r;
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return r;
@@ -35,6 +40,8 @@ Result mca(const std::string& args) {
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
 }
+
+Result run_mca(const std::string& args) { return shell(std::string(MCA_BINARY) + " " + args); }
 
 fs::path fresh_dir(const std::string& name) {
   const fs::path d = fs::temp_directory_path() / ("mca_cli_" + name);
@@ -78,7 +85,7 @@ velocity = [0, 60, 0]
 TEST(Cli, RunWritesFramesStatsAndSummary) {
   const fs::path d = fresh_dir("run");
   const fs::path scene = small_scene(d);
-  const Result r = mca("run " + scene.string() + " --out " + (d / "out").string() + " --threads 2");
+  const Result r = run_mca("run " + scene.string() + " --out " + (d / "out").string() + " --threads 2");
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("done:"), std::string::npos) << r.output;
   const fs::path out = d / "out";
@@ -104,9 +111,9 @@ TEST(Cli, RunWritesFramesStatsAndSummary) {
   EXPECT_NEAR(mass, j["total_mass"].get<double>(), 1e-9 * j["total_mass"].get<double>());
   EXPECT_EQ(automata, 360);
   EXPECT_EQ(j["fragment_count"].get<std::size_t>(), j["fragments"].size());
-  // Largest first.
+  // Heaviest first.
   for (std::size_t k = 1; k < j["fragments"].size(); ++k)
-    EXPECT_GE(j["fragments"][k - 1]["automata"].get<int>(), j["fragments"][k]["automata"].get<int>());
+    EXPECT_GE(j["fragments"][k - 1]["mass"].get<double>(), j["fragments"][k]["mass"].get<double>());
 
   // stats.csv: a header and one row per frame (0..4), broken links never decrease.
   std::istringstream csv(read(out / "stats.csv"));
@@ -133,17 +140,17 @@ TEST(Cli, ResumedRunEndsBitwiseEqualToAnUninterruptedOne) {
   const fs::path d = fresh_dir("resume");
   const fs::path scene = small_scene(d);
   const fs::path a = d / "a";
-  ASSERT_EQ(mca("run " + scene.string() + " --out " + a.string() + " -q").code, 0);
+  ASSERT_EQ(run_mca("run " + scene.string() + " --out " + a.string() + " -q").code, 0);
   // Build the interrupted run: frames 0..2 with a checkpoint at frame 2.
   const fs::path c = d / "c2";
-  ASSERT_EQ(mca("run " + scene.string() + " --out " + c.string() + " -q --checkpoint-every 2").code, 0);
+  ASSERT_EQ(run_mca("run " + scene.string() + " --out " + c.string() + " -q --checkpoint-every 2").code, 0);
   std::vector<fs::path> cks;
   for (const auto& e : fs::directory_iterator(c / "checkpoints")) cks.push_back(e.path());
   std::sort(cks.begin(), cks.end());
   ASSERT_GE(cks.size(), 2u);
   fs::remove(cks.back());  // the newest (frame 4) is "lost": resume starts from frame 2
   fs::remove(c / "summary.json");
-  const Result r = mca("resume " + c.string() + " -q");
+  const Result r = run_mca("resume " + c.string() + " -q");
   ASSERT_EQ(r.code, 0) << r.output;
   const auto ja = nlohmann::json::parse(read(a / "summary.json"));
   const auto jc = nlohmann::json::parse(read(c / "summary.json"));
@@ -154,7 +161,7 @@ TEST(Cli, ResumedRunEndsBitwiseEqualToAnUninterruptedOne) {
 
 TEST(Cli, InfoReportsTheModel) {
   const fs::path d = fresh_dir("info");
-  const Result r = mca("info " + small_scene(d).string() + " --json");
+  const Result r = run_mca("info " + small_scene(d).string() + " --json");
   ASSERT_EQ(r.code, 0) << r.output;
   const auto j = nlohmann::json::parse(r.output);
   EXPECT_EQ(j["automata"], 360);
@@ -162,7 +169,7 @@ TEST(Cli, InfoReportsTheModel) {
   EXPECT_GT(j["time_step"].get<double>(), 0);
   EXPECT_GT(j["steps_per_frame"].get<int>(), 0);
   EXPECT_GT(j["memory_bytes"].get<double>(), 0);
-  const Result text = mca("info");
+  const Result text = run_mca("info");
   EXPECT_EQ(text.code, 0);
   EXPECT_NE(text.output.find("4800"), std::string::npos) << text.output;
 }
@@ -170,13 +177,13 @@ TEST(Cli, InfoReportsTheModel) {
 TEST(Cli, BadInputFailsWithAClearMessage) {
   const fs::path d = fresh_dir("bad");
   // Missing scene file: names the file.
-  Result r = mca("run " + (d / "nope.toml").string());
+  Result r = run_mca("run " + (d / "nope.toml").string());
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("nope.toml"), std::string::npos) << r.output;
   // Unknown key: did-you-mean and the line.
   fs::create_directories(d);
   std::ofstream(d / "typo.toml") << "[solver]\nspacnig = 0.05\n[[object]]\nsize = [1, 1, 1]\n";
-  r = mca("run " + (d / "typo.toml").string() + " --out " + (d / "o").string());
+  r = run_mca("run " + (d / "typo.toml").string() + " --out " + (d / "o").string());
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("spacing"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find(":2:"), std::string::npos) << r.output;
@@ -186,13 +193,13 @@ TEST(Cli, BadInputFailsWithAClearMessage) {
   std::string text = read(inside);
   text.replace(text.find("position = [0, -0.17, 0.25]"), 27, "position = [0, 0.0, 0.25]");
   std::ofstream(inside) << text;
-  r = mca("run " + inside.string() + " --out " + (d / "o2").string());
+  r = run_mca("run " + inside.string() + " --out " + (d / "o2").string());
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("projectile[0]"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("move the projectile"), std::string::npos) << r.output;
   // Unwritable output folder (a path under a regular file fails even as root).
   std::ofstream(d / "file") << "x";
-  r = mca("run " + small_scene(d / "w").string() + " --out " + (d / "file" / "out").string());
+  r = run_mca("run " + small_scene(d / "w").string() + " --out " + (d / "file" / "out").string());
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find((d / "file" / "out").string()), std::string::npos) << r.output;
   // Too many automata for the memory limit, with the estimate.
@@ -200,18 +207,18 @@ TEST(Cli, BadInputFailsWithAClearMessage) {
   text = read(huge);
   text.replace(text.find("spacing = 0.05"), 14, "spacing = 0.0005\nmax_memory_gb = 1");
   std::ofstream(huge) << text;
-  r = mca("run " + huge.string() + " --out " + (d / "o3").string());
+  r = run_mca("run " + huge.string() + " --out " + (d / "o3").string());
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("GB"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("spacing"), std::string::npos) << r.output;
   // Command-line values.
-  r = mca("run --duration -1");
+  r = run_mca("run --duration -1");
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.output.find("--duration"), std::string::npos) << r.output;
-  r = mca("bench no_such_bench");
+  r = run_mca("bench no_such_bench");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("wall_357k"), std::string::npos) << r.output;
-  r = mca("resume " + (d / "empty").string());
+  r = run_mca("resume " + (d / "empty").string());
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("checkpoint"), std::string::npos) << r.output;
 }
@@ -224,17 +231,17 @@ TEST(Cli, UnstableRunStopsWithTheCauseAndKeepsTheLastGoodFrame) {
   const fs::path d = fresh_dir("unstable");
   const fs::path scene = small_scene(d);
   const fs::path out = d / "out";
-  ASSERT_EQ(mca("run " + scene.string() + " --out " + out.string() + " -q --checkpoint-every 1").code, 0);
+  ASSERT_EQ(run_mca("run " + scene.string() + " --out " + out.string() + " -q --checkpoint-every 1").code, 0);
   std::vector<fs::path> cks;
   for (const auto& e : fs::directory_iterator(out / "checkpoints")) cks.push_back(e.path());
   std::sort(cks.begin(), cks.end());
   ASSERT_GE(cks.size(), 2u);
   fs::remove(cks.back());
   fs::remove(out / "summary.json");
-  mca::io::Checkpoint cp = mca::io::read_checkpoint(cks.front());
-  cp.state.v[0] = mca::Vec3{1e30f, 0, 0};
-  mca::io::write_checkpoint(cks.front(), cp);
-  const Result r = mca("resume " + out.string() + " -q");
+  mcaio::Checkpoint cp = mcaio::read_checkpoint(cks.front());
+  cp.state.v[0] = {1e30f, 0, 0};
+  mcaio::write_checkpoint(cks.front(), cp);
+  const Result r = run_mca("resume " + out.string() + " -q");
   EXPECT_EQ(r.code, 3) << r.output;
   EXPECT_NE(r.output.find("unstable"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("solver.safety"), std::string::npos) << r.output;
@@ -244,3 +251,202 @@ TEST(Cli, UnstableRunStopsWithTheCauseAndKeepsTheLastGoodFrame) {
 }
 
 }  // namespace
+
+namespace {
+
+// Runs `mca args` with `dir` as the current folder.
+Result mca_in(const fs::path& dir, const std::string& args) {
+  return shell("cd '" + dir.string() + "' && " + std::string(MCA_BINARY) + " " + args);
+}
+
+// The small scene under another name (written as a TOML literal string, so any text but ' fits).
+fs::path named_scene(const fs::path& dir, const std::string& name) {
+  const fs::path p = small_scene(dir);
+  std::string text = read(p);
+  text.replace(text.find("name = \"small\""), 14, "name = '" + name + "'");
+  std::ofstream(p) << text;
+  return p;
+}
+
+}  // namespace
+
+TEST(Cli, SceneNameCannotPickTheOutputFolder) {
+  const fs::path d = fresh_dir("scene_name");
+  const fs::path work = d / "work";
+  fs::create_directories(work);
+  // Files of an earlier run in the current folder, which a name of ".." would replace or delete.
+  std::ofstream(work / "stats.csv") << "keep me\n";
+  std::ofstream(work / "summary.json") << "{}\n";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"../escaped", "___escaped"}, {(d / "abs").string(), ""}, {"..", "__"}, {".", "_"},
+      {"a/b", "a_b"}, {"", "scene"}, {"my scene \xC3\xA9", "my_scene__"}};
+  for (const auto& [name, folder] : cases) {
+    SCOPED_TRACE(name);
+    const Result r = mca_in(work, "run " + named_scene(d / "scenes", name).string() + " -q --steps 1 --no-vtk");
+    ASSERT_EQ(r.code, 0) << r.output;
+    if (!folder.empty()) {
+      EXPECT_TRUE(fs::exists(work / "out" / folder / "summary.json")) << folder;
+    }
+    // Everything the run wrote is in a direct child of out/.
+    for (const auto& e : fs::directory_iterator(work / "out")) EXPECT_TRUE(e.is_directory()) << e.path();
+  }
+  EXPECT_FALSE(fs::exists(d / "escaped"));
+  EXPECT_FALSE(fs::exists(work / "escaped"));
+  EXPECT_FALSE(fs::exists(d / "abs"));
+  EXPECT_EQ(read(work / "stats.csv"), "keep me\n");
+  EXPECT_EQ(read(work / "summary.json"), "{}\n");
+  EXPECT_FALSE(fs::exists(work / "scene.toml"));
+  // The name itself is kept for display.
+  const auto j = nlohmann::json::parse(read(work / "out" / "___escaped" / "summary.json"));
+  EXPECT_EQ(j["scene"], "../escaped");
+}
+
+namespace {
+
+// `mca args` stopped after a minute: a damaged input must fail fast, not run away (exit code 124).
+Result mca_timed(const std::string& args) { return shell("timeout 60 " + std::string(MCA_BINARY) + " " + args); }
+
+// A run of the small scene with a checkpoint every 2 frames; returns the newest checkpoint (frame 4).
+fs::path checkpointed_run(const fs::path& d) {
+  const Result r = run_mca("run " + small_scene(d).string() + " --out " + (d / "out").string() +
+                       " -q --no-vtk --checkpoint-every 2");
+  EXPECT_EQ(r.code, 0) << r.output;
+  std::vector<fs::path> cks;
+  for (const auto& e : fs::directory_iterator(d / "out" / "checkpoints")) cks.push_back(e.path());
+  std::sort(cks.begin(), cks.end());
+  return cks.empty() ? fs::path() : cks.front();  // frame 2: the run still has frames to go
+}
+
+}  // namespace
+
+// The embedded scene of a checkpoint edited in place (same length): the rebuilt model is not the one
+// the state was saved from. Resuming must refuse, not run on (or crash on) a mismatched state.
+TEST(Cli, TamperedCheckpointIsRefusedOnResume) {
+  const std::vector<std::pair<std::string, std::string>> edits = {
+      {"size = [0.6, 0.15, 0.5]", "size = [0.6, 0.15, 0.3]"},       // fewer automata than the state holds
+      {"size = [0.6, 0.15, 0.5]", "size = [0.6, 0.15, 0.7]"},       // more
+      {"position = [0.0, 0.0, 0.25]", "position = [0.0, 0.0, 0.35]"},  // same counts, another model
+      {"radius = 0.08", "radius = 0.07"}};                           // same automata, another ball
+  int k = 0;
+  for (const auto& [from, to] : edits) {
+    SCOPED_TRACE(to);
+    const fs::path d = fresh_dir("tamper" + std::to_string(k++));
+    const fs::path ck = checkpointed_run(d);
+    ASSERT_FALSE(ck.empty());
+    std::string bytes = read(ck);
+    const auto at = bytes.find(from);
+    ASSERT_NE(at, std::string::npos) << "the embedded scene has no '" << from << "'";
+    bytes.replace(at, from.size(), to);
+    std::ofstream(ck, std::ios::binary | std::ios::trunc) << bytes;
+    for (const auto& e : fs::directory_iterator(d / "out" / "checkpoints"))
+      if (e.path() != ck) fs::remove(e.path());
+    const Result r = mca_timed("resume " + (d / "out").string() + " -q");
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find(ck.string()), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("start the run again"), std::string::npos) << r.output;
+  }
+}
+
+// Frame and step counters of a checkpoint that do not fit each other are refused too (a huge frame
+// number would otherwise make resume list 2^40 frames).
+TEST(Cli, CheckpointWithAnAbsurdFrameIsRefused) {
+  const fs::path d = fresh_dir("absurd_frame");
+  const fs::path ck = checkpointed_run(d);
+  ASSERT_FALSE(ck.empty());
+  std::string bytes = read(ck);
+  // Layout: magic (8), scene length (8), scene text, model fingerprint (8), frame (8).
+  std::uint64_t len = 0;
+  std::memcpy(&len, bytes.data() + 8, 8);
+  const std::int64_t frame = std::int64_t{1} << 40;
+  std::memcpy(bytes.data() + 16 + len + 8, &frame, 8);
+  std::ofstream(ck, std::ios::binary | std::ios::trunc) << bytes;
+  for (const auto& e : fs::directory_iterator(d / "out" / "checkpoints"))
+    if (e.path() != ck) fs::remove(e.path());
+  const Result r = mca_timed("resume " + (d / "out").string() + " -q");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("frame"), std::string::npos) << r.output;
+}
+
+// A new run in a folder replaces what an earlier run wrote there; collections (.pvd) of frames that
+// this run does not write must go too, or ParaView opens frames that were deleted.
+TEST(Cli, RerunRemovesStaleFrameCollections) {
+  const fs::path d = fresh_dir("rerun_pvd");
+  const fs::path out = d / "out";
+  ASSERT_EQ(run_mca("run " + small_scene(d).string() + " --out " + out.string() + " -q --steps 2").code, 0);
+  ASSERT_TRUE(fs::exists(out / "projectiles.pvd"));
+  ASSERT_TRUE(fs::exists(out / "automata.pvd"));
+  // The same wall without its ball: no projectile frames, so no projectiles.pvd.
+  const fs::path no_ball = small_scene(d / "no_ball");
+  std::string text = read(no_ball);
+  text.erase(text.find("[[projectile]]"));
+  std::ofstream(no_ball) << text;
+  Result r = run_mca("run " + no_ball.string() + " --out " + out.string() + " -q --steps 2");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_FALSE(fs::exists(out / "projectiles.pvd"));
+  EXPECT_TRUE(fs::exists(out / "automata.pvd"));
+  // No VTK at all: no automata.pvd either.
+  r = run_mca("run " + small_scene(d).string() + " --out " + out.string() + " -q --steps 2 --no-vtk");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_FALSE(fs::exists(out / "automata.pvd"));
+  EXPECT_FALSE(fs::exists(out / "projectiles.pvd"));
+  EXPECT_FALSE(fs::exists(out / "frames" / "automata_000000.vtu"));
+}
+
+// Checkpoint names carry the frame zero-padded to six digits; past frame 999999 they grow a digit, and
+// text order would put frame_1000000 before frame_999999. Resume must take the newest by number.
+TEST(Cli, ResumeTakesTheNewestCheckpointByFrameNumber) {
+  const fs::path d = fresh_dir("ck_order");
+  checkpointed_run(d);
+  const fs::path ckdir = d / "out" / "checkpoints";
+  ASSERT_TRUE(fs::exists(ckdir / "frame_000004.mcack"));
+  fs::rename(ckdir / "frame_000002.mcack", ckdir / "frame_999999.mcack");
+  fs::rename(ckdir / "frame_000004.mcack", ckdir / "frame_1000000.mcack");
+  const Result r = run_mca("resume " + (d / "out").string());
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("frame_1000000.mcack"), std::string::npos) << r.output;
+}
+
+// Step counts near 2^63 overflowed the frame arithmetic (negative frame counts, a run that never ends);
+// an empty --out was silently ignored (the run went to out/<name>).
+TEST(Cli, AbsurdStepCountsAndEmptyFoldersAreRefused) {
+  const fs::path d = fresh_dir("absurd_cli");
+  const fs::path scene = small_scene(d);
+  const std::string out = " --out " + (d / "o").string();
+  for (const std::string steps : {"9223372036854775807", "9223372036854775000", "1000000000000001"}) {
+    const Result r = mca_timed("run " + scene.string() + out + " --steps " + steps);
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("--steps " + steps), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("frames, "), std::string::npos) << "a plan was made: " << r.output;
+  }
+  Result r = mca_timed("run " + scene.string() + out + " --duration 1e300");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("output.duration"), std::string::npos) << r.output;
+  r = mca_in(d, "run " + scene.string() + " --out '' -q --steps 1");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("--out"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(d / "out")) << "an empty --out fell back to out/<name>";
+  r = mca_in(d, "resume ''");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("folder"), std::string::npos) << r.output;
+}
+
+// "Largest first" means by mass: a small steel block outweighs a larger concrete wall.
+TEST(Cli, FragmentsAreListedHeaviestFirst) {
+  const fs::path d = fresh_dir("heaviest");
+  // 12 x 3 x 10 = 360 concrete automata (2400 kg/m^3) and 7 x 3 x 7 = 147 steel ones (7850 kg/m^3).
+  const fs::path scene = small_scene(d, R"(
+[[object]]
+name = "steel_block"
+size = [0.35, 0.15, 0.35]
+position = [1.5, 0, 0.175]
+material = "steel"
+)");
+  const Result r = run_mca("run " + scene.string() + " --out " + (d / "out").string() + " -q --steps 1 --no-vtk");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto j = nlohmann::json::parse(read(d / "out" / "summary.json"));
+  ASSERT_GE(j["fragments"].size(), 2u);
+  EXPECT_EQ(j["fragments"][0]["automata"], 147) << j["fragments"].dump();
+  EXPECT_EQ(j["fragments"][1]["automata"], 360) << j["fragments"].dump();
+  for (std::size_t k = 1; k < j["fragments"].size(); ++k)
+    EXPECT_GE(j["fragments"][k - 1]["mass"].get<double>(), j["fragments"][k]["mass"].get<double>());
+}

@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <algorithm>
 #include <numeric>
+#include <random>
 #include <vector>
 
 using mca::analysis::describe_fragments;
@@ -20,7 +22,13 @@ struct Links {
     j.push_back(b);
     intact.push_back(ok ? 1 : 0);
   }
-  Fragments label(std::size_t n) const { return label_fragments(n, i.data(), j.data(), intact.data(), i.size()); }
+  // Equal masses: ordered by automata count.
+  Fragments label(std::size_t n) const {
+    return label_fragments(n, i.data(), j.data(), intact.data(), i.size(), nullptr);
+  }
+  Fragments label(const std::vector<float>& mass) const {
+    return label_fragments(mass.size(), i.data(), j.data(), intact.data(), i.size(), mass.data());
+  }
 };
 
 }  // namespace
@@ -66,6 +74,55 @@ TEST(Fragments, ResultDoesNotDependOnLinkOrder) {
   EXPECT_EQ(f.id, b.id);
 }
 
+TEST(Fragments, OrderedByMassNotByCount) {
+  // {0,1,2} of mass 1 each (3 kg) and {3,4} of mass 5 each (10 kg): the pair is the heaviest.
+  Links links;
+  links.add(0, 1);
+  links.add(1, 2);
+  links.add(3, 4);
+  const Fragments f = links.label(std::vector<float>{1, 1, 1, 5, 5});
+  ASSERT_EQ(f.count, 2);
+  EXPECT_EQ(f.id, (std::vector<std::int32_t>{1, 1, 1, 0, 0}));
+  // Without masses, by count.
+  EXPECT_EQ(links.label(5).id, (std::vector<std::int32_t>{0, 0, 0, 1, 1}));
+}
+
+TEST(Fragments, EqualMassesOrderedBySmallestIndex) {
+  // {4,5} (2 + 2) and {0} (4) and {1,2,3} (1 + 2 + 1) weigh the same: order by smallest member.
+  Links links;
+  links.add(5, 4);
+  links.add(1, 2);
+  links.add(3, 2);
+  const Fragments f = links.label(std::vector<float>{4, 1, 2, 1, 2, 2});
+  ASSERT_EQ(f.count, 3);
+  EXPECT_EQ(f.id, (std::vector<std::int32_t>{0, 1, 1, 1, 2, 2}));
+}
+
+TEST(Fragments, MassOrderDoesNotDependOnLinkOrder) {
+  // Random chains with random breaks and masses; the links shuffled and flipped give the same labels.
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 50; ++trial) {
+    const std::size_t n = 40;
+    std::vector<float> mass(n);
+    for (auto& m : mass) m = static_cast<float>(1 + rng() % 4) * 0.5f;
+    Links forward;
+    for (std::uint32_t a = 0; a + 1 < n; ++a) forward.add(a, a + 1, rng() % 3 != 0);
+    for (int k = 0; k < 10; ++k) forward.add(static_cast<std::uint32_t>(rng() % n), static_cast<std::uint32_t>(rng() % n), rng() % 2);
+    Links shuffled;
+    std::vector<std::size_t> order(forward.i.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    std::shuffle(order.begin(), order.end(), rng);
+    for (std::size_t k : order) shuffled.add(forward.j[k], forward.i[k], forward.intact[k] != 0);
+    const Fragments a = forward.label(mass), b = shuffled.label(mass);
+    EXPECT_EQ(a.count, b.count);
+    EXPECT_EQ(a.id, b.id);
+    // Heaviest first.
+    std::vector<double> total(static_cast<std::size_t>(a.count), 0.0);
+    for (std::size_t k = 0; k < n; ++k) total[static_cast<std::size_t>(a.id[k])] += mass[k];
+    for (std::size_t k = 1; k < total.size(); ++k) EXPECT_GE(total[k - 1], total[k]);
+  }
+}
+
 TEST(Fragments, IsolatedAutomataAreTheirOwnFragments) {
   Links links;
   links.add(0, 1, false);
@@ -76,10 +133,10 @@ TEST(Fragments, IsolatedAutomataAreTheirOwnFragments) {
 }
 
 TEST(Fragments, NoLinks) {
-  const Fragments f = label_fragments(3, nullptr, nullptr, nullptr, 0);
+  const Fragments f = label_fragments(3, nullptr, nullptr, nullptr, 0, nullptr);
   EXPECT_EQ(f.count, 3);
   EXPECT_EQ(f.id, (std::vector<std::int32_t>{0, 1, 2}));
-  const Fragments empty = label_fragments(0, nullptr, nullptr, nullptr, 0);
+  const Fragments empty = label_fragments(0, nullptr, nullptr, nullptr, 0, nullptr);
   EXPECT_EQ(empty.count, 0);
   EXPECT_TRUE(empty.id.empty());
 }
@@ -93,12 +150,12 @@ TEST(Fragments, LinkPastTheEndThrows) {
 TEST(Fragments, MassesAddUpToTotal) {
   Links links;
   for (std::uint32_t a = 0; a + 1 < 20; ++a) links.add(a, a + 1, a % 4 != 0 && a % 7 != 0);
-  const Fragments f = links.label(20);
   std::vector<float> mass(20), xyz(60), vel(60);
   for (std::size_t a = 0; a < 20; ++a) {
     mass[a] = 0.5f + 0.25f * static_cast<float>(a % 5);
     for (int c = 0; c < 3; ++c) xyz[3 * a + c] = static_cast<float>(a) * 0.1f + static_cast<float>(c);
   }
+  const Fragments f = links.label(mass);
   const auto info = describe_fragments(f, mass.data(), xyz.data(), vel.data());
   ASSERT_EQ(info.size(), static_cast<std::size_t>(f.count));
   double total = 0.0, described = 0.0;
@@ -107,7 +164,7 @@ TEST(Fragments, MassesAddUpToTotal) {
   for (std::size_t k = 0; k < info.size(); ++k) {
     EXPECT_EQ(info[k].id, static_cast<std::int32_t>(k));
     if (k > 0) {
-      EXPECT_GE(info[k - 1].automata, info[k].automata);
+      EXPECT_GE(info[k - 1].mass, info[k].mass);
     }
     described += info[k].mass;
     automata += info[k].automata;

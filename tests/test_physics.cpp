@@ -286,6 +286,8 @@ double breaking_stress(double tensile, double fracture_strain, int& criterion) {
   SceneDef sc = block_scene(n, 1, 1, d, mat);
   sc.solver.link_damping = 0.3;
   GripDef hold, pull;
+  hold.name = "hold";  // grip names must differ (they name the stats.csv columns)
+  pull.name = "pull";
   test::layer_box(n, 0, 0, d, hold.min, hold.max);
   test::layer_box(n, n - 1, 0, d, pull.min, pull.max);
   pull.velocity = {0.002, 0, 0};

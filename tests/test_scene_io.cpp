@@ -479,6 +479,34 @@ TEST(SceneIo, OutputAndGripRanges) {
   EXPECT_HAS(grip, "on y min = 0 >= max = 0");
 }
 
+// Grip names become stats.csv column names ("<name>_force_x"): a comma, quote or line break would
+// shift or split the header, and two equal names would give equal columns.
+TEST(SceneIo, GripNamesMustFitTheStatsHeader) {
+  const auto grip = [](const std::string& name_line) {
+    return "[[grip]]\n" + name_line + "min = [-1, -1, -1]\nmax = [1, 1, 0]\n";
+  };
+  EXPECT_EQ(parse_error(kMinimal + grip("name = \"left end\"\n") + grip("name = \"right_end-2\"\n")), "");
+  for (const char* bad : {"name = \"a,b\"\n", "name = \"say \\\"hi\\\"\"\n", "name = \"two\\nlines\"\n",
+                                 "name = \"cr\\r\"\n", "name = \"tab\\t\"\n"}) {
+    const std::string m = parse_error(kMinimal + grip("name = \"ok\"\n") + grip(bad));
+    EXPECT_HAS(m, "scene.toml");
+    EXPECT_HAS(m, "grip[1].name");
+    EXPECT_HAS(m, "stats.csv");
+    EXPECT_HAS(m, "rename");
+  }
+  const std::string dup = parse_error(kMinimal + grip("name = \"end\"\n") + grip("name = \"end\"\n"));
+  EXPECT_HAS(dup, "grip[1].name");
+  EXPECT_HAS(dup, "\"end\"");
+  EXPECT_HAS(dup, "grip[0]");
+  // Default names stay distinct ("grip", "grip1", ...), but a user name can still collide with one.
+  EXPECT_EQ(parse_error(kMinimal + grip("") + grip("")), "");
+  EXPECT_HAS(parse_error(kMinimal + grip("") + grip("name = \"grip\"\n")), "grip[1].name");
+  // C++-built scenes get the same check.
+  mca::SceneDef sc = parse_scene(kMinimal + grip("") + grip(""), "built");
+  sc.grips[0].name = "x,y";
+  EXPECT_THROW(mca::validate_scene(sc), mca::Error);
+}
+
 TEST(SceneIo, LoadsParseWithDefaultNames) {
   const mca::SceneDef s = parse_scene(kMinimal + R"(
 [[load]]

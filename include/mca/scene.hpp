@@ -97,7 +97,7 @@ struct ProjectileDef {
 // A boundary condition: the automata whose initial centres lie in the box move at a fixed velocity
 // (zero holds them). The force the grip exerts is reported in stats.csv.
 struct GripDef {
-  std::string name = "grip";
+  std::string name = "grip";  // unique among the grips, no ',' '"' or control characters: names stats.csv columns
   Vec3d min = {0, 0, 0};
   Vec3d max = {0, 0, 0};
   Vec3d velocity = {0, 0, 0};

@@ -25,7 +25,7 @@ struct Frame {
   std::vector<std::array<float, 3>> position;        // centres [m]
   std::vector<std::array<float, 3>> velocity;        // [m/s]
   std::vector<std::array<float, 4>> orientation;     // unit quaternions (w, x, y, z)
-  std::vector<std::int32_t> fragment;                // connected components of intact links, 0 = largest
+  std::vector<std::int32_t> fragment;                // connected components of intact links, 0 = heaviest
   std::vector<float> damage;                         // share of the automaton's links that broke
   std::vector<std::array<float, 3>> projectile_position;
   std::int64_t broken_links = 0;

@@ -37,7 +37,6 @@ class UnionFind {
     size_[a] += size_[b];
   }
 
-  std::uint32_t size(std::uint32_t root) const { return size_[root]; }
 
  private:
   std::vector<std::uint32_t> parent_, size_;
@@ -46,7 +45,7 @@ class UnionFind {
 }  // namespace
 
 Fragments label_fragments(std::size_t n_automata, const std::uint32_t* link_i, const std::uint32_t* link_j,
-                          const std::uint8_t* link_intact, std::size_t n_links) {
+                          const std::uint8_t* link_intact, std::size_t n_links, const float* mass) {
   if (n_automata > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
     throw std::out_of_range(fmt::format("label_fragments: {} automata exceed int32 ids", n_automata));
 
@@ -60,21 +59,26 @@ Fragments label_fragments(std::size_t n_automata, const std::uint32_t* link_i, c
   }
 
   // Scanning automata in index order meets each root first at its smallest member, which is the
-  // tie-break key, so a stable sort by size alone gives the documented order.
+  // tie-break key, so a stable sort by mass alone gives the documented order. The masses are summed in
+  // the same scan, in automaton order: the same sums (to the last bit) whatever the link order.
   std::vector<std::uint32_t> root_of(n_automata);
   std::vector<std::int32_t> slot(n_automata, -1);  // root -> position in `roots`
   std::vector<std::uint32_t> roots;
+  std::vector<double> weight;  // per position in `roots`
   for (std::uint32_t a = 0; a < n_automata; ++a) {
     const std::uint32_t r = uf.find(a);
     root_of[a] = r;
     if (slot[r] < 0) {
       slot[r] = static_cast<std::int32_t>(roots.size());
       roots.push_back(r);
+      weight.push_back(0.0);
     }
+    weight[static_cast<std::size_t>(slot[r])] += mass ? static_cast<double>(mass[a]) : 1.0;
   }
-  std::stable_sort(roots.begin(), roots.end(),
-                   [&](std::uint32_t a, std::uint32_t b) { return uf.size(a) > uf.size(b); });
-  for (std::size_t k = 0; k < roots.size(); ++k) slot[roots[k]] = static_cast<std::int32_t>(k);
+  std::vector<std::uint32_t> order(roots.size());
+  std::iota(order.begin(), order.end(), std::uint32_t{0});
+  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return weight[a] > weight[b]; });
+  for (std::size_t k = 0; k < order.size(); ++k) slot[roots[order[k]]] = static_cast<std::int32_t>(k);
 
   Fragments result;
   result.count = static_cast<std::int32_t>(roots.size());

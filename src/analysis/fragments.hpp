@@ -8,15 +8,17 @@
 namespace mca::analysis {
 
 struct Fragments {
-  std::vector<std::int32_t> id;  // per automaton; 0 = the largest fragment
+  std::vector<std::int32_t> id;  // per automaton; 0 = the heaviest fragment
   std::int32_t count = 0;
 };
 
-// Union-find over the links with link_intact[k] != 0. Ids are numbered by size, largest first; equal
-// sizes are ordered by the smallest automaton index they contain, so the labelling depends only on
-// the link state, not on link order. Throws std::out_of_range for a link index >= n_automata.
+// Union-find over the links with link_intact[k] != 0. Ids are numbered by mass, heaviest first (with
+// `mass` null every automaton weighs the same: by automata count); equal masses are ordered by the
+// smallest automaton index they contain. A fragment's mass is summed in automaton order, so the
+// labelling depends only on the link state and the masses, not on link order. Throws
+// std::out_of_range for a link index >= n_automata.
 Fragments label_fragments(std::size_t n_automata, const std::uint32_t* link_i, const std::uint32_t* link_j,
-                          const std::uint8_t* link_intact, std::size_t n_links);
+                          const std::uint8_t* link_intact, std::size_t n_links, const float* mass);
 
 struct FragmentInfo {
   std::int32_t id = 0;

@@ -32,6 +32,29 @@ std::string num(double v) {
   return fmt::format("{}", v);
 }
 
+// A name as it would be written in TOML, so that control characters show as escapes.
+std::string escaped(const std::string& s) {
+  std::string out;
+  for (const char ch : s) {
+    const auto u = static_cast<unsigned char>(ch);
+    if (ch == '"' || ch == '\\') {
+      out += '\\';
+      out += ch;
+    } else if (ch == '\n') {
+      out += "\\n";
+    } else if (ch == '\r') {
+      out += "\\r";
+    } else if (ch == '\t') {
+      out += "\\t";
+    } else if (u < 0x20 || u == 0x7f) {
+      out += fmt::format("\\u{:04X}", u);
+    } else {
+      out += ch;
+    }
+  }
+  return out;
+}
+
 std::string vec(const Vec3d& v) { return fmt::format("[{}, {}, {}]", num(v[0]), num(v[1]), num(v[2])); }
 
 std::size_t edit_distance(std::string_view a, std::string_view b) {
@@ -357,6 +380,24 @@ void validate_scene(const SceneDef& scene) {
   for (std::size_t i = 0; i < scene.grips.size(); ++i) {
     const GripDef& g = scene.grips[i];
     const std::string p = fmt::format("grip[{}]", i);
+    // The name heads three stats.csv columns ("<name>_force_x", ...), written without quoting: a comma
+    // would shift every column after it, a quote or line break would break the file for CSV readers,
+    // and two equal names would give columns that cannot be told apart.
+    for (const char ch : g.name) {
+      const auto u = static_cast<unsigned char>(ch);
+      if (ch == ',' || ch == '"' || u < 0x20 || u == 0x7f) {
+        c.fail(fmt::format("{}.name = \"{}\" has {}, which would break the stats.csv header (its force columns "
+                           "are named after the grip); rename the grip with letters, digits, spaces, '_' or '-'",
+                           p, escaped(g.name), ch == ',' ? "a comma" : ch == '"' ? "a quote" : "a control character"));
+      }
+    }
+    for (std::size_t k = 0; k < i; ++k) {
+      if (scene.grips[k].name == g.name) {
+        c.fail(fmt::format("{}.name = \"{}\" is also the name of grip[{}]; the stats.csv force columns are named "
+                           "after the grip, so rename one of them (unnamed grips are \"grip\", \"grip1\", ...)",
+                           p, escaped(g.name), k));
+      }
+    }
     check_box(p, g.name, g.min, g.max);
     c.finite(p + ".velocity", g.velocity);
   }

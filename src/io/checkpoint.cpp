@@ -1,9 +1,14 @@
 #include "io/checkpoint.hpp"
 
+#include <algorithm>
+#include <concepts>
 #include <cstring>
 #include <fmt/format.h>
 #include <fstream>
 #include <iterator>
+#include <string_view>
+#include <utility>
+#include <type_traits>
 
 #include "io/output_files.hpp"
 #include "io/scene_io.hpp"
@@ -12,107 +17,213 @@
 namespace mca::io {
 namespace {
 
-constexpr char kMagic[8] = {'M', 'C', 'A', 'C', 'K', 'P', 'T', '1'};
+// Format 2: magic, scene TOML, model fingerprint, frame, total steps, wall seconds, the state (fields(State)
+// below), magic again as an end marker. Numbers are in the writing machine's byte order: a checkpoint is
+// for resuming a run where it was written. Format 1 wrote structs with their padding bytes.
+constexpr char kMagic[8] = {'M', 'C', 'A', 'C', 'K', 'P', 'T', '2'};
+constexpr char kMagicPrefix[7] = {'M', 'C', 'A', 'C', 'K', 'P', 'T'};
+
+template <class T, class U>
+concept either = std::same_as<std::remove_const_t<T>, U>;
+template <class T>
+concept scalar = std::is_arithmetic_v<std::remove_const_t<T>> || std::is_enum_v<std::remove_const_t<T>>;
+
+// What is saved of each type, in order. The writer, the reader and the size count below all walk these
+// lists, so a field added to State is one line in fields(State). Structs go field by field: their padding
+// bytes hold whatever the memory held and would make equal states differ on disk. (A bool field is saved
+// as one byte 0/1; numbers, enums, fixed arrays, std::vector and std::string of these work as they are.)
+template <class A, either<Vec3> T>
+void fields(A& a, T& v) { a(v.x, v.y, v.z); }
+template <class A, either<DVec3> T>
+void fields(A& a, T& v) { a(v.x, v.y, v.z); }
+template <class A, either<Quat> T>
+void fields(A& a, T& v) { a(v.w, v.x, v.y, v.z); }
+template <class A, either<Sym3> T>
+void fields(A& a, T& v) { a(v.xx, v.yy, v.zz, v.xy, v.yz, v.zx); }
+template <class A, either<ContactHistory> T>
+void fields(A& a, T& v) { a(v.ut, v.mr); }
+template <class A, either<ContactPair> T>
+void fields(A& a, T& v) { a(v.i, v.j, v.h); }
+template <class A, either<BodyContact> T>
+void fields(A& a, T& v) { a(v.automaton, v.h); }
+template <class A, either<ProjectilePair> T>
+void fields(A& a, T& v) { a(v.p, v.q, v.h); }
+template <class A, either<BreakRecord> T>
+void fields(A& a, T& v) { a(v.step, v.link, v.criterion); }
+template <class A, either<ProjectileState> T>
+void fields(A& a, T& p) {
+  a(p.position, p.velocity, p.angular_velocity, p.orientation, p.force, p.contacts, p.ground, p.work);
+}
+template <class A, either<State> T>
+void fields(A& a, T& s) {
+  a(s.step, s.time);
+  a(s.x, s.v, s.w, s.q, s.s, s.mean_stress, s.f, s.t);
+  a(s.intact, s.link_ut);
+  a(s.contacts, s.ground_contacts, s.x_at_rebuild);
+  a(s.projectiles, s.projectile_contacts);
+  a(s.breaks, s.broken_by, s.initial_energy);
+  a(s.grip_work, s.grip_force);
+}
+
+// Bytes one saved T takes (a vector counts its length field only), and whether T is "flat": saved
+// bytes == object bytes, no padding, no vectors, so an array of T can be copied as one block.
+struct Counter {
+  std::size_t bytes = 0;
+  bool nested = false;
+  template <class... Ts>
+  void operator()(Ts&... vs) { (item(vs), ...); }
+  template <scalar T>
+  void item(T&) { bytes += sizeof(T); }
+  void item(bool&) { bytes += 1; }
+  template <class T, std::size_t N>
+  void item(T (&a)[N]) { for (auto& e : a) item(e); }
+  template <class T>
+  void item(std::vector<T>&) { bytes += sizeof(std::uint64_t); nested = true; }
+  void item(std::string&) { bytes += sizeof(std::uint64_t); nested = true; }
+  template <class T>
+    requires(!scalar<T>)
+  void item(T& v) { fields(*this, v); }
+};
+
+struct Layout {
+  std::size_t bytes;
+  bool flat;
+};
+
+template <class T>
+const Layout& layout() {
+  static const Layout l = [] {
+    T v{};
+    Counter c;
+    c.item(v);
+    return Layout{c.bytes, !c.nested && c.bytes == sizeof(T) && std::is_trivially_copyable_v<T> &&
+                               !std::is_same_v<T, bool>};
+  }();
+  return l;
+}
 
 struct Writer {
   std::ostream& os;
+  template <class... Ts>
+  void operator()(const Ts&... vs) { (item(vs), ...); }
+  void raw(const void* p, std::size_t n) { os.write(static_cast<const char*>(p), static_cast<std::streamsize>(n)); }
+  template <scalar T>
+  void item(const T& v) { raw(&v, sizeof v); }
+  void item(const bool& b) { item(static_cast<std::uint8_t>(b ? 1 : 0)); }
+  template <class T, std::size_t N>
+  void item(const T (&a)[N]) { for (const auto& e : a) item(e); }
   template <class T>
-  void pod(const T& v) {
-    os.write(reinterpret_cast<const char*>(&v), sizeof(T));
+  void item(const std::vector<T>& v) {
+    item(static_cast<std::uint64_t>(v.size()));
+    if (layout<T>().flat) {
+      raw(v.data(), v.size() * sizeof(T));
+    } else {
+      for (const auto& e : v) item(e);
+    }
+  }
+  void item(const std::string& s) {
+    item(static_cast<std::uint64_t>(s.size()));
+    raw(s.data(), s.size());
   }
   template <class T>
-  void vec(const std::vector<T>& v) {
-    pod<std::uint64_t>(v.size());
-    os.write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(v.size() * sizeof(T)));
-  }
-  void str(const std::string& s) {
-    pod<std::uint64_t>(s.size());
-    os.write(s.data(), static_cast<std::streamsize>(s.size()));
-  }
+    requires(!scalar<T>)
+  void item(const T& v) { fields(*this, v); }
 };
 
 struct Reader {
   const std::string& data;
   const std::filesystem::path& path;
   std::size_t at = 0;
-  // n items of `size` bytes must follow; written without products so a damaged count cannot overflow.
-  void need(std::size_t n, std::size_t size = 1) {
-    if (n > (data.size() - at) / size)
-      throw Error(fmt::format("checkpoint '{}' is truncated (wanted {} items of {} bytes at offset {}, file has {} "
-                              "bytes); use an earlier checkpoint or start the run again",
-                              path.string(), n, size, at, data.size()));
+  [[noreturn]] void damaged(const std::string& what) const {
+    throw Error(fmt::format("checkpoint '{}' is damaged ({}); use an earlier checkpoint (remove this one) or start "
+                            "the run again",
+                            path.string(), what));
   }
-  template <class T>
-  T pod() {
-    need(sizeof(T));
-    T v;
-    std::memcpy(&v, data.data() + at, sizeof(T));
-    at += sizeof(T);
-    return v;
+  // n items of at least `size` bytes must follow; written without products so a damaged count cannot
+  // overflow, and checked before any allocation, so it cannot allocate more than the file holds.
+  void need(std::uint64_t n, std::size_t size = 1) {
+    if (n > (data.size() - at) / std::max<std::size_t>(size, 1))
+      damaged(fmt::format("truncated: wanted {} items of {} bytes at offset {}, the file has {} bytes", n, size, at,
+                          data.size()));
   }
-  template <class T>
-  void vec(std::vector<T>& v) {
-    const auto n = pod<std::uint64_t>();
-    need(n, sizeof(T));
-    v.resize(n);
-    std::memcpy(v.data(), data.data() + at, n * sizeof(T));
-    at += n * sizeof(T);
-  }
-  std::string str() {
-    const auto n = pod<std::uint64_t>();
+  template <class... Ts>
+  void operator()(Ts&... vs) { (item(vs), ...); }
+  void raw(void* p, std::size_t n) {
     need(n);
-    std::string s = data.substr(at, n);
+    if (n) std::memcpy(p, data.data() + at, n);
     at += n;
-    return s;
   }
+  template <scalar T>
+  void item(T& v) { raw(&v, sizeof v); }
+  void item(bool& b) {
+    std::uint8_t u = 0;
+    item(u);
+    if (u > 1) damaged(fmt::format("a flag at offset {} is {}", at - 1, u));
+    b = u == 1;
+  }
+  template <class T, std::size_t N>
+  void item(T (&a)[N]) { for (auto& e : a) item(e); }
+  template <class T>
+  void item(std::vector<T>& v) {
+    std::uint64_t n = 0;
+    item(n);
+    need(n, layout<T>().bytes);
+    v.resize(n);
+    if (layout<T>().flat) {
+      raw(v.data(), n * sizeof(T));
+    } else {
+      for (auto& e : v) item(e);
+    }
+  }
+  void item(std::string& s) {
+    std::uint64_t n = 0;
+    item(n);
+    need(n);
+    s.assign(data, at, n);
+    at += n;
+  }
+  template <class T>
+    requires(!scalar<T>)
+  void item(T& v) { fields(*this, v); }
 };
 
 }  // namespace
 
+std::string checkpoint_name(std::int64_t frame) { return fmt::format("frame_{:06d}.mcack", frame); }
+
+std::vector<std::filesystem::path> list_checkpoints(const std::filesystem::path& dir) {
+  constexpr std::string_view prefix = "frame_", suffix = ".mcack";
+  std::vector<std::pair<std::int64_t, std::filesystem::path>> found;
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir, ec)) return {};
+  for (const auto& e : std::filesystem::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.size() <= prefix.size() + suffix.size() || name.compare(0, prefix.size(), prefix) != 0 ||
+        name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0 || !e.is_regular_file(ec))
+      continue;
+    const std::string digits = name.substr(prefix.size(), name.size() - prefix.size() - suffix.size());
+    // 18 digits at most: the number fits an int64 without a check.
+    if (digits.size() > 18 || !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }))
+      continue;
+    found.emplace_back(std::stoll(digits), e.path());
+  }
+  // Equal numbers ("frame_12" and "frame_000012") are ordered by name, so the order never depends on
+  // the folder's listing order.
+  std::sort(found.begin(), found.end());
+  std::vector<std::filesystem::path> paths;
+  for (auto& [frame, path] : found) paths.push_back(std::move(path));
+  return paths;
+}
+
 void write_checkpoint(const std::filesystem::path& path, const Checkpoint& cp) {
   write_file_atomic(path, [&](std::ostream& os) {
     Writer w{os};
-    os.write(kMagic, sizeof kMagic);
-    w.str(cp.scene_toml.empty() ? scene_to_toml(cp.scene) : cp.scene_toml);
-    w.pod(cp.frame);
-    w.pod(cp.total_steps);
-    w.pod(cp.wall_seconds);
-    const State& s = cp.state;
-    w.pod(s.step);
-    w.pod(s.time);
-    w.vec(s.x);
-    w.vec(s.v);
-    w.vec(s.w);
-    w.vec(s.q);
-    w.vec(s.s);
-    w.vec(s.mean_stress);
-    w.vec(s.f);
-    w.vec(s.t);
-    w.vec(s.intact);
-    w.vec(s.link_ut);
-    w.vec(s.contacts);
-    w.vec(s.ground_contacts);
-    w.vec(s.x_at_rebuild);
-    w.pod<std::uint64_t>(s.projectiles.size());
-    for (const auto& p : s.projectiles) {
-      w.pod(p.position);
-      w.pod(p.velocity);
-      w.pod(p.angular_velocity);
-      w.pod(p.orientation);
-      w.pod(p.force);
-      w.vec(p.contacts);
-      w.pod(p.ground);
-      w.pod(p.work);
-    }
-    w.vec(s.projectile_contacts);
-    w.vec(s.breaks);
-    w.pod(s.broken_by[0]);
-    w.pod(s.broken_by[1]);
-    w.pod(s.initial_energy);
-    w.vec(s.grip_work);
-    w.vec(s.grip_force);
-    os.write(kMagic, sizeof kMagic);  // end marker: a file cut short fails to load
-  });
+    w.raw(kMagic, sizeof kMagic);
+    w(cp.scene_toml.empty() ? scene_to_toml(cp.scene) : cp.scene_toml);
+    w(cp.model_fingerprint, cp.frame, cp.total_steps, cp.wall_seconds);
+    w(cp.state);
+    w.raw(kMagic, sizeof kMagic);  // end marker: a file cut short fails to load
+  }, true, Durability::synced);  // a resume depends on it: on the disk before the older ones are removed
 }
 
 Checkpoint read_checkpoint(const std::filesystem::path& path) {
@@ -122,56 +233,27 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
                             "--checkpoint-every N",
                             path.string(), std::strerror(errno)));
   const std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (data.size() < 16 || std::memcmp(data.data(), kMagic, 8) != 0)
+  if (data.size() < 16 || std::memcmp(data.data(), kMagicPrefix, sizeof kMagicPrefix) != 0)
     throw Error(fmt::format("'{}' is not an mca checkpoint (bad header)", path.string()));
-  Reader r{data, path};
-  r.at = 8;
-  Checkpoint cp;
-  cp.scene_toml = r.str();
-  cp.scene = parse_scene(cp.scene_toml, path.string() + " (embedded scene)");
-  cp.frame = r.pod<std::int64_t>();
-  cp.total_steps = r.pod<std::int64_t>();
-  cp.wall_seconds = r.pod<double>();
-  State& s = cp.state;
-  s.step = r.pod<std::int64_t>();
-  s.time = r.pod<double>();
-  r.vec(s.x);
-  r.vec(s.v);
-  r.vec(s.w);
-  r.vec(s.q);
-  r.vec(s.s);
-  r.vec(s.mean_stress);
-  r.vec(s.f);
-  r.vec(s.t);
-  r.vec(s.intact);
-  r.vec(s.link_ut);
-  r.vec(s.contacts);
-  r.vec(s.ground_contacts);
-  r.vec(s.x_at_rebuild);
-  const auto np = r.pod<std::uint64_t>();
-  // Each projectile takes at least its fixed fields and its contact count.
-  r.need(np, sizeof(DVec3) + 3 * sizeof(Vec3) + sizeof(Quat) + sizeof(std::uint64_t));
-  s.projectiles.resize(np);
-  for (auto& p : s.projectiles) {
-    p.position = r.pod<DVec3>();
-    p.velocity = r.pod<Vec3>();
-    p.angular_velocity = r.pod<Vec3>();
-    p.orientation = r.pod<Quat>();
-    p.force = r.pod<Vec3>();
-    r.vec(p.contacts);
-    p.ground = r.pod<ContactHistory>();
-    p.work = r.pod<double>();
+  if (data[7] != kMagic[7]) {
+    if (data[7] < '0' || data[7] > '9')
+      throw Error(fmt::format("'{}' is not an mca checkpoint (bad header)", path.string()));
+    throw Error(fmt::format("checkpoint '{}' has format {} and this mca reads format {}; resume the run with the "
+                            "mca that wrote it, or start the run again",
+                            path.string(), data[7], kMagic[7]));
   }
-  r.vec(s.projectile_contacts);
-  r.vec(s.breaks);
-  s.broken_by[0] = r.pod<std::int64_t>();
-  s.broken_by[1] = r.pod<std::int64_t>();
-  s.initial_energy = r.pod<double>();
-  r.vec(s.grip_work);
-  r.vec(s.grip_force);
-  r.need(8);
-  if (std::memcmp(data.data() + r.at, kMagic, 8) != 0)
-    throw Error(fmt::format("checkpoint '{}' is damaged (no end marker)", path.string()));
+  Reader r{data, path};
+  r.at = sizeof kMagic;
+  Checkpoint cp;
+  r(cp.scene_toml);
+  r(cp.model_fingerprint, cp.frame, cp.total_steps, cp.wall_seconds);
+  r(cp.state);
+  r.need(sizeof kMagic);
+  if (std::memcmp(data.data() + r.at, kMagic, sizeof kMagic) != 0) r.damaged("no end marker");
+  if (r.at + sizeof kMagic != data.size())
+    r.damaged(fmt::format("{} bytes after the end marker", data.size() - r.at - sizeof kMagic));
+  // Parsed last: a damaged state is reported as such, not as a scene error.
+  cp.scene = parse_scene(cp.scene_toml, path.string() + " (embedded scene)");
   return cp;
 }
 

@@ -1,9 +1,12 @@
 #pragma once
 // Checkpoints: the scene (as TOML) and the full state, links and contact histories included, so that
-// a resumed run ends bitwise equal to an uninterrupted one.
+// a resumed run ends bitwise equal to an uninterrupted one. A checkpoint file is untrusted input when it
+// is read back: read_checkpoint only guarantees well-formed arrays; whether the state fits the model of
+// the embedded scene is for check_state and model_fingerprint (sim/state_check.hpp) to decide.
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "core/state.hpp"
 #include "mca/scene.hpp"
@@ -16,11 +19,21 @@ struct Checkpoint {
   std::int64_t frame = 0;       // frames written so far (the next frame to write is this one)
   std::int64_t total_steps = 0;  // steps the run is to reach
   double wall_seconds = 0;      // wall time spent before the checkpoint
+  std::uint64_t model_fingerprint = 0;  // model_fingerprint() of the model the state belongs to
   std::string scene_toml;
 };
 
+// "frame_NNNNNN.mcack" for the checkpoint saved after frame N: six digits, more past 999999.
+std::string checkpoint_name(std::int64_t frame);
+// The checkpoints (regular files named by checkpoint_name) in `dir`, oldest first by the frame number
+// in their names: as text, frame_1000000 would sort before frame_999999. Other files are ignored; a
+// missing folder has none.
+std::vector<std::filesystem::path> list_checkpoints(const std::filesystem::path& dir);
+
+// Equal checkpoints give byte-identical files (no padding bytes are written).
 void write_checkpoint(const std::filesystem::path& path, const Checkpoint& cp);
-// Throws mca::Error naming the file when it is missing, truncated or not a checkpoint.
+// Throws mca::Error naming the file when it is missing, truncated, damaged, of an older format or not a
+// checkpoint. Never allocates much more than the file's size, whatever its counts say.
 Checkpoint read_checkpoint(const std::filesystem::path& path);
 
 }  // namespace mca::io

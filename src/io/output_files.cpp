@@ -2,10 +2,18 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cerrno>
+#include <csignal>
 #include <cstring>
+#include <fcntl.h>
 #include <fstream>
+#include <limits>
+#include <string_view>
 #include <system_error>
+#include <unistd.h>
+#include <vector>
 
 #include "mca/error.hpp"
 
@@ -42,10 +50,86 @@ void prepare_output_dir(const fs::path& dir) {
   if (!fs::remove(probe, ec) || ec) throw fail(ec ? ec.message() : "could not remove a probe file");
 }
 
+std::string scene_folder_name(const std::string& scene_name) {
+  // Only characters that mean nothing to a path or a shell survive; every other character becomes '_'
+  // (one per UTF-8 character, not per byte, so "béton" reads as "b_ton"). A leading '.' would give a
+  // hidden folder or "."/".." (the output folder's parent), a leading '-' an option: both become '_'.
+  constexpr std::size_t kMaxLength = 100;  // well under the 255 bytes of a file name
+  std::string folder;
+  for (const char ch : scene_name) {
+    if (folder.size() == kMaxLength) break;
+    const auto c = static_cast<unsigned char>(ch);
+    if ((c & 0xC0) == 0x80) continue;  // a UTF-8 continuation byte: its character already gave '_'
+    const bool plain = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+                       c == '-' || c == '.';
+    folder += plain ? ch : '_';
+  }
+  for (char& c : folder) {
+    if (c != '.' && c != '-') break;
+    c = '_';
+  }
+  return folder.empty() ? "scene" : folder;
+}
+
+namespace {
+
+// "<name>.<pid>.<n>.tmp" -> pid, or 0 when the name is not one of write_file_atomic's temporaries.
+long temporary_owner(const std::string& name) {
+  constexpr std::string_view suffix = ".tmp";
+  if (name.size() <= suffix.size() || name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0) return 0;
+  const std::string stem = name.substr(0, name.size() - suffix.size());
+  const auto counter_dot = stem.rfind('.');
+  if (counter_dot == std::string::npos || counter_dot == 0) return 0;
+  const auto pid_dot = stem.rfind('.', counter_dot - 1);
+  if (pid_dot == std::string::npos || pid_dot == 0) return 0;
+  const std::string pid = stem.substr(pid_dot + 1, counter_dot - pid_dot - 1);
+  const std::string counter = stem.substr(counter_dot + 1);
+  const auto digits = [](const std::string& t) {
+    return !t.empty() && t.size() <= 18 && std::all_of(t.begin(), t.end(), [](char c) { return c >= '0' && c <= '9'; });
+  };
+  if (!digits(pid) || !digits(counter)) return 0;
+  // Only temporaries of the files a run writes: a user's "notes.2024.01.tmp" is left alone.
+  static const std::string_view ours[] = {".vtu", ".pvd", ".csv", ".json", ".toml", ".mcack"};
+  const std::string target = stem.substr(0, pid_dot);
+  if (std::none_of(std::begin(ours), std::end(ours), [&](std::string_view ext) {
+        return target.size() > ext.size() && target.compare(target.size() - ext.size(), ext.size(), ext) == 0;
+      }))
+    return 0;
+  return std::stol(pid);
+}
+
+// fsync of a file or folder by path (a stream does not expose its descriptor).
+void sync_path(const fs::path& p, bool folder) {
+  const int fd = ::open(p.c_str(), O_RDONLY | O_CLOEXEC | (folder ? O_DIRECTORY : 0));
+  if (fd < 0) throw std::system_error(errno, std::generic_category(), "open " + p.string());
+  const int rc = ::fsync(fd);
+  const int err = errno;
+  ::close(fd);
+  if (rc != 0) throw std::system_error(err, std::generic_category(), "fsync " + p.string());
+}
+
+}  // namespace
+
+void remove_stale_temporaries(const fs::path& dir) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return;
+  std::vector<fs::path> doomed;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const long pid = temporary_owner(e.path().filename().string());
+    // kill(pid, 0) fails with ESRCH only when no such process exists (a pid reused since is kept: safe).
+    if (pid > 0 && e.is_regular_file(ec) && (pid > std::numeric_limits<pid_t>::max() ||
+                                             (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH)))
+      doomed.push_back(e.path());
+  }
+  for (const auto& p : doomed) fs::remove(p, ec);
+}
+
 void write_file_atomic(const fs::path& path, const std::function<void(std::ostream&)>& write,
-                       bool binary) {
+                       bool binary, Durability durability) {
+  // The process id keeps other processes off this name, the counter other calls of this process.
+  static std::atomic<std::uint64_t> counter{0};
   fs::path tmp = path;
-  tmp += ".tmp";
+  tmp += fmt::format(".{}.{}.tmp", ::getpid(), counter++);
 
   const auto discard_tmp = [&] {
     std::error_code ignored;
@@ -83,9 +167,28 @@ void write_file_atomic(const fs::path& path, const std::function<void(std::ostre
   out.close();
   if (!out) throw fail(fmt::format("closing failed ({})", std::strerror(errno)));
 
+  // The data must be on the disk before the rename is: otherwise a power loss can leave the new name
+  // pointing at an empty or partial file.
+  if (durability == Durability::synced) {
+    try {
+      sync_path(tmp, false);
+    } catch (const std::system_error& e) {
+      throw fail(e.what());
+    }
+  }
+
   std::error_code ec;
   fs::rename(tmp, path, ec);
   if (ec) throw fail(fmt::format("cannot rename '{}' onto it: {}", tmp.string(), ec.message()));
+  if (durability == Durability::synced) {
+    // The rename is an entry in the folder: only a synced folder keeps it.
+    try {
+      sync_path(path.has_parent_path() ? path.parent_path() : fs::path("."), true);
+    } catch (const std::system_error& e) {
+      throw Error(fmt::format("could not write '{}': {}; check the disk and the --out folder", path.string(),
+                              e.what()));
+    }
+  }
 }
 
 }  // namespace mca::io

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <functional>
 #include <ostream>
+#include <string>
 
 namespace mca::io {
 
@@ -12,11 +13,30 @@ namespace mca::io {
 // bad --out folder fails before the simulation spends any time. Throws mca::Error naming the folder.
 void prepare_output_dir(const std::filesystem::path& dir);
 
-// Calls `write` on a stream to `path` + ".tmp" in the same folder (rename is atomic only within one
-// file system), flushes and checks the stream, then renames onto `path`. On any failure, including
-// an exception from `write`, the temporary file is removed and mca::Error naming `path` is thrown;
-// an existing file at `path` is then left untouched.
+// The folder name for a scene's default output folder out/<folder>. A scene file can come from anywhere,
+// so its name must not choose where a run writes (and deletes earlier outputs).
+std::string scene_folder_name(const std::string& scene_name);
+
+enum class Durability {
+  // Renamed into place: readers never see a half file; a power loss may lose the newest writes.
+  renamed,
+  // Also flushed to the disk (fsync of the file before the rename, of its folder after): once the call
+  // returns the file survives a power loss. Costs a disk flush per file; used for checkpoints.
+  synced,
+};
+
+// Calls `write` on a stream to a temporary file in the same folder (rename is atomic only within one
+// file system), flushes and checks the stream, then renames onto `path`. The temporary name is
+// `path` + ".<pid>.<n>.tmp", unique per process and call, so writers of one file in several processes
+// or threads never share one. On any failure, including an exception from `write`, the temporary file
+// is removed and mca::Error naming `path` is thrown; an existing file at `path` is then left untouched.
 void write_file_atomic(const std::filesystem::path& path,
-                       const std::function<void(std::ostream&)>& write, bool binary = true);
+                       const std::function<void(std::ostream&)>& write, bool binary = true,
+                       Durability durability = Durability::renamed);
+
+// Removes the temporary files write_file_atomic left in `dir` (not below) for the outputs of a run
+// (.vtu, .pvd, .csv, .json, .toml, .mcack) when their process is gone (a killed run); those of running
+// processes and every other file stay. A missing folder is fine.
+void remove_stale_temporaries(const std::filesystem::path& dir);
 
 }  // namespace mca::io

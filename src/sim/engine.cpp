@@ -5,6 +5,7 @@
 
 #include "lattice/lattice.hpp"
 #include "mca/error.hpp"
+#include "sim/state_check.hpp"
 
 namespace mca {
 
@@ -28,9 +29,10 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
   // The automatic step is shortened so that a whole number of steps fills each frame.
   if (scene.solver.time_step <= 0) lattice::set_time_step(m, static_cast<float>(frame / steps_per_frame));
   const double total = std::round(scene.output.duration / static_cast<double>(m.dt));
-  if (total > 9e15) {
-    throw Error(fmt::format("{}: output.duration = {:g} s is {:.3g} steps of {:.3g} s; shorten it", scene.source,
-                            scene.output.duration, total, m.dt));
+  if (!(total <= static_cast<double>(Engine::kMaxSteps))) {
+    throw Error(fmt::format("{}: output.duration = {:g} s is {:.3g} steps of {:.3g} s, more than the {:.0e} a run "
+                            "can take; give a shorter output.duration (or --duration)",
+                            scene.source, scene.output.duration, total, m.dt, static_cast<double>(Engine::kMaxSteps)));
   }
   total_steps = std::max<std::int64_t>(1, static_cast<std::int64_t>(total));
   return m;
@@ -44,8 +46,22 @@ Engine::Engine(const SceneDef& scene) : scene_(scene) {
   init_energy();
 }
 
-Engine::Engine(const SceneDef& scene, const State& state) : scene_(scene) {
+Engine::Engine(const SceneDef& scene, const State& state, const std::string& source,
+               std::optional<std::uint64_t> fingerprint)
+    : scene_(scene) {
   model_ = build_for_frames(scene_, steps_per_frame_, total_steps_);
+  // The fingerprint first: when the scene was edited, "another model" is the cause to report, not the
+  // first array whose size it changed.
+  if (fingerprint) {
+    const std::uint64_t rebuilt = model_fingerprint(model_);
+    if (rebuilt != *fingerprint)
+      throw Error(fmt::format("{}: its embedded scene does not give the model the state was saved from (model "
+                              "fingerprint {:016x}, saved {:016x}): the file was edited or damaged, or written by "
+                              "another version of mca; use an earlier checkpoint (remove this one) or start the "
+                              "run again",
+                              source, rebuilt, *fingerprint));
+  }
+  check_state(model_, state, source);
   backend_ = make_cpu_backend(model_);
   backend_->upload(state);
   init_energy();

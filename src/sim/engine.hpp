@@ -4,6 +4,7 @@
 // (include/mca/simulation.hpp), which wraps it without exposing the model and state types.
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "backend/backend.hpp"
@@ -18,8 +19,12 @@ class Engine {
   // Builds the model (throws mca::Error for scenes that cannot be built). The time step is the
   // stable one, shortened so that a whole number of steps fills each output frame.
   explicit Engine(const SceneDef& scene);
-  // Continues from a saved state (checkpoint) of the same scene.
-  Engine(const SceneDef& scene, const State& state);
+  // Continues from a saved state (checkpoint) of the same scene. The state is untrusted: it is checked
+  // against the rebuilt model (check_state) before the backend sees it and, when `fingerprint` is given,
+  // the model must be the one the state was saved from (model_fingerprint). Both throw mca::Error
+  // starting with `source`, which names where the state came from.
+  Engine(const SceneDef& scene, const State& state, const std::string& source = "the saved state",
+         std::optional<std::uint64_t> fingerprint = std::nullopt);
   // The backend keeps a reference to the model member: an Engine stays where it was built.
   Engine(const Engine&) = delete;
   Engine& operator=(const Engine&) = delete;
@@ -45,6 +50,9 @@ class Engine {
   std::int64_t frame_count() const { return (total_steps_ + steps_per_frame_ - 1) / steps_per_frame_; }
 
   static constexpr std::int64_t kEnergyCheckInterval = 256;
+  // More steps than any run can take (1e15: a year at 3e7 steps per second), and few enough that step and
+  // frame arithmetic stays far from overflowing 64 bits.
+  static constexpr std::int64_t kMaxSteps = 1'000'000'000'000'000;
 
  private:
   void init_energy();

@@ -47,7 +47,8 @@ Frame Simulation::frame() const {
     for (std::uint32_t k = begin; k < end; ++k) broken += !s.intact[m.adj_link[k]];
     f.damage[a] = end > begin ? static_cast<float>(broken) / static_cast<float>(end - begin) : 0.0f;
   }
-  const auto frags = analysis::label_fragments(n, m.link_i.data(), m.link_j.data(), s.intact.data(), m.link_count());
+  const auto frags =
+      analysis::label_fragments(n, m.link_i.data(), m.link_j.data(), s.intact.data(), m.link_count(), m.mass.data());
   f.fragment = frags.id;
   f.fragments = frags.count;
   for (const auto& p : s.projectiles)
