@@ -121,8 +121,11 @@ void FrameWriter::restore(std::int64_t frames, double frame_interval) {
 }
 
 std::vector<std::string> FrameWriter::stats_header(const Model& model) {
-  std::vector<std::string> h = {"frame", "time", "kinetic_energy", "elastic_energy", "projectile_kinetic_energy",
-                                "gravity_work", "grip_work", "total_energy", "broken_displacement",
+  // total_energy = kinetic + elastic + projectile kinetic (elastic includes the contact springs);
+  // energy_balance = total_energy - every external work: constant but for damping, friction and breaks.
+  std::vector<std::string> h = {"frame", "time", "kinetic_energy", "elastic_energy", "contact_energy",
+                                "projectile_kinetic_energy", "gravity_work", "grip_work", "load_work",
+                                "projectile_work", "total_energy", "energy_balance", "broken_displacement",
                                 "broken_stress", "broken_total", "fragments", "largest_fragment_mass_share"};
   for (const auto& g : model.grip_names) {
     h.push_back(g + "_force_x");
@@ -134,10 +137,11 @@ std::vector<std::string> FrameWriter::stats_header(const Model& model) {
 
 std::string FrameWriter::format_row(const FrameStats& r) const {
   const auto& e = r.energy;
-  std::string line = fmt::format("{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{},{},{},{},{:.6f}", r.frame,
-                                 r.time, e.kinetic, e.elastic, e.projectile_kinetic, e.gravity_work, e.grip_work,
-                                 e.kinetic + e.elastic + e.projectile_kinetic, r.broken_displacement, r.broken_stress,
-                                 r.broken_displacement + r.broken_stress, r.fragments, r.largest_share);
+  std::string line = fmt::format(
+      "{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{},{},{},{},{:.6f}", r.frame, r.time,
+      e.kinetic, e.elastic, e.contact, e.projectile_kinetic, e.gravity_work, e.grip_work, e.load_work,
+      e.projectile_work, e.total(), e.total() - e.external_work(), r.broken_displacement, r.broken_stress,
+      r.broken_displacement + r.broken_stress, r.fragments, r.largest_share);
   for (const auto& f : r.grip_force) line += fmt::format(",{:.9g},{:.9g},{:.9g}", f.x, f.y, f.z);
   return line;
 }

@@ -26,11 +26,14 @@ int info(const std::optional<std::string>& path, bool json) {
     j["critical_time_step"] = m.critical_dt;
     j["time_step_limited_by"] = m.dt_limited_by;
     j["simulated_time"] = static_cast<double>(steps) * m.dt;
+    j["frame_interval"] = sim.frame_interval();
     j["steps_per_frame"] = sim.steps_per_frame();
     j["frames"] = frames;
     j["steps"] = steps;
     j["duration"] = scene.output.duration;
     j["memory_bytes"] = bytes;
+    j["memory_bytes_per_automaton"] =
+        static_cast<double>(bytes - estimate_memory_bytes(0, 0)) / static_cast<double>(m.size());
     j["total_mass"] = m.total_mass;
     nlohmann::json objs = nlohmann::json::array();
     std::vector<std::size_t> count(m.object_names.size(), 0);
@@ -54,14 +57,18 @@ int info(const std::optional<std::string>& path, bool json) {
   fmt::print("spacing          {:.4g} m\n", m.spacing);
   fmt::print("time step        {:.4g} s (C = {:g} of the critical {:.4g} s, set by {})\n", m.dt, scene.solver.safety,
              m.critical_dt, m.dt_limited_by);
-  fmt::print("steps per frame  {} ({} frames at {:g} /s, {} steps: {:.6g} s simulated)\n", sim.steps_per_frame(), frames,
-             scene.output.frame_rate, steps, static_cast<double>(steps) * m.dt);
+  // With solver.time_step given, a frame is a whole number of steps and may differ from 1 / frame_rate.
+  fmt::print("steps per frame  {} ({} frames, one every {:.6g} s; {} steps: {:.6g} s simulated for output.duration = "
+             "{:g} s)\n",
+             sim.steps_per_frame(), frames, sim.frame_interval(), steps, static_cast<double>(steps) * m.dt,
+             scene.output.duration);
   std::array<std::size_t, 4> classes{};
   for (auto c : m.strength_class) ++classes[c - 1];
   fmt::print("strength classes {} / {} / {} / {} (classes 1..4)\n", classes[0], classes[1], classes[2], classes[3]);
   fmt::print("materials        {}\n", fmt::join(m.group_names, ", "));
   fmt::print("projectiles      {}\n", m.projectiles.size());
-  fmt::print("memory estimate  {:.1f} MB\n", bytes / 1e6);
+  fmt::print("memory estimate  {:.1f} MB at the peak of a run ({:.0f} bytes per automaton, links included)\n",
+             bytes / 1e6, static_cast<double>(bytes - estimate_memory_bytes(0, 0)) / static_cast<double>(m.size()));
   return 0;
 }
 

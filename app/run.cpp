@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 #include <tbb/info.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include "app/commands.hpp"
@@ -97,6 +98,10 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
   j["simulated_time"] = s.time;
   j["threads"] = threads;
   j["wall_seconds"] = wall;
+  // The process's peak resident memory so far (compare with `mca info`'s estimate).
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  j["peak_memory_bytes"] = static_cast<std::int64_t>(usage.ru_maxrss) * 1024;
   j["automaton_steps_per_second"] = wall > 0 ? static_cast<double>(steps_run) * m.size() / wall : 0.0;
   j["broken_links"] = {{"displacement", s.broken_by[0]}, {"stress", s.broken_by[1]},
                        {"total", s.broken_by[0] + s.broken_by[1]}};
@@ -106,8 +111,16 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
   const auto infos = analysis::describe_fragments(frags, m.mass.data(), reinterpret_cast<const float*>(xf.data()),
                                                   reinterpret_cast<const float*>(s.v.data()));
   const Energies e = sim.energies();
-  j["energy"] = {{"kinetic", e.kinetic}, {"elastic", e.elastic}, {"projectile_kinetic", e.projectile_kinetic},
-                 {"gravity_work", e.gravity_work}, {"grip_work", e.grip_work}};
+  j["energy"] = {{"kinetic", e.kinetic},
+                 {"elastic", e.elastic},
+                 {"contact", e.contact},
+                 {"projectile_kinetic", e.projectile_kinetic},
+                 {"gravity_work", e.gravity_work},
+                 {"grip_work", e.grip_work},
+                 {"load_work", e.load_work},
+                 {"projectile_work", e.projectile_work},
+                 {"initial", s.initial_energy},
+                 {"balance", e.total() - e.external_work()}};
   j["total_mass"] = m.total_mass;
   j["fragment_count"] = frags.count;
   // The list is capped so a run with 10^5 loose automata stays readable; the rest is summed up.

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <random>
 
+#include "io/scene_io.hpp"
 #include "lattice/lattice.hpp"
 #include "mca/error.hpp"
 #include "mca/simulation.hpp"
@@ -249,6 +250,50 @@ TEST(Energy, ContactSpringsAreCounted) {
               100 * worst);
   EXPECT_GT(most_contact, 0.1 * b0) << "the block should have hit the ground";
   EXPECT_LT(worst, 0.01);
+}
+
+// A break changes the mean strain of an axis at both ends (the mean of two links becomes the one left),
+// and with it their many-body energy lambda V theta L / 2: a break can put energy in. Per end the change is
+// lambda ff V (L delta + delta^2 / 2) with |L| <= 3 eps_max and |delta| <= eps_max, so one break injects at
+// most 7 lambda V eps_max^2 (less the link's own energy, which goes). Measured on a randomly strained block,
+// link by link; and in an impact, where thousands break, the energy never rises above the start plus the
+// work put in.
+TEST(Energy, WhatABreakInjectsIsBounded) {
+  Engine sim(block_scene(6, 6, 6, 0.05, test_material()));
+  const Model& m = sim.model();
+  State st = sim.state();
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (auto& x : st.x) x += Vec3{static_cast<float>(u(rng)), static_cast<float>(u(rng)), static_cast<float>(u(rng))} * 1e-6f;
+  const double w0 = compute_energies_at(m, st).elastic;
+  const double eps_max = max_link_strain(m, st);
+  const GroupParams& g = m.groups[0];
+  const double scale = g.lame_lambda * m.volume[0] * eps_max * eps_max;
+  double worst = 0;
+  for (std::size_t l = 0; l < m.link_count(); ++l) {
+    State t = st;
+    t.intact[l] = 0;
+    worst = std::max(worst, compute_energies_at(m, t).elastic - w0);
+  }
+  std::printf("one break in a random strain field (eps_max %.3g): at most %.3g lambda V eps_max^2 put in\n", eps_max,
+              worst / scale);
+  EXPECT_GT(worst, 0) << "the test should find a break that puts energy in";
+  EXPECT_LE(worst, 7 * scale);
+
+  SceneDef s = io::load_default_scene();
+  s.projectiles[0].position = {0, -0.31, 0.75};  // 1 cm from the wall
+  Engine impact(s);
+  const double start = impact.energies().total();
+  double excess = -INFINITY;
+  for (int k = 0; k < 30; ++k) {
+    impact.advance(100);
+    const Energies e = impact.energies();
+    excess = std::max(excess, e.total() - e.external_work() - start);
+  }
+  std::printf("impact: %lld links broken; energy - work - start at most %.3g J (start %.4g J)\n",
+              static_cast<long long>(impact.state().broken_by[0] + impact.state().broken_by[1]), excess, start);
+  EXPECT_GT(impact.state().broken_by[0] + impact.state().broken_by[1], 1000);
+  EXPECT_LT(excess, 1e-6 * start);
 }
 
 // safety = 1 is the stability limit of the linear lattice: an undamped block kept at C = 1 for 5,000

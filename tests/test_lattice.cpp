@@ -1,8 +1,11 @@
 // The lattice builder: shapes, placement, regions, target counts, and the scene checks it makes.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <numbers>
+
+#include <fmt/format.h>
 
 #include "lattice/lattice.hpp"
 #include "mca/error.hpp"
@@ -133,6 +136,147 @@ TEST(Lattice, RefusesATimeStepAboveTheStableOne) {
     FAIL() << "an unstable time step was accepted";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("solver.time_step"), std::string::npos) << e.what();
+  }
+}
+
+// The message of the error building the scene throws (empty when it builds).
+std::string build_error(const SceneDef& s) {
+  try {
+    lattice::build_model(s);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// Objects may touch (automata d apart) but not overlap: two boxes overlapping by 0.1 m exploded with
+// 3e7 J, and two boxes at one place reported 2.85e8 J while nothing moved.
+TEST(Lattice, OverlappingObjectsAreRefusedTouchingOnesAccepted) {
+  SceneDef s = test::block_scene(8, 8, 8, 0.05);
+  ObjectDef second = s.objects[0];
+  second.name = "second";
+  second.position = {0.3, 0, 0};  // 0.1 m into the first
+  s.objects.push_back(second);
+  std::string msg = build_error(s);
+  EXPECT_NE(msg.find("'second' overlaps object 'block'"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("move them apart"), std::string::npos) << msg;
+  s.objects[1].position = {0, 0, 0};  // the same place
+  EXPECT_NE(build_error(s).find("overlaps"), std::string::npos);
+  s.objects[1].position = {0.4, 0, 0};  // face to face: touching
+  EXPECT_EQ(build_error(s), "");
+  s.objects[1].position = {0.4, 0.4, 0.4};  // corner to corner
+  EXPECT_EQ(build_error(s), "");
+  s.objects[1].rotation = {0, 0, 45};  // rotated into the first
+  s.objects[1].position = {0.35, 0, 0};
+  EXPECT_NE(build_error(s).find("overlaps"), std::string::npos);
+}
+
+// Automata with six intact links are left out of the contact search, safe only while r_i + r_j + skin
+// < sqrt(2) d: a larger skin is refused, and the hint names the real default.
+TEST(Lattice, ASkinThatTheContactSearchCannotHonourIsRefused) {
+  SceneDef s = test::block_scene(3, 3, 3, 0.05);
+  s.solver.skin = 0.45;
+  const std::string msg = build_error(s);
+  EXPECT_NE(msg.find("solver.skin = 0.45"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("0.3 (the default)"), std::string::npos) << msg;
+  s.solver.skin = 0.4;
+  EXPECT_EQ(build_error(s), "");
+}
+
+// Values whose float32 form is 0, infinite, or too coarse for the breaking strain are refused with the
+// reason, instead of a NaN run or a message about frame_rate.
+TEST(Lattice, ValuesOutsideFloat32AreRefusedWithTheReason) {
+  auto with = [](auto edit) {
+    SceneDef s = test::block_scene(3, 3, 3, 0.05, MaterialDef{});
+    s.materials[0].name = "m";
+    s.objects[0].material = "m";
+    edit(s);
+    return build_error(s);
+  };
+  std::string msg = with([](SceneDef& s) { s.materials[0].youngs_modulus = 1e39; });
+  EXPECT_NE(msg.find("youngs_modulus = 1e+39 does not fit the float32"), std::string::npos) << msg;
+  msg = with([](SceneDef& s) { s.materials[0].density = 1e-50; });
+  EXPECT_NE(msg.find("density = 1e-50 does not fit the float32"), std::string::npos) << msg;
+  msg = with([](SceneDef& s) { s.materials[0].youngs_modulus = 1e15; });
+  EXPECT_NE(msg.find("breaks at a strain of 3e-09"), std::string::npos) << msg;
+  msg = with([](SceneDef& s) {
+    ProjectileDef p;
+    p.position = {0, -1, 0};
+    p.density = 1e-50;
+    s.projectiles.push_back(p);
+  });
+  EXPECT_NE(msg.find("projectile[0] mass"), std::string::npos) << msg;
+  msg = with([](SceneDef& s) {
+    ProjectileDef p;
+    p.position = {0, -1, 0};
+    p.radius = 1e-30;
+    s.projectiles.push_back(p);
+  });
+  EXPECT_NE(msg.find("does not fit the float32"), std::string::npos) << msg;
+  // A strengthening law that would stiffen the material 1e4-fold before it breaks.
+  msg = with([](SceneDef& s) {
+    s.materials[0].strengthening = StrengtheningLaw::exponential;
+    s.materials[0].strengthening_alpha = 1e6;
+  });
+  EXPECT_NE(msg.find("strengthening_alpha = 1e+06"), std::string::npos) << msg;
+}
+
+// More objects than a 16-bit index holds (it wrapped to negative ids, then ran out of memory).
+TEST(Lattice, FortyThousandObjectsKeepTheirIds) {
+  SceneDef s = test::block_scene(1, 1, 1, 0.05);
+  s.objects.clear();
+  for (int k = 0; k < 40000; ++k) {
+    ObjectDef o;
+    o.name = fmt::format("o{}", k);
+    o.material = "testmat";
+    o.size = {0.05, 0.05, 0.05};
+    o.position = {(k % 200) * 0.1, (k / 200) * 0.1, 0};
+    s.objects.push_back(o);
+  }
+  const Model m = lattice::build_model(s);
+  ASSERT_EQ(m.size(), 40000u);
+  for (std::size_t a = 0; a < m.size(); ++a) ASSERT_EQ(m.object[a], static_cast<std::int32_t>(a));
+}
+
+// A model larger than the machine is refused at once from the shapes' volume, before counting and
+// allocating (mca info swapped for minutes on a 1.8e8-automata sphere).
+TEST(Lattice, AModelLargerThanTheMachineIsRefusedAtOnce) {
+  SceneDef s = test::block_scene(1, 1, 1, 0.0005);
+  s.objects[0].shape = Shape::sphere;
+  s.objects[0].radius = 1.0;
+  s.solver.max_memory_gb = 1e9;  // the user's limit lifted: the machine's still holds
+  const auto start = std::chrono::steady_clock::now();
+  const std::string msg = build_error(s);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_NE(msg.find("automata"), std::string::npos) << msg;
+  EXPECT_LT(seconds, 1.0);
+}
+
+// The run covers the asked duration to within half a step, with a shorter last frame (1e-4 s at 500
+// frames per second simulated 2 ms); a frame shorter than a time step given by hand is refused.
+TEST(Lattice, TheRunCoversItsDuration) {
+  SceneDef s = test::block_scene(3, 3, 3, 0.05);
+  s.output.duration = 1e-4;
+  s.output.frame_rate = 500;
+  {
+    const Engine sim(s);
+    EXPECT_NEAR(sim.total_steps() * static_cast<double>(sim.model().dt), 1e-4, 0.5 * sim.model().dt);
+    EXPECT_EQ(sim.frame_count(), 1);
+  }
+  s.output.duration = 0.0105;  // 5 frames and a quarter of one
+  {
+    const Engine sim(s);
+    EXPECT_NEAR(sim.total_steps() * static_cast<double>(sim.model().dt), 0.0105, 0.5 * sim.model().dt);
+    EXPECT_EQ(sim.frame_count(), 6);
+  }
+  s.solver.time_step = 1e-6;
+  s.output.frame_rate = 1e7;
+  s.output.duration = 1e-4;
+  try {
+    const Engine sim(s);
+    FAIL() << "frames shorter than the time step were accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("output.frame_rate = 1e+07"), std::string::npos) << e.what();
   }
 }
 

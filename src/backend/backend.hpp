@@ -34,10 +34,14 @@ class Backend {
  public:
   virtual ~Backend() = default;
   virtual std::string name() const = 0;
-  virtual void upload(const State& state) = 0;
+  // Takes the state to step from (by value: pass an rvalue to hand it over without a copy).
+  virtual void upload(State state) = 0;
   // Advances n steps; stops early at the first step that raises a health flag.
   virtual StepHealth step(int n) = 0;
   virtual void download(State& state) const = 0;
+  // Records the run's starting energy in the state (State::initial_energy), which needs the contact lists
+  // upload builds: set once, right after the first upload of a new run.
+  virtual void set_initial_energy(double energy) = 0;
   virtual const State& state() const = 0;
 };
 

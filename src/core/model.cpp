@@ -5,16 +5,22 @@
 namespace mca {
 
 std::size_t estimate_memory_bytes(std::size_t automata, std::size_t links) {
-  // Model: position0, velocity0 (24), mass, radius, inertia, volume, class factor (20), group, class (2),
-  // object, grip (4), adjacency (4 + 2 * 4 per link). State: x, v, w (36), q (16), s (24), ground (12),
-  // rebuild positions (12), backend scratch (forces, torques, many-body terms, flags: about 64).
-  // Links: i, j, r0, area, axis (17) + intact, ut, sigma, tau (21) + scratch (force, torque, strain: 28).
-  const std::size_t per_automaton = 24 + 20 + 2 + 4 + 4 + 36 + 16 + 24 + 12 + 12 + 64;
-  const std::size_t per_link = 17 + 21 + 28 + 8;
-  // Contacts: after heavy fragmentation about one unlinked pair per automaton (20 bytes each, twice
-  // while the list is rebuilt).
-  const std::size_t contacts = automata * 40;
-  return automata * per_automaton + links * per_link + contacts;
+  // What a run holds at its peak, counted from the arrays (and checked against the measured peak resident
+  // size: Cli.MemoryEstimateMatchesThePeak):
+  //   per automaton  model 68 (centre 24, velocity 12, mass, radius, inertia, volume 16, class factor 4,
+  //                  group, class 2, object 4, grip 2, adjacency start 4); state 140 (x 24, v 12, w 12, q 16,
+  //                  averaged stress 24, mean stress 4, force and torque 24, rebuild positions 24); backend
+  //                  98 (inverse mass, inertia, volume 12, many-body terms 12, external force, torque and
+  //                  stress 48, flags 2, adjacency codes 24); frame output and fragments 60; contacts 64
+  //                  (about one unlinked pair of 32 bytes per automaton once it has broken up, two lists
+  //                  while the list is rebuilt);
+  //   per link       model 25 (ends 8, rest length, area 8, axis 1, adjacency 8); state 13 (intact, shear
+  //                  displacement); backend 80 (direction, strain, gathered force and torque, shear modulus,
+  //                  spring, strengths, 1 / r0, dashpots);
+  //   fixed          8 MB (program, libraries, thread stacks).
+  const std::size_t per_automaton = 68 + 140 + 98 + 60 + 64;
+  const std::size_t per_link = 25 + 13 + 80;
+  return automata * per_automaton + links * per_link + 8'000'000;
 }
 
 }  // namespace mca

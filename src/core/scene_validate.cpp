@@ -8,6 +8,7 @@
 #include <cstring>
 #include <string>
 #include <string_view>
+#include <unordered_map>
 #include <vector>
 
 #include <fmt/format.h>
@@ -298,15 +299,15 @@ void validate_scene(const SceneDef& scene) {
     c.fail("the scene has no objects; add at least one [[object]] block (e.g. shape = \"box\", size = [2, 0.2, "
            "1.5], material = \"concrete\")");
   }
+  std::unordered_map<std::string_view, std::size_t> object_names;
   for (std::size_t i = 0; i < scene.objects.size(); ++i) {
     const ObjectDef& o = scene.objects[i];
     const std::string p = fmt::format("object[{}]", i);
     if (o.name.empty()) c.fail(fmt::format("{}.name is empty; give the object a name", p));
-    for (std::size_t j = 0; j < i; ++j) {
-      if (scene.objects[j].name == o.name) {
-        c.fail(fmt::format("{}.name = \"{}\" duplicates object[{}]; give each [[object]] a distinct name", p,
-                           o.name, j));
-      }
+    // A map, not a loop over the earlier objects: a scene of 40,000 objects is checked in milliseconds.
+    if (const auto [it, fresh] = object_names.emplace(o.name, i); !fresh) {
+      c.fail(fmt::format("{}.name = \"{}\" duplicates object[{}]; give each [[object]] a distinct name", p, o.name,
+                         it->second));
     }
     switch (o.shape) {
       case Shape::box:
@@ -377,6 +378,7 @@ void validate_scene(const SceneDef& scene) {
       }
     }
   };
+  std::unordered_map<std::string_view, std::size_t> grip_names;
   for (std::size_t i = 0; i < scene.grips.size(); ++i) {
     const GripDef& g = scene.grips[i];
     const std::string p = fmt::format("grip[{}]", i);
@@ -391,12 +393,10 @@ void validate_scene(const SceneDef& scene) {
                            p, escaped(g.name), ch == ',' ? "a comma" : ch == '"' ? "a quote" : "a control character"));
       }
     }
-    for (std::size_t k = 0; k < i; ++k) {
-      if (scene.grips[k].name == g.name) {
-        c.fail(fmt::format("{}.name = \"{}\" is also the name of grip[{}]; the stats.csv force columns are named "
-                           "after the grip, so rename one of them (unnamed grips are \"grip\", \"grip1\", ...)",
-                           p, escaped(g.name), k));
-      }
+    if (const auto [it, fresh] = grip_names.emplace(g.name, i); !fresh) {
+      c.fail(fmt::format("{}.name = \"{}\" is also the name of grip[{}]; the stats.csv force columns are named "
+                         "after the grip, so rename one of them (unnamed grips are \"grip\", \"grip1\", ...)",
+                         p, escaped(g.name), it->second));
     }
     check_box(p, g.name, g.min, g.max);
     c.finite(p + ".velocity", g.velocity);

@@ -43,7 +43,9 @@ Engine::Engine(const SceneDef& scene) : scene_(scene) {
   model_ = build_for_frames(scene_, steps_per_frame_, total_steps_);
   backend_ = make_cpu_backend(model_);
   backend_->upload(initial_state(model_));
-  init_energy();
+  // A run's energy budget starts from its first state (contact springs included, so after the upload
+  // that builds the contact lists); a resumed run keeps its checkpoint's.
+  backend_->set_initial_energy(energies().total());
 }
 
 Engine::Engine(const SceneDef& scene, const State& state, const std::string& source,
@@ -64,16 +66,7 @@ Engine::Engine(const SceneDef& scene, const State& state, const std::string& sou
   check_state(model_, state, source);
   backend_ = make_cpu_backend(model_);
   backend_->upload(state);
-  init_energy();
-}
-
-// A run's energy budget starts from its first state; a resumed run keeps the value of its checkpoint.
-void Engine::init_energy() {
-  last_check_ = state().step;
-  if (state().step != 0) return;
-  State s = state();
-  s.initial_energy = compute_energies(model_, s).total();
-  backend_->upload(s);
+  last_check_ = state.step;
 }
 
 StepHealth Engine::advance(int steps) {

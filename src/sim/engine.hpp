@@ -55,8 +55,6 @@ class Engine {
   static constexpr std::int64_t kMaxSteps = 1'000'000'000'000'000;
 
  private:
-  void init_energy();
-
   SceneDef scene_;
   Model model_;
   std::unique_ptr<Backend> backend_;

@@ -155,8 +155,8 @@ class CpuBackend final : public Backend {
   }
 
   std::string name() const override { return "cpu"; }
-  void upload(const State& s) override {
-    S_ = s;
+  void upload(State s) override {
+    S_ = std::move(s);
     for (std::size_t a = 0; a < M_.size(); ++a) {
       std::uint32_t c = 0;
       for (std::uint32_t k = M_.adj_begin[a]; k < M_.adj_begin[a + 1]; ++k) c += S_.intact[M_.adj_link[k]];
@@ -165,6 +165,7 @@ class CpuBackend final : public Backend {
     if (S_.x_at_rebuild.size() != S_.x.size()) rebuild_contacts();
   }
   void download(State& s) const override { s = S_; }
+  void set_initial_energy(double energy) override { S_.initial_energy = energy; }
   const State& state() const override { return S_; }
 
   StepHealth step(int steps) override {

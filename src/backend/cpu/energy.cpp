@@ -18,43 +18,60 @@ namespace mca {
 namespace {
 double sq(Vec3 v) { return static_cast<double>(v.x) * v.x + static_cast<double>(v.y) * v.y + static_cast<double>(v.z) * v.z; }
 double dotd(Vec3 a, Vec3 b) { return static_cast<double>(a.x) * b.x + static_cast<double>(a.y) * b.y + static_cast<double>(a.z) * b.z; }
+
+// The positions and velocities energies are measured at: the state's own, or, synchronised, those of the
+// last force evaluation, x_n = x - dt v, with the velocities in step with them (velocity Verlet's
+// v_n = v_{n+1/2} - dt/2 a_n). Symplectic Euler conserves the synchronised energy to O(dt^2); the naive
+// sum over the stored half-step velocities is off by O(omega dt), several per cent for a lattice excited
+// in all its modes. Computed per access rather than in a copy of the state (which doubled the peak memory
+// of a run at every frame).
+struct View {
+  const Model& m;
+  const State& s;
+  bool sync;
+  DVec3 x(std::size_t a) const {
+    DVec3 r = s.x[a];
+    if (sync) r += s.v[a] * (-m.dt);
+    return r;
+  }
+  Vec3 v(std::size_t a) const {
+    return sync && m.grip[a] < 0 ? s.v[a] - s.f[a] * (0.5f * m.dt / m.mass[a]) : s.v[a];
+  }
+  Vec3 w(std::size_t a) const {
+    return sync && m.grip[a] < 0 ? s.w[a] - s.t[a] * (0.5f * m.dt / m.inertia[a]) : s.w[a];
+  }
+  DVec3 xp(std::size_t p) const {
+    DVec3 r = s.projectiles[p].position;
+    if (sync) r += s.projectiles[p].velocity * (-m.dt);
+    return r;
+  }
+  Vec3 vp(std::size_t p) const {
+    const ProjectileState& ps = s.projectiles[p];
+    if (!sync || m.projectiles[p].kinematic) return ps.velocity;
+    return ps.velocity - (ps.force * (1.0f / m.projectiles[p].mass) + m.gravity) * (0.5f * m.dt);
+  }
+};
+
+Energies energies_of(const View& at);
+
 }  // namespace
 
-Energies compute_energies(const Model& m, const State& s_end) {
-  // Measure at the positions the last step's forces were computed at, x_n = x - dt v, with the
-  // velocities in step with them (velocity Verlet's v_n = v_{n+1/2} - dt/2 a_n). Symplectic Euler
-  // conserves this energy to O(dt^2); the naive sum over the stored half-step velocities is off by
-  // O(omega dt), several per cent for a lattice excited in all its modes.
-  State s;
-  const State* sp = &s_end;
-  const bool sync = s_end.f.size() == m.size() && s_end.step > 0;
-  if (sync) {
-    s = s_end;
-    const float h = 0.5f * m.dt;
-    for (std::size_t a = 0; a < m.size(); ++a) {
-      s.x[a] += s_end.v[a] * (-m.dt);
-      if (m.grip[a] >= 0) continue;
-      s.v[a] = s_end.v[a] - s_end.f[a] * (h / m.mass[a]);
-      s.w[a] = s_end.w[a] - s_end.t[a] * (h / m.inertia[a]);
-    }
-    for (std::size_t p = 0; p < m.projectiles.size(); ++p) {
-      auto& ps = s.projectiles[p];
-      ps.position += s_end.projectiles[p].velocity * (-m.dt);
-      if (!m.projectiles[p].kinematic)
-        ps.velocity = s_end.projectiles[p].velocity -
-                      (s_end.projectiles[p].force * (1.0f / m.projectiles[p].mass) + m.gravity) * h;
-    }
-    sp = &s;
-  }
-  return compute_energies_at(m, *sp);
+Energies compute_energies(const Model& m, const State& s) {
+  return energies_of(View{m, s, s.f.size() == m.size() && s.step > 0});
 }
 
-Energies compute_energies_at(const Model& m, const State& s) {
+Energies compute_energies_at(const Model& m, const State& s) { return energies_of(View{m, s, false}); }
+
+namespace {
+
+Energies energies_of(const View& at) {
+  const Model& m = at.m;
+  const State& s = at.s;
   Energies e;
   const std::size_t n = m.size();
   for (std::size_t a = 0; a < n; ++a) {
-    e.kinetic += 0.5 * m.mass[a] * sq(s.v[a]) + 0.5 * m.inertia[a] * sq(s.w[a]);
-    const Vec3 dx = delta(m.position0[a], s.x[a]);
+    e.kinetic += 0.5 * m.mass[a] * sq(at.v(a)) + 0.5 * m.inertia[a] * sq(at.w(a));
+    const Vec3 dx = delta(m.position0[a], at.x(a));
     e.gravity_work += m.mass[a] * dotd(m.gravity, dx);
     if (!m.load.empty()) e.load_work += dotd(m.load[a], dx);
   }
@@ -66,7 +83,7 @@ Energies compute_energies_at(const Model& m, const State& s) {
     if (!s.intact[l]) continue;
     const std::uint32_t i = m.link_i[l], j = m.link_j[l];
     const GroupParams &gi = m.groups[m.group[i]], &gj = m.groups[m.group[j]];
-    const LinkGeometry g = link_geometry(s.x[i], s.x[j], m.link_r0[l], 1.0f / m.link_r0[l]);
+    const LinkGeometry g = link_geometry(at.x(i), at.x(j), m.link_r0[l], 1.0f / m.link_r0[l]);
     const double G = harmonic(gi.shear_modulus, gj.shear_modulus);
     const double V = static_cast<double>(m.link_area[l]) * m.link_r0[l];
     const double f_mean = 0.5 * (strengthening_factor(gi.strengthening, g.eps) + strengthening_factor(gj.strengthening, g.eps));
@@ -93,7 +110,7 @@ Energies compute_energies_at(const Model& m, const State& s) {
   // Contact springs (as in the backend; the dashpots, which only dissipate, do not enter).
   double contact = 0;
   for (const auto& c : s.contacts) {
-    const SphereGap gap = sphere_gap(s.x[c.i], s.x[c.j], static_cast<double>(m.radius[c.i]) + m.radius[c.j]);
+    const SphereGap gap = sphere_gap(at.x(c.i), at.x(c.j), static_cast<double>(m.radius[c.i]) + m.radius[c.j]);
     const ContactSprings cs = body_contact_springs(m.contact_material(m.group[c.i], m.group[c.j]), 0.0f, m.radius[c.i],
                                                    m.radius[c.j], 1.0f, 1.0f);
     contact += contact_energy(cs, gap.overlap, c.h.ut, c.h.mr, gap.n);
@@ -101,33 +118,34 @@ Energies compute_energies_at(const Model& m, const State& s) {
   for (const auto& c : s.ground_contacts) {
     const std::uint32_t a = c.automaton;
     const ContactSprings cs = body_contact_springs(m.ground_contact[m.group[a]], 0.0f, m.radius[a], INFINITY, 1.0f, 1.0f);
-    contact += contact_energy(cs, ground_overlap(s.x[a], m.up, m.ground_height, m.radius[a]), c.h.ut, c.h.mr, -m.up);
+    contact += contact_energy(cs, ground_overlap(at.x(a), m.up, m.ground_height, m.radius[a]), c.h.ut, c.h.mr, -m.up);
   }
   for (std::size_t p = 0; p < m.projectiles.size(); ++p) {
     const auto& P = m.projectiles[p];
     const auto& ps = s.projectiles[p];
-    e.projectile_kinetic += 0.5 * P.mass * sq(ps.velocity) + 0.5 * P.inertia * sq(ps.angular_velocity);
+    e.projectile_kinetic += 0.5 * P.mass * sq(at.vp(p)) + 0.5 * P.inertia * sq(ps.angular_velocity);
+    const DVec3 xp = at.xp(p);
     if (P.kinematic) {
       e.projectile_work += ps.work;
     } else {
-      e.gravity_work += P.mass * dotd(m.gravity, delta(P.position, ps.position));
+      e.gravity_work += P.mass * dotd(m.gravity, delta(P.position, xp));
     }
     for (const auto& c : ps.contacts) {
       const std::uint32_t a = c.automaton;
-      const SphereGap gap = sphere_gap(s.x[a], ps.position, static_cast<double>(P.radius) + m.radius[a]);
+      const SphereGap gap = sphere_gap(at.x(a), xp, static_cast<double>(P.radius) + m.radius[a]);
       const ContactSprings cs = body_contact_springs(m.contact_material(m.group[a], P.group), 0.0f, m.radius[a], P.radius,
                                                      1.0f, 1.0f);
       contact += contact_energy(cs, gap.overlap, c.h.ut, c.h.mr, gap.n);
     }
     if (m.ground) {
       const ContactSprings cs = body_contact_springs(m.ground_contact[P.group], 0.0f, P.radius, INFINITY, 1.0f, 1.0f);
-      contact += contact_energy(cs, ground_overlap(ps.position, m.up, m.ground_height, P.radius), ps.ground.ut,
+      contact += contact_energy(cs, ground_overlap(xp, m.up, m.ground_height, P.radius), ps.ground.ut,
                                 ps.ground.mr, -m.up);
     }
   }
   for (const auto& c : s.projectile_contacts) {
     const auto &A = m.projectiles[c.p], &B = m.projectiles[c.q];
-    const SphereGap gap = sphere_gap(s.projectiles[c.p].position, s.projectiles[c.q].position,
+    const SphereGap gap = sphere_gap(at.xp(c.p), at.xp(c.q),
                                      static_cast<double>(A.radius) + B.radius);
     const ContactSprings cs = body_contact_springs(m.contact_material(A.group, B.group), 0.0f, A.radius, B.radius, 1.0f, 1.0f);
     contact += contact_energy(cs, gap.overlap, c.h.ut, c.h.mr, gap.n);
@@ -137,5 +155,7 @@ Energies compute_energies_at(const Model& m, const State& s) {
   for (double w : s.grip_work) e.grip_work += w;
   return e;
 }
+
+}  // namespace
 
 }  // namespace mca
