@@ -22,6 +22,18 @@ inline MaterialDef test_material(double E = 30e9, double nu = 0.2, double rho = 
   return m;
 }
 
+// The test material with an exponential strengthening law (paper eq. 7), alpha = 3000, capped at a strain
+// of 1e-3 (a factor of e^3 = 20): fracture strain 1e-3 and strengths of 30 MPa.
+inline MaterialDef strengthening_material() {
+  MaterialDef m = test_material();
+  m.strengthening = StrengtheningLaw::exponential;
+  m.strengthening_alpha = 3000;
+  m.fracture_strain = 1e-3;
+  m.tensile_strength = 30e6;
+  m.compressive_strength = 30e6;
+  return m;
+}
+
 // A box of nx x ny x nz automata with spacing d centred at the origin, no gravity, no ground.
 inline SceneDef block_scene(int nx, int ny, int nz, double d = 0.01, MaterialDef mat = test_material()) {
   SceneDef s;
@@ -47,6 +59,19 @@ inline void layer_box(int n, int layer, int axis, double d, Vec3d& lo, Vec3d& hi
   const double c = (layer - 0.5 * (n - 1)) * d;
   lo[axis] = c - 0.25 * d;
   hi[axis] = c + 0.25 * d;
+}
+
+// Uniformly random velocities in [-v_scale, v_scale] and angular velocities in [-w_scale, w_scale] on
+// every automaton (a fixed seed: the same numbers every run).
+inline void randomise_velocities(Engine& sim, double v_scale, double w_scale, unsigned seed) {
+  State s = sim.state();
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (std::size_t a = 0; a < s.v.size(); ++a) {
+    s.v[a] = Vec3{u(rng), u(rng), u(rng)} * static_cast<float>(v_scale);
+    s.w[a] = Vec3{u(rng), u(rng), u(rng)} * static_cast<float>(w_scale);
+  }
+  sim.backend().upload(std::move(s));
 }
 
 }  // namespace mca::test

@@ -137,14 +137,7 @@ TEST_P(FullSpectrumEnergy, BlockWithRandomVelocities) {
   SceneDef s = block_scene(8, 8, 8, 0.01, test_material(30e9, nu));
   s.solver.safety = safety;
   Engine sim(s);
-  State st = sim.state();
-  std::mt19937 rng(11);
-  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  for (std::size_t a = 0; a < st.v.size(); ++a) {
-    st.v[a] = Vec3{u(rng), u(rng), u(rng)} * 0.1f;
-    st.w[a] = Vec3{u(rng), u(rng), u(rng)} * 10.0f;
-  }
-  sim.backend().upload(st);
+  test::randomise_velocities(sim, 0.1, 10.0, 11);
   const double e0 = sim.energies().total();
   double worst = 0;
   for (int k = 0; k < 100; ++k) {
@@ -169,12 +162,7 @@ INSTANTIATE_TEST_SUITE_P(PoissonAndStep, FullSpectrumEnergy,
 // The strengthening law (paper eq. 7) is part of the energy: a block released from an expansion with an
 // exponential law conserves kinetic + elastic like the linear one.
 TEST(Energy, StrengtheningKeepsTheEnergy) {
-  MaterialDef mat = test_material();
-  mat.strengthening = StrengtheningLaw::exponential;
-  mat.strengthening_alpha = 3000;
-  mat.fracture_strain = 1e-3;
-  mat.tensile_strength = 30e6;
-  mat.compressive_strength = 30e6;
+  const MaterialDef mat = test::strengthening_material();
   SceneDef s = block_scene(6, 6, 6, 0.01, mat);
   Engine sim(s);
   State st = sim.state();
@@ -303,14 +291,7 @@ TEST(Stability, AnUndampedBlockAtTheLimitIsStable) {
     SceneDef s = block_scene(6, 6, 6, 0.01, test_material(30e9, nu));
     s.solver.safety = 1.0;
     Engine sim(s);
-    State st = sim.state();
-    std::mt19937 rng(5);
-    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-    for (std::size_t a = 0; a < st.v.size(); ++a) {
-      st.v[a] = Vec3{u(rng), u(rng), u(rng)} * 0.1f;
-      st.w[a] = Vec3{u(rng), u(rng), u(rng)} * 10.0f;
-    }
-    sim.backend().upload(st);
+    test::randomise_velocities(sim, 0.1, 10.0, 5);
     const double e0 = sim.energies().total();
     sim.advance(5000);
     const double e1 = sim.energies().total();
@@ -334,12 +315,7 @@ TEST(Stability, ATimeStepAboveTheCriticalOneIsRefused) {
   }
   // Strengthening shortens the step with the square root of its largest factor (here e^3 = 20; the
   // contact dashpots, which it does not stiffen, keep the ratio below sqrt(20)).
-  MaterialDef mat = test_material();
-  mat.strengthening = StrengtheningLaw::exponential;
-  mat.strengthening_alpha = 3000;
-  mat.fracture_strain = 1e-3;
-  mat.tensile_strength = 30e6;
-  mat.compressive_strength = 30e6;
+  const MaterialDef mat = test::strengthening_material();
   const Model hard = lattice::build_model(block_scene(4, 4, 4, 0.01, mat));
   EXPECT_LT(hard.critical_dt, m.critical_dt / std::sqrt(10.0));
 }

@@ -40,17 +40,6 @@ Momenta momenta(const Model& m, const State& s) {
   return r;
 }
 
-void randomise_velocities(Engine& sim, double v_scale, double w_scale, unsigned seed) {
-  State s = sim.state();
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  for (std::size_t a = 0; a < s.v.size(); ++a) {
-    s.v[a] = Vec3{u(rng), u(rng), u(rng)} * static_cast<float>(v_scale);
-    s.w[a] = Vec3{u(rng), u(rng), u(rng)} * static_cast<float>(w_scale);
-  }
-  sim.backend().upload(s);
-}
-
 TEST(Physics, MomentumIsConservedWhileTheBlockBreaks) {
   // Real concrete strengths: links break and broken pairs collide, all through pair forces.
   MaterialDef mat = test_material();
@@ -58,7 +47,7 @@ TEST(Physics, MomentumIsConservedWhileTheBlockBreaks) {
   mat.compressive_strength = 30e6;
   mat.fracture_strain = 1.5e-4;
   Engine sim(block_scene(6, 6, 6, 0.01, mat));
-  randomise_velocities(sim, 2.0, 200.0, 7);
+  test::randomise_velocities(sim, 2.0, 200.0, 7);
   const Momenta before = momenta(sim.model(), sim.state());
   sim.advance(1000);
   const Momenta after = momenta(sim.model(), sim.state());
@@ -156,13 +145,7 @@ TEST(Physics, StrengtheningLawStiffensABarAsEquation7Says) {
   // A bar under end loads, relaxed: the secant modulus at strain e is E0 exp(alpha e) (paper eq. 7).
   const int n = 10;
   const double d = 0.01, E = 30e9, alpha = 3000, sigma = 4e6;
-  MaterialDef mat = test_material(E, 0.2);
-  mat.strengthening = StrengtheningLaw::exponential;
-  mat.strengthening_alpha = alpha;
-  // The law is capped at the largest strain a link reaches (here 1e-3, a factor of e^3 = 20).
-  mat.fracture_strain = 1e-3;
-  mat.tensile_strength = 30e6;
-  mat.compressive_strength = 30e6;
+  const MaterialDef mat = test::strengthening_material();  // E 30e9, alpha 3000, capped at a strain of 1e-3
   SceneDef sc = block_scene(n, 1, 1, d, mat);
   sc.solver.local_damping = 0.2;
   pull_x_faces(sc, n, d, sigma);

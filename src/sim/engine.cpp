@@ -5,6 +5,7 @@
 
 #include "lattice/lattice.hpp"
 #include "mca/error.hpp"
+#include "sim/fnv.hpp"
 #include "sim/state_check.hpp"
 
 namespace mca {
@@ -88,21 +89,7 @@ StepHealth Engine::advance(int steps) {
 }
 
 namespace {
-struct Fnv {
-  std::uint64_t h = 1469598103934665603ull;
-  void bytes(const void* p, std::size_t n) {
-    const auto* c = static_cast<const unsigned char*>(p);
-    for (std::size_t k = 0; k < n; ++k) {
-      h ^= c[k];
-      h *= 1099511628211ull;
-    }
-  }
-  template <class T>
-  void pod(const T& v) {
-    static_assert(std::has_unique_object_representations_v<T> || std::is_floating_point_v<T>,
-                  "hash structs with padding field by field");
-    bytes(&v, sizeof v);
-  }
+struct Fnv : Fnv1a {
   template <class T>
   void vec(const std::vector<T>& v) {
     pod(v.size());

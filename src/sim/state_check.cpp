@@ -6,21 +6,14 @@
 #include <vector>
 
 #include "mca/error.hpp"
+#include "sim/fnv.hpp"
 
 namespace mca {
 
 namespace {
 
-// FNV-1a, fed value by value: hashing the bytes of whole structs would hash their padding too.
-struct Fnv {
-  std::uint64_t h = 1469598103934665603ull;
-  void bytes(const void* p, std::size_t n) {
-    const auto* c = static_cast<const unsigned char*>(p);
-    for (std::size_t k = 0; k < n; ++k) {
-      h ^= c[k];
-      h *= 1099511628211ull;
-    }
-  }
+// The model's numbers, value by value (sim/fnv.hpp).
+struct Fnv : Fnv1a {
   template <class T>
     requires std::is_arithmetic_v<T>
   void add(T v) {
