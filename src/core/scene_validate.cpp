@@ -139,11 +139,13 @@ void check_material(const Checker& c, const MaterialDef& m, std::size_t i) {
     const bool ok = std::isfinite(v) && (lc ? v >= lo : v > lo) && (hc ? v <= hi : v < hi);
     if (!ok) c.fail(fmt::format("{}.{} = {} {} is out of range: must be {}; {}", p, k, num(v), q, text, fix));
   };
-  range("youngs_modulus", m.youngs_modulus, 0, false, INFINITY, false, "> 0 [Pa]",
+  // Physical ranges: from soft rubber to diamond, from aerogel to osmium. Beyond them the numbers are
+  // a unit mistake, and their products (masses, stiffnesses, time steps) leave what float32 holds.
+  range("youngs_modulus", m.youngs_modulus, 1e3, true, 1e13, true, "in [1e3, 1e13] [Pa]",
         "use e.g. 30e9 for concrete, 200e9 for steel (the unit is Pa, not GPa)");
   range("poisson_ratio", m.poisson_ratio, -1, false, 0.5, false, "in (-1, 0.5) (0.5 is incompressible)",
         "use e.g. 0.2 for concrete");
-  range("density", m.density, 0, false, INFINITY, false, "> 0 [kg/m^3]", "use e.g. 2400 for concrete");
+  range("density", m.density, 0.1, true, 1e5, true, "in [0.1, 1e5] [kg/m^3]", "use e.g. 2400 for concrete");
   range("tensile_strength", m.tensile_strength, 0, false, INFINITY, false, "> 0 [Pa]",
         "use e.g. 3e6 for concrete (the unit is Pa, not MPa)");
   if (!std::isfinite(m.compressive_strength) || m.compressive_strength < m.tensile_strength) {
@@ -256,7 +258,9 @@ void validate_scene(const SceneDef& scene) {
   c.range("solver.safety", scene.solver.safety, 0, false, 1, true,
           "in (0, 1] (the share of the critical time step; 1 is the stability limit of the linear lattice)",
           "use 0.5 (the default)");
-  c.non_negative("solver.time_step", scene.solver.time_step, "use 0 for the automatic stable step");
+  if (scene.solver.time_step != 0)
+    c.range("solver.time_step", scene.solver.time_step, 1e-12, true, 1, true, "0 (automatic) or in [1e-12, 1] [s]",
+            "use 0 for the automatic step");
   c.finite("solver.gravity", scene.solver.gravity);
   c.range("solver.link_damping", scene.solver.link_damping, 0, true, 1, true, "in [0, 1] (share of critical)",
           "use 0 for none, or a few per cent (0.02)");
@@ -359,7 +363,9 @@ void validate_scene(const SceneDef& scene) {
     const std::string p = fmt::format("projectile[{}]", i);
     c.positive(p + ".radius", b.radius, "give the ball radius in metres, e.g. 0.12");
     resolve_material(scene, b.material, p + ".material");
-    c.non_negative(p + ".density", b.density, "use 0 to take the material's density");
+    if (b.density != 0)
+      c.range(p + ".density", b.density, 0.1, true, 1e5, true, "0 (the material's) or in [0.1, 1e5] [kg/m^3]",
+              "use 0 to take the material's density, or e.g. 7850 for steel");
     c.finite(p + ".position", b.position);
     c.finite(p + ".velocity", b.velocity);
     c.finite(p + ".angular_velocity", b.angular_velocity);

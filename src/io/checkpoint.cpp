@@ -10,6 +10,7 @@
 #include <utility>
 #include <type_traits>
 
+#include "core/fnv.hpp"
 #include "io/output_files.hpp"
 #include "io/scene_io.hpp"
 #include "mca/error.hpp"
@@ -17,10 +18,11 @@
 namespace mca::io {
 namespace {
 
-// Format 2: magic, scene TOML, model fingerprint, frame, total steps, wall seconds, the state (fields(State)
-// below), magic again as an end marker. Numbers are in the writing machine's byte order: a checkpoint is
-// for resuming a run where it was written. Format 1 wrote structs with their padding bytes.
-constexpr char kMagic[8] = {'M', 'C', 'A', 'C', 'K', 'P', 'T', '2'};
+// Format 3: magic, scene TOML, model fingerprint, frame, total steps, wall seconds, the state (fields(State)
+// below), an FNV-1a checksum of all the bytes before it, magic again as an end marker. Numbers are in the
+// writing machine's byte order: a checkpoint is for resuming a run where it was written. Format 2 had no
+// checksum (a flipped byte in the state was resumed from), format 1 wrote structs with their padding.
+constexpr char kMagic[8] = {'M', 'C', 'A', 'C', 'K', 'P', 'T', '3'};
 constexpr char kMagicPrefix[7] = {'M', 'C', 'A', 'C', 'K', 'P', 'T'};
 
 template <class T, class U>
@@ -104,9 +106,13 @@ const Layout& layout() {
 
 struct Writer {
   std::ostream& os;
+  Fnv1a checksum;  // of every byte written
   template <class... Ts>
   void operator()(const Ts&... vs) { (item(vs), ...); }
-  void raw(const void* p, std::size_t n) { os.write(static_cast<const char*>(p), static_cast<std::streamsize>(n)); }
+  void raw(const void* p, std::size_t n) {
+    checksum.bytes(p, n);
+    os.write(static_cast<const char*>(p), static_cast<std::streamsize>(n));
+  }
   template <scalar T>
   void item(const T& v) { raw(&v, sizeof v); }
   void item(const bool& b) { item(static_cast<std::uint8_t>(b ? 1 : 0)); }
@@ -217,11 +223,13 @@ std::vector<std::filesystem::path> list_checkpoints(const std::filesystem::path&
 
 void write_checkpoint(const std::filesystem::path& path, const Checkpoint& cp) {
   write_file_atomic(path, [&](std::ostream& os) {
-    Writer w{os};
+    Writer w{os, {}};
     w.raw(kMagic, sizeof kMagic);
     w(cp.scene_toml.empty() ? scene_to_toml(cp.scene) : cp.scene_toml);
     w(cp.model_fingerprint, cp.frame, cp.total_steps, cp.wall_seconds);
     w(cp.state);
+    const std::uint64_t sum = w.checksum.h;  // a copy: writing it feeds the checksum
+    w(sum);
     w.raw(kMagic, sizeof kMagic);  // end marker: a file cut short fails to load
   }, true, Durability::synced);  // a resume depends on it: on the disk before the older ones are removed
 }
@@ -243,11 +251,22 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
                             path.string(), data[7], kMagic[7]));
   }
   Reader r{data, path};
+  // The checksum first: a damaged byte anywhere is reported as damage, before anything is parsed.
+  constexpr std::size_t kTail = sizeof(std::uint64_t) + sizeof kMagic;
+  if (data.size() < sizeof kMagic + kTail) r.damaged("truncated");
+  Fnv1a sum;
+  sum.bytes(data.data(), data.size() - kTail);
+  std::uint64_t stored = 0;
+  std::memcpy(&stored, data.data() + data.size() - kTail, sizeof stored);
+  if (stored != sum.h || std::memcmp(data.data() + data.size() - sizeof kMagic, kMagic, sizeof kMagic) != 0)
+    r.damaged("its checksum does not match its contents");
   r.at = sizeof kMagic;
   Checkpoint cp;
   r(cp.scene_toml);
   r(cp.model_fingerprint, cp.frame, cp.total_steps, cp.wall_seconds);
   r(cp.state);
+  std::uint64_t checksum = 0;
+  r(checksum);
   r.need(sizeof kMagic);
   if (std::memcmp(data.data() + r.at, kMagic, sizeof kMagic) != 0) r.damaged("no end marker");
   if (r.at + sizeof kMagic != data.size())

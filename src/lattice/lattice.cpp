@@ -164,8 +164,9 @@ float as_float32(const SceneDef& scene, const std::string& what, double v, const
 // velocity updates (relative 6e-8) is a visible share of the threshold.
 constexpr double kMinBreakingStrain = 1e-6;
 
+// `automata`: the material fills objects (projectiles are rigid and never break: no breaking-strain check).
 GroupParams group_params(const SceneDef& scene, const MaterialDef& m, const std::string& key,
-                         std::pair<double, double> class_factors) {
+                         std::pair<double, double> class_factors, bool automata) {
   const std::string q = fmt::format("{} (material \"{}\")", key, m.name);
   const std::string units = "check the units (Pa, kg/m^3)";
   as_float32(scene, q + ".youngs_modulus", m.youngs_modulus, units);
@@ -174,7 +175,7 @@ GroupParams group_params(const SceneDef& scene, const MaterialDef& m, const std:
   as_float32(scene, q + ".compressive_strength", m.compressive_strength, units);
   as_float32(scene, q + ".fracture_strain", m.fracture_strain, "use e.g. 1.5e-4 for concrete");
   const double breaking = class_factors.first * std::min(m.fracture_strain, m.tensile_strength / m.youngs_modulus);
-  if (breaking < kMinBreakingStrain) {
+  if (automata && breaking < kMinBreakingStrain) {
     throw Error(fmt::format(
         "{}: {} breaks at a strain of {:.3g} (the smaller of fracture_strain = {:g} and tensile_strength / "
         "youngs_modulus = {:g} / {:g}, times the weakest class factor {:g}), below the {:g} that the float32 "
@@ -348,6 +349,43 @@ void refuse_overlaps(const SceneDef& scene, const Model& M) {
   }
 }
 
+// Nothing may start inside the ground: an automaton pressed into it by delta starts with the energy
+// k delta^2 / 2 of its contact (a box 5 mm into the ground, its lattice a row taller than its size, broke
+// into 180 pieces at t = 0). A tolerance of 1e-6 d covers the rounding of the spacing to float.
+void refuse_bodies_in_the_ground(const SceneDef& scene, const Model& M) {
+  const double d = M.spacing;
+  double deepest = 0;
+  std::size_t at = 0;
+  for (std::size_t a = 0; a < M.size(); ++a) {
+    const double overlap = ground_overlap(M.position0[a], M.up, M.ground_height, M.radius[a]);
+    if (overlap > deepest) {
+      deepest = overlap;
+      at = a;
+    }
+  }
+  if (deepest > 1e-6 * d) {
+    const ObjectDef& o = scene.objects[static_cast<std::size_t>(M.object[at])];
+    std::int64_t n[3];
+    double origin[3];
+    lattice_frame(o, d, n, origin);
+    throw Error(fmt::format(
+        "{}: object '{}' starts {:.4g} m inside the ground (its automaton at [{:.6g}, {:.6g}, {:.6g}], radius {:g} m, "
+        "below ground.height = {:g} along the up axis); move the object up by at least {:.4g} m. Its lattice is "
+        "{} x {} x {} cells of {:g} m ({:g} x {:g} x {:g} m): a size is rounded to whole cells",
+        scene.source, o.name, deepest, M.position0[at].x, M.position0[at].y, M.position0[at].z, M.radius[at],
+        M.ground_height, deepest, n[0], n[1], n[2], d, n[0] * d, n[1] * d, n[2] * d));
+  }
+  for (std::size_t p = 0; p < M.projectiles.size(); ++p) {
+    const ProjectileParams& P = M.projectiles[p];
+    const double overlap = ground_overlap(P.position, M.up, M.ground_height, P.radius);
+    if (overlap > 1e-6 * P.radius) {
+      throw Error(fmt::format("{}: projectile[{}] '{}' starts {:.4g} m inside the ground; move it up by at least "
+                              "that much",
+                              scene.source, p, P.name, overlap));
+    }
+  }
+}
+
 }  // namespace
 
 void set_time_step(Model& M, float dt) {
@@ -461,17 +499,21 @@ Model build_model(const SceneDef& scene) {
 
   const auto class_factors = class_factor_range(scene);
   std::map<std::string, int> group_index;
-  auto group_of = [&](const std::string& name, const std::string& key) {
+  // Objects come first: a material that a projectile brings in afterwards fills no automaton.
+  auto group_of = [&](const std::string& name, const std::string& key, bool automata) {
     auto it = group_index.find(name);
     if (it != group_index.end()) return it->second;
     if (group_index.size() >= 255) throw Error(fmt::format("{}: more than 255 materials in one scene", scene.source));
     const MaterialDef& m = resolve_material(scene, name, key);
     const int idx = static_cast<int>(M.groups.size());
-    M.groups.push_back(group_params(scene, m, key, class_factors));
+    M.groups.push_back(group_params(scene, m, key, class_factors, automata));
     const double mass = m.density * d * d * d;
     const std::string fix = fmt::format("check the density (kg/m^3) and solver.spacing ({:g} m)", d);
-    as_float32(scene, fmt::format("the mass of an automaton of material \"{}\"", name), mass, fix);
-    as_float32(scene, fmt::format("the moment of inertia of an automaton of material \"{}\"", name), mass * d * d / 6, fix);
+    if (automata) {
+      as_float32(scene, fmt::format("the mass of an automaton of material \"{}\"", name), mass, fix);
+      as_float32(scene, fmt::format("the moment of inertia of an automaton of material \"{}\"", name), mass * d * d / 6,
+                 fix);
+    }
     M.group_names.push_back(name);
     group_index.emplace(name, idx);
     return idx;
@@ -482,10 +524,10 @@ Model build_model(const SceneDef& scene) {
     const ObjectDef& o = scene.objects[oi];
     const std::string okey = fmt::format("object[{}]", oi);
     M.object_names.push_back(o.name);
-    const int base_group = group_of(o.material, okey + ".material");
+    const int base_group = group_of(o.material, okey + ".material", true);
     std::vector<int> region_groups;
     for (std::size_t r = 0; r < o.regions.size(); ++r)
-      region_groups.push_back(group_of(o.regions[r].material, fmt::format("{}.region[{}].material", okey, r)));
+      region_groups.push_back(group_of(o.regions[r].material, fmt::format("{}.region[{}].material", okey, r), true));
 
     const ObjectLattice L = object_lattice(o, d);
     const Mat3 R = rotation_matrix(o.rotation);
@@ -611,7 +653,7 @@ Model build_model(const SceneDef& scene) {
     const std::string key = fmt::format("projectile[{}]", p);
     ProjectileParams pp;
     pp.name = pd.name;
-    pp.group = group_of(pd.material, key + ".material");
+    pp.group = group_of(pd.material, key + ".material", false);
     const double rho = pd.density > 0 ? pd.density : M.groups[pp.group].density;
     pp.radius = static_cast<float>(pd.radius);
     const double mass = rho * 4.0 / 3.0 * std::numbers::pi * pd.radius * pd.radius * pd.radius;
@@ -640,11 +682,25 @@ Model build_model(const SceneDef& scene) {
     M.projectiles.push_back(pp);
   }
 
+  // Projectiles may touch each other but not overlap (they would start pressed into each other).
+  for (std::size_t p = 0; p < M.projectiles.size(); ++p)
+    for (std::size_t q = 0; q < p; ++q) {
+      const ProjectileParams &A = M.projectiles[q], &B = M.projectiles[p];
+      const DVec3 dd = ddelta(A.position, B.position);
+      const double reach = static_cast<double>(A.radius) + B.radius, dist = std::sqrt(dot(dd, dd));
+      if (dist < reach * (1 - 1e-6)) {
+        throw Error(fmt::format("{}: projectile[{}] '{}' overlaps projectile[{}] '{}' by {:.3g} m (centres {:.4g} m "
+                                "apart, radii {:g} and {:g} m); move them apart",
+                                scene.source, p, B.name, q, A.name, reach - dist, dist, A.radius, B.radius));
+      }
+    }
+
   M.gravity = to_vec3(scene.solver.gravity);
   const float gl = length(M.gravity);
   M.up = gl > 0 ? M.gravity * (-1.0f / gl) : Vec3{0, 0, 1};
   M.ground = scene.ground.enabled;
   M.ground_height = static_cast<float>(scene.ground.height);
+  if (M.ground) refuse_bodies_in_the_ground(scene, M);
   // Contact materials of every pair of groups and of every group with the ground (contact_law.hpp): the
   // moduli in series, the pair's mean friction, rolling and twisting coefficients and restitution; the
   // ground brings its own coefficients and is rigid.

@@ -3,9 +3,9 @@
 #include <cmath>
 #include <fmt/format.h>
 
+#include "core/fnv.hpp"
 #include "lattice/lattice.hpp"
 #include "mca/error.hpp"
-#include "sim/fnv.hpp"
 #include "sim/state_check.hpp"
 
 namespace mca {
@@ -22,9 +22,10 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
   }
   const double steps = std::max(1.0, std::ceil(frame / stable - 1e-9));
   if (steps > 1e9) {
-    throw Error(fmt::format("{}: output.frame_rate = {:g} asks for {:.3g} steps of {:.3g} s per frame; raise "
-                            "output.frame_rate (frames per simulated second) so a frame is at most 1e9 steps",
-                            scene.source, scene.output.frame_rate, steps, stable));
+    throw Error(fmt::format("{}: a frame of {:.3g} s (output.frame_rate = {:g}) would take {:.3g} steps of {:.3g} s: "
+                            "the critical time step is {:.3g} s, set by {}. Check the scene's numbers (densities, "
+                            "moduli, sizes and their units), or raise output.frame_rate so a frame is at most 1e9 steps",
+                            scene.source, frame, scene.output.frame_rate, steps, stable, m.critical_dt, m.dt_limited_by));
   }
   steps_per_frame = static_cast<int>(steps);
   // The automatic step is shortened so that a whole number of steps fills each frame.
@@ -35,13 +36,55 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
                             "can take; give a shorter output.duration (or --duration)",
                             scene.source, scene.output.duration, total, m.dt, static_cast<double>(Engine::kMaxSteps)));
   }
-  total_steps = std::max<std::int64_t>(1, static_cast<std::int64_t>(total));
+  if (total < 1) {
+    throw Error(fmt::format("{}: output.duration = {:g} s is shorter than half a time step ({:.3g} s); give a duration "
+                            "of at least one step",
+                            scene.source, scene.output.duration, m.dt));
+  }
+  total_steps = static_cast<std::int64_t>(total);
+  // A body that crosses a large part of an automaton in one step skips contacts: the initial speeds must
+  // stay below a tenth of the spacing per step (30 m/s at the default step is 1e-3 of it).
+  double fastest = 0;
+  std::string which;
+  for (const auto& o : scene.objects) {
+    const double v = std::sqrt(o.velocity[0] * o.velocity[0] + o.velocity[1] * o.velocity[1] + o.velocity[2] * o.velocity[2]);
+    if (v > fastest) { fastest = v; which = fmt::format("object '{}'", o.name); }
+  }
+  for (const auto& p : scene.projectiles) {
+    const double v = std::sqrt(p.velocity[0] * p.velocity[0] + p.velocity[1] * p.velocity[1] + p.velocity[2] * p.velocity[2]);
+    if (v > fastest) { fastest = v; which = fmt::format("projectile '{}'", p.name); }
+  }
+  if (fastest * m.dt > 0.1 * m.spacing) {
+    throw Error(fmt::format("{}: {} starts at {:.4g} m/s, which crosses {:.3g} m per time step of {:.3g} s, more than a "
+                            "tenth of the spacing ({:g} m): contacts would be skipped. Lower its speed below {:.4g} m/s, "
+                            "or lower solver.safety or solver.time_step",
+                            scene.source, which, fastest, fastest * m.dt, m.dt, m.spacing, 0.1 * m.spacing / m.dt));
+  }
   return m;
 }
 }  // namespace
 
+// The energy that breaks one link of the weakest material in use: E eps_b^2 V / 2 with eps_b the smaller
+// of its breaking strains, times the weakest class factor, and at most that of a strain of 1e-4 (materials
+// that do not break still get a floor).
+double breaking_energy(const Model& m) {
+  double least = INFINITY;
+  float k_min = INFINITY;
+  for (float k : m.class_factor) k_min = std::min(k_min, k);
+  std::vector<char> used(m.groups.size(), 0);
+  for (auto g : m.group) used[g] = 1;
+  for (std::size_t g = 0; g < m.groups.size(); ++g) {
+    if (!used[g]) continue;
+    const GroupParams& p = m.groups[g];
+    const double eps = std::min(1e-4, static_cast<double>(k_min * std::min(p.fracture_strain, p.tensile_strength / p.youngs)));
+    least = std::min(least, 0.5 * p.youngs * eps * eps * static_cast<double>(m.spacing) * m.spacing * m.spacing);
+  }
+  return std::isfinite(least) ? least : 0.0;
+}
+
 Engine::Engine(const SceneDef& scene) : scene_(scene) {
   model_ = build_for_frames(scene_, steps_per_frame_, total_steps_);
+  energy_floor_ = breaking_energy(model_);
   backend_ = make_cpu_backend(model_);
   backend_->upload(initial_state(model_));
   // A run's energy budget starts from its first state (contact springs included, so after the upload
@@ -65,6 +108,7 @@ Engine::Engine(const SceneDef& scene, const State& state, const std::string& sou
                               source, rebuilt, *fingerprint));
   }
   check_state(model_, state, source);
+  energy_floor_ = breaking_energy(model_);
   backend_ = make_cpu_backend(model_);
   backend_->upload(state);
   last_check_ = state.step;
@@ -76,13 +120,20 @@ StepHealth Engine::advance(int steps) {
   if (h.flags == kHealthy && s.step - last_check_ >= kEnergyCheckInterval) {
     last_check_ = s.step;
     const Energies e = energies();
-    const double budget = s.initial_energy + e.external_work();
-    // 10x the budget (physics.md sec. 7), with a floor for runs that start at rest with nothing put in.
-    if (e.total() > 10.0 * std::max(budget, 0.0) && e.total() > 1e-9) {
+    // What the bodies hold beyond the start and the work put in (gravity, grips, loads, kinematic
+    // projectiles), against 9x the energy the run has dealt in (physics.md sec. 7: 10x what was put in):
+    // the start's energy plus every work in magnitude (a body bouncing higher than it fell, from the
+    // discrete contact, turns gravity's work negative), and at least the energy that breaks one link of
+    // the weakest material (heating below it, such as float rounding in an undamped body far from the
+    // origin, can harm nothing).
+    const double excess = e.total() - e.external_work() - s.initial_energy;
+    const double dealt = std::fabs(s.initial_energy) + std::fabs(e.gravity_work) + std::fabs(e.grip_work) +
+                         std::fabs(e.load_work) + std::fabs(e.projectile_work);
+    if (excess > 9.0 * std::max(dealt, energy_floor_)) {
       h.flags |= kEnergyGrowth;
       h.step = s.step;
       h.energy = e.total();
-      h.budget = budget;
+      h.budget = s.initial_energy + e.external_work();
     }
   }
   return h;

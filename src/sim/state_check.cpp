@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "mca/error.hpp"
-#include "sim/fnv.hpp"
+#include "core/fnv.hpp"
 
 namespace mca {
 
