@@ -86,7 +86,7 @@ int bench(const std::vector<std::string>& names, bool json, int threads_requeste
   }
   if (repeats < 1) throw Error(fmt::format("--repeats {} must be at least 1", repeats));
   if (steps < 1) throw Error(fmt::format("--steps {} must be at least 1", steps));
-  const int threads = threads_requested > 0 ? threads_requested : tbb::info::default_concurrency();
+  const int threads = thread_count(threads_requested);
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   nlohmann::json out = nlohmann::json::array();
   if (!json)

@@ -20,6 +20,8 @@ struct RunOptions {
 };
 
 int run(const RunOptions& options);
+// Worker threads for --threads N: all cores for 0, at most the cores there are; negative is an error.
+int thread_count(int requested);
 int resume(const std::string& out_dir, int threads, bool quiet);
 int info(const std::optional<std::string>& scene, bool json);
 int bench(const std::vector<std::string>& names, bool json, int threads, int repeats, int steps);

@@ -55,8 +55,12 @@ int info(const std::optional<std::string>& path, bool json) {
   for (std::size_t o = 0; o < m.object_names.size(); ++o) fmt::print("  object {:<9} {}\n", m.object_names[o], count[o]);
   fmt::print("links            {}\n", m.link_count());
   fmt::print("spacing          {:.4g} m\n", m.spacing);
-  fmt::print("time step        {:.4g} s (C = {:g} of the critical {:.4g} s, set by {})\n", m.dt, scene.solver.safety,
-             m.critical_dt, m.dt_limited_by);
+  // The step as used: safety x critical, shortened to fill frames with whole steps, or given by hand.
+  fmt::print("time step        {:.4g} s ({:.3g} of the critical {:.4g} s, set by {}; {})\n", m.dt,
+             m.dt / m.critical_dt, m.critical_dt, m.dt_limited_by,
+             scene.solver.time_step > 0 ? std::string("given by solver.time_step")
+                                        : fmt::format("solver.safety = {:g}, fitted to whole steps per frame",
+                                                      scene.solver.safety));
   // With solver.time_step given, a frame is a whole number of steps and may differ from 1 / frame_rate.
   fmt::print("steps per frame  {} ({} frames, one every {:.6g} s; {} steps: {:.6g} s simulated for output.duration = "
              "{:g} s)\n",

@@ -1,5 +1,6 @@
 // The `mca` command: run, resume, info, bench.
 #include <CLI/CLI.hpp>
+#include <charconv>
 #include <cstdio>
 #include <fmt/format.h>
 
@@ -15,7 +16,7 @@ int main(int argc, char** argv) {
   std::string scene_path, out_dir;
   double duration = 0;
   std::int64_t steps = 0;
-  std::uint64_t seed = 0;
+  std::string seed_text;
   int checkpoint_every = 0;
   auto* run = app.add_subcommand("run", "Run a scene (the built-in wall_ball scene if none is given)");
   run->add_option("scene", scene_path, "Scene file (TOML, see docs/scene-format.md)");
@@ -24,7 +25,7 @@ int main(int argc, char** argv) {
   auto* dur_opt = run->add_option("--duration", duration, "Simulated time [s] (overrides output.duration)");
   auto* steps_opt = run->add_option("--steps", steps, "Run exactly this many steps");
   dur_opt->excludes(steps_opt);
-  auto* seed_opt = run->add_option("--seed", seed, "Seed of the strength classes (overrides solver.seed)");
+  auto* seed_opt = run->add_option("--seed", seed_text, "Seed of the strength classes (overrides solver.seed), 0 .. 2^64-1");
   auto* ck_opt = run->add_option("--checkpoint-every", checkpoint_every, "Write a checkpoint every N frames");
   bool no_vtk = false;
   run->add_flag("--no-vtk", no_vtk, "Do not write per-frame VTK files (stats and summary only)");
@@ -54,14 +55,28 @@ int main(int argc, char** argv) {
   bench->add_option("--repeats", bench_repeats, "Timed runs per benchmark (the median is reported)");
   bench->add_option("--steps", bench_steps, "Steps per timed run");
 
-  CLI11_PARSE(app, argc, argv);
+  // A command line that does not parse is a user error like any other: exit code 2 (CLI11's own codes
+  // are 100 and up), 0 for --help and --version.
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;
+  }
   try {
     if (run->parsed()) {
       if (!scene_path.empty()) ro.scene = scene_path;
       if (out_opt->count()) ro.out = out_dir;  // given but empty is an error, not the default
       if (dur_opt->count()) ro.duration = duration;
       if (steps_opt->count()) ro.steps = steps;
-      if (seed_opt->count()) ro.seed = seed;
+      if (seed_opt->count()) {
+        // Digits only and within 64 bits: "1e23" or 2^64 must not become another seed silently.
+        std::uint64_t seed = 0;
+        const char* end = seed_text.data() + seed_text.size();
+        const auto [ptr, ec] = std::from_chars(seed_text.data(), end, seed);
+        if (seed_text.empty() || ec != std::errc() || ptr != end)
+          throw mca::Error(fmt::format("--seed {} is not a whole number from 0 to 18446744073709551615", seed_text));
+        ro.seed = seed;
+      }
       if (ck_opt->count()) ro.checkpoint_every = checkpoint_every;
       if (no_vtk) ro.vtk = false;
       return mca::app::run(ro);

@@ -33,10 +33,6 @@ std::string human_time(double s) {
   return fmt::format("{:.0f}h{:02.0f}m", std::floor(s / 3600), std::fmod(s / 60, 60));
 }
 
-int thread_count(int requested) {
-  if (requested < 0) throw Error(fmt::format("--threads {} is negative; give 0 (all cores) or a count", requested));
-  return requested == 0 ? tbb::info::default_concurrency() : requested;
-}
 
 constexpr std::int64_t kMaxSteps = Engine::kMaxSteps;
 
@@ -220,9 +216,51 @@ int run_loop(Loop& L, FrameWriter& writer) {
   double last_print = -1;
   const int spf = sim.steps_per_frame();
 
+  auto progress = [&](double wall, bool finished) {
+    if (L.quiet || !(finished || (tty ? wall - last_print > 0.2 : wall - last_print > 10.0))) return;
+    last_print = wall;
+    const double done = static_cast<double>(sim.state().step - first_step);
+    const double left = static_cast<double>(L.plan.total_steps - sim.state().step);
+    const double rate = wall > 0 ? done * m.size() / wall : 0;
+    const double eta = done > 0 ? wall * left / done : 0;
+    const double frac = static_cast<double>(sim.state().step) / static_cast<double>(L.plan.total_steps);
+    const int bar = static_cast<int>(frac * 30);
+    fmt::print(stderr, "{}[{}{}] {:3.0f}%  t={:.4g}/{:.4g} s  frame {}/{}  {:.2f} M automaton-steps/s  broken {}  "
+               "ETA {}{}",
+               tty ? "\r" : "", std::string(bar, '#'), std::string(30 - bar, '.'), 100 * frac, sim.state().time,
+               L.plan.total_steps * static_cast<double>(m.dt), L.frame - 1, L.plan.total_frames, rate / 1e6,
+               sim.state().broken_by[0] + sim.state().broken_by[1], human_time(eta), tty ? "   " : "\n");
+  };
+
+  // Steps go to the engine in chunks of about a quarter of a second, so that a long frame (up to 1e9
+  // steps) still shows progress and answers Ctrl-C; how steps are grouped into calls changes no result.
+  std::int64_t chunk = 16;
   while (sim.state().step < L.plan.total_steps) {
-    const int n = static_cast<int>(std::min<std::int64_t>(spf, L.plan.total_steps - sim.state().step));
-    const StepHealth h = sim.advance(n);
+    const std::int64_t frame_end = std::min(L.plan.total_steps, sim.state().step + spf);
+    StepHealth h;
+    while (sim.state().step < frame_end && h.flags == kHealthy) {
+      const auto t0 = std::chrono::steady_clock::now();
+      h = sim.advance(static_cast<int>(std::min(chunk, frame_end - sim.state().step)));
+      const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (took < 0.1 && chunk < (std::int64_t{1} << 30)) chunk *= 2;
+      else if (took > 0.5 && chunk > 1) chunk /= 2;
+      if (g_interrupted && h.flags == kHealthy && sim.state().step < frame_end) {
+        // Checkpoints hold frame boundaries only: stop here, and point to the newest one.
+        const auto saved = io::list_checkpoints(L.dir / "checkpoints");
+        write_summary(L.dir, sim, writer.fragments(sim.state()), L.wall_before + elapsed(),
+                      sim.state().step - first_step, L.threads, "interrupted");
+        fmt::print(stderr,
+                   "{}interrupted inside frame {} (step {} of the run); checkpoints are saved at frame ends only, "
+                   "so {}\n",
+                   tty ? "\n" : "", L.frame, sim.state().step,
+                   saved.empty() ? std::string("none was saved: start the run again (with --checkpoint-every N to "
+                                               "be able to resume)")
+                                 : fmt::format("continue from the newest ({}) with: mca resume {}",
+                                               saved.back().filename().string(), L.dir.string()));
+        return 130;
+      }
+      progress(elapsed(), false);
+    }
     const auto frags = writer.fragments(sim.state());
     FrameStats st = writer.stats(L.frame, sim.state(), frags);
     if (h.flags != kHealthy) {
@@ -233,14 +271,15 @@ int run_loop(Loop& L, FrameWriter& writer) {
                                 : fmt::format("a non-finite position or velocity of projectile '{}'",
                                               m.projectiles[static_cast<std::size_t>(h.projectile)].name);
       else
-        what = fmt::format("kinetic + elastic energy {:.3g} J is over 10x the energy of the start plus the work put "
-                           "in since ({:.3g} J)",
+        what = fmt::format("kinetic + elastic energy is {:.3g} J where the start and the work put in since give "
+                           "{:.3g} J",
                            h.energy, h.budget);
       fmt::print(stderr,
-                 "error: the run became unstable at step {} (t = {:.6g} s): {}. Likely cause: the time step is too "
-                 "large for the stiffest spring (solver.time_step set by hand, or solver.safety near 1; the "
-                 "critical step of this scene is {:.4g} s, set by {}). Fix: lower solver.safety (now {:g}) or "
-                 "remove solver.time_step. The last good frame ({}) is on disk in {}.\n",
+                 "error: the run became unstable at step {} (t = {:.6g} s): {}. Likely causes: a time step set by "
+                 "hand close to the critical one ({:.4g} s here, set by {}), or extreme values (speeds, materials); "
+                 "objects and projectiles that start overlapping or inside the ground are refused before a run. Fix: "
+                 "lower solver.safety (now {:g}) or remove solver.time_step, and check the scene's values. The last "
+                 "good frame ({}) is on disk in {}.\n",
                  h.step >= 0 ? h.step : sim.state().step, sim.state().time, what, m.critical_dt, m.dt_limited_by,
                  sim.scene().solver.safety, L.frame - 1, L.dir.string());
       return 3;
@@ -250,22 +289,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
     ++L.frame;
     const double wall = elapsed();
     if (L.checkpoint_every > 0 && (L.frame - 1) % L.checkpoint_every == 0) save_checkpoint(L, L.wall_before + wall);
-
-    const bool finished = sim.state().step >= L.plan.total_steps;
-    if (!L.quiet && (finished || (tty ? wall - last_print > 0.2 : wall - last_print > 10.0))) {
-      last_print = wall;
-      const double done = static_cast<double>(sim.state().step - first_step);
-      const double left = static_cast<double>(L.plan.total_steps - sim.state().step);
-      const double rate = wall > 0 ? done * m.size() / wall : 0;
-      const double eta = done > 0 ? wall * left / done : 0;
-      const double frac = static_cast<double>(sim.state().step) / static_cast<double>(L.plan.total_steps);
-      const int bar = static_cast<int>(frac * 30);
-      fmt::print(stderr, "{}[{}{}] {:3.0f}%  t={:.4g}/{:.4g} s  frame {}/{}  {:.2f} M automaton-steps/s  broken {}  "
-                 "ETA {}{}",
-                 tty ? "\r" : "", std::string(bar, '#'), std::string(30 - bar, '.'), 100 * frac, sim.state().time,
-                 L.plan.total_steps * static_cast<double>(m.dt), L.frame - 1, L.plan.total_frames, rate / 1e6,
-                 sim.state().broken_by[0] + sim.state().broken_by[1], human_time(eta), tty ? "   " : "\n");
-    }
+    progress(wall, sim.state().step >= L.plan.total_steps);
     if (g_interrupted) {
       save_checkpoint(L, L.wall_before + wall);
       write_summary(L.dir, sim, frags, L.wall_before + wall, sim.state().step - first_step, L.threads,
@@ -292,6 +316,13 @@ int run_loop(Loop& L, FrameWriter& writer) {
 
 }  // namespace
 
+int thread_count(int requested) {
+  if (requested < 0) throw Error(fmt::format("--threads {} is negative; give 0 (all cores) or a count", requested));
+  // More threads than the machine runs at once would not run: the count reported is the one used.
+  const int cores = tbb::info::default_concurrency();
+  return requested == 0 ? cores : std::min(requested, cores);
+}
+
 int run(const RunOptions& o) {
   if (o.out && o.out->empty())
     throw Error("--out is empty; give the output folder, or leave out --out for the default out/<scene name>");
@@ -317,6 +348,14 @@ int run(const RunOptions& o) {
   const std::filesystem::path dir =
       o.out ? std::filesystem::path(*o.out) : std::filesystem::path("out") / io::scene_folder_name(scene.name);
   io::prepare_output_dir(dir);
+  // The run writes the scene as run to <dir>/scene.toml: never over the scene file it reads.
+  if (o.scene) {
+    std::error_code ec;
+    if (std::filesystem::equivalent(*o.scene, dir / "scene.toml", ec))
+      throw Error(fmt::format("--out {} would overwrite the scene file {} with the scene as run; give another output "
+                              "folder, or rename the scene file",
+                              dir.string(), *o.scene));
+  }
 
   if (!o.quiet) fmt::print(stderr, "mca: scene '{}' ({}): building...\n", scene.name, scene.source);
   Engine sim(scene);

@@ -171,6 +171,24 @@ TEST(Contacts, RollingResistanceStopsARollingAutomaton) {
   }
 }
 
+SceneDef ball_scene(double restitution);
+ProjectileDef ball(const std::string& name, Vec3d position, Vec3d velocity, double radius = 0.1);
+
+// A ball is a sphere: its own small rolling resistance (0.01) applies to its contacts, not the 0.3 meant
+// for cube-shaped automata, so a ball sliding onto the ground at 2 m/s rolls on at 5/7 of it.
+TEST(Contacts, ABallRollsOnTheGround) {
+  SceneDef s = ball_scene(0.5);
+  s.solver.gravity = {0, 0, -9.81};
+  s.ground.enabled = true;
+  s.projectiles.push_back(ball("ball", {0, 0, 0.1}, {2, 0, 0}));
+  Engine sim(s);
+  sim.advance(static_cast<int>(1.0 / sim.model().dt));
+  const double v = sim.state().projectiles[0].velocity.x;
+  std::printf("ball rolling on the ground: %.3f m/s after 1 s (rolling without resistance: %.3f m/s)\n", v, 2.0 * 5 / 7);
+  EXPECT_GT(v, 1.3);
+  EXPECT_LT(v, 2.0 * 5 / 7 + 0.01);
+}
+
 SceneDef ball_scene(double restitution) {
   MaterialDef m = contact_material(restitution, 0.0, 0.0);
   SceneDef s = empty_scene(m);
@@ -178,7 +196,7 @@ SceneDef ball_scene(double restitution) {
   return s;
 }
 
-ProjectileDef ball(const std::string& name, Vec3d position, Vec3d velocity, double radius = 0.1) {
+ProjectileDef ball(const std::string& name, Vec3d position, Vec3d velocity, double radius) {
   ProjectileDef p;
   p.name = name;
   p.material = "contactmat";

@@ -126,6 +126,9 @@ void expect_same(const mca::SceneDef& a, const mca::SceneDef& b) {
     EXPECT_EQ(x.fracture_strain, y.fracture_strain);
     EXPECT_EQ(x.friction, y.friction);
     EXPECT_EQ(x.restitution, y.restitution);
+    EXPECT_EQ(x.rolling_friction, y.rolling_friction);
+    EXPECT_EQ(x.twisting_friction, y.twisting_friction);
+    EXPECT_EQ(x.damping_time, y.damping_time);
     EXPECT_EQ(x.strengthening, y.strengthening);
     EXPECT_EQ(x.strengthening_alpha, y.strengthening_alpha);
   }
@@ -164,6 +167,8 @@ void expect_same(const mca::SceneDef& a, const mca::SceneDef& b) {
     EXPECT_EQ(x.velocity, y.velocity);
     EXPECT_EQ(x.angular_velocity, y.angular_velocity);
     EXPECT_EQ(x.kinematic, y.kinematic);
+    EXPECT_EQ(x.rolling_friction, y.rolling_friction);
+    EXPECT_EQ(x.twisting_friction, y.twisting_friction);
   }
   ASSERT_EQ(a.grips.size(), b.grips.size());
   for (std::size_t i = 0; i < a.grips.size(); ++i) {
@@ -183,6 +188,8 @@ void expect_same(const mca::SceneDef& a, const mca::SceneDef& b) {
   EXPECT_EQ(a.ground.height, b.ground.height);
   EXPECT_EQ(a.ground.friction, b.ground.friction);
   EXPECT_EQ(a.ground.restitution, b.ground.restitution);
+  EXPECT_EQ(a.ground.rolling_friction, b.ground.rolling_friction);
+  EXPECT_EQ(a.ground.twisting_friction, b.ground.twisting_friction);
   EXPECT_EQ(a.solver.spacing, b.solver.spacing);
   EXPECT_EQ(a.solver.target_automata, b.solver.target_automata);
   EXPECT_EQ(a.solver.safety, b.solver.safety);
@@ -212,6 +219,9 @@ TEST(SceneIo, RoundTripOfEveryMember) {
   m.fracture_strain = 1.234567890123456789e-7;
   m.strengthening = mca::StrengtheningLaw::quadratic;
   m.strengthening_alpha = 12345.678901234;
+  m.rolling_friction = 0.0;
+  m.twisting_friction = 0.123456789;
+  m.damping_time = 1.0 / 3.0 * 1e-5;
   s.materials.push_back(m);
   m.name = "exp";
   m.strengthening = mca::StrengtheningLaw::exponential;
@@ -266,6 +276,8 @@ TEST(SceneIo, RoundTripOfEveryMember) {
   p.kinematic = true;
   p.density = 1234.5;
   p.material = "odd";
+  p.rolling_friction = 0.25;
+  p.twisting_friction = 1.0 / 3.0;
   s.projectiles.push_back(p);
 
   mca::GripDef g;
@@ -289,6 +301,8 @@ TEST(SceneIo, RoundTripOfEveryMember) {
   s.ground.height = -0.25;
   s.ground.friction = 0.0;
   s.ground.restitution = 1.0;
+  s.ground.rolling_friction = 0.0;
+  s.ground.twisting_friction = 0.7;
   s.solver.spacing = 0.0123;
   s.solver.target_automata = 123456789;
   s.solver.safety = 0.15;

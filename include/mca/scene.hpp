@@ -92,6 +92,10 @@ struct ProjectileDef {
   Vec3d velocity = {0, 0, 0};
   Vec3d angular_velocity = {0, 0, 0};  // [rad/s]
   bool kinematic = false;
+  // Rolling and twisting resistance of all its contacts, in [0, 1]: a ball is a sphere, so the small value
+  // of a hard ball on a hard floor (the materials' 0.3 is that of cube-shaped automata).
+  double rolling_friction = 0.01;
+  double twisting_friction = 0.01;
 };
 
 // A boundary condition: the automata whose initial centres lie in the box move at a fixed velocity

@@ -42,6 +42,7 @@ struct ProjectileParams {
   float radius = 0, mass = 0, inertia = 0;
   int group = 0;             // material of the projectile (index into Model::groups)
   bool kinematic = false;
+  float rolling = 0, twisting = 0;  // its rolling and twisting resistance (ProjectileDef)
   // Damping ratios of its contacts with automata (per group) and the ground (see Model::zeta_pair).
   std::vector<float> zeta_automata;
   float zeta_ground = 0;
@@ -97,6 +98,24 @@ struct Model {
 
   std::size_t size() const { return mass.size(); }
   const ContactMaterial& contact_material(std::size_t a, std::size_t b) const { return contact[a * groups.size() + b]; }
+  // The contacts of projectile p with automata of group g, with the ground, with projectile q: the
+  // materials' pair values, but the projectile's own rolling and twisting resistance (a sphere rolls; the
+  // materials' values are those of cube-shaped automata), the mean of two projectiles'.
+  ContactMaterial projectile_contact(std::size_t p, std::size_t g) const {
+    return rolling_of(contact_material(g, projectiles[p].group), projectiles[p].rolling, projectiles[p].twisting);
+  }
+  ContactMaterial projectile_ground_contact(std::size_t p) const {
+    return rolling_of(ground_contact[projectiles[p].group], projectiles[p].rolling, projectiles[p].twisting);
+  }
+  ContactMaterial projectile_pair_contact(std::size_t p, std::size_t q) const {
+    const ProjectileParams &A = projectiles[p], &B = projectiles[q];
+    return rolling_of(contact_material(A.group, B.group), 0.5f * (A.rolling + B.rolling), 0.5f * (A.twisting + B.twisting));
+  }
+  static ContactMaterial rolling_of(ContactMaterial c, float rolling, float twisting) {
+    c.rolling = rolling;
+    c.twisting = twisting;
+    return c;
+  }
   std::size_t link_count() const { return link_i.size(); }
 };
 

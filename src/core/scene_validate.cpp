@@ -250,6 +250,13 @@ void validate_scene(const SceneDef& scene) {
 
   // Solver.
   c.positive("solver.spacing", scene.solver.spacing, "give the lattice spacing in metres, e.g. 0.05");
+  // 1.8e8 automata is the most a model holds (links are addressed with 29 bits); a larger target would
+  // only make the search for its spacing count lattices of absurd size.
+  if (scene.solver.target_automata > 178'956'970) {
+    c.fail(fmt::format("solver.target_automata = {} is out of range: at most 178956970 (1.8e8) automata fit a model; "
+                       "give a smaller target",
+                       scene.solver.target_automata));
+  }
   if (scene.solver.target_automata < 0) {
     c.fail(fmt::format("solver.target_automata = {} is out of range: must be >= 0; use 0 to take solver.spacing "
                        "as given",
@@ -369,6 +376,10 @@ void validate_scene(const SceneDef& scene) {
     c.finite(p + ".position", b.position);
     c.finite(p + ".velocity", b.velocity);
     c.finite(p + ".angular_velocity", b.angular_velocity);
+    c.range(p + ".rolling_friction", b.rolling_friction, 0, true, 1, true, "in [0, 1]",
+            "use 0.01 (the default) for a hard ball");
+    c.range(p + ".twisting_friction", b.twisting_friction, 0, true, 1, true, "in [0, 1]",
+            "use 0.01 (the default) for a hard ball");
   }
 
   // Grips and loads act on the automata whose initial centres lie in [min, max].

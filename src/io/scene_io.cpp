@@ -450,7 +450,8 @@ ObjectDef read_object(const Table& tb, std::size_t index, const HeterogeneityDef
 }
 
 ProjectileDef read_projectile(const Table& tb, std::size_t index) {
-  tb.allow({"name", "radius", "material", "density", "position", "velocity", "angular_velocity", "kinematic"});
+  tb.allow({"name", "radius", "material", "density", "position", "velocity", "angular_velocity", "kinematic",
+            "rolling_friction", "twisting_friction"});
   ProjectileDef p;
   if (index > 0) p.name = fmt::format("ball{}", index);
   tb.string("name", p.name);
@@ -461,6 +462,8 @@ ProjectileDef read_projectile(const Table& tb, std::size_t index) {
   tb.vec3("velocity", p.velocity);
   tb.vec3("angular_velocity", p.angular_velocity);
   tb.boolean("kinematic", p.kinematic);
+  tb.number("rolling_friction", p.rolling_friction);
+  tb.number("twisting_friction", p.twisting_friction);
   return p;
 }
 
@@ -628,10 +631,18 @@ SceneDef load_scene_file(const std::filesystem::path& path) {
     throw Error(fmt::format("{}: cannot open the scene file ({}); check its permissions", path.string(),
                             std::strerror(errno)));
   }
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  // Read at most 64 MB (a scene of 100,000 objects is about 10 MB): /dev/zero or a wrong file must not
+  // fill the memory.
+  constexpr std::size_t kMaxSceneBytes = 64u << 20;
+  std::string text(kMaxSceneBytes + 1, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
   if (in.bad()) {
     throw Error(fmt::format("{}: reading the scene file failed ({}); check the file and the disk", path.string(),
                             std::strerror(errno)));
+  }
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  if (text.size() > kMaxSceneBytes) {
+    throw Error(fmt::format("{}: is larger than 64 MB, which no scene file is; check the path", path.string()));
   }
   return parse_scene(text, path.string());
 }
@@ -729,6 +740,8 @@ std::string scene_to_toml(const SceneDef& s) {
     out += fmt::format("velocity = {}\n", vec(p.velocity));
     out += fmt::format("angular_velocity = {}\n", vec(p.angular_velocity));
     out += fmt::format("kinematic = {}\n", p.kinematic);
+    out += fmt::format("rolling_friction = {}\n", toml_double(p.rolling_friction));
+    out += fmt::format("twisting_friction = {}\n", toml_double(p.twisting_friction));
   }
 
   for (const GripDef& g : s.grips) {

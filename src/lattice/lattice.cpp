@@ -55,14 +55,19 @@ std::int64_t cells_along(double extent, double d) {
   return std::max<std::int64_t>(1, static_cast<std::int64_t>(std::llround(extent / d)));
 }
 
-// Cells per axis and the centre of cell (0,0,0) in the object frame.
-void lattice_frame(const ObjectDef& o, double d, std::int64_t n[3], double origin[3]) {
-  double ext[3] = {0, 0, 0};
+// The extents of an object's shape along its local axes.
+void shape_extents(const ObjectDef& o, double ext[3]) {
   switch (o.shape) {
     case Shape::box: ext[0] = o.size[0]; ext[1] = o.size[1]; ext[2] = o.size[2]; break;
     case Shape::sphere: ext[0] = ext[1] = ext[2] = 2 * o.radius; break;
     case Shape::cylinder: ext[0] = ext[1] = 2 * o.radius; ext[2] = o.height; break;
   }
+}
+
+// Cells per axis and the centre of cell (0,0,0) in the object frame: a size is rounded to whole cells.
+void lattice_frame(const ObjectDef& o, double d, std::int64_t n[3], double origin[3]) {
+  double ext[3] = {0, 0, 0};
+  shape_extents(o, ext);
   for (int a = 0; a < 3; ++a) {
     n[a] = cells_along(ext[a], d);
     origin[a] = -0.5 * static_cast<double>(n[a] - 1) * d;
@@ -253,18 +258,18 @@ void refuse_over_memory(const SceneDef& scene, double d, double automata, bool a
                        static_cast<double>(estimate_memory_bytes(0, 0));
   if (bytes > scene.solver.max_memory_gb * 1e9) {
     throw Error(fmt::format(
-        "{}: the scene needs about {:.1f} GB for {}{:.4g} automata at spacing {:.4g} m, over solver.max_memory_gb = "
+        "{}: the scene needs {:.3g} GB for {}{:.4g} automata at spacing {:.4g} m, over solver.max_memory_gb = "
         "{:g}; increase solver.spacing (memory falls with its cube) or raise solver.max_memory_gb if the machine has "
         "it",
-        scene.source, bytes / 1e9, approximate ? "about " : "", automata, d, scene.solver.max_memory_gb));
+        scene.source, bytes / 1e9, approximate ? "at least " : "", automata, d, scene.solver.max_memory_gb));
   }
   // A model larger than the machine's memory would swap for hours before failing.
   const double machine = physical_memory_bytes();
   if (machine > 0 && bytes > 0.9 * machine) {
     throw Error(fmt::format(
-        "{}: the scene needs about {:.1f} GB for {}{:.4g} automata at spacing {:.4g} m, more than this machine's "
+        "{}: the scene needs {:.3g} GB for {}{:.4g} automata at spacing {:.4g} m, more than this machine's "
         "{:.1f} GB of memory; increase solver.spacing (memory falls with its cube) or run it on a larger machine",
-        scene.source, bytes / 1e9, approximate ? "about " : "", automata, d, machine / 1e9));
+        scene.source, bytes / 1e9, approximate ? "at least " : "", automata, d, machine / 1e9));
   }
 }
 
@@ -407,14 +412,14 @@ void set_time_step(Model& M, float dt) {
     ProjectileParams& A = M.projectiles[p];
     A.zeta_automata.assign(G, 0.0f);
     for (std::size_t g = 0; g < G; ++g)
-      A.zeta_automata[g] = zeta(M.contact_material(g, A.group), 2 * std::min<double>(0.5 * d, A.radius),
+      A.zeta_automata[g] = zeta(M.projectile_contact(p, g), 2 * std::min<double>(0.5 * d, A.radius),
                                 A.kinematic ? mass(g) : mass(g) * A.mass / (mass(g) + A.mass));
-    A.zeta_ground = zeta(M.ground_contact[A.group], 2.0 * A.radius, A.mass);
+    A.zeta_ground = zeta(M.projectile_ground_contact(p), 2.0 * A.radius, A.mass);
     for (std::size_t q = 0; q < P; ++q) {
       const ProjectileParams& B = M.projectiles[q];
       if (q == p || (A.kinematic && B.kinematic)) continue;
       const double m_eff = A.kinematic ? B.mass : B.kinematic ? A.mass : A.mass * B.mass / (A.mass + B.mass);
-      M.zeta_projectiles[p * P + q] = zeta(M.contact_material(A.group, B.group), 2 * std::min(A.radius, B.radius), m_eff);
+      M.zeta_projectiles[p * P + q] = zeta(M.projectile_pair_contact(p, q), 2 * std::min(A.radius, B.radius), m_eff);
     }
   }
 }
@@ -475,9 +480,21 @@ Model build_model(const SceneDef& scene) {
     if (n <= kMaxAutomata) return;
     throw Error(fmt::format("{}: {}{:.4g} automata at spacing {:.4g} m are more than this build supports (about "
                             "1.8e8); increase solver.spacing",
-                            scene.source, approximate ? "about " : "", n, d));
+                            scene.source, approximate ? "at least " : "", n, d));
   };
   const double n_volume = 0.5 * shapes_volume(scene) / (d * d * d);
+  // An extent under half a cell would round to no cell; it becomes one, a body far larger than asked.
+  for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) {
+    double ext[3] = {0, 0, 0};
+    shape_extents(scene.objects[oi], ext);
+    for (int a = 0; a < 3; ++a)
+      if (ext[a] < 0.5 * d) {
+        throw Error(fmt::format("{}: object[{}] '{}' is {:g} m along its local {}, less than half the spacing {:.4g} m: "
+                                "its lattice would be a cell of {:.4g} m there; decrease solver.spacing (to {:.3g} m or "
+                                "less) or make the object larger",
+                                scene.source, oi, scene.objects[oi].name, ext[a], "xyz"[a], d, d, ext[a]));
+      }
+  }
   refuse_over_memory(scene, d, n_volume, true);
   refuse_count(n_volume, true);
   const std::int64_t n_est = count_automata(scene, d);
@@ -663,6 +680,8 @@ Model build_model(const SceneDef& scene) {
     pp.inertia = as_float32(scene, key + " moment of inertia", 0.4 * mass * pd.radius * pd.radius, fix);
     as_float32(scene, key + ".radius", pd.radius, fix);
     pp.kinematic = pd.kinematic;
+    pp.rolling = static_cast<float>(pd.rolling_friction);
+    pp.twisting = static_cast<float>(pd.twisting_friction);
     pp.position = to_dvec3(pd.position);
     pp.velocity = to_vec3(pd.velocity);
     pp.angular_velocity = to_vec3(pd.angular_velocity);

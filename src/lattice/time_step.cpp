@@ -190,11 +190,11 @@ TimeStepBound critical_time_step(const Model& M) {
       // A projectile contact couples a light automaton to a heavy sphere touching many of them at once.
       // Each contact's matrix [H X; X^T L] (H on the projectile, L on the automaton) is at most
       // 2 diag(H, L); summed over the contacts, the automata get 2 L each and the projectile 2 sum H.
-      for (const ProjectileParams& P : M.projectiles) {
+      for (std::size_t p = 0; p < M.projectiles.size(); ++p) {
+        const ProjectileParams& P = M.projectiles[p];
         Rows e;
-        const ContactSprings c = springs(M.contact_material(g, P.group), r, P.radius,
-                                                      P.kinematic ? m : reduced(m, P.mass),
-                                                      P.kinematic ? j : reduced(j, P.inertia));
+        const ContactSprings c = springs(M.projectile_contact(p, g), r, P.radius, P.kinematic ? m : reduced(m, P.mass),
+                                         P.kinematic ? j : reduced(j, P.inertia));
         add_pair(e, -1, c.kn, c.kt, r, 0, c.kr + c.kw, m, j, INFINITY, INFINITY, c.cn / 3, 0, 0);
         one_sided = std::max(one_sided, 2 * e.omega2());
         one_sided_c = std::max(one_sided_c, 2 * std::max(e.damp_u, e.damp_w));
@@ -242,15 +242,15 @@ TimeStepBound critical_time_step(const Model& M) {
 
   // Projectiles: as many automata as fit around one at once (4 pi (R + r)^2 / d^2), each contact's H
   // twice (see above), plus the ground and the other projectiles.
-  for (const ProjectileParams& P : M.projectiles) {
+  for (std::size_t p = 0; p < M.projectiles.size(); ++p) {
+    const ProjectileParams& P = M.projectiles[p];
     if (P.kinematic) continue;
     Rows rp;
     for (std::size_t g = 0; g < G; ++g) {
       if (!used[g]) continue;
       const double m = M.groups[g].density * d * d * d, j = m * d * d / 6, r = 0.5 * d;
       const double touching = std::min<double>(n, std::ceil(4 * std::numbers::pi * std::pow(P.radius + r, 2) / (d * d)));
-      const ContactSprings c = springs(M.contact_material(g, P.group), r, P.radius, reduced(m, P.mass),
-                                                    reduced(j, P.inertia));
+      const ContactSprings c = springs(M.projectile_contact(p, g), r, P.radius, reduced(m, P.mass), reduced(j, P.inertia));
       Rows e;
       add_pair(e, -1, c.kn, c.kt, P.radius, 0, c.kr + c.kw, P.mass, P.inertia, INFINITY, INFINITY, c.cn / 3, 0, 0);
       const double k = 2 * touching;
@@ -267,15 +267,16 @@ TimeStepBound critical_time_step(const Model& M) {
       }
     }
     if (M.ground) {
-      const ContactSprings g = springs(M.ground_contact[P.group], P.radius, INFINITY, P.mass, P.inertia);
+      const ContactSprings g = springs(M.projectile_ground_contact(p), P.radius, INFINITY, P.mass, P.inertia);
       add_pair(rp, -1, g.kn, g.kt, P.radius, 0, g.kr + g.kw, P.mass, P.inertia, INFINITY, INFINITY, g.cn / 3, 0, 0);
     }
-    for (const ProjectileParams& Q : M.projectiles) {
-      if (&Q == &P) continue;
+    for (std::size_t q = 0; q < M.projectiles.size(); ++q) {
+      if (q == p) continue;
+      const ProjectileParams& Q = M.projectiles[q];
       const double mb = Q.kinematic ? INFINITY : Q.mass, jb = Q.kinematic ? INFINITY : Q.inertia;
-      const ContactSprings c = springs(M.contact_material(P.group, Q.group), P.radius, Q.radius,
-                                                    Q.kinematic ? P.mass : reduced(P.mass, Q.mass),
-                                                    Q.kinematic ? P.inertia : reduced(P.inertia, Q.inertia));
+      const ContactSprings c = springs(M.projectile_pair_contact(p, q), P.radius, Q.radius,
+                                       Q.kinematic ? P.mass : reduced(P.mass, Q.mass),
+                                       Q.kinematic ? P.inertia : reduced(P.inertia, Q.inertia));
       add_pair(rp, -1, c.kn, c.kt, P.radius, Q.radius, c.kr + c.kw, P.mass, P.inertia, mb, jb, c.cn / 3, 0, 0);
     }
     const double dt = rp.critical();

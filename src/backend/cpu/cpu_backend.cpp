@@ -543,7 +543,7 @@ std::int64_t CpuBackend::projectile_pass() {
         in.overlap = gap.overlap;
         in.vrel = (ps.velocity + cross(ps.angular_velocity, -P.radius * nrm)) - (S_.v[a] + cross(S_.w[a], ra * nrm));
         in.wrel = ps.angular_velocity - S_.w[a];
-        in.s = body_contact_springs(M_.contact_material(M_.group[a], P.group), P.zeta_automata[M_.group[a]], ra, P.radius,
+        in.s = body_contact_springs(M_.projectile_contact(p, M_.group[a]), P.zeta_automata[M_.group[a]], ra, P.radius,
                           P.kinematic ? M_.mass[a] : reduced(M_.mass[a], P.mass),
                           P.kinematic ? M_.inertia[a] : reduced(M_.inertia[a], P.inertia));
         in.ut = prev.ut;
@@ -565,7 +565,7 @@ std::int64_t CpuBackend::projectile_pass() {
       in.overlap = ground_overlap(c, M_.up, M_.ground_height, P.radius);
       in.vrel = -(ps.velocity + cross(ps.angular_velocity, P.radius * nrm));
       in.wrel = -ps.angular_velocity;
-      in.s = body_contact_springs(M_.ground_contact[P.group], P.zeta_ground, P.radius, INFINITY, P.mass, P.inertia);
+      in.s = body_contact_springs(M_.projectile_ground_contact(p), P.zeta_ground, P.radius, INFINITY, P.mass, P.inertia);
       in.ut = ps.ground.ut;
       in.mr = ps.ground.mr;
       in.dt = dt;
@@ -600,7 +600,7 @@ std::int64_t CpuBackend::projectile_pass() {
       in.overlap = gap.overlap;
       in.vrel = (b.velocity + cross(b.angular_velocity, -B.radius * nrm)) - (a.velocity + cross(a.angular_velocity, A.radius * nrm));
       in.wrel = b.angular_velocity - a.angular_velocity;
-      in.s = body_contact_springs(M_.contact_material(A.group, B.group), M_.zeta_projectiles[p * np + q], A.radius, B.radius, m_eff, j_eff);
+      in.s = body_contact_springs(M_.projectile_pair_contact(p, q), M_.zeta_projectiles[p * np + q], A.radius, B.radius, m_eff, j_eff);
       in.ut = prev.ut;
       in.mr = prev.mr;
       in.dt = dt;

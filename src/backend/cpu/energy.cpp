@@ -133,12 +133,12 @@ Energies energies_of(const View& at) {
     for (const auto& c : ps.contacts) {
       const std::uint32_t a = c.automaton;
       const SphereGap gap = sphere_gap(at.x(a), xp, static_cast<double>(P.radius) + m.radius[a]);
-      const ContactSprings cs = body_contact_springs(m.contact_material(m.group[a], P.group), 0.0f, m.radius[a], P.radius,
+      const ContactSprings cs = body_contact_springs(m.projectile_contact(p, m.group[a]), 0.0f, m.radius[a], P.radius,
                                                      1.0f, 1.0f);
       contact += contact_energy(cs, gap.overlap, c.h.ut, c.h.mr, gap.n);
     }
     if (m.ground) {
-      const ContactSprings cs = body_contact_springs(m.ground_contact[P.group], 0.0f, P.radius, INFINITY, 1.0f, 1.0f);
+      const ContactSprings cs = body_contact_springs(m.projectile_ground_contact(p), 0.0f, P.radius, INFINITY, 1.0f, 1.0f);
       contact += contact_energy(cs, ground_overlap(xp, m.up, m.ground_height, P.radius), ps.ground.ut,
                                 ps.ground.mr, -m.up);
     }
@@ -147,7 +147,7 @@ Energies energies_of(const View& at) {
     const auto &A = m.projectiles[c.p], &B = m.projectiles[c.q];
     const SphereGap gap = sphere_gap(at.xp(c.p), at.xp(c.q),
                                      static_cast<double>(A.radius) + B.radius);
-    const ContactSprings cs = body_contact_springs(m.contact_material(A.group, B.group), 0.0f, A.radius, B.radius, 1.0f, 1.0f);
+    const ContactSprings cs = body_contact_springs(m.projectile_pair_contact(c.p, c.q), 0.0f, A.radius, B.radius, 1.0f, 1.0f);
     contact += contact_energy(cs, gap.overlap, c.h.ut, c.h.mr, gap.n);
   }
   e.contact = contact;
