@@ -453,6 +453,26 @@ material = "steel"
 
 namespace {
 
+// The command line's own mistakes: --out on the scene's folder would overwrite the scene file; a seed
+// beyond 64 bits or written as a float; an unknown option (exit 2 like every user error).
+TEST(Cli, CommandLineMistakesAreRefused) {
+  const fs::path d = fresh_dir("cmdline");
+  const fs::path scene = d / "scene.toml";
+  fs::create_directories(d);
+  fs::copy_file(small_scene(d / "src"), scene);
+  const std::string before = read(scene);
+  Result r = run_mca("run " + scene.string() + " --out " + d.string() + " -q --steps 1");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("would overwrite the scene file"), std::string::npos) << r.output;
+  EXPECT_EQ(read(scene), before);
+  for (const char* seed : {"1e23", "18446744073709551616", "-1"}) {
+    r = run_mca("run " + scene.string() + " --out " + (d / "o").string() + " -q --steps 1 --seed " + seed);
+    EXPECT_EQ(r.code, 2) << seed << ": " << r.output;
+  }
+  r = run_mca("run --no-such-option");
+  EXPECT_EQ(r.code, 2) << r.output;
+}
+
 // `mca info`'s memory estimate is what a run of the scene holds at its peak (it said half: 47 MB for a
 // measured 95 MB at 100,000 automata), so the max_memory_gb check and the machine check mean something.
 TEST(Cli, MemoryEstimateMatchesThePeak) {

@@ -171,6 +171,52 @@ TEST(Lattice, OverlappingObjectsAreRefusedTouchingOnesAccepted) {
   EXPECT_NE(build_error(s).find("overlaps"), std::string::npos);
 }
 
+// Nothing starts inside the ground or inside another projectile (a box whose lattice is a row taller than
+// its size started 5 mm inside the ground and burst at t = 0, exit code 0).
+TEST(Lattice, BodiesInsideTheGroundOrEachOtherAreRefused) {
+  SceneDef s = test::block_scene(6, 6, 1, 0.05);
+  s.objects[0].size = {0.3, 0.3, 0.24};  // 5 cells, 0.25 m
+  s.objects[0].position = {0, 0, 0.12};
+  s.ground.enabled = true;
+  s.solver.gravity = {0, 0, -9.81};
+  std::string msg = build_error(s);
+  EXPECT_NE(msg.find("starts 0.005 m inside the ground"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("0.25 m"), std::string::npos) << msg;
+  s.objects[0].position = {0, 0, 0.125};
+  EXPECT_EQ(build_error(s), "");
+  ProjectileDef a, b;
+  a.position = {1, 0, 0.5};
+  b.position = {1.15, 0, 0.5};  // radii 0.1: 0.05 m into each other
+  s.projectiles = {a, b};
+  msg = build_error(s);
+  EXPECT_NE(msg.find("overlaps projectile[0]"), std::string::npos) << msg;
+  s.projectiles = {a};
+  s.projectiles[0].position = {1, 0, 0.05};
+  EXPECT_NE(build_error(s).find("inside the ground"), std::string::npos);
+}
+
+// Values a scene can give but the solver cannot honour are refused with the reason: an extent under half a
+// cell, positions beyond 1e6 m, gravity beyond 1,000 g; and speeds that cross a tenth of a cell per step.
+TEST(Lattice, ExtremeGeometryAndSpeedsAreRefused) {
+  SceneDef s = test::block_scene(4, 4, 4, 0.05);
+  s.objects[0].size = {0.2, 0.01, 0.2};
+  EXPECT_NE(build_error(s).find("less than half the spacing"), std::string::npos);
+  s.objects[0].size = {0.2, 0.2, 0.2};
+  s.objects[0].position = {2e6, 0, 0};
+  EXPECT_NE(build_error(s).find("more than 1e6 m from the origin"), std::string::npos);
+  s.objects[0].position = {0, 0, 0};
+  s.solver.gravity = {0, 0, -1e5};
+  EXPECT_NE(build_error(s).find("stronger than 1e4"), std::string::npos);
+  s.solver.gravity = {0, 0, 0};
+  s.objects[0].velocity = {1e5, 0, 0};
+  try {
+    const Engine sim(s);
+    ADD_FAILURE() << "an object at 1e5 m/s was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("contacts would be skipped"), std::string::npos) << e.what();
+  }
+}
+
 // Automata with six intact links are left out of the contact search, safe only while r_i + r_j + skin
 // < sqrt(2) d: a larger skin is refused, and the hint names the real default.
 TEST(Lattice, ASkinThatTheContactSearchCannotHonourIsRefused) {

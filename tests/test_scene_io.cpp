@@ -341,11 +341,16 @@ TEST(SceneIo, RoundTripOfRandomDoubles) {
   std::uniform_int_distribution<int> exponent(-300, 300);
   mca::SceneDef s;
   s.objects.emplace_back();
+  // A load's force takes any finite value: the full exponent range.
+  mca::LoadDef load;
+  load.min = {-1, -1, -1};
+  load.max = {1, 1, 1};
+  s.loads.push_back(load);
   for (int i = 0; i < 2000; ++i) {
-    for (double& g : s.solver.gravity) g = std::ldexp(mantissa(rng), exponent(rng) / (i % 2 ? 1 : 30));
+    for (double& f : s.loads[0].force) f = std::ldexp(mantissa(rng), exponent(rng) / (i % 2 ? 1 : 30));
     s.objects[0].position = {mantissa(rng), mantissa(rng) * 1e5, mantissa(rng) * 1e-4};
     const mca::SceneDef back = parse_scene(mca::io::scene_to_toml(s), s.source);
-    ASSERT_EQ(back.solver.gravity, s.solver.gravity) << mca::io::scene_to_toml(s);
+    ASSERT_EQ(back.loads[0].force, s.loads[0].force) << mca::io::scene_to_toml(s);
     ASSERT_EQ(back.objects[0].position, s.objects[0].position);
   }
 }

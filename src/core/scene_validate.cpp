@@ -110,6 +110,17 @@ class Checker {
       if (!std::isfinite(x)) fail(fmt::format("{} = {} has a non-finite component; give finite values", key, vec(v)));
     }
   }
+  // Positions within 1e6 m of the origin: there a double resolves 1e-10 m, a strain of 2e-9 on a 5 cm link;
+  // further out the rounding of the centres shows in the strains (at 1e7 m a body at rest starts strained).
+  void position(const std::string& key, const Vec3d& v) const {
+    finite(key, v);
+    for (double x : v) {
+      if (std::fabs(x) > 1e6)
+        fail(fmt::format("{} = {} is more than 1e6 m from the origin, where the solver's double positions no longer "
+                         "resolve small strains; move the scene's origin near the objects",
+                         key, vec(v)));
+    }
+  }
 
   // Checks lo < v (or lo <= v) and v < hi (or v <= hi); the range text and the fix go in the message.
   void range(const std::string& key, double v, double lo, bool lo_closed, double hi, bool hi_closed,
@@ -269,6 +280,11 @@ void validate_scene(const SceneDef& scene) {
     c.range("solver.time_step", scene.solver.time_step, 1e-12, true, 1, true, "0 (automatic) or in [1e-12, 1] [s]",
             "use 0 for the automatic step");
   c.finite("solver.gravity", scene.solver.gravity);
+  if (std::sqrt(scene.solver.gravity[0] * scene.solver.gravity[0] + scene.solver.gravity[1] * scene.solver.gravity[1] +
+                scene.solver.gravity[2] * scene.solver.gravity[2]) > 1e4) {
+    c.fail(fmt::format("solver.gravity = {} is stronger than 1e4 m/s^2 (1000 g); use e.g. [0, 0, -9.81]",
+                       vec(scene.solver.gravity)));
+  }
   c.range("solver.link_damping", scene.solver.link_damping, 0, true, 1, true, "in [0, 1] (share of critical)",
           "use 0 for none, or a few per cent (0.02)");
   c.range("solver.local_damping", scene.solver.local_damping, 0, true, 0.2, true, "in [0, 0.2]",
@@ -340,7 +356,7 @@ void validate_scene(const SceneDef& scene) {
       default:
         c.fail(fmt::format("{}.shape is not a known shape; use \"box\", \"sphere\" or \"cylinder\"", p));
     }
-    c.finite(p + ".position", o.position);
+    c.position(p + ".position", o.position);
     c.finite(p + ".rotation", o.rotation);
     c.finite(p + ".velocity", o.velocity);
     resolve_material(scene, o.material, p + ".material");
@@ -373,7 +389,7 @@ void validate_scene(const SceneDef& scene) {
     if (b.density != 0)
       c.range(p + ".density", b.density, 0.1, true, 1e5, true, "0 (the material's) or in [0.1, 1e5] [kg/m^3]",
               "use 0 to take the material's density, or e.g. 7850 for steel");
-    c.finite(p + ".position", b.position);
+    c.position(p + ".position", b.position);
     c.finite(p + ".velocity", b.velocity);
     c.finite(p + ".angular_velocity", b.angular_velocity);
     c.range(p + ".rolling_friction", b.rolling_friction, 0, true, 1, true, "in [0, 1]",
@@ -430,6 +446,7 @@ void validate_scene(const SceneDef& scene) {
 
   // Ground.
   c.finite("ground.height", scene.ground.height);
+  c.position("ground.height", {0, 0, scene.ground.height});
   c.non_negative("ground.friction", scene.ground.friction, "use e.g. 0.6, or 0 for a frictionless ground");
   c.range("ground.restitution", scene.ground.restitution, 0.01, true, 1, true, "in [0.01, 1]", "use e.g. 0.3");
   c.range("ground.rolling_friction", scene.ground.rolling_friction, 0, true, 1, true, "in [0, 1]",
