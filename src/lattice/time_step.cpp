@@ -1,25 +1,16 @@
 // The critical time step of a model (physics.md sec. 7, docs/model-notes.md "Time step").
 //
-// Symplectic Euler is stable while omega dt < 2 for the highest angular frequency omega of the linearised
-// system M x'' = -K x, and with a dashpot of damping ratio zeta while omega dt < 2 (sqrt(1 + zeta^2) -
-// zeta). omega^2 is the largest eigenvalue of M^-1/2 K M^-1/2; it is bounded here by the block
-// Gershgorin theorem: for every automaton, the largest eigenvalue of its own 3x3 block plus the norms of
-// the blocks that couple it to other bodies, for its translation (mass m) and its rotation (J), with
-// every stiffness it can feel:
-//   links      the 2G normal spring k = 2 G S / r0, the shear spring k_t = k_s G S / r0 with its lever
-//              r0/2 to both rotations, the many-body term lambda V theta L / 2 (a rank-one coupling of every
-//              automaton in the stencil of each volumetric strain), all at the strengthening factor of the
-//              cap (the largest the law reaches);
-//   contacts   a face without a link can hold a contact with an automaton of the same material (k_n, k_t,
-//              rolling, twisting), and a fully broken automaton holds six; the ground and a projectile
-//              add one contact each;
-//   projectiles every automaton they can touch at once (about 4 pi (R + r)^2 / d^2), the ground, each
-//              other.
-// The dashpots (link damping, the contact dashpots of the restitution, the rolling dashpots) enter through
-// the same row sums of the damping matrix: zeta = c / (2 omega) per body. Gershgorin overestimates omega
-// (measured on an intact 6^3 block, nu = 0.2: the bound 1.39x the true value from power iteration), so
-// C = 1 is stable for the linear system; contacts and large rotations are not linear, hence the default
-// safety below 1.
+// Symplectic Euler is stable while omega dt < 2 (sqrt(1 + zeta^2) - zeta) for every mode of the linearised
+// system M x'' = -K x - C x', zeta = c / (2 omega). The step is bounded from Omega^2 >= the largest
+// eigenvalue of M^-1 K and C_d >= that of M^-1 C as dt = (sqrt(4 Omega^2 + C_d^2) - C_d) / Omega^2, with
+// Omega^2 the sum (Weyl's inequality) of:
+//   - the links and face contacts, by comparison with the periodic lattice whose every face has the
+//     stiffest normal and shear spring and every automaton the least mass (its largest eigenvalue, from
+//     a plane-wave analysis, is max(2 k_S d^2 / J, (4 k_N + 8 k_S) / m)), plus the rolling springs;
+//   - the many-body term, by Gershgorin automaton by automaton (surfaces raise it);
+//   - one-sided contacts (the ground, projectiles) by the Gershgorin rows of their own elements (Rows below).
+// Projectiles get their own bound. Measured thresholds lie 1.1-2x above the bound, so C = 1 is stable for
+// the linear system; contacts and large rotations are not linear, hence the default safety below 1.
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
