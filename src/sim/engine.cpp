@@ -150,6 +150,12 @@ struct Fnv : Fnv1a {
     bytes(&c.ut, sizeof c.ut);
     bytes(&c.mr, sizeof c.mr);
   }
+  // A list of structs: its length, then each element through `each`, field by field.
+  template <class T, class F>
+  void list(const std::vector<T>& v, F each) {
+    pod(v.size());
+    for (const auto& e : v) each(e);
+  }
 };
 }  // namespace
 
@@ -169,45 +175,39 @@ std::uint64_t state_hash(const State& s) {
   f.vec(s.t);
   f.vec(s.intact);
   f.vec(s.link_ut);
-  f.pod(s.contacts.size());
-  for (const auto& c : s.contacts) {
+  f.list(s.contacts, [&](const auto& c) {
     f.pod(c.i);
     f.pod(c.j);
     f.history(c.h);
-  }
-  f.pod(s.ground_contacts.size());
-  for (const auto& c : s.ground_contacts) {
+  });
+  f.list(s.ground_contacts, [&](const auto& c) {
     f.pod(c.automaton);
     f.history(c.h);
-  }
+  });
   f.vec(s.x_at_rebuild);
-  f.pod(s.projectiles.size());
-  for (const auto& p : s.projectiles) {
+  f.list(s.projectiles, [&](const auto& p) {
     f.bytes(&p.position, sizeof p.position);
     f.bytes(&p.velocity, sizeof p.velocity);
     f.bytes(&p.angular_velocity, sizeof p.angular_velocity);
     f.bytes(&p.orientation, sizeof p.orientation);
     f.bytes(&p.force, sizeof p.force);
-    f.pod(p.contacts.size());
-    for (const auto& c : p.contacts) {
+    f.list(p.contacts, [&](const auto& c) {
       f.pod(c.automaton);
       f.history(c.h);
-    }
+    });
     f.history(p.ground);
     f.pod(p.work);
-  }
-  f.pod(s.projectile_contacts.size());
-  for (const auto& c : s.projectile_contacts) {
+  });
+  f.list(s.projectile_contacts, [&](const auto& c) {
     f.pod(c.p);
     f.pod(c.q);
     f.history(c.h);
-  }
-  f.pod(s.breaks.size());
-  for (const auto& b : s.breaks) {
+  });
+  f.list(s.breaks, [&](const auto& b) {
     f.pod(b.step);
     f.pod(b.link);
     f.pod(b.criterion);
-  }
+  });
   f.pod(s.broken_by[0]);
   f.pod(s.broken_by[1]);
   f.pod(s.initial_energy);
