@@ -476,6 +476,9 @@ TEST(Cli, CommandLineMistakesAreRefused) {
 // `mca info`'s memory estimate is what a run of the scene holds at its peak (it said half: 47 MB for a
 // measured 95 MB at 100,000 automata), so the max_memory_gb check and the machine check mean something.
 TEST(Cli, MemoryEstimateMatchesThePeak) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "AddressSanitizer's shadow memory and quarantine triple the resident size";
+#endif
   const fs::path d = fresh_dir("memory");
   fs::create_directories(d);
   const fs::path scene = d / "m100k.toml";
