@@ -16,13 +16,10 @@ namespace mca::app {
 FrameWriter::FrameWriter(std::filesystem::path dir, const Model& model, bool vtk, bool links)
     : dir_(std::move(dir)), model_(model), vtk_(vtk), links_(links) {
   if (vtk_) std::filesystem::create_directories(dir_ / "frames");
-  initial_degree_.resize(model.size());
-  for (std::size_t a = 0; a < model.size(); ++a) initial_degree_[a] = model.adj_begin[a + 1] - model.adj_begin[a];
 }
 
 analysis::Fragments FrameWriter::fragments(const State& s) const {
-  return analysis::label_fragments(model_.size(), model_.link_i.data(), model_.link_j.data(), s.intact.data(),
-                                   model_.link_count(), model_.mass.data());
+  return analysis::label_lattice_fragments(model_.size(), model_.neighbour.data(), s.intact.data(), model_.mass.data());
 }
 
 FrameStats FrameWriter::stats(std::int64_t frame, const State& s, const analysis::Fragments& frags) const {
@@ -56,15 +53,13 @@ void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis
     disp[3 * a] = d.x;
     disp[3 * a + 1] = d.y;
     disp[3 * a + 2] = d.z;
-    std::uint32_t broken = 0;
-    for (std::uint32_t k = model_.adj_begin[a]; k < model_.adj_begin[a + 1]; ++k) broken += !s.intact[model_.adj_link[k]];
-    damage[a] = initial_degree_[a] ? static_cast<float>(broken) / static_cast<float>(initial_degree_[a]) : 0.0f;
     seq[a] = von_mises(s.s[a]);
     smean[a] = mean_stress(s.s[a]);
     group[a] = model_.group[a];
     cls[a] = model_.strength_class[a];
     object[a] = model_.object[a];
   }
+  link_damage(model_, s.intact.data(), damage.data());
   std::vector<io::PointField> fields = {
       {"velocity", 3, reinterpret_cast<const float*>(s.v.data()), nullptr},
       {"displacement", 3, disp.data(), nullptr},
@@ -80,8 +75,9 @@ void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis
   };
   std::vector<std::array<std::uint32_t, 2>> lines;
   if (links_) {
-    for (std::size_t l = 0; l < model_.link_count(); ++l)
-      if (s.intact[l]) lines.push_back({model_.link_i[l], model_.link_j[l]});
+    model_.for_each_link([&](std::size_t l, std::uint32_t i, std::uint32_t j, int) {
+      if (s.intact[l]) lines.push_back({i, j});
+    });
   }
   const std::string name = fmt::format("frames/automata_{:06d}.vtu", frame);
   io::write_vtu(dir_ / name, n, xyz.data(), fields, links_ ? &lines : nullptr);

@@ -49,7 +49,6 @@ class FrameWriter {
   const Model& model_;
   bool vtk_, links_;
   std::vector<std::pair<double, std::string>> automata_pvd_, projectile_pvd_;
-  std::vector<std::uint32_t> initial_degree_;
   int stats_fd_ = -1;  // stats.csv, open for appending after start_stats
 };
 

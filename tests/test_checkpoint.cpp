@@ -147,7 +147,7 @@ std::string resigned(std::string bytes) {
   Fnv1a sum;
   sum.bytes(bytes.data(), bytes.size() - tail);
   std::memcpy(bytes.data() + bytes.size() - tail, &sum.h, sizeof sum.h);
-  std::memcpy(bytes.data() + bytes.size() - 8, "MCACKPT3", 8);
+  std::memcpy(bytes.data() + bytes.size() - 8, bytes.data(), 8);  // the end marker repeats the header's magic
   return bytes;
 }
 
@@ -259,7 +259,7 @@ TEST(Checkpoint, StateCheckRefusesEachBrokenInvariant) {
       {"intact[", [](State& s) { s.intact[0] = 2; }},
       {"links are broken but", [&](State& s) { s.intact[first_intact(s)] = 0; }},
       {"which is intact", [&](State& s) { s.intact[s.breaks[0].link] = 1; }},
-      {"names link", [&](State& s) { s.breaks[0].link = static_cast<std::uint32_t>(m.link_count()); }},
+      {"names link", [&](State& s) { s.breaks[0].link = static_cast<std::uint32_t>(m.link_slots()); }},
       {"criterion 7", [](State& s) { s.breaks[0].criterion = static_cast<BreakCriterion>(7); }},
       {"break record 0 is at step", [](State& s) { s.breaks[0].step = s.step + 1; }},
       {"two break records", [](State& s) { s.breaks.push_back(s.breaks[0]); }},

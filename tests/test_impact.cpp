@@ -30,8 +30,8 @@ Outcome impact(double speed, const std::string& preset, std::uint64_t seed) {
   Engine sim(s);
   sim.advance(static_cast<int>(0.004 / sim.model().dt));  // 4 ms: the ball has gone through the contact
   const State& st = sim.state();
-  const auto fr = analysis::label_fragments(sim.model().size(), sim.model().link_i.data(), sim.model().link_j.data(),
-                                            st.intact.data(), sim.model().link_count(), sim.model().mass.data());
+  const auto fr = analysis::label_lattice_fragments(sim.model().size(), sim.model().neighbour.data(), st.intact.data(),
+                                                    sim.model().mass.data());
   return {static_cast<double>(st.broken_by[0] + st.broken_by[1]), static_cast<double>(fr.count)};
 }
 
@@ -109,8 +109,7 @@ TEST(Drops, ADroppedSphereCracksButDoesNotShatter) {
     ASSERT_EQ(sim.advance(static_cast<int>(0.005 / sim.model().dt)).flags, kHealthy);
     const Model& m = sim.model();
     const State& st = sim.state();
-    const auto fr = analysis::label_fragments(m.size(), m.link_i.data(), m.link_j.data(), st.intact.data(),
-                                              m.link_count(), m.mass.data());
+    const auto fr = analysis::label_lattice_fragments(m.size(), m.neighbour.data(), st.intact.data(), m.mass.data());
     std::vector<double> mass(static_cast<std::size_t>(fr.count), 0.0);
     for (std::size_t a = 0; a < m.size(); ++a) mass[fr.id[a]] += m.mass[a];
     std::sort(mass.rbegin(), mass.rend());

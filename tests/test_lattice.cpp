@@ -18,10 +18,17 @@ TEST(Lattice, BoxHasFaceLinksOnly) {
   const Model m = lattice::build_model(test::block_scene(4, 3, 2));
   EXPECT_EQ(m.size(), 24u);
   EXPECT_EQ(m.link_count(), 3u * 3 * 2 + 4u * 2 * 2 + 4u * 3 * 1);  // x, y and z links
-  for (std::size_t l = 0; l < m.link_count(); ++l) {
-    EXPECT_LT(m.link_i[l], m.link_j[l]);
-    EXPECT_NEAR(length(delta(m.position0[m.link_i[l]], m.position0[m.link_j[l]])), m.link_r0[l], 1e-6);
-  }
+  std::size_t links = 0;
+  m.for_each_link([&](std::size_t l, std::uint32_t i, std::uint32_t j, int axis) {
+    ++links;
+    EXPECT_EQ(l, axis * m.size() + i);
+    EXPECT_LT(i, j);
+    EXPECT_EQ(m.neighbour_below[axis * m.size() + j], i);
+    const Vec3 d = delta(m.position0[i], m.position0[j]);
+    EXPECT_NEAR(length(d), m.spacing, 1e-6);
+    EXPECT_NEAR(axis == 0 ? d.x : (axis == 1 ? d.y : d.z), m.spacing, 1e-6);  // along +axis
+  });
+  EXPECT_EQ(links, m.link_count());
 }
 
 TEST(Lattice, SphereAndCylinderFillTheirVolume) {

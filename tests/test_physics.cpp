@@ -71,18 +71,17 @@ struct StrainProbe {
 
 StrainProbe probe(const Model& m, const State& s, double half_width) {
   StrainProbe p;
-  for (std::size_t l = 0; l < m.link_count(); ++l) {
-    const Vec3 a0 = to_vec3(m.position0[m.link_i[l]]), b0 = to_vec3(m.position0[m.link_j[l]]);
+  m.for_each_link([&](std::size_t, std::uint32_t i, std::uint32_t j, int ax) {
+    const Vec3 a0 = to_vec3(m.position0[i]), b0 = to_vec3(m.position0[j]);
     const Vec3 mid = (a0 + b0) * 0.5f;
-    if (std::fabs(mid.x) > half_width || std::fabs(mid.y) > half_width || std::fabs(mid.z) > half_width) continue;
-    const Vec3 d = delta(s.x[m.link_i[l]], s.x[m.link_j[l]]);
-    const int ax = m.link_axis[l];
-    const double r0 = m.link_r0[l];
+    if (std::fabs(mid.x) > half_width || std::fabs(mid.y) > half_width || std::fabs(mid.z) > half_width) return;
+    const Vec3 d = delta(s.x[i], s.x[j]);
+    const double r0 = m.spacing;
     p.axial[ax] += (length(d) - r0) / r0;
     ++p.count[ax];
     if (ax == 1) { p.slope_xy += d.x / r0; ++p.n_xy; }
     if (ax == 0) { p.slope_yx += d.y / r0; ++p.n_yx; }
-  }
+  });
   for (int a = 0; a < 3; ++a) p.axial[a] /= std::max(1, p.count[a]);
   p.slope_xy /= std::max(1, p.n_xy);
   p.slope_yx /= std::max(1, p.n_yx);

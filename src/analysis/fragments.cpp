@@ -44,19 +44,43 @@ class UnionFind {
 
 }  // namespace
 
-Fragments label_fragments(std::size_t n_automata, const std::uint32_t* link_i, const std::uint32_t* link_j,
-                          const std::uint8_t* link_intact, std::size_t n_links, const float* mass) {
+namespace {
+// Unites the ends of link k, after checking them.
+void unite_link(UnionFind& uf, std::size_t n_automata, std::size_t k, std::uint32_t i, std::uint32_t j) {
+  if (i >= n_automata || j >= n_automata)
+    throw std::out_of_range(
+        fmt::format("label_fragments: link {} ({}, {}) refers past {} automata", k, i, j, n_automata));
+  uf.unite(i, j);
+}
+
+Fragments number_fragments(std::size_t n_automata, UnionFind& uf, const float* mass);
+
+UnionFind fresh_union(std::size_t n_automata) {
   if (n_automata > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
     throw std::out_of_range(fmt::format("label_fragments: {} automata exceed int32 ids", n_automata));
+  return UnionFind(n_automata);
+}
+}  // namespace
 
-  UnionFind uf(n_automata);
-  for (std::size_t k = 0; k < n_links; ++k) {
-    if (!link_intact[k]) continue;
-    if (link_i[k] >= n_automata || link_j[k] >= n_automata)
-      throw std::out_of_range(fmt::format("label_fragments: link {} ({}, {}) refers past {} automata", k,
-                                          link_i[k], link_j[k], n_automata));
-    uf.unite(link_i[k], link_j[k]);
-  }
+Fragments label_fragments(std::size_t n_automata, const std::uint32_t* link_i, const std::uint32_t* link_j,
+                          const std::uint8_t* link_intact, std::size_t n_links, const float* mass) {
+  UnionFind uf = fresh_union(n_automata);
+  for (std::size_t k = 0; k < n_links; ++k)
+    if (link_intact[k]) unite_link(uf, n_automata, k, link_i[k], link_j[k]);
+  return number_fragments(n_automata, uf, mass);
+}
+
+Fragments label_lattice_fragments(std::size_t n_automata, const std::uint32_t* neighbour, const std::uint8_t* link_intact,
+                                  const float* mass) {
+  UnionFind uf = fresh_union(n_automata);
+  for (std::size_t axis = 0, k = 0; axis < 3; ++axis)
+    for (std::uint32_t i = 0; i < n_automata; ++i, ++k)
+      if (link_intact[k]) unite_link(uf, n_automata, k, i, neighbour[k]);
+  return number_fragments(n_automata, uf, mass);
+}
+
+namespace {
+Fragments number_fragments(std::size_t n_automata, UnionFind& uf, const float* mass) {
 
   // Scanning automata in index order meets each root first at its smallest member, which is the
   // tie-break key, so a stable sort by mass alone gives the documented order. The masses are summed in
@@ -86,6 +110,7 @@ Fragments label_fragments(std::size_t n_automata, const std::uint32_t* link_i, c
   for (std::size_t a = 0; a < n_automata; ++a) result.id[a] = slot[root_of[a]];
   return result;
 }
+}  // namespace
 
 std::vector<FragmentInfo> describe_fragments(const Fragments& fragments, const float* mass, const float* xyz,
                                              const float* vel) {

@@ -1,89 +1,134 @@
 #pragma once
+#define MCA_CORE_MATH_HPP
 // Small vector, quaternion and symmetric-tensor types used by every backend. Functions are MCA_HD so
-// the CUDA backend can call the same code (paper sec. 5.3); arithmetic is float32 on all backends.
+// the CUDA backend can call the same code (paper sec. 5.3); arithmetic is float32 on all backends, but
+// for positions and the differences of positions (double).
+//
+// The formulas are written once for a number type T: float (the CPU's scalar code and a GPU thread) or a
+// SIMD vector of floats, one lane per link or automaton (src/backend/cpu/lanes.hpp adds the vector forms
+// of select, to_float and the like, and must come before this header where they are used). Each lane does
+// the same IEEE operations in the same order as the scalar code, so every backend computes the same bits.
+// Branches on values are written as select(mask, a, b), which computes both sides.
 #include <cmath>
+#include <type_traits>
 
 #if defined(__CUDACC__)
 #define MCA_HD __host__ __device__ __forceinline__
 #else
-#define MCA_HD inline
+// Always inlined: the SIMD kernels are compiled once per instruction set, and an out-of-line copy of a
+// helper made for one could be picked by the linker for another (tests/check_kernel_symbols.sh).
+#define MCA_HD inline __attribute__((always_inline))
 #endif
 
 namespace mca {
 
-struct Vec3 {
-  float x = 0, y = 0, z = 0;
+// Scalar forms of the lane helpers.
+MCA_HD float select(bool m, float a, float b) { return m ? a : b; }
+MCA_HD double select(bool m, double a, double b) { return m ? a : b; }
+MCA_HD float to_float(double a) { return static_cast<float>(a); }
+MCA_HD double to_double(float a) { return a; }
+
+template <class T>
+struct Vec3T {
+  T x{}, y{}, z{};
 };
-
-MCA_HD Vec3 operator+(Vec3 a, Vec3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-MCA_HD Vec3 operator-(Vec3 a, Vec3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-MCA_HD Vec3 operator-(Vec3 a) { return {-a.x, -a.y, -a.z}; }
-MCA_HD Vec3 operator*(float s, Vec3 a) { return {s * a.x, s * a.y, s * a.z}; }
-MCA_HD Vec3 operator*(Vec3 a, float s) { return {s * a.x, s * a.y, s * a.z}; }
-MCA_HD Vec3& operator+=(Vec3& a, Vec3 b) {
-  a.x += b.x; a.y += b.y; a.z += b.z;
-  return a;
-}
-MCA_HD Vec3& operator-=(Vec3& a, Vec3 b) {
-  a.x -= b.x; a.y -= b.y; a.z -= b.z;
-  return a;
-}
-MCA_HD float dot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-MCA_HD Vec3 cross(Vec3 a, Vec3 b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-MCA_HD float length(Vec3 a) { return std::sqrt(dot(a, a)); }
-
+using Vec3 = Vec3T<float>;
 // Positions are double: a float32 position 0.5 m from the origin resolves 3e-8 m, which is a strain of
 // 3e-6 on a 1 cm link (3 % of a concrete's breaking strain) and swallows the per-step motion of a slow
 // pull (measured: a grip at 2 mm/s with dt = 5e-7 s did not move at all). Differences of positions are
 // taken in double and then rounded, so everything else stays float32.
-struct DVec3 {
-  double x = 0, y = 0, z = 0;
-};
+using DVec3 = Vec3T<double>;
+
+// A factor of a vector: of its own number type (a float times a float vector, a lane vector times a lane
+// vector), deduced from the vector alone so that a plain float converts to lanes.
+template <class T>
+using Scalar = std::type_identity_t<T>;
+
+template <class T>
+MCA_HD Vec3T<T> operator+(const Vec3T<T>& a, const Vec3T<T>& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+template <class T>
+MCA_HD Vec3T<T> operator-(const Vec3T<T>& a, const Vec3T<T>& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+template <class T>
+MCA_HD Vec3T<T> operator-(const Vec3T<T>& a) { return {-a.x, -a.y, -a.z}; }
+template <class T>
+MCA_HD Vec3T<T> operator*(const Scalar<T>& s, const Vec3T<T>& a) { return {s * a.x, s * a.y, s * a.z}; }
+template <class T>
+MCA_HD Vec3T<T> operator*(const Vec3T<T>& a, const Scalar<T>& s) { return {s * a.x, s * a.y, s * a.z}; }
+template <class T>
+MCA_HD Vec3T<T>& operator+=(Vec3T<T>& a, const Vec3T<T>& b) {
+  a.x += b.x; a.y += b.y; a.z += b.z;
+  return a;
+}
+template <class T>
+MCA_HD Vec3T<T>& operator-=(Vec3T<T>& a, const Vec3T<T>& b) {
+  a.x -= b.x; a.y -= b.y; a.z -= b.z;
+  return a;
+}
+template <class T>
+MCA_HD T dot(const Vec3T<T>& a, const Vec3T<T>& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+template <class T>
+MCA_HD Vec3T<T> cross(const Vec3T<T>& a, const Vec3T<T>& b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+MCA_HD float length(Vec3 a) { return std::sqrt(dot(a, a)); }
+// Per component: m ? a : b.
+template <class M, class T>
+MCA_HD Vec3T<T> select(const M& m, const Vec3T<T>& a, const Vec3T<T>& b) {
+  return {select(m, a.x, b.x), select(m, a.y, b.y), select(m, a.z, b.z)};
+}
+
 MCA_HD DVec3 to_dvec3(Vec3 a) { return {a.x, a.y, a.z}; }
 MCA_HD Vec3 to_vec3(DVec3 a) { return {static_cast<float>(a.x), static_cast<float>(a.y), static_cast<float>(a.z)}; }
+// b - a in double.
+template <class D>
+MCA_HD Vec3T<D> ddelta(const Vec3T<D>& a, const Vec3T<D>& b) { return {b.x - a.x, b.y - a.y, b.z - a.z}; }
 // b - a, rounded to float.
 MCA_HD Vec3 delta(DVec3 a, DVec3 b) {
   return {static_cast<float>(b.x - a.x), static_cast<float>(b.y - a.y), static_cast<float>(b.z - a.z)};
 }
-MCA_HD DVec3& operator+=(DVec3& a, Vec3 b) {
-  a.x += b.x; a.y += b.y; a.z += b.z;
+// A double position moved by a float displacement (each component converted, then added).
+template <class D, class T>
+MCA_HD Vec3T<D>& operator+=(Vec3T<D>& a, const Vec3T<T>& b) requires(!std::is_same_v<D, T>) {
+  a.x += to_double(b.x); a.y += to_double(b.y); a.z += to_double(b.z);
   return a;
 }
-MCA_HD double dot(DVec3 a, DVec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-// b - a in double.
-MCA_HD DVec3 ddelta(DVec3 a, DVec3 b) { return {b.x - a.x, b.y - a.y, b.z - a.z}; }
 
 // Unit quaternion (w, x, y, z) for the orientation of an automaton.
-struct Quat {
-  float w = 1, x = 0, y = 0, z = 0;
+template <class T>
+struct QuatT {
+  T w{1.0f}, x{}, y{}, z{};
 };
+using Quat = QuatT<float>;
 
 // q <- normalize(q + dt/2 * (0, omega) * q)   (physics.md sec. 7)
-MCA_HD Quat integrate_orientation(Quat q, Vec3 om, float dt) {
+template <class T>
+MCA_HD QuatT<T> integrate_orientation(const QuatT<T>& q, const Vec3T<T>& om, float dt) {
   const float h = 0.5f * dt;
-  Quat r{q.w - h * (om.x * q.x + om.y * q.y + om.z * q.z),
-         q.x + h * (om.x * q.w + om.y * q.z - om.z * q.y),
-         q.y + h * (om.y * q.w + om.z * q.x - om.x * q.z),
-         q.z + h * (om.z * q.w + om.x * q.y - om.y * q.x)};
+  QuatT<T> r{q.w - h * (om.x * q.x + om.y * q.y + om.z * q.z),
+             q.x + h * (om.x * q.w + om.y * q.z - om.z * q.y),
+             q.y + h * (om.y * q.w + om.z * q.x - om.x * q.z),
+             q.z + h * (om.z * q.w + om.x * q.y - om.y * q.x)};
   // |r|^2 = 1 + O(dt^2 omega^2): one Newton step for 1/sqrt, (3 - |r|^2) / 2, renormalises to float
   // precision without a square root or a division.
-  const float inv = 0.5f * (3.0f - (r.w * r.w + r.x * r.x + r.y * r.y + r.z * r.z));
+  const T inv = 0.5f * (3.0f - (r.w * r.w + r.x * r.x + r.y * r.y + r.z * r.z));
   return {r.w * inv, r.x * inv, r.y * inv, r.z * inv};
 }
 
 // Symmetric 3x3 tensor: xx, yy, zz, xy, yz, zx (VTK's order for symmetric tensors).
-struct Sym3 {
-  float xx = 0, yy = 0, zz = 0, xy = 0, yz = 0, zx = 0;
+template <class T>
+struct Sym3T {
+  T xx{}, yy{}, zz{}, xy{}, yz{}, zx{};
 };
+using Sym3 = Sym3T<float>;
 
-MCA_HD Sym3& operator+=(Sym3& a, const Sym3& b) {
+template <class T>
+MCA_HD Sym3T<T>& operator+=(Sym3T<T>& a, const Sym3T<T>& b) {
   a.xx += b.xx; a.yy += b.yy; a.zz += b.zz; a.xy += b.xy; a.yz += b.yz; a.zx += b.zx;
   return a;
 }
 // s * sym(a (x) b)
-MCA_HD Sym3 sym_outer(Vec3 a, Vec3 b, float s) {
+template <class T>
+MCA_HD Sym3T<T> sym_outer(const Vec3T<T>& a, const Vec3T<T>& b, const Scalar<T>& s) {
   return {s * a.x * b.x, s * a.y * b.y, s * a.z * b.z, 0.5f * s * (a.x * b.y + a.y * b.x),
           0.5f * s * (a.y * b.z + a.z * b.y), 0.5f * s * (a.z * b.x + a.x * b.z)};
 }

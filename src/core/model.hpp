@@ -64,12 +64,17 @@ struct Model {
   std::vector<std::int16_t> grip;          // index of the grip holding it, -1 if free
   std::vector<Vec3> load;                  // constant external force; empty when the scene has no loads
 
-  // --- links (stored once per pair, i < j) ---
-  std::vector<std::uint32_t> link_i, link_j;
-  std::vector<float> link_r0, link_area;
-  std::vector<std::uint8_t> link_axis;     // lattice axis 0,1,2 of the link (for the volumetric strain)
-  // CSR: the links of automaton a are adj_link[adj_begin[a] .. adj_begin[a+1]), in link order.
-  std::vector<std::uint32_t> adj_begin, adj_link;
+  // --- links ---
+  // Slot l = axis * n + a holds the link from automaton a to its neighbour along +axis of its object's
+  // own lattice (axis 0, 1, 2: the object's local x, y, z), when it has one. This is the layout the
+  // backends share (structure of arrays by direction, the far end at a fixed offset inside a box); a slot
+  // without a link is never intact. Every link has rest length `spacing` and cross-section spacing^2.
+  // Automata are numbered row by row (x fastest) within each object, so the links of automaton a in
+  // increasing link order of the lattice's cells are those along -z, -y, -x, +x, +y, +z.
+  static constexpr std::uint32_t kNoLink = 0xffffffffu;
+  std::vector<std::uint32_t> neighbour;        // 3n: a's neighbour along +axis at axis * n + a, or kNoLink
+  std::vector<std::uint32_t> neighbour_below;  // 3n: a's neighbour along -axis (its link is in that one's slot)
+  std::size_t links = 0;                       // slots that hold a link
 
   // --- scene-level ---
   std::vector<GroupParams> groups;
@@ -116,8 +121,28 @@ struct Model {
     c.twisting = twisting;
     return c;
   }
-  std::size_t link_count() const { return link_i.size(); }
+  std::size_t link_slots() const { return neighbour.size(); }
+  std::size_t link_count() const { return links; }
+  bool link_exists(std::size_t l) const { return neighbour[l] != kNoLink; }
+  // The ends of the link in slot l (i < j) and its axis.
+  std::uint32_t link_i(std::size_t l) const { return static_cast<std::uint32_t>(l % size()); }
+  std::uint32_t link_j(std::size_t l) const { return neighbour[l]; }
+  int link_axis(std::size_t l) const { return static_cast<int>(l / size()); }
+  // Calls f(l, i, j, axis) for every link, in slot order.
+  template <class F>
+  void for_each_link(F&& f) const {
+    const std::size_t n = size();
+    for (int axis = 0; axis < 3; ++axis)
+      for (std::size_t i = 0; i < n; ++i) {
+        const std::size_t l = axis * n + i;
+        if (neighbour[l] != kNoLink) f(l, static_cast<std::uint32_t>(i), neighbour[l], axis);
+      }
+  }
 };
+
+// The damage of each automaton: the share of its links (those it had at the start) that are broken, 0 for
+// one without links. intact has a value per link slot, out one per automaton.
+void link_damage(const Model& m, const std::uint8_t* intact, float* out);
 
 // Bytes the model and its state take, for `mca info` and the memory check.
 std::size_t estimate_memory_bytes(std::size_t automata, std::size_t links);

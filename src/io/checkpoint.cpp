@@ -18,11 +18,12 @@
 namespace mca::io {
 namespace {
 
-// Format 3: magic, scene TOML, model fingerprint, frame, total steps, wall seconds, the state (fields(State)
+// Format 4: magic, scene TOML, model fingerprint, frame, total steps, wall seconds, the state (fields(State)
 // below), an FNV-1a checksum of all the bytes before it, magic again as an end marker. Numbers are in the
-// writing machine's byte order: a checkpoint is for resuming a run where it was written. Format 2 had no
-// checksum (a flipped byte in the state was resumed from), format 1 wrote structs with their padding.
-constexpr char kMagic[8] = {'M', 'C', 'A', 'C', 'K', 'P', 'T', '3'};
+// writing machine's byte order: a checkpoint is for resuming a run where it was written. Format 3 stored
+// the links one per pair (now: three slots per automaton, core/model.hpp), format 2 had no checksum (a
+// flipped byte in the state was resumed from), format 1 wrote structs with their padding.
+constexpr char kMagic[8] = {'M', 'C', 'A', 'C', 'K', 'P', 'T', '4'};
 constexpr char kMagicPrefix[7] = {'M', 'C', 'A', 'C', 'K', 'P', 'T'};
 
 template <class T, class U>

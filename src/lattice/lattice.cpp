@@ -1,6 +1,7 @@
 #include "lattice/lattice.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <fmt/format.h>
@@ -510,9 +511,10 @@ Model build_model(const SceneDef& scene) {
   M.strength_class.reserve(n_res);
   M.object.reserve(n_res);
   M.grip.reserve(n_res);
-  for (auto* v : {&M.link_i, &M.link_j}) v->reserve(3 * n_res);
-  for (auto* v : {&M.link_r0, &M.link_area}) v->reserve(3 * n_res);
-  M.link_axis.reserve(3 * n_res);
+  // Neighbours along each axis, per automaton; joined into Model::neighbour(_below) at the end.
+  std::array<std::vector<std::uint32_t>, 3> above, below;
+  for (auto* v : {&above, &below})
+    for (auto& axis : *v) axis.reserve(n_res);
 
   const auto class_factors = class_factor_range(scene);
   std::map<std::string, int> group_index;
@@ -580,22 +582,21 @@ Model build_model(const SceneDef& scene) {
                               "or decrease solver.spacing",
                               scene.source, okey, o.name, d));
     }
-    // Face-neighbour links in +x, +y, +z of each cell: i < j by construction (row-major order).
+    // Face neighbours along +-x, +-y, +-z of each cell: the automata of one object link along its own
+    // lattice (row-major order, so the one above has the larger index).
+    const std::int64_t stride[3] = {1, L.n[0], L.n[0] * L.n[1]};
     c = 0;
     for (std::int64_t k = 0; k < L.n[2]; ++k)
       for (std::int64_t j = 0; j < L.n[1]; ++j)
         for (std::int64_t i = 0; i < L.n[0]; ++i, ++c) {
           if (index[c] < 0) continue;
-          const std::int64_t nb[3] = {i + 1 < L.n[0] ? static_cast<std::int64_t>(c + 1) : -1,
-                                      j + 1 < L.n[1] ? static_cast<std::int64_t>(c + L.n[0]) : -1,
-                                      k + 1 < L.n[2] ? static_cast<std::int64_t>(c + L.n[0] * L.n[1]) : -1};
+          const std::int64_t cell[3] = {i, j, k};
           for (int a = 0; a < 3; ++a) {
-            if (nb[a] < 0 || index[nb[a]] < 0) continue;
-            M.link_i.push_back(static_cast<std::uint32_t>(index[c]));
-            M.link_j.push_back(static_cast<std::uint32_t>(index[nb[a]]));
-            M.link_r0.push_back(fd);
-            M.link_area.push_back(fd * fd);
-            M.link_axis.push_back(static_cast<std::uint8_t>(a));
+            const bool up = cell[a] + 1 < L.n[a], down = cell[a] > 0;
+            const std::int64_t nu = up ? index[c + stride[a]] : -1, nd = down ? index[c - stride[a]] : -1;
+            above[a].push_back(nu < 0 ? Model::kNoLink : static_cast<std::uint32_t>(nu));
+            below[a].push_back(nd < 0 ? Model::kNoLink : static_cast<std::uint32_t>(nd));
+            M.links += nu >= 0;
           }
         }
     const HeterogeneityDef& het = o.heterogeneity ? *o.heterogeneity : scene.heterogeneity;
@@ -608,21 +609,14 @@ Model build_model(const SceneDef& scene) {
 
   refuse_overlaps(scene, M);
 
-  // Automaton -> links adjacency (CSR), each automaton's links in link order.
   const std::size_t n = M.size();
-  M.adj_begin.assign(n + 1, 0);
-  for (std::size_t l = 0; l < M.link_count(); ++l) {
-    ++M.adj_begin[M.link_i[l] + 1];
-    ++M.adj_begin[M.link_j[l] + 1];
-  }
-  for (std::size_t a = 0; a < n; ++a) M.adj_begin[a + 1] += M.adj_begin[a];
-  M.adj_link.resize(M.adj_begin[n]);
-  {
-    std::vector<std::uint32_t> fill(M.adj_begin.begin(), M.adj_begin.end() - 1);
-    for (std::size_t l = 0; l < M.link_count(); ++l) {
-      M.adj_link[fill[M.link_i[l]]++] = static_cast<std::uint32_t>(l);
-      M.adj_link[fill[M.link_j[l]]++] = static_cast<std::uint32_t>(l);
-    }
+  M.neighbour.reserve(3 * n);
+  M.neighbour_below.reserve(3 * n);
+  for (int a = 0; a < 3; ++a) {
+    M.neighbour.insert(M.neighbour.end(), above[a].begin(), above[a].end());
+    M.neighbour_below.insert(M.neighbour_below.end(), below[a].begin(), below[a].end());
+    std::vector<std::uint32_t>().swap(above[a]);
+    std::vector<std::uint32_t>().swap(below[a]);
   }
   for (std::size_t a = 0; a < n; ++a) M.total_mass += M.mass[a];
 

@@ -134,10 +134,10 @@ TimeStepBound critical_time_step(const Model& M) {
   // to (1). A negative lambda (nu < 0) makes the term negative and is left out.
   {
     std::vector<std::array<int, 3>> count(n, {0, 0, 0});
-    for (std::size_t l = 0; l < M.link_count(); ++l) {
-      ++count[M.link_i[l]][M.link_axis[l]];
-      ++count[M.link_j[l]][M.link_axis[l]];
-    }
+    M.for_each_link([&](std::size_t, std::uint32_t i, std::uint32_t j, int axis) {
+      ++count[i][axis];
+      ++count[j][axis];
+    });
     std::vector<double> self(n, 0.0), total(n, 0.0), scale(n, 0.0), row(n, 0.0);
     for (std::size_t a = 0; a < n; ++a) {
       const GroupParams& g = M.groups[M.group[a]];
@@ -153,11 +153,12 @@ TimeStepBound critical_time_step(const Model& M) {
       scale[a] = std::max(0.0, static_cast<double>(g.lame_lambda)) * fmax[M.group[a]] * M.volume[a] * ff;
       row[a] += scale[a] * self[a] * total[a];
     }
-    for (std::size_t l = 0; l < M.link_count(); ++l)
+    M.for_each_link([&](std::size_t, std::uint32_t i, std::uint32_t j, int axis) {
       for (int end = 0; end < 2; ++end) {
-        const std::uint32_t c = end ? M.link_j[l] : M.link_i[l], a = end ? M.link_i[l] : M.link_j[l];
-        row[a] += scale[c] / (count[c][M.link_axis[l]] * d) * total[c];
+        const std::uint32_t c = end ? j : i, a = end ? i : j;
+        row[a] += scale[c] / (count[c][axis] * d) * total[c];
       }
+    });
     double mb = 0;
     for (std::size_t a = 0; a < n; ++a) mb = std::max(mb, row[a] / std::sqrt(M.mass[a] * m_min));
     omega2 += mb;
@@ -205,16 +206,16 @@ TimeStepBound critical_time_step(const Model& M) {
   // out (a compressed, fully broken block with them stays stable up to the undamped limit).
   {
     double c_normal = 0, c_tangential = 0;
-    for (std::size_t l = 0; l < M.link_count(); ++l) {
-      const std::uint32_t i = M.link_i[l], j = M.link_j[l];
+    const float r0 = M.spacing, area = r0 * r0;
+    M.for_each_link([&](std::size_t, std::uint32_t i, std::uint32_t j, int) {
       const GroupParams &gi = M.groups[M.group[i]], &gj = M.groups[M.group[j]];
       const float k = link_normal_stiffness(harmonic(gi.shear_modulus, gj.shear_modulus), gi.lame_lambda,
-                                            gj.lame_lambda, M.link_area[l], M.link_r0[l]);
+                                            gj.lame_lambda, area, r0);
       const LinkDashpots c = link_dashpots(k, M.mass[i], M.mass[j], 0.5f * (gi.damping_time + gj.damping_time),
                                            M.link_damping);
       c_normal = std::max<double>(c_normal, c.normal);
       c_tangential = std::max<double>(c_tangential, c.tangential);
-    }
+    });
     double cn = 0;
     for (std::size_t g = 0; g < G; ++g)
       for (std::size_t h = 0; h < G; ++h) {

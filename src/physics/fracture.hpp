@@ -15,17 +15,34 @@ struct PairStrength {
 // mean stress p of its two automata, in the Drucker-Prager form sigma_eq = A q + B p, compared with the
 // tensile strength. A, B make uniaxial tension fail at sigma_t and uniaxial compression at sigma_c:
 // A + B/3 = 1, A - B/3 = sigma_t / sigma_c. Equal strengths give A = 1, B = 0 (von Mises).
-MCA_HD float equivalent_stress(float sigma, float tau2, float p, float ratio) {
-  const float q = std::sqrt(sigma * sigma + 3.0f * tau2);
+template <class T>
+MCA_HD T equivalent_stress(const T& sigma, const T& tau2, const T& p, const T& ratio) {
+  using std::sqrt;
+  const T q = sqrt(sigma * sigma + 3.0f * tau2);
   return 0.5f * (1.0f + ratio) * q + 1.5f * (1.0f - ratio) * p;
+}
+
+// Which criterion breaks a link (both false: it stays linked). Displacement first: a link past its
+// breaking elongation breaks by it whatever its stress.
+template <class T>
+struct BreakTest {
+  decltype(T{} > T{}) displacement, stress;
+};
+
+template <class T>
+MCA_HD BreakTest<T> link_break_test(const T& h, float r0, const T& sigma, const T& tau2, const T& p, const T& tensile,
+                                    const T& ratio, const T& strain, float stress_coefficient) {
+  BreakTest<T> b;
+  b.displacement = h > r0 * strain;
+  b.stress = !b.displacement && equivalent_stress(sigma, tau2, p, ratio) >= stress_coefficient * tensile;
+  return b;
 }
 
 // -1: stays linked; 0: breaks by the displacement criterion; 1: by the equivalent-stress criterion.
 MCA_HD int link_break_criterion(float h, float r0, float sigma, float tau2, float p, const PairStrength& s,
                                 float stress_coefficient) {
-  if (h > r0 * s.strain) return 0;
-  if (equivalent_stress(sigma, tau2, p, s.ratio) >= stress_coefficient * s.tensile) return 1;
-  return -1;
+  const BreakTest<float> b = link_break_test(h, r0, sigma, tau2, p, s.tensile, s.ratio, s.strain, stress_coefficient);
+  return b.displacement ? 0 : (b.stress ? 1 : -1);
 }
 
 }  // namespace mca

@@ -5,23 +5,31 @@
 
 namespace mca {
 
-MCA_HD float local_damped(float f, float v, float alpha) {
-  const float d = alpha * std::fabs(f);
-  return v > 0.0f ? f - d : (v < 0.0f ? f + d : f);
+template <class T>
+MCA_HD T local_damped(const T& f, const T& v, float alpha) {
+  using std::fabs;
+  const T d = alpha * fabs(f);
+  return select(v > 0.0f, f - d, select(v < 0.0f, f + d, f));
 }
 
-MCA_HD Vec3 local_damped(Vec3 f, Vec3 v, float alpha) {
+template <class T>
+MCA_HD Vec3T<T> local_damped(const Vec3T<T>& f, const Vec3T<T>& v, float alpha) {
   return {local_damped(f.x, v.x, alpha), local_damped(f.y, v.y, alpha), local_damped(f.z, v.z, alpha)};
 }
 
-struct Body {
-  DVec3 x;
-  Vec3 v, w;
-  Quat q;
+// An automaton's motion; D is double (or double lanes) for the position, T the float type.
+template <class T, class D>
+struct BodyT {
+  Vec3T<D> x;
+  Vec3T<T> v, w;
+  QuatT<T> q;
 };
+using Body = BodyT<float, double>;
 
 // f and t come back as applied (after local damping).
-MCA_HD void integrate_body(Body& b, Vec3& f, Vec3& t, float inv_m, float inv_j, float dt, float alpha) {
+template <class T, class D>
+MCA_HD void integrate_body(BodyT<T, D>& b, Vec3T<T>& f, Vec3T<T>& t, const Scalar<T>& inv_m, const Scalar<T>& inv_j,
+                           float dt, float alpha) {
   if (alpha > 0.0f) {
     f = local_damped(f, b.v, alpha);
     t = local_damped(t, b.w, alpha);

@@ -94,16 +94,22 @@ MCA_HD void free_axis_factors(float lambda, float shear_modulus, float free_fact
 }
 
 // Volumetric strain of an automaton from, per lattice axis, the summed strain and count of its intact
-// links along it. Axes without links are free: e_f = -lambda theta / (2 G) each, so
-// theta = sum_linked / (1 + n_free lambda / (2 G)).
-MCA_HD float volumetric_strain(const float sum[3], const int cnt[3], const float free_factor[4]) {
-  float linked = 0.0f;
-  int free_axes = 0;
+// links along it (a count of 0, 1 or 2, as a number of type T). Axes without links are free:
+// e_f = -lambda theta / (2 G) each, so theta = sum_linked / (1 + n_free lambda / (2 G)).
+// free_factor: the group's factors (float), or per lane.
+template <class T, class F>
+MCA_HD T volumetric_strain(const T sum[3], const T cnt[3], const F free_factor[4]) {
+  T linked = 0.0f;
+  T free_axes = 0.0f;
   for (int a = 0; a < 3; ++a) {
-    if (cnt[a]) linked += sum[a] * inverse_count(cnt[a]);
-    else ++free_axes;
+    const auto has = cnt[a] > 0.0f;
+    linked = select(has, linked + sum[a] * select(cnt[a] == 1.0f, T(1.0f), T(0.5f)), linked);
+    free_axes = select(has, free_axes, free_axes + 1.0f);
   }
-  return linked * free_factor[free_axes];
+  const T factor = select(free_axes == 0.0f, T(free_factor[0]),
+                          select(free_axes == 1.0f, T(free_factor[1]),
+                                 select(free_axes == 2.0f, T(free_factor[2]), T(free_factor[3]))));
+  return linked * factor;
 }
 
 // Viscous coefficients [N s/m] of a link's dashpots on the relative velocity of its ends. Normal: the
@@ -129,11 +135,13 @@ MCA_HD float link_normal_stiffness(float G_ij, float lambda_i, float lambda_j, f
 }
 
 // Link direction and strain; inv_r0 = 1 / r0 (precomputed: no division per link).
-struct LinkGeometry {
-  Vec3 n;     // unit vector from i to j
-  float r;    // current distance
-  float eps;  // pair strain h / r0, positive in tension
+template <class T>
+struct LinkGeometryT {
+  Vec3T<T> n;  // unit vector from i to j
+  T r;         // current distance
+  T eps;       // pair strain h / r0, positive in tension
 };
+using LinkGeometry = LinkGeometryT<float>;
 
 // The strain is formed in double before anything is rounded: h = r - r0 = (r^2 - r0^2) / (r + r0), with
 // r^2 - r0^2 taken from the double centres (exact to 1e-16 of r0^2 near the origin, 1e-12 at 1 km).
@@ -141,14 +149,18 @@ struct LinkGeometry {
 // 6e-8 that changes as the automata move: a force noise of E * 6e-8 * d^2 per link that heats a block
 // at rest without bound (measured: 1e-5 J to 5e-4 J in 15,000 steps of a 0.4 m concrete cube).
 // Only the quotient's denominator and the direction use the float r, where relative precision is enough.
-MCA_HD LinkGeometry link_geometry(DVec3 xi, DVec3 xj, float r0, float inv_r0) {
-  const DVec3 d = ddelta(xi, xj);
-  const double r2 = dot(d, d);
+// D: double (or double lanes); the result is in the matching float type.
+template <class D>
+MCA_HD auto link_geometry(const Vec3T<D>& xi, const Vec3T<D>& xj, float r0, float inv_r0) {
+  using T = decltype(to_float(D{}));
+  const Vec3T<D> d = ddelta(xi, xj);
+  const D r2 = dot(d, d);
   const double r0d = r0;
-  const float r = std::sqrt(static_cast<float>(r2));
-  const float h = static_cast<float>(r2 - r0d * r0d) / (r + r0);
-  const float inv = r > 0.0f ? 1.0f / r : 0.0f;
-  return {Vec3{static_cast<float>(d.x), static_cast<float>(d.y), static_cast<float>(d.z)} * inv, r, h * inv_r0};
+  using std::sqrt;
+  const T r = sqrt(to_float(r2));
+  const T h = to_float(r2 - r0d * r0d) / (r + r0);
+  const T inv = select(r > 0.0f, 1.0f / r, T(0.0f));
+  return LinkGeometryT<T>{Vec3T<T>{to_float(d.x), to_float(d.y), to_float(d.z)} * inv, r, h * inv_r0};
 }
 
 // Normal stress of the pair law (paper eq. 5 with phi = 2G): sigma = 2 G_ij e (f_i + f_j) / 2 + g_i P_i +
@@ -159,43 +171,46 @@ MCA_HD float link_normal_stress(float G_ij, float eps, const StrengthenedStrain&
   return G_ij * eps * (si.f + sj.f) + si.g * p_i + sj.g * p_j;
 }
 
-struct LinkInput {
-  LinkGeometry g;
+template <class T>
+struct LinkInputT {
+  LinkGeometryT<T> g;
   float area;
-  float sigma;              // normal stress of the law (link_normal_stress), without the shear coupling
-  float kt;                 // tangential spring k_s G_ij S / r0 [N/m], strengthening applied
-  float kt_slope;           // d kt / dr [N/m^2] under strengthening (0 without): the normal force the
+  T sigma;                  // normal stress of the law (link_normal_stress), without the shear coupling
+  T kt;                     // tangential spring k_s G_ij S / r0 [N/m], strengthening applied
+  T kt_slope;               // d kt / dr [N/m^2] under strengthening (0 without): the normal force the
                             // strain dependence of kt adds, so the pair keeps its energy
-  LinkDashpots damping;     // viscous coefficients [N s/m] of the relative motion (0: none)
-  Vec3 vi, vj, wi, wj;
-  Vec3 ut;                  // tangential displacement of the previous step
+  T damp_normal, damp_tangential;  // viscous coefficients [N s/m] of the relative motion (LinkDashpots)
+  Vec3T<T> vi, vj, wi, wj;
+  Vec3T<T> ut;              // tangential displacement of the previous step
   float dt;
 };
 
-struct LinkOutput {
-  Vec3 force_i;   // force on i (on j: the opposite); the torque on both is (r/2) n x force_i
-  Vec3 ut;        // updated tangential displacement
-  float sigma;    // normal stress (tension > 0)
-  float tau2;     // shear stress squared, (kt |ut| / S)^2
+template <class T>
+struct LinkOutputT {
+  Vec3T<T> force_i;  // force on i (on j: the opposite); the torque on both is (r/2) n x force_i
+  Vec3T<T> ut;       // updated tangential displacement
+  T sigma;           // normal stress (tension > 0)
+  T tau2;            // shear stress squared, (kt |ut| / S)^2
 };
 
-MCA_HD LinkOutput link_force(const LinkInput& in) {
-  const Vec3 n = in.g.n;
-  LinkOutput out;
+template <class T>
+MCA_HD LinkOutputT<T> link_force(const LinkInputT<T>& in) {
+  const Vec3T<T> n = in.g.n;
+  LinkOutputT<T> out;
   // Relative velocity of j's contact point with respect to i's (paper eq. 10).
-  const Vec3 vrel = (in.vj - in.vi) - (0.5f * in.g.r) * cross(in.wi + in.wj, n);
-  const float vn = dot(vrel, n);
-  const Vec3 vs = vrel - vn * n;
+  const Vec3T<T> vrel = (in.vj - in.vi) - (0.5f * in.g.r) * cross(in.wi + in.wj, n);
+  const T vn = dot(vrel, n);
+  const Vec3T<T> vs = vrel - vn * n;
   // The stored displacement turns with the pair: its normal part is dropped (a second-order loss of
   // length under rotation, which only dissipates).
   out.ut = (in.ut - dot(in.ut, n) * n) + vs * in.dt;
-  const Vec3 ft = in.kt * out.ut + in.damping.tangential * vs;
-  const float tau_s = in.kt / in.area;
-  const float ut2 = dot(out.ut, out.ut);
+  const Vec3T<T> ft = in.kt * out.ut + in.damp_tangential * vs;
+  const T tau_s = in.kt / in.area;
+  const T ut2 = dot(out.ut, out.ut);
   out.tau2 = tau_s * tau_s * ut2;
   // d/dr (kt |u_t|^2 / 2): zero unless strengthening makes kt depend on the strain.
   out.sigma = in.sigma + 0.5f * in.kt_slope * ut2 / in.area;
-  out.force_i = (out.sigma * in.area + in.damping.normal * vn) * n + ft;  // paper eqs. 11, 12
+  out.force_i = (out.sigma * in.area + in.damp_normal * vn) * n + ft;  // paper eqs. 11, 12
   return out;
 }
 

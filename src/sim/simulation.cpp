@@ -42,13 +42,9 @@ Frame Simulation::frame() const {
     f.position[a] = {p.x, p.y, p.z};
     f.velocity[a] = {s.v[a].x, s.v[a].y, s.v[a].z};
     f.orientation[a] = {s.q[a].w, s.q[a].x, s.q[a].y, s.q[a].z};
-    const std::uint32_t begin = m.adj_begin[a], end = m.adj_begin[a + 1];
-    std::uint32_t broken = 0;
-    for (std::uint32_t k = begin; k < end; ++k) broken += !s.intact[m.adj_link[k]];
-    f.damage[a] = end > begin ? static_cast<float>(broken) / static_cast<float>(end - begin) : 0.0f;
   }
-  const auto frags =
-      analysis::label_fragments(n, m.link_i.data(), m.link_j.data(), s.intact.data(), m.link_count(), m.mass.data());
+  link_damage(m, s.intact.data(), f.damage.data());
+  const auto frags = analysis::label_lattice_fragments(n, m.neighbour.data(), s.intact.data(), m.mass.data());
   f.fragment = frags.id;
   f.fragments = frags.count;
   for (const auto& p : s.projectiles)

@@ -127,12 +127,9 @@ std::uint64_t model_fingerprint(const Model& m) {
   f.add(m.object);
   f.add(m.grip);
   f.add(m.load);
-  // Links (the adjacency is derived from them).
-  f.add(m.link_i);
-  f.add(m.link_j);
-  f.add(m.link_r0);
-  f.add(m.link_area);
-  f.add(m.link_axis);
+  // Links.
+  f.add(m.neighbour);
+  f.add(m.neighbour_below);
   // Scene-level numbers. Names are left out: they label outputs and do not shape the state.
   f.add(m.groups);
   f.add(m.projectiles);
@@ -157,7 +154,7 @@ std::uint64_t model_fingerprint(const Model& m) {
 
 void check_state(const Model& m, const State& s, const std::string& source) {
   const StateChecker c(m, source);
-  const std::size_t n = m.size(), links = m.link_count(), grips = m.grip_velocity.size();
+  const std::size_t n = m.size(), links = m.link_slots(), grips = m.grip_velocity.size();
 
   if (s.step < 0) c.fail(fmt::format("the step counter is {}", s.step));
   if (!std::isfinite(s.time) || s.time < 0) c.fail(fmt::format("the time is {}", s.time));
@@ -191,14 +188,16 @@ void check_state(const Model& m, const State& s, const std::string& source) {
   std::int64_t broken = 0;
   for (std::size_t l = 0; l < links; ++l) {
     if (s.intact[l] > 1) c.fail(fmt::format("intact[{}] is {} (0 or 1)", l, s.intact[l]));
-    broken += s.intact[l] == 0;
+    if (s.intact[l] && !m.link_exists(l)) c.fail(fmt::format("intact[{}] is set for a slot without a link", l));
+    broken += s.intact[l] == 0 && m.link_exists(l);
   }
   std::vector<std::uint8_t> recorded(links, 0);
   std::int64_t by[2] = {0, 0};
   for (std::size_t k = 0; k < s.breaks.size(); ++k) {
     const BreakRecord& b = s.breaks[k];
     const auto criterion = static_cast<unsigned>(b.criterion);
-    if (b.link >= links) c.fail(fmt::format("break record {} names link {} of {}", k, b.link, links));
+    if (b.link >= links || !m.link_exists(b.link))
+      c.fail(fmt::format("break record {} names link slot {} of {}, which holds no link", k, b.link, links));
     if (criterion > 1) c.fail(fmt::format("break record {} has criterion {} (0 or 1)", k, criterion));
     if (b.step < 0 || b.step > s.step)
       c.fail(fmt::format("break record {} is at step {}, outside 0..{}", k, b.step, s.step));

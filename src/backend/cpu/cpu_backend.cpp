@@ -1,15 +1,19 @@
 // The CPU backend: the reference implementation of a step (physics.md secs. 3-7).
 //
-// A step is a sequence of passes over index ranges (links, contacts or automata), each a plain loop body
-// that a thread pool (oneTBB here) or a CUDA grid can drive:
-//   A links:       geometry and strain of intact links
-//   B automata:    many-body terms P_i (volumetric strain of each automaton)
-//   C links:       pair forces and torques (link_law.hpp), fracture criteria on the step's state
-//   contacts:      unlinked pairs, then the ground, written per contact and added to automata in list order
-//   projectiles:   their contacts with automata, the ground and each other; projectiles move
-//   D automata:    gather forces in a fixed order, averaged stress, gravity, loads, integrate
-// Links write their forces; automata gather them in link order. No floating-point atomics, no
-// order-dependent reductions: results are bitwise identical for any thread count.
+// A step is a sequence of passes, each over index ranges that a thread pool (oneTBB here) or a CUDA grid
+// can drive. The lattice passes are the kernels of lattice_kernels.hpp, compiled for several instruction
+// sets and picked at run time:
+//   many-body    (automata)      the many-body terms P of each automaton (from the strains of its links)
+//   links        (link slots)    pair forces, torques, fracture criteria; breaks applied in link order
+//   contacts     (contact lists) unlinked pairs, then the ground, added to automata in list order
+//   projectiles                  their contacts with automata, the ground and each other; they move
+//   automata     (automata)      gather forces in a fixed order, averaged stress, gravity, loads, integrate
+// Links write their forces; automata gather them in a fixed order. No floating-point atomics, no
+// order-dependent reductions: results are bitwise identical for any thread count and instruction set.
+//
+// During a run the automata's positions, velocities, rotations and the links' shear displacements live
+// here as structures of arrays (one array per component, as SIMD lanes load them); State's arrays of
+// structures are brought up to date when the state is read (state(), download()).
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -20,16 +24,19 @@
 #include <tbb/parallel_for.h>
 
 #include "backend/backend.hpp"
+#include "backend/cpu/lattice_kernels.hpp"
 #include "grid/uniform_grid.hpp"
 #include "physics/contact_law.hpp"
-#include "physics/fracture.hpp"
 #include "physics/integrate.hpp"
 #include "physics/link_law.hpp"
 
 namespace mca {
 namespace {
 
-constexpr std::size_t kChunk = 4096;  // fixed work chunks: per-chunk results are combined in chunk order
+using cpu::kBreakByStress;
+
+constexpr std::size_t kChunk = 4096;  // fixed work chunks (a multiple of every lane count): per-chunk
+                                      // results are combined in chunk order
 
 template <class F>
 void parallel_range(std::size_t n, F&& body) {
@@ -49,17 +56,19 @@ void parallel_chunks(std::size_t n, F&& body) {
 
 // Wall time per pass, summed over steps, printed when the backend is destroyed if MCA_PROFILE is set.
 struct PassProfile {
-  static constexpr int kPasses = 8;
+  static constexpr int kPasses = 6;
   bool on = std::getenv("MCA_PROFILE") != nullptr;
+  const char* set = "";
   double seconds[kPasses] = {};
   std::int64_t steps = 0;
   ~PassProfile() {
     if (!on || steps == 0) return;
-    static const char* names[kPasses] = {"link geometry", "many-body", "link forces", "contacts", "projectiles",
-                                         "automata", "fracture", "contact list"};
+    static const char* names[kPasses] = {"many-body", "link forces", "contacts", "projectiles", "automata",
+                                         "contact list"};
     double total = 0;
     for (double t : seconds) total += t;
-    std::fprintf(stderr, "cpu backend profile over %lld steps (%.3f s):\n", static_cast<long long>(steps), total);
+    std::fprintf(stderr, "cpu backend (%s) profile over %lld steps (%.3f s):\n", set, static_cast<long long>(steps),
+                 total);
     for (int k = 0; k < kPasses; ++k)
       std::fprintf(stderr, "  %-14s %8.3f ms/step  %5.1f %%\n", names[k], 1e3 * seconds[k] / steps,
                    100 * seconds[k] / total);
@@ -93,60 +102,59 @@ bool pair_less(const ContactPair& a, const ContactPair& b) { return a.i != b.i ?
 
 class CpuBackend final : public Backend {
  public:
-  explicit CpuBackend(const Model& m) : M_(m) {
-    const std::size_t n = m.size(), L = m.link_count();
-    link_n_.resize(L);
-    link_eps_.resize(L);
-    link_out_.resize(L);
-    // Pair constants that do not change during the run (without strengthening).
-    link_G_.resize(L);
-    link_kt_.resize(L);
-    link_strength_.resize(L);
-    link_inv_r0_.resize(L);
-    for (std::size_t l = 0; l < L; ++l) link_inv_r0_[l] = 1.0f / m.link_r0[l];
-    free_factor_.resize(m.groups.size());
-    for (std::size_t g = 0; g < m.groups.size(); ++g)
-      free_axis_factors(m.groups[g].lame_lambda, m.groups[g].shear_modulus, free_factor_[g].data());
+  explicit CpuBackend(const Model& m) : M_(m), kernels_(cpu::select_kernels()) {
+    const std::size_t n = m.size(), L = m.link_slots(), G = m.groups.size();
+    profile_.set = kernels_.name;
+    // Per automaton: inverses, and the strengths times the class factor (a link takes the weaker end's).
     inv_mass_.resize(n);
     inv_inertia_.resize(n);
     inv_volume_.resize(n);
+    tensile_.resize(n);
+    compressive_.resize(n);
+    break_strain_.resize(n);
     for (std::size_t a = 0; a < n; ++a) {
       inv_mass_[a] = 1.0f / m.mass[a];
       inv_inertia_[a] = 1.0f / m.inertia[a];
       inv_volume_[a] = 1.0f / m.volume[a];
+      const GroupParams& g = m.groups[m.group[a]];
+      const float k = m.class_factor[a];
+      tensile_[a] = k * g.tensile_strength;
+      compressive_[a] = k * g.compressive_strength;
+      break_strain_[a] = k * g.fracture_strain;
     }
-    for (std::size_t l = 0; l < L; ++l) {
-      const GroupParams& gi = m.groups[m.group[m.link_i[l]]];
-      const GroupParams& gj = m.groups[m.group[m.link_j[l]]];
-      link_G_[l] = harmonic(gi.shear_modulus, gj.shear_modulus);
-      link_kt_[l] = kShearFactor * link_G_[l] * m.link_area[l] / m.link_r0[l];
-      // Strengths of the weaker automaton (physics.md sec. 4), scaled by the class factors.
-      const std::uint32_t i = m.link_i[l], j = m.link_j[l];
-      const float ki = m.class_factor[i], kj = m.class_factor[j];
-      const float tensile = std::min(ki * gi.tensile_strength, kj * gj.tensile_strength);
-      const float compressive = std::min(ki * gi.compressive_strength, kj * gj.compressive_strength);
-      link_strength_[l] = {tensile, tensile / compressive, std::min(ki * gi.fracture_strain, kj * gj.fracture_strain)};
-      const float tau = 0.5f * (gi.damping_time + gj.damping_time);
-      if (m.link_damping > 0.0f || tau > 0.0f) {
-        if (link_c_.empty()) link_c_.resize(L);
-        const float k = link_normal_stiffness(link_G_[l], gi.lame_lambda, gj.lame_lambda, m.link_area[l], m.link_r0[l]);
-        link_c_[l] = link_dashpots(k, m.mass[i], m.mass[j], tau, m.link_damping);
+    // Per pair of groups: the link constants (every link has length d and area d^2; masses are the
+    // groups' densities times d^3).
+    const float r0 = m.spacing, area = r0 * r0;
+    pairs_.resize(G * G);
+    free_factor_.resize(G);
+    std::vector<float> group_mass(G, 0.0f);
+    for (std::size_t a = 0; a < n; ++a) group_mass[m.group[a]] = m.mass[a];
+    for (std::size_t g = 0; g < G; ++g) {
+      free_axis_factors(m.groups[g].lame_lambda, m.groups[g].shear_modulus, free_factor_[g].data());
+      strengthening_ = strengthening_ || m.groups[g].strengthening.law != 0;
+      for (std::size_t h = 0; h < G; ++h) {
+        const GroupParams &gi = m.groups[g], &gj = m.groups[h];
+        cpu::PairConstants& p = pairs_[g * G + h];
+        p.G = harmonic(gi.shear_modulus, gj.shear_modulus);
+        p.kt = kShearFactor * p.G * area / r0;
+        const float k = link_normal_stiffness(p.G, gi.lame_lambda, gj.lame_lambda, area, r0);
+        p.damping = link_dashpots(k, group_mass[g], group_mass[h], 0.5f * (gi.damping_time + gj.damping_time),
+                                  m.link_damping);
       }
     }
-    for (const auto& g : m.groups) strengthening_ = strengthening_ || g.strengthening.law != 0;
-    // Adjacency with the link's axis and which end the automaton is packed in (no extra reads).
-    adj_code_.resize(m.adj_link.size());
-    for (std::size_t a = 0; a < n; ++a)
-      for (std::uint32_t k = m.adj_begin[a]; k < m.adj_begin[a + 1]; ++k) {
-        const std::uint32_t l = m.adj_link[k];
-        adj_code_[k] = l | (static_cast<std::uint32_t>(m.link_axis[l]) << kAxisShift) | (m.link_j[l] == a ? kIsJ : 0u);
-      }
+    one_group_ = n > 0 && std::all_of(m.group.begin(), m.group.end(), [&](std::uint8_t g) { return g == m.group[0]; });
+    // State and scratch arrays.
+    for (auto* v : {&px_, &py_, &pz_}) v->resize(n);
+    for (auto* v : {&vx_, &vy_, &vz_, &wx_, &wy_, &wz_, &qw_, &qx_, &qy_, &qz_}) v->resize(n);
+    for (auto* v : {&utx_, &uty_, &utz_, &nx_, &ny_, &nz_, &many_body_, &fx_, &fy_, &fz_, &tx_, &ty_, &tz_,
+                    &trace_})
+      v->resize(L);
     intact_count_.resize(n);
-    many_body_.resize(n * 3);
     ext_f_.resize(n);
     ext_t_.resize(n);
     ext_s_.resize(n);
     has_ext_.assign(n, 0);
+    breaks_.resize(L);
     grip_members_.resize(m.grip_velocity.size());
     for (std::size_t a = 0; a < n; ++a)
       if (m.grip[a] >= 0) grip_members_[m.grip[a]].push_back(static_cast<std::uint32_t>(a));
@@ -154,19 +162,45 @@ class CpuBackend final : public Backend {
     for (float r : m.radius) r_max_ = std::max(r_max_, r);
   }
 
-  std::string name() const override { return "cpu"; }
+  std::string name() const override { return std::string("cpu-") + kernels_.name; }
   void upload(State s) override {
     S_ = std::move(s);
-    for (std::size_t a = 0; a < M_.size(); ++a) {
+    const std::size_t n = M_.size();
+    for (std::size_t a = 0; a < n; ++a) {
+      px_[a] = S_.x[a].x; py_[a] = S_.x[a].y; pz_[a] = S_.x[a].z;
+      vx_[a] = S_.v[a].x; vy_[a] = S_.v[a].y; vz_[a] = S_.v[a].z;
+      wx_[a] = S_.w[a].x; wy_[a] = S_.w[a].y; wz_[a] = S_.w[a].z;
+      qw_[a] = S_.q[a].w; qx_[a] = S_.q[a].x; qy_[a] = S_.q[a].y; qz_[a] = S_.q[a].z;
       std::uint32_t c = 0;
-      for (std::uint32_t k = M_.adj_begin[a]; k < M_.adj_begin[a + 1]; ++k) c += S_.intact[M_.adj_link[k]];
-      intact_count_[a] = static_cast<std::uint8_t>(std::min<std::uint32_t>(c, 255));
+      for (int axis = 0; axis < 3; ++axis) {
+        const std::size_t up = axis * n + a, below = M_.neighbour_below[up];
+        c += S_.intact[up];
+        if (below != Model::kNoLink) c += S_.intact[axis * n + below];
+      }
+      intact_count_[a] = static_cast<std::uint8_t>(c);
     }
+    for (std::size_t l = 0; l < M_.link_slots(); ++l) {
+      utx_[l] = S_.link_ut[l].x; uty_[l] = S_.link_ut[l].y; utz_[l] = S_.link_ut[l].z;
+    }
+    stale_ = false;
     if (S_.x_at_rebuild.size() != S_.x.size()) rebuild_contacts();
   }
-  void download(State& s) const override { s = S_; }
+  void download(State& s) const override { s = state(); }
   void set_initial_energy(double energy) override { S_.initial_energy = energy; }
-  const State& state() const override { return S_; }
+  const State& state() const override {
+    if (stale_) {
+      sync_positions();
+      const std::size_t n = M_.size();
+      for (std::size_t a = 0; a < n; ++a) {
+        S_.v[a] = {vx_[a], vy_[a], vz_[a]};
+        S_.w[a] = {wx_[a], wy_[a], wz_[a]};
+        S_.q[a] = {qw_[a], qx_[a], qy_[a], qz_[a]};
+      }
+      for (std::size_t l = 0; l < M_.link_slots(); ++l) S_.link_ut[l] = {utx_[l], uty_[l], utz_[l]};
+      stale_ = false;
+    }
+    return S_;
+  }
 
   StepHealth step(int steps) override {
     StepHealth h;
@@ -174,6 +208,7 @@ class CpuBackend final : public Backend {
       // What is only read between calls (the averaged stress tensor, the applied forces) is written on
       // the last step; every step needs only the mean stress.
       last_step_ = k + 1 == steps;
+      stale_ = true;
       const std::int64_t bad = one_step();
       if (bad != kAllFinite) {
         h.flags |= kNonFinite;
@@ -190,15 +225,22 @@ class CpuBackend final : public Backend {
   // one_step's result when every position and velocity is finite; -2 - p flags projectile p.
   static constexpr std::int64_t kAllFinite = -1;
 
+  DVec3 pos(std::size_t a) const { return {px_[a], py_[a], pz_[a]}; }
+  Vec3 vel(std::size_t a) const { return {vx_[a], vy_[a], vz_[a]}; }
+  Vec3 ang(std::size_t a) const { return {wx_[a], wy_[a], wz_[a]}; }
+  // State::x from the arrays here (the contact grid reads it).
+  void sync_positions() const {
+    for (std::size_t a = 0; a < M_.size(); ++a) S_.x[a] = pos(a);
+  }
+  cpu::LatticeView view();
+
   std::int64_t one_step();
-  void link_geometry_pass();
-  void many_body_pass();
-  void link_force_pass();
-  void apply_breaks(const std::vector<std::vector<std::pair<std::uint32_t, std::uint8_t>>>& found);
+  void link_force_pass(const cpu::LatticeView& v);
+  void apply_breaks(const std::vector<std::size_t>& counts);
   void contact_pass();
   void ground_pass();
   std::int64_t projectile_pass();
-  std::int64_t automaton_pass(float& max_move2);
+  std::int64_t automaton_pass(const cpu::LatticeView& v, float& max_move2);
   void rebuild_contacts();
   bool linked(std::uint32_t i, std::uint32_t j) const;
   bool near_ground(std::uint32_t a) const;
@@ -210,195 +252,138 @@ class CpuBackend final : public Backend {
   }
 
   const Model& M_;
-  State S_;
-  // scratch, rebuilt every step
-  // Per link, written by the link pass and gathered by both ends in the automaton pass.
-  struct LinkGather {
-    Vec3 force;   // on i; j gets the opposite
-    Vec3 torque;  // on both
-    float trace;  // (r0/2) n . F: the link's share of the trace of both automata's averaged stress
-    float unused;
-  };
+  const cpu::Kernels& kernels_;
+  mutable State S_;
+  mutable bool stale_ = false;  // S_'s automata and link arrays are behind the arrays below
+  // Automata (structure of arrays).
+  std::vector<double> px_, py_, pz_;
+  std::vector<float> vx_, vy_, vz_, wx_, wy_, wz_, qw_, qx_, qy_, qz_;
+  std::vector<float> inv_mass_, inv_inertia_, inv_volume_, tensile_, compressive_, break_strain_;
+  std::vector<std::uint8_t> intact_count_;  // intact links per automaton (6: boxed in, see rebuild)
+  // Link slots (structure of arrays): shear displacement (state), then scratch rebuilt every step.
+  std::vector<float> utx_, uty_, utz_, nx_, ny_, nz_, many_body_, fx_, fy_, fz_, tx_, ty_, tz_, trace_;
+  std::vector<std::uint32_t> breaks_;  // per chunk of slots, what the links kernel found
+  std::vector<cpu::PairConstants> pairs_;
+  std::vector<std::array<float, 4>> free_factor_;  // per group, see volumetric_strain
+  bool strengthening_ = false, one_group_ = false;
+  bool last_step_ = true;
+  std::vector<std::uint32_t> exposed_;
+  std::vector<Vec3> ext_f_, ext_t_;
+  std::vector<Sym3> ext_s_;
+  std::vector<std::uint8_t> has_ext_;
+  std::vector<std::vector<std::uint32_t>> grip_members_;
   // A contact's result, written in parallel and added to its bodies in list order.
   struct ContactOut {
     Vec3 f, ti, tj, n;
     float ri, rj;
     bool on;
   };
-  bool last_step_ = true;
-  std::vector<Vec3> link_n_;
-  std::vector<LinkGather> link_out_;
-  std::vector<float> link_eps_, many_body_;
-  std::vector<float> link_G_, link_kt_;  // pair shear modulus, shear spring
-  std::vector<LinkDashpots> link_c_;     // dashpots (empty when the scene has none)
-  std::vector<float> inv_mass_, inv_inertia_, inv_volume_;
-  std::vector<PairStrength> link_strength_;
-  std::vector<float> link_inv_r0_;
-  std::vector<std::uint8_t> intact_count_;  // intact links per automaton (6: boxed in, see rebuild)
-  std::vector<std::uint32_t> exposed_;
-  // adj_link with bits 29-30 = the link's axis and bit 31 = "this automaton is the link's j".
-  static constexpr std::uint32_t kLinkMask = (1u << 29) - 1, kAxisShift = 29, kIsJ = 1u << 31;
-  std::vector<std::uint32_t> adj_code_;
-  std::vector<std::array<float, 4>> free_factor_;  // per group, see volumetric_strain
-  bool strengthening_ = false;
-  std::vector<Vec3> ext_f_, ext_t_;
-  std::vector<Sym3> ext_s_;
-  std::vector<std::uint8_t> has_ext_;
-  std::vector<std::vector<std::uint32_t>> grip_members_;
   std::vector<ContactOut> contact_out_;
   UniformGrid grid_;
   float r_max_ = 0;
   PassProfile profile_;
 };
 
+cpu::LatticeView CpuBackend::view() {
+  cpu::LatticeView v;
+  const Model& m = M_;
+  v.n = m.size();
+  v.up = m.neighbour.data();
+  v.below = m.neighbour_below.data();
+  v.group = m.group.data();
+  v.tensile = tensile_.data();
+  v.compressive = compressive_.data();
+  v.break_strain = break_strain_.data();
+  v.mass = m.mass.data();
+  v.inv_mass = inv_mass_.data();
+  v.inv_inertia = inv_inertia_.data();
+  v.inv_volume = inv_volume_.data();
+  v.grip = m.grip_velocity.empty() ? nullptr : m.grip.data();
+  v.grip_velocity = m.grip_velocity.data();
+  v.load = m.load.empty() ? nullptr : m.load.data();
+  v.groups = m.groups.data();
+  v.free_factor = reinterpret_cast<const float(*)[4]>(free_factor_.data());
+  v.pairs = pairs_.data();
+  v.group_count = static_cast<int>(m.groups.size());
+  v.one_group = one_group_;
+  v.strengthening = strengthening_;
+  v.r0 = m.spacing;
+  v.inv_r0 = 1.0f / m.spacing;
+  v.area = m.spacing * m.spacing;
+  v.dt = m.dt;
+  v.stress_coefficient = m.stress_coefficient;
+  v.local_damping = m.local_damping;
+  v.gravity = m.gravity;
+  v.last = last_step_;
+  v.px = px_.data(); v.py = py_.data(); v.pz = pz_.data();
+  v.vx = vx_.data(); v.vy = vy_.data(); v.vz = vz_.data();
+  v.wx = wx_.data(); v.wy = wy_.data(); v.wz = wz_.data();
+  v.qw = qw_.data(); v.qx = qx_.data(); v.qy = qy_.data(); v.qz = qz_.data();
+  v.mean_stress = S_.mean_stress.data();
+  v.stress = S_.s.data();
+  v.f_out = S_.f.data();
+  v.t_out = S_.t.data();
+  v.intact = S_.intact.data();
+  v.utx = utx_.data(); v.uty = uty_.data(); v.utz = utz_.data();
+  v.nx = nx_.data(); v.ny = ny_.data(); v.nz = nz_.data();
+  v.many_body = many_body_.data();
+  v.fx = fx_.data(); v.fy = fy_.data(); v.fz = fz_.data();
+  v.tx = tx_.data(); v.ty = ty_.data(); v.tz = tz_.data(); v.trace = trace_.data();
+  v.has_ext = has_ext_.data();
+  v.ext_f = ext_f_.data();
+  v.ext_t = ext_t_.data();
+  v.ext_s = ext_s_.data();
+  v.intact_count = intact_count_.data();
+  v.x_ref = S_.x_at_rebuild.data();
+  return v;
+}
+
 bool CpuBackend::linked(std::uint32_t i, std::uint32_t j) const {
-  for (std::uint32_t k = M_.adj_begin[i]; k < M_.adj_begin[i + 1]; ++k) {
-    const std::uint32_t l = M_.adj_link[k];
-    if (S_.intact[l] && (M_.link_i[l] == j || M_.link_j[l] == j)) return true;
+  const std::size_t n = M_.size();
+  for (int axis = 0; axis < 3; ++axis) {
+    const std::size_t up = axis * n + i;
+    if (M_.neighbour[up] == j && S_.intact[up]) return true;
+    if (M_.neighbour_below[up] == j && S_.intact[axis * n + j]) return true;
   }
   return false;
 }
 
 // Whether automaton a is within reach of the ground: its height above it is below r + skin.
 bool CpuBackend::near_ground(std::uint32_t a) const {
-  const DVec3& x = S_.x[a];
+  const DVec3 x = pos(a);
   const double above = x.x * M_.up.x + x.y * M_.up.y + x.z * M_.up.z - M_.ground_height;
   return above < static_cast<double>(M_.radius[a]) + M_.skin;
 }
 
-void CpuBackend::link_geometry_pass() {
-  const std::uint8_t* __restrict intact = S_.intact.data();
-  const std::uint32_t* __restrict li = M_.link_i.data();
-  const std::uint32_t* __restrict lj = M_.link_j.data();
-  const DVec3* __restrict x = S_.x.data();
-  const float* __restrict r0 = M_.link_r0.data();
-  const float* __restrict inv_r0 = link_inv_r0_.data();
-  Vec3* __restrict ln = link_n_.data();
-  float* __restrict leps = link_eps_.data();
-  parallel_range(M_.link_count(), [=](std::size_t l) {  // pointers by value: no reload per link
-    if (!intact[l]) return;
-    const LinkGeometry g = link_geometry(x[li[l]], x[lj[l]], r0[l], inv_r0[l]);
-    ln[l] = g.n;
-    leps[l] = g.eps;
+// The links kernel over (axis, chunk) pairs; each chunk's breaks land in its own part of breaks_.
+void CpuBackend::link_force_pass(const cpu::LatticeView& v) {
+  const std::size_t n = M_.size(), chunks = (n + kChunk - 1) / kChunk;
+  std::vector<std::size_t> counts(3 * chunks, 0);
+  tbb::parallel_for(std::size_t{0}, 3 * chunks, [&](std::size_t k) {
+    const int axis = static_cast<int>(k / chunks);
+    const std::size_t c = k % chunks, b = c * kChunk, e = std::min(n, b + kChunk);
+    counts[k] = kernels_.links(v, axis, b, e, breaks_.data() + axis * n + b);
   });
-}
-
-void CpuBackend::many_body_pass() {
-  const std::uint32_t* __restrict adj_begin = M_.adj_begin.data();
-  const std::uint32_t* __restrict adj_code = adj_code_.data();
-  const std::uint8_t* __restrict intact = S_.intact.data();
-  const float* __restrict leps = link_eps_.data();
-  const std::uint8_t* __restrict group = M_.group.data();
-  float* __restrict mb = many_body_.data();
-  const GroupParams* groups = M_.groups.data();
-  const std::array<float, 4>* free_factor = free_factor_.data();
-  const bool strengthening = strengthening_;
-  parallel_range(M_.size(), [=](std::size_t a) {  // pointers by value: no reload per automaton
-    float sum[3] = {0, 0, 0};
-    int cnt[3] = {0, 0, 0};
-    const int grp = group[a];
-    for (std::uint32_t k = adj_begin[a]; k < adj_begin[a + 1]; ++k) {
-      const std::uint32_t code = adj_code[k];
-      const std::uint32_t l = code & kLinkMask;
-      if (!intact[l]) continue;
-      const int ax = static_cast<int>((code >> kAxisShift) & 3u);
-      // With strengthening, theta is built from this automaton's strengthened strains (link_law.hpp).
-      sum[ax] += strengthening ? strengthened_strain(groups[grp].strengthening, leps[l]).s : leps[l];
-      ++cnt[ax];
-    }
-    const float lam_theta = groups[grp].lame_lambda * volumetric_strain(sum, cnt, free_factor[grp].data());
-    for (int ax = 0; ax < 3; ++ax) mb[3 * a + ax] = cnt[ax] ? lam_theta * inverse_count(cnt[ax]) : 0.0f;
-  });
-}
-
-void CpuBackend::link_force_pass() {
-  const float dt = M_.dt;
-  const std::size_t L = M_.link_count();
-  std::vector<std::vector<std::pair<std::uint32_t, std::uint8_t>>> found((L + kChunk - 1) / kChunk);
-  parallel_chunks(L, [&](std::size_t ch, std::size_t b, std::size_t e_end) {
-    const std::uint8_t* __restrict intact = S_.intact.data();
-    const std::uint32_t* __restrict li = M_.link_i.data();
-    const std::uint32_t* __restrict lj = M_.link_j.data();
-    const float* __restrict leps = link_eps_.data();
-    const Vec3* __restrict ln = link_n_.data();
-    const float* __restrict mb = many_body_.data();
-    const Vec3* __restrict v = S_.v.data();
-    const Vec3* __restrict w = S_.w.data();
-    Vec3* __restrict ut = S_.link_ut.data();
-    LinkGather* __restrict lf = link_out_.data();
-    const float* __restrict ms = S_.mean_stress.data();
-    const std::uint8_t* __restrict axis = M_.link_axis.data();
-    const float* __restrict r0s = M_.link_r0.data();
-    const float* __restrict inv_r0s = link_inv_r0_.data();
-    const float* __restrict areas = M_.link_area.data();
-    const float* __restrict Gs = link_G_.data();
-    const float* __restrict kts = link_kt_.data();
-    const LinkDashpots* __restrict damps = link_c_.empty() ? nullptr : link_c_.data();
-    const PairStrength* __restrict strengths = link_strength_.data();
-    const std::uint8_t* __restrict group = M_.group.data();
-    const GroupParams* groups = M_.groups.data();
-    const bool strengthening = strengthening_;
-    const float kv = M_.stress_coefficient;
-    for (std::size_t l = b; l < e_end; ++l) {
-      if (!intact[l]) continue;
-      const std::uint32_t i = li[l], j = lj[l];
-      const float eps = leps[l];
-      const int ax = axis[l];
-      const float r0 = r0s[l];
-      StrengthenedStrain si{eps, 1.0f, 1.0f}, sj = si;
-      float kt = kts[l], kt_slope = 0.0f;
-      if (strengthening) {
-        const Strengthening& gi = groups[group[i]].strengthening;
-        const Strengthening& gj = groups[group[j]].strengthening;
-        si = strengthened_strain(gi, eps);
-        sj = strengthened_strain(gj, eps);
-        kt = kts[l] * 0.5f * (si.f + sj.f);
-        kt_slope = kts[l] * 0.5f * (strengthening_slope(gi, eps) + strengthening_slope(gj, eps)) * inv_r0s[l];
-      }
-      LinkInput in;
-      in.g = {ln[l], r0 * (1.0f + eps), eps};
-      in.area = areas[l];
-      in.sigma = link_normal_stress(Gs[l], eps, si, sj, mb[3 * i + ax], mb[3 * j + ax]);
-      in.kt = kt;
-      in.kt_slope = kt_slope;
-      in.damping = damps ? damps[l] : LinkDashpots{0.0f, 0.0f};
-      in.vi = v[i];
-      in.vj = v[j];
-      in.wi = w[i];
-      in.wj = w[j];
-      in.ut = ut[l];
-      in.dt = dt;
-      const LinkOutput out = link_force(in);
-      const float p = 0.5f * (ms[i] + ms[j]);
-      const int crit = link_break_criterion(eps * r0, r0, out.sigma, out.tau2, p, strengths[l], kv);
-      if (crit >= 0) {
-        found[ch].push_back({static_cast<std::uint32_t>(l), static_cast<std::uint8_t>(crit)});
-        continue;  // S_.intact[l] is cleared below, in link order
-      }
-      // What both ends gather: the force, the torque (r/2) n x F_t = (r/2) n x F (n x n = 0, r = r0 (1 + eps))
-      // and the trace of the Love average term (r0/2) sym(n (x) F) of physics.md sec. 3.
-      const Vec3 hf = out.force_i * (0.5f * r0);
-      const Vec3 nl = in.g.n;
-      lf[l] = {out.force_i, cross(nl, hf) * (1.0f + eps), dot(nl, hf), 0.0f};
-      ut[l] = out.ut;
-    }
-  });
-  apply_breaks(found);
+  apply_breaks(counts);
 }
 
 // Breaks found in the link pass, in link order: the link stops carrying force from this step on, and the
 // broken pair touches at once, so it joins the contact list (and the ground list, when near it) now, not
 // at the next rebuild.
-void CpuBackend::apply_breaks(const std::vector<std::vector<std::pair<std::uint32_t, std::uint8_t>>>& found) {
+void CpuBackend::apply_breaks(const std::vector<std::size_t>& counts) {
+  const std::size_t n = M_.size(), chunks = (n + kChunk - 1) / kChunk;
   std::vector<ContactPair> fresh;
   std::vector<std::uint32_t> ground_fresh;
-  for (const auto& list : found)
-    for (const auto& [l, crit] : list) {
-      const std::uint32_t i = M_.link_i[l], j = M_.link_j[l];
+  for (std::size_t k = 0; k < counts.size(); ++k) {
+    const std::size_t axis = k / chunks, b = (k % chunks) * kChunk;
+    for (std::size_t r = 0; r < counts[k]; ++r) {
+      const std::uint32_t code = breaks_[axis * n + b + r], l = code & ~kBreakByStress;
+      const int crit = code & kBreakByStress ? 1 : 0;
+      const std::uint32_t i = M_.link_i(l), j = M_.link_j(l);
       S_.intact[l] = 0;
       --intact_count_[i];
       --intact_count_[j];
-      S_.link_ut[l] = Vec3{};
+      utx_[l] = uty_[l] = utz_[l] = 0.0f;
       S_.breaks.push_back({S_.step, l, static_cast<BreakCriterion>(crit)});
       ++S_.broken_by[crit];
       fresh.push_back({i, j, {}});
@@ -407,6 +392,7 @@ void CpuBackend::apply_breaks(const std::vector<std::vector<std::pair<std::uint3
         if (near_ground(j)) ground_fresh.push_back(j);
       }
     }
+  }
   if (!fresh.empty()) {
     std::sort(fresh.begin(), fresh.end(), pair_less);
     std::vector<ContactPair> merged;
@@ -440,7 +426,7 @@ void CpuBackend::contact_pass() {
     ContactPair& cp = C[p];
     const std::uint32_t i = cp.i, j = cp.j;
     const float ri = M_.radius[i], rj = M_.radius[j];
-    const SphereGap gap = sphere_gap(S_.x[i], S_.x[j], static_cast<double>(ri) + rj);
+    const SphereGap gap = sphere_gap(pos(i), pos(j), static_cast<double>(ri) + rj);
     if (gap.overlap <= 0.0f || !gap.valid) {
       cp.h = {};
       contact_out_[p].on = false;
@@ -450,8 +436,8 @@ void CpuBackend::contact_pass() {
     ContactInput in;
     in.n = n;
     in.overlap = gap.overlap;
-    in.vrel = (S_.v[j] + cross(S_.w[j], -rj * n)) - (S_.v[i] + cross(S_.w[i], ri * n));
-    in.wrel = S_.w[j] - S_.w[i];
+    in.vrel = (vel(j) + cross(ang(j), -rj * n)) - (vel(i) + cross(ang(i), ri * n));
+    in.wrel = ang(j) - ang(i);
     in.s = body_contact_springs(M_.contact_material(M_.group[i], M_.group[j]), M_.zeta_pair[M_.group[i] * M_.groups.size() + M_.group[j]], ri, rj, reduced(M_.mass[i], M_.mass[j]),
                       reduced(M_.inertia[i], M_.inertia[j]));
     in.ut = cp.h.ut;
@@ -480,7 +466,7 @@ void CpuBackend::ground_pass() {
     BodyContact& bc = G[k];
     const std::uint32_t a = bc.automaton;
     const float r = M_.radius[a];
-    const float overlap = ground_overlap(S_.x[a], M_.up, M_.ground_height, r);
+    const float overlap = ground_overlap(pos(a), M_.up, M_.ground_height, r);
     if (overlap <= 0.0f) {
       bc.h = {};
       contact_out_[k].on = false;
@@ -489,8 +475,8 @@ void CpuBackend::ground_pass() {
     ContactInput in;
     in.n = nrm;
     in.overlap = overlap;
-    in.vrel = -(S_.v[a] + cross(S_.w[a], r * nrm));
-    in.wrel = -S_.w[a];
+    in.vrel = -(vel(a) + cross(ang(a), r * nrm));
+    in.wrel = -ang(a);
     in.s = body_contact_springs(M_.ground_contact[M_.group[a]], M_.zeta_ground[M_.group[a]], r, INFINITY, M_.mass[a], M_.inertia[a]);
     in.ut = bc.h.ut;
     in.mr = bc.h.mr;
@@ -522,7 +508,7 @@ std::int64_t CpuBackend::projectile_pass() {
     const DVec3 c = ps.position;
     parallel_chunks(n, [&](std::size_t ch, std::size_t b, std::size_t e) {
       for (std::size_t a = b; a < e; ++a) {
-        const Vec3 d = delta(c, S_.x[a]);
+        const Vec3 d = delta(c, pos(a));
         const float reach = P.radius + M_.radius[a];
         if (dot(d, d) < reach * reach) found[ch].push_back(static_cast<std::uint32_t>(a));
       }
@@ -535,14 +521,14 @@ std::int64_t CpuBackend::projectile_pass() {
         const ContactHistory prev =
             (old < ps.contacts.size() && ps.contacts[old].automaton == a) ? ps.contacts[old].h : ContactHistory{};
         const float ra = M_.radius[a];
-        const SphereGap gap = sphere_gap(S_.x[a], c, static_cast<double>(P.radius) + ra);  // automaton to projectile
+        const SphereGap gap = sphere_gap(pos(a), c, static_cast<double>(P.radius) + ra);  // automaton to projectile
         if (!gap.valid) continue;
         const Vec3 nrm = gap.n;
         ContactInput in;
         in.n = nrm;
         in.overlap = gap.overlap;
-        in.vrel = (ps.velocity + cross(ps.angular_velocity, -P.radius * nrm)) - (S_.v[a] + cross(S_.w[a], ra * nrm));
-        in.wrel = ps.angular_velocity - S_.w[a];
+        in.vrel = (ps.velocity + cross(ps.angular_velocity, -P.radius * nrm)) - (vel(a) + cross(ang(a), ra * nrm));
+        in.wrel = ps.angular_velocity - ang(a);
         in.s = body_contact_springs(M_.projectile_contact(p, M_.group[a]), P.zeta_automata[M_.group[a]], ra, P.radius,
                           P.kinematic ? M_.mass[a] : reduced(M_.mass[a], P.mass),
                           P.kinematic ? M_.inertia[a] : reduced(M_.inertia[a], P.inertia));
@@ -631,115 +617,14 @@ std::int64_t CpuBackend::projectile_pass() {
   return kAllFinite;
 }
 
-std::int64_t CpuBackend::automaton_pass(float& max_move2) {
+std::int64_t CpuBackend::automaton_pass(const cpu::LatticeView& v, float& max_move2) {
   const float dt = M_.dt;
   const std::size_t n = M_.size();
   const std::size_t chunks = (n + kChunk - 1) / kChunk;
-  std::vector<float> chunk_move(chunks, 0.0f);
-  std::vector<std::int64_t> chunk_bad(chunks, kAllFinite);
-  parallel_chunks(n, [&](std::size_t ch, std::size_t b, std::size_t e) {
-    float move2 = 0;
-    // Plain local pointers: the compiler cannot keep vector internals in registers across the stores.
-    // Every access to an array goes through its one pointer (restrict forbids reaching it otherwise).
-    const std::uint32_t* __restrict adj_begin = M_.adj_begin.data();
-    const std::uint32_t* __restrict adj_code = adj_code_.data();
-    const std::uint8_t* __restrict intact = S_.intact.data();
-    const LinkGather* __restrict lf = link_out_.data();
-    const Vec3* __restrict ln = link_n_.data();
-    const float* __restrict r0s = M_.link_r0.data();
-    const float* __restrict mass = M_.mass.data();
-    const std::int16_t* __restrict grip = M_.grip.data();
-    const float* __restrict inv_mass = inv_mass_.data();
-    const float* __restrict inv_inertia = inv_inertia_.data();
-    const float* __restrict inv_volume = inv_volume_.data();
-    const Vec3* __restrict loads = M_.load.empty() ? nullptr : M_.load.data();
-    DVec3* __restrict xs = S_.x.data();
-    Vec3* __restrict vs = S_.v.data();
-    Vec3* __restrict ws = S_.w.data();
-    Quat* __restrict qs = S_.q.data();
-    Sym3* __restrict stress = S_.s.data();
-    Vec3* __restrict f_out = S_.f.data();
-    Vec3* __restrict t_out = S_.t.data();
-    const DVec3* __restrict x_ref = S_.x_at_rebuild.data();
-    std::uint8_t* __restrict has_ext = has_ext_.data();
-    Vec3* __restrict ext_f = ext_f_.data();
-    Vec3* __restrict ext_t = ext_t_.data();
-    Sym3* __restrict ext_s = ext_s_.data();
-    const std::uint8_t* __restrict intact_count = intact_count_.data();
-    float* __restrict mean_s = S_.mean_stress.data();
-    const Vec3 gravity = M_.gravity;
-    const bool last = last_step_;
-    const float alpha = M_.local_damping;
-    for (std::size_t a = b; a < e; ++a) {
-      const float m = mass[a];
-      Vec3 f = gravity * m;
-      Vec3 t;
-      Sym3 s;               // contacts, ground, projectiles: every step
-      Sym3 s_links;         // links: on the last step only
-      float trace = 0;      // trace of the links' part: every step
-      for (std::uint32_t k = adj_begin[a]; k < adj_begin[a + 1]; ++k) {
-        const std::uint32_t code = adj_code[k];
-        const std::uint32_t l = code & kLinkMask;
-        if (!intact[l]) continue;
-        const LinkGather& g = lf[l];
-        if (code & kIsJ) f -= g.force;
-        else f += g.force;
-        t += g.torque;
-        trace += g.trace;
-        if (last) s_links += sym_outer(ln[l], g.force, 0.5f * r0s[l]);
-      }
-      if (has_ext[a]) {
-        f += ext_f[a];
-        t += ext_t[a];
-        s += ext_s[a];
-        ext_f[a] = Vec3{};
-        ext_t[a] = Vec3{};
-        ext_s[a] = Sym3{};
-        has_ext[a] = 0;
-      }
-      if (loads) f += loads[a];
-      const float inv_v = inv_volume[a];
-      if (last) {
-        Sym3 total = s_links;
-        total += s;
-        total.xx *= inv_v; total.yy *= inv_v; total.zz *= inv_v;
-        total.xy *= inv_v; total.yz *= inv_v; total.zx *= inv_v;
-        stress[a] = total;
-      }
-      // From the traces on every step, so the dynamics do not depend on how steps are grouped into calls.
-      mean_s[a] = (trace + s.xx + s.yy + s.zz) * inv_v * (1.0f / 3.0f);
-      Body body{xs[a], vs[a], ws[a], qs[a]};
-      if (grip[a] >= 0) {
-        // Held: moves with the grip, does not turn. ext_f keeps the force the body puts on the grip.
-        body.v = M_.grip_velocity[grip[a]];
-        body.x += body.v * dt;
-        body.w = Vec3{};
-        ext_f[a] = f;
-      } else {
-        integrate_body(body, f, t, inv_mass[a], inv_inertia[a], dt, alpha);
-      }
-      if (last) {
-        f_out[a] = f;
-        t_out[a] = t;
-      }
-      if (!(finite(body.x) && finite(body.v) && finite(body.w))) {
-        if (chunk_bad[ch] == kAllFinite) chunk_bad[ch] = static_cast<std::int64_t>(a);
-      }
-      xs[a] = body.x;
-      vs[a] = body.v;
-      ws[a] = body.w;
-      qs[a] = body.q;
-      // Only exposed automata are in the contact lists (see rebuild_contacts), so only their motion
-      // can make them stale.
-      if (intact_count[a] < 6) {
-        const Vec3 dm = delta(x_ref[a], body.x);
-        move2 = std::max(move2, dot(dm, dm));
-      }
-    }
-    chunk_move[ch] = move2;
-  });
+  std::vector<cpu::AutomataResult> result(chunks);
+  parallel_chunks(n, [&](std::size_t ch, std::size_t b, std::size_t e) { result[ch] = kernels_.automata(v, b, e); });
   max_move2 = 0;
-  for (float v : chunk_move) max_move2 = std::max(max_move2, v);
+  for (const auto& r : result) max_move2 = std::max(max_move2, r.max_move2);
   // Grip forces: the force the grip exerts is minus what the body pushes on it.
   for (std::size_t g = 0; g < grip_members_.size(); ++g) {
     Vec3 f;
@@ -750,12 +635,13 @@ std::int64_t CpuBackend::automaton_pass(float& max_move2) {
     S_.grip_force[g] = f;
     S_.grip_work[g] += static_cast<double>(dot(f, M_.grip_velocity[g])) * dt;
   }
-  for (std::int64_t b : chunk_bad)
-    if (b != kAllFinite) return b;
+  for (const auto& r : result)
+    if (r.first_bad >= 0) return r.first_bad;
   return kAllFinite;
 }
 
 void CpuBackend::rebuild_contacts() {
+  sync_positions();
   const float skin = M_.skin;
   // Only exposed automata can touch anything but their linked neighbours: one with all six lattice
   // links intact is boxed in by automata at distance ~d, and its diagonal neighbours (1.41 d) are out of
@@ -809,26 +695,26 @@ void CpuBackend::rebuild_contacts() {
 
 std::int64_t CpuBackend::one_step() {
   PassTimer timer(profile_);
-  link_geometry_pass();
+  const cpu::LatticeView v = view();
+  const std::size_t n = M_.size();
+  parallel_chunks(n, [&](std::size_t, std::size_t b, std::size_t e) { kernels_.many_body(v, b, e); });
   timer.lap(0);
-  many_body_pass();
+  link_force_pass(v);
   timer.lap(1);
-  link_force_pass();
-  timer.lap(2);
   contact_pass();
   ground_pass();
-  timer.lap(3);
+  timer.lap(2);
   const std::int64_t bad_projectile = projectile_pass();
-  timer.lap(4);
+  timer.lap(3);
   float max_move2 = 0;
-  const std::int64_t bad = automaton_pass(max_move2);
-  timer.lap(5);
+  const std::int64_t bad = automaton_pass(v, max_move2);
+  timer.lap(4);
   ++S_.step;
   S_.time = static_cast<double>(S_.step) * M_.dt;
   // Verlet-style list: rebuild once any automaton has moved half the skin since the last rebuild.
   const float half = 0.5f * M_.skin;
   if (max_move2 > half * half) rebuild_contacts();
-  timer.lap(7);
+  timer.lap(5);
   return bad != kAllFinite ? bad : bad_projectile;
 }
 
@@ -838,7 +724,7 @@ std::unique_ptr<Backend> make_cpu_backend(const Model& model) { return std::make
 
 State initial_state(const Model& m) {
   State s;
-  const std::size_t n = m.size(), L = m.link_count();
+  const std::size_t n = m.size(), L = m.link_slots();
   s.x = m.position0;
   s.v = m.velocity0;
   s.w.assign(n, Vec3{});
@@ -847,7 +733,8 @@ State initial_state(const Model& m) {
   s.mean_stress.assign(n, 0.0f);
   s.f.assign(n, Vec3{});
   s.t.assign(n, Vec3{});
-  s.intact.assign(L, 1);
+  s.intact.resize(L);
+  for (std::size_t l = 0; l < L; ++l) s.intact[l] = m.link_exists(l) ? 1 : 0;
   s.link_ut.assign(L, Vec3{});
   for (const auto& p : m.projectiles) {
     ProjectileState ps;

@@ -79,23 +79,22 @@ Energies energies_of(const View& at) {
   // the many-body part.
   std::vector<double> sum(3 * n, 0.0);
   std::vector<int> cnt(3 * n, 0);
-  for (std::size_t l = 0; l < m.link_count(); ++l) {
-    if (!s.intact[l]) continue;
-    const std::uint32_t i = m.link_i[l], j = m.link_j[l];
+  const float r0 = m.spacing, area = r0 * r0;
+  m.for_each_link([&](std::size_t l, std::uint32_t i, std::uint32_t j, int ax) {
+    if (!s.intact[l]) return;
     const GroupParams &gi = m.groups[m.group[i]], &gj = m.groups[m.group[j]];
-    const LinkGeometry g = link_geometry(at.x(i), at.x(j), m.link_r0[l], 1.0f / m.link_r0[l]);
+    const LinkGeometry g = link_geometry(at.x(i), at.x(j), r0, 1.0f / r0);
     const double G = harmonic(gi.shear_modulus, gj.shear_modulus);
-    const double V = static_cast<double>(m.link_area[l]) * m.link_r0[l];
+    const double V = static_cast<double>(area) * r0;
     const double f_mean = 0.5 * (strengthening_factor(gi.strengthening, g.eps) + strengthening_factor(gj.strengthening, g.eps));
-    const double kt = kShearFactor * G * m.link_area[l] / m.link_r0[l] * f_mean;
+    const double kt = kShearFactor * G * area / r0 * f_mean;
     e.elastic += G * V * (strengthening_energy(gi.strengthening, g.eps) + strengthening_energy(gj.strengthening, g.eps)) +
                  0.5 * kt * sq(s.link_ut[l]);
-    const int ax = m.link_axis[l];
     sum[3 * i + ax] += strengthened_strain(gi.strengthening, g.eps).s;
     sum[3 * j + ax] += strengthened_strain(gj.strengthening, g.eps).s;
     ++cnt[3 * i + ax];
     ++cnt[3 * j + ax];
-  }
+  });
   for (std::size_t a = 0; a < n; ++a) {
     const GroupParams& g = m.groups[m.group[a]];
     double L = 0;

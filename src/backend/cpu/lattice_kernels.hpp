@@ -1,0 +1,101 @@
+#pragma once
+// The lattice part of a CPU step as four kernels over ranges of automata, each compiled for several
+// instruction sets (lattice_kernels.inl, kernels_*.cpp) and picked at run time (select_kernels). Every
+// version computes the same bits: lanes run the scalar formulas of physics/ operation for operation.
+//
+//   many_body  each automaton's many-body terms P per axis (volumetric strain of its intact links)
+//   links      pair forces, torques and stress traces of the links along one axis, and the fracture
+//              criteria; the links that break are reported, in link order, and left intact for the caller
+//   automata   gathers the forces of each automaton's six links in a fixed order (-z, -y, -x, +x, +y,
+//              +z: the order of the lattice's cells), adds contacts and loads, integrates
+//
+// The kernels see raw arrays only (no containers, no allocation), so that nothing compiled for one
+// instruction set can be shared with another by the linker (tests/check_kernel_symbols.sh checks).
+#include <cstddef>
+#include <cstdint>
+
+#include "core/model.hpp"
+#include "physics/link_law.hpp"
+
+namespace mca::cpu {
+
+// Constants of a link between automata of groups a and b (pairs[a * groups + b]).
+struct PairConstants {
+  float G;                 // harmonic mean of the shear moduli
+  float kt;                // shear spring k_s G S / r0
+  LinkDashpots damping;    // link_dashpots of the pair
+};
+
+struct LatticeView {
+  std::size_t n = 0;  // automata; link slots are axis * n + a (core/model.hpp)
+  // Model.
+  const std::uint32_t* up = nullptr;     // Model::neighbour
+  const std::uint32_t* below = nullptr;  // Model::neighbour_below
+  const std::uint8_t* group = nullptr;
+  const float *tensile = nullptr, *compressive = nullptr, *break_strain = nullptr;  // class factor x group's
+  const float *mass = nullptr, *inv_mass = nullptr, *inv_inertia = nullptr, *inv_volume = nullptr;
+  const std::int16_t* grip = nullptr;  // null: no grips
+  const Vec3* grip_velocity = nullptr;
+  const Vec3* load = nullptr;  // null: no loads
+  const GroupParams* groups = nullptr;
+  const float (*free_factor)[4] = nullptr;  // per group (free_axis_factors)
+  const PairConstants* pairs = nullptr;
+  int group_count = 0;
+  bool one_group = false;      // every automaton of group 0... of the same group (uniform constants)
+  bool strengthening = false;  // some group has a strengthening law
+  float r0 = 0, inv_r0 = 0, area = 0, dt = 0, stress_coefficient = 1, local_damping = 0;
+  Vec3 gravity;
+  bool last = false;  // the last step of a call: write the averaged stress and the applied forces
+  // State, by automaton (structure of arrays).
+  double *px = nullptr, *py = nullptr, *pz = nullptr;
+  float *vx = nullptr, *vy = nullptr, *vz = nullptr, *wx = nullptr, *wy = nullptr, *wz = nullptr;
+  float *qw = nullptr, *qx = nullptr, *qy = nullptr, *qz = nullptr;
+  float* mean_stress = nullptr;
+  Sym3* stress = nullptr;            // State::s (last step)
+  Vec3 *f_out = nullptr, *t_out = nullptr;  // State::f, State::t (last step)
+  // State, by link slot.
+  std::uint8_t* intact = nullptr;
+  float *utx = nullptr, *uty = nullptr, *utz = nullptr;
+  // Scratch, by link slot. Link directions are formed from the positions by each kernel that needs them
+  // (link_geometry, the same bits each time); stored only on the last step, for the averaged stress.
+  float *nx = nullptr, *ny = nullptr, *nz = nullptr;
+  float* many_body = nullptr;  // P of automaton a along an axis, at axis * n + a
+  float *fx = nullptr, *fy = nullptr, *fz = nullptr, *tx = nullptr, *ty = nullptr, *tz = nullptr, *trace = nullptr;
+  // Contacts and the like, added by the automata kernel and then cleared.
+  std::uint8_t* has_ext = nullptr;
+  Vec3 *ext_f = nullptr, *ext_t = nullptr;
+  Sym3* ext_s = nullptr;
+  // For the contact list's staleness: intact links per automaton and the positions at the last rebuild.
+  const std::uint8_t* intact_count = nullptr;
+  const DVec3* x_ref = nullptr;
+};
+
+// A break found by the links kernel: the link slot and the criterion (bit 31: 1 = stress).
+inline constexpr std::uint32_t kBreakByStress = 1u << 31;
+
+struct AutomataResult {
+  float max_move2 = 0;          // largest squared move of an exposed automaton since the rebuild
+  std::int64_t first_bad = -1;  // the first automaton with a non-finite position or velocity, or -1
+};
+
+struct Kernels {
+  const char* name;  // "scalar", "sse2", "avx2", "avx512"
+  int lanes;
+  void (*many_body)(const LatticeView&, std::size_t b, std::size_t e);
+  // Writes the breaks of slots axis * n + [b, e) to `breaks` (room for e - b) and returns their count.
+  std::size_t (*links)(const LatticeView&, int axis, std::size_t b, std::size_t e, std::uint32_t* breaks);
+  AutomataResult (*automata)(const LatticeView&, std::size_t b, std::size_t e);
+};
+
+const Kernels& kernels_scalar();
+const Kernels& kernels_sse2();
+const Kernels& kernels_avx2();
+const Kernels& kernels_avx512();
+
+// The widest set this processor runs, or the one MCA_SIMD names (scalar, sse2, avx2, avx512; a set the
+// processor lacks is an error, mca::Error).
+const Kernels& select_kernels();
+// Every set this processor runs, narrowest first (for tests and `mca bench`).
+int available_kernels(const Kernels* out[4]);
+
+}  // namespace mca::cpu

@@ -1,0 +1,410 @@
+// The lattice kernels of lattice_kernels.hpp, written once for a lane type V (float, or a SIMD vector of
+// floats: backend/cpu/lanes.hpp). Included by kernels_<set>.cpp inside its own namespace, after lanes.hpp
+// and the physics headers; V is that namespace's lane type.
+//
+// A block is W consecutive automata (or link slots along one axis), one per lane; what is left at the end
+// of a range goes through the same code with V = float, one at a time. A lane computes exactly what the
+// scalar code computes (the same formulas, operation by operation); where the scalar code branches, the
+// lanes compute both sides and select. Neighbours are loaded as a run when the lanes' neighbours are
+// consecutive (inside a box of the lattice, the common case) and gathered otherwise: the same values.
+
+template <class X>
+struct Block {
+  using L = Lanes<X>;
+  using D = typename L::D;
+  using U = typename L::U;
+  using M = typename L::M;
+  static constexpr std::size_t W = L::size;
+
+  // The far ends of the lanes' links from nb[a0 ...]: their indices (kNoLink replaced by the lane's own
+  // automaton, so that a gather stays in bounds) and a 0/1 flag of "there is a neighbour". When the lanes
+  // with a neighbour have it at one offset c (inside a box of the lattice: +-1, +-nx, +-nx ny) and the run
+  // a0 + c ... stays inside the n automata, the far ends are loaded as that run, lanes without a
+  // neighbour included (their values are not used).
+  struct Far {
+    U j;
+    X has;
+    bool run;
+    std::size_t j0;
+  };
+  static MCA_LANE Far far_ends(const std::uint32_t* nb, std::size_t a0, std::size_t n) {
+    const U raw = L::load(nb + a0);
+    const U self = L::iota(a0);
+    Far f;
+    const auto none = raw == U(Model::kNoLink);
+    f.j = select(none, self, raw);
+    f.has = to_lanes(select(none, U(0u), U(1u)));
+    std::size_t first = 0;
+    while (first + 1 < W && L::lane(none, first)) ++first;
+    const std::uint32_t c = static_cast<std::uint32_t>(L::lane(f.j, first)) - static_cast<std::uint32_t>(a0 + first);
+    f.j0 = static_cast<std::uint32_t>(a0) + c;  // as 32-bit numbers: c may be "negative"
+    f.run = f.j0 + W <= n && f.j0 < n && L::all(none || f.j - self == U(c));
+    return f;
+  }
+  static MCA_LANE X to_lanes(const U& u) {
+    if constexpr (W == 1) return static_cast<float>(u);
+    else return stdx::static_simd_cast<X>(u);
+  }
+  template <class T>
+  static MCA_LANE auto at(const T* p, const Far& f) {
+    return f.run ? L::load(p + f.j0) : L::gather(p, f.j);
+  }
+  static MCA_LANE X bytes_at(const std::uint8_t* p, const Far& f) {
+    return f.run ? L::load_bytes(p + f.j0) : L::gather_bytes(p, f.j);
+  }
+  static MCA_LANE Vec3T<X> load3(const float* x, const float* y, const float* z, std::size_t a) {
+    return {L::load(x + a), L::load(y + a), L::load(z + a)};
+  }
+  static MCA_LANE void store3(const Vec3T<X>& v, float* x, float* y, float* z, std::size_t a) {
+    L::store(v.x, x + a);
+    L::store(v.y, y + a);
+    L::store(v.z, z + a);
+  }
+  static MCA_LANE Vec3T<X> far3(const float* x, const float* y, const float* z, const Far& f) {
+    return {at(x, f), at(y, f), at(z, f)};
+  }
+  // Per lane from an array of structs.
+  static MCA_LANE Vec3T<X> lanes_of(const Vec3* p, std::size_t a0) {
+    return {L::from([&](std::size_t k) { return p[a0 + k].x; }), L::from([&](std::size_t k) { return p[a0 + k].y; }),
+            L::from([&](std::size_t k) { return p[a0 + k].z; })};
+  }
+  template <class T>
+  static MCA_LANE X group_value(const LatticeView& v, std::size_t a0, T get) {
+    if (v.one_group) return X(get(v.groups[v.group[0]]));
+    return L::from([&](std::size_t k) { return get(v.groups[v.group[a0 + k]]); });
+  }
+
+  // The geometry of the links in slots off + [a0, a0 + W), from the positions: each pass that needs it
+  // forms it again (the same bits each time), which costs less than storing it and reading it back.
+  static MCA_LANE auto geometry(const LatticeView& v, const Far& f, std::size_t a0) {
+    const Vec3T<D> xi{L::load(v.px + a0), L::load(v.py + a0), L::load(v.pz + a0)};
+    const Vec3T<D> xj{at(v.px, f), at(v.py, f), at(v.pz, f)};
+    return link_geometry(xi, xj, v.r0, v.inv_r0);
+  }
+  // The same for the links below: from each lane's lower neighbour (the link's first end) to the lane.
+  static MCA_LANE auto geometry_below(const LatticeView& v, const Far& f, std::size_t a0) {
+    const Vec3T<D> xi{at(v.px, f), at(v.py, f), at(v.pz, f)};
+    const Vec3T<D> xj{L::load(v.px + a0), L::load(v.py + a0), L::load(v.pz + a0)};
+    return link_geometry(xi, xj, v.r0, v.inv_r0);
+  }
+
+  // The strain as the many-body sum of automata of the lanes' groups takes it: strengthened or not.
+  static MCA_LANE X summand(const LatticeView& v, std::size_t a0, const X& e) {
+    if (!v.strengthening) return e;
+    return L::from([&](std::size_t k) {
+      return strengthened_strain(v.groups[v.group[a0 + k]].strengthening, L::lane(e, k)).s;
+    });
+  }
+
+  static MCA_LANE void many_body(const LatticeView& v, std::size_t a0) {
+    X sum[3], cnt[3];
+    for (int axis = 0; axis < 3; ++axis) {
+      const std::size_t off = static_cast<std::size_t>(axis) * v.n;
+      // The link below (it is its lower end's), then the automaton's own: the order of the lattice's cells.
+      const Far fb = far_ends(v.below + off, a0, v.n);
+      const auto has_below = bytes_at(v.intact + off, fb) * fb.has != 0.0f;
+      const X e_below = summand(v, a0, geometry_below(v, fb, a0).eps);
+      const auto has_own = L::load_bytes(v.intact + off + a0) != 0.0f;
+      const X e_own = summand(v, a0, geometry(v, far_ends(v.up + off, a0, v.n), a0).eps);
+      X s = 0.0f, c = 0.0f;
+      s = select(has_below, s + e_below, s);
+      c = select(has_below, c + 1.0f, c);
+      s = select(has_own, s + e_own, s);
+      c = select(has_own, c + 1.0f, c);
+      sum[axis] = s;
+      cnt[axis] = c;
+    }
+    X ff[4];
+    for (int k = 0; k < 4; ++k) {
+      if (v.one_group) ff[k] = v.free_factor[v.group[0]][k];
+      else ff[k] = L::from([&](std::size_t l) { return v.free_factor[v.group[a0 + l]][k]; });
+    }
+    const X lam = group_value(v, a0, [](const GroupParams& g) { return g.lame_lambda; });
+    const X lam_theta = lam * volumetric_strain(sum, cnt, ff);
+    for (int axis = 0; axis < 3; ++axis) {
+      const X per_link = lam_theta * select(cnt[axis] == 1.0f, X(1.0f), X(0.5f));
+      L::store(select(cnt[axis] > 0.0f, per_link, X(0.0f)), v.many_body + static_cast<std::size_t>(axis) * v.n + a0);
+    }
+  }
+
+  // The constants of the lanes' links (pair of groups).
+  static MCA_LANE X pair_value(const LatticeView& v, std::size_t a0, const Far& f, float PairConstants::*field,
+                               float LinkDashpots::*damping = nullptr) {
+    auto get = [&](const PairConstants& p) { return damping ? p.damping.*damping : p.*field; };
+    if (v.one_group) return X(get(v.pairs[v.group[0] * (v.group_count + 1)]));
+    return L::from([&](std::size_t k) {
+      return get(v.pairs[v.group[a0 + k] * v.group_count + v.group[L::lane(f.j, k)]]);
+    });
+  }
+
+  // links: forces of the links in slots off + [a0, a0 + W); breaks go to out[], in slot order.
+  static MCA_LANE std::size_t links(const LatticeView& v, int axis, std::size_t a0, std::uint32_t* out) {
+    const std::size_t off = static_cast<std::size_t>(axis) * v.n, l0 = off + a0;
+    const auto alive = L::load_bytes(v.intact + l0) != 0.0f;
+    if (!L::any(alive)) return 0;
+    const Far f = far_ends(v.up + off, a0, v.n);
+    const auto g = geometry(v, f, a0);
+    const Vec3T<X> n = g.n;
+    const X eps = g.eps;
+    if (v.last) store3(n, v.nx, v.ny, v.nz, l0);  // for the averaged stress
+    const X mb_i = L::load(v.many_body + l0), mb_j = at(v.many_body + off, f);
+    const X G = pair_value(v, a0, f, &PairConstants::G);
+    X kt = pair_value(v, a0, f, &PairConstants::kt);
+    X kt_slope = 0.0f;
+    X sigma;
+    if (v.strengthening) {
+      // Per lane, as the scalar code: the strengthened strains and spring of the two ends.
+      float fi[W], fj[W], gi[W], gj[W], k_t[W], k_s[W];
+      for (std::size_t k = 0; k < W; ++k) {
+        const Strengthening& si = v.groups[v.group[a0 + k]].strengthening;
+        const Strengthening& sj = v.groups[v.group[L::lane(f.j, k)]].strengthening;
+        const float e = L::lane(eps, k), kt0 = L::lane(kt, k);
+        const StrengthenedStrain a = strengthened_strain(si, e), b = strengthened_strain(sj, e);
+        fi[k] = a.f;
+        fj[k] = b.f;
+        gi[k] = a.g;
+        gj[k] = b.g;
+        k_t[k] = kt0 * 0.5f * (a.f + b.f);
+        k_s[k] = kt0 * 0.5f * (strengthening_slope(si, e) + strengthening_slope(sj, e)) * v.inv_r0;
+      }
+      sigma = G * eps * (L::load(fi) + L::load(fj)) + L::load(gi) * mb_i + L::load(gj) * mb_j;
+      kt = L::load(k_t);
+      kt_slope = L::load(k_s);
+    } else {
+      sigma = G * eps * 2.0f + mb_i + mb_j;  // link_normal_stress with f = g = 1
+    }
+    LinkInputT<X> in;
+    in.g = {n, v.r0 * (1.0f + eps), eps};
+    in.area = v.area;
+    in.sigma = sigma;
+    in.kt = kt;
+    in.kt_slope = kt_slope;
+    in.damp_normal = pair_value(v, a0, f, nullptr, &LinkDashpots::normal);
+    in.damp_tangential = pair_value(v, a0, f, nullptr, &LinkDashpots::tangential);
+    in.vi = load3(v.vx, v.vy, v.vz, a0);
+    in.vj = far3(v.vx, v.vy, v.vz, f);
+    in.wi = load3(v.wx, v.wy, v.wz, a0);
+    in.wj = far3(v.wx, v.wy, v.wz, f);
+    in.ut = load3(v.utx, v.uty, v.utz, l0);
+    in.dt = v.dt;
+    const LinkOutputT<X> o = link_force(in);
+    // Strengths of the weaker automaton (physics.md sec. 4): std::min(i's, j's).
+    const X ti = L::load(v.tensile + a0), tj = at(v.tensile, f);
+    const X ci = L::load(v.compressive + a0), cj = at(v.compressive, f);
+    const X si = L::load(v.break_strain + a0), sj = at(v.break_strain, f);
+    const X tensile = select(tj < ti, tj, ti), compressive = select(cj < ci, cj, ci);
+    const X strain = select(sj < si, sj, si);
+    const X p = 0.5f * (L::load(v.mean_stress + a0) + at(v.mean_stress, f));
+    const auto b = link_break_test(eps * v.r0, v.r0, o.sigma, o.tau2, p, tensile, tensile / compressive, strain,
+                                   v.stress_coefficient);
+    const auto broke = alive && (b.displacement || b.stress);
+    std::size_t count = 0;
+    if (L::any(broke))
+      for (std::size_t k = 0; k < W; ++k)
+        if (L::lane(broke, k))
+          out[count++] = static_cast<std::uint32_t>(l0 + k) | (L::lane(b.displacement, k) ? 0u : kBreakByStress);
+    // What both ends gather: the force, the torque (r/2) n x F_t = (r/2) n x F (n x n = 0, r = r0 (1 + eps))
+    // and the trace of the Love average term (r0/2) sym(n (x) F) of physics.md sec. 3.
+    const Vec3T<X> hf = o.force_i * (0.5f * v.r0);
+    store3(o.force_i, v.fx, v.fy, v.fz, l0);
+    store3(cross(n, hf) * (1.0f + eps), v.tx, v.ty, v.tz, l0);
+    L::store(dot(n, hf), v.trace + l0);
+    // A link that breaks keeps its displacement until the caller clears it; a broken one keeps its zero.
+    store3(select(alive && !broke, o.ut, in.ut), v.utx, v.uty, v.utz, l0);
+    return count;
+  }
+
+  static MCA_LANE void add_if(const M& m, Sym3T<X>& s, const Sym3T<X>& a) {
+    s.xx = select(m, s.xx + a.xx, s.xx);
+    s.yy = select(m, s.yy + a.yy, s.yy);
+    s.zz = select(m, s.zz + a.zz, s.zz);
+    s.xy = select(m, s.xy + a.xy, s.xy);
+    s.yz = select(m, s.yz + a.yz, s.yz);
+    s.zx = select(m, s.zx + a.zx, s.zx);
+  }
+
+  // automata: gather, contacts and loads, integrate, for automata [a0, a0 + W).
+  static MCA_LANE void automata(const LatticeView& v, std::size_t a0, AutomataResult& r) {
+    const X m = L::load(v.mass + a0);
+    Vec3T<X> f = Vec3T<X>{X(v.gravity.x), X(v.gravity.y), X(v.gravity.z)} * m;
+    Vec3T<X> t;
+    Sym3T<X> s;        // contacts, ground, projectiles: every step
+    Sym3T<X> s_links;  // links: on the last step only
+    X trace = 0.0f;    // trace of the links' part: every step
+    const float half_r0 = 0.5f * v.r0;
+    // The links below (-z, -y, -x: this automaton is their upper end), then its own (+x, +y, +z).
+    for (int axis = 2; axis >= 0; --axis) {
+      const std::size_t off = static_cast<std::size_t>(axis) * v.n;
+      const Far fb = far_ends(v.below + off, a0, v.n);
+      const auto live = bytes_at(v.intact + off, fb) * fb.has != 0.0f;
+      if (!L::any(live)) continue;
+      const Vec3T<X> F = far3(v.fx + off, v.fy + off, v.fz + off, fb);
+      f = select(live, f - F, f);
+      t = select(live, t + far3(v.tx + off, v.ty + off, v.tz + off, fb), t);
+      trace = select(live, trace + at(v.trace + off, fb), trace);
+      if (v.last) add_if(live, s_links, sym_outer(far3(v.nx + off, v.ny + off, v.nz + off, fb), F, X(half_r0)));
+    }
+    for (int axis = 0; axis < 3; ++axis) {
+      const std::size_t l0 = static_cast<std::size_t>(axis) * v.n + a0;
+      const auto live = L::load_bytes(v.intact + l0) != 0.0f;
+      if (!L::any(live)) continue;
+      const Vec3T<X> F = load3(v.fx, v.fy, v.fz, l0);
+      f = select(live, f + F, f);
+      t = select(live, t + load3(v.tx, v.ty, v.tz, l0), t);
+      trace = select(live, trace + L::load(v.trace + l0), trace);
+      if (v.last) add_if(live, s_links, sym_outer(load3(v.nx, v.ny, v.nz, l0), F, X(half_r0)));
+    }
+    const auto ext = L::load_bytes(v.has_ext + a0) != 0.0f;
+    if (L::any(ext)) {
+      f = select(ext, f + lanes_of(v.ext_f, a0), f);
+      t = select(ext, t + lanes_of(v.ext_t, a0), t);
+      const Sym3T<X> es{L::from([&](std::size_t k) { return v.ext_s[a0 + k].xx; }),
+                        L::from([&](std::size_t k) { return v.ext_s[a0 + k].yy; }),
+                        L::from([&](std::size_t k) { return v.ext_s[a0 + k].zz; }),
+                        L::from([&](std::size_t k) { return v.ext_s[a0 + k].xy; }),
+                        L::from([&](std::size_t k) { return v.ext_s[a0 + k].yz; }),
+                        L::from([&](std::size_t k) { return v.ext_s[a0 + k].zx; })};
+      add_if(ext, s, es);
+      for (std::size_t k = 0; k < W; ++k)
+        if (v.has_ext[a0 + k]) {
+          v.ext_f[a0 + k] = Vec3{};
+          v.ext_t[a0 + k] = Vec3{};
+          v.ext_s[a0 + k] = Sym3{};
+          v.has_ext[a0 + k] = 0;
+        }
+    }
+    if (v.load) f += lanes_of(v.load, a0);
+    const X inv_v = L::load(v.inv_volume + a0);
+    if (v.last) {
+      Sym3T<X> total = s_links;
+      total += s;
+      total.xx *= inv_v; total.yy *= inv_v; total.zz *= inv_v;
+      total.xy *= inv_v; total.yz *= inv_v; total.zx *= inv_v;
+      for (std::size_t k = 0; k < W; ++k)
+        v.stress[a0 + k] = {L::lane(total.xx, k), L::lane(total.yy, k), L::lane(total.zz, k),
+                            L::lane(total.xy, k), L::lane(total.yz, k), L::lane(total.zx, k)};
+    }
+    // From the traces on every step, so the dynamics do not depend on how steps are grouped into calls.
+    L::store((trace + s.xx + s.yy + s.zz) * inv_v * (1.0f / 3.0f), v.mean_stress + a0);
+    BodyT<X, D> body{{L::load(v.px + a0), L::load(v.py + a0), L::load(v.pz + a0)},
+                     load3(v.vx, v.vy, v.vz, a0),
+                     load3(v.wx, v.wy, v.wz, a0),
+                     {L::load(v.qw + a0), L::load(v.qx + a0), L::load(v.qy + a0), L::load(v.qz + a0)}};
+    const BodyT<X, D> start = body;
+    const Vec3T<X> f_raw = f, t_raw = t;
+    integrate_body(body, f, t, L::load(v.inv_mass + a0), L::load(v.inv_inertia + a0), v.dt, v.local_damping);
+    // Held automata (grip >= 0) move with their grip and do not turn; ext_f keeps the force the body puts
+    // on the grip (the caller sums it per grip).
+    const X grip = v.grip ? L::from([&](std::size_t k) { return static_cast<float>(v.grip[a0 + k]); }) : X(-1.0f);
+    const auto held = grip >= 0.0f;
+    if (v.grip && L::any(held)) {
+      auto velocity = [&](int c) {
+        return L::from([&](std::size_t k) {
+          const int g = v.grip[a0 + k];
+          const Vec3 gv = g >= 0 ? v.grip_velocity[g] : Vec3{};
+          return c == 0 ? gv.x : (c == 1 ? gv.y : gv.z);
+        });
+      };
+      const Vec3T<X> gv{velocity(0), velocity(1), velocity(2)};
+      Vec3T<D> x = start.x;
+      x += gv * v.dt;
+      body.x = select(held, x, body.x);
+      body.v = select(held, gv, body.v);
+      body.w = select(held, Vec3T<X>{}, body.w);
+      body.q = {select(held, start.q.w, body.q.w), select(held, start.q.x, body.q.x), select(held, start.q.y, body.q.y),
+                select(held, start.q.z, body.q.z)};
+      f = select(held, f_raw, f);
+      t = select(held, t_raw, t);
+      for (std::size_t k = 0; k < W; ++k)
+        if (v.grip[a0 + k] >= 0) v.ext_f[a0 + k] = {L::lane(f.x, k), L::lane(f.y, k), L::lane(f.z, k)};
+    }
+    if (v.last)
+      for (std::size_t k = 0; k < W; ++k) {
+        v.f_out[a0 + k] = {L::lane(f.x, k), L::lane(f.y, k), L::lane(f.z, k)};
+        v.t_out[a0 + k] = {L::lane(t.x, k), L::lane(t.y, k), L::lane(t.z, k)};
+      }
+    L::store(body.x.x, v.px + a0);
+    L::store(body.x.y, v.py + a0);
+    L::store(body.x.z, v.pz + a0);
+    store3(body.v, v.vx, v.vy, v.vz, a0);
+    store3(body.w, v.wx, v.wy, v.wz, a0);
+    L::store(body.q.w, v.qw + a0);
+    L::store(body.q.x, v.qx + a0);
+    L::store(body.q.y, v.qy + a0);
+    L::store(body.q.z, v.qz + a0);
+    // x - x is 0 for a finite x and NaN for inf or NaN; inf or NaN in any component spreads to the sums.
+    const D place = body.x.x + body.x.y + body.x.z;
+    const X motion = body.v.x + body.v.y + body.v.z + body.w.x + body.w.y + body.w.z;
+    if (r.first_bad < 0 && !(L::all(place - place == 0.0) && L::all(motion - motion == 0.0f)))
+      for (std::size_t k = 0; k < W && r.first_bad < 0; ++k)
+        if (!(std::isfinite(L::lane(body.x.x, k) + L::lane(body.x.y, k) + L::lane(body.x.z, k)) &&
+              std::isfinite(L::lane(motion, k))))
+          r.first_bad = static_cast<std::int64_t>(a0 + k);
+    // Only exposed automata are in the contact lists (see rebuild_contacts), so only their motion can make
+    // them stale.
+    if (L::any(L::load_bytes(v.intact_count + a0) < 6.0f))
+      for (std::size_t k = 0; k < W; ++k) {
+        const std::size_t a = a0 + k;
+        if (v.intact_count[a] >= 6) continue;
+        const DVec3 ref = v.x_ref[a];
+        const Vec3 dm{static_cast<float>(L::lane(body.x.x, k) - ref.x), static_cast<float>(L::lane(body.x.y, k) - ref.y),
+                      static_cast<float>(L::lane(body.x.z, k) - ref.z)};
+        r.max_move2 = std::max(r.max_move2, dot(dm, dm));
+      }
+  }
+};
+
+// The kernels over ranges: blocks of W, then one at a time.
+// Each range works on its own copy of the view: stores through the byte arrays (flags) could otherwise
+// change the caller's view as far as the compiler knows, and every pointer would be reloaded after them.
+inline void many_body_range(const LatticeView& view, std::size_t b, std::size_t e) {
+  const LatticeView v = view;
+  constexpr std::size_t W = Block<V>::W;
+  std::size_t a = b;
+  for (; a + W <= e; a += W) Block<V>::many_body(v, a);
+  for (; a < e; ++a) Block<float>::many_body(v, a);
+}
+
+inline void prefetch_links(const LatticeView& v, int axis, std::size_t a) {
+  const std::size_t off = static_cast<std::size_t>(axis) * v.n, l = off + a;
+  const std::uint32_t j = v.up[l] == Model::kNoLink ? static_cast<std::uint32_t>(a) : v.up[l];
+  for (const float* p : std::initializer_list<const float*>{v.vx + a, v.vy + a, v.vz + a, v.wx + a, v.wy + a, v.wz + a, v.many_body + l, v.mean_stress + a,
+                         v.tensile + a, v.compressive + a, v.break_strain + a, v.utx + l, v.uty + l, v.utz + l,
+                         v.vx + j, v.vy + j, v.vz + j, v.wx + j, v.wy + j, v.wz + j, v.many_body + off + j,
+                         v.mean_stress + j, v.tensile + j, v.compressive + j, v.break_strain + j})
+    __builtin_prefetch(p, 0, 3);
+  for (const double* p : std::initializer_list<const double*>{v.px + a, v.py + a, v.pz + a, v.px + j, v.py + j, v.pz + j}) {
+    __builtin_prefetch(p, 0, 3);
+    __builtin_prefetch(p + 8, 0, 3);
+  }
+  for (float* p : {v.fx + l, v.fy + l, v.fz + l, v.tx + l, v.ty + l, v.tz + l, v.trace + l}) __builtin_prefetch(p, 1, 3);
+  __builtin_prefetch(v.up + l + 16, 0, 3);
+  __builtin_prefetch(v.intact + l + 64, 0, 3);
+}
+
+inline std::size_t links_range(const LatticeView& view, int axis, std::size_t b, std::size_t e, std::uint32_t* breaks) {
+  const LatticeView v = view;
+  constexpr std::size_t W = Block<V>::W;
+  constexpr std::size_t kAhead = 64;
+  std::size_t a = b, count = 0;
+  for (; a + W <= e; a += W) {
+    if (a + kAhead < e && (a & 15) == 0) prefetch_links(v, axis, a + kAhead);
+    count += Block<V>::links(v, axis, a, breaks + count);
+  }
+  for (; a < e; ++a) count += Block<float>::links(v, axis, a, breaks + count);
+  return count;
+}
+
+inline AutomataResult automata_range(const LatticeView& view, std::size_t b, std::size_t e) {
+  const LatticeView v = view;
+  constexpr std::size_t W = Block<V>::W;
+  AutomataResult r;
+  std::size_t a = b;
+  for (; a + W <= e; a += W) Block<V>::automata(v, a, r);
+  for (; a < e; ++a) Block<float>::automata(v, a, r);
+  return r;
+}
+
+constexpr Kernels make_kernels(const char* name) {
+  return Kernels{name, static_cast<int>(Block<V>::W), &many_body_range, &links_range, &automata_range};
+}
