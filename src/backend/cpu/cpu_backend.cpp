@@ -142,9 +142,10 @@ class CpuBackend final : public Backend {
                                   m.link_damping);
       }
     }
+    runs_ = cpu::block_runs(m, kernels_.lanes);
     one_group_ = n > 0 && std::all_of(m.group.begin(), m.group.end(), [&](std::uint8_t g) { return g == m.group[0]; });
     // State and scratch arrays.
-    for (auto* v : {&px_, &py_, &pz_}) v->resize(n);
+    for (auto* v : {&px_, &py_, &pz_, &rx_, &ry_, &rz_}) v->resize(n);
     for (auto* v : {&vx_, &vy_, &vz_, &wx_, &wy_, &wz_, &qw_, &qx_, &qy_, &qz_}) v->resize(n);
     for (auto* v : {&utx_, &uty_, &utz_, &nx_, &ny_, &nz_, &many_body_, &fx_, &fy_, &fz_, &tx_, &ty_, &tz_,
                     &trace_})
@@ -184,6 +185,7 @@ class CpuBackend final : public Backend {
     }
     stale_ = false;
     if (S_.x_at_rebuild.size() != S_.x.size()) rebuild_contacts();
+    else reference_positions();
   }
   void download(State& s) const override { s = state(); }
   void set_initial_energy(double energy) override { S_.initial_energy = energy; }
@@ -233,6 +235,14 @@ class CpuBackend final : public Backend {
     for (std::size_t a = 0; a < M_.size(); ++a) S_.x[a] = pos(a);
   }
   cpu::LatticeView view();
+  // rx_, ry_, rz_ from State::x_at_rebuild.
+  void reference_positions() {
+    for (std::size_t a = 0; a < M_.size(); ++a) {
+      rx_[a] = S_.x_at_rebuild[a].x;
+      ry_[a] = S_.x_at_rebuild[a].y;
+      rz_[a] = S_.x_at_rebuild[a].z;
+    }
+  }
 
   std::int64_t one_step();
   void link_force_pass(const cpu::LatticeView& v);
@@ -257,11 +267,13 @@ class CpuBackend final : public Backend {
   mutable bool stale_ = false;  // S_'s automata and link arrays are behind the arrays below
   // Automata (structure of arrays).
   std::vector<double> px_, py_, pz_;
+  std::vector<double> rx_, ry_, rz_;  // positions at the last contact rebuild (State::x_at_rebuild)
   std::vector<float> vx_, vy_, vz_, wx_, wy_, wz_, qw_, qx_, qy_, qz_;
   std::vector<float> inv_mass_, inv_inertia_, inv_volume_, tensile_, compressive_, break_strain_;
   std::vector<std::uint8_t> intact_count_;  // intact links per automaton (6: boxed in, see rebuild)
   // Link slots (structure of arrays): shear displacement (state), then scratch rebuilt every step.
   std::vector<float> utx_, uty_, utz_, nx_, ny_, nz_, many_body_, fx_, fy_, fz_, tx_, ty_, tz_, trace_;
+  std::vector<cpu::BlockRun> runs_;     // how each block of lanes finds its neighbours
   std::vector<std::uint32_t> breaks_;  // per chunk of slots, what the links kernel found
   std::vector<cpu::PairConstants> pairs_;
   std::vector<std::array<float, 4>> free_factor_;  // per group, see volumetric_strain
@@ -290,6 +302,8 @@ cpu::LatticeView CpuBackend::view() {
   v.n = m.size();
   v.up = m.neighbour.data();
   v.below = m.neighbour_below.data();
+  v.runs = runs_.data();
+  v.blocks = kernels_.lanes > 1 ? m.size() / static_cast<std::size_t>(kernels_.lanes) : 0;
   v.group = m.group.data();
   v.tensile = tensile_.data();
   v.compressive = compressive_.data();
@@ -334,7 +348,9 @@ cpu::LatticeView CpuBackend::view() {
   v.ext_t = ext_t_.data();
   v.ext_s = ext_s_.data();
   v.intact_count = intact_count_.data();
-  v.x_ref = S_.x_at_rebuild.data();
+  v.rx = rx_.data();
+  v.ry = ry_.data();
+  v.rz = rz_.data();
   return v;
 }
 
@@ -359,10 +375,12 @@ bool CpuBackend::near_ground(std::uint32_t a) const {
 void CpuBackend::link_force_pass(const cpu::LatticeView& v) {
   const std::size_t n = M_.size(), chunks = (n + kChunk - 1) / kChunk;
   std::vector<std::size_t> counts(3 * chunks, 0);
-  tbb::parallel_for(std::size_t{0}, 3 * chunks, [&](std::size_t k) {
-    const int axis = static_cast<int>(k / chunks);
-    const std::size_t c = k % chunks, b = c * kChunk, e = std::min(n, b + kChunk);
-    counts[k] = kernels_.links(v, axis, b, e, breaks_.data() + axis * n + b);
+  // A chunk's three axes one after the other: its automata's data is read from memory once, not three
+  // times. The breaks of axis a and chunk c go to counts[a * chunks + c], so they are applied in slot order.
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    const std::size_t b = c * kChunk, e = std::min(n, b + kChunk);
+    for (int axis = 0; axis < 3; ++axis)
+      counts[axis * chunks + c] = kernels_.links(v, axis, b, e, breaks_.data() + axis * n + b);
   });
   apply_breaks(counts);
 }
@@ -691,6 +709,7 @@ void CpuBackend::rebuild_contacts() {
     S_.ground_contacts.swap(ground);
   }
   S_.x_at_rebuild = S_.x;
+  reference_positions();
 }
 
 std::int64_t CpuBackend::one_step() {

@@ -22,6 +22,33 @@ int available_kernels(const Kernels* out[4]) {
   return k;
 }
 
+std::vector<BlockRun> block_runs(const Model& m, int lanes) {
+  const std::size_t n = m.size(), W = static_cast<std::size_t>(lanes), blocks = W > 1 ? n / W : 0;
+  std::vector<BlockRun> runs(6 * blocks);
+  for (int dir = 0; dir < 6; ++dir) {
+    const std::uint32_t* nb = (dir < 3 ? m.neighbour.data() : m.neighbour_below.data()) + (dir % 3) * n;
+    for (std::size_t blk = 0; blk < blocks; ++blk) {
+      const std::size_t a0 = blk * W;
+      BlockRun r{0, 0};
+      bool first = true, run = true;
+      std::int64_t c = 0;
+      for (std::size_t k = 0; k < W; ++k) {
+        const std::uint32_t j = nb[a0 + k];
+        if (j == Model::kNoLink) continue;
+        r.has |= 1u << k;
+        const std::int64_t o = static_cast<std::int64_t>(j) - static_cast<std::int64_t>(a0 + k);
+        if (first) c = o, first = false;
+        else run = run && o == c;
+      }
+      const std::int64_t j0 = static_cast<std::int64_t>(a0) + c;
+      run = run && j0 >= 0 && j0 + static_cast<std::int64_t>(W) <= static_cast<std::int64_t>(n);
+      r.offset = run ? static_cast<std::int32_t>(c) : BlockRun::kGather;
+      runs[static_cast<std::size_t>(dir) * blocks + blk] = r;
+    }
+  }
+  return runs;
+}
+
 const Kernels& select_kernels() {
   const Kernels* sets[4];
   const int count = available_kernels(sets);

@@ -75,6 +75,7 @@ struct Lanes<float> {
   static MCA_LANE bool any(bool m) { return m; }
   static MCA_LANE bool all(bool m) { return m; }
   static MCA_LANE bool lane(bool m, std::size_t) { return m; }
+  static MCA_LANE float hmax(float v) { return v; }
 };
 
 template <class A>
@@ -122,6 +123,7 @@ struct Lanes<stdx::simd<float, A>> {
   static MCA_LANE bool any(const Mask& m) { return stdx::any_of(m); }
   template <class Mask>
   static MCA_LANE bool all(const Mask& m) { return stdx::all_of(m); }
+  static MCA_LANE float hmax(const V& v) { return stdx::hmax(v); }
 };
 
 }  // namespace mca

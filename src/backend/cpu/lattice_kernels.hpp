@@ -13,6 +13,8 @@
 // instruction set can be shared with another by the linker (tests/check_kernel_symbols.sh checks).
 #include <cstddef>
 #include <cstdint>
+#include <climits>
+#include <vector>
 
 #include "core/model.hpp"
 #include "physics/link_law.hpp"
@@ -26,11 +28,28 @@ struct PairConstants {
   LinkDashpots damping;    // link_dashpots of the pair
 };
 
+// The far ends of a block of W consecutive automata (W the lanes of a kernel set) along one direction,
+// worked out once from the neighbour tables (block_runs): when the lanes that have a neighbour have it at
+// one offset (inside a box of the lattice: +-1, +-nx, +-nx ny) and the run a0 + offset ... stays inside
+// the automata, the kernels load the far ends as that run, without reading the neighbour table; otherwise
+// (offset == kGather) they read the table and gather.
+struct BlockRun {
+  static constexpr std::int32_t kGather = INT32_MIN;
+  std::int32_t offset;
+  std::uint32_t has;  // bit k: lane k has a neighbour in this direction
+};
+
+// The runs of the blocks of `lanes` automata of a model, at dir * (n / lanes) + a0 / lanes, dir 0-2 for
+// the neighbours above along x, y, z (Model::neighbour) and 3-5 for those below.
+std::vector<BlockRun> block_runs(const Model& m, int lanes);
+
 struct LatticeView {
   std::size_t n = 0;  // automata; link slots are axis * n + a (core/model.hpp)
   // Model.
   const std::uint32_t* up = nullptr;     // Model::neighbour
   const std::uint32_t* below = nullptr;  // Model::neighbour_below
+  const BlockRun* runs = nullptr;        // block_runs for the kernels' lanes (null for one lane)
+  std::size_t blocks = 0;                // n / lanes
   const std::uint8_t* group = nullptr;
   const float *tensile = nullptr, *compressive = nullptr, *break_strain = nullptr;  // class factor x group's
   const float *mass = nullptr, *inv_mass = nullptr, *inv_inertia = nullptr, *inv_volume = nullptr;
@@ -67,7 +86,7 @@ struct LatticeView {
   Sym3* ext_s = nullptr;
   // For the contact list's staleness: intact links per automaton and the positions at the last rebuild.
   const std::uint8_t* intact_count = nullptr;
-  const DVec3* x_ref = nullptr;
+  const double *rx = nullptr, *ry = nullptr, *rz = nullptr;
 };
 
 // A break found by the links kernel: the link slot and the criterion (bit 31: 1 = stress).

@@ -16,29 +16,36 @@ struct Block {
   using M = typename L::M;
   static constexpr std::size_t W = L::size;
 
-  // The far ends of the lanes' links from nb[a0 ...]: their indices (kNoLink replaced by the lane's own
-  // automaton, so that a gather stays in bounds) and a 0/1 flag of "there is a neighbour". When the lanes
-  // with a neighbour have it at one offset c (inside a box of the lattice: +-1, +-nx, +-nx ny) and the run
-  // a0 + c ... stays inside the n automata, the far ends are loaded as that run, lanes without a
-  // neighbour included (their values are not used).
+  // The far ends of the lanes' links in direction dir (0-2: up along x, y, z; 3-5: below): their indices
+  // and a 0/1 flag of "there is a neighbour". A block whose run (BlockRun) is known loads its far ends as
+  // that run, lanes without a neighbour included (their values are not used); the others, and one lane
+  // at a time, read the neighbour table (kNoLink is replaced by the lane's own automaton, so that a
+  // gather stays in bounds).
   struct Far {
     U j;
     X has;
     bool run;
     std::size_t j0;
   };
-  static MCA_LANE Far far_ends(const std::uint32_t* nb, std::size_t a0, std::size_t n) {
-    const U raw = L::load(nb + a0);
-    const U self = L::iota(a0);
+  static MCA_LANE Far far_ends(const LatticeView& v, int dir, std::size_t a0) {
     Far f;
+    if constexpr (W > 1) {
+      const BlockRun br = v.runs[static_cast<std::size_t>(dir) * v.blocks + a0 / W];
+      if (br.offset != BlockRun::kGather) {
+        f.run = true;
+        f.j0 = static_cast<std::size_t>(static_cast<std::int64_t>(a0) + br.offset);
+        f.j = L::iota(f.j0);
+        f.has = to_lanes((U(br.has) >> L::iota(0)) & U(1u));
+        return f;
+      }
+    }
+    const std::uint32_t* nb = (dir < 3 ? v.up : v.below) + static_cast<std::size_t>(dir % 3) * v.n;
+    const U raw = L::load(nb + a0);
     const auto none = raw == U(Model::kNoLink);
-    f.j = select(none, self, raw);
+    f.j = select(none, L::iota(a0), raw);
     f.has = to_lanes(select(none, U(0u), U(1u)));
-    std::size_t first = 0;
-    while (first + 1 < W && L::lane(none, first)) ++first;
-    const std::uint32_t c = static_cast<std::uint32_t>(L::lane(f.j, first)) - static_cast<std::uint32_t>(a0 + first);
-    f.j0 = static_cast<std::uint32_t>(a0) + c;  // as 32-bit numbers: c may be "negative"
-    f.run = f.j0 + W <= n && f.j0 < n && L::all(none || f.j - self == U(c));
+    f.run = false;
+    f.j0 = 0;
     return f;
   }
   static MCA_LANE X to_lanes(const U& u) {
@@ -101,11 +108,11 @@ struct Block {
     for (int axis = 0; axis < 3; ++axis) {
       const std::size_t off = static_cast<std::size_t>(axis) * v.n;
       // The link below (it is its lower end's), then the automaton's own: the order of the lattice's cells.
-      const Far fb = far_ends(v.below + off, a0, v.n);
+      const Far fb = far_ends(v, 3 + axis, a0);
       const auto has_below = bytes_at(v.intact + off, fb) * fb.has != 0.0f;
       const X e_below = summand(v, a0, geometry_below(v, fb, a0).eps);
       const auto has_own = L::load_bytes(v.intact + off + a0) != 0.0f;
-      const X e_own = summand(v, a0, geometry(v, far_ends(v.up + off, a0, v.n), a0).eps);
+      const X e_own = summand(v, a0, geometry(v, far_ends(v, axis, a0), a0).eps);
       X s = 0.0f, c = 0.0f;
       s = select(has_below, s + e_below, s);
       c = select(has_below, c + 1.0f, c);
@@ -142,7 +149,7 @@ struct Block {
     const std::size_t off = static_cast<std::size_t>(axis) * v.n, l0 = off + a0;
     const auto alive = L::load_bytes(v.intact + l0) != 0.0f;
     if (!L::any(alive)) return 0;
-    const Far f = far_ends(v.up + off, a0, v.n);
+    const Far f = far_ends(v, axis, a0);
     const auto g = geometry(v, f, a0);
     const Vec3T<X> n = g.n;
     const X eps = g.eps;
@@ -235,7 +242,7 @@ struct Block {
     // The links below (-z, -y, -x: this automaton is their upper end), then its own (+x, +y, +z).
     for (int axis = 2; axis >= 0; --axis) {
       const std::size_t off = static_cast<std::size_t>(axis) * v.n;
-      const Far fb = far_ends(v.below + off, a0, v.n);
+      const Far fb = far_ends(v, 3 + axis, a0);
       const auto live = bytes_at(v.intact + off, fb) * fb.has != 0.0f;
       if (!L::any(live)) continue;
       const Vec3T<X> F = far3(v.fx + off, v.fy + off, v.fz + off, fb);
@@ -342,15 +349,12 @@ struct Block {
           r.first_bad = static_cast<std::int64_t>(a0 + k);
     // Only exposed automata are in the contact lists (see rebuild_contacts), so only their motion can make
     // them stale.
-    if (L::any(L::load_bytes(v.intact_count + a0) < 6.0f))
-      for (std::size_t k = 0; k < W; ++k) {
-        const std::size_t a = a0 + k;
-        if (v.intact_count[a] >= 6) continue;
-        const DVec3 ref = v.x_ref[a];
-        const Vec3 dm{static_cast<float>(L::lane(body.x.x, k) - ref.x), static_cast<float>(L::lane(body.x.y, k) - ref.y),
-                      static_cast<float>(L::lane(body.x.z, k) - ref.z)};
-        r.max_move2 = std::max(r.max_move2, dot(dm, dm));
-      }
+    const auto open = L::load_bytes(v.intact_count + a0) < 6.0f;
+    if (L::any(open)) {
+      const Vec3T<X> dm{to_float(body.x.x - L::load(v.rx + a0)), to_float(body.x.y - L::load(v.ry + a0)),
+                        to_float(body.x.z - L::load(v.rz + a0))};
+      r.max_move2 = std::max(r.max_move2, L::hmax(select(open, dot(dm, dm), X(0.0f))));
+    }
   }
 };
 
@@ -365,32 +369,11 @@ inline void many_body_range(const LatticeView& view, std::size_t b, std::size_t 
   for (; a < e; ++a) Block<float>::many_body(v, a);
 }
 
-inline void prefetch_links(const LatticeView& v, int axis, std::size_t a) {
-  const std::size_t off = static_cast<std::size_t>(axis) * v.n, l = off + a;
-  const std::uint32_t j = v.up[l] == Model::kNoLink ? static_cast<std::uint32_t>(a) : v.up[l];
-  for (const float* p : std::initializer_list<const float*>{v.vx + a, v.vy + a, v.vz + a, v.wx + a, v.wy + a, v.wz + a, v.many_body + l, v.mean_stress + a,
-                         v.tensile + a, v.compressive + a, v.break_strain + a, v.utx + l, v.uty + l, v.utz + l,
-                         v.vx + j, v.vy + j, v.vz + j, v.wx + j, v.wy + j, v.wz + j, v.many_body + off + j,
-                         v.mean_stress + j, v.tensile + j, v.compressive + j, v.break_strain + j})
-    __builtin_prefetch(p, 0, 3);
-  for (const double* p : std::initializer_list<const double*>{v.px + a, v.py + a, v.pz + a, v.px + j, v.py + j, v.pz + j}) {
-    __builtin_prefetch(p, 0, 3);
-    __builtin_prefetch(p + 8, 0, 3);
-  }
-  for (float* p : {v.fx + l, v.fy + l, v.fz + l, v.tx + l, v.ty + l, v.tz + l, v.trace + l}) __builtin_prefetch(p, 1, 3);
-  __builtin_prefetch(v.up + l + 16, 0, 3);
-  __builtin_prefetch(v.intact + l + 64, 0, 3);
-}
-
 inline std::size_t links_range(const LatticeView& view, int axis, std::size_t b, std::size_t e, std::uint32_t* breaks) {
   const LatticeView v = view;
   constexpr std::size_t W = Block<V>::W;
-  constexpr std::size_t kAhead = 64;
   std::size_t a = b, count = 0;
-  for (; a + W <= e; a += W) {
-    if (a + kAhead < e && (a & 15) == 0) prefetch_links(v, axis, a + kAhead);
-    count += Block<V>::links(v, axis, a, breaks + count);
-  }
+  for (; a + W <= e; a += W) count += Block<V>::links(v, axis, a, breaks + count);
   for (; a < e; ++a) count += Block<float>::links(v, axis, a, breaks + count);
   return count;
 }
