@@ -24,6 +24,7 @@
 #include <tbb/parallel_for.h>
 
 #include "backend/backend.hpp"
+#include "backend/cpu/aligned.hpp"
 #include "backend/cpu/lattice_kernels.hpp"
 #include "grid/uniform_grid.hpp"
 #include "physics/contact_law.hpp"
@@ -37,6 +38,10 @@ using cpu::kBreakByStress;
 
 constexpr std::size_t kChunk = 4096;  // fixed work chunks (a multiple of every lane count): per-chunk
                                       // results are combined in chunk order
+
+// Link forces of more than this many bytes are written past the caches: they would not stay there
+// until the automata read them.
+constexpr std::size_t kStreamBytes = std::size_t{16} << 20;
 
 template <class F>
 void parallel_range(std::size_t n, F&& body) {
@@ -147,14 +152,16 @@ class CpuBackend final : public Backend {
     // State and scratch arrays.
     for (auto* v : {&px_, &py_, &pz_, &rx_, &ry_, &rz_}) v->resize(n);
     for (auto* v : {&vx_, &vy_, &vz_, &wx_, &wy_, &wz_, &qw_, &qx_, &qy_, &qz_}) v->resize(n);
-    for (auto* v : {&utx_, &uty_, &utz_, &nx_, &ny_, &nz_, &many_body_, &fx_, &fy_, &fz_, &tx_, &ty_, &tz_,
-                    &trace_})
-      v->resize(L);
+    for (auto* v : {&utx_, &uty_, &utz_}) v->resize(L);
+    for (auto* v : {&nx_, &ny_, &nz_, &many_body_, &fx_, &fy_, &fz_, &tx_, &ty_, &tz_, &trace_})
+      v->resize(3 * cpu::scratch_stride(n));
     intact_count_.resize(n);
     ext_f_.resize(n);
     ext_t_.resize(n);
     ext_s_.resize(n);
     has_ext_.assign(n, 0);
+    near_.assign(n, 0);
+    chunk_near_.assign((n + kChunk - 1) / kChunk, 0);
     breaks_.resize(L);
     grip_members_.resize(m.grip_velocity.size());
     for (std::size_t a = 0; a < n; ++a)
@@ -184,6 +191,7 @@ class CpuBackend final : public Backend {
       utx_[l] = S_.link_ut[l].x; uty_[l] = S_.link_ut[l].y; utz_[l] = S_.link_ut[l].z;
     }
     stale_ = false;
+    near_valid_ = false;
     if (S_.x_at_rebuild.size() != S_.x.size()) rebuild_contacts();
     else reference_positions();
   }
@@ -235,6 +243,23 @@ class CpuBackend final : public Backend {
     for (std::size_t a = 0; a < M_.size(); ++a) S_.x[a] = pos(a);
   }
   cpu::LatticeView view();
+  // The view with the projectiles' current positions, for the automata kernel to mark the automata near
+  // them (near_).
+  cpu::LatticeView with_projectiles(cpu::LatticeView v) {
+    v.projectiles = static_cast<int>(std::min<std::size_t>(M_.projectiles.size(), cpu::kMarkedProjectiles));
+    for (int p = 0; p < v.projectiles; ++p) {
+      const DVec3 c = S_.projectiles[p].position;
+      v.proj_x[p] = c.x;
+      v.proj_y[p] = c.y;
+      v.proj_z[p] = c.z;
+      // The projectile pass takes automaton a when |d|^2 < (R + r_a)^2, d and the sum rounded to float:
+      // with the largest radius (and a little more) for every automaton, the marks hold all it takes.
+      const float reach = (M_.projectiles[p].radius + r_max_) * 1.001f;
+      v.proj_reach2[p] = reach * reach;
+    }
+    v.near = near_.data();
+    return v;
+  }
   // rx_, ry_, rz_ from State::x_at_rebuild.
   void reference_positions() {
     for (std::size_t a = 0; a < M_.size(); ++a) {
@@ -266,13 +291,13 @@ class CpuBackend final : public Backend {
   mutable State S_;
   mutable bool stale_ = false;  // S_'s automata and link arrays are behind the arrays below
   // Automata (structure of arrays).
-  std::vector<double> px_, py_, pz_;
-  std::vector<double> rx_, ry_, rz_;  // positions at the last contact rebuild (State::x_at_rebuild)
-  std::vector<float> vx_, vy_, vz_, wx_, wy_, wz_, qw_, qx_, qy_, qz_;
-  std::vector<float> inv_mass_, inv_inertia_, inv_volume_, tensile_, compressive_, break_strain_;
+  cpu::LineArray<double> px_, py_, pz_;
+  cpu::LineArray<double> rx_, ry_, rz_;  // positions at the last contact rebuild (State::x_at_rebuild)
+  cpu::LineArray<float> vx_, vy_, vz_, wx_, wy_, wz_, qw_, qx_, qy_, qz_;
+  cpu::LineArray<float> inv_mass_, inv_inertia_, inv_volume_, tensile_, compressive_, break_strain_;
   std::vector<std::uint8_t> intact_count_;  // intact links per automaton (6: boxed in, see rebuild)
   // Link slots (structure of arrays): shear displacement (state), then scratch rebuilt every step.
-  std::vector<float> utx_, uty_, utz_, nx_, ny_, nz_, many_body_, fx_, fy_, fz_, tx_, ty_, tz_, trace_;
+  cpu::LineArray<float> utx_, uty_, utz_, nx_, ny_, nz_, many_body_, fx_, fy_, fz_, tx_, ty_, tz_, trace_;
   std::vector<cpu::BlockRun> runs_;     // how each block of lanes finds its neighbours
   std::vector<std::uint32_t> breaks_;  // per chunk of slots, what the links kernel found
   std::vector<cpu::PairConstants> pairs_;
@@ -280,6 +305,8 @@ class CpuBackend final : public Backend {
   bool strengthening_ = false, one_group_ = false;
   bool last_step_ = true;
   std::vector<std::uint32_t> exposed_;
+  std::vector<std::uint8_t> near_, chunk_near_;  // see LatticeView::near; per chunk: any marked
+  bool near_valid_ = false;                      // near_ is from the last step (not before an upload)
   std::vector<Vec3> ext_f_, ext_t_;
   std::vector<Sym3> ext_s_;
   std::vector<std::uint8_t> has_ext_;
@@ -303,6 +330,7 @@ cpu::LatticeView CpuBackend::view() {
   v.up = m.neighbour.data();
   v.below = m.neighbour_below.data();
   v.runs = runs_.data();
+  v.ns = cpu::scratch_stride(m.size());
   v.blocks = kernels_.lanes > 1 ? m.size() / static_cast<std::size_t>(kernels_.lanes) : 0;
   v.group = m.group.data();
   v.tensile = tensile_.data();
@@ -329,6 +357,7 @@ cpu::LatticeView CpuBackend::view() {
   v.local_damping = m.local_damping;
   v.gravity = m.gravity;
   v.last = last_step_;
+  v.stream = kernels_.lanes > 1 && m.link_slots() * 7 * sizeof(float) > kStreamBytes;
   v.px = px_.data(); v.py = py_.data(); v.pz = pz_.data();
   v.vx = vx_.data(); v.vy = vy_.data(); v.vz = vz_.data();
   v.wx = wx_.data(); v.wy = wy_.data(); v.wz = wz_.data();
@@ -520,17 +549,28 @@ std::int64_t CpuBackend::projectile_pass() {
   for (std::size_t p = 0; p < np; ++p) {
     const ProjectileParams& P = M_.projectiles[p];
     ProjectileState& ps = S_.projectiles[p];
-    // Candidates: automata touching the sphere, found per fixed chunk and joined in chunk order.
+    // Candidates: automata touching the sphere, found per fixed chunk and joined in chunk order. The
+    // last automata pass marked the automata near the first kMarkedProjectiles projectiles (near_): only
+    // the chunks it flagged are searched, and only the marked automata tested.
     const std::size_t chunks = (n + kChunk - 1) / kChunk;
     std::vector<std::vector<std::uint32_t>> found(chunks);
     const DVec3 c = ps.position;
-    parallel_chunks(n, [&](std::size_t ch, std::size_t b, std::size_t e) {
+    const bool marked = near_valid_ && p < static_cast<std::size_t>(cpu::kMarkedProjectiles);
+    const std::uint8_t bit = static_cast<std::uint8_t>(1u << (p % 8));
+    auto search = [&](std::size_t ch, std::size_t b, std::size_t e) {
       for (std::size_t a = b; a < e; ++a) {
+        if (marked && !(near_[a] & bit)) continue;
         const Vec3 d = delta(c, pos(a));
         const float reach = P.radius + M_.radius[a];
         if (dot(d, d) < reach * reach) found[ch].push_back(static_cast<std::uint32_t>(a));
       }
-    });
+    };
+    if (marked) {
+      for (std::size_t ch = 0; ch < chunks; ++ch)
+        if (chunk_near_[ch]) search(ch, ch * kChunk, std::min(n, (ch + 1) * kChunk));
+    } else {
+      parallel_chunks(n, search);
+    }
     std::vector<BodyContact> next;
     std::size_t old = 0;
     for (const auto& list : found)
@@ -643,6 +683,8 @@ std::int64_t CpuBackend::automaton_pass(const cpu::LatticeView& v, float& max_mo
   parallel_chunks(n, [&](std::size_t ch, std::size_t b, std::size_t e) { result[ch] = kernels_.automata(v, b, e); });
   max_move2 = 0;
   for (const auto& r : result) max_move2 = std::max(max_move2, r.max_move2);
+  near_valid_ = v.projectiles > 0;
+  for (std::size_t ch = 0; ch < chunks && near_valid_; ++ch) chunk_near_[ch] = result[ch].near;
   // Grip forces: the force the grip exerts is minus what the body pushes on it.
   for (std::size_t g = 0; g < grip_members_.size(); ++g) {
     Vec3 f;
@@ -726,7 +768,7 @@ std::int64_t CpuBackend::one_step() {
   const std::int64_t bad_projectile = projectile_pass();
   timer.lap(3);
   float max_move2 = 0;
-  const std::int64_t bad = automaton_pass(v, max_move2);
+  const std::int64_t bad = automaton_pass(with_projectiles(v), max_move2);
   timer.lap(4);
   ++S_.step;
   S_.time = static_cast<double>(S_.step) * M_.dt;

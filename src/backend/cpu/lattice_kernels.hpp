@@ -50,6 +50,7 @@ struct LatticeView {
   const std::uint32_t* below = nullptr;  // Model::neighbour_below
   const BlockRun* runs = nullptr;        // block_runs for the kernels' lanes (null for one lane)
   std::size_t blocks = 0;                // n / lanes
+  std::size_t ns = 0;                    // scratch_stride(n)
   const std::uint8_t* group = nullptr;
   const float *tensile = nullptr, *compressive = nullptr, *break_strain = nullptr;  // class factor x group's
   const float *mass = nullptr, *inv_mass = nullptr, *inv_inertia = nullptr, *inv_volume = nullptr;
@@ -64,6 +65,7 @@ struct LatticeView {
   bool strengthening = false;  // some group has a strengthening law
   float r0 = 0, inv_r0 = 0, area = 0, dt = 0, stress_coefficient = 1, local_damping = 0;
   Vec3 gravity;
+  bool stream = false;  // links: stream the forces past the caches (slots far more than the caches hold)
   bool last = false;  // the last step of a call: write the averaged stress and the applied forces
   // State, by automaton (structure of arrays).
   double *px = nullptr, *py = nullptr, *pz = nullptr;
@@ -75,7 +77,8 @@ struct LatticeView {
   // State, by link slot.
   std::uint8_t* intact = nullptr;
   float *utx = nullptr, *uty = nullptr, *utz = nullptr;
-  // Scratch, by link slot. Link directions are formed from the positions by each kernel that needs them
+  // Scratch, by link slot, at axis * ns + a: ns is n rounded up to a cache line of floats, so that a
+  // block of lanes is one aligned vector there. Link directions are formed from the positions by each kernel that needs them
   // (link_geometry, the same bits each time); stored only on the last step, for the averaged stress.
   float *nx = nullptr, *ny = nullptr, *nz = nullptr;
   float* many_body = nullptr;  // P of automaton a along an axis, at axis * n + a
@@ -84,17 +87,29 @@ struct LatticeView {
   std::uint8_t* has_ext = nullptr;
   Vec3 *ext_f = nullptr, *ext_t = nullptr;
   Sym3* ext_s = nullptr;
+  // Projectiles near the automata after this step (at most kMarkedProjectiles): the automata kernel sets
+  // bit p of near[a] when automaton a ends the step within reach of projectile p's centre (its position
+  // for the next step), so the next projectile pass tests those automata instead of all of them.
+  int projectiles = 0;
+  double proj_x[8] = {}, proj_y[8] = {}, proj_z[8] = {};
+  float proj_reach2[8] = {};  // (R + the largest automaton radius)^2, a little widened
+  std::uint8_t* near = nullptr;
   // For the contact list's staleness: intact links per automaton and the positions at the last rebuild.
   const std::uint8_t* intact_count = nullptr;
   const double *rx = nullptr, *ry = nullptr, *rz = nullptr;
 };
 
+inline std::size_t scratch_stride(std::size_t n) { return (n + 15) / 16 * 16; }
+
 // A break found by the links kernel: the link slot and the criterion (bit 31: 1 = stress).
 inline constexpr std::uint32_t kBreakByStress = 1u << 31;
+
+inline constexpr int kMarkedProjectiles = 8;
 
 struct AutomataResult {
   float max_move2 = 0;          // largest squared move of an exposed automaton since the rebuild
   std::int64_t first_bad = -1;  // the first automaton with a non-finite position or velocity, or -1
+  bool near = false;            // some automaton of the range is near a projectile (LatticeView::near)
 };
 
 struct Kernels {

@@ -1,3 +1,9 @@
+
+
+
+
+
+
 // The lattice kernels of lattice_kernels.hpp, written once for a lane type V (float, or a SIMD vector of
 // floats: backend/cpu/lanes.hpp). Included by kernels_<set>.cpp inside its own namespace, after lanes.hpp
 // and the physics headers; V is that namespace's lane type.
@@ -130,7 +136,7 @@ struct Block {
     const X lam_theta = lam * volumetric_strain(sum, cnt, ff);
     for (int axis = 0; axis < 3; ++axis) {
       const X per_link = lam_theta * select(cnt[axis] == 1.0f, X(1.0f), X(0.5f));
-      L::store(select(cnt[axis] > 0.0f, per_link, X(0.0f)), v.many_body + static_cast<std::size_t>(axis) * v.n + a0);
+      L::store(select(cnt[axis] > 0.0f, per_link, X(0.0f)), v.many_body + static_cast<std::size_t>(axis) * v.ns + a0);
     }
   }
 
@@ -153,8 +159,9 @@ struct Block {
     const auto g = geometry(v, f, a0);
     const Vec3T<X> n = g.n;
     const X eps = g.eps;
-    if (v.last) store3(n, v.nx, v.ny, v.nz, l0);  // for the averaged stress
-    const X mb_i = L::load(v.many_body + l0), mb_j = at(v.many_body + off, f);
+    const std::size_t s0 = static_cast<std::size_t>(axis) * v.ns + a0;  // in the scratch arrays
+    if (v.last) store3(n, v.nx, v.ny, v.nz, s0);  // for the averaged stress
+    const X mb_i = L::load(v.many_body + s0), mb_j = at(v.many_body + (s0 - a0), f);
     const X G = pair_value(v, a0, f, &PairConstants::G);
     X kt = pair_value(v, a0, f, &PairConstants::kt);
     X kt_slope = 0.0f;
@@ -213,9 +220,20 @@ struct Block {
     // What both ends gather: the force, the torque (r/2) n x F_t = (r/2) n x F (n x n = 0, r = r0 (1 + eps))
     // and the trace of the Love average term (r0/2) sym(n (x) F) of physics.md sec. 3.
     const Vec3T<X> hf = o.force_i * (0.5f * v.r0);
-    store3(o.force_i, v.fx, v.fy, v.fz, l0);
-    store3(cross(n, hf) * (1.0f + eps), v.tx, v.ty, v.tz, l0);
-    L::store(dot(n, hf), v.trace + l0);
+    const Vec3T<X> torque = cross(n, hf) * (1.0f + eps);
+    if (v.stream) {
+      L::stream(o.force_i.x, v.fx + s0);
+      L::stream(o.force_i.y, v.fy + s0);
+      L::stream(o.force_i.z, v.fz + s0);
+      L::stream(torque.x, v.tx + s0);
+      L::stream(torque.y, v.ty + s0);
+      L::stream(torque.z, v.tz + s0);
+      L::stream(dot(n, hf), v.trace + s0);
+    } else {
+      store3(o.force_i, v.fx, v.fy, v.fz, s0);
+      store3(torque, v.tx, v.ty, v.tz, s0);
+      L::store(dot(n, hf), v.trace + s0);
+    }
     // A link that breaks keeps its displacement until the caller clears it; a broken one keeps its zero.
     store3(select(alive && !broke, o.ut, in.ut), v.utx, v.uty, v.utz, l0);
     return count;
@@ -242,24 +260,25 @@ struct Block {
     // The links below (-z, -y, -x: this automaton is their upper end), then its own (+x, +y, +z).
     for (int axis = 2; axis >= 0; --axis) {
       const std::size_t off = static_cast<std::size_t>(axis) * v.n;
+      const std::size_t so = static_cast<std::size_t>(axis) * v.ns;  // in the scratch arrays
       const Far fb = far_ends(v, 3 + axis, a0);
       const auto live = bytes_at(v.intact + off, fb) * fb.has != 0.0f;
       if (!L::any(live)) continue;
-      const Vec3T<X> F = far3(v.fx + off, v.fy + off, v.fz + off, fb);
+      const Vec3T<X> F = far3(v.fx + so, v.fy + so, v.fz + so, fb);
       f = select(live, f - F, f);
-      t = select(live, t + far3(v.tx + off, v.ty + off, v.tz + off, fb), t);
-      trace = select(live, trace + at(v.trace + off, fb), trace);
-      if (v.last) add_if(live, s_links, sym_outer(far3(v.nx + off, v.ny + off, v.nz + off, fb), F, X(half_r0)));
+      t = select(live, t + far3(v.tx + so, v.ty + so, v.tz + so, fb), t);
+      trace = select(live, trace + at(v.trace + so, fb), trace);
+      if (v.last) add_if(live, s_links, sym_outer(far3(v.nx + so, v.ny + so, v.nz + so, fb), F, X(half_r0)));
     }
     for (int axis = 0; axis < 3; ++axis) {
-      const std::size_t l0 = static_cast<std::size_t>(axis) * v.n + a0;
+      const std::size_t l0 = static_cast<std::size_t>(axis) * v.n + a0, s0 = static_cast<std::size_t>(axis) * v.ns + a0;
       const auto live = L::load_bytes(v.intact + l0) != 0.0f;
       if (!L::any(live)) continue;
-      const Vec3T<X> F = load3(v.fx, v.fy, v.fz, l0);
+      const Vec3T<X> F = load3(v.fx, v.fy, v.fz, s0);
       f = select(live, f + F, f);
-      t = select(live, t + load3(v.tx, v.ty, v.tz, l0), t);
-      trace = select(live, trace + L::load(v.trace + l0), trace);
-      if (v.last) add_if(live, s_links, sym_outer(load3(v.nx, v.ny, v.nz, l0), F, X(half_r0)));
+      t = select(live, t + load3(v.tx, v.ty, v.tz, s0), t);
+      trace = select(live, trace + L::load(v.trace + s0), trace);
+      if (v.last) add_if(live, s_links, sym_outer(load3(v.nx, v.ny, v.nz, s0), F, X(half_r0)));
     }
     const auto ext = L::load_bytes(v.has_ext + a0) != 0.0f;
     if (L::any(ext)) {
@@ -349,6 +368,18 @@ struct Block {
           r.first_bad = static_cast<std::int64_t>(a0 + k);
     // Only exposed automata are in the contact lists (see rebuild_contacts), so only their motion can make
     // them stale.
+    if (v.projectiles > 0) {
+      // Which projectiles the automata end near: bit p of near[a] (a superset of the contacts the next
+      // projectile pass finds, which tests again with each automaton's own radius).
+      X bits = 0.0f;
+      for (int p = 0; p < v.projectiles; ++p) {
+        const Vec3T<X> d{to_float(body.x.x - v.proj_x[p]), to_float(body.x.y - v.proj_y[p]),
+                         to_float(body.x.z - v.proj_z[p])};
+        bits = select(dot(d, d) < v.proj_reach2[p], bits + static_cast<float>(1 << p), bits);
+      }
+      L::store_bytes(bits, v.near + a0);
+      r.near = r.near || L::any(bits != 0.0f);
+    }
     const auto open = L::load_bytes(v.intact_count + a0) < 6.0f;
     if (L::any(open)) {
       const Vec3T<X> dm{to_float(body.x.x - L::load(v.rx + a0)), to_float(body.x.y - L::load(v.ry + a0)),
@@ -375,6 +406,7 @@ inline std::size_t links_range(const LatticeView& view, int axis, std::size_t b,
   std::size_t a = b, count = 0;
   for (; a + W <= e; a += W) count += Block<V>::links(v, axis, a, breaks + count);
   for (; a < e; ++a) count += Block<float>::links(v, axis, a, breaks + count);
+  if (v.stream) _mm_sfence();  // the streamed stores are seen by the other threads before the next pass
   return count;
 }
 
