@@ -22,15 +22,22 @@ class UniformGrid {
   template <class F>
   void for_each_candidate(DVec3 p, F&& f) const {
     const std::int64_t c[3] = {cell_of(p.x), cell_of(p.y), cell_of(p.z)};
+    // Two cells may share a bucket: each bucket is visited once. A bit per bucket's low 6 bits rules out
+    // most repeats at once; only a bit already set needs the list.
     std::uint32_t seen[27];
     int n_seen = 0;
+    std::uint64_t seen_bits = 0;
     for (int dz = -1; dz <= 1; ++dz)
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
           const std::uint32_t b = bucket(c[0] + dx, c[1] + dy, c[2] + dz);
-          bool dup = false;
-          for (int s = 0; s < n_seen; ++s) dup = dup || seen[s] == b;
-          if (dup) continue;
+          const std::uint64_t bit = std::uint64_t{1} << (b & 63);
+          if (seen_bits & bit) {
+            bool dup = false;
+            for (int s = 0; s < n_seen; ++s) dup = dup || seen[s] == b;
+            if (dup) continue;
+          }
+          seen_bits |= bit;
           seen[n_seen++] = b;
           for (std::uint32_t k = begin_[b]; k < begin_[b + 1]; ++k) f(items_[k]);
         }

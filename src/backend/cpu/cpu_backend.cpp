@@ -43,20 +43,29 @@ constexpr std::size_t kChunk = 4096;  // fixed work chunks (a multiple of every 
 // until the automata read them.
 constexpr std::size_t kStreamBytes = std::size_t{16} << 20;
 
+// Work of one chunk or less runs on the calling thread: handing it to a worker costs more than it saves.
 template <class F>
 void parallel_range(std::size_t n, F&& body) {
+  if (n <= kChunk) {
+    for (std::size_t k = 0; k < n; ++k) body(k);
+    return;
+  }
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t k = r.begin(); k != r.end(); ++k) body(k);
                     });
 }
 
+// body(k) for k in [0, count): in parallel when there are several.
+template <class F>
+void parallel_tasks(std::size_t count, F&& body) {
+  if (count == 1) body(std::size_t{0});
+  else tbb::parallel_for(std::size_t{0}, count, body);
+}
+
 template <class F>
 void parallel_chunks(std::size_t n, F&& body) {
-  const std::size_t chunks = (n + kChunk - 1) / kChunk;
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
-    body(c, c * kChunk, std::min(n, (c + 1) * kChunk));
-  });
+  parallel_tasks((n + kChunk - 1) / kChunk, [&](std::size_t c) { body(c, c * kChunk, std::min(n, (c + 1) * kChunk)); });
 }
 
 // Wall time per pass, summed over steps, printed when the backend is destroyed if MCA_PROFILE is set.
@@ -65,7 +74,7 @@ struct PassProfile {
   bool on = std::getenv("MCA_PROFILE") != nullptr;
   const char* set = "";
   double seconds[kPasses] = {};
-  std::int64_t steps = 0;
+  std::int64_t steps = 0, rebuilds = 0;
   ~PassProfile() {
     if (!on || steps == 0) return;
     static const char* names[kPasses] = {"many-body", "link forces", "contacts", "projectiles", "automata",
@@ -77,6 +86,8 @@ struct PassProfile {
     for (int k = 0; k < kPasses; ++k)
       std::fprintf(stderr, "  %-14s %8.3f ms/step  %5.1f %%\n", names[k], 1e3 * seconds[k] / steps,
                    100 * seconds[k] / total);
+    std::fprintf(stderr, "  contact lists rebuilt %lld times (every %.1f steps)\n", static_cast<long long>(rebuilds),
+                 rebuilds ? static_cast<double>(steps) / rebuilds : 0.0);
   }
 };
 
@@ -148,6 +159,27 @@ class CpuBackend final : public Backend {
       }
     }
     runs_ = cpu::block_runs(m, kernels_.lanes);
+    // Contact springs per pair of groups (and per group on the ground) when every automaton of a group
+    // has the group's radius, mass and moment of inertia (lattices: always): the same numbers
+    // body_contact_springs gives for each pair, worked out once.
+    std::vector<std::uint32_t> first(G, UINT32_MAX);
+    uniform_bodies_ = true;
+    for (std::size_t a = 0; a < n; ++a) {
+      std::uint32_t& f = first[m.group[a]];
+      if (f == UINT32_MAX) f = static_cast<std::uint32_t>(a);
+      uniform_bodies_ = uniform_bodies_ && m.radius[a] == m.radius[f] && m.mass[a] == m.mass[f] && m.inertia[a] == m.inertia[f];
+    }
+    if (uniform_bodies_) {
+      pair_springs_.resize(G * G);
+      ground_springs_.resize(G);
+      for (std::size_t g = 0; g < G; ++g) {
+        if (first[g] == UINT32_MAX) continue;
+        const std::uint32_t i = first[g];
+        ground_springs_[g] = ground_springs(i);
+        for (std::size_t h = 0; h < G; ++h)
+          if (first[h] != UINT32_MAX) pair_springs_[g * G + h] = pair_springs(i, first[h]);
+      }
+    }
     one_group_ = n > 0 && std::all_of(m.group.begin(), m.group.end(), [&](std::uint8_t g) { return g == m.group[0]; });
     // State and scratch arrays.
     for (auto* v : {&px_, &py_, &pz_, &rx_, &ry_, &rz_}) v->resize(n);
@@ -279,6 +311,15 @@ class CpuBackend final : public Backend {
   void rebuild_contacts();
   bool linked(std::uint32_t i, std::uint32_t j) const;
   bool near_ground(std::uint32_t a) const;
+  ContactSprings pair_springs(std::uint32_t i, std::uint32_t j) const {
+    const std::size_t gi = M_.group[i], gj = M_.group[j];
+    return body_contact_springs(M_.contact_material(gi, gj), M_.zeta_pair[gi * M_.groups.size() + gj], M_.radius[i],
+                                M_.radius[j], reduced(M_.mass[i], M_.mass[j]), reduced(M_.inertia[i], M_.inertia[j]));
+  }
+  ContactSprings ground_springs(std::uint32_t a) const {
+    return body_contact_springs(M_.ground_contact[M_.group[a]], M_.zeta_ground[M_.group[a]], M_.radius[a], INFINITY,
+                                M_.mass[a], M_.inertia[a]);
+  }
   void add_external(std::uint32_t a, Vec3 f, Vec3 t, const Sym3& s) {
     ext_f_[a] += f;
     ext_t_[a] += t;
@@ -305,6 +346,8 @@ class CpuBackend final : public Backend {
   bool strengthening_ = false, one_group_ = false;
   bool last_step_ = true;
   std::vector<std::uint32_t> exposed_;
+  bool uniform_bodies_ = false;  // radius, mass and inertia are the group's: the springs below hold
+  std::vector<ContactSprings> pair_springs_, ground_springs_;
   std::vector<std::uint8_t> near_, chunk_near_;  // see LatticeView::near; per chunk: any marked
   bool near_valid_ = false;                      // near_ is from the last step (not before an upload)
   std::vector<Vec3> ext_f_, ext_t_;
@@ -406,7 +449,7 @@ void CpuBackend::link_force_pass(const cpu::LatticeView& v) {
   std::vector<std::size_t> counts(3 * chunks, 0);
   // A chunk's three axes one after the other: its automata's data is read from memory once, not three
   // times. The breaks of axis a and chunk c go to counts[a * chunks + c], so they are applied in slot order.
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+  parallel_tasks(chunks, [&](std::size_t c) {
     const std::size_t b = c * kChunk, e = std::min(n, b + kChunk);
     for (int axis = 0; axis < 3; ++axis)
       counts[axis * chunks + c] = kernels_.links(v, axis, b, e, breaks_.data() + axis * n + b);
@@ -473,7 +516,10 @@ void CpuBackend::contact_pass() {
     ContactPair& cp = C[p];
     const std::uint32_t i = cp.i, j = cp.j;
     const float ri = M_.radius[i], rj = M_.radius[j];
-    const SphereGap gap = sphere_gap(pos(i), pos(j), static_cast<double>(ri) + rj);
+    const double reach = static_cast<double>(ri) + rj;
+    // Apart (|d| >= reach, as sphere_gap would find: sqrt(fl(reach^2)) = reach) without the square root.
+    const DVec3 d = ddelta(pos(i), pos(j));
+    const SphereGap gap = dot(d, d) >= reach * reach ? SphereGap{} : sphere_gap(pos(i), pos(j), reach);
     if (gap.overlap <= 0.0f || !gap.valid) {
       cp.h = {};
       contact_out_[p].on = false;
@@ -485,8 +531,7 @@ void CpuBackend::contact_pass() {
     in.overlap = gap.overlap;
     in.vrel = (vel(j) + cross(ang(j), -rj * n)) - (vel(i) + cross(ang(i), ri * n));
     in.wrel = ang(j) - ang(i);
-    in.s = body_contact_springs(M_.contact_material(M_.group[i], M_.group[j]), M_.zeta_pair[M_.group[i] * M_.groups.size() + M_.group[j]], ri, rj, reduced(M_.mass[i], M_.mass[j]),
-                      reduced(M_.inertia[i], M_.inertia[j]));
+    in.s = uniform_bodies_ ? pair_springs_[M_.group[i] * M_.groups.size() + M_.group[j]] : pair_springs(i, j);
     in.ut = cp.h.ut;
     in.mr = cp.h.mr;
     in.dt = dt;
@@ -524,7 +569,7 @@ void CpuBackend::ground_pass() {
     in.overlap = overlap;
     in.vrel = -(vel(a) + cross(ang(a), r * nrm));
     in.wrel = -ang(a);
-    in.s = body_contact_springs(M_.ground_contact[M_.group[a]], M_.zeta_ground[M_.group[a]], r, INFINITY, M_.mass[a], M_.inertia[a]);
+    in.s = uniform_bodies_ ? ground_springs_[M_.group[a]] : ground_springs(a);
     in.ut = bc.h.ut;
     in.mr = bc.h.mr;
     in.dt = dt;
@@ -774,7 +819,10 @@ std::int64_t CpuBackend::one_step() {
   S_.time = static_cast<double>(S_.step) * M_.dt;
   // Verlet-style list: rebuild once any automaton has moved half the skin since the last rebuild.
   const float half = 0.5f * M_.skin;
-  if (max_move2 > half * half) rebuild_contacts();
+  if (max_move2 > half * half) {
+    rebuild_contacts();
+    ++profile_.rebuilds;
+  }
   timer.lap(5);
   return bad != kAllFinite ? bad : bad_projectile;
 }
