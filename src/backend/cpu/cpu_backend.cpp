@@ -167,7 +167,8 @@ class CpuBackend final : public Backend {
     for (std::size_t a = 0; a < n; ++a) {
       std::uint32_t& f = first[m.group[a]];
       if (f == UINT32_MAX) f = static_cast<std::uint32_t>(a);
-      uniform_bodies_ = uniform_bodies_ && m.radius[a] == m.radius[f] && m.mass[a] == m.mass[f] && m.inertia[a] == m.inertia[f];
+      uniform_bodies_ = uniform_bodies_ && m.radius[a] == m.radius[f] && m.mass[a] == m.mass[f] &&
+                        m.inertia[a] == m.inertia[f] && m.volume[a] == m.volume[f];
     }
     if (uniform_bodies_) {
       pair_springs_.resize(G * G);
@@ -380,6 +381,13 @@ cpu::LatticeView CpuBackend::view() {
   v.compressive = compressive_.data();
   v.break_strain = break_strain_.data();
   v.mass = m.mass.data();
+  if (one_group_) {
+    v.uniform_bodies = uniform_bodies_;
+    v.body[0] = m.mass[0];
+    v.body[1] = inv_mass_[0];
+    v.body[2] = inv_inertia_[0];
+    v.body[3] = inv_volume_[0];
+  }
   v.inv_mass = inv_mass_.data();
   v.inv_inertia = inv_inertia_.data();
   v.inv_volume = inv_volume_.data();

@@ -54,6 +54,10 @@ struct LatticeView {
   const std::uint8_t* group = nullptr;
   const float *tensile = nullptr, *compressive = nullptr, *break_strain = nullptr;  // class factor x group's
   const float *mass = nullptr, *inv_mass = nullptr, *inv_inertia = nullptr, *inv_volume = nullptr;
+  // Every automaton of one material with the same mass, moment of inertia and volume: body[] holds the
+  // mass and the inverses of the three (the four arrays above are not read).
+  bool uniform_bodies = false;
+  float body[4] = {};
   const std::int16_t* grip = nullptr;  // null: no grips
   const Vec3* grip_velocity = nullptr;
   const Vec3* load = nullptr;  // null: no loads
@@ -81,7 +85,7 @@ struct LatticeView {
   // block of lanes is one aligned vector there. Link directions are formed from the positions by each kernel that needs them
   // (link_geometry, the same bits each time); stored only on the last step, for the averaged stress.
   float *nx = nullptr, *ny = nullptr, *nz = nullptr;
-  float* many_body = nullptr;  // P of automaton a along an axis, at axis * n + a
+  float* many_body = nullptr;  // P of automaton a along an axis, at axis * ns + a
   float *fx = nullptr, *fy = nullptr, *fz = nullptr, *tx = nullptr, *ty = nullptr, *tz = nullptr, *trace = nullptr;
   // Contacts and the like, added by the automata kernel and then cleared.
   std::uint8_t* has_ext = nullptr;

@@ -250,7 +250,7 @@ struct Block {
 
   // automata: gather, contacts and loads, integrate, for automata [a0, a0 + W).
   static MCA_LANE void automata(const LatticeView& v, std::size_t a0, AutomataResult& r) {
-    const X m = L::load(v.mass + a0);
+    const X m = v.uniform_bodies ? X(v.body[0]) : L::load(v.mass + a0);
     Vec3T<X> f = Vec3T<X>{X(v.gravity.x), X(v.gravity.y), X(v.gravity.z)} * m;
     Vec3T<X> t;
     Sym3T<X> s;        // contacts, ground, projectiles: every step
@@ -300,7 +300,7 @@ struct Block {
         }
     }
     if (v.load) f += lanes_of(v.load, a0);
-    const X inv_v = L::load(v.inv_volume + a0);
+    const X inv_v = v.uniform_bodies ? X(v.body[3]) : L::load(v.inv_volume + a0);
     if (v.last) {
       Sym3T<X> total = s_links;
       total += s;
@@ -318,7 +318,8 @@ struct Block {
                      {L::load(v.qw + a0), L::load(v.qx + a0), L::load(v.qy + a0), L::load(v.qz + a0)}};
     const BodyT<X, D> start = body;
     const Vec3T<X> f_raw = f, t_raw = t;
-    integrate_body(body, f, t, L::load(v.inv_mass + a0), L::load(v.inv_inertia + a0), v.dt, v.local_damping);
+    integrate_body(body, f, t, v.uniform_bodies ? X(v.body[1]) : L::load(v.inv_mass + a0),
+                   v.uniform_bodies ? X(v.body[2]) : L::load(v.inv_inertia + a0), v.dt, v.local_damping);
     // Held automata (grip >= 0) move with their grip and do not turn; ext_f keeps the force the body puts
     // on the grip (the caller sums it per grip).
     const X grip = v.grip ? L::from([&](std::size_t k) { return static_cast<float>(v.grip[a0 + k]); }) : X(-1.0f);
