@@ -1,6 +1,6 @@
 #pragma once
 // Arrays that start on a 64-byte cache line, so that a block of lanes at a multiple of its width is one
-// aligned vector (the kernels' streaming stores need that).
+// aligned vector, not two lines' parts.
 #include <cstddef>
 #include <new>
 #include <vector>

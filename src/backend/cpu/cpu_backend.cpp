@@ -39,10 +39,6 @@ using cpu::kBreakByStress;
 constexpr std::size_t kChunk = 4096;  // fixed work chunks (a multiple of every lane count): per-chunk
                                       // results are combined in chunk order
 
-// Link forces of more than this many bytes are written past the caches: they would not stay there
-// until the automata read them.
-constexpr std::size_t kStreamBytes = std::size_t{16} << 20;
-
 // Work of one chunk or less runs on the calling thread: handing it to a worker costs more than it saves.
 template <class F>
 void parallel_range(std::size_t n, F&& body) {
@@ -408,7 +404,6 @@ cpu::LatticeView CpuBackend::view() {
   v.local_damping = m.local_damping;
   v.gravity = m.gravity;
   v.last = last_step_;
-  v.stream = kernels_.lanes > 1 && m.link_slots() * 7 * sizeof(float) > kStreamBytes;
   v.px = px_.data(); v.py = py_.data(); v.pz = pz_.data();
   v.vx = vx_.data(); v.vy = vy_.data(); v.vz = vz_.data();
   v.wx = wx_.data(); v.wy = wy_.data(); v.wz = wz_.data();

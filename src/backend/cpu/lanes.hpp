@@ -11,9 +11,7 @@
 #endif
 #include <cstddef>
 #include <cstdint>
-#include <cstring>
 #include <experimental/simd>
-#include <immintrin.h>
 #include <type_traits>
 
 #define MCA_LANE inline __attribute__((always_inline))
@@ -65,7 +63,6 @@ struct Lanes<float> {
   static MCA_LANE float load_bytes(const std::uint8_t* p) { return static_cast<float>(*p); }
   static MCA_LANE void store(float v, float* p) { *p = v; }
   static MCA_LANE void store(double v, double* p) { *p = v; }
-  static MCA_LANE void stream(float v, float* p) { *p = v; }
   // Whole numbers 0..255 as bytes.
   static MCA_LANE void store_bytes(float v, std::uint8_t* p) { *p = static_cast<std::uint8_t>(v); }
   static MCA_LANE float gather(const float* p, std::uint32_t i) { return p[i]; }
@@ -101,24 +98,6 @@ struct Lanes<stdx::simd<float, A>> {
   static MCA_LANE void store_bytes(const V& v, std::uint8_t* p) {
     stdx::static_simd_cast<stdx::rebind_simd_t<std::uint8_t, V>>(stdx::static_simd_cast<U>(v)).copy_to(
         p, stdx::element_aligned);
-  }
-  // A store that bypasses the caches (p aligned to the vector's size): for results read back only after
-  // much other data has passed, it saves reading the lines in before they are written.
-  static MCA_LANE void stream(const V& v, float* p) {
-    if constexpr (size == 16) {
-      __m512 r;
-      std::memcpy(&r, &v, sizeof r);
-      _mm512_stream_ps(p, r);
-    } else if constexpr (size == 8) {
-      __m256 r;
-      std::memcpy(&r, &v, sizeof r);
-      _mm256_stream_ps(p, r);
-    } else {
-      static_assert(size == 4);
-      __m128 r;
-      std::memcpy(&r, &v, sizeof r);
-      _mm_stream_ps(p, r);
-    }
   }
   // Lane by lane through memory, not simd's generator constructor: that one may be compiled out of line,
   // as a function of the same name in every file that uses the type.

@@ -69,7 +69,6 @@ struct LatticeView {
   bool strengthening = false;  // some group has a strengthening law
   float r0 = 0, inv_r0 = 0, area = 0, dt = 0, stress_coefficient = 1, local_damping = 0;
   Vec3 gravity;
-  bool stream = false;  // links: stream the forces past the caches (slots far more than the caches hold)
   bool last = false;  // the last step of a call: write the averaged stress and the applied forces
   // State, by automaton (structure of arrays).
   double *px = nullptr, *py = nullptr, *pz = nullptr;
@@ -82,7 +81,7 @@ struct LatticeView {
   std::uint8_t* intact = nullptr;
   float *utx = nullptr, *uty = nullptr, *utz = nullptr;
   // Scratch, by link slot, at axis * ns + a: ns is n rounded up to a cache line of floats, so that a
-  // block of lanes is one aligned vector there. Link directions are formed from the positions by each kernel that needs them
+  // block of lanes at a multiple of its width is one aligned vector there. Link directions are formed from the positions by each kernel that needs them
   // (link_geometry, the same bits each time); stored only on the last step, for the averaged stress.
   float *nx = nullptr, *ny = nullptr, *nz = nullptr;
   float* many_body = nullptr;  // P of automaton a along an axis, at axis * ns + a

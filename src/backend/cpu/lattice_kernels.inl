@@ -221,19 +221,9 @@ struct Block {
     // and the trace of the Love average term (r0/2) sym(n (x) F) of physics.md sec. 3.
     const Vec3T<X> hf = o.force_i * (0.5f * v.r0);
     const Vec3T<X> torque = cross(n, hf) * (1.0f + eps);
-    if (v.stream) {
-      L::stream(o.force_i.x, v.fx + s0);
-      L::stream(o.force_i.y, v.fy + s0);
-      L::stream(o.force_i.z, v.fz + s0);
-      L::stream(torque.x, v.tx + s0);
-      L::stream(torque.y, v.ty + s0);
-      L::stream(torque.z, v.tz + s0);
-      L::stream(dot(n, hf), v.trace + s0);
-    } else {
-      store3(o.force_i, v.fx, v.fy, v.fz, s0);
-      store3(torque, v.tx, v.ty, v.tz, s0);
-      L::store(dot(n, hf), v.trace + s0);
-    }
+    store3(o.force_i, v.fx, v.fy, v.fz, s0);
+    store3(torque, v.tx, v.ty, v.tz, s0);
+    L::store(dot(n, hf), v.trace + s0);
     // A link that breaks keeps its displacement until the caller clears it; a broken one keeps its zero.
     store3(select(alive && !broke, o.ut, in.ut), v.utx, v.uty, v.utz, l0);
     return count;
@@ -407,7 +397,6 @@ inline std::size_t links_range(const LatticeView& view, int axis, std::size_t b,
   std::size_t a = b, count = 0;
   for (; a + W <= e; a += W) count += Block<V>::links(v, axis, a, breaks + count);
   for (; a < e; ++a) count += Block<float>::links(v, axis, a, breaks + count);
-  if (v.stream) _mm_sfence();  // the streamed stores are seen by the other threads before the next pass
   return count;
 }
 
