@@ -3,6 +3,7 @@
 // active during the timed steps.
 #include <algorithm>
 #include <chrono>
+#include <iterator>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
@@ -21,6 +22,7 @@ struct BenchScene {
   std::string description;
   SceneDef scene;
   int warmup_steps;  // steps before timing: the ball is in contact by then
+  bool by_default = true;  // run when no names are given (the largest takes a minute and 2 GB: only by name)
 };
 
 // A concrete wall of nx x ny x nz automata (d = 0.05 m) standing on the ground, struck at its centre by
@@ -57,6 +59,7 @@ std::vector<BenchScene> scenes() {
       {"wall_3k", "the paper's single wall: 30 x 4 x 25 automata, ball at 60 m/s", wall_scene("wall_3k", 30, 4, 25, 1, 0.05), 300},
       {"walls_12k", "the paper's four walls: 4 x (30 x 4 x 25) automata, a ball each", wall_scene("walls_12k", 30, 4, 25, 4, 0.05), 300},
       {"wall_357k", "a 101 x 35 x 101 lattice wall (357,035 automata), ball at 60 m/s", wall_scene("wall_357k", 101, 35, 101, 1, 0.02), 150},
+      {"wall_2m", "a 202 x 35 x 404 lattice wall (2,856,280 automata, 2.1 GB), ball at 60 m/s", wall_scene("wall_2m", 202, 35, 404, 1, 0.02), 150, false},
   };
 }
 
@@ -68,16 +71,18 @@ double median(std::vector<double> v) {
 
 }  // namespace
 
-std::vector<std::string> bench_names() {
+std::vector<std::string> bench_names(bool defaults_only) {
   std::vector<std::string> n;
-  for (const auto& s : scenes()) n.push_back(s.name);
+  for (const auto& s : scenes())
+    if (s.by_default || !defaults_only) n.push_back(s.name);
   return n;
 }
 
 int bench(const std::vector<std::string>& names, bool json, int threads_requested, int repeats, int steps) {
   auto all = scenes();
   std::vector<BenchScene> chosen;
-  if (names.empty()) chosen = all;
+  if (names.empty())
+    std::copy_if(all.begin(), all.end(), std::back_inserter(chosen), [](const BenchScene& b) { return b.by_default; });
   for (const auto& n : names) {
     auto it = std::find_if(all.begin(), all.end(), [&](const BenchScene& b) { return b.name == n; });
     if (it == all.end())
@@ -89,11 +94,13 @@ int bench(const std::vector<std::string>& names, bool json, int threads_requeste
   const int threads = thread_count(threads_requested);
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   nlohmann::json out = nlohmann::json::array();
-  if (!json)
-    fmt::print("machine: {} hardware threads, using {}; median of {} runs of {} steps each\n",
-               std::thread::hardware_concurrency(), threads, repeats, steps);
+  bool first = true;
   for (const auto& b : chosen) {
     Engine sim(b.scene);
+    if (!json && first)
+      fmt::print("machine: {} hardware threads, using {}; backend {} ({}); median of {} runs of {} steps each\n",
+                 std::thread::hardware_concurrency(), threads, sim.backend().name(), simd_note(), repeats, steps);
+    first = false;
     sim.advance(b.warmup_steps);
     const State snapshot = sim.state();
     const std::size_t n = sim.model().size();
@@ -114,6 +121,7 @@ int bench(const std::vector<std::string>& names, bool json, int threads_requeste
     if (json) {
       out.push_back({{"name", b.name}, {"description", b.description}, {"automata", n},
                      {"links", sim.model().link_count()}, {"steps", steps}, {"repeats", repeats}, {"threads", threads},
+                     {"backend", sim.backend().name()},
                      {"median_wall_seconds", median(walls)}, {"automaton_steps_per_second", med},
                      {"all_automaton_steps_per_second", rates},
                      {"links_broken_during_timed_steps", broken_after - broken_before},

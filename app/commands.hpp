@@ -25,7 +25,9 @@ int thread_count(int requested);
 int resume(const std::string& out_dir, int threads, bool quiet);
 int info(const std::optional<std::string>& scene, bool json);
 int bench(const std::vector<std::string>& names, bool json, int threads, int repeats, int steps);
-// Names of the built-in benchmark scenes.
-std::vector<std::string> bench_names();
+// Names of the built-in benchmark scenes (those run when none is named).
+std::vector<std::string> bench_names(bool defaults_only = false);
+// Why the backend's instruction set is the one in use (for `mca info` and `mca bench`).
+std::string simd_note();
 
 }  // namespace mca::app

@@ -1,4 +1,5 @@
 // `mca info`: what a scene will cost before running it.
+#include <cstdlib>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
@@ -8,13 +9,19 @@
 
 namespace mca::app {
 
+std::string simd_note() {
+  const char* forced = std::getenv("MCA_SIMD");
+  if (forced && *forced) return fmt::format("instruction set chosen by MCA_SIMD={}", forced);
+  return "the widest instruction set this processor runs; MCA_SIMD=scalar, sse2, avx2 or avx512 picks another";
+}
+
 int info(const std::optional<std::string>& path, bool json) {
   const SceneDef scene = path ? io::load_scene_file(*path) : io::load_default_scene();
   const Engine sim(scene);
   const Model& m = sim.model();
   const std::int64_t frames = sim.frame_count();
   const std::int64_t steps = sim.total_steps();
-  const std::size_t bytes = estimate_memory_bytes(m.size(), m.link_count());
+  const std::size_t bytes = estimate_memory_bytes(m.size());
   if (json) {
     nlohmann::json j;
     j["scene"] = scene.name;
@@ -31,9 +38,10 @@ int info(const std::optional<std::string>& path, bool json) {
     j["frames"] = frames;
     j["steps"] = steps;
     j["duration"] = scene.output.duration;
+    j["backend"] = sim.backend().name();
     j["memory_bytes"] = bytes;
     j["memory_bytes_per_automaton"] =
-        static_cast<double>(bytes - estimate_memory_bytes(0, 0)) / static_cast<double>(m.size());
+        static_cast<double>(bytes - estimate_memory_bytes(0)) / static_cast<double>(m.size());
     j["total_mass"] = m.total_mass;
     nlohmann::json objs = nlohmann::json::array();
     std::vector<std::size_t> count(m.object_names.size(), 0);
@@ -71,8 +79,9 @@ int info(const std::optional<std::string>& path, bool json) {
   fmt::print("strength classes {} / {} / {} / {} (classes 1..4)\n", classes[0], classes[1], classes[2], classes[3]);
   fmt::print("materials        {}\n", fmt::join(m.group_names, ", "));
   fmt::print("projectiles      {}\n", m.projectiles.size());
+  fmt::print("backend          {} ({})\n", sim.backend().name(), simd_note());
   fmt::print("memory estimate  {:.1f} MB at the peak of a run ({:.0f} bytes per automaton, links included)\n",
-             bytes / 1e6, static_cast<double>(bytes - estimate_memory_bytes(0, 0)) / static_cast<double>(m.size()));
+             bytes / 1e6, static_cast<double>(bytes - estimate_memory_bytes(0)) / static_cast<double>(m.size()));
   return 0;
 }
 

@@ -49,7 +49,9 @@ int main(int argc, char** argv) {
   bool bench_json = false;
   int bench_threads = 0, bench_repeats = 5, bench_steps = 50;
   auto* bench = app.add_subcommand("bench", "Benchmarks: automaton-steps per second on named scenes");
-  bench->add_option("names", bench_names, "Benchmarks to run (default all): " + fmt::format("{}", fmt::join(mca::app::bench_names(), ", ")));
+  bench->add_option("names", bench_names,
+                    fmt::format("Benchmarks to run: {} (default: {})", fmt::join(mca::app::bench_names(), ", "),
+                                fmt::join(mca::app::bench_names(true), ", ")));
   bench->add_flag("--json", bench_json, "Machine-readable output");
   bench->add_option("--threads", bench_threads, "Worker threads (0 = all cores)");
   bench->add_option("--repeats", bench_repeats, "Timed runs per benchmark (the median is reported)");

@@ -24,23 +24,23 @@ void link_damage(const Model& m, const std::uint8_t* intact, float* out) {
   }
 }
 
-std::size_t estimate_memory_bytes(std::size_t automata, std::size_t links) {
+std::size_t estimate_memory_bytes(std::size_t automata) {
   // What a run holds at its peak, counted from the arrays (and checked against the measured peak resident
-  // size: Cli.MemoryEstimateMatchesThePeak):
-  //   per automaton  model 68 (centre 24, velocity 12, mass, radius, inertia, volume 16, class factor 4,
-  //                  group, class 2, object 4, grip 2, adjacency start 4); state 140 (x 24, v 12, w 12, q 16,
-  //                  averaged stress 24, mean stress 4, force and torque 24, rebuild positions 24); backend
-  //                  98 (inverse mass, inertia, volume 12, many-body terms 12, external force, torque and
-  //                  stress 48, flags 2, adjacency codes 24); frame output and fragments 60; contacts 64
-  //                  (about one unlinked pair of 32 bytes per automaton once it has broken up, two lists
-  //                  while the list is rebuilt);
-  //   per link       model 25 (ends 8, rest length, area 8, axis 1, adjacency 8); state 13 (intact, shear
-  //                  displacement); backend 80 (direction, strain, gathered force and torque, shear modulus,
-  //                  spring, strengths, 1 / r0, dashpots);
-  //   fixed          8 MB (program, libraries, thread stacks).
-  const std::size_t per_automaton = 68 + 140 + 98 + 60 + 64;
-  const std::size_t per_link = 25 + 13 + 80;
-  return automata * per_automaton + links * per_link + 8'000'000;
+  // size: Cli.MemoryEstimateMatchesThePeak). Links live in the three slots of each automaton (one per
+  // axis, kept whether the link exists or not), so everything is per automaton:
+  //   model 88      centre 24, velocity 12, mass, radius, inertia, volume 16, class factor 4, group and
+  //                 class 2, object 4, grip 2, neighbour tables 24 (up and down along each axis)
+  //   state 179     x 24, v 12, w 12, q 16, averaged stress 24, mean stress 4, force and torque 24,
+  //                 rebuild positions 24; per slot intact 1, shear displacement 12 (39)
+  //   backend 346   positions and rebuild positions 48, v, w, q 40, inverses and strengths 24, contact
+  //                 sums 49, flags 3, block runs 3; per slot shear displacement 12, link direction,
+  //                 force, torque, stress trace and many-body term 44, break list 4 (180)
+  //   output 60     frame output and fragments
+  //   contacts 64   about one unlinked pair of 32 bytes per automaton once it has broken up, two lists
+  //                 while the list is rebuilt
+  //   fixed 8 MB    program, libraries, thread stacks.
+  constexpr std::size_t per_automaton = 88 + 179 + 346 + 60 + 64;
+  return automata * per_automaton + 8'000'000;
 }
 
 }  // namespace mca

@@ -144,7 +144,7 @@ struct Model {
 // one without links. intact has a value per link slot, out one per automaton.
 void link_damage(const Model& m, const std::uint8_t* intact, float* out);
 
-// Bytes the model and its state take, for `mca info` and the memory check.
-std::size_t estimate_memory_bytes(std::size_t automata, std::size_t links);
+// Bytes a run of a model of this many automata holds at its peak, for `mca info` and the memory check.
+std::size_t estimate_memory_bytes(std::size_t automata);
 
 }  // namespace mca

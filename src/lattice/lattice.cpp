@@ -255,8 +255,8 @@ double physical_memory_bytes() {
 }
 
 void refuse_over_memory(const SceneDef& scene, double d, double automata, bool approximate) {
-  const double bytes = static_cast<double>(estimate_memory_bytes(1, 3) - estimate_memory_bytes(0, 0)) * automata +
-                       static_cast<double>(estimate_memory_bytes(0, 0));
+  const double bytes = static_cast<double>(estimate_memory_bytes(1) - estimate_memory_bytes(0)) * automata +
+                       static_cast<double>(estimate_memory_bytes(0));
   if (bytes > scene.solver.max_memory_gb * 1e9) {
     throw Error(fmt::format(
         "{}: the scene needs {:.3g} GB for {}{:.4g} automata at spacing {:.4g} m, over solver.max_memory_gb = "

@@ -34,6 +34,7 @@ class Engine {
   // The backend's current state (no copy).
   const State& state() const { return backend_->state(); }
   Backend& backend() { return *backend_; }
+  const Backend& backend() const { return *backend_; }
 
   // Advances n steps. Stops at the first step with a non-finite value (kNonFinite), and flags
   // kEnergyGrowth when kinetic + elastic energy, less the work put in since the start, has grown past

@@ -1,0 +1,271 @@
+// The CPU step's kernels (backend/cpu/lattice_kernels.*): every instruction set and thread count gives the
+// same state bit for bit, and the direction-blocked layout gives the forces of a brute-force reference
+// that finds the links by distance and adds them up in double.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <random>
+#include <string>
+#include <tbb/global_control.h>
+
+#include "backend/cpu/lattice_kernels.hpp"
+#include "io/scene_io.hpp"
+#include "mca/error.hpp"
+#include "physics/contact_law.hpp"
+#include "physics/link_law.hpp"
+#include "support.hpp"
+
+namespace mca {
+namespace {
+
+// Sets MCA_SIMD for the life of the object.
+class ForceSimd {
+ public:
+  explicit ForceSimd(const char* set) { setenv("MCA_SIMD", set, 1); }
+  ~ForceSimd() { unsetenv("MCA_SIMD"); }
+};
+
+std::vector<const cpu::Kernels*> kernel_sets() {
+  const cpu::Kernels* sets[4];
+  const int count = cpu::available_kernels(sets);
+  return {sets, sets + count};
+}
+
+TEST(Simd, EveryInstructionSetAndThreadCountGivesTheStoredHash) {
+  // The default scene's stored hash (Determinism.TheDefaultSceneGivesItsStoredHash), on every set this
+  // processor runs (at least scalar and SSE2; AVX2 and AVX-512 where present) and on 1 and 2 threads.
+  const auto sets = kernel_sets();
+  ASSERT_GE(sets.size(), 2u);
+  for (const cpu::Kernels* k : sets)
+    for (int threads : {1, 2}) {
+      ForceSimd force(k->name);
+      tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+      Engine sim(io::load_default_scene());
+      EXPECT_EQ(sim.backend().name(), std::string("cpu-") + k->name);
+      ASSERT_EQ(sim.advance(3000).flags, kHealthy);
+      EXPECT_GT(sim.state().broken_by[0] + sim.state().broken_by[1], 0);
+      EXPECT_FALSE(sim.state().contacts.empty());
+      const std::uint64_t h = state_hash(sim.state());
+      std::printf("%-6s %d thread(s): state_hash %016llx\n", k->name, threads, static_cast<unsigned long long>(h));
+      EXPECT_EQ(h, 0xdb5dd59d3854aed4ull) << k->name << " on " << threads << " threads";
+    }
+}
+
+TEST(Simd, AnUnknownOrMissingInstructionSetIsAClearError) {
+  {
+    ForceSimd force("avx9");
+    try {
+      Engine sim(io::load_default_scene());
+      FAIL() << "MCA_SIMD=avx9 was accepted";
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("MCA_SIMD"), std::string::npos) << what;
+      EXPECT_NE(what.find("avx9"), std::string::npos) << what;
+      EXPECT_NE(what.find("scalar"), std::string::npos) << what;  // what it can use instead
+    }
+  }
+  if (kernel_sets().size() < 4) {  // a processor without AVX-512 names the sets it has
+    ForceSimd force("avx512");
+    EXPECT_THROW({ Engine sim(io::load_default_scene()); }, Error);
+  }
+}
+
+// Objects that are not one box: a rotated box, a sphere and two boxes of different materials that touch
+// (so there are links between groups, blocks that straddle objects, and contacts), no ground.
+SceneDef mixed_objects() {
+  const double d = 0.01;
+  MaterialDef a = test::test_material(30e9, 0.2, 2400), b = test::test_material(10e9, 0.3, 1800);
+  a.name = "a";
+  b.name = "b";
+  a.damping_time = 2e-7;  // dashpots on, to be compared too
+  b.damping_time = 5e-7;
+  SceneDef s = test::block_scene(1, 1, 1, d, a);
+  s.materials.push_back(b);
+  s.solver.gravity = {0, 0, -9.81};
+  s.solver.link_damping = 0.05;
+  s.objects.clear();
+  ObjectDef tilted;
+  tilted.name = "tilted";
+  tilted.material = "a";
+  tilted.size = {7 * d, 5 * d, 9 * d};
+  tilted.rotation = {20, 35, 10};
+  s.objects.push_back(tilted);
+  ObjectDef ball;
+  ball.name = "ball";
+  ball.material = "b";
+  ball.shape = Shape::sphere;
+  ball.radius = 3.3 * d;
+  ball.position = {0.2, 0, 0};
+  s.objects.push_back(ball);
+  ObjectDef left, right;
+  left.name = "left";
+  left.material = "a";
+  left.size = {5 * d, 4 * d, 3 * d};
+  left.position = {0, 0.2, 0};
+  right = left;
+  right.name = "right";
+  right.material = "b";
+  right.position = {5 * d, 0.2, 0};  // face to face with `left` (pressed into it by the caller)
+  s.objects.push_back(left);
+  s.objects.push_back(right);
+  return s;
+}
+
+struct Reference {
+  std::vector<DVec3> f, t;
+  std::vector<double> f_scale, t_scale;  // sums of the magnitudes of what was added (for the tolerance)
+  std::size_t links = 0, touching = 0;
+};
+
+// The first step's forces and torques, from an explicit list of links found by distance: two automata of
+// one object at the lattice spacing d (diagonals are at 1.41 d) are linked, along the axis their direction
+// falls on (the axes of each object are the directions of the links it has, grouped by angle).
+Reference brute_force(const Model& m, const State& s) {
+  const std::size_t n = m.size();
+  const float d = m.spacing, area = d * d;
+  Reference r;
+  r.f.assign(n, DVec3{});
+  r.t.assign(n, DVec3{});
+  r.f_scale.assign(n, 0.0);
+  r.t_scale.assign(n, 0.0);
+  struct Link {
+    std::uint32_t i, j;
+    int axis;
+    LinkGeometry g;
+  };
+  std::vector<Link> links;
+  std::vector<std::vector<DVec3>> axes(m.object_names.size());
+  for (std::uint32_t i = 0; i < n; ++i)
+    for (std::uint32_t j = i + 1; j < n; ++j) {
+      if (m.object[i] != m.object[j]) continue;
+      const DVec3 e = m.position0[j] - m.position0[i];
+      const double len = std::sqrt(dot(e, e));
+      if (std::fabs(len - d) > 1e-3 * d) continue;
+      const DVec3 u = e * (1.0 / len);
+      auto& ax = axes[m.object[i]];
+      int axis = -1;
+      for (std::size_t k = 0; k < ax.size(); ++k)
+        if (std::fabs(dot(u, ax[k])) > 0.9) axis = static_cast<int>(k);
+      if (axis < 0) {
+        axis = static_cast<int>(ax.size());
+        ax.push_back(u);
+      }
+      EXPECT_LT(axis, 3);
+      links.push_back({i, j, axis, link_geometry(s.x[i], s.x[j], d, 1.0f / d)});
+    }
+  r.links = links.size();
+  // Many-body terms: lambda theta of each automaton from the mean strain of its links along each axis.
+  std::vector<std::array<float, 3>> sum(n, {0, 0, 0}), cnt(n, {0, 0, 0});
+  for (const Link& l : links)
+    for (std::uint32_t a : {l.i, l.j}) {
+      sum[a][l.axis] += l.g.eps;
+      cnt[a][l.axis] += 1.0f;
+    }
+  std::vector<float> lam_theta(n);
+  for (std::size_t a = 0; a < n; ++a) {
+    const GroupParams& g = m.groups[m.group[a]];
+    float ff[4];
+    free_axis_factors(g.lame_lambda, g.shear_modulus, ff);
+    lam_theta[a] = g.lame_lambda * volumetric_strain(sum[a].data(), cnt[a].data(), ff);
+  }
+  auto add = [&](std::uint32_t a, Vec3 f, Vec3 t) {
+    r.f[a] += DVec3{f.x, f.y, f.z};
+    r.t[a] += DVec3{t.x, t.y, t.z};
+    r.f_scale[a] += length(f);
+    r.t_scale[a] += length(t);
+  };
+  for (const Link& l : links) {
+    const GroupParams &gi = m.groups[m.group[l.i]], &gj = m.groups[m.group[l.j]];
+    const float G = harmonic(gi.shear_modulus, gj.shear_modulus);
+    const float P_i = lam_theta[l.i] * (cnt[l.i][l.axis] == 1.0f ? 1.0f : 0.5f);
+    const float P_j = lam_theta[l.j] * (cnt[l.j][l.axis] == 1.0f ? 1.0f : 0.5f);
+    LinkInputT<float> in;
+    in.g = {l.g.n, d * (1.0f + l.g.eps), l.g.eps};
+    in.area = area;
+    in.sigma = 2.0f * G * l.g.eps + P_i + P_j;
+    in.kt = kShearFactor * G * area / d;
+    in.kt_slope = 0.0f;
+    const LinkDashpots dp = link_dashpots(link_normal_stiffness(G, gi.lame_lambda, gj.lame_lambda, area, d), m.mass[l.i],
+                                          m.mass[l.j], 0.5f * (gi.damping_time + gj.damping_time), m.link_damping);
+    in.damp_normal = dp.normal;
+    in.damp_tangential = dp.tangential;
+    in.vi = s.v[l.i];
+    in.vj = s.v[l.j];
+    in.wi = s.w[l.i];
+    in.wj = s.w[l.j];
+    in.ut = Vec3{};  // no shear displacement yet (checked by the caller)
+    in.dt = m.dt;
+    const LinkOutputT<float> o = link_force(in);
+    const Vec3 torque = cross(l.g.n, o.force_i * (0.5f * d)) * (1.0f + l.g.eps);
+    add(l.i, o.force_i, torque);
+    add(l.j, -o.force_i, torque);
+  }
+  // Gravity, and contacts between every two automata that overlap and are not linked.
+  for (std::uint32_t a = 0; a < n; ++a) add(a, m.gravity * m.mass[a], Vec3{});
+  for (std::uint32_t i = 0; i < n; ++i)
+    for (std::uint32_t j = i + 1; j < n; ++j) {
+      const float ri = m.radius[i], rj = m.radius[j];
+      const SphereGap gap = sphere_gap(s.x[i], s.x[j], static_cast<double>(ri) + rj);
+      if (!gap.valid || gap.overlap <= 0.0f) continue;
+      if (m.object[i] == m.object[j]) {
+        const DVec3 e = m.position0[j] - m.position0[i];
+        if (std::fabs(std::sqrt(dot(e, e)) - d) < 1e-3 * d) continue;  // linked
+      }
+      const std::size_t gi = m.group[i], gj = m.group[j];
+      ContactInput in;
+      in.n = gap.n;
+      in.overlap = gap.overlap;
+      in.vrel = (s.v[j] + cross(s.w[j], -rj * gap.n)) - (s.v[i] + cross(s.w[i], ri * gap.n));
+      in.wrel = s.w[j] - s.w[i];
+      in.s = body_contact_springs(m.contact_material(gi, gj), m.zeta_pair[gi * m.groups.size() + gj], ri, rj,
+                                  reduced(m.mass[i], m.mass[j]), reduced(m.inertia[i], m.inertia[j]));
+      in.dt = m.dt;
+      const ContactOutput o = contact_force(in);
+      add(i, o.force_i, cross(ri * gap.n, o.ft) + o.torque_i);
+      add(j, -o.force_i, cross(rj * gap.n, o.ft) - o.torque_i);
+      ++r.touching;
+    }
+  return r;
+}
+
+TEST(Simd, DirectionBlockedLayoutGivesTheForcesOfAnExplicitLinkList) {
+  const SceneDef scene = mixed_objects();
+  for (const cpu::Kernels* k : kernel_sets()) {
+    ForceSimd force(k->name);
+    Engine start(scene);
+    const Model& m = start.model();
+    // Every automaton displaced by up to 0.2 % of d and set moving and turning at random, so every link
+    // is strained, sheared and damped on the first step.
+    State s = start.state();
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    for (std::size_t a = 0; a < m.size(); ++a) {
+      s.x[a] += DVec3{u(rng), u(rng), u(rng)} * (2e-3 * m.spacing);
+      s.v[a] = Vec3{static_cast<float>(u(rng)), static_cast<float>(u(rng)), static_cast<float>(u(rng))} * 0.1f;
+      s.w[a] = Vec3{static_cast<float>(u(rng)), static_cast<float>(u(rng)), static_cast<float>(u(rng))} * 10.0f;
+      if (m.object_names[m.object[a]] == "right") s.x[a].x -= 0.01 * m.spacing;  // 12 contacts with `left`
+    }
+    for (const Vec3& ut : s.link_ut) ASSERT_EQ(dot(ut, ut), 0.0f);
+    const Reference ref = brute_force(m, s);
+    EXPECT_EQ(ref.links, m.link_count());
+    EXPECT_GE(ref.touching, 12u) << "the two boxes should touch";
+    Engine sim(scene, s);
+    ASSERT_EQ(sim.advance(1).flags, kHealthy);
+    const State& after = sim.state();
+    double worst_f = 0, worst_t = 0;
+    for (std::size_t a = 0; a < m.size(); ++a) {
+      const DVec3 df = DVec3{after.f[a].x, after.f[a].y, after.f[a].z} - ref.f[a];
+      const DVec3 dt = DVec3{after.t[a].x, after.t[a].y, after.t[a].z} - ref.t[a];
+      worst_f = std::max(worst_f, std::sqrt(dot(df, df)) / ref.f_scale[a]);
+      if (ref.t_scale[a] > 0) worst_t = std::max(worst_t, std::sqrt(dot(dt, dt)) / ref.t_scale[a]);
+    }
+    std::printf("%-6s %zu automata, %zu links, %zu touching pairs: largest force difference %.2g, torque %.2g "
+                "(shares of the sum of the magnitudes added)\n",
+                k->name, m.size(), ref.links, ref.touching, worst_f, worst_t);
+    EXPECT_LT(worst_f, 1e-5) << k->name;
+    EXPECT_LT(worst_t, 1e-5) << k->name;
+  }
+}
+
+}  // namespace
+}  // namespace mca
