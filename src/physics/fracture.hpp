@@ -5,12 +5,6 @@
 
 namespace mca {
 
-struct PairStrength {
-  float tensile;  // k_c * sigma_t of the weaker automaton
-  float ratio;    // sigma_t / sigma_c of the pair (weaker automaton's strengths), in (0, 1]
-  float strain;   // k_c * eps_b, the smaller of the two
-};
-
 // Equivalent stress of a pair from its own normal and shear stress (q = sqrt(sigma^2 + 3 tau^2)) and the
 // mean stress p of its two automata, in the Drucker-Prager form sigma_eq = A q + B p, compared with the
 // tensile strength. A, B make uniaxial tension fail at sigma_t and uniaxial compression at sigma_c:
@@ -38,11 +32,5 @@ MCA_HD BreakTest<T> link_break_test(const T& h, float r0, const T& sigma, const 
   return b;
 }
 
-// -1: stays linked; 0: breaks by the displacement criterion; 1: by the equivalent-stress criterion.
-MCA_HD int link_break_criterion(float h, float r0, float sigma, float tau2, float p, const PairStrength& s,
-                                float stress_coefficient) {
-  const BreakTest<float> b = link_break_test(h, r0, sigma, tau2, p, s.tensile, s.ratio, s.strain, stress_coefficient);
-  return b.displacement ? 0 : (b.stress ? 1 : -1);
-}
 
 }  // namespace mca

@@ -85,9 +85,6 @@ MCA_HD StrengthenedStrain strengthened_strain(const Strengthening& st, float e) 
   return {e < 0.0f ? -a : a, std::fabs(e) * f / a, f};
 }
 
-// 1 / n for the link counts of one axis (at most 2 in a lattice): a multiply instead of a division.
-MCA_HD float inverse_count(int n) { return n == 1 ? 1.0f : (n == 2 ? 0.5f : 1.0f / static_cast<float>(n)); }
-
 // free_factor[f] = 1 / (1 + f lambda / (2 G)) of the automaton's group, for f = 0..3 free axes.
 MCA_HD void free_axis_factors(float lambda, float shear_modulus, float free_factor[4]) {
   for (int f = 0; f < 4; ++f) free_factor[f] = 1.0f / (1.0f + static_cast<float>(f) * lambda / (2.0f * shear_modulus));

@@ -1,7 +1,7 @@
 // Which build of the lattice kernels runs: the widest instruction set this processor has, or the one
 // the MCA_SIMD environment variable names (to compare, or to step around a processor's fault).
+#include <cctype>
 #include <cstdlib>
-#include <cstring>
 #include <fmt/format.h>
 #include <string>
 
@@ -52,15 +52,17 @@ std::vector<BlockRun> block_runs(const Model& m, int lanes) {
 const Kernels& select_kernels() {
   const Kernels* sets[4];
   const int count = available_kernels(sets);
-  const char* want = std::getenv("MCA_SIMD");
-  if (!want || !*want) return *sets[count - 1];
+  const char* given = std::getenv("MCA_SIMD");
+  if (!given || !*given) return *sets[count - 1];
+  std::string want = given;  // any case: AVX2 is avx2
+  for (char& ch : want) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
   std::string have;
   for (int k = 0; k < count; ++k) {
-    if (std::strcmp(want, sets[k]->name) == 0) return *sets[k];
+    if (want == sets[k]->name) return *sets[k];
     have += (k ? ", " : "") + std::string(sets[k]->name);
   }
-  const bool known = std::strcmp(want, "avx2") == 0 || std::strcmp(want, "avx512") == 0;
-  throw Error(fmt::format("MCA_SIMD = {}: {}; this processor runs {} (unset MCA_SIMD for the widest)", want,
+  const bool known = want == "avx2" || want == "avx512";
+  throw Error(fmt::format("MCA_SIMD = {}: {}; this processor runs {} (unset MCA_SIMD for the widest)", given,
                           known ? "this processor lacks that instruction set" : "not an instruction set mca knows",
                           have));
 }

@@ -28,12 +28,15 @@ MCA_LANE stdx::simd<T, A> select(const stdx::simd_mask<T, A>& m, const stdx::sim
   return b;
 }
 
-// A mask of float lanes applied to doubles (or the other way): the same lanes.
+// A mask of float lanes applied to doubles (or the other way): the same lanes, one by one through memory
+// (simd's generator constructor may be compiled out of line, see Lanes::from).
 template <class T, class U, class A, class B>
 MCA_LANE stdx::simd<T, A> select(const stdx::simd_mask<U, B>& m, const stdx::simd<T, A>& a, const stdx::simd<T, A>& b)
   requires(!std::is_same_v<T, U>)
 {
-  return stdx::simd<T, A>([&](auto k) { return m[k] ? a[k] : b[k]; });
+  alignas(64) T t[stdx::simd<T, A>::size()];
+  for (std::size_t k = 0; k < stdx::simd<T, A>::size(); ++k) t[k] = m[k] ? a[k] : b[k];
+  return stdx::simd<T, A>(t, stdx::vector_aligned);
 }
 
 template <class A>

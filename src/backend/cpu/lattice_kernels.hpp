@@ -1,5 +1,5 @@
 #pragma once
-// The lattice part of a CPU step as four kernels over ranges of automata, each compiled for several
+// The lattice part of a CPU step as three kernels over ranges of automata, each compiled for several
 // instruction sets (lattice_kernels.inl, kernels_*.cpp) and picked at run time (select_kernels). Every
 // version computes the same bits: lanes run the scalar formulas of physics/ operation for operation.
 //
@@ -43,6 +43,9 @@ struct BlockRun {
 // the neighbours above along x, y, z (Model::neighbour) and 3-5 for those below.
 std::vector<BlockRun> block_runs(const Model& m, int lanes);
 
+// How many projectiles the automata kernel marks the nearby automata of (LatticeView::near).
+inline constexpr int kMarkedProjectiles = 8;
+
 struct LatticeView {
   std::size_t n = 0;  // automata; link slots are axis * n + a (core/model.hpp)
   // Model.
@@ -81,8 +84,9 @@ struct LatticeView {
   std::uint8_t* intact = nullptr;
   float *utx = nullptr, *uty = nullptr, *utz = nullptr;
   // Scratch, by link slot, at axis * ns + a: ns is n rounded up to a cache line of floats, so that a
-  // block of lanes at a multiple of its width is one aligned vector there. Link directions are formed from the positions by each kernel that needs them
-  // (link_geometry, the same bits each time); stored only on the last step, for the averaged stress.
+  // block of lanes at a multiple of its width is one aligned vector there. Link directions are formed
+  // from the positions by each kernel that needs them (link_geometry, the same bits each time), and
+  // stored only on the last step, for the averaged stress.
   float *nx = nullptr, *ny = nullptr, *nz = nullptr;
   float* many_body = nullptr;  // P of automaton a along an axis, at axis * ns + a
   float *fx = nullptr, *fy = nullptr, *fz = nullptr, *tx = nullptr, *ty = nullptr, *tz = nullptr, *trace = nullptr;
@@ -94,8 +98,8 @@ struct LatticeView {
   // bit p of near[a] when automaton a ends the step within reach of projectile p's centre (its position
   // for the next step), so the next projectile pass tests those automata instead of all of them.
   int projectiles = 0;
-  double proj_x[8] = {}, proj_y[8] = {}, proj_z[8] = {};
-  float proj_reach2[8] = {};  // (R + the largest automaton radius)^2, a little widened
+  double proj_x[kMarkedProjectiles] = {}, proj_y[kMarkedProjectiles] = {}, proj_z[kMarkedProjectiles] = {};
+  float proj_reach2[kMarkedProjectiles] = {};  // (R + the largest automaton radius)^2, a little widened
   std::uint8_t* near = nullptr;
   // For the contact list's staleness: intact links per automaton and the positions at the last rebuild.
   const std::uint8_t* intact_count = nullptr;
@@ -106,8 +110,6 @@ inline std::size_t scratch_stride(std::size_t n) { return (n + 15) / 16 * 16; }
 
 // A break found by the links kernel: the link slot and the criterion (bit 31: 1 = stress).
 inline constexpr std::uint32_t kBreakByStress = 1u << 31;
-
-inline constexpr int kMarkedProjectiles = 8;
 
 struct AutomataResult {
   float max_move2 = 0;          // largest squared move of an exposed automaton since the rebuild
