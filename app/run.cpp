@@ -14,6 +14,7 @@
 
 #include "app/commands.hpp"
 #include "app/frame_output.hpp"
+#include "backend/cpu/lattice_kernels.hpp"
 #include "io/checkpoint.hpp"
 #include "io/output_files.hpp"
 #include "io/scene_io.hpp"
@@ -347,6 +348,7 @@ int run(const RunOptions& o) {
   // The scene's name is shown as it is; only a sanitised form of it names the default folder.
   const std::filesystem::path dir =
       o.out ? std::filesystem::path(*o.out) : std::filesystem::path("out") / io::scene_folder_name(scene.name);
+  cpu::select_kernels();  // a bad MCA_SIMD is refused before anything is written
   io::prepare_output_dir(dir);
   // The run writes the scene as run to <dir>/scene.toml: never over the scene file it reads.
   if (o.scene) {

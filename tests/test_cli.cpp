@@ -475,6 +475,18 @@ TEST(Cli, CommandLineMistakesAreRefused) {
 
 // `mca info`'s memory estimate is what a run of the scene holds at its peak (it said half: 47 MB for a
 // measured 95 MB at 100,000 automata), so the max_memory_gb check and the machine check mean something.
+// A bad MCA_SIMD (the instruction set of the step) is refused before the output folder is made.
+TEST(Cli, UnknownInstructionSetIsRefusedBeforeAnythingIsWritten) {
+  const fs::path d = fresh_dir("simd");
+  const Result r = shell("MCA_SIMD=avx9 " + std::string(MCA_BINARY) + " run --steps 5 -q --out " + d.string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("MCA_SIMD"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(d)) << "an output folder was made";
+  const Result info = shell("MCA_SIMD=sse2 " + std::string(MCA_BINARY) + " info --json");
+  ASSERT_EQ(info.code, 0) << info.output;
+  EXPECT_EQ(nlohmann::json::parse(info.output)["backend"], "cpu-sse2");
+}
+
 TEST(Cli, MemoryEstimateMatchesThePeak) {
 #if defined(__SANITIZE_ADDRESS__)
   GTEST_SKIP() << "AddressSanitizer's shadow memory and quarantine triple the resident size";

@@ -267,5 +267,39 @@ TEST(Simd, DirectionBlockedLayoutGivesTheForcesOfAnExplicitLinkList) {
   }
 }
 
+// The automata pass marks the automata near each projectile, and the next projectile pass tests only
+// those. Twelve balls (more than the 8 bits of a mark: balls 0 and 8, 1 and 9... share one) hit a wall
+// from both sides; a twin whose marks are dropped every step (an upload resets them, so its projectile
+// pass tests every automaton) must stay bitwise equal.
+TEST(Simd, ProjectileMarksMissNoContact) {
+  SceneDef s = io::load_default_scene();
+  s.objects[0].size = {0.8, 0.2, 0.6};
+  s.objects[0].position = {0, 0, 0.3};
+  s.projectiles.clear();
+  for (int k = 0; k < 12; ++k) {
+    ProjectileDef p;
+    p.name = "ball" + std::to_string(k);
+    p.radius = 0.04 + 0.005 * (k % 3);
+    const double side = k % 2 ? 1.0 : -1.0;
+    p.position = {-0.3 + 0.05 * k, side * (0.1 + p.radius + 0.002), 0.1 + 0.04 * (k % 5)};
+    p.velocity = {k % 3 == 0 ? 5.0 : 0.0, -side * (40.0 + 5 * k), 0};
+    p.kinematic = k == 5;
+    s.projectiles.push_back(p);
+  }
+  s.output.frame_rate = 1000;
+  Engine marked(s), scanned(s);
+  std::size_t touching = 0;  // projectile-automaton contacts, summed over the steps
+  for (int step = 0; step < 600; ++step) {
+    scanned.backend().upload(scanned.state());
+    ASSERT_EQ(scanned.advance(1).flags, kHealthy);
+    ASSERT_EQ(marked.advance(1).flags, kHealthy);
+    for (const auto& p : marked.state().projectiles) touching += p.contacts.size();
+  }
+  std::printf("%zu projectile contacts over 600 steps\n", touching);
+  EXPECT_GT(touching, 1000u) << "the balls should hit the wall";
+  EXPECT_GT(marked.state().broken_by[0] + marked.state().broken_by[1], 0);
+  EXPECT_EQ(state_hash(marked.state()), state_hash(scanned.state()));
+}
+
 }  // namespace
 }  // namespace mca

@@ -275,17 +275,26 @@ class CpuBackend final : public Backend {
   // The view with the projectiles' current positions, for the automata kernel to mark the automata near
   // them (near_).
   cpu::LatticeView with_projectiles(cpu::LatticeView v) {
-    v.projectiles = static_cast<int>(std::min<std::size_t>(M_.projectiles.size(), cpu::kMarkedProjectiles));
-    for (int p = 0; p < v.projectiles; ++p) {
+    const std::size_t np = M_.projectiles.size();
+    proj_x_.resize(np);
+    proj_y_.resize(np);
+    proj_z_.resize(np);
+    proj_reach2_.resize(np);
+    for (std::size_t p = 0; p < np; ++p) {
       const DVec3 c = S_.projectiles[p].position;
-      v.proj_x[p] = c.x;
-      v.proj_y[p] = c.y;
-      v.proj_z[p] = c.z;
+      proj_x_[p] = c.x;
+      proj_y_[p] = c.y;
+      proj_z_[p] = c.z;
       // The projectile pass takes automaton a when |d|^2 < (R + r_a)^2, d and the sum rounded to float:
       // with the largest radius (and a little more) for every automaton, the marks hold all it takes.
       const float reach = (M_.projectiles[p].radius + r_max_) * 1.001f;
-      v.proj_reach2[p] = reach * reach;
+      proj_reach2_[p] = reach * reach;
     }
+    v.projectiles = np;
+    v.proj_x = proj_x_.data();
+    v.proj_y = proj_y_.data();
+    v.proj_z = proj_z_.data();
+    v.proj_reach2 = proj_reach2_.data();
     v.near = near_.data();
     return v;
   }
@@ -346,6 +355,8 @@ class CpuBackend final : public Backend {
   bool uniform_bodies_ = false;  // radius, mass and inertia are the group's: the springs below hold
   std::vector<ContactSprings> pair_springs_, ground_springs_;
   std::vector<std::uint8_t> near_, chunk_near_;  // see LatticeView::near; per chunk: any marked
+  std::vector<double> proj_x_, proj_y_, proj_z_;  // the projectiles' centres for the marks
+  std::vector<float> proj_reach2_;
   bool near_valid_ = false;                      // near_ is from the last step (not before an upload)
   std::vector<Vec3> ext_f_, ext_t_;
   std::vector<Sym3> ext_s_;
@@ -598,13 +609,13 @@ std::int64_t CpuBackend::projectile_pass() {
     const ProjectileParams& P = M_.projectiles[p];
     ProjectileState& ps = S_.projectiles[p];
     // Candidates: automata touching the sphere, found per fixed chunk and joined in chunk order. The
-    // last automata pass marked the automata near the first kMarkedProjectiles projectiles (near_): only
-    // the chunks it flagged are searched, and only the marked automata tested.
+    // last automata pass marked the automata near each projectile (near_): only the chunks it flagged
+    // are searched, and only the automata with the projectile's bit tested.
     const std::size_t chunks = (n + kChunk - 1) / kChunk;
     std::vector<std::vector<std::uint32_t>> found(chunks);
     const DVec3 c = ps.position;
-    const bool marked = near_valid_ && p < static_cast<std::size_t>(cpu::kMarkedProjectiles);
-    const std::uint8_t bit = static_cast<std::uint8_t>(1u << (p % 8));
+    const bool marked = near_valid_;
+    const std::uint8_t bit = static_cast<std::uint8_t>(1u << (p % cpu::kNearBits));
     auto search = [&](std::size_t ch, std::size_t b, std::size_t e) {
       for (std::size_t a = b; a < e; ++a) {
         if (marked && !(near_[a] & bit)) continue;

@@ -43,8 +43,8 @@ struct BlockRun {
 // the neighbours above along x, y, z (Model::neighbour) and 3-5 for those below.
 std::vector<BlockRun> block_runs(const Model& m, int lanes);
 
-// How many projectiles the automata kernel marks the nearby automata of (LatticeView::near).
-inline constexpr int kMarkedProjectiles = 8;
+// The bits of LatticeView::near: projectile p sets bit p % kNearBits.
+inline constexpr int kNearBits = 8;
 
 struct LatticeView {
   std::size_t n = 0;  // automata; link slots are axis * n + a (core/model.hpp)
@@ -94,12 +94,13 @@ struct LatticeView {
   std::uint8_t* has_ext = nullptr;
   Vec3 *ext_f = nullptr, *ext_t = nullptr;
   Sym3* ext_s = nullptr;
-  // Projectiles near the automata after this step (at most kMarkedProjectiles): the automata kernel sets
-  // bit p of near[a] when automaton a ends the step within reach of projectile p's centre (its position
-  // for the next step), so the next projectile pass tests those automata instead of all of them.
-  int projectiles = 0;
-  double proj_x[kMarkedProjectiles] = {}, proj_y[kMarkedProjectiles] = {}, proj_z[kMarkedProjectiles] = {};
-  float proj_reach2[kMarkedProjectiles] = {};  // (R + the largest automaton radius)^2, a little widened
+  // Projectiles near the automata after this step: the automata kernel sets bit p % kNearBits of near[a]
+  // when automaton a ends the step within reach of projectile p's centre (its position for the next
+  // step), so the next projectile pass tests those automata instead of all of them (with more than
+  // kNearBits projectiles a bit stands for several: still all the automata each one can touch).
+  std::size_t projectiles = 0;
+  const double *proj_x = nullptr, *proj_y = nullptr, *proj_z = nullptr;
+  const float* proj_reach2 = nullptr;  // (R + the largest automaton radius)^2, a little widened
   std::uint8_t* near = nullptr;
   // For the contact list's staleness: intact links per automaton and the positions at the last rebuild.
   const std::uint8_t* intact_count = nullptr;

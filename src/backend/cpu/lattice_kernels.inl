@@ -360,13 +360,17 @@ struct Block {
     // Only exposed automata are in the contact lists (see rebuild_contacts), so only their motion can make
     // them stale.
     if (v.projectiles > 0) {
-      // Which projectiles the automata end near: bit p of near[a] (a superset of the contacts the next
-      // projectile pass finds, which tests again with each automaton's own radius).
+      // Which projectiles the automata end near: bit p % kNearBits of near[a] (a superset of the contacts
+      // the next projectile pass finds, which tests again with each automaton's own radius).
       X bits = 0.0f;
-      for (int p = 0; p < v.projectiles; ++p) {
-        const Vec3T<X> d{to_float(body.x.x - v.proj_x[p]), to_float(body.x.y - v.proj_y[p]),
-                         to_float(body.x.z - v.proj_z[p])};
-        bits = select(dot(d, d) < v.proj_reach2[p], bits + static_cast<float>(1 << p), bits);
+      for (std::size_t k = 0; k < static_cast<std::size_t>(kNearBits) && k < v.projectiles; ++k) {
+        X hit = 0.0f;
+        for (std::size_t p = k; p < v.projectiles; p += kNearBits) {
+          const Vec3T<X> d{to_float(body.x.x - v.proj_x[p]), to_float(body.x.y - v.proj_y[p]),
+                           to_float(body.x.z - v.proj_z[p])};
+          hit = select(dot(d, d) < v.proj_reach2[p], X(1.0f), hit);
+        }
+        bits = select(hit != 0.0f, bits + static_cast<float>(1u << k), bits);
       }
       L::store_bytes(bits, v.near + a0);
       r.near = r.near || L::any(bits != 0.0f);
