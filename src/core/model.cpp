@@ -8,18 +8,10 @@ void link_damage(const Model& m, const std::uint8_t* intact, float* out) {
   const std::size_t n = m.size();
   for (std::size_t a = 0; a < n; ++a) {
     std::uint32_t links = 0, broken = 0;
-    for (std::size_t axis = 0; axis < 3; ++axis) {
-      const std::size_t up = axis * n + a;
-      const std::uint32_t below = m.neighbour_below[up];
-      if (m.neighbour[up] != Model::kNoLink) {
-        ++links;
-        broken += !intact[up];
-      }
-      if (below != Model::kNoLink) {
-        ++links;
-        broken += !intact[axis * n + below];
-      }
-    }
+    m.for_each_link_of(a, [&](std::size_t l) {
+      ++links;
+      broken += !intact[l];
+    });
     out[a] = links ? static_cast<float>(broken) / static_cast<float>(links) : 0.0f;
   }
 }

@@ -128,6 +128,17 @@ struct Model {
   std::uint32_t link_i(std::size_t l) const { return static_cast<std::uint32_t>(l % size()); }
   std::uint32_t link_j(std::size_t l) const { return neighbour[l]; }
   int link_axis(std::size_t l) const { return static_cast<int>(l / size()); }
+  // Calls f(l) for the slot of each link automaton a has (at most six: its own along +axis and its lower
+  // neighbours' along -axis), axis by axis.
+  template <class F>
+  void for_each_link_of(std::size_t a, F&& f) const {
+    const std::size_t n = size();
+    for (std::size_t axis = 0; axis < 3; ++axis) {
+      const std::size_t up = axis * n + a;
+      if (neighbour[up] != kNoLink) f(up);
+      if (neighbour_below[up] != kNoLink) f(axis * n + neighbour_below[up]);
+    }
+  }
   // Calls f(l, i, j, axis) for every link, in slot order.
   template <class F>
   void for_each_link(F&& f) const {

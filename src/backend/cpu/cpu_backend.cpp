@@ -197,6 +197,15 @@ class CpuBackend final : public Backend {
       if (m.grip[a] >= 0) grip_members_[m.grip[a]].push_back(static_cast<std::uint32_t>(a));
     r_max_ = 0;
     for (float r : m.radius) r_max_ = std::max(r_max_, r);
+    const std::size_t np = m.projectiles.size();
+    for (auto* v : {&proj_x_, &proj_y_, &proj_z_}) v->resize(np);
+    proj_reach2_.resize(np);
+    for (std::size_t p = 0; p < np; ++p) {
+      // The projectile pass takes automaton a when |d|^2 < (R + r_a)^2, d and the sum rounded to float:
+      // with the largest radius (and a little more) for every automaton, the marks hold all it takes.
+      const float reach = (m.projectiles[p].radius + r_max_) * 1.001f;
+      proj_reach2_[p] = reach * reach;
+    }
   }
 
   std::string name() const override { return std::string("cpu-") + kernels_.name; }
@@ -209,11 +218,7 @@ class CpuBackend final : public Backend {
       wx_[a] = S_.w[a].x; wy_[a] = S_.w[a].y; wz_[a] = S_.w[a].z;
       qw_[a] = S_.q[a].w; qx_[a] = S_.q[a].x; qy_[a] = S_.q[a].y; qz_[a] = S_.q[a].z;
       std::uint32_t c = 0;
-      for (int axis = 0; axis < 3; ++axis) {
-        const std::size_t up = axis * n + a, below = M_.neighbour_below[up];
-        c += S_.intact[up];
-        if (below != Model::kNoLink) c += S_.intact[axis * n + below];
-      }
+      M_.for_each_link_of(a, [&](std::size_t l) { c += S_.intact[l]; });
       intact_count_[a] = static_cast<std::uint8_t>(c);
     }
     for (std::size_t l = 0; l < M_.link_slots(); ++l) {
@@ -276,19 +281,11 @@ class CpuBackend final : public Backend {
   // them (near_).
   cpu::LatticeView with_projectiles(cpu::LatticeView v) {
     const std::size_t np = M_.projectiles.size();
-    proj_x_.resize(np);
-    proj_y_.resize(np);
-    proj_z_.resize(np);
-    proj_reach2_.resize(np);
     for (std::size_t p = 0; p < np; ++p) {
       const DVec3 c = S_.projectiles[p].position;
       proj_x_[p] = c.x;
       proj_y_[p] = c.y;
       proj_z_[p] = c.z;
-      // The projectile pass takes automaton a when |d|^2 < (R + r_a)^2, d and the sum rounded to float:
-      // with the largest radius (and a little more) for every automaton, the marks hold all it takes.
-      const float reach = (M_.projectiles[p].radius + r_max_) * 1.001f;
-      proj_reach2_[p] = reach * reach;
     }
     v.projectiles = np;
     v.proj_x = proj_x_.data();

@@ -61,7 +61,7 @@ const Kernels& select_kernels() {
     if (want == sets[k]->name) return *sets[k];
     have += (k ? ", " : "") + std::string(sets[k]->name);
   }
-  const bool known = want == "avx2" || want == "avx512";
+  const bool known = want == kernels_avx2().name || want == kernels_avx512().name;
   throw Error(fmt::format("MCA_SIMD = {}: {}; this processor runs {} (unset MCA_SIMD for the widest)", given,
                           known ? "this processor lacks that instruction set" : "not an instruction set mca knows",
                           have));
