@@ -7,15 +7,26 @@
 #include <fstream>
 #include <unistd.h>
 
+#include "analysis/surface.hpp"
 #include "io/output_files.hpp"
 #include "io/vtk_writer.hpp"
 #include "mca/error.hpp"
 
 namespace mca::app {
 
-FrameWriter::FrameWriter(std::filesystem::path dir, const Model& model, bool vtk, bool links)
-    : dir_(std::move(dir)), model_(model), vtk_(vtk), links_(links) {
+FrameWriter::FrameWriter(std::filesystem::path dir, const Model& model, const OutputDef& output)
+    : dir_(std::move(dir)),
+      model_(model),
+      vtk_(output.vtk),
+      links_(output.links),
+      surface_(output.surface && model.surface.faces() > 0),
+      surface_format_(output.surface_format) {
   if (vtk_) std::filesystem::create_directories(dir_ / "frames");
+  if (surface_) std::filesystem::create_directories(dir_ / "surface");
+}
+
+std::string FrameWriter::surface_name(std::int64_t frame, OutputDef::SurfaceFormat format) {
+  return fmt::format("surface/surface_{:06d}.{}", frame, format == OutputDef::SurfaceFormat::obj ? "obj" : "ply");
 }
 
 analysis::Fragments FrameWriter::fragments(const State& s) const {
@@ -40,6 +51,14 @@ FrameStats FrameWriter::stats(std::int64_t frame, const State& s, const analysis
 }
 
 void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis::Fragments& frags) {
+  if (surface_) {
+    const mesh::FloatMesh m = analysis::posed_surface(model_, s, frags.id);
+    const bool obj = surface_format_ == OutputDef::SurfaceFormat::obj;
+    io::write_file_atomic(dir_ / surface_name(frame, surface_format_), [&](std::ostream& os) {
+      if (obj) mesh::write_obj(os, m);
+      else mesh::write_ply(os, m);
+    });
+  }
   if (!vtk_) return;
   const std::size_t n = model_.size();
   std::vector<float> xyz(3 * n), disp(3 * n), damage(n), seq(n), smean(n);

@@ -11,6 +11,7 @@
 #include "backend/backend.hpp"
 #include "core/model.hpp"
 #include "core/state.hpp"
+#include "mca/scene.hpp"
 
 namespace mca::app {
 
@@ -26,7 +27,8 @@ struct FrameStats {
 
 class FrameWriter {
  public:
-  FrameWriter(std::filesystem::path dir, const Model& model, bool vtk, bool links);
+  // Writes what `output` asks for: VTK frames (vtk, links) and the bound surface (surface, surface_format).
+  FrameWriter(std::filesystem::path dir, const Model& model, const OutputDef& output);
   ~FrameWriter();
   FrameWriter(const FrameWriter&) = delete;
   FrameWriter& operator=(const FrameWriter&) = delete;
@@ -43,11 +45,14 @@ class FrameWriter {
   // Rebuild the .pvd lists after a resume (frames 0..frames-1 exist on disk).
   void restore(std::int64_t frames, double frame_interval);
   static std::vector<std::string> stats_header(const Model& model);
+  // The bound surface's file of a frame, relative to the output folder.
+  static std::string surface_name(std::int64_t frame, OutputDef::SurfaceFormat format);
 
  private:
   std::filesystem::path dir_;
   const Model& model_;
-  bool vtk_, links_;
+  bool vtk_, links_, surface_;
+  OutputDef::SurfaceFormat surface_format_;
   std::vector<std::pair<double, std::string>> automata_pvd_, projectile_pvd_;
   int stats_fd_ = -1;  // stats.csv, open for appending after start_stats
 };

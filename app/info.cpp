@@ -15,6 +15,31 @@ std::string simd_note() {
   return "the widest instruction set this processor runs; MCA_SIMD=scalar, sse2, avx2 or avx512 picks another";
 }
 
+namespace {
+
+std::string box_text(const std::array<double, 3>& lo, const std::array<double, 3>& hi, const char* unit) {
+  return fmt::format("[{:.4g}, {:.4g}, {:.4g}] to [{:.4g}, {:.4g}, {:.4g}]{} ({:.4g} x {:.4g} x {:.4g}{})", lo[0], lo[1],
+                     lo[2], hi[0], hi[1], hi[2], unit, hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], unit);
+}
+
+void print_mesh(const MeshSummary& ms, const std::string& object, std::size_t automata) {
+  fmt::print("mesh             {} (object {})\n", ms.path, object);
+  fmt::print("  vertices       {}, faces {}\n", ms.vertices, ms.faces);
+  if (ms.boundary_edges == 0 && ms.non_manifold_edges == 0) {
+    fmt::print("  surface        closed (no boundary or non-manifold edges){}\n",
+               ms.degenerate_faces ? fmt::format("; {} degenerate faces", ms.degenerate_faces) : std::string());
+  } else {
+    fmt::print("  surface        {} boundary edges in {} holes, {} non-manifold edges, {} degenerate faces\n",
+               ms.boundary_edges, ms.holes, ms.non_manifold_edges, ms.degenerate_faces);
+  }
+  fmt::print("  in the file    {}\n", box_text(ms.file_lo, ms.file_hi, ""));
+  fmt::print("  in the scene   {} (scale {:.6g}), volume {:.4g} m^3\n", box_text(ms.lo, ms.hi, " m"), ms.scale,
+             ms.volume);
+  fmt::print("  automata       {} (cells inside found in {:.2f} s)\n", automata, ms.fill_seconds);
+}
+
+}  // namespace
+
 int info(const std::optional<std::string>& path, bool json) {
   const SceneDef scene = path ? io::load_scene_file(*path) : io::load_default_scene();
   const Engine sim(scene);
@@ -48,6 +73,25 @@ int info(const std::optional<std::string>& path, bool json) {
     for (auto o : m.object) ++count[o];
     for (std::size_t o = 0; o < m.object_names.size(); ++o) objs.push_back({{"name", m.object_names[o]}, {"automata", count[o]}});
     j["objects"] = objs;
+    nlohmann::json meshes = nlohmann::json::array();
+    for (const MeshSummary& ms : m.meshes) {
+      meshes.push_back({{"object", m.object_names[ms.object]},
+                        {"file", ms.path},
+                        {"vertices", ms.vertices},
+                        {"faces", ms.faces},
+                        {"closed", ms.boundary_edges == 0 && ms.non_manifold_edges == 0},
+                        {"boundary_edges", ms.boundary_edges},
+                        {"holes", ms.holes},
+                        {"non_manifold_edges", ms.non_manifold_edges},
+                        {"degenerate_faces", ms.degenerate_faces},
+                        {"file_bounds", {ms.file_lo, ms.file_hi}},
+                        {"scale", ms.scale},
+                        {"bounds", {ms.lo, ms.hi}},
+                        {"volume", ms.volume},
+                        {"automata", count[ms.object]},
+                        {"fill_seconds", ms.fill_seconds}});
+    }
+    j["meshes"] = meshes;
     std::array<std::size_t, 4> classes{};
     for (auto c : m.strength_class) ++classes[c - 1];
     j["strength_classes"] = classes;
@@ -61,6 +105,7 @@ int info(const std::optional<std::string>& path, bool json) {
   std::vector<std::size_t> count(m.object_names.size(), 0);
   for (auto o : m.object) ++count[o];
   for (std::size_t o = 0; o < m.object_names.size(); ++o) fmt::print("  object {:<9} {}\n", m.object_names[o], count[o]);
+  for (const MeshSummary& ms : m.meshes) print_mesh(ms, m.object_names[ms.object], count[ms.object]);
   fmt::print("links            {}\n", m.link_count());
   fmt::print("spacing          {:.4g} m\n", m.spacing);
   // The step as used: safety x critical, shortened to fill frames with whole steps, or given by hand.

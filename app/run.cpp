@@ -77,6 +77,27 @@ Plan resume_plan(const io::Checkpoint& cp, int spf, const std::string& source) {
   return p;
 }
 
+// Every fragment, heaviest first: one row each (the summary lists the largest).
+void write_fragments_csv(const std::filesystem::path& path, const std::vector<analysis::FragmentInfo>& infos) {
+  io::write_file_atomic(
+      path,
+      [&](std::ostream& os) {
+        fmt::memory_buffer b;
+        fmt::format_to(std::back_inserter(b),
+                       "id,automata,mass,volume,centre_x,centre_y,centre_z,velocity_x,velocity_y,velocity_z,box_min_x,"
+                       "box_min_y,box_min_z,box_max_x,box_max_y,box_max_z\n");
+        for (const auto& f : infos) {
+          fmt::format_to(std::back_inserter(b), "{},{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},"
+                         "{:.9g},{:.9g},{:.9g},{:.9g}\n",
+                         f.id, f.automata, f.mass, f.volume, f.centre[0], f.centre[1], f.centre[2], f.velocity[0],
+                         f.velocity[1], f.velocity[2], f.box_min[0], f.box_min[1], f.box_min[2], f.box_max[0],
+                         f.box_max[1], f.box_max[2]);
+        }
+        os.write(b.data(), static_cast<std::streamsize>(b.size()));
+      },
+      false);
+}
+
 void write_summary(const std::filesystem::path& dir, const Engine& sim, const analysis::Fragments& frags,
                    double wall, std::int64_t steps_run, int threads,
                    const std::string& status) {
@@ -106,7 +127,7 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
   std::vector<Vec3> xf(s.x.size());
   for (std::size_t a = 0; a < xf.size(); ++a) xf[a] = to_vec3(s.x[a]);
   const auto infos = analysis::describe_fragments(frags, m.mass.data(), reinterpret_cast<const float*>(xf.data()),
-                                                  reinterpret_cast<const float*>(s.v.data()));
+                                                  reinterpret_cast<const float*>(s.v.data()), m.volume.data());
   const Energies e = sim.energies();
   j["energy"] = {{"kinetic", e.kinetic},
                  {"elastic", e.elastic},
@@ -120,15 +141,16 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
                  {"balance", e.total() - e.external_work()}};
   j["total_mass"] = m.total_mass;
   j["fragment_count"] = frags.count;
-  // The list is capped so a run with 10^5 loose automata stays readable; the rest is summed up.
-  constexpr std::size_t kListed = 10000;
+  // The summary stays short (a shattered run has 10^3 to 10^5 fragments): the largest ones, the rest
+  // summed up, and the mass by fragment size; every fragment is in fragments.csv.
+  constexpr std::size_t kListed = 20;
   nlohmann::json list = nlohmann::json::array();
   double rest_mass = 0;
   std::int64_t rest_automata = 0;
   for (const auto& f : infos) {
     if (list.size() < kListed) {
-      list.push_back({{"id", f.id}, {"automata", f.automata}, {"mass", f.mass}, {"centre", f.centre},
-                      {"velocity", f.velocity}, {"box_min", f.box_min}, {"box_max", f.box_max}});
+      list.push_back({{"id", f.id}, {"automata", f.automata}, {"mass", f.mass}, {"volume", f.volume},
+                      {"centre", f.centre}, {"velocity", f.velocity}, {"box_min", f.box_min}, {"box_max", f.box_max}});
     } else {
       rest_mass += f.mass;
       rest_automata += f.automata;
@@ -137,6 +159,13 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
   j["fragments"] = list;
   j["unlisted_fragments"] = {{"count", infos.size() > kListed ? infos.size() - kListed : 0},
                              {"automata", rest_automata}, {"mass", rest_mass}};
+  nlohmann::json bins = nlohmann::json::array();
+  for (const auto& b : analysis::fragment_size_bins(infos))
+    bins.push_back({{"automata_min", b.automata_min}, {"automata_max", b.automata_max}, {"fragments", b.fragments},
+                    {"mass", b.mass}});
+  j["fragment_sizes"] = bins;
+  j["fragments_file"] = "fragments.csv";
+  write_fragments_csv(dir / "fragments.csv", infos);
   nlohmann::json proj = nlohmann::json::array();
   for (std::size_t p = 0; p < m.projectiles.size(); ++p) {
     const auto& ps = s.projectiles[p];
@@ -152,7 +181,7 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
 // Temporary files a killed run left behind (their names are unique per process, so nothing else
 // would ever replace them).
 void remove_stale_temporaries(const std::filesystem::path& dir) {
-  for (const char* sub : {"", "frames", "checkpoints"}) io::remove_stale_temporaries(dir / sub);
+  for (const char* sub : {"", "frames", "surface", "checkpoints"}) io::remove_stale_temporaries(dir / sub);
 }
 
 void remove_own_files(const std::filesystem::path& dir, const std::string& prefix, const std::string& extension) {
@@ -376,12 +405,14 @@ int run(const RunOptions& o) {
   remove_own_files(dir / "checkpoints", "frame_", ".mcack");
   remove_own_files(dir / "frames", "automata_", ".vtu");
   remove_own_files(dir / "frames", "projectiles_", ".vtu");
+  remove_own_files(dir / "surface", "surface_", ".ply");
+  remove_own_files(dir / "surface", "surface_", ".obj");
   // The collections too: this run may write no projectile frames (no projectiles) or no frames at all
   // (--no-vtk), and a collection left from an earlier run would list frames that were just removed.
   std::filesystem::remove(dir / "automata.pvd");
   std::filesystem::remove(dir / "projectiles.pvd");
   remove_stale_temporaries(dir);
-  FrameWriter writer(dir, sim.model(), scene.output.vtk, scene.output.links);
+  FrameWriter writer(dir, sim.model(), scene.output);
   Loop L{sim, dir, threads, o.quiet, scene.output.checkpoint_every, plan, 0, 0.0};
   // Frame 0: the initial state.
   const auto frags = writer.fragments(sim.state());
@@ -413,7 +444,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet) {
   const std::string source = fmt::format("checkpoint '{}'", all.back().string());
   Engine sim(cp.scene, cp.state, source, cp.model_fingerprint);
   const Plan plan = resume_plan(cp, sim.steps_per_frame(), source);
-  FrameWriter writer(dir, sim.model(), cp.scene.output.vtk, cp.scene.output.links);
+  FrameWriter writer(dir, sim.model(), cp.scene.output);
   writer.restore(cp.frame, sim.frame_interval());
   Loop L{sim, dir, threads, quiet, cp.scene.output.checkpoint_every, plan, 0, 0.0};
   L.frame = cp.frame;

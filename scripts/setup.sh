@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs the Debian 12 packages that building, testing and running mca need.
+# Installs the Debian 12 packages that building, testing and running mca need, and puts the paper's
+# models into the models cache (scripts/get_models.sh; MCA_SETUP_MODELS=0 skips them).
 # Idempotent: re-running it when everything is there takes about a second.
 # Run as root (or through sudo). Set MCA_SETUP_PARAVIEW=1 to also install ParaView
 # (pvbatch), used only to check the VTK output by eye.
@@ -9,6 +10,7 @@ packages=(
   cmake g++ ninja-build pkg-config git
   libgtest-dev libgmock-dev libbenchmark-dev
   libtbb-dev libtomlplusplus-dev libcli11-dev libfmt-dev nlohmann-json3-dev
+  libassimp-dev libopenvdb-dev libboost-iostreams-dev
 )
 if [[ "${MCA_SETUP_PARAVIEW:-0}" == 1 ]]; then
   packages+=(paraview python3-paraview xvfb xauth)
@@ -18,8 +20,12 @@ missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
+models() {
+  if [[ "${MCA_SETUP_MODELS:-1}" != 0 ]]; then "$(dirname "$0")/get_models.sh"; fi
+}
 if ((${#missing[@]} == 0)); then
   echo "setup: all ${#packages[@]} packages present"
+  models
   exit 0
 fi
 
@@ -31,3 +37,4 @@ fi
 echo "setup: installing ${missing[*]}"
 $SUDO apt-get update -qq
 DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+models

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstring>
 #include <cstdio>
 #include <filesystem>
@@ -15,6 +16,7 @@
 #include <fmt/format.h>
 
 #include "io/checkpoint.hpp"
+#include "shell.hpp"
 
 namespace mcaio = mca::io;
 
@@ -22,26 +24,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Result {
-  int code = -1;
-  std::string output;  // stdout and stderr
-};
-
-// Runs a shell command line.
-Result shell(const std::string& command) {
-  const std::string cmd = "(" + command + ") 2>&1";
-  Result r;
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf{};
-  std::size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.output.append(buf.data(), n);
-  const int status = pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
-
-Result run_mca(const std::string& args) { return shell(std::string(MCA_BINARY) + " " + args); }
+using mca::test::Result;
+using mca::test::run_mca;
+using mca::test::shell;
 
 fs::path fresh_dir(const std::string& name) {
   const fs::path d = fs::temp_directory_path() / ("mca_cli_" + name);
@@ -108,12 +93,48 @@ TEST(Cli, RunWritesFramesStatsAndSummary) {
     automata += f["automata"].get<std::int64_t>();
   }
   mass += j["unlisted_fragments"]["mass"].get<double>();
+  automata += j["unlisted_fragments"]["automata"].get<std::int64_t>();
   EXPECT_NEAR(mass, j["total_mass"].get<double>(), 1e-9 * j["total_mass"].get<double>());
   EXPECT_EQ(automata, 360);
-  EXPECT_EQ(j["fragment_count"].get<std::size_t>(), j["fragments"].size());
+  EXPECT_EQ(j["fragments"].size(), std::min<std::size_t>(20, j["fragment_count"].get<std::size_t>()));
+  EXPECT_EQ(j["fragments"].size() + j["unlisted_fragments"]["count"].get<std::size_t>(),
+            j["fragment_count"].get<std::size_t>());
   // Heaviest first.
   for (std::size_t k = 1; k < j["fragments"].size(); ++k)
     EXPECT_GE(j["fragments"][k - 1]["mass"].get<double>(), j["fragments"][k]["mass"].get<double>());
+  // The size bins hold every fragment and all the mass.
+  std::int64_t binned = 0;
+  double binned_mass = 0;
+  for (const auto& b : j["fragment_sizes"]) {
+    binned += b["fragments"].get<std::int64_t>();
+    binned_mass += b["mass"].get<double>();
+  }
+  EXPECT_EQ(binned, j["fragment_count"].get<std::int64_t>());
+  EXPECT_NEAR(binned_mass, j["total_mass"].get<double>(), 1e-9 * j["total_mass"].get<double>());
+  // fragments.csv: a header and one row per fragment, heaviest first, the same masses and volumes d^3 each.
+  std::istringstream fcsv(read(out / "fragments.csv"));
+  std::string row;
+  std::getline(fcsv, row);
+  EXPECT_EQ(row.rfind("id,automata,mass,volume,centre_x", 0), 0u) << row;
+  std::int64_t fragment_rows = 0, csv_automata = 0;
+  double csv_mass = 0, csv_volume = 0;
+  while (std::getline(fcsv, row)) {
+    std::istringstream fields(row);
+    std::string id, n, fm, fv;
+    std::getline(fields, id, ',');
+    std::getline(fields, n, ',');
+    std::getline(fields, fm, ',');
+    std::getline(fields, fv, ',');
+    EXPECT_EQ(std::stoll(id), fragment_rows);
+    csv_automata += std::stoll(n);
+    csv_mass += std::stod(fm);
+    csv_volume += std::stod(fv);
+    ++fragment_rows;
+  }
+  EXPECT_EQ(fragment_rows, j["fragment_count"].get<std::int64_t>());
+  EXPECT_EQ(csv_automata, 360);
+  EXPECT_NEAR(csv_mass, j["total_mass"].get<double>(), 1e-6 * j["total_mass"].get<double>());
+  EXPECT_NEAR(csv_volume, 360 * std::pow(j["spacing"].get<double>(), 3), 1e-6 * csv_volume);
 
   // stats.csv: a header and one row per frame (0..4), broken links never decrease.
   std::istringstream csv(read(out / "stats.csv"));

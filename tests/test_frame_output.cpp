@@ -36,7 +36,9 @@ TEST(FrameOutput, StatsGetOneAppendedRowPerFrame) {
   fs::create_directories(dir);
   Engine sim(test::block_scene(2, 2, 2));
   {
-    app::FrameWriter w(dir, sim.model(), false, false);
+    OutputDef no_frames;
+    no_frames.vtk = false;
+    app::FrameWriter w(dir, sim.model(), no_frames);
     w.start_stats({"0,a", "1,b"});  // a resume starts with the rows up to its checkpoint
     const fs::path csv = dir / "stats.csv";
     const ino_t first = inode(csv);

@@ -1,6 +1,8 @@
 #include "io/vtk_writer.hpp"
 
 #include <gtest/gtest.h>
+
+#include "temp_dir.hpp"
 #include <unistd.h>
 
 #include <cstring>
@@ -15,34 +17,11 @@ using mca::io::PointField;
 using mca::io::write_pvd;
 using mca::io::write_vtu;
 
+using mca::test::slurp;
+using mca::test::TempDir;
+
 namespace {
 
-class TempDir {
- public:
-  TempDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::temp_directory_path() /
-            (std::string("mca_test_") + info->test_suite_name() + "_" + info->name() + "_" +
-             std::to_string(::getpid()));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 bool has_tmp_file(const fs::path& dir) {
   for (const auto& e : fs::directory_iterator(dir))

@@ -56,17 +56,23 @@ struct HeterogeneityDef {
 // none 0/0/0/100 %. Returns false for an unknown name.
 bool heterogeneity_preset(const std::string& name, std::array<double, 4>& shares);
 
-enum class Shape { box, sphere, cylinder };
+enum class Shape { box, sphere, cylinder, mesh };
 
 // Assigns a material group to the automata of an object whose centres lie inside the region.
 // Coordinates are in the scene (world) frame. Later regions win over earlier ones.
 struct RegionDef {
-  Shape shape = Shape::box;       // box or sphere
+  Shape shape = Shape::box;       // box, sphere or mesh
   Vec3d center = {0, 0, 0};
   Vec3d size = {1, 1, 1};         // box: full extents along world axes
   double radius = 0.5;            // sphere
+  // mesh (only in an object of shape mesh): a closed mesh in the units and frame of the object's mesh
+  // file, placed by the object's scale, position and rotation; the automata inside it get the material.
+  std::string mesh;
   std::string material;
 };
+
+// How a mesh object is filled with automata.
+enum class MeshFill { volume };
 
 struct ObjectDef {
   std::string name = "object";
@@ -74,7 +80,13 @@ struct ObjectDef {
   Vec3d size = {1, 1, 1};          // box: full extents (object frame)
   double radius = 0.5;             // sphere, cylinder
   double height = 1.0;             // cylinder, along the object's local z axis
-  Vec3d position = {0, 0, 0};      // centre
+  // mesh: a triangle mesh file (OBJ, PLY, STL, OFF, glTF/GLB). The reader resolves it against the scene
+  // file's folder, MCA_MESH_PATH and the models cache (io::find_mesh_file); here it is the path to open.
+  std::string mesh;
+  double scale = 1.0;              // mesh: factor from the file's units to metres, > 0
+  double fit_size = 0.0;           // mesh: > 0 scales the mesh so its largest extent is this [m] (not with scale)
+  MeshFill fill = MeshFill::volume;  // mesh: the lattice cells whose centres are inside the mesh
+  Vec3d position = {0, 0, 0};      // centre (mesh: where the centre of its bounding box goes)
   Vec3d rotation = {0, 0, 0};      // degrees about x, then y, then z (applied in that order)
   Vec3d velocity = {0, 0, 0};      // initial velocity [m/s]
   std::string material = "concrete";
@@ -145,6 +157,10 @@ struct OutputDef {
   bool links = false;           // also write intact links as VTK lines
   bool vtk = true;              // write per-frame VTK files
   int checkpoint_every = 0;     // frames between checkpoints; 0 = none
+  // Per frame, the bound surface of the mesh objects (Model::surface) as surface/surface_NNNNNN.ply (or
+  // .obj), split into fragments; needs an object of shape mesh.
+  bool surface = false;
+  enum class SurfaceFormat { ply, obj } surface_format = SurfaceFormat::ply;
 };
 
 struct SceneDef {

@@ -113,7 +113,7 @@ Fragments number_fragments(std::size_t n_automata, UnionFind& uf, const float* m
 }  // namespace
 
 std::vector<FragmentInfo> describe_fragments(const Fragments& fragments, const float* mass, const float* xyz,
-                                             const float* vel) {
+                                             const float* vel, const float* volume) {
   constexpr double kInf = std::numeric_limits<double>::infinity();
   std::vector<FragmentInfo> info(static_cast<std::size_t>(fragments.count));
   // Plain sums back the zero-mass fallback; kept in the same pass to read the arrays once.
@@ -129,6 +129,7 @@ std::vector<FragmentInfo> describe_fragments(const Fragments& fragments, const f
     const double m = mass[a];
     f.automata += 1;
     f.mass += m;
+    if (volume) f.volume += volume[a];
     for (int c = 0; c < 3; ++c) {
       const double x = xyz[3 * a + c];
       const double v = vel[3 * a + c];
@@ -153,6 +154,23 @@ std::vector<FragmentInfo> describe_fragments(const Fragments& fragments, const f
     }
   }
   return info;
+}
+
+std::vector<SizeBin> fragment_size_bins(const std::vector<FragmentInfo>& fragments) {
+  std::vector<SizeBin> bins;
+  for (const FragmentInfo& f : fragments) {
+    std::size_t k = 0;
+    while ((std::int64_t{2} << k) <= f.automata) ++k;
+    while (bins.size() <= k) {
+      SizeBin b;
+      b.automata_min = std::int64_t{1} << bins.size();
+      b.automata_max = (std::int64_t{2} << bins.size()) - 1;
+      bins.push_back(b);
+    }
+    bins[k].fragments += 1;
+    bins[k].mass += f.mass;
+  }
+  return bins;
 }
 
 }  // namespace mca::analysis

@@ -28,13 +28,23 @@ struct FragmentInfo {
   std::int32_t id = 0;
   std::int64_t automata = 0;
   double mass = 0.0;
+  double volume = 0.0;  // sum of its automata's volumes (0 when describe_fragments got none)
   std::array<double, 3> centre{}, velocity{}, box_min{}, box_max{};  // box of the automaton centres
 };
 
-// One entry per fragment in id order. `mass` has one value per automaton, `xyz` and `vel` three.
-// Centre is mass-weighted and velocity is momentum / mass; a fragment of zero total mass falls back
-// to the plain average of its automata.
+// One entry per fragment in id order. `mass` (and `volume`, may be null) has one value per automaton,
+// `xyz` and `vel` three. Centre is mass-weighted and velocity is momentum / mass; a fragment of zero
+// total mass falls back to the plain average of its automata.
 std::vector<FragmentInfo> describe_fragments(const Fragments& fragments, const float* mass, const float* xyz,
-                                             const float* vel);
+                                             const float* vel, const float* volume = nullptr);
+
+// Fragments by size: bin k holds those of 2^k to 2^(k+1) - 1 automata (1, 2-3, 4-7, ...), with their
+// count and mass; the bins run up to the largest fragment's.
+struct SizeBin {
+  std::int64_t automata_min = 0, automata_max = 0;
+  std::int64_t fragments = 0;
+  double mass = 0.0;
+};
+std::vector<SizeBin> fragment_size_bins(const std::vector<FragmentInfo>& fragments);
 
 }  // namespace mca::analysis

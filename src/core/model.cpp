@@ -30,9 +30,11 @@ std::size_t estimate_memory_bytes(std::size_t automata) {
   //   output 60     frame output and fragments
   //   contacts 64   about one unlinked pair of 32 bytes per automaton once it has broken up, two lists
   //                 while the list is rebuilt
-  //   fixed 8 MB    program, libraries, thread stacks.
+  //   fixed 40 MB   program, libraries, thread stacks: 8 MB, and 30 MB of clean pages of the mesh
+  //                 libraries mapped at start-up (OpenVDB's symbol tables alone are 27 MB), shared with
+  //                 every other process using them.
   constexpr std::size_t per_automaton = 88 + 179 + 346 + 60 + 64;
-  return automata * per_automaton + 8'000'000;
+  return automata * per_automaton + 40'000'000;
 }
 
 }  // namespace mca

@@ -50,6 +50,31 @@ struct ProjectileParams {
   Vec3 velocity, angular_velocity;
 };
 
+// What a mesh object was built from (mca info reports it).
+struct MeshSummary {
+  std::int32_t object = 0;       // index of the scene object
+  std::string path;
+  std::size_t vertices = 0, faces = 0;
+  std::size_t boundary_edges = 0, non_manifold_edges = 0, degenerate_faces = 0, holes = 0;
+  std::array<double, 3> file_lo{}, file_hi{};  // bounding box in the file's units
+  std::array<double, 3> lo{}, hi{};            // bounding box in the scene [m] (scaled, rotated, placed)
+  double scale = 1;              // file units to metres
+  double volume = 0;             // enclosed volume [m^3]
+  double fill_seconds = 0;       // time to find the cells inside (signed distance and interior)
+};
+
+// The input triangles of the mesh objects, each bound to one automaton (paper sec. 5.4): its corners are
+// stored as offsets from that automaton's centre in the automaton's own frame (at the start the world
+// frame: orientations start at identity), so the surface moves and turns with the automata and opens
+// between triangles whose automata end in different fragments (analysis/surface.hpp).
+struct BoundSurface {
+  std::vector<std::uint32_t> automaton;  // per triangle: the automaton nearest its centroid (of its object)
+  std::vector<std::uint32_t> corner;     // 3 per triangle: the mesh vertex, numbered over all meshes
+  std::vector<Vec3> offset;              // 3 per triangle: the corner's offset from the automaton's centre
+  std::size_t vertices = 0;              // mesh vertices over all meshes
+  std::size_t faces() const { return automaton.size(); }
+};
+
 struct Model {
   // --- automata (n) ---
   // Initial centres, double like the state's positions: rest lengths and initial strains are formed
@@ -86,6 +111,8 @@ struct Model {
   std::vector<float> zeta_pair, zeta_ground, zeta_projectiles;
   std::vector<std::string> group_names;
   std::vector<std::string> object_names;
+  std::vector<MeshSummary> meshes;  // one per object of shape mesh
+  BoundSurface surface;             // the triangles of the mesh objects, bound to automata
   std::vector<ProjectileParams> projectiles;
   std::vector<Vec3> grip_velocity;
   std::vector<std::string> grip_names;

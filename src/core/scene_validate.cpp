@@ -301,6 +301,11 @@ void validate_scene(const SceneDef& scene) {
   c.positive("output.duration", scene.output.duration, "give the simulated time in seconds, e.g. 0.05");
   c.positive("output.frame_rate", scene.output.frame_rate,
              "give output frames per simulated second, e.g. 500");
+  if (scene.output.surface &&
+      std::none_of(scene.objects.begin(), scene.objects.end(), [](const ObjectDef& o) { return o.shape == Shape::mesh; })) {
+    c.fail("output.surface = true, but no object is a mesh: the surface written is that of the mesh objects; add an "
+           "object with shape = \"mesh\" or remove output.surface (the automata are in the VTK frames)");
+  }
   if (scene.output.checkpoint_every < 0) {
     c.fail(fmt::format("output.checkpoint_every = {} is out of range: must be >= 0; use 0 for no checkpoints or "
                        "a number of frames",
@@ -353,8 +358,29 @@ void validate_scene(const SceneDef& scene) {
         c.positive(p + ".radius", o.radius, "give the cylinder radius in metres");
         c.positive(p + ".height", o.height, "give the cylinder height in metres (along its local z axis)");
         break;
+      case Shape::mesh:
+        if (o.mesh.empty()) {
+          c.fail(fmt::format("{} has shape = \"mesh\" but no mesh file; add mesh = \"path\" (OBJ, PLY, STL, OFF, glTF; "
+                             "relative to the scene file)",
+                             p));
+        }
+        c.positive(p + ".scale", o.scale, "give the factor from the file's units to metres, e.g. 0.001 for millimetres");
+        if (!std::isfinite(o.fit_size) || o.fit_size < 0) {
+          c.fail(fmt::format("{}.fit_size = {:g} is out of range: it must be > 0 [m] (the largest extent the mesh is "
+                             "scaled to), or 0 for none",
+                             p, o.fit_size));
+        }
+        if (o.fit_size > 0 && o.scale != 1.0) {
+          c.fail(fmt::format("{} gives both scale = {:g} and fit_size = {:g}; give one: scale multiplies the file's "
+                             "coordinates, fit_size sets the largest extent",
+                             p, o.scale, o.fit_size));
+        }
+        break;
       default:
-        c.fail(fmt::format("{}.shape is not a known shape; use \"box\", \"sphere\" or \"cylinder\"", p));
+        c.fail(fmt::format("{}.shape is not a known shape; use \"box\", \"sphere\", \"cylinder\" or \"mesh\"", p));
+    }
+    if (o.shape != Shape::mesh && !o.mesh.empty()) {
+      c.fail(fmt::format("{}.mesh is given but the shape is not \"mesh\"; add shape = \"mesh\" or remove mesh", p));
     }
     c.position(p + ".position", o.position);
     c.finite(p + ".rotation", o.rotation);
@@ -372,8 +398,18 @@ void validate_scene(const SceneDef& scene) {
         }
       } else if (g.shape == Shape::sphere) {
         c.positive(rp + ".radius", g.radius, "give the region's radius in metres");
+      } else if (g.shape == Shape::mesh) {
+        if (o.shape != Shape::mesh) {
+          c.fail(fmt::format("{}.shape = \"mesh\" is only for objects of shape \"mesh\" (the region's mesh shares the "
+                             "object mesh's units and frame); use a \"box\" or \"sphere\" region here",
+                             rp));
+        }
+        if (g.mesh.empty()) c.fail(fmt::format("{} has shape = \"mesh\" but no mesh file; add mesh = \"path\"", rp));
       } else {
-        c.fail(fmt::format("{}.shape: a region is a \"box\" or a \"sphere\"", rp));
+        c.fail(fmt::format("{}.shape: a region is a \"box\", a \"sphere\" or a \"mesh\"", rp));
+      }
+      if (g.shape != Shape::mesh && !g.mesh.empty()) {
+        c.fail(fmt::format("{}.mesh is given but the region's shape is not \"mesh\"; add shape = \"mesh\"", rp));
       }
       c.finite(rp + ".center", g.center);
       resolve_material(scene, g.material, rp + ".material");

@@ -89,7 +89,7 @@ long temporary_owner(const std::string& name) {
   };
   if (!digits(pid) || !digits(counter)) return 0;
   // Only temporaries of the files a run writes: a user's "notes.2024.01.tmp" is left alone.
-  static const std::string_view ours[] = {".vtu", ".pvd", ".csv", ".json", ".toml", ".mcack"};
+  static const std::string_view ours[] = {".vtu", ".pvd", ".csv", ".json", ".toml", ".mcack", ".ply", ".obj"};
   const std::string target = stem.substr(0, pid_dot);
   if (std::none_of(std::begin(ours), std::end(ours), [&](std::string_view ext) {
         return target.size() > ext.size() && target.compare(target.size() - ext.size(), ext.size(), ext) == 0;

@@ -35,7 +35,7 @@ void write_file_atomic(const std::filesystem::path& path,
                        Durability durability = Durability::renamed);
 
 // Removes the temporary files write_file_atomic left in `dir` (not below) for the outputs of a run
-// (.vtu, .pvd, .csv, .json, .toml, .mcack) when their process is gone (a killed run); those of running
+// (.vtu, .pvd, .csv, .json, .toml, .mcack, .ply, .obj) when their process is gone (a killed run); those of running
 // processes and every other file stay. A missing folder is fine.
 void remove_stale_temporaries(const std::filesystem::path& dir);
 

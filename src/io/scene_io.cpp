@@ -25,6 +25,35 @@
 
 namespace mca::io {
 
+std::filesystem::path models_cache_dir() {
+  const char* xdg = std::getenv("XDG_CACHE_HOME");
+  const char* home = std::getenv("HOME");
+  const std::filesystem::path base = xdg && *xdg ? std::filesystem::path(xdg)
+                                     : home && *home ? std::filesystem::path(home) / ".cache"
+                                                     : std::filesystem::path(".cache");
+  return base / "mca" / "models";
+}
+
+std::vector<std::filesystem::path> mesh_file_candidates(const std::string& mesh, const std::string& scene_source) {
+  const std::filesystem::path p(mesh);
+  if (p.is_absolute()) return {p};
+  std::vector<std::filesystem::path> out;
+  // A scene compiled in (the default) or read from text has no folder: the working directory stands in.
+  const std::filesystem::path scene_dir =
+      scene_source.empty() || scene_source[0] == '<' ? std::filesystem::path() : std::filesystem::path(scene_source).parent_path();
+  out.push_back(scene_dir / p);
+  if (const char* env = std::getenv("MCA_MESH_PATH")) {
+    std::string list = env;
+    for (std::size_t start = 0; start <= list.size();) {
+      const std::size_t end = std::min(list.find(':', start), list.size());
+      if (end > start) out.push_back(std::filesystem::path(list.substr(start, end - start)) / p);
+      start = end + 1;
+    }
+  }
+  out.push_back(models_cache_dir() / p);
+  return out;
+}
+
 namespace {
 
 // Shortest text that reads back as the same double; exponent form for large and tiny magnitudes
@@ -348,6 +377,7 @@ HeterogeneityDef read_heterogeneity(const Table& tb, HeterogeneityDef h) {
 Shape to_shape(const std::string& s) {
   if (s == "sphere") return Shape::sphere;
   if (s == "cylinder") return Shape::cylinder;
+  if (s == "mesh") return Shape::mesh;
   return Shape::box;
 }
 
@@ -355,6 +385,7 @@ const char* shape_name(Shape s) {
   switch (s) {
     case Shape::sphere: return "sphere";
     case Shape::cylinder: return "cylinder";
+    case Shape::mesh: return "mesh";
     default: return "box";
   }
 }
@@ -414,13 +445,37 @@ MaterialDef read_material(const Table& tb, const std::vector<MaterialDef>& earli
   return m;
 }
 
+// The mesh file `key` names: found (mesh_file_candidates) and made absolute, so that a scene written back
+// by scene_to_toml (a checkpoint's) finds it again from anywhere.
+void read_mesh_path(const Table& tb, std::string& out) {
+  if (!tb.string("mesh", out)) return;
+  const toml::node* n = tb.get("mesh");
+  if (out.empty()) tb.reader().fail(n->source(), fmt::format("{} is empty; give the mesh file's path", tb.key("mesh")));
+  const auto candidates = mesh_file_candidates(out, tb.reader().source());
+  std::error_code ec;
+  for (const auto& c : candidates) {
+    if (std::filesystem::is_regular_file(c, ec)) {
+      out = std::filesystem::absolute(c, ec).lexically_normal().string();
+      return;
+    }
+  }
+  std::string looked;
+  for (const auto& c : candidates) looked += fmt::format("{}{}", looked.empty() ? "" : ", ", c.string());
+  tb.reader().fail(n->source(),
+                   fmt::format("{} = \"{}\": no such file (looked for {}); a path is relative to the scene file's "
+                               "folder, then to the folders of MCA_MESH_PATH and the models cache {}. The paper's "
+                               "models (cow, bunny, armadillo) come with scripts/get_models.sh",
+                               tb.key("mesh"), out, looked, models_cache_dir().string()));
+}
+
 RegionDef read_region(const Table& tb) {
-  tb.allow({"shape", "center", "size", "radius", "material"});
+  tb.allow({"shape", "center", "size", "radius", "mesh", "material"});
   RegionDef r;
-  if (auto s = tb.choice("shape", {"box", "sphere"}, "a region shape")) r.shape = to_shape(*s);
+  if (auto s = tb.choice("shape", {"box", "sphere", "mesh"}, "a region shape")) r.shape = to_shape(*s);
   tb.vec3("center", r.center);
   tb.vec3("size", r.size);
   tb.number("radius", r.radius);
+  read_mesh_path(tb, r.mesh);
   if (!tb.string("material", r.material)) {
     tb.reader().fail(tb.raw().source(),
                      fmt::format("{} has no material; add material = \"...\" (the group its automata get)", tb.path()));
@@ -429,15 +484,19 @@ RegionDef read_region(const Table& tb) {
 }
 
 ObjectDef read_object(const Table& tb, std::size_t index, const HeterogeneityDef& scene_heterogeneity) {
-  tb.allow({"name", "shape", "size", "radius", "height", "position", "rotation", "velocity", "material",
-            "heterogeneity", "region"});
+  tb.allow({"name", "shape", "size", "radius", "height", "mesh", "scale", "fit_size", "fill", "position", "rotation",
+            "velocity", "material", "heterogeneity", "region"});
   ObjectDef o;
   if (index > 0) o.name = fmt::format("object{}", index);
   tb.string("name", o.name);
-  if (auto s = tb.choice("shape", {"box", "sphere", "cylinder"}, "a shape")) o.shape = to_shape(*s);
+  if (auto s = tb.choice("shape", {"box", "sphere", "cylinder", "mesh"}, "a shape")) o.shape = to_shape(*s);
   tb.vec3("size", o.size);
   tb.number("radius", o.radius);
   tb.number("height", o.height);
+  read_mesh_path(tb, o.mesh);
+  tb.number("scale", o.scale);
+  tb.number("fit_size", o.fit_size);
+  if (tb.choice("fill", {"volume"}, "a fill mode (\"volume\": the lattice cells inside the mesh)")) o.fill = MeshFill::volume;
   tb.vec3("position", o.position);
   tb.vec3("rotation", o.rotation);
   tb.vec3("velocity", o.velocity);
@@ -525,12 +584,16 @@ SceneDef read_scene(const Table& root, const std::string& source) {
   }
 
   if (auto tb = root.table("output", "[output]")) {
-    tb->allow({"duration", "frame_rate", "links", "vtk", "checkpoint_every"});
+    tb->allow({"duration", "frame_rate", "links", "vtk", "checkpoint_every", "surface", "surface_format"});
     OutputDef& o = scene.output;
     tb->number("duration", o.duration);
     tb->number("frame_rate", o.frame_rate);
     tb->boolean("links", o.links);
     tb->boolean("vtk", o.vtk);
+    tb->boolean("surface", o.surface);
+    if (auto f = tb->choice("surface_format", {"ply", "obj"}, "a surface format")) {
+      o.surface_format = *f == "obj" ? OutputDef::SurfaceFormat::obj : OutputDef::SurfaceFormat::ply;
+    }
     std::int64_t every = 0;
     if (tb->integer("checkpoint_every", every)) {
       if (every < std::numeric_limits<int>::min() || every > std::numeric_limits<int>::max()) {
@@ -675,6 +738,8 @@ std::string scene_to_toml(const SceneDef& s) {
   out += fmt::format("links = {}\n", s.output.links);
   out += fmt::format("vtk = {}\n", s.output.vtk);
   out += fmt::format("checkpoint_every = {}\n", s.output.checkpoint_every);
+  out += fmt::format("surface = {}\n", s.output.surface);
+  out += fmt::format("surface_format = \"{}\"\n", s.output.surface_format == OutputDef::SurfaceFormat::obj ? "obj" : "ply");
 
   out += "\n[heterogeneity]\n";
   write_heterogeneity(out, s.heterogeneity);
@@ -712,6 +777,12 @@ std::string scene_to_toml(const SceneDef& s) {
     out += fmt::format("size = {}\n", vec(o.size));
     out += fmt::format("radius = {}\n", toml_double(o.radius));
     out += fmt::format("height = {}\n", toml_double(o.height));
+    if (o.shape == Shape::mesh) {
+      out += fmt::format("mesh = {}\n", toml_string(o.mesh));
+      out += fmt::format("scale = {}\n", toml_double(o.scale));
+      out += fmt::format("fit_size = {}\n", toml_double(o.fit_size));
+      out += "fill = \"volume\"\n";
+    }
     out += fmt::format("position = {}\n", vec(o.position));
     out += fmt::format("rotation = {}\n", vec(o.rotation));
     out += fmt::format("velocity = {}\n", vec(o.velocity));
@@ -726,6 +797,7 @@ std::string scene_to_toml(const SceneDef& s) {
       out += fmt::format("center = {}\n", vec(r.center));
       out += fmt::format("size = {}\n", vec(r.size));
       out += fmt::format("radius = {}\n", toml_double(r.radius));
+      if (r.shape == Shape::mesh) out += fmt::format("mesh = {}\n", toml_string(r.mesh));
       out += fmt::format("material = {}\n", toml_string(r.material));
     }
   }

@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <mca/scene.hpp>
 
@@ -18,6 +19,13 @@ SceneDef load_scene_file(const std::filesystem::path& path);
 
 // The built-in default scene (scenes/wall_ball.toml, compiled in).
 SceneDef load_default_scene();
+
+// Where a scene's `mesh = "..."` may be, in the order tried: an absolute path as it is; else relative to the
+// scene file's folder, then to each folder of MCA_MESH_PATH (':'-separated), then to the models cache.
+std::vector<std::filesystem::path> mesh_file_candidates(const std::string& mesh, const std::string& scene_source);
+// The folder scripts/get_models.sh fills with the paper's models: $XDG_CACHE_HOME/mca/models, else
+// ~/.cache/mca/models.
+std::filesystem::path models_cache_dir();
 
 // The complete scene as TOML, every key written, such that parse_scene(scene_to_toml(s), s.source)
 // gives back s exactly (doubles are written in their shortest round-tripping form).

@@ -7,11 +7,14 @@
 #include <fmt/format.h>
 #include <limits>
 #include <map>
+#include <memory>
 #include <numbers>
+#include <optional>
 #include <unistd.h>
 #include <unordered_map>
 
 #include "lattice/heterogeneity.hpp"
+#include "lattice/mesh_object.hpp"
 #include "mca/error.hpp"
 #include "physics/contact_law.hpp"
 #include "physics/link_law.hpp"
@@ -50,25 +53,54 @@ struct ObjectLattice {
   std::int64_t n[3] = {0, 0, 0};
   double origin[3] = {0, 0, 0};  // centre of cell (0,0,0) in the object frame
   std::vector<std::uint8_t> inside;
+  std::vector<std::vector<std::uint8_t>> regions;  // per region: cells inside its mesh (mesh regions only)
+  double fill_seconds = 0;
 };
+
+// What a scene's objects are made of beyond their definitions: the meshes of the mesh objects, read once
+// per build (null for the primitives), with each mesh's last fill kept so that the spacing search and the
+// build fill it once at the chosen spacing.
+struct Shapes {
+  std::vector<std::unique_ptr<MeshObject>> mesh;
+  mutable std::vector<std::optional<std::pair<double, MeshFillResult>>> fill;
+  bool any_mesh = false;
+  const MeshObject* of(std::size_t object) const { return mesh[object].get(); }
+};
+
+Shapes prepare_shapes(const SceneDef& scene) {
+  Shapes S;
+  S.mesh.resize(scene.objects.size());
+  S.fill.resize(scene.objects.size());
+  for (std::size_t o = 0; o < scene.objects.size(); ++o) {
+    if (scene.objects[o].shape != Shape::mesh) continue;
+    S.mesh[o] = std::make_unique<MeshObject>(prepare_mesh_object(scene, o));
+    S.any_mesh = true;
+  }
+  return S;
+}
 
 std::int64_t cells_along(double extent, double d) {
   return std::max<std::int64_t>(1, static_cast<std::int64_t>(std::llround(extent / d)));
 }
 
-// The extents of an object's shape along its local axes.
-void shape_extents(const ObjectDef& o, double ext[3]) {
+// The extents of an object's shape along its local axes (`m`: its mesh, for shape mesh).
+void shape_extents(const ObjectDef& o, const MeshObject* m, double ext[3]) {
   switch (o.shape) {
     case Shape::box: ext[0] = o.size[0]; ext[1] = o.size[1]; ext[2] = o.size[2]; break;
     case Shape::sphere: ext[0] = ext[1] = ext[2] = 2 * o.radius; break;
     case Shape::cylinder: ext[0] = ext[1] = 2 * o.radius; ext[2] = o.height; break;
+    case Shape::mesh:
+      for (int a = 0; a < 3; ++a) ext[a] = m->extent(a);
+      break;
   }
 }
 
 // Cells per axis and the centre of cell (0,0,0) in the object frame: a size is rounded to whole cells.
-void lattice_frame(const ObjectDef& o, double d, std::int64_t n[3], double origin[3]) {
+// (A mesh's cells whose centres are inside it all lie in this frame: a cell beyond it along an axis has
+// its centre at least (n + 1) d / 2 > extent / 2 from the centre.)
+void lattice_frame(const ObjectDef& o, const MeshObject* m, double d, std::int64_t n[3], double origin[3]) {
   double ext[3] = {0, 0, 0};
-  shape_extents(o, ext);
+  shape_extents(o, m, ext);
   for (int a = 0; a < 3; ++a) {
     n[a] = cells_along(ext[a], d);
     origin[a] = -0.5 * static_cast<double>(n[a] - 1) * d;
@@ -82,9 +114,38 @@ bool inside_shape(const ObjectDef& o, double x, double y, double z) {
   return true;
 }
 
-ObjectLattice object_lattice(const ObjectDef& o, double d) {
+// The fill of a mesh object at spacing d: the last one if it was at d, else a new one (kept).
+const MeshFillResult& mesh_fill(const SceneDef& scene, const Shapes& S, std::size_t oi, double d, bool with_regions) {
+  auto& memo = S.fill[oi];
+  if (!memo || memo->first != d || (with_regions && memo->second.regions.size() != scene.objects[oi].regions.size())) {
+    mesh::CellBox box;
+    box.d = d;
+    lattice_frame(scene.objects[oi], S.of(oi), d, box.n, box.origin);
+    // One byte per cell of the object's box: a long thin mesh at a fine spacing could ask for more than
+    // its automata.
+    if (static_cast<double>(box.n[0]) * static_cast<double>(box.n[1]) * static_cast<double>(box.n[2]) >
+        scene.solver.max_memory_gb * 1e9) {
+      throw Error(fmt::format("{}: object[{}] '{}': its bounding box holds {} x {} x {} cells at spacing {:.4g} m, "
+                              "more bytes than solver.max_memory_gb = {:g}; increase solver.spacing",
+                              scene.source, oi, scene.objects[oi].name, box.n[0], box.n[1], box.n[2], d,
+                              scene.solver.max_memory_gb));
+    }
+    memo.emplace(d, fill_mesh_object(scene, oi, *S.of(oi), box, with_regions));
+  }
+  return memo->second;
+}
+
+ObjectLattice object_lattice(const SceneDef& scene, const Shapes& S, std::size_t oi, double d) {
+  const ObjectDef& o = scene.objects[oi];
   ObjectLattice L;
-  lattice_frame(o, d, L.n, L.origin);
+  lattice_frame(o, S.of(oi), d, L.n, L.origin);
+  if (o.shape == Shape::mesh) {
+    const MeshFillResult& f = mesh_fill(scene, S, oi, d, true);
+    L.inside = f.inside;
+    L.regions = f.regions;
+    L.fill_seconds = f.seconds;
+    return L;
+  }
   const std::int64_t total = L.n[0] * L.n[1] * L.n[2];
   L.inside.assign(static_cast<std::size_t>(total), 1);
   if (o.shape == Shape::box) return L;
@@ -99,10 +160,12 @@ ObjectLattice object_lattice(const ObjectDef& o, double d) {
 // The count object_lattice would give, without allocating it: row by row along x, where the inside
 // cells of a sphere or cylinder row form one interval around x = 0 (its ends found by bisection with
 // the same test), so that a tiny spacing is refused by the memory check instead of exhausting memory.
-std::int64_t object_count(const ObjectDef& o, double d) {
+std::int64_t object_count(const SceneDef& scene, const Shapes& S, std::size_t oi, double d) {
+  const ObjectDef& o = scene.objects[oi];
+  if (o.shape == Shape::mesh) return mesh_fill(scene, S, oi, d, false).count;
   std::int64_t n[3];
   double origin[3];
-  lattice_frame(o, d, n, origin);
+  lattice_frame(o, nullptr, d, n, origin);
   if (o.shape == Shape::box) return n[0] * n[1] * n[2];
   std::int64_t count = 0;
   const std::int64_t mid = n[0] / 2;  // the cell nearest x = 0 (its centre is at |x| <= d/2)
@@ -238,10 +301,12 @@ DVec3 to_dvec3(const Vec3d& v) { return {v[0], v[1], v[2]}; }
 
 std::string fmt_vec(const Vec3d& v) { return fmt::format("[{:g}, {:g}, {:g}]", v[0], v[1], v[2]); }
 
-double shapes_volume(const SceneDef& scene) {
+double shapes_volume(const SceneDef& scene, const Shapes& S) {
   double volume = 0;
-  for (const auto& o : scene.objects) {
-    if (o.shape == Shape::box) volume += o.size[0] * o.size[1] * o.size[2];
+  for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) {
+    const ObjectDef& o = scene.objects[oi];
+    if (o.shape == Shape::mesh) volume += S.of(oi)->volume;
+    else if (o.shape == Shape::box) volume += o.size[0] * o.size[1] * o.size[2];
     else if (o.shape == Shape::sphere) volume += 4.0 / 3.0 * std::numbers::pi * std::pow(o.radius, 3);
     else volume += std::numbers::pi * o.radius * o.radius * o.height;
   }
@@ -254,23 +319,30 @@ double physical_memory_bytes() {
   return pages > 0 && size > 0 ? static_cast<double>(pages) * static_cast<double>(size) : 0.0;
 }
 
-void refuse_over_memory(const SceneDef& scene, double d, double automata, bool approximate) {
+// The spacing that gives about 10,000 automata, for messages about scenes far too coarse or too fine.
+std::string ten_thousand_hint(const SceneDef& scene, const Shapes& S) {
+  return fmt::format("about {:.3g} m gives 10,000 automata", std::cbrt(shapes_volume(scene, S) / 1e4));
+}
+
+void refuse_over_memory(const SceneDef& scene, const Shapes& S, double d, double automata, bool approximate) {
   const double bytes = static_cast<double>(estimate_memory_bytes(1) - estimate_memory_bytes(0)) * automata +
                        static_cast<double>(estimate_memory_bytes(0));
   if (bytes > scene.solver.max_memory_gb * 1e9) {
     throw Error(fmt::format(
         "{}: the scene needs {:.3g} GB for {}{:.4g} automata at spacing {:.4g} m, over solver.max_memory_gb = "
-        "{:g}; increase solver.spacing (memory falls with its cube) or raise solver.max_memory_gb if the machine has "
-        "it",
-        scene.source, bytes / 1e9, approximate ? "at least " : "", automata, d, scene.solver.max_memory_gb));
+        "{:g}; increase solver.spacing (memory falls with its cube; {}) or raise solver.max_memory_gb if the "
+        "machine has it",
+        scene.source, bytes / 1e9, approximate ? "at least " : "", automata, d, scene.solver.max_memory_gb,
+        ten_thousand_hint(scene, S)));
   }
   // A model larger than the machine's memory would swap for hours before failing.
   const double machine = physical_memory_bytes();
   if (machine > 0 && bytes > 0.9 * machine) {
     throw Error(fmt::format(
         "{}: the scene needs {:.3g} GB for {}{:.4g} automata at spacing {:.4g} m, more than this machine's "
-        "{:.1f} GB of memory; increase solver.spacing (memory falls with its cube) or run it on a larger machine",
-        scene.source, bytes / 1e9, approximate ? "at least " : "", automata, d, machine / 1e9));
+        "{:.1f} GB of memory; increase solver.spacing (memory falls with its cube; {}) or run it on a larger machine",
+        scene.source, bytes / 1e9, approximate ? "at least " : "", automata, d, machine / 1e9,
+        ten_thousand_hint(scene, S)));
   }
 }
 
@@ -358,7 +430,7 @@ void refuse_overlaps(const SceneDef& scene, const Model& M) {
 // Nothing may start inside the ground: an automaton pressed into it by delta starts with the energy
 // k delta^2 / 2 of its contact (a box 5 mm into the ground, its lattice a row taller than its size, broke
 // into 180 pieces at t = 0). A tolerance of 1e-6 d covers the rounding of the spacing to float.
-void refuse_bodies_in_the_ground(const SceneDef& scene, const Model& M) {
+void refuse_bodies_in_the_ground(const SceneDef& scene, const Shapes& S, const Model& M) {
   const double d = M.spacing;
   double deepest = 0;
   std::size_t at = 0;
@@ -370,10 +442,11 @@ void refuse_bodies_in_the_ground(const SceneDef& scene, const Model& M) {
     }
   }
   if (deepest > 1e-6 * d) {
-    const ObjectDef& o = scene.objects[static_cast<std::size_t>(M.object[at])];
+    const auto oi = static_cast<std::size_t>(M.object[at]);
+    const ObjectDef& o = scene.objects[oi];
     std::int64_t n[3];
     double origin[3];
-    lattice_frame(o, d, n, origin);
+    lattice_frame(o, S.of(oi), d, n, origin);
     throw Error(fmt::format(
         "{}: object '{}' starts {:.4g} m inside the ground (its automaton at [{:.6g}, {:.6g}, {:.6g}], radius {:g} m, "
         "below ground.height = {:g} along the up axis); move the object up by at least {:.4g} m. Its lattice is "
@@ -390,6 +463,55 @@ void refuse_bodies_in_the_ground(const SceneDef& scene, const Model& M) {
                               scene.source, p, P.name, overlap));
     }
   }
+}
+
+// Binds each triangle of a mesh object to the automaton nearest its centroid (sec. 5.4). The object's
+// automata are `index` (cell -> automaton, -1 outside) over the lattice L; the search grows shell by shell
+// around the centroid's cell, and a shell beyond the nearest found so far cannot hold a nearer one.
+void bind_surface(Model& M, const MeshObject& mo, const ObjectLattice& L, const std::vector<std::int64_t>& index,
+                  const Mat3& R, const Vec3d& position, double d) {
+  BoundSurface& S = M.surface;
+  const auto base = static_cast<std::uint32_t>(S.vertices);
+  const std::int64_t* n = L.n;
+  for (const auto& f : mo.mesh.faces) {
+    Vec3d c{0, 0, 0};
+    for (auto v : f)
+      for (int a = 0; a < 3; ++a) c[a] += mo.mesh.vertices[v][a] / 3.0;
+    std::int64_t cell[3];
+    for (int a = 0; a < 3; ++a)
+      cell[a] = std::clamp<std::int64_t>(std::llround((c[a] - L.origin[a]) / d), 0, n[a] - 1);
+    std::int64_t best = -1;
+    double best_d2 = INFINITY;
+    const std::int64_t reach = std::max({n[0], n[1], n[2]});
+    for (std::int64_t r = 0; r <= reach; ++r) {
+      // Every cell of shell r is at least (r - 1/2) d from the centroid (it lies within half a cell of
+      // its cell's centre, clamped cells aside, which only come nearer).
+      if (best >= 0 && (r - 1.5) * d > std::sqrt(best_d2)) break;
+      for (std::int64_t k = cell[2] - r; k <= cell[2] + r; ++k)
+        for (std::int64_t j = cell[1] - r; j <= cell[1] + r; ++j)
+          for (std::int64_t i = cell[0] - r; i <= cell[0] + r; ++i) {
+            if (std::max({std::llabs(i - cell[0]), std::llabs(j - cell[1]), std::llabs(k - cell[2])}) != r) continue;
+            if (i < 0 || j < 0 || k < 0 || i >= n[0] || j >= n[1] || k >= n[2]) continue;
+            const std::int64_t a = index[static_cast<std::size_t>((k * n[1] + j) * n[0] + i)];
+            if (a < 0) continue;
+            const double dx = L.origin[0] + i * d - c[0], dy = L.origin[1] + j * d - c[1], dz = L.origin[2] + k * d - c[2];
+            const double d2 = dx * dx + dy * dy + dz * dz;
+            if (d2 < best_d2) {  // ties: the first in lattice order
+              best_d2 = d2;
+              best = a;
+            }
+          }
+    }
+    S.automaton.push_back(static_cast<std::uint32_t>(best));
+    const DVec3 centre = M.position0[static_cast<std::size_t>(best)];
+    for (auto v : f) {
+      const Vec3d w = R.apply(mo.mesh.vertices[v]);
+      S.corner.push_back(base + v);
+      S.offset.push_back(to_vec3({w[0] + position[0] - centre.x, w[1] + position[1] - centre.y,
+                                  w[2] + position[2] - centre.z}));
+    }
+  }
+  S.vertices += mo.mesh.vertices.size();
 }
 
 }  // namespace
@@ -425,28 +547,49 @@ void set_time_step(Model& M, float dt) {
   }
 }
 
-std::int64_t count_automata(const SceneDef& scene, double spacing) {
+namespace {
+
+std::int64_t count_automata(const SceneDef& scene, const Shapes& S, double spacing) {
   std::int64_t n = 0;
-  for (const auto& o : scene.objects) n += object_count(o, spacing);
+  for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) n += object_count(scene, S, oi, spacing);
   return n;
 }
 
-double spacing_for_target(const SceneDef& scene, std::int64_t target) {
-  const double volume = shapes_volume(scene);
-  // The count falls as d grows; bisect on d between generous bounds, keep the closest count seen.
-  double lo = std::cbrt(volume / target) * 0.25, hi = std::cbrt(volume / target) * 4.0;
-  double best_d = lo;
-  std::int64_t best_n = count_automata(scene, lo);
-  for (int it = 0; it < 60; ++it) {
-    const double mid = 0.5 * (lo + hi);
-    const std::int64_t n = count_automata(scene, mid);
-    if (std::llabs(n - target) < std::llabs(best_n - target)) {
+double spacing_for_target(const SceneDef& scene, const Shapes& S, std::int64_t target) {
+  const double volume = shapes_volume(scene, S);
+  double best_d = 0;
+  std::int64_t best_n = -1;
+  auto try_spacing = [&](double d) {
+    const std::int64_t n = count_automata(scene, S, d);
+    if (best_n < 0 || std::llabs(n - target) < std::llabs(best_n - target)) {
       best_n = n;
-      best_d = mid;
+      best_d = d;
     }
-    if (std::llabs(n - target) <= target / 50) break;
-    if (n > target) lo = mid;
-    else hi = mid;
+    return n;
+  };
+  if (S.any_mesh) {
+    // Filling a mesh costs a signed-distance grid, so no bisection: a lattice's count is its volume over
+    // d^3 up to the cells cut by the surface, so d <- d (n / target)^(1/3) lands within 2 % in one or two
+    // fills. The spacing is rounded to float as build_model will, so its fill is the one kept.
+    double d = static_cast<double>(static_cast<float>(std::cbrt(volume / static_cast<double>(target))));
+    refuse_over_memory(scene, S, d, static_cast<double>(target), false);
+    for (int it = 0; it < 6; ++it) {
+      const std::int64_t n = try_spacing(d);
+      if (std::llabs(n - target) * 200 <= target) break;  // within 0.5 %
+      d = static_cast<double>(static_cast<float>(d * std::cbrt(static_cast<double>(n) / static_cast<double>(target))));
+    }
+    if (best_d != d) count_automata(scene, S, best_d);  // keep the fill of the spacing chosen
+  } else {
+    // The count falls as d grows; bisect on d between generous bounds, keep the closest count seen.
+    double lo = std::cbrt(volume / target) * 0.25, hi = std::cbrt(volume / target) * 4.0;
+    try_spacing(lo);
+    for (int it = 0; it < 60; ++it) {
+      const double mid = 0.5 * (lo + hi);
+      const std::int64_t n = try_spacing(mid);
+      if (std::llabs(n - target) <= target / 50) break;
+      if (n > target) lo = mid;
+      else hi = mid;
+    }
   }
   if (static_cast<double>(std::llabs(best_n - target)) > 0.02 * static_cast<double>(target)) {
     throw Error(fmt::format(
@@ -458,17 +601,30 @@ double spacing_for_target(const SceneDef& scene, std::int64_t target) {
   return best_d;
 }
 
-double scene_spacing(const SceneDef& scene) {
-  return scene.solver.target_automata > 0 ? spacing_for_target(scene, scene.solver.target_automata)
+double scene_spacing(const SceneDef& scene, const Shapes& S) {
+  return scene.solver.target_automata > 0 ? spacing_for_target(scene, S, scene.solver.target_automata)
                                           : scene.solver.spacing;
 }
+
+}  // namespace
+
+std::int64_t count_automata(const SceneDef& scene, double spacing) {
+  return count_automata(scene, prepare_shapes(scene), spacing);
+}
+
+double spacing_for_target(const SceneDef& scene, std::int64_t target) {
+  return spacing_for_target(scene, prepare_shapes(scene), target);
+}
+
+double scene_spacing(const SceneDef& scene) { return scene_spacing(scene, prepare_shapes(scene)); }
 
 Model build_model(const SceneDef& scene) {
   validate_scene(scene);
   // The spacing is rounded to float once: the rest length r0 = d is stored in float32, and the centres
   // (double) are laid out with the same d, so an intact lattice starts with a strain of exactly zero (up
   // to the double rounding of the centres) instead of the 3e-8 of a float-rounded r0.
-  const double d = static_cast<double>(static_cast<float>(scene_spacing(scene)));
+  const Shapes S = prepare_shapes(scene);
+  const double d = static_cast<double>(static_cast<float>(scene_spacing(scene, S)));
   Model M;
   M.spacing = static_cast<float>(d);
 
@@ -483,23 +639,24 @@ Model build_model(const SceneDef& scene) {
                             "1.8e8); increase solver.spacing",
                             scene.source, approximate ? "at least " : "", n, d));
   };
-  const double n_volume = 0.5 * shapes_volume(scene) / (d * d * d);
+  const double n_volume = 0.5 * shapes_volume(scene, S) / (d * d * d);
   // An extent under half a cell would round to no cell; it becomes one, a body far larger than asked.
   for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) {
     double ext[3] = {0, 0, 0};
-    shape_extents(scene.objects[oi], ext);
+    shape_extents(scene.objects[oi], S.of(oi), ext);
     for (int a = 0; a < 3; ++a)
       if (ext[a] < 0.5 * d) {
-        throw Error(fmt::format("{}: object[{}] '{}' is {:g} m along its local {}, less than half the spacing {:.4g} m: "
-                                "its lattice would be a cell of {:.4g} m there; decrease solver.spacing (to {:.3g} m or "
-                                "less) or make the object larger",
-                                scene.source, oi, scene.objects[oi].name, ext[a], "xyz"[a], d, d, ext[a]));
+        throw Error(fmt::format("{}: object[{}] '{}' is {:.4g} x {:.4g} x {:.4g} m, {:.4g} m along its local {}, less than "
+                                "half the spacing {:.4g} m: its lattice would be a cell of {:.4g} m there; decrease "
+                                "solver.spacing (to {:.3g} m or less; {}) or make the object larger",
+                                scene.source, oi, scene.objects[oi].name, ext[0], ext[1], ext[2], ext[a], "xyz"[a], d, d,
+                                ext[a], ten_thousand_hint(scene, S)));
       }
   }
-  refuse_over_memory(scene, d, n_volume, true);
+  refuse_over_memory(scene, S, d, n_volume, true);
   refuse_count(n_volume, true);
-  const std::int64_t n_est = count_automata(scene, d);
-  refuse_over_memory(scene, d, static_cast<double>(n_est), false);
+  const std::int64_t n_est = count_automata(scene, S, d);
+  refuse_over_memory(scene, S, d, static_cast<double>(n_est), false);
   refuse_count(static_cast<double>(n_est), false);
   // Reserved at once: grown by push_back, the arrays would hold up to twice their size (measured: the
   // model of 400,000 automata took 85 MB instead of 57).
@@ -548,7 +705,7 @@ Model build_model(const SceneDef& scene) {
     for (std::size_t r = 0; r < o.regions.size(); ++r)
       region_groups.push_back(group_of(o.regions[r].material, fmt::format("{}.region[{}].material", okey, r), true));
 
-    const ObjectLattice L = object_lattice(o, d);
+    const ObjectLattice L = object_lattice(scene, S, oi, d);
     const Mat3 R = rotation_matrix(o.rotation);
     const std::size_t first = M.size();
     std::vector<std::int64_t> index(L.inside.size(), -1);
@@ -564,7 +721,8 @@ Model build_model(const SceneDef& scene) {
           const Vec3d wp{r[0] + o.position[0], r[1] + o.position[1], r[2] + o.position[2]};
           int g = base_group;
           for (std::size_t rr = 0; rr < o.regions.size(); ++rr)
-            if (inside_region(o.regions[rr], wp)) g = region_groups[rr];
+            if (o.regions[rr].shape == Shape::mesh ? L.regions[rr][c] != 0 : inside_region(o.regions[rr], wp))
+              g = region_groups[rr];
           const float mass = M.groups[g].density * fd * fd * fd;
           M.position0.push_back(to_dvec3(wp));
           M.velocity0.push_back(to_vec3(o.velocity));
@@ -581,6 +739,33 @@ Model build_model(const SceneDef& scene) {
       throw Error(fmt::format("{}: {} '{}' holds no automaton at spacing {:.4g} m; make it larger than the spacing "
                               "or decrease solver.spacing",
                               scene.source, okey, o.name, d));
+    }
+    if (const MeshObject* mo = S.of(oi)) {
+      bind_surface(M, *mo, L, index, R, o.position, d);
+      MeshSummary ms;
+      ms.object = static_cast<std::int32_t>(oi);
+      ms.path = o.mesh;
+      ms.vertices = mo->file_vertices;
+      ms.faces = mo->mesh.faces.size();
+      ms.boundary_edges = mo->topology.boundary_edges;
+      ms.non_manifold_edges = mo->topology.non_manifold_edges;
+      ms.degenerate_faces = mo->topology.degenerate_faces;
+      ms.holes = mo->topology.holes;
+      ms.file_lo = mo->file_bounds.lo;
+      ms.file_hi = mo->file_bounds.hi;
+      ms.scale = mo->scale;
+      ms.volume = mo->volume;
+      ms.fill_seconds = L.fill_seconds;
+      ms.lo = {INFINITY, INFINITY, INFINITY};
+      ms.hi = {-INFINITY, -INFINITY, -INFINITY};
+      for (const auto& v : mo->mesh.vertices) {
+        const Vec3d r = R.apply({v[0], v[1], v[2]});
+        for (int a = 0; a < 3; ++a) {
+          ms.lo[a] = std::min(ms.lo[a], r[a] + o.position[a]);
+          ms.hi[a] = std::max(ms.hi[a], r[a] + o.position[a]);
+        }
+      }
+      M.meshes.push_back(std::move(ms));
     }
     // Face neighbours along +-x, +-y, +-z of each cell: the automata of one object link along its own
     // lattice (row-major order, so the one above has the larger index).
@@ -713,7 +898,7 @@ Model build_model(const SceneDef& scene) {
   M.up = gl > 0 ? M.gravity * (-1.0f / gl) : Vec3{0, 0, 1};
   M.ground = scene.ground.enabled;
   M.ground_height = static_cast<float>(scene.ground.height);
-  if (M.ground) refuse_bodies_in_the_ground(scene, M);
+  if (M.ground) refuse_bodies_in_the_ground(scene, S, M);
   // Contact materials of every pair of groups and of every group with the ground (contact_law.hpp): the
   // moduli in series, the pair's mean friction, rolling and twisting coefficients and restitution; the
   // ground brings its own coefficients and is rigid.

@@ -1,0 +1,56 @@
+#pragma once
+// Triangle meshes from files (assimp: OBJ, PLY, STL, OFF, glTF/GLB), checked so that a bad file is a
+// clear mca::Error naming it, and what a mesh is made of (boundary and non-manifold edges, volume).
+// Interior cells of a closed mesh on a lattice are in voxelize.hpp (OpenVDB, kept apart: it compiles slowly).
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace mca::mesh {
+
+using Point = std::array<double, 3>;
+using Triangle = std::array<std::uint32_t, 3>;
+
+struct TriMesh {
+  std::vector<Point> vertices;
+  std::vector<Triangle> faces;  // indices into vertices; every index is checked < vertices.size()
+};
+
+// The file extensions read_mesh accepts (lower case, no dot).
+const std::vector<std::string>& mesh_extensions();
+
+// Reads a mesh file: all meshes of the file joined (node transforms applied), triangulated, identical
+// vertices welded (STL and OBJ store them per face). Throws mca::Error naming `path` for a missing file,
+// an unknown extension, a file assimp cannot read, no triangles (a point cloud), non-finite coordinates,
+// or only degenerate triangles.
+TriMesh read_mesh(const std::string& path);
+
+// The same from bytes in memory; `extension` picks the format, `name` names the data in messages.
+TriMesh read_mesh_memory(const void* data, std::size_t size, const std::string& extension, const std::string& name);
+
+struct Bounds {
+  Point lo{0, 0, 0}, hi{0, 0, 0};
+  Point extent() const { return {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]}; }
+  Point centre() const { return {0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])}; }
+  double largest_extent() const;
+};
+Bounds bounds(const TriMesh& m);
+
+struct Topology {
+  std::size_t edges = 0;
+  std::size_t boundary_edges = 0;      // used by one triangle: a hole's rim
+  std::size_t non_manifold_edges = 0;  // used by three or more triangles
+  std::size_t degenerate_faces = 0;    // zero area or a repeated vertex
+  std::size_t holes = 0;               // connected loops of boundary edges
+  double largest_hole = 0;             // largest extent of one hole's rim (its bounding box diagonal)
+  bool closed() const { return boundary_edges == 0 && non_manifold_edges == 0; }
+};
+Topology topology(const TriMesh& m);
+
+// Enclosed volume by the divergence theorem (positive for outward-facing triangles; meaningful for a
+// closed mesh, approximate for one with small holes).
+double signed_volume(const TriMesh& m);
+
+}  // namespace mca::mesh

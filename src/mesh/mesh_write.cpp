@@ -1,0 +1,56 @@
+#include "mesh/mesh_write.hpp"
+
+#include <bit>
+#include <fmt/format.h>
+
+namespace mca::mesh {
+namespace {
+static_assert(std::endian::native == std::endian::little, "the PLY writer writes the machine's byte order");
+
+template <class T>
+void put(std::ostream& out, T v) {
+  out.write(reinterpret_cast<const char*>(&v), sizeof v);
+}
+}  // namespace
+
+void write_ply(std::ostream& out, const FloatMesh& m) {
+  const bool values = !m.face_values.empty();
+  out << "ply\nformat binary_little_endian 1.0\ncomment written by mca\n";
+  out << fmt::format("element vertex {}\nproperty float x\nproperty float y\nproperty float z\n", m.vertices.size());
+  out << fmt::format("element face {}\nproperty list uchar int vertex_indices\n", m.faces.size());
+  if (values) out << fmt::format("property int {}\n", m.face_value_name);
+  out << "end_header\n";
+  std::string buf;
+  buf.reserve(m.vertices.size() * 12);
+  for (const auto& v : m.vertices) buf.append(reinterpret_cast<const char*>(v.data()), 12);
+  out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+  buf.clear();
+  for (std::size_t f = 0; f < m.faces.size(); ++f) {
+    buf.push_back(3);
+    for (auto i : m.faces[f]) {
+      const auto s = static_cast<std::int32_t>(i);
+      buf.append(reinterpret_cast<const char*>(&s), 4);
+    }
+    if (values) buf.append(reinterpret_cast<const char*>(&m.face_values[f]), 4);
+  }
+  out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+}
+
+void write_obj(std::ostream& out, const FloatMesh& m) {
+  out << "# written by mca\n";
+  fmt::memory_buffer b;
+  for (const auto& v : m.vertices) fmt::format_to(std::back_inserter(b), "v {} {} {}\n", v[0], v[1], v[2]);
+  // OBJ groups by face value (fragments become separate objects in Blender's importer).
+  std::int32_t current = 0;
+  for (std::size_t f = 0; f < m.faces.size(); ++f) {
+    if (!m.face_values.empty() && (f == 0 || m.face_values[f] != current)) {
+      current = m.face_values[f];
+      fmt::format_to(std::back_inserter(b), "g {}_{}\n", m.face_value_name, current);
+    }
+    const auto& t = m.faces[f];
+    fmt::format_to(std::back_inserter(b), "f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+  }
+  out.write(b.data(), static_cast<std::streamsize>(b.size()));
+}
+
+}  // namespace mca::mesh

@@ -1,0 +1,23 @@
+#pragma once
+// Triangle meshes to streams: binary PLY (little-endian, float32 vertices, int32 indices: what Blender,
+// ParaView, MeshLab and assimp read) and Wavefront OBJ. Callers write through io::write_file_atomic.
+#include <array>
+#include <cstdint>
+#include <ostream>
+#include <string>
+#include <vector>
+
+namespace mca::mesh {
+
+struct FloatMesh {
+  std::vector<std::array<float, 3>> vertices;
+  std::vector<std::array<std::uint32_t, 3>> faces;
+  // Optional, one per face (PLY: an int property of the face element, e.g. "fragment"); empty for none.
+  std::vector<std::int32_t> face_values;
+  std::string face_value_name = "value";
+};
+
+void write_ply(std::ostream& out, const FloatMesh& m);
+void write_obj(std::ostream& out, const FloatMesh& m);
+
+}  // namespace mca::mesh

@@ -1,0 +1,27 @@
+#pragma once
+// The lattice cells whose centres lie inside a closed triangle mesh (OpenVDB: the mesh's signed distance
+// on the lattice, inside where it is negative). Behind this plain interface: a file that includes OpenVDB
+// takes about 20 s to compile.
+#include <cstdint>
+#include <vector>
+
+#include "mesh/mesh.hpp"
+
+namespace mca::mesh {
+
+// A box of n[0] x n[1] x n[2] cells of size d; the centre of cell (i, j, k) is origin + (i, j, k) d in the
+// mesh's coordinates.
+struct CellBox {
+  std::int64_t n[3] = {0, 0, 0};
+  double origin[3] = {0, 0, 0};
+  double d = 0;
+  std::int64_t cells() const { return n[0] * n[1] * n[2]; }
+};
+
+// One byte per cell, x fastest: 1 where the cell centre is inside the mesh (signed distance < 0). The
+// sign is found by flood fill from outside, so it does not depend on the triangles' orientation, a few
+// flipped or doubled triangles change nothing, and holes narrower than about a cell are closed; a larger
+// hole lets the outside in (the caller refuses such meshes: Topology::largest_hole).
+std::vector<std::uint8_t> interior_cells(const TriMesh& m, const CellBox& box);
+
+}  // namespace mca::mesh

@@ -1,0 +1,31 @@
+#pragma once
+// Runs shell command lines and the mca program from tests (stdout and stderr together, and the exit code).
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <string>
+
+namespace mca::test {
+
+struct Result {
+  int code = -1;
+  std::string output;  // stdout and stderr
+};
+
+inline Result shell(const std::string& command) {
+  const std::string cmd = "(" + command + ") 2>&1";
+  Result r;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf{};
+  std::size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.output.append(buf.data(), n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+inline Result run_mca(const std::string& args) { return shell(std::string(MCA_BINARY) + " " + args); }
+
+}  // namespace mca::test

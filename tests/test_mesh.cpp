@@ -1,0 +1,418 @@
+// Meshes: the loader (every format, every bad file), the volume fill (exact, within 2 %, robust), mesh
+// regions, and mesh objects in scene files.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <numbers>
+#include <set>
+
+#include "analysis/surface.hpp"
+#include "io/scene_io.hpp"
+#include "lattice/lattice.hpp"
+#include "mca/error.hpp"
+#include "mesh/mesh.hpp"
+#include "mesh_fixtures.hpp"
+#include "support.hpp"
+#include "shell.hpp"
+#include "temp_dir.hpp"
+
+namespace mca {
+namespace {
+
+namespace fs = std::filesystem;
+using test::TempDir;
+
+// The error build_model (or f) throws, or "" when none.
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+SceneDef mesh_scene(const fs::path& mesh_file, double d) {
+  SceneDef s = test::block_scene(1, 1, 1, d);
+  s.objects[0].shape = Shape::mesh;
+  s.objects[0].mesh = mesh_file.string();
+  return s;
+}
+
+TEST(MeshLoader, EveryFormatGivesTheWeldedCube) {
+  TempDir t;
+  const mesh::TriMesh cube = test::cube_mesh(1.0);
+  test::write_mesh_file(t.path() / "upper.stl", cube);
+  fs::rename(t.path() / "upper.stl", t.path() / "C.STL");  // extensions in any case
+  for (const char* name : {"c.off", "c.obj", "c.ply", "c.ascii.ply", "c.stl", "c.ascii.stl", "c.gltf", "c.glb",
+                           "C.STL"}) {
+    const fs::path p = t.path() / name;
+    if (!fs::exists(p)) test::write_mesh_file(p, cube);
+    const mesh::TriMesh m = mesh::read_mesh(p.string());
+    EXPECT_EQ(m.vertices.size(), 8u) << name;  // STL stores three corners per face: welded back to 8
+    EXPECT_EQ(m.faces.size(), 12u) << name;
+    const mesh::Topology topo = mesh::topology(m);
+    EXPECT_TRUE(topo.closed()) << name;
+    EXPECT_EQ(topo.edges, 18u) << name;
+    EXPECT_NEAR(mesh::signed_volume(m), 8.0, 1e-5) << name;
+  }
+}
+
+TEST(MeshLoader, BadFilesAreClearErrorsNamingTheFile) {
+  TempDir t;
+  auto write = [&](const char* name, const std::string& text) {
+    std::ofstream(t.path() / name, std::ios::binary) << text;
+    return (t.path() / name).string();
+  };
+  auto err = [&](const std::string& path) { return error_of([&] { mesh::read_mesh(path); }); };
+  const std::string missing = (t.path() / "nope.obj").string();
+  EXPECT_NE(err(missing).find("no such mesh file"), std::string::npos) << err(missing);
+  EXPECT_NE(err(missing).find(missing), std::string::npos);
+  const std::string xyz = write("points.xyz", "0 0 0\n");
+  EXPECT_NE(err(xyz).find("unknown mesh extension '.xyz'"), std::string::npos) << err(xyz);
+  EXPECT_NE(err(xyz).find(".obj, .ply, .stl, .off, .gltf, .glb"), std::string::npos) << err(xyz);
+  const std::string empty = write("empty.ply", "");
+  EXPECT_NE(err(empty).find("empty"), std::string::npos) << err(empty);
+  const std::string lie = write("text.glb", "this is not a binary glTF file at all\n");
+  EXPECT_NE(err(lie).find("cannot be read as a .glb mesh"), std::string::npos) << err(lie);
+  const std::string cloud = write("cloud.ply",
+                                  "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                  "property float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n");
+  EXPECT_NE(err(cloud).find("no triangles"), std::string::npos) << err(cloud);
+  const std::string nan = write("nan.off", "OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n");
+  EXPECT_NE(err(nan).find("not a finite number"), std::string::npos) << err(nan);
+  const std::string flat = write("line.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n");
+  EXPECT_NE(err(flat).find("degenerate"), std::string::npos) << err(flat);
+  for (const std::string& p : {xyz, empty, lie, cloud, nan, flat}) EXPECT_NE(err(p).find(p), std::string::npos) << err(p);
+}
+
+TEST(MeshFill, AnAxisAlignedCubeGivesTheBoxLatticeExactly) {
+  TempDir t;
+  test::write_mesh_file(t.path() / "cube.stl", test::cube_mesh(0.1, {5, 6, 7}));  // 0.2 m, far from the origin
+  SceneDef s = mesh_scene(t.path() / "cube.stl", 0.02);
+  s.objects[0].position = {1, 2, 3};
+  const Model m = lattice::build_model(s);
+  SceneDef b = test::block_scene(10, 10, 10, 0.02);
+  b.objects[0].position = {1, 2, 3};
+  const Model box = lattice::build_model(b);
+  ASSERT_EQ(m.size(), 1000u);
+  EXPECT_EQ(m.link_count(), box.link_count());
+  for (std::size_t a = 0; a < m.size(); ++a) {
+    EXPECT_NEAR(m.position0[a].x, box.position0[a].x, 1e-12);
+    EXPECT_NEAR(m.position0[a].y, box.position0[a].y, 1e-12);
+    EXPECT_NEAR(m.position0[a].z, box.position0[a].z, 1e-12);
+  }
+  ASSERT_EQ(m.meshes.size(), 1u);
+  EXPECT_NEAR(m.meshes[0].lo[0], 0.9, 1e-6);  // the file's coordinates are float32
+  EXPECT_NEAR(m.meshes[0].hi[2], 3.1, 1e-6);
+  EXPECT_NEAR(m.meshes[0].file_lo[1], 5.9, 1e-6);
+}
+
+TEST(MeshFill, AClosedSphereFillsItsVolumeWithin2Percent) {
+  TempDir t;
+  const double r = 0.2, d = 0.01;
+  test::write_mesh_file(t.path() / "sphere.ply", test::sphere_mesh(r, 4));
+  const std::int64_t n = lattice::count_automata(mesh_scene(t.path() / "sphere.ply", d), d);
+  EXPECT_NEAR(n / (4.0 / 3.0 * std::numbers::pi * r * r * r / (d * d * d)), 1.0, 0.02) << n;
+}
+
+TEST(MeshFill, TargetAutomataLandWithin2Percent) {
+  TempDir t;
+  test::write_mesh_file(t.path() / "torus.obj", test::torus_mesh(0.3, 0.1));
+  for (std::int64_t target : {2000, 16301, 60000}) {
+    SceneDef s = mesh_scene(t.path() / "torus.obj", 0.05);
+    s.solver.target_automata = target;
+    const Model m = lattice::build_model(s);
+    EXPECT_NEAR(static_cast<double>(m.size()) / static_cast<double>(target), 1.0, 0.02) << target;
+  }
+}
+
+TEST(MeshFill, FlippedAndDoubledTrianglesChangeNothing) {
+  TempDir t;
+  mesh::TriMesh sphere = test::sphere_mesh(0.2, 3);
+  test::write_mesh_file(t.path() / "clean.off", sphere);
+  for (std::size_t f = 0; f < sphere.faces.size(); f += 97) std::swap(sphere.faces[f][1], sphere.faces[f][2]);
+  sphere.faces.push_back(sphere.faces[5]);
+  test::write_mesh_file(t.path() / "messy.off", sphere);
+  const Model a = lattice::build_model(mesh_scene(t.path() / "clean.off", 0.02));
+  const Model b = lattice::build_model(mesh_scene(t.path() / "messy.off", 0.02));
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(a.link_count(), b.link_count());
+  EXPECT_EQ(b.meshes[0].non_manifold_edges, 3u);  // the doubled triangle's edges
+}
+
+TEST(MeshFill, AnOpenMeshIsRefusedUnlessItsHolesAreUnderACell) {
+  TempDir t;
+  mesh::TriMesh cube = test::cube_mesh(0.1);
+  cube.faces.resize(10);  // one face of the cube missing: a hole 0.2 m wide
+  test::write_mesh_file(t.path() / "open.obj", cube);
+  const std::string e = error_of([&] { lattice::build_model(mesh_scene(t.path() / "open.obj", 0.02)); });
+  EXPECT_NE(e.find("is open: 4 boundary edges in 1 hole"), std::string::npos) << e;
+  EXPECT_NE(e.find("Close Holes"), std::string::npos) << e;
+  EXPECT_NE(e.find("open.obj"), std::string::npos) << e;
+  // A sphere missing one small triangle (about 0.03 m across at r = 0.2, level 3) fills at d = 0.05 as if closed.
+  mesh::TriMesh sphere = test::sphere_mesh(0.2, 3);
+  test::write_mesh_file(t.path() / "closed.off", sphere);
+  sphere.faces.erase(sphere.faces.begin() + 7);
+  test::write_mesh_file(t.path() / "holed.off", sphere);
+  const Model holed = lattice::build_model(mesh_scene(t.path() / "holed.off", 0.05));
+  EXPECT_EQ(holed.size(), lattice::build_model(mesh_scene(t.path() / "closed.off", 0.05)).size());
+  EXPECT_EQ(holed.meshes[0].boundary_edges, 3u);
+}
+
+TEST(MeshFill, TooSmallOrTooLargeSaysWhichSpacingGivesTenThousand) {
+  TempDir t;
+  test::write_mesh_file(t.path() / "sphere.stl", test::sphere_mesh(1.0, 2));
+  SceneDef s = mesh_scene(t.path() / "sphere.stl", 0.5);
+  s.objects[0].scale = 0.01;  // 2 cm across at a spacing of 0.5 m
+  std::string e = error_of([&] { lattice::build_model(s); });
+  EXPECT_NE(e.find("10,000 automata"), std::string::npos) << e;
+  EXPECT_NE(e.find("0.02 x 0.02 x 0.02 m"), std::string::npos) << e;
+  s.objects[0].scale = 1000;  // 2 km across
+  e = error_of([&] { lattice::build_model(s); });
+  EXPECT_NE(e.find("solver.max_memory_gb"), std::string::npos) << e;
+  EXPECT_NE(e.find("10,000 automata"), std::string::npos) << e;
+}
+
+TEST(MeshFill, AMeshRegionGivesItsMaterialToTheAutomataInside) {
+  TempDir t;
+  test::write_mesh_file(t.path() / "cube.ply", test::cube_mesh(100));          // millimetres
+  test::write_mesh_file(t.path() / "core.ply", test::sphere_mesh(60, 4, {20, 0, 0}));
+  SceneDef s = mesh_scene(t.path() / "cube.ply", 0.01);
+  s.objects[0].scale = 0.001;
+  s.objects[0].position = {0, 0, 1};
+  s.objects[0].rotation = {0, 0, 90};
+  MaterialDef soft = test::test_material(1e9);
+  soft.name = "soft";
+  s.materials.push_back(soft);
+  RegionDef core;
+  core.shape = Shape::mesh;
+  core.mesh = (t.path() / "core.ply").string();
+  core.material = "soft";
+  s.objects[0].regions.push_back(core);
+  const Model m = lattice::build_model(s);
+  std::size_t in_core = 0;
+  // The core's centre (20, 0, 0) mm in the file: rotated 90 degrees about z and placed at z = 1.
+  for (std::size_t a = 0; a < m.size(); ++a) {
+    if (m.group_names[m.group[a]] != "soft") continue;
+    ++in_core;
+    const double dx = m.position0[a].x, dy = m.position0[a].y - 0.02, dz = m.position0[a].z - 1;
+    EXPECT_LE(std::sqrt(dx * dx + dy * dy + dz * dz), 0.06 + 1e-9);
+  }
+  EXPECT_NEAR(in_core / (4.0 / 3.0 * std::numbers::pi * std::pow(0.06, 3) / 1e-6), 1.0, 0.03) << in_core;
+}
+
+TEST(MeshScene, FileKeysResolveAndRoundTrip) {
+  TempDir t;
+  fs::create_directories(t.path() / "models");
+  test::write_mesh_file(t.path() / "models" / "rock.obj", test::sphere_mesh(1.0, 2));
+  const std::string text = R"(
+[solver]
+spacing = 0.05
+[[object]]
+name = "rock"
+shape = "mesh"
+mesh = "models/rock.obj"
+fit_size = 0.5
+position = [0, 0, 2]
+)";
+  const fs::path scene_file = t.path() / "rock.toml";
+  std::ofstream(scene_file) << text;
+  const SceneDef s = io::load_scene_file(scene_file);
+  EXPECT_EQ(fs::path(s.objects[0].mesh), fs::absolute(t.path() / "models" / "rock.obj").lexically_normal());
+  EXPECT_EQ(s.objects[0].fit_size, 0.5);
+  const SceneDef again = io::parse_scene(io::scene_to_toml(s), "/elsewhere/copy.toml");
+  EXPECT_EQ(again.objects[0].mesh, s.objects[0].mesh);
+  EXPECT_EQ(io::scene_to_toml(again), io::scene_to_toml(s));
+  const Model m = lattice::build_model(s);
+  EXPECT_NEAR(m.meshes[0].hi[0] - m.meshes[0].lo[0], 0.5, 1e-9);  // fit_size: the largest extent
+
+  std::string bad = text;
+  bad.replace(bad.find("models/rock.obj"), 15, "models/nope.obj");
+  std::string e = error_of([&] { io::parse_scene(bad, scene_file.string()); });
+  EXPECT_NE(e.find("rock.toml:7:8: object[0].mesh = \"models/nope.obj\": no such file"), std::string::npos) << e;
+  EXPECT_NE(e.find("scripts/get_models.sh"), std::string::npos) << e;
+  e = error_of([&] { io::parse_scene(text + "scale = 2\n", scene_file.string()); });
+  EXPECT_NE(e.find("gives both scale = 2 and fit_size = 0.5"), std::string::npos) << e;
+  e = error_of([&] { io::parse_scene(text + "fill = \"solid\"\n", scene_file.string()); });
+  EXPECT_NE(e.find("fill = \"solid\" is not a fill mode"), std::string::npos) << e;
+  e = error_of([&] {
+    io::parse_scene("[[object]]\nshape = \"box\"\n[[object.region]]\nshape = \"mesh\"\nmesh = \"" +
+                        (t.path() / "models" / "rock.obj").string() + "\"\nmaterial = \"concrete\"\n",
+                    scene_file.string());
+  });
+  EXPECT_NE(e.find("only for objects of shape \"mesh\""), std::string::npos) << e;
+}
+
+}  // namespace
+}  // namespace mca
+
+namespace mca {
+namespace {
+
+namespace fs = std::filesystem;
+using test::TempDir;
+
+// A quaternion turning by `deg` degrees about the unit axis (x, y, z).
+Quat axis_angle(double x, double y, double z, double deg) {
+  const double h = deg * std::numbers::pi / 360.0;
+  return {static_cast<float>(std::cos(h)), static_cast<float>(x * std::sin(h)), static_cast<float>(y * std::sin(h)),
+          static_cast<float>(z * std::sin(h))};
+}
+
+DVec3 rotated(const Quat& q, const DVec3& v) {
+  const double w = q.w, x = q.x, y = q.y, z = q.z;
+  const double m[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)},
+                          {2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)},
+                          {2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)}};
+  return {m[0][0] * v.x + m[0][1] * v.y + m[0][2] * v.z, m[1][0] * v.x + m[1][1] * v.y + m[1][2] * v.z,
+          m[2][0] * v.x + m[2][1] * v.y + m[2][2] * v.z};
+}
+
+TEST(Surface, EachTriangleIsBoundToTheAutomatonNearestItsCentroid) {
+  TempDir t;
+  const mesh::TriMesh sphere = test::sphere_mesh(0.2, 3);
+  test::write_mesh_file(t.path() / "sphere.off", sphere);
+  SceneDef s = mesh_scene(t.path() / "sphere.off", 0.03);
+  s.objects[0].position = {3, -2, 1};
+  s.objects[0].rotation = {10, 20, 30};
+  const Model m = lattice::build_model(s);
+  ASSERT_EQ(m.surface.faces(), sphere.faces.size());
+  EXPECT_EQ(m.surface.vertices, sphere.vertices.size());
+  for (std::size_t f = 0; f < m.surface.faces(); ++f) {
+    DVec3 c{0, 0, 0};
+    for (int k = 0; k < 3; ++k) {
+      const DVec3 a = m.position0[m.surface.automaton[f]];
+      const Vec3 o = m.surface.offset[3 * f + k];
+      c.x += (a.x + o.x) / 3;
+      c.y += (a.y + o.y) / 3;
+      c.z += (a.z + o.z) / 3;
+    }
+    auto dist2 = [&](std::size_t a) {
+      const DVec3 d = ddelta(c, m.position0[a]);
+      return dot(d, d);
+    };
+    double nearest = INFINITY;
+    for (std::size_t a = 0; a < m.size(); ++a) nearest = std::min(nearest, dist2(a));
+    EXPECT_NEAR(dist2(m.surface.automaton[f]), nearest, 1e-9) << "face " << f;
+  }
+}
+
+TEST(Surface, ARigidlyMovedObjectMovesItsSurfaceRigidly) {
+  TempDir t;
+  const mesh::TriMesh sphere = test::sphere_mesh(0.2, 3);
+  test::write_mesh_file(t.path() / "sphere.ply", sphere);
+  SceneDef s = mesh_scene(t.path() / "sphere.ply", 0.04);
+  s.objects[0].position = {100, 0, 0};  // far from the origin
+  const Engine sim(s);
+  const Model& m = sim.model();
+  State st = sim.state();
+  // Turn everything by 70 degrees about a tilted axis through the object's centre, then move it by (1, 2, 3).
+  const Quat q = axis_angle(0.6, 0.0, 0.8, 70);
+  const DVec3 centre{100, 0, 0}, shift{1, 2, 3};
+  auto place = [&](const DVec3& p) {
+    const DVec3 r = rotated(q, ddelta(centre, p));
+    return DVec3{centre.x + shift.x + r.x, centre.y + shift.y + r.y, centre.z + shift.z + r.z};
+  };
+  for (std::size_t a = 0; a < m.size(); ++a) {
+    st.x[a] = place(m.position0[a]);
+    st.q[a] = q;
+  }
+  const std::vector<std::int32_t> one_fragment(m.size(), 0);
+  const mesh::FloatMesh out = analysis::posed_surface(m, st, one_fragment);
+  ASSERT_EQ(out.vertices.size(), sphere.vertices.size());
+  ASSERT_EQ(out.faces.size(), sphere.faces.size());
+  // The sphere's vertices in the world at the start: the file's, about its box centre, at the position.
+  const mesh::Point fc = mesh::bounds(mesh::read_mesh((t.path() / "sphere.ply").string())).centre();
+  double worst = 0;
+  for (std::size_t f = 0; f < sphere.faces.size(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const auto& v = sphere.vertices[sphere.faces[f][k]];
+      const DVec3 want = place({v[0] - fc[0] + 100, v[1] - fc[1], v[2] - fc[2]});
+      const auto& got = out.vertices[out.faces[f][k]];
+      worst = std::max({worst, std::fabs(got[0] - want.x), std::fabs(got[1] - want.y), std::fabs(got[2] - want.z)});
+    }
+  EXPECT_LT(worst / 101.0, 1e-5) << worst;  // relative to the coordinates' size
+  EXPECT_LT(worst, 2e-5) << worst;          // float32 output 100 m from the origin: 8e-6 m steps
+}
+
+TEST(Surface, VerticesSplitWhereTheirTrianglesBelongToDifferentFragments) {
+  TempDir t;
+  test::write_mesh_file(t.path() / "cube.obj", test::cube_mesh(0.1));
+  const Engine sim(mesh_scene(t.path() / "cube.obj", 0.02));
+  const Model& m = sim.model();
+  std::vector<std::int32_t> halves(m.size());
+  for (std::size_t a = 0; a < m.size(); ++a) halves[a] = m.position0[a].x > 0 ? 1 : 0;
+  const mesh::FloatMesh whole = analysis::posed_surface(m, sim.state(), std::vector<std::int32_t>(m.size(), 0));
+  const mesh::FloatMesh split = analysis::posed_surface(m, sim.state(), halves);
+  EXPECT_EQ(whole.vertices.size(), 8u);
+  // The cube's two triangles per face: each face's diagonal runs corner to corner, so the x = 0 plane
+  // divides the four faces around x; their triangles lie on one side or the other by centroid.
+  EXPECT_GT(split.vertices.size(), whole.vertices.size());
+  std::set<std::int32_t> seen(split.face_values.begin(), split.face_values.end());
+  EXPECT_EQ(seen.size(), 2u);
+  // A split vertex appears once per fragment: no output vertex is used by triangles of two fragments.
+  std::map<std::uint32_t, std::int32_t> owner;
+  for (std::size_t f = 0; f < split.faces.size(); ++f)
+    for (auto v : split.faces[f]) {
+      const auto [it, fresh] = owner.try_emplace(v, split.face_values[f]);
+      EXPECT_EQ(it->second, split.face_values[f]);
+    }
+}
+
+TEST(Surface, WrittenPlyAndObjReadBackWithTheSameCounts) {
+  TempDir t;
+  test::write_mesh_file(t.path() / "torus.glb", test::torus_mesh(0.3, 0.1, 48, 24));
+  const Engine sim(mesh_scene(t.path() / "torus.glb", 0.03));
+  const mesh::FloatMesh out =
+      analysis::posed_surface(sim.model(), sim.state(), std::vector<std::int32_t>(sim.model().size(), 0));
+  for (const char* name : {"s.ply", "s.obj"}) {
+    {
+      std::ofstream f(t.path() / name, std::ios::binary);
+      if (std::string(name) == "s.ply") mesh::write_ply(f, out);
+      else mesh::write_obj(f, out);
+    }
+    const mesh::TriMesh back = mesh::read_mesh((t.path() / name).string());
+    EXPECT_EQ(back.faces.size(), out.faces.size()) << name;
+    EXPECT_EQ(back.vertices.size(), out.vertices.size()) << name;
+    EXPECT_TRUE(mesh::topology(back).closed()) << name;
+  }
+}
+
+TEST(Surface, ARunWritesOneSurfaceFilePerFrame) {
+  TempDir t;
+  test::write_mesh_file(t.path() / "rock.stl", test::sphere_mesh(1.0, 3));
+  std::ofstream(t.path() / "rock.toml") << R"(
+[solver]
+spacing = 0.1
+[output]
+duration = 0.002
+frame_rate = 2000
+surface = true
+surface_format = "obj"
+[[object]]
+shape = "mesh"
+mesh = "rock.stl"
+velocity = [1, 0, 0]
+)";
+  const test::Result r = test::run_mca("run " + (t.path() / "rock.toml").string() + " -q --no-vtk --out " +
+                                       (t.path() / "out").string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  for (int frame = 0; frame <= 4; ++frame) {
+    const fs::path p = t.path() / "out" / "surface" / fmt::format("surface_{:06d}.obj", frame);
+    ASSERT_TRUE(fs::exists(p)) << p;
+    EXPECT_EQ(mesh::read_mesh(p.string()).faces.size(), 1280u);
+  }
+  EXPECT_FALSE(fs::exists(t.path() / "out" / "surface" / "surface_000005.obj"));
+  std::ofstream(t.path() / "box.toml") << "[output]\nsurface = true\n[[object]]\nshape = \"box\"\n";
+  const test::Result no_mesh = test::run_mca("run " + (t.path() / "box.toml").string() + " -q");
+  EXPECT_NE(no_mesh.code, 0);
+  EXPECT_NE(no_mesh.output.find("output.surface = true, but no object is a mesh"), std::string::npos) << no_mesh.output;
+}
+
+}  // namespace
+}  // namespace mca
