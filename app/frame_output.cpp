@@ -7,6 +7,7 @@
 #include <fstream>
 #include <unistd.h>
 
+#include "analysis/fragment_meshes.hpp"
 #include "analysis/surface.hpp"
 #include "io/output_files.hpp"
 #include "io/vtk_writer.hpp"
@@ -20,9 +21,26 @@ FrameWriter::FrameWriter(std::filesystem::path dir, const Model& model, const Ou
       vtk_(output.vtk),
       links_(output.links),
       surface_(output.surface && model.surface.faces() > 0),
-      surface_format_(output.surface_format) {
+      surface_format_(output.surface_format),
+      fragment_meshes_(output.fragments),
+      fragment_min_automata_(output.fragment_min_automata) {
   if (vtk_) std::filesystem::create_directories(dir_ / "frames");
   if (surface_) std::filesystem::create_directories(dir_ / "surface");
+}
+
+std::size_t FrameWriter::write_fragment_meshes(const State& s, const analysis::Fragments& frags) {
+  if (!fragment_meshes_) return 0;
+  std::filesystem::create_directories(dir_ / "fragments");
+  const auto meshes = analysis::fragment_meshes(model_, s, frags, fragment_min_automata_);
+  for (const auto& fm : meshes) {
+    mesh::FloatMesh out;
+    for (const auto& v : fm.mesh.vertices)
+      out.vertices.push_back({static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2])});
+    out.faces = fm.mesh.faces;
+    io::write_file_atomic(dir_ / fmt::format("fragments/fragment_{:03d}.ply", fm.fragment),
+                          [&](std::ostream& os) { mesh::write_ply(os, out); });
+  }
+  return meshes.size();
 }
 
 std::string FrameWriter::surface_name(std::int64_t frame, OutputDef::SurfaceFormat format) {

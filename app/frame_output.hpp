@@ -45,6 +45,9 @@ class FrameWriter {
   // Rebuild the .pvd lists after a resume (frames 0..frames-1 exist on disk).
   void restore(std::int64_t frames, double frame_interval);
   static std::vector<std::string> stats_header(const Model& model);
+  // At the end of a run (output.fragments): fragments/fragment_NNN.ply for each fragment of more than
+  // output.fragment_min_automata automata. Returns how many were written.
+  std::size_t write_fragment_meshes(const State& s, const analysis::Fragments& frags);
   // The bound surface's file of a frame, relative to the output folder.
   static std::string surface_name(std::int64_t frame, OutputDef::SurfaceFormat format);
 
@@ -53,6 +56,8 @@ class FrameWriter {
   const Model& model_;
   bool vtk_, links_, surface_;
   OutputDef::SurfaceFormat surface_format_;
+  bool fragment_meshes_;
+  std::int64_t fragment_min_automata_;
   std::vector<std::pair<double, std::string>> automata_pvd_, projectile_pvd_;
   int stats_fd_ = -1;  // stats.csv, open for appending after start_stats
 };

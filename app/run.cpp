@@ -181,7 +181,7 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
 // Temporary files a killed run left behind (their names are unique per process, so nothing else
 // would ever replace them).
 void remove_stale_temporaries(const std::filesystem::path& dir) {
-  for (const char* sub : {"", "frames", "surface", "checkpoints"}) io::remove_stale_temporaries(dir / sub);
+  for (const char* sub : {"", "frames", "surface", "fragments", "checkpoints"}) io::remove_stale_temporaries(dir / sub);
 }
 
 void remove_own_files(const std::filesystem::path& dir, const std::string& prefix, const std::string& extension) {
@@ -333,6 +333,8 @@ int run_loop(Loop& L, FrameWriter& writer) {
   const auto frags = writer.fragments(sim.state());
   write_summary(L.dir, sim, frags, L.wall_before + wall, sim.state().step - first_step, L.threads,
                 "finished");
+  const std::size_t meshes = writer.write_fragment_meshes(sim.state(), frags);
+  if (!L.quiet && meshes > 0) fmt::print(stderr, "{}{} fragment meshes in fragments/\n", tty ? "\n" : "", meshes);
   if (!L.quiet) {
     const State& s = sim.state();
     fmt::print(stderr, "{}done: {} automata, {} steps in {:.1f} s ({:.2f} M automaton-steps/s on {} threads); "
@@ -407,6 +409,7 @@ int run(const RunOptions& o) {
   remove_own_files(dir / "frames", "projectiles_", ".vtu");
   remove_own_files(dir / "surface", "surface_", ".ply");
   remove_own_files(dir / "surface", "surface_", ".obj");
+  remove_own_files(dir / "fragments", "fragment_", ".ply");
   // The collections too: this run may write no projectile frames (no projectiles) or no frames at all
   // (--no-vtk), and a collection left from an earlier run would list frames that were just removed.
   std::filesystem::remove(dir / "automata.pvd");

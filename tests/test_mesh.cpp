@@ -9,6 +9,7 @@
 #include <numbers>
 #include <set>
 
+#include "analysis/fragment_meshes.hpp"
 #include "analysis/surface.hpp"
 #include "io/scene_io.hpp"
 #include "lattice/lattice.hpp"
@@ -394,6 +395,7 @@ duration = 0.002
 frame_rate = 2000
 surface = true
 surface_format = "obj"
+fragments = true
 [[object]]
 shape = "mesh"
 mesh = "rock.stl"
@@ -408,10 +410,95 @@ velocity = [1, 0, 0]
     EXPECT_EQ(mesh::read_mesh(p.string()).faces.size(), 1280u);
   }
   EXPECT_FALSE(fs::exists(t.path() / "out" / "surface" / "surface_000005.obj"));
+  // Unbroken: one fragment, its mesh closed and holding the rock's volume.
+  const mesh::TriMesh piece = mesh::read_mesh((t.path() / "out" / "fragments" / "fragment_000.ply").string());
+  EXPECT_TRUE(mesh::topology(piece).closed());
+  EXPECT_NEAR(mesh::signed_volume(piece) / (4.0 / 3.0 * std::numbers::pi), 1.0, 0.05);
+  EXPECT_FALSE(fs::exists(t.path() / "out" / "fragments" / "fragment_001.ply"));
   std::ofstream(t.path() / "box.toml") << "[output]\nsurface = true\n[[object]]\nshape = \"box\"\n";
   const test::Result no_mesh = test::run_mca("run " + (t.path() / "box.toml").string() + " -q");
   EXPECT_NE(no_mesh.code, 0);
   EXPECT_NE(no_mesh.output.find("output.surface = true, but no object is a mesh"), std::string::npos) << no_mesh.output;
+}
+
+}  // namespace
+}  // namespace mca
+
+namespace mca {
+namespace {
+
+namespace fs = std::filesystem;
+using test::TempDir;
+
+// The fragments of a model cut by planes x = cuts[k] (the ids numbered by region, left to right).
+analysis::Fragments cut_by_x(const Model& m, const std::vector<double>& cuts) {
+  analysis::Fragments f;
+  f.id.resize(m.size());
+  for (std::size_t a = 0; a < m.size(); ++a) {
+    std::int32_t k = 0;
+    while (k < static_cast<std::int32_t>(cuts.size()) && m.position0[a].x > cuts[static_cast<std::size_t>(k)]) ++k;
+    f.id[a] = k;
+  }
+  f.count = static_cast<std::int32_t>(cuts.size()) + 1;
+  return f;
+}
+
+TEST(FragmentMeshes, AreClosedAndTheirVolumesSumToTheObjects) {
+  TempDir t;
+  const double r = 0.2;
+  test::write_mesh_file(t.path() / "sphere.off", test::sphere_mesh(r, 4));
+  SceneDef s = mesh_scene(t.path() / "sphere.off", 0.02);
+  s.objects[0].rotation = {0, 0, 25};  // the lattice turned against the cuts
+  const Engine sim(s);
+  const Model& m = sim.model();
+  const auto frags = cut_by_x(m, {-0.07, 0.05});
+  const auto meshes = analysis::fragment_meshes(m, sim.state(), frags, 8);
+  ASSERT_EQ(meshes.size(), 3u);
+  double sum = 0;
+  for (const auto& fm : meshes) {
+    const mesh::Topology topo = mesh::topology(fm.mesh);
+    EXPECT_EQ(topo.boundary_edges, 0u) << "fragment " << fm.fragment;
+    EXPECT_EQ(topo.non_manifold_edges, 0u) << "fragment " << fm.fragment;
+    EXPECT_GT(fm.volume, 0);
+    // Each piece holds about its automata's volume.
+    EXPECT_NEAR(fm.volume / (fm.automata * std::pow(m.spacing, 3)), 1.0, 0.1) << "fragment " << fm.fragment;
+    sum += fm.volume;
+  }
+  const double sphere = 4.0 / 3.0 * std::numbers::pi * r * r * r;
+  EXPECT_NEAR(sum / sphere, 1.0, 0.05) << sum;
+}
+
+TEST(FragmentMeshes, OfABoxAreItsCellsAndFollowTheFragmentsPose) {
+  SceneDef s = test::block_scene(10, 6, 4, 0.05);
+  const Engine sim(s);
+  const Model& m = sim.model();
+  State st = sim.state();
+  const auto frags = cut_by_x(m, {0.0});  // two halves of 5 x 6 x 4 cells
+  // The right half turned by 90 degrees about z and lifted by 1 m.
+  const Quat q = axis_angle(0, 0, 1, 90);
+  for (std::size_t a = 0; a < m.size(); ++a) {
+    if (frags.id[a] != 1) continue;
+    const DVec3 r = rotated(q, m.position0[a]);
+    st.x[a] = {r.x, r.y, r.z + 1};
+    st.q[a] = q;
+  }
+  const auto meshes = analysis::fragment_meshes(m, st, frags, 8);
+  ASSERT_EQ(meshes.size(), 2u);
+  for (const auto& fm : meshes) {
+    EXPECT_TRUE(mesh::topology(fm.mesh).closed());
+    EXPECT_NEAR(fm.volume, 120 * std::pow(0.05, 3), 0.005 * fm.volume);  // 5 x 6 x 4 cells of 5 cm
+    const mesh::Bounds b = mesh::bounds(fm.mesh);
+    if (fm.fragment == 0) {
+      EXPECT_NEAR(b.lo[0], -0.25, 1e-3);
+      EXPECT_NEAR(b.hi[0], 0.0, 1e-3);
+      EXPECT_NEAR(b.hi[2], 0.1, 1e-3);
+    } else {  // x in [0, 0.25] turned onto y in [0, 0.25]; y in [-0.15, 0.15] onto x; z lifted to [0.9, 1.1]
+      EXPECT_NEAR(b.lo[1], 0.0, 1e-3);
+      EXPECT_NEAR(b.hi[1], 0.25, 1e-3);
+      EXPECT_NEAR(b.lo[0], -0.15, 1e-3);
+      EXPECT_NEAR(b.lo[2], 0.9, 1e-3);
+    }
+  }
 }
 
 }  // namespace

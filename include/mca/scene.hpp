@@ -161,6 +161,10 @@ struct OutputDef {
   // .obj), split into fragments; needs an object of shape mesh.
   bool surface = false;
   enum class SurfaceFormat { ply, obj } surface_format = SurfaceFormat::ply;
+  // At the end of a run, a closed mesh per fragment of more than fragment_min_automata automata, as
+  // fragments/fragment_NNN.ply (analysis/fragment_meshes.hpp).
+  bool fragments = false;
+  std::int64_t fragment_min_automata = 8;  // >= 1
 };
 
 struct SceneDef {

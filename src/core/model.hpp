@@ -111,6 +111,8 @@ struct Model {
   std::vector<float> zeta_pair, zeta_ground, zeta_projectiles;
   std::vector<std::string> group_names;
   std::vector<std::string> object_names;
+  // Per object: its lattice's axes (local x, y, z) in the world, unit vectors.
+  std::vector<std::array<Vec3, 3>> object_axes;
   std::vector<MeshSummary> meshes;  // one per object of shape mesh
   BoundSurface surface;             // the triangles of the mesh objects, bound to automata
   std::vector<ProjectileParams> projectiles;

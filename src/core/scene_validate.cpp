@@ -306,6 +306,11 @@ void validate_scene(const SceneDef& scene) {
     c.fail("output.surface = true, but no object is a mesh: the surface written is that of the mesh objects; add an "
            "object with shape = \"mesh\" or remove output.surface (the automata are in the VTK frames)");
   }
+  if (scene.output.fragment_min_automata < 1) {
+    c.fail(fmt::format("output.fragment_min_automata = {} is out of range: must be >= 1 (fragments of more automata "
+                       "than this get a mesh); use e.g. 8",
+                       scene.output.fragment_min_automata));
+  }
   if (scene.output.checkpoint_every < 0) {
     c.fail(fmt::format("output.checkpoint_every = {} is out of range: must be >= 0; use 0 for no checkpoints or "
                        "a number of frames",

@@ -584,13 +584,16 @@ SceneDef read_scene(const Table& root, const std::string& source) {
   }
 
   if (auto tb = root.table("output", "[output]")) {
-    tb->allow({"duration", "frame_rate", "links", "vtk", "checkpoint_every", "surface", "surface_format"});
+    tb->allow({"duration", "frame_rate", "links", "vtk", "checkpoint_every", "surface", "surface_format", "fragments",
+               "fragment_min_automata"});
     OutputDef& o = scene.output;
     tb->number("duration", o.duration);
     tb->number("frame_rate", o.frame_rate);
     tb->boolean("links", o.links);
     tb->boolean("vtk", o.vtk);
     tb->boolean("surface", o.surface);
+    tb->boolean("fragments", o.fragments);
+    tb->integer("fragment_min_automata", o.fragment_min_automata);
     if (auto f = tb->choice("surface_format", {"ply", "obj"}, "a surface format")) {
       o.surface_format = *f == "obj" ? OutputDef::SurfaceFormat::obj : OutputDef::SurfaceFormat::ply;
     }
@@ -739,6 +742,8 @@ std::string scene_to_toml(const SceneDef& s) {
   out += fmt::format("vtk = {}\n", s.output.vtk);
   out += fmt::format("checkpoint_every = {}\n", s.output.checkpoint_every);
   out += fmt::format("surface = {}\n", s.output.surface);
+  out += fmt::format("fragments = {}\n", s.output.fragments);
+  out += fmt::format("fragment_min_automata = {}\n", s.output.fragment_min_automata);
   out += fmt::format("surface_format = \"{}\"\n", s.output.surface_format == OutputDef::SurfaceFormat::obj ? "obj" : "ply");
 
   out += "\n[heterogeneity]\n";

@@ -707,6 +707,8 @@ Model build_model(const SceneDef& scene) {
 
     const ObjectLattice L = object_lattice(scene, S, oi, d);
     const Mat3 R = rotation_matrix(o.rotation);
+    M.object_axes.push_back({to_vec3({R.m[0][0], R.m[1][0], R.m[2][0]}), to_vec3({R.m[0][1], R.m[1][1], R.m[2][1]}),
+                             to_vec3({R.m[0][2], R.m[1][2], R.m[2][2]})});
     const std::size_t first = M.size();
     std::vector<std::int64_t> index(L.inside.size(), -1);
     std::vector<Vec3> local;

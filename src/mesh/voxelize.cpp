@@ -3,6 +3,7 @@
 #include <mutex>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/MeshToVolume.h>
+#include <openvdb/tools/VolumeToMesh.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -22,14 +23,73 @@ struct Adapter {
   }
 };
 
-}  // namespace
-
-std::vector<std::uint8_t> interior_cells(const TriMesh& m, const CellBox& box) {
+openvdb::FloatGrid::Ptr distance_grid(const TriMesh& m, const CellBox& box, float band) {
   static std::once_flag once;
   std::call_once(once, [] { openvdb::initialize(); });
   const auto xform = openvdb::math::Transform::createLinearTransform(box.d);
-  // A band of 3 cells each side: the sign is flood-filled from there through the rest of the grid.
-  const auto grid = openvdb::tools::meshToVolume<openvdb::FloatGrid>(Adapter{&m, &box}, *xform, 3.0f, 3.0f);
+  // The sign is flood-filled from the band through the rest of the grid.
+  return openvdb::tools::meshToVolume<openvdb::FloatGrid>(Adapter{&m, &box}, *xform, band, band);
+}
+
+}  // namespace
+
+struct SignedDistance::Grid {
+  openvdb::FloatGrid::Ptr grid;
+};
+
+SignedDistance::SignedDistance(const TriMesh& m, const CellBox& box, float band)
+    : grid_(std::make_unique<Grid>(Grid{distance_grid(m, box, band)})) {}
+
+SignedDistance::~SignedDistance() = default;
+
+float SignedDistance::at(std::int64_t i, std::int64_t j, std::int64_t k) const {
+  // The tree's own lookup (a ValueAccessor would be faster but is not safe to share between threads).
+  return grid_->grid->tree().getValue(openvdb::Coord(static_cast<int>(i), static_cast<int>(j), static_cast<int>(k)));
+}
+
+TriMesh polygonize(const std::vector<float>& field, const CellBox& box) {
+  static std::once_flag once;
+  std::call_once(once, [] { openvdb::initialize(); });
+  auto grid = openvdb::FloatGrid::create(2.0f);  // outside; the field is in cells, clamped to +-2
+  {
+    auto acc = grid->getAccessor();
+    std::size_t c = 0;
+    for (std::int64_t k = 0; k < box.n[2]; ++k)
+      for (std::int64_t j = 0; j < box.n[1]; ++j)
+        for (std::int64_t i = 0; i < box.n[0]; ++i, ++c)
+          if (field[c] < 2.0f) acc.setValue(openvdb::Coord(static_cast<int>(i), static_cast<int>(j), static_cast<int>(k)), field[c]);
+  }
+  std::vector<openvdb::Vec3s> points;
+  std::vector<openvdb::Vec3I> triangles;
+  std::vector<openvdb::Vec4I> quads;
+  openvdb::tools::volumeToMesh(*grid, points, triangles, quads, 0.0, 0.0);
+  TriMesh out;
+  out.vertices.reserve(points.size());
+  for (const auto& p : points)
+    out.vertices.push_back({box.origin[0] + p[0] * box.d, box.origin[1] + p[1] * box.d, box.origin[2] + p[2] * box.d});
+  for (const auto& t : triangles) out.faces.push_back({t[0], t[1], t[2]});
+  for (const auto& q : quads) {  // split along the shorter diagonal
+    auto dist2 = [&](unsigned a, unsigned b) {
+      double s = 0;
+      for (int x = 0; x < 3; ++x) s += (out.vertices[a][x] - out.vertices[b][x]) * (out.vertices[a][x] - out.vertices[b][x]);
+      return s;
+    };
+    if (dist2(q[0], q[2]) <= dist2(q[1], q[3])) {
+      out.faces.push_back({q[0], q[1], q[2]});
+      out.faces.push_back({q[0], q[2], q[3]});
+    } else {
+      out.faces.push_back({q[0], q[1], q[3]});
+      out.faces.push_back({q[1], q[2], q[3]});
+    }
+  }
+  if (signed_volume(out) < 0)
+    for (auto& f : out.faces) std::swap(f[1], f[2]);
+  return out;
+}
+
+std::vector<std::uint8_t> interior_cells(const TriMesh& m, const CellBox& box) {
+  // A band of 3 cells each side.
+  const auto grid = distance_grid(m, box, 3.0f);
   std::vector<std::uint8_t> inside(static_cast<std::size_t>(box.cells()), 0);
   const std::int64_t nx = box.n[0], ny = box.n[1];
   tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, box.n[2]), [&](const tbb::blocked_range<std::int64_t>& r) {

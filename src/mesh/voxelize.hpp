@@ -3,6 +3,7 @@
 // on the lattice, inside where it is negative). Behind this plain interface: a file that includes OpenVDB
 // takes about 20 s to compile.
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "mesh/mesh.hpp"
@@ -23,5 +24,26 @@ struct CellBox {
 // flipped or doubled triangles change nothing, and holes narrower than about a cell are closed; a larger
 // hole lets the outside in (the caller refuses such meshes: Topology::largest_hole).
 std::vector<std::uint8_t> interior_cells(const TriMesh& m, const CellBox& box);
+
+// The signed distance of a mesh (negative inside), sampled at the cell centres of a box: exact within
+// `band` cells of the surface, +-band cells (by the side) beyond.
+class SignedDistance {
+ public:
+  SignedDistance(const TriMesh& m, const CellBox& box, float band = 3.0f);
+  ~SignedDistance();
+  SignedDistance(const SignedDistance&) = delete;
+  SignedDistance& operator=(const SignedDistance&) = delete;
+  // At the centre of cell (i, j, k) of the box (any integers: outside the box, the value beyond the band).
+  float at(std::int64_t i, std::int64_t j, std::int64_t k) const;
+
+ private:
+  struct Grid;
+  std::unique_ptr<Grid> grid_;
+};
+
+// The closed surface where a field over the cell centres of `box` (x fastest) crosses zero, negative
+// inside, as outward-facing triangles in the box's coordinates. The field must be positive on the box's
+// outer cells for the surface to close.
+TriMesh polygonize(const std::vector<float>& field, const CellBox& box);
 
 }  // namespace mca::mesh

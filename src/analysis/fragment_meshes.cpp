@@ -1,0 +1,221 @@
+#include "analysis/fragment_meshes.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <tbb/parallel_for.h>
+#include <unordered_map>
+
+#include "mesh/voxelize.hpp"
+
+namespace mca::analysis {
+namespace {
+
+// The automata by cell of size d (their starting centres), to find those within d of a point.
+class Buckets {
+ public:
+  Buckets(const Model& m) : d_(m.spacing) {
+    for (std::size_t a = 0; a < m.size(); ++a) cells_[key(m.position0[a].x, m.position0[a].y, m.position0[a].z)].push_back(static_cast<std::uint32_t>(a));
+  }
+  template <class F>
+  void near(double x, double y, double z, F&& f) const {
+    const auto cx = cell(x), cy = cell(y), cz = cell(z);
+    for (std::int64_t k = cz - 1; k <= cz + 1; ++k)
+      for (std::int64_t j = cy - 1; j <= cy + 1; ++j)
+        for (std::int64_t i = cx - 1; i <= cx + 1; ++i) {
+          const auto it = cells_.find(pack(i, j, k));
+          if (it == cells_.end()) continue;
+          for (auto a : it->second) f(a);
+        }
+  }
+
+ private:
+  std::int64_t cell(double t) const { return static_cast<std::int64_t>(std::floor(t / d_)); }
+  static std::uint64_t pack(std::int64_t i, std::int64_t j, std::int64_t k) {
+    return (static_cast<std::uint64_t>(i) & 0x1fffff) << 42 | (static_cast<std::uint64_t>(j) & 0x1fffff) << 21 |
+           (static_cast<std::uint64_t>(k) & 0x1fffff);
+  }
+  std::uint64_t key(double x, double y, double z) const { return pack(cell(x), cell(y), cell(z)); }
+  double d_;
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;
+};
+
+// An object's voxel grid (its automata's starting box, padded) and, for a mesh object, the signed
+// distance of its starting surface on it.
+struct ObjectGrid {
+  mesh::CellBox box;
+  std::unique_ptr<mesh::SignedDistance> surface;
+};
+
+// The rotation of a fragment: the mean of its automata's quaternions (signs aligned with the first),
+// normalised, as a matrix.
+std::array<std::array<double, 3>, 3> mean_rotation(const State& s, const std::vector<std::uint32_t>& members) {
+  const Quat& q0 = s.q[members[0]];
+  double w = 0, x = 0, y = 0, z = 0;
+  for (auto a : members) {
+    const Quat& q = s.q[a];
+    const double sign = q.w * q0.w + q.x * q0.x + q.y * q0.y + q.z * q0.z < 0 ? -1.0 : 1.0;
+    w += sign * q.w;
+    x += sign * q.x;
+    y += sign * q.y;
+    z += sign * q.z;
+  }
+  const double n = std::sqrt(w * w + x * x + y * y + z * z);
+  w /= n;
+  x /= n;
+  y /= n;
+  z /= n;
+  return {{{1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)},
+           {2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)},
+           {2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)}}};
+}
+
+}  // namespace
+
+std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const Fragments& fragments,
+                                          std::int64_t min_automata, int cells_per_spacing) {
+  const double d = m.spacing, h = d / cells_per_spacing;
+  std::vector<std::vector<std::uint32_t>> members(static_cast<std::size_t>(fragments.count));
+  for (std::size_t a = 0; a < m.size(); ++a) members[static_cast<std::size_t>(fragments.id[a])].push_back(static_cast<std::uint32_t>(a));
+  std::vector<std::int32_t> chosen;
+  for (std::int32_t f = 0; f < fragments.count; ++f)
+    if (static_cast<std::int64_t>(members[static_cast<std::size_t>(f)].size()) > min_automata) chosen.push_back(f);
+  if (chosen.empty()) return {};
+
+  // Per object: its grid, and its starting surface's signed distance where it has one.
+  const std::size_t n_obj = m.object_names.size();
+  std::vector<ObjectGrid> grids(n_obj);
+  std::vector<mesh::TriMesh> rest(n_obj);
+  for (std::size_t f = 0; f < m.surface.faces(); ++f) {
+    const std::uint32_t a = m.surface.automaton[f];
+    mesh::TriMesh& r = rest[static_cast<std::size_t>(m.object[a])];
+    const auto base = static_cast<std::uint32_t>(r.vertices.size());
+    for (int c = 0; c < 3; ++c) {
+      const Vec3 o = m.surface.offset[3 * f + c];
+      r.vertices.push_back({m.position0[a].x + o.x, m.position0[a].y + o.y, m.position0[a].z + o.z});
+    }
+    r.faces.push_back({base, base + 1, base + 2});
+  }
+  std::vector<std::array<double, 6>> object_box(n_obj, {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY});
+  for (std::size_t a = 0; a < m.size(); ++a) {
+    auto& b = object_box[static_cast<std::size_t>(m.object[a])];
+    const double p[3] = {m.position0[a].x, m.position0[a].y, m.position0[a].z};
+    for (int c = 0; c < 3; ++c) {
+      b[c] = std::min(b[c], p[c]);
+      b[3 + c] = std::max(b[3 + c], p[c]);
+    }
+  }
+  for (std::size_t o = 0; o < n_obj; ++o) {
+    const auto& b = object_box[o];
+    if (!(b[0] <= b[3])) continue;
+    ObjectGrid& g = grids[o];
+    g.box.d = h;
+    for (int c = 0; c < 3; ++c) {
+      const double lo = b[c] - 1.5 * d;  // the cells, the mesh beyond them and a margin of outside voxels
+      g.box.origin[c] = lo;
+      g.box.n[c] = static_cast<std::int64_t>(std::ceil((b[3 + c] + 1.5 * d - lo) / h)) + 1;
+    }
+    if (!rest[o].faces.empty()) g.surface = std::make_unique<mesh::SignedDistance>(rest[o], g.box, 3.0f);
+  }
+
+  const Buckets buckets(m);
+  std::vector<FragmentMesh> out(chosen.size());
+  tbb::parallel_for(std::size_t{0}, chosen.size(), [&](std::size_t k) {
+    const std::int32_t frag = chosen[k];
+    const auto& mem = members[static_cast<std::size_t>(frag)];
+    const auto obj = static_cast<std::size_t>(m.object[mem[0]]);
+    const ObjectGrid& g = grids[obj];
+    const auto& axes = m.object_axes[obj];
+    // The fragment's voxels: its automata's box, padded by the mesh shell and a margin.
+    std::int64_t lo[3], hi[3];
+    for (int c = 0; c < 3; ++c) {
+      lo[c] = INT64_MAX;
+      hi[c] = INT64_MIN;
+    }
+    for (auto a : mem) {
+      const double p[3] = {m.position0[a].x, m.position0[a].y, m.position0[a].z};
+      for (int c = 0; c < 3; ++c) {
+        lo[c] = std::min(lo[c], static_cast<std::int64_t>(std::floor((p[c] - 1.2 * d - g.box.origin[c]) / h)));
+        hi[c] = std::max(hi[c], static_cast<std::int64_t>(std::ceil((p[c] + 1.2 * d - g.box.origin[c]) / h)));
+      }
+    }
+    mesh::CellBox fb;
+    fb.d = h;
+    for (int c = 0; c < 3; ++c) {
+      fb.n[c] = hi[c] - lo[c] + 1;
+      fb.origin[c] = g.box.origin[c] + lo[c] * h;
+    }
+    std::vector<float> field(static_cast<std::size_t>(fb.cells()));
+    std::size_t cell = 0;
+    for (std::int64_t kk = 0; kk < fb.n[2]; ++kk)
+      for (std::int64_t jj = 0; jj < fb.n[1]; ++jj)
+        for (std::int64_t ii = 0; ii < fb.n[0]; ++ii, ++cell) {
+          const double x = fb.origin[0] + ii * h, y = fb.origin[1] + jj * h, z = fb.origin[2] + kk * h;
+          double own = INFINITY, other = INFINITY;
+          std::uint32_t nearest = 0;
+          buckets.near(x, y, z, [&](std::uint32_t b) {
+            if (static_cast<std::size_t>(m.object[b]) != obj) return;
+            const double dx = m.position0[b].x - x, dy = m.position0[b].y - y, dz = m.position0[b].z - z;
+            const double r2 = dx * dx + dy * dy + dz * dz;
+            if (fragments.id[b] == frag) {
+              if (r2 < own) {
+                own = r2;
+                nearest = b;
+              }
+            } else {
+              other = std::min(other, r2);
+            }
+          });
+          double f;
+          if (own == INFINITY) {
+            f = 2 * h;
+          } else {
+            // Past the bisector plane towards another fragment's automaton (its distance from the plane
+            // for lattice neighbours d apart), and outside the nearest own automaton's cell.
+            const double split = other == INFINITY ? -INFINITY : (own - other) / (2 * d);
+            const double px = x - m.position0[nearest].x, py = y - m.position0[nearest].y, pz = z - m.position0[nearest].z;
+            double cheb = 0;
+            for (const Vec3& e : axes) cheb = std::max(cheb, std::fabs(px * e.x + py * e.y + pz * e.z));
+            // (A hair inside the cell's faces: a voxel centre exactly on a face between two own cells
+            // would read 0, outside, and leave a hollow there.)
+            const double cube = cheb - 0.5 * d * (1 + 1e-6);
+            if (g.surface) {
+              // Up to a cell beyond the own cells, where the surface lies between them and the mesh.
+              const double sdf = g.surface->at(lo[0] + ii, lo[1] + jj, lo[2] + kk) * h;
+              f = std::max({sdf, split, cube - d});
+            } else {
+              f = std::max(split, cube);
+            }
+          }
+          field[cell] = static_cast<float>(std::clamp(f / h, -2.0, 2.0));
+        }
+    FragmentMesh fm;
+    fm.fragment = frag;
+    fm.automata = static_cast<std::int64_t>(mem.size());
+    fm.mesh = mesh::polygonize(field, fb);
+    // Carried from the starting frame to the fragment's pose.
+    const auto R = mean_rotation(s, mem);
+    double c0[3] = {0, 0, 0}, c1[3] = {0, 0, 0};
+    for (auto a : mem) {
+      c0[0] += m.position0[a].x;
+      c0[1] += m.position0[a].y;
+      c0[2] += m.position0[a].z;
+      c1[0] += s.x[a].x;
+      c1[1] += s.x[a].y;
+      c1[2] += s.x[a].z;
+    }
+    for (int c = 0; c < 3; ++c) {
+      c0[c] /= static_cast<double>(mem.size());
+      c1[c] /= static_cast<double>(mem.size());
+    }
+    for (auto& v : fm.mesh.vertices) {
+      const double r[3] = {v[0] - c0[0], v[1] - c0[1], v[2] - c0[2]};
+      for (int c = 0; c < 3; ++c) v[c] = c1[c] + R[c][0] * r[0] + R[c][1] * r[1] + R[c][2] * r[2];
+    }
+    fm.volume = mesh::signed_volume(fm.mesh);
+    out[k] = std::move(fm);
+  });
+  return out;
+}
+
+}  // namespace mca::analysis

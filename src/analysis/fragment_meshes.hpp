@@ -1,0 +1,30 @@
+#pragma once
+// Closed, watertight meshes of the fragments of a state (what [output] fragments writes at the end of a
+// run). A fragment's solid is the part of its object nearest its own automata: split from its
+// neighbours halfway between automata on either side of a broken link (the faces of their cells), and
+// bounded outside by the object's mesh (mesh objects: the original surface, resampled at a third of the
+// spacing) or by its automata's cells (boxes, spheres, cylinders). The solid is polygonized (OpenVDB),
+// then carried to the fragment's pose (its automata's mean rotation and centre).
+#include <cstdint>
+#include <vector>
+
+#include "analysis/fragments.hpp"
+#include "core/model.hpp"
+#include "core/state.hpp"
+#include "mesh/mesh.hpp"
+
+namespace mca::analysis {
+
+struct FragmentMesh {
+  std::int32_t fragment = 0;  // Fragments id
+  std::int64_t automata = 0;
+  mesh::TriMesh mesh;         // world coordinates, the state's pose, outward-facing triangles
+  double volume = 0;          // enclosed by the mesh [m^3]
+};
+
+// The fragments of more than `min_automata` automata, in id order (heaviest first). `cells_per_spacing`
+// sets the resolution (the voxel is spacing / cells_per_spacing).
+std::vector<FragmentMesh> fragment_meshes(const Model& model, const State& state, const Fragments& fragments,
+                                          std::int64_t min_automata, int cells_per_spacing = 3);
+
+}  // namespace mca::analysis
