@@ -70,6 +70,35 @@ std::array<std::array<double, 3>, 3> mean_rotation(const State& s, const std::ve
            {2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)}}};
 }
 
+// Taubin smoothing (lambda 0.5, mu -0.53) of the vertices marked `free`, over their mesh neighbours.
+void smooth(mesh::TriMesh& m, const std::vector<std::uint8_t>& free, int iterations) {
+  std::vector<std::vector<std::uint32_t>> nb(m.vertices.size());
+  for (const auto& f : m.faces)
+    for (int e = 0; e < 3; ++e) {
+      const auto a = f[e], b = f[(e + 1) % 3];
+      if (!free[a] && !free[b]) continue;
+      nb[a].push_back(b);
+      nb[b].push_back(a);
+    }
+  for (auto& list : nb) {
+    std::sort(list.begin(), list.end());
+    list.erase(std::unique(list.begin(), list.end()), list.end());
+  }
+  std::vector<mesh::Point> next(m.vertices.size());
+  for (int it = 0; it < 2 * iterations; ++it) {
+    const double factor = it % 2 == 0 ? 0.5 : -0.53;
+    for (std::size_t v = 0; v < m.vertices.size(); ++v) {
+      next[v] = m.vertices[v];
+      if (!free[v] || nb[v].empty()) continue;
+      mesh::Point mean{0, 0, 0};
+      for (auto u : nb[v])
+        for (int a = 0; a < 3; ++a) mean[a] += m.vertices[u][a];
+      for (int a = 0; a < 3; ++a) next[v][a] += factor * (mean[a] / static_cast<double>(nb[v].size()) - m.vertices[v][a]);
+    }
+    m.vertices.swap(next);
+  }
+}
+
 }  // namespace
 
 std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const Fragments& fragments,
@@ -145,54 +174,80 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
       fb.n[c] = hi[c] - lo[c] + 1;
       fb.origin[c] = g.box.origin[c] + lo[c] * h;
     }
+    // The two parts of the field at a point: outside the object (its surface, or the own cells) and past
+    // the bisector towards another fragment's automaton (-inf without one); +inf outside everything.
+    struct Terms {
+      double outer, split;
+    };
+    auto terms = [&](double x, double y, double z, auto&& surface_distance) -> Terms {
+      double own = INFINITY, other = INFINITY;
+      std::uint32_t nearest = 0;
+      buckets.near(x, y, z, [&](std::uint32_t b) {
+        if (static_cast<std::size_t>(m.object[b]) != obj) return;
+        const double dx = m.position0[b].x - x, dy = m.position0[b].y - y, dz = m.position0[b].z - z;
+        const double r2 = dx * dx + dy * dy + dz * dz;
+        if (fragments.id[b] == frag) {
+          if (r2 < own) {
+            own = r2;
+            nearest = b;
+          }
+        } else {
+          other = std::min(other, r2);
+        }
+      });
+      if (own == INFINITY) return {INFINITY, INFINITY};
+      // The distance from the bisector plane (exact for lattice neighbours, d apart).
+      const double split = other == INFINITY ? -INFINITY : (own - other) / (2 * d);
+      const double px = x - m.position0[nearest].x, py = y - m.position0[nearest].y, pz = z - m.position0[nearest].z;
+      double cheb = 0;
+      for (const Vec3& e : axes) cheb = std::max(cheb, std::fabs(px * e.x + py * e.y + pz * e.z));
+      // (A hair inside the cell's faces: a voxel centre exactly on a face between two own cells would
+      // read 0, outside, and leave a hollow there.)
+      const double cube = cheb - 0.5 * d * (1 + 1e-6);
+      // A mesh object: up to a cell beyond the own cells, where the surface lies between them and the mesh.
+      if (g.surface) return {std::max(surface_distance(), cube - d), split};
+      return {cube, split};
+    };
     std::vector<float> field(static_cast<std::size_t>(fb.cells()));
     std::size_t cell = 0;
     for (std::int64_t kk = 0; kk < fb.n[2]; ++kk)
       for (std::int64_t jj = 0; jj < fb.n[1]; ++jj)
         for (std::int64_t ii = 0; ii < fb.n[0]; ++ii, ++cell) {
-          const double x = fb.origin[0] + ii * h, y = fb.origin[1] + jj * h, z = fb.origin[2] + kk * h;
-          double own = INFINITY, other = INFINITY;
-          std::uint32_t nearest = 0;
-          buckets.near(x, y, z, [&](std::uint32_t b) {
-            if (static_cast<std::size_t>(m.object[b]) != obj) return;
-            const double dx = m.position0[b].x - x, dy = m.position0[b].y - y, dz = m.position0[b].z - z;
-            const double r2 = dx * dx + dy * dy + dz * dz;
-            if (fragments.id[b] == frag) {
-              if (r2 < own) {
-                own = r2;
-                nearest = b;
-              }
-            } else {
-              other = std::min(other, r2);
-            }
-          });
-          double f;
-          if (own == INFINITY) {
-            f = 2 * h;
-          } else {
-            // Past the bisector plane towards another fragment's automaton (its distance from the plane
-            // for lattice neighbours d apart), and outside the nearest own automaton's cell.
-            const double split = other == INFINITY ? -INFINITY : (own - other) / (2 * d);
-            const double px = x - m.position0[nearest].x, py = y - m.position0[nearest].y, pz = z - m.position0[nearest].z;
-            double cheb = 0;
-            for (const Vec3& e : axes) cheb = std::max(cheb, std::fabs(px * e.x + py * e.y + pz * e.z));
-            // (A hair inside the cell's faces: a voxel centre exactly on a face between two own cells
-            // would read 0, outside, and leave a hollow there.)
-            const double cube = cheb - 0.5 * d * (1 + 1e-6);
-            if (g.surface) {
-              // Up to a cell beyond the own cells, where the surface lies between them and the mesh.
-              const double sdf = g.surface->at(lo[0] + ii, lo[1] + jj, lo[2] + kk) * h;
-              f = std::max({sdf, split, cube - d});
-            } else {
-              f = std::max(split, cube);
-            }
-          }
-          field[cell] = static_cast<float>(std::clamp(f / h, -2.0, 2.0));
+          const Terms t = terms(fb.origin[0] + ii * h, fb.origin[1] + jj * h, fb.origin[2] + kk * h,
+                                [&] { return static_cast<double>(g.surface->at(lo[0] + ii, lo[1] + jj, lo[2] + kk)); });
+          field[cell] = static_cast<float>(std::clamp(std::max(t.outer, t.split) / h, -2.0, 2.0));
         }
+    mesh::TriMesh solid = mesh::polygonize(field, fb);
+    // Smoothing the crack faces (the vertices where the bisector term is the one at zero, well inside the
+    // object): Taubin's lambda|mu steps flatten the cell-face staircase without shrinking the piece; the
+    // outer surface stays as resampled.
+    std::vector<std::uint8_t> crack(solid.vertices.size(), 0);
+    for (std::size_t v = 0; v < solid.vertices.size(); ++v) {
+      const auto& p = solid.vertices[v];
+      const Terms t = terms(p[0], p[1], p[2], [&] {
+        // Trilinear in the object grid.
+        double u[3], w[3];
+        std::int64_t c[3];
+        for (int a = 0; a < 3; ++a) {
+          u[a] = (p[a] - g.box.origin[a]) / h;
+          c[a] = static_cast<std::int64_t>(std::floor(u[a]));
+          w[a] = u[a] - static_cast<double>(c[a]);
+        }
+        double sum = 0;
+        for (int k8 = 0; k8 < 8; ++k8) {
+          const int bx = k8 & 1, by = (k8 >> 1) & 1, bz = (k8 >> 2) & 1;
+          sum += (bx ? w[0] : 1 - w[0]) * (by ? w[1] : 1 - w[1]) * (bz ? w[2] : 1 - w[2]) *
+                 g.surface->at(c[0] + bx, c[1] + by, c[2] + bz);
+        }
+        return sum;
+      });
+      crack[v] = t.split > t.outer && t.outer < -0.5 * h;
+    }
+    smooth(solid, crack, 4);
     FragmentMesh fm;
     fm.fragment = frag;
     fm.automata = static_cast<std::int64_t>(mem.size());
-    fm.mesh = mesh::polygonize(field, fb);
+    fm.mesh = std::move(solid);
     // Carried from the starting frame to the fragment's pose.
     const auto R = mean_rotation(s, mem);
     double c0[3] = {0, 0, 0}, c1[3] = {0, 0, 0};

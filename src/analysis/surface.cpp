@@ -1,6 +1,7 @@
 #include "analysis/surface.hpp"
 
-#include <unordered_map>
+#include <array>
+#include <utility>
 
 namespace mca::analysis {
 namespace {
@@ -17,41 +18,49 @@ DVec3 rotate(const Quat& q, const Vec3& v) {
 
 mesh::FloatMesh posed_surface(const Model& model, const State& state, const std::vector<std::int32_t>& fragment) {
   const BoundSurface& S = model.surface;
-  const std::size_t nf = S.faces();
+  const std::size_t nf = S.faces(), nc = 3 * nf, nv = S.vertices;
   mesh::FloatMesh out;
   out.face_value_name = "fragment";
   out.faces.resize(nf);
   out.face_values.resize(nf);
-  // (mesh vertex, fragment) -> output vertex; positions summed in double, then averaged.
-  std::unordered_map<std::uint64_t, std::uint32_t> slot;
-  slot.reserve(S.vertices + S.vertices / 4);
-  std::vector<DVec3> sum;
-  std::vector<std::uint32_t> uses;
-  for (std::size_t f = 0; f < nf; ++f) {
-    const std::uint32_t a = S.automaton[f];
-    const std::int32_t frag = fragment[a];
-    out.face_values[f] = frag;
-    const DVec3 centre = state.x[a];
-    for (int c = 0; c < 3; ++c) {
-      const std::uint64_t key = std::uint64_t{S.corner[3 * f + c]} << 32 | static_cast<std::uint32_t>(frag);
-      const auto [it, fresh] = slot.try_emplace(key, static_cast<std::uint32_t>(sum.size()));
-      if (fresh) {
-        sum.push_back({0, 0, 0});
-        uses.push_back(0);
-      }
-      const DVec3 p = rotate(state.q[a], S.offset[3 * f + c]);
-      DVec3& acc = sum[it->second];
-      acc.x += centre.x + p.x;
-      acc.y += centre.y + p.y;
-      acc.z += centre.z + p.z;
-      uses[it->second] += 1;
-      out.faces[f][c] = it->second;
-    }
+  for (std::size_t f = 0; f < nf; ++f) out.face_values[f] = fragment[S.automaton[f]];
+  // The corners of each mesh vertex (a counting sort: no hashing in a per-frame pass).
+  std::vector<std::uint32_t> first(nv + 1, 0), corners(nc);
+  for (std::size_t c = 0; c < nc; ++c) ++first[S.corner[c] + 1];
+  for (std::size_t v = 0; v < nv; ++v) first[v + 1] += first[v];
+  {
+    std::vector<std::uint32_t> fill(first.begin(), first.end() - 1);
+    for (std::size_t c = 0; c < nc; ++c) corners[fill[S.corner[c]]++] = static_cast<std::uint32_t>(c);
   }
-  out.vertices.resize(sum.size());
-  for (std::size_t v = 0; v < sum.size(); ++v) {
-    const double k = 1.0 / uses[v];
-    out.vertices[v] = {static_cast<float>(sum[v].x * k), static_cast<float>(sum[v].y * k), static_cast<float>(sum[v].z * k)};
+  out.vertices.reserve(nv + nv / 8);
+  // Per mesh vertex, one output vertex per fragment among its corners (in order of first corner), at the
+  // mean of the positions those corners are carried to.
+  std::vector<std::pair<std::int32_t, std::uint32_t>> seen;  // (fragment, output vertex) of this vertex
+  std::vector<std::array<double, 4>> acc;                    // x, y, z sums and count, per entry of seen
+  for (std::size_t v = 0; v < nv; ++v) {
+    seen.clear();
+    acc.clear();
+    for (std::uint32_t k = first[v]; k < first[v + 1]; ++k) {
+      const std::uint32_t c = corners[k];
+      const std::size_t f = c / 3;
+      const std::uint32_t a = S.automaton[f];
+      const std::int32_t frag = out.face_values[f];
+      std::size_t e = 0;
+      while (e < seen.size() && seen[e].first != frag) ++e;
+      if (e == seen.size()) {
+        seen.push_back({frag, static_cast<std::uint32_t>(out.vertices.size() + e)});
+        acc.push_back({0, 0, 0, 0});
+      }
+      const DVec3 p = rotate(state.q[a], S.offset[c]);
+      acc[e][0] += state.x[a].x + p.x;
+      acc[e][1] += state.x[a].y + p.y;
+      acc[e][2] += state.x[a].z + p.z;
+      acc[e][3] += 1;
+      out.faces[f][c % 3] = seen[e].second;
+    }
+    for (const auto& s4 : acc)
+      out.vertices.push_back({static_cast<float>(s4[0] / s4[3]), static_cast<float>(s4[1] / s4[3]),
+                              static_cast<float>(s4[2] / s4[3])});
   }
   return out;
 }

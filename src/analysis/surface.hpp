@@ -14,7 +14,8 @@ namespace mca::analysis {
 // `fragment`: per automaton (Fragments::id). A mesh vertex becomes one vertex per fragment among its
 // triangles, at the mean of the positions its triangles of that fragment give it (within a fragment the
 // automata move almost rigidly, so the mean closes the hairline gaps of their elastic strain). Output
-// vertices are numbered in order of first use by the triangles; the face values are the fragments.
+// vertices are numbered by mesh vertex, then by fragment in order of its first triangle; the face values
+// are the fragments.
 mesh::FloatMesh posed_surface(const Model& model, const State& state, const std::vector<std::int32_t>& fragment);
 
 }  // namespace mca::analysis

@@ -33,7 +33,8 @@ class SignedDistance {
   ~SignedDistance();
   SignedDistance(const SignedDistance&) = delete;
   SignedDistance& operator=(const SignedDistance&) = delete;
-  // At the centre of cell (i, j, k) of the box (any integers: outside the box, the value beyond the band).
+  // At the centre of cell (i, j, k) of the box (any integers: outside the box, the value beyond the band),
+  // in the mesh's units.
   float at(std::int64_t i, std::int64_t j, std::int64_t k) const;
 
  private:
