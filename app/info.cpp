@@ -18,7 +18,7 @@ std::string simd_note() {
 namespace {
 
 std::string box_text(const std::array<double, 3>& lo, const std::array<double, 3>& hi, const char* unit) {
-  return fmt::format("[{:.4g}, {:.4g}, {:.4g}] to [{:.4g}, {:.4g}, {:.4g}]{} ({:.4g} x {:.4g} x {:.4g}{})", lo[0], lo[1],
+  return fmt::format("[{:.7g}, {:.7g}, {:.7g}] to [{:.7g}, {:.7g}, {:.7g}]{} ({:.4g} x {:.4g} x {:.4g}{})", lo[0], lo[1],
                      lo[2], hi[0], hi[1], hi[2], unit, hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], unit);
 }
 
@@ -32,6 +32,8 @@ void print_mesh(const MeshSummary& ms, const std::string& object, std::size_t au
     fmt::print("  surface        {} boundary edges in {} holes, {} non-manifold edges, {} degenerate faces\n",
                ms.boundary_edges, ms.holes, ms.non_manifold_edges, ms.degenerate_faces);
   }
+  if (ms.shells > 1)
+    fmt::print("  shells         {} connected surfaces, {} of them around cavities (left empty)\n", ms.shells, ms.cavities);
   fmt::print("  in the file    {}\n", box_text(ms.file_lo, ms.file_hi, ""));
   fmt::print("  in the scene   {} (scale {:.6g}), volume {:.4g} m^3\n", box_text(ms.lo, ms.hi, " m"), ms.scale,
              ms.volume);
@@ -84,6 +86,8 @@ int info(const std::optional<std::string>& path, bool json) {
                         {"holes", ms.holes},
                         {"non_manifold_edges", ms.non_manifold_edges},
                         {"degenerate_faces", ms.degenerate_faces},
+                        {"shells", ms.shells},
+                        {"cavities", ms.cavities},
                         {"file_bounds", {ms.file_lo, ms.file_hi}},
                         {"scale", ms.scale},
                         {"bounds", {ms.lo, ms.hi}},

@@ -334,7 +334,13 @@ int run_loop(Loop& L, FrameWriter& writer) {
   write_summary(L.dir, sim, frags, L.wall_before + wall, sim.state().step - first_step, L.threads,
                 "finished");
   const std::size_t meshes = writer.write_fragment_meshes(sim.state(), frags);
-  if (!L.quiet && meshes > 0) fmt::print(stderr, "{}{} fragment meshes in fragments/\n", tty ? "\n" : "", meshes);
+  if (!L.quiet && sim.scene().output.fragments) {
+    fmt::print(stderr, "{}{}\n", tty ? "\n" : "",
+               meshes > 0 ? fmt::format("{} fragment meshes in fragments/", meshes)
+                          : fmt::format("no fragment has more than output.fragment_min_automata = {} automata: no "
+                                        "fragment mesh written",
+                                        sim.scene().output.fragment_min_automata));
+  }
   if (!L.quiet) {
     const State& s = sim.state();
     fmt::print(stderr, "{}done: {} automata, {} steps in {:.1f} s ({:.2f} M automaton-steps/s on {} threads); "

@@ -22,8 +22,9 @@ struct FragmentMesh {
   double volume = 0;          // enclosed by the mesh [m^3]
 };
 
-// The fragments of more than `min_automata` automata, in id order (heaviest first). `cells_per_spacing`
-// sets the resolution (the voxel is spacing / cells_per_spacing).
+// The fragments of more than `min_automata` automata, in id order (heaviest first). The voxel is the
+// spacing over `cells_per_spacing`, finer for pieces under 512 automata (down to an eighth of the spacing
+// for 27 and fewer), so that a piece of one cell keeps 96 % of its volume.
 std::vector<FragmentMesh> fragment_meshes(const Model& model, const State& state, const Fragments& fragments,
                                           std::int64_t min_automata, int cells_per_spacing = 3);
 

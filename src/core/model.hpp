@@ -56,6 +56,7 @@ struct MeshSummary {
   std::string path;
   std::size_t vertices = 0, faces = 0;
   std::size_t boundary_edges = 0, non_manifold_edges = 0, degenerate_faces = 0, holes = 0;
+  std::size_t shells = 0, cavities = 0;        // connected surfaces; those that bound a cavity
   std::array<double, 3> file_lo{}, file_hi{};  // bounding box in the file's units
   std::array<double, 3> lo{}, hi{};            // bounding box in the scene [m] (scaled, rotated, placed)
   double scale = 1;              // file units to metres

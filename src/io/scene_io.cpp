@@ -35,7 +35,9 @@ std::filesystem::path models_cache_dir() {
 }
 
 std::vector<std::filesystem::path> mesh_file_candidates(const std::string& mesh, const std::string& scene_source) {
-  const std::filesystem::path p(mesh);
+  std::filesystem::path p(mesh);
+  const char* home = std::getenv("HOME");
+  if (mesh.rfind("~/", 0) == 0 && home && *home) p = std::filesystem::path(home) / mesh.substr(2);
   if (p.is_absolute()) return {p};
   std::vector<std::filesystem::path> out;
   // A scene compiled in (the default) or read from text has no folder: the working directory stands in.
@@ -447,16 +449,27 @@ MaterialDef read_material(const Table& tb, const std::vector<MaterialDef>& earli
 
 // The mesh file `key` names: found (mesh_file_candidates) and made absolute, so that a scene written back
 // by scene_to_toml (a checkpoint's) finds it again from anywhere.
-void read_mesh_path(const Table& tb, std::string& out) {
-  if (!tb.string("mesh", out)) return;
+// `resolve`: only for a mesh shape (any other shape's `mesh` key is refused by validate_scene).
+void read_mesh_path(const Table& tb, std::string& out, bool resolve) {
+  if (!tb.string("mesh", out) || !resolve) return;
   const toml::node* n = tb.get("mesh");
   if (out.empty()) tb.reader().fail(n->source(), fmt::format("{} is empty; give the mesh file's path", tb.key("mesh")));
+  if (std::any_of(out.begin(), out.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; })) {
+    tb.reader().fail(n->source(), fmt::format("{} holds a control character (a line break, tab or NUL); give the "
+                                              "mesh file's path",
+                                              tb.key("mesh")));
+  }
   const auto candidates = mesh_file_candidates(out, tb.reader().source());
   std::error_code ec;
   for (const auto& c : candidates) {
     if (std::filesystem::is_regular_file(c, ec)) {
       out = std::filesystem::absolute(c, ec).lexically_normal().string();
       return;
+    }
+    if (std::filesystem::exists(c, ec)) {
+      tb.reader().fail(n->source(), fmt::format("{} = \"{}\": {} is not a regular file (a directory, device or pipe); "
+                                                "give a mesh file",
+                                                tb.key("mesh"), out, c.string()));
     }
   }
   std::string looked;
@@ -475,7 +488,7 @@ RegionDef read_region(const Table& tb) {
   tb.vec3("center", r.center);
   tb.vec3("size", r.size);
   tb.number("radius", r.radius);
-  read_mesh_path(tb, r.mesh);
+  read_mesh_path(tb, r.mesh, r.shape == Shape::mesh);
   if (!tb.string("material", r.material)) {
     tb.reader().fail(tb.raw().source(),
                      fmt::format("{} has no material; add material = \"...\" (the group its automata get)", tb.path()));
@@ -493,9 +506,15 @@ ObjectDef read_object(const Table& tb, std::size_t index, const HeterogeneityDef
   tb.vec3("size", o.size);
   tb.number("radius", o.radius);
   tb.number("height", o.height);
-  read_mesh_path(tb, o.mesh);
+  read_mesh_path(tb, o.mesh, o.shape == Shape::mesh);
   tb.number("scale", o.scale);
   tb.number("fit_size", o.fit_size);
+  if (tb.get("scale") && tb.get("fit_size")) {
+    tb.reader().fail(tb.get("fit_size")->source(),
+                     fmt::format("{} gives both scale and fit_size; give one: scale multiplies the file's coordinates, "
+                                 "fit_size sets the largest extent",
+                                 tb.path()));
+  }
   if (tb.choice("fill", {"volume"}, "a fill mode (\"volume\": the lattice cells inside the mesh)")) o.fill = MeshFill::volume;
   tb.vec3("position", o.position);
   tb.vec3("rotation", o.rotation);
@@ -784,8 +803,8 @@ std::string scene_to_toml(const SceneDef& s) {
     out += fmt::format("height = {}\n", toml_double(o.height));
     if (o.shape == Shape::mesh) {
       out += fmt::format("mesh = {}\n", toml_string(o.mesh));
-      out += fmt::format("scale = {}\n", toml_double(o.scale));
-      out += fmt::format("fit_size = {}\n", toml_double(o.fit_size));
+      if (o.fit_size > 0) out += fmt::format("fit_size = {}\n", toml_double(o.fit_size));
+      else out += fmt::format("scale = {}\n", toml_double(o.scale));
       out += "fill = \"volume\"\n";
     }
     out += fmt::format("position = {}\n", vec(o.position));

@@ -20,7 +20,8 @@ SceneDef load_scene_file(const std::filesystem::path& path);
 // The built-in default scene (scenes/wall_ball.toml, compiled in).
 SceneDef load_default_scene();
 
-// Where a scene's `mesh = "..."` may be, in the order tried: an absolute path as it is; else relative to the
+// Where a scene's `mesh = "..."` may be, in the order tried: an absolute path as it is ("~/" is the home
+// folder); else relative to the
 // scene file's folder, then to each folder of MCA_MESH_PATH (':'-separated), then to the models cache.
 std::vector<std::filesystem::path> mesh_file_candidates(const std::string& mesh, const std::string& scene_source);
 // The folder scripts/get_models.sh fills with the paper's models: $XDG_CACHE_HOME/mca/models, else

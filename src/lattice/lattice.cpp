@@ -305,7 +305,7 @@ double shapes_volume(const SceneDef& scene, const Shapes& S) {
   double volume = 0;
   for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) {
     const ObjectDef& o = scene.objects[oi];
-    if (o.shape == Shape::mesh) volume += S.of(oi)->volume;
+    if (o.shape == Shape::mesh) volume += S.of(oi)->volume();
     else if (o.shape == Shape::box) volume += o.size[0] * o.size[1] * o.size[2];
     else if (o.shape == Shape::sphere) volume += 4.0 / 3.0 * std::numbers::pi * std::pow(o.radius, 3);
     else volume += std::numbers::pi * o.radius * o.radius * o.height;
@@ -473,10 +473,10 @@ void bind_surface(Model& M, const MeshObject& mo, const ObjectLattice& L, const 
   BoundSurface& S = M.surface;
   const auto base = static_cast<std::uint32_t>(S.vertices);
   const std::int64_t* n = L.n;
-  for (const auto& f : mo.mesh.faces) {
+  for (const auto& f : mo.solid.mesh.faces) {
     Vec3d c{0, 0, 0};
     for (auto v : f)
-      for (int a = 0; a < 3; ++a) c[a] += mo.mesh.vertices[v][a] / 3.0;
+      for (int a = 0; a < 3; ++a) c[a] += mo.solid.mesh.vertices[v][a] / 3.0;
     std::int64_t cell[3];
     for (int a = 0; a < 3; ++a)
       cell[a] = std::clamp<std::int64_t>(std::llround((c[a] - L.origin[a]) / d), 0, n[a] - 1);
@@ -505,13 +505,13 @@ void bind_surface(Model& M, const MeshObject& mo, const ObjectLattice& L, const 
     S.automaton.push_back(static_cast<std::uint32_t>(best));
     const DVec3 centre = M.position0[static_cast<std::size_t>(best)];
     for (auto v : f) {
-      const Vec3d w = R.apply(mo.mesh.vertices[v]);
+      const Vec3d w = R.apply(mo.solid.mesh.vertices[v]);
       S.corner.push_back(base + v);
       S.offset.push_back(to_vec3({w[0] + position[0] - centre.x, w[1] + position[1] - centre.y,
                                   w[2] + position[2] - centre.z}));
     }
   }
-  S.vertices += mo.mesh.vertices.size();
+  S.vertices += mo.solid.mesh.vertices.size();
 }
 
 }  // namespace
@@ -748,19 +748,21 @@ Model build_model(const SceneDef& scene) {
       ms.object = static_cast<std::int32_t>(oi);
       ms.path = o.mesh;
       ms.vertices = mo->file_vertices;
-      ms.faces = mo->mesh.faces.size();
-      ms.boundary_edges = mo->topology.boundary_edges;
-      ms.non_manifold_edges = mo->topology.non_manifold_edges;
-      ms.degenerate_faces = mo->topology.degenerate_faces;
-      ms.holes = mo->topology.holes;
+      ms.faces = mo->solid.mesh.faces.size();
+      ms.boundary_edges = mo->solid.topology.boundary_edges;
+      ms.non_manifold_edges = mo->solid.topology.non_manifold_edges;
+      ms.degenerate_faces = mo->solid.topology.degenerate_faces;
+      ms.holes = mo->solid.topology.holes;
       ms.file_lo = mo->file_bounds.lo;
       ms.file_hi = mo->file_bounds.hi;
       ms.scale = mo->scale;
-      ms.volume = mo->volume;
+      ms.volume = mo->volume();
+      ms.shells = mo->solid.shells.size();
+      ms.cavities = static_cast<std::size_t>(std::count_if(mo->solid.depth.begin(), mo->solid.depth.end(), [](int k) { return k > 0 && k % 2 == 1; }));
       ms.fill_seconds = L.fill_seconds;
       ms.lo = {INFINITY, INFINITY, INFINITY};
       ms.hi = {-INFINITY, -INFINITY, -INFINITY};
-      for (const auto& v : mo->mesh.vertices) {
+      for (const auto& v : mo->solid.mesh.vertices) {
         const Vec3d r = R.apply({v[0], v[1], v[2]});
         for (int a = 0; a < 3; ++a) {
           ms.lo[a] = std::min(ms.lo[a], r[a] + o.position[a]);

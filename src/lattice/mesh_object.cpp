@@ -1,5 +1,6 @@
 #include "lattice/mesh_object.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <fmt/format.h>
@@ -34,16 +35,131 @@ std::string extent_text(const mesh::Point& e, const char* unit) {
   return fmt::format("{:.4g} x {:.4g} x {:.4g}{}", e[0], e[1], e[2], unit);
 }
 
+// Whether point p is inside the triangles `faces` of m: the parity of the crossings of a ray from p (a
+// direction no mesh aligns with by accident).
+bool inside_by_parity(const mesh::TriMesh& m, const std::vector<std::uint32_t>& faces, const mesh::Point& p) {
+  const double dir[3] = {1.0, 0.0012345, 0.0023456};
+  int crossings = 0;
+  for (auto f : faces) {
+    const auto& a = m.vertices[m.faces[f][0]];
+    const auto& b = m.vertices[m.faces[f][1]];
+    const auto& c = m.vertices[m.faces[f][2]];
+    const double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, e2[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+    const double h[3] = {dir[1] * e2[2] - dir[2] * e2[1], dir[2] * e2[0] - dir[0] * e2[2], dir[0] * e2[1] - dir[1] * e2[0]};
+    const double det = e1[0] * h[0] + e1[1] * h[1] + e1[2] * h[2];
+    if (det == 0) continue;
+    const double s[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
+    const double u = (s[0] * h[0] + s[1] * h[1] + s[2] * h[2]) / det;
+    if (u < 0 || u > 1) continue;
+    const double q[3] = {s[1] * e1[2] - s[2] * e1[1], s[2] * e1[0] - s[0] * e1[2], s[0] * e1[1] - s[1] * e1[0]};
+    const double v = (dir[0] * q[0] + dir[1] * q[1] + dir[2] * q[2]) / det;
+    if (v < 0 || u + v > 1) continue;
+    if ((e2[0] * q[0] + e2[1] * q[1] + e2[2] * q[2]) / det > 0) ++crossings;
+  }
+  return crossings % 2 == 1;
+}
+
+bool strictly_within(const mesh::Bounds& a, const mesh::Bounds& b) {
+  for (int k = 0; k < 3; ++k)
+    if (!(a.lo[k] > b.lo[k] && a.hi[k] < b.hi[k])) return false;
+  return true;
+}
+
+bool same_shell(const mesh::Shell& a, const mesh::Shell& b) {
+  const double tol = 1e-9 * std::max(a.bounds.largest_extent(), b.bounds.largest_extent());
+  for (int k = 0; k < 3; ++k)
+    if (std::fabs(a.bounds.lo[k] - b.bounds.lo[k]) > tol || std::fabs(a.bounds.hi[k] - b.bounds.hi[k]) > tol) return false;
+  return std::fabs(a.volume - b.volume) <= 1e-6 * std::max(a.volume, b.volume);
+}
+
+// The solid of a mesh in the object frame: its shells, their nesting and its volume.
+Solid make_solid(std::string file, mesh::TriMesh m) {
+  Solid s;
+  s.file = std::move(file);
+  s.topology = mesh::topology(m);
+  s.shells = mesh::shells(m);
+  const std::size_t n = s.shells.size();
+  s.depth.assign(n, 0);
+  for (std::size_t a = 0; a < n; ++a)
+    for (std::size_t b = 0; b < a && s.depth[a] >= 0; ++b)
+      if (s.depth[b] >= 0 && same_shell(s.shells[a], s.shells[b])) s.depth[a] = -1;
+  for (std::size_t a = 0; a < n; ++a) {
+    if (s.depth[a] < 0) continue;
+    const mesh::Point probe = m.vertices[m.faces[s.shells[a].faces[0]][0]];
+    for (std::size_t b = 0; b < n; ++b)
+      if (b != a && s.depth[b] >= 0 && strictly_within(s.shells[a].bounds, s.shells[b].bounds) &&
+          inside_by_parity(m, s.shells[b].faces, probe))
+        ++s.depth[a];
+  }
+  for (std::size_t a = 0; a < n; ++a) {
+    if (s.depth[a] < 0) continue;
+    s.volume += (s.depth[a] % 2 == 0 ? 1 : -1) * s.shells[a].volume;
+    s.manifold = s.manifold && s.shells[a].manifold;
+  }
+  s.mesh = std::move(m);
+  return s;
+}
+
+// The cells of `box` inside the solid: each shell filled on the part of the box around it, solid shells
+// added and cavities taken away in order of depth.
+std::vector<std::uint8_t> solid_cells(const Solid& s, const mesh::CellBox& box) {
+  if (s.shells.size() == 1) return mesh::interior_cells(s.mesh, box);
+  std::vector<std::uint8_t> inside(static_cast<std::size_t>(box.cells()), 0);
+  std::vector<std::size_t> order;
+  for (std::size_t k = 0; k < s.shells.size(); ++k)
+    if (s.depth[k] >= 0) order.push_back(k);
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return s.depth[a] < s.depth[b]; });
+  for (std::size_t k : order) {
+    const mesh::Shell& sh = s.shells[k];
+    std::int64_t lo[3], hi[3];
+    mesh::CellBox sub;
+    sub.d = box.d;
+    bool empty = false;
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor((sh.bounds.lo[a] - box.origin[a]) / box.d)) - 2);
+      hi[a] = std::min<std::int64_t>(box.n[a] - 1, static_cast<std::int64_t>(std::ceil((sh.bounds.hi[a] - box.origin[a]) / box.d)) + 2);
+      empty = empty || hi[a] < lo[a];
+      sub.n[a] = hi[a] - lo[a] + 1;
+      sub.origin[a] = box.origin[a] + static_cast<double>(lo[a]) * box.d;
+    }
+    if (empty) continue;
+    const std::vector<std::uint8_t> part = mesh::interior_cells(s.mesh, sub, &sh.faces);
+    const bool add = s.depth[k] % 2 == 0;
+    std::size_t c = 0;
+    for (std::int64_t kk = 0; kk < sub.n[2]; ++kk)
+      for (std::int64_t jj = 0; jj < sub.n[1]; ++jj)
+        for (std::int64_t ii = 0; ii < sub.n[0]; ++ii, ++c) {
+          if (!part[c]) continue;
+          std::uint8_t& cell = inside[static_cast<std::size_t>(((lo[2] + kk) * box.n[1] + lo[1] + jj) * box.n[0] + lo[0] + ii)];
+          cell = add ? 1 : 0;
+        }
+  }
+  return inside;
+}
+
+// Holes up to about a cell wide are closed by the signed distance's band; wider ones let the outside in.
+void refuse_wide_holes(const SceneDef& scene, std::size_t index, const Solid& s, const std::string& what, double d) {
+  const double hole = s.topology.largest_hole;
+  if (s.topology.holes == 0 || hole <= 1.5 * d) return;
+  const bool target = scene.solver.target_automata > 0;
+  throw Error(fmt::format(
+      "{}: {} {} is open: {} boundary edges in {} hole{}, the largest {:.4g} m across ({:.3g} cells at spacing {:.4g} m), "
+      "and a volume fill needs a closed surface (holes under about a cell are closed). Repair the mesh (MeshLab: "
+      "Filters > Remeshing > Close Holes; Blender: Mesh > Clean Up > Fill Holes) or use a coarser spacing (above "
+      "{:.3g} m{})",
+      where(scene, index), what, s.file, s.topology.boundary_edges, s.topology.holes, s.topology.holes == 1 ? "" : "s",
+      hole, hole / d, d, hole / 1.5, target ? ": a smaller solver.target_automata" : ": solver.spacing"));
+}
+
 }  // namespace
 
 MeshObject prepare_mesh_object(const SceneDef& scene, std::size_t index) {
   const ObjectDef& o = scene.objects[index];
   const std::string key = fmt::format("object[{}].mesh", index);
   MeshObject m;
-  m.mesh = read(scene, key, o.mesh);
-  m.file_vertices = m.mesh.vertices.size();
-  m.file_bounds = mesh::bounds(m.mesh);
-  m.topology = mesh::topology(m.mesh);
+  mesh::TriMesh tm = read(scene, key, o.mesh);
+  m.file_vertices = tm.vertices.size();
+  m.file_bounds = mesh::bounds(tm);
   const mesh::Point e = m.file_bounds.extent();
   const double largest = m.file_bounds.largest_extent();
   m.scale = o.fit_size > 0 ? o.fit_size / largest : o.scale;
@@ -59,69 +175,67 @@ MeshObject prepare_mesh_object(const SceneDef& scene, std::size_t index) {
                             "(the factor from the file's units to metres) or give fit_size",
                             where(scene, index), o.mesh, extent_text(e, ""), largest * m.scale, m.scale));
   }
-  to_object_frame(m.mesh, m.file_bounds, m.scale);
-  m.volume = std::fabs(mesh::signed_volume(m.mesh));
+  to_object_frame(tm, m.file_bounds, m.scale);
+  m.solid = make_solid(o.mesh, std::move(tm));
   for (std::size_t r = 0; r < o.regions.size(); ++r) {
     if (o.regions[r].shape != Shape::mesh) {
       m.regions.emplace_back();
       continue;
     }
-    mesh::TriMesh rm = read(scene, fmt::format("object[{}].region[{}].mesh", index, r), o.regions[r].mesh);
+    const std::string rkey = fmt::format("object[{}].region[{}].mesh", index, r);
+    mesh::TriMesh rm = read(scene, rkey, o.regions[r].mesh);
+    const mesh::Point re = mesh::bounds(rm).extent();
+    for (int a = 0; a < 3; ++a) {
+      if (!(re[a] > 1e-9 * std::max({re[0], re[1], re[2]}))) {
+        throw Error(fmt::format("{}: {} = {} is flat (no extent along {}): a region mesh must be a closed solid",
+                                where(scene, index), rkey, o.regions[r].mesh, "xyz"[a]));
+      }
+    }
     // The region shares the object mesh's frame: the same centre and scale.
     to_object_frame(rm, m.file_bounds, m.scale);
-    m.regions.emplace_back(std::move(rm));
+    m.regions.emplace_back(make_solid(o.regions[r].mesh, std::move(rm)));
   }
   return m;
 }
 
 MeshFillResult fill_mesh_object(const SceneDef& scene, std::size_t index, const MeshObject& m,
                                 const mesh::CellBox& box, bool with_regions) {
-  const ObjectDef& o = scene.objects[index];
   const double d = box.d;
-  const double hole = m.topology.largest_hole * m.scale;
-  // Holes up to about a cell wide are closed by the signed distance's band; wider ones let the outside in.
-  if (m.topology.holes > 0 && hole > 1.5 * d) {
-    throw Error(fmt::format(
-        "{}: the mesh {} is open: {} boundary edges in {} hole{}, the largest {:.4g} m across ({:.3g} cells at spacing "
-        "{:.4g} m), and a volume fill needs a closed surface (holes under about a cell are closed). Repair the mesh "
-        "(MeshLab: Filters > Remeshing > Close Holes; Blender: Mesh > Clean Up > Fill Holes) or increase "
-        "solver.spacing above {:.3g} m",
-        where(scene, index), o.mesh, m.topology.boundary_edges, m.topology.holes, m.topology.holes == 1 ? "" : "s", hole,
-        hole / d, d, hole / 1.5));
-  }
+  refuse_wide_holes(scene, index, m.solid, "the mesh", d);
   const auto t0 = std::chrono::steady_clock::now();
   MeshFillResult r;
-  r.inside = mesh::interior_cells(m.mesh, box);
+  r.inside = solid_cells(m.solid, box);
   for (auto c : r.inside) r.count += c;
-  const double expected = m.volume / (d * d * d);
-  const double ten_k = std::cbrt(m.volume / 1e4);
+  const double expected = m.volume() / (d * d * d);
   if (r.count == 0) {
     throw Error(fmt::format("{}: the mesh {} ({:.4g} x {:.4g} x {:.4g} m after scaling, {:.4g} m^3) holds no lattice "
                             "cell at spacing {:.4g} m; decrease solver.spacing (about {:.3g} m gives 10,000 automata) "
                             "or scale the mesh up",
-                            where(scene, index), o.mesh, m.extent(0), m.extent(1), m.extent(2), m.volume, d, ten_k));
+                            where(scene, index), m.solid.file, m.extent(0), m.extent(1), m.extent(2), m.volume(), d,
+                            std::cbrt(std::max(m.volume(), 1e-300) / 1e4)));
   }
-  // A surface whose sign cannot be told (holes, or two shells crossing) fills far less or more than it
-  // encloses.
-  if (expected > 200 && (r.count < 0.5 * expected || r.count > 2.0 * expected)) {
+  // A surface whose sign cannot be told (crossing shells, open seams) fills far less or more than it
+  // encloses; the enclosed volume is exact for manifold shells only.
+  if (m.solid.manifold && expected > 50 && (r.count < 0.5 * expected || r.count > 2.0 * expected)) {
     throw Error(fmt::format(
         "{}: filling the mesh {} gave {} automata where its enclosed volume {:.4g} m^3 gives about {:.0f} at spacing "
         "{:.4g} m: its inside cannot be told from its outside ({} boundary edges, {} non-manifold edges). Repair "
-        "the mesh into one closed surface (MeshLab: Close Holes, Remove Duplicate Faces; Blender: 3D-Print toolbox)",
-        where(scene, index), o.mesh, r.count, m.volume, expected, d, m.topology.boundary_edges,
-        m.topology.non_manifold_edges));
+        "the mesh into closed surfaces (MeshLab: Close Holes, Remove Duplicate Faces; Blender: 3D-Print toolbox)",
+        where(scene, index), m.solid.file, r.count, m.volume(), expected, d, m.solid.topology.boundary_edges,
+        m.solid.topology.non_manifold_edges));
   }
   if (with_regions) {
     for (std::size_t k = 0; k < m.regions.size(); ++k) {
       r.regions.emplace_back();
       if (!m.regions[k]) continue;
-      r.regions.back() = mesh::interior_cells(*m.regions[k], box);
+      refuse_wide_holes(scene, index, *m.regions[k], fmt::format("region[{}] mesh", k), d);
+      r.regions.back() = solid_cells(*m.regions[k], box);
       std::int64_t in_region = 0;
       for (std::size_t c = 0; c < r.inside.size(); ++c) in_region += r.inside[c] & r.regions.back()[c];
       if (in_region == 0) {
         throw Error(fmt::format("{}: region[{}] (mesh {}) holds no automaton of the object at spacing {:.4g} m; its "
                                 "mesh must lie inside the object's, in the same units and frame as the object's file",
-                                where(scene, index), k, o.regions[k].mesh, d));
+                                where(scene, index), k, m.regions[k]->file, d));
       }
     }
   }

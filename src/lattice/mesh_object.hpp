@@ -13,17 +13,30 @@
 
 namespace mca::lattice {
 
-struct MeshObject {
-  mesh::TriMesh mesh;          // object frame: metres, the centre of its bounding box at the origin
-  mesh::Bounds file_bounds;    // bounding box in the file's units
+// A closed surface to fill: its shells, and how they nest (a shell inside another bounds a cavity, one
+// inside a cavity an island, ...).
+struct Solid {
+  std::string file;
+  mesh::TriMesh mesh;          // object frame: metres
   mesh::Topology topology;
+  std::vector<mesh::Shell> shells;
+  // Per shell: how many other shells enclose it (odd: it bounds a cavity), or -1 for a shell that repeats
+  // an earlier one (a doubled surface), which is skipped.
+  std::vector<int> depth;
+  double volume = 0;           // the solid's: solid shells' volumes minus the cavities' [m^3]
+  bool manifold = true;        // every shell manifold: then `volume` is exact and the fill is checked by it
+};
+
+struct MeshObject {
+  Solid solid;
+  mesh::Bounds file_bounds;    // bounding box in the file's units
   double scale = 1;            // file units to metres (scale, or what fit_size gives)
-  double volume = 0;           // enclosed volume [m^3]
   std::size_t file_vertices = 0;
-  // Per region of the object: its mesh in the object frame (mesh regions), else nullopt.
-  std::vector<std::optional<mesh::TriMesh>> regions;
+  // Per region of the object: its solid in the object frame (mesh regions), else nullopt.
+  std::vector<std::optional<Solid>> regions;
 
   double extent(int axis) const { return file_bounds.extent()[axis] * scale; }
+  double volume() const { return solid.volume; }
 };
 
 // Reads and checks the mesh of scene.objects[index] (and of its mesh regions). Throws mca::Error naming

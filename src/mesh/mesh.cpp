@@ -6,8 +6,14 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <cmath>
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fmt/format.h>
+#include <fstream>
+#include <iterator>
+#include <sstream>
 #include <numeric>
 #include <unordered_map>
 
@@ -41,10 +47,207 @@ void configure(Assimp::Importer& importer) {
                                                           aiComponent_CAMERAS | aiComponent_MATERIALS);
 }
 
-constexpr unsigned kSteps = aiProcess_RemoveComponent | aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
-                            aiProcess_PreTransformVertices | aiProcess_ValidateDataStructure;
+// Read raw first (faces counted as the file has them), then these steps. Vertices are welded by convert,
+// exactly: assimp's JoinIdenticalVertices merges vertices closer than 1e-5 in the file's units, which
+// collapses a model written in metres at millimetre scale.
+constexpr unsigned kRawSteps = aiProcess_ValidateDataStructure;
+constexpr unsigned kSteps = aiProcess_RemoveComponent | aiProcess_Triangulate | aiProcess_PreTransformVertices |
+                            aiProcess_ValidateDataStructure;
 
-// All triangles of the file's meshes in one TriMesh (points and lines are counted, not kept).
+// What a PLY or OFF header declares, checked against the bytes before assimp sees them (assimp hangs on a
+// PLY cut inside its header and aborts on one whose ASCII body is cut short).
+struct Declared {
+  std::uint64_t vertices = 0, faces = 0;
+};
+
+std::uint64_t to_count(const std::string& token, const std::string& name, const char* what) {
+  std::uint64_t v = 0;
+  if (token.empty() || token.size() > 12 || token.find_first_not_of("0123456789") != std::string::npos) {
+    throw Error(fmt::format("{}: the header's {} count '{}' is not a number; the file is damaged", name, what, token));
+  }
+  v = std::stoull(token);
+  if (v > 0xfffffff0ull) throw Error(fmt::format("{}: the header declares {} {}, more than mca reads (4e9)", name, v, what));
+  return v;
+}
+
+Declared check_ply(const std::string& bytes, const std::string& name) {
+  const std::size_t end = bytes.find("end_header");
+  if (bytes.compare(0, 3, "ply") != 0) throw Error(fmt::format("{}: does not start with 'ply': not a PLY file", name));
+  if (end == std::string::npos) {
+    throw Error(fmt::format("{}: the PLY header has no end_header: the file is cut short or damaged", name));
+  }
+  std::size_t body = bytes.find('\n', end);
+  body = body == std::string::npos ? bytes.size() : body + 1;
+  std::istringstream header(bytes.substr(0, end));
+  std::string line, format;
+  struct Element {
+    std::string name;
+    std::uint64_t count = 0, bytes = 0;  // bytes: the least one element takes (binary)
+  };
+  std::vector<Element> elements;
+  auto size_of = [&](const std::string& type) -> std::uint64_t {
+    if (type == "char" || type == "uchar" || type == "int8" || type == "uint8") return 1;
+    if (type == "short" || type == "ushort" || type == "int16" || type == "uint16") return 2;
+    if (type == "int" || type == "uint" || type == "float" || type == "int32" || type == "uint32" || type == "float32") return 4;
+    if (type == "double" || type == "float64") return 8;
+    throw Error(fmt::format("{}: the PLY header names an unknown property type '{}'; the file is damaged", name, type));
+  };
+  while (std::getline(header, line)) {
+    std::istringstream words(line);
+    std::string w;
+    words >> w;
+    if (w == "format") {
+      words >> format;
+    } else if (w == "element") {
+      Element e;
+      std::string count;
+      words >> e.name >> count;
+      e.count = to_count(count, name, e.name.c_str());
+      elements.push_back(e);
+    } else if (w == "property") {
+      if (elements.empty()) throw Error(fmt::format("{}: a PLY property before any element; the file is damaged", name));
+      std::string type;
+      words >> type;
+      if (type == "list") {
+        std::string count_type, item_type;
+        words >> count_type >> item_type;
+        elements.back().bytes += size_of(count_type);  // an empty list at least
+        size_of(item_type);
+      } else {
+        elements.back().bytes += size_of(type);
+      }
+    }
+  }
+  Declared d;
+  for (const Element& e : elements) {
+    if (e.name == "vertex") d.vertices = e.count;
+    if (e.name == "face") d.faces = e.count;
+  }
+  const std::size_t have = bytes.size() - body;
+  if (format == "ascii") {
+    // One element per line at least (a line may hold more: that is fine).
+    std::uint64_t lines = 0, need = 0;
+    for (std::size_t i = body; i < bytes.size();) {
+      const std::size_t nl = std::min(bytes.find('\n', i), bytes.size());
+      if (bytes.find_first_not_of(" \t\r", i) < nl) ++lines;
+      i = nl + 1;
+    }
+    for (const Element& e : elements) need += e.count;
+    if (lines < need) {
+      throw Error(fmt::format("{}: the PLY header declares {} elements ({} vertices, {} faces) but the file has {} lines "
+                              "of data: it is cut short",
+                              name, need, d.vertices, d.faces, lines));
+    }
+  } else if (format == "binary_little_endian" || format == "binary_big_endian") {
+    long double need = 0;
+    for (const Element& e : elements) need += static_cast<long double>(e.count) * static_cast<long double>(e.bytes);
+    if (need > static_cast<long double>(have)) {
+      throw Error(fmt::format("{}: the PLY header declares {} vertices and {} faces, at least {:.0f} bytes of data, but "
+                              "the file has {}: it is cut short",
+                              name, d.vertices, d.faces, static_cast<double>(need), have));
+    }
+  } else {
+    throw Error(fmt::format("{}: the PLY header's format '{}' is not ascii, binary_little_endian or "
+                            "binary_big_endian; the file is damaged",
+                            name, format));
+  }
+  return d;
+}
+
+Declared check_off(const std::string& bytes, const std::string& name) {
+  // "[ST][C][N][4][n]OFF", the counts "vertices faces [edges]" (on the same line or the next), then a
+  // line per vertex and a line per face ("k i1 ... ik"); '#' starts a comment. assimp clamps a face's
+  // out-of-range index to a valid one without a word, so the faces are checked here.
+  std::istringstream in(bytes);
+  std::string line;
+  auto next_line = [&](std::vector<std::string>& words) {
+    while (std::getline(in, line)) {
+      line = line.substr(0, line.find('#'));
+      std::istringstream ws(line);
+      words.clear();
+      std::string w;
+      while (ws >> w) words.push_back(w);
+      if (!words.empty()) return true;
+    }
+    return false;
+  };
+  std::vector<std::string> words;
+  if (!next_line(words) || words[0].size() < 3 || words[0].compare(words[0].size() - 3, 3, "OFF") != 0) {
+    throw Error(fmt::format("{}: does not start with OFF: not an OFF file", name));
+  }
+  if (words[0] != "OFF" && words[0] != "COFF" && words[0] != "NOFF" && words[0] != "CNOFF") return {};  // left to assimp
+  std::vector<std::string> counts(words.begin() + 1, words.end());
+  if (counts.size() < 2) {
+    if (!next_line(words)) throw Error(fmt::format("{}: the OFF header has no vertex and face counts: the file is cut short", name));
+    counts = words;
+  }
+  if (counts.size() < 2) throw Error(fmt::format("{}: the OFF header has no face count: the file is damaged", name));
+  Declared d;
+  d.vertices = to_count(counts[0], name, "vertex");
+  d.faces = to_count(counts[1], name, "face");
+  for (std::uint64_t v = 0; v < d.vertices; ++v) {
+    if (!next_line(words)) {
+      throw Error(fmt::format("{}: declares {} vertices and {} faces but ends after {} vertices: it is cut short", name,
+                              d.vertices, d.faces, v));
+    }
+  }
+  for (std::uint64_t f = 0; f < d.faces; ++f) {
+    if (!next_line(words)) {
+      throw Error(fmt::format("{}: declares {} faces but ends after {}: it is cut short", name, d.faces, f));
+    }
+    char* end = nullptr;
+    const unsigned long long k = std::strtoull(words[0].c_str(), &end, 10);
+    if (*end != '\0' || k + 1 > words.size()) {
+      throw Error(fmt::format("{}: face {} ('{}') does not list its vertex count and that many vertices; the file is "
+                              "damaged",
+                              name, f, line));
+    }
+    for (unsigned long long i = 1; i <= k; ++i) {
+      const long long idx = std::strtoll(words[i].c_str(), &end, 10);
+      if (*end != '\0' || idx < 0 || static_cast<std::uint64_t>(idx) >= d.vertices) {
+        throw Error(fmt::format("{}: face {} uses vertex '{}', but the file has {} vertices (0 to {}); the file is "
+                                "damaged",
+                                name, f, words[i], d.vertices, d.vertices - 1));
+      }
+    }
+  }
+  return d;
+}
+
+// Joins vertices at exactly the same coordinates (STL and most OBJ files store one per face corner), in
+// order of first appearance.
+void weld(TriMesh& m) {
+  struct Key {
+    double x, y, z;
+    bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
+  };
+  struct Hash {
+    std::size_t operator()(const Key& k) const {
+      std::uint64_t h = 1469598103934665603ull;
+      for (double v : {k.x, k.y, k.z}) {
+        std::uint64_t b;
+        std::memcpy(&b, &v, 8);
+        h = (h ^ b) * 1099511628211ull;
+      }
+      return static_cast<std::size_t>(h ^ (h >> 29));
+    }
+  };
+  std::unordered_map<Key, std::uint32_t, Hash> first;
+  first.reserve(m.vertices.size());
+  std::vector<std::uint32_t> to(m.vertices.size());
+  std::vector<Point> kept;
+  for (std::size_t v = 0; v < m.vertices.size(); ++v) {
+    const Point& p = m.vertices[v];
+    const Key k{p[0] == 0 ? 0.0 : p[0], p[1] == 0 ? 0.0 : p[1], p[2] == 0 ? 0.0 : p[2]};  // -0 is 0
+    const auto [it, fresh] = first.try_emplace(k, static_cast<std::uint32_t>(kept.size()));
+    if (fresh) kept.push_back(p);
+    to[v] = it->second;
+  }
+  for (auto& f : m.faces)
+    for (auto& v : f) v = to[v];
+  m.vertices = std::move(kept);
+}
+
 TriMesh convert(const aiScene* scene, const std::string& name) {
   TriMesh m;
   std::size_t points = 0, other = 0;
@@ -81,6 +284,7 @@ TriMesh convert(const aiScene* scene, const std::string& name) {
   if (m.vertices.empty()) {
     throw Error(fmt::format("{}: the file holds no vertices (an empty mesh); export the model again", name));
   }
+  weld(m);
   if (m.faces.empty()) {
     throw Error(fmt::format("{}: {} vertices but no triangles{}; mca needs a surface of triangles (a point cloud must "
                             "be meshed first, e.g. by Poisson reconstruction in MeshLab or CloudCompare)",
@@ -89,9 +293,18 @@ TriMesh convert(const aiScene* scene, const std::string& name) {
   }
   const Topology t = topology(m);
   if (t.degenerate_faces == m.faces.size()) {
+    const Bounds b = bounds(m);
+    double far = 0;
+    for (int a = 0; a < 3; ++a) far = std::max({far, std::fabs(b.lo[a]), std::fabs(b.hi[a])});
     throw Error(fmt::format("{}: all {} triangles are degenerate (zero area: their corners lie on a line or "
-                            "coincide); the file holds no surface",
-                            name, m.faces.size()));
+                            "coincide); the file holds no surface{}",
+                            name, m.faces.size(),
+                            far > 1e4 * b.largest_extent()
+                                ? fmt::format(" (its coordinates reach {:.3g} for a model {:.3g} across: single-precision "
+                                              "coordinates that far out cannot tell its corners apart; move it to the "
+                                              "origin in the file)",
+                                              far, b.largest_extent())
+                                : std::string()));
   }
   return m;
 }
@@ -114,10 +327,38 @@ const std::vector<std::string>& mesh_extensions() {
   return all;
 }
 
+namespace {
+
+// Reads with assimp (from the file, or from `bytes` when given), checking the faces the file declares.
+TriMesh import(const std::string& name, const std::string& ext, const std::string* bytes, const std::string& path) {
+  Declared declared;
+  if (bytes && ext == "ply") declared = check_ply(*bytes, name);
+  if (bytes && ext == "off") declared = check_off(*bytes, name);
+  Assimp::Importer importer;
+  configure(importer);
+  const aiScene* raw = bytes ? importer.ReadFileFromMemory(bytes->data(), bytes->size(), kRawSteps, ext.c_str())
+                             : importer.ReadFile(path, kRawSteps);
+  if (!raw || (raw->mFlags & AI_SCENE_FLAGS_INCOMPLETE && raw->mNumMeshes == 0)) fail_import(importer, name, ext);
+  std::uint64_t faces = 0;
+  for (unsigned k = 0; k < raw->mNumMeshes; ++k) faces += raw->mMeshes[k]->mNumFaces;
+  if (faces < declared.faces) {
+    throw Error(fmt::format("{}: the header declares {} faces but {} could be read: the others use vertex indices out "
+                            "of range (the file has {} vertices) or the file is cut short; repair or re-export it",
+                            name, declared.faces, faces, declared.vertices));
+  }
+  const aiScene* scene = importer.ApplyPostProcessing(kSteps);
+  if (!scene) fail_import(importer, name, ext);
+  return convert(scene, name);
+}
+
+}  // namespace
+
 TriMesh read_mesh(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw Error(fmt::format("{}: no such mesh file", path));
-  if (!std::filesystem::is_regular_file(path, ec)) throw Error(fmt::format("{}: is not a file", path));
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    throw Error(fmt::format("{}: is not a regular file (a directory, device or pipe); give a mesh file", path));
+  }
   const std::string ext = lower_extension(path);
   if (!known_extension(ext)) {
     throw Error(fmt::format("{}: unknown mesh extension '{}'; mca reads {} (convert the file, e.g. with MeshLab or "
@@ -125,11 +366,14 @@ TriMesh read_mesh(const std::string& path) {
                             path, ext.empty() ? "(none)" : "." + ext, extension_list()));
   }
   if (std::filesystem::file_size(path, ec) == 0) throw Error(fmt::format("{}: the file is empty", path));
-  Assimp::Importer importer;
-  configure(importer);
-  const aiScene* scene = importer.ReadFile(path, kSteps);
-  if (!scene || (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE && scene->mNumMeshes == 0)) fail_import(importer, path, ext);
-  return convert(scene, path);
+  if (ext == "ply" || ext == "off") {
+    // Checked before assimp reads them, from memory (neither format refers to other files).
+    std::ifstream in(path, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (!in && !in.eof()) throw Error(fmt::format("{}: cannot be read: {}", path, std::strerror(errno)));
+    return import(path, ext, &bytes, path);
+  }
+  return import(path, ext, nullptr, path);
 }
 
 TriMesh read_mesh_memory(const void* data, std::size_t size, const std::string& extension, const std::string& name) {
@@ -139,11 +383,8 @@ TriMesh read_mesh_memory(const void* data, std::size_t size, const std::string& 
     throw Error(fmt::format("{}: unknown mesh format '{}'; mca reads {}", name, extension, extension_list()));
   }
   if (size == 0) throw Error(fmt::format("{}: the data is empty", name));
-  Assimp::Importer importer;
-  configure(importer);
-  const aiScene* scene = importer.ReadFileFromMemory(data, size, kSteps, ext.c_str());
-  if (!scene || (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE && scene->mNumMeshes == 0)) fail_import(importer, name, ext);
-  return convert(scene, name);
+  const std::string bytes(static_cast<const char*>(data), size);
+  return import(name, ext, &bytes, name);
 }
 
 double Bounds::largest_extent() const {
@@ -224,6 +465,92 @@ Topology topology(const TriMesh& m) {
     t.largest_hole = std::max(t.largest_hole, std::sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]));
   }
   return t;
+}
+
+std::vector<Shell> shells(const TriMesh& m) {
+  const std::size_t nf = m.faces.size();
+  std::vector<std::uint32_t> parent(m.vertices.size());
+  std::iota(parent.begin(), parent.end(), 0u);
+  for (const Triangle& f : m.faces) {
+    parent[find_root(parent, f[0])] = find_root(parent, f[1]);
+    parent[find_root(parent, f[1])] = find_root(parent, f[2]);
+  }
+  std::vector<Shell> out;
+  std::unordered_map<std::uint32_t, std::uint32_t> shell_of_root;
+  for (std::uint32_t f = 0; f < nf; ++f) {
+    const auto [it, fresh] = shell_of_root.try_emplace(find_root(parent, m.faces[f][0]), static_cast<std::uint32_t>(out.size()));
+    if (fresh) out.emplace_back();
+    out[it->second].faces.push_back(f);
+  }
+  for (Shell& sh : out) {
+    sh.bounds.lo = {INFINITY, INFINITY, INFINITY};
+    sh.bounds.hi = {-INFINITY, -INFINITY, -INFINITY};
+    // Edges -> (face, direction); a manifold shell has each edge twice.
+    std::unordered_map<std::uint64_t, std::vector<std::pair<std::uint32_t, bool>>> edges;
+    // A triangle repeated (the same three vertices, a doubled surface) counts once.
+    std::vector<std::array<std::uint32_t, 3>> sorted;
+    for (auto f : sh.faces) {
+      std::array<std::uint32_t, 3> t = m.faces[f];
+      std::sort(t.begin(), t.end());
+      sorted.push_back(t);
+    }
+    std::vector<std::uint32_t> order(sh.faces.size());
+    std::iota(order.begin(), order.end(), 0u);
+    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return sorted[a] < sorted[b]; });
+    std::vector<std::uint32_t> unique_faces;
+    for (std::size_t k = 0; k < order.size(); ++k)
+      if (k == 0 || sorted[order[k]] != sorted[order[k - 1]]) unique_faces.push_back(sh.faces[order[k]]);
+    std::sort(unique_faces.begin(), unique_faces.end());
+    for (auto f : unique_faces) {
+      const Triangle& t = m.faces[f];
+      for (int e = 0; e < 3; ++e) {
+        const std::uint32_t u = t[e], v = t[(e + 1) % 3];
+        for (int a = 0; a < 3; ++a) {
+          sh.bounds.lo[a] = std::min(sh.bounds.lo[a], m.vertices[u][a]);
+          sh.bounds.hi[a] = std::max(sh.bounds.hi[a], m.vertices[u][a]);
+        }
+        edges[u < v ? (std::uint64_t{u} << 32 | v) : (std::uint64_t{v} << 32 | u)].push_back({f, u < v});
+      }
+    }
+    sh.manifold = std::all_of(edges.begin(), edges.end(), [](const auto& e) { return e.second.size() == 2; });
+    // Orientation by breadth-first search: a neighbour across a manifold edge must run it the other way.
+    std::unordered_map<std::uint32_t, std::int8_t> flip;  // face -> +1 kept, -1 turned
+    flip.reserve(sh.faces.size());
+    for (auto seed : unique_faces) {
+      if (flip.count(seed)) continue;
+      flip[seed] = 1;
+      std::vector<std::uint32_t> queue{seed};
+      while (!queue.empty()) {
+        const std::uint32_t f = queue.back();
+        queue.pop_back();
+        const Triangle& t = m.faces[f];
+        for (int e = 0; e < 3; ++e) {
+          const std::uint32_t u = t[e], v = t[(e + 1) % 3];
+          const auto& users = edges[u < v ? (std::uint64_t{u} << 32 | v) : (std::uint64_t{v} << 32 | u)];
+          if (users.size() != 2) continue;
+          const auto& other = users[0].first == f ? users[1] : users[0];
+          const bool mine = users[0].first == f ? users[0].second : users[1].second;
+          if (flip.count(other.first)) continue;
+          // Same direction in the file: the neighbour is turned relative to this face.
+          flip[other.first] = static_cast<std::int8_t>(other.second == mine ? -flip[f] : flip[f]);
+          queue.push_back(other.first);
+        }
+      }
+    }
+    const Point c = sh.bounds.centre();
+    double v6 = 0;
+    for (auto f : unique_faces) {
+      const Triangle& t = m.faces[f];
+      Point p[3];
+      for (int k = 0; k < 3; ++k)
+        for (int a = 0; a < 3; ++a) p[k][a] = m.vertices[t[k]][a] - c[a];
+      const double det = p[0][0] * (p[1][1] * p[2][2] - p[1][2] * p[2][1]) - p[0][1] * (p[1][0] * p[2][2] - p[1][2] * p[2][0]) +
+                         p[0][2] * (p[1][0] * p[2][1] - p[1][1] * p[2][0]);
+      v6 += flip[f] * det;
+    }
+    sh.volume = std::fabs(v6) / 6.0;
+  }
+  return out;
 }
 
 double signed_volume(const TriMesh& m) {

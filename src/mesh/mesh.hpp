@@ -49,6 +49,18 @@ struct Topology {
 };
 Topology topology(const TriMesh& m);
 
+// A connected piece of a mesh's surface (triangles joined through shared vertices).
+struct Shell {
+  std::vector<std::uint32_t> faces;  // indices into TriMesh::faces, increasing
+  Bounds bounds;
+  bool manifold = false;  // every edge used by exactly two of its triangles
+  // Enclosed volume with its triangles turned to agree with their neighbours (so flipped triangles do not
+  // matter); meaningful when manifold.
+  double volume = 0;
+};
+// The shells of a mesh, in order of their first triangle.
+std::vector<Shell> shells(const TriMesh& m);
+
 // Enclosed volume by the divergence theorem (positive for outward-facing triangles; meaningful for a
 // closed mesh, approximate for one with small holes).
 double signed_volume(const TriMesh& m);

@@ -1,5 +1,6 @@
 #include "mesh/mesh_write.hpp"
 
+#include <algorithm>
 #include <bit>
 #include <fmt/format.h>
 
@@ -40,13 +41,16 @@ void write_obj(std::ostream& out, const FloatMesh& m) {
   out << "# written by mca\n";
   fmt::memory_buffer b;
   for (const auto& v : m.vertices) fmt::format_to(std::back_inserter(b), "v {} {} {}\n", v[0], v[1], v[2]);
-  // OBJ groups by face value (fragments become separate objects in Blender's importer).
-  std::int32_t current = 0;
-  for (std::size_t f = 0; f < m.faces.size(); ++f) {
-    if (!m.face_values.empty() && (f == 0 || m.face_values[f] != current)) {
-      current = m.face_values[f];
-      fmt::format_to(std::back_inserter(b), "g {}_{}\n", m.face_value_name, current);
-    }
+  // One group per face value (fragments become separate objects in Blender's importer): the faces in
+  // order of value, each value's in their own order.
+  std::vector<std::uint32_t> order(m.faces.size());
+  for (std::size_t f = 0; f < order.size(); ++f) order[f] = static_cast<std::uint32_t>(f);
+  if (!m.face_values.empty())
+    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return m.face_values[a] < m.face_values[b]; });
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const std::uint32_t f = order[k];
+    if (!m.face_values.empty() && (k == 0 || m.face_values[f] != m.face_values[order[k - 1]]))
+      fmt::format_to(std::back_inserter(b), "g {}_{}\n", m.face_value_name, m.face_values[f]);
     const auto& t = m.faces[f];
     fmt::format_to(std::back_inserter(b), "f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
   }

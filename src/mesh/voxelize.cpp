@@ -14,21 +14,23 @@ namespace {
 struct Adapter {
   const TriMesh* m;
   const CellBox* box;
-  std::size_t polygonCount() const { return m->faces.size(); }
+  const std::vector<std::uint32_t>* faces = nullptr;  // a subset of m's triangles, or all
+  std::size_t polygonCount() const { return faces ? faces->size() : m->faces.size(); }
   std::size_t pointCount() const { return m->vertices.size(); }
   std::size_t vertexCount(std::size_t) const { return 3; }
   void getIndexSpacePoint(std::size_t n, std::size_t v, openvdb::Vec3d& pos) const {
-    const Point& p = m->vertices[m->faces[n][v]];
+    const Point& p = m->vertices[m->faces[faces ? (*faces)[n] : n][v]];
     for (int a = 0; a < 3; ++a) pos[a] = (p[a] - box->origin[a]) / box->d;
   }
 };
 
-openvdb::FloatGrid::Ptr distance_grid(const TriMesh& m, const CellBox& box, float band) {
+openvdb::FloatGrid::Ptr distance_grid(const TriMesh& m, const CellBox& box, float band,
+                                      const std::vector<std::uint32_t>* faces = nullptr) {
   static std::once_flag once;
   std::call_once(once, [] { openvdb::initialize(); });
   const auto xform = openvdb::math::Transform::createLinearTransform(box.d);
   // The sign is flood-filled from the band through the rest of the grid.
-  return openvdb::tools::meshToVolume<openvdb::FloatGrid>(Adapter{&m, &box}, *xform, band, band);
+  return openvdb::tools::meshToVolume<openvdb::FloatGrid>(Adapter{&m, &box, faces}, *xform, band, band);
 }
 
 }  // namespace
@@ -87,9 +89,9 @@ TriMesh polygonize(const std::vector<float>& field, const CellBox& box) {
   return out;
 }
 
-std::vector<std::uint8_t> interior_cells(const TriMesh& m, const CellBox& box) {
+std::vector<std::uint8_t> interior_cells(const TriMesh& m, const CellBox& box, const std::vector<std::uint32_t>* faces) {
   // A band of 3 cells each side.
-  const auto grid = distance_grid(m, box, 3.0f);
+  const auto grid = distance_grid(m, box, 3.0f, faces);
   std::vector<std::uint8_t> inside(static_cast<std::size_t>(box.cells()), 0);
   const std::int64_t nx = box.n[0], ny = box.n[1];
   tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, box.n[2]), [&](const tbb::blocked_range<std::int64_t>& r) {

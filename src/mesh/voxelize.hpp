@@ -23,7 +23,9 @@ struct CellBox {
 // sign is found by flood fill from outside, so it does not depend on the triangles' orientation, a few
 // flipped or doubled triangles change nothing, and holes narrower than about a cell are closed; a larger
 // hole lets the outside in (the caller refuses such meshes: Topology::largest_hole).
-std::vector<std::uint8_t> interior_cells(const TriMesh& m, const CellBox& box);
+// `faces`: only these triangles of m (one shell), else all.
+std::vector<std::uint8_t> interior_cells(const TriMesh& m, const CellBox& box,
+                                         const std::vector<std::uint32_t>* faces = nullptr);
 
 // The signed distance of a mesh (negative inside), sampled at the cell centres of a box: exact within
 // `band` cells of the surface, +-band cells (by the side) beyond.

@@ -100,12 +100,18 @@ Engine::Engine(const SceneDef& scene, const State& state, const std::string& sou
   // first array whose size it changed.
   if (fingerprint) {
     const std::uint64_t rebuilt = model_fingerprint(model_);
-    if (rebuilt != *fingerprint)
+    if (rebuilt != *fingerprint) {
+      // A mesh object's model comes from its file as well: changed since, it gives another model.
+      std::string meshes;
+      for (const MeshSummary& ms : model_.meshes) meshes += fmt::format("{}{}", meshes.empty() ? "" : ", ", ms.path);
       throw Error(fmt::format("{}: its embedded scene does not give the model the state was saved from (model "
-                              "fingerprint {:016x}, saved {:016x}): the file was edited or damaged, or written by "
-                              "another version of mca; use an earlier checkpoint (remove this one) or start the "
+                              "fingerprint {:016x}, saved {:016x}): {}the file was edited or damaged, or written by "
+                              "another version of mca; {}use an earlier checkpoint (remove this one) or start the "
                               "run again",
-                              source, rebuilt, *fingerprint));
+                              source, rebuilt, *fingerprint,
+                              meshes.empty() ? "" : fmt::format("a mesh file it reads ({}) changed since the run, or ", meshes),
+                              meshes.empty() ? "" : "put the mesh files back as they were, "));
+    }
   }
   check_state(model_, state, source);
   energy_floor_ = breaking_energy(model_);
