@@ -1,6 +1,7 @@
 #include "mesh/mesh.hpp"
 
 #include <algorithm>
+#include <assimp/BaseImporter.h>
 #include <assimp/Importer.hpp>
 #include <assimp/config.h>
 #include <assimp/postprocess.h>
@@ -51,6 +52,18 @@ void configure(Assimp::Importer& importer) {
 // exactly: assimp's JoinIdenticalVertices merges vertices closer than 1e-5 in the file's units, which
 // collapses a model written in metres at millimetre scale.
 constexpr unsigned kRawSteps = aiProcess_ValidateDataStructure;
+// Leaves the importer only the reader of `ext`. When the reader an extension names refuses the data,
+// assimp tries every other reader it has on the content, and some of those (OpenGEX, Blender, Terragen)
+// overflow buffers, hang or allocate gigabytes on a few hundred hostile bytes (fuzz/findings/).
+void only_reader_for(Assimp::Importer& importer, const std::string& ext) {
+  const std::size_t keep = importer.GetImporterIndex(("." + ext).c_str());
+  std::vector<Assimp::BaseImporter*> others;
+  for (std::size_t k = 0; k < importer.GetImporterCount(); ++k)
+    if (k != keep) others.push_back(importer.GetImporter(k));
+  for (auto* imp : others)
+    if (importer.UnregisterLoader(imp) == aiReturn_SUCCESS) delete imp;  // unregistered, the importer is ours to free
+}
+
 constexpr unsigned kSteps = aiProcess_RemoveComponent | aiProcess_Triangulate | aiProcess_PreTransformVertices |
                             aiProcess_ValidateDataStructure;
 
@@ -71,8 +84,16 @@ std::uint64_t to_count(const std::string& token, const std::string& name, const 
 }
 
 Declared check_ply(const std::string& bytes, const std::string& name) {
-  const std::size_t end = bytes.find("end_header");
   if (bytes.compare(0, 3, "ply") != 0) throw Error(fmt::format("{}: does not start with 'ply': not a PLY file", name));
+  // "end_header" as a line of its own (assimp loops for ever on a header without one).
+  std::size_t end = std::string::npos;
+  for (std::size_t at = bytes.find("\nend_header"); at != std::string::npos; at = bytes.find("\nend_header", at + 1)) {
+    const std::size_t after = at + 11;
+    if (after == bytes.size() || bytes[after] == '\n' || bytes[after] == '\r' || bytes[after] == ' ' || bytes[after] == '\t') {
+      end = at + 1;
+      break;
+    }
+  }
   if (end == std::string::npos) {
     throw Error(fmt::format("{}: the PLY header has no end_header: the file is cut short or damaged", name));
   }
@@ -336,6 +357,7 @@ TriMesh import(const std::string& name, const std::string& ext, const std::strin
   if (bytes && ext == "off") declared = check_off(*bytes, name);
   Assimp::Importer importer;
   configure(importer);
+  only_reader_for(importer, ext);
   const aiScene* raw = bytes ? importer.ReadFileFromMemory(bytes->data(), bytes->size(), kRawSteps, ext.c_str())
                              : importer.ReadFile(path, kRawSteps);
   if (!raw || (raw->mFlags & AI_SCENE_FLAGS_INCOMPLETE && raw->mNumMeshes == 0)) fail_import(importer, name, ext);
