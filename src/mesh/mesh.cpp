@@ -4,6 +4,7 @@
 #include <assimp/BaseImporter.h>
 #include <assimp/Importer.hpp>
 #include <assimp/config.h>
+#include <assimp/importerdesc.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <cmath>
@@ -52,14 +53,20 @@ void configure(Assimp::Importer& importer) {
 // exactly: assimp's JoinIdenticalVertices merges vertices closer than 1e-5 in the file's units, which
 // collapses a model written in metres at millimetre scale.
 constexpr unsigned kRawSteps = aiProcess_ValidateDataStructure;
-// Leaves the importer only the reader of `ext`. When the reader an extension names refuses the data,
-// assimp tries every other reader it has on the content, and some of those (OpenGEX, Blender, Terragen)
-// overflow buffers, hang or allocate gigabytes on a few hundred hostile bytes (fuzz/findings/).
+// Leaves the importer only the readers of `ext` (glTF has two: versions 1 and 2). When the readers an
+// extension names refuse the data, assimp tries every other reader it has on the content, and some of
+// those (OpenGEX, Blender, Terragen) overflow buffers, hang or allocate gigabytes on a few hundred hostile
+// bytes (fuzz/findings/).
 void only_reader_for(Assimp::Importer& importer, const std::string& ext) {
-  const std::size_t keep = importer.GetImporterIndex(("." + ext).c_str());
   std::vector<Assimp::BaseImporter*> others;
-  for (std::size_t k = 0; k < importer.GetImporterCount(); ++k)
-    if (k != keep) others.push_back(importer.GetImporter(k));
+  for (std::size_t k = 0; k < importer.GetImporterCount(); ++k) {
+    const aiImporterDesc* info = importer.GetImporterInfo(k);
+    std::istringstream list(info && info->mFileExtensions ? info->mFileExtensions : "");
+    std::string e;
+    bool ours = false;
+    while (list >> e) ours = ours || e == ext;
+    if (!ours) others.push_back(importer.GetImporter(k));
+  }
   for (auto* imp : others)
     if (importer.UnregisterLoader(imp) == aiReturn_SUCCESS) delete imp;  // unregistered, the importer is ours to free
 }
