@@ -3,7 +3,8 @@
 # models into the models cache (scripts/get_models.sh; MCA_SETUP_MODELS=0 skips them).
 # Idempotent: re-running it when everything is there takes about a second.
 # Run as root (or through sudo). Set MCA_SETUP_PARAVIEW=1 to also install ParaView
-# (pvbatch), used only to check the VTK output by eye.
+# (pvbatch), used only to check the VTK output by eye; MCA_SETUP_FUZZ=1 the fuzzing toolchain
+# (scripts/fuzz.sh).
 set -euo pipefail
 
 packages=(
@@ -12,6 +13,9 @@ packages=(
   libtbb-dev libtomlplusplus-dev libcli11-dev libfmt-dev nlohmann-json3-dev
   libassimp-dev libopenvdb-dev libboost-iostreams-dev
 )
+if [[ "${MCA_SETUP_FUZZ:-0}" == 1 ]]; then
+  packages+=(clang-14 libfuzzer-14-dev)
+fi
 if [[ "${MCA_SETUP_PARAVIEW:-0}" == 1 ]]; then
   packages+=(paraview python3-paraview xvfb xauth)
 fi

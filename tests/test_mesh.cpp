@@ -79,7 +79,9 @@ TEST(MeshLoader, BadFilesAreClearErrorsNamingTheFile) {
   const std::string empty = write("empty.ply", "");
   EXPECT_NE(err(empty).find("empty"), std::string::npos) << err(empty);
   const std::string lie = write("text.glb", "this is not a binary glTF file at all\n");
-  EXPECT_NE(err(lie).find("cannot be read as a .glb mesh"), std::string::npos) << err(lie);
+  EXPECT_NE(err(lie).find("not a .glb file"), std::string::npos) << err(lie);
+  const std::string lie2 = write("text.stl", "<html><body>not a mesh</body></html>\n");
+  EXPECT_NE(err(lie2).find("cannot be read as a .stl mesh"), std::string::npos) << err(lie2);
   const std::string cloud = write("cloud.ply",
                                   "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                                   "property float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n");
@@ -88,7 +90,7 @@ TEST(MeshLoader, BadFilesAreClearErrorsNamingTheFile) {
   EXPECT_NE(err(nan).find("not a finite number"), std::string::npos) << err(nan);
   const std::string flat = write("line.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n");
   EXPECT_NE(err(flat).find("degenerate"), std::string::npos) << err(flat);
-  for (const std::string& p : {xyz, empty, lie, cloud, nan, flat}) EXPECT_NE(err(p).find(p), std::string::npos) << err(p);
+  for (const std::string& p : {xyz, empty, lie, lie2, cloud, nan, flat}) EXPECT_NE(err(p).find(p), std::string::npos) << err(p);
 }
 
 TEST(MeshLoader, CutShortOrBadIndexFilesAreErrorsNotCrashes) {

@@ -242,6 +242,30 @@ Declared check_off(const std::string& bytes, const std::string& name) {
   return d;
 }
 
+// A binary glTF's header and chunk lengths against its size (`head`: its first 20 bytes or more): assimp
+// allocates whatever a chunk header declares (2.3 GB for a 621-byte file) before it reads anything.
+void check_glb(const std::string& head, std::uint64_t size, const std::string& name) {
+  auto u32 = [&](std::size_t at) {
+    std::uint32_t v = 0;
+    std::memcpy(&v, head.data() + at, 4);
+    return v;  // little-endian, as the format and this machine
+  };
+  if (head.size() < 20 || head.compare(0, 4, "glTF") != 0) {
+    throw Error(fmt::format("{}: does not start with a binary glTF header ('glTF' and 20 bytes): not a .glb file", name));
+  }
+  if (u32(4) != 2) {
+    throw Error(fmt::format("{}: binary glTF version {}; mca reads version 2 (re-export it, e.g. from Blender)", name, u32(4)));
+  }
+  if (u32(8) > size) {
+    throw Error(fmt::format("{}: its header says {} bytes, but the file has {}: it is cut short", name, u32(8), size));
+  }
+  if (static_cast<std::uint64_t>(u32(12)) + 20 > size) {
+    throw Error(fmt::format("{}: its first chunk says {} bytes, more than the {} bytes the file has: it is cut short or "
+                            "damaged",
+                            name, u32(12), size));
+  }
+}
+
 // Joins vertices at exactly the same coordinates (STL and most OBJ files store one per face corner), in
 // order of first appearance.
 void weld(TriMesh& m) {
@@ -362,6 +386,7 @@ TriMesh import(const std::string& name, const std::string& ext, const std::strin
   Declared declared;
   if (bytes && ext == "ply") declared = check_ply(*bytes, name);
   if (bytes && ext == "off") declared = check_off(*bytes, name);
+  if (bytes && ext == "glb") check_glb(*bytes, bytes->size(), name);
   Assimp::Importer importer;
   configure(importer);
   only_reader_for(importer, ext);
@@ -401,6 +426,14 @@ TriMesh read_mesh(const std::string& path) {
     std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     if (!in && !in.eof()) throw Error(fmt::format("{}: cannot be read: {}", path, std::strerror(errno)));
     return import(path, ext, &bytes, path);
+  }
+  if (ext == "glb") {
+    // Read from the file (it may name buffers beside it), once its header is checked.
+    std::ifstream in(path, std::ios::binary);
+    std::string head(20, '\0');
+    in.read(head.data(), 20);
+    head.resize(static_cast<std::size_t>(in.gcount()));
+    check_glb(head, std::filesystem::file_size(path, ec), path);
   }
   return import(path, ext, nullptr, path);
 }
