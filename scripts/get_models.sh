@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Puts the paper's models (the cow, the bunny, the armadillo, and a few more) into the models cache,
 # where scenes find them by name (docs/scene-format.md, "Mesh objects"): $XDG_CACHE_HOME/mca/models, else
-# ~/.cache/mca/models. They come from Debian's libcgal-demo package (installed when missing; needs root
-# or sudo), which ships them in /usr/share/doc/libcgal-dev/data.tar.gz. Debian gives no licence per data
-# file, so they are never copied into the repository. Idempotent: a second run takes well under a second.
+# ~/.cache/mca/models. They come from Debian's libcgal-demo package, which ships them in
+# /usr/share/doc/libcgal-dev/data.tar.gz. Debian gives no licence per data
+# file, so they are never copied into the repository. scripts/setup.sh installs the package and calls this.
+# Idempotent: a second run takes well under a second.
 set -euo pipefail
 
 models=(cow.off bunny00.off armadillo.off ellipsoid.off sphere.off elephant.off)
@@ -18,14 +19,9 @@ if ((have_all)); then
 fi
 
 if [[ ! -f "$archive" ]]; then
-  SUDO=""
-  if [[ $(id -u) -ne 0 ]]; then
-    command -v sudo >/dev/null || { echo "get_models: run as root to install libcgal-demo (it holds the models)" >&2; exit 1; }
-    SUDO=sudo
-  fi
-  echo "get_models: installing libcgal-demo (the models are in it)"
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends libcgal-demo
+  echo "get_models: $archive is missing: Debian's libcgal-demo holds the models; install it with" >&2
+  echo "get_models: sudo scripts/setup.sh (or apt-get install libcgal-demo), then run this again" >&2
+  exit 1
 fi
 
 mkdir -p "$cache"

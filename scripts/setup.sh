@@ -13,6 +13,9 @@ packages=(
   libtbb-dev libtomlplusplus-dev libcli11-dev libfmt-dev nlohmann-json3-dev
   libassimp-dev libopenvdb-dev libboost-iostreams-dev
 )
+if [[ "${MCA_SETUP_MODELS:-1}" != 0 ]]; then
+  packages+=(libcgal-demo)  # the paper's models (scripts/get_models.sh)
+fi
 if [[ "${MCA_SETUP_FUZZ:-0}" == 1 ]]; then
   packages+=(clang-14 libfuzzer-14-dev)
 fi

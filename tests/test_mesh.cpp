@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <numbers>
 #include <set>
 
@@ -330,15 +331,6 @@ position = [0, 0, 2]
   EXPECT_NE(e.find("only for objects of shape \"mesh\""), std::string::npos) << e;
 }
 
-}  // namespace
-}  // namespace mca
-
-namespace mca {
-namespace {
-
-namespace fs = std::filesystem;
-using test::TempDir;
-
 // A quaternion turning by `deg` degrees about the unit axis (x, y, z).
 Quat axis_angle(double x, double y, double z, double deg) {
   const double h = deg * std::numbers::pi / 360.0;
@@ -502,15 +494,6 @@ velocity = [1, 0, 0]
   EXPECT_NE(no_mesh.output.find("output.surface = true, but no object is a mesh"), std::string::npos) << no_mesh.output;
 }
 
-}  // namespace
-}  // namespace mca
-
-namespace mca {
-namespace {
-
-namespace fs = std::filesystem;
-using test::TempDir;
-
 // The fragments of a model cut by planes x = cuts[k] (the ids numbered by region, left to right).
 analysis::Fragments cut_by_x(const Model& m, const std::vector<double>& cuts) {
   analysis::Fragments f;
@@ -596,6 +579,32 @@ TEST(FragmentMeshes, OfABoxAreItsCellsAndFollowTheFragmentsPose) {
       EXPECT_NEAR(b.hi[1], 0.25, 1e-3);
       EXPECT_NEAR(b.lo[0], -0.15, 1e-3);
       EXPECT_NEAR(b.lo[2], 0.9, 1e-3);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace mca
+
+namespace mca {
+namespace {
+
+// The paper's models, where scripts/get_models.sh put them (setup.sh does on CI): the scenes' counts.
+TEST(PaperModels, BunnyAndArmadilloLandOnTheirTargetCounts) {
+  for (const auto& [scene, target] : {std::pair<const char*, std::int64_t>{"bunny.toml", 16301},
+                                      {"bunny_two_materials.toml", 16301},
+                                      {"armadillo.toml", 345944}}) {
+    const fs::path file = fs::path(MCA_SOURCE_DIR) / "scenes" / scene;
+    const test::Result r = test::run_mca("info --json " + file.string());
+    if (r.code != 0 && r.output.find("get_models.sh") != std::string::npos)
+      GTEST_SKIP() << "the paper's models are not installed (scripts/get_models.sh): " << r.output;
+    ASSERT_EQ(r.code, 0) << r.output;
+    const auto j = nlohmann::json::parse(r.output);
+    EXPECT_NEAR(j["automata"].get<double>() / static_cast<double>(target), 1.0, 0.02) << scene;
+    ASSERT_EQ(j["meshes"].size(), 1u);
+    EXPECT_TRUE(j["meshes"][0]["closed"].get<bool>()) << scene;
+    if (std::string(scene) == "bunny_two_materials.toml") {
+      EXPECT_EQ(j["materials"].size(), 3u);  // concrete, the weak core, steel
     }
   }
 }

@@ -1,7 +1,9 @@
 #include "analysis/surface.hpp"
 
+#include <algorithm>
 #include <array>
-#include <utility>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 namespace mca::analysis {
 namespace {
@@ -18,50 +20,58 @@ DVec3 rotate(const Quat& q, const Vec3& v) {
 
 mesh::FloatMesh posed_surface(const Model& model, const State& state, const std::vector<std::int32_t>& fragment) {
   const BoundSurface& S = model.surface;
-  const std::size_t nf = S.faces(), nc = 3 * nf, nv = S.vertices;
+  const std::size_t nf = S.faces(), nv = S.vertices;
   mesh::FloatMesh out;
   out.face_value_name = "fragment";
   out.faces.resize(nf);
   out.face_values.resize(nf);
   for (std::size_t f = 0; f < nf; ++f) out.face_values[f] = fragment[S.automaton[f]];
-  // The corners of each mesh vertex (a counting sort: no hashing in a per-frame pass).
-  std::vector<std::uint32_t> first(nv + 1, 0), corners(nc);
-  for (std::size_t c = 0; c < nc; ++c) ++first[S.corner[c] + 1];
-  for (std::size_t v = 0; v < nv; ++v) first[v + 1] += first[v];
-  {
-    std::vector<std::uint32_t> fill(first.begin(), first.end() - 1);
-    for (std::size_t c = 0; c < nc; ++c) corners[fill[S.corner[c]]++] = static_cast<std::uint32_t>(c);
-  }
-  out.vertices.reserve(nv + nv / 8);
   // Per mesh vertex, one output vertex per fragment among its corners (in order of first corner), at the
-  // mean of the positions those corners are carried to.
-  std::vector<std::pair<std::int32_t, std::uint32_t>> seen;  // (fragment, output vertex) of this vertex
-  std::vector<std::array<double, 4>> acc;                    // x, y, z sums and count, per entry of seen
-  for (std::size_t v = 0; v < nv; ++v) {
-    seen.clear();
-    acc.clear();
-    for (std::uint32_t k = first[v]; k < first[v + 1]; ++k) {
-      const std::uint32_t c = corners[k];
-      const std::size_t f = c / 3;
-      const std::uint32_t a = S.automaton[f];
-      const std::int32_t frag = out.face_values[f];
+  // mean of the positions those corners are carried to. Two passes over ranges of vertices (in parallel,
+  // the same result for any thread count): count them, then place them at the counts' running sums.
+  auto fragments_of = [&](std::size_t v, std::int32_t* seen) {
+    std::size_t n = 0;
+    for (std::uint32_t k = S.first_corner[v]; k < S.first_corner[v + 1]; ++k) {
+      const std::int32_t frag = out.face_values[S.corners_of[k] / 3];
       std::size_t e = 0;
-      while (e < seen.size() && seen[e].first != frag) ++e;
-      if (e == seen.size()) {
-        seen.push_back({frag, static_cast<std::uint32_t>(out.vertices.size() + e)});
-        acc.push_back({0, 0, 0, 0});
-      }
-      const DVec3 p = rotate(state.q[a], S.offset[c]);
-      acc[e][0] += state.x[a].x + p.x;
-      acc[e][1] += state.x[a].y + p.y;
-      acc[e][2] += state.x[a].z + p.z;
-      acc[e][3] += 1;
-      out.faces[f][c % 3] = seen[e].second;
+      while (e < n && seen[e] != frag) ++e;
+      if (e == n) seen[n++] = frag;
     }
-    for (const auto& s4 : acc)
-      out.vertices.push_back({static_cast<float>(s4[0] / s4[3]), static_cast<float>(s4[1] / s4[3]),
-                              static_cast<float>(s4[2] / s4[3])});
-  }
+    return n;
+  };
+  std::size_t max_corners = 0;
+  for (std::size_t v = 0; v < nv; ++v) max_corners = std::max<std::size_t>(max_corners, S.first_corner[v + 1] - S.first_corner[v]);
+  std::vector<std::uint32_t> first_out(nv + 1, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+    std::vector<std::int32_t> seen(max_corners);
+    for (std::size_t v = r.begin(); v < r.end(); ++v) first_out[v + 1] = static_cast<std::uint32_t>(fragments_of(v, seen.data()));
+  });
+  for (std::size_t v = 0; v < nv; ++v) first_out[v + 1] += first_out[v];
+  out.vertices.resize(first_out[nv]);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+    std::vector<std::int32_t> seen(max_corners);
+    std::vector<std::array<double, 4>> acc(max_corners);  // x, y, z sums and count per fragment
+    for (std::size_t v = r.begin(); v < r.end(); ++v) {
+      const std::size_t n = fragments_of(v, seen.data());
+      std::fill(acc.begin(), acc.begin() + static_cast<std::ptrdiff_t>(n), std::array<double, 4>{0, 0, 0, 0});
+      for (std::uint32_t k = S.first_corner[v]; k < S.first_corner[v + 1]; ++k) {
+        const std::uint32_t c = S.corners_of[k];
+        const std::size_t f = c / 3;
+        const std::uint32_t a = S.automaton[f];
+        std::size_t e = 0;
+        while (seen[e] != out.face_values[f]) ++e;
+        const DVec3 p = rotate(state.q[a], S.offset[c]);
+        acc[e][0] += state.x[a].x + p.x;
+        acc[e][1] += state.x[a].y + p.y;
+        acc[e][2] += state.x[a].z + p.z;
+        acc[e][3] += 1;
+        out.faces[f][c % 3] = first_out[v] + static_cast<std::uint32_t>(e);
+      }
+      for (std::size_t e = 0; e < n; ++e)
+        out.vertices[first_out[v] + e] = {static_cast<float>(acc[e][0] / acc[e][3]), static_cast<float>(acc[e][1] / acc[e][3]),
+                                          static_cast<float>(acc[e][2] / acc[e][3])};
+    }
+  });
   return out;
 }
 

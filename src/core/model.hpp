@@ -73,6 +73,8 @@ struct BoundSurface {
   std::vector<std::uint32_t> corner;     // 3 per triangle: the mesh vertex, numbered over all meshes
   std::vector<Vec3> offset;              // 3 per triangle: the corner's offset from the automaton's centre
   std::size_t vertices = 0;              // mesh vertices over all meshes
+  // The corners of each mesh vertex v: corners_of[first_corner[v] .. first_corner[v + 1]), in order.
+  std::vector<std::uint32_t> first_corner, corners_of;
   std::size_t faces() const { return automaton.size(); }
 };
 

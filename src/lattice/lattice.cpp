@@ -514,6 +514,17 @@ void bind_surface(Model& M, const MeshObject& mo, const ObjectLattice& L, const 
   S.vertices += mo.solid.mesh.vertices.size();
 }
 
+// The corners of each mesh vertex, by a counting sort (BoundSurface::first_corner, corners_of).
+void index_corners(BoundSurface& S) {
+  const std::size_t nc = S.corner.size();
+  S.first_corner.assign(S.vertices + 1, 0);
+  S.corners_of.resize(nc);
+  for (std::size_t c = 0; c < nc; ++c) ++S.first_corner[S.corner[c] + 1];
+  for (std::size_t v = 0; v < S.vertices; ++v) S.first_corner[v + 1] += S.first_corner[v];
+  std::vector<std::uint32_t> fill(S.first_corner.begin(), S.first_corner.end() - 1);
+  for (std::size_t c = 0; c < nc; ++c) S.corners_of[fill[S.corner[c]]++] = static_cast<std::uint32_t>(c);
+}
+
 }  // namespace
 
 void set_time_step(Model& M, float dt) {
@@ -797,6 +808,7 @@ Model build_model(const SceneDef& scene) {
   }
 
   refuse_overlaps(scene, M);
+  index_corners(M.surface);
 
   const std::size_t n = M.size();
   M.neighbour.reserve(3 * n);
