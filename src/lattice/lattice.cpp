@@ -114,10 +114,11 @@ bool inside_shape(const ObjectDef& o, double x, double y, double z) {
   return true;
 }
 
-// The fill of a mesh object at spacing d: the last one if it was at d, else a new one (kept).
-const MeshFillResult& mesh_fill(const SceneDef& scene, const Shapes& S, std::size_t oi, double d, bool with_regions) {
+// The fill of a mesh object (and its mesh regions) at spacing d: the last one if it was at d, else a new
+// one (kept).
+const MeshFillResult& mesh_fill(const SceneDef& scene, const Shapes& S, std::size_t oi, double d) {
   auto& memo = S.fill[oi];
-  if (!memo || memo->first != d || (with_regions && memo->second.regions.size() != scene.objects[oi].regions.size())) {
+  if (!memo || memo->first != d) {
     mesh::CellBox box;
     box.d = d;
     lattice_frame(scene.objects[oi], S.of(oi), d, box.n, box.origin);
@@ -130,7 +131,7 @@ const MeshFillResult& mesh_fill(const SceneDef& scene, const Shapes& S, std::siz
                               scene.source, oi, scene.objects[oi].name, box.n[0], box.n[1], box.n[2], d,
                               scene.solver.max_memory_gb));
     }
-    memo.emplace(d, fill_mesh_object(scene, oi, *S.of(oi), box, with_regions));
+    memo.emplace(d, fill_mesh_object(scene, oi, *S.of(oi), box));
   }
   return memo->second;
 }
@@ -140,7 +141,7 @@ ObjectLattice object_lattice(const SceneDef& scene, const Shapes& S, std::size_t
   ObjectLattice L;
   lattice_frame(o, S.of(oi), d, L.n, L.origin);
   if (o.shape == Shape::mesh) {
-    const MeshFillResult& f = mesh_fill(scene, S, oi, d, true);
+    const MeshFillResult& f = mesh_fill(scene, S, oi, d);
     L.inside = f.inside;
     L.regions = f.regions;
     L.fill_seconds = f.seconds;
@@ -162,7 +163,7 @@ ObjectLattice object_lattice(const SceneDef& scene, const Shapes& S, std::size_t
 // the same test), so that a tiny spacing is refused by the memory check instead of exhausting memory.
 std::int64_t object_count(const SceneDef& scene, const Shapes& S, std::size_t oi, double d) {
   const ObjectDef& o = scene.objects[oi];
-  if (o.shape == Shape::mesh) return mesh_fill(scene, S, oi, d, false).count;
+  if (o.shape == Shape::mesh) return mesh_fill(scene, S, oi, d).count;
   std::int64_t n[3];
   double origin[3];
   lattice_frame(o, nullptr, d, n, origin);

@@ -199,7 +199,7 @@ MeshObject prepare_mesh_object(const SceneDef& scene, std::size_t index) {
 }
 
 MeshFillResult fill_mesh_object(const SceneDef& scene, std::size_t index, const MeshObject& m,
-                                const mesh::CellBox& box, bool with_regions) {
+                                const mesh::CellBox& box) {
   const double d = box.d;
   refuse_wide_holes(scene, index, m.solid, "the mesh", d);
   const auto t0 = std::chrono::steady_clock::now();
@@ -224,19 +224,17 @@ MeshFillResult fill_mesh_object(const SceneDef& scene, std::size_t index, const 
         where(scene, index), m.solid.file, r.count, m.volume(), expected, d, m.solid.topology.boundary_edges,
         m.solid.topology.non_manifold_edges));
   }
-  if (with_regions) {
-    for (std::size_t k = 0; k < m.regions.size(); ++k) {
-      r.regions.emplace_back();
-      if (!m.regions[k]) continue;
-      refuse_wide_holes(scene, index, *m.regions[k], fmt::format("region[{}] mesh", k), d);
-      r.regions.back() = solid_cells(*m.regions[k], box);
-      std::int64_t in_region = 0;
-      for (std::size_t c = 0; c < r.inside.size(); ++c) in_region += r.inside[c] & r.regions.back()[c];
-      if (in_region == 0) {
-        throw Error(fmt::format("{}: region[{}] (mesh {}) holds no automaton of the object at spacing {:.4g} m; its "
-                                "mesh must lie inside the object's, in the same units and frame as the object's file",
-                                where(scene, index), k, m.regions[k]->file, d));
-      }
+  for (std::size_t k = 0; k < m.regions.size(); ++k) {
+    r.regions.emplace_back();
+    if (!m.regions[k]) continue;
+    refuse_wide_holes(scene, index, *m.regions[k], fmt::format("region[{}] mesh", k), d);
+    r.regions.back() = solid_cells(*m.regions[k], box);
+    std::int64_t in_region = 0;
+    for (std::size_t c = 0; c < r.inside.size(); ++c) in_region += r.inside[c] & r.regions.back()[c];
+    if (in_region == 0) {
+      throw Error(fmt::format("{}: region[{}] (mesh {}) holds no automaton of the object at spacing {:.4g} m; its "
+                              "mesh must lie inside the object's, in the same units and frame as the object's file",
+                              where(scene, index), k, m.regions[k]->file, d));
     }
   }
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -54,6 +54,6 @@ struct MeshFillResult {
   double seconds = 0;
 };
 MeshFillResult fill_mesh_object(const SceneDef& scene, std::size_t index, const MeshObject& m,
-                                const mesh::CellBox& box, bool with_regions);
+                                const mesh::CellBox& box);
 
 }  // namespace mca::lattice
