@@ -119,7 +119,9 @@ run_target() {
   before=$(find "$findings" -type f | wc -l)
   local marker=$build/logs/$t.start
   touch "$marker"
-  echo "== $t: fuzzing for ${MCA_FUZZ_RUNS:+$MCA_FUZZ_RUNS inputs (seed 1)}${MCA_FUZZ_RUNS:-$seconds s} (log: $log)"
+  local how="$seconds s"
+  [[ -n "${MCA_FUZZ_RUNS:-}" ]] && how="$MCA_FUZZ_RUNS inputs (seed 1)"
+  echo "== $t: fuzzing for $how (log: $log)"
   ASAN_OPTIONS=$asan "$bin" "${args[@]}" "$corpus" > "$log" 2>&1 || rc=$?
   after=$(find "$findings" -type f | wc -l)
   local execs eps cov corp last
