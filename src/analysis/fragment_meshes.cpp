@@ -4,40 +4,66 @@
 #include <cmath>
 #include <memory>
 #include <tbb/parallel_for.h>
-#include <unordered_map>
 
 #include "mesh/voxelize.hpp"
 
 namespace mca::analysis {
 namespace {
 
-// The automata by cell of size d (their starting centres), to find those within d of a point.
+// An object's automata by cell of size d (their starting centres), in a dense grid over its box, to find
+// those within d of a point.
 class Buckets {
  public:
-  Buckets(const Model& m) : d_(m.spacing) {
-    for (std::size_t a = 0; a < m.size(); ++a) cells_[key(m.position0[a].x, m.position0[a].y, m.position0[a].z)].push_back(static_cast<std::uint32_t>(a));
+  Buckets(const Model& m, std::size_t object) : d_(m.spacing) {
+    std::vector<std::uint32_t> members;
+    for (std::size_t a = 0; a < m.size(); ++a)
+      if (static_cast<std::size_t>(m.object[a]) == object) members.push_back(static_cast<std::uint32_t>(a));
+    if (members.empty()) return;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (auto a : members) {
+      const double p[3] = {m.position0[a].x, m.position0[a].y, m.position0[a].z};
+      for (int c = 0; c < 3; ++c) {
+        lo[c] = std::min(lo[c], p[c]);
+        hi[c] = std::max(hi[c], p[c]);
+      }
+    }
+    for (int c = 0; c < 3; ++c) {
+      origin_[c] = lo[c] - 0.5 * d_;
+      n_[c] = static_cast<std::int64_t>(std::floor((hi[c] - origin_[c]) / d_)) + 1;
+    }
+    first_.assign(static_cast<std::size_t>(n_[0] * n_[1] * n_[2]) + 1, 0);
+    auto index = [&](std::uint32_t a) {
+      const double p[3] = {m.position0[a].x, m.position0[a].y, m.position0[a].z};
+      std::int64_t c[3];
+      for (int k = 0; k < 3; ++k) c[k] = std::clamp<std::int64_t>(cell(p[k], k), 0, n_[k] - 1);
+      return static_cast<std::size_t>((c[2] * n_[1] + c[1]) * n_[0] + c[0]);
+    };
+    for (auto a : members) ++first_[index(a) + 1];
+    for (std::size_t c = 1; c < first_.size(); ++c) first_[c] += first_[c - 1];
+    list_.resize(members.size());
+    std::vector<std::uint32_t> fill(first_.begin(), first_.end() - 1);
+    for (auto a : members) list_[fill[index(a)]++] = a;
   }
   template <class F>
   void near(double x, double y, double z, F&& f) const {
-    const auto cx = cell(x), cy = cell(y), cz = cell(z);
-    for (std::int64_t k = cz - 1; k <= cz + 1; ++k)
-      for (std::int64_t j = cy - 1; j <= cy + 1; ++j)
-        for (std::int64_t i = cx - 1; i <= cx + 1; ++i) {
-          const auto it = cells_.find(pack(i, j, k));
-          if (it == cells_.end()) continue;
-          for (auto a : it->second) f(a);
+    if (list_.empty()) return;
+    const std::int64_t cx = cell(x, 0), cy = cell(y, 1), cz = cell(z, 2);
+    for (std::int64_t k = std::max<std::int64_t>(cz - 1, 0); k <= std::min(cz + 1, n_[2] - 1); ++k)
+      for (std::int64_t j = std::max<std::int64_t>(cy - 1, 0); j <= std::min(cy + 1, n_[1] - 1); ++j)
+        for (std::int64_t i = std::max<std::int64_t>(cx - 1, 0); i <= std::min(cx + 1, n_[0] - 1); ++i) {
+          const auto c = static_cast<std::size_t>((k * n_[1] + j) * n_[0] + i);
+          for (std::uint32_t q = first_[c]; q < first_[c + 1]; ++q) f(list_[q]);
         }
   }
 
  private:
-  std::int64_t cell(double t) const { return static_cast<std::int64_t>(std::floor(t / d_)); }
-  static std::uint64_t pack(std::int64_t i, std::int64_t j, std::int64_t k) {
-    return (static_cast<std::uint64_t>(i) & 0x1fffff) << 42 | (static_cast<std::uint64_t>(j) & 0x1fffff) << 21 |
-           (static_cast<std::uint64_t>(k) & 0x1fffff);
+  std::int64_t cell(double t, int axis) const {
+    return static_cast<std::int64_t>(std::floor((t - origin_[axis]) / d_));
   }
-  std::uint64_t key(double x, double y, double z) const { return pack(cell(x), cell(y), cell(z)); }
   double d_;
-  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;
+  double origin_[3] = {0, 0, 0};
+  std::int64_t n_[3] = {0, 0, 0};
+  std::vector<std::uint32_t> first_, list_;
 };
 
 // An object's voxel grid (its automata's starting box, padded) and, for a mesh object, the signed
@@ -159,7 +185,11 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
     if (!rest[o].faces.empty()) g.surface = std::make_unique<mesh::SignedDistance>(rest[o], g.box, 3.0f);
   }
 
-  const Buckets buckets(m);
+  std::vector<std::unique_ptr<Buckets>> buckets(n_obj);
+  for (auto frag : chosen) {
+    const auto o = static_cast<std::size_t>(m.object[members[static_cast<std::size_t>(frag)][0]]);
+    if (!buckets[o]) buckets[o] = std::make_unique<Buckets>(m, o);
+  }
   std::vector<FragmentMesh> out(chosen.size());
   tbb::parallel_for(std::size_t{0}, chosen.size(), [&](std::size_t k) {
     const std::int32_t frag = chosen[k];
@@ -213,8 +243,7 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
     auto terms = [&](double x, double y, double z) -> Terms {
       double own = INFINITY, other = INFINITY;
       std::uint32_t nearest = 0;
-      buckets.near(x, y, z, [&](std::uint32_t b) {
-        if (static_cast<std::size_t>(m.object[b]) != obj) return;
+      buckets[obj]->near(x, y, z, [&](std::uint32_t b) {
         const double dx = m.position0[b].x - x, dy = m.position0[b].y - y, dz = m.position0[b].z - z;
         const double r2 = dx * dx + dy * dy + dz * dz;
         if (fragments.id[b] == frag) {
@@ -240,13 +269,14 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
       return {cube, split};
     };
     std::vector<float> field(static_cast<std::size_t>(fb.cells()));
-    std::size_t cell = 0;
-    for (std::int64_t kk = 0; kk < fb.n[2]; ++kk)
+    tbb::parallel_for(std::int64_t{0}, fb.n[2], [&](std::int64_t kk) {  // each voxel on its own: any order
+      std::size_t cell = static_cast<std::size_t>(kk * fb.n[1] * fb.n[0]);
       for (std::int64_t jj = 0; jj < fb.n[1]; ++jj)
         for (std::int64_t ii = 0; ii < fb.n[0]; ++ii, ++cell) {
           const Terms t = terms(fb.origin[0] + ii * hf, fb.origin[1] + jj * hf, fb.origin[2] + kk * hf);
           field[cell] = static_cast<float>(std::clamp(std::max(t.outer, t.split) / hf, -2.0, 2.0));
         }
+    });
     mesh::TriMesh solid = mesh::polygonize(field, fb);
     // Smoothing the crack faces (the vertices where the bisector term is the one at zero, well inside the
     // object): Taubin's lambda|mu steps flatten the cell-face staircase without shrinking the piece; the
