@@ -110,6 +110,20 @@ TEST(MeshLoader, CutShortOrBadIndexFilesAreErrorsNotCrashes) {
       }
     }
   }
+  // A comment between the vertices and the faces is fine (assimp alone took it for a face); a face more
+  // than declared is not.
+  std::ofstream(t.path() / "comment.off") << "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n# faces\n3 0 2 1\n3 0 1 3\n"
+                                             "3 0 3 2\n3 1 2 3\n";
+  EXPECT_EQ(mesh::read_mesh((t.path() / "comment.off").string()).faces.size(), 4u);
+  std::ofstream(t.path() / "extra.off") << "OFF\n4 3 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+  EXPECT_NE(error_of([&] { mesh::read_mesh((t.path() / "extra.off").string()); }).find("has more lines after them"),
+            std::string::npos);
+  // A binary PLY cut inside its faces says so (not assimp's "index out of range").
+  test::write_mesh_file(t.path() / "sphere.ply", test::sphere_mesh(1.0, 2));
+  const std::string ply = test::slurp(t.path() / "sphere.ply");
+  std::ofstream(t.path() / "cut_faces.ply", std::ios::binary) << ply.substr(0, ply.size() - 20);
+  EXPECT_NE(error_of([&] { mesh::read_mesh((t.path() / "cut_faces.ply").string()); }).find("the file is cut short"),
+            std::string::npos);
   std::ofstream(t.path() / "index.off") << "OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 3000000000\n";
   const std::string e = error_of([&] { mesh::read_mesh((t.path() / "index.off").string()); });
   EXPECT_NE(e.find("face 1 uses vertex '3000000000', but the file has 4 vertices"), std::string::npos) << e;
@@ -156,6 +170,18 @@ TEST(MeshFill, ACavityIsLeftEmptyAndAnIslandInItFilled) {
       const DVec3 p = hollow.position0[a];
       EXPECT_GT(std::sqrt(p.x * p.x + p.y * p.y + p.z * p.z), 0.15 - 1e-9);
     }
+  }
+  // A cavity touching the outer surface at a point (the two share that vertex) is still a cavity.
+  {
+    mesh::TriMesh touch = test::sphere_mesh(0.25, 4);
+    mesh::TriMesh inner = test::sphere_mesh(0.125, 4, {0.125, 0, 0});
+    const auto base = static_cast<std::uint32_t>(touch.vertices.size());
+    touch.vertices.insert(touch.vertices.end(), inner.vertices.begin(), inner.vertices.end());
+    for (auto f : inner.faces) touch.faces.push_back({f[0] + base, f[2] + base, f[1] + base});
+    test::write_mesh_file(t.path() / "touch.off", touch);  // the point (0.25, 0, 0) is a vertex of both: welded
+    const Model m = lattice::build_model(mesh_scene(t.path() / "touch.off", d));
+    EXPECT_EQ(m.meshes[0].cavities, 1u);
+    EXPECT_NEAR(m.size() * cell / (k * (std::pow(0.25, 3) - std::pow(0.125, 3))), 1.0, 0.03) << m.size();
   }
   test::write_mesh_file(t.path() / "island.off", shells({{0.25, false}, {0.15, true}, {0.08, false}}));
   const Model island = lattice::build_model(mesh_scene(t.path() / "island.off", d));

@@ -164,7 +164,7 @@ struct OutputDef {
   // At the end of a run, a closed mesh per fragment of more than fragment_min_automata automata, as
   // fragments/fragment_NNN.ply (analysis/fragment_meshes.hpp).
   bool fragments = false;
-  std::int64_t fragment_min_automata = 8;  // >= 1
+  std::int64_t fragment_min_automata = 8;  // >= 0 (0: every fragment)
 };
 
 struct SceneDef {

@@ -306,9 +306,9 @@ void validate_scene(const SceneDef& scene) {
     c.fail("output.surface = true, but no object is a mesh: the surface written is that of the mesh objects; add an "
            "object with shape = \"mesh\" or remove output.surface (the automata are in the VTK frames)");
   }
-  if (scene.output.fragment_min_automata < 1) {
-    c.fail(fmt::format("output.fragment_min_automata = {} is out of range: must be >= 1 (fragments of more automata "
-                       "than this get a mesh); use e.g. 8",
+  if (scene.output.fragment_min_automata < 0) {
+    c.fail(fmt::format("output.fragment_min_automata = {} is out of range: must be >= 0 (fragments of more automata "
+                       "than this get a mesh; 0: every fragment); use e.g. 8",
                        scene.output.fragment_min_automata));
   }
   if (scene.output.checkpoint_every < 0) {

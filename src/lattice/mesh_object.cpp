@@ -59,10 +59,31 @@ bool inside_by_parity(const mesh::TriMesh& m, const std::vector<std::uint32_t>& 
   return crossings % 2 == 1;
 }
 
-bool strictly_within(const mesh::Bounds& a, const mesh::Bounds& b) {
+// Whether box a lies in box b (touching allowed: a cavity may touch the surface around it).
+bool within(const mesh::Bounds& a, const mesh::Bounds& b) {
+  const double tol = 1e-9 * b.largest_extent();
   for (int k = 0; k < 3; ++k)
-    if (!(a.lo[k] > b.lo[k] && a.hi[k] < b.hi[k])) return false;
+    if (!(a.lo[k] >= b.lo[k] - tol && a.hi[k] <= b.hi[k] + tol)) return false;
   return true;
+}
+
+// A point of a shell off its vertices (where another shell may touch it): its largest triangle's centroid.
+mesh::Point probe_point(const mesh::TriMesh& m, const mesh::Shell& sh) {
+  double best = -1;
+  mesh::Point p{0, 0, 0};
+  for (auto f : sh.faces) {
+    const auto& a = m.vertices[m.faces[f][0]];
+    const auto& b = m.vertices[m.faces[f][1]];
+    const auto& c = m.vertices[m.faces[f][2]];
+    const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+    const double x = u[1] * w[2] - u[2] * w[1], y = u[2] * w[0] - u[0] * w[2], z = u[0] * w[1] - u[1] * w[0];
+    const double area2 = x * x + y * y + z * z;
+    if (area2 > best) {
+      best = area2;
+      for (int k = 0; k < 3; ++k) p[k] = (a[k] + b[k] + c[k]) / 3.0;
+    }
+  }
+  return p;
 }
 
 bool same_shell(const mesh::Shell& a, const mesh::Shell& b) {
@@ -85,9 +106,10 @@ Solid make_solid(std::string file, mesh::TriMesh m) {
       if (s.depth[b] >= 0 && same_shell(s.shells[a], s.shells[b])) s.depth[a] = -1;
   for (std::size_t a = 0; a < n; ++a) {
     if (s.depth[a] < 0) continue;
-    const mesh::Point probe = m.vertices[m.faces[s.shells[a].faces[0]][0]];
+    const mesh::Point probe = probe_point(m, s.shells[a]);
     for (std::size_t b = 0; b < n; ++b)
-      if (b != a && s.depth[b] >= 0 && strictly_within(s.shells[a].bounds, s.shells[b].bounds) &&
+      if (b != a && s.depth[b] >= 0 && within(s.shells[a].bounds, s.shells[b].bounds) &&
+          (!within(s.shells[b].bounds, s.shells[a].bounds) || s.shells[a].volume < s.shells[b].volume) &&
           inside_by_parity(m, s.shells[b].faces, probe))
         ++s.depth[a];
   }

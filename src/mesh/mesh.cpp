@@ -16,6 +16,7 @@
 #include <fstream>
 #include <iterator>
 #include <sstream>
+#include <string_view>
 #include <numeric>
 #include <unordered_map>
 
@@ -108,9 +109,14 @@ Declared check_ply(const std::string& bytes, const std::string& name) {
   body = body == std::string::npos ? bytes.size() : body + 1;
   std::istringstream header(bytes.substr(0, end));
   std::string line, format;
+  struct Property {
+    bool list = false;
+    std::uint64_t bytes = 0, count_bytes = 0;  // a scalar's size; a list's count size and item size (bytes)
+  };
   struct Element {
     std::string name;
-    std::uint64_t count = 0, bytes = 0;  // bytes: the least one element takes (binary)
+    std::uint64_t count = 0;
+    std::vector<Property> properties;
   };
   std::vector<Element> elements;
   auto size_of = [&](const std::string& type) -> std::uint64_t {
@@ -136,14 +142,17 @@ Declared check_ply(const std::string& bytes, const std::string& name) {
       if (elements.empty()) throw Error(fmt::format("{}: a PLY property before any element; the file is damaged", name));
       std::string type;
       words >> type;
+      Property p;
       if (type == "list") {
         std::string count_type, item_type;
         words >> count_type >> item_type;
-        elements.back().bytes += size_of(count_type);  // an empty list at least
-        size_of(item_type);
+        p.list = true;
+        p.count_bytes = size_of(count_type);
+        p.bytes = size_of(item_type);
       } else {
-        elements.back().bytes += size_of(type);
+        p.bytes = size_of(type);
       }
+      elements.back().properties.push_back(p);
     }
   }
   Declared d;
@@ -151,28 +160,69 @@ Declared check_ply(const std::string& bytes, const std::string& name) {
     if (e.name == "vertex") d.vertices = e.count;
     if (e.name == "face") d.faces = e.count;
   }
-  const std::size_t have = bytes.size() - body;
+  auto cut_short = [&](const Element& e, std::uint64_t i) {
+    return Error(fmt::format("{}: the PLY header declares {} vertices and {} faces, but the data ends inside {} {} of "
+                             "{}: the file is cut short",
+                             name, d.vertices, d.faces, e.name, i, e.count));
+  };
+  // Every element walked as the header describes it: a file cut anywhere is caught here, not in assimp.
   if (format == "ascii") {
-    // One element per line at least (a line may hold more: that is fine).
-    std::uint64_t lines = 0, need = 0;
-    for (std::size_t i = body; i < bytes.size();) {
-      const std::size_t nl = std::min(bytes.find('\n', i), bytes.size());
-      if (bytes.find_first_not_of(" \t\r", i) < nl) ++lines;
-      i = nl + 1;
-    }
-    for (const Element& e : elements) need += e.count;
-    if (lines < need) {
-      throw Error(fmt::format("{}: the PLY header declares {} elements ({} vertices, {} faces) but the file has {} lines "
-                              "of data: it is cut short",
-                              name, need, d.vertices, d.faces, lines));
+    std::size_t at = body;
+    for (const Element& e : elements) {
+      for (std::uint64_t i = 0; i < e.count; ++i) {
+        // One element per line; blank lines skipped.
+        std::string_view row;
+        do {
+          if (at >= bytes.size()) throw cut_short(e, i);
+          const std::size_t nl = std::min(bytes.find('\n', at), bytes.size());
+          row = std::string_view(bytes).substr(at, nl - at);
+          at = nl + 1;
+        } while (row.find_first_not_of(" \t\r") == std::string_view::npos);
+        std::istringstream values{std::string(row)};
+        std::string v;
+        for (const Property& p : e.properties) {
+          if (!(values >> v)) throw cut_short(e, i);
+          if (!p.list) continue;
+          char* stop = nullptr;
+          const unsigned long long n = std::strtoull(v.c_str(), &stop, 10);
+          if (*stop != '\0' || n > 1u << 20) {
+            throw Error(fmt::format("{}: {} {} has a list length '{}'; the file is damaged", name, e.name, i, v));
+          }
+          for (unsigned long long k = 0; k < n; ++k)
+            if (!(values >> v)) throw cut_short(e, i);
+        }
+      }
     }
   } else if (format == "binary_little_endian" || format == "binary_big_endian") {
-    long double need = 0;
-    for (const Element& e : elements) need += static_cast<long double>(e.count) * static_cast<long double>(e.bytes);
-    if (need > static_cast<long double>(have)) {
-      throw Error(fmt::format("{}: the PLY header declares {} vertices and {} faces, at least {:.0f} bytes of data, but "
-                              "the file has {}: it is cut short",
-                              name, d.vertices, d.faces, static_cast<double>(need), have));
+    const bool big = format == "binary_big_endian";
+    std::uint64_t at = body;
+    for (const Element& e : elements) {
+      const bool fixed = std::none_of(e.properties.begin(), e.properties.end(), [](const Property& p) { return p.list; });
+      if (fixed) {  // a fixed size: no walk (a header may declare 4e9 vertices)
+        long double size = 0;
+        for (const Property& p : e.properties) size += static_cast<long double>(p.bytes);
+        if (static_cast<long double>(at) + size * static_cast<long double>(e.count) > static_cast<long double>(bytes.size())) {
+          throw cut_short(e, std::min<std::uint64_t>(e.count, static_cast<std::uint64_t>((bytes.size() - std::min<std::uint64_t>(at, bytes.size())) / std::max<long double>(size, 1))));
+        }
+        at += static_cast<std::uint64_t>(size) * e.count;
+        continue;
+      }
+      for (std::uint64_t i = 0; i < e.count; ++i) {
+        for (const Property& p : e.properties) {
+          if (!p.list) {
+            at += p.bytes;
+            continue;
+          }
+          if (at + p.count_bytes > bytes.size()) throw cut_short(e, i);
+          std::uint64_t n = 0;
+          for (std::uint64_t k = 0; k < p.count_bytes; ++k) {
+            const auto byte = static_cast<std::uint8_t>(bytes[at + (big ? k : p.count_bytes - 1 - k)]);
+            n = n << 8 | byte;
+          }
+          at += p.count_bytes + n * p.bytes;
+        }
+        if (at > bytes.size()) throw cut_short(e, i);
+      }
     }
   } else {
     throw Error(fmt::format("{}: the PLY header's format '{}' is not ascii, binary_little_endian or "
@@ -182,7 +232,9 @@ Declared check_ply(const std::string& bytes, const std::string& name) {
   return d;
 }
 
-Declared check_off(const std::string& bytes, const std::string& name) {
+// `clean`: the file without its comments and blank lines, for assimp (its OFF reader takes a comment
+// between the vertices and the faces for a face).
+Declared check_off(const std::string& bytes, const std::string& name, std::string& clean) {
   // "[ST][C][N][4][n]OFF", the counts "vertices faces [edges]" (on the same line or the next), then a
   // line per vertex and a line per face ("k i1 ... ik"); '#' starts a comment. assimp clamps a face's
   // out-of-range index to a valid one without a word, so the faces are checked here.
@@ -195,7 +247,11 @@ Declared check_off(const std::string& bytes, const std::string& name) {
       words.clear();
       std::string w;
       while (ws >> w) words.push_back(w);
-      if (!words.empty()) return true;
+      if (!words.empty()) {
+        clean += line;
+        clean += '\n';
+        return true;
+      }
     }
     return false;
   };
@@ -203,7 +259,10 @@ Declared check_off(const std::string& bytes, const std::string& name) {
   if (!next_line(words) || words[0].size() < 3 || words[0].compare(words[0].size() - 3, 3, "OFF") != 0) {
     throw Error(fmt::format("{}: does not start with OFF: not an OFF file", name));
   }
-  if (words[0] != "OFF" && words[0] != "COFF" && words[0] != "NOFF" && words[0] != "CNOFF") return {};  // left to assimp
+  if (words[0] != "OFF" && words[0] != "COFF" && words[0] != "NOFF" && words[0] != "CNOFF") {
+    clean.clear();  // left to assimp as it is
+    return {};
+  }
   std::vector<std::string> counts(words.begin() + 1, words.end());
   if (counts.size() < 2) {
     if (!next_line(words)) throw Error(fmt::format("{}: the OFF header has no vertex and face counts: the file is cut short", name));
@@ -219,7 +278,15 @@ Declared check_off(const std::string& bytes, const std::string& name) {
                               d.vertices, d.faces, v));
     }
   }
-  for (std::uint64_t f = 0; f < d.faces; ++f) {
+  for (std::uint64_t f = 0; f <= d.faces; ++f) {
+    if (f == d.faces) {
+      if (next_line(words)) {
+        throw Error(fmt::format("{}: declares {} faces but has more lines after them ('{}'): its header's counts are "
+                                "wrong or the file is damaged",
+                                name, d.faces, line));
+      }
+      break;
+    }
     if (!next_line(words)) {
       throw Error(fmt::format("{}: declares {} faces but ends after {}: it is cut short", name, d.faces, f));
     }
@@ -385,7 +452,11 @@ namespace {
 TriMesh import(const std::string& name, const std::string& ext, const std::string* bytes, const std::string& path) {
   Declared declared;
   if (bytes && ext == "ply") declared = check_ply(*bytes, name);
-  if (bytes && ext == "off") declared = check_off(*bytes, name);
+  std::string clean_off;
+  if (bytes && ext == "off") {
+    declared = check_off(*bytes, name, clean_off);
+    if (!clean_off.empty()) bytes = &clean_off;
+  }
   if (bytes && ext == "glb") check_glb(*bytes, bytes->size(), name);
   Assimp::Importer importer;
   configure(importer);
@@ -530,17 +601,25 @@ Topology topology(const TriMesh& m) {
 }
 
 std::vector<Shell> shells(const TriMesh& m) {
+  // Triangles joined through shared edges (two surfaces touching at a vertex stay two shells).
   const std::size_t nf = m.faces.size();
-  std::vector<std::uint32_t> parent(m.vertices.size());
+  std::vector<std::uint32_t> parent(nf);
   std::iota(parent.begin(), parent.end(), 0u);
-  for (const Triangle& f : m.faces) {
-    parent[find_root(parent, f[0])] = find_root(parent, f[1]);
-    parent[find_root(parent, f[1])] = find_root(parent, f[2]);
+  {
+    std::unordered_map<std::uint64_t, std::uint32_t> first_face;
+    first_face.reserve(nf * 2);
+    for (std::uint32_t f = 0; f < nf; ++f)
+      for (int e = 0; e < 3; ++e) {
+        const std::uint32_t u = m.faces[f][e], v = m.faces[f][(e + 1) % 3];
+        if (u == v) continue;
+        const auto [it, fresh] = first_face.try_emplace(u < v ? (std::uint64_t{u} << 32 | v) : (std::uint64_t{v} << 32 | u), f);
+        if (!fresh) parent[find_root(parent, f)] = find_root(parent, it->second);
+      }
   }
   std::vector<Shell> out;
   std::unordered_map<std::uint32_t, std::uint32_t> shell_of_root;
   for (std::uint32_t f = 0; f < nf; ++f) {
-    const auto [it, fresh] = shell_of_root.try_emplace(find_root(parent, m.faces[f][0]), static_cast<std::uint32_t>(out.size()));
+    const auto [it, fresh] = shell_of_root.try_emplace(find_root(parent, f), static_cast<std::uint32_t>(out.size()));
     if (fresh) out.emplace_back();
     out[it->second].faces.push_back(f);
   }
