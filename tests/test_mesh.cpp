@@ -440,6 +440,29 @@ TEST(Surface, ARigidlyMovedObjectMovesItsSurfaceRigidly) {
   EXPECT_LT(worst, 2e-5) << worst;          // float32 output 100 m from the origin: 8e-6 m steps
 }
 
+TEST(Surface, AFlyingObjectCarriesItsSurfaceAlong) {
+  TempDir t;
+  test::write_mesh_file(t.path() / "rock.stl", test::sphere_mesh(0.2, 3));
+  SceneDef s = mesh_scene(t.path() / "rock.stl", 0.04);
+  s.objects[0].position = {50, -20, 10};
+  s.objects[0].velocity = {3, -4, 12};
+  Engine sim(s);
+  const std::vector<std::int32_t> one(sim.model().size(), 0);
+  const mesh::FloatMesh before = analysis::posed_surface(sim.model(), sim.state(), one);
+  sim.advance(400);
+  const mesh::FloatMesh after = analysis::posed_surface(sim.model(), sim.state(), one);
+  ASSERT_EQ(after.vertices.size(), before.vertices.size());
+  const double t_run = sim.state().time;
+  EXPECT_GT(t_run, 0);
+  double worst = 0;
+  for (std::size_t v = 0; v < after.vertices.size(); ++v) {
+    const double want[3] = {before.vertices[v][0] + 3 * t_run, before.vertices[v][1] - 4 * t_run,
+                            before.vertices[v][2] + 12 * t_run};
+    for (int a = 0; a < 3; ++a) worst = std::max(worst, std::fabs(after.vertices[v][a] - want[a]));
+  }
+  EXPECT_LT(worst / 54.0, 1e-5) << worst;  // relative to the coordinates' size (float32 output)
+}
+
 TEST(Surface, VerticesSplitWhereTheirTrianglesBelongToDifferentFragments) {
   TempDir t;
   test::write_mesh_file(t.path() / "cube.obj", test::cube_mesh(0.1));
