@@ -129,6 +129,39 @@ TEST(MeshLoader, CutShortOrBadIndexFilesAreErrorsNotCrashes) {
   EXPECT_NE(e.find("face 1 uses vertex '3000000000', but the file has 4 vertices"), std::string::npos) << e;
 }
 
+TEST(MeshLoader, AGltfReadsBuffersBesideItAndNothingElse) {
+  TempDir t;
+  // A tetrahedron: 4 float32 positions, then 4 uint32 triangles, in one buffer file.
+  const float pos[12] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+  const std::uint32_t idx[12] = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
+  fs::create_directories(t.path() / "model");
+  {
+    std::ofstream bin(t.path() / "model" / "tetra.bin", std::ios::binary);
+    bin.write(reinterpret_cast<const char*>(pos), sizeof pos);
+    bin.write(reinterpret_cast<const char*>(idx), sizeof idx);
+  }
+  fs::copy_file(t.path() / "model" / "tetra.bin", t.path() / "secret.bin");
+  auto gltf = [&](const std::string& uri) {
+    return fmt::format(
+        R"({{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],)"
+        R"( "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1}}]}}],)"
+        R"( "buffers": [{{"byteLength": 96, "uri": "{}"}}],)"
+        R"( "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 48}}, {{"buffer": 0, "byteOffset": 48, "byteLength": 48}}],)"
+        R"( "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 1]}},)"
+        R"( {{"bufferView": 1, "componentType": 5125, "count": 12, "type": "SCALAR"}}]}})",
+        uri);
+  };
+  std::ofstream(t.path() / "model" / "beside.gltf") << gltf("tetra.bin");
+  EXPECT_EQ(mesh::read_mesh((t.path() / "model" / "beside.gltf").string()).faces.size(), 4u);
+  // A buffer outside the mesh's folder, by a relative or an absolute path, is not read.
+  std::ofstream(t.path() / "model" / "up.gltf") << gltf("../secret.bin");
+  std::ofstream(t.path() / "model" / "absolute.gltf") << gltf((t.path() / "secret.bin").string());
+  for (const char* name : {"up.gltf", "absolute.gltf"}) {
+    const std::string e = error_of([&] { mesh::read_mesh((t.path() / "model" / name).string()); });
+    EXPECT_NE(e.find("cannot be read as a .gltf mesh"), std::string::npos) << name << ": " << e;
+  }
+}
+
 TEST(MeshLoader, TheFilesUnitsDoNotChangeTheMesh) {
   TempDir t;
   for (double scale : {1e-6, 1e-3, 1.0, 1e4}) {

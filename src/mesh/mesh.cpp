@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <assimp/BaseImporter.h>
+#include <assimp/DefaultIOSystem.h>
 #include <assimp/Importer.hpp>
 #include <assimp/config.h>
 #include <assimp/importerdesc.h>
@@ -71,6 +72,30 @@ void only_reader_for(Assimp::Importer& importer, const std::string& ext) {
   for (auto* imp : others)
     if (importer.UnregisterLoader(imp) == aiReturn_SUCCESS) delete imp;  // unregistered, the importer is ours to free
 }
+
+// The files a mesh may make assimp open: those in its own folder and below (a glTF's buffers, an OBJ's
+// material library), nothing else. A mesh file comes from anywhere; one naming "/etc/shadow" or
+// "../../secret" as a buffer would otherwise turn that file's bytes into vertices written to the output.
+// An empty folder allows nothing (data read from memory).
+class FolderIOSystem : public Assimp::DefaultIOSystem {
+ public:
+  explicit FolderIOSystem(std::filesystem::path folder) : folder_(std::move(folder)) {}
+  bool Exists(const char* file) const override { return allowed(file) && DefaultIOSystem::Exists(file); }
+  Assimp::IOStream* Open(const char* file, const char* mode) override {
+    return allowed(file) ? DefaultIOSystem::Open(file, mode) : nullptr;
+  }
+
+ private:
+  bool allowed(const char* file) const {
+    if (folder_.empty() || !file) return false;
+    std::error_code ec;
+    const std::filesystem::path p = std::filesystem::weakly_canonical(file, ec);
+    if (ec) return false;
+    const auto rel = p.lexically_relative(folder_);
+    return !rel.empty() && *rel.begin() != "..";
+  }
+  std::filesystem::path folder_;
+};
 
 constexpr unsigned kSteps = aiProcess_RemoveComponent | aiProcess_Triangulate | aiProcess_PreTransformVertices |
                             aiProcess_ValidateDataStructure;
@@ -461,6 +486,9 @@ TriMesh import(const std::string& name, const std::string& ext, const std::strin
   Assimp::Importer importer;
   configure(importer);
   only_reader_for(importer, ext);
+  std::error_code ec;
+  importer.SetIOHandler(new FolderIOSystem(  // the importer owns it
+      bytes ? std::filesystem::path() : std::filesystem::weakly_canonical(path, ec).parent_path()));
   const aiScene* raw = bytes ? importer.ReadFileFromMemory(bytes->data(), bytes->size(), kRawSteps, ext.c_str())
                              : importer.ReadFile(path, kRawSteps);
   if (!raw || (raw->mFlags & AI_SCENE_FLAGS_INCOMPLETE && raw->mNumMeshes == 0)) fail_import(importer, name, ext);
