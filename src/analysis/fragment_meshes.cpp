@@ -5,66 +5,11 @@
 #include <memory>
 #include <tbb/parallel_for.h>
 
+#include "grid/uniform_grid.hpp"
 #include "mesh/voxelize.hpp"
 
 namespace mca::analysis {
 namespace {
-
-// An object's automata by cell of size d (their starting centres), in a dense grid over its box, to find
-// those within d of a point.
-class Buckets {
- public:
-  Buckets(const Model& m, std::size_t object) : d_(m.spacing) {
-    std::vector<std::uint32_t> members;
-    for (std::size_t a = 0; a < m.size(); ++a)
-      if (static_cast<std::size_t>(m.object[a]) == object) members.push_back(static_cast<std::uint32_t>(a));
-    if (members.empty()) return;
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (auto a : members) {
-      const double p[3] = {m.position0[a].x, m.position0[a].y, m.position0[a].z};
-      for (int c = 0; c < 3; ++c) {
-        lo[c] = std::min(lo[c], p[c]);
-        hi[c] = std::max(hi[c], p[c]);
-      }
-    }
-    for (int c = 0; c < 3; ++c) {
-      origin_[c] = lo[c] - 0.5 * d_;
-      n_[c] = static_cast<std::int64_t>(std::floor((hi[c] - origin_[c]) / d_)) + 1;
-    }
-    first_.assign(static_cast<std::size_t>(n_[0] * n_[1] * n_[2]) + 1, 0);
-    auto index = [&](std::uint32_t a) {
-      const double p[3] = {m.position0[a].x, m.position0[a].y, m.position0[a].z};
-      std::int64_t c[3];
-      for (int k = 0; k < 3; ++k) c[k] = std::clamp<std::int64_t>(cell(p[k], k), 0, n_[k] - 1);
-      return static_cast<std::size_t>((c[2] * n_[1] + c[1]) * n_[0] + c[0]);
-    };
-    for (auto a : members) ++first_[index(a) + 1];
-    for (std::size_t c = 1; c < first_.size(); ++c) first_[c] += first_[c - 1];
-    list_.resize(members.size());
-    std::vector<std::uint32_t> fill(first_.begin(), first_.end() - 1);
-    for (auto a : members) list_[fill[index(a)]++] = a;
-  }
-  template <class F>
-  void near(double x, double y, double z, F&& f) const {
-    if (list_.empty()) return;
-    const std::int64_t cx = cell(x, 0), cy = cell(y, 1), cz = cell(z, 2);
-    for (std::int64_t k = std::max<std::int64_t>(cz - 1, 0); k <= std::min(cz + 1, n_[2] - 1); ++k)
-      for (std::int64_t j = std::max<std::int64_t>(cy - 1, 0); j <= std::min(cy + 1, n_[1] - 1); ++j)
-        for (std::int64_t i = std::max<std::int64_t>(cx - 1, 0); i <= std::min(cx + 1, n_[0] - 1); ++i) {
-          const auto c = static_cast<std::size_t>((k * n_[1] + j) * n_[0] + i);
-          for (std::uint32_t q = first_[c]; q < first_[c + 1]; ++q) f(list_[q]);
-        }
-  }
-
- private:
-  std::int64_t cell(double t, int axis) const {
-    return static_cast<std::int64_t>(std::floor((t - origin_[axis]) / d_));
-  }
-  double d_;
-  double origin_[3] = {0, 0, 0};
-  std::int64_t n_[3] = {0, 0, 0};
-  std::vector<std::uint32_t> first_, list_;
-};
 
 // An object's voxel grid (its automata's starting box, padded) and, for a mesh object, the signed
 // distance of its starting surface on it.
@@ -185,10 +130,17 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
     if (!rest[o].faces.empty()) g.surface = std::make_unique<mesh::SignedDistance>(rest[o], g.box, 3.0f);
   }
 
-  std::vector<std::unique_ptr<Buckets>> buckets(n_obj);
+  // Each object's automata binned by cells of size d (their starting centres): the 27 cells around a point
+  // hold every automaton within d of it, and the terms below keep the nearest.
+  std::vector<std::unique_ptr<UniformGrid>> buckets(n_obj);
   for (auto frag : chosen) {
     const auto o = static_cast<std::size_t>(m.object[members[static_cast<std::size_t>(frag)][0]]);
-    if (!buckets[o]) buckets[o] = std::make_unique<Buckets>(m, o);
+    if (buckets[o]) continue;
+    std::vector<std::uint32_t> ids;
+    for (std::size_t a = 0; a < m.size(); ++a)
+      if (static_cast<std::size_t>(m.object[a]) == o) ids.push_back(static_cast<std::uint32_t>(a));
+    buckets[o] = std::make_unique<UniformGrid>();
+    buckets[o]->build(m.position0.data(), ids.size(), d, ids.data());
   }
   std::vector<FragmentMesh> out(chosen.size());
   tbb::parallel_for(std::size_t{0}, chosen.size(), [&](std::size_t k) {
@@ -243,7 +195,7 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
     auto terms = [&](double x, double y, double z) -> Terms {
       double own = INFINITY, other = INFINITY;
       std::uint32_t nearest = 0;
-      buckets[obj]->near(x, y, z, [&](std::uint32_t b) {
+      buckets[obj]->for_each_candidate(DVec3{x, y, z}, [&](std::uint32_t b) {
         const double dx = m.position0[b].x - x, dy = m.position0[b].y - y, dz = m.position0[b].z - z;
         const double r2 = dx * dx + dy * dy + dz * dz;
         if (fragments.id[b] == frag) {
