@@ -75,9 +75,7 @@ mesh::Point probe_point(const mesh::TriMesh& m, const mesh::Shell& sh) {
     const auto& a = m.vertices[m.faces[f][0]];
     const auto& b = m.vertices[m.faces[f][1]];
     const auto& c = m.vertices[m.faces[f][2]];
-    const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-    const double x = u[1] * w[2] - u[2] * w[1], y = u[2] * w[0] - u[0] * w[2], z = u[0] * w[1] - u[1] * w[0];
-    const double area2 = x * x + y * y + z * z;
+    const double area2 = mesh::twice_area(a, b, c);
     if (area2 > best) {
       best = area2;
       for (int k = 0; k < 3; ++k) p[k] = (a[k] + b[k] + c[k]) / 3.0;

@@ -21,6 +21,7 @@
 #include <numeric>
 #include <unordered_map>
 
+#include "core/fnv.hpp"
 #include "mca/error.hpp"
 
 namespace mca::mesh {
@@ -367,13 +368,11 @@ void weld(TriMesh& m) {
   };
   struct Hash {
     std::size_t operator()(const Key& k) const {
-      std::uint64_t h = 1469598103934665603ull;
-      for (double v : {k.x, k.y, k.z}) {
-        std::uint64_t b;
-        std::memcpy(&b, &v, 8);
-        h = (h ^ b) * 1099511628211ull;
-      }
-      return static_cast<std::size_t>(h ^ (h >> 29));
+      Fnv1a h;
+      h.pod(k.x);
+      h.pod(k.y);
+      h.pod(k.z);
+      return static_cast<std::size_t>(h.h);
     }
   };
   std::unordered_map<Key, std::uint32_t, Hash> first;
@@ -568,12 +567,13 @@ Bounds bounds(const TriMesh& m) {
   return b;
 }
 
-namespace {
-double triangle_area2(const Point& a, const Point& b, const Point& c) {
+double twice_area(const Point& a, const Point& b, const Point& c) {
   const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
   const double x = u[1] * w[2] - u[2] * w[1], y = u[2] * w[0] - u[0] * w[2], z = u[0] * w[1] - u[1] * w[0];
   return std::sqrt(x * x + y * y + z * z);
 }
+
+namespace {
 
 std::uint32_t find_root(std::vector<std::uint32_t>& parent, std::uint32_t x) {
   while (parent[x] != x) x = parent[x] = parent[parent[x]];
@@ -588,7 +588,7 @@ Topology topology(const TriMesh& m) {
   for (const Triangle& f : m.faces) {
     const Point &a = m.vertices[f[0]], &b = m.vertices[f[1]], &c = m.vertices[f[2]];
     const double scale = std::max({std::fabs(a[0]), std::fabs(a[1]), std::fabs(a[2]), 1e-300});
-    if (f[0] == f[1] || f[1] == f[2] || f[0] == f[2] || triangle_area2(a, b, c) <= 1e-14 * scale * scale) {
+    if (f[0] == f[1] || f[1] == f[2] || f[0] == f[2] || twice_area(a, b, c) <= 1e-14 * scale * scale) {
       ++t.degenerate_faces;
       if (f[0] == f[1] || f[1] == f[2] || f[0] == f[2]) continue;
     }

@@ -38,6 +38,9 @@ struct Bounds {
 };
 Bounds bounds(const TriMesh& m);
 
+// Twice the area of the triangle a b c (the length of the cross product of two of its edges).
+double twice_area(const Point& a, const Point& b, const Point& c);
+
 struct Topology {
   std::size_t edges = 0;
   std::size_t boundary_edges = 0;      // used by one triangle: a hole's rim
