@@ -33,10 +33,7 @@ std::size_t FrameWriter::write_fragment_meshes(const State& s, const analysis::F
   std::filesystem::create_directories(dir_ / "fragments");
   const auto meshes = analysis::fragment_meshes(model_, s, frags, fragment_min_automata_);
   for (const auto& fm : meshes) {
-    mesh::FloatMesh out;
-    for (const auto& v : fm.mesh.vertices)
-      out.vertices.push_back({static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2])});
-    out.faces = fm.mesh.faces;
+    const mesh::FloatMesh out = mesh::to_float(fm.mesh);
     io::write_file_atomic(dir_ / fmt::format("fragments/fragment_{:03d}.ply", fm.fragment),
                           [&](std::ostream& os) { mesh::write_ply(os, out); });
   }

@@ -82,13 +82,6 @@ inline mesh::TriMesh torus_mesh(double R, double r, int nu = 64, int nv = 32) {
   return m;
 }
 
-inline mesh::FloatMesh to_float(const mesh::TriMesh& m) {
-  mesh::FloatMesh f;
-  for (const auto& v : m.vertices) f.vertices.push_back({static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2])});
-  f.faces = m.faces;
-  return f;
-}
-
 // Writes `m` as `path`; the format follows the extension (.off, .obj, .ply: binary; .ascii.ply, .stl:
 // binary; .ascii.stl, .gltf, .glb).
 inline void write_mesh_file(const std::filesystem::path& path, const mesh::TriMesh& m) {
@@ -100,7 +93,7 @@ inline void write_mesh_file(const std::filesystem::path& path, const mesh::TriMe
     for (const auto& v : m.vertices) out << fmt::format("{} {} {}\n", v[0], v[1], v[2]);
     for (const auto& f : m.faces) out << fmt::format("3 {} {} {}\n", f[0], f[1], f[2]);
   } else if (ends(".obj")) {
-    mesh::write_obj(out, to_float(m));
+    mesh::write_obj(out, mesh::to_float(m));
   } else if (ends(".ascii.ply")) {
     out << fmt::format("ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\n"
                        "element face {}\nproperty list uchar int vertex_indices\nend_header\n",
@@ -108,7 +101,7 @@ inline void write_mesh_file(const std::filesystem::path& path, const mesh::TriMe
     for (const auto& v : m.vertices) out << fmt::format("{} {} {}\n", v[0], v[1], v[2]);
     for (const auto& f : m.faces) out << fmt::format("3 {} {} {}\n", f[0], f[1], f[2]);
   } else if (ends(".ply")) {
-    mesh::write_ply(out, to_float(m));
+    mesh::write_ply(out, mesh::to_float(m));
   } else if (ends(".ascii.stl")) {
     out << "solid test\n";
     for (const auto& f : m.faces) {

@@ -14,6 +14,15 @@ void put(std::ostream& out, T v) {
 }
 }  // namespace
 
+FloatMesh to_float(const TriMesh& m) {
+  FloatMesh f;
+  f.vertices.reserve(m.vertices.size());
+  for (const auto& v : m.vertices)
+    f.vertices.push_back({static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2])});
+  f.faces = m.faces;
+  return f;
+}
+
 void write_ply(std::ostream& out, const FloatMesh& m) {
   const bool values = !m.face_values.empty();
   out << "ply\nformat binary_little_endian 1.0\ncomment written by mca\n";

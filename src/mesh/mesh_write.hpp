@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "mesh/mesh.hpp"
+
 namespace mca::mesh {
 
 struct FloatMesh {
@@ -16,6 +18,9 @@ struct FloatMesh {
   std::vector<std::int32_t> face_values;
   std::string face_value_name = "value";
 };
+
+// A mesh's coordinates rounded to float32, for writing.
+FloatMesh to_float(const TriMesh& m);
 
 void write_ply(std::ostream& out, const FloatMesh& m);
 void write_obj(std::ostream& out, const FloatMesh& m);
