@@ -19,8 +19,8 @@ struct ObjectGrid {
 };
 
 // The rotation of a fragment: the mean of its automata's quaternions (signs aligned with the first),
-// normalised, as a matrix.
-std::array<std::array<double, 3>, 3> mean_rotation(const State& s, const std::vector<std::uint32_t>& members) {
+// normalised.
+QuatT<double> mean_rotation(const State& s, const std::vector<std::uint32_t>& members) {
   const Quat& q0 = s.q[members[0]];
   double w = 0, x = 0, y = 0, z = 0;
   for (auto a : members) {
@@ -32,13 +32,7 @@ std::array<std::array<double, 3>, 3> mean_rotation(const State& s, const std::ve
     z += sign * q.z;
   }
   const double n = std::sqrt(w * w + x * x + y * y + z * z);
-  w /= n;
-  x /= n;
-  y /= n;
-  z /= n;
-  return {{{1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)},
-           {2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)},
-           {2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)}}};
+  return {w / n, x / n, y / n, z / n};
 }
 
 // Taubin smoothing (lambda 0.5, mu -0.53) of the vertices marked `free`, over their mesh neighbours; no
@@ -261,7 +255,8 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
     }
     for (auto& v : fm.mesh.vertices) {
       const double r[3] = {v[0] - c0[0], v[1] - c0[1], v[2] - c0[2]};
-      for (int c = 0; c < 3; ++c) v[c] = c1[c] + R[c][0] * r[0] + R[c][1] * r[1] + R[c][2] * r[2];
+      const DVec3 t = rotated(R, {r[0], r[1], r[2]});
+      v = {c1[0] + t.x, c1[1] + t.y, c1[2] + t.z};
     }
     fm.volume = mesh::signed_volume(fm.mesh);
     out[k] = std::move(fm);

@@ -6,18 +6,6 @@
 #include <tbb/parallel_for.h>
 
 namespace mca::analysis {
-namespace {
-
-// q v q^-1 for a unit quaternion, in double (the centres are double).
-DVec3 rotate(const Quat& q, const Vec3& v) {
-  const double w = q.w, x = q.x, y = q.y, z = q.z;
-  // t = 2 (u x v), v' = v + w t + u x t
-  const double tx = 2 * (y * v.z - z * v.y), ty = 2 * (z * v.x - x * v.z), tz = 2 * (x * v.y - y * v.x);
-  return {v.x + w * tx + (y * tz - z * ty), v.y + w * ty + (z * tx - x * tz), v.z + w * tz + (x * ty - y * tx)};
-}
-
-}  // namespace
-
 mesh::FloatMesh posed_surface(const Model& model, const State& state, const std::vector<std::int32_t>& fragment) {
   const BoundSurface& S = model.surface;
   const std::size_t nf = S.faces(), nv = S.vertices;
@@ -60,7 +48,9 @@ mesh::FloatMesh posed_surface(const Model& model, const State& state, const std:
         const std::uint32_t a = S.automaton[f];
         std::size_t e = 0;
         while (seen[e] != out.face_values[f]) ++e;
-        const DVec3 p = rotate(state.q[a], S.offset[c]);
+        const Quat& q = state.q[a];
+        const Vec3& o = S.offset[c];
+        const DVec3 p = rotated({q.w, q.x, q.y, q.z}, {o.x, o.y, o.z});
         acc[e][0] += state.x[a].x + p.x;
         acc[e][1] += state.x[a].y + p.y;
         acc[e][2] += state.x[a].z + p.z;

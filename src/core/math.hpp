@@ -100,6 +100,14 @@ struct QuatT {
 };
 using Quat = QuatT<float>;
 
+// v turned by the unit quaternion q, in double (the posed surfaces and fragment meshes; the step keeps
+// its own float32 arithmetic): t = 2 (u x v), v' = v + w t + u x t.
+inline DVec3 rotated(const QuatT<double>& q, const DVec3& v) {
+  const double tx = 2 * (q.y * v.z - q.z * v.y), ty = 2 * (q.z * v.x - q.x * v.z), tz = 2 * (q.x * v.y - q.y * v.x);
+  return {v.x + q.w * tx + (q.y * tz - q.z * ty), v.y + q.w * ty + (q.z * tx - q.x * tz),
+          v.z + q.w * tz + (q.x * ty - q.y * tx)};
+}
+
 // q <- normalize(q + dt/2 * (0, omega) * q)   (physics.md sec. 7)
 template <class T>
 MCA_HD QuatT<T> integrate_orientation(const QuatT<T>& q, const Vec3T<T>& om, float dt) {
