@@ -45,7 +45,7 @@ std::string FrameWriter::surface_name(std::int64_t frame, OutputDef::SurfaceForm
 }
 
 analysis::Fragments FrameWriter::fragments(const State& s) const {
-  return analysis::label_lattice_fragments(model_.size(), model_.neighbour.data(), s.intact.data(), model_.mass.data());
+  return analysis::label_model_fragments(model_, s.intact.data());
 }
 
 FrameStats FrameWriter::stats(std::int64_t frame, const State& s, const analysis::Fragments& frags) const {

@@ -37,7 +37,14 @@ void print_mesh(const MeshSummary& ms, const std::string& object, std::size_t au
   fmt::print("  in the file    {}\n", box_text(ms.file_lo, ms.file_hi, ""));
   fmt::print("  in the scene   {} (scale {:.6g}), volume {:.4g} m^3\n", box_text(ms.lo, ms.hi, " m"), ms.scale,
              ms.volume);
-  fmt::print("  automata       {} (cells inside found in {:.2f} s)\n", automata, ms.fill_seconds);
+  if (ms.surface) {
+    fmt::print("  automata       {}, one per triangle (fill = \"surface\"), shell {:.4g} m thick\n", automata,
+               ms.shell_thickness);
+    fmt::print("  links          {} across shared edges{}\n", ms.links,
+               ms.unlinked_edges ? fmt::format("; {} non-manifold edges left unlinked", ms.unlinked_edges) : std::string());
+  } else {
+    fmt::print("  automata       {} (cells inside found in {:.2f} s)\n", automata, ms.fill_seconds);
+  }
 }
 
 }  // namespace
@@ -48,7 +55,7 @@ int info(const std::optional<std::string>& path, bool json) {
   const Model& m = sim.model();
   const std::int64_t frames = sim.frame_count();
   const std::int64_t steps = sim.total_steps();
-  const std::size_t bytes = estimate_memory_bytes(m.size());
+  const std::size_t bytes = estimate_memory_bytes(m.size(), m.explicit_links.size());
   if (json) {
     nlohmann::json j;
     j["scene"] = scene.name;
@@ -93,7 +100,13 @@ int info(const std::optional<std::string>& path, bool json) {
                         {"bounds", {ms.lo, ms.hi}},
                         {"volume", ms.volume},
                         {"automata", count[ms.object]},
+                        {"fill", ms.surface ? "surface" : "volume"},
                         {"fill_seconds", ms.fill_seconds}});
+      if (ms.surface) {
+        meshes.back()["links"] = ms.links;
+        meshes.back()["unlinked_edges"] = ms.unlinked_edges;
+        meshes.back()["shell_thickness"] = ms.shell_thickness;
+      }
     }
     j["meshes"] = meshes;
     std::array<std::size_t, 4> classes{};

@@ -30,8 +30,7 @@ Outcome impact(double speed, const std::string& preset, std::uint64_t seed) {
   Engine sim(s);
   sim.advance(static_cast<int>(0.004 / sim.model().dt));  // 4 ms: the ball has gone through the contact
   const State& st = sim.state();
-  const auto fr = analysis::label_lattice_fragments(sim.model().size(), sim.model().neighbour.data(), st.intact.data(),
-                                                    sim.model().mass.data());
+  const auto fr = analysis::label_model_fragments(sim.model(), st.intact.data());
   return {static_cast<double>(st.broken_by[0] + st.broken_by[1]), static_cast<double>(fr.count)};
 }
 
@@ -109,7 +108,7 @@ TEST(Drops, ADroppedSphereCracksButDoesNotShatter) {
     ASSERT_EQ(sim.advance(static_cast<int>(0.005 / sim.model().dt)).flags, kHealthy);
     const Model& m = sim.model();
     const State& st = sim.state();
-    const auto fr = analysis::label_lattice_fragments(m.size(), m.neighbour.data(), st.intact.data(), m.mass.data());
+    const auto fr = analysis::label_model_fragments(m, st.intact.data());
     std::vector<double> mass(static_cast<std::size_t>(fr.count), 0.0);
     for (std::size_t a = 0; a < m.size(); ++a) mass[fr.id[a]] += m.mass[a];
     std::sort(mass.rbegin(), mass.rend());

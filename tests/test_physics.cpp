@@ -72,6 +72,7 @@ struct StrainProbe {
 StrainProbe probe(const Model& m, const State& s, double half_width) {
   StrainProbe p;
   m.for_each_link([&](std::size_t, std::uint32_t i, std::uint32_t j, int ax) {
+    if (ax < 0) return;  // lattice links only
     const Vec3 a0 = to_vec3(m.position0[i]), b0 = to_vec3(m.position0[j]);
     const Vec3 mid = (a0 + b0) * 0.5f;
     if (std::fabs(mid.x) > half_width || std::fabs(mid.y) > half_width || std::fabs(mid.z) > half_width) return;

@@ -72,7 +72,7 @@ struct RegionDef {
 };
 
 // How a mesh object is filled with automata.
-enum class MeshFill { volume };
+enum class MeshFill { volume, surface };
 
 struct ObjectDef {
   std::string name = "object";
@@ -85,7 +85,10 @@ struct ObjectDef {
   std::string mesh;
   double scale = 1.0;              // mesh: factor from the file's units to metres, > 0
   double fit_size = 0.0;           // mesh: > 0 scales the mesh so its largest extent is this [m] (not with scale)
-  MeshFill fill = MeshFill::volume;  // mesh: the lattice cells whose centres are inside the mesh
+  // mesh: volume = the lattice cells whose centres are inside the mesh; surface = one automaton per
+  // triangle, linked across shared edges (the paper's counts).
+  MeshFill fill = MeshFill::volume;
+  double shell_thickness = 0.0;    // mesh, surface fill: the shell's thickness [m]; 0 = the mean link length
   Vec3d position = {0, 0, 0};      // centre (mesh: where the centre of its bounding box goes)
   Vec3d rotation = {0, 0, 0};      // degrees about x, then y, then z (applied in that order)
   Vec3d velocity = {0, 0, 0};      // initial velocity [m/s]

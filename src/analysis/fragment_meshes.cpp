@@ -16,6 +16,7 @@ namespace {
 struct ObjectGrid {
   mesh::CellBox box;
   std::unique_ptr<mesh::SignedDistance> surface;
+  double shell = 0;  // surface mode: half the shell's thickness (the solid is the surface thickened by it)
 };
 
 // The rotation of a fragment: the mean of its automata's quaternions (signs aligned with the first),
@@ -123,6 +124,8 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
     }
     if (!rest[o].faces.empty()) g.surface = std::make_unique<mesh::SignedDistance>(rest[o], g.box, 3.0f);
   }
+  for (const MeshSummary& ms : m.meshes)
+    if (ms.surface) grids[static_cast<std::size_t>(ms.object)].shell = 0.5 * ms.shell_thickness;
 
   // Each object's automata binned by cells of size d (their starting centres): the 27 cells around a point
   // hold every automaton within d of it, and the terms below keep the nearest.
@@ -210,6 +213,9 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
       // (A hair inside the cell's faces: a voxel centre exactly on a face between two own cells would
       // read 0, outside, and leave a hollow there.)
       const double cube = cheb - 0.5 * d * (1 + 1e-6);
+      // Surface mode: the shell, the original surface thickened to the shell's thickness on both sides
+      // (its automata are on the surface; an open surface's sign means nothing).
+      if (g.shell > 0) return {std::fabs(surface_at(x, y, z)) - g.shell, split};
       // A mesh object: up to a cell beyond the own cells, where the surface lies between them and the mesh.
       if (g.surface) return {std::max(surface_at(x, y, z), cube - d), split};
       return {cube, split};

@@ -3,7 +3,8 @@
 // run). A fragment's solid is the part of its object nearest its own automata: split from its
 // neighbours halfway between automata on either side of a broken link (the faces of their cells), and
 // bounded outside by the object's mesh (mesh objects: the original surface, resampled at a third of the
-// spacing) or by its automata's cells (boxes, spheres, cylinders). The solid is polygonized (OpenVDB),
+// spacing; in surface mode the surface thickened to the shell's thickness) or by its automata's cells
+// (boxes, spheres, cylinders). The solid is polygonized (OpenVDB),
 // then carried to the fragment's pose (its automata's mean rotation and centre).
 #include <cstdint>
 #include <vector>

@@ -1,5 +1,7 @@
 #include "analysis/fragments.hpp"
 
+#include "core/model.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -70,13 +72,13 @@ Fragments label_fragments(std::size_t n_automata, const std::uint32_t* link_i, c
   return number_fragments(n_automata, uf, mass);
 }
 
-Fragments label_lattice_fragments(std::size_t n_automata, const std::uint32_t* neighbour, const std::uint8_t* link_intact,
-                                  const float* mass) {
-  UnionFind uf = fresh_union(n_automata);
-  for (std::size_t axis = 0, k = 0; axis < 3; ++axis)
-    for (std::uint32_t i = 0; i < n_automata; ++i, ++k)
-      if (link_intact[k]) unite_link(uf, n_automata, k, i, neighbour[k]);
-  return number_fragments(n_automata, uf, mass);
+Fragments label_model_fragments(const Model& m, const std::uint8_t* intact) {
+  const std::size_t n = m.size();
+  UnionFind uf = fresh_union(n);
+  m.for_each_link([&](std::size_t l, std::uint32_t i, std::uint32_t j, int) {
+    if (intact[l]) unite_link(uf, n, l, i, j);
+  });
+  return number_fragments(n, uf, m.mass.data());
 }
 
 namespace {

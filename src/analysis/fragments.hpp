@@ -5,6 +5,10 @@
 #include <cstdint>
 #include <vector>
 
+namespace mca {
+struct Model;
+}
+
 namespace mca::analysis {
 
 struct Fragments {
@@ -19,10 +23,9 @@ struct Fragments {
 // std::out_of_range for a link index >= n_automata.
 Fragments label_fragments(std::size_t n_automata, const std::uint32_t* link_i, const std::uint32_t* link_j,
                           const std::uint8_t* link_intact, std::size_t n_links, const float* mass);
-// The same for links in the lattice layout of core/model.hpp: slot k = axis * n + i links automaton i to
-// neighbour[k] (3 n slots).
-Fragments label_lattice_fragments(std::size_t n_automata, const std::uint32_t* neighbour, const std::uint8_t* link_intact,
-                                  const float* mass);
+// The same for the links of a model (core/model.hpp: lattice slots k = axis * n + i link automaton i to
+// neighbour[k], then the explicit links), intact[] per link slot, numbered by the automata's masses.
+Fragments label_model_fragments(const Model& m, const std::uint8_t* intact);
 
 struct FragmentInfo {
   std::int32_t id = 0;

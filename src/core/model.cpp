@@ -16,7 +16,7 @@ void link_damage(const Model& m, const std::uint8_t* intact, float* out) {
   }
 }
 
-std::size_t estimate_memory_bytes(std::size_t automata) {
+std::size_t estimate_memory_bytes(std::size_t automata, std::size_t explicit_links) {
   // What a run holds at its peak, counted from the arrays (and checked against the measured peak resident
   // size: Cli.MemoryEstimateMatchesThePeak). Links live in the three slots of each automaton (one per
   // axis, kept whether the link exists or not), so everything is per automaton:
@@ -33,8 +33,14 @@ std::size_t estimate_memory_bytes(std::size_t automata) {
   //   fixed 40 MB   program, libraries, thread stacks: 8 MB, and 30 MB of clean pages of the mesh
   //                 libraries mapped at start-up (OpenVDB's symbol tables alone are 27 MB), shared with
   //                 every other process using them.
-  constexpr std::size_t per_automaton = 88 + 179 + 346 + 60 + 64;
-  return automata * per_automaton + 40'000'000;
+  // Explicit links (surface mode) come on top, per link:
+  //   model 32      ends 8, rest length 8, cross-section 4, two entries in the per-automaton index 8,
+  //                 plus 4 of the index's offsets per automaton (counted here, per link, as 4)
+  //   state 13      intact 1, shear displacement 12
+  //   backend 108   shear displacement 12, constants 32, the pass's force, torque, direction and
+  //                 half length 44 (with padding), break list 4, many-body weight and gather list 16
+  constexpr std::size_t per_automaton = 88 + 179 + 346 + 60 + 64, per_explicit_link = 32 + 13 + 108;
+  return automata * per_automaton + explicit_links * per_explicit_link + 40'000'000;
 }
 
 }  // namespace mca

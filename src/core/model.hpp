@@ -62,6 +62,10 @@ struct MeshSummary {
   double scale = 1;              // file units to metres
   double volume = 0;             // enclosed volume [m^3]
   double fill_seconds = 0;       // time to find the cells inside (signed distance and interior)
+  std::size_t automata = 0;      // automata of the object
+  bool surface = false;          // filled in surface mode (one automaton per triangle)
+  std::size_t links = 0, unlinked_edges = 0;  // surface mode: explicit links; non-manifold edges left unlinked
+  double shell_thickness = 0;    // surface mode [m]
 };
 
 // The input triangles of the mesh objects, each bound to one automaton (paper sec. 5.4): its corners are
@@ -96,13 +100,26 @@ struct Model {
   // Slot l = axis * n + a holds the link from automaton a to its neighbour along +axis of its object's
   // own lattice (axis 0, 1, 2: the object's local x, y, z), when it has one. This is the layout the
   // backends share (structure of arrays by direction, the far end at a fixed offset inside a box); a slot
-  // without a link is never intact. Every link has rest length `spacing` and cross-section spacing^2.
+  // without a link is never intact. Every lattice link has rest length `spacing` and cross-section
+  // spacing^2 (the explicit links below have their own).
   // Automata are numbered row by row (x fastest) within each object, so the links of automaton a in
   // increasing link order of the lattice's cells are those along -z, -y, -x, +x, +y, +z.
   static constexpr std::uint32_t kNoLink = 0xffffffffu;
   std::vector<std::uint32_t> neighbour;        // 3n: a's neighbour along +axis at axis * n + a, or kNoLink
   std::vector<std::uint32_t> neighbour_below;  // 3n: a's neighbour along -axis (its link is in that one's slot)
-  std::size_t links = 0;                       // slots that hold a link
+  std::size_t links = 0;                       // slots that hold a link (lattice and explicit)
+  // Explicit links (objects filled in surface mode: one automaton per triangle, linked across shared
+  // edges): slot 3n + k holds explicit link k, between automata i[k] < j[k], with its own rest length and
+  // cross-section. The automata of such objects have no lattice links.
+  struct ExplicitLinks {
+    std::vector<std::uint32_t> i, j;
+    std::vector<double> r0;    // rest length [m] (double: the strain at rest is zero to 1e-16, see link_geometry)
+    std::vector<float> area;   // cross-section [m^2]: the shared edge's length times the shell thickness
+    // The explicit links of automaton a: of[first[a] .. first[a + 1]), in increasing link order
+    // (first is empty when there are none).
+    std::vector<std::uint32_t> first, of;
+    std::size_t size() const { return i.size(); }
+  } explicit_links;
 
   // --- scene-level ---
   std::vector<GroupParams> groups;
@@ -116,6 +133,7 @@ struct Model {
   std::vector<std::string> object_names;
   // Per object: its lattice's axes (local x, y, z) in the world, unit vectors.
   std::vector<std::array<Vec3, 3>> object_axes;
+  std::vector<std::uint8_t> object_surface;  // per object: 1 when filled in surface mode (explicit links)
   std::vector<MeshSummary> meshes;  // one per object of shape mesh
   BoundSurface surface;             // the triangles of the mesh objects, bound to automata
   std::vector<ProjectileParams> projectiles;
@@ -153,15 +171,24 @@ struct Model {
     c.twisting = twisting;
     return c;
   }
-  std::size_t link_slots() const { return neighbour.size(); }
+  std::size_t lattice_slots() const { return neighbour.size(); }
+  std::size_t link_slots() const { return neighbour.size() + explicit_links.size(); }
   std::size_t link_count() const { return links; }
-  bool link_exists(std::size_t l) const { return neighbour[l] != kNoLink; }
-  // The ends of the link in slot l (i < j) and its axis.
-  std::uint32_t link_i(std::size_t l) const { return static_cast<std::uint32_t>(l % size()); }
-  std::uint32_t link_j(std::size_t l) const { return neighbour[l]; }
-  int link_axis(std::size_t l) const { return static_cast<int>(l / size()); }
-  // Calls f(l) for the slot of each link automaton a has (at most six: its own along +axis and its lower
-  // neighbours' along -axis), axis by axis.
+  bool is_explicit(std::size_t l) const { return l >= neighbour.size(); }
+  bool link_exists(std::size_t l) const { return is_explicit(l) || neighbour[l] != kNoLink; }
+  // The ends of the link in slot l (i < j) and its lattice axis (-1 for an explicit link).
+  std::uint32_t link_i(std::size_t l) const {
+    return is_explicit(l) ? explicit_links.i[l - neighbour.size()] : static_cast<std::uint32_t>(l % size());
+  }
+  std::uint32_t link_j(std::size_t l) const { return is_explicit(l) ? explicit_links.j[l - neighbour.size()] : neighbour[l]; }
+  int link_axis(std::size_t l) const { return is_explicit(l) ? -1 : static_cast<int>(l / size()); }
+  // Rest length and cross-section of the link in slot l.
+  double link_r0(std::size_t l) const { return is_explicit(l) ? explicit_links.r0[l - neighbour.size()] : spacing; }
+  float link_area(std::size_t l) const {
+    return is_explicit(l) ? explicit_links.area[l - neighbour.size()] : spacing * spacing;
+  }
+  // Calls f(l) for the slot of each link automaton a has: the lattice ones (at most six: its own along
+  // +axis and its lower neighbours' along -axis, axis by axis), then the explicit ones in slot order.
   template <class F>
   void for_each_link_of(std::size_t a, F&& f) const {
     const std::size_t n = size();
@@ -170,8 +197,11 @@ struct Model {
       if (neighbour[up] != kNoLink) f(up);
       if (neighbour_below[up] != kNoLink) f(axis * n + neighbour_below[up]);
     }
+    if (!explicit_links.first.empty())
+      for (std::uint32_t k = explicit_links.first[a]; k < explicit_links.first[a + 1]; ++k)
+        f(3 * n + explicit_links.of[k]);
   }
-  // Calls f(l, i, j, axis) for every link, in slot order.
+  // Calls f(l, i, j, axis) for every link, in slot order (axis -1 for the explicit ones).
   template <class F>
   void for_each_link(F&& f) const {
     const std::size_t n = size();
@@ -180,6 +210,7 @@ struct Model {
         const std::size_t l = axis * n + i;
         if (neighbour[l] != kNoLink) f(l, static_cast<std::uint32_t>(i), neighbour[l], axis);
       }
+    for (std::size_t k = 0; k < explicit_links.size(); ++k) f(3 * n + k, explicit_links.i[k], explicit_links.j[k], -1);
   }
 };
 
@@ -188,6 +219,6 @@ struct Model {
 void link_damage(const Model& m, const std::uint8_t* intact, float* out);
 
 // Bytes a run of a model of this many automata holds at its peak, for `mca info` and the memory check.
-std::size_t estimate_memory_bytes(std::size_t automata);
+std::size_t estimate_memory_bytes(std::size_t automata, std::size_t explicit_links = 0);
 
 }  // namespace mca

@@ -268,6 +268,14 @@ void validate_scene(const SceneDef& scene) {
                        "give a smaller target",
                        scene.solver.target_automata));
   }
+  if (scene.solver.target_automata > 0 && !scene.objects.empty() &&
+      std::all_of(scene.objects.begin(), scene.objects.end(),
+                  [](const ObjectDef& o) { return o.shape == Shape::mesh && o.fill == MeshFill::surface; })) {
+    c.fail(fmt::format("solver.target_automata = {} sets the lattice spacing, but every object is filled in surface "
+                       "mode, one automaton per triangle; remove solver.target_automata (or remesh the model to the "
+                       "triangle count you want)",
+                       scene.solver.target_automata));
+  }
   if (scene.solver.target_automata < 0) {
     c.fail(fmt::format("solver.target_automata = {} is out of range: must be >= 0; use 0 to take solver.spacing "
                        "as given",
@@ -380,9 +388,24 @@ void validate_scene(const SceneDef& scene) {
                              "coordinates, fit_size sets the largest extent",
                              p, o.scale, o.fit_size));
         }
+        if (!std::isfinite(o.shell_thickness) || o.shell_thickness < 0) {
+          c.fail(fmt::format("{}.shell_thickness = {:g} is out of range: it must be > 0 [m], or 0 for the mean "
+                             "distance between linked triangles",
+                             p, o.shell_thickness));
+        }
+        if (o.shell_thickness > 0 && o.fill != MeshFill::surface) {
+          c.fail(fmt::format("{}.shell_thickness = {:g} is for fill = \"surface\" (a volume fill has no shell); add "
+                             "fill = \"surface\" or remove shell_thickness",
+                             p, o.shell_thickness));
+        }
         break;
       default:
         c.fail(fmt::format("{}.shape is not a known shape; use \"box\", \"sphere\", \"cylinder\" or \"mesh\"", p));
+    }
+    if (o.shape != Shape::mesh && o.fill == MeshFill::surface) {
+      c.fail(fmt::format("{}.fill = \"surface\" is for objects of shape \"mesh\" (one automaton per triangle); remove "
+                         "fill",
+                         p));
     }
     if (o.shape != Shape::mesh && !o.mesh.empty()) {
       c.fail(fmt::format("{}.mesh is given but the shape is not \"mesh\"; add shape = \"mesh\" or remove mesh", p));

@@ -497,8 +497,8 @@ RegionDef read_region(const Table& tb) {
 }
 
 ObjectDef read_object(const Table& tb, std::size_t index, const HeterogeneityDef& scene_heterogeneity) {
-  tb.allow({"name", "shape", "size", "radius", "height", "mesh", "scale", "fit_size", "fill", "position", "rotation",
-            "velocity", "material", "heterogeneity", "region"});
+  tb.allow({"name", "shape", "size", "radius", "height", "mesh", "scale", "fit_size", "fill", "shell_thickness",
+            "position", "rotation", "velocity", "material", "heterogeneity", "region"});
   ObjectDef o;
   if (index > 0) o.name = fmt::format("object{}", index);
   tb.string("name", o.name);
@@ -515,7 +515,11 @@ ObjectDef read_object(const Table& tb, std::size_t index, const HeterogeneityDef
                                  "fit_size sets the largest extent",
                                  tb.path()));
   }
-  if (tb.choice("fill", {"volume"}, "a fill mode (\"volume\": the lattice cells inside the mesh)")) o.fill = MeshFill::volume;
+  if (auto f = tb.choice("fill", {"volume", "surface"},
+                         "a fill mode (\"volume\": the lattice cells inside the mesh; \"surface\": one automaton per "
+                         "triangle)"))
+    o.fill = *f == "surface" ? MeshFill::surface : MeshFill::volume;
+  tb.number("shell_thickness", o.shell_thickness);
   tb.vec3("position", o.position);
   tb.vec3("rotation", o.rotation);
   tb.vec3("velocity", o.velocity);
@@ -805,7 +809,8 @@ std::string scene_to_toml(const SceneDef& s) {
       out += fmt::format("mesh = {}\n", toml_string(o.mesh));
       if (o.fit_size > 0) out += fmt::format("fit_size = {}\n", toml_double(o.fit_size));
       else out += fmt::format("scale = {}\n", toml_double(o.scale));
-      out += "fill = \"volume\"\n";
+      out += o.fill == MeshFill::surface ? "fill = \"surface\"\n" : "fill = \"volume\"\n";
+      if (o.shell_thickness > 0) out += fmt::format("shell_thickness = {}\n", toml_double(o.shell_thickness));
     }
     out += fmt::format("position = {}\n", vec(o.position));
     out += fmt::format("rotation = {}\n", vec(o.rotation));

@@ -13,6 +13,7 @@
 #include <unistd.h>
 #include <unordered_map>
 
+#include "grid/uniform_grid.hpp"
 #include "lattice/heterogeneity.hpp"
 #include "lattice/mesh_object.hpp"
 #include "mca/error.hpp"
@@ -63,18 +64,32 @@ struct ObjectLattice {
 struct Shapes {
   std::vector<std::unique_ptr<MeshObject>> mesh;
   mutable std::vector<std::optional<std::pair<double, MeshFillResult>>> fill;
-  bool any_mesh = false;
+  // Per object filled in surface mode: its automata and links (which do not depend on the spacing).
+  std::vector<std::optional<SurfaceCells>> surface;
+  bool any_mesh = false;  // some object is a mesh filled by volume
+  bool any_lattice = false;  // some object is filled by a lattice (not in surface mode)
   const MeshObject* of(std::size_t object) const { return mesh[object].get(); }
+  const SurfaceCells* surface_of(std::size_t object) const { return surface[object] ? &*surface[object] : nullptr; }
 };
 
 Shapes prepare_shapes(const SceneDef& scene) {
   Shapes S;
   S.mesh.resize(scene.objects.size());
   S.fill.resize(scene.objects.size());
+  S.surface.resize(scene.objects.size());
   for (std::size_t o = 0; o < scene.objects.size(); ++o) {
-    if (scene.objects[o].shape != Shape::mesh) continue;
+    const ObjectDef& od = scene.objects[o];
+    if (od.shape != Shape::mesh) {
+      S.any_lattice = true;
+      continue;
+    }
     S.mesh[o] = std::make_unique<MeshObject>(prepare_mesh_object(scene, o));
-    S.any_mesh = true;
+    if (od.fill == MeshFill::surface) {
+      S.surface[o] = surface_cells(scene, o, *S.mesh[o]);
+    } else {
+      S.any_mesh = true;
+      S.any_lattice = true;
+    }
   }
   return S;
 }
@@ -163,6 +178,7 @@ ObjectLattice object_lattice(const SceneDef& scene, const Shapes& S, std::size_t
 // the same test), so that a tiny spacing is refused by the memory check instead of exhausting memory.
 std::int64_t object_count(const SceneDef& scene, const Shapes& S, std::size_t oi, double d) {
   const ObjectDef& o = scene.objects[oi];
+  if (const SurfaceCells* sc = S.surface_of(oi)) return static_cast<std::int64_t>(sc->face.size());
   if (o.shape == Shape::mesh) return mesh_fill(scene, S, oi, d).count;
   std::int64_t n[3];
   double origin[3];
@@ -306,6 +322,7 @@ double shapes_volume(const SceneDef& scene, const Shapes& S) {
   double volume = 0;
   for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) {
     const ObjectDef& o = scene.objects[oi];
+    if (S.surface_of(oi)) continue;  // a count of its own, whatever the spacing
     if (o.shape == Shape::mesh) volume += S.of(oi)->volume();
     else if (o.shape == Shape::box) volume += o.size[0] * o.size[1] * o.size[2];
     else if (o.shape == Shape::sphere) volume += 4.0 / 3.0 * std::numbers::pi * std::pow(o.radius, 3);
@@ -380,7 +397,8 @@ void refuse_overlaps(const SceneDef& scene, const Model& M) {
   std::vector<std::size_t> order(n_obj);
   for (std::size_t o = 0; o < n_obj; ++o) order[o] = o;
   std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return boxes[a].lo[0] < boxes[b].lo[0]; });
-  const double d = M.spacing;
+  // Cells as large as the largest reach (automata of surface-mode objects may be larger than the spacing).
+  const double d = std::max<double>(M.spacing, 2.0 * *std::max_element(M.radius.begin(), M.radius.end()));
   for (std::size_t u = 0; u < n_obj; ++u) {
     const Box& A = boxes[order[u]];
     for (std::size_t v = u + 1; v < n_obj && boxes[order[v]].lo[0] < A.hi[0]; ++v) {
@@ -526,6 +544,204 @@ void index_corners(BoundSurface& S) {
   for (std::size_t c = 0; c < nc; ++c) S.corners_of[fill[S.corner[c]]++] = static_cast<std::uint32_t>(c);
 }
 
+// What both fills report of a mesh object (mca info).
+MeshSummary mesh_summary(const MeshObject& mo, std::size_t oi, const std::string& path, const Mat3& R,
+                         const Vec3d& position) {
+  MeshSummary ms;
+  ms.object = static_cast<std::int32_t>(oi);
+  ms.path = path;
+  ms.vertices = mo.file_vertices;
+  ms.faces = mo.solid.mesh.faces.size();
+  ms.boundary_edges = mo.solid.topology.boundary_edges;
+  ms.non_manifold_edges = mo.solid.topology.non_manifold_edges;
+  ms.degenerate_faces = mo.solid.topology.degenerate_faces;
+  ms.holes = mo.solid.topology.holes;
+  ms.file_lo = mo.file_bounds.lo;
+  ms.file_hi = mo.file_bounds.hi;
+  ms.scale = mo.scale;
+  ms.volume = mo.volume();
+  ms.shells = mo.solid.shells.size();
+  ms.cavities = static_cast<std::size_t>(
+      std::count_if(mo.solid.depth.begin(), mo.solid.depth.end(), [](int k) { return k > 0 && k % 2 == 1; }));
+  ms.lo = {INFINITY, INFINITY, INFINITY};
+  ms.hi = {-INFINITY, -INFINITY, -INFINITY};
+  for (const auto& v : mo.solid.mesh.vertices) {
+    const Vec3d r = R.apply({v[0], v[1], v[2]});
+    for (int a = 0; a < 3; ++a) {
+      ms.lo[a] = std::min(ms.lo[a], r[a] + position[a]);
+      ms.hi[a] = std::max(ms.hi[a], r[a] + position[a]);
+    }
+  }
+  return ms;
+}
+
+// The spacing of a scene whose objects are all filled in surface mode: the mean distance of linked
+// triangles (or, with no link at all, the side of a cube of an automaton's mean volume). It sets the
+// contact skin and the speed check, as the spacing of a lattice does.
+double surface_spacing(const Shapes& S) {
+  double sum = 0, volume = 0;
+  std::size_t links = 0, automata = 0;
+  for (const auto& sc : S.surface) {
+    if (!sc) continue;
+    sum += sc->mean_link * static_cast<double>(sc->link.size());
+    links += sc->link.size();
+    for (double a : sc->area) volume += a * sc->thickness;
+    automata += sc->face.size();
+  }
+  return links ? sum / static_cast<double>(links) : std::cbrt(volume / static_cast<double>(automata));
+}
+
+// Automata of an object filled in surface mode (paper sec. 5.4 counts): one per triangle at its centroid,
+// of volume area x thickness, linked across shared edges (rest length the centroids' distance, cross-section
+// the edge's length x thickness), each triangle bound to its own automaton. Strength classes are drawn at
+// the centroids (`local`, object frame).
+void add_surface_object(Model& M, const SceneDef& scene, const MeshObject& mo, const SurfaceCells& sc, std::size_t oi,
+                        const Mat3& R, int base_group, const std::vector<int>& region_groups, std::vector<Vec3>& local) {
+  const ObjectDef& o = scene.objects[oi];
+  const auto first = static_cast<std::uint32_t>(M.size());
+  const std::size_t count = sc.face.size();
+  const double t = sc.thickness;
+  // Lumped volume (and mass): half the triangle's own area and a share of each linked neighbour's (a
+  // neighbour with c links gives 1/(2c) of its area to each), so that the total is the surface's area
+  // times the thickness and a sliver triangle between large ones is not a near-massless automaton on
+  // stiff links (which would set a step tens of times smaller).
+  std::vector<double> lumped(count, 0.0);
+  {
+    std::vector<int> links_of(count, 0);
+    for (const auto& l : sc.link) {
+      ++links_of[l[0]];
+      ++links_of[l[1]];
+    }
+    for (std::size_t k = 0; k < count; ++k) lumped[k] = links_of[k] ? 0.5 * sc.area[k] : sc.area[k];
+    for (const auto& l : sc.link) {
+      lumped[l[0]] += 0.5 * sc.area[l[1]] / links_of[l[1]];
+      lumped[l[1]] += 0.5 * sc.area[l[0]] / links_of[l[0]];
+    }
+  }
+  for (std::size_t k = 0; k < count; ++k) {
+    const mesh::Point& c = sc.centroid[k];
+    const Vec3d r = R.apply({c[0], c[1], c[2]});
+    const Vec3d wp{r[0] + o.position[0], r[1] + o.position[1], r[2] + o.position[2]};
+    int g = base_group;
+    for (std::size_t rr = 0; rr < o.regions.size(); ++rr)
+      if (o.regions[rr].shape == Shape::mesh ? inside_solid(*mo.regions[rr], c) : inside_region(o.regions[rr], wp))
+        g = region_groups[rr];
+    const double volume = lumped[k] * t;
+    const std::string fix = fmt::format("check the density (kg/m^3), the mesh's scale and shell_thickness ({:g} m)", t);
+    const float mass = as_float32(scene, fmt::format("the mass of the automaton of triangle {} of object '{}'", sc.face[k], o.name),
+                                  M.groups[g].density * volume, fix);
+    M.position0.push_back(to_dvec3(wp));
+    M.velocity0.push_back(to_vec3(o.velocity));
+    M.mass.push_back(mass);
+    M.radius.push_back(0.0f);  // set below from its links
+    M.inertia.push_back(0.0f);
+    M.volume.push_back(static_cast<float>(volume));
+    M.group.push_back(static_cast<std::uint8_t>(g));
+    M.object.push_back(static_cast<std::int32_t>(oi));
+    M.grip.push_back(-1);
+    local.push_back(to_vec3({c[0], c[1], c[2]}));
+  }
+  if (std::any_of(o.regions.begin(), o.regions.end(), [](const RegionDef& r) { return r.shape == Shape::mesh; })) {
+    for (std::size_t rr = 0; rr < o.regions.size(); ++rr) {
+      if (o.regions[rr].shape != Shape::mesh) continue;
+      const bool any = std::any_of(sc.centroid.begin(), sc.centroid.end(), [&](const mesh::Point& c) { return inside_solid(*mo.regions[rr], c); });
+      if (!any) {
+        throw Error(fmt::format("{}: object[{}] '{}': region[{}] (mesh {}) holds no triangle centroid of the object; "
+                                "its mesh must enclose part of the object's surface, in the same units and frame as "
+                                "the object's file",
+                                scene.source, oi, o.name, rr, mo.regions[rr]->file));
+      }
+    }
+  }
+  // Links, and each automaton's mean and shortest link length.
+  auto& E = M.explicit_links;
+  std::vector<double> length_sum(count, 0.0), shortest(count, INFINITY);
+  std::vector<int> links_of(count, 0);
+  for (std::size_t l = 0; l < sc.link.size(); ++l) {
+    const std::uint32_t a = first + sc.link[l][0], b = first + sc.link[l][1];
+    const DVec3 dd = ddelta(M.position0[a], M.position0[b]);
+    const double r0 = std::sqrt(dot(dd, dd));
+    E.i.push_back(a);
+    E.j.push_back(b);
+    E.r0.push_back(r0);
+    E.area.push_back(static_cast<float>(sc.edge[l] * t));
+    for (auto k : sc.link[l]) {
+      length_sum[k] += r0;
+      shortest[k] = std::min(shortest[k], r0);
+      ++links_of[k];
+    }
+  }
+  M.links += sc.link.size();
+  // Contact radius: half its shortest link (so that a link that breaks leaves two automata that touch
+  // without overlap, as in a lattice), and no more than 0.49 of the distance to the nearest automaton it
+  // is not linked to, so that no unlinked pair starts pressed into each other (around a vertex of a fine
+  // or uneven mesh, triangles that share no edge can be closer than linked ones). A triangle without links
+  // takes half the side of the square of its area. `size`: half its mean link, for its moment of inertia.
+  std::vector<double> radius(count), size(count);
+  double largest = 0;
+  for (std::size_t k = 0; k < count; ++k) {
+    size[k] = links_of[k] ? 0.5 * length_sum[k] / links_of[k] : 0.5 * std::sqrt(sc.area[k]);
+    radius[k] = links_of[k] ? 0.5 * shortest[k] : size[k];
+    largest = std::max(largest, radius[k]);
+  }
+  UniformGrid grid;
+  grid.build(M.position0.data() + first, count, 2.0 * largest);
+  std::vector<std::uint32_t> linked;
+  for (std::size_t k = 0; k < count; ++k) {
+    const DVec3 x = M.position0[first + k];
+    double nearest = INFINITY;
+    grid.for_each_candidate(x, [&](std::uint32_t j) {
+      if (j == k) return;
+      const DVec3 dd = ddelta(x, M.position0[first + j]);
+      const double dist = std::sqrt(dot(dd, dd));
+      if (dist < nearest && dist < 2.0 * largest) {
+        // Linked pairs are left out (they touch by construction).
+        const std::array<std::uint32_t, 2> key{static_cast<std::uint32_t>(std::min<std::size_t>(k, j)),
+                                               static_cast<std::uint32_t>(std::max<std::size_t>(k, j))};
+        if (!std::binary_search(sc.link.begin(), sc.link.end(), key)) nearest = dist;
+      }
+    });
+    const std::size_t a = first + k;
+    M.radius[a] = static_cast<float>(std::min(radius[k], 0.49 * nearest));
+    // As a cube whose side is its mean link length (a lattice automaton: m d^2 / 6), whatever its
+    // contact radius.
+    M.inertia[a] = static_cast<float>(M.mass[a] * (2.0 * size[k]) * (2.0 * size[k]) / 6.0);
+  }
+  // Each triangle rides with its own automaton.
+  BoundSurface& B = M.surface;
+  const auto base = static_cast<std::uint32_t>(B.vertices);
+  for (std::size_t k = 0; k < count; ++k) {
+    const DVec3 centre = M.position0[first + k];
+    B.automaton.push_back(first + static_cast<std::uint32_t>(k));
+    for (auto v : mo.solid.mesh.faces[sc.face[k]]) {
+      const Vec3d w = R.apply(mo.solid.mesh.vertices[v]);
+      B.corner.push_back(base + v);
+      B.offset.push_back(to_vec3({w[0] + o.position[0] - centre.x, w[1] + o.position[1] - centre.y,
+                                  w[2] + o.position[2] - centre.z}));
+    }
+  }
+  B.vertices += mo.solid.mesh.vertices.size();
+}
+
+// Each automaton's explicit links in slot order (Model::ExplicitLinks::first, of), by a counting sort.
+void index_explicit_links(Model& M) {
+  auto& E = M.explicit_links;
+  if (E.size() == 0) return;
+  const std::size_t n = M.size();
+  E.first.assign(n + 1, 0);
+  for (std::size_t k = 0; k < E.size(); ++k) {
+    ++E.first[E.i[k] + 1];
+    ++E.first[E.j[k] + 1];
+  }
+  for (std::size_t a = 0; a < n; ++a) E.first[a + 1] += E.first[a];
+  E.of.resize(2 * E.size());
+  std::vector<std::uint32_t> fill(E.first.begin(), E.first.end() - 1);
+  for (std::size_t k = 0; k < E.size(); ++k) {
+    E.of[fill[E.i[k]]++] = static_cast<std::uint32_t>(k);
+    E.of[fill[E.j[k]]++] = static_cast<std::uint32_t>(k);
+  }
+}
+
 }  // namespace
 
 void set_time_step(Model& M, float dt) {
@@ -636,7 +852,7 @@ Model build_model(const SceneDef& scene) {
   // (double) are laid out with the same d, so an intact lattice starts with a strain of exactly zero (up
   // to the double rounding of the centres) instead of the 3e-8 of a float-rounded r0.
   const Shapes S = prepare_shapes(scene);
-  const double d = static_cast<double>(static_cast<float>(scene_spacing(scene, S)));
+  const double d = static_cast<double>(static_cast<float>(S.any_lattice ? scene_spacing(scene, S) : surface_spacing(S)));
   Model M;
   M.spacing = static_cast<float>(d);
 
@@ -654,6 +870,7 @@ Model build_model(const SceneDef& scene) {
   const double n_volume = 0.5 * shapes_volume(scene, S) / (d * d * d);
   // An extent under half a cell would round to no cell; it becomes one, a body far larger than asked.
   for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) {
+    if (S.surface_of(oi)) continue;
     double ext[3] = {0, 0, 0};
     shape_extents(scene.objects[oi], S.of(oi), ext);
     for (int a = 0; a < 3; ++a)
@@ -717,13 +934,39 @@ Model build_model(const SceneDef& scene) {
     for (std::size_t r = 0; r < o.regions.size(); ++r)
       region_groups.push_back(group_of(o.regions[r].material, fmt::format("{}.region[{}].material", okey, r), true));
 
-    const ObjectLattice L = object_lattice(scene, S, oi, d);
     const Mat3 R = rotation_matrix(o.rotation);
     M.object_axes.push_back({to_vec3({R.m[0][0], R.m[1][0], R.m[2][0]}), to_vec3({R.m[0][1], R.m[1][1], R.m[2][1]}),
                              to_vec3({R.m[0][2], R.m[1][2], R.m[2][2]})});
+    M.object_surface.push_back(S.surface_of(oi) ? 1 : 0);
+    std::vector<Vec3> local;
+    const HeterogeneityDef& het = o.heterogeneity ? *o.heterogeneity : scene.heterogeneity;
+    auto draw_classes = [&] {
+      const auto classes = assign_classes(local, het, scene.solver.seed, static_cast<std::uint32_t>(oi));
+      for (auto cl : classes) {
+        M.strength_class.push_back(cl);
+        M.class_factor.push_back(static_cast<float>(het.class_factors[cl - 1]));
+      }
+    };
+    if (const SurfaceCells* sc = S.surface_of(oi)) {
+      const std::size_t first = M.size();
+      add_surface_object(M, scene, *S.of(oi), *sc, oi, R, base_group, region_groups, local);
+      for (int a = 0; a < 3; ++a) {  // no lattice links
+        above[a].resize(M.size(), Model::kNoLink);
+        below[a].resize(M.size(), Model::kNoLink);
+      }
+      MeshSummary ms = mesh_summary(*S.of(oi), oi, o.mesh, R, o.position);
+      ms.surface = true;
+      ms.automata = M.size() - first;
+      ms.links = sc->link.size();
+      ms.unlinked_edges = sc->unlinked_edges;
+      ms.shell_thickness = sc->thickness;
+      M.meshes.push_back(std::move(ms));
+      draw_classes();
+      continue;
+    }
+    const ObjectLattice L = object_lattice(scene, S, oi, d);
     const std::size_t first = M.size();
     std::vector<std::int64_t> index(L.inside.size(), -1);
-    std::vector<Vec3> local;
     std::size_t c = 0;
     for (std::int64_t k = 0; k < L.n[2]; ++k)
       for (std::int64_t j = 0; j < L.n[1]; ++j)
@@ -756,31 +999,9 @@ Model build_model(const SceneDef& scene) {
     }
     if (const MeshObject* mo = S.of(oi)) {
       bind_surface(M, *mo, L, index, R, o.position, d);
-      MeshSummary ms;
-      ms.object = static_cast<std::int32_t>(oi);
-      ms.path = o.mesh;
-      ms.vertices = mo->file_vertices;
-      ms.faces = mo->solid.mesh.faces.size();
-      ms.boundary_edges = mo->solid.topology.boundary_edges;
-      ms.non_manifold_edges = mo->solid.topology.non_manifold_edges;
-      ms.degenerate_faces = mo->solid.topology.degenerate_faces;
-      ms.holes = mo->solid.topology.holes;
-      ms.file_lo = mo->file_bounds.lo;
-      ms.file_hi = mo->file_bounds.hi;
-      ms.scale = mo->scale;
-      ms.volume = mo->volume();
-      ms.shells = mo->solid.shells.size();
-      ms.cavities = static_cast<std::size_t>(std::count_if(mo->solid.depth.begin(), mo->solid.depth.end(), [](int k) { return k > 0 && k % 2 == 1; }));
+      MeshSummary ms = mesh_summary(*mo, oi, o.mesh, R, o.position);
       ms.fill_seconds = L.fill_seconds;
-      ms.lo = {INFINITY, INFINITY, INFINITY};
-      ms.hi = {-INFINITY, -INFINITY, -INFINITY};
-      for (const auto& v : mo->solid.mesh.vertices) {
-        const Vec3d r = R.apply({v[0], v[1], v[2]});
-        for (int a = 0; a < 3; ++a) {
-          ms.lo[a] = std::min(ms.lo[a], r[a] + o.position[a]);
-          ms.hi[a] = std::max(ms.hi[a], r[a] + o.position[a]);
-        }
-      }
+      ms.automata = M.size() - first;
       M.meshes.push_back(std::move(ms));
     }
     // Face neighbours along +-x, +-y, +-z of each cell: the automata of one object link along its own
@@ -800,16 +1021,12 @@ Model build_model(const SceneDef& scene) {
             M.links += nu >= 0;
           }
         }
-    const HeterogeneityDef& het = o.heterogeneity ? *o.heterogeneity : scene.heterogeneity;
-    const auto classes = assign_classes(local, het, scene.solver.seed, static_cast<std::uint32_t>(oi));
-    for (auto cl : classes) {
-      M.strength_class.push_back(cl);
-      M.class_factor.push_back(static_cast<float>(het.class_factors[cl - 1]));
-    }
+    draw_classes();
   }
 
   refuse_overlaps(scene, M);
   index_corners(M.surface);
+  index_explicit_links(M);
 
   const std::size_t n = M.size();
   M.neighbour.reserve(3 * n);

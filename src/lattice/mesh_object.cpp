@@ -183,10 +183,12 @@ MeshObject prepare_mesh_object(const SceneDef& scene, std::size_t index) {
   const mesh::Point e = m.file_bounds.extent();
   const double largest = m.file_bounds.largest_extent();
   m.scale = o.fit_size > 0 ? o.fit_size / largest : o.scale;
-  for (int a = 0; a < 3; ++a) {
+  const bool surface = o.fill == MeshFill::surface;
+  for (int a = 0; a < 3 && !surface; ++a) {
     if (!(e[a] > 1e-9 * largest)) {
       throw Error(fmt::format("{}: the mesh {} is flat: its extent along {} is {:g} (the box is {} in the file's "
-                              "units), a surface with no inside to fill with automata; give a closed solid",
+                              "units), a surface with no inside to fill with automata; give a closed solid, or "
+                              "fill = \"surface\" for one automaton per triangle",
                               where(scene, index), o.mesh, "xyz"[a], e[a], extent_text(e, "")));
     }
   }
@@ -259,6 +261,86 @@ MeshFillResult fill_mesh_object(const SceneDef& scene, std::size_t index, const 
   }
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
+}
+
+bool inside_solid(const Solid& s, const mesh::Point& p) {
+  std::vector<std::uint32_t> faces;
+  for (std::size_t k = 0; k < s.shells.size(); ++k)
+    if (s.depth[k] >= 0) faces.insert(faces.end(), s.shells[k].faces.begin(), s.shells[k].faces.end());
+  return inside_by_parity(s.mesh, faces, p);
+}
+
+SurfaceCells surface_cells(const SceneDef& scene, std::size_t index, const MeshObject& m) {
+  const mesh::TriMesh& tm = m.solid.mesh;
+  SurfaceCells c;
+  std::vector<std::int64_t> automaton(tm.faces.size(), -1);
+  for (std::size_t f = 0; f < tm.faces.size(); ++f) {
+    const auto& a = tm.vertices[tm.faces[f][0]];
+    const auto& b = tm.vertices[tm.faces[f][1]];
+    const auto& d = tm.vertices[tm.faces[f][2]];
+    const double area = 0.5 * mesh::twice_area(a, b, d);
+    if (!(area > 0)) continue;
+    automaton[f] = static_cast<std::int64_t>(c.face.size());
+    c.face.push_back(static_cast<std::uint32_t>(f));
+    c.centroid.push_back({(a[0] + b[0] + d[0]) / 3.0, (a[1] + b[1] + d[1]) / 3.0, (a[2] + b[2] + d[2]) / 3.0});
+    c.area.push_back(area);
+  }
+  if (c.face.empty()) {
+    throw Error(fmt::format("{}: every triangle of the mesh {} has zero area: surface mode puts one automaton on "
+                            "each triangle with an area; check the file",
+                            where(scene, index), m.solid.file));
+  }
+  // The automata on each edge, by a sort of (edge, automaton) entries.
+  struct EdgeUse {
+    std::uint32_t lo, hi, automaton;
+  };
+  std::vector<EdgeUse> uses;
+  uses.reserve(3 * c.face.size());
+  for (std::size_t k = 0; k < c.face.size(); ++k) {
+    const auto& f = tm.faces[c.face[k]];
+    for (int e = 0; e < 3; ++e) {
+      const std::uint32_t u = f[e], v = f[(e + 1) % 3];
+      uses.push_back({std::min(u, v), std::max(u, v), static_cast<std::uint32_t>(k)});
+    }
+  }
+  std::sort(uses.begin(), uses.end(), [](const EdgeUse& a, const EdgeUse& b) {
+    return a.lo != b.lo ? a.lo < b.lo : a.hi != b.hi ? a.hi < b.hi : a.automaton < b.automaton;
+  });
+  std::vector<std::pair<std::array<std::uint32_t, 2>, double>> links;
+  for (std::size_t s = 0; s < uses.size();) {
+    std::size_t e = s + 1;
+    while (e < uses.size() && uses[e].lo == uses[s].lo && uses[e].hi == uses[s].hi) ++e;
+    if (e - s > 2) ++c.unlinked_edges;
+    if (e - s == 2 && uses[s].automaton != uses[s + 1].automaton) {
+      const auto& p = tm.vertices[uses[s].lo];
+      const auto& q = tm.vertices[uses[s].hi];
+      links.push_back({{uses[s].automaton, uses[s + 1].automaton},
+                       std::sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]))});
+    }
+    s = e;
+  }
+  std::sort(links.begin(), links.end());
+  double sum = 0;
+  for (const auto& [l, edge] : links) {
+    c.link.push_back(l);
+    c.edge.push_back(edge);
+    const auto& a = c.centroid[l[0]];
+    const auto& b = c.centroid[l[1]];
+    sum += std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+  }
+  c.mean_link = links.empty() ? 0.0 : sum / static_cast<double>(links.size());
+  const double t = scene.objects[index].shell_thickness;
+  if (t > 0) {
+    c.thickness = t;
+  } else if (c.mean_link > 0) {
+    c.thickness = c.mean_link;
+  } else {
+    throw Error(fmt::format("{}: no two triangles of the mesh {} share an edge, so surface mode has no link and no "
+                            "spacing to take the shell's thickness from; give shell_thickness (metres) or weld the "
+                            "mesh's vertices",
+                            where(scene, index), m.solid.file));
+  }
+  return c;
 }
 
 }  // namespace mca::lattice

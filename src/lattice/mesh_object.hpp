@@ -1,6 +1,7 @@
 #pragma once
 // Objects of shape "mesh" made ready for the lattice builder: the file read once, scaled and centred into
 // the object's frame, checked, and filled on a cell box (the lattice cells whose centres are inside).
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -55,5 +56,25 @@ struct MeshFillResult {
 };
 MeshFillResult fill_mesh_object(const SceneDef& scene, std::size_t index, const MeshObject& m,
                                 const mesh::CellBox& box);
+
+// Surface mode (the paper's counts): one automaton per triangle of non-zero area, at its centroid, linked
+// to each triangle that shares an edge with it (edges of exactly two such triangles; an edge of three or
+// more is left unlinked and counted).
+struct SurfaceCells {
+  std::vector<std::uint32_t> face;      // the triangles that get an automaton, increasing
+  std::vector<mesh::Point> centroid;    // per automaton, object frame [m]
+  std::vector<double> area;             // per automaton [m^2]
+  std::vector<std::array<std::uint32_t, 2>> link;  // pairs of automata (indices into face, a < b), sorted
+  std::vector<double> edge;             // per link: the length of the shared edge [m]
+  std::size_t unlinked_edges = 0;       // non-manifold edges, left without links
+  double mean_link = 0;                 // mean centroid distance over the links [m] (0 without links)
+  double thickness = 0;                 // the shell's: shell_thickness, or mean_link when not given
+};
+// Throws mca::Error when no triangle has an area, or when shell_thickness is absent and no triangle
+// shares an edge with another (nothing to take a thickness from).
+SurfaceCells surface_cells(const SceneDef& scene, std::size_t index, const MeshObject& m);
+
+// Whether point p (object frame) is inside the solid, by the parity of a ray's crossings of its shells.
+bool inside_solid(const Solid& s, const mesh::Point& p);
 
 }  // namespace mca::lattice

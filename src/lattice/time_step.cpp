@@ -82,6 +82,116 @@ ContactSprings springs(const ContactMaterial& c, float ra, float rb, double m_ef
   return body_contact_springs(c, c.zeta, ra, rb, static_cast<float>(m_eff), static_cast<float>(j_eff));
 }
 
+// r = e with every row times k.
+void set_scaled(Rows& r, const Rows& e, double k) {
+  r = Rows{};
+  for (int a = 0; a < 3; ++a) {
+    r.diag_u[a] = e.diag_u[a] * k;
+    r.diag_w[a] = e.diag_w[a] * k;
+  }
+  r.off_u = e.off_u * k;
+  r.off_w = e.off_w * k;
+  r.damp_u = e.damp_u * k;
+  r.damp_w = e.damp_w * k;
+}
+
+double critical_step(double w2, double c) { return w2 > 0 ? (std::sqrt(4 * w2 + c * c) - c) / w2 : INFINITY; }
+
+// The automata of surface-mode objects: no lattice, each link its own length, cross-section and masses,
+// so the bound is Gershgorin's, automaton by automaton: the rows of its explicit links (normal and shear
+// springs with levers r0 / 2 to the rotations, strengthened to the largest factor), of six face contacts
+// with automata like itself (as many faces as a lattice automaton has) and of the ground; the shell's
+// many-body term (a rank-one term lambda V ff g g^T per automaton, g the gradient of its L) as for the
+// lattice. Dashpots likewise.
+struct SurfaceBound {
+  double omega2 = 0, damping = 0;
+  std::int64_t lightest = -1;  // the lightest surface-mode automaton (for the projectiles' bound)
+  std::size_t automata = 0;
+};
+
+SurfaceBound surface_bound(const Model& M, const std::vector<double>& fmax) {
+  SurfaceBound b;
+  const auto& E = M.explicit_links;
+  const std::size_t n = M.size();
+  if (M.object_surface.empty()) return b;
+  std::vector<double> mb_scale(n, 0.0), mb_total(n, 0.0), mb_row(n, 0.0);
+  double m_min = INFINITY;
+  for (std::size_t a = 0; a < n; ++a) {
+    if (!M.object_surface[M.object[a]]) continue;
+    ++b.automata;
+    if (M.mass[a] < m_min) {
+      m_min = M.mass[a];
+      b.lightest = static_cast<std::int64_t>(a);
+    }
+    const GroupParams& g = M.groups[M.group[a]];
+    const std::uint32_t first = E.first.empty() ? 0 : E.first[a], last = E.first.empty() ? 0 : E.first[a + 1];
+    const int count = static_cast<int>(last - first), dims = std::min(count, 2);
+    if (count > 0) {
+      // |g| over the stencil: the automaton's own displacement (at most the sum) and each neighbour's.
+      double s = 0;
+      for (std::uint32_t k = first; k < last; ++k) s += static_cast<double>(dims) / count / E.r0[E.of[k]];
+      mb_total[a] = 2 * s;
+      const double ff = 1.0 / (1.0 + (3 - dims) * g.lame_lambda / (2.0 * g.shear_modulus));
+      mb_scale[a] = std::max(0.0, static_cast<double>(g.lame_lambda)) * fmax[M.group[a]] * M.volume[a] * ff;
+      mb_row[a] += mb_scale[a] * s * mb_total[a];
+    }
+  }
+  if (b.automata == 0) return b;
+  for (std::size_t l = 0; l < E.size(); ++l)
+    for (int end = 0; end < 2; ++end) {
+      const std::uint32_t c = end ? E.j[l] : E.i[l], a = end ? E.i[l] : E.j[l];
+      const int count = static_cast<int>(E.first[c + 1] - E.first[c]), dims = std::min(count, 2);
+      mb_row[a] += mb_scale[c] * (static_cast<double>(dims) / count / E.r0[l]) * mb_total[c];
+    }
+  for (std::size_t a = 0; a < n; ++a) {
+    if (!M.object_surface[M.object[a]]) continue;
+    const std::size_t ga = M.group[a];
+    const GroupParams& A = M.groups[ga];
+    const double ma = M.mass[a], ja = M.inertia[a], ra = M.radius[a];
+    Rows r;
+    for (std::uint32_t k = E.first.empty() ? 0 : E.first[a]; k < (E.first.empty() ? 0 : E.first[a + 1]); ++k) {
+      const std::uint32_t l = E.of[k], o = E.i[l] == a ? E.j[l] : E.i[l];
+      const GroupParams& B = M.groups[M.group[o]];
+      const double G = harmonic(A.shear_modulus, B.shear_modulus), f = std::max(fmax[ga], fmax[M.group[o]]);
+      const double r0 = E.r0[l], area = E.area[l];
+      const double kn = (2 * G + 0.5 * (A.lame_lambda + B.lame_lambda)) * area / r0 * f;
+      const double kt = kShearFactor * G * area / r0 * f;
+      const LinkDashpots c = explicit_link_dashpots(static_cast<float>(kn), M.mass[a], M.mass[o],
+                                           0.5f * (A.damping_time + B.damping_time), M.link_damping);
+      add_pair(r, -1, kn, kt, 0.5 * r0, 0.5 * r0, 0, ma, ja, M.mass[o], M.inertia[o], c.normal, c.tangential, 0);
+    }
+    const ContactSprings cs = springs(M.contact_material(ga, ga), static_cast<float>(ra), static_cast<float>(ra),
+                                      0.5 * ma, 0.5 * ja);
+    for (int k = 0; k < 6; ++k)
+      add_pair(r, -1, cs.kn, cs.kt, ra, ra, cs.kr + cs.kw, ma, ja, ma, ja, cs.cn / 3, 0, 0);
+    if (M.ground) {
+      const ContactSprings c = springs(M.ground_contact[ga], static_cast<float>(ra), INFINITY, ma, ja);
+      add_pair(r, -1, c.kn, c.kt, ra, 0, c.kr + c.kw, ma, ja, INFINITY, INFINITY, c.cn / 3, 0, 0);
+    }
+    // A projectile: its element twice (see the lattice's one-sided contacts).
+    for (std::size_t p = 0; p < M.projectiles.size(); ++p) {
+      const ProjectileParams& P = M.projectiles[p];
+      const ContactSprings c = springs(M.projectile_contact(p, ga), static_cast<float>(ra), P.radius,
+                                       P.kinematic ? ma : reduced(ma, P.mass), P.kinematic ? ja : reduced(ja, P.inertia));
+      Rows e;
+      add_pair(e, -1, c.kn, c.kt, ra, 0, c.kr + c.kw, ma, ja, INFINITY, INFINITY, c.cn / 3, 0, 0);
+      for (int k = 0; k < 3; ++k) {
+        r.diag_u[k] += 2 * e.diag_u[k];
+        r.diag_w[k] += 2 * e.diag_w[k];
+      }
+      r.off_u += 2 * e.off_u;
+      r.off_w += 2 * e.off_w;
+      r.damp_u += 2 * e.damp_u;
+      r.damp_w += 2 * e.damp_w;
+    }
+    b.omega2 = std::max(b.omega2, r.omega2() + mb_row[a] / std::sqrt(ma * m_min));
+    b.damping = std::max(b.damping, std::max(r.damp_u, r.damp_w));
+  }
+  return b;
+}
+
+void projectile_bounds(const Model& M, const std::vector<char>& used, TimeStepBound& out, const SurfaceBound& surface);
+
 }  // namespace
 
 TimeStepBound critical_time_step(const Model& M) {
@@ -90,12 +200,26 @@ TimeStepBound critical_time_step(const Model& M) {
   out.dt = std::numeric_limits<double>::infinity();
   if (n == 0) return out;
   const double d = M.spacing;
-  const double m_min = *std::min_element(M.mass.begin(), M.mass.end());
-  const double j_min = *std::min_element(M.inertia.begin(), M.inertia.end());
-  std::vector<char> used(G, 0);
-  for (std::size_t a = 0; a < n; ++a) used[M.group[a]] = 1;
   std::vector<double> fmax(G, 1.0);
   for (std::size_t g = 0; g < G; ++g) fmax[g] = strengthening_factor(M.groups[g].strengthening, M.groups[g].strengthening.cap);
+  // The automata of surface-mode objects (explicit links) get their own bound (surface_bound); the
+  // lattice bound below is over the others.
+  auto on_lattice = [&](std::size_t a) { return M.object_surface.empty() || !M.object_surface[M.object[a]]; };
+  double m_min = INFINITY, j_min = INFINITY;
+  std::vector<char> used(G, 0);
+  for (std::size_t a = 0; a < n; ++a) {
+    if (!on_lattice(a)) continue;
+    used[M.group[a]] = 1;
+    m_min = std::min<double>(m_min, M.mass[a]);
+    j_min = std::min<double>(j_min, M.inertia[a]);
+  }
+  const SurfaceBound surface = surface_bound(M, fmax);
+  if (!std::isfinite(m_min)) {  // no lattice automata
+    out.dt = critical_step(surface.omega2, surface.damping);
+    out.limited_by = "the explicit links and contacts of the surface-mode automata";
+    projectile_bounds(M, used, out, surface);
+    return out;
+  }
 
   // (1) Links and face contacts. Every face of an automaton holds a link (normal 2 G S / r0, shear
   // k_s G S / r0, both times the strengthening factor) or a contact (normal E_12 d, the same shear). The
@@ -135,11 +259,13 @@ TimeStepBound critical_time_step(const Model& M) {
   {
     std::vector<std::array<int, 3>> count(n, {0, 0, 0});
     M.for_each_link([&](std::size_t, std::uint32_t i, std::uint32_t j, int axis) {
+      if (axis < 0) return;
       ++count[i][axis];
       ++count[j][axis];
     });
     std::vector<double> self(n, 0.0), total(n, 0.0), scale(n, 0.0), row(n, 0.0);
     for (std::size_t a = 0; a < n; ++a) {
+      if (!on_lattice(a)) continue;
       const GroupParams& g = M.groups[M.group[a]];
       int single = 0, linked = 0, free_axes = 0;
       for (int ax = 0; ax < 3; ++ax) {
@@ -154,13 +280,15 @@ TimeStepBound critical_time_step(const Model& M) {
       row[a] += scale[a] * self[a] * total[a];
     }
     M.for_each_link([&](std::size_t, std::uint32_t i, std::uint32_t j, int axis) {
+      if (axis < 0) return;
       for (int end = 0; end < 2; ++end) {
         const std::uint32_t c = end ? j : i, a = end ? i : j;
         row[a] += scale[c] / (count[c][axis] * d) * total[c];
       }
     });
     double mb = 0;
-    for (std::size_t a = 0; a < n; ++a) mb = std::max(mb, row[a] / std::sqrt(M.mass[a] * m_min));
+    for (std::size_t a = 0; a < n; ++a)
+      if (on_lattice(a)) mb = std::max(mb, row[a] / std::sqrt(M.mass[a] * m_min));
     omega2 += mb;
   }
 
@@ -207,7 +335,8 @@ TimeStepBound critical_time_step(const Model& M) {
   {
     double c_normal = 0, c_tangential = 0;
     const float r0 = M.spacing, area = r0 * r0;
-    M.for_each_link([&](std::size_t, std::uint32_t i, std::uint32_t j, int) {
+    M.for_each_link([&](std::size_t, std::uint32_t i, std::uint32_t j, int axis) {
+      if (axis < 0) return;
       const GroupParams &gi = M.groups[M.group[i]], &gj = M.groups[M.group[j]];
       const float k = link_normal_stiffness(harmonic(gi.shear_modulus, gj.shear_modulus), gi.lame_lambda,
                                             gj.lame_lambda, area, r0);
@@ -228,9 +357,19 @@ TimeStepBound critical_time_step(const Model& M) {
     damping += (4 * c_normal + 12 * c_tangential) / m_min + 4 * cn / 3 / m_min;
   }
 
-  auto critical = [](double w2, double c) { return (std::sqrt(4 * w2 + c * c) - c) / w2; };
-  out.dt = critical(omega2, damping);
-  out.limited_by = "the links and contacts of the automata";
+  // Surface-mode automata touch lattice ones only through contacts: Weyl again.
+  out.dt = critical_step(omega2 + surface.omega2, damping + surface.damping);
+  out.limited_by = surface.omega2 > omega2 ? "the explicit links and contacts of the surface-mode automata"
+                                           : "the links and contacts of the automata";
+  projectile_bounds(M, used, out, surface);
+  return out;
+}
+
+namespace {
+
+void projectile_bounds(const Model& M, const std::vector<char>& used, TimeStepBound& out, const SurfaceBound& surface) {
+  const std::size_t n = M.size(), G = M.groups.size();
+  const double d = M.spacing;
 
   // Projectiles: as many automata as fit around one at once (4 pi (R + r)^2 / d^2), each contact's H
   // twice (see above), plus the ground and the other projectiles.
@@ -246,17 +385,19 @@ TimeStepBound critical_time_step(const Model& M) {
       Rows e;
       add_pair(e, -1, c.kn, c.kt, P.radius, 0, c.kr + c.kw, P.mass, P.inertia, INFINITY, INFINITY, c.cn / 3, 0, 0);
       const double k = 2 * touching;
-      if (e.omega2() * k > rp.omega2()) {
-        rp = Rows{};
-        for (int a = 0; a < 3; ++a) {
-          rp.diag_u[a] = e.diag_u[a] * k;
-          rp.diag_w[a] = e.diag_w[a] * k;
-        }
-        rp.off_u = e.off_u * k;
-        rp.off_w = e.off_w * k;
-        rp.damp_u = e.damp_u * k;
-        rp.damp_w = e.damp_w * k;
-      }
+      if (e.omega2() * k > rp.omega2()) set_scaled(rp, e, k);
+    }
+    // The lightest surface-mode automaton, as many times as fit around the projectile.
+    if (surface.lightest >= 0) {
+      const auto a = static_cast<std::size_t>(surface.lightest);
+      const double m = M.mass[a], j = M.inertia[a], r = M.radius[a];
+      const double touching = std::min<double>(surface.automata, std::ceil(4 * (P.radius + r) * (P.radius + r) / (r * r)));
+      const ContactSprings c = springs(M.projectile_contact(p, M.group[a]), static_cast<float>(r), P.radius,
+                                       reduced(m, P.mass), reduced(j, P.inertia));
+      Rows e;
+      add_pair(e, -1, c.kn, c.kt, P.radius, 0, c.kr + c.kw, P.mass, P.inertia, INFINITY, INFINITY, c.cn / 3, 0, 0);
+      const double k = 2 * touching;
+      if (e.omega2() * k > rp.omega2()) set_scaled(rp, e, k);
     }
     if (M.ground) {
       const ContactSprings g = springs(M.projectile_ground_contact(p), P.radius, INFINITY, P.mass, P.inertia);
@@ -277,7 +418,8 @@ TimeStepBound critical_time_step(const Model& M) {
       out.limited_by = fmt::format("projectile '{}' (mass {:.3g} kg) against the automata it can touch", P.name, P.mass);
     }
   }
-  return out;
 }
+
+}  // namespace
 
 }  // namespace mca::lattice

@@ -109,6 +109,29 @@ MCA_HD T volumetric_strain(const T sum[3], const T cnt[3], const F free_factor[4
   return linked * factor;
 }
 
+// The many-body term of an automaton with explicit links (surface mode: a shell one automaton thick),
+// from the sum of the (strengthened) strains of its `count` intact explicit links. Its links lie in the
+// shell, so its strain has `dims` = min(count, 2) linked directions: the mean of a strain field over the
+// directions of a plane is half its in-plane trace, so L = dims * sum / count, and the directions out of
+// it are free, theta = L / (1 + (3 - dims) lambda / (2 G)), as volumetric_strain does for a lattice. The
+// energy is lambda theta L V / 2 (V the automaton's volume); its derivative along one link's strain is
+// lambda theta V dims / count: the value returned, which a link turns into a stress by dividing by its
+// r0 S (link_normal_stress's P). One link gives a bar (modulus E), two or more a plate in plane stress.
+struct ExplicitManyBody {
+  float L;       // linked strain sum
+  float theta;   // volumetric strain
+  float weight;  // lambda theta V dims / count [N m]: per link, divided by r0 S, the stress P
+};
+
+MCA_HD ExplicitManyBody explicit_many_body(float lambda, const float free_factor[4], float volume, float sum, int count) {
+  if (count <= 0) return {0.0f, 0.0f, 0.0f};
+  const int dims = count < 2 ? count : 2;
+  const float share = static_cast<float>(dims) / static_cast<float>(count);
+  const float L = sum * share;
+  const float theta = L * free_factor[3 - dims];
+  return {L, theta, lambda * theta * volume * share};
+}
+
 // Viscous coefficients [N s/m] of a link's dashpots on the relative velocity of its ends. Normal: the
 // materials' viscosity, Kelvin-Voigt c = tau k (tau the mean of the two materials' damping_time, k the
 // pair's normal stiffness: a stiffness-proportional damping that gives a mode of angular frequency omega
@@ -124,6 +147,15 @@ struct LinkDashpots {
 MCA_HD LinkDashpots link_dashpots(float k_normal, float m_i, float m_j, float tau, float share) {
   const float critical = 2.0f * share * std::sqrt(k_normal * m_i * m_j / (m_i + m_j));
   return {tau * k_normal + critical, critical};
+}
+
+// The same for an explicit link (surface mode), whose viscous part is capped at the critical damping of
+// the link's own spring, 2 sqrt(k m_i m_j / (m_i + m_j)): a mesh's short links between light automata
+// have modes far above 2 / tau, which the viscosity overdamps; beyond critical a dashpot only slows such a
+// mode down, and its coefficient would set a step tens of times smaller (measured on the paper's cow).
+MCA_HD LinkDashpots explicit_link_dashpots(float k_normal, float m_i, float m_j, float tau, float share) {
+  const float critical = 2.0f * std::sqrt(k_normal * m_i * m_j / (m_i + m_j));
+  return {std::fmin(tau * k_normal, critical) + share * critical, share * critical};
 }
 
 // Normal stiffness of a link [N/m] for the dashpot and the time step: (2 G_ij + (lambda_i + lambda_j) / 2) S / r0.
@@ -147,15 +179,18 @@ using LinkGeometry = LinkGeometryT<float>;
 // at rest without bound (measured: 1e-5 J to 5e-4 J in 15,000 steps of a 0.4 m concrete cube).
 // Only the quotient's denominator and the direction use the float r, where relative precision is enough.
 // D: double (or double lanes); the result is in the matching float type.
-template <class D>
-MCA_HD auto link_geometry(const Vec3T<D>& xi, const Vec3T<D>& xj, float r0, float inv_r0) {
+// R: float for the lattice's rest length, double for an explicit link's (whose ends are not laid out
+// at a float distance; its float r0 enters only the denominator).
+template <class D, class R>
+MCA_HD auto link_geometry(const Vec3T<D>& xi, const Vec3T<D>& xj, R r0, float inv_r0) {
   using T = decltype(to_float(D{}));
   const Vec3T<D> d = ddelta(xi, xj);
   const D r2 = dot(d, d);
   const double r0d = r0;
+  const float r0f = static_cast<float>(r0);
   using std::sqrt;
   const T r = sqrt(to_float(r2));
-  const T h = to_float(r2 - r0d * r0d) / (r + r0);
+  const T h = to_float(r2 - r0d * r0d) / (r + r0f);
   const T inv = select(r > 0.0f, 1.0f / r, T(0.0f));
   return LinkGeometryT<T>{Vec3T<T>{to_float(d.x), to_float(d.y), to_float(d.z)} * inv, r, h * inv_r0};
 }

@@ -44,7 +44,7 @@ Frame Simulation::frame() const {
     f.orientation[a] = {s.q[a].w, s.q[a].x, s.q[a].y, s.q[a].z};
   }
   link_damage(m, s.intact.data(), f.damage.data());
-  const auto frags = analysis::label_lattice_fragments(n, m.neighbour.data(), s.intact.data(), m.mass.data());
+  const auto frags = analysis::label_model_fragments(m, s.intact.data());
   f.fragment = frags.id;
   f.fragments = frags.count;
   for (const auto& p : s.projectiles)

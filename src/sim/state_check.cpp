@@ -130,6 +130,12 @@ std::uint64_t model_fingerprint(const Model& m) {
   // Links.
   f.add(m.neighbour);
   f.add(m.neighbour_below);
+  if (m.explicit_links.size() > 0) {  // (a lattice model's fingerprint is that of earlier versions)
+    f.add(m.explicit_links.i);
+    f.add(m.explicit_links.j);
+    f.add(m.explicit_links.r0);
+    f.add(m.explicit_links.area);
+  }
   // Scene-level numbers. Names are left out: they label outputs and do not shape the state.
   f.add(m.groups);
   f.add(m.projectiles);

@@ -28,6 +28,7 @@
 #include "backend/cpu/lattice_kernels.hpp"
 #include "grid/uniform_grid.hpp"
 #include "physics/contact_law.hpp"
+#include "physics/fracture.hpp"
 #include "physics/integrate.hpp"
 #include "physics/link_law.hpp"
 
@@ -155,6 +156,28 @@ class CpuBackend final : public Backend {
       }
     }
     runs_ = cpu::block_runs(m, kernels_.lanes);
+    // Explicit links (surface mode): each its own length, cross-section and masses.
+    const auto& E = m.explicit_links;
+    explicit_.resize(E.size());
+    for (std::size_t k = 0; k < E.size(); ++k) {
+      const std::uint32_t i = E.i[k], j = E.j[k];
+      const GroupParams &gi = m.groups[m.group[i]], &gj = m.groups[m.group[j]];
+      ExplicitConstants& c = explicit_[k];
+      c.r0 = E.r0[k];
+      c.r0f = static_cast<float>(E.r0[k]);
+      c.inv_r0 = static_cast<float>(1.0 / E.r0[k]);
+      c.area = E.area[k];
+      c.inv_r0_area = static_cast<float>(1.0 / (E.r0[k] * static_cast<double>(E.area[k])));
+      c.G = harmonic(gi.shear_modulus, gj.shear_modulus);
+      c.kt = kShearFactor * c.G * c.area * c.inv_r0;
+      const float k_n = link_normal_stiffness(c.G, gi.lame_lambda, gj.lame_lambda, c.area, c.r0f);
+      c.damping = explicit_link_dashpots(k_n, m.mass[i], m.mass[j], 0.5f * (gi.damping_time + gj.damping_time), m.link_damping);
+    }
+    for (std::size_t a = 0; a < n && !E.first.empty(); ++a)
+      if (E.first[a + 1] > E.first[a]) explicit_automata_.push_back(static_cast<std::uint32_t>(a));
+    explicit_weight_.assign(n, 0.0f);
+    explicit_out_.resize(E.size());
+    explicit_breaks_.resize(E.size());
     // Contact springs per pair of groups (and per group on the ground) when every automaton of a group
     // has the group's radius, mass and moment of inertia (lattices: always): the same numbers
     // body_contact_springs gives for each pair, worked out once.
@@ -306,7 +329,10 @@ class CpuBackend final : public Backend {
 
   std::int64_t one_step();
   void link_force_pass(const cpu::LatticeView& v);
-  void apply_breaks(const std::vector<std::size_t>& counts);
+  void explicit_many_body_pass();
+  std::vector<std::size_t> explicit_link_pass();
+  void explicit_gather_pass();
+  void apply_breaks(const std::vector<std::size_t>& counts, const std::vector<std::size_t>& explicit_counts);
   void contact_pass();
   void ground_pass();
   std::int64_t projectile_pass();
@@ -346,6 +372,24 @@ class CpuBackend final : public Backend {
   std::vector<std::uint32_t> breaks_;  // per chunk of slots, what the links kernel found
   std::vector<cpu::PairConstants> pairs_;
   std::vector<std::array<float, 4>> free_factor_;  // per group, see volumetric_strain
+  // Explicit links (Model::ExplicitLinks): constants, the automata that have some, each automaton's
+  // many-body weight (explicit_many_body), and per link what the link pass found.
+  struct ExplicitConstants {
+    double r0;
+    float r0f, inv_r0, area, inv_r0_area;  // 1 / (r0 S): turns a many-body weight into the stress P
+    float G, kt;
+    LinkDashpots damping;
+  };
+  struct ExplicitOut {
+    Vec3 f, t, n;  // force on i (on j: -f), torque on both, direction i -> j
+    float half_r0;
+    bool on;
+  };
+  std::vector<ExplicitConstants> explicit_;
+  std::vector<std::uint32_t> explicit_automata_;
+  std::vector<float> explicit_weight_;
+  std::vector<ExplicitOut> explicit_out_;
+  std::vector<std::uint32_t> explicit_breaks_;  // per chunk of links, what the explicit pass found
   bool strengthening_ = false, one_group_ = false;
   bool last_step_ = true;
   std::vector<std::uint32_t> exposed_;
@@ -444,6 +488,12 @@ bool CpuBackend::linked(std::uint32_t i, std::uint32_t j) const {
     if (M_.neighbour[up] == j && S_.intact[up]) return true;
     if (M_.neighbour_below[up] == j && S_.intact[axis * n + j]) return true;
   }
+  const auto& E = M_.explicit_links;
+  if (!E.first.empty())
+    for (std::uint32_t k = E.first[i]; k < E.first[i + 1]; ++k) {
+      const std::uint32_t l = E.of[k];
+      if ((E.i[l] == j || E.j[l] == j) && S_.intact[3 * n + l]) return true;
+    }
   return false;
 }
 
@@ -465,20 +515,126 @@ void CpuBackend::link_force_pass(const cpu::LatticeView& v) {
     for (int axis = 0; axis < 3; ++axis)
       counts[axis * chunks + c] = kernels_.links(v, axis, b, e, breaks_.data() + axis * n + b);
   });
-  apply_breaks(counts);
+  std::vector<std::size_t> explicit_counts;
+  if (!explicit_.empty()) {
+    explicit_many_body_pass();
+    explicit_counts = explicit_link_pass();
+    explicit_gather_pass();
+  }
+  apply_breaks(counts, explicit_counts);
+}
+
+// Explicit links (surface mode), scalar: the same formulas as the lattice kernels (physics/link_law.hpp)
+// with each link's own length and cross-section, in three passes that write only their own entries.
+// The many-body weight of each automaton with explicit links, from its intact ones.
+void CpuBackend::explicit_many_body_pass() {
+  const auto& E = M_.explicit_links;
+  const std::size_t n = M_.size();
+  parallel_range(explicit_automata_.size(), [&](std::size_t k) {
+    const std::uint32_t a = explicit_automata_[k];
+    const GroupParams& g = M_.groups[M_.group[a]];
+    float sum = 0.0f;
+    int count = 0;
+    for (std::uint32_t e = E.first[a]; e < E.first[a + 1]; ++e) {
+      const std::uint32_t l = E.of[e];
+      if (!S_.intact[3 * n + l]) continue;
+      const ExplicitConstants& c = explicit_[l];
+      const LinkGeometry geo = link_geometry(pos(E.i[l]), pos(E.j[l]), c.r0, c.inv_r0);
+      sum += strengthened_strain(g.strengthening, geo.eps).s;
+      ++count;
+    }
+    explicit_weight_[a] = explicit_many_body(g.lame_lambda, free_factor_[M_.group[a]].data(), M_.volume[a], sum, count).weight;
+  });
+}
+
+// Forces, torques and the fracture criteria of the explicit links; returns the breaks per chunk of links
+// (in explicit_breaks_ at the chunk's start), in link order.
+std::vector<std::size_t> CpuBackend::explicit_link_pass() {
+  const auto& E = M_.explicit_links;
+  const std::size_t n = M_.size(), L = E.size();
+  const std::size_t chunks = (L + kChunk - 1) / kChunk;
+  std::vector<std::size_t> counts(chunks, 0);
+  parallel_chunks(L, [&](std::size_t ch, std::size_t b, std::size_t e) {
+    std::size_t found = 0;
+    for (std::size_t l = b; l < e; ++l) {
+      ExplicitOut& out = explicit_out_[l];
+      const std::size_t slot = 3 * n + l;
+      if (!S_.intact[slot]) {
+        out.on = false;
+        continue;
+      }
+      const std::uint32_t i = E.i[l], j = E.j[l];
+      const ExplicitConstants& c = explicit_[l];
+      const GroupParams &gi = M_.groups[M_.group[i]], &gj = M_.groups[M_.group[j]];
+      const LinkGeometry geo = link_geometry(pos(i), pos(j), c.r0, c.inv_r0);
+      const float eps = geo.eps;
+      const StrengthenedStrain si = strengthened_strain(gi.strengthening, eps), sj = strengthened_strain(gj.strengthening, eps);
+      LinkInputT<float> in;
+      in.g = {geo.n, c.r0f * (1.0f + eps), eps};
+      in.area = c.area;
+      in.sigma = link_normal_stress(c.G, eps, si, sj, explicit_weight_[i] * c.inv_r0_area, explicit_weight_[j] * c.inv_r0_area);
+      in.kt = c.kt * 0.5f * (si.f + sj.f);
+      in.kt_slope = c.kt * 0.5f * (strengthening_slope(gi.strengthening, eps) + strengthening_slope(gj.strengthening, eps)) * c.inv_r0;
+      in.damp_normal = c.damping.normal;
+      in.damp_tangential = c.damping.tangential;
+      in.vi = vel(i);
+      in.vj = vel(j);
+      in.wi = ang(i);
+      in.wj = ang(j);
+      in.ut = {utx_[slot], uty_[slot], utz_[slot]};
+      in.dt = M_.dt;
+      const LinkOutputT<float> o = link_force(in);
+      // The weaker end's strengths (physics.md sec. 4), as the lattice kernels.
+      const float tensile = std::min(tensile_[i], tensile_[j]), compressive = std::min(compressive_[i], compressive_[j]);
+      const float strain = std::min(break_strain_[i], break_strain_[j]);
+      const float p = 0.5f * (S_.mean_stress[i] + S_.mean_stress[j]);
+      const BreakTest<float> bt = link_break_test(eps * c.r0f, c.r0f, o.sigma, o.tau2, p, tensile, tensile / compressive,
+                                                  strain, M_.stress_coefficient);
+      const bool broke = bt.displacement || bt.stress;
+      if (broke) explicit_breaks_[b + found++] = static_cast<std::uint32_t>(slot) | (bt.displacement ? 0u : kBreakByStress);
+      const Vec3 hf = o.force_i * (0.5f * c.r0f);
+      out = {o.force_i, cross(geo.n, hf) * (1.0f + eps), geo.n, 0.5f * c.r0f, true};
+      if (!broke) {
+        utx_[slot] = o.ut.x;
+        uty_[slot] = o.ut.y;
+        utz_[slot] = o.ut.z;
+      }
+    }
+    counts[ch] = found;
+  });
+  return counts;
+}
+
+// Each automaton adds the forces of its explicit links in link order (with the contacts' and loads'
+// forces in the automata kernel), so the sums do not depend on the threads.
+void CpuBackend::explicit_gather_pass() {
+  const auto& E = M_.explicit_links;
+  parallel_range(explicit_automata_.size(), [&](std::size_t k) {
+    const std::uint32_t a = explicit_automata_[k];
+    for (std::uint32_t e = E.first[a]; e < E.first[a + 1]; ++e) {
+      const std::uint32_t l = E.of[e];
+      const ExplicitOut& o = explicit_out_[l];
+      if (!o.on) continue;
+      add_external(a, E.i[l] == a ? o.f : -o.f, o.t, sym_outer(o.n, o.f, o.half_r0));
+    }
+  });
 }
 
 // Breaks found in the link pass, in link order: the link stops carrying force from this step on, and the
 // broken pair touches at once, so it joins the contact list (and the ground list, when near it) now, not
 // at the next rebuild.
-void CpuBackend::apply_breaks(const std::vector<std::size_t>& counts) {
+void CpuBackend::apply_breaks(const std::vector<std::size_t>& counts, const std::vector<std::size_t>& explicit_counts) {
   const std::size_t n = M_.size(), chunks = (n + kChunk - 1) / kChunk;
   std::vector<ContactPair> fresh;
   std::vector<std::uint32_t> ground_fresh;
-  for (std::size_t k = 0; k < counts.size(); ++k) {
-    const std::size_t axis = k / chunks, b = (k % chunks) * kChunk;
-    for (std::size_t r = 0; r < counts[k]; ++r) {
-      const std::uint32_t code = breaks_[axis * n + b + r], l = code & ~kBreakByStress;
+  // The lattice's chunks by axis, then the explicit links' chunks: slot order.
+  for (std::size_t k = 0; k < counts.size() + explicit_counts.size(); ++k) {
+    const bool lattice = k < counts.size();
+    const std::uint32_t* found =
+        lattice ? breaks_.data() + (k / chunks) * n + (k % chunks) * kChunk : explicit_breaks_.data() + (k - counts.size()) * kChunk;
+    const std::size_t count = lattice ? counts[k] : explicit_counts[k - counts.size()];
+    for (std::size_t r = 0; r < count; ++r) {
+      const std::uint32_t code = found[r], l = code & ~kBreakByStress;
       const int crit = code & kBreakByStress ? 1 : 0;
       const std::uint32_t i = M_.link_i(l), j = M_.link_j(l);
       S_.intact[l] = 0;

@@ -77,26 +77,49 @@ Energies energies_of(const View& at) {
   }
   // Links: the 2G and shear parts per link; per automaton and axis the sum of strengthened strains for
   // the many-body part.
-  std::vector<double> sum(3 * n, 0.0);
-  std::vector<int> cnt(3 * n, 0);
-  const float r0 = m.spacing, area = r0 * r0;
+  // Explicit links (axis -1) sum per automaton apart: theirs is the shell's many-body term
+  // (explicit_many_body).
+  std::vector<double> sum(3 * n, 0.0), explicit_sum;
+  std::vector<int> cnt(3 * n, 0), explicit_cnt;
+  if (m.explicit_links.size()) {
+    explicit_sum.assign(n, 0.0);
+    explicit_cnt.assign(n, 0);
+  }
   m.for_each_link([&](std::size_t l, std::uint32_t i, std::uint32_t j, int ax) {
     if (!s.intact[l]) return;
     const GroupParams &gi = m.groups[m.group[i]], &gj = m.groups[m.group[j]];
-    const LinkGeometry g = link_geometry(at.x(i), at.x(j), r0, 1.0f / r0);
+    const double r0 = m.link_r0(l);
+    const float area = m.link_area(l);
+    const LinkGeometry g = ax >= 0 ? link_geometry(at.x(i), at.x(j), m.spacing, 1.0f / m.spacing)
+                                   : link_geometry(at.x(i), at.x(j), r0, static_cast<float>(1.0 / r0));
     const double G = harmonic(gi.shear_modulus, gj.shear_modulus);
     const double V = static_cast<double>(area) * r0;
     const double f_mean = 0.5 * (strengthening_factor(gi.strengthening, g.eps) + strengthening_factor(gj.strengthening, g.eps));
     const double kt = kShearFactor * G * area / r0 * f_mean;
     e.elastic += G * V * (strengthening_energy(gi.strengthening, g.eps) + strengthening_energy(gj.strengthening, g.eps)) +
                  0.5 * kt * sq(s.link_ut[l]);
-    sum[3 * i + ax] += strengthened_strain(gi.strengthening, g.eps).s;
-    sum[3 * j + ax] += strengthened_strain(gj.strengthening, g.eps).s;
+    const double si = strengthened_strain(gi.strengthening, g.eps).s, sj = strengthened_strain(gj.strengthening, g.eps).s;
+    if (ax < 0) {
+      explicit_sum[i] += si;
+      explicit_sum[j] += sj;
+      ++explicit_cnt[i];
+      ++explicit_cnt[j];
+      return;
+    }
+    sum[3 * i + ax] += si;
+    sum[3 * j + ax] += sj;
     ++cnt[3 * i + ax];
     ++cnt[3 * j + ax];
   });
   for (std::size_t a = 0; a < n; ++a) {
     const GroupParams& g = m.groups[m.group[a]];
+    if (!explicit_cnt.empty() && explicit_cnt[a] > 0) {
+      const int dims = std::min(explicit_cnt[a], 2);
+      const double L = explicit_sum[a] * dims / explicit_cnt[a];
+      const double theta = L / (1.0 + (3 - dims) * static_cast<double>(g.lame_lambda) / (2.0 * g.shear_modulus));
+      e.elastic += 0.5 * g.lame_lambda * theta * L * m.volume[a];
+      continue;
+    }
     double L = 0;
     int free_axes = 0;
     for (int ax = 0; ax < 3; ++ax) {

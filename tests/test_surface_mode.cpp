@@ -1,0 +1,457 @@
+// Surface mode (fill = "surface"): one automaton per triangle, linked across shared edges by explicit
+// links with their own lengths and cross-sections. Counts, mass, rest, energy, determinism across
+// instruction sets and threads, checkpoints, breaking, and the scene keys' errors.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <tbb/global_control.h>
+
+#include "analysis/fragment_meshes.hpp"
+#include "analysis/fragments.hpp"
+#include "backend/cpu/lattice_kernels.hpp"
+#include "io/checkpoint.hpp"
+#include "io/scene_io.hpp"
+#include "lattice/lattice.hpp"
+#include "physics/link_law.hpp"
+#include "mca/error.hpp"
+#include "mesh_fixtures.hpp"
+#include "shell.hpp"
+#include "sim/engine.hpp"
+#include "sim/state_check.hpp"
+#include "support.hpp"
+#include "temp_dir.hpp"
+
+namespace mca {
+namespace {
+
+namespace fs = std::filesystem;
+using test::TempDir;
+
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// A sphere of radius r (icosahedron subdivided `levels` times) filled in surface mode, no gravity.
+SceneDef shell_scene(const TempDir& t, double r = 0.2, int levels = 3) {
+  test::write_mesh_file(t.path() / "sphere.off", test::sphere_mesh(r, levels));
+  SceneDef s = test::block_scene(1, 1, 1, 0.05);
+  s.objects[0].shape = Shape::mesh;
+  s.objects[0].mesh = (t.path() / "sphere.off").string();
+  s.objects[0].fill = MeshFill::surface;
+  s.solver.gravity = {0, 0, 0};
+  return s;
+}
+
+double total_area(const mesh::TriMesh& m) {
+  double a = 0;
+  for (const auto& f : m.faces) a += 0.5 * mesh::twice_area(m.vertices[f[0]], m.vertices[f[1]], m.vertices[f[2]]);
+  return a;
+}
+
+TEST(SurfaceMode, OneAutomatonPerTriangleLinkedAcrossEdges) {
+  TempDir t;
+  SceneDef s = shell_scene(t);
+  s.objects[0].shell_thickness = 0.01;
+  s.objects[0].position = {3, -2, 1};
+  s.objects[0].rotation = {10, 20, 30};
+  const Model m = lattice::build_model(s);
+  const mesh::TriMesh sphere = test::sphere_mesh(0.2, 3);
+  ASSERT_EQ(m.size(), sphere.faces.size());                        // 1280
+  EXPECT_EQ(m.explicit_links.size(), 3 * sphere.faces.size() / 2);  // every edge shared by two
+  EXPECT_EQ(m.link_count(), m.explicit_links.size());
+  EXPECT_EQ(m.link_slots(), 3 * m.size() + m.explicit_links.size());
+  // The lumped masses add up to the shell's: area x thickness x density.
+  double mass = 0;
+  for (float x : m.mass) mass += x;
+  EXPECT_NEAR(mass / (total_area(sphere) * 0.01 * 2400), 1.0, 1e-5);
+  for (std::size_t a = 0; a < m.size(); ++a) {
+    int links = 0;
+    m.for_each_link_of(a, [&](std::size_t l) {
+      EXPECT_TRUE(m.is_explicit(l));
+      EXPECT_TRUE(m.link_i(l) == a || m.link_j(l) == a);
+      ++links;
+    });
+    EXPECT_EQ(links, 3) << a;
+    // Each triangle rides on its own automaton, its corners around the automaton's centre.
+    EXPECT_EQ(m.surface.automaton[a], a);
+    DVec3 c{0, 0, 0};
+    for (int k = 0; k < 3; ++k) {
+      c.x += m.surface.offset[3 * a + k].x / 3.0;
+      c.y += m.surface.offset[3 * a + k].y / 3.0;
+      c.z += m.surface.offset[3 * a + k].z / 3.0;
+    }
+    EXPECT_LT(std::sqrt(dot(c, c)), 1e-6) << "the automaton is at its triangle's centroid";
+  }
+  // Rest lengths are the centroids' distances, cross-sections the shared edges' length x thickness, and
+  // a broken link leaves two automata that touch without overlap.
+  m.for_each_link([&](std::size_t l, std::uint32_t i, std::uint32_t j, int axis) {
+    EXPECT_EQ(axis, -1);
+    const DVec3 d = ddelta(m.position0[i], m.position0[j]);
+    EXPECT_NEAR(m.link_r0(l), std::sqrt(dot(d, d)), 1e-12);
+    EXPECT_GT(m.link_area(l), 0.0f);
+    EXPECT_LE(m.radius[i] + m.radius[j], m.link_r0(l) * (1 + 1e-6));
+  });
+  // No unlinked pair starts in contact.
+  for (std::size_t i = 0; i < m.size(); ++i)
+    for (std::size_t j = i + 1; j < m.size(); ++j) {
+      const DVec3 d = ddelta(m.position0[i], m.position0[j]);
+      EXPECT_GE(std::sqrt(dot(d, d)), (m.radius[i] + m.radius[j]) * (1 - 1e-6)) << i << " " << j;
+    }
+}
+
+TEST(SurfaceMode, TheThicknessDefaultsToTheMeanLinkAndSetsTheMass) {
+  TempDir t;
+  SceneDef s = shell_scene(t);
+  const Model a = lattice::build_model(s);
+  double mean = 0;
+  for (double r : a.explicit_links.r0) mean += r / static_cast<double>(a.explicit_links.size());
+  double mass = 0;
+  for (float x : a.mass) mass += x;
+  EXPECT_NEAR(mass / (total_area(test::sphere_mesh(0.2, 3)) * mean * 2400), 1.0, 1e-5);
+  EXPECT_NEAR(a.spacing, mean, 1e-6 * mean) << "a scene of surface objects takes their mean link as spacing";
+  s.objects[0].shell_thickness = 2 * mean;
+  const Model b = lattice::build_model(s);
+  double mass2 = 0;
+  for (float x : b.mass) mass2 += x;
+  EXPECT_NEAR(mass2 / mass, 2.0, 1e-5);
+}
+
+// An open, flat mesh (a square sheet of 2 x 8 x 8 triangles) is what surface mode is for: accepted,
+// and its boundary triangles have fewer links.
+TEST(SurfaceMode, AnOpenFlatSheetIsAccepted) {
+  TempDir t;
+  mesh::TriMesh sheet;
+  const int n = 8;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) sheet.vertices.push_back({0.05 * i, 0.05 * j, 0.0});
+  auto at = [&](int i, int j) { return static_cast<std::uint32_t>(j * (n + 1) + i); };
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      sheet.faces.push_back({at(i, j), at(i + 1, j), at(i + 1, j + 1)});
+      sheet.faces.push_back({at(i, j), at(i + 1, j + 1), at(i, j + 1)});
+    }
+  test::write_mesh_file(t.path() / "sheet.obj", sheet);
+  SceneDef s = test::block_scene(1, 1, 1, 0.05);
+  s.objects[0].shape = Shape::mesh;
+  s.objects[0].mesh = (t.path() / "sheet.obj").string();
+  s.objects[0].fill = MeshFill::surface;
+  s.objects[0].shell_thickness = 0.005;
+  const Model m = lattice::build_model(s);
+  EXPECT_EQ(m.size(), 2u * n * n);
+  EXPECT_EQ(m.explicit_links.size(), static_cast<std::size_t>(3 * n * n - 2 * n));  // interior edges
+  // The same mesh by volume is a flat mesh: refused, pointing to surface mode.
+  s.objects[0].fill = MeshFill::volume;
+  s.objects[0].shell_thickness = 0;
+  const std::string e = error_of([&] { lattice::build_model(s); });
+  EXPECT_NE(e.find("flat"), std::string::npos) << e;
+  EXPECT_NE(e.find("fill = \"surface\""), std::string::npos) << e;
+}
+
+TEST(SurfaceMode, KeysAreCheckedWithClearErrors) {
+  TempDir t;
+  SceneDef s = shell_scene(t);
+  {
+    SceneDef b = s;
+    b.objects[0].shell_thickness = -1;
+    const std::string e = error_of([&] { lattice::build_model(b); });
+    EXPECT_NE(e.find("shell_thickness = -1"), std::string::npos) << e;
+  }
+  {
+    SceneDef b = s;
+    b.objects[0].fill = MeshFill::volume;
+    b.objects[0].shell_thickness = 0.01;
+    const std::string e = error_of([&] { lattice::build_model(b); });
+    EXPECT_NE(e.find("is for fill = \"surface\""), std::string::npos) << e;
+  }
+  {
+    SceneDef b = test::block_scene(3, 3, 3, 0.05);
+    b.objects[0].fill = MeshFill::surface;
+    const std::string e = error_of([&] { lattice::build_model(b); });
+    EXPECT_NE(e.find("is for objects of shape \"mesh\""), std::string::npos) << e;
+  }
+  {
+    SceneDef b = s;
+    b.solver.target_automata = 5000;
+    const std::string e = error_of([&] { lattice::build_model(b); });
+    EXPECT_NE(e.find("every object is filled in surface mode"), std::string::npos) << e;
+  }
+  // The keys round-trip through the scene file.
+  s.objects[0].shell_thickness = 0.0125;
+  const SceneDef back = io::parse_scene(io::scene_to_toml(s), "round trip");
+  EXPECT_EQ(back.objects[0].fill, MeshFill::surface);
+  EXPECT_EQ(back.objects[0].shell_thickness, 0.0125);
+  const fs::path bad = t.path() / "bad.toml";
+  std::ofstream(bad) << "[[object]]\nshape = \"mesh\"\nmesh = \"sphere.off\"\nfill = \"shell\"\n";
+  const test::Result r = test::run_mca("info " + bad.string());
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.output.find("\"surface\""), std::string::npos) << r.output;
+}
+
+double max_link_strain(const Model& m, const State& s) {
+  double worst = 0;
+  m.for_each_link([&](std::size_t l, std::uint32_t i, std::uint32_t j, int) {
+    if (!s.intact[l]) return;
+    const double r0 = m.link_r0(l);
+    const LinkGeometry g = link_geometry(s.x[i], s.x[j], r0, static_cast<float>(1.0 / r0));
+    worst = std::max(worst, static_cast<double>(std::fabs(g.eps)));
+  });
+  return worst;
+}
+
+// A concrete shell far from the origin, turned, left alone for 300,000 steps: it stays at rest (explicit
+// rest lengths are doubles, so the strain at rest is that of the centres' last bits), as the lattice's
+// Rest.AFreeBlockFarFromTheOriginStaysAtRestForAMillionSteps.
+TEST(SurfaceMode, AShellFarFromTheOriginStaysAtRest) {
+  TempDir t;
+  SceneDef s = shell_scene(t, 0.2, 2);
+  s.materials.clear();
+  s.objects[0].material = "concrete";
+  s.objects[0].position = {1000, -1000, 1000};
+  s.objects[0].rotation = {17, 33, 71};
+  Engine sim(s);
+  const double strain0 = max_link_strain(sim.model(), sim.state());
+  EXPECT_LT(strain0, 1e-13);
+  double worst_energy = 0;
+  for (int k = 0; k < 30; ++k) {
+    ASSERT_EQ(sim.advance(10000).flags, kHealthy);
+    worst_energy = std::max(worst_energy, sim.energies().total());
+  }
+  const double strain = max_link_strain(sim.model(), sim.state());
+  std::printf("shell at 1 km after 3e5 steps: strain %.3g (at the start %.3g), largest energy %.3g J\n", strain,
+              strain0, worst_energy);
+  EXPECT_EQ(sim.state().broken_by[0] + sim.state().broken_by[1], 0);
+  EXPECT_LT(strain, 1e-13);
+  EXPECT_LT(worst_energy, 1e-18);
+}
+
+// Undamped, with random velocities: the explicit links' law is the gradient of the energy energies.cpp
+// sums (pair springs, shear springs, the shell's many-body term), so the total is kept.
+TEST(SurfaceMode, AnUndampedShellKeepsItsEnergy) {
+  TempDir t;
+  SceneDef s = shell_scene(t, 0.2, 2);
+  s.materials[0].damping_time = 0;
+  s.materials[0].tensile_strength = 1e12;
+  s.materials[0].compressive_strength = 1e13;
+  s.materials[0].fracture_strain = 1;
+  Engine sim(s);
+  State st = sim.state();
+  std::uint64_t seed = 12345;
+  auto next = [&] {
+    seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<float>(static_cast<double>(seed >> 11) / 9007199254740992.0 - 0.5);
+  };
+  for (std::size_t a = 0; a < st.v.size(); ++a) {
+    st.v[a] = {0.02f * next(), 0.02f * next(), 0.02f * next()};
+    st.w[a] = {2 * next(), 2 * next(), 2 * next()};
+  }
+  Engine run(s, st);
+  const Energies e0 = compute_energies(run.model(), run.state());
+  ASSERT_GT(e0.kinetic, 0);
+  double lo = INFINITY, hi = 0;
+  for (int k = 0; k < 40; ++k) {
+    ASSERT_EQ(run.advance(500).flags, kHealthy);
+    const Energies e = compute_energies(run.model(), run.state());
+    const double total = e.kinetic + e.elastic;
+    lo = std::min(lo, total);
+    hi = std::max(hi, total);
+    EXPECT_GT(e.elastic, 0);
+  }
+  const double start = e0.kinetic + e0.elastic;
+  EXPECT_LT((hi - lo) / start, 0.02) << "total energy from " << lo << " to " << hi << " J";
+  EXPECT_LT(std::fabs(hi - start) / start, 0.02);
+}
+
+// A steel ball through a shell: links break, fragments fly, the run stays healthy, and the state is the
+// same bits for every instruction set and thread count.
+SceneDef struck_shell(const TempDir& t) {
+  SceneDef s = shell_scene(t, 0.15, 3);
+  s.materials.clear();
+  s.objects[0].material = "concrete";
+  s.objects[0].shell_thickness = 0.01;
+  ProjectileDef p;
+  p.radius = 0.05;
+  p.material = "steel";
+  p.position = {-0.22, 0.0, 0.02};
+  p.velocity = {30.0, 0.0, 0.0};
+  s.projectiles.push_back(p);
+  return s;
+}
+
+TEST(SurfaceMode, AStruckShellBreaksTheSameOnEveryInstructionSetAndThreadCount) {
+  TempDir t;
+  const SceneDef s = struck_shell(t);
+  const cpu::Kernels* sets[4];
+  const int count = cpu::available_kernels(sets);
+  std::uint64_t first = 0;
+  int steps = 0;
+  for (int k = 0; k < count; ++k)
+    for (int threads : {1, 2}) {
+      setenv("MCA_SIMD", sets[k]->name, 1);
+      tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+      Engine sim(s);
+      unsetenv("MCA_SIMD");
+      if (steps == 0) steps = static_cast<int>(0.004 / sim.model().dt);
+      ASSERT_EQ(sim.advance(steps).flags, kHealthy);
+      const State& st = sim.state();
+      const std::uint64_t h = state_hash(st);
+      if (first == 0) {
+        first = h;
+        EXPECT_GT(st.broken_by[0] + st.broken_by[1], 20);
+        EXPECT_GT(analysis::label_model_fragments(sim.model(), st.intact.data()).count, 2);
+        EXPECT_NO_THROW(check_state(sim.model(), st, "struck shell"));
+      }
+      EXPECT_EQ(h, first) << sets[k]->name << " on " << threads << " threads";
+    }
+}
+
+// Stopped halfway, written to a checkpoint, read back and resumed: the same bits as the run through.
+TEST(SurfaceMode, AResumedRunEndsInTheSameState) {
+  TempDir t;
+  const SceneDef s = struck_shell(t);
+  Engine through(s);
+  const int steps = static_cast<int>(0.003 / through.model().dt);
+  ASSERT_EQ(through.advance(steps).flags, kHealthy);
+  Engine first(s);
+  ASSERT_EQ(first.advance(steps / 2).flags, kHealthy);
+  io::Checkpoint cp;
+  cp.scene = first.scene();
+  cp.state = first.state();
+  cp.model_fingerprint = model_fingerprint(first.model());
+  cp.frame = 1;
+  cp.total_steps = steps;
+  const fs::path file = t.path() / "half.mcack";
+  io::write_checkpoint(file, cp);
+  const io::Checkpoint back = io::read_checkpoint(file);
+  Engine resumed(back.scene, back.state, file.string(), back.model_fingerprint);
+  ASSERT_EQ(resumed.advance(steps - steps / 2).flags, kHealthy);
+  EXPECT_GT(through.state().broken_by[0] + through.state().broken_by[1], 0);
+  EXPECT_EQ(state_hash(resumed.state()), state_hash(through.state()));
+}
+
+// The paper's cow: 5,804 automata (its triangles) and 8,706 links (its edges).
+TEST(PaperModels, TheCowInSurfaceModeHasThePapersCount) {
+  const fs::path file = fs::path(MCA_SOURCE_DIR) / "scenes" / "cow.toml";
+  const test::Result r = test::run_mca("info --json " + file.string());
+  if (r.code != 0 && r.output.find("get_models.sh") != std::string::npos)
+    GTEST_SKIP() << "the paper's models are not installed (scripts/get_models.sh): " << r.output;
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto j = nlohmann::json::parse(r.output);
+  EXPECT_EQ(j["automata"].get<std::int64_t>(), 5804);
+  EXPECT_EQ(j["links"].get<std::int64_t>(), 8706);
+  ASSERT_EQ(j["meshes"].size(), 1u);
+  EXPECT_EQ(j["meshes"][0]["fill"].get<std::string>(), "surface");
+}
+
+}  // namespace
+}  // namespace mca
+
+namespace mca {
+namespace {
+
+// A flat sheet of 2 n x m right triangles in surface mode, t thick, pulled slowly along x by grips on its
+// two end columns: the stiffness it shows against the plane-stress modulus E of its material.
+double sheet_modulus_ratio(int n, int m, double nu) {
+  TempDir t;
+  const double a = 0.01, thickness = 0.002;
+  mesh::TriMesh sheet;
+  for (int j = 0; j <= m; ++j)
+    for (int i = 0; i <= n; ++i) sheet.vertices.push_back({a * i, a * j, 0.0});
+  auto at = [&](int i, int j) { return static_cast<std::uint32_t>(j * (n + 1) + i); };
+  for (int j = 0; j < m; ++j)
+    for (int i = 0; i < n; ++i) {
+      sheet.faces.push_back({at(i, j), at(i + 1, j), at(i + 1, j + 1)});
+      sheet.faces.push_back({at(i, j), at(i + 1, j + 1), at(i, j + 1)});
+    }
+  test::write_mesh_file(t.path() / "sheet.obj", sheet);
+  SceneDef s = test::block_scene(1, 1, 1, a, test::test_material(30e9, nu));
+  s.objects[0].shape = Shape::mesh;
+  s.objects[0].mesh = (t.path() / "sheet.obj").string();
+  s.objects[0].fill = MeshFill::surface;
+  s.objects[0].shell_thickness = thickness;
+  s.solver.local_damping = 0.05;
+  const double L = n * a, W = m * a, v = 0.002;
+  GripDef hold, pull;
+  hold.name = "hold";
+  pull.name = "pull";
+  hold.min = {-L, -W, -1};
+  hold.max = {-0.5 * L + 0.7 * a, W, 1};  // the first column of triangles
+  pull.min = {0.5 * L - 0.7 * a, -W, -1};
+  pull.max = {L, W, 1};
+  pull.velocity = {v, 0, 0};
+  s.grips = {hold, pull};
+  Engine sim(s);
+  // Pull to a strain of about 2e-5 of the gauge (the distance between the grips' automata), slowly
+  // against the sheet's first mode, then read the mean force over the last stretch.
+  const double gauge = L - a;
+  const double seconds = 2e-5 * gauge / v;
+  const int steps = static_cast<int>(seconds / sim.model().dt);
+  double force = 0;
+  int samples = 0;
+  for (int k = 0; k < 100; ++k) {
+    EXPECT_EQ(sim.advance(steps / 100).flags, kHealthy);
+    if (k >= 90) {
+      force += sim.state().grip_force[1].x;
+      ++samples;
+    }
+  }
+  force /= samples;
+  const double strain = v * sim.state().time / gauge;
+  const double stress = force / (W * thickness);
+  return stress / strain / 30e9;
+}
+
+// Surface mode is an approximation of a shell (docs/model-notes.md, "Surface mode"): a regular sheet
+// pulled in its plane shows 0.8-1.0 E (0.88-0.90 measured), for Poisson's ratios from 0 to 0.3, so energies and
+// breaking loads are of the right size.
+TEST(SurfaceMode, ARegularSheetShowsAboutItsYoungsModulus) {
+  for (double nu : {0.0, 0.2, 0.3}) {
+    const double ratio = sheet_modulus_ratio(24, 8, nu);
+    std::printf("sheet in surface mode, nu = %.1f: E_eff / E = %.3f\n", nu, ratio);
+    EXPECT_NEAR(ratio, 0.9, 0.1) << "nu = " << nu;
+  }
+}
+
+}  // namespace
+}  // namespace mca
+
+namespace mca {
+namespace {
+
+// The fragment meshes of a shell cut in three by planes: closed pieces of the thickened surface, whose
+// volumes add up to the shell's (area x thickness).
+TEST(SurfaceMode, FragmentMeshesAreClosedPiecesOfTheShell) {
+  TempDir t;
+  SceneDef s = shell_scene(t, 0.2, 4);
+  s.objects[0].shell_thickness = 0.01;
+  const Engine sim(s);
+  const Model& m = sim.model();
+  analysis::Fragments f;
+  f.id.resize(m.size());
+  for (std::size_t a = 0; a < m.size(); ++a) f.id[a] = m.position0[a].x < -0.07 ? 0 : (m.position0[a].x < 0.05 ? 1 : 2);
+  f.count = 3;
+  const auto meshes = analysis::fragment_meshes(m, sim.state(), f, 8);
+  ASSERT_EQ(meshes.size(), 3u);
+  double sum = 0;
+  for (const auto& fm : meshes) {
+    const mesh::Topology topo = mesh::topology(fm.mesh);
+    EXPECT_EQ(topo.boundary_edges, 0u) << "fragment " << fm.fragment;
+    EXPECT_EQ(topo.non_manifold_edges, 0u) << "fragment " << fm.fragment;
+    EXPECT_GT(fm.volume, 0);
+    sum += fm.volume;
+  }
+  const double shell = total_area(test::sphere_mesh(0.2, 4)) * 0.01;
+  std::printf("shell fragments: %.4g m^3 for a shell of %.4g m^3\n", sum, shell);
+  EXPECT_NEAR(sum / shell, 1.0, 0.1);
+}
+
+}  // namespace
+}  // namespace mca
