@@ -17,6 +17,12 @@ struct RunOptions {
   std::optional<int> checkpoint_every; // overrides output.checkpoint_every
   std::optional<bool> vtk;             // overrides output.vtk
   bool quiet = false;                  // no progress bar
+  // --render: pictures and video into <out>/render/ (app/render_output.hpp).
+  bool render = false;
+  std::string render_size = "1280x720";
+  std::string render_colour = "fragment";
+  std::string render_draw = "cubes";
+  double render_fps = 0;               // 0: automatic
 };
 
 int run(const RunOptions& options);

@@ -30,6 +30,15 @@ int main(int argc, char** argv) {
   bool no_vtk = false;
   run->add_flag("--no-vtk", no_vtk, "Do not write per-frame VTK files (stats and summary only)");
   run->add_flag("-q,--quiet", ro.quiet, "No progress output");
+  auto* render_flag = run->add_flag("--render", ro.render,
+                "Render each frame offscreen (OpenGL through EGL): render/frame_NNNNNN.png, video.mp4, contact_sheet.png "
+                "and plots in the output folder");
+  run->add_option("--render-size", ro.render_size, "Size of the rendered frames, WIDTHxHEIGHT (default 1280x720)")->needs(render_flag);
+  run->add_option("--render-colour,--render-color", ro.render_colour,
+                  "Colour of the automata: fragment (default), damage, class, group, stress, speed")->needs(render_flag);
+  run->add_option("--render-draw", ro.render_draw,
+                  "What is drawn: cubes (default), spheres, surface (mesh objects), links")->needs(render_flag);
+  run->add_option("--render-fps", ro.render_fps, "Frame rate of the video (default: frames / 4, 10 to 30)")->needs(render_flag);
 
   std::string resume_dir;
   int resume_threads = 0;
