@@ -169,8 +169,8 @@ void main() {
   vec2 w = fwidth(uv);
   vec2 g = abs(fract(uv - 0.5) - 0.5) / max(w, vec2(1e-6));
   float line = 1.0 - min(min(g.x, g.y), 1.0);
-  vec3 base = mix(vec3(0.47, 0.46, 0.43), vec3(0.52, 0.51, 0.48), checker);
-  base = mix(base, vec3(0.36, 0.36, 0.34), 0.6 * line);
+  vec3 base = mix(vec3(0.36, 0.355, 0.34), vec3(0.41, 0.405, 0.39), checker);
+  base = mix(base, vec3(0.28, 0.28, 0.27), 0.6 * line);
   vec3 c = shade(base, u_up);
   float fog = smoothstep(0.35 * u_fade, u_fade, length(v_world - u_eye));
   o_colour = vec4(mix(c, u_background, fog), 1.0);
@@ -425,7 +425,7 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
   // The key light: from above, over the camera's left shoulder.
   const glm::vec3 fwd = glm::normalize(cam.target - cam.eye);
   const glm::vec3 right = glm::normalize(glm::cross(fwd, up));
-  const glm::vec3 light = glm::normalize(-0.55f * fwd - 0.45f * right + 1.0f * up);
+  const glm::vec3 light = glm::normalize(-0.8f * fwd - 0.4f * right + 0.8f * up);
   auto common = [&](unsigned prog) {
     glUseProgram(prog);
     glUniform3fv(loc(prog, "u_light"), 1, glm::value_ptr(light));
