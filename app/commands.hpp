@@ -31,6 +31,9 @@ int thread_count(int requested);
 int resume(const std::string& out_dir, int threads, bool quiet);
 int info(const std::optional<std::string>& scene, bool json);
 int bench(const std::vector<std::string>& names, bool json, int threads, int repeats, int steps);
+// `mca bench --render`: frames per second of the offscreen renderer (1280x720) at one step per frame, on
+// the wall benchmarks (cubes, spheres) and the mesh scenes (cubes, the bound surface's triangles).
+int bench_render(const std::vector<std::string>& names, bool json, int threads, int frames);
 // Names of the built-in benchmark scenes (those run when none is named).
 std::vector<std::string> bench_names(bool defaults_only = false);
 // Why the backend's instruction set is the one in use (for `mca info` and `mca bench`).

@@ -65,6 +65,12 @@ int main(int argc, char** argv) {
   bench->add_option("--threads", bench_threads, "Worker threads (0 = all cores)");
   bench->add_option("--repeats", bench_repeats, "Timed runs per benchmark (the median is reported)");
   bench->add_option("--steps", bench_steps, "Steps per timed run");
+  bool bench_render = false;
+  int bench_frames = 10;
+  bench->add_flag("--render", bench_render,
+                  "Frames per second of the renderer (1280x720 offscreen, one step per frame): wall_3k, walls_12k, "
+                  "wall_357k, wall_357k_spheres, bunny_cubes, bunny_surface, armadillo_cubes, armadillo_surface");
+  bench->add_option("--frames", bench_frames, "Frames timed per render benchmark (the median is reported)");
 
   // A command line that does not parse is a user error like any other: exit code 2 (CLI11's own codes
   // are 100 and up), 0 for --help and --version.
@@ -95,6 +101,8 @@ int main(int argc, char** argv) {
     if (resume->parsed()) return mca::app::resume(resume_dir, resume_threads, resume_quiet);
     if (info->parsed())
       return mca::app::info(info_scene.empty() ? std::nullopt : std::optional<std::string>(info_scene), info_json);
+    if (bench->parsed() && bench_render)
+      return mca::app::bench_render(bench_names, bench_json, bench_threads, bench_frames);
     if (bench->parsed()) return mca::app::bench(bench_names, bench_json, bench_threads, bench_repeats, bench_steps);
   } catch (const mca::Error& e) {
     fmt::print(stderr, "error: {}\n", e.what());

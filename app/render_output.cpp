@@ -149,10 +149,14 @@ void RenderOutput::finish() {
   sheet_.clear();
   if (!tiles.empty()) write_bytes(dir_ / "contact_sheet.png", render::encode_png(render::tile(tiles, kSheetColumns, 4)));
   seconds_ += seconds_since(t0);
-  if (!quiet_)
-    fmt::print(stderr, "render: {} frames, {}contact_sheet.png in {} ({:.1f} s of drawing and writing)\n", frames_ + 1,
-               std::filesystem::exists(dir_ / "video.mp4") ? fmt::format("video.mp4 ({:g} frames/s), ", fps_) : "",
-               dir_.string(), seconds_);
+  if (!quiet_) {
+    fmt::print(stderr, "render: {} frames (frame_NNNNNN.png) and contact_sheet.png in {} ({:.1f} s of drawing and "
+               "writing)\n",
+               frames_ + 1, dir_.string(), seconds_);
+    if (std::filesystem::exists(dir_ / "video.mp4"))
+      fmt::print(stderr, "video: {} ({} frames at {:g} frames/s: {:.1f} s)\n", (dir_ / "video.mp4").string(),
+                 frames_ + 1, fps_, static_cast<double>(frames_ + 1) / fps_);
+  }
 }
 
 bool run_plot_script(const std::filesystem::path& dir, bool quiet) {
