@@ -26,6 +26,19 @@ struct RunOptions {
 };
 
 int run(const RunOptions& options);
+
+struct ViewOptions {
+  std::optional<std::string> scene;       // none = the built-in default scene
+  int width = 1280, height = 720;
+  int threads = 0;
+  std::optional<int> frames;              // show this many frames, then exit; the simulation then advances one
+                                          // output frame per shown frame (reproducible scripted runs)
+  std::optional<std::string> screenshot;  // PNG of the last frame shown (with --frames)
+  std::optional<std::string> script;      // timed shots: lines "TIME X Y"
+  bool quiet = false;
+};
+// `mca view`: the live viewer (GLFW window). Throws mca::Error when there is no display.
+int view(const ViewOptions& options);
 // Worker threads for --threads N: all cores for 0, at most the cores there are; negative is an error.
 int thread_count(int requested);
 int resume(const std::string& out_dir, int threads, bool quiet);

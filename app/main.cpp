@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "app/commands.hpp"
+#include "app/render_output.hpp"
 #include "mca/error.hpp"
 
 int main(int argc, char** argv) {
@@ -54,6 +55,19 @@ int main(int argc, char** argv) {
   info->add_option("scene", info_scene, "Scene file (default: the built-in scene)");
   info->add_flag("--json", info_json, "Machine-readable output");
 
+  mca::app::ViewOptions vo;
+  std::string view_scene, view_size = "1280x720", view_screenshot, view_script;
+  int view_frames = 0;
+  auto* view = app.add_subcommand("view", "Live viewer: watch a scene break, shoot balls with the mouse (a window; "
+                                          "keys in the README)");
+  view->add_option("scene", view_scene, "Scene file (default: the built-in scene)");
+  view->add_option("--size", view_size, "Window size, WIDTHxHEIGHT (default 1280x720)");
+  view->add_option("--threads", vo.threads, "Worker threads (0 = all cores)");
+  auto* frames_opt = view->add_option("--frames", view_frames, "Show this many frames (one output frame of the scene each), then exit");
+  view->add_option("--screenshot", view_screenshot, "With --frames: write the last frame as PNG")->needs(frames_opt);
+  view->add_option("--script", view_script, "Timed shots: lines 'TIME X Y' (simulated s; aim as shares of the window)");
+  view->add_flag("-q,--quiet", vo.quiet, "No summary at the end");
+
   std::vector<std::string> bench_names;
   bool bench_json = false;
   int bench_threads = 0, bench_repeats = 5, bench_steps = 50;
@@ -97,6 +111,14 @@ int main(int argc, char** argv) {
       if (ck_opt->count()) ro.checkpoint_every = checkpoint_every;
       if (no_vtk) ro.vtk = false;
       return mca::app::run(ro);
+    }
+    if (view->parsed()) {
+      if (!view_scene.empty()) vo.scene = view_scene;
+      std::tie(vo.width, vo.height) = mca::app::parse_render_size(view_size);
+      if (frames_opt->count()) vo.frames = view_frames;
+      if (!view_screenshot.empty()) vo.screenshot = view_screenshot;
+      if (!view_script.empty()) vo.script = view_script;
+      return mca::app::view(vo);
     }
     if (resume->parsed()) return mca::app::resume(resume_dir, resume_threads, resume_quiet);
     if (info->parsed())

@@ -288,5 +288,35 @@ TEST(Render, ExposedAutomataAreThoseWithABrokenOrMissingLink) {
   EXPECT_EQ(n, 4800u - 38u * 2u * 28u);
 }
 
+TEST(View, ScriptedShotUnderAVirtualDisplayShowsTheBrokenWall) {
+  if (shell("command -v xvfb-run").code != 0) GTEST_SKIP() << "xvfb-run is not installed (scripts/setup.sh)";
+  TempDir d;
+  const fs::path script = d.path() / "shots.txt", png = d.path() / "view.png";
+  std::ofstream(script) << "# time x y\n0.002 0.6 0.45\n";
+  const Result r = shell("timeout 120 xvfb-run -a -s '-screen 0 1280x720x24' " + std::string(MCA_BINARY) +
+                         " view --size 480x270 --frames 12 --script " + script.string() + " --screenshot " + png.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  // 12 frames of 2 ms; the scene's ball and the scripted one.
+  EXPECT_NE(r.output.find("t = 22.00 ms, 2 balls"), std::string::npos) << r.output;
+  const render::Image im = render::read_png(png);
+  ASSERT_EQ(im.width, 480);
+  ASSERT_EQ(im.height, 270);
+  EXPECT_TRUE(is_background(at(im, im.width - 1, 0)));
+  // Broken: many pixels in the hues of fragments other than the largest.
+  std::size_t coloured = 0;
+  for (int y = 0; y < im.height; ++y)
+    for (int x = 0; x < im.width; ++x) {
+      const Pixel q = at(im, x, y);
+      coloured += std::max({q.r, q.g, q.b}) - std::min({q.r, q.g, q.b}) > 60;
+    }
+  EXPECT_GT(coloured, static_cast<std::size_t>(im.width * im.height / 20));
+}
+
+TEST(View, NoDisplayPointsToRunRender) {
+  const Result r = shell("env -u DISPLAY -u WAYLAND_DISPLAY " + std::string(MCA_BINARY) + " view --frames 1");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("mca run --render"), std::string::npos) << r.output;
+}
+
 }  // namespace
 }  // namespace mca
