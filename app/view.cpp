@@ -417,13 +417,8 @@ int view(const ViewOptions& o) {
     const bool last = o.frames && shown >= *o.frames;
     if (last && o.screenshot) {
       render::Image im{w, h, {}};
-      im.rgba.resize(4 * static_cast<std::size_t>(w) * h);
-      glPixelStorei(GL_PACK_ALIGNMENT, 1);
       glReadBuffer(GL_BACK);
-      glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, im.rgba.data());
-      for (int y = 0; y < h / 2; ++y)
-        std::swap_ranges(im.rgba.begin() + 4 * std::size_t(y) * w, im.rgba.begin() + 4 * std::size_t(y + 1) * w,
-                         im.rgba.begin() + 4 * std::size_t(h - 1 - y) * w);
+      render::read_pixels(w, h, im.rgba);
       const auto bytes = render::encode_png(im);
       io::write_file_atomic(*o.screenshot, [&](std::ostream& os) {
         os.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));

@@ -225,6 +225,18 @@ TEST(Render, BadOptionsAreRefusedWithTheFix) {
   EXPECT_NE(w.output.find("/proc/mca_cannot_write"), std::string::npos) << w.output;
 }
 
+// Expects `f` to throw mca::Error whose message holds `words` and names the scene file cam.toml.
+template <class F>
+void expect_error(F&& f, const std::string& what, const std::string& words) {
+  try {
+    f();
+    ADD_FAILURE() << what << " was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("cam.toml"), std::string::npos) << e.what();
+  }
+}
+
 SceneDef scene_with_camera(const std::string& camera) {
   std::string text = io::kDefaultSceneToml;
   return io::parse_scene(text + "\n[camera]\n" + camera + "\n", "cam.toml");
@@ -240,13 +252,7 @@ TEST(Render, CameraTableIsReadValidatedAndWrittenBack) {
   EXPECT_EQ(back.camera.target, s.camera.target);
   EXPECT_EQ(back.camera.fov, 30.0);
   const auto fails = [](const std::string& cam, const std::string& words) {
-    try {
-      scene_with_camera(cam);
-      ADD_FAILURE() << cam << " was accepted";
-    } catch (const Error& e) {
-      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
-      EXPECT_NE(std::string(e.what()).find("cam.toml"), std::string::npos) << e.what();
-    }
+    expect_error([&] { scene_with_camera(cam); }, cam, words);
   };
   fails("fov = 0", "camera.fov = 0 is out of range");
   fails("fov = 179", "[5, 150]");
@@ -260,13 +266,7 @@ TEST(Render, CameraInsideTheObjectsOrLookingAwayIsAnError) {
     const SceneDef s = scene_with_camera(cam);
     Engine sim(s);
     const auto f = render::objects_box(sim.model(), sim.state());
-    try {
-      render::make_camera(s.camera, sim.model(), f, 16.0f / 9, s.source);
-      ADD_FAILURE() << cam << " was accepted";
-    } catch (const Error& e) {
-      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
-      EXPECT_NE(std::string(e.what()).find("cam.toml"), std::string::npos) << e.what();
-    }
+    expect_error([&] { render::make_camera(s.camera, sim.model(), f, 16.0f / 9, s.source); }, cam, words);
   };
   check("position = [0.2, 0.0, 0.7]", "inside the objects' bounding box");
   check("position = [0.0, -5.0, 1.0]\ntarget = [0.0, -10.0, 1.0]", "sees none of the objects");

@@ -605,21 +605,24 @@ OffscreenTarget::~OffscreenTarget() {
 
 void OffscreenTarget::bind() const { glBindFramebuffer(GL_FRAMEBUFFER, fbo_); }
 
-void OffscreenTarget::read_rgba(std::vector<std::uint8_t>& out) const {
-  const std::size_t row = 4 * static_cast<std::size_t>(width_);
-  out.resize(row * static_cast<std::size_t>(height_));
-  glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_);
+void read_pixels(int width, int height, std::vector<std::uint8_t>& out) {
+  const std::size_t row = 4 * static_cast<std::size_t>(width);
+  out.resize(row * static_cast<std::size_t>(height));
   glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glReadPixels(0, 0, width_, height_, GL_RGBA, GL_UNSIGNED_BYTE, out.data());
-  // OpenGL's rows run bottom up; images top down.
+  glReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, out.data());
   std::vector<std::uint8_t> tmp(row);
-  for (int y = 0; y < height_ / 2; ++y) {
+  for (int y = 0; y < height / 2; ++y) {
     auto* a = out.data() + row * static_cast<std::size_t>(y);
-    auto* b = out.data() + row * static_cast<std::size_t>(height_ - 1 - y);
+    auto* b = out.data() + row * static_cast<std::size_t>(height - 1 - y);
     std::memcpy(tmp.data(), a, row);
     std::memcpy(a, b, row);
     std::memcpy(b, tmp.data(), row);
   }
+}
+
+void OffscreenTarget::read_rgba(std::vector<std::uint8_t>& out) const {
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_);
+  read_pixels(width_, height_, out);
 }
 
 }  // namespace mca::render

@@ -38,6 +38,10 @@ class Renderer {
   Impl* impl_;
 };
 
+// The pixels of the bound read framebuffer's (0, 0, width, height) as RGBA, top row first (OpenGL's rows
+// run bottom up); waits for the drawing to finish.
+void read_pixels(int width, int height, std::vector<std::uint8_t>& out);
+
 // An offscreen colour + depth framebuffer of a fixed size.
 class OffscreenTarget {
  public:
