@@ -2,6 +2,9 @@
 // Each repeat starts from the same snapshot taken after the ball has hit, so contacts and breaking are
 // active during the timed steps.
 #include <algorithm>
+#include <filesystem>
+#include <functional>
+#include <optional>
 #include <chrono>
 #include <iterator>
 #include <fmt/format.h>
@@ -10,8 +13,14 @@
 #include <tbb/info.h>
 #include <thread>
 
+#include "analysis/fragments.hpp"
 #include "app/commands.hpp"
+#include "io/scene_io.hpp"
 #include "mca/error.hpp"
+#include "render/camera.hpp"
+#include "render/egl_context.hpp"
+#include "render/renderer.hpp"
+#include "render/snapshot.hpp"
 #include "sim/engine.hpp"
 
 namespace mca::app {
@@ -70,6 +79,111 @@ double median(std::vector<double> v) {
 }
 
 }  // namespace
+
+int bench_render(const std::vector<std::string>& names, bool json, int threads_requested, int frames) {
+  if (frames < 1) throw Error(fmt::format("--frames {} must be at least 1", frames));
+  const int threads = thread_count(threads_requested);
+  tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+  struct Case {
+    std::string name;
+    std::function<SceneDef()> scene;
+    render::DrawMode draw;
+    int warmup;
+  };
+  const auto builtin = [](const std::string& n) {
+    return [n] {
+      for (auto& b : scenes())
+        if (b.name == n) return b.scene;
+      return SceneDef{};
+    };
+  };
+  const auto file = [](const std::string& f) {
+    return [f] { return io::load_scene_file((std::filesystem::path(MCA_SCENES_DIR) / f).string()); };
+  };
+  const std::vector<Case> all = {
+      {"wall_3k", builtin("wall_3k"), render::DrawMode::cubes, 300},
+      {"walls_12k", builtin("walls_12k"), render::DrawMode::cubes, 300},
+      {"wall_357k", builtin("wall_357k"), render::DrawMode::cubes, 150},
+      {"wall_357k_spheres", builtin("wall_357k"), render::DrawMode::spheres, 150},
+      {"bunny_cubes", file("bunny.toml"), render::DrawMode::cubes, 300},
+      {"bunny_surface", file("bunny.toml"), render::DrawMode::surface, 300},
+      {"armadillo_cubes", file("armadillo.toml"), render::DrawMode::cubes, 150},
+      {"armadillo_surface", file("armadillo.toml"), render::DrawMode::surface, 150},
+  };
+  std::vector<Case> chosen;
+  for (const auto& c : all)
+    if (names.empty() || std::find(names.begin(), names.end(), c.name) != names.end()) chosen.push_back(c);
+  for (const auto& n : names)
+    if (std::none_of(all.begin(), all.end(), [&](const Case& c) { return c.name == n; })) {
+      std::string list;
+      for (const auto& c : all) list += (list.empty() ? "" : ", ") + c.name;
+      throw Error(fmt::format("unknown render benchmark '{}'; they are: {}", n, list));
+    }
+  constexpr int W = 1280, H = 720;
+  render::EglContext context;
+  render::Renderer renderer;
+  render::OffscreenTarget target(W, H);
+  target.bind();
+  if (!json)
+    fmt::print("render benchmark: {}x{} offscreen, {} ({}), {} threads; one step per frame, median of {} frames\n", W,
+               H, render::Renderer::gl_description(), context.source(), threads, frames);
+  nlohmann::json out = nlohmann::json::array();
+  std::vector<std::uint8_t> pixels;
+  for (const auto& c : chosen) {
+    std::optional<Engine> sim;
+    try {
+      sim.emplace(c.scene());
+    } catch (const Error& e) {
+      // The mesh scenes need the paper's models (scripts/get_models.sh): say so and go on.
+      fmt::print(stderr, "{}: skipped: {}\n", c.name, e.what());
+      continue;
+    }
+    const Model& m = sim->model();
+    const auto framing = render::objects_box(m, sim->state());
+    const auto cam = render::make_camera(sim->scene().camera, m, framing, float(W) / H, sim->scene().source);
+    sim->advance(c.warmup);
+    render::SnapshotOptions so;
+    so.draw = c.draw;
+    so.colour = render::ColourMode::fragment;
+    std::vector<double> step_s, prep_s, draw_s, read_s, total_s;
+    std::size_t drawn = 0, triangles = 0;
+    using clock = std::chrono::steady_clock;
+    const auto secs = [](clock::time_point a, clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };
+    for (int f = 0; f < frames + 1; ++f) {  // the first frame warms the caches and the shaders up
+      const auto t0 = clock::now();
+      sim->advance(1);
+      const auto t1 = clock::now();
+      const auto frags = analysis::label_lattice_fragments(m.size(), m.neighbour.data(), sim->state().intact.data(),
+                                                           m.mass.data());
+      const auto snap = render::make_snapshot(m, sim->state(), frags, so, framing.origin);
+      const auto t2 = clock::now();
+      renderer.draw(snap, c.draw, cam, W, H);
+      target.read_rgba(pixels);  // waits for the drawing: what a frame of `mca run --render` costs before the PNG
+      const auto t3 = clock::now();
+      if (f == 0) continue;
+      step_s.push_back(secs(t0, t1));
+      prep_s.push_back(secs(t1, t2));
+      draw_s.push_back(secs(t2, t3));
+      total_s.push_back(secs(t0, t3));
+      drawn = snap.automata.size();
+      triangles = snap.surface.size() / 3;
+    }
+    const double fps = 1.0 / median(total_s);
+    if (json) {
+      out.push_back({{"name", c.name}, {"draw", render::name(c.draw)}, {"automata", m.size()},
+                     {"automata_drawn", drawn}, {"triangles", triangles}, {"frames", frames},
+                     {"median_step_seconds", median(step_s)}, {"median_snapshot_seconds", median(prep_s)},
+                     {"median_draw_seconds", median(draw_s)}, {"frames_per_second", fps}});
+    } else {
+      fmt::print("{:<18} {:>8} automata {:>8} drawn {:>8} triangles  step {:7.1f} ms  snapshot {:6.1f} ms  draw+read "
+                 "{:6.1f} ms  {:6.2f} frames/s\n",
+                 c.name, m.size(), drawn, triangles, 1e3 * median(step_s), 1e3 * median(prep_s), 1e3 * median(draw_s),
+                 fps);
+    }
+  }
+  if (json) fmt::print("{}\n", out.dump(2));
+  return 0;
+}
 
 std::vector<std::string> bench_names(bool defaults_only) {
   std::vector<std::string> n;

@@ -17,14 +17,36 @@ struct RunOptions {
   std::optional<int> checkpoint_every; // overrides output.checkpoint_every
   std::optional<bool> vtk;             // overrides output.vtk
   bool quiet = false;                  // no progress bar
+  // --render: pictures and video into <out>/render/ (app/render_output.hpp).
+  bool render = false;
+  std::string render_size = "1280x720";
+  std::string render_colour = "fragment";
+  std::string render_draw = "cubes";
+  double render_fps = 0;               // 0: automatic
 };
 
 int run(const RunOptions& options);
+
+struct ViewOptions {
+  std::optional<std::string> scene;       // none = the built-in default scene
+  int width = 1280, height = 720;
+  int threads = 0;
+  std::optional<int> frames;              // show this many frames, then exit; the simulation then advances one
+                                          // output frame per shown frame (reproducible scripted runs)
+  std::optional<std::string> screenshot;  // PNG of the last frame shown (with --frames)
+  std::optional<std::string> script;      // timed shots: lines "TIME X Y"
+  bool quiet = false;
+};
+// `mca view`: the live viewer (GLFW window). Throws mca::Error when there is no display.
+int view(const ViewOptions& options);
 // Worker threads for --threads N: all cores for 0, at most the cores there are; negative is an error.
 int thread_count(int requested);
 int resume(const std::string& out_dir, int threads, bool quiet);
 int info(const std::optional<std::string>& scene, bool json);
 int bench(const std::vector<std::string>& names, bool json, int threads, int repeats, int steps);
+// `mca bench --render`: frames per second of the offscreen renderer (1280x720) at one step per frame, on
+// the wall benchmarks (cubes, spheres) and the mesh scenes (cubes, the bound surface's triangles).
+int bench_render(const std::vector<std::string>& names, bool json, int threads, int frames);
 // Names of the built-in benchmark scenes (those run when none is named).
 std::vector<std::string> bench_names(bool defaults_only = false);
 // Why the backend's instruction set is the one in use (for `mca info` and `mca bench`).

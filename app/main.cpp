@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "app/commands.hpp"
+#include "app/render_output.hpp"
 #include "mca/error.hpp"
 
 int main(int argc, char** argv) {
@@ -30,6 +31,15 @@ int main(int argc, char** argv) {
   bool no_vtk = false;
   run->add_flag("--no-vtk", no_vtk, "Do not write per-frame VTK files (stats and summary only)");
   run->add_flag("-q,--quiet", ro.quiet, "No progress output");
+  auto* render_flag = run->add_flag("--render", ro.render,
+                "Render each frame offscreen (OpenGL through EGL): render/frame_NNNNNN.png, video.mp4, contact_sheet.png "
+                "and plots in the output folder");
+  run->add_option("--render-size", ro.render_size, "Size of the rendered frames, WIDTHxHEIGHT (default 1280x720)")->needs(render_flag);
+  run->add_option("--render-colour,--render-color", ro.render_colour,
+                  "Colour of the automata: fragment (default), damage, class, group, stress, speed")->needs(render_flag);
+  run->add_option("--render-draw", ro.render_draw,
+                  "What is drawn: cubes (default), spheres, surface (mesh objects), links")->needs(render_flag);
+  run->add_option("--render-fps", ro.render_fps, "Frame rate of the video (default: frames / 4, 10 to 30)")->needs(render_flag);
 
   std::string resume_dir;
   int resume_threads = 0;
@@ -45,6 +55,19 @@ int main(int argc, char** argv) {
   info->add_option("scene", info_scene, "Scene file (default: the built-in scene)");
   info->add_flag("--json", info_json, "Machine-readable output");
 
+  mca::app::ViewOptions vo;
+  std::string view_scene, view_size = "1280x720", view_screenshot, view_script;
+  int view_frames = 0;
+  auto* view = app.add_subcommand("view", "Live viewer: watch a scene break, shoot balls with the mouse (a window; "
+                                          "keys in the README)");
+  view->add_option("scene", view_scene, "Scene file (default: the built-in scene)");
+  view->add_option("--size", view_size, "Window size, WIDTHxHEIGHT (default 1280x720)");
+  view->add_option("--threads", vo.threads, "Worker threads (0 = all cores)");
+  auto* frames_opt = view->add_option("--frames", view_frames, "Show this many frames (one output frame of the scene each), then exit");
+  view->add_option("--screenshot", view_screenshot, "With --frames: write the last frame as PNG")->needs(frames_opt);
+  view->add_option("--script", view_script, "Timed shots: lines 'TIME X Y' (simulated s; aim as shares of the window)");
+  view->add_flag("-q,--quiet", vo.quiet, "No summary at the end");
+
   std::vector<std::string> bench_names;
   bool bench_json = false;
   int bench_threads = 0, bench_repeats = 5, bench_steps = 50;
@@ -56,6 +79,12 @@ int main(int argc, char** argv) {
   bench->add_option("--threads", bench_threads, "Worker threads (0 = all cores)");
   bench->add_option("--repeats", bench_repeats, "Timed runs per benchmark (the median is reported)");
   bench->add_option("--steps", bench_steps, "Steps per timed run");
+  bool bench_render = false;
+  int bench_frames = 10;
+  bench->add_flag("--render", bench_render,
+                  "Frames per second of the renderer (1280x720 offscreen, one step per frame): wall_3k, walls_12k, "
+                  "wall_357k, wall_357k_spheres, bunny_cubes, bunny_surface, armadillo_cubes, armadillo_surface");
+  bench->add_option("--frames", bench_frames, "Frames timed per render benchmark (the median is reported)");
 
   // A command line that does not parse is a user error like any other: exit code 2 (CLI11's own codes
   // are 100 and up), 0 for --help and --version.
@@ -83,9 +112,19 @@ int main(int argc, char** argv) {
       if (no_vtk) ro.vtk = false;
       return mca::app::run(ro);
     }
+    if (view->parsed()) {
+      if (!view_scene.empty()) vo.scene = view_scene;
+      std::tie(vo.width, vo.height) = mca::app::parse_render_size(view_size);
+      if (frames_opt->count()) vo.frames = view_frames;
+      if (!view_screenshot.empty()) vo.screenshot = view_screenshot;
+      if (!view_script.empty()) vo.script = view_script;
+      return mca::app::view(vo);
+    }
     if (resume->parsed()) return mca::app::resume(resume_dir, resume_threads, resume_quiet);
     if (info->parsed())
       return mca::app::info(info_scene.empty() ? std::nullopt : std::optional<std::string>(info_scene), info_json);
+    if (bench->parsed() && bench_render)
+      return mca::app::bench_render(bench_names, bench_json, bench_threads, bench_frames);
     if (bench->parsed()) return mca::app::bench(bench_names, bench_json, bench_threads, bench_repeats, bench_steps);
   } catch (const mca::Error& e) {
     fmt::print(stderr, "error: {}\n", e.what());

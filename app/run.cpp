@@ -14,6 +14,7 @@
 
 #include "app/commands.hpp"
 #include "app/frame_output.hpp"
+#include "app/render_output.hpp"
 #include "backend/cpu/lattice_kernels.hpp"
 #include "io/checkpoint.hpp"
 #include "io/output_files.hpp"
@@ -214,6 +215,7 @@ struct Loop {
   Plan plan;
   std::int64_t frame = 0;      // frames written so far
   double wall_before = 0;      // wall seconds of earlier sessions (resume)
+  RenderOutput* render = nullptr;  // --render
 };
 
 void save_checkpoint(const Loop& L, double wall) {
@@ -315,6 +317,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
       return 3;
     }
     writer.write_frame(L.frame, sim.state(), frags);
+    if (L.render) L.render->write_frame(L.frame, sim.state(), frags);
     writer.append_stats(writer.format_row(st));
     ++L.frame;
     const double wall = elapsed();
@@ -340,6 +343,11 @@ int run_loop(Loop& L, FrameWriter& writer) {
                           : fmt::format("no fragment has more than output.fragment_min_automata = {} automata: no "
                                         "fragment mesh written",
                                         sim.scene().output.fragment_min_automata));
+  }
+  if (L.render) {
+    if (tty) fmt::print(stderr, "\n");
+    L.render->finish();
+    run_plot_script(L.dir, L.quiet);
   }
   if (!L.quiet) {
     const State& s = sim.state();
@@ -368,6 +376,24 @@ int run(const RunOptions& o) {
     throw Error(fmt::format("--steps {} is out of range: must be 1..{:.0e} (a run of more steps would not end); "
                             "give a smaller number of steps, or --duration",
                             *o.steps, static_cast<double>(kMaxSteps)));
+  RenderOptions ro;
+  if (o.render) {
+    std::tie(ro.width, ro.height) = parse_render_size(o.render_size);
+    const auto colour = render::parse_colour_mode(o.render_colour);
+    if (!colour)
+      throw Error(fmt::format("--render-colour '{}' is not a colour mode; give one of: {}", o.render_colour,
+                              render::colour_mode_names()));
+    ro.colour = *colour;
+    const auto draw = render::parse_draw_mode(o.render_draw);
+    if (!draw)
+      throw Error(fmt::format("--render-draw '{}' is not a draw mode; give one of: {}", o.render_draw,
+                              render::draw_mode_names()));
+    ro.draw = *draw;
+    if (!(o.render_fps >= 0 && o.render_fps <= 240))
+      throw Error(fmt::format("--render-fps {} is out of range: give 1 to 240 frames per second, or 0 for automatic",
+                              o.render_fps));
+    ro.fps = o.render_fps;
+  }
   SceneDef scene = o.scene ? io::load_scene_file(*o.scene) : io::load_default_scene();
   if (o.duration) {
     if (!(*o.duration > 0)) throw Error(fmt::format("--duration {} must be a positive number of seconds", *o.duration));
@@ -405,6 +431,9 @@ int run(const RunOptions& o) {
                sim.model().size(), sim.model().link_count(), sim.model().dt, sim.steps_per_frame(), plan.total_frames,
                plan.total_steps, threads);
   }
+  // The renderer before any output: a missing OpenGL or a camera that sees nothing stops here.
+  std::unique_ptr<RenderOutput> render;
+  if (o.render) render = std::make_unique<RenderOutput>(dir, sim, ro, plan.total_frames, o.quiet);
   // The scene as run (overrides applied), so the folder says what produced it.
   io::write_file_atomic(dir / "scene.toml", [&](std::ostream& os) { os << io::scene_to_toml(scene); }, false);
   // Outputs of an earlier run in this folder would mix with this one's; only files this program writes
@@ -422,10 +451,11 @@ int run(const RunOptions& o) {
   std::filesystem::remove(dir / "projectiles.pvd");
   remove_stale_temporaries(dir);
   FrameWriter writer(dir, sim.model(), scene.output);
-  Loop L{sim, dir, threads, o.quiet, scene.output.checkpoint_every, plan, 0, 0.0};
+  Loop L{sim, dir, threads, o.quiet, scene.output.checkpoint_every, plan, 0, 0.0, render.get()};
   // Frame 0: the initial state.
   const auto frags = writer.fragments(sim.state());
   writer.write_frame(0, sim.state(), frags);
+  if (render) render->write_frame(0, sim.state(), frags);
   writer.start_stats({writer.format_row(writer.stats(0, sim.state(), frags))});
   L.frame = 1;
   return run_loop(L, writer);

@@ -12,6 +12,10 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libtbb-dev libtomlplusplus-dev libcli11-dev libfmt-dev nlohmann-json3-dev
   libassimp-dev libopenvdb-dev libboost-iostreams-dev
+  # the renderer (mca run --render, mca view): OpenGL through EGL (Mesa's llvmpipe without a GPU), GLFW
+  # windows, PNG, video, the run's plots, and the window tests under a virtual X server
+  libepoxy-dev libglm-dev libegl-dev libopengl-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev libpng-dev
+  ffmpeg python3 python3-matplotlib xvfb xauth xdotool
 )
 if [[ "${MCA_SETUP_MODELS:-1}" != 0 ]]; then
   packages+=(libcgal-demo)  # the paper's models (scripts/get_models.sh)
@@ -20,7 +24,7 @@ if [[ "${MCA_SETUP_FUZZ:-0}" == 1 ]]; then
   packages+=(clang-14 libfuzzer-14-dev)
 fi
 if [[ "${MCA_SETUP_PARAVIEW:-0}" == 1 ]]; then
-  packages+=(paraview python3-paraview xvfb xauth)
+  packages+=(paraview python3-paraview)
 fi
 
 missing=()

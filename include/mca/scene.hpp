@@ -170,6 +170,15 @@ struct OutputDef {
   std::int64_t fragment_min_automata = 8;  // >= 0 (0: every fragment)
 };
 
+// The renderer's camera (mca run --render, mca view). Every key is optional: the target defaults to the
+// centre of the objects' box at frame 0, the position to a 3/4 view that frames the whole box
+// (render/camera.hpp).
+struct CameraDef {
+  std::optional<Vec3d> position;  // [m], world frame
+  std::optional<Vec3d> target;    // [m], the point looked at
+  double fov = 40.0;              // vertical field of view [degrees], in [5, 150]
+};
+
 struct SceneDef {
   std::string name = "scene";
   std::string source = "<built-in>";     // file the scene came from, for messages
@@ -182,6 +191,7 @@ struct SceneDef {
   GroundDef ground;
   SolverDef solver;
   OutputDef output;
+  CameraDef camera;
 };
 
 // Checks ranges and references; throws mca::Error naming the scene file, the key, the value and the fix.

@@ -517,6 +517,17 @@ void validate_scene(const SceneDef& scene) {
           "use 0.3 (the default), 0 for none");
   c.range("ground.twisting_friction", scene.ground.twisting_friction, 0, true, 1, true, "in [0, 1]",
           "use 0.3 (the default), 0 for none");
+
+  // Camera (the renderer's; whether it sees the objects is checked against the built model when a run
+  // renders: render/camera.cpp).
+  const CameraDef& cam = scene.camera;
+  if (cam.position) c.position("camera.position", *cam.position);
+  if (cam.target) c.position("camera.target", *cam.target);
+  if (cam.position && cam.target && *cam.position == *cam.target)
+    c.fail(fmt::format("camera.position = camera.target = {}: the camera needs a direction to look in; move the "
+                       "position away from the target",
+                       vec(*cam.position)));
+  c.range("camera.fov", cam.fov, 5, true, 150, true, "in [5, 150] degrees", "use e.g. 40 (the default)");
 }
 
 }  // namespace mca

@@ -89,7 +89,7 @@ long temporary_owner(const std::string& name) {
   };
   if (!digits(pid) || !digits(counter)) return 0;
   // Only temporaries of the files a run writes: a user's "notes.2024.01.tmp" is left alone.
-  static const std::string_view ours[] = {".vtu", ".pvd", ".csv", ".json", ".toml", ".mcack", ".ply", ".obj"};
+  static const std::string_view ours[] = {".vtu", ".pvd", ".csv", ".json", ".toml", ".mcack", ".ply", ".obj", ".png", ".mp4"};
   const std::string target = stem.substr(0, pid_dot);
   if (std::none_of(std::begin(ours), std::end(ours), [&](std::string_view ext) {
         return target.size() > ext.size() && target.compare(target.size() - ext.size(), ext.size(), ext) == 0;
@@ -124,12 +124,17 @@ void remove_stale_temporaries(const fs::path& dir) {
   for (const auto& p : doomed) fs::remove(p, ec);
 }
 
-void write_file_atomic(const fs::path& path, const std::function<void(std::ostream&)>& write,
-                       bool binary, Durability durability) {
+fs::path temporary_path(const fs::path& path) {
   // The process id keeps other processes off this name, the counter other calls of this process.
   static std::atomic<std::uint64_t> counter{0};
   fs::path tmp = path;
   tmp += fmt::format(".{}.{}.tmp", ::getpid(), counter++);
+  return tmp;
+}
+
+void write_file_atomic(const fs::path& path, const std::function<void(std::ostream&)>& write,
+                       bool binary, Durability durability) {
+  const fs::path tmp = temporary_path(path);
 
   const auto discard_tmp = [&] {
     std::error_code ignored;

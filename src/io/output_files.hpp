@@ -34,8 +34,12 @@ void write_file_atomic(const std::filesystem::path& path,
                        const std::function<void(std::ostream&)>& write, bool binary = true,
                        Durability durability = Durability::renamed);
 
+// A temporary name for `path` in the same folder, as write_file_atomic uses: `path` + ".<pid>.<n>.tmp". For
+// files written by another program (the video, by ffmpeg) and renamed into place by the caller.
+std::filesystem::path temporary_path(const std::filesystem::path& path);
+
 // Removes the temporary files write_file_atomic left in `dir` (not below) for the outputs of a run
-// (.vtu, .pvd, .csv, .json, .toml, .mcack, .ply, .obj) when their process is gone (a killed run); those of running
+// (.vtu, .pvd, .csv, .json, .toml, .mcack, .ply, .obj, .png, .mp4) when their process is gone (a killed run); those of running
 // processes and every other file stay. A missing folder is fine.
 void remove_stale_temporaries(const std::filesystem::path& dir);
 

@@ -579,7 +579,7 @@ LoadDef read_load(const Table& tb, std::size_t index) {
 
 SceneDef read_scene(const Table& root, const std::string& source) {
   root.allow({"name", "solver", "output", "heterogeneity", "material", "object", "projectile", "grip", "load",
-              "ground"});
+              "ground", "camera"});
   SceneDef scene;
   scene.source = source;
   scene.name = std::filesystem::path(source).stem().string();
@@ -643,6 +643,14 @@ SceneDef read_scene(const Table& root, const std::string& source) {
     tb->number("restitution", scene.ground.restitution);
     tb->number("rolling_friction", scene.ground.rolling_friction);
     tb->number("twisting_friction", scene.ground.twisting_friction);
+  }
+
+  if (auto tb = root.table("camera", "[camera]")) {
+    tb->allow({"position", "target", "fov"});
+    Vec3d v{};
+    if (tb->vec3("position", v)) scene.camera.position = v;
+    if (tb->vec3("target", v)) scene.camera.target = v;
+    tb->number("fov", scene.camera.fov);
   }
 
   for (const Table& tb : root.tables("material", "[[material]]")) {
@@ -779,6 +787,11 @@ std::string scene_to_toml(const SceneDef& s) {
   out += fmt::format("restitution = {}\n", toml_double(s.ground.restitution));
   out += fmt::format("rolling_friction = {}\n", toml_double(s.ground.rolling_friction));
   out += fmt::format("twisting_friction = {}\n", toml_double(s.ground.twisting_friction));
+
+  out += "\n[camera]\n";
+  if (s.camera.position) out += fmt::format("position = {}\n", vec(*s.camera.position));
+  if (s.camera.target) out += fmt::format("target = {}\n", vec(*s.camera.target));
+  out += fmt::format("fov = {}\n", toml_double(s.camera.fov));
 
   for (const MaterialDef& m : s.materials) {
     out += "\n[[material]]\n";

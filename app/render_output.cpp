@@ -1,0 +1,196 @@
+#include "app/render_output.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+
+#include <fmt/format.h>
+#include <spawn.h>
+#include <sys/wait.h>
+
+#include "io/output_files.hpp"
+#include "mca/error.hpp"
+#include "render/egl_context.hpp"
+#include "render/renderer.hpp"
+
+extern char** environ;
+
+namespace mca::app {
+namespace {
+
+constexpr int kSheetTiles = 6, kSheetColumns = 3;
+
+void write_bytes(const std::filesystem::path& path, const std::vector<std::uint8_t>& bytes) {
+  io::write_file_atomic(path, [&](std::ostream& os) {
+    os.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  });
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+void check_render_size(int width, int height) {
+  if (width < 16 || height < 16 || width > 8192 || height > 8192)
+    throw Error(fmt::format("--render-size {}x{} is out of range: each side must be 16 to 8192 pixels; give e.g. "
+                            "--render-size 1280x720",
+                            width, height));
+}
+
+std::pair<int, int> parse_render_size(const std::string& text) {
+  const auto x = text.find_first_of("xX");
+  int w = -1, h = -1;
+  bool ok = x != std::string::npos;
+  if (ok) {
+    const char* b = text.data();
+    const auto r1 = std::from_chars(b, b + x, w);
+    const auto r2 = std::from_chars(b + x + 1, b + text.size(), h);
+    ok = r1.ec == std::errc() && r1.ptr == b + x && r2.ec == std::errc() && r2.ptr == b + text.size();
+  }
+  if (!ok)
+    throw Error(fmt::format("--render-size '{}' is not WIDTHxHEIGHT in pixels; give e.g. --render-size 1280x720", text));
+  check_render_size(w, h);
+  return {w, h};
+}
+
+std::string RenderOutput::frame_name(std::int64_t frame) { return fmt::format("frame_{:06d}.png", frame); }
+
+RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, const RenderOptions& options,
+                           std::int64_t frames, bool quiet)
+    : dir_(dir / "render"), sim_(sim), options_(options), quiet_(quiet), frames_(frames) {
+  check_render_size(options.width, options.height);
+  const Model& m = sim.model();
+  if (options.draw == render::DrawMode::surface && m.surface.faces() == 0)
+    throw Error(fmt::format("--render-draw surface needs an object of shape \"mesh\" (its triangles are drawn); scene "
+                            "'{}' has none: use --render-draw cubes or spheres",
+                            sim.scene().source));
+  // Everything that can fail comes before the folder is touched: the context, the shaders, the camera.
+  context_ = std::make_unique<render::EglContext>();
+  renderer_ = std::make_unique<render::Renderer>();
+  target_ = std::make_unique<render::OffscreenTarget>(options.width, options.height);
+  framing_ = render::objects_box(m, sim.state());
+  camera_ = render::make_camera(sim.scene().camera, m, framing_,
+                                static_cast<float>(options.width) / static_cast<float>(options.height),
+                                sim.scene().source);
+  // Continuous colours on one scale for the whole run: speeds up to the fastest initial speed, stresses
+  // up to the strongest tensile strength (where the stress criterion breaks links of full-strength class).
+  if (options.colour == render::ColourMode::speed) {
+    for (const auto& p : m.projectiles) scale_max_ = std::max<double>(scale_max_, length(p.velocity));
+    for (const Vec3& v : m.velocity0) scale_max_ = std::max<double>(scale_max_, length(v));
+    if (scale_max_ <= 0) scale_max_ = 1;
+  } else if (options.colour == render::ColourMode::stress) {
+    std::vector<std::uint8_t> used(m.groups.size());
+    for (auto g : m.group) used[g] = 1;
+    for (std::size_t g = 0; g < m.groups.size(); ++g)
+      if (used[g]) scale_max_ = std::max<double>(scale_max_, m.groups[g].tensile_strength);
+  }
+  fps_ = options.fps > 0 ? options.fps : std::clamp(std::round(static_cast<double>(frames + 1) / 4.0), 10.0, 30.0);
+
+  io::prepare_output_dir(dir_);
+  io::remove_stale_temporaries(dir_);
+  for (const auto& e : std::filesystem::directory_iterator(dir_)) {
+    const std::string name = e.path().filename().string();
+    if (e.is_regular_file() && name.rfind("frame_", 0) == 0 && e.path().extension() == ".png")
+      std::filesystem::remove(e.path());
+  }
+  for (const char* old : {"video.mp4", "contact_sheet.png"}) std::filesystem::remove(dir_ / old);
+  if (const auto ffmpeg = render::find_ffmpeg()) {
+    video_ = std::make_unique<render::VideoEncoder>(*ffmpeg, dir_ / "video.mp4", io::temporary_path(dir_ / "video.mp4"),
+                                                    options.width, options.height, fps_);
+  } else {
+    fmt::print(stderr,
+               "warning: ffmpeg is not installed: render/video.mp4 will not be written (the PNG frames are). Install "
+               "it with `apt-get install ffmpeg` (scripts/setup.sh does), then make the video from the frames with: "
+               "ffmpeg -framerate {:g} -i {}/frame_%06d.png -pix_fmt yuv420p {}/video.mp4\n",
+               fps_, dir_.string(), dir_.string());
+  }
+  if (!quiet_)
+    fmt::print(stderr, "mca: rendering {}x{} ({}, colour by {}) with {} ({}) into {}\n", options.width, options.height,
+               render::name(options.draw), render::name(options.colour), render::Renderer::gl_description(),
+               context_->source(), dir_.string());
+}
+
+RenderOutput::~RenderOutput() = default;
+
+void RenderOutput::write_frame(std::int64_t frame, const State& state, const analysis::Fragments& fragments) {
+  const auto t0 = std::chrono::steady_clock::now();
+  render::SnapshotOptions so;
+  so.draw = options_.draw;
+  so.colour = options_.colour;
+  so.scale_max = scale_max_;
+  const render::Snapshot snap = render::make_snapshot(sim_.model(), state, fragments, so, framing_.origin);
+  target_->bind();
+  renderer_->draw(snap, options_.draw, camera_, options_.width, options_.height);
+  render::Image im;
+  im.width = options_.width;
+  im.height = options_.height;
+  target_->read_rgba(im.rgba);
+  write_bytes(dir_ / frame_name(frame), render::encode_png(im));
+  if (video_) video_->add_frame(im);
+  // The contact sheet: frames 0, F/5, 2F/5, ..., F, each at half size.
+  for (int k = 0; k < kSheetTiles; ++k)
+    if (frame == (frames_ * k) / (kSheetTiles - 1)) sheet_[frame] = render::shrink(im, 2);
+  seconds_ += seconds_since(t0);
+}
+
+void RenderOutput::finish() {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (video_) {
+    video_->finish();
+    video_.reset();
+  }
+  std::vector<render::Image> tiles;
+  for (auto& [frame, im] : sheet_) tiles.push_back(std::move(im));
+  sheet_.clear();
+  if (!tiles.empty()) write_bytes(dir_ / "contact_sheet.png", render::encode_png(render::tile(tiles, kSheetColumns, 4)));
+  seconds_ += seconds_since(t0);
+  if (!quiet_) {
+    fmt::print(stderr, "render: {} frames (frame_NNNNNN.png) and contact_sheet.png in {} ({:.1f} s of drawing and "
+               "writing)\n",
+               frames_ + 1, dir_.string(), seconds_);
+    if (std::filesystem::exists(dir_ / "video.mp4"))
+      fmt::print(stderr, "video: {} ({} frames at {:g} frames/s: {:.1f} s)\n", (dir_ / "video.mp4").string(),
+                 frames_ + 1, fps_, static_cast<double>(frames_ + 1) / fps_);
+  }
+}
+
+bool run_plot_script(const std::filesystem::path& dir, bool quiet) {
+  const std::filesystem::path script = std::filesystem::path(MCA_TOOLS_DIR) / "plot_run.py";
+  const std::string shown = fmt::format("python3 {} {}", script.string(), dir.string());
+  if (!std::filesystem::exists(script)) {
+    fmt::print(stderr, "warning: no plots: {} is missing (it comes with the source tree)\n", script.string());
+    return false;
+  }
+  // Debian's python3 first: python3-matplotlib installs for it, and a python3 earlier on PATH (a virtual
+  // environment, pyenv) may lack it.
+  const std::string python = std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+  std::vector<std::string> args = {python, script.string(), dir.string()};
+  if (quiet) args.push_back("--quiet");
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  const int rc = posix_spawnp(&pid, python.c_str(), nullptr, nullptr, argv.data(), environ);
+  if (rc != 0) {
+    fmt::print(stderr, "warning: no plots: python3 cannot be started ({}); install it with `apt-get install python3 "
+                       "python3-matplotlib` (scripts/setup.sh does), then run: {}\n",
+               std::strerror(rc), shown);
+    return false;
+  }
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (!(WIFEXITED(status) && WEXITSTATUS(status) == 0)) {
+    fmt::print(stderr, "warning: the plots were not made ({} exited with {}); the run's other outputs are complete\n",
+               script.filename().string(), WIFEXITED(status) ? WEXITSTATUS(status) : -1);
+    return false;
+  }
+  return true;
+}
+
+}  // namespace mca::app

@@ -1,0 +1,85 @@
+#pragma once
+// What `mca run --render` writes into <out>/render/: frame_NNNNNN.png per output frame, video.mp4 (through
+// ffmpeg) and contact_sheet.png, then the plots of tools/plot_run.py. Only reads the state.
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "analysis/fragments.hpp"
+#include "render/camera.hpp"
+#include "render/image.hpp"
+#include "render/snapshot.hpp"
+#include "sim/engine.hpp"
+
+namespace mca::render {
+class EglContext;
+class Renderer;
+class OffscreenTarget;
+}  // namespace mca::render
+
+namespace mca::app {
+
+struct RenderOptions {
+  int width = 1280, height = 720;
+  render::ColourMode colour = render::ColourMode::fragment;
+  render::DrawMode draw = render::DrawMode::cubes;
+  double fps = 0;  // of the video; 0: the frames / 4, in [10, 30] (the default scene's video lasts 3 s)
+  bool plots = true;
+};
+
+// "1280x720" -> width, height; throws mca::Error for anything else (zero, negative, huge, not WxH).
+std::pair<int, int> parse_render_size(const std::string& text);
+
+// Checks a render size (each side 16 to 8192 pixels). Throws mca::Error naming the option and the fix.
+void check_render_size(int width, int height);
+
+// The offscreen renderer of a run: the camera of the scene's [camera] (or framed automatically) fixed at
+// frame 0 of `sim`.
+class RenderOutput {
+ public:
+  // Makes the OpenGL context, the camera and the render/ folder (emptied of an earlier run's frames and
+  // video); throws mca::Error before anything is written when any of them fails. `frames`: the output
+  // frames the run will write after frame 0 (for the contact sheet and the video's frame rate).
+  RenderOutput(const std::filesystem::path& dir, const Engine& sim, const RenderOptions& options, std::int64_t frames,
+               bool quiet);
+  ~RenderOutput();
+  RenderOutput(const RenderOutput&) = delete;
+  RenderOutput& operator=(const RenderOutput&) = delete;
+
+  // Renders frame `frame` (0 = the initial state) to render/frame_NNNNNN.png and the video.
+  void write_frame(std::int64_t frame, const State& state, const analysis::Fragments& fragments);
+  // Finishes the video and writes the contact sheet and the plots (after summary.json and fragments.csv).
+  void finish();
+  // Wall time spent rendering and writing pictures so far [s].
+  double seconds() const { return seconds_; }
+  const render::Camera& camera() const { return camera_; }
+
+  static std::string frame_name(std::int64_t frame);
+
+ private:
+  std::filesystem::path dir_;
+  const Engine& sim_;
+  RenderOptions options_;
+  bool quiet_;
+  std::int64_t frames_;
+  std::unique_ptr<render::EglContext> context_;
+  std::unique_ptr<render::Renderer> renderer_;
+  std::unique_ptr<render::OffscreenTarget> target_;
+  std::unique_ptr<render::VideoEncoder> video_;
+  render::Framing framing_;
+  render::Camera camera_;
+  double scale_max_ = 0;
+  double fps_ = 10;
+  std::map<std::int64_t, render::Image> sheet_;  // the contact sheet's frames, shrunk
+  double seconds_ = 0;
+};
+
+// Runs tools/plot_run.py on a run's folder (energies, broken links, fragment masses as PNG in render/).
+// Prints a message and returns false when python3, matplotlib or the script is missing or it fails.
+bool run_plot_script(const std::filesystem::path& dir, bool quiet);
+
+}  // namespace mca::app

@@ -1,0 +1,441 @@
+// `mca view`: the live viewer. A GLFW window draws with the same renderer as `mca run --render`; the
+// simulation runs in its own thread and hands the window a finished Snapshot (positions, orientations,
+// colours) through a mutex-guarded slot, so drawing never waits for a step and never reads the state.
+// libepoxy before GLFW, which then leaves out its own GL header.
+#include <epoxy/gl.h>
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <deque>
+#include <fstream>
+#include <memory>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+#include <fmt/format.h>
+#include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <tbb/global_control.h>
+
+#include "analysis/fragments.hpp"
+#include "app/commands.hpp"
+#include "io/output_files.hpp"
+#include "io/scene_io.hpp"
+#include "mca/error.hpp"
+#include "render/camera.hpp"
+#include "render/image.hpp"
+#include "render/renderer.hpp"
+#include "render/snapshot.hpp"
+#include "sim/engine.hpp"
+
+namespace mca::app {
+namespace {
+
+struct Shot {
+  double time = 0;      // scripted: simulated time to fire at [s]
+  float x = 0.5f, y = 0.5f;  // the cursor as a share of the window (0, 0 top left)
+};
+
+// A script of timed shots: one per line, "TIME X Y" (simulated seconds; the aim as shares of the window's
+// width and height from its top left); '#' starts a comment.
+std::vector<Shot> read_script(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error(fmt::format("--script {}: cannot open it", path));
+  std::vector<Shot> shots;
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    line = line.substr(0, line.find('#'));
+    std::istringstream ss(line);
+    Shot s;
+    if (!(ss >> s.time)) continue;  // a blank line
+    std::string rest;
+    if (!(ss >> s.x >> s.y) || (ss >> rest) || !(s.time >= 0) || !(s.x >= 0 && s.x <= 1 && s.y >= 0 && s.y <= 1))
+      throw Error(fmt::format("--script {}:{}: '{}' is not 'TIME X Y' (simulated seconds >= 0, then the aim as shares "
+                              "0..1 of the window's width and height from the top left), e.g. 0.002 0.5 0.5",
+                              path, n, line));
+    shots.push_back(s);
+  }
+  std::sort(shots.begin(), shots.end(), [](const Shot& a, const Shot& b) { return a.time < b.time; });
+  return shots;
+}
+
+struct Ball {
+  float speed = 40;   // m/s
+  float radius = 0.1f;  // m
+  float mass = 32;    // kg (steel, r = 0.1 m)
+};
+
+struct Command {
+  enum Kind { restart, step, shoot } kind;
+  glm::dvec3 origin{0}, direction{0};
+  Ball ball;
+};
+
+// What the simulation thread shares with the window.
+struct Shared {
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::shared_ptr<const render::Snapshot> snapshot;  // the newest, replaced whole (never written in place)
+  std::uint64_t sequence = 0;                        // snapshots published so far
+  std::deque<Command> commands;
+  std::string message;                               // the last shot's error, shown in the overlay
+  std::atomic<bool> quit{false}, paused{false};
+  std::atomic<int> colour{0}, draw{0};
+  std::atomic<double> steps_per_second{0};
+};
+
+// Fires a ball: the engine is rebuilt from the scene with one more projectile, continuing from the current
+// state with the ball added (Engine's constructor from a state checks it against the new model). The new
+// ball's kinetic energy joins the run's energy budget, as if it had been there from the start.
+std::unique_ptr<Engine> with_shot(const Engine& sim, const Command& c) {
+  SceneDef scene = sim.scene();
+  ProjectileDef p;
+  p.name = fmt::format("shot{}", scene.projectiles.size());
+  p.radius = c.ball.radius;
+  p.material = "steel";
+  p.density = c.ball.mass / (4.0 / 3.0 * 3.14159265358979 * std::pow(c.ball.radius, 3));
+  const glm::dvec3 v = c.direction * static_cast<double>(c.ball.speed);
+  p.position = {c.origin.x, c.origin.y, c.origin.z};
+  p.velocity = {v.x, v.y, v.z};
+  scene.projectiles.push_back(p);
+  State s = sim.state();
+  ProjectileState ps;
+  ps.position = {c.origin.x, c.origin.y, c.origin.z};
+  ps.velocity = {static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)};
+  s.projectiles.push_back(ps);
+  s.initial_energy += 0.5 * c.ball.mass * c.ball.speed * c.ball.speed;
+  return std::make_unique<Engine>(scene, s, "the viewer's shot");
+}
+
+void simulate(const SceneDef& scene, Shared& sh, bool lockstep, std::array<double, 3> origin) {
+  auto sim = std::make_unique<Engine>(scene);
+  std::int64_t chunk = 16;
+  auto publish = [&] {
+    const Model& m = sim->model();
+    const auto frags = analysis::label_lattice_fragments(m.size(), m.neighbour.data(), sim->state().intact.data(),
+                                                         m.mass.data());
+    render::SnapshotOptions o;
+    o.colour = static_cast<render::ColourMode>(sh.colour.load());
+    o.draw = static_cast<render::DrawMode>(sh.draw.load());
+    if (o.draw == render::DrawMode::surface && m.surface.faces() == 0) o.draw = render::DrawMode::cubes;
+    auto snap = std::make_shared<render::Snapshot>(render::make_snapshot(m, sim->state(), frags, o, origin));
+    std::unique_lock lock(sh.mutex);
+    // In lockstep (scripted runs) the window shows every snapshot: wait until it has taken the last one.
+    if (lockstep) sh.changed.wait(lock, [&] { return sh.quit || !sh.snapshot; });
+    sh.snapshot = std::move(snap);
+    ++sh.sequence;
+    sh.changed.notify_all();
+  };
+  publish();
+  while (!sh.quit) {
+    std::deque<Command> todo;
+    {
+      std::lock_guard lock(sh.mutex);
+      todo.swap(sh.commands);
+    }
+    int steps = 0;
+    for (const Command& c : todo) {
+      try {
+        if (c.kind == Command::restart) sim = std::make_unique<Engine>(scene);
+        if (c.kind == Command::shoot) sim = with_shot(*sim, c);
+        if (c.kind == Command::step) steps += sim->steps_per_frame();
+      } catch (const Error& e) {
+        std::lock_guard lock(sh.mutex);
+        sh.message = e.what();
+      }
+    }
+    if (lockstep) steps = sim->steps_per_frame();
+    else if (!sh.paused) steps = static_cast<int>(chunk);
+    if (steps == 0) {
+      if (!todo.empty()) publish();
+      std::unique_lock lock(sh.mutex);
+      sh.changed.wait_for(lock, std::chrono::milliseconds(20), [&] { return sh.quit || !sh.commands.empty(); });
+      continue;
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    const StepHealth h = sim->advance(steps);
+    const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    sh.steps_per_second = took > 0 ? steps / took : 0;
+    // About 30 snapshots per second of wall time.
+    if (took < 0.025 && chunk < 1 << 20) chunk *= 2;
+    else if (took > 0.05 && chunk > 1) chunk /= 2;
+    if (h.flags != kHealthy) {
+      std::lock_guard lock(sh.mutex);
+      sh.message = "the run became unstable: paused (R restarts)";
+      sh.paused = true;
+    }
+    publish();
+  }
+}
+
+struct Input {
+  double last_x = 0, last_y = 0, press_x = 0, press_y = 0;
+  bool left = false, right = false, dragged = false;
+  float yaw = 0, pitch = 0, distance = 1;
+  glm::vec3 target{0};
+  std::vector<std::pair<int, int>> keys;  // key, mods
+  std::vector<std::pair<double, double>> clicks;
+  double scroll = 0;
+};
+
+}  // namespace
+
+int view(const ViewOptions& o) {
+  SceneDef scene = o.scene ? io::load_scene_file(*o.scene) : io::load_default_scene();
+  const std::vector<Shot> script = o.script ? read_script(*o.script) : std::vector<Shot>{};
+  if (o.frames && *o.frames < 1) throw Error(fmt::format("--frames {} must be at least 1", *o.frames));
+  const int threads = thread_count(o.threads);
+  tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+  if (!glfwInit())
+    throw Error("mca view needs a display (an X11 or Wayland session; DISPLAY is not set or cannot be opened); "
+                "without one, render the run offscreen with `mca run --render` (pictures and a video), or use a "
+                "virtual display: xvfb-run -a mca view");
+  struct Terminate {
+    ~Terminate() { glfwTerminate(); }
+  } terminate;
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 4);
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 5);
+  glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+  glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
+  GLFWwindow* win = glfwCreateWindow(o.width, o.height, fmt::format("mca view: {}", scene.name).c_str(), nullptr, nullptr);
+  if (!win)
+    throw Error("mca view: the display gives no OpenGL 4.5 core window (install libgl1-mesa-dri, scripts/setup.sh); "
+                "`mca run --render` renders offscreen without a window");
+  glfwMakeContextCurrent(win);
+  glfwSwapInterval(o.frames ? 0 : 1);
+  render::Renderer renderer;
+
+  // The camera of the scene (or framed automatically) at the start, then moved by the mouse.
+  Engine first(scene);
+  const render::Framing framing = render::objects_box(first.model(), first.state());
+  const render::Camera start = render::make_camera(scene.camera, first.model(), framing,
+                                                   static_cast<float>(o.width) / static_cast<float>(o.height), scene.source);
+  Input in;
+  {
+    const glm::vec3 d = start.eye - start.target;
+    const glm::vec3 up = start.up;
+    in.distance = glm::length(d);
+    in.target = start.target;
+    in.pitch = std::asin(std::clamp(glm::dot(d, up) / in.distance, -1.0f, 1.0f));
+    // Yaw measured in the plane perpendicular to up, from an axis of that plane.
+    const glm::vec3 a = glm::normalize(std::abs(up.x) < 0.9f ? glm::cross(up, glm::vec3(1, 0, 0)) : glm::cross(up, glm::vec3(0, 1, 0)));
+    const glm::vec3 b = glm::cross(up, a);
+    in.yaw = std::atan2(glm::dot(d, b), glm::dot(d, a));
+  }
+  const glm::vec3 up = start.up;
+  const glm::vec3 axis_a = glm::normalize(std::abs(up.x) < 0.9f ? glm::cross(up, glm::vec3(1, 0, 0)) : glm::cross(up, glm::vec3(0, 1, 0)));
+  const glm::vec3 axis_b = glm::cross(up, axis_a);
+  auto camera = [&] {
+    render::Camera c = start;
+    const glm::vec3 dir = std::cos(in.pitch) * (std::cos(in.yaw) * axis_a + std::sin(in.yaw) * axis_b) + std::sin(in.pitch) * up;
+    c.target = in.target;
+    c.eye = in.target + in.distance * dir;
+    c.near = std::max(1e-3f, 0.02f * in.distance);
+    c.far = 100.0f * in.distance + 100.0f;
+    return c;
+  };
+
+  glfwSetWindowUserPointer(win, &in);
+  glfwSetKeyCallback(win, [](GLFWwindow* w, int key, int, int action, int mods) {
+    if (action == GLFW_PRESS || action == GLFW_REPEAT) static_cast<Input*>(glfwGetWindowUserPointer(w))->keys.push_back({key, mods});
+  });
+  glfwSetScrollCallback(win, [](GLFWwindow* w, double, double dy) { static_cast<Input*>(glfwGetWindowUserPointer(w))->scroll += dy; });
+  glfwSetMouseButtonCallback(win, [](GLFWwindow* w, int button, int action, int) {
+    auto& I = *static_cast<Input*>(glfwGetWindowUserPointer(w));
+    double x, y;
+    glfwGetCursorPos(w, &x, &y);
+    if (button == GLFW_MOUSE_BUTTON_LEFT) {
+      if (action == GLFW_PRESS) {
+        I.left = true;
+        I.dragged = false;
+        I.press_x = x;
+        I.press_y = y;
+      } else {
+        I.left = false;
+        if (!I.dragged) I.clicks.push_back({x, y});  // a click, not a drag: shoot
+      }
+    }
+    if (button == GLFW_MOUSE_BUTTON_RIGHT || button == GLFW_MOUSE_BUTTON_MIDDLE) I.right = action == GLFW_PRESS;
+    I.last_x = x;
+    I.last_y = y;
+  });
+  glfwSetCursorPosCallback(win, [](GLFWwindow* w, double x, double y) {
+    auto& I = *static_cast<Input*>(glfwGetWindowUserPointer(w));
+    const double dx = x - I.last_x, dy = y - I.last_y;
+    if (I.left && std::hypot(x - I.press_x, y - I.press_y) > 4) I.dragged = true;
+    if (I.left && I.dragged) {
+      I.yaw -= static_cast<float>(dx) * 0.006f;
+      I.pitch = std::clamp(I.pitch + static_cast<float>(dy) * 0.006f, -1.5f, 1.5f);
+    }
+    I.last_x = x;
+    I.last_y = y;
+  });
+
+  Shared sh;
+  const bool lockstep = o.frames.has_value();
+  std::thread worker([&] {
+    try {
+      simulate(scene, sh, lockstep, framing.origin);
+    } catch (const std::exception& e) {
+      std::lock_guard lock(sh.mutex);
+      sh.message = e.what();
+    }
+  });
+  struct Join {
+    Shared& sh;
+    std::thread& t;
+    ~Join() {
+      sh.quit = true;
+      sh.changed.notify_all();
+      if (t.joinable()) t.join();
+    }
+  } join{sh, worker};
+
+  Ball ball;
+  std::size_t next_shot = 0;
+  std::int64_t shown = 0;
+  std::shared_ptr<const render::Snapshot> snap;
+  auto fps_t0 = std::chrono::steady_clock::now();
+  int fps_frames = 0;
+  double fps = 0;
+  double last_px = 0, last_py = 0;
+  std::vector<std::uint8_t> pixels;
+  auto shoot_at = [&](double fx, double fy, int w, int h) {
+    // The ray from the eye through the cursor.
+    const render::Camera c = camera();
+    const glm::mat4 inv = glm::inverse(c.projection(static_cast<float>(w) / h) * c.view());
+    const glm::vec4 far = inv * glm::vec4(2 * fx - 1, 1 - 2 * fy, 1, 1);
+    const glm::vec3 dir = glm::normalize(glm::vec3(far) / far.w - c.eye);
+    Command cmd{Command::shoot, glm::dvec3(c.eye) + glm::dvec3(framing.origin[0], framing.origin[1], framing.origin[2]),
+                glm::dvec3(dir), ball};
+    std::lock_guard lock(sh.mutex);
+    sh.commands.push_back(cmd);
+    sh.changed.notify_all();
+  };
+  while (!glfwWindowShouldClose(win)) {
+    glfwPollEvents();
+    int w = 0, h = 0;
+    glfwGetFramebufferSize(win, &w, &h);
+    // The newest snapshot (in lockstep: wait for the next one).
+    {
+      std::unique_lock lock(sh.mutex);
+      if (lockstep) sh.changed.wait(lock, [&] { return sh.snapshot != nullptr || !sh.message.empty(); });
+      if (sh.snapshot) {
+        snap = std::move(sh.snapshot);
+        sh.snapshot.reset();
+        sh.changed.notify_all();
+      }
+    }
+    if (!snap) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      continue;
+    }
+    // Input.
+    double px, py;
+    glfwGetCursorPos(win, &px, &py);
+    if (in.right) {
+      // Pan: move the target in the view plane by the cursor's motion, scaled to the distance.
+      const render::Camera c = camera();
+      const glm::vec3 f = glm::normalize(c.target - c.eye), r = glm::normalize(glm::cross(f, up)), u = glm::cross(r, f);
+      const float k = in.distance * 0.0015f;
+      in.target += (-static_cast<float>(px - last_px) * r + static_cast<float>(py - last_py) * u) * k;
+    }
+    last_px = px;
+    last_py = py;
+    if (in.scroll != 0) {
+      in.distance *= std::pow(0.9f, static_cast<float>(in.scroll));
+      in.scroll = 0;
+    }
+    for (const auto& [key, mods] : in.keys) {
+      const auto cycle = [&](std::atomic<int>& v, int n) { v = (v + ((mods & GLFW_MOD_SHIFT) ? n - 1 : 1)) % n; };
+      switch (key) {
+        case GLFW_KEY_SPACE: sh.paused = !sh.paused; break;
+        case GLFW_KEY_N: {
+          sh.paused = true;
+          std::lock_guard lock(sh.mutex);
+          sh.commands.push_back({Command::step, {}, {}, ball});
+          break;
+        }
+        case GLFW_KEY_R: {
+          std::lock_guard lock(sh.mutex);
+          sh.commands.push_back({Command::restart, {}, {}, ball});
+          sh.message.clear();
+          break;
+        }
+        case GLFW_KEY_C: cycle(sh.colour, 6); break;
+        case GLFW_KEY_D: cycle(sh.draw, 4); break;
+        case GLFW_KEY_UP: ball.speed *= 1.25f; break;
+        case GLFW_KEY_DOWN: ball.speed /= 1.25f; break;
+        case GLFW_KEY_RIGHT: ball.radius *= 1.25f; break;
+        case GLFW_KEY_LEFT: ball.radius /= 1.25f; break;
+        case GLFW_KEY_PAGE_UP: ball.mass *= 1.5f; break;
+        case GLFW_KEY_PAGE_DOWN: ball.mass /= 1.5f; break;
+        case GLFW_KEY_ESCAPE:
+        case GLFW_KEY_Q: glfwSetWindowShouldClose(win, GLFW_TRUE); break;
+        default: break;
+      }
+      std::lock_guard lock(sh.mutex);
+      sh.changed.notify_all();
+    }
+    in.keys.clear();
+    for (const auto& [cx, cy] : in.clicks) shoot_at(cx / std::max(w, 1), cy / std::max(h, 1), w, h);
+    in.clicks.clear();
+    while (next_shot < script.size() && script[next_shot].time <= snap->time) {
+      shoot_at(script[next_shot].x, script[next_shot].y, w, h);
+      ++next_shot;
+    }
+
+    // Draw.
+    ++fps_frames;
+    const double since = std::chrono::duration<double>(std::chrono::steady_clock::now() - fps_t0).count();
+    if (since > 0.5) {
+      fps = fps_frames / since;
+      fps_frames = 0;
+      fps_t0 = std::chrono::steady_clock::now();
+    }
+    render::Overlay ov;
+    std::string message;
+    {
+      std::lock_guard lock(sh.mutex);
+      message = sh.message;
+    }
+    ov.lines = {fmt::format("{:.0f} fps   {:.0f} steps/s{}", fps, sh.steps_per_second.load(), sh.paused ? "   paused" : ""),
+                fmt::format("automata {}   drawn {}", snap->automata_total, snap->automata.size()),
+                fmt::format("ball {:.0f} m/s  r {:.2f} m  {:.1f} kg   colour {}  draw {}", ball.speed, ball.radius, ball.mass,
+                            render::name(static_cast<render::ColourMode>(sh.colour.load())),
+                            render::name(static_cast<render::DrawMode>(sh.draw.load())))};
+    if (!message.empty()) ov.lines.push_back(message.substr(0, 120));
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    renderer.draw(*snap, static_cast<render::DrawMode>(sh.draw.load()), camera(), w, h, ov);
+    ++shown;
+    const bool last = o.frames && shown >= *o.frames;
+    if (last && o.screenshot) {
+      render::Image im{w, h, {}};
+      glReadBuffer(GL_BACK);
+      render::read_pixels(w, h, im.rgba);
+      const auto bytes = render::encode_png(im);
+      io::write_file_atomic(*o.screenshot, [&](std::ostream& os) {
+        os.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+      });
+    }
+    glfwSwapBuffers(win);
+    glfwSetWindowTitle(win, fmt::format("mca view: {}  t = {:.2f} ms  broken {}  fragments {}  {:.0f} fps", scene.name,
+                                        1e3 * snap->time, snap->broken_links, snap->fragments, fps)
+                                .c_str());
+    if (last) break;
+  }
+  if (!o.quiet)
+    fmt::print(stderr, "mca view: {} frames shown, t = {:.2f} ms, {} balls, broken links {}, fragments {}{}\n", shown,
+               snap ? 1e3 * snap->time : 0.0, snap ? snap->projectiles.size() : 0, snap ? snap->broken_links : 0,
+               snap ? snap->fragments : 0,
+               o.screenshot ? fmt::format("; screenshot {}", *o.screenshot) : "");
+  return 0;
+}
+
+}  // namespace mca::app

@@ -1,0 +1,125 @@
+#include "render/camera.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/trigonometric.hpp>
+
+#include "mca/error.hpp"
+
+namespace mca::render {
+namespace {
+
+std::string shown(const glm::dvec3& v) { return fmt::format("[{:.3g}, {:.3g}, {:.3g}]", v.x, v.y, v.z); }
+
+// A unit vector perpendicular to `up`, near `hint`.
+glm::vec3 horizontal(glm::vec3 hint, glm::vec3 up) {
+  glm::vec3 h = hint - glm::dot(hint, up) * up;
+  if (glm::length(h) < 1e-4f) {
+    h = glm::abs(up.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
+    h -= glm::dot(h, up) * up;
+  }
+  return glm::normalize(h);
+}
+
+}  // namespace
+
+glm::mat4 Camera::view() const { return glm::lookAt(eye, target, up); }
+glm::mat4 Camera::projection(float aspect) const { return glm::perspective(glm::radians(fov), aspect, near, far); }
+
+Framing objects_box(const Model& model, const State& state) {
+  Framing f;
+  if (state.x.empty()) return f;
+  glm::dvec3 lo(state.x[0].x, state.x[0].y, state.x[0].z), hi = lo;
+  for (const DVec3& p : state.x) {
+    lo = glm::min(lo, glm::dvec3(p.x, p.y, p.z));
+    hi = glm::max(hi, glm::dvec3(p.x, p.y, p.z));
+  }
+  const glm::dvec3 c = 0.5 * (lo + hi);
+  f.origin = {c.x, c.y, c.z};
+  const double h = 0.5 * model.spacing;
+  f.box_lo = glm::vec3(lo - c - h);
+  f.box_hi = glm::vec3(hi - c + h);
+  return f;
+}
+
+Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, float aspect, const std::string& source) {
+  Camera cam;
+  const glm::dvec3 origin(fr.origin[0], fr.origin[1], fr.origin[2]);
+  cam.up = glm::normalize(glm::vec3(model.up.x, model.up.y, model.up.z));
+  cam.fov = static_cast<float>(def.fov);
+  const glm::vec3 centre = 0.5f * (fr.box_lo + fr.box_hi);
+  cam.target = def.target ? glm::vec3(glm::dvec3((*def.target)[0], (*def.target)[1], (*def.target)[2]) - origin) : centre;
+  const std::array<glm::vec3, 8> corners = [&] {
+    std::array<glm::vec3, 8> c;
+    for (int k = 0; k < 8; ++k)
+      c[k] = {k & 1 ? fr.box_hi.x : fr.box_lo.x, k & 2 ? fr.box_hi.y : fr.box_lo.y, k & 4 ? fr.box_hi.z : fr.box_lo.z};
+    return c;
+  }();
+  const float radius = 0.5f * glm::length(fr.box_hi - fr.box_lo);
+  const float tan_v = std::tan(glm::radians(cam.fov) / 2), tan_h = tan_v * aspect;
+
+  if (def.position) {
+    cam.eye = glm::vec3(glm::dvec3((*def.position)[0], (*def.position)[1], (*def.position)[2]) - origin);
+  } else {
+    // Towards the side the projectiles come from, turned 35 degrees about the up axis (a 3/4 view of the
+    // struck face), 25 degrees above the horizon.
+    glm::vec3 front(0, -1, 0);
+    if (!model.projectiles.empty()) {
+      glm::vec3 mean(0);
+      for (const auto& p : model.projectiles) mean += glm::vec3(glm::dvec3(p.position.x, p.position.y, p.position.z) - origin);
+      front = mean / static_cast<float>(model.projectiles.size()) - cam.target;
+    }
+    front = horizontal(front, cam.up);
+    const glm::vec3 side = glm::normalize(glm::cross(cam.up, front));
+    const float az = glm::radians(35.0f), el = glm::radians(25.0f);
+    const glm::vec3 back = std::cos(el) * (std::cos(az) * front + std::sin(az) * side) + std::sin(el) * cam.up;
+    // The nearest distance at which every corner of the box lies inside the view, with a margin.
+    const glm::vec3 f = -back, r = glm::normalize(glm::cross(f, cam.up)), u = glm::cross(r, f);
+    constexpr float margin = 1.12f;
+    float dist = 0;
+    for (const glm::vec3& c : corners) {
+      const glm::vec3 d = c - cam.target;
+      const float x = glm::dot(d, r), y = glm::dot(d, u), z = glm::dot(d, f);
+      dist = std::max({dist, margin * std::abs(x) / tan_h - z, margin * std::abs(y) / tan_v - z});
+    }
+    cam.eye = cam.target + back * std::max(dist, 1e-3f);
+  }
+  const float dist = glm::length(cam.target - cam.eye);
+  if (!(dist > 1e-6f))
+    throw Error(fmt::format("{}: [camera] position = target = {}: the camera needs a direction to look in; move the "
+                            "position away from the target (or leave out position for an automatic view)",
+                            source, shown(glm::dvec3(cam.eye) + origin)));
+  if (glm::all(glm::greaterThan(cam.eye, fr.box_lo)) && glm::all(glm::lessThan(cam.eye, fr.box_hi)))
+    throw Error(fmt::format("{}: [camera] position = {} is inside the objects' bounding box {} .. {} (frame 0): the "
+                            "view would be filled by the inside of the objects; move the camera outside the box, or "
+                            "leave out position for an automatic view",
+                            source, shown(glm::dvec3(cam.eye) + origin), shown(glm::dvec3(fr.box_lo) + origin),
+                            shown(glm::dvec3(fr.box_hi) + origin)));
+  // Sees none of the box: its bounding sphere lies entirely outside the cone of the view's diagonal.
+  const glm::vec3 f = (cam.target - cam.eye) / dist;
+  const glm::vec3 to_c = centre - cam.eye;
+  const float dc = glm::length(to_c);
+  const float half_diag = std::atan(std::sqrt(tan_v * tan_v + tan_h * tan_h));
+  const float angle = std::acos(std::clamp(glm::dot(f, to_c / dc), -1.0f, 1.0f));
+  const float spread = dc > radius ? std::asin(radius / dc) : 3.1416f;
+  if (angle > half_diag + spread)
+    throw Error(fmt::format("{}: the [camera] at {} looking at {} sees none of the objects (their box {} .. {} lies "
+                            "{:.0f} degrees off the view's axis; the field of view is fov = {:g} degrees); point "
+                            "target at the objects, or leave out target to look at their centre",
+                            source, shown(glm::dvec3(cam.eye) + origin), shown(glm::dvec3(cam.target) + origin),
+                            shown(glm::dvec3(fr.box_lo) + origin), shown(glm::dvec3(fr.box_hi) + origin),
+                            glm::degrees(angle), def.fov));
+  // A camera looking along the up axis: another up for lookAt.
+  if (std::abs(glm::dot(f, cam.up)) > 0.999f) cam.up = horizontal(glm::vec3(0, 1, 0), cam.up);
+  // Depth range: from just short of the box (or of the target) to far behind it, the ground included.
+  const float depth = std::max(dc, dist);
+  cam.near = std::max(1e-3f, std::min(0.5f * (dc - radius), 0.05f * depth));
+  cam.far = 40.0f * (depth + radius);
+  return cam;
+}
+
+}  // namespace mca::render

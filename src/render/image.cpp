@@ -1,0 +1,229 @@
+#include "render/image.hpp"
+
+#include <cerrno>
+#include <csignal>
+#include <cstdlib>
+#include <cstring>
+
+#include <fcntl.h>
+#include <png.h>
+#include <spawn.h>
+#include <sys/mman.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <fmt/format.h>
+
+#include "mca/error.hpp"
+
+extern char** environ;
+
+namespace mca::render {
+namespace {
+
+void png_error_fn(png_structp, png_const_charp message) { throw Error(fmt::format("libpng: {}", message)); }
+void png_warning_fn(png_structp, png_const_charp) {}
+
+}  // namespace
+
+std::vector<std::uint8_t> encode_png(const Image& im) {
+  std::vector<std::uint8_t> out;
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, png_error_fn, png_warning_fn);
+  png_infop info = png ? png_create_info_struct(png) : nullptr;
+  if (!png || !info) {
+    png_destroy_write_struct(&png, nullptr);
+    throw Error("libpng: out of memory");
+  }
+  try {
+    png_set_write_fn(
+        png, &out,
+        [](png_structp p, png_bytep data, png_size_t n) {
+          auto* v = static_cast<std::vector<std::uint8_t>*>(png_get_io_ptr(p));
+          v->insert(v->end(), data, data + n);
+        },
+        nullptr);
+    png_set_compression_level(png, 1);
+    png_set_IHDR(png, info, static_cast<png_uint_32>(im.width), static_cast<png_uint_32>(im.height), 8,
+                 PNG_COLOR_TYPE_RGB_ALPHA, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_write_info(png, info);
+    for (int y = 0; y < im.height; ++y)
+      png_write_row(png, const_cast<png_bytep>(im.rgba.data() + 4 * static_cast<std::size_t>(im.width) * y));
+    png_write_end(png, nullptr);
+  } catch (...) {
+    png_destroy_write_struct(&png, &info);
+    throw;
+  }
+  png_destroy_write_struct(&png, &info);
+  return out;
+}
+
+Image read_png(const std::filesystem::path& path) {
+  png_image img{};
+  img.version = PNG_IMAGE_VERSION;
+  if (!png_image_begin_read_from_file(&img, path.c_str()))
+    throw Error(fmt::format("cannot read '{}' as PNG: {}", path.string(), img.message));
+  img.format = PNG_FORMAT_RGBA;
+  Image out;
+  out.width = static_cast<int>(img.width);
+  out.height = static_cast<int>(img.height);
+  out.rgba.resize(PNG_IMAGE_SIZE(img));
+  if (!png_image_finish_read(&img, nullptr, out.rgba.data(), 0, nullptr)) {
+    const std::string why = img.message;
+    png_image_free(&img);
+    throw Error(fmt::format("cannot read '{}' as PNG: {}", path.string(), why));
+  }
+  return out;
+}
+
+Image shrink(const Image& im, int f) {
+  Image out;
+  out.width = im.width / f;
+  out.height = im.height / f;
+  out.rgba.resize(4 * static_cast<std::size_t>(out.width) * out.height);
+  for (int y = 0; y < out.height; ++y)
+    for (int x = 0; x < out.width; ++x)
+      for (int c = 0; c < 4; ++c) {
+        unsigned sum = 0;
+        for (int dy = 0; dy < f; ++dy)
+          for (int dx = 0; dx < f; ++dx)
+            sum += im.rgba[4 * (static_cast<std::size_t>(y * f + dy) * im.width + x * f + dx) + c];
+        out.rgba[4 * (static_cast<std::size_t>(y) * out.width + x) + c] = static_cast<std::uint8_t>(sum / (f * f));
+      }
+  return out;
+}
+
+Image tile(const std::vector<Image>& tiles, int columns, int gap) {
+  Image out;
+  if (tiles.empty()) return out;
+  const int w = tiles[0].width, h = tiles[0].height;
+  const int n = static_cast<int>(tiles.size()), rows = (n + columns - 1) / columns;
+  const int cols = std::min(n, columns);
+  out.width = cols * w + (cols + 1) * gap;
+  out.height = rows * h + (rows + 1) * gap;
+  out.rgba.assign(4 * static_cast<std::size_t>(out.width) * out.height, 255);
+  for (std::size_t p = 0; p < out.rgba.size(); p += 4) {
+    out.rgba[p] = 20;
+    out.rgba[p + 1] = 22;
+    out.rgba[p + 2] = 26;
+  }
+  for (int k = 0; k < n; ++k) {
+    const int x0 = gap + (k % columns) * (w + gap), y0 = gap + (k / columns) * (h + gap);
+    for (int y = 0; y < h; ++y)
+      std::memcpy(out.rgba.data() + 4 * (static_cast<std::size_t>(y0 + y) * out.width + x0),
+                  tiles[k].rgba.data() + 4 * static_cast<std::size_t>(y) * w, 4 * static_cast<std::size_t>(w));
+  }
+  return out;
+}
+
+std::optional<std::filesystem::path> find_ffmpeg() {
+  const char* path = std::getenv("PATH");
+  if (!path) return std::nullopt;
+  std::string list = path;
+  for (std::size_t start = 0; start <= list.size();) {
+    const std::size_t end = std::min(list.find(':', start), list.size());
+    const std::filesystem::path dir = end > start ? list.substr(start, end - start) : std::string(".");
+    const auto candidate = dir / "ffmpeg";
+    if (::access(candidate.c_str(), X_OK) == 0) return candidate;
+    start = end + 1;
+  }
+  return std::nullopt;
+}
+
+VideoEncoder::VideoEncoder(const std::filesystem::path& ffmpeg, const std::filesystem::path& path,
+                           const std::filesystem::path& temporary, int width, int height, double fps)
+    : path_(path), temporary_(temporary), width_(width), height_(height) {
+  // ffmpeg's messages go to an anonymous in-memory file, read back when it fails.
+  log_fd_ = ::memfd_create("ffmpeg-messages", MFD_CLOEXEC);
+  if (log_fd_ < 0) throw Error(fmt::format("cannot make a file for ffmpeg's messages: {}", std::strerror(errno)));
+  const std::vector<std::string> args = {
+      ffmpeg.string(), "-hide_banner", "-loglevel", "error", "-nostdin", "-y", "-f", "rawvideo", "-pix_fmt", "rgba",
+      "-s", fmt::format("{}x{}", width, height), "-framerate", fmt::format("{:g}", fps), "-i", "-",
+      // yuv420p halves the colour resolution: odd sizes are rounded down to even ones.
+      "-vf", "crop=trunc(iw/2)*2:trunc(ih/2)*2", "-c:v", "libx264", "-preset", "veryfast", "-crf", "20",
+      "-pix_fmt", "yuv420p", "-movflags", "+faststart", "-f", "mp4", temporary_.string()};
+  std::vector<char*> argv;
+  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  int fds[2];
+  if (::pipe2(fds, O_CLOEXEC) != 0) throw Error(fmt::format("cannot make a pipe to ffmpeg: {}", std::strerror(errno)));
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, fds[0], 0);
+  posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_adddup2(&actions, log_fd_, 2);
+  pid_t pid = 0;
+  const int rc = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  ::close(fds[0]);
+  if (rc != 0) {
+    ::close(fds[1]);
+    throw Error(fmt::format("cannot start {}: {}", ffmpeg.string(), std::strerror(rc)));
+  }
+  pid_ = pid;
+  pipe_ = fds[1];
+  // A dead ffmpeg must give a write error (EPIPE), not kill the run with SIGPIPE.
+  std::signal(SIGPIPE, SIG_IGN);
+}
+
+VideoEncoder::~VideoEncoder() {
+  if (pid_ > 0) {
+    ::kill(pid_, SIGTERM);
+    try {
+      stop();
+    } catch (const Error&) {  // the run's own error is the one to report
+    }
+  }
+  std::error_code ec;
+  if (!finished_) std::filesystem::remove(temporary_, ec);
+  if (log_fd_ >= 0) ::close(log_fd_);
+}
+
+void VideoEncoder::stop() {
+  if (pipe_ >= 0) ::close(pipe_);
+  pipe_ = -1;
+  int status = 0;
+  if (pid_ > 0) {
+    while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
+    }
+  }
+  pid_ = -1;
+  if (!(WIFEXITED(status) && WEXITSTATUS(status) == 0)) {
+    std::string why;
+    char buf[4096];
+    ssize_t n = 0;
+    for (off_t at = 0; (n = ::pread(log_fd_, buf, sizeof buf, at)) > 0 && why.size() < 16384; at += n)
+      why.append(buf, static_cast<std::size_t>(n));
+    while (!why.empty() && (why.back() == '\n' || why.back() == '\r')) why.pop_back();
+    throw Error(fmt::format("ffmpeg could not write '{}' ({}): {}", path_.string(),
+                            WIFEXITED(status) ? fmt::format("exit code {}", WEXITSTATUS(status)) : std::string("killed"),
+                            why.empty() ? std::string("no message") : why));
+  }
+}
+
+void VideoEncoder::add_frame(const Image& frame) {
+  if (frame.width != width_ || frame.height != height_)
+    throw Error(fmt::format("a frame of {}x{} for a video of {}x{}", frame.width, frame.height, width_, height_));
+  const std::uint8_t* p = frame.rgba.data();
+  std::size_t left = frame.rgba.size();
+  while (left > 0) {
+    const ssize_t n = ::write(pipe_, p, left);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      stop();  // throws with ffmpeg's message
+      throw Error(fmt::format("ffmpeg stopped taking frames for '{}'", path_.string()));
+    }
+    p += n;
+    left -= static_cast<std::size_t>(n);
+  }
+  ++frames_;
+}
+
+void VideoEncoder::finish() {
+  stop();
+  std::error_code ec;
+  std::filesystem::rename(temporary_, path_, ec);
+  if (ec) throw Error(fmt::format("cannot rename '{}' onto '{}': {}", temporary_.string(), path_.string(), ec.message()));
+  finished_ = true;
+}
+
+}  // namespace mca::render

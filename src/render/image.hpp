@@ -1,0 +1,60 @@
+#pragma once
+// Images and video of rendered frames: PNG encoding (libpng), a contact sheet of a few frames, and the
+// MP4 made by piping raw RGBA frames into ffmpeg.
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace mca::render {
+
+struct Image {
+  int width = 0, height = 0;
+  std::vector<std::uint8_t> rgba;  // top row first
+};
+
+// PNG bytes of an RGBA image (compression level 1: about 30 ms for 1280x720, files a third larger
+// than at level 9). Throws mca::Error when libpng fails.
+std::vector<std::uint8_t> encode_png(const Image& image);
+// Reads a PNG (any colour type) as RGBA; for tests and the viewer's screenshot checks. Throws mca::Error.
+Image read_png(const std::filesystem::path& path);
+
+// The image shrunk by a whole factor (the mean of each factor x factor block).
+Image shrink(const Image& image, int factor);
+
+// Tiles of equal size in a grid, row by row, with a gap of background between them.
+Image tile(const std::vector<Image>& tiles, int columns, int gap);
+
+// The full path of ffmpeg from PATH, or nothing.
+std::optional<std::filesystem::path> find_ffmpeg();
+
+// An H.264 MP4 (yuv420p, plays in browsers) written by ffmpeg from frames piped to it as raw RGBA. The
+// file goes to `temporary` and is renamed onto `path` by finish(), so an interrupted run leaves no half
+// video under the final name.
+class VideoEncoder {
+ public:
+  // Starts ffmpeg. Throws mca::Error when it cannot be started.
+  VideoEncoder(const std::filesystem::path& ffmpeg, const std::filesystem::path& path,
+               const std::filesystem::path& temporary, int width, int height, double fps);
+  ~VideoEncoder();  // without finish(): stops ffmpeg and removes the temporary file
+  VideoEncoder(const VideoEncoder&) = delete;
+  VideoEncoder& operator=(const VideoEncoder&) = delete;
+  // Throws mca::Error when ffmpeg has stopped taking frames (its messages are in the error).
+  void add_frame(const Image& frame);
+  // Closes the pipe, waits for ffmpeg and renames the file into place. Throws mca::Error on failure.
+  void finish();
+  int frames() const { return frames_; }
+
+ private:
+  void stop();
+  std::filesystem::path path_, temporary_;
+  int log_fd_ = -1;  // ffmpeg's messages
+  bool finished_ = false;
+  int width_, height_;
+  int pipe_ = -1;
+  int pid_ = -1;
+  int frames_ = 0;
+};
+
+}  // namespace mca::render

@@ -1,0 +1,63 @@
+#pragma once
+// The OpenGL 4.5 core renderer, shared by the offscreen (EGL) and windowed (GLFW) front ends: draws a
+// Snapshot through a Camera into the framebuffer bound at the call, with the ground, the projectiles and
+// an overlay (counters, legend). Needs a current GL 4.5 core context (libepoxy loads the functions).
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "render/camera.hpp"
+#include "render/snapshot.hpp"
+
+namespace mca::render {
+
+struct Overlay {
+  bool counters = true;  // time, broken links, fragments (top left)
+  bool legend = true;    // the colour scale (bottom left)
+  std::vector<std::string> lines;  // extra lines under the counters (the viewer's fps, shot settings)
+};
+
+class Renderer {
+ public:
+  // Compiles the shaders and makes the buffers. Throws mca::Error when the context is not OpenGL 4.5
+  // core or a shader does not compile.
+  Renderer();
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  // Draws into the bound framebuffer's (0, 0, width, height).
+  void draw(const Snapshot& snapshot, DrawMode mode, const Camera& camera, int width, int height,
+            const Overlay& overlay = {});
+
+  // "OpenGL 4.5 (Core Profile) Mesa ..., llvmpipe ..." for messages and benchmarks.
+  static std::string gl_description();
+
+ private:
+  struct Impl;
+  Impl* impl_;
+};
+
+// The pixels of the bound read framebuffer's (0, 0, width, height) as RGBA, top row first (OpenGL's rows
+// run bottom up); waits for the drawing to finish.
+void read_pixels(int width, int height, std::vector<std::uint8_t>& out);
+
+// An offscreen colour + depth framebuffer of a fixed size.
+class OffscreenTarget {
+ public:
+  OffscreenTarget(int width, int height);
+  ~OffscreenTarget();
+  OffscreenTarget(const OffscreenTarget&) = delete;
+  OffscreenTarget& operator=(const OffscreenTarget&) = delete;
+  void bind() const;
+  int width() const { return width_; }
+  int height() const { return height_; }
+  // The pixels as RGBA, top row first (waits for the drawing to finish).
+  void read_rgba(std::vector<std::uint8_t>& out) const;
+
+ private:
+  int width_, height_;
+  unsigned fbo_ = 0, colour_ = 0, depth_ = 0;
+};
+
+}  // namespace mca::render

@@ -1,0 +1,322 @@
+// The renderer: offscreen pictures of the default scene (background, wall, the break), the files of
+// `mca run --render` (frames, video, contact sheet), rendering leaves results unchanged, bad input.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include <glm/mat4x4.hpp>
+#include <glm/vec4.hpp>
+
+#include "app/commands.hpp"
+#include "app/render_output.hpp"
+#include "io/default_scene.hpp"
+#include "io/scene_io.hpp"
+#include "mca/error.hpp"
+#include "render/camera.hpp"
+#include "render/egl_context.hpp"
+#include "render/font.hpp"
+#include "render/image.hpp"
+#include "render/renderer.hpp"
+#include "render/snapshot.hpp"
+#include "shell.hpp"
+#include "sim/engine.hpp"
+#include "temp_dir.hpp"
+
+namespace mca {
+namespace {
+
+namespace fs = std::filesystem;
+using test::Result;
+using test::run_mca;
+using test::shell;
+using test::TempDir;
+
+// The background the renderer clears to (renderer.cpp kBackground).
+constexpr std::uint8_t kBg[3] = {34, 37, 43};
+
+struct Pixel {
+  int r, g, b;
+};
+Pixel at(const render::Image& im, int x, int y) {
+  const auto* p = im.rgba.data() + 4 * (static_cast<std::size_t>(y) * im.width + x);
+  return {p[0], p[1], p[2]};
+}
+bool is_background(Pixel p) { return p.r == kBg[0] && p.g == kBg[1] && p.b == kBg[2]; }
+
+// Where a world point lands in the image (pixels, y down).
+glm::vec2 project(const render::Camera& cam, const render::Framing& f, const Vec3d& world, int w, int h) {
+  const glm::vec4 p(world[0] - f.origin[0], world[1] - f.origin[1], world[2] - f.origin[2], 1.0);
+  const glm::vec4 c = cam.projection(static_cast<float>(w) / h) * cam.view() * p;
+  return {(c.x / c.w * 0.5f + 0.5f) * w, (0.5f - c.y / c.w * 0.5f) * h};
+}
+
+class Offscreen {
+ public:
+  Offscreen(int w, int h) : w_(w), h_(h), target_(w, h) {}
+  render::Image draw(const Engine& sim, const render::Framing& f, const render::Camera& cam,
+                     render::ColourMode colour = render::ColourMode::fragment) {
+    const auto frags = analysis::label_lattice_fragments(sim.model().size(), sim.model().neighbour.data(),
+                                                         sim.state().intact.data(), sim.model().mass.data());
+    render::SnapshotOptions o;
+    o.colour = colour;
+    const auto snap = render::make_snapshot(sim.model(), sim.state(), frags, o, f.origin);
+    target_.bind();
+    renderer_.draw(snap, render::DrawMode::cubes, cam, w_, h_);
+    render::Image im{w_, h_, {}};
+    target_.read_rgba(im.rgba);
+    return im;
+  }
+
+ private:
+  int w_, h_;
+  render::EglContext context_;
+  render::Renderer renderer_;
+  render::OffscreenTarget target_;
+};
+
+TEST(Render, DefaultSceneShowsTheWallAndItsBreak) {
+  constexpr int W = 320, H = 180;
+  Engine sim(io::load_default_scene());
+  Offscreen off(W, H);
+  const auto framing = render::objects_box(sim.model(), sim.state());
+  const auto cam = render::make_camera(sim.scene().camera, sim.model(), framing, float(W) / H, "test");
+  const render::Image before = off.draw(sim, framing, cam);
+  // The sky at the top corners (the ground fills the bottom ones).
+  EXPECT_TRUE(is_background(at(before, 0, 0)));
+  EXPECT_TRUE(is_background(at(before, W - 1, 0)));
+  // The wall's front face (y = -0.1) near its upper corners and its lower right, away from the ball: in
+  // fragment colours concrete grey (fragment 0), in strength-class colours saturated (the classes are
+  // blue, yellow, green, red); the ground and the sky are grey in both.
+  const render::Image classes = off.draw(sim, framing, cam, render::ColourMode::strength_class);
+  for (const Vec3d& p : {Vec3d{0.8, -0.1, 1.35}, Vec3d{-0.8, -0.1, 1.35}, Vec3d{0.7, -0.1, 0.3}}) {
+    const glm::vec2 px = project(cam, framing, p, W, H);
+    ASSERT_TRUE(px.x > 0 && px.x < W && px.y > 0 && px.y < H) << px.x << " " << px.y;
+    const Pixel c = at(before, int(px.x), int(px.y)), k = at(classes, int(px.x), int(px.y));
+    EXPECT_FALSE(is_background(c));
+    EXPECT_GT(c.r + c.g + c.b, 3 * 60) << "at " << px.x << "," << px.y << ": " << c.r << " " << c.g << " " << c.b;
+    EXPECT_LT(std::abs(c.r - c.b), 30);
+    EXPECT_GT(std::max({k.r, k.g, k.b}) - std::min({k.r, k.g, k.b}), 60) << k.r << " " << k.g << " " << k.b;
+  }
+  // Outside the wall's projection (left of it, above the ground's horizon line) the class colours change nothing.
+  const glm::vec2 beside = project(cam, framing, {-1.6, -0.1, 1.0}, W, H);
+  const Pixel g1 = at(before, int(beside.x), int(beside.y)), g2 = at(classes, int(beside.x), int(beside.y));
+  EXPECT_EQ(g1.r, g2.r);
+  EXPECT_EQ(g1.g, g2.g);
+  EXPECT_EQ(g1.b, g2.b);
+  // The ball in front of the wall's centre: red.
+  const glm::vec2 ball = project(cam, framing, {0, -0.4, 0.75}, W, H);
+  const Pixel b = at(before, int(ball.x), int(ball.y));
+  EXPECT_GT(b.r, 2 * b.g);
+  EXPECT_GT(b.r, 2 * b.b);
+
+  // After the impact (14 ms): the wall has broken into fragments of other colours.
+  sim.advance(7000);
+  ASSERT_GT(sim.state().broken_by[0] + sim.state().broken_by[1], 1000);
+  const render::Image after = off.draw(sim, framing, cam);
+  std::size_t changed = 0, coloured = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const Pixel p = at(before, x, y), q = at(after, x, y);
+      changed += std::abs(p.r - q.r) + std::abs(p.g - q.g) + std::abs(p.b - q.b) > 30;
+      coloured += std::max({q.r, q.g, q.b}) - std::min({q.r, q.g, q.b}) > 60;  // a fragment's hue (or the ball)
+    }
+  EXPECT_GT(changed, static_cast<std::size_t>(W * H / 20));
+  EXPECT_GT(coloured, static_cast<std::size_t>(W * H / 20));
+  // The camera stays put: the sky is where it was.
+  EXPECT_TRUE(is_background(at(after, 0, 0)));
+}
+
+TEST(Render, FontHasEveryCharacterTheOverlayWrites) {
+  // '{' has no glyph: the hollow box stands in.
+  const std::uint8_t* box = render::glyph('{');
+  EXPECT_EQ(box[0], 0x1f);
+  EXPECT_EQ(box[3], 0x11);
+  for (char c : std::string("0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz .,-+:/%()=_[]<>!?'*#^")) {
+    EXPECT_NE(render::glyph(c), box) << "'" << c << "' has no glyph";
+  }
+  EXPECT_EQ(render::text_width("AB"), 2 * render::kGlyphAdvance - 1);
+}
+
+// `mca run --render` on a short run: the frames, the video and the contact sheet; the same final state
+// as without --render.
+TEST(Render, RunWritesFramesVideoAndContactSheetAndChangesNoResult) {
+  TempDir d;
+  const fs::path with = d.path() / "with", without = d.path() / "without";
+  const Result r = run_mca("run -q --duration 0.004 --render --render-size 320x180 --out " + with.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  const Result r2 = run_mca("run -q --duration 0.004 --out " + without.string());
+  ASSERT_EQ(r2.code, 0) << r2.output;
+  const auto hash = [](const fs::path& dir) {
+    std::ifstream in(dir / "summary.json");
+    return nlohmann::json::parse(in)["state_hash"].get<std::string>();
+  };
+  EXPECT_EQ(hash(with), hash(without));
+
+  // 0.004 s at 500 frames/s: frames 0..2.
+  const fs::path rd = with / "render";
+  for (int f = 0; f <= 2; ++f) {
+    const auto im = render::read_png(rd / app::RenderOutput::frame_name(f));
+    EXPECT_EQ(im.width, 320);
+    EXPECT_EQ(im.height, 180);
+  }
+  EXPECT_FALSE(fs::exists(rd / app::RenderOutput::frame_name(3)));
+  const auto sheet = render::read_png(rd / "contact_sheet.png");
+  EXPECT_GT(sheet.width, 320);
+  for (const auto& e : fs::directory_iterator(rd)) EXPECT_NE(e.path().extension(), ".tmp") << e.path();
+  if (!render::find_ffmpeg()) GTEST_SKIP() << "ffmpeg is not installed: the video is not checked";
+  ASSERT_TRUE(fs::exists(rd / "video.mp4"));
+  const Result probe = shell("ffprobe -v error -count_frames -select_streams v:0 -show_entries "
+                             "stream=nb_read_frames,width,height,pix_fmt,codec_name -of default=nw=1 '" +
+                             (rd / "video.mp4").string() + "'");
+  ASSERT_EQ(probe.code, 0) << probe.output;
+  EXPECT_NE(probe.output.find("codec_name=h264"), std::string::npos) << probe.output;
+  EXPECT_NE(probe.output.find("width=320"), std::string::npos) << probe.output;
+  EXPECT_NE(probe.output.find("height=180"), std::string::npos) << probe.output;
+  EXPECT_NE(probe.output.find("pix_fmt=yuv420p"), std::string::npos) << probe.output;
+  EXPECT_NE(probe.output.find("nb_read_frames=3"), std::string::npos) << probe.output;
+}
+
+TEST(Render, WithoutFfmpegThePngsAreWrittenAndTheMessageSaysHowToGetTheVideo) {
+  TempDir d;
+  // A PATH without ffmpeg (the program is called by its full path).
+  const Result r = shell("PATH=/nonexistent " + std::string(MCA_BINARY) + " run -q --steps 10 --render --render-size 64x48 --out " +
+                         d.path().string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("apt-get install ffmpeg"), std::string::npos) << r.output;
+  EXPECT_TRUE(fs::exists(d.path() / "render" / "frame_000001.png"));
+  EXPECT_FALSE(fs::exists(d.path() / "render" / "video.mp4"));
+}
+
+TEST(Render, NoOpenGLStopsBeforeTheRunWithAClearMessage) {
+  TempDir d;
+  // No EGL vendor library: no display, no context.
+  const Result r = shell("__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent.json __EGL_VENDOR_LIBRARY_DIRS=/nonexistent " +
+                         std::string(MCA_BINARY) + " run -q --steps 10 --render --out " + d.path().string());
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.output.find("cannot create an offscreen OpenGL"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("without --render"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(d.path() / "render"));
+  EXPECT_FALSE(fs::exists(d.path() / "scene.toml"));
+  EXPECT_FALSE(fs::exists(d.path() / "stats.csv"));
+}
+
+TEST(Render, BadOptionsAreRefusedWithTheFix) {
+  TempDir d;
+  for (const std::string size : {"0x720", "1280x0", "abc", "1280x", "-5x10", "100000x100"}) {
+    const Result r = run_mca("run -q --steps 1 --render --render-size " + size + " --out " + d.path().string());
+    EXPECT_EQ(r.code, 2) << size << ": " << r.output;
+    EXPECT_NE(r.output.find("--render-size"), std::string::npos) << r.output;
+  }
+  const Result c = run_mca("run -q --steps 1 --render --render-colour rainbow --out " + d.path().string());
+  EXPECT_EQ(c.code, 2);
+  EXPECT_NE(c.output.find("fragment, damage"), std::string::npos) << c.output;
+  const Result s = run_mca("run -q --steps 1 --render --render-draw surface --out " + d.path().string());
+  EXPECT_EQ(s.code, 2);
+  EXPECT_NE(s.output.find("mesh"), std::string::npos) << s.output;
+  const Result n = run_mca("run -q --steps 1 --render-size 64x64 --out " + d.path().string());
+  EXPECT_NE(n.code, 0);  // --render-size needs --render
+  // An output folder that cannot be written.
+  const Result w = run_mca("run -q --steps 1 --render --out /proc/mca_cannot_write");
+  EXPECT_EQ(w.code, 2) << w.output;
+  EXPECT_NE(w.output.find("/proc/mca_cannot_write"), std::string::npos) << w.output;
+}
+
+// Expects `f` to throw mca::Error whose message holds `words` and names the scene file cam.toml.
+template <class F>
+void expect_error(F&& f, const std::string& what, const std::string& words) {
+  try {
+    f();
+    ADD_FAILURE() << what << " was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("cam.toml"), std::string::npos) << e.what();
+  }
+}
+
+SceneDef scene_with_camera(const std::string& camera) {
+  std::string text = io::kDefaultSceneToml;
+  return io::parse_scene(text + "\n[camera]\n" + camera + "\n", "cam.toml");
+}
+
+TEST(Render, CameraTableIsReadValidatedAndWrittenBack) {
+  const SceneDef s = scene_with_camera("position = [3.0, -4.0, 2.0]\ntarget = [0.0, 0.0, 0.5]\nfov = 30");
+  ASSERT_TRUE(s.camera.position && s.camera.target);
+  EXPECT_EQ((*s.camera.position)[1], -4.0);
+  EXPECT_EQ(s.camera.fov, 30.0);
+  const SceneDef back = io::parse_scene(io::scene_to_toml(s), "back.toml");
+  EXPECT_EQ(back.camera.position, s.camera.position);
+  EXPECT_EQ(back.camera.target, s.camera.target);
+  EXPECT_EQ(back.camera.fov, 30.0);
+  const auto fails = [](const std::string& cam, const std::string& words) {
+    expect_error([&] { scene_with_camera(cam); }, cam, words);
+  };
+  fails("fov = 0", "camera.fov = 0 is out of range");
+  fails("fov = 179", "[5, 150]");
+  fails("position = [1.0, 1.0, 1.0]\ntarget = [1.0, 1.0, 1.0]", "needs a direction");
+  fails("positon = [1.0, 1.0, 1.0]", "did you mean 'position'");
+  fails("position = [1.0, 2.0]", "position");
+}
+
+TEST(Render, CameraInsideTheObjectsOrLookingAwayIsAnError) {
+  const auto check = [](const std::string& cam, const std::string& words) {
+    const SceneDef s = scene_with_camera(cam);
+    Engine sim(s);
+    const auto f = render::objects_box(sim.model(), sim.state());
+    expect_error([&] { render::make_camera(s.camera, sim.model(), f, 16.0f / 9, s.source); }, cam, words);
+  };
+  check("position = [0.2, 0.0, 0.7]", "inside the objects' bounding box");
+  check("position = [0.0, -5.0, 1.0]\ntarget = [0.0, -10.0, 1.0]", "sees none of the objects");
+  // A camera behind the wall looking at it is fine, and so is one given only a field of view.
+  for (const std::string ok : {"position = [0.0, 5.0, 1.0]", "fov = 60"}) {
+    const SceneDef s = scene_with_camera(ok);
+    Engine sim(s);
+    const auto f = render::objects_box(sim.model(), sim.state());
+    EXPECT_NO_THROW(render::make_camera(s.camera, sim.model(), f, 16.0f / 9, s.source)) << ok;
+  }
+}
+
+TEST(Render, ExposedAutomataAreThoseWithABrokenOrMissingLink) {
+  Engine sim(io::load_default_scene());
+  const auto exposed = render::exposed_automata(sim.model(), sim.state());
+  // 40 x 4 x 30 automata: the 38 x 2 x 28 inside have all six links.
+  std::size_t n = 0;
+  for (auto e : exposed) n += e;
+  EXPECT_EQ(n, 4800u - 38u * 2u * 28u);
+}
+
+TEST(View, ScriptedShotUnderAVirtualDisplayShowsTheBrokenWall) {
+  if (shell("command -v xvfb-run").code != 0) GTEST_SKIP() << "xvfb-run is not installed (scripts/setup.sh)";
+  TempDir d;
+  const fs::path script = d.path() / "shots.txt", png = d.path() / "view.png";
+  std::ofstream(script) << "# time x y\n0.002 0.6 0.45\n";
+  const Result r = shell("timeout 120 xvfb-run -a -s '-screen 0 1280x720x24' " + std::string(MCA_BINARY) +
+                         " view --size 480x270 --frames 12 --script " + script.string() + " --screenshot " + png.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  // 12 frames of 2 ms; the scene's ball and the scripted one.
+  EXPECT_NE(r.output.find("t = 22.00 ms, 2 balls"), std::string::npos) << r.output;
+  const render::Image im = render::read_png(png);
+  ASSERT_EQ(im.width, 480);
+  ASSERT_EQ(im.height, 270);
+  EXPECT_TRUE(is_background(at(im, im.width - 1, 0)));
+  // Broken: many pixels in the hues of fragments other than the largest.
+  std::size_t coloured = 0;
+  for (int y = 0; y < im.height; ++y)
+    for (int x = 0; x < im.width; ++x) {
+      const Pixel q = at(im, x, y);
+      coloured += std::max({q.r, q.g, q.b}) - std::min({q.r, q.g, q.b}) > 60;
+    }
+  EXPECT_GT(coloured, static_cast<std::size_t>(im.width * im.height / 20));
+}
+
+TEST(View, NoDisplayPointsToRunRender) {
+  const Result r = shell("env -u DISPLAY -u WAYLAND_DISPLAY " + std::string(MCA_BINARY) + " view --frames 1");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("mca run --render"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace mca
