@@ -153,8 +153,7 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
       const auto t0 = clock::now();
       sim->advance(1);
       const auto t1 = clock::now();
-      const auto frags = analysis::label_lattice_fragments(m.size(), m.neighbour.data(), sim->state().intact.data(),
-                                                           m.mass.data());
+      const auto frags = analysis::label_model_fragments(m, sim->state().intact.data());
       const auto snap = render::make_snapshot(m, sim->state(), frags, so, framing.origin);
       const auto t2 = clock::now();
       renderer.draw(snap, c.draw, cam, W, H);

@@ -118,8 +118,7 @@ void simulate(const SceneDef& scene, Shared& sh, bool lockstep, std::array<doubl
   std::int64_t chunk = 16;
   auto publish = [&] {
     const Model& m = sim->model();
-    const auto frags = analysis::label_lattice_fragments(m.size(), m.neighbour.data(), sim->state().intact.data(),
-                                                         m.mass.data());
+    const auto frags = analysis::label_model_fragments(m, sim->state().intact.data());
     render::SnapshotOptions o;
     o.colour = static_cast<render::ColourMode>(sh.colour.load());
     o.draw = static_cast<render::DrawMode>(sh.draw.load());

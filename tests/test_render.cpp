@@ -59,8 +59,7 @@ class Offscreen {
   Offscreen(int w, int h) : w_(w), h_(h), target_(w, h) {}
   render::Image draw(const Engine& sim, const render::Framing& f, const render::Camera& cam,
                      render::ColourMode colour = render::ColourMode::fragment) {
-    const auto frags = analysis::label_lattice_fragments(sim.model().size(), sim.model().neighbour.data(),
-                                                         sim.state().intact.data(), sim.model().mass.data());
+    const auto frags = analysis::label_model_fragments(sim.model(), sim.state().intact.data());
     render::SnapshotOptions o;
     o.colour = colour;
     const auto snap = render::make_snapshot(sim.model(), sim.state(), frags, o, f.origin);
