@@ -21,7 +21,7 @@ struct RunOptions {
   bool render = false;
   std::string render_size = "1280x720";
   std::string render_colour = "fragment";
-  std::string render_draw = "cubes";
+  std::string render_draw;  // empty: surface when the scene has a mesh object, else cubes
   double render_fps = 0;               // 0: automatic
 };
 

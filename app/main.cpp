@@ -38,7 +38,8 @@ int main(int argc, char** argv) {
   run->add_option("--render-colour,--render-color", ro.render_colour,
                   "Colour of the automata: fragment (default), damage, class, group, stress, speed")->needs(render_flag);
   run->add_option("--render-draw", ro.render_draw,
-                  "What is drawn: cubes (default), spheres, surface (mesh objects), links")->needs(render_flag);
+                  "What is drawn: cubes, spheres, surface (the mesh objects' triangles; the default when the scene has one, "
+                  "else cubes), links")->needs(render_flag);
   run->add_option("--render-fps", ro.render_fps, "Frame rate of the video (default: frames / 4, 10 to 30)")->needs(render_flag);
 
   std::string resume_dir;

@@ -1,4 +1,5 @@
 // `mca run` and `mca resume`: step a scene frame by frame, write outputs, show progress.
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -384,7 +385,7 @@ int run(const RunOptions& o) {
       throw Error(fmt::format("--render-colour '{}' is not a colour mode; give one of: {}", o.render_colour,
                               render::colour_mode_names()));
     ro.colour = *colour;
-    const auto draw = render::parse_draw_mode(o.render_draw);
+    const auto draw = render::parse_draw_mode(o.render_draw.empty() ? "cubes" : o.render_draw);
     if (!draw)
       throw Error(fmt::format("--render-draw '{}' is not a draw mode; give one of: {}", o.render_draw,
                               render::draw_mode_names()));
@@ -395,6 +396,11 @@ int run(const RunOptions& o) {
     ro.fps = o.render_fps;
   }
   SceneDef scene = o.scene ? io::load_scene_file(*o.scene) : io::load_default_scene();
+  // A mesh object is drawn as its own triangles unless asked otherwise (the automata that carry none,
+  // inside a volume fill, show as cubes once exposed).
+  if (o.render && o.render_draw.empty() &&
+      std::any_of(scene.objects.begin(), scene.objects.end(), [](const ObjectDef& d) { return d.shape == Shape::mesh; }))
+    ro.draw = render::DrawMode::surface;
   if (o.duration) {
     if (!(*o.duration > 0)) throw Error(fmt::format("--duration {} must be a positive number of seconds", *o.duration));
     scene.output.duration = *o.duration;
