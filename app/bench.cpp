@@ -107,6 +107,8 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
       {"wall_357k_spheres", builtin("wall_357k"), render::DrawMode::spheres, 150},
       {"bunny_cubes", file("bunny.toml"), render::DrawMode::cubes, 300},
       {"bunny_surface", file("bunny.toml"), render::DrawMode::surface, 300},
+      {"cow_cubes", file("cow.toml"), render::DrawMode::cubes, 300},
+      {"cow_surface", file("cow.toml"), render::DrawMode::surface, 300},
       {"armadillo_cubes", file("armadillo.toml"), render::DrawMode::cubes, 150},
       {"armadillo_surface", file("armadillo.toml"), render::DrawMode::surface, 150},
   };
