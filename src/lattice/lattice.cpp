@@ -592,7 +592,7 @@ double surface_spacing(const Shapes& S) {
 }
 
 // Automata of an object filled in surface mode (paper sec. 5.4 counts): one per triangle at its centroid,
-// of volume area x thickness, linked across shared edges (rest length the centroids' distance, cross-section
+// of volume (lumped area) x thickness, linked across shared edges (rest length the centroids' distance, cross-section
 // the edge's length x thickness), each triangle bound to its own automaton. Strength classes are drawn at
 // the centroids (`local`, object frame).
 void add_surface_object(Model& M, const SceneDef& scene, const MeshObject& mo, const SurfaceCells& sc, std::size_t oi,
@@ -605,18 +605,16 @@ void add_surface_object(Model& M, const SceneDef& scene, const MeshObject& mo, c
   // neighbour with c links gives 1/(2c) of its area to each), so that the total is the surface's area
   // times the thickness and a sliver triangle between large ones is not a near-massless automaton on
   // stiff links (which would set a step tens of times smaller).
+  std::vector<int> links_of(count, 0);
+  for (const auto& l : sc.link) {
+    ++links_of[l[0]];
+    ++links_of[l[1]];
+  }
   std::vector<double> lumped(count, 0.0);
-  {
-    std::vector<int> links_of(count, 0);
-    for (const auto& l : sc.link) {
-      ++links_of[l[0]];
-      ++links_of[l[1]];
-    }
-    for (std::size_t k = 0; k < count; ++k) lumped[k] = links_of[k] ? 0.5 * sc.area[k] : sc.area[k];
-    for (const auto& l : sc.link) {
-      lumped[l[0]] += 0.5 * sc.area[l[1]] / links_of[l[1]];
-      lumped[l[1]] += 0.5 * sc.area[l[0]] / links_of[l[0]];
-    }
+  for (std::size_t k = 0; k < count; ++k) lumped[k] = links_of[k] ? 0.5 * sc.area[k] : sc.area[k];
+  for (const auto& l : sc.link) {
+    lumped[l[0]] += 0.5 * sc.area[l[1]] / links_of[l[1]];
+    lumped[l[1]] += 0.5 * sc.area[l[0]] / links_of[l[0]];
   }
   for (std::size_t k = 0; k < count; ++k) {
     const mesh::Point& c = sc.centroid[k];
@@ -656,7 +654,6 @@ void add_surface_object(Model& M, const SceneDef& scene, const MeshObject& mo, c
   // Links, and each automaton's mean and shortest link length.
   auto& E = M.explicit_links;
   std::vector<double> length_sum(count, 0.0), shortest(count, INFINITY);
-  std::vector<int> links_of(count, 0);
   for (std::size_t l = 0; l < sc.link.size(); ++l) {
     const std::uint32_t a = first + sc.link[l][0], b = first + sc.link[l][1];
     const DVec3 dd = ddelta(M.position0[a], M.position0[b]);
@@ -668,7 +665,6 @@ void add_surface_object(Model& M, const SceneDef& scene, const MeshObject& mo, c
     for (auto k : sc.link[l]) {
       length_sum[k] += r0;
       shortest[k] = std::min(shortest[k], r0);
-      ++links_of[k];
     }
   }
   M.links += sc.link.size();

@@ -23,8 +23,8 @@ struct BreakTest {
   decltype(T{} > T{}) displacement, stress;
 };
 
-template <class T>
-MCA_HD BreakTest<T> link_break_test(const T& h, float r0, const T& sigma, const T& tau2, const T& p, const T& tensile,
+template <class T, class R>
+MCA_HD BreakTest<T> link_break_test(const T& h, const R& r0, const T& sigma, const T& tau2, const T& p, const T& tensile,
                                     const T& ratio, const T& strain, float stress_coefficient) {
   BreakTest<T> b;
   b.displacement = h > r0 * strain;

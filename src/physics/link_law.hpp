@@ -22,6 +22,8 @@
 // Shear (paper eq. 10, contact point at mid-distance).  The tangential displacement u_t of j's contact
 // point relative to i's is integrated from V_s and kept tangent; F_t = k_s G S u_t / r0 acts on i, -F_t on
 // j, and both automata feel the torque (r/2) n x F_t (= (r/2) n x F, since n x n = 0).
+#include <type_traits>
+
 #include "core/math.hpp"
 #include "core/model.hpp"  // Strengthening
 
@@ -179,15 +181,21 @@ using LinkGeometry = LinkGeometryT<float>;
 // at rest without bound (measured: 1e-5 J to 5e-4 J in 15,000 steps of a 0.4 m concrete cube).
 // Only the quotient's denominator and the direction use the float r, where relative precision is enough.
 // D: double (or double lanes); the result is in the matching float type.
-// R: float for the lattice's rest length, double for an explicit link's (whose ends are not laid out
-// at a float distance; its float r0 enters only the denominator).
-template <class D, class R>
-MCA_HD auto link_geometry(const Vec3T<D>& xi, const Vec3T<D>& xj, R r0, float inv_r0) {
+// R: float for the lattice's rest length, double (or double lanes) for an explicit link's, whose ends
+// are not laid out at a float distance (its float r0 enters only the denominator); I: float or lanes.
+template <class D, class R, class I>
+MCA_HD auto link_geometry(const Vec3T<D>& xi, const Vec3T<D>& xj, R r0, I inv_r0) {
   using T = decltype(to_float(D{}));
   const Vec3T<D> d = ddelta(xi, xj);
   const D r2 = dot(d, d);
-  const double r0d = r0;
-  const float r0f = static_cast<float>(r0);
+  const auto r0d = [&] {
+    if constexpr (std::is_floating_point_v<R>) return static_cast<double>(r0);
+    else return r0;
+  }();
+  const auto r0f = [&] {
+    if constexpr (std::is_floating_point_v<R>) return static_cast<float>(r0);
+    else return to_float(r0);
+  }();
   using std::sqrt;
   const T r = sqrt(to_float(r2));
   const T h = to_float(r2 - r0d * r0d) / (r + r0f);
@@ -206,7 +214,7 @@ MCA_HD float link_normal_stress(float G_ij, float eps, const StrengthenedStrain&
 template <class T>
 struct LinkInputT {
   LinkGeometryT<T> g;
-  float area;
+  T area;
   T sigma;                  // normal stress of the law (link_normal_stress), without the shear coupling
   T kt;                     // tangential spring k_s G_ij S / r0 [N/m], strengthening applied
   T kt_slope;               // d kt / dr [N/m^2] under strengthening (0 without): the normal force the

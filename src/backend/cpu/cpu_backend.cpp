@@ -158,26 +158,29 @@ class CpuBackend final : public Backend {
     runs_ = cpu::block_runs(m, kernels_.lanes);
     // Explicit links (surface mode): each its own length, cross-section and masses.
     const auto& E = m.explicit_links;
-    explicit_.resize(E.size());
-    for (std::size_t k = 0; k < E.size(); ++k) {
+    const std::size_t ne = E.size();
+    for (auto* v : {&ex_r0f_, &ex_inv_r0_, &ex_area_, &ex_to_stress_, &ex_G_, &ex_kt_, &ex_damp_n_, &ex_damp_t_, &ex_nx_,
+                    &ex_ny_, &ex_nz_, &ex_eps_, &ex_fx_, &ex_fy_, &ex_fz_, &ex_tx_, &ex_ty_, &ex_tz_})
+      v->resize(ne);
+    for (std::size_t k = 0; k < ne; ++k) {
       const std::uint32_t i = E.i[k], j = E.j[k];
       const GroupParams &gi = m.groups[m.group[i]], &gj = m.groups[m.group[j]];
-      ExplicitConstants& c = explicit_[k];
-      c.r0 = E.r0[k];
-      c.r0f = static_cast<float>(E.r0[k]);
-      c.inv_r0 = static_cast<float>(1.0 / E.r0[k]);
-      c.area = E.area[k];
-      c.inv_r0_area = static_cast<float>(1.0 / (E.r0[k] * static_cast<double>(E.area[k])));
-      c.G = harmonic(gi.shear_modulus, gj.shear_modulus);
-      c.kt = kShearFactor * c.G * c.area * c.inv_r0;
-      const float k_n = link_normal_stiffness(c.G, gi.lame_lambda, gj.lame_lambda, c.area, c.r0f);
-      c.damping = explicit_link_dashpots(k_n, m.mass[i], m.mass[j], 0.5f * (gi.damping_time + gj.damping_time), m.link_damping);
+      ex_r0f_[k] = static_cast<float>(E.r0[k]);
+      ex_inv_r0_[k] = static_cast<float>(1.0 / E.r0[k]);
+      ex_area_[k] = E.area[k];
+      ex_to_stress_[k] = static_cast<float>(1.0 / (E.r0[k] * static_cast<double>(E.area[k])));
+      ex_G_[k] = harmonic(gi.shear_modulus, gj.shear_modulus);
+      ex_kt_[k] = kShearFactor * ex_G_[k] * ex_area_[k] * ex_inv_r0_[k];
+      const float k_n = link_normal_stiffness(ex_G_[k], gi.lame_lambda, gj.lame_lambda, ex_area_[k], ex_r0f_[k]);
+      const LinkDashpots c = explicit_link_dashpots(k_n, m.mass[i], m.mass[j], 0.5f * (gi.damping_time + gj.damping_time),
+                                                    m.link_damping);
+      ex_damp_n_[k] = c.normal;
+      ex_damp_t_[k] = c.tangential;
     }
     for (std::size_t a = 0; a < n && !E.first.empty(); ++a)
       if (E.first[a + 1] > E.first[a]) explicit_automata_.push_back(static_cast<std::uint32_t>(a));
     explicit_weight_.assign(n, 0.0f);
-    explicit_out_.resize(E.size());
-    explicit_breaks_.resize(E.size());
+    explicit_breaks_.resize(ne);
     // Contact springs per pair of groups (and per group on the ground) when every automaton of a group
     // has the group's radius, mass and moment of inertia (lattices: always): the same numbers
     // body_contact_springs gives for each pair, worked out once.
@@ -329,8 +332,8 @@ class CpuBackend final : public Backend {
 
   std::int64_t one_step();
   void link_force_pass(const cpu::LatticeView& v);
-  void explicit_many_body_pass();
-  std::vector<std::size_t> explicit_link_pass();
+  cpu::ExplicitView explicit_view();
+  std::vector<std::size_t> explicit_link_pass(const cpu::LatticeView& v);
   void explicit_gather_pass();
   void apply_breaks(const std::vector<std::size_t>& counts, const std::vector<std::size_t>& explicit_counts);
   void contact_pass();
@@ -372,24 +375,13 @@ class CpuBackend final : public Backend {
   std::vector<std::uint32_t> breaks_;  // per chunk of slots, what the links kernel found
   std::vector<cpu::PairConstants> pairs_;
   std::vector<std::array<float, 4>> free_factor_;  // per group, see volumetric_strain
-  // Explicit links (Model::ExplicitLinks): constants, the automata that have some, each automaton's
-  // many-body weight (explicit_many_body), and per link what the link pass found.
-  struct ExplicitConstants {
-    double r0;
-    float r0f, inv_r0, area, inv_r0_area;  // 1 / (r0 S): turns a many-body weight into the stress P
-    float G, kt;
-    LinkDashpots damping;
-  };
-  struct ExplicitOut {
-    Vec3 f, t, n;  // force on i (on j: -f), torque on both, direction i -> j
-    float half_r0;
-    bool on;
-  };
-  std::vector<ExplicitConstants> explicit_;
+  // Explicit links (Model::ExplicitLinks), structure of arrays (cpu::ExplicitView): constants, then this
+  // step's geometry and forces; the automata that have some, and each automaton's many-body weight.
+  cpu::LineArray<float> ex_r0f_, ex_inv_r0_, ex_area_, ex_to_stress_, ex_G_, ex_kt_, ex_damp_n_, ex_damp_t_;
+  cpu::LineArray<float> ex_nx_, ex_ny_, ex_nz_, ex_eps_, ex_fx_, ex_fy_, ex_fz_, ex_tx_, ex_ty_, ex_tz_;
   std::vector<std::uint32_t> explicit_automata_;
   std::vector<float> explicit_weight_;
-  std::vector<ExplicitOut> explicit_out_;
-  std::vector<std::uint32_t> explicit_breaks_;  // per chunk of links, what the explicit pass found
+  std::vector<std::uint32_t> explicit_breaks_;  // per chunk of links, what the explicit kernel found
   bool strengthening_ = false, one_group_ = false;
   bool last_step_ = true;
   std::vector<std::uint32_t> exposed_;
@@ -516,107 +508,85 @@ void CpuBackend::link_force_pass(const cpu::LatticeView& v) {
       counts[axis * chunks + c] = kernels_.links(v, axis, b, e, breaks_.data() + axis * n + b);
   });
   std::vector<std::size_t> explicit_counts;
-  if (!explicit_.empty()) {
-    explicit_many_body_pass();
-    explicit_counts = explicit_link_pass();
-    explicit_gather_pass();
-  }
+  if (!M_.explicit_links.i.empty()) explicit_counts = explicit_link_pass(v);
   apply_breaks(counts, explicit_counts);
+  // After the breaks, as the lattice's links: a link that breaks in this step carries no force in it.
+  if (!M_.explicit_links.i.empty()) explicit_gather_pass();
 }
 
-// Explicit links (surface mode), scalar: the same formulas as the lattice kernels (physics/link_law.hpp)
-// with each link's own length and cross-section, in three passes that write only their own entries.
-// The many-body weight of each automaton with explicit links, from its intact ones.
-void CpuBackend::explicit_many_body_pass() {
+// Explicit links (surface mode): the kernels' explicit_geometry over fixed chunks of links, each
+// automaton's many-body weight from its intact links in link order, then the kernels' explicit_links (the
+// lattice's law with each link's own length and cross-section); the breaks per chunk, in link order.
+std::vector<std::size_t> CpuBackend::explicit_link_pass(const cpu::LatticeView& v) {
   const auto& E = M_.explicit_links;
-  const std::size_t n = M_.size();
+  const std::size_t n = M_.size(), L = E.size();
+  const cpu::ExplicitView ev = explicit_view();
+  parallel_chunks(L, [&](std::size_t, std::size_t b, std::size_t e) { kernels_.explicit_geometry(v, ev, b, e); });
   parallel_range(explicit_automata_.size(), [&](std::size_t k) {
     const std::uint32_t a = explicit_automata_[k];
     const GroupParams& g = M_.groups[M_.group[a]];
     float sum = 0.0f;
     int count = 0;
-    for (std::uint32_t e = E.first[a]; e < E.first[a + 1]; ++e) {
-      const std::uint32_t l = E.of[e];
+    for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
+      const std::uint32_t l = E.of[x];
       if (!S_.intact[3 * n + l]) continue;
-      const ExplicitConstants& c = explicit_[l];
-      const LinkGeometry geo = link_geometry(pos(E.i[l]), pos(E.j[l]), c.r0, c.inv_r0);
-      sum += strengthened_strain(g.strengthening, geo.eps).s;
+      sum += strengthened_strain(g.strengthening, ex_eps_[l]).s;
       ++count;
     }
     explicit_weight_[a] = explicit_many_body(g.lame_lambda, free_factor_[M_.group[a]].data(), M_.volume[a], sum, count).weight;
   });
-}
-
-// Forces, torques and the fracture criteria of the explicit links; returns the breaks per chunk of links
-// (in explicit_breaks_ at the chunk's start), in link order.
-std::vector<std::size_t> CpuBackend::explicit_link_pass() {
-  const auto& E = M_.explicit_links;
-  const std::size_t n = M_.size(), L = E.size();
   const std::size_t chunks = (L + kChunk - 1) / kChunk;
   std::vector<std::size_t> counts(chunks, 0);
   parallel_chunks(L, [&](std::size_t ch, std::size_t b, std::size_t e) {
-    std::size_t found = 0;
-    for (std::size_t l = b; l < e; ++l) {
-      ExplicitOut& out = explicit_out_[l];
-      const std::size_t slot = 3 * n + l;
-      if (!S_.intact[slot]) {
-        out.on = false;
-        continue;
-      }
-      const std::uint32_t i = E.i[l], j = E.j[l];
-      const ExplicitConstants& c = explicit_[l];
-      const GroupParams &gi = M_.groups[M_.group[i]], &gj = M_.groups[M_.group[j]];
-      const LinkGeometry geo = link_geometry(pos(i), pos(j), c.r0, c.inv_r0);
-      const float eps = geo.eps;
-      const StrengthenedStrain si = strengthened_strain(gi.strengthening, eps), sj = strengthened_strain(gj.strengthening, eps);
-      LinkInputT<float> in;
-      in.g = {geo.n, c.r0f * (1.0f + eps), eps};
-      in.area = c.area;
-      in.sigma = link_normal_stress(c.G, eps, si, sj, explicit_weight_[i] * c.inv_r0_area, explicit_weight_[j] * c.inv_r0_area);
-      in.kt = c.kt * 0.5f * (si.f + sj.f);
-      in.kt_slope = c.kt * 0.5f * (strengthening_slope(gi.strengthening, eps) + strengthening_slope(gj.strengthening, eps)) * c.inv_r0;
-      in.damp_normal = c.damping.normal;
-      in.damp_tangential = c.damping.tangential;
-      in.vi = vel(i);
-      in.vj = vel(j);
-      in.wi = ang(i);
-      in.wj = ang(j);
-      in.ut = {utx_[slot], uty_[slot], utz_[slot]};
-      in.dt = M_.dt;
-      const LinkOutputT<float> o = link_force(in);
-      // The weaker end's strengths (physics.md sec. 4), as the lattice kernels.
-      const float tensile = std::min(tensile_[i], tensile_[j]), compressive = std::min(compressive_[i], compressive_[j]);
-      const float strain = std::min(break_strain_[i], break_strain_[j]);
-      const float p = 0.5f * (S_.mean_stress[i] + S_.mean_stress[j]);
-      const BreakTest<float> bt = link_break_test(eps * c.r0f, c.r0f, o.sigma, o.tau2, p, tensile, tensile / compressive,
-                                                  strain, M_.stress_coefficient);
-      const bool broke = bt.displacement || bt.stress;
-      if (broke) explicit_breaks_[b + found++] = static_cast<std::uint32_t>(slot) | (bt.displacement ? 0u : kBreakByStress);
-      const Vec3 hf = o.force_i * (0.5f * c.r0f);
-      out = {o.force_i, cross(geo.n, hf) * (1.0f + eps), geo.n, 0.5f * c.r0f, true};
-      if (!broke) {
-        utx_[slot] = o.ut.x;
-        uty_[slot] = o.ut.y;
-        utz_[slot] = o.ut.z;
-      }
-    }
-    counts[ch] = found;
+    counts[ch] = kernels_.explicit_links(v, ev, b, e, explicit_breaks_.data() + b);
   });
   return counts;
 }
 
-// Each automaton adds the forces of its explicit links in link order (with the contacts' and loads'
+cpu::ExplicitView CpuBackend::explicit_view() {
+  const auto& E = M_.explicit_links;
+  cpu::ExplicitView e;
+  e.slot0 = 3 * M_.size();
+  e.i = E.i.data();
+  e.j = E.j.data();
+  e.r0 = E.r0.data();
+  e.r0f = ex_r0f_.data();
+  e.inv_r0 = ex_inv_r0_.data();
+  e.area = ex_area_.data();
+  e.inv_r0_area = ex_to_stress_.data();
+  e.G = ex_G_.data();
+  e.kt = ex_kt_.data();
+  e.damp_normal = ex_damp_n_.data();
+  e.damp_tangential = ex_damp_t_.data();
+  e.weight = explicit_weight_.data();
+  e.nx = ex_nx_.data(); e.ny = ex_ny_.data(); e.nz = ex_nz_.data(); e.eps = ex_eps_.data();
+  e.fx = ex_fx_.data(); e.fy = ex_fy_.data(); e.fz = ex_fz_.data();
+  e.tx = ex_tx_.data(); e.ty = ex_ty_.data(); e.tz = ex_tz_.data();
+  return e;
+}
+
+// Each automaton adds the forces of its intact explicit links in link order (with the contacts' and loads'
 // forces in the automata kernel), so the sums do not depend on the threads.
 void CpuBackend::explicit_gather_pass() {
   const auto& E = M_.explicit_links;
+  const std::size_t slot0 = 3 * M_.size();
   parallel_range(explicit_automata_.size(), [&](std::size_t k) {
     const std::uint32_t a = explicit_automata_[k];
-    for (std::uint32_t e = E.first[a]; e < E.first[a + 1]; ++e) {
-      const std::uint32_t l = E.of[e];
-      const ExplicitOut& o = explicit_out_[l];
-      if (!o.on) continue;
-      add_external(a, E.i[l] == a ? o.f : -o.f, o.t, sym_outer(o.n, o.f, o.half_r0));
+    // Summed here and added once: the contact sums are empty at this point of the step (0 + x = x), so
+    // this is the order of adding them one by one.
+    Vec3 f, t;
+    Sym3 s;
+    bool any = false;
+    for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
+      const std::uint32_t l = E.of[x];
+      if (!S_.intact[slot0 + l]) continue;
+      const Vec3 fl{ex_fx_[l], ex_fy_[l], ex_fz_[l]};
+      f += E.i[l] == a ? fl : -fl;
+      t += Vec3{ex_tx_[l], ex_ty_[l], ex_tz_[l]};
+      s += sym_outer(Vec3{ex_nx_[l], ex_ny_[l], ex_nz_[l]}, fl, 0.5f * ex_r0f_[l]);
+      any = true;
     }
+    if (any) add_external(a, f, t, s);
   });
 }
 

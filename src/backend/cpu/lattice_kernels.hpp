@@ -6,6 +6,8 @@
 //   many_body  each automaton's many-body terms P per axis (volumetric strain of its intact links)
 //   links      pair forces, torques and stress traces of the links along one axis, and the fracture
 //              criteria; the links that break are reported, in link order, and left intact for the caller
+//   explicit   the explicit links of surface-mode objects (their own lengths and cross-sections, ends
+//              gathered by index): geometry, then forces and criteria; the backend sums them per automaton
 //   automata   gathers the forces of each automaton's six links in a fixed order (-z, -y, -x, +x, +y,
 //              +z: the order of the lattice's cells), adds contacts and loads, integrates
 //
@@ -107,6 +109,22 @@ struct LatticeView {
   const double *rx = nullptr, *ry = nullptr, *rz = nullptr;
 };
 
+// The explicit links (surface mode, Model::ExplicitLinks) as the explicit kernels see them: per link
+// (structure of arrays) its ends, constants and this step's results; the automata's state is the
+// LatticeView's. Link k is in slot slot0 + k of the LatticeView's per-slot arrays (intact, ut).
+struct ExplicitView {
+  std::size_t slot0 = 0;
+  const std::uint32_t *i = nullptr, *j = nullptr;
+  const double* r0 = nullptr;  // rest length
+  const float *r0f = nullptr, *inv_r0 = nullptr, *area = nullptr;
+  const float* inv_r0_area = nullptr;  // 1 / (r0 S): turns a many-body weight into the stress P
+  const float *G = nullptr, *kt = nullptr, *damp_normal = nullptr, *damp_tangential = nullptr;
+  const float* weight = nullptr;  // per automaton: its many-body weight (explicit_many_body)
+  // This step's geometry (explicit_geometry) and forces (explicit_links), per link.
+  float *nx = nullptr, *ny = nullptr, *nz = nullptr, *eps = nullptr;
+  float *fx = nullptr, *fy = nullptr, *fz = nullptr, *tx = nullptr, *ty = nullptr, *tz = nullptr;
+};
+
 inline std::size_t scratch_stride(std::size_t n) { return (n + 15) / 16 * 16; }
 
 // A break found by the links kernel: the link slot and the criterion (bit 31: 1 = stress).
@@ -125,6 +143,11 @@ struct Kernels {
   // Writes the breaks of slots axis * n + [b, e) to `breaks` (room for e - b) and returns their count.
   std::size_t (*links)(const LatticeView&, int axis, std::size_t b, std::size_t e, std::uint32_t* breaks);
   AutomataResult (*automata)(const LatticeView&, std::size_t b, std::size_t e);
+  // Explicit links [b, e): their direction and strain; then their forces, torques and the fracture
+  // criteria (the breaks of links [b, e) to `breaks`, in link order, as slot numbers; returns their count).
+  void (*explicit_geometry)(const LatticeView&, const ExplicitView&, std::size_t b, std::size_t e);
+  std::size_t (*explicit_links)(const LatticeView&, const ExplicitView&, std::size_t b, std::size_t e,
+                                std::uint32_t* breaks);
 };
 
 const Kernels& kernels_scalar();

@@ -229,6 +229,87 @@ struct Block {
     return count;
   }
 
+  // Explicit links [k0, k0 + W): direction and strain from the positions of their ends.
+  static MCA_LANE void explicit_geometry(const LatticeView& v, const ExplicitView& e, std::size_t k0) {
+    const U i = L::load(e.i + k0), j = L::load(e.j + k0);
+    const Vec3T<D> xi{L::gather(v.px, i), L::gather(v.py, i), L::gather(v.pz, i)};
+    const Vec3T<D> xj{L::gather(v.px, j), L::gather(v.py, j), L::gather(v.pz, j)};
+    const auto g = link_geometry(xi, xj, L::load(e.r0 + k0), L::load(e.inv_r0 + k0));
+    store3(g.n, e.nx, e.ny, e.nz, k0);
+    L::store(g.eps, e.eps + k0);
+  }
+
+  // Explicit links [k0, k0 + W): the lattice links' law with each link's own r0 and S (see links above).
+  static MCA_LANE std::size_t explicit_links(const LatticeView& v, const ExplicitView& e, std::size_t k0,
+                                             std::uint32_t* out) {
+    const std::size_t l0 = e.slot0 + k0;
+    const auto alive = L::load_bytes(v.intact + l0) != 0.0f;
+    if (!L::any(alive)) return 0;
+    const U i = L::load(e.i + k0), j = L::load(e.j + k0);
+    const Vec3T<X> n = load3(e.nx, e.ny, e.nz, k0);
+    const X eps = L::load(e.eps + k0);
+    const X r0 = L::load(e.r0f + k0), inv_r0 = L::load(e.inv_r0 + k0), to_stress = L::load(e.inv_r0_area + k0);
+    const X mb_i = L::gather(e.weight, i) * to_stress, mb_j = L::gather(e.weight, j) * to_stress;
+    const X G = L::load(e.G + k0);
+    X kt = L::load(e.kt + k0);
+    X kt_slope = 0.0f;
+    X sigma;
+    if (v.strengthening) {
+      float fi[W], fj[W], gi[W], gj[W], k_t[W], k_s[W];
+      for (std::size_t k = 0; k < W; ++k) {
+        const Strengthening& si = v.groups[v.group[L::lane(i, k)]].strengthening;
+        const Strengthening& sj = v.groups[v.group[L::lane(j, k)]].strengthening;
+        const float ek = L::lane(eps, k), kt0 = L::lane(kt, k);
+        const StrengthenedStrain a = strengthened_strain(si, ek), b = strengthened_strain(sj, ek);
+        fi[k] = a.f;
+        fj[k] = b.f;
+        gi[k] = a.g;
+        gj[k] = b.g;
+        k_t[k] = kt0 * 0.5f * (a.f + b.f);
+        k_s[k] = kt0 * 0.5f * (strengthening_slope(si, ek) + strengthening_slope(sj, ek)) * L::lane(inv_r0, k);
+      }
+      sigma = G * eps * (L::load(fi) + L::load(fj)) + L::load(gi) * mb_i + L::load(gj) * mb_j;
+      kt = L::load(k_t);
+      kt_slope = L::load(k_s);
+    } else {
+      sigma = G * eps * 2.0f + mb_i + mb_j;  // link_normal_stress with f = g = 1
+    }
+    LinkInputT<X> in;
+    in.g = {n, r0 * (1.0f + eps), eps};
+    in.area = L::load(e.area + k0);
+    in.sigma = sigma;
+    in.kt = kt;
+    in.kt_slope = kt_slope;
+    in.damp_normal = L::load(e.damp_normal + k0);
+    in.damp_tangential = L::load(e.damp_tangential + k0);
+    in.vi = {L::gather(v.vx, i), L::gather(v.vy, i), L::gather(v.vz, i)};
+    in.vj = {L::gather(v.vx, j), L::gather(v.vy, j), L::gather(v.vz, j)};
+    in.wi = {L::gather(v.wx, i), L::gather(v.wy, i), L::gather(v.wz, i)};
+    in.wj = {L::gather(v.wx, j), L::gather(v.wy, j), L::gather(v.wz, j)};
+    in.ut = load3(v.utx, v.uty, v.utz, l0);
+    in.dt = v.dt;
+    const LinkOutputT<X> o = link_force(in);
+    const X ti = L::gather(v.tensile, i), tj = L::gather(v.tensile, j);
+    const X ci = L::gather(v.compressive, i), cj = L::gather(v.compressive, j);
+    const X si = L::gather(v.break_strain, i), sj = L::gather(v.break_strain, j);
+    const X tensile = select(tj < ti, tj, ti), compressive = select(cj < ci, cj, ci);
+    const X strain = select(sj < si, sj, si);
+    const X p = 0.5f * (L::gather(v.mean_stress, i) + L::gather(v.mean_stress, j));
+    const auto b = link_break_test(eps * r0, r0, o.sigma, o.tau2, p, tensile, tensile / compressive, strain,
+                                   v.stress_coefficient);
+    const auto broke = alive && (b.displacement || b.stress);
+    std::size_t count = 0;
+    if (L::any(broke))
+      for (std::size_t k = 0; k < W; ++k)
+        if (L::lane(broke, k))
+          out[count++] = static_cast<std::uint32_t>(l0 + k) | (L::lane(b.displacement, k) ? 0u : kBreakByStress);
+    const Vec3T<X> hf = o.force_i * (0.5f * r0);
+    store3(o.force_i, e.fx, e.fy, e.fz, k0);
+    store3(cross(n, hf) * (1.0f + eps), e.tx, e.ty, e.tz, k0);
+    store3(select(alive && !broke, o.ut, in.ut), v.utx, v.uty, v.utz, l0);
+    return count;
+  }
+
   static MCA_LANE void add_if(const M& m, Sym3T<X>& s, const Sym3T<X>& a) {
     s.xx = select(m, s.xx + a.xx, s.xx);
     s.yy = select(m, s.yy + a.yy, s.yy);
@@ -414,6 +495,27 @@ inline AutomataResult automata_range(const LatticeView& view, std::size_t b, std
   return r;
 }
 
+inline void explicit_geometry_range(const LatticeView& view, const ExplicitView& ev, std::size_t b, std::size_t e) {
+  const LatticeView v = view;
+  const ExplicitView x = ev;
+  constexpr std::size_t W = Block<V>::W;
+  std::size_t k = b;
+  for (; k + W <= e; k += W) Block<V>::explicit_geometry(v, x, k);
+  for (; k < e; ++k) Block<float>::explicit_geometry(v, x, k);
+}
+
+inline std::size_t explicit_links_range(const LatticeView& view, const ExplicitView& ev, std::size_t b, std::size_t e,
+                                        std::uint32_t* breaks) {
+  const LatticeView v = view;
+  const ExplicitView x = ev;
+  constexpr std::size_t W = Block<V>::W;
+  std::size_t k = b, count = 0;
+  for (; k + W <= e; k += W) count += Block<V>::explicit_links(v, x, k, breaks + count);
+  for (; k < e; ++k) count += Block<float>::explicit_links(v, x, k, breaks + count);
+  return count;
+}
+
 constexpr Kernels make_kernels(const char* name) {
-  return Kernels{name, static_cast<int>(Block<V>::W), &many_body_range, &links_range, &automata_range};
+  return Kernels{name,           static_cast<int>(Block<V>::W), &many_body_range,     &links_range,
+                 &automata_range, &explicit_geometry_range,     &explicit_links_range};
 }
