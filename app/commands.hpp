@@ -41,7 +41,8 @@ struct ViewOptions {
 int view(const ViewOptions& options);
 // Worker threads for --threads N: all cores for 0, at most the cores there are; negative is an error.
 int thread_count(int requested);
-int resume(const std::string& out_dir, int threads, bool quiet);
+// Renders the frames it adds when the run was rendered (render/render.json), unless no_render.
+int resume(const std::string& out_dir, int threads, bool quiet, bool no_render = false);
 int info(const std::optional<std::string>& scene, bool json);
 int bench(const std::vector<std::string>& names, bool json, int threads, int repeats, int steps);
 // `mca bench --render`: frames per second of the offscreen renderer (1280x720) at one step per frame, on

@@ -49,6 +49,9 @@ int main(int argc, char** argv) {
   resume->add_option("dir", resume_dir, "Output folder of the run")->required();
   resume->add_option("--threads", resume_threads, "Worker threads (0 = all cores)");
   resume->add_flag("-q,--quiet", resume_quiet, "No progress output");
+  bool resume_no_render = false;
+  resume->add_flag("--no-render", resume_no_render,
+                   "Do not render the frames it adds, though the run was started with --render");
 
   std::string info_scene;
   bool info_json = false;
@@ -121,7 +124,7 @@ int main(int argc, char** argv) {
       if (!view_script.empty()) vo.script = view_script;
       return mca::app::view(vo);
     }
-    if (resume->parsed()) return mca::app::resume(resume_dir, resume_threads, resume_quiet);
+    if (resume->parsed()) return mca::app::resume(resume_dir, resume_threads, resume_quiet, resume_no_render);
     if (info->parsed())
       return mca::app::info(info_scene.empty() ? std::nullopt : std::optional<std::string>(info_scene), info_json);
     if (bench->parsed() && bench_render)

@@ -8,9 +8,12 @@
 #include <cstring>
 
 #include <fmt/format.h>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <spawn.h>
 #include <sys/wait.h>
 
+#include "backend/backend.hpp"
 #include "io/output_files.hpp"
 #include "mca/error.hpp"
 #include "render/egl_context.hpp"
@@ -60,8 +63,46 @@ std::pair<int, int> parse_render_size(const std::string& text) {
 
 std::string RenderOutput::frame_name(std::int64_t frame) { return fmt::format("frame_{:06d}.png", frame); }
 
+void save_render_options(const std::filesystem::path& out_dir, const RenderOptions& o) {
+  const nlohmann::json j = {{"width", o.width}, {"height", o.height}, {"colour", render::name(o.colour)},
+                            {"draw", render::name(o.draw)}, {"fps", o.fps}};
+  io::write_file_atomic(out_dir / "render" / "render.json", [&](std::ostream& os) { os << j.dump(2) << "\n"; });
+}
+
+std::optional<RenderOptions> load_render_options(const std::filesystem::path& out_dir) {
+  const std::filesystem::path file = out_dir / "render" / "render.json";
+  if (!std::filesystem::exists(file)) return std::nullopt;
+  const auto fail = [&](const std::string& what) {
+    return Error(fmt::format("{}: {}; the file is damaged or was edited: remove it to resume without rendering, or "
+                             "restore it",
+                             file.string(), what));
+  };
+  RenderOptions o;
+  try {
+    std::ifstream in(file);
+    const nlohmann::json j = nlohmann::json::parse(in);
+    o.width = j.at("width").get<int>();
+    o.height = j.at("height").get<int>();
+    const auto colour = render::parse_colour_mode(j.at("colour").get<std::string>());
+    const auto draw = render::parse_draw_mode(j.at("draw").get<std::string>());
+    if (!colour || !draw) throw fail("an unknown colour or draw mode");
+    o.colour = *colour;
+    o.draw = *draw;
+    o.fps = j.at("fps").get<double>();
+  } catch (const nlohmann::json::exception& e) {
+    throw fail(e.what());
+  }
+  if (!(o.fps >= 0 && o.fps <= 240)) throw fail(fmt::format("fps {} is outside 0..240", o.fps));
+  try {
+    check_render_size(o.width, o.height);
+  } catch (const Error& e) {
+    throw fail(e.what());
+  }
+  return o;
+}
+
 RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, const RenderOptions& options,
-                           std::int64_t frames, bool quiet)
+                           std::int64_t frames, bool quiet, std::int64_t first_frame)
     : dir_(dir / "render"), sim_(sim), options_(options), quiet_(quiet), frames_(frames) {
   check_render_size(options.width, options.height);
   const Model& m = sim.model();
@@ -73,7 +114,7 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
   context_ = std::make_unique<render::EglContext>();
   renderer_ = std::make_unique<render::Renderer>();
   target_ = std::make_unique<render::OffscreenTarget>(options.width, options.height);
-  framing_ = render::objects_box(m, sim.state());
+  framing_ = render::objects_box(m, initial_state(m));
   camera_ = render::make_camera(sim.scene().camera, m, framing_,
                                 static_cast<float>(options.width) / static_cast<float>(options.height),
                                 sim.scene().source);
@@ -93,12 +134,19 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
 
   io::prepare_output_dir(dir_);
   io::remove_stale_temporaries(dir_);
+  // An earlier run's frames go, but those a resumed run keeps (frame_NNNNNN.png, NNNNNN < first_frame).
   for (const auto& e : std::filesystem::directory_iterator(dir_)) {
     const std::string name = e.path().filename().string();
-    if (e.is_regular_file() && name.rfind("frame_", 0) == 0 && e.path().extension() == ".png")
-      std::filesystem::remove(e.path());
+    if (e.is_regular_file() && name.rfind("frame_", 0) == 0 && e.path().extension() == ".png") {
+      std::int64_t number = -1;
+      const auto r = std::from_chars(name.data() + 6, name.data() + name.size() - 4, number);
+      const bool kept = r.ec == std::errc() && r.ptr == name.data() + name.size() - 4 && number >= 0 &&
+                        number < first_frame && name == frame_name(number);
+      if (!kept) std::filesystem::remove(e.path());
+    }
   }
   for (const char* old : {"video.mp4", "contact_sheet.png"}) std::filesystem::remove(dir_ / old);
+  if (first_frame == 0) save_render_options(dir, options);
   if (const auto ffmpeg = render::find_ffmpeg()) {
     video_ = std::make_unique<render::VideoEncoder>(*ffmpeg, dir_ / "video.mp4", io::temporary_path(dir_ / "video.mp4"),
                                                     options.width, options.height, fps_);
@@ -109,10 +157,43 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
                "ffmpeg -framerate {:g} -i {}/frame_%06d.png -pix_fmt yuv420p {}/video.mp4\n",
                fps_, dir_.string(), dir_.string());
   }
+  // A resumed run: the frames written before go into the video and the contact sheet from their PNGs.
+  for (std::int64_t f = 0; f < first_frame; ++f) {
+    const std::filesystem::path png = dir_ / frame_name(f);
+    render::Image im;
+    try {
+      im = render::read_png(png);
+    } catch (const Error& e) {
+      if (video_) {
+        fmt::print(stderr, "warning: {} cannot be read ({}): the video will not be written (the PNG frames still are)\n",
+                   png.string(), e.what());
+        video_.reset();
+      }
+      continue;
+    }
+    if (im.width != options.width || im.height != options.height) {
+      if (video_) {
+        fmt::print(stderr, "warning: {} is {}x{}, not the run's {}x{}: the video will not be written (the PNG frames still are)\n", png.string(),
+                   im.width, im.height, options.width, options.height);
+        video_.reset();
+      }
+      continue;
+    }
+    if (video_) video_->add_frame(im);
+    keep_for_sheet(f, im);
+  }
   if (!quiet_)
-    fmt::print(stderr, "mca: rendering {}x{} ({}, colour by {}) with {} ({}) into {}\n", options.width, options.height,
-               render::name(options.draw), render::name(options.colour), render::Renderer::gl_description(),
-               context_->source(), dir_.string());
+    fmt::print(stderr, "mca: rendering {}x{} ({}, colour by {}) with {} ({}) into {}{}\n", options.width,
+               options.height, render::name(options.draw), render::name(options.colour),
+               render::Renderer::gl_description(), context_->source(), dir_.string(),
+               first_frame > 0 ? fmt::format(" (from frame {}; frames 0..{} are kept)", first_frame, first_frame - 1)
+                               : std::string());
+}
+
+void RenderOutput::keep_for_sheet(std::int64_t frame, const render::Image& im) {
+  // The contact sheet: frames 0, F/5, 2F/5, ..., F, each at half size.
+  for (int k = 0; k < kSheetTiles; ++k)
+    if (frame == (frames_ * k) / (kSheetTiles - 1)) sheet_[frame] = render::shrink(im, 2);
 }
 
 RenderOutput::~RenderOutput() = default;
@@ -132,9 +213,7 @@ void RenderOutput::write_frame(std::int64_t frame, const State& state, const ana
   target_->read_rgba(im.rgba);
   write_bytes(dir_ / frame_name(frame), render::encode_png(im));
   if (video_) video_->add_frame(im);
-  // The contact sheet: frames 0, F/5, 2F/5, ..., F, each at half size.
-  for (int k = 0; k < kSheetTiles; ++k)
-    if (frame == (frames_ * k) / (kSheetTiles - 1)) sheet_[frame] = render::shrink(im, 2);
+  keep_for_sheet(frame, im);
   seconds_ += seconds_since(t0);
 }
 

@@ -31,6 +31,12 @@ struct RenderOptions {
   bool plots = true;
 };
 
+// The options of a rendered run, kept as render/render.json so that `mca resume` renders the frames it
+// adds as the run began. load_render_options returns nothing when the run was not rendered, and throws
+// mca::Error naming the file when it is damaged.
+void save_render_options(const std::filesystem::path& out_dir, const RenderOptions& options);
+std::optional<RenderOptions> load_render_options(const std::filesystem::path& out_dir);
+
 // "1280x720" -> width, height; throws mca::Error for anything else (zero, negative, huge, not WxH).
 std::pair<int, int> parse_render_size(const std::string& text);
 
@@ -43,9 +49,12 @@ class RenderOutput {
  public:
   // Makes the OpenGL context, the camera and the render/ folder (emptied of an earlier run's frames and
   // video); throws mca::Error before anything is written when any of them fails. `frames`: the output
-  // frames the run will write after frame 0 (for the contact sheet and the video's frame rate).
+  // frames the run will write after frame 0 (for the contact sheet and the video's frame rate). The camera
+  // is framed on the model's starting state. A resumed run passes `first_frame`, the frames already
+  // written: those PNGs are kept and go into the video and the contact sheet again (the later ones are
+  // removed, as the run writes them again).
   RenderOutput(const std::filesystem::path& dir, const Engine& sim, const RenderOptions& options, std::int64_t frames,
-               bool quiet);
+               bool quiet, std::int64_t first_frame = 0);
   ~RenderOutput();
   RenderOutput(const RenderOutput&) = delete;
   RenderOutput& operator=(const RenderOutput&) = delete;
@@ -61,6 +70,7 @@ class RenderOutput {
   static std::string frame_name(std::int64_t frame);
 
  private:
+  void keep_for_sheet(std::int64_t frame, const render::Image& im);
   std::filesystem::path dir_;
   const Engine& sim_;
   RenderOptions options_;

@@ -440,6 +440,7 @@ int run(const RunOptions& o) {
   // The renderer before any output: a missing OpenGL or a camera that sees nothing stops here.
   std::unique_ptr<RenderOutput> render;
   if (o.render) render = std::make_unique<RenderOutput>(dir, sim, ro, plan.total_frames, o.quiet);
+  else std::filesystem::remove(dir / "render" / "render.json");  // an earlier run's: a resume must not render
   // The scene as run (overrides applied), so the folder says what produced it.
   io::write_file_atomic(dir / "scene.toml", [&](std::ostream& os) { os << io::scene_to_toml(scene); }, false);
   // Outputs of an earlier run in this folder would mix with this one's; only files this program writes
@@ -467,7 +468,7 @@ int run(const RunOptions& o) {
   return run_loop(L, writer);
 }
 
-int resume(const std::string& out_dir, int threads_requested, bool quiet) {
+int resume(const std::string& out_dir, int threads_requested, bool quiet, bool no_render) {
   // An empty path would silently mean the current folder.
   if (out_dir.empty()) throw Error("mca resume: the folder is empty (\"\"); give the --out folder of the run to continue");
   const std::filesystem::path dir(out_dir);
@@ -489,9 +490,15 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet) {
   const std::string source = fmt::format("checkpoint '{}'", all.back().string());
   Engine sim(cp.scene, cp.state, source, cp.model_fingerprint);
   const Plan plan = resume_plan(cp, sim.steps_per_frame(), source);
+  // A rendered run goes on rendering, as it began (render/render.json), unless told not to; the renderer
+  // comes before any output, as for a new run.
+  std::unique_ptr<RenderOutput> render;
+  if (!no_render)
+    if (const auto ro = load_render_options(dir))
+      render = std::make_unique<RenderOutput>(dir, sim, *ro, plan.total_frames, quiet, cp.frame);
   FrameWriter writer(dir, sim.model(), cp.scene.output);
   writer.restore(cp.frame, sim.frame_interval());
-  Loop L{sim, dir, threads, quiet, cp.scene.output.checkpoint_every, plan, 0, 0.0};
+  Loop L{sim, dir, threads, quiet, cp.scene.output.checkpoint_every, plan, 0, 0.0, render.get()};
   L.frame = cp.frame;
   L.wall_before = cp.wall_seconds;
   // Rows past the checkpoint (frames the interrupted run wrote after it) are dropped: they are written

@@ -2,6 +2,8 @@
 // `mca run --render` (frames, video, contact sheet), rendering leaves results unchanged, bad input.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -177,6 +179,56 @@ TEST(Render, RunWritesFramesVideoAndContactSheetAndChangesNoResult) {
   EXPECT_NE(probe.output.find("height=180"), std::string::npos) << probe.output;
   EXPECT_NE(probe.output.find("pix_fmt=yuv420p"), std::string::npos) << probe.output;
   EXPECT_NE(probe.output.find("nb_read_frames=3"), std::string::npos) << probe.output;
+}
+
+// A rendered run stopped and resumed from an earlier checkpoint: `mca resume` renders the frames it adds
+// as the run began (render/render.json), and the video and contact sheet hold every frame again.
+TEST(Render, AResumedRunRendersTheFramesItAdds) {
+  TempDir d;
+  const fs::path dir = d.path() / "run";
+  const Result r = run_mca("run -q --duration 0.012 --render --render-size 320x180 --render-colour damage "
+                           "--checkpoint-every 2 --out " + dir.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  const fs::path rd = dir / "render";
+  const auto last = render::read_png(rd / app::RenderOutput::frame_name(6));  // 0.012 s at 500 frames/s
+  const auto hash = [&] {
+    std::ifstream in(dir / "summary.json");
+    return nlohmann::json::parse(in)["state_hash"].get<std::string>();
+  };
+  const std::string through = hash();
+  // As if stopped after the first checkpoint (frame_000004.mcack: frames 0..4 written): the later
+  // checkpoints, frames and the video gone.
+  std::vector<fs::path> checkpoints;
+  for (const auto& e : fs::directory_iterator(dir / "checkpoints")) checkpoints.push_back(e.path());
+  std::sort(checkpoints.begin(), checkpoints.end());
+  ASSERT_GE(checkpoints.size(), 2u);
+  ASSERT_EQ(checkpoints[0].filename(), "frame_000004.mcack");
+  for (std::size_t k = 1; k < checkpoints.size(); ++k) fs::remove(checkpoints[k]);
+  for (int f = 5; f <= 6; ++f) fs::remove(rd / app::RenderOutput::frame_name(f));
+  fs::remove(rd / "video.mp4");
+  fs::remove(rd / "contact_sheet.png");
+
+  const Result again = run_mca("resume -q " + dir.string());
+  ASSERT_EQ(again.code, 0) << again.output;
+  EXPECT_EQ(hash(), through);
+  const auto redrawn = render::read_png(rd / app::RenderOutput::frame_name(6));
+  EXPECT_EQ(redrawn.width, 320);
+  EXPECT_TRUE(redrawn.rgba == last.rgba) << "the resumed run drew its last frame otherwise (colours, camera)";
+  EXPECT_TRUE(fs::exists(rd / "contact_sheet.png"));
+  if (!render::find_ffmpeg()) GTEST_SKIP() << "ffmpeg is not installed: the video is not checked";
+  const Result probe = shell("ffprobe -v error -count_frames -select_streams v:0 -show_entries stream=nb_read_frames "
+                             "-of default=nw=1 '" + (rd / "video.mp4").string() + "'");
+  ASSERT_EQ(probe.code, 0) << probe.output;
+  EXPECT_NE(probe.output.find("nb_read_frames=7"), std::string::npos) << probe.output;
+
+  // With --no-render it goes on without drawing, and leaves the frames it had alone.
+  fs::remove(dir / "checkpoints" / "frame_000006.mcack");
+  fs::remove(rd / app::RenderOutput::frame_name(6));
+  const Result plain = run_mca("resume -q --no-render " + dir.string());
+  ASSERT_EQ(plain.code, 0) << plain.output;
+  EXPECT_EQ(hash(), through);
+  EXPECT_FALSE(fs::exists(rd / app::RenderOutput::frame_name(6)));
+  EXPECT_TRUE(fs::exists(rd / app::RenderOutput::frame_name(5)));
 }
 
 TEST(Render, WithoutFfmpegThePngsAreWrittenAndTheMessageSaysHowToGetTheVideo) {
