@@ -2,11 +2,24 @@
 // Small scene builders and measurements shared by the physics tests.
 #include <cmath>
 #include <random>
+#include <string>
 
+#include "mca/error.hpp"
 #include "mca/scene.hpp"
 #include "sim/engine.hpp"
 
 namespace mca::test {
+
+// The message of the mca::Error f throws, or "" when it throws none.
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
 
 // A test material: concrete-like elasticity; strengths so high nothing breaks unless a test lowers them.
 inline MaterialDef test_material(double E = 30e9, double nu = 0.2, double rho = 2400) {

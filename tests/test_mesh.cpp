@@ -26,17 +26,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::TempDir;
-
-// The error build_model (or f) throws, or "" when none.
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using test::error_of;
 
 SceneDef mesh_scene(const fs::path& mesh_file, double d) {
   SceneDef s = test::block_scene(1, 1, 1, d);

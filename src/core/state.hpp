@@ -67,6 +67,9 @@ struct State {
   // links
   std::vector<std::uint8_t> intact;
   std::vector<Vec3> link_ut;    // tangential displacement in the pair's frame
+  // Per explicit link (Model::ExplicitLinks; empty without): the moment of its bending and twisting
+  // spring on its first end (physics/link_law.hpp, link_bending).
+  std::vector<Vec3> link_moment;
 
   std::vector<ContactPair> contacts;        // sorted by (i, j)
   std::vector<BodyContact> ground_contacts;  // automata within reach of the ground, sorted by automaton

@@ -591,6 +591,17 @@ double surface_spacing(const Shapes& S) {
   return links ? sum / static_cast<double>(links) : std::cbrt(volume / static_cast<double>(automata));
 }
 
+// The unit normal of triangle f of m (zero for a degenerate one).
+Vec3d face_normal(const mesh::TriMesh& m, std::uint32_t f) {
+  const auto& a = m.vertices[m.faces[f][0]];
+  const auto& b = m.vertices[m.faces[f][1]];
+  const auto& c = m.vertices[m.faces[f][2]];
+  const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+  const Vec3d n{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+  const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  return len > 0 ? Vec3d{n[0] / len, n[1] / len, n[2] / len} : Vec3d{0, 0, 0};
+}
+
 // Automata of an object filled in surface mode (paper sec. 5.4 counts): one per triangle at its centroid,
 // of volume (lumped area) x thickness, linked across shared edges (rest length the centroids' distance, cross-section
 // the edge's length x thickness), each triangle bound to its own automaton. Strength classes are drawn at
@@ -662,6 +673,18 @@ void add_surface_object(Model& M, const SceneDef& scene, const MeshObject& mo, c
     E.j.push_back(b);
     E.r0.push_back(r0);
     E.area.push_back(static_cast<float>(sc.edge[l] * t));
+    E.edge.push_back(static_cast<float>(sc.edge[l]));
+    // The shell's normal: the two triangles' normals (turned to agree), averaged, orthogonal to the link.
+    const Vec3d na = R.apply(face_normal(mo.solid.mesh, sc.face[sc.link[l][0]]));
+    Vec3d nb = R.apply(face_normal(mo.solid.mesh, sc.face[sc.link[l][1]]));
+    if (na[0] * nb[0] + na[1] * nb[1] + na[2] * nb[2] < 0) nb = {-nb[0], -nb[1], -nb[2]};
+    DVec3 m{na[0] + nb[0], na[1] + nb[1], na[2] + nb[2]};
+    const DVec3 u{dd.x / r0, dd.y / r0, dd.z / r0};
+    const double along = dot(m, u);
+    m = {m.x - along * u.x, m.y - along * u.y, m.z - along * u.z};
+    const double len = std::sqrt(dot(m, m));
+    E.normal.push_back(len > 0 ? Vec3{static_cast<float>(m.x / len), static_cast<float>(m.y / len), static_cast<float>(m.z / len)}
+                               : Vec3{});
     for (auto k : sc.link[l]) {
       length_sum[k] += r0;
       shortest[k] = std::min(shortest[k], r0);

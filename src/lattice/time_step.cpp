@@ -99,7 +99,8 @@ double critical_step(double w2, double c) { return w2 > 0 ? (std::sqrt(4 * w2 + 
 
 // The automata of surface-mode objects: no lattice, each link its own length, cross-section and masses,
 // so the bound is Gershgorin's, automaton by automaton: the rows of its explicit links (normal and shear
-// springs with levers r0 / 2 to the rotations, strengthened to the largest factor), of six face contacts
+// springs with levers r0 / 2 to the rotations, strengthened to the largest factor, and the bending
+// spring on the relative rotation at its stiffest), of six face contacts
 // with automata like itself (as many faces as a lattice automaton has) and of the ground; the shell's
 // many-body term (a rank-one term lambda V ff g g^T per automaton, g the gradient of its L) as for the
 // lattice. Dashpots likewise.
@@ -158,7 +159,10 @@ SurfaceBound surface_bound(const Model& M, const std::vector<double>& fmax) {
       const double kt = kShearFactor * G * area / r0 * f;
       const LinkDashpots c = explicit_link_dashpots(static_cast<float>(kn), M.mass[a], M.mass[o],
                                            0.5f * (A.damping_time + B.damping_time), M.link_damping);
-      add_pair(r, -1, kn, kt, 0.5 * r0, 0.5 * r0, 0, ma, ja, M.mass[o], M.inertia[o], c.normal, c.tangential, 0);
+      // The bending and twisting spring on the relative rotation (link_bending): its stiffest axis.
+      const LinkBendingConstants bc = link_bending_constants(harmonic(A.youngs, B.youngs), G, r0, E.edge[l], area / E.edge[l]);
+      const double kr = std::max({bc.k_twist, bc.k_in, bc.k_out});
+      add_pair(r, -1, kn, kt, 0.5 * r0, 0.5 * r0, kr, ma, ja, M.mass[o], M.inertia[o], c.normal, c.tangential, 0);
     }
     const ContactSprings cs = springs(M.contact_material(ga, ga), static_cast<float>(ra), static_cast<float>(ra),
                                       0.5 * ma, 0.5 * ja);

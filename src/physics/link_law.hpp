@@ -134,6 +134,83 @@ MCA_HD ExplicitManyBody explicit_many_body(float lambda, const float free_factor
   return {L, theta, lambda * theta * volume * share};
 }
 
+// Bending and twisting of an explicit link (surface mode). A shell one automaton thick has no bending
+// stiffness from pair forces alone (each automaton turns with its links and the chain folds freely), nor
+// enough in-plane shear stiffness (its links form a honeycomb), so an explicit link also resists the
+// relative rotation of its ends, as the bonds of bonded-particle models do: about the link (twist,
+// k = G J / r0, J = a b^3 / 3 of its a x b cross-section, b the smaller side), about the shell's normal
+// m (in-plane bending, E t e^3 / (12 r0), e the shared edge's length, t the thickness) and about n x m
+// (bending of the shell, E e t^3 / (12 r0)). The spring's moment is kept incrementally, as the contacts'
+// rolling spring: each step its components on the pair's current frame (n, m, n x m) grow by the
+// stiffness times the relative rotation of the step, so it turns with the pair. It acts as +M on the
+// first end and -M on the second; its energy is sum M_k^2 / (2 k_k). The bending moments load the
+// section's outer fibres, sigma = M_m e / (2 I_in) + M_b t / (2 I_out), and the twist its shear
+// tau = M_n b / J, which the fracture criteria see with the pair's own stresses.
+template <class T>
+struct LinkBendingInputT {
+  Vec3T<T> n, m;           // link direction; the shell's normal at the link, orthogonal to n (unit vectors)
+  Vec3T<T> wi, wj;         // angular velocities of the ends
+  Vec3T<T> moment;         // the spring's moment on the first end, from the previous step
+  T k_twist, k_in, k_out;  // [N m / rad]
+  T s_in, s_out, s_twist;  // outer-fibre stress per unit moment [1 / m^3]: e / (2 I_in), t / (2 I_out), b / J
+  float dt;
+};
+
+template <class T>
+struct LinkBendingOutputT {
+  Vec3T<T> moment;  // updated; the torque on the first end (the second gets -moment)
+  T sigma;          // largest bending stress of the section's outer fibres (>= 0)
+  T tau;            // twisting shear stress (>= 0)
+};
+
+template <class T>
+MCA_HD LinkBendingOutputT<T> link_bending(const LinkBendingInputT<T>& in) {
+  const Vec3T<T> b = cross(in.n, in.m);
+  const Vec3T<T> wrel = in.wj - in.wi;
+  const T mn = dot(in.moment, in.n) + in.k_twist * in.dt * dot(wrel, in.n);
+  const T mm = dot(in.moment, in.m) + in.k_in * in.dt * dot(wrel, in.m);
+  const T mb = dot(in.moment, b) + in.k_out * in.dt * dot(wrel, b);
+  LinkBendingOutputT<T> out;
+  out.moment = mn * in.n + mm * in.m + mb * b;
+  using std::fabs;
+  out.sigma = fabs(mm) * in.s_in + fabs(mb) * in.s_out;
+  out.tau = fabs(mn) * in.s_twist;
+  return out;
+}
+
+// The bending spring's constants of an explicit link of rest length r0 between materials of moduli E and
+// G (the pair's), its shared edge `edge` long and the shell `thickness` thick.
+struct LinkBendingConstants {
+  float k_twist, k_in, k_out, s_in, s_out, s_twist;
+};
+
+inline LinkBendingConstants link_bending_constants(double E, double G, double r0, double edge, double thickness) {
+  const double a = edge > thickness ? edge : thickness, b = edge > thickness ? thickness : edge;
+  const double J = a * b * b * b / 3.0;
+  const double I_in = thickness * edge * edge * edge / 12.0, I_out = edge * thickness * thickness * thickness / 12.0;
+  return {static_cast<float>(G * J / r0),          static_cast<float>(E * I_in / r0),
+          static_cast<float>(E * I_out / r0),      static_cast<float>(0.5 * edge / I_in),
+          static_cast<float>(0.5 * thickness / I_out), static_cast<float>(b / J)};
+}
+
+// The shell's normal at a link from its ends' orientations: the rest normal m0 turned by each end's
+// rotation, the mean of the two, made orthogonal to the link's direction n and of unit length.
+template <class T>
+MCA_HD Vec3T<T> turned(const QuatT<T>& q, const Vec3T<T>& v) {
+  const Vec3T<T> u{q.x, q.y, q.z};
+  const Vec3T<T> t = cross(u, v) * 2.0f;
+  return v + q.w * t + cross(u, t);
+}
+
+template <class T>
+MCA_HD Vec3T<T> shell_normal(const QuatT<T>& qi, const QuatT<T>& qj, const Vec3T<T>& m0, const Vec3T<T>& n) {
+  Vec3T<T> m = turned(qi, m0) + turned(qj, m0);
+  m = m - dot(m, n) * n;
+  using std::sqrt;
+  const T len = sqrt(dot(m, m));
+  return m * select(len > 0.0f, 1.0f / len, T(0.0f));
+}
+
 // Viscous coefficients [N s/m] of a link's dashpots on the relative velocity of its ends. Normal: the
 // materials' viscosity, Kelvin-Voigt c = tau k (tau the mean of the two materials' damping_time, k the
 // pair's normal stiffness: a stiffness-proportional damping that gives a mode of angular frequency omega

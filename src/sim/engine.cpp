@@ -181,6 +181,7 @@ std::uint64_t state_hash(const State& s) {
   f.vec(s.t);
   f.vec(s.intact);
   f.vec(s.link_ut);
+  if (!s.link_moment.empty()) f.vec(s.link_moment);  // (a lattice state hashes as before)
   f.list(s.contacts, [&](const auto& c) {
     f.pod(c.i);
     f.pod(c.j);

@@ -191,6 +191,8 @@ void check_state(const Model& m, const State& s, const std::string& source) {
   c.size("intact", s.intact, links, "links");
   c.size("link_ut", s.link_ut, links, "links");
   c.all_finite("link_ut", s.link_ut);
+  c.size("link_moment", s.link_moment, m.explicit_links.size(), "explicit links");
+  c.all_finite("link_moment", s.link_moment);
   std::int64_t broken = 0;
   for (std::size_t l = 0; l < links; ++l) {
     if (s.intact[l] > 1) c.fail(fmt::format("intact[{}] is {} (0 or 1)", l, s.intact[l]));

@@ -160,7 +160,9 @@ class CpuBackend final : public Backend {
     const auto& E = m.explicit_links;
     const std::size_t ne = E.size();
     for (auto* v : {&ex_r0f_, &ex_inv_r0_, &ex_area_, &ex_to_stress_, &ex_G_, &ex_kt_, &ex_damp_n_, &ex_damp_t_, &ex_nx_,
-                    &ex_ny_, &ex_nz_, &ex_eps_, &ex_fx_, &ex_fy_, &ex_fz_, &ex_tx_, &ex_ty_, &ex_tz_})
+                    &ex_ny_, &ex_nz_, &ex_eps_, &ex_fx_, &ex_fy_, &ex_fz_, &ex_tx_, &ex_ty_, &ex_tz_, &ex_k_twist_,
+                    &ex_k_in_, &ex_k_out_, &ex_s_in_, &ex_s_out_, &ex_s_twist_, &ex_m0x_, &ex_m0y_, &ex_m0z_, &ex_mx_,
+                    &ex_my_, &ex_mz_})
       v->resize(ne);
     for (std::size_t k = 0; k < ne; ++k) {
       const std::uint32_t i = E.i[k], j = E.j[k];
@@ -176,6 +178,17 @@ class CpuBackend final : public Backend {
                                                     m.link_damping);
       ex_damp_n_[k] = c.normal;
       ex_damp_t_[k] = c.tangential;
+      const LinkBendingConstants bc = link_bending_constants(harmonic(gi.youngs, gj.youngs), ex_G_[k], E.r0[k], E.edge[k],
+                                                             E.area[k] / E.edge[k]);
+      ex_k_twist_[k] = bc.k_twist;
+      ex_k_in_[k] = bc.k_in;
+      ex_k_out_[k] = bc.k_out;
+      ex_s_in_[k] = bc.s_in;
+      ex_s_out_[k] = bc.s_out;
+      ex_s_twist_[k] = bc.s_twist;
+      ex_m0x_[k] = E.normal[k].x;
+      ex_m0y_[k] = E.normal[k].y;
+      ex_m0z_[k] = E.normal[k].z;
     }
     for (std::size_t a = 0; a < n && !E.first.empty(); ++a)
       if (E.first[a + 1] > E.first[a]) explicit_automata_.push_back(static_cast<std::uint32_t>(a));
@@ -250,6 +263,9 @@ class CpuBackend final : public Backend {
     for (std::size_t l = 0; l < M_.link_slots(); ++l) {
       utx_[l] = S_.link_ut[l].x; uty_[l] = S_.link_ut[l].y; utz_[l] = S_.link_ut[l].z;
     }
+    for (std::size_t k = 0; k < S_.link_moment.size(); ++k) {
+      ex_mx_[k] = S_.link_moment[k].x; ex_my_[k] = S_.link_moment[k].y; ex_mz_[k] = S_.link_moment[k].z;
+    }
     stale_ = false;
     near_valid_ = false;
     if (S_.x_at_rebuild.size() != S_.x.size()) rebuild_contacts();
@@ -267,6 +283,7 @@ class CpuBackend final : public Backend {
         S_.q[a] = {qw_[a], qx_[a], qy_[a], qz_[a]};
       }
       for (std::size_t l = 0; l < M_.link_slots(); ++l) S_.link_ut[l] = {utx_[l], uty_[l], utz_[l]};
+      for (std::size_t k = 0; k < S_.link_moment.size(); ++k) S_.link_moment[k] = {ex_mx_[k], ex_my_[k], ex_mz_[k]};
       stale_ = false;
     }
     return S_;
@@ -379,6 +396,8 @@ class CpuBackend final : public Backend {
   // step's geometry and forces; the automata that have some, and each automaton's many-body weight.
   cpu::LineArray<float> ex_r0f_, ex_inv_r0_, ex_area_, ex_to_stress_, ex_G_, ex_kt_, ex_damp_n_, ex_damp_t_;
   cpu::LineArray<float> ex_nx_, ex_ny_, ex_nz_, ex_eps_, ex_fx_, ex_fy_, ex_fz_, ex_tx_, ex_ty_, ex_tz_;
+  cpu::LineArray<float> ex_k_twist_, ex_k_in_, ex_k_out_, ex_s_in_, ex_s_out_, ex_s_twist_, ex_m0x_, ex_m0y_, ex_m0z_;
+  cpu::LineArray<float> ex_mx_, ex_my_, ex_mz_;  // state: the bending springs' moments (State::link_moment)
   std::vector<std::uint32_t> explicit_automata_;
   std::vector<float> explicit_weight_;
   std::vector<std::uint32_t> explicit_breaks_;  // per chunk of links, what the explicit kernel found
@@ -562,6 +581,10 @@ cpu::ExplicitView CpuBackend::explicit_view() {
   e.nx = ex_nx_.data(); e.ny = ex_ny_.data(); e.nz = ex_nz_.data(); e.eps = ex_eps_.data();
   e.fx = ex_fx_.data(); e.fy = ex_fy_.data(); e.fz = ex_fz_.data();
   e.tx = ex_tx_.data(); e.ty = ex_ty_.data(); e.tz = ex_tz_.data();
+  e.k_twist = ex_k_twist_.data(); e.k_in = ex_k_in_.data(); e.k_out = ex_k_out_.data();
+  e.s_in = ex_s_in_.data(); e.s_out = ex_s_out_.data(); e.s_twist = ex_s_twist_.data();
+  e.m0x = ex_m0x_.data(); e.m0y = ex_m0y_.data(); e.m0z = ex_m0z_.data();
+  e.mx = ex_mx_.data(); e.my = ex_my_.data(); e.mz = ex_mz_.data();
   return e;
 }
 
@@ -580,9 +603,10 @@ void CpuBackend::explicit_gather_pass() {
     for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
       const std::uint32_t l = E.of[x];
       if (!S_.intact[slot0 + l]) continue;
-      const Vec3 fl{ex_fx_[l], ex_fy_[l], ex_fz_[l]};
-      f += E.i[l] == a ? fl : -fl;
-      t += Vec3{ex_tx_[l], ex_ty_[l], ex_tz_[l]};
+      const Vec3 fl{ex_fx_[l], ex_fy_[l], ex_fz_[l]}, ml{ex_mx_[l], ex_my_[l], ex_mz_[l]};
+      const bool first = E.i[l] == a;
+      f += first ? fl : -fl;
+      t += Vec3{ex_tx_[l], ex_ty_[l], ex_tz_[l]} + (first ? ml : -ml);
       s += sym_outer(Vec3{ex_nx_[l], ex_ny_[l], ex_nz_[l]}, fl, 0.5f * ex_r0f_[l]);
       any = true;
     }
@@ -611,6 +635,10 @@ void CpuBackend::apply_breaks(const std::vector<std::size_t>& counts, const std:
       --intact_count_[i];
       --intact_count_[j];
       utx_[l] = uty_[l] = utz_[l] = 0.0f;
+      if (M_.is_explicit(l)) {
+        const std::size_t k = l - M_.lattice_slots();
+        ex_mx_[k] = ex_my_[k] = ex_mz_[k] = 0.0f;
+      }
       S_.breaks.push_back({S_.step, l, static_cast<BreakCriterion>(crit)});
       ++S_.broken_by[crit];
       fresh.push_back({i, j, {}});
@@ -982,6 +1010,7 @@ State initial_state(const Model& m) {
   s.intact.resize(L);
   for (std::size_t l = 0; l < L; ++l) s.intact[l] = m.link_exists(l) ? 1 : 0;
   s.link_ut.assign(L, Vec3{});
+  s.link_moment.assign(m.explicit_links.size(), Vec3{});
   for (const auto& p : m.projectiles) {
     ProjectileState ps;
     ps.position = p.position;

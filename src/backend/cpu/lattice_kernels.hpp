@@ -120,6 +120,12 @@ struct ExplicitView {
   const float* inv_r0_area = nullptr;  // 1 / (r0 S): turns a many-body weight into the stress P
   const float *G = nullptr, *kt = nullptr, *damp_normal = nullptr, *damp_tangential = nullptr;
   const float* weight = nullptr;  // per automaton: its many-body weight (explicit_many_body)
+  // The bending spring (link_bending): stiffnesses, stresses per unit moment, the shell's normal at the
+  // start; its moment is state (per link).
+  const float *k_twist = nullptr, *k_in = nullptr, *k_out = nullptr, *s_in = nullptr, *s_out = nullptr,
+              *s_twist = nullptr;
+  const float *m0x = nullptr, *m0y = nullptr, *m0z = nullptr;
+  float *mx = nullptr, *my = nullptr, *mz = nullptr;
   // This step's geometry (explicit_geometry) and forces (explicit_links), per link.
   float *nx = nullptr, *ny = nullptr, *nz = nullptr, *eps = nullptr;
   float *fx = nullptr, *fy = nullptr, *fz = nullptr, *tx = nullptr, *ty = nullptr, *tz = nullptr;

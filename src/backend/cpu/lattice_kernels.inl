@@ -289,14 +289,34 @@ struct Block {
     in.ut = load3(v.utx, v.uty, v.utz, l0);
     in.dt = v.dt;
     const LinkOutputT<X> o = link_force(in);
+    const QuatT<X> qi{L::gather(v.qw, i), L::gather(v.qx, i), L::gather(v.qy, i), L::gather(v.qz, i)};
+    const QuatT<X> qj{L::gather(v.qw, j), L::gather(v.qx, j), L::gather(v.qy, j), L::gather(v.qz, j)};
+    LinkBendingInputT<X> bi;
+    bi.n = n;
+    bi.m = shell_normal(qi, qj, load3(e.m0x, e.m0y, e.m0z, k0), n);
+    bi.wi = in.wi;
+    bi.wj = in.wj;
+    bi.moment = load3(e.mx, e.my, e.mz, k0);
+    bi.k_twist = L::load(e.k_twist + k0);
+    bi.k_in = L::load(e.k_in + k0);
+    bi.k_out = L::load(e.k_out + k0);
+    bi.s_in = L::load(e.s_in + k0);
+    bi.s_out = L::load(e.s_out + k0);
+    bi.s_twist = L::load(e.s_twist + k0);
+    bi.dt = v.dt;
+    const LinkBendingOutputT<X> bo = link_bending(bi);
+    // The criteria see the section's most loaded fibre: the pair's stress plus the bending's, the pair's
+    // shear plus the twist's.
+    using std::sqrt;
+    const X tau = sqrt(o.tau2) + bo.tau;
     const X ti = L::gather(v.tensile, i), tj = L::gather(v.tensile, j);
     const X ci = L::gather(v.compressive, i), cj = L::gather(v.compressive, j);
     const X si = L::gather(v.break_strain, i), sj = L::gather(v.break_strain, j);
     const X tensile = select(tj < ti, tj, ti), compressive = select(cj < ci, cj, ci);
     const X strain = select(sj < si, sj, si);
     const X p = 0.5f * (L::gather(v.mean_stress, i) + L::gather(v.mean_stress, j));
-    const auto b = link_break_test(eps * r0, r0, o.sigma, o.tau2, p, tensile, tensile / compressive, strain,
-                                   v.stress_coefficient);
+    const auto b = link_break_test(eps * r0, r0, o.sigma + bo.sigma, tau * tau, p, tensile, tensile / compressive,
+                                   strain, v.stress_coefficient);
     const auto broke = alive && (b.displacement || b.stress);
     std::size_t count = 0;
     if (L::any(broke))
@@ -307,6 +327,7 @@ struct Block {
     store3(o.force_i, e.fx, e.fy, e.fz, k0);
     store3(cross(n, hf) * (1.0f + eps), e.tx, e.ty, e.tz, k0);
     store3(select(alive && !broke, o.ut, in.ut), v.utx, v.uty, v.utz, l0);
+    store3(select(alive && !broke, bo.moment, bi.moment), e.mx, e.my, e.mz, k0);
     return count;
   }
 
