@@ -40,8 +40,9 @@ void print_mesh(const MeshSummary& ms, const std::string& object, std::size_t au
   if (ms.surface) {
     fmt::print("  automata       {}, one per triangle (fill = \"surface\"), shell {:.4g} m thick\n", automata,
                ms.shell_thickness);
-    fmt::print("  links          {} across shared edges{}\n", ms.links,
-               ms.unlinked_edges ? fmt::format("; {} non-manifold edges left unlinked", ms.unlinked_edges) : std::string());
+    fmt::print("  links          {} across shared edges{}{}\n", ms.links,
+               ms.unlinked_edges ? fmt::format("; {} non-manifold edges left unlinked", ms.unlinked_edges) : std::string(),
+               ms.duplicate_faces ? fmt::format("; {} repeated triangles left out", ms.duplicate_faces) : std::string());
   } else {
     fmt::print("  automata       {} (cells inside found in {:.2f} s)\n", automata, ms.fill_seconds);
   }
@@ -105,6 +106,7 @@ int info(const std::optional<std::string>& path, bool json) {
       if (ms.surface) {
         meshes.back()["links"] = ms.links;
         meshes.back()["unlinked_edges"] = ms.unlinked_edges;
+        meshes.back()["duplicate_faces"] = ms.duplicate_faces;
         meshes.back()["shell_thickness"] = ms.shell_thickness;
       }
     }

@@ -116,6 +116,39 @@ TEST(SurfaceMode, TheThicknessDefaultsToTheMeanLinkAndSetsTheMass) {
   EXPECT_NEAR(mass2 / mass, 2.0, 1e-5);
 }
 
+// A triangle given twice is one automaton; a triangle on a non-manifold edge (three triangles on it) is
+// left unlinked there, and a mesh with no edge of two triangles needs shell_thickness, and says why.
+TEST(SurfaceMode, RepeatedTrianglesAndNonManifoldEdges) {
+  TempDir t;
+  {
+    std::ofstream(t.path() / "twice.off") << "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 2\n";
+    SceneDef s = test::block_scene(1, 1, 1, 0.05);
+    s.objects[0].shape = Shape::mesh;
+    s.objects[0].mesh = (t.path() / "twice.off").string();
+    s.objects[0].fill = MeshFill::surface;
+    s.objects[0].shell_thickness = 0.01;
+    const Model m = lattice::build_model(s);
+    EXPECT_EQ(m.size(), 1u);
+    EXPECT_EQ(m.explicit_links.size(), 0u);
+    ASSERT_EQ(m.meshes.size(), 1u);
+    EXPECT_EQ(m.meshes[0].duplicate_faces, 1u);
+  }
+  {
+    std::ofstream(t.path() / "fin.off") << "OFF\n5 3 0\n0 0 0\n1 0 0\n0 1 0\n0 -1 0\n0 0 1\n3 0 1 2\n3 0 1 3\n3 0 1 4\n";
+    SceneDef s = test::block_scene(1, 1, 1, 0.05);
+    s.objects[0].shape = Shape::mesh;
+    s.objects[0].mesh = (t.path() / "fin.off").string();
+    s.objects[0].fill = MeshFill::surface;
+    const std::string e = error_of([&] { lattice::build_model(s); });
+    EXPECT_NE(e.find("1 edges have three or more: non-manifold"), std::string::npos) << e;
+    s.objects[0].shell_thickness = 0.01;
+    const Model m = lattice::build_model(s);
+    EXPECT_EQ(m.size(), 3u);
+    EXPECT_EQ(m.explicit_links.size(), 0u);
+    EXPECT_EQ(m.meshes[0].unlinked_edges, 1u);
+  }
+}
+
 // An open, flat mesh (a square sheet of 2 x 8 x 8 triangles) is what surface mode is for: accepted,
 // and its boundary triangles have fewer links.
 TEST(SurfaceMode, AnOpenFlatSheetIsAccepted) {
@@ -162,6 +195,18 @@ TEST(SurfaceMode, KeysAreCheckedWithClearErrors) {
     b.objects[0].shell_thickness = 0.01;
     const std::string e = error_of([&] { lattice::build_model(b); });
     EXPECT_NE(e.find("is for fill = \"surface\""), std::string::npos) << e;
+  }
+  {
+    SceneDef b = s;
+    b.objects[0].shell_thickness = 1e-9;  // far thinner than the triangles are apart
+    const std::string e = error_of([&] { lattice::build_model(b); });
+    EXPECT_NE(e.find("between 0.01 and 100 times the mean distance of linked triangles"), std::string::npos) << e;
+  }
+  {
+    SceneDef b = test::block_scene(3, 3, 3, 0.05);
+    b.objects[0].shell_thickness = 0.01;
+    const std::string e = error_of([&] { lattice::build_model(b); });
+    EXPECT_NE(e.find("shell_thickness = 0.01 is for objects of shape \"mesh\""), std::string::npos) << e;
   }
   {
     SceneDef b = test::block_scene(3, 3, 3, 0.05);

@@ -65,6 +65,7 @@ struct MeshSummary {
   std::size_t automata = 0;      // automata of the object
   bool surface = false;          // filled in surface mode (one automaton per triangle)
   std::size_t links = 0, unlinked_edges = 0;  // surface mode: explicit links; non-manifold edges left unlinked
+  std::size_t duplicate_faces = 0;            // surface mode: triangles given twice, left out
   double shell_thickness = 0;    // surface mode [m]
 };
 

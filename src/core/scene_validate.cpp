@@ -402,6 +402,11 @@ void validate_scene(const SceneDef& scene) {
       default:
         c.fail(fmt::format("{}.shape is not a known shape; use \"box\", \"sphere\", \"cylinder\" or \"mesh\"", p));
     }
+    if (o.shape != Shape::mesh && o.shell_thickness != 0) {
+      c.fail(fmt::format("{}.shell_thickness = {:g} is for objects of shape \"mesh\" with fill = \"surface\"; remove "
+                         "shell_thickness",
+                         p, o.shell_thickness));
+    }
     if (o.shape != Shape::mesh && o.fill == MeshFill::surface) {
       c.fail(fmt::format("{}.fill = \"surface\" is for objects of shape \"mesh\" (one automaton per triangle); remove "
                          "fill",

@@ -463,15 +463,22 @@ void refuse_bodies_in_the_ground(const SceneDef& scene, const Shapes& S, const M
   if (deepest > 1e-6 * d) {
     const auto oi = static_cast<std::size_t>(M.object[at]);
     const ObjectDef& o = scene.objects[oi];
-    std::int64_t n[3];
-    double origin[3];
-    lattice_frame(o, S.of(oi), d, n, origin);
+    std::string why;
+    if (S.surface_of(oi)) {
+      why = " (surface mode: its automata are the triangles' centroids, each a sphere of its contact radius)";
+    } else {
+      std::int64_t n[3];
+      double origin[3];
+      lattice_frame(o, S.of(oi), d, n, origin);
+      why = fmt::format(". Its lattice is {} x {} x {} cells of {:g} m ({:g} x {:g} x {:g} m): a size is rounded to "
+                        "whole cells",
+                        n[0], n[1], n[2], d, n[0] * d, n[1] * d, n[2] * d);
+    }
     throw Error(fmt::format(
         "{}: object '{}' starts {:.4g} m inside the ground (its automaton at [{:.6g}, {:.6g}, {:.6g}], radius {:g} m, "
-        "below ground.height = {:g} along the up axis); move the object up by at least {:.4g} m. Its lattice is "
-        "{} x {} x {} cells of {:g} m ({:g} x {:g} x {:g} m): a size is rounded to whole cells",
+        "below ground.height = {:g} along the up axis); move the object up by at least {:.4g} m{}",
         scene.source, o.name, deepest, M.position0[at].x, M.position0[at].y, M.position0[at].z, M.radius[at],
-        M.ground_height, deepest, n[0], n[1], n[2], d, n[0] * d, n[1] * d, n[2] * d));
+        M.ground_height, deepest, why));
   }
   for (std::size_t p = 0; p < M.projectiles.size(); ++p) {
     const ProjectileParams& P = M.projectiles[p];
@@ -724,7 +731,9 @@ void add_surface_object(Model& M, const SceneDef& scene, const MeshObject& mo, c
     M.radius[a] = static_cast<float>(std::min(radius[k], 0.49 * nearest));
     // As a cube whose side is its mean link length (a lattice automaton: m d^2 / 6), whatever its
     // contact radius.
-    M.inertia[a] = static_cast<float>(M.mass[a] * (2.0 * size[k]) * (2.0 * size[k]) / 6.0);
+    M.inertia[a] = as_float32(scene, fmt::format("the moment of inertia of the automaton of triangle {} of object '{}'", sc.face[k], o.name),
+                              M.mass[a] * (2.0 * size[k]) * (2.0 * size[k]) / 6.0,
+                              fmt::format("check the mesh's scale and shell_thickness ({:g} m)", t));
   }
   // Each triangle rides with its own automaton.
   BoundSurface& B = M.surface;
@@ -948,10 +957,13 @@ Model build_model(const SceneDef& scene) {
     const ObjectDef& o = scene.objects[oi];
     const std::string okey = fmt::format("object[{}]", oi);
     M.object_names.push_back(o.name);
-    const int base_group = group_of(o.material, okey + ".material", true);
+    // (The lattice's automata are checked per material; a surface object's per automaton, as it is built.)
+    const bool lattice_automata = S.surface_of(oi) == nullptr;
+    const int base_group = group_of(o.material, okey + ".material", lattice_automata);
     std::vector<int> region_groups;
     for (std::size_t r = 0; r < o.regions.size(); ++r)
-      region_groups.push_back(group_of(o.regions[r].material, fmt::format("{}.region[{}].material", okey, r), true));
+      region_groups.push_back(
+          group_of(o.regions[r].material, fmt::format("{}.region[{}].material", okey, r), lattice_automata));
 
     const Mat3 R = rotation_matrix(o.rotation);
     M.object_axes.push_back({to_vec3({R.m[0][0], R.m[1][0], R.m[2][0]}), to_vec3({R.m[0][1], R.m[1][1], R.m[2][1]}),
@@ -978,6 +990,7 @@ Model build_model(const SceneDef& scene) {
       ms.automata = M.size() - first;
       ms.links = sc->link.size();
       ms.unlinked_edges = sc->unlinked_edges;
+      ms.duplicate_faces = sc->duplicate_faces;
       ms.shell_thickness = sc->thickness;
       M.meshes.push_back(std::move(ms));
       draw_classes();

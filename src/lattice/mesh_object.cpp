@@ -273,14 +273,28 @@ bool inside_solid(const Solid& s, const mesh::Point& p) {
 SurfaceCells surface_cells(const SceneDef& scene, std::size_t index, const MeshObject& m) {
   const mesh::TriMesh& tm = m.solid.mesh;
   SurfaceCells c;
-  std::vector<std::int64_t> automaton(tm.faces.size(), -1);
+  // A triangle given twice (the same three vertices) would put two automata at one point: the repeat is
+  // left out.
+  std::vector<std::array<std::uint32_t, 4>> keys;  // sorted vertices, face
+  keys.reserve(tm.faces.size());
+  for (std::size_t f = 0; f < tm.faces.size(); ++f) {
+    std::array<std::uint32_t, 3> v = tm.faces[f];
+    std::sort(v.begin(), v.end());
+    keys.push_back({v[0], v[1], v[2], static_cast<std::uint32_t>(f)});
+  }
+  std::sort(keys.begin(), keys.end());
+  std::vector<std::uint8_t> repeat(tm.faces.size(), 0);
+  for (std::size_t k = 1; k < keys.size(); ++k)
+    if (keys[k][0] == keys[k - 1][0] && keys[k][1] == keys[k - 1][1] && keys[k][2] == keys[k - 1][2]) {
+      repeat[keys[k][3]] = 1;
+      ++c.duplicate_faces;
+    }
   for (std::size_t f = 0; f < tm.faces.size(); ++f) {
     const auto& a = tm.vertices[tm.faces[f][0]];
     const auto& b = tm.vertices[tm.faces[f][1]];
     const auto& d = tm.vertices[tm.faces[f][2]];
     const double area = 0.5 * mesh::twice_area(a, b, d);
-    if (!(area > 0)) continue;
-    automaton[f] = static_cast<std::int64_t>(c.face.size());
+    if (!(area > 0) || repeat[f]) continue;
     c.face.push_back(static_cast<std::uint32_t>(f));
     c.centroid.push_back({(a[0] + b[0] + d[0]) / 3.0, (a[1] + b[1] + d[1]) / 3.0, (a[2] + b[2] + d[2]) / 3.0});
     c.area.push_back(area);
@@ -322,23 +336,36 @@ SurfaceCells surface_cells(const SceneDef& scene, std::size_t index, const MeshO
   std::sort(links.begin(), links.end());
   double sum = 0;
   for (const auto& [l, edge] : links) {
-    c.link.push_back(l);
-    c.edge.push_back(edge);
     const auto& a = c.centroid[l[0]];
     const auto& b = c.centroid[l[1]];
-    sum += std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+    const double r0 = std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+    if (!(r0 > 0)) continue;  // two triangles folded onto each other: no direction to link along
+    c.link.push_back(l);
+    c.edge.push_back(edge);
+    sum += r0;
   }
-  c.mean_link = links.empty() ? 0.0 : sum / static_cast<double>(links.size());
+  c.mean_link = c.link.empty() ? 0.0 : sum / static_cast<double>(c.link.size());
   const double t = scene.objects[index].shell_thickness;
   if (t > 0) {
     c.thickness = t;
   } else if (c.mean_link > 0) {
     c.thickness = c.mean_link;
   } else {
-    throw Error(fmt::format("{}: no two triangles of the mesh {} share an edge, so surface mode has no link and no "
-                            "spacing to take the shell's thickness from; give shell_thickness (metres) or weld the "
-                            "mesh's vertices",
-                            where(scene, index), m.solid.file));
+    throw Error(fmt::format(
+        "{}: no edge of the mesh {} is shared by exactly two triangles{}, so surface mode has no link and no spacing "
+        "to take the shell's thickness from; give shell_thickness (metres){}",
+        where(scene, index), m.solid.file,
+        c.unlinked_edges ? fmt::format(" ({} edges have three or more: non-manifold)", c.unlinked_edges) : std::string(),
+        c.unlinked_edges ? " or repair the mesh (MeshLab: Repair non Manifold Edges)" : " or weld the mesh's vertices"));
+  }
+  // A shell far thinner or thicker than its triangles are apart is outside what its automata (about cubes
+  // of the link length) and the time-step bound were built for.
+  if (c.mean_link > 0 && (c.thickness < 0.01 * c.mean_link || c.thickness > 100 * c.mean_link)) {
+    throw Error(fmt::format("{}: shell_thickness = {:g} m is out of range for the mesh {}: it must be between 0.01 and "
+                            "100 times the mean distance of linked triangles ({:.4g} m), {:.4g} to {:.4g} m; remesh the "
+                            "model finer or coarser for another thickness",
+                            where(scene, index), c.thickness, m.solid.file, c.mean_link, 0.01 * c.mean_link,
+                            100 * c.mean_link));
   }
   return c;
 }
