@@ -285,6 +285,7 @@ TEST(MeshFill, AnOpenMeshIsRefusedUnlessItsHolesAreUnderACell) {
   const std::string e = error_of([&] { lattice::build_model(mesh_scene(t.path() / "open.obj", 0.02)); });
   EXPECT_NE(e.find("is open: 4 boundary edges in 1 hole"), std::string::npos) << e;
   EXPECT_NE(e.find("Close Holes"), std::string::npos) << e;
+  EXPECT_NE(e.find("fill = \"surface\""), std::string::npos) << e;
   EXPECT_NE(e.find("open.obj"), std::string::npos) << e;
   // A sphere missing one small triangle (about 0.03 m across at r = 0.2, level 3) fills at d = 0.05 as if closed.
   mesh::TriMesh sphere = test::sphere_mesh(0.2, 3);

@@ -165,8 +165,8 @@ void refuse_wide_holes(const SceneDef& scene, std::size_t index, const Solid& s,
   throw Error(fmt::format(
       "{}: {} {} is open: {} boundary edges in {} hole{}, the largest {:.4g} m across ({:.3g} cells at spacing {:.4g} m), "
       "and a volume fill needs a closed surface (holes under about a cell are closed). Repair the mesh (MeshLab: "
-      "Filters > Remeshing > Close Holes; Blender: Mesh > Clean Up > Fill Holes) or use a coarser spacing (above "
-      "{:.3g} m{})",
+      "Filters > Remeshing > Close Holes; Blender: Mesh > Clean Up > Fill Holes), use a coarser spacing (above "
+      "{:.3g} m{}), or fill = \"surface\" for a shell of one automaton per triangle, which needs no closed surface",
       where(scene, index), what, s.file, s.topology.boundary_edges, s.topology.holes, s.topology.holes == 1 ? "" : "s",
       hole, hole / d, d, hole / 1.5, target ? ": a smaller solver.target_automata" : ": solver.spacing"));
 }
