@@ -730,14 +730,16 @@ SceneDef load_scene_file(const std::filesystem::path& path) {
   }
   // Read at most 64 MB (a scene of 100,000 objects is about 10 MB): /dev/zero or a wrong file must not
   // fill the memory.
+  // Read in pieces: a buffer of the whole limit, zero-filled, made every run's peak 64 MB larger.
   constexpr std::size_t kMaxSceneBytes = 64u << 20;
-  std::string text(kMaxSceneBytes + 1, '\0');
-  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  std::string text;
+  char piece[1 << 16];
+  while (text.size() <= kMaxSceneBytes && in.read(piece, sizeof piece).gcount() > 0)
+    text.append(piece, static_cast<std::size_t>(in.gcount()));
   if (in.bad()) {
     throw Error(fmt::format("{}: reading the scene file failed ({}); check the file and the disk", path.string(),
                             std::strerror(errno)));
   }
-  text.resize(static_cast<std::size_t>(in.gcount()));
   if (text.size() > kMaxSceneBytes) {
     throw Error(fmt::format("{}: is larger than 64 MB, which no scene file is; check the path", path.string()));
   }
