@@ -100,13 +100,15 @@ struct QuatT {
 };
 using Quat = QuatT<float>;
 
-// v turned by the unit quaternion q, in double (the posed surfaces and fragment meshes; the step keeps
-// its own float32 arithmetic): t = 2 (u x v), v' = v + w t + u x t.
-inline DVec3 rotated(const QuatT<double>& q, const DVec3& v) {
-  const double tx = 2 * (q.y * v.z - q.z * v.y), ty = 2 * (q.z * v.x - q.x * v.z), tz = 2 * (q.x * v.y - q.y * v.x);
-  return {v.x + q.w * tx + (q.y * tz - q.z * ty), v.y + q.w * ty + (q.z * tx - q.x * tz),
-          v.z + q.w * tz + (q.x * ty - q.y * tx)};
+// v turned by the unit quaternion q: t = 2 (u x v), v' = v + w t + u x t. In double for the posed
+// surfaces and fragment meshes, in float (or lanes) for the step.
+template <class T>
+MCA_HD Vec3T<T> rotated(const QuatT<T>& q, const Vec3T<T>& v) {
+  const Vec3T<T> u{q.x, q.y, q.z};
+  const Vec3T<T> t = cross(u, v) * T(2);
+  return v + q.w * t + cross(u, t);
 }
+inline DVec3 rotated(const QuatT<double>& q, const DVec3& v) { return rotated<double>(q, v); }
 
 // q <- normalize(q + dt/2 * (0, omega) * q)   (physics.md sec. 7)
 template <class T>

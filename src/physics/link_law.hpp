@@ -196,15 +196,8 @@ inline LinkBendingConstants link_bending_constants(double E, double G, double r0
 // The shell's normal at a link from its ends' orientations: the rest normal m0 turned by each end's
 // rotation, the mean of the two, made orthogonal to the link's direction n and of unit length.
 template <class T>
-MCA_HD Vec3T<T> turned(const QuatT<T>& q, const Vec3T<T>& v) {
-  const Vec3T<T> u{q.x, q.y, q.z};
-  const Vec3T<T> t = cross(u, v) * 2.0f;
-  return v + q.w * t + cross(u, t);
-}
-
-template <class T>
 MCA_HD Vec3T<T> shell_normal(const QuatT<T>& qi, const QuatT<T>& qj, const Vec3T<T>& m0, const Vec3T<T>& n) {
-  Vec3T<T> m = turned(qi, m0) + turned(qj, m0);
+  Vec3T<T> m = rotated(qi, m0) + rotated(qj, m0);
   m = m - dot(m, n) * n;
   using std::sqrt;
   const T len = sqrt(dot(m, m));
