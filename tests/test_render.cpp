@@ -348,7 +348,7 @@ TEST(View, ScriptedShotUnderAVirtualDisplayShowsTheBrokenWall) {
                          " view --size 480x270 --frames 12 --script " + script.string() + " --screenshot " + png.string());
   ASSERT_EQ(r.code, 0) << r.output;
   // 12 frames of 2 ms; the scene's ball and the scripted one.
-  EXPECT_NE(r.output.find("t = 22.00 ms, 2 balls"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("t = 22.00 ms, 1 shot fired, 2 projectiles"), std::string::npos) << r.output;
   const render::Image im = render::read_png(png);
   ASSERT_EQ(im.width, 480);
   ASSERT_EQ(im.height, 270);
@@ -361,6 +361,32 @@ TEST(View, ScriptedShotUnderAVirtualDisplayShowsTheBrokenWall) {
       coloured += std::max({q.r, q.g, q.b}) - std::min({q.r, q.g, q.b}) > 60;
     }
   EXPECT_GT(coloured, static_cast<std::size_t>(im.width * im.height / 20));
+}
+
+// Runs `mca view` under a virtual display with `args`.
+Result view_under_xvfb(const std::string& args) {
+  return shell("timeout 120 xvfb-run -a -s '-screen 0 1280x720x24' " + std::string(MCA_BINARY) + " view " + args);
+}
+
+// Every scripted shot fires (each later one is checked against where the earlier balls are now, not where
+// they started), and --frames N ends at N simulated frames even after a refused shot.
+TEST(View, EveryScriptedShotFiresAndFramesAreSimulatedFrames) {
+  if (shell("command -v xvfb-run").code != 0) GTEST_SKIP() << "xvfb-run is not installed (scripts/setup.sh)";
+  TempDir d;
+  const fs::path script = d.path() / "shots.txt", png = d.path() / "view.png";
+  // The second shot at 20 ms, while the scene's ball is inside the wall's starting volume.
+  std::ofstream(script) << "0.0 0.5 0.5\n0.02 0.3 0.5\n";
+  const Result r = view_under_xvfb("--size 320x180 --frames 16 --script " + script.string() + " --screenshot " + png.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("t = 30.00 ms, 2 shots fired, 3 projectiles"), std::string::npos) << r.output;
+  EXPECT_EQ(render::read_png(png).width, 320);
+  // Two balls fired at once from the same eye overlap: the second is refused with the reason, and the
+  // 16 frames still end at 30 ms.
+  std::ofstream(script) << "0.0 0.5 0.5\n0.0 0.5 0.5\n";
+  const Result o = view_under_xvfb("--size 320x180 --frames 16 --script " + script.string());
+  ASSERT_EQ(o.code, 0) << o.output;
+  EXPECT_NE(o.output.find("'shot2' overlaps projectile[1] 'shot1'"), std::string::npos) << o.output;
+  EXPECT_NE(o.output.find("t = 30.00 ms, 1 shot fired, 2 projectiles"), std::string::npos) << o.output;
 }
 
 TEST(View, NoDisplayPointsToRunRender) {
