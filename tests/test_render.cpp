@@ -330,6 +330,49 @@ TEST(Render, CameraInsideTheObjectsOrLookingAwayIsAnError) {
   }
 }
 
+// Fragment ids are renumbered by mass every frame; a piece's colour must not follow them (the video
+// flickered): from one frame to the next, an automaton whose piece keeps its smallest automaton keeps its
+// colour, while the ids of many such automata change.
+TEST(Render, FragmentColoursStayWithThePieceAcrossFrames) {
+  Engine sim(io::load_default_scene());
+  sim.advance(4500);  // 9 ms: pieces fly off, the wall's main body still holds most of it
+  render::SnapshotOptions o;
+  o.all_automata = true;
+  const auto frame = [&] {
+    const auto frags = analysis::label_model_fragments(sim.model(), sim.state().intact.data());
+    const auto snap = render::make_snapshot(sim.model(), sim.state(), frags, o, {0, 0, 0});
+    // Per automaton: its fragment's smallest automaton and size.
+    std::vector<std::uint32_t> first(static_cast<std::size_t>(frags.count), UINT32_MAX);
+    std::vector<std::size_t> size(first.size());
+    for (std::size_t a = 0; a < frags.id.size(); ++a) {
+      first[frags.id[a]] = std::min<std::uint32_t>(first[frags.id[a]], static_cast<std::uint32_t>(a));
+      ++size[frags.id[a]];
+    }
+    return std::make_tuple(frags, snap, first, size);
+  };
+  const auto [fa, sa, first_a, size_a] = frame();
+  sim.advance(sim.steps_per_frame());
+  const auto [fb, sb, first_b, size_b] = frame();
+  ASSERT_EQ(sa.automata.size(), sim.model().size());
+  std::size_t kept = 0, renumbered = 0, grey = 0;
+  const render::Rgba body = render::main_body_colour();
+  for (std::size_t a = 0; a < sim.model().size(); ++a) {
+    const auto ia = fa.id[a], ib = fb.id[a];
+    if (2 * size_a[ia] > sim.model().size()) {
+      grey += sa.automata[a].colour == body;
+      continue;
+    }
+    if (first_a[ia] != first_b[ib] || 2 * size_b[ib] > sim.model().size()) continue;
+    ++kept;
+    renumbered += ia != ib;
+    EXPECT_EQ(sa.automata[a].colour, sb.automata[a].colour) << "automaton " << a << ": fragment " << ia << " -> " << ib;
+    EXPECT_NE(sa.automata[a].colour, body) << a;
+  }
+  EXPECT_GT(kept, 100u);
+  EXPECT_GT(renumbered, 10u) << "the fragments were not renumbered: this frame pair tests nothing";
+  EXPECT_GT(grey, 1000u) << "largest fragments " << size_a[0] << " " << size_a[1] << " of " << sim.model().size();  // the wall's main body
+}
+
 TEST(Render, ExposedAutomataAreThoseWithABrokenOrMissingLink) {
   Engine sim(io::load_default_scene());
   const auto exposed = render::exposed_automata(sim.model(), sim.state());
