@@ -148,14 +148,19 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
   for (const char* old : {"video.mp4", "contact_sheet.png"}) std::filesystem::remove(dir_ / old);
   if (first_frame == 0) save_render_options(dir, options);
   if (const auto ffmpeg = render::find_ffmpeg()) {
-    video_ = std::make_unique<render::VideoEncoder>(*ffmpeg, dir_ / "video.mp4", io::temporary_path(dir_ / "video.mp4"),
-                                                    options.width, options.height, fps_);
+    try {
+      video_ = std::make_unique<render::VideoEncoder>(*ffmpeg, dir_ / "video.mp4",
+                                                      io::temporary_path(dir_ / "video.mp4"), options.width,
+                                                      options.height, fps_);
+    } catch (const Error& e) {
+      drop_video(e.what());
+    }
   } else {
     fmt::print(stderr,
                "warning: ffmpeg is not installed: render/video.mp4 will not be written (the PNG frames are). Install "
                "it with `apt-get install ffmpeg` (scripts/setup.sh does), then make the video from the frames with: "
-               "ffmpeg -framerate {:g} -i {}/frame_%06d.png -pix_fmt yuv420p {}/video.mp4\n",
-               fps_, dir_.string(), dir_.string());
+               "{}\n",
+               video_command());
   }
   // A resumed run: the frames written before go into the video and the contact sheet from their PNGs.
   for (std::int64_t f = 0; f < first_frame; ++f) {
@@ -179,7 +184,7 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
       }
       continue;
     }
-    if (video_) video_->add_frame(im);
+    add_to_video(im);
     keep_for_sheet(f, im);
   }
   if (!quiet_)
@@ -188,6 +193,28 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
                render::Renderer::gl_description(), context_->source(), dir_.string(),
                first_frame > 0 ? fmt::format(" (from frame {}; frames 0..{} are kept)", first_frame, first_frame - 1)
                                : std::string());
+}
+
+std::string RenderOutput::video_command() const {
+  return fmt::format("ffmpeg -framerate {:g} -i {}/frame_%06d.png -c:v libx264 -pix_fmt yuv420p {}/video.mp4", fps_,
+                     dir_.string(), dir_.string());
+}
+
+void RenderOutput::add_to_video(const render::Image& im) {
+  if (!video_) return;
+  try {
+    video_->add_frame(im);
+  } catch (const Error& e) {
+    drop_video(e.what());
+  }
+}
+
+void RenderOutput::drop_video(const std::string& why) {
+  video_.reset();  // stops ffmpeg, removes its temporary file
+  fmt::print(stderr,
+             "warning: {}; render/video.mp4 will not be written, the run goes on (the PNG frames and every other "
+             "output are written). Make the video from the frames with an ffmpeg that has libx264: {}\n",
+             why, video_command());
 }
 
 void RenderOutput::keep_for_sheet(std::int64_t frame, const render::Image& im) {
@@ -212,7 +239,7 @@ void RenderOutput::write_frame(std::int64_t frame, const State& state, const ana
   im.height = options_.height;
   target_->read_rgba(im.rgba);
   write_bytes(dir_ / frame_name(frame), render::encode_png(im));
-  if (video_) video_->add_frame(im);
+  add_to_video(im);
   keep_for_sheet(frame, im);
   seconds_ += seconds_since(t0);
 }
@@ -220,8 +247,12 @@ void RenderOutput::write_frame(std::int64_t frame, const State& state, const ana
 void RenderOutput::finish() {
   const auto t0 = std::chrono::steady_clock::now();
   if (video_) {
-    video_->finish();
-    video_.reset();
+    try {
+      video_->finish();
+      video_.reset();
+    } catch (const Error& e) {
+      drop_video(e.what());
+    }
   }
   std::vector<render::Image> tiles;
   for (auto& [frame, im] : sheet_) tiles.push_back(std::move(im));

@@ -71,6 +71,11 @@ class RenderOutput {
 
  private:
   void keep_for_sheet(std::int64_t frame, const render::Image& im);
+  // A failing ffmpeg (no libx264, killed, writes nothing) costs the video only: a warning with its message
+  // and the command that makes the video from the PNGs, and the run goes on.
+  void add_to_video(const render::Image& im);
+  void drop_video(const std::string& why);
+  std::string video_command() const;
   std::filesystem::path dir_;
   const Engine& sim_;
   RenderOptions options_;

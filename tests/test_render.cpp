@@ -242,6 +242,31 @@ TEST(Render, WithoutFfmpegThePngsAreWrittenAndTheMessageSaysHowToGetTheVideo) {
   EXPECT_FALSE(fs::exists(d.path() / "render" / "video.mp4"));
 }
 
+// An ffmpeg that fails (no libx264: exits 1 with a message) or writes nothing (exits 0) costs the video
+// only: a warning with its message and the command, and the run finishes with every other output.
+TEST(Render, AFailingFfmpegDropsTheVideoAndTheRunGoesOn) {
+  for (const std::string body : {"cat > /dev/null; echo \"Unknown encoder 'libx264'\" >&2; exit 1",
+                                 "echo \"Unknown encoder 'libx264'\" >&2; exit 1", "cat > /dev/null; exit 0"}) {
+    TempDir d;
+    const fs::path bin = d.path() / "bin", out = d.path() / "out";
+    fs::create_directories(bin);
+    std::ofstream(bin / "ffmpeg") << "#!/bin/sh\n" << body << "\n";
+    fs::permissions(bin / "ffmpeg", fs::perms::owner_all);
+    const Result r = shell("PATH=" + bin.string() + ":/usr/bin:/bin " + std::string(MCA_BINARY) +
+                           " run -q --duration 0.004 --render --render-size 64x48 --out " + out.string());
+    ASSERT_EQ(r.code, 0) << body << ": " << r.output;
+    EXPECT_NE(r.output.find("warning: "), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("frame_%06d.png"), std::string::npos) << r.output;
+    if (body.find("exit 1") != std::string::npos) {
+      EXPECT_NE(r.output.find("Unknown encoder 'libx264'"), std::string::npos) << r.output;
+    }
+    for (const char* f : {"summary.json", "stats.csv", "fragments.csv", "render/frame_000002.png", "render/contact_sheet.png"})
+      EXPECT_TRUE(fs::exists(out / f)) << body << ": " << f;
+    EXPECT_FALSE(fs::exists(out / "render" / "video.mp4")) << body;
+    for (const auto& e : fs::directory_iterator(out / "render")) EXPECT_NE(e.path().extension(), ".tmp") << e.path();
+  }
+}
+
 TEST(Render, NoOpenGLStopsBeforeTheRunWithAClearMessage) {
   TempDir d;
   // No EGL vendor library: no display, no context.
