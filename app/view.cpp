@@ -232,6 +232,7 @@ int view(const ViewOptions& o) {
 
   // The camera of the scene (or framed automatically) at the start, then moved by the mouse.
   Engine first(scene);
+  const bool has_surface = first.model().surface.faces() > 0;
   const render::Framing framing = render::objects_box(first.model(), first.state());
   const render::Camera start = render::make_camera(scene.camera, first.model(), framing,
                                                    static_cast<float>(o.width) / static_cast<float>(o.height), scene.source);
@@ -402,8 +403,19 @@ int view(const ViewOptions& o) {
           sh.message.clear();
           break;
         }
-        case GLFW_KEY_C: cycle(sh.colour, 6); break;
-        case GLFW_KEY_D: cycle(sh.draw, 4); break;
+        case GLFW_KEY_C:
+        case GLFW_KEY_D: {
+          // A new snapshot of the current state in the new mode (paused, none would come otherwise).
+          if (key == GLFW_KEY_C) cycle(sh.colour, 6);
+          else {
+            cycle(sh.draw, 4);
+            // Without mesh objects there is no surface to draw: skip it.
+            if (!has_surface && static_cast<render::DrawMode>(sh.draw.load()) == render::DrawMode::surface) cycle(sh.draw, 4);
+          }
+          std::lock_guard lock(sh.mutex);
+          sh.commands.push_back({Command::redraw, {}, {}, ball});
+          break;
+        }
         case GLFW_KEY_UP: ball.speed *= 1.25f; break;
         case GLFW_KEY_DOWN: ball.speed /= 1.25f; break;
         case GLFW_KEY_RIGHT: ball.radius *= 1.25f; break;
