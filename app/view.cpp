@@ -52,13 +52,15 @@ std::vector<Shot> read_script(const std::string& path) {
   std::string line;
   for (int n = 1; std::getline(in, line); ++n) {
     line = line.substr(0, line.find('#'));
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;  // a blank line or a comment
     std::istringstream ss(line);
     Shot s;
-    if (!(ss >> s.time)) continue;  // a blank line
     std::string rest;
-    if (!(ss >> s.x >> s.y) || (ss >> rest) || !(s.time >= 0) || !(s.x >= 0 && s.x <= 1 && s.y >= 0 && s.y <= 1))
+    if (!(ss >> s.time >> s.x >> s.y) || (ss >> rest) || !std::isfinite(s.time) || !(s.time >= 0) ||
+        !(s.x >= 0 && s.x <= 1 && s.y >= 0 && s.y <= 1))
       throw Error(fmt::format("--script {}:{}: '{}' is not 'TIME X Y' (simulated seconds >= 0, then the aim as shares "
-                              "0..1 of the window's width and height from the top left), e.g. 0.002 0.5 0.5",
+                              "0..1 of the window's width and height from the top left), e.g. 0.002 0.5 0.5; '#' "
+                              "starts a comment",
                               path, n, line));
     shots.push_back(s);
   }
@@ -472,6 +474,11 @@ int view(const ViewOptions& o) {
                                 .c_str());
     if (last) break;
   }
+  if (next_shot < script.size())
+    fmt::print(stderr, "warning: --script {}: {} not fired: the view ended at t = {:.2f} ms, before t = {:.2f} ms{}\n",
+               *o.script, script.size() - next_shot == 1 ? std::string("1 shot was") : fmt::format("{} shots were", script.size() - next_shot),
+               snap ? 1e3 * snap->time : 0.0, 1e3 * script[next_shot].time,
+               o.frames ? "; give more --frames (one per output frame of the scene)" : "");
   if (died) {
     std::lock_guard lock(sh.mutex);
     throw Error(fmt::format("mca view: the simulation stopped after {} frames: {}", shown, sh.message));

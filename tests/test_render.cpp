@@ -457,6 +457,26 @@ TEST(View, EveryScriptedShotFiresAndFramesAreSimulatedFrames) {
   EXPECT_NE(o.output.find("t = 30.00 ms, 1 shot fired, 2 projectiles"), std::string::npos) << o.output;
 }
 
+// A line that is not TIME X Y is refused with its file and line (before any window); a shot after the
+// last frame is reported.
+TEST(View, ScriptLinesAreCheckedAndLateShotsReported) {
+  TempDir d;
+  const fs::path script = d.path() / "shots.txt";
+  for (const std::string bad : {"foo bar baz", "nan 0.5 0.5", "0.1 0.5", "0.1 0.5 0.5 7", "-1 0.5 0.5"}) {
+    std::ofstream(script) << "# aim\n0.0 0.5 0.5\n" << bad << "\n";
+    const Result r = shell("env -u DISPLAY -u WAYLAND_DISPLAY " + std::string(MCA_BINARY) + " view --frames 1 --script " +
+                           script.string());
+    EXPECT_EQ(r.code, 2) << bad << ": " << r.output;
+    EXPECT_NE(r.output.find(script.string() + ":3: '" + bad + "' is not 'TIME X Y'"), std::string::npos) << r.output;
+  }
+  if (shell("command -v xvfb-run").code != 0) GTEST_SKIP() << "xvfb-run is not installed (scripts/setup.sh)";
+  std::ofstream(script) << "0.5 0.5 0.5\n";
+  const Result late = view_under_xvfb("--size 64x64 --frames 2 --script " + script.string());
+  ASSERT_EQ(late.code, 0) << late.output;
+  EXPECT_NE(late.output.find("1 shot was not fired: the view ended at t = 2.00 ms, before t = 500.00 ms"),
+            std::string::npos) << late.output;
+}
+
 TEST(View, NoDisplayPointsToRunRender) {
   const Result r = shell("env -u DISPLAY -u WAYLAND_DISPLAY " + std::string(MCA_BINARY) + " view --frames 1");
   EXPECT_EQ(r.code, 2) << r.output;
