@@ -346,6 +346,10 @@ TEST(Render, CameraInsideTheObjectsOrLookingAwayIsAnError) {
   };
   check("position = [0.2, 0.0, 0.7]", "inside the objects' bounding box");
   check("position = [0.0, -5.0, 1.0]\ntarget = [0.0, -10.0, 1.0]", "sees none of the objects");
+  // A target alone, far from the objects: the automatic position frames them from afar, a speck.
+  check("target = [100.0, 0.0, 0.75]", "sees the objects only as a speck");
+  check("position = [0.0, -300.0, 1.0]", "sees the objects only as a speck");
+  check("position = [0.0, -5.0, -1.0]", "below the ground");
   // A camera behind the wall looking at it is fine, and so is one given only a field of view.
   for (const std::string ok : {"position = [0.0, 5.0, 1.0]", "fov = 60"}) {
     const SceneDef s = scene_with_camera(ok);
