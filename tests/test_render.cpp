@@ -277,6 +277,10 @@ TEST(Render, NoOpenGLStopsBeforeTheRunWithAClearMessage) {
   EXPECT_NE(r.output.find("without --render"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(d.path() / "render"));
   EXPECT_FALSE(fs::exists(d.path() / "scene.toml"));
+  const Result fresh = shell("__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent.json __EGL_VENDOR_LIBRARY_DIRS=/nonexistent " +
+                             std::string(MCA_BINARY) + " run -q --steps 10 --render --out " + (d.path() / "new").string());
+  EXPECT_NE(fresh.code, 0);
+  EXPECT_FALSE(fs::exists(d.path() / "new")) << fresh.output;
   EXPECT_FALSE(fs::exists(d.path() / "stats.csv"));
 }
 
@@ -293,6 +297,16 @@ TEST(Render, BadOptionsAreRefusedWithTheFix) {
   const Result s = run_mca("run -q --steps 1 --render --render-draw surface --out " + d.path().string());
   EXPECT_EQ(s.code, 2);
   EXPECT_NE(s.output.find("mesh"), std::string::npos) << s.output;
+  for (const std::string fps : {"0.001", "0.5", "241", "-1", "nan"}) {
+    const Result f = run_mca("run -q --steps 1 --render --render-fps " + fps + " --out " + d.path().string());
+    EXPECT_EQ(f.code, 2) << fps << ": " << f.output;
+    EXPECT_NE(f.output.find("give 1 to 240"), std::string::npos) << f.output;
+  }
+  // Refused when the renderer is made: the output folder this run would have created is not left behind.
+  const fs::path fresh = d.path() / "fresh" / "out";
+  const Result e = run_mca("run -q --steps 1 --render --render-draw surface --out " + fresh.string());
+  EXPECT_EQ(e.code, 2) << e.output;
+  EXPECT_FALSE(fs::exists(d.path() / "fresh")) << e.output;
   const Result n = run_mca("run -q --steps 1 --render-size 64x64 --out " + d.path().string());
   EXPECT_NE(n.code, 0);  // --render-size needs --render
   // An output folder that cannot be written.
