@@ -6,6 +6,8 @@
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <csignal>
+#include <thread>
 
 #include <fmt/format.h>
 #include <fstream>
@@ -292,8 +294,24 @@ bool run_plot_script(const std::filesystem::path& dir, bool quiet) {
                std::strerror(rc), shown);
     return false;
   }
+  // A script that hangs (a stuck matplotlib backend, a locked font cache) must not hang the run: after
+  // kPlotTimeout it is killed and the run ends without the plots.
+  constexpr double kPlotTimeout = 120;
+  const auto t0 = std::chrono::steady_clock::now();
   int status = 0;
-  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  for (;;) {
+    const pid_t done = ::waitpid(pid, &status, WNOHANG);
+    if (done == pid || (done < 0 && errno != EINTR)) break;
+    if (seconds_since(t0) > kPlotTimeout) {
+      ::kill(pid, SIGKILL);
+      while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+      }
+      fmt::print(stderr, "warning: the plots were not made: {} ran over {:g} s and was stopped; the run's other "
+                         "outputs are complete; to make them: {}\n",
+                 script.filename().string(), kPlotTimeout, shown);
+      return false;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   if (!(WIFEXITED(status) && WEXITSTATUS(status) == 0)) {
     fmt::print(stderr, "warning: the plots were not made ({} exited with {}); the run's other outputs are complete\n",
