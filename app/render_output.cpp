@@ -40,14 +40,13 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 }  // namespace
 
-void check_render_size(int width, int height) {
+void check_render_size(int width, int height, const std::string& option) {
   if (width < 16 || height < 16 || width > 8192 || height > 8192)
-    throw Error(fmt::format("--render-size {}x{} is out of range: each side must be 16 to 8192 pixels; give e.g. "
-                            "--render-size 1280x720",
-                            width, height));
+    throw Error(fmt::format("{} {}x{} is out of range: each side must be 16 to 8192 pixels; give e.g. {} 1280x720",
+                            option, width, height, option));
 }
 
-std::pair<int, int> parse_render_size(const std::string& text) {
+std::pair<int, int> parse_render_size(const std::string& text, const std::string& option) {
   const auto x = text.find_first_of("xX");
   int w = -1, h = -1;
   bool ok = x != std::string::npos;
@@ -58,8 +57,8 @@ std::pair<int, int> parse_render_size(const std::string& text) {
     ok = r1.ec == std::errc() && r1.ptr == b + x && r2.ec == std::errc() && r2.ptr == b + text.size();
   }
   if (!ok)
-    throw Error(fmt::format("--render-size '{}' is not WIDTHxHEIGHT in pixels; give e.g. --render-size 1280x720", text));
-  check_render_size(w, h);
+    throw Error(fmt::format("{} '{}' is not WIDTHxHEIGHT in pixels; give e.g. {} 1280x720", option, text, option));
+  check_render_size(w, h, option);
   return {w, h};
 }
 

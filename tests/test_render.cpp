@@ -495,6 +495,16 @@ TEST(View, ScriptLinesAreCheckedAndLateShotsReported) {
             std::string::npos) << late.output;
 }
 
+TEST(View, BadSizeAndScreenshotNamesAreRefusedWithTheViewersOptions) {
+  const Result size = run_mca("view --size 7x5 --frames 1");
+  EXPECT_EQ(size.code, 2) << size.output;
+  EXPECT_NE(size.output.find("--size 7x5 is out of range"), std::string::npos) << size.output;
+  EXPECT_EQ(size.output.find("--render-size"), std::string::npos) << size.output;
+  const Result jpg = run_mca("view --frames 1 --screenshot v.jpg");
+  EXPECT_EQ(jpg.code, 2) << jpg.output;
+  EXPECT_NE(jpg.output.find("ending in .png"), std::string::npos) << jpg.output;
+}
+
 TEST(View, NoDisplayPointsToRunRender) {
   const Result r = shell("env -u DISPLAY -u WAYLAND_DISPLAY " + std::string(MCA_BINARY) + " view --frames 1");
   EXPECT_EQ(r.code, 2) << r.output;
