@@ -2,6 +2,7 @@
 #include <CLI/CLI.hpp>
 #include <charconv>
 #include <cstdio>
+#include <filesystem>
 #include <fmt/format.h>
 
 #include "app/commands.hpp"
@@ -118,9 +119,14 @@ int main(int argc, char** argv) {
     }
     if (view->parsed()) {
       if (!view_scene.empty()) vo.scene = view_scene;
-      std::tie(vo.width, vo.height) = mca::app::parse_render_size(view_size);
+      std::tie(vo.width, vo.height) = mca::app::parse_render_size(view_size, "--size");
       if (frames_opt->count()) vo.frames = view_frames;
-      if (!view_screenshot.empty()) vo.screenshot = view_screenshot;
+      if (!view_screenshot.empty()) {
+        if (std::filesystem::path(view_screenshot).extension() != ".png")
+          throw mca::Error(fmt::format("--screenshot {}: the screenshot is written as PNG; give a name ending in .png",
+                                       view_screenshot));
+        vo.screenshot = view_screenshot;
+      }
       if (!view_script.empty()) vo.script = view_script;
       return mca::app::view(vo);
     }

@@ -6,6 +6,8 @@
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <csignal>
+#include <thread>
 
 #include <fmt/format.h>
 #include <fstream>
@@ -38,14 +40,13 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 }  // namespace
 
-void check_render_size(int width, int height) {
+void check_render_size(int width, int height, const std::string& option) {
   if (width < 16 || height < 16 || width > 8192 || height > 8192)
-    throw Error(fmt::format("--render-size {}x{} is out of range: each side must be 16 to 8192 pixels; give e.g. "
-                            "--render-size 1280x720",
-                            width, height));
+    throw Error(fmt::format("{} {}x{} is out of range: each side must be 16 to 8192 pixels; give e.g. {} 1280x720",
+                            option, width, height, option));
 }
 
-std::pair<int, int> parse_render_size(const std::string& text) {
+std::pair<int, int> parse_render_size(const std::string& text, const std::string& option) {
   const auto x = text.find_first_of("xX");
   int w = -1, h = -1;
   bool ok = x != std::string::npos;
@@ -56,8 +57,8 @@ std::pair<int, int> parse_render_size(const std::string& text) {
     ok = r1.ec == std::errc() && r1.ptr == b + x && r2.ec == std::errc() && r2.ptr == b + text.size();
   }
   if (!ok)
-    throw Error(fmt::format("--render-size '{}' is not WIDTHxHEIGHT in pixels; give e.g. --render-size 1280x720", text));
-  check_render_size(w, h);
+    throw Error(fmt::format("{} '{}' is not WIDTHxHEIGHT in pixels; give e.g. {} 1280x720", option, text, option));
+  check_render_size(w, h, option);
   return {w, h};
 }
 
@@ -148,14 +149,19 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
   for (const char* old : {"video.mp4", "contact_sheet.png"}) std::filesystem::remove(dir_ / old);
   if (first_frame == 0) save_render_options(dir, options);
   if (const auto ffmpeg = render::find_ffmpeg()) {
-    video_ = std::make_unique<render::VideoEncoder>(*ffmpeg, dir_ / "video.mp4", io::temporary_path(dir_ / "video.mp4"),
-                                                    options.width, options.height, fps_);
+    try {
+      video_ = std::make_unique<render::VideoEncoder>(*ffmpeg, dir_ / "video.mp4",
+                                                      io::temporary_path(dir_ / "video.mp4"), options.width,
+                                                      options.height, fps_);
+    } catch (const Error& e) {
+      drop_video(e.what());
+    }
   } else {
     fmt::print(stderr,
                "warning: ffmpeg is not installed: render/video.mp4 will not be written (the PNG frames are). Install "
                "it with `apt-get install ffmpeg` (scripts/setup.sh does), then make the video from the frames with: "
-               "ffmpeg -framerate {:g} -i {}/frame_%06d.png -pix_fmt yuv420p {}/video.mp4\n",
-               fps_, dir_.string(), dir_.string());
+               "{}\n",
+               video_command());
   }
   // A resumed run: the frames written before go into the video and the contact sheet from their PNGs.
   for (std::int64_t f = 0; f < first_frame; ++f) {
@@ -179,7 +185,7 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
       }
       continue;
     }
-    if (video_) video_->add_frame(im);
+    add_to_video(im);
     keep_for_sheet(f, im);
   }
   if (!quiet_)
@@ -188,6 +194,28 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
                render::Renderer::gl_description(), context_->source(), dir_.string(),
                first_frame > 0 ? fmt::format(" (from frame {}; frames 0..{} are kept)", first_frame, first_frame - 1)
                                : std::string());
+}
+
+std::string RenderOutput::video_command() const {
+  return fmt::format("ffmpeg -framerate {:g} -i {}/frame_%06d.png -c:v libx264 -pix_fmt yuv420p {}/video.mp4", fps_,
+                     dir_.string(), dir_.string());
+}
+
+void RenderOutput::add_to_video(const render::Image& im) {
+  if (!video_) return;
+  try {
+    video_->add_frame(im);
+  } catch (const Error& e) {
+    drop_video(e.what());
+  }
+}
+
+void RenderOutput::drop_video(const std::string& why) {
+  video_.reset();  // stops ffmpeg, removes its temporary file
+  fmt::print(stderr,
+             "warning: {}; render/video.mp4 will not be written, the run goes on (the PNG frames and every other "
+             "output are written). Make the video from the frames with an ffmpeg that has libx264: {}\n",
+             why, video_command());
 }
 
 void RenderOutput::keep_for_sheet(std::int64_t frame, const render::Image& im) {
@@ -212,7 +240,7 @@ void RenderOutput::write_frame(std::int64_t frame, const State& state, const ana
   im.height = options_.height;
   target_->read_rgba(im.rgba);
   write_bytes(dir_ / frame_name(frame), render::encode_png(im));
-  if (video_) video_->add_frame(im);
+  add_to_video(im);
   keep_for_sheet(frame, im);
   seconds_ += seconds_since(t0);
 }
@@ -220,8 +248,12 @@ void RenderOutput::write_frame(std::int64_t frame, const State& state, const ana
 void RenderOutput::finish() {
   const auto t0 = std::chrono::steady_clock::now();
   if (video_) {
-    video_->finish();
-    video_.reset();
+    try {
+      video_->finish();
+      video_.reset();
+    } catch (const Error& e) {
+      drop_video(e.what());
+    }
   }
   std::vector<render::Image> tiles;
   for (auto& [frame, im] : sheet_) tiles.push_back(std::move(im));
@@ -261,8 +293,24 @@ bool run_plot_script(const std::filesystem::path& dir, bool quiet) {
                std::strerror(rc), shown);
     return false;
   }
+  // A script that hangs (a stuck matplotlib backend, a locked font cache) must not hang the run: after
+  // kPlotTimeout it is killed and the run ends without the plots.
+  constexpr double kPlotTimeout = 120;
+  const auto t0 = std::chrono::steady_clock::now();
   int status = 0;
-  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  for (;;) {
+    const pid_t done = ::waitpid(pid, &status, WNOHANG);
+    if (done == pid || (done < 0 && errno != EINTR)) break;
+    if (seconds_since(t0) > kPlotTimeout) {
+      ::kill(pid, SIGKILL);
+      while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+      }
+      fmt::print(stderr, "warning: the plots were not made: {} ran over {:g} s and was stopped; the run's other "
+                         "outputs are complete; to make them: {}\n",
+                 script.filename().string(), kPlotTimeout, shown);
+      return false;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   if (!(WIFEXITED(status) && WEXITSTATUS(status) == 0)) {
     fmt::print(stderr, "warning: the plots were not made ({} exited with {}); the run's other outputs are complete\n",

@@ -38,10 +38,11 @@ void save_render_options(const std::filesystem::path& out_dir, const RenderOptio
 std::optional<RenderOptions> load_render_options(const std::filesystem::path& out_dir);
 
 // "1280x720" -> width, height; throws mca::Error for anything else (zero, negative, huge, not WxH).
-std::pair<int, int> parse_render_size(const std::string& text);
+// `option` names the option in messages (mca view's is --size).
+std::pair<int, int> parse_render_size(const std::string& text, const std::string& option = "--render-size");
 
 // Checks a render size (each side 16 to 8192 pixels). Throws mca::Error naming the option and the fix.
-void check_render_size(int width, int height);
+void check_render_size(int width, int height, const std::string& option = "--render-size");
 
 // The offscreen renderer of a run: the camera of the scene's [camera] (or framed automatically) fixed at
 // frame 0 of `sim`.
@@ -71,6 +72,11 @@ class RenderOutput {
 
  private:
   void keep_for_sheet(std::int64_t frame, const render::Image& im);
+  // A failing ffmpeg (no libx264, killed, writes nothing) costs the video only: a warning with its message
+  // and the command that makes the video from the PNGs, and the run goes on.
+  void add_to_video(const render::Image& im);
+  void drop_video(const std::string& why);
+  std::string video_command() const;
   std::filesystem::path dir_;
   const Engine& sim_;
   RenderOptions options_;

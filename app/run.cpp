@@ -390,7 +390,7 @@ int run(const RunOptions& o) {
       throw Error(fmt::format("--render-draw '{}' is not a draw mode; give one of: {}", o.render_draw,
                               render::draw_mode_names()));
     ro.draw = *draw;
-    if (!(o.render_fps >= 0 && o.render_fps <= 240))
+    if (!(o.render_fps == 0 || (o.render_fps >= 1 && o.render_fps <= 240)))
       throw Error(fmt::format("--render-fps {} is out of range: give 1 to 240 frames per second, or 0 for automatic",
                               o.render_fps));
     ro.fps = o.render_fps;
@@ -418,6 +418,20 @@ int run(const RunOptions& o) {
   const std::filesystem::path dir =
       o.out ? std::filesystem::path(*o.out) : std::filesystem::path("out") / io::scene_folder_name(scene.name);
   cpu::select_kernels();  // a bad MCA_SIMD is refused before anything is written
+  // The folders this run creates, removed again (when still empty) if it stops before writing anything:
+  // a refused --render (no OpenGL, a camera that sees nothing) leaves no empty output folder behind.
+  struct CreatedFolders {
+    std::vector<std::filesystem::path> made;  // deepest first
+    bool keep = false;
+    ~CreatedFolders() {
+      std::error_code ec;
+      for (const auto& f : made)
+        if (!keep && std::filesystem::is_empty(f, ec) && !ec) std::filesystem::remove(f, ec);
+    }
+  } created;
+  for (std::filesystem::path f = std::filesystem::absolute(dir); !f.empty() && !std::filesystem::exists(f);
+       f = f.parent_path())
+    created.made.push_back(f);
   io::prepare_output_dir(dir);
   // The run writes the scene as run to <dir>/scene.toml: never over the scene file it reads.
   if (o.scene) {
@@ -441,6 +455,7 @@ int run(const RunOptions& o) {
   std::unique_ptr<RenderOutput> render;
   if (o.render) render = std::make_unique<RenderOutput>(dir, sim, ro, plan.total_frames, o.quiet);
   else std::filesystem::remove(dir / "render" / "render.json");  // an earlier run's: a resume must not render
+  created.keep = true;
   // The scene as run (overrides applied), so the folder says what produced it.
   io::write_file_atomic(dir / "scene.toml", [&](std::ostream& os) { os << io::scene_to_toml(scene); }, false);
   // Outputs of an earlier run in this folder would mix with this one's; only files this program writes

@@ -15,6 +15,7 @@
 #include <fstream>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -51,13 +52,15 @@ std::vector<Shot> read_script(const std::string& path) {
   std::string line;
   for (int n = 1; std::getline(in, line); ++n) {
     line = line.substr(0, line.find('#'));
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;  // a blank line or a comment
     std::istringstream ss(line);
     Shot s;
-    if (!(ss >> s.time)) continue;  // a blank line
     std::string rest;
-    if (!(ss >> s.x >> s.y) || (ss >> rest) || !(s.time >= 0) || !(s.x >= 0 && s.x <= 1 && s.y >= 0 && s.y <= 1))
+    if (!(ss >> s.time >> s.x >> s.y) || (ss >> rest) || !std::isfinite(s.time) || !(s.time >= 0) ||
+        !(s.x >= 0 && s.x <= 1 && s.y >= 0 && s.y <= 1))
       throw Error(fmt::format("--script {}:{}: '{}' is not 'TIME X Y' (simulated seconds >= 0, then the aim as shares "
-                              "0..1 of the window's width and height from the top left), e.g. 0.002 0.5 0.5",
+                              "0..1 of the window's width and height from the top left), e.g. 0.002 0.5 0.5; '#' "
+                              "starts a comment",
                               path, n, line));
     shots.push_back(s);
   }
@@ -72,7 +75,7 @@ struct Ball {
 };
 
 struct Command {
-  enum Kind { restart, step, shoot } kind;
+  enum Kind { restart, step, shoot, redraw } kind;  // redraw: a new snapshot of the same state (colour, draw)
   glm::dvec3 origin{0}, direction{0};
   Ball ball;
 };
@@ -85,18 +88,30 @@ struct Shared {
   std::uint64_t sequence = 0;                        // snapshots published so far
   std::deque<Command> commands;
   std::string message;                               // the last shot's error, shown in the overlay
+  bool finished = false;                             // the simulation thread has stopped (quit or an error)
   std::atomic<bool> quit{false}, paused{false};
+  std::atomic<int> shots{0};                         // balls fired so far (since the last restart)
   std::atomic<int> colour{0}, draw{0};
   std::atomic<double> steps_per_second{0};
 };
 
 // Fires a ball: the engine is rebuilt from the scene with one more projectile, continuing from the current
-// state with the ball added (Engine's constructor from a state checks it against the new model). The new
+// state with the ball added (Engine's constructor from a state checks it against the new model). The
+// projectiles already there are put at their current positions and velocities first, so the new ball is
+// checked against where they are, not where they started (Engine's `projectiles_in_flight`). The new
 // ball's kinetic energy joins the run's energy budget, as if it had been there from the start.
-std::unique_ptr<Engine> with_shot(const Engine& sim, const Command& c) {
+std::unique_ptr<Engine> with_shot(const Engine& sim, const Command& c, int shot) {
   SceneDef scene = sim.scene();
+  State s = sim.state();
+  const std::size_t in_flight = scene.projectiles.size();
+  for (std::size_t p = 0; p < in_flight && p < s.projectiles.size(); ++p) {
+    const ProjectileState& now = s.projectiles[p];
+    scene.projectiles[p].position = {now.position.x, now.position.y, now.position.z};
+    scene.projectiles[p].velocity = {now.velocity.x, now.velocity.y, now.velocity.z};
+    scene.projectiles[p].angular_velocity = {now.angular_velocity.x, now.angular_velocity.y, now.angular_velocity.z};
+  }
   ProjectileDef p;
-  p.name = fmt::format("shot{}", scene.projectiles.size());
+  p.name = fmt::format("shot{}", shot);
   p.radius = c.ball.radius;
   p.material = "steel";
   p.density = c.ball.mass / (4.0 / 3.0 * 3.14159265358979 * std::pow(c.ball.radius, 3));
@@ -104,13 +119,12 @@ std::unique_ptr<Engine> with_shot(const Engine& sim, const Command& c) {
   p.position = {c.origin.x, c.origin.y, c.origin.z};
   p.velocity = {v.x, v.y, v.z};
   scene.projectiles.push_back(p);
-  State s = sim.state();
   ProjectileState ps;
   ps.position = {c.origin.x, c.origin.y, c.origin.z};
   ps.velocity = {static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)};
   s.projectiles.push_back(ps);
   s.initial_energy += 0.5 * c.ball.mass * c.ball.speed * c.ball.speed;
-  return std::make_unique<Engine>(scene, s, "the viewer's shot");
+  return std::make_unique<Engine>(scene, s, "the viewer's shot", std::nullopt, in_flight);
 }
 
 void simulate(const SceneDef& scene, Shared& sh, bool lockstep, std::array<double, 3> origin) {
@@ -125,11 +139,12 @@ void simulate(const SceneDef& scene, Shared& sh, bool lockstep, std::array<doubl
     if (o.draw == render::DrawMode::surface && m.surface.faces() == 0) o.draw = render::DrawMode::cubes;
     auto snap = std::make_shared<render::Snapshot>(render::make_snapshot(m, sim->state(), frags, o, origin));
     std::unique_lock lock(sh.mutex);
-    // In lockstep (scripted runs) the window shows every snapshot: wait until it has taken the last one.
-    if (lockstep) sh.changed.wait(lock, [&] { return sh.quit || !sh.snapshot; });
     sh.snapshot = std::move(snap);
     ++sh.sequence;
     sh.changed.notify_all();
+    // In lockstep (scripted runs) the window shows every snapshot, and queues the shots due at its time
+    // as it takes it: the simulation goes on only then, so a shot fires at the same step on every run.
+    if (lockstep) sh.changed.wait(lock, [&] { return sh.quit || !sh.snapshot; });
   };
   publish();
   while (!sh.quit) {
@@ -141,12 +156,19 @@ void simulate(const SceneDef& scene, Shared& sh, bool lockstep, std::array<doubl
     int steps = 0;
     for (const Command& c : todo) {
       try {
-        if (c.kind == Command::restart) sim = std::make_unique<Engine>(scene);
-        if (c.kind == Command::shoot) sim = with_shot(*sim, c);
+        if (c.kind == Command::restart) {
+          sim = std::make_unique<Engine>(scene);
+          sh.shots = 0;
+        }
+        if (c.kind == Command::shoot) {
+          sim = with_shot(*sim, c, sh.shots + 1);
+          ++sh.shots;
+        }
         if (c.kind == Command::step) steps += sim->steps_per_frame();
       } catch (const Error& e) {
         std::lock_guard lock(sh.mutex);
         sh.message = e.what();
+        if (lockstep) fmt::print(stderr, "warning: {}\n", e.what());
       }
     }
     if (lockstep) steps = sim->steps_per_frame();
@@ -212,6 +234,7 @@ int view(const ViewOptions& o) {
 
   // The camera of the scene (or framed automatically) at the start, then moved by the mouse.
   Engine first(scene);
+  const bool has_surface = first.model().surface.faces() > 0;
   const render::Framing framing = render::objects_box(first.model(), first.state());
   const render::Camera start = render::make_camera(scene.camera, first.model(), framing,
                                                    static_cast<float>(o.width) / static_cast<float>(o.height), scene.source);
@@ -279,12 +302,16 @@ int view(const ViewOptions& o) {
   Shared sh;
   const bool lockstep = o.frames.has_value();
   std::thread worker([&] {
+    std::string error;
     try {
       simulate(scene, sh, lockstep, framing.origin);
     } catch (const std::exception& e) {
-      std::lock_guard lock(sh.mutex);
-      sh.message = e.what();
+      error = e.what();
     }
+    std::lock_guard lock(sh.mutex);
+    if (!error.empty()) sh.message = error;
+    sh.finished = true;
+    sh.changed.notify_all();
   });
   struct Join {
     Shared& sh;
@@ -305,30 +332,41 @@ int view(const ViewOptions& o) {
   double fps = 0;
   double last_px = 0, last_py = 0;
   std::vector<std::uint8_t> pixels;
-  auto shoot_at = [&](double fx, double fy, int w, int h) {
+  auto shot_command = [&](double fx, double fy, int w, int h) {
     // The ray from the eye through the cursor.
     const render::Camera c = camera();
     const glm::mat4 inv = glm::inverse(c.projection(static_cast<float>(w) / h) * c.view());
     const glm::vec4 far = inv * glm::vec4(2 * fx - 1, 1 - 2 * fy, 1, 1);
     const glm::vec3 dir = glm::normalize(glm::vec3(far) / far.w - c.eye);
-    Command cmd{Command::shoot, glm::dvec3(c.eye) + glm::dvec3(framing.origin[0], framing.origin[1], framing.origin[2]),
-                glm::dvec3(dir), ball};
+    return Command{Command::shoot, glm::dvec3(c.eye) + glm::dvec3(framing.origin[0], framing.origin[1], framing.origin[2]),
+                   glm::dvec3(dir), ball};
+  };
+  auto push = [&](const Command& c) {
     std::lock_guard lock(sh.mutex);
-    sh.commands.push_back(cmd);
+    sh.commands.push_back(c);
     sh.changed.notify_all();
   };
+  bool died = false;  // the simulation thread stopped on an error
   while (!glfwWindowShouldClose(win)) {
     glfwPollEvents();
     int w = 0, h = 0;
     glfwGetFramebufferSize(win, &w, &h);
-    // The newest snapshot (in lockstep: wait for the next one).
+    // The newest snapshot (in lockstep: wait for the next one, so that N frames are N simulated frames).
     {
       std::unique_lock lock(sh.mutex);
-      if (lockstep) sh.changed.wait(lock, [&] { return sh.snapshot != nullptr || !sh.message.empty(); });
+      if (lockstep) sh.changed.wait(lock, [&] { return sh.snapshot != nullptr || sh.finished; });
       if (sh.snapshot) {
         snap = std::move(sh.snapshot);
         sh.snapshot.reset();
+        // Scripted shots due by this snapshot's time, queued before the simulation goes on (see publish).
+        while (next_shot < script.size() && script[next_shot].time <= snap->time) {
+          sh.commands.push_back(shot_command(script[next_shot].x, script[next_shot].y, w, h));
+          ++next_shot;
+        }
         sh.changed.notify_all();
+      } else if (lockstep && sh.finished) {
+        died = true;
+        break;
       }
     }
     if (!snap) {
@@ -367,8 +405,19 @@ int view(const ViewOptions& o) {
           sh.message.clear();
           break;
         }
-        case GLFW_KEY_C: cycle(sh.colour, 6); break;
-        case GLFW_KEY_D: cycle(sh.draw, 4); break;
+        case GLFW_KEY_C:
+        case GLFW_KEY_D: {
+          // A new snapshot of the current state in the new mode (paused, none would come otherwise).
+          if (key == GLFW_KEY_C) cycle(sh.colour, 6);
+          else {
+            cycle(sh.draw, 4);
+            // Without mesh objects there is no surface to draw: skip it.
+            if (!has_surface && static_cast<render::DrawMode>(sh.draw.load()) == render::DrawMode::surface) cycle(sh.draw, 4);
+          }
+          std::lock_guard lock(sh.mutex);
+          sh.commands.push_back({Command::redraw, {}, {}, ball});
+          break;
+        }
         case GLFW_KEY_UP: ball.speed *= 1.25f; break;
         case GLFW_KEY_DOWN: ball.speed /= 1.25f; break;
         case GLFW_KEY_RIGHT: ball.radius *= 1.25f; break;
@@ -383,12 +432,8 @@ int view(const ViewOptions& o) {
       sh.changed.notify_all();
     }
     in.keys.clear();
-    for (const auto& [cx, cy] : in.clicks) shoot_at(cx / std::max(w, 1), cy / std::max(h, 1), w, h);
+    for (const auto& [cx, cy] : in.clicks) push(shot_command(cx / std::max(w, 1), cy / std::max(h, 1), w, h));
     in.clicks.clear();
-    while (next_shot < script.size() && script[next_shot].time <= snap->time) {
-      shoot_at(script[next_shot].x, script[next_shot].y, w, h);
-      ++next_shot;
-    }
 
     // Draw.
     ++fps_frames;
@@ -429,10 +474,21 @@ int view(const ViewOptions& o) {
                                 .c_str());
     if (last) break;
   }
+  if (next_shot < script.size())
+    fmt::print(stderr, "warning: --script {}: {} not fired: the view ended at t = {:.2f} ms, before t = {:.2f} ms{}\n",
+               *o.script, script.size() - next_shot == 1 ? std::string("1 shot was") : fmt::format("{} shots were", script.size() - next_shot),
+               snap ? 1e3 * snap->time : 0.0, 1e3 * script[next_shot].time,
+               o.frames ? "; give more --frames (one per output frame of the scene)" : "");
+  if (died) {
+    std::lock_guard lock(sh.mutex);
+    throw Error(fmt::format("mca view: the simulation stopped after {} frames: {}", shown, sh.message));
+  }
+  const auto count = [](std::size_t n, const char* what) { return fmt::format("{} {}{}", n, what, n == 1 ? "" : "s"); };
   if (!o.quiet)
-    fmt::print(stderr, "mca view: {} frames shown, t = {:.2f} ms, {} balls, broken links {}, fragments {}{}\n", shown,
-               snap ? 1e3 * snap->time : 0.0, snap ? snap->projectiles.size() : 0, snap ? snap->broken_links : 0,
-               snap ? snap->fragments : 0,
+    fmt::print(stderr, "mca view: {} shown, t = {:.2f} ms, {} fired, {}, broken links {}, fragments {}{}\n",
+               count(static_cast<std::size_t>(shown), "frame"), snap ? 1e3 * snap->time : 0.0,
+               count(static_cast<std::size_t>(sh.shots.load()), "shot"), count(snap ? snap->projectiles.size() : 0, "projectile"),
+               snap ? snap->broken_links : 0, snap ? snap->fragments : 0,
                o.screenshot ? fmt::format("; screenshot {}", *o.screenshot) : "");
   return 0;
 }

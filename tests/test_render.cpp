@@ -242,6 +242,31 @@ TEST(Render, WithoutFfmpegThePngsAreWrittenAndTheMessageSaysHowToGetTheVideo) {
   EXPECT_FALSE(fs::exists(d.path() / "render" / "video.mp4"));
 }
 
+// An ffmpeg that fails (no libx264: exits 1 with a message) or writes nothing (exits 0) costs the video
+// only: a warning with its message and the command, and the run finishes with every other output.
+TEST(Render, AFailingFfmpegDropsTheVideoAndTheRunGoesOn) {
+  for (const std::string body : {"cat > /dev/null; echo \"Unknown encoder 'libx264'\" >&2; exit 1",
+                                 "echo \"Unknown encoder 'libx264'\" >&2; exit 1", "cat > /dev/null; exit 0"}) {
+    TempDir d;
+    const fs::path bin = d.path() / "bin", out = d.path() / "out";
+    fs::create_directories(bin);
+    std::ofstream(bin / "ffmpeg") << "#!/bin/sh\n" << body << "\n";
+    fs::permissions(bin / "ffmpeg", fs::perms::owner_all);
+    const Result r = shell("PATH=" + bin.string() + ":/usr/bin:/bin " + std::string(MCA_BINARY) +
+                           " run -q --duration 0.004 --render --render-size 64x48 --out " + out.string());
+    ASSERT_EQ(r.code, 0) << body << ": " << r.output;
+    EXPECT_NE(r.output.find("warning: "), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("frame_%06d.png"), std::string::npos) << r.output;
+    if (body.find("exit 1") != std::string::npos) {
+      EXPECT_NE(r.output.find("Unknown encoder 'libx264'"), std::string::npos) << r.output;
+    }
+    for (const char* f : {"summary.json", "stats.csv", "fragments.csv", "render/frame_000002.png", "render/contact_sheet.png"})
+      EXPECT_TRUE(fs::exists(out / f)) << body << ": " << f;
+    EXPECT_FALSE(fs::exists(out / "render" / "video.mp4")) << body;
+    for (const auto& e : fs::directory_iterator(out / "render")) EXPECT_NE(e.path().extension(), ".tmp") << e.path();
+  }
+}
+
 TEST(Render, NoOpenGLStopsBeforeTheRunWithAClearMessage) {
   TempDir d;
   // No EGL vendor library: no display, no context.
@@ -252,6 +277,10 @@ TEST(Render, NoOpenGLStopsBeforeTheRunWithAClearMessage) {
   EXPECT_NE(r.output.find("without --render"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(d.path() / "render"));
   EXPECT_FALSE(fs::exists(d.path() / "scene.toml"));
+  const Result fresh = shell("__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent.json __EGL_VENDOR_LIBRARY_DIRS=/nonexistent " +
+                             std::string(MCA_BINARY) + " run -q --steps 10 --render --out " + (d.path() / "new").string());
+  EXPECT_NE(fresh.code, 0);
+  EXPECT_FALSE(fs::exists(d.path() / "new")) << fresh.output;
   EXPECT_FALSE(fs::exists(d.path() / "stats.csv"));
 }
 
@@ -268,6 +297,16 @@ TEST(Render, BadOptionsAreRefusedWithTheFix) {
   const Result s = run_mca("run -q --steps 1 --render --render-draw surface --out " + d.path().string());
   EXPECT_EQ(s.code, 2);
   EXPECT_NE(s.output.find("mesh"), std::string::npos) << s.output;
+  for (const std::string fps : {"0.001", "0.5", "241", "-1", "nan"}) {
+    const Result f = run_mca("run -q --steps 1 --render --render-fps " + fps + " --out " + d.path().string());
+    EXPECT_EQ(f.code, 2) << fps << ": " << f.output;
+    EXPECT_NE(f.output.find("give 1 to 240"), std::string::npos) << f.output;
+  }
+  // Refused when the renderer is made: the output folder this run would have created is not left behind.
+  const fs::path fresh = d.path() / "fresh" / "out";
+  const Result e = run_mca("run -q --steps 1 --render --render-draw surface --out " + fresh.string());
+  EXPECT_EQ(e.code, 2) << e.output;
+  EXPECT_FALSE(fs::exists(d.path() / "fresh")) << e.output;
   const Result n = run_mca("run -q --steps 1 --render-size 64x64 --out " + d.path().string());
   EXPECT_NE(n.code, 0);  // --render-size needs --render
   // An output folder that cannot be written.
@@ -321,6 +360,10 @@ TEST(Render, CameraInsideTheObjectsOrLookingAwayIsAnError) {
   };
   check("position = [0.2, 0.0, 0.7]", "inside the objects' bounding box");
   check("position = [0.0, -5.0, 1.0]\ntarget = [0.0, -10.0, 1.0]", "sees none of the objects");
+  // A target alone, far from the objects: the automatic position frames them from afar, a speck.
+  check("target = [100.0, 0.0, 0.75]", "sees the objects only as a speck");
+  check("position = [0.0, -300.0, 1.0]", "sees the objects only as a speck");
+  check("position = [0.0, -5.0, -1.0]", "below the ground");
   // A camera behind the wall looking at it is fine, and so is one given only a field of view.
   for (const std::string ok : {"position = [0.0, 5.0, 1.0]", "fov = 60"}) {
     const SceneDef s = scene_with_camera(ok);
@@ -328,6 +371,49 @@ TEST(Render, CameraInsideTheObjectsOrLookingAwayIsAnError) {
     const auto f = render::objects_box(sim.model(), sim.state());
     EXPECT_NO_THROW(render::make_camera(s.camera, sim.model(), f, 16.0f / 9, s.source)) << ok;
   }
+}
+
+// Fragment ids are renumbered by mass every frame; a piece's colour must not follow them (the video
+// flickered): from one frame to the next, an automaton whose piece keeps its smallest automaton keeps its
+// colour, while the ids of many such automata change.
+TEST(Render, FragmentColoursStayWithThePieceAcrossFrames) {
+  Engine sim(io::load_default_scene());
+  sim.advance(4500);  // 9 ms: pieces fly off, the wall's main body still holds most of it
+  render::SnapshotOptions o;
+  o.all_automata = true;
+  const auto frame = [&] {
+    const auto frags = analysis::label_model_fragments(sim.model(), sim.state().intact.data());
+    const auto snap = render::make_snapshot(sim.model(), sim.state(), frags, o, {0, 0, 0});
+    // Per automaton: its fragment's smallest automaton and size.
+    std::vector<std::uint32_t> first(static_cast<std::size_t>(frags.count), UINT32_MAX);
+    std::vector<std::size_t> size(first.size());
+    for (std::size_t a = 0; a < frags.id.size(); ++a) {
+      first[frags.id[a]] = std::min<std::uint32_t>(first[frags.id[a]], static_cast<std::uint32_t>(a));
+      ++size[frags.id[a]];
+    }
+    return std::make_tuple(frags, snap, first, size);
+  };
+  const auto [fa, sa, first_a, size_a] = frame();
+  sim.advance(sim.steps_per_frame());
+  const auto [fb, sb, first_b, size_b] = frame();
+  ASSERT_EQ(sa.automata.size(), sim.model().size());
+  std::size_t kept = 0, renumbered = 0, grey = 0;
+  const render::Rgba body = render::main_body_colour();
+  for (std::size_t a = 0; a < sim.model().size(); ++a) {
+    const auto ia = fa.id[a], ib = fb.id[a];
+    if (2 * size_a[ia] > sim.model().size()) {
+      grey += sa.automata[a].colour == body;
+      continue;
+    }
+    if (first_a[ia] != first_b[ib] || 2 * size_b[ib] > sim.model().size()) continue;
+    ++kept;
+    renumbered += ia != ib;
+    EXPECT_EQ(sa.automata[a].colour, sb.automata[a].colour) << "automaton " << a << ": fragment " << ia << " -> " << ib;
+    EXPECT_NE(sa.automata[a].colour, body) << a;
+  }
+  EXPECT_GT(kept, 100u);
+  EXPECT_GT(renumbered, 10u) << "the fragments were not renumbered: this frame pair tests nothing";
+  EXPECT_GT(grey, 1000u) << "largest fragments " << size_a[0] << " " << size_a[1] << " of " << sim.model().size();  // the wall's main body
 }
 
 TEST(Render, ExposedAutomataAreThoseWithABrokenOrMissingLink) {
@@ -348,7 +434,7 @@ TEST(View, ScriptedShotUnderAVirtualDisplayShowsTheBrokenWall) {
                          " view --size 480x270 --frames 12 --script " + script.string() + " --screenshot " + png.string());
   ASSERT_EQ(r.code, 0) << r.output;
   // 12 frames of 2 ms; the scene's ball and the scripted one.
-  EXPECT_NE(r.output.find("t = 22.00 ms, 2 balls"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("t = 22.00 ms, 1 shot fired, 2 projectiles"), std::string::npos) << r.output;
   const render::Image im = render::read_png(png);
   ASSERT_EQ(im.width, 480);
   ASSERT_EQ(im.height, 270);
@@ -361,6 +447,62 @@ TEST(View, ScriptedShotUnderAVirtualDisplayShowsTheBrokenWall) {
       coloured += std::max({q.r, q.g, q.b}) - std::min({q.r, q.g, q.b}) > 60;
     }
   EXPECT_GT(coloured, static_cast<std::size_t>(im.width * im.height / 20));
+}
+
+// Runs `mca view` under a virtual display with `args`.
+Result view_under_xvfb(const std::string& args) {
+  return shell("timeout 120 xvfb-run -a -s '-screen 0 1280x720x24' " + std::string(MCA_BINARY) + " view " + args);
+}
+
+// Every scripted shot fires (each later one is checked against where the earlier balls are now, not where
+// they started), and --frames N ends at N simulated frames even after a refused shot.
+TEST(View, EveryScriptedShotFiresAndFramesAreSimulatedFrames) {
+  if (shell("command -v xvfb-run").code != 0) GTEST_SKIP() << "xvfb-run is not installed (scripts/setup.sh)";
+  TempDir d;
+  const fs::path script = d.path() / "shots.txt", png = d.path() / "view.png";
+  // The second shot at 20 ms, while the scene's ball is inside the wall's starting volume.
+  std::ofstream(script) << "0.0 0.5 0.5\n0.02 0.3 0.5\n";
+  const Result r = view_under_xvfb("--size 320x180 --frames 16 --script " + script.string() + " --screenshot " + png.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("t = 30.00 ms, 2 shots fired, 3 projectiles"), std::string::npos) << r.output;
+  EXPECT_EQ(render::read_png(png).width, 320);
+  // Two balls fired at once from the same eye overlap: the second is refused with the reason, and the
+  // 16 frames still end at 30 ms.
+  std::ofstream(script) << "0.0 0.5 0.5\n0.0 0.5 0.5\n";
+  const Result o = view_under_xvfb("--size 320x180 --frames 16 --script " + script.string());
+  ASSERT_EQ(o.code, 0) << o.output;
+  EXPECT_NE(o.output.find("'shot2' overlaps projectile[1] 'shot1'"), std::string::npos) << o.output;
+  EXPECT_NE(o.output.find("t = 30.00 ms, 1 shot fired, 2 projectiles"), std::string::npos) << o.output;
+}
+
+// A line that is not TIME X Y is refused with its file and line (before any window); a shot after the
+// last frame is reported.
+TEST(View, ScriptLinesAreCheckedAndLateShotsReported) {
+  TempDir d;
+  const fs::path script = d.path() / "shots.txt";
+  for (const std::string bad : {"foo bar baz", "nan 0.5 0.5", "0.1 0.5", "0.1 0.5 0.5 7", "-1 0.5 0.5"}) {
+    std::ofstream(script) << "# aim\n0.0 0.5 0.5\n" << bad << "\n";
+    const Result r = shell("env -u DISPLAY -u WAYLAND_DISPLAY " + std::string(MCA_BINARY) + " view --frames 1 --script " +
+                           script.string());
+    EXPECT_EQ(r.code, 2) << bad << ": " << r.output;
+    EXPECT_NE(r.output.find(script.string() + ":3: '" + bad + "' is not 'TIME X Y'"), std::string::npos) << r.output;
+  }
+  if (shell("command -v xvfb-run").code != 0) GTEST_SKIP() << "xvfb-run is not installed (scripts/setup.sh)";
+  std::ofstream(script) << "0.5 0.5 0.5\n";
+  const Result late = view_under_xvfb("--size 64x64 --frames 2 --script " + script.string());
+  ASSERT_EQ(late.code, 0) << late.output;
+  EXPECT_NE(late.output.find("1 shot was not fired: the view ended at t = 2.00 ms, before t = 500.00 ms"),
+            std::string::npos) << late.output;
+}
+
+TEST(View, BadSizeAndScreenshotNamesAreRefusedWithTheViewersOptions) {
+  const Result size = run_mca("view --size 7x5 --frames 1");
+  EXPECT_EQ(size.code, 2) << size.output;
+  EXPECT_NE(size.output.find("--size 7x5 is out of range"), std::string::npos) << size.output;
+  EXPECT_EQ(size.output.find("--render-size"), std::string::npos) << size.output;
+  const Result jpg = run_mca("view --frames 1 --screenshot v.jpg");
+  EXPECT_EQ(jpg.code, 2) << jpg.output;
+  EXPECT_NE(jpg.output.find("ending in .png"), std::string::npos) << jpg.output;
 }
 
 TEST(View, NoDisplayPointsToRunRender) {

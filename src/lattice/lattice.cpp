@@ -449,7 +449,7 @@ void refuse_overlaps(const SceneDef& scene, const Model& M) {
 // Nothing may start inside the ground: an automaton pressed into it by delta starts with the energy
 // k delta^2 / 2 of its contact (a box 5 mm into the ground, its lattice a row taller than its size, broke
 // into 180 pieces at t = 0). A tolerance of 1e-6 d covers the rounding of the spacing to float.
-void refuse_bodies_in_the_ground(const SceneDef& scene, const Shapes& S, const Model& M) {
+void refuse_bodies_in_the_ground(const SceneDef& scene, const Shapes& S, const Model& M, std::size_t placed) {
   const double d = M.spacing;
   double deepest = 0;
   std::size_t at = 0;
@@ -480,7 +480,7 @@ void refuse_bodies_in_the_ground(const SceneDef& scene, const Shapes& S, const M
         scene.source, o.name, deepest, M.position0[at].x, M.position0[at].y, M.position0[at].z, M.radius[at],
         M.ground_height, deepest, why));
   }
-  for (std::size_t p = 0; p < M.projectiles.size(); ++p) {
+  for (std::size_t p = placed; p < M.projectiles.size(); ++p) {
     const ProjectileParams& P = M.projectiles[p];
     const double overlap = ground_overlap(P.position, M.up, M.ground_height, P.radius);
     if (overlap > 1e-6 * P.radius) {
@@ -874,7 +874,7 @@ double spacing_for_target(const SceneDef& scene, std::int64_t target) {
 
 double scene_spacing(const SceneDef& scene) { return scene_spacing(scene, prepare_shapes(scene)); }
 
-Model build_model(const SceneDef& scene) {
+Model build_model(const SceneDef& scene, std::size_t placed) {
   validate_scene(scene);
   // The spacing is rounded to float once: the rest length r0 = d is stored in float32, and the centres
   // (double) are laid out with the same d, so an intact lattice starts with a strain of exactly zero (up
@@ -1130,7 +1130,7 @@ Model build_model(const SceneDef& scene) {
     pp.position = to_dvec3(pd.position);
     pp.velocity = to_vec3(pd.velocity);
     pp.angular_velocity = to_vec3(pd.angular_velocity);
-    for (std::size_t a = 0; a < n; ++a) {
+    for (std::size_t a = 0; a < n && p >= placed; ++a) {
       const DVec3 dd = ddelta(pp.position, M.position0[a]);
       const double reach = pd.radius + M.radius[a];
       if (dot(dd, dd) < reach * reach) {
@@ -1147,7 +1147,7 @@ Model build_model(const SceneDef& scene) {
   }
 
   // Projectiles may touch each other but not overlap (they would start pressed into each other).
-  for (std::size_t p = 0; p < M.projectiles.size(); ++p)
+  for (std::size_t p = placed; p < M.projectiles.size(); ++p)
     for (std::size_t q = 0; q < p; ++q) {
       const ProjectileParams &A = M.projectiles[q], &B = M.projectiles[p];
       const DVec3 dd = ddelta(A.position, B.position);
@@ -1164,7 +1164,7 @@ Model build_model(const SceneDef& scene) {
   M.up = gl > 0 ? M.gravity * (-1.0f / gl) : Vec3{0, 0, 1};
   M.ground = scene.ground.enabled;
   M.ground_height = static_cast<float>(scene.ground.height);
-  if (M.ground) refuse_bodies_in_the_ground(scene, S, M);
+  if (M.ground) refuse_bodies_in_the_ground(scene, S, M, placed);
   // Contact materials of every pair of groups and of every group with the ground (contact_law.hpp): the
   // moduli in series, the pair's mean friction, rolling and twisting coefficients and restitution; the
   // ground brings its own coefficients and is rigid.

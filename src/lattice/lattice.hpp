@@ -30,7 +30,10 @@ TimeStepBound critical_time_step(const Model& model);
 void set_time_step(Model& model, float dt);
 
 // Builds the model. Throws mca::Error for scenes that cannot be built (projectile inside an object,
-// empty grip, memory estimate over the limit, ...).
-Model build_model(const SceneDef& scene);
+// empty grip, memory estimate over the limit, ...). `placed`: the first `placed` projectiles are in flight
+// in a state the run continues from (the viewer's earlier shots and the scene's own): their positions are
+// where the state has them, so they are not checked against the objects' starting positions, the ground
+// or each other; every later one is checked against all of these.
+Model build_model(const SceneDef& scene, std::size_t placed = 0);
 
 }  // namespace mca::lattice

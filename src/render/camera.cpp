@@ -99,22 +99,55 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
                             "leave out position for an automatic view",
                             source, shown(glm::dvec3(cam.eye) + origin), shown(glm::dvec3(fr.box_lo) + origin),
                             shown(glm::dvec3(fr.box_hi) + origin)));
-  // Sees none of the box: its bounding sphere lies entirely outside the cone of the view's diagonal.
   const glm::vec3 f = (cam.target - cam.eye) / dist;
-  const glm::vec3 to_c = centre - cam.eye;
-  const float dc = glm::length(to_c);
-  const float half_diag = std::atan(std::sqrt(tan_v * tan_v + tan_h * tan_h));
-  const float angle = std::acos(std::clamp(glm::dot(f, to_c / dc), -1.0f, 1.0f));
-  const float spread = dc > radius ? std::asin(radius / dc) : 3.1416f;
-  if (angle > half_diag + spread)
-    throw Error(fmt::format("{}: the [camera] at {} looking at {} sees none of the objects (their box {} .. {} lies "
-                            "{:.0f} degrees off the view's axis; the field of view is fov = {:g} degrees); point "
-                            "target at the objects, or leave out target to look at their centre",
-                            source, shown(glm::dvec3(cam.eye) + origin), shown(glm::dvec3(cam.target) + origin),
-                            shown(glm::dvec3(fr.box_lo) + origin), shown(glm::dvec3(fr.box_hi) + origin),
-                            glm::degrees(angle), def.fov));
   // A camera looking along the up axis: another up for lookAt.
   if (std::abs(glm::dot(f, cam.up)) > 0.999f) cam.up = horizontal(glm::vec3(0, 1, 0), cam.up);
+  const glm::vec3 to_c = centre - cam.eye;
+  const float dc = glm::length(to_c);
+  const float spread = dc > radius ? std::asin(radius / dc) : 3.1416f;
+  // Sees none of the box: all its corners lie outside the same side of the view's pyramid (behind the
+  // camera, or left, right, below or above the field of view).
+  {
+    const glm::mat4 V = cam.view();
+    std::array<int, 5> outside{};  // behind, left, right, below, above
+    for (const glm::vec3& c : corners) {
+      const glm::vec4 v = V * glm::vec4(c, 1);
+      const float depth = -v.z;
+      outside[0] += depth <= 0;
+      outside[1] += v.x < -depth * tan_h;
+      outside[2] += v.x > depth * tan_h;
+      outside[3] += v.y < -depth * tan_v;
+      outside[4] += v.y > depth * tan_v;
+    }
+    const float angle = std::acos(std::clamp(glm::dot(f, to_c / dc), -1.0f, 1.0f));
+    if (std::any_of(outside.begin(), outside.end(), [](int k) { return k == 8; }))
+      throw Error(fmt::format("{}: the [camera] at {} looking at {} sees none of the objects (their box {} .. {} lies "
+                              "{:.0f} degrees off the view's axis; the field of view is fov = {:g} degrees); point "
+                              "target at the objects, or leave out target to look at their centre",
+                              source, shown(glm::dvec3(cam.eye) + origin), shown(glm::dvec3(cam.target) + origin),
+                              shown(glm::dvec3(fr.box_lo) + origin), shown(glm::dvec3(fr.box_hi) + origin),
+                              glm::degrees(angle), def.fov));
+  }
+  // So far that the objects are a speck (a target far from them, the position left automatic, frames them
+  // from a distance where they span a few pixels): under a twentieth of the field of view, as good as none.
+  const float fov_v = glm::radians(cam.fov);
+  if (2 * spread < fov_v / 20)
+    throw Error(fmt::format("{}: the [camera] at {} looking at {} sees the objects only as a speck: their box {} .. {} "
+                            "spans {:.2g} degrees of the view's {:g} at {:.3g} m; point target at the objects (or leave "
+                            "it out to look at their centre), or give a position nearer to them",
+                            source, shown(glm::dvec3(cam.eye) + origin), shown(glm::dvec3(cam.target) + origin),
+                            shown(glm::dvec3(fr.box_lo) + origin), shown(glm::dvec3(fr.box_hi) + origin),
+                            glm::degrees(2 * spread), def.fov, dc));
+  // Under the ground the view is of the ground's underside: refused.
+  if (def.position && model.ground) {
+    const glm::dvec3 eye = glm::dvec3(cam.eye) + origin;
+    const double height = glm::dot(eye, glm::dvec3(cam.up)) - model.ground_height;
+    if (height < 0)
+      throw Error(fmt::format("{}: [camera] position = {} is {:.3g} m below the ground (ground.height = {:g} along the "
+                              "up direction): the view would be of the ground's underside; raise the position above "
+                              "the ground",
+                              source, shown(eye), -height, model.ground_height));
+  }
   // Depth range: from just short of the box (or of the target) to far behind it, the ground included.
   const float depth = std::max(dc, dist);
   cam.near = std::max(1e-3f, std::min(0.5f * (dc - radius), 0.05f * depth));

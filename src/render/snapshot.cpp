@@ -88,11 +88,20 @@ Rgba class_colour(int c) {
   }
 }
 
-Rgba fragment_colour(std::int32_t id) {
-  if (id <= 0) return rgb(0.72f, 0.71f, 0.68f);
-  // Golden-ratio hue steps: neighbouring ids (fragments of similar size) get far-apart hues.
-  const float h = std::fmod(0.08f + 0.618034f * static_cast<float>(id), 1.0f) * 6.0f;
-  const float s = 0.70f, v = 0.95f;
+Rgba main_body_colour() { return rgb(0.72f, 0.71f, 0.68f); }
+
+Rgba piece_colour(std::uint32_t first_automaton) {
+  // A well-mixed hash of the index (murmur3's finaliser): pieces that split from neighbouring automata get
+  // far-apart hues; saturation and value vary a little so that close hues still differ.
+  std::uint32_t x = first_automaton + 0x9e3779b9u;
+  x ^= x >> 16;
+  x *= 0x85ebca6bu;
+  x ^= x >> 13;
+  x *= 0xc2b2ae35u;
+  x ^= x >> 16;
+  const float h = static_cast<float>(x & 0xffffu) / 65536.0f * 6.0f;
+  const float s = 0.55f + 0.25f * static_cast<float>((x >> 16) & 0xffu) / 255.0f;
+  const float v = 0.80f + 0.15f * static_cast<float>(x >> 24) / 255.0f;
   const int k = static_cast<int>(h);
   const float f = h - static_cast<float>(k), p = v * (1 - s), q = v * (1 - s * f), u = v * (1 - s * (1 - f));
   switch (k % 6) {
@@ -103,6 +112,28 @@ Rgba fragment_colour(std::int32_t id) {
     case 4: return rgb(u, p, v);
     default: return rgb(v, p, q);
   }
+}
+
+std::vector<Rgba> fragment_colours(const Model& model, const analysis::Fragments& fragments) {
+  const std::size_t n = model.size();
+  // Per fragment: its smallest automaton index and its automata; per object: its automata.
+  std::vector<std::uint32_t> first(static_cast<std::size_t>(fragments.count), UINT32_MAX);
+  std::vector<std::size_t> size(static_cast<std::size_t>(fragments.count), 0);
+  std::vector<std::size_t> object_size(model.object_names.size() + 1, 0);
+  for (std::size_t a = 0; a < n; ++a) {
+    const auto f = static_cast<std::size_t>(fragments.id[a]);
+    first[f] = std::min(first[f], static_cast<std::uint32_t>(a));
+    ++size[f];
+    ++object_size[static_cast<std::size_t>(model.object[a])];
+  }
+  std::vector<Rgba> by_fragment(first.size());
+  for (std::size_t f = 0; f < first.size(); ++f) {
+    const std::size_t whole = object_size[static_cast<std::size_t>(model.object[first[f]])];
+    by_fragment[f] = 2 * size[f] > whole ? main_body_colour() : piece_colour(first[f]);
+  }
+  std::vector<Rgba> colour(n);
+  for (std::size_t a = 0; a < n; ++a) colour[a] = by_fragment[static_cast<std::size_t>(fragments.id[a])];
+  return colour;
 }
 
 std::vector<std::uint8_t> exposed_automata(const Model& model, const State& state) {
@@ -141,9 +172,9 @@ Snapshot make_snapshot(const Model& model, const State& state, const analysis::F
   Legend& L = s.legend;
   switch (o.colour) {
     case ColourMode::fragment: {
-      for (std::size_t a = 0; a < n; ++a) colour[a] = fragment_colour(fragments.id[a]);
+      colour = fragment_colours(model, fragments);
       L.title = "fragments";
-      L.swatches = {{"largest", fragment_colour(0)}, {"others", fragment_colour(1)}};
+      L.swatches = {{"main body", main_body_colour()}, {"pieces", piece_colour(0)}};
       break;
     }
     case ColourMode::damage: {

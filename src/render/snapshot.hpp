@@ -105,7 +105,12 @@ Rgba ramp_damage(float t);
 Rgba ramp_viridis(float t);
 // The paper's colours of the strength classes 1..4 (weakest to strongest): blue, yellow, green, red.
 Rgba class_colour(int strength_class);
-// A colour per fragment id: the heaviest (0) concrete grey, the others distinct hues.
-Rgba fragment_colour(std::int32_t id);
+// Fragment colours that stay with a piece from frame to frame (the fragment ids are renumbered by mass
+// every frame): concrete grey for the main body of an object (a fragment holding more than half of its
+// object's automata), else a hue from a hash of the piece's smallest automaton index.
+Rgba main_body_colour();
+Rgba piece_colour(std::uint32_t first_automaton);
+// Per automaton, the colour of its fragment as above.
+std::vector<Rgba> fragment_colours(const Model& model, const analysis::Fragments& fragments);
 
 }  // namespace mca::render

@@ -11,8 +11,9 @@
 namespace mca {
 
 namespace {
-Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t& total_steps) {
-  Model m = lattice::build_model(scene);
+Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t& total_steps,
+                       std::size_t placed = 0) {
+  Model m = lattice::build_model(scene, placed);
   const double frame = 1.0 / scene.output.frame_rate;
   const double stable = m.dt;
   if (scene.solver.time_step > 0 && frame < stable * (1 - 1e-9)) {
@@ -93,9 +94,9 @@ Engine::Engine(const SceneDef& scene) : scene_(scene) {
 }
 
 Engine::Engine(const SceneDef& scene, const State& state, const std::string& source,
-               std::optional<std::uint64_t> fingerprint)
+               std::optional<std::uint64_t> fingerprint, std::size_t projectiles_in_flight)
     : scene_(scene) {
-  model_ = build_for_frames(scene_, steps_per_frame_, total_steps_);
+  model_ = build_for_frames(scene_, steps_per_frame_, total_steps_, projectiles_in_flight);
   // The fingerprint first: when the scene was edited, "another model" is the cause to report, not the
   // first array whose size it changed.
   if (fingerprint) {

@@ -22,9 +22,11 @@ class Engine {
   // Continues from a saved state (checkpoint) of the same scene. The state is untrusted: it is checked
   // against the rebuilt model (check_state) before the backend sees it and, when `fingerprint` is given,
   // the model must be the one the state was saved from (model_fingerprint). Both throw mca::Error
-  // starting with `source`, which names where the state came from.
+  // starting with `source`, which names where the state came from. `projectiles_in_flight`: the first
+  // that many projectiles' scene positions are where the state has them now (lattice::build_model's
+  // `placed`), so a projectile added to a running scene is checked against where the others are.
   Engine(const SceneDef& scene, const State& state, const std::string& source = "the saved state",
-         std::optional<std::uint64_t> fingerprint = std::nullopt);
+         std::optional<std::uint64_t> fingerprint = std::nullopt, std::size_t projectiles_in_flight = 0);
   // The backend keeps a reference to the model member: an Engine stays where it was built.
   Engine(const Engine&) = delete;
   Engine& operator=(const Engine&) = delete;
