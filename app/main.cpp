@@ -88,7 +88,8 @@ int main(int argc, char** argv) {
   int bench_frames = 10;
   bench->add_flag("--render", bench_render,
                   "Frames per second of the renderer (1280x720 offscreen, one step per frame): wall_3k, walls_12k, "
-                  "wall_357k, wall_357k_spheres, bunny_cubes, bunny_surface, armadillo_cubes, armadillo_surface");
+                  "wall_357k, wall_357k_spheres, bunny_cubes, bunny_surface, cow_cubes, cow_surface, armadillo_cubes, "
+                  "armadillo_surface");
   bench->add_option("--frames", bench_frames, "Frames timed per render benchmark (the median is reported)");
 
   // A command line that does not parse is a user error like any other: exit code 2 (CLI11's own codes
