@@ -11,7 +11,10 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <gtest/gtest.h>
 
+#include "analysis/fragment_meshes.hpp"
+#include "core/model.hpp"
 #include "mesh/mesh.hpp"
 #include "mesh/mesh_write.hpp"
 
@@ -63,6 +66,47 @@ inline mesh::TriMesh sphere_mesh(double r, int levels, mesh::Point c = {0, 0, 0}
   }
   m.faces = f;
   return m;
+}
+
+// The automata of m labelled by the planes x = cuts[k] (increasing): piece k between cuts k - 1 and k.
+inline analysis::Fragments cut_by_x(const Model& m, const std::vector<double>& cuts) {
+  analysis::Fragments f;
+  f.id.resize(m.size());
+  for (std::size_t a = 0; a < m.size(); ++a) {
+    std::int32_t k = 0;
+    while (k < static_cast<std::int32_t>(cuts.size()) && m.position0[a].x > cuts[static_cast<std::size_t>(k)]) ++k;
+    f.id[a] = k;
+  }
+  f.count = static_cast<std::int32_t>(cuts.size()) + 1;
+  return f;
+}
+
+// Checks that each fragment mesh is closed and manifold with a positive volume; returns their volumes' sum.
+inline double closed_volume(const std::vector<analysis::FragmentMesh>& meshes) {
+  double sum = 0;
+  for (const auto& fm : meshes) {
+    const mesh::Topology topo = mesh::topology(fm.mesh);
+    EXPECT_EQ(topo.boundary_edges, 0u) << "fragment " << fm.fragment;
+    EXPECT_EQ(topo.non_manifold_edges, 0u) << "fragment " << fm.fragment;
+    EXPECT_GT(fm.volume, 0);
+    sum += fm.volume;
+  }
+  return sum;
+}
+
+// A flat sheet in the plane z = 0 of n x m squares of side a (from the origin), each split into two
+// right triangles on its diagonal: an open mesh.
+inline mesh::TriMesh sheet_mesh(int n, int m, double a) {
+  mesh::TriMesh sheet;
+  for (int j = 0; j <= m; ++j)
+    for (int i = 0; i <= n; ++i) sheet.vertices.push_back({a * i, a * j, 0.0});
+  auto at = [&](int i, int j) { return static_cast<std::uint32_t>(j * (n + 1) + i); };
+  for (int j = 0; j < m; ++j)
+    for (int i = 0; i < n; ++i) {
+      sheet.faces.push_back({at(i, j), at(i + 1, j), at(i + 1, j + 1)});
+      sheet.faces.push_back({at(i, j), at(i + 1, j + 1), at(i, j + 1)});
+    }
+  return sheet;
 }
 
 // A torus about the z axis: tube radius r, centre-line radius R.

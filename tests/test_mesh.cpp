@@ -567,19 +567,6 @@ velocity = [1, 0, 0]
   EXPECT_NE(no_mesh.output.find("output.surface = true, but no object is a mesh"), std::string::npos) << no_mesh.output;
 }
 
-// The fragments of a model cut by planes x = cuts[k] (the ids numbered by region, left to right).
-analysis::Fragments cut_by_x(const Model& m, const std::vector<double>& cuts) {
-  analysis::Fragments f;
-  f.id.resize(m.size());
-  for (std::size_t a = 0; a < m.size(); ++a) {
-    std::int32_t k = 0;
-    while (k < static_cast<std::int32_t>(cuts.size()) && m.position0[a].x > cuts[static_cast<std::size_t>(k)]) ++k;
-    f.id[a] = k;
-  }
-  f.count = static_cast<std::int32_t>(cuts.size()) + 1;
-  return f;
-}
-
 TEST(FragmentMeshes, AreClosedAndTheirVolumesSumToTheObjects) {
   TempDir t;
   const double r = 0.2;
@@ -588,19 +575,12 @@ TEST(FragmentMeshes, AreClosedAndTheirVolumesSumToTheObjects) {
   s.objects[0].rotation = {0, 0, 25};  // the lattice turned against the cuts
   const Engine sim(s);
   const Model& m = sim.model();
-  const auto frags = cut_by_x(m, {-0.07, 0.05});
-  const auto meshes = analysis::fragment_meshes(m, sim.state(), frags, 8);
+  const auto meshes = analysis::fragment_meshes(m, sim.state(), test::cut_by_x(m, {-0.07, 0.05}), 8);
   ASSERT_EQ(meshes.size(), 3u);
-  double sum = 0;
-  for (const auto& fm : meshes) {
-    const mesh::Topology topo = mesh::topology(fm.mesh);
-    EXPECT_EQ(topo.boundary_edges, 0u) << "fragment " << fm.fragment;
-    EXPECT_EQ(topo.non_manifold_edges, 0u) << "fragment " << fm.fragment;
-    EXPECT_GT(fm.volume, 0);
-    // Each piece holds about its automata's volume.
+  const double sum = test::closed_volume(meshes);
+  // Each piece holds about its automata's volume.
+  for (const auto& fm : meshes)
     EXPECT_NEAR(fm.volume / (fm.automata * std::pow(m.spacing, 3)), 1.0, 0.1) << "fragment " << fm.fragment;
-    sum += fm.volume;
-  }
   const double sphere = 4.0 / 3.0 * std::numbers::pi * r * r * r;
   EXPECT_NEAR(sum / sphere, 1.0, 0.05) << sum;
 }
@@ -628,7 +608,7 @@ TEST(FragmentMeshes, OfABoxAreItsCellsAndFollowTheFragmentsPose) {
   const Engine sim(s);
   const Model& m = sim.model();
   State st = sim.state();
-  const auto frags = cut_by_x(m, {0.0});  // two halves of 5 x 6 x 4 cells
+  const auto frags = test::cut_by_x(m, {0.0});  // two halves of 5 x 6 x 4 cells
   // The right half turned by 90 degrees about z and lifted by 1 m.
   const Quat q = axis_angle(0, 0, 1, 90);
   for (std::size_t a = 0; a < m.size(); ++a) {

@@ -153,17 +153,8 @@ TEST(SurfaceMode, RepeatedTrianglesAndNonManifoldEdges) {
 // and its boundary triangles have fewer links.
 TEST(SurfaceMode, AnOpenFlatSheetIsAccepted) {
   TempDir t;
-  mesh::TriMesh sheet;
   const int n = 8;
-  for (int j = 0; j <= n; ++j)
-    for (int i = 0; i <= n; ++i) sheet.vertices.push_back({0.05 * i, 0.05 * j, 0.0});
-  auto at = [&](int i, int j) { return static_cast<std::uint32_t>(j * (n + 1) + i); };
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) {
-      sheet.faces.push_back({at(i, j), at(i + 1, j), at(i + 1, j + 1)});
-      sheet.faces.push_back({at(i, j), at(i + 1, j + 1), at(i, j + 1)});
-    }
-  test::write_mesh_file(t.path() / "sheet.obj", sheet);
+  test::write_mesh_file(t.path() / "sheet.obj", test::sheet_mesh(n, n, 0.05));
   SceneDef s = test::block_scene(1, 1, 1, 0.05);
   s.objects[0].shape = Shape::mesh;
   s.objects[0].mesh = (t.path() / "sheet.obj").string();
@@ -398,16 +389,7 @@ namespace {
 double sheet_modulus_ratio(int n, int m, double nu) {
   TempDir t;
   const double a = 0.01, thickness = 0.002;
-  mesh::TriMesh sheet;
-  for (int j = 0; j <= m; ++j)
-    for (int i = 0; i <= n; ++i) sheet.vertices.push_back({a * i, a * j, 0.0});
-  auto at = [&](int i, int j) { return static_cast<std::uint32_t>(j * (n + 1) + i); };
-  for (int j = 0; j < m; ++j)
-    for (int i = 0; i < n; ++i) {
-      sheet.faces.push_back({at(i, j), at(i + 1, j), at(i + 1, j + 1)});
-      sheet.faces.push_back({at(i, j), at(i + 1, j + 1), at(i, j + 1)});
-    }
-  test::write_mesh_file(t.path() / "sheet.obj", sheet);
+  test::write_mesh_file(t.path() / "sheet.obj", test::sheet_mesh(n, m, a));
   SceneDef s = test::block_scene(1, 1, 1, a, test::test_material(30e9, nu));
   s.objects[0].shape = Shape::mesh;
   s.objects[0].mesh = (t.path() / "sheet.obj").string();
@@ -470,20 +452,9 @@ TEST(SurfaceMode, FragmentMeshesAreClosedPiecesOfTheShell) {
   s.objects[0].shell_thickness = 0.01;
   const Engine sim(s);
   const Model& m = sim.model();
-  analysis::Fragments f;
-  f.id.resize(m.size());
-  for (std::size_t a = 0; a < m.size(); ++a) f.id[a] = m.position0[a].x < -0.07 ? 0 : (m.position0[a].x < 0.05 ? 1 : 2);
-  f.count = 3;
-  const auto meshes = analysis::fragment_meshes(m, sim.state(), f, 8);
+  const auto meshes = analysis::fragment_meshes(m, sim.state(), test::cut_by_x(m, {-0.07, 0.05}), 8);
   ASSERT_EQ(meshes.size(), 3u);
-  double sum = 0;
-  for (const auto& fm : meshes) {
-    const mesh::Topology topo = mesh::topology(fm.mesh);
-    EXPECT_EQ(topo.boundary_edges, 0u) << "fragment " << fm.fragment;
-    EXPECT_EQ(topo.non_manifold_edges, 0u) << "fragment " << fm.fragment;
-    EXPECT_GT(fm.volume, 0);
-    sum += fm.volume;
-  }
+  const double sum = test::closed_volume(meshes);
   const double shell = total_area(test::sphere_mesh(0.2, 4)) * 0.01;
   std::printf("shell fragments: %.4g m^3 for a shell of %.4g m^3\n", sum, shell);
   EXPECT_NEAR(sum / shell, 1.0, 0.1);
@@ -501,16 +472,7 @@ double cantilever_ratio(double t) {
   TempDir dir;
   const int n = 20;
   const double a = 0.025;
-  mesh::TriMesh strip;
-  for (int j = 0; j <= 2; ++j)
-    for (int i = 0; i <= n; ++i) strip.vertices.push_back({a * i, a * j, 0.0});
-  auto at = [&](int i, int j) { return static_cast<std::uint32_t>(j * (n + 1) + i); };
-  for (int j = 0; j < 2; ++j)
-    for (int i = 0; i < n; ++i) {
-      strip.faces.push_back({at(i, j), at(i + 1, j), at(i + 1, j + 1)});
-      strip.faces.push_back({at(i, j), at(i + 1, j + 1), at(i, j + 1)});
-    }
-  test::write_mesh_file(dir.path() / "strip.obj", strip);
+  test::write_mesh_file(dir.path() / "strip.obj", test::sheet_mesh(n, 2, a));
   const double E = 200e9, rho = 7850, g = 9.81;
   SceneDef s = test::block_scene(1, 1, 1, a, test::test_material(E, 0.0, rho));
   s.objects[0].shape = Shape::mesh;
