@@ -68,7 +68,8 @@ struct State {
   std::vector<std::uint8_t> intact;
   std::vector<Vec3> link_ut;    // tangential displacement in the pair's frame
   // Per explicit link (Model::ExplicitLinks; empty without): the moment of its bending and twisting
-  // spring on its first end (physics/link_law.hpp, link_bending).
+  // spring on its first end, as components about the link, the shell's normal and their cross product
+  // (physics/link_law.hpp, link_bending).
   std::vector<Vec3> link_moment;
 
   std::vector<ContactPair> contacts;        // sorted by (i, j)

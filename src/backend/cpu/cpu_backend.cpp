@@ -162,7 +162,7 @@ class CpuBackend final : public Backend {
     for (auto* v : {&ex_r0f_, &ex_inv_r0_, &ex_area_, &ex_to_stress_, &ex_G_, &ex_kt_, &ex_damp_n_, &ex_damp_t_, &ex_nx_,
                     &ex_ny_, &ex_nz_, &ex_eps_, &ex_fx_, &ex_fy_, &ex_fz_, &ex_tx_, &ex_ty_, &ex_tz_, &ex_k_twist_,
                     &ex_k_in_, &ex_k_out_, &ex_s_in_, &ex_s_out_, &ex_s_twist_, &ex_m0x_, &ex_m0y_, &ex_m0z_, &ex_mx_,
-                    &ex_my_, &ex_mz_})
+                    &ex_my_, &ex_mz_, &ex_bx_, &ex_by_, &ex_bz_})
       v->resize(ne);
     for (std::size_t k = 0; k < ne; ++k) {
       const std::uint32_t i = E.i[k], j = E.j[k];
@@ -398,6 +398,7 @@ class CpuBackend final : public Backend {
   cpu::LineArray<float> ex_nx_, ex_ny_, ex_nz_, ex_eps_, ex_fx_, ex_fy_, ex_fz_, ex_tx_, ex_ty_, ex_tz_;
   cpu::LineArray<float> ex_k_twist_, ex_k_in_, ex_k_out_, ex_s_in_, ex_s_out_, ex_s_twist_, ex_m0x_, ex_m0y_, ex_m0z_;
   cpu::LineArray<float> ex_mx_, ex_my_, ex_mz_;  // state: the bending springs' moments (State::link_moment)
+  cpu::LineArray<float> ex_bx_, ex_by_, ex_bz_;  // this step's bending torques (world)
   std::vector<std::uint32_t> explicit_automata_;
   std::vector<float> explicit_weight_;
   std::vector<std::uint32_t> explicit_breaks_;  // per chunk of links, what the explicit kernel found
@@ -585,6 +586,7 @@ cpu::ExplicitView CpuBackend::explicit_view() {
   e.s_in = ex_s_in_.data(); e.s_out = ex_s_out_.data(); e.s_twist = ex_s_twist_.data();
   e.m0x = ex_m0x_.data(); e.m0y = ex_m0y_.data(); e.m0z = ex_m0z_.data();
   e.mx = ex_mx_.data(); e.my = ex_my_.data(); e.mz = ex_mz_.data();
+  e.bx = ex_bx_.data(); e.by = ex_by_.data(); e.bz = ex_bz_.data();
   return e;
 }
 
@@ -603,7 +605,7 @@ void CpuBackend::explicit_gather_pass() {
     for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
       const std::uint32_t l = E.of[x];
       if (!S_.intact[slot0 + l]) continue;
-      const Vec3 fl{ex_fx_[l], ex_fy_[l], ex_fz_[l]}, ml{ex_mx_[l], ex_my_[l], ex_mz_[l]};
+      const Vec3 fl{ex_fx_[l], ex_fy_[l], ex_fz_[l]}, ml{ex_bx_[l], ex_by_[l], ex_bz_[l]};
       const bool first = E.i[l] == a;
       f += first ? fl : -fl;
       t += Vec3{ex_tx_[l], ex_ty_[l], ex_tz_[l]} + (first ? ml : -ml);

@@ -104,10 +104,9 @@ Energies energies_of(const View& at) {
       const std::size_t k = l - m.lattice_slots();
       const LinkBendingConstants bc = link_bending_constants(harmonic(gi.youngs, gj.youngs), G, r0,
                                                              m.explicit_links.edge[k], area / m.explicit_links.edge[k]);
-      const Vec3 mn = shell_normal(s.q[i], s.q[j], m.explicit_links.normal[k], g.n);
       const Vec3 M = s.link_moment[k];
-      const double m_n = dot(M, g.n), m_m = dot(M, mn), m_b = dot(M, cross(g.n, mn));
-      e.elastic += 0.5 * (m_n * m_n / bc.k_twist + m_m * m_m / bc.k_in + m_b * m_b / bc.k_out);
+      const double mn = M.x, mm = M.y, mb = M.z;
+      e.elastic += 0.5 * (mn * mn / bc.k_twist + mm * mm / bc.k_in + mb * mb / bc.k_out);
       explicit_sum[i] += si;
       explicit_sum[j] += sj;
       ++explicit_cnt[i];

@@ -125,7 +125,8 @@ struct ExplicitView {
   const float *k_twist = nullptr, *k_in = nullptr, *k_out = nullptr, *s_in = nullptr, *s_out = nullptr,
               *s_twist = nullptr;
   const float *m0x = nullptr, *m0y = nullptr, *m0z = nullptr;
-  float *mx = nullptr, *my = nullptr, *mz = nullptr;
+  float *mx = nullptr, *my = nullptr, *mz = nullptr;  // about the link, the shell's normal, their cross product
+  float *bx = nullptr, *by = nullptr, *bz = nullptr;  // this step's bending torque on the first end (world)
   // This step's geometry (explicit_geometry) and forces (explicit_links), per link.
   float *nx = nullptr, *ny = nullptr, *nz = nullptr, *eps = nullptr;
   float *fx = nullptr, *fy = nullptr, *fz = nullptr, *tx = nullptr, *ty = nullptr, *tz = nullptr;

@@ -328,6 +328,7 @@ struct Block {
     store3(cross(n, hf) * (1.0f + eps), e.tx, e.ty, e.tz, k0);
     store3(select(alive && !broke, o.ut, in.ut), v.utx, v.uty, v.utz, l0);
     store3(select(alive && !broke, bo.moment, bi.moment), e.mx, e.my, e.mz, k0);
+    store3(bo.torque, e.bx, e.by, e.bz, k0);
     return count;
   }
 
