@@ -245,16 +245,21 @@ TEST(Render, WithoutFfmpegThePngsAreWrittenAndTheMessageSaysHowToGetTheVideo) {
 // An ffmpeg that fails (no libx264: exits 1 with a message) or writes nothing (exits 0) costs the video
 // only: a warning with its message and the command, and the run finishes with every other output.
 TEST(Render, AFailingFfmpegDropsTheVideoAndTheRunGoesOn) {
+  // The last two are stuck (one takes no frame, one never ends): stopped after MCA_FFMPEG_TIMEOUT seconds.
   for (const std::string body : {"cat > /dev/null; echo \"Unknown encoder 'libx264'\" >&2; exit 1",
-                                 "echo \"Unknown encoder 'libx264'\" >&2; exit 1", "cat > /dev/null; exit 0"}) {
+                                 "echo \"Unknown encoder 'libx264'\" >&2; exit 1", "cat > /dev/null; exit 0",
+                                 "exec sleep 1000", "cat > /dev/null; exec sleep 1000"}) {
     TempDir d;
     const fs::path bin = d.path() / "bin", out = d.path() / "out";
     fs::create_directories(bin);
     std::ofstream(bin / "ffmpeg") << "#!/bin/sh\n" << body << "\n";
     fs::permissions(bin / "ffmpeg", fs::perms::owner_all);
-    const Result r = shell("PATH=" + bin.string() + ":/usr/bin:/bin " + std::string(MCA_BINARY) +
+    const Result r = shell("MCA_FFMPEG_TIMEOUT=2 PATH=" + bin.string() + ":/usr/bin:/bin " + std::string(MCA_BINARY) +
                            " run -q --duration 0.004 --render --render-size 64x48 --out " + out.string());
     ASSERT_EQ(r.code, 0) << body << ": " << r.output;
+    if (body.find("sleep") != std::string::npos) {
+      EXPECT_NE(r.output.find("was stopped"), std::string::npos) << body << ": " << r.output;
+    }
     EXPECT_NE(r.output.find("warning: "), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("frame_%06d.png"), std::string::npos) << r.output;
     if (body.find("exit 1") != std::string::npos) {
@@ -265,6 +270,17 @@ TEST(Render, AFailingFfmpegDropsTheVideoAndTheRunGoesOn) {
     EXPECT_FALSE(fs::exists(out / "render" / "video.mp4")) << body;
     for (const auto& e : fs::directory_iterator(out / "render")) EXPECT_NE(e.path().extension(), ".tmp") << e.path();
   }
+}
+
+// A folder named ffmpeg earlier on PATH is not the program: the one after it makes the video.
+TEST(Render, AFolderNamedFfmpegOnThePathIsPassedOver) {
+  if (!render::find_ffmpeg()) GTEST_SKIP() << "ffmpeg is not installed";
+  TempDir d;
+  fs::create_directories(d.path() / "bin" / "ffmpeg");
+  const Result r = shell("PATH=" + (d.path() / "bin").string() + ":/usr/bin:/bin " + std::string(MCA_BINARY) +
+                         " run -q --duration 0.004 --render --render-size 64x48 --out " + (d.path() / "out").string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(d.path() / "out" / "render" / "video.mp4")) << r.output;
 }
 
 TEST(Render, NoOpenGLStopsBeforeTheRunWithAClearMessage) {

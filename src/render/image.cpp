@@ -2,6 +2,7 @@
 
 #include <cerrno>
 #include <csignal>
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
 
@@ -9,6 +10,7 @@
 #include <png.h>
 #include <spawn.h>
 #include <sys/mman.h>
+#include <poll.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -123,7 +125,8 @@ std::optional<std::filesystem::path> find_ffmpeg() {
     const std::size_t end = std::min(list.find(':', start), list.size());
     const std::filesystem::path dir = end > start ? list.substr(start, end - start) : std::string(".");
     const auto candidate = dir / "ffmpeg";
-    if (::access(candidate.c_str(), X_OK) == 0) return candidate;
+    std::error_code ec;
+    if (std::filesystem::is_regular_file(candidate, ec) && ::access(candidate.c_str(), X_OK) == 0) return candidate;
     start = end + 1;
   }
   return std::nullopt;
@@ -178,15 +181,41 @@ VideoEncoder::~VideoEncoder() {
   if (log_fd_ >= 0) ::close(log_fd_);
 }
 
+int VideoEncoder::time_limit() {
+  const char* text = std::getenv("MCA_FFMPEG_TIMEOUT");
+  if (text && *text) {
+    char* end = nullptr;
+    const long v = std::strtol(text, &end, 10);
+    if (*end == '\0' && v >= 1 && v <= 86400) return static_cast<int>(v);
+  }
+  return 120;
+}
+
 void VideoEncoder::stop() {
   if (pipe_ >= 0) ::close(pipe_);
   pipe_ = -1;
   int status = 0;
+  bool stuck = false;
   if (pid_ > 0) {
-    while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
+    // ffmpeg ends when its input does; one that does not within the limit is stopped (a stuck encoder
+    // must not hold the run's end for ever).
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(time_limit());
+    for (;;) {
+      const pid_t r = ::waitpid(pid_, &status, WNOHANG);
+      if (r == pid_ || (r < 0 && errno != EINTR)) break;
+      if (std::chrono::steady_clock::now() > until) {
+        stuck = true;
+        ::kill(pid_, SIGKILL);
+        while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
+        }
+        break;
+      }
+      ::usleep(20000);
     }
   }
   pid_ = -1;
+  if (stuck)
+    throw Error(fmt::format("ffmpeg did not finish '{}' within {} s and was stopped", path_.string(), time_limit()));
   if (!(WIFEXITED(status) && WEXITSTATUS(status) == 0)) {
     std::string why;
     char buf[4096];
@@ -206,6 +235,20 @@ void VideoEncoder::add_frame(const Image& frame) {
   const std::uint8_t* p = frame.rgba.data();
   std::size_t left = frame.rgba.size();
   while (left > 0) {
+    // An ffmpeg that takes nothing for the limit is stuck: stopped, with its messages in the error.
+    pollfd pfd{pipe_, POLLOUT, 0};
+    int ready = 0;
+    while ((ready = ::poll(&pfd, 1, time_limit() * 1000)) < 0 && errno == EINTR) {
+    }
+    if (ready == 0) {
+      ::kill(pid_, SIGKILL);
+      try {
+        stop();
+      } catch (const Error&) {  // "killed": the reason is this one
+      }
+      throw Error(fmt::format("ffmpeg took no frame for {} s and was stopped; '{}' is not written", time_limit(),
+                              path_.string()));
+    }
     const ssize_t n = ::write(pipe_, p, left);
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) {

@@ -34,6 +34,9 @@ std::optional<std::filesystem::path> find_ffmpeg();
 // video under the final name.
 class VideoEncoder {
  public:
+  // How long ffmpeg may take to accept a frame, or to finish the file after the last one, before it is
+  // stopped [s]: 120, or MCA_FFMPEG_TIMEOUT (whole seconds, 1 to 86400).
+  static int time_limit();
   // Starts ffmpeg. Throws mca::Error when it cannot be started.
   VideoEncoder(const std::filesystem::path& ffmpeg, const std::filesystem::path& path,
                const std::filesystem::path& temporary, int width, int height, double fps);
