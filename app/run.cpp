@@ -183,7 +183,8 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
 // Temporary files a killed run left behind (their names are unique per process, so nothing else
 // would ever replace them).
 void remove_stale_temporaries(const std::filesystem::path& dir) {
-  for (const char* sub : {"", "frames", "surface", "fragments", "checkpoints"}) io::remove_stale_temporaries(dir / sub);
+  for (const char* sub : {"", "frames", "surface", "fragments", "checkpoints", "render"})
+    io::remove_stale_temporaries(dir / sub);
 }
 
 void remove_own_files(const std::filesystem::path& dir, const std::string& prefix, const std::string& extension) {
@@ -508,9 +509,17 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   // A rendered run goes on rendering, as it began (render/render.json), unless told not to; the renderer
   // comes before any output, as for a new run.
   std::unique_ptr<RenderOutput> render;
-  if (!no_render)
-    if (const auto ro = load_render_options(dir))
+  if (const auto ro = load_render_options(dir)) {
+    if (!no_render) {
       render = std::make_unique<RenderOutput>(dir, sim, *ro, plan.total_frames, quiet, cp.frame);
+    } else {
+      // Its frames stop here: a later resume must not take the folder for a whole rendering.
+      std::filesystem::remove(dir / "render" / "render.json");
+      fmt::print(stderr, "warning: --no-render: {} keeps the frames drawn so far (0..{}); the frames this run adds "
+                 "are not drawn, and no video is made\n",
+                 (dir / "render").string(), cp.frame - 1);
+    }
+  }
   FrameWriter writer(dir, sim.model(), cp.scene.output);
   writer.restore(cp.frame, sim.frame_interval());
   Loop L{sim, dir, threads, quiet, cp.scene.output.checkpoint_every, plan, 0, 0.0, render.get()};

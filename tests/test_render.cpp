@@ -226,9 +226,12 @@ TEST(Render, AResumedRunRendersTheFramesItAdds) {
   fs::remove(rd / app::RenderOutput::frame_name(6));
   const Result plain = run_mca("resume -q --no-render " + dir.string());
   ASSERT_EQ(plain.code, 0) << plain.output;
+  EXPECT_NE(plain.output.find("keeps the frames drawn so far"), std::string::npos) << plain.output;
   EXPECT_EQ(hash(), through);
   EXPECT_FALSE(fs::exists(rd / app::RenderOutput::frame_name(6)));
   EXPECT_TRUE(fs::exists(rd / app::RenderOutput::frame_name(5)));
+  // Its frames stopped there: a later resume does not take the folder for a whole rendering.
+  EXPECT_FALSE(fs::exists(rd / "render.json"));
 }
 
 TEST(Render, WithoutFfmpegThePngsAreWrittenAndTheMessageSaysHowToGetTheVideo) {
