@@ -377,7 +377,7 @@ TEST(Render, CameraInsideTheObjectsOrLookingAwayIsAnError) {
     const auto f = render::objects_box(sim.model(), sim.state());
     expect_error([&] { render::make_camera(s.camera, sim.model(), f, 16.0f / 9, s.source); }, cam, words);
   };
-  check("position = [0.2, 0.0, 0.7]", "inside the objects' bounding box");
+  check("position = [0.2, 0.0, 0.7]", "inside an object's bounding box");
   check("position = [0.0, -5.0, 1.0]\ntarget = [0.0, -10.0, 1.0]", "sees none of the objects");
   // A target alone, far from the objects: the automatic position frames them from afar, a speck.
   check("target = [100.0, 0.0, 0.75]", "sees the objects only as a speck");
@@ -390,6 +390,15 @@ TEST(Render, CameraInsideTheObjectsOrLookingAwayIsAnError) {
     const auto f = render::objects_box(sim.model(), sim.state());
     EXPECT_NO_THROW(render::make_camera(s.camera, sim.model(), f, 16.0f / 9, s.source)) << ok;
   }
+  // Between two objects, inside the box around both but in neither's: fine.
+  SceneDef two = scene_with_camera("position = [5.0, 4.0, 1.2]\ntarget = [0.0, 0.0, 0.75]");
+  ObjectDef far = two.objects[0];
+  far.name = "far wall";
+  far.position = {10, 8, 0.75};
+  two.objects.push_back(far);
+  Engine sim(two);
+  const auto f = render::objects_box(sim.model(), sim.state());
+  EXPECT_NO_THROW(render::make_camera(two.camera, sim.model(), f, 16.0f / 9, two.source));
 }
 
 // Fragment ids are renumbered by mass every frame; a piece's colour must not follow them (the video

@@ -43,6 +43,17 @@ Framing objects_box(const Model& model, const State& state) {
   const double h = 0.5 * model.spacing;
   f.box_lo = glm::vec3(lo - c - h);
   f.box_hi = glm::vec3(hi - c + h);
+  const std::size_t objects = model.object_names.size();
+  std::vector<glm::dvec3> olo(objects, glm::dvec3(INFINITY)), ohi(objects, glm::dvec3(-INFINITY));
+  for (std::size_t a = 0; a < state.x.size() && a < model.object.size(); ++a) {
+    const auto o = static_cast<std::size_t>(model.object[a]);
+    if (o >= objects) continue;
+    const glm::dvec3 p(state.x[a].x, state.x[a].y, state.x[a].z);
+    olo[o] = glm::min(olo[o], p);
+    ohi[o] = glm::max(ohi[o], p);
+  }
+  for (std::size_t o = 0; o < objects; ++o)
+    if (olo[o].x <= ohi[o].x) f.object_box.push_back({glm::vec3(olo[o] - c - h), glm::vec3(ohi[o] - c + h)});
   return f;
 }
 
@@ -93,12 +104,14 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
     throw Error(fmt::format("{}: [camera] position = target = {}: the camera needs a direction to look in; move the "
                             "position away from the target (or leave out position for an automatic view)",
                             source, shown(glm::dvec3(cam.eye) + origin)));
-  if (glm::all(glm::greaterThan(cam.eye, fr.box_lo)) && glm::all(glm::lessThan(cam.eye, fr.box_hi)))
-    throw Error(fmt::format("{}: [camera] position = {} is inside the objects' bounding box {} .. {} (frame 0): the "
-                            "view would be filled by the inside of the objects; move the camera outside the box, or "
-                            "leave out position for an automatic view",
-                            source, shown(glm::dvec3(cam.eye) + origin), shown(glm::dvec3(fr.box_lo) + origin),
-                            shown(glm::dvec3(fr.box_hi) + origin)));
+  // Inside an object's own box (not the box around all of them: a camera between two walls is fine).
+  for (const auto& [lo, hi] : fr.object_box)
+    if (glm::all(glm::greaterThan(cam.eye, lo)) && glm::all(glm::lessThan(cam.eye, hi)))
+      throw Error(fmt::format("{}: [camera] position = {} is inside an object's bounding box {} .. {} (frame 0): the "
+                              "view would be filled by the inside of the object; move the camera outside the box, "
+                              "or leave out position for an automatic view",
+                              source, shown(glm::dvec3(cam.eye) + origin), shown(glm::dvec3(lo) + origin),
+                              shown(glm::dvec3(hi) + origin)));
   const glm::vec3 f = (cam.target - cam.eye) / dist;
   // A camera looking along the up axis: another up for lookAt.
   if (std::abs(glm::dot(f, cam.up)) > 0.999f) cam.up = horizontal(glm::vec3(0, 1, 0), cam.up);

@@ -2,6 +2,7 @@
 // The camera of the renderer: the scene's [camera] (position, target, fov; each optional) completed by an
 // automatic framing of the objects at frame 0, fixed for the whole run so that a video does not jump.
 #include <array>
+#include <vector>
 #include <string>
 
 #include <glm/mat4x4.hpp>
@@ -25,6 +26,7 @@ struct Camera {
 struct Framing {
   std::array<double, 3> origin{};     // world centre of the objects' box at frame 0
   glm::vec3 box_lo{0}, box_hi{0};     // the box, relative to origin
+  std::vector<std::array<glm::vec3, 2>> object_box;  // per object: its own box (low, high), relative to origin
 };
 
 // The box of the automata centres (grown by half a spacing) in `state`.
