@@ -167,8 +167,9 @@ void simulate(const SceneDef& scene, Shared& sh, bool lockstep, std::array<doubl
         if (c.kind == Command::step) steps += sim->steps_per_frame();
       } catch (const Error& e) {
         std::lock_guard lock(sh.mutex);
-        sh.message = e.what();
-        if (lockstep) fmt::print(stderr, "warning: {}\n", e.what());
+        const bool shot = c.kind == Command::shoot;
+        sh.message = shot ? fmt::format("shot not fired: {}", e.what()) : std::string(e.what());
+        if (lockstep) fmt::print(stderr, "warning: {}\n", sh.message);
       }
     }
     if (lockstep) steps = sim->steps_per_frame();
