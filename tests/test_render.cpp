@@ -453,6 +453,20 @@ TEST(Render, ExposedAutomataAreThoseWithABrokenOrMissingLink) {
   EXPECT_EQ(n, 4800u - 38u * 2u * 28u);
 }
 
+// Drawn as links, a piece of one automaton (no intact link) is its cube, so debris does not vanish.
+TEST(Render, LinksModeDrawsPiecesOfOneAutomatonAsCubes) {
+  Engine sim(io::load_default_scene());
+  State st = sim.state();
+  sim.model().for_each_link_of(1234, [&](std::size_t l) { st.intact[l] = 0; });
+  const auto frags = analysis::label_model_fragments(sim.model(), st.intact.data());
+  render::SnapshotOptions so;
+  so.draw = render::DrawMode::links;
+  const auto snap = render::make_snapshot(sim.model(), st, frags, so, {0, 0, 0});
+  ASSERT_EQ(snap.automata.size(), 1u);
+  EXPECT_FLOAT_EQ(snap.automata[0].x, static_cast<float>(st.x[1234].x));
+  EXPECT_GT(snap.links.size(), 0u);
+}
+
 TEST(View, ScriptedShotUnderAVirtualDisplayShowsTheBrokenWall) {
   if (shell("command -v xvfb-run").code != 0) GTEST_SKIP() << "xvfb-run is not installed (scripts/setup.sh)";
   TempDir d;

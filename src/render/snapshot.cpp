@@ -263,6 +263,16 @@ Snapshot make_snapshot(const Model& model, const State& state, const analysis::F
       s.links.push_back({a[0], a[1], a[2], colour[i]});
       s.links.push_back({b[0], b[1], b[2], colour[j]});
     });
+    // A piece of one automaton has no link to draw: its cube, so that the debris stays in the picture.
+    for (std::size_t a = 0; a < n; ++a) {
+      bool linked = false;
+      model.for_each_link_of(a, [&](std::size_t l) { linked = linked || state.intact[l] != 0; });
+      if (linked) continue;
+      const auto p = local(state.x[a]);
+      const Quat& q = state.q[a];
+      s.automata.push_back({p[0], p[1], p[2], q.x, q.y, q.z, q.w, colour[a]});
+      s.radius.push_back(model.radius[a]);
+    }
   }
   for (const ProjectileState& p : state.projectiles) {
     const auto c = local(p.position);
