@@ -318,7 +318,7 @@ Declared check_off(const std::string& bytes, const std::string& name, std::strin
     }
     char* end = nullptr;
     const unsigned long long k = std::strtoull(words[0].c_str(), &end, 10);
-    if (*end != '\0' || k + 1 > words.size()) {
+    if (*end != '\0' || k >= words.size()) {  // (k + 1 wraps for a count of 2^64 - 1)
       throw Error(fmt::format("{}: face {} ('{}') does not list its vertex count and that many vertices; the file is "
                               "damaged",
                               name, f, line));
