@@ -1,14 +1,29 @@
 #pragma once
 // Small scene builders and measurements shared by the physics tests.
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <string>
 
 #include "mca/error.hpp"
 #include "mca/scene.hpp"
+#include "physics/link_law.hpp"
 #include "sim/engine.hpp"
 
 namespace mca::test {
+
+// The largest |strain| of the intact links of state s (lattice links with the spacing, explicit links with
+// their own rest lengths, as the kernels form them).
+inline double max_link_strain(const Model& m, const State& s) {
+  double worst = 0;
+  m.for_each_link([&](std::size_t l, std::uint32_t i, std::uint32_t j, int) {
+    if (!s.intact[l]) return;
+    const LinkGeometry g = m.is_explicit(l) ? link_geometry(s.x[i], s.x[j], m.link_r0(l), static_cast<float>(1.0 / m.link_r0(l)))
+                                            : link_geometry(s.x[i], s.x[j], m.spacing, 1.0f / m.spacing);
+    worst = std::max(worst, static_cast<double>(std::fabs(g.eps)));
+  });
+  return worst;
+}
 
 // The message of the mca::Error f throws, or "" when it throws none.
 template <class F>

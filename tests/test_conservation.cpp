@@ -20,17 +20,6 @@ namespace {
 using test::block_scene;
 using test::test_material;
 
-double max_link_strain(const Model& m, const State& s) {
-  double worst = 0;
-  m.for_each_link([&](std::size_t l, std::uint32_t i, std::uint32_t j, int) {
-    if (!s.intact[l]) return;
-    const LinkGeometry g = m.is_explicit(l) ? link_geometry(s.x[i], s.x[j], m.link_r0(l), static_cast<float>(1.0 / m.link_r0(l)))
-                                            : link_geometry(s.x[i], s.x[j], m.spacing, 1.0f / m.spacing);
-    worst = std::max(worst, static_cast<double>(std::fabs(g.eps)));
-  });
-  return worst;
-}
-
 // A free concrete block, rotated and 1 km from the origin, with no gravity: every centre carries the
 // rounding of a large coordinate, which float32 rest lengths turned into strains that grew until links
 // broke (the default wall at 100 m lost 154 links in 834 steps).
@@ -41,7 +30,7 @@ TEST(Rest, AFreeBlockFarFromTheOriginStaysAtRestForAMillionSteps) {
   s.objects[0].position = {1000, -1000, 1000};
   s.objects[0].rotation = {10, 20, 30};
   Engine sim(s);
-  const double strain0 = max_link_strain(sim.model(), sim.state());
+  const double strain0 = test::max_link_strain(sim.model(), sim.state());
   std::printf("block at 1 km: initial strain %.3g\n", strain0);
   EXPECT_LT(strain0, 1e-9);
   double worst_energy = 0;
@@ -49,7 +38,7 @@ TEST(Rest, AFreeBlockFarFromTheOriginStaysAtRestForAMillionSteps) {
     ASSERT_EQ(sim.advance(10000).flags, kHealthy);
     worst_energy = std::max(worst_energy, sim.energies().total());
   }
-  const double strain = max_link_strain(sim.model(), sim.state());
+  const double strain = test::max_link_strain(sim.model(), sim.state());
   std::printf("block at 1 km after 1e6 steps: strain %.3g, largest energy %.3g J\n", strain, worst_energy);
   EXPECT_EQ(sim.state().broken_by[0] + sim.state().broken_by[1], 0);
   // The double rounding of the centres at 1 km (1e-13 m) still heats the block, linearly and slowly:
@@ -255,7 +244,7 @@ TEST(Energy, WhatABreakInjectsIsBounded) {
   std::uniform_real_distribution<double> u(-1, 1);
   for (auto& x : st.x) x += Vec3{static_cast<float>(u(rng)), static_cast<float>(u(rng)), static_cast<float>(u(rng))} * 1e-6f;
   const double w0 = compute_energies_at(m, st).elastic;
-  const double eps_max = max_link_strain(m, st);
+  const double eps_max = test::max_link_strain(m, st);
   const GroupParams& g = m.groups[0];
   const double scale = g.lame_lambda * m.volume[0] * eps_max * eps_max;
   double worst = 0;

@@ -223,17 +223,6 @@ TEST(SurfaceMode, KeysAreCheckedWithClearErrors) {
   EXPECT_NE(r.output.find("\"surface\""), std::string::npos) << r.output;
 }
 
-double max_link_strain(const Model& m, const State& s) {
-  double worst = 0;
-  m.for_each_link([&](std::size_t l, std::uint32_t i, std::uint32_t j, int) {
-    if (!s.intact[l]) return;
-    const double r0 = m.link_r0(l);
-    const LinkGeometry g = link_geometry(s.x[i], s.x[j], r0, static_cast<float>(1.0 / r0));
-    worst = std::max(worst, static_cast<double>(std::fabs(g.eps)));
-  });
-  return worst;
-}
-
 // A concrete shell far from the origin, turned, left alone for 300,000 steps: it stays at rest (explicit
 // rest lengths are doubles, so the strain at rest is that of the centres' last bits), as the lattice's
 // Rest.AFreeBlockFarFromTheOriginStaysAtRestForAMillionSteps.
@@ -245,14 +234,14 @@ TEST(SurfaceMode, AShellFarFromTheOriginStaysAtRest) {
   s.objects[0].position = {1000, -1000, 1000};
   s.objects[0].rotation = {17, 33, 71};
   Engine sim(s);
-  const double strain0 = max_link_strain(sim.model(), sim.state());
+  const double strain0 = test::max_link_strain(sim.model(), sim.state());
   EXPECT_LT(strain0, 1e-13);
   double worst_energy = 0;
   for (int k = 0; k < 30; ++k) {
     ASSERT_EQ(sim.advance(10000).flags, kHealthy);
     worst_energy = std::max(worst_energy, sim.energies().total());
   }
-  const double strain = max_link_strain(sim.model(), sim.state());
+  const double strain = test::max_link_strain(sim.model(), sim.state());
   std::printf("shell at 1 km after 3e5 steps: strain %.3g (at the start %.3g), largest energy %.3g J\n", strain,
               strain0, worst_energy);
   EXPECT_EQ(sim.state().broken_by[0] + sim.state().broken_by[1], 0);
