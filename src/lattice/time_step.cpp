@@ -82,17 +82,22 @@ ContactSprings springs(const ContactMaterial& c, float ra, float rb, double m_ef
   return body_contact_springs(c, c.zeta, ra, rb, static_cast<float>(m_eff), static_cast<float>(j_eff));
 }
 
+// r += e with every row times k.
+void add_scaled(Rows& r, const Rows& e, double k) {
+  for (int a = 0; a < 3; ++a) {
+    r.diag_u[a] += e.diag_u[a] * k;
+    r.diag_w[a] += e.diag_w[a] * k;
+  }
+  r.off_u += e.off_u * k;
+  r.off_w += e.off_w * k;
+  r.damp_u += e.damp_u * k;
+  r.damp_w += e.damp_w * k;
+}
+
 // r = e with every row times k.
 void set_scaled(Rows& r, const Rows& e, double k) {
   r = Rows{};
-  for (int a = 0; a < 3; ++a) {
-    r.diag_u[a] = e.diag_u[a] * k;
-    r.diag_w[a] = e.diag_w[a] * k;
-  }
-  r.off_u = e.off_u * k;
-  r.off_w = e.off_w * k;
-  r.damp_u = e.damp_u * k;
-  r.damp_w = e.damp_w * k;
+  add_scaled(r, e, k);
 }
 
 double critical_step(double w2, double c) { return w2 > 0 ? (std::sqrt(4 * w2 + c * c) - c) / w2 : INFINITY; }
@@ -179,14 +184,7 @@ SurfaceBound surface_bound(const Model& M, const std::vector<double>& fmax) {
                                        P.kinematic ? ma : reduced(ma, P.mass), P.kinematic ? ja : reduced(ja, P.inertia));
       Rows e;
       add_pair(e, -1, c.kn, c.kt, ra, 0, c.kr + c.kw, ma, ja, INFINITY, INFINITY, c.cn / 3, 0, 0);
-      for (int k = 0; k < 3; ++k) {
-        r.diag_u[k] += 2 * e.diag_u[k];
-        r.diag_w[k] += 2 * e.diag_w[k];
-      }
-      r.off_u += 2 * e.off_u;
-      r.off_w += 2 * e.off_w;
-      r.damp_u += 2 * e.damp_u;
-      r.damp_w += 2 * e.damp_w;
+      add_scaled(r, e, 2);
     }
     b.omega2 = std::max(b.omega2, r.omega2() + mb_row[a] / std::sqrt(ma * m_min));
     b.damping = std::max(b.damping, std::max(r.damp_u, r.damp_w));
