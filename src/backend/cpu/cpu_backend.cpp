@@ -221,8 +221,8 @@ class CpuBackend final : public Backend {
     for (auto* v : {&px_, &py_, &pz_, &rx_, &ry_, &rz_}) v->resize(n);
     for (auto* v : {&vx_, &vy_, &vz_, &wx_, &wy_, &wz_, &qw_, &qx_, &qy_, &qz_}) v->resize(n);
     for (auto* v : {&utx_, &uty_, &utz_}) v->resize(L);
-    for (auto* v : {&nx_, &ny_, &nz_, &many_body_, &fx_, &fy_, &fz_, &tx_, &ty_, &tz_, &trace_})
-      v->resize(3 * cpu::scratch_stride(n));
+    for (auto* v : {&nx_, &ny_, &nz_, &many_body_}) v->resize(3 * cpu::scratch_stride(n));
+    out_.resize(3 * cpu::tiled_size(n, cpu::kOutRows));
     intact_count_.resize(n);
     ext_f_.resize(n);
     ext_t_.resize(n);
@@ -387,7 +387,8 @@ class CpuBackend final : public Backend {
   cpu::LineArray<float> inv_mass_, inv_inertia_, inv_volume_, tensile_, compressive_, break_strain_;
   std::vector<std::uint8_t> intact_count_;  // intact links per automaton (6: boxed in, see rebuild)
   // Link slots (structure of arrays): shear displacement (state), then scratch rebuilt every step.
-  cpu::LineArray<float> utx_, uty_, utz_, nx_, ny_, nz_, many_body_, fx_, fy_, fz_, tx_, ty_, tz_, trace_;
+  cpu::LineArray<float> utx_, uty_, utz_, nx_, ny_, nz_, many_body_;
+  cpu::LineArray<float> out_;  // the links kernel's results for the automata kernel (LatticeView::out)
   std::vector<cpu::BlockRun> runs_;     // how each block of lanes finds its neighbours
   std::vector<std::uint32_t> breaks_;  // per chunk of slots, what the links kernel found
   std::vector<cpu::PairConstants> pairs_;
@@ -480,8 +481,7 @@ cpu::LatticeView CpuBackend::view() {
   v.utx = utx_.data(); v.uty = uty_.data(); v.utz = utz_.data();
   v.nx = nx_.data(); v.ny = ny_.data(); v.nz = nz_.data();
   v.many_body = many_body_.data();
-  v.fx = fx_.data(); v.fy = fy_.data(); v.fz = fz_.data();
-  v.tx = tx_.data(); v.ty = ty_.data(); v.tz = tz_.data(); v.trace = trace_.data();
+  v.out = out_.data();
   v.has_ext = has_ext_.data();
   v.ext_f = ext_f_.data();
   v.ext_t = ext_t_.data();

@@ -91,7 +91,11 @@ struct LatticeView {
   // stored only on the last step, for the averaged stress.
   float *nx = nullptr, *ny = nullptr, *nz = nullptr;
   float* many_body = nullptr;  // P of automaton a along an axis, at axis * ns + a
-  float *fx = nullptr, *fy = nullptr, *fz = nullptr, *tx = nullptr, *ty = nullptr, *tz = nullptr, *trace = nullptr;
+  // What the links kernel leaves for the automata kernel: per slot its force, torque and stress trace, in
+  // tiles (kOutRows). The automata kernel reads them as 3 runs of memory, one per axis: as 21 arrays
+  // side by side (one per axis and quantity) they took its runs to some 40, and this processor's memory
+  // delivers 40 runs at half the rate of 20 (docs/benchmarks.md).
+  float* out = nullptr;
   // Contacts and the like, added by the automata kernel and then cleared.
   std::uint8_t* has_ext = nullptr;
   Vec3 *ext_f = nullptr, *ext_t = nullptr;
@@ -133,6 +137,20 @@ struct ExplicitView {
 };
 
 inline std::size_t scratch_stride(std::size_t n) { return (n + 15) / 16 * 16; }
+
+// Tiled arrays: tiles of kTile consecutive slots, each `rows` rows of kTile values, so that a block of
+// lanes at a multiple of its width is one vector of a row, and a pass that reads several quantities of a
+// slot reads one run of memory instead of one per quantity. Value `row` of element a is at
+// tile_index(a, rows) + row * kTile.
+inline constexpr std::size_t kTile = 16;
+constexpr std::size_t tile_index(std::size_t a, std::size_t rows) { return a / kTile * (kTile * rows) + a % kTile; }
+// The elements a tiled array of n holds (whole tiles).
+inline std::size_t tiled_size(std::size_t n, std::size_t rows) { return scratch_stride(n) * rows; }
+
+// LatticeView::out: for each axis a tiled array of kOutRows rows (force x, y, z, torque x, y, z, trace),
+// the axis's at axis * ns * kOutRows.
+inline constexpr std::size_t kOutRows = 7;
+enum OutRow : std::size_t { kOutFx, kOutFy, kOutFz, kOutTx, kOutTy, kOutTz, kOutTrace };
 
 // A break found by the links kernel: the link slot and the criterion (bit 31: 1 = stress).
 inline constexpr std::uint32_t kBreakByStress = 1u << 31;

@@ -73,7 +73,7 @@ struct Block {
     L::store(v.y, y + a);
     L::store(v.z, z + a);
   }
-  static MCA_LANE Vec3T<X> far3(const float* x, const float* y, const float* z, const Far& f) {
+  static MCA_LANE Vec3T<X> soa_far3(const float* x, const float* y, const float* z, const Far& f) {
     return {at(x, f), at(y, f), at(z, f)};
   }
   // Per lane from an array of structs.
@@ -86,6 +86,59 @@ struct Block {
     if (v.one_group) return X(get(v.groups[v.group[0]]));
     return L::from([&](std::size_t k) { return get(v.groups[v.group[a0 + k]]); });
   }
+
+  // Row `row` of a tiled array of `rows` rows (tile_index, LatticeView): for the lanes' own automata (a
+  // block at a multiple of W lies in one row of one tile), or for the far ends f: a run lies in one row or
+  // across the rows of two tiles (two loads, each lane taking its own), else the lanes gather.
+  template <class T>
+  static MCA_LANE auto own(const T* base, std::size_t rows, std::size_t row, std::size_t a0) {
+    return L::load(base + tile_index(a0, rows) + row * kTile);
+  }
+  template <class T, class Y>
+  static MCA_LANE void put(const Y& x, T* base, std::size_t rows, std::size_t row, std::size_t a0) {
+    L::store(x, base + tile_index(a0, rows) + row * kTile);
+  }
+  template <class T>
+  static MCA_LANE auto row_far(const T* base, std::size_t rows, std::size_t row, const Far& f) {
+    base += row * kTile;
+    auto value = [&](std::size_t k) { return base[tile_index(L::lane(f.j, k), rows)]; };
+    if constexpr (W == 1) {
+      return value(0);
+    } else {
+      using Y = decltype(L::load(base));
+      if (!f.run) {
+        alignas(64) T t[W];
+        for (std::size_t k = 0; k < W; ++k) t[k] = value(k);
+        return Y(t, stdx::vector_aligned);
+      }
+      const std::size_t o = f.j0 % kTile;
+      const T* p = base + tile_index(f.j0, rows);
+      if (o + W <= kTile) return L::load(p);
+      // Lanes [0, kTile - o) from this tile's row; lane k >= kTile - o at k - (kTile - o) of the next tile's
+      // row, which starts kTile * rows - o after p.
+      alignas(64) static constexpr T lane_number[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
+      static_assert(W <= 16);
+      return select(L::load(lane_number) < static_cast<T>(kTile - o), L::load(p), L::load(p + kTile * (rows - 1)));
+    }
+  }
+  template <class T>
+  static MCA_LANE auto own3(const T* base, std::size_t rows, std::size_t row, std::size_t a0) {
+    using Y = decltype(own(base, rows, row, a0));
+    return Vec3T<Y>{own(base, rows, row, a0), own(base, rows, row + 1, a0), own(base, rows, row + 2, a0)};
+  }
+  template <class T>
+  static MCA_LANE auto far3(const T* base, std::size_t rows, std::size_t row, const Far& f) {
+    using Y = decltype(row_far(base, rows, row, f));
+    return Vec3T<Y>{row_far(base, rows, row, f), row_far(base, rows, row + 1, f), row_far(base, rows, row + 2, f)};
+  }
+  template <class T, class Y>
+  static MCA_LANE void put3(const Vec3T<Y>& x, T* base, std::size_t rows, std::size_t row, std::size_t a0) {
+    put(x.x, base, rows, row, a0);
+    put(x.y, base, rows, row + 1, a0);
+    put(x.z, base, rows, row + 2, a0);
+  }
+  // The link results (LatticeView::out) along an axis, as a tiled array.
+  static MCA_LANE float* out_of(const LatticeView& v, std::size_t axis) { return v.out + axis * v.ns * kOutRows; }
 
   // The geometry of the links in slots off + [a0, a0 + W), from the positions: each pass that needs it
   // forms it again (the same bits each time), which costs less than storing it and reading it back.
@@ -196,9 +249,9 @@ struct Block {
     in.damp_normal = pair_value(v, a0, f, nullptr, &LinkDashpots::normal);
     in.damp_tangential = pair_value(v, a0, f, nullptr, &LinkDashpots::tangential);
     in.vi = load3(v.vx, v.vy, v.vz, a0);
-    in.vj = far3(v.vx, v.vy, v.vz, f);
+    in.vj = soa_far3(v.vx, v.vy, v.vz, f);
     in.wi = load3(v.wx, v.wy, v.wz, a0);
-    in.wj = far3(v.wx, v.wy, v.wz, f);
+    in.wj = soa_far3(v.wx, v.wy, v.wz, f);
     in.ut = load3(v.utx, v.uty, v.utz, l0);
     in.dt = v.dt;
     const LinkOutputT<X> o = link_force(in);
@@ -221,9 +274,10 @@ struct Block {
     // and the trace of the Love average term (r0/2) sym(n (x) F) of physics.md sec. 3.
     const Vec3T<X> hf = o.force_i * (0.5f * v.r0);
     const Vec3T<X> torque = cross(n, hf) * (1.0f + eps);
-    store3(o.force_i, v.fx, v.fy, v.fz, s0);
-    store3(torque, v.tx, v.ty, v.tz, s0);
-    L::store(dot(n, hf), v.trace + s0);
+    float* res = out_of(v, static_cast<std::size_t>(axis));
+    put3(o.force_i, res, kOutRows, kOutFx, a0);
+    put3(torque, res, kOutRows, kOutTx, a0);
+    put(dot(n, hf), res, kOutRows, kOutTrace, a0);
     // A link that breaks keeps its displacement until the caller clears it; a broken one keeps its zero.
     store3(select(alive && !broke, o.ut, in.ut), v.utx, v.uty, v.utz, l0);
     return count;
@@ -357,20 +411,22 @@ struct Block {
       const Far fb = far_ends(v, 3 + axis, a0);
       const auto live = bytes_at(v.intact + off, fb) * fb.has != 0.0f;
       if (!L::any(live)) continue;
-      const Vec3T<X> F = far3(v.fx + so, v.fy + so, v.fz + so, fb);
+      const float* res = out_of(v, static_cast<std::size_t>(axis));
+      const Vec3T<X> F = far3(res, kOutRows, kOutFx, fb);
       f = select(live, f - F, f);
-      t = select(live, t + far3(v.tx + so, v.ty + so, v.tz + so, fb), t);
-      trace = select(live, trace + at(v.trace + so, fb), trace);
-      if (v.last) add_if(live, s_links, sym_outer(far3(v.nx + so, v.ny + so, v.nz + so, fb), F, X(half_r0)));
+      t = select(live, t + far3(res, kOutRows, kOutTx, fb), t);
+      trace = select(live, trace + row_far(res, kOutRows, kOutTrace, fb), trace);
+      if (v.last) add_if(live, s_links, sym_outer(soa_far3(v.nx + so, v.ny + so, v.nz + so, fb), F, X(half_r0)));
     }
     for (int axis = 0; axis < 3; ++axis) {
       const std::size_t l0 = static_cast<std::size_t>(axis) * v.n + a0, s0 = static_cast<std::size_t>(axis) * v.ns + a0;
       const auto live = L::load_bytes(v.intact + l0) != 0.0f;
       if (!L::any(live)) continue;
-      const Vec3T<X> F = load3(v.fx, v.fy, v.fz, s0);
+      const float* res = out_of(v, static_cast<std::size_t>(axis));
+      const Vec3T<X> F = own3(res, kOutRows, kOutFx, a0);
       f = select(live, f + F, f);
-      t = select(live, t + load3(v.tx, v.ty, v.tz, s0), t);
-      trace = select(live, trace + L::load(v.trace + s0), trace);
+      t = select(live, t + own3(res, kOutRows, kOutTx, a0), t);
+      trace = select(live, trace + own(res, kOutRows, kOutTrace, a0), trace);
       if (v.last) add_if(live, s_links, sym_outer(load3(v.nx, v.ny, v.nz, s0), F, X(half_r0)));
     }
     const auto ext = L::load_bytes(v.has_ext + a0) != 0.0f;
