@@ -218,7 +218,8 @@ class CpuBackend final : public Backend {
     }
     one_group_ = n > 0 && std::all_of(m.group.begin(), m.group.end(), [&](std::uint8_t g) { return g == m.group[0]; });
     // State and scratch arrays.
-    for (auto* v : {&px_, &py_, &pz_, &rx_, &ry_, &rz_}) v->resize(n);
+    for (auto* v : {&px_, &py_, &pz_}) v->resize(n);
+    ref_.resize(cpu::tiled_size(n, cpu::kRefRows));
     for (auto* v : {&vx_, &vy_, &vz_, &wx_, &wy_, &wz_, &qw_, &qx_, &qy_, &qz_}) v->resize(n);
     for (auto* v : {&utx_, &uty_, &utz_}) v->resize(L);
     for (auto* v : {&nx_, &ny_, &nz_, &many_body_}) v->resize(3 * cpu::scratch_stride(n));
@@ -338,12 +339,13 @@ class CpuBackend final : public Backend {
     v.near = near_.data();
     return v;
   }
-  // rx_, ry_, rz_ from State::x_at_rebuild.
+  // ref_ from State::x_at_rebuild.
   void reference_positions() {
     for (std::size_t a = 0; a < M_.size(); ++a) {
-      rx_[a] = S_.x_at_rebuild[a].x;
-      ry_[a] = S_.x_at_rebuild[a].y;
-      rz_[a] = S_.x_at_rebuild[a].z;
+      double* r = ref_.data() + cpu::tile_index(a, cpu::kRefRows);
+      r[0] = S_.x_at_rebuild[a].x;
+      r[cpu::kTile] = S_.x_at_rebuild[a].y;
+      r[2 * cpu::kTile] = S_.x_at_rebuild[a].z;
     }
   }
 
@@ -382,7 +384,7 @@ class CpuBackend final : public Backend {
   mutable bool stale_ = false;  // S_'s automata and link arrays are behind the arrays below
   // Automata (structure of arrays).
   cpu::LineArray<double> px_, py_, pz_;
-  cpu::LineArray<double> rx_, ry_, rz_;  // positions at the last contact rebuild (State::x_at_rebuild)
+  cpu::LineArray<double> ref_;  // positions at the last contact rebuild (State::x_at_rebuild), tiled
   cpu::LineArray<float> vx_, vy_, vz_, wx_, wy_, wz_, qw_, qx_, qy_, qz_;
   cpu::LineArray<float> inv_mass_, inv_inertia_, inv_volume_, tensile_, compressive_, break_strain_;
   std::vector<std::uint8_t> intact_count_;  // intact links per automaton (6: boxed in, see rebuild)
@@ -487,9 +489,7 @@ cpu::LatticeView CpuBackend::view() {
   v.ext_t = ext_t_.data();
   v.ext_s = ext_s_.data();
   v.intact_count = intact_count_.data();
-  v.rx = rx_.data();
-  v.ry = ry_.data();
-  v.rz = rz_.data();
+  v.ref = ref_.data();
   return v;
 }
 

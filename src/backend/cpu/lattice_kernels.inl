@@ -536,8 +536,8 @@ struct Block {
     }
     const auto open = L::load_bytes(v.intact_count + a0) < 6.0f;
     if (L::any(open)) {
-      const Vec3T<X> dm{to_float(body.x.x - L::load(v.rx + a0)), to_float(body.x.y - L::load(v.ry + a0)),
-                        to_float(body.x.z - L::load(v.rz + a0))};
+      const Vec3T<D> ref = own3(v.ref, kRefRows, 0, a0);
+      const Vec3T<X> dm{to_float(body.x.x - ref.x), to_float(body.x.y - ref.y), to_float(body.x.z - ref.z)};
       r.max_move2 = std::max(r.max_move2, L::hmax(select(open, dot(dm, dm), X(0.0f))));
     }
   }
