@@ -37,13 +37,15 @@ namespace {
 
 using cpu::kBreakByStress;
 
-constexpr std::size_t kChunk = 4096;  // fixed work chunks (a multiple of every lane count): per-chunk
+constexpr std::size_t kChunk = 2048;  // fixed work chunks (a multiple of every lane count): per-chunk
                                       // results are combined in chunk order
+// Work on this many automata (or pairs) or fewer runs on the calling thread: handing it to a worker costs
+// more than it saves.
+constexpr std::size_t kSerial = 4096;
 
-// Work of one chunk or less runs on the calling thread: handing it to a worker costs more than it saves.
 template <class F>
 void parallel_range(std::size_t n, F&& body) {
-  if (n <= kChunk) {
+  if (n <= kSerial) {
     for (std::size_t k = 0; k < n; ++k) body(k);
     return;
   }
@@ -53,16 +55,16 @@ void parallel_range(std::size_t n, F&& body) {
                     });
 }
 
-// body(k) for k in [0, count): in parallel when there are several.
-template <class F>
-void parallel_tasks(std::size_t count, F&& body) {
-  if (count == 1) body(std::size_t{0});
-  else tbb::parallel_for(std::size_t{0}, count, body);
-}
-
+// body(c, b, e) for the chunks [b, e) of [0, n): in parallel when there is more than kSerial work.
 template <class F>
 void parallel_chunks(std::size_t n, F&& body) {
-  parallel_tasks((n + kChunk - 1) / kChunk, [&](std::size_t c) { body(c, c * kChunk, std::min(n, (c + 1) * kChunk)); });
+  const std::size_t count = (n + kChunk - 1) / kChunk;
+  auto chunk = [&](std::size_t c) { body(c, c * kChunk, std::min(n, (c + 1) * kChunk)); };
+  if (n <= kSerial) {
+    for (std::size_t c = 0; c < count; ++c) chunk(c);
+    return;
+  }
+  tbb::parallel_for(std::size_t{0}, count, chunk);
 }
 
 // Wall time per pass, summed over steps, printed when the backend is destroyed if MCA_PROFILE is set.
@@ -522,8 +524,7 @@ void CpuBackend::link_force_pass(const cpu::LatticeView& v) {
   std::vector<std::size_t> counts(3 * chunks, 0);
   // A chunk's three axes one after the other: its automata's data is read from memory once, not three
   // times. The breaks of axis a and chunk c go to counts[a * chunks + c], so they are applied in slot order.
-  parallel_tasks(chunks, [&](std::size_t c) {
-    const std::size_t b = c * kChunk, e = std::min(n, b + kChunk);
+  parallel_chunks(n, [&](std::size_t c, std::size_t b, std::size_t e) {
     for (int axis = 0; axis < 3; ++axis)
       counts[axis * chunks + c] = kernels_.links(v, axis, b, e, breaks_.data() + axis * n + b);
   });
