@@ -42,6 +42,8 @@ constexpr std::size_t kChunk = 2048;  // fixed work chunks (a multiple of every 
 // Work on this many automata (or pairs) or fewer runs on the calling thread: handing it to a worker costs
 // more than it saves.
 constexpr std::size_t kSerial = 4096;
+// The kernels' blocks and tiles (lattice_kernels.hpp) start at multiples of kTile: so must the chunks.
+static_assert(kChunk % cpu::kTile == 0 && kSerial % kChunk == 0);
 
 template <class F>
 void parallel_range(std::size_t n, F&& body) {

@@ -117,7 +117,7 @@ struct Block {
       // Lanes [0, kTile - o) from this tile's row; lane k >= kTile - o at k - (kTile - o) of the next tile's
       // row, which starts kTile * rows - o after p.
       alignas(64) static constexpr T lane_number[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
-      static_assert(W <= 16);
+      static_assert(W <= 16 && kTile % W == 0, "a block of lanes must lie in one row of one tile");
       return select(L::load(lane_number) < static_cast<T>(kTile - o), L::load(p), L::load(p + kTile * (rows - 1)));
     }
   }
