@@ -111,7 +111,7 @@ struct LatticeView {
   // For the contact list's staleness: intact links per automaton and the positions at the last rebuild.
   const std::uint8_t* intact_count = nullptr;
   // The positions at the last rebuild, tiled (kRefRows rows: x, y, z): only the blocks with an exposed
-  // automaton read them, and one run of memory there costs a third of what three arrays cost (measured).
+  // automaton read them, as one run of memory instead of three (docs/benchmarks.md, "What bought what").
   const double* ref = nullptr;
 };
 
