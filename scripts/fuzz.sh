@@ -16,8 +16,8 @@
 # written to build/fuzz/findings/<target>/; the log of the last run is build/fuzz/logs/<target>.log.
 # Exit status: 0 when nothing was found, 1 on a finding, 2 on a usage or set-up error.
 # MCA_FUZZ_CXX names another clang++ with libFuzzer (default clang++-14).
-# MCA_FUZZ_RUNS=N runs each target for N inputs from a fixed random seed instead of for SECONDS: the same
-# inputs every time for the same code, as CI does (.ci/run), so that a red run is a real regression.
+# MCA_FUZZ_RUNS=N runs each target for N inputs from a fixed random seed instead of for SECONDS, as CI does
+# (.ci/run); a finding then counts only if it fails again when replayed alone (see below).
 # The mesh target runs without leak detection: assimp leaks on some refused files (fuzz/findings/);
 # MCA_FUZZ_LEAKS=1 turns it on.
 set -euo pipefail
@@ -116,14 +116,13 @@ run_target() {
     mesh) args+=(-max_len=32768) ;;
   esac
   local before after rc=0
-  before=$(find "$findings" -type f | wc -l)
+  before=$(find "$findings" -maxdepth 1 -type f | wc -l)
   local marker=$build/logs/$t.start
   touch "$marker"
   local how="$seconds s"
   [[ -n "${MCA_FUZZ_RUNS:-}" ]] && how="$MCA_FUZZ_RUNS inputs (seed 1)"
   echo "== $t: fuzzing for $how (log: $log)"
   ASAN_OPTIONS=$asan "$bin" "${args[@]}" "$corpus" > "$log" 2>&1 || rc=$?
-  after=$(find "$findings" -type f | wc -l)
   local execs eps cov corp last
   # Plain mode ends with stat:: lines; fork mode prints "#EXECS: cov: N ft: N corp: N exec/s N
   # oom/timeout/crash: a/b/c time: Ns job: N ..." after each job.
@@ -136,6 +135,29 @@ run_target() {
     secs=$(sed -nE 's/.* time: ([0-9]+)s.*/\1/p' <<< "$last")
     [[ -n "$secs" && "$secs" -gt 0 ]] && eps=$((execs / secs))
   fi
+  # A fixed-seed run (CI) counts only what fails again when replayed alone. An input that passes alone
+  # (three tries) failed on heap state earlier inputs left: assimp is not instrumented, so an input that
+  # corrupts its heap goes unseen until ASan trips over the damage later (fuzz/findings/README.md,
+  # "not reproducible alone"). Such inputs are kept in $findings/unreproduced/ and reported, not counted;
+  # mca's own code is instrumented and fails on the input that does the damage.
+  local unreproduced=""
+  if [[ -n "${MCA_FUZZ_RUNS:-}" && ( $rc -ne 0 || $(find "$findings" -maxdepth 1 -type f | wc -l) -gt $before ) ]]; then
+    local f k again=0
+    while IFS= read -r f; do
+      [[ -z "$f" ]] && continue
+      for k in 1 2 3; do
+        ASAN_OPTIONS=$asan "$bin" -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=2048 "$f" > "$log.replay" 2>&1 ||
+          again=1
+      done
+    done < <(find "$findings" -maxdepth 1 -type f -newer "$marker" 2> /dev/null | sort)
+    if [[ $again -eq 0 && -n "$(find "$findings" -maxdepth 1 -type f -newer "$marker")" ]]; then
+      mkdir -p "$findings/unreproduced"
+      unreproduced=$(find "$findings" -maxdepth 1 -type f -newer "$marker" | sort)
+      mv $unreproduced "$findings/unreproduced/"
+      rc=0
+    fi
+  fi
+  after=$(find "$findings" -maxdepth 1 -type f | wc -l)
   cov=$(grep -oE 'cov: [0-9]+ ft: [0-9]+' "$log" | tail -1 || true)
   corp=$(grep -oE 'corp: [0-9]+(/[0-9]+[a-zA-Z]*)?' "$log" | tail -1 || true)
   {
@@ -154,6 +176,10 @@ run_target() {
       echo "  reproduce: $bin <input>   (full report in $log)"
     else
       echo "$t: nothing found"
+    fi
+    if [[ -n "$unreproduced" ]]; then
+      echo "$t: not counted: $(grep -c . <<< "$unreproduced") input(s) failed in the run but pass when replayed alone (heap state left by earlier inputs; see fuzz/findings/README.md), kept in $findings/unreproduced/:"
+      grep -E '^==[0-9]+== ?ERROR|CHECK failed|runtime error:|deadly signal' "$log" | head -3 | sed 's/^/  /' || true
     fi
   } > "$summary"
   cat "$summary"
