@@ -143,10 +143,13 @@ run_target() {
   local unreproduced=""
   if [[ -n "${MCA_FUZZ_RUNS:-}" && ( $rc -ne 0 || $(find "$findings" -maxdepth 1 -type f | wc -l) -gt $before ) ]]; then
     local f k again=0
+    local replay_args=(-timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=2048)
+    [[ " ${args[*]} " == *" -detect_leaks=0 "* ]] && replay_args+=(-detect_leaks=0)
     while IFS= read -r f; do
       [[ -z "$f" ]] && continue
       for k in 1 2 3; do
-        ASAN_OPTIONS=$asan "$bin" -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=2048 "$f" > "$log.replay" 2>&1 ||
+        ASAN_OPTIONS=$asan "$bin" "${replay_args[@]}" -artifact_prefix="$build/logs/$t.replay-" "$f" \
+          > "$log.replay" 2>&1 ||
           again=1
       done
     done < <(find "$findings" -maxdepth 1 -type f -newer "$marker" 2> /dev/null | sort)
