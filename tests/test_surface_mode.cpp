@@ -31,13 +31,19 @@ namespace fs = std::filesystem;
 using test::TempDir;
 using test::error_of;
 
+// A scene of one object: the mesh file at `mesh` in surface mode (block_scene's other settings).
+SceneDef surface_scene(const fs::path& mesh, double d = 0.05, MaterialDef material = test::test_material()) {
+  SceneDef s = test::block_scene(1, 1, 1, d, material);
+  s.objects[0].shape = Shape::mesh;
+  s.objects[0].mesh = mesh.string();
+  s.objects[0].fill = MeshFill::surface;
+  return s;
+}
+
 // A sphere of radius r (icosahedron subdivided `levels` times) filled in surface mode, no gravity.
 SceneDef shell_scene(const TempDir& t, double r = 0.2, int levels = 3) {
   test::write_mesh_file(t.path() / "sphere.off", test::sphere_mesh(r, levels));
-  SceneDef s = test::block_scene(1, 1, 1, 0.05);
-  s.objects[0].shape = Shape::mesh;
-  s.objects[0].mesh = (t.path() / "sphere.off").string();
-  s.objects[0].fill = MeshFill::surface;
+  SceneDef s = surface_scene(t.path() / "sphere.off");
   s.solver.gravity = {0, 0, 0};
   return s;
 }
@@ -122,10 +128,7 @@ TEST(SurfaceMode, RepeatedTrianglesAndNonManifoldEdges) {
   TempDir t;
   {
     std::ofstream(t.path() / "twice.off") << "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 2\n";
-    SceneDef s = test::block_scene(1, 1, 1, 0.05);
-    s.objects[0].shape = Shape::mesh;
-    s.objects[0].mesh = (t.path() / "twice.off").string();
-    s.objects[0].fill = MeshFill::surface;
+    SceneDef s = surface_scene(t.path() / "twice.off");
     s.objects[0].shell_thickness = 0.01;
     const Model m = lattice::build_model(s);
     EXPECT_EQ(m.size(), 1u);
@@ -135,10 +138,7 @@ TEST(SurfaceMode, RepeatedTrianglesAndNonManifoldEdges) {
   }
   {
     std::ofstream(t.path() / "fin.off") << "OFF\n5 3 0\n0 0 0\n1 0 0\n0 1 0\n0 -1 0\n0 0 1\n3 0 1 2\n3 0 1 3\n3 0 1 4\n";
-    SceneDef s = test::block_scene(1, 1, 1, 0.05);
-    s.objects[0].shape = Shape::mesh;
-    s.objects[0].mesh = (t.path() / "fin.off").string();
-    s.objects[0].fill = MeshFill::surface;
+    SceneDef s = surface_scene(t.path() / "fin.off");
     const std::string e = error_of([&] { lattice::build_model(s); });
     EXPECT_NE(e.find("1 edges have three or more: non-manifold"), std::string::npos) << e;
     s.objects[0].shell_thickness = 0.01;
@@ -155,10 +155,7 @@ TEST(SurfaceMode, AnOpenFlatSheetIsAccepted) {
   TempDir t;
   const int n = 8;
   test::write_mesh_file(t.path() / "sheet.obj", test::sheet_mesh(n, n, 0.05));
-  SceneDef s = test::block_scene(1, 1, 1, 0.05);
-  s.objects[0].shape = Shape::mesh;
-  s.objects[0].mesh = (t.path() / "sheet.obj").string();
-  s.objects[0].fill = MeshFill::surface;
+  SceneDef s = surface_scene(t.path() / "sheet.obj");
   s.objects[0].shell_thickness = 0.005;
   const Model m = lattice::build_model(s);
   EXPECT_EQ(m.size(), 2u * n * n);
@@ -379,10 +376,7 @@ double sheet_modulus_ratio(int n, int m, double nu) {
   TempDir t;
   const double a = 0.01, thickness = 0.002;
   test::write_mesh_file(t.path() / "sheet.obj", test::sheet_mesh(n, m, a));
-  SceneDef s = test::block_scene(1, 1, 1, a, test::test_material(30e9, nu));
-  s.objects[0].shape = Shape::mesh;
-  s.objects[0].mesh = (t.path() / "sheet.obj").string();
-  s.objects[0].fill = MeshFill::surface;
+  SceneDef s = surface_scene(t.path() / "sheet.obj", a, test::test_material(30e9, nu));
   s.objects[0].shell_thickness = thickness;
   s.solver.local_damping = 0.05;
   const double L = n * a, W = m * a, v = 0.002;
@@ -463,10 +457,7 @@ double cantilever_ratio(double t) {
   const double a = 0.025;
   test::write_mesh_file(dir.path() / "strip.obj", test::sheet_mesh(n, 2, a));
   const double E = 200e9, rho = 7850, g = 9.81;
-  SceneDef s = test::block_scene(1, 1, 1, a, test::test_material(E, 0.0, rho));
-  s.objects[0].shape = Shape::mesh;
-  s.objects[0].mesh = (dir.path() / "strip.obj").string();
-  s.objects[0].fill = MeshFill::surface;
+  SceneDef s = surface_scene(dir.path() / "strip.obj", a, test::test_material(E, 0.0, rho));
   s.objects[0].shell_thickness = t;
   s.solver.gravity = {0, 0, -g};
   s.solver.local_damping = 0.2;
