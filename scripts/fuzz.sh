@@ -141,23 +141,24 @@ run_target() {
   # "not reproducible alone"). Such inputs are kept in $findings/unreproduced/ and reported, not counted;
   # mca's own code is instrumented and fails on the input that does the damage.
   local unreproduced=""
-  if [[ -n "${MCA_FUZZ_RUNS:-}" && ( $rc -ne 0 || $(find "$findings" -maxdepth 1 -type f | wc -l) -gt $before ) ]]; then
-    local f k again=0
-    local replay_args=(-timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=2048)
-    [[ " ${args[*]} " == *" -detect_leaks=0 "* ]] && replay_args+=(-detect_leaks=0)
-    while IFS= read -r f; do
-      [[ -z "$f" ]] && continue
-      for k in 1 2 3; do
-        ASAN_OPTIONS=$asan "$bin" "${replay_args[@]}" -artifact_prefix="$build/logs/$t.replay-" "$f" \
-          > "$log.replay" 2>&1 ||
-          again=1
-      done
-    done < <(find "$findings" -maxdepth 1 -type f -newer "$marker" 2> /dev/null | sort)
-    if [[ $again -eq 0 && -n "$(find "$findings" -maxdepth 1 -type f -newer "$marker")" ]]; then
-      mkdir -p "$findings/unreproduced"
-      unreproduced=$(find "$findings" -maxdepth 1 -type f -newer "$marker" | sort)
-      mv $unreproduced "$findings/unreproduced/"
-      rc=0
+  if [[ -n "${MCA_FUZZ_RUNS:-}" ]]; then
+    local fresh f k again=0
+    fresh=$(find "$findings" -maxdepth 1 -type f -newer "$marker" 2> /dev/null | sort)
+    if [[ -n "$fresh" ]]; then
+      local replay_args=(-timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=2048)
+      [[ " ${args[*]} " == *" -detect_leaks=0 "* ]] && replay_args+=(-detect_leaks=0)
+      while IFS= read -r f; do
+        for k in 1 2 3; do
+          ASAN_OPTIONS=$asan "$bin" "${replay_args[@]}" -artifact_prefix="$build/logs/$t.replay-" "$f" \
+            > "$log.replay" 2>&1 || again=1
+        done
+      done <<< "$fresh"
+      if [[ $again -eq 0 ]]; then
+        mkdir -p "$findings/unreproduced"
+        mv $fresh "$findings/unreproduced/"
+        unreproduced=$fresh
+        rc=0
+      fi
     fi
   fi
   after=$(find "$findings" -maxdepth 1 -type f | wc -l)
