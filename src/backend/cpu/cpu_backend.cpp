@@ -16,17 +16,24 @@
 // structures are brought up to date when the state is read (state(), download()).
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
+#include <stdexcept>
+#include <string>
 #include <tbb/blocked_range.h>
+#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include "backend/backend.hpp"
 #include "backend/cpu/aligned.hpp"
 #include "backend/cpu/lattice_kernels.hpp"
 #include "grid/uniform_grid.hpp"
+#include "mca/error.hpp"
 #include "physics/contact_law.hpp"
 #include "physics/fracture.hpp"
 #include "physics/integrate.hpp"
@@ -78,8 +85,8 @@ struct PassProfile {
   std::int64_t steps = 0, rebuilds = 0;
   ~PassProfile() {
     if (!on || steps == 0) return;
-    static const char* names[kPasses] = {"many-body", "link forces", "contacts", "projectiles", "automata",
-                                         "contact list"};
+    static const char* names[kPasses] = {"explicit links", "contacts", "projectiles", "lattice sweep",
+                                         "breaks", "contact list"};
     double total = 0;
     for (double t : seconds) total += t;
     std::fprintf(stderr, "cpu backend (%s) profile over %lld steps (%.3f s):\n", set, static_cast<long long>(steps),
@@ -236,6 +243,19 @@ class CpuBackend final : public Backend {
     near_.assign(n, 0);
     chunk_near_.assign((n + kChunk - 1) / kChunk, 0);
     breaks_.resize(L);
+    // How far below an automaton its lower neighbours lie at most (lattice_sweep).
+    std::size_t reach = 0;
+    for (std::size_t l = 0; l < m.lattice_slots(); ++l)
+      if (m.neighbour[l] != Model::kNoLink) {
+        const std::size_t a = l % n, j = m.neighbour[l];
+        if (j <= a) throw std::logic_error("lattice neighbour above an automaton lies before it");
+        reach = std::max(reach, j - a);
+      }
+    head_chunks_ = (reach + kChunk - 1) / kChunk;
+    if (const char* e = std::getenv("MCA_SWEEP")) {
+      if (std::string(e) == "passes") sweep_by_pass_ = true;
+      else if (std::string(e) != "fused") throw Error("MCA_SWEEP=" + std::string(e) + ": use fused (the default) or passes");
+    }
     grip_members_.resize(m.grip_velocity.size());
     for (std::size_t a = 0; a < n; ++a)
       if (m.grip[a] >= 0) grip_members_[m.grip[a]].push_back(static_cast<std::uint32_t>(a));
@@ -354,15 +374,22 @@ class CpuBackend final : public Backend {
   }
 
   std::int64_t one_step();
-  void link_force_pass(const cpu::LatticeView& v);
+  std::int64_t lattice_sweep(const cpu::LatticeView& v, std::vector<std::size_t>& counts, float& max_move2);
   cpu::ExplicitView explicit_view();
   std::vector<std::size_t> explicit_link_pass(const cpu::LatticeView& v);
   void explicit_gather_pass();
-  void apply_breaks(const std::vector<std::size_t>& counts, const std::vector<std::size_t>& explicit_counts);
+  void apply_breaks(const std::vector<std::size_t>& counts, const std::vector<std::size_t>& explicit_counts,
+                    float& max_move2);
+  // The squared move of automaton a since the last rebuild, as the automata kernel measures it.
+  float moved2(std::size_t a) const {
+    const Vec3 d{static_cast<float>(px_[a] - S_.x_at_rebuild[a].x), static_cast<float>(py_[a] - S_.x_at_rebuild[a].y),
+                 static_cast<float>(pz_[a] - S_.x_at_rebuild[a].z)};
+    return dot(d, d);
+  }
   void contact_pass();
   void ground_pass();
   std::int64_t projectile_pass();
-  std::int64_t automaton_pass(const cpu::LatticeView& v, float& max_move2);
+  void grip_pass();
   void rebuild_contacts();
   bool linked(std::uint32_t i, std::uint32_t j) const;
   bool near_ground(std::uint32_t a) const;
@@ -397,6 +424,10 @@ class CpuBackend final : public Backend {
   cpu::LineArray<float> out_;  // the links kernel's results for the automata kernel (LatticeView::out)
   std::vector<cpu::BlockRun> runs_;     // how each block of lanes finds its neighbours
   std::vector<std::uint32_t> breaks_;  // per chunk of slots, what the links kernel found
+  std::size_t head_chunks_ = 0;         // chunks of a region the region before may read (lattice_sweep)
+  // One kernel at a time over all chunks instead of the sweep (MCA_SWEEP=passes): the same results, for
+  // tests and measurements.
+  bool sweep_by_pass_ = false;
   std::vector<cpu::PairConstants> pairs_;
   std::vector<std::array<float, 4>> free_factor_;  // per group, see volumetric_strain
   // Explicit links (Model::ExplicitLinks), structure of arrays (cpu::ExplicitView): constants, then this
@@ -520,21 +551,103 @@ bool CpuBackend::near_ground(std::uint32_t a) const {
   return above < static_cast<double>(M_.radius[a]) + M_.skin;
 }
 
-// The links kernel over (axis, chunk) pairs; each chunk's breaks land in its own part of breaks_.
-void CpuBackend::link_force_pass(const cpu::LatticeView& v) {
-  const std::size_t n = M_.size(), chunks = (n + kChunk - 1) / kChunk;
-  std::vector<std::size_t> counts(3 * chunks, 0);
-  // A chunk's three axes one after the other: its automata's data is read from memory once, not three
-  // times. The breaks of axis a and chunk c go to counts[a * chunks + c], so they are applied in slot order.
-  parallel_chunks(n, [&](std::size_t c, std::size_t b, std::size_t e) {
+// The lattice's three kernels in one sweep over the chunks of kChunk automata, so that what one kernel
+// leaves for the next (the many-body terms, the link results, the positions they read) is still in the
+// cache when the next one reads it (docs/model-notes.md, "Passes"). A kernel may run on a chunk once what
+// it reads is final, and an automaton may integrate once nothing left to run reads its state. With
+// `reach` the largest distance in lattice order between a link's two ends (a box's nx ny along z):
+//  - the links of chunk c read the many-body terms of their ends, up to reach automata above: chunks up
+//    to c + head_chunks_;
+//  - the many-body terms of an automaton read the positions of its neighbours, reach below and above;
+//  - an automaton's position, velocities and mean stress are read by its own links and those of its
+//    lower neighbours, and its many-body term and those of its neighbours.
+// So a chunk c runs many_body(c + h), links(c), automata(c) in turn (h = head_chunks_). With several
+// threads the chunks form regions of consecutive chunks, one task each. Where two regions meet, the h
+// chunks before the boundary (the tail) need the many-body terms of the h chunks after it (the head),
+// and the head's automata may integrate only once the tail's links have read them: each region does its
+// head's many-body terms and links first, and the tail's links and automata and the head's automata are
+// done by whichever of the two regions gets there second. The kernels' results do not depend on how the
+// chunks are grouped or by whom (a test checks the sweep against one pass at a time).
+//
+// The breaks of axis a and chunk c go to counts[a * chunks + c], in slot order; they are applied after
+// the sweep (apply_breaks): a link that breaks carries its force in the step it breaks.
+std::int64_t CpuBackend::lattice_sweep(const cpu::LatticeView& v, std::vector<std::size_t>& counts, float& max_move2) {
+  const std::size_t n = M_.size(), chunks = (n + kChunk - 1) / kChunk, h = head_chunks_;
+  counts.assign(3 * chunks, 0);
+  std::vector<cpu::AutomataResult> result(chunks);
+  auto range = [&](std::size_t c) { return std::pair{c * kChunk, std::min(n, (c + 1) * kChunk)}; };
+  auto many_body = [&](std::size_t c) {
+    if (c >= chunks) return;
+    const auto [b, e] = range(c);
+    kernels_.many_body(v, b, e);
+  };
+  auto links = [&](std::size_t c) {
+    const auto [b, e] = range(c);
+    // A chunk's three axes one after the other: its automata's data is read from memory once, not three
+    // times.
     for (int axis = 0; axis < 3; ++axis)
       counts[axis * chunks + c] = kernels_.links(v, axis, b, e, breaks_.data() + axis * n + b);
-  });
-  std::vector<std::size_t> explicit_counts;
-  if (!M_.explicit_links.i.empty()) explicit_counts = explicit_link_pass(v);
-  apply_breaks(counts, explicit_counts);
-  // After the breaks, as the lattice's links: a link that breaks in this step carries no force in it.
-  if (!M_.explicit_links.i.empty()) explicit_gather_pass();
+  };
+  auto automata = [&](std::size_t c) {
+    const auto [b, e] = range(c);
+    result[c] = kernels_.automata(v, b, e);
+  };
+  const std::size_t threads =
+      std::min(static_cast<std::size_t>(tbb::this_task_arena::max_concurrency()),
+               tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+  // About four regions per thread, of at least 2h + 1 chunks each (a head, a tail and one between).
+  const std::size_t regions = n <= kSerial || threads < 2 ? 1 : std::min(4 * threads, chunks / (2 * h + 1));
+  if (sweep_by_pass_ || (regions < 2 && n > kSerial && threads > 1)) {
+    // Too few chunks for two regions: one kernel at a time over all chunks, each in parallel.
+    parallel_chunks(n, [&](std::size_t c, std::size_t, std::size_t) { many_body(c); });
+    parallel_chunks(n, [&](std::size_t c, std::size_t, std::size_t) { links(c); });
+    parallel_chunks(n, [&](std::size_t c, std::size_t, std::size_t) { automata(c); });
+  } else if (regions == 1) {
+    for (std::size_t c = 0; c < h; ++c) many_body(c);
+    for (std::size_t c = 0; c < chunks; ++c) {
+      many_body(c + h);
+      links(c);
+      automata(c);
+    }
+  } else {
+    // Region r: chunks [first(r), first(r + 1)). Boundary r (r >= 1) lies at its start.
+    auto first = [&](std::size_t r) { return r * chunks / regions; };
+    auto end = [&](std::size_t r) { return first(r + 1); };
+    std::unique_ptr<std::atomic<int>[]> arrived(new std::atomic<int>[regions]);
+    for (std::size_t r = 0; r < regions; ++r) arrived[r].store(0, std::memory_order_relaxed);
+    // Boundary r: the tail of region r - 1 and the head of region r, by the second to arrive.
+    auto arrive = [&](std::size_t r) {
+      if (arrived[r].fetch_add(1, std::memory_order_acq_rel) == 0) return;
+      const std::size_t c0 = first(r);
+      for (std::size_t c = c0 - h; c < c0; ++c) links(c);
+      for (std::size_t c = c0 - h; c < c0 + h; ++c) automata(c);
+    };
+    tbb::parallel_for(std::size_t{0}, regions, [&](std::size_t r) {
+      const std::size_t c0 = first(r), c1 = end(r);
+      std::size_t c = c0;
+      if (r > 0) {
+        for (std::size_t k = c0; k < c0 + 2 * h; ++k) many_body(k);
+        for (; c < c0 + h; ++c) links(c);
+        arrive(r);
+      } else {
+        for (std::size_t k = c0; k < c0 + h; ++k) many_body(k);
+      }
+      const std::size_t stop = r + 1 == regions ? c1 : c1 - h;
+      for (; c < stop; ++c) {
+        many_body(c + h);
+        links(c);
+        automata(c);
+      }
+      if (r + 1 < regions) arrive(r + 1);
+    });
+  }
+  max_move2 = 0;
+  for (const auto& r : result) max_move2 = std::max(max_move2, r.max_move2);
+  near_valid_ = v.projectiles > 0;
+  for (std::size_t ch = 0; ch < chunks && near_valid_; ++ch) chunk_near_[ch] = result[ch].near;
+  for (const auto& r : result)
+    if (r.first_bad >= 0) return r.first_bad;
+  return kAllFinite;
 }
 
 // Explicit links (surface mode): the kernels' explicit_geometry over fixed chunks of links, each
@@ -619,10 +732,11 @@ void CpuBackend::explicit_gather_pass() {
   });
 }
 
-// Breaks found in the link pass, in link order: the link stops carrying force from this step on, and the
-// broken pair touches at once, so it joins the contact list (and the ground list, when near it) now, not
-// at the next rebuild.
-void CpuBackend::apply_breaks(const std::vector<std::size_t>& counts, const std::vector<std::size_t>& explicit_counts) {
+// Breaks found in this step's sweep, in link order, applied at its end: the link carried its force in the
+// step it broke and carries none from the next on, and the broken pair touches, so it joins the contact
+// list (and the ground list, when near it) for the next step, not at the next rebuild.
+void CpuBackend::apply_breaks(const std::vector<std::size_t>& counts, const std::vector<std::size_t>& explicit_counts,
+                              float& max_move2) {
   const std::size_t n = M_.size(), chunks = (n + kChunk - 1) / kChunk;
   std::vector<ContactPair> fresh;
   std::vector<std::uint32_t> ground_fresh;
@@ -637,8 +751,10 @@ void CpuBackend::apply_breaks(const std::vector<std::size_t>& counts, const std:
       const int crit = code & kBreakByStress ? 1 : 0;
       const std::uint32_t i = M_.link_i(l), j = M_.link_j(l);
       S_.intact[l] = 0;
-      --intact_count_[i];
-      --intact_count_[j];
+      // An automaton exposed now joins the contact list's staleness check from this step's move on, as
+      // if the automata kernel had seen it exposed (it saw the links before the breaks).
+      for (const std::uint32_t a : {i, j})
+        if (intact_count_[a]-- == 6) max_move2 = std::max(max_move2, moved2(a));
       utx_[l] = uty_[l] = utz_[l] = 0.0f;
       if (M_.is_explicit(l)) {
         const std::size_t k = l - M_.lattice_slots();
@@ -890,17 +1006,9 @@ std::int64_t CpuBackend::projectile_pass() {
   return kAllFinite;
 }
 
-std::int64_t CpuBackend::automaton_pass(const cpu::LatticeView& v, float& max_move2) {
-  const float dt = M_.dt;
-  const std::size_t n = M_.size();
-  const std::size_t chunks = (n + kChunk - 1) / kChunk;
-  std::vector<cpu::AutomataResult> result(chunks);
-  parallel_chunks(n, [&](std::size_t ch, std::size_t b, std::size_t e) { result[ch] = kernels_.automata(v, b, e); });
-  max_move2 = 0;
-  for (const auto& r : result) max_move2 = std::max(max_move2, r.max_move2);
-  near_valid_ = v.projectiles > 0;
-  for (std::size_t ch = 0; ch < chunks && near_valid_; ++ch) chunk_near_[ch] = result[ch].near;
-  // Grip forces: the force the grip exerts is minus what the body pushes on it.
+// Grip forces: the force the grip exerts is minus what the body pushes on it (the automata kernel leaves
+// that in ext_f of the held automata).
+void CpuBackend::grip_pass() {
   for (std::size_t g = 0; g < grip_members_.size(); ++g) {
     Vec3 f;
     for (std::uint32_t a : grip_members_[g]) {
@@ -908,11 +1016,8 @@ std::int64_t CpuBackend::automaton_pass(const cpu::LatticeView& v, float& max_mo
       ext_f_[a] = Vec3{};
     }
     S_.grip_force[g] = f;
-    S_.grip_work[g] += static_cast<double>(dot(f, M_.grip_velocity[g])) * dt;
+    S_.grip_work[g] += static_cast<double>(dot(f, M_.grip_velocity[g])) * M_.dt;
   }
-  for (const auto& r : result)
-    if (r.first_bad >= 0) return r.first_bad;
-  return kAllFinite;
 }
 
 void CpuBackend::rebuild_contacts() {
@@ -969,21 +1074,29 @@ void CpuBackend::rebuild_contacts() {
   reference_positions();
 }
 
+// A step: everything that acts on the automata from outside the lattice (explicit links, contacts, the
+// ground, projectiles), from the positions at the start of the step; then the lattice's sweep (many-body
+// terms, links, automata); then the breaks found.
 std::int64_t CpuBackend::one_step() {
   PassTimer timer(profile_);
   const cpu::LatticeView v = view();
-  const std::size_t n = M_.size();
-  parallel_chunks(n, [&](std::size_t, std::size_t b, std::size_t e) { kernels_.many_body(v, b, e); });
+  std::vector<std::size_t> explicit_counts;
+  if (!M_.explicit_links.i.empty()) {
+    explicit_counts = explicit_link_pass(v);
+    explicit_gather_pass();
+  }
   timer.lap(0);
-  link_force_pass(v);
-  timer.lap(1);
   contact_pass();
   ground_pass();
-  timer.lap(2);
+  timer.lap(1);
   const std::int64_t bad_projectile = projectile_pass();
-  timer.lap(3);
+  timer.lap(2);
   float max_move2 = 0;
-  const std::int64_t bad = automaton_pass(with_projectiles(v), max_move2);
+  std::vector<std::size_t> counts;
+  const std::int64_t bad = lattice_sweep(with_projectiles(v), counts, max_move2);
+  timer.lap(3);
+  grip_pass();
+  apply_breaks(counts, explicit_counts, max_move2);
   timer.lap(4);
   ++S_.step;
   S_.time = static_cast<double>(S_.step) * M_.dt;
