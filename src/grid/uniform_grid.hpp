@@ -21,9 +21,33 @@ class UniformGrid {
   // Calls f(j) for every point j in the 27 cells around p (each at most once; includes far ones).
   template <class F>
   void for_each_candidate(DVec3 p, F&& f) const {
+    for_each_bucket(p, [&](std::uint32_t b) {
+      for (std::uint32_t k = begin_[b]; k < begin_[b + 1]; ++k) f(items_[k]);
+    });
+  }
+
+  // Calls f(j, x_j) for every point j > i in the 27 cells around p (each at most once; includes far
+  // ones), x_j its position at the build. A bucket holds its points in index order, so it is read from
+  // its end down to the first point <= i; the positions are stored by bucket, one run per bucket.
+  template <class F>
+  void for_each_candidate_above(DVec3 p, std::uint32_t i, F&& f) const {
+    for_each_bucket(p, [&](std::uint32_t b) {
+      for (std::uint32_t k = begin_[b + 1]; k > begin_[b];) {
+        --k;
+        if (items_[k] <= i) break;
+        f(items_[k], position_[k]);
+      }
+    });
+  }
+
+  double cell_size() const { return cell_; }
+
+ private:
+  // Calls f(b) for each hash bucket b of the 27 cells around p, once: two cells may share a bucket. A bit
+  // per bucket's low 6 bits rules out most repeats at once; only a bit already set needs the list.
+  template <class F>
+  void for_each_bucket(DVec3 p, F&& f) const {
     const std::int64_t c[3] = {cell_of(p.x), cell_of(p.y), cell_of(p.z)};
-    // Two cells may share a bucket: each bucket is visited once. A bit per bucket's low 6 bits rules out
-    // most repeats at once; only a bit already set needs the list.
     std::uint32_t seen[27];
     int n_seen = 0;
     std::uint64_t seen_bits = 0;
@@ -39,13 +63,9 @@ class UniformGrid {
           }
           seen_bits |= bit;
           seen[n_seen++] = b;
-          for (std::uint32_t k = begin_[b]; k < begin_[b + 1]; ++k) f(items_[k]);
+          f(b);
         }
   }
-
-  double cell_size() const { return cell_; }
-
- private:
   // Clamped to +-2^52 cells, far beyond any position a run reaches (a damaged checkpoint may hold one;
   // NaN goes to the lowest), so that the conversion and the neighbour offsets cannot overflow. Far points
   // share the edge cells, which costs only time: callers test the distance of every candidate.
@@ -64,6 +84,7 @@ class UniformGrid {
   double cell_ = 1, inv_cell_ = 1;
   std::uint64_t mask_ = 0;
   std::vector<std::uint32_t> begin_, items_;
+  std::vector<DVec3> position_;  // of items_[k], as built
 };
 
 }  // namespace mca

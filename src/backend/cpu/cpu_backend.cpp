@@ -1040,9 +1040,8 @@ void CpuBackend::rebuild_contacts() {
       const std::uint32_t i = exposed_[k];
       const DVec3 xi = S_.x[i];
       js.clear();
-      grid_.for_each_candidate(xi, [&](std::uint32_t j) {
-        if (j <= i) return;
-        const Vec3 d = delta(xi, S_.x[j]);
+      grid_.for_each_candidate_above(xi, i, [&](std::uint32_t j, const DVec3& xj) {
+        const Vec3 d = delta(xi, xj);
         const float reach = M_.radius[i] + M_.radius[j] + skin;
         if (dot(d, d) < reach * reach && !linked(i, j)) js.push_back(j);
       });
