@@ -17,14 +17,9 @@ void UniformGrid::build(const DVec3* x, std::size_t n, double cell_size, const s
   }
   for (std::size_t b = 0; b < table; ++b) begin_[b + 1] += begin_[b];
   items_.resize(n);
-  position_.resize(n);
   std::vector<std::uint32_t> fill(begin_.begin(), begin_.end() - 1);
   // Serial fill keeps each bucket in index order: the neighbour lists come out the same every run.
-  for (std::size_t a = 0; a < n; ++a) {
-    const std::uint32_t k = fill[bucket_of[a]]++, id = ids ? ids[a] : static_cast<std::uint32_t>(a);
-    items_[k] = id;
-    position_[k] = x[id];
-  }
+  for (std::size_t a = 0; a < n; ++a) items_[fill[bucket_of[a]]++] = ids ? ids[a] : static_cast<std::uint32_t>(a);
 }
 
 }  // namespace mca

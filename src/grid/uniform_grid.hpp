@@ -26,16 +26,14 @@ class UniformGrid {
     });
   }
 
-  // Calls f(j, x_j) for every point j > i in the 27 cells around p (each at most once; includes far
-  // ones), x_j its position at the build. A bucket holds its points in index order, so it is read from
-  // its end down to the first point <= i; the positions are stored by bucket, one run per bucket.
+  // Calls f(j) for every point j > i in the 27 cells around p (each at most once; includes far ones). A
+  // bucket holds its points in index order, so it is read from its end down to the first point <= i.
   template <class F>
   void for_each_candidate_above(DVec3 p, std::uint32_t i, F&& f) const {
     for_each_bucket(p, [&](std::uint32_t b) {
       for (std::uint32_t k = begin_[b + 1]; k > begin_[b];) {
-        --k;
-        if (items_[k] <= i) break;
-        f(items_[k], position_[k]);
+        if (items_[--k] <= i) break;
+        f(items_[k]);
       }
     });
   }
@@ -84,7 +82,6 @@ class UniformGrid {
   double cell_ = 1, inv_cell_ = 1;
   std::uint64_t mask_ = 0;
   std::vector<std::uint32_t> begin_, items_;
-  std::vector<DVec3> position_;  // of items_[k], as built
 };
 
 }  // namespace mca

@@ -553,7 +553,7 @@ bool CpuBackend::near_ground(std::uint32_t a) const {
 
 // The lattice's three kernels in one sweep over the chunks of kChunk automata, so that what one kernel
 // leaves for the next (the many-body terms, the link results, the positions they read) is still in the
-// cache when the next one reads it (docs/model-notes.md, "Passes"). A kernel may run on a chunk once what
+// cache when the next one reads it (docs/model-notes.md, "Passes and the lattice sweep"). A kernel may run on a chunk once what
 // it reads is final, and an automaton may integrate once nothing left to run reads its state. With
 // `reach` the largest distance in lattice order between a link's two ends (a box's nx ny along z):
 //  - the links of chunk c read the many-body terms of their ends, up to reach automata above: chunks up
@@ -1040,8 +1040,8 @@ void CpuBackend::rebuild_contacts() {
       const std::uint32_t i = exposed_[k];
       const DVec3 xi = S_.x[i];
       js.clear();
-      grid_.for_each_candidate_above(xi, i, [&](std::uint32_t j, const DVec3& xj) {
-        const Vec3 d = delta(xi, xj);
+      grid_.for_each_candidate_above(xi, i, [&](std::uint32_t j) {
+        const Vec3 d = delta(xi, S_.x[j]);
         const float reach = M_.radius[i] + M_.radius[j] + skin;
         if (dot(d, d) < reach * reach && !linked(i, j)) js.push_back(j);
       });
