@@ -253,8 +253,11 @@ class CpuBackend final : public Backend {
       }
     head_chunks_ = (reach + kChunk - 1) / kChunk;
     if (const char* e = std::getenv("MCA_SWEEP")) {
-      if (std::string(e) == "passes") sweep_by_pass_ = true;
-      else if (std::string(e) != "fused") throw Error("MCA_SWEEP=" + std::string(e) + ": use fused (the default) or passes");
+      const std::string how = e;
+      if (how == "passes") sweep_ = Sweep::passes;
+      else if (how == "fused") sweep_ = Sweep::fused;
+      else if (how != "auto")
+        throw Error("MCA_SWEEP=" + how + ": use auto (the default: the sweep where it pays), fused or passes");
     }
     grip_members_.resize(m.grip_velocity.size());
     for (std::size_t a = 0; a < n; ++a)
@@ -425,9 +428,9 @@ class CpuBackend final : public Backend {
   std::vector<cpu::BlockRun> runs_;     // how each block of lanes finds its neighbours
   std::vector<std::uint32_t> breaks_;  // per chunk of slots, what the links kernel found
   std::size_t head_chunks_ = 0;         // chunks of a region the region before may read (lattice_sweep)
-  // One kernel at a time over all chunks instead of the sweep (MCA_SWEEP=passes): the same results, for
-  // tests and measurements.
-  bool sweep_by_pass_ = false;
+  // How lattice_sweep runs the kernels (MCA_SWEEP, for tests and measurements; the same results each way):
+  // chunk by chunk where it pays, always chunk by chunk, or one kernel at a time over all chunks.
+  enum class Sweep { automatic, fused, passes } sweep_ = Sweep::automatic;
   std::vector<cpu::PairConstants> pairs_;
   std::vector<std::array<float, 4>> free_factor_;  // per group, see volumetric_strain
   // Explicit links (Model::ExplicitLinks), structure of arrays (cpu::ExplicitView): constants, then this
@@ -553,8 +556,9 @@ bool CpuBackend::near_ground(std::uint32_t a) const {
 
 // The lattice's three kernels in one sweep over the chunks of kChunk automata, so that what one kernel
 // leaves for the next (the many-body terms, the link results, the positions they read) is still in the
-// cache when the next one reads it (docs/model-notes.md, "Passes and the lattice sweep"). A kernel may run on a chunk once what
-// it reads is final, and an automaton may integrate once nothing left to run reads its state. With
+// cache when the next one reads it (docs/model-notes.md, "Passes and the lattice sweep"). A kernel may
+// run on a chunk once what it reads is final, and an automaton may integrate once nothing left to run
+// reads its state. With
 // `reach` the largest distance in lattice order between a link's two ends (a box's nx ny along z):
 //  - the links of chunk c read the many-body terms of their ends, up to reach automata above: chunks up
 //    to c + head_chunks_;
@@ -597,8 +601,12 @@ std::int64_t CpuBackend::lattice_sweep(const cpu::LatticeView& v, std::vector<st
                tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
   // About four regions per thread, of at least 2h + 1 chunks each (a head, a tail and one between).
   const std::size_t regions = n <= kSerial || threads < 2 ? 1 : std::min(4 * threads, chunks / (2 * h + 1));
-  if (sweep_by_pass_ || (regions < 2 && n > kSerial && threads > 1)) {
-    // Too few chunks for two regions: one kernel at a time over all chunks, each in parallel.
+  // With fewer than two regions per thread the joins at the boundaries, done after a region's own work,
+  // lengthen the step more than the cache saves (a small scene is in the cache anyway): then, unless
+  // MCA_SWEEP=fused, one kernel at a time over all chunks, each in parallel.
+  const bool by_pass = sweep_ == Sweep::passes ||
+                       (sweep_ == Sweep::automatic && n > kSerial && threads > 1 && regions < 2 * threads);
+  if (by_pass) {
     parallel_chunks(n, [&](std::size_t c, std::size_t, std::size_t) { many_body(c); });
     parallel_chunks(n, [&](std::size_t c, std::size_t, std::size_t) { links(c); });
     parallel_chunks(n, [&](std::size_t c, std::size_t, std::size_t) { automata(c); });
