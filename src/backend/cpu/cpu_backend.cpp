@@ -558,8 +558,8 @@ bool CpuBackend::near_ground(std::uint32_t a) const {
 // leaves for the next (the many-body terms, the link results, the positions they read) is still in the
 // cache when the next one reads it (docs/model-notes.md, "Passes and the lattice sweep"). A kernel may
 // run on a chunk once what it reads is final, and an automaton may integrate once nothing left to run
-// reads its state. With
-// `reach` the largest distance in lattice order between a link's two ends (a box's nx ny along z):
+// reads its state. With `reach` the largest distance in lattice order between a link's two ends (a box's
+// nx ny along z):
 //  - the links of chunk c read the many-body terms of their ends, up to reach automata above: chunks up
 //    to c + head_chunks_;
 //  - the many-body terms of an automaton read the positions of its neighbours, reach below and above;
