@@ -60,12 +60,39 @@ class ForceSweep {
   ~ForceSweep() { unsetenv("MCA_SWEEP"); }
 };
 
+// The state after `steps` steps of s on 1 and 2 threads, with the lattice's kernels one at a time
+// (MCA_SWEEP=passes) and chunk by chunk (fused): [threads - 1][fused].
+struct SweepRuns {
+  std::uint64_t hash[2][2] = {};
+  std::size_t automata = 0, broken = 0;
+};
+SweepRuns sweep_runs(const SceneDef& s, int steps) {
+  SweepRuns r;
+  for (int threads : {1, 2})
+    for (int fused : {0, 1}) {
+      ForceSweep how(fused ? "fused" : "passes");
+      tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+      Engine sim(s);
+      EXPECT_EQ(sim.advance(steps).flags, kHealthy);
+      r.automata = sim.model().size();
+      r.broken = sim.state().broken_by[0] + sim.state().broken_by[1];
+      r.hash[threads - 1][fused] = state_hash(sim.state());
+    }
+  return r;
+}
+
+void expect_same_sweeps(const SweepRuns& r) {
+  EXPECT_EQ(r.hash[0][1], r.hash[0][0]) << "1 thread: the sweep against one pass at a time";
+  EXPECT_EQ(r.hash[1][1], r.hash[1][0]) << "2 threads: the sweep against one pass at a time";
+  EXPECT_EQ(r.hash[1][1], r.hash[0][1]) << "the sweep on 2 threads against 1";
+}
+
 // The CPU step runs the lattice's kernels chunk by chunk in one sweep, in regions of chunks whose
 // boundaries are joined by whichever thread gets there second (cpu_backend.cpp, lattice_sweep). Whatever
 // the grouping, it must give the bits of one kernel at a time over all chunks (MCA_SWEEP=passes): here on
-// a scene of over 20,000 automata (ten chunks; on 2 threads three regions) with six struck walls, a
-// rotated box, a sphere (other strides, neighbours gathered) and a shell of explicit links, while links
-// break and contacts form.
+// a scene of over 20,000 automata (eleven chunks; on 2 threads three regions, on any machine: the regions
+// follow the threads allowed, not the processor's) with six struck walls, a rotated box, a sphere (other
+// strides, neighbours gathered) and a shell of explicit links, while links break and contacts form.
 TEST(Simd, TheSweepGivesTheResultsOfOnePassAtATime) {
   test::TempDir t;
   test::write_mesh_file(t.path() / "shell.off", test::sphere_mesh(0.3, 3));
@@ -113,23 +140,38 @@ TEST(Simd, TheSweepGivesTheResultsOfOnePassAtATime) {
   shell.position = {x + 4.0, 0, 1.0};
   shell.velocity = {0, 0, -20};
   s.objects.push_back(shell);
-  std::uint64_t hash[2][2] = {};
-  std::size_t automata = 0, broken = 0;
-  for (int threads : {1, 2})
-    for (int fused : {0, 1}) {
-      ForceSweep how(fused ? "fused" : "passes");
-      tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
-      Engine sim(s);
-      ASSERT_EQ(sim.advance(400).flags, kHealthy);
-      automata = sim.model().size();
-      broken = sim.state().broken_by[0] + sim.state().broken_by[1];
-      hash[threads - 1][fused] = state_hash(sim.state());
-    }
-  EXPECT_GT(automata, 20480u);
-  EXPECT_GT(broken, 0u);
-  EXPECT_EQ(hash[0][1], hash[0][0]) << "1 thread: the sweep against one pass at a time";
-  EXPECT_EQ(hash[1][1], hash[1][0]) << "2 threads: the sweep against one pass at a time";
-  EXPECT_EQ(hash[1][1], hash[0][1]) << "the sweep on 2 threads against 1";
+  const SweepRuns r = sweep_runs(s, 400);
+  EXPECT_GT(r.automata, 20480u);
+  EXPECT_GT(r.broken, 0u);
+  expect_same_sweeps(r);
+}
+
+// A sheet of 100 x 50 x 2 automata: its links along z span 5,000 automata, three chunks, so its five
+// chunks make no two regions; forced to sweep on 2 threads it must sweep them on one.
+TEST(Simd, TheSweepOfTooFewChunksForTwoRegions) {
+  SceneDef s;
+  s.name = "sheet";
+  s.source = "<test>";
+  s.solver.spacing = 0.05;
+  s.heterogeneity.preset = "medium";
+  heterogeneity_preset("medium", s.heterogeneity.shares);
+  s.ground.enabled = true;
+  s.output.duration = 0.01;
+  ObjectDef sheet;
+  sheet.name = "sheet";
+  sheet.size = {5.0, 2.5, 0.1};
+  sheet.position = {0, 0, 0.05};
+  s.objects.push_back(sheet);
+  ProjectileDef p;
+  p.name = "ball";
+  p.radius = 0.2;
+  p.position = {0, 0, 0.303};
+  p.velocity = {0, 0, -80};
+  s.projectiles.push_back(p);
+  const SweepRuns r = sweep_runs(s, 300);
+  EXPECT_EQ(r.automata, 10000u);
+  EXPECT_GT(r.broken, 1000u);
+  expect_same_sweeps(r);
 }
 
 TEST(Simd, AnUnknownSweepIsAClearError) {
@@ -137,6 +179,11 @@ TEST(Simd, AnUnknownSweepIsAClearError) {
   const std::string e = test::error_of([] { Engine sim(io::load_default_scene()); });
   EXPECT_NE(e.find("MCA_SWEEP=fast"), std::string::npos) << e;
   EXPECT_NE(e.find("passes"), std::string::npos) << e;
+  // Any case, and empty as unset (as MCA_SIMD).
+  for (const char* ok : {"Passes", "FUSED", "auto", ""}) {
+    ForceSweep fine(ok);
+    EXPECT_EQ(test::error_of([] { Engine sim(io::load_default_scene()); }), "") << "MCA_SWEEP=" << ok;
+  }
 }
 
 TEST(Simd, AnUnknownOrMissingInstructionSetIsAClearError) {

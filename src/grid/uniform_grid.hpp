@@ -27,7 +27,8 @@ class UniformGrid {
   }
 
   // Calls f(j) for every point j > i in the 27 cells around p (each at most once; includes far ones). A
-  // bucket holds its points in index order, so it is read from its end down to the first point <= i.
+  // bucket holds its points in the order build() was given them, ascending when its ids are (or when
+  // there are none), and is read from its end down to the first point <= i: so ids must ascend.
   template <class F>
   void for_each_candidate_above(DVec3 p, std::uint32_t i, F&& f) const {
     for_each_bucket(p, [&](std::uint32_t b) {

@@ -1,13 +1,14 @@
 // The CPU backend: the reference implementation of a step (physics.md secs. 3-7).
 //
 // A step is a sequence of passes, each over index ranges that a thread pool (oneTBB here) or a CUDA grid
-// can drive. The lattice passes are the kernels of lattice_kernels.hpp, compiled for several instruction
-// sets and picked at run time:
-//   many-body    (automata)      the many-body terms P of each automaton (from the strains of its links)
-//   links        (link slots)    pair forces, torques, fracture criteria; breaks applied in link order
-//   contacts     (contact lists) unlinked pairs, then the ground, added to automata in list order
-//   projectiles                  their contacts with automata, the ground and each other; they move
-//   automata     (automata)      gather forces in a fixed order, averaged stress, gravity, loads, integrate
+// can drive:
+//   explicit links, contacts, the ground, projectiles: what acts on the automata from outside the
+//                  lattice, from the positions at the start of the step, added to automata in list order
+//   lattice sweep  the kernels of lattice_kernels.hpp (compiled for several instruction sets and picked at
+//                  run time) chunk by chunk: the many-body terms P of each automaton, the links' pair
+//                  forces, torques and fracture criteria, and the automata (gather forces in a fixed
+//                  order, averaged stress, gravity, loads, integrate)
+//   breaks         applied in link order at the end of the step
 // Links write their forces; automata gather them in a fixed order. No floating-point atomics, no
 // order-dependent reductions: results are bitwise identical for any thread count and instruction set.
 //
@@ -16,6 +17,7 @@
 // structures are brought up to date when the state is read (state(), download()).
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -27,7 +29,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include "backend/backend.hpp"
 #include "backend/cpu/aligned.hpp"
@@ -252,12 +253,13 @@ class CpuBackend final : public Backend {
         reach = std::max(reach, j - a);
       }
     head_chunks_ = (reach + kChunk - 1) / kChunk;
-    if (const char* e = std::getenv("MCA_SWEEP")) {
-      const std::string how = e;
+    if (const char* e = std::getenv("MCA_SWEEP"); e && *e) {
+      std::string how = e;  // any case, as MCA_SIMD
+      for (char& ch : how) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
       if (how == "passes") sweep_ = Sweep::passes;
       else if (how == "fused") sweep_ = Sweep::fused;
       else if (how != "auto")
-        throw Error("MCA_SWEEP=" + how + ": use auto (the default: the sweep where it pays), fused or passes");
+        throw Error("MCA_SWEEP=" + std::string(e) + ": use auto (the default: the sweep where it pays), fused or passes");
     }
     grip_members_.resize(m.grip_velocity.size());
     for (std::size_t a = 0; a < n; ++a)
@@ -596,11 +598,12 @@ std::int64_t CpuBackend::lattice_sweep(const cpu::LatticeView& v, std::vector<st
     const auto [b, e] = range(c);
     result[c] = kernels_.automata(v, b, e);
   };
-  const std::size_t threads =
-      std::min(static_cast<std::size_t>(tbb::this_task_arena::max_concurrency()),
-               tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+  // The threads the run allows (--threads), not the processor's count: the regions, and so what a test
+  // exercises, do not depend on the machine (the results do not depend on either).
+  const std::size_t threads = tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
   // About four regions per thread, of at least 2h + 1 chunks each (a head, a tail and one between).
-  const std::size_t regions = n <= kSerial || threads < 2 ? 1 : std::min(4 * threads, chunks / (2 * h + 1));
+  const std::size_t regions =
+      n <= kSerial || threads < 2 ? 1 : std::clamp(chunks / (2 * h + 1), std::size_t{1}, 4 * threads);
   // With fewer than two regions per thread the joins at the boundaries, done after a region's own work,
   // lengthen the step more than the cache saves (a small scene is in the cache anyway): then, unless
   // MCA_SWEEP=fused, one kernel at a time over all chunks, each in parallel.
