@@ -87,6 +87,28 @@ void expect_same_sweeps(const SweepRuns& r) {
   EXPECT_EQ(r.hash[1][1], r.hash[0][1]) << "the sweep on 2 threads against 1";
 }
 
+// A scene of 5 cm automata of medium heterogeneity on the ground, to be struck by balls (add_ball).
+SceneDef struck_scene(const std::string& name) {
+  SceneDef s;
+  s.name = name;
+  s.source = "<test>";
+  s.solver.spacing = 0.05;
+  s.heterogeneity.preset = "medium";
+  heterogeneity_preset("medium", s.heterogeneity.shares);
+  s.ground.enabled = true;
+  s.output.duration = 0.01;
+  return s;
+}
+
+void add_ball(SceneDef& s, const std::string& name, double radius, Vec3d position, Vec3d velocity) {
+  ProjectileDef p;
+  p.name = name;
+  p.radius = radius;
+  p.position = position;
+  p.velocity = velocity;
+  s.projectiles.push_back(p);
+}
+
 // The CPU step runs the lattice's kernels chunk by chunk in one sweep, in regions of chunks whose
 // boundaries are joined by whichever thread gets there second (cpu_backend.cpp, lattice_sweep). Whatever
 // the grouping, it must give the bits of one kernel at a time over all chunks (MCA_SWEEP=passes): here on
@@ -96,14 +118,7 @@ void expect_same_sweeps(const SweepRuns& r) {
 TEST(Simd, TheSweepGivesTheResultsOfOnePassAtATime) {
   test::TempDir t;
   test::write_mesh_file(t.path() / "shell.off", test::sphere_mesh(0.3, 3));
-  SceneDef s;
-  s.name = "sweep";
-  s.source = "<test>";
-  s.solver.spacing = 0.05;
-  s.heterogeneity.preset = "medium";
-  heterogeneity_preset("medium", s.heterogeneity.shares);
-  s.ground.enabled = true;
-  s.output.duration = 0.01;
+  SceneDef s = struck_scene("sweep");
   double x = 0;
   for (int k = 0; k < 6; ++k, x += 2.0) {
     ObjectDef o;
@@ -111,12 +126,7 @@ TEST(Simd, TheSweepGivesTheResultsOfOnePassAtATime) {
     o.size = {1.5, 0.2, 1.25};
     o.position = {x, 0, 0.625};
     s.objects.push_back(o);
-    ProjectileDef p;
-    p.name = "ball" + std::to_string(k);
-    p.radius = 0.15;
-    p.position = {x, -0.1 - 0.15 - 0.0025, 0.625};
-    p.velocity = {0, 60, 0};
-    s.projectiles.push_back(p);
+    add_ball(s, "ball" + std::to_string(k), 0.15, {x, -0.1 - 0.15 - 0.0025, 0.625}, {0, 60, 0});
   }
   ObjectDef box;
   box.name = "box";
@@ -149,25 +159,13 @@ TEST(Simd, TheSweepGivesTheResultsOfOnePassAtATime) {
 // A sheet of 100 x 50 x 2 automata: its links along z span 5,000 automata, three chunks, so its five
 // chunks make no two regions; forced to sweep on 2 threads it must sweep them on one.
 TEST(Simd, TheSweepOfTooFewChunksForTwoRegions) {
-  SceneDef s;
-  s.name = "sheet";
-  s.source = "<test>";
-  s.solver.spacing = 0.05;
-  s.heterogeneity.preset = "medium";
-  heterogeneity_preset("medium", s.heterogeneity.shares);
-  s.ground.enabled = true;
-  s.output.duration = 0.01;
+  SceneDef s = struck_scene("sheet");
   ObjectDef sheet;
   sheet.name = "sheet";
   sheet.size = {5.0, 2.5, 0.1};
   sheet.position = {0, 0, 0.05};
   s.objects.push_back(sheet);
-  ProjectileDef p;
-  p.name = "ball";
-  p.radius = 0.2;
-  p.position = {0, 0, 0.303};
-  p.velocity = {0, 0, -80};
-  s.projectiles.push_back(p);
+  add_ball(s, "ball", 0.2, {0, 0, 0.303}, {0, 0, -80});
   const SweepRuns r = sweep_runs(s, 300);
   EXPECT_EQ(r.automata, 10000u);
   EXPECT_GT(r.broken, 1000u);
