@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <optional>
 #include <random>
 #include <string>
 #include <tbb/global_control.h>
@@ -20,11 +21,29 @@
 namespace mca {
 namespace {
 
-// Sets MCA_SIMD for the life of the object.
-class ForceSimd {
+// Sets an environment variable for the life of the object, then restores what was there.
+class ForceEnv {
  public:
-  explicit ForceSimd(const char* set) { setenv("MCA_SIMD", set, 1); }
-  ~ForceSimd() { unsetenv("MCA_SIMD"); }
+  ForceEnv(const char* name, const char* value) : name_(name) {
+    if (const char* old = std::getenv(name)) old_ = old;
+    setenv(name, value, 1);
+  }
+  ~ForceEnv() {
+    if (old_) setenv(name_, old_->c_str(), 1);
+    else unsetenv(name_);
+  }
+  ForceEnv(const ForceEnv&) = delete;
+  ForceEnv& operator=(const ForceEnv&) = delete;
+
+ private:
+  const char* name_;
+  std::optional<std::string> old_;
+};
+
+// Sets MCA_SIMD for the life of the object (then restores what was there).
+class ForceSimd : public ForceEnv {
+ public:
+  explicit ForceSimd(const char* set) : ForceEnv("MCA_SIMD", set) {}
 };
 
 std::vector<const cpu::Kernels*> kernel_sets() {
@@ -53,11 +72,10 @@ TEST(Simd, EveryInstructionSetAndThreadCountGivesTheStoredHash) {
     }
 }
 
-// Sets MCA_SWEEP for the life of the object.
-class ForceSweep {
+// Sets MCA_SWEEP for the life of the object (then restores what was there).
+class ForceSweep : public ForceEnv {
  public:
-  explicit ForceSweep(const char* how) { setenv("MCA_SWEEP", how, 1); }
-  ~ForceSweep() { unsetenv("MCA_SWEEP"); }
+  explicit ForceSweep(const char* how) : ForceEnv("MCA_SWEEP", how) {}
 };
 
 // The state after `steps` steps of s on 1 and 2 threads, with the lattice's kernels one at a time
@@ -156,20 +174,24 @@ TEST(Simd, TheSweepGivesTheResultsOfOnePassAtATime) {
   expect_same_sweeps(r);
 }
 
-// A sheet of 100 x 50 x 2 automata: its links along z span 5,000 automata, three chunks, so its five
-// chunks make no two regions; forced to sweep on 2 threads it must sweep them on one.
-TEST(Simd, TheSweepOfTooFewChunksForTwoRegions) {
-  SceneDef s = struck_scene("sheet");
-  ObjectDef sheet;
-  sheet.name = "sheet";
-  sheet.size = {5.0, 2.5, 0.1};
-  sheet.position = {0, 0, 0.05};
-  s.objects.push_back(sheet);
-  add_ball(s, "ball", 0.2, {0, 0, 0.303}, {0, 0, -80});
-  const SweepRuns r = sweep_runs(s, 300);
-  EXPECT_EQ(r.automata, 10000u);
-  EXPECT_GT(r.broken, 1000u);
-  expect_same_sweeps(r);
+// Sheets of 100 x 50 automata: their links along z span 5,000 automata, three chunks. Two layers are five
+// chunks, too few for two regions: forced to sweep on 2 threads they sweep on one. Six layers are fifteen
+// chunks, two regions of at least seven, joined across three chunks.
+TEST(Simd, TheSweepOfLinksSpanningSeveralChunks) {
+  for (const int layers : {2, 6}) {
+    SCOPED_TRACE(layers);
+    SceneDef s = struck_scene("sheet");
+    ObjectDef sheet;
+    sheet.name = "sheet";
+    sheet.size = {5.0, 2.5, 0.05 * layers};
+    sheet.position = {0, 0, 0.025 * layers};
+    s.objects.push_back(sheet);
+    add_ball(s, "ball", 0.2, {0, 0, 0.05 * layers + 0.203}, {0, 0, -80});
+    const SweepRuns r = sweep_runs(s, 300);
+    EXPECT_EQ(r.automata, 5000u * layers);
+    EXPECT_GT(r.broken, 1000u);
+    expect_same_sweeps(r);
+  }
 }
 
 TEST(Simd, AnUnknownSweepIsAClearError) {

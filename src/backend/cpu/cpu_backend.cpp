@@ -598,8 +598,9 @@ std::int64_t CpuBackend::lattice_sweep(const cpu::LatticeView& v, std::vector<st
     const auto [b, e] = range(c);
     result[c] = kernels_.automata(v, b, e);
   };
-  // The threads the run allows (--threads), not the processor's count: the regions, and so what a test
-  // exercises, do not depend on the machine (the results do not depend on either).
+  // The threads oneTBB is allowed (mca sets it from --threads, at most the cores; a test may allow more),
+  // not the processor's count: the regions, and so what a test exercises, do not depend on the machine
+  // (the results depend on neither).
   const std::size_t threads = tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
   // About four regions per thread, of at least 2h + 1 chunks each (a head, a tail and one between).
   const std::size_t regions =
