@@ -2,6 +2,8 @@
 // Small scene builders and measurements shared by the physics tests.
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <optional>
 #include <random>
 #include <string>
 
@@ -24,6 +26,25 @@ inline double max_link_strain(const Model& m, const State& s) {
   });
   return worst;
 }
+
+// Sets an environment variable for the life of the object, then restores what was there.
+class ForceEnv {
+ public:
+  ForceEnv(const char* name, const char* value) : name_(name) {
+    if (const char* old = std::getenv(name)) old_ = old;
+    setenv(name, value, 1);
+  }
+  ~ForceEnv() {
+    if (old_) setenv(name_, old_->c_str(), 1);
+    else unsetenv(name_);
+  }
+  ForceEnv(const ForceEnv&) = delete;
+  ForceEnv& operator=(const ForceEnv&) = delete;
+
+ private:
+  const char* name_;
+  std::optional<std::string> old_;
+};
 
 // The message of the mca::Error f throws, or "" when it throws none.
 template <class F>

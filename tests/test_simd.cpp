@@ -4,7 +4,6 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
-#include <optional>
 #include <random>
 #include <string>
 #include <tbb/global_control.h>
@@ -21,27 +20,8 @@
 namespace mca {
 namespace {
 
-// Sets an environment variable for the life of the object, then restores what was there.
-class ForceEnv {
- public:
-  ForceEnv(const char* name, const char* value) : name_(name) {
-    if (const char* old = std::getenv(name)) old_ = old;
-    setenv(name, value, 1);
-  }
-  ~ForceEnv() {
-    if (old_) setenv(name_, old_->c_str(), 1);
-    else unsetenv(name_);
-  }
-  ForceEnv(const ForceEnv&) = delete;
-  ForceEnv& operator=(const ForceEnv&) = delete;
-
- private:
-  const char* name_;
-  std::optional<std::string> old_;
-};
-
 // Sets MCA_SIMD for the life of the object (then restores what was there).
-class ForceSimd : public ForceEnv {
+class ForceSimd : public test::ForceEnv {
  public:
   explicit ForceSimd(const char* set) : ForceEnv("MCA_SIMD", set) {}
 };
@@ -73,7 +53,7 @@ TEST(Simd, EveryInstructionSetAndThreadCountGivesTheStoredHash) {
 }
 
 // Sets MCA_SWEEP for the life of the object (then restores what was there).
-class ForceSweep : public ForceEnv {
+class ForceSweep : public test::ForceEnv {
  public:
   explicit ForceSweep(const char* how) : ForceEnv("MCA_SWEEP", how) {}
 };

@@ -308,10 +308,9 @@ TEST(SurfaceMode, AStruckShellBreaksTheSameOnEveryInstructionSetAndThreadCount) 
   int steps = 0;
   for (int k = 0; k < count; ++k)
     for (int threads : {1, 2}) {
-      setenv("MCA_SIMD", sets[k]->name, 1);
+      const test::ForceEnv simd("MCA_SIMD", sets[k]->name);
       tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
       Engine sim(s);
-      unsetenv("MCA_SIMD");
       if (steps == 0) steps = static_cast<int>(0.004 / sim.model().dt);
       ASSERT_EQ(sim.advance(steps).flags, kHealthy);
       const State& st = sim.state();
