@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <filesystem>
 #include <functional>
-#include <optional>
 #include <chrono>
 #include <iterator>
 #include <fmt/format.h>
@@ -141,12 +140,11 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
       fmt::print(stderr, "{}: skipped: {}\n", c.name, e.what());
       continue;
     }
-    std::optional<Engine> sim;
-    sim.emplace(scene);
-    const Model& m = sim->model();
-    const auto framing = render::objects_box(m, sim->state());
-    const auto cam = render::make_camera(sim->scene().camera, m, framing, float(W) / H, sim->scene().source);
-    sim->advance(c.warmup);
+    Engine sim(scene);
+    const Model& m = sim.model();
+    const auto framing = render::objects_box(m, sim.state());
+    const auto cam = render::make_camera(sim.scene().camera, m, framing, float(W) / H, sim.scene().source);
+    sim.advance(c.warmup);
     render::SnapshotOptions so;
     so.draw = c.draw;
     so.colour = render::ColourMode::fragment;
@@ -156,10 +154,10 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
     const auto secs = [](clock::time_point a, clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };
     for (int f = 0; f < frames + 1; ++f) {  // the first frame warms the caches and the shaders up
       const auto t0 = clock::now();
-      sim->advance(1);
+      sim.advance(1);
       const auto t1 = clock::now();
-      const auto frags = analysis::label_model_fragments(m, sim->state().intact.data());
-      const auto snap = render::make_snapshot(m, sim->state(), frags, so, framing.origin);
+      const auto frags = analysis::label_model_fragments(m, sim.state().intact.data());
+      const auto snap = render::make_snapshot(m, sim.state(), frags, so, framing.origin);
       const auto t2 = clock::now();
       renderer.draw(snap, c.draw, cam, W, H);
       target.read_rgba(pixels);  // waits for the drawing: what a frame of `mca run --render` costs before the PNG

@@ -625,8 +625,7 @@ std::int64_t CpuBackend::lattice_sweep(const cpu::LatticeView& v, std::vector<st
     // Region r: chunks [first(r), first(r + 1)). Boundary r (r >= 1) lies at its start.
     auto first = [&](std::size_t r) { return r * chunks / regions; };
     auto end = [&](std::size_t r) { return first(r + 1); };
-    std::unique_ptr<std::atomic<int>[]> arrived(new std::atomic<int>[regions]);
-    for (std::size_t r = 0; r < regions; ++r) arrived[r].store(0, std::memory_order_relaxed);
+    std::vector<std::atomic<int>> arrived(regions);  // zeros
     // Boundary r: the tail of region r - 1 and the head of region r, by the second to arrive.
     auto arrive = [&](std::size_t r) {
       if (arrived[r].fetch_add(1, std::memory_order_acq_rel) == 0) return;
