@@ -76,7 +76,7 @@ void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis
   }
   if (!vtk_) return;
   const std::size_t n = model_.size();
-  std::vector<float> xyz(3 * n), disp(3 * n), damage(n), seq(n), smean(n);
+  std::vector<float> xyz(3 * n), disp(3 * n), vel(3 * n), spin(3 * n), damage(n), seq(n), smean(n);
   std::vector<std::int32_t> group(n), cls(n), object(n);
   for (std::size_t a = 0; a < n; ++a) {
     const Vec3 p = to_vec3(s.x[a]);
@@ -87,6 +87,13 @@ void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis
     disp[3 * a] = d.x;
     disp[3 * a + 1] = d.y;
     disp[3 * a + 2] = d.z;
+    const Vec3 v = to_vec3(s.v[a]), w = to_vec3(s.w[a]);
+    vel[3 * a] = v.x;
+    vel[3 * a + 1] = v.y;
+    vel[3 * a + 2] = v.z;
+    spin[3 * a] = w.x;
+    spin[3 * a + 1] = w.y;
+    spin[3 * a + 2] = w.z;
     seq[a] = von_mises(s.s[a]);
     smean[a] = mean_stress(s.s[a]);
     group[a] = model_.group[a];
@@ -95,9 +102,9 @@ void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis
   }
   link_damage(model_, s.intact.data(), damage.data());
   std::vector<io::PointField> fields = {
-      {"velocity", 3, reinterpret_cast<const float*>(s.v.data()), nullptr},
+      {"velocity", 3, vel.data(), nullptr},
       {"displacement", 3, disp.data(), nullptr},
-      {"angular_velocity", 3, reinterpret_cast<const float*>(s.w.data()), nullptr},
+      {"angular_velocity", 3, spin.data(), nullptr},
       {"group", 1, nullptr, group.data()},
       {"strength_class", 1, nullptr, cls.data()},
       {"object", 1, nullptr, object.data()},
@@ -126,9 +133,9 @@ void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis
       pxyz[3 * p] = static_cast<float>(ps.position.x);
       pxyz[3 * p + 1] = static_cast<float>(ps.position.y);
       pxyz[3 * p + 2] = static_cast<float>(ps.position.z);
-      pvel[3 * p] = ps.velocity.x;
-      pvel[3 * p + 1] = ps.velocity.y;
-      pvel[3 * p + 2] = ps.velocity.z;
+      pvel[3 * p] = static_cast<float>(ps.velocity.x);
+      pvel[3 * p + 1] = static_cast<float>(ps.velocity.y);
+      pvel[3 * p + 2] = static_cast<float>(ps.velocity.z);
       prad[p] = model_.projectiles[p].radius;
     }
     const std::string pname = fmt::format("frames/projectiles_{:06d}.vtu", frame);

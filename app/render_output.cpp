@@ -123,7 +123,7 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
   // up to the strongest tensile strength (where the stress criterion breaks links of full-strength class).
   if (options.colour == render::ColourMode::speed) {
     for (const auto& p : m.projectiles) scale_max_ = std::max<double>(scale_max_, length(p.velocity));
-    for (const Vec3& v : m.velocity0) scale_max_ = std::max<double>(scale_max_, length(v));
+    for (const DVec3& v : m.velocity0) scale_max_ = std::max<double>(scale_max_, length(v));
     if (scale_max_ <= 0) scale_max_ = 1;
   } else if (options.colour == render::ColourMode::stress) {
     std::vector<std::uint8_t> used(m.groups.size());

@@ -126,10 +126,13 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
   j["broken_links"] = {{"displacement", s.broken_by[0]}, {"stress", s.broken_by[1]},
                        {"total", s.broken_by[0] + s.broken_by[1]}};
   j["intact_links"] = m.link_count() - static_cast<std::size_t>(s.broken_by[0] + s.broken_by[1]);
-  std::vector<Vec3> xf(s.x.size());
-  for (std::size_t a = 0; a < xf.size(); ++a) xf[a] = to_vec3(s.x[a]);
+  std::vector<Vec3> xf(s.x.size()), vf(s.v.size());
+  for (std::size_t a = 0; a < xf.size(); ++a) {
+    xf[a] = to_vec3(s.x[a]);
+    vf[a] = to_vec3(s.v[a]);
+  }
   const auto infos = analysis::describe_fragments(frags, m.mass.data(), reinterpret_cast<const float*>(xf.data()),
-                                                  reinterpret_cast<const float*>(s.v.data()), m.volume.data());
+                                                  reinterpret_cast<const float*>(vf.data()), m.volume.data());
   const Energies e = sim.energies();
   j["energy"] = {{"kinetic", e.kinetic},
                  {"elastic", e.elastic},

@@ -121,7 +121,7 @@ std::unique_ptr<Engine> with_shot(const Engine& sim, const Command& c, int shot)
   scene.projectiles.push_back(p);
   ProjectileState ps;
   ps.position = {c.origin.x, c.origin.y, c.origin.z};
-  ps.velocity = {static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)};
+  ps.velocity = {v.x, v.y, v.z};
   s.projectiles.push_back(ps);
   s.initial_energy += 0.5 * c.ball.mass * c.ball.speed * c.ball.speed;
   return std::make_unique<Engine>(scene, s, "the viewer's shot", std::nullopt, in_flight);

@@ -117,8 +117,8 @@ inline void randomise_velocities(Engine& sim, double v_scale, double w_scale, un
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   for (std::size_t a = 0; a < s.v.size(); ++a) {
-    s.v[a] = Vec3{u(rng), u(rng), u(rng)} * static_cast<float>(v_scale);
-    s.w[a] = Vec3{u(rng), u(rng), u(rng)} * static_cast<float>(w_scale);
+    s.v[a] = to_dvec3(Vec3{u(rng), u(rng), u(rng)} * static_cast<float>(v_scale));
+    s.w[a] = to_dvec3(Vec3{u(rng), u(rng), u(rng)} * static_cast<float>(w_scale));
   }
   sim.backend().upload(std::move(s));
 }

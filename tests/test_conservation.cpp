@@ -121,8 +121,9 @@ TEST_P(EnergyConservation, BlockReleasedFromAnExpansion) {
 }
 
 TEST_P(FullSpectrumEnergy, BlockWithRandomVelocities) {
-  // Every mode excited, up to the highest: the measured energy differs from the conserved one of the
-  // integrator by O((omega dt)^2), 2.8 % at the default C = 0.5 and within 1 % up to C = 0.3.
+  // Every mode excited, up to the highest: with the kinetic energy of velocity Verlet's v_n alone the
+  // measured energy left the conserved one of the integrator by O((omega dt)^2), 2.4-2.95 % at the
+  // default C = 0.5; with the half-step velocities' product (energy.cpp) it is the conserved one.
   const auto [nu, safety] = GetParam();
   SceneDef s = block_scene(8, 8, 8, 0.01, test_material(30e9, nu));
   s.solver.safety = safety;
@@ -145,8 +146,9 @@ INSTANTIATE_TEST_SUITE_P(PoissonAndStep, EnergyConservation,
                                            EnergyCase{0.35, 0.125}, EnergyCase{0.35, 0.25}, EnergyCase{0.35, 0.5}),
                          case_name);
 INSTANTIATE_TEST_SUITE_P(PoissonAndStep, FullSpectrumEnergy,
-                         ::testing::Values(EnergyCase{0.0, 0.125}, EnergyCase{0.0, 0.25}, EnergyCase{0.2, 0.125},
-                                           EnergyCase{0.2, 0.25}, EnergyCase{0.35, 0.125}, EnergyCase{0.35, 0.25}),
+                         ::testing::Values(EnergyCase{0.0, 0.125}, EnergyCase{0.0, 0.25}, EnergyCase{0.0, 0.5},
+                                           EnergyCase{0.2, 0.125}, EnergyCase{0.2, 0.25}, EnergyCase{0.2, 0.5},
+                                           EnergyCase{0.35, 0.125}, EnergyCase{0.35, 0.25}, EnergyCase{0.35, 0.5}),
                          case_name);
 
 // The strengthening law (paper eq. 7) is part of the energy: a block released from an expansion with an
@@ -315,7 +317,7 @@ TEST(Stability, ATimeStepAboveTheCriticalOneIsRefused) {
 TEST(Stability, TheLibraryFlagsEnergyGrowth) {
   Engine sim(block_scene(4, 4, 4, 0.01));
   State st = sim.state();
-  for (auto& v : st.v) v = Vec3{1, 0, 0};  // 1 m/s with a starting energy of zero: nothing put it in
+  for (auto& v : st.v) v = DVec3{1, 0, 0};  // 1 m/s with a starting energy of zero: nothing put it in
   st.initial_energy = 0;
   sim.backend().upload(st);
   StepHealth h;

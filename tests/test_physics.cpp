@@ -227,7 +227,7 @@ TEST(Physics, WaveInABarTravelsAtTheBarSpeed) {
   const double d = 0.01, E = 30e9, rho = 2400;
   Engine sim(block_scene(n, 1, 1, d, test_material(E, 0.2, rho)));
   State s = sim.state();
-  s.v[0] = Vec3{1.0f, 0, 0};  // a kick at the left end (strains of 1e-4: well above float32 noise)
+  s.v[0] = DVec3{1.0, 0, 0};  // a kick at the left end (strains of 1e-4: well above float32 noise)
   sim.backend().upload(s);
   const int st1 = 100, st2 = 300;  // stations (automaton index = cell along x)
   double t1 = -1, t2 = -1, peak1 = 0, peak2 = 0;

@@ -350,6 +350,52 @@ TEST(SurfaceMode, AResumedRunEndsInTheSameState) {
 }
 
 // The paper's cow: 5,804 automata (its triangles) and 8,706 links (its edges).
+// The lattice's link dashpots use the masses of the pair they join: a surface-mode object of the same
+// material elsewhere in the scene (whose automata have masses of their own) leaves a damped block's
+// dynamics as they are, bit for bit, at the same time step.
+TEST(SurfaceMode, AShellElsewhereLeavesALatticeBlocksDashpotsAlone) {
+  TempDir t;
+  test::write_mesh_file(t.path() / "sphere.off", test::sphere_mesh(0.2, 2));
+  SceneDef alone = test::block_scene(6, 6, 6, 0.02);
+  alone.solver.link_damping = 0.5;
+  alone.objects[0].velocity = {0, 0, -1};
+  alone.solver.gravity = {0, 0, 0};
+  SceneDef both = alone;
+  ObjectDef shell = alone.objects[0];
+  shell.name = "shell";
+  shell.shape = Shape::mesh;
+  shell.mesh = (t.path() / "sphere.off").string();
+  shell.fill = MeshFill::surface;
+  shell.shell_thickness = 0.002;  // light automata: a mass unlike the block's
+  shell.position = {5, 0, 0};
+  shell.velocity = {0, 0, 0};
+  both.objects.push_back(shell);
+  // One time step for both (the shell's own bound is smaller).
+  const double dt = std::min(Engine(alone).model().dt, Engine(both).model().dt);
+  alone.solver.time_step = both.solver.time_step = dt;
+  Engine a(alone), b(both);
+  const std::size_t n = a.model().size();
+  ASSERT_GT(b.model().size(), n);
+  test::randomise_velocities(a, 0.1, 5.0, 3);
+  {
+    State s = b.state();
+    for (std::size_t k = 0; k < n; ++k) {
+      s.v[k] = a.state().v[k];
+      s.w[k] = a.state().w[k];
+    }
+    b.backend().upload(std::move(s));
+  }
+  a.advance(500);
+  b.advance(500);
+  double ka = 0, kb = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    ka += 0.5 * a.model().mass[k] * dot(a.state().v[k], a.state().v[k]);
+    kb += 0.5 * b.model().mass[k] * dot(b.state().v[k], b.state().v[k]);
+    ASSERT_EQ(a.state().x[k].z, b.state().x[k].z) << "automaton " << k;
+  }
+  EXPECT_EQ(ka, kb);
+}
+
 TEST(PaperModels, TheCowInSurfaceModeHasThePapersCount) {
   const fs::path file = fs::path(MCA_SOURCE_DIR) / "scenes" / "cow.toml";
   const test::Result r = test::run_mca("info --json " + file.string());

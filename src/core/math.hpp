@@ -2,7 +2,7 @@
 #define MCA_CORE_MATH_HPP
 // Small vector, quaternion and symmetric-tensor types used by every backend. Functions are MCA_HD so
 // the CUDA backend can call the same code (paper sec. 5.3); arithmetic is float32 on all backends, but
-// for positions and the differences of positions (double).
+// for positions, velocities and angular velocities and their differences (double).
 //
 // The formulas are written once for a number type T: float (the CPU's scalar code and a GPU thread) or a
 // SIMD vector of floats, one lane per link or automaton (src/backend/cpu/lanes.hpp adds the vector forms
@@ -71,6 +71,7 @@ MCA_HD Vec3T<T> cross(const Vec3T<T>& a, const Vec3T<T>& b) {
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
 MCA_HD float length(Vec3 a) { return std::sqrt(dot(a, a)); }
+MCA_HD double length(DVec3 a) { return std::sqrt(dot(a, a)); }
 // Per component: m ? a : b.
 template <class M, class T>
 MCA_HD Vec3T<T> select(const M& m, const Vec3T<T>& a, const Vec3T<T>& b) {
@@ -79,13 +80,18 @@ MCA_HD Vec3T<T> select(const M& m, const Vec3T<T>& a, const Vec3T<T>& b) {
 
 MCA_HD DVec3 to_dvec3(Vec3 a) { return {a.x, a.y, a.z}; }
 MCA_HD Vec3 to_vec3(DVec3 a) { return {static_cast<float>(a.x), static_cast<float>(a.y), static_cast<float>(a.z)}; }
+// A double vector (or one of double lanes) rounded to float (float lanes), component by component.
+template <class D>
+MCA_HD auto rounded(const Vec3T<D>& a) {
+  using T = decltype(to_float(D{}));
+  return Vec3T<T>{to_float(a.x), to_float(a.y), to_float(a.z)};
+}
 // b - a in double.
 template <class D>
 MCA_HD Vec3T<D> ddelta(const Vec3T<D>& a, const Vec3T<D>& b) { return {b.x - a.x, b.y - a.y, b.z - a.z}; }
-// b - a, rounded to float.
-MCA_HD Vec3 delta(DVec3 a, DVec3 b) {
-  return {static_cast<float>(b.x - a.x), static_cast<float>(b.y - a.y), static_cast<float>(b.z - a.z)};
-}
+// b - a, formed in double and rounded to float.
+template <class D>
+MCA_HD auto delta(const Vec3T<D>& a, const Vec3T<D>& b) { return rounded(ddelta(a, b)); }
 // A double position moved by a float displacement (each component converted, then added).
 template <class D, class T>
 MCA_HD Vec3T<D>& operator+=(Vec3T<D>& a, const Vec3T<T>& b) requires(!std::is_same_v<D, T>) {

@@ -47,7 +47,7 @@ struct ProjectileParams {
   std::vector<float> zeta_automata;
   float zeta_ground = 0;
   DVec3 position;
-  Vec3 velocity, angular_velocity;
+  DVec3 velocity, angular_velocity;
 };
 
 // What a mesh object was built from (mca info reports it).
@@ -88,7 +88,7 @@ struct Model {
   // Initial centres, double like the state's positions: rest lengths and initial strains are formed
   // from them (a float32 centre 1 km from the origin is off by 3e-5 m, a strain of 6e-4 on a 5 cm link).
   std::vector<DVec3> position0;
-  std::vector<Vec3> velocity0;    // initial velocities
+  std::vector<DVec3> velocity0;   // initial velocities
   std::vector<float> mass, radius, inertia, volume;
   std::vector<std::uint8_t> group;         // index into groups
   std::vector<std::uint8_t> strength_class;  // 1..4
@@ -140,7 +140,7 @@ struct Model {
   std::vector<MeshSummary> meshes;  // one per object of shape mesh
   BoundSurface surface;             // the triangles of the mesh objects, bound to automata
   std::vector<ProjectileParams> projectiles;
-  std::vector<Vec3> grip_velocity;
+  std::vector<DVec3> grip_velocity;
   std::vector<std::string> grip_names;
   bool ground = false;
   float ground_height = 0;
@@ -155,6 +155,10 @@ struct Model {
   double total_mass = 0;
 
   std::size_t size() const { return mass.size(); }
+  // The mass of a lattice automaton of group g, a cube of side d: every automaton of a lattice fill of
+  // that group has it (surface-mode automata have their own), so the lattice links' constants, set per
+  // pair of groups, use the masses of the pair they join.
+  float lattice_mass(std::size_t g) const { return groups[g].density * spacing * spacing * spacing; }
   const ContactMaterial& contact_material(std::size_t a, std::size_t b) const { return contact[a * groups.size() + b]; }
   // The contacts of projectile p with automata of group g, with the ground, with projectile q: the
   // materials' pair values, but the projectile's own rolling and twisting resistance (a sphere rolls; the

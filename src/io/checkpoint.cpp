@@ -18,13 +18,14 @@
 namespace mca::io {
 namespace {
 
-// Format 5: magic, scene TOML, model fingerprint, frame, total steps, wall seconds, the state (fields(State)
+// Format 6: magic, scene TOML, model fingerprint, frame, total steps, wall seconds, the state (fields(State)
 // below), an FNV-1a checksum of all the bytes before it, magic again as an end marker. Numbers are in the
-// writing machine's byte order: a checkpoint is for resuming a run where it was written. Format 4 had no
+// writing machine's byte order: a checkpoint is for resuming a run where it was written. Format 5 had
+// float32 velocities and angular velocities (automata and projectiles), format 4 had no
 // bending moments of explicit links (surface mode), format 3 stored
 // the links one per pair (now: three slots per automaton, core/model.hpp), format 2 had no checksum (a
 // flipped byte in the state was resumed from), format 1 wrote structs with their padding.
-constexpr char kMagic[8] = {'M', 'C', 'A', 'C', 'K', 'P', 'T', '5'};
+constexpr char kMagic[8] = {'M', 'C', 'A', 'C', 'K', 'P', 'T', '6'};
 constexpr char kMagicPrefix[7] = {'M', 'C', 'A', 'C', 'K', 'P', 'T'};
 
 template <class T, class U>

@@ -647,7 +647,7 @@ void add_surface_object(Model& M, const SceneDef& scene, const MeshObject& mo, c
     const float mass = as_float32(scene, fmt::format("the mass of the automaton of triangle {} of object '{}'", sc.face[k], o.name),
                                   M.groups[g].density * volume, fix);
     M.position0.push_back(to_dvec3(wp));
-    M.velocity0.push_back(to_vec3(o.velocity));
+    M.velocity0.push_back(to_dvec3(o.velocity));
     M.mass.push_back(mass);
     M.radius.push_back(0.0f);  // set below from its links
     M.inertia.push_back(0.0f);
@@ -1012,9 +1012,9 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
           for (std::size_t rr = 0; rr < o.regions.size(); ++rr)
             if (o.regions[rr].shape == Shape::mesh ? L.regions[rr][c] != 0 : inside_region(o.regions[rr], wp))
               g = region_groups[rr];
-          const float mass = M.groups[g].density * fd * fd * fd;
+          const float mass = M.lattice_mass(static_cast<std::size_t>(g));
           M.position0.push_back(to_dvec3(wp));
-          M.velocity0.push_back(to_vec3(o.velocity));
+          M.velocity0.push_back(to_dvec3(o.velocity));
           M.mass.push_back(mass);
           M.radius.push_back(0.5f * fd);
           M.inertia.push_back(mass * fd * fd / 6.0f);  // cube of side d about a central axis
@@ -1076,7 +1076,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
     const GripDef& gd = scene.grips[g];
     if (g >= 32767) throw Error(fmt::format("{}: more than 32767 grips; merge grips that move alike", scene.source));
     M.grip_names.push_back(gd.name);
-    M.grip_velocity.push_back(to_vec3(gd.velocity));
+    M.grip_velocity.push_back(to_dvec3(gd.velocity));
     std::size_t held = 0;
     for (std::size_t a = 0; a < n; ++a) {
       if (M.grip[a] < 0 && inside_box(M.position0[a], gd.min, gd.max)) {
@@ -1128,8 +1128,8 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
     pp.rolling = static_cast<float>(pd.rolling_friction);
     pp.twisting = static_cast<float>(pd.twisting_friction);
     pp.position = to_dvec3(pd.position);
-    pp.velocity = to_vec3(pd.velocity);
-    pp.angular_velocity = to_vec3(pd.angular_velocity);
+    pp.velocity = to_dvec3(pd.velocity);
+    pp.angular_velocity = to_dvec3(pd.angular_velocity);
     for (std::size_t a = 0; a < n && p >= placed; ++a) {
       const DVec3 dd = ddelta(pp.position, M.position0[a]);
       const double reach = pd.radius + M.radius[a];

@@ -174,6 +174,18 @@ MCA_HD float ground_overlap(DVec3 x, Vec3 up, float h, float r) {
   return static_cast<float>(static_cast<double>(r) - (x.x * up.x + x.y * up.y + x.z * up.z - h));
 }
 
+// The velocity of body j's contact point relative to body i's, from their velocities v, angular
+// velocities w and the arms r from each centre to the contact point: the velocities' difference is
+// formed in double and rounded (a fast pair's relative velocity keeps its digits), the spins' parts in
+// float. Also the angular velocity of j relative to i. A missing body (the ground) is zero.
+struct RelativeMotion {
+  Vec3 v, w;
+};
+MCA_HD RelativeMotion relative_motion(const DVec3& vi, const DVec3& wi, const Vec3& ri, const DVec3& vj, const DVec3& wj,
+                                      const Vec3& rj) {
+  return {delta(vi, vj) + (cross(to_vec3(wj), rj) - cross(to_vec3(wi), ri)), delta(wi, wj)};
+}
+
 struct ContactInput {
   Vec3 n;          // unit normal from i to j (for a body: from the automaton to the body)
   float overlap;   // r_i + r_j - distance, > 0 when touching

@@ -295,7 +295,8 @@ struct LinkInputT {
   T kt_slope;               // d kt / dr [N/m^2] under strengthening (0 without): the normal force the
                             // strain dependence of kt adds, so the pair keeps its energy
   T damp_normal, damp_tangential;  // viscous coefficients [N s/m] of the relative motion (LinkDashpots)
-  Vec3T<T> vi, vj, wi, wj;
+  Vec3T<T> dv;              // v_j - v_i, formed in double and rounded (delta)
+  Vec3T<T> wi, wj;          // the ends' angular velocities, rounded to float
   Vec3T<T> ut;              // tangential displacement of the previous step
   float dt;
 };
@@ -313,7 +314,7 @@ MCA_HD LinkOutputT<T> link_force(const LinkInputT<T>& in) {
   const Vec3T<T> n = in.g.n;
   LinkOutputT<T> out;
   // Relative velocity of j's contact point with respect to i's (paper eq. 10).
-  const Vec3T<T> vrel = (in.vj - in.vi) - (0.5f * in.g.r) * cross(in.wi + in.wj, n);
+  const Vec3T<T> vrel = in.dv - (0.5f * in.g.r) * cross(in.wi + in.wj, n);
   const T vn = dot(vrel, n);
   const Vec3T<T> vs = vrel - vn * n;
   // The stored displacement turns with the pair: its normal part is dropped (a second-order loss of

@@ -210,7 +210,7 @@ Snapshot make_snapshot(const Model& model, const State& state, const analysis::F
       std::vector<float> v(n);
       float largest = 0;
       for (std::size_t a = 0; a < n; ++a) {
-        v[a] = stress ? von_mises(state.s[a]) : length(state.v[a]);
+        v[a] = stress ? von_mises(state.s[a]) : static_cast<float>(length(state.v[a]));
         if (std::isfinite(v[a])) largest = std::max(largest, v[a]);
       }
       const double top = o.scale_max > 0 ? o.scale_max : std::max<double>(largest, stress ? 1e3 : 1e-3);

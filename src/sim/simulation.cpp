@@ -40,7 +40,8 @@ Frame Simulation::frame() const {
   for (std::size_t a = 0; a < n; ++a) {
     const Vec3 p = to_vec3(s.x[a]);
     f.position[a] = {p.x, p.y, p.z};
-    f.velocity[a] = {s.v[a].x, s.v[a].y, s.v[a].z};
+    const Vec3 v = to_vec3(s.v[a]);
+    f.velocity[a] = {v.x, v.y, v.z};
     f.orientation[a] = {s.q[a].w, s.q[a].x, s.q[a].y, s.q[a].z};
   }
   link_damage(m, s.intact.data(), f.damage.data());

@@ -120,7 +120,6 @@ class PassTimer {
   std::chrono::steady_clock::time_point last_;
 };
 
-bool finite(Vec3 a) { return std::isfinite(a.x + a.y + a.z); }
 bool finite(DVec3 a) { return std::isfinite(a.x + a.y + a.z); }
 
 bool pair_less(const ContactPair& a, const ContactPair& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; }
@@ -147,13 +146,11 @@ class CpuBackend final : public Backend {
       compressive_[a] = k * g.compressive_strength;
       break_strain_[a] = k * g.fracture_strain;
     }
-    // Per pair of groups: the link constants (every link has length d and area d^2; masses are the
-    // groups' densities times d^3).
+    // Per pair of groups: the link constants (every lattice link has length d and area d^2 and joins two
+    // automata of mass Model::lattice_mass).
     const float r0 = m.spacing, area = r0 * r0;
     pairs_.resize(G * G);
     free_factor_.resize(G);
-    std::vector<float> group_mass(G, 0.0f);
-    for (std::size_t a = 0; a < n; ++a) group_mass[m.group[a]] = m.mass[a];
     for (std::size_t g = 0; g < G; ++g) {
       free_axis_factors(m.groups[g].lame_lambda, m.groups[g].shear_modulus, free_factor_[g].data());
       strengthening_ = strengthening_ || m.groups[g].strengthening.law != 0;
@@ -163,7 +160,7 @@ class CpuBackend final : public Backend {
         p.G = harmonic(gi.shear_modulus, gj.shear_modulus);
         p.kt = kShearFactor * p.G * area / r0;
         const float k = link_normal_stiffness(p.G, gi.lame_lambda, gj.lame_lambda, area, r0);
-        p.damping = link_dashpots(k, group_mass[g], group_mass[h], 0.5f * (gi.damping_time + gj.damping_time),
+        p.damping = link_dashpots(k, m.lattice_mass(g), m.lattice_mass(h), 0.5f * (gi.damping_time + gj.damping_time),
                                   m.link_damping);
       }
     }
@@ -230,9 +227,9 @@ class CpuBackend final : public Backend {
     }
     one_group_ = n > 0 && std::all_of(m.group.begin(), m.group.end(), [&](std::uint8_t g) { return g == m.group[0]; });
     // State and scratch arrays.
-    for (auto* v : {&px_, &py_, &pz_}) v->resize(n);
+    for (auto* v : {&px_, &py_, &pz_, &vx_, &vy_, &vz_, &wx_, &wy_, &wz_}) v->resize(n);
     ref_.resize(cpu::tiled_size(n, cpu::kRefRows));
-    for (auto* v : {&vx_, &vy_, &vz_, &wx_, &wy_, &wz_, &qw_, &qx_, &qy_, &qz_}) v->resize(n);
+    for (auto* v : {&qw_, &qx_, &qy_, &qz_}) v->resize(n);
     for (auto* v : {&utx_, &uty_, &utz_}) v->resize(L);
     for (auto* v : {&nx_, &ny_, &nz_, &many_body_}) v->resize(3 * cpu::scratch_stride(n));
     out_.resize(3 * cpu::tiled_size(n, cpu::kOutRows));
@@ -343,8 +340,8 @@ class CpuBackend final : public Backend {
   static constexpr std::int64_t kAllFinite = -1;
 
   DVec3 pos(std::size_t a) const { return {px_[a], py_[a], pz_[a]}; }
-  Vec3 vel(std::size_t a) const { return {vx_[a], vy_[a], vz_[a]}; }
-  Vec3 ang(std::size_t a) const { return {wx_[a], wy_[a], wz_[a]}; }
+  DVec3 vel(std::size_t a) const { return {vx_[a], vy_[a], vz_[a]}; }
+  DVec3 ang(std::size_t a) const { return {wx_[a], wy_[a], wz_[a]}; }
   // State::x from the arrays here (the contact grid reads it).
   void sync_positions() const {
     for (std::size_t a = 0; a < M_.size(); ++a) S_.x[a] = pos(a);
@@ -421,7 +418,8 @@ class CpuBackend final : public Backend {
   // Automata (structure of arrays).
   cpu::LineArray<double> px_, py_, pz_;
   cpu::LineArray<double> ref_;  // positions at the last contact rebuild (State::x_at_rebuild), tiled
-  cpu::LineArray<float> vx_, vy_, vz_, wx_, wy_, wz_, qw_, qx_, qy_, qz_;
+  cpu::LineArray<double> vx_, vy_, vz_, wx_, wy_, wz_;
+  cpu::LineArray<float> qw_, qx_, qy_, qz_;
   cpu::LineArray<float> inv_mass_, inv_inertia_, inv_volume_, tensile_, compressive_, break_strain_;
   std::vector<std::uint8_t> intact_count_;  // intact links per automaton (6: boxed in, see rebuild)
   // Link slots (structure of arrays): shear displacement (state), then scratch rebuilt every step.
@@ -826,8 +824,9 @@ void CpuBackend::contact_pass() {
     ContactInput in;
     in.n = n;
     in.overlap = gap.overlap;
-    in.vrel = (vel(j) + cross(ang(j), -rj * n)) - (vel(i) + cross(ang(i), ri * n));
-    in.wrel = ang(j) - ang(i);
+    const RelativeMotion rm = relative_motion(vel(i), ang(i), ri * n, vel(j), ang(j), -rj * n);
+    in.vrel = rm.v;
+    in.wrel = rm.w;
     in.s = uniform_bodies_ ? pair_springs_[M_.group[i] * M_.groups.size() + M_.group[j]] : pair_springs(i, j);
     in.ut = cp.h.ut;
     in.mr = cp.h.mr;
@@ -864,8 +863,9 @@ void CpuBackend::ground_pass() {
     ContactInput in;
     in.n = nrm;
     in.overlap = overlap;
-    in.vrel = -(vel(a) + cross(ang(a), r * nrm));
-    in.wrel = -ang(a);
+    const RelativeMotion rm = relative_motion(vel(a), ang(a), r * nrm, {}, {}, {});
+    in.vrel = rm.v;
+    in.wrel = rm.w;
     in.s = uniform_bodies_ ? ground_springs_[M_.group[a]] : ground_springs(a);
     in.ut = bc.h.ut;
     in.mr = bc.h.mr;
@@ -927,8 +927,10 @@ std::int64_t CpuBackend::projectile_pass() {
         ContactInput in;
         in.n = nrm;
         in.overlap = gap.overlap;
-        in.vrel = (ps.velocity + cross(ps.angular_velocity, -P.radius * nrm)) - (vel(a) + cross(ang(a), ra * nrm));
-        in.wrel = ps.angular_velocity - ang(a);
+        const RelativeMotion rm =
+            relative_motion(vel(a), ang(a), ra * nrm, ps.velocity, ps.angular_velocity, -P.radius * nrm);
+        in.vrel = rm.v;
+        in.wrel = rm.w;
         in.s = body_contact_springs(M_.projectile_contact(p, M_.group[a]), P.zeta_automata[M_.group[a]], ra, P.radius,
                           P.kinematic ? M_.mass[a] : reduced(M_.mass[a], P.mass),
                           P.kinematic ? M_.inertia[a] : reduced(M_.inertia[a], P.inertia));
@@ -949,8 +951,9 @@ std::int64_t CpuBackend::projectile_pass() {
       ContactInput in;
       in.n = nrm;
       in.overlap = ground_overlap(c, M_.up, M_.ground_height, P.radius);
-      in.vrel = -(ps.velocity + cross(ps.angular_velocity, P.radius * nrm));
-      in.wrel = -ps.angular_velocity;
+      const RelativeMotion rm = relative_motion(ps.velocity, ps.angular_velocity, P.radius * nrm, {}, {}, {});
+      in.vrel = rm.v;
+      in.wrel = rm.w;
       in.s = body_contact_springs(M_.projectile_ground_contact(p), P.zeta_ground, P.radius, INFINITY, P.mass, P.inertia);
       in.ut = ps.ground.ut;
       in.mr = ps.ground.mr;
@@ -984,8 +987,10 @@ std::int64_t CpuBackend::projectile_pass() {
       ContactInput in;
       in.n = nrm;
       in.overlap = gap.overlap;
-      in.vrel = (b.velocity + cross(b.angular_velocity, -B.radius * nrm)) - (a.velocity + cross(a.angular_velocity, A.radius * nrm));
-      in.wrel = b.angular_velocity - a.angular_velocity;
+      const RelativeMotion rm =
+          relative_motion(a.velocity, a.angular_velocity, A.radius * nrm, b.velocity, b.angular_velocity, -B.radius * nrm);
+      in.vrel = rm.v;
+      in.wrel = rm.w;
       in.s = body_contact_springs(M_.projectile_pair_contact(p, q), M_.zeta_projectiles[p * np + q], A.radius, B.radius, m_eff, j_eff);
       in.ut = prev.ut;
       in.mr = prev.mr;
@@ -1004,13 +1009,13 @@ std::int64_t CpuBackend::projectile_pass() {
     ps.force = fsum[p];
     if (P.kinematic) {
       // Power the projectile puts in: minus that of the forces on it at its own velocities.
-      ps.work -= (static_cast<double>(dot(fsum[p], ps.velocity)) + dot(tsum[p], ps.angular_velocity)) * dt;
+      ps.work -= (dot(to_dvec3(fsum[p]), ps.velocity) + dot(to_dvec3(tsum[p]), ps.angular_velocity)) * dt;
     } else {
       ps.velocity += (fsum[p] * (1.0f / P.mass) + M_.gravity) * dt;
       ps.angular_velocity += tsum[p] * (dt / P.inertia);
-      ps.orientation = integrate_orientation(ps.orientation, ps.angular_velocity, dt);
+      ps.orientation = integrate_orientation(ps.orientation, to_vec3(ps.angular_velocity), dt);
     }
-    ps.position += ps.velocity * dt;
+    ps.position += ps.velocity * static_cast<double>(dt);
     if (!finite(ps.position) || !finite(ps.velocity) || !finite(ps.angular_velocity))
       return -2 - static_cast<std::int64_t>(p);
   }
@@ -1027,7 +1032,7 @@ void CpuBackend::grip_pass() {
       ext_f_[a] = Vec3{};
     }
     S_.grip_force[g] = f;
-    S_.grip_work[g] += static_cast<double>(dot(f, M_.grip_velocity[g])) * M_.dt;
+    S_.grip_work[g] += dot(to_dvec3(f), M_.grip_velocity[g]) * M_.dt;
   }
 }
 
@@ -1129,7 +1134,7 @@ State initial_state(const Model& m) {
   const std::size_t n = m.size(), L = m.link_slots();
   s.x = m.position0;
   s.v = m.velocity0;
-  s.w.assign(n, Vec3{});
+  s.w.assign(n, DVec3{});
   s.q.assign(n, Quat{});
   s.s.assign(n, Sym3{});
   s.mean_stress.assign(n, 0.0f);

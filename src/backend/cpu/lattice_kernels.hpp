@@ -64,7 +64,7 @@ struct LatticeView {
   bool uniform_bodies = false;
   float body[4] = {};
   const std::int16_t* grip = nullptr;  // null: no grips
-  const Vec3* grip_velocity = nullptr;
+  const DVec3* grip_velocity = nullptr;
   const Vec3* load = nullptr;  // null: no loads
   const GroupParams* groups = nullptr;
   const float (*free_factor)[4] = nullptr;  // per group (free_axis_factors)
@@ -77,7 +77,7 @@ struct LatticeView {
   bool last = false;  // the last step of a call: write the averaged stress and the applied forces
   // State, by automaton (structure of arrays).
   double *px = nullptr, *py = nullptr, *pz = nullptr;
-  float *vx = nullptr, *vy = nullptr, *vz = nullptr, *wx = nullptr, *wy = nullptr, *wz = nullptr;
+  double *vx = nullptr, *vy = nullptr, *vz = nullptr, *wx = nullptr, *wy = nullptr, *wz = nullptr;
   float *qw = nullptr, *qx = nullptr, *qy = nullptr, *qz = nullptr;
   float* mean_stress = nullptr;
   Sym3* stress = nullptr;            // State::s (last step)

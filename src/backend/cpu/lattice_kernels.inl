@@ -65,16 +65,24 @@ struct Block {
   static MCA_LANE X bytes_at(const std::uint8_t* p, const Far& f) {
     return f.run ? L::load_bytes(p + f.j0) : L::gather_bytes(p, f.j);
   }
-  static MCA_LANE Vec3T<X> load3(const float* x, const float* y, const float* z, std::size_t a) {
-    return {L::load(x + a), L::load(y + a), L::load(z + a)};
+  // Three arrays (x, y, z) of floats or doubles at the lanes' own elements, or at their far ends.
+  template <class T>
+  static MCA_LANE auto load3(const T* x, const T* y, const T* z, std::size_t a) {
+    return Vec3T<decltype(L::load(x))>{L::load(x + a), L::load(y + a), L::load(z + a)};
   }
-  static MCA_LANE void store3(const Vec3T<X>& v, float* x, float* y, float* z, std::size_t a) {
+  template <class T, class Y>
+  static MCA_LANE void store3(const Vec3T<Y>& v, T* x, T* y, T* z, std::size_t a) {
     L::store(v.x, x + a);
     L::store(v.y, y + a);
     L::store(v.z, z + a);
   }
-  static MCA_LANE Vec3T<X> soa_far3(const float* x, const float* y, const float* z, const Far& f) {
-    return {at(x, f), at(y, f), at(z, f)};
+  template <class T>
+  static MCA_LANE auto soa_far3(const T* x, const T* y, const T* z, const Far& f) {
+    return Vec3T<decltype(at(x, f))>{at(x, f), at(y, f), at(z, f)};
+  }
+  template <class T>
+  static MCA_LANE auto gather3(const T* x, const T* y, const T* z, const U& i) {
+    return Vec3T<decltype(L::gather(x, i))>{L::gather(x, i), L::gather(y, i), L::gather(z, i)};
   }
   // Per lane from an array of structs.
   static MCA_LANE Vec3T<X> lanes_of(const Vec3* p, std::size_t a0) {
@@ -248,10 +256,9 @@ struct Block {
     in.kt_slope = kt_slope;
     in.damp_normal = pair_value(v, a0, f, nullptr, &LinkDashpots::normal);
     in.damp_tangential = pair_value(v, a0, f, nullptr, &LinkDashpots::tangential);
-    in.vi = load3(v.vx, v.vy, v.vz, a0);
-    in.vj = soa_far3(v.vx, v.vy, v.vz, f);
-    in.wi = load3(v.wx, v.wy, v.wz, a0);
-    in.wj = soa_far3(v.wx, v.wy, v.wz, f);
+    in.dv = delta(load3(v.vx, v.vy, v.vz, a0), soa_far3(v.vx, v.vy, v.vz, f));
+    in.wi = rounded(load3(v.wx, v.wy, v.wz, a0));
+    in.wj = rounded(soa_far3(v.wx, v.wy, v.wz, f));
     in.ut = load3(v.utx, v.uty, v.utz, l0);
     in.dt = v.dt;
     const LinkOutputT<X> o = link_force(in);
@@ -336,10 +343,9 @@ struct Block {
     in.kt_slope = kt_slope;
     in.damp_normal = L::load(e.damp_normal + k0);
     in.damp_tangential = L::load(e.damp_tangential + k0);
-    in.vi = {L::gather(v.vx, i), L::gather(v.vy, i), L::gather(v.vz, i)};
-    in.vj = {L::gather(v.vx, j), L::gather(v.vy, j), L::gather(v.vz, j)};
-    in.wi = {L::gather(v.wx, i), L::gather(v.wy, i), L::gather(v.wz, i)};
-    in.wj = {L::gather(v.wx, j), L::gather(v.wy, j), L::gather(v.wz, j)};
+    in.dv = delta(gather3(v.vx, v.vy, v.vz, i), gather3(v.vx, v.vy, v.vz, j));
+    in.wi = rounded(gather3(v.wx, v.wy, v.wz, i));
+    in.wj = rounded(gather3(v.wx, v.wy, v.wz, j));
     in.ut = load3(v.utx, v.uty, v.utz, l0);
     in.dt = v.dt;
     const LinkOutputT<X> o = link_force(in);
@@ -474,19 +480,21 @@ struct Block {
     const X grip = v.grip ? L::from([&](std::size_t k) { return static_cast<float>(v.grip[a0 + k]); }) : X(-1.0f);
     const auto held = grip >= 0.0f;
     if (v.grip && L::any(held)) {
-      auto velocity = [&](int c) {
-        return L::from([&](std::size_t k) {
-          const int g = v.grip[a0 + k];
-          const Vec3 gv = g >= 0 ? v.grip_velocity[g] : Vec3{};
-          return c == 0 ? gv.x : (c == 1 ? gv.y : gv.z);
-        });
-      };
-      const Vec3T<X> gv{velocity(0), velocity(1), velocity(2)};
+      // The grips' velocities, lane by lane through memory (0 for the lanes not held).
+      alignas(64) double gvx[W], gvy[W], gvz[W];
+      for (std::size_t k = 0; k < W; ++k) {
+        const int g = v.grip[a0 + k];
+        const DVec3 gv = g >= 0 ? v.grip_velocity[g] : DVec3{};
+        gvx[k] = gv.x;
+        gvy[k] = gv.y;
+        gvz[k] = gv.z;
+      }
+      const Vec3T<D> gv = load3(gvx, gvy, gvz, 0);
       Vec3T<D> x = start.x;
-      x += gv * v.dt;
+      x += gv * static_cast<double>(v.dt);
       body.x = select(held, x, body.x);
       body.v = select(held, gv, body.v);
-      body.w = select(held, Vec3T<X>{}, body.w);
+      body.w = select(held, Vec3T<D>{}, body.w);
       body.q = {select(held, start.q.w, body.q.w), select(held, start.q.x, body.q.x), select(held, start.q.y, body.q.y),
                 select(held, start.q.z, body.q.z)};
       f = select(held, f_raw, f);
@@ -510,8 +518,8 @@ struct Block {
     L::store(body.q.z, v.qz + a0);
     // x - x is 0 for a finite x and NaN for inf or NaN; inf or NaN in any component spreads to the sums.
     const D place = body.x.x + body.x.y + body.x.z;
-    const X motion = body.v.x + body.v.y + body.v.z + body.w.x + body.w.y + body.w.z;
-    if (r.first_bad < 0 && !(L::all(place - place == 0.0) && L::all(motion - motion == 0.0f)))
+    const D motion = body.v.x + body.v.y + body.v.z + body.w.x + body.w.y + body.w.z;
+    if (r.first_bad < 0 && !(L::all(place - place == 0.0) && L::all(motion - motion == 0.0)))
       for (std::size_t k = 0; k < W && r.first_bad < 0; ++k)
         if (!(std::isfinite(L::lane(body.x.x, k) + L::lane(body.x.y, k) + L::lane(body.x.z, k)) &&
               std::isfinite(L::lane(motion, k))))

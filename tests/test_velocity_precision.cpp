@@ -1,0 +1,92 @@
+// Velocities keep small forces (issue: float32 velocities rounded g dt away at speed). A free body under
+// gravity gains g t in every mode and at every speed, however small g dt is against its velocity.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "lattice/lattice.hpp"
+#include "mesh_fixtures.hpp"
+#include "sim/engine.hpp"
+#include "support.hpp"
+#include "temp_dir.hpp"
+
+namespace mca {
+namespace {
+
+constexpr double kG = 9.81;
+
+// The mass-weighted mean z velocity of the automata.
+double mean_vz(const Model& m, const State& s) {
+  double p = 0, mass = 0;
+  for (std::size_t a = 0; a < m.size(); ++a) {
+    p += static_cast<double>(m.mass[a]) * s.v[a].z;
+    mass += m.mass[a];
+  }
+  return p / mass;
+}
+
+// Runs `steps` steps and returns the gain of the mean z velocity against g t (1 is exact).
+double gain_over_gt(Engine& sim, std::int64_t steps) {
+  const double v0 = mean_vz(sim.model(), sim.state());
+  while (sim.state().step < steps) sim.advance(static_cast<int>(std::min<std::int64_t>(steps - sim.state().step, 1000)));
+  const double t = sim.state().time;
+  return (v0 - mean_vz(sim.model(), sim.state())) / (kG * t);
+}
+
+// A 0.1 m box (spacing 0.01 m, 1,000 automata), no ground, falling at `speed` for 4 ms.
+TEST(VelocityPrecision, AFallingBoxGainsGTAtEverySpeed) {
+  for (double speed : {0.0, 10.0, 30.0, 60.0, 100.0, 300.0}) {
+    SceneDef s = test::block_scene(10, 10, 10, 0.01);
+    s.solver.gravity = {0, 0, -kG};
+    s.objects[0].velocity = {0, 0, -speed};
+    Engine sim(s);
+    const auto steps = static_cast<std::int64_t>(std::llround(4e-3 / sim.model().dt));
+    const double r = gain_over_gt(sim, steps);
+    EXPECT_NEAR(r, 1.0, 1e-3) << "at " << speed << " m/s (dt " << sim.model().dt << " s)";
+  }
+}
+
+// The same for a surface-mode shell (one automaton per triangle, explicit links and bending springs).
+TEST(VelocityPrecision, AFallingShellGainsGTAtEverySpeed) {
+  test::TempDir t;
+  test::write_mesh_file(t.path() / "sphere.off", test::sphere_mesh(0.2, 2));
+  for (double speed : {0.0, 40.0, 70.0, 150.0}) {
+    SceneDef s = test::block_scene(1, 1, 1, 0.05);
+    s.objects[0].shape = Shape::mesh;
+    s.objects[0].mesh = (t.path() / "sphere.off").string();
+    s.objects[0].fill = MeshFill::surface;
+    s.objects[0].shell_thickness = 0.01;
+    s.solver.gravity = {0, 0, -kG};
+    s.objects[0].velocity = {0, 0, -speed};
+    Engine sim(s);
+    const auto steps = static_cast<std::int64_t>(std::llround(4e-3 / sim.model().dt));
+    const double r = gain_over_gt(sim, steps);
+    EXPECT_NEAR(r, 1.0, 1e-3) << "at " << speed << " m/s (dt " << sim.model().dt << " s)";
+  }
+}
+
+// A dynamic projectile far from everything gains g t too, and its spin, with no torque on it, stays put.
+TEST(VelocityPrecision, AFallingBallGainsGT) {
+  for (double speed : {0.0, 100.0, 500.0}) {
+    SceneDef s = test::block_scene(4, 4, 4, 0.01);
+    s.solver.gravity = {0, 0, -kG};
+    s.objects[0].velocity = {0, 0, -speed};  // the block falls beside it, so nothing touches
+    ProjectileDef p;
+    p.radius = 0.02;
+    p.material = "testmat";
+    p.position = {5, 0, 0};
+    p.velocity = {0, 0, -speed};
+    p.angular_velocity = {0, 0, 1000};
+    s.projectiles.push_back(p);
+    Engine sim(s);
+    const auto steps = static_cast<std::int64_t>(std::llround(4e-3 / sim.model().dt));
+    while (sim.state().step < steps) sim.advance(static_cast<int>(std::min<std::int64_t>(steps - sim.state().step, 1000)));
+    const ProjectileState& ps = sim.state().projectiles[0];
+    EXPECT_NEAR((-speed - ps.velocity.z) / (kG * sim.state().time), 1.0, 1e-3) << "at " << speed << " m/s";
+    EXPECT_EQ(ps.angular_velocity.z, 1000.0);
+  }
+}
+
+}  // namespace
+}  // namespace mca
