@@ -67,6 +67,10 @@ struct MeshSummary {
   std::size_t links = 0, unlinked_edges = 0;  // surface mode: explicit links; non-manifold edges left unlinked
   std::size_t duplicate_faces = 0;            // surface mode: triangles given twice, left out
   double shell_thickness = 0;    // surface mode [m]
+  // Surface mode, solver.mass_scaling: the automata given mass, the mass added [kg] (included in the
+  // model's masses), the object's mass before [kg], and the critical step they were raised to [s].
+  std::size_t mass_scaled = 0;
+  double added_mass = 0, mesh_mass = 0, scaled_step = 0;
 };
 
 // The input triangles of the mesh objects, each bound to one automaton (paper sec. 5.4): its corners are
