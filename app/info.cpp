@@ -53,6 +53,14 @@ void print_mesh(const MeshSummary& ms, const std::string& object, std::size_t au
     }
   } else {
     fmt::print("  automata       {} (cells inside found in {:.2f} s)\n", automata, ms.fill_seconds);
+    if (ms.dropped_automata > 0) {
+      fmt::print("  dropped        {} cells inside the mesh, in {} piece{}, that no lattice link joins to the body (the "
+                 "mesh is thinner than a cell between them; they would fall off at t = 0): the object starts as one "
+                 "piece per solid\n",
+                 ms.dropped_automata, ms.dropped_pieces, ms.dropped_pieces == 1 ? "" : "s");
+    } else {
+      fmt::print("  dropped        none (every cell inside is linked to the body)\n");
+    }
   }
 }
 
@@ -111,6 +119,10 @@ int info(const std::optional<std::string>& path, bool json) {
                         {"automata", count[ms.object]},
                         {"fill", ms.surface ? "surface" : "volume"},
                         {"fill_seconds", ms.fill_seconds}});
+      if (!ms.surface) {
+        meshes.back()["dropped_automata"] = ms.dropped_automata;
+        meshes.back()["dropped_pieces"] = ms.dropped_pieces;
+      }
       if (ms.surface) {
         meshes.back()["links"] = ms.links;
         meshes.back()["unlinked_edges"] = ms.unlinked_edges;

@@ -56,6 +56,7 @@ struct ObjectLattice {
   std::vector<std::uint8_t> inside;
   std::vector<std::vector<std::uint8_t>> regions;  // per region: cells inside its mesh (mesh regions only)
   double fill_seconds = 0;
+  std::int64_t dropped = 0, dropped_pieces = 0, largest_dropped = 0;  // mesh fills: MeshFillResult's
 };
 
 // What a scene's objects are made of beyond their definitions: the meshes of the mesh objects, read once
@@ -160,6 +161,9 @@ ObjectLattice object_lattice(const SceneDef& scene, const Shapes& S, std::size_t
     L.inside = f.inside;
     L.regions = f.regions;
     L.fill_seconds = f.seconds;
+    L.dropped = f.dropped;
+    L.dropped_pieces = f.dropped_pieces;
+    L.largest_dropped = f.largest_dropped;
     return L;
   }
   const std::int64_t total = L.n[0] * L.n[1] * L.n[2];
@@ -1093,6 +1097,20 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
       MeshSummary ms = mesh_summary(*mo, oi, o.mesh, R, o.position);
       ms.fill_seconds = L.fill_seconds;
       ms.automata = M.size() - first;
+      ms.dropped_automata = static_cast<std::size_t>(L.dropped);
+      ms.dropped_pieces = static_cast<std::size_t>(L.dropped_pieces);
+      // A few stray cells are left out; a fill that falls apart into large pieces is not the mesh's solid.
+      if (static_cast<double>(L.dropped) > 0.01 * static_cast<double>(ms.automata + L.dropped)) {
+        throw Error(fmt::format(
+            "{}: {} '{}': the fill of the mesh {} at spacing {:.4g} m falls apart: {} of its {} cells ({:.3g} %, in {} "
+            "piece{}, the largest {} cells) are inside it but no lattice link joins them to the body of their "
+            "surface, since the mesh is thinner than a cell between them (they would fall off at t = 0; up to 1 % "
+            "are left out, over that the scene is refused). Decrease solver.spacing{}, or thicken the mesh there",
+            scene.source, okey, o.name, o.mesh, d, L.dropped, ms.automata + L.dropped,
+            100.0 * static_cast<double>(L.dropped) / static_cast<double>(ms.automata + L.dropped), L.dropped_pieces,
+            L.dropped_pieces == 1 ? "" : "s", L.largest_dropped,
+            scene.solver.target_automata > 0 ? " (raise solver.target_automata)" : ""));
+      }
       M.meshes.push_back(std::move(ms));
     }
     // Face neighbours along +-x, +-y, +-z of each cell: the automata of one object link along its own
