@@ -22,7 +22,7 @@ std::string box_text(const std::array<double, 3>& lo, const std::array<double, 3
                      lo[2], hi[0], hi[1], hi[2], unit, hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], unit);
 }
 
-void print_mesh(const MeshSummary& ms, const std::string& object, std::size_t automata) {
+void print_mesh(const MeshSummary& ms, const std::string& object, std::size_t automata, double mass_scaling) {
   fmt::print("mesh             {} (object {})\n", ms.path, object);
   fmt::print("  vertices       {}, faces {}\n", ms.vertices, ms.faces);
   if (ms.boundary_edges == 0 && ms.non_manifold_edges == 0) {
@@ -43,8 +43,24 @@ void print_mesh(const MeshSummary& ms, const std::string& object, std::size_t au
     fmt::print("  links          {} across shared edges{}{}\n", ms.links,
                ms.unlinked_edges ? fmt::format("; {} non-manifold edges left unlinked", ms.unlinked_edges) : std::string(),
                ms.duplicate_faces ? fmt::format("; {} repeated triangles left out", ms.duplicate_faces) : std::string());
+    if (mass_scaling > 0) {
+      fmt::print("  mass scaling   {} automata given {:.4g} kg, {:.3g} % of the shell's {:.4g} kg, to reach a critical step of "
+                 "{:.4g} s ({:g} x the shell's median; solver.mass_scaling, 0 for none)\n",
+                 ms.mass_scaled, ms.added_mass, ms.mesh_mass > 0 ? 100 * ms.added_mass / ms.mesh_mass : 0.0, ms.mesh_mass,
+                 ms.scaled_step, mass_scaling);
+    } else {
+      fmt::print("  mass scaling   none (solver.mass_scaling = 0): the automata keep the mesh's lumped masses\n");
+    }
   } else {
     fmt::print("  automata       {} (cells inside found in {:.2f} s)\n", automata, ms.fill_seconds);
+    if (ms.dropped_automata > 0) {
+      fmt::print("  dropped        {} cells inside the mesh, in {} piece{}, that no lattice link joins to the body (the "
+                 "mesh is thinner than a cell between them; they would fall off at t = 0): the object starts as one "
+                 "piece per solid\n",
+                 ms.dropped_automata, ms.dropped_pieces, ms.dropped_pieces == 1 ? "" : "s");
+    } else {
+      fmt::print("  dropped        none (every cell inside is linked to the body)\n");
+    }
   }
 }
 
@@ -103,11 +119,19 @@ int info(const std::optional<std::string>& path, bool json) {
                         {"automata", count[ms.object]},
                         {"fill", ms.surface ? "surface" : "volume"},
                         {"fill_seconds", ms.fill_seconds}});
+      if (!ms.surface) {
+        meshes.back()["dropped_automata"] = ms.dropped_automata;
+        meshes.back()["dropped_pieces"] = ms.dropped_pieces;
+      }
       if (ms.surface) {
         meshes.back()["links"] = ms.links;
         meshes.back()["unlinked_edges"] = ms.unlinked_edges;
         meshes.back()["duplicate_faces"] = ms.duplicate_faces;
         meshes.back()["shell_thickness"] = ms.shell_thickness;
+        meshes.back()["mass_scaled_automata"] = ms.mass_scaled;
+        meshes.back()["added_mass"] = ms.added_mass;
+        meshes.back()["added_mass_share"] = ms.mesh_mass > 0 ? ms.added_mass / ms.mesh_mass : 0.0;
+        meshes.back()["mass_scaled_step"] = ms.scaled_step;
       }
     }
     j["meshes"] = meshes;
@@ -124,7 +148,8 @@ int info(const std::optional<std::string>& path, bool json) {
   std::vector<std::size_t> count(m.object_names.size(), 0);
   for (auto o : m.object) ++count[o];
   for (std::size_t o = 0; o < m.object_names.size(); ++o) fmt::print("  object {:<9} {}\n", m.object_names[o], count[o]);
-  for (const MeshSummary& ms : m.meshes) print_mesh(ms, m.object_names[ms.object], count[ms.object]);
+  for (const MeshSummary& ms : m.meshes)
+    print_mesh(ms, m.object_names[ms.object], count[ms.object], scene.solver.mass_scaling);
   fmt::print("links            {}\n", m.link_count());
   fmt::print("spacing          {:.4g} m\n", m.spacing);
   // The step as used: safety x critical, shortened to fill frames with whole steps, or given by hand.

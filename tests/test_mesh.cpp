@@ -11,6 +11,8 @@
 #include <set>
 
 #include "analysis/fragment_meshes.hpp"
+#include "analysis/fragments.hpp"
+#include "backend/backend.hpp"
 #include "analysis/surface.hpp"
 #include "io/scene_io.hpp"
 #include "lattice/lattice.hpp"
@@ -656,6 +658,11 @@ TEST(PaperModels, BunnyAndArmadilloLandOnTheirTargetCounts) {
     EXPECT_NEAR(j["automata"].get<double>() / static_cast<double>(target), 1.0, 0.02) << scene;
     ASSERT_EQ(j["meshes"].size(), 1u);
     EXPECT_TRUE(j["meshes"][0]["closed"].get<bool>()) << scene;
+    // Cells no link joins to the body are left out and counted (the armadillo's fill has two).
+    const auto dropped = j["meshes"][0]["dropped_automata"].get<std::int64_t>();
+    std::printf("%s: %lld automata, %lld dropped as unlinked\n", scene, static_cast<long long>(j["automata"].get<std::int64_t>()),
+                static_cast<long long>(dropped));
+    EXPECT_LE(static_cast<double>(dropped), 0.01 * j["automata"].get<double>()) << scene;
     if (std::string(scene) == "bunny_two_materials.toml") {
       EXPECT_EQ(j["materials"].size(), 3u);  // concrete, the weak core, steel
     }
@@ -688,6 +695,123 @@ TEST(MeshLoader, TheFuzzFindingsAreErrorsNow) {
     ++tried;
   }
   EXPECT_GE(tried, 15u);
+}
+
+}  // namespace
+}  // namespace mca
+
+namespace mca {
+namespace {
+
+SceneDef fill_scene(const fs::path& mesh_file, double d) {
+  SceneDef s = test::block_scene(1, 1, 1, d);
+  s.objects[0].shape = Shape::mesh;
+  s.objects[0].mesh = mesh_file.string();
+  return s;
+}
+
+// A prism of height `height` over a bow-tie in the xy plane: a left wing from x = -left to the waist at
+// x = 0 (half-width `waist` there, `half_left` at its end) and a right wing to x = right (half-width
+// `half_right` at its end). One closed, manifold shell of 20 triangles.
+mesh::TriMesh bow_tie(double left, double half_left, double right, double half_right, double waist, double height) {
+  mesh::TriMesh m;
+  const double xy[6][2] = {{-left, -half_left}, {0, -waist}, {right, -half_right},
+                           {right, half_right}, {0, waist},  {-left, half_left}};
+  for (int k = 0; k < 6; ++k) m.vertices.push_back({xy[k][0], xy[k][1], -0.5 * height});
+  for (int k = 0; k < 6; ++k) m.vertices.push_back({xy[k][0], xy[k][1], 0.5 * height});
+  // Top (z up, counter-clockwise seen from above) and bottom: the two convex quads of the wings.
+  const std::uint32_t quads[2][4] = {{0, 1, 4, 5}, {1, 2, 3, 4}};
+  for (const auto& q : quads) {
+    m.faces.push_back({q[0] + 6, q[1] + 6, q[2] + 6});
+    m.faces.push_back({q[0] + 6, q[2] + 6, q[3] + 6});
+    m.faces.push_back({q[0], q[2], q[1]});
+    m.faces.push_back({q[0], q[3], q[2]});
+  }
+  for (std::uint32_t k = 0; k < 6; ++k) {  // the walls
+    const std::uint32_t a = k, b = (k + 1) % 6;
+    m.faces.push_back({a, b, b + 6});
+    m.faces.push_back({a, b + 6, a + 6});
+  }
+  return m;
+}
+
+// Cells whose centres lie in the mesh but which no lattice link joins to the body of their shell (here the
+// right wing of a bow-tie whose waist is narrower than a cell, 12 cells against some 1,600) fall off at
+// t = 0: they are dropped, the object starts as one piece, and the mesh summary says how many were
+// dropped. A fill that would lose more than 1 % of its automata that way is refused instead.
+TEST(MeshFill, CellsNoLinkJoinsToTheBodyAreDroppedAndCounted) {
+  TempDir t;
+  const double d = 0.01;
+  const mesh::TriMesh tie = bow_tie(0.405, 0.2, 0.02, 0.02, 0.0001, 0.02);
+  ASSERT_TRUE(mesh::topology(tie).closed());
+  test::write_mesh_file(t.path() / "tie.off", tie);
+  const Model m = lattice::build_model(fill_scene(t.path() / "tie.off", d));
+  ASSERT_EQ(m.meshes.size(), 1u);
+  const MeshSummary& ms = m.meshes[0];
+  std::printf("bow-tie: %zu automata kept, %zu dropped in %zu pieces\n", m.size(), ms.dropped_automata, ms.dropped_pieces);
+  EXPECT_EQ(ms.dropped_automata, 12u);
+  EXPECT_EQ(ms.dropped_pieces, 1u);
+  EXPECT_EQ(ms.automata, m.size());
+  const State st = initial_state(m);
+  EXPECT_EQ(analysis::label_model_fragments(m, st.intact.data()).count, 1) << "one piece at t = 0";
+  const double waist = 0.5 * (0.405 - 0.02);  // the mesh's box is centred on the object's position
+  for (std::size_t a = 0; a < m.size(); ++a) EXPECT_LT(m.position0[a].x, waist) << "the right wing is gone";
+  // The count the spacing search sees is the one built.
+  EXPECT_EQ(lattice::count_automata(fill_scene(t.path() / "tie.off", d), d), static_cast<std::int64_t>(m.size()));
+  // Two wings alike: half the fill would go; refused, with what to do.
+  test::write_mesh_file(t.path() / "even.off", bow_tie(0.405, 0.2, 0.405, 0.2, 0.0001, 0.02));
+  const std::string e = error_of([&] { lattice::build_model(fill_scene(t.path() / "even.off", d)); });
+  EXPECT_NE(e.find("no lattice link joins"), std::string::npos) << e;
+  EXPECT_NE(e.find("Decrease solver.spacing"), std::string::npos) << e;
+  // Separate solids of one mesh (two balls) are each a body of their own: nothing dropped.
+  mesh::TriMesh two = test::sphere_mesh(0.1, 3, {-0.2, 0, 0});
+  const mesh::TriMesh other = test::sphere_mesh(0.1, 3, {0.2, 0, 0});
+  const auto base = static_cast<std::uint32_t>(two.vertices.size());
+  for (const auto& f : other.faces) two.faces.push_back({f[0] + base, f[1] + base, f[2] + base});
+  two.vertices.insert(two.vertices.end(), other.vertices.begin(), other.vertices.end());
+  test::write_mesh_file(t.path() / "two.off", two);
+  const Model pair = lattice::build_model(fill_scene(t.path() / "two.off", 0.02));
+  EXPECT_EQ(pair.meshes[0].dropped_automata, 0u);
+  const State ps = initial_state(pair);
+  EXPECT_EQ(analysis::label_model_fragments(pair, ps.intact.data()).count, 2);
+}
+
+// A triangle of no area inside a solid encloses nothing: it is no cavity (it took a cell away).
+TEST(MeshFill, ADegenerateTriangleInsideIsNoCavity) {
+  TempDir t;
+  mesh::TriMesh cube = test::cube_mesh(0.1);
+  const auto base = static_cast<std::uint32_t>(cube.vertices.size());
+  // On the centre of the cell at (0.01, 0.01, 0.01): collinear corners, and one with a repeated corner.
+  cube.vertices.push_back({0.005, 0.01, 0.01});
+  cube.vertices.push_back({0.01, 0.01, 0.01});
+  cube.vertices.push_back({0.015, 0.01, 0.01});
+  cube.faces.push_back({base, base + 1, base + 2});
+  test::write_mesh_file(t.path() / "sliver.off", cube);
+  const Model m = lattice::build_model(fill_scene(t.path() / "sliver.off", 0.02));
+  EXPECT_EQ(m.size(), 1000u);
+  EXPECT_EQ(m.meshes[0].cavities, 0u);
+}
+
+// Two cubes sharing an edge (welded: one shell whose edge has four triangles) fill as the two cubes: the
+// fill of the whole added 12 cells outside both, next to the shared edge.
+TEST(MeshFill, TwoCubesSharingAnEdgeFillAsTwoCubes) {
+  TempDir t;
+  mesh::TriMesh two = test::cube_mesh(0.1);
+  const mesh::TriMesh other = test::cube_mesh(0.1, {0.2, 0.2, 0});
+  const auto base = static_cast<std::uint32_t>(two.vertices.size());
+  for (const auto& f : other.faces) two.faces.push_back({f[0] + base, f[1] + base, f[2] + base});
+  two.vertices.insert(two.vertices.end(), other.vertices.begin(), other.vertices.end());
+  test::write_mesh_file(t.path() / "edge.stl", two);  // STL: the shared corners are welded on reading
+  const Model m = lattice::build_model(fill_scene(t.path() / "edge.stl", 0.02));
+  ASSERT_EQ(m.meshes[0].non_manifold_edges, 1u);
+  EXPECT_EQ(m.size(), 2000u);
+  for (std::size_t a = 0; a < m.size(); ++a) {
+    const DVec3 p = m.position0[a];
+    // The mesh's box, [-0.1, 0.3]^2 in x and y, is centred on the object's position.
+    const bool in_first = std::fabs(p.x + 0.1) < 0.1 && std::fabs(p.y + 0.1) < 0.1;
+    const bool in_second = std::fabs(p.x - 0.1) < 0.1 && std::fabs(p.y - 0.1) < 0.1;
+    EXPECT_TRUE(in_first || in_second) << p.x << " " << p.y << " " << p.z;
+  }
 }
 
 }  // namespace

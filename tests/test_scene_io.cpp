@@ -194,6 +194,7 @@ void expect_same(const mca::SceneDef& a, const mca::SceneDef& b) {
   EXPECT_EQ(a.solver.target_automata, b.solver.target_automata);
   EXPECT_EQ(a.solver.safety, b.solver.safety);
   EXPECT_EQ(a.solver.time_step, b.solver.time_step);
+  EXPECT_EQ(a.solver.mass_scaling, b.solver.mass_scaling);
   EXPECT_EQ(a.solver.gravity, b.solver.gravity);
   EXPECT_EQ(a.solver.link_damping, b.solver.link_damping);
   EXPECT_EQ(a.solver.local_damping, b.solver.local_damping);
@@ -491,6 +492,8 @@ TEST(SceneIo, SceneWithoutObjects) {
 
 TEST(SceneIo, OutputAndGripRanges) {
   EXPECT_HAS(parse_error(kMinimal + "[output]\nduration = 0\n"), "output.duration = 0 is out of range");
+  EXPECT_HAS(parse_error(kMinimal + "[solver]\nmass_scaling = 1.5\n"), "solver.mass_scaling = 1.5 is out of range");
+  EXPECT_HAS(parse_error(kMinimal + "[solver]\nmass_scaling = -0.1\n"), "solver.mass_scaling = -0.1 is out of range");
   EXPECT_HAS(parse_error(kMinimal + "[output]\nframe_rate = -5\n"), "output.frame_rate = -5 is out of range");
   EXPECT_HAS(parse_error(kMinimal + "[output]\ncheckpoint_every = -1\n"), "output.checkpoint_every = -1");
   const std::string grip = parse_error(kMinimal + "[[grip]]\nmin = [0, 0, 0]\nmax = [1, 0, 1]\n");

@@ -145,6 +145,9 @@ struct SolverDef {
   std::int64_t target_automata = 0;      // > 0: choose d so the count lands within 2 %
   double safety = 0.5;                   // C: the step is C x the critical step (time_step.cpp), in (0, 1]
   double time_step = 0.0;                // 0: automatic; else used as given (must be <= the stable one)
+  // Selective mass scaling of surface-mode objects: an automaton whose own critical step is below this
+  // share of its object's median gets mass (and moment of inertia) until it reaches it; 0: none. In [0, 1].
+  double mass_scaling = 0.7;
   Vec3d gravity = {0, 0, -9.81};         // [m/s^2]; the up axis is the one opposite gravity (z if zero)
   double link_damping = 0.0;             // viscous damping of links, share of critical, in [0, 1]
   double local_damping = 0.0;            // Cundall local damping alpha, in [0, 0.2]

@@ -63,10 +63,17 @@ struct MeshSummary {
   double volume = 0;             // enclosed volume [m^3]
   double fill_seconds = 0;       // time to find the cells inside (signed distance and interior)
   std::size_t automata = 0;      // automata of the object
+  // Volume fill: cells inside the mesh that no lattice link joins to the body of their shell (they would
+  // fall off at t = 0), left out, and the pieces they formed.
+  std::size_t dropped_automata = 0, dropped_pieces = 0;
   bool surface = false;          // filled in surface mode (one automaton per triangle)
   std::size_t links = 0, unlinked_edges = 0;  // surface mode: explicit links; non-manifold edges left unlinked
   std::size_t duplicate_faces = 0;            // surface mode: triangles given twice, left out
   double shell_thickness = 0;    // surface mode [m]
+  // Surface mode, solver.mass_scaling: the automata given mass, the mass added [kg] (included in the
+  // model's masses), the object's mass before [kg], and the critical step they were raised to [s].
+  std::size_t mass_scaled = 0;
+  double added_mass = 0, mesh_mass = 0, scaled_step = 0;
 };
 
 // The input triangles of the mesh objects, each bound to one automaton (paper sec. 5.4): its corners are

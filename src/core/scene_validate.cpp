@@ -284,6 +284,10 @@ void validate_scene(const SceneDef& scene) {
   c.range("solver.safety", scene.solver.safety, 0, false, 1, true,
           "in (0, 1] (the share of the critical time step; 1 is the stability limit of the linear lattice)",
           "use 0.5 (the default)");
+  c.range("solver.mass_scaling", scene.solver.mass_scaling, 0, true, 1, true,
+          "in [0, 1] (the share of the object's median critical step below which surface-mode automata get mass; "
+          "0: none)",
+          "use 0.7 (the default) or 0 to keep the meshes' own masses");
   if (scene.solver.time_step != 0)
     c.range("solver.time_step", scene.solver.time_step, 1e-12, true, 1, true, "0 (automatic) or in [1e-12, 1] [s]",
             "use 0 for the automatic step");

@@ -587,13 +587,14 @@ SceneDef read_scene(const Table& root, const std::string& source) {
   root.string("name", scene.name);
 
   if (auto tb = root.table("solver", "[solver]")) {
-    tb->allow({"spacing", "target_automata", "safety", "time_step", "gravity", "link_damping", "local_damping",
-               "stress_coefficient", "skin", "seed", "max_memory_gb"});
+    tb->allow({"spacing", "target_automata", "safety", "time_step", "mass_scaling", "gravity", "link_damping",
+               "local_damping", "stress_coefficient", "skin", "seed", "max_memory_gb"});
     SolverDef& s = scene.solver;
     tb->number("spacing", s.spacing);
     tb->integer("target_automata", s.target_automata);
     tb->number("safety", s.safety);
     tb->number("time_step", s.time_step);
+    tb->number("mass_scaling", s.mass_scaling);
     tb->vec3("gravity", s.gravity);
     tb->number("link_damping", s.link_damping);
     tb->number("local_damping", s.local_damping);
@@ -760,6 +761,7 @@ std::string scene_to_toml(const SceneDef& s) {
   out += fmt::format("target_automata = {}\n", s.solver.target_automata);
   out += fmt::format("safety = {}\n", toml_double(s.solver.safety));
   out += fmt::format("time_step = {}\n", toml_double(s.solver.time_step));
+  out += fmt::format("mass_scaling = {}\n", toml_double(s.solver.mass_scaling));
   out += fmt::format("gravity = {}\n", vec(s.solver.gravity));
   out += fmt::format("link_damping = {}\n", toml_double(s.solver.link_damping));
   out += fmt::format("local_damping = {}\n", toml_double(s.solver.local_damping));

@@ -4,6 +4,7 @@
 // stable time step. Never calls the solver.
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "core/model.hpp"
 #include "mca/scene.hpp"
@@ -24,6 +25,10 @@ struct TimeStepBound {
   std::string limited_by;
 };
 TimeStepBound critical_time_step(const Model& model);
+// Per automaton of a surface-mode object: the critical step of its own rows of the bound (its explicit
+// links, contacts, many-body term and dashpots); infinite for lattice automata. critical_time_step's
+// surface part is at most the smallest of these.
+std::vector<double> surface_automaton_steps(const Model& model);
 
 // Sets the model's time step and calibrates the contact dashpots for it (Model::zeta_pair): called by
 // build_model and again by whoever shortens the step (the Engine fits a whole number of steps in a frame).

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <fmt/format.h>
+#include <map>
 
 #include "mca/error.hpp"
 
@@ -91,14 +92,84 @@ bool same_shell(const mesh::Shell& a, const mesh::Shell& b) {
   return std::fabs(a.volume - b.volume) <= 1e-6 * std::max(a.volume, b.volume);
 }
 
+// Whether a triangle has no area (a repeated corner, or corners on a line), by topology()'s measure.
+bool degenerate(const mesh::TriMesh& m, const mesh::Triangle& f) {
+  const mesh::Point &a = m.vertices[f[0]], &b = m.vertices[f[1]], &c = m.vertices[f[2]];
+  const double scale = std::max({std::fabs(a[0]), std::fabs(a[1]), std::fabs(a[2]), 1e-300});
+  return f[0] == f[1] || f[1] == f[2] || f[0] == f[2] || mesh::twice_area(a, b, c) <= 1e-14 * scale * scale;
+}
+
+// A shell joined to another only through edges of more than two triangles (two cubes sharing an edge)
+// is filled as one surface, and the fill of that surface puts cells outside both next to the shared
+// edge (12 for two cubes of 10 cells). Such a shell is split into the pieces its edges of exactly two
+// triangles join, when each piece is closed and manifold on its own; otherwise it stays whole.
+std::vector<mesh::Shell> split_at_non_manifold_edges(const mesh::TriMesh& m, std::vector<mesh::Shell> in) {
+  std::vector<mesh::Shell> out;
+  for (mesh::Shell& sh : in) {
+    if (sh.manifold) {
+      out.push_back(std::move(sh));
+      continue;
+    }
+    std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<std::uint32_t>> users;  // edge -> faces
+    for (std::uint32_t k = 0; k < sh.faces.size(); ++k) {
+      const mesh::Triangle& t = m.faces[sh.faces[k]];
+      for (int e = 0; e < 3; ++e) users[std::minmax(t[e], t[(e + 1) % 3])].push_back(k);
+    }
+    std::vector<std::uint32_t> parent(sh.faces.size());
+    for (std::uint32_t k = 0; k < parent.size(); ++k) parent[k] = k;
+    auto root = [&](std::uint32_t x) {
+      while (parent[x] != x) x = parent[x] = parent[parent[x]];
+      return x;
+    };
+    for (const auto& [edge, faces] : users)
+      if (faces.size() == 2) parent[root(faces[0])] = root(faces[1]);
+    std::map<std::uint32_t, std::vector<std::uint32_t>> pieces;  // root -> faces of the mesh, increasing
+    for (std::uint32_t k = 0; k < sh.faces.size(); ++k) pieces[root(k)].push_back(sh.faces[k]);
+    if (pieces.size() < 2) {
+      out.push_back(std::move(sh));
+      continue;
+    }
+    std::vector<mesh::Shell> split;
+    for (const auto& [r, faces] : pieces) {
+      mesh::TriMesh piece;  // its own vertices only
+      std::map<std::uint32_t, std::uint32_t> index;
+      for (auto f : faces) {
+        mesh::Triangle t = m.faces[f];
+        for (auto& v : t) {
+          const auto [it, fresh] = index.try_emplace(v, static_cast<std::uint32_t>(piece.vertices.size()));
+          if (fresh) piece.vertices.push_back(m.vertices[v]);
+          v = it->second;
+        }
+        piece.faces.push_back(t);
+      }
+      std::vector<mesh::Shell> one = mesh::shells(piece);
+      if (one.size() != 1 || !one[0].manifold) break;
+      for (auto& f : one[0].faces) f = faces[f];
+      split.push_back(std::move(one[0]));
+    }
+    if (split.size() != pieces.size()) {
+      out.push_back(std::move(sh));
+      continue;
+    }
+    for (auto& p : split) out.push_back(std::move(p));
+  }
+  return out;
+}
+
 // The solid of a mesh in the object frame: its shells, their nesting and its volume.
 Solid make_solid(std::string file, mesh::TriMesh m) {
   Solid s;
   s.file = std::move(file);
   s.topology = mesh::topology(m);
-  s.shells = mesh::shells(m);
+  s.shells = split_at_non_manifold_edges(m, mesh::shells(m));
   const std::size_t n = s.shells.size();
   s.depth.assign(n, 0);
+  // A shell of triangles without area encloses nothing (inside a solid it was taken for a cavity and
+  // removed a cell): skipped like a repeated shell.
+  for (std::size_t a = 0; a < n; ++a)
+    if (std::all_of(s.shells[a].faces.begin(), s.shells[a].faces.end(),
+                    [&](std::uint32_t f) { return degenerate(m, m.faces[f]); }))
+      s.depth[a] = -1;
   for (std::size_t a = 0; a < n; ++a)
     for (std::size_t b = 0; b < a && s.depth[a] >= 0; ++b)
       if (s.depth[b] >= 0 && same_shell(s.shells[a], s.shells[b])) s.depth[a] = -1;
@@ -121,14 +192,16 @@ Solid make_solid(std::string file, mesh::TriMesh m) {
 }
 
 // The cells of `box` inside the solid: each shell filled on the part of the box around it, solid shells
-// added and cavities taken away in order of depth.
-std::vector<std::uint8_t> solid_cells(const Solid& s, const mesh::CellBox& box) {
+// added and cavities taken away in order of depth. With `labels`, a cell inside holds which solid shell
+// put it there (1 + its rank among the solid shells in that order, 255 for the 255th and later), else 1.
+std::vector<std::uint8_t> solid_cells(const Solid& s, const mesh::CellBox& box, bool labels = false) {
   if (s.shells.size() == 1) return mesh::interior_cells(s.mesh, box);
   std::vector<std::uint8_t> inside(static_cast<std::size_t>(box.cells()), 0);
   std::vector<std::size_t> order;
   for (std::size_t k = 0; k < s.shells.size(); ++k)
     if (s.depth[k] >= 0) order.push_back(k);
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return s.depth[a] < s.depth[b]; });
+  int solid_rank = 0;
   for (std::size_t k : order) {
     const mesh::Shell& sh = s.shells[k];
     std::int64_t lo[3], hi[3];
@@ -143,18 +216,73 @@ std::vector<std::uint8_t> solid_cells(const Solid& s, const mesh::CellBox& box) 
       sub.origin[a] = box.origin[a] + static_cast<double>(lo[a]) * box.d;
     }
     if (empty) continue;
-    const std::vector<std::uint8_t> part = mesh::interior_cells(s.mesh, sub, &sh.faces);
     const bool add = s.depth[k] % 2 == 0;
+    const std::uint8_t value = labels && add ? static_cast<std::uint8_t>(std::min(255, ++solid_rank)) : 1;
+    const std::vector<std::uint8_t> part = mesh::interior_cells(s.mesh, sub, &sh.faces);
     std::size_t c = 0;
     for (std::int64_t kk = 0; kk < sub.n[2]; ++kk)
       for (std::int64_t jj = 0; jj < sub.n[1]; ++jj)
         for (std::int64_t ii = 0; ii < sub.n[0]; ++ii, ++c) {
           if (!part[c]) continue;
           std::uint8_t& cell = inside[static_cast<std::size_t>(((lo[2] + kk) * box.n[1] + lo[1] + jj) * box.n[0] + lo[0] + ii)];
-          cell = add ? 1 : 0;
+          cell = add ? value : 0;
         }
   }
   return inside;
+}
+
+// Cells no lattice link joins to the body of their shell (a piece of the mesh thinner than a cell
+// between them: they would fall off at t = 0) are dropped. `inside` holds solid_cells' labels; the body of
+// a solid shell is the face-connected piece holding the most of its cells (a piece holding cells of the
+// 255th or a later solid shell, which share a label, is kept). On return `inside` holds 0 or 1.
+void drop_unlinked(std::vector<std::uint8_t>& inside, const mesh::CellBox& box, MeshFillResult& r) {
+  const std::int64_t nx = box.n[0], ny = box.n[1], nz = box.n[2];
+  std::vector<bool> seen(inside.size(), false);
+  struct Piece {
+    std::vector<std::int64_t> cells;
+    std::map<std::uint8_t, std::int64_t> of_label;
+  };
+  std::vector<Piece> pieces;
+  std::vector<std::int64_t> queue;
+  for (std::int64_t c0 = 0; c0 < static_cast<std::int64_t>(inside.size()); ++c0) {
+    if (!inside[static_cast<std::size_t>(c0)] || seen[static_cast<std::size_t>(c0)]) continue;
+    Piece p;
+    queue.assign(1, c0);
+    seen[static_cast<std::size_t>(c0)] = true;
+    while (!queue.empty()) {
+      const std::int64_t c = queue.back();
+      queue.pop_back();
+      p.cells.push_back(c);
+      ++p.of_label[inside[static_cast<std::size_t>(c)]];
+      const std::int64_t i = c % nx, j = (c / nx) % ny, k = c / (nx * ny);
+      const std::int64_t next[6] = {i > 0 ? c - 1 : -1,       i + 1 < nx ? c + 1 : -1,
+                                    j > 0 ? c - nx : -1,      j + 1 < ny ? c + nx : -1,
+                                    k > 0 ? c - nx * ny : -1, k + 1 < nz ? c + nx * ny : -1};
+      for (std::int64_t q : next) {
+        if (q < 0 || !inside[static_cast<std::size_t>(q)] || seen[static_cast<std::size_t>(q)]) continue;
+        seen[static_cast<std::size_t>(q)] = true;
+        queue.push_back(q);
+      }
+    }
+    pieces.push_back(std::move(p));
+  }
+  std::vector<char> keep(pieces.size(), 0);
+  std::map<std::uint8_t, std::pair<std::int64_t, std::size_t>> body;  // label -> (its cells, piece)
+  for (std::size_t p = 0; p < pieces.size(); ++p)
+    for (const auto& [label, n] : pieces[p].of_label) {
+      if (label == 255) keep[p] = 1;
+      auto [it, fresh] = body.try_emplace(label, n, p);
+      if (!fresh && n > it->second.first) it->second = {n, p};
+    }
+  for (const auto& [label, best] : body) keep[best.second] = 1;
+  for (std::size_t p = 0; p < pieces.size(); ++p) {
+    if (keep[p]) continue;
+    ++r.dropped_pieces;
+    r.dropped += static_cast<std::int64_t>(pieces[p].cells.size());
+    r.largest_dropped = std::max<std::int64_t>(r.largest_dropped, static_cast<std::int64_t>(pieces[p].cells.size()));
+    for (auto c : pieces[p].cells) inside[static_cast<std::size_t>(c)] = 0;
+  }
+  for (auto& v : inside) v = v ? 1 : 0;
 }
 
 // Holes up to about a cell wide are closed by the signed distance's band; wider ones let the outside in.
@@ -226,7 +354,8 @@ MeshFillResult fill_mesh_object(const SceneDef& scene, std::size_t index, const 
   refuse_wide_holes(scene, index, m.solid, "the mesh", d);
   const auto t0 = std::chrono::steady_clock::now();
   MeshFillResult r;
-  r.inside = solid_cells(m.solid, box);
+  r.inside = solid_cells(m.solid, box, true);
+  drop_unlinked(r.inside, box, r);
   for (auto c : r.inside) r.count += c;
   const double expected = m.volume() / (d * d * d);
   if (r.count == 0) {
@@ -238,12 +367,14 @@ MeshFillResult fill_mesh_object(const SceneDef& scene, std::size_t index, const 
   }
   // A surface whose sign cannot be told (crossing shells, open seams) fills far less or more than it
   // encloses; the enclosed volume is exact for manifold shells only.
-  if (m.solid.manifold && expected > 50 && (r.count < 0.5 * expected || r.count > 2.0 * expected)) {
+  // (The cells dropped as unlinked count here: a fill that falls apart is refused with its own message.)
+  const std::int64_t filled = r.count + r.dropped;
+  if (m.solid.manifold && expected > 50 && (filled < 0.5 * expected || filled > 2.0 * expected)) {
     throw Error(fmt::format(
         "{}: filling the mesh {} gave {} automata where its enclosed volume {:.4g} m^3 gives about {:.0f} at spacing "
         "{:.4g} m: its inside cannot be told from its outside ({} boundary edges, {} non-manifold edges). Repair "
         "the mesh into closed surfaces (MeshLab: Close Holes, Remove Duplicate Faces; Blender: 3D-Print toolbox)",
-        where(scene, index), m.solid.file, r.count, m.volume(), expected, d, m.solid.topology.boundary_edges,
+        where(scene, index), m.solid.file, filled, m.volume(), expected, d, m.solid.topology.boundary_edges,
         m.solid.topology.non_manifold_edges));
   }
   for (std::size_t k = 0; k < m.regions.size(); ++k) {

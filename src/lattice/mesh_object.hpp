@@ -48,10 +48,14 @@ MeshObject prepare_mesh_object(const SceneDef& scene, std::size_t index);
 // region's mesh (empty for other regions). Throws mca::Error for an open mesh whose holes are wider than a
 // cell, for a fill that lets the outside in, and for a mesh that holds no cell (with the spacing that
 // gives about 10,000 automata).
+// Cells inside the mesh that no lattice link joins to the body of their solid shell (the face-connected
+// piece holding most of its cells) are left out of `inside`: they would fall off at t = 0. `dropped`
+// counts them (in `dropped_pieces` pieces, the largest of `largest_dropped` cells).
 struct MeshFillResult {
   std::vector<std::uint8_t> inside;
   std::vector<std::vector<std::uint8_t>> regions;
   std::int64_t count = 0;
+  std::int64_t dropped = 0, dropped_pieces = 0, largest_dropped = 0;
   double seconds = 0;
 };
 MeshFillResult fill_mesh_object(const SceneDef& scene, std::size_t index, const MeshObject& m,

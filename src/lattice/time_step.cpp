@@ -115,11 +115,23 @@ struct SurfaceBound {
   std::size_t automata = 0;
 };
 
-SurfaceBound surface_bound(const Model& M, const std::vector<double>& fmax) {
-  SurfaceBound b;
+// Per automaton of a surface-mode object: its Gershgorin rows (omega2: the largest of its translation
+// and rotation rows plus its many-body row, normalised by its mass and, for the coupling, the lightest
+// surface automaton's; damping: its dashpot rows); zero for lattice automata. The scene's bound is the
+// largest of each over the automata (surface_bound).
+struct SurfaceRows {
+  std::vector<double> omega2, damping;
+  std::int64_t lightest = -1;
+  std::size_t automata = 0;
+};
+
+SurfaceRows surface_rows(const Model& M, const std::vector<double>& fmax) {
+  SurfaceRows b;
   const auto& E = M.explicit_links;
   const std::size_t n = M.size();
   if (M.object_surface.empty()) return b;
+  b.omega2.assign(n, 0.0);
+  b.damping.assign(n, 0.0);
   std::vector<double> mb_scale(n, 0.0), mb_total(n, 0.0), mb_row(n, 0.0);
   double m_min = INFINITY;
   for (std::size_t a = 0; a < n; ++a) {
@@ -136,7 +148,12 @@ SurfaceBound surface_bound(const Model& M, const std::vector<double>& fmax) {
       // |g| over the stencil: the automaton's own displacement (at most the sum) and each neighbour's.
       double s = 0;
       for (std::uint32_t k = first; k < last; ++k) s += static_cast<double>(dims) / count / E.r0[E.of[k]];
-      mb_total[a] = 2 * s;
+      // Sum of |g| / sqrt(m) over the stencil, for the mass-normalised rows.
+      mb_total[a] = s / std::sqrt(static_cast<double>(M.mass[a]));
+      for (std::uint32_t k = first; k < last; ++k) {
+        const std::uint32_t l = E.of[k], o = E.i[l] == a ? E.j[l] : E.i[l];
+        mb_total[a] += static_cast<double>(dims) / count / E.r0[l] / std::sqrt(static_cast<double>(M.mass[o]));
+      }
       const double ff = 1.0 / (1.0 + (3 - dims) * g.lame_lambda / (2.0 * g.shear_modulus));
       mb_scale[a] = std::max(0.0, static_cast<double>(g.lame_lambda)) * fmax[M.group[a]] * M.volume[a] * ff;
       mb_row[a] += mb_scale[a] * s * mb_total[a];
@@ -186,15 +203,55 @@ SurfaceBound surface_bound(const Model& M, const std::vector<double>& fmax) {
       add_pair(e, -1, c.kn, c.kt, ra, 0, c.kr + c.kw, ma, ja, INFINITY, INFINITY, c.cn / 3, 0, 0);
       add_scaled(r, e, 2);
     }
-    b.omega2 = std::max(b.omega2, r.omega2() + mb_row[a] / std::sqrt(ma * m_min));
-    b.damping = std::max(b.damping, std::max(r.damp_u, r.damp_w));
+    // Row a of M^-1/2 K M^-1/2 for the many-body term: sum over the stencils c holding a of
+    // s_c |g_ca| sum_b |g_cb| / sqrt(m_a m_b).
+    b.omega2[a] = r.omega2() + mb_row[a] / std::sqrt(ma);
+    b.damping[a] = std::max(r.damp_u, r.damp_w);
   }
   return b;
+}
+
+// The surface automata's part of the bound: the rows of the automaton whose own critical step (its
+// stiffness rows with its own dashpots) is the smallest, as an explicit finite-element code takes the
+// smallest of its elements' steps, each with its own damping. (Until the mass scaling of uneven meshes it
+// paired the largest stiffness row of one automaton with the largest dashpot row of another; on the cow
+// both came from the same sliver triangles, and the measured threshold lies 2-3x above either.)
+SurfaceBound surface_bound(const Model& M, const std::vector<double>& fmax) {
+  const SurfaceRows rows = surface_rows(M, fmax);
+  SurfaceBound b;
+  b.lightest = rows.lightest;
+  b.automata = rows.automata;
+  double least = INFINITY;
+  for (std::size_t a = 0; a < rows.omega2.size(); ++a) {
+    if (!M.object_surface[M.object[a]]) continue;
+    const double dt = critical_step(rows.omega2[a], rows.damping[a]);
+    if (dt < least) {
+      least = dt;
+      b.omega2 = rows.omega2[a];
+      b.damping = rows.damping[a];
+    }
+  }
+  return b;
+}
+
+std::vector<double> max_strengthening(const Model& M) {
+  std::vector<double> fmax(M.groups.size(), 1.0);
+  for (std::size_t g = 0; g < M.groups.size(); ++g)
+    fmax[g] = strengthening_factor(M.groups[g].strengthening, M.groups[g].strengthening.cap);
+  return fmax;
 }
 
 void projectile_bounds(const Model& M, const std::vector<char>& used, TimeStepBound& out, const SurfaceBound& surface);
 
 }  // namespace
+
+std::vector<double> surface_automaton_steps(const Model& M) {
+  const SurfaceRows rows = surface_rows(M, max_strengthening(M));
+  std::vector<double> dt(M.size(), INFINITY);
+  for (std::size_t a = 0; a < rows.omega2.size(); ++a)
+    if (M.object_surface[M.object[a]]) dt[a] = critical_step(rows.omega2[a], rows.damping[a]);
+  return dt;
+}
 
 TimeStepBound critical_time_step(const Model& M) {
   const std::size_t n = M.size(), G = M.groups.size();
@@ -202,8 +259,7 @@ TimeStepBound critical_time_step(const Model& M) {
   out.dt = std::numeric_limits<double>::infinity();
   if (n == 0) return out;
   const double d = M.spacing;
-  std::vector<double> fmax(G, 1.0);
-  for (std::size_t g = 0; g < G; ++g) fmax[g] = strengthening_factor(M.groups[g].strengthening, M.groups[g].strengthening.cap);
+  const std::vector<double> fmax = max_strengthening(M);
   // The automata of surface-mode objects (explicit links) get their own bound (surface_bound); the
   // lattice bound below is over the others.
   auto on_lattice = [&](std::size_t a) { return M.object_surface.empty() || !M.object_surface[M.object[a]]; };
