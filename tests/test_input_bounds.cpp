@@ -41,6 +41,38 @@ std::string parse_error(const std::string& text) {
   return error_of([&] { mca::io::parse_scene(text, "deep.toml"); });
 }
 
+// Item 11: toml++ recurses once per dotted part of a key; 50,000 parts overflowed the stack (exit 139).
+TEST(InputBounds, DeepDottedKeyIsRefusedWithItsLine) {
+  std::string key = "a";
+  for (int i = 0; i < 50000; ++i) key += ".a";
+  const std::string m = parse_error(kWall + "\n" + key + " = 1\n");
+  EXPECT_HAS(m, "deep.toml:7:");
+  EXPECT_HAS(m, "dotted parts");
+}
+
+TEST(InputBounds, DeepTableHeaderIsRefusedWithItsLine) {
+  std::string key = "t";
+  for (int i = 0; i < 60000; ++i) key += ".t";
+  const std::string m = parse_error("name = \"x\"\n[" + key + "]\nv = 1\n");
+  EXPECT_HAS(m, "deep.toml:2:");
+  EXPECT_HAS(m, "dotted parts");
+}
+
+TEST(InputBounds, DotsInStringsAndNumbersAreNotKeyParts) {
+  // Dots inside strings, comments and numbers do not count; a long dotted value string is fine.
+  std::string dots(100000, '.');
+  const std::string text = kWall + "# " + dots + "\n[[object.region]]\nshape = \"box\"\ncenter = [0.5, 0.25, 0.125]\n"
+                           "size = [0.1, 0.1, 0.1]\nmaterial = \"glass\"\n[[projectile]]\nname = \"" + dots +
+                           "\"\nposition = [3.5, 0.0, 0.0]\n";
+  EXPECT_EQ(parse_error(text), "");
+}
+
+TEST(InputBounds, LongKeyIsRefused) {
+  const std::string m = parse_error(kWall + std::string(5000, 'k') + " = 1\n");
+  EXPECT_HAS(m, "deep.toml:6:");
+  EXPECT_HAS(m, "5000 characters");
+}
+
 // One copy of the number and name formatting serves the reader and validate_scene.
 TEST(InputBounds, ValidationFormatsNumbersAndNamesAsTheReader) {
   EXPECT_EQ(mca::text::num(1.5e-4), "1.5e-4");

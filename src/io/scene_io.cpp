@@ -622,9 +622,116 @@ void write_heterogeneity(std::string& out, const HeterogeneityDef& h) {
   out += fmt::format("grain_size = {}\n", toml_double(h.grain_size));
 }
 
+// toml++ recurses once per part of a dotted key ("a.b.c") and of a table header ("[a.b.c]"): a key of
+// 50,000 parts overflowed the stack (exit 139). Scene keys have at most three parts
+// (object.heterogeneity.preset), so the text is scanned first, strings and comments skipped, and a run
+// of more dots than any scene needs, or a key longer than any name, is refused with its line.
+constexpr std::size_t kMaxKeyParts = 64;
+constexpr std::size_t kMaxKeyLength = 1024;
+
+void check_keys(std::string_view t, const std::string& source) {
+  std::size_t line = 1, dots = 0, run = 0;
+  // header: the run began with '[' at the start of a line; in_value: after an '=', nest: the arrays and
+  // inline tables open in that value (a multi-line array's rows may start with '[').
+  bool line_start = true, header = false, in_value = false;
+  int nest = 0;
+  auto fail = [&](const std::string& what) {
+    throw Error(fmt::format("{}:{}: {}; scene keys have at most 3 parts (e.g. object.heterogeneity.preset) and "
+                            "names of a few words: the line is damaged or the file is not a scene",
+                            source, line, what));
+  };
+  auto check_length = [&] {
+    if (run > kMaxKeyLength) fail(fmt::format("a key of {} characters, more than {}", run, kMaxKeyLength));
+  };
+  // Skips a string opened at t[i] (quote q, three of them for a multi-line one); returns the index after it.
+  auto skip_string = [&](std::size_t i, char q) {
+    const bool multi = t.compare(i, 3, std::string(3, q)) == 0;
+    std::size_t k = i + (multi ? 3 : 1);
+    while (k < t.size()) {
+      const char c = t[k];
+      if (c == '\\' && q == '"') {
+        if (k + 1 < t.size() && t[k + 1] == '\n') ++line;
+        k += 2;
+        continue;
+      }
+      if (c == '\n') {
+        if (!multi) return k;  // unterminated: toml++ reports it
+        ++line;
+      }
+      if (c == q && (!multi || t.compare(k, 3, std::string(3, q)) == 0)) {
+        if (!multi) return k + 1;
+        k += 3;
+        for (int extra = 0; extra < 2 && k < t.size() && t[k] == q; ++extra) ++k;  // """a"""" ends after 4
+        return k;
+      }
+      ++k;
+    }
+    return k;
+  };
+  for (std::size_t i = 0; i < t.size();) {
+    const char c = t[i];
+    if (c == '"' || c == '\'') {
+      const std::size_t end = skip_string(i, c);
+      run += end - i;
+      i = end;
+      line_start = false;
+      continue;
+    }
+    if (c == '#') {
+      while (i < t.size() && t[i] != '\n') ++i;
+      continue;
+    }
+    switch (c) {
+      case '\n':
+        ++line;
+        if (header) check_length();
+        if (nest == 0) in_value = false;
+        dots = run = 0;
+        header = false;
+        line_start = true;
+        ++i;
+        continue;
+      case ' ': case '\t': case '\r':
+        ++i;
+        continue;
+      case '=':
+        check_length();
+        in_value = true;
+        dots = run = 0;
+        break;
+      case '[': case '{':
+        if (in_value) ++nest;
+        else if (c == '[' && line_start) header = true;
+        dots = run = 0;
+        break;
+      case ']': case '}':
+        if (nest > 0) {
+          --nest;
+        } else if (header) {
+          check_length();
+          header = false;
+        }
+        dots = run = 0;
+        break;
+      case ',':
+        dots = run = 0;
+        break;
+      case '.':
+        if (++dots >= kMaxKeyParts) fail(fmt::format("a key or table header of more than {} dotted parts", kMaxKeyParts));
+        ++run;
+        break;
+      default:
+        ++run;
+    }
+    line_start = false;
+    ++i;
+  }
+}
+
 }  // namespace
 
 SceneDef parse_scene(std::string_view toml_text, const std::string& source) {
+  check_keys(toml_text, source);
   toml::table root;
   try {
     root = toml::parse(toml_text, source);
