@@ -89,4 +89,13 @@ TEST(InputBounds, ValidationFormatsNumbersAndNamesAsTheReader) {
   EXPECT_HAS(m, "\"a\\fb\"");
 }
 
+// Documented: positions within 1e6 m of the origin, a distance, not each component.
+TEST(InputBounds, PositionsAreCheckedByDistanceFromTheOrigin) {
+  mca::SceneDef s = mca::io::parse_scene(kWall, "s.toml");
+  s.objects[0].position = {0.8e6, 0.8e6, 0};  // each component within 1e6, 1.13e6 m out
+  EXPECT_HAS(error_of([&] { mca::validate_scene(s); }), "more than 1e6 m from the origin");
+  s.objects[0].position = {0.5e6, 0.5e6, 0.5e6};  // 0.87e6 m out
+  EXPECT_EQ(error_of([&] { mca::validate_scene(s); }), "");
+}
+
 }  // namespace

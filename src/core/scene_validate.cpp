@@ -44,16 +44,16 @@ class Checker {
       if (!std::isfinite(x)) fail(fmt::format("{} = {} has a non-finite component; give finite values", key, vec(v)));
     }
   }
-  // Positions within 1e6 m of the origin: there a double resolves 1e-10 m, a strain of 2e-9 on a 5 cm link;
-  // further out the rounding of the centres shows in the strains (at 1e7 m a body at rest starts strained).
+  // Positions within 1e6 m of the origin (a distance, as docs/scene-format.md says): there a double
+  // resolves 1e-10 m, a strain of 2e-9 on a 5 cm link; further out the rounding of the centres shows in
+  // the strains (at 1e7 m a body at rest starts strained).
   void position(const std::string& key, const Vec3d& v) const {
     finite(key, v);
-    for (double x : v) {
-      if (std::fabs(x) > 1e6)
-        fail(fmt::format("{} = {} is more than 1e6 m from the origin, where the solver's double positions no longer "
-                         "resolve small strains; move the scene's origin near the objects",
-                         key, vec(v)));
-    }
+    const double r = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (r > 1e6)
+      fail(fmt::format("{} = {} is {} m from the origin, more than 1e6 m from the origin, where the solver's double "
+                       "positions no longer resolve small strains; move the scene's origin near the objects",
+                       key, vec(v), num(r)));
   }
 
   // Checks lo < v (or lo <= v) and v < hi (or v <= hi); the range text and the fix go in the message.
