@@ -98,4 +98,27 @@ TEST(InputBounds, PositionsAreCheckedByDistanceFromTheOrigin) {
   EXPECT_EQ(error_of([&] { mca::validate_scene(s); }), "");
 }
 
+// A box or sphere region that holds no automaton is refused, as a mesh region is.
+TEST(InputBounds, EmptyBoxAndSphereRegionsAreRefused) {
+  mca::SceneDef s = mca::io::parse_scene(kWall + R"([solver]
+spacing = 0.1
+[[object.region]]
+shape = "box"
+center = [5, 0, 0]
+size = [0.5, 0.5, 0.5]
+material = "glass"
+)",
+                                         "r.toml");
+  std::string m = error_of([&] { mca::lattice::build_model(s); });
+  EXPECT_HAS(m, "r.toml: object[0] 'wall': region[0]");
+  EXPECT_HAS(m, "holds no automaton");
+  s.objects[0].regions[0].shape = mca::Shape::sphere;
+  s.objects[0].regions[0].radius = 0.2;
+  m = error_of([&] { mca::lattice::build_model(s); });
+  EXPECT_HAS(m, "region[0]");
+  EXPECT_HAS(m, "holds no automaton");
+  s.objects[0].regions[0].center = {0.3, 0, 0};
+  EXPECT_EQ(error_of([&] { mca::lattice::build_model(s); }), "");
+}
+
 }  // namespace

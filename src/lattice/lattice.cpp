@@ -218,6 +218,31 @@ bool inside_region(const RegionDef& r, const Vec3d& p) {
   return true;
 }
 
+// A box or sphere region that holds no automaton of its object is refused, as a mesh region is
+// (mesh_object.cpp): it is a misplaced centre or a size in the wrong units, and the material it names
+// would silently be missing. `first`: the object's first automaton (the rest follow it in M).
+void refuse_empty_regions(const SceneDef& scene, const Model& M, std::size_t oi, std::size_t first, double d) {
+  const ObjectDef& o = scene.objects[oi];
+  for (std::size_t r = 0; r < o.regions.size(); ++r) {
+    const RegionDef& g = o.regions[r];
+    if (g.shape == Shape::mesh) continue;
+    bool any = false;
+    for (std::size_t a = first; a < M.size() && !any; ++a)
+      any = inside_region(g, {M.position0[a].x, M.position0[a].y, M.position0[a].z});
+    if (any) continue;
+    const std::string what =
+        g.shape == Shape::sphere
+            ? fmt::format("sphere of radius {:g} m at center [{:g}, {:g}, {:g}]", g.radius, g.center[0], g.center[1],
+                          g.center[2])
+            : fmt::format("box of size [{:g}, {:g}, {:g}] m at center [{:g}, {:g}, {:g}]", g.size[0], g.size[1],
+                          g.size[2], g.center[0], g.center[1], g.center[2]);
+    throw Error(fmt::format("{}: object[{}] '{}': region[{}] ({}) holds no automaton of the object at spacing {:.4g} m; "
+                            "regions are in world coordinates and axes: move its center into the object (placed at "
+                            "[{:g}, {:g}, {:g}]) or enlarge it, or remove the region",
+                            scene.source, oi, o.name, r, what, d, o.position[0], o.position[1], o.position[2]));
+  }
+}
+
 // The smallest and largest class factors of the classes any object of the scene uses (share > 0): they
 // scale the breaking strains.
 std::pair<double, double> class_factor_range(const SceneDef& scene) {
@@ -981,6 +1006,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
     if (const SurfaceCells* sc = S.surface_of(oi)) {
       const std::size_t first = M.size();
       add_surface_object(M, scene, *S.of(oi), *sc, oi, R, base_group, region_groups, local);
+      refuse_empty_regions(scene, M, oi, first, d);
       for (int a = 0; a < 3; ++a) {  // no lattice links
         above[a].resize(M.size(), Model::kNoLink);
         below[a].resize(M.size(), Model::kNoLink);
@@ -1029,6 +1055,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
                               "or decrease solver.spacing",
                               scene.source, okey, o.name, d));
     }
+    refuse_empty_regions(scene, M, oi, first, d);
     if (const MeshObject* mo = S.of(oi)) {
       bind_surface(M, *mo, L, index, R, o.position, d);
       MeshSummary ms = mesh_summary(*mo, oi, o.mesh, R, o.position);
