@@ -121,4 +121,20 @@ material = "glass"
   EXPECT_EQ(error_of([&] { mca::lattice::build_model(s); }), "");
 }
 
+// The memory message asks for a coarser lattice (a larger spacing than the one refused) or a higher
+// limit: 7,623 automata at 0.03 m need 45.6 MB, over 45 MB, where the old hint named the spacing of
+// 10,000 automata (0.027 m, finer).
+TEST(InputBounds, MemoryRefusalSuggestsALargerSpacing) {
+  mca::SceneDef s = mca::io::parse_scene(kWall + "[solver]\nspacing = 0.03\nmax_memory_gb = 0.045\n", "m.toml");
+  const std::string m = error_of([&] { mca::lattice::build_model(s); });
+  EXPECT_HAS(m, "solver.max_memory_gb");
+  EXPECT_HAS(m, "increase solver.spacing");
+  const std::size_t at = m.find("spacing of about ");
+  ASSERT_NE(at, std::string::npos) << m;
+  const double suggested = std::stod(m.substr(at + 17));
+  EXPECT_GT(suggested, 0.03) << m;
+  s.solver.spacing = suggested;
+  EXPECT_EQ(error_of([&] { mca::lattice::build_model(s); }), "");
+}
+
 }  // namespace

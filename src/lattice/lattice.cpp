@@ -367,25 +367,40 @@ std::string ten_thousand_hint(const SceneDef& scene, const Shapes& S) {
   return fmt::format("about {:.3g} m gives 10,000 automata", std::cbrt(shapes_volume(scene, S) / 1e4));
 }
 
-void refuse_over_memory(const SceneDef& scene, const Shapes& S, double d, double automata, bool approximate) {
+// The spacing at which `automata` at spacing d (a lower bound when `approximate`: half the volume's count)
+// would fit in `limit` bytes, with 5 % to spare for the rounding of sizes to whole cells.
+double spacing_that_fits(double d, double automata, bool approximate, double limit) {
+  const double per = static_cast<double>(estimate_memory_bytes(1) - estimate_memory_bytes(0));
+  const double fit = (limit - static_cast<double>(estimate_memory_bytes(0))) / per;
+  return d * std::cbrt((approximate ? 2 * automata : automata) / fit) * 1.05;
+}
+
+void refuse_over_memory(const SceneDef& scene, double d, double automata, bool approximate) {
   const double bytes = static_cast<double>(estimate_memory_bytes(1) - estimate_memory_bytes(0)) * automata +
                        static_cast<double>(estimate_memory_bytes(0));
-  if (bytes > scene.solver.max_memory_gb * 1e9) {
+  const double limit = scene.solver.max_memory_gb * 1e9;
+  if (limit <= static_cast<double>(estimate_memory_bytes(0))) {
+    throw Error(fmt::format("{}: solver.max_memory_gb = {:g} is less than the {:.3g} GB the program takes without a "
+                            "model; raise solver.max_memory_gb",
+                            scene.source, scene.solver.max_memory_gb, estimate_memory_bytes(0) / 1e9));
+  }
+  if (bytes > limit) {
     throw Error(fmt::format(
         "{}: the scene needs {:.3g} GB for {}{:.4g} automata at spacing {:.4g} m, over solver.max_memory_gb = "
-        "{:g}; increase solver.spacing (memory falls with its cube; {}) or raise solver.max_memory_gb if the "
-        "machine has it",
+        "{:g}; increase solver.spacing (memory falls with its cube: a spacing of about {:.3g} m fits) or raise "
+        "solver.max_memory_gb if the machine has it",
         scene.source, bytes / 1e9, approximate ? "at least " : "", automata, d, scene.solver.max_memory_gb,
-        ten_thousand_hint(scene, S)));
+        spacing_that_fits(d, automata, approximate, limit)));
   }
   // A model larger than the machine's memory would swap for hours before failing.
   const double machine = physical_memory_bytes();
   if (machine > 0 && bytes > 0.9 * machine) {
     throw Error(fmt::format(
         "{}: the scene needs {:.3g} GB for {}{:.4g} automata at spacing {:.4g} m, more than this machine's "
-        "{:.1f} GB of memory; increase solver.spacing (memory falls with its cube; {}) or run it on a larger machine",
+        "{:.1f} GB of memory; increase solver.spacing (memory falls with its cube: a spacing of about {:.3g} m "
+        "fits) or run it on a larger machine",
         scene.source, bytes / 1e9, approximate ? "at least " : "", automata, d, machine / 1e9,
-        ten_thousand_hint(scene, S)));
+        spacing_that_fits(d, automata, approximate, 0.9 * machine)));
   }
 }
 
@@ -853,7 +868,7 @@ double spacing_for_target(const SceneDef& scene, const Shapes& S, std::int64_t t
     // d^3 up to the cells cut by the surface, so d <- d (n / target)^(1/3) lands within 2 % in one or two
     // fills. The spacing is rounded to float as build_model will, so its fill is the one kept.
     double d = static_cast<double>(static_cast<float>(std::cbrt(volume / static_cast<double>(target))));
-    refuse_over_memory(scene, S, d, static_cast<double>(target), false);
+    refuse_over_memory(scene, d, static_cast<double>(target), false);
     for (int it = 0; it < 6; ++it) {
       const std::int64_t n = try_spacing(d);
       if (std::llabs(n - target) * 200 <= target) break;  // within 0.5 %
@@ -935,10 +950,10 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
                                 ext[a], ten_thousand_hint(scene, S)));
       }
   }
-  refuse_over_memory(scene, S, d, n_volume, true);
+  refuse_over_memory(scene, d, n_volume, true);
   refuse_count(n_volume, true);
   const std::int64_t n_est = count_automata(scene, S, d);
-  refuse_over_memory(scene, S, d, static_cast<double>(n_est), false);
+  refuse_over_memory(scene, d, static_cast<double>(n_est), false);
   refuse_count(static_cast<double>(n_est), false);
   // Reserved at once: grown by push_back, the arrays would hold up to twice their size (measured: the
   // model of 400,000 automata took 85 MB instead of 57).
