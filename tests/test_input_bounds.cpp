@@ -137,4 +137,134 @@ TEST(InputBounds, MemoryRefusalSuggestsALargerSpacing) {
   EXPECT_EQ(error_of([&] { mca::lattice::build_model(s); }), "");
 }
 
+
+// Item 12: mesh files are checked against their size and solver.max_memory_gb before they are read.
+namespace fs = std::filesystem;
+
+std::string write_file(const fs::path& p, const std::string& bytes) {
+  std::ofstream(p, std::ios::binary) << bytes;
+  return p.string();
+}
+
+std::string read_error(const std::string& path) {
+  return error_of([&] { mca::mesh::read_mesh(path); });
+}
+
+mca::SceneDef mesh_scene(const std::string& mesh_file, double d) {
+  mca::SceneDef s = mca::test::block_scene(1, 1, 1, d);
+  s.objects[0].shape = mca::Shape::mesh;
+  s.objects[0].mesh = mesh_file;
+  return s;
+}
+
+TEST(InputBounds, MeshHeaderCountsTheFileCannotHoldAreRefusedAtOnce) {
+  mca::test::TempDir t;
+  const auto t0 = std::chrono::steady_clock::now();
+  std::string m = read_error(write_file(t.path() / "big.off", "OFF\n1000000000 2000000000 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"));
+  EXPECT_HAS(m, "declares 1000000000 vertices and 2000000000 faces, which take at least 22000000000 bytes");
+  // A PLY declaring 1e9 double vertices in 200 bytes.
+  m = read_error(write_file(t.path() / "big.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\n"
+                                                 "property double x\nproperty double y\nproperty double z\nend_header\n" +
+                                                 std::string(48, '\0')));
+  EXPECT_HAS(m, "cut short");
+  // A binary STL whose header declares 1e9 triangles in 284 bytes.
+  std::string stl(284, '\0');
+  const std::uint32_t n = 1000000000;
+  std::memcpy(stl.data() + 80, &n, 4);
+  m = read_error(write_file(t.path() / "big.stl", stl));
+  EXPECT_HAS(m, "neither a binary STL");
+  EXPECT_HAS(m, "1000000000 declared, 284 bytes");
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 2.0);
+}
+
+TEST(InputBounds, MeshFilesOfTheWrongKindAreRefusedByTheirFirstBytes) {
+  mca::test::TempDir t;
+  const std::string zeros(1 << 20, '\0');
+  EXPECT_HAS(read_error(write_file(t.path() / "z.off", zeros)), "does not start with OFF");
+  EXPECT_HAS(read_error(write_file(t.path() / "z.ply", zeros)), "does not start with 'ply'");
+  EXPECT_HAS(read_error(write_file(t.path() / "z.obj", zeros)), "holds NUL bytes");
+  EXPECT_HAS(read_error(write_file(t.path() / "z.stl", zeros)), "neither a binary STL");
+  EXPECT_HAS(read_error(write_file(t.path() / "z.gltf", zeros)), "not a glTF file");
+  EXPECT_HAS(read_error(write_file(t.path() / "z.glb", zeros)), "not a .glb file");
+}
+
+TEST(InputBounds, MeshReadingIsBoundBySolverMaxMemoryGb) {
+  mca::test::TempDir t;
+  // A valid OFF header over 30 MB of garbage: refused for the memory limit before it is parsed.
+  std::string garbage = "OFF\n4 4 0\n";
+  garbage += std::string(30 << 20, 'x');
+  const std::string path = write_file(t.path() / "garbage.off", garbage);
+  mca::SceneDef s = mesh_scene(path, 0.05);
+  s.solver.max_memory_gb = 0.02;
+  std::string m = error_of([&] { mca::lattice::build_model(s); });
+  EXPECT_HAS(m, "reading it would take about");
+  EXPECT_HAS(m, "solver.max_memory_gb = 0.02");
+  // An OBJ whose vertices and triangles would take more than the limit: a 2.8 MB file of 150,000 vertices
+  // and 50,000 triangles, 2.8 + 18 + 7.5 MB to read, over 25 MB.
+  std::string obj;
+  for (int i = 0; i < 50000; ++i) obj += fmt::format("v {} 0 0\nv {} 1 0\nv {} 0 1\nf {} {} {}\n", i, i, i, 3 * i + 1, 3 * i + 2, 3 * i + 3);
+  s = mesh_scene(write_file(t.path() / "many.obj", obj), 0.05);
+  s.solver.max_memory_gb = 0.025;
+  m = error_of([&] { mca::lattice::build_model(s); });
+  EXPECT_HAS(m, "150000 vertices and 50000 triangles");
+  EXPECT_HAS(m, "solver.max_memory_gb");
+}
+
+// Item 7: coordinates in double where the format has them; float32 formats far out are refused.
+TEST(InputBounds, MeshCoordinatesFarOutAreReadInDouble) {
+  mca::test::TempDir t;
+  const mca::mesh::TriMesh cube = mca::test::cube_mesh(0.15, {1e6, 1e6, 0});
+  // OFF and OBJ with every digit, and a binary PLY of doubles.
+  std::string off = fmt::format("OFF\n{} {} 0\n", cube.vertices.size(), cube.faces.size());
+  std::string obj;
+  for (const auto& v : cube.vertices) {
+    off += fmt::format("{} {} {}\n", v[0], v[1], v[2]);
+    obj += fmt::format("v {} {} {}\n", v[0], v[1], v[2]);
+  }
+  std::string ply = fmt::format("ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty double x\n"
+                                "property double y\nproperty double z\nelement face {}\n"
+                                "property list uchar int vertex_indices\nend_header\n",
+                                cube.vertices.size(), cube.faces.size());
+  for (const auto& v : cube.vertices) ply.append(reinterpret_cast<const char*>(v.data()), 24);
+  for (const auto& f : cube.faces) {
+    off += fmt::format("3 {} {} {}\n", f[0], f[1], f[2]);
+    obj += fmt::format("f {} {} {}\n", f[0] + 1, f[1] + 1, f[2] + 1);
+    ply += '\3';
+    for (auto i : f) {
+      const auto k = static_cast<std::int32_t>(i);
+      ply.append(reinterpret_cast<const char*>(&k), 4);
+    }
+  }
+  for (const auto& [name, bytes] : {std::pair<std::string, std::string>{"far.off", off}, {"far.obj", obj}, {"far.ply", ply}}) {
+    const mca::Model m = mca::lattice::build_model(mesh_scene(write_file(t.path() / name, bytes), 0.05));
+    EXPECT_EQ(m.size(), 216u) << name;  // 6 x 6 x 6 cells of 0.05 m
+  }
+  // STL stores float32: 6 cm of rounding at 1e6 m, refused with the fix.
+  mca::test::write_mesh_file(t.path() / "far.stl", cube);
+  const std::string m = error_of([&] { mca::lattice::build_model(mesh_scene((t.path() / "far.stl").string(), 0.05)); });
+  EXPECT_HAS(m, "stores float32 coordinates");
+  EXPECT_HAS(m, "Recentre the model");
+  // Near the origin the same STL is fine.
+  mca::test::write_mesh_file(t.path() / "near.stl", mca::test::cube_mesh(0.15));
+  EXPECT_EQ(mca::lattice::build_model(mesh_scene((t.path() / "near.stl").string(), 0.05)).size(), 216u);
+}
+
+// Item 18: OBJ numbers written ".3" and COFF files with comments (and colours without alpha) are read.
+TEST(InputBounds, ObjShortNumbersAndCoffCommentsAreRead) {
+  mca::test::TempDir t;
+  const std::string obj = write_file(t.path() / "short.obj", "v 0 0 0\nv .5 0 0\nv 0 .5 0\nv 0 0 .5\nv -.5 +.5 1.\n"
+                                                             "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
+  EXPECT_EQ(mca::mesh::read_mesh(obj).faces.size(), 4u);
+  const std::string coff = write_file(t.path() / "c.off", "COFF # coloured\n# counts\n4 4 6\n0 0 0 255 0 0 255 # red\n"
+                                                          "1 0 0 0 255 0 255\n0 1 0 0 0 255 255\n0 0 1 9 9 9 255\n"
+                                                          "# faces\n3 0 2 1 1 0 0\n3 0 1 3\n3 0 3 2\n3 1 2 3 # last\n");
+  const mca::mesh::TriMesh m = mca::mesh::read_mesh(coff);
+  EXPECT_EQ(m.vertices.size(), 4u);
+  EXPECT_EQ(m.faces.size(), 4u);
+  // Colours of three components (no alpha): assimp's reader failed on them ("Cannot parse string").
+  const std::string rgb = write_file(t.path() / "rgb.off", "COFF\n4 4 0\n0 0 0 1 0 0\n1 0 0 0 1 0\n0 1 0 0 0 1\n"
+                                                           "0 0 1 1 1 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n");
+  EXPECT_EQ(mca::mesh::read_mesh(rgb).faces.size(), 4u);
+}
+
 }  // namespace
