@@ -137,14 +137,27 @@ const MeshFillResult& mesh_fill(const SceneDef& scene, const Shapes& S, std::siz
     mesh::CellBox box;
     box.d = d;
     lattice_frame(scene.objects[oi], S.of(oi), d, box.n, box.origin);
-    // One byte per cell of the object's box: a long thin mesh at a fine spacing could ask for more than
-    // its automata.
-    if (static_cast<double>(box.n[0]) * static_cast<double>(box.n[1]) * static_cast<double>(box.n[2]) >
-        scene.solver.max_memory_gb * 1e9) {
-      throw Error(fmt::format("{}: object[{}] '{}': its bounding box holds {} x {} x {} cells at spacing {:.4g} m, "
-                              "more bytes than solver.max_memory_gb = {:g}; increase solver.spacing",
-                              scene.source, oi, scene.objects[oi].name, box.n[0], box.n[1], box.n[2], d,
-                              scene.solver.max_memory_gb));
+    // Arrays over the object's whole box of cells, not over its automata: the fill (a byte per cell, kept,
+    // and one in flight), its copy in the lattice (one), the cell -> automaton index (8), and two bytes per
+    // mesh region. A mesh of two parts far apart is a box of mostly empty cells: two 0.3 m cubes 100 m
+    // apart along a diagonal are 8e9 cells at 0.05 m, 97 GB, where one byte per cell (8 GB) was checked and
+    // the build died of a bare std::bad_alloc.
+    const double cells = static_cast<double>(box.n[0]) * static_cast<double>(box.n[1]) * static_cast<double>(box.n[2]);
+    const double per_cell = 11.0 + 2.0 * static_cast<double>(scene.objects[oi].regions.size());
+    const double limit = scene.solver.max_memory_gb * 1e9;
+    if (cells * per_cell > limit) {
+      const double solid = S.of(oi)->volume() / (d * d * d);
+      throw Error(fmt::format(
+          "{}: object[{}] '{}': its bounding box holds {} x {} x {} cells at spacing {:.4g} m ({:.3g} GB at {:g} bytes "
+          "per cell while its lattice is built), over solver.max_memory_gb = {:g}; increase solver.spacing (a "
+          "spacing of about {:.3g} m fits) or raise solver.max_memory_gb{}",
+          scene.source, oi, scene.objects[oi].name, box.n[0], box.n[1], box.n[2], d, cells * per_cell / 1e9, per_cell,
+          scene.solver.max_memory_gb, d * std::cbrt(cells * per_cell / limit) * 1.05,
+          solid < 0.01 * cells
+              ? fmt::format(". The mesh fills {:.2g} % of its box: if it is made of parts far apart, give each part an "
+                            "object of its own",
+                            100 * solid / cells)
+              : std::string()));
     }
     memo.emplace(d, fill_mesh_object(scene, oi, *S.of(oi), box));
   }
