@@ -304,4 +304,48 @@ TEST(InputBounds, OutOfMemoryIsAClearMessage) {
   EXPECT_EQ(r.output.find("terminate"), std::string::npos) << r.output;
 }
 
+// Item 14: the build of many projectiles is no longer quadratic in expensive work (1,000 balls took over
+// 100 s), and a long build shows its progress.
+TEST(InputBounds, AThousandBallsBuildInSeconds) {
+  mca::SceneDef s = mca::test::block_scene(20, 4, 20, 0.05);
+  for (int i = 0; i < 1000; ++i) {
+    mca::ProjectileDef p;
+    p.name = fmt::format("ball{}", i);
+    p.radius = 0.1;
+    p.position = {-5.0 + 0.3 * (i % 32), -3.0, 3.0 + 0.3 * (i / 32)};
+    p.velocity = {0, 10, 0};
+    s.projectiles.push_back(p);
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  const mca::Model m = mca::lattice::build_model(s);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_EQ(m.projectiles.size(), 1000u);
+  EXPECT_LT(seconds, 10.0);
+  // A ball that touches the block is still refused, naming the automaton it overlaps.
+  s.projectiles[500].position = {0.0, 0.0, 0.5};
+  EXPECT_HAS(error_of([&] { mca::lattice::build_model(s); }), "projectile[500].position");
+}
+
+TEST(InputBounds, ALongBuildShowsItsProgressOnStderr) {
+  testing::internal::CaptureStderr();
+  {
+    mca::lattice::BuildProgress quick;
+    mca::lattice::BuildProgress::stage("reading the meshes");
+  }
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+  testing::internal::CaptureStderr();
+  {
+    mca::lattice::BuildProgress slow;
+    mca::lattice::BuildProgress::stage("filling object 'wall' (1 of 1)");
+    std::this_thread::sleep_for(std::chrono::milliseconds(2400));
+  }
+  const std::string out = testing::internal::GetCapturedStderr();
+  EXPECT_HAS(out, "mca: building the model (2 s): filling object 'wall' (1 of 1)");
+  EXPECT_HAS(out, "mca: model built after 2.");
+  // Without one, stage() prints nothing.
+  testing::internal::CaptureStderr();
+  mca::lattice::BuildProgress::stage("nothing");
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+}
+
 }  // namespace
