@@ -1,10 +1,12 @@
 // `mca info`: what a scene will cost before running it.
 #include <cstdlib>
 #include <fmt/format.h>
+#include <optional>
 #include <nlohmann/json.hpp>
 
 #include "app/commands.hpp"
 #include "io/scene_io.hpp"
+#include "lattice/lattice.hpp"
 #include "sim/engine.hpp"
 
 namespace mca::app {
@@ -68,7 +70,12 @@ void print_mesh(const MeshSummary& ms, const std::string& object, std::size_t au
 
 int info(const std::optional<std::string>& path, bool json) {
   const SceneDef scene = path ? io::load_scene_file(*path) : io::load_default_scene();
+  // Progress of a long build on stderr, not with --json: a program reading the output (often with stderr
+  // joined to it) gets the JSON alone.
+  std::optional<lattice::BuildProgress> building;
+  if (!json) building.emplace();
   const Engine sim(scene);
+  building.reset();
   const Model& m = sim.model();
   const std::int64_t frames = sim.frame_count();
   const std::int64_t steps = sim.total_steps();

@@ -3,6 +3,7 @@
 #include <charconv>
 #include <cstdio>
 #include <filesystem>
+#include <new>
 #include <fmt/format.h>
 
 #include "app/commands.hpp"
@@ -140,6 +141,13 @@ int main(int argc, char** argv) {
   } catch (const mca::Error& e) {
     fmt::print(stderr, "error: {}\n", e.what());
     return 2;
+  } catch (const std::bad_alloc&) {
+    // The last resort: every allocation sized by the input is checked first (solver.max_memory_gb, the
+    // machine's memory, the sizes of mesh files), so one that fails here escaped those checks.
+    fmt::print(stderr, "error: mca ran out of memory (std::bad_alloc): this scene or a file it reads needs more "
+                       "memory than the machine has, or than the process may use (ulimit -v), and no check caught it "
+                       "first; increase solver.spacing or use smaller meshes, and please report the scene\n");
+    return 1;
   } catch (const std::exception& e) {
     fmt::print(stderr, "error: {}\n", e.what());
     return 1;

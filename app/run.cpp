@@ -6,6 +6,7 @@
 #include <csignal>
 #include <cstdio>
 #include <fmt/format.h>
+#include <optional>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
@@ -20,6 +21,7 @@
 #include "io/checkpoint.hpp"
 #include "io/output_files.hpp"
 #include "io/scene_io.hpp"
+#include "lattice/lattice.hpp"
 #include "mca/error.hpp"
 #include "sim/engine.hpp"
 #include "sim/state_check.hpp"
@@ -447,7 +449,10 @@ int run(const RunOptions& o) {
   }
 
   if (!o.quiet) fmt::print(stderr, "mca: scene '{}' ({}): building...\n", scene.name, scene.source);
+  std::optional<lattice::BuildProgress> building;
+  if (!o.quiet) building.emplace();
   Engine sim(scene);
+  building.reset();
   const Plan plan = make_plan(sim, o.steps);
   if (!o.quiet) {
     fmt::print(stderr, "mca: {} automata, {} links, time step {:.4g} s, {} steps per frame, {} frames, {} steps, "
@@ -507,7 +512,10 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   // The file is untrusted: the model rebuilt from its scene must be the one it was saved from, and the
   // state must fit that model, before a backend is given the state.
   const std::string source = fmt::format("checkpoint '{}'", all.back().string());
+  std::optional<lattice::BuildProgress> building;
+  if (!quiet) building.emplace();
   Engine sim(cp.scene, cp.state, source, cp.model_fingerprint);
+  building.reset();
   const Plan plan = resume_plan(cp, sim.steps_per_frame(), source);
   // A rendered run goes on rendering, as it began (render/render.json), unless told not to; the renderer
   // comes before any output, as for a new run.

@@ -25,7 +25,7 @@ struct MaterialDef {
   double restitution = 0.2;             // coefficient of restitution of contacts, in [0.01, 1]
   // Rolling and twisting resistance of contacts (mu_r, mu_t: the torque caps are mu R F_n). A loose
   // automaton is a cube that contacts see as a sphere; 0.3 makes debris stop rolling within a few
-  // times its size instead of rolling on for ever. >= 0.
+  // times its size instead of rolling on for ever. In [0, 1].
   double rolling_friction = 0.3;
   double twisting_friction = 0.3;
   // Viscosity of the material as a relaxation time tau [s] (Kelvin-Voigt: a link's dashpot is tau times
@@ -152,7 +152,7 @@ struct SolverDef {
   double link_damping = 0.0;             // viscous damping of links, share of critical, in [0, 1]
   double local_damping = 0.0;            // Cundall local damping alpha, in [0, 0.2]
   double stress_coefficient = 1.0;       // K_v of the equivalent-stress criterion, > 0
-  double skin = 0.3;                     // contact search skin, share of d, in (0, 1]
+  double skin = 0.3;                     // contact search skin, share of d, in (0, 0.4]
   std::uint64_t seed = 1;
   double max_memory_gb = 16.0;           // refuse models whose estimate exceeds this
 };

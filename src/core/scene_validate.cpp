@@ -16,83 +16,17 @@
 #include <mca/error.hpp>
 #include <mca/scene.hpp>
 
+#include "core/text.hpp"
+
 namespace mca {
 
 namespace {
 
-// Shortest text that reads back as the same double, in exponent form for large and tiny magnitudes
-// so that 3e+10 is not shown as 30000000000.
-std::string num(double v) {
-  const double a = std::fabs(v);
-  if (std::isfinite(v) && a != 0.0 && (a >= 1e5 || a < 1e-3)) {
-    for (int p = 0; p <= 17; ++p) {
-      std::string s = fmt::format("{:.{}e}", v, p);
-      if (std::strtod(s.c_str(), nullptr) == v) return s;
-    }
-  }
-  return fmt::format("{}", v);
-}
-
-// A name as it would be written in TOML, so that control characters show as escapes.
-std::string escaped(const std::string& s) {
-  std::string out;
-  for (const char ch : s) {
-    const auto u = static_cast<unsigned char>(ch);
-    if (ch == '"' || ch == '\\') {
-      out += '\\';
-      out += ch;
-    } else if (ch == '\n') {
-      out += "\\n";
-    } else if (ch == '\r') {
-      out += "\\r";
-    } else if (ch == '\t') {
-      out += "\\t";
-    } else if (u < 0x20 || u == 0x7f) {
-      out += fmt::format("\\u{:04X}", u);
-    } else {
-      out += ch;
-    }
-  }
-  return out;
-}
+using text::escaped;
+using text::num;
+using text::suggestion;
 
 std::string vec(const Vec3d& v) { return fmt::format("[{}, {}, {}]", num(v[0]), num(v[1]), num(v[2])); }
-
-std::size_t edit_distance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diag = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t up = row[j];
-      const bool same = std::tolower(static_cast<unsigned char>(a[i - 1])) ==
-                        std::tolower(static_cast<unsigned char>(b[j - 1]));
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (same ? 0 : 1)});
-      diag = up;
-    }
-  }
-  return row[b.size()];
-}
-
-// "; did you mean 'x'?" for the closest candidate within a third of the word's length (at least 2
-// edits), else the list of candidates.
-std::string suggestion(std::string_view word, const std::vector<std::string>& candidates) {
-  std::string best;
-  std::size_t best_d = std::string::npos;
-  for (const std::string& c : candidates) {
-    const std::size_t d = edit_distance(word, c);
-    if (d < best_d) {
-      best_d = d;
-      best = c;
-    }
-  }
-  const std::size_t limit = std::max<std::size_t>(2, word.size() / 3);
-  if (!best.empty() && best_d <= limit) return fmt::format("; did you mean '{}'?", best);
-  std::string list;
-  for (const std::string& c : candidates) list += (list.empty() ? "" : ", ") + c;
-  return fmt::format("; known: {}", list);
-}
 
 class Checker {
  public:
@@ -110,16 +44,16 @@ class Checker {
       if (!std::isfinite(x)) fail(fmt::format("{} = {} has a non-finite component; give finite values", key, vec(v)));
     }
   }
-  // Positions within 1e6 m of the origin: there a double resolves 1e-10 m, a strain of 2e-9 on a 5 cm link;
-  // further out the rounding of the centres shows in the strains (at 1e7 m a body at rest starts strained).
+  // Positions within 1e6 m of the origin (a distance, as docs/scene-format.md says): there a double
+  // resolves 1e-10 m, a strain of 2e-9 on a 5 cm link; further out the rounding of the centres shows in
+  // the strains (at 1e7 m a body at rest starts strained).
   void position(const std::string& key, const Vec3d& v) const {
     finite(key, v);
-    for (double x : v) {
-      if (std::fabs(x) > 1e6)
-        fail(fmt::format("{} = {} is more than 1e6 m from the origin, where the solver's double positions no longer "
-                         "resolve small strains; move the scene's origin near the objects",
-                         key, vec(v)));
-    }
+    const double r = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (r > 1e6)
+      fail(fmt::format("{} = {} is {} m from the origin, more than 1e6 m from the origin, where the solver's double "
+                       "positions no longer resolve small strains; move the scene's origin near the objects",
+                       key, vec(v), num(r)));
   }
 
   // Checks lo < v (or lo <= v) and v < hi (or v <= hi); the range text and the fix go in the message.
@@ -250,8 +184,8 @@ const MaterialDef& resolve_material(const SceneDef& scene, const std::string& na
   for (const MaterialDef& m : builtin_materials()) {
     if (std::find(names.begin(), names.end(), m.name) == names.end()) names.push_back(m.name);
   }
-  std::string hint = suggestion(name, names);
-  if (hint.rfind("; did", 0) != 0) hint = fmt::format("; known materials: {}", hint.substr(std::strlen("; known: ")));
+  std::string hint = text::did_you_mean(name, names);
+  if (hint.empty()) hint = fmt::format("; known materials: {}", fmt::join(names, ", "));
   throw Error(fmt::format("{}: {} = \"{}\" is not a known material{} (define others in [[material]] blocks)",
                           scene.source, key, name, hint));
 }

@@ -21,6 +21,7 @@
 
 #include <mca/error.hpp>
 
+#include "core/text.hpp"
 #include "io/default_scene.hpp"
 
 namespace mca::io {
@@ -58,24 +59,9 @@ std::vector<std::filesystem::path> mesh_file_candidates(const std::string& mesh,
 
 namespace {
 
-// Shortest text that reads back as the same double; exponent form for large and tiny magnitudes
-// (3e+10, 1.5e-4) so that moduli and strains stay readable.
-std::string num(double v) {
-  const double a = std::fabs(v);
-  if (std::isfinite(v) && a != 0.0 && (a >= 1e5 || a < 1e-3)) {
-    for (int p = 0; p <= 17; ++p) {
-      std::string s = fmt::format("{:.{}e}", v, p);
-      if (std::strtod(s.c_str(), nullptr) != v) continue;
-      // fmt pads the exponent to two digits ("1.5e-04"); TOML allows it, people do not write it.
-      const std::size_t e = s.find('e');
-      std::size_t d = e + 2;
-      while (d + 1 < s.size() && s[d] == '0') s.erase(d, 1);
-      if (s[e + 1] == '+') s.erase(e + 1, 1);
-      return s;
-    }
-  }
-  return fmt::format("{}", v);
-}
+using text::did_you_mean;
+using text::num;
+using text::suggestion;
 
 // A TOML float: num() plus ".0" where it would otherwise read as an integer.
 std::string toml_double(double v) {
@@ -84,64 +70,7 @@ std::string toml_double(double v) {
   return s;
 }
 
-std::string toml_string(std::string_view s) {
-  std::string out = "\"";
-  for (const char ch : s) {
-    const auto c = static_cast<unsigned char>(ch);
-    switch (ch) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\b': out += "\\b"; break;
-      case '\t': out += "\\t"; break;
-      case '\n': out += "\\n"; break;
-      case '\f': out += "\\f"; break;
-      case '\r': out += "\\r"; break;
-      default:
-        if (c < 0x20 || c == 0x7f) {
-          out += fmt::format("\\u{:04X}", static_cast<unsigned>(c));
-        } else {
-          out += ch;
-        }
-    }
-  }
-  return out + "\"";
-}
-
-std::size_t edit_distance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diag = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t up = row[j];
-      const bool same = std::tolower(static_cast<unsigned char>(a[i - 1])) ==
-                        std::tolower(static_cast<unsigned char>(b[j - 1]));
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (same ? 0 : 1)});
-      diag = up;
-    }
-  }
-  return row[b.size()];
-}
-
-// "; did you mean 'x'?" for the closest candidate within a third of the word's length (at least 2
-// edits), else the list of candidates.
-std::string suggestion(std::string_view word, const std::vector<std::string>& candidates) {
-  std::string best;
-  std::size_t best_d = std::string::npos;
-  for (const std::string& c : candidates) {
-    const std::size_t d = edit_distance(word, c);
-    if (d < best_d) {
-      best_d = d;
-      best = c;
-    }
-  }
-  const std::size_t limit = std::max<std::size_t>(2, word.size() / 3);
-  if (!best.empty() && best_d <= limit) return fmt::format("; did you mean '{}'?", best);
-  std::string list;
-  for (const std::string& c : candidates) list += (list.empty() ? "" : ", ") + c;
-  return fmt::format("; allowed: {}", list);
-}
+std::string toml_string(std::string_view s) { return text::quoted(s); }
 
 const char* type_name(const toml::node& n) {
   switch (n.type()) {
@@ -318,8 +247,7 @@ class Table {
     if (std::find(choices.begin(), choices.end(), s) == choices.end()) {
       std::string list;
       for (const std::string& c : choices) list += fmt::format("{}\"{}\"", list.empty() ? "" : ", ", c);
-      std::string fix = suggestion(s, choices);
-      if (fix.rfind("; did", 0) != 0) fix.clear();
+      const std::string fix = did_you_mean(s, choices);
       rd_.fail(t_.get(k)->source(),
                fmt::format("{} = \"{}\" is not {}{}; use one of {}", key(k), s, what, fix, list));
     }
@@ -361,8 +289,7 @@ HeterogeneityDef read_heterogeneity(const Table& tb, HeterogeneityDef h) {
     }
     if (!heterogeneity_preset(preset, h.shares)) {
       const std::vector<std::string> names = {"none", "low", "medium", "high"};
-      std::string fix = suggestion(preset, names);
-      if (fix.rfind("; did", 0) != 0) fix.clear();
+      const std::string fix = did_you_mean(preset, names);
       tb.reader().fail(preset_node->source(),
                        fmt::format("{} = \"{}\" is not a preset{}; use \"none\", \"low\", \"medium\" or \"high\", "
                                    "or give shares = [p1, p2, p3, p4]",
@@ -696,9 +623,116 @@ void write_heterogeneity(std::string& out, const HeterogeneityDef& h) {
   out += fmt::format("grain_size = {}\n", toml_double(h.grain_size));
 }
 
+// toml++ recurses once per part of a dotted key ("a.b.c") and of a table header ("[a.b.c]"): a key of
+// 50,000 parts overflowed the stack (exit 139). Scene keys have at most three parts
+// (object.heterogeneity.preset), so the text is scanned first, strings and comments skipped, and a run
+// of more dots than any scene needs, or a key longer than any name, is refused with its line.
+constexpr std::size_t kMaxKeyParts = 64;
+constexpr std::size_t kMaxKeyLength = 1024;
+
+void check_keys(std::string_view t, const std::string& source) {
+  std::size_t line = 1, dots = 0, run = 0;
+  // header: the run began with '[' at the start of a line; in_value: after an '=', nest: the arrays and
+  // inline tables open in that value (a multi-line array's rows may start with '[').
+  bool line_start = true, header = false, in_value = false;
+  int nest = 0;
+  auto fail = [&](const std::string& what) {
+    throw Error(fmt::format("{}:{}: {}; scene keys have at most 3 parts (e.g. object.heterogeneity.preset) and "
+                            "names of a few words: the line is damaged or the file is not a scene",
+                            source, line, what));
+  };
+  auto check_length = [&] {
+    if (run > kMaxKeyLength) fail(fmt::format("a key of {} characters, more than {}", run, kMaxKeyLength));
+  };
+  // Skips a string opened at t[i] (quote q, three of them for a multi-line one); returns the index after it.
+  auto skip_string = [&](std::size_t i, char q) {
+    const bool multi = t.compare(i, 3, std::string(3, q)) == 0;
+    std::size_t k = i + (multi ? 3 : 1);
+    while (k < t.size()) {
+      const char c = t[k];
+      if (c == '\\' && q == '"') {
+        if (k + 1 < t.size() && t[k + 1] == '\n') ++line;
+        k += 2;
+        continue;
+      }
+      if (c == '\n') {
+        if (!multi) return k;  // unterminated: toml++ reports it
+        ++line;
+      }
+      if (c == q && (!multi || t.compare(k, 3, std::string(3, q)) == 0)) {
+        if (!multi) return k + 1;
+        k += 3;
+        for (int extra = 0; extra < 2 && k < t.size() && t[k] == q; ++extra) ++k;  // """a"""" ends after 4
+        return k;
+      }
+      ++k;
+    }
+    return k;
+  };
+  for (std::size_t i = 0; i < t.size();) {
+    const char c = t[i];
+    if (c == '"' || c == '\'') {
+      const std::size_t end = skip_string(i, c);
+      run += end - i;
+      i = end;
+      line_start = false;
+      continue;
+    }
+    if (c == '#') {
+      while (i < t.size() && t[i] != '\n') ++i;
+      continue;
+    }
+    switch (c) {
+      case '\n':
+        ++line;
+        if (header) check_length();
+        if (nest == 0) in_value = false;
+        dots = run = 0;
+        header = false;
+        line_start = true;
+        ++i;
+        continue;
+      case ' ': case '\t': case '\r':
+        ++i;
+        continue;
+      case '=':
+        check_length();
+        in_value = true;
+        dots = run = 0;
+        break;
+      case '[': case '{':
+        if (in_value) ++nest;
+        else if (c == '[' && line_start) header = true;
+        dots = run = 0;
+        break;
+      case ']': case '}':
+        if (nest > 0) {
+          --nest;
+        } else if (header) {
+          check_length();
+          header = false;
+        }
+        dots = run = 0;
+        break;
+      case ',':
+        dots = run = 0;
+        break;
+      case '.':
+        if (++dots >= kMaxKeyParts) fail(fmt::format("a key or table header of more than {} dotted parts", kMaxKeyParts));
+        ++run;
+        break;
+      default:
+        ++run;
+    }
+    line_start = false;
+    ++i;
+  }
+}
+
 }  // namespace
 
 SceneDef parse_scene(std::string_view toml_text, const std::string& source) {
+  check_keys(toml_text, source);
   toml::table root;
   try {
     root = toml::parse(toml_text, source);

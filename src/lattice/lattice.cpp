@@ -138,14 +138,27 @@ const MeshFillResult& mesh_fill(const SceneDef& scene, const Shapes& S, std::siz
     mesh::CellBox box;
     box.d = d;
     lattice_frame(scene.objects[oi], S.of(oi), d, box.n, box.origin);
-    // One byte per cell of the object's box: a long thin mesh at a fine spacing could ask for more than
-    // its automata.
-    if (static_cast<double>(box.n[0]) * static_cast<double>(box.n[1]) * static_cast<double>(box.n[2]) >
-        scene.solver.max_memory_gb * 1e9) {
-      throw Error(fmt::format("{}: object[{}] '{}': its bounding box holds {} x {} x {} cells at spacing {:.4g} m, "
-                              "more bytes than solver.max_memory_gb = {:g}; increase solver.spacing",
-                              scene.source, oi, scene.objects[oi].name, box.n[0], box.n[1], box.n[2], d,
-                              scene.solver.max_memory_gb));
+    // Arrays over the object's whole box of cells, not over its automata: the fill (a byte per cell, kept,
+    // and one in flight), its copy in the lattice (one), the cell -> automaton index (8), and two bytes per
+    // mesh region. A mesh of two parts far apart is a box of mostly empty cells: two 0.3 m cubes 100 m
+    // apart along a diagonal are 8e9 cells at 0.05 m, 97 GB, where one byte per cell (8 GB) was checked and
+    // the build died of a bare std::bad_alloc.
+    const double cells = static_cast<double>(box.n[0]) * static_cast<double>(box.n[1]) * static_cast<double>(box.n[2]);
+    const double per_cell = 11.0 + 2.0 * static_cast<double>(scene.objects[oi].regions.size());
+    const double limit = scene.solver.max_memory_gb * 1e9;
+    if (cells * per_cell > limit) {
+      const double solid = S.of(oi)->volume() / (d * d * d);
+      throw Error(fmt::format(
+          "{}: object[{}] '{}': its bounding box holds {} x {} x {} cells at spacing {:.4g} m ({:.3g} GB at {:g} bytes "
+          "per cell while its lattice is built), over solver.max_memory_gb = {:g}; increase solver.spacing (a "
+          "spacing of about {:.3g} m fits) or raise solver.max_memory_gb{}",
+          scene.source, oi, scene.objects[oi].name, box.n[0], box.n[1], box.n[2], d, cells * per_cell / 1e9, per_cell,
+          scene.solver.max_memory_gb, d * std::cbrt(cells * per_cell / limit) * 1.05,
+          solid < 0.01 * cells
+              ? fmt::format(". The mesh fills {:.2g} % of its box: if it is made of parts far apart, give each part an "
+                            "object of its own",
+                            100 * solid / cells)
+              : std::string()));
     }
     memo.emplace(d, fill_mesh_object(scene, oi, *S.of(oi), box));
   }
@@ -220,6 +233,31 @@ bool inside_region(const RegionDef& r, const Vec3d& p) {
   for (int a = 0; a < 3; ++a)
     if (std::fabs(p[a] - r.center[a]) > 0.5 * r.size[a]) return false;
   return true;
+}
+
+// A box or sphere region that holds no automaton of its object is refused, as a mesh region is
+// (mesh_object.cpp): it is a misplaced centre or a size in the wrong units, and the material it names
+// would silently be missing. `first`: the object's first automaton (the rest follow it in M).
+void refuse_empty_regions(const SceneDef& scene, const Model& M, std::size_t oi, std::size_t first, double d) {
+  const ObjectDef& o = scene.objects[oi];
+  for (std::size_t r = 0; r < o.regions.size(); ++r) {
+    const RegionDef& g = o.regions[r];
+    if (g.shape == Shape::mesh) continue;
+    bool any = false;
+    for (std::size_t a = first; a < M.size() && !any; ++a)
+      any = inside_region(g, {M.position0[a].x, M.position0[a].y, M.position0[a].z});
+    if (any) continue;
+    const std::string what =
+        g.shape == Shape::sphere
+            ? fmt::format("sphere of radius {:g} m at center [{:g}, {:g}, {:g}]", g.radius, g.center[0], g.center[1],
+                          g.center[2])
+            : fmt::format("box of size [{:g}, {:g}, {:g}] m at center [{:g}, {:g}, {:g}]", g.size[0], g.size[1],
+                          g.size[2], g.center[0], g.center[1], g.center[2]);
+    throw Error(fmt::format("{}: object[{}] '{}': region[{}] ({}) holds no automaton of the object at spacing {:.4g} m; "
+                            "regions are in world coordinates and axes: move its center into the object (placed at "
+                            "[{:g}, {:g}, {:g}]) or enlarge it, or remove the region",
+                            scene.source, oi, o.name, r, what, d, o.position[0], o.position[1], o.position[2]));
+  }
 }
 
 // The smallest and largest class factors of the classes any object of the scene uses (share > 0): they
@@ -346,25 +384,40 @@ std::string ten_thousand_hint(const SceneDef& scene, const Shapes& S) {
   return fmt::format("about {:.3g} m gives 10,000 automata", std::cbrt(shapes_volume(scene, S) / 1e4));
 }
 
-void refuse_over_memory(const SceneDef& scene, const Shapes& S, double d, double automata, bool approximate) {
+// The spacing at which `automata` at spacing d (a lower bound when `approximate`: half the volume's count)
+// would fit in `limit` bytes, with 5 % to spare for the rounding of sizes to whole cells.
+double spacing_that_fits(double d, double automata, bool approximate, double limit) {
+  const double per = static_cast<double>(estimate_memory_bytes(1) - estimate_memory_bytes(0));
+  const double fit = (limit - static_cast<double>(estimate_memory_bytes(0))) / per;
+  return d * std::cbrt((approximate ? 2 * automata : automata) / fit) * 1.05;
+}
+
+void refuse_over_memory(const SceneDef& scene, double d, double automata, bool approximate) {
   const double bytes = static_cast<double>(estimate_memory_bytes(1) - estimate_memory_bytes(0)) * automata +
                        static_cast<double>(estimate_memory_bytes(0));
-  if (bytes > scene.solver.max_memory_gb * 1e9) {
+  const double limit = scene.solver.max_memory_gb * 1e9;
+  if (limit <= static_cast<double>(estimate_memory_bytes(0))) {
+    throw Error(fmt::format("{}: solver.max_memory_gb = {:g} is less than the {:.3g} GB the program takes without a "
+                            "model; raise solver.max_memory_gb",
+                            scene.source, scene.solver.max_memory_gb, estimate_memory_bytes(0) / 1e9));
+  }
+  if (bytes > limit) {
     throw Error(fmt::format(
         "{}: the scene needs {:.3g} GB for {}{:.4g} automata at spacing {:.4g} m, over solver.max_memory_gb = "
-        "{:g}; increase solver.spacing (memory falls with its cube; {}) or raise solver.max_memory_gb if the "
-        "machine has it",
+        "{:g}; increase solver.spacing (memory falls with its cube: a spacing of about {:.3g} m fits) or raise "
+        "solver.max_memory_gb if the machine has it",
         scene.source, bytes / 1e9, approximate ? "at least " : "", automata, d, scene.solver.max_memory_gb,
-        ten_thousand_hint(scene, S)));
+        spacing_that_fits(d, automata, approximate, limit)));
   }
   // A model larger than the machine's memory would swap for hours before failing.
   const double machine = physical_memory_bytes();
   if (machine > 0 && bytes > 0.9 * machine) {
     throw Error(fmt::format(
         "{}: the scene needs {:.3g} GB for {}{:.4g} automata at spacing {:.4g} m, more than this machine's "
-        "{:.1f} GB of memory; increase solver.spacing (memory falls with its cube; {}) or run it on a larger machine",
+        "{:.1f} GB of memory; increase solver.spacing (memory falls with its cube: a spacing of about {:.3g} m "
+        "fits) or run it on a larger machine",
         scene.source, bytes / 1e9, approximate ? "at least " : "", automata, d, machine / 1e9,
-        ten_thousand_hint(scene, S)));
+        spacing_that_fits(d, automata, approximate, 0.9 * machine)));
   }
 }
 
@@ -836,11 +889,19 @@ void scale_surface_masses(Model& M, double share) {
 }  // namespace
 
 void set_time_step(Model& M, float dt) {
+  BuildProgress::stage(fmt::format("the contact dashpots for a time step of {:.3g} s", dt));
   M.dt = dt;
   const std::size_t G = M.groups.size(), P = M.projectiles.size();
   const double d = M.spacing;
+  // A ratio costs a scan over simulated contacts (discrete_damping_ratio): the P^2 projectile pairs made
+  // a build of 500 balls take 22 s. Pairs of like projectiles ask for the same (restitution, omega dt), so
+  // each distinct one is worked out once; the table is then P^2 look-ups.
+  std::map<std::pair<double, double>, float> known;
   auto zeta = [&](const ContactMaterial& c, double length, double m_eff) {
-    return discrete_damping_ratio(c.restitution, std::sqrt(c.youngs * length / m_eff) * dt);
+    const std::pair<double, double> key{c.restitution, std::sqrt(c.youngs * length / m_eff) * dt};
+    const auto [it, fresh] = known.try_emplace(key, 0.0f);
+    if (fresh) it->second = discrete_damping_ratio(key.first, key.second);
+    return it->second;
   };
   auto mass = [&](std::size_t g) { return M.groups[g].density * d * d * d; };
   M.zeta_pair.assign(G * G, 0.0f);
@@ -864,6 +925,8 @@ void set_time_step(Model& M, float dt) {
       M.zeta_projectiles[p * P + q] = zeta(M.projectile_pair_contact(p, q), 2 * std::min(A.radius, B.radius), m_eff);
     }
   }
+  // What a build does after the last call (the Engine's backend sets up its contact lists).
+  BuildProgress::stage("preparing the solver (contact lists)");
 }
 
 namespace {
@@ -891,7 +954,7 @@ double spacing_for_target(const SceneDef& scene, const Shapes& S, std::int64_t t
     // d^3 up to the cells cut by the surface, so d <- d (n / target)^(1/3) lands within 2 % in one or two
     // fills. The spacing is rounded to float as build_model will, so its fill is the one kept.
     double d = static_cast<double>(static_cast<float>(std::cbrt(volume / static_cast<double>(target))));
-    refuse_over_memory(scene, S, d, static_cast<double>(target), false);
+    refuse_over_memory(scene, d, static_cast<double>(target), false);
     for (int it = 0; it < 6; ++it) {
       const std::int64_t n = try_spacing(d);
       if (std::llabs(n - target) * 200 <= target) break;  // within 0.5 %
@@ -942,7 +1005,9 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
   // The spacing is rounded to float once: the rest length r0 = d is stored in float32, and the centres
   // (double) are laid out with the same d, so an intact lattice starts with a strain of exactly zero (up
   // to the double rounding of the centres) instead of the 3e-8 of a float-rounded r0.
+  BuildProgress::stage("reading the meshes");
   const Shapes S = prepare_shapes(scene);
+  if (scene.solver.target_automata > 0) BuildProgress::stage("finding the spacing for solver.target_automata");
   const double d = static_cast<double>(static_cast<float>(S.any_lattice ? scene_spacing(scene, S) : surface_spacing(S)));
   Model M;
   M.spacing = static_cast<float>(d);
@@ -973,10 +1038,10 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
                                 ext[a], ten_thousand_hint(scene, S)));
       }
   }
-  refuse_over_memory(scene, S, d, n_volume, true);
+  refuse_over_memory(scene, d, n_volume, true);
   refuse_count(n_volume, true);
   const std::int64_t n_est = count_automata(scene, S, d);
-  refuse_over_memory(scene, S, d, static_cast<double>(n_est), false);
+  refuse_over_memory(scene, d, static_cast<double>(n_est), false);
   refuse_count(static_cast<double>(n_est), false);
   // Reserved at once: grown by push_back, the arrays would hold up to twice their size (measured: the
   // model of 400,000 automata took 85 MB instead of 57).
@@ -1019,6 +1084,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
   for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) {
     const ObjectDef& o = scene.objects[oi];
     const std::string okey = fmt::format("object[{}]", oi);
+    BuildProgress::stage(fmt::format("filling object '{}' ({} of {})", o.name, oi + 1, scene.objects.size()));
     M.object_names.push_back(o.name);
     // (The lattice's automata are checked per material; a surface object's per automaton, as it is built.)
     const bool lattice_automata = S.surface_of(oi) == nullptr;
@@ -1044,6 +1110,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
     if (const SurfaceCells* sc = S.surface_of(oi)) {
       const std::size_t first = M.size();
       add_surface_object(M, scene, *S.of(oi), *sc, oi, R, base_group, region_groups, local);
+      refuse_empty_regions(scene, M, oi, first, d);
       for (int a = 0; a < 3; ++a) {  // no lattice links
         above[a].resize(M.size(), Model::kNoLink);
         below[a].resize(M.size(), Model::kNoLink);
@@ -1092,6 +1159,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
                               "or decrease solver.spacing",
                               scene.source, okey, o.name, d));
     }
+    refuse_empty_regions(scene, M, oi, first, d);
     if (const MeshObject* mo = S.of(oi)) {
       bind_surface(M, *mo, L, index, R, o.position, d);
       MeshSummary ms = mesh_summary(*mo, oi, o.mesh, R, o.position);
@@ -1133,6 +1201,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
     draw_classes();
   }
 
+  BuildProgress::stage("checking that the objects do not overlap");
   refuse_overlaps(scene, M);
   index_corners(M.surface);
   index_explicit_links(M);
@@ -1186,7 +1255,24 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
     }
   }
 
-  // Projectiles: rigid spheres; refuse one that starts inside or touching an object.
+  // Projectiles: rigid spheres; refuse one that starts inside or touching an object. The automata are
+  // binned in a grid of cells as large as the largest reach, so that each ball looks at the automata
+  // around it only (a loop over all of them for each ball made 1,000 balls on 100,000 automata 1e8 tests).
+  BuildProgress::stage(fmt::format("placing {} projectiles", scene.projectiles.size()));
+  {
+    const double table = 8.0 * static_cast<double>(scene.projectiles.size()) * static_cast<double>(scene.projectiles.size());
+    if (table > scene.solver.max_memory_gb * 1e9) {
+      throw Error(fmt::format("{}: {} projectiles need {:.3g} GB for the damping of each pair of them, over "
+                              "solver.max_memory_gb = {:g}; use fewer projectiles or raise solver.max_memory_gb",
+                              scene.source, scene.projectiles.size(), table / 1e9, scene.solver.max_memory_gb));
+    }
+  }
+  UniformGrid automata_grid;
+  bool grid_built = false;
+  const float largest_automaton = M.radius.empty() ? 0.0f : *std::max_element(M.radius.begin(), M.radius.end());
+  double largest_ball = 0;
+  for (std::size_t p = placed; p < scene.projectiles.size(); ++p)
+    largest_ball = std::max(largest_ball, scene.projectiles[p].radius);
   for (std::size_t p = 0; p < scene.projectiles.size(); ++p) {
     const ProjectileDef& pd = scene.projectiles[p];
     const std::string key = fmt::format("projectile[{}]", p);
@@ -1207,10 +1293,20 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
     pp.position = to_dvec3(pd.position);
     pp.velocity = to_dvec3(pd.velocity);
     pp.angular_velocity = to_dvec3(pd.angular_velocity);
-    for (std::size_t a = 0; a < n && p >= placed; ++a) {
-      const DVec3 dd = ddelta(pp.position, M.position0[a]);
-      const double reach = pd.radius + M.radius[a];
-      if (dot(dd, dd) < reach * reach) {
+    if (p >= placed && n > 0) {
+      if (!grid_built) {
+        automata_grid.build(M.position0.data(), n, largest_ball + largest_automaton);
+        grid_built = true;
+      }
+      std::size_t a = n;  // the first automaton it overlaps
+      automata_grid.for_each_candidate(pp.position, [&](std::uint32_t c) {
+        const DVec3 dd = ddelta(pp.position, M.position0[c]);
+        const double reach = pd.radius + M.radius[c];
+        if (c < a && dot(dd, dd) < reach * reach) a = c;
+      });
+      if (a < n) {
+        const DVec3 dd = ddelta(pp.position, M.position0[a]);
+        const double reach = pd.radius + M.radius[a];
         const double gap = reach - std::sqrt(dot(dd, dd));
         throw Error(fmt::format(
             "{}: {}.position = {} puts '{}' (radius {:g} m) inside object '{}': it overlaps the automaton at "
@@ -1276,6 +1372,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
   M.stress_coefficient = static_cast<float>(scene.solver.stress_coefficient);
 
   scale_surface_masses(M, scene.solver.mass_scaling);
+  BuildProgress::stage("the time step");
   const TimeStepBound critical = critical_time_step(M);
   M.critical_dt = critical.dt;
   M.dt_limited_by = critical.limited_by;

@@ -3,6 +3,7 @@
 // mode), face-neighbour links, material groups by region, strength classes, projectiles, grips and the
 // stable time step. Never calls the solver.
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,26 @@ std::vector<double> surface_automaton_steps(const Model& model);
 // Sets the model's time step and calibrates the contact dashpots for it (Model::zeta_pair): called by
 // build_model and again by whoever shortens the step (the Engine fits a whole number of steps in a frame).
 void set_time_step(Model& model, float dt);
+
+// Progress of a long model build on stderr, as `mca run` shows a run's: while one is alive, build_model
+// names its stages to it (BuildProgress::stage); once a build has taken 2 s, the stage in progress is
+// shown (rewritten in place on a terminal, a line per stage at most every 10 s otherwise), and the time
+// the build took when it ends. Commands that print progress hold one around the build (not with
+// --quiet); without one, stage() does nothing. One per thread.
+class BuildProgress {
+ public:
+  BuildProgress();
+  ~BuildProgress();
+  BuildProgress(const BuildProgress&) = delete;
+  BuildProgress& operator=(const BuildProgress&) = delete;
+  // The stage the build of this thread enters (a no-op when none is alive).
+  static void stage(const std::string& what);
+
+ private:
+  struct Shared;
+  std::unique_ptr<Shared> shared_;
+  BuildProgress* outer_;
+};
 
 // Builds the model. Throws mca::Error for scenes that cannot be built (projectile inside an object,
 // empty grip, memory estimate over the limit, ...). `placed`: the first `placed` projectiles are in flight

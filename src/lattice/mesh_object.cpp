@@ -19,7 +19,7 @@ std::string where(const SceneDef& scene, std::size_t index) {
 // Reads a mesh file, naming the scene and the key in front of the loader's message.
 mesh::TriMesh read(const SceneDef& scene, const std::string& key, const std::string& path) {
   try {
-    return mesh::read_mesh(path);
+    return mesh::read_mesh(path, scene.solver.max_memory_gb * 1e9);
   } catch (const Error& e) {
     throw Error(fmt::format("{}: {}: {}", scene.source, key, e.what()));
   }
@@ -299,6 +299,26 @@ void refuse_wide_holes(const SceneDef& scene, std::size_t index, const Solid& s,
       hole, hole / d, d, hole / 1.5, target ? ": a smaller solver.target_automata" : ": solver.spacing"));
 }
 
+// A format that stores float32 (STL, glTF) has rounded each coordinate to 2^-24 of its magnitude: a model
+// far from its file's origin comes with its corners moved by up to that much (a 0.3 m cube 1e6 m out, by
+// 6 cm: 125 automata at 0.05 m instead of 216). Refused when it is more than 1 % of `length` (the spacing,
+// or a surface object's mean link).
+void refuse_float32_rounding(const SceneDef& scene, std::size_t index, const MeshObject& m, double length,
+                             const char* what) {
+  if (!m.float32) return;
+  const double moved = m.file_reach * 0x1p-24 * m.scale;
+  if (moved <= 0.01 * length) return;
+  throw Error(fmt::format(
+      "{}: the mesh {} stores float32 coordinates, and they reach {:.4g} from the file's origin for a model {:.4g} "
+      "across: rounding has moved its corners by up to {:.3g} m, {:.0f} % of the {} ({:.4g} m), more than the 1 % "
+      "mca accepts. Recentre the model at its file's origin (MeshLab: Filters > Normals, Curvatures and "
+      "Orientation > Transform: Translate, Center; Blender: Object > Set Origin > Origin to Geometry, then location "
+      "0) and place it with position, or export it as OBJ, OFF or PLY with double coordinates, which mca reads in "
+      "double",
+      where(scene, index), m.solid.file, m.file_reach, m.file_bounds.largest_extent(), moved, 100 * moved / length,
+      what, length));
+}
+
 }  // namespace
 
 MeshObject prepare_mesh_object(const SceneDef& scene, std::size_t index) {
@@ -308,6 +328,9 @@ MeshObject prepare_mesh_object(const SceneDef& scene, std::size_t index) {
   mesh::TriMesh tm = read(scene, key, o.mesh);
   m.file_vertices = tm.vertices.size();
   m.file_bounds = mesh::bounds(tm);
+  m.float32 = mesh::float32_format(o.mesh);
+  for (int a = 0; a < 3; ++a)
+    m.file_reach = std::max({m.file_reach, std::fabs(m.file_bounds.lo[a]), std::fabs(m.file_bounds.hi[a])});
   const mesh::Point e = m.file_bounds.extent();
   const double largest = m.file_bounds.largest_extent();
   m.scale = o.fit_size > 0 ? o.fit_size / largest : o.scale;
@@ -351,6 +374,7 @@ MeshObject prepare_mesh_object(const SceneDef& scene, std::size_t index) {
 MeshFillResult fill_mesh_object(const SceneDef& scene, std::size_t index, const MeshObject& m,
                                 const mesh::CellBox& box) {
   const double d = box.d;
+  refuse_float32_rounding(scene, index, m, d, "spacing");
   refuse_wide_holes(scene, index, m.solid, "the mesh", d);
   const auto t0 = std::chrono::steady_clock::now();
   MeshFillResult r;
@@ -498,6 +522,7 @@ SurfaceCells surface_cells(const SceneDef& scene, std::size_t index, const MeshO
                             where(scene, index), c.thickness, m.solid.file, c.mean_link, 0.01 * c.mean_link,
                             100 * c.mean_link));
   }
+  if (c.mean_link > 0) refuse_float32_rounding(scene, index, m, c.mean_link, "mean distance of linked triangles");
   return c;
 }
 

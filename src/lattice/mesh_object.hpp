@@ -33,6 +33,8 @@ struct MeshObject {
   mesh::Bounds file_bounds;    // bounding box in the file's units
   double scale = 1;            // file units to metres (scale, or what fit_size gives)
   std::size_t file_vertices = 0;
+  bool float32 = false;        // the file's format stores float32 coordinates (mesh::float32_format)
+  double file_reach = 0;       // the largest |coordinate| of its bounding box, in the file's units
   // Per region of the object: its solid in the object frame (mesh regions), else nullopt.
   std::vector<std::optional<Solid>> regions;
 

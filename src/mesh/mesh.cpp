@@ -22,6 +22,7 @@
 #include <unordered_map>
 
 #include "core/fnv.hpp"
+#include "mesh/readers.hpp"
 #include "mca/error.hpp"
 
 namespace mca::mesh {
@@ -131,6 +132,11 @@ Declared check_ply(const std::string& bytes, const std::string& name) {
   if (end == std::string::npos) {
     throw Error(fmt::format("{}: the PLY header has no end_header: the file is cut short or damaged", name));
   }
+  if (end > (1u << 20)) {
+    throw Error(fmt::format("{}: the PLY header is {} bytes long (end_header comes that late), more than any "
+                            "exporter writes (1 MB): the file is damaged",
+                            name, end));
+  }
   std::size_t body = bytes.find('\n', end);
   body = body == std::string::npos ? bytes.size() : body + 1;
   std::istringstream header(bytes.substr(0, end));
@@ -203,6 +209,11 @@ Declared check_ply(const std::string& bytes, const std::string& name) {
           const std::size_t nl = std::min(bytes.find('\n', at), bytes.size());
           row = std::string_view(bytes).substr(at, nl - at);
           at = nl + 1;
+          if (row.size() > (1u << 20)) {
+            throw Error(fmt::format("{}: {} {} is a line of {} bytes, more than any exporter writes (1 MB): the file "
+                                    "is damaged",
+                                    name, e.name, i, row.size()));
+          }
         } while (row.find_first_not_of(" \t\r") == std::string_view::npos);
         std::istringstream values{std::string(row)};
         std::string v;
@@ -254,83 +265,6 @@ Declared check_ply(const std::string& bytes, const std::string& name) {
     throw Error(fmt::format("{}: the PLY header's format '{}' is not ascii, binary_little_endian or "
                             "binary_big_endian; the file is damaged",
                             name, format));
-  }
-  return d;
-}
-
-// `clean`: the file without its comments and blank lines, for assimp (its OFF reader takes a comment
-// between the vertices and the faces for a face).
-Declared check_off(const std::string& bytes, const std::string& name, std::string& clean) {
-  // "[ST][C][N][4][n]OFF", the counts "vertices faces [edges]" (on the same line or the next), then a
-  // line per vertex and a line per face ("k i1 ... ik"); '#' starts a comment. assimp clamps a face's
-  // out-of-range index to a valid one without a word, so the faces are checked here.
-  std::istringstream in(bytes);
-  std::string line;
-  auto next_line = [&](std::vector<std::string>& words) {
-    while (std::getline(in, line)) {
-      line = line.substr(0, line.find('#'));
-      std::istringstream ws(line);
-      words.clear();
-      std::string w;
-      while (ws >> w) words.push_back(w);
-      if (!words.empty()) {
-        clean += line;
-        clean += '\n';
-        return true;
-      }
-    }
-    return false;
-  };
-  std::vector<std::string> words;
-  if (!next_line(words) || words[0].size() < 3 || words[0].compare(words[0].size() - 3, 3, "OFF") != 0) {
-    throw Error(fmt::format("{}: does not start with OFF: not an OFF file", name));
-  }
-  if (words[0] != "OFF" && words[0] != "COFF" && words[0] != "NOFF" && words[0] != "CNOFF") {
-    clean.clear();  // left to assimp as it is
-    return {};
-  }
-  std::vector<std::string> counts(words.begin() + 1, words.end());
-  if (counts.size() < 2) {
-    if (!next_line(words)) throw Error(fmt::format("{}: the OFF header has no vertex and face counts: the file is cut short", name));
-    counts = words;
-  }
-  if (counts.size() < 2) throw Error(fmt::format("{}: the OFF header has no face count: the file is damaged", name));
-  Declared d;
-  d.vertices = to_count(counts[0], name, "vertex");
-  d.faces = to_count(counts[1], name, "face");
-  for (std::uint64_t v = 0; v < d.vertices; ++v) {
-    if (!next_line(words)) {
-      throw Error(fmt::format("{}: declares {} vertices and {} faces but ends after {} vertices: it is cut short", name,
-                              d.vertices, d.faces, v));
-    }
-  }
-  for (std::uint64_t f = 0; f <= d.faces; ++f) {
-    if (f == d.faces) {
-      if (next_line(words)) {
-        throw Error(fmt::format("{}: declares {} faces but has more lines after them ('{}'): its header's counts are "
-                                "wrong or the file is damaged",
-                                name, d.faces, line));
-      }
-      break;
-    }
-    if (!next_line(words)) {
-      throw Error(fmt::format("{}: declares {} faces but ends after {}: it is cut short", name, d.faces, f));
-    }
-    char* end = nullptr;
-    const unsigned long long k = std::strtoull(words[0].c_str(), &end, 10);
-    if (*end != '\0' || k >= words.size()) {  // (k + 1 wraps for a count of 2^64 - 1)
-      throw Error(fmt::format("{}: face {} ('{}') does not list its vertex count and that many vertices; the file is "
-                              "damaged",
-                              name, f, line));
-    }
-    for (unsigned long long i = 1; i <= k; ++i) {
-      const long long idx = std::strtoll(words[i].c_str(), &end, 10);
-      if (*end != '\0' || idx < 0 || static_cast<std::uint64_t>(idx) >= d.vertices) {
-        throw Error(fmt::format("{}: face {} uses vertex '{}', but the file has {} vertices (0 to {}); the file is "
-                                "damaged",
-                                name, f, words[i], d.vertices, d.vertices - 1));
-      }
-    }
   }
   return d;
 }
@@ -391,37 +325,15 @@ void weld(TriMesh& m) {
   m.vertices = std::move(kept);
 }
 
-TriMesh convert(const aiScene* scene, const std::string& name) {
-  TriMesh m;
-  std::size_t points = 0, other = 0;
-  for (unsigned k = 0; k < scene->mNumMeshes; ++k) {
-    const aiMesh* am = scene->mMeshes[k];
-    const auto base = static_cast<std::uint64_t>(m.vertices.size());
-    for (unsigned v = 0; v < am->mNumVertices; ++v) {
-      const aiVector3D& p = am->mVertices[v];
-      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
-        throw Error(fmt::format("{}: vertex {} of mesh {} has a coordinate that is not a finite number ({}, {}, {}); "
-                                "repair or re-export the file",
-                                name, v, k, p.x, p.y, p.z));
-      }
-      m.vertices.push_back({p.x, p.y, p.z});
-    }
-    if (m.vertices.size() > 0xfffffff0u) throw Error(fmt::format("{}: more than 4e9 vertices", name));
-    for (unsigned f = 0; f < am->mNumFaces; ++f) {
-      const aiFace& face = am->mFaces[f];
-      if (face.mNumIndices != 3) {
-        (face.mNumIndices < 3 ? points : other) += 1;
-        continue;
-      }
-      Triangle t{};
-      for (int c = 0; c < 3; ++c) {
-        if (face.mIndices[c] >= am->mNumVertices) {
-          throw Error(fmt::format("{}: face {} of mesh {} uses vertex {}, but the mesh has {} vertices", name, f, k,
-                                  face.mIndices[c], am->mNumVertices));
-        }
-        t[c] = static_cast<std::uint32_t>(base + face.mIndices[c]);
-      }
-      m.faces.push_back(t);
+// What every reader's mesh goes through: finite coordinates, identical vertices welded, some triangle
+// that is not degenerate. `points`: elements of fewer than three corners the reader left out.
+TriMesh finish(TriMesh m, const std::string& name, std::size_t points) {
+  for (std::size_t v = 0; v < m.vertices.size(); ++v) {
+    const Point& p = m.vertices[v];
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
+      throw Error(fmt::format("{}: vertex {} has a coordinate that is not a finite number ({}, {}, {}); repair or "
+                              "re-export the file",
+                              name, v, p[0], p[1], p[2]));
     }
   }
   if (m.vertices.empty()) {
@@ -452,6 +364,37 @@ TriMesh convert(const aiScene* scene, const std::string& name) {
   return m;
 }
 
+TriMesh convert(const aiScene* scene, const std::string& name) {
+  TriMesh m;
+  std::size_t points = 0, other = 0;
+  for (unsigned k = 0; k < scene->mNumMeshes; ++k) {
+    const aiMesh* am = scene->mMeshes[k];
+    const auto base = static_cast<std::uint64_t>(m.vertices.size());
+    for (unsigned v = 0; v < am->mNumVertices; ++v) {
+      const aiVector3D& p = am->mVertices[v];
+      m.vertices.push_back({p.x, p.y, p.z});
+    }
+    if (m.vertices.size() > 0xfffffff0u) throw Error(fmt::format("{}: more than 4e9 vertices", name));
+    for (unsigned f = 0; f < am->mNumFaces; ++f) {
+      const aiFace& face = am->mFaces[f];
+      if (face.mNumIndices != 3) {
+        (face.mNumIndices < 3 ? points : other) += 1;
+        continue;
+      }
+      Triangle t{};
+      for (int c = 0; c < 3; ++c) {
+        if (face.mIndices[c] >= am->mNumVertices) {
+          throw Error(fmt::format("{}: face {} of mesh {} uses vertex {}, but the mesh has {} vertices", name, f, k,
+                                  face.mIndices[c], am->mNumVertices));
+        }
+        t[c] = static_cast<std::uint32_t>(base + face.mIndices[c]);
+      }
+      m.faces.push_back(t);
+    }
+  }
+  return finish(std::move(m), name, points);
+}
+
 [[noreturn]] void fail_import(const Assimp::Importer& importer, const std::string& name, const std::string& ext) {
   if (std::string(importer.GetErrorString()).find("contains no faces") != std::string::npos) {
     throw Error(fmt::format("{}: vertices but no triangles; mca needs a surface of triangles (a point cloud must be "
@@ -472,15 +415,10 @@ const std::vector<std::string>& mesh_extensions() {
 
 namespace {
 
-// Reads with assimp (from the file, or from `bytes` when given), checking the faces the file declares.
-TriMesh import(const std::string& name, const std::string& ext, const std::string* bytes, const std::string& path) {
-  Declared declared;
-  if (bytes && ext == "ply") declared = check_ply(*bytes, name);
-  std::string clean_off;
-  if (bytes && ext == "off") {
-    declared = check_off(*bytes, name, clean_off);
-    if (!clean_off.empty()) bytes = &clean_off;
-  }
+// Reads with assimp (from the file, or from `bytes` when given): STL, glTF and GLB, whose coordinates are
+// float32 in the file.
+TriMesh import_assimp(const std::string& name, const std::string& ext, const std::string* bytes,
+                      const std::string& path) {
   if (bytes && ext == "glb") check_glb(*bytes, bytes->size(), name);
   Assimp::Importer importer;
   configure(importer);
@@ -491,21 +429,129 @@ TriMesh import(const std::string& name, const std::string& ext, const std::strin
   const aiScene* raw = bytes ? importer.ReadFileFromMemory(bytes->data(), bytes->size(), kRawSteps, ext.c_str())
                              : importer.ReadFile(path, kRawSteps);
   if (!raw || (raw->mFlags & AI_SCENE_FLAGS_INCOMPLETE && raw->mNumMeshes == 0)) fail_import(importer, name, ext);
-  std::uint64_t faces = 0;
-  for (unsigned k = 0; k < raw->mNumMeshes; ++k) faces += raw->mMeshes[k]->mNumFaces;
-  if (faces < declared.faces) {
-    throw Error(fmt::format("{}: the header declares {} faces but {} could be read: the others use vertex indices out "
-                            "of range (the file has {} vertices) or the file is cut short; repair or re-export it",
-                            name, declared.faces, faces, declared.vertices));
-  }
   const aiScene* scene = importer.ApplyPostProcessing(kSteps);
   if (!scene) fail_import(importer, name, ext);
   return convert(scene, name);
 }
 
+// What reading a mesh costs beyond its bytes: per vertex its coordinates, the weld's table and the
+// indices (about 120 bytes), per triangle its corners and the edge tables of the topology (about 150);
+// assimp holds its own copy of the mesh besides (about 6 times the bytes of an STL or glTF).
+constexpr double kBytesPerVertex = 120, kBytesPerTriangle = 150, kAssimpBytesPerFileByte = 6;
+
+void refuse_over_memory(const std::string& name, double need, double max_bytes, const std::string& what) {
+  if (need <= max_bytes) return;
+  throw Error(fmt::format("{}: reading it would take about {:.3g} GB ({}), over solver.max_memory_gb = {:g}; raise "
+                          "solver.max_memory_gb if the machine has the memory, or simplify the mesh (MeshLab: "
+                          "Filters > Remeshing, Simplification and Reconstruction > Quadric Edge Collapse Decimation)",
+                          name, need / 1e9, what, max_bytes / 1e9));
+}
+
+std::string mb(double bytes) { return fmt::format("{:.4g} MB", bytes / 1e6); }
+
+// The format's signature in the first bytes of the file (`head`; `size`: the whole file's), checked before
+// the file is read: a file of zeros or of another format is refused at once, whatever its size.
+void check_head(std::string_view head, std::uint64_t size, const std::string& ext, const std::string& name) {
+  const bool nul = head.find('\0') != std::string_view::npos;
+  auto first_word = [&](std::string_view comment) {
+    std::size_t i = 0;
+    for (;;) {
+      while (i < head.size() && std::isspace(static_cast<unsigned char>(head[i]))) ++i;
+      if (i < head.size() && comment.find(head[i]) != std::string_view::npos) {
+        i = head.find('\n', i);
+        if (i == std::string_view::npos) return std::string_view();
+        continue;
+      }
+      const std::size_t start = i;
+      while (i < head.size() && !std::isspace(static_cast<unsigned char>(head[i])) && head[i] != '#') ++i;
+      return head.substr(start, i - start);
+    }
+  };
+  if (ext == "ply") {
+    if (head.substr(0, 3) != "ply" || (head.size() > 3 && head[3] != '\n' && head[3] != '\r'))
+      throw Error(fmt::format("{}: does not start with 'ply': not a PLY file", name));
+  } else if (ext == "off") {
+    // (A head of nothing but comments is left to the reader, which reads on.)
+    const std::string_view w = first_word("#");
+    if (w.empty() ? head.size() == size : w.size() < 3 || w.substr(w.size() - 3) != "OFF")
+      throw Error(fmt::format("{}: does not start with OFF: not an OFF file", name));
+    if (nul) throw Error(fmt::format("{}: holds NUL bytes: not a text file, so not an OFF file", name));
+  } else if (ext == "obj") {
+    if (nul) throw Error(fmt::format("{}: holds NUL bytes: not a text file, so not an OBJ file", name));
+  } else if (ext == "stl") {
+    std::uint32_t n = 0;
+    if (head.size() >= 84) std::memcpy(&n, head.data() + 80, 4);
+    const bool binary = size >= 84 && 84 + 50 * static_cast<std::uint64_t>(n) == size;
+    const bool ascii = !nul && first_word("") == "solid";
+    if (!binary && !ascii) {
+      throw Error(fmt::format("{}: cannot be read as a .stl mesh: it is neither a binary STL (84 + 50 N bytes for the N "
+                              "triangles its header declares: {} declared, {} bytes) nor an ASCII STL (text starting "
+                              "with 'solid'); the file is damaged or not an STL file",
+                              name, n, size));
+    }
+  } else if (ext == "gltf") {
+    std::string_view t = head;
+    if (t.substr(0, 3) == "\xEF\xBB\xBF") t.remove_prefix(3);  // a UTF-8 byte order mark
+    const std::size_t i = t.find_first_not_of(" \t\r\n");
+    if (nul || i == std::string_view::npos || t[i] != '{')
+      throw Error(fmt::format("{}: does not start with '{{': not a glTF file (JSON)", name));
+  } else if (ext == "glb") {
+    check_glb(std::string(head.substr(0, 20)), size, name);
+  }
+}
+
+// Reads `bytes` of format `ext` (after check_head): mca's readers for the text and PLY formats, assimp
+// for the rest (`path`: the file, for formats that name other files; empty for data in memory).
+TriMesh import(const std::string& name, const std::string& ext, const std::string* bytes, const std::string& path,
+               double max_bytes) {
+  if (ext == "off" || ext == "obj" || ext == "ply") {
+    const std::string_view b(*bytes);
+    auto check = [&](double vertices, double triangles) {
+      refuse_over_memory(name, static_cast<double>(b.size()) + kBytesPerVertex * vertices + kBytesPerTriangle * triangles,
+                         max_bytes, fmt::format("a file of {} with {:.0f} vertices and {:.0f} triangles", mb(b.size()),
+                                                vertices, triangles));
+    };
+    if (ext == "ply") {
+      const Declared d = check_ply(*bytes, name);
+      check(static_cast<double>(d.vertices), static_cast<double>(d.faces));
+    } else if (ext == "obj") {
+      // Its "v" lines and the triangles of its "f" lines, counted before anything is stored.
+      double vertices = 0, triangles = 0;
+      for (std::size_t at = 0; at < b.size();) {
+        const std::size_t nl = std::min(b.find('\n', at), b.size());
+        const std::string_view line = b.substr(at, nl - at);
+        at = nl + 1;
+        if (line.size() < 2 || (line[1] != ' ' && line[1] != '\t')) continue;
+        if (line[0] == 'v') ++vertices;
+        if (line[0] == 'f') triangles += std::max<double>(1, static_cast<double>(std::count(line.begin(), line.end(), ' ')) - 2);
+      }
+      check(vertices, triangles);
+    }
+    detail::ReadResult r = ext == "off" ? detail::read_off(b, name, check) : ext == "obj" ? detail::read_obj(b, name)
+                                                                                   : detail::read_ply(b, name);
+    return finish(std::move(r.mesh), name, r.points_and_lines);
+  }
+  return import_assimp(name, ext, bytes, path);
+}
+
+std::string read_file(const std::string& path, std::uint64_t size) {
+  std::ifstream in(path, std::ios::binary);
+  std::string bytes(size, '\0');
+  in.read(bytes.data(), static_cast<std::streamsize>(size));
+  if (in.bad()) throw Error(fmt::format("{}: cannot be read: {}", path, std::strerror(errno)));
+  bytes.resize(static_cast<std::size_t>(in.gcount()));
+  return bytes;
+}
+
 }  // namespace
 
-TriMesh read_mesh(const std::string& path) {
+bool float32_format(const std::string& path_or_extension) {
+  std::string e = lower_extension(path_or_extension);
+  if (e.empty()) e = path_or_extension;
+  return e == "stl" || e == "gltf" || e == "glb";
+}
+
+TriMesh read_mesh(const std::string& path, double max_memory_bytes) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw Error(fmt::format("{}: no such mesh file", path));
   if (!std::filesystem::is_regular_file(path, ec)) {
@@ -517,34 +563,35 @@ TriMesh read_mesh(const std::string& path) {
                             "Blender)",
                             path, ext.empty() ? "(none)" : "." + ext, extension_list()));
   }
-  if (std::filesystem::file_size(path, ec) == 0) throw Error(fmt::format("{}: the file is empty", path));
-  if (ext == "ply" || ext == "off") {
-    // Checked before assimp reads them, from memory (neither format refers to other files).
-    std::ifstream in(path, std::ios::binary);
-    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (!in && !in.eof()) throw Error(fmt::format("{}: cannot be read: {}", path, std::strerror(errno)));
-    return import(path, ext, &bytes, path);
+  const std::uint64_t size = std::filesystem::file_size(path, ec);
+  if (size == 0) throw Error(fmt::format("{}: the file is empty", path));
+  // The signature first, from the first 64 KB; then the size against the memory limit; then the file.
+  check_head(read_file(path, std::min<std::uint64_t>(size, 1 << 16)), size, ext, path);
+  if (ext == "off" || ext == "obj" || ext == "ply") {
+    refuse_over_memory(path, static_cast<double>(size), max_memory_bytes, fmt::format("a file of {}", mb(size)));
+    const std::string bytes = read_file(path, size);
+    return import(path, ext, &bytes, path, max_memory_bytes);
   }
-  if (ext == "glb") {
-    // Read from the file (it may name buffers beside it), once its header is checked.
-    std::ifstream in(path, std::ios::binary);
-    std::string head(20, '\0');
-    in.read(head.data(), 20);
-    head.resize(static_cast<std::size_t>(in.gcount()));
-    check_glb(head, std::filesystem::file_size(path, ec), path);
-  }
-  return import(path, ext, nullptr, path);
+  refuse_over_memory(path, kAssimpBytesPerFileByte * static_cast<double>(size), max_memory_bytes,
+                     fmt::format("a file of {}, read by assimp", mb(size)));
+  return import(path, ext, nullptr, path, max_memory_bytes);
 }
 
-TriMesh read_mesh_memory(const void* data, std::size_t size, const std::string& extension, const std::string& name) {
+TriMesh read_mesh_memory(const void* data, std::size_t size, const std::string& extension, const std::string& name,
+                         double max_memory_bytes) {
   std::string ext = extension;
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   if (!known_extension(ext)) {
     throw Error(fmt::format("{}: unknown mesh format '{}'; mca reads {}", name, extension, extension_list()));
   }
   if (size == 0) throw Error(fmt::format("{}: the data is empty", name));
-  const std::string bytes(static_cast<const char*>(data), size);
-  return import(name, ext, &bytes, name);
+  const std::string_view view(static_cast<const char*>(data), size);
+  check_head(view.substr(0, 1 << 16), size, ext, name);
+  if (ext != "off" && ext != "obj" && ext != "ply")
+    refuse_over_memory(name, kAssimpBytesPerFileByte * static_cast<double>(size), max_memory_bytes,
+                       fmt::format("{} of data, read by assimp", mb(size)));
+  const std::string bytes(view);
+  return import(name, ext, &bytes, name, max_memory_bytes);
 }
 
 double Bounds::largest_extent() const {

@@ -1,5 +1,5 @@
 #pragma once
-// Triangle meshes from files (assimp: OBJ, PLY, STL, OFF, glTF/GLB), checked so that a bad file is a
+// Triangle meshes from files (OBJ, PLY, OFF: mca's readers; STL, glTF/GLB: assimp), checked so that a bad file is a
 // clear mca::Error naming it, and what a mesh is made of (boundary and non-manifold edges, volume).
 // Interior cells of a closed mesh on a lattice are in voxelize.hpp (OpenVDB, kept apart: it compiles slowly).
 #include <array>
@@ -22,13 +22,21 @@ struct TriMesh {
 const std::vector<std::string>& mesh_extensions();
 
 // Reads a mesh file: all meshes of the file joined (node transforms applied), triangulated, identical
-// vertices welded (STL and OBJ store them per face). Throws mca::Error naming `path` for a missing file,
-// an unknown extension, a file assimp cannot read, no triangles (a point cloud), non-finite coordinates,
-// or only degenerate triangles.
-TriMesh read_mesh(const std::string& path);
+// vertices welded (STL and OBJ store them per face). OBJ, PLY and OFF are read by mca's own readers, in
+// double (mesh/readers.hpp); STL, glTF and GLB, which store float32, by assimp. Throws mca::Error naming
+// `path` for a missing file, an unknown extension, a file whose first bytes are not its format's, a header
+// whose counts the file cannot hold, a file assimp cannot read, no triangles (a point cloud), non-finite
+// coordinates, only degenerate triangles, or a file whose reading would take more than
+// `max_memory_bytes` (solver.max_memory_gb; estimated from its size and counts before it is read).
+TriMesh read_mesh(const std::string& path, double max_memory_bytes = 16e9);
 
 // The same from bytes in memory; `extension` picks the format, `name` names the data in messages.
-TriMesh read_mesh_memory(const void* data, std::size_t size, const std::string& extension, const std::string& name);
+TriMesh read_mesh_memory(const void* data, std::size_t size, const std::string& extension, const std::string& name,
+                         double max_memory_bytes = 16e9);
+
+// Whether the format of this file (or this extension) stores float32 coordinates (STL, glTF, GLB): a
+// model far from the file's origin has lost precision there already.
+bool float32_format(const std::string& path_or_extension);
 
 struct Bounds {
   Point lo{0, 0, 0}, hi{0, 0, 0};

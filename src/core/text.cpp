@@ -1,0 +1,97 @@
+#include "core/text.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+
+#include <fmt/format.h>
+
+namespace mca::text {
+
+std::string num(double v) {
+  const double a = std::fabs(v);
+  if (std::isfinite(v) && a != 0.0 && (a >= 1e5 || a < 1e-3)) {
+    for (int p = 0; p <= 17; ++p) {
+      std::string s = fmt::format("{:.{}e}", v, p);
+      if (std::strtod(s.c_str(), nullptr) != v) continue;
+      // fmt pads the exponent to two digits ("1.5e-04"); TOML allows it, people do not write it.
+      const std::size_t e = s.find('e');
+      const std::size_t d = e + 2;
+      while (d + 1 < s.size() && s[d] == '0') s.erase(d, 1);
+      if (s[e + 1] == '+') s.erase(e + 1, 1);
+      return s;
+    }
+  }
+  return fmt::format("{}", v);
+}
+
+std::string escaped(std::string_view s) {
+  std::string out;
+  for (const char ch : s) {
+    const auto c = static_cast<unsigned char>(ch);
+    switch (ch) {
+      case '"': out += "\\\""; break;
+      case '\\': out += "\\\\"; break;
+      case '\b': out += "\\b"; break;
+      case '\t': out += "\\t"; break;
+      case '\n': out += "\\n"; break;
+      case '\f': out += "\\f"; break;
+      case '\r': out += "\\r"; break;
+      default:
+        if (c < 0x20 || c == 0x7f) {
+          out += fmt::format("\\u{:04X}", static_cast<unsigned>(c));
+        } else {
+          out += ch;
+        }
+    }
+  }
+  return out;
+}
+
+std::string quoted(std::string_view s) {
+  // Appended in turn: "\"" + escaped(s) draws a false -Wrestrict from g++ 12.
+  std::string out = "\"";
+  out += escaped(s);
+  out += '"';
+  return out;
+}
+
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diag = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      const bool same = std::tolower(static_cast<unsigned char>(a[i - 1])) ==
+                        std::tolower(static_cast<unsigned char>(b[j - 1]));
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (same ? 0 : 1)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+std::string did_you_mean(std::string_view word, const std::vector<std::string>& candidates) {
+  const std::string* best = nullptr;
+  std::size_t best_d = std::string::npos;
+  for (const std::string& c : candidates) {
+    const std::size_t d = edit_distance(word, c);
+    if (d < best_d) {
+      best_d = d;
+      best = &c;
+    }
+  }
+  const std::size_t limit = std::max<std::size_t>(2, word.size() / 3);
+  return best && best_d <= limit ? fmt::format("; did you mean '{}'?", *best) : std::string();
+}
+
+std::string suggestion(std::string_view word, const std::vector<std::string>& candidates) {
+  std::string s = did_you_mean(word, candidates);
+  if (!s.empty()) return s;
+  return fmt::format("; allowed: {}", fmt::join(candidates, ", "));
+}
+
+}  // namespace mca::text

@@ -1,0 +1,28 @@
+#pragma once
+// Text for messages and scene files, shared by the scene reader and writer (src/io) and validate_scene
+// (src/core), so that a number or a name reads the same in every message.
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace mca::text {
+
+// Shortest text that reads back as the same double; exponent form for large and tiny magnitudes
+// (3e+10, 1.5e-4) so that moduli and strains stay readable.
+std::string num(double v);
+
+// `s` as the inside of a TOML basic string: quote, backslash and control characters escaped.
+std::string escaped(std::string_view s);
+// `s` as a TOML basic string: escaped(s) in double quotes.
+std::string quoted(std::string_view s);
+
+// Levenshtein distance, letters compared without case.
+std::size_t edit_distance(std::string_view a, std::string_view b);
+
+// "; did you mean 'x'?" for the closest candidate within a third of the word's length (at least 2
+// edits), else "; allowed: a, b, c".
+std::string suggestion(std::string_view word, const std::vector<std::string>& candidates);
+// The "; did you mean 'x'?" of suggestion, or "" when no candidate is close.
+std::string did_you_mean(std::string_view word, const std::vector<std::string>& candidates);
+
+}  // namespace mca::text

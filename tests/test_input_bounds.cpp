@@ -1,0 +1,351 @@
+// Input that could exhaust the stack or the memory is refused up front with a message naming the file:
+// scene keys nested too deep, mesh files whose headers or sizes do not add up, models whose arrays
+// would outgrow solver.max_memory_gb; and the smaller consistency rules of the scene checks.
+#include <chrono>
+#include <cstring>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <thread>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <mca/error.hpp>
+#include <mca/scene.hpp>
+
+#include "core/text.hpp"
+#include "io/scene_io.hpp"
+#include "mesh_fixtures.hpp"
+#include "lattice/lattice.hpp"
+#include "mesh/mesh.hpp"
+#include "shell.hpp"
+#include "support.hpp"
+#include "temp_dir.hpp"
+
+namespace {
+
+using mca::test::error_of;
+
+#define EXPECT_HAS(message, part) EXPECT_NE((message).find(part), std::string::npos) << "message: " << (message)
+
+const std::string kWall = R"(name = "t"
+[[object]]
+name = "wall"
+size = [1, 0.2, 1]
+material = "concrete"
+)";
+
+std::string parse_error(const std::string& text) {
+  return error_of([&] { mca::io::parse_scene(text, "deep.toml"); });
+}
+
+// Item 11: toml++ recurses once per dotted part of a key; 50,000 parts overflowed the stack (exit 139).
+TEST(InputBounds, DeepDottedKeyIsRefusedWithItsLine) {
+  std::string key = "a";
+  for (int i = 0; i < 50000; ++i) key += ".a";
+  const std::string m = parse_error(kWall + "\n" + key + " = 1\n");
+  EXPECT_HAS(m, "deep.toml:7:");
+  EXPECT_HAS(m, "dotted parts");
+}
+
+TEST(InputBounds, DeepTableHeaderIsRefusedWithItsLine) {
+  std::string key = "t";
+  for (int i = 0; i < 60000; ++i) key += ".t";
+  const std::string m = parse_error("name = \"x\"\n[" + key + "]\nv = 1\n");
+  EXPECT_HAS(m, "deep.toml:2:");
+  EXPECT_HAS(m, "dotted parts");
+}
+
+TEST(InputBounds, DotsInStringsAndNumbersAreNotKeyParts) {
+  // Dots inside strings, comments and numbers do not count; a long dotted value string is fine.
+  std::string dots(100000, '.');
+  const std::string text = kWall + "# " + dots + "\n[[object.region]]\nshape = \"box\"\ncenter = [0.5, 0.25, 0.125]\n"
+                           "size = [0.1, 0.1, 0.1]\nmaterial = \"glass\"\n[[projectile]]\nname = \"" + dots +
+                           "\"\nposition = [3.5, 0.0, 0.0]\n";
+  EXPECT_EQ(parse_error(text), "");
+}
+
+TEST(InputBounds, LongKeyIsRefused) {
+  const std::string m = parse_error(kWall + std::string(5000, 'k') + " = 1\n");
+  EXPECT_HAS(m, "deep.toml:6:");
+  EXPECT_HAS(m, "5000 characters");
+}
+
+// One copy of the number and name formatting serves the reader and validate_scene.
+TEST(InputBounds, ValidationFormatsNumbersAndNamesAsTheReader) {
+  EXPECT_EQ(mca::text::num(1.5e-4), "1.5e-4");
+  EXPECT_EQ(mca::text::num(3e10), "3e10");
+  std::string m = parse_error(kWall + "[[material]]\nname = \"m\"\nfracture_strain = -1.5e-4\n");
+  EXPECT_HAS(m, "= -1.5e-4 ");
+  mca::SceneDef s = mca::io::parse_scene(kWall, "s.toml");
+  mca::GripDef g;
+  g.name = "a\fb";
+  g.min = {-1, -1, -1};
+  g.max = {1, 1, 1};
+  s.grips.push_back(g);
+  m = error_of([&] { mca::validate_scene(s); });
+  EXPECT_HAS(m, "\"a\\fb\"");
+}
+
+// Documented: positions within 1e6 m of the origin, a distance, not each component.
+TEST(InputBounds, PositionsAreCheckedByDistanceFromTheOrigin) {
+  mca::SceneDef s = mca::io::parse_scene(kWall, "s.toml");
+  s.objects[0].position = {0.8e6, 0.8e6, 0};  // each component within 1e6, 1.13e6 m out
+  EXPECT_HAS(error_of([&] { mca::validate_scene(s); }), "more than 1e6 m from the origin");
+  s.objects[0].position = {0.5e6, 0.5e6, 0.5e6};  // 0.87e6 m out
+  EXPECT_EQ(error_of([&] { mca::validate_scene(s); }), "");
+}
+
+// A box or sphere region that holds no automaton is refused, as a mesh region is.
+TEST(InputBounds, EmptyBoxAndSphereRegionsAreRefused) {
+  mca::SceneDef s = mca::io::parse_scene(kWall + R"([solver]
+spacing = 0.1
+[[object.region]]
+shape = "box"
+center = [5, 0, 0]
+size = [0.5, 0.5, 0.5]
+material = "glass"
+)",
+                                         "r.toml");
+  std::string m = error_of([&] { mca::lattice::build_model(s); });
+  EXPECT_HAS(m, "r.toml: object[0] 'wall': region[0]");
+  EXPECT_HAS(m, "holds no automaton");
+  s.objects[0].regions[0].shape = mca::Shape::sphere;
+  s.objects[0].regions[0].radius = 0.2;
+  m = error_of([&] { mca::lattice::build_model(s); });
+  EXPECT_HAS(m, "region[0]");
+  EXPECT_HAS(m, "holds no automaton");
+  s.objects[0].regions[0].center = {0.3, 0, 0};
+  EXPECT_EQ(error_of([&] { mca::lattice::build_model(s); }), "");
+}
+
+// The memory message asks for a coarser lattice (a larger spacing than the one refused) or a higher
+// limit: 7,623 automata at 0.03 m need 45.6 MB, over 45 MB, where the old hint named the spacing of
+// 10,000 automata (0.027 m, finer).
+TEST(InputBounds, MemoryRefusalSuggestsALargerSpacing) {
+  mca::SceneDef s = mca::io::parse_scene(kWall + "[solver]\nspacing = 0.03\nmax_memory_gb = 0.045\n", "m.toml");
+  const std::string m = error_of([&] { mca::lattice::build_model(s); });
+  EXPECT_HAS(m, "solver.max_memory_gb");
+  EXPECT_HAS(m, "increase solver.spacing");
+  const std::size_t at = m.find("spacing of about ");
+  ASSERT_NE(at, std::string::npos) << m;
+  const double suggested = std::stod(m.substr(at + 17));
+  EXPECT_GT(suggested, 0.03) << m;
+  s.solver.spacing = suggested;
+  EXPECT_EQ(error_of([&] { mca::lattice::build_model(s); }), "");
+}
+
+
+// Item 12: mesh files are checked against their size and solver.max_memory_gb before they are read.
+namespace fs = std::filesystem;
+
+std::string write_file(const fs::path& p, const std::string& bytes) {
+  std::ofstream(p, std::ios::binary) << bytes;
+  return p.string();
+}
+
+std::string read_error(const std::string& path) {
+  return error_of([&] { mca::mesh::read_mesh(path); });
+}
+
+mca::SceneDef mesh_scene(const std::string& mesh_file, double d) {
+  mca::SceneDef s = mca::test::block_scene(1, 1, 1, d);
+  s.objects[0].shape = mca::Shape::mesh;
+  s.objects[0].mesh = mesh_file;
+  return s;
+}
+
+TEST(InputBounds, MeshHeaderCountsTheFileCannotHoldAreRefusedAtOnce) {
+  mca::test::TempDir t;
+  const auto t0 = std::chrono::steady_clock::now();
+  std::string m = read_error(write_file(t.path() / "big.off", "OFF\n1000000000 2000000000 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"));
+  EXPECT_HAS(m, "declares 1000000000 vertices and 2000000000 faces, which take at least 22000000000 bytes");
+  // A PLY declaring 1e9 double vertices in 200 bytes.
+  m = read_error(write_file(t.path() / "big.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\n"
+                                                 "property double x\nproperty double y\nproperty double z\nend_header\n" +
+                                                 std::string(48, '\0')));
+  EXPECT_HAS(m, "cut short");
+  // A binary STL whose header declares 1e9 triangles in 284 bytes.
+  std::string stl(284, '\0');
+  const std::uint32_t n = 1000000000;
+  std::memcpy(stl.data() + 80, &n, 4);
+  m = read_error(write_file(t.path() / "big.stl", stl));
+  EXPECT_HAS(m, "neither a binary STL");
+  EXPECT_HAS(m, "1000000000 declared, 284 bytes");
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 2.0);
+}
+
+TEST(InputBounds, MeshFilesOfTheWrongKindAreRefusedByTheirFirstBytes) {
+  mca::test::TempDir t;
+  const std::string zeros(1 << 20, '\0');
+  EXPECT_HAS(read_error(write_file(t.path() / "z.off", zeros)), "does not start with OFF");
+  EXPECT_HAS(read_error(write_file(t.path() / "z.ply", zeros)), "does not start with 'ply'");
+  EXPECT_HAS(read_error(write_file(t.path() / "z.obj", zeros)), "holds NUL bytes");
+  EXPECT_HAS(read_error(write_file(t.path() / "z.stl", zeros)), "neither a binary STL");
+  EXPECT_HAS(read_error(write_file(t.path() / "z.gltf", zeros)), "not a glTF file");
+  EXPECT_HAS(read_error(write_file(t.path() / "z.glb", zeros)), "not a .glb file");
+}
+
+TEST(InputBounds, MeshReadingIsBoundBySolverMaxMemoryGb) {
+  mca::test::TempDir t;
+  // A valid OFF header over 30 MB of garbage: refused for the memory limit before it is parsed.
+  std::string garbage = "OFF\n4 4 0\n";
+  garbage += std::string(30 << 20, 'x');
+  const std::string path = write_file(t.path() / "garbage.off", garbage);
+  mca::SceneDef s = mesh_scene(path, 0.05);
+  s.solver.max_memory_gb = 0.02;
+  std::string m = error_of([&] { mca::lattice::build_model(s); });
+  EXPECT_HAS(m, "reading it would take about");
+  EXPECT_HAS(m, "solver.max_memory_gb = 0.02");
+  // An OBJ whose vertices and triangles would take more than the limit: a 2.8 MB file of 150,000 vertices
+  // and 50,000 triangles, 2.8 + 18 + 7.5 MB to read, over 25 MB.
+  std::string obj;
+  for (int i = 0; i < 50000; ++i) obj += fmt::format("v {} 0 0\nv {} 1 0\nv {} 0 1\nf {} {} {}\n", i, i, i, 3 * i + 1, 3 * i + 2, 3 * i + 3);
+  s = mesh_scene(write_file(t.path() / "many.obj", obj), 0.05);
+  s.solver.max_memory_gb = 0.025;
+  m = error_of([&] { mca::lattice::build_model(s); });
+  EXPECT_HAS(m, "150000 vertices and 50000 triangles");
+  EXPECT_HAS(m, "solver.max_memory_gb");
+}
+
+// Item 7: coordinates in double where the format has them; float32 formats far out are refused.
+TEST(InputBounds, MeshCoordinatesFarOutAreReadInDouble) {
+  mca::test::TempDir t;
+  const mca::mesh::TriMesh cube = mca::test::cube_mesh(0.15, {1e6, 1e6, 0});
+  // OFF and OBJ with every digit, and a binary PLY of doubles.
+  std::string off = fmt::format("OFF\n{} {} 0\n", cube.vertices.size(), cube.faces.size());
+  std::string obj;
+  for (const auto& v : cube.vertices) {
+    off += fmt::format("{} {} {}\n", v[0], v[1], v[2]);
+    obj += fmt::format("v {} {} {}\n", v[0], v[1], v[2]);
+  }
+  std::string ply = fmt::format("ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty double x\n"
+                                "property double y\nproperty double z\nelement face {}\n"
+                                "property list uchar int vertex_indices\nend_header\n",
+                                cube.vertices.size(), cube.faces.size());
+  for (const auto& v : cube.vertices) ply.append(reinterpret_cast<const char*>(v.data()), 24);
+  for (const auto& f : cube.faces) {
+    off += fmt::format("3 {} {} {}\n", f[0], f[1], f[2]);
+    obj += fmt::format("f {} {} {}\n", f[0] + 1, f[1] + 1, f[2] + 1);
+    ply += '\3';
+    for (auto i : f) {
+      const auto k = static_cast<std::int32_t>(i);
+      ply.append(reinterpret_cast<const char*>(&k), 4);
+    }
+  }
+  for (const auto& [name, bytes] : {std::pair<std::string, std::string>{"far.off", off}, {"far.obj", obj}, {"far.ply", ply}}) {
+    const mca::Model m = mca::lattice::build_model(mesh_scene(write_file(t.path() / name, bytes), 0.05));
+    EXPECT_EQ(m.size(), 216u) << name;  // 6 x 6 x 6 cells of 0.05 m
+  }
+  // STL stores float32: 6 cm of rounding at 1e6 m, refused with the fix.
+  mca::test::write_mesh_file(t.path() / "far.stl", cube);
+  const std::string m = error_of([&] { mca::lattice::build_model(mesh_scene((t.path() / "far.stl").string(), 0.05)); });
+  EXPECT_HAS(m, "stores float32 coordinates");
+  EXPECT_HAS(m, "Recentre the model");
+  // Near the origin the same STL is fine.
+  mca::test::write_mesh_file(t.path() / "near.stl", mca::test::cube_mesh(0.15));
+  EXPECT_EQ(mca::lattice::build_model(mesh_scene((t.path() / "near.stl").string(), 0.05)).size(), 216u);
+}
+
+// Item 18: OBJ numbers written ".3" and COFF files with comments (and colours without alpha) are read.
+TEST(InputBounds, ObjShortNumbersAndCoffCommentsAreRead) {
+  mca::test::TempDir t;
+  const std::string obj = write_file(t.path() / "short.obj", "v 0 0 0\nv .5 0 0\nv 0 .5 0\nv 0 0 .5\nv -.5 +.5 1.\n"
+                                                             "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
+  EXPECT_EQ(mca::mesh::read_mesh(obj).faces.size(), 4u);
+  const std::string coff = write_file(t.path() / "c.off", "COFF # coloured\n# counts\n4 4 6\n0 0 0 255 0 0 255 # red\n"
+                                                          "1 0 0 0 255 0 255\n0 1 0 0 0 255 255\n0 0 1 9 9 9 255\n"
+                                                          "# faces\n3 0 2 1 1 0 0\n3 0 1 3\n3 0 3 2\n3 1 2 3 # last\n");
+  const mca::mesh::TriMesh m = mca::mesh::read_mesh(coff);
+  EXPECT_EQ(m.vertices.size(), 4u);
+  EXPECT_EQ(m.faces.size(), 4u);
+  // Colours of three components (no alpha): assimp's reader failed on them ("Cannot parse string").
+  const std::string rgb = write_file(t.path() / "rgb.off", "COFF\n4 4 0\n0 0 0 1 0 0\n1 0 0 0 1 0\n0 1 0 0 0 1\n"
+                                                           "0 0 1 1 1 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n");
+  EXPECT_EQ(mca::mesh::read_mesh(rgb).faces.size(), 4u);
+}
+
+// Item 13: arrays over an object's box of cells are checked against solver.max_memory_gb at their real
+// size. Two 0.3 m cubes 13.5 m apart along the diagonal of one mesh: 276^3 = 2.1e7 cells at 0.05 m, 21 MB
+// at the byte per cell checked before, 230 MB with the index and copies the build makes.
+TEST(InputBounds, AMeshOfPartsFarApartIsCheckedByItsWholeBox) {
+  mca::test::TempDir t;
+  mca::mesh::TriMesh two = mca::test::cube_mesh(0.15);
+  const mca::mesh::TriMesh far = mca::test::cube_mesh(0.15, {13.5, 13.5, 13.5});
+  for (const auto& v : far.vertices) two.vertices.push_back(v);
+  for (const auto& f : far.faces) two.faces.push_back({f[0] + 8, f[1] + 8, f[2] + 8});
+  mca::test::write_mesh_file(t.path() / "two.off", two);
+  mca::SceneDef s = mesh_scene((t.path() / "two.off").string(), 0.05);
+  s.solver.max_memory_gb = 0.1;
+  const std::string m = error_of([&] { mca::lattice::build_model(s); });
+  EXPECT_HAS(m, "its bounding box holds 276 x 276 x 276 cells");
+  EXPECT_HAS(m, "over solver.max_memory_gb = 0.1");
+  EXPECT_HAS(m, "give each part an object of its own");
+  // The same parts as two objects build at once.
+  mca::test::write_mesh_file(t.path() / "one.off", mca::test::cube_mesh(0.15));
+  s.objects.push_back(s.objects[0]);
+  s.objects[0].mesh = s.objects[1].mesh = (t.path() / "one.off").string();
+  s.objects[1].name = "far";
+  s.objects[1].position = {13.5, 13.5, 13.5};
+  EXPECT_EQ(mca::lattice::build_model(s).size(), 432u);
+}
+
+// The last resort: a bad_alloc that escapes the checks is a clear message, not "std::bad_alloc".
+TEST(InputBounds, OutOfMemoryIsAClearMessage) {
+  mca::test::TempDir t;
+  // 1.2 million automata (about 900 MB) under a 600 MB address-space limit.
+  std::ofstream(t.path() / "big.toml") << "[solver]\nspacing = 0.01\n[[object]]\nsize = [1.2, 1, 1]\n";
+  const mca::test::Result r =
+      mca::test::shell("ulimit -v 600000; " + std::string(MCA_BINARY) + " info " + (t.path() / "big.toml").string());
+  EXPECT_EQ(r.code, 1) << r.output;
+  EXPECT_HAS(r.output, "error: mca ran out of memory (std::bad_alloc)");
+  EXPECT_EQ(r.output.find("terminate"), std::string::npos) << r.output;
+}
+
+// Item 14: the build of many projectiles is no longer quadratic in expensive work (1,000 balls took over
+// 100 s), and a long build shows its progress.
+TEST(InputBounds, AThousandBallsBuildInSeconds) {
+  mca::SceneDef s = mca::test::block_scene(20, 4, 20, 0.05);
+  for (int i = 0; i < 1000; ++i) {
+    mca::ProjectileDef p;
+    p.name = fmt::format("ball{}", i);
+    p.radius = 0.1;
+    p.position = {-5.0 + 0.3 * (i % 32), -3.0, 3.0 + 0.3 * (i / 32)};
+    p.velocity = {0, 10, 0};
+    s.projectiles.push_back(p);
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  const mca::Model m = mca::lattice::build_model(s);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_EQ(m.projectiles.size(), 1000u);
+  EXPECT_LT(seconds, 10.0);
+  // A ball that touches the block is still refused, naming the automaton it overlaps.
+  s.projectiles[500].position = {0.0, 0.0, 0.5};
+  EXPECT_HAS(error_of([&] { mca::lattice::build_model(s); }), "projectile[500].position");
+}
+
+TEST(InputBounds, ALongBuildShowsItsProgressOnStderr) {
+  testing::internal::CaptureStderr();
+  {
+    mca::lattice::BuildProgress quick;
+    mca::lattice::BuildProgress::stage("reading the meshes");
+  }
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+  testing::internal::CaptureStderr();
+  {
+    mca::lattice::BuildProgress slow;
+    mca::lattice::BuildProgress::stage("filling object 'wall' (1 of 1)");
+    std::this_thread::sleep_for(std::chrono::milliseconds(2400));
+  }
+  const std::string out = testing::internal::GetCapturedStderr();
+  EXPECT_HAS(out, "mca: building the model (2 s): filling object 'wall' (1 of 1)");
+  EXPECT_HAS(out, "mca: model built after 2.");
+  // Without one, stage() prints nothing.
+  testing::internal::CaptureStderr();
+  mca::lattice::BuildProgress::stage("nothing");
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+}
+
+}  // namespace
