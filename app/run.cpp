@@ -16,7 +16,6 @@
 #include "app/commands.hpp"
 #include "app/frame_output.hpp"
 #include "app/render_output.hpp"
-#include "backend/cpu/lattice_kernels.hpp"
 #include "io/checkpoint.hpp"
 #include "io/output_files.hpp"
 #include "io/scene_io.hpp"
@@ -418,7 +417,7 @@ int run(const RunOptions& o) {
   // The scene's name is shown as it is; only a sanitised form of it names the default folder.
   const std::filesystem::path dir =
       o.out ? std::filesystem::path(*o.out) : std::filesystem::path("out") / io::scene_folder_name(scene.name);
-  cpu::select_kernels();  // a bad MCA_SIMD is refused before anything is written
+  Engine::check_environment();  // a bad MCA_SIMD is refused before anything is written
   // The folders this run creates, removed again (when still empty) if it stops before writing anything:
   // a refused --render (no OpenGL, a camera that sees nothing) leaves no empty output folder behind.
   struct CreatedFolders {
