@@ -99,9 +99,13 @@ void write_fragments_csv(const std::filesystem::path& path, const std::vector<an
       false);
 }
 
+// `wall_before`: the wall seconds of the sessions before this one (a resume's checkpoint); `session_wall`
+// and `session_steps`: this session's own, which give the rate (the steps of a resume over the whole
+// wall time would understate it by the share of the earlier sessions).
 void write_summary(const std::filesystem::path& dir, const Engine& sim, const analysis::Fragments& frags,
-                   double wall, std::int64_t steps_run, int threads,
+                   double wall_before, double session_wall, std::int64_t session_steps, int threads,
                    const std::string& status) {
+  const double wall = wall_before + session_wall;
   const Model& m = sim.model();
   const State& s = sim.state();
   nlohmann::json j;
@@ -117,11 +121,14 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
   j["simulated_time"] = s.time;
   j["threads"] = threads;
   j["wall_seconds"] = wall;
+  j["session_steps"] = session_steps;
+  j["session_wall_seconds"] = session_wall;
   // The process's peak resident memory so far (compare with `mca info`'s estimate).
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   j["peak_memory_bytes"] = static_cast<std::int64_t>(usage.ru_maxrss) * 1024;
-  j["automaton_steps_per_second"] = wall > 0 ? static_cast<double>(steps_run) * m.size() / wall : 0.0;
+  j["automaton_steps_per_second"] =
+      session_wall > 0 ? static_cast<double>(session_steps) * static_cast<double>(m.size()) / session_wall : 0.0;
   j["broken_links"] = {{"displacement", s.broken_by[0]}, {"stress", s.broken_by[1]},
                        {"total", s.broken_by[0] + s.broken_by[1]}};
   j["intact_links"] = m.link_count() - static_cast<std::size_t>(s.broken_by[0] + s.broken_by[1]);
@@ -280,7 +287,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
       if (g_interrupted && h.flags == kHealthy && sim.state().step < frame_end) {
         // Checkpoints hold frame boundaries only: stop here, and point to the newest one.
         const auto saved = io::list_checkpoints(L.dir / "checkpoints");
-        write_summary(L.dir, sim, writer.fragments(sim.state()), L.wall_before + elapsed(),
+        write_summary(L.dir, sim, writer.fragments(sim.state()), L.wall_before, elapsed(),
                       sim.state().step - first_step, L.threads, "interrupted");
         fmt::print(stderr,
                    "{}interrupted inside frame {} (step {} of the run); checkpoints are saved at frame ends only, "
@@ -326,7 +333,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
     progress(wall, sim.state().step >= L.plan.total_steps);
     if (g_interrupted) {
       save_checkpoint(L, L.wall_before + wall);
-      write_summary(L.dir, sim, frags, L.wall_before + wall, sim.state().step - first_step, L.threads,
+      write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads,
                     "interrupted");
       fmt::print(stderr, "{}interrupted after frame {}; a checkpoint is saved. Continue with: mca resume {}\n",
                  tty ? "\n" : "", L.frame - 1, L.dir.string());
@@ -335,7 +342,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
   }
   const double wall = elapsed();
   const auto frags = writer.fragments(sim.state());
-  write_summary(L.dir, sim, frags, L.wall_before + wall, sim.state().step - first_step, L.threads,
+  write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads,
                 "finished");
   const std::size_t meshes = writer.write_fragment_meshes(sim.state(), frags);
   if (!L.quiet && sim.scene().output.fragments) {
