@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <fmt/format.h>
 #include <fstream>
+#include <string_view>
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 #include <tbb/info.h>
@@ -461,13 +462,13 @@ int run(const RunOptions& o) {
   // The renderer before any output: a missing OpenGL or a camera that sees nothing stops here.
   std::unique_ptr<RenderOutput> render;
   if (o.render) render = std::make_unique<RenderOutput>(dir, sim, ro, plan.total_frames, o.quiet);
-  else std::filesystem::remove(dir / "render" / "render.json");  // an earlier run's: a resume must not render
   created.keep = true;
   // The scene as run (overrides applied), so the folder says what produced it.
   io::write_file_atomic(dir / "scene.toml", [&](std::ostream& os) { os << io::scene_to_toml(scene); }, false);
   // Outputs of an earlier run in this folder would mix with this one's; only files this program writes
   // are removed, anything else a user keeps there stays.
   std::filesystem::remove(dir / "summary.json");
+  std::filesystem::remove(dir / "fragments.csv");
   remove_own_files(dir / "checkpoints", "frame_", ".mcack");
   remove_own_files(dir / "frames", "automata_", ".vtu");
   remove_own_files(dir / "frames", "projectiles_", ".vtu");
@@ -478,7 +479,25 @@ int run(const RunOptions& o) {
   // (--no-vtk), and a collection left from an earlier run would list frames that were just removed.
   std::filesystem::remove(dir / "automata.pvd");
   std::filesystem::remove(dir / "projectiles.pvd");
+  // The pictures: an unrendered run removes an earlier rendering whole (render.json too: a resume must not
+  // render), a rendered one has replaced its frames, video and sheet (RenderOutput); the plots go either
+  // way (tools/plot_run.py may not run this time).
+  if (!render) {
+    std::filesystem::remove(dir / "render" / "render.json");
+    std::filesystem::remove(dir / "render" / "video.mp4");
+    std::filesystem::remove(dir / "render" / "contact_sheet.png");
+    remove_own_files(dir / "render", "frame_", ".png");
+  }
+  for (const char* plot : {"energies.png", "broken_links.png", "fragment_masses.png"})
+    std::filesystem::remove(dir / "render" / plot);
   remove_stale_temporaries(dir);
+  // Folders of outputs this run may not write, left empty by the removals (the writers make them again).
+  for (const char* sub : {"frames", "surface", "fragments", "checkpoints", "render"}) {
+    std::error_code ec;
+    if (render && std::string_view(sub) == "render") continue;  // made for this run's pictures
+    if (std::filesystem::is_directory(dir / sub, ec) && std::filesystem::is_empty(dir / sub, ec) && !ec)
+      std::filesystem::remove(dir / sub, ec);
+  }
   FrameWriter writer(dir, sim.model(), scene.output);
   Loop L{sim, dir, threads, o.quiet, scene.output.checkpoint_every, plan, 0, 0.0, render.get()};
   // Frame 0: the initial state.
@@ -502,6 +521,8 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
                             "with Ctrl-C); pass that run's --out folder",
                             ckdir.string()));
   io::Checkpoint cp = io::read_checkpoint(all.back());
+  // A checkpoint copied in from another run would write its scene's frames and summary into this folder.
+  io::check_checkpoint_scene(cp, all.back(), dir);
   const int threads = thread_count(threads_requested);
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   if (!quiet)
