@@ -15,6 +15,72 @@
 
 namespace mca::app {
 
+std::string human_bytes(double bytes) {
+  const char* units[] = {"bytes", "KB", "MB", "GB", "TB", "PB", "EB"};
+  int u = 0;
+  while (bytes >= 999.5 && u < 6) {
+    bytes /= 1000;
+    ++u;
+  }
+  return u == 0 ? fmt::format("{:.0f} bytes", bytes) : fmt::format("{:.3g} {}", bytes, units[u]);
+}
+
+OutputEstimate estimate_output(const Model& m, const OutputDef& o, std::int64_t frames, int render_width,
+                               int render_height) {
+  OutputEstimate e;
+  e.frames = frames;
+  const auto n = static_cast<double>(m.size());
+  // A .vtu (FrameWriter::write_frame, io::write_vtu): about 2 KB of XML, then raw blocks with an 8-byte
+  // length each: per point the 11 fields (68 bytes) and its position (12), per cell connectivity, offset and
+  // type (9 with Int32 indices); each intact link a line cell of 13 bytes.
+  if (o.vtk) {
+    e.vtk_frame = 2000 + 14 * 8 + 89 * n;
+    if (o.links) e.vtk_frame += 13 * static_cast<double>(m.link_count());
+    const auto np = static_cast<double>(m.projectiles.size());
+    if (np > 0) e.vtk_frame += 950 + 7 * 8 + (12 + 12 + 4 + 12 + 9) * np;
+    // The .pvd collections list every frame: about 90 bytes an entry.
+    e.per_run += (np > 0 ? 2 : 1) * 90.0 * static_cast<double>(frames);
+  }
+  // The bound surface (analysis::posed_surface) at frame 0: one vertex per mesh vertex, each triangle with
+  // its fragment number. PLY: 12 bytes a vertex, 17 a face; OBJ: about 36 and 24 characters.
+  if (o.surface && m.surface.faces() > 0) {
+    const auto v = static_cast<double>(m.surface.vertices), f = static_cast<double>(m.surface.faces());
+    e.surface_frame = o.surface_format == OutputDef::SurfaceFormat::obj ? 36 * v + 24 * f : 300 + 12 * v + 17 * f;
+  }
+  // A rendered frame: the PNG (compression level 1) of the default scene at 1280x720 is 0.36 to 0.40 MB,
+  // 0.4 bytes a pixel (a mostly flat background); the H.264 video adds a few per cent.
+  if (render_width > 0 && render_height > 0)
+    e.render_frame = 0.45 * static_cast<double>(render_width) * static_cast<double>(render_height);
+  // stats.csv: at most 12 characters a cell, 17 cells and three a grip. summary.json about 14 KB;
+  // fragments.csv at most a row per automaton (every automaton its own fragment), about 130 characters.
+  e.per_run += 12.0 * (17 + 3 * static_cast<double>(m.grip_names.size())) * static_cast<double>(frames);
+  e.per_run += 20000 + 130 * n;
+  // Two checkpoints are kept: the state, about 200 bytes an automaton and 40 an explicit link.
+  if (o.checkpoint_every > 0) e.per_run += 2 * (200 * n + 40 * static_cast<double>(m.explicit_links.size()) + 20000);
+  return e;
+}
+
+void check_output_fits(const OutputEstimate& e, const std::filesystem::path& dir, const SceneDef& scene) {
+  std::error_code ec;
+  const std::filesystem::space_info space = std::filesystem::space(dir, ec);
+  if (ec) return;  // a file system that does not say: nothing to compare with
+  const double free = static_cast<double>(space.available);
+  if (e.total() <= free) return;
+  std::vector<std::string> parts;
+  if (e.vtk_frame > 0) parts.push_back(fmt::format("VTK {}", human_bytes(e.vtk_frame)));
+  if (e.surface_frame > 0) parts.push_back(fmt::format("surface {}", human_bytes(e.surface_frame)));
+  if (e.render_frame > 0) parts.push_back(fmt::format("pictures {}", human_bytes(e.render_frame)));
+  throw Error(fmt::format(
+      "{}: the run would write about {} into {} ({} frames of {} each{}, at output.frame_rate = {:g} frames per "
+      "simulated second for output.duration = {:g} s), more than the {} free there; lower output.frame_rate, "
+      "shorten output.duration (or --steps), leave out the VTK frames (--no-vtk or output.vtk = false), or free "
+      "disk space",
+      scene.source, human_bytes(e.total()), dir.string(), e.frames, human_bytes(e.frame()),
+      parts.empty() ? std::string() : ": " + fmt::format("{}", fmt::join(parts, ", ")),
+      scene.output.frame_rate,
+      scene.output.duration, human_bytes(free)));
+}
+
 FrameWriter::FrameWriter(std::filesystem::path dir, const Model& model, const OutputDef& output)
     : dir_(std::move(dir)),
       model_(model),

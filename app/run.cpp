@@ -453,11 +453,15 @@ int run(const RunOptions& o) {
   if (!o.quiet) fmt::print(stderr, "mca: scene '{}' ({}): building...\n", scene.name, scene.source);
   Engine sim(scene);
   const Plan plan = make_plan(sim, o.steps);
+  // What the run will write must fit the disk (frame_rate = 1e9 plans 4,000,000 frames, terabytes).
+  const OutputEstimate estimate = estimate_output(sim.model(), scene.output, plan.total_frames + 1,
+                                                  o.render ? ro.width : 0, o.render ? ro.height : 0);
+  check_output_fits(estimate, dir, scene);
   if (!o.quiet) {
     fmt::print(stderr, "mca: {} automata, {} links, time step {:.4g} s, {} steps per frame, {} frames, {} steps, "
-               "{} threads\n",
+               "{} threads; about {} of output\n",
                sim.model().size(), sim.model().link_count(), sim.model().dt, sim.steps_per_frame(), plan.total_frames,
-               plan.total_steps, threads);
+               plan.total_steps, threads, human_bytes(estimate.total()));
   }
   // The renderer before any output: a missing OpenGL or a camera that sees nothing stops here.
   std::unique_ptr<RenderOutput> render;
@@ -535,8 +539,13 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   const Plan plan = resume_plan(cp, sim.steps_per_frame(), source);
   // A rendered run goes on rendering, as it began (render/render.json), unless told not to; the renderer
   // comes before any output, as for a new run.
+  const auto rendered = load_render_options(dir);
+  const bool will_render = rendered && !no_render;
+  check_output_fits(estimate_output(sim.model(), cp.scene.output, plan.total_frames + 1 - cp.frame,
+                                    will_render ? rendered->width : 0, will_render ? rendered->height : 0),
+                    dir, cp.scene);
   std::unique_ptr<RenderOutput> render;
-  if (const auto ro = load_render_options(dir)) {
+  if (const auto& ro = rendered) {
     if (!no_render) {
       render = std::make_unique<RenderOutput>(dir, sim, *ro, plan.total_frames, quiet, cp.frame);
     } else {
