@@ -426,6 +426,7 @@ int run(const RunOptions& o) {
   const std::filesystem::path dir =
       o.out ? std::filesystem::path(*o.out) : std::filesystem::path("out") / io::scene_folder_name(scene.name);
   Engine::check_environment();  // a bad MCA_SIMD is refused before anything is written
+  if (o.render) render::VideoEncoder::time_limit();  // and so is a bad MCA_FFMPEG_TIMEOUT
   // The folders this run creates, removed again (when still empty) if it stops before writing anything:
   // a refused --render (no OpenGL, a camera that sees nothing) leaves no empty output folder behind.
   struct CreatedFolders {
