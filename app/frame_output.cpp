@@ -1,6 +1,9 @@
 #include "app/frame_output.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <fcntl.h>
 #include <fmt/format.h>
@@ -14,6 +17,12 @@
 #include "mca/error.hpp"
 
 namespace mca::app {
+
+namespace {
+// The renderer's memory (estimate_memory), from the peaks of runs with and without --render.
+constexpr double kRenderFixedBytes = 100e6, kRenderBytesPerPixel = 24, kRenderBytesPerAutomaton = 400,
+                 kRenderBytesPerTriangle = 500;
+}  // namespace
 
 std::string human_bytes(double bytes) {
   const char* units[] = {"bytes", "KB", "MB", "GB", "TB", "PB", "EB"};
@@ -47,16 +56,66 @@ OutputEstimate estimate_output(const Model& m, const OutputDef& o, std::int64_t 
     const auto v = static_cast<double>(m.surface.vertices), f = static_cast<double>(m.surface.faces());
     e.surface_frame = o.surface_format == OutputDef::SurfaceFormat::obj ? 36 * v + 24 * f : 300 + 12 * v + 17 * f;
   }
-  // A rendered frame: the PNG (compression level 1) of the default scene at 1280x720 is 0.36 to 0.40 MB,
-  // 0.4 bytes a pixel (a mostly flat background); the H.264 video adds a few per cent.
-  if (render_width > 0 && render_height > 0)
-    e.render_frame = 0.45 * static_cast<double>(render_width) * static_cast<double>(render_height);
+  // A rendered frame: the PNG (compression level 1) of the bunny at 1280x720 is 0.52 MB, 0.57 bytes a pixel
+  // (a mostly flat background); the H.264 video adds a few per cent. Once: the contact sheet (six tiles at
+  // half size, 0.68 MB at 1280x720) and the plots (about 120 KB).
+  if (render_width > 0 && render_height > 0) {
+    const double pixels = static_cast<double>(render_width) * static_cast<double>(render_height);
+    e.render_frame = 0.6 * pixels;
+    e.per_run += 0.75 * pixels + 200000;
+  }
   // stats.csv: at most 12 characters a cell, 17 cells and three a grip. summary.json about 14 KB;
   // fragments.csv at most a row per automaton (every automaton its own fragment), about 130 characters.
   e.per_run += 12.0 * (17 + 3 * static_cast<double>(m.grip_names.size())) * static_cast<double>(frames);
   e.per_run += 20000 + 130 * n;
   // Two checkpoints are kept: the state, about 200 bytes an automaton and 40 an explicit link.
   if (o.checkpoint_every > 0) e.per_run += 2 * (200 * n + 40 * static_cast<double>(m.explicit_links.size()) + 20000);
+  return e;
+}
+
+MemoryEstimate estimate_memory(const Model& m, const OutputDef& o, int render_width, int render_height) {
+  MemoryEstimate e;
+  e.arrays = static_cast<double>(estimate_memory_bytes(m.size(), m.explicit_links.size()));
+  // Mesh objects, per triangle: assimp's scene and the welded mesh (vertices, faces, the weld map), the
+  // checks' edge tables, the shells, the surface bound to automata (66 bytes) kept for the run; the
+  // fill's distance grids at the spacing are small beside them. Measured: `mca info scenes/bunny.toml`
+  // (75,408 triangles) peaks 23 MB above a box of as many automata, 305 bytes a triangle.
+  e.meshes = 310.0 * static_cast<double>(m.surface.faces());
+  // A frame's posed surface and the bytes written from it: measured 1.9 MB for the bunny's 1.73 MB frames.
+  if (o.surface && m.surface.faces() > 0)
+    e.surface_output = 1.1 * estimate_output(m, o, 1).surface_frame;
+  // Fragment meshes: each piece's voxel field (the spacing over 3, finer for small pieces), its OpenVDB
+  // grid and the object's signed distance, largest for the main body of an object: counted as the box of
+  // the largest object, 15 bytes a voxel (measured: 31 MB for the bunny's, 2.05 M voxels).
+  if (o.fragments && m.size() > 0) {
+    const double d = m.spacing, h = d / 3;
+    std::vector<std::array<double, 6>> box(m.object_names.size(),
+                                           {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY});
+    for (std::size_t a = 0; a < m.size(); ++a) {
+      auto& b = box[static_cast<std::size_t>(m.object[a])];
+      const double p[3] = {m.position0[a].x, m.position0[a].y, m.position0[a].z};
+      for (int c = 0; c < 3; ++c) {
+        b[c] = std::min(b[c], p[c]);
+        b[3 + c] = std::max(b[3 + c], p[c]);
+      }
+    }
+    double voxels = 0;
+    for (const auto& b : box) {
+      if (!(b[0] <= b[3])) continue;
+      double v = 1;
+      for (int c = 0; c < 3; ++c) v *= std::ceil((b[3 + c] - b[c] + 2.4 * d) / h) + 1;
+      voxels = std::max(voxels, v);
+    }
+    e.fragment_meshes = 15 * voxels;
+  }
+  // The renderer: Mesa's OpenGL (llvmpipe and its compiled shaders) and EGL, the picture's buffers, and
+  // per frame the snapshot and its vertex buffers (a cube per automaton, or three vertices per triangle of
+  // the bound surface). Measured with /usr/bin/time (docs/benchmarks.md, "Memory").
+  if (render_width > 0 && render_height > 0) {
+    const double pixels = static_cast<double>(render_width) * static_cast<double>(render_height);
+    e.render = kRenderFixedBytes + kRenderBytesPerPixel * pixels + kRenderBytesPerAutomaton * static_cast<double>(m.size()) +
+               kRenderBytesPerTriangle * static_cast<double>(m.surface.faces());
+  }
   return e;
 }
 

@@ -48,6 +48,17 @@ std::string human_bytes(double bytes);
 // their size, the space free, and the fix.
 void check_output_fits(const OutputEstimate& estimate, const std::filesystem::path& dir, const SceneDef& scene);
 
+// The peak memory of a run, by what holds it (`mca info`; compare summary.json's peak_memory_bytes): the
+// arrays of the model, state and backend (estimate_memory_bytes), the mesh objects (the triangles read and
+// checked, the fill, the surface bound to automata), a frame's bound surface (output.surface), the voxel
+// fields of the fragment meshes at the end (output.fragments) and the OpenGL renderer (--render).
+struct MemoryEstimate {
+  double arrays = 0, meshes = 0, surface_output = 0, fragment_meshes = 0, render = 0;
+  double total() const { return arrays + meshes + surface_output + fragment_meshes + render; }
+};
+MemoryEstimate estimate_memory(const Model& model, const OutputDef& output, int render_width = 0,
+                               int render_height = 0);
+
 class FrameWriter {
  public:
   // Writes what `output` asks for: VTK frames (vtk, links) and the bound surface (surface, surface_format).
