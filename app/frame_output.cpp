@@ -131,7 +131,8 @@ void check_output_fits(const OutputEstimate& e, const std::filesystem::path& dir
   if (e.render_frame > 0) parts.push_back(fmt::format("pictures {}", human_bytes(e.render_frame)));
   throw Error(fmt::format(
       "{}: the run would write about {} into {} ({} frames of {} each{}, at output.frame_rate = {:g} frames per "
-      "simulated second for output.duration = {:g} s), more than the {} free there; lower output.frame_rate, "
+      "simulated second for output.duration = {:g} s), more than the {} free there (an earlier run's files there, "
+      "which this run replaces, count as used); lower output.frame_rate, "
       "shorten output.duration (or --steps), leave out the VTK frames (--no-vtk or output.vtk = false), or free "
       "disk space",
       scene.source, human_bytes(e.total()), dir.string(), e.frames, human_bytes(e.frame()),
