@@ -274,6 +274,32 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
         }
     });
     mesh::TriMesh solid = mesh::polygonize(field, fb);
+    // Polygonizing places each vertex at the mean of its voxel's crossings of the sampled field, which
+    // bevels a convex edge or corner by about a voxel (a box's pieces kept 95 to 99 % of their cells). Each
+    // vertex is moved onto the field's own zero, max(outer, split) evaluated exactly rather than sampled:
+    // Newton steps along its gradient (central differences a twentieth of a voxel apart; where two faces
+    // meet, the difference spans both and the step goes towards their edge). Flat faces do not move.
+    const auto exact = [&](double x, double y, double z) {
+      const Terms t = terms(x, y, z);
+      return std::max(t.outer, t.split);
+    };
+    tbb::parallel_for(std::size_t{0}, solid.vertices.size(), [&](std::size_t v) {
+      mesh::Point& p = solid.vertices[v];
+      for (int step = 0; step < 2; ++step) {
+        const double f = exact(p[0], p[1], p[2]);
+        if (!(std::fabs(f) <= 2 * hf)) break;  // off the field (outside every term): left where it is
+        double g[3], g2 = 0;
+        for (int c = 0; c < 3; ++c) {
+          mesh::Point hi = p, lo = p;
+          hi[c] += 0.05 * hf;
+          lo[c] -= 0.05 * hf;
+          g[c] = (exact(hi[0], hi[1], hi[2]) - exact(lo[0], lo[1], lo[2])) / (0.1 * hf);
+          g2 += g[c] * g[c];
+        }
+        if (!(g2 > 1e-6 && g2 < 1e6)) break;  // no direction (or an infinite term nearby)
+        for (int c = 0; c < 3; ++c) p[c] -= f * g[c] / g2;
+      }
+    });
     // Smoothing the crack faces (the vertices where the bisector term is the one at zero, well inside the
     // object): Taubin's lambda|mu steps flatten the cell-face staircase without shrinking the piece; the
     // outer surface stays as resampled.
