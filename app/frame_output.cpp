@@ -1,6 +1,9 @@
 #include "app/frame_output.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <fcntl.h>
 #include <fmt/format.h>
@@ -14,6 +17,129 @@
 #include "mca/error.hpp"
 
 namespace mca::app {
+
+namespace {
+// The renderer's memory (estimate_memory), from the peaks of runs with and without --render.
+constexpr double kRenderFixedBytes = 100e6, kRenderBytesPerPixel = 24, kRenderBytesPerAutomaton = 400,
+                 kRenderBytesPerTriangle = 500;
+}  // namespace
+
+std::string human_bytes(double bytes) {
+  const char* units[] = {"bytes", "KB", "MB", "GB", "TB", "PB", "EB"};
+  int u = 0;
+  while (bytes >= 999.5 && u < 6) {
+    bytes /= 1000;
+    ++u;
+  }
+  return u == 0 ? fmt::format("{:.0f} bytes", bytes) : fmt::format("{:.3g} {}", bytes, units[u]);
+}
+
+OutputEstimate estimate_output(const Model& m, const OutputDef& o, std::int64_t frames, int render_width,
+                               int render_height) {
+  OutputEstimate e;
+  e.frames = frames;
+  const auto n = static_cast<double>(m.size());
+  // A .vtu (FrameWriter::write_frame, io::write_vtu): about 2 KB of XML, then raw blocks with an 8-byte
+  // length each: per point the 11 fields (68 bytes) and its position (12), per cell connectivity, offset and
+  // type (9 with Int32 indices); each intact link a line cell of 13 bytes.
+  if (o.vtk) {
+    e.vtk_frame = 2000 + 14 * 8 + 89 * n;
+    if (o.links) e.vtk_frame += 13 * static_cast<double>(m.link_count());
+    const auto np = static_cast<double>(m.projectiles.size());
+    if (np > 0) e.vtk_frame += 950 + 7 * 8 + (12 + 12 + 4 + 12 + 9) * np;
+    // The .pvd collections list every frame: about 90 bytes an entry.
+    e.per_run += (np > 0 ? 2 : 1) * 90.0 * static_cast<double>(frames);
+  }
+  // The bound surface (analysis::posed_surface) at frame 0: one vertex per mesh vertex, each triangle with
+  // its fragment number. PLY: 12 bytes a vertex, 17 a face; OBJ: about 36 and 24 characters.
+  if (o.surface && m.surface.faces() > 0) {
+    const auto v = static_cast<double>(m.surface.vertices), f = static_cast<double>(m.surface.faces());
+    e.surface_frame = o.surface_format == OutputDef::SurfaceFormat::obj ? 36 * v + 24 * f : 300 + 12 * v + 17 * f;
+  }
+  // A rendered frame: the PNG (compression level 1) of the bunny at 1280x720 is 0.52 MB, 0.57 bytes a pixel
+  // (a mostly flat background); the H.264 video adds a few per cent. Once: the contact sheet (six tiles at
+  // half size, 0.68 MB at 1280x720) and the plots (about 120 KB).
+  if (render_width > 0 && render_height > 0) {
+    const double pixels = static_cast<double>(render_width) * static_cast<double>(render_height);
+    e.render_frame = 0.6 * pixels;
+    e.per_run += 0.75 * pixels + 200000;
+  }
+  // stats.csv: at most 12 characters a cell, 17 cells and three a grip. summary.json about 14 KB;
+  // fragments.csv at most a row per automaton (every automaton its own fragment), about 130 characters.
+  e.per_run += 12.0 * (17 + 3 * static_cast<double>(m.grip_names.size())) * static_cast<double>(frames);
+  e.per_run += 20000 + 130 * n;
+  // Two checkpoints are kept: the state, about 200 bytes an automaton and 40 an explicit link.
+  if (o.checkpoint_every > 0) e.per_run += 2 * (200 * n + 40 * static_cast<double>(m.explicit_links.size()) + 20000);
+  return e;
+}
+
+MemoryEstimate estimate_memory(const Model& m, const OutputDef& o, int render_width, int render_height) {
+  MemoryEstimate e;
+  e.arrays = static_cast<double>(estimate_memory_bytes(m.size(), m.explicit_links.size()));
+  // Mesh objects, per triangle: assimp's scene and the welded mesh (vertices, faces, the weld map), the
+  // checks' edge tables, the shells, the surface bound to automata (66 bytes) kept for the run; the
+  // fill's distance grids at the spacing are small beside them. Measured: `mca info scenes/bunny.toml`
+  // (75,408 triangles) peaks 23 MB above a box of as many automata, 305 bytes a triangle.
+  e.meshes = 310.0 * static_cast<double>(m.surface.faces());
+  // A frame's posed surface and the bytes written from it: measured 1.9 MB for the bunny's 1.73 MB frames.
+  if (o.surface && m.surface.faces() > 0)
+    e.surface_output = 1.1 * estimate_output(m, o, 1).surface_frame;
+  // Fragment meshes: each piece's voxel field (the spacing over 3, finer for small pieces), its OpenVDB
+  // grid and the object's signed distance, largest for the main body of an object: counted as the box of
+  // the largest object, 15 bytes a voxel (measured: 31 MB for the bunny's, 2.05 M voxels).
+  if (o.fragments && m.size() > 0) {
+    const double d = m.spacing, h = d / 3;
+    std::vector<std::array<double, 6>> box(m.object_names.size(),
+                                           {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY});
+    for (std::size_t a = 0; a < m.size(); ++a) {
+      auto& b = box[static_cast<std::size_t>(m.object[a])];
+      const double p[3] = {m.position0[a].x, m.position0[a].y, m.position0[a].z};
+      for (int c = 0; c < 3; ++c) {
+        b[c] = std::min(b[c], p[c]);
+        b[3 + c] = std::max(b[3 + c], p[c]);
+      }
+    }
+    double voxels = 0;
+    for (const auto& b : box) {
+      if (!(b[0] <= b[3])) continue;
+      double v = 1;
+      for (int c = 0; c < 3; ++c) v *= std::ceil((b[3 + c] - b[c] + 2.4 * d) / h) + 1;
+      voxels = std::max(voxels, v);
+    }
+    e.fragment_meshes = 15 * voxels;
+  }
+  // The renderer: Mesa's OpenGL (llvmpipe and its compiled shaders) and EGL, the picture's buffers, and
+  // per frame the snapshot and its vertex buffers (a cube per automaton, or three vertices per triangle of
+  // the bound surface). Measured with /usr/bin/time (docs/benchmarks.md, "Memory").
+  if (render_width > 0 && render_height > 0) {
+    const double pixels = static_cast<double>(render_width) * static_cast<double>(render_height);
+    e.render = kRenderFixedBytes + kRenderBytesPerPixel * pixels + kRenderBytesPerAutomaton * static_cast<double>(m.size()) +
+               kRenderBytesPerTriangle * static_cast<double>(m.surface.faces());
+  }
+  return e;
+}
+
+void check_output_fits(const OutputEstimate& e, const std::filesystem::path& dir, const SceneDef& scene) {
+  std::error_code ec;
+  const std::filesystem::space_info space = std::filesystem::space(dir, ec);
+  if (ec) return;  // a file system that does not say: nothing to compare with
+  const double free = static_cast<double>(space.available);
+  if (e.total() <= free) return;
+  std::vector<std::string> parts;
+  if (e.vtk_frame > 0) parts.push_back(fmt::format("VTK {}", human_bytes(e.vtk_frame)));
+  if (e.surface_frame > 0) parts.push_back(fmt::format("surface {}", human_bytes(e.surface_frame)));
+  if (e.render_frame > 0) parts.push_back(fmt::format("pictures {}", human_bytes(e.render_frame)));
+  throw Error(fmt::format(
+      "{}: the run would write about {} into {} ({} frames of {} each{}, at output.frame_rate = {:g} frames per "
+      "simulated second for output.duration = {:g} s), more than the {} free there (an earlier run's files there, "
+      "which this run replaces, count as used); lower output.frame_rate, "
+      "shorten output.duration (or --steps), leave out the VTK frames (--no-vtk or output.vtk = false), or free "
+      "disk space",
+      scene.source, human_bytes(e.total()), dir.string(), e.frames, human_bytes(e.frame()),
+      parts.empty() ? std::string() : ": " + fmt::format("{}", fmt::join(parts, ", ")),
+      scene.output.frame_rate,
+      scene.output.duration, human_bytes(free)));
+}
 
 FrameWriter::FrameWriter(std::filesystem::path dir, const Model& model, const OutputDef& output)
     : dir_(std::move(dir)),

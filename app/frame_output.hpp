@@ -25,6 +25,40 @@ struct FrameStats {
   std::vector<Vec3> grip_force;
 };
 
+// What a run writes into its folder, estimated before it starts: `mca run` and `mca resume` refuse a run
+// that would not fit the free disk, `mca info` shows it. Frames are counted at their frame-0 size (VTK
+// frames keep it; intact links, with output.links, only go; a bound surface grows where it splits between
+// fragments, up to three vertices per triangle; rendered frames at a measured share of their pixels).
+struct OutputEstimate {
+  std::int64_t frames = 0;     // frames the run writes (frame 0 included)
+  double vtk_frame = 0;        // bytes of one frame's automata and projectiles .vtu
+  double surface_frame = 0;    // one frame's surface file (output.surface)
+  double render_frame = 0;     // one frame's PNG and its share of the video (--render)
+  double per_run = 0;          // stats.csv, the .pvd collections, summary, fragments.csv, two checkpoints
+  double frame() const { return vtk_frame + surface_frame + render_frame; }
+  double total() const { return static_cast<double>(frames) * frame() + per_run; }
+};
+// `frames`: the frames to write (a new run: the plan's frames after frame 0, plus 1). render_width and
+// render_height: the picture size of --render (0: not rendered).
+OutputEstimate estimate_output(const Model& model, const OutputDef& output, std::int64_t frames, int render_width = 0,
+                               int render_height = 0);
+// "1.72 TB", "430 KB": bytes in SI units, three figures.
+std::string human_bytes(double bytes);
+// Throws mca::Error when the estimate exceeds the space free in `dir` (which exists): the bytes, the frames and
+// their size, the space free, and the fix.
+void check_output_fits(const OutputEstimate& estimate, const std::filesystem::path& dir, const SceneDef& scene);
+
+// The peak memory of a run, by what holds it (`mca info`; compare summary.json's peak_memory_bytes): the
+// arrays of the model, state and backend (estimate_memory_bytes), the mesh objects (the triangles read and
+// checked, the fill, the surface bound to automata), a frame's bound surface (output.surface), the voxel
+// fields of the fragment meshes at the end (output.fragments) and the OpenGL renderer (--render).
+struct MemoryEstimate {
+  double arrays = 0, meshes = 0, surface_output = 0, fragment_meshes = 0, render = 0;
+  double total() const { return arrays + meshes + surface_output + fragment_meshes + render; }
+};
+MemoryEstimate estimate_memory(const Model& model, const OutputDef& output, int render_width = 0,
+                               int render_height = 0);
+
 class FrameWriter {
  public:
   // Writes what `output` asks for: VTK frames (vtk, links) and the bound surface (surface, surface_format).

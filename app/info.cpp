@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/commands.hpp"
+#include "app/frame_output.hpp"
 #include "io/scene_io.hpp"
 #include "lattice/lattice.hpp"
 #include "sim/engine.hpp"
@@ -80,6 +81,11 @@ int info(const std::optional<std::string>& path, bool json) {
   const std::int64_t frames = sim.frame_count();
   const std::int64_t steps = sim.total_steps();
   const std::size_t bytes = estimate_memory_bytes(m.size(), m.explicit_links.size());
+  const MemoryEstimate memory = estimate_memory(m, scene.output);
+  const MemoryEstimate memory_rendered = estimate_memory(m, scene.output, 1280, 720);
+  // What a run writes (frame 0 and `frames` more), and the pictures --render adds at its default size.
+  const OutputEstimate output = estimate_output(m, scene.output, frames + 1);
+  const OutputEstimate rendered = estimate_output(m, scene.output, frames + 1, 1280, 720);
   if (json) {
     nlohmann::json j;
     j["scene"] = scene.name;
@@ -97,9 +103,18 @@ int info(const std::optional<std::string>& path, bool json) {
     j["steps"] = steps;
     j["duration"] = scene.output.duration;
     j["backend"] = sim.backend().name();
-    j["memory_bytes"] = bytes;
+    j["memory_bytes"] = memory.total();
+    j["memory_bytes_with_render"] = memory_rendered.total();
+    j["memory"] = {{"arrays", memory.arrays},
+                   {"meshes", memory.meshes},
+                   {"surface_output", memory.surface_output},
+                   {"fragment_meshes", memory.fragment_meshes},
+                   {"render_1280x720", memory_rendered.render}};
     j["memory_bytes_per_automaton"] =
         static_cast<double>(bytes - estimate_memory_bytes(0)) / static_cast<double>(m.size());
+    j["output_bytes"] = output.total();
+    j["output_bytes_per_frame"] = output.frame();
+    j["output_bytes_with_render"] = rendered.total();
     j["total_mass"] = m.total_mass;
     nlohmann::json objs = nlohmann::json::array();
     std::vector<std::size_t> count(m.object_names.size(), 0);
@@ -176,8 +191,20 @@ int info(const std::optional<std::string>& path, bool json) {
   fmt::print("materials        {}\n", fmt::join(m.group_names, ", "));
   fmt::print("projectiles      {}\n", m.projectiles.size());
   fmt::print("backend          {} ({})\n", sim.backend().name(), simd_note());
-  fmt::print("memory estimate  {:.1f} MB at the peak of a run ({:.0f} bytes per automaton, links included)\n",
-             bytes / 1e6, static_cast<double>(bytes - estimate_memory_bytes(0)) / static_cast<double>(m.size()));
+  std::string parts = fmt::format("arrays {:.1f} MB: {:.0f} bytes per automaton, links included", memory.arrays / 1e6,
+                                  static_cast<double>(bytes - estimate_memory_bytes(0)) / static_cast<double>(m.size()));
+  if (memory.meshes > 0) parts += fmt::format("; mesh objects {:.1f} MB", memory.meshes / 1e6);
+  if (memory.surface_output > 0) parts += fmt::format("; output.surface {:.1f} MB", memory.surface_output / 1e6);
+  if (memory.fragment_meshes > 0) parts += fmt::format("; output.fragments {:.1f} MB", memory.fragment_meshes / 1e6);
+  fmt::print("memory estimate  {:.1f} MB at the peak of a run ({}); --render at 1280x720 adds {:.0f} MB\n",
+             memory.total() / 1e6, parts, memory_rendered.render / 1e6);
+  std::string per_frame;
+  if (output.vtk_frame > 0) per_frame += fmt::format("VTK {}", human_bytes(output.vtk_frame));
+  if (output.surface_frame > 0)
+    per_frame += fmt::format("{}surface {}", per_frame.empty() ? "" : ", ", human_bytes(output.surface_frame));
+  fmt::print("output estimate  {} ({} frames{}; --render at 1280x720 adds {})\n", human_bytes(output.total()),
+             frames + 1, per_frame.empty() ? std::string() : fmt::format(" of {}", per_frame),
+             human_bytes(rendered.total() - output.total()));
   return 0;
 }
 

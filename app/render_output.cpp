@@ -106,6 +106,7 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
                            std::int64_t frames, bool quiet, std::int64_t first_frame)
     : dir_(dir / "render"), sim_(sim), options_(options), quiet_(quiet), frames_(frames) {
   check_render_size(options.width, options.height);
+  render::VideoEncoder::time_limit();  // a bad MCA_FFMPEG_TIMEOUT is refused before anything is written
   const Model& m = sim.model();
   if (options.draw == render::DrawMode::surface && m.surface.faces() == 0)
     throw Error(fmt::format("--render-draw surface needs an object of shape \"mesh\" (its triangles are drawn); scene "

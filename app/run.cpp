@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 #include <optional>
 #include <fstream>
+#include <string_view>
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 #include <tbb/info.h>
@@ -17,7 +18,6 @@
 #include "app/commands.hpp"
 #include "app/frame_output.hpp"
 #include "app/render_output.hpp"
-#include "backend/cpu/lattice_kernels.hpp"
 #include "io/checkpoint.hpp"
 #include "io/output_files.hpp"
 #include "io/scene_io.hpp"
@@ -102,9 +102,13 @@ void write_fragments_csv(const std::filesystem::path& path, const std::vector<an
       false);
 }
 
+// `wall_before`: the wall seconds of the sessions before this one (a resume's checkpoint); `session_wall`
+// and `session_steps`: this session's own, which give the rate (the steps of a resume over the whole
+// wall time would understate it by the share of the earlier sessions).
 void write_summary(const std::filesystem::path& dir, const Engine& sim, const analysis::Fragments& frags,
-                   double wall, std::int64_t steps_run, int threads,
+                   double wall_before, double session_wall, std::int64_t session_steps, int threads,
                    const std::string& status) {
+  const double wall = wall_before + session_wall;
   const Model& m = sim.model();
   const State& s = sim.state();
   nlohmann::json j;
@@ -120,11 +124,14 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
   j["simulated_time"] = s.time;
   j["threads"] = threads;
   j["wall_seconds"] = wall;
+  j["session_steps"] = session_steps;
+  j["session_wall_seconds"] = session_wall;
   // The process's peak resident memory so far (compare with `mca info`'s estimate).
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   j["peak_memory_bytes"] = static_cast<std::int64_t>(usage.ru_maxrss) * 1024;
-  j["automaton_steps_per_second"] = wall > 0 ? static_cast<double>(steps_run) * m.size() / wall : 0.0;
+  j["automaton_steps_per_second"] =
+      session_wall > 0 ? static_cast<double>(session_steps) * static_cast<double>(m.size()) / session_wall : 0.0;
   j["broken_links"] = {{"displacement", s.broken_by[0]}, {"stress", s.broken_by[1]},
                        {"total", s.broken_by[0] + s.broken_by[1]}};
   j["intact_links"] = m.link_count() - static_cast<std::size_t>(s.broken_by[0] + s.broken_by[1]);
@@ -286,7 +293,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
       if (g_interrupted && h.flags == kHealthy && sim.state().step < frame_end) {
         // Checkpoints hold frame boundaries only: stop here, and point to the newest one.
         const auto saved = io::list_checkpoints(L.dir / "checkpoints");
-        write_summary(L.dir, sim, writer.fragments(sim.state()), L.wall_before + elapsed(),
+        write_summary(L.dir, sim, writer.fragments(sim.state()), L.wall_before, elapsed(),
                       sim.state().step - first_step, L.threads, "interrupted");
         fmt::print(stderr,
                    "{}interrupted inside frame {} (step {} of the run); checkpoints are saved at frame ends only, "
@@ -332,7 +339,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
     progress(wall, sim.state().step >= L.plan.total_steps);
     if (g_interrupted) {
       save_checkpoint(L, L.wall_before + wall);
-      write_summary(L.dir, sim, frags, L.wall_before + wall, sim.state().step - first_step, L.threads,
+      write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads,
                     "interrupted");
       fmt::print(stderr, "{}interrupted after frame {}; a checkpoint is saved. Continue with: mca resume {}\n",
                  tty ? "\n" : "", L.frame - 1, L.dir.string());
@@ -341,7 +348,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
   }
   const double wall = elapsed();
   const auto frags = writer.fragments(sim.state());
-  write_summary(L.dir, sim, frags, L.wall_before + wall, sim.state().step - first_step, L.threads,
+  write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads,
                 "finished");
   const std::size_t meshes = writer.write_fragment_meshes(sim.state(), frags);
   if (!L.quiet && sim.scene().output.fragments) {
@@ -423,7 +430,8 @@ int run(const RunOptions& o) {
   // The scene's name is shown as it is; only a sanitised form of it names the default folder.
   const std::filesystem::path dir =
       o.out ? std::filesystem::path(*o.out) : std::filesystem::path("out") / io::scene_folder_name(scene.name);
-  cpu::select_kernels();  // a bad MCA_SIMD is refused before anything is written
+  Engine::check_environment();  // a bad MCA_SIMD is refused before anything is written
+  if (o.render) render::VideoEncoder::time_limit();  // and so is a bad MCA_FFMPEG_TIMEOUT
   // The folders this run creates, removed again (when still empty) if it stops before writing anything:
   // a refused --render (no OpenGL, a camera that sees nothing) leaves no empty output folder behind.
   struct CreatedFolders {
@@ -454,22 +462,26 @@ int run(const RunOptions& o) {
   Engine sim(scene);
   building.reset();
   const Plan plan = make_plan(sim, o.steps);
+  // What the run will write must fit the disk (frame_rate = 1e9 plans 4,000,000 frames, terabytes).
+  const OutputEstimate estimate = estimate_output(sim.model(), scene.output, plan.total_frames + 1,
+                                                  o.render ? ro.width : 0, o.render ? ro.height : 0);
+  check_output_fits(estimate, dir, scene);
   if (!o.quiet) {
     fmt::print(stderr, "mca: {} automata, {} links, time step {:.4g} s, {} steps per frame, {} frames, {} steps, "
-               "{} threads\n",
+               "{} threads; about {} of output\n",
                sim.model().size(), sim.model().link_count(), sim.model().dt, sim.steps_per_frame(), plan.total_frames,
-               plan.total_steps, threads);
+               plan.total_steps, threads, human_bytes(estimate.total()));
   }
   // The renderer before any output: a missing OpenGL or a camera that sees nothing stops here.
   std::unique_ptr<RenderOutput> render;
   if (o.render) render = std::make_unique<RenderOutput>(dir, sim, ro, plan.total_frames, o.quiet);
-  else std::filesystem::remove(dir / "render" / "render.json");  // an earlier run's: a resume must not render
   created.keep = true;
   // The scene as run (overrides applied), so the folder says what produced it.
   io::write_file_atomic(dir / "scene.toml", [&](std::ostream& os) { os << io::scene_to_toml(scene); }, false);
   // Outputs of an earlier run in this folder would mix with this one's; only files this program writes
   // are removed, anything else a user keeps there stays.
   std::filesystem::remove(dir / "summary.json");
+  std::filesystem::remove(dir / "fragments.csv");
   remove_own_files(dir / "checkpoints", "frame_", ".mcack");
   remove_own_files(dir / "frames", "automata_", ".vtu");
   remove_own_files(dir / "frames", "projectiles_", ".vtu");
@@ -480,7 +492,25 @@ int run(const RunOptions& o) {
   // (--no-vtk), and a collection left from an earlier run would list frames that were just removed.
   std::filesystem::remove(dir / "automata.pvd");
   std::filesystem::remove(dir / "projectiles.pvd");
+  // The pictures: an unrendered run removes an earlier rendering whole (render.json too: a resume must not
+  // render), a rendered one has replaced its frames, video and sheet (RenderOutput); the plots go either
+  // way (tools/plot_run.py may not run this time).
+  if (!render) {
+    std::filesystem::remove(dir / "render" / "render.json");
+    std::filesystem::remove(dir / "render" / "video.mp4");
+    std::filesystem::remove(dir / "render" / "contact_sheet.png");
+    remove_own_files(dir / "render", "frame_", ".png");
+  }
+  for (const char* plot : {"energies.png", "broken_links.png", "fragment_masses.png"})
+    std::filesystem::remove(dir / "render" / plot);
   remove_stale_temporaries(dir);
+  // Folders of outputs this run may not write, left empty by the removals (the writers make them again).
+  for (const char* sub : {"frames", "surface", "fragments", "checkpoints", "render"}) {
+    std::error_code ec;
+    if (render && std::string_view(sub) == "render") continue;  // made for this run's pictures
+    if (std::filesystem::is_directory(dir / sub, ec) && std::filesystem::is_empty(dir / sub, ec) && !ec)
+      std::filesystem::remove(dir / sub, ec);
+  }
   FrameWriter writer(dir, sim.model(), scene.output);
   Loop L{sim, dir, threads, o.quiet, scene.output.checkpoint_every, plan, 0, 0.0, render.get()};
   // Frame 0: the initial state.
@@ -504,6 +534,8 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
                             "with Ctrl-C); pass that run's --out folder",
                             ckdir.string()));
   io::Checkpoint cp = io::read_checkpoint(all.back());
+  // A checkpoint copied in from another run would write its scene's frames and summary into this folder.
+  io::check_checkpoint_scene(cp, all.back(), dir);
   const int threads = thread_count(threads_requested);
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   if (!quiet)
@@ -519,8 +551,13 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   const Plan plan = resume_plan(cp, sim.steps_per_frame(), source);
   // A rendered run goes on rendering, as it began (render/render.json), unless told not to; the renderer
   // comes before any output, as for a new run.
+  const auto rendered = load_render_options(dir);
+  const bool will_render = rendered && !no_render;
+  check_output_fits(estimate_output(sim.model(), cp.scene.output, plan.total_frames + 1 - cp.frame,
+                                    will_render ? rendered->width : 0, will_render ? rendered->height : 0),
+                    dir, cp.scene);
   std::unique_ptr<RenderOutput> render;
-  if (const auto ro = load_render_options(dir)) {
+  if (const auto& ro = rendered) {
     if (!no_render) {
       render = std::make_unique<RenderOutput>(dir, sim, *ro, plan.total_frames, quiet, cp.frame);
     } else {

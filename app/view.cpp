@@ -11,7 +11,10 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <cerrno>
+#include <cstring>
 #include <deque>
+#include <filesystem>
 #include <fstream>
 #include <memory>
 #include <mutex>
@@ -46,8 +49,13 @@ struct Shot {
 // A script of timed shots: one per line, "TIME X Y" (simulated seconds; the aim as shares of the window's
 // width and height from its top left); '#' starts a comment.
 std::vector<Shot> read_script(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw Error(fmt::format("--script {} is a folder; give a file of shots, one 'TIME X Y' per line", path));
+  if (!std::filesystem::exists(path, ec))
+    throw Error(fmt::format("--script {}: no such file; give a file of shots, one 'TIME X Y' per line", path));
   std::ifstream in(path);
-  if (!in) throw Error(fmt::format("--script {}: cannot open it", path));
+  if (!in) throw Error(fmt::format("--script {}: cannot open it: {}", path, std::strerror(errno)));
   std::vector<Shot> shots;
   std::string line;
   for (int n = 1; std::getline(in, line); ++n) {
@@ -64,6 +72,7 @@ std::vector<Shot> read_script(const std::string& path) {
                               path, n, line));
     shots.push_back(s);
   }
+  if (in.bad()) throw Error(fmt::format("--script {}: cannot read it: {}", path, std::strerror(errno)));
   std::sort(shots.begin(), shots.end(), [](const Shot& a, const Shot& b) { return a.time < b.time; });
   return shots;
 }
@@ -326,6 +335,11 @@ int view(const ViewOptions& o) {
 
   Ball ball;
   std::size_t next_shot = 0;
+  // A shot is due with the first snapshot at or after its time. Snapshot times are whole steps of a float
+  // time step (0.002 s comes out as 0.0019999999), so a time within half a step of a snapshot's is its.
+  const double half_step = 0.5 * static_cast<double>(first.model().dt);
+  const std::size_t scene_projectiles = first.model().projectiles.size();
+  std::size_t due_at_last = 0;  // scripted shots queued with the newest snapshot (in the state from the next)
   std::int64_t shown = 0;
   std::shared_ptr<const render::Snapshot> snap;
   auto fps_t0 = std::chrono::steady_clock::now();
@@ -360,9 +374,11 @@ int view(const ViewOptions& o) {
         snap = std::move(sh.snapshot);
         sh.snapshot.reset();
         // Scripted shots due by this snapshot's time, queued before the simulation goes on (see publish).
-        while (next_shot < script.size() && script[next_shot].time <= snap->time) {
+        due_at_last = 0;
+        while (next_shot < script.size() && script[next_shot].time <= snap->time + half_step) {
           sh.commands.push_back(shot_command(script[next_shot].x, script[next_shot].y, w, h));
           ++next_shot;
+          ++due_at_last;
         }
         sh.changed.notify_all();
       } else if (lockstep && sh.finished) {
@@ -485,11 +501,19 @@ int view(const ViewOptions& o) {
     throw Error(fmt::format("mca view: the simulation stopped after {} frames: {}", shown, sh.message));
   }
   const auto count = [](std::size_t n, const char* what) { return fmt::format("{} {}{}", n, what, n == 1 ? "" : "s"); };
+  // Counted in the last frame shown (the simulation thread runs a frame ahead and may have fired more): its
+  // projectiles are the scene's and the shots fired since the start (or the last restart).
+  const std::size_t projectiles = snap ? snap->projectiles.size() : 0;
+  const std::size_t fired = projectiles > scene_projectiles ? projectiles - scene_projectiles : 0;
+  if (due_at_last > 0 && o.frames && !o.quiet)
+    fmt::print(stderr, "mca view: {} due at the last frame shown (t = {:.2f} ms) went into the simulation after it and "
+               "{} in no frame; give one more --frames to see {}\n",
+               due_at_last == 1 ? std::string("1 shot") : fmt::format("{} shots", due_at_last), snap ? 1e3 * snap->time : 0.0,
+               due_at_last == 1 ? "is" : "are", due_at_last == 1 ? "it" : "them");
   if (!o.quiet)
     fmt::print(stderr, "mca view: {} shown, t = {:.2f} ms, {} fired, {}, broken links {}, fragments {}{}\n",
-               count(static_cast<std::size_t>(shown), "frame"), snap ? 1e3 * snap->time : 0.0,
-               count(static_cast<std::size_t>(sh.shots.load()), "shot"), count(snap ? snap->projectiles.size() : 0, "projectile"),
-               snap ? snap->broken_links : 0, snap ? snap->fragments : 0,
+               count(static_cast<std::size_t>(shown), "frame"), snap ? 1e3 * snap->time : 0.0, count(fired, "shot"),
+               count(projectiles, "projectile"), snap ? snap->broken_links : 0, snap ? snap->fragments : 0,
                o.screenshot ? fmt::format("; screenshot {}", *o.screenshot) : "");
   return 0;
 }

@@ -1,7 +1,11 @@
 #pragma once
-// The Model: everything the solver needs that does not change during a run (built once from a
-// SceneDef by the lattice builder). The State (state.hpp) holds what the step changes.
-// Hot data for the step is kept in flat structure-of-arrays form; names and statistics live elsewhere.
+// The Model: what does not change during a run (built once from a SceneDef by the lattice builder);
+// the State (state.hpp) holds what the step changes. Per-automaton data is one array per quantity (3-vectors
+// as arrays of Vec3/DVec3), links are slots by lattice direction plus the explicit links; the backend
+// makes its own structure-of-arrays copies of what the step reads (backend/cpu). Besides what the step
+// needs, the model holds what outputs and `mca info` use: group, object and grip names, the mesh
+// objects' summaries (MeshSummary), their triangles bound to automata (BoundSurface), the critical step
+// and what limits it.
 #include <array>
 #include <cstdint>
 #include <string>

@@ -279,4 +279,39 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   return cp;
 }
 
+void check_checkpoint_scene(const Checkpoint& cp, const std::filesystem::path& checkpoint,
+                            const std::filesystem::path& run_dir) {
+  const std::filesystem::path own = run_dir / "scene.toml";
+  const std::string fix = fmt::format(
+      "resume it in the folder of the run that wrote it, or remove it from {} (and start this folder's run again "
+      "if no checkpoint of its own is left); to run its scene, start it with mca run",
+      checkpoint.parent_path().string());
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(own, ec))
+    throw Error(fmt::format("checkpoint '{}': {} is missing, so the folder's scene is unknown and the checkpoint "
+                            "cannot be told to be this run's (mca run writes scene.toml into every run folder); "
+                            "restore scene.toml, or {}",
+                            checkpoint.string(), own.string(), fix));
+  // Both as the writer gives them back: every key, in one order, numbers in their shortest form.
+  const std::string mine = scene_to_toml(load_scene_file(own));
+  const std::string theirs = scene_to_toml(cp.scene);
+  if (mine == theirs) return;
+  std::size_t a = 0, b = 0;
+  std::string line_mine, line_theirs, section;
+  for (;;) {
+    const std::size_t ea = mine.find('\n', a), eb = theirs.find('\n', b);
+    line_mine = mine.substr(a, ea == std::string::npos ? std::string::npos : ea - a);
+    line_theirs = theirs.substr(b, eb == std::string::npos ? std::string::npos : eb - b);
+    if (line_mine != line_theirs || ea == std::string::npos || eb == std::string::npos) break;
+    if (!line_mine.empty() && line_mine[0] == '[') section = line_mine;
+    a = ea + 1;
+    b = eb + 1;
+  }
+  const auto shown = [](const std::string& l) { return l.empty() ? std::string("(nothing)") : "'" + l + "'"; };
+  throw Error(fmt::format("checkpoint '{}' is of another scene than this run folder's {}: {}{} there, {} in the "
+                          "checkpoint; {}",
+                          checkpoint.string(), own.string(), section.empty() ? "" : "in " + section + ", ",
+                          shown(line_mine), shown(line_theirs), fix));
+}
+
 }  // namespace mca::io

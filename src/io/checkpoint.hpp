@@ -36,4 +36,12 @@ void write_checkpoint(const std::filesystem::path& path, const Checkpoint& cp);
 // checkpoint. Never allocates much more than the file's size, whatever its counts say.
 Checkpoint read_checkpoint(const std::filesystem::path& path);
 
+// A checkpoint belongs to the run whose folder it is resumed in: that folder's scene.toml (the scene as
+// run, which `mca run` writes) must be the checkpoint's scene, key for key. A checkpoint of another scene
+// copied into the folder would write that scene's frames, stats and summary beside the folder's own.
+// Throws mca::Error naming both files, the first key that differs and the fix; a folder without
+// scene.toml is refused too (it is not a run's folder, or its scene was removed).
+void check_checkpoint_scene(const Checkpoint& cp, const std::filesystem::path& checkpoint,
+                            const std::filesystem::path& run_dir);
+
 }  // namespace mca::io

@@ -112,6 +112,9 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
                               "or leave out position for an automatic view",
                               source, shown(glm::dvec3(cam.eye) + origin), shown(glm::dvec3(lo) + origin),
                               shown(glm::dvec3(hi) + origin)));
+  // Who chose the view, for the messages below: a scene's [camera], or the automatic framing.
+  const std::string camera_name =
+      def.position || def.target ? "the [camera]" : "the automatic camera (the scene has no [camera] position or target)";
   const glm::vec3 f = (cam.target - cam.eye) / dist;
   // A camera looking along the up axis: another up for lookAt.
   if (std::abs(glm::dot(f, cam.up)) > 0.999f) cam.up = horizontal(glm::vec3(0, 1, 0), cam.up);
@@ -134,23 +137,27 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
     }
     const float angle = std::acos(std::clamp(glm::dot(f, to_c / dc), -1.0f, 1.0f));
     if (std::any_of(outside.begin(), outside.end(), [](int k) { return k == 8; }))
-      throw Error(fmt::format("{}: the [camera] at {} looking at {} sees none of the objects (their box {} .. {} lies "
+      throw Error(fmt::format("{}: {} at {} looking at {} sees none of the objects (their box {} .. {} lies "
                               "{:.0f} degrees off the view's axis; the field of view is fov = {:g} degrees); point "
                               "target at the objects, or leave out target to look at their centre",
-                              source, shown(glm::dvec3(cam.eye) + origin), shown(glm::dvec3(cam.target) + origin),
+                              source, camera_name, shown(glm::dvec3(cam.eye) + origin), shown(glm::dvec3(cam.target) + origin),
                               shown(glm::dvec3(fr.box_lo) + origin), shown(glm::dvec3(fr.box_hi) + origin),
                               glm::degrees(angle), def.fov));
   }
   // So far that the objects are a speck (a target far from them, the position left automatic, frames them
   // from a distance where they span a few pixels): under a twentieth of the field of view, as good as none.
-  const float fov_v = glm::radians(cam.fov);
-  if (2 * spread < fov_v / 20)
-    throw Error(fmt::format("{}: the [camera] at {} looking at {} sees the objects only as a speck: their box {} .. {} "
-                            "spans {:.2g} degrees of the view's {:g} at {:.3g} m; point target at the objects (or leave "
-                            "it out to look at their centre), or give a position nearer to them",
-                            source, shown(glm::dvec3(cam.eye) + origin), shown(glm::dvec3(cam.target) + origin),
-                            shown(glm::dvec3(fr.box_lo) + origin), shown(glm::dvec3(fr.box_hi) + origin),
-                            glm::degrees(2 * spread), def.fov, dc));
+  // The narrower field counts: a tall, narrow picture (16x512) frames the objects across its width, and
+  // they span little of its height, which is no speck.
+  const float fov_narrow = std::min(glm::radians(cam.fov), 2 * std::atan(tan_h));
+  if (2 * spread < fov_narrow / 20)
+    throw Error(fmt::format("{}: {} at {} looking at {} sees the objects only as a speck: their box {} .. {} "
+                            "spans {:.2g} degrees of the view's {:.3g} (the narrower of its height and width) at {:.3g} "
+                            "m; point target at the objects (or leave it out to look at their centre), or give a "
+                            "position nearer to them",
+                            source, camera_name, shown(glm::dvec3(cam.eye) + origin),
+                            shown(glm::dvec3(cam.target) + origin), shown(glm::dvec3(fr.box_lo) + origin),
+                            shown(glm::dvec3(fr.box_hi) + origin), glm::degrees(2 * spread),
+                            glm::degrees(fov_narrow), dc));
   // Under the ground the view is of the ground's underside: refused.
   if (def.position && model.ground) {
     const glm::dvec3 eye = glm::dvec3(cam.eye) + origin;

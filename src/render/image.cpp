@@ -1,5 +1,8 @@
 #include "render/image.hpp"
 
+#include <charconv>
+#include <string_view>
+
 #include <cerrno>
 #include <csignal>
 #include <chrono>
@@ -183,12 +186,18 @@ VideoEncoder::~VideoEncoder() {
 
 int VideoEncoder::time_limit() {
   const char* text = std::getenv("MCA_FFMPEG_TIMEOUT");
-  if (text && *text) {
-    char* end = nullptr;
-    const long v = std::strtol(text, &end, 10);
-    if (*end == '\0' && v >= 1 && v <= 86400) return static_cast<int>(v);
-  }
-  return 120;
+  if (!text || !*text) return 120;
+  // Digits only ("+5", " 5", "5s", "1e3" and "-1" are refused with the rest).
+  const std::string_view t(text);
+  int v = 0;
+  const auto [ptr, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
+  if (t.find_first_not_of("0123456789") != std::string_view::npos || ec != std::errc() ||
+      ptr != t.data() + t.size() || v < 1 || v > 86400)
+    throw Error(fmt::format("MCA_FFMPEG_TIMEOUT = {}: not a whole number of seconds from 1 to 86400 (how long ffmpeg "
+                            "may take a frame or finish the video); give e.g. MCA_FFMPEG_TIMEOUT=300, or unset it "
+                            "for 120 s",
+                            text));
+  return v;
 }
 
 void VideoEncoder::stop() {

@@ -35,7 +35,8 @@ std::optional<std::filesystem::path> find_ffmpeg();
 class VideoEncoder {
  public:
   // How long ffmpeg may take to accept a frame, or to finish the file after the last one, before it is
-  // stopped [s]: 120, or MCA_FFMPEG_TIMEOUT (whole seconds, 1 to 86400).
+  // stopped [s]: 120, or MCA_FFMPEG_TIMEOUT (whole seconds, 1 to 86400; anything else set there throws
+  // mca::Error naming it and the fix, so a command can refuse it before it writes anything).
   static int time_limit();
   // Starts ffmpeg. Throws mca::Error when it cannot be started.
   VideoEncoder(const std::filesystem::path& ffmpeg, const std::filesystem::path& path,

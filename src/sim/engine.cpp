@@ -3,12 +3,15 @@
 #include <cmath>
 #include <fmt/format.h>
 
+#include "backend/cpu/lattice_kernels.hpp"
 #include "core/fnv.hpp"
 #include "lattice/lattice.hpp"
 #include "mca/error.hpp"
 #include "sim/state_check.hpp"
 
 namespace mca {
+
+void Engine::check_environment() { cpu::select_kernels(); }
 
 namespace {
 Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t& total_steps,

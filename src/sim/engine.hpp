@@ -33,7 +33,10 @@ class Engine {
 
   const SceneDef& scene() const { return scene_; }
   const Model& model() const { return model_; }
-  // The backend's current state (no copy).
+  // The backend's current state: a reference to the backend's own State, no copy for the caller. The CPU
+  // backend steps its structure-of-arrays copy, so the first call after a step gathers the velocities,
+  // orientations and link histories back into that State (O(automata + links)); calls until the next
+  // step return it as it is.
   const State& state() const { return backend_->state(); }
   Backend& backend() { return *backend_; }
   const Backend& backend() const { return *backend_; }
@@ -52,6 +55,10 @@ class Engine {
   std::int64_t total_steps() const { return total_steps_; }
   // Frames in the scene's duration (at least 1).
   std::int64_t frame_count() const { return (total_steps_ + steps_per_frame_ - 1) / steps_per_frame_; }
+
+  // Checks what the environment asks of the backend (MCA_SIMD: an instruction set this processor runs),
+  // so that a command can refuse a bad setting before it writes anything. Throws mca::Error.
+  static void check_environment();
 
   static constexpr std::int64_t kEnergyCheckInterval = 256;
   // More steps than any run can take (1e15: a year at 3e7 steps per second), and few enough that step and

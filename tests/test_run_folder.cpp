@@ -1,0 +1,173 @@
+// What a run folder holds across runs and resumes: a resume continues only its own run's checkpoint, a new
+// run leaves nothing of an earlier one, the rate of a resumed session is its own.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "io/checkpoint.hpp"
+#include "shell.hpp"
+#include "temp_dir.hpp"
+
+namespace mca {
+namespace {
+
+namespace fs = std::filesystem;
+using test::Result;
+using test::run_mca;
+using test::shell;
+using test::TempDir;
+
+std::string read(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// The default wall made small (360 automata, 5 frames), as test_cli.cpp's; `extra` is appended.
+fs::path small_scene(const fs::path& dir, const std::string& name = "small", const std::string& extra = "") {
+  fs::create_directories(dir);
+  const fs::path p = dir / (name + ".toml");
+  std::ofstream(p) << "name = \"" << name << R"("
+[solver]
+spacing = 0.05
+[output]
+duration = 0.004
+frame_rate = 1000
+[heterogeneity]
+preset = "medium"
+[ground]
+enabled = true
+[[object]]
+name = "wall"
+size = [0.6, 0.15, 0.5]
+position = [0, 0, 0.25]
+[[projectile]]
+radius = 0.08
+position = [0, -0.17, 0.25]
+velocity = [0, 60, 0]
+)" << extra;
+  return p;
+}
+
+std::vector<fs::path> checkpoints(const fs::path& out) {
+  std::vector<fs::path> cks;
+  for (const auto& e : fs::directory_iterator(out / "checkpoints")) cks.push_back(e.path());
+  std::sort(cks.begin(), cks.end());
+  return cks;
+}
+
+// A checkpoint of another scene copied into a run folder is refused before anything is written: it would
+// put that scene's frames, stats and summary beside the folder's own.
+TEST(RunFolder, ResumeRefusesACheckpointOfAnotherScene) {
+  TempDir t;
+  const fs::path a = t.path() / "a", b = t.path() / "b";
+  ASSERT_EQ(run_mca("run " + small_scene(t.path()).string() + " --out " + a.string() + " -q --checkpoint-every 2").code, 0);
+  const fs::path other = small_scene(t.path(), "other", "");
+  std::string text = read(other);
+  text.replace(text.find("velocity = [0, 60, 0]"), 21, "velocity = [0, 50, 0]");
+  std::ofstream(other) << text;
+  ASSERT_EQ(run_mca("run " + other.string() + " --out " + b.string() + " -q --checkpoint-every 2").code, 0);
+  for (const fs::path& ck : checkpoints(a)) fs::remove(ck);
+  const fs::path foreign = a / "checkpoints" / checkpoints(b).front().filename();
+  fs::copy_file(checkpoints(b).front(), foreign);
+  fs::remove(a / "summary.json");
+  const std::string stats = read(a / "stats.csv");
+  const Result r = run_mca("resume " + a.string() + " -q");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find(foreign.string()), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find((a / "scene.toml").string()), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("another scene"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("name = \"small\""), std::string::npos) << "the first key that differs: " << r.output;
+  EXPECT_NE(r.output.find("remove it from"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(a / "summary.json"));
+  EXPECT_EQ(read(a / "stats.csv"), stats);
+  // A folder without its scene.toml: whose checkpoint it is cannot be told.
+  fs::remove(a / "scene.toml");
+  const Result missing = run_mca("resume " + a.string() + " -q");
+  EXPECT_EQ(missing.code, 2) << missing.output;
+  EXPECT_NE(missing.output.find("scene.toml is missing"), std::string::npos) << missing.output;
+  // The folder's own checkpoint resumes (twice: the checkpoints a resume writes carry the scene as read back).
+  for (const fs::path& ck : checkpoints(b)) fs::remove(ck);
+  ASSERT_EQ(run_mca("run " + other.string() + " --out " + b.string() + " -q --checkpoint-every 1").code, 0);
+  std::vector<fs::path> own = checkpoints(b);
+  ASSERT_EQ(own.size(), 2u);
+  fs::remove(own.back());  // frame 4; resume from frame 3
+  Result ok = run_mca("resume " + b.string() + " -q");
+  ASSERT_EQ(ok.code, 0) << ok.output;
+  own = checkpoints(b);
+  fs::remove(own.back());
+  ok = run_mca("resume " + b.string() + " -q");
+  EXPECT_EQ(ok.code, 0) << ok.output;
+}
+
+// A new run in a folder removes what mca wrote there before (here: another run's fragments.csv, pictures
+// and plots, which this run does not write) and leaves every other file alone.
+TEST(RunFolder, NewRunRemovesAnEarlierRunsFragmentsAndPictures) {
+  TempDir t;
+  const fs::path out = t.path() / "out";
+  fs::create_directories(out / "render");
+  for (const char* f : {"fragments.csv", "render/frame_000000.png", "render/frame_000031.png", "render/video.mp4",
+                        "render/contact_sheet.png", "render/energies.png", "render/broken_links.png",
+                        "render/fragment_masses.png", "render/render.json"})
+    std::ofstream(out / f) << "earlier run\n";
+  std::ofstream(out / "notes.txt") << "mine\n";
+  std::ofstream(out / "render" / "frame_sketch.jpg") << "mine\n";
+  const Result r = run_mca("run " + small_scene(t.path()).string() + " --out " + out.string() + " -q --steps 2");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(read(out / "notes.txt"), "mine\n");
+  EXPECT_EQ(read(out / "render" / "frame_sketch.jpg"), "mine\n");
+  for (const char* f : {"render/frame_000000.png", "render/frame_000031.png", "render/video.mp4",
+                        "render/contact_sheet.png", "render/energies.png", "render/broken_links.png",
+                        "render/fragment_masses.png", "render/render.json"})
+    EXPECT_FALSE(fs::exists(out / f)) << f;
+  EXPECT_NE(read(out / "fragments.csv"), "earlier run\n");
+  // Once the pictures are gone, so is their empty folder.
+  fs::remove(out / "render" / "frame_sketch.jpg");
+  std::ofstream(out / "render" / "video.mp4") << "earlier run\n";
+  ASSERT_EQ(run_mca("run " + small_scene(t.path()).string() + " --out " + out.string() + " -q --steps 2").code, 0);
+  EXPECT_FALSE(fs::exists(out / "render"));
+  // A run killed before its end writes no fragments.csv: the earlier run's must not stand beside its frames.
+  std::ofstream(out / "fragments.csv") << "earlier run\n";
+  const Result killed = shell("timeout -s KILL 3 " + std::string(MCA_BINARY) + " run " +
+                              small_scene(t.path()).string() + " --out " + out.string() + " -q --no-vtk --duration 100");
+  ASSERT_NE(killed.code, 0) << killed.output;
+  ASSERT_TRUE(fs::exists(out / "stats.csv"));
+  EXPECT_FALSE(fs::exists(out / "fragments.csv"));
+  EXPECT_FALSE(fs::exists(out / "summary.json"));
+}
+
+// The rate of a resumed run is its own steps over its own wall time: the earlier sessions' wall time (here
+// made a million seconds) must not divide it.
+TEST(RunFolder, ResumedRateIsTheSessionsOwn) {
+  TempDir t;
+  const fs::path out = t.path() / "out";
+  ASSERT_EQ(run_mca("run " + small_scene(t.path()).string() + " --out " + out.string() +
+                    " -q --no-vtk --checkpoint-every 2").code, 0);
+  const std::vector<fs::path> cks = checkpoints(out);
+  ASSERT_EQ(cks.size(), 2u);
+  fs::remove(cks.back());
+  io::Checkpoint cp = io::read_checkpoint(cks.front());
+  cp.wall_seconds = 1e6;
+  io::write_checkpoint(cks.front(), cp);
+  const Result r = run_mca("resume " + out.string() + " -q");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto j = nlohmann::json::parse(read(out / "summary.json"));
+  EXPECT_GE(j["wall_seconds"].get<double>(), 1e6);
+  const double session = j["session_wall_seconds"].get<double>();
+  const auto steps = j["session_steps"].get<std::int64_t>();
+  EXPECT_EQ(steps, j["steps"].get<std::int64_t>() - cp.state.step);
+  ASSERT_GT(session, 0);
+  EXPECT_LT(session, 1e3);
+  EXPECT_DOUBLE_EQ(j["automaton_steps_per_second"].get<double>(),
+                   static_cast<double>(steps) * j["automata"].get<double>() / session);
+}
+
+}  // namespace
+}  // namespace mca
