@@ -96,7 +96,8 @@ TEST(Contacts, TwoAutomataRebouncWithTheirRestitution) {
 // tan(angle) > mu (Coulomb friction between automata, physics.md sec. 6). Rolling resistance between the
 // automata of block and slab adds a little to the sliding resistance (measured: mu_r = 0.3 acts like
 // mu + 0.06).
-double incline_slide(double deg, double mu, double rolling, double T) {
+// `speed`, when given, gets the block's mean speed at the end.
+double incline_slide(double deg, double mu, double rolling, double T, double* speed = nullptr) {
   const double d = 0.05, g = 9.81, a = deg * std::numbers::pi / 180;
   MaterialDef m = contact_material(0.2, mu, rolling);
   SceneDef s = empty_scene(m);
@@ -124,6 +125,16 @@ double incline_slide(double deg, double mu, double rolling, double T) {
   };
   const double x0 = block_x();
   EXPECT_EQ(sim.advance(static_cast<int>(T / sim.model().dt)).flags, kHealthy);
+  if (speed) {
+    double v = 0;
+    int k = 0;
+    for (std::size_t i = 0; i < sim.model().size(); ++i)
+      if (sim.model().object[i] == 1) {
+        v += length(sim.state().v[i]);
+        ++k;
+      }
+    *speed = v / k;
+  }
   return block_x() - x0;
 }
 
@@ -144,6 +155,26 @@ TEST(Contacts, ABlockOnAnInclineSlidesOnlyPastTheFrictionAngle) {
   EXPECT_NEAR(slide / rigid_slide(35, mu, T), 1.0, 0.05);
   EXPECT_LT(slide_rolling, rigid_slide(35, mu, T));
   EXPECT_GT(slide_rolling, rigid_slide(35, mu + 0.1, T));
+}
+
+// The limit of sphere contacts on flat faces, measured (docs/model-notes.md, "Flat faces are egg-crates"):
+// contacts see automata as spheres, so two lattice faces meet as an egg-crate, and a block stacked cell
+// on cell balances on the spheres' caps. Below the friction angle (mu = 0.6: 31 degrees) it slides off
+// them once, towards the hollows half a cell on, and holds at 25 degrees (0.72 d); at 30 degrees this
+// 2 x 2 x 2 block rides on over the bumps, as a rigid block with mu of about 0.49 would (2.56 d in 0.6 s),
+// while a 5 x 5 x 3 block at d = 2 cm holds there too (0.61 d). The bounds catch a change either way.
+TEST(Contacts, BelowTheFrictionAngleSphereContactsOnFlatFacesSettleOrSlideSlowly) {
+  const double mu = 0.6, d = 0.05, T = 0.6;
+  double speed = 0;
+  const double at25 = incline_slide(25, mu, 0.3, T, &speed);
+  std::printf("incline, mu %.1f, 25 deg: moved %.4f m (%.2f d) in %.1f s, mean speed at the end %.2g m/s\n", mu, at25,
+              at25 / d, T, speed);
+  EXPECT_LT(std::fabs(at25), d);
+  EXPECT_LT(speed, 1e-3) << "25 degrees: still moving";
+  const double at30 = incline_slide(30, mu, 0.3, T);
+  std::printf("incline, mu %.1f, 30 deg: moved %.4f m (%.2f d); a rigid block with mu %.2f: %.4f m\n", mu, at30,
+              at30 / d, mu - 0.15, rigid_slide(30, mu - 0.15, T));
+  EXPECT_LT(at30, rigid_slide(30, mu - 0.15, T));
 }
 
 // A loose automaton rolling on the ground: rolling resistance stops it within a few times its size
