@@ -17,6 +17,7 @@
 
 #include "io/checkpoint.hpp"
 #include "shell.hpp"
+#include "small_scene.hpp"
 
 namespace mcaio = mca::io;
 
@@ -27,44 +28,13 @@ namespace fs = std::filesystem;
 using mca::test::Result;
 using mca::test::run_mca;
 using mca::test::shell;
+using mca::test::read;
+using mca::test::small_scene;
 
 fs::path fresh_dir(const std::string& name) {
   const fs::path d = fs::temp_directory_path() / ("mca_cli_" + name);
   fs::remove_all(d);
   return d;
-}
-
-std::string read(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-// The default wall, smaller and shorter so the test runs in seconds.
-fs::path small_scene(const fs::path& dir, const std::string& extra = "") {
-  fs::create_directories(dir);
-  const fs::path p = dir / "small.toml";
-  std::ofstream(p) << R"(name = "small"
-[solver]
-spacing = 0.05
-[output]
-duration = 0.004
-frame_rate = 1000
-[heterogeneity]
-preset = "medium"
-[ground]
-enabled = true
-[[object]]
-name = "wall"
-size = [0.6, 0.15, 0.5]
-position = [0, 0, 0.25]
-[[projectile]]
-radius = 0.08
-position = [0, -0.17, 0.25]
-velocity = [0, 60, 0]
-)" << extra;
-  return p;
 }
 
 TEST(Cli, RunWritesFramesStatsAndSummary) {

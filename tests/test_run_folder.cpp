@@ -12,6 +12,7 @@
 
 #include "io/checkpoint.hpp"
 #include "shell.hpp"
+#include "small_scene.hpp"
 #include "temp_dir.hpp"
 
 namespace mca {
@@ -22,39 +23,8 @@ using test::Result;
 using test::run_mca;
 using test::shell;
 using test::TempDir;
-
-std::string read(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-// The default wall made small (360 automata, 5 frames), as test_cli.cpp's; `extra` is appended.
-fs::path small_scene(const fs::path& dir, const std::string& name = "small", const std::string& extra = "") {
-  fs::create_directories(dir);
-  const fs::path p = dir / (name + ".toml");
-  std::ofstream(p) << "name = \"" << name << R"("
-[solver]
-spacing = 0.05
-[output]
-duration = 0.004
-frame_rate = 1000
-[heterogeneity]
-preset = "medium"
-[ground]
-enabled = true
-[[object]]
-name = "wall"
-size = [0.6, 0.15, 0.5]
-position = [0, 0, 0.25]
-[[projectile]]
-radius = 0.08
-position = [0, -0.17, 0.25]
-velocity = [0, 60, 0]
-)" << extra;
-  return p;
-}
+using test::read;
+using test::small_scene;
 
 std::vector<fs::path> checkpoints(const fs::path& out) {
   std::vector<fs::path> cks;
@@ -69,7 +39,7 @@ TEST(RunFolder, ResumeRefusesACheckpointOfAnotherScene) {
   TempDir t;
   const fs::path a = t.path() / "a", b = t.path() / "b";
   ASSERT_EQ(run_mca("run " + small_scene(t.path()).string() + " --out " + a.string() + " -q --checkpoint-every 2").code, 0);
-  const fs::path other = small_scene(t.path(), "other", "");
+  const fs::path other = small_scene(t.path(), "", "other");
   std::string text = read(other);
   text.replace(text.find("velocity = [0, 60, 0]"), 21, "velocity = [0, 50, 0]");
   std::ofstream(other) << text;

@@ -1000,21 +1000,14 @@ double spacing_for_target(const SceneDef& scene, std::int64_t target) {
 
 double scene_spacing(const SceneDef& scene) { return scene_spacing(scene, prepare_shapes(scene)); }
 
-Model build_model(const SceneDef& scene, std::size_t placed) {
-  validate_scene(scene);
-  // The spacing is rounded to float once: the rest length r0 = d is stored in float32, and the centres
-  // (double) are laid out with the same d, so an intact lattice starts with a strain of exactly zero (up
-  // to the double rounding of the centres) instead of the 3e-8 of a float-rounded r0.
-  BuildProgress::stage("reading the meshes");
-  const Shapes S = prepare_shapes(scene);
-  if (scene.solver.target_automata > 0) BuildProgress::stage("finding the spacing for solver.target_automata");
-  const double d = static_cast<double>(static_cast<float>(S.any_lattice ? scene_spacing(scene, S) : surface_spacing(S)));
-  Model M;
-  M.spacing = static_cast<float>(d);
+namespace {
 
-  // Memory check before allocating anything large: first from the shapes' volume (so an absurd spacing
-  // is refused at once: a lattice fills a shape to within a few cells of its surface, so half the
-  // volume estimate is a safe lower bound), then from the exact count.
+// Refuses, before anything large is allocated, a scene whose model this build cannot address, that exceeds
+// solver.max_memory_gb or whose objects are thinner than half a cell; returns the count of automata.
+std::int64_t checked_automata_count(const SceneDef& scene, const Shapes& S, double d) {
+  // Memory: first from the shapes' volume (so an absurd spacing is refused at once: a lattice fills a
+  // shape to within a few cells of its surface, so half the volume estimate is a safe lower bound), then
+  // from the exact count.
   // Links are addressed with 29 bits in the backends' adjacency (3 links per automaton).
   constexpr double kMaxAutomata = static_cast<double>((std::int64_t{1} << 29) / 3);
   auto refuse_count = [&](double n, bool approximate) {
@@ -1043,31 +1036,27 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
   const std::int64_t n_est = count_automata(scene, S, d);
   refuse_over_memory(scene, d, static_cast<double>(n_est), false);
   refuse_count(static_cast<double>(n_est), false);
-  // Reserved at once: grown by push_back, the arrays would hold up to twice their size (measured: the
-  // model of 400,000 automata took 85 MB instead of 57).
-  const auto n_res = static_cast<std::size_t>(n_est);
-  for (auto* v : {&M.mass, &M.radius, &M.inertia, &M.volume, &M.class_factor}) v->reserve(n_res);
-  M.position0.reserve(n_res);
-  M.velocity0.reserve(n_res);
-  M.group.reserve(n_res);
-  M.strength_class.reserve(n_res);
-  M.object.reserve(n_res);
-  M.grip.reserve(n_res);
-  // Neighbours along each axis, per automaton; joined into Model::neighbour(_below) at the end.
-  std::array<std::vector<std::uint32_t>, 3> above, below;
-  for (auto* v : {&above, &below})
-    for (auto& axis : *v) axis.reserve(n_res);
+  return n_est;
+}
 
-  const auto class_factors = class_factor_range(scene);
-  std::map<std::string, int> group_index;
-  // Objects come first: a material that a projectile brings in afterwards fills no automaton.
-  auto group_of = [&](const std::string& name, const std::string& key, bool automata) {
-    auto it = group_index.find(name);
-    if (it != group_index.end()) return it->second;
-    if (group_index.size() >= 255) throw Error(fmt::format("{}: more than 255 materials in one scene", scene.source));
+// The scene's materials as the model's groups, numbered in the order they are first named (objects
+// come first: a material that a projectile brings in afterwards fills no automaton).
+class GroupTable {
+ public:
+  GroupTable(const SceneDef& scene, Model& M, double d)
+      : scene_(scene), M_(M), d_(d), class_factors_(class_factor_range(scene)) {}
+  // The group of material `name`, named at `key`; `automata`: it fills lattice automata (their mass and
+  // moment of inertia must be float32 numbers).
+  int of(const std::string& name, const std::string& key, bool automata) {
+    const SceneDef& scene = scene_;
+    Model& M = M_;
+    const double d = d_;
+    auto it = group_index_.find(name);
+    if (it != group_index_.end()) return it->second;
+    if (group_index_.size() >= 255) throw Error(fmt::format("{}: more than 255 materials in one scene", scene.source));
     const MaterialDef& m = resolve_material(scene, name, key);
     const int idx = static_cast<int>(M.groups.size());
-    M.groups.push_back(group_params(scene, m, key, class_factors, automata));
+    M.groups.push_back(group_params(scene, m, key, class_factors_, automata));
     const double mass = m.density * d * d * d;
     const std::string fix = fmt::format("check the density (kg/m^3) and solver.spacing ({:g} m)", d);
     if (automata) {
@@ -1076,147 +1065,130 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
                  fix);
     }
     M.group_names.push_back(name);
-    group_index.emplace(name, idx);
+    group_index_.emplace(name, idx);
     return idx;
-  };
+  }
 
+ private:
+  const SceneDef& scene_;
+  Model& M_;
+  double d_;
+  std::pair<double, double> class_factors_;  // class_factor_range
+  std::map<std::string, int> group_index_;
+};
+
+// Lattice neighbours along each axis, per automaton, as the objects are filled (row-major cells: the
+// one above has the larger index); joined into Model::neighbour(_below) at the end.
+struct AxisNeighbours {
+  std::array<std::vector<std::uint32_t>, 3> above, below;
+};
+
+// Object oi filled in surface mode: one automaton per triangle, explicit links, no lattice link.
+void fill_surface(Model& M, const SceneDef& scene, const Shapes& S, std::size_t oi, const Mat3& R, int base_group,
+                  const std::vector<int>& region_groups, std::vector<Vec3>& local, AxisNeighbours& nb, double d) {
+  const ObjectDef& o = scene.objects[oi];
+  const SurfaceCells& sc = *S.surface_of(oi);
+  const std::size_t first = M.size();
+  add_surface_object(M, scene, *S.of(oi), sc, oi, R, base_group, region_groups, local);
+  refuse_empty_regions(scene, M, oi, first, d);
+  for (int a = 0; a < 3; ++a) {  // no lattice links
+    nb.above[a].resize(M.size(), Model::kNoLink);
+    nb.below[a].resize(M.size(), Model::kNoLink);
+  }
+  MeshSummary ms = mesh_summary(*S.of(oi), oi, o.mesh, R, o.position);
+  ms.surface = true;
+  ms.automata = M.size() - first;
+  ms.links = sc.link.size();
+  ms.unlinked_edges = sc.unlinked_edges;
+  ms.duplicate_faces = sc.duplicate_faces;
+  ms.shell_thickness = sc.thickness;
+  M.meshes.push_back(std::move(ms));
+}
+
+// Object oi filled with a lattice of spacing d in its own frame: the cells inside it, their links to
+// their face neighbours, and for a mesh its bound surface and summary.
+void fill_lattice(Model& M, const SceneDef& scene, const Shapes& S, std::size_t oi, const Mat3& R, int base_group,
+                  const std::vector<int>& region_groups, std::vector<Vec3>& local, AxisNeighbours& nb, double d) {
+  const ObjectDef& o = scene.objects[oi];
+  const std::string okey = fmt::format("object[{}]", oi);
   const float fd = static_cast<float>(d);
-  for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) {
-    const ObjectDef& o = scene.objects[oi];
-    const std::string okey = fmt::format("object[{}]", oi);
-    BuildProgress::stage(fmt::format("filling object '{}' ({} of {})", o.name, oi + 1, scene.objects.size()));
-    M.object_names.push_back(o.name);
-    // (The lattice's automata are checked per material; a surface object's per automaton, as it is built.)
-    const bool lattice_automata = S.surface_of(oi) == nullptr;
-    const int base_group = group_of(o.material, okey + ".material", lattice_automata);
-    std::vector<int> region_groups;
-    for (std::size_t r = 0; r < o.regions.size(); ++r)
-      region_groups.push_back(
-          group_of(o.regions[r].material, fmt::format("{}.region[{}].material", okey, r), lattice_automata));
-
-    const Mat3 R = rotation_matrix(o.rotation);
-    M.object_axes.push_back({to_vec3({R.m[0][0], R.m[1][0], R.m[2][0]}), to_vec3({R.m[0][1], R.m[1][1], R.m[2][1]}),
-                             to_vec3({R.m[0][2], R.m[1][2], R.m[2][2]})});
-    M.object_surface.push_back(S.surface_of(oi) ? 1 : 0);
-    std::vector<Vec3> local;
-    const HeterogeneityDef& het = o.heterogeneity ? *o.heterogeneity : scene.heterogeneity;
-    auto draw_classes = [&] {
-      const auto classes = assign_classes(local, het, scene.solver.seed, static_cast<std::uint32_t>(oi));
-      for (auto cl : classes) {
-        M.strength_class.push_back(cl);
-        M.class_factor.push_back(static_cast<float>(het.class_factors[cl - 1]));
+  const ObjectLattice L = object_lattice(scene, S, oi, d);
+  const std::size_t first = M.size();
+  std::vector<std::int64_t> index(L.inside.size(), -1);
+  std::size_t c = 0;
+  for (std::int64_t k = 0; k < L.n[2]; ++k)
+    for (std::int64_t j = 0; j < L.n[1]; ++j)
+      for (std::int64_t i = 0; i < L.n[0]; ++i, ++c) {
+        if (!L.inside[c]) continue;
+        index[c] = static_cast<std::int64_t>(M.size());
+        const Vec3d lp{L.origin[0] + i * d, L.origin[1] + j * d, L.origin[2] + k * d};
+        const Vec3d r = R.apply(lp);
+        const Vec3d wp{r[0] + o.position[0], r[1] + o.position[1], r[2] + o.position[2]};
+        int g = base_group;
+        for (std::size_t rr = 0; rr < o.regions.size(); ++rr)
+          if (o.regions[rr].shape == Shape::mesh ? L.regions[rr][c] != 0 : inside_region(o.regions[rr], wp))
+            g = region_groups[rr];
+        const float mass = M.lattice_mass(static_cast<std::size_t>(g));
+        M.position0.push_back(to_dvec3(wp));
+        M.velocity0.push_back(to_dvec3(o.velocity));
+        M.mass.push_back(mass);
+        M.radius.push_back(0.5f * fd);
+        M.inertia.push_back(mass * fd * fd / 6.0f);  // cube of side d about a central axis
+        M.volume.push_back(fd * fd * fd);
+        M.group.push_back(static_cast<std::uint8_t>(g));
+        M.object.push_back(static_cast<std::int32_t>(oi));
+        M.grip.push_back(-1);
+        local.push_back(to_vec3(lp));
       }
-    };
-    if (const SurfaceCells* sc = S.surface_of(oi)) {
-      const std::size_t first = M.size();
-      add_surface_object(M, scene, *S.of(oi), *sc, oi, R, base_group, region_groups, local);
-      refuse_empty_regions(scene, M, oi, first, d);
-      for (int a = 0; a < 3; ++a) {  // no lattice links
-        above[a].resize(M.size(), Model::kNoLink);
-        below[a].resize(M.size(), Model::kNoLink);
-      }
-      MeshSummary ms = mesh_summary(*S.of(oi), oi, o.mesh, R, o.position);
-      ms.surface = true;
-      ms.automata = M.size() - first;
-      ms.links = sc->link.size();
-      ms.unlinked_edges = sc->unlinked_edges;
-      ms.duplicate_faces = sc->duplicate_faces;
-      ms.shell_thickness = sc->thickness;
-      M.meshes.push_back(std::move(ms));
-      draw_classes();
-      continue;
-    }
-    const ObjectLattice L = object_lattice(scene, S, oi, d);
-    const std::size_t first = M.size();
-    std::vector<std::int64_t> index(L.inside.size(), -1);
-    std::size_t c = 0;
-    for (std::int64_t k = 0; k < L.n[2]; ++k)
-      for (std::int64_t j = 0; j < L.n[1]; ++j)
-        for (std::int64_t i = 0; i < L.n[0]; ++i, ++c) {
-          if (!L.inside[c]) continue;
-          index[c] = static_cast<std::int64_t>(M.size());
-          const Vec3d lp{L.origin[0] + i * d, L.origin[1] + j * d, L.origin[2] + k * d};
-          const Vec3d r = R.apply(lp);
-          const Vec3d wp{r[0] + o.position[0], r[1] + o.position[1], r[2] + o.position[2]};
-          int g = base_group;
-          for (std::size_t rr = 0; rr < o.regions.size(); ++rr)
-            if (o.regions[rr].shape == Shape::mesh ? L.regions[rr][c] != 0 : inside_region(o.regions[rr], wp))
-              g = region_groups[rr];
-          const float mass = M.lattice_mass(static_cast<std::size_t>(g));
-          M.position0.push_back(to_dvec3(wp));
-          M.velocity0.push_back(to_dvec3(o.velocity));
-          M.mass.push_back(mass);
-          M.radius.push_back(0.5f * fd);
-          M.inertia.push_back(mass * fd * fd / 6.0f);  // cube of side d about a central axis
-          M.volume.push_back(fd * fd * fd);
-          M.group.push_back(static_cast<std::uint8_t>(g));
-          M.object.push_back(static_cast<std::int32_t>(oi));
-          M.grip.push_back(-1);
-          local.push_back(to_vec3(lp));
-        }
-    if (M.size() == first) {
-      throw Error(fmt::format("{}: {} '{}' holds no automaton at spacing {:.4g} m; make it larger than the spacing "
-                              "or decrease solver.spacing",
-                              scene.source, okey, o.name, d));
-    }
-    refuse_empty_regions(scene, M, oi, first, d);
-    if (const MeshObject* mo = S.of(oi)) {
-      bind_surface(M, *mo, L, index, R, o.position, d);
-      MeshSummary ms = mesh_summary(*mo, oi, o.mesh, R, o.position);
-      ms.fill_seconds = L.fill_seconds;
-      ms.automata = M.size() - first;
-      ms.dropped_automata = static_cast<std::size_t>(L.dropped);
-      ms.dropped_pieces = static_cast<std::size_t>(L.dropped_pieces);
-      // A few stray cells are left out; a fill that falls apart into large pieces is not the mesh's solid.
-      if (static_cast<double>(L.dropped) > 0.01 * static_cast<double>(ms.automata + L.dropped)) {
-        throw Error(fmt::format(
-            "{}: {} '{}': the fill of the mesh {} at spacing {:.4g} m falls apart: {} of its {} cells ({:.3g} %, in {} "
-            "piece{}, the largest {} cells) are inside it but no lattice link joins them to the body of their "
-            "surface, since the mesh is thinner than a cell between them (they would fall off at t = 0; up to 1 % "
-            "are left out, over that the scene is refused). Decrease solver.spacing{}, or thicken the mesh there",
-            scene.source, okey, o.name, o.mesh, d, L.dropped, ms.automata + L.dropped,
-            100.0 * static_cast<double>(L.dropped) / static_cast<double>(ms.automata + L.dropped), L.dropped_pieces,
-            L.dropped_pieces == 1 ? "" : "s", L.largest_dropped,
-            scene.solver.target_automata > 0 ? " (raise solver.target_automata)" : ""));
-      }
-      M.meshes.push_back(std::move(ms));
-    }
-    // Face neighbours along +-x, +-y, +-z of each cell: the automata of one object link along its own
-    // lattice (row-major order, so the one above has the larger index).
-    const std::int64_t stride[3] = {1, L.n[0], L.n[0] * L.n[1]};
-    c = 0;
-    for (std::int64_t k = 0; k < L.n[2]; ++k)
-      for (std::int64_t j = 0; j < L.n[1]; ++j)
-        for (std::int64_t i = 0; i < L.n[0]; ++i, ++c) {
-          if (index[c] < 0) continue;
-          const std::int64_t cell[3] = {i, j, k};
-          for (int a = 0; a < 3; ++a) {
-            const bool up = cell[a] + 1 < L.n[a], down = cell[a] > 0;
-            const std::int64_t nu = up ? index[c + stride[a]] : -1, nd = down ? index[c - stride[a]] : -1;
-            above[a].push_back(nu < 0 ? Model::kNoLink : static_cast<std::uint32_t>(nu));
-            below[a].push_back(nd < 0 ? Model::kNoLink : static_cast<std::uint32_t>(nd));
-            M.links += nu >= 0;
-          }
-        }
-    draw_classes();
+  if (M.size() == first) {
+    throw Error(fmt::format("{}: {} '{}' holds no automaton at spacing {:.4g} m; make it larger than the spacing "
+                            "or decrease solver.spacing",
+                            scene.source, okey, o.name, d));
   }
+  refuse_empty_regions(scene, M, oi, first, d);
+  if (const MeshObject* mo = S.of(oi)) {
+    bind_surface(M, *mo, L, index, R, o.position, d);
+    MeshSummary ms = mesh_summary(*mo, oi, o.mesh, R, o.position);
+    ms.fill_seconds = L.fill_seconds;
+    ms.automata = M.size() - first;
+    ms.dropped_automata = static_cast<std::size_t>(L.dropped);
+    ms.dropped_pieces = static_cast<std::size_t>(L.dropped_pieces);
+    // A few stray cells are left out; a fill that falls apart into large pieces is not the mesh's solid.
+    if (static_cast<double>(L.dropped) > 0.01 * static_cast<double>(ms.automata + L.dropped)) {
+      throw Error(fmt::format(
+          "{}: {} '{}': the fill of the mesh {} at spacing {:.4g} m falls apart: {} of its {} cells ({:.3g} %, in {} "
+          "piece{}, the largest {} cells) are inside it but no lattice link joins them to the body of their "
+          "surface, since the mesh is thinner than a cell between them (they would fall off at t = 0; up to 1 % "
+          "are left out, over that the scene is refused). Decrease solver.spacing{}, or thicken the mesh there",
+          scene.source, okey, o.name, o.mesh, d, L.dropped, ms.automata + L.dropped,
+          100.0 * static_cast<double>(L.dropped) / static_cast<double>(ms.automata + L.dropped), L.dropped_pieces,
+          L.dropped_pieces == 1 ? "" : "s", L.largest_dropped,
+          scene.solver.target_automata > 0 ? " (raise solver.target_automata)" : ""));
+    }
+    M.meshes.push_back(std::move(ms));
+  }
+  // Face neighbours along +-x, +-y, +-z of each cell: the automata of one object link along its own
+  // lattice (row-major order, so the one above has the larger index).
+  const std::int64_t stride[3] = {1, L.n[0], L.n[0] * L.n[1]};
+  c = 0;
+  for (std::int64_t k = 0; k < L.n[2]; ++k)
+    for (std::int64_t j = 0; j < L.n[1]; ++j)
+      for (std::int64_t i = 0; i < L.n[0]; ++i, ++c) {
+        if (index[c] < 0) continue;
+        const std::int64_t cell[3] = {i, j, k};
+        for (int a = 0; a < 3; ++a) {
+          const bool up = cell[a] + 1 < L.n[a], down = cell[a] > 0;
+          const std::int64_t nu = up ? index[c + stride[a]] : -1, nd = down ? index[c - stride[a]] : -1;
+          nb.above[a].push_back(nu < 0 ? Model::kNoLink : static_cast<std::uint32_t>(nu));
+          nb.below[a].push_back(nd < 0 ? Model::kNoLink : static_cast<std::uint32_t>(nd));
+          M.links += nu >= 0;
+        }
+      }
+}
 
-  BuildProgress::stage("checking that the objects do not overlap");
-  refuse_overlaps(scene, M);
-  index_corners(M.surface);
-  index_explicit_links(M);
-
+// Grips (first grip wins) and loads of the automata whose initial centres lie in their boxes.
+void add_boundaries(Model& M, const SceneDef& scene, double d) {
   const std::size_t n = M.size();
-  M.neighbour.reserve(3 * n);
-  M.neighbour_below.reserve(3 * n);
-  for (int a = 0; a < 3; ++a) {
-    M.neighbour.insert(M.neighbour.end(), above[a].begin(), above[a].end());
-    M.neighbour_below.insert(M.neighbour_below.end(), below[a].begin(), below[a].end());
-    std::vector<std::uint32_t>().swap(above[a]);
-    std::vector<std::uint32_t>().swap(below[a]);
-  }
-  for (std::size_t a = 0; a < n; ++a) M.total_mass += M.mass[a];
-
   // Grips: automata whose initial centre lies in the box (first grip wins).
   for (std::size_t g = 0; g < scene.grips.size(); ++g) {
     const GripDef& gd = scene.grips[g];
@@ -1255,6 +1227,12 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
     }
   }
 
+}
+
+// The projectiles (rigid spheres) from `placed` on, each refused when it starts inside or touching an
+// object or another projectile; those before `placed` are in flight (build_model).
+void add_projectiles(Model& M, const SceneDef& scene, std::size_t placed, GroupTable& groups) {
+  const std::size_t n = M.size();
   // Projectiles: rigid spheres; refuse one that starts inside or touching an object. The automata are
   // binned in a grid of cells as large as the largest reach, so that each ball looks at the automata
   // around it only (a loop over all of them for each ball made 1,000 balls on 100,000 automata 1e8 tests).
@@ -1278,7 +1256,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
     const std::string key = fmt::format("projectile[{}]", p);
     ProjectileParams pp;
     pp.name = pd.name;
-    pp.group = group_of(pd.material, key + ".material", false);
+    pp.group = groups.of(pd.material, key + ".material", false);
     const double rho = pd.density > 0 ? pd.density : M.groups[pp.group].density;
     pp.radius = static_cast<float>(pd.radius);
     const double mass = rho * 4.0 / 3.0 * std::numbers::pi * pd.radius * pd.radius * pd.radius;
@@ -1332,12 +1310,10 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
       }
     }
 
-  M.gravity = to_vec3(scene.solver.gravity);
-  const float gl = length(M.gravity);
-  M.up = gl > 0 ? M.gravity * (-1.0f / gl) : Vec3{0, 0, 1};
-  M.ground = scene.ground.enabled;
-  M.ground_height = static_cast<float>(scene.ground.height);
-  if (M.ground) refuse_bodies_in_the_ground(scene, S, M, placed);
+}
+
+// Contact materials of every pair of groups and of every group with the ground.
+void set_contact_materials(Model& M, const SceneDef& scene) {
   // Contact materials of every pair of groups and of every group with the ground (contact_law.hpp): the
   // moduli in series, the pair's mean friction, rolling and twisting coefficients and restitution; the
   // ground brings its own coefficients and is rigid.
@@ -1366,13 +1342,11 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
     g.rolling = static_cast<float>(scene.ground.rolling_friction);
     g.twisting = static_cast<float>(scene.ground.twisting_friction);
   }
-  M.skin = static_cast<float>(scene.solver.skin * d);
-  M.link_damping = static_cast<float>(scene.solver.link_damping);
-  M.local_damping = static_cast<float>(scene.solver.local_damping);
-  M.stress_coefficient = static_cast<float>(scene.solver.stress_coefficient);
+}
 
-  scale_surface_masses(M, scene.solver.mass_scaling);
-  BuildProgress::stage("the time step");
+// The time step: solver.time_step as given (refused above the critical step), else solver.safety x the
+// critical step.
+void choose_time_step(Model& M, const SceneDef& scene) {
   const TimeStepBound critical = critical_time_step(M);
   M.critical_dt = critical.dt;
   M.dt_limited_by = critical.limited_by;
@@ -1388,6 +1362,99 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
   } else {
     set_time_step(M, static_cast<float>(scene.solver.safety * critical.dt));
   }
+}
+
+}  // namespace
+
+Model build_model(const SceneDef& scene, std::size_t placed) {
+  validate_scene(scene);
+  // The spacing is rounded to float once: the rest length r0 = d is stored in float32, and the centres
+  // (double) are laid out with the same d, so an intact lattice starts with a strain of exactly zero (up
+  // to the double rounding of the centres) instead of the 3e-8 of a float-rounded r0.
+  BuildProgress::stage("reading the meshes");
+  const Shapes S = prepare_shapes(scene);
+  if (scene.solver.target_automata > 0) BuildProgress::stage("finding the spacing for solver.target_automata");
+  const double d = static_cast<double>(static_cast<float>(S.any_lattice ? scene_spacing(scene, S) : surface_spacing(S)));
+  Model M;
+  M.spacing = static_cast<float>(d);
+  const std::int64_t n_est = checked_automata_count(scene, S, d);
+  // Reserved at once: grown by push_back, the arrays would hold up to twice their size (measured: the
+  // model of 400,000 automata took 85 MB instead of 57).
+  const auto n_res = static_cast<std::size_t>(n_est);
+  for (auto* v : {&M.mass, &M.radius, &M.inertia, &M.volume, &M.class_factor}) v->reserve(n_res);
+  M.position0.reserve(n_res);
+  M.velocity0.reserve(n_res);
+  M.group.reserve(n_res);
+  M.strength_class.reserve(n_res);
+  M.object.reserve(n_res);
+  M.grip.reserve(n_res);
+  // Neighbours along each axis, per automaton; joined into Model::neighbour(_below) at the end.
+  AxisNeighbours nb;
+  for (auto* v : {&nb.above, &nb.below})
+    for (auto& axis : *v) axis.reserve(n_res);
+
+  GroupTable groups(scene, M, d);
+  for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) {
+    const ObjectDef& o = scene.objects[oi];
+    const std::string okey = fmt::format("object[{}]", oi);
+    BuildProgress::stage(fmt::format("filling object '{}' ({} of {})", o.name, oi + 1, scene.objects.size()));
+    M.object_names.push_back(o.name);
+    // (The lattice's automata are checked per material; a surface object's per automaton, as it is built.)
+    const bool lattice_automata = S.surface_of(oi) == nullptr;
+    const int base_group = groups.of(o.material, okey + ".material", lattice_automata);
+    std::vector<int> region_groups;
+    for (std::size_t r = 0; r < o.regions.size(); ++r)
+      region_groups.push_back(
+          groups.of(o.regions[r].material, fmt::format("{}.region[{}].material", okey, r), lattice_automata));
+
+    const Mat3 R = rotation_matrix(o.rotation);
+    M.object_axes.push_back({to_vec3({R.m[0][0], R.m[1][0], R.m[2][0]}), to_vec3({R.m[0][1], R.m[1][1], R.m[2][1]}),
+                             to_vec3({R.m[0][2], R.m[1][2], R.m[2][2]})});
+    M.object_surface.push_back(S.surface_of(oi) ? 1 : 0);
+    std::vector<Vec3> local;  // the automata's centres in the object's frame, for the strength classes
+    if (S.surface_of(oi)) fill_surface(M, scene, S, oi, R, base_group, region_groups, local, nb, d);
+    else fill_lattice(M, scene, S, oi, R, base_group, region_groups, local, nb, d);
+    const HeterogeneityDef& het = o.heterogeneity ? *o.heterogeneity : scene.heterogeneity;
+    for (auto cl : assign_classes(local, het, scene.solver.seed, static_cast<std::uint32_t>(oi))) {
+      M.strength_class.push_back(cl);
+      M.class_factor.push_back(static_cast<float>(het.class_factors[cl - 1]));
+    }
+  }
+
+  BuildProgress::stage("checking that the objects do not overlap");
+  refuse_overlaps(scene, M);
+  index_corners(M.surface);
+  index_explicit_links(M);
+
+  const std::size_t n = M.size();
+  M.neighbour.reserve(3 * n);
+  M.neighbour_below.reserve(3 * n);
+  for (int a = 0; a < 3; ++a) {
+    M.neighbour.insert(M.neighbour.end(), nb.above[a].begin(), nb.above[a].end());
+    M.neighbour_below.insert(M.neighbour_below.end(), nb.below[a].begin(), nb.below[a].end());
+    std::vector<std::uint32_t>().swap(nb.above[a]);
+    std::vector<std::uint32_t>().swap(nb.below[a]);
+  }
+  for (std::size_t a = 0; a < n; ++a) M.total_mass += M.mass[a];
+
+  add_boundaries(M, scene, d);
+  add_projectiles(M, scene, placed, groups);
+
+  M.gravity = to_vec3(scene.solver.gravity);
+  const float gl = length(M.gravity);
+  M.up = gl > 0 ? M.gravity * (-1.0f / gl) : Vec3{0, 0, 1};
+  M.ground = scene.ground.enabled;
+  M.ground_height = static_cast<float>(scene.ground.height);
+  if (M.ground) refuse_bodies_in_the_ground(scene, S, M, placed);
+  set_contact_materials(M, scene);
+  M.skin = static_cast<float>(scene.solver.skin * d);
+  M.link_damping = static_cast<float>(scene.solver.link_damping);
+  M.local_damping = static_cast<float>(scene.solver.local_damping);
+  M.stress_coefficient = static_cast<float>(scene.solver.stress_coefficient);
+
+  scale_surface_masses(M, scene.solver.mass_scaling);
+  BuildProgress::stage("the time step");
+  choose_time_step(M, scene);
   return M;
 }
 
