@@ -173,5 +173,22 @@ TEST(Determinism, TheDefaultSceneGivesItsStoredHash) {
   EXPECT_EQ(h, 0x87000305b13c3c82ull) << std::hex << "state_hash " << h;
 }
 
+// A state taken on to a model with another time step (mca view rebuilds the model, and its step, with each
+// ball it shoots) keeps its clock: the time goes on from the state's, at the new step. It used to be
+// recomputed as step x the new dt, and went back (1,675 ms shown after 2,590 ms of frames).
+TEST(Determinism, AStateTakenToAnotherTimeStepKeepsItsClock) {
+  SceneDef s = io::load_default_scene();
+  Engine a(s);
+  ASSERT_EQ(a.advance(200).flags, kHealthy);
+  const double t0 = a.state().time;
+  EXPECT_EQ(t0, 200.0 * a.model().dt);
+  SceneDef finer = s;
+  finer.solver.time_step = 0.5 * a.model().dt;
+  Engine b(finer, a.state(), "the test's state");
+  ASSERT_NE(b.model().dt, a.model().dt);
+  ASSERT_EQ(b.advance(100).flags, kHealthy);
+  EXPECT_NEAR(b.state().time, t0 + 100.0 * b.model().dt, 1e-12);
+}
+
 }  // namespace
 }  // namespace mca
