@@ -182,8 +182,22 @@ SurfaceRows surface_rows(const Model& M, const std::vector<double>& fmax) {
       const LinkDashpots c = explicit_link_dashpots(static_cast<float>(kn), M.mass[a], M.mass[o],
                                            0.5f * (A.damping_time + B.damping_time), M.link_damping);
       // The bending and twisting spring on the relative rotation (link_bending): its stiffest axis.
-      const LinkBendingConstants bc = link_bending_constants(harmonic(A.youngs, B.youngs), G, r0, E.edge[l], area / E.edge[l]);
-      const double kr = std::max({bc.k_twist, bc.k_in, bc.k_out});
+      const LinkBendingConstants bc = link_bending_constants(harmonic(A.youngs, B.youngs), 0.5 * (A.poisson + B.poisson), r0,
+                                                             E.edge[l], area / E.edge[l]);
+      // With the bending's many-body part (explicit_bending_many_body): its couplings of this link's
+      // rotation about n x m with every link of either end, c (dims / count)^2 / (r0 r0'), c = D nu A.
+      const auto many_body = [&](std::uint32_t x) {
+        const GroupParams& X = M.groups[M.group[x]];
+        const std::uint32_t first = E.first[x], count = E.first[x + 1] - first;
+        double inv = 0;
+        for (std::uint32_t y = first; y < first + count; ++y) inv += 1.0 / E.r0[E.of[y]];
+        const double share = static_cast<double>(std::min(count, 2u)) / count;
+        const std::uint32_t l0 = E.of[first];
+        return std::fabs(bending_many_body_constant(X.youngs, X.poisson, E.area[l0] / E.edge[l0], M.volume[x])) *
+               share * share * inv / r0;
+      };
+      const double kr = std::max({static_cast<double>(bc.k_twist), static_cast<double>(bc.k_in),
+                                  bc.k_out + many_body(a) + many_body(o)});
       add_pair(r, -1, kn, kt, 0.5 * r0, 0.5 * r0, kr, ma, ja, M.mass[o], M.inertia[o], c.normal, c.tangential, 0);
     }
     const ContactSprings cs = springs(M.contact_material(ga, ga), static_cast<float>(ra), static_cast<float>(ra),

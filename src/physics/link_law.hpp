@@ -137,10 +137,11 @@ MCA_HD ExplicitManyBody explicit_many_body(float lambda, const float free_factor
 // Bending and twisting of an explicit link (surface mode). A shell one automaton thick has no bending
 // stiffness from pair forces alone (each automaton turns with its links and the chain folds freely), nor
 // enough in-plane shear stiffness (its links form a honeycomb), so an explicit link also resists the
-// relative rotation of its ends, as the bonds of bonded-particle models do: about the link (twist,
-// k = G J / r0, J = a b^3 / 3 of its a x b cross-section, b the smaller side), about the shell's normal
-// m (in-plane bending, E t e^3 / (12 r0), e the shared edge's length, t the thickness) and about n x m
-// (bending of the shell, E e t^3 / (12 r0)). The spring's moment is kept incrementally as its three
+// relative rotation of its ends, as the bonds of bonded-particle models do: about the link (twist) and
+// about n x m (bending of the shell), both D (1 - nu) e / r0, e the shared edge's length, D the plate's
+// rigidity, and about the shell's normal m (in-plane bending, E t e^3 / (12 r0), t the thickness); with
+// the automata's many-body part (explicit_bending_many_body: `extra` below) the shell is a Kirchhoff
+// plate (link_bending_constants). The spring's moment is kept incrementally as its three
 // components on the pair's current frame (n, m, n x m): each step each grows by its stiffness times the
 // relative rotation of the step about its axis, so the moment turns with the pair, and its energy
 // sum M_k^2 / (2 k_k) changes by exactly the work of the torque. (Kept as a vector in the world and
@@ -156,6 +157,7 @@ struct LinkBendingInputT {
   Vec3T<T> moment;         // the spring's moment on the first end about (n, m, n x m), from the previous step
   T k_twist, k_in, k_out;  // [N m / rad]
   T s_in, s_out, s_twist;  // outer-fibre stress per unit moment [1 / m^3]: e / (2 I_in), t / (2 I_out), b / J
+  T extra;                 // the automata's many-body moment about n x m (explicit_bending_many_body), not state
   float dt;
 };
 
@@ -176,26 +178,69 @@ MCA_HD LinkBendingOutputT<T> link_bending(const LinkBendingInputT<T>& in) {
   const T mb = in.moment.z + in.k_out * in.dt * dot(wrel, b);
   LinkBendingOutputT<T> out;
   out.moment = {mn, mm, mb};
-  out.torque = mn * in.n + mm * in.m + mb * b;
+  const T mb_all = mb + in.extra;
+  out.torque = mn * in.n + mm * in.m + mb_all * b;
   using std::fabs;
-  out.sigma = fabs(mm) * in.s_in + fabs(mb) * in.s_out;
+  out.sigma = fabs(mm) * in.s_in + fabs(mb_all) * in.s_out;
   out.tau = fabs(mn) * in.s_twist;
   return out;
 }
 
-// The bending spring's constants of an explicit link of rest length r0 between materials of moduli E and
-// G (the pair's), its shared edge `edge` long and the shell `thickness` thick.
+// The bending spring's constants of an explicit link of rest length r0 between materials of Young's
+// modulus E and Poisson's ratio nu (the pair's), its shared edge `edge` long and the shell `thickness`
+// thick. A plate of curvature K turns a link's ends (direction n, t its in-plane perpendicular) by
+// r0 kappa_nn about b = n x m and r0 kappa_nt about n, so a link with k_out = B e / r0 about b and
+// k_twist = T e / r0 about n, over its share e r0 / 2 of the shell, holds on average over directions
+// spread evenly (three at 60 degrees suffice) the energy density (3B + T) / 8 (kxx^2 + kyy^2) +
+// (B - T) / 4 kxx kyy + (B + T) / 2 kxy^2. Kirchhoff's plate, D / 2 [(1 - nu) (kxx^2 + kyy^2 + 2 kxy^2) +
+// nu (kxx + kyy)^2] with D = E t^3 / (12 (1 - nu^2)), is its (1 - nu) part for B = T = D (1 - nu) (= G t^3 / 6),
+// and the nu part is the automata's (explicit_bending_many_body). B = D (1 + nu), T = D (1 - 3 nu) would
+// give the plate from the links alone, but with B != T the relative rotations of neighbouring automata
+// (up and down triangles) shift against each other, which no shear spring resists: measured, such a
+// shell bent 2.8 times too easily at nu = 0.3 (docs/model-notes.md, "Surface mode"). The in-plane spring
+// about m is a beam's, E t e^3 / (12 r0). The fibre stresses are the section's: a moment about b on the
+// edge's e x t section loads its outer fibre with 6 M / (e t^2) (t / (2 I_out)), one about m with
+// 6 M / (t e^2), and the twist its shear M b / J (J = a b^3 / 3 of the a x b section, b the smaller side).
 struct LinkBendingConstants {
   float k_twist, k_in, k_out, s_in, s_out, s_twist;
 };
 
-inline LinkBendingConstants link_bending_constants(double E, double G, double r0, double edge, double thickness) {
+inline LinkBendingConstants link_bending_constants(double E, double nu, double r0, double edge, double thickness) {
   const double a = edge > thickness ? edge : thickness, b = edge > thickness ? thickness : edge;
   const double J = a * b * b * b / 3.0;
   const double I_in = thickness * edge * edge * edge / 12.0, I_out = edge * thickness * thickness * thickness / 12.0;
-  return {static_cast<float>(G * J / r0),          static_cast<float>(E * I_in / r0),
-          static_cast<float>(E * I_out / r0),      static_cast<float>(0.5 * edge / I_in),
+  const double k = E * thickness * thickness * thickness / (12.0 * (1.0 + nu)) * edge / r0;  // D (1 - nu) e / r0
+  return {static_cast<float>(k),                     static_cast<float>(E * I_in / r0),
+          static_cast<float>(k),                     static_cast<float>(0.5 * edge / I_in),
           static_cast<float>(0.5 * thickness / I_out), static_cast<float>(b / J)};
+}
+
+// The energy M^2 / (2 k) of one axis of the spring (0 for a spring of no stiffness, whose moment stays 0).
+inline double bending_energy(double M, double k) { return k > 0 ? 0.5 * M * M / k : 0.0; }
+
+// The nu part of a shell's bending (surface mode), per automaton as the membrane's many-body term:
+// D nu A (tr K)^2 / 2 with A the automaton's share of the shell (its volume over the thickness) and tr K
+// from the relative rotations phi_l about b of its `count` intact links, r0 kappa_nn each: the mean of
+// kappa_nn over the directions of the plane is tr K / 2, so tr K = dims sum / count with sum = sum_l
+// phi_l / r0_l and dims = min(count, 2) (one link: a beam, tr K = kappa_nn). Its derivative along one
+// link's phi is c tr K (dims / count) / r0_l, c = D nu A: `weight` is c tr K dims / count [N m^2], which the
+// link divides by its r0 and adds, from both ends, to its moment about b.
+struct ExplicitBending {
+  float trace;   // tr K [1/m]
+  float weight;  // [N m^2]
+};
+
+// c = D nu A = E nu t^2 V / (12 (1 - nu^2)) of an automaton of volume V in a shell t thick.
+inline double bending_many_body_constant(double E, double nu, double thickness, double volume) {
+  return E * nu * thickness * thickness * volume / (12.0 * (1.0 - nu * nu));
+}
+
+MCA_HD ExplicitBending explicit_bending_many_body(float c, float sum, int count) {
+  if (count <= 0) return {0.0f, 0.0f};
+  const int dims = count < 2 ? count : 2;
+  const float share = static_cast<float>(dims) / static_cast<float>(count);
+  const float trace = sum * share;
+  return {trace, c * trace * share};
 }
 
 // The shell's normal at a link from its ends' orientations: the rest normal m0 turned by each end's

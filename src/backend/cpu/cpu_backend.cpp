@@ -171,7 +171,7 @@ class CpuBackend final : public Backend {
     for (auto* v : {&ex_r0f_, &ex_inv_r0_, &ex_area_, &ex_to_stress_, &ex_G_, &ex_kt_, &ex_damp_n_, &ex_damp_t_, &ex_nx_,
                     &ex_ny_, &ex_nz_, &ex_eps_, &ex_fx_, &ex_fy_, &ex_fz_, &ex_tx_, &ex_ty_, &ex_tz_, &ex_k_twist_,
                     &ex_k_in_, &ex_k_out_, &ex_s_in_, &ex_s_out_, &ex_s_twist_, &ex_m0x_, &ex_m0y_, &ex_m0z_, &ex_mx_,
-                    &ex_my_, &ex_mz_, &ex_bx_, &ex_by_, &ex_bz_})
+                    &ex_my_, &ex_mz_, &ex_bx_, &ex_by_, &ex_bz_, &ex_kappa_})
       v->resize(ne);
     for (std::size_t k = 0; k < ne; ++k) {
       const std::uint32_t i = E.i[k], j = E.j[k];
@@ -187,8 +187,8 @@ class CpuBackend final : public Backend {
                                                     m.link_damping);
       ex_damp_n_[k] = c.normal;
       ex_damp_t_[k] = c.tangential;
-      const LinkBendingConstants bc = link_bending_constants(harmonic(gi.youngs, gj.youngs), ex_G_[k], E.r0[k], E.edge[k],
-                                                             E.area[k] / E.edge[k]);
+      const LinkBendingConstants bc = link_bending_constants(harmonic(gi.youngs, gj.youngs), 0.5 * (gi.poisson + gj.poisson),
+                                                             E.r0[k], E.edge[k], E.area[k] / E.edge[k]);
       ex_k_twist_[k] = bc.k_twist;
       ex_k_in_[k] = bc.k_in;
       ex_k_out_[k] = bc.k_out;
@@ -202,6 +202,13 @@ class CpuBackend final : public Backend {
     for (std::size_t a = 0; a < n && !E.first.empty(); ++a)
       if (E.first[a + 1] > E.first[a]) explicit_automata_.push_back(static_cast<std::uint32_t>(a));
     explicit_weight_.assign(n, 0.0f);
+    bend_weight_.assign(n, 0.0f);
+    bend_c_.assign(n, 0.0f);
+    for (const std::uint32_t a : explicit_automata_) {
+      const GroupParams& g = m.groups[m.group[a]];
+      const std::uint32_t l = E.of[E.first[a]];
+      bend_c_[a] = static_cast<float>(bending_many_body_constant(g.youngs, g.poisson, E.area[l] / E.edge[l], m.volume[a]));
+    }
     explicit_breaks_.resize(ne);
     // Contact springs per pair of groups (and per group on the ground) when every automaton of a group
     // has the group's radius, mass and moment of inertia (lattices: always): the same numbers
@@ -452,6 +459,8 @@ class CpuBackend final : public Backend {
   cpu::LineArray<float> ex_bx_, ex_by_, ex_bz_;  // this step's bending torques (world)
   std::vector<std::uint32_t> explicit_automata_;
   std::vector<float> explicit_weight_;
+  std::vector<float> bend_weight_, bend_c_;  // the bending's many-body part per automaton: weight, D nu A
+  cpu::LineArray<float> ex_kappa_;           // per explicit link: this step's kappa_nn (explicit_geometry)
   std::vector<std::uint32_t> explicit_breaks_;  // per chunk of links, what the explicit kernel found
   bool strengthening_ = false, one_group_ = false;
   bool last_step_ = true;
@@ -682,15 +691,17 @@ std::vector<std::size_t> CpuBackend::explicit_link_pass(const cpu::LatticeView& 
   parallel_range(explicit_automata_.size(), [&](std::size_t k) {
     const std::uint32_t a = explicit_automata_[k];
     const GroupParams& g = M_.groups[M_.group[a]];
-    float sum = 0.0f;
+    float sum = 0.0f, curvature = 0.0f;
     int count = 0;
     for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
       const std::uint32_t l = E.of[x];
       if (!S_.intact[3 * n + l]) continue;
       sum += strengthened_strain(g.strengthening, ex_eps_[l]).s;
+      curvature += ex_kappa_[l];
       ++count;
     }
     explicit_weight_[a] = explicit_many_body(g.lame_lambda, free_factor_[M_.group[a]].data(), M_.volume[a], sum, count).weight;
+    bend_weight_[a] = explicit_bending_many_body(bend_c_[a], curvature, count).weight;
   });
   const std::size_t chunks = (L + kChunk - 1) / kChunk;
   std::vector<std::size_t> counts(chunks, 0);
@@ -724,6 +735,8 @@ cpu::ExplicitView CpuBackend::explicit_view() {
   e.m0x = ex_m0x_.data(); e.m0y = ex_m0y_.data(); e.m0z = ex_m0z_.data();
   e.mx = ex_mx_.data(); e.my = ex_my_.data(); e.mz = ex_mz_.data();
   e.bx = ex_bx_.data(); e.by = ex_by_.data(); e.bz = ex_bz_.data();
+  e.kappa = ex_kappa_.data();
+  e.bend_weight = bend_weight_.data();
   return e;
 }
 

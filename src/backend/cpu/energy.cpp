@@ -92,10 +92,13 @@ Energies energies_of(const View& at) {
   // the many-body part.
   // Explicit links (axis -1) sum per automaton apart: theirs is the shell's many-body term
   // (explicit_many_body).
-  std::vector<double> sum(3 * n, 0.0), explicit_sum;
+  // The bending's many-body part likewise (explicit_bending_many_body): the sum of kappa_nn = phi / r0
+  // over the intact links, phi = M_b / k_out the relative rotation about n x m the spring holds.
+  std::vector<double> sum(3 * n, 0.0), explicit_sum, explicit_kappa;
   std::vector<int> cnt(3 * n, 0), explicit_cnt;
   if (m.explicit_links.size()) {
     explicit_sum.assign(n, 0.0);
+    explicit_kappa.assign(n, 0.0);
     explicit_cnt.assign(n, 0);
   }
   m.for_each_link([&](std::size_t l, std::uint32_t i, std::uint32_t j, int ax) {
@@ -115,11 +118,14 @@ Energies energies_of(const View& at) {
     if (ax < 0) {
       // The bending and twisting spring: its moment's components on the pair's frame (link_bending).
       const std::size_t k = l - m.lattice_slots();
-      const LinkBendingConstants bc = link_bending_constants(harmonic(gi.youngs, gj.youngs), G, r0,
-                                                             m.explicit_links.edge[k], area / m.explicit_links.edge[k]);
+      const LinkBendingConstants bc = link_bending_constants(harmonic(gi.youngs, gj.youngs), 0.5 * (gi.poisson + gj.poisson),
+                                                             r0, m.explicit_links.edge[k], area / m.explicit_links.edge[k]);
       const Vec3 M = s.link_moment[k];
       const double mn = M.x, mm = M.y, mb = M.z;
-      e.elastic += 0.5 * (mn * mn / bc.k_twist + mm * mm / bc.k_in + mb * mb / bc.k_out);
+      e.elastic += bending_energy(mn, bc.k_twist) + bending_energy(mm, bc.k_in) + bending_energy(mb, bc.k_out);
+      const double kappa = bc.k_out > 0 ? mb / (static_cast<double>(bc.k_out) * static_cast<float>(r0)) : 0.0;
+      explicit_kappa[i] += kappa;
+      explicit_kappa[j] += kappa;
       explicit_sum[i] += si;
       explicit_sum[j] += sj;
       ++explicit_cnt[i];
@@ -138,6 +144,11 @@ Energies energies_of(const View& at) {
       const double L = explicit_sum[a] * dims / explicit_cnt[a];
       const double theta = L / (1.0 + (3 - dims) * static_cast<double>(g.lame_lambda) / (2.0 * g.shear_modulus));
       e.elastic += 0.5 * g.lame_lambda * theta * L * m.volume[a];
+      const auto& E = m.explicit_links;
+      const std::uint32_t l0 = E.of[E.first[a]];
+      const double c = bending_many_body_constant(g.youngs, g.poisson, E.area[l0] / E.edge[l0], m.volume[a]);
+      const double trace = explicit_kappa[a] * dims / explicit_cnt[a];
+      e.elastic += 0.5 * c * trace * trace;
       continue;
     }
     double L = 0;

@@ -133,6 +133,10 @@ struct ExplicitView {
   const float *m0x = nullptr, *m0y = nullptr, *m0z = nullptr;
   float *mx = nullptr, *my = nullptr, *mz = nullptr;  // about the link, the shell's normal, their cross product
   float *bx = nullptr, *by = nullptr, *bz = nullptr;  // this step's bending torque on the first end (world)
+  // The bending's many-body part (explicit_bending_many_body): per link this step's r0 kappa_nn / r0
+  // (explicit_geometry), per automaton its weight.
+  float* kappa = nullptr;
+  const float* bend_weight = nullptr;
   // This step's geometry (explicit_geometry) and forces (explicit_links), per link.
   float *nx = nullptr, *ny = nullptr, *nz = nullptr, *eps = nullptr;
   float *fx = nullptr, *fy = nullptr, *fz = nullptr, *tx = nullptr, *ty = nullptr, *tz = nullptr;

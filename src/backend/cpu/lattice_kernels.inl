@@ -298,6 +298,15 @@ struct Block {
     const auto g = link_geometry(xi, xj, L::load(e.r0 + k0), L::load(e.inv_r0 + k0));
     store3(g.n, e.nx, e.ny, e.nz, k0);
     L::store(g.eps, e.eps + k0);
+    // The relative rotation about n x m after this step, over r0 (kappa_nn): what the bending spring's
+    // moment about that axis will be (link_bending) over k_out r0, for the automata's many-body part.
+    const QuatT<X> qi{L::gather(v.qw, i), L::gather(v.qx, i), L::gather(v.qy, i), L::gather(v.qz, i)};
+    const QuatT<X> qj{L::gather(v.qw, j), L::gather(v.qx, j), L::gather(v.qy, j), L::gather(v.qz, j)};
+    const Vec3T<X> m = shell_normal(qi, qj, load3(e.m0x, e.m0y, e.m0z, k0), g.n);
+    const Vec3T<X> wrel = rounded(gather3(v.wx, v.wy, v.wz, j)) - rounded(gather3(v.wx, v.wy, v.wz, i));
+    const X k_out = L::load(e.k_out + k0);
+    const X mb = L::load(e.mz + k0) + k_out * v.dt * dot(wrel, cross(g.n, m));
+    L::store(mb / (k_out * L::load(e.r0f + k0)), e.kappa + k0);
   }
 
   // Explicit links [k0, k0 + W): the lattice links' law with each link's own r0 and S (see links above).
@@ -363,6 +372,7 @@ struct Block {
     bi.s_in = L::load(e.s_in + k0);
     bi.s_out = L::load(e.s_out + k0);
     bi.s_twist = L::load(e.s_twist + k0);
+    bi.extra = (L::gather(e.bend_weight, i) + L::gather(e.bend_weight, j)) * inv_r0;
     bi.dt = v.dt;
     const LinkBendingOutputT<X> bo = link_bending(bi);
     // The criteria see the section's most loaded fibre: the pair's stress plus the bending's, the pair's
