@@ -188,6 +188,33 @@ TEST(InputBounds, MeshFilesOfTheWrongKindAreRefusedByTheirFirstBytes) {
   EXPECT_HAS(read_error(write_file(t.path() / "z.glb", zeros)), "not a .glb file");
 }
 
+// assimp walks a glTF's node hierarchy and its JSON recursively: a 449 KB chain of 20,000 nodes, or a
+// deep nest of arrays, overflowed the stack (exit 139). Both are refused before assimp sees the file, as
+// .gltf and as .glb; a mesh of ordinary depth still reads.
+TEST(InputBounds, DeepGltfHierarchiesAreRefusedBeforeAssimp) {
+  mca::test::TempDir t;
+  std::string chain = R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[)";
+  const int n = 20000;
+  for (int i = 0; i < n; ++i) chain += i + 1 < n ? fmt::format(R"({{"children":[{}]}},)", i + 1) : std::string("{}");
+  chain += "]}";
+  EXPECT_HAS(read_error(write_file(t.path() / "chain.gltf", chain)), "20000 levels deep");
+  auto glb = [](std::string json) {
+    while (json.size() % 4) json += ' ';
+    std::string b = "glTF";
+    auto u32 = [&](std::uint32_t v) { b.append(reinterpret_cast<const char*>(&v), 4); };
+    u32(2);
+    u32(static_cast<std::uint32_t>(20 + json.size()));
+    u32(static_cast<std::uint32_t>(json.size()));
+    u32(0x4E4F534A);  // "JSON"
+    return b + json;
+  };
+  EXPECT_HAS(read_error(write_file(t.path() / "chain.glb", glb(chain))), "20000 levels deep");
+  const std::string nest = R"({"asset":{"version":"2.0"},"extras":)" + std::string(100000, '[') + std::string(100000, ']') + "}";
+  EXPECT_HAS(read_error(write_file(t.path() / "nest.gltf", nest)), "nested deeper than");
+  const std::string loop = R"({"asset":{"version":"2.0"},"nodes":[{"children":[1]},{"children":[0]}]})";
+  EXPECT_HAS(read_error(write_file(t.path() / "loop.gltf", loop)), "a cycle");
+}
+
 TEST(InputBounds, MeshReadingIsBoundBySolverMaxMemoryGb) {
   mca::test::TempDir t;
   // A valid OFF header over 30 MB of garbage: refused for the memory limit before it is parsed.

@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fmt/format.h>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <iterator>
 #include <sstream>
 #include <string_view>
@@ -293,6 +294,90 @@ void check_glb(const std::string& head, std::uint64_t size, const std::string& n
   }
 }
 
+// A glTF's JSON (a .gltf file, or a .glb's first chunk) before assimp reads it: assimp parses the JSON
+// and walks the node hierarchy recursively, and a file of 449 KB (a chain of 20,000 nodes, or arrays
+// nested 100,000 deep) overflowed its stack. Exporters write a few levels of each.
+constexpr int kMaxJsonDepth = 64, kMaxNodeDepth = 256;
+
+void check_gltf_json(std::string_view json, const std::string& name) {
+  int depth = 0;
+  bool in_string = false;
+  for (std::size_t i = 0; i < json.size(); ++i) {
+    const char c = json[i];
+    if (in_string) {
+      if (c == '\\') ++i;
+      else if (c == '"') in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > kMaxJsonDepth) {
+        throw Error(fmt::format("{}: its JSON is nested deeper than {} levels (at byte {}); a glTF exporter writes "
+                                "a few: the file is damaged or not a glTF file",
+                                name, kMaxJsonDepth, i));
+      }
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+  const nlohmann::json j = nlohmann::json::parse(json, nullptr, false);
+  if (j.is_discarded() || !j.is_object() || !j.contains("nodes") || !j["nodes"].is_array()) return;  // assimp says
+  const auto& nodes = j["nodes"];
+  const std::size_t n = nodes.size();
+  // Each node's children, and the depth of the deepest chain below the roots (iteratively).
+  std::vector<std::vector<std::size_t>> children(n);
+  std::vector<char> is_child(n, 0);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!nodes[k].is_object() || !nodes[k].contains("children") || !nodes[k]["children"].is_array()) continue;
+    for (const auto& c : nodes[k]["children"]) {
+      if (!c.is_number_unsigned() || c.get<std::uint64_t>() >= n) {
+        throw Error(fmt::format("{}: nodes[{}] names a child {} that is not one of its {} nodes: the file is damaged",
+                                name, k, c.dump(), n));
+      }
+      children[k].push_back(c.get<std::size_t>());
+      is_child[c.get<std::size_t>()] = 1;
+    }
+  }
+  std::vector<int> state(n, 0);  // 0 unseen, 1 on the current path, 2 done
+  std::vector<std::pair<std::size_t, std::size_t>> stack;  // node, next child to visit
+  std::size_t deepest = 0, at = 0;
+  auto walk = [&](std::size_t root) {
+    stack.push_back({root, 0});
+    state[root] = 1;
+    while (!stack.empty()) {
+      auto& [node, next] = stack.back();
+      if (stack.size() > deepest) {
+        deepest = stack.size();
+        at = node;
+      }
+      if (next == children[node].size()) {
+        state[node] = 2;
+        stack.pop_back();
+        continue;
+      }
+      const std::size_t c = children[node][next++];
+      if (state[c] == 1) {
+        throw Error(fmt::format("{}: its node hierarchy has a cycle (nodes[{}] is among its own ancestors): the file "
+                                "is damaged",
+                                name, c));
+      }
+      if (state[c] == 0) {
+        state[c] = 1;
+        stack.push_back({c, 0});
+      }
+    }
+  };
+  for (std::size_t k = 0; k < n; ++k)
+    if (!is_child[k] && state[k] == 0) walk(k);
+  for (std::size_t k = 0; k < n; ++k)  // nodes only on cycles have no root
+    if (state[k] == 0) walk(k);
+  if (deepest > static_cast<std::size_t>(kMaxNodeDepth)) {
+    throw Error(fmt::format("{}: its node hierarchy is {} levels deep (down to nodes[{}]); mca reads up to {} levels "
+                            "(the reader recurses once per level): flatten it in the program that wrote it (in "
+                            "Blender: select all, Object > Parent > Clear and Keep Transformation), then export again",
+                            name, deepest, at, kMaxNodeDepth));
+  }
+}
+
 // Joins vertices at exactly the same coordinates (STL and most OBJ files store one per face corner), in
 // order of first appearance.
 void weld(TriMesh& m) {
@@ -415,11 +500,26 @@ const std::vector<std::string>& mesh_extensions() {
 
 namespace {
 
+std::string read_file(const std::string& path, std::uint64_t size);
+
 // Reads with assimp (from the file, or from `bytes` when given): STL, glTF and GLB, whose coordinates are
 // float32 in the file.
 TriMesh import_assimp(const std::string& name, const std::string& ext, const std::string* bytes,
                       const std::string& path) {
   if (bytes && ext == "glb") check_glb(*bytes, bytes->size(), name);
+  if (ext == "gltf" || ext == "glb") {
+    // The JSON: the whole .gltf, or the .glb's first chunk (check_glb: its length fits the file).
+    std::error_code ec;
+    const std::string file = bytes ? std::string() : read_file(path, std::filesystem::file_size(path, ec));
+    const std::string_view all = bytes ? std::string_view(*bytes) : std::string_view(file);
+    if (ext == "gltf") {
+      check_gltf_json(all, name);
+    } else if (all.size() >= 20) {
+      std::uint32_t length = 0;
+      std::memcpy(&length, all.data() + 12, 4);
+      check_gltf_json(all.substr(20, length), name);
+    }
+  }
   Assimp::Importer importer;
   configure(importer);
   only_reader_for(importer, ext);
