@@ -150,10 +150,11 @@ TEST(Fragments, LinkPastTheEndThrows) {
 TEST(Fragments, MassesAddUpToTotal) {
   Links links;
   for (std::uint32_t a = 0; a + 1 < 20; ++a) links.add(a, a + 1, a % 4 != 0 && a % 7 != 0);
-  std::vector<float> mass(20), xyz(60), vel(60);
+  std::vector<float> mass(20);
+  std::vector<double> xyz(60), vel(60);
   for (std::size_t a = 0; a < 20; ++a) {
     mass[a] = 0.5f + 0.25f * static_cast<float>(a % 5);
-    for (int c = 0; c < 3; ++c) xyz[3 * a + c] = static_cast<float>(a) * 0.1f + static_cast<float>(c);
+    for (int c = 0; c < 3; ++c) xyz[3 * a + c] = static_cast<double>(a) * 0.1 + static_cast<double>(c);
   }
   const Fragments f = links.label(mass);
   const auto info = describe_fragments(f, mass.data(), xyz.data(), vel.data());
@@ -180,8 +181,8 @@ TEST(Fragments, CentreVelocityAndBoxOnAHandCase) {
   links.add(0, 1);
   const Fragments f = links.label(3);
   const std::vector<float> mass{1, 3, 2};
-  const std::vector<float> xyz{0, 0, 0, 4, 0, 0, 1, 2, 3};
-  const std::vector<float> vel{2, 0, 0, -2, 0, 0, 0, 0, 5};
+  const std::vector<double> xyz{0, 0, 0, 4, 0, 0, 1, 2, 3};
+  const std::vector<double> vel{2, 0, 0, -2, 0, 0, 0, 0, 5};
   const auto info = describe_fragments(f, mass.data(), xyz.data(), vel.data());
   ASSERT_EQ(info.size(), 2u);
 

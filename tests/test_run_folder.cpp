@@ -12,6 +12,7 @@
 
 #include "io/checkpoint.hpp"
 #include "shell.hpp"
+#include "io/output_files.hpp"
 #include "small_scene.hpp"
 #include "temp_dir.hpp"
 
@@ -137,6 +138,28 @@ TEST(RunFolder, ResumedRateIsTheSessionsOwn) {
   EXPECT_LT(session, 1e3);
   EXPECT_DOUBLE_EQ(j["automaton_steps_per_second"].get<double>(),
                    static_cast<double>(steps) * j["automata"].get<double>() / session);
+}
+
+// Two runs into one folder at once mixed their frames, stats and summaries, and both exited 0: while one
+// mca holds the folder's lock (here the test, as a run would), a run and a resume into it are refused,
+// naming the folder, and nothing is written.
+TEST(RunFolder, ASecondRunIntoAFolderInUseIsRefused) {
+  TempDir t;
+  const fs::path out = t.path() / "busy";
+  ASSERT_EQ(run_mca("run " + small_scene(t.path()).string() + " --out " + out.string() + " -q --checkpoint-every 2").code, 0);
+  const std::string stats = read(out / "stats.csv");
+  {
+    const io::OutputLock held(out);
+    Result r = run_mca("run " + small_scene(t.path()).string() + " --out " + out.string() + " -q");
+    EXPECT_NE(r.code, 0);
+    EXPECT_NE(r.output.find("another mca run or resume is writing into"), std::string::npos) << r.output;
+    r = run_mca("resume " + out.string() + " -q");
+    EXPECT_NE(r.code, 0);
+    EXPECT_NE(r.output.find("another mca run or resume is writing into"), std::string::npos) << r.output;
+    EXPECT_EQ(read(out / "stats.csv"), stats);
+  }
+  // Released with its holder: a run goes ahead.
+  EXPECT_EQ(run_mca("run " + small_scene(t.path()).string() + " --out " + out.string() + " -q").code, 0);
 }
 
 }  // namespace

@@ -114,8 +114,8 @@ Fragments number_fragments(std::size_t n_automata, UnionFind& uf, const float* m
 }
 }  // namespace
 
-std::vector<FragmentInfo> describe_fragments(const Fragments& fragments, const float* mass, const float* xyz,
-                                             const float* vel, const float* volume) {
+std::vector<FragmentInfo> describe_fragments(const Fragments& fragments, const float* mass, const double* xyz,
+                                             const double* vel, const float* volume) {
   constexpr double kInf = std::numeric_limits<double>::infinity();
   std::vector<FragmentInfo> info(static_cast<std::size_t>(fragments.count));
   // Plain sums back the zero-mass fallback; kept in the same pass to read the arrays once.

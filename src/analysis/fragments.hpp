@@ -36,10 +36,11 @@ struct FragmentInfo {
 };
 
 // One entry per fragment in id order. `mass` (and `volume`, may be null) has one value per automaton,
-// `xyz` and `vel` three. Centre is mass-weighted and velocity is momentum / mass; a fragment of zero
-// total mass falls back to the plain average of its automata.
-std::vector<FragmentInfo> describe_fragments(const Fragments& fragments, const float* mass, const float* xyz,
-                                             const float* vel, const float* volume = nullptr);
+// `xyz` and `vel` three, in double (the state's positions and velocities as they are: a float copy lost
+// the digits of a body far from the origin or fast). Centre is mass-weighted and velocity is momentum /
+// mass; a fragment of zero total mass falls back to the plain average of its automata.
+std::vector<FragmentInfo> describe_fragments(const Fragments& fragments, const float* mass, const double* xyz,
+                                             const double* vel, const float* volume = nullptr);
 
 // Fragments by size: bin k holds those of 2^k to 2^(k+1) - 1 automata (1, 2-3, 4-7, ...), with their
 // count and mass; the bins run up to the largest fragment's.

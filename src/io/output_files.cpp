@@ -9,6 +9,7 @@
 #include <cstring>
 #include <fcntl.h>
 #include <fstream>
+#include <sys/file.h>
 #include <limits>
 #include <string_view>
 #include <system_error>
@@ -20,6 +21,26 @@
 namespace mca::io {
 
 namespace fs = std::filesystem;
+
+OutputLock::OutputLock(const std::filesystem::path& dir) {
+  fd_ = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd_ < 0) throw Error(fmt::format("cannot open the output folder '{}': {}", dir.string(), std::strerror(errno)));
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    const int e = errno;
+    ::close(fd_);
+    fd_ = -1;
+    if (e == EWOULDBLOCK) {
+      throw Error(fmt::format("another mca run or resume is writing into '{}' (it holds the folder's lock); wait for "
+                              "it to end, or give another --out",
+                              dir.string()));
+    }
+    throw Error(fmt::format("cannot lock the output folder '{}': {}", dir.string(), std::strerror(e)));
+  }
+}
+
+OutputLock::~OutputLock() {
+  if (fd_ >= 0) ::close(fd_);
+}
 
 void prepare_output_dir(const fs::path& dir) {
   const auto fail = [&](const std::string& reason) {

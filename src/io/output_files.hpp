@@ -13,6 +13,20 @@ namespace mca::io {
 // bad --out folder fails before the simulation spends any time. Throws mca::Error naming the folder.
 void prepare_output_dir(const std::filesystem::path& dir);
 
+// Holds the output folder's lock (flock on the folder itself, no file added) for its lifetime: a second
+// mca run or resume into the same folder is refused while one writes there (two runs at once mixed their
+// frames, stats and summaries, and both exited 0). Throws mca::Error naming the folder.
+class OutputLock {
+ public:
+  explicit OutputLock(const std::filesystem::path& dir);
+  ~OutputLock();
+  OutputLock(const OutputLock&) = delete;
+  OutputLock& operator=(const OutputLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
 // The folder name for a scene's default output folder out/<folder>. A scene file can come from anywhere,
 // so its name must not choose where a run writes (and deletes earlier outputs).
 std::string scene_folder_name(const std::string& scene_name);

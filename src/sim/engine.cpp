@@ -54,11 +54,19 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
     const double v = std::sqrt(o.velocity[0] * o.velocity[0] + o.velocity[1] * o.velocity[1] + o.velocity[2] * o.velocity[2]);
     if (v > fastest) { fastest = v; which = fmt::format("object '{}'", o.name); }
   }
+  auto norm = [](const Vec3d& v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); };
   for (const auto& p : scene.projectiles) {
-    const double v = std::sqrt(p.velocity[0] * p.velocity[0] + p.velocity[1] * p.velocity[1] + p.velocity[2] * p.velocity[2]);
+    const double v = norm(p.velocity);
     if (v > fastest) { fastest = v; which = fmt::format("projectile '{}'", p.name); }
+    // Its surface turns past the automata it touches at angular_velocity x radius.
+    const double w = norm(p.angular_velocity) * p.radius;
+    if (w > fastest) { fastest = w; which = fmt::format("the surface of projectile '{}' (angular_velocity x radius)", p.name); }
   }
-  if (fastest * m.dt > 0.1 * m.spacing) {
+  for (const auto& g : scene.grips) {
+    const double v = norm(g.velocity);
+    if (v > fastest) { fastest = v; which = fmt::format("grip '{}'", g.name); }
+  }
+  if (!(fastest * m.dt <= 0.1 * m.spacing)) {
     throw Error(fmt::format("{}: {} starts at {:.4g} m/s, which crosses {:.3g} m per time step of {:.3g} s, more than a "
                             "tenth of the spacing ({:g} m): contacts would be skipped. Lower its speed below {:.4g} m/s, "
                             "or lower solver.safety or solver.time_step",
