@@ -353,6 +353,27 @@ TEST(InputBounds, AThousandBallsBuildInSeconds) {
   EXPECT_HAS(error_of([&] { mca::lattice::build_model(s); }), "projectile[500].position");
 }
 
+// The time step fell with the number of projectiles wherever they were (each ball's bound added every
+// other ball): with more balls than can touch one at once (16 of equal size) it stays that of 17 balls.
+TEST(InputBounds, TheTimeStepDoesNotFallWithTheNumberOfFarApartBalls) {
+  auto step = [](int balls) {
+    mca::SceneDef s = mca::test::block_scene(10, 10, 2, 0.1);
+    for (int i = 0; i < balls; ++i) {
+      mca::ProjectileDef p;
+      p.name = fmt::format("ball{}", i);
+      p.radius = 0.02;
+      p.material = "testmat";
+      p.position = {-50.0 + 5.0 * (i % 20), 5.0, 5.0 * (1 + i / 20)};
+      s.projectiles.push_back(p);
+    }
+    return mca::lattice::build_model(s).dt;
+  };
+  const float at17 = step(17);
+  EXPECT_LT(at17, step(2));  // up to 17 the pairs add up as before
+  EXPECT_EQ(step(100), at17);
+  EXPECT_EQ(step(400), at17);
+}
+
 TEST(InputBounds, ALongBuildShowsItsProgressOnStderr) {
   testing::internal::CaptureStderr();
   {

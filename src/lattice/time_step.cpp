@@ -475,6 +475,14 @@ void projectile_bounds(const Model& M, const std::vector<char>& used, TimeStepBo
       const ContactSprings g = springs(M.projectile_ground_contact(p), P.radius, INFINITY, P.mass, P.inertia);
       add_pair(rp, -1, g.kn, g.kt, P.radius, 0, g.kr + g.kw, P.mass, P.inertia, INFINITY, INFINITY, g.cn / 3, 0, 0);
     }
+    // The other projectiles: no more of them touch this one at once than fit around it, at most
+    // 4 (R_p + R_q)^2 / R_q^2 of radius R_q (the sphere of their centres over the area each takes; 16 for
+    // equal balls, whose true number is 12). With more projectiles than that the row holds that many
+    // times the largest of each pair's terms; adding every pair made the step fall with the number of
+    // balls wherever they were (balls of 2 cm 5 m apart beside a box: one 1.21e-6 s, 17 4.86e-7 s, 100
+    // 1.76e-7 s, 1,000 2.94e-8 s; now 100 and 1,000 step as 17 do).
+    Rows pairs, largest;
+    double fit = 0;
     for (std::size_t q = 0; q < M.projectiles.size(); ++q) {
       if (q == p) continue;
       const ProjectileParams& Q = M.projectiles[q];
@@ -482,8 +490,22 @@ void projectile_bounds(const Model& M, const std::vector<char>& used, TimeStepBo
       const ContactSprings c = springs(M.projectile_pair_contact(p, q), P.radius, Q.radius,
                                        Q.kinematic ? P.mass : reduced(P.mass, Q.mass),
                                        Q.kinematic ? P.inertia : reduced(P.inertia, Q.inertia));
-      add_pair(rp, -1, c.kn, c.kt, P.radius, Q.radius, c.kr + c.kw, P.mass, P.inertia, mb, jb, c.cn / 3, 0, 0);
+      Rows e;
+      add_pair(e, -1, c.kn, c.kt, P.radius, Q.radius, c.kr + c.kw, P.mass, P.inertia, mb, jb, c.cn / 3, 0, 0);
+      add_scaled(pairs, e, 1.0);
+      for (int a = 0; a < 3; ++a) {
+        largest.diag_u[a] = std::max(largest.diag_u[a], e.diag_u[a]);
+        largest.diag_w[a] = std::max(largest.diag_w[a], e.diag_w[a]);
+      }
+      largest.off_u = std::max(largest.off_u, e.off_u);
+      largest.off_w = std::max(largest.off_w, e.off_w);
+      largest.damp_u = std::max(largest.damp_u, e.damp_u);
+      largest.damp_w = std::max(largest.damp_w, e.damp_w);
+      const double rq = static_cast<double>(Q.radius), s = (static_cast<double>(P.radius) + rq) / rq;
+      fit = std::max(fit, std::ceil(4 * s * s));
     }
+    const double others = static_cast<double>(M.projectiles.size()) - 1;
+    add_scaled(rp, others <= fit ? pairs : largest, others <= fit ? 1.0 : fit);
     const double dt = rp.critical();
     if (dt < out.dt) {
       out.dt = dt;
