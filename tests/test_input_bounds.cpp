@@ -177,6 +177,16 @@ TEST(InputBounds, MeshHeaderCountsTheFileCannotHoldAreRefusedAtOnce) {
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 2.0);
 }
 
+// A count too large for a whole number was called "not a number".
+TEST(InputBounds, AHeaderCountTooLargeIsCalledTooLarge) {
+  mca::test::TempDir t;
+  std::string m = read_error(write_file(t.path() / "huge.off", "OFF\n1000000000000 1 0\n0 0 0\n"));
+  EXPECT_HAS(m, "vertex count is 1000000000000");
+  EXPECT_HAS(m, "more than mca reads");
+  m = read_error(write_file(t.path() / "word.off", "OFF\nmany 1 0\n0 0 0\n"));
+  EXPECT_HAS(m, "'many' is not a whole number");
+}
+
 TEST(InputBounds, MeshFilesOfTheWrongKindAreRefusedByTheirFirstBytes) {
   mca::test::TempDir t;
   const std::string zeros(1 << 20, '\0');

@@ -78,8 +78,15 @@ bool to_integer(std::string_view w, std::int64_t& out) {
 
 std::uint64_t header_count(std::string_view w, const std::string& name, const char* what) {
   std::int64_t v = 0;
-  if (w.size() > 12 || !to_integer(w, v) || v < 0) {
-    throw Error(fmt::format("{}: the header's {} count '{}' is not a number; the file is damaged", name, what, w));
+  const std::string_view d = !w.empty() && w[0] == '+' ? w.substr(1) : w;
+  const bool digits = !d.empty() && d.find_first_not_of("0123456789") == std::string_view::npos;
+  if (digits && (w.size() > 12 || !to_integer(w, v))) {
+    throw Error(fmt::format("{}: the header's {} count is {}, more than mca reads (4e9); the file is damaged or not "
+                            "one mesh",
+                            name, what, w));
+  }
+  if (!digits || !to_integer(w, v) || v < 0) {
+    throw Error(fmt::format("{}: the header's {} count '{}' is not a whole number; the file is damaged", name, what, w));
   }
   if (static_cast<std::uint64_t>(v) > kMaxCount)
     throw Error(fmt::format("{}: the header declares {} {}, more than mca reads (4e9)", name, v, what));
