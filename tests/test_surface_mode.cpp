@@ -31,6 +31,20 @@ namespace fs = std::filesystem;
 using test::TempDir;
 using test::error_of;
 
+// `st` with every automaton moving and turning at random (velocities up to 0.01 m/s, spins up to 1 rad/s
+// per component) from a fixed seed: the same numbers every run.
+State randomly_moving(State st, std::uint64_t seed) {
+  auto next = [&] {
+    seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<float>(static_cast<double>(seed >> 11) / 9007199254740992.0 - 0.5);
+  };
+  for (std::size_t a = 0; a < st.v.size(); ++a) {
+    st.v[a] = {0.02f * next(), 0.02f * next(), 0.02f * next()};
+    st.w[a] = {2 * next(), 2 * next(), 2 * next()};
+  }
+  return st;
+}
+
 // A scene of one object: the mesh file at `mesh` in surface mode (block_scene's other settings).
 SceneDef surface_scene(const fs::path& mesh, double d = 0.05, MaterialDef material = test::test_material()) {
   SceneDef s = test::block_scene(1, 1, 1, d, material);
@@ -256,16 +270,7 @@ TEST(SurfaceMode, AnUndampedShellKeepsItsEnergy) {
   s.materials[0].compressive_strength = 1e13;
   s.materials[0].fracture_strain = 1;
   Engine sim(s);
-  State st = sim.state();
-  std::uint64_t seed = 12345;
-  auto next = [&] {
-    seed = seed * 6364136223846793005ull + 1442695040888963407ull;
-    return static_cast<float>(static_cast<double>(seed >> 11) / 9007199254740992.0 - 0.5);
-  };
-  for (std::size_t a = 0; a < st.v.size(); ++a) {
-    st.v[a] = {0.02f * next(), 0.02f * next(), 0.02f * next()};
-    st.w[a] = {2 * next(), 2 * next(), 2 * next()};
-  }
+  const State st = randomly_moving(sim.state(), 12345);
   Engine run(s, st);
   const Energies e0 = compute_energies(run.model(), run.state());
   ASSERT_GT(e0.kinetic, 0);
@@ -664,16 +669,7 @@ TEST(SurfaceMode, AMassScaledSheetKeepsItsEnergyAndMomentum) {
   s.solver.safety = 1.0;  // at the bound itself
   Engine sim(s);
   ASSERT_GT(sim.model().meshes[0].mass_scaled, 0u);
-  State st = sim.state();
-  std::uint64_t seed = 777;
-  auto next = [&] {
-    seed = seed * 6364136223846793005ull + 1442695040888963407ull;
-    return static_cast<float>(static_cast<double>(seed >> 11) / 9007199254740992.0 - 0.5);
-  };
-  for (std::size_t a = 0; a < st.v.size(); ++a) {
-    st.v[a] = {0.02f * next(), 0.02f * next(), 0.02f * next()};
-    st.w[a] = {2 * next(), 2 * next(), 2 * next()};
-  }
+  const State st = randomly_moving(sim.state(), 777);
   Engine run(s, st);
   const Model& m = run.model();
   auto momentum = [&](const State& x) {
