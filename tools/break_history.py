@@ -91,12 +91,12 @@ def lattice_neighbours(pos, obj, spacing):
 
 
 def share_table(values, subset, categories):
-    """{category: [count in subset, share of subset, share among all]}."""
+    """{category: [count in subset, share of subset, count among all, share among all]}."""
     out = {}
     for c in categories:
         a = int(np.count_nonzero(values[subset] == c))
         b = int(np.count_nonzero(values == c))
-        out[str(c)] = [a, a / max(int(subset.sum()), 1), b / len(values)]
+        out[str(c)] = [a, a / max(int(subset.sum()), 1), b, b / len(values)]
     return out
 
 
@@ -289,8 +289,8 @@ def report(r):
              f"{r['automata']} automata, {r['breaks']} breaks ({r['breaks_by']['displacement']} displacement, "
              f"{r['breaks_by']['stress']} stress), first in step {r['first_break_step']}")
     L.append(f"singles: {r['singles']}")
-    L.append("  links at the start (count, share of singles, share of all): " +
-             ", ".join(f"{k}: {v[0]} {v[1]:.2f}/{v[2]:.2f}" for k, v in r["links_per_automaton"]["singles"].items() if v[2] > 0))
+    L.append("  links at the start (singles of all automata; share of the singles/of all): " +
+             ", ".join(f"{k}: {v[0]} of {v[2]} {v[1]:.2f}/{v[3]:.2f}" for k, v in r["links_per_automaton"]["singles"].items() if v[2] > 0))
     s = r["single_spread_steps"]
     L.append(f"  steps from its first to its last link break: 0 (all at once): {s['all_in_one_step']}, <= 10: "
              f"{s['within_10']}, <= 100: {s['within_100']}, <= 1000: {s['within_1000']}; median {s['median']}, "
@@ -301,14 +301,14 @@ def report(r):
     a = r["all_break_criteria"]
     L.append(f"  its links' criteria: displacement {c['displacement']} ({100 * c['displacement'] / tot:.1f} %), stress "
              f"{c['stress']}; all breaks: displacement {100 * a['displacement'] / max(a['displacement'] + a['stress'], 1):.1f} %")
-    L.append("  class (count, share of singles, share of all): " +
-             ", ".join(f"{k}: {v[0]} {v[1]:.2f}/{v[2]:.2f}" for k, v in r["single_class"].items()))
+    L.append("  class (singles of all automata; share of the singles/of all): " +
+             ", ".join(f"{k}: {v[0]} of {v[2]} {v[1]:.2f}/{v[3]:.2f}" for k, v in r["single_class"].items()))
     L.append("  its links by class, single against neighbour: " + ", ".join(f"{k} {v}" for k, v in r["single_link_weaker_end"].items()))
-    L.append("  layer across the wall (0 = impact face; count, share of singles, share of all): " +
-             ", ".join(f"{k}: {v[0]} {v[1]:.2f}/{v[2]:.2f}" for k, v in r["single_layer_across"].items()))
+    L.append("  layer across the wall (0 = impact face; singles of all automata; share of the singles/of all): " +
+             ", ".join(f"{k}: {v[0]} of {v[2]} {v[1]:.2f}/{v[3]:.2f}" for k, v in r["single_layer_across"].items()))
     rb = r["single_radius_bins_m"]
     L.append("  distance from the impact in the plane [m]: " +
-             ", ".join(f"{rb[int(k)]:g}-{rb[int(k) + 1]:g}: {v[0]} {v[1]:.2f}/{v[2]:.2f}" for k, v in r["single_radius"].items()))
+             ", ".join(f"{rb[int(k)]:g}-{rb[int(k) + 1]:g}: {v[0]} of {v[2]} {v[1]:.2f}/{v[3]:.2f}" for k, v in r["single_radius"].items()))
     L.append("  last link broke after the first break [s]: " +
              ", ".join(f"{k}: {v}" for k, v in r["single_last_break_after_first_break_s"].items()))
     L.append("  singles by frame (ms: count): " + ", ".join(f"{1e3 * t:.0f}: {c}" for t, c in r["singles_over_time"]))
