@@ -174,7 +174,10 @@ def analyse(run_dir, frame=None):
     spread = (last - first)[single]
     # position across the wall and from the impact
     scene = fm.read_scene(run_dir)
-    normal, centre = fm.impact_geometry(scene)
+    try:
+        normal, centre = fm.impact_geometry(scene)
+    except fm.RunError:  # no projectile (a pulled bar): distances from the object's centre, normal y
+        normal, centre = 1, pos.mean(axis=0)
     across = np.rint((pos[:, normal] - pos[:, normal].min()) / spacing).astype(int)
     pa, pb = fm.in_plane_axes(normal)
     radius = np.hypot(pos[:, pa] - centre[pa], pos[:, pb] - centre[pb])
@@ -323,7 +326,7 @@ def report(r):
     g = r["steps_between_last_two_breaks"]
     L.append(f"  steps between its last two link breaks: median {g['median']}, <= 10 steps: {g['within_10']} of {g['count']}")
     L.append("across the axis cracks, 0.25-0.7 m out (row of d from the line: automata, mean damage, single share): " +
-             "; ".join(f"{p[0]}: {p[1]}, {p[2]:.2f}, {p[3]:.2f}" for p in r["profile_across_axis_cracks"]))
+             "; ".join(f"{p[0]}: {p[1]}, {p[2]:.2f}, {p[3]:.2f}" if p[1] else f"{p[0]}: 0" for p in r["profile_across_axis_cracks"]))
     names = r["axis_names"]
     L.append("broken links by axis (broken / links): " + ", ".join(
         f"{names[a]}: {r['broken_by_axis'][a]} / {r['links_by_axis'][a]}" for a in range(3)) +
