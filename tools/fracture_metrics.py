@@ -40,6 +40,7 @@ import csv
 import json
 import math
 import os
+import signal
 import re
 import sys
 
@@ -397,6 +398,8 @@ def report(res):
 
 
 def main(argv=None):
+    if hasattr(signal, "SIGPIPE"):  # `| head` ends the output quietly
+        signal.signal(signal.SIGPIPE, signal.SIG_DFL)
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("run_dir")
     g = ap.add_mutually_exclusive_group()

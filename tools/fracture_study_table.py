@@ -8,6 +8,7 @@ Usage: /usr/bin/python3 tools/fracture_study_table.py [--table spectrum|singles|
 import argparse
 import json
 import os
+import signal
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -63,6 +64,8 @@ def singles(runs):
 
 
 def main(argv=None):
+    if hasattr(signal, "SIGPIPE"):  # `| head` ends the output quietly
+        signal.signal(signal.SIGPIPE, signal.SIG_DFL)
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--table", choices=["spectrum", "singles", "sectors"], default="spectrum")
     ap.add_argument("runs", nargs="+")

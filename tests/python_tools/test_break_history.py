@@ -23,7 +23,7 @@ def checkpoint(records, by, grips=0, body=b"state bytes"):
         out += struct.pack("<qIB", step, link, crit)
     out += struct.pack("<qq", *by) + struct.pack("<d", 123.0)
     out += struct.pack("<Q", grips) + b"\0" * (8 * grips) + struct.pack("<Q", grips) + b"\0" * (12 * grips)
-    out += struct.pack("<Q", 0x0123456789ABCDEF) + bh.MAGIC  # the checksum is not read
+    out += struct.pack("<Q", bh.fnv1a(bytes(out))) + bh.MAGIC
     return bytes(out)
 
 
@@ -36,8 +36,20 @@ def test_break_records_are_read_from_the_end(tmp_path):
         assert by == {"displacement": 1, "stress": 2}
         assert [tuple(int(v) for v in r) for r in rec.tolist()] == recs
     p.write_bytes(checkpoint(recs, (2, 2)))  # counts that do not match the records
-    with pytest.raises(bh.fm.RunError):
+    with pytest.raises(bh.fm.RunError, match="break records"):
         bh.read_breaks(p)
+    damaged = bytearray(checkpoint(recs, (1, 2)))
+    damaged[10] ^= 1  # a flipped bit before the records
+    p.write_bytes(bytes(damaged))
+    with pytest.raises(bh.fm.RunError, match="checksum"):
+        bh.read_breaks(p)
+    assert len(bh.read_breaks(p, verify=False)[0]) == 3
+
+
+def test_checksum_is_the_projects_fnv1a():
+    # src/core/fnv.hpp: h = 1469598103934665603; h ^= byte; h *= 1099511628211 (mod 2^64)
+    assert bh.fnv1a(b"") == 1469598103934665603
+    assert bh.fnv1a(b"a") == ((1469598103934665603 ^ 0x61) * 1099511628211) % 2 ** 64
 
 
 def test_lattice_neighbours():
