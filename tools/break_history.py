@@ -109,7 +109,7 @@ def share_table(values, subset, categories):
     for c in categories:
         a = int(np.count_nonzero(values[subset] == c))
         b = int(np.count_nonzero(values == c))
-        out[str(c)] = [a, a / max(int(subset.sum()), 1), b, b / len(values)]
+        out[str(c)] = [a, a / max(int(subset.sum()), 1), b, b / max(len(values), 1)]
     return out
 
 
@@ -269,6 +269,7 @@ def analyse(run_dir, frame=None):
         "single_link_criteria": {"displacement": crit_single[0], "stress": crit_single[1]},
         "all_break_criteria": by,
         "single_class": share_table(cls, single, range(1, 5)),
+        "single_class_beyond_0.25_m": share_table(cls[radius >= 0.25], single[radius >= 0.25], range(1, 5)),
         "single_link_weaker_end": weaker,
         "single_layer_across": share_table(across, single, range(int(across.max()) + 1)),
         "single_radius_bins_m": rbins,
@@ -319,6 +320,8 @@ def report(r):
              f"{c['stress']}; all breaks: displacement {100 * a['displacement'] / max(a['displacement'] + a['stress'], 1):.1f} %")
     L.append("  class (singles of all automata; share of the singles/of all): " +
              ", ".join(f"{k}: {v[0]} of {v[2]} {v[1]:.2f}/{v[3]:.2f}" for k, v in r["single_class"].items()))
+    L.append("  the same beyond 0.25 m from the impact (without the plug): " +
+             ", ".join(f"{k}: {v[0]} of {v[2]} {v[1]:.2f}/{v[3]:.2f}" for k, v in r["single_class_beyond_0.25_m"].items()))
     L.append("  its links by class, single against neighbour: " + ", ".join(f"{k} {v}" for k, v in r["single_link_weaker_end"].items()))
     L.append("  layer across the wall (0 = impact face; singles of all automata; share of the singles/of all): " +
              ", ".join(f"{k}: {v[0]} of {v[2]} {v[1]:.2f}/{v[3]:.2f}" for k, v in r["single_layer_across"].items()))
