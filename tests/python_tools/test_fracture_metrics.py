@@ -1,0 +1,235 @@
+"""Tests of tools/fracture_metrics.py on fake run folders with known answers (run with
+/usr/bin/python3 -m pytest tests/python_tools)."""
+import json
+import math
+import os
+import sys
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "tools"))
+import fracture_metrics as fm  # noqa: E402
+
+
+def write_vtu(path, points, fields):
+    """A .vtu in mca's layout (src/io/vtk_writer.cpp): appended raw blocks, each a UInt64 byte count then
+    the bytes; offsets from the byte after '_'."""
+    n = len(points)
+    blocks, arrays, offset = [], [], 0
+
+    def add(arr):
+        nonlocal offset
+        raw = np.ascontiguousarray(arr).tobytes()
+        blocks.append(np.uint64(len(raw)).tobytes() + raw)
+        at = offset
+        offset += 8 + len(raw)
+        return at
+
+    xml = ['<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" '
+           'header_type="UInt64">\n  <UnstructuredGrid>\n', f'    <Piece NumberOfPoints="{n}" NumberOfCells="{n}">\n',
+           "      <PointData>\n"]
+    for name, arr in fields.items():
+        arr = np.asarray(arr)
+        comps = 1 if arr.ndim == 1 else arr.shape[1]
+        typ = "Float32" if arr.dtype.kind == "f" else "Int32"
+        arr = arr.astype("<f4" if typ == "Float32" else "<i4")
+        xml.append(f'        <DataArray type="{typ}" Name="{name}" NumberOfComponents="{comps}" format="appended" '
+                   f'offset="{add(arr)}"/>\n')
+    xml.append("      </PointData>\n      <Points>\n")
+    xml.append('        <DataArray type="Float32" Name="Points" NumberOfComponents="3" format="appended" '
+               f'offset="{add(np.asarray(points, "<f4"))}"/>\n')
+    xml.append("      </Points>\n      <Cells>\n")
+    conn = np.arange(n, dtype="<i4")
+    xml.append(f'        <DataArray type="Int32" Name="connectivity" format="appended" offset="{add(conn)}"/>\n')
+    xml.append(f'        <DataArray type="Int32" Name="offsets" format="appended" offset="{add(conn + 1)}"/>\n')
+    xml.append(f'        <DataArray type="UInt8" Name="types" format="appended" offset="{add(np.ones(n, "u1"))}"/>\n')
+    xml.append('      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n  <AppendedData encoding="raw">\n   _')
+    with open(path, "wb") as f:
+        f.write("".join(xml).encode())
+        for b in blocks:
+            f.write(b)
+        f.write(b"\n  </AppendedData>\n</VTKFile>\n")
+
+
+SCENE = """name = "fake"
+[[object]]
+name = "wall"
+shape = "box"
+size = [2.0, 0.2, 1.5]
+position = [0.0, 0.0, 0.75]
+[[projectile]]
+name = "ball"
+radius = 0.2
+position = [0.1, -0.4, 0.8]
+velocity = [0.0, 30.0, 0.0]
+"""
+
+# Damaged shares by sector (0, 45, ..., 315 degrees): axes 0.75, 0.5, 1.0, 0.75 (mean 0.75),
+# diagonals 0.25, 0.5, 0.0, 0.25 (mean 0.25): ratio 3.
+SHARES = [0.75, 0.25, 0.5, 0.5, 1.0, 0.0, 0.75, 0.25]
+CENTRE = np.array([0.1, 0.0, 0.8])  # the projectile's path through the wall's centre plane y = 0
+
+
+def fake_run(tmp_path, with_fragments=True):
+    """Points in eight sectors of the xz plane around CENTRE, 8 per sector, inside the annulus, damaged
+    as SHARES says; decoys (damaged, outside the annulus or on the sector's edge) that a wrong radius or
+    angle test would count; every point displaced so that a reader using the points, not the initial
+    positions, gets other sectors and radii."""
+    pts, dmg = [], []
+    for k, share in enumerate(SHARES):
+        for i in range(8):
+            r = 0.3 + 0.05 * i
+            ang = math.radians(45 * k + (-20 + 5 * i))  # within +-22.5 degrees of the sector's centre
+            pts.append(CENTRE + [r * math.cos(ang), 0.05 * (i % 3 - 1), r * math.sin(ang)])
+            # damaged: 1.0 or exactly the threshold 0.5 (counted: damage >= 0.5); undamaged: 0.4 or 0
+            dmg.append((0.5 if i % 2 else 1.0) if i < round(8 * share) else (0.4 if i % 2 else 0.0))
+    for r in (0.1, 0.2, 0.72, 0.9):  # outside the annulus, all damaged, on the diagonals
+        for k in (1, 3, 5, 7):
+            ang = math.radians(45 * k)
+            pts.append(CENTRE + [r * math.cos(ang), 0.0, r * math.sin(ang)])
+            dmg.append(1.0)
+    initial = np.array(pts)
+    rng = np.random.default_rng(3)
+    disp = np.column_stack([rng.uniform(0.3, 0.6, len(pts)), rng.uniform(-1, 1, len(pts)),
+                            rng.uniform(-0.6, -0.3, len(pts))])
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    # frame 0: undamaged, frame 1: the pattern
+    for f, d in ((0, np.zeros(len(pts))), (1, np.array(dmg))):
+        write_vtu(frames / f"automata_{f:06d}.vtu", initial + (disp if f else 0),
+                  {"velocity": np.zeros((len(pts), 3)), "displacement": disp if f else np.zeros((len(pts), 3)),
+                   "strength_class": np.full(len(pts), 4, dtype=np.int32), "damage": d})
+    (tmp_path / "automata.pvd").write_text(
+        '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
+        '  <Collection>\n'
+        '    <DataSet timestep="0" group="" part="0" file="frames/automata_000000.vtu"/>\n'
+        '    <DataSet timestep="0.002" group="" part="0" file="frames/automata_000001.vtu"/>\n'
+        '  </Collection>\n</VTKFile>\n')
+    (tmp_path / "scene.toml").write_text(SCENE)
+    return tmp_path
+
+
+def write_fragments(path, sizes, unit=0.3):
+    cols = ("id,automata,mass,volume,centre_x,centre_y,centre_z,velocity_x,velocity_y,velocity_z,"
+            "box_min_x,box_min_y,box_min_z,box_max_x,box_max_y,box_max_z")
+    rows = [cols]
+    for i, s in enumerate(sorted(sizes, reverse=True)):
+        rows.append(f"{i},{s},{s * unit!r}," + ",".join(["0"] * 13))
+    path.write_text("\n".join(rows) + "\n")
+
+
+def test_vtu_reader_round_trip(tmp_path):
+    pts = np.array([[0, 0, 0], [1.5, -2, 3], [1e3, 0.25, -7]], float)
+    write_vtu(tmp_path / "a.vtu", pts, {"damage": np.array([0.0, 0.5, 1.0]),
+                                        "strength_class": np.array([1, 2, 4], dtype=np.int32),
+                                        "velocity": np.arange(9.0).reshape(3, 3)})
+    v = fm.read_vtu(tmp_path / "a.vtu")
+    np.testing.assert_array_equal(v["Points"], pts.astype(np.float32))
+    np.testing.assert_array_equal(v["damage"], [0.0, 0.5, 1.0])
+    np.testing.assert_array_equal(v["strength_class"], [1, 2, 4])
+    np.testing.assert_array_equal(v["velocity"], np.arange(9.0).reshape(3, 3))
+    assert "connectivity" not in v
+
+
+def test_impact_point_and_plane_from_scene(tmp_path):
+    fake_run(tmp_path)
+    axis, centre = fm.impact_geometry(fm.read_scene(str(tmp_path)))
+    assert axis == 1
+    np.testing.assert_allclose(centre, CENTRE)
+
+
+def test_sector_shares_and_ratio(tmp_path):
+    fake_run(tmp_path)
+    d = fm.damage_measure(str(tmp_path))
+    assert d["frame"] == 1 and d["time"] == 0.002
+    assert d["automata_in_annulus"] == 64
+    assert d["sector_automata"] == [8] * 8
+    np.testing.assert_allclose(d["sector_shares"], SHARES)
+    assert d["axis_mean"] == pytest.approx(0.75)
+    assert d["diagonal_mean"] == pytest.approx(0.25)
+    assert d["axis_diagonal_ratio"] == pytest.approx(3.0)
+
+
+def test_earlier_frame_and_threshold(tmp_path):
+    fake_run(tmp_path)
+    d0 = fm.damage_measure(str(tmp_path), frame=0)
+    assert d0["sector_damaged"] == [0] * 8
+    # threshold 0.3 also counts the automata at damage 0.4 (odd i among the undamaged ones)
+    d = fm.damage_measure(str(tmp_path), threshold=0.3)
+    assert d["sector_damaged"][5] == 4 and d["sector_damaged"][4] == 8
+
+
+def sample_power_law(tau, s_max, n1):
+    """Sizes s = 1 .. s_max, round(n1 * s^-tau) fragments of each."""
+    sizes = []
+    for s in range(1, s_max + 1):
+        sizes += [s] * int(round(n1 * s ** -tau))
+    return sizes
+
+
+@pytest.mark.parametrize("tau", [1.6, 1.8, 2.0])
+def test_power_law_fit_recovers_tau(tmp_path, tau):
+    # sizes 1 .. 127: seven whole bins [1], [2, 3], ..., [64, 127]
+    sizes = sample_power_law(tau, 127, 1.0e4)
+    n = sum(sizes)
+    sizes += [n]  # one body as large as all the debris: half the mass
+    write_fragments(tmp_path / "fragments.csv", sizes)
+    f = fm.fragment_measure(str(tmp_path), fit_max=127)
+    fit = f["fit"]
+    assert fit["tau"] == pytest.approx(tau, abs=0.02)
+    assert fit["r2"] > 0.999
+    assert fit["bins_fitted"] == 7 and fit["empty_bins_in_range"] == 0
+    # decades between the first fitted point (m = 1) and the last (sqrt(64 * 127))
+    assert fit["decades"] == pytest.approx(math.log10(math.sqrt(64 * 127)))
+    assert f["largest_mass_share"] == pytest.approx(0.5)
+    assert f["above_tenth_count"] == 1
+    # the default range (up to N/10) takes the same seven bins and reports the empty ones above them
+    fit = fm.fragment_measure(str(tmp_path))["fit"]
+    assert fit["tau"] == pytest.approx(tau, abs=0.02)
+    assert fit["bins_fitted"] == 7 and fit["empty_bins_in_range"] > 0
+
+
+def test_mass_shares_by_size(tmp_path):
+    # 100 automata: 20 singles, 2 of 5, 1 of 10 (= N/10, counted as mid), 1 of 9, 1 of 51
+    sizes = [1] * 20 + [5, 5, 10, 9, 51]
+    assert sum(sizes) == 100
+    write_fragments(tmp_path / "fragments.csv", sizes)
+    f = fm.fragment_measure(str(tmp_path))
+    assert f["automata"] == 100 and f["fragments"] == 25
+    assert f["single_count"] == 20 and f["single_mass_share"] == pytest.approx(0.20)
+    assert f["small_2_9_count"] == 3 and f["small_2_9_mass_share"] == pytest.approx(0.19)
+    assert f["mid_count"] == 1 and f["mid_mass_share"] == pytest.approx(0.10)
+    assert f["largest_automata"] == 51 and f["largest_mass_share"] == pytest.approx(0.51)
+    counts = {b["lo"]: b["count"] for b in f["bins"]}
+    assert counts == {1: 20, 2: 0, 4: 2, 8: 2, 16: 0, 32: 1}
+
+
+def test_gaps_are_reported_not_fitted(tmp_path):
+    # singles and pairs, then nothing until the large body: two bins fitted, the rest in range empty
+    sizes = [1] * 400 + [2] * 100 + [3] * 20 + [4000]
+    write_fragments(tmp_path / "fragments.csv", sizes)
+    fit = fm.fragment_measure(str(tmp_path))["fit"]
+    assert fit["bins_fitted"] == 2
+    assert fit["empty_bins_in_range"] == fit["bins_in_range"] - 2 > 0
+    # densities 400 at m = 1 and 120 / 2 = 60 at m = sqrt(6): tau = log(400 / 60) / log(sqrt 6)
+    assert fit["tau"] == pytest.approx(math.log(400 / 60) / math.log(math.sqrt(6)))
+    assert fit["decades"] == pytest.approx(math.log10(math.sqrt(6)))
+
+
+def test_command_line_json_and_plot(tmp_path):
+    run = fake_run(tmp_path)
+    write_fragments(run / "fragments.csv", sample_power_law(1.8, 127, 1e4) + [20000])
+    out, png = tmp_path / "m.json", tmp_path / "m.png"
+    assert fm.main([str(run), "--json", str(out), "--plot", str(png)]) == 0
+    res = json.loads(out.read_text())
+    assert res["damage"]["axis_diagonal_ratio"] == pytest.approx(3.0)
+    assert res["fragments"]["fit"]["tau"] == pytest.approx(1.8, abs=0.02)
+    assert png.stat().st_size > 1000
+
+
+def test_missing_folder_is_an_error(tmp_path, capsys):
+    assert fm.main([str(tmp_path / "nothing")]) == 2
+    assert "not a folder" in capsys.readouterr().err
+    (tmp_path / "empty").mkdir()
+    assert fm.main([str(tmp_path / "empty")]) == 2

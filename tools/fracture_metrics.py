@@ -1,0 +1,443 @@
+#!/usr/bin/env python3
+"""The two fracture measures of issue 21, from an `mca run` output folder.
+
+1. Crack isotropy (the axis/diagonal damage ratio). From one frame of automata.pvd (the last unless
+   --frame/--time): each automaton's initial position is its point minus its `displacement`; those whose
+   distance from the impact point, measured in the wall's plane, lies in [r_in, r_out] (0.25-0.7 m) are
+   sorted into eight 45-degree sectors centred on the plane's two lattice axes (0, 90, 180, 270 degrees)
+   and the diagonals (45, 135, 225, 315 degrees). A sector's share is the share of its automata with
+   `damage` >= 0.5; the ratio is the mean share of the four axis sectors over that of the four diagonal
+   sectors (about 1 for an isotropic material).
+
+   The plane is the one normal to the projectile's velocity (its largest component: x, y or z), the impact
+   point is where the projectile's initial path crosses the plane through the first object's centre, both
+   read from the run's scene.toml (first [[projectile]], first [[object]]); --normal and --centre override
+   them. The angle is measured from the first in-plane axis towards the second (x then z for a y normal,
+   y then z for x, x then y for z). The lattice axes are taken to be the scene's axes (objects not
+   rotated).
+
+2. Fragment masses, from fragments.csv. With N automata and M their mass: the single automata (count and
+   mass share), the mass share of fragments of at least 10 automata and at most N/10 ("between 10
+   automata and a tenth of the object"), the largest fragment's share, and a power law n(m) ~ m^-tau
+   fitted to the number density of fragment masses in logarithmic bins. Masses are counted in automata,
+   m / (M / N) (for one material exactly the automata count): bin k holds [2^k, 2^(k+1)) automata, its
+   density is its count over its width 2^k, its abscissa the geometric mean of its smallest and largest
+   whole size, sqrt(2^k (2^(k+1) - 1)). The fit is an unweighted least-squares line through log10 n
+   against log10 m over the non-empty bins whose sizes lie wholly within [1, N/10] (the largest
+   fragments, the cut-off, are left out; --fit-max sets another bound in automata); it reports tau, its
+   standard error, R^2, the bins fitted, the empty bins inside the range, and the decades between the
+   first and the last fitted point.
+
+Usage:
+  /usr/bin/python3 tools/fracture_metrics.py RUN_DIR [--frame K | --time T] [--json OUT.json]
+        [--plot OUT.png] [--normal x|y|z] [--centre A B] [--r-in 0.25] [--r-out 0.7] [--threshold 0.5]
+        [--fit-max AUTOMATA] [--no-damage] [--no-fragments]
+
+Needs numpy (and matplotlib for --plot). Exit status 2 on a folder or file it cannot read.
+"""
+import argparse
+import csv
+import json
+import math
+import os
+import signal
+import re
+import sys
+
+import numpy as np
+
+AXES = "xyz"
+TAU_BAND = (1.5, 2.1)  # published 3D brittle impact fragmentation exponents (issue 21)
+
+
+class RunError(Exception):
+    pass
+
+
+# ---------------------------------------------------------------- VTK XML (appended raw binary)
+
+_DTYPES = {"Float32": "<f4", "Float64": "<f8", "Int32": "<i4", "Int64": "<i8", "UInt8": "u1",
+           "UInt32": "<u4", "UInt64": "<u8", "Int8": "i1", "Int16": "<i2", "UInt16": "<u2"}
+
+
+def _attrs(text):
+    return dict(re.findall(r'(\w+)="([^"]*)"', text))
+
+
+def read_vtu(path):
+    """Point data and points of an UnstructuredGrid .vtu written with appended raw data (mca's writer).
+
+    Returns {"Points": (n, 3) array, field name: (n,) or (n, k) array, ...}; cell arrays are skipped."""
+    with open(path, "rb") as f:
+        data = f.read()
+    marker = data.find(b"<AppendedData")
+    if marker < 0:
+        raise RunError(f"{path}: no <AppendedData> (not an appended-data .vtu)")
+    header = data[:marker].decode("utf-8", "replace")
+    tag_end = data.find(b">", marker)
+    tag = _attrs(data[marker:tag_end].decode("ascii", "replace"))
+    if tag.get("encoding", "raw") != "raw":
+        raise RunError(f"{path}: appended data is encoded '{tag.get('encoding')}', only raw is read")
+    underscore = data.find(b"_", tag_end)
+    if underscore < 0:
+        raise RunError(f"{path}: no '_' starting the appended data")
+    base = underscore + 1
+    vtk = re.search(r"<VTKFile([^>]*)>", header)
+    if not vtk:
+        raise RunError(f"{path}: no <VTKFile> element")
+    vattr = _attrs(vtk.group(1))
+    if vattr.get("byte_order", "LittleEndian") != "LittleEndian":
+        raise RunError(f"{path}: byte order {vattr.get('byte_order')} is not read")
+    head_dtype = {"UInt64": "<u8", "UInt32": "<u4"}.get(vattr.get("header_type", "UInt32"))
+    if head_dtype is None:
+        raise RunError(f"{path}: header_type {vattr.get('header_type')} is not read")
+    head_size = np.dtype(head_dtype).itemsize
+    piece = re.search(r"<Piece([^>]*)>", header)
+    if not piece:
+        raise RunError(f"{path}: no <Piece>")
+    n = int(_attrs(piece.group(1))["NumberOfPoints"])
+    out = {}
+    section = None
+    for m in re.finditer(r"<(/?)(PointData|Points|Cells|CellData|DataArray)\b([^>]*?)/?>", header):
+        closing, name, rest = m.groups()
+        if name != "DataArray":
+            section = None if closing else name
+            continue
+        if section not in ("PointData", "Points"):
+            continue
+        a = _attrs(rest)
+        if a.get("format") != "appended":
+            raise RunError(f"{path}: array {a.get('Name')} is not in appended format")
+        dtype = _DTYPES.get(a.get("type"))
+        if dtype is None:
+            raise RunError(f"{path}: array {a.get('Name')} has unknown type {a.get('type')}")
+        at = base + int(a["offset"])
+        if at + head_size > len(data):
+            raise RunError(f"{path}: array {a.get('Name')} starts past the end of the file")
+        nbytes = int(np.frombuffer(data, head_dtype, 1, at)[0])
+        comps = int(a.get("NumberOfComponents", "1"))
+        count = nbytes // np.dtype(dtype).itemsize
+        if count != n * comps or at + head_size + nbytes > len(data):
+            raise RunError(f"{path}: array {a.get('Name')} holds {count} values, expected {n} x {comps}")
+        arr = np.frombuffer(data, dtype, count, at + head_size)
+        out["Points" if section == "Points" else a["Name"]] = arr.reshape(n, comps) if comps > 1 else arr
+    if "Points" not in out:
+        raise RunError(f"{path}: no points")
+    return out
+
+
+def read_pvd(path):
+    """[(time, absolute file path)] of a .pvd collection, in its order."""
+    with open(path, encoding="utf-8") as f:
+        text = f.read()
+    frames = []
+    for m in re.finditer(r"<DataSet\b([^>]*)/?>", text):
+        a = _attrs(m.group(1))
+        frames.append((float(a.get("timestep", "nan")), os.path.join(os.path.dirname(path), a["file"])))
+    if not frames:
+        raise RunError(f"{path}: no <DataSet> entries")
+    return frames
+
+
+def pick_frame(frames, frame=None, time=None):
+    if time is not None:
+        k = int(np.argmin([abs(t - time) for t, _ in frames]))
+    elif frame is not None:
+        k = frame if frame >= 0 else len(frames) + frame
+        if not 0 <= k < len(frames):
+            raise RunError(f"frame {frame} is not among the {len(frames)} frames")
+    else:
+        k = len(frames) - 1
+    return k, frames[k][0], frames[k][1]
+
+
+# ---------------------------------------------------------------- scene geometry
+
+def read_scene(run_dir):
+    path = os.path.join(run_dir, "scene.toml")
+    if not os.path.exists(path):
+        return None
+    import tomllib
+
+    with open(path, "rb") as f:
+        return tomllib.load(f)
+
+
+def impact_geometry(scene):
+    """(normal axis index, 3-vector impact point) from the first projectile and the first object."""
+    if not scene or not scene.get("projectile") or not scene.get("object"):
+        raise RunError("scene.toml has no [[projectile]] and [[object]] to place the impact; give --normal "
+                       "and --centre")
+    p = scene["projectile"][0]
+    pos = np.asarray(p["position"], float)
+    vel = np.asarray(p.get("velocity", [0, 0, 0]), float)
+    if not np.any(vel):
+        raise RunError("the first projectile does not move; give --normal and --centre")
+    axis = int(np.argmax(np.abs(vel)))
+    plane = float(scene["object"][0].get("position", [0, 0, 0])[axis])
+    t = (plane - pos[axis]) / vel[axis]
+    return axis, pos + t * vel
+
+
+def in_plane_axes(normal):
+    return [a for a in range(3) if a != normal]
+
+
+# ---------------------------------------------------------------- measure 1: damage sectors
+
+def sector_shares(initial, damage, normal, centre, r_in=0.25, r_out=0.7, threshold=0.5):
+    """Shares of damaged automata in eight 45-degree sectors (sector k centred on k * 45 degrees)."""
+    a, b = in_plane_axes(normal)
+    da = initial[:, a] - centre[a]
+    db = initial[:, b] - centre[b]
+    r = np.hypot(da, db)
+    keep = (r >= r_in) & (r <= r_out)
+    ang = np.degrees(np.arctan2(db[keep], da[keep])) % 360.0
+    sector = (np.floor((ang + 22.5) / 45.0).astype(int)) % 8
+    damaged = damage[keep] >= threshold
+    counts = np.bincount(sector, minlength=8)
+    hits = np.bincount(sector, weights=damaged.astype(float), minlength=8)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        shares = hits / counts
+    axis_mean = float(np.mean(shares[0::2]))
+    diag_mean = float(np.mean(shares[1::2]))
+    ratio = axis_mean / diag_mean if diag_mean > 0 else float("inf")
+    return {
+        "plane_axes": [AXES[a], AXES[b]],
+        "normal": AXES[normal],
+        "centre": [float(c) for c in centre],
+        "r_in": r_in, "r_out": r_out, "threshold": threshold,
+        "automata_in_annulus": int(keep.sum()),
+        "sector_angles_deg": [45 * k for k in range(8)],
+        "sector_automata": [int(c) for c in counts],
+        "sector_damaged": [int(h) for h in hits],
+        "sector_shares": [float(s) for s in shares],
+        "axis_shares": [float(s) for s in shares[0::2]],
+        "diagonal_shares": [float(s) for s in shares[1::2]],
+        "axis_mean": axis_mean,
+        "diagonal_mean": diag_mean,
+        "axis_diagonal_ratio": ratio,
+    }
+
+
+def damage_measure(run_dir, frame=None, time=None, normal=None, centre=None, **kw):
+    pvd = os.path.join(run_dir, "automata.pvd")
+    if not os.path.exists(pvd):
+        raise RunError(f"{run_dir}: no automata.pvd (run with VTK output)")
+    k, t, path = pick_frame(read_pvd(pvd), frame, time)
+    v = read_vtu(path)
+    for name in ("displacement", "damage"):
+        if name not in v:
+            raise RunError(f"{path}: no point field '{name}'")
+    initial = v["Points"].astype(float) - v["displacement"].astype(float)
+    if normal is None or centre is None:
+        ax, c = impact_geometry(read_scene(run_dir))
+        normal = ax if normal is None else normal
+        centre = c if centre is None else centre
+    res = sector_shares(initial, v["damage"].astype(float), normal, np.asarray(centre, float), **kw)
+    res.update({"frame": k, "time": t, "file": os.path.relpath(path, run_dir)})
+    return res
+
+
+# ---------------------------------------------------------------- measure 2: fragment masses
+
+def read_fragments(path):
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    if not rows:
+        raise RunError(f"{path}: no fragments")
+    for col in ("automata", "mass"):
+        if col not in rows[0]:
+            raise RunError(f"{path}: no column '{col}'")
+    return np.array([int(r["automata"]) for r in rows]), np.array([float(r["mass"]) for r in rows])
+
+
+def log_bins(sizes):
+    """Bins [2^k, 2^(k+1)) of sizes in automata: (k, count, density, abscissa, lo, hi) per bin up to the largest."""
+    kmax = int(math.floor(math.log2(max(float(sizes.max()), 1.0))))
+    rows = []
+    for k in range(kmax + 1):
+        lo, hi = 2 ** k, 2 ** (k + 1)
+        count = int(np.count_nonzero((sizes >= lo - 0.5) & (sizes < hi - 0.5)))
+        rows.append({"k": k, "lo": lo, "hi": hi - 1, "count": count, "density": count / lo,
+                     "m": math.sqrt(lo * (hi - 1))})
+    return rows
+
+
+def power_law_fit(bins, fit_max):
+    """Least-squares fit of log10 density against log10 m over non-empty bins with hi <= fit_max."""
+    inside = [b for b in bins if b["hi"] <= fit_max]
+    used = [b for b in inside if b["count"] > 0]
+    res = {"fit_max_automata": fit_max, "bins_in_range": len(inside), "bins_fitted": len(used),
+           "empty_bins_in_range": len(inside) - len(used)}
+    if len(used) < 2:
+        res.update({"tau": None, "tau_stderr": None, "r2": None, "decades": 0.0})
+        return res
+    x = np.log10([b["m"] for b in used])
+    y = np.log10([b["density"] for b in used])
+    slope, icept = np.polyfit(x, y, 1)
+    pred = slope * x + icept
+    ss_res = float(np.sum((y - pred) ** 2))
+    ss_tot = float(np.sum((y - y.mean()) ** 2))
+    if len(used) > 2:
+        stderr = math.sqrt(ss_res / (len(used) - 2) / float(np.sum((x - x.mean()) ** 2)))
+    else:
+        stderr = None
+    res.update({"tau": float(-slope), "tau_stderr": stderr, "log10_prefactor": float(icept),
+                "r2": 1.0 - ss_res / ss_tot if ss_tot > 0 else 1.0,
+                "m_first": used[0]["m"], "m_last": used[-1]["m"], "decades": float(x[-1] - x[0])})
+    return res
+
+
+def fragment_measure(run_dir, fit_max=None):
+    path = os.path.join(run_dir, "fragments.csv")
+    if not os.path.exists(path):
+        raise RunError(f"{run_dir}: no fragments.csv")
+    automata, mass = read_fragments(path)
+    n_total = int(automata.sum())
+    m_total = float(mass.sum())
+    m_unit = m_total / n_total
+    sizes = mass / m_unit
+    tenth = n_total / 10.0
+    single = automata == 1
+    mid = (automata >= 10) & (automata <= tenth)
+    small = (automata >= 2) & (automata <= 9)
+    big = automata > tenth
+    bins = log_bins(sizes)
+    fit = power_law_fit(bins, tenth if fit_max is None else fit_max)
+    return {
+        "fragments": int(len(automata)), "automata": n_total, "mass": m_total, "automaton_mass": m_unit,
+        "single_count": int(single.sum()), "single_mass_share": float(mass[single].sum() / m_total),
+        "small_2_9_count": int(small.sum()), "small_2_9_mass_share": float(mass[small].sum() / m_total),
+        "mid_count": int(mid.sum()), "mid_mass_share": float(mass[mid].sum() / m_total),
+        "mid_range_automata": [10, tenth],
+        "above_tenth_count": int(big.sum()), "above_tenth_sizes": sorted((int(a) for a in automata[big]), reverse=True),
+        "largest_automata": int(automata.max()), "largest_mass_share": float(mass.max() / m_total),
+        "bins": bins, "fit": fit,
+    }
+
+
+def plot_spectrum(frag, path, title=""):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    unit = frag["automaton_mass"]
+    bins = [b for b in frag["bins"] if b["count"] > 0]
+    fit = frag["fit"]
+    fig, ax = plt.subplots(figsize=(7, 5))
+    inside = [b for b in bins if b["hi"] <= fit["fit_max_automata"]]
+    outside = [b for b in bins if b["hi"] > fit["fit_max_automata"]]
+    # density per kg: count / (width in automata * automaton mass)
+    ax.loglog([b["m"] * unit for b in inside], [b["density"] / unit for b in inside], "o", color="C0",
+              label="n(m), fitted bins")
+    if outside:
+        ax.loglog([b["m"] * unit for b in outside], [b["density"] / unit for b in outside], "s", mfc="none",
+                  color="C0", label="n(m), above the fit range")
+    if bins:
+        x0, y0 = bins[0]["m"] * unit, bins[0]["density"] / unit
+        xs = np.logspace(math.log10(x0), math.log10(max(b["m"] for b in bins) * unit * 1.5), 50)
+        ax.fill_between(xs, y0 * (xs / x0) ** -TAU_BAND[0], y0 * (xs / x0) ** -TAU_BAND[1], color="orange",
+                        alpha=0.25, label=f"published band, tau {TAU_BAND[0]}-{TAU_BAND[1]}")
+    if fit.get("tau") is not None:
+        xs = np.logspace(math.log10(fit["m_first"]), math.log10(fit["m_last"]), 20)
+        ys = 10 ** fit["log10_prefactor"] * xs ** -fit["tau"]
+        ax.loglog(xs * unit, ys / unit, "-", color="C3",
+                  label=f"fit tau = {fit['tau']:.2f}, R^2 = {fit['r2']:.2f}, {fit['decades']:.2f} decades")
+    ax.set_xlabel("fragment mass m [kg]")
+    ax.set_ylabel("n(m): fragments per kg of mass range")
+    ax.set_title(title or "Fragment mass spectrum")
+    ax.legend(fontsize=8)
+    ax.grid(True, which="both", alpha=0.3)
+    tmp = f"{path}.{os.getpid()}.tmp"
+    fig.savefig(tmp, dpi=100, format="png")
+    os.replace(tmp, path)
+    plt.close(fig)
+
+
+# ---------------------------------------------------------------- report
+
+def _fmt_share(x):
+    return "nan" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.3f}"
+
+
+def report(res):
+    lines = []
+    d = res.get("damage")
+    if d:
+        lines.append(f"damage sectors: frame {d['frame']} (t = {d['time'] * 1e3:.1f} ms), plane "
+                     f"{d['plane_axes'][0]}{d['plane_axes'][1]}, centre ({', '.join(f'{c:.3f}' for c in d['centre'])}), "
+                     f"annulus {d['r_in']}-{d['r_out']} m: {d['automata_in_annulus']} automata, damage >= {d['threshold']}")
+        lines.append("  sector (deg):  " + "  ".join(f"{a:>5d}" for a in d["sector_angles_deg"]))
+        lines.append("  automata:      " + "  ".join(f"{c:>5d}" for c in d["sector_automata"]))
+        lines.append("  damaged share: " + "  ".join(f"{_fmt_share(s):>5}" for s in d["sector_shares"]))
+        lines.append(f"  axes {', '.join(_fmt_share(s) for s in d['axis_shares'])} (mean {d['axis_mean']:.3f}); "
+                     f"diagonals {', '.join(_fmt_share(s) for s in d['diagonal_shares'])} (mean {d['diagonal_mean']:.3f})")
+        lines.append(f"  axis/diagonal ratio: {d['axis_diagonal_ratio']:.2f}")
+    f = res.get("fragments")
+    if f:
+        lines.append(f"fragments: {f['fragments']} of {f['automata']} automata ({f['mass']:.1f} kg)")
+        lines.append(f"  single automata: {f['single_count']} ({100 * f['single_mass_share']:.1f} % of the mass); "
+                     f"2-9 automata: {f['small_2_9_count']} ({100 * f['small_2_9_mass_share']:.1f} %)")
+        lines.append(f"  10 to {f['mid_range_automata'][1]:g} automata: {f['mid_count']} "
+                     f"({100 * f['mid_mass_share']:.1f} % of the mass); above: {f['above_tenth_count']} "
+                     f"{f['above_tenth_sizes'][:6]}")
+        lines.append(f"  largest: {f['largest_automata']} automata ({100 * f['largest_mass_share']:.1f} % of the mass)")
+        lines.append("  bins (automata: fragments): " +
+                     ", ".join(f"{b['lo']}-{b['hi']}: {b['count']}" for b in f["bins"]))
+        fit = f["fit"]
+        if fit["tau"] is None:
+            lines.append(f"  power law: fewer than 2 non-empty bins up to {fit['fit_max_automata']:g} automata, no fit")
+        else:
+            se = f" +- {fit['tau_stderr']:.2f}" if fit["tau_stderr"] is not None else ""
+            lines.append(f"  power law n(m) ~ m^-tau up to {fit['fit_max_automata']:g} automata: tau = {fit['tau']:.2f}{se}, "
+                         f"R^2 = {fit['r2']:.3f}, {fit['bins_fitted']} bins ({fit['empty_bins_in_range']} empty in range), "
+                         f"{fit['decades']:.2f} decades (m = {fit['m_first']:.1f} to {fit['m_last']:.1f} automata)")
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    if hasattr(signal, "SIGPIPE"):  # `| head` ends the output quietly
+        signal.signal(signal.SIGPIPE, signal.SIG_DFL)
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("run_dir")
+    g = ap.add_mutually_exclusive_group()
+    g.add_argument("--frame", type=int, help="frame index in automata.pvd (negative from the end; default last)")
+    g.add_argument("--time", type=float, help="the frame nearest this time [s]")
+    ap.add_argument("--json", help="write the measures to this JSON file")
+    ap.add_argument("--plot", help="write the fragment mass spectrum to this PNG")
+    ap.add_argument("--normal", choices=list(AXES), help="the wall plane's normal (default: from the projectile)")
+    ap.add_argument("--centre", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                    help="impact point (default: the projectile's path through the object's centre plane)")
+    ap.add_argument("--r-in", type=float, default=0.25)
+    ap.add_argument("--r-out", type=float, default=0.7)
+    ap.add_argument("--threshold", type=float, default=0.5)
+    ap.add_argument("--fit-max", type=float, help="largest fragment size fitted, in automata (default N/10)")
+    ap.add_argument("--no-damage", action="store_true")
+    ap.add_argument("--no-fragments", action="store_true")
+    a = ap.parse_args(argv)
+    res = {"run": os.path.abspath(a.run_dir)}
+    try:
+        if not os.path.isdir(a.run_dir):
+            raise RunError(f"{a.run_dir} is not a folder")
+        if not a.no_damage:
+            res["damage"] = damage_measure(a.run_dir, a.frame, a.time,
+                                           None if a.normal is None else AXES.index(a.normal), a.centre,
+                                           r_in=a.r_in, r_out=a.r_out, threshold=a.threshold)
+        if not a.no_fragments:
+            res["fragments"] = fragment_measure(a.run_dir, a.fit_max)
+            if a.plot:
+                plot_spectrum(res["fragments"], a.plot, os.path.basename(os.path.abspath(a.run_dir)))
+    except (RunError, OSError, KeyError, ValueError) as e:
+        print(f"fracture_metrics.py: {e}", file=sys.stderr)
+        return 2
+    print(report(res))
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(res, f, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
