@@ -21,6 +21,7 @@
 
 #include <mca/error.hpp>
 
+#include "core/files.hpp"
 #include "core/text.hpp"
 #include "io/default_scene.hpp"
 
@@ -393,10 +394,10 @@ void read_mesh_path(const Table& tb, std::string& out, bool resolve) {
       out = std::filesystem::absolute(c, ec).lexically_normal().string();
       return;
     }
-    if (std::filesystem::exists(c, ec)) {
-      tb.reader().fail(n->source(), fmt::format("{} = \"{}\": {} is not a regular file (a directory, device or pipe); "
-                                                "give a mesh file",
-                                                tb.key("mesh"), out, c.string()));
+    if (const std::string kind = files::non_regular_kind(c); !kind.empty()) {
+      tb.reader().fail(n->source(), fmt::format("{} = \"{}\": {} is {}, not a mesh file (mca reads only regular "
+                                                "files); give the path of a mesh file",
+                                                tb.key("mesh"), out, c.string(), kind));
     }
   }
   std::string looked;
@@ -755,9 +756,8 @@ SceneDef load_scene_file(const std::filesystem::path& path) {
                             "one of the example scenes in the scenes/ folder",
                             path.string(), std::filesystem::current_path(ec).string()));
   }
-  if (std::filesystem::is_directory(status)) {
-    throw Error(fmt::format("{}: is a directory, not a scene file; give the path of a .toml file", path.string()));
-  }
+  files::require_regular_file(path, "a scene file",
+                              "give the path of a .toml file (a scene made by a program: write it to a file first)");
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     throw Error(fmt::format("{}: cannot open the scene file ({}); check its permissions", path.string(),
