@@ -347,4 +347,10 @@ void FrameWriter::append_stats(const std::string& row) {
   }
 }
 
+void FrameWriter::sync_stats() {
+  if (stats_fd_ >= 0 && ::fdatasync(stats_fd_) != 0)
+    throw Error(fmt::format("could not write '{}' to the disk: {}; check free disk space and the --out folder",
+                            (dir_ / "stats.csv").string(), std::strerror(errno)));
+}
+
 }  // namespace mca::app

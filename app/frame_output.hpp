@@ -76,6 +76,9 @@ class FrameWriter {
   void start_stats(const std::vector<std::string>& rows);
   // Appends one row (one write call, so readers see whole rows). Throws mca::Error naming the file.
   void append_stats(const std::string& row);
+  // Puts the rows appended so far on the disk (fdatasync), before a checkpoint that a resume reads them
+  // back to: a crash after the checkpoint then cannot have lost them.
+  void sync_stats();
   // Rebuild the .pvd lists after a resume (frames 0..frames-1 exist on disk).
   void restore(std::int64_t frames, double frame_interval);
   static std::vector<std::string> stats_header(const Model& model);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <fmt/format.h>
 #include <optional>
 #include <fstream>
@@ -52,7 +53,6 @@ void say(fmt::format_string<A...> f, A&&... a) {
   const std::string s = fmt::format(f, std::forward<A>(a)...);
   std::fwrite(s.data(), 1, s.size(), stderr);
 }
-
 
 std::string human_time(double s) {
   if (s < 60) return fmt::format("{:.0f}s", s);
@@ -229,13 +229,36 @@ void remove_own_files(const std::filesystem::path& dir, const std::string& prefi
   for (const auto& p : doomed) std::filesystem::remove(p);
 }
 
-// The first `frames` data rows of an earlier run's stats.csv (for resume).
-std::vector<std::string> read_back_stats(const std::filesystem::path& dir, std::int64_t frames) {
-  std::ifstream in(dir / "stats.csv");
+// Whether `line` is a whole stats.csv row of `frame`: its frame number first, then numbers, as many cells
+// as the header.
+bool whole_stats_row(const std::string& line, std::int64_t frame, std::size_t cells) {
+  std::size_t n = 0, at = 0;
+  for (;;) {
+    const std::size_t end = std::min(line.find(',', at), line.size());
+    const std::string cell = line.substr(at, end - at);
+    char* stop = nullptr;
+    const double v = std::strtod(cell.c_str(), &stop);
+    if (cell.empty() || stop != cell.c_str() + cell.size()) return false;
+    if (n == 0 && v != static_cast<double>(frame)) return false;
+    ++n;
+    if (end == line.size()) break;
+    at = end + 1;
+  }
+  return n == cells;
+}
+
+// The first `frames` data rows of an earlier run's stats.csv (for resume), each a whole row of its frame
+// (whole_stats_row, ended by a line break). Rows past the checkpoint (a run stopped after a frame's row
+// and before its checkpoint) are left out, and so are a row cut short (a write interrupted by a full disk
+// or a crash) and whatever follows it.
+std::vector<std::string> read_back_stats(const std::filesystem::path& dir, std::int64_t frames, std::size_t cells) {
+  std::ifstream in(dir / "stats.csv", std::ios::binary);
   std::vector<std::string> rows;
   std::string line;
   if (!std::getline(in, line)) return rows;  // header
-  while (static_cast<std::int64_t>(rows.size()) < frames && std::getline(in, line)) rows.push_back(line);
+  while (static_cast<std::int64_t>(rows.size()) < frames && std::getline(in, line) && !in.eof() &&
+         whole_stats_row(line, static_cast<std::int64_t>(rows.size()), cells))
+    rows.push_back(line);
   return rows;
 }
 
@@ -251,7 +274,8 @@ struct Loop {
   RenderOutput* render = nullptr;  // --render
 };
 
-void save_checkpoint(const Loop& L, double wall) {
+void save_checkpoint(const Loop& L, FrameWriter& writer, double wall) {
+  writer.sync_stats();  // the rows up to it first: a resume from it reads them back
   const auto ckdir = L.dir / "checkpoints";
   std::filesystem::create_directories(ckdir);
   io::Checkpoint cp;
@@ -351,10 +375,11 @@ int run_loop(Loop& L, FrameWriter& writer) {
     writer.append_stats(writer.format_row(st));
     ++L.frame;
     const double wall = elapsed();
-    if (L.checkpoint_every > 0 && (L.frame - 1) % L.checkpoint_every == 0) save_checkpoint(L, L.wall_before + wall);
+    if (L.checkpoint_every > 0 && (L.frame - 1) % L.checkpoint_every == 0)
+      save_checkpoint(L, writer, L.wall_before + wall);
     progress(wall, sim.state().step >= L.plan.total_steps);
     if (const int sig = g_stop_signal; sig != 0) {
-      save_checkpoint(L, L.wall_before + wall);
+      save_checkpoint(L, writer, L.wall_before + wall);
       write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads,
                     "interrupted");
       say("{}interrupted by {} after frame {}; a checkpoint is saved. Continue with: mca resume {}\n",
@@ -598,8 +623,13 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   L.frame = cp.frame;
   L.wall_before = cp.wall_seconds;
   // Rows past the checkpoint (frames the interrupted run wrote after it) are dropped: they are written
-  // again as the run continues.
-  const auto rows = read_back_stats(dir, cp.frame);
+  // again as the run continues. The checkpoint's own frame's row is the checkpoint's state's: one lost or
+  // cut short is made again from it.
+  auto rows = read_back_stats(dir, cp.frame, FrameWriter::stats_header(sim.model()).size());
+  if (static_cast<std::int64_t>(rows.size()) == cp.frame - 1) {
+    const auto frags = writer.fragments(sim.state());
+    rows.push_back(writer.format_row(writer.stats(cp.frame - 1, sim.state(), frags)));
+  }
   if (static_cast<std::int64_t>(rows.size()) < cp.frame)
     fmt::print(stderr, "warning: {} has {} of the {} rows up to the checkpoint; the rows of frames {}..{} will be "
                "missing from it\n",
