@@ -13,6 +13,7 @@
 #include <unistd.h>
 #include <unordered_map>
 
+#include "core/text.hpp"
 #include "grid/uniform_grid.hpp"
 #include "lattice/heterogeneity.hpp"
 #include "lattice/mesh_object.hpp"
@@ -397,9 +398,10 @@ void refuse_over_memory(const SceneDef& scene, double d, double automata, bool a
                        static_cast<double>(estimate_memory_bytes(0));
   const double limit = scene.solver.max_memory_gb * 1e9;
   if (limit <= static_cast<double>(estimate_memory_bytes(0))) {
-    throw Error(fmt::format("{}: solver.max_memory_gb = {:g} is less than the {:.3g} GB the program takes without a "
-                            "model; raise solver.max_memory_gb",
-                            scene.source, scene.solver.max_memory_gb, estimate_memory_bytes(0) / 1e9));
+    throw Error(fmt::format("{}: solver.max_memory_gb = {} leaves nothing for a model: the program takes {} GB "
+                            "without one; raise solver.max_memory_gb above it, e.g. to 16 (the default)",
+                            scene.source, text::num(scene.solver.max_memory_gb),
+                            text::num(static_cast<double>(estimate_memory_bytes(0)) / 1e9)));
   }
   if (bytes > limit) {
     throw Error(fmt::format(

@@ -19,7 +19,8 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
   Model m = lattice::build_model(scene, placed);
   const double frame = 1.0 / scene.output.frame_rate;
   const double stable = m.dt;
-  if (scene.solver.time_step > 0 && frame < stable * (1 - 1e-9)) {
+  const bool given = scene.solver.time_step > 0;
+  if (given && frame < stable * (1 - 1e-9)) {
     throw Error(fmt::format("{}: output.frame_rate = {:g} asks for frames of {:.3g} s, shorter than solver.time_step = "
                             "{:g} s; lower output.frame_rate to at most {:.6g}, or remove solver.time_step",
                             scene.source, scene.output.frame_rate, frame, scene.solver.time_step, 1.0 / stable));
@@ -32,10 +33,23 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
                             scene.source, frame, scene.output.frame_rate, steps, stable, m.critical_dt, m.dt_limited_by));
   }
   steps_per_frame = static_cast<int>(steps);
-  // The automatic step is shortened so that a whole number of steps fills each frame.
-  if (scene.solver.time_step <= 0) lattice::set_time_step(m, static_cast<float>(frame / steps_per_frame));
+  // The automatic step is shortened so that a whole number of steps fills each frame. The count of steps
+  // is checked in double first: a frame shorter than float32 resolves would be a step of 0.
+  const double step = given ? stable : frame / steps_per_frame;
+  const bool frames_set_it = !given && frame < stable;  // each frame is one step, shorter than the stable one
+  if (!(std::round(scene.output.duration / step) <= static_cast<double>(Engine::kMaxSteps))) {
+    throw Error(fmt::format("{}: output.duration = {:g} s is {:.3g} steps of {:.3g} s{}, more than the {:.0e} a run "
+                            "can take; give a shorter output.duration (or --duration){}",
+                            scene.source, scene.output.duration, std::round(scene.output.duration / step), step,
+                            frames_set_it ? fmt::format(" (each frame of output.frame_rate = {:g} takes a step at least)",
+                                                        scene.output.frame_rate)
+                                          : "",
+                            static_cast<double>(Engine::kMaxSteps),
+                            frames_set_it ? " or a lower output.frame_rate" : ""));
+  }
+  if (!given) lattice::set_time_step(m, static_cast<float>(step));
   const double total = std::round(scene.output.duration / static_cast<double>(m.dt));
-  if (!(total <= static_cast<double>(Engine::kMaxSteps))) {
+  if (!(total <= static_cast<double>(Engine::kMaxSteps))) {  // the float step a hair shorter than the double
     throw Error(fmt::format("{}: output.duration = {:g} s is {:.3g} steps of {:.3g} s, more than the {:.0e} a run "
                             "can take; give a shorter output.duration (or --duration)",
                             scene.source, scene.output.duration, total, m.dt, static_cast<double>(Engine::kMaxSteps)));
