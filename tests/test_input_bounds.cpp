@@ -22,6 +22,7 @@
 #include "mesh_fixtures.hpp"
 #include "lattice/lattice.hpp"
 #include "mesh/mesh.hpp"
+#include "physics/contact_law.hpp"
 #include "shell.hpp"
 #include "support.hpp"
 #include "temp_dir.hpp"
@@ -414,6 +415,47 @@ TEST(InputBounds, AThousandBallsBuildInSeconds) {
 
 // The time step fell with the number of projectiles wherever they were (each ball's bound added every
 // other ball): with more balls than can touch one at once (16 of equal size) it stays that of 17 balls.
+// 1,000 balls of 1,000 radii took 181 s to build: a damping calibration per pair of radii (500,000). The
+// pairs of projectiles now read a curve of calibrations at fixed omega dt per restitution, so the count is
+// that of the other contacts (a ball with the ground and with each material) and a few curve points; each
+// pair still returns the restitution its own calibration gives.
+TEST(InputBounds, AThousandBallsOfDistinctRadiiCalibrateAFewDampingRatios) {
+  mca::SceneDef s = mca::test::block_scene(20, 4, 20, 0.05);
+  for (int i = 0; i < 1000; ++i) {
+    mca::ProjectileDef p;
+    p.name = fmt::format("ball{}", i);
+    p.radius = 0.1 + 0.0004 * i;  // 0.1 to 0.5 m
+    p.position = {-16.0 + 1.05 * (i % 32), -3.0, 3.0 + 1.05 * (i / 32)};
+    p.velocity = {0, 10, 0};
+    s.projectiles.push_back(p);
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  mca::Model m = mca::lattice::build_model(s);
+  std::printf("1,000 balls of distinct radii: built in %.2f s\n",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  const std::size_t P = m.projectiles.size();
+  ASSERT_EQ(P, 1000u);
+  const std::size_t calibrations = mca::lattice::set_time_step(m, m.dt);
+  // A ball with the ground and with each material keeps a calibration of its own; the pairs share a few.
+  EXPECT_LT(calibrations, (m.groups.size() + 1) * P + 200) << "not one per pair of radii";
+  EXPECT_GT(calibrations, P);
+  // Pairs spread over the radii: the restitution of the pair's ratio, as the step integrates it, against
+  // that of the pair's own calibration.
+  for (int k = 0; k < 40; ++k) {
+    const std::size_t p = (37u * k) % P, q = (91u * k + 5) % P;
+    if (p == q) continue;
+    const mca::ProjectileParams &A = m.projectiles[p], &B = m.projectiles[q];
+    const mca::ContactMaterial& c = m.projectile_pair_contact(p, q);
+    const double m_eff = A.mass * B.mass / (A.mass + B.mass);
+    const double w = std::sqrt(c.youngs * 2.0 * std::min(A.radius, B.radius) / m_eff) * m.dt;
+    const double own = mca::discrete_restitution(mca::discrete_damping_ratio(c.restitution, w), w);
+    const double e = mca::discrete_restitution(m.zeta_projectiles[p * P + q], w);
+    EXPECT_NEAR(e, own, 3e-3) << "balls " << p << " and " << q << ", omega dt " << w;
+    EXPECT_NEAR(e, c.restitution, 0.01) << "balls " << p << " and " << q << ", omega dt " << w;
+    EXPECT_EQ(m.zeta_projectiles[p * P + q], m.zeta_projectiles[q * P + p]);
+  }
+}
+
 TEST(InputBounds, TheTimeStepDoesNotFallWithTheNumberOfFarApartBalls) {
   auto step = [](int balls) {
     mca::SceneDef s = mca::test::block_scene(10, 10, 2, 0.1);
