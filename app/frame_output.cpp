@@ -81,6 +81,20 @@ MemoryEstimate estimate_memory(const Model& m, const OutputDef& o, int render_wi
   // fill's distance grids at the spacing are small beside them. Measured: `mca info scenes/bunny.toml`
   // (75,408 triangles) peaks 23 MB above a box of as many automata, 305 bytes a triangle.
   e.meshes = 310.0 * static_cast<double>(m.surface.faces());
+  // The build: before the run's arrays exist, each volume-filled mesh holds arrays over its whole box of
+  // cells (measured: two 0.3 m cubes 100 m apart at 5 mm, 72 M cells, peaked at 829 MB, 794 MB of them
+  // the cells', where the run's arrays are 358 MB).
+  // The box is the mesh's in its file times its scale, in cells of the spacing, 11 bytes a cell
+  // (lattice.cpp, mesh_fill; 2 more per mesh region, left out here); the model's own arrays (88 bytes an
+  // automaton, estimate_memory_bytes) are built meanwhile.
+  e.build = static_cast<double>(estimate_memory_bytes(0)) + e.meshes + 88.0 * static_cast<double>(m.size());
+  for (const MeshSummary& ms : m.meshes) {
+    if (ms.surface) continue;
+    double cells = 1;
+    for (int c = 0; c < 3; ++c)
+      cells *= std::max(1.0, std::round((ms.file_hi[c] - ms.file_lo[c]) * ms.scale / static_cast<double>(m.spacing)));
+    e.build += 11.0 * cells;
+  }
   // A frame's posed surface and the bytes written from it: measured 1.9 MB for the bunny's 1.73 MB frames.
   if (o.surface && m.surface.faces() > 0)
     e.surface_output = 1.1 * estimate_output(m, o, 1).surface_frame;
@@ -345,6 +359,12 @@ void FrameWriter::append_stats(const std::string& row) {
                               n < 0 ? std::strerror(errno) : "nothing written"));
     done += static_cast<std::size_t>(n);
   }
+}
+
+void FrameWriter::sync_stats() {
+  if (stats_fd_ >= 0 && ::fdatasync(stats_fd_) != 0)
+    throw Error(fmt::format("could not write '{}' to the disk: {}; check free disk space and the --out folder",
+                            (dir_ / "stats.csv").string(), std::strerror(errno)));
 }
 
 }  // namespace mca::app

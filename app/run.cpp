@@ -5,6 +5,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <fmt/format.h>
 #include <optional>
 #include <fstream>
@@ -29,8 +30,29 @@
 namespace mca::app {
 namespace {
 
-std::atomic<bool> g_interrupted{false};
-extern "C" void on_sigint(int) { g_interrupted = true; }
+// The signal that stops the run, 0 while none came: SIGINT (Ctrl-C), SIGTERM (kill, a batch system's time
+// limit) and SIGHUP (the terminal closed) alike end it at the next chunk of steps with its summary, and
+// with a checkpoint when at a frame's end.
+std::atomic<int> g_stop_signal{0};
+static_assert(std::atomic<int>::is_always_lock_free, "set from a signal handler");
+extern "C" void on_stop_signal(int sig) { g_stop_signal = sig; }
+
+std::string_view signal_name(int sig) {
+  switch (sig) {
+    case SIGINT: return "SIGINT (Ctrl-C)";
+    case SIGTERM: return "SIGTERM";
+    case SIGHUP: return "SIGHUP (the terminal closed)";
+    default: return "a signal";
+  }
+}
+
+// Progress and the messages of a stopped run go to stderr without throwing: after SIGHUP the terminal is
+// gone and writes to it fail (EIO), where fmt::print would throw past the summary and the checkpoint.
+template <class... A>
+void say(fmt::format_string<A...> f, A&&... a) {
+  const std::string s = fmt::format(f, std::forward<A>(a)...);
+  std::fwrite(s.data(), 1, s.size(), stderr);
+}
 
 std::string human_time(double s) {
   if (s < 60) return fmt::format("{:.0f}s", s);
@@ -207,13 +229,36 @@ void remove_own_files(const std::filesystem::path& dir, const std::string& prefi
   for (const auto& p : doomed) std::filesystem::remove(p);
 }
 
-// The first `frames` data rows of an earlier run's stats.csv (for resume).
-std::vector<std::string> read_back_stats(const std::filesystem::path& dir, std::int64_t frames) {
-  std::ifstream in(dir / "stats.csv");
+// Whether `line` is a whole stats.csv row of `frame`: its frame number first, then numbers, as many cells
+// as the header.
+bool whole_stats_row(const std::string& line, std::int64_t frame, std::size_t cells) {
+  std::size_t n = 0, at = 0;
+  for (;;) {
+    const std::size_t end = std::min(line.find(',', at), line.size());
+    const std::string cell = line.substr(at, end - at);
+    char* stop = nullptr;
+    const double v = std::strtod(cell.c_str(), &stop);
+    if (cell.empty() || stop != cell.c_str() + cell.size()) return false;
+    if (n == 0 && v != static_cast<double>(frame)) return false;
+    ++n;
+    if (end == line.size()) break;
+    at = end + 1;
+  }
+  return n == cells;
+}
+
+// The first `frames` data rows of an earlier run's stats.csv (for resume), each a whole row of its frame
+// (whole_stats_row, ended by a line break). Rows past the checkpoint (a run stopped after a frame's row
+// and before its checkpoint) are left out, and so are a row cut short (a write interrupted by a full disk
+// or a crash) and whatever follows it.
+std::vector<std::string> read_back_stats(const std::filesystem::path& dir, std::int64_t frames, std::size_t cells) {
+  std::ifstream in(dir / "stats.csv", std::ios::binary);
   std::vector<std::string> rows;
   std::string line;
   if (!std::getline(in, line)) return rows;  // header
-  while (static_cast<std::int64_t>(rows.size()) < frames && std::getline(in, line)) rows.push_back(line);
+  while (static_cast<std::int64_t>(rows.size()) < frames && std::getline(in, line) && !in.eof() &&
+         whole_stats_row(line, static_cast<std::int64_t>(rows.size()), cells))
+    rows.push_back(line);
   return rows;
 }
 
@@ -229,7 +274,8 @@ struct Loop {
   RenderOutput* render = nullptr;  // --render
 };
 
-void save_checkpoint(const Loop& L, double wall) {
+void save_checkpoint(const Loop& L, FrameWriter& writer, double wall) {
+  writer.sync_stats();  // the rows up to it first: a resume from it reads them back
   const auto ckdir = L.dir / "checkpoints";
   std::filesystem::create_directories(ckdir);
   io::Checkpoint cp;
@@ -253,9 +299,8 @@ int run_loop(Loop& L, FrameWriter& writer) {
   const auto start = std::chrono::steady_clock::now();
   const std::int64_t first_step = sim.state().step;
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
-  std::signal(SIGINT, on_sigint);
-  std::signal(SIGTERM, on_sigint);
-  g_interrupted = false;
+  g_stop_signal = 0;
+  for (const int sig : {SIGINT, SIGTERM, SIGHUP}) std::signal(sig, on_stop_signal);
   double last_print = -1;
   const int spf = sim.steps_per_frame();
 
@@ -268,8 +313,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
     const double eta = done > 0 ? wall * left / done : 0;
     const double frac = static_cast<double>(sim.state().step) / static_cast<double>(L.plan.total_steps);
     const int bar = static_cast<int>(frac * 30);
-    fmt::print(stderr, "{}[{}{}] {:3.0f}%  t={:.4g}/{:.4g} s  frame {}/{}  {:.2f} M automaton-steps/s  broken {}  "
-               "ETA {}{}",
+    say("{}[{}{}] {:3.0f}%  t={:.4g}/{:.4g} s  frame {}/{}  {:.2f} M automaton-steps/s  broken {}  ETA {}{}",
                tty ? "\r" : "", std::string(bar, '#'), std::string(30 - bar, '.'), 100 * frac, sim.state().time,
                L.plan.total_steps * static_cast<double>(m.dt), L.frame - 1, L.plan.total_frames, rate / 1e6,
                sim.state().broken_by[0] + sim.state().broken_by[1], human_time(eta), tty ? "   " : "\n");
@@ -287,20 +331,19 @@ int run_loop(Loop& L, FrameWriter& writer) {
       const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (took < 0.1 && chunk < (std::int64_t{1} << 30)) chunk *= 2;
       else if (took > 0.5 && chunk > 1) chunk /= 2;
-      if (g_interrupted && h.flags == kHealthy && sim.state().step < frame_end) {
+      if (const int sig = g_stop_signal; sig != 0 && h.flags == kHealthy && sim.state().step < frame_end) {
         // Checkpoints hold frame boundaries only: stop here, and point to the newest one.
         const auto saved = io::list_checkpoints(L.dir / "checkpoints");
         write_summary(L.dir, sim, writer.fragments(sim.state()), L.wall_before, elapsed(),
                       sim.state().step - first_step, L.threads, "interrupted");
-        fmt::print(stderr,
-                   "{}interrupted inside frame {} (step {} of the run); checkpoints are saved at frame ends only, "
-                   "so {}\n",
-                   tty ? "\n" : "", L.frame, sim.state().step,
-                   saved.empty() ? std::string("none was saved: start the run again (with --checkpoint-every N to "
-                                               "be able to resume)")
-                                 : fmt::format("continue from the newest ({}) with: mca resume {}",
-                                               saved.back().filename().string(), L.dir.string()));
-        return 130;
+        say("{}interrupted by {} inside frame {} (step {} of the run); checkpoints are saved at frame ends only, so "
+            "{}\n",
+            tty ? "\n" : "", signal_name(sig), L.frame, sim.state().step,
+            saved.empty() ? std::string("none was saved: start the run again (with --checkpoint-every N to be able "
+                                        "to resume)")
+                          : fmt::format("continue from the newest ({}) with: mca resume {}",
+                                        saved.back().filename().string(), L.dir.string()));
+        return 128 + sig;
       }
       progress(elapsed(), false);
     }
@@ -332,15 +375,16 @@ int run_loop(Loop& L, FrameWriter& writer) {
     writer.append_stats(writer.format_row(st));
     ++L.frame;
     const double wall = elapsed();
-    if (L.checkpoint_every > 0 && (L.frame - 1) % L.checkpoint_every == 0) save_checkpoint(L, L.wall_before + wall);
+    if (L.checkpoint_every > 0 && (L.frame - 1) % L.checkpoint_every == 0)
+      save_checkpoint(L, writer, L.wall_before + wall);
     progress(wall, sim.state().step >= L.plan.total_steps);
-    if (g_interrupted) {
-      save_checkpoint(L, L.wall_before + wall);
+    if (const int sig = g_stop_signal; sig != 0) {
+      save_checkpoint(L, writer, L.wall_before + wall);
       write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads,
                     "interrupted");
-      fmt::print(stderr, "{}interrupted after frame {}; a checkpoint is saved. Continue with: mca resume {}\n",
-                 tty ? "\n" : "", L.frame - 1, L.dir.string());
-      return 130;
+      say("{}interrupted by {} after frame {}; a checkpoint is saved. Continue with: mca resume {}\n",
+          tty ? "\n" : "", signal_name(sig), L.frame - 1, L.dir.string());
+      return 128 + sig;
     }
   }
   const double wall = elapsed();
@@ -579,8 +623,13 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   L.frame = cp.frame;
   L.wall_before = cp.wall_seconds;
   // Rows past the checkpoint (frames the interrupted run wrote after it) are dropped: they are written
-  // again as the run continues.
-  const auto rows = read_back_stats(dir, cp.frame);
+  // again as the run continues. The checkpoint's own frame's row is the checkpoint's state's: one lost or
+  // cut short is made again from it.
+  auto rows = read_back_stats(dir, cp.frame, FrameWriter::stats_header(sim.model()).size());
+  if (static_cast<std::int64_t>(rows.size()) == cp.frame - 1) {
+    const auto frags = writer.fragments(sim.state());
+    rows.push_back(writer.format_row(writer.stats(cp.frame - 1, sim.state(), frags)));
+  }
   if (static_cast<std::int64_t>(rows.size()) < cp.frame)
     fmt::print(stderr, "warning: {} has {} of the {} rows up to the checkpoint; the rows of frames {}..{} will be "
                "missing from it\n",

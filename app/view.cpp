@@ -29,6 +29,7 @@
 
 #include "analysis/fragments.hpp"
 #include "app/commands.hpp"
+#include "core/files.hpp"
 #include "io/output_files.hpp"
 #include "io/scene_io.hpp"
 #include "mca/error.hpp"
@@ -50,8 +51,10 @@ struct Shot {
 // width and height from its top left); '#' starts a comment.
 std::vector<Shot> read_script(const std::string& path) {
   std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw Error(fmt::format("--script {} is a folder; give a file of shots, one 'TIME X Y' per line", path));
+  if (const std::string kind = files::non_regular_kind(path); !kind.empty())
+    throw Error(fmt::format("--script {}: is {}, not a file of shots (mca reads only regular files); give a file of "
+                            "shots, one 'TIME X Y' per line",
+                            path, kind));
   if (!std::filesystem::exists(path, ec))
     throw Error(fmt::format("--script {}: no such file; give a file of shots, one 'TIME X Y' per line", path));
   std::ifstream in(path);

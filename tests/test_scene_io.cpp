@@ -454,7 +454,7 @@ TEST(SceneIo, PresetAndSharesBothGiven) {
 
 TEST(SceneIo, ZeroSpacing) {
   const std::string msg = parse_error(kMinimal + "[solver]\nspacing = 0\n", "wall.toml");
-  EXPECT_HAS(msg, "wall.toml: solver.spacing = 0 is out of range: must be > 0");
+  EXPECT_HAS(msg, "wall.toml: solver.spacing = 0 is out of range: must be in [1e-9, 1e9] [m]");
 }
 
 TEST(SceneIo, ZeroSizeAndRadius) {

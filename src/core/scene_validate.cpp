@@ -194,7 +194,10 @@ void validate_scene(const SceneDef& scene) {
   const Checker c(scene);
 
   // Solver.
-  c.positive("solver.spacing", scene.solver.spacing, "give the lattice spacing in metres, e.g. 0.05");
+  // The spacing is stored in float32, and memory and counts go with its cube: 1e-300 became a spacing of
+  // 0 and "inf GB" in the messages. Below a nanometre a lattice of continuum cells means nothing.
+  c.range("solver.spacing", scene.solver.spacing, 1e-9, true, 1e9, true, "in [1e-9, 1e9] [m]",
+          "give the lattice spacing in metres, e.g. 0.05");
   // 1.8e8 automata is the most a model holds (links are addressed with 29 bits); a larger target would
   // only make the search for its spacing count lattices of absurd size.
   if (scene.solver.target_automata > 178'956'970) {
@@ -245,8 +248,10 @@ void validate_scene(const SceneDef& scene) {
 
   // Output.
   c.positive("output.duration", scene.output.duration, "give the simulated time in seconds, e.g. 0.05");
-  c.positive("output.frame_rate", scene.output.frame_rate,
-             "give output frames per simulated second, e.g. 500");
+  // A frame takes at least a step, and a step is at least 1e-12 s (solver.time_step); 1e300 made a step of
+  // 0 s in float32.
+  c.range("output.frame_rate", scene.output.frame_rate, 0, false, 1e12, true, "in (0, 1e12] [1/s]",
+          "give output frames per simulated second, e.g. 500");
   if (scene.output.surface &&
       std::none_of(scene.objects.begin(), scene.objects.end(), [](const ObjectDef& o) { return o.shape == Shape::mesh; })) {
     c.fail("output.surface = true, but no object is a mesh: the surface written is that of the mesh objects; add an "

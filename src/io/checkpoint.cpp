@@ -10,6 +10,7 @@
 #include <utility>
 #include <type_traits>
 
+#include "core/files.hpp"
 #include "core/fnv.hpp"
 #include "io/output_files.hpp"
 #include "io/scene_io.hpp"
@@ -238,6 +239,8 @@ void write_checkpoint(const std::filesystem::path& path, const Checkpoint& cp) {
 }
 
 Checkpoint read_checkpoint(const std::filesystem::path& path) {
+  files::require_regular_file(path, "a checkpoint",
+                              "pass the output folder of a run started with --checkpoint-every N");
   std::ifstream in(path, std::ios::binary);
   if (!in)
     throw Error(fmt::format("cannot open checkpoint '{}': {}; pass the output folder of a run started with "

@@ -33,7 +33,8 @@ std::vector<double> surface_automaton_steps(const Model& model);
 
 // Sets the model's time step and calibrates the contact dashpots for it (Model::zeta_pair): called by
 // build_model and again by whoever shortens the step (the Engine fits a whole number of steps in a frame).
-void set_time_step(Model& model, float dt);
+// Returns how many damping ratios it calibrated by simulating a contact (discrete_damping_ratio).
+std::size_t set_time_step(Model& model, float dt);
 
 // Progress of a long model build on stderr, as `mca run` shows a run's: while one is alive, build_model
 // names its stages to it (BuildProgress::stage); once a build has taken 2 s, the stage in progress is

@@ -515,12 +515,18 @@ SurfaceCells surface_cells(const SceneDef& scene, std::size_t index, const MeshO
   }
   // A shell far thinner or thicker than its triangles are apart is outside what its automata (about cubes
   // of the link length) and the time-step bound were built for.
+  // The bounds are shown to 4 digits rounded inwards, so that the figures the message gives are accepted
+  // (8.585 was shown as the largest and refused: the bound was 8.58499...).
+  auto inward = [](double x, bool up) {
+    const double unit = std::pow(10.0, std::floor(std::log10(x)) - 3);
+    return (up ? std::ceil(x / unit) : std::floor(x / unit)) * unit;
+  };
   if (c.mean_link > 0 && (c.thickness < 0.01 * c.mean_link || c.thickness > 100 * c.mean_link)) {
     throw Error(fmt::format("{}: shell_thickness = {:g} m is out of range for the mesh {}: it must be between 0.01 and "
                             "100 times the mean distance of linked triangles ({:.4g} m), {:.4g} to {:.4g} m; remesh the "
                             "model finer or coarser for another thickness",
-                            where(scene, index), c.thickness, m.solid.file, c.mean_link, 0.01 * c.mean_link,
-                            100 * c.mean_link));
+                            where(scene, index), c.thickness, m.solid.file, c.mean_link,
+                            inward(0.01 * c.mean_link, true), inward(100 * c.mean_link, false)));
   }
   if (c.mean_link > 0) refuse_float32_rounding(scene, index, m, c.mean_link, "mean distance of linked triangles");
   return c;

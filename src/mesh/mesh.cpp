@@ -22,6 +22,7 @@
 #include <numeric>
 #include <unordered_map>
 
+#include "core/files.hpp"
 #include "core/fnv.hpp"
 #include "mesh/readers.hpp"
 #include "mca/error.hpp"
@@ -654,9 +655,7 @@ bool float32_format(const std::string& path_or_extension) {
 TriMesh read_mesh(const std::string& path, double max_memory_bytes) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw Error(fmt::format("{}: no such mesh file", path));
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    throw Error(fmt::format("{}: is not a regular file (a directory, device or pipe); give a mesh file", path));
-  }
+  files::require_regular_file(path, "a mesh file", "give the path of a mesh file");
   const std::string ext = lower_extension(path);
   if (!known_extension(ext)) {
     throw Error(fmt::format("{}: unknown mesh extension '{}'; mca reads {} (convert the file, e.g. with MeshLab or "

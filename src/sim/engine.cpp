@@ -17,25 +17,50 @@ namespace {
 Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t& total_steps,
                        std::size_t placed = 0) {
   Model m = lattice::build_model(scene, placed);
-  const double frame = 1.0 / scene.output.frame_rate;
+  double frame = 1.0 / scene.output.frame_rate;
   const double stable = m.dt;
-  if (scene.solver.time_step > 0 && frame < stable * (1 - 1e-9)) {
+  const bool given = scene.solver.time_step > 0;
+  if (given && frame < stable * (1 - 1e-9)) {
     throw Error(fmt::format("{}: output.frame_rate = {:g} asks for frames of {:.3g} s, shorter than solver.time_step = "
                             "{:g} s; lower output.frame_rate to at most {:.6g}, or remove solver.time_step",
                             scene.source, scene.output.frame_rate, frame, scene.solver.time_step, 1.0 / stable));
   }
+  // A frame longer than the run is the run: its only frames are the first and the last (output.frame_rate
+  // = 1e-6 over 0.05 s), however many steps a whole frame would take.
+  if (std::ceil(frame / stable - 1e-9) > 1e9 && scene.output.duration < frame) frame = scene.output.duration;
   const double steps = std::max(1.0, std::ceil(frame / stable - 1e-9));
   if (steps > 1e9) {
+    const double rate = steps / 1e9 / frame;  // the frame rate at which a frame is 1e9 steps
+    if (given)
+      throw Error(fmt::format("{}: a frame of {:.3g} s (output.frame_rate = {:g}) is {:.3g} steps of solver.time_step = "
+                              "{:g} s, more than the 1e9 a frame can take; raise output.frame_rate to at least {:.3g}, "
+                              "or give a larger solver.time_step",
+                              scene.source, frame, scene.output.frame_rate, steps, stable, rate));
     throw Error(fmt::format("{}: a frame of {:.3g} s (output.frame_rate = {:g}) would take {:.3g} steps of {:.3g} s: "
                             "the critical time step is {:.3g} s, set by {}. Check the scene's numbers (densities, "
-                            "moduli, sizes and their units), or raise output.frame_rate so a frame is at most 1e9 steps",
-                            scene.source, frame, scene.output.frame_rate, steps, stable, m.critical_dt, m.dt_limited_by));
+                            "moduli, sizes and their units), or raise output.frame_rate to at least {:.3g} so a frame "
+                            "is at most 1e9 steps",
+                            scene.source, frame, scene.output.frame_rate, steps, stable, m.critical_dt, m.dt_limited_by,
+                            rate));
   }
   steps_per_frame = static_cast<int>(steps);
-  // The automatic step is shortened so that a whole number of steps fills each frame.
-  if (scene.solver.time_step <= 0) lattice::set_time_step(m, static_cast<float>(frame / steps_per_frame));
+  // The automatic step is shortened so that a whole number of steps fills each frame. The count of steps
+  // is checked in double first: a frame shorter than float32 resolves would be a step of 0.
+  const double step = given ? stable : frame / steps_per_frame;
+  const bool frames_set_it = !given && frame < stable;  // each frame is one step, shorter than the stable one
+  if (!(std::round(scene.output.duration / step) <= static_cast<double>(Engine::kMaxSteps))) {
+    throw Error(fmt::format("{}: output.duration = {:g} s is {:.3g} steps of {:.3g} s{}, more than the {:.0e} a run "
+                            "can take; give a shorter output.duration (or --duration){}",
+                            scene.source, scene.output.duration, std::round(scene.output.duration / step), step,
+                            frames_set_it ? fmt::format(" (each frame of output.frame_rate = {:g} takes a step at least)",
+                                                        scene.output.frame_rate)
+                                          : "",
+                            static_cast<double>(Engine::kMaxSteps),
+                            frames_set_it ? " or a lower output.frame_rate" : ""));
+  }
+  if (!given) lattice::set_time_step(m, static_cast<float>(step));
   const double total = std::round(scene.output.duration / static_cast<double>(m.dt));
-  if (!(total <= static_cast<double>(Engine::kMaxSteps))) {
+  if (!(total <= static_cast<double>(Engine::kMaxSteps))) {  // the float step a hair shorter than the double
     throw Error(fmt::format("{}: output.duration = {:g} s is {:.3g} steps of {:.3g} s, more than the {:.0e} a run "
                             "can take; give a shorter output.duration (or --duration)",
                             scene.source, scene.output.duration, total, m.dt, static_cast<double>(Engine::kMaxSteps)));

@@ -1,0 +1,182 @@
+// Values at the extremes get messages with the right numbers and a fix (no inf, nan or a step of 0 s), and
+// each documented range of docs/scene-format.md holds at its edges: the edge works, past it is refused.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include <mca/error.hpp>
+#include <mca/scene.hpp>
+
+#include "io/scene_io.hpp"
+#include "lattice/lattice.hpp"
+#include "mesh_fixtures.hpp"
+#include "physics/contact_law.hpp"
+#include "sim/engine.hpp"
+#include "support.hpp"
+#include "temp_dir.hpp"
+
+namespace mca {
+namespace {
+
+using test::error_of;
+
+#define EXPECT_HAS(message, part) EXPECT_NE((message).find(part), std::string::npos) << "message: " << (message)
+
+// Numbers gone wrong in a message: infinities, NaNs, a spacing or step printed as 0.
+void expect_sane(const std::string& m) {
+  for (const char* bad : {"inf", "nan", " 0 m", " 0 s"}) EXPECT_EQ(m.find(bad), std::string::npos) << bad << " in: " << m;
+}
+
+// A 0.3 m concrete cube at spacing 0.05 (216 automata), 0.05 s at 500 frames a second, as `extra` changes.
+SceneDef cube(const std::string& extra = "") {
+  return io::parse_scene(extra + "\n[[object]]\nsize = [0.3, 0.3, 0.3]\nposition = [0, 0, 0.5]\n", "edge.toml");
+}
+
+std::string scene_error(const std::string& extra) {
+  return error_of([&] { cube(extra); });
+}
+
+std::string engine_error(const std::string& extra) {
+  return error_of([&] { Engine e(cube(extra)); });
+}
+
+// Item 4: spacing = 1e-300 was rounded to a float spacing of 0: "inf GB for at least inf automata at
+// spacing 0 m ... a spacing of about -nan m fits".
+TEST(RangeEdges, ExtremeSpacingsAreRefusedWithTheirValue) {
+  for (const char* v : {"1e-300", "1e300", "9.99e-10", "1.01e9"}) {
+    const std::string m = scene_error(std::string("[solver]\nspacing = ") + v);
+    EXPECT_HAS(m, "solver.spacing = ");
+    EXPECT_HAS(m, "is out of range: must be in [1e-9, 1e9] [m]");
+    EXPECT_HAS(m, "e.g. 0.05");
+    expect_sane(m);
+  }
+  // The edges are read; a build at them is refused for its size, with finite figures.
+  std::string m = engine_error("[solver]\nspacing = 1e-9");
+  EXPECT_HAS(m, "at spacing 1e-09 m, over solver.max_memory_gb = 16");
+  expect_sane(m);
+  const std::size_t at = m.find("a spacing of about ");
+  ASSERT_NE(at, std::string::npos) << m;
+  EXPECT_NEAR(std::stod(m.substr(at + 19)), 1.13e-3, 0.01e-3) << m;
+  m = engine_error("[solver]\nspacing = 1e9");
+  EXPECT_HAS(m, "less than half the spacing 1e+09 m");
+  expect_sane(m);
+}
+
+// Item 4: frame_rate = 1e300 made a step of 0 s in float32: "output.duration = 0.05 s is inf steps of 0 s".
+TEST(RangeEdges, AnExtremeFrameRateIsRefusedWithItsValue) {
+  std::string m = scene_error("[output]\nframe_rate = 1e300");
+  EXPECT_HAS(m, "output.frame_rate = 1e300 is out of range: must be in (0, 1e12] [1/s]");
+  expect_sane(m);
+  // At the edge each frame is one step of 1e-12 s: a long run is refused for its step count, in figures.
+  m = engine_error("[output]\nframe_rate = 1e12\nduration = 1e4");
+  EXPECT_HAS(m, "output.duration = 10000 s is 1e+16 steps of 1e-12 s");
+  EXPECT_HAS(m, "each frame of output.frame_rate = 1e+12 takes a step at least");
+  EXPECT_HAS(m, "or a lower output.frame_rate");
+  expect_sane(m);
+}
+
+// Item 4: max_memory_gb = 0.04 was "less than the 0.04 GB the program takes".
+TEST(RangeEdges, AMemoryLimitThatLeavesNothingSaysSo) {
+  std::string m = engine_error("[solver]\nmax_memory_gb = 0.04");
+  EXPECT_HAS(m, "solver.max_memory_gb = 0.04 leaves nothing for a model: the program takes 0.04 GB without one");
+  EXPECT_HAS(m, "raise solver.max_memory_gb above it");
+  EXPECT_EQ(m.find("less than"), std::string::npos) << m;
+  // Just above: refused for the model, with a spacing that fits.
+  m = engine_error("[solver]\nmax_memory_gb = 0.0401");
+  EXPECT_HAS(m, "over solver.max_memory_gb = 0.0401");
+  expect_sane(m);
+  const std::size_t at = m.find("a spacing of about ");
+  ASSERT_NE(at, std::string::npos) << m;
+  const double d = std::stod(m.substr(at + 19));
+  EXPECT_EQ(engine_error("[solver]\nmax_memory_gb = 0.0401\nspacing = " + std::to_string(d)), "");
+}
+
+// Item 5: solver.target_automata is documented as at most 1.8e8 (the model's addressing); a model that
+// large also needs the memory (about 740 bytes an automaton), which the message says.
+TEST(RangeEdges, TargetAutomataAtItsLimit) {
+  EXPECT_EQ(scene_error("[solver]\ntarget_automata = 178956970"), "");
+  std::string m = scene_error("[solver]\ntarget_automata = 178956971");
+  EXPECT_HAS(m, "solver.target_automata = 178956971 is out of range: at most 178956970");
+  m = engine_error("[solver]\ntarget_automata = 178956970");
+  EXPECT_HAS(m, "over solver.max_memory_gb = 16");
+  EXPECT_HAS(m, "a spacing of about");
+  expect_sane(m);
+}
+
+// Item 5: solver.time_step = 1e-12, the documented minimum, ran with a contact damping ratio of 2e-17 (the
+// calibration's simulated contact outlasted its loop) and, at the default frame rate, is 2e9 steps a
+// frame: the message names the frame rate that fits.
+TEST(RangeEdges, TheSmallestTimeStepWorks) {
+  Engine e(cube("[solver]\ntime_step = 1e-12\n[output]\nframe_rate = 1000\nduration = 1e-9\n[ground]\nenabled = true"));
+  EXPECT_FLOAT_EQ(e.model().dt, 1e-12f);
+  EXPECT_EQ(e.total_steps(), 1000);
+  // The contact dashpots are the continuous law's, to float precision.
+  for (float z : e.model().zeta_ground) EXPECT_NEAR(z, restitution_damping_ratio(0.3), 1e-4);
+  for (float z : e.model().zeta_pair) EXPECT_GT(z, 0.1f);
+  EXPECT_EQ(e.advance(1000).flags, kHealthy);
+  // A frame of the default rate is 2e9 steps: refused, naming the rate that fits.
+  std::string m = engine_error("[solver]\ntime_step = 1e-12");
+  EXPECT_HAS(m, "is 2e+09 steps of solver.time_step = 1e-12 s, more than the 1e9 a frame can take");
+  EXPECT_HAS(m, "raise output.frame_rate to at least 1e+03");
+  // Past the edges.
+  m = scene_error("[solver]\ntime_step = 9.99e-13");
+  EXPECT_HAS(m, "solver.time_step = 9.99e-13 is out of range: must be 0 (automatic) or in [1e-12, 1] [s]");
+  EXPECT_HAS(scene_error("[solver]\ntime_step = 1.0001"), "solver.time_step = 1.0001 is out of range");
+  // The upper edge is read, and refused by the step's own bound (it is far above this cube's critical step).
+  EXPECT_HAS(engine_error("[solver]\ntime_step = 1"), "solver.time_step");
+}
+
+// Item 5: output.frame_rate = 1e-6 (frames a million seconds apart) was refused for a frame of 4e11
+// steps over a run of 0.05 s: a frame longer than the run is the run.
+TEST(RangeEdges, TheSmallestFrameRatesWork) {
+  Engine e(cube("[output]\nframe_rate = 1e-6"));
+  EXPECT_EQ(e.frame_count(), 1);
+  EXPECT_NEAR(e.total_steps() * static_cast<double>(e.model().dt), 0.05, 1e-9);
+  Engine f(cube("[output]\nframe_rate = 1e-300"));
+  EXPECT_EQ(f.frame_count(), 1);
+  EXPECT_EQ(scene_error("[output]\nframe_rate = 1e12"), "");
+  EXPECT_HAS(scene_error("[output]\nframe_rate = 1.000001e12"), "is out of range: must be in (0, 1e12]");
+  EXPECT_HAS(scene_error("[output]\nframe_rate = 0"), "is out of range: must be in (0, 1e12]");
+  // A frame shorter than the run keeps its bound of 1e9 steps, in figures.
+  const std::string m = engine_error("[output]\nframe_rate = 1e-6\nduration = 1e7");
+  EXPECT_HAS(m, "raise output.frame_rate to at least");
+  expect_sane(m);
+}
+
+// Item 5: shell_thickness is 0.01 to 100 times the mean distance of linked triangles. The message showed
+// the bounds rounded to 4 digits either way, and the largest it showed (8.585 for the mean of 0.08585)
+// was refused. The bounds it shows now are accepted, and a shell at either one runs.
+TEST(RangeEdges, ShellThicknessAtItsBounds) {
+  test::TempDir t;
+  test::write_mesh_file(t.path() / "sphere.off", test::sphere_mesh(0.2, 2));
+  SceneDef s = test::block_scene(1, 1, 1, 0.05);
+  s.objects[0].shape = Shape::mesh;
+  s.objects[0].mesh = (t.path() / "sphere.off").string();
+  s.objects[0].fill = MeshFill::surface;
+  s.output.duration = 2e-4;
+  const Model plain = lattice::build_model(s);
+  double mean = 0;
+  for (double r : plain.explicit_links.r0) mean += r / static_cast<double>(plain.explicit_links.size());
+
+  s.objects[0].shell_thickness = 1e-9;
+  const std::string m = error_of([&] { lattice::build_model(s); });
+  const std::size_t at = m.find(" m), ");
+  ASSERT_NE(at, std::string::npos) << m;
+  const double lo = std::stod(m.substr(at + 5));
+  const double hi = std::stod(m.substr(m.find(" to ", at) + 4));
+  EXPECT_NEAR(lo, 0.01 * mean, 1e-3 * 0.01 * mean) << m;
+  EXPECT_NEAR(hi, 100 * mean, 1e-3 * 100 * mean) << m;
+  for (double edge : {lo, hi}) {
+    s.objects[0].shell_thickness = edge;
+    Engine e(s);
+    EXPECT_EQ(e.advance(static_cast<int>(e.total_steps())).flags, kHealthy) << edge;
+  }
+  for (double past : {0.01 * mean * (1 - 1e-6), 100 * mean * (1 + 1e-6)}) {
+    s.objects[0].shell_thickness = past;
+    EXPECT_HAS(error_of([&] { lattice::build_model(s); }), "is out of range for the mesh");
+  }
+}
+
+}  // namespace
+}  // namespace mca

@@ -1,0 +1,103 @@
+// `mca resume` cuts stats.csv back to the checkpoint's rows, whatever the stopped run left past them or
+// cut short, so that the resumed run's stats.csv is an uninterrupted run's. A torn row used to be kept
+// as a row of its own.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "shell.hpp"
+#include "small_scene.hpp"
+#include "temp_dir.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using mca::test::read;
+using mca::test::Result;
+using mca::test::run_mca;
+using mca::test::small_scene;
+
+// The rows of a stats.csv, the header first, without their line breaks.
+std::vector<std::string> lines(const std::string& text) {
+  std::vector<std::string> out;
+  std::size_t at = 0;
+  while (at < text.size()) {
+    const std::size_t end = text.find('\n', at);
+    out.push_back(text.substr(at, end == std::string::npos ? std::string::npos : end - at));
+    if (end == std::string::npos) break;
+    at = end + 1;
+  }
+  return out;
+}
+
+TEST(ResumeStats, RowsPastTheCheckpointAndTornRowsAreCutBack) {
+  mca::test::TempDir t;
+  const fs::path scene = small_scene(t.path());
+  const fs::path whole = t.path() / "whole";
+  ASSERT_EQ(run_mca("run " + scene.string() + " --out " + whole.string() + " -q --no-vtk").code, 0);
+  const std::string expected = read(whole / "stats.csv");
+  const std::vector<std::string> rows = lines(expected);  // header, frames 0..4
+  ASSERT_EQ(rows.size(), 6u) << expected;
+
+  // A run with checkpoints at frames 2 and 4; the newest is dropped, so it resumes from frame 2 and
+  // stats.csv must end up as header + frames 0..2, then 3 and 4 written again.
+  const fs::path base = t.path() / "base";
+  ASSERT_EQ(run_mca("run " + scene.string() + " --out " + base.string() + " -q --no-vtk --checkpoint-every 2").code, 0);
+  std::vector<fs::path> cks;
+  for (const auto& e : fs::directory_iterator(base / "checkpoints")) cks.push_back(e.path());
+  std::sort(cks.begin(), cks.end());
+  ASSERT_EQ(cks.size(), 2u);
+  fs::remove(cks.back());
+
+  auto join = [&](std::size_t upto) {  // header and the rows of frames 0..upto-1, each with its line break
+    std::string s;
+    for (std::size_t k = 0; k <= upto; ++k) s += rows[k] + "\n";
+    return s;
+  };
+  const std::string row2 = rows[3];
+  const struct {
+    const char* what;
+    std::string stats;
+  } cases[] = {
+      {"rows past the checkpoint and a torn last row", join(5) + "5,0.0040"},
+      {"rows past the checkpoint, then garbage", join(4) + "3,1,2\nnot a row\n"},
+      {"the checkpoint's own row torn", join(2) + row2.substr(0, row2.size() / 2)},
+      {"the checkpoint's own row lost", join(2)},
+      {"the checkpoint's own row with a cell cut", join(2) + row2.substr(0, row2.rfind(',')) + "\n" + rows[4] + "\n"},
+      {"a row of another frame in its place", join(2) + rows[4] + "\n" + rows[5] + "\n"},
+      {"NUL bytes where the rows were (a crash before the data reached the disk)",
+       join(2) + std::string(row2.size() + 1, '\0')},
+  };
+  int k = 0;
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.what);
+    const fs::path out = t.path() / ("case" + std::to_string(k++));
+    fs::copy(base, out, fs::copy_options::recursive);
+    std::ofstream(out / "stats.csv", std::ios::binary | std::ios::trunc) << c.stats;
+    const Result r = run_mca("resume " + out.string() + " -q");
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_EQ(r.output.find("warning"), std::string::npos) << r.output;
+    EXPECT_EQ(read(out / "stats.csv"), expected);
+  }
+
+  // A row lost before the checkpoint's own cannot be made again: the resume says which are missing, and
+  // keeps only whole rows.
+  const fs::path out = t.path() / "lost";
+  fs::copy(base, out, fs::copy_options::recursive);
+  std::ofstream(out / "stats.csv", std::ios::binary | std::ios::trunc) << join(1) + rows[2].substr(0, 5);
+  const Result r = run_mca("resume " + out.string() + " -q");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("has 1 of the 3 rows up to the checkpoint"), std::string::npos) << r.output;
+  const std::vector<std::string> got = lines(read(out / "stats.csv"));
+  ASSERT_EQ(got.size(), 4u);
+  EXPECT_EQ(got[0], rows[0]);
+  EXPECT_EQ(got[1], rows[1]);
+  EXPECT_EQ(got[2], rows[4]);
+  EXPECT_EQ(got[3], rows[5]);
+}
+
+}  // namespace

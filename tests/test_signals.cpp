@@ -1,0 +1,106 @@
+// A run stopped by a signal ends alike for SIGINT (Ctrl-C), SIGTERM and SIGHUP (the terminal closed): it
+// writes its summary and a checkpoint, and `mca resume` continues it to the uninterrupted run's end.
+// SIGHUP used to end the process at once, with no summary and nothing to resume from.
+#include <gtest/gtest.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+
+#include "shell.hpp"
+#include "small_scene.hpp"
+#include "temp_dir.hpp"
+
+extern char** environ;
+
+namespace {
+
+namespace fs = std::filesystem;
+using mca::test::read;
+using mca::test::run_mca;
+using mca::test::small_scene;
+
+// Rows of a stats.csv (the header not counted).
+int stats_rows(const fs::path& csv) {
+  std::ifstream in(csv);
+  int n = -1;
+  for (std::string line; std::getline(in, line);) ++n;
+  return std::max(n, 0);
+}
+
+// `mca run SCENE --out OUT` started in the background (its output to OUT.log), sent `sig` once it has
+// written two frames; returns its exit status (-1 when it ended before the signal or did not end).
+int run_and_signal(const fs::path& scene, const fs::path& out, int sig) {
+  const std::string bin = MCA_BINARY, log = out.string() + ".log";
+  std::vector<std::string> args = {bin, "run", scene.string(), "--out", out.string(), "--no-vtk", "--threads", "1", "--checkpoint-every", "1"};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, STDERR_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  pid_t pid = 0;
+  const int spawned = posix_spawn(&pid, bin.c_str(), &fa, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&fa);
+  if (spawned != 0) return -1;
+  int status = 0;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  bool sent = false;
+  while (waitpid(pid, &status, WNOHANG) == 0) {
+    if (!sent && stats_rows(out / "stats.csv") >= 2) {
+      kill(pid, sig);
+      sent = true;
+    }
+    if (std::chrono::steady_clock::now() > until) {
+      kill(pid, SIGKILL);
+      waitpid(pid, &status, 0);
+      return -1;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  if (!sent) return -1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 1000 + WTERMSIG(status);
+}
+
+TEST(Signals, SigtermAndSighupStopARunAsCtrlCDoes) {
+  mca::test::TempDir t;
+  // 40 frames of the small wall: long enough to be signalled after two.
+  const fs::path scene = small_scene(t.path(), "", "long");
+  std::string text = read(scene);
+  text.replace(text.find("duration = 0.004"), 16, "duration = 0.04");
+  std::ofstream(scene) << text;
+  const fs::path whole = t.path() / "whole";
+  ASSERT_EQ(run_mca("run " + scene.string() + " --out " + whole.string() + " -q --no-vtk").code, 0);
+  const auto expected = nlohmann::json::parse(read(whole / "summary.json"));
+
+  for (const int sig : {SIGINT, SIGTERM, SIGHUP}) {
+    SCOPED_TRACE(strsignal(sig));
+    const fs::path out = t.path() / ("stopped_" + std::to_string(sig));
+    const int code = run_and_signal(scene, out, sig);
+    ASSERT_EQ(code, 128 + sig) << read(out.string() + ".log");
+    const std::string log = read(out.string() + ".log");
+    EXPECT_NE(log.find("interrupted by SIG"), std::string::npos) << log;
+    const auto j = nlohmann::json::parse(read(out / "summary.json"));
+    EXPECT_EQ(j["status"], "interrupted");
+    EXPECT_LT(j["steps"].get<std::int64_t>(), expected["steps"].get<std::int64_t>());
+    EXPECT_TRUE(fs::exists(out / "checkpoints")) << log;
+
+    const auto resumed = run_mca("resume " + out.string() + " -q");
+    ASSERT_EQ(resumed.code, 0) << resumed.output;
+    const auto k = nlohmann::json::parse(read(out / "summary.json"));
+    EXPECT_EQ(k["status"], "finished");
+    EXPECT_EQ(k["steps"], expected["steps"]);
+    EXPECT_EQ(k["state_hash"], expected["state_hash"]);
+    EXPECT_EQ(read(out / "stats.csv"), read(whole / "stats.csv"));
+  }
+}
+
+}  // namespace
