@@ -1,0 +1,384 @@
+"""Building Blender objects from a run folder read by reader.Run.
+
+The automata of every frame are held in one object: a mesh whose points (the exposed automata, or the
+vertices of the bound surface) carry the frame they belong to (`mca_frame`); a geometry-nodes modifier
+keeps the points of the scene's current frame (Scene Time) and, for automata, puts a cube of the spacing
+on each, turned by its rotation. So the animation lives in the .blend itself (no handler, no add-on needed
+to play or render it) and Blender's Alembic exporter writes the evaluated mesh of each frame.
+
+Colours: the `mca_colour` colour attribute (linear RGBA) of every object holds the renderer's `fragment`
+colouring (README, "Pictures and video"); the material "mca colour" reads it, and so does the Workbench
+with its colour set to Attribute.
+"""
+
+import math
+import os
+import time
+
+import bpy
+import bmesh
+import numpy as np
+from mathutils import Matrix, Vector
+
+from . import reader
+
+COLOUR = "mca_colour"
+FRAME = "mca_frame"
+ROTATION = "mca_rotation"
+BALL_COLOUR = (205, 30, 30)  # the renderer's projectiles
+GROUND_COLOUR = (98, 97, 93)  # between the two tiles of the renderer's checkered ground
+BACKGROUND = (34, 37, 43)  # the renderer's background
+
+
+class Imported:
+    """What import_run made: the collection, the objects by role and the run it read."""
+
+    def __init__(self, run):
+        self.run = run
+        self.collection = None
+        self.automata = None
+        self.projectiles = []
+        self.ground = None
+        self.camera = None
+        self.fragments = []
+        self.seconds = 0.0
+
+    @property
+    def frames(self):
+        return len(self.run.frames)
+
+
+# ---------------------------------------------------------------------------------------------------------
+
+def _colour_material():
+    mat = bpy.data.materials.get("mca colour")
+    if mat is not None:
+        return mat
+    mat = bpy.data.materials.new("mca colour")
+    mat.use_nodes = True
+    nt = mat.node_tree
+    bsdf = nt.nodes.get("Principled BSDF")
+    attr = nt.nodes.new("ShaderNodeAttribute")
+    attr.attribute_name = COLOUR
+    attr.location = (-300, 300)
+    nt.links.new(attr.outputs["Color"], bsdf.inputs["Base Color"])
+    bsdf.inputs["Roughness"].default_value = 0.8
+    return mat
+
+
+def _set_colour(mesh, domain, rgb_bytes):
+    """The colour attribute of a mesh from uint8 RGB per element of `domain`, made active."""
+    lin = reader.srgb_to_linear(rgb_bytes)
+    rgba = np.ones((len(lin), 4), np.float32)
+    rgba[:, :3] = lin
+    attr = mesh.color_attributes.new(COLOUR, "FLOAT_COLOR", domain)
+    attr.data.foreach_set("color", rgba.ravel())
+    mesh.color_attributes.active_color = attr
+    return attr
+
+
+def _attribute(mesh, name, kind, domain, values):
+    attr = mesh.attributes.new(name, kind, domain)
+    attr.data.foreach_set("vector" if kind == "FLOAT_VECTOR" else "value", np.ascontiguousarray(values).ravel())
+    return attr
+
+
+def _enabled(sockets):
+    return [s for s in sockets if s.enabled]
+
+
+def _frame_filter_tree(name, spacing=None):
+    """Geometry nodes: keep the points whose mca_frame is the scene's frame; with `spacing`, instance a cube
+    of that size on each, turned by mca_rotation, and realize them. Then the material "mca colour"."""
+    tree = bpy.data.node_groups.new(name, "GeometryNodeTree")
+    tree.inputs.new("NodeSocketGeometry", "Geometry")
+    tree.outputs.new("NodeSocketGeometry", "Geometry")
+    n, link = tree.nodes, tree.links.new
+    gin, gout = n.new("NodeGroupInput"), n.new("NodeGroupOutput")
+    frame_attr = n.new("GeometryNodeInputNamedAttribute")
+    frame_attr.data_type = "INT"
+    frame_attr.inputs["Name"].default_value = FRAME
+    now = n.new("GeometryNodeInputSceneTime")
+    other = n.new("FunctionNodeCompare")
+    other.data_type = "FLOAT"
+    other.operation = "NOT_EQUAL"
+    a, b, eps = _enabled(other.inputs)
+    eps.default_value = 0.25
+    link(_enabled(frame_attr.outputs)[0], a)
+    link(now.outputs["Frame"], b)
+    delete = n.new("GeometryNodeDeleteGeometry")
+    delete.domain = "POINT"
+    link(gin.outputs[0], delete.inputs["Geometry"])
+    link(_enabled(other.outputs)[0], delete.inputs["Selection"])
+    geometry = delete.outputs["Geometry"]
+    if spacing is not None:
+        cube = n.new("GeometryNodeMeshCube")
+        cube.inputs["Size"].default_value = (spacing, spacing, spacing)
+        rot = n.new("GeometryNodeInputNamedAttribute")
+        rot.data_type = "FLOAT_VECTOR"
+        rot.inputs["Name"].default_value = ROTATION
+        inst = n.new("GeometryNodeInstanceOnPoints")
+        link(geometry, inst.inputs["Points"])
+        link(cube.outputs["Mesh"], inst.inputs["Instance"])
+        link(_enabled(rot.outputs)[0], inst.inputs["Rotation"])
+        realize = n.new("GeometryNodeRealizeInstances")
+        link(inst.outputs["Instances"], realize.inputs["Geometry"])
+        geometry = realize.outputs["Geometry"]
+    material = n.new("GeometryNodeSetMaterial")
+    material.inputs["Material"].default_value = _colour_material()
+    link(geometry, material.inputs["Geometry"])
+    link(material.outputs["Geometry"], gout.inputs[0])
+    for k, node in enumerate(n):
+        node.location = (200 * k, 0)
+    return tree
+
+
+def _object(name, data, collection):
+    obj = bpy.data.objects.new(name, data)
+    collection.objects.link(obj)
+    return obj
+
+
+# ---------------------------------------------------------------------------------------------------------
+
+def _automata_cubes(run, collection):
+    """One point per exposed automaton and frame, with its frame, rotation (XYZ Euler), colour, fragment and
+    damage; a cube of the spacing on each (geometry nodes)."""
+    exposed = run.exposed()
+    rotations = run.rotations()
+    pts, frame, euler, colour, fragment, damage, index = [], [], [], [], [], [], []
+    for k, f in enumerate(run.frames):
+        sel = np.nonzero(exposed[k])[0]
+        pts.append(f["points"][sel])
+        frame.append(np.full(len(sel), k, np.int32))
+        euler.append(reader.quat_to_euler_xyz(rotations[k][sel]))
+        colour.append(run.colours(k)[sel])
+        fragment.append(f["fragment"][sel])
+        damage.append(f["damage"][sel])
+        index.append(sel.astype(np.int32))
+    pts = np.concatenate(pts).astype(np.float32)
+    mesh = bpy.data.meshes.new("mca automata")
+    mesh.vertices.add(len(pts))
+    mesh.vertices.foreach_set("co", pts.ravel())
+    _attribute(mesh, FRAME, "INT", "POINT", np.concatenate(frame))
+    _attribute(mesh, ROTATION, "FLOAT_VECTOR", "POINT", np.concatenate(euler))
+    _attribute(mesh, "fragment", "INT", "POINT", np.concatenate(fragment).astype(np.int32))
+    _attribute(mesh, "damage", "FLOAT", "POINT", np.concatenate(damage).astype(np.float32))
+    _attribute(mesh, "automaton", "INT", "POINT", np.concatenate(index))
+    _set_colour(mesh, "POINT", np.concatenate(colour))
+    mesh.update()
+    obj = _object("mca automata", mesh, collection)
+    mod = obj.modifiers.new("mca frames", "NODES")
+    mod.node_group = _frame_filter_tree("mca automata", run.spacing)
+    return obj
+
+
+def _surface(run, collection):
+    """The bound surface of every frame in one mesh, each frame's vertices and triangles tagged with it;
+    the geometry nodes keep the current frame's. Triangles take the colour of their fragment."""
+    verts, faces, frame_v, colour, fragment = [], [], [], [], []
+    offset = 0
+    for k, path in enumerate(run.surface_files):
+        v, f, values = reader.read_obj(path) if path.endswith(".obj") else reader.read_ply(path)
+        if values is None:
+            raise reader.RunError(f"{path} has no fragment number per face: not a surface written by mca")
+        autom = run.frames[k]
+        per_automaton = run.colours(k)
+        # a fragment's colour is that of its automata (all of them share it)
+        table = np.zeros((int(max(autom["fragment"].max(), values.max() if len(values) else 0)) + 1, 3), np.uint8)
+        table[autom["fragment"]] = per_automaton
+        verts.append(v)
+        faces.append(f + offset)
+        frame_v.append(np.full(len(v), k, np.int32))
+        colour.append(np.repeat(table[values], 3, axis=0))
+        fragment.append(values)
+        offset += len(v)
+    verts = np.concatenate(verts).astype(np.float32)
+    faces = np.concatenate(faces).astype(np.int32)
+    mesh = bpy.data.meshes.new("mca surface")
+    mesh.vertices.add(len(verts))
+    mesh.vertices.foreach_set("co", verts.ravel())
+    mesh.loops.add(3 * len(faces))
+    mesh.loops.foreach_set("vertex_index", faces.ravel())
+    mesh.polygons.add(len(faces))
+    mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * len(faces), 3, dtype=np.int32))
+    mesh.polygons.foreach_set("loop_total", np.full(len(faces), 3, np.int32))
+    mesh.update(calc_edges=True)
+    _attribute(mesh, FRAME, "INT", "POINT", np.concatenate(frame_v))
+    _attribute(mesh, "fragment", "INT", "FACE", np.concatenate(fragment).astype(np.int32))
+    _set_colour(mesh, "CORNER", np.concatenate(colour))
+    obj = _object("mca surface", mesh, collection)
+    mod = obj.modifiers.new("mca frames", "NODES")
+    mod.node_group = _frame_filter_tree("mca surface")
+    return obj
+
+
+def _sphere_mesh(name, rgb):
+    mesh = bpy.data.meshes.new(name)
+    bm = bmesh.new()
+    bmesh.ops.create_uvsphere(bm, u_segments=32, v_segments=16, radius=1.0)
+    for f in bm.faces:
+        f.smooth = True
+    bm.to_mesh(mesh)
+    bm.free()
+    _set_colour(mesh, "CORNER", np.tile(np.array(rgb, np.uint8), (len(mesh.loops), 1)))
+    mesh.materials.append(_colour_material())
+    return mesh
+
+
+def _keyframes(obj, path, values, frames):
+    """Keyframes of obj.<path> (values: frames x components), linear between frames."""
+    if obj.animation_data is None:
+        obj.animation_data_create()
+    if obj.animation_data.action is None:
+        obj.animation_data.action = bpy.data.actions.new(obj.name + " motion")
+    action = obj.animation_data.action
+    for c in range(values.shape[1]):
+        fc = action.fcurves.new(path, index=c)
+        fc.keyframe_points.add(len(frames))
+        co = np.empty((len(frames), 2), np.float32)
+        co[:, 0] = frames
+        co[:, 1] = values[:, c]
+        fc.keyframe_points.foreach_set("co", co.ravel())
+        fc.keyframe_points.foreach_set("interpolation", np.full(len(frames), 1, np.int32))  # LINEAR
+        fc.update()
+
+
+def _projectiles(run, collection):
+    if not run.projectiles:
+        return []
+    count = len(run.projectiles[0][0])
+    mesh = _sphere_mesh("mca projectile", BALL_COLOUR)
+    frames = np.arange(len(run.projectiles), dtype=np.float32)
+    out = []
+    for p in range(count):
+        obj = _object(f"mca projectile {p}", mesh, collection)
+        centres = np.array([c[p] for c, _ in run.projectiles], np.float32)
+        r = float(run.projectiles[0][1][p])
+        obj.scale = (r, r, r)
+        obj.location = centres[0]
+        _keyframes(obj, "location", centres, frames)
+        obj["mca_radius"] = r
+        out.append(obj)
+    return out
+
+
+def _ground(run, collection, eye, target):
+    g = run.ground()
+    if g is None:
+        return None
+    height, up = g
+    up = Vector(up)
+    a = up.cross(Vector((1, 0, 0)) if abs(up.x) < 0.9 else Vector((0, 1, 0))).normalized()
+    b = up.cross(a)
+    t = Vector(target)
+    centre = t - t.dot(up) * up + height * up
+    reach = 12.0 * (Vector(target) - Vector(eye)).length + 10.0 * run.spacing
+    mesh = bpy.data.meshes.new("mca ground")
+    corners = [centre + reach * (sa * a + sb * b) for sa, sb in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    mesh.from_pydata([tuple(c) for c in corners], [], [(0, 1, 2, 3)])
+    _set_colour(mesh, "CORNER", np.tile(np.array(GROUND_COLOUR, np.uint8), (4, 1)))
+    mesh.materials.append(_colour_material())
+    obj = _object("mca ground", mesh, collection)
+    obj["mca_height"] = height
+    return obj
+
+
+def _camera(run, collection, scene):
+    eye, target, up, fov = run.camera()
+    cam = bpy.data.cameras.new("mca camera")
+    cam.sensor_fit = "VERTICAL"
+    cam.angle_y = math.radians(fov)
+    f = Vector(target - eye).normalized()
+    u = Vector(up)
+    if abs(f.dot(u)) > 0.999:  # looking along the up axis
+        u = Vector((0, 1, 0)) - Vector((0, 1, 0)).dot(Vector(up)) * Vector(up)
+    x = f.cross(u).normalized()
+    y = x.cross(f)
+    rot = Matrix((x, y, -f)).transposed()
+    dist = (Vector(target) - Vector(eye)).length
+    lo = run.frames[0]["points"].min(axis=0)
+    hi = run.frames[0]["points"].max(axis=0)
+    radius = 0.5 * float(np.linalg.norm(hi - lo)) + run.spacing
+    cam.clip_start = max(1e-3, min(0.5 * (dist - radius), 0.05 * dist))
+    cam.clip_end = 40.0 * (dist + radius)
+    obj = _object("mca camera", cam, collection)
+    obj.matrix_world = Matrix.Translation(Vector(eye)) @ rot.to_4x4()
+    scene.camera = obj
+    w, h = run.render_size
+    scene.render.resolution_x, scene.render.resolution_y = w, h
+    scene.render.resolution_percentage = 100
+    return obj, eye, target
+
+
+def _fragment_meshes(run, collection):
+    """fragments/fragment_NNN.ply: closed meshes of the fragments at the end of the run, NNN their id in
+    fragments.csv (the numbering of the last frame), coloured as their automata in the last frame."""
+    if not run.fragment_files:
+        return []
+    sub = bpy.data.collections.new("mca fragments")
+    collection.children.link(sub)
+    last = run.frames[-1]
+    table = np.zeros((int(last["fragment"].max()) + 1, 3), np.uint8)
+    table[last["fragment"]] = run.colours(len(run.frames) - 1)
+    out = []
+    for fid, path in run.fragment_files.items():
+        v, f, _ = reader.read_ply(path)
+        mesh = bpy.data.meshes.new(f"mca fragment {fid:03d}")
+        mesh.from_pydata(v.tolist(), [], f.tolist())
+        rgb = table[fid] if fid < len(table) else reader.MAIN_BODY
+        _set_colour(mesh, "CORNER", np.tile(rgb, (len(mesh.loops), 1)))
+        mesh.materials.append(_colour_material())
+        obj = _object(f"mca fragment {fid:03d}", mesh, sub)
+        obj["mca_fragment"] = fid
+        out.append(obj)
+    # They sit where the fragments end: shown on demand, over the animation's last frame.
+    sub.hide_viewport = True
+    sub.hide_render = True
+    return out
+
+
+def import_run(context, path, max_frames=None):
+    """Reads the run folder `path` and builds it into the current scene; returns an Imported. Raises
+    reader.RunError with a message for the user."""
+    start = time.perf_counter()
+    run = reader.Run(path, max_frames=max_frames)
+    scene = context.scene
+    result = Imported(run)
+    name = run.scene.get("name") or os.path.basename(run.dir.rstrip(os.sep))
+    coll = bpy.data.collections.new(f"mca {name}")
+    scene.collection.children.link(coll)
+    result.collection = coll
+    coll["mca_run"] = run.dir
+    coll["mca_times"] = list(map(float, run.times))
+    coll["mca_spacing"] = run.spacing
+
+    # The timeline: one Blender frame per output frame, at the rate of mca's video.
+    scene.frame_start = 0
+    scene.frame_end = len(run.frames) - 1
+    fps = run.fps
+    scene.render.fps = max(1, round(fps))
+    scene.render.fps_base = scene.render.fps / fps
+
+    result.automata = _automata_cubes(run, coll) if not run.surface_files else _surface(run, coll)
+    result.automata["mca_frames"] = len(run.frames)
+    result.projectiles = _projectiles(run, coll)
+    result.camera, eye, target = _camera(run, coll, scene)
+    result.ground = _ground(run, coll, eye, target)
+    result.fragments = _fragment_meshes(run, coll)
+
+    # Looks: the renderer's background; the Workbench shows the colour attribute; plain colours.
+    if scene.world is None:
+        scene.world = bpy.data.worlds.new("World")
+    bg = reader.srgb_to_linear(np.array([BACKGROUND], np.uint8))[0]
+    scene.world.color = tuple(bg)
+    if scene.world.use_nodes:
+        node = scene.world.node_tree.nodes.get("Background")
+        if node is not None:
+            node.inputs["Color"].default_value = (*bg, 1.0)
+    scene.display.shading.color_type = "VERTEX"
+    scene.display_settings.display_device = "sRGB"
+    scene.view_settings.view_transform = "Standard"
+    scene.frame_set(scene.frame_start)
+    result.seconds = time.perf_counter() - start
+    return result

@@ -1,0 +1,234 @@
+"""Checks that run inside Blender (blender -b --factory-startup --python in_blender.py -- CASE ARGS...).
+
+Run by test_blender.py, which makes the run folders with the built mca. Exit code 0 when every check
+holds; a failed check prints `FAIL: ...` and exits 1.
+"""
+
+import os
+import sys
+import time
+import traceback
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+if "install" not in sys.argv:  # the install case must find the installed copy only
+    sys.path.insert(0, os.path.dirname(HERE))  # blender/: the add-on's package
+
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+
+failures = []
+
+
+def check(cond, what):
+    print(("ok: " if cond else "FAIL: ") + what)
+    if not cond:
+        failures.append(what)
+
+
+def clear():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+
+
+def evaluated_points(obj, frame):
+    bpy.context.scene.frame_set(frame)
+    dg = bpy.context.evaluated_depsgraph_get()
+    mesh = obj.evaluated_get(dg).to_mesh()
+    co = np.empty(3 * len(mesh.vertices), np.float32)
+    mesh.vertices.foreach_get("co", co)
+    faces = len(mesh.polygons)
+    obj.evaluated_get(dg).to_mesh_clear()
+    return co.reshape(-1, 3) @ np.array(obj.matrix_world.to_3x3()).T.astype(np.float32) + \
+        np.array(obj.matrix_world.translation, np.float32), faces
+
+
+def pvd_frames(run_dir):
+    from io_import_mca import reader
+    return len(reader.read_pvd(os.path.join(run_dir, "automata.pvd")))
+
+
+def import_checks(run_dir, surface):
+    """Imports a run and checks what it made."""
+    from io_import_mca import build, reader
+    clear()
+    t0 = time.perf_counter()
+    result = build.import_run(bpy.context, run_dir)
+    seconds = time.perf_counter() - t0
+    print(f"import: {result.frames} frames in {seconds:.2f} s")
+    scene = bpy.context.scene
+    frames = pvd_frames(run_dir)
+    check(result.frames == frames, f"{result.frames} frames imported, automata.pvd lists {frames}")
+    check(scene.frame_start == 0 and scene.frame_end == frames - 1,
+          f"the timeline is frames 0 to {frames - 1} ({scene.frame_start} to {scene.frame_end})")
+    fps = scene.render.fps / scene.render.fps_base
+    check(abs(fps - result.run.fps) < 1e-6 and 10 <= fps <= 30, f"{fps:g} frames/s, the run's {result.run.fps:g}")
+    names = sorted(o.name for o in result.collection.all_objects)
+    print("objects:", names)
+    main = "mca surface" if surface else "mca automata"
+    check(result.automata.name == main, f"the automata are '{result.automata.name}', expected '{main}'")
+    balls = len(result.run.projectiles[0][0]) if result.run.projectiles else 0
+    check(len(result.projectiles) == balls == 1, f"{len(result.projectiles)} projectile spheres for {balls} balls")
+    check(result.ground is not None and result.camera is not None and scene.camera == result.camera,
+          "a ground plane and the scene's camera")
+    expected = 1 + balls + 2 + len(result.fragments)
+    check(len(names) == expected, f"{len(names)} objects, expected {expected}")
+
+    # The automata move between frames, and each frame shows only its own.
+    first, faces0 = evaluated_points(result.automata, 0)
+    last, faces1 = evaluated_points(result.automata, frames - 1)
+    check(faces0 > 0 and faces1 > 0, f"faces at the first and last frame: {faces0}, {faces1}")
+    lo0, hi0 = first.min(axis=0), first.max(axis=0)
+    lo1, hi1 = last.min(axis=0), last.max(axis=0)
+    moved = float(np.abs(np.concatenate([lo1 - lo0, hi1 - hi0])).max())
+    check(moved > result.run.spacing, f"the surface's box moves by {moved:.3f} m between the first and last frame")
+    if not surface:
+        shown = int(result.run.exposed()[0].sum())
+        check(faces0 == 6 * shown, f"frame 0: {faces0} faces = 6 x {shown} exposed automata")
+        # frame 0's box is the automata's box and a half cube around it
+        pts0 = result.run.frames[0]["points"]
+        err = float(np.abs(lo0 - (pts0.min(axis=0) - result.run.spacing / 2)).max())
+        check(err < 1e-4, f"frame 0's cubes span the automata's box (off by {err:.2e} m)")
+    ball = result.projectiles[0]
+    scene.frame_set(0)
+    b0 = np.array(ball.matrix_world.translation)
+    scene.frame_set(frames - 1)
+    b1 = np.array(ball.matrix_world.translation)
+    want = result.run.projectiles[-1][0][0]
+    check(np.abs(b1 - want).max() < 1e-4 and np.linalg.norm(b1 - b0) > 0.05,
+          f"the ball moves from {b0.round(3)} to {b1.round(3)} (the run: {want.round(3)})")
+    # Colours: the renderer's fragment colours on the mesh, grey for the main body.
+    colours = result.automata.data.color_attributes.get("mca_colour")
+    check(colours is not None, "the colour attribute mca_colour")
+    return result, seconds
+
+
+def case_import(run_dir, surface=False, limit=None):
+    result, seconds = import_checks(run_dir, surface)
+    if limit is not None:
+        check(seconds < limit, f"the import took {seconds:.2f} s, under {limit} s")
+    if surface:
+        check(len(result.fragments) == len(result.run.fragment_files) > 0,
+              f"{len(result.fragments)} fragment mesh objects for {len(result.run.fragment_files)} files")
+        for obj in result.fragments:
+            check(len(obj.data.polygons) > 0, f"{obj.name} has {len(obj.data.polygons)} faces")
+
+
+def case_alembic(run_dir, abc):
+    """The .abc written by mca_cli.py: re-imported, its automata move between frames."""
+    clear()
+    bpy.ops.wm.alembic_import(filepath=abc)
+    objects = {o.name: o for o in bpy.data.objects}
+    print("alembic objects:", sorted(objects))
+    frames = pvd_frames(run_dir)
+    automata = next((o for n, o in objects.items() if n.startswith("mca automata") or n.startswith("mca surface")), None)
+    check(automata is not None, "the automata came back from the Alembic file")
+    check(any(n.startswith("mca projectile") for n in objects), "the projectile came back")
+    check(any(o.type == "CAMERA" for o in objects.values()), "the camera came back")
+    if automata is None:
+        return
+    check(any(m.type == "MESH_SEQUENCE_CACHE" for m in automata.modifiers), "the automata read the cache per frame")
+    scene = bpy.context.scene
+    first, faces0 = evaluated_points(automata, 0)
+    last, faces1 = evaluated_points(automata, frames - 1)
+    check(faces0 > 0 and faces1 > 0 and (faces0 != faces1 or not np.allclose(first, last)),
+          f"the cached automata change between frames 0 and {frames - 1} ({faces0} and {faces1} faces)")
+    from io_import_mca import reader
+    run = reader.Run(run_dir)
+    # Alembic is y-up; Blender's importer turns it back: the points are where the run put them.
+    want = run.frames[frames - 1]["points"][run.exposed()[frames - 1]]
+    lo = want.min(axis=0) - run.spacing
+    hi = want.max(axis=0) + run.spacing
+    inside = np.all((last >= lo) & (last <= hi), axis=1).mean()
+    check(inside > 0.999, f"{100 * inside:.2f} % of the last frame's vertices lie in the run's box there")
+
+
+def case_bad_input(case_dir):
+    """Each broken folder under case_dir: the operator reports an error (no traceback), as the report area
+    shows it."""
+    import io_import_mca
+    from io_import_mca import reader
+    io_import_mca.register()
+    expect = {
+        "no_frames": "holds no frames",
+        "empty_pvd": "lists no frames",
+        "missing_frame": "is missing",
+        "cut_short": "cut short",
+        "newer_vtu": "newer mca",
+        "newer_pvd": "newer mca",
+        "not_a_run": "not an mca run folder",
+        "bad_summary": "not complete JSON",
+        "mixed_frames": "frames of different runs",
+    }
+    for name, words in expect.items():
+        path = os.path.join(case_dir, name)
+        try:
+            bpy.ops.import_scene.mca_run(directory=path + "/")
+            check(False, f"{name}: the import was refused")
+        except RuntimeError as e:
+            message = str(e)
+            print(f"{name}: {message.strip()}")
+            check(words in message and "Traceback" not in message, f"{name}: the report says '{words}'")
+    # A run folder with no summary.json (a run still going, or killed) imports, with a warning.
+    reader.Run(os.path.join(case_dir, "no_summary"))
+    warnings = reader.Run(os.path.join(case_dir, "no_summary")).warnings
+    check(any("still going or was killed" in w for w in warnings), f"no_summary: warned: {warnings}")
+
+
+def case_missing_numpy(run_dir):
+    """Without numpy the add-on still registers, and the import says what is missing."""
+    for name in [m for m in sys.modules if m == "numpy" or m.startswith("numpy.") or m.startswith("io_import_mca")]:
+        del sys.modules[name]
+    sys.modules["numpy"] = None  # `import numpy` now raises ImportError
+    import io_import_mca
+    io_import_mca.register()
+    try:
+        bpy.ops.import_scene.mca_run(directory=run_dir + "/")
+        check(False, "the import without numpy was refused")
+    except RuntimeError as e:
+        print("report:", str(e).strip())
+        check("numpy" in str(e) and "python3-numpy" in str(e), "the report names numpy and its package")
+
+
+def case_install(zip_path, run_dir):
+    """The add-on installed from its .zip (into BLENDER_USER_SCRIPTS, set by the caller) and enabled: the
+    menu entry and the operator work."""
+    bpy.ops.preferences.addon_install(filepath=zip_path)
+    bpy.ops.preferences.addon_enable(module="io_import_mca")
+    import addon_utils
+    check(addon_utils.check("io_import_mca")[1], "io_import_mca is enabled")
+    import io_import_mca
+    check(os.path.realpath(io_import_mca.__file__).startswith(os.path.realpath(os.environ["BLENDER_USER_SCRIPTS"])),
+          f"it runs from the installed copy ({io_import_mca.__file__})")
+    check(any(getattr(f, "__name__", "") == "menu_import" for f in bpy.types.TOPBAR_MT_file_import._dyn_ui_initialize()),
+          "File > Import has the mca run entry")
+    bpy.ops.import_scene.mca_run(directory=run_dir + "/")
+    check(bpy.data.objects.get("mca automata") is not None, "the operator imported the run")
+
+
+def main():
+    args = sys.argv[sys.argv.index("--") + 1:]
+    case = args[0]
+    if case == "import":
+        case_import(args[1], limit=float(args[2]) if len(args) > 2 else None)
+    elif case == "surface":
+        case_import(args[1], surface=True)
+    elif case == "alembic":
+        case_alembic(args[1], args[2])
+    elif case == "bad_input":
+        case_bad_input(args[1])
+    elif case == "missing_numpy":
+        case_missing_numpy(args[1])
+    elif case == "install":
+        case_install(args[1], args[2])
+    else:
+        raise SystemExit(f"unknown case {case}")
+
+
+if __name__ == "__main__":
+    try:
+        main()
+    except Exception:  # noqa: BLE001
+        traceback.print_exc()
+        failures.append("an exception")
+    print("FAILED: " + "; ".join(failures) if failures else "PASSED")
+    sys.stdout.flush()
+    os._exit(1 if failures else 0)

@@ -1,0 +1,351 @@
+#!/usr/bin/env python3
+"""The Blender tests (ctest -R blender): real Blender, headless, on runs made by the built mca.
+
+    test_blender.py --mca MCA --blender BLENDER --work DIR CASE
+
+Cases setup_* make the run folders under DIR (ctest fixtures), the others import, export and render them.
+"""
+
+import argparse
+import os
+import shutil
+import struct
+import subprocess
+import sys
+import time
+import zipfile
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ADDON_ROOT = os.path.dirname(HERE)  # blender/
+CLI = os.path.join(ADDON_ROOT, "mca_cli.py")
+IN_BLENDER = os.path.join(HERE, "in_blender.py")
+
+
+def run(cmd, env=None, timeout=600):
+    print("$", " ".join(cmd), flush=True)
+    p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, timeout=timeout)
+    sys.stdout.write(p.stdout[-6000:])
+    sys.stdout.write(p.stderr[-6000:])
+    return p
+
+
+def blender_cmd(a, script, *args):
+    return [a.blender, "-b", "--factory-startup", "--python", script, "--", *args]
+
+
+def in_blender(a, *args, env=None):
+    p = run(blender_cmd(a, IN_BLENDER, *args), env=env)
+    if p.returncode != 0 or "PASSED" not in p.stdout:
+        sys.exit(f"checks in Blender failed (exit {p.returncode})")
+
+
+def mca_run(a, out, *args):
+    p = run([a.mca, "run", *args, "--out", out, "--quiet"])
+    if p.returncode != 0:
+        sys.exit(f"mca run failed ({p.returncode})")
+
+
+# A sphere of 0.3 m radius as an OBJ (a subdivided octahedron pushed onto the sphere).
+def write_sphere_obj(path, radius=0.3, level=3):
+    verts = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]
+    faces = [(0, 2, 4), (2, 1, 4), (1, 3, 4), (3, 0, 4), (2, 0, 5), (1, 2, 5), (3, 1, 5), (0, 3, 5)]
+    for _ in range(level):
+        mid = {}
+
+        def middle(i, j):
+            key = (min(i, j), max(i, j))
+            if key not in mid:
+                p = [(verts[i][k] + verts[j][k]) / 2 for k in range(3)]
+                n = sum(c * c for c in p) ** 0.5
+                verts.append(tuple(c / n for c in p))
+                mid[key] = len(verts) - 1
+            return mid[key]
+        new = []
+        for i, j, k in faces:
+            ij, jk, ki = middle(i, j), middle(j, k), middle(k, i)
+            new += [(i, ij, ki), (ij, j, jk), (ki, jk, k), (ij, jk, ki)]
+        faces = new
+    with open(path, "w") as f:
+        for v in verts:
+            f.write("v {:.9g} {:.9g} {:.9g}\n".format(*(radius * c for c in v)))
+        for t in faces:
+            f.write("f {} {} {}\n".format(*(i + 1 for i in t)))
+
+
+SURFACE_SCENE = """name = "blender_sphere"
+[solver]
+spacing = 0.05
+gravity = [0.0, 0.0, -9.81]
+seed = 3
+[output]
+duration = 0.012
+frame_rate = 500.0
+surface = true
+fragments = true
+[ground]
+enabled = true
+height = 0.0
+[[object]]
+name = "sphere"
+shape = "mesh"
+mesh = "sphere.obj"
+position = [0.0, 0.0, 0.35]
+material = "concrete"
+[[projectile]]
+name = "ball"
+radius = 0.1
+material = "steel"
+position = [0.0, -0.42, 0.35]
+velocity = [0.0, 40.0, 0.0]
+"""
+
+
+def setup_surface(a):
+    folder = os.path.join(a.work, "surface_scene")
+    os.makedirs(folder, exist_ok=True)
+    write_sphere_obj(os.path.join(folder, "sphere.obj"))
+    with open(os.path.join(folder, "scene.toml"), "w") as f:
+        f.write(SURFACE_SCENE)
+    mca_run(a, os.path.join(a.work, "surface"), os.path.join(folder, "scene.toml"))
+
+
+def copy_run(src, dst):
+    shutil.rmtree(dst, ignore_errors=True)
+    shutil.copytree(src, dst)
+
+
+def make_bad_inputs(a):
+    """Broken run folders, each made from the short run."""
+    short = os.path.join(a.work, "short")
+    bad = os.path.join(a.work, "bad")
+    shutil.rmtree(bad, ignore_errors=True)
+    os.makedirs(bad)
+    d = os.path.join(bad, "no_frames")
+    os.makedirs(d)
+    shutil.copy(os.path.join(short, "scene.toml"), d)  # a run with output.vtk = false writes no frames
+    d = os.path.join(bad, "empty_pvd")
+    copy_run(short, d)
+    with open(os.path.join(d, "automata.pvd"), "w") as f:
+        f.write('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
+                "  <Collection>\n  </Collection>\n</VTKFile>\n")
+    d = os.path.join(bad, "missing_frame")
+    copy_run(short, d)
+    os.remove(os.path.join(d, "frames", "automata_000002.vtu"))
+    d = os.path.join(bad, "cut_short")
+    copy_run(short, d)
+    vtu = os.path.join(d, "frames", "automata_000003.vtu")
+    size = os.path.getsize(vtu)
+    with open(vtu, "r+b") as f:
+        f.truncate(size // 2)
+    for name, file, old, new in (("newer_vtu", "frames/automata_000000.vtu", b'version="1.0"', b'version="2.0"'),
+                                 ("newer_pvd", "automata.pvd", b'version="0.1"', b'version="0.2"')):
+        d = os.path.join(bad, name)
+        copy_run(short, d)
+        path = os.path.join(d, file)
+        with open(path, "rb") as f:
+            data = f.read()
+        assert old in data, (path, old)
+        with open(path, "wb") as f:
+            f.write(data.replace(old, new, 1))
+    d = os.path.join(bad, "not_a_run")
+    os.makedirs(d)
+    with open(os.path.join(d, "notes.txt"), "w") as f:
+        f.write("not a run\n")
+    d = os.path.join(bad, "bad_summary")
+    copy_run(short, d)
+    with open(os.path.join(d, "summary.json"), "r+") as f:
+        f.truncate(40)
+    d = os.path.join(bad, "mixed_frames")  # a frame of another run, with other automata
+    copy_run(short, d)
+    shutil.copy(os.path.join(a.work, "surface", "frames", "automata_000001.vtu"),
+                os.path.join(d, "frames", "automata_000001.vtu"))
+    d = os.path.join(bad, "no_summary")
+    copy_run(short, d)
+    os.remove(os.path.join(d, "summary.json"))
+    return bad
+
+
+def png_pixels(path):
+    """(width, height, rows of RGB bytes) of an 8-bit RGB or RGBA, non-interlaced PNG (what Blender writes)."""
+    import zlib
+    with open(path, "rb") as f:
+        data = f.read()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n", f"{path} is not a PNG"
+    pos, idat, header = 8, b"", None
+    while pos < len(data):
+        n, kind = struct.unpack(">I4s", data[pos:pos + 8])
+        body = data[pos + 8:pos + 8 + n]
+        if kind == b"IHDR":
+            header = struct.unpack(">IIBBBBB", body)
+        elif kind == b"IDAT":
+            idat += body
+        pos += 12 + n
+    w, h, depth, colour, _, _, interlace = header
+    assert depth == 8 and colour in (2, 6) and interlace == 0, header
+    bpp = 3 if colour == 2 else 4
+    raw = zlib.decompress(idat)
+    stride = w * bpp
+    rows, prev = [], bytearray(stride)
+    for y in range(h):
+        ft = raw[y * (stride + 1)]
+        line = bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
+        for i in range(stride):
+            left = line[i - bpp] if i >= bpp else 0
+            up = prev[i]
+            ul = prev[i - bpp] if i >= bpp else 0
+            if ft == 1:
+                line[i] = (line[i] + left) & 255
+            elif ft == 2:
+                line[i] = (line[i] + up) & 255
+            elif ft == 3:
+                line[i] = (line[i] + (left + up) // 2) & 255
+            elif ft == 4:
+                p = left + up - ul
+                pa, pb, pc = abs(p - left), abs(p - up), abs(p - ul)
+                line[i] = (line[i] + (left if pa <= pb and pa <= pc else up if pb <= pc else ul)) & 255
+        rows.append(bytes(line))
+        prev = line
+    return w, h, bpp, rows
+
+
+def check_render(path, width, height):
+    w, h, bpp, rows = png_pixels(path)
+    assert (w, h) == (width, height), f"{path} is {w}x{h}, expected {width}x{height}"
+    background = (34, 37, 43)
+    counts = {"background": 0, "grey": 0, "red": 0, "other": 0}
+    for row in rows:
+        for x in range(w):
+            r, g, b = row[x * bpp:x * bpp + 3]
+            if abs(r - background[0]) + abs(g - background[1]) + abs(b - background[2]) <= 6:
+                counts["background"] += 1
+            elif r > 120 and g < 70 and b < 70:
+                counts["red"] += 1
+            elif abs(r - g) < 12 and abs(g - b) < 16 and r > 60:
+                counts["grey"] += 1
+            else:
+                counts["other"] += 1
+    total = w * h
+    print("pixels:", {k: f"{100 * v / total:.1f} %" for k, v in counts.items()})
+    # The wall fills a good part of the picture, grey with coloured pieces; the ball is red; the ground and
+    # the background make the rest.
+    if not (counts["grey"] > 0.05 * total and counts["red"] > 0.001 * total and counts["other"] > 0.001 * total
+            and counts["background"] > 0.02 * total):
+        sys.exit(f"{path} does not show the run (pixel shares {counts})")
+
+
+def load_reader():
+    """The add-on's reader module alone (its package imports bpy)."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("mca_reader", os.path.join(ADDON_ROOT, "io_import_mca", "reader.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def check_colours(a):
+    """The add-on's fragment colours equal the renderer's, automaton by automaton, in every frame of the
+    default scene (885 fragments at the end), and for many single-automaton pieces."""
+    import numpy as np
+    reader = load_reader()
+    run_dir = os.path.join(a.work, "default")
+    frames = [(f["object"], f["fragment"]) for f in reader.Run(run_dir).frames]
+    n = 20000  # every automaton its own piece but one main body: the hue of 19,999 indices
+    frames.append((np.zeros(n, np.int32), np.concatenate([np.zeros(n // 2 + 1, np.int32),
+                                                          np.arange(1, n - n // 2, dtype=np.int32)])))
+    for k, (obj, frag) in enumerate(frames):
+        text = f"{int(obj.max()) + 1} {len(obj)}\n" + "\n".join(f"{o} {f}" for o, f in zip(obj, frag)) + "\n"
+        p = subprocess.run([a.colours], input=text, stdout=subprocess.PIPE, text=True, check=True)
+        want = np.array(p.stdout.split(), np.int64).reshape(-1, 3)
+        got = reader.fragment_colours(frag, obj).astype(np.int64)
+        differ = int(np.any(want != got, axis=1).sum())
+        pieces = len(np.unique(frag))
+        print(f"frame {k}: {len(obj)} automata, {pieces} fragments, {differ} colours differ")
+        if differ:
+            sys.exit(f"frame {k}: {differ} automata coloured unlike the renderer")
+
+
+def main():
+    p = argparse.ArgumentParser()
+    p.add_argument("--mca", required=True)
+    p.add_argument("--blender", required=True)
+    p.add_argument("--work", required=True)
+    p.add_argument("--colours", help="the mca_render_colours program (the colours case)")
+    p.add_argument("case")
+    a = p.parse_args()
+    os.makedirs(a.work, exist_ok=True)
+    short = os.path.join(a.work, "short")
+    case = a.case
+    if case == "setup_short":  # the default scene's first 10 ms: 6 frames, the ball strikes at 7 ms
+        mca_run(a, short, "--duration", "0.01")
+    elif case == "setup_default":
+        mca_run(a, os.path.join(a.work, "default"))
+    elif case == "setup_surface":
+        setup_surface(a)
+    elif case == "import_short":
+        in_blender(a, "import", short)
+    elif case == "import_default":
+        in_blender(a, "import", os.path.join(a.work, "default"), "10")
+    elif case == "surface":
+        in_blender(a, "surface", os.path.join(a.work, "surface"))
+    elif case == "alembic":
+        abc = os.path.join(a.work, "short.abc")
+        if os.path.exists(abc):
+            os.remove(abc)
+        r = run(blender_cmd(a, CLI, short, abc))
+        if r.returncode != 0 or not os.path.isfile(abc) or os.path.getsize(abc) < 10000:
+            sys.exit(f"mca_cli.py did not write {abc} (exit {r.returncode})")
+        in_blender(a, "alembic", short, abc)
+    elif case == "render":
+        png = os.path.join(a.work, "short.png")
+        if os.path.exists(png):
+            os.remove(png)
+        r = run(blender_cmd(a, CLI, short, png, "--size", "480x270", "--frame", "5"))
+        if r.returncode != 0 or not os.path.isfile(png):
+            sys.exit(f"mca_cli.py did not render {png} (exit {r.returncode})")
+        check_render(png, 480, 270)
+    elif case == "bad_input":
+        bad = make_bad_inputs(a)
+        in_blender(a, "bad_input", bad)
+        # The command line: one line on stderr, exit code 1, no traceback.
+        for name, args, words in (
+                ("a folder that is no run", [os.path.join(bad, "not_a_run"), os.path.join(a.work, "x.abc")],
+                 "not an mca run folder"),
+                ("a run from a newer mca", [os.path.join(bad, "newer_vtu"), os.path.join(a.work, "x.png")],
+                 "newer mca"),
+                ("a half-written run", [os.path.join(bad, "cut_short"), os.path.join(a.work, "x.abc")],
+                 "cut short"),
+                ("no frames", [os.path.join(bad, "no_frames"), os.path.join(a.work, "x.abc")], "holds no frames"),
+                ("an output of unknown type", [short, os.path.join(a.work, "x.fbx")], "extension"),
+                ("a frame past the last", [short, os.path.join(a.work, "x.png"), "--frame", "99"], "frames 0 to 5"),
+                ("no arguments", [], "expected RUN_DIR and OUT")):
+            r = run(blender_cmd(a, CLI, *args))
+            ok = r.returncode == 1 and words in r.stderr and "mca_cli: error:" in r.stderr and \
+                "Traceback" not in r.stderr
+            print(("ok: " if ok else "FAIL: ") + f"mca_cli.py, {name}: exit {r.returncode}, says '{words}'")
+            if not ok:
+                sys.exit(f"mca_cli.py on {name}: exit {r.returncode}, stderr: {r.stderr[-500:]}")
+    elif case == "missing_numpy":
+        in_blender(a, "missing_numpy", short)
+    elif case == "install":
+        scripts = os.path.join(a.work, "user_scripts")
+        shutil.rmtree(scripts, ignore_errors=True)
+        os.makedirs(scripts)
+        zip_path = os.path.join(a.work, "io_import_mca.zip")
+        with zipfile.ZipFile(zip_path, "w") as z:
+            for name in sorted(os.listdir(os.path.join(ADDON_ROOT, "io_import_mca"))):
+                if name.endswith(".py"):
+                    z.write(os.path.join(ADDON_ROOT, "io_import_mca", name), f"io_import_mca/{name}")
+        env = dict(os.environ, BLENDER_USER_SCRIPTS=scripts,
+                   BLENDER_USER_CONFIG=os.path.join(a.work, "user_config"))
+        # in_blender.py puts blender/ on the path; the installed copy must be the one found first
+        in_blender(a, "install", zip_path, short, env=env)
+    elif case == "colours":
+        check_colours(a)
+    else:
+        sys.exit(f"unknown case {case}")
+
+
+if __name__ == "__main__":
+    t0 = time.time()
+    main()
+    print(f"done in {time.time() - t0:.1f} s")
