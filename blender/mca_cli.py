@@ -3,7 +3,12 @@
     blender -b --factory-startup --python blender/mca_cli.py -- RUN_DIR OUT [options]
 
 OUT.abc   an Alembic cache of the whole run through Blender's exporter (the automata or surface, the
-          projectiles, the camera, the ground) for Houdini, Maya, Unreal;
+          projectiles, the camera, the ground) for Houdini, Maya, Unreal. Needs a Blender built with Alembic
+          (bpy.app.alembic.supported: blender.org's builds); Debian's blender 3.4.1 is built without it, and
+          the script says so and exits with 1;
+OUT.obj   the automata (or surface) and the projectiles of every frame through Blender's OBJ exporter, a file
+          per frame (OUT0.obj, OUT1.obj, ...: the name with the frame number; y up as OBJ readers expect, the
+          colours as vertex colours), which every Blender can write;
 OUT.png   one frame rendered with the Workbench (the last one, or --frame N);
 OUT.blend the scene saved as a .blend.
 
@@ -22,7 +27,7 @@ import traceback
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
-USAGE = ("usage: blender -b --factory-startup --python blender/mca_cli.py -- RUN_DIR OUT.abc|OUT.png|OUT.blend "
+USAGE = ("usage: blender -b --factory-startup --python blender/mca_cli.py -- RUN_DIR OUT.abc|OUT.obj|OUT.png|OUT.blend "
          "[--frame N] [--frames N] [--size WxH] [--samples N]")
 
 
@@ -68,8 +73,8 @@ def parse(argv):
         raise UsageError(f"expected RUN_DIR and OUT, got {len(pos)} arguments")
     run_dir, out = pos
     ext = os.path.splitext(out)[1].lower()
-    if ext not in (".abc", ".png", ".blend"):
-        raise UsageError(f"{out}: the output's extension picks what to write: .abc, .png or .blend")
+    if ext not in (".abc", ".obj", ".png", ".blend"):
+        raise UsageError(f"{out}: the output's extension picks what to write: .abc, .obj, .png or .blend")
     return run_dir, out, ext, opts
 
 
@@ -100,6 +105,11 @@ def render(scene, out, opts, frames):
 def main():
     run_dir, out, ext, opts = parse(sys.argv)
     import bpy
+    if ext == ".abc" and not bpy.app.alembic.supported:
+        raise UsageError(f"{out}: this Blender ({bpy.app.version_string}) is built without Alembic "
+                         "(bpy.app.alembic.supported is False; Debian's blender package is): run this script with a "
+                         "Blender from blender.org, which has it, or write OUT.obj (an OBJ file per frame) or "
+                         "OUT.blend instead")
     import io_import_mca
     from io_import_mca import reader
     reader.check_dependencies()
@@ -122,6 +132,19 @@ def main():
             raise RuntimeError(f"Blender's Alembic exporter wrote no {out}")
         print(f"mca_cli: wrote {out} (frames {scene.frame_start} to {scene.frame_end}) in "
               f"{time.perf_counter() - t0:.2f} s")
+    elif ext == ".obj":
+        stem = os.path.splitext(os.path.abspath(out))[0]
+        for obj in bpy.data.objects:
+            obj.select_set(obj == result.automata or obj in result.projectiles)
+        bpy.ops.wm.obj_export(filepath=stem + ".obj", export_animation=True, start_frame=scene.frame_start,
+                              end_frame=scene.frame_end, export_selected_objects=True, apply_modifiers=True,
+                              export_eval_mode="DAG_EVAL_RENDER", export_colors=True, export_materials=False,
+                              export_uv=False)
+        written = [f"{stem}{k}.obj" for k in range(scene.frame_start, scene.frame_end + 1)]
+        missing = [w for w in written if not os.path.isfile(w)]
+        if missing:
+            raise RuntimeError(f"Blender's OBJ exporter wrote no {missing[0]}")
+        print(f"mca_cli: wrote {written[0]} to {written[-1]} in {time.perf_counter() - t0:.2f} s")
     elif ext == ".png":
         frame = render(scene, out, opts, result.frames)
         print(f"mca_cli: rendered frame {frame} (t = {result.run.times[frame]:.4g} s) to {out} in "

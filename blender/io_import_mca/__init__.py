@@ -46,8 +46,8 @@ class IMPORT_SCENE_OT_mca_run(bpy.types.Operator, ImportHelper):
     def execute(self, context):
         path = run_folder(self.filepath or self.directory)
         try:
-            from . import build  # needs numpy: a missing one is reported by reader.check_dependencies
-            reader.check_dependencies()
+            reader.check_dependencies()  # numpy and tomllib, before build (which imports numpy)
+            from . import build
             result = build.import_run(context, path, max_frames=self.max_frames or None)
         except reader.RunError as e:
             self.report({"ERROR"}, f"mca run: {e}")

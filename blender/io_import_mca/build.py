@@ -26,7 +26,6 @@ COLOUR = "mca_colour"
 FRAME = "mca_frame"
 ROTATION = "mca_rotation"
 BALL_COLOUR = (205, 30, 30)  # the renderer's projectiles
-GROUND_COLOUR = (98, 97, 93)  # between the two tiles of the renderer's checkered ground
 BACKGROUND = (34, 37, 43)  # the renderer's background
 
 
@@ -264,23 +263,57 @@ def _projectiles(run, collection):
 
 
 def _ground(run, collection, eye, target):
+    """The ground as the renderer draws it: a square around the point under the target, 12 viewing distances
+    across each way, checkered in tiles of a round size near a tenth of the viewing distance, fading into the
+    background from 2.1 to 6 viewing distances from the camera."""
     g = run.ground()
     if g is None:
         return None
     height, up = g
-    up = Vector(up)
-    a = up.cross(Vector((1, 0, 0)) if abs(up.x) < 0.9 else Vector((0, 1, 0))).normalized()
-    b = up.cross(a)
-    t = Vector(target)
-    centre = t - t.dot(up) * up + height * up
-    reach = 12.0 * (Vector(target) - Vector(eye)).length + 10.0 * run.spacing
+    up = np.asarray(up, float)
+    a = np.cross(up, [1.0, 0, 0] if abs(up[0]) < 0.9 else [0, 1.0, 0])
+    a /= np.linalg.norm(a)
+    b = np.cross(up, a)
+    target, eye = np.asarray(target, float), np.asarray(eye, float)
+    centre = target - np.dot(target, up) * up + height * up
+    dist = float(np.linalg.norm(target - eye))
+    reach = 12.0 * dist + 10.0 * run.spacing
+    tile = 10.0 ** round(math.log10(0.15 * dist)) if dist > 0 else 1.0
+    while 2 * reach / tile > 240:  # at most 240 x 240 tiles
+        tile *= 2
+    count = int(math.ceil(2 * reach / tile))
+    # tiles on the grid of multiples of `tile` along a and b, as the renderer's checker
+    lo_a = math.floor((np.dot(centre, a) - reach) / tile)
+    lo_b = math.floor((np.dot(centre, b) - reach) / tile)
+    ia, ib = np.meshgrid(np.arange(count + 1), np.arange(count + 1), indexing="ij")
+    coord_a, coord_b = (lo_a + ia) * tile, (lo_b + ib) * tile
+    verts = coord_a[..., None] * a + coord_b[..., None] * b + (np.dot(centre, up)) * up
+    verts = verts.reshape(-1, 3).astype(np.float32)
+    fa, fb = np.meshgrid(np.arange(count), np.arange(count), indexing="ij")
+    v0 = (fa * (count + 1) + fb).ravel()
+    quads = np.stack([v0, v0 + count + 1, v0 + count + 2, v0 + 1], axis=1).astype(np.int32)
+    checker = ((lo_a + fa + lo_b + fb) % 2).ravel()
+    light = np.array([0.41, 0.405, 0.39]) * 255
+    dark = np.array([0.36, 0.355, 0.34]) * 255
+    rgb = np.where(checker[:, None] == 1, light, dark)
+    mid = verts[quads].mean(axis=1)
+    fade = np.clip((np.linalg.norm(mid - eye, axis=1) - 0.35 * 6 * dist) / (0.65 * 6 * dist), 0, 1)
+    fade = fade * fade * (3 - 2 * fade)  # smoothstep
+    rgb = (1 - fade[:, None]) * rgb + fade[:, None] * np.array(BACKGROUND, float)
     mesh = bpy.data.meshes.new("mca ground")
-    corners = [centre + reach * (sa * a + sb * b) for sa, sb in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
-    mesh.from_pydata([tuple(c) for c in corners], [], [(0, 1, 2, 3)])
-    _set_colour(mesh, "CORNER", np.tile(np.array(GROUND_COLOUR, np.uint8), (4, 1)))
+    mesh.vertices.add(len(verts))
+    mesh.vertices.foreach_set("co", verts.ravel())
+    mesh.loops.add(4 * len(quads))
+    mesh.loops.foreach_set("vertex_index", quads.ravel())
+    mesh.polygons.add(len(quads))
+    mesh.polygons.foreach_set("loop_start", np.arange(0, 4 * len(quads), 4, dtype=np.int32))
+    mesh.polygons.foreach_set("loop_total", np.full(len(quads), 4, np.int32))
+    mesh.update(calc_edges=True)
+    _set_colour(mesh, "CORNER", np.repeat(np.round(rgb).astype(np.uint8), 4, axis=0))
     mesh.materials.append(_colour_material())
     obj = _object("mca ground", mesh, collection)
     obj["mca_height"] = height
+    obj["mca_tile"] = tile
     return obj
 
 
