@@ -9,12 +9,14 @@ OUT.abc   an Alembic cache of the whole run through Blender's exporter (the auto
 OUT.obj   the automata (or surface) and the projectiles of every frame through Blender's OBJ exporter, a file
           per frame (OUT0.obj, OUT1.obj, ...: the name with the frame number; y up as OBJ readers expect, the
           colours as vertex colours), which every Blender can write;
-OUT.png   one frame rendered with the Workbench (the last one, or --frame N);
+OUT.png   one frame (the last one, or --frame N) rendered with the Workbench (--engine workbench, the
+          default: a second or two), Eevee (--engine eevee: its shaders take a few seconds to compile) or
+          Cycles on the CPU (--engine cycles, --samples N);
 OUT.blend the scene saved as a .blend.
 
 Options: --frame N (the frame of a .png; default: the last), --frames N (import only the first N frames),
---size WxH (the picture's size; default: the run's render size, 1280x720), --samples N (the Workbench's
-anti-aliasing samples, default 8).
+--size WxH (the picture's size; default: the run's render size, 1280x720), --engine workbench|eevee|cycles,
+--samples N (anti-aliasing samples of the Workbench, default 8, or samples of Eevee and Cycles).
 
 A problem with the run folder or the arguments is one line on stderr and exit code 1; any other failure
 exits with 2.
@@ -28,7 +30,7 @@ import traceback
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 USAGE = ("usage: blender -b --factory-startup --python blender/mca_cli.py -- RUN_DIR OUT.abc|OUT.obj|OUT.png|OUT.blend "
-         "[--frame N] [--frames N] [--size WxH] [--samples N]")
+         "[--frame N] [--frames N] [--size WxH] [--engine workbench|eevee|cycles] [--samples N]")
 
 
 class UsageError(Exception):
@@ -39,7 +41,7 @@ def parse(argv):
     if "--" not in argv:
         raise UsageError("no arguments after '--'")
     args = argv[argv.index("--") + 1:]
-    opts = {"frame": None, "frames": None, "size": None, "samples": 8}
+    opts = {"frame": None, "frames": None, "size": None, "samples": 8, "engine": "workbench"}
     pos = []
     k = 0
     while k < len(args):
@@ -53,7 +55,11 @@ def parse(argv):
                 raise UsageError(f"unknown option or missing value: {a}")
             value = args[k + 1]
             try:
-                if key == "size":
+                if key == "engine":
+                    if value not in ("workbench", "eevee", "cycles"):
+                        raise ValueError
+                    opts[key] = value
+                elif key == "size":
                     w, h = value.lower().split("x")
                     opts[key] = (int(w), int(h))
                     if not (16 <= opts[key][0] <= 16384 and 16 <= opts[key][1] <= 16384):
@@ -64,7 +70,8 @@ def parse(argv):
                         raise ValueError
             except ValueError:
                 raise UsageError(f"{a} {value}: expected " +
-                                 ("WxH, 16 to 16384 each" if key == "size" else "a whole number >= 0"))
+                                 ("WxH, 16 to 16384 each" if key == "size" else "workbench, eevee or cycles" if key == "engine"
+                                  else "a whole number >= 0"))
             k += 2
             continue
         pos.append(a)
@@ -83,13 +90,24 @@ def render(scene, out, opts, frames):
     frame = opts["frame"] if opts["frame"] is not None else frames - 1
     if frame >= frames:
         raise UsageError(f"--frame {frame}: the run has frames 0 to {frames - 1}")
-    scene.render.engine = "BLENDER_WORKBENCH"
-    shading = scene.display.shading
-    shading.light = "STUDIO"
-    shading.color_type = "VERTEX"  # the colour attribute: mca's fragment colours
-    shading.show_cavity = False
-    shading.show_shadows = False
-    scene.display.render_aa = str(opts["samples"]) if str(opts["samples"]) in ("5", "8", "11", "16", "32") else "8"
+    engine = opts["engine"]
+    if engine == "workbench":
+        scene.render.engine = "BLENDER_WORKBENCH"
+        shading = scene.display.shading
+        shading.light = "STUDIO"
+        shading.color_type = "VERTEX"  # the colour attribute: mca's fragment colours
+        shading.show_cavity = False
+        shading.show_shadows = False
+        aa = str(opts["samples"])
+        scene.display.render_aa = aa if aa in ("5", "8", "11", "16", "32") else "8"
+    elif engine == "eevee":  # the material "mca colour" reads the colour attribute
+        scene.render.engine = "BLENDER_EEVEE"
+        scene.eevee.taa_render_samples = opts["samples"]
+    else:
+        scene.render.engine = "CYCLES"
+        scene.cycles.device = "CPU"
+        scene.cycles.samples = opts["samples"]
+        scene.cycles.use_denoising = False  # Debian's Blender has no OpenImageDenoise
     if opts["size"]:
         scene.render.resolution_x, scene.render.resolution_y = opts["size"]
     scene.render.image_settings.file_format = "PNG"
@@ -147,7 +165,7 @@ def main():
         print(f"mca_cli: wrote {written[0]} to {written[-1]} in {time.perf_counter() - t0:.2f} s")
     elif ext == ".png":
         frame = render(scene, out, opts, result.frames)
-        print(f"mca_cli: rendered frame {frame} (t = {result.run.times[frame]:.4g} s) to {out} in "
+        print(f"mca_cli: rendered frame {frame} (t = {result.run.times[frame]:.4g} s) with {opts['engine']} to {out} in "
               f"{time.perf_counter() - t0:.2f} s")
     else:
         bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(out))

@@ -39,6 +39,7 @@ class Imported:
         self.projectiles = []
         self.ground = None
         self.camera = None
+        self.light = None
         self.fragments = []
         self.seconds = 0.0
 
@@ -344,6 +345,19 @@ def _camera(run, collection, scene):
     return obj, eye, target
 
 
+def _sun(collection, eye, target, up):
+    """The renderer's key light for Eevee and Cycles: from above, over the camera's left shoulder."""
+    fwd = Vector(target - eye).normalized()
+    u = Vector(up)
+    right = fwd.cross(u).normalized()
+    light = (-0.8 * fwd - 0.4 * right + 0.8 * u).normalized()
+    sun = bpy.data.lights.new("mca light", "SUN")
+    sun.energy = 3.0
+    obj = _object("mca light", sun, collection)
+    obj.rotation_euler = light.to_track_quat("Z", "Y").to_euler()  # a sun shines along its -Z
+    return obj
+
+
 def _fragment_meshes(run, collection):
     """fragments/fragment_NNN.ply: closed meshes of the fragments at the end of the run, NNN their id in
     fragments.csv (the numbering of the last frame), coloured as their automata in the last frame."""
@@ -398,6 +412,7 @@ def import_run(context, path, max_frames=None):
     result.projectiles = _projectiles(run, coll)
     result.camera, eye, target = _camera(run, coll, scene)
     result.ground = _ground(run, coll, eye, target)
+    result.light = _sun(coll, eye, target, reader.up_axis(run.scene))
     result.fragments = _fragment_meshes(run, coll)
 
     # Looks: the renderer's background; the Workbench shows the colour attribute; plain colours.

@@ -398,8 +398,8 @@ def _turn(q, omega_a, omega_b, dt):
 
 
 def automaton_rotations(p0, frames, times):
-    """Orientation quaternions (w, x, y, z) of each automaton at each frame. The frames hold no orientation,
-    so it is found from what they hold: an automaton starts unturned (as in mca); one in a fragment of three
+    """Orientation quaternions (w, x, y, z) of each automaton at each frame, for frames that hold no
+    orientation (written by an mca before they did), found from what they hold: an automaton starts unturned (as in mca); one in a fragment of three
     or more automata not in a line turns with its fragment, whose rotation is the one that best carries the
     fragment's automata from their frame-0 places to their places now (Kabsch: the SVD of their covariance);
     one in a smaller piece turns from its orientation at the frame before by the mean of the angular
@@ -543,13 +543,14 @@ class Run:
         entries = read_pvd(pvd)
         if not entries:
             raise RunError(f"{pvd} lists no frames: the run stopped before its first frame; run it again")
+        self.frame_count = len(entries)  # the run's, before max_frames
         if max_frames is not None:
             entries = entries[:max_frames]
         self.times = [t for t, _ in entries]
         wanted = {"fragment", "object", "radius", "angular_velocity", "damage", "displacement"}
         self.frames = []
         for t, rel in entries:
-            points, fields = read_vtu(os.path.join(self.dir, rel), wanted)
+            points, fields = read_vtu(os.path.join(self.dir, rel), wanted | {"orientation"})
             missing = sorted(wanted - fields.keys())
             if missing:
                 raise RunError(f"{os.path.join(self.dir, rel)} has no field {', '.join(missing)}: not a frame of "
@@ -559,6 +560,11 @@ class Run:
                                f"{len(self.frames[0]['points'])}: frames of different runs are mixed in the folder; "
                                "run mca again into an empty folder")
             self.frames.append(dict(points=points, **fields))
+        # Frames of mca before the orientation was written: the rotations are reconstructed.
+        self.has_orientation = all("orientation" in f for f in self.frames)
+        if not self.has_orientation:
+            self.warnings.append("the frames carry no orientation (written by an older mca): the cubes' rotations "
+                                 "are reconstructed from the fragments' motion and the angular velocities")
         self.projectiles = self._read_projectiles(len(entries))
         self.spacing = self._spacing()
         self.fps, self.render_size = self._render_options()
@@ -618,8 +624,7 @@ class Run:
 
     def _render_options(self):
         size = (1280, 720)
-        fps = default_fps(len(self.frames) if self.summary is None else
-                          max(len(self.frames), 1))
+        fps = default_fps(self.frame_count)
         path = os.path.join(self.dir, "render", "render.json")
         if os.path.isfile(path):
             try:
@@ -676,6 +681,9 @@ class Run:
         return [start | (f["damage"] > 0) for f in self.frames]
 
     def rotations(self):
+        """Per frame, the automata's orientations (w, x, y, z): the frames' own, else reconstructed."""
+        if self.has_orientation:
+            return [f["orientation"] for f in self.frames]
         return automaton_rotations(self.initial_positions(), self.frames, self.times)
 
     def camera(self):

@@ -69,7 +69,8 @@ def import_checks(run_dir, surface):
     check(len(result.projectiles) == balls == 1, f"{len(result.projectiles)} projectile spheres for {balls} balls")
     check(result.ground is not None and result.camera is not None and scene.camera == result.camera,
           "a ground plane and the scene's camera")
-    expected = 1 + balls + 2 + len(result.fragments)
+    check(result.light is not None and result.light.type == "LIGHT", "a sun light for Eevee and Cycles")
+    expected = 1 + balls + 3 + len(result.fragments)
     check(len(names) == expected, f"{len(names)} objects, expected {expected}")
 
     # The automata move between frames, and each frame shows only its own.

@@ -268,6 +268,32 @@ def check_colours(a):
             sys.exit(f"frame {k}: {differ} automata coloured unlike the renderer")
 
 
+def check_rotations(a):
+    """The rotations reconstructed for frames without orientation (older runs) against the orientations the
+    frames carry, on the default scene: the automata of fragments turn with them (Kabsch), pieces by their
+    spin."""
+    import numpy as np
+    reader = load_reader()
+    run = reader.Run(os.path.join(a.work, "default"))
+    if not run.has_orientation:
+        sys.exit("the default scene's frames carry no orientation")
+    truth = run.rotations()
+    guess = reader.automaton_rotations(run.initial_positions(), run.frames, run.times)
+    exposed = run.exposed()
+    for k in (len(run.frames) // 2, len(run.frames) - 1):
+        def off(q):  # degrees between q and the frame's orientation, exposed automata
+            dot = np.abs((truth[k].astype(float) * q.astype(float)).sum(axis=1)).clip(0, 1)
+            return np.degrees(2 * np.arccos(dot))[exposed[k]]
+        angle = off(guess[k])
+        unturned = off(np.tile([1.0, 0, 0, 0], (len(guess[k]), 1)))
+        median, p90 = np.median(angle), np.percentile(angle, 90)
+        print(f"frame {k}: the exposed automata's reconstructed rotation is off by {median:.1f} degrees (median), "
+              f"{p90:.1f} (90th percentile); unturned cubes would be off by {np.median(unturned):.1f} and "
+              f"{np.percentile(unturned, 90):.1f}")
+        if not (median < 10 and p90 < 40 and p90 < 0.5 * np.percentile(unturned, 90)):
+            sys.exit(f"frame {k}: the reconstructed rotations are far from the frames' orientations")
+
+
 def main():
     p = argparse.ArgumentParser()
     p.add_argument("--mca", required=True)
@@ -365,6 +391,8 @@ def main():
         in_blender(a, "install", zip_path, short, env=env)
     elif case == "colours":
         check_colours(a)
+    elif case == "rotations":
+        check_rotations(a)
     else:
         sys.exit(f"unknown case {case}")
 
