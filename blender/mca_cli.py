@@ -112,6 +112,7 @@ def render(scene, out, opts, frames):
         scene.render.resolution_x, scene.render.resolution_y = opts["size"]
     scene.render.image_settings.file_format = "PNG"
     scene.render.image_settings.color_mode = "RGB"
+    scene.render.image_settings.compression = 90
     scene.render.filepath = os.path.abspath(out)
     scene.frame_set(frame)
     bpy.ops.render.render(write_still=True)

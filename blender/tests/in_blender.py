@@ -106,6 +106,21 @@ def case_import(run_dir, surface=False, limit=None):
     result, seconds = import_checks(run_dir, surface)
     if limit is not None:
         check(seconds < limit, f"the import took {seconds:.2f} s, under {limit} s")
+        # Playback: each frame's geometry (the geometry nodes' work when the viewport plays) within the
+        # time a frame is shown at the run's rate (drawing it is the viewport's, not measured here).
+        # The better of two passes over the timeline, as a viewport plays it in a loop.
+        scene = bpy.context.scene
+        passes = []
+        for _ in range(2):
+            t0 = time.perf_counter()
+            for k in range(scene.frame_start, scene.frame_end + 1):
+                scene.frame_set(k)
+                bpy.context.evaluated_depsgraph_get()
+            passes.append((time.perf_counter() - t0) / result.frames)
+        per_frame = min(passes)
+        check(per_frame < 1.0 / result.run.fps,
+              f"a frame's geometry in {1000 * per_frame:.1f} ms, under the {1000 / result.run.fps:.0f} ms a frame "
+              f"is shown at {result.run.fps:g} frames/s")
     if surface:
         check(len(result.fragments) == len(result.run.fragment_files) > 0,
               f"{len(result.fragments)} fragment mesh objects for {len(result.run.fragment_files)} files")

@@ -380,11 +380,15 @@ def main():
         scripts = os.path.join(a.work, "user_scripts")
         shutil.rmtree(scripts, ignore_errors=True)
         os.makedirs(scripts)
+        # the README's command
         zip_path = os.path.join(a.work, "io_import_mca.zip")
-        with zipfile.ZipFile(zip_path, "w") as z:
-            for name in sorted(os.listdir(os.path.join(ADDON_ROOT, "io_import_mca"))):
-                if name.endswith(".py"):
-                    z.write(os.path.join(ADDON_ROOT, "io_import_mca", name), f"io_import_mca/{name}")
+        if os.path.exists(zip_path):
+            os.remove(zip_path)
+        r = run([sys.executable, "-m", "zipfile", "-c", zip_path, os.path.join(ADDON_ROOT, "io_import_mca")])
+        with zipfile.ZipFile(zip_path) as z:
+            names = z.namelist()
+        if r.returncode != 0 or "io_import_mca/__init__.py" not in names:
+            sys.exit(f"python3 -m zipfile made {names} (exit {r.returncode})")
         env = dict(os.environ, BLENDER_USER_SCRIPTS=scripts,
                    BLENDER_USER_CONFIG=os.path.join(a.work, "user_config"))
         # in_blender.py puts blender/ on the path; the installed copy must be the one found first
