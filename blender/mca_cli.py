@@ -129,7 +129,6 @@ def main():
                          "(bpy.app.alembic.supported is False; Debian's blender package is): run this script with a "
                          "Blender from blender.org, which has it, or write OUT.obj (an OBJ file per frame) or "
                          "OUT.blend instead")
-    import io_import_mca
     from io_import_mca import reader
     reader.check_dependencies()
     from io_import_mca import build

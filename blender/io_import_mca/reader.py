@@ -469,7 +469,6 @@ def default_camera(scene, points0, spacing, projectiles0, aspect):
     up = up_axis(scene)
     fov = float(cam.get("fov", 40.0))
     lo, hi = points0.min(axis=0).astype(float), points0.max(axis=0).astype(float)
-    centre = 0.5 * (lo + hi)
     h = 0.5 * spacing
     box_lo, box_hi = lo - h, hi + h
     target = np.array(cam["target"], float) if "target" in cam else 0.5 * (box_lo + box_hi)
@@ -504,7 +503,6 @@ def default_camera(scene, points0, spacing, projectiles0, aspect):
             x, y, z = np.dot(d, r), np.dot(d, u), np.dot(d, f)
             dist = max(dist, 1.12 * abs(x) / tan_h - z, 1.12 * abs(y) / tan_v - z)
         eye = target + back * max(dist, 1e-3)
-    del centre
     return eye, target, up, fov
 
 

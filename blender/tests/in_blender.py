@@ -48,7 +48,7 @@ def pvd_frames(run_dir):
 
 def import_checks(run_dir, surface):
     """Imports a run and checks what it made."""
-    from io_import_mca import build, reader
+    from io_import_mca import build
     clear()
     t0 = time.perf_counter()
     result = build.import_run(bpy.context, run_dir)
@@ -142,7 +142,6 @@ def case_alembic(run_dir, abc):
     if automata is None:
         return
     check(any(m.type == "MESH_SEQUENCE_CACHE" for m in automata.modifiers), "the automata read the cache per frame")
-    scene = bpy.context.scene
     first, faces0 = evaluated_points(automata, 0)
     last, faces1 = evaluated_points(automata, frames - 1)
     check(faces0 > 0 and faces1 > 0 and (faces0 != faces1 or not np.allclose(first, last)),
@@ -163,7 +162,6 @@ def case_obj_sequence(run_dir, folder):
     from io_import_mca import reader
     run = reader.Run(run_dir)
     exposed = run.exposed()
-    ball_faces = None
     for k in (0, len(run.frames) - 1):
         clear()
         bpy.ops.wm.obj_import(filepath=os.path.join(folder, f"short{k}.obj"))
