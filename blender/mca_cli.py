@@ -152,10 +152,11 @@ def main():
               f"{time.perf_counter() - t0:.2f} s")
     elif ext == ".obj":
         stem = os.path.splitext(os.path.abspath(out))[0]
-        for obj in bpy.data.objects:
-            obj.select_set(obj == result.automata or obj in result.projectiles)
+        # The frames' objects (each shown at its frame only) and the balls; the ground stays out.
+        if result.ground is not None:
+            result.ground.hide_viewport = result.ground.hide_render = True
         bpy.ops.wm.obj_export(filepath=stem + ".obj", export_animation=True, start_frame=scene.frame_start,
-                              end_frame=scene.frame_end, export_selected_objects=True, apply_modifiers=True,
+                              end_frame=scene.frame_end, export_selected_objects=False, apply_modifiers=True,
                               export_eval_mode="DAG_EVAL_RENDER", export_colors=True, export_materials=False,
                               export_uv=False)
         written = [f"{stem}{k}.obj" for k in range(scene.frame_start, scene.frame_end + 1)]

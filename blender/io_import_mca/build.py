@@ -1,10 +1,11 @@
 """Building Blender objects from a run folder read by reader.Run.
 
-The automata of every frame are held in one object: a mesh whose points (the exposed automata, or the
-vertices of the bound surface) carry the frame they belong to (`mca_frame`); a geometry-nodes modifier
-keeps the points of the scene's current frame (Scene Time) and, for automata, puts a cube of the spacing
-on each, turned by its rotation. So the animation lives in the .blend itself (no handler, no add-on needed
-to play or render it) and Blender's Alembic exporter writes the evaluated mesh of each frame.
+Each frame of the automata is an object of its own, shown (in the viewport and in renders) at its frame
+only by keyframes of its visibility: the exposed automata as points with a geometry-nodes modifier that
+puts a cube of the spacing on each, turned by its rotation, or the bound surface's triangles. So the
+animation lives in the .blend itself (no handler, no add-on needed to play or render it), playing only
+switches which object is shown (each is evaluated once, then drawn from Blender's cache), and exporters
+write at each frame the object shown.
 
 Colours: the `mca_colour` colour attribute (linear RGBA) of every object holds the renderer's `fragment`
 colouring (README, "Pictures and video"); the material "mca colour" reads it, and so does the Workbench
@@ -23,7 +24,6 @@ from mathutils import Matrix, Vector
 from . import reader
 
 COLOUR = "mca_colour"
-FRAME = "mca_frame"
 ROTATION = "mca_rotation"
 BALL_COLOUR = (205, 30, 30)  # the renderer's projectiles
 BACKGROUND = (34, 37, 43)  # the renderer's background
@@ -35,7 +35,8 @@ class Imported:
     def __init__(self, run):
         self.run = run
         self.collection = None
-        self.automata = None
+        self.automata = None  # the collection of the frames' objects
+        self.frame_objects = []  # the object of each frame
         self.projectiles = []
         self.ground = None
         self.camera = None
@@ -87,46 +88,28 @@ def _enabled(sockets):
     return [s for s in sockets if s.enabled]
 
 
-def _frame_filter_tree(name, spacing=None):
-    """Geometry nodes: keep the points whose mca_frame is the scene's frame; with `spacing`, instance a cube
-    of that size on each, turned by mca_rotation, and realize them. Then the material "mca colour"."""
-    tree = bpy.data.node_groups.new(name, "GeometryNodeTree")
+def _cube_tree(spacing):
+    """Geometry nodes: a cube of the spacing on each point, turned by mca_rotation, realized (so that
+    exporters and renderers get a mesh), with the material "mca colour"."""
+    tree = bpy.data.node_groups.new("mca cubes", "GeometryNodeTree")
     tree.inputs.new("NodeSocketGeometry", "Geometry")
     tree.outputs.new("NodeSocketGeometry", "Geometry")
     n, link = tree.nodes, tree.links.new
     gin, gout = n.new("NodeGroupInput"), n.new("NodeGroupOutput")
-    frame_attr = n.new("GeometryNodeInputNamedAttribute")
-    frame_attr.data_type = "INT"
-    frame_attr.inputs["Name"].default_value = FRAME
-    now = n.new("GeometryNodeInputSceneTime")
-    other = n.new("FunctionNodeCompare")
-    other.data_type = "FLOAT"
-    other.operation = "NOT_EQUAL"
-    a, b, eps = _enabled(other.inputs)
-    eps.default_value = 0.25
-    link(_enabled(frame_attr.outputs)[0], a)
-    link(now.outputs["Frame"], b)
-    delete = n.new("GeometryNodeDeleteGeometry")
-    delete.domain = "POINT"
-    link(gin.outputs[0], delete.inputs["Geometry"])
-    link(_enabled(other.outputs)[0], delete.inputs["Selection"])
-    geometry = delete.outputs["Geometry"]
-    if spacing is not None:
-        cube = n.new("GeometryNodeMeshCube")
-        cube.inputs["Size"].default_value = (spacing, spacing, spacing)
-        rot = n.new("GeometryNodeInputNamedAttribute")
-        rot.data_type = "FLOAT_VECTOR"
-        rot.inputs["Name"].default_value = ROTATION
-        inst = n.new("GeometryNodeInstanceOnPoints")
-        link(geometry, inst.inputs["Points"])
-        link(cube.outputs["Mesh"], inst.inputs["Instance"])
-        link(_enabled(rot.outputs)[0], inst.inputs["Rotation"])
-        realize = n.new("GeometryNodeRealizeInstances")
-        link(inst.outputs["Instances"], realize.inputs["Geometry"])
-        geometry = realize.outputs["Geometry"]
+    cube = n.new("GeometryNodeMeshCube")
+    cube.inputs["Size"].default_value = (spacing, spacing, spacing)
+    rot = n.new("GeometryNodeInputNamedAttribute")
+    rot.data_type = "FLOAT_VECTOR"
+    rot.inputs["Name"].default_value = ROTATION
+    inst = n.new("GeometryNodeInstanceOnPoints")
+    link(gin.outputs[0], inst.inputs["Points"])
+    link(cube.outputs["Mesh"], inst.inputs["Instance"])
+    link(_enabled(rot.outputs)[0], inst.inputs["Rotation"])
+    realize = n.new("GeometryNodeRealizeInstances")
+    link(inst.outputs["Instances"], realize.inputs["Geometry"])
     material = n.new("GeometryNodeSetMaterial")
     material.inputs["Material"].default_value = _colour_material()
-    link(geometry, material.inputs["Geometry"])
+    link(realize.outputs["Geometry"], material.inputs["Geometry"])
     link(material.outputs["Geometry"], gout.inputs[0])
     for k, node in enumerate(n):
         node.location = (200 * k, 0)
@@ -139,78 +122,86 @@ def _object(name, data, collection):
     return obj
 
 
+def _shown_at(obj, frame, last):
+    """obj is visible (viewport and render) at `frame` only: keyframes of hide_viewport and hide_render."""
+    obj.hide_viewport = obj.hide_render = frame != 0
+    obj.animation_data_create()
+    action = bpy.data.actions.new(obj.name + " visibility")
+    obj.animation_data.action = action
+    keys = [(f, float(f != frame)) for f in (frame - 1, frame, frame + 1) if 0 <= f <= last]
+    co = np.array(keys, np.float32).ravel()
+    for path in ("hide_viewport", "hide_render"):
+        fc = action.fcurves.new(path)
+        fc.keyframe_points.add(len(keys))
+        fc.keyframe_points.foreach_set("co", co)
+        fc.keyframe_points.foreach_set("interpolation", np.zeros(len(keys), np.int32))  # CONSTANT
+        fc.update()
+
+
 # ---------------------------------------------------------------------------------------------------------
+# The automata: one object per frame, shown at its frame only. Each holds its frame's geometry, so playing
+# the timeline only switches which object is shown: Blender evaluates each once and then draws it from its
+# cache (a frame's switch takes well under a millisecond).
 
 def _automata_cubes(run, collection):
-    """One point per exposed automaton and frame, with its frame, rotation (XYZ Euler), colour, fragment and
-    damage; a cube of the spacing on each (geometry nodes)."""
+    """Per frame, a point per exposed automaton with its rotation (XYZ Euler), colour, fragment, damage and
+    index; the geometry nodes put a cube of the spacing on each."""
     exposed = run.exposed()
     rotations = run.rotations()
-    pts, frame, euler, colour, fragment, damage, index = [], [], [], [], [], [], []
+    tree = _cube_tree(run.spacing)
+    last = len(run.frames) - 1
+    out = []
     for k, f in enumerate(run.frames):
         sel = np.nonzero(exposed[k])[0]
-        pts.append(f["points"][sel])
-        frame.append(np.full(len(sel), k, np.int32))
-        euler.append(reader.quat_to_euler_xyz(rotations[k][sel]))
-        colour.append(run.colours(k)[sel])
-        fragment.append(f["fragment"][sel])
-        damage.append(f["damage"][sel])
-        index.append(sel.astype(np.int32))
-    pts = np.concatenate(pts).astype(np.float32)
-    mesh = bpy.data.meshes.new("mca automata")
-    mesh.vertices.add(len(pts))
-    mesh.vertices.foreach_set("co", pts.ravel())
-    _attribute(mesh, FRAME, "INT", "POINT", np.concatenate(frame))
-    _attribute(mesh, ROTATION, "FLOAT_VECTOR", "POINT", np.concatenate(euler))
-    _attribute(mesh, "fragment", "INT", "POINT", np.concatenate(fragment).astype(np.int32))
-    _attribute(mesh, "damage", "FLOAT", "POINT", np.concatenate(damage).astype(np.float32))
-    _attribute(mesh, "automaton", "INT", "POINT", np.concatenate(index))
-    _set_colour(mesh, "POINT", np.concatenate(colour))
-    mesh.update()
-    obj = _object("mca automata", mesh, collection)
-    mod = obj.modifiers.new("mca frames", "NODES")
-    mod.node_group = _frame_filter_tree("mca automata", run.spacing)
-    return obj
+        name = f"mca automata {k:06d}"
+        mesh = bpy.data.meshes.new(name)
+        mesh.vertices.add(len(sel))
+        mesh.vertices.foreach_set("co", np.ascontiguousarray(f["points"][sel], np.float32).ravel())
+        _attribute(mesh, ROTATION, "FLOAT_VECTOR", "POINT", reader.quat_to_euler_xyz(rotations[k][sel]))
+        _attribute(mesh, "fragment", "INT", "POINT", f["fragment"][sel].astype(np.int32))
+        _attribute(mesh, "damage", "FLOAT", "POINT", f["damage"][sel].astype(np.float32))
+        _attribute(mesh, "automaton", "INT", "POINT", sel.astype(np.int32))
+        _set_colour(mesh, "POINT", run.colours(k)[sel])
+        mesh.update()
+        obj = _object(name, mesh, collection)
+        obj["mca_frame"] = k
+        obj.modifiers.new("mca cubes", "NODES").node_group = tree
+        _shown_at(obj, k, last)
+        out.append(obj)
+    return out
 
 
 def _surface(run, collection):
-    """The bound surface of every frame in one mesh, each frame's vertices and triangles tagged with it;
-    the geometry nodes keep the current frame's. Triangles take the colour of their fragment."""
-    verts, faces, frame_v, colour, fragment = [], [], [], [], []
-    offset = 0
+    """Per frame, the bound surface: its triangles in the colour of their fragment."""
+    last = len(run.frames) - 1
+    out = []
+    material = _colour_material()
     for k, path in enumerate(run.surface_files):
         v, f, values = reader.read_obj(path) if path.endswith(".obj") else reader.read_ply(path)
         if values is None:
             raise reader.RunError(f"{path} has no fragment number per face: not a surface written by mca")
         autom = run.frames[k]
-        per_automaton = run.colours(k)
         # a fragment's colour is that of its automata (all of them share it)
         table = np.zeros((int(max(autom["fragment"].max(), values.max() if len(values) else 0)) + 1, 3), np.uint8)
-        table[autom["fragment"]] = per_automaton
-        verts.append(v)
-        faces.append(f + offset)
-        frame_v.append(np.full(len(v), k, np.int32))
-        colour.append(np.repeat(table[values], 3, axis=0))
-        fragment.append(values)
-        offset += len(v)
-    verts = np.concatenate(verts).astype(np.float32)
-    faces = np.concatenate(faces).astype(np.int32)
-    mesh = bpy.data.meshes.new("mca surface")
-    mesh.vertices.add(len(verts))
-    mesh.vertices.foreach_set("co", verts.ravel())
-    mesh.loops.add(3 * len(faces))
-    mesh.loops.foreach_set("vertex_index", faces.ravel())
-    mesh.polygons.add(len(faces))
-    mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * len(faces), 3, dtype=np.int32))
-    mesh.polygons.foreach_set("loop_total", np.full(len(faces), 3, np.int32))
-    mesh.update(calc_edges=True)
-    _attribute(mesh, FRAME, "INT", "POINT", np.concatenate(frame_v))
-    _attribute(mesh, "fragment", "INT", "FACE", np.concatenate(fragment).astype(np.int32))
-    _set_colour(mesh, "CORNER", np.concatenate(colour))
-    obj = _object("mca surface", mesh, collection)
-    mod = obj.modifiers.new("mca frames", "NODES")
-    mod.node_group = _frame_filter_tree("mca surface")
-    return obj
+        table[autom["fragment"]] = run.colours(k)
+        name = f"mca surface {k:06d}"
+        mesh = bpy.data.meshes.new(name)
+        mesh.vertices.add(len(v))
+        mesh.vertices.foreach_set("co", np.ascontiguousarray(v, np.float32).ravel())
+        mesh.loops.add(3 * len(f))
+        mesh.loops.foreach_set("vertex_index", np.ascontiguousarray(f, np.int32).ravel())
+        mesh.polygons.add(len(f))
+        mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * len(f), 3, dtype=np.int32))
+        mesh.polygons.foreach_set("loop_total", np.full(len(f), 3, np.int32))
+        mesh.update(calc_edges=True)
+        _attribute(mesh, "fragment", "INT", "FACE", values.astype(np.int32))
+        _set_colour(mesh, "CORNER", np.repeat(table[values], 3, axis=0))
+        mesh.materials.append(material)
+        obj = _object(name, mesh, collection)
+        obj["mca_frame"] = k
+        _shown_at(obj, k, last)
+        out.append(obj)
+    return out
 
 
 def _sphere_mesh(name, rgb):
@@ -407,7 +398,9 @@ def import_run(context, path, max_frames=None):
     scene.render.fps = max(1, round(fps))
     scene.render.fps_base = scene.render.fps / fps
 
-    result.automata = _automata_cubes(run, coll) if not run.surface_files else _surface(run, coll)
+    result.automata = bpy.data.collections.new("mca surface" if run.surface_files else "mca automata")
+    coll.children.link(result.automata)
+    result.frame_objects = (_surface if run.surface_files else _automata_cubes)(run, result.automata)
     result.automata["mca_frames"] = len(run.frames)
     result.projectiles = _projectiles(run, coll)
     result.camera, eye, target = _camera(run, coll, scene)
