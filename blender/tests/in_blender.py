@@ -166,6 +166,27 @@ def case_alembic(run_dir, abc):
         check(err < run.spacing, f"frame {k}: the cubes' box is the automata's within {err:.3f} m")
 
 
+def case_blend(run_dir, blend):
+    """The .blend of mca_cli.py --frames 3, opened without the add-on: three frames' objects, each shown at
+    its frame, the timeline 0 to 2, the camera, and the cubes where the run has its automata."""
+    bpy.ops.wm.open_mainfile(filepath=blend)
+    check("io_import_mca" not in sys.modules, "the add-on is not loaded")
+    scene = bpy.context.scene
+    objs = sorted((o for o in bpy.data.objects if o.name.startswith("mca automata ")), key=lambda o: o.name)
+    check(len(objs) == 3 and scene.frame_start == 0 and scene.frame_end == 2,
+          f"3 frames' objects ({len(objs)}), the timeline {scene.frame_start} to {scene.frame_end}")
+    check(scene.camera is not None and scene.camera.name == "mca camera", "the run's camera is the scene's")
+    from io_import_mca import reader
+    run = reader.Run(run_dir, max_frames=3)
+    exposed = run.exposed()
+    for k, obj in enumerate(objs):
+        scene.frame_set(k)
+        shown = [o.name for o in objs if not o.hide_viewport and not o.hide_render]
+        check(shown == [obj.name], f"frame {k} shows {shown}")
+        pts, faces = evaluated_points(obj, k)
+        check(faces == 6 * int(exposed[k].sum()), f"frame {k}: {faces} faces, 6 per exposed automaton")
+
+
 def case_obj_sequence(run_dir, folder):
     """The OBJ files of mca_cli.py, read back by Blender's OBJ importer: each frame's file holds that frame's
     cubes (6 faces per exposed automaton, with the ball's) where the run has its automata."""
@@ -267,6 +288,8 @@ def main():
         case_import(args[1], surface=True)
     elif case == "alembic":
         case_alembic(args[1], args[2])
+    elif case == "blend":
+        case_blend(args[1], args[2])
     elif case == "obj_sequence":
         case_obj_sequence(args[1], args[2])
     elif case == "bad_input":

@@ -353,6 +353,14 @@ def main():
         if r.returncode != 0 or not os.path.isfile(png):
             sys.exit(f"mca_cli.py did not render {png} (exit {r.returncode})")
         check_render(png, 480, 270)
+    elif case == "blend":
+        blend = os.path.join(a.work, "short3.blend")
+        if os.path.exists(blend):
+            os.remove(blend)
+        r = run(blender_cmd(a, CLI, short, blend, "--frames", "3"))
+        if r.returncode != 0 or not os.path.isfile(blend):
+            sys.exit(f"mca_cli.py did not write {blend} (exit {r.returncode})")
+        in_blender(a, "blend", short, blend)
     elif case == "bad_input":
         bad = make_bad_inputs(a)
         in_blender(a, "bad_input", bad)
