@@ -4,6 +4,7 @@
 #include <array>
 #include <cerrno>
 #include <cmath>
+#include <cstddef>
 #include <cstring>
 #include <fcntl.h>
 #include <fmt/format.h>
@@ -40,10 +41,10 @@ OutputEstimate estimate_output(const Model& m, const OutputDef& o, std::int64_t 
   e.frames = frames;
   const auto n = static_cast<double>(m.size());
   // A .vtu (FrameWriter::write_frame, io::write_vtu): about 2 KB of XML, then raw blocks with an 8-byte
-  // length each: per point the 11 fields (68 bytes) and its position (12), per cell connectivity, offset and
+  // length each: per point the 12 fields (84 bytes) and its position (12), per cell connectivity, offset and
   // type (9 with Int32 indices); each intact link a line cell of 13 bytes.
   if (o.vtk) {
-    e.vtk_frame = 2000 + 14 * 8 + 89 * n;
+    e.vtk_frame = 2000 + 15 * 8 + 105 * n;
     if (o.links) e.vtk_frame += 13 * static_cast<double>(m.link_count());
     const auto np = static_cast<double>(m.projectiles.size());
     if (np > 0) e.vtk_frame += 950 + 7 * 8 + (12 + 12 + 4 + 12 + 9) * np;
@@ -241,10 +242,14 @@ void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis
     object[a] = model_.object[a];
   }
   link_damage(model_, s.intact.data(), damage.data());
+  // The orientations are written from the state as they are: (w, x, y, z) floats, as mca::Frame::orientation.
+  static_assert(sizeof(Quat) == 4 * sizeof(float) && offsetof(Quat, w) == 0 && offsetof(Quat, z) == 3 * sizeof(float),
+                "a Quat is four floats w, x, y, z");
   std::vector<io::PointField> fields = {
       {"velocity", 3, vel.data(), nullptr},
       {"displacement", 3, disp.data(), nullptr},
       {"angular_velocity", 3, spin.data(), nullptr},
+      {"orientation", 4, reinterpret_cast<const float*>(s.q.data()), nullptr},
       {"group", 1, nullptr, group.data()},
       {"strength_class", 1, nullptr, cls.data()},
       {"object", 1, nullptr, object.data()},

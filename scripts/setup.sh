@@ -16,6 +16,8 @@ packages=(
   # windows, PNG, video, the run's plots, and the window tests under a virtual X server
   libepoxy-dev libglm-dev libegl-dev libopengl-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev libpng-dev
   ffmpeg python3 python3-matplotlib xvfb xauth xdotool
+  # the Blender add-on (blender/) and its tests: Blender 3.4 runs Debian's Python 3.11 with numpy
+  blender python3-numpy
 )
 if [[ "${MCA_SETUP_MODELS:-1}" != 0 ]]; then
   packages+=(libcgal-demo)  # the paper's models (scripts/get_models.sh)

@@ -1,0 +1,697 @@
+"""Reading an mca run folder with the standard library and numpy only (no bpy).
+
+What a run folder holds is described in the README ("Outputs"): automata.pvd with frames/automata_NNNNNN.vtu
+(VTK XML, raw appended binary), projectiles.pvd, surface/surface_NNNNNN.ply or .obj with
+`[output] surface = true`, fragments/fragment_NNN.ply with `[output] fragments = true`, scene.toml,
+summary.json and render/render.json after `mca run --render`.
+
+Every problem with the folder is raised as RunError with a message for the user (the file, what is wrong
+and what to do); the add-on shows it in Blender's report area and the command line on stderr.
+"""
+
+import json
+import math
+import os
+import re
+import xml.etree.ElementTree as ET
+
+try:
+    import numpy as np
+except ImportError:  # reported by check_dependencies(), before anything is read
+    np = None
+
+try:
+    import tomllib
+except ImportError:  # Python before 3.11
+    tomllib = None
+
+# The VTK XML versions mca writes: the .vtu frames and the .pvd collections. A newer version is a file
+# written by a newer mca, whose layout this reader does not know.
+VTU_VERSION = (1, 0)
+PVD_VERSION = (0, 1)
+PLY_FORMAT = "binary_little_endian 1.0"
+
+
+class RunError(Exception):
+    """A run folder that cannot be imported; the message says which file and why."""
+
+
+def check_dependencies():
+    """The modules the reader needs, with the package that gives each (Debian's names)."""
+    missing = []
+    if np is None:
+        missing.append("numpy (Debian: apt-get install python3-numpy)")
+    if tomllib is None:
+        missing.append("tomllib (Python 3.11 or newer: Blender 3.4 from Debian runs Python 3.11)")
+    if missing:
+        raise RunError("the mca importer needs " + " and ".join(missing) + "; install it and restart Blender")
+
+
+def _version(text, path):
+    try:
+        return tuple(int(p) for p in text.split("."))
+    except (AttributeError, ValueError):
+        raise RunError(f"{path}: version '{text}' is not a version number; is this a file written by mca?")
+
+
+# ---------------------------------------------------------------------------------------------------------
+# VTK XML
+
+def read_pvd(path):
+    """The (time, file) entries of a .pvd collection, the file relative to the collection's folder."""
+    try:
+        root = ET.parse(path).getroot()
+    except FileNotFoundError:
+        raise RunError(f"{path} is missing")
+    except ET.ParseError as e:
+        raise RunError(f"{path} is not a complete VTK collection ({e}); it may be cut short: run mca again")
+    if root.tag != "VTKFile" or root.get("type") != "Collection":
+        raise RunError(f"{path} is not a VTK collection (a VTKFile of type Collection)")
+    version = _version(root.get("version", ""), path)
+    if version > PVD_VERSION:
+        raise RunError(f"{path} has VTK collection version {root.get('version')}, newer than the "
+                       f"{'.'.join(map(str, PVD_VERSION))} this add-on reads: it was written by a newer mca; "
+                       "install the add-on of that mca (blender/io_import_mca in its repository)")
+    entries = []
+    for ds in root.iter("DataSet"):
+        try:
+            entries.append((float(ds.get("timestep")), ds.get("file")))
+        except (TypeError, ValueError):
+            raise RunError(f"{path}: a DataSet has no timestep or file")
+    return entries
+
+
+_VTK_TYPES = {"Float32": "<f4", "Float64": "<f8", "Int8": "<i1", "UInt8": "<u1", "Int16": "<i2",
+              "UInt16": "<u2", "Int32": "<i4", "UInt32": "<u4", "Int64": "<i8", "UInt64": "<u8"}
+_ATTR = re.compile(r'(\w+)="([^"]*)"')
+
+
+def read_vtu(path, names=None):
+    """Points and point fields of a .vtu written by mca (appended raw binary, UInt64 block headers).
+
+    Returns (points (N, 3) float32, {field name: array (N,) or (N, components)}). `names`: the fields to
+    read (all when None)."""
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except FileNotFoundError:
+        raise RunError(f"{path} is missing (the run's automata.pvd lists it): the run folder is incomplete; "
+                       "run mca again or copy the whole folder")
+    marker = data.find(b"<AppendedData")
+    start = data.find(b"_", marker) + 1 if marker >= 0 else 0
+    if marker < 0 or start == 0:
+        raise RunError(f"{path} is cut short or not a VTK file written by mca (no appended data): run mca again")
+    header = data[:marker].decode("utf-8", "replace")
+    m = re.search(r"<VTKFile([^>]*)>", header)
+    if not m:
+        raise RunError(f"{path} is not a VTK XML file")
+    top = dict(_ATTR.findall(m.group(1)))
+    if top.get("type") != "UnstructuredGrid":
+        raise RunError(f"{path} is a VTK file of type {top.get('type')}, not the UnstructuredGrid mca writes")
+    version = _version(top.get("version", ""), path)
+    if version > VTU_VERSION:
+        raise RunError(f"{path} has VTK file version {top.get('version')}, newer than the "
+                       f"{'.'.join(map(str, VTU_VERSION))} this add-on reads: it was written by a newer mca; "
+                       "install the add-on of that mca (blender/io_import_mca in its repository)")
+    if top.get("byte_order") != "LittleEndian" or top.get("header_type") != "UInt64" or "compressor" in top:
+        raise RunError(f"{path}: byte order {top.get('byte_order')}, header type {top.get('header_type')}"
+                       f"{', compressed' if 'compressor' in top else ''}: not the layout mca writes "
+                       "(little-endian, UInt64 headers, uncompressed); write the frames with mca")
+    piece = re.search(r"<Piece([^>]*)>", header)
+    try:
+        n = int(dict(_ATTR.findall(piece.group(1)))["NumberOfPoints"])
+    except (AttributeError, KeyError, ValueError):
+        raise RunError(f"{path} has no NumberOfPoints")
+    points = None
+    fields = {}
+    section = None
+    for tag in re.finditer(r"<(/?)(PointData|Points|Cells|DataArray)([^>]*)>", header):
+        closing, name, attrs = tag.groups()
+        if name != "DataArray":
+            section = None if closing else name
+            continue
+        a = dict(_ATTR.findall(attrs))
+        if section not in ("PointData", "Points"):
+            continue
+        if section == "PointData" and names is not None and a.get("Name") not in names:
+            continue
+        if a.get("format") != "appended" or a.get("type") not in _VTK_TYPES:
+            raise RunError(f"{path}: array '{a.get('Name')}' is {a.get('format')} {a.get('type')}, not an appended "
+                           "array of a known type")
+        comps = int(a.get("NumberOfComponents", "1"))
+        offset = start + int(a["offset"])
+        if offset + 8 > len(data):
+            raise RunError(f"{path} is cut short (array '{a.get('Name')}' lies past its end): run mca again")
+        nbytes = int(np.frombuffer(data, "<u8", 1, offset)[0])
+        dtype = np.dtype(_VTK_TYPES[a["type"]])
+        if nbytes != n * comps * dtype.itemsize or offset + 8 + nbytes > len(data):
+            raise RunError(f"{path} is cut short or damaged (array '{a.get('Name')}' holds {nbytes} bytes for "
+                           f"{n} points of {comps} x {dtype.itemsize}): run mca again")
+        arr = np.frombuffer(data, dtype, n * comps, offset + 8)
+        arr = arr.reshape(n, comps) if comps > 1 else arr
+        if section == "Points":
+            points = arr
+        else:
+            fields[a["Name"]] = arr
+    if points is None:
+        raise RunError(f"{path} has no points")
+    return points, fields
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Meshes
+
+def read_ply(path):
+    """(vertices (V, 3) float32, triangles (F, 3) int32, per-face values or None) of a PLY written by mca."""
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except FileNotFoundError:
+        raise RunError(f"{path} is missing")
+    end = data.find(b"end_header\n")
+    if not data.startswith(b"ply\n") or end < 0:
+        raise RunError(f"{path} is not a PLY file (or its header is cut short)")
+    lines = data[:end].decode("ascii", "replace").splitlines()
+    body = end + len(b"end_header\n")
+    fmt_line = next((l for l in lines if l.startswith("format ")), "")
+    if fmt_line != "format " + PLY_FORMAT:
+        raise RunError(f"{path}: '{fmt_line}', not the '{PLY_FORMAT}' mca writes")
+    nv = nf = None
+    value = False
+    element = None
+    props = {"vertex": [], "face": []}
+    for l in lines:
+        w = l.split()
+        if w[:1] == ["element"]:
+            element = w[1]
+            if element == "vertex":
+                nv = int(w[2])
+            elif element == "face":
+                nf = int(w[2])
+        elif w[:1] == ["property"] and element in props:
+            props[element].append(" ".join(w[1:]))
+    if props["vertex"] != ["float x", "float y", "float z"] or not props["face"] or \
+            props["face"][0] != "list uchar int vertex_indices" or len(props["face"]) > 2 or \
+            (len(props["face"]) == 2 and not props["face"][1].startswith("int ")):
+        raise RunError(f"{path}: vertex or face properties are not the ones mca writes "
+                       "(float x y z; uchar-int vertex_indices and an optional int)")
+    value = len(props["face"]) == 2
+    if nv is None or nf is None:
+        raise RunError(f"{path}: the header has no vertex or face count")
+    fdt = np.dtype([("n", "u1"), ("v", "<i4", (3,))] + ([("value", "<i4")] if value else []))
+    need = body + 12 * nv + fdt.itemsize * nf
+    if len(data) < need:
+        raise RunError(f"{path} is cut short ({len(data)} bytes, its header declares {need}): run mca again")
+    verts = np.frombuffer(data, "<f4", 3 * nv, body).reshape(nv, 3)
+    faces = np.frombuffer(data, fdt, nf, body + 12 * nv)
+    if nf and (np.any(faces["n"] != 3) or faces["v"].min() < 0 or faces["v"].max() >= nv):
+        raise RunError(f"{path}: faces that are not triangles of its vertices (mca writes triangles)")
+    return verts, np.ascontiguousarray(faces["v"]), (np.ascontiguousarray(faces["value"]) if value else None)
+
+
+def read_obj(path):
+    """The same as read_ply for a surface written as OBJ (groups `fragment_N`)."""
+    try:
+        with open(path, "r", encoding="ascii", errors="replace") as f:
+            text = f.read()
+    except FileNotFoundError:
+        raise RunError(f"{path} is missing")
+    verts, faces, values = [], [], []
+    group = -1
+    for k, line in enumerate(text.splitlines(), 1):
+        if line.startswith("v "):
+            verts.append(line[2:])
+        elif line.startswith("f "):
+            faces.append(line[2:])
+            values.append(group)
+        elif line.startswith("g "):
+            name = line[2:].strip()
+            try:
+                group = int(name.rsplit("_", 1)[1])
+            except (IndexError, ValueError):
+                raise RunError(f"{path}:{k}: group '{name}' is not the fragment_N mca writes")
+    try:
+        v = np.array(" ".join(verts).split(), dtype=np.float32).reshape(-1, 3)
+        f = np.array(" ".join(faces).split(), dtype=np.int64).reshape(-1, 3) - 1
+    except ValueError:
+        raise RunError(f"{path}: vertices or faces that are not the triangles mca writes (v x y z, f a b c)")
+    if len(f) and (f.min() < 0 or f.max() >= len(v)):
+        raise RunError(f"{path}: a face refers to a vertex it does not have; the file is cut short or damaged")
+    return v, f.astype(np.int32), np.array(values, dtype=np.int32)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Colours: the renderer's `fragment` colouring (src/render/snapshot.cpp, fragment_colours)
+
+def _byte(v):
+    """rgb() of the renderer: a share 0..1 to a byte, rounded half away from zero."""
+    return np.floor(255.0 * np.clip(np.asarray(v, np.float32), 0.0, 1.0) + 0.5).astype(np.uint8)
+
+
+MAIN_BODY = _byte([0.72, 0.71, 0.68]) if np is not None else None
+
+
+def piece_colours(first):
+    """The colour (uint8 RGB) of a piece whose smallest automaton index is `first` (murmur3's finaliser of
+    the index picks the hue, saturation and value), as the renderer's piece_colour."""
+    with np.errstate(over="ignore"):
+        x = np.asarray(first, np.uint32) + np.uint32(0x9E3779B9)
+        x ^= x >> np.uint32(16)
+        x *= np.uint32(0x85EBCA6B)
+        x ^= x >> np.uint32(13)
+        x *= np.uint32(0xC2B2AE35)
+        x ^= x >> np.uint32(16)
+    f32 = np.float32
+    h = (x & np.uint32(0xFFFF)).astype(f32) / f32(65536.0) * f32(6.0)
+    s = f32(0.55) + f32(0.25) * ((x >> np.uint32(16)) & np.uint32(0xFF)).astype(f32) / f32(255.0)
+    v = f32(0.80) + f32(0.15) * (x >> np.uint32(24)).astype(f32) / f32(255.0)
+    k = h.astype(np.int32)
+    fr = h - k.astype(f32)
+    p, q, u = v * (f32(1) - s), v * (f32(1) - s * fr), v * (f32(1) - s * (f32(1) - fr))
+    table = [(v, u, p), (q, v, p), (p, v, u), (p, q, v), (u, p, v), (v, p, q)]
+    out = np.empty((len(k), 3), np.float32)
+    sector = k % 6
+    for i, (r, g, b) in enumerate(table):
+        sel = sector == i
+        out[sel, 0], out[sel, 1], out[sel, 2] = r[sel], g[sel], b[sel]
+    return _byte(out)
+
+
+def fragment_colours(fragment, obj):
+    """Per automaton, uint8 RGB: a fragment with more than half of its object's automata (the main body) is
+    concrete grey, every other piece the hue of its smallest automaton index."""
+    fragment = np.asarray(fragment, np.int64)
+    obj = np.asarray(obj, np.int64)
+    n = len(fragment)
+    if n == 0:
+        return np.zeros((0, 3), np.uint8)
+    count = int(fragment.max()) + 1
+    first = np.full(count, n, np.int64)
+    np.minimum.at(first, fragment, np.arange(n))
+    size = np.bincount(fragment, minlength=count)
+    object_size = np.bincount(obj, minlength=int(obj.max()) + 1)
+    used = first < n
+    first_safe = np.where(used, first, 0)
+    whole = object_size[obj[first_safe]]
+    main = used & (2 * size > whole)
+    colour = piece_colours(first_safe.astype(np.uint32))
+    colour[main] = MAIN_BODY
+    return colour[fragment]
+
+
+def srgb_to_linear(c):
+    """uint8 sRGB to linear floats (Blender's colour attributes are linear; mca's colours are sRGB bytes)."""
+    c = np.asarray(c, np.float32) / 255.0
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(np.float32)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Geometry
+
+def up_axis(scene):
+    """The up direction: opposite gravity; z with gravity off (docs/scene-format.md, Coordinates)."""
+    g = np.array(scene.get("solver", {}).get("gravity", [0.0, 0.0, -9.81]), float)
+    n = np.linalg.norm(g)
+    return -g / n if n > 0 else np.array([0.0, 0.0, 1.0])
+
+
+def exposed_at_start(p0, obj, spacing):
+    """Automata with fewer than six lattice neighbours of their object at frame 0: on the object's surface
+    (the renderer draws an automaton when fewer than six of its links are intact; inside a lattice every
+    automaton has six). Neighbours are found on a grid of cells of the spacing."""
+    n = len(p0)
+    if n == 0:
+        return np.zeros(0, bool)
+    cell = np.floor((p0 - p0.min(axis=0)) / spacing).astype(np.int64)
+    dims = cell.max(axis=0) + 3
+    key = ((cell[:, 0] + 1) * dims[1] + (cell[:, 1] + 1)) * dims[2] + (cell[:, 2] + 1)
+    order = np.argsort(key, kind="stable")
+    skey = key[order]
+    count = np.zeros(n, np.int32)
+    reach2 = (1.2 * spacing) ** 2
+    for dx in (-1, 0, 1):
+        for dy in (-1, 0, 1):
+            for dz in (-1, 0, 1):
+                nk = key + (dx * dims[1] + dy) * dims[2] + dz
+                lo = np.searchsorted(skey, nk, "left")
+                hi = np.searchsorted(skey, nk, "right")
+                # cells hold one automaton each on a lattice of this spacing; walk the few that hold more
+                most = int((hi - lo).max()) if n else 0
+                for k in range(most):
+                    has = lo + k < hi
+                    a = np.nonzero(has)[0]
+                    b = order[lo[has] + k]
+                    d2 = ((p0[a] - p0[b]) ** 2).sum(axis=1)
+                    near = (b != a) & (d2 < reach2) & (obj[a] == obj[b])
+                    np.add.at(count, a[near], 1)
+    return count < 6
+
+
+def quat_multiply(a, b):
+    aw, ax, ay, az = a[:, 0], a[:, 1], a[:, 2], a[:, 3]
+    bw, bx, by, bz = b[:, 0], b[:, 1], b[:, 2], b[:, 3]
+    return np.stack([aw * bw - ax * bx - ay * by - az * bz,
+                     aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx,
+                     aw * bz + ax * by - ay * bx + az * bw], axis=1)
+
+
+def matrix_to_quat(R):
+    """Quaternions (w, x, y, z) of rotation matrices (K, 3, 3)."""
+    K = len(R)
+    q = np.empty((K, 4))
+    tr = R[:, 0, 0] + R[:, 1, 1] + R[:, 2, 2]
+    # the largest of w, x, y, z decides which formula is well conditioned
+    cand = np.stack([tr, R[:, 0, 0], R[:, 1, 1], R[:, 2, 2]], axis=1)
+    big = np.argmax(cand, axis=1)
+    for case in range(4):
+        sel = big == case
+        if not sel.any():
+            continue
+        m = R[sel]
+        if case == 0:
+            s = 2.0 * np.sqrt(np.maximum(1.0 + tr[sel], 1e-300))
+            q[sel] = np.stack([0.25 * s, (m[:, 2, 1] - m[:, 1, 2]) / s, (m[:, 0, 2] - m[:, 2, 0]) / s,
+                               (m[:, 1, 0] - m[:, 0, 1]) / s], axis=1)
+        else:
+            i = case - 1
+            j, k = (i + 1) % 3, (i + 2) % 3
+            s = 2.0 * np.sqrt(np.maximum(1.0 + m[:, i, i] - m[:, j, j] - m[:, k, k], 1e-300))
+            v = np.empty((len(m), 4))
+            v[:, 0] = (m[:, k, j] - m[:, j, k]) / s
+            v[:, 1 + i] = 0.25 * s
+            v[:, 1 + j] = (m[:, j, i] + m[:, i, j]) / s
+            v[:, 1 + k] = (m[:, k, i] + m[:, i, k]) / s
+            q[sel] = v
+    return q / np.linalg.norm(q, axis=1)[:, None]
+
+
+def _turn(q, omega_a, omega_b, dt):
+    """q turned by the mean of two angular velocities (world frame) over dt."""
+    w = 0.5 * (omega_a.astype(float) + omega_b.astype(float))
+    rate = np.linalg.norm(w, axis=1)
+    half = 0.5 * rate * dt
+    axis = np.divide(w, rate[:, None], out=np.zeros_like(w), where=rate[:, None] > 0)
+    turn = np.concatenate([np.cos(half)[:, None], np.sin(half)[:, None] * axis], axis=1)
+    out = quat_multiply(turn, q)
+    return out / np.linalg.norm(out, axis=1)[:, None]
+
+
+def automaton_rotations(p0, frames, times):
+    """Orientation quaternions (w, x, y, z) of each automaton at each frame, for frames that hold no
+    orientation (written by an mca before they did), found from what they hold: an automaton starts unturned (as in mca); one in a fragment of three
+    or more automata not in a line turns with its fragment, whose rotation is the one that best carries the
+    fragment's automata from their frame-0 places to their places now (Kabsch: the SVD of their covariance);
+    one in a smaller piece turns from its orientation at the frame before by the mean of the angular
+    velocities at the frame's two ends over the frame's time.
+
+    `p0`: frame-0 positions (N, 3); `frames`: dicts with points, fragment, angular_velocity."""
+    n = len(p0)
+    q = np.zeros((n, 4))
+    q[:, 0] = 1.0
+    out = []
+    for k, f in enumerate(frames):
+        frag = np.asarray(f["fragment"], np.int64)
+        p = f["points"].astype(float)
+        count = np.bincount(frag, minlength=int(frag.max()) + 1 if n else 0).astype(float)
+        safe = np.maximum(count, 1.0)
+        c0 = np.stack([np.bincount(frag, p0[:, i], len(count)) for i in range(3)], axis=1) / safe[:, None]
+        c = np.stack([np.bincount(frag, p[:, i], len(count)) for i in range(3)], axis=1) / safe[:, None]
+        d0, d = p0 - c0[frag], p - c[frag]
+        H = np.empty((len(count), 3, 3))
+        for i in range(3):
+            for j in range(3):
+                H[:, i, j] = np.bincount(frag, d0[:, i] * d[:, j], len(count))
+        U, S, Vt = np.linalg.svd(H)
+        V = np.transpose(Vt, (0, 2, 1))
+        flip = np.sign(np.linalg.det(V @ np.transpose(U, (0, 2, 1))))
+        flip[flip == 0] = 1.0
+        D = np.zeros((len(count), 3, 3))
+        D[:, 0, 0] = D[:, 1, 1] = 1.0
+        D[:, 2, 2] = flip
+        R = V @ D @ np.transpose(U, (0, 2, 1))
+        rigid = (count >= 3) & (S[:, 0] > 0) & (S[:, 1] > 1e-3 * S[:, 0])
+        if k > 0:
+            q = _turn(q, frames[k - 1]["angular_velocity"], f["angular_velocity"], times[k] - times[k - 1])
+        by_fragment = matrix_to_quat(R[rigid])
+        table = np.zeros((len(count), 4))
+        table[rigid] = by_fragment
+        sel = rigid[frag]
+        q[sel] = table[frag[sel]]
+        out.append(q.astype(np.float32))
+    return out
+
+
+def quat_to_euler_xyz(q):
+    """Blender's XYZ Euler angles of quaternions (w, x, y, z)."""
+    q = q.astype(float)
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    # rotation matrix entries
+    r00 = 1 - 2 * (y * y + z * z)
+    r10 = 2 * (x * y + w * z)
+    r20 = 2 * (x * z - w * y)
+    r21 = 2 * (y * z + w * x)
+    r22 = 1 - 2 * (x * x + y * y)
+    r11 = 1 - 2 * (x * x + z * z)
+    r12 = 2 * (y * z - w * x)
+    sy = np.sqrt(r00 * r00 + r10 * r10)
+    regular = sy > 1e-6
+    ex = np.where(regular, np.arctan2(r21, r22), np.arctan2(-r12, r11))
+    ey = np.arctan2(-r20, sy)
+    ez = np.where(regular, np.arctan2(r10, r00), 0.0)
+    return np.stack([ex, ey, ez], axis=1).astype(np.float32)
+
+
+def default_camera(scene, points0, spacing, projectiles0, aspect):
+    """The camera of mca's renderer (src/render/camera.cpp, make_camera): eye, target, up (world), vertical
+    field of view in degrees. `points0`: the automata at frame 0; `projectiles0`: the balls' centres."""
+    cam = scene.get("camera", {})
+    up = up_axis(scene)
+    fov = float(cam.get("fov", 40.0))
+    lo, hi = points0.min(axis=0).astype(float), points0.max(axis=0).astype(float)
+    h = 0.5 * spacing
+    box_lo, box_hi = lo - h, hi + h
+    target = np.array(cam["target"], float) if "target" in cam else 0.5 * (box_lo + box_hi)
+    if "position" in cam:
+        eye = np.array(cam["position"], float)
+    else:
+        def horizontal(hint):
+            v = hint - np.dot(hint, up) * up
+            if np.linalg.norm(v) < 1e-4:
+                v = np.array([1.0, 0, 0]) if abs(up[0]) < 0.9 else np.array([0, 1.0, 0])
+                v = v - np.dot(v, up) * up
+            return v / np.linalg.norm(v)
+        front = np.array([0.0, -1.0, 0.0])
+        if len(projectiles0):
+            front = projectiles0.astype(float).mean(axis=0) - target
+        front = horizontal(front)
+        side = np.cross(up, front)
+        side /= np.linalg.norm(side)
+        az, el = math.radians(35.0), math.radians(25.0)
+        back = math.cos(el) * (math.cos(az) * front + math.sin(az) * side) + math.sin(el) * up
+        f = -back
+        r = np.cross(f, up)
+        r /= np.linalg.norm(r)
+        u = np.cross(r, f)
+        tan_v = math.tan(math.radians(fov) / 2)
+        tan_h = tan_v * aspect
+        dist = 0.0
+        for k in range(8):
+            c = np.array([box_hi[0] if k & 1 else box_lo[0], box_hi[1] if k & 2 else box_lo[1],
+                          box_hi[2] if k & 4 else box_lo[2]])
+            d = c - target
+            x, y, z = np.dot(d, r), np.dot(d, u), np.dot(d, f)
+            dist = max(dist, 1.12 * abs(x) / tan_h - z, 1.12 * abs(y) / tan_v - z)
+        eye = target + back * max(dist, 1e-3)
+    return eye, target, up, fov
+
+
+# ---------------------------------------------------------------------------------------------------------
+# The run folder
+
+def default_fps(frames):
+    """The video's rate of `mca run --render` without --render-fps: frames / 4 within 10 to 30."""
+    return min(max(math.floor(frames / 4.0 + 0.5), 10), 30)
+
+
+class Run:
+    """What a run folder holds, read into numpy arrays.
+
+    Attributes: dir, scene (the scene.toml as a dict), summary (dict or None), warnings (list of str),
+    times (per frame, simulated seconds), frames (list of dicts: points, fragment, object, radius,
+    angular_velocity, damage), projectiles (per frame: (centres (P, 3), radii (P,)) or None), spacing,
+    fps, render_size, surface_files (list or empty), fragment_files ({id: path})."""
+
+    def __init__(self, path, max_frames=None):
+        check_dependencies()
+        self.dir = os.path.abspath(path)
+        self.warnings = []
+        if not os.path.isdir(self.dir):
+            raise RunError(f"{path} is not a folder; choose the folder an `mca run` wrote (its --out)")
+        pvd = os.path.join(self.dir, "automata.pvd")
+        scene_file = os.path.join(self.dir, "scene.toml")
+        if not os.path.isfile(pvd):
+            if os.path.isfile(scene_file):
+                raise RunError(f"{path} holds no frames (no automata.pvd): the run wrote none (output.vtk = false "
+                               "or --no-vtk, or it stopped before its first frame); run it again with VTK frames")
+            raise RunError(f"{path} is not an mca run folder (it has neither automata.pvd nor scene.toml); "
+                           "choose the folder an `mca run` wrote (its --out)")
+        self.scene = self._read_scene(scene_file)
+        self.summary = self._read_summary()
+        entries = read_pvd(pvd)
+        if not entries:
+            raise RunError(f"{pvd} lists no frames: the run stopped before its first frame; run it again")
+        self.frame_count = len(entries)  # the run's, before max_frames
+        if max_frames is not None:
+            entries = entries[:max_frames]
+        self.times = [t for t, _ in entries]
+        wanted = {"fragment", "object", "radius", "angular_velocity", "damage", "displacement"}
+        self.frames = []
+        for t, rel in entries:
+            points, fields = read_vtu(os.path.join(self.dir, rel), wanted | {"orientation"})
+            missing = sorted(wanted - fields.keys())
+            if missing:
+                raise RunError(f"{os.path.join(self.dir, rel)} has no field {', '.join(missing)}: not a frame of "
+                               "the automata written by mca")
+            if self.frames and len(points) != len(self.frames[0]["points"]):
+                raise RunError(f"{os.path.join(self.dir, rel)} holds {len(points)} automata, frame 0 "
+                               f"{len(self.frames[0]['points'])}: frames of different runs are mixed in the folder; "
+                               "run mca again into an empty folder")
+            self.frames.append(dict(points=points, **fields))
+        # Frames of mca before the orientation was written: the rotations are reconstructed.
+        self.has_orientation = all("orientation" in f for f in self.frames)
+        if not self.has_orientation:
+            self.warnings.append("the frames carry no orientation (written by an older mca): the cubes' rotations "
+                                 "are reconstructed from the fragments' motion and the angular velocities")
+        self.projectiles = self._read_projectiles(len(entries))
+        self.spacing = self._spacing()
+        self.fps, self.render_size = self._render_options()
+        self.surface_files = self._surface_files(len(entries))
+        self.fragment_files = self._fragment_files()
+
+    # -- the files around the frames
+    def _read_scene(self, scene_file):
+        try:
+            with open(scene_file, "rb") as f:
+                return tomllib.load(f)
+        except FileNotFoundError:
+            self.warnings.append(f"{scene_file} is missing: the ground, the camera and the up axis take mca's "
+                                 "defaults")
+            return {}
+        except tomllib.TOMLDecodeError as e:
+            raise RunError(f"{scene_file}: {e}; it should be the scene exactly as run: run mca again")
+
+    def _read_summary(self):
+        path = os.path.join(self.dir, "summary.json")
+        try:
+            with open(path) as f:
+                summary = json.load(f)
+        except FileNotFoundError:
+            self.warnings.append(f"{path} is missing: the run is still going or was killed; importing the frames "
+                                 "written so far")
+            return None
+        except json.JSONDecodeError as e:
+            raise RunError(f"{path} is not complete JSON ({e}): run mca again")
+        if summary.get("status") not in (None, "finished"):
+            self.warnings.append(f"the run stopped early ({summary.get('status')} at "
+                                 f"{summary.get('simulated_time', 0):.4g} s): importing the frames it wrote")
+        return summary
+
+    def _read_projectiles(self, frames):
+        pvd = os.path.join(self.dir, "projectiles.pvd")
+        if not os.path.isfile(pvd):
+            return None
+        entries = read_pvd(pvd)[:frames]
+        if len(entries) < frames:
+            raise RunError(f"{pvd} lists {len(entries)} frames, automata.pvd {frames}: the run folder is "
+                           "incomplete; run mca again")
+        out = []
+        for _, rel in entries:
+            points, fields = read_vtu(os.path.join(self.dir, rel), {"radius"})
+            if "radius" not in fields:
+                raise RunError(f"{os.path.join(self.dir, rel)} has no field radius")
+            out.append((points, fields["radius"]))
+        return out
+
+    def _spacing(self):
+        if self.summary and self.summary.get("spacing", 0) > 0:
+            return float(self.summary["spacing"])
+        # a lattice automaton's contact radius is half the spacing
+        r = self.frames[0]["radius"]
+        return float(2.0 * np.median(r)) if len(r) else 1.0
+
+    def _render_options(self):
+        size = (1280, 720)
+        fps = default_fps(self.frame_count)
+        path = os.path.join(self.dir, "render", "render.json")
+        if os.path.isfile(path):
+            try:
+                with open(path) as f:
+                    r = json.load(f)
+                size = (int(r["width"]), int(r["height"]))
+                if float(r.get("fps", 0)) > 0:
+                    fps = float(r["fps"])
+            except (json.JSONDecodeError, KeyError, TypeError, ValueError) as e:
+                self.warnings.append(f"{path} is not the render options mca writes ({e}): using 1280x720 at "
+                                     f"{fps:g} frames/s")
+        return fps, size
+
+    def _surface_files(self, frames):
+        folder = os.path.join(self.dir, "surface")
+        if not os.path.isdir(folder):
+            return []
+        files = []
+        for k in range(frames):
+            for ext in ("ply", "obj"):
+                p = os.path.join(folder, f"surface_{k:06d}.{ext}")
+                if os.path.isfile(p):
+                    files.append(p)
+                    break
+            else:
+                raise RunError(f"{folder} has no surface file for frame {k} (surface_{k:06d}.ply or .obj): the run "
+                               "folder is incomplete; run mca again")
+        return files
+
+    def _fragment_files(self):
+        folder = os.path.join(self.dir, "fragments")
+        out = {}
+        if os.path.isdir(folder):
+            for name in sorted(os.listdir(folder)):
+                m = re.fullmatch(r"fragment_(\d+)\.ply", name)
+                if m:
+                    out[int(m.group(1))] = os.path.join(folder, name)
+        return out
+
+    # -- derived per frame
+    def colours(self, k):
+        """uint8 RGB per automaton at frame k: the renderer's fragment colouring."""
+        f = self.frames[k]
+        return fragment_colours(f["fragment"], f["object"])
+
+    def initial_positions(self):
+        f = self.frames[0]
+        return f["points"].astype(float) - f["displacement"].astype(float)
+
+    def exposed(self):
+        """Per frame, a bool per automaton: the automata the renderer draws (fewer than six intact links):
+        those on their object's surface at the start and those with a broken link."""
+        start = exposed_at_start(self.initial_positions(), self.frames[0]["object"], self.spacing)
+        return [start | (f["damage"] > 0) for f in self.frames]
+
+    def rotations(self):
+        """Per frame, the automata's orientations (w, x, y, z): the frames' own, else reconstructed."""
+        if self.has_orientation:
+            return [f["orientation"] for f in self.frames]
+        return automaton_rotations(self.initial_positions(), self.frames, self.times)
+
+    def camera(self):
+        w, h = self.render_size
+        balls = self.projectiles[0][0] if self.projectiles else np.zeros((0, 3))
+        return default_camera(self.scene, self.frames[0]["points"], self.spacing, balls, w / h)
+
+    def ground(self):
+        """(height along up, up) when the scene has a ground, else None."""
+        g = self.scene.get("ground", {})
+        if not g.get("enabled", False):
+            return None
+        return float(g.get("height", 0.0)), up_axis(self.scene)

@@ -1,0 +1,193 @@
+"""mca runs in Blender from the command line:
+
+    blender -b --factory-startup --python blender/mca_cli.py -- RUN_DIR OUT [options]
+
+OUT.abc   an Alembic cache of the whole run through Blender's exporter (the automata or surface, the
+          projectiles, the camera, the ground) for Houdini, Maya, Unreal. Needs a Blender built with Alembic
+          (bpy.app.alembic.supported: blender.org's builds); Debian's blender 3.4.1 is built without it, and
+          the script says so and exits with 1;
+OUT.obj   the automata (or surface) and the projectiles of every frame through Blender's OBJ exporter, a file
+          per frame (OUT0.obj, OUT1.obj, ...: the name with the frame number; y up as OBJ readers expect, the
+          colours as vertex colours), which every Blender can write;
+OUT.png   one frame (the last one, or --frame N) rendered with the Workbench (--engine workbench, the
+          default: a second or two), Eevee (--engine eevee: its shaders take a few seconds to compile) or
+          Cycles on the CPU (--engine cycles, --samples N);
+OUT.blend the scene saved as a .blend.
+
+Options: --frame N (the frame of a .png; default: the last), --frames N (import only the first N frames),
+--size WxH (the picture's size; default: the run's render size, 1280x720), --engine workbench|eevee|cycles,
+--samples N (anti-aliasing samples of the Workbench, default 8, or samples of Eevee and Cycles).
+
+A problem with the run folder or the arguments is one line on stderr and exit code 1; any other failure
+exits with 2.
+"""
+
+import os
+import sys
+import time
+import traceback
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+USAGE = ("usage: blender -b --factory-startup --python blender/mca_cli.py -- RUN_DIR OUT.abc|OUT.obj|OUT.png|OUT.blend "
+         "[--frame N] [--frames N] [--size WxH] [--engine workbench|eevee|cycles] [--samples N]")
+
+
+class UsageError(Exception):
+    pass
+
+
+def parse(argv):
+    if "--" not in argv:
+        raise UsageError("no arguments after '--'")
+    args = argv[argv.index("--") + 1:]
+    opts = {"frame": None, "frames": None, "size": None, "samples": 8, "engine": "workbench"}
+    pos = []
+    k = 0
+    while k < len(args):
+        a = args[k]
+        if a in ("-h", "--help"):
+            print(__doc__)
+            sys.exit(0)
+        if a.startswith("--"):
+            key = a[2:]
+            if key not in opts or k + 1 >= len(args):
+                raise UsageError(f"unknown option or missing value: {a}")
+            value = args[k + 1]
+            try:
+                if key == "engine":
+                    if value not in ("workbench", "eevee", "cycles"):
+                        raise ValueError
+                    opts[key] = value
+                elif key == "size":
+                    w, h = value.lower().split("x")
+                    opts[key] = (int(w), int(h))
+                    if not (16 <= opts[key][0] <= 16384 and 16 <= opts[key][1] <= 16384):
+                        raise ValueError
+                else:
+                    opts[key] = int(value)
+                    if opts[key] < (1 if key in ("frames", "samples") else 0):
+                        raise ValueError
+            except ValueError:
+                raise UsageError(f"{a} {value}: expected " +
+                                 ("WxH, 16 to 16384 each" if key == "size" else "workbench, eevee or cycles" if key == "engine"
+                                  else "a whole number >= 0"))
+            k += 2
+            continue
+        pos.append(a)
+        k += 1
+    if len(pos) != 2:
+        raise UsageError(f"expected RUN_DIR and OUT, got {len(pos)} arguments")
+    run_dir, out = pos
+    ext = os.path.splitext(out)[1].lower()
+    if ext not in (".abc", ".obj", ".png", ".blend"):
+        raise UsageError(f"{out}: the output's extension picks what to write: .abc, .obj, .png or .blend")
+    return run_dir, out, ext, opts
+
+
+def render(scene, out, opts, frames):
+    import bpy
+    frame = opts["frame"] if opts["frame"] is not None else frames - 1
+    if frame >= frames:
+        raise UsageError(f"--frame {frame}: the run has frames 0 to {frames - 1}")
+    engine = opts["engine"]
+    if engine == "workbench":
+        scene.render.engine = "BLENDER_WORKBENCH"
+        shading = scene.display.shading
+        shading.light = "STUDIO"
+        shading.color_type = "VERTEX"  # the colour attribute: mca's fragment colours
+        shading.show_cavity = False
+        shading.show_shadows = False
+        aa = str(opts["samples"])
+        scene.display.render_aa = aa if aa in ("5", "8", "11", "16", "32") else "8"
+    elif engine == "eevee":  # the material "mca colour" reads the colour attribute
+        scene.render.engine = "BLENDER_EEVEE"
+        scene.eevee.taa_render_samples = opts["samples"]
+    else:
+        scene.render.engine = "CYCLES"
+        scene.cycles.device = "CPU"
+        scene.cycles.samples = opts["samples"]
+        scene.cycles.use_denoising = False  # Debian's Blender has no OpenImageDenoise
+    if opts["size"]:
+        scene.render.resolution_x, scene.render.resolution_y = opts["size"]
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.image_settings.color_mode = "RGB"
+    scene.render.image_settings.compression = 90
+    scene.render.filepath = os.path.abspath(out)
+    scene.frame_set(frame)
+    bpy.ops.render.render(write_still=True)
+    if not os.path.isfile(out):
+        raise RuntimeError(f"Blender's render wrote no {out}")
+    return frame
+
+
+def main():
+    run_dir, out, ext, opts = parse(sys.argv)
+    import bpy
+    if ext == ".abc" and not bpy.app.alembic.supported:
+        raise UsageError(f"{out}: this Blender ({bpy.app.version_string}) is built without Alembic "
+                         "(bpy.app.alembic.supported is False; Debian's blender package is): run this script with a "
+                         "Blender from blender.org, which has it, or write OUT.obj (an OBJ file per frame) or "
+                         "OUT.blend instead")
+    from io_import_mca import reader
+    reader.check_dependencies()
+    from io_import_mca import build
+    # An empty scene: the factory start-up's cube, light and camera go.
+    for obj in list(bpy.data.objects):
+        bpy.data.objects.remove(obj)
+    scene = bpy.context.scene
+    t0 = time.perf_counter()
+    result = build.import_run(bpy.context, run_dir, max_frames=opts["frames"])
+    for w in result.run.warnings:
+        print(f"mca_cli: warning: {w}", file=sys.stderr)
+    print(f"mca_cli: imported {result.frames} frames from {result.run.dir} in {time.perf_counter() - t0:.2f} s")
+    os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
+    t0 = time.perf_counter()
+    if ext == ".abc":
+        bpy.ops.wm.alembic_export(filepath=os.path.abspath(out), start=scene.frame_start, end=scene.frame_end,
+                                  evaluation_mode="RENDER", face_sets=False, uvs=False, export_custom_properties=True)
+        if not os.path.isfile(out):
+            raise RuntimeError(f"Blender's Alembic exporter wrote no {out}")
+        print(f"mca_cli: wrote {out} (frames {scene.frame_start} to {scene.frame_end}) in "
+              f"{time.perf_counter() - t0:.2f} s")
+    elif ext == ".obj":
+        stem = os.path.splitext(os.path.abspath(out))[0]
+        # The frames' objects (each shown at its frame only) and the balls; the ground stays out.
+        if result.ground is not None:
+            result.ground.hide_viewport = result.ground.hide_render = True
+        bpy.ops.wm.obj_export(filepath=stem + ".obj", export_animation=True, start_frame=scene.frame_start,
+                              end_frame=scene.frame_end, export_selected_objects=False, apply_modifiers=True,
+                              export_eval_mode="DAG_EVAL_RENDER", export_colors=True, export_materials=False,
+                              export_uv=False)
+        written = [f"{stem}{k}.obj" for k in range(scene.frame_start, scene.frame_end + 1)]
+        missing = [w for w in written if not os.path.isfile(w)]
+        if missing:
+            raise RuntimeError(f"Blender's OBJ exporter wrote no {missing[0]}")
+        print(f"mca_cli: wrote {written[0]} to {written[-1]} in {time.perf_counter() - t0:.2f} s")
+    elif ext == ".png":
+        frame = render(scene, out, opts, result.frames)
+        print(f"mca_cli: rendered frame {frame} (t = {result.run.times[frame]:.4g} s) with {opts['engine']} to {out} in "
+              f"{time.perf_counter() - t0:.2f} s")
+    else:
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(out))
+        print(f"mca_cli: saved {out}")
+
+
+if __name__ == "__main__":
+    code = 0
+    try:
+        main()
+    except UsageError as e:
+        print(f"mca_cli: error: {e}\n{USAGE}", file=sys.stderr)
+        code = 1
+    except Exception as e:  # noqa: BLE001 - every failure ends with a message and a non-zero exit code
+        from_reader = type(e).__name__ == "RunError"
+        if not from_reader:
+            traceback.print_exc()
+        print(f"mca_cli: error: {e}" if from_reader else f"mca_cli: internal error: {type(e).__name__}: {e}",
+              file=sys.stderr)
+        code = 1 if from_reader else 2
+    sys.stdout.flush()
+    sys.stderr.flush()
+    # Blender goes on after a --python script (and exits 0); leave with the script's code.
+    os._exit(code)

@@ -1,0 +1,444 @@
+#!/usr/bin/env python3
+"""The Blender tests (ctest -R blender): real Blender, headless, on runs made by the built mca.
+
+    test_blender.py --mca MCA --blender BLENDER --work DIR CASE
+
+Cases setup_* make the run folders under DIR (ctest fixtures), the others import, export and render them.
+"""
+
+import argparse
+import os
+import shutil
+import struct
+import subprocess
+import sys
+import time
+import zipfile
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ADDON_ROOT = os.path.dirname(HERE)  # blender/
+CLI = os.path.join(ADDON_ROOT, "mca_cli.py")
+IN_BLENDER = os.path.join(HERE, "in_blender.py")
+
+
+def run(cmd, env=None, timeout=600):
+    print("$", " ".join(cmd), flush=True)
+    p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, timeout=timeout)
+    sys.stdout.write(p.stdout[-6000:])
+    sys.stdout.write(p.stderr[-6000:])
+    return p
+
+
+def blender_cmd(a, script, *args):
+    return [a.blender, "-b", "--factory-startup", "--python", script, "--", *args]
+
+
+def in_blender(a, *args, env=None):
+    p = run(blender_cmd(a, IN_BLENDER, *args), env=env)
+    if p.returncode != 0 or "PASSED" not in p.stdout:
+        sys.exit(f"checks in Blender failed (exit {p.returncode})")
+
+
+def mca_run(a, out, *args):
+    p = run([a.mca, "run", *args, "--out", out, "--quiet"])
+    if p.returncode != 0:
+        sys.exit(f"mca run failed ({p.returncode})")
+
+
+# A sphere of 0.3 m radius as an OBJ (a subdivided octahedron pushed onto the sphere).
+def write_sphere_obj(path, radius=0.3, level=3):
+    verts = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]
+    faces = [(0, 2, 4), (2, 1, 4), (1, 3, 4), (3, 0, 4), (2, 0, 5), (1, 2, 5), (3, 1, 5), (0, 3, 5)]
+    for _ in range(level):
+        mid = {}
+
+        def middle(i, j):
+            key = (min(i, j), max(i, j))
+            if key not in mid:
+                p = [(verts[i][k] + verts[j][k]) / 2 for k in range(3)]
+                n = sum(c * c for c in p) ** 0.5
+                verts.append(tuple(c / n for c in p))
+                mid[key] = len(verts) - 1
+            return mid[key]
+        new = []
+        for i, j, k in faces:
+            ij, jk, ki = middle(i, j), middle(j, k), middle(k, i)
+            new += [(i, ij, ki), (ij, j, jk), (ki, jk, k), (ij, jk, ki)]
+        faces = new
+    with open(path, "w") as f:
+        for v in verts:
+            f.write("v {:.9g} {:.9g} {:.9g}\n".format(*(radius * c for c in v)))
+        for t in faces:
+            f.write("f {} {} {}\n".format(*(i + 1 for i in t)))
+
+
+SURFACE_SCENE = """name = "blender_sphere"
+[solver]
+spacing = 0.05
+gravity = [0.0, 0.0, -9.81]
+seed = 3
+[output]
+duration = 0.012
+frame_rate = 500.0
+surface = true
+fragments = true
+fragment_min_automata = 2
+[ground]
+enabled = true
+height = 0.0
+[[object]]
+name = "sphere"
+shape = "mesh"
+mesh = "sphere.obj"
+position = [0.0, 0.0, 0.35]
+material = "concrete"
+[[projectile]]
+name = "ball"
+radius = 0.1
+material = "steel"
+position = [0.0, -0.42, 0.35]
+velocity = [0.0, 40.0, 0.0]
+"""
+
+
+def setup_surface(a):
+    folder = os.path.join(a.work, "surface_scene")
+    os.makedirs(folder, exist_ok=True)
+    write_sphere_obj(os.path.join(folder, "sphere.obj"))
+    with open(os.path.join(folder, "scene.toml"), "w") as f:
+        f.write(SURFACE_SCENE)
+    mca_run(a, os.path.join(a.work, "surface"), os.path.join(folder, "scene.toml"))
+
+
+def copy_run(src, dst):
+    shutil.rmtree(dst, ignore_errors=True)
+    shutil.copytree(src, dst)
+
+
+def make_bad_inputs(a):
+    """Broken run folders, each made from the short run."""
+    short = os.path.join(a.work, "short")
+    bad = os.path.join(a.work, "bad")
+    shutil.rmtree(bad, ignore_errors=True)
+    os.makedirs(bad)
+    d = os.path.join(bad, "no_frames")
+    os.makedirs(d)
+    shutil.copy(os.path.join(short, "scene.toml"), d)  # a run with output.vtk = false writes no frames
+    d = os.path.join(bad, "empty_pvd")
+    copy_run(short, d)
+    with open(os.path.join(d, "automata.pvd"), "w") as f:
+        f.write('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
+                "  <Collection>\n  </Collection>\n</VTKFile>\n")
+    d = os.path.join(bad, "missing_frame")
+    copy_run(short, d)
+    os.remove(os.path.join(d, "frames", "automata_000002.vtu"))
+    d = os.path.join(bad, "cut_short")
+    copy_run(short, d)
+    vtu = os.path.join(d, "frames", "automata_000003.vtu")
+    size = os.path.getsize(vtu)
+    with open(vtu, "r+b") as f:
+        f.truncate(size // 2)
+    for name, file, old, new in (("newer_vtu", "frames/automata_000000.vtu",
+                                  b'<VTKFile type="UnstructuredGrid" version="1.0"',
+                                  b'<VTKFile type="UnstructuredGrid" version="2.0"'),
+                                 ("newer_pvd", "automata.pvd", b'<VTKFile type="Collection" version="0.1"',
+                                  b'<VTKFile type="Collection" version="0.2"')):
+        d = os.path.join(bad, name)
+        copy_run(short, d)
+        path = os.path.join(d, file)
+        with open(path, "rb") as f:
+            data = f.read()
+        assert old in data, (path, old)
+        with open(path, "wb") as f:
+            f.write(data.replace(old, new, 1))
+    d = os.path.join(bad, "not_a_run")
+    os.makedirs(d)
+    with open(os.path.join(d, "notes.txt"), "w") as f:
+        f.write("not a run\n")
+    d = os.path.join(bad, "bad_summary")
+    copy_run(short, d)
+    with open(os.path.join(d, "summary.json"), "r+") as f:
+        f.truncate(40)
+    d = os.path.join(bad, "mixed_frames")  # a frame of another run, with other automata
+    copy_run(short, d)
+    shutil.copy(os.path.join(a.work, "surface", "frames", "automata_000001.vtu"),
+                os.path.join(d, "frames", "automata_000001.vtu"))
+    d = os.path.join(bad, "no_summary")
+    copy_run(short, d)
+    os.remove(os.path.join(d, "summary.json"))
+    return bad
+
+
+def png_pixels(path):
+    """(width, height, rows of RGB bytes) of an 8-bit RGB or RGBA, non-interlaced PNG (what Blender writes)."""
+    import zlib
+    with open(path, "rb") as f:
+        data = f.read()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n", f"{path} is not a PNG"
+    pos, idat, header = 8, b"", None
+    while pos < len(data):
+        n, kind = struct.unpack(">I4s", data[pos:pos + 8])
+        body = data[pos + 8:pos + 8 + n]
+        if kind == b"IHDR":
+            header = struct.unpack(">IIBBBBB", body)
+        elif kind == b"IDAT":
+            idat += body
+        pos += 12 + n
+    w, h, depth, colour, _, _, interlace = header
+    assert depth == 8 and colour in (2, 6) and interlace == 0, header
+    bpp = 3 if colour == 2 else 4
+    raw = zlib.decompress(idat)
+    stride = w * bpp
+    rows, prev = [], bytearray(stride)
+    for y in range(h):
+        ft = raw[y * (stride + 1)]
+        line = bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
+        for i in range(stride):
+            left = line[i - bpp] if i >= bpp else 0
+            up = prev[i]
+            ul = prev[i - bpp] if i >= bpp else 0
+            if ft == 1:
+                line[i] = (line[i] + left) & 255
+            elif ft == 2:
+                line[i] = (line[i] + up) & 255
+            elif ft == 3:
+                line[i] = (line[i] + (left + up) // 2) & 255
+            elif ft == 4:
+                p = left + up - ul
+                pa, pb, pc = abs(p - left), abs(p - up), abs(p - ul)
+                line[i] = (line[i] + (left if pa <= pb and pa <= pc else up if pb <= pc else ul)) & 255
+        rows.append(bytes(line))
+        prev = line
+    return w, h, bpp, rows
+
+
+def check_render(path, width, height):
+    """The picture shows the run: the wall's light grey (the main body), the red ball, pieces in colours, and
+    the darker checkered ground and background around them."""
+    w, h, bpp, rows = png_pixels(path)
+    assert (w, h) == (width, height), f"{path} is {w}x{h}, expected {width}x{height}"
+    counts = {"wall": 0, "ball": 0, "pieces": 0, "ground and background": 0}
+    for row in rows:
+        for x in range(w):
+            r, g, b = row[x * bpp:x * bpp + 3]
+            spread = max(r, g, b) - min(r, g, b)
+            if r > 120 and g < 60 and b < 60:
+                counts["ball"] += 1
+            elif spread > 50:
+                counts["pieces"] += 1
+            elif r > 110 and spread < 30:
+                counts["wall"] += 1
+            elif r < 105 and spread < 30:
+                counts["ground and background"] += 1
+    total = w * h
+    print("pixels:", {k: f"{100 * v / total:.2f} %" for k, v in counts.items()})
+    if not (counts["wall"] > 0.05 * total and counts["ball"] > 0.002 * total and counts["pieces"] > 0.001 * total
+            and counts["ground and background"] > 0.2 * total):
+        sys.exit(f"{path} does not show the run (pixels: {counts})")
+
+
+def load_reader():
+    """The add-on's reader module alone (its package imports bpy)."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("mca_reader", os.path.join(ADDON_ROOT, "io_import_mca", "reader.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def check_colours(a):
+    """The add-on's fragment colours equal the renderer's, automaton by automaton, in every frame of the
+    default scene (885 fragments at the end), and for many single-automaton pieces."""
+    import numpy as np
+    reader = load_reader()
+    run_dir = os.path.join(a.work, "default")
+    frames = [(f["object"], f["fragment"]) for f in reader.Run(run_dir).frames]
+    n = 20000  # every automaton its own piece but one main body: the hue of 19,999 indices
+    frames.append((np.zeros(n, np.int32), np.concatenate([np.zeros(n // 2 + 1, np.int32),
+                                                          np.arange(1, n - n // 2, dtype=np.int32)])))
+    for k, (obj, frag) in enumerate(frames):
+        text = f"{int(obj.max()) + 1} {len(obj)}\n" + "\n".join(f"{o} {f}" for o, f in zip(obj, frag)) + "\n"
+        p = subprocess.run([a.colours], input=text, stdout=subprocess.PIPE, text=True, check=True)
+        want = np.array(p.stdout.split(), np.int64).reshape(-1, 3)
+        got = reader.fragment_colours(frag, obj).astype(np.int64)
+        differ = int(np.any(want != got, axis=1).sum())
+        pieces = len(np.unique(frag))
+        print(f"frame {k}: {len(obj)} automata, {pieces} fragments, {differ} colours differ")
+        if differ:
+            sys.exit(f"frame {k}: {differ} automata coloured unlike the renderer")
+
+
+def check_rotations(a):
+    """The rotations reconstructed for frames without orientation (older runs) against the orientations the
+    frames carry, on the default scene: the automata of fragments turn with them (Kabsch), pieces by their
+    spin."""
+    import numpy as np
+    reader = load_reader()
+    # A block of 4 x 3 x 2 automata turned as one body by known rotations of every axis and size: the
+    # reconstruction gives them back (and a lone automaton turns by its spin).
+    rng = np.random.default_rng(7)
+    grid = np.array([[x, y, z] for x in range(4) for y in range(3) for z in range(2)], float) * 0.05
+    p0 = np.vstack([grid, [[1.0, 1.0, 1.0]]])
+    frag = np.array([0] * len(grid) + [1])
+    zero = np.zeros((len(p0), 3), np.float32)
+    for trial in range(200):
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        angle = rng.uniform(0, np.pi)
+        q = np.concatenate([[np.cos(angle / 2)], np.sin(angle / 2) * axis])
+        w, x, y, z = q
+        R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                      [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                      [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+        spin = np.zeros((len(p0), 3), np.float32)
+        spin[-1] = axis * angle / 0.002  # the lone automaton turns by the same angle over the frame
+        frames = [dict(points=p0.astype(np.float32), fragment=frag, angular_velocity=zero),
+                  dict(points=(p0 @ R.T + [0.3, -0.2, 0.1]).astype(np.float32), fragment=frag, angular_velocity=spin)]
+        got = reader.automaton_rotations(p0, frames, [0.0, 0.002])[1].astype(float)
+        # the lone automaton: the mean of the spins at the frame's two ends (0 and `spin`) turns it by half
+        off = np.degrees(2 * np.arccos(np.abs(got[:-1] @ q).clip(0, 1))).max()
+        half = np.concatenate([[np.cos(angle / 4)], np.sin(angle / 4) * axis])
+        off_lone = np.degrees(2 * np.arccos(min(1.0, abs(float(got[-1] @ half)))))
+        if off > 0.1 or off_lone > 0.1:  # float32 quaternions resolve about 0.05 degrees near identity
+            sys.exit(f"rotation {angle:.3f} rad about {axis}: the block comes back {off:.4f} degrees off, the lone "
+                     f"automaton {off_lone:.4f}")
+    print("ok: 200 known rotations of a block come back within 0.1 degrees, and a lone automaton's spin")
+    run = reader.Run(os.path.join(a.work, "default"))
+    if not run.has_orientation:
+        sys.exit("the default scene's frames carry no orientation")
+    truth = run.rotations()
+    guess = reader.automaton_rotations(run.initial_positions(), run.frames, run.times)
+    exposed = run.exposed()
+    for k in (len(run.frames) // 2, len(run.frames) - 1):
+        def off(q):  # degrees between q and the frame's orientation, exposed automata
+            dot = np.abs((truth[k].astype(float) * q.astype(float)).sum(axis=1)).clip(0, 1)
+            return np.degrees(2 * np.arccos(dot))[exposed[k]]
+        angle = off(guess[k])
+        unturned = off(np.tile([1.0, 0, 0, 0], (len(guess[k]), 1)))
+        median, p90 = np.median(angle), np.percentile(angle, 90)
+        print(f"frame {k}: the exposed automata's reconstructed rotation is off by {median:.1f} degrees (median), "
+              f"{p90:.1f} (90th percentile); unturned cubes would be off by {np.median(unturned):.1f} and "
+              f"{np.percentile(unturned, 90):.1f}")
+        if not (median < 10 and p90 < 40 and p90 < 0.5 * np.percentile(unturned, 90)):
+            sys.exit(f"frame {k}: the reconstructed rotations are far from the frames' orientations")
+
+
+def main():
+    p = argparse.ArgumentParser()
+    p.add_argument("--mca", required=True)
+    p.add_argument("--blender", required=True)
+    p.add_argument("--work", required=True)
+    p.add_argument("--colours", help="the mca_render_colours program (the colours case)")
+    p.add_argument("case")
+    a = p.parse_args()
+    os.makedirs(a.work, exist_ok=True)
+    short = os.path.join(a.work, "short")
+    case = a.case
+    if case == "setup_short":  # the default scene's first 10 ms: 6 frames, the ball strikes at 7 ms
+        mca_run(a, short, "--duration", "0.01")
+    elif case == "setup_default":
+        mca_run(a, os.path.join(a.work, "default"))
+    elif case == "setup_surface":
+        setup_surface(a)
+    elif case == "import_short":
+        in_blender(a, "import", short)
+    elif case == "import_default":
+        in_blender(a, "import", os.path.join(a.work, "default"), "10")
+    elif case == "surface":
+        in_blender(a, "surface", os.path.join(a.work, "surface"))
+    elif case == "alembic":
+        abc = os.path.join(a.work, "short.abc")
+        if os.path.exists(abc):
+            os.remove(abc)
+        probe = run([a.blender, "-b", "--factory-startup", "--python-expr",
+                     "import bpy; print('alembic supported:', bpy.app.alembic.supported)"])
+        supported = "alembic supported: True" in probe.stdout
+        r = run(blender_cmd(a, CLI, short, abc))
+        if supported:
+            if r.returncode != 0 or not os.path.isfile(abc) or os.path.getsize(abc) < 10000:
+                sys.exit(f"mca_cli.py did not write {abc} (exit {r.returncode})")
+            in_blender(a, "alembic", short, abc)
+        else:
+            # Debian's Blender has no Alembic: the script says so, names the way out, and writes nothing.
+            if r.returncode != 1 or "built without Alembic" not in r.stderr or "OUT.obj" not in r.stderr or \
+                    "Traceback" in r.stderr or os.path.exists(abc):
+                sys.exit(f"mca_cli.py on a Blender without Alembic: exit {r.returncode}, stderr {r.stderr[-400:]}")
+            print("ok: this Blender has no Alembic; mca_cli.py refuses .abc with exit 1 and says why")
+    elif case == "obj_sequence":
+        folder = os.path.join(a.work, "obj_sequence")
+        shutil.rmtree(folder, ignore_errors=True)
+        r = run(blender_cmd(a, CLI, short, os.path.join(folder, "short.obj")))
+        frames = sum(1 for n in os.listdir(os.path.join(short, "frames")) if n.startswith("automata_"))
+        files = sorted(os.listdir(folder)) if os.path.isdir(folder) else []
+        want = [f"short{k}.obj" for k in range(frames)]
+        if r.returncode != 0 or sorted(want) != files:
+            sys.exit(f"mca_cli.py wrote {files}, expected {want} (exit {r.returncode})")
+        in_blender(a, "obj_sequence", short, folder)
+    elif case == "render":
+        png = os.path.join(a.work, "short.png")
+        if os.path.exists(png):
+            os.remove(png)
+        r = run(blender_cmd(a, CLI, short, png, "--size", "480x270", "--frame", "5"))
+        if r.returncode != 0 or not os.path.isfile(png):
+            sys.exit(f"mca_cli.py did not render {png} (exit {r.returncode})")
+        check_render(png, 480, 270)
+    elif case == "blend":
+        blend = os.path.join(a.work, "short3.blend")
+        if os.path.exists(blend):
+            os.remove(blend)
+        r = run(blender_cmd(a, CLI, short, blend, "--frames", "3"))
+        if r.returncode != 0 or not os.path.isfile(blend):
+            sys.exit(f"mca_cli.py did not write {blend} (exit {r.returncode})")
+        in_blender(a, "blend", short, blend)
+    elif case == "bad_input":
+        bad = make_bad_inputs(a)
+        in_blender(a, "bad_input", bad)
+        # The command line: one line on stderr, exit code 1, no traceback.
+        for name, args, words in (
+                ("a folder that is no run", [os.path.join(bad, "not_a_run"), os.path.join(a.work, "x.blend")],
+                 "not an mca run folder"),
+                ("a run from a newer mca", [os.path.join(bad, "newer_vtu"), os.path.join(a.work, "x.png")],
+                 "newer mca"),
+                ("a half-written run", [os.path.join(bad, "cut_short"), os.path.join(a.work, "x.blend")],
+                 "cut short"),
+                ("no frames", [os.path.join(bad, "no_frames"), os.path.join(a.work, "x.blend")], "holds no frames"),
+                ("an output of unknown type", [short, os.path.join(a.work, "x.fbx")], "extension"),
+                ("a frame past the last", [short, os.path.join(a.work, "x.png"), "--frame", "99"], "frames 0 to 5"),
+                ("no arguments", [], "expected RUN_DIR and OUT")):
+            r = run(blender_cmd(a, CLI, *args))
+            ok = r.returncode == 1 and words in r.stderr and "mca_cli: error:" in r.stderr and \
+                "Traceback" not in r.stderr
+            print(("ok: " if ok else "FAIL: ") + f"mca_cli.py, {name}: exit {r.returncode}, says '{words}'")
+            if not ok:
+                sys.exit(f"mca_cli.py on {name}: exit {r.returncode}, stderr: {r.stderr[-500:]}")
+    elif case == "missing_numpy":
+        in_blender(a, "missing_numpy", short)
+    elif case == "install":
+        scripts = os.path.join(a.work, "user_scripts")
+        shutil.rmtree(scripts, ignore_errors=True)
+        os.makedirs(scripts)
+        # the README's command
+        zip_path = os.path.join(a.work, "io_import_mca.zip")
+        if os.path.exists(zip_path):
+            os.remove(zip_path)
+        r = run([sys.executable, "-m", "zipfile", "-c", zip_path, os.path.join(ADDON_ROOT, "io_import_mca")])
+        with zipfile.ZipFile(zip_path) as z:
+            names = z.namelist()
+        if r.returncode != 0 or "io_import_mca/__init__.py" not in names:
+            sys.exit(f"python3 -m zipfile made {names} (exit {r.returncode})")
+        env = dict(os.environ, BLENDER_USER_SCRIPTS=scripts,
+                   BLENDER_USER_CONFIG=os.path.join(a.work, "user_config"))
+        # in_blender.py puts blender/ on the path; the installed copy must be the one found first
+        in_blender(a, "install", zip_path, short, env=env)
+    elif case == "colours":
+        check_colours(a)
+    elif case == "rotations":
+        check_rotations(a)
+    else:
+        sys.exit(f"unknown case {case}")
+
+
+if __name__ == "__main__":
+    t0 = time.time()
+    main()
+    print(f"done in {time.time() - t0:.1f} s")
