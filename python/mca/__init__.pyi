@@ -205,7 +205,7 @@ class Simulation:
         """Continues from a checkpoint file, or a run folder's newest checkpoint."""
     def advance(self, steps: int, progress: Optional[Callable[[int, int], Any]] = None) -> None:
         """Advances `steps` steps on a stepping thread, without the GIL. Ctrl-C raises KeyboardInterrupt
-        within about 0.05 s while the slice in flight (0.25 to 1 s) ends in the background; whatever uses
+        within about 0.05 s while the slice in flight (up to about 2 s) ends in the background; whatever uses
         the simulation next waits for it. progress(done, total) after each slice; mca.Error when the run
         becomes unstable."""
     def advance_to(self, time: float, progress: Optional[Callable[[int, int], Any]] = None) -> None:

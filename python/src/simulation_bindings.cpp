@@ -55,13 +55,15 @@ struct OutputFolder {
   std::int64_t next_frame = 0;
 };
 
-// Stepping runs on a thread of its own, in slices (calls of Engine::advance) of about 0.25 to 1 s, while
+// Stepping runs on a thread of its own, in slices (calls of Engine::advance) of about kSliceSeconds, while
 // the calling thread waits without the GIL and wakes every 50 ms to check for Ctrl-C and report progress.
 // Ctrl-C raises KeyboardInterrupt at once and asks the stepping thread to stop after its slice; whatever
-// reads or steps the simulation next waits for that slice first, so the state it sees is whole. Each call
-// of Engine::advance gathers the backend's arrays into its State (O(automata + links), and the last step of
-// a call writes the stress tensors): slices of at least 0.25 s keep that under about 1 % of the stepping
-// (docs/benchmarks.md, "Python module"), and Ctrl-C still answers within 0.05 s.
+// reads or steps the simulation next waits for that slice first, so the state it sees is whole. Slices are
+// long because each call of Engine::advance costs extra: it gathers the backend's arrays into its State
+// (O(automata + links)) and the last step of a call writes the stress tensors; on wall_357k that is about
+// half a step per call (docs/benchmarks.md, "Python module"), so the first slice is one step, to measure
+// the rate, and the next ones 2 s each: a handful of calls in a benchmark of 100 steps.
+constexpr double kSliceSeconds = 2.0;
 class PySimulation {
  public:
   PySimulation(const SceneDef& scene, int threads) : threads_(threads) {
@@ -164,8 +166,10 @@ class PySimulation {
         }
         taken += n;  // a healthy call takes all its steps
         done_ = taken;
-        if (took < 0.25 && chunk < (std::int64_t{1} << 30)) chunk *= 2;
-        else if (took > 1.0 && chunk > 1) chunk /= 2;
+        // The next slice: kSliceSeconds at the rate of this one (the first, of one step, measures it).
+        const double per_step = took / n;
+        chunk = per_step > 0 ? static_cast<std::int64_t>(std::clamp(kSliceSeconds / per_step, 1.0, 1073741824.0))
+                             : chunk * 2;
       }
     } catch (...) {
       error_ = std::current_exception();
@@ -463,7 +467,7 @@ Simulation is gone.)");
           [](PySimulation& s, std::int64_t steps, const py::object& progress) { s.advance(steps, progress); },
           py::arg("steps"), py::arg("progress") = py::none(),
           "Advances `steps` time steps on a stepping thread, without the GIL. Ctrl-C raises KeyboardInterrupt "
-          "within about 0.05 s while the slice in flight (0.25 to 1 s of steps) ends in the background; whatever "
+          "within about 0.05 s while the slice in flight (up to about 2 s of steps) ends in the background; whatever "
           "uses the simulation next waits for it, so the state is always at a whole step (advance again to go on). "
           "progress(done, total) is called after each slice. Raises mca.Error when the run becomes unstable (the "
           "command's message; the state is the unstable step's).")
