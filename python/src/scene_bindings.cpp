@@ -466,7 +466,7 @@ void bind_scene(py::module_& m) {
   // ---- [[projectile]] ----
   py::class_<ProjectileDef> projectile(m, "Projectile", "A [[projectile]]: a rigid ball.");
   keyword_init(projectile, "[[projectile]]");
-  projectile.def_readwrite("name", &ProjectileDef::name)
+  projectile.def_readwrite("name", &ProjectileDef::name, "names the ball (\"ball\", \"ball1\", ... by index)")
       .def_readwrite("radius", &ProjectileDef::radius, "[m], > 0")
       .def_readwrite("material", &ProjectileDef::material, "a known material (default steel)")
       .def_readwrite("density", &ProjectileDef::density, "[kg/m^3]; 0: the material's")
@@ -491,7 +491,7 @@ void bind_scene(py::module_& m) {
   vec3(grip, "velocity", &GripDef::velocity, "[m/s]");
   py::class_<LoadDef> load(m, "Load", "A [[load]]: a constant force on each automaton in the box.");
   keyword_init(load, "[[load]]");
-  load.def_readwrite("name", &LoadDef::name);
+  load.def_readwrite("name", &LoadDef::name, "names the load (\"load\", \"load1\", ... by index)");
   vec3(load, "min", &LoadDef::min, "[m], box corner (required)");
   vec3(load, "max", &LoadDef::max, "[m], box corner (required)");
   vec3(load, "force", &LoadDef::force, "[N] per automaton");
@@ -499,7 +499,7 @@ void bind_scene(py::module_& m) {
   // ---- [ground], [solver], [output], [camera] ----
   py::class_<GroundDef> ground(m, "Ground", "[ground]: a rigid plane normal to the up axis.");
   keyword_init(ground, "[ground]");
-  ground.def_readwrite("enabled", &GroundDef::enabled)
+  ground.def_readwrite("enabled", &GroundDef::enabled, "True: the ground plane is there")
       .def_readwrite("height", &GroundDef::height, "[m] along the up axis")
       .def_readwrite("friction", &GroundDef::friction, ">= 0")
       .def_readwrite("restitution", &GroundDef::restitution, "in [0.01, 1]")

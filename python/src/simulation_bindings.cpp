@@ -8,12 +8,14 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <ctime>
 #include <condition_variable>
 #include <exception>
 #include <mutex>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -146,6 +148,52 @@ class PySimulation {
     report_left_over();
   }
 
+  // The module's cost over the command for advance (bench/python_overhead.py): from one snapshot of the
+  // state, uploaded before each timed run as `mca bench` does, `pairs` times in turn: advance(steps) as
+  // Python calls it (the stepping thread, its slices, the waits and signal checks) and one
+  // Engine::advance(steps) as `mca bench` times it. Returns the pairs of wall seconds; the state is left
+  // at the snapshot's steps later.
+  struct BenchPair {
+    double module_wall, command_wall, module_cpu, command_cpu;  // seconds
+  };
+  static double cpu_seconds() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+  }
+  std::vector<BenchPair> bench_advance(std::int64_t steps, int pairs) {
+    if (steps < 1 || steps > std::numeric_limits<int>::max() || pairs < 1)
+      throw Error(fmt::format("_bench_advance({}, {}): give at least one step (at most 2^31 - 1) and one pair", steps,
+                              pairs));
+    join();
+    const State snapshot = engine_->state();
+    std::vector<BenchPair> out;
+    const auto seconds = [](auto t0) {
+      return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    };
+    for (int k = 0; k < pairs; ++k) {
+      BenchPair p{};
+      engine_->backend().upload(snapshot);
+      auto t0 = std::chrono::steady_clock::now();
+      double c0 = cpu_seconds();
+      advance(steps, py::none());
+      p.module_wall = seconds(t0);
+      p.module_cpu = cpu_seconds() - c0;
+      engine_->backend().upload(snapshot);
+      {
+        py::gil_scoped_release nogil;
+        tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads_));
+        t0 = std::chrono::steady_clock::now();
+        c0 = cpu_seconds();
+        engine_->advance(static_cast<int>(steps));
+        p.command_wall = seconds(t0);
+        p.command_cpu = cpu_seconds() - c0;
+      }
+      out.push_back(p);
+    }
+    return out;
+  }
+
   std::unique_ptr<OutputFolder> output;
   std::optional<render::Framing> framing;  // the renderer's, of the starting state (as a run's camera)
 
@@ -153,7 +201,9 @@ class PySimulation {
   void step_slices(std::int64_t steps) {
     try {
       tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads_));
-      std::int64_t chunk = 1, taken = 0;
+      // The first slice of a Simulation is one step, which measures the rate; later ones use the rate of the
+      // slice before (also across calls of advance).
+      std::int64_t chunk = per_step_ > 0 ? slice_steps(per_step_) : 1, taken = 0;
       while (taken < steps && !stop_) {
         const int n = static_cast<int>(std::min(chunk, steps - taken));
         const auto t0 = std::chrono::steady_clock::now();
@@ -166,10 +216,9 @@ class PySimulation {
         }
         taken += n;  // a healthy call takes all its steps
         done_ = taken;
-        // The next slice: kSliceSeconds at the rate of this one (the first, of one step, measures it).
-        const double per_step = took / n;
-        chunk = per_step > 0 ? static_cast<std::int64_t>(std::clamp(kSliceSeconds / per_step, 1.0, 1073741824.0))
-                             : chunk * 2;
+        // The next slice: kSliceSeconds at the rate of this one.
+        if (took > 0) per_step_ = took / n;
+        chunk = per_step_ > 0 ? slice_steps(per_step_) : chunk * 2;
       }
     } catch (...) {
       error_ = std::current_exception();
@@ -179,6 +228,10 @@ class PySimulation {
       running_ = false;
     }
     finished_.notify_all();
+  }
+
+  static std::int64_t slice_steps(double per_step) {
+    return static_cast<std::int64_t>(std::clamp(kSliceSeconds / per_step, 1.0, 1073741824.0));
   }
 
   void join() const {
@@ -236,6 +289,7 @@ class PySimulation {
   std::exception_ptr error_;
   StepHealth health_;
   double wall_ = 0;  // seconds of stepping, all sessions (a checkpoint's included)
+  double per_step_ = 0;  // seconds a step took in the last slice
 };
 
 // ---- arrays ------------------------------------------------------------------------------------------------
@@ -687,6 +741,19 @@ Simulation is gone.)");
           "Saves the scene and the whole state to `path` (.mcack, the command's format); Simulation.resume(path) "
           "continues bitwise as if uninterrupted. `mca resume` continues it in a run folder when it was saved at a "
           "frame's end (step a multiple of steps_per_frame).")
+      .def(
+          "_bench_advance",
+          [](PySimulation& s, std::int64_t steps, int pairs) {
+            py::list out;
+            for (const auto& p : s.bench_advance(steps, pairs))
+              out.append(py::make_tuple(p.module_wall, p.command_wall, p.module_cpu, p.command_cpu));
+            return out;
+          },
+          py::arg("steps"), py::arg("pairs"),
+           "For bench/python_overhead.py: from the state now, uploaded again before each timed run as `mca bench` "
+           "does, `pairs` times: advance(steps) as from Python, then one Engine::advance(steps) as `mca bench` "
+           "times it. Returns [(module_wall, command_wall, module_cpu, command_cpu), ...] in seconds (cpu: the process's "
+           "CPU time).")
       .def("__repr__", [](const PySimulation& s) {
         const Engine& e = s.engine();
         return fmt::format("<mca.Simulation {}: {} automata, step {} (t = {:.6g} s), {} threads>",
