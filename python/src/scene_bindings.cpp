@@ -448,7 +448,8 @@ void bind_scene(py::module_& m) {
               throw Error(fmt::format("object.heterogeneity is a {}, not an mca.Heterogeneity or None", type_name(v)));
             o.heterogeneity = v;
           },
-          "an mca.Heterogeneity of its own, or None for the scene's")
+          "an mca.Heterogeneity of its own (it starts from the defaults, where a scene file's "
+          "[object.heterogeneity] starts from the scene's), or None for the scene's")
       .def(
           "add_region",
           [](PyObjectDef& o, const py::kwargs& kw) {

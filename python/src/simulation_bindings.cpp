@@ -201,9 +201,11 @@ class PySimulation {
   void step_slices(std::int64_t steps) {
     try {
       tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads_));
-      // The first slice of a Simulation is one step, which measures the rate; later ones use the rate of the
-      // slice before (also across calls of advance).
-      std::int64_t chunk = per_step_ > 0 ? slice_steps(per_step_) : 1, taken = 0;
+      // The first slice of a Simulation is one step, which measures the rate; later ones take kSliceSeconds at
+      // the rate of the slice before (also across calls of advance), but at most twice its steps: the rate
+      // falls as a run goes on (contacts, breaking, a busier machine), and a slice planned at the rate of
+      // the quiet first steps ran for 15 s.
+      std::int64_t chunk = per_step_ > 0 ? std::min(slice_steps(per_step_), 2 * last_slice_) : 1, taken = 0;
       while (taken < steps && !stop_) {
         const int n = static_cast<int>(std::min(chunk, steps - taken));
         const auto t0 = std::chrono::steady_clock::now();
@@ -216,9 +218,10 @@ class PySimulation {
         }
         taken += n;  // a healthy call takes all its steps
         done_ = taken;
-        // The next slice: kSliceSeconds at the rate of this one.
+        // The next slice: kSliceSeconds at the rate of this one, at most twice its steps.
         if (took > 0) per_step_ = took / n;
-        chunk = per_step_ > 0 ? slice_steps(per_step_) : chunk * 2;
+        last_slice_ = n;
+        chunk = per_step_ > 0 ? std::min(slice_steps(per_step_), std::int64_t{2} * n) : std::int64_t{2} * n;
       }
     } catch (...) {
       error_ = std::current_exception();
@@ -289,7 +292,8 @@ class PySimulation {
   std::exception_ptr error_;
   StepHealth health_;
   double wall_ = 0;  // seconds of stepping, all sessions (a checkpoint's included)
-  double per_step_ = 0;  // seconds a step took in the last slice
+  double per_step_ = 0;         // seconds a step took in the last slice
+  std::int64_t last_slice_ = 1;  // its steps
 };
 
 // ---- arrays ------------------------------------------------------------------------------------------------
