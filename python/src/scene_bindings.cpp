@@ -684,9 +684,10 @@ validates it too.)");
       .def(
           "copy", [](const PyScene& s) { return PyScene::from_def(s.to_def()); },
           "A deep copy: changing it leaves this scene as it is.")
-      .def("__eq__", [](const PyScene& a, const PyScene& b) {
-        return io::scene_to_toml(a.to_def()) == io::scene_to_toml(b.to_def());
-      })
+      .def(
+          "__eq__",
+          [](const PyScene& a, const PyScene& b) { return io::scene_to_toml(a.to_def()) == io::scene_to_toml(b.to_def()); },
+          py::is_operator(), "Equal when every key is (their to_toml() texts are equal).")
       .def("__repr__", [](const PyScene& s) {
         return fmt::format("<mca.Scene {} from {}: {} objects, {} projectiles>", text::quoted(s.name), s.source,
                            s.objects.size(), s.projectiles.size());
