@@ -1,6 +1,5 @@
 // mca.Simulation and mca.render: the Engine the command steps, its state as numpy arrays, the command's
 // outputs (VTK frames, stats.csv, checkpoints) and its renderer.
-#include <pybind11/functional.h>
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
