@@ -16,8 +16,9 @@ packages=(
   # windows, PNG, video, the run's plots, and the window tests under a virtual X server
   libepoxy-dev libglm-dev libegl-dev libopengl-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev libpng-dev
   ffmpeg python3 python3-matplotlib xvfb xauth xdotool
-  # the Blender add-on (blender/) and its tests: Blender 3.4 runs Debian's Python 3.11 with numpy
-  blender python3-numpy
+  # the Python module mca (python/): built for Debian's /usr/bin/python3 and numpy, tested with pytest;
+  # the Blender add-on (blender/) and its tests: Blender 3.4 runs that Python 3.11 with that numpy
+  python3-dev python3-numpy python3-pybind11 pybind11-dev python3-pytest blender
 )
 if [[ "${MCA_SETUP_MODELS:-1}" != 0 ]]; then
   packages+=(libcgal-demo)  # the paper's models (scripts/get_models.sh)
@@ -36,9 +37,25 @@ done
 models() {
   if [[ "${MCA_SETUP_MODELS:-1}" != 0 ]]; then "$(dirname "$0")/get_models.sh"; fi
 }
+# `import mca` for /usr/bin/python3 without PYTHONPATH: mca.pth in its site folder names this checkout's
+# build/release/python (Python skips the line until the build has made it). Debian's Python is externally
+# managed (no pip); the last checkout whose set-up ran is the one imported.
+python_path() {
+  local site pth build
+  site=$(/usr/bin/python3 -c 'import site; print(site.getsitepackages()[0])' 2>/dev/null) || return 0
+  build="$(cd "$(dirname "$0")/.." && pwd)/build/release/python"
+  pth="$site/mca.pth"
+  [[ -f "$pth" && "$(cat "$pth")" == "$build" ]] && return 0
+  if [[ $(id -u) -eq 0 ]]; then mkdir -p "$site" && echo "$build" >"$pth"
+  elif command -v sudo >/dev/null; then sudo mkdir -p "$site" && echo "$build" | sudo tee "$pth" >/dev/null
+  else echo "setup: not root: $pth not written; set PYTHONPATH=$build to import mca" >&2; return 0
+  fi
+  echo "setup: $pth -> $build (import mca)"
+}
 if ((${#missing[@]} == 0)); then
   echo "setup: all ${#packages[@]} packages present"
   models
+  python_path
   exit 0
 fi
 
@@ -51,3 +68,4 @@ echo "setup: installing ${missing[*]}"
 $SUDO apt-get update -qq
 DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
 models
+python_path

@@ -1,0 +1,279 @@
+# Type stubs of the mca module (python/src/*.cpp): what an editor completes and documents.
+import os
+from typing import Any, Callable, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+Vec3 = Tuple[float, float, float]
+Vec3Like = Union[Sequence[float], npt.NDArray[np.float64]]
+PathLike = Union[str, "os.PathLike[str]"]
+
+class Error(Exception):
+    """An error the mca command would report: the message names the file, the key, the bad value and the fix."""
+
+class Material:
+    """A [[material]] of docs/scene-format.md (SI units)."""
+    name: str
+    youngs_modulus: float
+    poisson_ratio: float
+    density: float
+    tensile_strength: float
+    compressive_strength: float
+    fracture_strain: float
+    friction: float
+    restitution: float
+    rolling_friction: float
+    twisting_friction: float
+    damping_time: float
+    strengthening: str
+    """"none", "exponential" or "quadratic" (paper eq. 7)."""
+    strengthening_alpha: float
+    def __init__(self, **keys: Any) -> None:
+        """Concrete's values changed by the keys given; an unknown key raises mca.Error."""
+    @staticmethod
+    def builtin(name: str) -> Material:
+        """A copy of a built-in material: concrete, glass, ceramic, granite, steel."""
+
+class Heterogeneity:
+    """[heterogeneity] or [object.heterogeneity]: the strength classes."""
+    preset: str
+    """"none", "low", "medium" or "high" (sets shares); "custom" once shares are assigned."""
+    shares: Tuple[float, float, float, float]
+    class_factors: Tuple[float, float, float, float]
+    grain_size: float
+    def __init__(self, **keys: Any) -> None: ...
+
+class Region:
+    """An [[object.region]]: a material for the automata inside it."""
+    shape: str
+    center: Vec3
+    size: Vec3
+    radius: float
+    mesh: str
+    material: str
+    def __init__(self, **keys: Any) -> None: ...
+
+class Object:
+    """An [[object]]: box, sphere, cylinder or mesh, filled with automata."""
+    name: str
+    shape: str
+    size: Vec3
+    radius: float
+    height: float
+    mesh: str
+    scale: float
+    fit_size: float
+    fill: str
+    shell_thickness: float
+    position: Vec3
+    rotation: Vec3
+    velocity: Vec3
+    material: str
+    regions: list[Region]
+    heterogeneity: Optional[Heterogeneity]
+    def __init__(self, **keys: Any) -> None: ...
+    def add_region(self, **keys: Any) -> Region:
+        """Appends a Region with the keys given and returns it."""
+
+class Projectile:
+    """A [[projectile]]: a rigid ball."""
+    name: str
+    radius: float
+    material: str
+    density: float
+    position: Vec3
+    velocity: Vec3
+    angular_velocity: Vec3
+    kinematic: bool
+    rolling_friction: float
+    twisting_friction: float
+    def __init__(self, **keys: Any) -> None: ...
+
+class Grip:
+    """A [[grip]]: the automata in the box [min, max] move at a fixed velocity."""
+    name: str
+    min: Vec3
+    max: Vec3
+    velocity: Vec3
+    def __init__(self, **keys: Any) -> None: ...
+
+class Load:
+    """A [[load]]: a constant force on each automaton in the box [min, max]."""
+    name: str
+    min: Vec3
+    max: Vec3
+    force: Vec3
+    def __init__(self, **keys: Any) -> None: ...
+
+class Ground:
+    """[ground]: a rigid plane normal to the up axis."""
+    enabled: bool
+    height: float
+    friction: float
+    restitution: float
+    rolling_friction: float
+    twisting_friction: float
+    def __init__(self, **keys: Any) -> None: ...
+
+class Solver:
+    """[solver]: the lattice and the integration."""
+    spacing: float
+    target_automata: int
+    safety: float
+    time_step: float
+    mass_scaling: float
+    gravity: Vec3
+    link_damping: float
+    local_damping: float
+    stress_coefficient: float
+    skin: float
+    seed: int
+    max_memory_gb: float
+    def __init__(self, **keys: Any) -> None: ...
+
+class Output:
+    """[output]: the duration, frames and files of a run."""
+    duration: float
+    frame_rate: float
+    links: bool
+    vtk: bool
+    checkpoint_every: int
+    surface: bool
+    surface_format: str
+    fragments: bool
+    fragment_min_automata: int
+    def __init__(self, **keys: Any) -> None: ...
+
+class Camera:
+    """[camera]: the renderer's camera; None keys are automatic."""
+    position: Optional[Vec3]
+    target: Optional[Vec3]
+    fov: float
+    def __init__(self, **keys: Any) -> None: ...
+
+class Scene:
+    """A scene: the keys of docs/scene-format.md."""
+    name: str
+    source: str
+    materials: list[Material]
+    objects: list[Object]
+    projectiles: list[Projectile]
+    grips: list[Grip]
+    loads: list[Load]
+    heterogeneity: Heterogeneity
+    solver: Solver
+    output: Output
+    ground: Ground
+    camera: Camera
+    def __init__(self, name: str = "scene") -> None:
+        """An empty scene (no objects) with every default."""
+    @staticmethod
+    def load(path: PathLike) -> Scene:
+        """Reads a scene file (TOML); raises mca.Error with file:line:column and the key."""
+    @staticmethod
+    def from_toml(text: str, source: str = "<string>") -> Scene:
+        """Parses TOML text; `source` names it in messages."""
+    @staticmethod
+    def default() -> Scene:
+        """The built-in default scene (scenes/wall_ball.toml)."""
+    def add_object(self, **keys: Any) -> Object:
+        """Appends an Object (named "object", "object1", ... unless named) and returns it."""
+    def add_projectile(self, **keys: Any) -> Projectile:
+        """Appends a Projectile (named "ball", "ball1", ... unless named) and returns it."""
+    def add_grip(self, **keys: Any) -> Grip: ...
+    def add_load(self, **keys: Any) -> Load: ...
+    def add_material(self, name: str, base: Optional[str] = None, **keys: Any) -> Material:
+        """Appends a material: a copy of `base` (an earlier scene material or a built-in) with the keys given."""
+    def validate(self) -> None:
+        """Checks the scene with the command's code; raises mca.Error naming the key, the value and the fix."""
+    def to_toml(self) -> str:
+        """The complete scene as TOML (every key); from_toml reads it back to the same scene."""
+    def save(self, path: PathLike) -> None:
+        """Writes to_toml() to a file."""
+    def copy(self) -> Scene:
+        """A deep copy."""
+    def __eq__(self, other: object) -> bool: ...
+
+class Simulation:
+    """A run of a scene. State arrays are copies; strength_class, masses and object_ids are read-only
+    views of the model. Every array stays valid after the Simulation is gone."""
+    def __init__(self, scene: Union[Scene, PathLike], threads: int = 0, backend: str = "cpu") -> None:
+        """Builds the model (threads 0: all cores); raises mca.Error for a scene that cannot be built."""
+    @staticmethod
+    def resume(path: PathLike, threads: int = 0) -> Simulation:
+        """Continues from a checkpoint file, or a run folder's newest checkpoint."""
+    def advance(self, steps: int, progress: Optional[Callable[[int, int], Any]] = None) -> None:
+        """Advances `steps` steps on a stepping thread, without the GIL. Ctrl-C raises KeyboardInterrupt
+        within about 0.05 s while the slice in flight (up to about 2 s) ends in the background; whatever uses
+        the simulation next waits for it. progress(done, total) after each slice; mca.Error when the run
+        becomes unstable."""
+    def advance_to(self, time: float, progress: Optional[Callable[[int, int], Any]] = None) -> None:
+        """Advances to the step nearest `time` [s]."""
+    @property
+    def step(self) -> int: ...
+    @property
+    def time(self) -> float: ...
+    @property
+    def time_step(self) -> float: ...
+    @property
+    def steps_per_frame(self) -> int: ...
+    @property
+    def total_steps(self) -> int: ...
+    @property
+    def automata(self) -> int: ...
+    @property
+    def link_count(self) -> int: ...
+    @property
+    def threads(self) -> int: ...
+    @property
+    def backend(self) -> str: ...
+    @property
+    def scene(self) -> Scene:
+        """A copy of the scene as built."""
+    def positions(self) -> npt.NDArray[np.float64]:
+        """(N, 3) float64 centres [m], a copy."""
+    def velocities(self) -> npt.NDArray[np.float64]:
+        """(N, 3) float64 [m/s], a copy."""
+    def angular_velocities(self) -> npt.NDArray[np.float64]:
+        """(N, 3) float64 [rad/s], a copy."""
+    def rotations(self) -> npt.NDArray[np.float32]:
+        """(N, 4) float32 unit quaternions (w, x, y, z), a copy."""
+    def damage(self) -> npt.NDArray[np.float32]:
+        """(N,) float32 share of each automaton's links broken, a copy."""
+    def fragment_ids(self) -> npt.NDArray[np.int32]:
+        """(N,) int32 fragment of each automaton (0 = heaviest), a copy."""
+    def strength_class(self) -> npt.NDArray[np.uint8]:
+        """(N,) uint8 class 1..4, a read-only view of the model."""
+    def masses(self) -> npt.NDArray[np.float32]:
+        """(N,) float32 [kg], a read-only view of the model."""
+    def object_ids(self) -> npt.NDArray[np.int32]:
+        """(N,) int32 scene object index, a read-only view of the model."""
+    def links(self) -> npt.NDArray[np.uint32]:
+        """(L, 2) uint32 intact links as automaton pairs, a copy."""
+    def broken_links(self) -> dict[str, int]:
+        """{displacement, stress, total}."""
+    def projectiles(self) -> dict[str, Any]:
+        """{name: list[str], position, velocity, angular_velocity: (P, 3) float64, radius, mass: (P,) float64}."""
+    def energies(self) -> dict[str, float]:
+        """summary.json's "energy" plus total [J]."""
+    def fragments(self) -> dict[str, npt.NDArray[Any]]:
+        """The columns of fragments.csv by name, heaviest first."""
+    def state_hash(self) -> str:
+        """summary.json's state_hash: 16 hex digits."""
+    def write_frame(self, out: PathLike) -> int:
+        """Writes the next frame of folder `out` as `mca run --out` does; returns its number."""
+    def close_output(self) -> None:
+        """Releases the folder of write_frame."""
+    def checkpoint(self, path: PathLike) -> None:
+        """Saves the scene and the whole state (.mcack)."""
+
+def render(
+    sim: Simulation,
+    path: Optional[PathLike] = None,
+    colour: str = "fragment",
+    draw: Optional[str] = None,
+    size: Tuple[int, int] = (1280, 720),
+) -> npt.NDArray[np.uint8]:
+    """Draws the state with the command's renderer (EGL, offscreen); writes a PNG to `path` when given;
+    returns (height, width, 4) uint8 RGBA."""

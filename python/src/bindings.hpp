@@ -1,0 +1,42 @@
+#pragma once
+// The Python module `mca` (python/CMakeLists.txt): shared declarations of its binding files.
+//
+// A scene as Python holds it: the leaf definitions (Material, Region, Projectile, Grip, Load, Ground,
+// Solver, Output, Camera, Heterogeneity) are the C++ structs of include/mca/scene.hpp, each owned by its
+// Python object; the lists (scene.objects, object.regions, ...) are plain Python lists of them. A SceneDef
+// is assembled from them when it is needed (validate, to_toml, Simulation), so a Python reference to an
+// element never points into a C++ vector that may move.
+#include <pybind11/pybind11.h>
+
+#include <string>
+
+#include "mca/scene.hpp"
+
+namespace mca::python {
+
+namespace py = pybind11;
+
+// An [[object]]: its keys, its regions (a list of Region) and its heterogeneity (None: the scene's).
+struct PyObjectDef {
+  ObjectDef def;
+  py::list regions;
+  py::object heterogeneity = py::none();
+  // `key` names the object in messages ("scene.objects[2]").
+  ObjectDef to_def(const std::string& key) const;
+  static PyObjectDef from_def(const ObjectDef& def);
+};
+
+struct PyScene {
+  std::string name = "scene";
+  std::string source = "<python>";
+  py::list materials, objects, projectiles, grips, loads;
+  py::object heterogeneity, solver, output, ground, camera;
+  PyScene();
+  SceneDef to_def() const;
+  static PyScene from_def(const SceneDef& def);
+};
+
+void bind_scene(py::module_& m);
+void bind_simulation(py::module_& m);
+
+}  // namespace mca::python

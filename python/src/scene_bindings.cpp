@@ -1,0 +1,698 @@
+// mca.Scene and its parts: the definition structs of include/mca/scene.hpp under the key names of
+// docs/scene-format.md, read and written by the scene reader and writer of src/io and checked by
+// validate_scene, so a scene built in Python gets the messages a scene file gets.
+#include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <cmath>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "bindings.hpp"
+#include "core/text.hpp"
+#include "io/scene_io.hpp"
+#include "mca/error.hpp"
+
+namespace mca::python {
+namespace {
+
+// ---- values given from Python ----------------------------------------------------------------------------
+
+std::string type_name(py::handle h) { return py::str(py::type::handle_of(h).attr("__name__")); }
+
+// [x, y, z] from any sequence of three numbers (a list, a tuple, a numpy array).
+Vec3d to_vec3(py::handle value, const std::string& key) {
+  if (!py::isinstance<py::sequence>(value) || py::isinstance<py::str>(value) || py::len(value) != 3)
+    throw Error(fmt::format("{} = {} is not three numbers; give [x, y, z]", key, py::str(py::repr(value)).cast<std::string>()));
+  Vec3d v{};
+  const auto seq = py::reinterpret_borrow<py::sequence>(value);
+  for (std::size_t k = 0; k < 3; ++k) {
+    try {
+      v[k] = py::float_(seq[k]).cast<double>();
+    } catch (const py::error_already_set&) {
+      throw Error(fmt::format("{} = {}: component {} is not a number; give [x, y, z]", key,
+                              py::str(py::repr(value)).cast<std::string>(), k));
+    }
+  }
+  return v;
+}
+py::tuple from_vec3(const Vec3d& v) { return py::make_tuple(v[0], v[1], v[2]); }
+
+template <std::size_t N>
+std::array<double, N> to_array(py::handle value, const std::string& key, const char* form) {
+  if (!py::isinstance<py::sequence>(value) || py::isinstance<py::str>(value) || py::len(value) != N)
+    throw Error(fmt::format("{} = {} is not {} numbers; give {}", key, py::str(py::repr(value)).cast<std::string>(), N,
+                            form));
+  std::array<double, N> a{};
+  const auto seq = py::reinterpret_borrow<py::sequence>(value);
+  for (std::size_t k = 0; k < N; ++k) {
+    try {
+      a[k] = py::float_(seq[k]).cast<double>();
+    } catch (const py::error_already_set&) {
+      throw Error(fmt::format("{} = {}: component {} is not a number; give {}", key,
+                              py::str(py::repr(value)).cast<std::string>(), k, form));
+    }
+  }
+  return a;
+}
+
+// A key whose value is one of a few words (shape, fill, ...): the reader's message for anything else.
+std::string choice(const std::string& key, const std::string& value, const std::vector<std::string>& allowed,
+                   const std::string& what) {
+  if (std::find(allowed.begin(), allowed.end(), value) != allowed.end()) return value;
+  std::string list;
+  for (std::size_t k = 0; k < allowed.size(); ++k)
+    list += (k == 0 ? "" : k + 1 == allowed.size() ? " or " : ", ") + text::quoted(allowed[k]);
+  throw Error(fmt::format("{} = {} is not {}{}; use {}", key, text::quoted(value), what,
+                          text::did_you_mean(value, allowed), list));
+}
+
+const char* shape_name(Shape s) {
+  switch (s) {
+    case Shape::sphere: return "sphere";
+    case Shape::cylinder: return "cylinder";
+    case Shape::mesh: return "mesh";
+    default: return "box";
+  }
+}
+Shape shape_of(const std::string& s) {
+  if (s == "sphere") return Shape::sphere;
+  if (s == "cylinder") return Shape::cylinder;
+  if (s == "mesh") return Shape::mesh;
+  return Shape::box;
+}
+
+// ---- keyword construction: Material(name="weak", tensile_strength=1e6) ----------------------------------
+
+// The keys of a bound class: its properties (what dir() lists that is a `property`).
+std::vector<std::string> keys_of(py::handle cls) {
+  std::vector<std::string> keys;
+  const py::object property = py::module_::import("builtins").attr("property");
+  for (const auto& name : py::module_::import("builtins").attr("dir")(cls)) {
+    const std::string n = py::str(name);
+    if (n.rfind("_", 0) == 0) continue;
+    if (py::isinstance(cls.attr("__dict__").attr("get")(name, py::none()), property)) keys.push_back(n);
+  }
+  return keys;
+}
+
+// Sets each keyword on `obj` through its property (so every key is checked as an assignment is), refusing
+// a key the class does not have with the reader's did-you-mean.
+void apply_keys(py::handle obj, const py::kwargs& kw, const std::string& table) {
+  const py::handle cls = py::type::handle_of(obj);
+  std::vector<std::string> keys;
+  for (const auto& item : kw) {
+    const std::string key = py::str(item.first);
+    if (keys.empty()) keys = keys_of(cls);
+    if (std::find(keys.begin(), keys.end(), key) == keys.end())
+      throw Error(fmt::format("mca.{}: '{}' is not a key of {}{}", type_name(obj), key, table,
+                              text::suggestion(key, keys)));
+    py::setattr(obj, item.first, item.second);
+  }
+}
+
+// T(**keys) for a struct bound by value: a default T with each key set through its property.
+template <class T>
+void keyword_init(py::class_<T>& c, const std::string& table) {
+  c.def(py::init([table](const py::kwargs& kw) {
+          T value{};
+          apply_keys(py::cast(&value, py::return_value_policy::reference), kw, table);
+          return value;
+        }),
+        fmt::format("A {} with the defaults of docs/scene-format.md, changed by the keys given (by their names "
+                    "there); an unknown key raises mca.Error.",
+                    table)
+            .c_str());
+}
+
+// A field of three numbers (a tuple when read: change it by assigning three numbers).
+template <class T>
+void vec3(py::class_<T>& c, const char* name, Vec3d T::*field, const char* doc) {
+  const std::string key = name;
+  c.def_property(
+      name, [field](const T& t) { return from_vec3(t.*field); },
+      [field, key](T& t, py::handle v) { t.*field = to_vec3(v, key); }, doc);
+}
+
+template <class T>
+std::string repr_of(const T& value, const char* cls);
+
+// ---- conversions between the Python lists and the C++ vectors ---------------------------------------------
+
+template <class T>
+std::vector<T> vector_of(const py::list& list, const std::string& key, const char* cls) {
+  std::vector<T> out;
+  out.reserve(list.size());
+  for (std::size_t k = 0; k < list.size(); ++k) {
+    if (!py::isinstance<T>(list[k]))
+      throw Error(fmt::format("{}[{}] is a {}, not an mca.{}; append mca.{}(...) (or use the add_ method)", key, k,
+                              type_name(list[k]), cls, cls));
+    out.push_back(list[k].cast<T>());
+  }
+  return out;
+}
+template <class T>
+py::list list_of(const std::vector<T>& v) {
+  py::list out;
+  for (const T& x : v) out.append(py::cast(x));
+  return out;
+}
+template <class T>
+T value_of(const py::object& o, const std::string& key, const char* cls) {
+  if (!py::isinstance<T>(o))
+    throw Error(fmt::format("{} is a {}, not an mca.{}; assign mca.{}(...)", key, type_name(o), cls, cls));
+  return o.cast<T>();
+}
+
+// The heterogeneity's preset: the reader's rules (a named preset sets the shares; "custom" is what shares
+// given by hand are called).
+void set_preset(HeterogeneityDef& h, const std::string& preset) {
+  if (preset == "custom")
+    throw Error("heterogeneity.preset = \"custom\" is implied by shares; assign shares = [p1, p2, p3, p4] instead");
+  std::array<double, 4> shares{};
+  if (!heterogeneity_preset(preset, shares))
+    throw Error(fmt::format("heterogeneity.preset = {} is not a preset{}; use \"none\", \"low\", \"medium\" or "
+                            "\"high\", or give shares = [p1, p2, p3, p4]",
+                            text::quoted(preset), text::did_you_mean(preset, {"none", "low", "medium", "high"})));
+  h.preset = preset;
+  h.shares = shares;
+}
+
+}  // namespace
+
+// ---- PyObjectDef and PyScene --------------------------------------------------------------------------------
+
+ObjectDef PyObjectDef::to_def(const std::string& key) const {
+  ObjectDef o = def;
+  o.regions = vector_of<RegionDef>(regions, key + ".regions", "Region");
+  if (heterogeneity.is_none()) o.heterogeneity.reset();
+  else o.heterogeneity = value_of<HeterogeneityDef>(heterogeneity, key + ".heterogeneity", "Heterogeneity");
+  return o;
+}
+
+PyObjectDef PyObjectDef::from_def(const ObjectDef& d) {
+  PyObjectDef o;
+  o.def = d;
+  o.def.regions.clear();
+  o.def.heterogeneity.reset();
+  o.regions = list_of(d.regions);
+  if (d.heterogeneity) o.heterogeneity = py::cast(*d.heterogeneity);
+  return o;
+}
+
+PyScene::PyScene()
+    : heterogeneity(py::cast(HeterogeneityDef{})),
+      solver(py::cast(SolverDef{})),
+      output(py::cast(OutputDef{})),
+      ground(py::cast(GroundDef{})),
+      camera(py::cast(CameraDef{})) {}
+
+SceneDef PyScene::to_def() const {
+  SceneDef s;
+  s.name = name;
+  s.source = source;
+  s.materials = vector_of<MaterialDef>(materials, "scene.materials", "Material");
+  s.heterogeneity = value_of<HeterogeneityDef>(heterogeneity, "scene.heterogeneity", "Heterogeneity");
+  for (std::size_t k = 0; k < objects.size(); ++k) {
+    const std::string key = fmt::format("scene.objects[{}]", k);
+    if (!py::isinstance<PyObjectDef>(objects[k]))
+      throw Error(fmt::format("{} is a {}, not an mca.Object; append mca.Object(...) (or use scene.add_object)", key,
+                              type_name(objects[k])));
+    s.objects.push_back(objects[k].cast<const PyObjectDef&>().to_def(key));
+  }
+  s.projectiles = vector_of<ProjectileDef>(projectiles, "scene.projectiles", "Projectile");
+  s.grips = vector_of<GripDef>(grips, "scene.grips", "Grip");
+  s.loads = vector_of<LoadDef>(loads, "scene.loads", "Load");
+  s.ground = value_of<GroundDef>(ground, "scene.ground", "Ground");
+  s.solver = value_of<SolverDef>(solver, "scene.solver", "Solver");
+  s.output = value_of<OutputDef>(output, "scene.output", "Output");
+  s.camera = value_of<CameraDef>(camera, "scene.camera", "Camera");
+  return s;
+}
+
+PyScene PyScene::from_def(const SceneDef& d) {
+  PyScene s;
+  s.name = d.name;
+  s.source = d.source;
+  s.materials = list_of(d.materials);
+  s.heterogeneity = py::cast(d.heterogeneity);
+  for (const ObjectDef& o : d.objects) s.objects.append(py::cast(PyObjectDef::from_def(o)));
+  s.projectiles = list_of(d.projectiles);
+  s.grips = list_of(d.grips);
+  s.loads = list_of(d.loads);
+  s.ground = py::cast(d.ground);
+  s.solver = py::cast(d.solver);
+  s.output = py::cast(d.output);
+  s.camera = py::cast(d.camera);
+  return s;
+}
+
+namespace {
+
+// scene.add_object(...) and the like: a new element named by its index as the reader names them
+// ("object1", "ball2", ...), the keys applied, appended; returns the element (the list's own).
+template <class T>
+py::object add_to(py::list& list, const char* base, const py::kwargs& kw, const std::string& table,
+                  std::string T::*name) {
+  T value{};
+  if (list.size() > 0) value.*name = fmt::format("{}{}", base, list.size());
+  py::object obj = py::cast(value);
+  apply_keys(obj, kw, table);
+  list.append(obj);
+  return obj;
+}
+
+}  // namespace
+
+void bind_scene(py::module_& m) {
+  // ---- [[material]] ----
+  py::class_<MaterialDef> material(m, "Material", "A [[material]] of docs/scene-format.md (SI units).");
+  keyword_init(material, "[[material]]");
+  material.def_readwrite("name", &MaterialDef::name, "name objects refer to (non-empty, unique)")
+      .def_readwrite("youngs_modulus", &MaterialDef::youngs_modulus, "E [Pa], in [1e3, 1e13]")
+      .def_readwrite("poisson_ratio", &MaterialDef::poisson_ratio, "nu, in (-1, 0.5)")
+      .def_readwrite("density", &MaterialDef::density, "rho [kg/m^3], in [0.1, 1e5]")
+      .def_readwrite("tensile_strength", &MaterialDef::tensile_strength, "sigma_b in tension [Pa], > 0")
+      .def_readwrite("compressive_strength", &MaterialDef::compressive_strength, "[Pa], >= tensile_strength")
+      .def_readwrite("fracture_strain", &MaterialDef::fracture_strain, "eps_b of the displacement criterion, > 0")
+      .def_readwrite("friction", &MaterialDef::friction, "Coulomb mu of contacts, >= 0")
+      .def_readwrite("restitution", &MaterialDef::restitution, "coefficient of restitution, in [0.01, 1]")
+      .def_readwrite("rolling_friction", &MaterialDef::rolling_friction, "mu_r of contacts, in [0, 1]")
+      .def_readwrite("twisting_friction", &MaterialDef::twisting_friction, "mu_t of contacts, in [0, 1]")
+      .def_readwrite("damping_time", &MaterialDef::damping_time, "Kelvin-Voigt viscosity time [s], in [0, 1e-3]")
+      .def_property(
+          "strengthening",
+          [](const MaterialDef& d) {
+            return std::string(d.strengthening == StrengtheningLaw::exponential ? "exponential"
+                               : d.strengthening == StrengtheningLaw::quadratic ? "quadratic"
+                                                                                 : "none");
+          },
+          [](MaterialDef& d, const std::string& v) {
+            const std::string s = choice("material.strengthening", v, {"none", "exponential", "quadratic"},
+                                         "a strengthening law");
+            d.strengthening = s == "exponential" ? StrengtheningLaw::exponential
+                              : s == "quadratic" ? StrengtheningLaw::quadratic
+                                                 : StrengtheningLaw::none;
+          },
+          "paper eq. 7: \"none\", \"exponential\" or \"quadratic\"")
+      .def_readwrite("strengthening_alpha", &MaterialDef::strengthening_alpha, "alpha of eq. 7, >= 0")
+      .def_static(
+          "builtin",
+          [](const std::string& name) {
+            const MaterialDef* d = find_builtin_material(name);
+            if (!d) {
+              std::vector<std::string> names;
+              for (const auto& b : builtin_materials()) names.push_back(b.name);
+              throw Error(fmt::format("'{}' is not a built-in material{}", name, text::suggestion(name, names)));
+            }
+            return *d;
+          },
+          py::arg("name"), "A copy of the built-in material of that name (concrete, glass, ceramic, granite, steel).")
+      .def("__repr__", [](const MaterialDef& d) {
+        return fmt::format("mca.Material(name={}, youngs_modulus={}, tensile_strength={}, density={})",
+                           text::quoted(d.name), text::num(d.youngs_modulus), text::num(d.tensile_strength),
+                           text::num(d.density));
+      });
+
+  // ---- [heterogeneity] ----
+  py::class_<HeterogeneityDef> het(m, "Heterogeneity",
+                                   "[heterogeneity] (scene.heterogeneity) or [object.heterogeneity] (object.heterogeneity).");
+  het.def(py::init([](const py::kwargs& kw) {
+            if (kw.contains("preset") && kw.contains("shares"))
+              throw Error("heterogeneity: preset and shares are both given; give either preset = "
+                          "\"none|low|medium|high\" or shares = [p1, p2, p3, p4]");
+            HeterogeneityDef h;
+            apply_keys(py::cast(&h, py::return_value_policy::reference), kw, "[heterogeneity]");
+            return h;
+          }),
+          "A heterogeneity with the defaults (preset \"none\": every automaton of class 4), changed by the keys given.");
+  het.def_property(
+         "preset", [](const HeterogeneityDef& h) { return h.preset; }, &set_preset,
+         "\"none\", \"low\", \"medium\" or \"high\": sets the shares of the paper's distribution; reads \"custom\" "
+         "once shares are assigned")
+      .def_property(
+          "shares", [](const HeterogeneityDef& h) { return py::make_tuple(h.shares[0], h.shares[1], h.shares[2], h.shares[3]); },
+          [](HeterogeneityDef& h, py::handle v) {
+            h.shares = to_array<4>(v, "heterogeneity.shares", "[p1, p2, p3, p4] (class 1 = weakest)");
+            h.preset = "custom";
+          },
+          "share of automata in strength class 1..4 (sum 1); assigning them makes the preset \"custom\"")
+      .def_property(
+          "class_factors",
+          [](const HeterogeneityDef& h) {
+            return py::make_tuple(h.class_factors[0], h.class_factors[1], h.class_factors[2], h.class_factors[3]);
+          },
+          [](HeterogeneityDef& h, py::handle v) {
+            h.class_factors = to_array<4>(v, "heterogeneity.class_factors", "[k1, k2, k3, k4]");
+          },
+          "strength factor k_c of class 1..4 (each > 0, non-decreasing)")
+      .def_readwrite("grain_size", &HeterogeneityDef::grain_size, "[m]; 0: classes drawn per automaton, > 0: grains")
+      .def("__repr__", [](const HeterogeneityDef& h) {
+        return fmt::format("mca.Heterogeneity(preset={}, shares=[{}, {}, {}, {}])", text::quoted(h.preset),
+                           text::num(h.shares[0]), text::num(h.shares[1]), text::num(h.shares[2]),
+                           text::num(h.shares[3]));
+      });
+
+  // ---- [[object.region]] ----
+  py::class_<RegionDef> region(m, "Region", "An [[object.region]]: a material for the automata inside it.");
+  keyword_init(region, "[[object.region]]");
+  region
+      .def_property(
+          "shape", [](const RegionDef& r) { return std::string(shape_name(r.shape)); },
+          [](RegionDef& r, const std::string& v) {
+            r.shape = shape_of(choice("region.shape", v, {"box", "sphere", "mesh"}, "a region shape"));
+          },
+          "\"box\", \"sphere\" or \"mesh\"")
+      .def_readwrite("mesh", &RegionDef::mesh, "a closed mesh file (shape \"mesh\"), the path to open")
+      .def_readwrite("radius", &RegionDef::radius, "[m] (sphere)")
+      .def_readwrite("material", &RegionDef::material, "the material of the automata inside (required)");
+  vec3(region, "center", &RegionDef::center, "[m], world frame");
+  vec3(region, "size", &RegionDef::size, "[m], full extents along the world axes (box)");
+
+  // ---- [[object]] ----
+  py::class_<PyObjectDef> object(m, "Object", "An [[object]] of docs/scene-format.md.");
+  object.def(py::init([](const py::kwargs& kw) {
+               PyObjectDef o;
+               apply_keys(py::cast(&o, py::return_value_policy::reference), kw, "[[object]]");
+               return o;
+             }),
+             "An object with the defaults (a 1 m concrete box at the origin), changed by the keys given.");
+  object.def_property(
+            "name", [](const PyObjectDef& o) { return o.def.name; }, [](PyObjectDef& o, const std::string& v) { o.def.name = v; },
+            "non-empty, unique")
+      .def_property(
+          "shape", [](const PyObjectDef& o) { return std::string(shape_name(o.def.shape)); },
+          [](PyObjectDef& o, const std::string& v) {
+            o.def.shape = shape_of(choice("object.shape", v, {"box", "sphere", "cylinder", "mesh"}, "a shape"));
+          },
+          "\"box\", \"sphere\", \"cylinder\" or \"mesh\"")
+      .def_property(
+          "size", [](const PyObjectDef& o) { return from_vec3(o.def.size); },
+          [](PyObjectDef& o, py::handle v) { o.def.size = to_vec3(v, "object.size"); }, "[m], full extents (box)")
+      .def_property(
+          "radius", [](const PyObjectDef& o) { return o.def.radius; }, [](PyObjectDef& o, double v) { o.def.radius = v; },
+          "[m] (sphere, cylinder)")
+      .def_property(
+          "height", [](const PyObjectDef& o) { return o.def.height; }, [](PyObjectDef& o, double v) { o.def.height = v; },
+          "[m] (cylinder, along its local z)")
+      .def_property(
+          "mesh", [](const PyObjectDef& o) { return o.def.mesh; },
+          [](PyObjectDef& o, const std::string& v) { o.def.mesh = v; },
+          "a triangle mesh file (shape \"mesh\"): the path to open (a scene file's relative paths are resolved when "
+          "it is read)")
+      .def_property(
+          "scale", [](const PyObjectDef& o) { return o.def.scale; }, [](PyObjectDef& o, double v) { o.def.scale = v; },
+          "file units to metres (mesh), > 0")
+      .def_property(
+          "fit_size", [](const PyObjectDef& o) { return o.def.fit_size; },
+          [](PyObjectDef& o, double v) { o.def.fit_size = v; }, "[m]: > 0 scales the mesh to this largest extent")
+      .def_property(
+          "fill", [](const PyObjectDef& o) { return std::string(o.def.fill == MeshFill::surface ? "surface" : "volume"); },
+          [](PyObjectDef& o, const std::string& v) {
+            o.def.fill = choice("object.fill", v, {"volume", "surface"}, "a fill mode") == "surface" ? MeshFill::surface
+                                                                                                     : MeshFill::volume;
+          },
+          "\"volume\" or \"surface\" (mesh)")
+      .def_property(
+          "shell_thickness", [](const PyObjectDef& o) { return o.def.shell_thickness; },
+          [](PyObjectDef& o, double v) { o.def.shell_thickness = v; }, "[m] (surface fill); 0: the mean link length")
+      .def_property(
+          "position", [](const PyObjectDef& o) { return from_vec3(o.def.position); },
+          [](PyObjectDef& o, py::handle v) { o.def.position = to_vec3(v, "object.position"); }, "[m], its centre")
+      .def_property(
+          "rotation", [](const PyObjectDef& o) { return from_vec3(o.def.rotation); },
+          [](PyObjectDef& o, py::handle v) { o.def.rotation = to_vec3(v, "object.rotation"); },
+          "degrees about x, then y, then z")
+      .def_property(
+          "velocity", [](const PyObjectDef& o) { return from_vec3(o.def.velocity); },
+          [](PyObjectDef& o, py::handle v) { o.def.velocity = to_vec3(v, "object.velocity"); },
+          "[m/s], initial velocity of its automata")
+      .def_property(
+          "material", [](const PyObjectDef& o) { return o.def.material; },
+          [](PyObjectDef& o, const std::string& v) { o.def.material = v; }, "a built-in or scene material")
+      .def_property(
+          "regions", [](const PyObjectDef& o) { return o.regions; },
+          [](PyObjectDef& o, const py::list& v) { o.regions = v; }, "a list of mca.Region")
+      .def_property(
+          "heterogeneity", [](const PyObjectDef& o) { return o.heterogeneity; },
+          [](PyObjectDef& o, const py::object& v) {
+            if (!v.is_none() && !py::isinstance<HeterogeneityDef>(v))
+              throw Error(fmt::format("object.heterogeneity is a {}, not an mca.Heterogeneity or None", type_name(v)));
+            o.heterogeneity = v;
+          },
+          "an mca.Heterogeneity of its own (it starts from the defaults, where a scene file's "
+          "[object.heterogeneity] starts from the scene's), or None for the scene's")
+      .def(
+          "add_region",
+          [](PyObjectDef& o, const py::kwargs& kw) {
+            py::object r = py::cast(RegionDef{});
+            apply_keys(r, kw, "[[object.region]]");
+            o.regions.append(r);
+            return r;
+          },
+          "Appends an mca.Region with the keys given and returns it.")
+      .def("__repr__", [](const PyObjectDef& o) {
+        return fmt::format("mca.Object(name={}, shape={}, material={})", text::quoted(o.def.name),
+                           text::quoted(shape_name(o.def.shape)), text::quoted(o.def.material));
+      });
+
+  // ---- [[projectile]] ----
+  py::class_<ProjectileDef> projectile(m, "Projectile", "A [[projectile]]: a rigid ball.");
+  keyword_init(projectile, "[[projectile]]");
+  projectile.def_readwrite("name", &ProjectileDef::name, "names the ball (\"ball\", \"ball1\", ... by index)")
+      .def_readwrite("radius", &ProjectileDef::radius, "[m], > 0")
+      .def_readwrite("material", &ProjectileDef::material, "a known material (default steel)")
+      .def_readwrite("density", &ProjectileDef::density, "[kg/m^3]; 0: the material's")
+      .def_readwrite("kinematic", &ProjectileDef::kinematic, "True: moves at its initial velocity whatever it hits")
+      .def_readwrite("rolling_friction", &ProjectileDef::rolling_friction, "in [0, 1]")
+      .def_readwrite("twisting_friction", &ProjectileDef::twisting_friction, "in [0, 1]")
+      .def("__repr__", [](const ProjectileDef& p) {
+        return fmt::format("mca.Projectile(name={}, radius={}, velocity=[{}, {}, {}])", text::quoted(p.name),
+                           text::num(p.radius), text::num(p.velocity[0]), text::num(p.velocity[1]),
+                           text::num(p.velocity[2]));
+      });
+  vec3(projectile, "position", &ProjectileDef::position, "[m], its centre");
+  vec3(projectile, "velocity", &ProjectileDef::velocity, "[m/s], initial velocity");
+  vec3(projectile, "angular_velocity", &ProjectileDef::angular_velocity, "[rad/s]");
+
+  // ---- [[grip]] and [[load]] ----
+  py::class_<GripDef> grip(m, "Grip", "A [[grip]]: the automata in the box move at a fixed velocity.");
+  keyword_init(grip, "[[grip]]");
+  grip.def_readwrite("name", &GripDef::name, "unique; names its force columns in stats.csv");
+  vec3(grip, "min", &GripDef::min, "[m], box corner (required)");
+  vec3(grip, "max", &GripDef::max, "[m], box corner (required)");
+  vec3(grip, "velocity", &GripDef::velocity, "[m/s]");
+  py::class_<LoadDef> load(m, "Load", "A [[load]]: a constant force on each automaton in the box.");
+  keyword_init(load, "[[load]]");
+  load.def_readwrite("name", &LoadDef::name, "names the load (\"load\", \"load1\", ... by index)");
+  vec3(load, "min", &LoadDef::min, "[m], box corner (required)");
+  vec3(load, "max", &LoadDef::max, "[m], box corner (required)");
+  vec3(load, "force", &LoadDef::force, "[N] per automaton");
+
+  // ---- [ground], [solver], [output], [camera] ----
+  py::class_<GroundDef> ground(m, "Ground", "[ground]: a rigid plane normal to the up axis.");
+  keyword_init(ground, "[ground]");
+  ground.def_readwrite("enabled", &GroundDef::enabled, "True: the ground plane is there")
+      .def_readwrite("height", &GroundDef::height, "[m] along the up axis")
+      .def_readwrite("friction", &GroundDef::friction, ">= 0")
+      .def_readwrite("restitution", &GroundDef::restitution, "in [0.01, 1]")
+      .def_readwrite("rolling_friction", &GroundDef::rolling_friction, "in [0, 1]")
+      .def_readwrite("twisting_friction", &GroundDef::twisting_friction, "in [0, 1]");
+
+  py::class_<SolverDef> solver(m, "Solver", "[solver]: the lattice and the integration.");
+  keyword_init(solver, "[solver]");
+  solver.def_readwrite("spacing", &SolverDef::spacing, "lattice spacing d [m], > 0")
+      .def_readwrite("target_automata", &SolverDef::target_automata, "> 0: d chosen so the count lands within 2 %")
+      .def_readwrite("safety", &SolverDef::safety, "the step's share of the critical step, in (0, 1]")
+      .def_readwrite("time_step", &SolverDef::time_step, "[s]; 0: automatic")
+      .def_readwrite("mass_scaling", &SolverDef::mass_scaling, "surface-mode mass scaling, in [0, 1]")
+      .def_readwrite("link_damping", &SolverDef::link_damping, "share of critical, in [0, 1]")
+      .def_readwrite("local_damping", &SolverDef::local_damping, "Cundall alpha, in [0, 0.2]")
+      .def_readwrite("stress_coefficient", &SolverDef::stress_coefficient, "K_v of the stress criterion, > 0")
+      .def_readwrite("skin", &SolverDef::skin, "contact search skin, share of d, in (0, 0.4]")
+      .def_readwrite("seed", &SolverDef::seed, "random seed of the strength classes")
+      .def_readwrite("max_memory_gb", &SolverDef::max_memory_gb, "refuse models whose estimate exceeds this [GB]");
+  vec3(solver, "gravity", &SolverDef::gravity, "[m/s^2]; defines up");
+
+  py::class_<OutputDef> output(m, "Output", "[output]: the duration, frames and files of a run.");
+  keyword_init(output, "[output]");
+  output.def_readwrite("duration", &OutputDef::duration, "simulated time [s], > 0")
+      .def_readwrite("frame_rate", &OutputDef::frame_rate, "output frames per simulated second, > 0")
+      .def_readwrite("links", &OutputDef::links, "also write intact links as VTK lines")
+      .def_readwrite("vtk", &OutputDef::vtk, "write per-frame VTK files")
+      .def_readwrite("checkpoint_every", &OutputDef::checkpoint_every, "frames between checkpoints (mca run); 0 = none")
+      .def_readwrite("surface", &OutputDef::surface, "write the mesh objects' surface per frame")
+      .def_property(
+          "surface_format",
+          [](const OutputDef& o) { return std::string(o.surface_format == OutputDef::SurfaceFormat::obj ? "obj" : "ply"); },
+          [](OutputDef& o, const std::string& v) {
+            o.surface_format = choice("output.surface_format", v, {"ply", "obj"}, "a surface format") == "obj"
+                                   ? OutputDef::SurfaceFormat::obj
+                                   : OutputDef::SurfaceFormat::ply;
+          },
+          "\"ply\" or \"obj\"")
+      .def_readwrite("fragments", &OutputDef::fragments, "a closed mesh per fragment at the end (mca run)")
+      .def_readwrite("fragment_min_automata", &OutputDef::fragment_min_automata, ">= 0");
+
+  py::class_<CameraDef> camera(m, "Camera", "[camera]: the renderer's camera (None: automatic).");
+  keyword_init(camera, "[camera]");
+  const auto optional_vec3 = [&camera](const char* name, std::optional<Vec3d> CameraDef::*field, const char* doc) {
+    const std::string key = fmt::format("camera.{}", name);
+    camera.def_property(
+        name, [field](const CameraDef& c) -> py::object { return c.*field ? py::object(from_vec3(*(c.*field))) : py::none(); },
+        [field, key](CameraDef& c, py::handle v) {
+          if (v.is_none()) (c.*field).reset();
+          else c.*field = to_vec3(v, key);
+        },
+        doc);
+  };
+  optional_vec3("position", &CameraDef::position, "[m], or None: a 3/4 view framing the objects");
+  optional_vec3("target", &CameraDef::target, "[m], or None: the centre of the objects' box");
+  camera.def_readwrite("fov", &CameraDef::fov, "vertical field of view [degrees], in [5, 150]");
+
+  // ---- the scene ----
+  py::class_<PyScene> scene(m, "Scene", R"(A scene: the keys of docs/scene-format.md.
+
+Read one with Scene.load(path), Scene.from_toml(text) or Scene.default(); or start from Scene(name) and
+add objects, projectiles, materials. validate() checks it with the command's messages; a Simulation
+validates it too.)");
+  scene.def(py::init([](const std::string& name) {
+              PyScene s;
+              s.name = name;
+              return s;
+            }),
+            py::arg("name") = "scene", "An empty scene (no objects) with every default.")
+      .def_static(
+          "load", [](const std::filesystem::path& path) { return PyScene::from_def(io::load_scene_file(path)); },
+          py::arg("path"), "Reads a scene file (TOML); mesh paths are resolved as the command resolves them.")
+      .def_static(
+          "from_toml",
+          [](const std::string& text, const std::string& source) {
+            return PyScene::from_def(io::parse_scene(text, source));
+          },
+          py::arg("text"), py::arg("source") = "<string>",
+          "Parses a scene from TOML text; `source` names it in messages (and gives the name when the text has none).")
+      .def_static(
+          "default", [] { return PyScene::from_def(io::load_default_scene()); },
+          "The built-in default scene (scenes/wall_ball.toml), as `mca run` with no scene uses.")
+      .def_readwrite("name", &PyScene::name, "the scene's name (summary.json, the default output folder)")
+      .def_readwrite("source", &PyScene::source, "what messages call the scene (the file it came from)")
+      .def_readwrite("materials", &PyScene::materials, "list of mca.Material ([[material]])")
+      .def_readwrite("objects", &PyScene::objects, "list of mca.Object ([[object]])")
+      .def_readwrite("projectiles", &PyScene::projectiles, "list of mca.Projectile ([[projectile]])")
+      .def_readwrite("grips", &PyScene::grips, "list of mca.Grip ([[grip]])")
+      .def_readwrite("loads", &PyScene::loads, "list of mca.Load ([[load]])")
+      .def_property(
+          "heterogeneity", [](const PyScene& s) { return s.heterogeneity; },
+          [](PyScene& s, const HeterogeneityDef& h) { s.heterogeneity = py::cast(h); }, "mca.Heterogeneity ([heterogeneity])")
+      .def_property(
+          "solver", [](const PyScene& s) { return s.solver; }, [](PyScene& s, const SolverDef& v) { s.solver = py::cast(v); },
+          "mca.Solver ([solver])")
+      .def_property(
+          "output", [](const PyScene& s) { return s.output; }, [](PyScene& s, const OutputDef& v) { s.output = py::cast(v); },
+          "mca.Output ([output])")
+      .def_property(
+          "ground", [](const PyScene& s) { return s.ground; }, [](PyScene& s, const GroundDef& v) { s.ground = py::cast(v); },
+          "mca.Ground ([ground])")
+      .def_property(
+          "camera", [](const PyScene& s) { return s.camera; }, [](PyScene& s, const CameraDef& v) { s.camera = py::cast(v); },
+          "mca.Camera ([camera])")
+      .def(
+          "add_object",
+          [](PyScene& s, const py::kwargs& kw) {
+            PyObjectDef o;
+            if (s.objects.size() > 0) o.def.name = fmt::format("object{}", s.objects.size());
+            py::object obj = py::cast(std::move(o));
+            apply_keys(obj, kw, "[[object]]");
+            s.objects.append(obj);
+            return obj;
+          },
+          "Appends an mca.Object with the keys given (named \"object\", \"object1\", ... by index unless named) and "
+          "returns it.")
+      .def(
+          "add_projectile",
+          [](PyScene& s, const py::kwargs& kw) {
+            return add_to<ProjectileDef>(s.projectiles, "ball", kw, "[[projectile]]", &ProjectileDef::name);
+          },
+          "Appends an mca.Projectile with the keys given (named \"ball\", \"ball1\", ... unless named) and returns it.")
+      .def(
+          "add_grip",
+          [](PyScene& s, const py::kwargs& kw) { return add_to<GripDef>(s.grips, "grip", kw, "[[grip]]", &GripDef::name); },
+          "Appends an mca.Grip with the keys given and returns it.")
+      .def(
+          "add_load",
+          [](PyScene& s, const py::kwargs& kw) { return add_to<LoadDef>(s.loads, "load", kw, "[[load]]", &LoadDef::name); },
+          "Appends an mca.Load with the keys given and returns it.")
+      .def(
+          "add_material",
+          [](PyScene& s, const std::string& name, const std::optional<std::string>& base, const py::kwargs& kw) {
+            MaterialDef d;
+            if (base) {
+              // As the reader's `base`: an earlier [[material]] of the scene, then a built-in.
+              const MaterialDef* from = nullptr;
+              std::vector<std::string> names;
+              for (std::size_t k = 0; k < s.materials.size(); ++k) {
+                if (!py::isinstance<MaterialDef>(s.materials[k])) continue;
+                const MaterialDef& e = s.materials[k].cast<const MaterialDef&>();
+                names.push_back(e.name);
+                if (e.name == *base) from = &e;
+              }
+              for (const auto& b : builtin_materials()) names.push_back(b.name);
+              if (!from) from = find_builtin_material(*base);
+              if (!from)
+                throw Error(fmt::format("material base = {} is not a built-in or earlier material{}", text::quoted(*base),
+                                        text::suggestion(*base, names)));
+              d = *from;
+            }
+            d.name = name;
+            py::object obj = py::cast(d);
+            apply_keys(obj, kw, "[[material]]");
+            s.materials.append(obj);
+            return obj;
+          },
+          py::arg("name"), py::arg("base") = py::none(),
+          "Appends a material named `name`: a copy of `base` (an earlier scene material or a built-in; without it, "
+          "concrete's values) with the keys given; returns it.")
+      .def(
+          "validate", [](const PyScene& s) { validate_scene(s.to_def()); },
+          "Checks ranges and references with the command's code; raises mca.Error naming the key, the value and the "
+          "fix.")
+      .def(
+          "to_toml", [](const PyScene& s) { return io::scene_to_toml(s.to_def()); },
+          "The complete scene as TOML, every key written (what `mca run` writes as scene.toml); Scene.from_toml "
+          "reads it back to the same scene.")
+      .def(
+          "save",
+          [](const PyScene& s, const std::filesystem::path& path) {
+            const std::string text = io::scene_to_toml(s.to_def());
+            FILE* f = std::fopen(path.c_str(), "wb");
+            if (!f) throw Error(fmt::format("{}: cannot be written ({}); check the folder exists and is writable",
+                                            path.string(), std::strerror(errno)));
+            const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
+            if (std::fclose(f) != 0 || !ok)
+              throw Error(fmt::format("{}: writing failed ({})", path.string(), std::strerror(errno)));
+          },
+          py::arg("path"), "Writes to_toml() to a file.")
+      .def(
+          "copy", [](const PyScene& s) { return PyScene::from_def(s.to_def()); },
+          "A deep copy: changing it leaves this scene as it is.")
+      .def(
+          "__eq__",
+          [](const PyScene& a, const PyScene& b) { return io::scene_to_toml(a.to_def()) == io::scene_to_toml(b.to_def()); },
+          py::is_operator(), "Equal when every key is (their to_toml() texts are equal).")
+      .def("__repr__", [](const PyScene& s) {
+        return fmt::format("<mca.Scene {} from {}: {} objects, {} projectiles>", text::quoted(s.name), s.source,
+                           s.objects.size(), s.projectiles.size());
+      });
+  scene.attr("__hash__") = py::none();
+}
+
+}  // namespace mca::python

@@ -1,0 +1,775 @@
+// mca.Simulation and mca.render: the Engine the command steps, its state as numpy arrays, the command's
+// outputs (VTK frames, stats.csv, checkpoints) and its renderer.
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <ctime>
+#include <condition_variable>
+#include <exception>
+#include <mutex>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <fmt/format.h>
+#include <tbb/global_control.h>
+
+#include "analysis/fragments.hpp"
+#include "app/commands.hpp"
+#include "app/frame_output.hpp"
+#include "app/render_output.hpp"
+#include "bindings.hpp"
+#include "core/text.hpp"
+#include "io/checkpoint.hpp"
+#include "io/output_files.hpp"
+#include "io/scene_io.hpp"
+#include "mca/error.hpp"
+#include "render/camera.hpp"
+#include "render/egl_context.hpp"
+#include "render/image.hpp"
+#include "render/renderer.hpp"
+#include "render/snapshot.hpp"
+#include "sim/engine.hpp"
+#include "sim/state_check.hpp"
+
+namespace mca::python {
+namespace {
+
+static_assert(sizeof(DVec3) == 3 * sizeof(double), "DVec3 arrays are copied as three doubles each");
+static_assert(sizeof(Quat) == 4 * sizeof(float), "Quat arrays are copied as four floats each (w, x, y, z)");
+
+// The folder a Simulation writes frames into (write_frame): held locked as a run holds its folder.
+struct OutputFolder {
+  std::filesystem::path dir;
+  std::unique_ptr<io::OutputLock> lock;
+  std::unique_ptr<app::FrameWriter> writer;
+  std::int64_t next_frame = 0;
+};
+
+// Stepping runs on a thread of its own, in slices (calls of Engine::advance) of about kSliceSeconds, while
+// the calling thread waits without the GIL and wakes every 50 ms to check for Ctrl-C and report progress.
+// Ctrl-C raises KeyboardInterrupt at once and asks the stepping thread to stop after its slice; whatever
+// reads or steps the simulation next waits for that slice first, so the state it sees is whole. Slices are
+// long because each call of Engine::advance costs extra: it gathers the backend's arrays into its State
+// (O(automata + links)) and the last step of a call writes the stress tensors; on wall_357k that is about
+// half a step per call (docs/benchmarks.md, "Python module"), so the first slice is one step, to measure
+// the rate, and the next ones 2 s each: a handful of calls in a benchmark of 100 steps.
+constexpr double kSliceSeconds = 2.0;
+class PySimulation {
+ public:
+  PySimulation(const SceneDef& scene, int threads) : threads_(threads) {
+    Engine::check_environment();
+    tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads_));
+    py::gil_scoped_release nogil;
+    engine_ = std::make_shared<Engine>(scene);
+  }
+  PySimulation(const io::Checkpoint& cp, const std::string& source, int threads) : threads_(threads) {
+    Engine::check_environment();
+    tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads_));
+    py::gil_scoped_release nogil;
+    engine_ = std::make_shared<Engine>(cp.scene, cp.state, source, cp.model_fingerprint);
+    wall_ = cp.wall_seconds;
+  }
+  ~PySimulation() {
+    stop_ = true;
+    join();
+    output.reset();  // its FrameWriter refers to the engine's model
+  }
+  PySimulation(const PySimulation&) = delete;
+  PySimulation& operator=(const PySimulation&) = delete;
+
+  // The engine, for reading: after the slice a Ctrl-C left running has ended. Refused while another
+  // Python thread is in advance (the state is the backend's own arrays).
+  const Engine& engine() const {
+    if (advancing_) throw Error("the simulation is advancing in another thread; read its state when advance returns");
+    join();
+    return *engine_;
+  }
+  const std::shared_ptr<Engine>& shared() const { return engine_; }
+  int threads() const { return threads_; }
+  double wall() const {
+    join();
+    return wall_;
+  }
+
+  void advance(std::int64_t steps, const py::object& progress) {
+    if (steps < 0) throw Error(fmt::format("advance({}): the step count is negative; give 0 or more steps", steps));
+    if (steps > Engine::kMaxSteps)
+      throw Error(fmt::format("advance({}): more than {:.0e} steps would not end; give fewer", steps,
+                              static_cast<double>(Engine::kMaxSteps)));
+    if (advancing_.exchange(true)) throw Error("the simulation is advancing in another thread; one advance at a time");
+    struct Done {
+      std::atomic<bool>& b;
+      ~Done() { b = false; }
+    } done_guard{advancing_};
+    join();
+    report_left_over();
+    stop_ = false;
+    done_ = 0;
+    running_ = true;
+    worker_ = std::thread([this, steps] { step_slices(steps); });
+    std::int64_t reported = 0;
+    for (;;) {
+      {
+        py::gil_scoped_release nogil;
+        std::unique_lock<std::mutex> lock(mutex_);
+        finished_.wait_for(lock, std::chrono::milliseconds(50), [this] { return !running_; });
+      }
+      const bool finished = !running_;
+      // Ctrl-C (or an exception from the callback): raised now; the slice in flight ends on its own.
+      if (PyErr_CheckSignals() != 0) {
+        stop_ = true;
+        throw py::error_already_set();
+      }
+      const std::int64_t d = done_;
+      if (!progress.is_none() && d > reported) {
+        reported = d;
+        try {
+          progress(d, steps);
+        } catch (...) {
+          stop_ = true;
+          throw;
+        }
+      }
+      if (finished) break;
+    }
+    join();
+    report_left_over();
+  }
+
+  // The module's cost over the command for advance (bench/python_overhead.py): from one snapshot of the
+  // state, uploaded before each timed run as `mca bench` does, `pairs` times in turn: advance(steps) as
+  // Python calls it (the stepping thread, its slices, the waits and signal checks) and one
+  // Engine::advance(steps) as `mca bench` times it. Returns the pairs of wall seconds; the state is left
+  // at the snapshot's steps later.
+  struct BenchPair {
+    double module_wall, command_wall, module_cpu, command_cpu;  // seconds
+  };
+  static double cpu_seconds() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+  }
+  std::vector<BenchPair> bench_advance(std::int64_t steps, int pairs) {
+    if (steps < 1 || steps > std::numeric_limits<int>::max() || pairs < 1)
+      throw Error(fmt::format("_bench_advance({}, {}): give at least one step (at most 2^31 - 1) and one pair", steps,
+                              pairs));
+    join();
+    const State snapshot = engine_->state();
+    std::vector<BenchPair> out;
+    const auto seconds = [](auto t0) {
+      return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    };
+    for (int k = 0; k < pairs; ++k) {
+      BenchPair p{};
+      engine_->backend().upload(snapshot);
+      auto t0 = std::chrono::steady_clock::now();
+      double c0 = cpu_seconds();
+      advance(steps, py::none());
+      p.module_wall = seconds(t0);
+      p.module_cpu = cpu_seconds() - c0;
+      engine_->backend().upload(snapshot);
+      {
+        py::gil_scoped_release nogil;
+        tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads_));
+        t0 = std::chrono::steady_clock::now();
+        c0 = cpu_seconds();
+        engine_->advance(static_cast<int>(steps));
+        p.command_wall = seconds(t0);
+        p.command_cpu = cpu_seconds() - c0;
+      }
+      out.push_back(p);
+    }
+    return out;
+  }
+
+  std::unique_ptr<OutputFolder> output;
+  std::optional<render::Framing> framing;  // the renderer's, of the starting state (as a run's camera)
+
+ private:
+  void step_slices(std::int64_t steps) {
+    try {
+      tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads_));
+      // The first slice of a Simulation is one step, which measures the rate; later ones take kSliceSeconds at
+      // the rate of the slice before (also across calls of advance), but at most twice its steps: the rate
+      // falls as a run goes on (contacts, breaking, a busier machine), and a slice planned at the rate of
+      // the quiet first steps ran for 15 s.
+      std::int64_t chunk = per_step_ > 0 ? std::min(slice_steps(per_step_), 2 * last_slice_) : 1, taken = 0;
+      while (taken < steps && !stop_) {
+        const int n = static_cast<int>(std::min(chunk, steps - taken));
+        const auto t0 = std::chrono::steady_clock::now();
+        const StepHealth h = engine_->advance(n);
+        const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        wall_ += took;
+        if (h.flags != kHealthy) {
+          health_ = h;
+          break;
+        }
+        taken += n;  // a healthy call takes all its steps
+        done_ = taken;
+        // The next slice: kSliceSeconds at the rate of this one, at most twice its steps.
+        if (took > 0) per_step_ = took / n;
+        last_slice_ = n;
+        chunk = per_step_ > 0 ? std::min(slice_steps(per_step_), std::int64_t{2} * n) : std::int64_t{2} * n;
+      }
+    } catch (...) {
+      error_ = std::current_exception();
+    }
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      running_ = false;
+    }
+    finished_.notify_all();
+  }
+
+  static std::int64_t slice_steps(double per_step) {
+    return static_cast<std::int64_t>(std::clamp(kSliceSeconds / per_step, 1.0, 1073741824.0));
+  }
+
+  void join() const {
+    if (!worker_.joinable()) return;
+    if (PyGILState_Check()) {
+      py::gil_scoped_release nogil;
+      worker_.join();
+    } else {
+      worker_.join();
+    }
+  }
+
+  // What the last slices ended with: an exception, or a step that went unstable (then the state is that
+  // step's, as the command leaves it).
+  void report_left_over() {
+    if (error_) {
+      std::exception_ptr e = error_;
+      error_ = nullptr;
+      std::rethrow_exception(e);
+    }
+    if (health_.flags != kHealthy) {
+      const StepHealth h = health_;
+      health_ = StepHealth{};
+      throw Error(unstable_message(h));
+    }
+  }
+
+  // The command's message for a run that became unstable (app/run.cpp), less the frame on disk.
+  std::string unstable_message(const StepHealth& h) const {
+    const Model& m = engine_->model();
+    const State& s = engine_->state();
+    std::string what;
+    if (h.flags & kNonFinite)
+      what = h.automaton >= 0 ? fmt::format("a non-finite position or velocity at automaton {}", h.automaton)
+                              : fmt::format("a non-finite position or velocity of projectile '{}'",
+                                            m.projectiles[static_cast<std::size_t>(h.projectile)].name);
+    else
+      what = fmt::format("kinetic + elastic energy is {:.3g} J where the start and the work put in since give {:.3g} J",
+                         h.energy, h.budget);
+    return fmt::format("the run became unstable at step {} (t = {:.6g} s): {}. Likely causes: a time step set by hand "
+                       "close to the critical one ({:.4g} s here, set by {}), or extreme values (speeds, materials). "
+                       "Fix: lower solver.safety (now {:g}) or remove solver.time_step, and check the scene's values",
+                       h.step >= 0 ? h.step : s.step, s.time, what, m.critical_dt, m.dt_limited_by,
+                       engine_->scene().solver.safety);
+  }
+
+  int threads_;
+  std::shared_ptr<Engine> engine_;
+  mutable std::thread worker_;
+  std::mutex mutex_;
+  std::condition_variable finished_;
+  std::atomic<bool> running_{false};  // the stepping thread is going (set false under mutex_, for finished_)
+  std::atomic<bool> stop_{false}, advancing_{false};
+  std::atomic<std::int64_t> done_{0};
+  std::exception_ptr error_;
+  StepHealth health_;
+  double wall_ = 0;  // seconds of stepping, all sessions (a checkpoint's included)
+  double per_step_ = 0;         // seconds a step took in the last slice
+  std::int64_t last_slice_ = 1;  // its steps
+};
+
+// ---- arrays ------------------------------------------------------------------------------------------------
+
+// A new array holding a copy of `data`.
+template <class T>
+py::array_t<T> copy_of(const T* data, std::vector<py::ssize_t> shape) {
+  py::array_t<T> a(shape);
+  if (a.size() > 0) std::memcpy(a.mutable_data(), data, static_cast<std::size_t>(a.nbytes()));
+  return a;
+}
+
+// A read-only view of one of the model's arrays (fixed once built), which keeps the engine alive as long
+// as the array is: it outlives the Simulation object safely.
+template <class T>
+py::array view_of(const std::shared_ptr<Engine>& engine, const std::vector<T>& v) {
+  if (v.empty()) return py::array_t<T>(std::vector<py::ssize_t>{0});
+  auto* keep = new std::shared_ptr<Engine>(engine);
+  py::capsule base(keep, [](void* p) { delete static_cast<std::shared_ptr<Engine>*>(p); });
+  py::array_t<T> a({static_cast<py::ssize_t>(v.size())}, {static_cast<py::ssize_t>(sizeof(T))}, v.data(), base);
+  a.attr("setflags")(py::arg("write") = false);
+  return a;
+}
+
+py::array_t<double> vec3_array(const std::vector<DVec3>& v) {
+  return copy_of(reinterpret_cast<const double*>(v.data()), {static_cast<py::ssize_t>(v.size()), 3});
+}
+
+std::string hash_text(const State& s) { return fmt::format("{:016x}", state_hash(s)); }
+
+// ---- the renderer ------------------------------------------------------------------------------------------
+
+// One OpenGL context per process, made on the thread that renders first and kept until the process ends
+// (a context torn down while the interpreter exits can crash in the driver): every Simulation draws with it.
+struct Gl {
+  render::EglContext context;
+  render::Renderer renderer;
+  std::thread::id thread = std::this_thread::get_id();
+};
+Gl& gl() {
+  static Gl* instance = new Gl();
+  if (instance->thread != std::this_thread::get_id())
+    throw Error("mca.render draws with an OpenGL context of the thread that rendered first; call it from that thread");
+  return *instance;
+}
+
+py::array_t<std::uint8_t> render_to(PySimulation& sim, const std::optional<std::filesystem::path>& path,
+                                    const std::string& colour_text, const std::optional<std::string>& draw_text,
+                                    std::pair<int, int> size) {
+  const Engine& e = sim.engine();
+  const Model& m = e.model();
+  const auto [width, height] = size;
+  app::check_render_size(width, height, "size");
+  const auto colour = render::parse_colour_mode(colour_text);
+  if (!colour)
+    throw Error(fmt::format("colour '{}' is not a colour mode; give one of: {}", colour_text, render::colour_mode_names()));
+  // As the command: a mesh object is drawn as its own triangles unless asked otherwise.
+  const bool meshes = std::any_of(e.scene().objects.begin(), e.scene().objects.end(),
+                                  [](const ObjectDef& d) { return d.shape == Shape::mesh; });
+  const std::string draw_name = draw_text ? *draw_text : meshes ? "surface" : "cubes";
+  const auto draw = render::parse_draw_mode(draw_name);
+  if (!draw) throw Error(fmt::format("draw '{}' is not a draw mode; give one of: {}", draw_name, render::draw_mode_names()));
+  if (*draw == render::DrawMode::surface && m.surface.faces() == 0)
+    throw Error(fmt::format("draw \"surface\" needs an object of shape \"mesh\" (its triangles are drawn); scene '{}' "
+                            "has none: use draw=\"cubes\" or \"spheres\"",
+                            e.scene().source));
+  Gl& g = gl();
+  if (!sim.framing) sim.framing = render::objects_box(m, initial_state(m));
+  const render::Camera camera = render::make_camera(e.scene().camera, m, *sim.framing,
+                                                    static_cast<float>(width) / static_cast<float>(height),
+                                                    e.scene().source);
+  // The colour scales of RenderOutput (app/render_output.cpp): speeds up to the fastest initial speed,
+  // stresses up to the strongest tensile strength in use.
+  double scale_max = 0;
+  if (*colour == render::ColourMode::speed) {
+    for (const auto& p : m.projectiles) scale_max = std::max<double>(scale_max, length(p.velocity));
+    for (const DVec3& v : m.velocity0) scale_max = std::max<double>(scale_max, length(v));
+    if (scale_max <= 0) scale_max = 1;
+  } else if (*colour == render::ColourMode::stress) {
+    std::vector<std::uint8_t> used(m.groups.size());
+    for (auto gr : m.group) used[gr] = 1;
+    for (std::size_t gr = 0; gr < m.groups.size(); ++gr)
+      if (used[gr]) scale_max = std::max<double>(scale_max, m.groups[gr].tensile_strength);
+  }
+  const State& s = e.state();
+  render::SnapshotOptions so;
+  so.draw = *draw;
+  so.colour = *colour;
+  so.scale_max = scale_max;
+  const auto frags = analysis::label_model_fragments(m, s.intact.data());
+  const render::Snapshot snap = render::make_snapshot(m, s, frags, so, sim.framing->origin);
+  render::OffscreenTarget target(width, height);
+  target.bind();
+  g.renderer.draw(snap, *draw, camera, width, height);
+  render::Image im;
+  im.width = width;
+  im.height = height;
+  target.read_rgba(im.rgba);
+  if (path) {
+    const auto png = render::encode_png(im);
+    io::write_file_atomic(*path, [&](std::ostream& os) {
+      os.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
+    });
+  }
+  return copy_of(im.rgba.data(), {height, width, 4});
+}
+
+// ---- outputs -------------------------------------------------------------------------------------------------
+
+void remove_matching(const std::filesystem::path& dir, const std::string& prefix, const std::string& extension) {
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir, ec)) return;
+  std::vector<std::filesystem::path> doomed;
+  for (const auto& f : std::filesystem::directory_iterator(dir)) {
+    const std::string name = f.path().filename().string();
+    if (f.is_regular_file() && name.rfind(prefix, 0) == 0 && f.path().extension() == extension)
+      doomed.push_back(f.path());
+  }
+  for (const auto& p : doomed) std::filesystem::remove(p);
+}
+
+// Frame `next_frame` of `dir` as `mca run` writes it: the VTK frames and their collections, the bound
+// surface (output.surface), a row of stats.csv; the first frame in a folder also writes scene.toml and
+// removes the frames and stats an earlier run left there (as a new run does; other files stay).
+std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
+  const Engine& e = sim.engine();
+  if (!sim.output || sim.output->dir != std::filesystem::absolute(dir)) {
+    sim.output.reset();  // releases the folder before
+    if (dir.empty()) throw Error("write_frame: the folder is empty (\"\"); give the output folder");
+    auto out = std::make_unique<OutputFolder>();
+    out->dir = std::filesystem::absolute(dir);
+    io::prepare_output_dir(out->dir);
+    out->lock = std::make_unique<io::OutputLock>(out->dir);
+    io::remove_stale_temporaries(out->dir);
+    std::filesystem::remove(out->dir / "stats.csv");
+    std::filesystem::remove(out->dir / "automata.pvd");
+    std::filesystem::remove(out->dir / "projectiles.pvd");
+    remove_matching(out->dir / "frames", "automata_", ".vtu");
+    remove_matching(out->dir / "frames", "projectiles_", ".vtu");
+    remove_matching(out->dir / "surface", "surface_", ".ply");
+    remove_matching(out->dir / "surface", "surface_", ".obj");
+    io::write_file_atomic(out->dir / "scene.toml", [&](std::ostream& os) { os << io::scene_to_toml(e.scene()); },
+                          false);
+    out->writer = std::make_unique<app::FrameWriter>(out->dir, e.model(), e.scene().output);
+    sim.output = std::move(out);
+  }
+  OutputFolder& out = *sim.output;
+  const State& s = e.state();
+  const auto frags = out.writer->fragments(s);
+  const std::string row = out.writer->format_row(out.writer->stats(out.next_frame, s, frags));
+  out.writer->write_frame(out.next_frame, s, frags);
+  if (out.next_frame == 0) out.writer->start_stats({row});
+  else out.writer->append_stats(row);
+  return out.next_frame++;
+}
+
+void checkpoint(PySimulation& sim, const std::filesystem::path& path) {
+  const Engine& e = sim.engine();
+  io::Checkpoint cp;
+  cp.scene = e.scene();
+  cp.state = e.state();
+  // The frame clock of `mca resume`: a checkpoint saved at a frame's end (step = k x steps_per_frame) says
+  // k + 1 frames were written, which `mca resume` continues from (in a run folder with this scene.toml).
+  cp.frame = cp.state.step / e.steps_per_frame() + 1;
+  cp.total_steps = std::max(e.total_steps(), cp.state.step);
+  cp.wall_seconds = sim.wall();
+  cp.model_fingerprint = model_fingerprint(e.model());
+  if (path.has_parent_path()) {
+    std::error_code ec;
+    if (!std::filesystem::is_directory(path.parent_path(), ec))
+      throw Error(fmt::format("{}: the folder {} does not exist; create it first", path.string(),
+                              path.parent_path().string()));
+  }
+  io::write_checkpoint(path, cp);
+}
+
+std::unique_ptr<PySimulation> resume(const std::filesystem::path& path, int threads) {
+  std::filesystem::path file = path;
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    // A run's folder (its checkpoints/) or a folder of checkpoints: the newest.
+    auto all = io::list_checkpoints(path / "checkpoints");
+    if (all.empty()) all = io::list_checkpoints(path);
+    if (all.empty())
+      throw Error(fmt::format("no checkpoint in '{}' or '{}': give a .mcack file, or the --out folder of a run started "
+                              "with --checkpoint-every N",
+                              path.string(), (path / "checkpoints").string()));
+    file = all.back();
+  }
+  const io::Checkpoint cp = io::read_checkpoint(file);
+  return std::make_unique<PySimulation>(cp, fmt::format("checkpoint '{}'", file.string()), app::thread_count(threads));
+}
+
+SceneDef scene_of(const py::handle& scene) {
+  if (py::isinstance<PyScene>(scene)) return scene.cast<const PyScene&>().to_def();
+  if (py::isinstance<py::str>(scene) || py::hasattr(scene, "__fspath__"))
+    return io::load_scene_file(py::str(py::module_::import("os").attr("fspath")(scene)).cast<std::string>());
+  throw Error(fmt::format("Simulation(scene=...): a {} is not a scene; give an mca.Scene or the path of a scene file",
+                          py::str(py::type::handle_of(scene).attr("__name__")).cast<std::string>()));
+}
+
+}  // namespace
+
+void bind_simulation(py::module_& m) {
+  py::class_<PySimulation> sim(m, "Simulation", R"(A run of a scene: the model built from it and the CPU backend stepping it.
+
+Arrays are in the model's automaton order (objects in scene order, each in lattice order). Methods that
+return state arrays return copies taken when called; strength_class(), masses() and object_ids() return
+read-only views of the model, which never changes once built; every array stays valid after the
+Simulation is gone.)");
+  sim.def(py::init([](const py::handle& scene, int threads, const std::string& backend) {
+            if (backend != "cpu")
+              throw Error(fmt::format("backend '{}' is not available in this build; the backends are: cpu", backend));
+            const SceneDef def = scene_of(scene);
+            return std::make_unique<PySimulation>(def, app::thread_count(threads));
+          }),
+          py::arg("scene"), py::arg("threads") = 0, py::arg("backend") = "cpu",
+          "Builds the model of `scene` (an mca.Scene or a scene file's path) with `threads` worker threads (0: all "
+          "cores; more than the cores: the cores). Raises mca.Error for a scene that cannot be built, with the "
+          "command's message.")
+      .def_static(
+          "resume", [](const std::filesystem::path& path, int threads) { return resume(path, threads); },
+          py::arg("path"), py::arg("threads") = 0,
+          "Continues from a checkpoint: a .mcack file (sim.checkpoint, mca run --checkpoint-every), or a run's folder "
+          "(its newest checkpoint). The file is checked as `mca resume` checks it; stepping on gives the bits an "
+          "uninterrupted run gives.")
+      .def(
+          "advance",
+          [](PySimulation& s, std::int64_t steps, const py::object& progress) { s.advance(steps, progress); },
+          py::arg("steps"), py::arg("progress") = py::none(),
+          "Advances `steps` time steps on a stepping thread, without the GIL. Ctrl-C raises KeyboardInterrupt "
+          "within about 0.05 s while the slice in flight (up to about 2 s of steps) ends in the background; whatever "
+          "uses the simulation next waits for it, so the state is always at a whole step (advance again to go on). "
+          "progress(done, total) is called after each slice. Raises mca.Error when the run becomes unstable (the "
+          "command's message; the state is the unstable step's).")
+      .def(
+          "advance_to",
+          [](PySimulation& s, double time, const py::object& progress) {
+            const Engine& e = s.engine();
+            const double dt = static_cast<double>(e.model().dt);
+            if (!std::isfinite(time)) throw Error(fmt::format("advance_to({}): not a finite time", time));
+            const double steps = std::round((time - e.state().time) / dt);
+            if (steps > static_cast<double>(Engine::kMaxSteps))
+              throw Error(fmt::format("advance_to({}): {:.3g} steps of {:.4g} s would not end; give an earlier time",
+                                      time, steps, dt));
+            if (steps > 0) s.advance(static_cast<std::int64_t>(steps), progress);
+          },
+          py::arg("time"), py::arg("progress") = py::none(),
+          "Advances to the step nearest the simulated time `time` [s] (nothing when it has passed); as advance.")
+      .def_property_readonly("step", [](const PySimulation& s) { return s.engine().state().step; }, "steps taken")
+      .def_property_readonly("time", [](const PySimulation& s) { return s.engine().state().time; }, "simulated time [s]")
+      .def_property_readonly("time_step", [](const PySimulation& s) { return static_cast<double>(s.engine().model().dt); },
+                             "the time step [s]")
+      .def_property_readonly("steps_per_frame", [](const PySimulation& s) { return s.engine().steps_per_frame(); },
+                             "steps in one output frame of the scene's frame rate")
+      .def_property_readonly("total_steps", [](const PySimulation& s) { return s.engine().total_steps(); },
+                             "steps in the scene's output.duration")
+      .def_property_readonly("automata", [](const PySimulation& s) { return s.engine().model().size(); },
+                             "automata in the model")
+      .def_property_readonly("link_count", [](const PySimulation& s) { return s.engine().model().link_count(); },
+                             "links at the start (intact and broken)")
+      .def_property_readonly("threads", &PySimulation::threads, "worker threads used while stepping")
+      .def_property_readonly("backend", [](const PySimulation& s) { return s.engine().backend().name(); },
+                             "the backend stepping the model")
+      .def_property_readonly("scene", [](const PySimulation& s) { return PyScene::from_def(s.engine().scene()); },
+                             "a copy of the scene as built (changing it changes nothing here)")
+      .def(
+          "positions", [](const PySimulation& s) { return vec3_array(s.engine().state().x); },
+          "Automaton centres [m]: (N, 3) float64, a copy.")
+      .def(
+          "velocities", [](const PySimulation& s) { return vec3_array(s.engine().state().v); },
+          "Automaton velocities [m/s] (the integrator's half-step velocities, as the VTK frames): (N, 3) float64, a copy.")
+      .def(
+          "angular_velocities", [](const PySimulation& s) { return vec3_array(s.engine().state().w); },
+          "Angular velocities [rad/s]: (N, 3) float64, a copy.")
+      .def(
+          "rotations",
+          [](const PySimulation& s) {
+            const auto& q = s.engine().state().q;
+            return copy_of(reinterpret_cast<const float*>(q.data()), {static_cast<py::ssize_t>(q.size()), 4});
+          },
+          "Orientations as unit quaternions (w, x, y, z): (N, 4) float32 (the state's own precision), a copy.")
+      .def(
+          "damage",
+          [](const PySimulation& s) {
+            const Engine& e = s.engine();
+            py::array_t<float> a(static_cast<py::ssize_t>(e.model().size()));
+            link_damage(e.model(), e.state().intact.data(), a.mutable_data());
+            return a;
+          },
+          "Share of each automaton's links that broke: (N,) float32 in [0, 1], a copy.")
+      .def(
+          "fragment_ids",
+          [](const PySimulation& s) {
+            const Engine& e = s.engine();
+            const auto f = analysis::label_model_fragments(e.model(), e.state().intact.data());
+            return copy_of(f.id.data(), {static_cast<py::ssize_t>(f.id.size())});
+          },
+          "Fragment of each automaton (connected by intact links; 0 = the heaviest, as the VTK frames and "
+          "fragments.csv): (N,) int32, a copy.")
+      .def(
+          "strength_class", [](const PySimulation& s) { return view_of(s.shared(), s.engine().model().strength_class); },
+          "Strength class 1..4 of each automaton: (N,) uint8, a read-only view of the model.")
+      .def(
+          "masses", [](const PySimulation& s) { return view_of(s.shared(), s.engine().model().mass); },
+          "Automaton masses [kg]: (N,) float32, a read-only view of the model.")
+      .def(
+          "object_ids", [](const PySimulation& s) { return view_of(s.shared(), s.engine().model().object); },
+          "Index of the scene object of each automaton: (N,) int32, a read-only view of the model.")
+      .def(
+          "links",
+          [](const PySimulation& s) {
+            const Engine& e = s.engine();
+            const Model& md = e.model();
+            const auto& intact = e.state().intact;
+            std::vector<std::uint32_t> pairs;
+            pairs.reserve(2 * md.link_count());
+            md.for_each_link([&](std::size_t l, std::uint32_t i, std::uint32_t j, int) {
+              if (intact[l]) {
+                pairs.push_back(i);
+                pairs.push_back(j);
+              }
+            });
+            return copy_of(pairs.data(), {static_cast<py::ssize_t>(pairs.size() / 2), 2});
+          },
+          "The intact links as automaton pairs (i < j): (L, 2) uint32, a copy.")
+      .def(
+          "broken_links",
+          [](const PySimulation& s) {
+            const State& st = s.engine().state();
+            py::dict d;
+            d["displacement"] = st.broken_by[0];
+            d["stress"] = st.broken_by[1];
+            d["total"] = st.broken_by[0] + st.broken_by[1];
+            return d;
+          },
+          "Links broken so far by criterion, as summary.json's broken_links: {displacement, stress, total}.")
+      .def(
+          "projectiles",
+          [](const PySimulation& s) {
+            const Engine& e = s.engine();
+            const Model& md = e.model();
+            const State& st = e.state();
+            const auto n = static_cast<py::ssize_t>(md.projectiles.size());
+            py::list names;
+            py::array_t<double> pos({n, py::ssize_t{3}}), vel({n, py::ssize_t{3}}), ang({n, py::ssize_t{3}});
+            py::array_t<double> radius(n), mass(n);
+            auto P = pos.mutable_unchecked<2>();
+            auto V = vel.mutable_unchecked<2>();
+            auto W = ang.mutable_unchecked<2>();
+            for (py::ssize_t p = 0; p < n; ++p) {
+              const auto& ps = st.projectiles[static_cast<std::size_t>(p)];
+              const auto& pm = md.projectiles[static_cast<std::size_t>(p)];
+              names.append(pm.name);
+              const double xyz[3][3] = {{ps.position.x, ps.position.y, ps.position.z},
+                                        {ps.velocity.x, ps.velocity.y, ps.velocity.z},
+                                        {ps.angular_velocity.x, ps.angular_velocity.y, ps.angular_velocity.z}};
+              for (int k = 0; k < 3; ++k) {
+                P(p, k) = xyz[0][k];
+                V(p, k) = xyz[1][k];
+                W(p, k) = xyz[2][k];
+              }
+              radius.mutable_at(p) = pm.radius;
+              mass.mutable_at(p) = pm.mass;
+            }
+            py::dict d;
+            d["name"] = names;
+            d["position"] = pos;
+            d["velocity"] = vel;
+            d["angular_velocity"] = ang;
+            d["radius"] = radius;
+            d["mass"] = mass;
+            return d;
+          },
+          "The projectiles: {name: list of P str, position, velocity, angular_velocity: (P, 3) float64, radius, mass: "
+          "(P,) float64}, copies.")
+      .def(
+          "energies",
+          [](const PySimulation& s) {
+            const Engine& e = s.engine();
+            const Energies en = e.energies();
+            py::dict d;
+            d["kinetic"] = en.kinetic;
+            d["elastic"] = en.elastic;
+            d["contact"] = en.contact;
+            d["projectile_kinetic"] = en.projectile_kinetic;
+            d["gravity_work"] = en.gravity_work;
+            d["grip_work"] = en.grip_work;
+            d["load_work"] = en.load_work;
+            d["projectile_work"] = en.projectile_work;
+            d["initial"] = e.state().initial_energy;
+            d["total"] = en.total();
+            d["balance"] = en.total() - en.external_work();
+            return d;
+          },
+          "Energies and works [J], summary.json's \"energy\" (with total = kinetic + elastic + projectile_kinetic).")
+      .def(
+          "fragments",
+          [](const PySimulation& s) {
+            const Engine& e = s.engine();
+            const Model& md = e.model();
+            const State& st = e.state();
+            const auto frags = analysis::label_model_fragments(md, st.intact.data());
+            const auto infos = analysis::describe_fragments(frags, md.mass.data(),
+                                                            reinterpret_cast<const double*>(st.x.data()),
+                                                            reinterpret_cast<const double*>(st.v.data()), md.volume.data());
+            const auto n = static_cast<py::ssize_t>(infos.size());
+            py::array_t<std::int32_t> id(n);
+            py::array_t<std::int64_t> automata(n);
+            std::vector<py::array_t<double>> cols;
+            const char* names[] = {"mass",       "volume",     "centre_x",   "centre_y",   "centre_z",   "velocity_x",
+                                   "velocity_y", "velocity_z", "box_min_x",  "box_min_y",  "box_min_z",  "box_max_x",
+                                   "box_max_y",  "box_max_z"};
+            for (std::size_t c = 0; c < 14; ++c) cols.emplace_back(n);
+            for (py::ssize_t k = 0; k < n; ++k) {
+              const auto& f = infos[static_cast<std::size_t>(k)];
+              id.mutable_at(k) = f.id;
+              automata.mutable_at(k) = f.automata;
+              const double v[14] = {f.mass,       f.volume,     f.centre[0],  f.centre[1],  f.centre[2],
+                                    f.velocity[0], f.velocity[1], f.velocity[2], f.box_min[0], f.box_min[1],
+                                    f.box_min[2], f.box_max[0], f.box_max[1], f.box_max[2]};
+              for (std::size_t c = 0; c < 14; ++c) cols[c].mutable_at(k) = v[c];
+            }
+            py::dict d;
+            d["id"] = id;
+            d["automata"] = automata;
+            for (std::size_t c = 0; c < 14; ++c) d[names[c]] = cols[c];
+            return d;
+          },
+          "Every fragment, heaviest first: the columns of fragments.csv by name (id int32, automata int64, the rest "
+          "float64), each a (F,) array, copies.")
+      .def(
+          "state_hash", [](const PySimulation& s) { return hash_text(s.engine().state()); },
+          "The FNV-1a hash of the whole state as 16 hex digits, summary.json's state_hash (equal hashes: bitwise "
+          "equal states).")
+      .def(
+          "write_frame", [](PySimulation& s, const std::filesystem::path& out) { return write_frame(s, out); },
+          py::arg("out"),
+          "Writes the state as the next frame of the folder `out`, as `mca run --out` writes a frame: "
+          "frames/automata_NNNNNN.vtu, projectiles, the .pvd collections, the bound surface (output.surface), a row "
+          "of stats.csv. The first call for a folder numbers from 0, writes scene.toml and removes the frames and "
+          "stats an earlier run left there; the folder stays locked (as a run's) until another folder is given, "
+          "close_output() or the Simulation goes. Returns the frame number.")
+      .def(
+          "close_output", [](PySimulation& s) { s.output.reset(); },
+          "Releases the folder of write_frame (its files stay).")
+      .def(
+          "checkpoint", [](PySimulation& s, const std::filesystem::path& path) { checkpoint(s, path); }, py::arg("path"),
+          "Saves the scene and the whole state to `path` (.mcack, the command's format); Simulation.resume(path) "
+          "continues bitwise as if uninterrupted. `mca resume` continues it in a run folder when it was saved at a "
+          "frame's end (step a multiple of steps_per_frame).")
+      .def(
+          "_bench_advance",
+          [](PySimulation& s, std::int64_t steps, int pairs) {
+            py::list out;
+            for (const auto& p : s.bench_advance(steps, pairs))
+              out.append(py::make_tuple(p.module_wall, p.command_wall, p.module_cpu, p.command_cpu));
+            return out;
+          },
+          py::arg("steps"), py::arg("pairs"),
+           "For bench/python_overhead.py: from the state now, uploaded again before each timed run as `mca bench` "
+           "does, `pairs` times: advance(steps) as from Python, then one Engine::advance(steps) as `mca bench` "
+           "times it. Returns [(module_wall, command_wall, module_cpu, command_cpu), ...] in seconds (cpu: the process's "
+           "CPU time).")
+      .def("__repr__", [](const PySimulation& s) {
+        const Engine& e = s.engine();
+        return fmt::format("<mca.Simulation {}: {} automata, step {} (t = {:.6g} s), {} threads>",
+                           text::quoted(e.scene().name), e.model().size(), e.state().step, e.state().time, s.threads());
+      });
+
+  m.def("render", &render_to, py::arg("sim"), py::arg("path") = py::none(), py::arg("colour") = "fragment",
+        py::arg("draw") = py::none(), py::arg("size") = std::pair<int, int>{1280, 720},
+        "Draws the simulation's state with the renderer of `mca run --render` (OpenGL through EGL: offscreen, no "
+        "display needed) from the run's camera (the scene's [camera], else framed on the starting state). colour: "
+        "fragment, damage, class, group, stress or speed; draw: cubes, spheres, surface or links (default: surface "
+        "with a mesh object, else cubes); size: (width, height). Writes a PNG to `path` when given; returns the "
+        "picture as (height, width, 4) uint8 RGBA, top row first.");
+}
+
+}  // namespace mca::python

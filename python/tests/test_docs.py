@@ -1,0 +1,42 @@
+"""Every call has a docstring, and the type stubs (mca/__init__.pyi) list exactly what the module has."""
+import ast
+import inspect
+import pathlib
+
+import mca
+
+
+def public(obj):
+    return [n for n in dir(obj) if not n.startswith("_")]
+
+
+def stub_tree():
+    path = pathlib.Path(mca.__file__).with_name("__init__.pyi")
+    return ast.parse(path.read_text())
+
+
+def test_every_call_and_key_has_a_docstring():
+    missing = []
+    for name in mca.__all__:
+        obj = getattr(mca, name)
+        if not (obj.__doc__ or "").strip():
+            missing.append(name)
+        if inspect.isclass(obj) and name != "Error":
+            for member in public(obj):
+                if not (getattr(obj, member).__doc__ or "").strip():
+                    missing.append(f"{name}.{member}")
+    assert not missing, f"no docstring: {missing}"
+
+
+def test_stubs_list_what_the_module_has():
+    tree = stub_tree()
+    classes = {n.name: n for n in tree.body if isinstance(n, ast.ClassDef)}
+    functions = {n.name for n in tree.body if isinstance(n, ast.FunctionDef)}
+    assert set(classes) | functions == set(mca.__all__)
+    for name, node in classes.items():
+        stubbed = {n.name for n in node.body if isinstance(n, ast.FunctionDef) and not n.name.startswith("_")}
+        stubbed |= {n.target.id for n in node.body if isinstance(n, ast.AnnAssign)}
+        actual = set(public(getattr(mca, name)))
+        if name == "Error":
+            actual = set()  # BaseException's args and with_traceback
+        assert stubbed == actual, f"{name}: stub only {stubbed - actual}, module only {actual - stubbed}"

@@ -1,0 +1,95 @@
+"""Bad scenes and bad calls raise mca.Error with the command's message: the file, the key, the value and
+the fix."""
+import pytest
+
+import mca
+
+
+def test_bad_scene_file_names_file_and_key(tmp_path, mca_binary):
+    import subprocess
+
+    path = tmp_path / "bad.toml"
+    path.write_text(mca.Scene.default().to_toml().replace("spacing = 0.05", "spacing = -0.05"))
+    with pytest.raises(mca.Error) as e:
+        mca.Scene.load(path)
+    message = str(e.value)
+    assert str(path) in message and "solver.spacing" in message and "-0.05" in message
+    # The command prints the same message.
+    r = subprocess.run([str(mca_binary), "info", str(path)], capture_output=True, text=True)
+    assert r.returncode != 0 and message in r.stderr
+
+
+def test_syntax_error_and_unknown_key_name_the_line():
+    with pytest.raises(mca.Error, match=r"^s\.toml:2:\d+: TOML syntax error"):
+        mca.Scene.from_toml('name = "x"\n[solver\n', "s.toml")
+    with pytest.raises(mca.Error, match=r"s\.toml:2.*spacng.*did you mean 'spacing'"):
+        mca.Scene.from_toml("[solver]\nspacng = 0.1\n", "s.toml")
+
+
+def test_missing_file():
+    with pytest.raises(mca.Error, match="nowhere.toml: scene file not found"):
+        mca.Scene.load("nowhere.toml")
+
+
+def test_python_built_scene_is_validated_by_the_same_code():
+    scene = mca.Scene.default()
+    scene.solver.safety = 1.5
+    # The same message as the same value in a file, with the scene's source for the file.
+    text = scene.to_toml()
+    with pytest.raises(mca.Error) as from_file:
+        mca.Scene.from_toml(text, scene.source)
+    with pytest.raises(mca.Error) as validated:
+        scene.validate()
+    with pytest.raises(mca.Error) as built:
+        mca.Simulation(scene)
+    assert str(validated.value) == str(built.value) == str(from_file.value)
+    assert "solver.safety = 1.5 is out of range" in str(validated.value)
+
+    scene = mca.Scene.default()
+    scene.objects[0].material = "concret"
+    with pytest.raises(mca.Error, match=r"object\[0\]\.material.*concret"):
+        scene.validate()
+
+
+def test_keys_and_values_checked_when_set():
+    scene = mca.Scene()
+    with pytest.raises(mca.Error, match=r"'sise' is not a key of \[\[object\]\]; did you mean 'size'"):
+        scene.add_object(sise=(1, 1, 1))
+    with pytest.raises(mca.Error, match=r'object\.shape = "cube" is not a shape'):
+        scene.add_object(shape="cube")
+    with pytest.raises(mca.Error, match=r"object\.size = .* is not three numbers"):
+        mca.Object(size=(1, 2))
+    with pytest.raises(mca.Error, match=r'heterogeneity\.preset = "mediun" is not a preset; did you mean \'medium\''):
+        scene.heterogeneity.preset = "mediun"
+    with pytest.raises(mca.Error, match="not a built-in material"):
+        mca.Material.builtin("steal")
+    with pytest.raises(mca.Error, match=r"scene\.objects\[0\] is a str, not an mca\.Object"):
+        scene.objects.append("wall")
+        scene.validate()
+    with pytest.raises(AttributeError):
+        mca.Solver().spacng = 0.1
+
+
+def test_bad_simulation_arguments():
+    scene = mca.Scene.default()
+    with pytest.raises(mca.Error, match="backend 'cuda' is not available"):
+        mca.Simulation(scene, backend="cuda")
+    with pytest.raises(mca.Error, match="--threads -1 is negative"):
+        mca.Simulation(scene, threads=-1)
+    with pytest.raises(mca.Error, match="the scene has no objects"):
+        mca.Simulation(mca.Scene())
+    sim = mca.Simulation(scene, threads=1)
+    with pytest.raises(mca.Error, match="negative"):
+        sim.advance(-1)
+    with pytest.raises(mca.Error, match="not a colour mode"):
+        mca.render(sim, colour="rainbow")
+    with pytest.raises(mca.Error, match='draw "surface" needs an object of shape "mesh"'):
+        mca.render(sim, draw="surface")
+
+
+def test_time_step_above_the_critical_one_is_refused():
+    scene = mca.Scene.default()
+    sim = mca.Simulation(scene, threads=1)
+    scene.solver.time_step = sim.time_step * 6
+    with pytest.raises(mca.Error, match="solver.time_step"):
+        mca.Simulation(scene)

@@ -1,0 +1,97 @@
+"""Checkpoints, frames and pictures as the command writes them."""
+import json
+import struct
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+
+import mca
+from conftest import run_command
+
+
+def test_checkpoint_and_resume_continue_bitwise(tmp_path):
+    a = mca.Simulation(mca.Scene.default(), threads=2)
+    a.advance(1700)
+    a.checkpoint(tmp_path / "at1700.mcack")
+    a.advance(800)
+    b = mca.Simulation.resume(tmp_path / "at1700.mcack", threads=1)
+    assert b.step == 1700
+    b.advance(800)
+    assert b.state_hash() == a.state_hash()
+    assert np.array_equal(b.positions(), a.positions())
+
+
+def test_a_damaged_checkpoint_is_refused(tmp_path):
+    sim = mca.Simulation(mca.Scene.default(), threads=1)
+    sim.checkpoint(tmp_path / "c.mcack")
+    data = (tmp_path / "c.mcack").read_bytes()
+    (tmp_path / "cut.mcack").write_bytes(data[: len(data) // 2])
+    with pytest.raises(mca.Error, match="cut.mcack"):
+        mca.Simulation.resume(tmp_path / "cut.mcack")
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(mca.Error, match="no checkpoint in"):
+        mca.Simulation.resume(empty)
+
+
+def test_resume_a_command_run_folder(tmp_path, mca_binary):
+    out = tmp_path / "run"
+    run_command(mca_binary, "run", "--steps", 2000, "--checkpoint-every", 1, "--no-vtk", "--quiet", "--out", out)
+    summary = json.loads((out / "summary.json").read_text())
+    sim = mca.Simulation.resume(out, threads=2)  # the newest checkpoint: the last frame's
+    assert sim.step == summary["steps"]
+    assert sim.state_hash() == summary["state_hash"]
+
+
+def test_write_frame_writes_the_commands_files(tmp_path, mca_binary):
+    scene = mca.Scene.default()
+    sim = mca.Simulation(scene, threads=2)
+    out = tmp_path / "frames_out"
+    assert sim.write_frame(out) == 0
+    sim.advance(sim.steps_per_frame)
+    assert sim.write_frame(out) == 1
+    for name in ("frames/automata_000000.vtu", "frames/automata_000001.vtu", "frames/projectiles_000001.vtu",
+                 "automata.pvd", "projectiles.pvd", "stats.csv", "scene.toml"):
+        assert (out / name).is_file(), name
+    assert mca.Scene.load(out / "scene.toml") == scene
+    rows = (out / "stats.csv").read_text().splitlines()
+    assert len(rows) == 3  # header and two frames
+    pvd = ET.parse(out / "automata.pvd").getroot()
+    assert [d.get("file") for d in pvd.iter("DataSet")] == ["frames/automata_000000.vtu", "frames/automata_000001.vtu"]
+    # The command's frame 1 of the same scene is the same file.
+    run = tmp_path / "run"
+    run_command(mca_binary, "run", "--steps", sim.steps_per_frame, "--quiet", "--out", run)
+    assert (run / "frames/automata_000001.vtu").read_bytes() == (out / "frames/automata_000001.vtu").read_bytes()
+    # The folder is locked while the simulation writes into it, as a run's.
+    r = __import__("subprocess").run([str(mca_binary), "run", "--steps", "1", "--quiet", "--out", str(out)],
+                                     capture_output=True, text=True)
+    assert r.returncode != 0 and str(out) in r.stderr
+    sim.close_output()
+    run_command(mca_binary, "run", "--steps", "1", "--quiet", "--out", out)
+
+
+def png_size(path):
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    return struct.unpack(">II", data[16:24])
+
+
+def test_render_draws_the_state(tmp_path):
+    sim = mca.Simulation(mca.Scene.default(), threads=2)
+    sim.advance(4000)
+    image = mca.render(sim, tmp_path / "f.png", colour="damage", size=(320, 240))
+    assert image.shape == (240, 320, 4) and image.dtype == np.uint8
+    assert png_size(tmp_path / "f.png") == (320, 240)
+    # Not empty: the ball in the middle (red), the damaged wall around it, the legend and the overlay.
+    r, g, b, _ = image[120, 160].astype(int)
+    assert r > 2 * g and r > 2 * b, image[120, 160]
+    assert len(np.unique(image.reshape(-1, 4), axis=0)) > 50
+    # The wall's damage shows: against the same camera at the start (no link broken, the ball away from
+    # the wall), a good share of the pixels differ.
+    start = mca.render(mca.Simulation(mca.Scene.default(), threads=1), colour="damage", size=(320, 240))
+    assert np.any(image != start, axis=2).mean() > 0.05
+    again = mca.render(sim, size=(320, 240), colour="damage")
+    assert np.array_equal(again, image)  # rendering only reads the state
+    spheres = mca.render(sim, draw="spheres", size=(320, 240))
+    assert not np.array_equal(spheres, image)
