@@ -611,8 +611,7 @@ bool CpuBackend::near_ground(std::uint32_t a) const {
 // a region after the first), which the region before reads at the join, have slots of their own.
 template <class First>
 const std::uint32_t* CpuBackend::sweep_slots(std::size_t chunks, std::size_t regions, First first) {
-  // (h = 0: no link joins two chunks, and a chunk's scratch lives within its own step of the sweep.)
-  const std::size_t h = head_chunks_, ring = std::max<std::size_t>(2 * h, 1);
+  const std::size_t h = head_chunks_, ring = 2 * h;
   chunk_slot_.resize(chunks);
   std::uint32_t next = 0;
   for (std::size_t r = 0; r < regions; ++r) {
