@@ -174,27 +174,6 @@ TEST(Simd, TheSweepOfLinksSpanningSeveralChunks) {
   }
 }
 
-// Many chunks per region: between kernels the sweep keeps the many-body terms and the link results in a
-// ring of 2h chunk slots per region (cpu_backend.cpp, sweep_slots), where one pass at a time has a slot
-// for every chunk. A standing wall of 200 x 2 x 370 automata is 73 chunks with h = 1: on 1 thread one
-// region whose ring of two turns 36 times; on 2 threads eight regions of nine or ten chunks, each with
-// two head slots and a ring that turns three or four times, struck at eight heights. (With a ring of
-// 2h - 1 slots all three sweep tests fail.)
-TEST(Simd, TheSweepsScratchRingsGiveTheResultsOfOnePassAtATime) {
-  SceneDef s = struck_scene("tall wall");
-  ObjectDef wall;
-  wall.name = "wall";
-  wall.size = {10.0, 0.1, 18.5};
-  wall.position = {0, 0, 9.26};
-  s.objects.push_back(wall);
-  for (int k = 0; k < 8; ++k)
-    add_ball(s, "ball" + std::to_string(k), 0.15, {-3.5 + k, -0.05 - 0.15 - 0.0025, 1.0 + 2.2 * k}, {0, 60, 0});
-  const SweepRuns r = sweep_runs(s, 150);
-  EXPECT_EQ(r.automata, 148000u);
-  EXPECT_GT(r.broken, 100u);
-  expect_same_sweeps(r);
-}
-
 TEST(Simd, AnUnknownSweepIsAClearError) {
   ForceSweep how("fast");
   const std::string e = test::error_of([] { Engine sim(io::load_default_scene()); });

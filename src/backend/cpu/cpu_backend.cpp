@@ -45,7 +45,8 @@ namespace {
 
 using cpu::kBreakByStress;
 
-using cpu::kChunk;  // fixed work chunks: per-chunk results are combined in chunk order
+constexpr std::size_t kChunk = 2048;  // fixed work chunks (a multiple of every lane count): per-chunk
+                                      // results are combined in chunk order
 // Work on this many automata (or pairs) or fewer runs on the calling thread: handing it to a worker costs
 // more than it saves.
 constexpr std::size_t kSerial = 4096;
@@ -238,7 +239,7 @@ class CpuBackend final : public Backend {
     for (auto* v : {&qw_, &qx_, &qy_, &qz_}) v->resize(n);
     for (auto* v : {&utx_, &uty_, &utz_}) v->resize(L);
     for (auto* v : {&nx_, &ny_, &nz_, &many_body_}) v->resize(3 * cpu::scratch_stride(n));
-    out_.resize(cpu::kOutFront + 3 * cpu::tiled_size(n, cpu::kOutRows));
+    out_.resize(3 * cpu::tiled_size(n, cpu::kOutRows));
     intact_count_.resize(n);
     ext_f_.resize(n);
     ext_t_.resize(n);
@@ -393,10 +394,6 @@ class CpuBackend final : public Backend {
 
   std::int64_t one_step();
   std::int64_t lattice_sweep(const cpu::LatticeView& v, std::vector<std::size_t>& counts, float& max_move2);
-  // The chunk slots of the sweep's scratch (LatticeView::chunk_slot) for `regions` regions starting at
-  // first(r), or null when that saves nothing.
-  template <class First>
-  const std::uint32_t* sweep_slots(std::size_t chunks, std::size_t regions, First first);
   cpu::ExplicitView explicit_view();
   std::vector<std::size_t> explicit_link_pass(const cpu::LatticeView& v);
   void explicit_gather_pass();
@@ -471,7 +468,6 @@ class CpuBackend final : public Backend {
   bool uniform_bodies_ = false;  // radius, mass and inertia are the group's: the springs below hold
   std::vector<ContactSprings> pair_springs_, ground_springs_;
   std::vector<std::uint8_t> near_, chunk_near_;  // see LatticeView::near; per chunk: any marked
-  std::vector<std::uint32_t> chunk_slot_;        // LatticeView::chunk_slot of the sweep
   std::vector<double> proj_x_, proj_y_, proj_z_;  // the projectiles' centres for the marks
   std::vector<float> proj_reach2_;
   bool near_valid_ = false;                      // near_ is from the last step (not before an upload)
@@ -546,7 +542,7 @@ cpu::LatticeView CpuBackend::view() {
   v.utx = utx_.data(); v.uty = uty_.data(); v.utz = utz_.data();
   v.nx = nx_.data(); v.ny = ny_.data(); v.nz = nz_.data();
   v.many_body = many_body_.data();
-  v.out = out_.data() + cpu::kOutFront;
+  v.out = out_.data();
   v.has_ext = has_ext_.data();
   v.ext_f = ext_f_.data();
   v.ext_t = ext_t_.data();
@@ -600,34 +596,9 @@ bool CpuBackend::near_ground(std::uint32_t a) const {
 //
 // The breaks of axis a and chunk c go to counts[a * chunks + c], in slot order; they are applied after
 // the sweep (apply_breaks): a link that breaks carries its force in the step it breaks.
-//
-// What one kernel leaves for the next (the many-body terms, the link results: LatticeView::chunk_slot) is
-// needed only while the sweep is near its chunk. A chunk's many-body terms are written at step c - h of
-// the sweep and last read by links(c); its link results are written by links(c) and last read by
-// automata(c + h). At a join, the links and then the automata of the tail read the link results of the
-// last 2h chunks of the region and the many-body terms of the last h. So each region keeps them in a
-// ring of 2h chunk slots, which the caches hold, instead of arrays over all automata, whose lines went
-// to memory and came back each step (96 bytes an automaton each way). The heads (the first 2h chunks of
-// a region after the first), which the region before reads at the join, have slots of their own.
-template <class First>
-const std::uint32_t* CpuBackend::sweep_slots(std::size_t chunks, std::size_t regions, First first) {
-  const std::size_t h = head_chunks_, ring = 2 * h;
-  chunk_slot_.resize(chunks);
-  std::uint32_t next = 0;
-  for (std::size_t r = 0; r < regions; ++r) {
-    const std::size_t c0 = first(r), c1 = first(r + 1), ring_start = r > 0 ? std::min(c1, c0 + 2 * h) : c0;
-    for (std::size_t c = c0; c < ring_start; ++c) chunk_slot_[c] = next++;
-    for (std::size_t c = ring_start; c < c1; ++c) chunk_slot_[c] = next + static_cast<std::uint32_t>((c - ring_start) % ring);
-    next += static_cast<std::uint32_t>(std::min(ring, c1 - ring_start));
-  }
-  // No fewer slots than chunks: one per chunk, as the passes.
-  return next < chunks ? chunk_slot_.data() : nullptr;
-}
-
-std::int64_t CpuBackend::lattice_sweep(const cpu::LatticeView& view, std::vector<std::size_t>& counts, float& max_move2) {
+std::int64_t CpuBackend::lattice_sweep(const cpu::LatticeView& v, std::vector<std::size_t>& counts, float& max_move2) {
   const std::size_t n = M_.size(), chunks = (n + kChunk - 1) / kChunk, h = head_chunks_;
   counts.assign(3 * chunks, 0);
-  cpu::LatticeView v = view;
   std::vector<cpu::AutomataResult> result(chunks);
   auto range = [&](std::size_t c) { return std::pair{c * kChunk, std::min(n, (c + 1) * kChunk)}; };
   auto many_body = [&](std::size_t c) {
@@ -658,10 +629,6 @@ std::int64_t CpuBackend::lattice_sweep(const cpu::LatticeView& view, std::vector
   // MCA_SWEEP=fused, one kernel at a time over all chunks, each in parallel.
   const bool by_pass = sweep_ == Sweep::passes ||
                        (sweep_ == Sweep::automatic && n > kSerial && threads > 1 && regions < 2 * threads);
-  // Region r: chunks [first(r), first(r + 1)). Boundary r (r >= 1) lies at its start.
-  auto first = [&](std::size_t r) { return r * chunks / regions; };
-  auto end = [&](std::size_t r) { return first(r + 1); };
-  if (!by_pass) v.chunk_slot = sweep_slots(chunks, regions, first);
   if (by_pass) {
     parallel_chunks(n, [&](std::size_t c, std::size_t, std::size_t) { many_body(c); });
     parallel_chunks(n, [&](std::size_t c, std::size_t, std::size_t) { links(c); });
@@ -674,6 +641,9 @@ std::int64_t CpuBackend::lattice_sweep(const cpu::LatticeView& view, std::vector
       automata(c);
     }
   } else {
+    // Region r: chunks [first(r), first(r + 1)). Boundary r (r >= 1) lies at its start.
+    auto first = [&](std::size_t r) { return r * chunks / regions; };
+    auto end = [&](std::size_t r) { return first(r + 1); };
     std::vector<std::atomic<int>> arrived(regions);  // zeros
     // Boundary r: the tail of region r - 1 and the head of region r, by the second to arrive.
     auto arrive = [&](std::size_t r) {

@@ -90,12 +90,7 @@ struct LatticeView {
   // from the positions by each kernel that needs them (link_geometry, the same bits each time), and
   // stored only on the last step, for the averaged stress.
   float *nx = nullptr, *ny = nullptr, *nz = nullptr;
-  // The scratch that one kernel leaves for the next within a step (many_body, out) is by chunk of
-  // kChunk automata: chunk c's at slot chunk_slot[c] (scratch_index). The lattice sweep gives chunks
-  // that are never needed at once the same slot, so that what it writes stays in the caches instead of
-  // going to memory and back; null: slot c (one pass at a time, which needs them all at once).
-  const std::uint32_t* chunk_slot = nullptr;
-  float* many_body = nullptr;  // P of automaton a along an axis, at axis * ns + scratch_index(a)
+  float* many_body = nullptr;  // P of automaton a along an axis, at axis * ns + a
   // What the links kernel leaves for the automata kernel: per slot its force, torque and stress trace, in
   // tiles (kOutRows). The automata kernel reads them as 3 runs of memory, one per axis: as 21 arrays
   // side by side (one per axis and quantity) they took its runs to some 40, and this processor's memory
@@ -149,14 +144,6 @@ struct ExplicitView {
 
 inline std::size_t scratch_stride(std::size_t n) { return (n + 15) / 16 * 16; }
 
-// The CPU backend's work chunks of automata (a multiple of every lane count and of kTile): per-chunk
-// results are combined in chunk order, and the scratch between kernels is kept by chunk (chunk_slot).
-inline constexpr std::size_t kChunk = 2048;
-// Where automaton a's scratch (LatticeView::many_body, out) lies in its arrays.
-MCA_HD std::size_t scratch_index(const std::uint32_t* chunk_slot, std::size_t a) {
-  return chunk_slot ? chunk_slot[a / kChunk] * kChunk + a % kChunk : a;
-}
-
 // Tiled arrays: tiles of kTile consecutive automata or slots, each `rows` rows of kTile values, so that
 // a block of lanes at a multiple of its width is one vector of a row, and a pass that reads several
 // quantities of an element reads one run of memory instead of one per quantity. Value `row` of element a is at
@@ -169,12 +156,9 @@ inline std::size_t tiled_size(std::size_t n, std::size_t rows) { return scratch_
 inline constexpr std::size_t kRefRows = 3;  // LatticeView::ref
 
 // LatticeView::out: for each axis a tiled array of kOutRows rows (force x, y, z, torque x, y, z, trace),
-// the axis's at axis * ns * kOutRows, automaton a's at scratch_index(a). The array starts kOutFront floats
-// after its allocation: a block of lanes whose far ends run across two tiles reads a whole row of each,
-// and one of those rows may lie before the first tile of axis 0.
+// the axis's at axis * ns * kOutRows.
 inline constexpr std::size_t kOutRows = 7;
 enum OutRow : std::size_t { kOutFx, kOutFy, kOutFz, kOutTx, kOutTy, kOutTz, kOutTrace };
-inline constexpr std::size_t kOutFront = kTile;
 
 // A break found by the links kernel: the link slot and the criterion (bit 31: 1 = stress).
 inline constexpr std::uint32_t kBreakByStress = 1u << 31;

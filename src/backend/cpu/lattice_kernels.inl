@@ -106,13 +106,10 @@ struct Block {
   static MCA_LANE void put(const Y& x, T* base, std::size_t rows, std::size_t row, std::size_t a0) {
     L::store(x, base + tile_index(a0, rows) + row * kTile);
   }
-  // A tiled array kept by chunk slot (LatticeView::chunk_slot; null: by automaton) takes the slot.
   template <class T>
-  static MCA_LANE auto row_far(const T* base, std::size_t rows, std::size_t row, const Far& f,
-                               const std::uint32_t* chunk_slot = nullptr) {
+  static MCA_LANE auto row_far(const T* base, std::size_t rows, std::size_t row, const Far& f) {
     base += row * kTile;
-    auto at_ = [&](std::size_t j) { return tile_index(scratch_index(chunk_slot, j), rows); };
-    auto value = [&](std::size_t k) { return base[at_(L::lane(f.j, k))]; };
+    auto value = [&](std::size_t k) { return base[tile_index(L::lane(f.j, k), rows)]; };
     if constexpr (W == 1) {
       return value(0);
     } else {
@@ -123,15 +120,13 @@ struct Block {
         return Y(t, stdx::vector_aligned);
       }
       const std::size_t o = f.j0 % kTile;
-      const T* p = base + at_(f.j0);
+      const T* p = base + tile_index(f.j0, rows);
       if (o + W <= kTile) return L::load(p);
       // Lanes [0, kTile - o) from this tile's row; lane k >= kTile - o at k - (kTile - o) of the next tile's
-      // row (kTile * rows - o after p when the two tiles are neighbours in memory; a chunk's last tile and
-      // the next chunk's first may not be).
+      // row, which starts kTile * rows - o after p.
       alignas(64) static constexpr T lane_number[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
-      static_assert(W <= 16 && kTile % W == 0 && kChunk % kTile == 0, "a block of lanes must lie in one row of one tile");
-      const T* q = base + at_(f.j0 + (kTile - o)) - (kTile - o);
-      return select(L::load(lane_number) < static_cast<T>(kTile - o), L::load(p), L::load(q));
+      static_assert(W <= 16 && kTile % W == 0, "a block of lanes must lie in one row of one tile");
+      return select(L::load(lane_number) < static_cast<T>(kTile - o), L::load(p), L::load(p + kTile * (rows - 1)));
     }
   }
   template <class T>
@@ -140,11 +135,9 @@ struct Block {
     return Vec3T<Y>{own(base, rows, row, a0), own(base, rows, row + 1, a0), own(base, rows, row + 2, a0)};
   }
   template <class T>
-  static MCA_LANE auto far3(const T* base, std::size_t rows, std::size_t row, const Far& f,
-                            const std::uint32_t* chunk_slot) {
+  static MCA_LANE auto far3(const T* base, std::size_t rows, std::size_t row, const Far& f) {
     using Y = decltype(row_far(base, rows, row, f));
-    return Vec3T<Y>{row_far(base, rows, row, f, chunk_slot), row_far(base, rows, row + 1, f, chunk_slot),
-                    row_far(base, rows, row + 2, f, chunk_slot)};
+    return Vec3T<Y>{row_far(base, rows, row, f), row_far(base, rows, row + 1, f), row_far(base, rows, row + 2, f)};
   }
   template <class T, class Y>
   static MCA_LANE void put3(const Vec3T<Y>& x, T* base, std::size_t rows, std::size_t row, std::size_t a0) {
@@ -154,17 +147,6 @@ struct Block {
   }
   // The link results (LatticeView::out) along an axis, as a tiled array.
   static MCA_LANE float* out_of(const LatticeView& v, std::size_t axis) { return v.out + axis * v.ns * kOutRows; }
-  // A scratch array by chunk slot (many_body: LatticeView::chunk_slot) at the far ends f: a run inside one
-  // chunk is one load; a run across two chunks (their slots need not be neighbours), or scattered ends,
-  // lane by lane.
-  static MCA_LANE X scratch_at(const LatticeView& v, const float* p, const Far& f) {
-    if constexpr (W > 1) {
-      if (f.run && (!v.chunk_slot || f.j0 % kChunk + W <= kChunk)) return L::load(p + scratch_index(v.chunk_slot, f.j0));
-      return L::from([&](std::size_t k) { return p[scratch_index(v.chunk_slot, L::lane(f.j, k))]; });
-    } else {
-      return p[scratch_index(v.chunk_slot, f.j)];
-    }
-  }
 
   // The geometry of the links in slots off + [a0, a0 + W), from the positions: each pass that needs it
   // forms it again (the same bits each time), which costs less than storing it and reading it back.
@@ -215,7 +197,7 @@ struct Block {
     const X lam_theta = lam * volumetric_strain(sum, cnt, ff);
     for (int axis = 0; axis < 3; ++axis) {
       const X per_link = lam_theta * select(cnt[axis] == 1.0f, X(1.0f), X(0.5f));
-      L::store(select(cnt[axis] > 0.0f, per_link, X(0.0f)), v.many_body + static_cast<std::size_t>(axis) * v.ns + scratch_index(v.chunk_slot, a0));
+      L::store(select(cnt[axis] > 0.0f, per_link, X(0.0f)), v.many_body + static_cast<std::size_t>(axis) * v.ns + a0);
     }
   }
 
@@ -240,9 +222,7 @@ struct Block {
     const X eps = g.eps;
     const std::size_t s0 = static_cast<std::size_t>(axis) * v.ns + a0;  // in the scratch arrays
     if (v.last) store3(n, v.nx, v.ny, v.nz, s0);  // for the averaged stress
-    const std::size_t sa = scratch_index(v.chunk_slot, a0);  // in many_body and out
-    const float* mb = v.many_body + static_cast<std::size_t>(axis) * v.ns;
-    const X mb_i = L::load(mb + sa), mb_j = scratch_at(v, mb, f);
+    const X mb_i = L::load(v.many_body + s0), mb_j = at(v.many_body + (s0 - a0), f);
     const X G = pair_value(v, a0, f, &PairConstants::G);
     X kt = pair_value(v, a0, f, &PairConstants::kt);
     X kt_slope = 0.0f;
@@ -302,9 +282,9 @@ struct Block {
     const Vec3T<X> hf = o.force_i * (0.5f * v.r0);
     const Vec3T<X> torque = cross(n, hf) * (1.0f + eps);
     float* res = out_of(v, static_cast<std::size_t>(axis));
-    put3(o.force_i, res, kOutRows, kOutFx, sa);
-    put3(torque, res, kOutRows, kOutTx, sa);
-    put(dot(n, hf), res, kOutRows, kOutTrace, sa);
+    put3(o.force_i, res, kOutRows, kOutFx, a0);
+    put3(torque, res, kOutRows, kOutTx, a0);
+    put(dot(n, hf), res, kOutRows, kOutTrace, a0);
     // A link that breaks keeps its displacement until the caller clears it; a broken one keeps its zero.
     store3(select(alive && !broke, o.ut, in.ut), v.utx, v.uty, v.utz, l0);
     return count;
@@ -448,10 +428,10 @@ struct Block {
       const auto live = bytes_at(v.intact + off, fb) * fb.has != 0.0f;
       if (!L::any(live)) continue;
       const float* res = out_of(v, static_cast<std::size_t>(axis));
-      const Vec3T<X> F = far3(res, kOutRows, kOutFx, fb, v.chunk_slot);
+      const Vec3T<X> F = far3(res, kOutRows, kOutFx, fb);
       f = select(live, f - F, f);
-      t = select(live, t + far3(res, kOutRows, kOutTx, fb, v.chunk_slot), t);
-      trace = select(live, trace + row_far(res, kOutRows, kOutTrace, fb, v.chunk_slot), trace);
+      t = select(live, t + far3(res, kOutRows, kOutTx, fb), t);
+      trace = select(live, trace + row_far(res, kOutRows, kOutTrace, fb), trace);
       if (v.last) add_if(live, s_links, sym_outer(soa_far3(v.nx + so, v.ny + so, v.nz + so, fb), F, X(half_r0)));
     }
     for (int axis = 0; axis < 3; ++axis) {
@@ -459,11 +439,10 @@ struct Block {
       const auto live = L::load_bytes(v.intact + l0) != 0.0f;
       if (!L::any(live)) continue;
       const float* res = out_of(v, static_cast<std::size_t>(axis));
-      const std::size_t sa = scratch_index(v.chunk_slot, a0);
-      const Vec3T<X> F = own3(res, kOutRows, kOutFx, sa);
+      const Vec3T<X> F = own3(res, kOutRows, kOutFx, a0);
       f = select(live, f + F, f);
-      t = select(live, t + own3(res, kOutRows, kOutTx, sa), t);
-      trace = select(live, trace + own(res, kOutRows, kOutTrace, sa), trace);
+      t = select(live, t + own3(res, kOutRows, kOutTx, a0), t);
+      trace = select(live, trace + own(res, kOutRows, kOutTrace, a0), trace);
       if (v.last) add_if(live, s_links, sym_outer(load3(v.nx, v.ny, v.nz, s0), F, X(half_r0)));
     }
     const auto ext = L::load_bytes(v.has_ext + a0) != 0.0f;
