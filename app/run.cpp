@@ -351,23 +351,8 @@ int run_loop(Loop& L, FrameWriter& writer) {
     FrameStats st = writer.stats(L.frame, sim.state(), frags);
     if (h.flags != kHealthy) {
       if (tty) fmt::print(stderr, "\n");
-      std::string what;
-      if (h.flags & kNonFinite)
-        what = h.automaton >= 0 ? fmt::format("a non-finite position or velocity at automaton {}", h.automaton)
-                                : fmt::format("a non-finite position or velocity of projectile '{}'",
-                                              m.projectiles[static_cast<std::size_t>(h.projectile)].name);
-      else
-        what = fmt::format("kinetic + elastic energy is {:.3g} J where the start and the work put in since give "
-                           "{:.3g} J",
-                           h.energy, h.budget);
-      fmt::print(stderr,
-                 "error: the run became unstable at step {} (t = {:.6g} s): {}. Likely causes: a time step set by "
-                 "hand close to the critical one ({:.4g} s here, set by {}), or extreme values (speeds, materials); "
-                 "objects and projectiles that start overlapping or inside the ground are refused before a run. Fix: "
-                 "lower solver.safety (now {:g}) or remove solver.time_step, and check the scene's values. The last "
-                 "good frame ({}) is on disk in {}.\n",
-                 h.step >= 0 ? h.step : sim.state().step, sim.state().time, what, m.critical_dt, m.dt_limited_by,
-                 sim.scene().solver.safety, L.frame - 1, L.dir.string());
+      fmt::print(stderr, "error: {}. The last good frame ({}) is on disk in {}.\n", instability_message(sim, h),
+                 L.frame - 1, L.dir.string());
       return 3;
     }
     writer.write_frame(L.frame, sim.state(), frags);

@@ -75,21 +75,6 @@ std::string choice(const std::string& key, const std::string& value, const std::
                           text::did_you_mean(value, allowed), list));
 }
 
-const char* shape_name(Shape s) {
-  switch (s) {
-    case Shape::sphere: return "sphere";
-    case Shape::cylinder: return "cylinder";
-    case Shape::mesh: return "mesh";
-    default: return "box";
-  }
-}
-Shape shape_of(const std::string& s) {
-  if (s == "sphere") return Shape::sphere;
-  if (s == "cylinder") return Shape::cylinder;
-  if (s == "mesh") return Shape::mesh;
-  return Shape::box;
-}
-
 // ---- keyword construction: Material(name="weak", tensile_strength=1e6) ----------------------------------
 
 // The keys of a bound class: its properties (what dir() lists that is a `property`).
@@ -366,9 +351,9 @@ void bind_scene(py::module_& m) {
   keyword_init(region, "[[object.region]]");
   region
       .def_property(
-          "shape", [](const RegionDef& r) { return std::string(shape_name(r.shape)); },
+          "shape", [](const RegionDef& r) { return std::string(io::shape_name(r.shape)); },
           [](RegionDef& r, const std::string& v) {
-            r.shape = shape_of(choice("region.shape", v, {"box", "sphere", "mesh"}, "a region shape"));
+            r.shape = io::to_shape(choice("region.shape", v, {"box", "sphere", "mesh"}, "a region shape"));
           },
           "\"box\", \"sphere\" or \"mesh\"")
       .def_readwrite("mesh", &RegionDef::mesh, "a closed mesh file (shape \"mesh\"), the path to open")
@@ -389,9 +374,9 @@ void bind_scene(py::module_& m) {
             "name", [](const PyObjectDef& o) { return o.def.name; }, [](PyObjectDef& o, const std::string& v) { o.def.name = v; },
             "non-empty, unique")
       .def_property(
-          "shape", [](const PyObjectDef& o) { return std::string(shape_name(o.def.shape)); },
+          "shape", [](const PyObjectDef& o) { return std::string(io::shape_name(o.def.shape)); },
           [](PyObjectDef& o, const std::string& v) {
-            o.def.shape = shape_of(choice("object.shape", v, {"box", "sphere", "cylinder", "mesh"}, "a shape"));
+            o.def.shape = io::to_shape(choice("object.shape", v, {"box", "sphere", "cylinder", "mesh"}, "a shape"));
           },
           "\"box\", \"sphere\", \"cylinder\" or \"mesh\"")
       .def_property(
@@ -461,7 +446,7 @@ void bind_scene(py::module_& m) {
           "Appends an mca.Region with the keys given and returns it.")
       .def("__repr__", [](const PyObjectDef& o) {
         return fmt::format("mca.Object(name={}, shape={}, material={})", text::quoted(o.def.name),
-                           text::quoted(shape_name(o.def.shape)), text::quoted(o.def.material));
+                           text::quoted(io::shape_name(o.def.shape)), text::quoted(o.def.material));
       });
 
   // ---- [[projectile]] ----

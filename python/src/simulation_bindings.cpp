@@ -257,27 +257,8 @@ class PySimulation {
     if (health_.flags != kHealthy) {
       const StepHealth h = health_;
       health_ = StepHealth{};
-      throw Error(unstable_message(h));
+      throw Error(instability_message(*engine_, h));
     }
-  }
-
-  // The command's message for a run that became unstable (app/run.cpp), less the frame on disk.
-  std::string unstable_message(const StepHealth& h) const {
-    const Model& m = engine_->model();
-    const State& s = engine_->state();
-    std::string what;
-    if (h.flags & kNonFinite)
-      what = h.automaton >= 0 ? fmt::format("a non-finite position or velocity at automaton {}", h.automaton)
-                              : fmt::format("a non-finite position or velocity of projectile '{}'",
-                                            m.projectiles[static_cast<std::size_t>(h.projectile)].name);
-    else
-      what = fmt::format("kinetic + elastic energy is {:.3g} J where the start and the work put in since give {:.3g} J",
-                         h.energy, h.budget);
-    return fmt::format("the run became unstable at step {} (t = {:.6g} s): {}. Likely causes: a time step set by hand "
-                       "close to the critical one ({:.4g} s here, set by {}), or extreme values (speeds, materials). "
-                       "Fix: lower solver.safety (now {:g}) or remove solver.time_step, and check the scene's values",
-                       h.step >= 0 ? h.step : s.step, s.time, what, m.critical_dt, m.dt_limited_by,
-                       engine_->scene().solver.safety);
   }
 
   int threads_;

@@ -304,21 +304,6 @@ HeterogeneityDef read_heterogeneity(const Table& tb, HeterogeneityDef h) {
   return h;
 }
 
-Shape to_shape(const std::string& s) {
-  if (s == "sphere") return Shape::sphere;
-  if (s == "cylinder") return Shape::cylinder;
-  if (s == "mesh") return Shape::mesh;
-  return Shape::box;
-}
-
-const char* shape_name(Shape s) {
-  switch (s) {
-    case Shape::sphere: return "sphere";
-    case Shape::cylinder: return "cylinder";
-    case Shape::mesh: return "mesh";
-    default: return "box";
-  }
-}
 
 const char* law_name(StrengtheningLaw l) {
   switch (l) {
@@ -774,6 +759,22 @@ void check_keys(std::string_view t, const std::string& source) {
 }
 
 }  // namespace
+
+Shape to_shape(const std::string& s) {
+  if (s == "sphere") return Shape::sphere;
+  if (s == "cylinder") return Shape::cylinder;
+  if (s == "mesh") return Shape::mesh;
+  return Shape::box;
+}
+
+const char* shape_name(Shape s) {
+  switch (s) {
+    case Shape::sphere: return "sphere";
+    case Shape::cylinder: return "cylinder";
+    case Shape::mesh: return "mesh";
+    default: return "box";
+  }
+}
 
 SceneDef parse_scene(std::string_view toml_text, const std::string& source) {
   check_keys(toml_text, source);

@@ -28,6 +28,11 @@ std::vector<std::filesystem::path> mesh_file_candidates(const std::string& mesh,
 // ~/.cache/mca/models.
 std::filesystem::path models_cache_dir();
 
+// A shape's name in scene files ("box", "sphere", "cylinder", "mesh"), and the shape of a name (box for
+// any other: the readers check the name first).
+const char* shape_name(Shape s);
+Shape to_shape(const std::string& s);
+
 // The complete scene as TOML, every key written, such that parse_scene(scene_to_toml(s), s.source)
 // gives back s exactly (doubles are written in their shortest round-tripping form).
 std::string scene_to_toml(const SceneDef& scene);

@@ -202,6 +202,25 @@ struct Fnv : Fnv1a {
 };
 }  // namespace
 
+std::string instability_message(const Engine& sim, const StepHealth& h) {
+  const Model& m = sim.model();
+  const State& s = sim.state();
+  std::string what;
+  if (h.flags & kNonFinite)
+    what = h.automaton >= 0 ? fmt::format("a non-finite position or velocity at automaton {}", h.automaton)
+                            : fmt::format("a non-finite position or velocity of projectile '{}'",
+                                          m.projectiles[static_cast<std::size_t>(h.projectile)].name);
+  else
+    what = fmt::format("kinetic + elastic energy is {:.3g} J where the start and the work put in since give {:.3g} J",
+                       h.energy, h.budget);
+  return fmt::format("the run became unstable at step {} (t = {:.6g} s): {}. Likely causes: a time step set by hand "
+                     "close to the critical one ({:.4g} s here, set by {}), or extreme values (speeds, materials); "
+                     "objects and projectiles that start overlapping or inside the ground are refused before a run. "
+                     "Fix: lower solver.safety (now {:g}) or remove solver.time_step, and check the scene's values",
+                     h.step >= 0 ? h.step : s.step, s.time, what, m.critical_dt, m.dt_limited_by,
+                     sim.scene().solver.safety);
+}
+
 std::uint64_t state_hash(const State& s) {
   // Every field, so that two states with equal hashes evolve identically (Determinism.StateHashCovers...
   // perturbs each one). Structs are hashed field by field: padding bytes hold no state.

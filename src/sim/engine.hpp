@@ -75,6 +75,10 @@ class Engine {
   double energy_floor_ = 0;      // the blow-up check's least reference energy (engine.cpp)
 };
 
+// What a step whose health is not kHealthy found, its likely causes and the fix, beginning "the run became
+// unstable at step ..." (the message of `mca run` and of the Python module).
+std::string instability_message(const Engine& sim, const StepHealth& h);
+
 // FNV-1a hash over every field of the state: equal hashes mean bitwise equal states (determinism and
 // checkpoint tests, summary.json).
 std::uint64_t state_hash(const State& state);
