@@ -19,6 +19,7 @@
 #include "app/commands.hpp"
 #include "app/frame_output.hpp"
 #include "app/render_output.hpp"
+#include "core/files.hpp"
 #include "io/checkpoint.hpp"
 #include "io/output_files.hpp"
 #include "io/scene_io.hpp"
@@ -252,6 +253,10 @@ bool whole_stats_row(const std::string& line, std::int64_t frame, std::size_t ce
 // and before its checkpoint) are left out, and so are a row cut short (a write interrupted by a full disk
 // or a crash) and whatever follows it.
 std::vector<std::string> read_back_stats(const std::filesystem::path& dir, std::int64_t frames, std::size_t cells) {
+  // A FIFO blocked the resume for ever, a link to /dev/zero read without end.
+  files::require_regular_file(dir / "stats.csv", "the run's stats file",
+                              "remove it: the resume writes stats.csv again, from the checkpoint's state for its own "
+                              "frame");
   std::ifstream in(dir / "stats.csv", std::ios::binary);
   std::vector<std::string> rows;
   std::string line;

@@ -100,4 +100,26 @@ TEST(ResumeStats, RowsPastTheCheckpointAndTornRowsAreCutBack) {
   EXPECT_EQ(got[3], rows[5]);
 }
 
+// A stats.csv that is not a regular file (a FIFO blocked the resume for ever, a link to /dev/zero read
+// without end) is refused as the run's other inputs are, naming it and the fix.
+TEST(ResumeStats, AStatsFileThatIsNotARegularFileIsRefused) {
+  mca::test::TempDir t;
+  const fs::path scene = small_scene(t.path());
+  const fs::path base = t.path() / "base";
+  ASSERT_EQ(run_mca("run " + scene.string() + " --out " + base.string() + " -q --no-vtk --checkpoint-every 2").code, 0);
+  int k = 0;
+  for (const char* kind : {"fifo", "zero"}) {
+    SCOPED_TRACE(kind);
+    const fs::path out = t.path() / ("case" + std::to_string(k++));
+    fs::copy(base, out, fs::copy_options::recursive);
+    fs::remove(out / "stats.csv");
+    if (std::string(kind) == "fifo") ASSERT_EQ(mca::test::shell("mkfifo " + (out / "stats.csv").string()).code, 0);
+    else fs::create_symlink("/dev/zero", out / "stats.csv");
+    const Result r = mca::test::shell("timeout 20 " + std::string(MCA_BINARY) + " resume " + out.string() + " -q");
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("stats.csv"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("remove it"), std::string::npos) << r.output;
+  }
+}
+
 }  // namespace
