@@ -123,6 +123,28 @@ TEST(InputBounds, SceneTextThatWouldTakeGigabytesToParseIsRefusedAtOnce) {
   EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 200 * 1024) << "KB";
 }
 
+// Two kinds of text the bound undercounted (found by the hostile review): "[[object]]" lines, each a
+// definition of its own besides its table (5,450,000 of them, 60 MB, ran out of memory at 2.76 GB after
+// 31 s), and inline tables, which take about 300 bytes each (60 MB of "k = {}" took 1.31 GB).
+TEST(InputBounds, ArrayTablesAndInlineTablesCountInTheParseBound) {
+  mca::test::TempDir t;
+  std::string headers;
+  for (int k = 0; k < 900000; ++k) headers += "[[object]]\n";  // 9.9 MB: 1.08 GB at 1.2 KB each
+  std::string inline_tables;
+  for (int k = 0; k < 3400000; ++k) inline_tables += fmt::format("k{:x}={{}}\n", k);  // 1.02 GB at 300 B
+  int n = 0;
+  for (const std::string* text : {&headers, &inline_tables}) {
+    const std::filesystem::path p = t.path() / fmt::format("s{}.toml", n++);
+    std::ofstream(p, std::ios::binary) << *text;
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::string m = error_of([&] { mca::io::load_scene_file(p); });
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 5.0);
+    EXPECT_HAS(m, p.string() + ": reading this scene would take about 1.");
+    EXPECT_HAS(m, text == &headers ? "900000 [[...]] headers" : "3400000 inline tables");
+    EXPECT_HAS(m, "more than the 1 GB a scene may take");
+  }
+}
+
 // One copy of the number and name formatting serves the reader and validate_scene.
 TEST(InputBounds, ValidationFormatsNumbersAndNamesAsTheReader) {
   EXPECT_EQ(mca::text::num(1.5e-4), "1.5e-4");

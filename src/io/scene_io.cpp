@@ -615,15 +615,19 @@ void write_heterogeneity(std::string& out, const HeterogeneityDef& h) {
 // of more dots than any scene needs, or a key longer than any name, is refused with its line.
 //
 // The same scan bounds what parsing takes: toml++ keeps a node of about 70 bytes per array item, 170 per
-// key and 120 per table (measured: a 62 MB array of zeros took 2.3 GB). Scene arrays hold at most 4
-// numbers, so an array of more than kMaxArrayItems is refused with its line, and a text whose nodes
-// would take more than kMaxParseBytes (a scene of 100,000 objects takes about 0.11 GB) is refused whole.
+// key, 120 per table and 300 per inline table (measured: a 62 MB array of zeros took 2.3 GB, 60 MB of
+// "k = {}" lines 1.31 GB), and each [[object]], [[projectile]] ... becomes a definition of its own
+// besides: about 1.2 KB a header in all (500,000 "[[object]]" lines peaked at 580 MB). Scene arrays hold at
+// most 4 numbers, so an array of more than kMaxArrayItems is refused with its line, and a text whose nodes
+// would take more than kMaxParseBytes is refused whole (by this count a scene of 100,000 objects of five
+// keys takes about 0.25 GB).
 constexpr std::size_t kMaxKeyParts = 64;
 constexpr std::size_t kMaxKeyLength = 1024;
 constexpr std::size_t kMaxArrayItems = 1024;
 constexpr std::size_t kMaxNesting = 64;
 constexpr double kMaxParseBytes = 1e9;
 constexpr double kParseBytesPerItem = 70, kParseBytesPerKey = 170, kParseBytesPerTable = 120;
+constexpr double kParseBytesPerInlineTable = 300, kParseBytesPerArrayTable = 1200;
 
 void check_keys(std::string_view t, const std::string& source) {
   std::size_t line = 1, dots = 0, run = 0;
@@ -637,7 +641,7 @@ void check_keys(std::string_view t, const std::string& source) {
     std::size_t items, line;
   };
   std::vector<Open> open;
-  double items = 0, keys = 0, tables = 0;
+  double items = 0, keys = 0, tables = 0, inline_tables = 0, array_tables = 0;
   auto refuse_value = [&](std::size_t at, const std::string& what) {
     throw Error(fmt::format("{}:{}: {}; scene arrays hold at most 4 numbers (e.g. size = [2, 0.2, 1.5]): the line is "
                             "damaged or the file is not a scene",
@@ -714,10 +718,11 @@ void check_keys(std::string_view t, const std::string& source) {
           if (open.size() >= kMaxNesting)
             refuse_value(line, fmt::format("arrays or inline tables nested more than {} deep", kMaxNesting));
           if (c == '[') ++items;  // its first item
+          else ++inline_tables;
           open.push_back({c, 1, line});
         } else if (c == '[' && line_start) {
           header = true;
-          ++tables;
+          ++(i + 1 < t.size() && t[i + 1] == '[' ? array_tables : tables);
         }
         dots = run = 0;
         break;
@@ -749,12 +754,16 @@ void check_keys(std::string_view t, const std::string& source) {
     line_start = false;
     ++i;
   }
-  const double bytes = kParseBytesPerItem * items + kParseBytesPerKey * keys + kParseBytesPerTable * tables;
+  const double bytes = kParseBytesPerItem * items + kParseBytesPerKey * keys + kParseBytesPerTable * tables +
+                       kParseBytesPerInlineTable * inline_tables + kParseBytesPerArrayTable * array_tables;
   if (bytes > kMaxParseBytes) {
     throw Error(fmt::format("{}: reading this scene would take about {:.2g} GB ({:.0f} array items, {:.0f} keys, {:.0f} "
-                            "tables), more than the {:.0f} GB a scene may take (a scene of 100,000 objects takes about "
-                            "0.11 GB); the file is damaged or not a scene",
-                            source, bytes / 1e9, items, keys, tables, kMaxParseBytes / 1e9));
+                            "tables{}), more than the {:.0f} GB a scene may take (by this count a scene of 100,000 objects of five keys "
+                            "takes about 0.25 GB); the file is damaged or not a scene",
+                            source, bytes / 1e9, items, keys, tables,
+                            fmt::format("{}{}", inline_tables > 0 ? fmt::format(", {:.0f} inline tables", inline_tables) : "",
+                                        array_tables > 0 ? fmt::format(", {:.0f} [[...]] headers", array_tables) : ""),
+                            kMaxParseBytes / 1e9));
   }
 }
 
