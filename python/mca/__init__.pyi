@@ -10,7 +10,9 @@ Vec3Like = Union[Sequence[float], npt.NDArray[np.float64]]
 PathLike = Union[str, "os.PathLike[str]"]
 
 class Error(Exception):
-    """An error the mca command would report: the message names the file, the key, the bad value and the fix."""
+    """An error the mca command would report: the message names the file, the key, the bad value and the fix.
+    A value of the wrong type for a key or an argument raises it too (a number, a whole number, a str, or
+    True/False: `output.vtk = 2` is refused, not taken as True)."""
 
 class Material:
     """A [[material]] of docs/scene-format.md (SI units)."""
