@@ -728,6 +728,12 @@ validates it too.)");
             if (s.objects.size() > 0) o.def.name = fmt::format("object{}", s.objects.size());
             py::object obj = py::cast(std::move(o));
             apply_keys(obj, kw, "[[object]]");
+            const std::string& name = obj.cast<const PyObjectDef&>().def.name;
+            for (std::size_t k = 0; k < s.objects.size(); ++k)
+              if (py::isinstance<PyObjectDef>(s.objects[k]) && s.objects[k].cast<const PyObjectDef&>().def.name == name)
+                throw Error(fmt::format("add_object: scene.objects[{}] is named {} already; object names are unique, "
+                                        "give name=\"...\" another",
+                                        k, text::quoted(name)));
             s.objects.append(obj);
             return obj;
           },
@@ -750,6 +756,11 @@ validates it too.)");
       .def(
           "add_material",
           [](PyScene& s, const std::string& name, const std::optional<std::string>& base, const py::kwargs& kw) {
+            for (std::size_t k = 0; k < s.materials.size(); ++k)
+              if (py::isinstance<MaterialDef>(s.materials[k]) && s.materials[k].cast<const MaterialDef&>().name == name)
+                throw Error(fmt::format("add_material: scene.materials[{}] is named {} already; material names are "
+                                        "unique, give another name (or change that one's keys)",
+                                        k, text::quoted(name)));
             MaterialDef d;
             if (base) {
               // As the reader's `base`: an earlier [[material]] of the scene, then a built-in.
