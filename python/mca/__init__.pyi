@@ -268,7 +268,7 @@ class Simulation:
     def close_output(self) -> None:
         """Releases the folder of write_frame."""
     def checkpoint(self, path: PathLike) -> None:
-        """Saves the scene and the whole state (.mcack)."""
+        """Saves the scene and the whole state (.mcack) to the file `path` (not a folder, not "")."""
 
 def render(
     sim: Simulation,
@@ -277,5 +277,5 @@ def render(
     draw: Optional[str] = None,
     size: Tuple[int, int] = (1280, 720),
 ) -> npt.NDArray[np.uint8]:
-    """Draws the state with the command's renderer (EGL, offscreen); writes a PNG to `path` when given;
-    returns (height, width, 4) uint8 RGBA."""
+    """Draws the state with the command's renderer (EGL, offscreen); writes a PNG to `path` when given
+    (a file name ending in .png); returns (height, width, 4) uint8 RGBA."""

@@ -330,10 +330,26 @@ std::filesystem::path to_path(py::handle v, const std::string& key) {
   throw Error(fmt::format("{} = {} is not a path; give a str or a pathlib.Path", key, shown(v)));
 }
 
+// A file to write (a picture, a checkpoint): not empty, not a folder.
+void check_file_path(const std::filesystem::path& path, const std::string& key, const char* what) {
+  if (path.empty()) throw Error(fmt::format("{} is empty (\"\"); give the path of the {} file", key, what));
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw Error(fmt::format("{} = '{}' is a folder; give the path of the {} file (a name in that folder)", key,
+                            path.string(), what));
+}
+
 py::array_t<std::uint8_t> render_to(PySimulation& sim, py::handle path_arg, py::handle colour_arg, py::handle draw_arg,
                                     py::handle size_arg) {
   std::optional<std::filesystem::path> path;
-  if (!path_arg.is_none()) path = to_path(path_arg, "render: path");
+  if (!path_arg.is_none()) {
+    path = to_path(path_arg, "render: path");
+    check_file_path(*path, "render: path", "PNG");
+    if (path->extension() != ".png" && path->extension() != ".PNG")
+      throw Error(fmt::format("render: path = '{}' does not end in .png; the picture is written as PNG, so give a "
+                              "name ending in .png",
+                              path->string()));
+  }
   const std::string colour_text = to_text(colour_arg, "render: colour", "a str: one of " + render::colour_mode_names());
   std::optional<std::string> draw_text;
   if (!draw_arg.is_none()) draw_text = to_text(draw_arg, "render: draw", "a str: one of " + render::draw_mode_names());
@@ -452,6 +468,7 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
 }
 
 void checkpoint(PySimulation& sim, const std::filesystem::path& path) {
+  check_file_path(path, "checkpoint: path", "checkpoint");
   const Engine& e = sim.engine();
   io::Checkpoint cp;
   cp.scene = e.scene();
@@ -761,7 +778,7 @@ Simulation is gone.)");
       .def(
           "checkpoint", [](PySimulation& s, py::handle path) { checkpoint(s, to_path(path, "checkpoint: path")); },
           py::arg("path"),
-          "Saves the scene and the whole state to `path` (.mcack, the command's format); Simulation.resume(path) "
+          "Saves the scene and the whole state to the file `path` (.mcack, the command's format; not a folder); Simulation.resume(path) "
           "continues bitwise as if uninterrupted. `mca resume` continues it in a run folder when it was saved at a "
           "frame's end (step a multiple of steps_per_frame).")
       .def(
@@ -789,7 +806,8 @@ Simulation is gone.)");
         "display needed) from the run's camera (the scene's [camera], else framed on the starting state). colour: "
         "fragment, damage, class, group, stress or speed; draw: cubes, spheres, surface or links (default: surface "
         "with a mesh object, else cubes); size: (width, height). Writes a PNG to `path` when given; returns the "
-        "picture as (height, width, 4) uint8 RGBA, top row first.");
+        "picture as (height, width, 4) uint8 RGBA, top row first. `path` is a file name ending in .png (a folder or "
+        "another extension is refused).");
 }
 
 }  // namespace mca::python
