@@ -91,7 +91,9 @@ class PySimulation {
   // The engine, for reading: after the slice a Ctrl-C left running has ended. Refused while another
   // Python thread is in advance (the state is the backend's own arrays).
   const Engine& engine() const {
-    if (advancing_) throw Error("the simulation is advancing in another thread; read its state when advance returns");
+    if (advancing_)
+      throw Error("the simulation is advancing (in another thread, or this is advance's progress callback, which "
+                  "gets done and total); read its state when advance returns");
     join();
     return *engine_;
   }
@@ -339,6 +341,13 @@ void check_file_path(const std::filesystem::path& path, const std::string& key, 
                             path.string(), what));
 }
 
+// progress=: None or a callable, checked before any step is taken.
+void check_progress(const py::object& progress) {
+  if (!progress.is_none() && !PyCallable_Check(progress.ptr()))
+    throw Error(fmt::format("progress = {} is not callable; give a function progress(done, total) or None",
+                            shown(progress)));
+}
+
 py::array_t<std::uint8_t> render_to(PySimulation& sim, py::handle path_arg, py::handle colour_arg, py::handle draw_arg,
                                     py::handle size_arg) {
   std::optional<std::filesystem::path> path;
@@ -552,6 +561,7 @@ Simulation is gone.)");
       .def(
           "advance",
           [](PySimulation& s, py::handle steps, const py::object& progress) {
+            check_progress(progress);
             s.advance(to_whole(steps, "advance: steps", std::numeric_limits<std::int64_t>::min(),
                                std::numeric_limits<std::int64_t>::max(),
                                fmt::format("a whole number of steps, 0 to {:.0e}", static_cast<double>(Engine::kMaxSteps))),
@@ -561,12 +571,16 @@ Simulation is gone.)");
           "Advances `steps` time steps on a stepping thread, without the GIL. Ctrl-C raises KeyboardInterrupt "
           "within about 0.05 s while the slice in flight (up to about 2 s of steps) ends in the background; whatever "
           "uses the simulation next waits for it, so the state is always at a whole step (advance again to go on). "
-          "progress(done, total) is called after each slice. Raises mca.Error when the run becomes unstable (the "
-          "command's message; the state is the unstable step's).")
+          "progress(done, total) is called after each slice, while the next one runs: it cannot read the simulation "
+          "(sim.step or an array raises mca.Error), so use done and total; progress must be callable or None "
+          "(checked before any step). One Simulation is used from one Python thread at a time: advance or a read "
+          "from another thread while it runs raises mca.Error (it does not wait). Raises mca.Error when the run "
+          "becomes unstable (the command's message; the state is the unstable step's).")
       .def(
           "advance_to",
           [](PySimulation& s, py::handle time_arg, const py::object& progress) {
             const double time = to_number(time_arg, "advance_to: time", "a simulated time [s]");
+            check_progress(progress);
             const Engine& e = s.engine();
             const double dt = static_cast<double>(e.model().dt);
             if (!std::isfinite(time)) throw Error(fmt::format("advance_to({}): not a finite time", time));
@@ -771,7 +785,8 @@ Simulation is gone.)");
           "frames/automata_NNNNNN.vtu, projectiles, the .pvd collections, the bound surface (output.surface), a row "
           "of stats.csv. The first call for a folder numbers from 0, writes scene.toml and removes the frames and "
           "stats an earlier run left there; the folder stays locked (as a run's) until another folder is given, "
-          "close_output() or the Simulation goes. Returns the frame number.")
+          "close_output() or the Simulation goes; giving the first folder again starts it afresh (frame 0, its "
+          "earlier frames and stats removed). Returns the frame number.")
       .def(
           "close_output", [](PySimulation& s) { s.output.reset(); },
           "Releases the folder of write_frame (its files stay).")

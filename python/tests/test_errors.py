@@ -109,3 +109,12 @@ def test_duplicate_names_are_refused_when_added():
         scene.add_object(name="object1")
     assert [o.name for o in scene.objects] == ["wall", "object1"]
     scene.validate()
+
+
+def test_progress_must_be_callable_before_any_step():
+    sim = mca.Simulation(mca.Scene.default(), threads=1)
+    with pytest.raises(mca.Error, match=r"progress = 3 is not callable; give a function progress\(done, total\) or None"):
+        sim.advance(5, progress=3)
+    with pytest.raises(mca.Error, match="progress = 'x' is not callable"):
+        sim.advance_to(0.001, progress="x")
+    assert sim.step == 0
