@@ -9,6 +9,7 @@
 #include <pybind11/pybind11.h>
 
 #include <cstdint>
+#include <filesystem>
 #include <string>
 
 #include "mca/scene.hpp"
@@ -48,6 +49,8 @@ std::int64_t to_whole(py::handle value, const std::string& key, std::int64_t min
                       const std::string& what);
 std::string to_text(py::handle value, const std::string& key, const std::string& what);
 bool to_bool(py::handle value, const std::string& key, const std::string& what);
+// A path: a str or an os.PathLike naming a str path.
+std::filesystem::path to_path(py::handle value, const std::string& key);
 
 void bind_scene(py::module_& m);
 void bind_simulation(py::module_& m);

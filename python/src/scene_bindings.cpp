@@ -147,6 +147,15 @@ bool to_bool(py::handle v, const std::string& key, const std::string& what) {
   return PyObject_IsTrue(v.ptr()) == 1;
 }
 
+std::filesystem::path to_path(py::handle v, const std::string& key) {
+  if (PyUnicode_Check(v.ptr())) return v.cast<std::string>();
+  if (py::hasattr(v, "__fspath__")) {
+    const py::object p = py::module_::import("os").attr("fspath")(v);
+    if (PyUnicode_Check(p.ptr())) return p.cast<std::string>();
+  }
+  throw Error(fmt::format("{} = {} is not a path; give a str or a pathlib.Path", key, shown(v)));
+}
+
 namespace {
 
 // A plain key of a table: the value converted by its kind, so a wrong type names the key. Whole numbers are
@@ -258,7 +267,7 @@ void keyword_init(py::class_<T>& c, const std::string& table) {
 // A field of three numbers (a tuple when read: change it by assigning three numbers).
 template <class T>
 void vec3(py::class_<T>& c, const char* name, Vec3d T::*field, const char* doc) {
-  const std::string key = name;
+  const std::string key = fmt::format("{}.{}", table_of(static_cast<const T*>(nullptr)), name);
   c.def_property(
       name, [field](const T& t) { return from_vec3(t.*field); },
       [field, key](T& t, py::handle v) { t.*field = to_vec3(v, key); }, doc);
@@ -286,6 +295,12 @@ py::list list_of(const std::vector<T>& v) {
   py::list out;
   for (const T& x : v) out.append(py::cast(x));
   return out;
+}
+// A list key (scene.objects = [...]): a list (its elements are checked when the scene is used).
+py::list list_value(const py::object& v, const std::string& key, const char* cls) {
+  if (!py::isinstance<py::list>(v))
+    throw Error(fmt::format("{} = {} is not a list; give a list of mca.{}", key, shown(v), cls));
+  return py::reinterpret_borrow<py::list>(v);
 }
 template <class T>
 T value_of(const py::object& o, const std::string& key, const char* cls) {
@@ -550,7 +565,8 @@ void bind_scene(py::module_& m) {
       .def_property(MCA_OBJECT_KEY(material, "a built-in or scene material"))
       .def_property(
           "regions", [](const PyObjectDef& o) { return o.regions; },
-          [](PyObjectDef& o, const py::list& v) { o.regions = v; }, "a list of mca.Region")
+          [](PyObjectDef& o, const py::object& v) { o.regions = list_value(v, "object.regions", "Region"); },
+          "a list of mca.Region")
       .def_property(
           "heterogeneity", [](const PyObjectDef& o) { return o.heterogeneity; },
           [](PyObjectDef& o, const py::object& v) {
@@ -682,7 +698,7 @@ validates it too.)");
             }),
             py::arg("name") = "scene", "An empty scene (no objects) with every default.")
       .def_static(
-          "load", [](const std::filesystem::path& path) { return PyScene::from_def(io::load_scene_file(path)); },
+          "load", [](py::handle path) { return PyScene::from_def(io::load_scene_file(to_path(path, "Scene.load: path"))); },
           py::arg("path"), "Reads a scene file (TOML); mesh paths are resolved as the command resolves them.")
       .def_static(
           "from_toml",
@@ -701,11 +717,21 @@ validates it too.)");
       .def_property(
           "source", [](const PyScene& s) { return s.source; },
           [](PyScene& s, py::handle v) { s.source = to_text(v, "scene.source", "a str"); }, "what messages call the scene (the file it came from)")
-      .def_readwrite("materials", &PyScene::materials, "list of mca.Material ([[material]])")
-      .def_readwrite("objects", &PyScene::objects, "list of mca.Object ([[object]])")
-      .def_readwrite("projectiles", &PyScene::projectiles, "list of mca.Projectile ([[projectile]])")
-      .def_readwrite("grips", &PyScene::grips, "list of mca.Grip ([[grip]])")
-      .def_readwrite("loads", &PyScene::loads, "list of mca.Load ([[load]])")
+      .def_property(
+          "materials", [](const PyScene& s) { return s.materials; },
+          [](PyScene& s, const py::object& v) { s.materials = list_value(v, "scene.materials", "Material"); }, "list of mca.Material ([[material]])")
+      .def_property(
+          "objects", [](const PyScene& s) { return s.objects; },
+          [](PyScene& s, const py::object& v) { s.objects = list_value(v, "scene.objects", "Object"); }, "list of mca.Object ([[object]])")
+      .def_property(
+          "projectiles", [](const PyScene& s) { return s.projectiles; },
+          [](PyScene& s, const py::object& v) { s.projectiles = list_value(v, "scene.projectiles", "Projectile"); }, "list of mca.Projectile ([[projectile]])")
+      .def_property(
+          "grips", [](const PyScene& s) { return s.grips; },
+          [](PyScene& s, const py::object& v) { s.grips = list_value(v, "scene.grips", "Grip"); }, "list of mca.Grip ([[grip]])")
+      .def_property(
+          "loads", [](const PyScene& s) { return s.loads; },
+          [](PyScene& s, const py::object& v) { s.loads = list_value(v, "scene.loads", "Load"); }, "list of mca.Load ([[load]])")
       .def_property(
           "heterogeneity", [](const PyScene& s) { return s.heterogeneity; },
           [](PyScene& s, const py::object& v) { s.heterogeneity = py::cast(value_of<HeterogeneityDef>(v, "scene.heterogeneity", "Heterogeneity")); }, "mca.Heterogeneity ([heterogeneity])")
@@ -798,7 +824,8 @@ validates it too.)");
           "reads it back to the same scene.")
       .def(
           "save",
-          [](const PyScene& s, const std::filesystem::path& path) {
+          [](const PyScene& s, py::handle path_arg) {
+            const std::filesystem::path path = to_path(path_arg, "Scene.save: path");
             const std::string text = io::scene_to_toml(s.to_def());
             FILE* f = std::fopen(path.c_str(), "wb");
             if (!f) throw Error(fmt::format("{}: cannot be written ({}); check the folder exists and is writable",

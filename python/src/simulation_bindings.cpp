@@ -322,16 +322,6 @@ Gl& gl() {
   return *instance;
 }
 
-// A path argument: a str or an os.PathLike naming a str path; mca.Error naming the argument otherwise.
-std::filesystem::path to_path(py::handle v, const std::string& key) {
-  if (PyUnicode_Check(v.ptr())) return v.cast<std::string>();
-  if (py::hasattr(v, "__fspath__")) {
-    const py::object p = py::module_::import("os").attr("fspath")(v);
-    if (PyUnicode_Check(p.ptr())) return p.cast<std::string>();
-  }
-  throw Error(fmt::format("{} = {} is not a path; give a str or a pathlib.Path", key, shown(v)));
-}
-
 // A file to write (a picture, a checkpoint): not empty, not a folder.
 void check_file_path(const std::filesystem::path& path, const std::string& key, const char* what) {
   if (path.empty()) throw Error(fmt::format("{} is empty (\"\"); give the path of the {} file", key, what));

@@ -111,3 +111,21 @@ def test_wrong_types_of_simulation_arguments():
     with pytest.raises(mca.Error, match=r"checkpoint: path = None is not a path"):
         sim.checkpoint(None)
     assert sim.step == 0
+
+
+def test_three_number_list_and_path_keys_name_their_table():
+    scene = mca.Scene.default()
+    with pytest.raises(mca.Error, match=r"projectile\.velocity = None is not three numbers; give \[x, y, z\]"):
+        scene.projectiles[0].velocity = None
+    with pytest.raises(mca.Error, match=r"solver\.gravity = 'down' is not three numbers"):
+        scene.solver.gravity = "down"
+    with pytest.raises(mca.Error, match=r"scene\.objects = 3 is not a list; give a list of mca\.Object"):
+        scene.objects = 3
+    with pytest.raises(mca.Error, match=r"object\.regions = None is not a list; give a list of mca\.Region"):
+        scene.objects[0].regions = None
+    with pytest.raises(mca.Error, match=r"Scene\.load: path = None is not a path; give a str or a pathlib\.Path"):
+        mca.Scene.load(None)
+    with pytest.raises(mca.Error, match=r"Scene\.save: path = 3 is not a path"):
+        scene.save(3)
+    scene.objects = list(scene.objects)  # a list is still taken
+    scene.validate()
