@@ -444,7 +444,8 @@ void bind_scene(py::module_& m) {
       .def_property(MCA_KEY(MaterialDef, strengthening_alpha, "alpha of eq. 7, >= 0"))
       .def_static(
           "builtin",
-          [](const std::string& name) {
+          [](py::handle name_arg) {
+            const std::string name = to_text(name_arg, "Material.builtin: name", "a str: concrete, glass, ceramic, granite or steel");
             const MaterialDef* d = find_builtin_material(name);
             if (!d) {
               std::vector<std::string> names;
@@ -691,9 +692,9 @@ void bind_scene(py::module_& m) {
 Read one with Scene.load(path), Scene.from_toml(text) or Scene.default(); or start from Scene(name) and
 add objects, projectiles, materials. validate() checks it with the command's messages; a Simulation
 validates it too.)");
-  scene.def(py::init([](const std::string& name) {
+  scene.def(py::init([](py::handle name) {
               PyScene s;
-              s.name = name;
+              s.name = to_text(name, "Scene: name", "a str");
               return s;
             }),
             py::arg("name") = "scene", "An empty scene (no objects) with every default.")
@@ -781,7 +782,11 @@ validates it too.)");
           "Appends an mca.Load with the keys given and returns it.")
       .def(
           "add_material",
-          [](PyScene& s, const std::string& name, const std::optional<std::string>& base, const py::kwargs& kw) {
+          [](PyScene& s, py::handle name_arg, py::handle base_arg, const py::kwargs& kw) {
+            const std::string name = to_text(name_arg, "add_material: name", "a str naming the material");
+            std::optional<std::string> base;
+            if (!base_arg.is_none())
+              base = to_text(base_arg, "add_material: base", "a str: an earlier scene material or a built-in");
             for (std::size_t k = 0; k < s.materials.size(); ++k)
               if (py::isinstance<MaterialDef>(s.materials[k]) && s.materials[k].cast<const MaterialDef&>().name == name)
                 throw Error(fmt::format("add_material: scene.materials[{}] is named {} already; material names are "

@@ -129,3 +129,17 @@ def test_three_number_list_and_path_keys_name_their_table():
         scene.save(3)
     scene.objects = list(scene.objects)  # a list is still taken
     scene.validate()
+
+
+def test_names_given_as_arguments_are_text():
+    scene = mca.Scene()
+    with pytest.raises(mca.Error, match=r"add_material: name = None is not text; give a str naming the material"):
+        scene.add_material(None)
+    with pytest.raises(mca.Error, match=r"add_material: base = 3 is not text"):
+        scene.add_material("weak", base=3)
+    with pytest.raises(mca.Error, match=r"Material\.builtin: name = None is not text"):
+        mca.Material.builtin(None)
+    with pytest.raises(mca.Error, match=r"Scene: name = 1 is not text"):
+        mca.Scene(1)
+    assert scene.materials == [] and mca.Scene("x").name == "x"
+    assert scene.add_material("weak", base="glass").youngs_modulus == mca.Material.builtin("glass").youngs_modulus
