@@ -10,7 +10,9 @@ Vec3Like = Union[Sequence[float], npt.NDArray[np.float64]]
 PathLike = Union[str, "os.PathLike[str]"]
 
 class Error(Exception):
-    """An error the mca command would report: the message names the file, the key, the bad value and the fix."""
+    """An error the mca command would report: the message names the file, the key, the bad value and the fix.
+    A value of the wrong type for a key or an argument raises it too (a number, a whole number, a str, or
+    True/False: `output.vtk = 2` is refused, not taken as True)."""
 
 class Material:
     """A [[material]] of docs/scene-format.md (SI units)."""
@@ -197,7 +199,10 @@ class Scene:
 
 class Simulation:
     """A run of a scene. State arrays are copies; strength_class, masses and object_ids are read-only
-    views of the model. Every array stays valid after the Simulation is gone."""
+    views of the model. Every array stays valid after the Simulation is gone.
+
+    One Simulation is used from one Python thread at a time: while advance runs in one thread, advance or
+    a read of the state from another raises mca.Error at once (it does not wait)."""
     def __init__(self, scene: Union[Scene, PathLike], threads: int = 0, backend: str = "cpu") -> None:
         """Builds the model (threads 0: all cores); raises mca.Error for a scene that cannot be built."""
     @staticmethod
@@ -206,8 +211,9 @@ class Simulation:
     def advance(self, steps: int, progress: Optional[Callable[[int, int], Any]] = None) -> None:
         """Advances `steps` steps on a stepping thread, without the GIL. Ctrl-C raises KeyboardInterrupt
         within about 0.05 s while the slice in flight (up to about 2 s) ends in the background; whatever uses
-        the simulation next waits for it. progress(done, total) after each slice; mca.Error when the run
-        becomes unstable."""
+        the simulation next waits for it. progress(done, total) after each slice, while the next slice runs:
+        it cannot read the simulation (sim.step, arrays: mca.Error), so use done and total; progress must be
+        callable or None (checked before any step). mca.Error when the run becomes unstable."""
     def advance_to(self, time: float, progress: Optional[Callable[[int, int], Any]] = None) -> None:
         """Advances to the step nearest `time` [s]."""
     @property
@@ -262,11 +268,13 @@ class Simulation:
     def state_hash(self) -> str:
         """summary.json's state_hash: 16 hex digits."""
     def write_frame(self, out: PathLike) -> int:
-        """Writes the next frame of folder `out` as `mca run --out` does; returns its number."""
+        """Writes the next frame of folder `out` as `mca run --out` does; returns its number. Only one folder
+        is written at a time: giving another folder releases the first, and giving the first again starts it
+        afresh (frame 0, its earlier frames and stats.csv removed)."""
     def close_output(self) -> None:
         """Releases the folder of write_frame."""
     def checkpoint(self, path: PathLike) -> None:
-        """Saves the scene and the whole state (.mcack)."""
+        """Saves the scene and the whole state (.mcack) to the file `path` (not a folder, not "")."""
 
 def render(
     sim: Simulation,
@@ -275,5 +283,5 @@ def render(
     draw: Optional[str] = None,
     size: Tuple[int, int] = (1280, 720),
 ) -> npt.NDArray[np.uint8]:
-    """Draws the state with the command's renderer (EGL, offscreen); writes a PNG to `path` when given;
-    returns (height, width, 4) uint8 RGBA."""
+    """Draws the state with the command's renderer (EGL, offscreen); writes a PNG to `path` when given
+    (a file name ending in .png); returns (height, width, 4) uint8 RGBA."""

@@ -8,6 +8,8 @@
 // element never points into a C++ vector that may move.
 #include <pybind11/pybind11.h>
 
+#include <cstdint>
+#include <filesystem>
 #include <string>
 
 #include "mca/scene.hpp"
@@ -35,6 +37,20 @@ struct PyScene {
   SceneDef to_def() const;
   static PyScene from_def(const SceneDef& def);
 };
+
+// Values given from Python for a key or an argument, checked as the three-number keys are: anything else
+// raises mca.Error naming `key`, the value given and what to give (`what`, which says the range of a whole
+// number). Numbers take int, float and
+// numpy scalars (not bool, not text); whole numbers take int and numpy integers within [min, max] (not
+// bool, not float); text takes str only; a bool takes True or False (and numpy.bool_), not 0, 1 or 2.
+std::string shown(py::handle value);
+double to_number(py::handle value, const std::string& key, const std::string& what);
+std::int64_t to_whole(py::handle value, const std::string& key, std::int64_t min, std::int64_t max,
+                      const std::string& what);
+std::string to_text(py::handle value, const std::string& key, const std::string& what);
+bool to_bool(py::handle value, const std::string& key, const std::string& what);
+// A path: a str or an os.PathLike naming a str path.
+std::filesystem::path to_path(py::handle value, const std::string& key);
 
 void bind_scene(py::module_& m);
 void bind_simulation(py::module_& m);

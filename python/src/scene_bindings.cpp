@@ -10,6 +10,8 @@
 #include <cstring>
 #include <cmath>
 #include <filesystem>
+#include <limits>
+#include <type_traits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -75,6 +77,150 @@ std::string choice(const std::string& key, const std::string& value, const std::
                           text::did_you_mean(value, allowed), list));
 }
 
+}  // namespace
+
+// ---- plain values: one conversion per kind (number, whole number, text, bool) ----------------------------
+
+std::string shown(py::handle value) {
+  std::string r;
+  try {
+    r = py::repr(value).cast<std::string>();
+  } catch (const py::error_already_set&) {
+    r = "<" + type_name(value) + ">";
+  }
+  if (r.size() > 80) r = r.substr(0, 77) + "...";
+  return r;
+}
+
+namespace {
+bool is_bool(py::handle v) {
+  if (PyBool_Check(v.ptr())) return true;
+  const py::handle t = py::type::handle_of(v);
+  if (!py::hasattr(t, "__module__") || py::str(t.attr("__module__")).cast<std::string>() != "numpy") return false;
+  const std::string n = py::str(t.attr("__name__"));
+  return n == "bool_" || n == "bool";
+}
+}  // namespace
+
+double to_number(py::handle v, const std::string& key, const std::string& what) {
+  const auto refuse = [&](const char* why) {
+    return Error(fmt::format("{} = {} {}; give {}", key, shown(v), why, what));
+  };
+  if (is_bool(v) || PyUnicode_Check(v.ptr()) || PyBytes_Check(v.ptr()) || PyComplex_Check(v.ptr()) ||
+      !PyNumber_Check(v.ptr()))
+    throw refuse("is not a number");
+  const double d = PyFloat_AsDouble(v.ptr());
+  if (d == -1.0 && PyErr_Occurred()) {
+    const bool overflow = PyErr_ExceptionMatches(PyExc_OverflowError) != 0;
+    PyErr_Clear();
+    throw refuse(overflow ? "is too large for a number" : "is not a number");
+  }
+  return d;
+}
+
+std::int64_t to_whole(py::handle v, const std::string& key, std::int64_t min, std::int64_t max, const std::string& what) {
+  if (is_bool(v) || !PyIndex_Check(v.ptr()))
+    throw Error(fmt::format("{} = {} is not a whole number; give {}", key, shown(v), what));
+  const py::object i = py::reinterpret_steal<py::object>(PyNumber_Index(v.ptr()));
+  if (!i) {
+    PyErr_Clear();
+    throw Error(fmt::format("{} = {} is not a whole number; give {}", key, shown(v), what));
+  }
+  int overflow = 0;
+  const long long x = PyLong_AsLongLongAndOverflow(i.ptr(), &overflow);
+  if (x == -1 && PyErr_Occurred()) {
+    PyErr_Clear();
+    throw Error(fmt::format("{} = {} is not a whole number; give {}", key, shown(v), what));
+  }
+  if (overflow != 0 || x < min || x > max)
+    throw Error(fmt::format("{} = {} is out of range; give {}", key, shown(v), what));
+  return x;
+}
+
+std::string to_text(py::handle v, const std::string& key, const std::string& what) {
+  if (!PyUnicode_Check(v.ptr())) throw Error(fmt::format("{} = {} is not text; give {}", key, shown(v), what));
+  return v.cast<std::string>();
+}
+
+bool to_bool(py::handle v, const std::string& key, const std::string& what) {
+  if (!is_bool(v)) throw Error(fmt::format("{} = {} is not True or False; give {}", key, shown(v), what));
+  return PyObject_IsTrue(v.ptr()) == 1;
+}
+
+std::filesystem::path to_path(py::handle v, const std::string& key) {
+  if (PyUnicode_Check(v.ptr())) return v.cast<std::string>();
+  if (py::hasattr(v, "__fspath__")) {
+    const py::object p = py::module_::import("os").attr("fspath")(v);
+    if (PyUnicode_Check(p.ptr())) return p.cast<std::string>();
+  }
+  throw Error(fmt::format("{} = {} is not a path; give a str or a pathlib.Path", key, shown(v)));
+}
+
+namespace {
+
+// A plain key of a table: the value converted by its kind, so a wrong type names the key. Whole numbers are
+// held to their field's range (the seed to 0 .. 2^64 - 1).
+const char* table_of(const MaterialDef*) { return "material"; }
+const char* table_of(const HeterogeneityDef*) { return "heterogeneity"; }
+const char* table_of(const RegionDef*) { return "region"; }
+const char* table_of(const ProjectileDef*) { return "projectile"; }
+const char* table_of(const GripDef*) { return "grip"; }
+const char* table_of(const LoadDef*) { return "load"; }
+const char* table_of(const GroundDef*) { return "ground"; }
+const char* table_of(const SolverDef*) { return "solver"; }
+const char* table_of(const OutputDef*) { return "output"; }
+const char* table_of(const CameraDef*) { return "camera"; }
+
+template <class V>
+V convert(py::handle v, const std::string& key, const std::string& doc) {
+  if constexpr (std::is_same_v<V, double>) {
+    return to_number(v, key, fmt::format("a number ({})", doc));
+  } else if constexpr (std::is_same_v<V, bool>) {
+    return to_bool(v, key, fmt::format("True or False ({})", doc));
+  } else if constexpr (std::is_same_v<V, std::string>) {
+    return to_text(v, key, fmt::format("a str ({})", doc));
+  } else if constexpr (std::is_same_v<V, std::uint64_t>) {
+    // The seed: unsigned 64-bit, as the reader takes it (a scene file's negative seed is its two's complement).
+    const std::string what = fmt::format("a whole number from 0 to 2^64 - 1 ({})", doc);
+    if (is_bool(v) || !PyIndex_Check(v.ptr()))
+      throw Error(fmt::format("{} = {} is not a whole number; give {}", key, shown(v), what));
+    const py::object i = py::reinterpret_steal<py::object>(PyNumber_Index(v.ptr()));
+    if (!i) {
+      PyErr_Clear();
+      throw Error(fmt::format("{} = {} is not a whole number; give {}", key, shown(v), what));
+    }
+    const unsigned long long x = PyLong_AsUnsignedLongLong(i.ptr());
+    if (x == static_cast<unsigned long long>(-1) && PyErr_Occurred()) {
+      PyErr_Clear();
+      throw Error(fmt::format("{} = {} is out of range; give {}", key, shown(v), what));
+    }
+    return static_cast<V>(x);
+  } else {
+    static_assert(std::is_integral_v<V>, "a plain key is a number, a whole number, text or a bool");
+    constexpr auto lo = static_cast<std::int64_t>(std::numeric_limits<V>::min());
+    constexpr auto hi = static_cast<std::int64_t>(
+        std::min<std::uint64_t>(std::numeric_limits<V>::max(), std::numeric_limits<std::int64_t>::max()));
+    return static_cast<V>(to_whole(v, key, lo, hi, fmt::format("a whole number from {} to {} ({})", lo, hi, doc)));
+  }
+}
+
+template <class T, class V>
+auto key_getter(V T::*member) {
+  return [member](const T& t) { return t.*member; };
+}
+template <class T, class V>
+auto key_setter(V T::*member, const char* name, const char* doc) {
+  return [member, key = fmt::format("{}.{}", table_of(static_cast<const T*>(nullptr)), name), doc = std::string(doc)](
+             T& t, py::handle v) { t.*member = convert<V>(v, key, doc); };
+}
+// .def_property(MCA_KEY(SolverDef, spacing, "doc")): the key `spacing` of SolverDef, checked when set.
+#define MCA_KEY(T, member, doc) #member, key_getter(&T::member), key_setter(&T::member, #member, doc), doc
+// The same for a key of PyObjectDef's ObjectDef.
+#define MCA_OBJECT_KEY(member, doc)                                                                          \
+  #member, [](const PyObjectDef& o) { return o.def.member; },                                                \
+      [](PyObjectDef& o, py::handle v) { o.def.member = convert<decltype(ObjectDef::member)>(v, "object." #member, doc); }, \
+      doc
+
 // ---- keyword construction: Material(name="weak", tensile_strength=1e6) ----------------------------------
 
 // The keys of a bound class: its properties (what dir() lists that is a `property`).
@@ -121,7 +267,7 @@ void keyword_init(py::class_<T>& c, const std::string& table) {
 // A field of three numbers (a tuple when read: change it by assigning three numbers).
 template <class T>
 void vec3(py::class_<T>& c, const char* name, Vec3d T::*field, const char* doc) {
-  const std::string key = name;
+  const std::string key = fmt::format("{}.{}", table_of(static_cast<const T*>(nullptr)), name);
   c.def_property(
       name, [field](const T& t) { return from_vec3(t.*field); },
       [field, key](T& t, py::handle v) { t.*field = to_vec3(v, key); }, doc);
@@ -149,6 +295,12 @@ py::list list_of(const std::vector<T>& v) {
   py::list out;
   for (const T& x : v) out.append(py::cast(x));
   return out;
+}
+// A list key (scene.objects = [...]): a list (its elements are checked when the scene is used).
+py::list list_value(const py::object& v, const std::string& key, const char* cls) {
+  if (!py::isinstance<py::list>(v))
+    throw Error(fmt::format("{} = {} is not a list; give a list of mca.{}", key, shown(v), cls));
+  return py::reinterpret_borrow<py::list>(v);
 }
 template <class T>
 T value_of(const py::object& o, const std::string& key, const char* cls) {
@@ -261,18 +413,18 @@ void bind_scene(py::module_& m) {
   // ---- [[material]] ----
   py::class_<MaterialDef> material(m, "Material", "A [[material]] of docs/scene-format.md (SI units).");
   keyword_init(material, "[[material]]");
-  material.def_readwrite("name", &MaterialDef::name, "name objects refer to (non-empty, unique)")
-      .def_readwrite("youngs_modulus", &MaterialDef::youngs_modulus, "E [Pa], in [1e3, 1e13]")
-      .def_readwrite("poisson_ratio", &MaterialDef::poisson_ratio, "nu, in (-1, 0.5)")
-      .def_readwrite("density", &MaterialDef::density, "rho [kg/m^3], in [0.1, 1e5]")
-      .def_readwrite("tensile_strength", &MaterialDef::tensile_strength, "sigma_b in tension [Pa], > 0")
-      .def_readwrite("compressive_strength", &MaterialDef::compressive_strength, "[Pa], >= tensile_strength")
-      .def_readwrite("fracture_strain", &MaterialDef::fracture_strain, "eps_b of the displacement criterion, > 0")
-      .def_readwrite("friction", &MaterialDef::friction, "Coulomb mu of contacts, >= 0")
-      .def_readwrite("restitution", &MaterialDef::restitution, "coefficient of restitution, in [0.01, 1]")
-      .def_readwrite("rolling_friction", &MaterialDef::rolling_friction, "mu_r of contacts, in [0, 1]")
-      .def_readwrite("twisting_friction", &MaterialDef::twisting_friction, "mu_t of contacts, in [0, 1]")
-      .def_readwrite("damping_time", &MaterialDef::damping_time, "Kelvin-Voigt viscosity time [s], in [0, 1e-3]")
+  material.def_property(MCA_KEY(MaterialDef, name, "name objects refer to (non-empty, unique)"))
+      .def_property(MCA_KEY(MaterialDef, youngs_modulus, "E [Pa], in [1e3, 1e13]"))
+      .def_property(MCA_KEY(MaterialDef, poisson_ratio, "nu, in (-1, 0.5)"))
+      .def_property(MCA_KEY(MaterialDef, density, "rho [kg/m^3], in [0.1, 1e5]"))
+      .def_property(MCA_KEY(MaterialDef, tensile_strength, "sigma_b in tension [Pa], > 0"))
+      .def_property(MCA_KEY(MaterialDef, compressive_strength, "[Pa], >= tensile_strength"))
+      .def_property(MCA_KEY(MaterialDef, fracture_strain, "eps_b of the displacement criterion, > 0"))
+      .def_property(MCA_KEY(MaterialDef, friction, "Coulomb mu of contacts, >= 0"))
+      .def_property(MCA_KEY(MaterialDef, restitution, "coefficient of restitution, in [0.01, 1]"))
+      .def_property(MCA_KEY(MaterialDef, rolling_friction, "mu_r of contacts, in [0, 1]"))
+      .def_property(MCA_KEY(MaterialDef, twisting_friction, "mu_t of contacts, in [0, 1]"))
+      .def_property(MCA_KEY(MaterialDef, damping_time, "Kelvin-Voigt viscosity time [s], in [0, 1e-3]"))
       .def_property(
           "strengthening",
           [](const MaterialDef& d) {
@@ -280,7 +432,8 @@ void bind_scene(py::module_& m) {
                                : d.strengthening == StrengtheningLaw::quadratic ? "quadratic"
                                                                                  : "none");
           },
-          [](MaterialDef& d, const std::string& v) {
+          [](MaterialDef& d, py::handle value) {
+            const std::string v = to_text(value, "material.strengthening", "a str");
             const std::string s = choice("material.strengthening", v, {"none", "exponential", "quadratic"},
                                          "a strengthening law");
             d.strengthening = s == "exponential" ? StrengtheningLaw::exponential
@@ -288,10 +441,11 @@ void bind_scene(py::module_& m) {
                                                  : StrengtheningLaw::none;
           },
           "paper eq. 7: \"none\", \"exponential\" or \"quadratic\"")
-      .def_readwrite("strengthening_alpha", &MaterialDef::strengthening_alpha, "alpha of eq. 7, >= 0")
+      .def_property(MCA_KEY(MaterialDef, strengthening_alpha, "alpha of eq. 7, >= 0"))
       .def_static(
           "builtin",
-          [](const std::string& name) {
+          [](py::handle name_arg) {
+            const std::string name = to_text(name_arg, "Material.builtin: name", "a str: concrete, glass, ceramic, granite or steel");
             const MaterialDef* d = find_builtin_material(name);
             if (!d) {
               std::vector<std::string> names;
@@ -320,7 +474,8 @@ void bind_scene(py::module_& m) {
           }),
           "A heterogeneity with the defaults (preset \"none\": every automaton of class 4), changed by the keys given.");
   het.def_property(
-         "preset", [](const HeterogeneityDef& h) { return h.preset; }, &set_preset,
+         "preset", [](const HeterogeneityDef& h) { return h.preset; },
+         [](HeterogeneityDef& h, py::handle v) { set_preset(h, to_text(v, "heterogeneity.preset", "a str: \"none\", \"low\", \"medium\" or \"high\"")); },
          "\"none\", \"low\", \"medium\" or \"high\": sets the shares of the paper's distribution; reads \"custom\" "
          "once shares are assigned")
       .def_property(
@@ -339,7 +494,7 @@ void bind_scene(py::module_& m) {
             h.class_factors = to_array<4>(v, "heterogeneity.class_factors", "[k1, k2, k3, k4]");
           },
           "strength factor k_c of class 1..4 (each > 0, non-decreasing)")
-      .def_readwrite("grain_size", &HeterogeneityDef::grain_size, "[m]; 0: classes drawn per automaton, > 0: grains")
+      .def_property(MCA_KEY(HeterogeneityDef, grain_size, "[m]; 0: classes drawn per automaton, > 0: grains"))
       .def("__repr__", [](const HeterogeneityDef& h) {
         return fmt::format("mca.Heterogeneity(preset={}, shares=[{}, {}, {}, {}])", text::quoted(h.preset),
                            text::num(h.shares[0]), text::num(h.shares[1]), text::num(h.shares[2]),
@@ -352,13 +507,14 @@ void bind_scene(py::module_& m) {
   region
       .def_property(
           "shape", [](const RegionDef& r) { return std::string(io::shape_name(r.shape)); },
-          [](RegionDef& r, const std::string& v) {
+          [](RegionDef& r, py::handle value) {
+            const std::string v = to_text(value, "region.shape", "a str");
             r.shape = io::to_shape(choice("region.shape", v, {"box", "sphere", "mesh"}, "a region shape"));
           },
           "\"box\", \"sphere\" or \"mesh\"")
-      .def_readwrite("mesh", &RegionDef::mesh, "a closed mesh file (shape \"mesh\"), the path to open")
-      .def_readwrite("radius", &RegionDef::radius, "[m] (sphere)")
-      .def_readwrite("material", &RegionDef::material, "the material of the automata inside (required)");
+      .def_property(MCA_KEY(RegionDef, mesh, "a closed mesh file (shape \"mesh\"), the path to open"))
+      .def_property(MCA_KEY(RegionDef, radius, "[m] (sphere)"))
+      .def_property(MCA_KEY(RegionDef, material, "the material of the automata inside (required)"));
   vec3(region, "center", &RegionDef::center, "[m], world frame");
   vec3(region, "size", &RegionDef::size, "[m], full extents along the world axes (box)");
 
@@ -370,45 +526,32 @@ void bind_scene(py::module_& m) {
                return o;
              }),
              "An object with the defaults (a 1 m concrete box at the origin), changed by the keys given.");
-  object.def_property(
-            "name", [](const PyObjectDef& o) { return o.def.name; }, [](PyObjectDef& o, const std::string& v) { o.def.name = v; },
-            "non-empty, unique")
+  object.def_property(MCA_OBJECT_KEY(name, "non-empty, unique"))
       .def_property(
           "shape", [](const PyObjectDef& o) { return std::string(io::shape_name(o.def.shape)); },
-          [](PyObjectDef& o, const std::string& v) {
+          [](PyObjectDef& o, py::handle value) {
+            const std::string v = to_text(value, "object.shape", "a str");
             o.def.shape = io::to_shape(choice("object.shape", v, {"box", "sphere", "cylinder", "mesh"}, "a shape"));
           },
           "\"box\", \"sphere\", \"cylinder\" or \"mesh\"")
       .def_property(
           "size", [](const PyObjectDef& o) { return from_vec3(o.def.size); },
           [](PyObjectDef& o, py::handle v) { o.def.size = to_vec3(v, "object.size"); }, "[m], full extents (box)")
-      .def_property(
-          "radius", [](const PyObjectDef& o) { return o.def.radius; }, [](PyObjectDef& o, double v) { o.def.radius = v; },
-          "[m] (sphere, cylinder)")
-      .def_property(
-          "height", [](const PyObjectDef& o) { return o.def.height; }, [](PyObjectDef& o, double v) { o.def.height = v; },
-          "[m] (cylinder, along its local z)")
-      .def_property(
-          "mesh", [](const PyObjectDef& o) { return o.def.mesh; },
-          [](PyObjectDef& o, const std::string& v) { o.def.mesh = v; },
-          "a triangle mesh file (shape \"mesh\"): the path to open (a scene file's relative paths are resolved when "
-          "it is read)")
-      .def_property(
-          "scale", [](const PyObjectDef& o) { return o.def.scale; }, [](PyObjectDef& o, double v) { o.def.scale = v; },
-          "file units to metres (mesh), > 0")
-      .def_property(
-          "fit_size", [](const PyObjectDef& o) { return o.def.fit_size; },
-          [](PyObjectDef& o, double v) { o.def.fit_size = v; }, "[m]: > 0 scales the mesh to this largest extent")
+      .def_property(MCA_OBJECT_KEY(radius, "[m] (sphere, cylinder)"))
+      .def_property(MCA_OBJECT_KEY(height, "[m] (cylinder, along its local z)"))
+      .def_property(MCA_OBJECT_KEY(mesh, "a triangle mesh file (shape \"mesh\"): the path to open (a scene file's "
+                                         "relative paths are resolved when it is read)"))
+      .def_property(MCA_OBJECT_KEY(scale, "file units to metres (mesh), > 0"))
+      .def_property(MCA_OBJECT_KEY(fit_size, "[m]: > 0 scales the mesh to this largest extent"))
       .def_property(
           "fill", [](const PyObjectDef& o) { return std::string(o.def.fill == MeshFill::surface ? "surface" : "volume"); },
-          [](PyObjectDef& o, const std::string& v) {
+          [](PyObjectDef& o, py::handle value) {
+            const std::string v = to_text(value, "object.fill", "a str");
             o.def.fill = choice("object.fill", v, {"volume", "surface"}, "a fill mode") == "surface" ? MeshFill::surface
                                                                                                      : MeshFill::volume;
           },
           "\"volume\" or \"surface\" (mesh)")
-      .def_property(
-          "shell_thickness", [](const PyObjectDef& o) { return o.def.shell_thickness; },
-          [](PyObjectDef& o, double v) { o.def.shell_thickness = v; }, "[m] (surface fill); 0: the mean link length")
+      .def_property(MCA_OBJECT_KEY(shell_thickness, "[m] (surface fill); 0: the mean link length"))
       .def_property(
           "position", [](const PyObjectDef& o) { return from_vec3(o.def.position); },
           [](PyObjectDef& o, py::handle v) { o.def.position = to_vec3(v, "object.position"); }, "[m], its centre")
@@ -420,12 +563,11 @@ void bind_scene(py::module_& m) {
           "velocity", [](const PyObjectDef& o) { return from_vec3(o.def.velocity); },
           [](PyObjectDef& o, py::handle v) { o.def.velocity = to_vec3(v, "object.velocity"); },
           "[m/s], initial velocity of its automata")
-      .def_property(
-          "material", [](const PyObjectDef& o) { return o.def.material; },
-          [](PyObjectDef& o, const std::string& v) { o.def.material = v; }, "a built-in or scene material")
+      .def_property(MCA_OBJECT_KEY(material, "a built-in or scene material"))
       .def_property(
           "regions", [](const PyObjectDef& o) { return o.regions; },
-          [](PyObjectDef& o, const py::list& v) { o.regions = v; }, "a list of mca.Region")
+          [](PyObjectDef& o, const py::object& v) { o.regions = list_value(v, "object.regions", "Region"); },
+          "a list of mca.Region")
       .def_property(
           "heterogeneity", [](const PyObjectDef& o) { return o.heterogeneity; },
           [](PyObjectDef& o, const py::object& v) {
@@ -452,13 +594,13 @@ void bind_scene(py::module_& m) {
   // ---- [[projectile]] ----
   py::class_<ProjectileDef> projectile(m, "Projectile", "A [[projectile]]: a rigid ball.");
   keyword_init(projectile, "[[projectile]]");
-  projectile.def_readwrite("name", &ProjectileDef::name, "names the ball (\"ball\", \"ball1\", ... by index)")
-      .def_readwrite("radius", &ProjectileDef::radius, "[m], > 0")
-      .def_readwrite("material", &ProjectileDef::material, "a known material (default steel)")
-      .def_readwrite("density", &ProjectileDef::density, "[kg/m^3]; 0: the material's")
-      .def_readwrite("kinematic", &ProjectileDef::kinematic, "True: moves at its initial velocity whatever it hits")
-      .def_readwrite("rolling_friction", &ProjectileDef::rolling_friction, "in [0, 1]")
-      .def_readwrite("twisting_friction", &ProjectileDef::twisting_friction, "in [0, 1]")
+  projectile.def_property(MCA_KEY(ProjectileDef, name, "names the ball (\"ball\", \"ball1\", ... by index)"))
+      .def_property(MCA_KEY(ProjectileDef, radius, "[m], > 0"))
+      .def_property(MCA_KEY(ProjectileDef, material, "a known material (default steel)"))
+      .def_property(MCA_KEY(ProjectileDef, density, "[kg/m^3]; 0: the material's"))
+      .def_property(MCA_KEY(ProjectileDef, kinematic, "True: moves at its initial velocity whatever it hits"))
+      .def_property(MCA_KEY(ProjectileDef, rolling_friction, "in [0, 1]"))
+      .def_property(MCA_KEY(ProjectileDef, twisting_friction, "in [0, 1]"))
       .def("__repr__", [](const ProjectileDef& p) {
         return fmt::format("mca.Projectile(name={}, radius={}, velocity=[{}, {}, {}])", text::quoted(p.name),
                            text::num(p.radius), text::num(p.velocity[0]), text::num(p.velocity[1]),
@@ -471,13 +613,13 @@ void bind_scene(py::module_& m) {
   // ---- [[grip]] and [[load]] ----
   py::class_<GripDef> grip(m, "Grip", "A [[grip]]: the automata in the box move at a fixed velocity.");
   keyword_init(grip, "[[grip]]");
-  grip.def_readwrite("name", &GripDef::name, "unique; names its force columns in stats.csv");
+  grip.def_property(MCA_KEY(GripDef, name, "unique; names its force columns in stats.csv"));
   vec3(grip, "min", &GripDef::min, "[m], box corner (required)");
   vec3(grip, "max", &GripDef::max, "[m], box corner (required)");
   vec3(grip, "velocity", &GripDef::velocity, "[m/s]");
   py::class_<LoadDef> load(m, "Load", "A [[load]]: a constant force on each automaton in the box.");
   keyword_init(load, "[[load]]");
-  load.def_readwrite("name", &LoadDef::name, "names the load (\"load\", \"load1\", ... by index)");
+  load.def_property(MCA_KEY(LoadDef, name, "names the load (\"load\", \"load1\", ... by index)"));
   vec3(load, "min", &LoadDef::min, "[m], box corner (required)");
   vec3(load, "max", &LoadDef::max, "[m], box corner (required)");
   vec3(load, "force", &LoadDef::force, "[N] per automaton");
@@ -485,47 +627,48 @@ void bind_scene(py::module_& m) {
   // ---- [ground], [solver], [output], [camera] ----
   py::class_<GroundDef> ground(m, "Ground", "[ground]: a rigid plane normal to the up axis.");
   keyword_init(ground, "[ground]");
-  ground.def_readwrite("enabled", &GroundDef::enabled, "True: the ground plane is there")
-      .def_readwrite("height", &GroundDef::height, "[m] along the up axis")
-      .def_readwrite("friction", &GroundDef::friction, ">= 0")
-      .def_readwrite("restitution", &GroundDef::restitution, "in [0.01, 1]")
-      .def_readwrite("rolling_friction", &GroundDef::rolling_friction, "in [0, 1]")
-      .def_readwrite("twisting_friction", &GroundDef::twisting_friction, "in [0, 1]");
+  ground.def_property(MCA_KEY(GroundDef, enabled, "True: the ground plane is there"))
+      .def_property(MCA_KEY(GroundDef, height, "[m] along the up axis"))
+      .def_property(MCA_KEY(GroundDef, friction, ">= 0"))
+      .def_property(MCA_KEY(GroundDef, restitution, "in [0.01, 1]"))
+      .def_property(MCA_KEY(GroundDef, rolling_friction, "in [0, 1]"))
+      .def_property(MCA_KEY(GroundDef, twisting_friction, "in [0, 1]"));
 
   py::class_<SolverDef> solver(m, "Solver", "[solver]: the lattice and the integration.");
   keyword_init(solver, "[solver]");
-  solver.def_readwrite("spacing", &SolverDef::spacing, "lattice spacing d [m], > 0")
-      .def_readwrite("target_automata", &SolverDef::target_automata, "> 0: d chosen so the count lands within 2 %")
-      .def_readwrite("safety", &SolverDef::safety, "the step's share of the critical step, in (0, 1]")
-      .def_readwrite("time_step", &SolverDef::time_step, "[s]; 0: automatic")
-      .def_readwrite("mass_scaling", &SolverDef::mass_scaling, "surface-mode mass scaling, in [0, 1]")
-      .def_readwrite("link_damping", &SolverDef::link_damping, "share of critical, in [0, 1]")
-      .def_readwrite("local_damping", &SolverDef::local_damping, "Cundall alpha, in [0, 0.2]")
-      .def_readwrite("stress_coefficient", &SolverDef::stress_coefficient, "K_v of the stress criterion, > 0")
-      .def_readwrite("skin", &SolverDef::skin, "contact search skin, share of d, in (0, 0.4]")
-      .def_readwrite("seed", &SolverDef::seed, "random seed of the strength classes")
-      .def_readwrite("max_memory_gb", &SolverDef::max_memory_gb, "refuse models whose estimate exceeds this [GB]");
+  solver.def_property(MCA_KEY(SolverDef, spacing, "lattice spacing d [m], > 0"))
+      .def_property(MCA_KEY(SolverDef, target_automata, "> 0: d chosen so the count lands within 2 %"))
+      .def_property(MCA_KEY(SolverDef, safety, "the step's share of the critical step, in (0, 1]"))
+      .def_property(MCA_KEY(SolverDef, time_step, "[s]; 0: automatic"))
+      .def_property(MCA_KEY(SolverDef, mass_scaling, "surface-mode mass scaling, in [0, 1]"))
+      .def_property(MCA_KEY(SolverDef, link_damping, "share of critical, in [0, 1]"))
+      .def_property(MCA_KEY(SolverDef, local_damping, "Cundall alpha, in [0, 0.2]"))
+      .def_property(MCA_KEY(SolverDef, stress_coefficient, "K_v of the stress criterion, > 0"))
+      .def_property(MCA_KEY(SolverDef, skin, "contact search skin, share of d, in (0, 0.4]"))
+      .def_property(MCA_KEY(SolverDef, seed, "random seed of the strength classes"))
+      .def_property(MCA_KEY(SolverDef, max_memory_gb, "refuse models whose estimate exceeds this [GB]"));
   vec3(solver, "gravity", &SolverDef::gravity, "[m/s^2]; defines up");
 
   py::class_<OutputDef> output(m, "Output", "[output]: the duration, frames and files of a run.");
   keyword_init(output, "[output]");
-  output.def_readwrite("duration", &OutputDef::duration, "simulated time [s], > 0")
-      .def_readwrite("frame_rate", &OutputDef::frame_rate, "output frames per simulated second, > 0")
-      .def_readwrite("links", &OutputDef::links, "also write intact links as VTK lines")
-      .def_readwrite("vtk", &OutputDef::vtk, "write per-frame VTK files")
-      .def_readwrite("checkpoint_every", &OutputDef::checkpoint_every, "frames between checkpoints (mca run); 0 = none")
-      .def_readwrite("surface", &OutputDef::surface, "write the mesh objects' surface per frame")
+  output.def_property(MCA_KEY(OutputDef, duration, "simulated time [s], > 0"))
+      .def_property(MCA_KEY(OutputDef, frame_rate, "output frames per simulated second, > 0"))
+      .def_property(MCA_KEY(OutputDef, links, "also write intact links as VTK lines"))
+      .def_property(MCA_KEY(OutputDef, vtk, "write per-frame VTK files"))
+      .def_property(MCA_KEY(OutputDef, checkpoint_every, "frames between checkpoints (mca run); 0 = none"))
+      .def_property(MCA_KEY(OutputDef, surface, "write the mesh objects' surface per frame"))
       .def_property(
           "surface_format",
           [](const OutputDef& o) { return std::string(o.surface_format == OutputDef::SurfaceFormat::obj ? "obj" : "ply"); },
-          [](OutputDef& o, const std::string& v) {
+          [](OutputDef& o, py::handle value) {
+            const std::string v = to_text(value, "output.surface_format", "a str");
             o.surface_format = choice("output.surface_format", v, {"ply", "obj"}, "a surface format") == "obj"
                                    ? OutputDef::SurfaceFormat::obj
                                    : OutputDef::SurfaceFormat::ply;
           },
           "\"ply\" or \"obj\"")
-      .def_readwrite("fragments", &OutputDef::fragments, "a closed mesh per fragment at the end (mca run)")
-      .def_readwrite("fragment_min_automata", &OutputDef::fragment_min_automata, ">= 0");
+      .def_property(MCA_KEY(OutputDef, fragments, "a closed mesh per fragment at the end (mca run)"))
+      .def_property(MCA_KEY(OutputDef, fragment_min_automata, ">= 0"));
 
   py::class_<CameraDef> camera(m, "Camera", "[camera]: the renderer's camera (None: automatic).");
   keyword_init(camera, "[camera]");
@@ -541,7 +684,7 @@ void bind_scene(py::module_& m) {
   };
   optional_vec3("position", &CameraDef::position, "[m], or None: a 3/4 view framing the objects");
   optional_vec3("target", &CameraDef::target, "[m], or None: the centre of the objects' box");
-  camera.def_readwrite("fov", &CameraDef::fov, "vertical field of view [degrees], in [5, 150]");
+  camera.def_property(MCA_KEY(CameraDef, fov, "vertical field of view [degrees], in [5, 150]"));
 
   // ---- the scene ----
   py::class_<PyScene> scene(m, "Scene", R"(A scene: the keys of docs/scene-format.md.
@@ -549,46 +692,61 @@ void bind_scene(py::module_& m) {
 Read one with Scene.load(path), Scene.from_toml(text) or Scene.default(); or start from Scene(name) and
 add objects, projectiles, materials. validate() checks it with the command's messages; a Simulation
 validates it too.)");
-  scene.def(py::init([](const std::string& name) {
+  scene.def(py::init([](py::handle name) {
               PyScene s;
-              s.name = name;
+              s.name = to_text(name, "Scene: name", "a str");
               return s;
             }),
             py::arg("name") = "scene", "An empty scene (no objects) with every default.")
       .def_static(
-          "load", [](const std::filesystem::path& path) { return PyScene::from_def(io::load_scene_file(path)); },
+          "load", [](py::handle path) { return PyScene::from_def(io::load_scene_file(to_path(path, "Scene.load: path"))); },
           py::arg("path"), "Reads a scene file (TOML); mesh paths are resolved as the command resolves them.")
       .def_static(
           "from_toml",
-          [](const std::string& text, const std::string& source) {
-            return PyScene::from_def(io::parse_scene(text, source));
+          [](py::handle text, py::handle source) {
+            return PyScene::from_def(io::parse_scene(to_text(text, "Scene.from_toml: text", "the scene's TOML as a str"),
+                                                     to_text(source, "Scene.from_toml: source", "a str naming the text")));
           },
           py::arg("text"), py::arg("source") = "<string>",
           "Parses a scene from TOML text; `source` names it in messages (and gives the name when the text has none).")
       .def_static(
           "default", [] { return PyScene::from_def(io::load_default_scene()); },
           "The built-in default scene (scenes/wall_ball.toml), as `mca run` with no scene uses.")
-      .def_readwrite("name", &PyScene::name, "the scene's name (summary.json, the default output folder)")
-      .def_readwrite("source", &PyScene::source, "what messages call the scene (the file it came from)")
-      .def_readwrite("materials", &PyScene::materials, "list of mca.Material ([[material]])")
-      .def_readwrite("objects", &PyScene::objects, "list of mca.Object ([[object]])")
-      .def_readwrite("projectiles", &PyScene::projectiles, "list of mca.Projectile ([[projectile]])")
-      .def_readwrite("grips", &PyScene::grips, "list of mca.Grip ([[grip]])")
-      .def_readwrite("loads", &PyScene::loads, "list of mca.Load ([[load]])")
+      .def_property(
+          "name", [](const PyScene& s) { return s.name; },
+          [](PyScene& s, py::handle v) { s.name = to_text(v, "scene.name", "a str"); }, "the scene's name (summary.json, the default output folder)")
+      .def_property(
+          "source", [](const PyScene& s) { return s.source; },
+          [](PyScene& s, py::handle v) { s.source = to_text(v, "scene.source", "a str"); }, "what messages call the scene (the file it came from)")
+      .def_property(
+          "materials", [](const PyScene& s) { return s.materials; },
+          [](PyScene& s, const py::object& v) { s.materials = list_value(v, "scene.materials", "Material"); }, "list of mca.Material ([[material]])")
+      .def_property(
+          "objects", [](const PyScene& s) { return s.objects; },
+          [](PyScene& s, const py::object& v) { s.objects = list_value(v, "scene.objects", "Object"); }, "list of mca.Object ([[object]])")
+      .def_property(
+          "projectiles", [](const PyScene& s) { return s.projectiles; },
+          [](PyScene& s, const py::object& v) { s.projectiles = list_value(v, "scene.projectiles", "Projectile"); }, "list of mca.Projectile ([[projectile]])")
+      .def_property(
+          "grips", [](const PyScene& s) { return s.grips; },
+          [](PyScene& s, const py::object& v) { s.grips = list_value(v, "scene.grips", "Grip"); }, "list of mca.Grip ([[grip]])")
+      .def_property(
+          "loads", [](const PyScene& s) { return s.loads; },
+          [](PyScene& s, const py::object& v) { s.loads = list_value(v, "scene.loads", "Load"); }, "list of mca.Load ([[load]])")
       .def_property(
           "heterogeneity", [](const PyScene& s) { return s.heterogeneity; },
-          [](PyScene& s, const HeterogeneityDef& h) { s.heterogeneity = py::cast(h); }, "mca.Heterogeneity ([heterogeneity])")
+          [](PyScene& s, const py::object& v) { s.heterogeneity = py::cast(value_of<HeterogeneityDef>(v, "scene.heterogeneity", "Heterogeneity")); }, "mca.Heterogeneity ([heterogeneity])")
       .def_property(
-          "solver", [](const PyScene& s) { return s.solver; }, [](PyScene& s, const SolverDef& v) { s.solver = py::cast(v); },
+          "solver", [](const PyScene& s) { return s.solver; }, [](PyScene& s, const py::object& v) { s.solver = py::cast(value_of<SolverDef>(v, "scene.solver", "Solver")); },
           "mca.Solver ([solver])")
       .def_property(
-          "output", [](const PyScene& s) { return s.output; }, [](PyScene& s, const OutputDef& v) { s.output = py::cast(v); },
+          "output", [](const PyScene& s) { return s.output; }, [](PyScene& s, const py::object& v) { s.output = py::cast(value_of<OutputDef>(v, "scene.output", "Output")); },
           "mca.Output ([output])")
       .def_property(
-          "ground", [](const PyScene& s) { return s.ground; }, [](PyScene& s, const GroundDef& v) { s.ground = py::cast(v); },
+          "ground", [](const PyScene& s) { return s.ground; }, [](PyScene& s, const py::object& v) { s.ground = py::cast(value_of<GroundDef>(v, "scene.ground", "Ground")); },
           "mca.Ground ([ground])")
       .def_property(
-          "camera", [](const PyScene& s) { return s.camera; }, [](PyScene& s, const CameraDef& v) { s.camera = py::cast(v); },
+          "camera", [](const PyScene& s) { return s.camera; }, [](PyScene& s, const py::object& v) { s.camera = py::cast(value_of<CameraDef>(v, "scene.camera", "Camera")); },
           "mca.Camera ([camera])")
       .def(
           "add_object",
@@ -597,6 +755,12 @@ validates it too.)");
             if (s.objects.size() > 0) o.def.name = fmt::format("object{}", s.objects.size());
             py::object obj = py::cast(std::move(o));
             apply_keys(obj, kw, "[[object]]");
+            const std::string& name = obj.cast<const PyObjectDef&>().def.name;
+            for (std::size_t k = 0; k < s.objects.size(); ++k)
+              if (py::isinstance<PyObjectDef>(s.objects[k]) && s.objects[k].cast<const PyObjectDef&>().def.name == name)
+                throw Error(fmt::format("add_object: scene.objects[{}] is named {} already; object names are unique, "
+                                        "give name=\"...\" another",
+                                        k, text::quoted(name)));
             s.objects.append(obj);
             return obj;
           },
@@ -618,7 +782,16 @@ validates it too.)");
           "Appends an mca.Load with the keys given and returns it.")
       .def(
           "add_material",
-          [](PyScene& s, const std::string& name, const std::optional<std::string>& base, const py::kwargs& kw) {
+          [](PyScene& s, py::handle name_arg, py::handle base_arg, const py::kwargs& kw) {
+            const std::string name = to_text(name_arg, "add_material: name", "a str naming the material");
+            std::optional<std::string> base;
+            if (!base_arg.is_none())
+              base = to_text(base_arg, "add_material: base", "a str: an earlier scene material or a built-in");
+            for (std::size_t k = 0; k < s.materials.size(); ++k)
+              if (py::isinstance<MaterialDef>(s.materials[k]) && s.materials[k].cast<const MaterialDef&>().name == name)
+                throw Error(fmt::format("add_material: scene.materials[{}] is named {} already; material names are "
+                                        "unique, give another name (or change that one's keys)",
+                                        k, text::quoted(name)));
             MaterialDef d;
             if (base) {
               // As the reader's `base`: an earlier [[material]] of the scene, then a built-in.
@@ -656,7 +829,8 @@ validates it too.)");
           "reads it back to the same scene.")
       .def(
           "save",
-          [](const PyScene& s, const std::filesystem::path& path) {
+          [](const PyScene& s, py::handle path_arg) {
+            const std::filesystem::path path = to_path(path_arg, "Scene.save: path");
             const std::string text = io::scene_to_toml(s.to_def());
             FILE* f = std::fopen(path.c_str(), "wb");
             if (!f) throw Error(fmt::format("{}: cannot be written ({}); check the folder exists and is writable",

@@ -91,7 +91,9 @@ class PySimulation {
   // The engine, for reading: after the slice a Ctrl-C left running has ended. Refused while another
   // Python thread is in advance (the state is the backend's own arrays).
   const Engine& engine() const {
-    if (advancing_) throw Error("the simulation is advancing in another thread; read its state when advance returns");
+    if (advancing_)
+      throw Error("the simulation is advancing (in another thread, or this is advance's progress callback, which "
+                  "gets done and total); read its state when advance returns");
     join();
     return *engine_;
   }
@@ -320,12 +322,46 @@ Gl& gl() {
   return *instance;
 }
 
-py::array_t<std::uint8_t> render_to(PySimulation& sim, const std::optional<std::filesystem::path>& path,
-                                    const std::string& colour_text, const std::optional<std::string>& draw_text,
-                                    std::pair<int, int> size) {
+// A file to write (a picture, a checkpoint): not empty, not a folder.
+void check_file_path(const std::filesystem::path& path, const std::string& key, const char* what) {
+  if (path.empty()) throw Error(fmt::format("{} is empty (\"\"); give the path of the {} file", key, what));
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw Error(fmt::format("{} = '{}' is a folder; give the path of the {} file (a name in that folder)", key,
+                            path.string(), what));
+}
+
+// progress=: None or a callable, checked before any step is taken.
+void check_progress(const py::object& progress) {
+  if (!progress.is_none() && !PyCallable_Check(progress.ptr()))
+    throw Error(fmt::format("progress = {} is not callable; give a function progress(done, total) or None",
+                            shown(progress)));
+}
+
+py::array_t<std::uint8_t> render_to(PySimulation& sim, py::handle path_arg, py::handle colour_arg, py::handle draw_arg,
+                                    py::handle size_arg) {
+  std::optional<std::filesystem::path> path;
+  if (!path_arg.is_none()) {
+    path = to_path(path_arg, "render: path");
+    check_file_path(*path, "render: path", "PNG");
+    if (path->extension() != ".png" && path->extension() != ".PNG")
+      throw Error(fmt::format("render: path = '{}' does not end in .png; the picture is written as PNG, so give a "
+                              "name ending in .png",
+                              path->string()));
+  }
+  const std::string colour_text = to_text(colour_arg, "render: colour", "a str: one of " + render::colour_mode_names());
+  std::optional<std::string> draw_text;
+  if (!draw_arg.is_none()) draw_text = to_text(draw_arg, "render: draw", "a str: one of " + render::draw_mode_names());
+  const std::string size_what = "(width, height), two whole numbers of pixels";
+  if (!py::isinstance<py::sequence>(size_arg) || PyUnicode_Check(size_arg.ptr()) || py::len(size_arg) != 2)
+    throw Error(fmt::format("render: size = {} is not two whole numbers; give {}", shown(size_arg), size_what));
+  const auto size_seq = py::reinterpret_borrow<py::sequence>(size_arg);
+  const int width = static_cast<int>(to_whole(size_seq[0], "render: size[0]", std::numeric_limits<int>::min(),
+                                              std::numeric_limits<int>::max(), size_what));
+  const int height = static_cast<int>(to_whole(size_seq[1], "render: size[1]", std::numeric_limits<int>::min(),
+                                               std::numeric_limits<int>::max(), size_what));
   const Engine& e = sim.engine();
   const Model& m = e.model();
-  const auto [width, height] = size;
   app::check_render_size(width, height, "size");
   const auto colour = render::parse_colour_mode(colour_text);
   if (!colour)
@@ -431,6 +467,7 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
 }
 
 void checkpoint(PySimulation& sim, const std::filesystem::path& path) {
+  check_file_path(path, "checkpoint: path", "checkpoint");
   const Engine& e = sim.engine();
   io::Checkpoint cp;
   cp.scene = e.scene();
@@ -467,6 +504,12 @@ std::unique_ptr<PySimulation> resume(const std::filesystem::path& path, int thre
   return std::make_unique<PySimulation>(cp, fmt::format("checkpoint '{}'", file.string()), app::thread_count(threads));
 }
 
+// threads=: a whole number (0: all cores); app::thread_count refuses a negative one.
+int to_int_threads(py::handle v) {
+  return static_cast<int>(to_whole(v, "threads", std::numeric_limits<int>::min(), std::numeric_limits<int>::max(),
+                                   "a whole number of worker threads (0: all cores; at most 2147483647)"));
+}
+
 SceneDef scene_of(const py::handle& scene) {
   if (py::isinstance<PyScene>(scene)) return scene.cast<const PyScene&>().to_def();
   if (py::isinstance<py::str>(scene) || py::hasattr(scene, "__fspath__"))
@@ -484,7 +527,9 @@ Arrays are in the model's automaton order (objects in scene order, each in latti
 return state arrays return copies taken when called; strength_class(), masses() and object_ids() return
 read-only views of the model, which never changes once built; every array stays valid after the
 Simulation is gone.)");
-  sim.def(py::init([](const py::handle& scene, int threads, const std::string& backend) {
+  sim.def(py::init([](const py::handle& scene, py::handle threads_arg, py::handle backend_arg) {
+            const int threads = to_int_threads(threads_arg);
+            const std::string backend = to_text(backend_arg, "Simulation: backend", "a str: \"cpu\"");
             if (backend != "cpu")
               throw Error(fmt::format("backend '{}' is not available in this build; the backends are: cpu", backend));
             const SceneDef def = scene_of(scene);
@@ -495,23 +540,37 @@ Simulation is gone.)");
           "cores; more than the cores: the cores). Raises mca.Error for a scene that cannot be built, with the "
           "command's message.")
       .def_static(
-          "resume", [](const std::filesystem::path& path, int threads) { return resume(path, threads); },
+          "resume",
+          [](py::handle path, py::handle threads) {
+            return resume(to_path(path, "Simulation.resume: path"), to_int_threads(threads));
+          },
           py::arg("path"), py::arg("threads") = 0,
           "Continues from a checkpoint: a .mcack file (sim.checkpoint, mca run --checkpoint-every), or a run's folder "
           "(its newest checkpoint). The file is checked as `mca resume` checks it; stepping on gives the bits an "
           "uninterrupted run gives.")
       .def(
           "advance",
-          [](PySimulation& s, std::int64_t steps, const py::object& progress) { s.advance(steps, progress); },
+          [](PySimulation& s, py::handle steps, const py::object& progress) {
+            check_progress(progress);
+            s.advance(to_whole(steps, "advance: steps", std::numeric_limits<std::int64_t>::min(),
+                               std::numeric_limits<std::int64_t>::max(),
+                               fmt::format("a whole number of steps, 0 to {:.0e}", static_cast<double>(Engine::kMaxSteps))),
+                      progress);
+          },
           py::arg("steps"), py::arg("progress") = py::none(),
           "Advances `steps` time steps on a stepping thread, without the GIL. Ctrl-C raises KeyboardInterrupt "
           "within about 0.05 s while the slice in flight (up to about 2 s of steps) ends in the background; whatever "
           "uses the simulation next waits for it, so the state is always at a whole step (advance again to go on). "
-          "progress(done, total) is called after each slice. Raises mca.Error when the run becomes unstable (the "
-          "command's message; the state is the unstable step's).")
+          "progress(done, total) is called after each slice, while the next one runs: it cannot read the simulation "
+          "(sim.step or an array raises mca.Error), so use done and total; progress must be callable or None "
+          "(checked before any step). One Simulation is used from one Python thread at a time: advance or a read "
+          "from another thread while it runs raises mca.Error (it does not wait). Raises mca.Error when the run "
+          "becomes unstable (the command's message; the state is the unstable step's).")
       .def(
           "advance_to",
-          [](PySimulation& s, double time, const py::object& progress) {
+          [](PySimulation& s, py::handle time_arg, const py::object& progress) {
+            const double time = to_number(time_arg, "advance_to: time", "a simulated time [s]");
+            check_progress(progress);
             const Engine& e = s.engine();
             const double dt = static_cast<double>(e.model().dt);
             if (!std::isfinite(time)) throw Error(fmt::format("advance_to({}): not a finite time", time));
@@ -710,19 +769,21 @@ Simulation is gone.)");
           "The FNV-1a hash of the whole state as 16 hex digits, summary.json's state_hash (equal hashes: bitwise "
           "equal states).")
       .def(
-          "write_frame", [](PySimulation& s, const std::filesystem::path& out) { return write_frame(s, out); },
+          "write_frame", [](PySimulation& s, py::handle out) { return write_frame(s, to_path(out, "write_frame: out")); },
           py::arg("out"),
           "Writes the state as the next frame of the folder `out`, as `mca run --out` writes a frame: "
           "frames/automata_NNNNNN.vtu, projectiles, the .pvd collections, the bound surface (output.surface), a row "
           "of stats.csv. The first call for a folder numbers from 0, writes scene.toml and removes the frames and "
           "stats an earlier run left there; the folder stays locked (as a run's) until another folder is given, "
-          "close_output() or the Simulation goes. Returns the frame number.")
+          "close_output() or the Simulation goes; giving the first folder again starts it afresh (frame 0, its "
+          "earlier frames and stats removed). Returns the frame number.")
       .def(
           "close_output", [](PySimulation& s) { s.output.reset(); },
           "Releases the folder of write_frame (its files stay).")
       .def(
-          "checkpoint", [](PySimulation& s, const std::filesystem::path& path) { checkpoint(s, path); }, py::arg("path"),
-          "Saves the scene and the whole state to `path` (.mcack, the command's format); Simulation.resume(path) "
+          "checkpoint", [](PySimulation& s, py::handle path) { checkpoint(s, to_path(path, "checkpoint: path")); },
+          py::arg("path"),
+          "Saves the scene and the whole state to the file `path` (.mcack, the command's format; not a folder); Simulation.resume(path) "
           "continues bitwise as if uninterrupted. `mca resume` continues it in a run folder when it was saved at a "
           "frame's end (step a multiple of steps_per_frame).")
       .def(
@@ -745,12 +806,13 @@ Simulation is gone.)");
       });
 
   m.def("render", &render_to, py::arg("sim"), py::arg("path") = py::none(), py::arg("colour") = "fragment",
-        py::arg("draw") = py::none(), py::arg("size") = std::pair<int, int>{1280, 720},
+        py::arg("draw") = py::none(), py::arg("size") = py::make_tuple(1280, 720),
         "Draws the simulation's state with the renderer of `mca run --render` (OpenGL through EGL: offscreen, no "
         "display needed) from the run's camera (the scene's [camera], else framed on the starting state). colour: "
         "fragment, damage, class, group, stress or speed; draw: cubes, spheres, surface or links (default: surface "
         "with a mesh object, else cubes); size: (width, height). Writes a PNG to `path` when given; returns the "
-        "picture as (height, width, 4) uint8 RGBA, top row first.");
+        "picture as (height, width, 4) uint8 RGBA, top row first. `path` is a file name ending in .png (a folder or "
+        "another extension is refused).");
 }
 
 }  // namespace mca::python

@@ -93,3 +93,28 @@ def test_time_step_above_the_critical_one_is_refused():
     scene.solver.time_step = sim.time_step * 6
     with pytest.raises(mca.Error, match="solver.time_step"):
         mca.Simulation(scene)
+
+
+def test_duplicate_names_are_refused_when_added():
+    scene = mca.Scene()
+    scene.add_material("weak", base="concrete", tensile_strength=1e6)
+    with pytest.raises(mca.Error, match=r'add_material: scene\.materials\[0\] is named "weak" already'):
+        scene.add_material("weak", base="glass")
+    assert [m.name for m in scene.materials] == ["weak"]
+    scene.add_object(name="wall")
+    with pytest.raises(mca.Error, match=r'add_object: scene\.objects\[0\] is named "wall" already'):
+        scene.add_object(name="wall", position=(0, 2, 0))
+    scene.add_object()  # named object1 by its index
+    with pytest.raises(mca.Error, match=r'scene\.objects\[1\] is named "object1" already'):
+        scene.add_object(name="object1")
+    assert [o.name for o in scene.objects] == ["wall", "object1"]
+    scene.validate()
+
+
+def test_progress_must_be_callable_before_any_step():
+    sim = mca.Simulation(mca.Scene.default(), threads=1)
+    with pytest.raises(mca.Error, match=r"progress = 3 is not callable; give a function progress\(done, total\) or None"):
+        sim.advance(5, progress=3)
+    with pytest.raises(mca.Error, match="progress = 'x' is not callable"):
+        sim.advance_to(0.001, progress="x")
+    assert sim.step == 0

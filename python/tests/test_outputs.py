@@ -95,3 +95,19 @@ def test_render_draws_the_state(tmp_path):
     assert np.array_equal(again, image)  # rendering only reads the state
     spheres = mca.render(sim, draw="spheres", size=(320, 240))
     assert not np.array_equal(spheres, image)
+
+
+def test_render_and_checkpoint_refuse_bad_paths(tmp_path):
+    sim = mca.Simulation(mca.Scene.default(), threads=1)
+    with pytest.raises(mca.Error, match=r"render: path = '.*x\.jpg' does not end in \.png"):
+        mca.render(sim, tmp_path / "x.jpg", size=(64, 48))
+    assert not (tmp_path / "x.jpg").exists()
+    (tmp_path / "d.png").mkdir()
+    with pytest.raises(mca.Error, match=r"render: path = '.*d\.png' is a folder; give the path of the PNG file"):
+        mca.render(sim, tmp_path / "d.png", size=(64, 48))
+    with pytest.raises(mca.Error, match=r"checkpoint: path = '.*' is a folder; give the path of the checkpoint file"):
+        sim.checkpoint(tmp_path)
+    with pytest.raises(mca.Error, match=r'checkpoint: path is empty \(""\)'):
+        sim.checkpoint("")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d.png"]
+    assert list((tmp_path / "d.png").iterdir()) == []
