@@ -758,8 +758,8 @@ void check_keys(std::string_view t, const std::string& source) {
                        kParseBytesPerInlineTable * inline_tables + kParseBytesPerArrayTable * array_tables;
   if (bytes > kMaxParseBytes) {
     throw Error(fmt::format("{}: reading this scene would take about {:.2g} GB ({:.0f} array items, {:.0f} keys, {:.0f} "
-                            "tables{}), more than the {:.0f} GB a scene may take (by this count a scene of 100,000 objects of five keys "
-                            "takes about 0.25 GB); the file is damaged or not a scene",
+                            "tables{}), more than the {:.0f} GB a scene may take (by this count a scene of 100,000 "
+                            "objects of five keys takes about 0.25 GB); the file is damaged or not a scene",
                             source, bytes / 1e9, items, keys, tables,
                             fmt::format("{}{}", inline_tables > 0 ? fmt::format(", {:.0f} inline tables", inline_tables) : "",
                                         array_tables > 0 ? fmt::format(", {:.0f} [[...]] headers", array_tables) : ""),
