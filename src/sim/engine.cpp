@@ -27,9 +27,13 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
   }
   // A frame longer than the run is the run: its only frames are the first and the last (output.frame_rate
   // = 1e-6 over 0.05 s), however many steps a whole frame would take.
-  if (std::ceil(frame / stable - 1e-9) > 1e9 && scene.output.duration < frame) frame = scene.output.duration;
+  // At most 1e9 steps a frame, give or take the float rounding of a given time step (1e-12 s is
+  // 9.99999998e-13 in float, which made a frame of 1 ms 1,000,000,001 steps and refused the documented
+  // frame_rate = 1000 while naming it as the fix).
+  constexpr double kMaxFrameSteps = 1e9 * (1 + 1e-6);
+  if (std::ceil(frame / stable - 1e-9) > kMaxFrameSteps && scene.output.duration < frame) frame = scene.output.duration;
   const double steps = std::max(1.0, std::ceil(frame / stable - 1e-9));
-  if (steps > 1e9) {
+  if (steps > kMaxFrameSteps) {
     const double rate = steps / 1e9 / frame;  // the frame rate at which a frame is 1e9 steps
     if (given)
       throw Error(fmt::format("{}: a frame of {:.3g} s (output.frame_rate = {:g}) is {:.3g} steps of solver.time_step = "
