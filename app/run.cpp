@@ -261,8 +261,13 @@ std::vector<std::string> read_back_stats(const std::filesystem::path& dir, std::
   std::vector<std::string> rows;
   std::string line;
   if (!std::getline(in, line)) return rows;  // header
+  // A row ended by CR LF (the file saved by an editor or spreadsheet that writes them) is the same row.
+  auto without_cr = [](std::string& l) -> std::string& {
+    if (!l.empty() && l.back() == '\r') l.pop_back();
+    return l;
+  };
   while (static_cast<std::int64_t>(rows.size()) < frames && std::getline(in, line) && !in.eof() &&
-         whole_stats_row(line, static_cast<std::int64_t>(rows.size()), cells))
+         whole_stats_row(without_cr(line), static_cast<std::int64_t>(rows.size()), cells))
     rows.push_back(line);
   return rows;
 }

@@ -69,6 +69,11 @@ TEST(ResumeStats, RowsPastTheCheckpointAndTornRowsAreCutBack) {
       {"the checkpoint's own row lost", join(2)},
       {"the checkpoint's own row with a cell cut", join(2) + row2.substr(0, row2.rfind(',')) + "\n" + rows[4] + "\n"},
       {"a row of another frame in its place", join(2) + rows[4] + "\n" + rows[5] + "\n"},
+      {"CR LF line ends (saved by an editor that writes them; every row was dropped)", [&] {
+         std::string s;
+         for (std::size_t k = 0; k <= 2; ++k) s += rows[k] + "\r\n";
+         return s;
+       }()},
       {"NUL bytes where the rows were (a crash before the data reached the disk)",
        join(2) + std::string(row2.size() + 1, '\0')},
   };
