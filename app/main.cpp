@@ -22,7 +22,15 @@ int main(int argc, char** argv) {
   std::string seed_text;
   int checkpoint_every = 0;
   auto* run = app.add_subcommand("run", "Run a scene (the built-in wall_ball scene if none is given)");
-  run->add_option("scene", scene_path, "Scene file (TOML, see docs/scene-format.md)");
+  // A scene path given empty ("" from an unset shell variable) is refused, not taken for the built-in scene.
+  const CLI::Validator not_empty(
+      [](std::string& p) {
+        return p.empty() ? std::string("an empty scene path: give the path of a .toml file, or leave it out for "
+                                       "the built-in scene")
+                         : std::string();
+      },
+      "SCENE");
+  run->add_option("scene", scene_path, "Scene file (TOML, see docs/scene-format.md)")->check(not_empty);
   auto* out_opt = run->add_option("--out", out_dir, "Output folder (default out/<scene name>, see docs/scene-format.md)");
   run->add_option("--threads", ro.threads, "Worker threads (0 = all cores)");
   auto* dur_opt = run->add_option("--duration", duration, "Simulated time [s] (overrides output.duration)");
@@ -58,7 +66,7 @@ int main(int argc, char** argv) {
   std::string info_scene;
   bool info_json = false;
   auto* info = app.add_subcommand("info", "Automata, links, time step, steps per frame and memory of a scene");
-  info->add_option("scene", info_scene, "Scene file (default: the built-in scene)");
+  info->add_option("scene", info_scene, "Scene file (default: the built-in scene)")->check(not_empty);
   info->add_flag("--json", info_json, "Machine-readable output");
 
   mca::app::ViewOptions vo;
@@ -66,7 +74,7 @@ int main(int argc, char** argv) {
   int view_frames = 0;
   auto* view = app.add_subcommand("view", "Live viewer: watch a scene break, shoot balls with the mouse (a window; "
                                           "keys in the README)");
-  view->add_option("scene", view_scene, "Scene file (default: the built-in scene)");
+  view->add_option("scene", view_scene, "Scene file (default: the built-in scene)")->check(not_empty);
   view->add_option("--size", view_size, "Window size, WIDTHxHEIGHT (default 1280x720)");
   view->add_option("--threads", vo.threads, "Worker threads (0 = all cores)");
   auto* frames_opt = view->add_option("--frames", view_frames, "Show this many frames (one output frame of the scene each), then exit");

@@ -37,6 +37,17 @@ fs::path fresh_dir(const std::string& name) {
   return d;
 }
 
+// An empty scene path (an unset shell variable: mca run "$SCENE") is refused, not taken for the built-in
+// scene, which `mca run ""` used to run to the end (found by the hostile review).
+TEST(Cli, AnEmptyScenePathIsRefused) {
+  for (const char* cmd : {"info \"\"", "run \"\" --out /nonexistent-mca-test-dir"}) {
+    SCOPED_TRACE(cmd);
+    const Result r = run_mca(cmd);
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("an empty scene path"), std::string::npos) << r.output;
+  }
+}
+
 TEST(Cli, RunWritesFramesStatsAndSummary) {
   const fs::path d = fresh_dir("run");
   const fs::path scene = small_scene(d);
