@@ -100,8 +100,15 @@ TEST(RangeEdges, TargetAutomataAtItsLimit) {
   EXPECT_HAS(m, "solver.target_automata = 178956971 is out of range: at most 178956970");
   m = engine_error("[solver]\ntarget_automata = 178956970");
   EXPECT_HAS(m, "over solver.max_memory_gb = 16");
-  EXPECT_HAS(m, "a spacing of about");
+  // The target sets the spacing, so the fix is a lower target, not a larger spacing (which the message
+  // named, and which the target would override; found by the hostile review).
+  EXPECT_HAS(m, "lower solver.target_automata (about");
+  EXPECT_EQ(m.find("solver.spacing"), std::string::npos) << m;
   expect_sane(m);
+  // And a target too small for the object: raise it.
+  m = engine_error("[solver]\ntarget_automata = 1");
+  EXPECT_HAS(m, "raise solver.target_automata (it sets the spacing; about");
+  EXPECT_EQ(m.find("solver.spacing"), std::string::npos) << m;
 }
 
 // Item 5: solver.time_step = 1e-12, the documented minimum, ran with a contact damping ratio of 2e-17 (the

@@ -393,6 +393,15 @@ double spacing_that_fits(double d, double automata, bool approximate, double lim
   return d * std::cbrt((approximate ? 2 * automata : automata) / fit) * 1.05;
 }
 
+// The fix for a model too large at spacing d, `fits` the spacing that would fit: a larger spacing, or, where
+// solver.target_automata chooses the spacing, a lower target (the count falls with the cube of the spacing).
+// `automata` is the count spacing_that_fits took (twice a lower bound from the volume).
+std::string smaller_model(const SceneDef& scene, double d, double automata, double fits) {
+  if (scene.solver.target_automata > 0)
+    return fmt::format("lower solver.target_automata (about {:.3g} fits)", automata * std::pow(d / fits, 3.0));
+  return fmt::format("increase solver.spacing (memory falls with its cube: a spacing of about {:.3g} m fits)", fits);
+}
+
 void refuse_over_memory(const SceneDef& scene, double d, double automata, bool approximate) {
   const double bytes = static_cast<double>(estimate_memory_bytes(1) - estimate_memory_bytes(0)) * automata +
                        static_cast<double>(estimate_memory_bytes(0));
@@ -406,20 +415,20 @@ void refuse_over_memory(const SceneDef& scene, double d, double automata, bool a
   if (bytes > limit) {
     throw Error(fmt::format(
         "{}: the scene needs {:.3g} GB for {}{:.4g} automata at spacing {:.4g} m, over solver.max_memory_gb = "
-        "{:g}; increase solver.spacing (memory falls with its cube: a spacing of about {:.3g} m fits) or raise "
-        "solver.max_memory_gb if the machine has it",
+        "{:g}; {} or raise solver.max_memory_gb if the machine has it",
         scene.source, bytes / 1e9, approximate ? "at least " : "", automata, d, scene.solver.max_memory_gb,
-        spacing_that_fits(d, automata, approximate, limit)));
+        smaller_model(scene, d, approximate ? 2 * automata : automata,
+                      spacing_that_fits(d, automata, approximate, limit))));
   }
   // A model larger than the machine's memory would swap for hours before failing.
   const double machine = physical_memory_bytes();
   if (machine > 0 && bytes > 0.9 * machine) {
     throw Error(fmt::format(
         "{}: the scene needs {:.3g} GB for {}{:.4g} automata at spacing {:.4g} m, more than this machine's "
-        "{:.1f} GB of memory; increase solver.spacing (memory falls with its cube: a spacing of about {:.3g} m "
-        "fits) or run it on a larger machine",
+        "{:.1f} GB of memory; {} or run it on a larger machine",
         scene.source, bytes / 1e9, approximate ? "at least " : "", automata, d, machine / 1e9,
-        spacing_that_fits(d, automata, approximate, 0.9 * machine)));
+        smaller_model(scene, d, approximate ? 2 * automata : automata,
+                      spacing_that_fits(d, automata, approximate, 0.9 * machine))));
   }
 }
 
@@ -1055,8 +1064,9 @@ std::int64_t checked_automata_count(const SceneDef& scene, const Shapes& S, doub
   auto refuse_count = [&](double n, bool approximate) {
     if (n <= kMaxAutomata) return;
     throw Error(fmt::format("{}: {}{:.4g} automata at spacing {:.4g} m are more than this build supports (about "
-                            "1.8e8); increase solver.spacing",
-                            scene.source, approximate ? "at least " : "", n, d));
+                            "1.8e8); {}",
+                            scene.source, approximate ? "at least " : "", n, d,
+                            scene.solver.target_automata > 0 ? "lower solver.target_automata" : "increase solver.spacing"));
   };
   const double n_volume = 0.5 * shapes_volume(scene, S) / (d * d * d);
   // An extent under half a cell would round to no cell; it becomes one, a body far larger than asked.
@@ -1067,10 +1077,15 @@ std::int64_t checked_automata_count(const SceneDef& scene, const Shapes& S, doub
     for (int a = 0; a < 3; ++a)
       if (ext[a] < 0.5 * d) {
         throw Error(fmt::format("{}: object[{}] '{}' is {:.4g} x {:.4g} x {:.4g} m, {:.4g} m along its local {}, less than "
-                                "half the spacing {:.4g} m: its lattice would be a cell of {:.4g} m there; decrease "
-                                "solver.spacing (to {:.3g} m or less; {}) or make the object larger",
+                                "half the spacing {:.4g} m: its lattice would be a cell of {:.4g} m there; {} or make "
+                                "the object larger",
                                 scene.source, oi, scene.objects[oi].name, ext[0], ext[1], ext[2], ext[a], "xyz"[a], d, d,
-                                ext[a], ten_thousand_hint(scene, S)));
+                                scene.solver.target_automata > 0
+                                    ? fmt::format("raise solver.target_automata (it sets the spacing; about {:.3g} "
+                                                  "gives {:.3g} m)",
+                                                  scene.solver.target_automata * std::pow(d / ext[a], 3.0), ext[a])
+                                    : fmt::format("decrease solver.spacing (to {:.3g} m or less; {})", ext[a],
+                                                  ten_thousand_hint(scene, S))));
       }
   }
   refuse_over_memory(scene, d, n_volume, true);
@@ -1184,8 +1199,9 @@ void fill_lattice(Model& M, const SceneDef& scene, const Shapes& S, std::size_t 
       }
   if (M.size() == first) {
     throw Error(fmt::format("{}: {} '{}' holds no automaton at spacing {:.4g} m; make it larger than the spacing "
-                            "or decrease solver.spacing",
-                            scene.source, okey, o.name, d));
+                            "or {}",
+                            scene.source, okey, o.name, d,
+                            scene.solver.target_automata > 0 ? "raise solver.target_automata" : "decrease solver.spacing"));
   }
   refuse_empty_regions(scene, M, oi, first, d);
   if (const MeshObject* mo = S.of(oi)) {
