@@ -56,10 +56,14 @@ class IMPORT_SCENE_OT_mca_run(bpy.types.Operator, ImportHelper):
             self.report({"ERROR"}, f"mca run: the importer needs a module that is missing ({e}); install it "
                                    "(numpy: Debian's python3-numpy) and restart Blender")
             return {"CANCELLED"}
+        except Exception as e:  # noqa: BLE001 - a failure nobody foresaw: one line in the report area, no traceback
+            self.report({"ERROR"}, f"mca run: importing {path} failed ({type(e).__name__}: {e}); the folder may be "
+                                   "damaged: run mca again into an empty folder, and report it if it persists")
+            return {"CANCELLED"}
         for w in result.run.warnings:
             self.report({"WARNING"}, f"mca run: {w}")
         self.report({"INFO"}, f"mca run: {result.frames} frames of {len(result.run.frames[0]['points'])} automata "
-                              f"from {path} in {result.seconds:.2f} s")
+                              f"from {result.run.dir} in {result.seconds:.2f} s")
         return {"FINISHED"}
 
 

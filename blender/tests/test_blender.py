@@ -166,7 +166,53 @@ def make_bad_inputs(a):
     d = os.path.join(bad, "no_summary")
     copy_run(short, d)
     os.remove(os.path.join(d, "summary.json"))
+    # Files of the right name but the wrong shape: valid JSON or TOML holding the wrong types or values.
+    d = os.path.join(bad, "summary_list")
+    copy_run(short, d)
+    with open(os.path.join(d, "summary.json"), "w") as f:
+        f.write("[1, 2]\n")
+    for name, old, new in (("gravity_string", "gravity = [0.0, 0.0, -9.81]", 'gravity = "down"'),
+                           ("ground_number", "[ground]", "ground_was = 1\n[ground_x]"),
+                           ("fov_string", "fov = 40.0", 'fov = "wide"'),
+                           ("fov_zero", "fov = 40.0", "fov = 0.0")):
+        d = os.path.join(bad, name)
+        copy_run(short, d)
+        path = os.path.join(d, "scene.toml")
+        with open(path) as f:
+            text = f.read()
+        assert old in text, (path, old)
+        text = text.replace(old, new, 1)
+        if name == "ground_number":
+            text = "ground = 5\n" + text
+        with open(path, "w") as f:
+            f.write(text)
+    d = os.path.join(bad, "render_zero")  # render options that would divide by zero: warned, the defaults used
+    copy_run(short, d)
+    os.makedirs(os.path.join(d, "render"), exist_ok=True)
+    with open(os.path.join(d, "render", "render.json"), "w") as f:
+        f.write('{"fps": 0, "width": -5, "height": 0}\n')
+    d = os.path.join(bad, "frames_file")  # frames/ a file
+    copy_run(short, d)
+    shutil.rmtree(os.path.join(d, "frames"))
+    with open(os.path.join(d, "frames"), "w") as f:
+        f.write("x\n")
+    d = os.path.join(bad, "frame_folder")  # a frame a folder
+    copy_run(short, d)
+    os.remove(os.path.join(d, "frames", "automata_000001.vtu"))
+    os.makedirs(os.path.join(d, "frames", "automata_000001.vtu"))
     return bad
+
+
+def cli_refuses(a, name, args, words, code=1, env=None):
+    """mca_cli.py refuses: one line on stderr naming the problem (`words`), exit code `code`, no traceback."""
+    r = run(blender_cmd(a, CLI, *args), env=env)
+    lines = [l for l in r.stderr.splitlines() if l.startswith("mca_cli:")]
+    ok = r.returncode == code and words in r.stderr and len(lines) == 1 and \
+        lines[0].startswith("mca_cli: error:" if code == 1 else "mca_cli: internal error") and "Traceback" not in r.stderr
+    print(("ok: " if ok else "FAIL: ") + f"mca_cli.py, {name}: exit {r.returncode}, says '{words}'")
+    if not ok:
+        sys.exit(f"mca_cli.py on {name}: exit {r.returncode}, stderr: {r.stderr[-500:]}")
+    return r
 
 
 def png_pixels(path):
@@ -404,13 +450,12 @@ def main():
                 ("no frames", [os.path.join(bad, "no_frames"), os.path.join(a.work, "x.blend")], "holds no frames"),
                 ("an output of unknown type", [short, os.path.join(a.work, "x.fbx")], "extension"),
                 ("a frame past the last", [short, os.path.join(a.work, "x.png"), "--frame", "99"], "frames 0 to 5"),
-                ("no arguments", [], "expected RUN_DIR and OUT")):
-            r = run(blender_cmd(a, CLI, *args))
-            ok = r.returncode == 1 and words in r.stderr and "mca_cli: error:" in r.stderr and \
-                "Traceback" not in r.stderr
-            print(("ok: " if ok else "FAIL: ") + f"mca_cli.py, {name}: exit {r.returncode}, says '{words}'")
-            if not ok:
-                sys.exit(f"mca_cli.py on {name}: exit {r.returncode}, stderr: {r.stderr[-500:]}")
+                ("no arguments", [], "expected RUN_DIR and OUT"),
+                ("a summary that is no JSON object", [os.path.join(bad, "summary_list"), os.path.join(a.work, "x.blend")],
+                 "summary.json is not the summary mca writes"),
+                ("frames/ a file", [os.path.join(bad, "frames_file"), os.path.join(a.work, "x.blend")],
+                 "a folder on its path is a file")):
+            cli_refuses(a, name, args, words)
     elif case == "missing_numpy":
         in_blender(a, "missing_numpy", short)
     elif case == "install":
