@@ -526,6 +526,23 @@ def default_fps(frames):
     return min(max(math.floor(frames / 4.0 + 0.5), 10), 30)
 
 
+def run_folder(path):
+    """(the run folder, how to name it in messages) of what the user chose: the folder itself or a file in it
+    (its automata.pvd, summary.json...). Raises RunError when the path is empty or does not exist."""
+    if not path:
+        raise RunError("no run folder given (the path is empty): choose the folder an `mca run` wrote (its --out)")
+    full = os.path.abspath(path)
+    path = path.rstrip("/" + os.sep) or path  # as given, less a trailing separator (a file browser's folder)
+    if os.path.isdir(full):
+        return full, path
+    if os.path.isfile(full):
+        folder = os.path.dirname(full)
+        return folder, f"{folder} (the folder of {path})"
+    if os.path.lexists(full):
+        raise RunError(f"{path} is neither a folder nor a file; choose the folder an `mca run` wrote (its --out)")
+    raise RunError(f"{path} does not exist; choose the folder an `mca run` wrote (its --out), or its automata.pvd")
+
+
 def _number(v):
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
@@ -574,11 +591,8 @@ class Run:
 
     def __init__(self, path, max_frames=None):
         check_dependencies()
-        self.dir = os.path.abspath(path)
         self.warnings = []
-        if not os.path.isdir(self.dir):
-            raise RunError(f"{path} is not a folder; choose the folder an `mca run` wrote (its --out)")
-        where = path
+        self.dir, where = run_folder(path)
         pvd = os.path.join(self.dir, "automata.pvd")
         scene_file = os.path.join(self.dir, "scene.toml")
         if not os.path.isfile(pvd):

@@ -238,6 +238,7 @@ def case_bad_input(case_dir):
         "fov_zero": "scene.toml: [camera] fov = 0.0 is not a number of degrees",
         "frames_file": "a folder on its path is a file",
         "frame_folder": "automata_000001.vtu is a folder",
+        "does_not_exist": os.path.join(case_dir, "does_not_exist") + " does not exist",
     }
     for name, words in expect.items():
         path = os.path.join(case_dir, name)
