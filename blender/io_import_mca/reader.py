@@ -672,7 +672,12 @@ class Run:
 
     def _read_projectiles(self, frames):
         pvd = os.path.join(self.dir, "projectiles.pvd")
-        if not os.path.isfile(pvd):
+        if not os.path.lexists(pvd):
+            balls = len(self.scene.get("projectile", []))
+            if balls:
+                self.warnings.append(f"{pvd} is missing, though the scene has {balls} projectile"
+                                     f"{'s' if balls > 1 else ''}: the balls are left out; copy the run's whole "
+                                     "folder or run mca again")
             return None
         entries = read_pvd(pvd)[:frames]
         if len(entries) < frames:

@@ -253,8 +253,10 @@ def case_bad_input(case_dir):
     reader.Run(os.path.join(case_dir, "no_summary"))
     warnings = reader.Run(os.path.join(case_dir, "no_summary")).warnings
     check(any("still going or was killed" in w for w in warnings), f"no_summary: warned: {warnings}")
-    # Render options that would divide by zero: the defaults, warned.
-    for name, words in (("render_zero", "render.json is not the render options mca writes"),):
+    # Render options that would divide by zero: the defaults, warned; a run without its balls' collection (the
+    # scene has a ball): imported without balls, warned.
+    for name, words in (("render_zero", "render.json is not the render options mca writes"),
+                        ("no_projectiles", "projectiles.pvd is missing, though the scene has 1 projectile")):
         try:
             bpy.ops.import_scene.mca_run(directory=os.path.join(case_dir, name) + "/")
         except RuntimeError as e:

@@ -200,6 +200,9 @@ def make_bad_inputs(a):
     copy_run(short, d)
     os.remove(os.path.join(d, "frames", "automata_000001.vtu"))
     os.makedirs(os.path.join(d, "frames", "automata_000001.vtu"))
+    d = os.path.join(bad, "no_projectiles")  # the balls' collection left behind: imports without balls, warned
+    copy_run(short, d)
+    os.remove(os.path.join(d, "projectiles.pvd"))
     return bad
 
 
