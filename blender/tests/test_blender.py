@@ -218,6 +218,55 @@ def cli_refuses(a, name, args, words, code=1, env=None):
     return r
 
 
+def bad_cli(a):
+    """The command line's arguments and outputs: each refusal one line on stderr, exit code 1, nothing
+    written or renamed."""
+    short = os.path.join(a.work, "short")
+    out = os.path.join(a.work, "bad_cli")
+    shutil.rmtree(out, ignore_errors=True)
+    os.makedirs(os.path.join(out, "x.png"))
+    os.makedirs(os.path.join(out, "d.blend"))
+    missing = os.path.join(out, "no_such_folder")
+    for name, args, words in (
+            ("--frames 0", [short, os.path.join(out, "y.png"), "--frames", "0"], "expected a whole number >= 1"),
+            ("--samples 0", [short, os.path.join(out, "y.png"), "--samples", "0"], "expected a whole number >= 1"),
+            ("an empty RUN_DIR", ["", os.path.join(out, "y.png")], "RUN_DIR is empty"),
+            ("a run folder that does not exist", [os.path.join(out, "no_run"), os.path.join(out, "y.blend")],
+             os.path.join(out, "no_run") + " does not exist"),
+            ("a .png that is a folder", [short, os.path.join(out, "x.png")], "x.png is a folder"),
+            ("a .blend that is a folder", [short, os.path.join(out, "d.blend")], "d.blend is a folder"),
+            ("an output in a missing folder", [short, os.path.join(missing, "x.png")],
+             f"its folder {missing} does not exist; create it first"),
+            ("a .png in /proc", [short, "/proc/x.png"], "cannot write in /proc"),
+            ("a .blend in /proc", [short, "/proc/x.blend"], "cannot write in /proc"),
+            ("an .obj in /proc", [short, "/proc/x.obj"], "cannot write in /proc")):
+        cli_refuses(a, name, args, words)
+    if not os.path.isdir(os.path.join(out, "d.blend")) or os.path.exists(os.path.join(out, "d.blend1")) or \
+            os.path.exists(missing):
+        sys.exit(f"mca_cli.py changed {out}: {sorted(os.listdir(out))}")
+    # The run's automata.pvd names its run, as in the add-on.
+    blend = os.path.join(out, "by_pvd.blend")
+    r = run(blender_cmd(a, CLI, os.path.join(short, "automata.pvd"), blend, "--frames", "2"))
+    if r.returncode != 0 or not os.path.isfile(blend):
+        sys.exit(f"mca_cli.py on the run's automata.pvd: exit {r.returncode}, stderr: {r.stderr[-500:]}")
+    # A failure nobody foresaw (the reader made to fail): one line naming what failed and the run folder.
+    wrapper = os.path.join(out, "failing_cli.py")
+    with open(wrapper, "w") as f:
+        f.write("import runpy, sys\n"
+                f"sys.path.insert(0, {ADDON_ROOT!r})\n"
+                "from io_import_mca import reader\n"
+                "def fail(*args, **kwargs):\n"
+                "    raise ZeroDivisionError('float division by zero')\n"
+                "reader.Run = fail\n"
+                f"runpy.run_path({CLI!r}, run_name='__main__')\n")
+    p = run([a.blender, "-b", "--factory-startup", "--python", wrapper, "--", short, os.path.join(out, "z.blend")])
+    lines = [l for l in p.stderr.splitlines() if l.startswith("mca_cli:")]
+    if p.returncode != 2 or len(lines) != 1 or "internal error while importing " + short not in lines[0] or \
+            "ZeroDivisionError" not in lines[0] or "Traceback" in p.stderr:
+        sys.exit(f"mca_cli.py on an unforeseen failure: exit {p.returncode}, stderr: {p.stderr[-500:]}")
+    print("ok: an unforeseen failure is one line naming the run folder, exit 2")
+
+
 def png_pixels(path):
     """(width, height, rows of RGB bytes) of an 8-bit RGB or RGBA, non-interlaced PNG (what Blender writes)."""
     import zlib
@@ -416,6 +465,7 @@ def main():
     elif case == "obj_sequence":
         folder = os.path.join(a.work, "obj_sequence")
         shutil.rmtree(folder, ignore_errors=True)
+        os.makedirs(folder)  # mca_cli.py refuses to write into a folder that does not exist
         r = run(blender_cmd(a, CLI, short, os.path.join(folder, "short.obj")))
         frames = sum(1 for n in os.listdir(os.path.join(short, "frames")) if n.startswith("automata_"))
         files = sorted(os.listdir(folder)) if os.path.isdir(folder) else []
@@ -459,6 +509,8 @@ def main():
                 ("frames/ a file", [os.path.join(bad, "frames_file"), os.path.join(a.work, "x.blend")],
                  "a folder on its path is a file")):
             cli_refuses(a, name, args, words)
+    elif case == "bad_cli":
+        bad_cli(a)
     elif case == "missing_numpy":
         in_blender(a, "missing_numpy", short)
     elif case == "install":
