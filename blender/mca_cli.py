@@ -18,12 +18,17 @@ Options: --frame N (the frame of a .png; default: the last), --frames N (import 
 --size WxH (the picture's size; default: the run's render size, 1280x720), --engine workbench|eevee|cycles,
 --samples N (anti-aliasing samples of the Workbench, default 8, or samples of Eevee and Cycles).
 
-A problem with the run folder or the arguments is one line on stderr and exit code 1; any other failure
-exits with 2.
+RUN_DIR is the folder an `mca run` wrote (its --out) or its automata.pvd; OUT's folder must exist and be
+writable, and OUT must not be a folder (checked before the import).
+
+A problem with the run folder, the arguments or the output is one line on stderr and exit code 1; any other
+failure is one line too (what failed, on which run folder) and exits with 2 (MCA_CLI_TRACEBACK=1 adds
+Python's traceback).
 """
 
 import os
 import sys
+import tempfile
 import time
 import traceback
 
@@ -35,6 +40,10 @@ USAGE = ("usage: blender -b --factory-startup --python blender/mca_cli.py -- RUN
 
 class UsageError(Exception):
     pass
+
+
+class OutputError(Exception):
+    """An output that cannot be written: one line, without the usage."""
 
 
 def parse(argv):
@@ -71,7 +80,7 @@ def parse(argv):
             except ValueError:
                 raise UsageError(f"{a} {value}: expected " +
                                  ("WxH, 16 to 16384 each" if key == "size" else "workbench, eevee or cycles" if key == "engine"
-                                  else "a whole number >= 0"))
+                                  else f"a whole number >= {1 if key in ('frames', 'samples') else 0}"))
             k += 2
             continue
         pos.append(a)
@@ -79,10 +88,39 @@ def parse(argv):
     if len(pos) != 2:
         raise UsageError(f"expected RUN_DIR and OUT, got {len(pos)} arguments")
     run_dir, out = pos
+    if not run_dir:
+        raise UsageError("RUN_DIR is empty: give the folder an `mca run` wrote (its --out)")
+    if not out:
+        raise UsageError("OUT is empty: give the file to write (OUT.abc, OUT.obj, OUT.png or OUT.blend)")
     ext = os.path.splitext(out)[1].lower()
     if ext not in (".abc", ".obj", ".png", ".blend"):
         raise UsageError(f"{out}: the output's extension picks what to write: .abc, .obj, .png or .blend")
     return run_dir, out, ext, opts
+
+
+def check_output(out):
+    """Refuses, before the import, an output Blender could not write: a folder of that name (Blender's save
+    would rename it to NAME1 and write beside it), a folder that does not exist, one that cannot be written."""
+    full = os.path.abspath(out)
+    parent = os.path.dirname(full)
+    if os.path.isdir(full):
+        raise OutputError(f"{out} is a folder: give a file name to write (remove or rename the folder, or write "
+                          f"{os.path.join(out, 'NAME' + os.path.splitext(out)[1])})")
+    if not os.path.isdir(parent):
+        raise OutputError(f"{out}: its folder {parent} does not exist; create it first (mkdir -p {parent})")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".mca_cli_", dir=parent)
+        os.close(fd)
+        os.remove(probe)
+    except OSError as e:
+        raise OutputError(f"{out}: cannot write in {parent} ({e.strerror or e}); choose a folder you can write to")
+
+
+def written(path, what):
+    """Refuses a file Blender's exporter or renderer did not write (it reports that only in its log)."""
+    if not os.path.isfile(path):
+        raise OutputError(f"{what} wrote no {path} (Blender's messages above say why): check that its folder can be "
+                          "written and has room")
 
 
 def render(scene, out, opts, frames):
@@ -116,13 +154,17 @@ def render(scene, out, opts, frames):
     scene.render.filepath = os.path.abspath(out)
     scene.frame_set(frame)
     bpy.ops.render.render(write_still=True)
-    if not os.path.isfile(out):
-        raise RuntimeError(f"Blender's render wrote no {out}")
+    written(out, "Blender's render")
     return frame
+
+
+STAGE = ["while reading the arguments for", None]  # what main() does, and on which run folder
 
 
 def main():
     run_dir, out, ext, opts = parse(sys.argv)
+    STAGE[1] = run_dir
+    check_output(out)
     import bpy
     if ext == ".abc" and not bpy.app.alembic.supported:
         raise UsageError(f"{out}: this Blender ({bpy.app.version_string}) is built without Alembic "
@@ -137,17 +179,17 @@ def main():
         bpy.data.objects.remove(obj)
     scene = bpy.context.scene
     t0 = time.perf_counter()
+    STAGE[0] = "while importing"
     result = build.import_run(bpy.context, run_dir, max_frames=opts["frames"])
     for w in result.run.warnings:
         print(f"mca_cli: warning: {w}", file=sys.stderr)
     print(f"mca_cli: imported {result.frames} frames from {result.run.dir} in {time.perf_counter() - t0:.2f} s")
-    os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
+    STAGE[0] = f"while writing {out} from"
     t0 = time.perf_counter()
     if ext == ".abc":
         bpy.ops.wm.alembic_export(filepath=os.path.abspath(out), start=scene.frame_start, end=scene.frame_end,
                                   evaluation_mode="RENDER", face_sets=False, uvs=False, export_custom_properties=True)
-        if not os.path.isfile(out):
-            raise RuntimeError(f"Blender's Alembic exporter wrote no {out}")
+        written(out, "Blender's Alembic exporter")
         print(f"mca_cli: wrote {out} (frames {scene.frame_start} to {scene.frame_end}) in "
               f"{time.perf_counter() - t0:.2f} s")
     elif ext == ".obj":
@@ -159,17 +201,17 @@ def main():
                               end_frame=scene.frame_end, export_selected_objects=False, apply_modifiers=True,
                               export_eval_mode="DAG_EVAL_RENDER", export_colors=True, export_materials=False,
                               export_uv=False)
-        written = [f"{stem}{k}.obj" for k in range(scene.frame_start, scene.frame_end + 1)]
-        missing = [w for w in written if not os.path.isfile(w)]
-        if missing:
-            raise RuntimeError(f"Blender's OBJ exporter wrote no {missing[0]}")
-        print(f"mca_cli: wrote {written[0]} to {written[-1]} in {time.perf_counter() - t0:.2f} s")
+        files = [f"{stem}{k}.obj" for k in range(scene.frame_start, scene.frame_end + 1)]
+        for w in files:
+            written(w, "Blender's OBJ exporter")
+        print(f"mca_cli: wrote {files[0]} to {files[-1]} in {time.perf_counter() - t0:.2f} s")
     elif ext == ".png":
         frame = render(scene, out, opts, result.frames)
         print(f"mca_cli: rendered frame {frame} (t = {result.run.times[frame]:.4g} s) with {opts['engine']} to {out} in "
               f"{time.perf_counter() - t0:.2f} s")
     else:
         bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(out))
+        written(out, "Blender's save")
         print(f"mca_cli: saved {out}")
 
 
@@ -180,12 +222,20 @@ if __name__ == "__main__":
     except UsageError as e:
         print(f"mca_cli: error: {e}\n{USAGE}", file=sys.stderr)
         code = 1
-    except Exception as e:  # noqa: BLE001 - every failure ends with a message and a non-zero exit code
+    except OutputError as e:
+        print(f"mca_cli: error: {e}", file=sys.stderr)
+        code = 1
+    except Exception as e:  # noqa: BLE001 - every failure ends with one line and a non-zero exit code
         from_reader = type(e).__name__ == "RunError"
-        if not from_reader:
-            traceback.print_exc()
-        print(f"mca_cli: error: {e}" if from_reader else f"mca_cli: internal error: {type(e).__name__}: {e}",
-              file=sys.stderr)
+        if from_reader:
+            print(f"mca_cli: error: {e}", file=sys.stderr)
+        else:
+            if os.environ.get("MCA_CLI_TRACEBACK"):
+                traceback.print_exc()
+            first = (str(e).strip().splitlines() or [""])[0]
+            print(f"mca_cli: internal error {STAGE[0]} {STAGE[1] or ''}: {type(e).__name__}: {first} (a bug of "
+                  "mca_cli.py or a damaged run folder: run mca again into an empty folder, and report it with "
+                  "MCA_CLI_TRACEBACK=1's output if it persists)", file=sys.stderr)
         code = 1 if from_reader else 2
     sys.stdout.flush()
     sys.stderr.flush()

@@ -14,8 +14,6 @@ bl_info = {
     "category": "Import-Export",
 }
 
-import os
-
 import bpy
 from bpy.props import IntProperty, StringProperty
 from bpy_extras.io_utils import ImportHelper
@@ -23,11 +21,10 @@ from bpy_extras.io_utils import ImportHelper
 from . import reader
 
 
-def run_folder(path):
-    """The run folder of what the file browser chose: the folder itself, or the folder of a file in it
-    (automata.pvd, summary.json...)."""
-    path = bpy.path.abspath(path)
-    return path if os.path.isdir(path) else os.path.dirname(path)
+def chosen_path(path):
+    """What the file browser chose, as a file system path: the run folder or a file in it (automata.pvd,
+    summary.json...); the reader finds the folder and names the path as given when it is not one."""
+    return bpy.path.abspath(path) if path else path
 
 
 class IMPORT_SCENE_OT_mca_run(bpy.types.Operator, ImportHelper):
@@ -44,7 +41,7 @@ class IMPORT_SCENE_OT_mca_run(bpy.types.Operator, ImportHelper):
                             min=0)
 
     def execute(self, context):
-        path = run_folder(self.filepath or self.directory)
+        path = chosen_path(self.filepath or self.directory)
         try:
             reader.check_dependencies()  # numpy and tomllib, before build (which imports numpy)
             from . import build
@@ -56,10 +53,14 @@ class IMPORT_SCENE_OT_mca_run(bpy.types.Operator, ImportHelper):
             self.report({"ERROR"}, f"mca run: the importer needs a module that is missing ({e}); install it "
                                    "(numpy: Debian's python3-numpy) and restart Blender")
             return {"CANCELLED"}
+        except Exception as e:  # noqa: BLE001 - a failure nobody foresaw: one line in the report area, no traceback
+            self.report({"ERROR"}, f"mca run: importing {path} failed ({type(e).__name__}: {e}); the folder may be "
+                                   "damaged: run mca again into an empty folder, and report it if it persists")
+            return {"CANCELLED"}
         for w in result.run.warnings:
             self.report({"WARNING"}, f"mca run: {w}")
         self.report({"INFO"}, f"mca run: {result.frames} frames of {len(result.run.frames[0]['points'])} automata "
-                              f"from {path} in {result.seconds:.2f} s")
+                              f"from {result.run.dir} in {result.seconds:.2f} s")
         return {"FINISHED"}
 
 

@@ -47,6 +47,28 @@ def check_dependencies():
         raise RunError("the mca importer needs " + " and ".join(missing) + "; install it and restart Blender")
 
 
+def _unreadable(path, e):
+    """The RunError for a file of the run that cannot be opened (other than a missing one): a folder where a
+    file should be, a file where a folder should be, no permission."""
+    if isinstance(e, IsADirectoryError):
+        return RunError(f"{path} is a folder, not the file mca writes there: remove or rename it and run mca again")
+    if isinstance(e, NotADirectoryError):
+        return RunError(f"{path} cannot be read: a folder on its path is a file (the run folder is damaged): run mca "
+                        "again into an empty folder")
+    return RunError(f"{path} cannot be read ({e.strerror or e}): check its permissions")
+
+
+def _read_bytes(path, missing):
+    """The bytes of a file of the run; `missing`: the message when it does not exist."""
+    try:
+        with open(path, "rb") as f:
+            return f.read()
+    except FileNotFoundError:
+        raise RunError(missing)
+    except OSError as e:
+        raise _unreadable(path, e)
+
+
 def _version(text, path):
     try:
         return tuple(int(p) for p in text.split("."))
@@ -63,6 +85,8 @@ def read_pvd(path):
         root = ET.parse(path).getroot()
     except FileNotFoundError:
         raise RunError(f"{path} is missing")
+    except OSError as e:
+        raise _unreadable(path, e)
     except ET.ParseError as e:
         raise RunError(f"{path} is not a complete VTK collection ({e}); it may be cut short: run mca again")
     if root.tag != "VTKFile" or root.get("type") != "Collection":
@@ -91,12 +115,8 @@ def read_vtu(path, names=None):
 
     Returns (points (N, 3) float32, {field name: array (N,) or (N, components)}). `names`: the fields to
     read (all when None)."""
-    try:
-        with open(path, "rb") as f:
-            data = f.read()
-    except FileNotFoundError:
-        raise RunError(f"{path} is missing (the run's automata.pvd lists it): the run folder is incomplete; "
-                       "run mca again or copy the whole folder")
+    data = _read_bytes(path, f"{path} is missing (the run's automata.pvd lists it): the run folder is incomplete; "
+                             "run mca again or copy the whole folder")
     marker = data.find(b"<AppendedData")
     start = data.find(b"_", marker) + 1 if marker >= 0 else 0
     if marker < 0 or start == 0:
@@ -163,11 +183,7 @@ def read_vtu(path, names=None):
 
 def read_ply(path):
     """(vertices (V, 3) float32, triangles (F, 3) int32, per-face values or None) of a PLY written by mca."""
-    try:
-        with open(path, "rb") as f:
-            data = f.read()
-    except FileNotFoundError:
-        raise RunError(f"{path} is missing")
+    data = _read_bytes(path, f"{path} is missing")
     end = data.find(b"end_header\n")
     if not data.startswith(b"ply\n") or end < 0:
         raise RunError(f"{path} is not a PLY file (or its header is cut short)")
@@ -211,11 +227,7 @@ def read_ply(path):
 
 def read_obj(path):
     """The same as read_ply for a surface written as OBJ (groups `fragment_N`)."""
-    try:
-        with open(path, "r", encoding="ascii", errors="replace") as f:
-            text = f.read()
-    except FileNotFoundError:
-        raise RunError(f"{path} is missing")
+    text = _read_bytes(path, f"{path} is missing").decode("ascii", "replace")
     verts, faces, values = [], [], []
     group = -1
     for k, line in enumerate(text.splitlines(), 1):
@@ -514,6 +526,61 @@ def default_fps(frames):
     return min(max(math.floor(frames / 4.0 + 0.5), 10), 30)
 
 
+def run_folder(path):
+    """(the run folder, how to name it in messages) of what the user chose: the folder itself or a file in it
+    (its automata.pvd, summary.json...). Raises RunError when the path is empty or does not exist."""
+    if not path:
+        raise RunError("no run folder given (the path is empty): choose the folder an `mca run` wrote (its --out)")
+    full = os.path.abspath(path)
+    path = path.rstrip("/" + os.sep) or path  # as given, less a trailing separator (a file browser's folder)
+    if os.path.isdir(full):
+        return full, path
+    if os.path.isfile(full):
+        folder = os.path.dirname(full)
+        return folder, f"{folder} (the folder of {path})"
+    if os.path.lexists(full):
+        raise RunError(f"{path} is neither a folder nor a file; choose the folder an `mca run` wrote (its --out)")
+    raise RunError(f"{path} does not exist; choose the folder an `mca run` wrote (its --out), or its automata.pvd")
+
+
+def _number(v):
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _vector(v):
+    return isinstance(v, list) and len(v) == 3 and all(_number(c) for c in v)
+
+
+def check_scene(scene, path):
+    """The scene.toml keys the importer reads, with the types and ranges mca accepts (docs/scene-format.md);
+    RunError naming the file and the key otherwise."""
+    def table(key, where=scene):
+        t = where.get(key, {})
+        if not isinstance(t, dict):
+            raise RunError(f"{path}: {key} = {t!r} is not a table ([{key}]); fix the file (it should be the scene "
+                           "exactly as mca ran it) or run mca again")
+        return t
+
+    def need(section, key, ok, what):
+        t = table(section) if section else scene
+        if key in t and not ok(t[key]):
+            name = f"[{section}] {key}" if section else key
+            raise RunError(f"{path}: {name} = {t[key]!r} is not {what}; fix the file (it should be the scene "
+                           "exactly as mca ran it) or run mca again")
+
+    need(None, "name", lambda v: isinstance(v, str), "a string")
+    need("solver", "gravity", _vector, "a vector of 3 numbers, like [0.0, 0.0, -9.81]")
+    need("ground", "enabled", lambda v: isinstance(v, bool), "true or false")
+    need("ground", "height", _number, "a number (metres)")
+    need("camera", "fov", lambda v: _number(v) and 5 <= v <= 150, "a number of degrees from 5 to 150")
+    need("camera", "position", _vector, "a vector of 3 numbers (metres)")
+    need("camera", "target", _vector, "a vector of 3 numbers (metres)")
+    balls = scene.get("projectile", [])
+    if not isinstance(balls, list) or not all(isinstance(b, dict) for b in balls):
+        raise RunError(f"{path}: projectile is not a list of tables ([[projectile]]); fix the file (it should be "
+                       "the scene exactly as mca ran it) or run mca again")
+
+
 class Run:
     """What a run folder holds, read into numpy arrays.
 
@@ -524,17 +591,15 @@ class Run:
 
     def __init__(self, path, max_frames=None):
         check_dependencies()
-        self.dir = os.path.abspath(path)
         self.warnings = []
-        if not os.path.isdir(self.dir):
-            raise RunError(f"{path} is not a folder; choose the folder an `mca run` wrote (its --out)")
+        self.dir, where = run_folder(path)
         pvd = os.path.join(self.dir, "automata.pvd")
         scene_file = os.path.join(self.dir, "scene.toml")
         if not os.path.isfile(pvd):
             if os.path.isfile(scene_file):
-                raise RunError(f"{path} holds no frames (no automata.pvd): the run wrote none (output.vtk = false "
+                raise RunError(f"{where} holds no frames (no automata.pvd): the run wrote none (output.vtk = false "
                                "or --no-vtk, or it stopped before its first frame); run it again with VTK frames")
-            raise RunError(f"{path} is not an mca run folder (it has neither automata.pvd nor scene.toml); "
+            raise RunError(f"{where} is not an mca run folder (it has neither automata.pvd nor scene.toml); "
                            "choose the folder an `mca run` wrote (its --out)")
         self.scene = self._read_scene(scene_file)
         self.summary = self._read_summary()
@@ -571,27 +636,35 @@ class Run:
 
     # -- the files around the frames
     def _read_scene(self, scene_file):
-        try:
-            with open(scene_file, "rb") as f:
-                return tomllib.load(f)
-        except FileNotFoundError:
+        if not os.path.lexists(scene_file):
             self.warnings.append(f"{scene_file} is missing: the ground, the camera and the up axis take mca's "
                                  "defaults")
             return {}
-        except tomllib.TOMLDecodeError as e:
+        try:
+            scene = tomllib.loads(_read_bytes(scene_file, f"{scene_file} is missing").decode("utf-8"))
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
             raise RunError(f"{scene_file}: {e}; it should be the scene exactly as run: run mca again")
+        check_scene(scene, scene_file)
+        return scene
 
     def _read_summary(self):
         path = os.path.join(self.dir, "summary.json")
-        try:
-            with open(path) as f:
-                summary = json.load(f)
-        except FileNotFoundError:
+        if not os.path.lexists(path):
             self.warnings.append(f"{path} is missing: the run is still going or was killed; importing the frames "
                                  "written so far")
             return None
-        except json.JSONDecodeError as e:
+        try:
+            summary = json.loads(_read_bytes(path, f"{path} is missing").decode("utf-8"))
+        except (json.JSONDecodeError, UnicodeDecodeError) as e:
             raise RunError(f"{path} is not complete JSON ({e}): run mca again")
+        if not isinstance(summary, dict):
+            raise RunError(f"{path} is not the summary mca writes (a JSON object, not {type(summary).__name__}): "
+                           "run mca again")
+        for key, ok, what in (("status", lambda v: isinstance(v, str), "a string"),
+                              ("simulated_time", _number, "a number"), ("spacing", _number, "a number")):
+            if key in summary and not ok(summary[key]):
+                raise RunError(f"{path}: \"{key}\" is {summary[key]!r}, not {what}: not the summary mca writes; "
+                               "run mca again")
         if summary.get("status") not in (None, "finished"):
             self.warnings.append(f"the run stopped early ({summary.get('status')} at "
                                  f"{summary.get('simulated_time', 0):.4g} s): importing the frames it wrote")
@@ -599,7 +672,12 @@ class Run:
 
     def _read_projectiles(self, frames):
         pvd = os.path.join(self.dir, "projectiles.pvd")
-        if not os.path.isfile(pvd):
+        if not os.path.lexists(pvd):
+            balls = len(self.scene.get("projectile", []))
+            if balls:
+                self.warnings.append(f"{pvd} is missing, though the scene has {balls} projectile"
+                                     f"{'s' if balls > 1 else ''}: the balls are left out; copy the run's whole "
+                                     "folder or run mca again")
             return None
         entries = read_pvd(pvd)[:frames]
         if len(entries) < frames:
@@ -624,14 +702,22 @@ class Run:
         size = (1280, 720)
         fps = default_fps(self.frame_count)
         path = os.path.join(self.dir, "render", "render.json")
-        if os.path.isfile(path):
+        if os.path.lexists(path):
             try:
-                with open(path) as f:
-                    r = json.load(f)
-                size = (int(r["width"]), int(r["height"]))
-                if float(r.get("fps", 0)) > 0:
-                    fps = float(r["fps"])
-            except (json.JSONDecodeError, KeyError, TypeError, ValueError) as e:
+                r = json.loads(_read_bytes(path, f"{path} is missing").decode("utf-8"))
+                if not isinstance(r, dict):
+                    raise ValueError(f"a JSON {type(r).__name__}, not an object")
+                w, h, f = r.get("width"), r.get("height"), r.get("fps")
+                for key, v in (("width", w), ("height", h)):
+                    if not (isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 65536):
+                        raise ValueError(f"{key} {v!r} is not a whole number of pixels")
+                if f is not None and not (_number(f) and 0 <= f <= 240):
+                    raise ValueError(f"fps {f!r} is not a rate from 0 (the default) to 240")
+                size = (w, h)
+                if f:
+                    fps = float(f)
+            except (RunError, ValueError) as e:  # JSONDecodeError and UnicodeDecodeError are ValueErrors
+                size = (1280, 720)
                 self.warnings.append(f"{path} is not the render options mca writes ({e}): using 1280x720 at "
                                      f"{fps:g} frames/s")
         return fps, size

@@ -231,6 +231,14 @@ def case_bad_input(case_dir):
         "not_a_run": "not an mca run folder",
         "bad_summary": "not complete JSON",
         "mixed_frames": "frames of different runs",
+        "summary_list": "summary.json is not the summary mca writes",
+        "gravity_string": "scene.toml: [solver] gravity = 'down' is not a vector of 3 numbers",
+        "ground_number": "scene.toml: ground = 5 is not a table",
+        "fov_string": "scene.toml: [camera] fov = 'wide' is not a number of degrees",
+        "fov_zero": "scene.toml: [camera] fov = 0.0 is not a number of degrees",
+        "frames_file": "a folder on its path is a file",
+        "frame_folder": "automata_000001.vtu is a folder",
+        "does_not_exist": os.path.join(case_dir, "does_not_exist") + " does not exist",
     }
     for name, words in expect.items():
         path = os.path.join(case_dir, name)
@@ -245,6 +253,34 @@ def case_bad_input(case_dir):
     reader.Run(os.path.join(case_dir, "no_summary"))
     warnings = reader.Run(os.path.join(case_dir, "no_summary")).warnings
     check(any("still going or was killed" in w for w in warnings), f"no_summary: warned: {warnings}")
+    # Render options that would divide by zero: the defaults, warned; a run without its balls' collection (the
+    # scene has a ball): imported without balls, warned.
+    for name, words in (("render_zero", "render.json is not the render options mca writes"),
+                        ("no_projectiles", "projectiles.pvd is missing, though the scene has 1 projectile")):
+        try:
+            bpy.ops.import_scene.mca_run(directory=os.path.join(case_dir, name) + "/")
+        except RuntimeError as e:
+            check(False, f"{name} imports ({str(e).strip()})")
+            continue
+        warnings = reader.Run(os.path.join(case_dir, name)).warnings
+        check(any(words in w for w in warnings), f"{name}: warned '{words}': {warnings}")
+    # A failure nobody foresaw (the reader made to fail): one line in the report area naming the run folder.
+    real = reader.Run
+
+    def fail(*args, **kwargs):
+        raise ZeroDivisionError("float division by zero")
+    reader.Run = fail
+    try:
+        bpy.ops.import_scene.mca_run(directory=os.path.join(case_dir, "no_summary") + "/")
+        check(False, "the unforeseen failure was refused")
+    except RuntimeError as e:
+        message = str(e)
+        print(f"unforeseen failure: {message.strip()}")
+        check("ZeroDivisionError" in message and os.path.join(case_dir, "no_summary") in message and
+              "Traceback" not in message and len(message.strip().splitlines()) == 1,
+              "an unforeseen failure is one line naming the run folder")
+    finally:
+        reader.Run = real
 
 
 def case_missing_numpy(run_dir):

@@ -166,7 +166,105 @@ def make_bad_inputs(a):
     d = os.path.join(bad, "no_summary")
     copy_run(short, d)
     os.remove(os.path.join(d, "summary.json"))
+    # Files of the right name but the wrong shape: valid JSON or TOML holding the wrong types or values.
+    d = os.path.join(bad, "summary_list")
+    copy_run(short, d)
+    with open(os.path.join(d, "summary.json"), "w") as f:
+        f.write("[1, 2]\n")
+    for name, old, new in (("gravity_string", "gravity = [0.0, 0.0, -9.81]", 'gravity = "down"'),
+                           ("ground_number", "[ground]", "ground_was = 1\n[ground_x]"),
+                           ("fov_string", "fov = 40.0", 'fov = "wide"'),
+                           ("fov_zero", "fov = 40.0", "fov = 0.0")):
+        d = os.path.join(bad, name)
+        copy_run(short, d)
+        path = os.path.join(d, "scene.toml")
+        with open(path) as f:
+            text = f.read()
+        assert old in text, (path, old)
+        text = text.replace(old, new, 1)
+        if name == "ground_number":
+            text = "ground = 5\n" + text
+        with open(path, "w") as f:
+            f.write(text)
+    d = os.path.join(bad, "render_zero")  # render options that would divide by zero: warned, the defaults used
+    copy_run(short, d)
+    os.makedirs(os.path.join(d, "render"), exist_ok=True)
+    with open(os.path.join(d, "render", "render.json"), "w") as f:
+        f.write('{"fps": 0, "width": -5, "height": 0}\n')
+    d = os.path.join(bad, "frames_file")  # frames/ a file
+    copy_run(short, d)
+    shutil.rmtree(os.path.join(d, "frames"))
+    with open(os.path.join(d, "frames"), "w") as f:
+        f.write("x\n")
+    d = os.path.join(bad, "frame_folder")  # a frame a folder
+    copy_run(short, d)
+    os.remove(os.path.join(d, "frames", "automata_000001.vtu"))
+    os.makedirs(os.path.join(d, "frames", "automata_000001.vtu"))
+    d = os.path.join(bad, "no_projectiles")  # the balls' collection left behind: imports without balls, warned
+    copy_run(short, d)
+    os.remove(os.path.join(d, "projectiles.pvd"))
     return bad
+
+
+def cli_refuses(a, name, args, words, code=1, env=None):
+    """mca_cli.py refuses: one line on stderr naming the problem (`words`), exit code `code`, no traceback."""
+    r = run(blender_cmd(a, CLI, *args), env=env)
+    lines = [l for l in r.stderr.splitlines() if l.startswith("mca_cli:")]
+    ok = r.returncode == code and words in r.stderr and len(lines) == 1 and \
+        lines[0].startswith("mca_cli: error:" if code == 1 else "mca_cli: internal error") and "Traceback" not in r.stderr
+    print(("ok: " if ok else "FAIL: ") + f"mca_cli.py, {name}: exit {r.returncode}, says '{words}'")
+    if not ok:
+        sys.exit(f"mca_cli.py on {name}: exit {r.returncode}, stderr: {r.stderr[-500:]}")
+    return r
+
+
+def bad_cli(a):
+    """The command line's arguments and outputs: each refusal one line on stderr, exit code 1, nothing
+    written or renamed."""
+    short = os.path.join(a.work, "short")
+    out = os.path.join(a.work, "bad_cli")
+    shutil.rmtree(out, ignore_errors=True)
+    os.makedirs(os.path.join(out, "x.png"))
+    os.makedirs(os.path.join(out, "d.blend"))
+    missing = os.path.join(out, "no_such_folder")
+    for name, args, words in (
+            ("--frames 0", [short, os.path.join(out, "y.png"), "--frames", "0"], "expected a whole number >= 1"),
+            ("--samples 0", [short, os.path.join(out, "y.png"), "--samples", "0"], "expected a whole number >= 1"),
+            ("an empty RUN_DIR", ["", os.path.join(out, "y.png")], "RUN_DIR is empty"),
+            ("a run folder that does not exist", [os.path.join(out, "no_run"), os.path.join(out, "y.blend")],
+             os.path.join(out, "no_run") + " does not exist"),
+            ("a .png that is a folder", [short, os.path.join(out, "x.png")], "x.png is a folder"),
+            ("a .blend that is a folder", [short, os.path.join(out, "d.blend")], "d.blend is a folder"),
+            ("an output in a missing folder", [short, os.path.join(missing, "x.png")],
+             f"its folder {missing} does not exist; create it first"),
+            ("a .png in /proc", [short, "/proc/x.png"], "cannot write in /proc"),
+            ("a .blend in /proc", [short, "/proc/x.blend"], "cannot write in /proc"),
+            ("an .obj in /proc", [short, "/proc/x.obj"], "cannot write in /proc")):
+        cli_refuses(a, name, args, words)
+    if not os.path.isdir(os.path.join(out, "d.blend")) or os.path.exists(os.path.join(out, "d.blend1")) or \
+            os.path.exists(missing):
+        sys.exit(f"mca_cli.py changed {out}: {sorted(os.listdir(out))}")
+    # The run's automata.pvd names its run, as in the add-on.
+    blend = os.path.join(out, "by_pvd.blend")
+    r = run(blender_cmd(a, CLI, os.path.join(short, "automata.pvd"), blend, "--frames", "2"))
+    if r.returncode != 0 or not os.path.isfile(blend):
+        sys.exit(f"mca_cli.py on the run's automata.pvd: exit {r.returncode}, stderr: {r.stderr[-500:]}")
+    # A failure nobody foresaw (the reader made to fail): one line naming what failed and the run folder.
+    wrapper = os.path.join(out, "failing_cli.py")
+    with open(wrapper, "w") as f:
+        f.write("import runpy, sys\n"
+                f"sys.path.insert(0, {ADDON_ROOT!r})\n"
+                "from io_import_mca import reader\n"
+                "def fail(*args, **kwargs):\n"
+                "    raise ZeroDivisionError('float division by zero')\n"
+                "reader.Run = fail\n"
+                f"runpy.run_path({CLI!r}, run_name='__main__')\n")
+    p = run([a.blender, "-b", "--factory-startup", "--python", wrapper, "--", short, os.path.join(out, "z.blend")])
+    lines = [l for l in p.stderr.splitlines() if l.startswith("mca_cli:")]
+    if p.returncode != 2 or len(lines) != 1 or "internal error while importing " + short not in lines[0] or \
+            "ZeroDivisionError" not in lines[0] or "Traceback" in p.stderr:
+        sys.exit(f"mca_cli.py on an unforeseen failure: exit {p.returncode}, stderr: {p.stderr[-500:]}")
+    print("ok: an unforeseen failure is one line naming the run folder, exit 2")
 
 
 def png_pixels(path):
@@ -367,6 +465,7 @@ def main():
     elif case == "obj_sequence":
         folder = os.path.join(a.work, "obj_sequence")
         shutil.rmtree(folder, ignore_errors=True)
+        os.makedirs(folder)  # mca_cli.py refuses to write into a folder that does not exist
         r = run(blender_cmd(a, CLI, short, os.path.join(folder, "short.obj")))
         frames = sum(1 for n in os.listdir(os.path.join(short, "frames")) if n.startswith("automata_"))
         files = sorted(os.listdir(folder)) if os.path.isdir(folder) else []
@@ -404,13 +503,14 @@ def main():
                 ("no frames", [os.path.join(bad, "no_frames"), os.path.join(a.work, "x.blend")], "holds no frames"),
                 ("an output of unknown type", [short, os.path.join(a.work, "x.fbx")], "extension"),
                 ("a frame past the last", [short, os.path.join(a.work, "x.png"), "--frame", "99"], "frames 0 to 5"),
-                ("no arguments", [], "expected RUN_DIR and OUT")):
-            r = run(blender_cmd(a, CLI, *args))
-            ok = r.returncode == 1 and words in r.stderr and "mca_cli: error:" in r.stderr and \
-                "Traceback" not in r.stderr
-            print(("ok: " if ok else "FAIL: ") + f"mca_cli.py, {name}: exit {r.returncode}, says '{words}'")
-            if not ok:
-                sys.exit(f"mca_cli.py on {name}: exit {r.returncode}, stderr: {r.stderr[-500:]}")
+                ("no arguments", [], "expected RUN_DIR and OUT"),
+                ("a summary that is no JSON object", [os.path.join(bad, "summary_list"), os.path.join(a.work, "x.blend")],
+                 "summary.json is not the summary mca writes"),
+                ("frames/ a file", [os.path.join(bad, "frames_file"), os.path.join(a.work, "x.blend")],
+                 "a folder on its path is a file")):
+            cli_refuses(a, name, args, words)
+    elif case == "bad_cli":
+        bad_cli(a)
     elif case == "missing_numpy":
         in_blender(a, "missing_numpy", short)
     elif case == "install":
