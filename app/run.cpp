@@ -38,6 +38,29 @@ std::atomic<int> g_stop_signal{0};
 static_assert(std::atomic<int>::is_always_lock_free, "set from a signal handler");
 extern "C" void on_stop_signal(int sig) { g_stop_signal = sig; }
 
+// The build of the model (a mesh fill or a large lattice can take minutes) does not look at g_stop_signal:
+// a signal then ends the process at once, saying so (it used to end it without a word). Nothing of the run
+// has been written by then; a resumed run's folder is as it was.
+extern "C" void on_build_signal(int sig) {
+  static const char kMessage[] = "\nmca: stopped by a signal while building the model, before the first step; "
+                                 "nothing was written\n";
+  if (write(STDERR_FILENO, kMessage, sizeof kMessage - 1) < 0) {
+  }
+  _exit(128 + sig);
+}
+// While one lives, SIGINT, SIGTERM and SIGHUP end a build as above; then their default action again, until
+// run_loop takes them.
+struct BuildSignals {
+  BuildSignals() {
+    for (const int sig : {SIGINT, SIGTERM, SIGHUP}) std::signal(sig, on_build_signal);
+  }
+  ~BuildSignals() {
+    for (const int sig : {SIGINT, SIGTERM, SIGHUP}) std::signal(sig, SIG_DFL);
+  }
+  BuildSignals(const BuildSignals&) = delete;
+  BuildSignals& operator=(const BuildSignals&) = delete;
+};
+
 std::string_view signal_name(int sig) {
   switch (sig) {
     case SIGINT: return "SIGINT (Ctrl-C)";
@@ -496,7 +519,10 @@ int run(const RunOptions& o) {
   if (!o.quiet) fmt::print(stderr, "mca: scene '{}' ({}): building...\n", scene.name, scene.source);
   std::optional<lattice::BuildProgress> building;
   if (!o.quiet) building.emplace();
+  std::optional<BuildSignals> build_signals;
+  build_signals.emplace();
   Engine sim(scene);
+  build_signals.reset();
   building.reset();
   const Plan plan = make_plan(sim, o.steps);
   // What the run will write must fit the disk (frame_rate = 1e9 plans 4,000,000 frames, terabytes).
@@ -590,7 +616,10 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   const std::string source = fmt::format("checkpoint '{}'", all.back().string());
   std::optional<lattice::BuildProgress> building;
   if (!quiet) building.emplace();
+  std::optional<BuildSignals> build_signals;
+  build_signals.emplace();
   Engine sim(cp.scene, cp.state, source, cp.model_fingerprint);
+  build_signals.reset();
   building.reset();
   const Plan plan = resume_plan(cp, sim.steps_per_frame(), source);
   // A rendered run goes on rendering, as it began (render/render.json), unless told not to; the renderer
