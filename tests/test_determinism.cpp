@@ -94,7 +94,7 @@ TEST(Determinism, DamagedCheckpointIsRefusedWithAClearError) {
 // state_hash must cover everything that can change the future (README: equal hashes mean bitwise equal
 // states): perturbing any one field of a state changes it. A new field changes sizeof(State) and so
 // fails the static_assert until it is hashed here, in state_hash, and in the checkpoints.
-static_assert(sizeof(State) == 496 && sizeof(ProjectileState) == 160,
+static_assert(sizeof(State) == 520 && sizeof(ProjectileState) == 160,
               "State changed: hash the new field in state_hash (sim/engine.cpp), save it in checkpoints "
               "(io/checkpoint.cpp), check it in check_state, perturb it below, then update these sizes");
 
@@ -135,6 +135,8 @@ TEST(Determinism, StateHashCoversEveryField) {
   expect_changes("link_ut", [&](State& s) { s.link_ut[3].x += eps; });
   // (A lattice state has no explicit link: one moment is as a surface-mode state's first.)
   expect_changes("link_moment", [&](State& s) { s.link_moment.push_back({eps, 0, 0}); });
+  // (Nor softening: one effort is as a softening state's first.)
+  expect_changes("link_damage", [&](State& s) { s.link_damage.push_back(eps); });
   expect_changes("contacts.i", [](State& s) { s.contacts[0].i += 1; });
   expect_changes("contacts.ut", [&](State& s) { s.contacts[0].h.ut.x += eps; });
   expect_changes("contacts.mr", [&](State& s) { s.contacts[0].h.mr.z += eps; });
@@ -158,7 +160,7 @@ TEST(Determinism, StateHashCoversEveryField) {
   expect_changes("initial_energy", [](State& s) { s.initial_energy += 1; });
   expect_changes("grip_work", [](State& s) { s.grip_work[0] += 1; });
   expect_changes("grip_force", [](State& s) { s.grip_force[0].x += 1; });
-  EXPECT_EQ(checked, 33);
+  EXPECT_EQ(checked, 34);
 }
 
 // The default scene's state after 3,000 steps, as this code computes it. A change of this value means

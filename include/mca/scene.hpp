@@ -35,6 +35,15 @@ struct MaterialDef {
   double damping_time = 5e-6;
   StrengtheningLaw strengthening = StrengtheningLaw::none;
   double strengthening_alpha = 0.0;     // alpha of eq. 7 (>= 0)
+  // Fracture energy G_f [J/m^2]: a link whose equivalent stress reaches its strength softens (its
+  // tensile and shear forces fall linearly with further load) and breaks when it has dissipated G_f
+  // times its cross-section, so a crack costs G_f per unit area at every spacing (physics/fracture.hpp,
+  // link_softening). 0: the paper's instant break. In [0, 1e6].
+  double fracture_energy = 0.0;
+  // Weibull modulus m of the links' strengths: each lattice link's strengths (and breaking strain) are
+  // the weaker end's times its own factor, drawn from a Weibull distribution of modulus m and mean 1
+  // (about 1.2 / m coefficient of variation). 0: no spread (every link the weaker end's). 0 or in [1, 100].
+  double weibull_modulus = 0.0;
 };
 
 // Built-in materials: concrete, glass, ceramic, granite, steel.

@@ -31,6 +31,10 @@ class Material:
     strengthening: str
     """"none", "exponential" or "quadratic" (paper eq. 7)."""
     strengthening_alpha: float
+    fracture_energy: float
+    """G_f [J/m^2] of the links' softening, in [0, 1e6]; 0: the instant break."""
+    weibull_modulus: float
+    """Weibull modulus of the links' own strengths, 0 (no spread) or in [1, 100]."""
     def __init__(self, **keys: Any) -> None:
         """Concrete's values changed by the keys given; an unknown key raises mca.Error."""
     @staticmethod

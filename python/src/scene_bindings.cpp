@@ -442,6 +442,10 @@ void bind_scene(py::module_& m) {
           },
           "paper eq. 7: \"none\", \"exponential\" or \"quadratic\"")
       .def_property(MCA_KEY(MaterialDef, strengthening_alpha, "alpha of eq. 7, >= 0"))
+      .def_property(MCA_KEY(MaterialDef, fracture_energy,
+                            "G_f [J/m^2] of the links' softening, in [0, 1e6]; 0: the instant break"))
+      .def_property(MCA_KEY(MaterialDef, weibull_modulus,
+                            "Weibull modulus of the links' own strengths, 0 (no spread) or in [1, 100]"))
       .def_static(
           "builtin",
           [](py::handle name_arg) {

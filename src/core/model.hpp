@@ -30,6 +30,8 @@ struct GroupParams {
   float tensile_strength = 0, compressive_strength = 0, fracture_strain = 0;
   float friction = 0, restitution = 0, rolling_friction = 0, twisting_friction = 0;
   float damping_time = 0;    // Kelvin-Voigt viscosity time tau [s] (physics/link_law.hpp, link_dashpot)
+  float fracture_energy = 0; // G_f [J/m^2] of the links' softening; 0: instant break (physics/fracture.hpp)
+  float weibull_modulus = 0; // spread of the links' strengths (Model::link_strength); 0: none
   Strengthening strengthening;
 };
 
@@ -119,6 +121,9 @@ struct Model {
   static constexpr std::uint32_t kNoLink = 0xffffffffu;
   std::vector<std::uint32_t> neighbour;        // 3n: a's neighbour along +axis at axis * n + a, or kNoLink
   std::vector<std::uint32_t> neighbour_below;  // 3n: a's neighbour along -axis (its link is in that one's slot)
+  // Per lattice slot: the link's own strength factor (Weibull, MaterialDef::weibull_modulus), which
+  // multiplies the weaker end's strengths and breaking strain; empty when no material has a spread.
+  std::vector<float> link_strength;
   std::size_t links = 0;                       // slots that hold a link (lattice and explicit)
   // Explicit links (objects filled in surface mode: one automaton per triangle, linked across shared
   // edges): slot 3n + k holds explicit link k, between automata i[k] < j[k], with its own rest length and
@@ -190,6 +195,12 @@ struct Model {
     return c;
   }
   std::size_t lattice_slots() const { return neighbour.size(); }
+  // Some material softens (fracture_energy > 0): the state keeps each link's damage (State::link_damage).
+  bool softening() const {
+    for (const GroupParams& g : groups)
+      if (g.fracture_energy > 0) return true;
+    return false;
+  }
   std::size_t link_slots() const { return neighbour.size() + explicit_links.size(); }
   std::size_t link_count() const { return links; }
   bool is_explicit(std::size_t l) const { return l >= neighbour.size(); }

@@ -113,6 +113,13 @@ void check_material(const Checker& c, const MaterialDef& m, std::size_t i) {
         "use 5e-6 (the default: damps the lattice-scale ringing of impacts), 0 for an undamped material");
   range("strengthening_alpha", m.strengthening_alpha, 0, true, INFINITY, false, ">= 0",
         "use 0 for linear elasticity");
+  range("fracture_energy", m.fracture_energy, 0, true, 1e6, true, "in [0, 1e6] [J/m^2]",
+        "use e.g. 100 for concrete, 0 for the paper's instant break (the unit is J/m^2 = N/m)");
+  if (!(m.weibull_modulus == 0 || (m.weibull_modulus >= 1 && m.weibull_modulus <= 100))) {
+    c.fail(fmt::format("{}.weibull_modulus = {} {} is out of range: must be 0 (no spread) or in [1, 100]; use e.g. 6 "
+                       "for concrete (a spread of about 20 % between links)",
+                       p, num(m.weibull_modulus), q));
+  }
   switch (m.strengthening) {
     case StrengtheningLaw::none:
     case StrengtheningLaw::exponential:

@@ -74,6 +74,9 @@ struct State {
   // spring on its first end, as components about the link, the shell's normal and their cross product
   // (physics/link_law.hpp, link_bending).
   std::vector<Vec3> link_moment;
+  // Per link slot, when the model softens (Model::softening; empty otherwise): the link's damage, 0 to 1
+  // (physics/fracture.hpp, link_softening_test), 0 at the start.
+  std::vector<float> link_damage;
 
   std::vector<ContactPair> contacts;        // sorted by (i, j)
   std::vector<BodyContact> ground_contacts;  // automata within reach of the ground, sorted by automaton

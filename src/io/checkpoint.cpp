@@ -19,14 +19,15 @@
 namespace mca::io {
 namespace {
 
-// Format 6: magic, scene TOML, model fingerprint, frame, total steps, wall seconds, the state (fields(State)
+// Format 7: magic, scene TOML, model fingerprint, frame, total steps, wall seconds, the state (fields(State)
 // below), an FNV-1a checksum of all the bytes before it, magic again as an end marker. Numbers are in the
-// writing machine's byte order: a checkpoint is for resuming a run where it was written. Format 5 had
+// writing machine's byte order: a checkpoint is for resuming a run where it was written. Format 6 had no
+// links' damage (State::link_damage, softening), format 5 had
 // float32 velocities and angular velocities (automata and projectiles), format 4 had no
 // bending moments of explicit links (surface mode), format 3 stored
 // the links one per pair (now: three slots per automaton, core/model.hpp), format 2 had no checksum (a
 // flipped byte in the state was resumed from), format 1 wrote structs with their padding.
-constexpr char kMagic[8] = {'M', 'C', 'A', 'C', 'K', 'P', 'T', '6'};
+constexpr char kMagic[8] = {'M', 'C', 'A', 'C', 'K', 'P', 'T', '7'};
 constexpr char kMagicPrefix[7] = {'M', 'C', 'A', 'C', 'K', 'P', 'T'};
 
 template <class T, class U>
@@ -64,7 +65,7 @@ template <class A, either<State> T>
 void fields(A& a, T& s) {
   a(s.step, s.time);
   a(s.x, s.v, s.w, s.q, s.s, s.mean_stress, s.f, s.t);
-  a(s.intact, s.link_ut, s.link_moment);
+  a(s.intact, s.link_ut, s.link_moment, s.link_damage);
   a(s.contacts, s.ground_contacts, s.x_at_rebuild);
   a(s.projectiles, s.projectile_contacts);
   a(s.breaks, s.broken_by, s.initial_energy);

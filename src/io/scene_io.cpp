@@ -316,7 +316,8 @@ const char* law_name(StrengtheningLaw l) {
 MaterialDef read_material(const Table& tb, const std::vector<MaterialDef>& earlier) {
   tb.allow({"name", "base", "youngs_modulus", "poisson_ratio", "density", "tensile_strength",
             "compressive_strength", "fracture_strain", "friction", "restitution", "rolling_friction",
-            "twisting_friction", "damping_time", "strengthening", "strengthening_alpha"});
+            "twisting_friction", "damping_time", "strengthening", "strengthening_alpha", "fracture_energy",
+            "weibull_modulus"});
   MaterialDef m;  // no base: the struct's defaults (concrete)
   std::string base;
   if (tb.string("base", base)) {
@@ -357,6 +358,8 @@ MaterialDef read_material(const Table& tb, const std::vector<MaterialDef>& earli
                                             : StrengtheningLaw::none;
   }
   tb.number("strengthening_alpha", m.strengthening_alpha);
+  tb.number("fracture_energy", m.fracture_energy);
+  tb.number("weibull_modulus", m.weibull_modulus);
   return m;
 }
 
@@ -900,6 +903,8 @@ std::string scene_to_toml(const SceneDef& s) {
     out += fmt::format("damping_time = {}\n", toml_double(m.damping_time));
     out += fmt::format("strengthening = {}\n", toml_string(law_name(m.strengthening)));
     out += fmt::format("strengthening_alpha = {}\n", toml_double(m.strengthening_alpha));
+    out += fmt::format("fracture_energy = {}\n", toml_double(m.fracture_energy));
+    out += fmt::format("weibull_modulus = {}\n", toml_double(m.weibull_modulus));
   }
 
   for (const ObjectDef& o : s.objects) {

@@ -1,5 +1,6 @@
 #include "lattice/heterogeneity.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -55,6 +56,26 @@ std::vector<std::uint8_t> assign_classes(const std::vector<Vec3>& pts, const Het
     out[k] = static_cast<std::uint8_t>(class_from_uniform(unit_from_hash(splitmix64(best_cell ^ 4)), het.shares));
   }
   return out;
+}
+
+float weibull_factor(double u, double m) {
+  const double w = std::pow(-std::log1p(-u), 1.0 / m) / std::tgamma(1.0 + 1.0 / m);
+  return static_cast<float>(std::max(w, kMinLinkStrength));
+}
+
+void assign_link_strengths(Model& M, std::uint64_t seed) {
+  bool any = false;
+  for (const GroupParams& g : M.groups) any = any || g.weibull_modulus > 0;
+  M.link_strength.clear();
+  if (!any) return;
+  const std::size_t n = M.size();
+  M.link_strength.assign(M.lattice_slots(), 1.0f);
+  for (std::size_t l = 0; l < M.lattice_slots(); ++l) {
+    if (M.neighbour[l] == Model::kNoLink) continue;
+    const float mi = M.groups[M.group[l % n]].weibull_modulus, mj = M.groups[M.group[M.neighbour[l]]].weibull_modulus;
+    const float m = mi <= 0 ? mj : mj <= 0 ? mi : std::min(mi, mj);
+    if (m > 0) M.link_strength[l] = weibull_factor(unit_from_hash(hash_keys(seed, l, 0x77656962756c6cull)), m);
+  }
 }
 
 }  // namespace mca::lattice

@@ -303,13 +303,16 @@ GroupParams group_params(const SceneDef& scene, const MaterialDef& m, const std:
   as_float32(scene, q + ".tensile_strength", m.tensile_strength, units);
   as_float32(scene, q + ".compressive_strength", m.compressive_strength, units);
   as_float32(scene, q + ".fracture_strain", m.fracture_strain, "use e.g. 1.5e-4 for concrete");
-  const double breaking = class_factors.first * std::min(m.fracture_strain, m.tensile_strength / m.youngs_modulus);
+  // The weakest link: the weakest class, and the smallest factor of a strength spread.
+  const double weakest = class_factors.first * (m.weibull_modulus > 0 ? kMinLinkStrength : 1.0);
+  const double breaking = weakest * std::min(m.fracture_strain, m.tensile_strength / m.youngs_modulus);
   if (automata && breaking < kMinBreakingStrain) {
     throw Error(fmt::format(
         "{}: {} breaks at a strain of {:.3g} (the smaller of fracture_strain = {:g} and tensile_strength / "
-        "youngs_modulus = {:g} / {:g}, times the weakest class factor {:g}), below the {:g} that the float32 "
+        "youngs_modulus = {:g} / {:g}, times the weakest class factor {:g}{}), below the {:g} that the float32 "
         "arithmetic of the solver resolves; check youngs_modulus (Pa) and the strengths, or raise them",
         scene.source, q, breaking, m.fracture_strain, m.tensile_strength, m.youngs_modulus, class_factors.first,
+        m.weibull_modulus > 0 ? fmt::format(" and the weakest link factor {:g} of weibull_modulus", kMinLinkStrength) : "",
         kMinBreakingStrain));
   }
   const double class_factor_max = class_factors.second;
@@ -328,6 +331,8 @@ GroupParams group_params(const SceneDef& scene, const MaterialDef& m, const std:
   g.rolling_friction = static_cast<float>(m.rolling_friction);
   g.twisting_friction = static_cast<float>(m.twisting_friction);
   g.damping_time = static_cast<float>(m.damping_time);
+  g.fracture_energy = static_cast<float>(m.fracture_energy);
+  g.weibull_modulus = static_cast<float>(m.weibull_modulus);
   g.strengthening.law = static_cast<int>(m.strengthening);
   g.strengthening.alpha = static_cast<float>(m.strengthening_alpha);
   // The law stops at the largest strain a link of this material reaches: its breaking strain in
@@ -1494,6 +1499,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
     std::vector<std::uint32_t>().swap(nb.below[a]);
   }
   for (std::size_t a = 0; a < n; ++a) M.total_mass += M.mass[a];
+  assign_link_strengths(M, scene.solver.seed);
 
   add_boundaries(M, scene, d);
   add_projectiles(M, scene, placed, groups);

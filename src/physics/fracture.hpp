@@ -32,5 +32,62 @@ MCA_HD BreakTest<T> link_break_test(const T& h, const R& r0, const T& sigma, con
   return b;
 }
 
+// Softening (MaterialDef::fracture_energy; docs/model-notes.md, "Softening"). A link's effort is its
+// equivalent stress over its strength, sigma_eq / (c sigma_t): the instant law breaks it at 1. Beyond 1 the
+// link is damaged: its damage D (state, 0 at the start, never decreasing) takes the share D of its normal
+// stress where that is tension and of its shear spring (link_law.hpp, softened_force), and the strain its
+// ends' many-body sums see in tension is (1 - D) e, so that an opening crack does not load the automata's
+// other links through their volumetric strain; compression is carried whole (a crack closes). D at effort e > 1 is 1 - (ku - e) / ((ku - 1) e): in uniaxial tension the stress
+// falls linearly from the strength at effort 1 to zero at effort ku, and unloading and reloading follow
+// the secant. The energy that takes per unit volume is f^2 ku / (2 E), so per unit of cross-section, over
+// the link's length r0, f^2 ku r0 / (2 E) = G_f for ku = 2 G_f E / (f^2 r0) = soft / f^2
+// (softening_constant). The link breaks when its effort reaches ku. With ku <= 1 (a fracture energy too
+// small for the link's length: the law would have to snap back) it breaks at effort 1, as without
+// softening. The breaking elongation of the displacement criterion grows by the same factor ku: it stays
+// a limit beyond the softening's end instead of cutting it short.
+
+// The share of its pair stress and shear spring a link keeps at effort e, ku = soft / f^2 (1 up to effort
+// 1; past ku the link breaks, and the value is not used).
+template <class T>
+MCA_HD T softening_keep(const T& effort, const T& ku) {
+  const T k = select(effort > 1.0f, effort, T(1.0f));
+  const T share = (ku - k) / (select(ku > 1.0f, ku - 1.0f, T(1.0f)) * k);
+  return select(effort > 1.0f, share, T(1.0f));
+}
+
+template <class T>
+struct SofteningTest {
+  decltype(T{} > T{}) displacement, stress;
+  T damage;  // the link's damage after this step (1 when it breaks)
+};
+
+// soft: softening_constant of the pair (0: no softening); damage: the link's damage so far. sigma and tau2
+// are the link's undamaged stresses (its pair stress whole, its shear spring whole).
+template <class T, class R>
+MCA_HD SofteningTest<T> link_softening_test(const T& h, const R& r0, const T& sigma, const T& tau2, const T& p,
+                                            const T& tensile, const T& ratio, const T& strain,
+                                            float stress_coefficient, const T& soft, const T& damage) {
+  SofteningTest<T> s;
+  const T f = stress_coefficient * tensile;
+  const T effort = equivalent_stress(sigma, tau2, p, ratio) / f;
+  const T ku = soft / (f * f);
+  const T end = select(ku > 1.0f, ku, T(1.0f));
+  s.displacement = h > r0 * strain * end;
+  s.stress = !s.displacement && effort >= end;
+  const T d = 1.0f - softening_keep(effort, ku);
+  s.damage = select(s.displacement || s.stress, T(1.0f), select(d > damage, d, damage));
+  return s;
+}
+
+// The pair's soft = 2 G_f E / r0 of link_softening_test for a link of length r0 between materials of
+// fracture energies gf_i, gf_j and Young's moduli E_i, E_j: harmonic means, so an end without
+// softening (G_f = 0) gives a link without.
+inline float softening_constant(float gf_i, float gf_j, float E_i, float E_j, float r0) {
+  if (!(gf_i > 0 && gf_j > 0)) return 0.0f;
+  const double gf = 2.0 * gf_i * gf_j / (static_cast<double>(gf_i) + gf_j);
+  const double E = 2.0 * static_cast<double>(E_i) * E_j / (static_cast<double>(E_i) + E_j);
+  return static_cast<float>(2.0 * gf * E / r0);
+}
+
 
 }  // namespace mca

@@ -352,6 +352,8 @@ struct LinkOutputT {
   Vec3T<T> ut;       // updated tangential displacement
   T sigma;           // normal stress (tension > 0)
   T tau2;            // shear stress squared, (kt |ut| / S)^2
+  T vn;              // normal and tangential relative velocity (softened_force)
+  Vec3T<T> vs;
 };
 
 template <class T>
@@ -372,7 +374,19 @@ MCA_HD LinkOutputT<T> link_force(const LinkInputT<T>& in) {
   // d/dr (kt |u_t|^2 / 2): zero unless strengthening makes kt depend on the strain.
   out.sigma = in.sigma + 0.5f * in.kt_slope * ut2 / in.area;
   out.force_i = (out.sigma * in.area + in.damp_normal * vn) * n + ft;  // paper eqs. 11, 12
+  out.vn = vn;
+  out.vs = vs;
   return out;
+}
+
+// The force of a link of damage D (physics/fracture.hpp, link_softening_test): link_force's with its
+// normal stress, where that is tension, and its shear spring kept by the share 1 - D; the dashpots and a
+// compressive stress are carried whole.
+template <class T>
+MCA_HD Vec3T<T> softened_force(const LinkInputT<T>& in, const LinkOutputT<T>& o, const T& damage) {
+  const T keep = 1.0f - damage;
+  const T sigma = select(o.sigma > 0.0f, keep * o.sigma, o.sigma);
+  return (sigma * in.area + in.damp_normal * o.vn) * in.g.n + ((keep * in.kt) * o.ut + in.damp_tangential * o.vs);
 }
 
 }  // namespace mca

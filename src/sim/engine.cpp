@@ -242,6 +242,7 @@ std::uint64_t state_hash(const State& s) {
   f.vec(s.intact);
   f.vec(s.link_ut);
   if (!s.link_moment.empty()) f.vec(s.link_moment);  // (a lattice state hashes as before)
+  if (!s.link_damage.empty()) f.vec(s.link_damage);    // (as does one without softening)
   f.list(s.contacts, [&](const auto& c) {
     f.pod(c.i);
     f.pod(c.j);

@@ -136,6 +136,7 @@ std::uint64_t model_fingerprint(const Model& m) {
     f.add(m.explicit_links.r0);
     f.add(m.explicit_links.area);
   }
+  if (!m.link_strength.empty()) f.add(m.link_strength);
   // Scene-level numbers. Names are left out: they label outputs and do not shape the state.
   f.add(m.groups);
   f.add(m.projectiles);
@@ -193,6 +194,11 @@ void check_state(const Model& m, const State& s, const std::string& source) {
   c.all_finite("link_ut", s.link_ut);
   c.size("link_moment", s.link_moment, m.explicit_links.size(), "explicit links");
   c.all_finite("link_moment", s.link_moment);
+  c.size("link_damage", s.link_damage, m.softening() ? links : 0, m.softening() ? "links" : "softening links");
+  c.all_finite("link_damage", s.link_damage);
+  for (std::size_t l = 0; l < s.link_damage.size(); ++l)
+    if (!(s.link_damage[l] >= 0 && s.link_damage[l] <= 1))
+      c.fail(fmt::format("link_damage[{}] is {} (0 to 1)", l, s.link_damage[l]));
   std::int64_t broken = 0;
   for (std::size_t l = 0; l < links; ++l) {
     if (s.intact[l] > 1) c.fail(fmt::format("intact[{}] is {} (0 or 1)", l, s.intact[l]));

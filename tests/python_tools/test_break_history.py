@@ -16,14 +16,14 @@ D = 0.05
 
 
 def checkpoint(records, by, grips=0, body=b"state bytes"):
-    """A format-6 checkpoint's layout from the break records on: what comes before is not read."""
-    out = bytearray(bh.MAGIC + body)
+    """A format-7 checkpoint's layout from the break records on: what comes before is not read."""
+    out = bytearray(bh.MAGICS[-1] + body)
     out += struct.pack("<Q", len(records))
     for step, link, crit in records:
         out += struct.pack("<qIB", step, link, crit)
     out += struct.pack("<qq", *by) + struct.pack("<d", 123.0)
     out += struct.pack("<Q", grips) + b"\0" * (8 * grips) + struct.pack("<Q", grips) + b"\0" * (12 * grips)
-    out += struct.pack("<Q", bh.fnv1a(bytes(out))) + bh.MAGIC
+    out += struct.pack("<Q", bh.fnv1a(bytes(out))) + bh.MAGICS[-1]
     return bytes(out)
 
 

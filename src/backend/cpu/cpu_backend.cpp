@@ -162,6 +162,7 @@ class CpuBackend final : public Backend {
         const float k = link_normal_stiffness(p.G, gi.lame_lambda, gj.lame_lambda, area, r0);
         p.damping = link_dashpots(k, m.lattice_mass(g), m.lattice_mass(h), 0.5f * (gi.damping_time + gj.damping_time),
                                   m.link_damping);
+        p.soft = softening_constant(gi.fracture_energy, gj.fracture_energy, gi.youngs, gj.youngs, r0);
       }
     }
     runs_ = cpu::block_runs(m, kernels_.lanes);
@@ -522,6 +523,9 @@ cpu::LatticeView CpuBackend::view() {
   v.group_count = static_cast<int>(m.groups.size());
   v.one_group = one_group_;
   v.strengthening = strengthening_;
+  v.softening = !S_.link_damage.empty();
+  v.damage = v.softening ? S_.link_damage.data() : nullptr;
+  v.link_strength = m.link_strength.empty() ? nullptr : m.link_strength.data();
   v.r0 = m.spacing;
   v.inv_r0 = 1.0f / m.spacing;
   v.area = m.spacing * m.spacing;
@@ -1169,6 +1173,7 @@ State initial_state(const Model& m) {
   for (std::size_t l = 0; l < L; ++l) s.intact[l] = m.link_exists(l) ? 1 : 0;
   s.link_ut.assign(L, Vec3{});
   s.link_moment.assign(m.explicit_links.size(), Vec3{});
+  if (m.softening()) s.link_damage.assign(L, 0.0f);
   for (const auto& p : m.projectiles) {
     ProjectileState ps;
     ps.position = p.position;

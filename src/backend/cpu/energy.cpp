@@ -112,9 +112,19 @@ Energies energies_of(const View& at) {
     const double V = static_cast<double>(area) * r0;
     const double f_mean = 0.5 * (strengthening_factor(gi.strengthening, g.eps) + strengthening_factor(gj.strengthening, g.eps));
     const double kt = kShearFactor * G * area / r0 * f_mean;
-    e.elastic += G * V * (strengthening_energy(gi.strengthening, g.eps) + strengthening_energy(gj.strengthening, g.eps)) +
-                 0.5 * kt * sq(s.link_ut[l]);
-    const double si = strengthened_strain(gi.strengthening, g.eps).s, sj = strengthened_strain(gj.strengthening, g.eps).s;
+    // A damaged link (softening: physics/fracture.hpp) holds the undamaged share of its pair spring's
+    // energy in tension and of its shear spring's, and its ends' many-body sums see that share of its
+    // strain, as the forces do; the rest was dissipated.
+    const double keep = !s.link_damage.empty() && ax >= 0 ? 1.0 - s.link_damage[l] : 1.0;
+    e.elastic += (g.eps > 0 ? keep : 1.0) * G * V *
+                     (strengthening_energy(gi.strengthening, g.eps) + strengthening_energy(gj.strengthening, g.eps)) +
+                 keep * 0.5 * kt * sq(s.link_ut[l]);
+    double si = strengthened_strain(gi.strengthening, g.eps).s, sj = strengthened_strain(gj.strengthening, g.eps).s;
+    if (g.eps > 0 && !s.link_damage.empty() && ax >= 0) {
+      const float share = 1.0f - s.link_damage[l];  // as the many-body kernel takes it
+      si = static_cast<float>(si) * share;
+      sj = static_cast<float>(sj) * share;
+    }
     if (ax < 0) {
       // The bending and twisting spring: its moment's components on the pair's frame (link_bending).
       const std::size_t k = l - m.lattice_slots();

@@ -28,6 +28,7 @@ struct PairConstants {
   float G;                 // harmonic mean of the shear moduli
   float kt;                // shear spring k_s G S / r0
   LinkDashpots damping;    // link_dashpots of the pair
+  float soft;              // softening_constant of the pair (0: the instant break)
 };
 
 // The far ends of a block of W consecutive automata (W the lanes of a kernel set) along one direction,
@@ -72,6 +73,10 @@ struct LatticeView {
   int group_count = 0;
   bool one_group = false;      // every automaton of group 0... of the same group (uniform constants)
   bool strengthening = false;  // some group has a strengthening law
+  // Some group softens (fracture_energy): the links kernel runs link_softening_test and keeps each link's
+  // damage, which the many-body sums take into account.
+  bool softening = false;
+  const float* link_strength = nullptr;  // Model::link_strength (null: no spread)
   float r0 = 0, inv_r0 = 0, area = 0, dt = 0, stress_coefficient = 1, local_damping = 0;
   Vec3 gravity;
   bool last = false;  // the last step of a call: write the averaged stress and the applied forces
@@ -85,6 +90,7 @@ struct LatticeView {
   // State, by link slot.
   std::uint8_t* intact = nullptr;
   float *utx = nullptr, *uty = nullptr, *utz = nullptr;
+  float* damage = nullptr;  // State::link_damage (softening only)
   // Scratch, by link slot, at axis * ns + a: ns is n rounded up to a cache line of floats, so that a
   // block of lanes at a multiple of its width is one aligned vector there. Link directions are formed
   // from the positions by each kernel that needs them (link_geometry, the same bits each time), and

@@ -177,9 +177,13 @@ struct Block {
       // The link below (it is its lower end's), then the automaton's own: the order of the lattice's cells.
       const Far fb = far_ends(v, 3 + axis, a0);
       const auto has_below = bytes_at(v.intact + off, fb) * fb.has != 0.0f;
-      const X e_below = summand(v, a0, geometry_below(v, fb, a0).eps);
+      X e_below = summand(v, a0, geometry_below(v, fb, a0).eps);
       const auto has_own = L::load_bytes(v.intact + off + a0) != 0.0f;
-      const X e_own = summand(v, a0, geometry(v, far_ends(v, axis, a0), a0).eps);
+      X e_own = summand(v, a0, geometry(v, far_ends(v, axis, a0), a0).eps);
+      if (v.softening) {  // a damaged link's strain in tension counts by its undamaged share
+        e_below = select(e_below > 0.0f, (1.0f - at(v.damage + off, fb)) * e_below, e_below);
+        e_own = select(e_own > 0.0f, (1.0f - L::load(v.damage + off + a0)) * e_own, e_own);
+      }
       X s = 0.0f, c = 0.0f;
       s = select(has_below, s + e_below, s);
       c = select(has_below, c + 1.0f, c);
@@ -262,27 +266,49 @@ struct Block {
     in.ut = load3(v.utx, v.uty, v.utz, l0);
     in.dt = v.dt;
     const LinkOutputT<X> o = link_force(in);
-    // Strengths of the weaker automaton (physics.md sec. 4): std::min(i's, j's).
+    // Strengths of the weaker automaton (physics.md sec. 4): std::min(i's, j's), times the link's own
+    // factor where the strengths spread (Model::link_strength).
     const X ti = L::load(v.tensile + a0), tj = at(v.tensile, f);
     const X ci = L::load(v.compressive + a0), cj = at(v.compressive, f);
     const X si = L::load(v.break_strain + a0), sj = at(v.break_strain, f);
-    const X tensile = select(tj < ti, tj, ti), compressive = select(cj < ci, cj, ci);
-    const X strain = select(sj < si, sj, si);
+    X tensile = select(tj < ti, tj, ti), compressive = select(cj < ci, cj, ci);
+    X strain = select(sj < si, sj, si);
+    if (v.link_strength) {
+      const X w = L::load(v.link_strength + l0);
+      tensile = tensile * w;
+      compressive = compressive * w;
+      strain = strain * w;
+    }
     const X p = 0.5f * (L::load(v.mean_stress + a0) + at(v.mean_stress, f));
-    const auto b = link_break_test(eps * v.r0, v.r0, o.sigma, o.tau2, p, tensile, tensile / compressive, strain,
-                                   v.stress_coefficient);
-    const auto broke = alive && (b.displacement || b.stress);
+    Vec3T<X> force = o.force_i;
+    M by_displacement{}, broke{};
+    if (v.softening) {
+      // The force with this step's damage (the one the many-body terms took), the test on the undamaged
+      // stresses, the new damage for the next step.
+      const X damage = L::load(v.damage + l0);
+      const auto b = link_softening_test(eps * v.r0, v.r0, o.sigma, o.tau2, p, tensile, tensile / compressive, strain,
+                                         v.stress_coefficient, pair_value(v, a0, f, &PairConstants::soft), damage);
+      force = softened_force(in, o, damage);
+      L::store(select(alive, b.damage, damage), v.damage + l0);
+      by_displacement = b.displacement;
+      broke = alive && (b.displacement || b.stress);
+    } else {
+      const auto b = link_break_test(eps * v.r0, v.r0, o.sigma, o.tau2, p, tensile, tensile / compressive, strain,
+                                     v.stress_coefficient);
+      by_displacement = b.displacement;
+      broke = alive && (b.displacement || b.stress);
+    }
     std::size_t count = 0;
     if (L::any(broke))
       for (std::size_t k = 0; k < W; ++k)
         if (L::lane(broke, k))
-          out[count++] = static_cast<std::uint32_t>(l0 + k) | (L::lane(b.displacement, k) ? 0u : kBreakByStress);
+          out[count++] = static_cast<std::uint32_t>(l0 + k) | (L::lane(by_displacement, k) ? 0u : kBreakByStress);
     // What both ends gather: the force, the torque (r/2) n x F_t = (r/2) n x F (n x n = 0, r = r0 (1 + eps))
     // and the trace of the Love average term (r0/2) sym(n (x) F) of physics.md sec. 3.
-    const Vec3T<X> hf = o.force_i * (0.5f * v.r0);
+    const Vec3T<X> hf = force * (0.5f * v.r0);
     const Vec3T<X> torque = cross(n, hf) * (1.0f + eps);
     float* res = out_of(v, static_cast<std::size_t>(axis));
-    put3(o.force_i, res, kOutRows, kOutFx, a0);
+    put3(force, res, kOutRows, kOutFx, a0);
     put3(torque, res, kOutRows, kOutTx, a0);
     put(dot(n, hf), res, kOutRows, kOutTrace, a0);
     // A link that breaks keeps its displacement until the caller clears it; a broken one keeps its zero.

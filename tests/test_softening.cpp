@@ -1,0 +1,293 @@
+// Softening links (MaterialDef::fracture_energy) and links' own strengths (MaterialDef::weibull_modulus):
+// the law dissipates the fracture energy, a pulled bar absorbs G_f per unit of crack area at every
+// spacing, the strengths spread as a Weibull distribution of mean 1, and every instruction set, thread
+// count and resumed run computes the same bits.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <numeric>
+#include <tbb/global_control.h>
+
+#include "backend/cpu/lattice_kernels.hpp"
+#include "io/checkpoint.hpp"
+#include "io/scene_io.hpp"
+#include "lattice/heterogeneity.hpp"
+#include "physics/fracture.hpp"
+#include "support.hpp"
+#include "temp_dir.hpp"
+
+namespace mca {
+namespace {
+
+// One link in uniaxial tension, taken through its softening in small strain increments: the stress is
+// keep * E * eps, and its integral over the elongation is the energy per unit cross-section, G_f.
+TEST(Softening, TheLawDissipatesTheFractureEnergyOfALink) {
+  for (const double r0 : {0.05, 0.01, 0.002}) {
+    const float E = 30e9f, f = 3e6f, gf = 100.0f;
+    const float soft = softening_constant(gf, gf, E, E, static_cast<float>(r0));
+    const double eps0 = f / E;
+    double energy = 0, last_sigma = 0;
+    float damage = 0;
+    bool broken = false;
+    const double de = eps0 / 2000;
+    double eps = 0;
+    for (int k = 0; k < 10000000 && !broken; ++k) {
+      eps += de;
+      const float sigma = static_cast<float>(E * eps);  // the undamaged stress, all of it the pair's
+      const SofteningTest<float> t = link_softening_test<float, float>(
+          static_cast<float>(eps * r0), static_cast<float>(r0), sigma, 0.0f, 0.0f, f, 1.0f, 1.0f, 1.0f, soft, damage);
+      damage = t.damage;
+      broken = t.stress || t.displacement;
+      const double s = (1.0 - damage) * sigma;
+      energy += 0.5 * (s + last_sigma) * de * r0;  // trapezoid, per unit cross-section
+      last_sigma = s;
+      if (!broken) {
+        EXPECT_LE(s, f * 1.0001) << "the stress passed the strength at eps " << eps;
+      }
+    }
+    ASSERT_TRUE(broken);
+    std::printf("r0 %.3g m: %.2f J/m^2 dissipated (G_f %.0f), broke at %.1f x the strength's strain\n", r0, energy, gf,
+                eps / eps0);
+    EXPECT_NEAR(energy / gf, 1.0, 0.01) << "r0 " << r0;
+  }
+}
+
+// A fracture energy too small for the link's length (the law would snap back): the link breaks at its
+// strength, as without softening.
+TEST(Softening, AFractureEnergyTooSmallForTheLinkBreaksItAtItsStrength) {
+  const float E = 30e9f, f = 3e6f;
+  const float soft = softening_constant(0.1f, 0.1f, E, E, 0.05f);  // ku = 2 G_f E / (f^2 r0) = 0.013
+  const auto below = link_softening_test<float, float>(0.0f, 0.05f, 0.99f * f, 0.0f, 0.0f, f, 1.0f, 1.0f, 1.0f, soft, 0.0f);
+  EXPECT_FALSE(below.stress);
+  EXPECT_EQ(below.damage, 0.0f);
+  const auto at = link_softening_test<float, float>(0.0f, 0.05f, f, 0.0f, 0.0f, f, 1.0f, 1.0f, 1.0f, soft, 0.0f);
+  EXPECT_TRUE(at.stress);
+  EXPECT_EQ(at.damage, 1.0f);
+  // An end without a fracture energy makes the pair's law the instant one.
+  EXPECT_EQ(softening_constant(100.0f, 0.0f, E, E, 0.05f), 0.0f);
+}
+
+// Unloading keeps the damage: a link loaded to twice its strength's effort and let go keeps its damage;
+// the force keeps its undamaged share of a tensile stress and of the shear spring, and carries compression
+// whole.
+TEST(Softening, UnloadingKeepsTheDamageAndCompressionIsCarried) {
+  const float E = 30e9f, f = 3e6f, r0 = 0.05f;
+  const float soft = softening_constant(100.0f, 100.0f, E, E, r0);
+  const auto peak = link_softening_test<float, float>(0.0f, r0, 2 * f, 0.0f, 0.0f, f, 1.0f, 1.0f, 1.0f, soft, 0.0f);
+  EXPECT_GT(peak.damage, 0.5f);
+  EXPECT_LT(peak.damage, 1.0f);
+  EXPECT_FALSE(peak.stress);
+  const auto later = link_softening_test<float, float>(0.0f, r0, 0.5f * f, 0.0f, 0.0f, f, 1.0f, 1.0f, 1.0f, soft, peak.damage);
+  EXPECT_EQ(later.damage, peak.damage);
+  LinkInputT<float> in{};
+  in.g.n = {1, 0, 0};
+  in.area = r0 * r0;
+  in.kt = 1e6f;
+  LinkOutputT<float> o{};
+  o.ut = {0, 1e-6f, 0};
+  o.sigma = -1e6f;
+  const Vec3 fc = softened_force(in, o, 0.75f);
+  EXPECT_FLOAT_EQ(fc.x, -1e6f * in.area) << "compression is carried whole";
+  EXPECT_FLOAT_EQ(fc.y, 0.25f * 1e6f * 1e-6f) << "the shear spring keeps its share";
+  o.sigma = 1e6f;
+  EXPECT_FLOAT_EQ(softened_force(in, o, 0.75f).x, 0.25f * 1e6f * in.area) << "tension keeps its share";
+}
+
+// A bar pulled apart slowly, one automaton thick, held at one end: once it has come apart, the pulling
+// grip's work is the energy the broken section took, G_f d^2, plus what the bar held at the peak
+// (sigma_t^2 / (2 E) over its 5 d of length: 4 % of G_f d^2 at d = 1 cm, 2 % at 5 mm), what the links
+// that began to soften and then unloaded took, and the dashpots' share. Per unit of crack area that is
+// G_f whatever the spacing; with the instant break it is sigma_t^2 d n / (2 E), and it falls with the
+// spacing.
+struct Pulled {
+  double work = 0;         // of the pulling grip [J]
+  std::int64_t broken = 0;
+};
+
+Pulled pull_apart(double d, double fracture_energy) {
+  const int n = 6;  // short: the bar's elastic energy at the peak stays below what the softening link takes
+  MaterialDef mat = test::test_material();
+  mat.tensile_strength = 3e6;
+  mat.compressive_strength = 3e6;
+  mat.fracture_strain = 1.5e-4;
+  mat.fracture_energy = fracture_energy;
+  SceneDef sc = test::block_scene(n, 1, 1, d, mat);
+  sc.solver.link_damping = 0.3;
+  GripDef hold, pull;
+  hold.name = "hold";
+  pull.name = "pull";
+  test::layer_box(n, 0, 0, d, hold.min, hold.max);
+  test::layer_box(n, n - 1, 0, d, pull.min, pull.max);
+  pull.velocity = {0.002, 0, 0};
+  sc.grips = {hold, pull};
+  Engine sim(sc);
+  EXPECT_EQ(sim.state().link_damage.empty(), fracture_energy == 0);
+  // Until a link breaks, then 20,000 steps on (the parts apart, the pulled end's force zero).
+  std::int64_t broke_at = -1;
+  for (int k = 0; k < 200000; ++k) {
+    if (sim.advance(100).flags != kHealthy) {
+      ADD_FAILURE() << "the run stopped at step " << sim.state().step;
+      return {};
+    }
+    const State& s = sim.state();
+    if (broke_at < 0 && s.broken_by[0] + s.broken_by[1] > 0) broke_at = s.step;
+    if (broke_at >= 0 && s.step > broke_at + 20000) break;
+  }
+  EXPECT_GE(broke_at, 0) << "the bar did not break";
+  EXPECT_NEAR(sim.state().grip_force[1].x, 0.0, 1e-3) << "the parts are apart";
+  return {sim.state().grip_work[1], sim.state().broken_by[0] + sim.state().broken_by[1]};
+}
+
+TEST(Softening, ABarPulledApartTakesTheFractureEnergyPerAreaAtEverySpacing) {
+  const double gf = 100;
+  double per_area[2] = {};
+  int k = 0;
+  for (const double d : {0.01, 0.005}) {
+    const Pulled soft = pull_apart(d, gf), instant = pull_apart(d, 0);
+    per_area[k++] = soft.work / (d * d);
+    std::printf("d = %.3g m: %.1f J/m^2 and %lld broken link(s) with G_f = %.0f; %.2f J/m^2 and %lld with the "
+                "instant break (sigma_t^2 5 d / 2E = %.2f)\n",
+                d, soft.work / (d * d), static_cast<long long>(soft.broken), gf, instant.work / (d * d),
+                static_cast<long long>(instant.broken), 3e6 * 3e6 * 5 * d / (2 * 30e9));
+    EXPECT_EQ(soft.broken, 1) << "the softening bar breaks once";
+    EXPECT_GE(soft.work / (d * d), gf) << "d " << d;
+    EXPECT_LE(soft.work / (d * d), 1.3 * gf) << "d " << d;
+    EXPECT_LT(instant.work / (d * d), 0.1 * gf) << "d " << d;
+  }
+  EXPECT_NEAR(per_area[1] / per_area[0], 1.0, 0.03) << "the same energy per crack area at both spacings";
+}
+
+// Weibull factors: mean 1 and the coefficient of variation of modulus m, sqrt(G(1 + 2/m) / G(1 + 1/m)^2 - 1).
+TEST(LinkStrength, WeibullFactorsHaveMeanOneAndTheModulusSpread) {
+  for (const double m : {3.0, 6.0, 12.0}) {
+    double sum = 0, sum2 = 0;
+    const int N = 200000;
+    for (int k = 0; k < N; ++k) {
+      const double w = lattice::weibull_factor((k + 0.5) / N, m);
+      sum += w;
+      sum2 += w * w;
+    }
+    const double mean = sum / N, cv = std::sqrt(sum2 / N - mean * mean) / mean;
+    const double g1 = std::tgamma(1 + 1 / m), g2 = std::tgamma(1 + 2 / m);
+    EXPECT_NEAR(mean, 1.0, 0.002) << "m " << m;
+    EXPECT_NEAR(cv, std::sqrt(g2 / (g1 * g1) - 1), 0.003) << "m " << m;
+  }
+  EXPECT_FLOAT_EQ(lattice::weibull_factor(0.0, 1.0), static_cast<float>(lattice::kMinLinkStrength));
+}
+
+// The default scene with the ball 5 mm from the wall (it strikes within the first steps).
+SceneDef spread_wall(double weibull, double gf) {
+  SceneDef s = io::load_default_scene();
+  s.output.duration = 0.01;
+  EXPECT_EQ(s.projectiles.size(), 1u);
+  s.projectiles[0].position[1] = -0.1 - s.projectiles[0].radius - 0.005;
+  for (MaterialDef& m : s.materials) {
+    m.weibull_modulus = weibull;
+    m.fracture_energy = gf;
+  }
+  if (s.materials.empty()) {
+    MaterialDef c = *find_builtin_material("concrete");
+    c.weibull_modulus = weibull;
+    c.fracture_energy = gf;
+    s.materials.push_back(c);
+  }
+  return s;
+}
+
+TEST(LinkStrength, EachLinkDrawsItsOwnFactorFromTheSeed) {
+  Engine a(spread_wall(6, 0));
+  const Model& m = a.model();
+  ASSERT_EQ(m.link_strength.size(), m.lattice_slots());
+  double sum = 0;
+  std::size_t links = 0, differ = 0;
+  for (std::size_t l = 0; l < m.lattice_slots(); ++l) {
+    if (m.neighbour[l] == Model::kNoLink) {
+      EXPECT_EQ(m.link_strength[l], 1.0f);
+      continue;
+    }
+    sum += m.link_strength[l];
+    ++links;
+  }
+  EXPECT_NEAR(sum / static_cast<double>(links), 1.0, 0.01);
+  SceneDef other = spread_wall(6, 0);
+  other.solver.seed = 2;
+  Engine b(other);
+  for (std::size_t l = 0; l < m.lattice_slots(); ++l) differ += m.link_strength[l] != b.model().link_strength[l];
+  EXPECT_GT(differ, links / 2) << "another seed draws other factors";
+  Engine c(spread_wall(6, 0));
+  EXPECT_EQ(c.model().link_strength, m.link_strength) << "the same seed draws the same";
+  Engine none(spread_wall(0, 0));
+  EXPECT_TRUE(none.model().link_strength.empty());
+}
+
+// Softening and spread strengths on the default wall: every instruction set and thread count gives the
+// same state, the sweep the bits of one pass at a time, and a run resumed from a checkpoint the bits of
+// one that went straight through.
+TEST(Softening, EveryInstructionSetThreadCountAndResumeGivesTheSameState) {
+  const SceneDef s = spread_wall(6, 100);
+  const cpu::Kernels* sets[4];
+  const int count = cpu::available_kernels(sets);
+  ASSERT_GE(count, 2);
+  std::uint64_t first = 0;
+  std::int64_t broken = 0;
+  for (int k = 0; k < count; ++k)
+    for (int threads : {1, 2})
+      for (const char* sweep : {"fused", "passes"}) {
+        test::ForceEnv simd("MCA_SIMD", sets[k]->name), how("MCA_SWEEP", sweep);
+        tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+        Engine sim(s);
+        ASSERT_EQ(sim.advance(3000).flags, kHealthy);
+        const std::uint64_t h = state_hash(sim.state());
+        if (first == 0) {
+          first = h;
+          broken = sim.state().broken_by[0] + sim.state().broken_by[1];
+          std::printf("softening wall after 3,000 steps: state_hash %016llx, %lld broken links\n",
+                      static_cast<unsigned long long>(h), static_cast<long long>(broken));
+        }
+        EXPECT_EQ(h, first) << sets[k]->name << " on " << threads << " threads, " << sweep;
+      }
+  EXPECT_GT(broken, 0);
+  // Resumed at step 1,500 from a checkpoint file.
+  test::TempDir t;
+  Engine a(s);
+  ASSERT_EQ(a.advance(1500).flags, kHealthy);
+  bool softened = false;
+  for (float k : a.state().link_damage) softened = softened || (k > 0.0f && k < 1.0f);
+  EXPECT_TRUE(softened) << "some link softens before the checkpoint";
+  io::Checkpoint cp;
+  cp.scene = a.scene();
+  cp.state = a.state();
+  io::write_checkpoint(t.path() / "cp.mcack", cp);
+  const io::Checkpoint back = io::read_checkpoint(t.path() / "cp.mcack");
+  EXPECT_EQ(back.state.link_damage, a.state().link_damage);
+  Engine b(back.scene, back.state, "<test>", std::nullopt);
+  ASSERT_EQ(b.advance(1500).flags, kHealthy);
+  EXPECT_EQ(state_hash(b.state()), first) << "resumed";
+}
+
+TEST(Softening, SceneKeysRoundTripAndOutOfRangeValuesAreRefused) {
+  SceneDef s = io::parse_scene(
+      "[[material]]\nname = \"c\"\nbase = \"concrete\"\nfracture_energy = 120\nweibull_modulus = 5\n"
+      "[[object]]\nname = \"o\"\nmaterial = \"c\"\nsize = [0.2, 0.2, 0.2]\n",
+      "keys.toml");
+  ASSERT_EQ(s.materials.size(), 1u);
+  EXPECT_EQ(s.materials[0].fracture_energy, 120);
+  EXPECT_EQ(s.materials[0].weibull_modulus, 5);
+  const SceneDef back = io::parse_scene(io::scene_to_toml(s), "back.toml");
+  EXPECT_EQ(back.materials[0].fracture_energy, 120);
+  EXPECT_EQ(back.materials[0].weibull_modulus, 5);
+  for (const char* bad : {"fracture_energy = -1", "fracture_energy = 2e6", "weibull_modulus = 0.5",
+                          "weibull_modulus = -3", "weibull_modulus = 101", "fracture_energy = nan"}) {
+    const std::string text = std::string("[[material]]\nname = \"c\"\nbase = \"concrete\"\n") + bad +
+                             "\n[[object]]\nname = \"o\"\nmaterial = \"c\"\nsize = [0.2, 0.2, 0.2]\n";
+    const std::string e = test::error_of([&] { validate_scene(io::parse_scene(text, "bad.toml")); });
+    SCOPED_TRACE(bad);
+    EXPECT_NE(e.find(std::string(bad).substr(0, std::string(bad).find(' '))), std::string::npos) << e;
+    EXPECT_NE(e.find("bad.toml"), std::string::npos) << e;
+  }
+}
+
+}  // namespace
+}  // namespace mca
