@@ -1,6 +1,6 @@
 // Issue 21's measures in summary.json: the fragment mass distribution with its power-law fit
 // (analysis/fragments.hpp) and the crack isotropy by damage sectors (analysis/crack_isotropy.hpp), on
-// hand-made inputs with known answers.
+// hand-made inputs with known answers, and end to end against tools/fracture_metrics.py.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <filesystem>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -21,6 +22,8 @@
 #include "io/measures_json.hpp"
 #include "io/scene_io.hpp"
 #include "lattice/lattice.hpp"
+#include "shell.hpp"
+#include "small_scene.hpp"
 
 namespace {
 
@@ -29,6 +32,7 @@ using mca::analysis::FragmentInfo;
 using mca::analysis::MassBin;
 using mca::analysis::MassDistribution;
 using mca::analysis::fragment_mass_distribution;
+namespace fs = std::filesystem;
 
 // Fragments of the given automata counts, each automaton `unit` kg (a single material), heaviest first as
 // describe_fragments lists them.
@@ -505,4 +509,89 @@ TEST(CrackIsotropy, WithoutAProjectileOrAHitThereIsAReason) {
   const auto j = mca::io::crack_isotropy_json(mca::analysis::crack_isotropy(model, none, intact.data()));
   EXPECT_EQ(j.size(), 1u);
   EXPECT_TRUE(j["reason"].is_string());
+}
+
+namespace {
+// Compares a number of summary.json with one of fracture_metrics.py (null with null): the two compute the
+// same quantity in double, in other orders of summation, so they agree to within the printing.
+void expect_same(const nlohmann::json& a, const nlohmann::json& b, const std::string& what) {
+  if (a.is_null() || b.is_null()) {
+    EXPECT_TRUE(a.is_null() && b.is_null()) << what << ": " << a << " vs " << b;
+    return;
+  }
+  const double x = a.get<double>(), y = b.get<double>();
+  EXPECT_NEAR(x, y, 1e-9 * std::max(1.0, std::fabs(y))) << what;
+}
+}  // namespace
+
+// End to end: the default scene run for 16 ms (the cross is already there, docs/fracture-study.md), and
+// tools/fracture_metrics.py on its folder: every number of both measures agrees.
+TEST(FractureMeasures, SummaryAgreesWithFractureMetricsPy) {
+  const std::string python = MCA_TOOLS_PYTHON;
+  if (mca::test::shell(python + " -c 'import numpy'").code != 0)
+    GTEST_SKIP() << python << " cannot import numpy (apt-get install python3-numpy)";
+  const fs::path d = fs::temp_directory_path() / "mca_fracture_measures";
+  fs::remove_all(d);
+  const auto run = mca::test::run_mca("run --out " + (d / "out").string() + " --duration 0.016 --threads 2 -q");
+  ASSERT_EQ(run.code, 0) << run.output;
+  const auto py = mca::test::shell(python + " " + MCA_SOURCE_DIR "/tools/fracture_metrics.py " + (d / "out").string() +
+                                   " --json " + (d / "fm.json").string());
+  ASSERT_EQ(py.code, 0) << py.output;
+  const auto summary = nlohmann::json::parse(mca::test::read(d / "out" / "summary.json"));
+  const auto fm = nlohmann::json::parse(mca::test::read(d / "fm.json"));
+
+  const auto& c = summary["crack_isotropy"];
+  const auto& p = fm["damage"];
+  ASSERT_TRUE(c.contains("sector_shares")) << c.dump();
+  EXPECT_EQ(c["normal"], p["normal"]);
+  EXPECT_EQ(c["plane_axes"], p["plane_axes"]);
+  EXPECT_EQ(c["radii_scaled"], p["radii_scaled"]);
+  // fracture_metrics.py forms the rest positions from the frame's float32 points and displacements
+  EXPECT_NEAR(c["half_width"].get<double>(), p["half_width"].get<double>(), 1e-6);
+  for (const char* k : {"r_in", "r_out", "threshold", "axis_mean", "diagonal_mean", "axis_diagonal_ratio"})
+    expect_same(c[k], p[k], k);
+  for (int i = 0; i < 3; ++i) expect_same(c["centre"][i], p["centre"][i], "centre");
+  EXPECT_EQ(c["automata_in_annulus"], p["automata_in_annulus"]);
+  EXPECT_EQ(c["sector_automata"], p["sector_automata"]);
+  EXPECT_EQ(c["sector_damaged"], p["sector_damaged"]);
+  for (int i = 0; i < 8; ++i) expect_same(c["sector_shares"][i], p["sector_shares"][i], fmt::format("share {}", i));
+  // Something to compare: damage around the impact, more on the axes than the diagonals at 16 ms.
+  EXPECT_GT(c["axis_diagonal_ratio"].get<double>(), 1.5);
+
+  const auto& m = summary["fragment_mass_distribution"];
+  const auto& f = fm["fragments"];
+  EXPECT_EQ(m["automata"], f["automata"]);
+  EXPECT_EQ(m["fragments"], f["fragments"]);
+  expect_same(m["mass"], f["mass"], "mass");
+  expect_same(m["automaton_mass"], f["automaton_mass"], "automaton_mass");
+  ASSERT_EQ(m["bins"].size(), f["bins"].size());
+  for (std::size_t k = 0; k < m["bins"].size(); ++k) {
+    SCOPED_TRACE(k);
+    const auto &a = m["bins"][k], &b = f["bins"][k];
+    EXPECT_EQ(a["automata_min"], b["lo"]);
+    EXPECT_EQ(a["automata_max"], b["hi"]);
+    EXPECT_EQ(a["count"], b["count"]);
+    expect_same(a["number_density"], b["density"], "density");
+    expect_same(a["abscissa_automata"], b["m"], "abscissa");
+    expect_same(a["mass_share"], b["mass_share"], "mass share");
+  }
+  EXPECT_EQ(m["singles"]["count"], f["single_count"]);
+  expect_same(m["singles"]["mass_share"], f["single_mass_share"], "singles");
+  EXPECT_EQ(m["fragments_2_to_9"]["count"], f["small_2_9_count"]);
+  expect_same(m["fragments_2_to_9"]["mass_share"], f["small_2_9_mass_share"], "2-9");
+  EXPECT_EQ(m["fragments_10_to_tenth"]["count"], f["mid_count"]);
+  expect_same(m["fragments_10_to_tenth"]["mass_share"], f["mid_mass_share"], "10 to N/10");
+  expect_same(m["fragments_10_to_tenth"]["automata_max"], f["mid_range_automata"][1], "N/10");
+  EXPECT_EQ(m["fragments_above_tenth"]["count"], f["above_tenth_count"]);
+  expect_same(m["fragments_above_tenth"]["mass_share"], f["above_tenth_mass_share"], "above N/10");
+  EXPECT_EQ(m["largest"]["automata"], f["largest_automata"]);
+  expect_same(m["largest"]["mass_share"], f["largest_mass_share"], "largest");
+  const auto &a = m["power_law"], &b = f["fit"];
+  for (const char* k : {"bins_in_range", "bins_fitted", "empty_bins_in_range"}) EXPECT_EQ(a[k], b[k]) << k;
+  for (const char* k : {"fit_max_automata", "tau", "tau_stderr", "r2", "log10_prefactor", "decades"})
+    expect_same(a[k], b[k], k);
+  ASSERT_TRUE(a["tau"].is_number()) << a.dump();
+  expect_same(a["range_automata"][0], b["m_first"], "m_first");
+  expect_same(a["range_automata"][1], b["m_last"], "m_last");
+  fs::remove_all(d);
 }
