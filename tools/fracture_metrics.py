@@ -55,7 +55,6 @@ import sys
 
 import numpy as np
 
-TAU_BAND = (1.5, 2.1)  # published 3D brittle impact fragmentation exponents (issue 21)
 AXES = "xyz"
 
 
@@ -384,43 +383,52 @@ def fragment_measure(run_dir, fit_max=None):
     }
 
 
+def summary_form(frag):
+    """fragment_measure's result in the form of summary.json's fragment_mass_distribution (what `mca run`
+    writes; README, "Outputs"), for the plot that both draw."""
+    unit = frag["automaton_mass"]
+    fit = frag["fit"]
+    fitted = fit["tau"] is not None
+    power_law = {
+        "fit_max_automata": fit["fit_max_automata"], "bins_in_range": fit["bins_in_range"],
+        "bins_fitted": fit["bins_fitted"], "empty_bins_in_range": fit["empty_bins_in_range"],
+        "tau": fit["tau"], "tau_stderr": fit["tau_stderr"], "r2": fit["r2"],
+        "log10_prefactor": fit.get("log10_prefactor"),
+        "range_automata": [fit["m_first"], fit["m_last"]] if fitted else None,
+        "range_kg": [fit["m_first"] * unit, fit["m_last"] * unit] if fitted else None,
+        "decades": fit["decades"],
+    }
+    if not fitted:
+        power_law["reason"] = fit["reason"]
+    return {
+        "automata": frag["automata"], "fragments": frag["fragments"], "mass": frag["mass"], "automaton_mass": unit,
+        "bins": [{"automata_min": b["lo"], "automata_max": b["hi"], "count": b["count"], "number_density": b["density"],
+                  "abscissa_automata": b["m"], "abscissa_kg": b["m"] * unit, "mass_share": b["mass_share"]}
+                 for b in frag["bins"]],
+        "singles": {"count": frag["single_count"], "mass_share": frag["single_mass_share"]},
+        "fragments_2_to_9": {"count": frag["small_2_9_count"], "mass_share": frag["small_2_9_mass_share"]},
+        "fragments_10_to_tenth": {"count": frag["mid_count"], "mass_share": frag["mid_mass_share"],
+                                  "automata_min": 10, "automata_max": frag["mid_range_automata"][1]},
+        "fragments_above_tenth": {"count": frag["above_tenth_count"], "mass_share": frag["above_tenth_mass_share"]},
+        "largest": {"automata": frag["largest_automata"], "mass_share": frag["largest_mass_share"]},
+        "power_law": power_law,
+    }
+
+
 def plot_spectrum(frag, path, title=""):
+    """n(m) with the fit and the published band, drawn as `mca run --render` draws render/fragment_masses.png
+    (tools/plot_run.py)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    unit = frag["automaton_mass"]
-    bins = [b for b in frag["bins"] if b["count"] > 0]
-    fit = frag["fit"]
-    fig, ax = plt.subplots(figsize=(7, 5))
-    inside = [b for b in bins if b["hi"] <= fit["fit_max_automata"]]
-    outside = [b for b in bins if b["hi"] > fit["fit_max_automata"]]
-    # density per kg: count / (width in automata * automaton mass)
-    ax.loglog([b["m"] * unit for b in inside], [b["density"] / unit for b in inside], "o", color="C0",
-              label="n(m), fitted bins")
-    if outside:
-        ax.loglog([b["m"] * unit for b in outside], [b["density"] / unit for b in outside], "s", mfc="none",
-                  color="C0", label="n(m), above the fit range")
-    if bins:
-        x0, y0 = bins[0]["m"] * unit, bins[0]["density"] / unit
-        xs = np.logspace(math.log10(x0), math.log10(max(b["m"] for b in bins) * unit * 1.5), 50)
-        ax.fill_between(xs, y0 * (xs / x0) ** -TAU_BAND[0], y0 * (xs / x0) ** -TAU_BAND[1], color="orange",
-                        alpha=0.25, label=f"published band, tau {TAU_BAND[0]}-{TAU_BAND[1]}")
-    if fit.get("tau") is not None:
-        xs = np.logspace(math.log10(fit["m_first"]), math.log10(fit["m_last"]), 20)
-        ys = 10 ** fit["log10_prefactor"] * xs ** -fit["tau"]
-        ax.loglog(xs * unit, ys / unit, "-", color="C3",
-                  label=f"fit tau = {fit['tau']:.2f}, R^2 = {fit['r2']:.2f}, {fit['decades']:.2f} decades")
-    ax.set_xlabel("fragment mass m [kg]")
-    ax.set_ylabel("n(m): fragments per kg of mass range")
-    ax.set_title(title or "Fragment mass spectrum")
-    ax.legend(fontsize=8)
-    ax.grid(True, which="both", alpha=0.3)
-    tmp = f"{path}.{os.getpid()}.tmp"
-    fig.savefig(tmp, dpi=100, format="png")
-    os.replace(tmp, path)
-    plt.close(fig)
+    here = os.path.dirname(os.path.abspath(__file__))  # plot_run.py lies beside this file
+    if here not in sys.path:
+        sys.path.insert(0, here)
+    import plot_run
+
+    plot_run.plot_mass_distribution(plt, summary_form(frag), path, title or "Fragment mass spectrum")
 
 
 # ---------------------------------------------------------------- report
