@@ -20,7 +20,9 @@
 #include "app/frame_output.hpp"
 #include "app/render_output.hpp"
 #include "core/files.hpp"
+#include "analysis/crack_isotropy.hpp"
 #include "io/checkpoint.hpp"
+#include "io/measures_json.hpp"
 #include "io/output_files.hpp"
 #include "io/scene_io.hpp"
 #include "lattice/lattice.hpp"
@@ -221,6 +223,11 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
     bins.push_back({{"automata_min", b.automata_min}, {"automata_max", b.automata_max}, {"fragments", b.fragments},
                     {"mass", b.mass}});
   j["fragment_sizes"] = bins;
+  // Issue 21's two measures, as tools/fracture_metrics.py computes them from the folder (both cost one
+  // pass over the automata): the log-binned mass distribution with its power-law fit, and the damage
+  // around the impact by 45-degree sector.
+  j["fragment_mass_distribution"] = io::mass_distribution_json(analysis::fragment_mass_distribution(infos));
+  j["crack_isotropy"] = io::crack_isotropy_json(analysis::crack_isotropy(m, sim.scene(), s.intact.data()));
   j["fragments_file"] = "fragments.csv";
   write_fragments_csv(dir / "fragments.csv", infos);
   nlohmann::json proj = nlohmann::json::array();

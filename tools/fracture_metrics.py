@@ -2,12 +2,19 @@
 """The two fracture measures of issue 21, from an `mca run` output folder.
 
 1. Crack isotropy (the axis/diagonal damage ratio). From one frame of automata.pvd (the last unless
-   --frame/--time): each automaton's initial position is its point minus its `displacement`; those whose
-   distance from the impact point, measured in the wall's plane, lies in [r_in, r_out] (0.25-0.7 m) are
-   sorted into eight 45-degree sectors centred on the plane's two lattice axes (0, 90, 180, 270 degrees)
-   and the diagonals (45, 135, 225, 315 degrees). A sector's share is the share of its automata with
-   `damage` >= 0.5; the ratio is the mean share of the four axis sectors over that of the four diagonal
-   sectors (about 1 for an isotropic material).
+   --frame/--time): each automaton's initial position is its point minus its `displacement`; those of the
+   first object (`object` 0) whose distance from the impact point, measured in the wall's plane, lies in
+   [r_in, r_out] are sorted into eight 45-degree sectors centred on the plane's two lattice axes (0, 90,
+   180, 270 degrees) and the diagonals (45, 135, 225, 315 degrees). A sector's share is the share of its
+   automata with `damage` >= 0.5; the ratio is the mean share of the four axis sectors over that of the
+   four diagonal sectors (about 1 for an isotropic material). An empty sector has no share (null) and
+   leaves the ratio null, as does a ratio with no damaged diagonal automaton, each with a "reason".
+
+   The radii (unless --r-in/--r-out): 0.25 m and 0.7 m when the impact point lies at least 0.7 m from every
+   in-plane edge of the first object (the box of its automata's initial positions +- their `radius`), as
+   on the default wall; on a smaller object 0.25 and 0.7 times that distance (the half-width of an object
+   struck at its centre), which keeps the annulus off the edges. `mca run` writes the same measure, by the
+   same rule, into summary.json's crack_isotropy (src/analysis/crack_isotropy.hpp).
 
    The plane is the one normal to the projectile's velocity (its largest component: x, y or z), the impact
    point is where the projectile's initial path crosses the plane through the first object's centre, both
@@ -26,7 +33,9 @@
    against log10 m over the non-empty bins whose sizes lie wholly within [1, N/10] (the largest
    fragments, the cut-off, are left out; --fit-max sets another bound in automata); it reports tau, its
    standard error, R^2, the bins fitted, the empty bins inside the range, and the decades between the
-   first and the last fitted point.
+   first and the last fitted point. A fragment's bin is its size rounded to a whole number (halves up),
+   at least 1. `mca run` writes the same into summary.json's fragment_mass_distribution
+   (src/analysis/fragments.hpp).
 
 Usage:
   /usr/bin/python3 tools/fracture_metrics.py RUN_DIR [--frame K | --time T] [--json OUT.json]
@@ -47,7 +56,6 @@ import sys
 import numpy as np
 
 AXES = "xyz"
-TAU_BAND = (1.5, 2.1)  # published 3D brittle impact fragmentation exponents (issue 21)
 
 
 class RunError(Exception):
@@ -185,7 +193,24 @@ def in_plane_axes(normal):
 
 # ---------------------------------------------------------------- measure 1: damage sectors
 
-def sector_shares(initial, damage, normal, centre, r_in=0.25, r_out=0.7, threshold=0.5):
+R_IN, R_OUT = 0.25, 0.7  # the issue's annulus [m], for objects that hold it
+
+
+def annulus_radii(initial, radius, normal, centre):
+    """(r_in, r_out, half_width, scaled) by the rule of the module's docstring: half_width is the distance
+    from the impact point to the nearest in-plane edge of the box of the automata given (their initial
+    positions +- radius)."""
+    lo = (initial - radius[:, None]).min(axis=0)
+    hi = (initial + radius[:, None]).max(axis=0)
+    half = min(min(centre[k] - lo[k], hi[k] - centre[k]) for k in in_plane_axes(normal))
+    if not half > 0:
+        raise RunError(f"the impact point {list(centre)} lies outside the first object in its plane")
+    if half >= R_OUT:
+        return R_IN, R_OUT, float(half), False
+    return R_IN * half, R_OUT * half, float(half), True
+
+
+def sector_shares(initial, damage, normal, centre, r_in=R_IN, r_out=R_OUT, threshold=0.5):
     """Shares of damaged automata in eight 45-degree sectors (sector k centred on k * 45 degrees)."""
     a, b = in_plane_axes(normal)
     da = initial[:, a] - centre[a]
@@ -197,12 +222,23 @@ def sector_shares(initial, damage, normal, centre, r_in=0.25, r_out=0.7, thresho
     damaged = damage[keep] >= threshold
     counts = np.bincount(sector, minlength=8)
     hits = np.bincount(sector, weights=damaged.astype(float), minlength=8)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        shares = hits / counts
-    axis_mean = float(np.mean(shares[0::2]))
-    diag_mean = float(np.mean(shares[1::2]))
-    ratio = axis_mean / diag_mean if diag_mean > 0 else float("inf")
-    return {
+    # None (JSON null), not NaN, for an empty sector and for a ratio that cannot be formed: json.dump would
+    # write NaN and Infinity, which are not JSON.
+    shares = [float(h / c) if c > 0 else None for h, c in zip(hits, counts)]
+    reason = None
+    axis_mean = diag_mean = ratio = None
+    if any(c == 0 for c in counts):
+        empty = [45 * k for k in range(8) if counts[k] == 0]
+        reason = (f"no automaton of the annulus {r_in:g}-{r_out:g} m lies in the sector{'s' if len(empty) > 1 else ''} "
+                  f"at {', '.join(str(e) for e in empty)} degrees")
+    else:
+        axis_mean = float(np.mean(shares[0::2]))
+        diag_mean = float(np.mean(shares[1::2]))
+        if diag_mean > 0:
+            ratio = axis_mean / diag_mean
+        else:
+            reason = "no automaton of the diagonal sectors is damaged: the axis/diagonal ratio is unbounded"
+    res = {
         "plane_axes": [AXES[a], AXES[b]],
         "normal": AXES[normal],
         "centre": [float(c) for c in centre],
@@ -211,16 +247,19 @@ def sector_shares(initial, damage, normal, centre, r_in=0.25, r_out=0.7, thresho
         "sector_angles_deg": [45 * k for k in range(8)],
         "sector_automata": [int(c) for c in counts],
         "sector_damaged": [int(h) for h in hits],
-        "sector_shares": [float(s) for s in shares],
-        "axis_shares": [float(s) for s in shares[0::2]],
-        "diagonal_shares": [float(s) for s in shares[1::2]],
+        "sector_shares": shares,
+        "axis_shares": shares[0::2],
+        "diagonal_shares": shares[1::2],
         "axis_mean": axis_mean,
         "diagonal_mean": diag_mean,
         "axis_diagonal_ratio": ratio,
     }
+    if reason:
+        res["reason"] = reason
+    return res
 
 
-def damage_measure(run_dir, frame=None, time=None, normal=None, centre=None, **kw):
+def damage_measure(run_dir, frame=None, time=None, normal=None, centre=None, r_in=None, r_out=None, **kw):
     pvd = os.path.join(run_dir, "automata.pvd")
     if not os.path.exists(pvd):
         raise RunError(f"{run_dir}: no automata.pvd (run with VTK output)")
@@ -230,12 +269,26 @@ def damage_measure(run_dir, frame=None, time=None, normal=None, centre=None, **k
         if name not in v:
             raise RunError(f"{path}: no point field '{name}'")
     initial = v["Points"].astype(float) - v["displacement"].astype(float)
+    damage = v["damage"].astype(float)
+    # The first object's automata (frames written before the `object` and `radius` fields: all of them,
+    # as points).
+    radius = v["radius"].astype(float) if "radius" in v else np.zeros(len(initial))
+    if "object" in v:
+        first = v["object"] == 0
+        initial, damage, radius = initial[first], damage[first], radius[first]
     if normal is None or centre is None:
         ax, c = impact_geometry(read_scene(run_dir))
         normal = ax if normal is None else normal
         centre = c if centre is None else centre
-    res = sector_shares(initial, v["damage"].astype(float), normal, np.asarray(centre, float), **kw)
-    res.update({"frame": k, "time": t, "file": os.path.relpath(path, run_dir)})
+    centre = np.asarray(centre, float)
+    half, scaled = None, None
+    if r_in is None or r_out is None:
+        rule_in, rule_out, half, scaled = annulus_radii(initial, radius, normal, centre)
+        r_in = rule_in if r_in is None else r_in
+        r_out = rule_out if r_out is None else r_out
+    res = sector_shares(initial, damage, normal, centre, r_in=r_in, r_out=r_out, **kw)
+    res.update({"frame": k, "time": t, "file": os.path.relpath(path, run_dir), "half_width": half,
+                "radii_scaled": scaled})
     return res
 
 
@@ -252,15 +305,23 @@ def read_fragments(path):
     return np.array([int(r["automata"]) for r in rows]), np.array([float(r["mass"]) for r in rows])
 
 
-def log_bins(sizes):
-    """Bins [2^k, 2^(k+1)) of sizes in automata: (k, count, density, abscissa, lo, hi) per bin up to the largest."""
-    kmax = int(math.floor(math.log2(max(float(sizes.max()), 1.0))))
+def log_bins(sizes, mass=None):
+    """Bins [2^k, 2^(k+1)) of sizes in automata: (k, count, density, abscissa, lo, hi, mass share) per bin
+    up to the largest. A size goes to the bin of its whole number, halves up ([2^k - 0.5, 2^(k+1) - 0.5)),
+    and at least 1: a fragment lighter than half an average automaton is counted in the first bin, and one
+    just under a power of two (1023.9999...) in the bin of that power, which the bins reach."""
+    whole = np.maximum(np.floor(sizes + 0.5), 1.0).astype(np.int64)
+    k_of = np.array([int(w).bit_length() - 1 for w in whole], dtype=np.int64)
+    total = float(mass.sum()) if mass is not None else None
     rows = []
-    for k in range(kmax + 1):
+    for k in range(int(k_of.max()) + 1):
         lo, hi = 2 ** k, 2 ** (k + 1)
-        count = int(np.count_nonzero((sizes >= lo - 0.5) & (sizes < hi - 0.5)))
-        rows.append({"k": k, "lo": lo, "hi": hi - 1, "count": count, "density": count / lo,
-                     "m": math.sqrt(lo * (hi - 1))})
+        inside = k_of == k
+        count = int(np.count_nonzero(inside))
+        row = {"k": k, "lo": lo, "hi": hi - 1, "count": count, "density": count / lo, "m": math.sqrt(lo * (hi - 1))}
+        if total:
+            row["mass_share"] = float(mass[inside].sum() / total)
+        rows.append(row)
     return rows
 
 
@@ -271,7 +332,9 @@ def power_law_fit(bins, fit_max):
     res = {"fit_max_automata": fit_max, "bins_in_range": len(inside), "bins_fitted": len(used),
            "empty_bins_in_range": len(inside) - len(used)}
     if len(used) < 2:
-        res.update({"tau": None, "tau_stderr": None, "r2": None, "decades": 0.0})
+        res.update({"tau": None, "tau_stderr": None, "r2": None, "decades": 0.0,
+                    "reason": f"{len(used)} non-empty bin{'' if len(used) == 1 else 's'} of at most {fit_max:g} "
+                              "automata: a power law needs at least 2"})
         return res
     x = np.log10([b["m"] for b in used])
     y = np.log10([b["density"] for b in used])
@@ -284,7 +347,8 @@ def power_law_fit(bins, fit_max):
     else:
         stderr = None
     res.update({"tau": float(-slope), "tau_stderr": stderr, "log10_prefactor": float(icept),
-                "r2": 1.0 - ss_res / ss_tot if ss_tot > 0 else 1.0,
+                # all fitted densities equal: nothing for the line to explain, R^2 undefined
+                "r2": 1.0 - ss_res / ss_tot if ss_tot > 0 else None,
                 "m_first": used[0]["m"], "m_last": used[-1]["m"], "decades": float(x[-1] - x[0])})
     return res
 
@@ -303,7 +367,7 @@ def fragment_measure(run_dir, fit_max=None):
     mid = (automata >= 10) & (automata <= tenth)
     small = (automata >= 2) & (automata <= 9)
     big = automata > tenth
-    bins = log_bins(sizes)
+    bins = log_bins(sizes, mass)
     fit = power_law_fit(bins, tenth if fit_max is None else fit_max)
     return {
         "fragments": int(len(automata)), "automata": n_total, "mass": m_total, "automaton_mass": m_unit,
@@ -311,55 +375,66 @@ def fragment_measure(run_dir, fit_max=None):
         "small_2_9_count": int(small.sum()), "small_2_9_mass_share": float(mass[small].sum() / m_total),
         "mid_count": int(mid.sum()), "mid_mass_share": float(mass[mid].sum() / m_total),
         "mid_range_automata": [10, tenth],
-        "above_tenth_count": int(big.sum()), "above_tenth_sizes": sorted((int(a) for a in automata[big]), reverse=True),
-        "largest_automata": int(automata.max()), "largest_mass_share": float(mass.max() / m_total),
+        "above_tenth_count": int(big.sum()), "above_tenth_mass_share": float(mass[big].sum() / m_total),
+        "above_tenth_sizes": sorted((int(a) for a in automata[big]), reverse=True),
+        # the heaviest fragment (the first of equal ones, as fragments.csv lists them)
+        "largest_automata": int(automata[int(np.argmax(mass))]), "largest_mass_share": float(mass.max() / m_total),
         "bins": bins, "fit": fit,
     }
 
 
+def summary_form(frag):
+    """fragment_measure's result in the form of summary.json's fragment_mass_distribution (what `mca run`
+    writes; README, "Outputs"), for the plot that both draw."""
+    unit = frag["automaton_mass"]
+    fit = frag["fit"]
+    fitted = fit["tau"] is not None
+    power_law = {
+        "fit_max_automata": fit["fit_max_automata"], "bins_in_range": fit["bins_in_range"],
+        "bins_fitted": fit["bins_fitted"], "empty_bins_in_range": fit["empty_bins_in_range"],
+        "tau": fit["tau"], "tau_stderr": fit["tau_stderr"], "r2": fit["r2"],
+        "log10_prefactor": fit.get("log10_prefactor"),
+        "range_automata": [fit["m_first"], fit["m_last"]] if fitted else None,
+        "range_kg": [fit["m_first"] * unit, fit["m_last"] * unit] if fitted else None,
+        "decades": fit["decades"],
+    }
+    if not fitted:
+        power_law["reason"] = fit["reason"]
+    return {
+        "automata": frag["automata"], "fragments": frag["fragments"], "mass": frag["mass"], "automaton_mass": unit,
+        "bins": [{"automata_min": b["lo"], "automata_max": b["hi"], "count": b["count"], "number_density": b["density"],
+                  "abscissa_automata": b["m"], "abscissa_kg": b["m"] * unit, "mass_share": b["mass_share"]}
+                 for b in frag["bins"]],
+        "singles": {"count": frag["single_count"], "mass_share": frag["single_mass_share"]},
+        "fragments_2_to_9": {"count": frag["small_2_9_count"], "mass_share": frag["small_2_9_mass_share"]},
+        "fragments_10_to_tenth": {"count": frag["mid_count"], "mass_share": frag["mid_mass_share"],
+                                  "automata_min": 10, "automata_max": frag["mid_range_automata"][1]},
+        "fragments_above_tenth": {"count": frag["above_tenth_count"], "mass_share": frag["above_tenth_mass_share"]},
+        "largest": {"automata": frag["largest_automata"], "mass_share": frag["largest_mass_share"]},
+        "power_law": power_law,
+    }
+
+
 def plot_spectrum(frag, path, title=""):
+    """n(m) with the fit and the published band, drawn as `mca run --render` draws render/fragment_masses.png
+    (tools/plot_run.py)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    unit = frag["automaton_mass"]
-    bins = [b for b in frag["bins"] if b["count"] > 0]
-    fit = frag["fit"]
-    fig, ax = plt.subplots(figsize=(7, 5))
-    inside = [b for b in bins if b["hi"] <= fit["fit_max_automata"]]
-    outside = [b for b in bins if b["hi"] > fit["fit_max_automata"]]
-    # density per kg: count / (width in automata * automaton mass)
-    ax.loglog([b["m"] * unit for b in inside], [b["density"] / unit for b in inside], "o", color="C0",
-              label="n(m), fitted bins")
-    if outside:
-        ax.loglog([b["m"] * unit for b in outside], [b["density"] / unit for b in outside], "s", mfc="none",
-                  color="C0", label="n(m), above the fit range")
-    if bins:
-        x0, y0 = bins[0]["m"] * unit, bins[0]["density"] / unit
-        xs = np.logspace(math.log10(x0), math.log10(max(b["m"] for b in bins) * unit * 1.5), 50)
-        ax.fill_between(xs, y0 * (xs / x0) ** -TAU_BAND[0], y0 * (xs / x0) ** -TAU_BAND[1], color="orange",
-                        alpha=0.25, label=f"published band, tau {TAU_BAND[0]}-{TAU_BAND[1]}")
-    if fit.get("tau") is not None:
-        xs = np.logspace(math.log10(fit["m_first"]), math.log10(fit["m_last"]), 20)
-        ys = 10 ** fit["log10_prefactor"] * xs ** -fit["tau"]
-        ax.loglog(xs * unit, ys / unit, "-", color="C3",
-                  label=f"fit tau = {fit['tau']:.2f}, R^2 = {fit['r2']:.2f}, {fit['decades']:.2f} decades")
-    ax.set_xlabel("fragment mass m [kg]")
-    ax.set_ylabel("n(m): fragments per kg of mass range")
-    ax.set_title(title or "Fragment mass spectrum")
-    ax.legend(fontsize=8)
-    ax.grid(True, which="both", alpha=0.3)
-    tmp = f"{path}.{os.getpid()}.tmp"
-    fig.savefig(tmp, dpi=100, format="png")
-    os.replace(tmp, path)
-    plt.close(fig)
+    here = os.path.dirname(os.path.abspath(__file__))  # plot_run.py lies beside this file
+    if here not in sys.path:
+        sys.path.insert(0, here)
+    import plot_run
+
+    plot_run.plot_mass_distribution(plt, summary_form(frag), path, title or "Fragment mass spectrum")
 
 
 # ---------------------------------------------------------------- report
 
 def _fmt_share(x):
-    return "nan" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.3f}"
+    return "-" if x is None else f"{x:.3f}"
 
 
 def report(res):
@@ -372,9 +447,13 @@ def report(res):
         lines.append("  sector (deg):  " + "  ".join(f"{a:>5d}" for a in d["sector_angles_deg"]))
         lines.append("  automata:      " + "  ".join(f"{c:>5d}" for c in d["sector_automata"]))
         lines.append("  damaged share: " + "  ".join(f"{_fmt_share(s):>5}" for s in d["sector_shares"]))
-        lines.append(f"  axes {', '.join(_fmt_share(s) for s in d['axis_shares'])} (mean {d['axis_mean']:.3f}); "
-                     f"diagonals {', '.join(_fmt_share(s) for s in d['diagonal_shares'])} (mean {d['diagonal_mean']:.3f})")
-        lines.append(f"  axis/diagonal ratio: {d['axis_diagonal_ratio']:.2f}")
+        lines.append(f"  axes {', '.join(_fmt_share(s) for s in d['axis_shares'])} (mean {_fmt_share(d['axis_mean'])}); "
+                     f"diagonals {', '.join(_fmt_share(s) for s in d['diagonal_shares'])} "
+                     f"(mean {_fmt_share(d['diagonal_mean'])})")
+        if d["axis_diagonal_ratio"] is None:
+            lines.append(f"  axis/diagonal ratio: none ({d['reason']})")
+        else:
+            lines.append(f"  axis/diagonal ratio: {d['axis_diagonal_ratio']:.2f}")
     f = res.get("fragments")
     if f:
         lines.append(f"fragments: {f['fragments']} of {f['automata']} automata ({f['mass']:.1f} kg)")
@@ -388,11 +467,11 @@ def report(res):
                      ", ".join(f"{b['lo']}-{b['hi']}: {b['count']}" for b in f["bins"]))
         fit = f["fit"]
         if fit["tau"] is None:
-            lines.append(f"  power law: fewer than 2 non-empty bins up to {fit['fit_max_automata']:g} automata, no fit")
+            lines.append(f"  power law: no fit ({fit['reason']})")
         else:
             se = f" +- {fit['tau_stderr']:.2f}" if fit["tau_stderr"] is not None else ""
             lines.append(f"  power law n(m) ~ m^-tau up to {fit['fit_max_automata']:g} automata: tau = {fit['tau']:.2f}{se}, "
-                         f"R^2 = {fit['r2']:.3f}, {fit['bins_fitted']} bins ({fit['empty_bins_in_range']} empty in range), "
+                         f"R^2 = {_fmt_share(fit['r2'])}, {fit['bins_fitted']} bins ({fit['empty_bins_in_range']} empty in range), "
                          f"{fit['decades']:.2f} decades (m = {fit['m_first']:.1f} to {fit['m_last']:.1f} automata)")
     return "\n".join(lines)
 
@@ -410,8 +489,8 @@ def main(argv=None):
     ap.add_argument("--normal", choices=list(AXES), help="the wall plane's normal (default: from the projectile)")
     ap.add_argument("--centre", type=float, nargs=3, metavar=("X", "Y", "Z"),
                     help="impact point (default: the projectile's path through the object's centre plane)")
-    ap.add_argument("--r-in", type=float, default=0.25)
-    ap.add_argument("--r-out", type=float, default=0.7)
+    ap.add_argument("--r-in", type=float, help="inner radius of the annulus [m] (default: by the rule above)")
+    ap.add_argument("--r-out", type=float, help="outer radius of the annulus [m] (default: by the rule above)")
     ap.add_argument("--threshold", type=float, default=0.5)
     ap.add_argument("--fit-max", type=float, help="largest fragment size fitted, in automata (default N/10)")
     ap.add_argument("--no-damage", action="store_true")
@@ -435,7 +514,7 @@ def main(argv=None):
     print(report(res))
     if a.json:
         with open(a.json, "w") as f:
-            json.dump(res, f, indent=1)
+            json.dump(res, f, indent=1, allow_nan=False)  # NaN or Infinity would not be JSON
     return 0
 
 

@@ -42,8 +42,9 @@ def sectors(runs):
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for run in runs:
         d = fm.damage_measure(run)
-        print(f"| {name(run)} | {1e3 * d['time']:.0f} | " + " | ".join(f"{x:.3f}" for x in d["sector_shares"]) +
-              f" | {d['axis_mean']:.3f} | {d['diagonal_mean']:.3f} | {d['axis_diagonal_ratio']:.2f} |")
+        ratio = "-" if d["axis_diagonal_ratio"] is None else f"{d['axis_diagonal_ratio']:.2f}"
+        print(f"| {name(run)} | {1e3 * d['time']:.0f} | " + " | ".join(fm._fmt_share(x) for x in d["sector_shares"]) +
+              f" | {fm._fmt_share(d['axis_mean'])} | {fm._fmt_share(d['diagonal_mean'])} | {ratio} |")
 
 
 def singles(runs):

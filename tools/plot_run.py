@@ -3,15 +3,20 @@
 
   render/energies.png       kinetic, elastic, contact and projectile energies and the balance over time
   render/broken_links.png   broken links (by criterion) and fragments over time
-  render/fragment_masses.png  cumulative fragment mass distribution (log-log): the number of fragments of
-                              at least mass m, against m
+  render/fragment_masses.png  the fragment mass distribution of summary.json's fragment_mass_distribution:
+                              the number density n(m) in logarithmic bins (log-log, per kg), the fitted
+                              power law n(m) ~ m^-tau over its range, and the published exponents of 3D
+                              brittle impact fragmentation, tau 1.5-2.1, as a shaded band
 
-Reads stats.csv and fragments.csv. Each file is written under a temporary name and renamed.
+Reads stats.csv and summary.json. Each file is written under a temporary name and renamed.
 Usage: python3 tools/plot_run.py OUT_DIR [--quiet]
 """
 import csv
+import json
 import os
 import sys
+
+TAU_BAND = (1.5, 2.1)  # published 3D brittle impact fragmentation exponents (issue 21)
 
 
 def read_csv(path):
@@ -26,6 +31,75 @@ def save(fig, path):
     tmp = f"{path}.{os.getpid()}.0.tmp"
     fig.savefig(tmp, dpi=100, format="png")
     os.replace(tmp, path)
+
+
+def mass_distribution_figure(plt, dist, title):
+    """The figure of n(m) of a fragment_mass_distribution object (summary.json; README, "Outputs") with its
+    fit and the published band. Masses in kg, densities in fragments per kg of mass range: the summary's
+    per-automaton numbers over the automaton's mass. Its lines carry labels starting "n(m)" (the bins),
+    "fit" and "N/10"; the band is the collection labelled "published band"."""
+    fig, ax = plt.subplots(figsize=(8, 5))
+    if dist.get("reason"):
+        ax.text(0.5, 0.5, f"no fragment mass distribution: {dist['reason']}", ha="center", va="center",
+                transform=ax.transAxes)
+        ax.set_axis_off()
+        ax.set_title(title)
+        fig.tight_layout()
+        return fig
+    unit = dist["automaton_mass"]
+    fit = dist["power_law"]
+    fit_max = fit["fit_max_automata"]
+    full = [b for b in dist["bins"] if b["count"] > 0]
+    inside = [b for b in full if b["automata_max"] <= fit_max]
+    outside = [b for b in full if b["automata_max"] > fit_max]
+
+    def xy(bins):
+        return [b["abscissa_kg"] for b in bins], [b["number_density"] / unit for b in bins]
+
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    if inside:
+        ax.plot(*xy(inside), "o", color="C0", label=f"n(m), bins up to N/10 = {fit_max:g} automata")
+    if outside:
+        ax.plot(*xy(outside), "s", mfc="none", color="C0", label="n(m), bins above N/10 (not fitted)")
+    if full:
+        # The band through the first non-empty bin (the singles, where there are any): where n(m) would
+        # fall with the published exponents.
+        x0, y0 = full[0]["abscissa_kg"], full[0]["number_density"] / unit
+        x1 = max(b["abscissa_kg"] for b in full) * 1.5
+        xs = [x0 * (x1 / x0) ** (i / 49) for i in range(50)]
+        ax.fill_between(xs, [y0 * (x / x0) ** -TAU_BAND[0] for x in xs], [y0 * (x / x0) ** -TAU_BAND[1] for x in xs],
+                        color="orange", alpha=0.25, lw=0, label=f"published band, tau {TAU_BAND[0]}-{TAU_BAND[1]}")
+    if fit["tau"] is not None:
+        k0, k1 = fit["range_kg"]
+        xs = [k0 * (k1 / k0) ** (i / 19) for i in range(20)]
+        # log10 n = log10_prefactor - tau log10 m, m in automata and n per automaton; per kg: over unit
+        ys = [10 ** fit["log10_prefactor"] * (x / unit) ** -fit["tau"] / unit for x in xs]
+        se = "" if fit["tau_stderr"] is None else f" +- {fit['tau_stderr']:.2f}"
+        r2 = "-" if fit["r2"] is None else f"{fit['r2']:.3f}"
+        ax.plot(xs, ys, "-", color="C3", lw=2,
+                label=f"fit: tau = {fit['tau']:.2f}{se}, R^2 = {r2}, {fit['bins_fitted']} bins "
+                      f"({fit['empty_bins_in_range']} empty in range), {fit['decades']:.2f} decades")
+    else:
+        ax.plot([], [], " ", label=f"no fit: {fit['reason']}")  # the reason, in the legend
+    ax.axvline(fit_max * unit, color="grey", ls=":", lw=1, label="N/10: the end of the fit range")
+    ax.set_xlabel("fragment mass m [kg]")
+    ax.set_ylabel("n(m): fragments per kg of mass range")
+    mid = dist["fragments_10_to_tenth"]
+    ax.set_title(f"{title}\n{dist['fragments']} fragments; singles {100 * dist['singles']['mass_share']:.1f} %, "
+                 f"10 automata to N/10 {100 * mid['mass_share']:.1f} %, largest {100 * dist['largest']['mass_share']:.1f} % "
+                 "of the mass", fontsize=10)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8, loc="lower left")
+    fig.tight_layout()
+    return fig
+
+
+def plot_mass_distribution(plt, dist, path, title):
+    """mass_distribution_figure written to path."""
+    fig = mass_distribution_figure(plt, dist, title)
+    save(fig, path)
+    plt.close(fig)
 
 
 def main(argv):
@@ -84,20 +158,14 @@ def main(argv):
     save(fig, os.path.join(render, "broken_links.png"))
     plt.close(fig)
 
-    frags = read_csv(os.path.join(out, "fragments.csv"))
-    masses = sorted((float(r["mass"]) for r in frags), reverse=True)
-    fig, ax = plt.subplots(figsize=(8, 4.5))
-    # N(>= m): the k-th heaviest fragment has k fragments at least as heavy.
-    ax.step(masses, range(1, len(masses) + 1), where="post")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("fragment mass m [kg]")
-    ax.set_ylabel("fragments of mass >= m")
-    ax.set_title(f"Fragment masses at the end ({len(masses)} fragments)")
-    ax.grid(alpha=0.3, which="both")
-    fig.tight_layout()
-    save(fig, os.path.join(render, "fragment_masses.png"))
-    plt.close(fig)
+    with open(os.path.join(out, "summary.json"), encoding="utf-8") as f:
+        summary = json.load(f)
+    dist = summary.get("fragment_mass_distribution")
+    if dist is None:
+        raise SystemExit(f"plot_run.py: {os.path.join(out, 'summary.json')} has no fragment_mass_distribution "
+                         "(written by an older mca): run the scene again")
+    plot_mass_distribution(plt, dist, os.path.join(render, "fragment_masses.png"),
+                           f"Fragment masses at the end: {summary.get('scene', '')}")
     if not quiet:
         print(f"plots: energies.png, broken_links.png, fragment_masses.png in {render}", file=sys.stderr)
     return 0

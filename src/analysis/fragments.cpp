@@ -5,6 +5,8 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <bit>
+#include <cmath>
 #include <limits>
 #include <numeric>
 #include <stdexcept>
@@ -173,6 +175,131 @@ std::vector<SizeBin> fragment_size_bins(const std::vector<FragmentInfo>& fragmen
     bins[k].mass += f.mass;
   }
   return bins;
+}
+
+namespace {
+// The bin of a fragment of `size` automata (mass over the mean automaton's): its size rounded to a whole
+// number, halves up as fracture_metrics.py's bounds [2^k - 0.5, 2^(k+1) - 0.5) round, and at least 1, so
+// that a fragment lighter than half an average automaton (a light material beside a heavy one) is
+// counted in the first bin rather than in none.
+int mass_bin(double size) {
+  const double whole = std::max(1.0, std::floor(size + 0.5));
+  // A size past 2^62 automata cannot come from a model (int32 automata ids); the clamp only keeps the
+  // conversion defined.
+  const auto w = static_cast<std::uint64_t>(std::min(whole, 0x1p62));
+  return std::bit_width(w) - 1;
+}
+}  // namespace
+
+PowerLawFit fit_power_law(const std::vector<MassBin>& bins, double fit_max) {
+  PowerLawFit fit;
+  fit.fit_max_automata = fit_max;
+  std::vector<double> x, y;
+  for (const MassBin& b : bins) {
+    if (static_cast<double>(b.automata_max) > fit_max) continue;
+    ++fit.bins_in_range;
+    if (b.count == 0) continue;
+    x.push_back(std::log10(b.abscissa));
+    y.push_back(std::log10(b.number_density));
+  }
+  fit.bins_fitted = static_cast<int>(x.size());
+  fit.empty_bins_in_range = fit.bins_in_range - fit.bins_fitted;
+  if (x.size() < 2) {
+    fit.reason = fmt::format("{} non-empty bin{} of at most {:g} automata: a power law needs at least 2",
+                             x.size(), x.size() == 1 ? "" : "s", fit_max);
+    return fit;
+  }
+  // Unweighted least squares, y = slope x + intercept (numpy.polyfit(x, y, 1) in fracture_metrics.py).
+  const auto n = static_cast<double>(x.size());
+  double xm = 0, ym = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    xm += x[i];
+    ym += y[i];
+  }
+  xm /= n;
+  ym /= n;
+  double sxx = 0, sxy = 0, ss_tot = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    sxx += (x[i] - xm) * (x[i] - xm);
+    sxy += (x[i] - xm) * (y[i] - ym);
+    ss_tot += (y[i] - ym) * (y[i] - ym);
+  }
+  // The abscissae of different bins differ, so sxx > 0.
+  const double slope = sxy / sxx;
+  const double intercept = ym - slope * xm;
+  double ss_res = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double r = y[i] - (slope * x[i] + intercept);
+    ss_res += r * r;
+  }
+  fit.tau = -slope;
+  fit.log10_prefactor = intercept;
+  if (x.size() > 2)
+    fit.tau_stderr = std::sqrt(ss_res / (n - 2) / sxx);
+  else
+    fit.tau_stderr_reason = "2 bins fitted: a line passes through both points, leaving no scatter to estimate "
+                            "the error from";
+  if (ss_tot > 0)
+    fit.r2 = 1.0 - ss_res / ss_tot;
+  else
+    fit.r2_reason = "every fitted bin has the same density: R^2 is undefined";
+  fit.m_first = std::pow(10.0, x.front());
+  fit.m_last = std::pow(10.0, x.back());
+  fit.decades = x.back() - x.front();
+  return fit;
+}
+
+MassDistribution fragment_mass_distribution(const std::vector<FragmentInfo>& fragments) {
+  MassDistribution d;
+  d.fragments = static_cast<std::int64_t>(fragments.size());
+  for (const FragmentInfo& f : fragments) {
+    d.automata += f.automata;
+    d.mass += f.mass;
+  }
+  if (d.automata == 0 || !(d.mass > 0)) {
+    d.reason = d.automata == 0 ? "no automata" : "the automata have no mass";
+    return d;
+  }
+  d.automaton_mass = d.mass / static_cast<double>(d.automata);
+  d.tenth = static_cast<double>(d.automata) / 10.0;
+  std::vector<int> bin_of(fragments.size());
+  int kmax = 0;
+  const FragmentInfo* heaviest = &fragments.front();
+  for (std::size_t i = 0; i < fragments.size(); ++i) {
+    const FragmentInfo& f = fragments[i];
+    bin_of[i] = mass_bin(f.mass / d.automaton_mass);
+    kmax = std::max(kmax, bin_of[i]);
+    if (f.mass > heaviest->mass) heaviest = &f;
+    // Classes by automata count, as fracture_metrics.py draws them.
+    FragmentClass& c = f.automata == 1                                      ? d.singles
+                       : f.automata <= 9                                    ? d.small
+                       : static_cast<double>(f.automata) <= d.tenth ? d.mid
+                                                                            : d.above_tenth;
+    c.count += 1;
+    c.mass_share += f.mass;
+  }
+  for (FragmentClass* c : {&d.singles, &d.small, &d.mid, &d.above_tenth}) c->mass_share /= d.mass;
+  d.largest_automata = heaviest->automata;
+  d.largest_mass_share = heaviest->mass / d.mass;
+  d.bins.resize(static_cast<std::size_t>(kmax) + 1);
+  for (int k = 0; k <= kmax; ++k) {
+    MassBin& b = d.bins[static_cast<std::size_t>(k)];
+    b.k = k;
+    b.automata_min = std::int64_t{1} << k;
+    b.automata_max = (std::int64_t{2} << k) - 1;
+    b.abscissa = std::sqrt(static_cast<double>(b.automata_min) * static_cast<double>(b.automata_max));
+  }
+  for (std::size_t i = 0; i < fragments.size(); ++i) {
+    MassBin& b = d.bins[static_cast<std::size_t>(bin_of[i])];
+    b.count += 1;
+    b.mass_share += fragments[i].mass;
+  }
+  for (MassBin& b : d.bins) {
+    b.number_density = static_cast<double>(b.count) / static_cast<double>(b.automata_min);
+    b.mass_share /= d.mass;
+  }
+  d.fit = fit_power_law(d.bins, d.tenth);
+  return d;
 }
 
 }  // namespace mca::analysis

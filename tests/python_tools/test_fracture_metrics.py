@@ -73,9 +73,10 @@ CENTRE = np.array([0.1, 0.0, 0.8])  # the projectile's path through the wall's c
 
 def fake_run(tmp_path, with_fragments=True):
     """Points in eight sectors of the xz plane around CENTRE, 8 per sector, inside the annulus, damaged
-    as SHARES says; decoys (damaged, outside the annulus or on the sector's edge) that a wrong radius or
-    angle test would count; every point displaced so that a reader using the points, not the initial
-    positions, gets other sectors and radii."""
+    as SHARES says; decoys (damaged, outside the annulus or on the sector's edge, or of a second object)
+    that a wrong radius, angle or object test would count; four undamaged corners that make the first
+    object's box (1.0 m and more from CENTRE in the plane) hold the issue's annulus; every point displaced
+    so that a reader using the points, not the initial positions, gets other sectors and radii."""
     pts, dmg = [], []
     for k, share in enumerate(SHARES):
         for i in range(8):
@@ -89,6 +90,15 @@ def fake_run(tmp_path, with_fragments=True):
             ang = math.radians(45 * k)
             pts.append(CENTRE + [r * math.cos(ang), 0.0, r * math.sin(ang)])
             dmg.append(1.0)
+    for dx, dz in ((-1.2, -1.0), (1.2, -1.0), (-1.2, 1.0), (1.2, 1.0)):  # the first object's corners
+        pts.append(CENTRE + [dx, 0.0, dz])
+        dmg.append(0.0)
+    n_first = len(pts)
+    for k in (1, 3, 5, 7):  # a second object's automata in the annulus on the diagonals, all damaged
+        ang = math.radians(45 * k)
+        pts.append(CENTRE + [0.5 * math.cos(ang), 1.0, 0.5 * math.sin(ang)])
+        dmg.append(1.0)
+    obj = np.array([0] * n_first + [1] * (len(pts) - n_first), dtype=np.int32)
     initial = np.array(pts)
     rng = np.random.default_rng(3)
     disp = np.column_stack([rng.uniform(0.3, 0.6, len(pts)), rng.uniform(-1, 1, len(pts)),
@@ -99,7 +109,8 @@ def fake_run(tmp_path, with_fragments=True):
     for f, d in ((0, np.zeros(len(pts))), (1, np.array(dmg))):
         write_vtu(frames / f"automata_{f:06d}.vtu", initial + (disp if f else 0),
                   {"velocity": np.zeros((len(pts), 3)), "displacement": disp if f else np.zeros((len(pts), 3)),
-                   "strength_class": np.full(len(pts), 4, dtype=np.int32), "damage": d})
+                   "strength_class": np.full(len(pts), 4, dtype=np.int32), "object": obj, "damage": d,
+                   "radius": np.full(len(pts), 0.025)})
     (tmp_path / "automata.pvd").write_text(
         '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
         '  <Collection>\n'
@@ -233,3 +244,86 @@ def test_missing_folder_is_an_error(tmp_path, capsys):
     assert "not a folder" in capsys.readouterr().err
     (tmp_path / "empty").mkdir()
     assert fm.main([str(tmp_path / "empty")]) == 2
+
+
+def plate(half=0.2, d=0.05, layers=2):
+    """Initial positions and radii of a square plate 2 * half wide in the xz plane, centred on the origin,
+    `layers` automata of spacing d through y."""
+    c = np.arange(-half + d / 2, half, d)
+    pts = np.array([[x, d * (k - (layers - 1) / 2), z] for x in c for z in c for k in range(layers)])
+    return pts, np.full(len(pts), d / 2)
+
+
+def test_annulus_radii_follow_the_object(tmp_path):
+    # the default wall, struck 0.75 m from its top and bottom edges, keeps the issue's 0.25-0.7 m
+    wall = np.array([[x, 0.0, z] for x in np.arange(-0.975, 1.0, 0.05) for z in np.arange(0.025, 1.5, 0.05)])
+    r_in, r_out, half, scaled = fm.annulus_radii(wall, np.full(len(wall), 0.025), 1, np.array([0.0, 0.0, 0.75]))
+    assert (r_in, r_out, scaled) == (0.25, 0.7, False)
+    assert half == pytest.approx(0.75)
+    # a 0.4 m plate struck at its centre: 0.25 and 0.7 of its half-width 0.2 m
+    pts, rad = plate()
+    r_in, r_out, half, scaled = fm.annulus_radii(pts, rad, 1, np.zeros(3))
+    assert scaled and half == pytest.approx(0.2)
+    assert (r_in, r_out) == pytest.approx((0.05, 0.14))
+    # struck off centre: the nearest edge decides
+    r_in, r_out, half, scaled = fm.annulus_radii(pts, rad, 1, np.array([0.1, 0.0, 0.0]))
+    assert half == pytest.approx(0.1) and r_out == pytest.approx(0.07)
+    with pytest.raises(fm.RunError, match="outside the first object"):
+        fm.annulus_radii(pts, rad, 1, np.array([0.5, 0.0, 0.0]))
+
+
+def test_plate_sectors_with_scaled_radii():
+    # 8 x 8 automata per layer: 5 per quadrant and layer lie 0.05-0.14 m out, off the edge rows; with
+    # 2 layers 8 per axis sector, 2 per diagonal one (as mca's CrackIsotropy.TheAnnulusScalesOnASmallPlate)
+    pts, rad = plate()
+    r_in, r_out, _, _ = fm.annulus_radii(pts, rad, 1, np.zeros(3))
+    res = fm.sector_shares(pts, np.zeros(len(pts)), 1, np.zeros(3), r_in=r_in, r_out=r_out)
+    assert res["sector_automata"] == [8, 2] * 4
+    # undamaged: the ratio is unbounded, so null with the reason, and the result is valid JSON
+    assert res["axis_diagonal_ratio"] is None and "unbounded" in res["reason"]
+    json.dumps(res, allow_nan=False)
+
+
+def test_an_empty_sector_is_null_not_nan():
+    pts = np.array([[0.5, 0, 0], [0, 0, 0.5], [-0.5, 0, 0], [0.35, 0, 0.35]])
+    res = fm.sector_shares(pts, np.array([1.0, 1.0, 0.0, 1.0]), 1, np.zeros(3))
+    assert res["sector_automata"] == [1, 1, 1, 0, 1, 0, 0, 0]
+    assert res["sector_shares"][3] is None and res["axis_mean"] is None and res["axis_diagonal_ratio"] is None
+    assert "sectors at 135, 225, 270, 315 degrees" in res["reason"]
+    json.dumps(res, allow_nan=False)
+    assert "ratio: none" in fm.report({"damage": dict(res, frame=0, time=0.0)})
+
+
+def test_sizes_round_to_whole_automata(tmp_path):
+    # two materials: N = 1024 automata of 1026 kg; 0.4 kg is 0.399 mean automata (first bin, not none),
+    # 1.9 kg is 1.896 (the 2-3 bin), 1023.7 kg is 1021.7 (the 512-1023 bin)
+    cols = ("id,automata,mass,volume,centre_x,centre_y,centre_z,velocity_x,velocity_y,velocity_z,"
+            "box_min_x,box_min_y,box_min_z,box_max_x,box_max_y,box_max_z")
+    rows = [cols] + [f"{i},{n},{m!r}," + ",".join(["0"] * 13) for i, (n, m) in enumerate([(1000, 1023.7), (1, 1.9), (23, 0.4)])]
+    (tmp_path / "fragments.csv").write_text("\n".join(rows) + "\n")
+    f = fm.fragment_measure(str(tmp_path))
+    counts = [b["count"] for b in f["bins"]]
+    assert counts == [1, 1, 0, 0, 0, 0, 0, 0, 0, 1]
+    assert sum(b["mass_share"] for b in f["bins"]) == pytest.approx(1.0)
+    assert f["bins"][1]["mass_share"] == pytest.approx(1.9 / 1026)
+    # the largest is the heaviest fragment, with its own automata count
+    assert f["largest_automata"] == 1000 and f["largest_mass_share"] == pytest.approx(1023.7 / 1026)
+    # just under a power of two in mean automata: the bin of that power, which the bins reach
+    rows = [cols, "0,1024,1023.6," + ",".join(["0"] * 13), "1,1,1.0," + ",".join(["0"] * 13)]
+    (tmp_path / "fragments.csv").write_text("\n".join(rows) + "\n")
+    f = fm.fragment_measure(str(tmp_path))
+    assert len(f["bins"]) == 11 and f["bins"][10]["count"] == 1
+
+
+def test_equal_densities_have_no_r2(tmp_path):
+    write_fragments(tmp_path / "fragments.csv", [1] * 4 + [2] * 8 + [500])
+    fit = fm.fragment_measure(str(tmp_path))["fit"]
+    assert fit["tau"] == pytest.approx(0.0, abs=1e-12)
+    assert fit["r2"] is None and fit["tau_stderr"] is None
+
+
+def test_no_fit_gives_a_reason(tmp_path):
+    write_fragments(tmp_path / "fragments.csv", [100])
+    f = fm.fragment_measure(str(tmp_path))
+    assert f["fit"]["tau"] is None and "0 non-empty bins of at most 10 automata" in f["fit"]["reason"]
+    assert "no fit (0 non-empty bins" in fm.report({"fragments": f})

@@ -1,0 +1,109 @@
+"""Tests of tools/plot_run.py: render/fragment_masses.png draws summary.json's fragment_mass_distribution
+(n(m) in kg, the fit over its range, the published band tau 1.5-2.1) (run with /usr/bin/python3 -m pytest
+tests/python_tools)."""
+import json
+import math
+import os
+import sys
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "tools"))
+import fracture_metrics as fm  # noqa: E402
+import plot_run  # noqa: E402
+
+matplotlib = pytest.importorskip("matplotlib")
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.collections import PolyCollection  # noqa: E402
+
+from test_fracture_metrics import sample_power_law, write_fragments  # noqa: E402
+
+UNIT = 0.3  # kg per automaton in write_fragments
+
+
+def distribution(tmp_path, sizes):
+    """fragment_mass_distribution as summary.json has it, for these fragment sizes (one material)."""
+    write_fragments(tmp_path / "fragments.csv", sizes, UNIT)
+    return fm.summary_form(fm.fragment_measure(str(tmp_path)))
+
+
+def test_density_fit_and_band_are_drawn_in_kg(tmp_path):
+    sizes = sample_power_law(1.8, 127, 1e4)
+    sizes += [sum(sizes)]  # a body above N/10: drawn, not fitted
+    dist = distribution(tmp_path, sizes)
+    fig = plot_run.mass_distribution_figure(plt, dist, "test")
+    ax = fig.axes[0]
+    def line(prefix):
+        found = [ln for ln in ax.get_lines() if ln.get_label().startswith(prefix)]
+        assert len(found) == 1, [ln.get_label() for ln in ax.get_lines()]
+        return found[0]
+
+    assert ax.get_xscale() == "log" and ax.get_yscale() == "log"
+    # the bins: abscissa in kg, density per kg = per automaton / UNIT
+    fitted = [b for b in dist["bins"] if b["count"] > 0 and b["automata_max"] <= dist["power_law"]["fit_max_automata"]]
+    x, y = line("n(m), bins up to").get_data()
+    np.testing.assert_allclose(x, [b["abscissa_automata"] * UNIT for b in fitted], rtol=1e-12)
+    np.testing.assert_allclose(y, [b["number_density"] / UNIT for b in fitted], rtol=1e-12)
+    # the fit: from the first to the last fitted abscissa, slope -tau in log-log, through the prefactor
+    fit = dist["power_law"]
+    fx, fy = (np.asarray(v, float) for v in line("fit:").get_data())
+    assert fx[0] == pytest.approx(fit["range_kg"][0]) and fx[-1] == pytest.approx(fit["range_kg"][1])
+    slope = np.polyfit(np.log10(fx), np.log10(fy), 1)[0]
+    assert slope == pytest.approx(-fit["tau"], rel=1e-9)
+    assert fy[0] == pytest.approx(10 ** fit["log10_prefactor"] * (fx[0] / UNIT) ** -fit["tau"] / UNIT)
+    assert "tau = 1.8" in line("fit:").get_label()
+    # the band: a shaded polygon from the first bin, its edges falling with tau 1.5 and 2.1
+    bands = [c for c in ax.collections if isinstance(c, PolyCollection) and "published band" in c.get_label()]
+    assert len(bands) == 1 and "1.5-2.1" in bands[0].get_label()
+    verts = bands[0].get_paths()[0].vertices
+    x0 = fitted[0]["abscissa_automata"] * UNIT
+    right = verts[np.isclose(verts[:, 0], verts[:, 0].max())][:, 1]
+    x1 = verts[:, 0].max()
+    y0 = fitted[0]["number_density"] / UNIT
+    assert [right.min(), right.max()] == pytest.approx([y0 * (x1 / x0) ** -2.1, y0 * (x1 / x0) ** -1.5])
+    # the body above N/10, drawn as an open square
+    bx, _ = line("n(m), bins above").get_data()
+    assert list(bx) == pytest.approx([dist["bins"][-1]["abscissa_kg"]])
+    # the end of the fit range, N/10, as a vertical line in kg
+    assert line("N/10").get_xdata()[0] == pytest.approx(fit["fit_max_automata"] * UNIT)
+    plt.close(fig)
+
+
+def test_no_fit_says_why(tmp_path):
+    dist = distribution(tmp_path, [1] * 50)
+    assert dist["power_law"]["tau"] is None
+    fig = plot_run.mass_distribution_figure(plt, dist, "singles only")
+    labels = [ln.get_label() for ln in fig.axes[0].get_lines()]
+    assert any(lb.startswith("no fit: 1 non-empty bin") for lb in labels), labels
+    assert not any(lb.startswith("fit") for lb in labels)
+    plt.close(fig)
+
+
+def write_run(out, dist):
+    cols = ["frame", "time", "kinetic_energy", "elastic_energy", "contact_energy", "projectile_kinetic_energy",
+            "total_energy", "energy_balance", "broken_displacement", "broken_stress", "broken_total", "fragments"]
+    rows = [",".join(cols)] + [",".join(str(i * (c != "time") + 0.001 * i * (c == "time")) for c in cols) for i in range(3)]
+    (out / "stats.csv").write_text("\n".join(rows) + "\n")
+    summary = {"scene": "fake"}
+    if dist is not None:
+        summary["fragment_mass_distribution"] = dist
+    (out / "summary.json").write_text(json.dumps(summary))
+
+
+def test_main_writes_the_three_plots(tmp_path):
+    dist = distribution(tmp_path, sample_power_law(1.8, 127, 1e3) + [5000])
+    write_run(tmp_path, dist)
+    assert plot_run.main(["plot_run.py", str(tmp_path), "--quiet"]) == 0
+    for name in ("energies.png", "broken_links.png", "fragment_masses.png"):
+        path = tmp_path / "render" / name
+        assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
+    assert not list((tmp_path / "render").glob("*.tmp"))
+
+
+def test_a_summary_without_the_distribution_is_refused_by_name(tmp_path):
+    write_run(tmp_path, None)
+    with pytest.raises(SystemExit) as e:
+        plot_run.main(["plot_run.py", str(tmp_path), "--quiet"])
+    assert "fragment_mass_distribution" in str(e.value)
