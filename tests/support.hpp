@@ -110,6 +110,22 @@ inline void layer_box(int n, int layer, int axis, double d, Vec3d& lo, Vec3d& hi
   hi[axis] = c + 0.25 * d;
 }
 
+// A bar of n automata along x (one thick, spacing d) of material mat, held at its first automaton by the
+// grip "hold" and pulled at its last by the grip "pull" at `speed` m/s along x (grip_force[1], grip_work[1]
+// are the pull's), with link_damping 0.3 so that it is pulled quasi-statically.
+inline SceneDef pulled_bar(int n, double d, const MaterialDef& mat, double speed = 0.002) {
+  SceneDef sc = block_scene(n, 1, 1, d, mat);
+  sc.solver.link_damping = 0.3;
+  GripDef hold, pull;
+  hold.name = "hold";  // grip names must differ (they name the stats.csv columns)
+  pull.name = "pull";
+  layer_box(n, 0, 0, d, hold.min, hold.max);
+  layer_box(n, n - 1, 0, d, pull.min, pull.max);
+  pull.velocity = {speed, 0, 0};
+  sc.grips = {hold, pull};
+  return sc;
+}
+
 // Uniformly random velocities in [-v_scale, v_scale] and angular velocities in [-w_scale, w_scale] on
 // every automaton (a fixed seed: the same numbers every run).
 inline void randomise_velocities(Engine& sim, double v_scale, double w_scale, unsigned seed) {

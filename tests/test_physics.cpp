@@ -266,16 +266,7 @@ double breaking_stress(double tensile, double fracture_strain, int& criterion) {
   mat.tensile_strength = tensile;
   mat.compressive_strength = tensile;
   mat.fracture_strain = fracture_strain;
-  SceneDef sc = block_scene(n, 1, 1, d, mat);
-  sc.solver.link_damping = 0.3;
-  GripDef hold, pull;
-  hold.name = "hold";  // grip names must differ (they name the stats.csv columns)
-  pull.name = "pull";
-  test::layer_box(n, 0, 0, d, hold.min, hold.max);
-  test::layer_box(n, n - 1, 0, d, pull.min, pull.max);
-  pull.velocity = {0.002, 0, 0};
-  sc.grips = {hold, pull};
-  Engine sim(sc);
+  Engine sim(test::pulled_bar(n, d, mat));
   double peak = 0;
   for (int k = 0; k < 2000000 && sim.state().broken_by[0] + sim.state().broken_by[1] == 0; ++k) {
     peak = std::max(peak, static_cast<double>(sim.state().grip_force[1].x));

@@ -113,16 +113,7 @@ Pulled pull_apart(double d, double fracture_energy) {
   mat.compressive_strength = 3e6;
   mat.fracture_strain = 1.5e-4;
   mat.fracture_energy = fracture_energy;
-  SceneDef sc = test::block_scene(n, 1, 1, d, mat);
-  sc.solver.link_damping = 0.3;
-  GripDef hold, pull;
-  hold.name = "hold";
-  pull.name = "pull";
-  test::layer_box(n, 0, 0, d, hold.min, hold.max);
-  test::layer_box(n, n - 1, 0, d, pull.min, pull.max);
-  pull.velocity = {0.002, 0, 0};
-  sc.grips = {hold, pull};
-  Engine sim(sc);
+  Engine sim(test::pulled_bar(n, d, mat));
   EXPECT_EQ(sim.state().link_damage.empty(), fracture_energy == 0);
   // Until a link breaks, then 20,000 steps on (the parts apart, the pulled end's force zero).
   std::int64_t broke_at = -1;
