@@ -292,5 +292,56 @@ TEST(Physics, BarBreaksAtItsFractureStrainWhenThatComesFirst) {
   EXPECT_NEAR(s / (30e9 * 0.5e-4), 1.0, 0.05) << "breaking stress " << s;
 }
 
+
+// The many-body term at a free face (docs/model-notes.md, "The surface layer"): an automaton on a face has
+// one link along the face's normal and gives it its whole many-body term, so that link contracts more in
+// a block under uniaxial stress than the links inside. Measured: the face's links 1.34-1.39 times the
+// interior's lateral strain at n = 6-20, the next layer within 3 %, the axial strain uniform within 2 %
+// and the modulus from the end faces' displacement within 1.5 % of E.
+TEST(Physics, TheSurfaceLayerOfABlockInUniaxialStress) {
+  for (const int n : {6, 10}) {
+    SCOPED_TRACE(n);
+    const double d = 0.01, E = 30e9, nu = 0.2, sigma = 1e6;
+    SceneDef sc = block_scene(n, n, n, d, test_material(E, nu));
+    sc.solver.local_damping = 0.2;
+    pull_x_faces(sc, n, d, sigma);
+    Engine sim(sc);
+    relax(sim, 40000);
+    const Model& m = sim.model();
+    const State& s = sim.state();
+    // Per layer along y, in the middle half of x and z: the y links' strain (link k joins layers k and
+    // k + 1) and the x links' strain.
+    std::vector<double> ey(n - 1, 0.0), ex(n, 0.0);
+    std::vector<int> cy(n - 1, 0), cx(n, 0);
+    const double lo = -0.5 * (n - 1) * d;
+    m.for_each_link([&](std::size_t, std::uint32_t i, std::uint32_t j, int ax) {
+      const DVec3 a0 = m.position0[i], b0 = m.position0[j];
+      if (std::fabs(0.5 * (a0.x + b0.x)) > 0.25 * n * d || std::fabs(0.5 * (a0.z + b0.z)) > 0.25 * n * d) return;
+      const double e = (length(delta(s.x[i], s.x[j])) - d) / d;
+      const int k = static_cast<int>(std::lround((a0.y - lo) / d));
+      if (ax == 1) { ey[k] += e; ++cy[k]; }
+      if (ax == 0) { ex[k] += e; ++cx[k]; }
+    });
+    double first = 0, last = 0;
+    int nf = 0, nl = 0;
+    for (std::size_t a = 0; a < m.size(); ++a) {
+      if (m.position0[a].x < lo + 0.5 * d) { first += s.x[a].x - m.position0[a].x; ++nf; }
+      if (m.position0[a].x > -lo - 0.5 * d) { last += s.x[a].x - m.position0[a].x; ++nl; }
+    }
+    const double E_ends = sigma / ((last / nl - first / nf) / ((n - 1) * d));
+    const double lateral = -nu * sigma / E;
+    const double face = ey[0] / cy[0] / lateral, next = ey[1] / cy[1] / lateral, middle = ey[n / 2 - 1] / cy[n / 2 - 1] / lateral;
+    std::printf("n %d: E from the end faces %.4f E; lateral strain / (-nu sigma / E): face %.3f, next %.3f, middle %.3f; "
+                "axial strain / (sigma / E): face layer %.3f, middle %.3f\n",
+                n, E_ends / E, face, next, middle, ex[0] / cx[0] / (sigma / E), ex[n / 2] / cx[n / 2] / (sigma / E));
+    EXPECT_NEAR(E_ends / E, 1.0, 0.02);
+    EXPECT_GT(face, 1.25) << "the face's links contract more (their automata's whole many-body term)";
+    EXPECT_LT(face, 1.5) << "at most the 1.5 of equal volumetric strains";
+    EXPECT_NEAR(next / middle, 1.0, 0.06) << "the next layer is the interior's";
+    EXPECT_NEAR(ey[0] / cy[0], ey[n - 2] / cy[n - 2], 1e-3 * std::fabs(lateral)) << "both faces alike";
+    EXPECT_NEAR(ex[0] / cx[0] / (sigma / E), ex[n / 2] / cx[n / 2] / (sigma / E), 0.02) << "the axial strain is uniform";
+  }
+}
+
 }  // namespace
 }  // namespace mca
