@@ -509,9 +509,16 @@ int run(const RunOptions& o) {
         if (!keep && std::filesystem::is_empty(f, ec) && !ec) std::filesystem::remove(f, ec);
     }
   } created;
-  for (std::filesystem::path f = std::filesystem::absolute(dir); !f.empty() && !std::filesystem::exists(f);
-       f = f.parent_path())
-    created.made.push_back(f);
+  {
+    // (A path that cannot be examined, a name over the file system's limit or a loop of symbolic links,
+    // ends the walk: prepare_output_dir reports it.)
+    std::error_code ec;
+    for (std::filesystem::path f = std::filesystem::absolute(dir); !f.empty(); f = f.parent_path()) {
+      const bool there = std::filesystem::exists(f, ec);
+      if (there || (ec && ec != std::errc::no_such_file_or_directory)) break;
+      created.made.push_back(f);
+    }
+  }
   io::prepare_output_dir(dir);
   const io::OutputLock lock(dir);
   // The run writes the scene as run to <dir>/scene.toml: never over the scene file it reads.
@@ -598,9 +605,14 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   const std::filesystem::path dir(out_dir);
   std::error_code ec;
   if (!std::filesystem::is_directory(dir, ec)) {
+    const bool there = std::filesystem::exists(dir, ec);
+    const std::string why = there ? "is not a folder"
+                            : ec && ec != std::errc::no_such_file_or_directory
+                                ? fmt::format("cannot be reached ({})", ec.message())
+                                : "does not exist";
     throw Error(fmt::format("mca resume: '{}' {}; give the --out folder of a run started with --checkpoint-every N "
                             "(its checkpoints are in <folder>/checkpoints)",
-                            out_dir, std::filesystem::exists(dir, ec) ? "is not a folder" : "does not exist"));
+                            out_dir, why));
   }
   const io::OutputLock lock(dir);
   remove_stale_temporaries(dir);

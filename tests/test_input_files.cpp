@@ -135,6 +135,34 @@ TEST(InputFiles, ANonRegularMeshFileIsRefused) {
   EXPECT_HAS(error_in_child([] { mca::mesh::read_mesh("/dev/zero"); }), "/dev/zero: is a character device");
 }
 
+// A path the system cannot follow (a loop of symbolic links, a name longer than the file system allows)
+// is reported with the system's reason, not as "not found" nor as a raw filesystem exception.
+TEST(InputFiles, APathThatCannotBeFollowedNamesTheReason) {
+  mca::test::TempDir t;
+  const fs::path a = t.path() / "loop_a", b = t.path() / "loop_b";
+  fs::create_symlink(b, a);
+  fs::create_symlink(a, b);
+  const std::string loop = "Too many levels of symbolic links";
+  Result r = mca_limited("info " + a.string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_HAS(r.output, a.string() + ": cannot reach the scene file (" + loop + ")");
+  std::ofstream(t.path() / "m.toml") << "[[object]]\nshape = \"mesh\"\nmesh = \"loop_a\"\n";
+  r = mca_limited("info " + (t.path() / "m.toml").string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_HAS(r.output, "object[0].mesh = \"loop_a\": " + a.string() + " cannot be reached (" + loop + ")");
+  r = mca_limited("run -q --steps 1 --out " + (a / "x").string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_HAS(r.output, "output folder '" + (a / "x").string() + "' is not usable: " + loop);
+  r = mca_limited("resume " + a.string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_HAS(r.output, "'" + a.string() + "' cannot be reached (" + loop + ")");
+  const fs::path long_name = t.path() / std::string(300, 'a');
+  r = mca_limited("run -q --steps 1 --out " + long_name.string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_HAS(r.output, "is not usable: File name too long; choose another --out folder");
+  EXPECT_EQ(r.output.find("filesystem error"), std::string::npos) << r.output;
+}
+
 TEST(InputFiles, ANonRegularCheckpointIsRefused) {
   mca::test::TempDir t;
   for (const Odd& o : odd_files(t.path())) {

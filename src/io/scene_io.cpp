@@ -382,6 +382,10 @@ void read_mesh_path(const Table& tb, std::string& out, bool resolve) {
       out = std::filesystem::absolute(c, ec).lexically_normal().string();
       return;
     }
+    if (ec && ec != std::errc::no_such_file_or_directory) {  // a loop of symbolic links, a name too long
+      tb.reader().fail(n->source(), fmt::format("{} = \"{}\": {} cannot be reached ({}); check the path",
+                                                tb.key("mesh"), out, c.string(), ec.message()));
+    }
     if (const std::string kind = files::non_regular_kind(c); !kind.empty()) {
       tb.reader().fail(n->source(), fmt::format("{} = \"{}\": {} is {}, not a mesh file (mca reads only regular "
                                                 "files); give the path of a mesh file",
@@ -807,6 +811,11 @@ SceneDef parse_scene(std::string_view toml_text, const std::string& source) {
 SceneDef load_scene_file(const std::filesystem::path& path) {
   std::error_code ec;
   const auto status = std::filesystem::status(path, ec);
+  if (ec && ec != std::errc::no_such_file_or_directory) {
+    // A loop of symbolic links, a name too long, a folder on the way without permission: the system's
+    // reason, not "not found".
+    throw Error(fmt::format("{}: cannot reach the scene file ({}); check the path", path.string(), ec.message()));
+  }
   if (!std::filesystem::exists(status)) {
     throw Error(fmt::format("{}: scene file not found (current directory: {}); check the path, or start from "
                             "one of the example scenes in the scenes/ folder",
