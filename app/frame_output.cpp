@@ -77,6 +77,13 @@ OutputEstimate estimate_output(const Model& m, const OutputDef& o, std::int64_t 
 MemoryEstimate estimate_memory(const Model& m, const OutputDef& o, int render_width, int render_height) {
   MemoryEstimate e;
   e.arrays = static_cast<double>(estimate_memory_bytes(m.size(), m.explicit_links.size()));
+  // The options' per-slot arrays (three lattice slots an automaton): a strength spread's factors (4
+  // bytes), a jittered lattice's rest lengths and inverses (12), softening's damage in the state and in
+  // the engine's copy of it (8) and the contact search's flags (1).
+  const double slots = static_cast<double>(m.lattice_slots());
+  if (!m.link_strength.empty()) e.arrays += 4.0 * slots;
+  if (!m.link_rest.empty()) e.arrays += 12.0 * slots;
+  if (m.softening()) e.arrays += 9.0 * slots;
   // Mesh objects, per triangle: assimp's scene and the welded mesh (vertices, faces, the weld map), the
   // checks' edge tables, the shells, the surface bound to automata (66 bytes) kept for the run; the
   // fill's distance grids at the spacing are small beside them. Measured: `mca info scenes/bunny.toml`
@@ -241,7 +248,7 @@ void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis
     cls[a] = model_.strength_class[a];
     object[a] = model_.object[a];
   }
-  link_damage(model_, s.intact.data(), damage.data());
+  automaton_damage(model_, s.intact.data(), s.link_damage.empty() ? nullptr : s.link_damage.data(), damage.data());
   // The orientations are written from the state as they are: (w, x, y, z) floats, as mca::Frame::orientation.
   static_assert(sizeof(Quat) == 4 * sizeof(float) && offsetof(Quat, w) == 0 && offsetof(Quat, z) == 3 * sizeof(float),
                 "a Quat is four floats w, x, y, z");

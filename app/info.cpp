@@ -80,8 +80,8 @@ int info(const std::optional<std::string>& path, bool json) {
   const Model& m = sim.model();
   const std::int64_t frames = sim.frame_count();
   const std::int64_t steps = sim.total_steps();
-  const std::size_t bytes = estimate_memory_bytes(m.size(), m.explicit_links.size());
   const MemoryEstimate memory = estimate_memory(m, scene.output);
+  const double bytes = memory.arrays;  // the arrays, the options' per-slot ones included
   const MemoryEstimate memory_rendered = estimate_memory(m, scene.output, 1280, 720);
   // What a run writes (frame 0 and `frames` more), and the pictures --render adds at its default size.
   const OutputEstimate output = estimate_output(m, scene.output, frames + 1);
@@ -112,7 +112,7 @@ int info(const std::optional<std::string>& path, bool json) {
                    {"render_1280x720", memory_rendered.render},
                    {"build", memory.build}};
     j["memory_bytes_per_automaton"] =
-        static_cast<double>(bytes - estimate_memory_bytes(0)) / static_cast<double>(m.size());
+        (bytes - static_cast<double>(estimate_memory_bytes(0))) / static_cast<double>(m.size());
     j["output_bytes"] = output.total();
     j["output_bytes_per_frame"] = output.frame();
     j["output_bytes_with_render"] = rendered.total();
@@ -193,7 +193,7 @@ int info(const std::optional<std::string>& path, bool json) {
   fmt::print("projectiles      {}\n", m.projectiles.size());
   fmt::print("backend          {} ({})\n", sim.backend().name(), simd_note());
   std::string parts = fmt::format("arrays {:.1f} MB: {:.0f} bytes per automaton, links included", memory.arrays / 1e6,
-                                  static_cast<double>(bytes - estimate_memory_bytes(0)) / static_cast<double>(m.size()));
+                                  (bytes - static_cast<double>(estimate_memory_bytes(0))) / static_cast<double>(m.size()));
   if (memory.meshes > 0) parts += fmt::format("; mesh objects {:.1f} MB", memory.meshes / 1e6);
   if (memory.surface_output > 0) parts += fmt::format("; output.surface {:.1f} MB", memory.surface_output / 1e6);
   if (memory.fragment_meshes > 0) parts += fmt::format("; output.fragments {:.1f} MB", memory.fragment_meshes / 1e6);

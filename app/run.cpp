@@ -227,7 +227,8 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
   // pass over the automata): the log-binned mass distribution with its power-law fit, and the damage
   // around the impact by 45-degree sector.
   j["fragment_mass_distribution"] = io::mass_distribution_json(analysis::fragment_mass_distribution(infos));
-  j["crack_isotropy"] = io::crack_isotropy_json(analysis::crack_isotropy(m, sim.scene(), s.intact.data()));
+  j["crack_isotropy"] = io::crack_isotropy_json(analysis::crack_isotropy(m, sim.scene(), s.intact.data(),
+                                                                              s.link_damage.empty() ? nullptr : s.link_damage.data()));
   j["fragments_file"] = "fragments.csv";
   write_fragments_csv(dir / "fragments.csv", infos);
   nlohmann::json proj = nlohmann::json::array();

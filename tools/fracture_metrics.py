@@ -39,7 +39,7 @@
 
 Usage:
   /usr/bin/python3 tools/fracture_metrics.py RUN_DIR [--frame K | --time T] [--json OUT.json]
-        [--plot OUT.png] [--normal x|y|z] [--centre A B] [--r-in 0.25] [--r-out 0.7] [--threshold 0.5]
+        [--plot OUT.png] [--normal x|y|z] [--centre X Y Z] [--r-in R] [--r-out R] [--threshold 0.5]
         [--fit-max AUTOMATA] [--no-damage] [--no-fragments]
 
 Needs numpy (and matplotlib for --plot). Exit status 2 on a folder or file it cannot read.
@@ -184,6 +184,9 @@ def impact_geometry(scene):
     axis = int(np.argmax(np.abs(vel)))
     plane = float(scene["object"][0].get("position", [0, 0, 0])[axis])
     t = (plane - pos[axis]) / vel[axis]
+    if t < 0:  # as mca's summary.json: no impact to measure around
+        raise RunError(f"the first projectile moves away from the plane {AXES[axis]} = {plane:g} m through the first "
+                       "object's centre; give --normal and --centre")
     return axis, pos + t * vel
 
 
@@ -347,8 +350,9 @@ def power_law_fit(bins, fit_max):
     else:
         stderr = None
     res.update({"tau": float(-slope), "tau_stderr": stderr, "log10_prefactor": float(icept),
-                # all fitted densities equal: nothing for the line to explain, R^2 undefined
-                "r2": 1.0 - ss_res / ss_tot if ss_tot > 0 else None,
+                # all fitted densities equal: nothing for the line to explain, R^2 undefined; two bins: a line
+                # through both, R^2 = 1 says nothing
+                "r2": 1.0 - ss_res / ss_tot if ss_tot > 0 and len(used) > 2 else None,
                 "m_first": used[0]["m"], "m_last": used[-1]["m"], "decades": float(x[-1] - x[0])})
     return res
 

@@ -161,6 +161,11 @@ struct SolverDef {
   double link_damping = 0.0;             // viscous damping of links, share of critical, in [0, 1]
   double local_damping = 0.0;            // Cundall local damping alpha, in [0, 0.2]
   double stress_coefficient = 1.0;       // K_v of the equivalent-stress criterion, > 0
+  // Disorder of the lattice: each automaton of a lattice fill sits at its cell's centre moved by up to
+  // this share of d along each of the lattice's axes (uniform, drawn from seed, object and cell); the
+  // links keep the cubic connectivity and take their rest lengths and directions from the moved sites.
+  // 0: the paper's cubic lattice. In [0, 0.3].
+  double lattice_jitter = 0.0;
   double skin = 0.3;                     // contact search skin, share of d, in (0, 0.4]
   std::uint64_t seed = 1;
   double max_memory_gb = 16.0;           // refuse models whose estimate exceeds this

@@ -133,6 +133,8 @@ class Solver:
     link_damping: float
     local_damping: float
     stress_coefficient: float
+    lattice_jitter: float
+    """Sites moved by up to this share of d along each axis, in [0, 0.3]; 0: the cubic lattice."""
     skin: float
     seed: int
     max_memory_gb: float
@@ -250,7 +252,7 @@ class Simulation:
     def rotations(self) -> npt.NDArray[np.float32]:
         """(N, 4) float32 unit quaternions (w, x, y, z), a copy."""
     def damage(self) -> npt.NDArray[np.float32]:
-        """(N,) float32 share of each automaton's links broken, a copy."""
+        """(N,) float32 share of each automaton's links broken (a damaged softening link by its damage), a copy."""
     def fragment_ids(self) -> npt.NDArray[np.int32]:
         """(N,) int32 fragment of each automaton (0 = heaviest), a copy."""
     def strength_class(self) -> npt.NDArray[np.uint8]:

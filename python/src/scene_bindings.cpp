@@ -648,6 +648,7 @@ void bind_scene(py::module_& m) {
       .def_property(MCA_KEY(SolverDef, link_damping, "share of critical, in [0, 1]"))
       .def_property(MCA_KEY(SolverDef, local_damping, "Cundall alpha, in [0, 0.2]"))
       .def_property(MCA_KEY(SolverDef, stress_coefficient, "K_v of the stress criterion, > 0"))
+      .def_property(MCA_KEY(SolverDef, lattice_jitter, "sites moved by up to this share of d, in [0, 0.3]; 0: cubic"))
       .def_property(MCA_KEY(SolverDef, skin, "contact search skin, share of d, in (0, 0.4]"))
       .def_property(MCA_KEY(SolverDef, seed, "random seed of the strength classes"))
       .def_property(MCA_KEY(SolverDef, max_memory_gb, "refuse models whose estimate exceeds this [GB]"));

@@ -620,7 +620,8 @@ Simulation is gone.)");
           [](const PySimulation& s) {
             const Engine& e = s.engine();
             py::array_t<float> a(static_cast<py::ssize_t>(e.model().size()));
-            link_damage(e.model(), e.state().intact.data(), a.mutable_data());
+            automaton_damage(e.model(), e.state().intact.data(),
+                             e.state().link_damage.empty() ? nullptr : e.state().link_damage.data(), a.mutable_data());
             return a;
           },
           "Share of each automaton's links that broke: (N,) float32 in [0, 1], a copy.")

@@ -70,7 +70,8 @@ SectorShares sector_shares(const std::vector<DVec3>& initial, const std::vector<
   return s;
 }
 
-CrackIsotropy crack_isotropy(const Model& model, const SceneDef& scene, const std::uint8_t* intact) {
+CrackIsotropy crack_isotropy(const Model& model, const SceneDef& scene, const std::uint8_t* intact,
+                             const float* link_damage) {
   CrackIsotropy c;
   if (scene.projectiles.empty()) {
     c.reason = "the scene has no projectile to place the impact";
@@ -127,14 +128,18 @@ CrackIsotropy crack_isotropy(const Model& model, const SceneDef& scene, const st
     return c;
   }
   if (!model.object_axes.empty())
-    for (int k = 0; k < 3; ++k)
-      if (std::fabs(component(to_dvec3(model.object_axes.front()[static_cast<std::size_t>(k)]), k) - 1.0) > 1e-6)
-        c.object_rotated = true;
+    for (int k = 0; k < 3; ++k) {
+      // Rotated off the world's axes: a lattice axis along none of them (a turn by 90 or 180 degrees
+      // maps the lattice's axes onto the world's, and the sectors stay centred on its axes).
+      const DVec3 axis = to_dvec3(model.object_axes.front()[static_cast<std::size_t>(k)]);
+      const double largest = std::max({std::fabs(axis.x), std::fabs(axis.y), std::fabs(axis.z)});
+      if (std::fabs(largest - 1.0) > 1e-6) c.object_rotated = true;
+    }
 
   c.radii_scaled = c.half_width < kAnnulusOuter;
   const double scale = c.radii_scaled ? c.half_width : 1.0;
   std::vector<float> damage(model.size());
-  link_damage(model, intact, damage.data());
+  automaton_damage(model, intact, link_damage, damage.data());
   c.sectors = sector_shares(model.position0, damage, c.plane, kAnnulusInner * scale, kAnnulusOuter * scale, first);
   return c;
 }

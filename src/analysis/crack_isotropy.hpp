@@ -59,7 +59,7 @@ SectorShares sector_shares(const std::vector<DVec3>& initial, const std::vector<
 // the centre where that projectile's initial path crosses the plane through the first object's centre
 // (its `position`), and the automata counted are the first object's, at their rest positions
 // (Model::position0: what a frame's point minus its `displacement` gives), with the damage of the VTK
-// frames' `damage` field (link_damage).
+// frames' `damage` field (automaton_damage, with the softening links' damage).
 //
 // The radii: the 0.25 m and 0.7 m when the impact point lies at least 0.7 m from every in-plane edge
 // of the first object (its automata's box, each automaton's centre +- its radius), so that the annulus
@@ -75,6 +75,7 @@ struct CrackIsotropy {
   bool object_rotated = false;  // the first object's lattice axes are not the world's (the sectors use the world's)
   SectorShares sectors;
 };
-CrackIsotropy crack_isotropy(const Model& model, const SceneDef& scene, const std::uint8_t* intact);
+CrackIsotropy crack_isotropy(const Model& model, const SceneDef& scene, const std::uint8_t* intact,
+                             const float* link_damage = nullptr);
 
 }  // namespace mca::analysis

@@ -239,7 +239,9 @@ PowerLawFit fit_power_law(const std::vector<MassBin>& bins, double fit_max) {
   else
     fit.tau_stderr_reason = "2 bins fitted: a line passes through both points, leaving no scatter to estimate "
                             "the error from";
-  if (ss_tot > 0)
+  if (x.size() == 2)
+    fit.r2_reason = "2 bins fitted: a line passes through both points, so R^2 = 1 says nothing";
+  else if (ss_tot > 0)
     fit.r2 = 1.0 - ss_res / ss_tot;
   else
     fit.r2_reason = "every fitted bin has the same density: R^2 is undefined";

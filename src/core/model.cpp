@@ -4,15 +4,16 @@
 
 namespace mca {
 
-void link_damage(const Model& m, const std::uint8_t* intact, float* out) {
+void automaton_damage(const Model& m, const std::uint8_t* intact, const float* link_damage, float* out) {
   const std::size_t n = m.size();
   for (std::size_t a = 0; a < n; ++a) {
-    std::uint32_t links = 0, broken = 0;
+    std::uint32_t links = 0;
+    float lost = 0;
     m.for_each_link_of(a, [&](std::size_t l) {
       ++links;
-      broken += !intact[l];
+      lost += !intact[l] ? 1.0f : link_damage && l < m.lattice_slots() ? link_damage[l] : 0.0f;
     });
-    out[a] = links ? static_cast<float>(broken) / static_cast<float>(links) : 0.0f;
+    out[a] = links ? lost / static_cast<float>(links) : 0.0f;
   }
 }
 

@@ -121,6 +121,13 @@ struct Model {
   static constexpr std::uint32_t kNoLink = 0xffffffffu;
   std::vector<std::uint32_t> neighbour;        // 3n: a's neighbour along +axis at axis * n + a, or kNoLink
   std::vector<std::uint32_t> neighbour_below;  // 3n: a's neighbour along -axis (its link is in that one's slot)
+  // Per lattice slot, when the lattice is jittered (SolverDef::lattice_jitter; empty otherwise): the
+  // link's rest length (the distance of its moved sites) and its inverse.
+  std::vector<double> link_rest;
+  std::vector<float> link_inv_rest;
+  // The factor on the lattice links' moduli (G and lambda of the pair and many-body terms) that returns
+  // the input E of a jittered lattice (lattice::jitter_stiffness); 1 for the cubic one.
+  float lattice_stiffness = 1.0f;
   // Per lattice slot: the link's own strength factor (Weibull, MaterialDef::weibull_modulus), which
   // multiplies the weaker end's strengths and breaking strain; empty when no material has a spread.
   std::vector<float> link_strength;
@@ -195,10 +202,14 @@ struct Model {
     return c;
   }
   std::size_t lattice_slots() const { return neighbour.size(); }
-  // Some material softens (fracture_energy > 0): the state keeps each link's damage (State::link_damage).
+  // Some lattice automaton's material softens (fracture_energy > 0; a projectile's or a surface-mode
+  // object's material does not count: they have no lattice links): the state keeps each link's damage
+  // (State::link_damage).
   bool softening() const {
-    for (const GroupParams& g : groups)
-      if (g.fracture_energy > 0) return true;
+    for (std::size_t a = 0; a < group.size(); ++a)
+      if (groups[group[a]].fracture_energy > 0 &&
+          (object_surface.empty() || !object_surface[static_cast<std::size_t>(object[a])]))
+        return true;
     return false;
   }
   std::size_t link_slots() const { return neighbour.size() + explicit_links.size(); }
@@ -212,7 +223,9 @@ struct Model {
   std::uint32_t link_j(std::size_t l) const { return is_explicit(l) ? explicit_links.j[l - neighbour.size()] : neighbour[l]; }
   int link_axis(std::size_t l) const { return is_explicit(l) ? -1 : static_cast<int>(l / size()); }
   // Rest length and cross-section of the link in slot l.
-  double link_r0(std::size_t l) const { return is_explicit(l) ? explicit_links.r0[l - neighbour.size()] : spacing; }
+  double link_r0(std::size_t l) const {
+    return is_explicit(l) ? explicit_links.r0[l - neighbour.size()] : link_rest.empty() ? spacing : link_rest[l];
+  }
   float link_area(std::size_t l) const {
     return is_explicit(l) ? explicit_links.area[l - neighbour.size()] : spacing * spacing;
   }
@@ -244,8 +257,10 @@ struct Model {
 };
 
 // The damage of each automaton: the share of its links (those it had at the start) that are broken, 0 for
-// one without links. intact has a value per link slot, out one per automaton.
-void link_damage(const Model& m, const std::uint8_t* intact, float* out);
+// one without links, where a softening link that is damaged but intact counts by its damage
+// (State::link_damage; null: none). intact and link_damage have a value per link slot, out one per
+// automaton.
+void automaton_damage(const Model& m, const std::uint8_t* intact, const float* link_damage, float* out);
 
 // Bytes a run of a model of this many automata holds at its peak, for `mca info` and the memory check.
 std::size_t estimate_memory_bytes(std::size_t automata, std::size_t explicit_links = 0);

@@ -246,6 +246,8 @@ void validate_scene(const SceneDef& scene) {
   c.range("solver.local_damping", scene.solver.local_damping, 0, true, 0.2, true, "in [0, 0.2]",
           "use 0 for none; Cundall's local damping is usually 0.05 to 0.2 for quasi-static runs");
   c.positive("solver.stress_coefficient", scene.solver.stress_coefficient, "use 1 (the default)");
+  c.range("solver.lattice_jitter", scene.solver.lattice_jitter, 0, true, 0.3, true, "in [0, 0.3] (share of the spacing)",
+          "use 0 for the paper's cubic lattice, 0.25 for a lattice whose cracks do not follow its planes");
   // Automata with six intact links are left out of the contact search: their nearest unlinked
   // neighbours sit at sqrt(2) d, out of reach only while r_i + r_j + skin = d + skin < sqrt(2) d.
   c.range("solver.skin", scene.solver.skin, 0, false, 0.4, true, "in (0, 0.4] (share of the spacing; above about "

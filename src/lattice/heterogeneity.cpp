@@ -64,11 +64,13 @@ float weibull_factor(double u, double m) {
 }
 
 void assign_link_strengths(Model& M, std::uint64_t seed) {
-  bool any = false;
-  for (const GroupParams& g : M.groups) any = any || g.weibull_modulus > 0;
+  const std::size_t n = M.size();
+  bool any = false;  // (a projectile's material, or a surface-mode object's, has no lattice links)
+  for (std::size_t l = 0; l < M.lattice_slots() && !any; ++l)
+    any = M.neighbour[l] != Model::kNoLink && (M.groups[M.group[l % n]].weibull_modulus > 0 ||
+                                               M.groups[M.group[M.neighbour[l]]].weibull_modulus > 0);
   M.link_strength.clear();
   if (!any) return;
-  const std::size_t n = M.size();
   M.link_strength.assign(M.lattice_slots(), 1.0f);
   for (std::size_t l = 0; l < M.lattice_slots(); ++l) {
     if (M.neighbour[l] == Model::kNoLink) continue;

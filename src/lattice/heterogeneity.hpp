@@ -26,7 +26,7 @@ float weibull_factor(double u, double m);
 
 // Model::link_strength: per lattice slot with a link, weibull_factor of (seed, slot) with the smaller
 // weibull_modulus of its ends' materials that is not 0 (the wider spread); 1 where both are 0. Left
-// empty when no material of M has a spread.
+// empty when no lattice link has an end of a material with a spread.
 void assign_link_strengths(Model& M, std::uint64_t seed);
 
 }  // namespace mca::lattice

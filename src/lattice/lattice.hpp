@@ -19,6 +19,10 @@ double spacing_for_target(const SceneDef& scene, std::int64_t target);
 // The spacing a scene asks for (target_automata wins over spacing when given).
 double scene_spacing(const SceneDef& scene);
 
+// Model::lattice_stiffness of a lattice of jitter a (SolverDef::lattice_jitter): the factor on its moduli
+// that gives a block of it the input Young's modulus.
+float jitter_stiffness(double a);
+
 // Critical time step of a built model (time_step.cpp, physics.md sec. 7): above it symplectic Euler is
 // unstable; `limited_by` names what sets it (for messages).
 struct TimeStepBound {

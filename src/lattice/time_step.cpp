@@ -429,6 +429,20 @@ TimeStepBound critical_time_step(const Model& M) {
     damping += (4 * c_normal + 12 * c_tangential) / m_min + 4 * cn / 3 / m_min;
   }
 
+  // A jittered lattice (SolverDef::lattice_jitter): the bound above is the cubic lattice's, links d long.
+  // A link r long has normal and shear stiffness d / r times a d-long one's, and its shear spring acts
+  // on the automata's rotation with an arm r / 2: its rotational stiffness is r / d times; all of them
+  // times the lattice's stiffness factor. The largest of those factors over the links bounds them all
+  // (the model's K only shrinks when each link's stiffness is lowered to that bound's), and the
+  // dashpots scale with it at most as much.
+  if (!M.link_rest.empty()) {
+    double factor = M.lattice_stiffness;  // (the moduli's factor, on top)
+    for (std::size_t l = 0; l < M.lattice_slots(); ++l)
+      if (M.neighbour[l] != Model::kNoLink)
+        factor = std::max({factor, M.lattice_stiffness * d / M.link_rest[l], M.lattice_stiffness * M.link_rest[l] / d});
+    omega2 *= factor;
+    damping *= factor;
+  }
   // Surface-mode automata touch lattice ones only through contacts: Weyl again.
   out.dt = critical_step(omega2 + surface.omega2, damping + surface.damping);
   out.limited_by = surface.omega2 > omega2 ? "the explicit links and contacts of the surface-mode automata"

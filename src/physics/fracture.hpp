@@ -35,12 +35,13 @@ MCA_HD BreakTest<T> link_break_test(const T& h, const R& r0, const T& sigma, con
 // Softening (MaterialDef::fracture_energy; docs/model-notes.md, "Softening"). A link's effort is its
 // equivalent stress over its strength, sigma_eq / (c sigma_t): the instant law breaks it at 1. Beyond 1 the
 // link is damaged: its damage D (state, 0 at the start, never decreasing) takes the share D of its normal
-// stress where that is tension and of its shear spring (link_law.hpp, softened_force), and the strain its
+// stress while it is stretched and of its shear spring (link_law.hpp, softened_force), and the strain its
 // ends' many-body sums see in tension is (1 - D) e, so that an opening crack does not load the automata's
 // other links through their volumetric strain; compression is carried whole (a crack closes). D at effort e > 1 is 1 - (ku - e) / ((ku - 1) e): in uniaxial tension the stress
 // falls linearly from the strength at effort 1 to zero at effort ku, and unloading and reloading follow
 // the secant. The energy that takes per unit volume is f^2 ku / (2 E), so per unit of cross-section, over
-// the link's length r0, f^2 ku r0 / (2 E) = G_f for ku = 2 G_f E / (f^2 r0) = soft / f^2
+// the link's length r0, f^2 ku r0 / (2 E) = G_f for ku = 2 G_f E / (f^2 r0) = soft / f^2, f = c sigma_t
+// (c: solver.stress_coefficient)
 // (softening_constant). The link breaks when its effort reaches ku. With ku <= 1 (a fracture energy too
 // small for the link's length: the law would have to snap back) it breaks at effort 1, as without
 // softening. The breaking elongation of the displacement criterion grows by the same factor ku: it stays

@@ -380,12 +380,13 @@ MCA_HD LinkOutputT<T> link_force(const LinkInputT<T>& in) {
 }
 
 // The force of a link of damage D (physics/fracture.hpp, link_softening_test): link_force's with its
-// normal stress, where that is tension, and its shear spring kept by the share 1 - D; the dashpots and a
-// compressive stress are carried whole.
+// normal stress, while the link is stretched (in.g.eps > 0: the crack is open), and its shear spring kept
+// by the share 1 - D; the dashpots, and the normal stress of a compressed link, are carried whole. (The
+// many-body sums and the energy bookkeeping take the same test: the strain's sign.)
 template <class T>
 MCA_HD Vec3T<T> softened_force(const LinkInputT<T>& in, const LinkOutputT<T>& o, const T& damage) {
   const T keep = 1.0f - damage;
-  const T sigma = select(o.sigma > 0.0f, keep * o.sigma, o.sigma);
+  const T sigma = select(in.g.eps > 0.0f, keep * o.sigma, o.sigma);
   return (sigma * in.area + in.damp_normal * o.vn) * in.g.n + ((keep * in.kt) * o.ut + in.damp_tangential * o.vs);
 }
 

@@ -179,7 +179,8 @@ Snapshot make_snapshot(const Model& model, const State& state, const analysis::F
     }
     case ColourMode::damage: {
       std::vector<float> d(n);
-      link_damage(model, state.intact.data(), d.data());
+      automaton_damage(model, state.intact.data(), state.link_damage.empty() ? nullptr : state.link_damage.data(),
+                       d.data());
       for (std::size_t a = 0; a < n; ++a) colour[a] = ramp_damage(d[a]);
       L = {"damage (broken links)", true, 0, 100, "%", {}, ramp_damage};
       break;

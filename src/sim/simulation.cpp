@@ -44,7 +44,7 @@ Frame Simulation::frame() const {
     f.velocity[a] = {v.x, v.y, v.z};
     f.orientation[a] = {s.q[a].w, s.q[a].x, s.q[a].y, s.q[a].z};
   }
-  link_damage(m, s.intact.data(), f.damage.data());
+  automaton_damage(m, s.intact.data(), s.link_damage.empty() ? nullptr : s.link_damage.data(), f.damage.data());
   const auto frags = analysis::label_model_fragments(m, s.intact.data());
   f.fragment = frags.id;
   f.fragments = frags.count;

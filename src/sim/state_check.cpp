@@ -137,6 +137,10 @@ std::uint64_t model_fingerprint(const Model& m) {
     f.add(m.explicit_links.area);
   }
   if (!m.link_strength.empty()) f.add(m.link_strength);
+  if (!m.link_rest.empty()) {
+    f.add(m.link_rest);
+    f.add(m.lattice_stiffness);
+  }
   // Scene-level numbers. Names are left out: they label outputs and do not shape the state.
   f.add(m.groups);
   f.add(m.projectiles);

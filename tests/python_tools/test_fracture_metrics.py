@@ -226,6 +226,7 @@ def test_gaps_are_reported_not_fitted(tmp_path):
     # densities 400 at m = 1 and 120 / 2 = 60 at m = sqrt(6): tau = log(400 / 60) / log(sqrt 6)
     assert fit["tau"] == pytest.approx(math.log(400 / 60) / math.log(math.sqrt(6)))
     assert fit["decades"] == pytest.approx(math.log10(math.sqrt(6)))
+    assert fit["tau_stderr"] is None and fit["r2"] is None  # two points: a line through both says nothing
 
 
 def test_command_line_json_and_plot(tmp_path):

