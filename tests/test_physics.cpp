@@ -111,13 +111,19 @@ void pull_x_faces(SceneDef& sc, int n, double d, double sigma) {
   }
 }
 
-TEST(Physics, BlockInUniaxialStressReturnsYoungsModulusAndPoissonRatio) {
-  const int n = 20;
-  const double d = 0.01, E = 30e9, nu = 0.2, sigma = 1e6;
+// An n^3 block of the test material (E, nu), spacing d, under the uniaxial stress sigma along x, with local
+// damping to bring it to rest.
+SceneDef uniaxial_block(int n, double d, double E, double nu, double sigma) {
   SceneDef sc = block_scene(n, n, n, d, test_material(E, nu));
   sc.solver.local_damping = 0.2;
   pull_x_faces(sc, n, d, sigma);
-  Engine sim(sc);
+  return sc;
+}
+
+TEST(Physics, BlockInUniaxialStressReturnsYoungsModulusAndPoissonRatio) {
+  const int n = 20;
+  const double d = 0.01, E = 30e9, nu = 0.2, sigma = 1e6;
+  Engine sim(uniaxial_block(n, d, E, nu, sigma));
   relax(sim, 20000);
   const StrainProbe p = probe(sim.model(), sim.state(), 0.25 * n * d);
   // The interior carries the applied stress (the faces parallel to the load are free): its averaged
@@ -302,10 +308,7 @@ TEST(Physics, TheSurfaceLayerOfABlockInUniaxialStress) {
   for (const int n : {6, 10}) {
     SCOPED_TRACE(n);
     const double d = 0.01, E = 30e9, nu = 0.2, sigma = 1e6;
-    SceneDef sc = block_scene(n, n, n, d, test_material(E, nu));
-    sc.solver.local_damping = 0.2;
-    pull_x_faces(sc, n, d, sigma);
-    Engine sim(sc);
+    Engine sim(uniaxial_block(n, d, E, nu, sigma));
     relax(sim, 40000);
     const Model& m = sim.model();
     const State& s = sim.state();

@@ -112,14 +112,20 @@ struct Pulled {
   std::int64_t broken = 0;
 };
 
-Pulled pull_apart(double d, double fracture_energy) {
+Pulled pull_apart(double d, double fracture_energy, double jitter = 0) {
   const int n = 6;  // short: the bar's elastic energy at the peak stays below what the softening link takes
   MaterialDef mat = test::test_material();
   mat.tensile_strength = 3e6;
   mat.compressive_strength = 3e6;
   mat.fracture_strain = 1.5e-4;
   mat.fracture_energy = fracture_energy;
-  Engine sim(test::pulled_bar(n, d, mat));
+  SceneDef sc = test::pulled_bar(n, d, mat);
+  sc.solver.lattice_jitter = jitter;
+  for (GripDef& g : sc.grips) {  // the jittered sites of the end cells
+    g.min[0] -= 0.3 * d;
+    g.max[0] += 0.3 * d;
+  }
+  Engine sim(sc);
   EXPECT_EQ(sim.state().link_damage.empty(), fracture_energy == 0);
   // Until a link breaks, then 20,000 steps on (the parts apart, the pulled end's force zero).
   std::int64_t broke_at = -1;
@@ -154,6 +160,14 @@ TEST(Softening, ABarPulledApartTakesTheFractureEnergyPerAreaAtEverySpacing) {
     EXPECT_LT(instant.work / (d * d), 0.1 * gf) << "d " << d;
   }
   EXPECT_NEAR(per_area[1] / per_area[0], 1.0, 0.03) << "the same energy per crack area at both spacings";
+  // On the jittered lattice each link takes G_f over its own cross-section too (its own length and the
+  // lattice's stiffness factor in the softening's end).
+  const Pulled jittered = pull_apart(0.01, gf, 0.25);
+  std::printf("jittered, d = 1 cm: %.1f J/m^2 and %lld broken link(s)\n", jittered.work / 1e-4,
+              static_cast<long long>(jittered.broken));
+  EXPECT_EQ(jittered.broken, 1);
+  EXPECT_GE(jittered.work / 1e-4, gf);
+  EXPECT_LE(jittered.work / 1e-4, 1.3 * gf);
 }
 
 // Weibull factors: mean 1 and the coefficient of variation of modulus m, sqrt(G(1 + 2/m) / G(1 + 1/m)^2 - 1).

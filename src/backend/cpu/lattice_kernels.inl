@@ -295,8 +295,12 @@ struct Block {
       // The force with this step's damage (the one the many-body terms took), the test on the undamaged
       // stresses, the new damage for the next step.
       const X damage = L::load(v.damage + l0);
+      // The pair's 2 G_f E / d, for a jittered link of its own length and the lattice's stiffness factor
+      // on E: each link then takes G_f times its cross-section (softening_constant).
+      X soft = pair_value(v, a0, f, &PairConstants::soft);
+      if (v.rest) soft = soft * (v.stiffness * v.r0 * inv_r0);
       const auto b = link_softening_test(eps * r0, r0, o.sigma, o.tau2, p, tensile, tensile / compressive, strain,
-                                         v.stress_coefficient, pair_value(v, a0, f, &PairConstants::soft), damage);
+                                         v.stress_coefficient, soft, damage);
       force = softened_force(in, o, damage);
       L::store(select(alive, b.damage, damage), v.damage + l0);
       by_displacement = b.displacement;
