@@ -4,6 +4,7 @@
 // measured (docs/model-notes.md, "The jittered lattice").
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <tbb/global_control.h>
@@ -195,6 +196,53 @@ TEST(Jitter, TensileStrengthOfABlockAsMeasured) {
     EXPECT_GT(sim.state().broken_by[0] + sim.state().broken_by[1], 0);
     EXPECT_NEAR(strength, jitter == 0 ? 0.913 : 0.721, 0.03);
   }
+}
+
+
+// A pulse along a bar of 300 x 4 x 4 automata (d = 1 cm): the speed between two stations (the first time
+// the mean velocity of the automata of a cell layer reaches half its first peak) on the jittered lattice,
+// against the cubic lattice's (which Physics.WaveInABarTravelsAtTheBarSpeed holds to sqrt(E / rho)).
+double bar_wave_speed(double jitter) {
+  const int n = 300, st1 = 80, st2 = 220;
+  const double d = 0.01;
+  SceneDef sc = test::block_scene(n, 4, 4, d, test::test_material());
+  sc.solver.lattice_jitter = jitter;
+  Engine sim(sc);
+  const Model& m = sim.model();
+  const double lo = -0.5 * (n - 1) * d;
+  std::vector<int> cell(m.size());
+  for (std::size_t a = 0; a < m.size(); ++a) cell[a] = static_cast<int>(std::lround((m.position0[a].x - lo) / d));
+  State s = sim.state();
+  for (std::size_t a = 0; a < m.size(); ++a)
+    if (cell[a] == 0) s.v[a] = DVec3{1.0, 0, 0};  // a kick at the left end
+  sim.backend().upload(s);
+  std::vector<double> t, v1, v2;
+  const int steps = static_cast<int>(1.3 * (st2 * d / 3536.0) / m.dt);
+  for (int k = 0; k < steps; ++k) {
+    sim.advance(1);
+    double a1 = 0, a2 = 0;
+    int c1 = 0, c2 = 0;
+    for (std::size_t a = 0; a < m.size(); ++a) {
+      if (cell[a] == st1) { a1 += sim.state().v[a].x; ++c1; }
+      if (cell[a] == st2) { a2 += sim.state().v[a].x; ++c2; }
+    }
+    t.push_back(sim.state().time);
+    v1.push_back(a1 / c1);
+    v2.push_back(a2 / c2);
+  }
+  auto arrival = [&](const std::vector<double>& v) {
+    const double peak = *std::max_element(v.begin(), v.end());
+    for (std::size_t k = 0; k < v.size(); ++k)
+      if (v[k] >= 0.5 * peak) return t[k];
+    return -1.0;
+  };
+  return (st2 - st1) * d / (arrival(v2) - arrival(v1));
+}
+
+TEST(Jitter, APulseTravelsAtTheCubicLatticesSpeed) {
+  const double cubic = bar_wave_speed(0), jittered = bar_wave_speed(0.25);
+  std::printf("bar wave, 4 x 4 section: cubic %.1f m/s, jittered %.1f m/s (sqrt(E/rho) = 3535.5)\n", cubic, jittered);
+  EXPECT_NEAR(jittered / cubic, 1.0, 0.03);
 }
 
 }  // namespace
