@@ -50,7 +50,6 @@ import json
 import math
 import os
 import signal
-import re
 import sys
 
 import numpy as np
@@ -58,93 +57,35 @@ import numpy as np
 AXES = "xyz"
 
 
-class RunError(Exception):
-    pass
+# The run folder's VTK files are read by the Blender add-on's reader (standard library and numpy only, no
+# bpy), loaded from its file: the package's __init__ needs Blender.
+def _load_reader():
+    import importlib.util
+
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "blender", "io_import_mca", "reader.py")
+    spec = importlib.util.spec_from_file_location("mca_run_reader", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
-# ---------------------------------------------------------------- VTK XML (appended raw binary)
-
-_DTYPES = {"Float32": "<f4", "Float64": "<f8", "Int32": "<i4", "Int64": "<i8", "UInt8": "u1",
-           "UInt32": "<u4", "UInt64": "<u8", "Int8": "i1", "Int16": "<i2", "UInt16": "<u2"}
-
-
-def _attrs(text):
-    return dict(re.findall(r'(\w+)="([^"]*)"', text))
+_reader = _load_reader()
+RunError = _reader.RunError
 
 
 def read_vtu(path):
-    """Point data and points of an UnstructuredGrid .vtu written with appended raw data (mca's writer).
-
-    Returns {"Points": (n, 3) array, field name: (n,) or (n, k) array, ...}; cell arrays are skipped."""
-    with open(path, "rb") as f:
-        data = f.read()
-    marker = data.find(b"<AppendedData")
-    if marker < 0:
-        raise RunError(f"{path}: no <AppendedData> (not an appended-data .vtu)")
-    header = data[:marker].decode("utf-8", "replace")
-    tag_end = data.find(b">", marker)
-    tag = _attrs(data[marker:tag_end].decode("ascii", "replace"))
-    if tag.get("encoding", "raw") != "raw":
-        raise RunError(f"{path}: appended data is encoded '{tag.get('encoding')}', only raw is read")
-    underscore = data.find(b"_", tag_end)
-    if underscore < 0:
-        raise RunError(f"{path}: no '_' starting the appended data")
-    base = underscore + 1
-    vtk = re.search(r"<VTKFile([^>]*)>", header)
-    if not vtk:
-        raise RunError(f"{path}: no <VTKFile> element")
-    vattr = _attrs(vtk.group(1))
-    if vattr.get("byte_order", "LittleEndian") != "LittleEndian":
-        raise RunError(f"{path}: byte order {vattr.get('byte_order')} is not read")
-    head_dtype = {"UInt64": "<u8", "UInt32": "<u4"}.get(vattr.get("header_type", "UInt32"))
-    if head_dtype is None:
-        raise RunError(f"{path}: header_type {vattr.get('header_type')} is not read")
-    head_size = np.dtype(head_dtype).itemsize
-    piece = re.search(r"<Piece([^>]*)>", header)
-    if not piece:
-        raise RunError(f"{path}: no <Piece>")
-    n = int(_attrs(piece.group(1))["NumberOfPoints"])
-    out = {}
-    section = None
-    for m in re.finditer(r"<(/?)(PointData|Points|Cells|CellData|DataArray)\b([^>]*?)/?>", header):
-        closing, name, rest = m.groups()
-        if name != "DataArray":
-            section = None if closing else name
-            continue
-        if section not in ("PointData", "Points"):
-            continue
-        a = _attrs(rest)
-        if a.get("format") != "appended":
-            raise RunError(f"{path}: array {a.get('Name')} is not in appended format")
-        dtype = _DTYPES.get(a.get("type"))
-        if dtype is None:
-            raise RunError(f"{path}: array {a.get('Name')} has unknown type {a.get('type')}")
-        at = base + int(a["offset"])
-        if at + head_size > len(data):
-            raise RunError(f"{path}: array {a.get('Name')} starts past the end of the file")
-        nbytes = int(np.frombuffer(data, head_dtype, 1, at)[0])
-        comps = int(a.get("NumberOfComponents", "1"))
-        count = nbytes // np.dtype(dtype).itemsize
-        if count != n * comps or at + head_size + nbytes > len(data):
-            raise RunError(f"{path}: array {a.get('Name')} holds {count} values, expected {n} x {comps}")
-        arr = np.frombuffer(data, dtype, count, at + head_size)
-        out["Points" if section == "Points" else a["Name"]] = arr.reshape(n, comps) if comps > 1 else arr
-    if "Points" not in out:
-        raise RunError(f"{path}: no points")
-    return out
+    """Point data and points of a .vtu frame written by mca: {"Points": (n, 3) array, field name: (n,) or
+    (n, k) array, ...}; cell arrays are skipped."""
+    points, fields = _reader.read_vtu(str(path))
+    return {"Points": points, **fields}
 
 
 def read_pvd(path):
     """[(time, absolute file path)] of a .pvd collection, in its order."""
-    with open(path, encoding="utf-8") as f:
-        text = f.read()
-    frames = []
-    for m in re.finditer(r"<DataSet\b([^>]*)/?>", text):
-        a = _attrs(m.group(1))
-        frames.append((float(a.get("timestep", "nan")), os.path.join(os.path.dirname(path), a["file"])))
+    frames = _reader.read_pvd(str(path))
     if not frames:
         raise RunError(f"{path}: no <DataSet> entries")
-    return frames
+    return [(t, os.path.join(os.path.dirname(str(path)), f)) for t, f in frames]
 
 
 def pick_frame(frames, frame=None, time=None):

@@ -71,7 +71,7 @@ def fake_run(tmp_path):
     write_vtu(frames / "automata_000000.vtu", pos, fields([0, 0, 0]))
     write_vtu(frames / "automata_000001.vtu", pos, fields([0, 1, 2]))
     (tmp_path / "automata.pvd").write_text(
-        '<VTKFile type="Collection"><Collection>\n'
+        '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian"><Collection>\n'
         '<DataSet timestep="0" file="frames/automata_000000.vtu"/>\n'
         '<DataSet timestep="0.002" file="frames/automata_000001.vtu"/>\n</Collection></VTKFile>\n')
     (tmp_path / "summary.json").write_text(json.dumps({"spacing": D, "time_step": 1e-6}))
