@@ -76,6 +76,14 @@ def _version(text, path):
         raise RunError(f"{path}: version '{text}' is not a version number; is this a file written by mca?")
 
 
+def _check_version(text, supported, kind, path):
+    """Refuses a `kind` file ("VTK collection", "VTK file") of a version newer than `supported`."""
+    if _version(text, path) > supported:
+        raise RunError(f"{path} has {kind} version {text}, newer than the {'.'.join(map(str, supported))} this "
+                       "add-on reads: it was written by a newer mca; install the add-on of that mca "
+                       "(blender/io_import_mca in its repository)")
+
+
 # ---------------------------------------------------------------------------------------------------------
 # VTK XML
 
@@ -91,11 +99,7 @@ def read_pvd(path):
         raise RunError(f"{path} is not a complete VTK collection ({e}); it may be cut short: run mca again")
     if root.tag != "VTKFile" or root.get("type") != "Collection":
         raise RunError(f"{path} is not a VTK collection (a VTKFile of type Collection)")
-    version = _version(root.get("version", ""), path)
-    if version > PVD_VERSION:
-        raise RunError(f"{path} has VTK collection version {root.get('version')}, newer than the "
-                       f"{'.'.join(map(str, PVD_VERSION))} this add-on reads: it was written by a newer mca; "
-                       "install the add-on of that mca (blender/io_import_mca in its repository)")
+    _check_version(root.get("version", ""), PVD_VERSION, "VTK collection", path)
     entries = []
     for ds in root.iter("DataSet"):
         try:
@@ -128,11 +132,7 @@ def read_vtu(path, names=None):
     top = dict(_ATTR.findall(m.group(1)))
     if top.get("type") != "UnstructuredGrid":
         raise RunError(f"{path} is a VTK file of type {top.get('type')}, not the UnstructuredGrid mca writes")
-    version = _version(top.get("version", ""), path)
-    if version > VTU_VERSION:
-        raise RunError(f"{path} has VTK file version {top.get('version')}, newer than the "
-                       f"{'.'.join(map(str, VTU_VERSION))} this add-on reads: it was written by a newer mca; "
-                       "install the add-on of that mca (blender/io_import_mca in its repository)")
+    _check_version(top.get("version", ""), VTU_VERSION, "VTK file", path)
     if top.get("byte_order") != "LittleEndian" or top.get("header_type") != "UInt64" or "compressor" in top:
         raise RunError(f"{path}: byte order {top.get('byte_order')}, header type {top.get('header_type')}"
                        f"{', compressed' if 'compressor' in top else ''}: not the layout mca writes "
