@@ -194,7 +194,7 @@ material = "glass"
 }
 
 // The memory message asks for a coarser lattice (a larger spacing than the one refused) or a higher
-// limit: 7,623 automata at 0.03 m need 45.6 MB, over 45 MB, where the old hint named the spacing of
+// limit: 7,623 automata at 0.03 m need 47.8 MB, over 45 MB, where the old hint named the spacing of
 // 10,000 automata (0.027 m, finer).
 TEST(InputBounds, MemoryRefusalSuggestsALargerSpacing) {
   mca::SceneDef s = mca::io::parse_scene(kWall + "[solver]\nspacing = 0.03\nmax_memory_gb = 0.045\n", "m.toml");
