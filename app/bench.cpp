@@ -82,6 +82,14 @@ SceneDef jittered(SceneDef s) {
   return s;
 }
 
+// The same on the random lattice (solver.lattice = "random"): explicit links to the Voronoi neighbours.
+SceneDef random_lattice(SceneDef s) {
+  s.solver.lattice = SolverDef::Lattice::random;
+  s.name += "_random";
+  s.source = "<bench " + s.name + ">";
+  return s;
+}
+
 std::vector<BenchScene> scenes() {
   return {
       {"wall_3k", "the paper's single wall: 30 x 4 x 25 automata, ball at 60 m/s", wall_scene("wall_3k", 30, 4, 25, 1, 0.05), 300},
@@ -91,6 +99,8 @@ std::vector<BenchScene> scenes() {
        softening(wall_scene("wall_357k", 101, 35, 101, 1, 0.02)), 150, false},
       {"wall_357k_jitter", "wall_357k on the jittered lattice (lattice_jitter 0.25)",
        jittered(wall_scene("wall_357k", 101, 35, 101, 1, 0.02)), 150, false},
+      {"wall_357k_random", "wall_357k on the random lattice (lattice = \"random\")",
+       random_lattice(wall_scene("wall_357k", 101, 35, 101, 1, 0.02)), 150, false},
       {"wall_2m", "a 202 x 35 x 404 lattice wall (2,856,280 automata; 2.7 GB while benchmarked), ball at 60 m/s", wall_scene("wall_2m", 202, 35, 404, 1, 0.02), 150, false},
   };
 }

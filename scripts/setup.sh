@@ -12,6 +12,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libtbb-dev libtomlplusplus-dev libcli11-dev libfmt-dev nlohmann-json3-dev
   libassimp-dev libopenvdb-dev libboost-iostreams-dev
+  libcgal-dev libgmp-dev libmpfr-dev  # the random lattice's Delaunay triangulation (header-only CGAL)
   # the renderer (mca run --render, mca view): OpenGL through EGL (Mesa's llvmpipe without a GPU), GLFW
   # windows, PNG, video, the run's plots, and the window tests under a virtual X server
   libepoxy-dev libglm-dev libegl-dev libopengl-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev libpng-dev

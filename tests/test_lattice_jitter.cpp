@@ -91,62 +91,8 @@ TEST(Jitter, ABlockReturnsTheInputModulusAndPoissonRatio) {
     SCOPED_TRACE(nu);
     SceneDef sc = test::block_scene(n, n, n, d, test::test_material(E, nu));
     sc.solver.lattice_jitter = jitter;
-    sc.solver.local_damping = 0.2;
-    for (int side = 0; side < 2; ++side) {
-      LoadDef ld;
-      test::layer_box(n, side ? n - 1 : 0, 0, d, ld.min, ld.max);
-      ld.min[0] -= 0.3 * d;  // the jittered sites of the end layers
-      ld.max[0] += 0.3 * d;
-      ld.force = {(side ? 1.0 : -1.0) * sigma * d * d, 0, 0};
-      sc.loads.push_back(ld);
-    }
-    Engine sim(sc);
-    for (int k = 0; k < 100; ++k) sim.advance(500);
-    const Model& m = sim.model();
-    const State& s = sim.state();
-    // The affine displacement u = A p + t fitted (least squares) to the automata of the middle half of the
-    // block (clear of the faces' own layers, docs/model-notes.md "The surface layer"); the strain is the
-    // symmetric part of A. (The loads on jittered end faces exert a small torque, and the block turns
-    // slowly while it is measured: the fit takes the turn out, where layer means did not.)
-    const double lo = -0.5 * (n - 1) * d;
-    const long k1 = n / 4, k2 = n - 1 - n / 4;
-    double N[4][4] = {}, R[3][4] = {};
-    for (std::size_t a = 0; a < m.size(); ++a) {
-      const double p[4] = {m.position0[a].x, m.position0[a].y, m.position0[a].z, 1.0};
-      bool middle = true;
-      for (int ax = 0; ax < 3; ++ax) {
-        const long cell = std::lround((p[ax] - lo) / d);
-        middle = middle && cell >= k1 && cell <= k2;
-      }
-      if (!middle) continue;
-      const double u[3] = {s.x[a].x - p[0], s.x[a].y - p[1], s.x[a].z - p[2]};
-      for (int i = 0; i < 4; ++i) {
-        for (int j = 0; j < 4; ++j) N[i][j] += p[i] * p[j];
-        for (int c = 0; c < 3; ++c) R[c][i] += u[c] * p[i];
-      }
-    }
-    double A[3][4];
-    for (int c = 0; c < 3; ++c) {  // Gauss-Jordan on the 4x4 normal equations, one displacement component each
-      double M4[4][5];
-      for (int i = 0; i < 4; ++i) {
-        for (int j = 0; j < 4; ++j) M4[i][j] = N[i][j];
-        M4[i][4] = R[c][i];
-      }
-      for (int i = 0; i < 4; ++i) {
-        int pivot = i;
-        for (int r = i + 1; r < 4; ++r)
-          if (std::fabs(M4[r][i]) > std::fabs(M4[pivot][i])) pivot = r;
-        for (int j = 0; j < 5; ++j) std::swap(M4[i][j], M4[pivot][j]);
-        for (int r = 0; r < 4; ++r) {
-          if (r == i) continue;
-          const double f = M4[r][i] / M4[i][i];
-          for (int j = 0; j < 5; ++j) M4[r][j] -= f * M4[i][j];
-        }
-      }
-      for (int i = 0; i < 4; ++i) A[c][i] = M4[i][4] / M4[i][i];
-    }
-    const double strain[3] = {A[0][0], A[1][1], A[2][2]};
-    const double E_m = sigma / strain[0], nu_y = -strain[1] / strain[0], nu_z = -strain[2] / strain[0];
+    const test::BlockModuli b = test::uniaxial_block_moduli(sc, n, d, sigma, 0.3 * d);  // the jittered end layers
+    const double E_m = b.E, nu_y = b.nu_y, nu_z = b.nu_z;
     std::printf("jitter %.2f, nu %.2f: E %.4f E, nu %.4f / %.4f\n", jitter, nu, E_m / E, nu_y, nu_z);
     EXPECT_NEAR(E_m / E, 1.0, 0.02);
     // (The jittered lattice's Poisson ratio scatters by a few per cent between directions and seeds:

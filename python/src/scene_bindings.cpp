@@ -648,6 +648,15 @@ void bind_scene(py::module_& m) {
       .def_property(MCA_KEY(SolverDef, link_damping, "share of critical, in [0, 1]"))
       .def_property(MCA_KEY(SolverDef, local_damping, "Cundall alpha, in [0, 0.2]"))
       .def_property(MCA_KEY(SolverDef, stress_coefficient, "K_v of the stress criterion, > 0"))
+      .def_property(
+          "lattice",
+          [](const SolverDef& s) { return std::string(s.lattice == SolverDef::Lattice::random ? "random" : "cubic"); },
+          [](SolverDef& s, py::handle value) {
+            const std::string v = to_text(value, "solver.lattice", "a str");
+            s.lattice = choice("solver.lattice", v, {"cubic", "random"}, "a lattice") == "random" ? SolverDef::Lattice::random
+                                                                                                : SolverDef::Lattice::cubic;
+          },
+          "\"cubic\" (the paper's) or \"random\" (random sites, Voronoi neighbours)")
       .def_property(MCA_KEY(SolverDef, lattice_jitter, "sites moved by up to this share of d, in [0, 0.3]; 0: cubic"))
       .def_property(MCA_KEY(SolverDef, skin, "contact search skin, share of d, in (0, 0.4]"))
       .def_property(MCA_KEY(SolverDef, seed, "random seed of the strength classes"))

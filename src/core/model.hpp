@@ -6,7 +6,9 @@
 // needs, the model holds what outputs and `mca info` use: group, object and grip names, the mesh
 // objects' summaries (MeshSummary), their triangles bound to automata (BoundSurface), the critical step
 // and what limits it.
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -160,6 +162,28 @@ struct Model {
   // Per object: its lattice's axes (local x, y, z) in the world, unit vectors.
   std::vector<std::array<Vec3, 3>> object_axes;
   std::vector<std::uint8_t> object_surface;  // per object: 1 when filled in surface mode (explicit links)
+  // Per object: 1 when filled with the random lattice (SolverDef::Lattice::random): its automata are joined
+  // by explicit links under the volume's law (a many-body term over the Voronoi cell, no bending spring),
+  // not the shell's. Empty when no object is.
+  std::vector<std::uint8_t> object_random;
+  // Per automaton, when an object is filled with the random lattice (empty otherwise): 1 for one of its
+  // automata whose Voronoi neighbours are all of the object (none on its surface). Such an automaton,
+  // with every link intact, is boxed in by its linked neighbours, and the contact search leaves it out
+  // (as a cubic automaton with six links).
+  std::vector<std::uint8_t> boxed;
+  // Contacts between automata reach the smaller of r_i + r_j and the distance of their initial centres
+  // (set with the random lattice, whose neighbours lie closer than d: a broken link's pair then touches
+  // without overlap, and pairs that start closer than their radii are not pushed apart; the cubic
+  // lattice's pairs are never closer than r_i + r_j = d, so the rule would change nothing there).
+  bool rest_reach = false;
+  // The distance below which automata i and j touch: r_i + r_j, or under rest_reach the smaller of that and
+  // their initial distance.
+  double contact_reach(std::size_t i, std::size_t j) const {
+    const double r = static_cast<double>(radius[i]) + radius[j];
+    if (!rest_reach) return r;
+    const DVec3 d = ddelta(position0[i], position0[j]);
+    return std::min(r, std::sqrt(dot(d, d)));
+  }
   std::vector<MeshSummary> meshes;  // one per object of shape mesh
   BoundSurface surface;             // the triangles of the mesh objects, bound to automata
   std::vector<ProjectileParams> projectiles;
@@ -215,6 +239,8 @@ struct Model {
   std::size_t link_slots() const { return neighbour.size() + explicit_links.size(); }
   std::size_t link_count() const { return links; }
   bool is_explicit(std::size_t l) const { return l >= neighbour.size(); }
+  // Whether automaton a is of an object filled with the random lattice.
+  bool random_automaton(std::size_t a) const { return !object_random.empty() && object_random[object[a]] != 0; }
   bool link_exists(std::size_t l) const { return is_explicit(l) || neighbour[l] != kNoLink; }
   // The ends of the link in slot l (i < j) and its lattice axis (-1 for an explicit link).
   std::uint32_t link_i(std::size_t l) const {

@@ -248,6 +248,11 @@ void validate_scene(const SceneDef& scene) {
   c.positive("solver.stress_coefficient", scene.solver.stress_coefficient, "use 1 (the default)");
   c.range("solver.lattice_jitter", scene.solver.lattice_jitter, 0, true, 0.3, true, "in [0, 0.3] (share of the spacing)",
           "use 0 for the paper's cubic lattice, 0.25 for a lattice whose cracks do not follow its planes");
+  if (scene.solver.lattice == SolverDef::Lattice::random && scene.solver.lattice_jitter > 0) {
+    c.fail(fmt::format("solver.lattice_jitter = {} moves the sites of the cubic lattice, and solver.lattice = \"random\" "
+                       "has random sites already; remove one of the two keys",
+                       num(scene.solver.lattice_jitter)));
+  }
   // Automata with six intact links are left out of the contact search: their nearest unlinked
   // neighbours sit at sqrt(2) d, out of reach only while r_i + r_j + skin = d + skin < sqrt(2) d.
   c.range("solver.skin", scene.solver.skin, 0, false, 0.4, true, "in (0, 0.4] (share of the spacing; above about "
@@ -280,6 +285,13 @@ void validate_scene(const SceneDef& scene) {
   // Materials.
   for (std::size_t i = 0; i < scene.materials.size(); ++i) {
     check_material(c, scene.materials[i], i);
+    const MaterialDef& m = scene.materials[i];
+    if (scene.solver.lattice == SolverDef::Lattice::random && (m.fracture_energy > 0 || m.weibull_modulus > 0)) {
+      c.fail(fmt::format("material[{}] '{}': {} = {} acts on the cubic lattice's links only, and solver.lattice = "
+                         "\"random\" has links of its own; remove the key, or use lattice = \"cubic\"",
+                         i, m.name, m.fracture_energy > 0 ? "fracture_energy" : "weibull_modulus",
+                         num(m.fracture_energy > 0 ? m.fracture_energy : m.weibull_modulus)));
+    }
     for (std::size_t j = 0; j < i; ++j) {
       if (scene.materials[j].name == scene.materials[i].name) {
         c.fail(fmt::format("material[{}].name = \"{}\" duplicates material[{}]; give each [[material]] a distinct "

@@ -508,7 +508,7 @@ SceneDef read_scene(const Table& root, const std::string& source) {
 
   if (auto tb = root.table("solver", "[solver]")) {
     tb->allow({"spacing", "target_automata", "safety", "time_step", "mass_scaling", "gravity", "link_damping",
-               "local_damping", "stress_coefficient", "lattice_jitter", "skin", "seed", "max_memory_gb"});
+               "local_damping", "stress_coefficient", "lattice", "lattice_jitter", "skin", "seed", "max_memory_gb"});
     SolverDef& s = scene.solver;
     tb->number("spacing", s.spacing);
     tb->integer("target_automata", s.target_automata);
@@ -519,6 +519,9 @@ SceneDef read_scene(const Table& root, const std::string& source) {
     tb->number("link_damping", s.link_damping);
     tb->number("local_damping", s.local_damping);
     tb->number("stress_coefficient", s.stress_coefficient);
+    if (auto f = tb->choice("lattice", {"cubic", "random"}, "a lattice")) {
+      s.lattice = *f == "random" ? SolverDef::Lattice::random : SolverDef::Lattice::cubic;
+    }
     tb->number("lattice_jitter", s.lattice_jitter);
     tb->number("skin", s.skin);
     std::int64_t seed = 0;
@@ -866,6 +869,7 @@ std::string scene_to_toml(const SceneDef& s) {
   out += fmt::format("link_damping = {}\n", toml_double(s.solver.link_damping));
   out += fmt::format("local_damping = {}\n", toml_double(s.solver.local_damping));
   out += fmt::format("stress_coefficient = {}\n", toml_double(s.solver.stress_coefficient));
+  out += s.solver.lattice == SolverDef::Lattice::random ? "lattice = \"random\"\n" : "lattice = \"cubic\"\n";
   out += fmt::format("lattice_jitter = {}\n", toml_double(s.solver.lattice_jitter));
   out += fmt::format("skin = {}\n", toml_double(s.solver.skin));
   out += fmt::format("seed = {}\n", static_cast<std::int64_t>(s.solver.seed));

@@ -18,6 +18,7 @@
 #include "core/rng.hpp"
 #include "lattice/heterogeneity.hpp"
 #include "lattice/mesh_object.hpp"
+#include "lattice/random_lattice.hpp"
 #include "mca/error.hpp"
 #include "physics/contact_law.hpp"
 #include "physics/link_law.hpp"
@@ -1190,6 +1191,49 @@ void fill_surface(Model& M, const SceneDef& scene, const Shapes& S, std::size_t 
   M.meshes.push_back(std::move(ms));
 }
 
+// The random lattice's links of object oi, whose automata [first, M.size()) sit at rs.inside: explicit
+// links to its Voronoi neighbours, each of cross-section their shared face and rest length their
+// distance; each automaton's volume its Voronoi cell (its mass the density's share of it), its contact
+// radius d / 2 (pairs reach the smaller of their radii and their initial distance: Model::rest_reach).
+// Boxed in (Model::boxed): a site of a cell inside the object's cells whose Voronoi neighbours are all
+// the object's.
+void link_random(Model& M, const SceneDef& scene, std::size_t oi, std::size_t first, const RandomSites& rs, double d) {
+  const ObjectDef& o = scene.objects[oi];
+  const VoronoiLinks v = voronoi_links(rs.inside, rs.ghosts, 1e-6 * d * d);
+  const std::size_t count = rs.inside.size();
+  M.boxed.resize(first, 0);
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::size_t a = first + k;
+    const double volume = v.volume[k];
+    const std::string fix = fmt::format("check the density (kg/m^3) and the spacing ({:g} m)", d);
+    const std::string what = fmt::format("the mass of automaton {} of object '{}'", k, o.name);
+    M.mass[a] = as_float32(scene, what, M.groups[M.group[a]].density * volume, fix);
+    const double side = std::cbrt(volume);
+    M.inertia[a] = as_float32(scene, what, M.mass[a] * side * side / 6.0, fix);  // a cube of its volume
+    M.volume[a] = static_cast<float>(volume);
+    M.boxed.push_back(v.interior[k] && rs.deep[k]);
+  }
+  auto& E = M.explicit_links;
+  for (std::size_t l = 0; l < v.link.size(); ++l) {
+    const auto i = static_cast<std::uint32_t>(first + v.link[l][0]), j = static_cast<std::uint32_t>(first + v.link[l][1]);
+    const DVec3 dd = ddelta(M.position0[i], M.position0[j]);
+    const double r0 = std::sqrt(dot(dd, dd));
+    E.i.push_back(i);
+    E.j.push_back(j);
+    E.r0.push_back(r0);
+    E.area.push_back(static_cast<float>(v.area[l]));
+    E.edge.push_back(static_cast<float>(std::sqrt(v.area[l])));
+    // No bending spring: any unit vector orthogonal to the link.
+    const DVec3 u{dd.x / r0, dd.y / r0, dd.z / r0};
+    const DVec3 axis = std::fabs(u.x) < 0.6 ? DVec3{1, 0, 0} : DVec3{0, 1, 0};
+    DVec3 m{axis.x - dot(axis, u) * u.x, axis.y - dot(axis, u) * u.y, axis.z - dot(axis, u) * u.z};
+    const double len = std::sqrt(dot(m, m));
+    E.normal.push_back({static_cast<float>(m.x / len), static_cast<float>(m.y / len), static_cast<float>(m.z / len)});
+  }
+  M.links += v.link.size();
+  M.rest_reach = true;
+}
+
 // Object oi filled with a lattice of spacing d in its own frame: the cells inside it, their links to
 // their face neighbours, and for a mesh its bound surface and summary.
 void fill_lattice(Model& M, const SceneDef& scene, const Shapes& S, std::size_t oi, const Mat3& R, int base_group,
@@ -1201,6 +1245,10 @@ void fill_lattice(Model& M, const SceneDef& scene, const Shapes& S, std::size_t 
   const ObjectLattice L = object_lattice(scene, S, oi, d);
   const std::size_t first = M.size();
   std::vector<std::int64_t> index(L.inside.size(), -1);
+  // The random lattice: a site at a random point of each cell (and ghosts around the object).
+  const bool random = scene.solver.lattice == SolverDef::Lattice::random;
+  RandomSites rs;
+  if (random) rs = random_sites(L.n, L.origin, d, L.inside, scene.solver.seed, oi);
   std::size_t c = 0;
   for (std::int64_t k = 0; k < L.n[2]; ++k)
     for (std::int64_t j = 0; j < L.n[1]; ++j)
@@ -1220,7 +1268,12 @@ void fill_lattice(Model& M, const SceneDef& scene, const Shapes& S, std::size_t 
         // and a link that breaks leaves its pair apart (regions and classes keep the cell's centre).
         Vec3d site = wp;
         float radius = 0.5f * fd;
-        if (jitter > 0) {
+        if (random) {
+          // (Regions and classes keep the cell's centre, as for a jittered site.)
+          const auto& s = rs.inside[M.size() - first];
+          const Vec3d turned = R.apply({s[0], s[1], s[2]});
+          site = {turned[0] + o.position[0], turned[1] + o.position[1], turned[2] + o.position[2]};
+        } else if (jitter > 0) {
           Vec3d move{};
           double largest = 0;
           for (int a = 0; a < 3; ++a) {
@@ -1270,6 +1323,14 @@ void fill_lattice(Model& M, const SceneDef& scene, const Shapes& S, std::size_t 
           scene.solver.target_automata > 0 ? " (raise solver.target_automata)" : ""));
     }
     M.meshes.push_back(std::move(ms));
+  }
+  if (random) {
+    link_random(M, scene, oi, first, rs, d);
+    for (int a = 0; a < 3; ++a) {  // no lattice links
+      nb.above[a].resize(M.size(), Model::kNoLink);
+      nb.below[a].resize(M.size(), Model::kNoLink);
+    }
+    return;
   }
   // Face neighbours along +-x, +-y, +-z of each cell: the automata of one object link along its own
   // lattice (row-major order, so the one above has the larger index).
@@ -1515,6 +1576,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
     M.object_axes.push_back({to_vec3({R.m[0][0], R.m[1][0], R.m[2][0]}), to_vec3({R.m[0][1], R.m[1][1], R.m[2][1]}),
                              to_vec3({R.m[0][2], R.m[1][2], R.m[2][2]})});
     M.object_surface.push_back(S.surface_of(oi) ? 1 : 0);
+    if (scene.solver.lattice == SolverDef::Lattice::random) M.object_random.push_back(S.surface_of(oi) ? 0 : 1);
     std::vector<Vec3> local;  // the automata's centres in the object's frame, for the strength classes
     if (S.surface_of(oi)) fill_surface(M, scene, S, oi, R, base_group, region_groups, local, nb, d);
     else fill_lattice(M, scene, S, oi, R, base_group, region_groups, local, nb, d);
@@ -1529,6 +1591,10 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
   refuse_overlaps(scene, M);
   index_corners(M.surface);
   index_explicit_links(M);
+  if (!M.object_random.empty()) {
+    M.boxed.resize(M.size(), 0);
+    M.lattice_stiffness = kRandomStiffness;
+  }
 
   const std::size_t n = M.size();
   M.neighbour.reserve(3 * n);

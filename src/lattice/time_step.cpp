@@ -125,17 +125,33 @@ struct SurfaceRows {
   std::size_t automata = 0;
 };
 
+// Automata joined by explicit links: of surface-mode objects and of the random lattice (their bound is
+// the surface automata's, with the random lattice's many-body term and no bending spring).
+bool explicit_automaton(const Model& M, std::size_t a) { return M.object_surface[M.object[a]] || M.random_automaton(a); }
+
+const char* explicit_bound_name(const Model& M) {
+  return M.object_random.empty() ? "the explicit links and contacts of the surface-mode automata"
+                                 : "the links and contacts of the random lattice's automata";
+}
+
 SurfaceRows surface_rows(const Model& M, const std::vector<double>& fmax) {
   SurfaceRows b;
   const auto& E = M.explicit_links;
   const std::size_t n = M.size();
   if (M.object_surface.empty()) return b;
+  // The gradient of automaton a's many-body strain by the stretch of its link l: the shell's
+  // (dims / count) / r0, the random lattice's A / (2 V) (random_many_body).
+  const auto grad = [&](std::size_t a, std::uint32_t l) {
+    if (M.random_automaton(a)) return static_cast<double>(E.area[l]) / (2.0 * M.volume[a]);
+    const int count = static_cast<int>(E.first[a + 1] - E.first[a]), dims = std::min(count, 2);
+    return static_cast<double>(dims) / count / E.r0[l];
+  };
   b.omega2.assign(n, 0.0);
   b.damping.assign(n, 0.0);
   std::vector<double> mb_scale(n, 0.0), mb_total(n, 0.0), mb_row(n, 0.0);
   double m_min = INFINITY;
   for (std::size_t a = 0; a < n; ++a) {
-    if (!M.object_surface[M.object[a]]) continue;
+    if (!explicit_automaton(M, a)) continue;
     ++b.automata;
     if (M.mass[a] < m_min) {
       m_min = M.mass[a];
@@ -147,14 +163,16 @@ SurfaceRows surface_rows(const Model& M, const std::vector<double>& fmax) {
     if (count > 0) {
       // |g| over the stencil: the automaton's own displacement (at most the sum) and each neighbour's.
       double s = 0;
-      for (std::uint32_t k = first; k < last; ++k) s += static_cast<double>(dims) / count / E.r0[E.of[k]];
+      for (std::uint32_t k = first; k < last; ++k) s += grad(a, E.of[k]);
       // Sum of |g| / sqrt(m) over the stencil, for the mass-normalised rows.
       mb_total[a] = s / std::sqrt(static_cast<double>(M.mass[a]));
       for (std::uint32_t k = first; k < last; ++k) {
         const std::uint32_t l = E.of[k], o = E.i[l] == a ? E.j[l] : E.i[l];
-        mb_total[a] += static_cast<double>(dims) / count / E.r0[l] / std::sqrt(static_cast<double>(M.mass[o]));
+        mb_total[a] += grad(a, l) / std::sqrt(static_cast<double>(M.mass[o]));
       }
-      const double ff = 1.0 / (1.0 + (3 - dims) * g.lame_lambda / (2.0 * g.shear_modulus));
+      // (The shell's plane-stress factor; the random lattice's moduli carry its stiffness factor.)
+      const double ff = M.random_automaton(a) ? M.lattice_stiffness
+                                              : 1.0 / (1.0 + (3 - dims) * g.lame_lambda / (2.0 * g.shear_modulus));
       mb_scale[a] = std::max(0.0, static_cast<double>(g.lame_lambda)) * fmax[M.group[a]] * M.volume[a] * ff;
       mb_row[a] += mb_scale[a] * s * mb_total[a];
     }
@@ -163,11 +181,10 @@ SurfaceRows surface_rows(const Model& M, const std::vector<double>& fmax) {
   for (std::size_t l = 0; l < E.size(); ++l)
     for (int end = 0; end < 2; ++end) {
       const std::uint32_t c = end ? E.j[l] : E.i[l], a = end ? E.i[l] : E.j[l];
-      const int count = static_cast<int>(E.first[c + 1] - E.first[c]), dims = std::min(count, 2);
-      mb_row[a] += mb_scale[c] * (static_cast<double>(dims) / count / E.r0[l]) * mb_total[c];
+      mb_row[a] += mb_scale[c] * grad(c, l) * mb_total[c];
     }
   for (std::size_t a = 0; a < n; ++a) {
-    if (!M.object_surface[M.object[a]]) continue;
+    if (!explicit_automaton(M, a)) continue;
     const std::size_t ga = M.group[a];
     const GroupParams& A = M.groups[ga];
     const double ma = M.mass[a], ja = M.inertia[a], ra = M.radius[a];
@@ -175,9 +192,11 @@ SurfaceRows surface_rows(const Model& M, const std::vector<double>& fmax) {
     for (std::uint32_t k = E.first.empty() ? 0 : E.first[a]; k < (E.first.empty() ? 0 : E.first[a + 1]); ++k) {
       const std::uint32_t l = E.of[k], o = E.i[l] == a ? E.j[l] : E.i[l];
       const GroupParams& B = M.groups[M.group[o]];
-      const double G = harmonic(A.shear_modulus, B.shear_modulus), f = std::max(fmax[ga], fmax[M.group[o]]);
+      const bool random = M.random_automaton(a);
+      const double s = random ? M.lattice_stiffness : 1.0;
+      const double G = s * harmonic(A.shear_modulus, B.shear_modulus), f = std::max(fmax[ga], fmax[M.group[o]]);
       const double r0 = E.r0[l], area = E.area[l];
-      const double kn = (2 * G + 0.5 * (A.lame_lambda + B.lame_lambda)) * area / r0 * f;
+      const double kn = (2 * G + 0.5 * s * (A.lame_lambda + B.lame_lambda)) * area / r0 * f;
       const double kt = kShearFactor * G * area / r0 * f;
       const LinkDashpots c = explicit_link_dashpots(static_cast<float>(kn), M.mass[a], M.mass[o],
                                            0.5f * (A.damping_time + B.damping_time), M.link_damping);
@@ -196,8 +215,9 @@ SurfaceRows surface_rows(const Model& M, const std::vector<double>& fmax) {
         return std::fabs(bending_many_body_constant(X.youngs, X.poisson, E.area[l0] / E.edge[l0], M.volume[x])) *
                share * share * inv / r0;
       };
-      const double kr = std::max({static_cast<double>(bc.k_twist), static_cast<double>(bc.k_in),
-                                  bc.k_out + many_body(a) + many_body(o)});
+      const double kr = random ? 0.0
+                               : std::max({static_cast<double>(bc.k_twist), static_cast<double>(bc.k_in),
+                                           bc.k_out + many_body(a) + many_body(o)});
       add_pair(r, -1, kn, kt, 0.5 * r0, 0.5 * r0, kr, ma, ja, M.mass[o], M.inertia[o], c.normal, c.tangential, 0);
     }
     const ContactSprings cs = springs(M.contact_material(ga, ga), static_cast<float>(ra), static_cast<float>(ra),
@@ -237,7 +257,7 @@ SurfaceBound surface_bound(const Model& M, const std::vector<double>& fmax) {
   b.automata = rows.automata;
   double least = INFINITY;
   for (std::size_t a = 0; a < rows.omega2.size(); ++a) {
-    if (!M.object_surface[M.object[a]]) continue;
+    if (!explicit_automaton(M, a)) continue;
     const double dt = critical_step(rows.omega2[a], rows.damping[a]);
     if (dt < least) {
       least = dt;
@@ -276,7 +296,7 @@ TimeStepBound critical_time_step(const Model& M) {
   const std::vector<double> fmax = max_strengthening(M);
   // The automata of surface-mode objects (explicit links) get their own bound (surface_bound); the
   // lattice bound below is over the others.
-  auto on_lattice = [&](std::size_t a) { return M.object_surface.empty() || !M.object_surface[M.object[a]]; };
+  auto on_lattice = [&](std::size_t a) { return M.object_surface.empty() || !explicit_automaton(M, a); };
   double m_min = INFINITY, j_min = INFINITY;
   std::vector<char> used(G, 0);
   for (std::size_t a = 0; a < n; ++a) {
@@ -288,7 +308,7 @@ TimeStepBound critical_time_step(const Model& M) {
   const SurfaceBound surface = surface_bound(M, fmax);
   if (!std::isfinite(m_min)) {  // no lattice automata
     out.dt = critical_step(surface.omega2, surface.damping);
-    out.limited_by = "the explicit links and contacts of the surface-mode automata";
+    out.limited_by = explicit_bound_name(M);
     projectile_bounds(M, used, out, surface);
     return out;
   }
@@ -445,7 +465,7 @@ TimeStepBound critical_time_step(const Model& M) {
   }
   // Surface-mode automata touch lattice ones only through contacts: Weyl again.
   out.dt = critical_step(omega2 + surface.omega2, damping + surface.damping);
-  out.limited_by = surface.omega2 > omega2 ? "the explicit links and contacts of the surface-mode automata"
+  out.limited_by = surface.omega2 > omega2 ? explicit_bound_name(M)
                                            : "the links and contacts of the automata";
   projectile_bounds(M, used, out, surface);
   return out;

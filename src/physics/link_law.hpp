@@ -134,6 +134,19 @@ MCA_HD ExplicitManyBody explicit_many_body(float lambda, const float free_factor
   return {L, theta, lambda * theta * volume * share};
 }
 
+// The many-body term of an automaton of the random lattice (lattice/random_lattice.hpp): its volumetric
+// strain theta = sum_l A_l r_l s_l / (2 V) over its intact links (A the shared Voronoi face, r the rest
+// length, s the strengthened strain; the cubic lattice's is this with A r = V = d^3), its energy
+// lambda theta^2 V / 2, whose derivative puts the stress lambda theta / 2 on each of its links (added to
+// 2 G eps and the other end's share, the cubic law's interior form). `sum`: sum_l A_l r_l s_l.
+struct RandomManyBody {
+  float theta, stress;
+};
+MCA_HD RandomManyBody random_many_body(float lambda, float volume, float sum) {
+  const float theta = sum / (2.0f * volume);
+  return {theta, 0.5f * lambda * theta};
+}
+
 // Bending and twisting of an explicit link (surface mode). A shell one automaton thick has no bending
 // stiffness from pair forces alone (each automaton turns with its links and the chain folds freely), nor
 // enough in-plane shear stiffness (its links form a honeycomb), so an explicit link also resists the

@@ -140,9 +140,13 @@ std::vector<std::uint8_t> exposed_automata(const Model& model, const State& stat
   const std::size_t n = model.size();
   std::vector<std::uint8_t> out(n);
   for (std::size_t a = 0; a < n; ++a) {
-    int intact = 0;
-    model.for_each_link_of(a, [&](std::size_t l) { intact += state.intact[l] != 0; });
-    out[a] = intact < 6;
+    int intact = 0, all = 0;
+    model.for_each_link_of(a, [&](std::size_t l) {
+      intact += state.intact[l] != 0;
+      ++all;
+    });
+    // Enclosed: a cubic automaton with its six links, one of the random lattice boxed in with all of its.
+    out[a] = model.boxed.empty() ? intact < 6 : !model.boxed[a] || intact < all;
   }
   return out;
 }

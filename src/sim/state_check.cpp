@@ -141,6 +141,12 @@ std::uint64_t model_fingerprint(const Model& m) {
     f.add(m.link_rest);
     f.add(m.lattice_stiffness);
   }
+  if (!m.object_random.empty()) {  // the random lattice
+    f.add(m.object_random);
+    f.add(m.boxed);
+    f.add<std::uint8_t>(m.rest_reach);
+    f.add(m.lattice_stiffness);
+  }
   // Scene-level numbers. Names are left out: they label outputs and do not shape the state.
   f.add(m.groups);
   f.add(m.projectiles);

@@ -179,17 +179,28 @@ class CpuBackend final : public Backend {
     for (std::size_t k = 0; k < ne; ++k) {
       const std::uint32_t i = E.i[k], j = E.j[k];
       const GroupParams &gi = m.groups[m.group[i]], &gj = m.groups[m.group[j]];
+      // A link of the random lattice (volume law): its ends' weights are their many-body stresses
+      // (explicit_link_pass), its moduli carry the lattice's factor, and it has no bending spring.
+      const bool volume = m.random_automaton(i);
+      const float s = volume ? m.lattice_stiffness : 1.0f;
       ex_r0f_[k] = static_cast<float>(E.r0[k]);
       ex_inv_r0_[k] = static_cast<float>(1.0 / E.r0[k]);
       ex_area_[k] = E.area[k];
-      ex_to_stress_[k] = static_cast<float>(1.0 / (E.r0[k] * static_cast<double>(E.area[k])));
-      ex_G_[k] = harmonic(gi.shear_modulus, gj.shear_modulus);
+      ex_to_stress_[k] = volume ? 1.0f : static_cast<float>(1.0 / (E.r0[k] * static_cast<double>(E.area[k])));
+      ex_G_[k] = s == 1.0f ? harmonic(gi.shear_modulus, gj.shear_modulus) : s * harmonic(gi.shear_modulus, gj.shear_modulus);
       ex_kt_[k] = kShearFactor * ex_G_[k] * ex_area_[k] * ex_inv_r0_[k];
-      const float k_n = link_normal_stiffness(ex_G_[k], gi.lame_lambda, gj.lame_lambda, ex_area_[k], ex_r0f_[k]);
+      const float k_n = link_normal_stiffness(ex_G_[k], s * gi.lame_lambda, s * gj.lame_lambda, ex_area_[k], ex_r0f_[k]);
       const LinkDashpots c = explicit_link_dashpots(k_n, m.mass[i], m.mass[j], 0.5f * (gi.damping_time + gj.damping_time),
                                                     m.link_damping);
       ex_damp_n_[k] = c.normal;
       ex_damp_t_[k] = c.tangential;
+      ex_m0x_[k] = E.normal[k].x;
+      ex_m0y_[k] = E.normal[k].y;
+      ex_m0z_[k] = E.normal[k].z;
+      if (volume) {
+        ex_k_twist_[k] = ex_k_in_[k] = ex_k_out_[k] = ex_s_in_[k] = ex_s_out_[k] = ex_s_twist_[k] = 0.0f;
+        continue;
+      }
       const LinkBendingConstants bc = link_bending_constants(harmonic(gi.youngs, gj.youngs), 0.5 * (gi.poisson + gj.poisson),
                                                              E.r0[k], E.edge[k], E.area[k] / E.edge[k]);
       ex_k_twist_[k] = bc.k_twist;
@@ -198,9 +209,6 @@ class CpuBackend final : public Backend {
       ex_s_in_[k] = bc.s_in;
       ex_s_out_[k] = bc.s_out;
       ex_s_twist_[k] = bc.s_twist;
-      ex_m0x_[k] = E.normal[k].x;
-      ex_m0y_[k] = E.normal[k].y;
-      ex_m0z_[k] = E.normal[k].z;
     }
     for (std::size_t a = 0; a < n && !E.first.empty(); ++a)
       if (E.first[a + 1] > E.first[a]) explicit_automata_.push_back(static_cast<std::uint32_t>(a));
@@ -208,6 +216,7 @@ class CpuBackend final : public Backend {
     bend_weight_.assign(n, 0.0f);
     bend_c_.assign(n, 0.0f);
     for (const std::uint32_t a : explicit_automata_) {
+      if (m.random_automaton(a)) continue;  // no bending spring
       const GroupParams& g = m.groups[m.group[a]];
       const std::uint32_t l = E.of[E.first[a]];
       bend_c_[a] = static_cast<float>(bending_many_body_constant(g.youngs, g.poisson, E.area[l] / E.edge[l], m.volume[a]));
@@ -303,9 +312,14 @@ class CpuBackend final : public Backend {
       vx_[a] = S_.v[a].x; vy_[a] = S_.v[a].y; vz_[a] = S_.v[a].z;
       wx_[a] = S_.w[a].x; wy_[a] = S_.w[a].y; wz_[a] = S_.w[a].z;
       qw_[a] = S_.q[a].w; qx_[a] = S_.q[a].x; qy_[a] = S_.q[a].y; qz_[a] = S_.q[a].z;
-      std::uint32_t c = 0;
-      M_.for_each_link_of(a, [&](std::size_t l) { c += S_.intact[l] && !damaged(l); });
-      intact_count_[a] = static_cast<std::uint8_t>(c);
+      std::uint32_t c = 0, all = 0;
+      M_.for_each_link_of(a, [&](std::size_t l) {
+        c += S_.intact[l] && !damaged(l);
+        ++all;
+      });
+      // 6 stands for boxed in (lose_link): a cubic automaton with its six links, an interior automaton of
+      // the random lattice with all of its own; any other holds its count, at most 5.
+      intact_count_[a] = static_cast<std::uint8_t>(M_.boxed.empty() ? c : M_.boxed[a] && c == all ? 6 : std::min(c, 5u));
     }
     for (std::size_t l = 0; l < M_.link_slots(); ++l) {
       utx_[l] = S_.link_ut[l].x; uty_[l] = S_.link_ut[l].y; utz_[l] = S_.link_ut[l].z;
@@ -419,6 +433,7 @@ class CpuBackend final : public Backend {
   void grip_pass();
   void rebuild_contacts();
   bool linked(std::uint32_t i, std::uint32_t j) const;
+  void lose_link(std::uint32_t a, float& max_move2);
   bool near_ground(std::uint32_t a) const;
   ContactSprings pair_springs(std::uint32_t i, std::uint32_t j) const {
     const std::size_t gi = M_.group[i], gj = M_.group[j];
@@ -573,6 +588,14 @@ cpu::LatticeView CpuBackend::view() {
   return v;
 }
 
+// Automaton a lost a sound link: one boxed in (intact_count_ 6) is exposed from now on, and its move since
+// the last rebuild counts for the contact list's staleness. (The count stays at 0 or above: an automaton of
+// the random lattice has more links than the encoding's 6.)
+void CpuBackend::lose_link(std::uint32_t a, float& max_move2) {
+  if (intact_count_[a] == 6) max_move2 = std::max(max_move2, moved2(a));
+  if (intact_count_[a] > 0) --intact_count_[a];
+}
+
 bool CpuBackend::linked(std::uint32_t i, std::uint32_t j) const {
   const std::size_t n = M_.size();
   for (int axis = 0; axis < 3; ++axis) {
@@ -712,6 +735,17 @@ std::vector<std::size_t> CpuBackend::explicit_link_pass(const cpu::LatticeView& 
   parallel_range(explicit_automata_.size(), [&](std::size_t k) {
     const std::uint32_t a = explicit_automata_[k];
     const GroupParams& g = M_.groups[M_.group[a]];
+    if (M_.random_automaton(a)) {
+      // The random lattice: theta = sum A r s / (2 V) over the intact links, and the stress lambda theta / 2
+      // on each of them (random_many_body).
+      float sum = 0.0f;
+      for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
+        const std::uint32_t l = E.of[x];
+        if (S_.intact[3 * n + l]) sum += ex_area_[l] * ex_r0f_[l] * strengthened_strain(g.strengthening, ex_eps_[l]).s;
+      }
+      explicit_weight_[a] = random_many_body(M_.lattice_stiffness * g.lame_lambda, M_.volume[a], sum).stress;
+      return;
+    }
     float sum = 0.0f, curvature = 0.0f;
     int count = 0;
     for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
@@ -799,8 +833,7 @@ void CpuBackend::expose_damaged(float& max_move2) {
   for (std::size_t l = 0; l < unsound_.size(); ++l) {
     if (unsound_[l] || !(S_.link_damage[l] > 0)) continue;
     unsound_[l] = 1;
-    for (const std::uint32_t a : {static_cast<std::uint32_t>(l % n), M_.neighbour[l]})
-      if (intact_count_[a]-- == 6) max_move2 = std::max(max_move2, moved2(a));
+    for (const std::uint32_t a : {static_cast<std::uint32_t>(l % n), M_.neighbour[l]}) lose_link(a, max_move2);
   }
 }
 
@@ -824,8 +857,7 @@ void CpuBackend::apply_breaks(const std::vector<std::size_t>& counts, const std:
       // if the automata kernel had seen it exposed (it saw the links before the breaks). (A softening
       // link left the count when it was first damaged.)
       if (unsound_.empty() || l >= unsound_.size() || !unsound_[l]) {
-        for (const std::uint32_t a : {i, j})
-          if (intact_count_[a]-- == 6) max_move2 = std::max(max_move2, moved2(a));
+        for (const std::uint32_t a : {i, j}) lose_link(a, max_move2);
         if (l < unsound_.size()) unsound_[l] = 1;
       }
       utx_[l] = uty_[l] = utz_[l] = 0.0f;
@@ -875,7 +907,7 @@ void CpuBackend::contact_pass() {
     ContactPair& cp = C[p];
     const std::uint32_t i = cp.i, j = cp.j;
     const float ri = M_.radius[i], rj = M_.radius[j];
-    const double reach = static_cast<double>(ri) + rj;
+    const double reach = M_.contact_reach(i, j);
     // Apart (|d| >= reach, as sphere_gap would find: sqrt(fl(reach^2)) = reach) without the square root.
     const DVec3 d = ddelta(pos(i), pos(j));
     const SphereGap gap = dot(d, d) >= reach * reach ? SphereGap{} : sphere_gap(pos(i), pos(j), reach);

@@ -110,8 +110,9 @@ Energies energies_of(const View& at) {
                                ? link_geometry(at.x(i), at.x(j), m.link_rest[l], m.link_inv_rest[l])
                            : ax >= 0 ? link_geometry(at.x(i), at.x(j), m.spacing, 1.0f / m.spacing)
                                    : link_geometry(at.x(i), at.x(j), r0, static_cast<float>(1.0 / r0));
-    // (A jittered lattice's links have its stiffness factor, as the backend's pair constants.)
-    const double G = ax >= 0 && m.lattice_stiffness != 1.0f
+    // (A jittered or random lattice's links have its stiffness factor, as the backend's pair constants.)
+    const bool random = ax < 0 && m.random_automaton(i);
+    const double G = (ax >= 0 || random) && m.lattice_stiffness != 1.0f
                          ? static_cast<double>(m.lattice_stiffness * harmonic(gi.shear_modulus, gj.shear_modulus))
                          : harmonic(gi.shear_modulus, gj.shear_modulus);
     const double V = static_cast<double>(area) * r0;
@@ -129,6 +130,11 @@ Energies energies_of(const View& at) {
       const float share = 1.0f - s.link_damage[l];  // as the many-body kernel takes it
       si = static_cast<float>(si) * share;
       sj = static_cast<float>(sj) * share;
+    }
+    if (random) {  // the random lattice's many-body sums: A r s (random_many_body)
+      explicit_sum[i] += static_cast<double>(area * static_cast<float>(r0) * static_cast<float>(si));
+      explicit_sum[j] += static_cast<double>(area * static_cast<float>(r0) * static_cast<float>(sj));
+      return;
     }
     if (ax < 0) {
       // The bending and twisting spring: its moment's components on the pair's frame (link_bending).
@@ -154,6 +160,11 @@ Energies energies_of(const View& at) {
   });
   for (std::size_t a = 0; a < n; ++a) {
     const GroupParams& g = m.groups[m.group[a]];
+    if (m.random_automaton(a)) {
+      const double theta = explicit_sum[a] / (2.0 * m.volume[a]);
+      e.elastic += 0.5 * static_cast<double>(m.lattice_stiffness * g.lame_lambda) * theta * theta * m.volume[a];
+      continue;
+    }
     if (!explicit_cnt.empty() && explicit_cnt[a] > 0) {
       const int dims = std::min(explicit_cnt[a], 2);
       const double L = explicit_sum[a] * dims / explicit_cnt[a];
@@ -178,7 +189,7 @@ Energies energies_of(const View& at) {
   // Contact springs (as in the backend; the dashpots, which only dissipate, do not enter).
   double contact = 0;
   for (const auto& c : s.contacts) {
-    const SphereGap gap = sphere_gap(at.x(c.i), at.x(c.j), static_cast<double>(m.radius[c.i]) + m.radius[c.j]);
+    const SphereGap gap = sphere_gap(at.x(c.i), at.x(c.j), m.contact_reach(c.i, c.j));
     const ContactSprings cs = body_contact_springs(m.contact_material(m.group[c.i], m.group[c.j]), 0.0f, m.radius[c.i],
                                                    m.radius[c.j], 1.0f, 1.0f);
     contact += contact_energy(cs, gap.overlap, c.h.ut, c.h.mr, gap.n);

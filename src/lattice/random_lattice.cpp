@@ -1,0 +1,156 @@
+#include "lattice/random_lattice.hpp"
+
+#include <CGAL/Delaunay_triangulation_3.h>
+#include <CGAL/Delaunay_triangulation_cell_base_3.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Triangulation_vertex_base_with_info_3.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <utility>
+
+#include "core/rng.hpp"
+
+namespace mca::lattice {
+
+namespace {
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Vb = CGAL::Triangulation_vertex_base_with_info_3<std::uint32_t, K>;
+using Tds = CGAL::Triangulation_data_structure_3<Vb, CGAL::Delaunay_triangulation_cell_base_3<K>>;
+using Delaunay = CGAL::Delaunay_triangulation_3<K, Tds>;
+
+constexpr int kDraws = 8;
+constexpr std::uint64_t kSiteTag = 0x72616e646f6dull;  // "random"
+
+double dist2(const std::array<double, 3>& a, const std::array<double, 3>& b) {
+  const double x = a[0] - b[0], y = a[1] - b[1], z = a[2] - b[2];
+  return x * x + y * y + z * z;
+}
+
+}  // namespace
+
+RandomSites random_sites(const std::int64_t n[3], const double origin[3], double d, const std::vector<std::uint8_t>& inside,
+                         std::uint64_t seed, std::uint64_t object) {
+  // The frame grown by a layer of cells on every side (ghosts may lie just outside it), walked in
+  // row-major order; the sites of the last two planes are kept for the distance test, which looks at the
+  // 13 neighbouring cells drawn before this one.
+  const std::int64_t N[3] = {n[0] + 2, n[1] + 2, n[2] + 2};
+  const auto filled = [&](std::int64_t i, std::int64_t j, std::int64_t k) {  // extended coordinates
+    --i, --j, --k;
+    if (i < 0 || j < 0 || k < 0 || i >= n[0] || j >= n[1] || k >= n[2]) return false;
+    return inside[static_cast<std::size_t>(i + n[0] * (j + n[1] * k))] != 0;
+  };
+  const std::size_t plane = static_cast<std::size_t>(N[0] * N[1]);
+  std::vector<std::array<double, 3>> at(2 * plane);
+  std::vector<std::uint8_t> drawn(2 * plane, 0);
+  RandomSites out;
+  const double min2 = kMinSiteDistance * d * kMinSiteDistance * d;
+  for (std::int64_t k = 0; k < N[2]; ++k) {
+    std::fill(drawn.begin() + static_cast<std::ptrdiff_t>((k % 2) * plane),
+              drawn.begin() + static_cast<std::ptrdiff_t>((k % 2 + 1) * plane), 0);
+    for (std::int64_t j = 0; j < N[1]; ++j)
+      for (std::int64_t i = 0; i < N[0]; ++i) {
+        // A ghost: an empty cell with a filled neighbour; a deep site: a filled cell with no empty one.
+        const bool in = filled(i, j, k);
+        int neighbours = 0;
+        for (std::int64_t dk = -1; dk <= 1; ++dk)
+          for (std::int64_t dj = -1; dj <= 1; ++dj)
+            for (std::int64_t di = -1; di <= 1; ++di) neighbours += (di || dj || dk) && filled(i + di, j + dj, k + dk);
+        if (!in && neighbours == 0) continue;
+        const auto cell = static_cast<std::uint64_t>(i + N[0] * (j + N[1] * k));
+        std::array<double, 3> best{};
+        double best2 = -1;
+        for (int t = 0; t < kDraws; ++t) {
+          std::array<double, 3> p;
+          const std::int64_t c[3] = {i - 1, j - 1, k - 1};
+          for (int a = 0; a < 3; ++a) {
+            double u = unit_from_hash(hash_keys(seed, object, cell, static_cast<std::uint64_t>(t * 3 + a), kSiteTag));
+            // A site of the object's surface keeps to the inner half of its cell along the axes where a
+            // neighbour is empty, so its contact sphere (radius d / 2) stays within the object's cells, and
+            // a ghost to the outer half along the axes where one is filled, so the Voronoi faces between
+            // them lie at the object's surface on average (the cells fill the object and no more).
+            const std::int64_t e[3] = {a == 0, a == 1, a == 2};
+            const bool low = filled(i - e[0], j - e[1], k - e[2]) != in, high = filled(i + e[0], j + e[1], k + e[2]) != in;
+            u = low && high ? 0.5 : low ? 0.5 + 0.5 * u : high ? 0.5 * u : u;
+            p[static_cast<std::size_t>(a)] = origin[a] + (static_cast<double>(c[a]) + u - 0.5) * d;
+          }
+          double near2 = INFINITY;
+          for (std::int64_t dk = -1; dk <= 0; ++dk)
+            for (std::int64_t dj = -1; dj <= 1; ++dj)
+              for (std::int64_t di = -1; di <= 1; ++di) {
+                if (dk == 0 && (dj > 0 || (dj == 0 && di >= 0))) continue;  // not drawn yet
+                const std::int64_t x = i + di, y = j + dj, z = k + dk;
+                if (x < 0 || y < 0 || z < 0 || x >= N[0] || y >= N[1]) continue;
+                const std::size_t s = static_cast<std::size_t>(z % 2) * plane + static_cast<std::size_t>(x + N[0] * y);
+                if (drawn[s]) near2 = std::min(near2, dist2(p, at[s]));
+              }
+          if (near2 > best2) {
+            best2 = near2;
+            best = p;
+          }
+          if (near2 >= min2) break;
+        }
+        const std::size_t s = static_cast<std::size_t>(k % 2) * plane + static_cast<std::size_t>(i + N[0] * j);
+        at[s] = best;
+        drawn[s] = 1;
+        (in ? out.inside : out.ghosts).push_back(best);
+        if (in) out.deep.push_back(neighbours == 26);
+      }
+  }
+  return out;
+}
+
+VoronoiLinks voronoi_links(const std::vector<std::array<double, 3>>& sites,
+                           const std::vector<std::array<double, 3>>& ghosts, double min_area) {
+  const std::size_t real = sites.size();
+  std::vector<std::pair<K::Point_3, std::uint32_t>> points;
+  points.reserve(real + ghosts.size());
+  for (const auto& p : sites) points.emplace_back(K::Point_3(p[0], p[1], p[2]), static_cast<std::uint32_t>(points.size()));
+  for (const auto& p : ghosts) points.emplace_back(K::Point_3(p[0], p[1], p[2]), static_cast<std::uint32_t>(points.size()));
+  // (Inserted in CGAL's spatial order, shuffled by a generator of fixed seed: the same triangulation each
+  // time; the Voronoi diagram is unique whatever the order.)
+  const Delaunay T(points.begin(), points.end());
+  VoronoiLinks v;
+  v.volume.assign(real, 0.0);
+  v.interior.assign(real, 1);
+  std::vector<std::pair<std::array<std::uint32_t, 2>, double>> links;
+  std::vector<K::Point_3> face;
+  for (auto e = T.finite_edges_begin(); e != T.finite_edges_end(); ++e) {
+    std::uint32_t a = e->first->vertex(e->second)->info(), b = e->first->vertex(e->third)->info();
+    if (a >= real && b >= real) continue;
+    if (a > b) std::swap(a, b);
+    // The dual face: the circumcentres of the tetrahedra around the edge, in turn.
+    face.clear();
+    auto c = T.incident_cells(*e);
+    const auto done = c;
+    do {
+      if (T.is_infinite(c)) {
+        throw std::logic_error("random lattice: a site of the object lies on the hull of its ghosts");
+      }
+      face.push_back(T.dual(c));
+    } while (++c != done);
+    K::Vector_3 s(0, 0, 0);
+    for (std::size_t q = 1; q + 1 < face.size(); ++q) s = s + CGAL::cross_product(face[q] - face[0], face[q + 1] - face[0]);
+    const double area = 0.5 * std::sqrt(s.squared_length());
+    const std::array<double, 3>& pa = sites[a];
+    const std::array<double, 3>& pb = b < real ? sites[b] : ghosts[b - real];
+    const double r = std::sqrt(dist2(pa, pb));
+    // The cell is the union of the pyramids on its faces, each of height r / 2.
+    v.volume[a] += area * r / 6.0;
+    if (b < real) v.volume[b] += area * r / 6.0;
+    else v.interior[a] = 0;
+    if (b < real && area >= min_area) links.push_back({{a, b}, area});
+  }
+  std::sort(links.begin(), links.end());
+  v.link.reserve(links.size());
+  v.area.reserve(links.size());
+  for (const auto& [l, area] : links) {
+    v.link.push_back(l);
+    v.area.push_back(area);
+  }
+  return v;
+}
+
+}  // namespace mca::lattice
