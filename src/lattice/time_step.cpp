@@ -283,7 +283,7 @@ std::vector<double> surface_automaton_steps(const Model& M) {
   const SurfaceRows rows = surface_rows(M, max_strengthening(M));
   std::vector<double> dt(M.size(), INFINITY);
   for (std::size_t a = 0; a < rows.omega2.size(); ++a)
-    if (M.object_surface[M.object[a]]) dt[a] = critical_step(rows.omega2[a], rows.damping[a]);
+    if (explicit_automaton(M, a)) dt[a] = critical_step(rows.omega2[a], rows.damping[a]);
   return dt;
 }
 
