@@ -9,11 +9,21 @@
 
 #include "backend/cpu/lattice_kernels.hpp"
 #include "io/checkpoint.hpp"
+#include "io/scene_io.hpp"
 #include "sim/state_check.hpp"
 #include "support.hpp"
 #include "temp_dir.hpp"
 
 namespace mca::test {
+
+// The default scene for 0.01 s with the ball 5 mm from the wall (it strikes within the first steps).
+inline SceneDef struck_default_wall() {
+  SceneDef s = io::load_default_scene();
+  s.output.duration = 0.01;
+  EXPECT_EQ(s.projectiles.size(), 1u);
+  s.projectiles[0].position[1] = -0.1 - s.projectiles[0].radius - 0.005;
+  return s;
+}
 
 struct Bitwise {
   std::uint64_t hash = 0;  // state_hash after `steps` steps

@@ -2,10 +2,14 @@
 // Small scene builders and measurements shared by the physics tests.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <optional>
 #include <random>
 #include <string>
+
+#include <gtest/gtest.h>
 
 #include "mca/error.hpp"
 #include "mca/scene.hpp"
@@ -110,6 +114,23 @@ inline void layer_box(int n, int layer, int axis, double d, Vec3d& lo, Vec3d& hi
   hi[axis] = c + 0.25 * d;
 }
 
+// Solves the N x N system in the first N columns of A (the last column its right-hand side) by Gauss-Jordan
+// elimination with partial pivoting, in place: the solution's x_i is A[i][N] / A[i][i].
+template <std::size_t N>
+void gauss_jordan(double (&A)[N][N + 1]) {
+  for (std::size_t c = 0; c < N; ++c) {
+    std::size_t best = c;
+    for (std::size_t r = c + 1; r < N; ++r)
+      if (std::fabs(A[r][c]) > std::fabs(A[best][c])) best = r;
+    for (std::size_t k = 0; k <= N; ++k) std::swap(A[c][k], A[best][k]);
+    for (std::size_t r = 0; r < N; ++r) {
+      if (r == c) continue;
+      const double s = A[r][c] / A[c][c];
+      for (std::size_t k = c; k <= N; ++k) A[r][k] -= s * A[c][k];
+    }
+  }
+}
+
 // Uniaxial stress sigma along x on the n^3 block scene sc (spacing d): loads on the automata of its end
 // layers (boxes widened by `margin` to hold moved sites; each must hold n^2 automata), relaxed with local
 // damping for 50,000 steps. Returns the modulus and Poisson's ratios of the middle half of the block.
@@ -157,23 +178,13 @@ inline BlockModuli uniaxial_block_moduli(SceneDef sc, int n, double d, double si
     }
   }
   double A[3][4];
-  for (int c = 0; c < 3; ++c) {  // Gauss-Jordan on the 4x4 normal equations, one displacement component each
+  for (int c = 0; c < 3; ++c) {  // the 4x4 normal equations, one displacement component each
     double M4[4][5];
     for (int i = 0; i < 4; ++i) {
       for (int j = 0; j < 4; ++j) M4[i][j] = N[i][j];
       M4[i][4] = R[c][i];
     }
-    for (int i = 0; i < 4; ++i) {
-      int pivot = i;
-      for (int r = i + 1; r < 4; ++r)
-        if (std::fabs(M4[r][i]) > std::fabs(M4[pivot][i])) pivot = r;
-      for (int j = 0; j < 5; ++j) std::swap(M4[i][j], M4[pivot][j]);
-      for (int r = 0; r < 4; ++r) {
-        if (r == i) continue;
-        const double f = M4[r][i] / M4[i][i];
-        for (int j = 0; j < 5; ++j) M4[r][j] -= f * M4[i][j];
-      }
-    }
+    gauss_jordan(M4);
     for (int i = 0; i < 4; ++i) A[c][i] = M4[i][4] / M4[i][i];
   }
   return {sigma / A[0][0], -A[1][1] / A[0][0], -A[2][2] / A[0][0]};
@@ -206,6 +217,111 @@ inline void randomise_velocities(Engine& sim, double v_scale, double w_scale, un
     s.w[a] = to_dvec3(Vec3{u(rng), u(rng), u(rng)} * static_cast<float>(w_scale));
   }
   sim.backend().upload(std::move(s));
+}
+
+// A body of scene s left alone for 20,000 steps: it stays healthy, breaks no link and keeps kinetic plus
+// elastic energy below 1e-15 J (what rounding leaves: a few 1e-21 J).
+inline void expect_stays_at_rest(const SceneDef& s, const char* what) {
+  Engine sim(s);
+  ASSERT_EQ(sim.advance(20000).flags, kHealthy);
+  const Energies e = sim.energies();
+  std::printf("%s at rest after 20,000 steps: kinetic %.3g J, elastic %.3g J\n", what, e.kinetic, e.elastic);
+  EXPECT_LT(e.kinetic + e.elastic, 1e-15);
+  EXPECT_EQ(sim.state().broken_by[0] + sim.state().broken_by[1], 0);
+}
+
+// The total energy of scene s with random velocities (0.1 m/s, 10 rad/s) at safety = 1 (the critical
+// step), before and after 5,000 steps; and its critical step.
+struct AtTheLimit {
+  double before, after, critical_dt;
+};
+inline AtTheLimit energy_at_the_limit(SceneDef s) {
+  s.solver.safety = 1.0;
+  Engine sim(s);
+  randomise_velocities(sim, 0.1, 10.0, 5);
+  const double e0 = sim.energies().total();
+  sim.advance(5000);
+  return {e0, sim.energies().total(), sim.model().critical_dt};
+}
+
+// A block of 6 x 6 x 16 automata of the lattice `lattice` sets, pulled along its length by grips on its end
+// layers (boxes widened by `margin` for moved sites) at 1 cm/s: the largest mean stress over its section
+// before it parts, as a share of the tensile strength, and the links broken by then.
+struct TensileResult {
+  double strength;
+  std::int64_t broken;
+};
+inline TensileResult block_tensile_strength(const std::function<void(SceneDef&)>& lattice, double margin) {
+  const double d = 0.01, st = 3e6;
+  MaterialDef mat = test_material();
+  mat.tensile_strength = st;
+  mat.compressive_strength = 10 * st;
+  mat.fracture_strain = 1.5 * st / mat.youngs_modulus;
+  SceneDef sc = block_scene(16, 6, 6, d, mat);
+  lattice(sc);
+  sc.solver.link_damping = 0.3;
+  GripDef hold, pull;
+  hold.name = "hold";
+  pull.name = "pull";
+  layer_box(16, 0, 0, d, hold.min, hold.max);
+  layer_box(16, 15, 0, d, pull.min, pull.max);
+  for (GripDef* g : {&hold, &pull}) {
+    g->min[0] -= margin;
+    g->max[0] += margin;
+  }
+  pull.velocity = {0.01, 0, 0};
+  sc.grips = {hold, pull};
+  Engine sim(sc);
+  double peak = 0;
+  for (int k = 0; k < 4000; ++k) {
+    if (sim.advance(50).flags != kHealthy) {
+      ADD_FAILURE() << "the pulled block is no longer healthy";
+      break;
+    }
+    peak = std::max(peak, static_cast<double>(sim.state().grip_force[1].x));
+    if (sim.state().grip_force[1].x < 0.2 * peak && peak > 0) break;
+  }
+  return {peak / (36 * d * d) / st, sim.state().broken_by[0] + sim.state().broken_by[1]};
+}
+
+// A pulse along a bar of 300 x 4 x 4 automata (d = 1 cm) of the lattice `lattice` sets: the speed between
+// two stations (the first time the mean velocity of the automata of a cell layer reaches half its first
+// peak). (Physics.WaveInABarTravelsAtTheBarSpeed holds the cubic lattice's to sqrt(E / rho).)
+inline double bar_wave_speed(const std::function<void(SceneDef&)>& lattice) {
+  const int n = 300, st1 = 80, st2 = 220;
+  const double d = 0.01;
+  SceneDef sc = block_scene(n, 4, 4, d, test_material());
+  lattice(sc);
+  Engine sim(sc);
+  const Model& m = sim.model();
+  const double lo = -0.5 * (n - 1) * d;
+  std::vector<int> cell(m.size());
+  for (std::size_t a = 0; a < m.size(); ++a) cell[a] = static_cast<int>(std::lround((m.position0[a].x - lo) / d));
+  State s = sim.state();
+  for (std::size_t a = 0; a < m.size(); ++a)
+    if (cell[a] == 0) s.v[a] = DVec3{1.0, 0, 0};  // a kick at the left end
+  sim.backend().upload(s);
+  std::vector<double> t, v1, v2;
+  const int steps = static_cast<int>(1.3 * (st2 * d / 3536.0) / m.dt);
+  for (int k = 0; k < steps; ++k) {
+    sim.advance(1);
+    double a1 = 0, a2 = 0;
+    int c1 = 0, c2 = 0;
+    for (std::size_t a = 0; a < m.size(); ++a) {
+      if (cell[a] == st1) { a1 += sim.state().v[a].x; ++c1; }
+      if (cell[a] == st2) { a2 += sim.state().v[a].x; ++c2; }
+    }
+    t.push_back(sim.state().time);
+    v1.push_back(a1 / c1);
+    v2.push_back(a2 / c2);
+  }
+  auto arrival = [&](const std::vector<double>& v) {
+    const double peak = *std::max_element(v.begin(), v.end());
+    for (std::size_t k = 0; k < v.size(); ++k)
+      if (v[k] >= 0.5 * peak) return t[k];
+    return -1.0;
+  };
+  return (st2 - st1) * d / (arrival(v2) - arrival(v1));
 }
 
 }  // namespace mca::test

@@ -105,17 +105,7 @@ Quadratic fit_quadratic(const std::vector<std::array<double, 3>>& p) {
       A[r][6] += f[r] * w;
     }
   }
-  for (int c = 0; c < 6; ++c) {  // Gauss-Jordan with partial pivoting
-    int best = c;
-    for (int r = c + 1; r < 6; ++r)
-      if (std::fabs(A[r][c]) > std::fabs(A[best][c])) best = r;
-    for (int k = 0; k < 7; ++k) std::swap(A[c][k], A[best][k]);
-    for (int r = 0; r < 6; ++r) {
-      if (r == c) continue;
-      const double s = A[r][c] / A[c][c];
-      for (int k = c; k < 7; ++k) A[r][k] -= s * A[c][k];
-    }
-  }
+  test::gauss_jordan(A);
   return {A[3][6] / A[3][3], A[4][6] / A[4][4], A[5][6] / A[5][5]};
 }
 
@@ -133,17 +123,7 @@ void balance(std::vector<double>& f, const std::vector<std::array<double, 2>>& x
   }
   if (keep == 1) A[1][1] = 1;  // the x column is zero: b = 0
   if (keep == 2) A[2][2] = 1;  // the y column is zero: c = 0
-  for (int c = 0; c < 3; ++c) {
-    int best = c;
-    for (int r = c + 1; r < 3; ++r)
-      if (std::fabs(A[r][c]) > std::fabs(A[best][c])) best = r;
-    for (int k = 0; k < 4; ++k) std::swap(A[c][k], A[best][k]);
-    for (int r = 0; r < 3; ++r) {
-      if (r == c) continue;
-      const double s = A[r][c] / A[c][c];
-      for (int k = c; k < 4; ++k) A[r][k] -= s * A[c][k];
-    }
-  }
+  test::gauss_jordan(A);
   const double a = A[0][3] / A[0][0], b = A[1][3] / A[1][1], c = A[2][3] / A[2][2];
   for (std::size_t k = 0; k < f.size(); ++k) f[k] -= a + b * xy[k][0] + c * xy[k][1];
 }

@@ -188,12 +188,9 @@ TEST(LinkStrength, WeibullFactorsHaveMeanOneAndTheModulusSpread) {
   EXPECT_FLOAT_EQ(lattice::weibull_factor(0.0, 1.0), static_cast<float>(lattice::kMinLinkStrength));
 }
 
-// The default scene with the ball 5 mm from the wall (it strikes within the first steps).
+// The default scene with the ball 5 mm from the wall, of the materials' spread and fracture energy.
 SceneDef spread_wall(double weibull, double gf) {
-  SceneDef s = io::load_default_scene();
-  s.output.duration = 0.01;
-  EXPECT_EQ(s.projectiles.size(), 1u);
-  s.projectiles[0].position[1] = -0.1 - s.projectiles[0].radius - 0.005;
+  SceneDef s = test::struck_default_wall();
   for (MaterialDef& m : s.materials) {
     m.weibull_modulus = weibull;
     m.fracture_energy = gf;

@@ -130,6 +130,9 @@ struct Model {
   // The factor on the lattice links' moduli (G and lambda of the pair and many-body terms) that returns
   // the input E of a jittered lattice (lattice::jitter_stiffness); 1 for the cubic one.
   float lattice_stiffness = 1.0f;
+  // The factor on the strengths and breaking strains of the random lattice's automata
+  // (lattice::kRandomStrength) that gives a block of it the cubic lattice's tensile strength; 1 otherwise.
+  float lattice_strength = 1.0f;
   // Per lattice slot: the link's own strength factor (Weibull, MaterialDef::weibull_modulus), which
   // multiplies the weaker end's strengths and breaking strain; empty when no material has a spread.
   std::vector<float> link_strength;

@@ -1594,6 +1594,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
   if (!M.object_random.empty()) {
     M.boxed.resize(M.size(), 0);
     M.lattice_stiffness = kRandomStiffness;
+    M.lattice_strength = kRandomStrength;
   }
 
   const std::size_t n = M.size();

@@ -146,6 +146,7 @@ std::uint64_t model_fingerprint(const Model& m) {
     f.add(m.boxed);
     f.add<std::uint8_t>(m.rest_reach);
     f.add(m.lattice_stiffness);
+    f.add(m.lattice_strength);
   }
   // Scene-level numbers. Names are left out: they label outputs and do not shape the state.
   f.add(m.groups);

@@ -141,7 +141,8 @@ class CpuBackend final : public Backend {
       inv_inertia_[a] = 1.0f / m.inertia[a];
       inv_volume_[a] = 1.0f / m.volume[a];
       const GroupParams& g = m.groups[m.group[a]];
-      const float k = m.class_factor[a];
+      // (The random lattice's strengths carry its strength factor: lattice::kRandomStrength.)
+      const float k = m.random_automaton(a) ? m.class_factor[a] * m.lattice_strength : m.class_factor[a];
       tensile_[a] = k * g.tensile_strength;
       compressive_[a] = k * g.compressive_strength;
       break_strain_[a] = k * g.fracture_strain;
