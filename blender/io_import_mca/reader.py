@@ -760,7 +760,10 @@ class Run:
 
     def exposed(self):
         """Per frame, a bool per automaton: the automata the renderer draws (fewer than six intact links):
-        those on their object's surface at the start and those with a broken link."""
+        those on their object's surface at the start and those with a broken link. On the random lattice
+        (solver.lattice = "random"), whose automata have no six neighbours at the spacing, every one."""
+        if self.scene.get("solver", {}).get("lattice", "cubic") == "random":
+            return [np.ones(len(f["damage"]), bool) for f in self.frames]
         start = exposed_at_start(self.initial_positions(), self.frames[0]["object"], self.spacing)
         return [start | (f["damage"] > 0) for f in self.frames]
 

@@ -414,10 +414,17 @@ std::string ten_thousand_hint(const SceneDef& scene, const Shapes& S) {
   return fmt::format("about {:.3g} m gives 10,000 automata", std::cbrt(shapes_volume(scene, S) / 1e4));
 }
 
+// The memory a run holds per automaton of the scene's lattice: with the random lattice's explicit links
+// (kRandomLinksPerAutomaton; surface-mode objects are counted apart, before this check, in the mesh's).
+double bytes_per_automaton(const SceneDef& scene) {
+  const bool random = scene.solver.lattice == SolverDef::Lattice::random;
+  const auto links = static_cast<std::size_t>(random ? 1000 * kRandomLinksPerAutomaton : 0);
+  return static_cast<double>(estimate_memory_bytes(1000, links) - estimate_memory_bytes(0)) / 1000;
+}
+
 // The spacing at which `automata` at spacing d (a lower bound when `approximate`: half the volume's count)
-// would fit in `limit` bytes, with 5 % to spare for the rounding of sizes to whole cells.
-double spacing_that_fits(double d, double automata, bool approximate, double limit) {
-  const double per = static_cast<double>(estimate_memory_bytes(1) - estimate_memory_bytes(0));
+// would fit in `limit` bytes, `per` bytes each, with 5 % to spare for the rounding of sizes to whole cells.
+double spacing_that_fits(double d, double automata, bool approximate, double limit, double per) {
   const double fit = (limit - static_cast<double>(estimate_memory_bytes(0))) / per;
   return d * std::cbrt((approximate ? 2 * automata : automata) / fit) * 1.05;
 }
@@ -432,8 +439,8 @@ std::string smaller_model(const SceneDef& scene, double d, double automata, doub
 }
 
 void refuse_over_memory(const SceneDef& scene, double d, double automata, bool approximate) {
-  const double bytes = static_cast<double>(estimate_memory_bytes(1) - estimate_memory_bytes(0)) * automata +
-                       static_cast<double>(estimate_memory_bytes(0));
+  const double per = bytes_per_automaton(scene);
+  const double bytes = per * automata + static_cast<double>(estimate_memory_bytes(0));
   const double limit = scene.solver.max_memory_gb * 1e9;
   if (limit <= static_cast<double>(estimate_memory_bytes(0))) {
     throw Error(fmt::format("{}: solver.max_memory_gb = {} leaves nothing for a model: the program takes {} GB "
@@ -447,7 +454,7 @@ void refuse_over_memory(const SceneDef& scene, double d, double automata, bool a
         "{:g}; {} or raise solver.max_memory_gb if the machine has it",
         scene.source, bytes / 1e9, approximate ? "at least " : "", automata, d, scene.solver.max_memory_gb,
         smaller_model(scene, d, approximate ? 2 * automata : automata,
-                      spacing_that_fits(d, automata, approximate, limit))));
+                      spacing_that_fits(d, automata, approximate, limit, per))));
   }
   // A model larger than the machine's memory would swap for hours before failing.
   const double machine = physical_memory_bytes();
@@ -457,7 +464,7 @@ void refuse_over_memory(const SceneDef& scene, double d, double automata, bool a
         "{:.1f} GB of memory; {} or run it on a larger machine",
         scene.source, bytes / 1e9, approximate ? "at least " : "", automata, d, machine / 1e9,
         smaller_model(scene, d, approximate ? 2 * automata : automata,
-                      spacing_that_fits(d, automata, approximate, 0.9 * machine))));
+                      spacing_that_fits(d, automata, approximate, 0.9 * machine, per))));
   }
 }
 
@@ -1591,6 +1598,9 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
   refuse_overlaps(scene, M);
   index_corners(M.surface);
   index_explicit_links(M);
+  // (A scene of surface-mode objects only has no random lattice, whatever solver.lattice says.)
+  if (std::none_of(M.object_random.begin(), M.object_random.end(), [](std::uint8_t r) { return r != 0; }))
+    M.object_random.clear();
   if (!M.object_random.empty()) {
     M.boxed.resize(M.size(), 0);
     M.lattice_stiffness = kRandomStiffness;

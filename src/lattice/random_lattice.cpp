@@ -67,13 +67,13 @@ RandomSites random_sites(const std::int64_t n[3], const double origin[3], double
           const std::int64_t c[3] = {i - 1, j - 1, k - 1};
           for (int a = 0; a < 3; ++a) {
             double u = unit_from_hash(hash_keys(seed, object, cell, static_cast<std::uint64_t>(t * 3 + a), kSiteTag));
-            // A site of the object's surface keeps to the inner half of its cell along the axes where a
-            // neighbour is empty, so its contact sphere (radius d / 2) stays within the object's cells, and
-            // a ghost to the outer half along the axes where one is filled, so the Voronoi faces between
-            // them lie at the object's surface on average (the cells fill the object and no more).
+            // Along an axis where the next cell is of the other kind (a site of the object's surface and
+            // the ghost beyond it), the site lies at its cell's centre: its contact sphere (radius d / 2)
+            // reaches the object's face as the cubic lattice's does (a body stands on the ground at rest,
+            // two objects placed face to face touch), and the Voronoi face between the two lies on the
+            // object's surface (the cells fill the object and no more).
             const std::int64_t e[3] = {a == 0, a == 1, a == 2};
-            const bool low = filled(i - e[0], j - e[1], k - e[2]) != in, high = filled(i + e[0], j + e[1], k + e[2]) != in;
-            u = low && high ? 0.5 : low ? 0.5 + 0.5 * u : high ? 0.5 * u : u;
+            if (filled(i - e[0], j - e[1], k - e[2]) != in || filled(i + e[0], j + e[1], k + e[2]) != in) u = 0.5;
             p[static_cast<std::size_t>(a)] = origin[a] + (static_cast<double>(c[a]) + u - 0.5) * d;
           }
           double near2 = INFINITY;

@@ -16,10 +16,10 @@ namespace mca::lattice {
 // layer just outside the frame). Each is a uniform random point of its cell (from seed, object and cell),
 // drawn again, up to 8 times, while it lies closer than kMinSiteDistance d to a site already drawn in a
 // neighbouring cell (the farthest of the 8 draws otherwise): a link far shorter than d would set the
-// time step. A site of a cell on the object's surface keeps to the cell's inner half along the axes
-// where a neighbour cell is empty (its contact sphere of radius d / 2 stays within the object's cells:
-// nothing starts in the ground or in an object placed against it), and a ghost to the outer half along
-// the axes where one is filled (the Voronoi cells then fill the object's cells, on average).
+// time step. Along an axis where the next cell is of the other kind (a surface cell and the ghost beyond
+// it), a site lies at its cell's centre: the object's faces are the cubic lattice's (its contact spheres
+// reach them, nothing starts in the ground or in an object placed against it), and the Voronoi cells
+// fill the object's cells.
 inline constexpr double kMinSiteDistance = 0.6;
 struct RandomSites {
   std::vector<std::array<double, 3>> inside;  // per inside cell, in cell order
@@ -37,16 +37,22 @@ struct VoronoiLinks {
   std::vector<std::uint8_t> interior;             // per site: 1 when no ghost is among its neighbours
 };
 // The factor on the random lattice's moduli (Model::lattice_stiffness) that returns the input E: its
-// automata relax off the affine displacement, and a 20^3 block under uniaxial stress measured 0.963 and
-// 0.957 of the input modulus at nu = 0.2 and 0.3 with the factor 1 (Poisson's ratio 0.2055 and 0.305;
-// RandomLattice.ABlockReturnsTheInputModulusAndPoissonRatio).
-inline constexpr float kRandomStiffness = 1.04f;
+// automata relax off the affine displacement. A 20^3 block under uniaxial stress (the affine fit of its
+// middle half; RandomLattice.ABlockReturnsTheInputModulusAndPoissonRatio) measured 0.963 and 0.957 of
+// the input modulus at nu = 0.2 and 0.3 with the factor 1 and surface sites anywhere in the inner half of
+// their cells; with the surface sites at their cells' centres along the faces' normals, 1.025 with the
+// factor 1.04.
+inline constexpr float kRandomStiffness = 1.02f;
 
 // The factor on the random lattice's strengths and breaking strains (Model::lattice_strength): a block of it
-// pulled apart peaked at 0.713 of the tensile strength with the factor 1, against the cubic lattice's
-// 0.913 (its leaning links carry shear, which the equivalent stress counts;
+// pulled apart peaked at 0.713 of the tensile strength with the factor 1 (0.889 with 1.28), against the
+// cubic lattice's 0.913 (its leaning links carry shear, which the equivalent stress counts;
 // RandomLattice.TensileStrengthOfABlockAsMeasured).
-inline constexpr float kRandomStrength = 1.28f;
+inline constexpr float kRandomStrength = 1.31f;
+
+// Links stored per automaton, for the memory check before a build: 6.3 on the default wall, 7.1-7.45 on
+// larger bodies (fewer of their automata at a surface).
+inline constexpr double kRandomLinksPerAutomaton = 7.5;
 
 // Faces smaller than min_area are left out (a near-degenerate pair of cells that touch at a point).
 VoronoiLinks voronoi_links(const std::vector<std::array<double, 3>>& sites,

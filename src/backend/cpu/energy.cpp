@@ -161,6 +161,7 @@ Energies energies_of(const View& at) {
   for (std::size_t a = 0; a < n; ++a) {
     const GroupParams& g = m.groups[m.group[a]];
     if (m.random_automaton(a)) {
+      if (explicit_sum.empty()) continue;  // (no link at all: a random object of one automaton)
       const double theta = explicit_sum[a] / (2.0 * m.volume[a]);
       e.elastic += 0.5 * static_cast<double>(m.lattice_stiffness * g.lame_lambda) * theta * theta * m.volume[a];
       continue;
