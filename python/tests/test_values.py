@@ -20,6 +20,8 @@ import mca
         ("output", "vtk", 2, r"output\.vtk = 2 is not True or False"),
         ("output", "vtk", 1, r"output\.vtk = 1 is not True or False"),
         ("output", "surface_format", None, r"output\.surface_format = None is not text"),
+        ("solver", "lattice", None, r"solver\.lattice = None is not text"),
+        ("solver", "lattice", "hex", r"solver\.lattice = .hex."),
         ("camera", "fov", None, r"camera\.fov = None is not a number"),
         ("ground", "enabled", None, r"ground\.enabled = None is not True or False"),
         ("heterogeneity", "preset", None, r"heterogeneity\.preset = None is not text"),
@@ -143,3 +145,11 @@ def test_names_given_as_arguments_are_text():
         mca.Scene(1)
     assert scene.materials == [] and mca.Scene("x").name == "x"
     assert scene.add_material("weak", base="glass").youngs_modulus == mca.Material.builtin("glass").youngs_modulus
+
+
+def test_the_random_lattice_is_chosen_and_round_trips():
+    scene = mca.Scene.default()
+    assert scene.solver.lattice == "cubic"
+    scene.solver.lattice = "random"
+    assert mca.Scene.from_toml(scene.to_toml()).solver.lattice == "random"
+    assert mca.Solver(lattice="random").lattice == "random"
