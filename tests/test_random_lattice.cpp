@@ -138,9 +138,9 @@ TEST(RandomLattice, EveryInstructionSetThreadCountAndResumeGivesTheSameState) {
 
 // Uniaxial stress on a 20^3 block: the modulus and Poisson's ratios of its middle half against the input,
 // with the lattice's stiffness factor (lattice::kRandomStiffness). Measured: E 1.0052, nu 0.2180 / 0.2041
-// at nu = 0.2. Poisson's ratio is 9 % high along y, and depends on the step: at a quarter of the
-// automatic step (a shorter time relaxed) the same block gives E 1.013 (with the factor 1.04), nu
-// 0.2036 / 0.2016. Not understood yet; the bound below is the measurement's (the issue asks for 2 %).
+// at nu = 0.2. Poisson's ratio is 9 % high along y, and depends on the step: at 0.85 of the automatic step
+// the same block gives E 1.013 (with the factor 1.04), nu 0.2036 / 0.2016. Not understood yet; the bound
+// below is the measurement's (the issue asks for 2 %).
 TEST(RandomLattice, ABlockReturnsTheInputModulusAndPoissonRatio) {
   const int n = 20;
   const double d = 0.01, E = 30e9, sigma = 1e6;
