@@ -31,7 +31,7 @@ TEST(RandomLattice, SitesFillTheirCellsAndNoPairStartsInContact) {
   Engine cubic(test::block_scene(n, n, n, d)), random(random_block(n));
   const Model &c = cubic.model(), &m = random.model();
   ASSERT_EQ(c.size(), m.size());
-  EXPECT_TRUE(m.rest_reach);
+  EXPECT_TRUE(m.random_automaton(0));
   EXPECT_EQ(m.explicit_links.size(), m.links);
   double volume = 0;
   std::size_t boxed = 0;

@@ -174,16 +174,13 @@ struct Model {
   // with every link intact, is boxed in by its linked neighbours, and the contact search leaves it out
   // (as a cubic automaton with six links).
   std::vector<std::uint8_t> boxed;
-  // Contacts between two automata of the random lattice reach the smaller of r_i + r_j and the distance of
-  // their initial centres (its neighbours lie closer than d: a broken link's pair then touches without
-  // overlap, and pairs that start closer than their radii are not pushed apart). Set when an object is
-  // filled with it.
-  bool rest_reach = false;
-  // The distance below which automata i and j touch: r_i + r_j, or, for two automata of the random lattice
-  // (rest_reach), the smaller of that and their initial distance.
+  // The distance below which automata i and j touch: r_i + r_j, or, for two automata of the random lattice,
+  // the smaller of that and the distance of their initial centres (its neighbours lie closer than d: a
+  // broken link's pair then touches without overlap, and pairs that start closer than their radii are not
+  // pushed apart).
   double contact_reach(std::size_t i, std::size_t j) const {
     const double r = static_cast<double>(radius[i]) + radius[j];
-    if (!rest_reach || !random_automaton(i) || !random_automaton(j)) return r;
+    if (!random_automaton(i) || !random_automaton(j)) return r;
     const DVec3 d = ddelta(position0[i], position0[j]);
     return std::min(r, std::sqrt(dot(d, d)));
   }

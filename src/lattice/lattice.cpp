@@ -1201,18 +1201,18 @@ void fill_surface(Model& M, const SceneDef& scene, const Shapes& S, std::size_t 
 // The random lattice's links of object oi, whose automata [first, M.size()) sit at rs.inside: explicit
 // links to its Voronoi neighbours, each of cross-section their shared face and rest length their
 // distance; each automaton's volume its Voronoi cell (its mass the density's share of it), its contact
-// radius d / 2 (pairs reach the smaller of their radii and their initial distance: Model::rest_reach).
+// radius d / 2 (pairs reach the smaller of their radii and their initial distance: Model::contact_reach).
 // Boxed in (Model::boxed): a site of a cell inside the object's cells whose Voronoi neighbours are all
 // the object's.
 void link_random(Model& M, const SceneDef& scene, std::size_t oi, std::size_t first, const RandomSites& rs, double d) {
   const ObjectDef& o = scene.objects[oi];
   const VoronoiLinks v = voronoi_links(rs.inside, rs.ghosts, 1e-6 * d * d);
   const std::size_t count = rs.inside.size();
+  const std::string fix = fmt::format("check the density (kg/m^3) and the spacing ({:g} m)", d);
   M.boxed.resize(first, 0);
   for (std::size_t k = 0; k < count; ++k) {
     const std::size_t a = first + k;
     const double volume = v.volume[k];
-    const std::string fix = fmt::format("check the density (kg/m^3) and the spacing ({:g} m)", d);
     const std::string what = fmt::format("the mass of automaton {} of object '{}'", k, o.name);
     M.mass[a] = as_float32(scene, what, M.groups[M.group[a]].density * volume, fix);
     const double side = std::cbrt(volume);
@@ -1238,7 +1238,6 @@ void link_random(Model& M, const SceneDef& scene, std::size_t oi, std::size_t fi
     E.normal.push_back({static_cast<float>(m.x / len), static_cast<float>(m.y / len), static_cast<float>(m.z / len)});
   }
   M.links += v.link.size();
-  M.rest_reach = true;
 }
 
 // Object oi filled with a lattice of spacing d in its own frame: the cells inside it, their links to

@@ -33,7 +33,7 @@ TimeStepBound critical_time_step(const Model& model);
 // Per automaton of explicit links (a surface-mode object's or the random lattice's): the critical step of
 // its own rows of the Gershgorin bound (its explicit links, contacts, many-body term and dashpots);
 // infinite for the cubic lattice's automata. critical_time_step's surface part is at most the smallest of
-// the surface-mode automata's (the random lattice's has a bound of its own, by power iteration).
+// these.
 std::vector<double> surface_automaton_steps(const Model& model);
 
 // Sets the model's time step and calibrates the contact dashpots for it (Model::zeta_pair): called by

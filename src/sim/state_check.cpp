@@ -144,7 +144,6 @@ std::uint64_t model_fingerprint(const Model& m) {
   if (!m.object_random.empty()) {  // the random lattice
     f.add(m.object_random);
     f.add(m.boxed);
-    f.add<std::uint8_t>(m.rest_reach);
     f.add(m.lattice_stiffness);
     f.add(m.lattice_strength);
   }
