@@ -11,6 +11,9 @@
 
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
+#include "lattice/lattice.hpp"
 #include "mca/error.hpp"
 #include "mca/scene.hpp"
 #include "physics/link_law.hpp"
@@ -131,21 +134,46 @@ void gauss_jordan(double (&A)[N][N + 1]) {
   }
 }
 
-// Uniaxial stress sigma along x on the n^3 block scene sc (spacing d): loads on the automata of its end
-// layers (boxes widened by `margin` to hold moved sites; each must hold n^2 automata), relaxed with local
-// damping for 50,000 steps. Returns the modulus and Poisson's ratios of the middle half of the block.
+// Uniaxial stress sigma along x on the n^3 block scene sc (spacing d): a load on each automaton of its end
+// layers (the cells within `margin` of the layers' planes, for moved sites: each layer must hold n^2
+// automata), relaxed with local damping for 50,000 steps. Returns the modulus and Poisson's ratios of the
+// middle half of the block. Each end's n^2 loads add up to sigma (n d)^2 through the face's centre: where
+// the sites are moved (jittered or random lattices), equal loads on them have a moment about it, which
+// turned the block without end (the cubic lattice's are equal). So the loads are c (1 + a y + b z) on the
+// sites (y, z), with a and b making the moment zero.
 struct BlockModuli {
   double E, nu_y, nu_z;
 };
 inline BlockModuli uniaxial_block_moduli(SceneDef sc, int n, double d, double sigma, double margin) {
   sc.solver.local_damping = 0.2;
-  for (int side = 0; side < 2; ++side) {
-    LoadDef ld;
-    layer_box(n, side ? n - 1 : 0, 0, d, ld.min, ld.max);
-    ld.min[0] -= margin;
-    ld.max[0] += margin;
-    ld.force = {(side ? 1.0 : -1.0) * sigma * d * d, 0, 0};
-    sc.loads.push_back(ld);
+  {
+    const Model at_rest = lattice::build_model(sc);
+    for (int side = 0; side < 2; ++side) {
+      Vec3d lo, hi;
+      layer_box(n, side ? n - 1 : 0, 0, d, lo, hi);
+      std::vector<DVec3> sites;
+      for (const DVec3& p : at_rest.position0)
+        if (p.x >= lo[0] - margin && p.x <= hi[0] + margin) sites.push_back(p);
+      EXPECT_EQ(sites.size(), static_cast<std::size_t>(n * n));
+      // Least squares for (c, c a, c b): sum f = sigma (n d)^2, sum f y = sum f z = 0.
+      double A[3][4] = {};
+      for (const DVec3& p : sites) {
+        const double r[3] = {1.0, p.y, p.z};
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) A[i][j] += r[i] * r[j];
+      }
+      A[0][3] = sigma * n * n * d * d;
+      gauss_jordan(A);
+      const double c[3] = {A[0][3] / A[0][0], A[1][3] / A[1][1], A[2][3] / A[2][2]};
+      for (const DVec3& p : sites) {
+        LoadDef ld;
+        ld.name = fmt::format("load {} {}", side, sc.loads.size());
+        ld.min = {p.x - 1e-6 * d, p.y - 1e-6 * d, p.z - 1e-6 * d};
+        ld.max = {p.x + 1e-6 * d, p.y + 1e-6 * d, p.z + 1e-6 * d};
+        ld.force = {(side ? 1.0 : -1.0) * (c[0] + c[1] * p.y + c[2] * p.z), 0, 0};
+        sc.loads.push_back(ld);
+      }
+    }
   }
   Engine sim(sc);
   const Model& m = sim.model();
@@ -244,19 +272,16 @@ inline AtTheLimit energy_at_the_limit(SceneDef s) {
   return {e0, sim.energies().total(), sim.model().critical_dt};
 }
 
-// A block of 6 x 6 x 16 automata of the lattice `lattice` sets, pulled along its length by grips on its end
-// layers (boxes widened by `margin` for moved sites) at 1 cm/s: the largest mean stress over its section
-// before it parts, as a share of the tensile strength, and the links broken by then.
-struct TensileResult {
-  double strength;
-  std::int64_t broken;
-};
-inline TensileResult block_tensile_strength(const std::function<void(SceneDef&)>& lattice, double margin) {
+// A block of 6 x 6 x 16 automata (d = 1 cm) of the lattice `lattice` sets, of a material of tensile
+// strength 3 MPa and fracture energy gf, pulled along its length by grips on its end layers (boxes widened
+// by `margin` for moved sites) at 1 cm/s.
+inline SceneDef pulled_block(const std::function<void(SceneDef&)>& lattice, double margin, double gf = 0) {
   const double d = 0.01, st = 3e6;
   MaterialDef mat = test_material();
   mat.tensile_strength = st;
   mat.compressive_strength = 10 * st;
   mat.fracture_strain = 1.5 * st / mat.youngs_modulus;
+  mat.fracture_energy = gf;
   SceneDef sc = block_scene(16, 6, 6, d, mat);
   lattice(sc);
   sc.solver.link_damping = 0.3;
@@ -271,7 +296,17 @@ inline TensileResult block_tensile_strength(const std::function<void(SceneDef&)>
   }
   pull.velocity = {0.01, 0, 0};
   sc.grips = {hold, pull};
-  Engine sim(sc);
+  return sc;
+}
+
+// pulled_block: the largest mean stress over its section before it parts, as a share of the tensile
+// strength, and the links broken by then.
+struct TensileResult {
+  double strength;
+  std::int64_t broken;
+};
+inline TensileResult block_tensile_strength(const std::function<void(SceneDef&)>& lattice, double margin) {
+  Engine sim(pulled_block(lattice, margin));
   double peak = 0;
   for (int k = 0; k < 4000; ++k) {
     if (sim.advance(50).flags != kHealthy) {
@@ -281,7 +316,35 @@ inline TensileResult block_tensile_strength(const std::function<void(SceneDef&)>
     peak = std::max(peak, static_cast<double>(sim.state().grip_force[1].x));
     if (sim.state().grip_force[1].x < 0.2 * peak && peak > 0) break;
   }
-  return {peak / (36 * d * d) / st, sim.state().broken_by[0] + sim.state().broken_by[1]};
+  return {peak / (36 * 1e-4) / 3e6, sim.state().broken_by[0] + sim.state().broken_by[1]};
+}
+
+// pulled_block of fracture energy gf, pulled until it has come apart (the pull's force below 1 % of its
+// peak for 2,000 steps): the pull's work per unit of the block's section [J/m^2] and the links broken.
+struct FractureWork {
+  double per_area;
+  std::int64_t broken;
+};
+inline FractureWork block_fracture_work(const std::function<void(SceneDef&)>& lattice, double margin, double gf) {
+  Engine sim(pulled_block(lattice, margin, gf));
+  double peak = 0;
+  std::int64_t low_since = -1;
+  for (int k = 0; k < 20000; ++k) {
+    if (sim.advance(100).flags != kHealthy) {
+      ADD_FAILURE() << "the pulled block is no longer healthy";
+      break;
+    }
+    const double f = sim.state().grip_force[1].x;
+    peak = std::max(peak, f);
+    if (peak > 0 && std::abs(f) < 0.01 * peak) {
+      if (low_since < 0) low_since = sim.state().step;
+      if (sim.state().step - low_since >= 2000) break;
+    } else {
+      low_since = -1;
+    }
+  }
+  EXPECT_GE(low_since, 0) << "the pulled block did not come apart";
+  return {sim.state().grip_work[1] / (36 * 1e-4), sim.state().broken_by[0] + sim.state().broken_by[1]};
 }
 
 // A pulse along a bar of 300 x 4 x 4 automata (d = 1 cm) of the lattice `lattice` sets: the speed between

@@ -138,10 +138,11 @@ TEST(RandomLattice, EveryInstructionSetThreadCountAndResumeGivesTheSameState) {
 }
 
 // Uniaxial stress on a 20^3 block: the modulus and Poisson's ratios of its middle half against the input,
-// with the lattice's stiffness factor (lattice::kRandomStiffness). Measured: E 1.0052, nu 0.2180 / 0.2041
-// at nu = 0.2. Poisson's ratio is 9 % high along y, and depends on the step: at 0.85 of the automatic step
-// the same block gives E 1.013 (with the factor 1.04), nu 0.2036 / 0.2016. Not understood yet; the bound
-// below is the measurement's (the issue asks for 2 %).
+// with the lattice's stiffness factor (lattice::kRandomStiffness). Measured: E 0.9901, nu 0.2000 / 0.2009
+// at nu = 0.2, the same at 25,000 and 200,000 steps. (With equal loads on the end faces' sites, whose
+// moment about the faces' centres turned the block without end, it never settled: E and nu_y swung
+// between 0.99 and 1.02 and 0.20 and 0.24 over 70 ms, and what the test read at 50,000 steps depended on
+// the step. test::uniaxial_block_moduli now loads the faces free of moment.)
 TEST(RandomLattice, ABlockReturnsTheInputModulusAndPoissonRatio) {
   const int n = 20;
   const double d = 0.01, E = 30e9, sigma = 1e6;
@@ -151,8 +152,8 @@ TEST(RandomLattice, ABlockReturnsTheInputModulusAndPoissonRatio) {
     const test::BlockModuli b = test::uniaxial_block_moduli(random_block(n, test::test_material(E, nu)), n, d, sigma, 0.2499 * d);
     std::printf("random lattice, nu %.2f: E %.4f E, nu %.4f / %.4f\n", nu, b.E / E, b.nu_y, b.nu_z);
     EXPECT_NEAR(b.E / E, 1.0, 0.02);
-    EXPECT_NEAR(b.nu_y / nu, 1.0, 0.10);
-    EXPECT_NEAR(b.nu_z / nu, 1.0, 0.10);
+    EXPECT_NEAR(b.nu_y / nu, 1.0, 0.02);
+    EXPECT_NEAR(b.nu_z / nu, 1.0, 0.02);
   }
 }
 

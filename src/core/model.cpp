@@ -11,7 +11,7 @@ void automaton_damage(const Model& m, const std::uint8_t* intact, const float* l
     float lost = 0;
     m.for_each_link_of(a, [&](std::size_t l) {
       ++links;
-      lost += !intact[l] ? 1.0f : link_damage && l < m.lattice_slots() ? link_damage[l] : 0.0f;
+      lost += !intact[l] ? 1.0f : link_damage ? link_damage[l] : 0.0f;
     });
     out[a] = links ? lost / static_cast<float>(links) : 0.0f;
   }

@@ -133,8 +133,9 @@ struct Model {
   // The factor on the strengths and breaking strains of the random lattice's automata
   // (lattice::kRandomStrength) that gives a block of it the cubic lattice's tensile strength; 1 otherwise.
   float lattice_strength = 1.0f;
-  // Per lattice slot: the link's own strength factor (Weibull, MaterialDef::weibull_modulus), which
-  // multiplies the weaker end's strengths and breaking strain; empty when no material has a spread.
+  // Per link slot: the link's own strength factor (Weibull, MaterialDef::weibull_modulus), which
+  // multiplies the weaker end's strengths and breaking strain (lattice links and the random lattice's
+  // explicit links; 1 on a surface-mode object's); empty when no material has a spread.
   std::vector<float> link_strength;
   std::size_t links = 0;                       // slots that hold a link (lattice and explicit)
   // Explicit links (objects filled in surface mode: one automaton per triangle, linked across shared
@@ -227,8 +228,9 @@ struct Model {
   }
   std::size_t lattice_slots() const { return neighbour.size(); }
   // Some lattice automaton's material softens (fracture_energy > 0; a projectile's or a surface-mode
-  // object's material does not count: they have no lattice links): the state keeps each link's damage
-  // (State::link_damage).
+  // object's material does not count: they have no lattice links; the random lattice's automata count,
+  // their explicit links soften): the state keeps each link's damage (State::link_damage; 0 on a
+  // surface-mode object's links, which never soften).
   bool softening() const {
     for (std::size_t a = 0; a < group.size(); ++a)
       if (groups[group[a]].fracture_energy > 0 &&

@@ -282,33 +282,18 @@ void validate_scene(const SceneDef& scene) {
                        scene.output.checkpoint_every));
   }
 
-  // Softening and links' own strengths act on the cubic lattice's links only: refused on a material that
-  // fills a random lattice (surface-mode objects keep their explicit links, which have neither).
-  if (scene.solver.lattice == SolverDef::Lattice::random)
+  // The fragment meshes (analysis/fragment_meshes.cpp) take a primitive's solid as the cubes of side d
+  // around its automata: on the random lattice, whose Voronoi cells reach beyond them, that leaves holes.
+  // A mesh object's solid comes from its mesh (and a surface-mode object keeps its explicit links).
+  if (scene.solver.lattice == SolverDef::Lattice::random && scene.output.fragments)
     for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) {
       const ObjectDef& o = scene.objects[oi];
-      if (o.shape == Shape::mesh && o.fill == MeshFill::surface) continue;
-      // The fragment meshes (analysis/fragment_meshes.cpp) take a primitive's solid as the cubes of side d
-      // around its automata: on the random lattice, whose Voronoi cells reach beyond them, that leaves
-      // holes. A mesh object's solid comes from its mesh.
-      if (scene.output.fragments && o.shape != Shape::mesh) {
-        c.fail(fmt::format("output.fragments = true and object[{}] '{}' (a {}) filled with solver.lattice = \"random\": "
-                           "the fragment meshes of box, sphere and cylinder objects are built on the cubic lattice only; "
-                           "remove output.fragments (fragments.csv lists the fragments all the same), or use lattice = "
-                           "\"cubic\" or a mesh object",
-                           oi, o.name, o.shape == Shape::box ? "box" : o.shape == Shape::sphere ? "sphere" : "cylinder"));
-      }
-      std::vector<std::string> names{o.material};
-      for (const RegionDef& r : o.regions) names.push_back(r.material);
-      for (std::size_t i = 0; i < scene.materials.size(); ++i) {
-        const MaterialDef& m = scene.materials[i];
-        if (!(m.fracture_energy > 0 || m.weibull_modulus > 0)) continue;
-        if (std::find(names.begin(), names.end(), m.name) == names.end()) continue;
-        c.fail(fmt::format("material[{}] '{}': {} = {} acts on the cubic lattice's links only, and object[{}] '{}' "
-                           "is filled with solver.lattice = \"random\"; remove the key, or use lattice = \"cubic\"",
-                           i, m.name, m.fracture_energy > 0 ? "fracture_energy" : "weibull_modulus",
-                           num(m.fracture_energy > 0 ? m.fracture_energy : m.weibull_modulus), oi, o.name));
-      }
+      if (o.shape == Shape::mesh) continue;
+      c.fail(fmt::format("output.fragments = true and object[{}] '{}' (a {}) filled with solver.lattice = \"random\": "
+                         "the fragment meshes of box, sphere and cylinder objects are built on the cubic lattice only; "
+                         "remove output.fragments (fragments.csv lists the fragments all the same), or use lattice = "
+                         "\"cubic\" or a mesh object",
+                         oi, o.name, o.shape == Shape::box ? "box" : o.shape == Shape::sphere ? "sphere" : "cylinder"));
     }
 
   // Materials.

@@ -64,18 +64,23 @@ float weibull_factor(double u, double m) {
 }
 
 void assign_link_strengths(Model& M, std::uint64_t seed) {
-  const std::size_t n = M.size();
-  bool any = false;  // (a projectile's material, or a surface-mode object's, has no lattice links)
-  for (std::size_t l = 0; l < M.lattice_slots() && !any; ++l)
-    any = M.neighbour[l] != Model::kNoLink && (M.groups[M.group[l % n]].weibull_modulus > 0 ||
-                                               M.groups[M.group[M.neighbour[l]]].weibull_modulus > 0);
+  // The links that take a spread: every lattice link, and the random lattice's explicit links (a
+  // surface-mode object's have none; neither has a projectile's material, which has no links).
+  const auto spreads = [&](std::size_t l) {
+    return M.link_exists(l) && (!M.is_explicit(l) || M.random_automaton(M.link_i(l)));
+  };
+  const auto modulus = [&](std::size_t l) {
+    const float mi = M.groups[M.group[M.link_i(l)]].weibull_modulus, mj = M.groups[M.group[M.link_j(l)]].weibull_modulus;
+    return mi <= 0 ? mj : mj <= 0 ? mi : std::min(mi, mj);
+  };
+  bool any = false;
+  for (std::size_t l = 0; l < M.link_slots() && !any; ++l) any = spreads(l) && modulus(l) > 0;
   M.link_strength.clear();
   if (!any) return;
-  M.link_strength.assign(M.lattice_slots(), 1.0f);
-  for (std::size_t l = 0; l < M.lattice_slots(); ++l) {
-    if (M.neighbour[l] == Model::kNoLink) continue;
-    const float mi = M.groups[M.group[l % n]].weibull_modulus, mj = M.groups[M.group[M.neighbour[l]]].weibull_modulus;
-    const float m = mi <= 0 ? mj : mj <= 0 ? mi : std::min(mi, mj);
+  M.link_strength.assign(M.link_slots(), 1.0f);
+  for (std::size_t l = 0; l < M.link_slots(); ++l) {
+    if (!spreads(l)) continue;
+    const float m = modulus(l);
     if (m > 0) M.link_strength[l] = weibull_factor(unit_from_hash(hash_keys(seed, l, 0x77656962756c6cull)), m);
   }
 }

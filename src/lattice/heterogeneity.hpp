@@ -24,9 +24,10 @@ std::vector<std::uint8_t> assign_classes(const std::vector<Vec3>& local_points, 
 inline constexpr double kMinLinkStrength = 0.05;
 float weibull_factor(double u, double m);
 
-// Model::link_strength: per lattice slot with a link, weibull_factor of (seed, slot) with the smaller
-// weibull_modulus of its ends' materials that is not 0 (the wider spread); 1 where both are 0. Left
-// empty when no lattice link has an end of a material with a spread.
+// Model::link_strength: per link slot (lattice links and the random lattice's explicit links),
+// weibull_factor of (seed, slot) with the smaller weibull_modulus of its ends' materials that is not 0
+// (the wider spread); 1 where both are 0 and on a surface-mode object's links. Left empty when no such
+// link has an end of a material with a spread.
 void assign_link_strengths(Model& M, std::uint64_t seed);
 
 }  // namespace mca::lattice

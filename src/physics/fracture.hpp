@@ -63,14 +63,23 @@ struct SofteningTest {
 };
 
 // soft: softening_constant of the pair (0: no softening); damage: the link's damage so far. sigma and tau2
-// are the link's undamaged stresses (its pair stress whole, its shear spring whole).
+// are the link's undamaged stresses (its pair stress whole, its shear spring whole); p the automata's mean
+// stress as the forces give it (the link's own damage is added back to it in tension, below).
 template <class T, class R>
 MCA_HD SofteningTest<T> link_softening_test(const T& h, const R& r0, const T& sigma, const T& tau2, const T& p,
                                             const T& tensile, const T& ratio, const T& strain,
                                             float stress_coefficient, const T& soft, const T& damage) {
   SofteningTest<T> s;
   const T f = stress_coefficient * tensile;
-  const T effort = equivalent_stress(sigma, tau2, p, ratio) / f;
+  // The mean stress p of the two automata comes from their forces, which the damage has lowered: of a
+  // link stretched by sigma alone (uniaxial tension, its ends' links in series carrying the same force)
+  // they get (1 - D) sigma / 3 where the undamaged link would give sigma / 3. Taken as it is, p would hold
+  // the effort back as the link softens, and where the criterion weighs p heavily (concrete: sigma_t /
+  // sigma_c = 0.1 gives 1.35 p against 0.55 q) a pulled block took 5 times G_f per unit of crack area. So
+  // the link adds back what its own damage took from p, D sigma / 3 in tension (compression is carried
+  // whole): exact in uniaxial tension, and bounded by the link's own stress whatever else loads its ends.
+  const T p_link = p + damage * select(sigma > 0.0f, sigma, T(0.0f)) * (1.0f / 3.0f);
+  const T effort = equivalent_stress(sigma, tau2, p_link, ratio) / f;
   const T ku = soft / (f * f);
   const T end = select(ku > 1.0f, ku, T(1.0f));
   s.displacement = h > r0 * strain * end;

@@ -177,6 +177,8 @@ class CpuBackend final : public Backend {
                     &ex_k_in_, &ex_k_out_, &ex_s_in_, &ex_s_out_, &ex_s_twist_, &ex_m0x_, &ex_m0y_, &ex_m0z_, &ex_mx_,
                     &ex_my_, &ex_mz_, &ex_bx_, &ex_by_, &ex_bz_, &ex_kappa_})
       v->resize(ne);
+    const bool soft_any = m.softening();
+    if (soft_any) ex_soft_.resize(ne);
     for (std::size_t k = 0; k < ne; ++k) {
       const std::uint32_t i = E.i[k], j = E.j[k];
       const GroupParams &gi = m.groups[m.group[i]], &gj = m.groups[m.group[j]];
@@ -195,6 +197,11 @@ class CpuBackend final : public Backend {
                                                     m.link_damping);
       ex_damp_n_[k] = c.normal;
       ex_damp_t_[k] = c.tangential;
+      // A random-lattice link softens as a lattice link does (2 G_f E / r0 of its own length, E with the
+      // lattice's stiffness factor: the link then takes G_f times its cross-section); a shell's does not.
+      if (soft_any)
+        ex_soft_[k] = volume ? s * softening_constant(gi.fracture_energy, gj.fracture_energy, gi.youngs, gj.youngs, ex_r0f_[k])
+                             : 0.0f;
       ex_m0x_[k] = E.normal[k].x;
       ex_m0y_[k] = E.normal[k].y;
       ex_m0z_[k] = E.normal[k].z;
@@ -327,7 +334,7 @@ class CpuBackend final : public Backend {
     }
     unsound_.clear();
     if (!S_.link_damage.empty()) {
-      unsound_.resize(M_.lattice_slots());
+      unsound_.resize(M_.link_slots());
       for (std::size_t l = 0; l < unsound_.size(); ++l) unsound_[l] = !S_.intact[l] || damaged(l);
     }
     for (std::size_t k = 0; k < S_.link_moment.size(); ++k) {
@@ -467,7 +474,7 @@ class CpuBackend final : public Backend {
   // Where the model softens: per lattice slot, 1 once the link is damaged or broken (no longer counted
   // in its ends' intact_count_).
   std::vector<std::uint8_t> unsound_;
-  bool damaged(std::size_t l) const { return !S_.link_damage.empty() && l < M_.lattice_slots() && S_.link_damage[l] > 0; }
+  bool damaged(std::size_t l) const { return !S_.link_damage.empty() && S_.link_damage[l] > 0; }
   // Takes the links damaged in this step (softening) out of their ends' intact_count_, in slot order.
   void expose_damaged(float& max_move2);
   // Link slots (structure of arrays): shear displacement (state), then scratch rebuilt every step.
@@ -484,6 +491,7 @@ class CpuBackend final : public Backend {
   // Explicit links (Model::ExplicitLinks), structure of arrays (cpu::ExplicitView): constants, then this
   // step's geometry and forces; the automata that have some, and each automaton's many-body weight.
   cpu::LineArray<float> ex_r0f_, ex_inv_r0_, ex_area_, ex_to_stress_, ex_G_, ex_kt_, ex_damp_n_, ex_damp_t_;
+  cpu::LineArray<float> ex_soft_;  // softening constants (empty: no link softens)
   cpu::LineArray<float> ex_nx_, ex_ny_, ex_nz_, ex_eps_, ex_fx_, ex_fy_, ex_fz_, ex_tx_, ex_ty_, ex_tz_;
   cpu::LineArray<float> ex_k_twist_, ex_k_in_, ex_k_out_, ex_s_in_, ex_s_out_, ex_s_twist_, ex_m0x_, ex_m0y_, ex_m0z_;
   cpu::LineArray<float> ex_mx_, ex_my_, ex_mz_;  // state: the bending springs' moments (State::link_moment)
@@ -738,11 +746,15 @@ std::vector<std::size_t> CpuBackend::explicit_link_pass(const cpu::LatticeView& 
     const GroupParams& g = M_.groups[M_.group[a]];
     if (M_.random_automaton(a)) {
       // The random lattice: theta = sum A r s / (2 V) over the intact links, and the stress lambda theta / 2
-      // on each of them (random_many_body).
+      // on each of them (random_many_body). A damaged link's strain in tension counts by its undamaged
+      // share, as the lattice's many-body kernel takes it.
       float sum = 0.0f;
       for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
         const std::uint32_t l = E.of[x];
-        if (S_.intact[3 * n + l]) sum += ex_area_[l] * ex_r0f_[l] * strengthened_strain(g.strengthening, ex_eps_[l]).s;
+        if (!S_.intact[3 * n + l]) continue;
+        float e = strengthened_strain(g.strengthening, ex_eps_[l]).s;
+        if (!S_.link_damage.empty() && e > 0.0f) e = (1.0f - S_.link_damage[3 * n + l]) * e;
+        sum += ex_area_[l] * ex_r0f_[l] * e;
       }
       explicit_weight_[a] = random_many_body(M_.lattice_stiffness * g.lame_lambda, M_.volume[a], sum).stress;
       return;
@@ -782,6 +794,7 @@ cpu::ExplicitView CpuBackend::explicit_view() {
   e.kt = ex_kt_.data();
   e.damp_normal = ex_damp_n_.data();
   e.damp_tangential = ex_damp_t_.data();
+  e.soft = ex_soft_.empty() ? nullptr : ex_soft_.data();
   e.weight = explicit_weight_.data();
   e.nx = ex_nx_.data(); e.ny = ex_ny_.data(); e.nz = ex_nz_.data(); e.eps = ex_eps_.data();
   e.fx = ex_fx_.data(); e.fy = ex_fy_.data(); e.fz = ex_fz_.data();
@@ -830,11 +843,10 @@ void CpuBackend::explicit_gather_pass() {
 // links passed through each other unseen by the contact search (a wall of fracture_energy = 1e6 struck at
 // 120 m/s). So a link counts as sound, for the contact search, only while it is undamaged.
 void CpuBackend::expose_damaged(float& max_move2) {
-  const std::size_t n = M_.size();
   for (std::size_t l = 0; l < unsound_.size(); ++l) {
     if (unsound_[l] || !(S_.link_damage[l] > 0)) continue;
     unsound_[l] = 1;
-    for (const std::uint32_t a : {static_cast<std::uint32_t>(l % n), M_.neighbour[l]}) lose_link(a, max_move2);
+    for (const std::uint32_t a : {M_.link_i(l), M_.link_j(l)}) lose_link(a, max_move2);
   }
 }
 

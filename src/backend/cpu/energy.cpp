@@ -121,12 +121,13 @@ Energies energies_of(const View& at) {
     // A damaged link (softening: physics/fracture.hpp) holds the undamaged share of its pair spring's
     // energy in tension and of its shear spring's, and its ends' many-body sums see that share of its
     // strain, as the forces do; the rest was dissipated.
-    const double keep = !s.link_damage.empty() && ax >= 0 ? 1.0 - s.link_damage[l] : 1.0;
+    // (A surface-mode object's links never soften: their damage stays 0.)
+    const double keep = !s.link_damage.empty() ? 1.0 - s.link_damage[l] : 1.0;
     e.elastic += (g.eps > 0 ? keep : 1.0) * G * V *
                      (strengthening_energy(gi.strengthening, g.eps) + strengthening_energy(gj.strengthening, g.eps)) +
                  keep * 0.5 * kt * sq(s.link_ut[l]);
     double si = strengthened_strain(gi.strengthening, g.eps).s, sj = strengthened_strain(gj.strengthening, g.eps).s;
-    if (g.eps > 0 && !s.link_damage.empty() && ax >= 0) {
+    if (g.eps > 0 && !s.link_damage.empty() && (ax >= 0 || random)) {
       const float share = 1.0f - s.link_damage[l];  // as the many-body kernel takes it
       si = static_cast<float>(si) * share;
       sj = static_cast<float>(sj) * share;

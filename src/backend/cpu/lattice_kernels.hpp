@@ -135,6 +135,10 @@ struct ExplicitView {
   const float *r0f = nullptr, *inv_r0 = nullptr, *area = nullptr;
   const float* inv_r0_area = nullptr;  // 1 / (r0 S): turns a many-body weight into the stress P
   const float *G = nullptr, *kt = nullptr, *damp_normal = nullptr, *damp_tangential = nullptr;
+  // The softening constant of each link (softening_constant; 0: the instant break, as on every link of a
+  // surface-mode object); null when no link softens. A link that softens keeps its damage in the
+  // LatticeView's per-slot damage.
+  const float* soft = nullptr;
   const float* weight = nullptr;  // per automaton: its many-body weight (explicit_many_body)
   // The bending spring (link_bending): stiffnesses, stresses per unit moment, the shell's normal at the
   // start; its moment is state (per link).

@@ -421,19 +421,43 @@ struct Block {
     const X ti = L::gather(v.tensile, i), tj = L::gather(v.tensile, j);
     const X ci = L::gather(v.compressive, i), cj = L::gather(v.compressive, j);
     const X si = L::gather(v.break_strain, i), sj = L::gather(v.break_strain, j);
-    const X tensile = select(tj < ti, tj, ti), compressive = select(cj < ci, cj, ci);
-    const X strain = select(sj < si, sj, si);
+    X tensile = select(tj < ti, tj, ti), compressive = select(cj < ci, cj, ci);
+    X strain = select(sj < si, sj, si);
+    if (v.link_strength) {  // the link's own factor (the random lattice's links; 1 on a shell's)
+      const X w = L::load(v.link_strength + l0);
+      tensile = tensile * w;
+      compressive = compressive * w;
+      strain = strain * w;
+    }
     const X p = 0.5f * (L::gather(v.mean_stress, i) + L::gather(v.mean_stress, j));
-    const auto b = link_break_test(eps * r0, r0, o.sigma + bo.sigma, tau * tau, p, tensile, tensile / compressive,
-                                   strain, v.stress_coefficient);
-    const auto broke = alive && (b.displacement || b.stress);
+    const X sigma_f = o.sigma + bo.sigma, tau2_f = tau * tau;
+    const auto b = link_break_test(eps * r0, r0, sigma_f, tau2_f, p, tensile, tensile / compressive, strain,
+                                   v.stress_coefficient);
+    auto by_displacement = b.displacement;
+    auto broke = alive && (b.displacement || b.stress);
+    Vec3T<X> force = o.force_i;
+    if (e.soft) {
+      // Links that soften (the random lattice's, of a material with a fracture energy), as the lattice
+      // links above: the force with this step's damage, the test on the undamaged stresses, the new damage.
+      const X soft = L::load(e.soft + k0);
+      const auto soft_lanes = soft > 0.0f;
+      if (L::any(soft_lanes)) {
+        const X damage = L::load(v.damage + l0);
+        const auto t = link_softening_test(eps * r0, r0, sigma_f, tau2_f, p, tensile, tensile / compressive, strain,
+                                           v.stress_coefficient, soft, damage);
+        force = select(soft_lanes, softened_force(in, o, damage), force);
+        L::store(select(alive && soft_lanes, t.damage, damage), v.damage + l0);
+        by_displacement = (soft_lanes && t.displacement) || (!soft_lanes && by_displacement);
+        broke = alive && ((soft_lanes && (t.displacement || t.stress)) || (!soft_lanes && (b.displacement || b.stress)));
+      }
+    }
     std::size_t count = 0;
     if (L::any(broke))
       for (std::size_t k = 0; k < W; ++k)
         if (L::lane(broke, k))
-          out[count++] = static_cast<std::uint32_t>(l0 + k) | (L::lane(b.displacement, k) ? 0u : kBreakByStress);
-    const Vec3T<X> hf = o.force_i * (0.5f * r0);
-    store3(o.force_i, e.fx, e.fy, e.fz, k0);
+          out[count++] = static_cast<std::uint32_t>(l0 + k) | (L::lane(by_displacement, k) ? 0u : kBreakByStress);
+    const Vec3T<X> hf = force * (0.5f * r0);
+    store3(force, e.fx, e.fy, e.fz, k0);
     store3(cross(n, hf) * (1.0f + eps), e.tx, e.ty, e.tz, k0);
     store3(select(alive && !broke, o.ut, in.ut), v.utx, v.uty, v.utz, l0);
     store3(select(alive && !broke, bo.moment, bi.moment), e.mx, e.my, e.mz, k0);
