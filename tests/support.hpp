@@ -134,60 +134,54 @@ void gauss_jordan(double (&A)[N][N + 1]) {
   }
 }
 
-// Uniaxial stress sigma along x on the n^3 block scene sc (spacing d): a load on each automaton of its end
-// layers (the cells within `margin` of the layers' planes, for moved sites: each layer must hold n^2
-// automata), relaxed with local damping for 50,000 steps. Returns the modulus and Poisson's ratios of the
-// middle half of the block. Each end's n^2 loads add up to sigma (n d)^2 through the face's centre: where
-// the sites are moved (jittered or random lattices), equal loads on them have a moment about it, which
-// turned the block without end (the cubic lattice's are equal). So the loads are c (1 + a y + b z) on the
-// sites (y, z), with a and b making the moment zero.
-struct BlockModuli {
-  double E, nu_y, nu_z;
-};
-inline BlockModuli uniaxial_block_moduli(SceneDef sc, int n, double d, double sigma, double margin) {
-  sc.solver.local_damping = 0.2;
-  {
-    const Model at_rest = lattice::build_model(sc);
-    for (int side = 0; side < 2; ++side) {
-      Vec3d lo, hi;
-      layer_box(n, side ? n - 1 : 0, 0, d, lo, hi);
-      std::vector<DVec3> sites;
-      for (const DVec3& p : at_rest.position0)
-        if (p.x >= lo[0] - margin && p.x <= hi[0] + margin) sites.push_back(p);
-      EXPECT_EQ(sites.size(), static_cast<std::size_t>(n * n));
-      // Least squares for (c, c a, c b): sum f = sigma (n d)^2, sum f y = sum f z = 0.
-      double A[3][4] = {};
-      for (const DVec3& p : sites) {
-        const double r[3] = {1.0, p.y, p.z};
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j) A[i][j] += r[i] * r[j];
-      }
-      A[0][3] = sigma * n * n * d * d;
-      gauss_jordan(A);
-      const double c[3] = {A[0][3] / A[0][0], A[1][3] / A[1][1], A[2][3] / A[2][2]};
-      for (const DVec3& p : sites) {
-        LoadDef ld;
-        ld.name = fmt::format("load {} {}", side, sc.loads.size());
-        ld.min = {p.x - 1e-6 * d, p.y - 1e-6 * d, p.z - 1e-6 * d};
-        ld.max = {p.x + 1e-6 * d, p.y + 1e-6 * d, p.z + 1e-6 * d};
-        ld.force = {(side ? 1.0 : -1.0) * (c[0] + c[1] * p.y + c[2] * p.z), 0, 0};
-        sc.loads.push_back(ld);
-      }
-    }
+// Loads on the automata of one end layer of the n^3 block scene sc (spacing d), the layer `side` (0: the
+// first, 1: the last) across axis `face`, the cells within `margin` of the layer's plane (for moved
+// sites: the layer must hold n^2 automata): `total` newtons along axis `along` in all, through the face's
+// centre. Where the sites are moved (jittered and random lattices), equal loads on them have a moment
+// about the face's centre, which turns the block without end (the cubic lattice's are equal); so the loads
+// are c (1 + a s + b t) on the sites at (s, t) across the face, with a and b making that moment zero.
+inline void add_face_loads(SceneDef& sc, const Model& at_rest, int n, double d, double margin, int face, int side,
+                           int along, double total) {
+  Vec3d lo, hi;
+  layer_box(n, side ? n - 1 : 0, face, d, lo, hi);
+  std::vector<DVec3> sites;
+  for (const DVec3& p : at_rest.position0) {
+    const double q[3] = {p.x, p.y, p.z};
+    if (q[face] >= lo[face] - margin && q[face] <= hi[face] + margin) sites.push_back(p);
   }
-  Engine sim(sc);
+  EXPECT_EQ(sites.size(), static_cast<std::size_t>(n * n));
+  const int u = (face + 1) % 3, v = (face + 2) % 3;  // the face's own axes
+  const auto coord = [](const DVec3& p, int axis) { return axis == 0 ? p.x : axis == 1 ? p.y : p.z; };
+  // Least squares for (c, c a, c b): sum f = total, sum f s = sum f t = 0.
+  double A[3][4] = {};
+  for (const DVec3& p : sites) {
+    const double r[3] = {1.0, coord(p, u), coord(p, v)};
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) A[i][j] += r[i] * r[j];
+  }
+  A[0][3] = total;
+  gauss_jordan(A);
+  const double c[3] = {A[0][3] / A[0][0], A[1][3] / A[1][1], A[2][3] / A[2][2]};
+  for (const DVec3& p : sites) {
+    LoadDef ld;
+    ld.name = fmt::format("load {}", sc.loads.size());
+    ld.min = {p.x - 1e-6 * d, p.y - 1e-6 * d, p.z - 1e-6 * d};
+    ld.max = {p.x + 1e-6 * d, p.y + 1e-6 * d, p.z + 1e-6 * d};
+    ld.force = {0, 0, 0};
+    ld.force[along] = c[0] + c[1] * coord(p, u) + c[2] * coord(p, v);
+    sc.loads.push_back(ld);
+  }
+}
+
+// The strain of the middle half of the n^3 block (spacing d) of sim (clear of the faces' own layers,
+// docs/model-notes.md "The surface layer"): the symmetric part of A in the affine displacement u = A p + t
+// fitted by least squares to its automata. (A turn of the block is its antisymmetric part, left out.)
+struct Strain3 {
+  double e[3][3];
+};
+inline Strain3 middle_strain(const Engine& sim, int n, double d) {
   const Model& m = sim.model();
-  const auto loaded = [&](int sign) {
-    return std::count_if(m.load.begin(), m.load.end(), [&](const Vec3& f) { return f.x * sign > 0; });
-  };
-  EXPECT_EQ(loaded(1), n * n);
-  EXPECT_EQ(loaded(-1), n * n);
-  for (int k = 0; k < 100; ++k) sim.advance(500);
   const State& s = sim.state();
-  // The affine displacement u = A p + t fitted (least squares) to the automata of the middle half of the
-  // block (clear of the faces' own layers, docs/model-notes.md "The surface layer"); the strain is the
-  // symmetric part of A. (The loads on jittered end faces exert a small torque, and the block turns
-  // slowly while it is measured: the fit takes the turn out, where layer means did not.)
   const double lo = -0.5 * (n - 1) * d;
   const long k1 = n / 4, k2 = n - 1 - n / 4;
   double N[4][4] = {}, R[3][4] = {};
@@ -215,7 +209,61 @@ inline BlockModuli uniaxial_block_moduli(SceneDef sc, int n, double d, double si
     gauss_jordan(M4);
     for (int i = 0; i < 4; ++i) A[c][i] = M4[i][4] / M4[i][i];
   }
-  return {sigma / A[0][0], -A[1][1] / A[0][0], -A[2][2] / A[0][0]};
+  Strain3 r;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) r.e[i][j] = 0.5 * (A[i][j] + A[j][i]);
+  return r;
+}
+
+// Uniaxial stress sigma along x on the n^3 block scene sc (spacing d): loads on the automata of its end
+// layers (add_face_loads, free of moment), relaxed with local damping for 50,000 steps. Returns the
+// modulus and Poisson's ratios of the middle half of the block.
+struct BlockModuli {
+  double E, nu_y, nu_z;
+};
+inline BlockModuli uniaxial_block_moduli(SceneDef sc, int n, double d, double sigma, double margin) {
+  sc.solver.local_damping = 0.2;
+  const Model at_rest = lattice::build_model(sc);
+  for (int side = 0; side < 2; ++side) add_face_loads(sc, at_rest, n, d, margin, 0, side, 0, (side ? 1 : -1) * sigma * n * n * d * d);
+  Engine sim(sc);
+  for (int k = 0; k < 100; ++k) sim.advance(500);
+  const Strain3 e = middle_strain(sim, n, d);
+  return {sigma / e.e[0][0], -e.e[1][1] / e.e[0][0], -e.e[2][2] / e.e[0][0]};
+}
+
+// Simple shear tau on the n^3 block scene sc: tractions along x on the faces across y and along y on those
+// across x (add_face_loads), relaxed as above. Returns the middle half's mean averaged (Love) stress xy
+// over its engineering shear strain (the law's G), and the applied tau over that strain (which mixes in
+// the softer surface layers: Physics.BlockInSimpleShearReturnsShearModulus).
+struct ShearModuli {
+  double interior, applied;
+};
+inline ShearModuli simple_shear_modulus(SceneDef sc, int n, double d, double tau, double margin) {
+  sc.solver.local_damping = 0.2;
+  const Model at_rest = lattice::build_model(sc);
+  for (int side = 0; side < 2; ++side) {
+    const double f = (side ? 1 : -1) * tau * n * n * d * d;
+    add_face_loads(sc, at_rest, n, d, margin, 1, side, 0, f);
+    add_face_loads(sc, at_rest, n, d, margin, 0, side, 1, f);
+  }
+  Engine sim(sc);
+  for (int k = 0; k < 100; ++k) sim.advance(500);
+  const double gamma = 2 * middle_strain(sim, n, d).e[0][1];
+  const double lo = -0.5 * (n - 1) * d;
+  const long k1 = n / 4, k2 = n - 1 - n / 4;
+  double sxy = 0, volume = 0;
+  for (std::size_t a = 0; a < sim.model().size(); ++a) {
+    const DVec3 p = sim.model().position0[a];
+    bool middle = true;
+    for (const double q : {p.x, p.y, p.z}) {
+      const long cell = std::lround((q - lo) / d);
+      middle = middle && cell >= k1 && cell <= k2;
+    }
+    if (!middle) continue;
+    sxy += sim.state().s[a].xy * sim.model().volume[a];  // (volume-weighted: the random lattice's cells differ)
+    volume += sim.model().volume[a];
+  }
+  return {sxy / volume / gamma, tau / gamma};
 }
 
 // A bar of n automata along x (one thick, spacing d) of material mat, held at its first automaton by the

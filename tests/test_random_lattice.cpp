@@ -117,7 +117,8 @@ TEST(RandomLattice, TheMemoryCheckCountsTheLinks) {
 // The critical step (its power iteration, lattice/time_step.cpp): an undamped random block with random
 // velocities kept at safety = 1 for 5,000 steps keeps its energy, at Poisson's ratios where the pairs'
 // springs (0) and the many-body term (0.45) dominate. Its step, against the cubic block's: 0.37, 0.43 and
-// 0.86 (the default wall: 0.54, where the automata's Gershgorin rows gave 0.30).
+// 0.86 when first built, 0.40, 0.48 and 0.94 now (the default wall: 0.46 with its ground and ball, where
+// the automata's Gershgorin rows gave 0.32).
 TEST(RandomLattice, AnUndampedBlockAtTheLimitIsStable) {
   for (double nu : {0.0, 0.2, 0.45}) {
     const test::AtTheLimit r = test::energy_at_the_limit(random_block(6, test::test_material(30e9, nu)));
@@ -157,6 +158,22 @@ TEST(RandomLattice, ABlockReturnsTheInputModulusAndPoissonRatio) {
   }
 }
 
+// Simple shear on a 20^3 block: the law's G (the middle half's averaged stress over its shear strain)
+// against E / (2 (1 + nu)), and the applied traction over that strain against the cubic lattice's.
+// Measured: the law's G 0.9893 (cubic 0.9963); traction over strain 0.9280 (cubic 0.9380: on either
+// lattice the surface layers are softer in shear and the interior carries more than the traction,
+// Physics.BlockInSimpleShearReturnsShearModulus).
+TEST(RandomLattice, ABlockInSimpleShearReturnsTheShearModulus) {
+  const int n = 20;
+  const double d = 0.01, E = 30e9, nu = 0.2, tau = 1e6, G = E / (2 * (1 + nu));
+  const test::ShearModuli c = test::simple_shear_modulus(test::block_scene(n, n, n, d, test::test_material(E, nu)), n, d, tau, 0);
+  const test::ShearModuli r = test::simple_shear_modulus(random_block(n, test::test_material(E, nu)), n, d, tau, 0.2499 * d);
+  std::printf("simple shear, 20^3: cubic G %.4f (law) / %.4f (applied traction) of E / (2 (1 + nu)), random %.4f / %.4f\n",
+              c.interior / G, c.applied / G, r.interior / G, r.applied / G);
+  EXPECT_NEAR(r.interior / G, 1.0, 0.03);
+  EXPECT_NEAR(r.applied / c.applied, 1.0, 0.02);
+}
+
 // The jittered lattice's tests of strength and wave speed (test_lattice_jitter.cpp) on the random lattice.
 // The block's strength, with the lattice's strength factor (lattice::kRandomStrength), is the cubic
 // lattice's 0.913 of the tensile strength: 0.911 (0.713 with the factor 1).
@@ -169,14 +186,14 @@ TEST(RandomLattice, TensileStrengthOfABlockAsMeasured) {
   EXPECT_NEAR(r.strength, 0.913, 0.03);
 }
 
-// The pulse: 3,298 m/s against the cubic lattice's 3,500 (0.942; the issue asks for 3 %, not met on this bar
+// The pulse: 3,314 m/s against the cubic lattice's 3,500 (0.947; the issue asks for 3 %, not met on this bar
 // of 4 x 4 automata, all of them at its surface, where the random lattice's many-body sums miss the links
 // to the ghosts; its bulk modulus is the input's, ABlockReturnsTheInputModulusAndPoissonRatio).
 TEST(RandomLattice, APulseTravelsAtTheCubicLatticesSpeed) {
   const double cubic = test::bar_wave_speed([](SceneDef&) {});
   const double random = test::bar_wave_speed([](SceneDef& sc) { sc.solver.lattice = SolverDef::Lattice::random; });
   std::printf("bar wave, 4 x 4 section: cubic %.1f m/s, random %.1f m/s (sqrt(E/rho) = 3535.5)\n", cubic, random);
-  EXPECT_NEAR(random / cubic, 0.942, 0.01);  // as measured: a change is seen
+  EXPECT_NEAR(random / cubic, 0.947, 0.01);  // as measured: a change is seen
 }
 
 }  // namespace

@@ -17,6 +17,7 @@
 #include <limits>
 #include <numbers>
 
+#include "core/rng.hpp"
 #include "lattice/lattice.hpp"
 #include "physics/contact_law.hpp"
 #include "physics/link_law.hpp"
@@ -114,6 +115,23 @@ struct SurfaceBound {
   std::int64_t lightest = -1;  // the lightest surface-mode automaton (for the projectiles' bound)
   std::size_t automata = 0;
 };
+
+// Adds to r the one-sided contacts an automaton of group ga (mass ma, inertia ja, radius ra) may come to
+// hold: the ground, and each projectile's element twice (see the lattice's one-sided contacts).
+void add_one_sided(Rows& r, const Model& M, std::size_t ga, double ma, double ja, double ra) {
+  if (M.ground) {
+    const ContactSprings c = springs(M.ground_contact[ga], static_cast<float>(ra), INFINITY, ma, ja);
+    add_pair(r, -1, c.kn, c.kt, ra, 0, c.kr + c.kw, ma, ja, INFINITY, INFINITY, c.cn / 3, 0, 0);
+  }
+  for (std::size_t p = 0; p < M.projectiles.size(); ++p) {
+    const ProjectileParams& P = M.projectiles[p];
+    const ContactSprings c = springs(M.projectile_contact(p, ga), static_cast<float>(ra), P.radius,
+                                     P.kinematic ? ma : reduced(ma, P.mass), P.kinematic ? ja : reduced(ja, P.inertia));
+    Rows e;
+    add_pair(e, -1, c.kn, c.kt, ra, 0, c.kr + c.kw, ma, ja, INFINITY, INFINITY, c.cn / 3, 0, 0);
+    add_scaled(r, e, 2);
+  }
+}
 
 // Per automaton of a surface-mode object: its Gershgorin rows (omega2: the largest of its translation
 // and rotation rows plus its many-body row, normalised by its mass and, for the coupling, the lightest
@@ -224,24 +242,152 @@ SurfaceRows surface_rows(const Model& M, const std::vector<double>& fmax) {
                                       0.5 * ma, 0.5 * ja);
     for (int k = 0; k < 6; ++k)
       add_pair(r, -1, cs.kn, cs.kt, ra, ra, cs.kr + cs.kw, ma, ja, ma, ja, cs.cn / 3, 0, 0);
-    if (M.ground) {
-      const ContactSprings c = springs(M.ground_contact[ga], static_cast<float>(ra), INFINITY, ma, ja);
-      add_pair(r, -1, c.kn, c.kt, ra, 0, c.kr + c.kw, ma, ja, INFINITY, INFINITY, c.cn / 3, 0, 0);
-    }
-    // A projectile: its element twice (see the lattice's one-sided contacts).
-    for (std::size_t p = 0; p < M.projectiles.size(); ++p) {
-      const ProjectileParams& P = M.projectiles[p];
-      const ContactSprings c = springs(M.projectile_contact(p, ga), static_cast<float>(ra), P.radius,
-                                       P.kinematic ? ma : reduced(ma, P.mass), P.kinematic ? ja : reduced(ja, P.inertia));
-      Rows e;
-      add_pair(e, -1, c.kn, c.kt, ra, 0, c.kr + c.kw, ma, ja, INFINITY, INFINITY, c.cn / 3, 0, 0);
-      add_scaled(r, e, 2);
-    }
+    add_one_sided(r, M, ga, ma, ja, ra);
     // Row a of M^-1/2 K M^-1/2 for the many-body term: sum over the stencils c holding a of
     // s_c |g_ca| sum_b |g_cb| / sqrt(m_a m_b).
     b.omega2[a] = r.omega2() + mb_row[a] / std::sqrt(ma);
     b.damping[a] = std::max(r.damp_u, r.damp_w);
   }
+  return b;
+}
+
+// The random lattice's automata: the largest eigenvalue of M^-1/2 K M^-1/2, by power iteration, with each
+// Voronoi neighbour pair holding the stiffer of its link and a contact (a link that breaks leaves its pair
+// touching), the link's springs at the largest strengthening, and the many-body term's rank-one terms
+// lambda V g g^T, and each automaton's one-sided contacts (the ground, projectiles) on the diagonal.
+// Gershgorin's rows (surface_rows) bound it too, but for a network of triangles they are loose: each
+// automaton's rows add the norms of about 12 couplings that do not all push one way. The iteration's
+// Rayleigh quotient converges from below; a 10 % margin covers what it has not reached (on the default
+// wall it is within 2e-4 of its final value after 75 of its 150 rounds). The dashpots' part likewise.
+struct RandomBound {
+  double omega2 = 0, damping = 0;
+  std::size_t automata = 0;
+};
+
+// The pairs' springs (or dashpots) of the random lattice's links: normal kn, tangential kt on the relative
+// motion of the contact point (levers r0 / 2), rotational kr on the relative rotation.
+struct RandomPair {
+  std::uint32_t i, j;
+  double kn, kt, kr, lever, area;
+  DVec3 n;
+};
+
+// The largest eigenvalue of M^-1/2 K M^-1/2 for the pairs' springs and, where mb is not empty, the many-body
+// term's rank-one terms mb_c g_c g_c^T (mb_c = lambda V of automaton c, g_c the gradient of its theta),
+// over translations and rotations (150 rounds of power iteration from a fixed start), plus `diag` (per
+// automaton, mass-normalised: a bound on the one-sided contacts' own elements) on its diagonal.
+double largest_eigenvalue(const Model& M, const std::vector<RandomPair>& pairs, const std::vector<double>& mb,
+                          const std::vector<double>& diag) {
+  const std::size_t n = M.size();
+  std::vector<double> inv_m(n, 0.0), inv_j(n, 0.0);
+  std::vector<DVec3> x(2 * n), y(2 * n);
+  std::vector<double> theta(n, 0.0);
+  for (std::size_t a = 0; a < n; ++a) {
+    if (!M.random_automaton(a)) continue;
+    inv_m[a] = 1.0 / std::sqrt(static_cast<double>(M.mass[a]));
+    inv_j[a] = 1.0 / std::sqrt(static_cast<double>(M.inertia[a]));
+    for (std::size_t h = 0; h < 2; ++h) {
+      double c[3];
+      for (std::uint64_t k = 0; k < 3; ++k) c[k] = 2.0 * unit_from_hash(hash_keys(0x706f776572ull, a, 3 * h + k)) - 1.0;
+      x[2 * a + h] = {c[0], c[1], c[2]};
+    }
+  }
+  double lambda = 0;
+  for (int round = 0; round < 150; ++round) {
+    double norm = 0;
+    for (const DVec3& v : x) norm += dot(v, v);
+    norm = std::sqrt(norm);
+    if (!(norm > 0)) break;
+    for (DVec3& v : x) v = v * (1.0 / norm);
+    for (std::size_t a = 0; a < n; ++a) {
+      y[2 * a] = x[2 * a] * diag[a];
+      y[2 * a + 1] = x[2 * a + 1] * diag[a];
+    }
+    std::fill(theta.begin(), theta.end(), 0.0);
+    for (const RandomPair& p : pairs) {
+      const std::uint32_t i = p.i, j = p.j;
+      const DVec3 ui = x[2 * i] * inv_m[i], uj = x[2 * j] * inv_m[j];
+      const DVec3 ti = x[2 * i + 1] * inv_j[i], tj = x[2 * j + 1] * inv_j[j];
+      // The contact point's relative displacement; the springs' force and torque on i (j takes -f and the
+      // same lever torque, and the opposite rotational spring's).
+      const DVec3 rel = uj - ui - cross(ti + tj, p.n) * p.lever;
+      const double along = dot(rel, p.n);
+      const DVec3 f = p.n * (p.kn * along) + (rel - p.n * along) * p.kt;
+      const DVec3 lever = cross(p.n, f) * p.lever, spin = (tj - ti) * p.kr;
+      // y = M^-1/2 K M^-1/2 x, K u the force's negative.
+      y[2 * i] -= f * inv_m[i];
+      y[2 * j] += f * inv_m[j];
+      y[2 * i + 1] -= (lever + spin) * inv_j[i];
+      y[2 * j + 1] -= (lever - spin) * inv_j[j];
+      // The many-body strains: theta_c = sum A r eps / (2 V), eps = n (u_j - u_i) / r.
+      if (!mb.empty()) {
+        const double e = dot(p.n, uj - ui) * p.area / 2.0;
+        theta[i] += e / M.volume[i];
+        theta[j] += e / M.volume[j];
+      }
+    }
+    if (!mb.empty())
+      for (const RandomPair& p : pairs) {
+        // The many-body energy's gradient lambda V theta d(theta)/du, on both ends of each link.
+        const double t = (mb[p.i] * theta[p.i] / M.volume[p.i] + mb[p.j] * theta[p.j] / M.volume[p.j]) * p.area / 2.0;
+        y[2 * p.i] -= p.n * (t * inv_m[p.i]);
+        y[2 * p.j] += p.n * (t * inv_m[p.j]);
+      }
+    double rq = 0;
+    for (std::size_t q = 0; q < x.size(); ++q) rq += dot(x[q], y[q]);
+    lambda = std::max(lambda, rq);
+    x.swap(y);
+  }
+  return lambda;
+}
+
+RandomBound random_lattice_bound(const Model& M, const std::vector<double>& fmax) {
+  RandomBound b;
+  const auto& E = M.explicit_links;
+  const std::size_t n = M.size();
+  std::vector<RandomPair> springs_of, dashpots_of;
+  for (std::size_t l = 0; l < E.size(); ++l) {
+    const std::uint32_t i = E.i[l], j = E.j[l];
+    if (!M.random_automaton(i)) continue;
+    const GroupParams &A = M.groups[M.group[i]], &B = M.groups[M.group[j]];
+    const double f = std::max(fmax[M.group[i]], fmax[M.group[j]]), s = M.lattice_stiffness;
+    const double G = s * harmonic(A.shear_modulus, B.shear_modulus), r0 = E.r0[l], area = E.area[l];
+    const ContactSprings cs = springs(M.contact_material(M.group[i], M.group[j]), M.radius[i], M.radius[j],
+                                      reduced(M.mass[i], M.mass[j]), reduced(M.inertia[i], M.inertia[j]));
+    const DVec3 d = ddelta(M.position0[i], M.position0[j]);
+    const DVec3 u{d.x / r0, d.y / r0, d.z / r0};
+    springs_of.push_back({i, j, std::max(2.0 * G * area / r0 * f, static_cast<double>(cs.kn)),
+                          std::max(kShearFactor * G * area / r0 * f, static_cast<double>(cs.kt)),
+                          static_cast<double>(cs.kr) + cs.kw, 0.5 * r0, area, u});
+    // The link's dashpots at the largest strengthening (the backend's are set from the unstrengthened
+    // stiffness; this is the larger) and a contact's normal one at a third, without the rolling and
+    // twisting dashpots, as the cubic lattice's bound takes them (below: a clipped contact dashpot damps
+    // the high modes far less than a linear one, and those modes have no relative rotation).
+    const float k_n = link_normal_stiffness(static_cast<float>(G * f), static_cast<float>(s * f * A.lame_lambda),
+                                            static_cast<float>(s * f * B.lame_lambda), E.area[l], static_cast<float>(r0));
+    const LinkDashpots c = explicit_link_dashpots(k_n, M.mass[i], M.mass[j], 0.5f * (A.damping_time + B.damping_time),
+                                                  M.link_damping);
+    dashpots_of.push_back({i, j, c.normal + cs.cn / 3.0, c.tangential, 0.0, 0.5 * r0, area, u});
+  }
+  std::vector<double> mb(n, 0.0), one_sided(n, 0.0), one_sided_c(n, 0.0);
+  for (std::size_t a = 0; a < n; ++a) {
+    if (!M.random_automaton(a)) continue;
+    ++b.automata;
+    const std::size_t ga = M.group[a];
+    const GroupParams& g = M.groups[ga];
+    mb[a] = std::max(0.0, M.lattice_stiffness * static_cast<double>(g.lame_lambda)) * fmax[ga] * M.volume[a];
+    // The one-sided contacts any automaton may come to hold, the ground and each projectile (its element
+    // twice, as the lattice's: a sphere touching many automata at once): their own elements' rows bound
+    // them, on the automaton's diagonal.
+    const double ma = M.mass[a], ja = M.inertia[a], ra = M.radius[a];
+    Rows e;
+    add_one_sided(e, M, ga, ma, ja, ra);
+    one_sided[a] = e.omega2();
+    one_sided_c[a] = std::max(e.damp_u, e.damp_w);
+  }
+  if (springs_of.empty()) return b;
+  b.omega2 = 1.1 * largest_eigenvalue(M, springs_of, mb, one_sided);
+  b.damping = 1.1 * largest_eigenvalue(M, dashpots_of, {}, one_sided_c);
   return b;
 }
 
@@ -257,12 +403,19 @@ SurfaceBound surface_bound(const Model& M, const std::vector<double>& fmax) {
   b.automata = rows.automata;
   double least = INFINITY;
   for (std::size_t a = 0; a < rows.omega2.size(); ++a) {
-    if (!explicit_automaton(M, a)) continue;
+    if (!M.object_surface[M.object[a]]) continue;
     const double dt = critical_step(rows.omega2[a], rows.damping[a]);
     if (dt < least) {
       least = dt;
       b.omega2 = rows.omega2[a];
       b.damping = rows.damping[a];
+    }
+  }
+  if (!M.object_random.empty()) {  // the random lattice's automata: the power iteration's bound
+    const RandomBound r = random_lattice_bound(M, fmax);
+    if (r.automata > 0 && critical_step(r.omega2, r.damping) < least) {
+      b.omega2 = r.omega2;
+      b.damping = r.damping;
     }
   }
   return b;

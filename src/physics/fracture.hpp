@@ -76,9 +76,10 @@ MCA_HD SofteningTest<T> link_softening_test(const T& h, const R& r0, const T& si
   // they get (1 - D) sigma / 3 where the undamaged link would give sigma / 3. Taken as it is, p would hold
   // the effort back as the link softens, and where the criterion weighs p heavily (concrete: sigma_t /
   // sigma_c = 0.1 gives 1.35 p against 0.55 q) a pulled block took 5 times G_f per unit of crack area. So
-  // the link adds back what its own damage took from p, D sigma / 3 in tension (compression is carried
-  // whole): exact in uniaxial tension, and bounded by the link's own stress whatever else loads its ends.
-  const T p_link = p + damage * select(sigma > 0.0f, sigma, T(0.0f)) * (1.0f / 3.0f);
+  // the link adds back what its own damage took from p, D sigma / 3 while it is stretched (h > 0: where
+  // softened_force takes the share D of sigma; compressed, it is carried whole): exact in uniaxial
+  // tension, and bounded by the link's own stress whatever else loads its ends.
+  const T p_link = p + damage * select(h > 0.0f, sigma, T(0.0f)) * (1.0f / 3.0f);
   const T effort = equivalent_stress(sigma, tau2, p_link, ratio) / f;
   const T ku = soft / (f * f);
   const T end = select(ku > 1.0f, ku, T(1.0f));

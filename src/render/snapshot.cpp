@@ -186,7 +186,9 @@ Snapshot make_snapshot(const Model& model, const State& state, const analysis::F
       automaton_damage(model, state.intact.data(), state.link_damage.empty() ? nullptr : state.link_damage.data(),
                        d.data());
       for (std::size_t a = 0; a < n; ++a) colour[a] = ramp_damage(d[a]);
-      L = {"damage (broken links)", true, 0, 100, "%", {}, ramp_damage};
+      // (With softening links an intact link counts by its damage: the legend says so.)
+      L = {state.link_damage.empty() ? "damage (broken links)" : "damage (broken and softened links)", true, 0, 100, "%",
+           {}, ramp_damage};
       break;
     }
     case ColourMode::strength_class: {
