@@ -401,9 +401,13 @@ SurfaceBound surface_bound(const Model& M, const std::vector<double>& fmax) {
   SurfaceBound b;
   b.lightest = rows.lightest;
   b.automata = rows.automata;
+  // The random lattice's automata: the power iteration's bound, where they have links; without any (an
+  // object of one automaton) their Gershgorin rows, which hold their contacts.
+  const RandomBound r = M.object_random.empty() ? RandomBound{} : random_lattice_bound(M, fmax);
+  const bool iterated = r.automata > 0 && r.omega2 > 0;
   double least = INFINITY;
   for (std::size_t a = 0; a < rows.omega2.size(); ++a) {
-    if (!M.object_surface[M.object[a]]) continue;
+    if (!M.object_surface[M.object[a]] && !(M.random_automaton(a) && !iterated)) continue;
     const double dt = critical_step(rows.omega2[a], rows.damping[a]);
     if (dt < least) {
       least = dt;
@@ -411,12 +415,9 @@ SurfaceBound surface_bound(const Model& M, const std::vector<double>& fmax) {
       b.damping = rows.damping[a];
     }
   }
-  if (!M.object_random.empty()) {  // the random lattice's automata: the power iteration's bound
-    const RandomBound r = random_lattice_bound(M, fmax);
-    if (r.automata > 0 && critical_step(r.omega2, r.damping) < least) {
-      b.omega2 = r.omega2;
-      b.damping = r.damping;
-    }
+  if (iterated && critical_step(r.omega2, r.damping) < least) {
+    b.omega2 = r.omega2;
+    b.damping = r.damping;
   }
   return b;
 }

@@ -471,8 +471,8 @@ class CpuBackend final : public Backend {
   cpu::LineArray<float> inv_mass_, inv_inertia_, inv_volume_, tensile_, compressive_, break_strain_;
   // Sound links per automaton: intact and, where the model softens, undamaged (6: boxed in, see rebuild).
   std::vector<std::uint8_t> intact_count_;
-  // Where the model softens: per lattice slot, 1 once the link is damaged or broken (no longer counted
-  // in its ends' intact_count_).
+  // Where the model softens: per link slot, 1 once the link is damaged or broken (no longer counted in
+  // its ends' intact_count_).
   std::vector<std::uint8_t> unsound_;
   bool damaged(std::size_t l) const { return !S_.link_damage.empty() && S_.link_damage[l] > 0; }
   // Takes the links damaged in this step (softening) out of their ends' intact_count_, in slot order.
