@@ -173,6 +173,18 @@ inline void add_face_loads(SceneDef& sc, const Model& at_rest, int n, double d, 
   }
 }
 
+// Whether the site p (of an n^3 block of spacing d centred at the origin) lies in the block's middle half:
+// cells n / 4 to n - 1 - n / 4 along every axis.
+inline bool in_middle_half(const DVec3& p, int n, double d) {
+  const double lo = -0.5 * (n - 1) * d;
+  const long k1 = n / 4, k2 = n - 1 - n / 4;
+  for (const double q : {p.x, p.y, p.z}) {
+    const long cell = std::lround((q - lo) / d);
+    if (cell < k1 || cell > k2) return false;
+  }
+  return true;
+}
+
 // The strain of the middle half of the n^3 block (spacing d) of sim (clear of the faces' own layers,
 // docs/model-notes.md "The surface layer"): the symmetric part of A in the affine displacement u = A p + t
 // fitted by least squares to its automata. (A turn of the block is its antisymmetric part, left out.)
@@ -182,17 +194,10 @@ struct Strain3 {
 inline Strain3 middle_strain(const Engine& sim, int n, double d) {
   const Model& m = sim.model();
   const State& s = sim.state();
-  const double lo = -0.5 * (n - 1) * d;
-  const long k1 = n / 4, k2 = n - 1 - n / 4;
   double N[4][4] = {}, R[3][4] = {};
   for (std::size_t a = 0; a < m.size(); ++a) {
+    if (!in_middle_half(m.position0[a], n, d)) continue;
     const double p[4] = {m.position0[a].x, m.position0[a].y, m.position0[a].z, 1.0};
-    bool middle = true;
-    for (int ax = 0; ax < 3; ++ax) {
-      const long cell = std::lround((p[ax] - lo) / d);
-      middle = middle && cell >= k1 && cell <= k2;
-    }
-    if (!middle) continue;
     const double u[3] = {s.x[a].x - p[0], s.x[a].y - p[1], s.x[a].z - p[2]};
     for (int i = 0; i < 4; ++i) {
       for (int j = 0; j < 4; ++j) N[i][j] += p[i] * p[j];
@@ -249,17 +254,9 @@ inline ShearModuli simple_shear_modulus(SceneDef sc, int n, double d, double tau
   Engine sim(sc);
   for (int k = 0; k < 100; ++k) sim.advance(500);
   const double gamma = 2 * middle_strain(sim, n, d).e[0][1];
-  const double lo = -0.5 * (n - 1) * d;
-  const long k1 = n / 4, k2 = n - 1 - n / 4;
   double sxy = 0, volume = 0;
   for (std::size_t a = 0; a < sim.model().size(); ++a) {
-    const DVec3 p = sim.model().position0[a];
-    bool middle = true;
-    for (const double q : {p.x, p.y, p.z}) {
-      const long cell = std::lround((q - lo) / d);
-      middle = middle && cell >= k1 && cell <= k2;
-    }
-    if (!middle) continue;
+    if (!in_middle_half(sim.model().position0[a], n, d)) continue;
     sxy += sim.state().s[a].xy * sim.model().volume[a];  // (volume-weighted: the random lattice's cells differ)
     volume += sim.model().volume[a];
   }
@@ -323,8 +320,10 @@ inline AtTheLimit energy_at_the_limit(SceneDef s) {
 // A block of 6 x 6 x 16 automata (d = 1 cm) of the lattice `lattice` sets, of a material of tensile
 // strength 3 MPa and fracture energy gf, pulled along its length by grips on its end layers (boxes widened
 // by `margin` for moved sites) at 1 cm/s.
+inline constexpr double kPulledBlockStrength = 3e6;             // [Pa]
+inline constexpr double kPulledBlockSection = 6 * 6 * 0.01 * 0.01;  // [m^2]
 inline SceneDef pulled_block(const std::function<void(SceneDef&)>& lattice, double margin, double gf = 0) {
-  const double d = 0.01, st = 3e6;
+  const double d = 0.01, st = kPulledBlockStrength;
   MaterialDef mat = test_material();
   mat.tensile_strength = st;
   mat.compressive_strength = 10 * st;
@@ -364,7 +363,7 @@ inline TensileResult block_tensile_strength(const std::function<void(SceneDef&)>
     peak = std::max(peak, static_cast<double>(sim.state().grip_force[1].x));
     if (sim.state().grip_force[1].x < 0.2 * peak && peak > 0) break;
   }
-  return {peak / (36 * 1e-4) / 3e6, sim.state().broken_by[0] + sim.state().broken_by[1]};
+  return {peak / kPulledBlockSection / kPulledBlockStrength, sim.state().broken_by[0] + sim.state().broken_by[1]};
 }
 
 // pulled_block of fracture energy gf, pulled until it has come apart (the pull's force below 1 % of its
@@ -392,7 +391,7 @@ inline FractureWork block_fracture_work(const std::function<void(SceneDef&)>& la
     }
   }
   EXPECT_GE(low_since, 0) << "the pulled block did not come apart";
-  return {sim.state().grip_work[1] / (36 * 1e-4), sim.state().broken_by[0] + sim.state().broken_by[1]};
+  return {sim.state().grip_work[1] / kPulledBlockSection, sim.state().broken_by[0] + sim.state().broken_by[1]};
 }
 
 // A pulse along a bar of 300 x 4 x 4 automata (d = 1 cm) of the lattice `lattice` sets: the speed between

@@ -401,13 +401,15 @@ SurfaceBound surface_bound(const Model& M, const std::vector<double>& fmax) {
   SurfaceBound b;
   b.lightest = rows.lightest;
   b.automata = rows.automata;
-  // The random lattice's automata: the power iteration's bound, where they have links; without any (an
-  // object of one automaton) their Gershgorin rows, which hold their contacts.
+  // The random lattice's automata: the power iteration's bound over those with links; one without any (an
+  // object of one automaton), which the iteration sees only on its diagonal, by its Gershgorin rows, which
+  // hold its contacts.
   const RandomBound r = M.object_random.empty() ? RandomBound{} : random_lattice_bound(M, fmax);
-  const bool iterated = r.automata > 0 && r.omega2 > 0;
+  const auto& E = M.explicit_links;
+  const auto unlinked = [&](std::size_t a) { return E.first.empty() || E.first[a + 1] == E.first[a]; };
   double least = INFINITY;
   for (std::size_t a = 0; a < rows.omega2.size(); ++a) {
-    if (!M.object_surface[M.object[a]] && !(M.random_automaton(a) && !iterated)) continue;
+    if (!M.object_surface[M.object[a]] && !(M.random_automaton(a) && unlinked(a))) continue;
     const double dt = critical_step(rows.omega2[a], rows.damping[a]);
     if (dt < least) {
       least = dt;
@@ -415,7 +417,7 @@ SurfaceBound surface_bound(const Model& M, const std::vector<double>& fmax) {
       b.damping = rows.damping[a];
     }
   }
-  if (iterated && critical_step(r.omega2, r.damping) < least) {
+  if (r.omega2 > 0 && critical_step(r.omega2, r.damping) < least) {
     b.omega2 = r.omega2;
     b.damping = r.damping;
   }
