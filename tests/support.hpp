@@ -27,8 +27,9 @@ inline double max_link_strain(const Model& m, const State& s) {
   double worst = 0;
   m.for_each_link([&](std::size_t l, std::uint32_t i, std::uint32_t j, int) {
     if (!s.intact[l]) return;
-    const LinkGeometry g = m.is_explicit(l) ? link_geometry(s.x[i], s.x[j], m.link_r0(l), static_cast<float>(1.0 / m.link_r0(l)))
-                                            : link_geometry(s.x[i], s.x[j], m.spacing, 1.0f / m.spacing);
+    // Each link's own rest length: the lattice's d, a jittered link's, an explicit link's.
+    const double r0 = m.link_r0(l);
+    const LinkGeometry g = link_geometry(s.x[i], s.x[j], r0, static_cast<float>(1.0 / r0));
     worst = std::max(worst, static_cast<double>(std::fabs(g.eps)));
   });
   return worst;

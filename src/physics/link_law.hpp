@@ -373,13 +373,25 @@ template <class T>
 MCA_HD LinkOutputT<T> link_force(const LinkInputT<T>& in) {
   const Vec3T<T> n = in.g.n;
   LinkOutputT<T> out;
+  // The velocities are the last step's (x_n - x_{n-1}) / dt, so the relative motion they give is split
+  // into normal and tangential parts along the pair's direction in the middle of that step,
+  // r_n - (dt / 2) dv, not along the end's n: taken along n, a pair turning rigidly at omega showed a
+  // tangential velocity of order dt omega^2 r (and a normal one of dt omega^2 r / 2), which the shear
+  // spring summed without end. A free body of the random lattice spinning at 50 rad/s stretched its
+  // links by 7e-7 more every millisecond, at a rate proportional to the step, until they broke
+  // (docs/model-notes.md, "Turning pairs"); along the mid-step direction the error is of order dt^2.
+  using std::sqrt;
+  const Vec3T<T> rm = in.g.r * n - (0.5f * in.dt) * in.dv;
+  const T rm2 = dot(rm, rm);
+  const Vec3T<T> nm = select(rm2 > 0.0f, rm * (1.0f / sqrt(rm2)), n);
   // Relative velocity of j's contact point with respect to i's (paper eq. 10).
-  const Vec3T<T> vrel = in.dv - (0.5f * in.g.r) * cross(in.wi + in.wj, n);
-  const T vn = dot(vrel, n);
-  const Vec3T<T> vs = vrel - vn * n;
-  // The stored displacement turns with the pair: its normal part is dropped (a second-order loss of
-  // length under rotation, which only dissipates).
-  out.ut = (in.ut - dot(in.ut, n) * n) + vs * in.dt;
+  const Vec3T<T> vrel = in.dv - (0.5f * in.g.r) * cross(in.wi + in.wj, nm);
+  const T vn = dot(vrel, nm);
+  const Vec3T<T> vs = vrel - vn * nm;
+  // The stored displacement turns with the pair: its part along the new n is dropped (a second-order
+  // loss of length under rotation, which only dissipates).
+  const Vec3T<T> u = in.ut + vs * in.dt;
+  out.ut = u - dot(u, n) * n;
   const Vec3T<T> ft = in.kt * out.ut + in.damp_tangential * vs;
   const T tau_s = in.kt / in.area;
   const T ut2 = dot(out.ut, out.ut);
