@@ -353,18 +353,30 @@ struct TensileResult {
   double strength;
   std::int64_t broken;
 };
-inline TensileResult block_tensile_strength(const std::function<void(SceneDef&)>& lattice, double margin) {
-  Engine sim(pulled_block(lattice, margin));
+// pulled_block's grip moved at `speed` (> 0 pulls, < 0 presses) until its force falls below `drop` of its
+// peak: the peak mean stress over the section as a share of the tensile strength (pulled) or of the
+// compressive strength, 10 times it (pressed), and the links broken by the end.
+inline TensileResult block_strength(const std::function<void(SceneDef&)>& lattice, double margin, double speed,
+                                    double drop) {
+  SceneDef sc = pulled_block(lattice, margin);
+  sc.grips[1].velocity = {speed, 0, 0};
+  const double sign = speed > 0 ? 1.0 : -1.0;
+  Engine sim(sc);
   double peak = 0;
   for (int k = 0; k < 4000; ++k) {
     if (sim.advance(50).flags != kHealthy) {
-      ADD_FAILURE() << "the pulled block is no longer healthy";
+      ADD_FAILURE() << "the block is no longer healthy";
       break;
     }
-    peak = std::max(peak, static_cast<double>(sim.state().grip_force[1].x));
-    if (sim.state().grip_force[1].x < 0.2 * peak && peak > 0) break;
+    const double f = sign * sim.state().grip_force[1].x;
+    peak = std::max(peak, f);
+    if (f < drop * peak && peak > 0) break;
   }
-  return {peak / kPulledBlockSection / kPulledBlockStrength, sim.state().broken_by[0] + sim.state().broken_by[1]};
+  const double strength = speed > 0 ? kPulledBlockStrength : 10 * kPulledBlockStrength;  // pulled_block's
+  return {peak / kPulledBlockSection / strength, sim.state().broken_by[0] + sim.state().broken_by[1]};
+}
+inline TensileResult block_tensile_strength(const std::function<void(SceneDef&)>& lattice, double margin) {
+  return block_strength(lattice, margin, 0.01, 0.2);
 }
 
 // pulled_block of fracture energy gf, pulled until it has come apart (the pull's force below 1 % of its

@@ -1,6 +1,8 @@
 #include "core/model.hpp"
 
 #include "core/state.hpp"
+#include "physics/contact_law.hpp"
+#include "physics/link_law.hpp"
 
 namespace mca {
 
@@ -46,6 +48,17 @@ std::size_t estimate_memory_bytes(std::size_t automata, std::size_t explicit_lin
   //                 gather list 16, padding 16
   constexpr std::size_t per_automaton = 88 + 179 + 346 + 60 + 64 + 30, per_explicit_link = 48 + 25 + 168;
   return automata * per_automaton + explicit_links * per_explicit_link + 42'000'000;
+}
+
+float Model::contact_length(std::size_t i, std::size_t j) const {
+  const std::int64_t l = random_automaton(i) && random_automaton(j) ? link_at_start(i, j) : -1;
+  if (l < 0) return 2.0f * std::fmin(radius[i], radius[j]);
+  const GroupParams &gi = groups[group[i]], &gj = groups[group[j]];
+  const float s = lattice_stiffness;
+  const float k = link_normal_stiffness(s * harmonic(gi.shear_modulus, gj.shear_modulus), s * gi.lame_lambda,
+                                        s * gj.lame_lambda, explicit_links.area[l],
+                                        static_cast<float>(explicit_links.r0[l]));
+  return k / contact_material(group[i], group[j]).youngs;
 }
 
 }  // namespace mca

@@ -176,15 +176,39 @@ struct Model {
   // (as a cubic automaton with six links).
   std::vector<std::uint8_t> boxed;
   // The distance below which automata i and j touch: r_i + r_j, or, for two automata of the random lattice,
-  // the smaller of that and the distance of their initial centres (its neighbours lie closer than d: a
-  // broken link's pair then touches without overlap, and pairs that start closer than their radii are not
-  // pushed apart).
+  // the distance of their initial centres when a link joined them at the start, and the smaller of r_i +
+  // r_j and that distance otherwise. Its neighbours lie from 0.5 to 2.2 d apart (median 1.28 d): a broken
+  // link's pair then touches where it stood, without overlap and without a gap, as the cubic lattice's
+  // pairs at d do, and pairs that start closer than their radii are not pushed apart. (Capped at r_i +
+  // r_j = d, as before 2026-12-02, a broken link left most pairs a gap of up to 1.2 d: crushed material
+  // without contact, through which a block in compression gave way at 0.27 of the compressive
+  // strength; docs/model-notes.md, "The random lattice".)
   double contact_reach(std::size_t i, std::size_t j) const {
     const double r = static_cast<double>(radius[i]) + radius[j];
     if (!random_automaton(i) || !random_automaton(j)) return r;
     const DVec3 d = ddelta(position0[i], position0[j]);
-    return std::min(r, std::sqrt(dot(d, d)));
+    const double d0 = std::sqrt(dot(d, d));
+    return linked_at_start(i, j) ? d0 : std::min(r, d0);
   }
+  // Whether an explicit link joined automata i and j at the start (intact or not).
+  bool linked_at_start(std::size_t i, std::size_t j) const { return link_at_start(i, j) >= 0; }
+  // That link's index in explicit_links, or -1.
+  std::int64_t link_at_start(std::size_t i, std::size_t j) const {
+    const auto& E = explicit_links;
+    if (E.first.empty()) return -1;
+    for (std::uint32_t k = E.first[i]; k < E.first[i + 1]; ++k) {
+      const std::uint32_t l = E.of[k];
+      if (E.i[l] == j || E.j[l] == j) return l;
+    }
+    return -1;
+  }
+  // The length L of the contact springs (k_n = E_12 L, physics/contact_law.hpp) between automata i and j:
+  // 2 min(r_i, r_j), d for two lattice automata (a link of length d in compression); for a pair of the
+  // random lattice that a link joined at the start, the length that gives the contact that link's normal
+  // stiffness, (2 G_ij + (lambda_i + lambda_j) / 2) S / r0 with the lattice's stiffness factor (model.cpp):
+  // a closed crack presses as its link did. (With d, a broken pair of the random lattice pressed about 4
+  // times harder than its link had, a long thin link's up to 50 times.)
+  float contact_length(std::size_t i, std::size_t j) const;
   std::vector<MeshSummary> meshes;  // one per object of shape mesh
   BoundSurface surface;             // the triangles of the mesh objects, bound to automata
   std::vector<ProjectileParams> projectiles;

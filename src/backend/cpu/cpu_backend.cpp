@@ -443,10 +443,12 @@ class CpuBackend final : public Backend {
   bool linked(std::uint32_t i, std::uint32_t j) const;
   void lose_link(std::uint32_t a, float& max_move2);
   bool near_ground(std::uint32_t a) const;
+  // (Model::contact_length: a random-lattice pair that a link joined presses with that link's stiffness.)
   ContactSprings pair_springs(std::uint32_t i, std::uint32_t j) const {
     const std::size_t gi = M_.group[i], gj = M_.group[j];
-    return body_contact_springs(M_.contact_material(gi, gj), M_.zeta_pair[gi * M_.groups.size() + gj], M_.radius[i],
-                                M_.radius[j], reduced(M_.mass[i], M_.mass[j]), reduced(M_.inertia[i], M_.inertia[j]));
+    return contact_springs(M_.contact_material(gi, gj), M_.zeta_pair[gi * M_.groups.size() + gj], M_.contact_length(i, j),
+                           reduced(M_.radius[i], M_.radius[j]), reduced(M_.mass[i], M_.mass[j]),
+                           reduced(M_.inertia[i], M_.inertia[j]));
   }
   ContactSprings ground_springs(std::uint32_t a) const {
     return body_contact_springs(M_.ground_contact[M_.group[a]], M_.zeta_ground[M_.group[a]], M_.radius[a], INFINITY,
@@ -919,8 +921,12 @@ void CpuBackend::contact_pass() {
   parallel_range(C.size(), [&](std::size_t p) {
     ContactPair& cp = C[p];
     const std::uint32_t i = cp.i, j = cp.j;
-    const float ri = M_.radius[i], rj = M_.radius[j];
     const double reach = M_.contact_reach(i, j);
+    // The contact point's arms: the radii, or, where the pair reaches further or less far than they do
+    // (the random lattice), the radii scaled to meet, so the torques keep the angular momentum.
+    const double sum = static_cast<double>(M_.radius[i]) + M_.radius[j];
+    const float ri = reach == sum ? M_.radius[i] : static_cast<float>(M_.radius[i] * (reach / sum));
+    const float rj = reach == sum ? M_.radius[j] : static_cast<float>(M_.radius[j] * (reach / sum));
     // Apart (|d| >= reach, as sphere_gap would find: sqrt(fl(reach^2)) = reach) without the square root.
     const DVec3 d = ddelta(pos(i), pos(j));
     const SphereGap gap = dot(d, d) >= reach * reach ? SphereGap{} : sphere_gap(pos(i), pos(j), reach);
@@ -1170,7 +1176,20 @@ void CpuBackend::rebuild_contacts() {
         const float reach = M_.radius[i] + M_.radius[j] + skin;
         if (dot(d, d) < reach * reach && !linked(i, j)) js.push_back(j);
       });
+      // A random-lattice automaton's broken links: their pairs reach their initial distance
+      // (Model::contact_reach), up to 2.2 d, beyond the grid's cells of r_i + r_j + skin.
+      const auto& E = M_.explicit_links;
+      if (M_.random_automaton(i) && !E.first.empty()) {  // (an object of one automaton has no link at all)
+        for (std::uint32_t x = E.first[i]; x < E.first[i + 1]; ++x) {
+          const std::uint32_t l = E.of[x], j = E.i[l] == i ? E.j[l] : E.i[l];
+          if (j <= i || S_.intact[3 * M_.size() + l]) continue;
+          const Vec3 d = delta(xi, S_.x[j]);
+          const float reach = static_cast<float>(E.r0[l]) + skin;
+          if (dot(d, d) < reach * reach) js.push_back(j);
+        }
+      }
       std::sort(js.begin(), js.end());
+      js.erase(std::unique(js.begin(), js.end()), js.end());
       for (std::uint32_t j : js) found[ch].push_back({i, j, {}});
     }
   });
