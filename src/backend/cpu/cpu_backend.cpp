@@ -177,6 +177,7 @@ class CpuBackend final : public Backend {
                     &ex_k_in_, &ex_k_out_, &ex_s_in_, &ex_s_out_, &ex_s_twist_, &ex_m0x_, &ex_m0y_, &ex_m0z_, &ex_mx_,
                     &ex_my_, &ex_mz_, &ex_bx_, &ex_by_, &ex_bz_, &ex_kappa_})
       v->resize(ne);
+    ex_bends_.resize(ne);
     const bool soft_any = m.softening();
     if (soft_any) ex_soft_.resize(ne);
     for (std::size_t k = 0; k < ne; ++k) {
@@ -205,6 +206,7 @@ class CpuBackend final : public Backend {
       ex_m0x_[k] = E.normal[k].x;
       ex_m0y_[k] = E.normal[k].y;
       ex_m0z_[k] = E.normal[k].z;
+      ex_bends_[k] = !volume;
       if (volume) {
         ex_k_twist_[k] = ex_k_in_[k] = ex_k_out_[k] = ex_s_in_[k] = ex_s_out_[k] = ex_s_twist_[k] = 0.0f;
         continue;
@@ -498,6 +500,7 @@ class CpuBackend final : public Backend {
   cpu::LineArray<float> ex_k_twist_, ex_k_in_, ex_k_out_, ex_s_in_, ex_s_out_, ex_s_twist_, ex_m0x_, ex_m0y_, ex_m0z_;
   cpu::LineArray<float> ex_mx_, ex_my_, ex_mz_;  // state: the bending springs' moments (State::link_moment)
   cpu::LineArray<float> ex_bx_, ex_by_, ex_bz_;  // this step's bending torques (world)
+  cpu::LineArray<std::uint8_t> ex_bends_;       // 1: the link has a bending spring (not the random lattice's)
   std::vector<std::uint32_t> explicit_automata_;
   std::vector<float> explicit_weight_;
   std::vector<float> bend_weight_, bend_c_;  // the bending's many-body part per automaton: weight, D nu A
@@ -808,6 +811,7 @@ cpu::ExplicitView CpuBackend::explicit_view() {
   e.bx = ex_bx_.data(); e.by = ex_by_.data(); e.bz = ex_bz_.data();
   e.kappa = ex_kappa_.data();
   e.bend_weight = bend_weight_.data();
+  e.bends = M_.object_random.empty() ? nullptr : ex_bends_.data();
   return e;
 }
 
@@ -823,13 +827,22 @@ void CpuBackend::explicit_gather_pass() {
     Vec3 f, t;
     Sym3 s;
     bool any = false;
+    // A random-lattice automaton's links have no bending torque (ExplicitView::bends): adding their zeros
+    // would change no bit of t (it never holds -0), so they are not read.
+    const bool bends = !M_.random_automaton(a);
     for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
       const std::uint32_t l = E.of[x];
       if (!S_.intact[slot0 + l]) continue;
-      const Vec3 fl{ex_fx_[l], ex_fy_[l], ex_fz_[l]}, ml{ex_bx_[l], ex_by_[l], ex_bz_[l]};
+      const Vec3 fl{ex_fx_[l], ex_fy_[l], ex_fz_[l]};
       const bool first = E.i[l] == a;
       f += first ? fl : -fl;
-      t += Vec3{ex_tx_[l], ex_ty_[l], ex_tz_[l]} + (first ? ml : -ml);
+      const Vec3 tl{ex_tx_[l], ex_ty_[l], ex_tz_[l]};
+      if (bends) {
+        const Vec3 ml{ex_bx_[l], ex_by_[l], ex_bz_[l]};
+        t += tl + (first ? ml : -ml);
+      } else {
+        t += tl;
+      }
       s += sym_outer(Vec3{ex_nx_[l], ex_ny_[l], ex_nz_[l]}, fl, 0.5f * ex_r0f_[l]);
       any = true;
     }

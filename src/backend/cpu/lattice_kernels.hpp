@@ -151,6 +151,9 @@ struct ExplicitView {
   // (explicit_geometry), per automaton its weight.
   float* kappa = nullptr;
   const float* bend_weight = nullptr;
+  // Per link: 1 where it has a bending spring (surface mode), 0 for the random lattice's. A block of links
+  // without one skips the bending's work: its spring would add exact zeros (null: every link has one).
+  const std::uint8_t* bends = nullptr;
   // This step's geometry (explicit_geometry) and forces (explicit_links), per link.
   float *nx = nullptr, *ny = nullptr, *nz = nullptr, *eps = nullptr;
   float *fx = nullptr, *fy = nullptr, *fz = nullptr, *tx = nullptr, *ty = nullptr, *tz = nullptr;

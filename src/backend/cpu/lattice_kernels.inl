@@ -337,6 +337,7 @@ struct Block {
     const auto g = link_geometry(xi, xj, L::load(e.r0 + k0), L::load(e.inv_r0 + k0));
     store3(g.n, e.nx, e.ny, e.nz, k0);
     L::store(g.eps, e.eps + k0);
+    if (!bending(e, k0)) return;  // kappa is read only for automata with bending springs
     // The relative rotation about n x m after this step, over r0 (kappa_nn): what the bending spring's
     // moment about that axis will be (link_bending) over k_out r0, for the automata's many-body part.
     const QuatT<X> qi{L::gather(v.qw, i), L::gather(v.qx, i), L::gather(v.qy, i), L::gather(v.qz, i)};
@@ -346,6 +347,11 @@ struct Block {
     const X k_out = L::load(e.k_out + k0);
     const X mb = L::load(e.mz + k0) + k_out * v.dt * dot(wrel, cross(g.n, m));
     L::store(mb / (k_out * L::load(e.r0f + k0)), e.kappa + k0);
+  }
+
+  // Whether any of the links [k0, k0 + W) has a bending spring (ExplicitView::bends).
+  static MCA_LANE bool bending(const ExplicitView& e, std::size_t k0) {
+    return !e.bends || L::any(L::load_bytes(e.bends + k0) != 0.0f);
   }
 
   // Explicit links [k0, k0 + W): the lattice links' law with each link's own r0 and S (see links above).
@@ -397,27 +403,33 @@ struct Block {
     in.ut = load3(v.utx, v.uty, v.utz, l0);
     in.dt = v.dt;
     const LinkOutputT<X> o = link_force(in);
-    const QuatT<X> qi{L::gather(v.qw, i), L::gather(v.qx, i), L::gather(v.qy, i), L::gather(v.qz, i)};
-    const QuatT<X> qj{L::gather(v.qw, j), L::gather(v.qx, j), L::gather(v.qy, j), L::gather(v.qz, j)};
+    // The bending spring, where a lane has one; without, its moment, torque and stresses are exact zeros
+    // (the moment stays +0), and x + 0 = x below, so the block skips it with the same bits.
+    const bool bends = bending(e, k0);
     LinkBendingInputT<X> bi;
-    bi.n = n;
-    bi.m = shell_normal(qi, qj, load3(e.m0x, e.m0y, e.m0z, k0), n);
-    bi.wi = in.wi;
-    bi.wj = in.wj;
-    bi.moment = load3(e.mx, e.my, e.mz, k0);
-    bi.k_twist = L::load(e.k_twist + k0);
-    bi.k_in = L::load(e.k_in + k0);
-    bi.k_out = L::load(e.k_out + k0);
-    bi.s_in = L::load(e.s_in + k0);
-    bi.s_out = L::load(e.s_out + k0);
-    bi.s_twist = L::load(e.s_twist + k0);
-    bi.extra = (L::gather(e.bend_weight, i) + L::gather(e.bend_weight, j)) * inv_r0;
-    bi.dt = v.dt;
-    const LinkBendingOutputT<X> bo = link_bending(bi);
+    LinkBendingOutputT<X> bo{};
+    if (bends) {
+      const QuatT<X> qi{L::gather(v.qw, i), L::gather(v.qx, i), L::gather(v.qy, i), L::gather(v.qz, i)};
+      const QuatT<X> qj{L::gather(v.qw, j), L::gather(v.qx, j), L::gather(v.qy, j), L::gather(v.qz, j)};
+      bi.n = n;
+      bi.m = shell_normal(qi, qj, load3(e.m0x, e.m0y, e.m0z, k0), n);
+      bi.wi = in.wi;
+      bi.wj = in.wj;
+      bi.moment = load3(e.mx, e.my, e.mz, k0);
+      bi.k_twist = L::load(e.k_twist + k0);
+      bi.k_in = L::load(e.k_in + k0);
+      bi.k_out = L::load(e.k_out + k0);
+      bi.s_in = L::load(e.s_in + k0);
+      bi.s_out = L::load(e.s_out + k0);
+      bi.s_twist = L::load(e.s_twist + k0);
+      bi.extra = (L::gather(e.bend_weight, i) + L::gather(e.bend_weight, j)) * inv_r0;
+      bi.dt = v.dt;
+      bo = link_bending(bi);
+    }
     // The criteria see the section's most loaded fibre: the pair's stress plus the bending's, the pair's
     // shear plus the twist's.
     using std::sqrt;
-    const X tau = sqrt(o.tau2) + bo.tau;
+    const X tau = bends ? sqrt(o.tau2) + bo.tau : sqrt(o.tau2);
     const X ti = L::gather(v.tensile, i), tj = L::gather(v.tensile, j);
     const X ci = L::gather(v.compressive, i), cj = L::gather(v.compressive, j);
     const X si = L::gather(v.break_strain, i), sj = L::gather(v.break_strain, j);
@@ -430,7 +442,7 @@ struct Block {
       strain = strain * w;
     }
     const X p = 0.5f * (L::gather(v.mean_stress, i) + L::gather(v.mean_stress, j));
-    const X sigma_f = o.sigma + bo.sigma, tau2_f = tau * tau;
+    const X sigma_f = bends ? o.sigma + bo.sigma : o.sigma, tau2_f = tau * tau;
     const auto b = link_break_test(eps * r0, r0, sigma_f, tau2_f, p, tensile, tensile / compressive, strain,
                                    v.stress_coefficient);
     auto by_displacement = b.displacement;
@@ -460,8 +472,10 @@ struct Block {
     store3(force, e.fx, e.fy, e.fz, k0);
     store3(cross(n, hf) * (1.0f + eps), e.tx, e.ty, e.tz, k0);
     store3(select(alive && !broke, o.ut, in.ut), v.utx, v.uty, v.utz, l0);
-    store3(select(alive && !broke, bo.moment, bi.moment), e.mx, e.my, e.mz, k0);
-    store3(bo.torque, e.bx, e.by, e.bz, k0);
+    if (bends) {
+      store3(select(alive && !broke, bo.moment, bi.moment), e.mx, e.my, e.mz, k0);
+      store3(bo.torque, e.bx, e.by, e.bz, k0);
+    }
     return count;
   }
 
