@@ -443,8 +443,17 @@ struct Block {
     }
     const X p = 0.5f * (L::gather(v.mean_stress, i) + L::gather(v.mean_stress, j));
     const X sigma_f = bends ? o.sigma + bo.sigma : o.sigma, tau2_f = tau * tau;
-    const auto b = link_break_test(eps * r0, r0, sigma_f, tau2_f, p, tensile, tensile / compressive, strain,
-                                   v.stress_coefficient);
+    auto b = link_break_test(eps * r0, r0, sigma_f, tau2_f, p, tensile, tensile / compressive, strain,
+                             v.stress_coefficient);
+    // That is a shell's criterion, the lattice's. A random-lattice link (one without a bending spring) is
+    // held to its own stresses instead (random_link_effort), softening or not.
+    const auto own = e.bends ? L::load_bytes(e.bends + k0) == 0.0f : M{};
+    const X f = v.stress_coefficient * tensile;
+    X effort{};
+    if (L::any(own)) {
+      effort = random_link_effort(sigma_f, tau, f, v.stress_coefficient * compressive);
+      b.stress = (own && link_break_test_at(eps * r0, r0, effort, strain).stress) || (!own && b.stress);
+    }
     auto by_displacement = b.displacement;
     auto broke = alive && (b.displacement || b.stress);
     Vec3T<X> force = o.force_i;
@@ -455,8 +464,8 @@ struct Block {
       const auto soft_lanes = soft > 0.0f;
       if (L::any(soft_lanes)) {
         const X damage = L::load(v.damage + l0);
-        const auto t = link_softening_test(eps * r0, r0, sigma_f, tau2_f, p, tensile, tensile / compressive, strain,
-                                           v.stress_coefficient, soft, damage);
+        // Only random links soften (a shell's break at once), so their effort is the one above.
+        const auto t = link_softening_test_at(eps * r0, r0, effort, f, strain, soft, damage);
         force = select(soft_lanes, softened_force(in, o, damage), force);
         L::store(select(alive && soft_lanes, t.damage, damage), v.damage + l0);
         by_displacement = (soft_lanes && t.displacement) || (!soft_lanes && by_displacement);
