@@ -236,6 +236,22 @@ TEST(Lattice, ASkinThatTheContactSearchCannotHonourIsRefused) {
   EXPECT_EQ(build_error(s), "");
 }
 
+// A stress coefficient outside [1e-3, 1e3] is refused: at 1e-30 the softening law's (c sigma_t)^2
+// underflowed in float32 and a material with a fracture energy could not break (the hostile review).
+TEST(Lattice, AStressCoefficientOutOfRangeIsRefused) {
+  SceneDef s = test::block_scene(3, 3, 3, 0.05);
+  for (double c : {1e-30, 9e-4, 1.1e3}) {
+    s.solver.stress_coefficient = c;
+    const std::string msg = build_error(s);
+    EXPECT_NE(msg.find("solver.stress_coefficient"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("use 1 (the default)"), std::string::npos) << msg;
+  }
+  for (double c : {1e-3, 1.0, 1e3}) {
+    s.solver.stress_coefficient = c;
+    EXPECT_EQ(build_error(s), "") << c;
+  }
+}
+
 // Values whose float32 form is 0, infinite, or too coarse for the breaking strain are refused with the
 // reason, instead of a NaN run or a message about frame_rate.
 TEST(Lattice, ValuesOutsideFloat32AreRefusedWithTheReason) {

@@ -50,8 +50,7 @@ std::size_t estimate_memory_bytes(std::size_t automata, std::size_t explicit_lin
   return automata * per_automaton + explicit_links * per_explicit_link + 42'000'000;
 }
 
-float Model::contact_length(std::size_t i, std::size_t j) const {
-  const std::int64_t l = random_automaton(i) && random_automaton(j) ? link_at_start(i, j) : -1;
+float Model::contact_length(std::size_t i, std::size_t j, std::int64_t l) const {
   if (l < 0) return 2.0f * std::fmin(radius[i], radius[j]);
   const GroupParams &gi = groups[group[i]], &gj = groups[group[j]];
   const float s = lattice_stiffness;

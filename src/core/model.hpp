@@ -183,16 +183,21 @@ struct Model {
   // r_j = d, as before 2026-12-02, a broken link left most pairs a gap of up to 1.2 d: crushed material
   // without contact, through which a block in compression gave way at 0.27 of the compressive
   // strength; docs/model-notes.md, "The random lattice".)
-  double contact_reach(std::size_t i, std::size_t j) const {
+  // l: random_link_at_start(i, j), for a caller that needs it twice (a scan of i's links).
+  double contact_reach(std::size_t i, std::size_t j) const { return contact_reach(i, j, random_link_at_start(i, j)); }
+  double contact_reach(std::size_t i, std::size_t j, std::int64_t l) const {
     const double r = static_cast<double>(radius[i]) + radius[j];
     if (!random_automaton(i) || !random_automaton(j)) return r;
     const DVec3 d = ddelta(position0[i], position0[j]);
     const double d0 = std::sqrt(dot(d, d));
-    return linked_at_start(i, j) ? d0 : std::min(r, d0);
+    return l >= 0 ? d0 : std::min(r, d0);
   }
-  // Whether an explicit link joined automata i and j at the start (intact or not).
-  bool linked_at_start(std::size_t i, std::size_t j) const { return link_at_start(i, j) >= 0; }
-  // That link's index in explicit_links, or -1.
+  // The explicit link that joined automata i and j of the random lattice at the start (intact or not), or
+  // -1 (also where either is not of the random lattice).
+  std::int64_t random_link_at_start(std::size_t i, std::size_t j) const {
+    return random_automaton(i) && random_automaton(j) ? link_at_start(i, j) : -1;
+  }
+  // The explicit link that joined automata i and j at the start, or -1.
   std::int64_t link_at_start(std::size_t i, std::size_t j) const {
     const auto& E = explicit_links;
     if (E.first.empty()) return -1;
@@ -208,7 +213,8 @@ struct Model {
   // stiffness, (2 G_ij + (lambda_i + lambda_j) / 2) S / r0 with the lattice's stiffness factor (model.cpp):
   // a closed crack presses as its link did. (With d, a broken pair of the random lattice pressed about 4
   // times harder than its link had, a long thin link's up to 50 times.)
-  float contact_length(std::size_t i, std::size_t j) const;
+  // l: random_link_at_start(i, j).
+  float contact_length(std::size_t i, std::size_t j, std::int64_t l) const;
   std::vector<MeshSummary> meshes;  // one per object of shape mesh
   BoundSurface surface;             // the triangles of the mesh objects, bound to automata
   std::vector<ProjectileParams> projectiles;

@@ -251,7 +251,7 @@ class CpuBackend final : public Backend {
         const std::uint32_t i = first[g];
         ground_springs_[g] = ground_springs(i);
         for (std::size_t h = 0; h < G; ++h)
-          if (first[h] != UINT32_MAX) pair_springs_[g * G + h] = pair_springs(i, first[h]);
+          if (first[h] != UINT32_MAX) pair_springs_[g * G + h] = pair_springs(i, first[h], M_.random_link_at_start(i, first[h]));
       }
     }
     one_group_ = n > 0 && std::all_of(m.group.begin(), m.group.end(), [&](std::uint8_t g) { return g == m.group[0]; });
@@ -446,9 +446,10 @@ class CpuBackend final : public Backend {
   void lose_link(std::uint32_t a, float& max_move2);
   bool near_ground(std::uint32_t a) const;
   // (Model::contact_length: a random-lattice pair that a link joined presses with that link's stiffness.)
-  ContactSprings pair_springs(std::uint32_t i, std::uint32_t j) const {
+  // l: Model::random_link_at_start(i, j).
+  ContactSprings pair_springs(std::uint32_t i, std::uint32_t j, std::int64_t l) const {
     const std::size_t gi = M_.group[i], gj = M_.group[j];
-    return contact_springs(M_.contact_material(gi, gj), M_.zeta_pair[gi * M_.groups.size() + gj], M_.contact_length(i, j),
+    return contact_springs(M_.contact_material(gi, gj), M_.zeta_pair[gi * M_.groups.size() + gj], M_.contact_length(i, j, l),
                            reduced(M_.radius[i], M_.radius[j]), reduced(M_.mass[i], M_.mass[j]),
                            reduced(M_.inertia[i], M_.inertia[j]));
   }
@@ -934,7 +935,8 @@ void CpuBackend::contact_pass() {
   parallel_range(C.size(), [&](std::size_t p) {
     ContactPair& cp = C[p];
     const std::uint32_t i = cp.i, j = cp.j;
-    const double reach = M_.contact_reach(i, j);
+    const std::int64_t l = M_.random_link_at_start(i, j);  // looked up once: a scan of i's links
+    const double reach = M_.contact_reach(i, j, l);
     // The contact point's arms: the radii, or, where the pair reaches further or less far than they do
     // (the random lattice), the radii scaled to meet, so the torques keep the angular momentum.
     const double sum = static_cast<double>(M_.radius[i]) + M_.radius[j];
@@ -955,7 +957,7 @@ void CpuBackend::contact_pass() {
     const RelativeMotion rm = relative_motion(vel(i), ang(i), ri * n, vel(j), ang(j), -rj * n);
     in.vrel = rm.v;
     in.wrel = rm.w;
-    in.s = uniform_bodies_ ? pair_springs_[M_.group[i] * M_.groups.size() + M_.group[j]] : pair_springs(i, j);
+    in.s = uniform_bodies_ ? pair_springs_[M_.group[i] * M_.groups.size() + M_.group[j]] : pair_springs(i, j, l);
     in.ut = cp.h.ut;
     in.mr = cp.h.mr;
     in.dt = dt;
