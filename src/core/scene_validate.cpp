@@ -245,8 +245,8 @@ void validate_scene(const SceneDef& scene) {
           "use 0 for none, or a few per cent (0.02)");
   c.range("solver.local_damping", scene.solver.local_damping, 0, true, 0.2, true, "in [0, 0.2]",
           "use 0 for none; Cundall's local damping is usually 0.05 to 0.2 for quasi-static runs");
-  // Bounded so (c sigma_t)^2, in float32 in the softening law, neither underflows (a coefficient of 1e-30
-  // made a softening material unbreakable) nor, for any strength the strain check admits, breaks at once.
+  // Bounded: at 1e-30, (c sigma_t)^2, in float32 in the softening law, underflowed to 0 and a softening
+  // material could not break. c is of order 1 (the paper's K_v).
   c.range("solver.stress_coefficient", scene.solver.stress_coefficient, 1e-3, true, 1e3, true, "in [1e-3, 1e3]",
           "use 1 (the default)");
   c.range("solver.lattice_jitter", scene.solver.lattice_jitter, 0, true, 0.3, true, "in [0, 0.3] (share of the spacing)",
