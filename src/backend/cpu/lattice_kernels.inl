@@ -441,18 +441,23 @@ struct Block {
       compressive = compressive * w;
       strain = strain * w;
     }
-    const X p = 0.5f * (L::gather(v.mean_stress, i) + L::gather(v.mean_stress, j));
-    const X sigma_f = bends ? o.sigma + bo.sigma : o.sigma, tau2_f = tau * tau;
-    auto b = link_break_test(eps * r0, r0, sigma_f, tau2_f, p, tensile, tensile / compressive, strain,
-                             v.stress_coefficient);
-    // That is a shell's criterion, the lattice's. A random-lattice link (one without a bending spring) is
-    // held to its own stresses instead (random_link_effort), softening or not.
+    const X sigma_f = bends ? o.sigma + bo.sigma : o.sigma;
+    // A shell's link is held to the lattice's criterion, a random-lattice link (one without a bending
+    // spring) to its own stresses (random_link_effort), softening or not; a block of one kind computes one.
     const auto own = e.bends ? L::load_bytes(e.bends + k0) == 0.0f : M{};
     const X f = v.stress_coefficient * tensile;
     X effort{};
+    BreakTest<X> b;
     if (L::any(own)) {
       effort = random_link_effort(sigma_f, tau, f, v.stress_coefficient * compressive);
-      b.stress = (own && link_break_test_at(eps * r0, r0, effort, strain).stress) || (!own && b.stress);
+      b = link_break_test_at(eps * r0, r0, effort, strain);
+    }
+    if (!L::all(own)) {
+      const X p = 0.5f * (L::gather(v.mean_stress, i) + L::gather(v.mean_stress, j));
+      const auto lattice = link_break_test(eps * r0, r0, sigma_f, tau * tau, p, tensile, tensile / compressive, strain,
+                                           v.stress_coefficient);
+      b.displacement = lattice.displacement;
+      b.stress = (own && b.stress) || (!own && lattice.stress);
     }
     auto by_displacement = b.displacement;
     auto broke = alive && (b.displacement || b.stress);
