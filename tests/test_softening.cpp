@@ -287,8 +287,8 @@ TEST(Softening, OnTheRandomLatticeEveryInstructionSetThreadCountAndResumeGivesTh
 // of the crack: a coarser view of concrete's process zone, measured here, not calibrated away. History:
 // 321.0 J/m^2 (instant break 22.5) until a broken link's pair touched at its initial distance
 // (Model::contact_reach); 346.5 (127.8) until the random links were held to their own stresses
-// (random_link_effort, 2026-12-02: the equivalent stress broke them by shear at a tenth of the compressive
-// strength, and the crack's rubbing pairs with them).
+// (random_link_effort, 2026-12-02: the equivalent stress broke them by shear from a tenth of the
+// compressive strength; the changes are not split by term).
 TEST(Softening, ABlockPulledApartTakesTheFractureEnergyPerAreaOnEitherLattice) {
   const double gf = 100;
   const auto cubic = [](SceneDef&) {};
