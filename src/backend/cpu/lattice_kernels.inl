@@ -337,7 +337,7 @@ struct Block {
     const auto g = link_geometry(xi, xj, L::load(e.r0 + k0), L::load(e.inv_r0 + k0));
     store3(g.n, e.nx, e.ny, e.nz, k0);
     L::store(g.eps, e.eps + k0);
-    if (!bending(e, k0)) return;  // kappa is read only for automata with bending springs
+    if (!L::any(springs(e, k0))) return;  // kappa is read only for automata with bending springs
     // The relative rotation about n x m after this step, over r0 (kappa_nn): what the bending spring's
     // moment about that axis will be (link_bending) over k_out r0, for the automata's many-body part.
     const QuatT<X> qi{L::gather(v.qw, i), L::gather(v.qx, i), L::gather(v.qy, i), L::gather(v.qz, i)};
@@ -349,9 +349,9 @@ struct Block {
     L::store(mb / (k_out * L::load(e.r0f + k0)), e.kappa + k0);
   }
 
-  // Whether any of the links [k0, k0 + W) has a bending spring (ExplicitView::bends).
-  static MCA_LANE bool bending(const ExplicitView& e, std::size_t k0) {
-    return !e.bends || L::any(L::load_bytes(e.bends + k0) != 0.0f);
+  // Which of the links [k0, k0 + W) have a bending spring (ExplicitView::bends; null: all of them).
+  static MCA_LANE M springs(const ExplicitView& e, std::size_t k0) {
+    return e.bends ? L::load_bytes(e.bends + k0) != 0.0f : M(true);
   }
 
   // Explicit links [k0, k0 + W): the lattice links' law with each link's own r0 and S (see links above).
@@ -405,7 +405,8 @@ struct Block {
     const LinkOutputT<X> o = link_force(in);
     // The bending spring, where a lane has one; without, its moment, torque and stresses are exact zeros
     // (the moment stays +0), and x + 0 = x below, so the block skips it with the same bits.
-    const bool bends = bending(e, k0);
+    const M spring = springs(e, k0);
+    const bool bends = L::any(spring);
     LinkBendingInputT<X> bi;
     LinkBendingOutputT<X> bo{};
     if (bends) {
@@ -444,7 +445,7 @@ struct Block {
     const X sigma_f = bends ? o.sigma + bo.sigma : o.sigma;
     // A shell's link is held to the lattice's criterion, a random-lattice link (one without a bending
     // spring) to its own stresses (random_link_effort), softening or not; a block of one kind computes one.
-    const auto own = e.bends ? L::load_bytes(e.bends + k0) == 0.0f : M{};
+    const M own = !spring;
     const X f = v.stress_coefficient * tensile;
     X effort{};
     BreakTest<X> b;
