@@ -222,6 +222,15 @@ class CpuBackend final : public Backend {
     }
     for (std::size_t a = 0; a < n && !E.first.empty(); ++a)
       if (E.first[a + 1] > E.first[a]) explicit_automata_.push_back(static_cast<std::uint32_t>(a));
+    // Each automaton's links (E.of) with the end it is, read in order by the passes below.
+    if (ne >= kSecondEnd)
+      throw Error(std::to_string(ne) + " explicit links: at most " + std::to_string(kSecondEnd - 1) + " are supported");
+    ex_ends_.resize(E.of.size());
+    for (const std::uint32_t a : explicit_automata_)
+      for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x)
+        ex_ends_[x] = E.of[x] | (E.i[E.of[x]] == a ? 0u : kSecondEnd);
+    ex_area_r0_.resize(ne);
+    for (std::size_t k = 0; k < ne; ++k) ex_area_r0_[k] = ex_area_[k] * ex_r0f_[k];
     explicit_weight_.assign(n, 0.0f);
     bend_weight_.assign(n, 0.0f);
     bend_c_.assign(n, 0.0f);
@@ -428,7 +437,7 @@ class CpuBackend final : public Backend {
   std::int64_t lattice_sweep(const cpu::LatticeView& v, std::vector<std::size_t>& counts, float& max_move2);
   cpu::ExplicitView explicit_view();
   std::vector<std::size_t> explicit_link_pass(const cpu::LatticeView& v);
-  void explicit_gather_pass();
+  void explicit_gather_pass(bool last);
   void apply_breaks(const std::vector<std::size_t>& counts, const std::vector<std::size_t>& explicit_counts,
                     float& max_move2);
   // The squared move of automaton a since the last rebuild, as the automata kernel measures it.
@@ -503,6 +512,10 @@ class CpuBackend final : public Backend {
   cpu::LineArray<float> ex_bx_, ex_by_, ex_bz_;  // this step's bending torques (world)
   cpu::LineArray<std::uint8_t> ex_bends_;       // 1: the link has a bending spring (not the random lattice's)
   std::vector<std::uint32_t> explicit_automata_;
+  // Per automaton (as E.of, from E.first): its explicit links, kSecondEnd set where it is the link's j.
+  static constexpr std::uint32_t kSecondEnd = 1u << 31;
+  std::vector<std::uint32_t> ex_ends_;
+  std::vector<float> ex_area_r0_;  // per explicit link: area r0 (the random lattice's many-body sum)
   std::vector<float> explicit_weight_;
   std::vector<float> bend_weight_, bend_c_;  // the bending's many-body part per automaton: weight, D nu A
   cpu::LineArray<float> ex_kappa_;           // per explicit link: this step's kappa_nn (explicit_geometry)
@@ -756,11 +769,11 @@ std::vector<std::size_t> CpuBackend::explicit_link_pass(const cpu::LatticeView& 
       // share, as the lattice's many-body kernel takes it.
       float sum = 0.0f;
       for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
-        const std::uint32_t l = E.of[x];
+        const std::uint32_t l = ex_ends_[x] & ~kSecondEnd;
         if (!S_.intact[3 * n + l]) continue;
         float e = strengthened_strain(g.strengthening, ex_eps_[l]).s;
         if (!S_.link_damage.empty() && e > 0.0f) e = (1.0f - S_.link_damage[3 * n + l]) * e;
-        sum += ex_area_[l] * ex_r0f_[l] * e;
+        sum += ex_area_r0_[l] * e;  // (A r0) e: the product is formed once
       }
       explicit_weight_[a] = random_many_body(M_.lattice_stiffness * g.lame_lambda, M_.volume[a], sum).stress;
       return;
@@ -818,7 +831,7 @@ cpu::ExplicitView CpuBackend::explicit_view() {
 
 // Each automaton adds the forces of its intact explicit links in link order (with the contacts' and loads'
 // forces in the automata kernel), so the sums do not depend on the threads.
-void CpuBackend::explicit_gather_pass() {
+void CpuBackend::explicit_gather_pass(bool last) {
   const auto& E = M_.explicit_links;
   const std::size_t slot0 = 3 * M_.size();
   parallel_range(explicit_automata_.size(), [&](std::size_t k) {
@@ -829,13 +842,15 @@ void CpuBackend::explicit_gather_pass() {
     Sym3 s;
     bool any = false;
     // A random-lattice automaton's links have no bending torque (ExplicitView::bends): adding their zeros
-    // would change no bit of t (it never holds -0), so they are not read.
-    const bool bends = !M_.random_automaton(a);
+    // would change no bit of t (it never holds -0), so they are not read. Its mean stress is read by no
+    // criterion (random_link_effort), so its links' stresses are summed only on a call's last step, whose
+    // stress and mean stress are the ones kept: the same bits as summing them on every step.
+    const bool bends = !M_.random_automaton(a), stresses = bends || last;
     for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
-      const std::uint32_t l = E.of[x];
+      const std::uint32_t l = ex_ends_[x] & ~kSecondEnd;
       if (!S_.intact[slot0 + l]) continue;
       const Vec3 fl{ex_fx_[l], ex_fy_[l], ex_fz_[l]};
-      const bool first = E.i[l] == a;
+      const bool first = !(ex_ends_[x] & kSecondEnd);
       f += first ? fl : -fl;
       const Vec3 tl{ex_tx_[l], ex_ty_[l], ex_tz_[l]};
       if (bends) {
@@ -844,7 +859,7 @@ void CpuBackend::explicit_gather_pass() {
       } else {
         t += tl;
       }
-      s += sym_outer(Vec3{ex_nx_[l], ex_ny_[l], ex_nz_[l]}, fl, 0.5f * ex_r0f_[l]);
+      if (stresses) s += sym_outer(Vec3{ex_nx_[l], ex_ny_[l], ex_nz_[l]}, fl, 0.5f * ex_r0f_[l]);
       any = true;
     }
     if (any) add_external(a, f, t, s);
@@ -1241,7 +1256,7 @@ std::int64_t CpuBackend::one_step() {
   std::vector<std::size_t> explicit_counts;
   if (!M_.explicit_links.i.empty()) {
     explicit_counts = explicit_link_pass(v);
-    explicit_gather_pass();
+    explicit_gather_pass(v.last);
   }
   timer.lap(0);
   contact_pass();
