@@ -173,11 +173,12 @@ class CpuBackend final : public Backend {
     const auto& E = m.explicit_links;
     const std::size_t ne = E.size();
     for (auto* v : {&ex_r0f_, &ex_inv_r0_, &ex_area_, &ex_to_stress_, &ex_G_, &ex_kt_, &ex_damp_n_, &ex_damp_t_, &ex_nx_,
-                    &ex_ny_, &ex_nz_, &ex_eps_, &ex_fx_, &ex_fy_, &ex_fz_, &ex_tx_, &ex_ty_, &ex_tz_, &ex_k_twist_,
+                    &ex_ny_, &ex_nz_, &ex_eps_, &ex_k_twist_,
                     &ex_k_in_, &ex_k_out_, &ex_s_in_, &ex_s_out_, &ex_s_twist_, &ex_m0x_, &ex_m0y_, &ex_m0z_, &ex_mx_,
                     &ex_my_, &ex_mz_, &ex_bx_, &ex_by_, &ex_bz_, &ex_kappa_})
       v->resize(ne);
     ex_bends_.resize(ne);
+    ex_out_.resize(cpu::tiled_size(ne, cpu::kExplicitOutRows));
     const bool soft_any = m.softening();
     if (soft_any) ex_soft_.resize(ne);
     for (std::size_t k = 0; k < ne; ++k) {
@@ -231,6 +232,21 @@ class CpuBackend final : public Backend {
         ex_ends_[x] = E.of[x] | (E.i[E.of[x]] == a ? 0u : kSecondEnd);
     ex_area_r0_.resize(ne);
     for (std::size_t k = 0; k < ne; ++k) ex_area_r0_[k] = ex_area_[k] * ex_r0f_[k];
+    // Each link's strengths: its weaker end's, times its own factor (cpu::ExplicitView::tensile).
+    for (auto* v : {&ex_tensile_, &ex_compressive_, &ex_strain_}) v->resize(ne);
+    for (std::size_t k = 0; k < ne; ++k) {
+      const std::uint32_t i = E.i[k], j = E.j[k];
+      const auto weaker = [&](const cpu::LineArray<float>& x) { return x[j] < x[i] ? x[j] : x[i]; };
+      ex_tensile_[k] = weaker(tensile_);
+      ex_compressive_[k] = weaker(compressive_);
+      ex_strain_[k] = weaker(break_strain_);
+      if (!m.link_strength.empty()) {
+        const float w = m.link_strength[3 * n + k];
+        ex_tensile_[k] *= w;
+        ex_compressive_[k] *= w;
+        ex_strain_[k] *= w;
+      }
+    }
     explicit_weight_.assign(n, 0.0f);
     bend_weight_.assign(n, 0.0f);
     bend_c_.assign(n, 0.0f);
@@ -506,7 +522,8 @@ class CpuBackend final : public Backend {
   // step's geometry and forces; the automata that have some, and each automaton's many-body weight.
   cpu::LineArray<float> ex_r0f_, ex_inv_r0_, ex_area_, ex_to_stress_, ex_G_, ex_kt_, ex_damp_n_, ex_damp_t_;
   cpu::LineArray<float> ex_soft_;  // softening constants (empty: no link softens)
-  cpu::LineArray<float> ex_nx_, ex_ny_, ex_nz_, ex_eps_, ex_fx_, ex_fy_, ex_fz_, ex_tx_, ex_ty_, ex_tz_;
+  cpu::LineArray<float> ex_nx_, ex_ny_, ex_nz_, ex_eps_;
+  cpu::LineArray<float> ex_out_;  // cpu::ExplicitView::out
   cpu::LineArray<float> ex_k_twist_, ex_k_in_, ex_k_out_, ex_s_in_, ex_s_out_, ex_s_twist_, ex_m0x_, ex_m0y_, ex_m0z_;
   cpu::LineArray<float> ex_mx_, ex_my_, ex_mz_;  // state: the bending springs' moments (State::link_moment)
   cpu::LineArray<float> ex_bx_, ex_by_, ex_bz_;  // this step's bending torques (world)
@@ -516,6 +533,7 @@ class CpuBackend final : public Backend {
   static constexpr std::uint32_t kSecondEnd = 1u << 31;
   std::vector<std::uint32_t> ex_ends_;
   std::vector<float> ex_area_r0_;  // per explicit link: area r0 (the random lattice's many-body sum)
+  cpu::LineArray<float> ex_tensile_, ex_compressive_, ex_strain_;  // cpu::ExplicitView::tensile, ...
   std::vector<float> explicit_weight_;
   std::vector<float> bend_weight_, bend_c_;  // the bending's many-body part per automaton: weight, D nu A
   cpu::LineArray<float> ex_kappa_;           // per explicit link: this step's kappa_nn (explicit_geometry)
@@ -815,9 +833,11 @@ cpu::ExplicitView CpuBackend::explicit_view() {
   e.damp_tangential = ex_damp_t_.data();
   e.soft = ex_soft_.empty() ? nullptr : ex_soft_.data();
   e.weight = explicit_weight_.data();
+  e.tensile = ex_tensile_.data();
+  e.compressive = ex_compressive_.data();
+  e.strain = ex_strain_.data();
   e.nx = ex_nx_.data(); e.ny = ex_ny_.data(); e.nz = ex_nz_.data(); e.eps = ex_eps_.data();
-  e.fx = ex_fx_.data(); e.fy = ex_fy_.data(); e.fz = ex_fz_.data();
-  e.tx = ex_tx_.data(); e.ty = ex_ty_.data(); e.tz = ex_tz_.data();
+  e.out = ex_out_.data();
   e.k_twist = ex_k_twist_.data(); e.k_in = ex_k_in_.data(); e.k_out = ex_k_out_.data();
   e.s_in = ex_s_in_.data(); e.s_out = ex_s_out_.data(); e.s_twist = ex_s_twist_.data();
   e.m0x = ex_m0x_.data(); e.m0y = ex_m0y_.data(); e.m0z = ex_m0z_.data();
@@ -849,10 +869,11 @@ void CpuBackend::explicit_gather_pass(bool last) {
     for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
       const std::uint32_t l = ex_ends_[x] & ~kSecondEnd;
       if (!S_.intact[slot0 + l]) continue;
-      const Vec3 fl{ex_fx_[l], ex_fy_[l], ex_fz_[l]};
+      const float* out = ex_out_.data() + cpu::tile_index(l, cpu::kExplicitOutRows);
+      const Vec3 fl{out[cpu::kOutFx * cpu::kTile], out[cpu::kOutFy * cpu::kTile], out[cpu::kOutFz * cpu::kTile]};
       const bool first = !(ex_ends_[x] & kSecondEnd);
       f += first ? fl : -fl;
-      const Vec3 tl{ex_tx_[l], ex_ty_[l], ex_tz_[l]};
+      const Vec3 tl{out[cpu::kOutTx * cpu::kTile], out[cpu::kOutTy * cpu::kTile], out[cpu::kOutTz * cpu::kTile]};
       if (bends) {
         const Vec3 ml{ex_bx_[l], ex_by_[l], ex_bz_[l]};
         t += tl + (first ? ml : -ml);

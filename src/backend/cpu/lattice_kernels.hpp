@@ -140,6 +140,10 @@ struct ExplicitView {
   // LatticeView's per-slot damage.
   const float* soft = nullptr;
   const float* weight = nullptr;  // per automaton: its many-body weight (explicit_many_body)
+  // Per link: the tensile and compressive strengths and the breaking strain of its weaker end (the
+  // smaller of the ends' LatticeView::tensile, ...), times its own factor (LatticeView::link_strength)
+  // where the strengths spread: as the lattice links' kernel forms them each step.
+  const float *tensile = nullptr, *compressive = nullptr, *strain = nullptr;
   // The bending spring (link_bending): stiffnesses, stresses per unit moment, the shell's normal at the
   // start; its moment is state (per link).
   const float *k_twist = nullptr, *k_in = nullptr, *k_out = nullptr, *s_in = nullptr, *s_out = nullptr,
@@ -156,7 +160,9 @@ struct ExplicitView {
   const std::uint8_t* bends = nullptr;
   // This step's geometry (explicit_geometry) and forces (explicit_links), per link.
   float *nx = nullptr, *ny = nullptr, *nz = nullptr, *eps = nullptr;
-  float *fx = nullptr, *fy = nullptr, *fz = nullptr, *tx = nullptr, *ty = nullptr, *tz = nullptr;
+  // The forces: a tiled array of kExplicitOutRows rows (the force on the first end, the torque on it),
+  // so that an automaton's gather reads one run of memory per link.
+  float* out = nullptr;
 };
 
 inline std::size_t scratch_stride(std::size_t n) { return (n + 15) / 16 * 16; }
@@ -176,6 +182,8 @@ inline constexpr std::size_t kRefRows = 3;  // LatticeView::ref
 // the axis's at axis * ns * kOutRows.
 inline constexpr std::size_t kOutRows = 7;
 enum OutRow : std::size_t { kOutFx, kOutFy, kOutFz, kOutTx, kOutTy, kOutTz, kOutTrace };
+// ExplicitView::out: the rows kOutFx to kOutTz, per explicit link.
+inline constexpr std::size_t kExplicitOutRows = 6;
 
 // A break found by the links kernel: the link slot and the criterion (bit 31: 1 = stress).
 inline constexpr std::uint32_t kBreakByStress = 1u << 31;

@@ -431,17 +431,9 @@ struct Block {
     // shear plus the twist's.
     using std::sqrt;
     const X tau = bends ? sqrt(o.tau2) + bo.tau : sqrt(o.tau2);
-    const X ti = L::gather(v.tensile, i), tj = L::gather(v.tensile, j);
-    const X ci = L::gather(v.compressive, i), cj = L::gather(v.compressive, j);
-    const X si = L::gather(v.break_strain, i), sj = L::gather(v.break_strain, j);
-    X tensile = select(tj < ti, tj, ti), compressive = select(cj < ci, cj, ci);
-    X strain = select(sj < si, sj, si);
-    if (v.link_strength) {  // the link's own factor (the random lattice's links; 1 on a shell's)
-      const X w = L::load(v.link_strength + l0);
-      tensile = tensile * w;
-      compressive = compressive * w;
-      strain = strain * w;
-    }
+    // The weaker end's strengths times the link's own factor, formed once (ExplicitView::tensile).
+    const X tensile = L::load(e.tensile + k0), compressive = L::load(e.compressive + k0);
+    const X strain = L::load(e.strain + k0);
     const X sigma_f = bends ? o.sigma + bo.sigma : o.sigma;
     // A shell's link is held to the lattice's criterion, a random-lattice link (one without a bending
     // spring) to its own stresses (random_link_effort), softening or not; a block of one kind computes one.
@@ -484,8 +476,8 @@ struct Block {
         if (L::lane(broke, k))
           out[count++] = static_cast<std::uint32_t>(l0 + k) | (L::lane(by_displacement, k) ? 0u : kBreakByStress);
     const Vec3T<X> hf = force * (0.5f * r0);
-    store3(force, e.fx, e.fy, e.fz, k0);
-    store3(cross(n, hf) * (1.0f + eps), e.tx, e.ty, e.tz, k0);
+    put3(force, e.out, kExplicitOutRows, kOutFx, k0);
+    put3(cross(n, hf) * (1.0f + eps), e.out, kExplicitOutRows, kOutTx, k0);
     store3(select(alive && !broke, o.ut, in.ut), v.utx, v.uty, v.utz, l0);
     if (bends) {
       store3(select(alive && !broke, bo.moment, bi.moment), e.mx, e.my, e.mz, k0);
