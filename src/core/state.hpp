@@ -61,7 +61,9 @@ struct State {
   std::vector<DVec3> v, w;
   std::vector<Quat> q;
   std::vector<Sym3> s;          // averaged (Love) stress, written on the last step of each Backend::step call
-  std::vector<float> mean_stress;  // trace(s) / 3 of the last step (every step; the fracture criterion's p)
+  // trace(s) / 3 of the last step (the fracture criterion's p, formed every step; a random-lattice
+  // automaton's, which no criterion reads, only on the last step of a Backend::step call).
+  std::vector<float> mean_stress;
   // Force and torque applied in the last step, at the positions x - dt v. With them a state gives the
   // velocities in step with those positions (velocity Verlet's v_n = v_{n+1/2} - dt/2 a_n), which the
   // energy bookkeeping needs: the stored v is the half-step velocity of the symplectic Euler update.

@@ -172,6 +172,8 @@ class CpuBackend final : public Backend {
     // Explicit links (surface mode): each its own length, cross-section and masses.
     const auto& E = m.explicit_links;
     const std::size_t ne = E.size();
+    if (ne >= kSecondEnd)  // (ex_ends_ below)
+      throw Error(std::to_string(ne) + " explicit links: at most " + std::to_string(kSecondEnd - 1) + " are supported");
     for (auto* v : {&ex_r0f_, &ex_inv_r0_, &ex_area_, &ex_to_stress_, &ex_G_, &ex_kt_, &ex_damp_n_, &ex_damp_t_, &ex_nx_,
                     &ex_ny_, &ex_nz_, &ex_eps_, &ex_k_twist_,
                     &ex_k_in_, &ex_k_out_, &ex_s_in_, &ex_s_out_, &ex_s_twist_, &ex_m0x_, &ex_m0y_, &ex_m0z_, &ex_mx_,
@@ -224,8 +226,6 @@ class CpuBackend final : public Backend {
     for (std::size_t a = 0; a < n && !E.first.empty(); ++a)
       if (E.first[a + 1] > E.first[a]) explicit_automata_.push_back(static_cast<std::uint32_t>(a));
     // Each automaton's links (E.of) with the end it is, read in order by the passes below.
-    if (ne >= kSecondEnd)
-      throw Error(std::to_string(ne) + " explicit links: at most " + std::to_string(kSecondEnd - 1) + " are supported");
     ex_ends_.resize(E.of.size());
     for (const std::uint32_t a : explicit_automata_)
       for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x)
@@ -864,7 +864,8 @@ void CpuBackend::explicit_gather_pass(bool last) {
     // A random-lattice automaton's links have no bending torque (ExplicitView::bends): adding their zeros
     // would change no bit of t (it never holds -0), so they are not read. Its mean stress is read by no
     // criterion (random_link_effort), so its links' stresses are summed only on a call's last step, whose
-    // stress and mean stress are the ones kept: the same bits as summing them on every step.
+    // stress and mean stress are the ones kept: the same bits as summing them on every step (for a call
+    // that runs all its steps; one stopped by a value not finite keeps that step's partial mean stress).
     const bool bends = !M_.random_automaton(a), stresses = bends || last;
     for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
       const std::uint32_t l = ex_ends_[x] & ~kSecondEnd;

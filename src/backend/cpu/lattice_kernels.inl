@@ -446,6 +446,8 @@ struct Block {
       b = link_break_test_at(eps * r0, r0, effort, strain);
     }
     if (!L::all(own)) {
+      // (Only a shell's link reads p: a random-lattice automaton's mean stress is whole only on a call's
+      // last step, see the automata kernel.)
       const X p = 0.5f * (L::gather(v.mean_stress, i) + L::gather(v.mean_stress, j));
       const auto lattice = link_break_test(eps * r0, r0, sigma_f, tau * tau, p, tensile, tensile / compressive, strain,
                                            v.stress_coefficient);
@@ -566,6 +568,8 @@ struct Block {
                             L::lane(total.xy, k), L::lane(total.yz, k), L::lane(total.zx, k)};
     }
     // From the traces on every step, so the dynamics do not depend on how steps are grouped into calls.
+    // (A random-lattice automaton's ext_s holds its links' part only on a call's last step, the
+    // explicit gather's: its mean stress, read by no criterion, is whole only then.)
     L::store((trace + s.xx + s.yy + s.zz) * inv_v * (1.0f / 3.0f), v.mean_stress + a0);
     BodyT<X, D> body{{L::load(v.px + a0), L::load(v.py + a0), L::load(v.pz + a0)},
                      load3(v.vx, v.vy, v.vz, a0),
