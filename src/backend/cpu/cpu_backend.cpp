@@ -181,6 +181,8 @@ class CpuBackend final : public Backend {
       v->resize(ne);
     ex_bends_.resize(ne);
     ex_out_.resize(cpu::tiled_size(ne, cpu::kExplicitOutRows));
+    ex_area_r0_.resize(ne);
+    for (auto* v : {&ex_tensile_, &ex_compressive_, &ex_strain_}) v->resize(ne);
     const bool soft_any = m.softening();
     if (soft_any) ex_soft_.resize(ne);
     for (std::size_t k = 0; k < ne; ++k) {
@@ -193,6 +195,18 @@ class CpuBackend final : public Backend {
       ex_r0f_[k] = static_cast<float>(E.r0[k]);
       ex_inv_r0_[k] = static_cast<float>(1.0 / E.r0[k]);
       ex_area_[k] = E.area[k];
+      ex_area_r0_[k] = ex_area_[k] * ex_r0f_[k];
+      // Its strengths: its weaker end's, times its own factor (cpu::ExplicitView::tensile).
+      const auto weaker = [&](const cpu::LineArray<float>& x) { return x[j] < x[i] ? x[j] : x[i]; };
+      ex_tensile_[k] = weaker(tensile_);
+      ex_compressive_[k] = weaker(compressive_);
+      ex_strain_[k] = weaker(break_strain_);
+      if (!m.link_strength.empty()) {
+        const float w = m.link_strength[3 * n + k];
+        ex_tensile_[k] *= w;
+        ex_compressive_[k] *= w;
+        ex_strain_[k] *= w;
+      }
       ex_to_stress_[k] = volume ? 1.0f : static_cast<float>(1.0 / (E.r0[k] * static_cast<double>(E.area[k])));
       ex_G_[k] = s == 1.0f ? harmonic(gi.shear_modulus, gj.shear_modulus) : s * harmonic(gi.shear_modulus, gj.shear_modulus);
       ex_kt_[k] = kShearFactor * ex_G_[k] * ex_area_[k] * ex_inv_r0_[k];
@@ -230,23 +244,6 @@ class CpuBackend final : public Backend {
     for (const std::uint32_t a : explicit_automata_)
       for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x)
         ex_ends_[x] = E.of[x] | (E.i[E.of[x]] == a ? 0u : kSecondEnd);
-    ex_area_r0_.resize(ne);
-    for (std::size_t k = 0; k < ne; ++k) ex_area_r0_[k] = ex_area_[k] * ex_r0f_[k];
-    // Each link's strengths: its weaker end's, times its own factor (cpu::ExplicitView::tensile).
-    for (auto* v : {&ex_tensile_, &ex_compressive_, &ex_strain_}) v->resize(ne);
-    for (std::size_t k = 0; k < ne; ++k) {
-      const std::uint32_t i = E.i[k], j = E.j[k];
-      const auto weaker = [&](const cpu::LineArray<float>& x) { return x[j] < x[i] ? x[j] : x[i]; };
-      ex_tensile_[k] = weaker(tensile_);
-      ex_compressive_[k] = weaker(compressive_);
-      ex_strain_[k] = weaker(break_strain_);
-      if (!m.link_strength.empty()) {
-        const float w = m.link_strength[3 * n + k];
-        ex_tensile_[k] *= w;
-        ex_compressive_[k] *= w;
-        ex_strain_[k] *= w;
-      }
-    }
     explicit_weight_.assign(n, 0.0f);
     bend_weight_.assign(n, 0.0f);
     bend_c_.assign(n, 0.0f);
