@@ -188,9 +188,9 @@ struct Model {
   double contact_reach(std::size_t i, std::size_t j, std::int64_t l) const {
     const double r = static_cast<double>(radius[i]) + radius[j];
     if (!random_automaton(i) || !random_automaton(j)) return r;
+    if (l >= 0) return explicit_links.r0[l];  // (its rest length: this distance, formed the same way)
     const DVec3 d = ddelta(position0[i], position0[j]);
-    const double d0 = std::sqrt(dot(d, d));
-    return l >= 0 ? d0 : std::min(r, d0);
+    return std::min(r, std::sqrt(dot(d, d)));
   }
   // The explicit link that joined automata i and j of the random lattice at the start (intact or not), or
   // -1 (also where either is not of the random lattice).
