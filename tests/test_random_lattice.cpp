@@ -202,7 +202,7 @@ TEST(RandomLattice, ALinkIsHeldToItsOwnStresses) {
 }
 
 // The jittered lattice's tests of strength and wave speed (test_lattice_jitter.cpp) on the random lattice.
-// The block's strength, with the lattice's strength factor (lattice::kRandomStrength, 1.28), is the cubic
+// The block's strength, with the lattice's strength factor (lattice::kRandomStrength, 1.078), is the cubic
 // lattice's 0.913 of the tensile strength: 0.915.
 TEST(RandomLattice, TensileStrengthOfABlockAsMeasured) {
   const test::TensileResult r = test::block_tensile_strength(
@@ -219,7 +219,8 @@ TEST(RandomLattice, TensileStrengthOfABlockAsMeasured) {
 // broken link left its pair a gap of up to 1.2 d (Model::contact_reach), at 0.454 once the pairs touched
 // at their initial distance with their links' stiffness (Model::contact_length), its links breaking by
 // shear from a tenth of the strength under the lattice's equivalent stress. Held to their own stresses
-// (random_link_effort) they first break at a third, and the block holds 0.599 (6.5 times).
+// (random_link_effort) they first break at a third, and the block holds 0.599 (6.5 times); 0.597 since
+// the ghosts are mirrored (lattice::kRandomStrength).
 TEST(RandomLattice, ABlockInCompressionHoldsOnceItsLinksHaveBroken) {
   const test::TensileResult c = test::block_strength([](SceneDef&) {}, 0.0, -0.02, 0.5);
   const test::TensileResult r = test::block_strength(
@@ -231,36 +232,30 @@ TEST(RandomLattice, ABlockInCompressionHoldsOnceItsLinksHaveBroken) {
   EXPECT_GT(r.strength, 0.55);
 }
 
-// The pulse: 3,314 m/s against the cubic lattice's 3,500 (0.947; the issue asks for 3 %, not met on this bar
-// of 4 x 4 automata, all of them at its surface, where the random lattice's many-body sums miss the links
-// to the ghosts; its bulk modulus is the input's, ABlockReturnsTheInputModulusAndPoissonRatio).
+// The pulse along a bar of 4 x 4 automata, all of them at its surface.
 TEST(RandomLattice, APulseTravelsAtTheCubicLatticesSpeed) {
   const double cubic = test::bar_wave_speed([](SceneDef&) {});
   const double random = test::bar_wave_speed([](SceneDef& sc) { sc.solver.lattice = SolverDef::Lattice::random; });
   std::printf("bar wave, 4 x 4 section: cubic %.1f m/s, random %.1f m/s (sqrt(E/rho) = 3535.5)\n", cubic, random);
-  EXPECT_NEAR(random / cubic, 0.947, 0.01);  // as measured: a change is seen
+  EXPECT_NEAR(random / cubic, 1.0, 0.02);  // 1.0015 (0.947 with the ghosts drawn at random)
+  EXPECT_NEAR(random / 3535.5, 1.0, 0.03);
 }
 
-// The random lattice's bar is slower than the cubic lattice's by a share that halves as its section
-// doubles: its surface is softer, as if about a tenth of a cell were missing from each face (its interior
-// is calibrated to E: ABlockReturnsTheInputModulusAndPoissonRatio). A pulse of long waves only, so the
-// lattices' dispersion plays no part. (Giving the many-body term of a surface automaton the
-// traction-free strain of its faces toward the ghosts, as the cubic lattice's free axes, made the bars
-// slower still, 0.936 and 0.970 of the cubic's: the soft layer is the network's, not the many-body term's.)
-TEST(RandomLattice, ABarIsSlowerByAShareThatHalvesAsItsSectionDoubles) {
+// The random lattice's surface is as stiff as its interior: a bar of 4 x 4 and one of 8 x 8 carry a pulse
+// of long waves only (so that the lattices' dispersion plays no part) at the cubic lattice's speed. With
+// the ghosts drawn at random (before 2026-12-03) they were slower by 5.4 % and 2.5 %, a share that halved
+// as the section doubled: a soft surface, as if 0.1 d were missing from each face. The faces toward the
+// ghosts leaned, and their missing links took 9.5 % and 5.0 % of the bars' sum of A r n_x^2 over all
+// faces, the moduli's 10.5 % and 5.0 % deficits (random_sites mirrors the ghosts now; docs/model-notes.md,
+// "The random lattice", Wave speed).
+TEST(RandomLattice, ABarsSurfaceIsAsStiffAsItsInterior) {
   auto random = [](SceneDef& sc) { sc.solver.lattice = SolverDef::Lattice::random; };
-  double deficit[2];
-  for (int k = 0; k < 2; ++k) {
-    const int section = 4 << k;
+  for (const int section : {4, 8}) {
     const double c = test::bar_wave_speed([](SceneDef&) {}, section, 20), r = test::bar_wave_speed(random, section, 20);
-    deficit[k] = 1.0 - r / c;
     std::printf("bar of %d x %d, pulse of 20 layers: cubic %.1f m/s, random %.1f m/s (%.4f; sqrt(E/rho) = 3535.5)\n",
                 section, section, c, r, r / c);
+    EXPECT_NEAR(r / c, 1.0, 0.015) << section;  // 1.0004 and 1.0022 (0.9461 and 0.9747 with random ghosts)
   }
-  EXPECT_NEAR(deficit[0], 0.054, 0.01);  // as measured
-  const double halving = deficit[0] / deficit[1];
-  EXPECT_GT(halving, 1.6);
-  EXPECT_LT(halving, 2.6);
 }
 
 }  // namespace

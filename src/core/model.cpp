@@ -53,9 +53,9 @@ std::size_t estimate_memory_bytes(std::size_t automata, std::size_t explicit_lin
 float Model::contact_length(std::size_t i, std::size_t j, std::int64_t l) const {
   if (l < 0) return 2.0f * std::fmin(radius[i], radius[j]);
   const GroupParams &gi = groups[group[i]], &gj = groups[group[j]];
-  const float s = lattice_stiffness;
-  const float k = link_normal_stiffness(s * harmonic(gi.shear_modulus, gj.shear_modulus), s * gi.lame_lambda,
-                                        s * gj.lame_lambda, explicit_links.area[l],
+  const float s = lattice_stiffness, sl = lattice_lambda;
+  const float k = link_normal_stiffness(s * harmonic(gi.shear_modulus, gj.shear_modulus), sl * gi.lame_lambda,
+                                        sl * gj.lame_lambda, explicit_links.area[l],
                                         static_cast<float>(explicit_links.r0[l]));
   return k / contact_material(group[i], group[j]).youngs;
 }

@@ -128,8 +128,12 @@ struct Model {
   std::vector<double> link_rest;
   std::vector<float> link_inv_rest;
   // The factor on the lattice links' moduli (G and lambda of the pair and many-body terms) that returns
-  // the input E of a jittered lattice (lattice::jitter_stiffness); 1 for the cubic one.
+  // the input E of a jittered lattice (lattice::jitter_stiffness); on the random lattice's G only
+  // (lattice::kRandomStiffness, with lattice_lambda); 1 for the cubic one.
   float lattice_stiffness = 1.0f;
+  // The factor on lambda (the many-body term and a link's normal stiffness): lattice_stiffness on the
+  // jittered lattice, lattice::kRandomLambda on the random one, 1 on the cubic one.
+  float lattice_lambda = 1.0f;
   // The factor on the strengths and breaking strains of the random lattice's automata
   // (lattice::kRandomStrength) that gives a block of it the cubic lattice's tensile strength; 1 otherwise.
   float lattice_strength = 1.0f;
@@ -175,6 +179,11 @@ struct Model {
   // with every link intact, is boxed in by its linked neighbours, and the contact search leaves it out
   // (as a cubic automaton with six links).
   std::vector<std::uint8_t> boxed;
+  // Per automaton, when an object is filled with the random lattice (empty otherwise): the sum of A r over
+  // its Voronoi cell's faces toward the ghost sites beyond the object's surface (A the face's area, r the
+  // distance to the ghost) [m^3]; 0 inside. Its many-body term takes their normal strain as free
+  // (random_many_body).
+  std::vector<float> free_face;
   // The distance below which automata i and j touch: r_i + r_j, or, for two automata of the random lattice,
   // the distance of their initial centres when a link joined them at the start, and the smaller of r_i +
   // r_j and that distance otherwise. Its neighbours lie from 0.5 to 2.2 d apart (median 1.28 d): a broken

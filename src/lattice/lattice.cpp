@@ -1210,6 +1210,7 @@ void link_random(Model& M, const SceneDef& scene, std::size_t oi, std::size_t fi
   const std::size_t count = rs.inside.size();
   const std::string fix = fmt::format("check the density (kg/m^3) and the spacing ({:g} m)", d);
   M.boxed.resize(first, 0);
+  M.free_face.resize(first, 0.0f);
   for (std::size_t k = 0; k < count; ++k) {
     const std::size_t a = first + k;
     const double volume = v.volume[k];
@@ -1219,6 +1220,7 @@ void link_random(Model& M, const SceneDef& scene, std::size_t oi, std::size_t fi
     M.inertia[a] = as_float32(scene, what, M.mass[a] * side * side / 6.0, fix);  // a cube of its volume
     M.volume[a] = static_cast<float>(volume);
     M.boxed.push_back(v.interior[k] && rs.deep[k]);
+    M.free_face.push_back(static_cast<float>(v.free_face[k]));
   }
   auto& E = M.explicit_links;
   for (std::size_t l = 0; l < v.link.size(); ++l) {
@@ -1602,7 +1604,9 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
     M.object_random.clear();
   if (!M.object_random.empty()) {
     M.boxed.resize(M.size(), 0);
+    M.free_face.resize(M.size(), 0.0f);
     M.lattice_stiffness = kRandomStiffness;
+    M.lattice_lambda = kRandomLambda;
     M.lattice_strength = kRandomStrength;
   }
 
@@ -1621,6 +1625,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
                                          [](std::uint32_t j) { return j != Model::kNoLink; });
   if (scene.solver.lattice_jitter > 0 && lattice_links) {  // (a scene of surface-mode objects only has none)
     M.lattice_stiffness = jitter_stiffness(scene.solver.lattice_jitter);
+    M.lattice_lambda = M.lattice_stiffness;
     // Each lattice link's rest length is the distance of its moved sites (in double: the strain at rest is
     // zero to 1e-16, as for the explicit links).
     M.link_rest.assign(3 * n, d);

@@ -188,8 +188,8 @@ SurfaceRows surface_rows(const Model& M, const std::vector<double>& fmax) {
         const std::uint32_t l = E.of[k], o = E.i[l] == a ? E.j[l] : E.i[l];
         mb_total[a] += grad(a, l) / std::sqrt(static_cast<double>(M.mass[o]));
       }
-      // (The shell's plane-stress factor; the random lattice's moduli carry its stiffness factor.)
-      const double ff = M.random_automaton(a) ? M.lattice_stiffness
+      // (The shell's plane-stress factor; the random lattice's lambda carries its factor.)
+      const double ff = M.random_automaton(a) ? M.lattice_lambda
                                               : 1.0 / (1.0 + (3 - dims) * g.lame_lambda / (2.0 * g.shear_modulus));
       mb_scale[a] = std::max(0.0, static_cast<double>(g.lame_lambda)) * fmax[M.group[a]] * M.volume[a] * ff;
       mb_row[a] += mb_scale[a] * s * mb_total[a];
@@ -211,10 +211,10 @@ SurfaceRows surface_rows(const Model& M, const std::vector<double>& fmax) {
       const std::uint32_t l = E.of[k], o = E.i[l] == a ? E.j[l] : E.i[l];
       const GroupParams& B = M.groups[M.group[o]];
       const bool random = M.random_automaton(a);
-      const double s = random ? M.lattice_stiffness : 1.0;
+      const double s = random ? M.lattice_stiffness : 1.0, sl = random ? M.lattice_lambda : 1.0;
       const double G = s * harmonic(A.shear_modulus, B.shear_modulus), f = std::max(fmax[ga], fmax[M.group[o]]);
       const double r0 = E.r0[l], area = E.area[l];
-      const double kn = (2 * G + 0.5 * s * (A.lame_lambda + B.lame_lambda)) * area / r0 * f;
+      const double kn = (2 * G + 0.5 * sl * (A.lame_lambda + B.lame_lambda)) * area / r0 * f;
       const double kt = kShearFactor * G * area / r0 * f;
       const LinkDashpots c = explicit_link_dashpots(static_cast<float>(kn), M.mass[a], M.mass[o],
                                            0.5f * (A.damping_time + B.damping_time), M.link_damping);
@@ -363,8 +363,9 @@ RandomBound random_lattice_bound(const Model& M, const std::vector<double>& fmax
     // stiffness; this is the larger) and a contact's normal one at a third, without the rolling and
     // twisting dashpots, as the cubic lattice's bound takes them (below: a clipped contact dashpot damps
     // the high modes far less than a linear one, and those modes have no relative rotation).
-    const float k_n = link_normal_stiffness(static_cast<float>(G * f), static_cast<float>(s * f * A.lame_lambda),
-                                            static_cast<float>(s * f * B.lame_lambda), E.area[l], static_cast<float>(r0));
+    const double sl = M.lattice_lambda;
+    const float k_n = link_normal_stiffness(static_cast<float>(G * f), static_cast<float>(sl * f * A.lame_lambda),
+                                            static_cast<float>(sl * f * B.lame_lambda), E.area[l], static_cast<float>(r0));
     const LinkDashpots c = explicit_link_dashpots(k_n, M.mass[i], M.mass[j], 0.5f * (A.damping_time + B.damping_time),
                                                   M.link_damping);
     dashpots_of.push_back({i, j, c.normal + cs.cn / 3.0, c.tangential, 0.0, 0.5 * r0, area, u});
@@ -375,7 +376,7 @@ RandomBound random_lattice_bound(const Model& M, const std::vector<double>& fmax
     ++b.automata;
     const std::size_t ga = M.group[a];
     const GroupParams& g = M.groups[ga];
-    mb[a] = std::max(0.0, M.lattice_stiffness * static_cast<double>(g.lame_lambda)) * fmax[ga] * M.volume[a];
+    mb[a] = std::max(0.0, M.lattice_lambda * static_cast<double>(g.lame_lambda)) * fmax[ga] * M.volume[a];
     // The one-sided contacts any automaton may come to hold, the ground and each projectile (its element
     // twice, as the lattice's: a sphere touching many automata at once): their own elements' rows bound
     // them, on the automaton's diagonal.

@@ -135,15 +135,20 @@ MCA_HD ExplicitManyBody explicit_many_body(float lambda, const float free_factor
 }
 
 // The many-body term of an automaton of the random lattice (lattice/random_lattice.hpp): its volumetric
-// strain theta = sum_l A_l r_l s_l / (2 V) over its intact links (A the shared Voronoi face, r the rest
-// length, s the strengthened strain; the cubic lattice's is this with A r = V = d^3), its energy
-// lambda theta^2 V / 2, whose derivative puts the stress lambda theta / 2 on each of its links (added to
-// 2 G eps and the other end's share, the cubic law's interior form). `sum`: sum_l A_l r_l s_l.
+// strain by the divergence theorem over its Voronoi cell, sum_faces A (r / 2) e_nn / V (A the face's area,
+// r the distance to the site beyond it), each face's normal strain e_nn its link's strengthened strain s
+// (the cubic lattice's sum is this with A r = V = d^3). A face without an intact link (toward a ghost,
+// at the object's surface, or a broken link's) is free: its normal strain is the traction-free one,
+// 2 G e_nn + lambda theta = 0, as the cubic lattice's free axes take theirs (volumetric_strain), so
+// theta = S / (2 V + F lambda / (2 G)), S = sum_intact A r s, F = sum_free A r. Its energy is
+// lambda theta S / 4 (lambda theta^2 V / 2 inside, F = 0), whose derivative puts the stress
+// lambda theta / 2 on each of its links (added to 2 G eps and the other end's share, the cubic law's
+// interior form). lambda: with the lattice's factor; lambda_over_2g: the group's lambda / (2 G).
 struct RandomManyBody {
   float theta, stress;
 };
-MCA_HD RandomManyBody random_many_body(float lambda, float volume, float sum) {
-  const float theta = sum / (2.0f * volume);
+MCA_HD RandomManyBody random_many_body(float lambda, float lambda_over_2g, float volume, float sum, float free) {
+  const float theta = sum / (2.0f * volume + free * lambda_over_2g);
   return {theta, 0.5f * lambda * theta};
 }
 

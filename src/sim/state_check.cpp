@@ -144,7 +144,9 @@ std::uint64_t model_fingerprint(const Model& m) {
   if (!m.object_random.empty()) {  // the random lattice
     f.add(m.object_random);
     f.add(m.boxed);
+    f.add(m.free_face);
     f.add(m.lattice_stiffness);
+    f.add(m.lattice_lambda);
     f.add(m.lattice_strength);
   }
   // Scene-level numbers. Names are left out: they label outputs and do not shape the state.

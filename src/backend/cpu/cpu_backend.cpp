@@ -152,8 +152,10 @@ class CpuBackend final : public Backend {
     const float r0 = m.spacing, area = r0 * r0;
     pairs_.resize(G * G);
     free_factor_.resize(G);
+    lambda_over_2g_.resize(G);
     for (std::size_t g = 0; g < G; ++g) {
       free_axis_factors(m.groups[g].lame_lambda, m.groups[g].shear_modulus, free_factor_[g].data());
+      lambda_over_2g_[g] = m.groups[g].lame_lambda / (2.0f * m.groups[g].shear_modulus);
       strengthening_ = strengthening_ || m.groups[g].strengthening.law != 0;
       for (std::size_t h = 0; h < G; ++h) {
         const GroupParams &gi = m.groups[g], &gj = m.groups[h];
@@ -191,7 +193,7 @@ class CpuBackend final : public Backend {
       // A link of the random lattice (volume law): its ends' weights are their many-body stresses
       // (explicit_link_pass), its moduli carry the lattice's factor, and it has no bending spring.
       const bool volume = m.random_automaton(i);
-      const float s = volume ? m.lattice_stiffness : 1.0f;
+      const float s = volume ? m.lattice_stiffness : 1.0f, sl = volume ? m.lattice_lambda : 1.0f;
       ex_r0f_[k] = static_cast<float>(E.r0[k]);
       ex_inv_r0_[k] = static_cast<float>(1.0 / E.r0[k]);
       ex_area_[k] = E.area[k];
@@ -210,7 +212,7 @@ class CpuBackend final : public Backend {
       ex_to_stress_[k] = volume ? 1.0f : static_cast<float>(1.0 / (E.r0[k] * static_cast<double>(E.area[k])));
       ex_G_[k] = s == 1.0f ? harmonic(gi.shear_modulus, gj.shear_modulus) : s * harmonic(gi.shear_modulus, gj.shear_modulus);
       ex_kt_[k] = kShearFactor * ex_G_[k] * ex_area_[k] * ex_inv_r0_[k];
-      const float k_n = link_normal_stiffness(ex_G_[k], s * gi.lame_lambda, s * gj.lame_lambda, ex_area_[k], ex_r0f_[k]);
+      const float k_n = link_normal_stiffness(ex_G_[k], sl * gi.lame_lambda, sl * gj.lame_lambda, ex_area_[k], ex_r0f_[k]);
       const LinkDashpots c = explicit_link_dashpots(k_n, m.mass[i], m.mass[j], 0.5f * (gi.damping_time + gj.damping_time),
                                                     m.link_damping);
       ex_damp_n_[k] = c.normal;
@@ -515,6 +517,7 @@ class CpuBackend final : public Backend {
   enum class Sweep { automatic, fused, passes } sweep_ = Sweep::automatic;
   std::vector<cpu::PairConstants> pairs_;
   std::vector<std::array<float, 4>> free_factor_;  // per group, see volumetric_strain
+  std::vector<float> lambda_over_2g_;              // per group, lambda / (2 G): see random_many_body
   // Explicit links (Model::ExplicitLinks), structure of arrays (cpu::ExplicitView): constants, then this
   // step's geometry and forces; the automata that have some, and each automaton's many-body weight.
   cpu::LineArray<float> ex_r0f_, ex_inv_r0_, ex_area_, ex_to_stress_, ex_G_, ex_kt_, ex_damp_n_, ex_damp_t_;
@@ -782,15 +785,19 @@ std::vector<std::size_t> CpuBackend::explicit_link_pass(const cpu::LatticeView& 
       // The random lattice: theta = sum A r s / (2 V) over the intact links, and the stress lambda theta / 2
       // on each of them (random_many_body). A damaged link's strain in tension counts by its undamaged
       // share, as the lattice's many-body kernel takes it.
-      float sum = 0.0f;
+      float sum = 0.0f, free = M_.free_face[a];
       for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
         const std::uint32_t l = ex_ends_[x] & ~kSecondEnd;
-        if (!S_.intact[3 * n + l]) continue;
+        if (!S_.intact[3 * n + l]) {
+          free += ex_area_r0_[l];  // a broken link's face is free
+          continue;
+        }
         float e = strengthened_strain(g.strengthening, ex_eps_[l]).s;
         if (!S_.link_damage.empty() && e > 0.0f) e = (1.0f - S_.link_damage[3 * n + l]) * e;
         sum += ex_area_r0_[l] * e;  // (A r0) e: the product is formed once
       }
-      explicit_weight_[a] = random_many_body(M_.lattice_stiffness * g.lame_lambda, M_.volume[a], sum).stress;
+      explicit_weight_[a] =
+          random_many_body(M_.lattice_lambda * g.lame_lambda, lambda_over_2g_[M_.group[a]], M_.volume[a], sum, free).stress;
       return;
     }
     float sum = 0.0f, curvature = 0.0f;

@@ -94,15 +94,24 @@ Energies energies_of(const View& at) {
   // (explicit_many_body).
   // The bending's many-body part likewise (explicit_bending_many_body): the sum of kappa_nn = phi / r0
   // over the intact links, phi = M_b / k_out the relative rotation about n x m the spring holds.
-  std::vector<double> sum(3 * n, 0.0), explicit_sum, explicit_kappa;
+  std::vector<double> sum(3 * n, 0.0), explicit_sum, explicit_kappa, free_face;
   std::vector<int> cnt(3 * n, 0), explicit_cnt;
   if (m.explicit_links.size()) {
     explicit_sum.assign(n, 0.0);
     explicit_kappa.assign(n, 0.0);
     explicit_cnt.assign(n, 0);
   }
+  // The random lattice's free faces (random_many_body): toward the ghosts, and its broken links'.
+  if (!m.free_face.empty()) free_face.assign(m.free_face.begin(), m.free_face.end());
   m.for_each_link([&](std::size_t l, std::uint32_t i, std::uint32_t j, int ax) {
-    if (!s.intact[l]) return;
+    if (!s.intact[l]) {
+      if (ax < 0 && m.random_automaton(i)) {
+        const double ar = static_cast<double>(m.link_area(l) * static_cast<float>(m.link_r0(l)));
+        free_face[i] += ar;
+        free_face[j] += ar;
+      }
+      return;
+    }
     const GroupParams &gi = m.groups[m.group[i]], &gj = m.groups[m.group[j]];
     const double r0 = m.link_r0(l);
     const float area = m.link_area(l);
@@ -163,8 +172,8 @@ Energies energies_of(const View& at) {
     const GroupParams& g = m.groups[m.group[a]];
     if (m.random_automaton(a)) {
       if (explicit_sum.empty()) continue;  // (no link at all: a random object of one automaton)
-      const double theta = explicit_sum[a] / (2.0 * m.volume[a]);
-      e.elastic += 0.5 * static_cast<double>(m.lattice_stiffness * g.lame_lambda) * theta * theta * m.volume[a];
+      const double theta = explicit_sum[a] / (2.0 * m.volume[a] + free_face[a] * g.lame_lambda / (2.0 * g.shear_modulus));
+      e.elastic += 0.25 * static_cast<double>(m.lattice_lambda * g.lame_lambda) * theta * explicit_sum[a];
       continue;
     }
     if (!explicit_cnt.empty() && explicit_cnt[a] > 0) {
