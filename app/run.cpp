@@ -642,6 +642,12 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   build_signals.reset();
   building.reset();
   const Plan plan = resume_plan(cp, sim.steps_per_frame(), source);
+  // A run that had reached its last frame (one that finished, or was stopped there) has no step left: its
+  // outputs (summary, fragments, video) are finished again from that frame, with the same results.
+  if (cp.state.step == plan.total_steps && !quiet)
+    fmt::print(stderr, "mca: the checkpoint holds the run's last frame ({}, step {}): no step is left to run; its "
+               "outputs are finished again from it\n",
+               cp.frame - 1, cp.state.step);
   // A rendered run goes on rendering, as it began (render/render.json), unless told not to; the renderer
   // comes before any output, as for a new run.
   const auto rendered = load_render_options(dir);

@@ -161,6 +161,21 @@ TEST(Cli, ResumedRunEndsBitwiseEqualToAnUninterruptedOne) {
   EXPECT_EQ(read(a / "stats.csv"), read(c / "stats.csv"));
 }
 
+// Resuming a run that has finished says so (it used to print only "resuming" and "0 steps"), exits 0 and
+// leaves its result as it was.
+TEST(Cli, ResumingAFinishedRunSaysNoStepIsLeft) {
+  const fs::path d = fresh_dir("resume_finished");
+  const fs::path out = d / "out";
+  ASSERT_EQ(run_mca("run " + small_scene(d).string() + " --out " + out.string() + " -q --checkpoint-every 1").code, 0);
+  const auto before = nlohmann::json::parse(read(out / "summary.json"));
+  const Result r = run_mca("resume " + out.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("no step is left to run"), std::string::npos) << r.output;
+  const auto after = nlohmann::json::parse(read(out / "summary.json"));
+  EXPECT_EQ(before["state_hash"], after["state_hash"]);
+  EXPECT_EQ(before["steps"], after["steps"]);
+}
+
 TEST(Cli, InfoReportsTheModel) {
   const fs::path d = fresh_dir("info");
   const Result r = run_mca("info " + small_scene(d).string() + " --json");
