@@ -48,8 +48,13 @@ RandomSites random_sites(const std::int64_t n[3], const double origin[3], double
   const auto slot = [&](std::int64_t i, std::int64_t j, std::int64_t k) {
     return static_cast<std::size_t>(k % 3) * plane + static_cast<std::size_t>(i + N[0] * j);
   };
-  const auto inside_frame = [&](std::int64_t i, std::int64_t j, std::int64_t k) {
-    return i >= 0 && j >= 0 && k >= 0 && i < N[0] && j < N[1] && k < N[2];
+  // How many of the 26 cells around (i, j, k) the object fills.
+  const auto filled_neighbours = [&](std::int64_t i, std::int64_t j, std::int64_t k) {
+    int count = 0;
+    for (std::int64_t dk = -1; dk <= 1; ++dk)
+      for (std::int64_t dj = -1; dj <= 1; ++dj)
+        for (std::int64_t di = -1; di <= 1; ++di) count += (di || dj || dk) && filled(i + di, j + dj, k + dk);
+    return count;
   };
   const double min2 = kMinSiteDistance * d * kMinSiteDistance * d;
   // The squared distance from p to the nearest of the object's sites drawn among the neighbours of cell
@@ -62,7 +67,7 @@ RandomSites random_sites(const std::int64_t n[3], const double origin[3], double
           if (!di && !dj && !dk) continue;
           if (!all && dk == 0 && (dj > 0 || (dj == 0 && di >= 0))) continue;  // not drawn yet
           const std::int64_t x = i + di, y = j + dj, z = k + dk;
-          if (!inside_frame(x, y, z) || !filled(x, y, z)) continue;
+          if (!filled(x, y, z)) continue;  // (false outside the frame)
           const std::size_t s = slot(x, y, z);
           if (drawn[s]) near2 = std::min(near2, dist2(p, at[s]));
         }
@@ -128,14 +133,6 @@ RandomSites random_sites(const std::int64_t n[3], const double origin[3], double
     return draw(i, j, k, false);
   };
   RandomSites out;
-  const auto is_ghost = [&](std::int64_t i, std::int64_t j, std::int64_t k) {
-    if (filled(i, j, k)) return false;
-    for (std::int64_t dk = -1; dk <= 1; ++dk)
-      for (std::int64_t dj = -1; dj <= 1; ++dj)
-        for (std::int64_t di = -1; di <= 1; ++di)
-          if ((di || dj || dk) && filled(i + di, j + dj, k + dk)) return true;
-    return false;
-  };
   for (std::int64_t k = 0; k <= N[2]; ++k) {
     if (k < N[2]) {
       std::fill(drawn.begin() + static_cast<std::ptrdiff_t>((k % 3) * plane),
@@ -143,22 +140,17 @@ RandomSites random_sites(const std::int64_t n[3], const double origin[3], double
       for (std::int64_t j = 0; j < N[1]; ++j)
         for (std::int64_t i = 0; i < N[0]; ++i) {
           if (!filled(i, j, k)) continue;
-          // A deep site: a filled cell with no empty neighbour.
-          int neighbours = 0;
-          for (std::int64_t dk = -1; dk <= 1; ++dk)
-            for (std::int64_t dj = -1; dj <= 1; ++dj)
-              for (std::int64_t di = -1; di <= 1; ++di) neighbours += (di || dj || dk) && filled(i + di, j + dj, k + dk);
           const std::array<double, 3> p = draw(i, j, k, true);
           at[slot(i, j, k)] = p;
           drawn[slot(i, j, k)] = 1;
           out.inside.push_back(p);
-          out.deep.push_back(neighbours == 26);
+          out.deep.push_back(filled_neighbours(i, j, k) == 26);  // a filled cell with no empty neighbour
         }
     }
     if (k == 0) continue;
     for (std::int64_t j = 0; j < N[1]; ++j)
       for (std::int64_t i = 0; i < N[0]; ++i)
-        if (is_ghost(i, j, k - 1)) out.ghosts.push_back(ghost(i, j, k - 1));
+        if (!filled(i, j, k - 1) && filled_neighbours(i, j, k - 1) > 0) out.ghosts.push_back(ghost(i, j, k - 1));
   }
   return out;
 }
