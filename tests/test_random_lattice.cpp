@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tbb/global_control.h>
 
 #include "io/scene_io.hpp"
 #include "lattice/lattice.hpp"
@@ -137,6 +138,23 @@ TEST(RandomLattice, AnUndampedBlockAtTheLimitIsStable) {
     EXPECT_LT(r.after, 1.2 * r.before) << "nu " << nu;
     EXPECT_GT(r.critical_dt, 0.3 * cubic) << "nu " << nu;
   }
+}
+
+// The power iteration runs over ranges of automata in parallel, four per thread (lattice/time_step.cpp,
+// pairs_by_range): a block of 23,040 automata takes 4 ranges on one thread, 5 on two; its step
+// must be the same bits. (On the 357,035 automata of wall_357k_random, 8 ranges on two threads gave the
+// serial loop's state_hash after a step.)
+TEST(RandomLattice, TheTimeStepIsTheSameOnEveryThreadCount) {
+  SceneDef s = test::block_scene(24, 24, 40, 0.01, test::test_material());
+  s.solver.lattice = SolverDef::Lattice::random;
+  std::vector<double> dt;
+  for (const std::size_t threads : {1, 2}) {
+    tbb::global_control gc(tbb::global_control::max_allowed_parallelism, threads);
+    dt.push_back(lattice::build_model(s).critical_dt);
+  }
+  std::printf("random block of 23,040 automata: critical step %.17g s on 1 thread\n", dt[0]);
+  EXPECT_GT(dt[0], 0);
+  EXPECT_EQ(dt[1], dt[0]);
 }
 
 // The default wall on the random lattice, the ball 5 mm from it: every instruction set, thread count and

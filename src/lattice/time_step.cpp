@@ -16,6 +16,9 @@
 #include <fmt/format.h>
 #include <limits>
 #include <numbers>
+#include <tbb/blocked_range.h>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
 
 #include "core/rng.hpp"
 #include "lattice/lattice.hpp"
@@ -272,10 +275,33 @@ struct RandomPair {
   DVec3 n;
 };
 
+// The pairs that touch each of `ranges` consecutive ranges of automata (range r: the automata a with
+// a * ranges / n == r), in pair order, each with which of its ends lie in the range (kEndI, kEndJ). A range
+// that applies only its own ends' terms, pair by pair in this order, adds to each of its automata the
+// terms the serial loop over all pairs adds, in the same order: the same bits for any number of ranges.
+constexpr std::uint32_t kEndI = 1u << 31, kEndJ = 1u << 30, kPairIndex = kEndJ - 1;
+std::vector<std::vector<std::uint32_t>> pairs_by_range(const std::vector<RandomPair>& pairs, std::size_t n,
+                                                       std::size_t ranges) {
+  std::vector<std::vector<std::uint32_t>> touch(ranges);
+  for (std::size_t q = 0; q < pairs.size(); ++q) {
+    const std::size_t ri = pairs[q].i * ranges / n, rj = pairs[q].j * ranges / n;
+    const auto index = static_cast<std::uint32_t>(q);
+    if (ri == rj) {
+      touch[ri].push_back(index | kEndI | kEndJ);
+    } else {
+      touch[ri].push_back(index | kEndI);
+      touch[rj].push_back(index | kEndJ);
+    }
+  }
+  return touch;
+}
+
 // The largest eigenvalue of M^-1/2 K M^-1/2 for the pairs' springs and, where mb is not empty, the many-body
 // term's rank-one terms mb_c g_c g_c^T (mb_c = lambda V of automaton c, g_c the gradient of its theta),
 // over translations and rotations (150 rounds of power iteration from a fixed start), plus `diag` (per
-// automaton, mass-normalised: a bound on the one-sided contacts' own elements) on its diagonal.
+// automaton, mass-normalised: a bound on the one-sided contacts' own elements) on its diagonal. The
+// products run over ranges of automata in parallel (pairs_by_range), the sums over all automata in
+// their order: the result does not depend on the threads.
 double largest_eigenvalue(const Model& M, const std::vector<RandomPair>& pairs, const std::vector<double>& mb,
                           const std::vector<double>& diag) {
   const std::size_t n = M.size();
@@ -292,19 +318,35 @@ double largest_eigenvalue(const Model& M, const std::vector<RandomPair>& pairs, 
       x[2 * a + h] = {c[0], c[1], c[2]};
     }
   }
+  // Ranges of at least 4,096 automata, about four per thread (one when the pairs' indices would not fit
+  // beside the flags).
+  const std::size_t threads = tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
+  const std::size_t ranges = pairs.size() > kPairIndex ? 1 : std::clamp<std::size_t>(n / 4096, 1, 4 * threads);
+  const auto touch = pairs_by_range(pairs, n, ranges);
+  const auto each_range = [&](const auto& body) {
+    tbb::parallel_for(std::size_t{0}, ranges, [&](std::size_t r) {
+      for (const std::uint32_t e : touch[r]) body(pairs[e & kPairIndex], (e & kEndI) != 0, (e & kEndJ) != 0);
+    });
+  };
+  const auto each_automaton = [&](const auto& body) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const tbb::blocked_range<std::size_t>& b) {
+      for (std::size_t a = b.begin(); a < b.end(); ++a) body(a);
+    });
+  };
   double lambda = 0;
   for (int round = 0; round < 150; ++round) {
     double norm = 0;
     for (const DVec3& v : x) norm += dot(v, v);
     norm = std::sqrt(norm);
     if (!(norm > 0)) break;
-    for (DVec3& v : x) v = v * (1.0 / norm);
-    for (std::size_t a = 0; a < n; ++a) {
+    each_automaton([&](std::size_t a) {
+      x[2 * a] = x[2 * a] * (1.0 / norm);
+      x[2 * a + 1] = x[2 * a + 1] * (1.0 / norm);
       y[2 * a] = x[2 * a] * diag[a];
       y[2 * a + 1] = x[2 * a + 1] * diag[a];
-    }
-    std::fill(theta.begin(), theta.end(), 0.0);
-    for (const RandomPair& p : pairs) {
+      theta[a] = 0.0;
+    });
+    each_range([&](const RandomPair& p, bool own_i, bool own_j) {
       const std::uint32_t i = p.i, j = p.j;
       const DVec3 ui = x[2 * i] * inv_m[i], uj = x[2 * j] * inv_m[j];
       const DVec3 ti = x[2 * i + 1] * inv_j[i], tj = x[2 * j + 1] * inv_j[j];
@@ -315,24 +357,28 @@ double largest_eigenvalue(const Model& M, const std::vector<RandomPair>& pairs, 
       const DVec3 f = p.n * (p.kn * along) + (rel - p.n * along) * p.kt;
       const DVec3 lever = cross(p.n, f) * p.lever, spin = (tj - ti) * p.kr;
       // y = M^-1/2 K M^-1/2 x, K u the force's negative.
-      y[2 * i] -= f * inv_m[i];
-      y[2 * j] += f * inv_m[j];
-      y[2 * i + 1] -= (lever + spin) * inv_j[i];
-      y[2 * j + 1] -= (lever - spin) * inv_j[j];
+      if (own_i) {
+        y[2 * i] -= f * inv_m[i];
+        y[2 * i + 1] -= (lever + spin) * inv_j[i];
+      }
+      if (own_j) {
+        y[2 * j] += f * inv_m[j];
+        y[2 * j + 1] -= (lever - spin) * inv_j[j];
+      }
       // The many-body strains: theta_c = sum A r eps / (2 V), eps = n (u_j - u_i) / r.
       if (!mb.empty()) {
         const double e = dot(p.n, uj - ui) * p.area / 2.0;
-        theta[i] += e / M.volume[i];
-        theta[j] += e / M.volume[j];
+        if (own_i) theta[i] += e / M.volume[i];
+        if (own_j) theta[j] += e / M.volume[j];
       }
-    }
+    });
     if (!mb.empty())
-      for (const RandomPair& p : pairs) {
+      each_range([&](const RandomPair& p, bool own_i, bool own_j) {
         // The many-body energy's gradient lambda V theta d(theta)/du, on both ends of each link.
         const double t = (mb[p.i] * theta[p.i] / M.volume[p.i] + mb[p.j] * theta[p.j] / M.volume[p.j]) * p.area / 2.0;
-        y[2 * p.i] -= p.n * (t * inv_m[p.i]);
-        y[2 * p.j] += p.n * (t * inv_m[p.j]);
-      }
+        if (own_i) y[2 * p.i] -= p.n * (t * inv_m[p.i]);
+        if (own_j) y[2 * p.j] += p.n * (t * inv_m[p.j]);
+      });
     double rq = 0;
     for (std::size_t q = 0; q < x.size(); ++q) rq += dot(x[q], y[q]);
     lambda = std::max(lambda, rq);
