@@ -24,12 +24,14 @@ double scene_spacing(const SceneDef& scene);
 float jitter_stiffness(double a);
 
 // Critical time step of a built model (time_step.cpp, physics.md sec. 7): above it symplectic Euler is
-// unstable; `limited_by` names what sets it (for messages).
+// unstable; `limited_by` names what sets it (for messages). `ranges`: how many ranges of automata the
+// random lattice's power iteration runs in parallel (0: at least 4,096 automata each, about four per
+// thread); every count gives the same bits (a test's knob).
 struct TimeStepBound {
   double dt = 0;
   std::string limited_by;
 };
-TimeStepBound critical_time_step(const Model& model);
+TimeStepBound critical_time_step(const Model& model, std::size_t ranges = 0);
 // Per automaton of explicit links (a surface-mode object's or the random lattice's): the critical step of
 // its own rows of the Gershgorin bound (its explicit links, contacts, many-body term and dashpots);
 // infinite for the cubic lattice's automata. critical_time_step's surface part is at most the smallest of

@@ -300,10 +300,11 @@ std::vector<std::vector<std::uint32_t>> pairs_by_range(const std::vector<RandomP
 // term's rank-one terms mb_c g_c g_c^T (mb_c = lambda V of automaton c, g_c the gradient of its theta),
 // over translations and rotations (150 rounds of power iteration from a fixed start), plus `diag` (per
 // automaton, mass-normalised: a bound on the one-sided contacts' own elements) on its diagonal. The
-// products run over ranges of automata in parallel (pairs_by_range), the sums over all automata in
-// their order: the result does not depend on the threads.
+// products run over `ranges` ranges of automata in parallel (pairs_by_range; 0: ranges of at least 4,096
+// automata, about four per thread), the sums over all automata in their order: the same bits for any
+// count of ranges and threads.
 double largest_eigenvalue(const Model& M, const std::vector<RandomPair>& pairs, const std::vector<double>& mb,
-                          const std::vector<double>& diag) {
+                          const std::vector<double>& diag, std::size_t ranges) {
   const std::size_t n = M.size();
   std::vector<double> inv_m(n, 0.0), inv_j(n, 0.0);
   std::vector<DVec3> x(2 * n), y(2 * n);
@@ -318,12 +319,18 @@ double largest_eigenvalue(const Model& M, const std::vector<RandomPair>& pairs, 
       x[2 * a + h] = {c[0], c[1], c[2]};
     }
   }
-  // Ranges of at least 4,096 automata, about four per thread (one when the pairs' indices would not fit
-  // beside the flags).
-  const std::size_t threads = tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
-  const std::size_t ranges = pairs.size() > kPairIndex ? 1 : std::clamp<std::size_t>(n / 4096, 1, 4 * threads);
-  const auto touch = pairs_by_range(pairs, n, ranges);
+  if (ranges == 0) {
+    const std::size_t threads = tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
+    ranges = std::clamp<std::size_t>(n / 4096, 1, 4 * threads);
+  }
+  // One range, or pairs too many for their indices to fit beside the flags: the serial loop.
+  if (pairs.size() > kPairIndex) ranges = 1;
+  const auto touch = ranges > 1 ? pairs_by_range(pairs, n, ranges) : std::vector<std::vector<std::uint32_t>>{};
   const auto each_range = [&](const auto& body) {
+    if (ranges == 1) {
+      for (const RandomPair& p : pairs) body(p, true, true);
+      return;
+    }
     tbb::parallel_for(std::size_t{0}, ranges, [&](std::size_t r) {
       for (const std::uint32_t e : touch[r]) body(pairs[e & kPairIndex], (e & kEndI) != 0, (e & kEndJ) != 0);
     });
@@ -387,7 +394,7 @@ double largest_eigenvalue(const Model& M, const std::vector<RandomPair>& pairs, 
   return lambda;
 }
 
-RandomBound random_lattice_bound(const Model& M, const std::vector<double>& fmax) {
+RandomBound random_lattice_bound(const Model& M, const std::vector<double>& fmax, std::size_t ranges) {
   RandomBound b;
   const auto& E = M.explicit_links;
   const std::size_t n = M.size();
@@ -433,8 +440,8 @@ RandomBound random_lattice_bound(const Model& M, const std::vector<double>& fmax
     one_sided_c[a] = std::max(e.damp_u, e.damp_w);
   }
   if (springs_of.empty()) return b;
-  b.omega2 = 1.1 * largest_eigenvalue(M, springs_of, mb, one_sided);
-  b.damping = 1.1 * largest_eigenvalue(M, dashpots_of, {}, one_sided_c);
+  b.omega2 = 1.1 * largest_eigenvalue(M, springs_of, mb, one_sided, ranges);
+  b.damping = 1.1 * largest_eigenvalue(M, dashpots_of, {}, one_sided_c, ranges);
   return b;
 }
 
@@ -443,7 +450,7 @@ RandomBound random_lattice_bound(const Model& M, const std::vector<double>& fmax
 // smallest of its elements' steps, each with its own damping. (Until the mass scaling of uneven meshes it
 // paired the largest stiffness row of one automaton with the largest dashpot row of another; on the cow
 // both came from the same sliver triangles, and the measured threshold lies 2-3x above either.)
-SurfaceBound surface_bound(const Model& M, const std::vector<double>& fmax) {
+SurfaceBound surface_bound(const Model& M, const std::vector<double>& fmax, std::size_t ranges) {
   const SurfaceRows rows = surface_rows(M, fmax);
   SurfaceBound b;
   b.lightest = rows.lightest;
@@ -451,7 +458,7 @@ SurfaceBound surface_bound(const Model& M, const std::vector<double>& fmax) {
   // The random lattice's automata: the power iteration's bound over those with links; one without any (an
   // object of one automaton), which the iteration sees only on its diagonal, by its Gershgorin rows, which
   // hold its contacts.
-  const RandomBound r = M.object_random.empty() ? RandomBound{} : random_lattice_bound(M, fmax);
+  const RandomBound r = M.object_random.empty() ? RandomBound{} : random_lattice_bound(M, fmax, ranges);
   const auto& E = M.explicit_links;
   const auto unlinked = [&](std::size_t a) { return E.first.empty() || E.first[a + 1] == E.first[a]; };
   double least = INFINITY;
@@ -490,7 +497,7 @@ std::vector<double> surface_automaton_steps(const Model& M) {
   return dt;
 }
 
-TimeStepBound critical_time_step(const Model& M) {
+TimeStepBound critical_time_step(const Model& M, std::size_t ranges) {
   const std::size_t n = M.size(), G = M.groups.size();
   TimeStepBound out;
   out.dt = std::numeric_limits<double>::infinity();
@@ -508,7 +515,7 @@ TimeStepBound critical_time_step(const Model& M) {
     m_min = std::min<double>(m_min, M.mass[a]);
     j_min = std::min<double>(j_min, M.inertia[a]);
   }
-  const SurfaceBound surface = surface_bound(M, fmax);
+  const SurfaceBound surface = surface_bound(M, fmax, ranges);
   if (!std::isfinite(m_min)) {  // no lattice automata
     out.dt = critical_step(surface.omega2, surface.damping);
     out.limited_by = explicit_bound_name(M);
