@@ -142,10 +142,10 @@ TEST(RandomLattice, AnUndampedBlockAtTheLimitIsStable) {
 
 // The power iteration runs over ranges of automata in parallel (lattice/time_step.cpp, pairs_by_range;
 // by default ranges of at least 4,096 automata, about four per thread): its step must be the serial
-// loop's (one range) for any count, on any thread count. (Its eigenvalue is the largest of the rounds' Rayleigh
-// quotients, which the order of a few sums may leave unchanged; a pair left out or counted twice changes
-// it: the hostile review's mutations. On the 357,035 automata of wall_357k_random, 8 ranges on two
-// threads gave the serial loop's state after a step.)
+// loop's (one range) for any count, on any thread count. (Its eigenvalue is the largest of the rounds'
+// Rayleigh quotients, which the order of a few sums may leave unchanged; a pair left out or counted twice
+// changes it: the hostile review's mutations. On the 357,035 automata of wall_357k_random, 8 ranges on
+// two threads gave the serial loop's state after a step.)
 TEST(RandomLattice, TheTimeStepIsTheSameOnEveryThreadCount) {
   SceneDef s = test::block_scene(16, 16, 16, 0.01, test::test_material());
   s.solver.lattice = SolverDef::Lattice::random;
