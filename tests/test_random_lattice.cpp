@@ -127,8 +127,9 @@ TEST(RandomLattice, TheMemoryCheckCountsTheLinks) {
 // The critical step (its power iteration, lattice/time_step.cpp): an undamped random block with random
 // velocities kept at safety = 1 for 5,000 steps keeps its energy, at Poisson's ratios where the pairs'
 // springs (0) and the many-body term (0.45) dominate. Its step, against the cubic block's: 0.37, 0.43 and
-// 0.86 when first built, 0.40, 0.48 and 0.94 now (the default wall: 0.46 with its ground and ball, where
-// the automata's Gershgorin rows gave 0.32).
+// 0.86 when first built, 0.40, 0.48 and 0.94 with the neighbour pairs' contacts taken as E d, 0.82, 0.92
+// and 0.94 with their own (the default wall: 0.51 with its ground and ball, where the automata's
+// Gershgorin rows gave 0.32).
 TEST(RandomLattice, AnUndampedBlockAtTheLimitIsStable) {
   for (double nu : {0.0, 0.2, 0.45}) {
     const test::AtTheLimit r = test::energy_at_the_limit(random_block(6, test::test_material(30e9, nu)));
@@ -138,6 +139,48 @@ TEST(RandomLattice, AnUndampedBlockAtTheLimitIsStable) {
     EXPECT_LT(r.after, 1.2 * r.before) << "nu " << nu;
     EXPECT_GT(r.critical_dt, 0.3 * cubic) << "nu " << nu;
   }
+}
+
+// Once its links have broken, a random block's Voronoi neighbours press on each other as contacts of their
+// links' normal stiffness (Model::contact_length), which the critical step takes for each pair (not the
+// contact law's E d, several times stiffer for most of the lattice's faces and up to 50 times for a long
+// thin one). A block of 8^3 automata of a material too weak to hold any link, its outer layer held by six
+// grips of which two close in at 0.1 m/s, at safety = 1: it loses its links within its first steps, its
+// automata are then pressed together harder and harder, and what they hold (kinetic and contact energy)
+// must stay below what the grips put in. (The backend's pair contacts made three times as stiff as the
+// step takes them blow it up within 300 steps; twice as stiff, it holds.)
+TEST(RandomLattice, ABrokenBlockPressedTogetherIsStableAtTheLimit) {
+  MaterialDef mat = test::test_material(30e9, 0.2);
+  mat.tensile_strength = 3e4;  // a strain of 1e-6, the least the solver takes
+  mat.compressive_strength = 3e4;
+  mat.fracture_strain = 1e-6;
+  SceneDef s = random_block(8, mat);  // centred on the origin, d = 1 cm: the outer layer's sites at +-3.5 cm
+  s.solver.safety = 1.0;
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = 0; side < 2; ++side) {
+      GripDef g;
+      g.name = fmt::format("wall{}{}", axis, side);
+      g.min = {-1, -1, -1};
+      g.max = {1, 1, 1};
+      (side ? g.min : g.max)[axis] = side ? 0.032 : -0.032;
+      if (axis == 0) g.velocity[0] = side ? -0.1 : 0.1;
+      s.grips.push_back(g);
+    }
+  Engine sim(s);
+  double held = 0;
+  for (int k = 0; k < 50; ++k) {
+    ASSERT_EQ(sim.advance(100).flags, kHealthy) << "after " << 100 * (k + 1) << " steps";
+    held = std::max(held, sim.energies().total());
+  }
+  const State st = sim.state();
+  const Energies e = sim.energies();
+  const std::size_t broken = st.broken_by[0] + st.broken_by[1];
+  std::printf("broken random block pressed at C = 1 (critical step %.3g s): %zu of %zu links broken, energy %.4g J "
+              "(contacts %.4g J), grips' work %.4g J\n",
+              sim.model().critical_dt, broken, sim.model().links, e.total(), e.contact, e.grip_work);
+  EXPECT_GT(broken, sim.model().links / 2);  // (those between two held automata hold)
+  EXPECT_GT(e.contact, 0.1 * e.grip_work);
+  EXPECT_LT(held, e.grip_work);
 }
 
 // The power iteration runs over ranges of automata in parallel (lattice/time_step.cpp, pairs_by_range;

@@ -255,9 +255,12 @@ SurfaceRows surface_rows(const Model& M, const std::vector<double>& fmax) {
 }
 
 // The random lattice's automata: the largest eigenvalue of M^-1/2 K M^-1/2, by power iteration, with each
-// Voronoi neighbour pair holding the stiffer of its link and a contact (a link that breaks leaves its pair
-// touching), the link's springs at the largest strengthening, and the many-body term's rank-one terms
-// lambda V g g^T, and each automaton's one-sided contacts (the ground, projectiles) on the diagonal.
+// Voronoi neighbour pair holding the stiffer of its link and its contact (a link that breaks leaves its
+// pair touching, with the link's normal stiffness: Model::contact_length, as the backend's contacts take
+// it; until 2026-12-03 the contact law's E d here, up to 50 times stiffer for a small face, which halved
+// the step of a free block), the link's springs at the largest strengthening, and the many-body term's
+// rank-one terms lambda V g g^T, and each automaton's one-sided contacts (the ground, projectiles) on the
+// diagonal.
 // Gershgorin's rows (surface_rows) bound it too, but for a network of triangles they are loose: each
 // automaton's rows add the norms of about 12 couplings that do not all push one way. The iteration's
 // Rayleigh quotient converges from below; a 10 % margin covers what it has not reached (on the default
@@ -405,8 +408,11 @@ RandomBound random_lattice_bound(const Model& M, const std::vector<double>& fmax
     const GroupParams &A = M.groups[M.group[i]], &B = M.groups[M.group[j]];
     const double f = std::max(fmax[M.group[i]], fmax[M.group[j]]), s = M.lattice_stiffness;
     const double G = s * harmonic(A.shear_modulus, B.shear_modulus), r0 = E.r0[l], area = E.area[l];
-    const ContactSprings cs = springs(M.contact_material(M.group[i], M.group[j]), M.radius[i], M.radius[j],
-                                      reduced(M.mass[i], M.mass[j]), reduced(M.inertia[i], M.inertia[j]));
+    const ContactMaterial& cm = M.contact_material(M.group[i], M.group[j]);
+    const ContactSprings cs = contact_springs(cm, cm.zeta, M.contact_length(i, j, static_cast<std::int64_t>(l)),
+                                              static_cast<float>(reduced(M.radius[i], M.radius[j])),
+                                              static_cast<float>(reduced(M.mass[i], M.mass[j])),
+                                              static_cast<float>(reduced(M.inertia[i], M.inertia[j])));
     const DVec3 d = ddelta(M.position0[i], M.position0[j]);
     const DVec3 u{d.x / r0, d.y / r0, d.z / r0};
     springs_of.push_back({i, j, std::max(2.0 * G * area / r0 * f, static_cast<double>(cs.kn)),
