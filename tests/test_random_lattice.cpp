@@ -146,7 +146,7 @@ TEST(RandomLattice, AnUndampedBlockAtTheLimitIsStable) {
 // contact law's E d, several times stiffer for most of the lattice's faces and up to 50 times for a long
 // thin one). A block of 8^3 automata of a material too weak to hold any link, its outer layer held by six
 // grips of which two close in at 0.1 m/s, at safety = 1: it loses its links within its first steps, its
-// automata are then pressed together harder and harder, and what they hold (kinetic and contact energy)
+// automata are then pressed together harder and harder, and what they hold (kinetic and elastic energy)
 // must stay below what the grips put in. (The backend's pair contacts made three times as stiff as the
 // step takes them blow it up within 300 steps; twice as stiff, it holds.)
 TEST(RandomLattice, ABrokenBlockPressedTogetherIsStableAtTheLimit) {
