@@ -60,4 +60,9 @@ float Model::contact_length(std::size_t i, std::size_t j, std::int64_t l) const 
   return k / contact_material(group[i], group[j]).youngs;
 }
 
+ContactSprings Model::pair_contact_springs(std::size_t i, std::size_t j, std::int64_t l, float zeta) const {
+  return contact_springs(contact_material(group[i], group[j]), zeta, contact_length(i, j, l),
+                         reduced(radius[i], radius[j]), reduced(mass[i], mass[j]), reduced(inertia[i], inertia[j]));
+}
+
 }  // namespace mca

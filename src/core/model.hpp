@@ -17,6 +17,8 @@
 
 namespace mca {
 
+struct ContactSprings;  // physics/contact_law.hpp
+
 // Strengthening law of a material (paper eq. 7; the functions are in physics/link_law.hpp).
 struct Strengthening {
   int law = 0;      // 0 none, 1 exponential E0 exp(alpha e), 2 quadratic E0 (1 + alpha e^2)
@@ -224,6 +226,10 @@ struct Model {
   // times harder than its link had, a long thin link's up to 50 times.)
   // l: random_link_at_start(i, j).
   float contact_length(std::size_t i, std::size_t j, std::int64_t l) const;
+  // The springs and dashpots of a contact between automata i and j (l: random_link_at_start(i, j)) whose
+  // normal dashpot has the damping ratio zeta: the backend's (zeta_pair), the time step's (the contact
+  // material's continuous-time one) and the energy's (whose springs alone count) are this one.
+  ContactSprings pair_contact_springs(std::size_t i, std::size_t j, std::int64_t l, float zeta) const;
   std::vector<MeshSummary> meshes;  // one per object of shape mesh
   BoundSurface surface;             // the triangles of the mesh objects, bound to automata
   std::vector<ProjectileParams> projectiles;

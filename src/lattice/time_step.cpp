@@ -408,11 +408,8 @@ RandomBound random_lattice_bound(const Model& M, const std::vector<double>& fmax
     const GroupParams &A = M.groups[M.group[i]], &B = M.groups[M.group[j]];
     const double f = std::max(fmax[M.group[i]], fmax[M.group[j]]), s = M.lattice_stiffness;
     const double G = s * harmonic(A.shear_modulus, B.shear_modulus), r0 = E.r0[l], area = E.area[l];
-    const ContactMaterial& cm = M.contact_material(M.group[i], M.group[j]);
-    const ContactSprings cs = contact_springs(cm, cm.zeta, M.contact_length(i, j, static_cast<std::int64_t>(l)),
-                                              static_cast<float>(reduced(M.radius[i], M.radius[j])),
-                                              static_cast<float>(reduced(M.mass[i], M.mass[j])),
-                                              static_cast<float>(reduced(M.inertia[i], M.inertia[j])));
+    const ContactSprings cs = M.pair_contact_springs(i, j, static_cast<std::int64_t>(l),
+                                                     M.contact_material(M.group[i], M.group[j]).zeta);
     const DVec3 d = ddelta(M.position0[i], M.position0[j]);
     const DVec3 u{d.x / r0, d.y / r0, d.z / r0};
     springs_of.push_back({i, j, std::max(2.0 * G * area / r0 * f, static_cast<double>(cs.kn)),

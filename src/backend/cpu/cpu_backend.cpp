@@ -472,10 +472,7 @@ class CpuBackend final : public Backend {
   // (Model::contact_length: a random-lattice pair that a link joined presses with that link's stiffness.)
   // l: Model::random_link_at_start(i, j).
   ContactSprings pair_springs(std::uint32_t i, std::uint32_t j, std::int64_t l) const {
-    const std::size_t gi = M_.group[i], gj = M_.group[j];
-    return contact_springs(M_.contact_material(gi, gj), M_.zeta_pair[gi * M_.groups.size() + gj], M_.contact_length(i, j, l),
-                           reduced(M_.radius[i], M_.radius[j]), reduced(M_.mass[i], M_.mass[j]),
-                           reduced(M_.inertia[i], M_.inertia[j]));
+    return M_.pair_contact_springs(i, j, l, M_.zeta_pair[M_.group[i] * M_.groups.size() + M_.group[j]]);
   }
   ContactSprings ground_springs(std::uint32_t a) const {
     return body_contact_springs(M_.ground_contact[M_.group[a]], M_.zeta_ground[M_.group[a]], M_.radius[a], INFINITY,

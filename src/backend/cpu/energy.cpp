@@ -202,8 +202,7 @@ Energies energies_of(const View& at) {
   for (const auto& c : s.contacts) {
     const std::int64_t l = m.random_link_at_start(c.i, c.j);
     const SphereGap gap = sphere_gap(at.x(c.i), at.x(c.j), m.contact_reach(c.i, c.j, l));
-    const ContactSprings cs = contact_springs(m.contact_material(m.group[c.i], m.group[c.j]), 0.0f,
-                                              m.contact_length(c.i, c.j, l), reduced(m.radius[c.i], m.radius[c.j]), 1.0f, 1.0f);
+    const ContactSprings cs = m.pair_contact_springs(c.i, c.j, l, 0.0f);
     contact += contact_energy(cs, gap.overlap, c.h.ut, c.h.mr, gap.n);
   }
   for (const auto& c : s.ground_contacts) {
