@@ -147,10 +147,14 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
     }
     r.faces.push_back({base, base + 1, base + 2});
   }
+  // The random lattice's objects (Model::cell0): a site lies anywhere in its cell, and its Voronoi cell
+  // reaches up to sqrt(3) d from it; the object's solid is the union of its cells.
+  const auto random_object = [&](std::size_t o) { return !m.object_random.empty() && m.object_random[o] != 0; };
+  const std::vector<DVec3>& centre = m.cell0.empty() ? m.position0 : m.cell0;  // each automaton's cell
   std::vector<std::array<double, 6>> object_box(n_obj, {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY});
   for (std::size_t a = 0; a < m.size(); ++a) {
     auto& b = object_box[static_cast<std::size_t>(m.object[a])];
-    const double p[3] = {m.position0[a].x, m.position0[a].y, m.position0[a].z};
+    const double p[3] = {centre[a].x, centre[a].y, centre[a].z};
     for (int c = 0; c < 3; ++c) {
       b[c] = std::min(b[c], p[c]);
       b[3 + c] = std::max(b[3 + c], p[c]);
@@ -172,8 +176,10 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
     if (ms.surface) grids[static_cast<std::size_t>(ms.object)].shell = 0.5 * ms.shell_thickness;
 
   // Each object's automata binned by cells of size d (their starting centres): the 27 cells around a point
-  // hold every automaton within d of it, and the terms below keep the nearest.
-  std::vector<std::unique_ptr<UniformGrid>> buckets(n_obj);
+  // hold every automaton within d of it, and the terms below keep the nearest. On the random lattice the
+  // bins are 2 d (a point of the object has its nearest site within sqrt(3) d: its own cell's holds one),
+  // and its cells' centres are binned apart, by d (a point in a cell is within sqrt(3) d / 2 of its centre).
+  std::vector<std::unique_ptr<UniformGrid>> buckets(n_obj), cells(n_obj);
   for (auto frag : chosen) {
     const auto o = static_cast<std::size_t>(m.object[members[static_cast<std::size_t>(frag)][0]]);
     if (buckets[o]) continue;
@@ -181,7 +187,11 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
     for (std::size_t a = 0; a < m.size(); ++a)
       if (static_cast<std::size_t>(m.object[a]) == o) ids.push_back(static_cast<std::uint32_t>(a));
     buckets[o] = std::make_unique<UniformGrid>();
-    buckets[o]->build(m.position0.data(), ids.size(), d, ids.data());
+    buckets[o]->build(m.position0.data(), ids.size(), random_object(o) ? 2 * d : d, ids.data());
+    if (random_object(o)) {
+      cells[o] = std::make_unique<UniformGrid>();
+      cells[o]->build(m.cell0.data(), ids.size(), d, ids.data());
+    }
   }
   std::vector<FragmentMesh> out(chosen.size());
   tbb::parallel_for(std::size_t{0}, chosen.size(), [&](std::size_t k) {
@@ -190,6 +200,7 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
     const auto obj = static_cast<std::size_t>(m.object[mem[0]]);
     const ObjectGrid& g = grids[obj];
     const auto& axes = m.object_axes[obj];
+    const bool random = random_object(obj);
     // The fragment's voxels: its automata's box, padded by the mesh shell and a margin. Small pieces get
     // finer voxels (8 per spacing at 27 automata and fewer, 3 from 512): polygonizing bevels a solid's edges
     // by about a voxel, which at 3 voxels per spacing shaved a third off a piece of one cell.
@@ -197,11 +208,12 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
     const int per_cell = std::clamp(static_cast<int>(std::ceil(24.0 / cbrt_n)), cells_per_spacing, 8);
     const double hf = d / per_cell;
     double lo_p[3] = {INFINITY, INFINITY, INFINITY}, hi_p[3] = {-INFINITY, -INFINITY, -INFINITY};
+    const double reach = random ? 1.8 * d : 1.2 * d;  // an automaton's solid lies within sqrt(3) d or d / 2
     for (auto a : mem) {
       const double p[3] = {m.position0[a].x, m.position0[a].y, m.position0[a].z};
       for (int c = 0; c < 3; ++c) {
-        lo_p[c] = std::min(lo_p[c], p[c] - 1.2 * d);
-        hi_p[c] = std::max(hi_p[c], p[c] + 1.2 * d);
+        lo_p[c] = std::min(lo_p[c], p[c] - reach);
+        hi_p[c] = std::max(hi_p[c], p[c] + reach);
       }
     }
     mesh::CellBox fb;
@@ -235,7 +247,7 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
     };
     auto terms = [&](double x, double y, double z) -> Terms {
       double own = INFINITY, other = INFINITY;
-      std::uint32_t nearest = 0;
+      std::uint32_t nearest = 0, rival = 0;
       buckets[obj]->for_each_candidate(DVec3{x, y, z}, [&](std::uint32_t b) {
         const double dx = m.position0[b].x - x, dy = m.position0[b].y - y, dz = m.position0[b].z - z;
         const double r2 = dx * dx + dy * dy + dz * dz;
@@ -244,19 +256,30 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
             own = r2;
             nearest = b;
           }
-        } else {
-          other = std::min(other, r2);
+        } else if (r2 < other) {
+          other = r2;
+          rival = b;
         }
       });
       if (own == INFINITY) return {INFINITY, INFINITY};
-      // The distance from the bisector plane (exact for lattice neighbours, d apart).
-      const double split = other == INFINITY ? -INFINITY : (own - other) / (2 * d);
-      const double px = x - m.position0[nearest].x, py = y - m.position0[nearest].y, pz = z - m.position0[nearest].z;
-      double cheb = 0;
-      for (const Vec3& e : axes) cheb = std::max(cheb, std::fabs(px * e.x + py * e.y + pz * e.z));
+      // The distance from the bisector plane of the nearest own and other automata: exact. (The cubic
+      // lattice's keeps d for their distance, exact for lattice neighbours; the random lattice's sites may
+      // lie a hundredth of d apart, whose bisector the field would cross a hundred times too gently.)
+      const double apart = random ? length(m.position0[nearest] - m.position0[rival]) : d;
+      const double split = other == INFINITY ? -INFINITY : (own - other) / (2 * apart);
+      // Outside the own cells: past the nearest own automaton's cube, or on the random lattice the union of
+      // the object's cells (the bisectors part them among the fragments).
       // (A hair inside the cell's faces: a voxel centre exactly on a face between two own cells would
       // read 0, outside, and leave a hollow there.)
-      const double cube = cheb - 0.5 * d * (1 + 1e-6);
+      const auto past_cube = [&](const DVec3& c0) {
+        const double px = x - c0.x, py = y - c0.y, pz = z - c0.z;
+        double cheb = 0;
+        for (const Vec3& e : axes) cheb = std::max(cheb, std::fabs(px * e.x + py * e.y + pz * e.z));
+        return cheb - 0.5 * d * (1 + 1e-6);
+      };
+      double cube = INFINITY;
+      if (random) cells[obj]->for_each_candidate(DVec3{x, y, z}, [&](std::uint32_t b) { cube = std::min(cube, past_cube(m.cell0[b])); });
+      else cube = past_cube(m.position0[nearest]);
       // Surface mode: the shell, the original surface thickened to the shell's thickness on both sides
       // (its automata are on the surface; an open surface's sign means nothing).
       if (g.shell > 0) return {std::fabs(surface_at(x, y, z)) - g.shell, split};
@@ -297,6 +320,7 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
           g2 += g[c] * g[c];
         }
         if (!(g2 > 1e-6 && g2 < 1e6)) break;  // no direction (or an infinite term nearby)
+        if (!(f * f <= 4 * hf * hf * g2)) break;  // a step of over two voxels: a gentle slope, left where it is
         for (int c = 0; c < 3; ++c) p[c] -= f * g[c] / g2;
       }
     });

@@ -40,13 +40,14 @@ std::size_t estimate_memory_bytes(std::size_t automata, std::size_t explicit_lin
   //                 libraries mapped at start-up (OpenVDB's symbol tables alone are 27 MB), shared with
   //                 every other process using them.
   // Explicit links (surface mode) come on top, per link:
-  //   model 48      ends 8, rest length 8, cross-section and edge 8, shell normal 12, two entries in the
+  //   model 52      ends 8, rest length 8, cross-section and edge 8, shell normal 12, two entries in the
   //                 per-automaton index 8, plus its offsets per automaton (counted here, per link, as 4)
+  //                 and the random lattice's cell centres (24 per automaton of about 7 links: 4)
   //   state 25      intact 1, shear displacement 12, bending moment 12
   //   backend 168   shear displacement and moment 24, constants 32, bending constants and normal 36, the
   //                 kernels' direction, strain, force and torque 40, break list 4, many-body weight and
   //                 gather list 16, padding 16
-  constexpr std::size_t per_automaton = 88 + 179 + 346 + 60 + 64 + 30, per_explicit_link = 48 + 25 + 168;
+  constexpr std::size_t per_automaton = 88 + 179 + 346 + 60 + 64 + 30, per_explicit_link = 52 + 25 + 168;
   return automata * per_automaton + explicit_links * per_explicit_link + 42'000'000;
 }
 

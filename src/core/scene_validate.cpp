@@ -285,20 +285,6 @@ void validate_scene(const SceneDef& scene) {
                        scene.output.checkpoint_every));
   }
 
-  // The fragment meshes (analysis/fragment_meshes.cpp) take a primitive's solid as the cubes of side d
-  // around its automata: on the random lattice, whose Voronoi cells reach beyond them, that leaves holes.
-  // A mesh object's solid comes from its mesh (and a surface-mode object keeps its explicit links).
-  if (scene.solver.lattice == SolverDef::Lattice::random && scene.output.fragments)
-    for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) {
-      const ObjectDef& o = scene.objects[oi];
-      if (o.shape == Shape::mesh) continue;
-      c.fail(fmt::format("output.fragments = true and object[{}] '{}' (a {}) filled with solver.lattice = \"random\": "
-                         "the fragment meshes of box, sphere and cylinder objects are built on the cubic lattice only; "
-                         "remove output.fragments (fragments.csv lists the fragments all the same), or use lattice = "
-                         "\"cubic\" or a mesh object",
-                         oi, o.name, o.shape == Shape::box ? "box" : o.shape == Shape::sphere ? "sphere" : "cylinder"));
-    }
-
   // Materials.
   for (std::size_t i = 0; i < scene.materials.size(); ++i) {
     check_material(c, scene.materials[i], i);

@@ -1293,6 +1293,10 @@ void fill_lattice(Model& M, const SceneDef& scene, const Shapes& S, std::size_t 
           site = {wp[0] + turned[0], wp[1] + turned[1], wp[2] + turned[2]};
           radius = static_cast<float>(0.5 * d - largest);
         }
+        if (random) {  // (the automata before it, of other objects, hold their own centres)
+          M.cell0.insert(M.cell0.end(), M.position0.begin() + static_cast<std::ptrdiff_t>(M.cell0.size()), M.position0.end());
+          M.cell0.push_back(to_dvec3(wp));
+        }
         M.position0.push_back(to_dvec3(site));
         M.velocity0.push_back(to_dvec3(o.velocity));
         M.mass.push_back(mass);
@@ -1603,6 +1607,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
   if (std::none_of(M.object_random.begin(), M.object_random.end(), [](std::uint8_t r) { return r != 0; }))
     M.object_random.clear();
   if (!M.object_random.empty()) {
+    M.cell0.insert(M.cell0.end(), M.position0.begin() + static_cast<std::ptrdiff_t>(M.cell0.size()), M.position0.end());
     M.boxed.resize(M.size(), 0);
     M.free_face.resize(M.size(), 0.0f);
     M.lattice_stiffness = kRandomStiffness;
