@@ -87,7 +87,7 @@ TEST(FragmentMeshVolume, PiecesOfABrokenWallHoldTheirCells) {
 // On the random lattice a piece's solid is its automata's Voronoi cells: split by the bisectors between
 // sites, bounded by the object's cells (Model::cell0). A wall broken into 160 pieces of 1 to 70 automata, and
 // a sphere (a staircase of cells) into 40: each piece holds its Voronoi cells' volume within 3 % (measured
-// 0.973 to 1.013), all together the solid's within 1.5 % (0.990 for both; the whole wall as one piece
+// 0.975 to 1.002), all together the solid's within 1.5 % (0.991 and 0.990; the whole wall as one piece
 // 0.999). The loss is on the crack faces, whose Voronoi facets meet at edges every d or so that the
 // polygonizing bevels: about 0.25 mm deep at d = 5 cm. Closed, no triangle of zero area.
 TEST(FragmentMeshVolume, PiecesOfARandomLatticeHoldTheirVoronoiCells) {
