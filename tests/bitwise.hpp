@@ -18,7 +18,7 @@ namespace mca::test {
 
 // The default scene for 0.01 s with the ball 5 mm from the wall (it strikes within the first steps).
 inline SceneDef struck_default_wall() {
-  SceneDef s = io::load_default_scene();
+  SceneDef s = test::cubic_wall_scene();
   s.output.duration = 0.01;
   EXPECT_EQ(s.projectiles.size(), 1u);
   s.projectiles[0].position[1] = -0.1 - s.projectiles[0].radius - 0.005;

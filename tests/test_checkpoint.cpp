@@ -19,6 +19,7 @@
 #include "mca/error.hpp"
 #include "sim/engine.hpp"
 #include "sim/state_check.hpp"
+#include "support.hpp"
 
 namespace mca {
 namespace {
@@ -28,7 +29,7 @@ namespace fs = std::filesystem;
 // A small wall on the ground, held at its top by a grip and struck hard: after the fixture's steps the
 // state has broken links, break records, contacts, projectile and ground contacts and grip forces.
 SceneDef struck_wall() {
-  SceneDef s = io::load_default_scene();
+  SceneDef s = test::cubic_wall_scene();
   s.name = "struck";
   s.source = "<checkpoint test>";
   s.objects[0].size = {0.4, 0.2, 0.3};

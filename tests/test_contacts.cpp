@@ -26,6 +26,7 @@ SceneDef empty_scene(const MaterialDef& m) {
   SceneDef s;
   s.name = "contact";
   s.source = "<test>";
+  s.solver.lattice = SolverDef::Lattice::cubic;
   s.materials.push_back(m);
   s.solver.spacing = 0.05;
   s.solver.gravity = {0, 0, 0};

@@ -24,6 +24,7 @@
 #include "lattice/lattice.hpp"
 #include "shell.hpp"
 #include "small_scene.hpp"
+#include "support.hpp"
 
 namespace {
 
@@ -396,7 +397,7 @@ namespace {
 // The default wall (scenes/wall_ball.toml: 2 x 0.2 x 1.5 m, d = 0.05, struck at its centre along y) and its
 // links all intact.
 struct Wall {
-  mca::SceneDef scene = mca::io::load_default_scene();
+  mca::SceneDef scene = mca::test::cubic_wall_scene();
   mca::Model model = mca::lattice::build_model(scene);
   std::vector<std::uint8_t> intact = std::vector<std::uint8_t>(model.link_slots(), 1);
   // Breaks every link of the automata that `pick` chooses by their rest position.
@@ -464,6 +465,7 @@ TEST(CrackIsotropy, TheAnnulusScalesOnASmallPlate) {
   const mca::SceneDef scene = mca::io::parse_scene(R"(name = "plate"
 [solver]
 spacing = 0.05
+lattice = "cubic"
 [[object]]
 name = "plate"
 size = [0.4, 0.1, 0.4]
@@ -492,7 +494,7 @@ velocity = [0, 40, 0]
 }
 
 TEST(CrackIsotropy, WithoutAProjectileOrAHitThereIsAReason) {
-  mca::SceneDef scene = mca::io::load_default_scene();
+  mca::SceneDef scene = mca::test::cubic_wall_scene();
   const mca::Model model = mca::lattice::build_model(scene);
   const std::vector<std::uint8_t> intact(model.link_slots(), 1);
   auto reason = [&](const mca::SceneDef& s) { return mca::analysis::crack_isotropy(model, s, intact.data()).reason; };
@@ -526,8 +528,9 @@ void expect_same(const nlohmann::json& a, const nlohmann::json& b, const std::st
 }
 }  // namespace
 
-// End to end: the default scene run for 16 ms (the cross is already there, docs/fracture-study.md), and
-// tools/fracture_metrics.py on its folder: every number of both measures agrees.
+// End to end: the default scene run for 16 ms (the damage around the impact is there), and
+// tools/fracture_metrics.py on its folder: every number of both measures agrees (the random lattice's
+// automata each of their own mass).
 TEST(FractureMeasures, SummaryAgreesWithFractureMetricsPy) {
   const std::string python = MCA_TOOLS_PYTHON;
   if (mca::test::shell(python + " -c 'import numpy'").code != 0)
@@ -557,8 +560,12 @@ TEST(FractureMeasures, SummaryAgreesWithFractureMetricsPy) {
   EXPECT_EQ(c["sector_automata"], p["sector_automata"]);
   EXPECT_EQ(c["sector_damaged"], p["sector_damaged"]);
   for (int i = 0; i < 8; ++i) expect_same(c["sector_shares"][i], p["sector_shares"][i], fmt::format("share {}", i));
-  // Something to compare: damage around the impact, more on the axes than the diagonals at 16 ms.
-  EXPECT_GT(c["axis_diagonal_ratio"].get<double>(), 1.5);
+  // Something to compare: damage around the impact, on the default random lattice about as much on the
+  // diagonals as on the axes (1.13 at 16 ms; the cubic lattice's cross gave 2.5).
+  int damaged = 0;
+  for (int i = 0; i < 8; ++i) damaged += c["sector_damaged"][i].get<int>();
+  EXPECT_GT(damaged, 100);
+  EXPECT_LT(c["axis_diagonal_ratio"].get<double>(), 1.3);
 
   const auto& m = summary["fragment_mass_distribution"];
   const auto& f = fm["fragments"];

@@ -13,6 +13,7 @@
 #include "mca/error.hpp"
 #include "mesh/mesh.hpp"
 #include "sim/engine.hpp"
+#include "support.hpp"
 
 namespace mca {
 namespace {
@@ -66,7 +67,7 @@ std::size_t degenerate_faces(const mesh::TriMesh& m, double h) {
 // cells of 9 to 60 automata held 0.981 to 0.994 of their cells, the default scene's main bodies 0.969.
 // None has a triangle of zero area.
 TEST(FragmentMeshVolume, PiecesOfABrokenWallHoldTheirCells) {
-  const SceneDef scene = io::load_default_scene();  // the 2 x 0.2 x 1.5 m wall, 4,800 automata of 5 cm
+  const SceneDef scene = test::cubic_wall_scene();  // the 2 x 0.2 x 1.5 m wall, 4,800 automata of 5 cm
   const Engine sim(scene);
   const Model& m = sim.model();
   const analysis::Fragments pieces = voronoi_pieces(m, 160, 7);

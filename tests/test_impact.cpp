@@ -16,7 +16,7 @@ struct Outcome {
 };
 
 Outcome impact(double speed, const std::string& preset, std::uint64_t seed) {
-  SceneDef s = io::load_default_scene();
+  SceneDef s = test::cubic_wall_scene();
   s.objects[0].size = {0.8, 0.15, 0.6};
   s.objects[0].position = {0, 0, 0.3};
   s.projectiles[0].radius = 0.08;
@@ -68,6 +68,7 @@ SceneDef drop_scene(Shape shape, double d, double speed) {
   s.name = "drop";
   s.source = "<test>";
   s.solver.spacing = d;
+  s.solver.lattice = SolverDef::Lattice::cubic;
   s.ground.enabled = true;
   ObjectDef o;
   o.shape = shape;

@@ -13,6 +13,7 @@ mca::SceneDef wall() {
   mca::SceneDef s;
   s.name = "api";
   s.solver.spacing = 0.05;
+  s.solver.lattice = mca::SolverDef::Lattice::cubic;
   s.heterogeneity.preset = "medium";
   mca::heterogeneity_preset("medium", s.heterogeneity.shares);
   s.ground.enabled = true;

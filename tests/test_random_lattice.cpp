@@ -85,7 +85,7 @@ TEST(RandomLattice, ABodyAtRestStaysAtRest) { test::expect_stays_at_rest(random_
 // faces); an object of one automaton, which has no link, crashed the energy sums; a scene over
 // solver.max_memory_gb passed its check, which counted no link.
 TEST(RandomLattice, AWallStandingOnTheGroundStaysWhole) {
-  SceneDef s = io::load_default_scene();
+  SceneDef s = test::cubic_wall_scene();
   s.solver.lattice = SolverDef::Lattice::random;
   s.projectiles.clear();
   Engine sim(s);
@@ -115,7 +115,7 @@ TEST(RandomLattice, AnObjectOfOneAutomatonRuns) {
 }
 
 TEST(RandomLattice, TheMemoryCheckCountsTheLinks) {
-  SceneDef s = io::load_default_scene();
+  SceneDef s = test::cubic_wall_scene();
   s.solver.spacing = 0.02;  // 75,000 automata: about 190 MB on the random lattice, 100 MB on the cubic one
   s.solver.max_memory_gb = 0.15;
   EXPECT_EQ(test::error_of([&] { lattice::build_model(s); }), "");

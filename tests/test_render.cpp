@@ -26,9 +26,14 @@
 #include "render/snapshot.hpp"
 #include "shell.hpp"
 #include "sim/engine.hpp"
+#include "support.hpp"
 #include "temp_dir.hpp"
 
 namespace mca {
+// The runs and views below: the default wall on the paper's cubic lattice (the default scene they were
+// written on, before the random lattice became the default).
+const std::string kCubicWall = MCA_SOURCE_DIR "/scenes/wall_ball_cubic.toml";
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -81,7 +86,7 @@ class Offscreen {
 
 TEST(Render, DefaultSceneShowsTheWallAndItsBreak) {
   constexpr int W = 320, H = 180;
-  Engine sim(io::load_default_scene());
+  Engine sim(test::cubic_wall_scene());
   Offscreen off(W, H);
   const auto framing = render::objects_box(sim.model(), sim.state());
   const auto cam = render::make_camera(sim.scene().camera, sim.model(), framing, float(W) / H, "test");
@@ -147,9 +152,9 @@ TEST(Render, FontHasEveryCharacterTheOverlayWrites) {
 TEST(Render, RunWritesFramesVideoAndContactSheetAndChangesNoResult) {
   TempDir d;
   const fs::path with = d.path() / "with", without = d.path() / "without";
-  const Result r = run_mca("run -q --duration 0.004 --render --render-size 320x180 --out " + with.string());
+  const Result r = run_mca("run " + kCubicWall + " -q --duration 0.004 --render --render-size 320x180 --out " + with.string());
   ASSERT_EQ(r.code, 0) << r.output;
-  const Result r2 = run_mca("run -q --duration 0.004 --out " + without.string());
+  const Result r2 = run_mca("run " + kCubicWall + " -q --duration 0.004 --out " + without.string());
   ASSERT_EQ(r2.code, 0) << r2.output;
   const auto hash = [](const fs::path& dir) {
     std::ifstream in(dir / "summary.json");
@@ -186,7 +191,7 @@ TEST(Render, RunWritesFramesVideoAndContactSheetAndChangesNoResult) {
 TEST(Render, AResumedRunRendersTheFramesItAdds) {
   TempDir d;
   const fs::path dir = d.path() / "run";
-  const Result r = run_mca("run -q --duration 0.012 --render --render-size 320x180 --render-colour damage "
+  const Result r = run_mca("run " + kCubicWall + " -q --duration 0.012 --render --render-size 320x180 --render-colour damage "
                            "--checkpoint-every 2 --out " + dir.string());
   ASSERT_EQ(r.code, 0) << r.output;
   const fs::path rd = dir / "render";
@@ -237,7 +242,7 @@ TEST(Render, AResumedRunRendersTheFramesItAdds) {
 TEST(Render, WithoutFfmpegThePngsAreWrittenAndTheMessageSaysHowToGetTheVideo) {
   TempDir d;
   // A PATH without ffmpeg (the program is called by its full path).
-  const Result r = shell("PATH=/nonexistent " + std::string(MCA_BINARY) + " run -q --steps 10 --render --render-size 64x48 --out " +
+  const Result r = shell("PATH=/nonexistent " + std::string(MCA_BINARY) + " run " + kCubicWall + " -q --steps 10 --render --render-size 64x48 --out " +
                          d.path().string());
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("apt-get install ffmpeg"), std::string::npos) << r.output;
@@ -258,7 +263,7 @@ TEST(Render, AFailingFfmpegDropsTheVideoAndTheRunGoesOn) {
     std::ofstream(bin / "ffmpeg") << "#!/bin/sh\n" << body << "\n";
     fs::permissions(bin / "ffmpeg", fs::perms::owner_all);
     const Result r = shell("MCA_FFMPEG_TIMEOUT=2 PATH=" + bin.string() + ":/usr/bin:/bin " + std::string(MCA_BINARY) +
-                           " run -q --duration 0.004 --render --render-size 64x48 --out " + out.string());
+                           " run " + kCubicWall + " -q --duration 0.004 --render --render-size 64x48 --out " + out.string());
     ASSERT_EQ(r.code, 0) << body << ": " << r.output;
     if (body.find("sleep") != std::string::npos) {
       EXPECT_NE(r.output.find("was stopped"), std::string::npos) << body << ": " << r.output;
@@ -281,7 +286,7 @@ TEST(Render, AFolderNamedFfmpegOnThePathIsPassedOver) {
   TempDir d;
   fs::create_directories(d.path() / "bin" / "ffmpeg");
   const Result r = shell("PATH=" + (d.path() / "bin").string() + ":/usr/bin:/bin " + std::string(MCA_BINARY) +
-                         " run -q --duration 0.004 --render --render-size 64x48 --out " + (d.path() / "out").string());
+                         " run " + kCubicWall + " -q --duration 0.004 --render --render-size 64x48 --out " + (d.path() / "out").string());
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_TRUE(fs::exists(d.path() / "out" / "render" / "video.mp4")) << r.output;
 }
@@ -290,14 +295,14 @@ TEST(Render, NoOpenGLStopsBeforeTheRunWithAClearMessage) {
   TempDir d;
   // No EGL vendor library: no display, no context.
   const Result r = shell("__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent.json __EGL_VENDOR_LIBRARY_DIRS=/nonexistent " +
-                         std::string(MCA_BINARY) + " run -q --steps 10 --render --out " + d.path().string());
+                         std::string(MCA_BINARY) + " run " + kCubicWall + " -q --steps 10 --render --out " + d.path().string());
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.output.find("cannot create an offscreen OpenGL"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("without --render"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(d.path() / "render"));
   EXPECT_FALSE(fs::exists(d.path() / "scene.toml"));
   const Result fresh = shell("__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent.json __EGL_VENDOR_LIBRARY_DIRS=/nonexistent " +
-                             std::string(MCA_BINARY) + " run -q --steps 10 --render --out " + (d.path() / "new").string());
+                             std::string(MCA_BINARY) + " run " + kCubicWall + " -q --steps 10 --render --out " + (d.path() / "new").string());
   EXPECT_NE(fresh.code, 0);
   EXPECT_FALSE(fs::exists(d.path() / "new")) << fresh.output;
   EXPECT_FALSE(fs::exists(d.path() / "stats.csv"));
@@ -306,30 +311,30 @@ TEST(Render, NoOpenGLStopsBeforeTheRunWithAClearMessage) {
 TEST(Render, BadOptionsAreRefusedWithTheFix) {
   TempDir d;
   for (const std::string size : {"0x720", "1280x0", "abc", "1280x", "-5x10", "100000x100"}) {
-    const Result r = run_mca("run -q --steps 1 --render --render-size " + size + " --out " + d.path().string());
+    const Result r = run_mca("run " + kCubicWall + " -q --steps 1 --render --render-size " + size + " --out " + d.path().string());
     EXPECT_EQ(r.code, 2) << size << ": " << r.output;
     EXPECT_NE(r.output.find("--render-size"), std::string::npos) << r.output;
   }
-  const Result c = run_mca("run -q --steps 1 --render --render-colour rainbow --out " + d.path().string());
+  const Result c = run_mca("run " + kCubicWall + " -q --steps 1 --render --render-colour rainbow --out " + d.path().string());
   EXPECT_EQ(c.code, 2);
   EXPECT_NE(c.output.find("fragment, damage"), std::string::npos) << c.output;
-  const Result s = run_mca("run -q --steps 1 --render --render-draw surface --out " + d.path().string());
+  const Result s = run_mca("run " + kCubicWall + " -q --steps 1 --render --render-draw surface --out " + d.path().string());
   EXPECT_EQ(s.code, 2);
   EXPECT_NE(s.output.find("mesh"), std::string::npos) << s.output;
   for (const std::string fps : {"0.001", "0.5", "241", "-1", "nan"}) {
-    const Result f = run_mca("run -q --steps 1 --render --render-fps " + fps + " --out " + d.path().string());
+    const Result f = run_mca("run " + kCubicWall + " -q --steps 1 --render --render-fps " + fps + " --out " + d.path().string());
     EXPECT_EQ(f.code, 2) << fps << ": " << f.output;
     EXPECT_NE(f.output.find("give 1 to 240"), std::string::npos) << f.output;
   }
   // Refused when the renderer is made: the output folder this run would have created is not left behind.
   const fs::path fresh = d.path() / "fresh" / "out";
-  const Result e = run_mca("run -q --steps 1 --render --render-draw surface --out " + fresh.string());
+  const Result e = run_mca("run " + kCubicWall + " -q --steps 1 --render --render-draw surface --out " + fresh.string());
   EXPECT_EQ(e.code, 2) << e.output;
   EXPECT_FALSE(fs::exists(d.path() / "fresh")) << e.output;
-  const Result n = run_mca("run -q --steps 1 --render-size 64x64 --out " + d.path().string());
+  const Result n = run_mca("run " + kCubicWall + " -q --steps 1 --render-size 64x64 --out " + d.path().string());
   EXPECT_NE(n.code, 0);  // --render-size needs --render
   // An output folder that cannot be written.
-  const Result w = run_mca("run -q --steps 1 --render --out /proc/mca_cannot_write");
+  const Result w = run_mca("run " + kCubicWall + " -q --steps 1 --render --out /proc/mca_cannot_write");
   EXPECT_EQ(w.code, 2) << w.output;
   EXPECT_NE(w.output.find("/proc/mca_cannot_write"), std::string::npos) << w.output;
 }
@@ -405,7 +410,7 @@ TEST(Render, CameraInsideTheObjectsOrLookingAwayIsAnError) {
 // flickered): from one frame to the next, an automaton whose piece keeps its smallest automaton keeps its
 // colour, while the ids of many such automata change.
 TEST(Render, FragmentColoursStayWithThePieceAcrossFrames) {
-  Engine sim(io::load_default_scene());
+  Engine sim(test::cubic_wall_scene());
   sim.advance(4500);  // 9 ms: pieces fly off, the wall's main body still holds most of it
   render::SnapshotOptions o;
   o.all_automata = true;
@@ -445,7 +450,7 @@ TEST(Render, FragmentColoursStayWithThePieceAcrossFrames) {
 }
 
 TEST(Render, ExposedAutomataAreThoseWithABrokenOrMissingLink) {
-  Engine sim(io::load_default_scene());
+  Engine sim(test::cubic_wall_scene());
   const auto exposed = render::exposed_automata(sim.model(), sim.state());
   // 40 x 4 x 30 automata: the 38 x 2 x 28 inside have all six links.
   std::size_t n = 0;
@@ -455,7 +460,7 @@ TEST(Render, ExposedAutomataAreThoseWithABrokenOrMissingLink) {
 
 // Drawn as links, a piece of one automaton (no intact link) is its cube, so debris does not vanish.
 TEST(Render, LinksModeDrawsPiecesOfOneAutomatonAsCubes) {
-  Engine sim(io::load_default_scene());
+  Engine sim(test::cubic_wall_scene());
   State st = sim.state();
   sim.model().for_each_link_of(1234, [&](std::size_t l) { st.intact[l] = 0; });
   const auto frags = analysis::label_model_fragments(sim.model(), st.intact.data());
@@ -473,7 +478,7 @@ TEST(View, ScriptedShotUnderAVirtualDisplayShowsTheBrokenWall) {
   const fs::path script = d.path() / "shots.txt", png = d.path() / "view.png";
   std::ofstream(script) << "# time x y\n0.002 0.6 0.45\n";
   const Result r = shell("timeout 120 xvfb-run -a -s '-screen 0 1280x720x24' " + std::string(MCA_BINARY) +
-                         " view --size 480x270 --frames 12 --script " + script.string() + " --screenshot " + png.string());
+                         " view " + kCubicWall + " --size 480x270 --frames 12 --script " + script.string() + " --screenshot " + png.string());
   ASSERT_EQ(r.code, 0) << r.output;
   // 12 frames of 2 ms; the scene's ball and the scripted one.
   EXPECT_NE(r.output.find("t = 22.00 ms, 1 shot fired, 2 projectiles"), std::string::npos) << r.output;
@@ -493,7 +498,7 @@ TEST(View, ScriptedShotUnderAVirtualDisplayShowsTheBrokenWall) {
 
 // Runs `mca view` under a virtual display with `args`.
 Result view_under_xvfb(const std::string& args) {
-  return shell("timeout 120 xvfb-run -a -s '-screen 0 1280x720x24' " + std::string(MCA_BINARY) + " view " + args);
+  return shell("timeout 120 xvfb-run -a -s '-screen 0 1280x720x24' " + std::string(MCA_BINARY) + " view " + kCubicWall + " " + args);
 }
 
 // Every scripted shot fires (each later one is checked against where the earlier balls are now, not where

@@ -65,6 +65,20 @@ TEST(SceneIo, DefaultSceneIsTheWallAndBall) {
   EXPECT_DOUBLE_EQ(s.projectiles[0].velocity[1], 30.0);
   EXPECT_DOUBLE_EQ(s.heterogeneity.grain_size, 0.2);
   EXPECT_TRUE(s.ground.enabled);
+  // The random lattice (the default for every scene), its concrete softening with its links' own strengths,
+  // run until the pieces have parted.
+  EXPECT_EQ(s.solver.lattice, mca::SolverDef::Lattice::random);
+  EXPECT_EQ(mca::SolverDef{}.lattice, mca::SolverDef::Lattice::random);
+  const mca::MaterialDef& concrete = mca::resolve_material(s, s.objects[0].material, "object[0].material");
+  EXPECT_EQ(concrete.fracture_energy, 100.0);
+  EXPECT_EQ(concrete.weibull_modulus, 6.0);
+  EXPECT_DOUBLE_EQ(s.output.duration, 0.15);
+  // scenes/wall_ball_cubic.toml is the same wall and ball on the paper's lattice with the paper's break.
+  const mca::SceneDef c = mca::io::load_scene_file(MCA_SOURCE_DIR "/scenes/wall_ball_cubic.toml");
+  EXPECT_EQ(c.solver.lattice, mca::SolverDef::Lattice::cubic);
+  EXPECT_TRUE(c.materials.empty());
+  EXPECT_EQ(c.objects[0].size, s.objects[0].size);
+  EXPECT_EQ(c.projectiles[0].velocity, s.projectiles[0].velocity);
 }
 
 TEST(SceneIo, TensionBarGripsTakeOneLayerEach) {

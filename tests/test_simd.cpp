@@ -41,7 +41,7 @@ TEST(Simd, EveryInstructionSetAndThreadCountGivesTheStoredHash) {
     for (int threads : {1, 2}) {
       ForceSimd force(k->name);
       tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
-      Engine sim(io::load_default_scene());
+      Engine sim(test::cubic_wall_scene());
       EXPECT_EQ(sim.backend().name(), std::string("cpu-") + k->name);
       ASSERT_EQ(sim.advance(3000).flags, kHealthy);
       EXPECT_GT(sim.state().broken_by[0] + sim.state().broken_by[1], 0);
@@ -91,6 +91,7 @@ SceneDef struck_scene(const std::string& name) {
   s.name = name;
   s.source = "<test>";
   s.solver.spacing = 0.05;
+  s.solver.lattice = SolverDef::Lattice::cubic;
   s.heterogeneity.preset = "medium";
   heterogeneity_preset("medium", s.heterogeneity.shares);
   s.ground.enabled = true;
@@ -176,13 +177,13 @@ TEST(Simd, TheSweepOfLinksSpanningSeveralChunks) {
 
 TEST(Simd, AnUnknownSweepIsAClearError) {
   ForceSweep how("fast");
-  const std::string e = test::error_of([] { Engine sim(io::load_default_scene()); });
+  const std::string e = test::error_of([] { Engine sim(test::cubic_wall_scene()); });
   EXPECT_NE(e.find("MCA_SWEEP=fast"), std::string::npos) << e;
   EXPECT_NE(e.find("passes"), std::string::npos) << e;
   // Any case, and empty as unset (as MCA_SIMD).
   for (const char* ok : {"Passes", "FUSED", "auto", ""}) {
     ForceSweep fine(ok);
-    EXPECT_EQ(test::error_of([] { Engine sim(io::load_default_scene()); }), "") << "MCA_SWEEP=" << ok;
+    EXPECT_EQ(test::error_of([] { Engine sim(test::cubic_wall_scene()); }), "") << "MCA_SWEEP=" << ok;
   }
 }
 
@@ -190,7 +191,7 @@ TEST(Simd, AnUnknownOrMissingInstructionSetIsAClearError) {
   {
     ForceSimd force("avx9");
     try {
-      Engine sim(io::load_default_scene());
+      Engine sim(test::cubic_wall_scene());
       FAIL() << "MCA_SIMD=avx9 was accepted";
     } catch (const Error& e) {
       const std::string what = e.what();
@@ -201,7 +202,7 @@ TEST(Simd, AnUnknownOrMissingInstructionSetIsAClearError) {
   }
   if (kernel_sets().size() < 4) {  // a processor without AVX-512 names the sets it has
     ForceSimd force("avx512");
-    EXPECT_THROW({ Engine sim(io::load_default_scene()); }, Error);
+    EXPECT_THROW({ Engine sim(test::cubic_wall_scene()); }, Error);
   }
 }
 
@@ -406,7 +407,7 @@ TEST(Simd, DirectionBlockedLayoutGivesTheForcesOfAnExplicitLinkList) {
 // from both sides; a twin whose marks are dropped every step (an upload resets them, so its projectile
 // pass tests every automaton) must stay bitwise equal.
 TEST(Simd, ProjectileMarksMissNoContact) {
-  SceneDef s = io::load_default_scene();
+  SceneDef s = test::cubic_wall_scene();
   s.objects[0].size = {0.8, 0.2, 0.6};
   s.objects[0].position = {0, 0, 0.3};
   s.projectiles.clear();

@@ -28,7 +28,7 @@ using test::TempDir;
 // --render-size 16x512 refused the automatic camera as a speck "of the [camera]" nobody wrote: the objects
 // fill the width of a tall picture and a small share of its height. Every shape the sizes allow frames them.
 TEST(RenderOptions, AutomaticCameraFramesEveryPictureShape) {
-  const SceneDef scene = io::load_default_scene();
+  const SceneDef scene = test::cubic_wall_scene();
   const Engine sim(scene);
   const auto f = render::objects_box(sim.model(), sim.state());
   for (const auto& [w, h] : {std::pair{16, 512}, {16, 8192}, {512, 16}, {8192, 16}, {16, 16}, {1280, 720}}) {
@@ -91,7 +91,7 @@ TEST(ViewScript, AShotAtAFramesTimeFiresWithIt) {
   if (shell("command -v xvfb-run").code != 0) GTEST_SKIP() << "xvfb-run is not installed (scripts/setup.sh)";
   // The default scene at a frame rate with a frame whose time, as the simulation counts it, falls short of
   // the decimal time written for it.
-  SceneDef scene = io::load_default_scene();
+  SceneDef scene = test::cubic_wall_scene();
   int k = 0;
   std::string when;
   for (double rate : {500.0, 1000.0, 1500.0, 700.0, 3000.0, 900.0, 1100.0, 1300.0}) {

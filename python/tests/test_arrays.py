@@ -11,7 +11,7 @@ import mca
 @pytest.fixture
 def sim():
     s = mca.Simulation(mca.Scene.default(), threads=2)
-    s.advance(2500)
+    s.advance(6000)  # the ball strikes after about 3,400 steps
     return s
 
 

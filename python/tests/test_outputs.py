@@ -12,12 +12,12 @@ from conftest import run_command
 
 def test_checkpoint_and_resume_continue_bitwise(tmp_path):
     a = mca.Simulation(mca.Scene.default(), threads=2)
-    a.advance(1700)
-    a.checkpoint(tmp_path / "at1700.mcack")
-    a.advance(800)
-    b = mca.Simulation.resume(tmp_path / "at1700.mcack", threads=1)
-    assert b.step == 1700
-    b.advance(800)
+    a.advance(3400)  # the ball strikes
+    a.checkpoint(tmp_path / "at3400.mcack")
+    a.advance(1600)
+    b = mca.Simulation.resume(tmp_path / "at3400.mcack", threads=1)
+    assert b.step == 3400
+    b.advance(1600)
     assert b.state_hash() == a.state_hash()
     assert np.array_equal(b.positions(), a.positions())
 
@@ -79,7 +79,7 @@ def png_size(path):
 
 def test_render_draws_the_state(tmp_path):
     sim = mca.Simulation(mca.Scene.default(), threads=2)
-    sim.advance(4000)
+    sim.advance(6000)  # the ball strikes after about 3,400 steps
     image = mca.render(sim, tmp_path / "f.png", colour="damage", size=(320, 240))
     assert image.shape == (240, 320, 4) and image.dtype == np.uint8
     assert png_size(tmp_path / "f.png") == (320, 240)

@@ -147,9 +147,10 @@ def test_names_given_as_arguments_are_text():
     assert scene.add_material("weak", base="glass").youngs_modulus == mca.Material.builtin("glass").youngs_modulus
 
 
-def test_the_random_lattice_is_chosen_and_round_trips():
+def test_the_lattice_is_chosen_and_round_trips():
     scene = mca.Scene.default()
-    assert scene.solver.lattice == "cubic"
-    scene.solver.lattice = "random"
-    assert mca.Scene.from_toml(scene.to_toml()).solver.lattice == "random"
-    assert mca.Solver(lattice="random").lattice == "random"
+    assert scene.solver.lattice == "random"  # the default
+    assert mca.Solver().lattice == "random"
+    scene.solver.lattice = "cubic"
+    assert mca.Scene.from_toml(scene.to_toml()).solver.lattice == "cubic"
+    assert mca.Solver(lattice="cubic").lattice == "cubic"

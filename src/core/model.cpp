@@ -19,7 +19,7 @@ void automaton_damage(const Model& m, const std::uint8_t* intact, const float* l
   }
 }
 
-std::size_t estimate_memory_bytes(std::size_t automata, std::size_t explicit_links) {
+std::size_t estimate_memory_bytes(std::size_t automata, std::size_t explicit_links, std::size_t random_automata) {
   // What a run holds at its peak, counted from the arrays (and checked against the measured peak resident
   // size: Cli.MemoryEstimateMatchesThePeak). Links live in the three slots of each automaton (one per
   // axis, kept whether the link exists or not), so everything is per automaton:
@@ -40,15 +40,21 @@ std::size_t estimate_memory_bytes(std::size_t automata, std::size_t explicit_lin
   //                 libraries mapped at start-up (OpenVDB's symbol tables alone are 27 MB), shared with
   //                 every other process using them.
   // Explicit links (surface mode) come on top, per link:
-  //   model 52      ends 8, rest length 8, cross-section and edge 8, shell normal 12, two entries in the
+  //   model 48      ends 8, rest length 8, cross-section and edge 8, shell normal 12, two entries in the
   //                 per-automaton index 8, plus its offsets per automaton (counted here, per link, as 4)
-  //                 and the random lattice's cell centres (24 per automaton of about 7 links: 4)
   //   state 25      intact 1, shear displacement 12, bending moment 12
   //   backend 168   shear displacement and moment 24, constants 32, bending constants and normal 36, the
   //                 kernels' direction, strain, force and torque 40, break list 4, many-body weight and
   //                 gather list 16, padding 16
-  constexpr std::size_t per_automaton = 88 + 179 + 346 + 60 + 64 + 30, per_explicit_link = 52 + 25 + 168;
-  return automata * per_automaton + explicit_links * per_explicit_link + 42'000'000;
+  constexpr std::size_t per_automaton = 88 + 179 + 346 + 60 + 64 + 30, per_explicit_link = 48 + 25 + 168;
+  // A random lattice's automaton adds, on top of its explicit links: its cell's centre 24 (Model::cell0),
+  // the boxed and free-face flags 5, and about 170 of what was measured and is not itemised above (its
+  // contact lists are longer: a broken link's pair touches at its initial distance). Measured: blocks of
+  // 50,000, 100,000 and 200,000 automata (`mca info`'s peak 174, 309 and 579 MB; a run of the 100,000
+  // peaked at 320 MB), which the rest counts at 169, 299 and 558 MB.
+  constexpr std::size_t per_random_automaton = 200;
+  return automata * per_automaton + explicit_links * per_explicit_link + random_automata * per_random_automaton +
+         42'000'000;
 }
 
 float Model::contact_length(std::size_t i, std::size_t j, std::int64_t l) const {

@@ -341,6 +341,6 @@ struct Model {
 void automaton_damage(const Model& m, const std::uint8_t* intact, const float* link_damage, float* out);
 
 // Bytes a run of a model of this many automata holds at its peak, for `mca info` and the memory check.
-std::size_t estimate_memory_bytes(std::size_t automata, std::size_t explicit_links = 0);
+std::size_t estimate_memory_bytes(std::size_t automata, std::size_t explicit_links = 0, std::size_t random_automata = 0);
 
 }  // namespace mca

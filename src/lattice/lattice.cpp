@@ -419,7 +419,7 @@ std::string ten_thousand_hint(const SceneDef& scene, const Shapes& S) {
 double bytes_per_automaton(const SceneDef& scene) {
   const bool random = scene.solver.lattice == SolverDef::Lattice::random;
   const auto links = static_cast<std::size_t>(random ? 1000 * kRandomLinksPerAutomaton : 0);
-  return static_cast<double>(estimate_memory_bytes(1000, links) - estimate_memory_bytes(0)) / 1000;
+  return static_cast<double>(estimate_memory_bytes(1000, links, random ? 1000 : 0) - estimate_memory_bytes(0)) / 1000;
 }
 
 // The spacing at which `automata` at spacing d (a lower bound when `approximate`: half the volume's count)
