@@ -16,7 +16,8 @@
 
 namespace mca::test {
 
-// The default scene for 0.01 s with the ball 5 mm from the wall (it strikes within the first steps).
+// The cubic wall (scenes/wall_ball_cubic.toml) for 0.01 s with the ball 5 mm from the wall (it strikes
+// within the first steps); the tests of the other lattices set theirs.
 inline SceneDef struck_default_wall() {
   SceneDef s = test::cubic_wall_scene();
   s.output.duration = 0.01;

@@ -134,7 +134,7 @@ class Solver:
     local_damping: float
     stress_coefficient: float
     lattice: str
-    """"cubic" (the paper's lattice) or "random" (a site at a random point of each cell, linked to its Voronoi neighbours)."""
+    """"random" (the default: a site at a random point of each cell, linked to its Voronoi neighbours) or "cubic" (the paper's lattice)."""
     lattice_jitter: float
     """Sites moved by up to this share of d along each axis, in [0, 0.3]; 0: the cubic lattice."""
     skin: float
