@@ -545,10 +545,15 @@ int run(const RunOptions& o) {
                                                   o.render ? ro.width : 0, o.render ? ro.height : 0);
   check_output_fits(estimate, dir, scene);
   if (!o.quiet) {
-    fmt::print(stderr, "mca: {} automata, {} links, time step {:.4g} s, {} steps per frame, {} frames, {} steps, "
+    // Which lattice the volume fills are on (the default changed to the random one: a scene written for the
+    // cubic lattice that does not say so runs on the random one).
+    const Model& m = sim.model();
+    const bool volume = std::find(m.object_surface.begin(), m.object_surface.end(), 0) != m.object_surface.end();
+    const char* lattice = !m.object_random.empty() ? " on the random lattice" : volume ? " on the cubic lattice" : "";
+    fmt::print(stderr, "mca: {} automata{}, {} links, time step {:.4g} s, {} steps per frame, {} frames, {} steps, "
                "{} threads; about {} of output\n",
-               sim.model().size(), sim.model().link_count(), sim.model().dt, sim.steps_per_frame(), plan.total_frames,
-               plan.total_steps, threads, human_bytes(estimate.total()));
+               m.size(), lattice, m.link_count(), m.dt, sim.steps_per_frame(), plan.total_frames, plan.total_steps,
+               threads, human_bytes(estimate.total()));
   }
   // The renderer before any output: a missing OpenGL or a camera that sees nothing stops here.
   std::unique_ptr<RenderOutput> render;

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <random>
 #include <vector>
 
@@ -86,7 +87,7 @@ TEST(FragmentMeshVolume, PiecesOfABrokenWallHoldTheirCells) {
 }
 
 // On the random lattice a piece's solid is its automata's Voronoi cells: split by the bisectors between
-// sites, bounded by the object's cells (Model::cell0). A wall broken into 160 pieces of 1 to 70 automata, and
+// sites, bounded by the object's cells (Model::cell0). A wall broken into 160 pieces of about 30 automata, and
 // a sphere (a staircase of cells) into 40: each piece holds its Voronoi cells' volume within 3 % (measured
 // 0.975 to 1.002), all together the solid's within 1.5 % (0.991 and 0.990; the whole wall as one piece
 // 0.999). The loss is on the crack faces, whose Voronoi facets meet at edges every d or so that the
@@ -169,6 +170,57 @@ TEST(FragmentMeshVolume, SingleAutomataOfARandomLatticeHaveNoSpikes) {
   std::printf("%d pieces: vertices within %.3f d of their automata, edges up to %.3f d\n", pieces.count, far, edge);
   EXPECT_LT(far, std::sqrt(3.0));
   EXPECT_LT(edge, 1.5);
+}
+
+// A piece's mesh is carried to its pose by its automata's mean rotation. The mean aligned the quaternions'
+// signs to its first automaton's: where that one was spun about a half turn from its piece, the others
+// fell on both signs and cancelled, and the default scene's pieces were drawn up to 21 degrees off,
+// partly under the ground (the hostile review of 2026-12-03). The random wall turned and moved as one
+// body, each automaton's rotation a few degrees off the body's and of either sign, its first automaton a
+// half turn off: its mesh is the start's carried by the body's motion, within 5 mm.
+TEST(FragmentMeshVolume, APieceIsTurnedByItsAutomataNotByItsFirst) {
+  const Engine sim(io::load_default_scene());
+  const Model& m = sim.model();
+  analysis::Fragments one;
+  one.id.assign(m.size(), 0);
+  one.count = 1;
+  const State& start = sim.state();
+  const auto at_start = analysis::fragment_meshes(m, start, one, 0);
+  ASSERT_EQ(at_start.size(), 1u);
+  const double h = 0.5 * 40 * std::numbers::pi / 180;  // 40 degrees about (1, 2, 3)
+  const double an = std::sqrt(14.0);
+  const QuatT<double> R{std::cos(h), std::sin(h) / an, 2 * std::sin(h) / an, 3 * std::sin(h) / an};
+  const DVec3 shift{0.3, 1.0, 0.2};
+  DVec3 c{0, 0, 0};
+  for (const DVec3& p : m.position0) c = c + p;
+  c = c * (1.0 / static_cast<double>(m.size()));
+  State moved = start;
+  std::mt19937 rng(3);
+  std::normal_distribution<double> wobble(0.0, 0.03);  // about 3 degrees
+  for (std::size_t a = 0; a < m.size(); ++a) {
+    moved.x[a] = c + shift + rotated(R, m.position0[a] - c);
+    // R times a small rotation (or, for the first, a half turn about x), of a random sign.
+    const double e[3] = {a == 0 ? 1.0 : wobble(rng), a == 0 ? 0.0 : wobble(rng), a == 0 ? 0.0 : wobble(rng)};
+    const double w = a == 0 ? 0.0 : 1.0;
+    const double sign = rng() % 2 ? 1.0 : -1.0;
+    QuatT<double> q{R.w * w - R.x * e[0] - R.y * e[1] - R.z * e[2], R.w * e[0] + R.x * w + R.y * e[2] - R.z * e[1],
+                    R.w * e[1] - R.x * e[2] + R.y * w + R.z * e[0], R.w * e[2] + R.x * e[1] - R.y * e[0] + R.z * w};
+    const double n = sign / std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
+    moved.q[a] = Quat{static_cast<float>(q.w * n), static_cast<float>(q.x * n), static_cast<float>(q.y * n),
+                      static_cast<float>(q.z * n)};
+  }
+  const auto turned = analysis::fragment_meshes(m, moved, one, 0);
+  ASSERT_EQ(turned.size(), 1u);
+  ASSERT_EQ(turned[0].mesh.vertices.size(), at_start[0].mesh.vertices.size());
+  double off = 0;
+  for (std::size_t v = 0; v < turned[0].mesh.vertices.size(); ++v) {
+    const auto& p0 = at_start[0].mesh.vertices[v];
+    const auto& p1 = turned[0].mesh.vertices[v];
+    const DVec3 want = c + shift + rotated(R, DVec3{p0[0], p0[1], p0[2]} - c);
+    off = std::max(off, length(DVec3{p1[0], p1[1], p1[2]} - want));
+  }
+  std::printf("a turned wall's mesh: its vertices up to %.2f mm from the body's motion of the start's\n", 1e3 * off);
+  EXPECT_LT(off, 0.005);
 }
 
 // The bunny's pieces carried pairs of vertices at one point, each making two zero-area triangles (20 of

@@ -91,7 +91,9 @@ def lattice_neighbours(pos, obj, spacing):
         p = pos[sel]
         idx = np.rint((p - p.min(axis=0)) / spacing).astype(np.int64)
         if np.abs(idx * spacing + p.min(axis=0) - p).max() > 0.01 * spacing:
-            raise fm.RunError(f"object {o}: automata are not on an axis-aligned lattice of spacing {spacing}")
+            raise fm.RunError(f"object {o}: automata are not on an axis-aligned lattice of spacing {spacing}: "
+                              "this tool reads the cubic lattice's links (run the scene with lattice = \"cubic\" "
+                              "in [solver]; the random lattice is the default)")
         dims = idx.max(axis=0) + 2
         key = (idx[:, 0] * dims[1] + idx[:, 1]) * dims[2] + idx[:, 2]
         lookup = dict(zip(key.tolist(), sel.tolist()))

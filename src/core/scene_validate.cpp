@@ -252,8 +252,9 @@ void validate_scene(const SceneDef& scene) {
   c.range("solver.lattice_jitter", scene.solver.lattice_jitter, 0, true, 0.3, true, "in [0, 0.3] (share of the spacing)",
           "use 0 for the paper's cubic lattice, 0.25 for a lattice whose cracks do not follow its planes");
   if (scene.solver.lattice == SolverDef::Lattice::random && scene.solver.lattice_jitter > 0) {
-    c.fail(fmt::format("solver.lattice_jitter = {} moves the sites of the cubic lattice, and solver.lattice = \"random\" "
-                       "has random sites already; remove one of the two keys",
+    c.fail(fmt::format("solver.lattice_jitter = {} moves the sites of the cubic lattice, and solver.lattice is "
+                       "\"random\" (the default since 2026-12-03), whose sites are random already; to jitter the "
+                       "cubic lattice add lattice = \"cubic\" to [solver], or remove lattice_jitter",
                        num(scene.solver.lattice_jitter)));
   }
   // Automata with six intact links are left out of the contact search: their nearest unlinked
