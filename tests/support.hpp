@@ -26,8 +26,9 @@ namespace mca::test {
 // The default scene's wall and ball on the paper's cubic lattice with the instant break, 60 ms at 500 frames
 // a second (scenes/wall_ball_cubic.toml: the default scene until the random lattice became the default,
 // the same bits: Determinism.TheCubicWallGivesItsStoredHash). The tests of the cubic lattice's sweep, the
-// outputs and the renderer were written on it.
-inline SceneDef cubic_wall_scene() { return io::load_scene_file(MCA_SOURCE_DIR "/scenes/wall_ball_cubic.toml"); }
+// outputs and the renderer were written on it (the command-line tests run the file itself).
+inline const std::string kCubicWallPath = MCA_SOURCE_DIR "/scenes/wall_ball_cubic.toml";
+inline SceneDef cubic_wall_scene() { return io::load_scene_file(kCubicWallPath); }
 
 // The largest |strain| of the intact links of state s (lattice links with the spacing, explicit links with
 // their own rest lengths, as the kernels form them).

@@ -32,7 +32,7 @@
 namespace mca {
 // The runs and views below: the default wall on the paper's cubic lattice (the default scene they were
 // written on, before the random lattice became the default).
-const std::string kCubicWall = MCA_SOURCE_DIR "/scenes/wall_ball_cubic.toml";
+const std::string& kCubicWall = test::kCubicWallPath;
 
 namespace {
 

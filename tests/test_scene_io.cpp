@@ -12,6 +12,7 @@
 #include <mca/scene.hpp>
 
 #include "io/scene_io.hpp"
+#include "support.hpp"
 
 namespace {
 
@@ -74,7 +75,7 @@ TEST(SceneIo, DefaultSceneIsTheWallAndBall) {
   EXPECT_EQ(concrete.weibull_modulus, 6.0);
   EXPECT_DOUBLE_EQ(s.output.duration, 0.15);
   // scenes/wall_ball_cubic.toml is the same wall and ball on the paper's lattice with the paper's break.
-  const mca::SceneDef c = mca::io::load_scene_file(MCA_SOURCE_DIR "/scenes/wall_ball_cubic.toml");
+  const mca::SceneDef c = mca::test::cubic_wall_scene();
   EXPECT_EQ(c.solver.lattice, mca::SolverDef::Lattice::cubic);
   EXPECT_TRUE(c.materials.empty());
   EXPECT_EQ(c.objects[0].size, s.objects[0].size);
