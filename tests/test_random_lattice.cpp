@@ -6,11 +6,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <tbb/global_control.h>
 
 #include "io/scene_io.hpp"
 #include "lattice/lattice.hpp"
 #include "physics/fracture.hpp"
+#include "physics/link_law.hpp"
 #include "bitwise.hpp"
 #include "support.hpp"
 
@@ -321,6 +323,113 @@ TEST(RandomLattice, ABarsSurfaceIsAsStiffAsItsInterior) {
                 section, section, c, r, r / c);
     EXPECT_NEAR(r / c, 1.0, 0.015) << section;  // 1.0004 and 1.0022 (0.9461 and 0.9747 with random ghosts)
   }
+}
+
+// Two automata of the random lattice, one link along x, turning against each other about `axis` at
+// `omega` (rad/s) each, nothing else moving: the pair's springs see only the sum of the two rotations, so
+// without the bending spring (link_bending = 0) nothing resists and the link stays a free hinge; with it
+// the pair swings at omega_0 = sqrt(2 k / J), k the spring's stiffness about that axis
+// (volume_bending_constants) and J each automaton's moment of inertia.
+struct Hinge {
+  Model model;
+  std::vector<double> spin;  // the second automaton's angular velocity about the axis, after each step
+  double dt = 0, energy0 = 0, energy_spread = 0;
+  bool intact = true;
+};
+Hinge turned_pair(double bending, int axis, double omega, int steps, MaterialDef mat = test::test_material()) {
+  mat.damping_time = 0;
+  SceneDef s = test::block_scene(2, 1, 1, 0.01, mat);
+  s.solver.lattice = SolverDef::Lattice::random;
+  s.solver.link_bending = bending;
+  Engine sim(s);
+  State st = sim.state();
+  DVec3 w{};
+  (axis == 0 ? w.x : axis == 1 ? w.y : w.z) = omega;
+  st.w[0] = w * -1.0;
+  st.w[1] = w;
+  Engine run(s, st);
+  Hinge h{run.model(), {}, run.model().dt};
+  h.energy0 = run.energies().total();
+  double lo = h.energy0, hi = h.energy0;
+  for (int k = 0; k < steps; ++k) {
+    EXPECT_EQ(run.advance(1).flags, kHealthy);
+    const DVec3 w1 = run.state().w[1];
+    h.spin.push_back(axis == 0 ? w1.x : axis == 1 ? w1.y : w1.z);
+    const double e = run.energies().total();
+    lo = std::min(lo, e);
+    hi = std::max(hi, e);
+  }
+  h.energy_spread = (hi - lo) / h.energy0;
+  h.intact = run.state().intact[3 * run.model().size()] != 0;
+  return h;
+}
+
+TEST(RandomLattice, TwoAutomataTurningAgainstEachOtherAreHeldByTheBendingSpring) {
+  const double omega = 1.0;
+  // Without the spring: a hinge. Neither automaton's spin changes.
+  for (const int axis : {0, 1, 2}) {
+    const Hinge free = turned_pair(0.0, axis, omega, 2000);
+    ASSERT_EQ(free.model.explicit_links.size(), 1u);
+    EXPECT_TRUE(free.intact);
+    for (const double w : free.spin) EXPECT_NEAR(w, omega, 1e-6 * omega) << axis;
+  }
+  // With it: a swing at sqrt(2 k / J), about the link (twist, x) and across it (bending, y and z).
+  for (const int axis : {0, 1, 2}) {
+    const Hinge h0 = turned_pair(0.1, axis, omega, 20);
+    const Model& m = h0.model;
+    const auto& E = m.explicit_links;
+    const GroupParams& g = m.groups[m.group[0]];
+    EXPECT_FLOAT_EQ(static_cast<float>(E.edge[0] * E.edge[0]), E.area[0]);
+    const LinkBendingConstants bc = volume_bending_constants(m.lattice_stiffness * g.youngs, m.lattice_stiffness * g.shear_modulus,
+                                                             E.r0[0], E.edge[0], 0.1);
+    // The beam of the link's square section, a share 0.1 of it.
+    const double a = E.edge[0];
+    EXPECT_NEAR(bc.k_in, 0.1 * m.lattice_stiffness * g.youngs * a * a * a * a / (12 * E.r0[0]), 1e-5 * bc.k_in);
+    const double k = axis == 0 ? bc.k_twist : bc.k_in;
+    const double w0 = std::sqrt(2.0 * k / m.inertia[0]);
+    const int quarter = static_cast<int>(0.5 * std::numbers::pi / w0 / m.dt);
+    const Hinge h = turned_pair(0.1, axis, omega, 8 * quarter);
+    EXPECT_TRUE(h.intact);
+    // The first time the spin turns: a quarter of the swing's period (between two steps, interpolated).
+    // The spin after k steps turned the spring through step k + 1 before the next kick changed it: it is
+    // the spin at (k + 1/2) dt, as in any leapfrog (spin[i] is the spin after i + 1 steps).
+    std::size_t turn = 0;
+    while (turn < h.spin.size() && h.spin[turn] > 0) ++turn;
+    ASSERT_LT(turn, h.spin.size()) << "the spin never turned about axis " << axis;
+    ASSERT_GT(turn, 0u);
+    const double before = h.spin[turn - 1], after = h.spin[turn];
+    const double t = (static_cast<double>(turn) + 0.5 + before / (before - after)) * m.dt;
+    std::printf("pair turned about axis %d: quarter swing %.4g s, sqrt(2 k / J) gives %.4g s (%d steps); energy within %.2g\n",
+                axis, t, 0.5 * std::numbers::pi / w0, quarter, h.energy_spread);
+    EXPECT_NEAR(t * w0 / (0.5 * std::numbers::pi), 1.0, 0.01) << axis;
+    // Undamped: the kinetic energy goes into the spring and back (energies.cpp sums the spring's).
+    EXPECT_LT(h.energy_spread, 0.01) << axis;
+  }
+}
+
+// Turned fast enough, the bent link breaks by its stress criterion: the bending's fibre stress is its
+// moment M times 6 / a^3 (volume_bending_constants), and a moment of f a^3 / 6 breaks it, f its tensile
+// limit. The hinge of the same pair without the spring turns on, unbroken.
+TEST(RandomLattice, ABentLinkBreaksAtItsFibresStrength) {
+  MaterialDef mat = test::test_material();
+  mat.tensile_strength = 1e6;
+  mat.compressive_strength = 1e8;
+  // The largest moment of the swing is omega J w0 (the spin's energy, J omega^2 per automaton, in the
+  // spring: M^2 / (2 k) = J omega^2, M = omega sqrt(2 J k) = omega J w0): 1.1 and 0.9 times the moment
+  // that breaks it.
+  const Hinge h0 = turned_pair(0.1, 1, 1.0, 20, mat);
+  const Model& m = h0.model;
+  const auto& E = m.explicit_links;
+  const GroupParams& g = m.groups[m.group[0]];
+  const LinkBendingConstants bc =
+      volume_bending_constants(m.lattice_stiffness * g.youngs, m.lattice_stiffness * g.shear_modulus, E.r0[0], E.edge[0], 0.1);
+  const double a = E.edge[0], f = m.lattice_strength * mat.tensile_strength;
+  const double breaking = f * a * a * a / 6.0, omega = breaking / std::sqrt(2.0 * m.inertia[0] * bc.k_in);
+  const double w0 = std::sqrt(2.0 * bc.k_in / m.inertia[0]);
+  const int quarter = static_cast<int>(0.5 * std::numbers::pi / w0 / m.dt);
+  EXPECT_FALSE(turned_pair(0.1, 1, 1.1 * omega, 2 * quarter, mat).intact);
+  EXPECT_TRUE(turned_pair(0.1, 1, 0.9 * omega, 2 * quarter, mat).intact);
+  EXPECT_TRUE(turned_pair(0.0, 1, 1.1 * omega, 2 * quarter, mat).intact);
 }
 
 }  // namespace

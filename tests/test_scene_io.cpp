@@ -214,6 +214,7 @@ void expect_same(const mca::SceneDef& a, const mca::SceneDef& b) {
   EXPECT_EQ(a.solver.link_damping, b.solver.link_damping);
   EXPECT_EQ(a.solver.local_damping, b.solver.local_damping);
   EXPECT_EQ(a.solver.stress_coefficient, b.solver.stress_coefficient);
+  EXPECT_EQ(a.solver.link_bending, b.solver.link_bending);
   EXPECT_EQ(a.solver.skin, b.solver.skin);
   EXPECT_EQ(a.solver.seed, b.solver.seed);
   EXPECT_EQ(a.solver.max_memory_gb, b.solver.max_memory_gb);
@@ -327,6 +328,7 @@ TEST(SceneIo, RoundTripOfEveryMember) {
   s.solver.link_damping = 0.02;
   s.solver.local_damping = 0.2;
   s.solver.stress_coefficient = 1.1;
+  s.solver.link_bending = 0.37;
   s.solver.skin = 0.3;
   s.solver.seed = 0xFEDCBA9876543210ull;  // above 2^63: written as a negative TOML integer
   s.solver.max_memory_gb = 3.5;
@@ -470,6 +472,20 @@ TEST(SceneIo, PresetAndSharesBothGiven) {
 TEST(SceneIo, ZeroSpacing) {
   const std::string msg = parse_error(kMinimal + "[solver]\nspacing = 0\n", "wall.toml");
   EXPECT_HAS(msg, "wall.toml: solver.spacing = 0 is out of range: must be in [1e-9, 1e9] [m]");
+}
+
+// solver.link_bending: a share in [0, 1], of the random lattice's links only.
+TEST(SceneIo, LinkBendingIsAShareOfTheRandomLatticesOnly) {
+  EXPECT_EQ(parse_error(kMinimal + "[solver]\nlink_bending = 0\n"), "");
+  EXPECT_EQ(parse_error(kMinimal + "[solver]\nlink_bending = 1\n"), "");
+  EXPECT_HAS(parse_error(kMinimal + "[solver]\nlink_bending = 1.5\n", "wall.toml"),
+             "wall.toml: solver.link_bending = 1.5 is out of range: must be in [0, 1]");
+  EXPECT_HAS(parse_error(kMinimal + "[solver]\nlink_bending = -0.1\n"), "use 0.1 (the default, calibrated), or 0 for none");
+  const std::string cubic = parse_error(kMinimal + "[solver]\nlattice = \"cubic\"\nlink_bending = 0.5\n", "wall.toml");
+  EXPECT_HAS(cubic, "wall.toml: solver.link_bending = 0.5 sets the random lattice's bending springs");
+  EXPECT_HAS(cubic, "remove link_bending, or use lattice = \"random\"");
+  // The default, as a scene written back with the cubic lattice holds it, is no error.
+  EXPECT_EQ(parse_error(kMinimal + "[solver]\nlattice = \"cubic\"\nlink_bending = 0.1\n"), "");
 }
 
 TEST(SceneIo, ZeroSizeAndRadius) {

@@ -172,6 +172,12 @@ struct SolverDef {
   // site at each cell's centre, six face links; about 5 times faster per automaton-step, its cracks run
   // along its planes). Surface mode is unchanged.
   enum class Lattice { cubic, random } lattice = Lattice::random;
+  // The random lattice's links' bending and twisting springs, as a share beta of a beam of the link's own
+  // section (docs/model-notes.md, "The random lattice", Bending): without them (0) a line of intact links
+  // is a hinge, and a cracked body swung on it as one piece. The default, 0.1, is the calibrated one (E,
+  // nu and the tensile strength of a block); larger values stiffen the lattice and weaken it in tension
+  // (at 1: E +1.5 %, nu -2.2 %, a pulled block 27 % weaker). In [0, 1]; the cubic lattice has none.
+  double link_bending = 0.1;
   double skin = 0.3;                     // contact search skin, share of d, in (0, 0.4]
   std::uint64_t seed = 1;
   double max_memory_gb = 16.0;           // refuse models whose estimate exceeds this

@@ -137,6 +137,8 @@ class Solver:
     """"random" (the default: a site at a random point of each cell, linked to its Voronoi neighbours) or "cubic" (the paper's lattice)."""
     lattice_jitter: float
     """Sites moved by up to this share of d along each axis, in [0, 0.3]; 0: the cubic lattice."""
+    link_bending: float
+    """The random lattice's links' bending springs, a share of a beam of their section, in [0, 1]; 0.1 (the default) is calibrated; 0: none."""
     skin: float
     seed: int
     max_memory_gb: float

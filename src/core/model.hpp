@@ -139,6 +139,9 @@ struct Model {
   // The factor on the strengths and breaking strains of the random lattice's automata
   // (lattice::kRandomStrength) that gives a block of it the cubic lattice's tensile strength; 1 otherwise.
   float lattice_strength = 1.0f;
+  // The factor beta on the random lattice's links' bending and twisting springs
+  // (volume_bending_constants; SolverDef::link_bending); 0: none (the cubic and jittered lattices).
+  float lattice_bending = 0.0f;
   // Per link slot: the link's own strength factor (Weibull, MaterialDef::weibull_modulus), which
   // multiplies the weaker end's strengths and breaking strain (lattice links and the random lattice's
   // explicit links; 1 on a surface-mode object's); empty when no material has a spread.
@@ -173,8 +176,8 @@ struct Model {
   std::vector<std::array<Vec3, 3>> object_axes;
   std::vector<std::uint8_t> object_surface;  // per object: 1 when filled in surface mode (explicit links)
   // Per object: 1 when filled with the random lattice (SolverDef::Lattice::random): its automata are joined
-  // by explicit links under the volume's law (a many-body term over the Voronoi cell, no bending spring),
-  // not the shell's. Empty when no object is.
+  // by explicit links under the volume's law (a many-body term over the Voronoi cell, a bending spring of
+  // the link's own section: lattice_bending), not the shell's. Empty when no object is.
   std::vector<std::uint8_t> object_random;
   // Per automaton, when an object is filled with the random lattice (empty otherwise): the centre of the
   // cubic cell its site lies in (world, at the start; an automaton of another object: its position0). The

@@ -257,6 +257,14 @@ void validate_scene(const SceneDef& scene) {
                        "cubic lattice add lattice = \"cubic\" to [solver], or remove lattice_jitter",
                        num(scene.solver.lattice_jitter)));
   }
+  c.range("solver.link_bending", scene.solver.link_bending, 0, true, 1, true, "in [0, 1] (share of a beam of the link's section)",
+          "use 0.1 (the default, calibrated), or 0 for none");
+  if (scene.solver.lattice == SolverDef::Lattice::cubic && scene.solver.link_bending != SolverDef{}.link_bending) {
+    c.fail(fmt::format("solver.link_bending = {} sets the random lattice's bending springs, and solver.lattice is "
+                       "\"cubic\", whose links have none (the paper's model); remove link_bending, or use "
+                       "lattice = \"random\"",
+                       num(scene.solver.link_bending)));
+  }
   // Automata with six intact links are left out of the contact search: their nearest unlinked
   // neighbours sit at sqrt(2) d, out of reach only while r_i + r_j + skin = d + skin < sqrt(2) d.
   c.range("solver.skin", scene.solver.skin, 0, false, 0.4, true, "in (0, 0.4] (share of the spacing; above about "

@@ -508,7 +508,7 @@ SceneDef read_scene(const Table& root, const std::string& source) {
 
   if (auto tb = root.table("solver", "[solver]")) {
     tb->allow({"spacing", "target_automata", "safety", "time_step", "mass_scaling", "gravity", "link_damping",
-               "local_damping", "stress_coefficient", "lattice", "lattice_jitter", "skin", "seed", "max_memory_gb"});
+               "local_damping", "stress_coefficient", "lattice", "lattice_jitter", "link_bending", "skin", "seed", "max_memory_gb"});
     SolverDef& s = scene.solver;
     tb->number("spacing", s.spacing);
     tb->integer("target_automata", s.target_automata);
@@ -523,6 +523,7 @@ SceneDef read_scene(const Table& root, const std::string& source) {
       s.lattice = *f == "random" ? SolverDef::Lattice::random : SolverDef::Lattice::cubic;
     }
     tb->number("lattice_jitter", s.lattice_jitter);
+    tb->number("link_bending", s.link_bending);
     tb->number("skin", s.skin);
     std::int64_t seed = 0;
     // TOML integers are signed 64-bit: seeds above 2^63-1 are written (and read) as their two's
@@ -871,6 +872,7 @@ std::string scene_to_toml(const SceneDef& s) {
   out += fmt::format("stress_coefficient = {}\n", toml_double(s.solver.stress_coefficient));
   out += s.solver.lattice == SolverDef::Lattice::random ? "lattice = \"random\"\n" : "lattice = \"cubic\"\n";
   out += fmt::format("lattice_jitter = {}\n", toml_double(s.solver.lattice_jitter));
+  out += fmt::format("link_bending = {}\n", toml_double(s.solver.link_bending));
   out += fmt::format("skin = {}\n", toml_double(s.solver.skin));
   out += fmt::format("seed = {}\n", static_cast<std::int64_t>(s.solver.seed));
   out += fmt::format("max_memory_gb = {}\n", toml_double(s.solver.max_memory_gb));

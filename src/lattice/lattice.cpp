@@ -1232,7 +1232,8 @@ void link_random(Model& M, const SceneDef& scene, std::size_t oi, std::size_t fi
     E.r0.push_back(r0);
     E.area.push_back(static_cast<float>(v.area[l]));
     E.edge.push_back(static_cast<float>(std::sqrt(v.area[l])));
-    // No bending spring: any unit vector orthogonal to the link.
+    // The bending spring's axes (volume_bending_constants: the same about every axis across the link): any
+    // unit vector orthogonal to the link.
     const DVec3 u{dd.x / r0, dd.y / r0, dd.z / r0};
     const DVec3 axis = std::fabs(u.x) < 0.6 ? DVec3{1, 0, 0} : DVec3{0, 1, 0};
     DVec3 m{axis.x - dot(axis, u) * u.x, axis.y - dot(axis, u) * u.y, axis.z - dot(axis, u) * u.z};
@@ -1613,6 +1614,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
     M.lattice_stiffness = kRandomStiffness;
     M.lattice_lambda = kRandomLambda;
     M.lattice_strength = kRandomStrength;
+    M.lattice_bending = static_cast<float>(scene.solver.link_bending);
   }
 
   const std::size_t n = M.size();

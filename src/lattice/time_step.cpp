@@ -146,8 +146,9 @@ struct SurfaceRows {
   std::size_t automata = 0;
 };
 
-// Automata joined by explicit links: of surface-mode objects and of the random lattice (their bound is
-// the surface automata's, with the random lattice's many-body term and no bending spring).
+// Automata joined by explicit links: of surface-mode objects and of the random lattice (their rows are
+// the surface automata's, with the random lattice's many-body term and without its bending springs: of a
+// random automaton only an unlinked one's rows are used, random_lattice_bound bounds the others).
 bool explicit_automaton(const Model& M, std::size_t a) { return M.object_surface[M.object[a]] || M.random_automaton(a); }
 
 const char* explicit_bound_name(const Model& M) {
@@ -412,9 +413,17 @@ RandomBound random_lattice_bound(const Model& M, const std::vector<double>& fmax
                                                      M.contact_material(M.group[i], M.group[j]).zeta);
     const DVec3 d = ddelta(M.position0[i], M.position0[j]);
     const DVec3 u{d.x / r0, d.y / r0, d.z / r0};
+    // The link's bending and twisting spring (volume_bending_constants), as an isotropic one of its
+    // stiffer axis, or the contact's rolling and twisting springs, whichever is stiffer.
+    double k_rot = static_cast<double>(cs.kr) + cs.kw;
+    if (M.lattice_bending > 0.0f) {
+      const LinkBendingConstants bc =
+          volume_bending_constants(s * harmonic(A.youngs, B.youngs), G, r0, E.edge[l], M.lattice_bending);
+      k_rot = std::max({k_rot, static_cast<double>(bc.k_in), static_cast<double>(bc.k_twist)});
+    }
     springs_of.push_back({i, j, std::max(2.0 * G * area / r0 * f, static_cast<double>(cs.kn)),
-                          std::max(kShearFactor * G * area / r0 * f, static_cast<double>(cs.kt)),
-                          static_cast<double>(cs.kr) + cs.kw, 0.5 * r0, area, u});
+                          std::max(kShearFactor * G * area / r0 * f, static_cast<double>(cs.kt)), k_rot, 0.5 * r0,
+                          area, u});
     // The link's dashpots at the largest strengthening (the backend's are set from the unstrengthened
     // stiffness; this is the larger) and a contact's normal one at a third, without the rolling and
     // twisting dashpots, as the cubic lattice's bound takes them (below: a clipped contact dashpot damps

@@ -152,7 +152,8 @@ MCA_HD RandomManyBody random_many_body(float lambda, float lambda_over_2g, float
   return {theta, 0.5f * lambda * theta};
 }
 
-// Bending and twisting of an explicit link (surface mode). A shell one automaton thick has no bending
+// Bending and twisting of an explicit link (surface mode; the random lattice's links take the same spring
+// with their own constants, volume_bending_constants below). A shell one automaton thick has no bending
 // stiffness from pair forces alone (each automaton turns with its links and the chain folds freely), nor
 // enough in-plane shear stiffness (its links form a honeycomb), so an explicit link also resists the
 // relative rotation of its ends, as the bonds of bonded-particle models do: about the link (twist) and
@@ -231,6 +232,24 @@ inline LinkBendingConstants link_bending_constants(double E, double nu, double r
   return {static_cast<float>(k),                     static_cast<float>(E * I_in / r0),
           static_cast<float>(k),                     static_cast<float>(0.5 * edge / I_in),
           static_cast<float>(0.5 * thickness / I_out), static_cast<float>(b / J)};
+}
+
+// The bending and twisting spring of a random-lattice link (volume law; Model::lattice_bending = beta),
+// the parallel bond of bonded-particle models: the link is a beam of its Voronoi face's area A taken as a
+// square section of side a = sqrt(A) (ExplicitLinks::edge), E and G the pair's (with the lattice's
+// stiffness factor). About both axes across the link k = beta E I / r0, I = a^4 / 12; about the link
+// k = beta G J / r0, J = 0.1406 a^4 (a square's torsion constant). The outer fibres' stress per unit
+// moment is a / (2 I) = 6 / a^3 about each axis (a corner sees both: link_bending adds them), the twist's
+// largest shear 1 / (0.208 a^3). Without it a line of intact links is a hinge: two ends turning opposite
+// ways about an axis across the link stretch no spring (link_force sees only the sum of their rotations),
+// and a cracked body stayed one piece, swinging on the few links its crack had left (docs/model-notes.md,
+// "The random lattice", Bending).
+inline LinkBendingConstants volume_bending_constants(double E, double G, double r0, double edge, double beta) {
+  const double a2 = edge * edge, a3 = a2 * edge, a4 = a2 * a2;
+  const double k_bend = beta * E * a4 / (12.0 * r0), k_twist = beta * G * 0.1406 * a4 / r0;
+  const float s = static_cast<float>(6.0 / a3);
+  return {static_cast<float>(k_twist), static_cast<float>(k_bend), static_cast<float>(k_bend),
+          s,                            s,                           static_cast<float>(1.0 / (0.208 * a3))};
 }
 
 // The energy M^2 / (2 k) of one axis of the spring (0 for a spring of no stiffness, whose moment stays 0).

@@ -148,6 +148,7 @@ std::uint64_t model_fingerprint(const Model& m) {
     f.add(m.lattice_stiffness);
     f.add(m.lattice_lambda);
     f.add(m.lattice_strength);
+    f.add(m.lattice_bending);
   }
   // Scene-level numbers. Names are left out: they label outputs and do not shape the state.
   f.add(m.groups);

@@ -191,7 +191,8 @@ class CpuBackend final : public Backend {
       const std::uint32_t i = E.i[k], j = E.j[k];
       const GroupParams &gi = m.groups[m.group[i]], &gj = m.groups[m.group[j]];
       // A link of the random lattice (volume law): its ends' weights are their many-body stresses
-      // (explicit_link_pass), its moduli carry the lattice's factor, and it has no bending spring.
+      // (explicit_link_pass), its moduli carry the lattice's factor, and its bending spring is a beam of its
+      // own section (volume_bending_constants; none at link_bending = 0).
       const bool volume = m.random_automaton(i);
       const float s = volume ? m.lattice_stiffness : 1.0f, sl = volume ? m.lattice_lambda : 1.0f;
       ex_r0f_[k] = static_cast<float>(E.r0[k]);
@@ -225,13 +226,16 @@ class CpuBackend final : public Backend {
       ex_m0x_[k] = E.normal[k].x;
       ex_m0y_[k] = E.normal[k].y;
       ex_m0z_[k] = E.normal[k].z;
-      ex_bends_[k] = !volume;
-      if (volume) {
+      // 1: a shell's spring; 2: a random-lattice link's (volume_bending_constants); 0: none.
+      ex_bends_[k] = !volume ? 1 : m.lattice_bending > 0.0f ? 2 : 0;
+      if (ex_bends_[k] == 0) {
         ex_k_twist_[k] = ex_k_in_[k] = ex_k_out_[k] = ex_s_in_[k] = ex_s_out_[k] = ex_s_twist_[k] = 0.0f;
         continue;
       }
-      const LinkBendingConstants bc = link_bending_constants(harmonic(gi.youngs, gj.youngs), 0.5 * (gi.poisson + gj.poisson),
-                                                             E.r0[k], E.edge[k], E.area[k] / E.edge[k]);
+      const LinkBendingConstants bc =
+          volume ? volume_bending_constants(s * harmonic(gi.youngs, gj.youngs), ex_G_[k], E.r0[k], E.edge[k], m.lattice_bending)
+                 : link_bending_constants(harmonic(gi.youngs, gj.youngs), 0.5 * (gi.poisson + gj.poisson), E.r0[k],
+                                          E.edge[k], E.area[k] / E.edge[k]);
       ex_k_twist_[k] = bc.k_twist;
       ex_k_in_[k] = bc.k_in;
       ex_k_out_[k] = bc.k_out;
@@ -250,7 +254,7 @@ class CpuBackend final : public Backend {
     bend_weight_.assign(n, 0.0f);
     bend_c_.assign(n, 0.0f);
     for (const std::uint32_t a : explicit_automata_) {
-      if (m.random_automaton(a)) continue;  // no bending spring
+      if (m.random_automaton(a)) continue;  // no shell's many-body bending
       const GroupParams& g = m.groups[m.group[a]];
       const std::uint32_t l = E.of[E.first[a]];
       bend_c_[a] = static_cast<float>(bending_many_body_constant(g.youngs, g.poisson, E.area[l] / E.edge[l], m.volume[a]));
@@ -862,12 +866,12 @@ void CpuBackend::explicit_gather_pass(bool last) {
     Vec3 f, t;
     Sym3 s;
     bool any = false;
-    // A random-lattice automaton's links have no bending torque (ExplicitView::bends): adding their zeros
-    // would change no bit of t (it never holds -0), so they are not read. Its mean stress is read by no
+    // A random-lattice automaton's links have no bending torque at link_bending = 0 (ExplicitView::bends):
+    // adding their zeros would change no bit of t (it never holds -0), so they are not read. Its mean stress is read by no
     // criterion (random_link_effort), so its links' stresses are summed only on a call's last step, whose
     // stress and mean stress are the ones kept: the same bits as summing them on every step (for a call
     // that runs all its steps; one stopped by a value not finite keeps that step's partial mean stress).
-    const bool bends = !M_.random_automaton(a), stresses = bends || last;
+    const bool bends = !M_.random_automaton(a) || M_.lattice_bending > 0.0f, stresses = !M_.random_automaton(a) || last;
     for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
       const std::uint32_t l = ex_ends_[x] & ~kSecondEnd;
       if (!S_.intact[slot0 + l]) continue;

@@ -142,6 +142,14 @@ Energies energies_of(const View& at) {
       sj = static_cast<float>(sj) * share;
     }
     if (random) {  // the random lattice's many-body sums: A r s (random_many_body)
+      if (m.lattice_bending > 0.0f) {
+        // Its bending and twisting spring (volume_bending_constants), carried by the undamaged share.
+        const std::size_t k = l - m.lattice_slots();
+        const LinkBendingConstants bc = volume_bending_constants(m.lattice_stiffness * harmonic(gi.youngs, gj.youngs), G, r0,
+                                                                 m.explicit_links.edge[k], m.lattice_bending);
+        const Vec3 M = s.link_moment[k];
+        e.elastic += keep * (bending_energy(M.x, bc.k_twist) + bending_energy(M.y, bc.k_in) + bending_energy(M.z, bc.k_out));
+      }
       explicit_sum[i] += static_cast<double>(area * static_cast<float>(r0) * static_cast<float>(si));
       explicit_sum[j] += static_cast<double>(area * static_cast<float>(r0) * static_cast<float>(sj));
       return;

@@ -155,8 +155,9 @@ struct ExplicitView {
   // (explicit_geometry), per automaton its weight.
   float* kappa = nullptr;
   const float* bend_weight = nullptr;
-  // Per link: 1 where it has a bending spring (surface mode), 0 for the random lattice's. A block of links
-  // without one skips the bending's work: its spring would add exact zeros (null: every link has one).
+  // Per link: 1 where it has a shell's bending spring (surface mode), 2 a random-lattice link's
+  // (volume_bending_constants), 0 none (the random lattice's at link_bending = 0). A block of links without
+  // one skips the bending's work: its spring would add exact zeros (null: every link is a shell's).
   const std::uint8_t* bends = nullptr;
   // This step's geometry (explicit_geometry) and forces (explicit_links), per link.
   float *nx = nullptr, *ny = nullptr, *nz = nullptr, *eps = nullptr;

@@ -337,7 +337,7 @@ struct Block {
     const auto g = link_geometry(xi, xj, L::load(e.r0 + k0), L::load(e.inv_r0 + k0));
     store3(g.n, e.nx, e.ny, e.nz, k0);
     L::store(g.eps, e.eps + k0);
-    if (!L::any(springs(e, k0))) return;  // kappa is read only for automata with bending springs
+    if (!L::any(shells(e, k0))) return;  // kappa is read only for a shell's automata
     // The relative rotation about n x m after this step, over r0 (kappa_nn): what the bending spring's
     // moment about that axis will be (link_bending) over k_out r0, for the automata's many-body part.
     const QuatT<X> qi{L::gather(v.qw, i), L::gather(v.qx, i), L::gather(v.qy, i), L::gather(v.qz, i)};
@@ -352,6 +352,10 @@ struct Block {
   // Which of the links [k0, k0 + W) have a bending spring (ExplicitView::bends; null: all of them).
   static MCA_LANE M springs(const ExplicitView& e, std::size_t k0) {
     return e.bends ? L::load_bytes(e.bends + k0) != 0.0f : M(true);
+  }
+  // Which of them are a shell's (surface mode; null: all of them), the others the random lattice's.
+  static MCA_LANE M shells(const ExplicitView& e, std::size_t k0) {
+    return e.bends ? L::load_bytes(e.bends + k0) == 1.0f : M(true);
   }
 
   // Explicit links [k0, k0 + W): the lattice links' law with each link's own r0 and S (see links above).
@@ -435,14 +439,20 @@ struct Block {
     const X tensile = L::load(e.tensile + k0), compressive = L::load(e.compressive + k0);
     const X strain = L::load(e.strain + k0);
     const X sigma_f = bends ? o.sigma + bo.sigma : o.sigma;
-    // A shell's link is held to the lattice's criterion, a random-lattice link (one without a bending
-    // spring) to its own stresses (random_link_effort), softening or not; a block of one kind computes one.
-    const M own = !spring;
+    // A shell's link is held to the lattice's criterion, a random-lattice link to its own stresses
+    // (random_link_effort), softening or not; a block of one kind computes one.
+    const M own = !shells(e, k0);
     const X f = v.stress_coefficient * tensile;
     X effort{};
     BreakTest<X> b;
     if (L::any(own)) {
-      effort = random_link_effort(sigma_f, tau, f, v.stress_coefficient * compressive);
+      const X fc = v.stress_coefficient * compressive;
+      effort = random_link_effort(sigma_f, tau, f, fc);
+      if (bends) {
+        // A random-lattice link's section bent: its fibre in tension (above) and the one in compression.
+        const X pressed = random_link_effort(o.sigma - bo.sigma, tau, f, fc);
+        effort = select(pressed > effort, pressed, effort);
+      }
       b = link_break_test_at(eps * r0, r0, effort, strain);
     }
     if (!L::all(own)) {
@@ -457,6 +467,7 @@ struct Block {
     auto by_displacement = b.displacement;
     auto broke = alive && (b.displacement || b.stress);
     Vec3T<X> force = o.force_i;
+    Vec3T<X> bend_torque = bo.torque;
     if (e.soft) {
       // Links that soften (the random lattice's, of a material with a fracture energy), as the lattice
       // links above: the force with this step's damage, the test on the undamaged stresses, the new damage.
@@ -467,6 +478,9 @@ struct Block {
         // Only random links soften (a shell's break at once), so their effort is the one above.
         const auto t = link_softening_test_at(eps * r0, r0, effort, f, strain, soft, damage);
         force = select(soft_lanes, softened_force(in, o, damage), force);
+        // The bending spring's moment is carried by the undamaged share of the section, as its shear
+        // spring's force (its full moment is kept, as the shear displacement is: the secant).
+        if (bends) bend_torque = select(soft_lanes, bo.torque * (1.0f - damage), bend_torque);
         L::store(select(alive && soft_lanes, t.damage, damage), v.damage + l0);
         by_displacement = (soft_lanes && t.displacement) || (!soft_lanes && by_displacement);
         broke = alive && ((soft_lanes && (t.displacement || t.stress)) || (!soft_lanes && (b.displacement || b.stress)));
@@ -483,7 +497,7 @@ struct Block {
     store3(select(alive && !broke, o.ut, in.ut), v.utx, v.uty, v.utz, l0);
     if (bends) {
       store3(select(alive && !broke, bo.moment, bi.moment), e.mx, e.my, e.mz, k0);
-      store3(bo.torque, e.bx, e.by, e.bz, k0);
+      store3(bend_torque, e.bx, e.by, e.bz, k0);
     }
     return count;
   }
