@@ -549,7 +549,10 @@ int run(const RunOptions& o) {
     // cubic lattice that does not say so runs on the random one).
     const Model& m = sim.model();
     const bool volume = std::find(m.object_surface.begin(), m.object_surface.end(), 0) != m.object_surface.end();
-    const char* lattice = !m.object_random.empty() ? " on the random lattice" : volume ? " on the cubic lattice" : "";
+    const std::string lattice = !m.object_random.empty()
+                                    ? fmt::format(" on the random lattice (link_bending {:g})", m.lattice_bending)
+                                : volume ? " on the cubic lattice"
+                                         : "";
     fmt::print(stderr, "mca: {} automata{}, {} links, time step {:.4g} s, {} steps per frame, {} frames, {} steps, "
                "{} threads; about {} of output\n",
                m.size(), lattice, m.link_count(), m.dt, sim.steps_per_frame(), plan.total_frames, plan.total_steps,

@@ -474,18 +474,22 @@ TEST(SceneIo, ZeroSpacing) {
   EXPECT_HAS(msg, "wall.toml: solver.spacing = 0 is out of range: must be in [1e-9, 1e9] [m]");
 }
 
-// solver.link_bending: a share in [0, 1], of the random lattice's links only.
+// solver.link_bending: 0 or a share in [0.01, 1], of the random lattice's links only.
 TEST(SceneIo, LinkBendingIsAShareOfTheRandomLatticesOnly) {
   EXPECT_EQ(parse_error(kMinimal + "[solver]\nlink_bending = 0\n"), "");
+  EXPECT_EQ(parse_error(kMinimal + "[solver]\nlink_bending = 0.01\n"), "");
   EXPECT_EQ(parse_error(kMinimal + "[solver]\nlink_bending = 1\n"), "");
   EXPECT_HAS(parse_error(kMinimal + "[solver]\nlink_bending = 1.5\n", "wall.toml"),
-             "wall.toml: solver.link_bending = 1.5 is out of range: must be in [0, 1]");
+             "wall.toml: solver.link_bending = 1.5 is out of range: must be 0, or in [0.01, 1]");
   EXPECT_HAS(parse_error(kMinimal + "[solver]\nlink_bending = -0.1\n"), "use 0.1 (the default, calibrated), or 0 for none");
+  EXPECT_HAS(parse_error(kMinimal + "[solver]\nlink_bending = 1e-42\n"), "link_bending = 1e-42 is out of range");
+  EXPECT_HAS(parse_error(kMinimal + "[solver]\nlink_bending = nan\n"), "link_bending = nan is out of range");
   const std::string cubic = parse_error(kMinimal + "[solver]\nlattice = \"cubic\"\nlink_bending = 0.5\n", "wall.toml");
   EXPECT_HAS(cubic, "wall.toml: solver.link_bending = 0.5 sets the random lattice's bending springs");
-  EXPECT_HAS(cubic, "remove link_bending, or use lattice = \"random\"");
-  // The default, as a scene written back with the cubic lattice holds it, is no error.
+  EXPECT_HAS(cubic, "remove link_bending (or set it to 0, or to its default 0.1), or use lattice = \"random\"");
+  // The default, as a scene written back with the cubic lattice holds it, is no error, nor is 0 (none).
   EXPECT_EQ(parse_error(kMinimal + "[solver]\nlattice = \"cubic\"\nlink_bending = 0.1\n"), "");
+  EXPECT_EQ(parse_error(kMinimal + "[solver]\nlattice = \"cubic\"\nlink_bending = 0\n"), "");
 }
 
 TEST(SceneIo, ZeroSizeAndRadius) {

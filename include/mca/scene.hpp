@@ -176,7 +176,8 @@ struct SolverDef {
   // section (docs/model-notes.md, "The random lattice", Bending): without them (0) a line of intact links
   // is a hinge, and a cracked body swung on it as one piece. The default, 0.1, is the calibrated one (E,
   // nu and the tensile strength of a block); larger values stiffen the lattice and weaken it in tension
-  // (at 1: E +1.5 %, nu -2.2 %, a pulled block 27 % weaker). In [0, 1]; the cubic lattice has none.
+  // (at 1: E +1.5 %, nu -2.2 %, a pulled block 27 % weaker). 0 (the lattice of before them, its own
+  // strength factor), or in [0.01, 1]; the cubic lattice has none.
   double link_bending = 0.1;
   double skin = 0.3;                     // contact search skin, share of d, in (0, 0.4]
   std::uint64_t seed = 1;

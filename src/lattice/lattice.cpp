@@ -1613,8 +1613,8 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
     M.free_face.resize(M.size(), 0.0f);
     M.lattice_stiffness = kRandomStiffness;
     M.lattice_lambda = kRandomLambda;
-    M.lattice_strength = kRandomStrength;
     M.lattice_bending = static_cast<float>(scene.solver.link_bending);
+    M.lattice_strength = M.lattice_bending > 0.0f ? kRandomStrength : kRandomStrengthUnbent;
   }
 
   const std::size_t n = M.size();

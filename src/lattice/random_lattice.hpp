@@ -65,6 +65,8 @@ inline constexpr float kRandomLambda = 1.0f;
 // surface soft (random_sites), and 1.28 with the mirrored ghosts gave 1.086 and 0.686. Under the
 // lattice's equivalent stress it took 1.31 (0.713 with 1).
 inline constexpr float kRandomStrength = 1.10f;
+// The factor without the bending springs (SolverDef::link_bending = 0): the lattice of before them, bit for bit.
+inline constexpr float kRandomStrengthUnbent = 1.078f;
 
 // Links stored per automaton, for the memory check before a build: 6.3 on the default wall, 7.1-7.45 on
 // larger bodies (fewer of their automata at a surface).
