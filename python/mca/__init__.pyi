@@ -138,7 +138,7 @@ class Solver:
     lattice_jitter: float
     """Sites moved by up to this share of d along each axis, in [0, 0.3]; 0: the cubic lattice."""
     link_bending: float
-    """The random lattice's links' bending springs, a share of a beam of their section, in [0, 1]; 0.1 (the default) is calibrated; 0: none."""
+    """The random lattice's links' bending springs, a share of a beam of their section: 0 (none), or in [0.01, 1]; 0.1 (the default) is calibrated."""
     skin: float
     seed: int
     max_memory_gb: float

@@ -658,7 +658,7 @@ void bind_scene(py::module_& m) {
           },
           "\"random\" (the default: random sites, Voronoi neighbours) or \"cubic\" (the paper's)")
       .def_property(MCA_KEY(SolverDef, lattice_jitter, "sites moved by up to this share of d, in [0, 0.3] (the cubic lattice); 0: its sites at the cells' centres"))
-      .def_property(MCA_KEY(SolverDef, link_bending, "the random lattice's links' bending springs, share of a beam of their section, in [0, 1]; 0.1 the calibrated default"))
+      .def_property(MCA_KEY(SolverDef, link_bending, "the random lattice's links' bending springs, share of a beam of their section: 0, or in [0.01, 1]; 0.1 the calibrated default"))
       .def_property(MCA_KEY(SolverDef, skin, "contact search skin, share of d, in (0, 0.4]"))
       .def_property(MCA_KEY(SolverDef, seed, "random seed of the strength classes"))
       .def_property(MCA_KEY(SolverDef, max_memory_gb, "refuse models whose estimate exceeds this [GB]"));

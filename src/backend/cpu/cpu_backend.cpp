@@ -867,8 +867,8 @@ void CpuBackend::explicit_gather_pass(bool last) {
     Sym3 s;
     bool any = false;
     // A random-lattice automaton's links have no bending torque at link_bending = 0 (ExplicitView::bends):
-    // adding their zeros would change no bit of t (it never holds -0), so they are not read. Its mean stress is read by no
-    // criterion (random_link_effort), so its links' stresses are summed only on a call's last step, whose
+    // adding their zeros would change no bit of t (it never holds -0), so they are not read. Its mean stress
+    // is read by no criterion (random_link_effort), so its links' stresses are summed only on a call's last step, whose
     // stress and mean stress are the ones kept: the same bits as summing them on every step (for a call
     // that runs all its steps; one stopped by a value not finite keeps that step's partial mean stress).
     const bool bends = !M_.random_automaton(a) || M_.lattice_bending > 0.0f, stresses = !M_.random_automaton(a) || last;
