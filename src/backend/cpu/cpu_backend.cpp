@@ -528,7 +528,7 @@ class CpuBackend final : public Backend {
   cpu::LineArray<float> ex_k_twist_, ex_k_in_, ex_k_out_, ex_s_in_, ex_s_out_, ex_s_twist_, ex_m0x_, ex_m0y_, ex_m0z_;
   cpu::LineArray<float> ex_mx_, ex_my_, ex_mz_;  // state: the bending springs' moments (State::link_moment)
   cpu::LineArray<float> ex_bx_, ex_by_, ex_bz_;  // this step's bending torques (world)
-  cpu::LineArray<std::uint8_t> ex_bends_;       // 1: the link has a bending spring (not the random lattice's)
+  cpu::LineArray<std::uint8_t> ex_bends_;       // 1: a shell's bending spring, 2: a random link's, 0: none
   std::vector<std::uint32_t> explicit_automata_;
   // Per automaton (as E.of, from E.first): its explicit links, kSecondEnd set where it is the link's j.
   static constexpr std::uint32_t kSecondEnd = 1u << 31;
