@@ -25,6 +25,12 @@ constexpr double kRenderFixedBytes = 100e6, kRenderBytesPerPixel = 24, kRenderBy
                  kRenderBytesPerTriangle = 500;
 }  // namespace
 
+std::string lattice_name(const Model& m) {
+  if (!m.object_random.empty()) return fmt::format("random (link_bending {:g})", m.lattice_bending);
+  const bool volume = std::find(m.object_surface.begin(), m.object_surface.end(), 0) != m.object_surface.end();
+  return volume ? "cubic" : "";
+}
+
 std::string human_bytes(double bytes) {
   const char* units[] = {"bytes", "KB", "MB", "GB", "TB", "PB", "EB"};
   int u = 0;

@@ -45,6 +45,9 @@ OutputEstimate estimate_output(const Model& model, const OutputDef& output, std:
                                int render_height = 0);
 // "1.72 TB", "430 KB": bytes in SI units, three figures.
 std::string human_bytes(double bytes);
+// The lattice of the model's volume fills, as mca run and mca info name it: "random (link_bending 0.1)",
+// "cubic", or "" when every object is in surface mode.
+std::string lattice_name(const Model& model);
 // Throws mca::Error when the estimate exceeds the space free in `dir` (which exists): the bytes, the frames and
 // their size, the space free, and the fix.
 void check_output_fits(const OutputEstimate& estimate, const std::filesystem::path& dir, const SceneDef& scene);

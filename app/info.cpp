@@ -93,6 +93,8 @@ int info(const std::optional<std::string>& path, bool json) {
     j["automata"] = m.size();
     j["links"] = m.link_count();
     j["spacing"] = m.spacing;
+    j["lattice"] = lattice_name(m).empty() ? "none (surface mode)" : m.object_random.empty() ? "cubic" : "random";
+    if (!m.object_random.empty()) j["link_bending"] = m.lattice_bending;
     j["time_step"] = m.dt;
     j["critical_time_step"] = m.critical_dt;
     j["time_step_limited_by"] = m.dt_limited_by;
@@ -175,6 +177,7 @@ int info(const std::optional<std::string>& path, bool json) {
     print_mesh(ms, m.object_names[ms.object], count[ms.object], scene.solver.mass_scaling);
   fmt::print("links            {}\n", m.link_count());
   fmt::print("spacing          {:.4g} m\n", m.spacing);
+  if (const std::string lattice = lattice_name(m); !lattice.empty()) fmt::print("lattice          {}\n", lattice);
   // The step as used: safety x critical, shortened to fill frames with whole steps, or given by hand.
   fmt::print("time step        {:.4g} s ({:.3g} of the critical {:.4g} s, set by {}; {})\n", m.dt,
              m.dt / m.critical_dt, m.critical_dt, m.dt_limited_by,

@@ -548,11 +548,8 @@ int run(const RunOptions& o) {
     // Which lattice the volume fills are on (the default changed to the random one: a scene written for the
     // cubic lattice that does not say so runs on the random one).
     const Model& m = sim.model();
-    const bool volume = std::find(m.object_surface.begin(), m.object_surface.end(), 0) != m.object_surface.end();
-    const std::string lattice = !m.object_random.empty()
-                                    ? fmt::format(" on the random lattice (link_bending {:g})", m.lattice_bending)
-                                : volume ? " on the cubic lattice"
-                                         : "";
+    const std::string name = lattice_name(m);
+    const std::string lattice = name.empty() ? "" : fmt::format(" on the {} lattice", name);
     fmt::print(stderr, "mca: {} automata{}, {} links, time step {:.4g} s, {} steps per frame, {} frames, {} steps, "
                "{} threads; about {} of output\n",
                m.size(), lattice, m.link_count(), m.dt, sim.steps_per_frame(), plan.total_frames, plan.total_steps,

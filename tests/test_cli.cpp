@@ -188,9 +188,12 @@ TEST(Cli, InfoReportsTheModel) {
   EXPECT_GT(j["time_step"].get<double>(), 0);
   EXPECT_GT(j["steps_per_frame"].get<int>(), 0);
   EXPECT_GT(j["memory_bytes"].get<double>(), 0);
+  EXPECT_EQ(j["lattice"], "random");
+  EXPECT_NEAR(j["link_bending"].get<double>(), 0.1, 1e-7);
   const Result text = run_mca("info");
   EXPECT_EQ(text.code, 0);
   EXPECT_NE(text.output.find("4800"), std::string::npos) << text.output;
+  EXPECT_NE(text.output.find("lattice          random (link_bending 0.1)"), std::string::npos) << text.output;
 }
 
 TEST(Cli, BadInputFailsWithAClearMessage) {
