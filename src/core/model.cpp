@@ -67,6 +67,19 @@ float Model::contact_length(std::size_t i, std::size_t j, std::int64_t l) const 
   return k / contact_material(group[i], group[j]).youngs;
 }
 
+LinkBendingConstants Model::explicit_bending(std::size_t k) const {
+  const std::uint32_t i = explicit_links.i[k], j = explicit_links.j[k];
+  const GroupParams &gi = groups[group[i]], &gj = groups[group[j]];
+  const auto& E = explicit_links;
+  if (!random_automaton(i))
+    return link_bending_constants(harmonic(gi.youngs, gj.youngs), 0.5 * (gi.poisson + gj.poisson), E.r0[k], E.edge[k],
+                                  E.area[k] / E.edge[k]);
+  if (!(lattice_bending > 0.0f)) return {};
+  const float s = lattice_stiffness;
+  return volume_bending_constants(s * harmonic(gi.youngs, gj.youngs), s * harmonic(gi.shear_modulus, gj.shear_modulus),
+                                  E.r0[k], E.edge[k], lattice_bending);
+}
+
 ContactSprings Model::pair_contact_springs(std::size_t i, std::size_t j, std::int64_t l, float zeta) const {
   return contact_springs(contact_material(group[i], group[j]), zeta, contact_length(i, j, l),
                          reduced(radius[i], radius[j]), reduced(mass[i], mass[j]), reduced(inertia[i], inertia[j]));

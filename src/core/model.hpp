@@ -17,7 +17,8 @@
 
 namespace mca {
 
-struct ContactSprings;  // physics/contact_law.hpp
+struct ContactSprings;         // physics/contact_law.hpp
+struct LinkBendingConstants;  // physics/link_law.hpp
 
 // Strengthening law of a material (paper eq. 7; the functions are in physics/link_law.hpp).
 struct Strengthening {
@@ -238,6 +239,10 @@ struct Model {
   // normal dashpot has the damping ratio zeta: the backend's (zeta_pair), the time step's (the contact
   // material's continuous-time one) and the energy's (whose springs alone count) are this one.
   ContactSprings pair_contact_springs(std::size_t i, std::size_t j, std::int64_t l, float zeta) const;
+  // The bending and twisting spring of explicit link k: a shell's (link_bending_constants) or a random-lattice
+  // link's (volume_bending_constants, its moduli with the lattice's factor; all zeros at lattice_bending 0):
+  // the backend's and the energy's are this one.
+  LinkBendingConstants explicit_bending(std::size_t k) const;
   std::vector<MeshSummary> meshes;  // one per object of shape mesh
   BoundSurface surface;             // the triangles of the mesh objects, bound to automata
   std::vector<ProjectileParams> projectiles;

@@ -228,14 +228,7 @@ class CpuBackend final : public Backend {
       ex_m0z_[k] = E.normal[k].z;
       // 1: a shell's spring; 2: a random-lattice link's (volume_bending_constants); 0: none.
       ex_bends_[k] = !volume ? 1 : m.lattice_bending > 0.0f ? 2 : 0;
-      if (ex_bends_[k] == 0) {
-        ex_k_twist_[k] = ex_k_in_[k] = ex_k_out_[k] = ex_s_in_[k] = ex_s_out_[k] = ex_s_twist_[k] = 0.0f;
-        continue;
-      }
-      const LinkBendingConstants bc =
-          volume ? volume_bending_constants(s * harmonic(gi.youngs, gj.youngs), ex_G_[k], E.r0[k], E.edge[k], m.lattice_bending)
-                 : link_bending_constants(harmonic(gi.youngs, gj.youngs), 0.5 * (gi.poisson + gj.poisson), E.r0[k],
-                                          E.edge[k], E.area[k] / E.edge[k]);
+      const LinkBendingConstants bc = m.explicit_bending(k);
       ex_k_twist_[k] = bc.k_twist;
       ex_k_in_[k] = bc.k_in;
       ex_k_out_[k] = bc.k_out;

@@ -145,8 +145,7 @@ Energies energies_of(const View& at) {
       if (m.lattice_bending > 0.0f) {
         // Its bending and twisting spring (volume_bending_constants), carried by the undamaged share.
         const std::size_t k = l - m.lattice_slots();
-        const LinkBendingConstants bc = volume_bending_constants(m.lattice_stiffness * harmonic(gi.youngs, gj.youngs), G, r0,
-                                                                 m.explicit_links.edge[k], m.lattice_bending);
+        const LinkBendingConstants bc = m.explicit_bending(k);
         const Vec3 M = s.link_moment[k];
         e.elastic += keep * (bending_energy(M.x, bc.k_twist) + bending_energy(M.y, bc.k_in) + bending_energy(M.z, bc.k_out));
       }
@@ -157,8 +156,7 @@ Energies energies_of(const View& at) {
     if (ax < 0) {
       // The bending and twisting spring: its moment's components on the pair's frame (link_bending).
       const std::size_t k = l - m.lattice_slots();
-      const LinkBendingConstants bc = link_bending_constants(harmonic(gi.youngs, gj.youngs), 0.5 * (gi.poisson + gj.poisson),
-                                                             r0, m.explicit_links.edge[k], area / m.explicit_links.edge[k]);
+      const LinkBendingConstants bc = m.explicit_bending(k);
       const Vec3 M = s.link_moment[k];
       const double mn = M.x, mm = M.y, mb = M.z;
       e.elastic += bending_energy(mn, bc.k_twist) + bending_energy(mm, bc.k_in) + bending_energy(mb, bc.k_out);
