@@ -25,10 +25,15 @@ constexpr double kRenderFixedBytes = 100e6, kRenderBytesPerPixel = 24, kRenderBy
                  kRenderBytesPerTriangle = 500;
 }  // namespace
 
-std::string lattice_name(const Model& m) {
-  if (!m.object_random.empty()) return fmt::format("random (link_bending {:g})", m.lattice_bending);
+std::string lattice_kind(const Model& m) {
+  if (!m.object_random.empty()) return "random";
   const bool volume = std::find(m.object_surface.begin(), m.object_surface.end(), 0) != m.object_surface.end();
   return volume ? "cubic" : "";
+}
+
+std::string lattice_name(const Model& m) {
+  const std::string kind = lattice_kind(m);
+  return kind == "random" ? fmt::format("random (link_bending {:g})", m.lattice_bending) : kind;
 }
 
 std::string human_bytes(double bytes) {

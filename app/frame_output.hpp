@@ -45,8 +45,9 @@ OutputEstimate estimate_output(const Model& model, const OutputDef& output, std:
                                int render_height = 0);
 // "1.72 TB", "430 KB": bytes in SI units, three figures.
 std::string human_bytes(double bytes);
-// The lattice of the model's volume fills, as mca run and mca info name it: "random (link_bending 0.1)",
-// "cubic", or "" when every object is in surface mode.
+// The lattice of the model's volume fills: "random", "cubic", or "" when every object is in surface mode;
+// lattice_name as mca run and mca info print it, "random (link_bending 0.1)" for the random one.
+std::string lattice_kind(const Model& model);
 std::string lattice_name(const Model& model);
 // Throws mca::Error when the estimate exceeds the space free in `dir` (which exists): the bytes, the frames and
 // their size, the space free, and the fix.

@@ -93,7 +93,8 @@ int info(const std::optional<std::string>& path, bool json) {
     j["automata"] = m.size();
     j["links"] = m.link_count();
     j["spacing"] = m.spacing;
-    j["lattice"] = lattice_name(m).empty() ? "none (surface mode)" : m.object_random.empty() ? "cubic" : "random";
+    const std::string lattice = lattice_kind(m);
+    j["lattice"] = lattice.empty() ? "none (surface mode)" : lattice;
     if (!m.object_random.empty()) j["link_bending"] = m.lattice_bending;
     j["time_step"] = m.dt;
     j["critical_time_step"] = m.critical_dt;
