@@ -383,23 +383,25 @@ TEST(RandomLattice, TwoAutomataTurningAgainstEachOtherAreHeldByTheBendingSpring)
     EXPECT_FLOAT_EQ(static_cast<float>(E.edge[0] * E.edge[0]), E.area[0]);
     const LinkBendingConstants bc = volume_bending_constants(m.lattice_stiffness * g.youngs, m.lattice_stiffness * g.shear_modulus,
                                                              E.r0[0], E.edge[0], 0.1);
-    // The beam of the link's square section, a share 0.1 of it.
-    const double a = E.edge[0];
-    EXPECT_NEAR(bc.k_in, 0.1 * m.lattice_stiffness * g.youngs * a * a * a * a / (12 * E.r0[0]), 1e-5 * bc.k_in);
+    // The beam of the link's section taken round (I = A^2 / (4 pi), J = 2 I), a share 0.1 of it.
+    const double A = static_cast<double>(E.edge[0]) * E.edge[0], I = A * A / (4 * std::numbers::pi);
+    EXPECT_NEAR(bc.k_in, 0.1 * m.lattice_stiffness * g.youngs * I / E.r0[0], 1e-5 * bc.k_in);
+    EXPECT_NEAR(bc.k_twist, 0.1 * m.lattice_stiffness * g.shear_modulus * 2 * I / E.r0[0], 1e-5 * bc.k_twist);
+    EXPECT_EQ(bc.s_twist, 0.5f * bc.s_in);
     const double k = axis == 0 ? bc.k_twist : bc.k_in;
     const double w0 = std::sqrt(2.0 * k / m.inertia[0]);
     const int quarter = static_cast<int>(0.5 * std::numbers::pi / w0 / m.dt);
     const Hinge h = turned_pair(0.1, axis, omega, 8 * quarter);
     EXPECT_TRUE(h.intact);
     // The first time the spin turns: a quarter of the swing's period (between two steps, interpolated).
-    // The spin after k steps turned the spring through step k + 1 before the next kick changed it: it is
-    // the spin at (k + 1/2) dt, as in any leapfrog (spin[i] is the spin after i + 1 steps).
+    // The spin after k steps is the spin at (k - 1/2) dt, as in any leapfrog: the kick of step k saw the
+    // turn of the k - 1 steps before (spin[i] is the spin after i + 1 steps; the first kick is 0).
     std::size_t turn = 0;
     while (turn < h.spin.size() && h.spin[turn] > 0) ++turn;
     ASSERT_LT(turn, h.spin.size()) << "the spin never turned about axis " << axis;
     ASSERT_GT(turn, 0u);
     const double before = h.spin[turn - 1], after = h.spin[turn];
-    const double t = (static_cast<double>(turn) + 0.5 + before / (before - after)) * m.dt;
+    const double t = (static_cast<double>(turn) - 0.5 + before / (before - after)) * m.dt;
     std::printf("pair turned about axis %d: quarter swing %.4g s, sqrt(2 k / J) gives %.4g s (%d steps); energy within %.2g\n",
                 axis, t, 0.5 * std::numbers::pi / w0, quarter, h.energy_spread);
     EXPECT_NEAR(t * w0 / (0.5 * std::numbers::pi), 1.0, 0.01) << axis;
@@ -409,8 +411,9 @@ TEST(RandomLattice, TwoAutomataTurningAgainstEachOtherAreHeldByTheBendingSpring)
 }
 
 // Turned fast enough, the bent link breaks by its stress criterion: the bending's fibre stress is its
-// moment M times 6 / a^3 (volume_bending_constants), and a moment of f a^3 / 6 breaks it, f its tensile
-// limit. The hinge of the same pair without the spring turns on, unbroken.
+// moment M times c / I (a round section of the face's area A: I = A^2 / (4 pi), c = sqrt(A / pi);
+// volume_bending_constants), and a moment of f I / c breaks it, f its tensile limit. The hinge of the same
+// pair without the spring turns on, unbroken.
 TEST(RandomLattice, ABentLinkBreaksAtItsFibresStrength) {
   MaterialDef mat = test::test_material();
   mat.tensile_strength = 1e6;
@@ -424,8 +427,9 @@ TEST(RandomLattice, ABentLinkBreaksAtItsFibresStrength) {
   const GroupParams& g = m.groups[m.group[0]];
   const LinkBendingConstants bc =
       volume_bending_constants(m.lattice_stiffness * g.youngs, m.lattice_stiffness * g.shear_modulus, E.r0[0], E.edge[0], 0.1);
-  const double a = E.edge[0], f = m.lattice_strength * mat.tensile_strength;
-  const double breaking = f * a * a * a / 6.0, omega = breaking / std::sqrt(2.0 * m.inertia[0] * bc.k_in);
+  const double A = static_cast<double>(E.edge[0]) * E.edge[0], f = m.lattice_strength * mat.tensile_strength;
+  const double I = A * A / (4 * std::numbers::pi), c = std::sqrt(A / std::numbers::pi);
+  const double breaking = f * I / c, omega = breaking / std::sqrt(2.0 * m.inertia[0] * bc.k_in);
   const double w0 = std::sqrt(2.0 * bc.k_in / m.inertia[0]);
   const int quarter = static_cast<int>(0.5 * std::numbers::pi / w0 / m.dt);
   EXPECT_FALSE(turned_pair(0.1, 1, 1.1 * omega, 2 * quarter, mat).intact);

@@ -156,7 +156,7 @@ struct Model {
     std::vector<double> r0;    // rest length [m] (double: the strain at rest is zero to 1e-16, see link_geometry)
     std::vector<float> area;   // cross-section [m^2]: the shared edge's length times the shell thickness
     std::vector<float> edge;   // the shared edge's length [m] (the cross-section's width)
-    std::vector<Vec3> normal;  // the shell's normal at the link at the start, orthogonal to the link
+    std::vector<Vec3> normal;  // the shell's normal at the link at the start, orthogonal to it (0: a random link)
     // The explicit links of automaton a: of[first[a] .. first[a + 1]), in increasing link order
     // (first is empty when there are none).
     std::vector<std::uint32_t> first, of;

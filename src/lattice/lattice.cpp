@@ -1232,13 +1232,9 @@ void link_random(Model& M, const SceneDef& scene, std::size_t oi, std::size_t fi
     E.r0.push_back(r0);
     E.area.push_back(static_cast<float>(v.area[l]));
     E.edge.push_back(static_cast<float>(std::sqrt(v.area[l])));
-    // The bending spring's axes (volume_bending_constants: the same about every axis across the link): any
-    // unit vector orthogonal to the link.
-    const DVec3 u{dd.x / r0, dd.y / r0, dd.z / r0};
-    const DVec3 axis = std::fabs(u.x) < 0.6 ? DVec3{1, 0, 0} : DVec3{0, 1, 0};
-    DVec3 m{axis.x - dot(axis, u) * u.x, axis.y - dot(axis, u) * u.y, axis.z - dot(axis, u) * u.z};
-    const double len = std::sqrt(dot(m, m));
-    E.normal.push_back({static_cast<float>(m.x / len), static_cast<float>(m.y / len), static_cast<float>(m.z / len)});
+    // No shell normal: a random link's bending spring is a round section's, without axes of its own
+    // (volume_link_bending).
+    E.normal.push_back({});
   }
   M.links += v.link.size();
 }

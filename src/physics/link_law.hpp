@@ -235,21 +235,63 @@ inline LinkBendingConstants link_bending_constants(double E, double nu, double r
 }
 
 // The bending and twisting spring of a random-lattice link (volume law; Model::lattice_bending = beta),
-// the parallel bond of bonded-particle models: the link is a beam of its Voronoi face's area A taken as a
-// square section of side a = sqrt(A) (ExplicitLinks::edge), E and G the pair's (with the lattice's
-// stiffness factor). About both axes across the link k = beta E I / r0, I = a^4 / 12; about the link
-// k = beta G J / r0, J = 0.1406 a^4 (a square's torsion constant). The outer fibres' stress per unit
-// moment is a / (2 I) = 6 / a^3 about each axis (a corner sees both: link_bending adds them), the twist's
-// largest shear 1 / (0.208 a^3). Without it a line of intact links is a hinge: two ends turning opposite
-// ways about an axis across the link stretch no spring (link_force sees only the sum of their rotations),
-// and a cracked body stayed one piece, swinging on the few links its crack had left (docs/model-notes.md,
-// "The random lattice", Bending).
+// the parallel bond of bonded-particle models: the link is a beam of its Voronoi face's area A, taken as a
+// circular section (I = A^2 / (4 pi) about every axis across the link, J = 2 I about it, the outer fibre
+// at c = sqrt(A / pi)), E and G the pair's (with the lattice's stiffness factor): across the link
+// k = beta E I / r0, about it k = beta G J / r0. The fibre's stress per unit moment is c / I across the
+// link, the twist's shear c / J = half that. A round section has no axes of its own, so the spring needs
+// no reference axis and its moment is no state (volume_link_bending). Without it a line of intact links
+// is a hinge: two ends turning opposite ways about an axis across the link stretch no spring (link_force
+// sees only the sum of their rotations), and a cracked body stayed one piece, swinging on the few links
+// its crack had left (docs/model-notes.md, "The random lattice", Bending).
+// (Here k_in = k_out is the bending stiffness, s_in = s_out the fibre's stress per unit moment,
+// s_twist = s_in / 2 exactly.)
 inline LinkBendingConstants volume_bending_constants(double E, double G, double r0, double edge, double beta) {
-  const double a2 = edge * edge, a3 = a2 * edge, a4 = a2 * a2;
-  const double k_bend = beta * E * a4 / (12.0 * r0), k_twist = beta * G * 0.1406 * a4 / r0;
-  const float s = static_cast<float>(6.0 / a3);
-  return {static_cast<float>(k_twist), static_cast<float>(k_bend), static_cast<float>(k_bend),
-          s,                            s,                           static_cast<float>(1.0 / (0.208 * a3))};
+  constexpr double pi = 3.14159265358979323846;
+  const double A = edge * edge, I = A * A / (4.0 * pi), c = std::sqrt(A / pi);
+  const double k_bend = beta * E * I / r0, k_twist = beta * G * 2.0 * I / r0;
+  const float s = static_cast<float>(c / I);
+  return {static_cast<float>(k_twist), static_cast<float>(k_bend), static_cast<float>(k_bend), s, s, 0.5f * s};
+}
+
+// The rotation of the second end relative to the first since the start, as a vector in the world (axis
+// times angle): 2 vec(q_j q_i^*), whose scalar part is made positive. Every automaton starts unturned
+// (State::q is the identity at the start), so this is a random link's bend and twist; to second order in
+// the angle (2 sin(phi / 2) for phi: 4e-5 short at 0.1 rad, where such a link has long broken).
+template <class T>
+MCA_HD Vec3T<T> relative_rotation(const QuatT<T>& qi, const QuatT<T>& qj) {
+  const Vec3T<T> ui{qi.x, qi.y, qi.z}, uj{qj.x, qj.y, qj.z};
+  const T w = qj.w * qi.w + dot(uj, ui);
+  const Vec3T<T> v = qi.w * uj - qj.w * ui + cross(ui, uj);
+  return v * select(w < 0.0f, T(-2.0f), T(2.0f));
+}
+
+// A random-lattice link's bending and twisting spring (volume_bending_constants) from its ends'
+// orientations: the moment k_twist phi_n about the link and k_bend phi_b across it, phi the relative
+// rotation (relative_rotation) split along the link's current direction n. It acts as +M on the first
+// end and -M on the second; its energy is k_twist phi_n^2 / 2 + k_bend |phi_b|^2 / 2 (energies()).
+// The criteria see the fibre's stress |M_b| c / I and the twist's shear |M_n| c / J (s and s / 2).
+template <class T>
+struct VolumeBendingT {
+  Vec3T<T> torque;  // on the first end (the second gets -torque)
+  T sigma;          // the outer fibre's bending stress (>= 0)
+  T tau;            // the twist's largest shear stress (>= 0)
+};
+
+template <class T>
+MCA_HD VolumeBendingT<T> volume_link_bending(const QuatT<T>& qi, const QuatT<T>& qj, const Vec3T<T>& n, T k_bend,
+                                             T k_twist, T s) {
+  const Vec3T<T> phi = relative_rotation(qi, qj);
+  const T phi_n = dot(phi, n);
+  const Vec3T<T> mb = (phi - phi_n * n) * k_bend;
+  const T mn = k_twist * phi_n;
+  using std::fabs;
+  using std::sqrt;
+  VolumeBendingT<T> out;
+  out.torque = mb + mn * n;
+  out.sigma = sqrt(dot(mb, mb)) * s;
+  out.tau = fabs(mn) * (0.5f * s);
+  return out;
 }
 
 // The energy M^2 / (2 k) of one axis of the spring (0 for a spring of no stiffness, whose moment stays 0).

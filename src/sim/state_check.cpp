@@ -149,6 +149,9 @@ std::uint64_t model_fingerprint(const Model& m) {
     f.add(m.lattice_lambda);
     f.add(m.lattice_strength);
     f.add(m.lattice_bending);
+    // The links' bending springs as round sections on the ends' relative rotation (since 2026-12-03; the
+    // square sections before kept their moments as state, which this model does not read).
+    if (m.lattice_bending > 0.0f) f.add<std::uint8_t>(2);
   }
   // Scene-level numbers. Names are left out: they label outputs and do not shape the state.
   f.add(m.groups);

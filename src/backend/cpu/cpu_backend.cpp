@@ -179,7 +179,7 @@ class CpuBackend final : public Backend {
     for (auto* v : {&ex_r0f_, &ex_inv_r0_, &ex_area_, &ex_to_stress_, &ex_G_, &ex_kt_, &ex_damp_n_, &ex_damp_t_, &ex_nx_,
                     &ex_ny_, &ex_nz_, &ex_eps_, &ex_k_twist_,
                     &ex_k_in_, &ex_k_out_, &ex_s_in_, &ex_s_out_, &ex_s_twist_, &ex_m0x_, &ex_m0y_, &ex_m0z_, &ex_mx_,
-                    &ex_my_, &ex_mz_, &ex_bx_, &ex_by_, &ex_bz_, &ex_kappa_})
+                    &ex_my_, &ex_mz_, &ex_kappa_})
       v->resize(ne);
     ex_bends_.resize(ne);
     ex_out_.resize(cpu::tiled_size(ne, cpu::kExplicitOutRows));
@@ -520,7 +520,6 @@ class CpuBackend final : public Backend {
   cpu::LineArray<float> ex_out_;  // cpu::ExplicitView::out
   cpu::LineArray<float> ex_k_twist_, ex_k_in_, ex_k_out_, ex_s_in_, ex_s_out_, ex_s_twist_, ex_m0x_, ex_m0y_, ex_m0z_;
   cpu::LineArray<float> ex_mx_, ex_my_, ex_mz_;  // state: the bending springs' moments (State::link_moment)
-  cpu::LineArray<float> ex_bx_, ex_by_, ex_bz_;  // this step's bending torques (world)
   cpu::LineArray<std::uint8_t> ex_bends_;       // 1: a shell's bending spring, 2: a random link's, 0: none
   std::vector<std::uint32_t> explicit_automata_;
   // Per automaton (as E.of, from E.first): its explicit links, kSecondEnd set where it is the link's j.
@@ -840,7 +839,6 @@ cpu::ExplicitView CpuBackend::explicit_view() {
   e.s_in = ex_s_in_.data(); e.s_out = ex_s_out_.data(); e.s_twist = ex_s_twist_.data();
   e.m0x = ex_m0x_.data(); e.m0y = ex_m0y_.data(); e.m0z = ex_m0z_.data();
   e.mx = ex_mx_.data(); e.my = ex_my_.data(); e.mz = ex_mz_.data();
-  e.bx = ex_bx_.data(); e.by = ex_by_.data(); e.bz = ex_bz_.data();
   e.kappa = ex_kappa_.data();
   e.bend_weight = bend_weight_.data();
   e.bends = M_.object_random.empty() ? nullptr : ex_bends_.data();
@@ -874,7 +872,8 @@ void CpuBackend::explicit_gather_pass(bool last) {
       f += first ? fl : -fl;
       const Vec3 tl{out[cpu::kOutTx * cpu::kTile], out[cpu::kOutTy * cpu::kTile], out[cpu::kOutTz * cpu::kTile]};
       if (bends) {
-        const Vec3 ml{ex_bx_[l], ex_by_[l], ex_bz_[l]};
+        const Vec3 ml{out[cpu::kExplicitOutBx * cpu::kTile], out[(cpu::kExplicitOutBx + 1) * cpu::kTile],
+                      out[(cpu::kExplicitOutBx + 2) * cpu::kTile]};
         t += tl + (first ? ml : -ml);
       } else {
         t += tl;

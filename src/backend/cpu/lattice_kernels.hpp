@@ -148,9 +148,11 @@ struct ExplicitView {
   // start; its moment is state (per link).
   const float *k_twist = nullptr, *k_in = nullptr, *k_out = nullptr, *s_in = nullptr, *s_out = nullptr,
               *s_twist = nullptr;
+  // A random-lattice link's spring (volume_link_bending) reads k_in (its bending stiffness), k_twist and
+  // s_in (its fibre's stress per unit moment) only: its moment is no state, and the shell's normal and
+  // moment below are a shell's alone.
   const float *m0x = nullptr, *m0y = nullptr, *m0z = nullptr;
   float *mx = nullptr, *my = nullptr, *mz = nullptr;  // about the link, the shell's normal, their cross product
-  float *bx = nullptr, *by = nullptr, *bz = nullptr;  // this step's bending torque on the first end (world)
   // The bending's many-body part (explicit_bending_many_body): per link this step's r0 kappa_nn / r0
   // (explicit_geometry), per automaton its weight.
   float* kappa = nullptr;
@@ -161,8 +163,8 @@ struct ExplicitView {
   const std::uint8_t* bends = nullptr;
   // This step's geometry (explicit_geometry) and forces (explicit_links), per link.
   float *nx = nullptr, *ny = nullptr, *nz = nullptr, *eps = nullptr;
-  // The forces: a tiled array of kExplicitOutRows rows (the force on the first end, the torque on it),
-  // so that an automaton's gather reads one run of memory per link.
+  // The forces: a tiled array of kExplicitOutRows rows (the force on the first end, the torque on it,
+  // the bending spring's torque on it), so that an automaton's gather reads one run of memory per link.
   float* out = nullptr;
 };
 
@@ -183,8 +185,10 @@ inline constexpr std::size_t kRefRows = 3;  // LatticeView::ref
 // the axis's at axis * ns * kOutRows.
 inline constexpr std::size_t kOutRows = 7;
 enum OutRow : std::size_t { kOutFx, kOutFy, kOutFz, kOutTx, kOutTy, kOutTz, kOutTrace };
-// ExplicitView::out: the rows kOutFx to kOutTz, per explicit link.
-inline constexpr std::size_t kExplicitOutRows = 6;
+// ExplicitView::out: the rows kOutFx to kOutTz, then the bending spring's torque on the first end
+// (kExplicitOutBx to + 2, world; written only where the link has a spring), per explicit link.
+inline constexpr std::size_t kExplicitOutBx = 6;
+inline constexpr std::size_t kExplicitOutRows = 9;
 
 // A break found by the links kernel: the link slot and the criterion (bit 31: 1 = stress).
 inline constexpr std::uint32_t kBreakByStress = 1u << 31;
