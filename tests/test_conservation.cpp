@@ -162,10 +162,9 @@ TEST(Rest, ASpinningBlockKeepsItsShapeOnEveryLattice) {
                 k.name, r.strain_early, r.strain_late, r.momentum_change, static_cast<long long>(r.broken));
     // The centripetal load of this block strains its links by about 2e-6 (cubic) to 4e-6 (random); the
     // false shear had taken the random lattice's to 7.2e-6 at 10 ms and 3.6e-5 at 50 ms. What is left
-    // grows slowly on every lattice, about 7e-7 per 100 ms at first (at 410 ms: cubic 4.6e-6, jittered
-    // 7.0e-6, random 1.02e-5, the same without its bending springs; 2026-12-03): at 50 ms 1.1 (cubic)
-    // to 1.34 (random, which rings most) times the strain at 10 ms.
-    EXPECT_LT(r.strain_late, 1.5 * r.strain_early) << k.name;
+    // still grows slowly on every lattice, about 7e-7 per 100 ms at first (at 410 ms: cubic 4.6e-6,
+    // jittered 7.0e-6, random without its bending springs 1.07e-5; 2026-12-03), not yet explained.
+    EXPECT_LT(r.strain_late, 1.3 * r.strain_early) << k.name;
     EXPECT_LT(r.strain_late, 6e-6) << k.name;
     EXPECT_LT(r.momentum_change, 1e-6) << k.name;
     EXPECT_EQ(r.broken, 0) << k.name;

@@ -271,7 +271,7 @@ TEST(RandomLattice, ALinkIsHeldToItsOwnStresses) {
 // The jittered lattice's tests of strength and wave speed (test_lattice_jitter.cpp) on the random lattice.
 // The block's strength, with the lattice's strength factor (lattice::kRandomStrength, 1.10, with the
 // links' bending springs at link_bending = 0.1), is the cubic lattice's 0.913 of the tensile strength:
-// 0.917 (0.915 with 1.078 and no bending springs, lattice::kRandomStrengthUnbent).
+// 0.924 (0.915 with 1.078 and no bending springs, lattice::kRandomStrengthUnbent).
 TEST(RandomLattice, TensileStrengthOfABlockAsMeasured) {
   const test::TensileResult r = test::block_tensile_strength(
       [](SceneDef& sc) { sc.solver.lattice = SolverDef::Lattice::random; }, 0.2499 * 0.01);
@@ -394,14 +394,14 @@ TEST(RandomLattice, TwoAutomataTurningAgainstEachOtherAreHeldByTheBendingSpring)
     const Hinge h = turned_pair(0.1, axis, omega, 8 * quarter);
     EXPECT_TRUE(h.intact);
     // The first time the spin turns: a quarter of the swing's period (between two steps, interpolated).
-    // The spin after k steps is the spin at (k - 1/2) dt, as in any leapfrog: the kick of step k saw the
-    // turn of the k - 1 steps before (spin[i] is the spin after i + 1 steps; the first kick is 0).
+    // The spin after k steps turned the spring through step k + 1 before the next kick changed it: it is
+    // the spin at (k + 1/2) dt, as in any leapfrog (spin[i] is the spin after i + 1 steps).
     std::size_t turn = 0;
     while (turn < h.spin.size() && h.spin[turn] > 0) ++turn;
     ASSERT_LT(turn, h.spin.size()) << "the spin never turned about axis " << axis;
     ASSERT_GT(turn, 0u);
     const double before = h.spin[turn - 1], after = h.spin[turn];
-    const double t = (static_cast<double>(turn) - 0.5 + before / (before - after)) * m.dt;
+    const double t = (static_cast<double>(turn) + 0.5 + before / (before - after)) * m.dt;
     std::printf("pair turned about axis %d: quarter swing %.4g s, sqrt(2 k / J) gives %.4g s (%d steps); energy within %.2g\n",
                 axis, t, 0.5 * std::numbers::pi / w0, quarter, h.energy_spread);
     EXPECT_NEAR(t * w0 / (0.5 * std::numbers::pi), 1.0, 0.01) << axis;

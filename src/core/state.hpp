@@ -72,9 +72,10 @@ struct State {
   // links
   std::vector<std::uint8_t> intact;
   std::vector<Vec3> link_ut;    // tangential displacement in the pair's frame
-  // Per explicit link (Model::ExplicitLinks; empty without): the moment of its bending and twisting
-  // spring on its first end, as components about the link, the shell's normal and their cross product
-  // (physics/link_law.hpp, link_bending).
+  // Per explicit link (Model::ExplicitLinks; empty without): a shell's link, the moment of its bending and
+  // twisting spring on its first end, as components about the link, the shell's normal and their cross
+  // product (physics/link_law.hpp, link_bending); a random-lattice link, its ends' relative rotation
+  // (world, rad; volume_link_bending), 0 at link_bending = 0.
   std::vector<Vec3> link_moment;
   // Per link slot, when the model softens (Model::softening; empty otherwise): the link's damage, 0 to 1
   // (physics/fracture.hpp, link_softening_test), 0 at the start.

@@ -524,6 +524,7 @@ SceneDef read_scene(const Table& root, const std::string& source) {
     }
     tb->number("lattice_jitter", s.lattice_jitter);
     tb->number("link_bending", s.link_bending);
+    if (s.link_bending == 0) s.link_bending = 0;  // -0 is 0 (and printed so)
     tb->number("skin", s.skin);
     std::int64_t seed = 0;
     // TOML integers are signed 64-bit: seeds above 2^63-1 are written (and read) as their two's

@@ -25,8 +25,8 @@ MCA_HD T equivalent_stress(const T& sigma, const T& tau2, const T& p, const T& r
 // tension cut-off at its tensile limit f (c sigma_t), a Mohr-Coulomb limit on its shear, kRandomCohesion f
 // plus kRandomFriction times its compression, and crushing at its compressive limit (c sigma_c). The effort,
 // 1 at the limit, is the largest of the three ratios. The cohesion is the lattice's calibration, as
-// lattice::kRandomStrength is: with 4 (friction 1) the pressed block peaks at 0.660 of sigma_c (the cubic
-// lattice's 0.620), the pulled one at 0.917 of sigma_t (0.913), with the links' bending springs (0.597 and
+// lattice::kRandomStrength is: with 4 (friction 1) the pressed block peaks at 0.652 of sigma_c (the cubic
+// lattice's 0.620), the pulled one at 0.924 of sigma_t (0.913), with the links' bending springs (0.597 and
 // 0.915 without); docs/model-notes.md, "The random lattice", Strength.
 inline constexpr float kRandomCohesion = 4.0f;
 inline constexpr float kRandomFriction = 1.0f;

@@ -240,7 +240,7 @@ inline LinkBendingConstants link_bending_constants(double E, double nu, double r
 // at c = sqrt(A / pi)), E and G the pair's (with the lattice's stiffness factor): across the link
 // k = beta E I / r0, about it k = beta G J / r0. The fibre's stress per unit moment is c / I across the
 // link, the twist's shear c / J = half that. A round section has no axes of its own, so the spring needs
-// no reference axis and its moment is no state (volume_link_bending). Without it a line of intact links
+// no reference axis (volume_link_bending). Without it a line of intact links
 // is a hinge: two ends turning opposite ways about an axis across the link stretch no spring (link_force
 // sees only the sum of their rotations), and a cracked body stayed one piece, swinging on the few links
 // its crack had left (docs/model-notes.md, "The random lattice", Bending).
@@ -254,43 +254,47 @@ inline LinkBendingConstants volume_bending_constants(double E, double G, double 
   return {static_cast<float>(k_twist), static_cast<float>(k_bend), static_cast<float>(k_bend), s, s, 0.5f * s};
 }
 
-// The rotation of the second end relative to the first since the start, as a vector in the world (axis
-// times angle): 2 vec(q_j q_i^*), whose scalar part is made positive. Every automaton starts unturned
-// (State::q is the identity at the start), so this is a random link's bend and twist; to second order in
-// the angle (2 sin(phi / 2) for phi: 4e-5 short at 0.1 rad, where such a link has long broken).
+// A random-lattice link's bending and twisting spring (volume_bending_constants) on its ends' relative
+// rotation phi (a vector in the world: axis times angle), kept as the link's state and grown each step by
+// the step's relative rotation dt (w_j - w_i), after turning it with the pair by dt times the mean of the
+// ends' angular velocities (to second order: its length changes by O((w dt)^4)). So it follows the
+// angular velocities, which are double, not the orientations, which are float: the orientations'
+// rounding turned two automata spinning together against each other by about 1e-5 rad in 0.3 s, which a
+// spring on them took for a bend and turned into energy (a hostile review, 2026-12-03). The moment is
+// k_twist phi_n about the link's current direction n and k_bend phi_b across it, +M on the first end and
+// -M on the second; its energy k_twist phi_n^2 / 2 + k_bend |phi_b|^2 / 2 (energies()). The criteria see
+// the fibre's stress |M_b| c / I and the twist's shear |M_n| c / J (s and s / 2).
 template <class T>
-MCA_HD Vec3T<T> relative_rotation(const QuatT<T>& qi, const QuatT<T>& qj) {
-  const Vec3T<T> ui{qi.x, qi.y, qi.z}, uj{qj.x, qj.y, qj.z};
-  const T w = qj.w * qi.w + dot(uj, ui);
-  const Vec3T<T> v = qi.w * uj - qj.w * ui + cross(ui, uj);
-  return v * select(w < 0.0f, T(-2.0f), T(2.0f));
-}
+struct VolumeBendingInputT {
+  Vec3T<T> n;       // link direction (unit)
+  Vec3T<T> wi, wj;  // angular velocities of the ends
+  Vec3T<T> phi;     // relative rotation after the previous step
+  T k_bend, k_twist, s;
+  float dt;
+};
 
-// A random-lattice link's bending and twisting spring (volume_bending_constants) from its ends'
-// orientations: the moment k_twist phi_n about the link and k_bend phi_b across it, phi the relative
-// rotation (relative_rotation) split along the link's current direction n. It acts as +M on the first
-// end and -M on the second; its energy is k_twist phi_n^2 / 2 + k_bend |phi_b|^2 / 2 (energies()).
-// The criteria see the fibre's stress |M_b| c / I and the twist's shear |M_n| c / J (s and s / 2).
 template <class T>
 struct VolumeBendingT {
+  Vec3T<T> phi;     // relative rotation after this step
   Vec3T<T> torque;  // on the first end (the second gets -torque)
   T sigma;          // the outer fibre's bending stress (>= 0)
   T tau;            // the twist's largest shear stress (>= 0)
 };
 
 template <class T>
-MCA_HD VolumeBendingT<T> volume_link_bending(const QuatT<T>& qi, const QuatT<T>& qj, const Vec3T<T>& n, T k_bend,
-                                             T k_twist, T s) {
-  const Vec3T<T> phi = relative_rotation(qi, qj);
-  const T phi_n = dot(phi, n);
-  const Vec3T<T> mb = (phi - phi_n * n) * k_bend;
-  const T mn = k_twist * phi_n;
+MCA_HD VolumeBendingT<T> volume_link_bending(const VolumeBendingInputT<T>& in) {
+  const Vec3T<T> w = (in.wi + in.wj) * 0.5f;
+  const Vec3T<T> turn = cross(w, in.phi) * in.dt;
+  VolumeBendingT<T> out;
+  out.phi = in.phi + turn + cross(w, turn) * (0.5f * in.dt) + (in.wj - in.wi) * in.dt;
+  const T phi_n = dot(out.phi, in.n);
+  const Vec3T<T> mb = (out.phi - phi_n * in.n) * in.k_bend;
+  const T mn = in.k_twist * phi_n;
   using std::fabs;
   using std::sqrt;
-  VolumeBendingT<T> out;
-  out.torque = mb + mn * n;
-  out.sigma = sqrt(dot(mb, mb)) * s;
-  out.tau = fabs(mn) * (0.5f * s);
+  out.torque = mb + mn * in.n;
+  out.sigma = sqrt(dot(mb, mb)) * in.s;
+  out.tau = fabs(mn) * (0.5f * in.s);
   return out;
 }
 

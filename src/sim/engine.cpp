@@ -147,8 +147,9 @@ Engine::Engine(const SceneDef& scene, const State& state, const std::string& sou
       for (const MeshSummary& ms : model_.meshes) meshes += fmt::format("{}{}", meshes.empty() ? "" : ", ", ms.path);
       throw Error(fmt::format("{}: its embedded scene does not give the model the state was saved from (model "
                               "fingerprint {:016x}, saved {:016x}): {}the file was edited or damaged, or written by "
-                              "another version of mca; {}use an earlier checkpoint (remove this one) or start the "
-                              "run again",
+                              "a version of mca whose model differs (a change of the physics, which refuses every "
+                              "checkpoint of that version alike); {}use an earlier checkpoint of this version "
+                              "(remove this one) or start the run again",
                               source, rebuilt, *fingerprint,
                               meshes.empty() ? "" : fmt::format("a mesh file it reads ({}) changed since the run, or ", meshes),
                               meshes.empty() ? "" : "put the mesh files back as they were, "));

@@ -150,7 +150,7 @@ std::uint64_t model_fingerprint(const Model& m) {
     f.add(m.lattice_strength);
     f.add(m.lattice_bending);
     // The links' bending springs as round sections on the ends' relative rotation (since 2026-12-03; the
-    // square sections before kept their moments as state, which this model does not read).
+    // square sections before kept their moments in the state's place of that rotation).
     if (m.lattice_bending > 0.0f) f.add<std::uint8_t>(2);
   }
   // Scene-level numbers. Names are left out: they label outputs and do not shape the state.

@@ -38,8 +38,6 @@ struct View {
     if (sync) r += s.v[a] * (-m.dt);
     return r;
   }
-  // The orientation at the same moment: the last step's turn taken back.
-  Quat q(std::size_t a) const { return sync ? integrate_orientation(s.q[a], to_vec3(-s.w[a]), m.dt) : s.q[a]; }
   // Half the last step's kick of the velocity and of the angular velocity (0 when not synchronised and
   // for held automata, which move at their grip's constant velocity).
   DVec3 hv(std::size_t a) const {
@@ -145,10 +143,11 @@ Energies energies_of(const View& at) {
     }
     if (random) {  // the random lattice's many-body sums: A r s (random_many_body)
       if (m.lattice_bending > 0.0f) {
-        // Its bending and twisting spring (volume_link_bending: the ends' relative rotation split along
-        // the link), carried by the undamaged share.
-        const LinkBendingConstants bc = m.explicit_bending(l - m.lattice_slots());
-        const Vec3 phi = relative_rotation(at.q(i), at.q(j));
+        // Its bending and twisting spring (volume_link_bending: the ends' relative rotation, state, split
+        // along the link), carried by the undamaged share.
+        const std::size_t k = l - m.lattice_slots();
+        const LinkBendingConstants bc = m.explicit_bending(k);
+        const Vec3 phi = s.link_moment[k];
         const DVec3 n = to_dvec3(g.n);
         const double phi_n = dotd(phi, g.n);
         const DVec3 phi_b = to_dvec3(phi) - n * phi_n;

@@ -149,10 +149,11 @@ struct ExplicitView {
   const float *k_twist = nullptr, *k_in = nullptr, *k_out = nullptr, *s_in = nullptr, *s_out = nullptr,
               *s_twist = nullptr;
   // A random-lattice link's spring (volume_link_bending) reads k_in (its bending stiffness), k_twist and
-  // s_in (its fibre's stress per unit moment) only: its moment is no state, and the shell's normal and
-  // moment below are a shell's alone.
+  // s_in (its fibre's stress per unit moment) only, and keeps its ends' relative rotation (world) in
+  // mx, my, mz; the shell's normal is a shell's alone.
   const float *m0x = nullptr, *m0y = nullptr, *m0z = nullptr;
-  float *mx = nullptr, *my = nullptr, *mz = nullptr;  // about the link, the shell's normal, their cross product
+  // A shell's moment about the link, the shell's normal, their cross product; a random link's rotation.
+  float *mx = nullptr, *my = nullptr, *mz = nullptr;
   // The bending's many-body part (explicit_bending_many_body): per link this step's r0 kappa_nn / r0
   // (explicit_geometry), per automaton its weight.
   float* kappa = nullptr;

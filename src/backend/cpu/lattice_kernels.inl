@@ -407,25 +407,25 @@ struct Block {
     in.ut = load3(v.utx, v.uty, v.utz, l0);
     in.dt = v.dt;
     const LinkOutputT<X> o = link_force(in);
-    // The bending spring, where a lane has one; without, its torque and stresses are exact zeros (a
-    // shell's moment stays +0), and x + 0 = x below, so the block skips it with the same bits. A shell's
-    // spring keeps its moment on the pair's frame (link_bending); a random-lattice link's is its ends'
-    // relative rotation (volume_link_bending: no state, no reference axis).
+    // The bending spring, where a lane has one; without, its moment, torque and stresses are exact zeros
+    // (the moment stays +0), and x + 0 = x below, so the block skips it with the same bits. A shell's
+    // spring keeps its moment on the pair's frame (link_bending); a random-lattice link's keeps its ends'
+    // relative rotation (volume_link_bending: no reference axis), in the same state.
     const M spring = springs(e, k0), shell = shells(e, k0);
     const bool bends = L::any(spring);
     const bool shell_bends = bends && L::any(shell), volume_bends = bends && !L::all(shell);
     LinkBendingInputT<X> bi;
     LinkBendingOutputT<X> bo{};
     if (bends) {
-      const QuatT<X> qi{L::gather(v.qw, i), L::gather(v.qx, i), L::gather(v.qy, i), L::gather(v.qz, i)};
-      const QuatT<X> qj{L::gather(v.qw, j), L::gather(v.qx, j), L::gather(v.qy, j), L::gather(v.qz, j)};
+      bi.moment = load3(e.mx, e.my, e.mz, k0);
       const X k_in = L::load(e.k_in + k0), k_twist = L::load(e.k_twist + k0), s_in = L::load(e.s_in + k0);
       if (shell_bends) {
+        const QuatT<X> qi{L::gather(v.qw, i), L::gather(v.qx, i), L::gather(v.qy, i), L::gather(v.qz, i)};
+        const QuatT<X> qj{L::gather(v.qw, j), L::gather(v.qx, j), L::gather(v.qy, j), L::gather(v.qz, j)};
         bi.n = n;
         bi.m = shell_normal(qi, qj, load3(e.m0x, e.m0y, e.m0z, k0), n);
         bi.wi = in.wi;
         bi.wj = in.wj;
-        bi.moment = load3(e.mx, e.my, e.mz, k0);
         bi.k_twist = k_twist;
         bi.k_in = k_in;
         bi.k_out = L::load(e.k_out + k0);
@@ -437,10 +437,13 @@ struct Block {
         bo = link_bending(bi);
       }
       if (volume_bends) {
-        const VolumeBendingT<X> vb = volume_link_bending(qi, qj, n, k_in, k_twist, s_in);
-        bo.torque = select(shell, bo.torque, vb.torque);
-        bo.sigma = select(shell, bo.sigma, vb.sigma);
-        bo.tau = select(shell, bo.tau, vb.tau);
+        // (A lane of neither kind, the random lattice's at link_bending = 0, keeps the shell's zeros.)
+        const M volume = spring && !shell;
+        const VolumeBendingT<X> vb = volume_link_bending(VolumeBendingInputT<X>{n, in.wi, in.wj, bi.moment, k_in, k_twist, s_in, v.dt});
+        bo.moment = select(volume, vb.phi, bo.moment);
+        bo.torque = select(volume, vb.torque, bo.torque);
+        bo.sigma = select(volume, vb.sigma, bo.sigma);
+        bo.tau = select(volume, vb.tau, bo.tau);
       }
     }
     // The criteria see the section's most loaded fibre: the pair's stress plus the bending's, the pair's
@@ -507,8 +510,10 @@ struct Block {
     put3(force, e.out, kExplicitOutRows, kOutFx, k0);
     put3(cross(n, hf) * (1.0f + eps), e.out, kExplicitOutRows, kOutTx, k0);
     store3(select(alive && !broke, o.ut, in.ut), v.utx, v.uty, v.utz, l0);
-    if (bends) put3(bend_torque, e.out, kExplicitOutRows, kExplicitOutBx, k0);
-    if (shell_bends) store3(select(shell && alive && !broke, bo.moment, bi.moment), e.mx, e.my, e.mz, k0);
+    if (bends) {
+      store3(select(alive && !broke, bo.moment, bi.moment), e.mx, e.my, e.mz, k0);
+      put3(bend_torque, e.out, kExplicitOutRows, kExplicitOutBx, k0);
+    }
     return count;
   }
 
