@@ -149,9 +149,10 @@ std::uint64_t model_fingerprint(const Model& m) {
     f.add(m.lattice_lambda);
     f.add(m.lattice_strength);
     f.add(m.lattice_bending);
-    // The links' bending springs as round sections on the ends' relative rotation (since 2026-12-03; the
-    // square sections before kept their moments in the state's place of that rotation).
-    if (m.lattice_bending > 0.0f) f.add<std::uint8_t>(2);
+    // The links' bending springs as round sections on the ends' relative rotation, kept as state (since
+    // 2026-12-03, 4f87856; 2: taken from the orientations, afc609c, with that state unused; the square
+    // sections before, no tag, kept their moments there).
+    if (m.lattice_bending > 0.0f) f.add<std::uint8_t>(3);
   }
   // Scene-level numbers. Names are left out: they label outputs and do not shape the state.
   f.add(m.groups);
