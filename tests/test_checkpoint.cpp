@@ -315,6 +315,16 @@ TEST(Checkpoint, ModelFingerprintTellsModelsApart) {
   other.name = "renamed";  // names do not shape the state
   EXPECT_EQ(a, model_fingerprint(Engine(other).model()));
 
+  // The random lattice's bending springs: -0 (from any front end, not only a scene file) is 0.
+  SceneDef block = test::block_scene(6, 6, 6);
+  block.solver.lattice = SolverDef::Lattice::random;
+  block.solver.link_bending = 0.0;
+  const std::uint64_t unbent = model_fingerprint(Engine(block).model());
+  block.solver.link_bending = -0.0;
+  EXPECT_EQ(unbent, model_fingerprint(Engine(block).model()));
+  block.solver.link_bending = 0.1;
+  EXPECT_NE(unbent, model_fingerprint(Engine(block).model()));
+
   // Through the Engine, as resume uses it.
   EXPECT_NO_THROW(Engine(base, fixture().state, "here", a));
   try {

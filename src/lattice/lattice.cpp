@@ -1609,7 +1609,8 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
     M.free_face.resize(M.size(), 0.0f);
     M.lattice_stiffness = kRandomStiffness;
     M.lattice_lambda = kRandomLambda;
-    M.lattice_bending = static_cast<float>(scene.solver.link_bending);
+    // (-0 from any front end is 0: no springs, and the model's fingerprint of 0.)
+    M.lattice_bending = scene.solver.link_bending > 0 ? static_cast<float>(scene.solver.link_bending) : 0.0f;
     M.lattice_strength = M.lattice_bending > 0.0f ? kRandomStrength : kRandomStrengthUnbent;
   }
 

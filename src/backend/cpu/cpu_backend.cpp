@@ -177,10 +177,14 @@ class CpuBackend final : public Backend {
     if (ne >= kSecondEnd)  // (ex_ends_ below)
       throw Error(std::to_string(ne) + " explicit links: at most " + std::to_string(kSecondEnd - 1) + " are supported");
     for (auto* v : {&ex_r0f_, &ex_inv_r0_, &ex_area_, &ex_to_stress_, &ex_G_, &ex_kt_, &ex_damp_n_, &ex_damp_t_, &ex_nx_,
-                    &ex_ny_, &ex_nz_, &ex_eps_, &ex_k_twist_,
-                    &ex_k_in_, &ex_k_out_, &ex_s_in_, &ex_s_out_, &ex_s_twist_, &ex_m0x_, &ex_m0y_, &ex_m0z_, &ex_mx_,
-                    &ex_my_, &ex_mz_, &ex_kappa_})
+                    &ex_ny_, &ex_nz_, &ex_eps_, &ex_k_twist_, &ex_k_in_, &ex_s_in_, &ex_mx_, &ex_my_, &ex_mz_})
       v->resize(ne);
+    // What only a shell's link reads (its reference axis, its out-of-plane and twisting constants, its
+    // curvature): held only when the model has shells; a block of random links never reads them.
+    bool shells_any = false;
+    for (std::size_t k = 0; k < ne && !shells_any; ++k) shells_any = !m.random_automaton(E.i[k]);
+    if (shells_any)
+      for (auto* v : {&ex_k_out_, &ex_s_out_, &ex_s_twist_, &ex_m0x_, &ex_m0y_, &ex_m0z_, &ex_kappa_}) v->resize(ne);
     ex_bends_.resize(ne);
     ex_out_.resize(cpu::tiled_size(ne, cpu::kExplicitOutRows));
     ex_area_r0_.resize(ne);
@@ -223,18 +227,20 @@ class CpuBackend final : public Backend {
       if (soft_any)
         ex_soft_[k] = volume ? s * softening_constant(gi.fracture_energy, gj.fracture_energy, gi.youngs, gj.youngs, ex_r0f_[k])
                              : 0.0f;
-      ex_m0x_[k] = E.normal[k].x;
-      ex_m0y_[k] = E.normal[k].y;
-      ex_m0z_[k] = E.normal[k].z;
       // 1: a shell's spring; 2: a random-lattice link's (volume_bending_constants); 0: none.
       ex_bends_[k] = !volume ? 1 : m.lattice_bending > 0.0f ? 2 : 0;
       const LinkBendingConstants bc = m.explicit_bending(k);
       ex_k_twist_[k] = bc.k_twist;
       ex_k_in_[k] = bc.k_in;
-      ex_k_out_[k] = bc.k_out;
       ex_s_in_[k] = bc.s_in;
-      ex_s_out_[k] = bc.s_out;
-      ex_s_twist_[k] = bc.s_twist;
+      if (shells_any) {
+        ex_m0x_[k] = E.normal[k].x;
+        ex_m0y_[k] = E.normal[k].y;
+        ex_m0z_[k] = E.normal[k].z;
+        ex_k_out_[k] = bc.k_out;
+        ex_s_out_[k] = bc.s_out;
+        ex_s_twist_[k] = bc.s_twist;
+      }
     }
     for (std::size_t a = 0; a < n && !E.first.empty(); ++a)
       if (E.first[a + 1] > E.first[a]) explicit_automata_.push_back(static_cast<std::uint32_t>(a));
