@@ -417,8 +417,7 @@ RandomBound random_lattice_bound(const Model& M, const std::vector<double>& fmax
     // stiffer axis, or the contact's rolling and twisting springs, whichever is stiffer.
     double k_rot = static_cast<double>(cs.kr) + cs.kw;
     if (M.lattice_bending > 0.0f) {
-      const LinkBendingConstants bc =
-          volume_bending_constants(s * harmonic(A.youngs, B.youngs), G, r0, E.edge[l], M.lattice_bending);
+      const LinkBendingConstants bc = M.explicit_bending(l);  // the backend's constants
       k_rot = std::max({k_rot, static_cast<double>(bc.k_in), static_cast<double>(bc.k_twist)});
     }
     springs_of.push_back({i, j, std::max(2.0 * G * area / r0 * f, static_cast<double>(cs.kn)),
