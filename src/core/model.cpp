@@ -48,11 +48,12 @@ std::size_t estimate_memory_bytes(std::size_t automata, std::size_t explicit_lin
   //                 gather list 16, padding 16
   constexpr std::size_t per_automaton = 88 + 179 + 346 + 60 + 64 + 30, per_explicit_link = 48 + 25 + 168;
   // A random lattice's automaton adds, on top of its explicit links: its cell's centre 24 (Model::cell0),
-  // the boxed and free-face flags 5, and about 170 of what was measured and is not itemised above (its
-  // contact lists are longer: a broken link's pair touches at its initial distance), less what its 3.7
-  // links do not hold of a shell's (the reference axis, the out-of-plane and twisting constants and the
-  // curvature, 28 each: about 100). Measured: blocks of 50,000, 100,000 and 200,000 automata (runs'
-  // peaks 170, 299 and 557 MB), which this counts at 173, 306 and 573 MB.
+  // the boxed and free-face flags 5, and about 280 of what was measured and is not itemised above (its
+  // contact lists are longer: a broken link's pair touches at its initial distance), less what its
+  // links (about 7.4 per automaton) do not hold of a shell's link counted above (the reference axis, the
+  // out-of-plane and twisting constants and the curvature, 28 each: about 207). Measured: blocks of
+  // 50,000, 100,000 and 200,000 automata (runs' peaks 170, 299 and 557 MB), which this counts at 173, 306
+  // and 573 MB.
   constexpr std::size_t per_random_automaton = 100;
   return automata * per_automaton + explicit_links * per_explicit_link + random_automata * per_random_automaton +
          42'000'000;
