@@ -150,7 +150,8 @@ struct ExplicitView {
               *s_twist = nullptr;
   // A random-lattice link's spring (volume_link_bending) reads k_in (its bending stiffness), k_twist and
   // s_in (its fibre's stress per unit moment) only, and keeps its ends' relative rotation (world) in
-  // mx, my, mz; the shell's normal is a shell's alone.
+  // mx, my, mz; the shell's normal is a shell's alone. k_out, s_out, s_twist, m0x/y/z and kappa are null
+  // where the model has no shell (a block of random links never reads them).
   const float *m0x = nullptr, *m0y = nullptr, *m0z = nullptr;
   // A shell's moment about the link, the shell's normal, their cross product; a random link's rotation.
   float *mx = nullptr, *my = nullptr, *mz = nullptr;
