@@ -90,6 +90,7 @@ MemoryEstimate estimate_memory(const Model& m, const OutputDef& o, int render_wi
   std::size_t random = 0;
   for (std::size_t a = 0; a < m.size(); ++a) random += m.random_automaton(a);
   e.arrays = static_cast<double>(estimate_memory_bytes(m.size(), m.explicit_links.size(), random));
+  e.rubble = static_cast<double>(estimate_rubble_bytes(m.size(), random));
   // The options' per-slot arrays (three lattice slots an automaton): a strength spread's factors (4
   // bytes), a jittered lattice's rest lengths and inverses (12), softening's damage in the state and in
   // the engine's copy of it (8) and the contact search's flags (1).

@@ -60,10 +60,13 @@ void check_output_fits(const OutputEstimate& estimate, const std::filesystem::pa
 // build's, when higher: the program, the meshes and the arrays over the mesh objects' boxes of cells
 // (build; two 0.3 m cubes 100 m apart in one mesh at 5 mm peaked at 829 MB where the run's arrays are
 // 358 MB).
+// `rubble` is what the run holds on top when its objects break down to single automata (their contact
+// pairs; estimate_rubble_bytes), not counted in total().
 struct MemoryEstimate {
-  double arrays = 0, meshes = 0, surface_output = 0, fragment_meshes = 0, render = 0, build = 0;
+  double arrays = 0, meshes = 0, surface_output = 0, fragment_meshes = 0, render = 0, build = 0, rubble = 0;
   double run() const { return arrays + meshes + surface_output + fragment_meshes + render; }
   double total() const { return std::max(run(), build); }
+  double shattered() const { return std::max(run() + rubble, build); }
 };
 MemoryEstimate estimate_memory(const Model& model, const OutputDef& output, int render_width = 0,
                                int render_height = 0);

@@ -108,12 +108,14 @@ int info(const std::optional<std::string>& path, bool json) {
     j["backend"] = sim.backend().name();
     j["memory_bytes"] = memory.total();
     j["memory_bytes_with_render"] = memory_rendered.total();
+    j["memory_bytes_shattered"] = memory.shattered();
     j["memory"] = {{"arrays", memory.arrays},
                    {"meshes", memory.meshes},
                    {"surface_output", memory.surface_output},
                    {"fragment_meshes", memory.fragment_meshes},
                    {"render_1280x720", memory_rendered.render},
-                   {"build", memory.build}};
+                   {"build", memory.build},
+                   {"rubble", memory.rubble}};
     j["memory_bytes_per_automaton"] =
         (bytes - static_cast<double>(estimate_memory_bytes(0))) / static_cast<double>(m.size());
     j["output_bytes"] = output.total();
@@ -211,6 +213,8 @@ int info(const std::optional<std::string>& path, bool json) {
   else
     fmt::print("memory estimate  {:.1f} MB at the peak of a run ({}); --render at 1280x720 adds {:.0f} MB\n",
                memory.total() / 1e6, parts, memory_rendered.render / 1e6);
+  fmt::print("                 {:.1f} MB if the objects break down to single automata (their contacts)\n",
+             memory.shattered() / 1e6);
   std::string per_frame;
   if (output.vtk_frame > 0) per_frame += fmt::format("VTK {}", human_bytes(output.vtk_frame));
   if (output.surface_frame > 0)

@@ -350,5 +350,8 @@ void automaton_damage(const Model& m, const std::uint8_t* intact, const float* l
 
 // Bytes a run of a model of this many automata holds at its peak, for `mca info` and the memory check.
 std::size_t estimate_memory_bytes(std::size_t automata, std::size_t explicit_links = 0, std::size_t random_automata = 0);
+// Bytes a run holds on top of that when its objects break down to single automata (`mca info`'s figure for
+// a body shattered to rubble).
+std::size_t estimate_rubble_bytes(std::size_t automata, std::size_t random_automata = 0);
 
 }  // namespace mca
