@@ -224,6 +224,35 @@ TEST(FragmentMassDistribution, AllSinglesHaveNoFit) {
   EXPECT_NE(d.fit.reason.find("1 non-empty bin of"), std::string::npos) << d.fit.reason;
 }
 
+// Rubble of a random lattice, whose cells differ in volume: single automata of 0.5 to 1.75 times the mean
+// mass fill the bins of 1 and 2-3 automata, and a line through those two would fit the cells' spread, not
+// a fragment distribution: no fit, with the reason. summary.json writes the decades as null.
+TEST(FragmentMassDistribution, SinglesOfUnequalMassHaveNoFit) {
+  std::vector<FragmentInfo> frags;
+  for (int k = 0; k < 100; ++k) {
+    FragmentInfo f;
+    f.id = k;
+    f.automata = 1;
+    f.mass = 0.3 * (k < 10 ? 1.75 : k < 20 ? 0.5 : 1.0);
+    frags.push_back(f);
+  }
+  const MassDistribution d = fragment_mass_distribution(frags);
+  ASSERT_EQ(d.bins.size(), 2u);
+  EXPECT_EQ(d.bins[1].count, 10);  // the heavy singles, by mass
+  EXPECT_FALSE(d.fit.tau);
+  EXPECT_EQ(d.fit.bins_fitted, 0);
+  EXPECT_NE(d.fit.reason.find("every fragment is a single automaton"), std::string::npos) << d.fit.reason;
+  const nlohmann::json j = mca::io::mass_distribution_json(d);
+  EXPECT_TRUE(j["power_law"]["tau"].is_null());
+  EXPECT_TRUE(j["power_law"]["decades"].is_null());
+  EXPECT_FALSE(j["fragments_10_to_tenth"].contains("note"));  // N / 10 = 10: the class can hold a fragment
+  // Five automata: a tenth is 0.5, below the class's 10 automata, and its note says so.
+  const nlohmann::json five = mca::io::mass_distribution_json(fragment_mass_distribution(fragments_of({3, 1, 1})));
+  EXPECT_EQ(five["fragments_10_to_tenth"]["count"], 0);
+  EXPECT_NE(five["fragments_10_to_tenth"]["note"].get<std::string>().find("a tenth of the 5 automata is below 10"),
+            std::string::npos);
+}
+
 // Empty bins between fitted ones are counted in the range and left out of the fit: singles and fragments
 // of 8 automata, nothing between, give the line through those two bins alone.
 TEST(FragmentMassDistribution, EmptyBinsInsideTheRangeAreCountedNotFitted) {
@@ -486,11 +515,45 @@ velocity = [0, 40, 0]
   EXPECT_NEAR(c.sectors.r_out, 0.14, 1e-6);
   EXPECT_EQ(c.sectors.in_annulus, 40);
   for (std::size_t k = 0; k < 8; ++k) EXPECT_EQ(c.sectors.automata[k], k % 2 ? 2 : 8) << k;
-  // Undamaged: no diagonal automaton damaged, so no ratio.
+  // Two automata a diagonal sector give shares of 0, 0.5 or 1: too few (kMinSectorAutomata), so no ratio,
+  // and the reason names the sectors and their counts.
   EXPECT_FALSE(c.sectors.ratio);
+  EXPECT_NE(c.sectors.reason.find("fewer than 5 automata in the sectors at 45 (2), 135 (2), 225 (2), 315 (2)"),
+            std::string::npos)
+      << c.sectors.reason;
   const auto j = mca::io::crack_isotropy_json(c);
   EXPECT_EQ(j["radii_scaled"], true);
   EXPECT_NEAR(j["half_width"].get<double>(), 0.2, 1e-6);
+}
+
+// What the damage counted is, said in the note: none of the links broken (softening alone), and every sector
+// damaged (the ratio says little); and an annulus with nothing damaged has its own reason.
+TEST(CrackIsotropy, TheNoteSaysWhenTheDamageIsNoCrack) {
+  Wall w;
+  std::vector<float> soft(w.model.link_slots(), 0.0f);
+  for (std::size_t l = 0; l < soft.size(); ++l)
+    if (w.model.link_exists(l)) soft[l] = 0.6f;  // every link softened past half, none broken
+  const auto c = mca::analysis::crack_isotropy(w.model, w.scene, w.intact.data(), soft.data());
+  ASSERT_TRUE(c.sectors.ratio) << c.sectors.reason;
+  EXPECT_DOUBLE_EQ(*c.sectors.ratio, 1.0);
+  EXPECT_TRUE(c.no_link_broken);
+  EXPECT_TRUE(c.saturated);
+  const auto j = mca::io::crack_isotropy_json(c);
+  ASSERT_TRUE(j.contains("note"));
+  EXPECT_NE(j["note"].get<std::string>().find("no link of the first object has broken"), std::string::npos);
+  EXPECT_NE(j["note"].get<std::string>().find("at least 0.95"), std::string::npos);
+
+  const auto none = mca::analysis::crack_isotropy(w.model, w.scene, w.intact.data());
+  EXPECT_FALSE(none.sectors.ratio);
+  EXPECT_NE(none.sectors.reason.find("no automaton of the annulus is damaged"), std::string::npos)
+      << none.sectors.reason;
+
+  Wall x;
+  x.break_where([](const DVec3& p) { return std::fabs(p.x) < 0.05 || std::fabs(p.z - 0.75) < 0.05; });
+  const auto cross = mca::analysis::crack_isotropy(x.model, x.scene, x.intact.data());
+  EXPECT_FALSE(cross.no_link_broken);
+  EXPECT_FALSE(cross.saturated);
+  EXPECT_FALSE(mca::io::crack_isotropy_json(cross).contains("note"));
 }
 
 TEST(CrackIsotropy, WithoutAProjectileOrAHitThereIsAReason) {
@@ -506,7 +569,10 @@ TEST(CrackIsotropy, WithoutAProjectileOrAHitThereIsAReason) {
   EXPECT_NE(reason(still).find("does not move"), std::string::npos) << reason(still);
   mca::SceneDef wide = scene;
   wide.projectiles[0].position[0] = 3.0;  // its path passes 2 m beside the wall's edge
-  EXPECT_NE(reason(wide).find("outside the first object"), std::string::npos) << reason(wide);
+  EXPECT_NE(reason(wide).find("outside the first object ('wall')"), std::string::npos) << reason(wide);
+  mca::SceneDef edge = scene;
+  edge.projectiles[0].position[0] = 0.99;  // its path passes 1 cm inside the wall's edge at x = 1 m
+  EXPECT_NE(reason(edge).find("thinner than an automaton"), std::string::npos) << reason(edge);
   mca::SceneDef none = scene;
   none.projectiles.clear();
   EXPECT_NE(reason(none).find("no projectile"), std::string::npos);

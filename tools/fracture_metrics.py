@@ -138,6 +138,7 @@ def in_plane_axes(normal):
 # ---------------------------------------------------------------- measure 1: damage sectors
 
 R_IN, R_OUT = 0.25, 0.7  # the issue's annulus [m], for objects that hold it
+MIN_SECTOR_AUTOMATA = 5  # a sector of fewer gives no share (it would move in steps of more than a fifth)
 
 
 def annulus_radii(initial, radius, normal, centre):
@@ -175,13 +176,19 @@ def sector_shares(initial, damage, normal, centre, r_in=R_IN, r_out=R_OUT, thres
         empty = [45 * k for k in range(8) if counts[k] == 0]
         reason = (f"no automaton of the annulus {r_in:g}-{r_out:g} m lies in the sector{'s' if len(empty) > 1 else ''} "
                   f"at {', '.join(str(e) for e in empty)} degrees")
+    elif any(c < MIN_SECTOR_AUTOMATA for c in counts):
+        sparse = ", ".join(f"{45 * k} ({int(c)})" for k, c in enumerate(counts) if c < MIN_SECTOR_AUTOMATA)
+        reason = (f"the annulus {r_in:g}-{r_out:g} m holds fewer than {MIN_SECTOR_AUTOMATA} automata in the sectors at "
+                  f"{sparse} degrees (the counts in brackets): too few for a share; the measure needs the impact "
+                  "point farther from the object's edges, or a finer spacing")
     else:
         axis_mean = float(np.mean(shares[0::2]))
         diag_mean = float(np.mean(shares[1::2]))
         if diag_mean > 0:
             ratio = axis_mean / diag_mean
         else:
-            reason = "no automaton of the diagonal sectors is damaged: the axis/diagonal ratio is unbounded"
+            reason = ("no automaton of the diagonal sectors is damaged: the axis/diagonal ratio is unbounded"
+                      if axis_mean > 0 else "no automaton of the annulus is damaged: there is no crack to measure")
     res = {
         "plane_axes": [AXES[a], AXES[b]],
         "normal": AXES[normal],
@@ -276,7 +283,7 @@ def power_law_fit(bins, fit_max):
     res = {"fit_max_automata": fit_max, "bins_in_range": len(inside), "bins_fitted": len(used),
            "empty_bins_in_range": len(inside) - len(used)}
     if len(used) < 2:
-        res.update({"tau": None, "tau_stderr": None, "r2": None, "decades": 0.0,
+        res.update({"tau": None, "tau_stderr": None, "r2": None, "decades": None,
                     "reason": f"{len(used)} non-empty bin{'' if len(used) == 1 else 's'} of at most {fit_max:g} "
                               "automata: a power law needs at least 2"})
         return res
@@ -314,6 +321,14 @@ def fragment_measure(run_dir, fit_max=None):
     big = automata > tenth
     bins = log_bins(sizes, mass)
     fit = power_law_fit(bins, tenth if fit_max is None else fit_max)
+    if single.all() and fit["tau"] is not None:
+        # rubble alone: the bins above the first hold single automata heavier than the mean (a random
+        # lattice's cells differ in volume), and a line through them would fit the cells' spread
+        fit = {key: fit[key] for key in ("fit_max_automata", "bins_in_range")}
+        fit.update({"bins_fitted": 0, "empty_bins_in_range": fit["bins_in_range"], "tau": None, "tau_stderr": None,
+                    "r2": None, "decades": None,
+                    "reason": "every fragment is a single automaton: the spread of their masses is the lattice "
+                              "cells', not a distribution of fragments"})
     return {
         "fragments": int(len(automata)), "automata": n_total, "mass": m_total, "automaton_mass": m_unit,
         "single_count": int(single.sum()), "single_mass_share": float(mass[single].sum() / m_total),

@@ -34,7 +34,7 @@ def spectrum(runs):
               f"({100 * f['single_mass_share']:.1f}) | {f['small_2_9_count']} ({100 * f['small_2_9_mass_share']:.1f}) | "
               f"{f['mid_count']} ({100 * f['mid_mass_share']:.1f}) | {', '.join(f'{a:,}' for a in f['above_tenth_sizes'])} | "
               f"{100 * f['largest_mass_share']:.1f} | {tau} | {r2} | {fit['bins_fitted']} ({fit['empty_bins_in_range']}) | "
-              f"{fit['decades']:.2f} |")
+              f"{'-' if fit['decades'] is None else format(fit['decades'], '.2f')} |")
 
 
 def sectors(runs):

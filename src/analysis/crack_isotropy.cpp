@@ -56,6 +56,17 @@ SectorShares sector_shares(const std::vector<DVec3>& initial, const std::vector<
                            empty.find(',') == std::string::npos ? "" : "s", empty);
     return s;
   }
+  // A share of fewer automata than this moves in steps of a fifth or more: too coarse to compare sectors.
+  std::string sparse;
+  for (std::size_t k = 0; k < 8; ++k)
+    if (s.automata[k] < kMinSectorAutomata) sparse += fmt::format("{}{} ({})", sparse.empty() ? "" : ", ", 45 * k, s.automata[k]);
+  if (!sparse.empty()) {
+    s.reason = fmt::format("the annulus {:g}-{:g} m holds fewer than {} automata in the sectors at {} degrees (the "
+                           "counts in brackets): too few for a share; the measure needs the impact point farther from "
+                           "the object's edges, or a finer spacing",
+                           r_in, r_out, kMinSectorAutomata, sparse);
+    return s;
+  }
   double axes = 0, diagonals = 0;
   for (std::size_t k = 0; k < 8; k += 2) {
     axes += *s.share[k];
@@ -65,8 +76,10 @@ SectorShares sector_shares(const std::vector<DVec3>& initial, const std::vector<
   s.diagonal_mean = diagonals / 4;
   if (*s.diagonal_mean > 0)
     s.ratio = *s.axis_mean / *s.diagonal_mean;
-  else
+  else if (*s.axis_mean > 0)
     s.reason = "no automaton of the diagonal sectors is damaged: the axis/diagonal ratio is unbounded";
+  else
+    s.reason = "no automaton of the annulus is damaged: there is no crack to measure";
   return s;
 }
 
@@ -122,9 +135,19 @@ CrackIsotropy crack_isotropy(const Model& model, const SceneDef& scene, const st
   }
   if (!(c.half_width > 0)) {
     c.reason = fmt::format("the first projectile's path crosses the plane {} = {:g} m at [{:g}, {:g}, {:g}], outside "
-                           "the first object",
-                           kAxisName[normal], plane_at, c.plane.centre[0], c.plane.centre[1], c.plane.centre[2]);
+                           "the first object ('{}')",
+                           kAxisName[normal], plane_at, c.plane.centre[0], c.plane.centre[1], c.plane.centre[2],
+                           scene.objects.front().name);
     c.half_width = 0;
+    return c;
+  }
+  // Struck at (or within an automaton of) its edge, the annulus scaled to the half-width would be thinner
+  // than an automaton.
+  if (c.half_width < static_cast<double>(model.spacing) / (kAnnulusOuter - kAnnulusInner)) {
+    c.reason = fmt::format("the first projectile's path crosses the plane {} = {:g} m {:g} m from the first object's "
+                           "('{}') nearest edge in the plane: an annulus that fits would be thinner than an automaton "
+                           "({:g} m)",
+                           kAxisName[normal], plane_at, c.half_width, scene.objects.front().name, model.spacing);
     return c;
   }
   if (!model.object_axes.empty())
@@ -141,6 +164,12 @@ CrackIsotropy crack_isotropy(const Model& model, const SceneDef& scene, const st
   std::vector<float> damage(model.size());
   automaton_damage(model, intact, link_damage, damage.data());
   c.sectors = sector_shares(model.position0, damage, c.plane, kAnnulusInner * scale, kAnnulusOuter * scale, first);
+  // What the damage counted is: with softening links it counts softened links too (automaton_damage).
+  std::size_t broken = 0;
+  for (std::size_t l = 0; l < model.link_slots(); ++l) broken += model.link_exists(l) && !intact[l] && first[model.link_i(l)];
+  c.no_link_broken = broken == 0;
+  c.saturated = c.sectors.ratio && std::all_of(c.sectors.share.begin(), c.sectors.share.end(),
+                                               [](const std::optional<double>& v) { return v && *v >= kSaturated; });
   return c;
 }
 

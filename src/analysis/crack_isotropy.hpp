@@ -23,6 +23,10 @@ namespace mca::analysis {
 constexpr double kAnnulusInner = 0.25, kAnnulusOuter = 0.7;
 // Automata with at least this damage (share of their links broken) count as damaged.
 constexpr double kDamagedThreshold = 0.5;
+// A sector of fewer automata gives no share (its share would move in steps of more than a fifth).
+constexpr std::int64_t kMinSectorAutomata = 5;
+// Every sector's share at least this: the annulus is damaged all round, and the ratio says little.
+constexpr double kSaturated = 0.95;
 
 // The plane of the measure: normal to world axis `normal` (0, 1, 2 = x, y, z), through `centre`. Angles are
 // measured from the first in-plane axis towards the second, the two in increasing order (x then z for a
@@ -42,7 +46,8 @@ struct SectorShares {
   std::array<std::int64_t, 8> damaged{};   // per sector, damage >= threshold
   std::array<std::optional<double>, 8> share;  // damaged / automata; unset for an empty sector
   // Means of the four axis sectors (0, 90, 180, 270 degrees) and the four diagonal ones, and their ratio;
-  // unset, with `reason`, when a sector is empty (the ratio also when no diagonal automaton is damaged).
+  // unset, with `reason`, when a sector is empty or holds fewer than kMinSectorAutomata (the ratio also
+  // when no diagonal automaton is damaged).
   std::optional<double> axis_mean, diagonal_mean, ratio;
   std::string reason;
 };
@@ -73,6 +78,8 @@ struct CrackIsotropy {
   double half_width = 0;   // distance from the impact point to the first object's nearest in-plane edge [m]
   bool radii_scaled = false;
   bool object_rotated = false;  // the first object's lattice axes are not the world's (the sectors use the world's)
+  bool no_link_broken = false;  // no link of the first object has broken: its damage is softening only
+  bool saturated = false;       // every sector's share is at least kSaturated
   SectorShares sectors;
 };
 CrackIsotropy crack_isotropy(const Model& model, const SceneDef& scene, const std::uint8_t* intact,

@@ -301,6 +301,17 @@ MassDistribution fragment_mass_distribution(const std::vector<FragmentInfo>& fra
     b.mass_share /= d.mass;
   }
   d.fit = fit_power_law(d.bins, d.tenth);
+  if (d.singles.count == d.fragments && d.fit.tau) {
+    // Rubble alone: the bins above the first hold single automata heavier than the mean (a random
+    // lattice's cells differ in volume), and a line through them would fit the cells' spread.
+    PowerLawFit none;
+    none.fit_max_automata = d.fit.fit_max_automata;
+    none.bins_in_range = d.fit.bins_in_range;
+    none.empty_bins_in_range = d.fit.bins_in_range;
+    none.reason = "every fragment is a single automaton: the spread of their masses is the lattice cells', not a "
+                  "distribution of fragments";
+    d.fit = none;
+  }
   return d;
 }
 

@@ -85,12 +85,14 @@ struct PowerLawFit {
   int bins_in_range = 0;        // bins (up to the largest fragment's) with automata_max <= fit_max
   int bins_fitted = 0;          // the non-empty ones among them
   int empty_bins_in_range = 0;  // bins_in_range - bins_fitted
-  // Each unset value has its reason: tau and the rest with fewer than 2 bins to fit (`reason`); the
+  // Each unset value has its reason: tau and the rest with fewer than 2 bins to fit, or with every
+  // fragment a single automaton (`reason`; bins_fitted is then 0); the
   // standard error with exactly 2, which a line passes through exactly (`tau_stderr_reason`); R^2 when
   // the fitted densities are all equal, which leaves nothing to explain (`r2_reason`).
   std::optional<double> tau, tau_stderr, r2, log10_prefactor;
   std::string reason, tau_stderr_reason, r2_reason;
-  // The first and last fitted abscissae [automata] and the decades between them (0 without a fit).
+  // The first and last fitted abscissae [automata] and the decades between them (0 without a fit;
+  // summary.json writes null).
   std::optional<double> m_first, m_last;
   double decades = 0;
 };

@@ -1,5 +1,7 @@
 #include "io/measures_json.hpp"
 
+#include <fmt/format.h>
+
 #include <optional>
 #include <string>
 
@@ -48,6 +50,8 @@ nlohmann::json mass_distribution_json(const analysis::MassDistribution& d) {
   auto mid = fragment_class(d.mid);
   mid["automata_min"] = 10;
   mid["automata_max"] = d.tenth;
+  if (d.tenth < 10)
+    mid["note"] = fmt::format("a tenth of the {} automata is below 10: no fragment can lie in this class", d.automata);
   j["fragments_10_to_tenth"] = mid;
   j["fragments_above_tenth"] = fragment_class(d.above_tenth);
   j["largest"] = {{"automata", d.largest_automata}, {"mass_share", d.largest_mass_share}};
@@ -72,7 +76,7 @@ nlohmann::json mass_distribution_json(const analysis::MassDistribution& d) {
     fit["range_automata"] = nullptr;
     fit["range_kg"] = nullptr;
   }
-  fit["decades"] = f.decades;
+  fit["decades"] = f.tau ? nlohmann::json(f.decades) : nlohmann::json(nullptr);
   j["power_law"] = fit;
   return j;
 }
@@ -93,8 +97,15 @@ nlohmann::json crack_isotropy_json(const analysis::CrackIsotropy& c) {
   j["r_in"] = s.r_in;
   j["r_out"] = s.r_out;
   j["threshold"] = s.threshold;
-  if (c.object_rotated)
-    j["note"] = "the first object is rotated: the sectors are centred on the world's axes, not its lattice's";
+  std::string note;
+  const auto add = [&note](const char* text) { note += (note.empty() ? "" : "; ") + std::string(text); };
+  if (c.object_rotated) add("the first object is rotated: the sectors are centred on the world's axes, not its lattice's");
+  if (c.no_link_broken)
+    add("no link of the first object has broken: the damage counted is its softening links' alone, not cracks");
+  if (c.saturated)
+    add("every sector's share is at least 0.95: the annulus is damaged all round (softened links count), and the "
+        "ratio says little of the cracks' directions");
+  if (!note.empty()) j["note"] = note;
   j["automata_in_annulus"] = s.in_annulus;
   j["sector_angles_deg"] = {0, 45, 90, 135, 180, 225, 270, 315};
   j["sector_automata"] = s.automata;

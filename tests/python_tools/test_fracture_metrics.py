@@ -280,9 +280,39 @@ def test_plate_sectors_with_scaled_radii():
     r_in, r_out, _, _ = fm.annulus_radii(pts, rad, 1, np.zeros(3))
     res = fm.sector_shares(pts, np.zeros(len(pts)), 1, np.zeros(3), r_in=r_in, r_out=r_out)
     assert res["sector_automata"] == [8, 2] * 4
-    # undamaged: the ratio is unbounded, so null with the reason, and the result is valid JSON
-    assert res["axis_diagonal_ratio"] is None and "unbounded" in res["reason"]
+    # two automata a diagonal sector: too few for a share, so null with the reason, and the result is valid JSON
+    assert res["axis_diagonal_ratio"] is None
+    assert "fewer than 5 automata in the sectors at 45 (2), 135 (2), 225 (2), 315 (2)" in res["reason"]
     json.dumps(res, allow_nan=False)
+
+
+def test_an_undamaged_annulus_has_its_own_reason():
+    # five automata in each sector, none damaged: not an unbounded ratio, nothing to measure
+    ang = np.radians(np.repeat(np.arange(8) * 45.0, 5))
+    pts = np.stack([0.5 * np.cos(ang), np.zeros(len(ang)), 0.5 * np.sin(ang)], axis=1)
+    res = fm.sector_shares(pts, np.zeros(len(pts)), 1, np.zeros(3))
+    assert res["sector_automata"] == [5] * 8
+    assert res["axis_diagonal_ratio"] is None and "no automaton of the annulus is damaged" in res["reason"]
+    damage = np.where(np.arange(len(pts)) % 10 < 5, 1.0, 0.0)  # the axis sectors' automata
+    res = fm.sector_shares(pts, damage, 1, np.zeros(3))
+    assert res["axis_diagonal_ratio"] is None and "unbounded" in res["reason"]
+
+
+def test_singles_of_unequal_mass_have_no_fit(tmp_path):
+    # rubble of a random lattice, whose cells differ in volume: singles of 0.5 to 1.75 mean masses fill the
+    # bins of 1 and 2-3 automata; a line through them would fit the cells' spread (as mca's
+    # FragmentMassDistribution.SinglesOfUnequalMassHaveNoFit)
+    cols = ("id,automata,mass,volume,centre_x,centre_y,centre_z,velocity_x,velocity_y,velocity_z,"
+            "box_min_x,box_min_y,box_min_z,box_max_x,box_max_y,box_max_z")
+    masses = [0.3 * (1.75 if k < 10 else 0.5 if k < 20 else 1.0) for k in range(100)]
+    rows = [cols] + [f"{i},1,{m!r}," + ",".join(["0"] * 13) for i, m in enumerate(sorted(masses, reverse=True))]
+    (tmp_path / "fragments.csv").write_text("\n".join(rows) + "\n")
+    f = fm.fragment_measure(str(tmp_path))
+    assert [b["count"] for b in f["bins"]] == [90, 10]
+    fit = f["fit"]
+    assert fit["tau"] is None and fit["decades"] is None and fit["bins_fitted"] == 0
+    assert "every fragment is a single automaton" in fit["reason"]
+    assert fm.summary_form(f)["power_law"]["decades"] is None
 
 
 def test_an_empty_sector_is_null_not_nan():
