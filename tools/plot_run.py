@@ -86,11 +86,11 @@ def mass_distribution_figure(plt, dist, title):
     ax.set_xlabel("fragment mass m [kg]")
     ax.set_ylabel("n(m): fragments per kg of mass range")
     mid = dist["fragments_10_to_tenth"]
-    ax.set_title(f"{title}\n{dist['fragments']} fragments; singles {100 * dist['singles']['mass_share']:.1f} %, "
+    ax.set_title(f"{title}\n{dist['fragments']} fragment{'' if dist['fragments'] == 1 else 's'}; singles {100 * dist['singles']['mass_share']:.1f} %, "
                  f"10 automata to N/10 {100 * mid['mass_share']:.1f} %, largest {100 * dist['largest']['mass_share']:.1f} % "
                  "of the mass", fontsize=10)
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8, loc="lower left")
+    ax.legend(fontsize=8, loc="best")
     fig.tight_layout()
     return fig
 
@@ -143,9 +143,10 @@ def main(argv):
     fig, ax = plt.subplots(figsize=(8, 4.5))
     ax.plot(t, col("broken_total"), label="broken links (total)", lw=2)
     ax.plot(t, col("broken_displacement"), label="by displacement", lw=1.2)
-    ax.plot(t, col("broken_stress"), label="by equivalent stress", lw=1.2)
+    ax.plot(t, col("broken_stress"), label="by stress (a cubic link's equivalent stress, a random link's own)", lw=1.2)
     ax.set_xlabel("time [ms]")
     ax.set_ylabel("broken links")
+    ax.set_ylim(bottom=0, top=max(1.0, 1.05 * max(col("broken_total"), default=0)))
     ax2 = ax.twinx()
     ax2.plot(t, col("fragments"), color="grey", ls="--", label="fragments")
     ax2.set_ylabel("fragments")
