@@ -31,9 +31,10 @@ std::string lattice_kind(const Model& m) {
   return volume ? "cubic" : "";
 }
 
-std::string lattice_name(const Model& m) {
+std::string lattice_name(const Model& m, double jitter) {
   const std::string kind = lattice_kind(m);
-  return kind == "random" ? fmt::format("random (link_bending {:g})", m.lattice_bending) : kind;
+  if (kind == "random") return fmt::format("random (link_bending {:g})", m.lattice_bending);
+  return kind == "cubic" && jitter > 0 ? fmt::format("cubic (lattice_jitter {:g})", jitter) : kind;
 }
 
 std::string human_bytes(double bytes) {

@@ -46,9 +46,10 @@ OutputEstimate estimate_output(const Model& model, const OutputDef& output, std:
 // "1.72 TB", "430 KB": bytes in SI units, three figures.
 std::string human_bytes(double bytes);
 // The lattice of the model's volume fills: "random", "cubic", or "" when every object is in surface mode;
-// lattice_name as mca run and mca info print it, "random (link_bending 0.1)" for the random one.
+// lattice_name as mca run and mca info print it, "random (link_bending 0.1)" for the random one, "cubic
+// (lattice_jitter 0.25)" for a jittered cubic one (`jitter`: the scene's solver.lattice_jitter).
 std::string lattice_kind(const Model& model);
-std::string lattice_name(const Model& model);
+std::string lattice_name(const Model& model, double jitter = 0);
 // Throws mca::Error when the estimate exceeds the space free in `dir` (which exists): the bytes, the frames and
 // their size, the space free, and the fix.
 void check_output_fits(const OutputEstimate& estimate, const std::filesystem::path& dir, const SceneDef& scene);

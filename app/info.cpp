@@ -96,6 +96,7 @@ int info(const std::optional<std::string>& path, bool json) {
     const std::string lattice = lattice_kind(m);
     j["lattice"] = lattice.empty() ? "none (surface mode)" : lattice;
     if (!m.object_random.empty()) j["link_bending"] = m.lattice_bending;
+    if (lattice == "cubic" && scene.solver.lattice_jitter > 0) j["lattice_jitter"] = scene.solver.lattice_jitter;
     j["time_step"] = m.dt;
     j["critical_time_step"] = m.critical_dt;
     j["time_step_limited_by"] = m.dt_limited_by;
@@ -180,7 +181,8 @@ int info(const std::optional<std::string>& path, bool json) {
     print_mesh(ms, m.object_names[ms.object], count[ms.object], scene.solver.mass_scaling);
   fmt::print("links            {}\n", m.link_count());
   fmt::print("spacing          {:.4g} m\n", m.spacing);
-  if (const std::string lattice = lattice_name(m); !lattice.empty()) fmt::print("lattice          {}\n", lattice);
+  if (const std::string lattice = lattice_name(m, scene.solver.lattice_jitter); !lattice.empty())
+    fmt::print("lattice          {}\n", lattice);
   // The step as used: safety x critical, shortened to fill frames with whole steps, or given by hand.
   fmt::print("time step        {:.4g} s ({:.3g} of the critical {:.4g} s, set by {}; {})\n", m.dt,
              m.dt / m.critical_dt, m.critical_dt, m.dt_limited_by,
@@ -213,8 +215,9 @@ int info(const std::optional<std::string>& path, bool json) {
   else
     fmt::print("memory estimate  {:.1f} MB at the peak of a run ({}); --render at 1280x720 adds {:.0f} MB\n",
                memory.total() / 1e6, parts, memory_rendered.render / 1e6);
-  fmt::print("                 {:.1f} MB if the objects break down to single automata (their contacts)\n",
-             memory.shattered() / 1e6);
+  fmt::print("                 the run holds {:.1f} MB if its objects break down to single automata (their "
+             "contacts)\n",
+             (memory.run() + memory.rubble) / 1e6);
   std::string per_frame;
   if (output.vtk_frame > 0) per_frame += fmt::format("VTK {}", human_bytes(output.vtk_frame));
   if (output.surface_frame > 0)

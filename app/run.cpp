@@ -548,7 +548,7 @@ int run(const RunOptions& o) {
     // Which lattice the volume fills are on (the default changed to the random one: a scene written for the
     // cubic lattice that does not say so runs on the random one).
     const Model& m = sim.model();
-    const std::string name = lattice_name(m);
+    const std::string name = lattice_name(m, scene.solver.lattice_jitter);
     const std::string lattice = name.empty() ? "" : fmt::format(" on the {} lattice", name);
     fmt::print(stderr, "mca: {} automata{}, {} links, time step {:.4g} s, {} steps per frame, {} frames, {} steps, "
                "{} threads; about {} of output\n",

@@ -332,12 +332,16 @@ GroupParams group_params(const SceneDef& scene, const MaterialDef& m, const std:
     throw Error(fmt::format(
         "{}: {} breaks at a strain of {:.3g} (the smaller of fracture_strain = {:g} and tensile_strength / "
         "youngs_modulus = {:g} / {:g}, times the weakest class factor {:g}{}), below the {:g} that the float32 "
-        "arithmetic of the solver resolves; check youngs_modulus (Pa) and the strengths, or raise them",
+        "arithmetic of the solver resolves; check youngs_modulus (Pa) and the strengths, or raise them{}",
         scene.source, q, breaking, m.fracture_strain, m.tensile_strength, m.youngs_modulus, class_factors.first,
         modulus > 0 ? fmt::format(" and the factor {:.3g} one link in 1e9 falls below at weibull_modulus = {:g}", spread,
                                   modulus)
                     : "",
-        kMinBreakingStrain));
+        kMinBreakingStrain,
+        modulus > 0 ? fmt::format("; or narrow the links' spread: a larger weibull_modulus (the smallest of the "
+                                  "materials' sets it for all: {:g}; at 6 the factor is {:.3g}), or 0 for none",
+                                  modulus, weibull_factor(1e-9, 6.0))
+                    : ""));
   }
   const double class_factor_max = class_factors.second;
   GroupParams g;
