@@ -14,6 +14,7 @@ Usage: python3 tools/plot_run.py OUT_DIR [--quiet]
 import csv
 import json
 import os
+import textwrap
 import sys
 
 TAU_BAND = (1.5, 2.1)  # published 3D brittle impact fragmentation exponents (issue 21)
@@ -81,7 +82,8 @@ def mass_distribution_figure(plt, dist, title):
                 label=f"fit: tau = {fit['tau']:.2f}{se}, R^2 = {r2}, {fit['bins_fitted']} bins "
                       f"({fit['empty_bins_in_range']} empty in range), {fit['decades']:.2f} decades")
     else:
-        ax.plot([], [], " ", label=f"no fit: {fit['reason']}")  # the reason, in the legend
+        # the reason, in the legend, wrapped to stay clear of the points
+        ax.plot([], [], " ", label=textwrap.fill(f"no fit: {fit['reason']}", 60))
     ax.axvline(fit_max * unit, color="grey", ls=":", lw=1, label="N/10: the end of the fit range")
     ax.set_xlabel("fragment mass m [kg]")
     ax.set_ylabel("n(m): fragments per kg of mass range")
@@ -90,7 +92,7 @@ def mass_distribution_figure(plt, dist, title):
                  f"10 automata to N/10 {100 * mid['mass_share']:.1f} %, largest {100 * dist['largest']['mass_share']:.1f} % "
                  "of the mass", fontsize=10)
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8, loc="best")
+    ax.legend(fontsize=8, loc="upper right")  # n(m) falls to the right: the corner the points leave empty
     fig.tight_layout()
     return fig
 
@@ -150,6 +152,7 @@ def main(argv):
     ax2 = ax.twinx()
     ax2.plot(t, col("fragments"), color="grey", ls="--", label="fragments")
     ax2.set_ylabel("fragments")
+    ax2.set_ylim(bottom=0, top=max(1.0, 1.05 * max(col("fragments"), default=0)))
     lines = ax.get_legend_handles_labels()
     lines2 = ax2.get_legend_handles_labels()
     ax.legend(lines[0] + lines2[0], lines[1] + lines2[1], fontsize=8, loc="upper left")
