@@ -14,8 +14,8 @@ Usage: python3 tools/plot_run.py OUT_DIR [--quiet]
 import csv
 import json
 import os
-import textwrap
 import sys
+import textwrap
 
 TAU_BAND = (1.5, 2.1)  # published 3D brittle impact fragmentation exponents (issue 21)
 
