@@ -517,19 +517,32 @@ TEST(Cli, UnknownInstructionSetIsRefusedBeforeAnythingIsWritten) {
   EXPECT_EQ(nlohmann::json::parse(info.output)["backend"], "cpu-sse2");
 }
 
+// Writes `text` as a scene in a fresh folder `name`, then reads `mca info --json` of it and runs it: the
+// info and the run's summary.json.
+void info_and_run(const std::string& name, const std::string& text, nlohmann::json& info, nlohmann::json& summary) {
+  const fs::path d = fresh_dir(name);
+  fs::create_directories(d);
+  const fs::path scene = d / "scene.toml";
+  std::ofstream(scene) << text;
+  const Result i = run_mca("info " + scene.string() + " --json");
+  ASSERT_EQ(i.code, 0) << i.output;
+  info = nlohmann::json::parse(i.output);
+  const Result r = run_mca("run " + scene.string() + " --out " + (d / "out").string() + " -q");
+  ASSERT_EQ(r.code, 0) << r.output;
+  summary = nlohmann::json::parse(read(d / "out" / "summary.json"));
+}
+
 TEST(Cli, MemoryEstimateMatchesThePeak) {
 #if defined(__SANITIZE_ADDRESS__)
   GTEST_SKIP() << "AddressSanitizer's shadow memory and quarantine triple the resident size";
 #endif
   // On both lattices (the random one's run peaked 7 % above the estimate when it became the default).
   for (const std::string lattice : {"random", "cubic"}) {
-    const fs::path d = fresh_dir("memory_" + lattice);
-    fs::create_directories(d);
-    const fs::path scene = d / "m100k.toml";
-    std::ofstream(scene) << R"(name = "m100k"
+    nlohmann::json info, summary;
+    ASSERT_NO_FATAL_FAILURE(info_and_run("memory_" + lattice, R"(name = "m100k"
 [solver]
 spacing = 0.01
-lattice = ")" << lattice << R"("
+lattice = ")" + lattice + R"("
 [output]
 frame_rate = 1e6
 duration = 2e-6
@@ -539,13 +552,10 @@ size = [0.5, 0.4, 0.5]
 radius = 0.05
 position = [0, -0.3, 0]
 velocity = [0, 20, 0]
-)";
-    const Result info = run_mca("info " + scene.string() + " --json");
-    ASSERT_EQ(info.code, 0) << info.output;
-    const double estimate = nlohmann::json::parse(info.output)["memory_bytes"].get<double>();
-    const Result r = run_mca("run " + scene.string() + " --out " + (d / "out").string() + " -q");
-    ASSERT_EQ(r.code, 0) << r.output;
-    const double peak = nlohmann::json::parse(read(d / "out" / "summary.json"))["peak_memory_bytes"].get<double>();
+)",
+                                         info, summary));
+    const double estimate = info["memory_bytes"].get<double>();
+    const double peak = summary["peak_memory_bytes"].get<double>();
     std::printf("100,000 automata, %s lattice: estimate %.1f MB, peak resident %.1f MB\n", lattice.c_str(), estimate / 1e6,
                 peak / 1e6);
     EXPECT_GT(estimate, 0.95 * peak) << lattice;
@@ -560,10 +570,8 @@ TEST(Cli, MemoryEstimateOfRubbleMatchesThePeak) {
 #if defined(__SANITIZE_ADDRESS__)
   GTEST_SKIP() << "AddressSanitizer's shadow memory and quarantine triple the resident size";
 #endif
-  const fs::path d = fresh_dir("memory_rubble");
-  fs::create_directories(d);
-  const fs::path scene = d / "shatter.toml";
-  std::ofstream(scene) << R"(name = "shatter"
+  nlohmann::json j, summary;
+  ASSERT_NO_FATAL_FAILURE(info_and_run("memory_rubble", R"(name = "shatter"
 [solver]
 spacing = 0.01
 lattice = "cubic"
@@ -578,14 +586,9 @@ size = [0.3, 0.3, 0.3]
 position = [0, 0, 0.16]
 velocity = [0, 0, -80]
 material = "glass"
-)";
-  const Result info = run_mca("info " + scene.string() + " --json");
-  ASSERT_EQ(info.code, 0) << info.output;
-  const nlohmann::json j = nlohmann::json::parse(info.output);
+)",
+                                       j, summary));
   const double estimate = j["memory_bytes"].get<double>(), shattered = j["memory_bytes_shattered"].get<double>();
-  const Result r = run_mca("run " + scene.string() + " --out " + (d / "out").string() + " -q");
-  ASSERT_EQ(r.code, 0) << r.output;
-  const nlohmann::json summary = nlohmann::json::parse(read(d / "out" / "summary.json"));
   const double peak = summary["peak_memory_bytes"].get<double>();
   const double broken = summary["broken_links"]["total"].get<double>(), links = j["links"].get<double>();
   std::printf("27,000 automata shattered (%.0f of %.0f links broken): estimate %.1f MB, shattered %.1f MB, peak %.1f MB\n",
