@@ -128,6 +128,9 @@ def main(argv):
     def col(name):
         return [float(r[name]) for r in stats]
 
+    def top_of(name):  # an axis from 0 to a little above the column's largest value (1 when all are 0)
+        return max(1.0, 1.05 * max(col(name), default=0))
+
     fig, ax = plt.subplots(figsize=(8, 4.5))
     for name, label in [("kinetic_energy", "kinetic (automata)"), ("elastic_energy", "elastic"),
                         ("contact_energy", "contact"), ("projectile_kinetic_energy", "kinetic (projectiles)"),
@@ -148,11 +151,11 @@ def main(argv):
     ax.plot(t, col("broken_stress"), label="by stress (a cubic link's equivalent stress, a random link's own)", lw=1.2)
     ax.set_xlabel("time [ms]")
     ax.set_ylabel("broken links")
-    ax.set_ylim(bottom=0, top=max(1.0, 1.05 * max(col("broken_total"), default=0)))
+    ax.set_ylim(0, top_of("broken_total"))
     ax2 = ax.twinx()
     ax2.plot(t, col("fragments"), color="grey", ls="--", label="fragments")
     ax2.set_ylabel("fragments")
-    ax2.set_ylim(bottom=0, top=max(1.0, 1.05 * max(col("fragments"), default=0)))
+    ax2.set_ylim(0, top_of("fragments"))
     lines = ax.get_legend_handles_labels()
     lines2 = ax2.get_legend_handles_labels()
     # the counts rise early and level off: the middle right is where they leave room
