@@ -743,8 +743,8 @@ void projectile_bounds(const Model& M, const std::vector<char>& used, TimeStepBo
       const ProjectileParams& Q = M.projectiles[q];
       const double mb = Q.kinematic ? INFINITY : Q.mass, jb = Q.kinematic ? INFINITY : Q.inertia;
       const ContactSprings c = springs(M.projectile_pair_contact(p, q), P.radius, Q.radius,
-                                       Q.kinematic ? P.mass : reduced(P.mass, Q.mass),
-                                       Q.kinematic ? P.inertia : reduced(P.inertia, Q.inertia));
+                                       contact_reduced(P.mass, false, Q.mass, Q.kinematic),
+                                       contact_reduced(P.inertia, false, Q.inertia, Q.kinematic));
       Rows e;
       add_pair(e, -1, c.kn, c.kt, P.radius, Q.radius, c.kr + c.kw, P.mass, P.inertia, mb, jb, c.cn / 3, 0, 0);
       add_scaled(pairs, e, 1.0);

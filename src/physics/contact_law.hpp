@@ -256,6 +256,39 @@ MCA_HD ContactOutput contact_force(const ContactInput& in) {
   return out;
 }
 
+// A contact between bodies i and j as every pass sets it up (automaton pairs, the ground, projectiles):
+// the motion of j's contact point relative to i's from the bodies' velocities, spins and arms (from each
+// centre to the contact point; the ground is a body with zero motion and arm), the springs' response,
+// and the torque on each body: arm x ft plus the rolling and twisting torque on i, -arm x ft minus it on j.
+struct ContactResult {
+  ContactOutput o;
+  Vec3 torque_i, torque_j;
+};
+MCA_HD ContactResult contact_between(Vec3 n, float overlap, const DVec3& vi, const DVec3& wi, Vec3 arm_i, const DVec3& vj,
+                                    const DVec3& wj, Vec3 arm_j, const ContactSprings& s, Vec3 ut, Vec3 mr, float dt) {
+  ContactInput in;
+  in.n = n;
+  in.overlap = overlap;
+  const RelativeMotion rm = relative_motion(vi, wi, arm_i, vj, wj, arm_j);
+  in.vrel = rm.v;
+  in.wrel = rm.w;
+  in.s = s;
+  in.ut = ut;
+  in.mr = mr;
+  in.dt = dt;
+  ContactResult r;
+  r.o = contact_force(in);
+  r.torque_i = cross(arm_i, r.o.ft) + r.o.torque_i;
+  r.torque_j = cross(-arm_j, r.o.ft) - r.o.torque_i;
+  return r;
+}
+
+// The mass (or moment of inertia) a contact moves: the pair's reduced one, or a body's own against a
+// kinematic partner, which nothing moves (a driven projectile). Both kinematic: no contact is made.
+MCA_HD float contact_reduced(float a, bool a_kinematic, float b, bool b_kinematic) {
+  return a_kinematic ? b : (b_kinematic ? a : reduced(a, b));
+}
+
 // Elastic energy stored in a contact's springs [J], for the energy bookkeeping.
 inline double contact_energy(const ContactSprings& s, double overlap, Vec3 ut, Vec3 mr, Vec3 n) {
   double e = 0;

@@ -991,19 +991,12 @@ void CpuBackend::contact_pass() {
       return;
     }
     const Vec3 n = gap.n;
-    ContactInput in;
-    in.n = n;
-    in.overlap = gap.overlap;
-    const RelativeMotion rm = relative_motion(vel(i), ang(i), ri * n, vel(j), ang(j), -rj * n);
-    in.vrel = rm.v;
-    in.wrel = rm.w;
-    in.s = uniform_bodies_ ? pair_springs_[M_.group[i] * M_.groups.size() + M_.group[j]] : pair_springs(i, j, l);
-    in.ut = cp.h.ut;
-    in.mr = cp.h.mr;
-    in.dt = dt;
-    const ContactOutput o = contact_force(in);
-    cp.h = {o.ut, o.mr};
-    contact_out_[p] = {o.force_i, cross(ri * n, o.ft) + o.torque_i, cross(rj * n, o.ft) - o.torque_i, n, ri, rj, true};
+    const ContactResult r =
+        contact_between(n, gap.overlap, vel(i), ang(i), ri * n, vel(j), ang(j), -rj * n,
+                        uniform_bodies_ ? pair_springs_[M_.group[i] * M_.groups.size() + M_.group[j]] : pair_springs(i, j, l),
+                        cp.h.ut, cp.h.mr, dt);
+    cp.h = {r.o.ut, r.o.mr};
+    contact_out_[p] = {r.o.force_i, r.torque_i, r.torque_j, n, ri, rj, true};
   });
   // Add to the automata in pair order (deterministic).
   for (std::size_t p = 0; p < C.size(); ++p) {
@@ -1030,19 +1023,11 @@ void CpuBackend::ground_pass() {
       contact_out_[k].on = false;
       return;
     }
-    ContactInput in;
-    in.n = nrm;
-    in.overlap = overlap;
-    const RelativeMotion rm = relative_motion(vel(a), ang(a), r * nrm, {}, {}, {});
-    in.vrel = rm.v;
-    in.wrel = rm.w;
-    in.s = uniform_bodies_ ? ground_springs_[M_.group[a]] : ground_springs(a);
-    in.ut = bc.h.ut;
-    in.mr = bc.h.mr;
-    in.dt = dt;
-    const ContactOutput o = contact_force(in);
-    bc.h = {o.ut, o.mr};
-    contact_out_[k] = {o.force_i, cross(r * nrm, o.ft) + o.torque_i, {}, nrm, r, 0.0f, true};
+    const ContactResult c = contact_between(nrm, overlap, vel(a), ang(a), r * nrm, {}, {}, {},
+                                            uniform_bodies_ ? ground_springs_[M_.group[a]] : ground_springs(a), bc.h.ut,
+                                            bc.h.mr, dt);
+    bc.h = {c.o.ut, c.o.mr};
+    contact_out_[k] = {c.o.force_i, c.torque_i, {}, nrm, r, 0.0f, true};
   });
   for (std::size_t k = 0; k < G.size(); ++k) {
     const ContactOut& o = contact_out_[k];
@@ -1094,44 +1079,29 @@ std::int64_t CpuBackend::projectile_pass() {
         const SphereGap gap = sphere_gap(pos(a), c, static_cast<double>(P.radius) + ra);  // automaton to projectile
         if (!gap.valid) continue;
         const Vec3 nrm = gap.n;
-        ContactInput in;
-        in.n = nrm;
-        in.overlap = gap.overlap;
-        const RelativeMotion rm =
-            relative_motion(vel(a), ang(a), ra * nrm, ps.velocity, ps.angular_velocity, -P.radius * nrm);
-        in.vrel = rm.v;
-        in.wrel = rm.w;
-        in.s = body_contact_springs(M_.projectile_contact(p, M_.group[a]), P.zeta_automata[M_.group[a]], ra, P.radius,
-                          P.kinematic ? M_.mass[a] : reduced(M_.mass[a], P.mass),
-                          P.kinematic ? M_.inertia[a] : reduced(M_.inertia[a], P.inertia));
-        in.ut = prev.ut;
-        in.mr = prev.mr;
-        in.dt = dt;
-        const ContactOutput o = contact_force(in);
+        const ContactSprings springs = body_contact_springs(
+            M_.projectile_contact(p, M_.group[a]), P.zeta_automata[M_.group[a]], ra, P.radius,
+            contact_reduced(M_.mass[a], false, P.mass, P.kinematic), contact_reduced(M_.inertia[a], false, P.inertia, P.kinematic));
+        const ContactResult r = contact_between(nrm, gap.overlap, vel(a), ang(a), ra * nrm, ps.velocity, ps.angular_velocity,
+                                                -P.radius * nrm, springs, prev.ut, prev.mr, dt);
+        const ContactOutput& o = r.o;
         if (o.fn <= 0.0f && length(o.ut) == 0.0f) continue;
         next.push_back({a, {o.ut, o.mr}});
-        add_external(a, o.force_i, cross(ra * nrm, o.ft) + o.torque_i, sym_outer(nrm, o.force_i, ra));
+        add_external(a, o.force_i, r.torque_i, sym_outer(nrm, o.force_i, ra));
         fsum[p] -= o.force_i;
-        tsum[p] += cross(P.radius * nrm, o.ft) - o.torque_i;
+        tsum[p] += r.torque_j;
       }
     ps.contacts.swap(next);
     if (M_.ground) {
       // The ground, as for an automaton: the projectile is the first body.
       const Vec3 nrm = -M_.up;
-      ContactInput in;
-      in.n = nrm;
-      in.overlap = ground_overlap(c, M_.up, M_.ground_height, P.radius);
-      const RelativeMotion rm = relative_motion(ps.velocity, ps.angular_velocity, P.radius * nrm, {}, {}, {});
-      in.vrel = rm.v;
-      in.wrel = rm.w;
-      in.s = body_contact_springs(M_.projectile_ground_contact(p), P.zeta_ground, P.radius, INFINITY, P.mass, P.inertia);
-      in.ut = ps.ground.ut;
-      in.mr = ps.ground.mr;
-      in.dt = dt;
-      const ContactOutput o = contact_force(in);
-      ps.ground = {o.ut, o.mr};
-      fsum[p] += o.force_i;
-      tsum[p] += cross(P.radius * nrm, o.ft) + o.torque_i;
+      const ContactResult r = contact_between(
+          nrm, ground_overlap(c, M_.up, M_.ground_height, P.radius), ps.velocity, ps.angular_velocity, P.radius * nrm, {}, {},
+          {}, body_contact_springs(M_.projectile_ground_contact(p), P.zeta_ground, P.radius, INFINITY, P.mass, P.inertia),
+          ps.ground.ut, ps.ground.mr, dt);
+      ps.ground = {r.o.ut, r.o.mr};
+      fsum[p] += r.o.force_i;
+      tsum[p] += r.torque_i;
     }
   }
   // Projectile pairs (all pairs: scenes hold a few projectiles), in (p, q) order.
@@ -1152,25 +1122,16 @@ std::int64_t CpuBackend::projectile_pass() {
                                       ? S_.projectile_contacts[old].h
                                       : ContactHistory{};
       const Vec3 nrm = gap.n;
-      const float m_eff = A.kinematic ? B.mass : (B.kinematic ? A.mass : reduced(A.mass, B.mass));
-      const float j_eff = A.kinematic ? B.inertia : (B.kinematic ? A.inertia : reduced(A.inertia, B.inertia));
-      ContactInput in;
-      in.n = nrm;
-      in.overlap = gap.overlap;
-      const RelativeMotion rm =
-          relative_motion(a.velocity, a.angular_velocity, A.radius * nrm, b.velocity, b.angular_velocity, -B.radius * nrm);
-      in.vrel = rm.v;
-      in.wrel = rm.w;
-      in.s = body_contact_springs(M_.projectile_pair_contact(p, q), M_.zeta_projectiles[p * np + q], A.radius, B.radius, m_eff, j_eff);
-      in.ut = prev.ut;
-      in.mr = prev.mr;
-      in.dt = dt;
-      const ContactOutput o = contact_force(in);
-      next_pairs.push_back({p, q, {o.ut, o.mr}});
-      fsum[p] += o.force_i;
-      fsum[q] -= o.force_i;
-      tsum[p] += cross(A.radius * nrm, o.ft) + o.torque_i;
-      tsum[q] += cross(B.radius * nrm, o.ft) - o.torque_i;
+      const ContactSprings springs = body_contact_springs(
+          M_.projectile_pair_contact(p, q), M_.zeta_projectiles[p * np + q], A.radius, B.radius,
+          contact_reduced(A.mass, A.kinematic, B.mass, B.kinematic), contact_reduced(A.inertia, A.kinematic, B.inertia, B.kinematic));
+      const ContactResult r = contact_between(nrm, gap.overlap, a.velocity, a.angular_velocity, A.radius * nrm, b.velocity,
+                                              b.angular_velocity, -B.radius * nrm, springs, prev.ut, prev.mr, dt);
+      next_pairs.push_back({p, q, {r.o.ut, r.o.mr}});
+      fsum[p] += r.o.force_i;
+      fsum[q] -= r.o.force_i;
+      tsum[p] += r.torque_i;
+      tsum[q] += r.torque_j;
     }
   S_.projectile_contacts.swap(next_pairs);
   for (std::size_t p = 0; p < np; ++p) {
