@@ -411,10 +411,15 @@ MCA_HD auto link_geometry(const Vec3T<D>& xi, const Vec3T<D>& xj, R r0, I inv_r0
 
 // Normal stress of the pair law (paper eq. 5 with phi = 2G): sigma = 2 G_ij e (f_i + f_j) / 2 + g_i P_i +
 // g_j P_j, with P the many-body terms of the two ends (from strengthened strains) and f, g of each end's
-// material (strengthened_strain). Without strengthening: 2 G_ij e + P_i + P_j.
-MCA_HD float link_normal_stress(float G_ij, float eps, const StrengthenedStrain& si, const StrengthenedStrain& sj,
-                                float p_i, float p_j) {
-  return G_ij * eps * (si.f + sj.f) + si.g * p_i + sj.g * p_j;
+// material (strengthened_strain), per lane for a SIMD T. Without strengthening (f = g = 1, exact): 2 G_ij e +
+// P_i + P_j, the same bits as the general form.
+template <class T>
+MCA_HD T link_normal_stress(T G_ij, T eps, T f_i, T f_j, T g_i, T g_j, T p_i, T p_j) {
+  return G_ij * eps * (f_i + f_j) + g_i * p_i + g_j * p_j;
+}
+template <class T>
+MCA_HD T link_normal_stress(T G_ij, T eps, T p_i, T p_j) {
+  return G_ij * eps * 2.0f + p_i + p_j;
 }
 
 template <class T>

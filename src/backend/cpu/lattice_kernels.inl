@@ -255,11 +255,11 @@ struct Block {
         k_t[k] = kt0 * 0.5f * (a.f + b.f);
         k_s[k] = kt0 * 0.5f * (strengthening_slope(si, e) + strengthening_slope(sj, e)) * L::lane(inv_r0, k);
       }
-      sigma = G * eps * (L::load(fi) + L::load(fj)) + L::load(gi) * mb_i + L::load(gj) * mb_j;
+      sigma = link_normal_stress<X>(G, eps, L::load(fi), L::load(fj), L::load(gi), L::load(gj), mb_i, mb_j);
       kt = L::load(k_t);
       kt_slope = L::load(k_s);
     } else {
-      sigma = G * eps * 2.0f + mb_i + mb_j;  // link_normal_stress with f = g = 1
+      sigma = link_normal_stress<X>(G, eps, mb_i, mb_j);
     }
     LinkInputT<X> in;
     in.g = {n, r0 * (1.0f + eps), eps};
@@ -387,11 +387,11 @@ struct Block {
         k_t[k] = kt0 * 0.5f * (a.f + b.f);
         k_s[k] = kt0 * 0.5f * (strengthening_slope(si, ek) + strengthening_slope(sj, ek)) * L::lane(inv_r0, k);
       }
-      sigma = G * eps * (L::load(fi) + L::load(fj)) + L::load(gi) * mb_i + L::load(gj) * mb_j;
+      sigma = link_normal_stress<X>(G, eps, L::load(fi), L::load(fj), L::load(gi), L::load(gj), mb_i, mb_j);
       kt = L::load(k_t);
       kt_slope = L::load(k_s);
     } else {
-      sigma = G * eps * 2.0f + mb_i + mb_j;  // link_normal_stress with f = g = 1
+      sigma = link_normal_stress<X>(G, eps, mb_i, mb_j);
     }
     LinkInputT<X> in;
     in.g = {n, r0 * (1.0f + eps), eps};
