@@ -22,12 +22,6 @@
 
 namespace mca {
 
-// Two springs in series of equal length: 2 a b / (a + b) (pair moduli). An infinite b gives 2 a.
-MCA_HD float harmonic(float a, float b) {
-  if (b == INFINITY) return 2.0f * a;
-  return a + b > 0.0f ? 2.0f * a * b / (a + b) : 0.0f;
-}
-
 // Viscous share of critical damping of the rolling and twisting springs (Ai et al. use 0.3).
 inline constexpr float kRollingDampingRatio = 0.3f;
 

@@ -30,6 +30,12 @@
 
 namespace mca {
 
+// Two springs in series of equal length: 2 a b / (a + b) (pair moduli). An infinite b gives 2 a.
+MCA_HD float harmonic(float a, float b) {
+  if (b == INFINITY) return 2.0f * a;
+  return a + b > 0.0f ? 2.0f * a * b / (a + b) : 0.0f;
+}
+
 // Shear stiffness factor of the link: a free-rotating cubic lattice in simple shear gives each pair half
 // the engineering shear strain, so k_s = 2 returns G (checked by the shear-modulus test).
 inline constexpr float kShearFactor = 2.0f;
@@ -408,6 +414,11 @@ MCA_HD auto link_geometry(const Vec3T<D>& xi, const Vec3T<D>& xj, R r0, I inv_r0
   const T inv = select(r > 0.0f, 1.0f / r, T(0.0f));
   return LinkGeometryT<T>{Vec3T<T>{to_float(d.x), to_float(d.y), to_float(d.z)} * inv, r, h * inv_r0};
 }
+
+// A link's shear modulus G_ij: the harmonic mean of its ends' (two half-links in series), times the
+// lattice's stiffness factor s (Model::lattice_stiffness of a jittered or random lattice; 1 for the cubic
+// lattice and the shells: 1 x = x, the same bits).
+MCA_HD float link_shear_modulus(float s, float G_i, float G_j) { return s * harmonic(G_i, G_j); }
 
 // Normal stress of the pair law (paper eq. 5 with phi = 2G): sigma = 2 G_ij e (f_i + f_j) / 2 + g_i P_i +
 // g_j P_j, with P the many-body terms of the two ends (from strengthened strains) and f, g of each end's

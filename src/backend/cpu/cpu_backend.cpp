@@ -162,7 +162,7 @@ class CpuBackend final : public Backend {
         cpu::PairConstants& p = pairs_[g * G + h];
         // (A jittered lattice's moduli are raised by Model::lattice_stiffness; the cubic one's factor is 1.)
         const float s = m.lattice_stiffness;
-        p.G = s == 1.0f ? harmonic(gi.shear_modulus, gj.shear_modulus) : s * harmonic(gi.shear_modulus, gj.shear_modulus);
+        p.G = link_shear_modulus(s, gi.shear_modulus, gj.shear_modulus);
         p.kt = kShearFactor * p.G * area / r0;
         const float k = link_normal_stiffness(p.G, s * gi.lame_lambda, s * gj.lame_lambda, area, r0);
         p.damping = link_dashpots(k, m.lattice_mass(g), m.lattice_mass(h), 0.5f * (gi.damping_time + gj.damping_time),
@@ -215,7 +215,7 @@ class CpuBackend final : public Backend {
         ex_strain_[k] *= w;
       }
       ex_to_stress_[k] = volume ? 1.0f : static_cast<float>(1.0 / (E.r0[k] * static_cast<double>(E.area[k])));
-      ex_G_[k] = s == 1.0f ? harmonic(gi.shear_modulus, gj.shear_modulus) : s * harmonic(gi.shear_modulus, gj.shear_modulus);
+      ex_G_[k] = link_shear_modulus(s, gi.shear_modulus, gj.shear_modulus);
       ex_kt_[k] = kShearFactor * ex_G_[k] * ex_area_[k] * ex_inv_r0_[k];
       const float k_n = link_normal_stiffness(ex_G_[k], sl * gi.lame_lambda, sl * gj.lame_lambda, ex_area_[k], ex_r0f_[k]);
       const LinkDashpots c = explicit_link_dashpots(k_n, m.mass[i], m.mass[j], 0.5f * (gi.damping_time + gj.damping_time),

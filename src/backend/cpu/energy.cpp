@@ -121,9 +121,7 @@ Energies energies_of(const View& at) {
                                    : link_geometry(at.x(i), at.x(j), r0, static_cast<float>(1.0 / r0));
     // (A jittered or random lattice's links have its stiffness factor, as the backend's pair constants.)
     const bool random = ax < 0 && m.random_automaton(i);
-    const double G = (ax >= 0 || random) && m.lattice_stiffness != 1.0f
-                         ? static_cast<double>(m.lattice_stiffness * harmonic(gi.shear_modulus, gj.shear_modulus))
-                         : harmonic(gi.shear_modulus, gj.shear_modulus);
+    const double G = link_shear_modulus(ax >= 0 || random ? m.lattice_stiffness : 1.0f, gi.shear_modulus, gj.shear_modulus);
     const double V = static_cast<double>(area) * r0;
     const double f_mean = 0.5 * (strengthening_factor(gi.strengthening, g.eps) + strengthening_factor(gj.strengthening, g.eps));
     const double kt = kShearFactor * G * area / r0 * f_mean;
