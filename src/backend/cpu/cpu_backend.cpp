@@ -33,6 +33,7 @@
 #include "backend/backend.hpp"
 #include "backend/cpu/aligned.hpp"
 #include "backend/cpu/lattice_kernels.hpp"
+#include "backend/step_constants.hpp"
 #include "grid/uniform_grid.hpp"
 #include "mca/error.hpp"
 #include "physics/contact_law.hpp"
@@ -126,163 +127,17 @@ bool pair_less(const ContactPair& a, const ContactPair& b) { return a.i != b.i ?
 
 class CpuBackend final : public Backend {
  public:
-  explicit CpuBackend(const Model& m) : M_(m), kernels_(cpu::select_kernels()) {
-    const std::size_t n = m.size(), L = m.link_slots(), G = m.groups.size();
+  explicit CpuBackend(const Model& m) : M_(m), K_(build_step_constants(m)), kernels_(cpu::select_kernels()) {
+    const std::size_t n = m.size(), L = m.link_slots(), ne = m.explicit_links.size();
     profile_.set = kernels_.name;
-    // Per automaton: inverses, and the strengths times the class factor (a link takes the weaker end's).
-    inv_mass_.resize(n);
-    inv_inertia_.resize(n);
-    inv_volume_.resize(n);
-    tensile_.resize(n);
-    compressive_.resize(n);
-    break_strain_.resize(n);
-    for (std::size_t a = 0; a < n; ++a) {
-      inv_mass_[a] = 1.0f / m.mass[a];
-      inv_inertia_[a] = 1.0f / m.inertia[a];
-      inv_volume_[a] = 1.0f / m.volume[a];
-      const GroupParams& g = m.groups[m.group[a]];
-      // (The random lattice's strengths carry its strength factor: lattice::kRandomStrength.)
-      const float k = m.random_automaton(a) ? m.class_factor[a] * m.lattice_strength : m.class_factor[a];
-      tensile_[a] = k * g.tensile_strength;
-      compressive_[a] = k * g.compressive_strength;
-      break_strain_[a] = k * g.fracture_strain;
-    }
-    // Per pair of groups: the link constants (every lattice link has length d and area d^2 and joins two
-    // automata of mass Model::lattice_mass).
-    const float r0 = m.spacing, area = r0 * r0;
-    pairs_.resize(G * G);
-    free_factor_.resize(G);
-    lambda_over_2g_.resize(G);
-    for (std::size_t g = 0; g < G; ++g) {
-      free_axis_factors(m.groups[g].lame_lambda, m.groups[g].shear_modulus, free_factor_[g].data());
-      lambda_over_2g_[g] = m.groups[g].lame_lambda / (2.0f * m.groups[g].shear_modulus);
-      strengthening_ = strengthening_ || m.groups[g].strengthening.law != 0;
-      for (std::size_t h = 0; h < G; ++h) {
-        const GroupParams &gi = m.groups[g], &gj = m.groups[h];
-        cpu::PairConstants& p = pairs_[g * G + h];
-        // (A jittered lattice's moduli are raised by Model::lattice_stiffness; the cubic one's factor is 1.)
-        const float s = m.lattice_stiffness;
-        p.G = link_shear_modulus(s, gi.shear_modulus, gj.shear_modulus);
-        p.kt = kShearFactor * p.G * area / r0;
-        const float k = link_normal_stiffness(p.G, s * gi.lame_lambda, s * gj.lame_lambda, area, r0);
-        p.damping = link_dashpots(k, m.lattice_mass(g), m.lattice_mass(h), 0.5f * (gi.damping_time + gj.damping_time),
-                                  m.link_damping);
-        p.soft = softening_constant(gi.fracture_energy, gj.fracture_energy, gi.youngs, gj.youngs, r0);
-      }
-    }
     runs_ = cpu::block_runs(m, kernels_.lanes);
-    // Explicit links (surface mode): each its own length, cross-section and masses.
-    const auto& E = m.explicit_links;
-    const std::size_t ne = E.size();
-    if (ne >= kSecondEnd)  // (ex_ends_ below)
-      throw Error(std::to_string(ne) + " explicit links: at most " + std::to_string(kSecondEnd - 1) + " are supported");
-    for (auto* v : {&ex_r0f_, &ex_inv_r0_, &ex_area_, &ex_to_stress_, &ex_G_, &ex_kt_, &ex_damp_n_, &ex_damp_t_, &ex_nx_,
-                    &ex_ny_, &ex_nz_, &ex_eps_, &ex_k_twist_, &ex_k_in_, &ex_s_in_, &ex_mx_, &ex_my_, &ex_mz_})
-      v->resize(ne);
-    // What only a shell's link reads (its reference axis, its out-of-plane and twisting constants, its
-    // curvature): held only when the model has shells; a block of random links never reads them.
-    bool shells_any = false;
-    for (std::size_t k = 0; k < ne && !shells_any; ++k) shells_any = !m.random_automaton(E.i[k]);
-    if (shells_any)
-      for (auto* v : {&ex_k_out_, &ex_s_out_, &ex_s_twist_, &ex_m0x_, &ex_m0y_, &ex_m0z_, &ex_kappa_}) v->resize(ne);
-    ex_bends_.resize(ne);
+    // State and scratch arrays.
+    for (auto* v : {&ex_nx_, &ex_ny_, &ex_nz_, &ex_eps_, &ex_mx_, &ex_my_, &ex_mz_}) v->resize(ne);
+    if (K_.shells_any) ex_kappa_.resize(ne);  // a shell's curvature
     ex_out_.resize(cpu::tiled_size(ne, cpu::kExplicitOutRows));
-    ex_area_r0_.resize(ne);
-    for (auto* v : {&ex_tensile_, &ex_compressive_, &ex_strain_}) v->resize(ne);
-    const bool soft_any = m.softening();
-    if (soft_any) ex_soft_.resize(ne);
-    for (std::size_t k = 0; k < ne; ++k) {
-      const std::uint32_t i = E.i[k], j = E.j[k];
-      const GroupParams &gi = m.groups[m.group[i]], &gj = m.groups[m.group[j]];
-      // A link of the random lattice (volume law): its ends' weights are their many-body stresses
-      // (explicit_link_pass), its moduli carry the lattice's factor, and its bending spring is a beam of its
-      // own section (volume_bending_constants; none at link_bending = 0).
-      const bool volume = m.random_automaton(i);
-      const float s = volume ? m.lattice_stiffness : 1.0f, sl = volume ? m.lattice_lambda : 1.0f;
-      ex_r0f_[k] = static_cast<float>(E.r0[k]);
-      ex_inv_r0_[k] = static_cast<float>(1.0 / E.r0[k]);
-      ex_area_[k] = E.area[k];
-      ex_area_r0_[k] = ex_area_[k] * ex_r0f_[k];
-      // Its strengths: its weaker end's, times its own factor (cpu::ExplicitView::tensile).
-      const auto weaker = [&](const cpu::LineArray<float>& x) { return x[j] < x[i] ? x[j] : x[i]; };
-      ex_tensile_[k] = weaker(tensile_);
-      ex_compressive_[k] = weaker(compressive_);
-      ex_strain_[k] = weaker(break_strain_);
-      if (!m.link_strength.empty()) {
-        const float w = m.link_strength[3 * n + k];
-        ex_tensile_[k] *= w;
-        ex_compressive_[k] *= w;
-        ex_strain_[k] *= w;
-      }
-      ex_to_stress_[k] = volume ? 1.0f : static_cast<float>(1.0 / (E.r0[k] * static_cast<double>(E.area[k])));
-      ex_G_[k] = link_shear_modulus(s, gi.shear_modulus, gj.shear_modulus);
-      ex_kt_[k] = kShearFactor * ex_G_[k] * ex_area_[k] * ex_inv_r0_[k];
-      const float k_n = link_normal_stiffness(ex_G_[k], sl * gi.lame_lambda, sl * gj.lame_lambda, ex_area_[k], ex_r0f_[k]);
-      const LinkDashpots c = explicit_link_dashpots(k_n, m.mass[i], m.mass[j], 0.5f * (gi.damping_time + gj.damping_time),
-                                                    m.link_damping);
-      ex_damp_n_[k] = c.normal;
-      ex_damp_t_[k] = c.tangential;
-      // A random-lattice link softens as a lattice link does (2 G_f E / r0 of its own length, E with the
-      // lattice's stiffness factor: the link then takes G_f times its cross-section); a shell's does not.
-      if (soft_any)
-        ex_soft_[k] = volume ? s * softening_constant(gi.fracture_energy, gj.fracture_energy, gi.youngs, gj.youngs, ex_r0f_[k])
-                             : 0.0f;
-      // 1: a shell's spring; 2: a random-lattice link's (volume_bending_constants); 0: none.
-      ex_bends_[k] = !volume ? 1 : m.lattice_bending > 0.0f ? 2 : 0;
-      const LinkBendingConstants bc = m.explicit_bending(k);
-      ex_k_twist_[k] = bc.k_twist;
-      ex_k_in_[k] = bc.k_in;
-      ex_s_in_[k] = bc.s_in;
-      if (shells_any) {
-        ex_m0x_[k] = E.normal[k].x;
-        ex_m0y_[k] = E.normal[k].y;
-        ex_m0z_[k] = E.normal[k].z;
-        ex_k_out_[k] = bc.k_out;
-        ex_s_out_[k] = bc.s_out;
-        ex_s_twist_[k] = bc.s_twist;
-      }
-    }
-    for (std::size_t a = 0; a < n && !E.first.empty(); ++a)
-      if (E.first[a + 1] > E.first[a]) explicit_automata_.push_back(static_cast<std::uint32_t>(a));
-    // Each automaton's links (E.of) with the end it is, read in order by the passes below.
-    ex_ends_.resize(E.of.size());
-    for (const std::uint32_t a : explicit_automata_)
-      for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x)
-        ex_ends_[x] = E.of[x] | (E.i[E.of[x]] == a ? 0u : kSecondEnd);
     explicit_weight_.assign(n, 0.0f);
     bend_weight_.assign(n, 0.0f);
-    bend_c_.assign(n, 0.0f);
-    for (const std::uint32_t a : explicit_automata_) {
-      if (m.random_automaton(a)) continue;  // no shell's many-body bending
-      const GroupParams& g = m.groups[m.group[a]];
-      const std::uint32_t l = E.of[E.first[a]];
-      bend_c_[a] = static_cast<float>(bending_many_body_constant(g.youngs, g.poisson, E.area[l] / E.edge[l], m.volume[a]));
-    }
     explicit_breaks_.resize(ne);
-    // Contact springs per pair of groups (and per group on the ground) when every automaton of a group
-    // has the group's radius, mass and moment of inertia (lattices: always): the same numbers
-    // body_contact_springs gives for each pair, worked out once.
-    std::vector<std::uint32_t> first(G, UINT32_MAX);
-    uniform_bodies_ = true;
-    for (std::size_t a = 0; a < n; ++a) {
-      std::uint32_t& f = first[m.group[a]];
-      if (f == UINT32_MAX) f = static_cast<std::uint32_t>(a);
-      uniform_bodies_ = uniform_bodies_ && m.radius[a] == m.radius[f] && m.mass[a] == m.mass[f] &&
-                        m.inertia[a] == m.inertia[f] && m.volume[a] == m.volume[f];
-    }
-    if (uniform_bodies_) {
-      pair_springs_.resize(G * G);
-      ground_springs_.resize(G);
-      for (std::size_t g = 0; g < G; ++g) {
-        if (first[g] == UINT32_MAX) continue;
-        const std::uint32_t i = first[g];
-        ground_springs_[g] = ground_springs(i);
-        for (std::size_t h = 0; h < G; ++h)
-          if (first[h] != UINT32_MAX) pair_springs_[g * G + h] = pair_springs(i, first[h], M_.random_link_at_start(i, first[h]));
-      }
-    }
-    one_group_ = n > 0 && std::all_of(m.group.begin(), m.group.end(), [&](std::uint8_t g) { return g == m.group[0]; });
-    // State and scratch arrays.
     for (auto* v : {&px_, &py_, &pz_, &vx_, &vy_, &vz_, &wx_, &wy_, &wz_}) v->resize(n);
     ref_.resize(cpu::tiled_size(n, cpu::kRefRows));
     for (auto* v : {&qw_, &qx_, &qy_, &qz_}) v->resize(n);
@@ -314,20 +169,7 @@ class CpuBackend final : public Backend {
       else if (how != "auto")
         throw Error("MCA_SWEEP=" + std::string(e) + ": use auto (the default: the sweep where it pays), fused or passes");
     }
-    grip_members_.resize(m.grip_velocity.size());
-    for (std::size_t a = 0; a < n; ++a)
-      if (m.grip[a] >= 0) grip_members_[m.grip[a]].push_back(static_cast<std::uint32_t>(a));
-    r_max_ = 0;
-    for (float r : m.radius) r_max_ = std::max(r_max_, r);
-    const std::size_t np = m.projectiles.size();
-    for (auto* v : {&proj_x_, &proj_y_, &proj_z_}) v->resize(np);
-    proj_reach2_.resize(np);
-    for (std::size_t p = 0; p < np; ++p) {
-      // The projectile pass takes automaton a when |d|^2 < (R + r_a)^2, d and the sum rounded to float:
-      // with the largest radius (and a little more) for every automaton, the marks hold all it takes.
-      const float reach = (m.projectiles[p].radius + r_max_) * 1.001f;
-      proj_reach2_[p] = reach * reach;
-    }
+    for (auto* v : {&proj_x_, &proj_y_, &proj_z_}) v->resize(m.projectiles.size());
   }
 
   std::string name() const override { return std::string("cpu-") + kernels_.name; }
@@ -437,7 +279,7 @@ class CpuBackend final : public Backend {
     v.proj_x = proj_x_.data();
     v.proj_y = proj_y_.data();
     v.proj_z = proj_z_.data();
-    v.proj_reach2 = proj_reach2_.data();
+    v.proj_reach2 = K_.proj_reach2.data();
     v.near = near_.data();
     return v;
   }
@@ -472,15 +314,6 @@ class CpuBackend final : public Backend {
   bool linked(std::uint32_t i, std::uint32_t j) const;
   void lose_link(std::uint32_t a, float& max_move2);
   bool near_ground(std::uint32_t a) const;
-  // (Model::contact_length: a random-lattice pair that a link joined presses with that link's stiffness.)
-  // l: Model::random_link_at_start(i, j).
-  ContactSprings pair_springs(std::uint32_t i, std::uint32_t j, std::int64_t l) const {
-    return M_.pair_contact_springs(i, j, l, M_.zeta_pair[M_.group[i] * M_.groups.size() + M_.group[j]]);
-  }
-  ContactSprings ground_springs(std::uint32_t a) const {
-    return body_contact_springs(M_.ground_contact[M_.group[a]], M_.zeta_ground[M_.group[a]], M_.radius[a], INFINITY,
-                                M_.mass[a], M_.inertia[a]);
-  }
   void add_external(std::uint32_t a, Vec3 f, Vec3 t, const Sym3& s) {
     ext_f_[a] += f;
     ext_t_[a] += t;
@@ -489,6 +322,7 @@ class CpuBackend final : public Backend {
   }
 
   const Model& M_;
+  const StepConstants K_;  // what the step reads of the model, worked out once
   const cpu::Kernels& kernels_;
   mutable State S_;
   mutable bool stale_ = false;  // S_'s automata and link arrays are behind the arrays below
@@ -497,7 +331,6 @@ class CpuBackend final : public Backend {
   cpu::LineArray<double> ref_;  // positions at the last contact rebuild (State::x_at_rebuild), tiled
   cpu::LineArray<double> vx_, vy_, vz_, wx_, wy_, wz_;
   cpu::LineArray<float> qw_, qx_, qy_, qz_;
-  cpu::LineArray<float> inv_mass_, inv_inertia_, inv_volume_, tensile_, compressive_, break_strain_;
   // Sound links per automaton: intact and, where the model softens, undamaged (6: boxed in, see rebuild).
   std::vector<std::uint8_t> intact_count_;
   // Where the model softens: per link slot, 1 once the link is damaged or broken (no longer counted in
@@ -515,43 +348,26 @@ class CpuBackend final : public Backend {
   // How lattice_sweep runs the kernels (MCA_SWEEP, for tests and measurements; the same results each way):
   // chunk by chunk where it pays, always chunk by chunk, or one kernel at a time over all chunks.
   enum class Sweep { automatic, fused, passes } sweep_ = Sweep::automatic;
-  std::vector<cpu::PairConstants> pairs_;
-  std::vector<std::array<float, 4>> free_factor_;  // per group, see volumetric_strain
-  std::vector<float> lambda_over_2g_;              // per group, lambda / (2 G): see random_many_body
-  // Explicit links (Model::ExplicitLinks), structure of arrays (cpu::ExplicitView): constants, then this
-  // step's geometry and forces; the automata that have some, and each automaton's many-body weight.
-  cpu::LineArray<float> ex_r0f_, ex_inv_r0_, ex_area_, ex_to_stress_, ex_G_, ex_kt_, ex_damp_n_, ex_damp_t_;
-  cpu::LineArray<float> ex_soft_;  // softening constants (empty: no link softens)
+  // Explicit links: this step's geometry and forces, the bending springs' state, per automaton its
+  // many-body weight.
   cpu::LineArray<float> ex_nx_, ex_ny_, ex_nz_, ex_eps_;
   cpu::LineArray<float> ex_out_;  // cpu::ExplicitView::out
-  cpu::LineArray<float> ex_k_twist_, ex_k_in_, ex_k_out_, ex_s_in_, ex_s_out_, ex_s_twist_, ex_m0x_, ex_m0y_, ex_m0z_;
   cpu::LineArray<float> ex_mx_, ex_my_, ex_mz_;  // state: the bending springs' moments (State::link_moment)
-  cpu::LineArray<std::uint8_t> ex_bends_;       // 1: a shell's bending spring, 2: a random link's, 0: none
-  std::vector<std::uint32_t> explicit_automata_;
-  // Per automaton (as E.of, from E.first): its explicit links, kSecondEnd set where it is the link's j.
-  static constexpr std::uint32_t kSecondEnd = 1u << 31;
-  std::vector<std::uint32_t> ex_ends_;
-  std::vector<float> ex_area_r0_;  // per explicit link: area r0 (the random lattice's many-body sum)
-  cpu::LineArray<float> ex_tensile_, ex_compressive_, ex_strain_;  // cpu::ExplicitView::tensile, ...
+  static constexpr std::uint32_t kSecondEnd = StepConstants::kSecondEnd;
   std::vector<float> explicit_weight_;
-  std::vector<float> bend_weight_, bend_c_;  // the bending's many-body part per automaton: weight, D nu A
-  cpu::LineArray<float> ex_kappa_;           // per explicit link: this step's kappa_nn (explicit_geometry)
+  std::vector<float> bend_weight_;              // the shells' bending's many-body weight per automaton
+  cpu::LineArray<float> ex_kappa_;              // per explicit link: this step's kappa_nn (explicit_geometry)
   std::vector<std::uint32_t> explicit_breaks_;  // per chunk of links, what the explicit kernel found
-  bool strengthening_ = false, one_group_ = false;
   bool last_step_ = true;
   std::vector<std::uint32_t> exposed_;
-  bool uniform_bodies_ = false;  // radius, mass and inertia are the group's: the springs below hold
-  std::vector<ContactSprings> pair_springs_, ground_springs_;
   std::vector<std::uint8_t> near_, chunk_near_;  // see LatticeView::near; per chunk: any marked
   std::vector<double> proj_x_, proj_y_, proj_z_;  // the projectiles' centres for the marks
-  std::vector<float> proj_reach2_;
   bool near_valid_ = false;                      // near_ is from the last step (not before an upload)
   double clock_time_ = 0;                        // the time is clock_time_ + (step - clock_step_) dt (upload)
   std::int64_t clock_step_ = 0;
   std::vector<Vec3> ext_f_, ext_t_;
   std::vector<Sym3> ext_s_;
   std::vector<std::uint8_t> has_ext_;
-  std::vector<std::vector<std::uint32_t>> grip_members_;
   // A contact's result, written in parallel and added to its bodies in list order.
   struct ContactOut {
     Vec3 f, ti, tj, n;
@@ -560,7 +376,6 @@ class CpuBackend final : public Backend {
   };
   std::vector<ContactOut> contact_out_;
   UniformGrid grid_;
-  float r_max_ = 0;
   PassProfile profile_;
 };
 
@@ -574,29 +389,29 @@ cpu::LatticeView CpuBackend::view() {
   v.ns = cpu::scratch_stride(m.size());
   v.blocks = kernels_.lanes > 1 ? m.size() / static_cast<std::size_t>(kernels_.lanes) : 0;
   v.group = m.group.data();
-  v.tensile = tensile_.data();
-  v.compressive = compressive_.data();
-  v.break_strain = break_strain_.data();
+  v.tensile = K_.tensile.data();
+  v.compressive = K_.compressive.data();
+  v.break_strain = K_.break_strain.data();
   v.mass = m.mass.data();
-  if (one_group_) {
-    v.uniform_bodies = uniform_bodies_;
+  if (K_.one_group) {
+    v.uniform_bodies = K_.uniform_bodies;
     v.body[0] = m.mass[0];
-    v.body[1] = inv_mass_[0];
-    v.body[2] = inv_inertia_[0];
-    v.body[3] = inv_volume_[0];
+    v.body[1] = K_.inv_mass[0];
+    v.body[2] = K_.inv_inertia[0];
+    v.body[3] = K_.inv_volume[0];
   }
-  v.inv_mass = inv_mass_.data();
-  v.inv_inertia = inv_inertia_.data();
-  v.inv_volume = inv_volume_.data();
+  v.inv_mass = K_.inv_mass.data();
+  v.inv_inertia = K_.inv_inertia.data();
+  v.inv_volume = K_.inv_volume.data();
   v.grip = m.grip_velocity.empty() ? nullptr : m.grip.data();
   v.grip_velocity = m.grip_velocity.data();
   v.load = m.load.empty() ? nullptr : m.load.data();
   v.groups = m.groups.data();
-  v.free_factor = reinterpret_cast<const float(*)[4]>(free_factor_.data());
-  v.pairs = pairs_.data();
+  v.free_factor = reinterpret_cast<const float(*)[4]>(K_.free_factor.data());
+  v.pairs = K_.pairs.data();
   v.group_count = static_cast<int>(m.groups.size());
-  v.one_group = one_group_;
-  v.strengthening = strengthening_;
+  v.one_group = K_.one_group;
+  v.strengthening = K_.strengthening;
   v.softening = !S_.link_damage.empty();
   v.damage = v.softening ? S_.link_damage.data() : nullptr;
   v.link_strength = m.link_strength.empty() ? nullptr : m.link_strength.data();
@@ -777,8 +592,8 @@ std::vector<std::size_t> CpuBackend::explicit_link_pass(const cpu::LatticeView& 
   const std::size_t n = M_.size(), L = E.size();
   const cpu::ExplicitView ev = explicit_view();
   parallel_chunks(L, [&](std::size_t, std::size_t b, std::size_t e) { kernels_.explicit_geometry(v, ev, b, e); });
-  parallel_range(explicit_automata_.size(), [&](std::size_t k) {
-    const std::uint32_t a = explicit_automata_[k];
+  parallel_range(K_.explicit_automata.size(), [&](std::size_t k) {
+    const std::uint32_t a = K_.explicit_automata[k];
     const GroupParams& g = M_.groups[M_.group[a]];
     if (M_.random_automaton(a)) {
       // The random lattice: theta = sum A r s / (2 V) over the intact links, and the stress lambda theta / 2
@@ -786,17 +601,17 @@ std::vector<std::size_t> CpuBackend::explicit_link_pass(const cpu::LatticeView& 
       // share, as the lattice's many-body kernel takes it.
       float sum = 0.0f, free = M_.free_face[a];
       for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
-        const std::uint32_t l = ex_ends_[x] & ~kSecondEnd;
+        const std::uint32_t l = K_.ex_ends[x] & ~kSecondEnd;
         if (!S_.intact[3 * n + l]) {
-          free += ex_area_r0_[l];  // a broken link's face is free
+          free += K_.ex_area_r0[l];  // a broken link's face is free
           continue;
         }
         float e = strengthened_strain(g.strengthening, ex_eps_[l]).s;
         if (!S_.link_damage.empty() && e > 0.0f) e = (1.0f - S_.link_damage[3 * n + l]) * e;
-        sum += ex_area_r0_[l] * e;  // (A r0) e: the product is formed once
+        sum += K_.ex_area_r0[l] * e;  // (A r0) e: the product is formed once
       }
       explicit_weight_[a] =
-          random_many_body(M_.lattice_lambda * g.lame_lambda, lambda_over_2g_[M_.group[a]], M_.volume[a], sum, free).stress;
+          random_many_body(M_.lattice_lambda * g.lame_lambda, K_.lambda_over_2g[M_.group[a]], M_.volume[a], sum, free).stress;
       return;
     }
     float sum = 0.0f, curvature = 0.0f;
@@ -808,8 +623,8 @@ std::vector<std::size_t> CpuBackend::explicit_link_pass(const cpu::LatticeView& 
       curvature += ex_kappa_[l];
       ++count;
     }
-    explicit_weight_[a] = explicit_many_body(g.lame_lambda, free_factor_[M_.group[a]].data(), M_.volume[a], sum, count).weight;
-    bend_weight_[a] = explicit_bending_many_body(bend_c_[a], curvature, count).weight;
+    explicit_weight_[a] = explicit_many_body(g.lame_lambda, K_.free_factor[M_.group[a]].data(), M_.volume[a], sum, count).weight;
+    bend_weight_[a] = explicit_bending_many_body(K_.bend_c[a], curvature, count).weight;
   });
   const std::size_t chunks = (L + kChunk - 1) / kChunk;
   std::vector<std::size_t> counts(chunks, 0);
@@ -826,28 +641,28 @@ cpu::ExplicitView CpuBackend::explicit_view() {
   e.i = E.i.data();
   e.j = E.j.data();
   e.r0 = E.r0.data();
-  e.r0f = ex_r0f_.data();
-  e.inv_r0 = ex_inv_r0_.data();
-  e.area = ex_area_.data();
-  e.inv_r0_area = ex_to_stress_.data();
-  e.G = ex_G_.data();
-  e.kt = ex_kt_.data();
-  e.damp_normal = ex_damp_n_.data();
-  e.damp_tangential = ex_damp_t_.data();
-  e.soft = ex_soft_.empty() ? nullptr : ex_soft_.data();
+  e.r0f = K_.ex_r0f.data();
+  e.inv_r0 = K_.ex_inv_r0.data();
+  e.area = K_.ex_area.data();
+  e.inv_r0_area = K_.ex_to_stress.data();
+  e.G = K_.ex_G.data();
+  e.kt = K_.ex_kt.data();
+  e.damp_normal = K_.ex_damp_n.data();
+  e.damp_tangential = K_.ex_damp_t.data();
+  e.soft = K_.ex_soft.empty() ? nullptr : K_.ex_soft.data();
   e.weight = explicit_weight_.data();
-  e.tensile = ex_tensile_.data();
-  e.compressive = ex_compressive_.data();
-  e.strain = ex_strain_.data();
+  e.tensile = K_.ex_tensile.data();
+  e.compressive = K_.ex_compressive.data();
+  e.strain = K_.ex_strain.data();
   e.nx = ex_nx_.data(); e.ny = ex_ny_.data(); e.nz = ex_nz_.data(); e.eps = ex_eps_.data();
   e.out = ex_out_.data();
-  e.k_twist = ex_k_twist_.data(); e.k_in = ex_k_in_.data(); e.k_out = ex_k_out_.data();
-  e.s_in = ex_s_in_.data(); e.s_out = ex_s_out_.data(); e.s_twist = ex_s_twist_.data();
-  e.m0x = ex_m0x_.data(); e.m0y = ex_m0y_.data(); e.m0z = ex_m0z_.data();
+  e.k_twist = K_.ex_k_twist.data(); e.k_in = K_.ex_k_in.data(); e.k_out = K_.ex_k_out.data();
+  e.s_in = K_.ex_s_in.data(); e.s_out = K_.ex_s_out.data(); e.s_twist = K_.ex_s_twist.data();
+  e.m0x = K_.ex_m0x.data(); e.m0y = K_.ex_m0y.data(); e.m0z = K_.ex_m0z.data();
   e.mx = ex_mx_.data(); e.my = ex_my_.data(); e.mz = ex_mz_.data();
   e.kappa = ex_kappa_.data();
   e.bend_weight = bend_weight_.data();
-  e.bends = M_.object_random.empty() ? nullptr : ex_bends_.data();
+  e.bends = M_.object_random.empty() ? nullptr : K_.ex_bends.data();
   return e;
 }
 
@@ -856,8 +671,8 @@ cpu::ExplicitView CpuBackend::explicit_view() {
 void CpuBackend::explicit_gather_pass(bool last) {
   const auto& E = M_.explicit_links;
   const std::size_t slot0 = 3 * M_.size();
-  parallel_range(explicit_automata_.size(), [&](std::size_t k) {
-    const std::uint32_t a = explicit_automata_[k];
+  parallel_range(K_.explicit_automata.size(), [&](std::size_t k) {
+    const std::uint32_t a = K_.explicit_automata[k];
     // Summed here and added once: the contact sums are empty at this point of the step (0 + x = x), so
     // this is the order of adding them one by one.
     Vec3 f, t;
@@ -870,11 +685,11 @@ void CpuBackend::explicit_gather_pass(bool last) {
     // that runs all its steps; one stopped by a value not finite keeps that step's partial mean stress).
     const bool bends = !M_.random_automaton(a) || M_.lattice_bending > 0.0f, stresses = !M_.random_automaton(a) || last;
     for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
-      const std::uint32_t l = ex_ends_[x] & ~kSecondEnd;
+      const std::uint32_t l = K_.ex_ends[x] & ~kSecondEnd;
       if (!S_.intact[slot0 + l]) continue;
       const float* out = ex_out_.data() + cpu::tile_index(l, cpu::kExplicitOutRows);
       const Vec3 fl{out[cpu::kOutFx * cpu::kTile], out[cpu::kOutFy * cpu::kTile], out[cpu::kOutFz * cpu::kTile]};
-      const bool first = !(ex_ends_[x] & kSecondEnd);
+      const bool first = !(K_.ex_ends[x] & kSecondEnd);
       f += first ? fl : -fl;
       const Vec3 tl{out[cpu::kOutTx * cpu::kTile], out[cpu::kOutTy * cpu::kTile], out[cpu::kOutTz * cpu::kTile]};
       if (bends) {
@@ -884,7 +699,7 @@ void CpuBackend::explicit_gather_pass(bool last) {
       } else {
         t += tl;
       }
-      if (stresses) s += sym_outer(Vec3{ex_nx_[l], ex_ny_[l], ex_nz_[l]}, fl, 0.5f * ex_r0f_[l]);
+      if (stresses) s += sym_outer(Vec3{ex_nx_[l], ex_ny_[l], ex_nz_[l]}, fl, 0.5f * K_.ex_r0f[l]);
       any = true;
     }
     if (any) add_external(a, f, t, s);
@@ -993,7 +808,7 @@ void CpuBackend::contact_pass() {
     const Vec3 n = gap.n;
     const ContactResult r =
         contact_between(n, gap.overlap, vel(i), ang(i), ri * n, vel(j), ang(j), -rj * n,
-                        uniform_bodies_ ? pair_springs_[M_.group[i] * M_.groups.size() + M_.group[j]] : pair_springs(i, j, l),
+                        K_.uniform_bodies ? K_.pair_springs[M_.group[i] * M_.groups.size() + M_.group[j]] : automaton_pair_springs(M_, i, j, l),
                         cp.h.ut, cp.h.mr, dt);
     cp.h = {r.o.ut, r.o.mr};
     contact_out_[p] = {r.o.force_i, r.torque_i, r.torque_j, n, ri, rj, true};
@@ -1024,7 +839,7 @@ void CpuBackend::ground_pass() {
       return;
     }
     const ContactResult c = contact_between(nrm, overlap, vel(a), ang(a), r * nrm, {}, {}, {},
-                                            uniform_bodies_ ? ground_springs_[M_.group[a]] : ground_springs(a), bc.h.ut,
+                                            K_.uniform_bodies ? K_.ground_springs[M_.group[a]] : automaton_ground_springs(M_, a), bc.h.ut,
                                             bc.h.mr, dt);
     bc.h = {c.o.ut, c.o.mr};
     contact_out_[k] = {c.o.force_i, c.torque_i, {}, nrm, r, 0.0f, true};
@@ -1156,9 +971,9 @@ std::int64_t CpuBackend::projectile_pass() {
 // Grip forces: the force the grip exerts is minus what the body pushes on it (the automata kernel leaves
 // that in ext_f of the held automata).
 void CpuBackend::grip_pass() {
-  for (std::size_t g = 0; g < grip_members_.size(); ++g) {
+  for (std::size_t g = 0; g < K_.grip_members.size(); ++g) {
     Vec3 f;
-    for (std::uint32_t a : grip_members_[g]) {
+    for (std::uint32_t a : K_.grip_members[g]) {
       f -= ext_f_[a];
       ext_f_[a] = Vec3{};
     }
@@ -1178,7 +993,7 @@ void CpuBackend::rebuild_contacts() {
   for (std::size_t a = 0; a < M_.size(); ++a)
     if (intact_count_[a] < 6) exposed_.push_back(static_cast<std::uint32_t>(a));
   const std::size_t n = exposed_.size();
-  grid_.build(S_.x.data(), n, 2.0f * r_max_ + skin, exposed_.data());
+  grid_.build(S_.x.data(), n, 2.0f * K_.r_max + skin, exposed_.data());
   const std::size_t chunks = (n + kChunk - 1) / kChunk;
   std::vector<std::vector<ContactPair>> found(chunks);
   parallel_chunks(n, [&](std::size_t ch, std::size_t b, std::size_t e) {
