@@ -1,7 +1,8 @@
 #pragma once
-// Lanes: what the lattice kernels (lattice_kernels.inl) need of their number type V, for V = float (one
-// automaton or link at a time) and V = a SIMD vector of floats (std::experimental::simd, as wide as the
-// instruction set the file is compiled for: 4 lanes for SSE2, 8 for AVX2, 16 for AVX-512).
+// Lanes: what the lattice kernels (lattice_kernels.inl) need of their number type V, for V = a SIMD vector
+// of floats (std::experimental::simd, as wide as the instruction set the file is compiled for: 4 lanes for
+// SSE2, 8 for AVX2, 16 for AVX-512); V = float (one automaton or link at a time, and a CUDA thread) is in
+// lanes_scalar.hpp, which needs no <experimental/simd> (nvcc cannot parse it).
 //
 // The vector forms of select, to_float and to_double are found by the formulas of core/math.hpp and
 // physics/ only when declared before them (their arguments live in std::experimental, so argument-
@@ -14,13 +15,11 @@
 #include <experimental/simd>
 #include <type_traits>
 
-#define MCA_LANE inline __attribute__((always_inline))
+#include "backend/cpu/lanes_scalar.hpp"
 
 namespace mca {
 
 namespace stdx = std::experimental;
-
-MCA_LANE std::uint32_t select(bool m, std::uint32_t a, std::uint32_t b) { return m ? a : b; }
 
 template <class T, class A>
 MCA_LANE stdx::simd<T, A> select(const stdx::simd_mask<T, A>& m, const stdx::simd<T, A>& a, stdx::simd<T, A> b) {
@@ -48,40 +47,6 @@ template <class A>
 MCA_LANE auto to_double(const stdx::simd<float, A>& f) {
   return stdx::static_simd_cast<stdx::rebind_simd_t<double, stdx::simd<float, A>>>(f);
 }
-
-// The lane types that go with V.
-template <class V>
-struct Lanes;
-
-template <>
-struct Lanes<float> {
-  using D = double;         // positions
-  using U = std::uint32_t;  // indices
-  using M = bool;
-  static constexpr std::size_t size = 1;
-  static MCA_LANE float load(const float* p) { return *p; }
-  static MCA_LANE double load(const double* p) { return *p; }
-  static MCA_LANE std::uint32_t load(const std::uint32_t* p) { return *p; }
-  // Bytes as floats (0 or 1 for flags, counts).
-  static MCA_LANE float load_bytes(const std::uint8_t* p) { return static_cast<float>(*p); }
-  static MCA_LANE void store(float v, float* p) { *p = v; }
-  static MCA_LANE void store(double v, double* p) { *p = v; }
-  // Whole numbers 0..255 as bytes.
-  static MCA_LANE void store_bytes(float v, std::uint8_t* p) { *p = static_cast<std::uint8_t>(v); }
-  static MCA_LANE float gather(const float* p, std::uint32_t i) { return p[i]; }
-  static MCA_LANE double gather(const double* p, std::uint32_t i) { return p[i]; }
-  static MCA_LANE float gather_bytes(const std::uint8_t* p, std::uint32_t i) { return static_cast<float>(p[i]); }
-  // The lanes' own indices a, a + 1, ...
-  static MCA_LANE std::uint32_t iota(std::size_t a) { return static_cast<std::uint32_t>(a); }
-  template <class F>
-  static MCA_LANE float from(F&& f) { return f(0); }
-  template <class X>
-  static MCA_LANE X lane(const X& v, std::size_t) { return v; }
-  static MCA_LANE bool any(bool m) { return m; }
-  static MCA_LANE bool all(bool m) { return m; }
-  static MCA_LANE bool lane(bool m, std::size_t) { return m; }
-  static MCA_LANE float hmax(float v) { return v; }
-};
 
 template <class A>
 struct Lanes<stdx::simd<float, A>> {
@@ -133,6 +98,13 @@ struct Lanes<stdx::simd<float, A>> {
   template <class Mask>
   static MCA_LANE bool all(const Mask& m) { return stdx::all_of(m); }
   static MCA_LANE float hmax(const V& v) { return stdx::hmax(v); }
+  // Whole numbers as the float lanes (the far ends' flags).
+  static MCA_LANE V to_lanes(const U& u) { return stdx::static_simd_cast<V>(u); }
+  // Lanes from an array of `size` aligned values (floats or doubles).
+  template <class T>
+  static MCA_LANE auto load_aligned(const T* p) {
+    return stdx::rebind_simd_t<T, V>(p, stdx::vector_aligned);
+  }
 };
 
 }  // namespace mca

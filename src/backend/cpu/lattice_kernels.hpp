@@ -170,16 +170,16 @@ struct ExplicitView {
   float* out = nullptr;
 };
 
-inline std::size_t scratch_stride(std::size_t n) { return (n + 15) / 16 * 16; }
+MCA_HD constexpr std::size_t scratch_stride(std::size_t n) { return (n + 15) / 16 * 16; }
 
 // Tiled arrays: tiles of kTile consecutive automata or slots, each `rows` rows of kTile values, so that
 // a block of lanes at a multiple of its width is one vector of a row, and a pass that reads several
 // quantities of an element reads one run of memory instead of one per quantity. Value `row` of element a is at
 // tile_index(a, rows) + row * kTile.
 inline constexpr std::size_t kTile = 16;
-constexpr std::size_t tile_index(std::size_t a, std::size_t rows) { return a / kTile * (kTile * rows) + a % kTile; }
+MCA_HD constexpr std::size_t tile_index(std::size_t a, std::size_t rows) { return a / kTile * (kTile * rows) + a % kTile; }
 // The elements a tiled array of n holds (whole tiles).
-inline std::size_t tiled_size(std::size_t n, std::size_t rows) { return scratch_stride(n) * rows; }
+MCA_HD constexpr std::size_t tiled_size(std::size_t n, std::size_t rows) { return scratch_stride(n) * rows; }
 
 inline constexpr std::size_t kRefRows = 3;  // LatticeView::ref
 

@@ -54,10 +54,7 @@ struct Block {
     f.j0 = 0;
     return f;
   }
-  static MCA_LANE X to_lanes(const U& u) {
-    if constexpr (W == 1) return static_cast<float>(u);
-    else return stdx::static_simd_cast<X>(u);
-  }
+  static MCA_LANE X to_lanes(const U& u) { return L::to_lanes(u); }
   template <class T>
   static MCA_LANE auto at(const T* p, const Far& f) {
     return f.run ? L::load(p + f.j0) : L::gather(p, f.j);
@@ -117,7 +114,7 @@ struct Block {
       if (!f.run) {
         alignas(64) T t[W];
         for (std::size_t k = 0; k < W; ++k) t[k] = value(k);
-        return Y(t, stdx::vector_aligned);
+        return static_cast<Y>(L::load_aligned(t));
       }
       const std::size_t o = f.j0 % kTile;
       const T* p = base + tile_index(f.j0, rows);
@@ -679,7 +676,8 @@ struct Block {
     if (L::any(open)) {
       const Vec3T<D> ref = own3(v.ref, kRefRows, 0, a0);
       const Vec3T<X> dm{to_float(body.x.x - ref.x), to_float(body.x.y - ref.y), to_float(body.x.z - ref.z)};
-      r.max_move2 = std::max(r.max_move2, L::hmax(select(open, dot(dm, dm), X(0.0f))));
+      const float m2 = L::hmax(select(open, dot(dm, dm), X(0.0f)));
+      if (m2 > r.max_move2) r.max_move2 = m2;
     }
   }
 };
