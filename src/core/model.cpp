@@ -1,4 +1,5 @@
 #include "core/model.hpp"
+#include "core/model_view.hpp"
 
 #include "core/state.hpp"
 #include "physics/contact_law.hpp"
@@ -74,15 +75,36 @@ std::size_t estimate_rubble_bytes(std::size_t automata, std::size_t random_autom
   return (automata - random_automata) * per_automaton + random_automata * per_random_automaton;
 }
 
-float Model::contact_length(std::size_t i, std::size_t j, std::int64_t l) const {
-  if (l < 0) return 2.0f * std::fmin(radius[i], radius[j]);
-  const GroupParams &gi = groups[group[i]], &gj = groups[group[j]];
-  const float s = lattice_stiffness, sl = lattice_lambda;
-  const float k = link_normal_stiffness(s * harmonic(gi.shear_modulus, gj.shear_modulus), sl * gi.lame_lambda,
-                                        sl * gj.lame_lambda, explicit_links.area[l],
-                                        static_cast<float>(explicit_links.r0[l]));
-  return k / contact_material(group[i], group[j]).youngs;
+ModelView Model::view() const {
+  ModelView v;
+  v.n = size();
+  v.groups = groups.size();
+  v.group = group.data();
+  v.object = object.data();
+  v.object_random = object_random.empty() ? nullptr : object_random.data();
+  v.radius = radius.data();
+  v.mass = mass.data();
+  v.inertia = inertia.data();
+  v.position0 = position0.data();
+  if (!explicit_links.first.empty()) {
+    v.first = explicit_links.first.data();
+    v.of = explicit_links.of.data();
+  }
+  v.ei = explicit_links.i.data();
+  v.ej = explicit_links.j.data();
+  v.r0 = explicit_links.r0.data();
+  v.area = explicit_links.area.data();
+  v.group_params = groups.data();
+  v.contact = contact.data();
+  v.lattice_stiffness = lattice_stiffness;
+  v.lattice_lambda = lattice_lambda;
+  return v;
 }
+
+double Model::contact_reach(std::size_t i, std::size_t j, std::int64_t l) const { return view().contact_reach(i, j, l); }
+std::int64_t Model::random_link_at_start(std::size_t i, std::size_t j) const { return view().random_link_at_start(i, j); }
+std::int64_t Model::link_at_start(std::size_t i, std::size_t j) const { return view().link_at_start(i, j); }
+float Model::contact_length(std::size_t i, std::size_t j, std::int64_t l) const { return view().contact_length(i, j, l); }
 
 LinkBendingConstants Model::explicit_bending(std::size_t k) const {
   const std::uint32_t i = explicit_links.i[k], j = explicit_links.j[k];
@@ -98,8 +120,7 @@ LinkBendingConstants Model::explicit_bending(std::size_t k) const {
 }
 
 ContactSprings Model::pair_contact_springs(std::size_t i, std::size_t j, std::int64_t l, float zeta) const {
-  return contact_springs(contact_material(group[i], group[j]), zeta, contact_length(i, j, l),
-                         reduced(radius[i], radius[j]), reduced(mass[i], mass[j]), reduced(inertia[i], inertia[j]));
+  return view().pair_contact_springs(i, j, l, zeta);
 }
 
 }  // namespace mca

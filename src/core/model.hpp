@@ -101,6 +101,8 @@ struct BoundSurface {
   std::size_t faces() const { return automaton.size(); }
 };
 
+struct ModelView;
+
 struct Model {
   // --- automata (n) ---
   // Initial centres, double like the state's positions: rest lengths and initial strains are formed
@@ -205,28 +207,12 @@ struct Model {
   // strength; docs/model-notes.md, "The random lattice".)
   // l: random_link_at_start(i, j), for a caller that needs it twice (a scan of i's links).
   double contact_reach(std::size_t i, std::size_t j) const { return contact_reach(i, j, random_link_at_start(i, j)); }
-  double contact_reach(std::size_t i, std::size_t j, std::int64_t l) const {
-    const double r = static_cast<double>(radius[i]) + radius[j];
-    if (!random_automaton(i) || !random_automaton(j)) return r;
-    if (l >= 0) return explicit_links.r0[l];  // (its rest length: this distance, formed the same way)
-    const DVec3 d = ddelta(position0[i], position0[j]);
-    return std::min(r, std::sqrt(dot(d, d)));
-  }
+  double contact_reach(std::size_t i, std::size_t j, std::int64_t l) const;
   // The explicit link that joined automata i and j of the random lattice at the start (intact or not), or
   // -1 (also where either is not of the random lattice).
-  std::int64_t random_link_at_start(std::size_t i, std::size_t j) const {
-    return random_automaton(i) && random_automaton(j) ? link_at_start(i, j) : -1;
-  }
+  std::int64_t random_link_at_start(std::size_t i, std::size_t j) const;
   // The explicit link that joined automata i and j at the start, or -1.
-  std::int64_t link_at_start(std::size_t i, std::size_t j) const {
-    const auto& E = explicit_links;
-    if (E.first.empty()) return -1;
-    for (std::uint32_t k = E.first[i]; k < E.first[i + 1]; ++k) {
-      const std::uint32_t l = E.of[k];
-      if (E.i[l] == j || E.j[l] == j) return l;
-    }
-    return -1;
-  }
+  std::int64_t link_at_start(std::size_t i, std::size_t j) const;
   // The length L of the contact springs (k_n = E_12 L, physics/contact_law.hpp) between automata i and j:
   // 2 min(r_i, r_j), d for two lattice automata (a link of length d in compression); for a pair of the
   // random lattice that a link joined at the start, the length that gives the contact that link's normal
@@ -243,6 +229,9 @@ struct Model {
   // link's (volume_bending_constants, its moduli with the lattice's factor; all zeros at lattice_bending 0):
   // the backend's and the energy's are this one.
   LinkBendingConstants explicit_bending(std::size_t k) const;
+  // These per-pair rules over plain pointers (core/model_view.hpp), for a backend's step: the methods above
+  // call them.
+  ModelView view() const;
   std::vector<MeshSummary> meshes;  // one per object of shape mesh
   BoundSurface surface;             // the triangles of the mesh objects, bound to automata
   std::vector<ProjectileParams> projectiles;

@@ -34,6 +34,7 @@
 #include "backend/cpu/aligned.hpp"
 #include "backend/cpu/lattice_kernels.hpp"
 #include "backend/step_constants.hpp"
+#include "core/model_view.hpp"
 #include "grid/uniform_grid.hpp"
 #include "mca/error.hpp"
 #include "physics/contact_law.hpp"
@@ -127,7 +128,8 @@ bool pair_less(const ContactPair& a, const ContactPair& b) { return a.i != b.i ?
 
 class CpuBackend final : public Backend {
  public:
-  explicit CpuBackend(const Model& m) : M_(m), K_(build_step_constants(m)), kernels_(cpu::select_kernels()) {
+  explicit CpuBackend(const Model& m)
+      : M_(m), MV_(m.view()), K_(build_step_constants(m)), kernels_(cpu::select_kernels()) {
     const std::size_t n = m.size(), L = m.link_slots(), ne = m.explicit_links.size();
     profile_.set = kernels_.name;
     runs_ = cpu::block_runs(m, kernels_.lanes);
@@ -322,6 +324,7 @@ class CpuBackend final : public Backend {
   }
 
   const Model& M_;
+  const ModelView MV_;     // the model's per-pair rules (contact reach, springs) over its arrays
   const StepConstants K_;  // what the step reads of the model, worked out once
   const cpu::Kernels& kernels_;
   mutable State S_;
@@ -790,8 +793,8 @@ void CpuBackend::contact_pass() {
   parallel_range(C.size(), [&](std::size_t p) {
     ContactPair& cp = C[p];
     const std::uint32_t i = cp.i, j = cp.j;
-    const std::int64_t l = M_.random_link_at_start(i, j);  // looked up once: a scan of i's links
-    const double reach = M_.contact_reach(i, j, l);
+    const std::int64_t l = MV_.random_link_at_start(i, j);  // looked up once: a scan of i's links
+    const double reach = MV_.contact_reach(i, j, l);
     // The contact point's arms: the radii, or, where the pair reaches further or less far than they do
     // (the random lattice), the radii scaled to meet, so the torques keep the angular momentum.
     const double sum = static_cast<double>(M_.radius[i]) + M_.radius[j];
