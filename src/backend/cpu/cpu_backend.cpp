@@ -34,6 +34,7 @@
 #include "backend/cpu/aligned.hpp"
 #include "backend/cpu/lattice_kernels.hpp"
 #include "backend/step_constants.hpp"
+#include "backend/step_kernels.hpp"
 #include "core/model_view.hpp"
 #include "grid/uniform_grid.hpp"
 #include "mca/error.hpp"
@@ -298,6 +299,8 @@ class CpuBackend final : public Backend {
   std::int64_t one_step();
   std::int64_t lattice_sweep(const cpu::LatticeView& v, std::vector<std::size_t>& counts, float& max_move2);
   cpu::ExplicitView explicit_view();
+  ExplicitPassView explicit_pass_view() const;
+  ContactPassView contact_pass_view() const;
   std::vector<std::size_t> explicit_link_pass(const cpu::LatticeView& v);
   void explicit_gather_pass(bool last);
   void apply_breaks(const std::vector<std::size_t>& counts, const std::vector<std::size_t>& explicit_counts,
@@ -371,13 +374,7 @@ class CpuBackend final : public Backend {
   std::vector<Vec3> ext_f_, ext_t_;
   std::vector<Sym3> ext_s_;
   std::vector<std::uint8_t> has_ext_;
-  // A contact's result, written in parallel and added to its bodies in list order.
-  struct ContactOut {
-    Vec3 f, ti, tj, n;
-    float ri, rj;
-    bool on;
-  };
-  std::vector<ContactOut> contact_out_;
+  std::vector<ContactOut> contact_out_;  // a contact's result, written in parallel, added in list order
   UniformGrid grid_;
   PassProfile profile_;
 };
@@ -591,43 +588,15 @@ std::int64_t CpuBackend::lattice_sweep(const cpu::LatticeView& v, std::vector<st
 // automaton's many-body weight from its intact links in link order, then the kernels' explicit_links (the
 // lattice's law with each link's own length and cross-section); the breaks per chunk, in link order.
 std::vector<std::size_t> CpuBackend::explicit_link_pass(const cpu::LatticeView& v) {
-  const auto& E = M_.explicit_links;
-  const std::size_t n = M_.size(), L = E.size();
+  const std::size_t L = M_.explicit_links.size();
   const cpu::ExplicitView ev = explicit_view();
   parallel_chunks(L, [&](std::size_t, std::size_t b, std::size_t e) { kernels_.explicit_geometry(v, ev, b, e); });
+  const ExplicitPassView pv = explicit_pass_view();
   parallel_range(K_.explicit_automata.size(), [&](std::size_t k) {
     const std::uint32_t a = K_.explicit_automata[k];
-    const GroupParams& g = M_.groups[M_.group[a]];
-    if (M_.random_automaton(a)) {
-      // The random lattice: theta = sum A r s / (2 V) over the intact links, and the stress lambda theta / 2
-      // on each of them (random_many_body). A damaged link's strain in tension counts by its undamaged
-      // share, as the lattice's many-body kernel takes it.
-      float sum = 0.0f, free = M_.free_face[a];
-      for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
-        const std::uint32_t l = K_.ex_ends[x] & ~kSecondEnd;
-        if (!S_.intact[3 * n + l]) {
-          free += K_.ex_area_r0[l];  // a broken link's face is free
-          continue;
-        }
-        float e = strengthened_strain(g.strengthening, ex_eps_[l]).s;
-        if (!S_.link_damage.empty() && e > 0.0f) e = (1.0f - S_.link_damage[3 * n + l]) * e;
-        sum += K_.ex_area_r0[l] * e;  // (A r0) e: the product is formed once
-      }
-      explicit_weight_[a] =
-          random_many_body(M_.lattice_lambda * g.lame_lambda, K_.lambda_over_2g[M_.group[a]], M_.volume[a], sum, free).stress;
-      return;
-    }
-    float sum = 0.0f, curvature = 0.0f;
-    int count = 0;
-    for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
-      const std::uint32_t l = E.of[x];
-      if (!S_.intact[3 * n + l]) continue;
-      sum += strengthened_strain(g.strengthening, ex_eps_[l]).s;
-      curvature += ex_kappa_[l];
-      ++count;
-    }
-    explicit_weight_[a] = explicit_many_body(g.lame_lambda, K_.free_factor[M_.group[a]].data(), M_.volume[a], sum, count).weight;
-    bend_weight_[a] = explicit_bending_many_body(K_.bend_c[a], curvature, count).weight;
+    const ExplicitWeights w = explicit_weight(pv, a);
+    explicit_weight_[a] = w.weight;
+    if (w.shell) bend_weight_[a] = w.bend_weight;
   });
   const std::size_t chunks = (L + kChunk - 1) / kChunk;
   std::vector<std::size_t> counts(chunks, 0);
@@ -669,43 +638,57 @@ cpu::ExplicitView CpuBackend::explicit_view() {
   return e;
 }
 
+ExplicitPassView CpuBackend::explicit_pass_view() const {
+  const std::size_t slot0 = 3 * M_.size();
+  ExplicitPassView v;
+  v.m = MV_;
+  v.first = M_.explicit_links.first.data();
+  v.ends = K_.ex_ends.data();
+  v.intact = S_.intact.data() + slot0;
+  v.damage = S_.link_damage.empty() ? nullptr : S_.link_damage.data() + slot0;
+  v.free_face = M_.free_face.empty() ? nullptr : M_.free_face.data();
+  v.volume = M_.volume.data();
+  v.area_r0 = K_.ex_area_r0.data();
+  v.eps = ex_eps_.data();
+  v.kappa = ex_kappa_.empty() ? nullptr : ex_kappa_.data();
+  v.lambda_over_2g = K_.lambda_over_2g.data();
+  v.free_factor = reinterpret_cast<const float(*)[4]>(K_.free_factor.data());
+  v.bend_c = K_.bend_c.data();
+  v.lattice_lambda = M_.lattice_lambda;
+  v.lattice_bending = M_.lattice_bending;
+  v.out = ex_out_.data();
+  v.nx = ex_nx_.data();
+  v.ny = ex_ny_.data();
+  v.nz = ex_nz_.data();
+  v.r0f = K_.ex_r0f.data();
+  return v;
+}
+
+ContactPassView CpuBackend::contact_pass_view() const {
+  ContactPassView v;
+  v.m = MV_;
+  v.px = px_.data(); v.py = py_.data(); v.pz = pz_.data();
+  v.vx = vx_.data(); v.vy = vy_.data(); v.vz = vz_.data();
+  v.wx = wx_.data(); v.wy = wy_.data(); v.wz = wz_.data();
+  v.pair_springs = K_.uniform_bodies ? K_.pair_springs.data() : nullptr;
+  v.ground_springs = K_.uniform_bodies ? K_.ground_springs.data() : nullptr;
+  v.zeta_pair = M_.zeta_pair.data();
+  v.zeta_ground = M_.zeta_ground.data();
+  v.ground_contact = M_.ground_contact.data();
+  v.up = M_.up;
+  v.ground_height = M_.ground_height;
+  v.dt = M_.dt;
+  return v;
+}
+
 // Each automaton adds the forces of its intact explicit links in link order (with the contacts' and loads'
 // forces in the automata kernel), so the sums do not depend on the threads.
 void CpuBackend::explicit_gather_pass(bool last) {
-  const auto& E = M_.explicit_links;
-  const std::size_t slot0 = 3 * M_.size();
+  const ExplicitPassView pv = explicit_pass_view();
   parallel_range(K_.explicit_automata.size(), [&](std::size_t k) {
     const std::uint32_t a = K_.explicit_automata[k];
-    // Summed here and added once: the contact sums are empty at this point of the step (0 + x = x), so
-    // this is the order of adding them one by one.
-    Vec3 f, t;
-    Sym3 s;
-    bool any = false;
-    // A random-lattice automaton's links have no bending torque at link_bending = 0 (ExplicitView::bends):
-    // adding their zeros would change no bit of t (it never holds -0), so they are not read. Its mean stress
-    // is read by no criterion (random_link_effort), so its links' stresses are summed only on a call's last step, whose
-    // stress and mean stress are the ones kept: the same bits as summing them on every step (for a call
-    // that runs all its steps; one stopped by a value not finite keeps that step's partial mean stress).
-    const bool bends = !M_.random_automaton(a) || M_.lattice_bending > 0.0f, stresses = !M_.random_automaton(a) || last;
-    for (std::uint32_t x = E.first[a]; x < E.first[a + 1]; ++x) {
-      const std::uint32_t l = K_.ex_ends[x] & ~kSecondEnd;
-      if (!S_.intact[slot0 + l]) continue;
-      const float* out = ex_out_.data() + cpu::tile_index(l, cpu::kExplicitOutRows);
-      const Vec3 fl{out[cpu::kOutFx * cpu::kTile], out[cpu::kOutFy * cpu::kTile], out[cpu::kOutFz * cpu::kTile]};
-      const bool first = !(K_.ex_ends[x] & kSecondEnd);
-      f += first ? fl : -fl;
-      const Vec3 tl{out[cpu::kOutTx * cpu::kTile], out[cpu::kOutTy * cpu::kTile], out[cpu::kOutTz * cpu::kTile]};
-      if (bends) {
-        const Vec3 ml{out[cpu::kExplicitOutBx * cpu::kTile], out[(cpu::kExplicitOutBx + 1) * cpu::kTile],
-                      out[(cpu::kExplicitOutBx + 2) * cpu::kTile]};
-        t += tl + (first ? ml : -ml);
-      } else {
-        t += tl;
-      }
-      if (stresses) s += sym_outer(Vec3{ex_nx_[l], ex_ny_[l], ex_nz_[l]}, fl, 0.5f * K_.ex_r0f[l]);
-      any = true;
-    }
-    if (any) add_external(a, f, t, s);
+    const ExternalSum e = explicit_gather(pv, a, last);
+    if (e.any) add_external(a, e.f, e.t, e.s);
   });
 }
 
@@ -789,33 +772,8 @@ void CpuBackend::contact_pass() {
   auto& C = S_.contacts;
   if (C.empty()) return;
   contact_out_.resize(C.size());
-  const float dt = M_.dt;
-  parallel_range(C.size(), [&](std::size_t p) {
-    ContactPair& cp = C[p];
-    const std::uint32_t i = cp.i, j = cp.j;
-    const std::int64_t l = MV_.random_link_at_start(i, j);  // looked up once: a scan of i's links
-    const double reach = MV_.contact_reach(i, j, l);
-    // The contact point's arms: the radii, or, where the pair reaches further or less far than they do
-    // (the random lattice), the radii scaled to meet, so the torques keep the angular momentum.
-    const double sum = static_cast<double>(M_.radius[i]) + M_.radius[j];
-    const float ri = reach == sum ? M_.radius[i] : static_cast<float>(M_.radius[i] * (reach / sum));
-    const float rj = reach == sum ? M_.radius[j] : static_cast<float>(M_.radius[j] * (reach / sum));
-    // Apart (|d| >= reach, as sphere_gap would find: sqrt(fl(reach^2)) = reach) without the square root.
-    const DVec3 d = ddelta(pos(i), pos(j));
-    const SphereGap gap = dot(d, d) >= reach * reach ? SphereGap{} : sphere_gap(pos(i), pos(j), reach);
-    if (gap.overlap <= 0.0f || !gap.valid) {
-      cp.h = {};
-      contact_out_[p].on = false;
-      return;
-    }
-    const Vec3 n = gap.n;
-    const ContactResult r =
-        contact_between(n, gap.overlap, vel(i), ang(i), ri * n, vel(j), ang(j), -rj * n,
-                        K_.uniform_bodies ? K_.pair_springs[M_.group[i] * M_.groups.size() + M_.group[j]] : automaton_pair_springs(M_, i, j, l),
-                        cp.h.ut, cp.h.mr, dt);
-    cp.h = {r.o.ut, r.o.mr};
-    contact_out_[p] = {r.o.force_i, r.torque_i, r.torque_j, n, ri, rj, true};
-  });
+  const ContactPassView cv = contact_pass_view();
+  parallel_range(C.size(), [&](std::size_t p) { contact_out_[p] = pair_contact(cv, C[p]); });
   // Add to the automata in pair order (deterministic).
   for (std::size_t p = 0; p < C.size(); ++p) {
     const ContactOut& o = contact_out_[p];
@@ -829,24 +787,8 @@ void CpuBackend::ground_pass() {
   auto& G = S_.ground_contacts;
   if (G.empty()) return;
   contact_out_.resize(G.size());
-  const float dt = M_.dt;
-  const Vec3 nrm = -M_.up;  // from the automaton to the ground
-  parallel_range(G.size(), [&](std::size_t k) {
-    BodyContact& bc = G[k];
-    const std::uint32_t a = bc.automaton;
-    const float r = M_.radius[a];
-    const float overlap = ground_overlap(pos(a), M_.up, M_.ground_height, r);
-    if (overlap <= 0.0f) {
-      bc.h = {};
-      contact_out_[k].on = false;
-      return;
-    }
-    const ContactResult c = contact_between(nrm, overlap, vel(a), ang(a), r * nrm, {}, {}, {},
-                                            K_.uniform_bodies ? K_.ground_springs[M_.group[a]] : automaton_ground_springs(M_, a), bc.h.ut,
-                                            bc.h.mr, dt);
-    bc.h = {c.o.ut, c.o.mr};
-    contact_out_[k] = {c.o.force_i, c.torque_i, {}, nrm, r, 0.0f, true};
-  });
+  const ContactPassView cv = contact_pass_view();
+  parallel_range(G.size(), [&](std::size_t k) { contact_out_[k] = ground_contact(cv, G[k]); });
   for (std::size_t k = 0; k < G.size(); ++k) {
     const ContactOut& o = contact_out_[k];
     if (o.on) add_external(G[k].automaton, o.f, o.ti, sym_outer(o.n, o.f, o.ri));

@@ -1,0 +1,198 @@
+#pragma once
+// The per-element work of a step outside the lattice kernels, written once over plain pointers (MCA_HD):
+// the CPU backend calls these functions from its thread pool, the CUDA backend from its kernels (and
+// their host emulation). One text, so both compute the same bits.
+//
+//   explicit_weight  an automaton's many-body weight from its intact explicit links (link order)
+//   explicit_gather  the sum of its explicit links' forces, torques and stress, in link order
+//   pair_contact     the force of one automaton pair of the contact list
+//   ground_contact   the force of the ground on one automaton of the ground list
+#include <cstddef>
+#include <cstdint>
+
+#include "backend/cpu/lattice_kernels.hpp"
+#include "core/math.hpp"
+#include "core/model.hpp"
+#include "core/model_view.hpp"
+#include "core/state.hpp"
+#include "physics/contact_law.hpp"
+#include "physics/link_law.hpp"
+
+namespace mca {
+
+// Per automaton, its explicit links as StepConstants::ex_ends lists them (kSecondEnd: it is the link's j).
+inline constexpr std::uint32_t kSecondEndBit = 1u << 31;
+
+struct ExplicitPassView {
+  ModelView m;
+  const std::uint32_t* first = nullptr;  // Model::ExplicitLinks::first
+  const std::uint32_t* ends = nullptr;   // StepConstants::ex_ends
+  const std::uint8_t* intact = nullptr;  // State::intact from the first explicit slot (slot0)
+  const float* damage = nullptr;         // State::link_damage from slot0 (null: no softening)
+  const float* free_face = nullptr;      // Model::free_face
+  const float* volume = nullptr;         // Model::volume
+  const float* area_r0 = nullptr;        // StepConstants::ex_area_r0
+  const float* eps = nullptr;            // this step's strains (explicit_geometry)
+  const float* kappa = nullptr;          // a shell's curvature (explicit_geometry)
+  const float* lambda_over_2g = nullptr;  // per group
+  const float (*free_factor)[4] = nullptr;
+  const float* bend_c = nullptr;  // per automaton
+  float lattice_lambda = 1, lattice_bending = 0;
+  // The links' results (cpu::ExplicitView::out) and geometry, for the gather.
+  const float *out = nullptr, *nx = nullptr, *ny = nullptr, *nz = nullptr, *r0f = nullptr;
+};
+
+struct ExplicitWeights {
+  float weight, bend_weight;
+  bool shell;  // bend_weight is set (a shell's automaton)
+};
+
+// The many-body weight of automaton a from its intact explicit links, in link order.
+MCA_HD ExplicitWeights explicit_weight(const ExplicitPassView& v, std::uint32_t a) {
+  const GroupParams& g = v.m.group_params[v.m.group[a]];
+  if (v.m.random_automaton(a)) {
+    // The random lattice: theta = sum A r s / (2 V) over the intact links, and the stress lambda theta / 2
+    // on each of them (random_many_body). A damaged link's strain in tension counts by its undamaged
+    // share, as the lattice's many-body kernel takes it.
+    float sum = 0.0f, free = v.free_face[a];
+    for (std::uint32_t x = v.first[a]; x < v.first[a + 1]; ++x) {
+      const std::uint32_t l = v.ends[x] & ~kSecondEndBit;
+      if (!v.intact[l]) {
+        free += v.area_r0[l];  // a broken link's face is free
+        continue;
+      }
+      float e = strengthened_strain(g.strengthening, v.eps[l]).s;
+      if (v.damage && e > 0.0f) e = (1.0f - v.damage[l]) * e;
+      sum += v.area_r0[l] * e;  // (A r0) e: the product is formed once
+    }
+    return {random_many_body(v.lattice_lambda * g.lame_lambda, v.lambda_over_2g[v.m.group[a]], v.volume[a], sum, free).stress,
+            0.0f, false};
+  }
+  float sum = 0.0f, curvature = 0.0f;
+  int count = 0;
+  for (std::uint32_t x = v.first[a]; x < v.first[a + 1]; ++x) {
+    const std::uint32_t l = v.ends[x] & ~kSecondEndBit;
+    if (!v.intact[l]) continue;
+    sum += strengthened_strain(g.strengthening, v.eps[l]).s;
+    curvature += v.kappa[l];
+    ++count;
+  }
+  return {explicit_many_body(g.lame_lambda, v.free_factor[v.m.group[a]], v.volume[a], sum, count).weight,
+          explicit_bending_many_body(v.bend_c[a], curvature, count).weight, true};
+}
+
+struct ExternalSum {
+  Vec3 f, t;
+  Sym3 s;
+  bool any;
+};
+
+// The forces, torques and stresses of automaton a's intact explicit links, summed in link order (added
+// to the automaton once: the contact sums are empty at this point of the step, 0 + x = x, so this is the
+// order of adding them one by one). last: the last step of a call.
+MCA_HD ExternalSum explicit_gather(const ExplicitPassView& v, std::uint32_t a, bool last) {
+  ExternalSum r{};
+  // A random-lattice automaton's links have no bending torque at link_bending = 0 (ExplicitView::bends):
+  // adding their zeros would change no bit of t (it never holds -0), so they are not read. Its mean stress
+  // is read by no criterion (random_link_effort), so its links' stresses are summed only on a call's last
+  // step, whose stress and mean stress are the ones kept: the same bits as summing them on every step (for
+  // a call that runs all its steps; one stopped by a value not finite keeps that step's partial mean stress).
+  const bool random = v.m.random_automaton(a);
+  const bool bends = !random || v.lattice_bending > 0.0f, stresses = !random || last;
+  using cpu::kTile;
+  for (std::uint32_t x = v.first[a]; x < v.first[a + 1]; ++x) {
+    const std::uint32_t l = v.ends[x] & ~kSecondEndBit;
+    if (!v.intact[l]) continue;
+    const float* out = v.out + cpu::tile_index(l, cpu::kExplicitOutRows);
+    const Vec3 fl{out[cpu::kOutFx * kTile], out[cpu::kOutFy * kTile], out[cpu::kOutFz * kTile]};
+    const bool first = !(v.ends[x] & kSecondEndBit);
+    r.f += first ? fl : -fl;
+    const Vec3 tl{out[cpu::kOutTx * kTile], out[cpu::kOutTy * kTile], out[cpu::kOutTz * kTile]};
+    if (bends) {
+      const Vec3 ml{out[cpu::kExplicitOutBx * kTile], out[(cpu::kExplicitOutBx + 1) * kTile],
+                    out[(cpu::kExplicitOutBx + 2) * kTile]};
+      r.t += tl + (first ? ml : -ml);
+    } else {
+      r.t += tl;
+    }
+    if (stresses) r.s += sym_outer(Vec3{v.nx[l], v.ny[l], v.nz[l]}, fl, 0.5f * v.r0f[l]);
+    r.any = true;
+  }
+  return r;
+}
+
+// A contact's result for its two bodies: the force on the first (the second takes its opposite), each
+// one's torque, the normal and the arms for the stress.
+struct ContactOut {
+  Vec3 f, ti, tj, n;
+  float ri, rj;
+  bool on;
+};
+
+struct ContactPassView {
+  ModelView m;
+  const double *px = nullptr, *py = nullptr, *pz = nullptr;
+  const double *vx = nullptr, *vy = nullptr, *vz = nullptr, *wx = nullptr, *wy = nullptr, *wz = nullptr;
+  // Springs per pair of groups and per group on the ground (null: bodies of their own, from the model).
+  const ContactSprings *pair_springs = nullptr, *ground_springs = nullptr;
+  const float *zeta_pair = nullptr, *zeta_ground = nullptr;
+  const ContactMaterial* ground_contact = nullptr;  // per group
+  Vec3 up;
+  float ground_height = 0, dt = 0;
+
+  MCA_HD DVec3 pos(std::size_t a) const { return {px[a], py[a], pz[a]}; }
+  MCA_HD DVec3 vel(std::size_t a) const { return {vx[a], vy[a], vz[a]}; }
+  MCA_HD DVec3 ang(std::size_t a) const { return {wx[a], wy[a], wz[a]}; }
+};
+
+// The contact of the pair cp of the contact list, from the positions at the start of the step; its
+// history is updated in place (zero once apart).
+MCA_HD ContactOut pair_contact(const ContactPassView& v, ContactPair& cp) {
+  const std::uint32_t i = cp.i, j = cp.j;
+  const ModelView& m = v.m;
+  const std::int64_t l = m.random_link_at_start(i, j);  // looked up once: a scan of i's links
+  const double reach = m.contact_reach(i, j, l);
+  // The contact point's arms: the radii, or, where the pair reaches further or less far than they do (the
+  // random lattice), the radii scaled to meet, so the torques keep the angular momentum.
+  const double sum = static_cast<double>(m.radius[i]) + m.radius[j];
+  const float ri = reach == sum ? m.radius[i] : static_cast<float>(m.radius[i] * (reach / sum));
+  const float rj = reach == sum ? m.radius[j] : static_cast<float>(m.radius[j] * (reach / sum));
+  // Apart (|d| >= reach, as sphere_gap would find: sqrt(fl(reach^2)) = reach) without the square root.
+  const DVec3 d = ddelta(v.pos(i), v.pos(j));
+  const SphereGap gap = dot(d, d) >= reach * reach ? SphereGap{} : sphere_gap(v.pos(i), v.pos(j), reach);
+  if (gap.overlap <= 0.0f || !gap.valid) {
+    cp.h = {};
+    return ContactOut{};
+  }
+  const Vec3 n = gap.n;
+  const std::size_t gi = m.group[i], gj = m.group[j];
+  const ContactResult r =
+      contact_between(n, gap.overlap, v.vel(i), v.ang(i), ri * n, v.vel(j), v.ang(j), -rj * n,
+                      v.pair_springs ? v.pair_springs[gi * m.groups + gj] : m.pair_contact_springs(i, j, l, v.zeta_pair[gi * m.groups + gj]),
+                      cp.h.ut, cp.h.mr, v.dt);
+  cp.h = {r.o.ut, r.o.mr};
+  return {r.o.force_i, r.torque_i, r.torque_j, n, ri, rj, true};
+}
+
+// The ground's contact with the automaton of bc (the automaton is the first body).
+MCA_HD ContactOut ground_contact(const ContactPassView& v, BodyContact& bc) {
+  const std::uint32_t a = bc.automaton;
+  const ModelView& m = v.m;
+  const float r = m.radius[a];
+  const float overlap = ground_overlap(v.pos(a), v.up, v.ground_height, r);
+  if (overlap <= 0.0f) {
+    bc.h = {};
+    return ContactOut{};
+  }
+  const Vec3 nrm = -v.up;  // from the automaton to the ground
+  const std::size_t g = m.group[a];
+  const ContactResult c = contact_between(
+      nrm, overlap, v.vel(a), v.ang(a), r * nrm, {}, {}, {},
+      v.ground_springs ? v.ground_springs[g]
+                       : body_contact_springs(v.ground_contact[g], v.zeta_ground[g], r, INFINITY, m.mass[a], m.inertia[a]),
+      bc.h.ut, bc.h.mr, v.dt);
+  bc.h = {c.o.ut, c.o.mr};
+  return {c.o.force_i, c.torque_i, {}, nrm, r, 0.0f, true};
+}
+
+}  // namespace mca
