@@ -46,6 +46,10 @@ class Backend {
 };
 
 std::unique_ptr<Backend> make_cpu_backend(const Model& model);
+// The CUDA backend's step run on the host, thread by thread in order (src/backend/cuda/host_device.hpp):
+// the same bits as the CUDA backend and, by construction and test, as the CPU backend. Slow (one core,
+// no SIMD): for tests of the GPU algorithm on machines without a GPU.
+std::unique_ptr<Backend> make_cuda_emulation_backend(const Model& model);
 
 // Initial state of a model: automata at rest in the lattice (with their object's velocity), all links
 // intact, projectiles at their start.

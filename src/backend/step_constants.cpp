@@ -19,6 +19,17 @@ ContactSprings automaton_ground_springs(const Model& m, std::uint32_t a) {
                               m.inertia[a]);
 }
 
+void sound_link_counts(const Model& m, const State& s, std::uint8_t* count) {
+  for (std::size_t a = 0; a < m.size(); ++a) {
+    std::uint32_t c = 0, all = 0;
+    m.for_each_link_of(a, [&](std::size_t l) {
+      c += s.intact[l] && !(!s.link_damage.empty() && s.link_damage[l] > 0);
+      ++all;
+    });
+    count[a] = static_cast<std::uint8_t>(m.boxed.empty() ? c : m.boxed[a] && c == all ? 6 : std::min(c, 5u));
+  }
+}
+
 StepConstants build_step_constants(const Model& m) {
   StepConstants K;
   const std::size_t n = m.size(), G = m.groups.size();

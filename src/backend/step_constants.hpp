@@ -11,6 +11,7 @@
 #include "backend/cpu/aligned.hpp"
 #include "backend/cpu/lattice_kernels.hpp"
 #include "core/model.hpp"
+#include "core/state.hpp"
 #include "physics/contact_law.hpp"
 
 namespace mca {
@@ -60,6 +61,11 @@ struct StepConstants {
 
 // Throws mca::Error for a model the step cannot hold (too many explicit links).
 StepConstants build_step_constants(const Model& m);
+
+// Per automaton, its sound links (intact and undamaged) as the contact search counts them, from a state:
+// 6 stands for boxed in (a cubic automaton with its six links, an interior automaton of the random lattice
+// with all of its own); any other holds its count, at most 5.
+void sound_link_counts(const Model& m, const State& s, std::uint8_t* count);
 
 // The springs of a contact between automata i and j (l: Model::random_link_at_start(i, j)), and of
 // automaton a on the ground.

@@ -508,7 +508,8 @@ SceneDef read_scene(const Table& root, const std::string& source) {
 
   if (auto tb = root.table("solver", "[solver]")) {
     tb->allow({"spacing", "target_automata", "safety", "time_step", "mass_scaling", "gravity", "link_damping",
-               "local_damping", "stress_coefficient", "lattice", "lattice_jitter", "link_bending", "skin", "seed", "max_memory_gb"});
+               "local_damping", "stress_coefficient", "lattice", "lattice_jitter", "link_bending", "skin", "seed", "max_memory_gb",
+               "backend"});
     SolverDef& s = scene.solver;
     tb->number("spacing", s.spacing);
     tb->integer("target_automata", s.target_automata);
@@ -521,6 +522,12 @@ SceneDef read_scene(const Table& root, const std::string& source) {
     tb->number("stress_coefficient", s.stress_coefficient);
     if (auto f = tb->choice("lattice", {"cubic", "random"}, "a lattice")) {
       s.lattice = *f == "random" ? SolverDef::Lattice::random : SolverDef::Lattice::cubic;
+    }
+    if (auto f = tb->choice("backend", {"auto", "cpu", "cuda", "cuda-emulation"}, "a backend")) {
+      s.backend = *f == "cpu"              ? SolverDef::Backend::cpu
+                  : *f == "cuda"           ? SolverDef::Backend::cuda
+                  : *f == "cuda-emulation" ? SolverDef::Backend::cuda_emulation
+                                           : SolverDef::Backend::automatic;
     }
     tb->number("lattice_jitter", s.lattice_jitter);
     tb->number("link_bending", s.link_bending);
@@ -874,6 +881,10 @@ std::string scene_to_toml(const SceneDef& s) {
   out += s.solver.lattice == SolverDef::Lattice::random ? "lattice = \"random\"\n" : "lattice = \"cubic\"\n";
   out += fmt::format("lattice_jitter = {}\n", toml_double(s.solver.lattice_jitter));
   out += fmt::format("link_bending = {}\n", toml_double(s.solver.link_bending));
+  out += fmt::format("backend = \"{}\"\n", s.solver.backend == SolverDef::Backend::cpu              ? "cpu"
+                                          : s.solver.backend == SolverDef::Backend::cuda           ? "cuda"
+                                          : s.solver.backend == SolverDef::Backend::cuda_emulation ? "cuda-emulation"
+                                                                                                   : "auto");
   out += fmt::format("skin = {}\n", toml_double(s.solver.skin));
   out += fmt::format("seed = {}\n", static_cast<std::int64_t>(s.solver.seed));
   out += fmt::format("max_memory_gb = {}\n", toml_double(s.solver.max_memory_gb));

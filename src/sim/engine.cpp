@@ -13,6 +13,22 @@ namespace mca {
 
 void Engine::check_environment() { cpu::select_kernels(); }
 
+std::unique_ptr<Backend> make_backend(const Model& model, SolverDef::Backend kind, const std::string& source) {
+  switch (kind) {
+    case SolverDef::Backend::cuda_emulation:
+      return make_cuda_emulation_backend(model);
+    case SolverDef::Backend::cuda:
+      throw Error(fmt::format("{}: solver.backend = \"cuda\": this build of mca has no CUDA device code yet (the CUDA "
+                              "backend's algorithm runs on the CPU as backend = \"cuda-emulation\"); use backend = "
+                              "\"cpu\" or \"auto\"",
+                              source));
+    case SolverDef::Backend::cpu:
+    case SolverDef::Backend::automatic:
+      break;
+  }
+  return make_cpu_backend(model);
+}
+
 namespace {
 Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t& total_steps,
                        std::size_t placed = 0) {
@@ -126,7 +142,7 @@ double breaking_energy(const Model& m) {
 Engine::Engine(const SceneDef& scene) : scene_(scene) {
   model_ = build_for_frames(scene_, steps_per_frame_, total_steps_);
   energy_floor_ = breaking_energy(model_);
-  backend_ = make_cpu_backend(model_);
+  backend_ = make_backend(model_, scene_.solver.backend, scene_.source);
   backend_->upload(initial_state(model_));
   // A run's energy budget starts from its first state (contact springs included, so after the upload
   // that builds the contact lists); a resumed run keeps its checkpoint's.
@@ -157,7 +173,7 @@ Engine::Engine(const SceneDef& scene, const State& state, const std::string& sou
   }
   check_state(model_, state, source);
   energy_floor_ = breaking_energy(model_);
-  backend_ = make_cpu_backend(model_);
+  backend_ = make_backend(model_, scene_.solver.backend, scene_.source);
   backend_->upload(state);
   last_check_ = state.step;
 }

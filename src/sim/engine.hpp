@@ -75,6 +75,10 @@ class Engine {
   double energy_floor_ = 0;      // the blow-up check's least reference energy (engine.cpp)
 };
 
+// The backend a scene asks for (SolverDef::backend): auto is the CPU in this build; cuda is an error (a
+// mca::Error naming `source` and the fix).
+std::unique_ptr<Backend> make_backend(const Model& model, SolverDef::Backend kind, const std::string& source);
+
 // What a step whose health is not kHealthy found, its likely causes and the fix, beginning "the run became
 // unstable at step ..." (the message of `mca run` and of the Python module).
 std::string instability_message(const Engine& sim, const StepHealth& h);

@@ -194,15 +194,8 @@ class CpuBackend final : public Backend {
       vx_[a] = S_.v[a].x; vy_[a] = S_.v[a].y; vz_[a] = S_.v[a].z;
       wx_[a] = S_.w[a].x; wy_[a] = S_.w[a].y; wz_[a] = S_.w[a].z;
       qw_[a] = S_.q[a].w; qx_[a] = S_.q[a].x; qy_[a] = S_.q[a].y; qz_[a] = S_.q[a].z;
-      std::uint32_t c = 0, all = 0;
-      M_.for_each_link_of(a, [&](std::size_t l) {
-        c += S_.intact[l] && !damaged(l);
-        ++all;
-      });
-      // 6 stands for boxed in (lose_link): a cubic automaton with its six links, an interior automaton of
-      // the random lattice with all of its own; any other holds its count, at most 5.
-      intact_count_[a] = static_cast<std::uint8_t>(M_.boxed.empty() ? c : M_.boxed[a] && c == all ? 6 : std::min(c, 5u));
     }
+    sound_link_counts(M_, S_, intact_count_.data());
     for (std::size_t l = 0; l < M_.link_slots(); ++l) {
       utx_[l] = S_.link_ut[l].x; uty_[l] = S_.link_ut[l].y; utz_[l] = S_.link_ut[l].z;
     }

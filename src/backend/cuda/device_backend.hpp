@@ -1,0 +1,885 @@
+#pragma once
+// The CUDA backend's step: every pass of the CPU backend's step (cpu_backend.cpp) as kernels over device
+// arrays (device_kernels.hpp), in the CPU's order of operations, with the device-wide primitives of Dev:
+// DeviceBackend<CudaDevice> runs on a GPU (cuda_device.cuh), DeviceBackend<HostDevice> is its host
+// emulation (host_device.hpp), which tests every line of this logic on a machine without a GPU.
+//
+// The host keeps only scalars during a run (the list sizes, the step, the breaks' records); it reads per
+// step the largest move since the contact rebuild, the first value not finite and the number of breaks,
+// and, on a step with breaks, their slots (to record them and to add their pairs to the contact lists).
+// The whole state comes back only when asked for (state(), download()).
+#include <algorithm>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "backend/backend.hpp"
+#include "backend/cuda/device_kernels.hpp"
+#include "backend/step_constants.hpp"
+
+namespace mca::gpu {
+
+template <class Dev>
+class DeviceBackend final : public Backend {
+  template <class T>
+  using Buf = typename Dev::template Buffer<T>;
+
+ public:
+  explicit DeviceBackend(const Model& m) : M_(m), K_(build_step_constants(m)) {
+    const std::size_t n = m.size(), L = m.link_slots(), ne = m.explicit_links.size(), G = m.groups.size();
+    const auto& E = m.explicit_links;
+    // The model.
+    Dev::upload(position0_, m.position0);
+    Dev::upload(mass_, m.mass);
+    Dev::upload(radius_, m.radius);
+    Dev::upload(inertia_, m.inertia);
+    Dev::upload(volume_, m.volume);
+    Dev::upload(group_, m.group);
+    Dev::upload(object_, m.object);
+    Dev::upload(object_random_, m.object_random);
+    Dev::upload(grip_, m.grip);
+    Dev::upload(grip_velocity_, m.grip_velocity);
+    Dev::upload(load_, m.load);
+    Dev::upload(neighbour_, m.neighbour);
+    Dev::upload(neighbour_below_, m.neighbour_below);
+    Dev::upload(link_rest_, m.link_rest);
+    Dev::upload(link_inv_rest_, m.link_inv_rest);
+    Dev::upload(link_strength_, m.link_strength);
+    Dev::upload(e_first_, E.first);
+    Dev::upload(e_of_, E.of);
+    Dev::upload(e_i_, E.i);
+    Dev::upload(e_j_, E.j);
+    Dev::upload(e_r0_, E.r0);
+    Dev::upload(e_area_, E.area);
+    Dev::upload(free_face_, m.free_face);
+    Dev::upload(groups_, m.groups);
+    Dev::upload(contact_, m.contact);
+    Dev::upload(ground_contact_, m.ground_contact);
+    Dev::upload(zeta_pair_, m.zeta_pair);
+    Dev::upload(zeta_ground_, m.zeta_ground);
+    // The step's constants.
+    Dev::upload(inv_mass_, K_.inv_mass);
+    Dev::upload(inv_inertia_, K_.inv_inertia);
+    Dev::upload(inv_volume_, K_.inv_volume);
+    Dev::upload(tensile_, K_.tensile);
+    Dev::upload(compressive_, K_.compressive);
+    Dev::upload(break_strain_, K_.break_strain);
+    Dev::upload(pairs_, K_.pairs);
+    Dev::upload(free_factor_, K_.free_factor);
+    Dev::upload(lambda_over_2g_, K_.lambda_over_2g);
+    for (auto [to, from] : {std::pair{&ex_r0f_, &K_.ex_r0f}, {&ex_inv_r0_, &K_.ex_inv_r0}, {&ex_area_, &K_.ex_area},
+                            {&ex_to_stress_, &K_.ex_to_stress}, {&ex_G_, &K_.ex_G}, {&ex_kt_, &K_.ex_kt},
+                            {&ex_damp_n_, &K_.ex_damp_n}, {&ex_damp_t_, &K_.ex_damp_t}, {&ex_soft_, &K_.ex_soft},
+                            {&ex_k_twist_, &K_.ex_k_twist}, {&ex_k_in_, &K_.ex_k_in}, {&ex_s_in_, &K_.ex_s_in},
+                            {&ex_k_out_, &K_.ex_k_out}, {&ex_s_out_, &K_.ex_s_out}, {&ex_s_twist_, &K_.ex_s_twist},
+                            {&ex_m0x_, &K_.ex_m0x}, {&ex_m0y_, &K_.ex_m0y}, {&ex_m0z_, &K_.ex_m0z},
+                            {&ex_tensile_, &K_.ex_tensile}, {&ex_compressive_, &K_.ex_compressive},
+                            {&ex_strain_, &K_.ex_strain}})
+      Dev::upload(*to, *from);
+    Dev::upload(ex_bends_, K_.ex_bends);
+    Dev::upload(ex_area_r0_, K_.ex_area_r0);
+    Dev::upload(explicit_automata_, K_.explicit_automata);
+    Dev::upload(ex_ends_, K_.ex_ends);
+    Dev::upload(bend_c_, K_.bend_c);
+    Dev::upload(pair_springs_, K_.pair_springs);
+    Dev::upload(ground_springs_, K_.ground_springs);
+    std::vector<std::uint32_t> first{0}, members;
+    for (const auto& g : K_.grip_members) {
+      members.insert(members.end(), g.begin(), g.end());
+      first.push_back(static_cast<std::uint32_t>(members.size()));
+    }
+    Dev::upload(grip_first_, first);
+    Dev::upload(grip_members_, members);
+    // Projectiles.
+    const std::size_t np = m.projectiles.size();
+    std::vector<ProjectileConstants> pc(np);
+    std::vector<ContactMaterial> pm(np * G);
+    std::vector<float> pz(np * G);
+    std::vector<ContactSprings> pp(np * np);
+    for (std::size_t p = 0; p < np; ++p) {
+      const ProjectileParams& P = m.projectiles[p];
+      pc[p] = {P.radius, P.mass, P.inertia, P.kinematic,
+               body_contact_springs(m.projectile_ground_contact(p), P.zeta_ground, P.radius, INFINITY, P.mass, P.inertia)};
+      for (std::size_t g = 0; g < G; ++g) {
+        pm[p * G + g] = m.projectile_contact(p, g);
+        pz[p * G + g] = P.zeta_automata[g];
+      }
+      for (std::size_t q = p + 1; q < np; ++q) {
+        const ProjectileParams& B = m.projectiles[q];
+        pp[p * np + q] = body_contact_springs(m.projectile_pair_contact(p, q), m.zeta_projectiles[p * np + q], P.radius,
+                                              B.radius, contact_reduced(P.mass, P.kinematic, B.mass, B.kinematic),
+                                              contact_reduced(P.inertia, P.kinematic, B.inertia, B.kinematic));
+      }
+    }
+    proj_constants_host_ = pc;
+    Dev::upload(proj_constants_, pc);
+    Dev::upload(proj_material_, pm);
+    Dev::upload(proj_zeta_, pz);
+    Dev::upload(proj_pair_springs_, pp);
+    proj_lists_.resize(np);
+    proj_next_.resize(np);
+    proj_count_.assign(np, 0);
+    fsum_.resize(np);
+    tsum_.resize(np);
+    proj_pairs_.resize(np * np);
+    proj_pairs_next_.resize(np * np);
+    scalar_.resize(2);
+    // State and scratch.
+    for (auto* b : {&px_, &py_, &pz_, &vx_, &vy_, &vz_, &wx_, &wy_, &wz_}) b->resize(n);
+    for (auto* b : {&qw_, &qx_, &qy_, &qz_}) b->resize(n);
+    ref_.resize(cpu::tiled_size(n, cpu::kRefRows));
+    for (auto* b : {&utx_, &uty_, &utz_}) b->resize(L);
+    for (auto* b : {&nx_, &ny_, &nz_, &many_body_}) b->resize(3 * cpu::scratch_stride(n));
+    out_.resize(3 * cpu::tiled_size(n, cpu::kOutRows));
+    for (auto* b : {&ex_nx_, &ex_ny_, &ex_nz_, &ex_eps_, &ex_mx_, &ex_my_, &ex_mz_}) b->resize(ne);
+    if (K_.shells_any) ex_kappa_.resize(ne);
+    ex_out_.resize(cpu::tiled_size(ne, cpu::kExplicitOutRows));
+    explicit_weight_.resize(n);
+    bend_weight_.resize(n);
+    has_ext_.resize(n);
+    ext_f_.resize(n);
+    ext_t_.resize(n);
+    ext_s_.resize(n);
+    intact_count_.resize(n);
+    lost_.resize(n);
+    move2_.resize(n);
+    bad_.resize(n);
+    codes_.resize(L);
+    flag_.resize(std::max(n, L) + 1);
+    place_.resize(std::max(n, L) + 1);
+    list_.resize(std::max(n, L) + 1);
+    mean_stress_.resize(n);
+    stress_.resize(n);
+    f_out_.resize(n);
+    t_out_.resize(n);
+    grip_force_.resize(m.grip_velocity.size());
+    grip_work_.resize(m.grip_velocity.size());
+    mv_ = model_view();
+  }
+
+  std::string name() const override { return Dev::kName; }
+
+  void upload(State s) override {
+    S_ = std::move(s);
+    if (S_.time == static_cast<double>(S_.step) * M_.dt) {
+      clock_time_ = 0;
+      clock_step_ = 0;
+    } else {
+      clock_time_ = S_.time;
+      clock_step_ = S_.step;
+    }
+    const std::size_t n = M_.size(), L = M_.link_slots();
+    std::vector<double> x(n), y(n), z(n);
+    auto put3 = [&](const std::vector<DVec3>& from, Buf<double>& bx, Buf<double>& by, Buf<double>& bz) {
+      for (std::size_t a = 0; a < n; ++a) {
+        x[a] = from[a].x;
+        y[a] = from[a].y;
+        z[a] = from[a].z;
+      }
+      Dev::upload(bx, x);
+      Dev::upload(by, y);
+      Dev::upload(bz, z);
+    };
+    put3(S_.x, px_, py_, pz_);
+    put3(S_.v, vx_, vy_, vz_);
+    put3(S_.w, wx_, wy_, wz_);
+    std::vector<float> qw(n), qx(n), qy(n), qz(n);
+    for (std::size_t a = 0; a < n; ++a) {
+      qw[a] = S_.q[a].w;
+      qx[a] = S_.q[a].x;
+      qy[a] = S_.q[a].y;
+      qz[a] = S_.q[a].z;
+    }
+    Dev::upload(qw_, qw);
+    Dev::upload(qx_, qx);
+    Dev::upload(qy_, qy);
+    Dev::upload(qz_, qz);
+    std::vector<std::uint8_t> count(n);
+    sound_link_counts(M_, S_, count.data());
+    Dev::upload(intact_count_, count);
+    Dev::upload(intact_, S_.intact);
+    Dev::upload(damage_, S_.link_damage);
+    std::vector<float> ux(L), uy(L), uz(L);
+    for (std::size_t l = 0; l < L; ++l) {
+      ux[l] = S_.link_ut[l].x;
+      uy[l] = S_.link_ut[l].y;
+      uz[l] = S_.link_ut[l].z;
+    }
+    Dev::upload(utx_, ux);
+    Dev::upload(uty_, uy);
+    Dev::upload(utz_, uz);
+    const std::size_t ne = S_.link_moment.size();
+    std::vector<float> mx(ne), my(ne), mz(ne);
+    for (std::size_t k = 0; k < ne; ++k) {
+      mx[k] = S_.link_moment[k].x;
+      my[k] = S_.link_moment[k].y;
+      mz[k] = S_.link_moment[k].z;
+    }
+    Dev::upload(ex_mx_, mx);
+    Dev::upload(ex_my_, my);
+    Dev::upload(ex_mz_, mz);
+    softening_ = !S_.link_damage.empty();
+    if (softening_) {
+      std::vector<std::uint8_t> unsound(L);
+      for (std::size_t l = 0; l < L; ++l) unsound[l] = !S_.intact[l] || S_.link_damage[l] > 0;
+      Dev::upload(unsound_, unsound);
+    }
+    Dev::upload(mean_stress_, S_.mean_stress);
+    Dev::upload(stress_, S_.s);
+    Dev::upload(f_out_, S_.f);
+    Dev::upload(t_out_, S_.t);
+    for (auto* b : {&ext_f_, &ext_t_}) Dev::fill(*b, Vec3{});
+    Dev::fill(ext_s_, Sym3{});
+    Dev::fill(has_ext_, std::uint8_t{0});
+    Dev::fill(lost_, 0u);
+    Dev::upload(contacts_, S_.contacts);
+    contact_count_ = S_.contacts.size();
+    Dev::upload(ground_, S_.ground_contacts);
+    ground_count_ = S_.ground_contacts.size();
+    const std::size_t np = S_.projectiles.size();
+    std::vector<DeviceProjectile> dp(np);
+    for (std::size_t p = 0; p < np; ++p) {
+      const ProjectileState& ps = S_.projectiles[p];
+      dp[p] = {ps.position, ps.velocity, ps.angular_velocity, ps.orientation, ps.force, ps.ground, ps.work};
+      Dev::upload(proj_lists_[p], ps.contacts);
+      proj_count_[p] = ps.contacts.size();
+    }
+    Dev::upload(proj_, dp);
+    std::vector<ProjectilePair> pairs = S_.projectile_contacts;
+    pair_count_ = pairs.size();
+    pairs.resize(np * np);
+    Dev::upload(proj_pairs_, pairs);
+    Dev::upload(grip_work_, S_.grip_work);
+    Dev::upload(grip_force_, S_.grip_force);
+    stale_ = false;
+    if (S_.x_at_rebuild.size() != S_.x.size()) {
+      rebuild_contacts();
+      stale_ = true;  // the state's contact lists are the device's
+    } else {
+      std::vector<double> ref(cpu::tiled_size(n, cpu::kRefRows));
+      for (std::size_t a = 0; a < n; ++a) {
+        double* r = ref.data() + cpu::tile_index(a, cpu::kRefRows);
+        r[0] = S_.x_at_rebuild[a].x;
+        r[cpu::kTile] = S_.x_at_rebuild[a].y;
+        r[2 * cpu::kTile] = S_.x_at_rebuild[a].z;
+      }
+      Dev::upload(ref_, ref);
+      incidence();
+    }
+  }
+
+  void download(State& s) const override { s = state(); }
+  void set_initial_energy(double energy) override { S_.initial_energy = energy; }
+  const State& state() const override {
+    if (stale_) {
+      const_cast<DeviceBackend*>(this)->sync();
+      stale_ = false;
+    }
+    return S_;
+  }
+
+  StepHealth step(int steps) override {
+    StepHealth h;
+    for (int k = 0; k < steps; ++k) {
+      last_step_ = k + 1 == steps;
+      stale_ = true;
+      const std::int64_t bad = one_step();
+      if (bad != kAllFinite) {
+        h.flags |= kNonFinite;
+        h.step = S_.step;
+        if (bad >= 0) h.automaton = bad;
+        else h.projectile = -2 - bad;
+        break;
+      }
+    }
+    return h;
+  }
+
+ private:
+  static constexpr std::int64_t kAllFinite = -1;
+  template <class T>
+  static T* d(Buf<T>& b) {
+    return b.data();
+  }
+  template <class T>
+  static const T* c(const Buf<T>& b) {
+    return b.data();
+  }
+  template <class T>
+  static const T* opt(const Buf<T>& b) {
+    return b.size() ? b.data() : nullptr;
+  }
+
+  ModelView model_view() {
+    ModelView v;
+    v.n = M_.size();
+    v.groups = M_.groups.size();
+    v.group = c(group_);
+    v.object = c(object_);
+    v.object_random = opt(object_random_);
+    v.radius = c(radius_);
+    v.mass = c(mass_);
+    v.inertia = c(inertia_);
+    v.position0 = c(position0_);
+    if (!M_.explicit_links.first.empty()) {
+      v.first = c(e_first_);
+      v.of = c(e_of_);
+    }
+    v.ei = c(e_i_);
+    v.ej = c(e_j_);
+    v.r0 = c(e_r0_);
+    v.area = c(e_area_);
+    v.group_params = c(groups_);
+    v.contact = c(contact_);
+    v.lattice_stiffness = M_.lattice_stiffness;
+    v.lattice_lambda = M_.lattice_lambda;
+    return v;
+  }
+
+  cpu::LatticeView view() {
+    cpu::LatticeView v;
+    const Model& m = M_;
+    v.n = m.size();
+    v.up = c(neighbour_);
+    v.below = c(neighbour_below_);
+    v.runs = nullptr;  // one lane per thread: the neighbour tables
+    v.blocks = 0;
+    v.ns = cpu::scratch_stride(m.size());
+    v.group = c(group_);
+    v.tensile = c(tensile_);
+    v.compressive = c(compressive_);
+    v.break_strain = c(break_strain_);
+    v.mass = c(mass_);
+    if (K_.one_group) {
+      v.uniform_bodies = K_.uniform_bodies;
+      v.body[0] = m.mass[0];
+      v.body[1] = K_.inv_mass[0];
+      v.body[2] = K_.inv_inertia[0];
+      v.body[3] = K_.inv_volume[0];
+    }
+    v.inv_mass = c(inv_mass_);
+    v.inv_inertia = c(inv_inertia_);
+    v.inv_volume = c(inv_volume_);
+    v.grip = m.grip_velocity.empty() ? nullptr : c(grip_);
+    v.grip_velocity = c(grip_velocity_);
+    v.load = m.load.empty() ? nullptr : c(load_);
+    v.groups = c(groups_);
+    v.free_factor = reinterpret_cast<const float(*)[4]>(c(free_factor_));
+    v.pairs = c(pairs_);
+    v.group_count = static_cast<int>(m.groups.size());
+    v.one_group = K_.one_group;
+    v.strengthening = K_.strengthening;
+    v.softening = softening_;
+    v.damage = softening_ ? d(damage_) : nullptr;
+    v.link_strength = opt(link_strength_);
+    v.rest = opt(link_rest_);
+    v.stiffness = m.lattice_stiffness;
+    v.inv_rest = opt(link_inv_rest_);
+    v.r0 = m.spacing;
+    v.inv_r0 = 1.0f / m.spacing;
+    v.area = m.spacing * m.spacing;
+    v.dt = m.dt;
+    v.stress_coefficient = m.stress_coefficient;
+    v.local_damping = m.local_damping;
+    v.gravity = m.gravity;
+    v.last = last_step_;
+    v.px = d(px_); v.py = d(py_); v.pz = d(pz_);
+    v.vx = d(vx_); v.vy = d(vy_); v.vz = d(vz_);
+    v.wx = d(wx_); v.wy = d(wy_); v.wz = d(wz_);
+    v.qw = d(qw_); v.qx = d(qx_); v.qy = d(qy_); v.qz = d(qz_);
+    v.mean_stress = d(mean_stress_);
+    v.stress = d(stress_);
+    v.f_out = d(f_out_);
+    v.t_out = d(t_out_);
+    v.intact = d(intact_);
+    v.utx = d(utx_); v.uty = d(uty_); v.utz = d(utz_);
+    v.nx = d(nx_); v.ny = d(ny_); v.nz = d(nz_);
+    v.many_body = d(many_body_);
+    v.out = d(out_);
+    v.has_ext = d(has_ext_);
+    v.ext_f = d(ext_f_);
+    v.ext_t = d(ext_t_);
+    v.ext_s = d(ext_s_);
+    v.projectiles = 0;  // no marks: the projectile pass tests every automaton
+    v.intact_count = c(intact_count_);
+    v.ref = c(ref_);
+    return v;
+  }
+
+  cpu::ExplicitView explicit_view() {
+    cpu::ExplicitView e;
+    e.slot0 = 3 * M_.size();
+    e.i = c(e_i_);
+    e.j = c(e_j_);
+    e.r0 = c(e_r0_);
+    e.r0f = c(ex_r0f_);
+    e.inv_r0 = c(ex_inv_r0_);
+    e.area = c(ex_area_);
+    e.inv_r0_area = c(ex_to_stress_);
+    e.G = c(ex_G_);
+    e.kt = c(ex_kt_);
+    e.damp_normal = c(ex_damp_n_);
+    e.damp_tangential = c(ex_damp_t_);
+    e.soft = opt(ex_soft_);
+    e.weight = c(explicit_weight_);
+    e.tensile = c(ex_tensile_);
+    e.compressive = c(ex_compressive_);
+    e.strain = c(ex_strain_);
+    e.nx = d(ex_nx_); e.ny = d(ex_ny_); e.nz = d(ex_nz_); e.eps = d(ex_eps_);
+    e.out = d(ex_out_);
+    e.k_twist = c(ex_k_twist_); e.k_in = c(ex_k_in_); e.k_out = opt(ex_k_out_);
+    e.s_in = c(ex_s_in_); e.s_out = opt(ex_s_out_); e.s_twist = opt(ex_s_twist_);
+    e.m0x = opt(ex_m0x_); e.m0y = opt(ex_m0y_); e.m0z = opt(ex_m0z_);
+    e.mx = d(ex_mx_); e.my = d(ex_my_); e.mz = d(ex_mz_);
+    e.kappa = ex_kappa_.size() ? d(ex_kappa_) : nullptr;
+    e.bend_weight = c(bend_weight_);
+    e.bends = M_.object_random.empty() ? nullptr : c(ex_bends_);
+    return e;
+  }
+
+  ExplicitPassView explicit_pass_view() {
+    const std::size_t slot0 = 3 * M_.size();
+    ExplicitPassView v;
+    v.m = mv_;
+    v.first = c(e_first_);
+    v.ends = c(ex_ends_);
+    v.intact = d(intact_) + slot0;
+    v.damage = softening_ ? d(damage_) + slot0 : nullptr;
+    v.free_face = opt(free_face_);
+    v.volume = c(volume_);
+    v.area_r0 = c(ex_area_r0_);
+    v.eps = c(ex_eps_);
+    v.kappa = opt(ex_kappa_);
+    v.lambda_over_2g = c(lambda_over_2g_);
+    v.free_factor = reinterpret_cast<const float(*)[4]>(c(free_factor_));
+    v.bend_c = c(bend_c_);
+    v.lattice_lambda = M_.lattice_lambda;
+    v.lattice_bending = M_.lattice_bending;
+    v.out = c(ex_out_);
+    v.nx = c(ex_nx_);
+    v.ny = c(ex_ny_);
+    v.nz = c(ex_nz_);
+    v.r0f = c(ex_r0f_);
+    return v;
+  }
+
+  ContactPassView contact_pass_view() {
+    ContactPassView v;
+    v.m = mv_;
+    v.px = c(px_); v.py = c(py_); v.pz = c(pz_);
+    v.vx = c(vx_); v.vy = c(vy_); v.vz = c(vz_);
+    v.wx = c(wx_); v.wy = c(wy_); v.wz = c(wz_);
+    v.pair_springs = K_.uniform_bodies ? c(pair_springs_) : nullptr;
+    v.ground_springs = K_.uniform_bodies ? c(ground_springs_) : nullptr;
+    v.zeta_pair = c(zeta_pair_);
+    v.zeta_ground = c(zeta_ground_);
+    v.ground_contact = c(ground_contact_);
+    v.up = M_.up;
+    v.ground_height = M_.ground_height;
+    v.dt = M_.dt;
+    return v;
+  }
+
+  External external() { return {d(ext_f_), d(ext_t_), d(ext_s_), d(has_ext_)}; }
+  GroundReach ground_reach() { return {c(px_), c(py_), c(pz_), c(radius_), M_.up, M_.ground_height, M_.skin}; }
+
+  // Indices k < n with flag[k] set, in order, into out; returns their number.
+  std::uint32_t compact(const std::uint32_t* flag, std::size_t n, std::uint32_t* out, const std::uint32_t* value = nullptr) {
+    const std::uint32_t total = Dev::exclusive_scan(flag, d(place_), n);
+    Dev::launch(n, CompactKernel{flag, c(place_), value, out});
+    return total;
+  }
+
+  std::int64_t one_step();
+  void explicit_pass(const cpu::LatticeView& v);
+  void contact_pass();
+  void projectile_pass();
+  float apply_breaks();
+  void rebuild_contacts();
+  void incidence();
+  void sync();
+
+  const Model& M_;
+  const StepConstants K_;
+  ModelView mv_;
+  mutable State S_;
+  mutable bool stale_ = false;
+  bool last_step_ = true, softening_ = false;
+  double clock_time_ = 0;
+  std::int64_t clock_step_ = 0;
+  // Model.
+  Buf<DVec3> position0_, grip_velocity_;
+  Buf<float> mass_, radius_, inertia_, volume_, link_inv_rest_, link_strength_, e_area_, free_face_, zeta_pair_, zeta_ground_;
+  Buf<std::uint8_t> group_, object_random_;
+  Buf<std::int32_t> object_;
+  Buf<std::int16_t> grip_;
+  Buf<Vec3> load_;
+  Buf<std::uint32_t> neighbour_, neighbour_below_, e_first_, e_of_, e_i_, e_j_;
+  Buf<double> link_rest_, e_r0_;
+  Buf<GroupParams> groups_;
+  Buf<ContactMaterial> contact_, ground_contact_;
+  // The step's constants (StepConstants).
+  Buf<float> inv_mass_, inv_inertia_, inv_volume_, tensile_, compressive_, break_strain_, lambda_over_2g_;
+  Buf<cpu::PairConstants> pairs_;
+  Buf<std::array<float, 4>> free_factor_;
+  Buf<float> ex_r0f_, ex_inv_r0_, ex_area_, ex_to_stress_, ex_G_, ex_kt_, ex_damp_n_, ex_damp_t_, ex_soft_, ex_k_twist_,
+      ex_k_in_, ex_s_in_, ex_k_out_, ex_s_out_, ex_s_twist_, ex_m0x_, ex_m0y_, ex_m0z_, ex_tensile_, ex_compressive_,
+      ex_strain_, ex_area_r0_, bend_c_;
+  Buf<std::uint8_t> ex_bends_;
+  Buf<std::uint32_t> explicit_automata_, ex_ends_, grip_first_, grip_members_;
+  Buf<ContactSprings> pair_springs_, ground_springs_;
+  // State.
+  Buf<double> px_, py_, pz_, vx_, vy_, vz_, wx_, wy_, wz_, ref_;
+  Buf<float> qw_, qx_, qy_, qz_, utx_, uty_, utz_, damage_, mean_stress_, ex_mx_, ex_my_, ex_mz_;
+  Buf<std::uint8_t> intact_, unsound_, intact_count_, has_ext_;
+  Buf<Sym3> stress_, ext_s_;
+  Buf<Vec3> f_out_, t_out_, ext_f_, ext_t_, grip_force_;
+  Buf<double> grip_work_;
+  // Scratch.
+  Buf<float> nx_, ny_, nz_, many_body_, out_, ex_nx_, ex_ny_, ex_nz_, ex_eps_, ex_out_, ex_kappa_, explicit_weight_,
+      bend_weight_, move2_;
+  Buf<std::uint32_t> lost_, bad_, codes_, flag_, place_, list_;
+  // Contact lists (sizes on the host), and the incidence list: (automaton, 2 p + side) sorted, with the
+  // start of each automaton's run.
+  Buf<ContactPair> contacts_, contacts_next_, fresh_;
+  Buf<ContactOut> contact_out_;
+  std::size_t contact_count_ = 0;
+  Buf<BodyContact> ground_, ground_next_, ground_fresh_;
+  std::size_t ground_count_ = 0;
+  Buf<std::uint64_t> inc_key_;
+  Buf<std::uint32_t> inc_value_, inc_start_;
+  std::size_t inc_runs_ = 0;
+  // Projectiles.
+  std::vector<ProjectileConstants> proj_constants_host_;
+  Buf<ProjectileConstants> proj_constants_;
+  Buf<ContactMaterial> proj_material_;
+  Buf<float> proj_zeta_;
+  Buf<ContactSprings> proj_pair_springs_;
+  Buf<DeviceProjectile> proj_;
+  std::vector<Buf<BodyContact>> proj_lists_, proj_next_;
+  std::vector<std::size_t> proj_count_;
+  Buf<BodyContact> cand_next_;
+  Buf<ContactOut> cand_out_;
+  Buf<std::uint32_t> cand_keep_;
+  Buf<Vec3> fsum_, tsum_;
+  Buf<ProjectilePair> proj_pairs_, proj_pairs_next_;
+  std::size_t pair_count_ = 0;
+  Buf<std::uint32_t> scalar_;  // [0]: the projectile pairs' count, [1]: the first projectile not finite
+  // Contact search.
+  Buf<std::uint32_t> exposed_, grid_value_, bucket_begin_, bucket_end_, cand_count_, raw_offset_, raw_;
+  Buf<std::uint64_t> grid_key_;
+};
+
+// --- The step ---
+
+template <class Dev>
+std::int64_t DeviceBackend<Dev>::one_step() {
+  const cpu::LatticeView v = view();
+  const std::size_t n = M_.size(), ne = M_.explicit_links.size();
+  if (ne) explicit_pass(v);
+  contact_pass();
+  projectile_pass();
+  std::uint32_t bad_projectile = kNone;
+  if (!M_.projectiles.empty()) Dev::download(&bad_projectile, scalar_, 1, 1);
+  // The lattice: many-body terms, links (their breaks in codes_, by slot), automata.
+  Dev::launch(n, ManyBodyKernel{v});
+  Dev::launch(M_.lattice_slots(), LinksKernel{v, d(codes_)});
+  Dev::launch(n, AutomataKernel{v, d(move2_), d(bad_)});
+  if (!M_.grip_velocity.empty())
+    Dev::launch(M_.grip_velocity.size(), GripKernel{c(grip_first_), c(grip_members_), d(ext_f_), d(grip_force_),
+                                                    d(grip_work_), c(grip_velocity_), M_.dt});
+  float max_move2 = Dev::max_of(c(move2_), n);
+  const std::uint32_t bad = Dev::min_of(c(bad_), n);
+  max_move2 = std::max(max_move2, apply_breaks());
+  ++S_.step;
+  S_.time = clock_time_ + static_cast<double>(S_.step - clock_step_) * M_.dt;
+  // Verlet-style list: rebuild once any automaton has moved half the skin since the last rebuild.
+  const float half = 0.5f * M_.skin;
+  if (max_move2 > half * half) rebuild_contacts();
+  if (bad != kNone) return bad;
+  return bad_projectile != kNone ? -2 - static_cast<std::int64_t>(bad_projectile) : kAllFinite;
+}
+
+template <class Dev>
+void DeviceBackend<Dev>::explicit_pass(const cpu::LatticeView& v) {
+  const std::size_t ne = M_.explicit_links.size(), na = K_.explicit_automata.size();
+  const cpu::ExplicitView ev = explicit_view();
+  Dev::launch(ne, ExplicitGeometryKernel{v, ev});
+  const ExplicitPassView pv = explicit_pass_view();
+  Dev::launch(na, ExplicitWeightKernel{pv, c(explicit_automata_), d(explicit_weight_), d(bend_weight_)});
+  Dev::launch(ne, ExplicitLinksKernel{v, ev, d(codes_) + M_.lattice_slots()});
+  Dev::launch(na, ExplicitGatherKernel{pv, c(explicit_automata_), external(), v.last});
+}
+
+template <class Dev>
+void DeviceBackend<Dev>::contact_pass() {
+  const ContactPassView cv = contact_pass_view();
+  if (contact_count_) {
+    if (contact_out_.size() < contact_count_) contact_out_.resize(contact_count_);
+    Dev::launch(contact_count_, PairContactKernel{cv, d(contacts_), d(contact_out_)});
+    Dev::launch(inc_runs_, ContactGatherKernel{c(inc_start_), c(inc_key_), c(inc_value_), c(contact_out_), external()});
+  }
+  if (ground_count_) Dev::launch(ground_count_, GroundKernel{cv, d(ground_), external()});
+}
+
+template <class Dev>
+void DeviceBackend<Dev>::projectile_pass() {
+  const std::size_t np = M_.projectiles.size(), n = M_.size();
+  if (np == 0) return;
+  const ContactPassView cv = contact_pass_view();
+  const std::size_t G = M_.groups.size();
+  for (std::size_t p = 0; p < np; ++p) {
+    const ProjectileConstants& P = proj_constants_host_[p];
+    const std::uint32_t pp = static_cast<std::uint32_t>(p);
+    Dev::launch(n, TouchKernel{c(proj_), pp, P.radius, c(px_), c(py_), c(pz_), c(radius_), d(flag_)});
+    const std::uint32_t nc = compact(c(flag_), n, d(list_));
+    if (cand_next_.size() < nc) {
+      cand_next_.resize(nc);
+      cand_out_.resize(nc);
+      cand_keep_.resize(nc + 1);
+    }
+    Dev::launch(nc, ProjectileContactKernel{c(proj_), pp, P, c(list_), c(proj_lists_[p]),
+                                            static_cast<std::uint32_t>(proj_count_[p]), cv, c(proj_material_) + p * G,
+                                            c(proj_zeta_) + p * G, d(cand_next_), d(cand_out_), d(cand_keep_)});
+    const std::uint32_t kept = Dev::exclusive_scan(c(cand_keep_), d(place_), nc);
+    if (proj_next_[p].size() < kept) proj_next_[p].resize(kept);
+    Dev::launch(nc, ProjectileCommitKernel{c(cand_keep_), c(place_), c(cand_next_), c(cand_out_), d(proj_next_[p]),
+                                           external()});
+    std::swap(proj_lists_[p], proj_next_[p]);
+    proj_count_[p] = kept;
+    Dev::launch(1, ProjectileSumKernel{d(proj_), pp, P, c(cand_keep_), c(cand_out_), nc, d(fsum_), d(tsum_), M_.ground,
+                                       M_.up, M_.ground_height, M_.dt});
+  }
+  Dev::launch(1, ProjectileMotionKernel{d(proj_), c(proj_constants_), static_cast<std::uint32_t>(np), c(proj_pair_springs_),
+                                        c(proj_pairs_), static_cast<std::uint32_t>(pair_count_), d(proj_pairs_next_),
+                                        d(scalar_), d(fsum_), d(tsum_), M_.gravity, M_.dt, d(scalar_) + 1});
+  std::swap(proj_pairs_, proj_pairs_next_);
+  std::uint32_t count = 0;
+  Dev::download(&count, scalar_, 1);
+  pair_count_ = count;
+}
+
+// The breaks of this step in slot order (codes_), applied at its end (CpuBackend::apply_breaks): returns
+// the largest move since the rebuild of an automaton that was boxed in and lost a link.
+template <class Dev>
+float DeviceBackend<Dev>::apply_breaks() {
+  const std::size_t n = M_.size(), L = M_.link_slots();
+  Dev::launch(L, FlagCodesKernel{c(codes_), d(flag_)});
+  const std::uint32_t nb = compact(c(flag_), L, d(list_), c(codes_));
+  const LinkEnds ends{n, M_.lattice_slots(), c(neighbour_), c(e_i_), c(e_j_)};
+  if (nb) {
+    std::vector<std::uint32_t> codes(nb);
+    Dev::download(codes.data(), list_, nb);
+    Dev::launch(nb, BreakKernel{c(list_), ends, d(intact_), softening_ ? d(unsound_) : nullptr, d(utx_), d(uty_), d(utz_),
+                                d(ex_mx_), d(ex_my_), d(ex_mz_), d(lost_)});
+    std::vector<ContactPair> fresh;
+    std::vector<std::uint32_t> both;
+    for (const std::uint32_t code : codes) {
+      const std::uint32_t l = code & ~cpu::kBreakByStress;
+      const int crit = code & cpu::kBreakByStress ? 1 : 0;
+      const std::uint32_t i = M_.link_i(l), j = M_.link_j(l);
+      S_.breaks.push_back({S_.step, l, static_cast<BreakCriterion>(crit)});
+      ++S_.broken_by[crit];
+      fresh.push_back({i, j, {}});
+      both.push_back(i);
+      both.push_back(j);
+    }
+    // The broken pairs join the contact list (sorted), and their ends near the ground the ground list.
+    std::sort(fresh.begin(), fresh.end(), [](const ContactPair& a, const ContactPair& b) {
+      return a.i != b.i ? a.i < b.i : a.j < b.j;
+    });
+    Dev::upload(fresh_, fresh);
+    contacts_next_.resize(contact_count_ + fresh.size());
+    Dev::launch(contact_count_ + fresh.size(),
+                MergePairsKernel{c(contacts_), c(fresh_), static_cast<std::uint32_t>(contact_count_),
+                                 static_cast<std::uint32_t>(fresh.size()), d(contacts_next_)});
+    std::swap(contacts_, contacts_next_);
+    contact_count_ += fresh.size();
+    if (M_.ground) {
+      Buf<std::uint32_t> ends_d;
+      Dev::upload(ends_d, both);
+      Buf<std::uint8_t> near;
+      near.resize(both.size());
+      Dev::launch(both.size(), NearGroundKernel{ground_reach(), c(ends_d), d(near)});
+      std::vector<std::uint8_t> near_h(both.size());
+      Dev::download(near_h.data(), near, both.size());
+      std::vector<std::uint32_t> g;
+      for (std::size_t k = 0; k < both.size(); ++k)
+        if (near_h[k]) g.push_back(both[k]);
+      std::sort(g.begin(), g.end());
+      g.erase(std::unique(g.begin(), g.end()), g.end());
+      if (!g.empty()) {
+        Dev::upload(ends_d, g);
+        Buf<std::uint32_t> unlisted;
+        unlisted.resize(g.size());
+        Dev::launch(g.size(), NotListedKernel{c(ends_d), c(ground_), static_cast<std::uint32_t>(ground_count_), d(unlisted)});
+        std::vector<std::uint32_t> fl(g.size());
+        Dev::download(fl.data(), unlisted, g.size());
+        std::vector<BodyContact> add;
+        for (std::size_t k = 0; k < g.size(); ++k)
+          if (fl[k]) add.push_back({g[k], {}});
+        if (!add.empty()) {
+          Dev::upload(ground_fresh_, add);
+          ground_next_.resize(ground_count_ + add.size());
+          Dev::launch(ground_count_ + add.size(),
+                      MergeBodiesKernel{c(ground_), c(ground_fresh_), static_cast<std::uint32_t>(ground_count_),
+                                        static_cast<std::uint32_t>(add.size()), d(ground_next_)});
+          std::swap(ground_, ground_next_);
+          ground_count_ += add.size();
+        }
+      }
+    }
+    incidence();
+  }
+  if (softening_) Dev::launch(L, ExposeDamagedKernel{ends, c(damage_), d(unsound_), d(lost_)});
+  if (!nb && !softening_) return 0.0f;
+  Dev::launch(n, LoseLinksKernel{d(lost_), d(intact_count_), c(px_), c(py_), c(pz_), c(ref_), d(move2_)});
+  return Dev::max_of(c(move2_), n);
+}
+
+// The contact lists from the exposed automata (CpuBackend::rebuild_contacts): a hashed grid of them sorted
+// by bucket, each one's candidates above it counted, written, sorted and made unique, then placed in order:
+// the list comes out sorted by (i, j), as the CPU's. The histories of pairs that stay are carried over.
+template <class Dev>
+void DeviceBackend<Dev>::rebuild_contacts() {
+  const std::size_t n = M_.size();
+  Dev::launch(n, ExposedFlagKernel{c(intact_count_), d(flag_)});
+  if (exposed_.size() < n + 1) exposed_.resize(n + 1);
+  const std::uint32_t nx = compact(c(flag_), n, d(exposed_));
+  std::size_t buckets = 16;
+  while (buckets < 2 * static_cast<std::size_t>(nx)) buckets *= 2;
+  HashGrid grid;
+  grid.inv_h = 1.0 / (2.0 * static_cast<double>(K_.r_max) + M_.skin);
+  grid.mask = buckets - 1;
+  grid_key_.resize(nx);
+  grid_value_.resize(nx);
+  Dev::launch(nx, GridKeysKernel{grid, c(exposed_), c(px_), c(py_), c(pz_), d(grid_key_), d(grid_value_)});
+  Dev::stable_sort_by_key(d(grid_key_), d(grid_value_), nx);
+  bucket_begin_.resize(buckets);
+  bucket_end_.resize(buckets);
+  Dev::fill(bucket_begin_, 0u);
+  Dev::fill(bucket_end_, 0u);
+  Dev::launch(nx, BucketRangeKernel{c(grid_key_), nx, d(bucket_begin_), d(bucket_end_)});
+  const Linked linked{n, c(neighbour_), c(neighbour_below_), c(intact_), mv_.first, mv_.of, c(e_i_), c(e_j_)};
+  CandidatesKernel k{grid, c(exposed_), c(grid_value_), c(bucket_begin_), c(bucket_end_), c(px_), c(py_), c(pz_),
+                     c(radius_), M_.skin, linked, mv_, c(e_r0_), nullptr, nullptr, nullptr};
+  cand_count_.resize(nx + 1);
+  raw_offset_.resize(nx + 1);
+  k.count = d(cand_count_);
+  Dev::launch(nx, k);
+  const std::uint32_t raw = Dev::exclusive_scan(c(cand_count_), d(raw_offset_), nx);
+  raw_.resize(raw);
+  k.offset = c(raw_offset_);
+  k.out = d(raw_);
+  Dev::launch(nx, k);
+  const std::uint32_t total = Dev::exclusive_scan(c(cand_count_), d(place_), nx);
+  contacts_next_.resize(total);
+  Dev::launch(nx, WritePairsKernel{c(exposed_), c(raw_), c(raw_offset_), c(cand_count_), c(place_), c(contacts_),
+                                   static_cast<std::uint32_t>(contact_count_), d(contacts_next_)});
+  std::swap(contacts_, contacts_next_);
+  contact_count_ = total;
+  if (M_.ground) {
+    Dev::launch(nx, NearGroundFlagKernel{ground_reach(), c(exposed_), d(flag_)});
+    const std::uint32_t ng = Dev::exclusive_scan(c(flag_), d(place_), nx);
+    ground_next_.resize(ng);
+    Dev::launch(nx, WriteGroundKernel{c(exposed_), c(flag_), c(place_), c(ground_), static_cast<std::uint32_t>(ground_count_),
+                                      d(ground_next_)});
+    std::swap(ground_, ground_next_);
+    ground_count_ = ng;
+  }
+  Dev::launch(n, ReferenceKernel{c(px_), c(py_), c(pz_), d(ref_)});
+  incidence();
+}
+
+// The incidence list of the contact list: each automaton's entries (2 p + side) in pair order.
+template <class Dev>
+void DeviceBackend<Dev>::incidence() {
+  const std::size_t e = 2 * contact_count_;
+  inc_runs_ = 0;
+  if (e == 0) return;
+  inc_key_.resize(e);
+  inc_value_.resize(e);
+  Dev::launch(contact_count_, IncidenceKeysKernel{c(contacts_), d(inc_key_), d(inc_value_)});
+  Dev::stable_sort_by_key(d(inc_key_), d(inc_value_), e);
+  if (flag_.size() < e + 1) {
+    flag_.resize(e + 1);
+    place_.resize(e + 1);
+  }
+  Dev::launch(e, RunStartKernel{c(inc_key_), d(flag_)});
+  inc_runs_ = Dev::exclusive_scan(c(flag_), d(place_), e);
+  inc_start_.resize(inc_runs_ + 1);
+  Dev::launch(e, RunScatterKernel{c(flag_), c(place_), d(inc_start_), e});
+}
+
+// The host's State from the device arrays.
+template <class Dev>
+void DeviceBackend<Dev>::sync() {
+  const std::size_t n = M_.size(), L = M_.link_slots();
+  std::vector<double> x(n), y(n), z(n);
+  auto get3 = [&](std::vector<DVec3>& to, const Buf<double>& bx, const Buf<double>& by, const Buf<double>& bz) {
+    Dev::download(x.data(), bx, n);
+    Dev::download(y.data(), by, n);
+    Dev::download(z.data(), bz, n);
+    to.resize(n);
+    for (std::size_t a = 0; a < n; ++a) to[a] = {x[a], y[a], z[a]};
+  };
+  get3(S_.x, px_, py_, pz_);
+  get3(S_.v, vx_, vy_, vz_);
+  get3(S_.w, wx_, wy_, wz_);
+  std::vector<float> qw(n), qx(n), qy(n), qz(n);
+  Dev::download(qw.data(), qw_, n);
+  Dev::download(qx.data(), qx_, n);
+  Dev::download(qy.data(), qy_, n);
+  Dev::download(qz.data(), qz_, n);
+  for (std::size_t a = 0; a < n; ++a) S_.q[a] = {qw[a], qx[a], qy[a], qz[a]};
+  Dev::download(S_.s.data(), stress_, n);
+  Dev::download(S_.mean_stress.data(), mean_stress_, n);
+  Dev::download(S_.f.data(), f_out_, n);
+  Dev::download(S_.t.data(), t_out_, n);
+  Dev::download(S_.intact.data(), intact_, L);
+  if (softening_) Dev::download(S_.link_damage.data(), damage_, L);
+  std::vector<float> ux(L), uy(L), uz(L);
+  Dev::download(ux.data(), utx_, L);
+  Dev::download(uy.data(), uty_, L);
+  Dev::download(uz.data(), utz_, L);
+  for (std::size_t l = 0; l < L; ++l) S_.link_ut[l] = {ux[l], uy[l], uz[l]};
+  const std::size_t ne = S_.link_moment.size();
+  std::vector<float> mx(ne), my(ne), mz(ne);
+  Dev::download(mx.data(), ex_mx_, ne);
+  Dev::download(my.data(), ex_my_, ne);
+  Dev::download(mz.data(), ex_mz_, ne);
+  for (std::size_t k = 0; k < ne; ++k) S_.link_moment[k] = {mx[k], my[k], mz[k]};
+  S_.contacts.resize(contact_count_);
+  Dev::download(S_.contacts.data(), contacts_, contact_count_);
+  S_.ground_contacts.resize(ground_count_);
+  Dev::download(S_.ground_contacts.data(), ground_, ground_count_);
+  std::vector<double> ref(cpu::tiled_size(n, cpu::kRefRows));
+  Dev::download(ref.data(), ref_, ref.size());
+  S_.x_at_rebuild.resize(n);
+  for (std::size_t a = 0; a < n; ++a) {
+    const double* r = ref.data() + cpu::tile_index(a, cpu::kRefRows);
+    S_.x_at_rebuild[a] = {r[0], r[cpu::kTile], r[2 * cpu::kTile]};
+  }
+  const std::size_t np = S_.projectiles.size();
+  std::vector<DeviceProjectile> dp(np);
+  Dev::download(dp.data(), proj_, np);
+  for (std::size_t p = 0; p < np; ++p) {
+    ProjectileState& ps = S_.projectiles[p];
+    ps.position = dp[p].position;
+    ps.velocity = dp[p].velocity;
+    ps.angular_velocity = dp[p].angular_velocity;
+    ps.orientation = dp[p].orientation;
+    ps.force = dp[p].force;
+    ps.ground = dp[p].ground;
+    ps.work = dp[p].work;
+    ps.contacts.resize(proj_count_[p]);
+    Dev::download(ps.contacts.data(), proj_lists_[p], proj_count_[p]);
+  }
+  S_.projectile_contacts.resize(pair_count_);
+  Dev::download(S_.projectile_contacts.data(), proj_pairs_, pair_count_);
+  Dev::download(S_.grip_work.data(), grip_work_, S_.grip_work.size());
+  Dev::download(S_.grip_force.data(), grip_force_, S_.grip_force.size());
+}
+
+}  // namespace mca::gpu

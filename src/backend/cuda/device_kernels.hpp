@@ -1,0 +1,721 @@
+#pragma once
+// The CUDA backend's kernels: one function object per pass, called for each thread index k of a launch
+// (a CUDA grid, or HostDevice's loop over k in order: host_device.hpp). Each reads and writes plain
+// pointers into device arrays, and does the CPU backend's work for its element with the same functions
+// (lattice_kernels.inl's Block<float>, step_kernels.hpp, physics/), so it computes the same bits.
+//
+// Where the CPU adds to an automaton in list order (contacts), the automaton gathers its entries of the
+// list in that order (an incidence list); where the CPU pushes to a list in order (breaks, candidates),
+// each element writes a flag, and an exclusive scan gives its place (a stable compaction). No
+// floating-point atomics; the integer counters below give the same totals in any order.
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+
+#include "backend/cpu/lanes_scalar.hpp"  // first: Lanes<float>, before core/math.hpp
+#include "backend/cpu/lattice_kernels.hpp"
+#include "backend/step_kernels.hpp"
+#include "core/model_view.hpp"
+#include "core/state.hpp"
+#include "physics/contact_law.hpp"
+#include "physics/fracture.hpp"
+#include "physics/integrate.hpp"
+#include "physics/link_law.hpp"
+
+namespace mca::cpu::device_lanes {
+using V = float;
+#include "backend/cpu/lattice_kernels.inl"
+}  // namespace mca::cpu::device_lanes
+
+namespace mca::gpu {
+
+using Lane = cpu::device_lanes::Block<float>;
+inline constexpr std::uint32_t kNone = 0xffffffffu;
+
+// Adds 1 to a counter shared by threads (integers: the total does not depend on the order).
+MCA_HD void count_up(std::uint32_t* c) {
+#if defined(__CUDA_ARCH__)
+  atomicAdd(c, 1u);
+#else
+  ++*c;
+#endif
+}
+
+// --- Explicit links ---
+struct ExplicitGeometryKernel {
+  cpu::LatticeView v;
+  cpu::ExplicitView e;
+  MCA_HD void operator()(std::size_t k) const { Lane::explicit_geometry(v, e, k); }
+};
+struct ExplicitWeightKernel {
+  ExplicitPassView pv;
+  const std::uint32_t* automata;
+  float *weight, *bend_weight;
+  MCA_HD void operator()(std::size_t k) const {
+    const std::uint32_t a = automata[k];
+    const ExplicitWeights w = explicit_weight(pv, a);
+    weight[a] = w.weight;
+    if (w.shell) bend_weight[a] = w.bend_weight;
+  }
+};
+// The forces and the fracture tests of explicit link k; code[k]: its break (slot | kBreakByStress) or kNone.
+struct ExplicitLinksKernel {
+  cpu::LatticeView v;
+  cpu::ExplicitView e;
+  std::uint32_t* code;
+  MCA_HD void operator()(std::size_t k) const {
+    std::uint32_t c = kNone;
+    const std::size_t found = Lane::explicit_links(v, e, k, &c);
+    code[k] = found ? c : kNone;
+  }
+};
+
+// Adds to automaton a what acts on it from outside the lattice (the automata kernel reads and clears it).
+struct External {
+  Vec3 *f, *t;
+  Sym3* s;
+  std::uint8_t* has;
+  MCA_HD void add(std::uint32_t a, const Vec3& fa, const Vec3& ta, const Sym3& sa) const {
+    f[a] += fa;
+    t[a] += ta;
+    s[a] += sa;
+    has[a] = 1;
+  }
+};
+struct ExplicitGatherKernel {
+  ExplicitPassView pv;
+  const std::uint32_t* automata;
+  External ext;
+  bool last;
+  MCA_HD void operator()(std::size_t k) const {
+    const std::uint32_t a = automata[k];
+    const ExternalSum s = explicit_gather(pv, a, last);
+    if (s.any) ext.add(a, s.f, s.t, s.s);
+  }
+};
+
+// --- Contacts ---
+struct PairContactKernel {
+  ContactPassView cv;
+  ContactPair* pairs;
+  ContactOut* out;
+  MCA_HD void operator()(std::size_t p) const { out[p] = pair_contact(cv, pairs[p]); }
+};
+// The incidence list: entry e of the sorted (automaton, 2 p + side) list, side 0 for the pair's first body.
+struct IncidenceKeysKernel {
+  const ContactPair* pairs;
+  std::uint64_t* key;
+  std::uint32_t* value;
+  MCA_HD void operator()(std::size_t p) const {
+    key[2 * p] = pairs[p].i;
+    value[2 * p] = static_cast<std::uint32_t>(2 * p);
+    key[2 * p + 1] = pairs[p].j;
+    value[2 * p + 1] = static_cast<std::uint32_t>(2 * p + 1);
+  }
+};
+// flag[e] = 1 where entry e starts an automaton's run of the sorted incidence list.
+struct RunStartKernel {
+  const std::uint64_t* key;
+  std::uint32_t* flag;
+  MCA_HD void operator()(std::size_t e) const { flag[e] = e == 0 || key[e] != key[e - 1] ? 1u : 0u; }
+};
+struct RunScatterKernel {
+  const std::uint32_t *flag, *place;
+  std::uint32_t* start;  // runs + 1 entries: the last is the list's size
+  std::size_t size;
+  MCA_HD void operator()(std::size_t e) const {
+    if (flag[e]) start[place[e]] = static_cast<std::uint32_t>(e);
+    if (e + 1 == size) start[place[e] + flag[e]] = static_cast<std::uint32_t>(size);
+  }
+};
+// Each automaton in the contact list adds its contacts' forces in pair order (the CPU's order).
+struct ContactGatherKernel {
+  const std::uint32_t* start;  // runs + 1 entries
+  const std::uint64_t* key;
+  const std::uint32_t* value;
+  const ContactOut* out;
+  External ext;
+  MCA_HD void operator()(std::size_t r) const {
+    const std::uint32_t a = static_cast<std::uint32_t>(key[start[r]]);
+    for (std::uint32_t e = start[r]; e < start[r + 1]; ++e) {
+      const std::uint32_t p = value[e] >> 1;
+      const ContactOut& o = out[p];
+      if (!o.on) continue;
+      if (value[e] & 1u) ext.add(a, -o.f, o.tj, sym_outer(o.n, o.f, o.rj));
+      else ext.add(a, o.f, o.ti, sym_outer(o.n, o.f, o.ri));
+    }
+  }
+};
+// The ground list holds an automaton at most once: each thread adds to its own automaton.
+struct GroundKernel {
+  ContactPassView cv;
+  BodyContact* list;
+  External ext;
+  MCA_HD void operator()(std::size_t k) const {
+    const ContactOut o = ground_contact(cv, list[k]);
+    if (o.on) ext.add(list[k].automaton, o.f, o.ti, sym_outer(o.n, o.f, o.ri));
+  }
+};
+
+// --- Lattice ---
+struct ManyBodyKernel {
+  cpu::LatticeView v;
+  MCA_HD void operator()(std::size_t a) const { Lane::many_body(v, a); }
+};
+struct LinksKernel {
+  cpu::LatticeView v;
+  std::uint32_t* code;  // per lattice slot
+  MCA_HD void operator()(std::size_t l) const {
+    const int axis = static_cast<int>(l / v.n);
+    std::uint32_t c = kNone;
+    const std::size_t found = Lane::links(v, axis, l % v.n, &c);
+    code[l] = found ? c : kNone;
+  }
+};
+struct AutomataKernel {
+  cpu::LatticeView v;
+  float* move2;         // per automaton: its squared move since the rebuild, where exposed (else 0)
+  std::uint32_t* bad;   // per automaton: itself where a value is not finite, else kNone
+  MCA_HD void operator()(std::size_t a) const {
+    cpu::AutomataResult r;
+    Lane::automata(v, a, r);
+    move2[a] = r.max_move2;
+    bad[a] = r.first_bad >= 0 ? static_cast<std::uint32_t>(a) : kNone;
+  }
+};
+// Grip g sums the forces its automata put on it, in member order (the CPU's).
+struct GripKernel {
+  const std::uint32_t *first, *members;
+  Vec3* ext_f;
+  Vec3* force;
+  double* work;
+  const DVec3* velocity;
+  float dt;
+  MCA_HD void operator()(std::size_t g) const {
+    Vec3 f;
+    for (std::uint32_t k = first[g]; k < first[g + 1]; ++k) {
+      const std::uint32_t a = members[k];
+      f -= ext_f[a];
+      ext_f[a] = Vec3{};
+    }
+    force[g] = f;
+    work[g] += dot(to_dvec3(f), velocity[g]) * dt;
+  }
+};
+
+// --- Compaction ---
+struct FlagCodesKernel {
+  const std::uint32_t* code;
+  std::uint32_t* flag;
+  MCA_HD void operator()(std::size_t k) const { flag[k] = code[k] != kNone ? 1u : 0u; }
+};
+struct CompactKernel {
+  const std::uint32_t *flag, *place, *value;  // value null: the index itself
+  std::uint32_t* out;
+  MCA_HD void operator()(std::size_t k) const {
+    if (flag[k]) out[place[k]] = value ? value[k] : static_cast<std::uint32_t>(k);
+  }
+};
+
+// --- Breaks ---
+struct LinkEnds {
+  std::size_t n = 0, lattice_slots = 0;
+  const std::uint32_t *neighbour = nullptr, *ei = nullptr, *ej = nullptr;
+  MCA_HD std::uint32_t i(std::uint32_t l) const {
+    return l >= lattice_slots ? ei[l - lattice_slots] : static_cast<std::uint32_t>(l % n);
+  }
+  MCA_HD std::uint32_t j(std::uint32_t l) const { return l >= lattice_slots ? ej[l - lattice_slots] : neighbour[l]; }
+};
+// Breaks link codes[k]: no longer intact, its displacement and bending state cleared, and, unless it left
+// its ends' counts when first damaged, one sound link less at each end (lost, applied by LoseLinksKernel).
+struct BreakKernel {
+  const std::uint32_t* codes;
+  LinkEnds ends;
+  std::uint8_t* intact;
+  std::uint8_t* unsound;  // null without softening
+  float *utx, *uty, *utz;
+  float *mx, *my, *mz;  // explicit links' bending state
+  std::uint32_t* lost;
+  MCA_HD void operator()(std::size_t k) const {
+    const std::uint32_t l = codes[k] & ~cpu::kBreakByStress;
+    intact[l] = 0;
+    if (!unsound || !unsound[l]) {
+      count_up(lost + ends.i(l));
+      count_up(lost + ends.j(l));
+      if (unsound) unsound[l] = 1;
+    }
+    utx[l] = uty[l] = utz[l] = 0.0f;
+    if (l >= ends.lattice_slots) {
+      const std::size_t x = l - ends.lattice_slots;
+      mx[x] = my[x] = mz[x] = 0.0f;
+    }
+  }
+};
+// A link damaged in this step leaves its ends' counts of sound links (CpuBackend::expose_damaged).
+struct ExposeDamagedKernel {
+  LinkEnds ends;
+  const float* damage;
+  std::uint8_t* unsound;
+  std::uint32_t* lost;
+  MCA_HD void operator()(std::size_t l) const {
+    if (unsound[l] || !(damage[l] > 0)) return;
+    unsound[l] = 1;
+    count_up(lost + ends.i(static_cast<std::uint32_t>(l)));
+    count_up(lost + ends.j(static_cast<std::uint32_t>(l)));
+  }
+};
+// Automaton a lost `lost` sound links: boxed in before (count 6), its move since the rebuild counts for the
+// contact list's staleness; the count falls, not below 0 (CpuBackend::lose_link, once per link: the same).
+struct LoseLinksKernel {
+  std::uint32_t* lost;
+  std::uint8_t* count;
+  const double *px, *py, *pz, *ref;
+  float* move2;
+  MCA_HD void operator()(std::size_t a) const {
+    const std::uint32_t k = lost[a];
+    move2[a] = 0.0f;
+    if (k == 0) return;
+    lost[a] = 0;
+    const std::uint8_t c = count[a];
+    if (c == 6) {
+      const double* r = ref + cpu::tile_index(a, cpu::kRefRows);
+      const Vec3 d{static_cast<float>(px[a] - r[0]), static_cast<float>(py[a] - r[cpu::kTile]),
+                   static_cast<float>(pz[a] - r[2 * cpu::kTile])};
+      move2[a] = dot(d, d);
+    }
+    count[a] = static_cast<std::uint8_t>(c > k ? c - k : 0u);
+  }
+};
+// Whether automaton a is within reach of the ground (CpuBackend::near_ground).
+struct GroundReach {
+  const double *px, *py, *pz;
+  const float* radius;
+  Vec3 up;
+  float height, skin;
+  MCA_HD bool near(std::uint32_t a) const {
+    const double above = px[a] * up.x + py[a] * up.y + pz[a] * up.z - height;
+    return above < static_cast<double>(radius[a]) + skin;
+  }
+};
+struct NearGroundKernel {
+  GroundReach g;
+  const std::uint32_t* automata;
+  std::uint8_t* near;
+  MCA_HD void operator()(std::size_t k) const { near[k] = g.near(automata[k]) ? 1 : 0; }
+};
+
+// --- Sorted lists ---
+MCA_HD bool pair_less(std::uint32_t ai, std::uint32_t aj, std::uint32_t bi, std::uint32_t bj) {
+  return ai != bi ? ai < bi : aj < bj;
+}
+// The entries of a sorted list less than (i, j) (or not greater, with `or_equal`).
+MCA_HD std::uint32_t pairs_before(const ContactPair* list, std::uint32_t size, std::uint32_t i, std::uint32_t j,
+                                  bool or_equal) {
+  std::uint32_t lo = 0, hi = size;
+  while (lo < hi) {
+    const std::uint32_t mid = lo + (hi - lo) / 2;
+    const bool before = pair_less(list[mid].i, list[mid].j, i, j) ||
+                        (or_equal && list[mid].i == i && list[mid].j == j);
+    if (before) lo = mid + 1;
+    else hi = mid;
+  }
+  return lo;
+}
+MCA_HD std::uint32_t automata_before(const BodyContact* list, std::uint32_t size, std::uint32_t a) {
+  std::uint32_t lo = 0, hi = size;
+  while (lo < hi) {
+    const std::uint32_t mid = lo + (hi - lo) / 2;
+    if (list[mid].automaton < a) lo = mid + 1;
+    else hi = mid;
+  }
+  return lo;
+}
+// std::merge of two sorted pair lists (the first's entries first where equal), one element per thread:
+// threads [0, na) place list a, [na, na + nb) list b.
+struct MergePairsKernel {
+  const ContactPair *a, *b;
+  std::uint32_t na, nb;
+  ContactPair* out;
+  MCA_HD void operator()(std::size_t k) const {
+    if (k < na) {
+      out[k + pairs_before(b, nb, a[k].i, a[k].j, false)] = a[k];
+    } else {
+      const std::size_t m = k - na;
+      out[m + pairs_before(a, na, b[m].i, b[m].j, true)] = b[m];
+    }
+  }
+};
+struct MergeBodiesKernel {
+  const BodyContact *a, *b;
+  std::uint32_t na, nb;
+  BodyContact* out;
+  MCA_HD void operator()(std::size_t k) const {
+    if (k < na) {
+      out[k + automata_before(b, nb, a[k].automaton)] = a[k];
+    } else {
+      const std::size_t m = k - na;
+      out[m + automata_before(a, na, b[m].automaton + 1)] = b[m];  // after a's entries <= it
+    }
+  }
+};
+// flag[k] = 1 where automaton list[k] is not yet in the sorted body list `in`.
+struct NotListedKernel {
+  const std::uint32_t* list;
+  const BodyContact* in;
+  std::uint32_t size;
+  std::uint32_t* flag;
+  MCA_HD void operator()(std::size_t k) const {
+    const std::uint32_t p = automata_before(in, size, list[k]);
+    flag[k] = p < size && in[p].automaton == list[k] ? 0u : 1u;
+  }
+};
+
+// --- Contact list rebuild ---
+// Exposed automata: fewer than 6 sound links (CpuBackend::rebuild_contacts).
+struct ExposedFlagKernel {
+  const std::uint8_t* count;
+  std::uint32_t* flag;
+  MCA_HD void operator()(std::size_t a) const { flag[a] = count[a] < 6 ? 1u : 0u; }
+};
+// The uniform grid of the search: cells of side h, hashed into 2^bits buckets.
+struct HashGrid {
+  double inv_h = 0;
+  std::uint64_t mask = 0;
+  MCA_HD std::int64_t cell(double x) const { return static_cast<std::int64_t>(floor(x * inv_h)); }
+  MCA_HD std::uint64_t bucket(std::int64_t x, std::int64_t y, std::int64_t z) const {
+    const std::uint64_t h = static_cast<std::uint64_t>(x) * 73856093ull ^ static_cast<std::uint64_t>(y) * 19349663ull ^
+                            static_cast<std::uint64_t>(z) * 83492791ull;
+    return (h ^ (h >> 29)) & mask;
+  }
+};
+struct GridKeysKernel {
+  HashGrid grid;
+  const std::uint32_t* exposed;
+  const double *px, *py, *pz;
+  std::uint64_t* key;
+  std::uint32_t* value;
+  MCA_HD void operator()(std::size_t k) const {
+    const std::uint32_t a = exposed[k];
+    key[k] = grid.bucket(grid.cell(px[a]), grid.cell(py[a]), grid.cell(pz[a]));
+    value[k] = a;
+  }
+};
+struct BucketRangeKernel {
+  const std::uint64_t* key;
+  std::size_t n;
+  std::uint32_t *begin, *end;
+  MCA_HD void operator()(std::size_t k) const {
+    if (k == 0 || key[k] != key[k - 1]) begin[key[k]] = static_cast<std::uint32_t>(k);
+    if (k + 1 == n || key[k] != key[k + 1]) end[key[k]] = static_cast<std::uint32_t>(k + 1);
+  }
+};
+// Whether automata i and j are joined by an intact link (CpuBackend::linked).
+struct Linked {
+  std::size_t n;
+  const std::uint32_t *neighbour, *below;
+  const std::uint8_t* intact;
+  const std::uint32_t *first, *of, *ei, *ej;  // first null: no explicit links
+  MCA_HD bool operator()(std::uint32_t i, std::uint32_t j) const {
+    for (int axis = 0; axis < 3; ++axis) {
+      const std::size_t up = axis * n + i;
+      if (neighbour[up] == j && intact[up]) return true;
+      if (below[up] == j && intact[axis * n + j]) return true;
+    }
+    if (first)
+      for (std::uint32_t k = first[i]; k < first[i + 1]; ++k) {
+        const std::uint32_t l = of[k];
+        if ((ei[l] == j || ej[l] == j) && intact[3 * n + l]) return true;
+      }
+    return false;
+  }
+};
+// The candidates of exposed automaton k (the CPU's search: the grid's points above it within r_i + r_j +
+// skin and not linked, and a random-lattice automaton's broken links within their rest length + skin):
+// counted (out null) or written to out + offset[k], then sorted and made unique; count[k] is their number.
+struct CandidatesKernel {
+  HashGrid grid;
+  const std::uint32_t* exposed;
+  const std::uint32_t *sorted, *begin, *end;  // the grid: exposed automata by bucket
+  const double *px, *py, *pz;
+  const float* radius;
+  float skin;
+  Linked linked;
+  ModelView m;
+  const double* r0;  // explicit links' rest lengths
+  const std::uint32_t* offset;
+  std::uint32_t* out;
+  std::uint32_t* count;
+  MCA_HD void operator()(std::size_t k) const {
+    const std::uint32_t i = exposed[k];
+    const DVec3 xi{px[i], py[i], pz[i]};
+    std::uint32_t c = 0;
+    auto take = [&](std::uint32_t j) {
+      if (out) out[offset[k] + c] = j;
+      ++c;
+    };
+    const std::int64_t cx = grid.cell(xi.x), cy = grid.cell(xi.y), cz = grid.cell(xi.z);
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const std::uint64_t b = grid.bucket(cx + dx, cy + dy, cz + dz);
+          // (Two cells may share a bucket: its points are taken twice, and made unique below.)
+          for (std::uint32_t e = begin[b]; e < end[b]; ++e) {
+            const std::uint32_t j = sorted[e];
+            if (j <= i) continue;
+            const Vec3 d = delta(xi, DVec3{px[j], py[j], pz[j]});
+            const float reach = radius[i] + radius[j] + skin;
+            if (dot(d, d) < reach * reach && !linked(i, j)) take(j);
+          }
+        }
+    // A random-lattice automaton's broken links: their pairs reach their initial distance
+    // (Model::contact_reach), up to 2.2 d, beyond the grid's cells of r_i + r_j + skin.
+    if (m.random_automaton(i) && m.first) {
+      for (std::uint32_t x = m.first[i]; x < m.first[i + 1]; ++x) {
+        const std::uint32_t l = m.of[x], j = m.ei[l] == i ? m.ej[l] : m.ei[l];
+        if (j <= i || linked.intact[3 * m.n + l]) continue;
+        const Vec3 d = delta(xi, DVec3{px[j], py[j], pz[j]});
+        const float reach = static_cast<float>(r0[l]) + skin;
+        if (dot(d, d) < reach * reach) take(j);
+      }
+    }
+    if (out) {
+      // Sort (insertion: a handful) and drop repeats.
+      std::uint32_t* js = out + offset[k];
+      for (std::uint32_t x = 1; x < c; ++x) {
+        const std::uint32_t v = js[x];
+        std::uint32_t y = x;
+        for (; y > 0 && js[y - 1] > v; --y) js[y] = js[y - 1];
+        js[y] = v;
+      }
+      std::uint32_t u = 0;
+      for (std::uint32_t x = 0; x < c; ++x)
+        if (u == 0 || js[x] != js[u - 1]) js[u++] = js[x];
+      c = u;
+    }
+    count[k] = c;
+  }
+};
+// The new list's pairs of exposed automaton k, with the histories of the pairs the old list held.
+struct WritePairsKernel {
+  const std::uint32_t *exposed, *raw, *raw_offset, *count, *place;
+  const ContactPair* old;
+  std::uint32_t old_size;
+  ContactPair* out;
+  MCA_HD void operator()(std::size_t k) const {
+    const std::uint32_t i = exposed[k];
+    for (std::uint32_t x = 0; x < count[k]; ++x) {
+      const std::uint32_t j = raw[raw_offset[k] + x];
+      ContactPair c{i, j, {}};
+      const std::uint32_t p = pairs_before(old, old_size, i, j, false);
+      if (p < old_size && old[p].i == i && old[p].j == j) c.h = old[p].h;
+      out[place[k] + x] = c;
+    }
+  }
+};
+struct NearGroundFlagKernel {
+  GroundReach g;
+  const std::uint32_t* exposed;
+  std::uint32_t* flag;
+  MCA_HD void operator()(std::size_t k) const { flag[k] = g.near(exposed[k]) ? 1u : 0u; }
+};
+struct WriteGroundKernel {
+  const std::uint32_t *exposed, *flag, *place;
+  const BodyContact* old;
+  std::uint32_t old_size;
+  BodyContact* out;
+  MCA_HD void operator()(std::size_t k) const {
+    if (!flag[k]) return;
+    const std::uint32_t a = exposed[k];
+    BodyContact c{a, {}};
+    const std::uint32_t p = automata_before(old, old_size, a);
+    if (p < old_size && old[p].automaton == a) c.h = old[p].h;
+    out[place[k]] = c;
+  }
+};
+// The positions at this rebuild (LatticeView::ref, tiled).
+struct ReferenceKernel {
+  const double *px, *py, *pz;
+  double* ref;
+  MCA_HD void operator()(std::size_t a) const {
+    double* r = ref + cpu::tile_index(a, cpu::kRefRows);
+    r[0] = px[a];
+    r[cpu::kTile] = py[a];
+    r[2 * cpu::kTile] = pz[a];
+  }
+};
+
+// --- Projectiles ---
+// A projectile's state on the device (ProjectileState without its contact list).
+struct DeviceProjectile {
+  DVec3 position, velocity, angular_velocity;
+  Quat orientation;
+  Vec3 force;
+  ContactHistory ground;
+  double work = 0;
+};
+struct ProjectileConstants {
+  float radius = 0, mass = 0, inertia = 0;
+  bool kinematic = false;
+  ContactSprings ground_springs;  // with the ground (body_contact_springs of its own)
+};
+// Automata the sphere of projectile p touches: |d|^2 < (R + r_a)^2 in float (the CPU's test).
+struct TouchKernel {
+  const DeviceProjectile* proj;
+  std::uint32_t p;
+  float radius;
+  const double *px, *py, *pz;
+  const float* r;
+  std::uint32_t* flag;
+  MCA_HD void operator()(std::size_t a) const {
+    const Vec3 d = delta(proj[p].position, DVec3{px[a], py[a], pz[a]});
+    const float reach = radius + r[a];
+    flag[a] = dot(d, d) < reach * reach ? 1u : 0u;
+  }
+};
+// Candidate k of projectile p: its contact from the previous list's history; keep[k] = 1 where it stays in
+// the list (touching, or a tangential spring still loaded), and what it adds to the automaton.
+struct ProjectileContactKernel {
+  const DeviceProjectile* proj;
+  std::uint32_t p;
+  ProjectileConstants P;
+  const std::uint32_t* candidates;
+  const BodyContact* old;
+  std::uint32_t old_size;
+  ContactPassView cv;
+  const ContactMaterial* material;  // per group: projectile_contact(p, g)
+  const float* zeta;                // per group
+  BodyContact* next;                // per candidate
+  ContactOut* out;                  // per candidate: force on the automaton, its torque, the projectile's
+  std::uint32_t* keep;
+  MCA_HD void operator()(std::size_t k) const {
+    const std::uint32_t a = candidates[k];
+    const DeviceProjectile& ps = proj[p];
+    const std::uint32_t o = automata_before(old, old_size, a);
+    const ContactHistory prev = o < old_size && old[o].automaton == a ? old[o].h : ContactHistory{};
+    keep[k] = 0;
+    const float ra = cv.m.radius[a];
+    const SphereGap gap = sphere_gap(cv.pos(a), ps.position, static_cast<double>(P.radius) + ra);
+    if (!gap.valid) return;
+    const Vec3 nrm = gap.n;
+    const std::size_t g = cv.m.group[a];
+    const ContactSprings springs =
+        body_contact_springs(material[g], zeta[g], ra, P.radius, contact_reduced(cv.m.mass[a], false, P.mass, P.kinematic),
+                             contact_reduced(cv.m.inertia[a], false, P.inertia, P.kinematic));
+    const ContactResult r = contact_between(nrm, gap.overlap, cv.vel(a), cv.ang(a), ra * nrm, ps.velocity,
+                                            ps.angular_velocity, -P.radius * nrm, springs, prev.ut, prev.mr, cv.dt);
+    if (r.o.fn <= 0.0f && length(r.o.ut) == 0.0f) return;
+    keep[k] = 1;
+    next[k] = {a, {r.o.ut, r.o.mr}};
+    out[k] = {r.o.force_i, r.torque_i, r.torque_j, nrm, ra, 0.0f, true};
+  }
+};
+// The kept contacts: into the projectile's new list, and each adds to its automaton (once per projectile).
+struct ProjectileCommitKernel {
+  const std::uint32_t *keep, *place;
+  const BodyContact* next;
+  const ContactOut* out;
+  BodyContact* list;
+  External ext;
+  MCA_HD void operator()(std::size_t k) const {
+    if (!keep[k]) return;
+    list[place[k]] = next[k];
+    const ContactOut& o = out[k];
+    ext.add(next[k].automaton, o.f, o.ti, sym_outer(o.n, o.f, o.ri));
+  }
+};
+// One thread: projectile p's sums over its kept contacts in list order, then its contact with the ground.
+struct ProjectileSumKernel {
+  DeviceProjectile* proj;
+  std::uint32_t p;
+  ProjectileConstants P;
+  const std::uint32_t *keep;
+  const ContactOut* out;
+  std::uint32_t candidates;
+  Vec3 *fsum, *tsum;
+  bool ground;
+  Vec3 up;
+  float ground_height, dt;
+  MCA_HD void operator()(std::size_t) const {
+    DeviceProjectile& ps = proj[p];
+    Vec3 f, t;
+    for (std::uint32_t k = 0; k < candidates; ++k) {
+      if (!keep[k]) continue;
+      f -= out[k].f;
+      t += out[k].tj;
+    }
+    if (ground) {
+      // The ground, as for an automaton: the projectile is the first body.
+      const Vec3 nrm = -up;
+      const ContactResult r = contact_between(nrm, ground_overlap(ps.position, up, ground_height, P.radius), ps.velocity,
+                                              ps.angular_velocity, P.radius * nrm, {}, {}, {}, P.ground_springs,
+                                              ps.ground.ut, ps.ground.mr, dt);
+      ps.ground = {r.o.ut, r.o.mr};
+      f += r.o.force_i;
+      t += r.torque_i;
+    }
+    fsum[p] = f;
+    tsum[p] = t;
+  }
+};
+// One thread: the projectile pairs (all pairs, in (p, q) order) and the projectiles' motion.
+// bad[0]: the first projectile with a value not finite, or kNone.
+struct ProjectileMotionKernel {
+  DeviceProjectile* proj;
+  const ProjectileConstants* P;
+  std::uint32_t np;
+  const ContactSprings* pair_springs;  // per (p, q)
+  const ProjectilePair* old;
+  std::uint32_t old_size;
+  ProjectilePair* next;
+  std::uint32_t* next_size;
+  Vec3 *fsum, *tsum;
+  Vec3 gravity;
+  float dt;
+  std::uint32_t* bad;
+  MCA_HD void operator()(std::size_t) const {
+    std::uint32_t o = 0, count = 0;
+    for (std::uint32_t p = 0; p < np; ++p)
+      for (std::uint32_t q = p + 1; q < np; ++q) {
+        const ProjectileConstants &A = P[p], &B = P[q];
+        if (A.kinematic && B.kinematic) continue;  // neither can respond
+        const DeviceProjectile &a = proj[p], &b = proj[q];
+        const SphereGap gap = sphere_gap(a.position, b.position, static_cast<double>(A.radius) + B.radius);
+        if (gap.overlap <= 0.0f || !gap.valid) continue;
+        while (o < old_size && (old[o].p < p || (old[o].p == p && old[o].q < q))) ++o;
+        const ContactHistory prev = o < old_size && old[o].p == p && old[o].q == q ? old[o].h : ContactHistory{};
+        const Vec3 nrm = gap.n;
+        const ContactResult r = contact_between(nrm, gap.overlap, a.velocity, a.angular_velocity, A.radius * nrm, b.velocity,
+                                                b.angular_velocity, -B.radius * nrm, pair_springs[p * np + q], prev.ut,
+                                                prev.mr, dt);
+        next[count++] = {p, q, {r.o.ut, r.o.mr}};
+        fsum[p] += r.o.force_i;
+        fsum[q] -= r.o.force_i;
+        tsum[p] += r.torque_i;
+        tsum[q] += r.torque_j;
+      }
+    *next_size = count;
+    *bad = kNone;
+    for (std::uint32_t p = 0; p < np; ++p) {
+      DeviceProjectile& ps = proj[p];
+      ps.force = fsum[p];
+      if (P[p].kinematic) {
+        // Power the projectile puts in: minus that of the forces on it at its own velocities.
+        ps.work -= (dot(to_dvec3(fsum[p]), ps.velocity) + dot(to_dvec3(tsum[p]), ps.angular_velocity)) * dt;
+      } else {
+        ps.velocity += (fsum[p] * (1.0f / P[p].mass) + gravity) * dt;
+        ps.angular_velocity += tsum[p] * (dt / P[p].inertia);
+        ps.orientation = integrate_orientation(ps.orientation, to_vec3(ps.angular_velocity), dt);
+      }
+      ps.position += ps.velocity * static_cast<double>(dt);
+      const double x = ps.position.x + ps.position.y + ps.position.z;
+      const double v = ps.velocity.x + ps.velocity.y + ps.velocity.z;
+      const double w = ps.angular_velocity.x + ps.angular_velocity.y + ps.angular_velocity.z;
+      if (!(x - x == 0.0 && v - v == 0.0 && w - w == 0.0)) {
+        *bad = p;  // the step stops here, as the CPU's does
+        return;
+      }
+    }
+  }
+};
+
+}  // namespace mca::gpu

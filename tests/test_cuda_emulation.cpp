@@ -1,0 +1,128 @@
+// The CUDA backend's algorithm (src/backend/cuda/), run on the host thread by thread (its host emulation),
+// against the CPU backend, bit for bit: the state of both after every chunk of steps, on scenes with
+// breaking, contacts and the ground active. This is how every line of the CUDA backend's step logic is
+// tested on machines without a GPU.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "io/scene_io.hpp"
+#include "sim/engine.hpp"
+#include "support.hpp"
+
+namespace mca {
+namespace {
+
+// The first field and index where two states differ (bitwise), or "" when they are equal.
+template <class T>
+bool same_bits(const T& a, const T& b) {
+  return std::memcmp(&a, &b, sizeof(T)) == 0;
+}
+template <class T, class F>
+std::string first_diff(const char* name, const std::vector<T>& a, const std::vector<T>& b, F&& same) {
+  if (a.size() != b.size()) return fmt::format("{}: {} against {} entries", name, a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k)
+    if (!same(a[k], b[k])) return fmt::format("{}[{}]", name, k);
+  return "";
+}
+template <class T>
+std::string first_diff(const char* name, const std::vector<T>& a, const std::vector<T>& b) {
+  return first_diff(name, a, b, [](const T& x, const T& y) { return same_bits(x, y); });
+}
+std::string first_difference(const State& a, const State& b) {
+  auto pair = [](const ContactPair& x, const ContactPair& y) {
+    return x.i == y.i && x.j == y.j && same_bits(x.h.ut, y.h.ut) && same_bits(x.h.mr, y.h.mr);
+  };
+  auto body = [](const BodyContact& x, const BodyContact& y) {
+    return x.automaton == y.automaton && same_bits(x.h.ut, y.h.ut) && same_bits(x.h.mr, y.h.mr);
+  };
+  auto brk = [](const BreakRecord& x, const BreakRecord& y) {
+    return x.step == y.step && x.link == y.link && x.criterion == y.criterion;
+  };
+  for (const std::string& d :
+       {first_diff("x", a.x, b.x), first_diff("v", a.v, b.v), first_diff("w", a.w, b.w), first_diff("q", a.q, b.q),
+        first_diff("intact", a.intact, b.intact), first_diff("link_ut", a.link_ut, b.link_ut),
+        first_diff("link_moment", a.link_moment, b.link_moment), first_diff("link_damage", a.link_damage, b.link_damage),
+        first_diff("mean_stress", a.mean_stress, b.mean_stress), first_diff("s", a.s, b.s), first_diff("f", a.f, b.f),
+        first_diff("t", a.t, b.t), first_diff("contacts", a.contacts, b.contacts, pair),
+        first_diff("ground_contacts", a.ground_contacts, b.ground_contacts, body),
+        first_diff("x_at_rebuild", a.x_at_rebuild, b.x_at_rebuild), first_diff("breaks", a.breaks, b.breaks, brk),
+        first_diff("grip_work", a.grip_work, b.grip_work), first_diff("grip_force", a.grip_force, b.grip_force)})
+    if (!d.empty()) return d;
+  if (a.projectiles.size() != b.projectiles.size()) return "projectiles";
+  for (std::size_t p = 0; p < a.projectiles.size(); ++p) {
+    const ProjectileState &x = a.projectiles[p], &y = b.projectiles[p];
+    if (!same_bits(x.position, y.position) || !same_bits(x.velocity, y.velocity) ||
+        !same_bits(x.angular_velocity, y.angular_velocity) || !same_bits(x.orientation, y.orientation) ||
+        !same_bits(x.force, y.force) || !same_bits(x.ground.ut, y.ground.ut) || !same_bits(x.ground.mr, y.ground.mr) ||
+        !same_bits(x.work, y.work))
+      return fmt::format("projectiles[{}]", p);
+    const std::string c = first_diff("projectile contacts", x.contacts, y.contacts, body);
+    if (!c.empty()) return fmt::format("projectiles[{}] {}", p, c);
+  }
+  if (a.projectile_contacts.size() != b.projectile_contacts.size()) return "projectile_contacts";
+  for (std::size_t k = 0; k < a.projectile_contacts.size(); ++k) {
+    const ProjectilePair &x = a.projectile_contacts[k], &y = b.projectile_contacts[k];
+    if (x.p != y.p || x.q != y.q || !same_bits(x.h.ut, y.h.ut) || !same_bits(x.h.mr, y.h.mr))
+      return fmt::format("projectile_contacts[{}]", k);
+  }
+  if (a.step != b.step || !same_bits(a.time, b.time)) return "step or time";
+  if (a.broken_by[0] != b.broken_by[0] || a.broken_by[1] != b.broken_by[1]) return "broken_by";
+  if (!same_bits(a.initial_energy, b.initial_energy)) return "initial_energy";
+  return "";
+}
+
+struct Compared {
+  std::int64_t breaks = 0;
+  std::size_t contacts = 0, ground = 0, projectile_contacts = 0;
+};
+
+// Runs the scene on the CPU backend and on the CUDA backend's emulation, `steps` steps in calls of
+// `chunk`, and checks that the states are equal after every call.
+Compared run_both(SceneDef scene, std::int64_t steps, int chunk) {
+  scene.solver.backend = SolverDef::Backend::cpu;
+  Engine cpu(scene);
+  scene.solver.backend = SolverDef::Backend::cuda_emulation;
+  Engine emu(scene);
+  EXPECT_EQ(emu.backend().name(), "cuda-emulation");
+  Compared c;
+  bool equal = true;
+  for (std::int64_t done = 0; done < steps; done += chunk) {
+    const int k = static_cast<int>(std::min<std::int64_t>(chunk, steps - done));
+    EXPECT_EQ(cpu.advance(k).flags, kHealthy);
+    EXPECT_EQ(emu.advance(k).flags, kHealthy);
+    const State &a = cpu.state(), &b = emu.state();
+    c.contacts = std::max(c.contacts, a.contacts.size());
+    c.ground = std::max(c.ground, a.ground_contacts.size());
+    for (const auto& p : a.projectiles) c.projectile_contacts = std::max(c.projectile_contacts, p.contacts.size());
+    const std::string d = first_difference(a, b);
+    if (!d.empty()) {
+      ADD_FAILURE() << scene.name << ": the emulation's state differs from the CPU's after step " << a.step
+                    << ", first in " << d;
+      equal = false;
+      break;
+    }
+    EXPECT_EQ(state_hash(a), state_hash(b));
+  }
+  c.breaks = cpu.state().broken_by[0] + cpu.state().broken_by[1];
+  if (equal)
+    std::printf("%s: %lld steps equal bit for bit; %lld links broken, up to %zu pair contacts, %zu on the ground, %zu "
+              "under a projectile\n",
+              scene.name.c_str(), static_cast<long long>(steps), static_cast<long long>(c.breaks), c.contacts, c.ground,
+              c.projectile_contacts);
+  return c;
+}
+
+TEST(CudaEmulation, TheDefaultWallIsTheCpusBitForBit) {
+  const Compared c = run_both(io::load_default_scene(), 6000, 1000);
+  EXPECT_GT(c.breaks, 0);
+  EXPECT_GT(c.contacts, 0u);
+  EXPECT_GT(c.ground, 0u);
+  EXPECT_GT(c.projectile_contacts, 0u);
+}
+
+}  // namespace
+}  // namespace mca
