@@ -229,7 +229,8 @@ std::vector<std::string> bench_names(bool defaults_only) {
   return n;
 }
 
-int bench(const std::vector<std::string>& names, bool json, int threads_requested, int repeats, int steps) {
+int bench(const std::vector<std::string>& names, bool json, int threads_requested, int repeats, int steps,
+          const std::optional<std::string>& backend) {
   auto all = scenes();
   std::vector<BenchScene> chosen;
   if (names.empty())
@@ -246,7 +247,8 @@ int bench(const std::vector<std::string>& names, bool json, int threads_requeste
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   nlohmann::json out = nlohmann::json::array();
   bool first = true;
-  for (const auto& b : chosen) {
+  for (auto& b : chosen) {
+    if (backend) b.scene.solver.backend = backend_from_name(*backend, "--backend");
     Engine sim(b.scene);
     if (!json && first)
       fmt::print("machine: {} hardware threads, using {}; backend {} ({}); median of {} runs of {} steps each\n",

@@ -14,6 +14,7 @@ struct RunOptions {
   std::optional<double> duration;      // overrides output.duration
   std::optional<std::int64_t> steps;   // run exactly this many steps instead of a duration
   std::optional<std::uint64_t> seed;   // overrides solver.seed
+  std::optional<std::string> backend;  // overrides solver.backend (auto, cpu, cuda, cuda-emulation)
   std::optional<int> checkpoint_every; // overrides output.checkpoint_every
   std::optional<bool> vtk;             // overrides output.vtk
   bool quiet = false;                  // no progress bar
@@ -42,9 +43,11 @@ int view(const ViewOptions& options);
 // Worker threads for --threads N: all cores for 0, at most the cores there are; negative is an error.
 int thread_count(int requested);
 // Renders the frames it adds when the run was rendered (render/render.json), unless no_render.
-int resume(const std::string& out_dir, int threads, bool quiet, bool no_render = false);
+int resume(const std::string& out_dir, int threads, bool quiet, bool no_render = false,
+           const std::optional<std::string>& backend = std::nullopt);
 int info(const std::optional<std::string>& scene, bool json);
-int bench(const std::vector<std::string>& names, bool json, int threads, int repeats, int steps);
+int bench(const std::vector<std::string>& names, bool json, int threads, int repeats, int steps,
+          const std::optional<std::string>& backend = std::nullopt);
 // `mca bench --render`: frames per second of the offscreen renderer (1280x720) at one step per frame, on
 // the wall benchmarks (cubes, spheres) and the mesh scenes (cubes, the bound surface's triangles).
 int bench_render(const std::vector<std::string>& names, bool json, int threads, int frames);

@@ -107,6 +107,12 @@ int info(const std::optional<std::string>& path, bool json) {
     j["steps"] = steps;
     j["duration"] = scene.output.duration;
     j["backend"] = sim.backend().name();
+    {
+      std::string why;
+      const std::string gpu = cuda_device(&why);
+      j["cuda_device"] = gpu.empty() ? nlohmann::json(nullptr) : nlohmann::json(gpu);
+      if (gpu.empty()) j["cuda_unavailable"] = why;
+    }
     j["memory_bytes"] = memory.total();
     j["memory_bytes_with_render"] = memory_rendered.total();
     j["memory_bytes_shattered"] = memory.shattered();
@@ -200,6 +206,11 @@ int info(const std::optional<std::string>& path, bool json) {
   fmt::print("materials        {}\n", fmt::join(m.group_names, ", "));
   fmt::print("projectiles      {}\n", m.projectiles.size());
   fmt::print("backend          {} ({})\n", sim.backend().name(), simd_note());
+  {
+    std::string why;
+    const std::string gpu = cuda_device(&why);
+    fmt::print("cuda             {}\n", gpu.empty() ? why : gpu + " (--backend cuda)");
+  }
   std::string parts = fmt::format("arrays {:.1f} MB: {:.0f} bytes per automaton, links included", memory.arrays / 1e6,
                                   (bytes - static_cast<double>(estimate_memory_bytes(0))) / static_cast<double>(m.size()));
   if (memory.meshes > 0) parts += fmt::format("; mesh objects {:.1f} MB", memory.meshes / 1e6);

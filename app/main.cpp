@@ -36,6 +36,9 @@ int main(int argc, char** argv) {
   auto* dur_opt = run->add_option("--duration", duration, "Simulated time [s] (overrides output.duration)");
   auto* steps_opt = run->add_option("--steps", steps, "Run exactly this many steps");
   dur_opt->excludes(steps_opt);
+  run->add_option("--backend", ro.backend,
+                  "Where the step runs: auto (the default: the CPU), cpu, cuda (an NVIDIA GPU), cuda-emulation (the CUDA "
+                  "backend's algorithm on one CPU core, for checking; slow); overrides solver.backend");
   auto* seed_opt = run->add_option("--seed", seed_text, "Seed of the strength classes (overrides solver.seed), 0 .. 2^64-1");
   auto* ck_opt = run->add_option("--checkpoint-every", checkpoint_every, "Write a checkpoint every N frames");
   bool no_vtk = false;
@@ -59,6 +62,8 @@ int main(int argc, char** argv) {
   resume->add_option("dir", resume_dir, "Output folder of the run")->required();
   resume->add_option("--threads", resume_threads, "Worker threads (0 = all cores)");
   resume->add_flag("-q,--quiet", resume_quiet, "No progress output");
+  std::optional<std::string> resume_backend;
+  resume->add_option("--backend", resume_backend, "Continue on this backend (auto, cpu, cuda, cuda-emulation): the same bits");
   bool resume_no_render = false;
   resume->add_flag("--no-render", resume_no_render,
                    "Do not render the frames it adds, though the run was started with --render");
@@ -93,6 +98,8 @@ int main(int argc, char** argv) {
   bench->add_option("--threads", bench_threads, "Worker threads (0 = all cores)");
   bench->add_option("--repeats", bench_repeats, "Timed runs per benchmark (the median is reported)");
   bench->add_option("--steps", bench_steps, "Steps per timed run");
+  std::optional<std::string> bench_backend;
+  bench->add_option("--backend", bench_backend, "Backend to measure: auto, cpu, cuda, cuda-emulation");
   bool bench_render = false;
   int bench_frames = 10;
   bench->add_flag("--render", bench_render,
@@ -140,12 +147,14 @@ int main(int argc, char** argv) {
       if (!view_script.empty()) vo.script = view_script;
       return mca::app::view(vo);
     }
-    if (resume->parsed()) return mca::app::resume(resume_dir, resume_threads, resume_quiet, resume_no_render);
+    if (resume->parsed())
+      return mca::app::resume(resume_dir, resume_threads, resume_quiet, resume_no_render, resume_backend);
     if (info->parsed())
       return mca::app::info(info_scene.empty() ? std::nullopt : std::optional<std::string>(info_scene), info_json);
     if (bench->parsed() && bench_render)
       return mca::app::bench_render(bench_names, bench_json, bench_threads, bench_frames);
-    if (bench->parsed()) return mca::app::bench(bench_names, bench_json, bench_threads, bench_repeats, bench_steps);
+    if (bench->parsed())
+      return mca::app::bench(bench_names, bench_json, bench_threads, bench_repeats, bench_steps, bench_backend);
   } catch (const mca::Error& e) {
     fmt::print(stderr, "error: {}\n", e.what());
     return 2;

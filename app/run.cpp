@@ -172,6 +172,7 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
   j["steps_per_frame"] = sim.steps_per_frame();
   j["simulated_time"] = s.time;
   j["threads"] = threads;
+  j["backend"] = sim.backend().name();
   j["wall_seconds"] = wall;
   j["session_steps"] = session_steps;
   j["session_wall_seconds"] = session_wall;
@@ -432,11 +433,11 @@ int run_loop(Loop& L, FrameWriter& writer) {
   }
   if (!L.quiet) {
     const State& s = sim.state();
-    fmt::print(stderr, "{}done: {} automata, {} steps in {:.1f} s ({:.2f} M automaton-steps/s on {} threads); "
+    fmt::print(stderr, "{}done: {} automata, {} steps in {:.1f} s ({:.2f} M automaton-steps/s on {} threads, backend {}); "
                "broken links {} (displacement {}, stress {}); {} fragments.\noutput: {}\n",
                tty ? "\n" : "", m.size(), s.step - first_step, wall,
                wall > 0 ? (s.step - first_step) * static_cast<double>(m.size()) / wall / 1e6 : 0.0, L.threads,
-               s.broken_by[0] + s.broken_by[1], s.broken_by[0], s.broken_by[1], frags.count, L.dir.string());
+               sim.backend().name(), s.broken_by[0] + s.broken_by[1], s.broken_by[0], s.broken_by[1], frags.count, L.dir.string());
   }
   return 0;
 }
@@ -486,6 +487,7 @@ int run(const RunOptions& o) {
     scene.output.duration = *o.duration;
   }
   if (o.seed) scene.solver.seed = *o.seed;
+  if (o.backend) scene.solver.backend = backend_from_name(*o.backend, "--backend");
   if (o.checkpoint_every) {
     if (*o.checkpoint_every < 0)
       throw Error(fmt::format("--checkpoint-every {} must be 0 (off) or a number of frames", *o.checkpoint_every));
@@ -605,7 +607,8 @@ int run(const RunOptions& o) {
   return run_loop(L, writer);
 }
 
-int resume(const std::string& out_dir, int threads_requested, bool quiet, bool no_render) {
+int resume(const std::string& out_dir, int threads_requested, bool quiet, bool no_render,
+           const std::optional<std::string>& backend) {
   // An empty path would silently mean the current folder.
   if (out_dir.empty()) throw Error("mca resume: the folder is empty (\"\"); give the --out folder of the run to continue");
   const std::filesystem::path dir(out_dir);
@@ -631,6 +634,8 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   io::Checkpoint cp = io::read_checkpoint(all.back());
   // A checkpoint copied in from another run would write its scene's frames and summary into this folder.
   io::check_checkpoint_scene(cp, all.back(), dir);
+  // Any backend continues any checkpoint with the same bits.
+  if (backend) cp.scene.solver.backend = backend_from_name(*backend, "--backend");
   const int threads = thread_count(threads_requested);
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   if (!quiet)

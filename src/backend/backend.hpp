@@ -50,6 +50,11 @@ std::unique_ptr<Backend> make_cpu_backend(const Model& model);
 // the same bits as the CUDA backend and, by construction and test, as the CPU backend. Slow (one core,
 // no SIMD): for tests of the GPU algorithm on machines without a GPU.
 std::unique_ptr<Backend> make_cuda_emulation_backend(const Model& model);
+// The GPU the CUDA backend would run on (its name, memory and compute capability), or "" with the reason in
+// *why: a build without CUDA device code, no driver, no device.
+std::string cuda_device(std::string* why = nullptr);
+// The CUDA backend on that GPU; throws mca::Error with the reason when there is none.
+std::unique_ptr<Backend> make_cuda_backend(const Model& model);
 
 // Initial state of a model: automata at rest in the lattice (with their object's velocity), all links
 // intact, projectiles at their start.

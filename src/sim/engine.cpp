@@ -13,17 +13,30 @@ namespace mca {
 
 void Engine::check_environment() { cpu::select_kernels(); }
 
+SolverDef::Backend backend_from_name(const std::string& name, const std::string& option) {
+  if (name == "auto") return SolverDef::Backend::automatic;
+  if (name == "cpu") return SolverDef::Backend::cpu;
+  if (name == "cuda") return SolverDef::Backend::cuda;
+  if (name == "cuda-emulation") return SolverDef::Backend::cuda_emulation;
+  throw Error(fmt::format("{} {}: give auto (the default), cpu, cuda or cuda-emulation", option, name));
+}
+
 std::unique_ptr<Backend> make_backend(const Model& model, SolverDef::Backend kind, const std::string& source) {
   switch (kind) {
     case SolverDef::Backend::cuda_emulation:
       return make_cuda_emulation_backend(model);
-    case SolverDef::Backend::cuda:
-      throw Error(fmt::format("{}: solver.backend = \"cuda\": this build of mca has no CUDA device code yet (the CUDA "
-                              "backend's algorithm runs on the CPU as backend = \"cuda-emulation\"); use backend = "
-                              "\"cpu\" or \"auto\"",
-                              source));
+    case SolverDef::Backend::cuda: {
+      std::string why;
+      if (cuda_device(&why).empty())
+        throw Error(fmt::format("{}: solver.backend = \"cuda\" (or --backend cuda): {}; use backend \"cpu\" or "
+                                "\"auto\", or run on a machine with an NVIDIA GPU and its driver",
+                                source, why));
+      return make_cuda_backend(model);
+    }
     case SolverDef::Backend::cpu:
     case SolverDef::Backend::automatic:
+      // auto stays on the CPU: the CUDA backend's device code has passed its host emulation's tests bit for
+      // bit, but has not yet run on a GPU (scripts/gpu_check.sh does that); it is taken when asked for.
       break;
   }
   return make_cpu_backend(model);

@@ -78,6 +78,9 @@ class Engine {
 // The backend a scene asks for (SolverDef::backend): auto is the CPU in this build; cuda is an error (a
 // mca::Error naming `source` and the fix).
 std::unique_ptr<Backend> make_backend(const Model& model, SolverDef::Backend kind, const std::string& source);
+// The backend named by `name` (auto, cpu, cuda, cuda-emulation), for the --backend option; an mca::Error
+// naming `option` and the choices otherwise.
+SolverDef::Backend backend_from_name(const std::string& name, const std::string& option);
 
 // What a step whose health is not kHealthy found, its likely causes and the fix, beginning "the run became
 // unstable at step ..." (the message of `mca run` and of the Python module).

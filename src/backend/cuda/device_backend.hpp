@@ -21,7 +21,7 @@
 namespace mca::gpu {
 
 template <class Dev>
-class DeviceBackend final : public Backend {
+class DeviceBackend : public Backend {
   template <class T>
   using Buf = typename Dev::template Buffer<T>;
 

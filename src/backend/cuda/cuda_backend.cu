@@ -1,0 +1,50 @@
+// The CUDA backend: DeviceBackend over CudaDevice, and the device it runs on.
+#include <cuda_runtime.h>
+
+#include <cstdio>
+#include <string>
+
+#include "backend/cuda/cuda_device.cuh"
+#include "backend/cuda/device_backend.hpp"
+
+namespace mca {
+
+std::string cuda_device(std::string* why) {
+  int count = 0;
+  const cudaError_t e = cudaGetDeviceCount(&count);
+  if (e != cudaSuccess || count == 0) {
+    if (why)
+      *why = e != cudaSuccess ? std::string("no usable NVIDIA driver or device (") + cudaGetErrorString(e) + ")"
+                              : std::string("no NVIDIA GPU is present");
+    return "";
+  }
+  cudaDeviceProp p{};
+  if (cudaGetDeviceProperties(&p, 0) != cudaSuccess) {
+    if (why) *why = "the GPU's properties could not be read";
+    return "";
+  }
+  char text[400];
+  std::snprintf(text, sizeof text, "%s, %.0f GiB, compute capability %d.%d", p.name,
+                static_cast<double>(p.totalGlobalMem) / (1024.0 * 1024.0 * 1024.0), p.major, p.minor);
+  return text;
+}
+
+namespace {
+class CudaBackend final : public gpu::DeviceBackend<gpu::CudaDevice> {
+ public:
+  CudaBackend(const Model& m, std::string device) : DeviceBackend(m), device_(std::move(device)) {}
+  std::string name() const override { return "cuda (" + device_ + ")"; }
+
+ private:
+  std::string device_;
+};
+}  // namespace
+
+std::unique_ptr<Backend> make_cuda_backend(const Model& model) {
+  std::string why;
+  const std::string device = cuda_device(&why);
+  if (device.empty()) throw Error("the CUDA backend needs an NVIDIA GPU: " + why);
+  return std::make_unique<CudaBackend>(model, device);
+}
+
+}  // namespace mca
