@@ -15,6 +15,7 @@
 
 #include <fmt/format.h>
 
+#include "backend/backend.hpp"
 #include "io/checkpoint.hpp"
 #include "io/scene_io.hpp"
 #include "sim/engine.hpp"
@@ -161,6 +162,43 @@ TEST(Cli, ResumedRunEndsBitwiseEqualToAnUninterruptedOne) {
   EXPECT_EQ(ja["state_hash"], jc["state_hash"]);
   EXPECT_EQ(ja["steps"], jc["steps"]);
   EXPECT_EQ(read(a / "stats.csv"), read(c / "stats.csv"));
+}
+
+// A run checkpointed on the CPU backend continues on the CUDA backend's algorithm (its host emulation) and
+// ends with the bits of an uninterrupted CPU run; --backend names a bad choice and a missing GPU clearly.
+TEST(Cli, ARunCheckpointedOnOneBackendResumesOnAnotherWithTheSameBits) {
+  const fs::path d = fresh_dir("resume_backend");
+  const fs::path scene = small_scene(d);
+  const fs::path a = d / "a";
+  ASSERT_EQ(run_mca("run " + scene.string() + " --out " + a.string() + " -q --backend cpu").code, 0);
+  const fs::path c = d / "c";
+  ASSERT_EQ(run_mca("run " + scene.string() + " --out " + c.string() + " -q --checkpoint-every 2 --backend cpu").code, 0);
+  std::vector<fs::path> cks;
+  for (const auto& e : fs::directory_iterator(c / "checkpoints")) cks.push_back(e.path());
+  std::sort(cks.begin(), cks.end());
+  ASSERT_GE(cks.size(), 2u);
+  fs::remove(cks.back());
+  fs::remove(c / "summary.json");
+  const Result r = run_mca("resume " + c.string() + " -q --backend cuda-emulation");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto ja = nlohmann::json::parse(read(a / "summary.json"));
+  const auto jc = nlohmann::json::parse(read(c / "summary.json"));
+  EXPECT_EQ(jc["backend"], "cuda-emulation");
+  EXPECT_EQ(ja["state_hash"], jc["state_hash"]);
+  EXPECT_EQ(read(a / "stats.csv"), read(c / "stats.csv"));
+
+  const Result bad = run_mca("run " + scene.string() + " --out " + (d / "x").string() + " -q --backend gpu");
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.output.find("--backend gpu: give auto (the default), cpu, cuda or cuda-emulation"), std::string::npos)
+      << bad.output;
+  EXPECT_FALSE(fs::exists(d / "x" / "summary.json"));
+  std::string why;
+  if (mca::cuda_device(&why).empty()) {
+    const Result no_gpu = run_mca("run " + scene.string() + " --out " + (d / "y").string() + " -q --backend cuda");
+    EXPECT_EQ(no_gpu.code, 2);
+    EXPECT_NE(no_gpu.output.find("solver.backend = \"cuda\" (or --backend cuda): " + why), std::string::npos)
+        << no_gpu.output;
+  }
 }
 
 // Resuming a run that has finished says so (it used to print only "resuming" and "0 steps"), exits 0 and

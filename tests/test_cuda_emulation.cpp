@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <functional>
+#include <optional>
 #include <string>
 
 #include <fmt/format.h>
@@ -80,14 +82,14 @@ struct Compared {
   std::size_t contacts = 0, ground = 0, projectile_contacts = 0;
 };
 
-// Runs the scene on the CPU backend and on the CUDA backend's emulation, `steps` steps in calls of
-// `chunk`, and checks that the states are equal after every call.
-Compared run_both(SceneDef scene, std::int64_t steps, int chunk) {
-  scene.solver.backend = SolverDef::Backend::cpu;
+// Runs the scene on backend `first` (the CPU's by default) and on `second` (the CUDA backend's emulation by
+// default), `steps` steps in calls of `chunk`, and checks that the states are equal after every call.
+Compared run_both(SceneDef scene, std::int64_t steps, int chunk, SolverDef::Backend second = SolverDef::Backend::cuda_emulation,
+                  SolverDef::Backend first = SolverDef::Backend::cpu) {
+  scene.solver.backend = first;
   Engine cpu(scene);
-  scene.solver.backend = SolverDef::Backend::cuda_emulation;
+  scene.solver.backend = second;
   Engine emu(scene);
-  EXPECT_EQ(emu.backend().name(), "cuda-emulation");
   Compared c;
   bool equal = true;
   for (std::int64_t done = 0; done < steps; done += chunk) {
@@ -100,8 +102,8 @@ Compared run_both(SceneDef scene, std::int64_t steps, int chunk) {
     for (const auto& p : a.projectiles) c.projectile_contacts = std::max(c.projectile_contacts, p.contacts.size());
     const std::string d = first_difference(a, b);
     if (!d.empty()) {
-      ADD_FAILURE() << scene.name << ": the emulation's state differs from the CPU's after step " << a.step
-                    << ", first in " << d;
+      ADD_FAILURE() << scene.name << ": the state of " << emu.backend().name() << " differs from that of "
+                    << cpu.backend().name() << " after step " << a.step << ", first in " << d;
       equal = false;
       break;
     }
@@ -109,9 +111,10 @@ Compared run_both(SceneDef scene, std::int64_t steps, int chunk) {
   }
   c.breaks = cpu.state().broken_by[0] + cpu.state().broken_by[1];
   if (equal)
-    std::printf("%s: %lld steps equal bit for bit; %lld links broken, up to %zu pair contacts, %zu on the ground, %zu "
+    std::printf("%s, %s against %s: %lld steps equal bit for bit; %lld links broken, up to %zu pair contacts, %zu on the ground, %zu "
               "under a projectile\n",
-              scene.name.c_str(), static_cast<long long>(steps), static_cast<long long>(c.breaks), c.contacts, c.ground,
+              scene.name.c_str(), emu.backend().name().c_str(), cpu.backend().name().c_str(), static_cast<long long>(steps),
+              static_cast<long long>(c.breaks), c.contacts, c.ground,
               c.projectile_contacts);
   return c;
 }
@@ -125,9 +128,13 @@ TEST(CudaEmulation, TheDefaultWallIsTheCpusBitForBit) {
 }
 
 // The paper's four walls (cubic lattice, clustered classes), their balls moved to 1 cm from the walls.
-TEST(CudaEmulation, FourWallsAreTheCpusBitForBit) {
+SceneDef four_walls() {
   SceneDef s = io::load_scene_file(MCA_SOURCE_DIR "/scenes/four_walls.toml");
   for (auto& p : s.projectiles) p.position[1] = -0.31;
+  return s;
+}
+TEST(CudaEmulation, FourWallsAreTheCpusBitForBit) {
+  const SceneDef s = four_walls();
   const Compared c = run_both(s, 3000, 750);
   EXPECT_GT(c.breaks, 0);
   EXPECT_GT(c.ground, 0u);
@@ -135,36 +142,44 @@ TEST(CudaEmulation, FourWallsAreTheCpusBitForBit) {
 }
 
 // A volume-filled mesh on the random lattice: the bunny at a coarse spacing, its ball 1 cm away.
-TEST(CudaEmulation, AVolumeFilledMeshIsTheCpusBitForBit) {
-  SceneDef s;
+// The scene file with `edit` applied, or none (and why) when the paper's models are not installed.
+std::optional<SceneDef> paper_scene(const char* file, const std::function<void(SceneDef&)>& edit, std::string& why) {
   try {
-    s = io::load_scene_file(MCA_SOURCE_DIR "/scenes/bunny.toml");
-    s.solver.target_automata = 3000;
+    SceneDef s = io::load_scene_file(std::string(MCA_SOURCE_DIR "/scenes/") + file);
+    edit(s);
     Engine probe(s);  // resolves the mesh
+    return s;
   } catch (const Error& e) {
-    if (std::string(e.what()).find("get_models.sh") != std::string::npos)
-      GTEST_SKIP() << "the paper's models are not installed (scripts/get_models.sh): " << e.what();
-    throw;
+    if (std::string(e.what()).find("get_models.sh") == std::string::npos) throw;
+    why = std::string("the paper's models are not installed (scripts/get_models.sh): ") + e.what();
+    return std::nullopt;
   }
-  s.projectiles[0].position[0] = -0.295;
-  const Compared c = run_both(s, 6000, 1500);
+}
+std::optional<SceneDef> bunny(std::string& why) {
+  return paper_scene("bunny.toml", [](SceneDef& s) {
+    s.solver.target_automata = 3000;
+    s.projectiles[0].position[0] = -0.295;
+  }, why);
+}
+std::optional<SceneDef> cow(std::string& why) {
+  return paper_scene("cow.toml", [](SceneDef& s) { s.projectiles[0].position[1] = -0.205; }, why);
+}
+
+TEST(CudaEmulation, AVolumeFilledMeshIsTheCpusBitForBit) {
+  std::string why;
+  const auto s = bunny(why);
+  if (!s) GTEST_SKIP() << why;
+  const Compared c = run_both(*s, 6000, 1500);
   EXPECT_GT(c.breaks, 0);
   EXPECT_GT(c.projectile_contacts, 0u);
 }
 
 // The paper's cow in surface mode (one automaton per triangle, explicit links with bending springs).
 TEST(CudaEmulation, TheCowShellIsTheCpusBitForBit) {
-  SceneDef s;
-  try {
-    s = io::load_scene_file(MCA_SOURCE_DIR "/scenes/cow.toml");
-    Engine probe(s);
-  } catch (const Error& e) {
-    if (std::string(e.what()).find("get_models.sh") != std::string::npos)
-      GTEST_SKIP() << "the paper's models are not installed (scripts/get_models.sh): " << e.what();
-    throw;
-  }
-  s.projectiles[0].position[1] = -0.205;
-  const Compared c = run_both(s, 10000, 500);
+  std::string why;
+  const auto s = cow(why);
+  if (!s) GTEST_SKIP() << why;
+  const Compared c = run_both(*s, 10000, 500);
   EXPECT_GT(c.breaks, 0);
   EXPECT_GT(c.projectile_contacts, 0u);
 }
@@ -198,6 +213,66 @@ TEST(CudaEmulation, GripsAndCollidingBallsAreTheCpusBitForBit) {
   const Compared d = run_both(s, 8000, 500);
   EXPECT_GT(d.breaks, 0);
   EXPECT_GT(d.projectile_contacts, 0u);
+}
+
+// --- On a GPU (skipped, with the reason, without one: scripts/gpu_check.sh runs them on a GPU machine) ---
+
+#define MCA_NEEDS_GPU()                                                     \
+  do {                                                                      \
+    std::string why;                                                        \
+    if (cuda_device(&why).empty()) GTEST_SKIP() << "no GPU here: " << why; \
+  } while (0)
+
+constexpr auto kCuda = SolverDef::Backend::cuda;
+
+TEST(CudaDevice, TheDefaultWallIsTheCpusBitForBit) {
+  MCA_NEEDS_GPU();
+  EXPECT_GT(run_both(io::load_default_scene(), 6000, 1000, kCuda).breaks, 0);
+}
+TEST(CudaDevice, FourWallsAreTheCpusBitForBit) {
+  MCA_NEEDS_GPU();
+  EXPECT_GT(run_both(four_walls(), 3000, 750, kCuda).breaks, 0);
+}
+TEST(CudaDevice, AVolumeFilledMeshIsTheCpusBitForBit) {
+  MCA_NEEDS_GPU();
+  std::string why;
+  const auto s = bunny(why);
+  if (!s) GTEST_SKIP() << why;
+  EXPECT_GT(run_both(*s, 6000, 1500, kCuda).breaks, 0);
+}
+TEST(CudaDevice, TheCowShellIsTheCpusBitForBit) {
+  MCA_NEEDS_GPU();
+  std::string why;
+  const auto s = cow(why);
+  if (!s) GTEST_SKIP() << why;
+  EXPECT_GT(run_both(*s, 10000, 500, kCuda).breaks, 0);
+}
+TEST(CudaDevice, TwoRunsAreEqual) {
+  MCA_NEEDS_GPU();
+  run_both(io::load_default_scene(), 6000, 3000, kCuda, kCuda);
+}
+// A free block thrown in zero gravity: its momentum stays (no outside force), and its energy
+// within the bounds the CPU's conservation tests hold (on the same bits, but run on the device).
+TEST(CudaDevice, AFreeBlockKeepsItsMomentumAndEnergy) {
+  MCA_NEEDS_GPU();
+  SceneDef s = test::block_scene(8, 6, 5, 0.01);
+  s.objects[0].velocity = {1.0, -0.5, 0.25};
+  s.solver.backend = kCuda;
+  Engine sim(s);
+  auto momentum = [&] {
+    DVec3 p{};
+    for (std::size_t a = 0; a < sim.model().size(); ++a) p += sim.state().v[a] * static_cast<double>(sim.model().mass[a]);
+    return p;
+  };
+  const DVec3 p0 = momentum();
+  const double e0 = sim.energies().total();
+  ASSERT_EQ(sim.advance(20000).flags, kHealthy);
+  const DVec3 p1 = momentum();
+  const double e1 = sim.energies().total();
+  EXPECT_NEAR(p1.x, p0.x, 1e-9 * std::fabs(p0.x));
+  EXPECT_NEAR(p1.y, p0.y, 1e-9 * std::fabs(p0.y));
+  EXPECT_NEAR(p1.z, p0.z, 1e-9 * std::fabs(p0.z));
+  EXPECT_NEAR(e1, e0, 1e-3 * e0);
 }
 
 }  // namespace

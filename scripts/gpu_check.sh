@@ -1,0 +1,83 @@
+#!/usr/bin/env bash
+# The CUDA backend on a GPU machine: bitwise against the CPU, two CUDA runs equal, compute-sanitizer on a
+# short scene, the benchmarks. Such a machine has the NVIDIA driver but none of the Debian libraries mca
+# links, so the programs travel as a bundle built here:
+#
+#   scripts/gpu_check.sh --bundle DIR    on the build machine (after the release build): DIR gets mca,
+#                                        mca_tests, every library ldd lists, ld-linux-x86-64.so.2 and the
+#                                        paper's models (~/.cache/mca/models)
+#   scripts/gpu_check.sh DIR OUT         on the GPU machine, in the repository root: runs the checks with
+#                                        DIR's programs, writes logs and a summary to OUT (under 4 minutes)
+#
+# Without a GPU the CUDA tests report themselves skipped with the reason (never passed), and so does this
+# script's summary.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+if [[ "${1:-}" == "--bundle" ]]; then
+  dir=${2:?usage: scripts/gpu_check.sh --bundle DIR}
+  build=build/release
+  [[ -x $build/mca && -x $build/tests/mca_tests ]] || { echo "gpu_check: build first (cmake --build --preset release)" >&2; exit 2; }
+  rm -rf "$dir"
+  mkdir -p "$dir/lib" "$dir/models"
+  cp "$build/mca" "$build/tests/mca_tests" "$dir/"
+  for exe in "$build/mca" "$build/tests/mca_tests"; do
+    ldd "$exe" | awk '/=> \// {print $3} /^\t\/lib64\// {print $1}' | while read -r lib; do
+      cp -L "$lib" "$dir/lib/"
+    done
+  done
+  cp -L /lib64/ld-linux-x86-64.so.2 "$dir/lib/"
+  cp -L "${HOME}/.cache/mca/models/"* "$dir/models/" 2>/dev/null || echo "gpu_check: no models in ~/.cache/mca/models (scripts/get_models.sh): the mesh checks will be skipped" >&2
+  du -sh "$dir"
+  exit 0
+fi
+
+dir=${1:?usage: scripts/gpu_check.sh DIR OUT (or --bundle DIR)}
+out=${2:?usage: scripts/gpu_check.sh DIR OUT}
+dir=$(cd "$dir" && pwd)
+mkdir -p "$out"
+out=$(cd "$out" && pwd)
+run() { "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" "$@"; }
+export MCA_MESH_PATH="$dir/models"
+summary="$out/summary.txt"
+: >"$summary"
+note() { echo "$*" | tee -a "$summary"; }
+
+note "gpu_check $(date -u +%FT%TZ) on $(hostname)"
+nvidia-smi --query-gpu=name,memory.total,driver_version,clocks.sm,clocks.mem --format=csv,noheader 2>&1 | tee -a "$summary" || true
+run "$dir/mca" info --json >"$out/info.json" 2>&1 || true
+note "mca info: $(grep -o '"cuda_device": *[^,]*' "$out/info.json" || echo '?')"
+
+# 1. The device against the CPU, bit for bit (the first differing field, step and index where not), two
+#    CUDA runs equal, and momentum and energy on the device: the CudaDevice tests.
+set +e
+timeout 150 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" "$dir/mca_tests" \
+  --gtest_filter='CudaDevice.*' >"$out/tests.log" 2>&1
+tests_rc=$?
+set -e
+note "CudaDevice tests: exit $tests_rc; $(grep -c '^\[       OK \]' "$out/tests.log") passed, $(grep -c '^\[  FAILED  \]' "$out/tests.log") failed lines, $(grep -c '^\[  SKIPPED \]' "$out/tests.log") skipped"
+grep -E 'equal bit for bit|differs|SKIPPED|Failure' "$out/tests.log" | head -20 | tee -a "$summary" || true
+
+# 2. compute-sanitizer on a short run of the default scene (out-of-bounds accesses, races in shared use).
+if command -v compute-sanitizer >/dev/null; then
+  set +e
+  timeout 60 compute-sanitizer --tool memcheck --error-exitcode 9 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" \
+    "$dir/mca" run --backend cuda --steps 200 --no-vtk -q --out "$out/sanitized" >"$out/memcheck.log" 2>&1
+  note "compute-sanitizer memcheck: exit $? ($(tail -1 "$out/memcheck.log"))"
+  set -e
+else
+  note "compute-sanitizer: not on this machine"
+fi
+
+# 3. The benchmarks on the device (contacts and breaking active), and the CPU's on this machine's cores.
+set +e
+timeout 120 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" "$dir/mca" bench wall_357k --backend cuda \
+  --repeats 5 --steps 200 >"$out/bench_cuda.txt" 2>&1
+note "bench cuda (exit $?):"
+tail -3 "$out/bench_cuda.txt" | tee -a "$summary"
+timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" "$dir/mca" bench wall_357k --backend cpu \
+  --repeats 3 --steps 20 >"$out/bench_cpu.txt" 2>&1
+note "bench cpu (exit $?):"
+tail -2 "$out/bench_cpu.txt" | tee -a "$summary"
+set -e
+exit $tests_rc
