@@ -45,6 +45,40 @@ class Backend {
   virtual const State& state() const = 0;
 };
 
+// What every backend's step shares.
+// The clock: step x dt for a state on this time step (a new run, a resumed one: the same bits as an
+// uninterrupted run), else from the state's own time on (a state from a run at another step: mca view's
+// shots rebuild the model, and its step, with each new ball; the time went back by the ratio).
+struct StepClock {
+  double time0 = 0;
+  std::int64_t step0 = 0;
+  void start(const State& s, float dt) {
+    const bool on_this_step = s.time == static_cast<double>(s.step) * dt;
+    time0 = on_this_step ? 0 : s.time;
+    step0 = on_this_step ? 0 : s.step;
+  }
+  double time(std::int64_t step, float dt) const { return time0 + static_cast<double>(step - step0) * dt; }
+};
+// Backend::step's loop: one_step() `steps` times, *last set on the last (what is only read between calls,
+// the averaged stress tensor and the applied forces, is written then); stops at the first step whose
+// one_step() returns other than -1: an automaton (>= 0) or -2 - p for projectile p with a value not finite.
+template <class F>
+StepHealth step_loop(int steps, bool& last, const State& s, F&& one_step) {
+  StepHealth h;
+  for (int k = 0; k < steps; ++k) {
+    last = k + 1 == steps;
+    const std::int64_t bad = one_step();
+    if (bad != -1) {
+      h.flags |= kNonFinite;
+      h.step = s.step;
+      if (bad >= 0) h.automaton = bad;
+      else h.projectile = -2 - bad;
+      break;
+    }
+  }
+  return h;
+}
+
 std::unique_ptr<Backend> make_cpu_backend(const Model& model);
 // The CUDA backend's step run on the host, thread by thread in order (src/backend/cuda/host_device.hpp):
 // the same bits as the CUDA backend and, by construction and test, as the CPU backend. Slow (one core,

@@ -178,16 +178,7 @@ class CpuBackend final : public Backend {
   std::string name() const override { return std::string("cpu-") + kernels_.name; }
   void upload(State s) override {
     S_ = std::move(s);
-    // The clock: step x dt for a state on this time step (a new run, a resumed one: the same bits as
-    // an uninterrupted run), else from the state's own time on (a state from a run at another step: mca
-    // view's shots rebuild the model, and its step, with each new ball; the time went back by the ratio).
-    if (S_.time == static_cast<double>(S_.step) * M_.dt) {
-      clock_time_ = 0;
-      clock_step_ = 0;
-    } else {
-      clock_time_ = S_.time;
-      clock_step_ = S_.step;
-    }
+    clock_.start(S_, M_.dt);
     const std::size_t n = M_.size();
     for (std::size_t a = 0; a < n; ++a) {
       px_[a] = S_.x[a].x; py_[a] = S_.x[a].y; pz_[a] = S_.x[a].z;
@@ -231,22 +222,10 @@ class CpuBackend final : public Backend {
   }
 
   StepHealth step(int steps) override {
-    StepHealth h;
-    for (int k = 0; k < steps; ++k) {
-      // What is only read between calls (the averaged stress tensor, the applied forces) is written on
-      // the last step; every step needs only the mean stress.
-      last_step_ = k + 1 == steps;
+    return step_loop(steps, last_step_, S_, [&] {
       stale_ = true;
-      const std::int64_t bad = one_step();
-      if (bad != kAllFinite) {
-        h.flags |= kNonFinite;
-        h.step = S_.step;
-        if (bad >= 0) h.automaton = bad;
-        else h.projectile = -2 - bad;
-        break;
-      }
-    }
-    return h;
+      return one_step();
+    });
   }
 
  private:
@@ -362,8 +341,7 @@ class CpuBackend final : public Backend {
   std::vector<std::uint8_t> near_, chunk_near_;  // see LatticeView::near; per chunk: any marked
   std::vector<double> proj_x_, proj_y_, proj_z_;  // the projectiles' centres for the marks
   bool near_valid_ = false;                      // near_ is from the last step (not before an upload)
-  double clock_time_ = 0;                        // the time is clock_time_ + (step - clock_step_) dt (upload)
-  std::int64_t clock_step_ = 0;
+  StepClock clock_;
   std::vector<Vec3> ext_f_, ext_t_;
   std::vector<Sym3> ext_s_;
   std::vector<std::uint8_t> has_ext_;
@@ -1012,7 +990,7 @@ std::int64_t CpuBackend::one_step() {
   if (!unsound_.empty()) expose_damaged(max_move2);
   timer.lap(4);
   ++S_.step;
-  S_.time = clock_time_ + static_cast<double>(S_.step - clock_step_) * M_.dt;
+  S_.time = clock_.time(S_.step, M_.dt);
   // Verlet-style list: rebuild once any automaton has moved half the skin since the last rebuild.
   const float half = 0.5f * M_.skin;
   if (max_move2 > half * half) {

@@ -162,13 +162,7 @@ class DeviceBackend : public Backend {
 
   void upload(State s) override {
     S_ = std::move(s);
-    if (S_.time == static_cast<double>(S_.step) * M_.dt) {
-      clock_time_ = 0;
-      clock_step_ = 0;
-    } else {
-      clock_time_ = S_.time;
-      clock_step_ = S_.step;
-    }
+    clock_.start(S_, M_.dt);
     const std::size_t n = M_.size(), L = M_.link_slots();
     std::vector<double> x(n), y(n), z(n);
     auto put3 = [&](const std::vector<DVec3>& from, Buf<double>& bx, Buf<double>& by, Buf<double>& bz) {
@@ -280,20 +274,10 @@ class DeviceBackend : public Backend {
   }
 
   StepHealth step(int steps) override {
-    StepHealth h;
-    for (int k = 0; k < steps; ++k) {
-      last_step_ = k + 1 == steps;
+    return step_loop(steps, last_step_, S_, [&] {
       stale_ = true;
-      const std::int64_t bad = one_step();
-      if (bad != kAllFinite) {
-        h.flags |= kNonFinite;
-        h.step = S_.step;
-        if (bad >= 0) h.automaton = bad;
-        else h.projectile = -2 - bad;
-        break;
-      }
-    }
-    return h;
+      return one_step();
+    });
   }
 
  private:
@@ -506,8 +490,7 @@ class DeviceBackend : public Backend {
   mutable State S_;
   mutable bool stale_ = false;
   bool last_step_ = true, softening_ = false;
-  double clock_time_ = 0;
-  std::int64_t clock_step_ = 0;
+  StepClock clock_;
   // Model.
   Buf<DVec3> position0_, grip_velocity_;
   Buf<float> mass_, radius_, inertia_, volume_, link_inv_rest_, link_strength_, e_area_, free_face_, zeta_pair_, zeta_ground_;
@@ -593,7 +576,7 @@ std::int64_t DeviceBackend<Dev>::one_step() {
   const std::uint32_t bad = Dev::min_of(c(bad_), n);
   max_move2 = std::max(max_move2, apply_breaks());
   ++S_.step;
-  S_.time = clock_time_ + static_cast<double>(S_.step - clock_step_) * M_.dt;
+  S_.time = clock_.time(S_.step, M_.dt);
   // Verlet-style list: rebuild once any automaton has moved half the skin since the last rebuild.
   const float half = 0.5f * M_.skin;
   if (max_move2 > half * half) rebuild_contacts();
