@@ -194,25 +194,8 @@ class DeviceBackend : public Backend {
     Dev::upload(intact_count_, count);
     Dev::upload(intact_, S_.intact);
     Dev::upload(damage_, S_.link_damage);
-    std::vector<float> ux(L), uy(L), uz(L);
-    for (std::size_t l = 0; l < L; ++l) {
-      ux[l] = S_.link_ut[l].x;
-      uy[l] = S_.link_ut[l].y;
-      uz[l] = S_.link_ut[l].z;
-    }
-    Dev::upload(utx_, ux);
-    Dev::upload(uty_, uy);
-    Dev::upload(utz_, uz);
-    const std::size_t ne = S_.link_moment.size();
-    std::vector<float> mx(ne), my(ne), mz(ne);
-    for (std::size_t k = 0; k < ne; ++k) {
-      mx[k] = S_.link_moment[k].x;
-      my[k] = S_.link_moment[k].y;
-      mz[k] = S_.link_moment[k].z;
-    }
-    Dev::upload(ex_mx_, mx);
-    Dev::upload(ex_my_, my);
-    Dev::upload(ex_mz_, mz);
+    upload3(S_.link_ut, utx_, uty_, utz_);
+    upload3(S_.link_moment, ex_mx_, ex_my_, ex_mz_);
     softening_ = !S_.link_damage.empty();
     if (softening_) {
       std::vector<std::uint8_t> unsound(L);
@@ -463,6 +446,28 @@ class DeviceBackend : public Backend {
     v.ground_height = M_.ground_height;
     v.dt = M_.dt;
     return v;
+  }
+
+  // Vectors of floats as three device arrays, one per component, and back.
+  static void upload3(const std::vector<Vec3>& v, Buf<float>& x, Buf<float>& y, Buf<float>& z) {
+    std::vector<float> c[3];
+    for (auto& a : c) a.resize(v.size());
+    for (std::size_t k = 0; k < v.size(); ++k) {
+      c[0][k] = v[k].x;
+      c[1][k] = v[k].y;
+      c[2][k] = v[k].z;
+    }
+    Dev::upload(x, c[0]);
+    Dev::upload(y, c[1]);
+    Dev::upload(z, c[2]);
+  }
+  static void download3(std::vector<Vec3>& v, const Buf<float>& x, const Buf<float>& y, const Buf<float>& z) {
+    std::vector<float> c[3];
+    for (auto& a : c) a.resize(v.size());
+    Dev::download(c[0].data(), x, v.size());
+    Dev::download(c[1].data(), y, v.size());
+    Dev::download(c[2].data(), z, v.size());
+    for (std::size_t k = 0; k < v.size(); ++k) v[k] = {c[0][k], c[1][k], c[2][k]};
   }
 
   External external() { return {d(ext_f_), d(ext_t_), d(ext_s_), d(has_ext_)}; }
@@ -822,17 +827,8 @@ void DeviceBackend<Dev>::sync() {
   Dev::download(S_.t.data(), t_out_, n);
   Dev::download(S_.intact.data(), intact_, L);
   if (softening_) Dev::download(S_.link_damage.data(), damage_, L);
-  std::vector<float> ux(L), uy(L), uz(L);
-  Dev::download(ux.data(), utx_, L);
-  Dev::download(uy.data(), uty_, L);
-  Dev::download(uz.data(), utz_, L);
-  for (std::size_t l = 0; l < L; ++l) S_.link_ut[l] = {ux[l], uy[l], uz[l]};
-  const std::size_t ne = S_.link_moment.size();
-  std::vector<float> mx(ne), my(ne), mz(ne);
-  Dev::download(mx.data(), ex_mx_, ne);
-  Dev::download(my.data(), ex_my_, ne);
-  Dev::download(mz.data(), ex_mz_, ne);
-  for (std::size_t k = 0; k < ne; ++k) S_.link_moment[k] = {mx[k], my[k], mz[k]};
+  download3(S_.link_ut, utx_, uty_, utz_);
+  download3(S_.link_moment, ex_mx_, ex_my_, ex_mz_);
   S_.contacts.resize(contact_count_);
   Dev::download(S_.contacts.data(), contacts_, contact_count_);
   S_.ground_contacts.resize(ground_count_);
