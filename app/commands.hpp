@@ -36,6 +36,7 @@ struct ViewOptions {
                                           // output frame per shown frame (reproducible scripted runs)
   std::optional<std::string> screenshot;  // PNG of the last frame shown (with --frames)
   std::optional<std::string> script;      // timed shots: lines "TIME X Y"
+  std::optional<std::string> backend;     // overrides solver.backend
   bool quiet = false;
 };
 // `mca view`: the live viewer (GLFW window). Throws mca::Error when there is no display.

@@ -75,7 +75,14 @@ int info(const std::optional<std::string>& path, bool json) {
   // joined to it) gets the JSON alone.
   std::optional<lattice::BuildProgress> building;
   if (!json) building.emplace();
-  const Engine sim(scene);
+  // A scene that asks for the CUDA backend is described on a machine without a GPU too (on the CPU, which
+  // computes the same state), saying why its backend cannot run here.
+  std::string gpu_why;
+  const std::string gpu = cuda_device(&gpu_why);
+  const bool cuda_missing = scene.solver.backend == SolverDef::Backend::cuda && gpu.empty();
+  SceneDef probe = scene;
+  if (cuda_missing) probe.solver.backend = SolverDef::Backend::cpu;
+  const Engine sim(probe);
   building.reset();
   const Model& m = sim.model();
   const std::int64_t frames = sim.frame_count();
@@ -106,13 +113,9 @@ int info(const std::optional<std::string>& path, bool json) {
     j["frames"] = frames;
     j["steps"] = steps;
     j["duration"] = scene.output.duration;
-    j["backend"] = sim.backend().name();
-    {
-      std::string why;
-      const std::string gpu = cuda_device(&why);
-      j["cuda_device"] = gpu.empty() ? nlohmann::json(nullptr) : nlohmann::json(gpu);
-      if (gpu.empty()) j["cuda_unavailable"] = why;
-    }
+    j["backend"] = cuda_missing ? std::string("cuda (not available here)") : sim.backend().name();
+    j["cuda_device"] = gpu.empty() ? nlohmann::json(nullptr) : nlohmann::json(gpu);
+    if (gpu.empty()) j["cuda_unavailable"] = gpu_why;
     j["memory_bytes"] = memory.total();
     j["memory_bytes_with_render"] = memory_rendered.total();
     j["memory_bytes_shattered"] = memory.shattered();
@@ -205,12 +208,11 @@ int info(const std::optional<std::string>& path, bool json) {
   fmt::print("strength classes {} / {} / {} / {} (classes 1..4)\n", classes[0], classes[1], classes[2], classes[3]);
   fmt::print("materials        {}\n", fmt::join(m.group_names, ", "));
   fmt::print("projectiles      {}\n", m.projectiles.size());
-  fmt::print("backend          {} ({})\n", sim.backend().name(), simd_note());
-  {
-    std::string why;
-    const std::string gpu = cuda_device(&why);
-    fmt::print("cuda             {}\n", gpu.empty() ? why : gpu + " (--backend cuda)");
-  }
+  if (cuda_missing)
+    fmt::print("backend          cuda (solver.backend), which cannot run here: {}\n", gpu_why);
+  else
+    fmt::print("backend          {} ({})\n", sim.backend().name(), simd_note());
+  fmt::print("cuda             {}\n", gpu.empty() ? gpu_why : gpu + " (--backend cuda)");
   std::string parts = fmt::format("arrays {:.1f} MB: {:.0f} bytes per automaton, links included", memory.arrays / 1e6,
                                   (bytes - static_cast<double>(estimate_memory_bytes(0))) / static_cast<double>(m.size()));
   if (memory.meshes > 0) parts += fmt::format("; mesh objects {:.1f} MB", memory.meshes / 1e6);

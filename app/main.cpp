@@ -82,6 +82,7 @@ int main(int argc, char** argv) {
   view->add_option("scene", view_scene, "Scene file (default: the built-in scene)")->check(not_empty);
   view->add_option("--size", view_size, "Window size, WIDTHxHEIGHT (default 1280x720)");
   view->add_option("--threads", vo.threads, "Worker threads (0 = all cores)");
+  view->add_option("--backend", vo.backend, "Where the step runs: auto, cpu, cuda, cuda-emulation (overrides solver.backend)");
   auto* frames_opt = view->add_option("--frames", view_frames, "Show this many frames (one output frame of the scene each), then exit");
   view->add_option("--screenshot", view_screenshot, "With --frames: write the last frame as PNG")->needs(frames_opt);
   view->add_option("--script", view_script, "Timed shots: lines 'TIME X Y' (simulated s; aim as shares of the window)");

@@ -222,6 +222,7 @@ struct Input {
 
 int view(const ViewOptions& o) {
   SceneDef scene = o.scene ? io::load_scene_file(*o.scene) : io::load_default_scene();
+  if (o.backend) scene.solver.backend = backend_from_name(*o.backend, "--backend");
   const std::vector<Shot> script = o.script ? read_script(*o.script) : std::vector<Shot>{};
   if (o.frames && *o.frames < 1) throw Error(fmt::format("--frames {} must be at least 1", *o.frames));
   const int threads = thread_count(o.threads);

@@ -189,7 +189,7 @@ TEST(Cli, ARunCheckpointedOnOneBackendResumesOnAnotherWithTheSameBits) {
 
   const Result bad = run_mca("run " + scene.string() + " --out " + (d / "x").string() + " -q --backend gpu");
   EXPECT_EQ(bad.code, 2);
-  EXPECT_NE(bad.output.find("--backend gpu: give auto (the default), cpu, cuda or cuda-emulation"), std::string::npos)
+  EXPECT_NE(bad.output.find("--backend 'gpu': give auto (the default), cpu, cuda or cuda-emulation"), std::string::npos)
       << bad.output;
   EXPECT_FALSE(fs::exists(d / "x" / "summary.json"));
   std::string why;

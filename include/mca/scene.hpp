@@ -179,9 +179,9 @@ struct SolverDef {
   // (at 1: E +1.5 %, nu -2.2 %, a pulled block 27 % weaker). 0 (the lattice of before them, its own
   // strength factor), or in [0.01, 1]; the cubic lattice has none.
   double link_bending = 0.1;
-  // Where the step runs: auto (the CUDA backend when this build has it and a GPU is present, else the
-  // CPU), cpu, cuda (an error without a GPU), or cuda-emulation (the CUDA backend's algorithm run on one
-  // CPU core, thread by thread: the same bits as both, for checking the GPU path without a GPU; slow).
+  // Where the step runs: auto (the CPU, until the CUDA backend's device code has run on a GPU), cpu, cuda
+  // (an NVIDIA GPU; an error without one), or cuda-emulation (the CUDA backend's algorithm run on one CPU
+  // core, thread by thread: the same bits as both, for checking the GPU path without a GPU; slower).
   // Every backend gives the same state, bit for bit; a run saved on one resumes on another.
   enum class Backend { automatic, cpu, cuda, cuda_emulation } backend = Backend::automatic;
   double skin = 0.3;                     // contact search skin, share of d, in (0, 0.4]

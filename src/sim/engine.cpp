@@ -18,7 +18,7 @@ SolverDef::Backend backend_from_name(const std::string& name, const std::string&
   if (name == "cpu") return SolverDef::Backend::cpu;
   if (name == "cuda") return SolverDef::Backend::cuda;
   if (name == "cuda-emulation") return SolverDef::Backend::cuda_emulation;
-  throw Error(fmt::format("{} {}: give auto (the default), cpu, cuda or cuda-emulation", option, name));
+  throw Error(fmt::format("{} '{}': give auto (the default), cpu, cuda or cuda-emulation", option, name));
 }
 
 std::unique_ptr<Backend> make_backend(const Model& model, SolverDef::Backend kind, const std::string& source) {

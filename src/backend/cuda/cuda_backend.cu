@@ -14,8 +14,12 @@ std::string cuda_device(std::string* why) {
   const cudaError_t e = cudaGetDeviceCount(&count);
   if (e != cudaSuccess || count == 0) {
     if (why)
-      *why = e != cudaSuccess ? std::string("no usable NVIDIA driver or device (") + cudaGetErrorString(e) + ")"
-                              : std::string("no NVIDIA GPU is present");
+      *why = e == cudaErrorInsufficientDriver
+                 ? std::string("no NVIDIA driver found, or one older than this build's CUDA runtime needs (CUDA: ") +
+                       cudaGetErrorString(e) + ")"
+             : e == cudaErrorNoDevice || e == cudaSuccess ? std::string("no NVIDIA GPU is present")
+                                                          : std::string("the NVIDIA driver reports no usable GPU (CUDA: ") +
+                                                                cudaGetErrorString(e) + ")";
     return "";
   }
   cudaDeviceProp p{};

@@ -59,10 +59,12 @@ struct CudaDevice {
     Buffer() = default;
     Buffer(const Buffer&) = delete;
     Buffer& operator=(const Buffer&) = delete;
-    Buffer(Buffer&& o) noexcept : p_(std::exchange(o.p_, nullptr)), n_(std::exchange(o.n_, 0)) {}
+    Buffer(Buffer&& o) noexcept
+        : p_(std::exchange(o.p_, nullptr)), n_(std::exchange(o.n_, 0)), cap_(std::exchange(o.cap_, 0)) {}
     Buffer& operator=(Buffer&& o) noexcept {
       std::swap(p_, o.p_);
       std::swap(n_, o.n_);
+      std::swap(cap_, o.cap_);
       return *this;
     }
     ~Buffer() {
@@ -71,25 +73,22 @@ struct CudaDevice {
     T* data() { return p_; }
     const T* data() const { return p_; }
     std::size_t size() const { return n_; }
+    // Discards the contents; memory is allocated only when the buffer grows past what it has held (the lists
+    // that change size every step reuse theirs).
     void resize(std::size_t n) {
-      if (n == n_) return;
-      if (p_) cuda_check(cudaFree(p_), "cudaFree");
-      p_ = nullptr;
-      n_ = 0;
-      if (n) cuda_check(cudaMalloc(reinterpret_cast<void**>(&p_), n * sizeof(T)), "cudaMalloc");
+      if (n > cap_) {
+        if (p_) cuda_check(cudaFree(p_), "cudaFree");
+        p_ = nullptr;
+        n_ = cap_ = 0;
+        cuda_check(cudaMalloc(reinterpret_cast<void**>(&p_), n * sizeof(T)), "cudaMalloc");
+        cap_ = n;
+      }
       n_ = n;
-    }
-    void resize_keep(std::size_t n) {
-      Buffer b;
-      b.resize(n);
-      const std::size_t keep = n < n_ ? n : n_;
-      if (keep) cuda_check(cudaMemcpy(b.p_, p_, keep * sizeof(T), cudaMemcpyDeviceToDevice), "cudaMemcpy");
-      *this = std::move(b);
     }
 
    private:
     T* p_ = nullptr;
-    std::size_t n_ = 0;
+    std::size_t n_ = 0, cap_ = 0;
   };
 
   template <class T>

@@ -96,34 +96,25 @@ class DeviceBackend : public Backend {
     std::vector<ProjectileConstants> pc(np);
     std::vector<ContactMaterial> pm(np * G);
     std::vector<float> pz(np * G);
-    std::vector<ContactSprings> pp(np * np);
     for (std::size_t p = 0; p < np; ++p) {
       const ProjectileParams& P = m.projectiles[p];
-      pc[p] = {P.radius, P.mass, P.inertia, P.kinematic,
+      pc[p] = {P.radius, P.mass, P.inertia, P.kinematic, P.group, P.rolling, P.twisting,
                body_contact_springs(m.projectile_ground_contact(p), P.zeta_ground, P.radius, INFINITY, P.mass, P.inertia)};
       for (std::size_t g = 0; g < G; ++g) {
         pm[p * G + g] = m.projectile_contact(p, g);
         pz[p * G + g] = P.zeta_automata[g];
-      }
-      for (std::size_t q = p + 1; q < np; ++q) {
-        const ProjectileParams& B = m.projectiles[q];
-        pp[p * np + q] = body_contact_springs(m.projectile_pair_contact(p, q), m.zeta_projectiles[p * np + q], P.radius,
-                                              B.radius, contact_reduced(P.mass, P.kinematic, B.mass, B.kinematic),
-                                              contact_reduced(P.inertia, P.kinematic, B.inertia, B.kinematic));
       }
     }
     proj_constants_host_ = pc;
     Dev::upload(proj_constants_, pc);
     Dev::upload(proj_material_, pm);
     Dev::upload(proj_zeta_, pz);
-    Dev::upload(proj_pair_springs_, pp);
+    Dev::upload(zeta_projectiles_, m.zeta_projectiles);
     proj_lists_.resize(np);
     proj_next_.resize(np);
     proj_count_.assign(np, 0);
     fsum_.resize(np);
     tsum_.resize(np);
-    proj_pairs_.resize(np * np);
-    proj_pairs_next_.resize(np * np);
     scalar_.resize(2);
     // State and scratch.
     for (auto* b : {&px_, &py_, &pz_, &vx_, &vy_, &vz_, &wx_, &wy_, &wz_}) b->resize(n);
@@ -223,10 +214,8 @@ class DeviceBackend : public Backend {
       proj_count_[p] = ps.contacts.size();
     }
     Dev::upload(proj_, dp);
-    std::vector<ProjectilePair> pairs = S_.projectile_contacts;
-    pair_count_ = pairs.size();
-    pairs.resize(np * np);
-    Dev::upload(proj_pairs_, pairs);
+    pair_count_ = S_.projectile_contacts.size();
+    Dev::upload(proj_pairs_, S_.projectile_contacts);
     Dev::upload(grip_work_, S_.grip_work);
     Dev::upload(grip_force_, S_.grip_force);
     stale_ = false;
@@ -531,6 +520,8 @@ class DeviceBackend : public Backend {
   // Contact lists (sizes on the host), and the incidence list: (automaton, 2 p + side) sorted, with the
   // start of each automaton's run.
   Buf<ContactPair> contacts_, contacts_next_, fresh_;
+  Buf<std::uint32_t> ends_;  // the ends of this step's broken links, then those near the ground
+  Buf<std::uint8_t> near_;
   Buf<ContactOut> contact_out_;
   std::size_t contact_count_ = 0;
   Buf<BodyContact> ground_, ground_next_, ground_fresh_;
@@ -543,7 +534,7 @@ class DeviceBackend : public Backend {
   Buf<ProjectileConstants> proj_constants_;
   Buf<ContactMaterial> proj_material_;
   Buf<float> proj_zeta_;
-  Buf<ContactSprings> proj_pair_springs_;
+  Buf<float> zeta_projectiles_;
   Buf<DeviceProjectile> proj_;
   std::vector<Buf<BodyContact>> proj_lists_, proj_next_;
   std::vector<std::size_t> proj_count_;
@@ -639,8 +630,17 @@ void DeviceBackend<Dev>::projectile_pass() {
     Dev::launch(1, ProjectileSumKernel{d(proj_), pp, P, c(cand_keep_), c(cand_out_), nc, d(fsum_), d(tsum_), M_.ground,
                                        M_.up, M_.ground_height, M_.dt});
   }
-  Dev::launch(1, ProjectileMotionKernel{d(proj_), c(proj_constants_), static_cast<std::uint32_t>(np), c(proj_pair_springs_),
-                                        c(proj_pairs_), static_cast<std::uint32_t>(pair_count_), d(proj_pairs_next_),
+  const ProjectilePairs pairs{c(proj_constants_), static_cast<std::uint32_t>(np), c(contact_), M_.groups.size(),
+                              c(zeta_projectiles_)};
+  if (np > 1) {
+    // The next pair list's size first: a list sized for every pair would grow with np^2.
+    Dev::launch(1, ProjectilePairCountKernel{c(proj_), pairs, d(scalar_)});
+    std::uint32_t touching = 0;
+    Dev::download(&touching, scalar_, 1);
+    if (proj_pairs_next_.size() < touching) proj_pairs_next_.resize(2 * static_cast<std::size_t>(touching));
+  }
+  Dev::launch(1, ProjectileMotionKernel{d(proj_), pairs, c(proj_pairs_), static_cast<std::uint32_t>(pair_count_),
+                                        d(proj_pairs_next_),
                                         d(scalar_), d(fsum_), d(tsum_), M_.gravity, M_.dt, d(scalar_) + 1});
   std::swap(proj_pairs_, proj_pairs_next_);
   std::uint32_t count = 0;
@@ -685,25 +685,21 @@ float DeviceBackend<Dev>::apply_breaks() {
     std::swap(contacts_, contacts_next_);
     contact_count_ += fresh.size();
     if (M_.ground) {
-      Buf<std::uint32_t> ends_d;
-      Dev::upload(ends_d, both);
-      Buf<std::uint8_t> near;
-      near.resize(both.size());
-      Dev::launch(both.size(), NearGroundKernel{ground_reach(), c(ends_d), d(near)});
+      Dev::upload(ends_, both);
+      if (near_.size() < both.size()) near_.resize(2 * both.size());
+      Dev::launch(both.size(), NearGroundKernel{ground_reach(), c(ends_), d(near_)});
       std::vector<std::uint8_t> near_h(both.size());
-      Dev::download(near_h.data(), near, both.size());
+      Dev::download(near_h.data(), near_, both.size());
       std::vector<std::uint32_t> g;
       for (std::size_t k = 0; k < both.size(); ++k)
         if (near_h[k]) g.push_back(both[k]);
       std::sort(g.begin(), g.end());
       g.erase(std::unique(g.begin(), g.end()), g.end());
       if (!g.empty()) {
-        Dev::upload(ends_d, g);
-        Buf<std::uint32_t> unlisted;
-        unlisted.resize(g.size());
-        Dev::launch(g.size(), NotListedKernel{c(ends_d), c(ground_), static_cast<std::uint32_t>(ground_count_), d(unlisted)});
+        Dev::upload(ends_, g);
+        Dev::launch(g.size(), NotListedKernel{c(ends_), c(ground_), static_cast<std::uint32_t>(ground_count_), d(flag_)});
         std::vector<std::uint32_t> fl(g.size());
-        Dev::download(fl.data(), unlisted, g.size());
+        Dev::download(fl.data(), flag_, g.size());
         std::vector<BodyContact> add;
         for (std::size_t k = 0; k < g.size(); ++k)
           if (fl[k]) add.push_back({g[k], {}});

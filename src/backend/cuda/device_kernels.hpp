@@ -556,7 +556,45 @@ struct DeviceProjectile {
 struct ProjectileConstants {
   float radius = 0, mass = 0, inertia = 0;
   bool kinematic = false;
+  int group = 0;
+  float rolling = 0, twisting = 0;
   ContactSprings ground_springs;  // with the ground (body_contact_springs of its own)
+};
+// The projectiles' pair contacts: their springs from the materials' table and the pair's damping ratio, as
+// Model::projectile_pair_contact and the CPU's projectile pass form them (nothing held per pair).
+struct ProjectilePairs {
+  const ProjectileConstants* P;
+  std::uint32_t np;
+  const ContactMaterial* contact;  // per pair of groups (Model::contact)
+  std::size_t groups;
+  const float* zeta;  // Model::zeta_projectiles
+  MCA_HD ContactSprings springs(std::uint32_t p, std::uint32_t q) const {
+    const ProjectileConstants &A = P[p], &B = P[q];
+    ContactMaterial c = contact[static_cast<std::size_t>(A.group) * groups + static_cast<std::size_t>(B.group)];
+    c.rolling = 0.5f * (A.rolling + B.rolling);
+    c.twisting = 0.5f * (A.twisting + B.twisting);
+    return body_contact_springs(c, zeta[static_cast<std::size_t>(p) * np + q], A.radius, B.radius,
+                                contact_reduced(A.mass, A.kinematic, B.mass, B.kinematic),
+                                contact_reduced(A.inertia, A.kinematic, B.inertia, B.kinematic));
+  }
+  // Whether p and q touch and one of them can respond (the CPU's test), and where.
+  MCA_HD SphereGap touch(const DeviceProjectile* proj, std::uint32_t p, std::uint32_t q) const {
+    if (P[p].kinematic && P[q].kinematic) return SphereGap{};  // neither can respond
+    const SphereGap gap = sphere_gap(proj[p].position, proj[q].position, static_cast<double>(P[p].radius) + P[q].radius);
+    return gap.overlap <= 0.0f || !gap.valid ? SphereGap{} : gap;
+  }
+};
+// One thread: the number of projectile pairs in contact this step (the size of the next pair list).
+struct ProjectilePairCountKernel {
+  const DeviceProjectile* proj;
+  ProjectilePairs pairs;
+  std::uint32_t* count;
+  MCA_HD void operator()(std::size_t) const {
+    std::uint32_t c = 0;
+    for (std::uint32_t p = 0; p < pairs.np; ++p)
+      for (std::uint32_t q = p + 1; q < pairs.np; ++q) c += pairs.touch(proj, p, q).valid ? 1u : 0u;
+    *count = c;
+  }
 };
 // Automata the sphere of projectile p touches: |d|^2 < (R + r_a)^2 in float (the CPU's test).
 struct TouchKernel {
@@ -661,9 +699,7 @@ struct ProjectileSumKernel {
 // bad[0]: the first projectile with a value not finite, or kNone.
 struct ProjectileMotionKernel {
   DeviceProjectile* proj;
-  const ProjectileConstants* P;
-  std::uint32_t np;
-  const ContactSprings* pair_springs;  // per (p, q)
+  ProjectilePairs pairs;
   const ProjectilePair* old;
   std::uint32_t old_size;
   ProjectilePair* next;
@@ -673,19 +709,20 @@ struct ProjectileMotionKernel {
   float dt;
   std::uint32_t* bad;
   MCA_HD void operator()(std::size_t) const {
+    const ProjectileConstants* P = pairs.P;
+    const std::uint32_t np = pairs.np;
     std::uint32_t o = 0, count = 0;
     for (std::uint32_t p = 0; p < np; ++p)
       for (std::uint32_t q = p + 1; q < np; ++q) {
         const ProjectileConstants &A = P[p], &B = P[q];
-        if (A.kinematic && B.kinematic) continue;  // neither can respond
+        const SphereGap gap = pairs.touch(proj, p, q);
+        if (!gap.valid) continue;
         const DeviceProjectile &a = proj[p], &b = proj[q];
-        const SphereGap gap = sphere_gap(a.position, b.position, static_cast<double>(A.radius) + B.radius);
-        if (gap.overlap <= 0.0f || !gap.valid) continue;
         while (o < old_size && (old[o].p < p || (old[o].p == p && old[o].q < q))) ++o;
         const ContactHistory prev = o < old_size && old[o].p == p && old[o].q == q ? old[o].h : ContactHistory{};
         const Vec3 nrm = gap.n;
         const ContactResult r = contact_between(nrm, gap.overlap, a.velocity, a.angular_velocity, A.radius * nrm, b.velocity,
-                                                b.angular_velocity, -B.radius * nrm, pair_springs[p * np + q], prev.ut,
+                                                b.angular_velocity, -B.radius * nrm, pairs.springs(p, q), prev.ut,
                                                 prev.mr, dt);
         next[count++] = {p, q, {r.o.ut, r.o.mr}};
         fsum[p] += r.o.force_i;

@@ -30,8 +30,6 @@ struct HostDevice {
       v_.clear();
       v_.resize(n);
     }
-    // Keeps the first min(size, n) values.
-    void resize_keep(std::size_t n) { v_.resize(n); }
 
    private:
     std::vector<T> v_;
