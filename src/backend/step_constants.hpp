@@ -10,6 +10,7 @@
 
 #include "backend/cpu/aligned.hpp"
 #include "backend/cpu/lattice_kernels.hpp"
+#include "backend/step_kernels.hpp"  // kSecondEndBit
 #include "core/model.hpp"
 #include "core/state.hpp"
 #include "physics/contact_law.hpp"
@@ -43,7 +44,7 @@ struct StepConstants {
   Array<float> ex_tensile, ex_compressive, ex_strain;  // cpu::ExplicitView::tensile, ...
   // The automata that have explicit links, and per automaton (as E.of, from E.first) its explicit links
   // with kSecondEnd set where it is the link's j.
-  static constexpr std::uint32_t kSecondEnd = 1u << 31;
+  static constexpr std::uint32_t kSecondEnd = kSecondEndBit;
   std::vector<std::uint32_t> explicit_automata;
   std::vector<std::uint32_t> ex_ends;
   std::vector<float> bend_c;  // per automaton: a shell's bending many-body constant D nu A (else 0)
