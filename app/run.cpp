@@ -349,31 +349,31 @@ int run_loop(Loop& L, FrameWriter& writer) {
   auto progress = [&](double wall, bool finished) {
     if (L.quiet || !(finished || (tty ? wall - last_print > 0.2 : wall - last_print > 10.0))) return;
     last_print = wall;
-    const double done = static_cast<double>(sim.state().step - first_step);
-    const double left = static_cast<double>(L.plan.total_steps - sim.state().step);
+    const double done = static_cast<double>(sim.step() - first_step);
+    const double left = static_cast<double>(L.plan.total_steps - sim.step());
     const double rate = wall > 0 ? done * m.size() / wall : 0;
     const double eta = done > 0 ? wall * left / done : 0;
-    const double frac = static_cast<double>(sim.state().step) / static_cast<double>(L.plan.total_steps);
+    const double frac = static_cast<double>(sim.step()) / static_cast<double>(L.plan.total_steps);
     const int bar = static_cast<int>(frac * 30);
     say("{}[{}{}] {:3.0f}%  t={:.4g}/{:.4g} s  frame {}/{}  {:.2f} M automaton-steps/s  broken {}  ETA {}{}",
                tty ? "\r" : "", std::string(bar, '#'), std::string(30 - bar, '.'), 100 * frac, sim.state().time,
                L.plan.total_steps * static_cast<double>(m.dt), L.frame - 1, L.plan.total_frames, rate / 1e6,
-               sim.state().broken_by[0] + sim.state().broken_by[1], human_time(eta), tty ? "   " : "\n");
+               sim.broken_links(), human_time(eta), tty ? "   " : "\n");
   };
 
   // Steps go to the engine in chunks of about a quarter of a second, so that a long frame (up to 1e9
   // steps) still shows progress and answers Ctrl-C; how steps are grouped into calls changes no result.
   std::int64_t chunk = 16;
-  while (sim.state().step < L.plan.total_steps) {
-    const std::int64_t frame_end = std::min(L.plan.total_steps, sim.state().step + spf);
+  while (sim.step() < L.plan.total_steps) {
+    const std::int64_t frame_end = std::min(L.plan.total_steps, sim.step() + spf);
     StepHealth h;
-    while (sim.state().step < frame_end && h.flags == kHealthy) {
+    while (sim.step() < frame_end && h.flags == kHealthy) {
       const auto t0 = std::chrono::steady_clock::now();
-      h = sim.advance(static_cast<int>(std::min(chunk, frame_end - sim.state().step)));
+      h = sim.advance(static_cast<int>(std::min(chunk, frame_end - sim.step())));
       const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (took < 0.1 && chunk < (std::int64_t{1} << 30)) chunk *= 2;
       else if (took > 0.5 && chunk > 1) chunk /= 2;
-      if (const int sig = g_stop_signal; sig != 0 && h.flags == kHealthy && sim.state().step < frame_end) {
+      if (const int sig = g_stop_signal; sig != 0 && h.flags == kHealthy && sim.step() < frame_end) {
         // Checkpoints hold frame boundaries only: stop here, and point to the newest one.
         const auto saved = io::list_checkpoints(L.dir / "checkpoints");
         write_summary(L.dir, sim, writer.fragments(sim.state()), L.wall_before, elapsed(),

@@ -582,7 +582,7 @@ Simulation is gone.)");
           },
           py::arg("time"), py::arg("progress") = py::none(),
           "Advances to the step nearest the simulated time `time` [s] (nothing when it has passed); as advance.")
-      .def_property_readonly("step", [](const PySimulation& s) { return s.engine().state().step; }, "steps taken")
+      .def_property_readonly("step", [](const PySimulation& s) { return s.engine().step(); }, "steps taken")
       .def_property_readonly("time", [](const PySimulation& s) { return s.engine().state().time; }, "simulated time [s]")
       .def_property_readonly("time_step", [](const PySimulation& s) { return static_cast<double>(s.engine().model().dt); },
                              "the time step [s]")

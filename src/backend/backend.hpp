@@ -42,7 +42,12 @@ class Backend {
   // Records the run's starting energy in the state (State::initial_energy), which needs the contact lists
   // upload builds: set once, right after the first upload of a new run.
   virtual void set_initial_energy(double energy) = 0;
+  // The whole state, brought up to date first where the backend steps its own copy (the CUDA backend: a
+  // download of every array; the CPU backend: its arrays gathered into the State).
   virtual const State& state() const = 0;
+  // What a caller needs between calls without the whole state: the step and the links broken so far.
+  virtual std::int64_t current_step() const = 0;
+  virtual std::int64_t broken_links() const = 0;
 };
 
 // What every backend's step shares.

@@ -193,8 +193,8 @@ Engine::Engine(const SceneDef& scene, const State& state, const std::string& sou
 
 StepHealth Engine::advance(int steps) {
   StepHealth h = backend_->step(steps);
-  const State& s = state();
-  if (h.flags == kHealthy && s.step - last_check_ >= kEnergyCheckInterval) {
+  if (h.flags == kHealthy && step() - last_check_ >= kEnergyCheckInterval) {
+    const State& s = state();
     last_check_ = s.step;
     const Energies e = energies();
     // What the bodies hold beyond the start and the work put in (gravity, grips, loads, kinematic

@@ -38,6 +38,9 @@ class Engine {
   // orientations and link histories back into that State (O(automata + links)); calls until the next
   // step return it as it is.
   const State& state() const { return backend_->state(); }
+  // The step and the links broken so far, without bringing the whole state up to date.
+  std::int64_t step() const { return backend_->current_step(); }
+  std::int64_t broken_links() const { return backend_->broken_links(); }
   Backend& backend() { return *backend_; }
   const Backend& backend() const { return *backend_; }
 

@@ -245,6 +245,8 @@ class DeviceBackend : public Backend {
     return S_;
   }
 
+  std::int64_t current_step() const override { return S_.step; }
+  std::int64_t broken_links() const override { return S_.broken_by[0] + S_.broken_by[1]; }
   StepHealth step(int steps) override {
     return step_loop(steps, last_step_, S_, [&] {
       stale_ = true;
