@@ -182,7 +182,8 @@ struct SolverDef {
   // Where the step runs: auto (the CPU, until the CUDA backend's device code has run on a GPU), cpu, cuda
   // (an NVIDIA GPU; an error without one), or cuda-emulation (the CUDA backend's algorithm run on one CPU
   // core, thread by thread: the same bits as both, for checking the GPU path without a GPU; slower).
-  // Every backend gives the same state, bit for bit; a run saved on one resumes on another.
+  // The CPU backend and the emulation give the same state bit for bit (tested), and a run saved on one
+  // resumes on the other; the CUDA backend is built to (its tests run on a GPU: scripts/gpu_check.sh).
   enum class Backend { automatic, cpu, cuda, cuda_emulation } backend = Backend::automatic;
   double skin = 0.3;                     // contact search skin, share of d, in (0, 0.4]
   std::uint64_t seed = 1;
