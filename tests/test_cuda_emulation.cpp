@@ -4,6 +4,7 @@
 // tested on machines without a GPU.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <cstring>
 #include <functional>
 #include <optional>
@@ -128,8 +129,15 @@ TEST(CudaEmulation, TheDefaultWallIsTheCpusBitForBit) {
 }
 
 // The paper's four walls (cubic lattice, clustered classes), their balls moved to 1 cm from the walls.
+// The scenes folder: MCA_SCENES where the tests run away from the source tree (scripts/gpu_check.sh on a GPU
+// machine), else the source tree's.
+std::string scene_file(const std::string& name) {
+  const char* dir = std::getenv("MCA_SCENES");
+  return (dir && *dir ? std::string(dir) : std::string(MCA_SOURCE_DIR "/scenes")) + "/" + name;
+}
+
 SceneDef four_walls() {
-  SceneDef s = io::load_scene_file(MCA_SOURCE_DIR "/scenes/four_walls.toml");
+  SceneDef s = io::load_scene_file(scene_file("four_walls.toml"));
   for (auto& p : s.projectiles) p.position[1] = -0.31;
   return s;
 }
@@ -145,7 +153,7 @@ TEST(CudaEmulation, FourWallsAreTheCpusBitForBit) {
 // The scene file with `edit` applied, or none (and why) when the paper's models are not installed.
 std::optional<SceneDef> paper_scene(const char* file, const std::function<void(SceneDef&)>& edit, std::string& why) {
   try {
-    SceneDef s = io::load_scene_file(std::string(MCA_SOURCE_DIR "/scenes/") + file);
+    SceneDef s = io::load_scene_file(scene_file(file));
     edit(s);
     Engine probe(s);  // resolves the mesh
     return s;
@@ -187,7 +195,7 @@ TEST(CudaEmulation, TheCowShellIsTheCpusBitForBit) {
 // Grips pulling a bar apart (the grips' sums and work), and two balls that meet over a block: one free, one
 // kinematic (the projectile pairs, a kinematic projectile's work).
 TEST(CudaEmulation, GripsAndCollidingBallsAreTheCpusBitForBit) {
-  SceneDef bar = io::load_scene_file(MCA_SOURCE_DIR "/scenes/tension_bar.toml");
+  SceneDef bar = io::load_scene_file(scene_file("tension_bar.toml"));
   bar.grips[1].velocity = {0.5, 0, 0};
   const Compared c = run_both(bar, 4000, 1000);
   EXPECT_GT(c.breaks, 0);
