@@ -64,25 +64,51 @@ struct StepClock {
   }
   double time(std::int64_t step, float dt) const { return time0 + static_cast<double>(step - step0) * dt; }
 };
-// Backend::step's loop: one_step() `steps` times, *last set on the last (what is only read between calls,
-// the averaged stress tensor and the applied forces, is written then); stops at the first step whose
-// one_step() returns other than -1: an automaton (>= 0) or -2 - p for projectile p with a value not finite.
-template <class F>
-StepHealth step_loop(int steps, bool& last, const State& s, F&& one_step) {
-  StepHealth h;
-  for (int k = 0; k < steps; ++k) {
-    last = k + 1 == steps;
-    const std::int64_t bad = one_step();
-    if (bad != -1) {
-      h.flags |= kNonFinite;
-      h.step = s.step;
-      if (bad >= 0) h.automaton = bad;
-      else h.projectile = -2 - bad;
-      break;
+// What the CPU and CUDA backends share: the State they hand out (brought up to date from their own arrays
+// when read after a step: sync_state), the clock, and the loop of step().
+class StateBackend : public Backend {
+ public:
+  void download(State& s) const override { s = state(); }
+  void set_initial_energy(double energy) override { S_.initial_energy = energy; }
+  const State& state() const override {
+    if (stale_) {
+      sync_state();
+      stale_ = false;
     }
+    return S_;
   }
-  return h;
-}
+  std::int64_t current_step() const override { return S_.step; }
+  std::int64_t broken_links() const override { return S_.broken_by[0] + S_.broken_by[1]; }
+  // one_step() `steps` times, last_step_ set on the last (what is only read between calls, the averaged
+  // stress tensor and the applied forces, is written then); stops at the first step whose one_step()
+  // returns other than kAllFinite: an automaton (>= 0) or -2 - p for projectile p with a value not finite.
+  StepHealth step(int steps) override {
+    StepHealth h;
+    for (int k = 0; k < steps; ++k) {
+      last_step_ = k + 1 == steps;
+      stale_ = true;
+      const std::int64_t bad = one_step();
+      if (bad != kAllFinite) {
+        h.flags |= kNonFinite;
+        h.step = S_.step;
+        if (bad >= 0) h.automaton = bad;
+        else h.projectile = -2 - bad;
+        break;
+      }
+    }
+    return h;
+  }
+
+ protected:
+  static constexpr std::int64_t kAllFinite = -1;
+  virtual std::int64_t one_step() = 0;
+  // Brings S_'s arrays up to date with the backend's own (called by state() after a step).
+  virtual void sync_state() const = 0;
+  mutable State S_;
+  mutable bool stale_ = false;  // S_'s arrays are behind the backend's own
+  bool last_step_ = true;
+  StepClock clock_;
+};
 
 std::unique_ptr<Backend> make_cpu_backend(const Model& model);
 // The CUDA backend's step run on the host, thread by thread in order (src/backend/cuda/host_device.hpp):

@@ -127,7 +127,7 @@ bool finite(DVec3 a) { return std::isfinite(a.x + a.y + a.z); }
 
 bool pair_less(const ContactPair& a, const ContactPair& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; }
 
-class CpuBackend final : public Backend {
+class CpuBackend final : public StateBackend {
  public:
   explicit CpuBackend(const Model& m)
       : M_(m), MV_(m.view()), K_(build_step_constants(m)), kernels_(cpu::select_kernels()) {
@@ -203,37 +203,19 @@ class CpuBackend final : public Backend {
     if (S_.x_at_rebuild.size() != S_.x.size()) rebuild_contacts();
     else reference_positions();
   }
-  void download(State& s) const override { s = state(); }
-  void set_initial_energy(double energy) override { S_.initial_energy = energy; }
-  const State& state() const override {
-    if (stale_) {
-      sync_positions();
-      const std::size_t n = M_.size();
-      for (std::size_t a = 0; a < n; ++a) {
-        S_.v[a] = {vx_[a], vy_[a], vz_[a]};
-        S_.w[a] = {wx_[a], wy_[a], wz_[a]};
-        S_.q[a] = {qw_[a], qx_[a], qy_[a], qz_[a]};
-      }
-      for (std::size_t l = 0; l < M_.link_slots(); ++l) S_.link_ut[l] = {utx_[l], uty_[l], utz_[l]};
-      for (std::size_t k = 0; k < S_.link_moment.size(); ++k) S_.link_moment[k] = {ex_mx_[k], ex_my_[k], ex_mz_[k]};
-      stale_ = false;
-    }
-    return S_;
-  }
-
-  std::int64_t current_step() const override { return S_.step; }
-  std::int64_t broken_links() const override { return S_.broken_by[0] + S_.broken_by[1]; }
-  StepHealth step(int steps) override {
-    return step_loop(steps, last_step_, S_, [&] {
-      stale_ = true;
-      return one_step();
-    });
-  }
-
  private:
-  // one_step's result when every position and velocity is finite; -2 - p flags projectile p.
-  static constexpr std::int64_t kAllFinite = -1;
-
+  std::int64_t one_step() override;
+  void sync_state() const override {
+    sync_positions();
+    const std::size_t n = M_.size();
+    for (std::size_t a = 0; a < n; ++a) {
+      S_.v[a] = {vx_[a], vy_[a], vz_[a]};
+      S_.w[a] = {wx_[a], wy_[a], wz_[a]};
+      S_.q[a] = {qw_[a], qx_[a], qy_[a], qz_[a]};
+    }
+    for (std::size_t l = 0; l < M_.link_slots(); ++l) S_.link_ut[l] = {utx_[l], uty_[l], utz_[l]};
+    for (std::size_t k = 0; k < S_.link_moment.size(); ++k) S_.link_moment[k] = {ex_mx_[k], ex_my_[k], ex_mz_[k]};
+  }
   DVec3 pos(std::size_t a) const { return {px_[a], py_[a], pz_[a]}; }
   DVec3 vel(std::size_t a) const { return {vx_[a], vy_[a], vz_[a]}; }
   DVec3 ang(std::size_t a) const { return {wx_[a], wy_[a], wz_[a]}; }
@@ -270,7 +252,6 @@ class CpuBackend final : public Backend {
     }
   }
 
-  std::int64_t one_step();
   std::int64_t lattice_sweep(const cpu::LatticeView& v, std::vector<std::size_t>& counts, float& max_move2);
   cpu::ExplicitView explicit_view();
   ExplicitPassView explicit_pass_view() const;
@@ -304,8 +285,6 @@ class CpuBackend final : public Backend {
   const ModelView MV_;     // the model's per-pair rules (contact reach, springs) over its arrays
   const StepConstants K_;  // what the step reads of the model, worked out once
   const cpu::Kernels& kernels_;
-  mutable State S_;
-  mutable bool stale_ = false;  // S_'s automata and link arrays are behind the arrays below
   // Automata (structure of arrays).
   cpu::LineArray<double> px_, py_, pz_;
   cpu::LineArray<double> ref_;  // positions at the last contact rebuild (State::x_at_rebuild), tiled
@@ -338,12 +317,10 @@ class CpuBackend final : public Backend {
   std::vector<float> bend_weight_;              // the shells' bending's many-body weight per automaton
   cpu::LineArray<float> ex_kappa_;              // per explicit link: this step's kappa_nn (explicit_geometry)
   std::vector<std::uint32_t> explicit_breaks_;  // per chunk of links, what the explicit kernel found
-  bool last_step_ = true;
   std::vector<std::uint32_t> exposed_;
   std::vector<std::uint8_t> near_, chunk_near_;  // see LatticeView::near; per chunk: any marked
   std::vector<double> proj_x_, proj_y_, proj_z_;  // the projectiles' centres for the marks
   bool near_valid_ = false;                      // near_ is from the last step (not before an upload)
-  StepClock clock_;
   std::vector<Vec3> ext_f_, ext_t_;
   std::vector<Sym3> ext_s_;
   std::vector<std::uint8_t> has_ext_;

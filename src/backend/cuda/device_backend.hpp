@@ -21,7 +21,7 @@
 namespace mca::gpu {
 
 template <class Dev>
-class DeviceBackend : public Backend {
+class DeviceBackend : public StateBackend {
   template <class T>
   using Buf = typename Dev::template Buffer<T>;
 
@@ -235,27 +235,11 @@ class DeviceBackend : public Backend {
     }
   }
 
-  void download(State& s) const override { s = state(); }
-  void set_initial_energy(double energy) override { S_.initial_energy = energy; }
-  const State& state() const override {
-    if (stale_) {
-      const_cast<DeviceBackend*>(this)->sync();
-      stale_ = false;
-    }
-    return S_;
-  }
-
-  std::int64_t current_step() const override { return S_.step; }
-  std::int64_t broken_links() const override { return S_.broken_by[0] + S_.broken_by[1]; }
-  StepHealth step(int steps) override {
-    return step_loop(steps, last_step_, S_, [&] {
-      stale_ = true;
-      return one_step();
-    });
-  }
+ protected:
+  std::int64_t one_step() override;
+  void sync_state() const override { const_cast<DeviceBackend*>(this)->sync(); }
 
  private:
-  static constexpr std::int64_t kAllFinite = -1;
   template <class T>
   static T* d(Buf<T>& b) {
     return b.data();
@@ -471,7 +455,6 @@ class DeviceBackend : public Backend {
     return total;
   }
 
-  std::int64_t one_step();
   void explicit_pass(const cpu::LatticeView& v);
   void contact_pass();
   void projectile_pass();
@@ -483,10 +466,7 @@ class DeviceBackend : public Backend {
   const Model& M_;
   const StepConstants K_;
   ModelView mv_;
-  mutable State S_;
-  mutable bool stale_ = false;
-  bool last_step_ = true, softening_ = false;
-  StepClock clock_;
+  bool softening_ = false;
   // Model.
   Buf<DVec3> position0_, grip_velocity_;
   Buf<float> mass_, radius_, inertia_, volume_, link_inv_rest_, link_strength_, e_area_, free_face_, zeta_pair_, zeta_ground_;
