@@ -35,8 +35,9 @@ class Engine {
   const Model& model() const { return model_; }
   // The backend's current state: a reference to the backend's own State, no copy for the caller. The CPU
   // backend steps its structure-of-arrays copy, so the first call after a step gathers the velocities,
-  // orientations and link histories back into that State (O(automata + links)); calls until the next
-  // step return it as it is.
+  // orientations and link histories back into that State (O(automata + links)); the CUDA backend
+  // downloads every array. Calls until the next step return it as it is. Between calls that need no
+  // more, step() and broken_links() below cost nothing.
   const State& state() const { return backend_->state(); }
   // The step and the links broken so far, without bringing the whole state up to date.
   std::int64_t step() const { return backend_->current_step(); }
