@@ -29,7 +29,7 @@ std::unique_ptr<Backend> make_backend(const Model& model, SolverDef::Backend kin
       std::string why;
       if (cuda_device(&why).empty())
         throw Error(fmt::format("{}: solver.backend = \"cuda\" (or --backend cuda): {}; use backend \"cpu\" or "
-                                "\"auto\", or run on a machine with an NVIDIA GPU and its driver",
+                                "\"auto\", or a build of mca made where nvcc is found, on a machine with an NVIDIA GPU and its driver",
                                 source, why));
       return make_cuda_backend(model);
     }

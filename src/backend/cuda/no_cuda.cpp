@@ -5,7 +5,7 @@
 namespace mca {
 
 std::string cuda_device(std::string* why) {
-  if (why) *why = "this build of mca has no CUDA device code (nvcc was not found when it was built)";
+  if (why) *why = "this build of mca has no CUDA device code (nvcc was not found when it was built, or MCA_CUDA=OFF)";
   return "";
 }
 
