@@ -30,6 +30,31 @@ void sound_link_counts(const Model& m, const State& s, std::uint8_t* count) {
   }
 }
 
+cpu::LatticeView lattice_view_numbers(const Model& m, const StepConstants& K) {
+  cpu::LatticeView v;
+  v.n = m.size();
+  v.ns = cpu::scratch_stride(m.size());
+  if (K.one_group) {
+    v.uniform_bodies = K.uniform_bodies;
+    v.body[0] = m.mass[0];
+    v.body[1] = K.inv_mass[0];
+    v.body[2] = K.inv_inertia[0];
+    v.body[3] = K.inv_volume[0];
+  }
+  v.group_count = static_cast<int>(m.groups.size());
+  v.one_group = K.one_group;
+  v.strengthening = K.strengthening;
+  v.stiffness = m.lattice_stiffness;
+  v.r0 = m.spacing;
+  v.inv_r0 = 1.0f / m.spacing;
+  v.area = m.spacing * m.spacing;
+  v.dt = m.dt;
+  v.stress_coefficient = m.stress_coefficient;
+  v.local_damping = m.local_damping;
+  v.gravity = m.gravity;
+  return v;
+}
+
 StepConstants build_step_constants(const Model& m) {
   StepConstants K;
   const std::size_t n = m.size(), G = m.groups.size();

@@ -63,6 +63,10 @@ struct StepConstants {
 // Throws mca::Error for a model the step cannot hold (too many explicit links).
 StepConstants build_step_constants(const Model& m);
 
+// A LatticeView with its numbers from the model and the constants (sizes, the one material's body values,
+// spacing, step, damping, gravity, flags): each backend adds its arrays, its lanes and the step's flags.
+cpu::LatticeView lattice_view_numbers(const Model& m, const StepConstants& K);
+
 // Per automaton, its sound links (intact and undamaged) as the contact search counts them, from a state:
 // 6 stands for boxed in (a cubic automaton with its six links, an interior automaton of the random lattice
 // with all of its own); any other holds its count, at most 5.

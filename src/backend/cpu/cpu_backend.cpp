@@ -330,26 +330,17 @@ class CpuBackend final : public StateBackend {
 };
 
 cpu::LatticeView CpuBackend::view() {
-  cpu::LatticeView v;
   const Model& m = M_;
-  v.n = m.size();
+  cpu::LatticeView v = lattice_view_numbers(m, K_);
   v.up = m.neighbour.data();
   v.below = m.neighbour_below.data();
   v.runs = runs_.data();
-  v.ns = cpu::scratch_stride(m.size());
   v.blocks = kernels_.lanes > 1 ? m.size() / static_cast<std::size_t>(kernels_.lanes) : 0;
   v.group = m.group.data();
   v.tensile = K_.tensile.data();
   v.compressive = K_.compressive.data();
   v.break_strain = K_.break_strain.data();
   v.mass = m.mass.data();
-  if (K_.one_group) {
-    v.uniform_bodies = K_.uniform_bodies;
-    v.body[0] = m.mass[0];
-    v.body[1] = K_.inv_mass[0];
-    v.body[2] = K_.inv_inertia[0];
-    v.body[3] = K_.inv_volume[0];
-  }
   v.inv_mass = K_.inv_mass.data();
   v.inv_inertia = K_.inv_inertia.data();
   v.inv_volume = K_.inv_volume.data();
@@ -359,22 +350,11 @@ cpu::LatticeView CpuBackend::view() {
   v.groups = m.groups.data();
   v.free_factor = reinterpret_cast<const float(*)[4]>(K_.free_factor.data());
   v.pairs = K_.pairs.data();
-  v.group_count = static_cast<int>(m.groups.size());
-  v.one_group = K_.one_group;
-  v.strengthening = K_.strengthening;
   v.softening = !S_.link_damage.empty();
   v.damage = v.softening ? S_.link_damage.data() : nullptr;
   v.link_strength = m.link_strength.empty() ? nullptr : m.link_strength.data();
   v.rest = m.link_rest.empty() ? nullptr : m.link_rest.data();
-  v.stiffness = m.lattice_stiffness;
   v.inv_rest = m.link_inv_rest.empty() ? nullptr : m.link_inv_rest.data();
-  v.r0 = m.spacing;
-  v.inv_r0 = 1.0f / m.spacing;
-  v.area = m.spacing * m.spacing;
-  v.dt = m.dt;
-  v.stress_coefficient = m.stress_coefficient;
-  v.local_damping = m.local_damping;
-  v.gravity = m.gravity;
   v.last = last_step_;
   v.px = px_.data(); v.py = py_.data(); v.pz = pz_.data();
   v.vx = vx_.data(); v.vy = vy_.data(); v.vz = vz_.data();

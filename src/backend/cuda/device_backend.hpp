@@ -280,26 +280,17 @@ class DeviceBackend : public StateBackend {
   }
 
   cpu::LatticeView view() {
-    cpu::LatticeView v;
     const Model& m = M_;
-    v.n = m.size();
+    cpu::LatticeView v = lattice_view_numbers(m, K_);
     v.up = c(neighbour_);
     v.below = c(neighbour_below_);
     v.runs = nullptr;  // one lane per thread: the neighbour tables
     v.blocks = 0;
-    v.ns = cpu::scratch_stride(m.size());
     v.group = c(group_);
     v.tensile = c(tensile_);
     v.compressive = c(compressive_);
     v.break_strain = c(break_strain_);
     v.mass = c(mass_);
-    if (K_.one_group) {
-      v.uniform_bodies = K_.uniform_bodies;
-      v.body[0] = m.mass[0];
-      v.body[1] = K_.inv_mass[0];
-      v.body[2] = K_.inv_inertia[0];
-      v.body[3] = K_.inv_volume[0];
-    }
     v.inv_mass = c(inv_mass_);
     v.inv_inertia = c(inv_inertia_);
     v.inv_volume = c(inv_volume_);
@@ -309,22 +300,11 @@ class DeviceBackend : public StateBackend {
     v.groups = c(groups_);
     v.free_factor = reinterpret_cast<const float(*)[4]>(c(free_factor_));
     v.pairs = c(pairs_);
-    v.group_count = static_cast<int>(m.groups.size());
-    v.one_group = K_.one_group;
-    v.strengthening = K_.strengthening;
     v.softening = softening_;
     v.damage = softening_ ? d(damage_) : nullptr;
     v.link_strength = opt(link_strength_);
     v.rest = opt(link_rest_);
-    v.stiffness = m.lattice_stiffness;
     v.inv_rest = opt(link_inv_rest_);
-    v.r0 = m.spacing;
-    v.inv_r0 = 1.0f / m.spacing;
-    v.area = m.spacing * m.spacing;
-    v.dt = m.dt;
-    v.stress_coefficient = m.stress_coefficient;
-    v.local_damping = m.local_damping;
-    v.gravity = m.gravity;
     v.last = last_step_;
     v.px = d(px_); v.py = d(py_); v.pz = d(pz_);
     v.vx = d(vx_); v.vy = d(vy_); v.vz = d(vz_);
