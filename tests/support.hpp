@@ -30,6 +30,29 @@ namespace mca::test {
 inline const std::string kCubicWallPath = MCA_SOURCE_DIR "/scenes/wall_ball_cubic.toml";
 inline SceneDef cubic_wall_scene() { return io::load_scene_file(kCubicWallPath); }
 
+// Sets every automaton of sim in the rigid motion of velocity v and spin w about the centre of mass, and
+// starts the energy check's budget from that motion's energy; returns the centre of mass.
+inline DVec3 set_rigid_motion(Engine& sim, DVec3 v, DVec3 w) {
+  State st = sim.state();
+  const Model& m = sim.model();
+  DVec3 c{};
+  double mass = 0;
+  for (std::size_t a = 0; a < st.x.size(); ++a) {
+    c += st.x[a] * static_cast<double>(m.mass[a]);
+    mass += m.mass[a];
+  }
+  c = c * (1.0 / mass);
+  for (std::size_t a = 0; a < st.x.size(); ++a) {
+    st.v[a] = v + cross(w, st.x[a] - c);
+    st.w[a] = w;
+  }
+  sim.backend().upload(std::move(st));
+  State started = sim.state();
+  started.initial_energy = sim.energies().total();
+  sim.backend().upload(std::move(started));
+  return c;
+}
+
 // The largest |strain| of the intact links of state s (lattice links with the spacing, explicit links with
 // their own rest lengths, as the kernels form them).
 inline double max_link_strain(const Model& m, const State& s) {

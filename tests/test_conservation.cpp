@@ -108,24 +108,8 @@ Spin spin_block(SolverDef::Lattice lattice, double jitter) {
   s.solver.lattice = lattice;
   s.solver.lattice_jitter = jitter;
   Engine sim(s);
-  State st = sim.state();
   const Model& m = sim.model();
-  DVec3 c{};
-  double mass = 0;
-  for (std::size_t a = 0; a < st.x.size(); ++a) {
-    c += st.x[a] * static_cast<double>(m.mass[a]);
-    mass += m.mass[a];
-  }
-  c = c * (1.0 / mass);
-  const DVec3 w = DVec3{0.3, 0.5, 0.8} * (50.0 / std::sqrt(0.98));
-  for (std::size_t a = 0; a < st.x.size(); ++a) {
-    st.v[a] = cross(w, st.x[a] - c);
-    st.w[a] = w;
-  }
-  sim.backend().upload(std::move(st));
-  State started = sim.state();  // the energy check's budget starts from the spin's energy
-  started.initial_energy = sim.energies().total();
-  sim.backend().upload(std::move(started));
+  const DVec3 c = test::set_rigid_motion(sim, {}, DVec3{0.3, 0.5, 0.8} * (50.0 / std::sqrt(0.98)));
   // The angular momentum about the centre of mass, which stays where it is (no net momentum).
   const auto momentum = [&] {
     const State& q = sim.state();

@@ -270,23 +270,7 @@ void free_block_keeps_momentum_and_energy(SolverDef::Backend backend) {
   s.solver.backend = backend;
   Engine sim(s);
   const Model& m = sim.model();
-  State st = sim.state();
-  DVec3 c{};
-  double mass = 0;
-  for (std::size_t a = 0; a < st.x.size(); ++a) {
-    c += st.x[a] * static_cast<double>(m.mass[a]);
-    mass += m.mass[a];
-  }
-  c = c * (1.0 / mass);
-  const DVec3 w = DVec3{0.3, 0.5, 0.8} * (50.0 / std::sqrt(0.98)), v{1.0, -0.5, 0.25};
-  for (std::size_t a = 0; a < st.x.size(); ++a) {
-    st.v[a] = v + cross(w, st.x[a] - c);
-    st.w[a] = w;
-  }
-  sim.backend().upload(std::move(st));
-  State started = sim.state();
-  started.initial_energy = sim.energies().total();
-  sim.backend().upload(std::move(started));
+  test::set_rigid_motion(sim, {1.0, -0.5, 0.25}, DVec3{0.3, 0.5, 0.8} * (50.0 / std::sqrt(0.98)));
   struct Momenta {
     DVec3 p, L;
   };
