@@ -96,10 +96,6 @@ struct CudaDevice {
     b.resize(n);
     if (n) cuda_check(cudaMemcpy(b.data(), src, n * sizeof(T), cudaMemcpyHostToDevice), "upload");
   }
-  template <class T>
-  static void upload(Buffer<T>& b, const std::vector<T>& src) {
-    upload(b, src.data(), src.size());
-  }
   template <class T, class A>
   static void upload(Buffer<T>& b, const std::vector<T, A>& src) {
     upload(b, src.data(), src.size());

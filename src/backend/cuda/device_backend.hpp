@@ -155,20 +155,9 @@ class DeviceBackend : public StateBackend {
     S_ = std::move(s);
     clock_.start(S_, M_.dt);
     const std::size_t n = M_.size(), L = M_.link_slots();
-    std::vector<double> x(n), y(n), z(n);
-    auto put3 = [&](const std::vector<DVec3>& from, Buf<double>& bx, Buf<double>& by, Buf<double>& bz) {
-      for (std::size_t a = 0; a < n; ++a) {
-        x[a] = from[a].x;
-        y[a] = from[a].y;
-        z[a] = from[a].z;
-      }
-      Dev::upload(bx, x);
-      Dev::upload(by, y);
-      Dev::upload(bz, z);
-    };
-    put3(S_.x, px_, py_, pz_);
-    put3(S_.v, vx_, vy_, vz_);
-    put3(S_.w, wx_, wy_, wz_);
+    upload3(S_.x, px_, py_, pz_);
+    upload3(S_.v, vx_, vy_, vz_);
+    upload3(S_.w, wx_, wy_, wz_);
     std::vector<float> qw(n), qx(n), qy(n), qz(n);
     for (std::size_t a = 0; a < n; ++a) {
       qw[a] = S_.q[a].w;
@@ -403,9 +392,10 @@ class DeviceBackend : public StateBackend {
     return v;
   }
 
-  // Vectors of floats as three device arrays, one per component, and back.
-  static void upload3(const std::vector<Vec3>& v, Buf<float>& x, Buf<float>& y, Buf<float>& z) {
-    std::vector<float> c[3];
+  // Vectors (of floats or doubles) as three device arrays, one per component, and back.
+  template <class T>
+  static void upload3(const std::vector<Vec3T<T>>& v, Buf<T>& x, Buf<T>& y, Buf<T>& z) {
+    std::vector<T> c[3];
     for (auto& a : c) a.resize(v.size());
     for (std::size_t k = 0; k < v.size(); ++k) {
       c[0][k] = v[k].x;
@@ -416,8 +406,9 @@ class DeviceBackend : public StateBackend {
     Dev::upload(y, c[1]);
     Dev::upload(z, c[2]);
   }
-  static void download3(std::vector<Vec3>& v, const Buf<float>& x, const Buf<float>& y, const Buf<float>& z) {
-    std::vector<float> c[3];
+  template <class T>
+  static void download3(std::vector<Vec3T<T>>& v, const Buf<T>& x, const Buf<T>& y, const Buf<T>& z) {
+    std::vector<T> c[3];
     for (auto& a : c) a.resize(v.size());
     Dev::download(c[0].data(), x, v.size());
     Dev::download(c[1].data(), y, v.size());
@@ -763,16 +754,9 @@ template <class Dev>
 void DeviceBackend<Dev>::sync() {
   const std::size_t n = M_.size(), L = M_.link_slots();
   std::vector<double> x(n), y(n), z(n);
-  auto get3 = [&](std::vector<DVec3>& to, const Buf<double>& bx, const Buf<double>& by, const Buf<double>& bz) {
-    Dev::download(x.data(), bx, n);
-    Dev::download(y.data(), by, n);
-    Dev::download(z.data(), bz, n);
-    to.resize(n);
-    for (std::size_t a = 0; a < n; ++a) to[a] = {x[a], y[a], z[a]};
-  };
-  get3(S_.x, px_, py_, pz_);
-  get3(S_.v, vx_, vy_, vz_);
-  get3(S_.w, wx_, wy_, wz_);
+  download3(S_.x, px_, py_, pz_);
+  download3(S_.v, vx_, vy_, vz_);
+  download3(S_.w, wx_, wy_, wz_);
   std::vector<float> qw(n), qx(n), qy(n), qz(n);
   Dev::download(qw.data(), qw_, n);
   Dev::download(qx.data(), qx_, n);

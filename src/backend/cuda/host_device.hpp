@@ -40,10 +40,6 @@ struct HostDevice {
     b.resize(n);
     if (n) std::memcpy(static_cast<void*>(b.data()), src, n * sizeof(T));
   }
-  template <class T>
-  static void upload(Buffer<T>& b, const std::vector<T>& src) {
-    upload(b, src.data(), src.size());
-  }
   template <class T, class A>
   static void upload(Buffer<T>& b, const std::vector<T, A>& src) {
     upload(b, src.data(), src.size());
