@@ -4,14 +4,18 @@
 // tested on machines without a GPU.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 
 #include <fmt/format.h>
 
+#include "backend/cuda/device_backend.hpp"
+#include "backend/cuda/host_device.hpp"
 #include "io/scene_io.hpp"
 #include "sim/engine.hpp"
 #include "support.hpp"
@@ -81,7 +85,16 @@ std::string first_difference(const State& a, const State& b) {
 struct Compared {
   std::int64_t breaks = 0;
   std::size_t contacts = 0, ground = 0, projectile_contacts = 0;
+  std::size_t shared = 0;  // automata in contact with two projectiles or more at once
 };
+
+// The automata in two projectiles' contact lists or more.
+std::size_t shared_automata(const State& s) {
+  std::map<std::uint32_t, int> lists;
+  for (const auto& p : s.projectiles)
+    for (const auto& c : p.contacts) ++lists[c.automaton];
+  return static_cast<std::size_t>(std::count_if(lists.begin(), lists.end(), [](const auto& e) { return e.second > 1; }));
+}
 
 // Runs the scene on backend `first` (the CPU's by default) and on `second` (the CUDA backend's emulation by
 // default), `steps` steps in calls of `chunk`, and checks that the states are equal after every call.
@@ -101,6 +114,7 @@ Compared run_both(SceneDef scene, std::int64_t steps, int chunk, SolverDef::Back
     c.contacts = std::max(c.contacts, a.contacts.size());
     c.ground = std::max(c.ground, a.ground_contacts.size());
     for (const auto& p : a.projectiles) c.projectile_contacts = std::max(c.projectile_contacts, p.contacts.size());
+    c.shared = std::max(c.shared, shared_automata(a));
     const std::string d = first_difference(a, b);
     if (!d.empty()) {
       ADD_FAILURE() << scene.name << ": the state of " << emu.backend().name() << " differs from that of "
@@ -221,6 +235,74 @@ TEST(CudaEmulation, GripsAndCollidingBallsAreTheCpusBitForBit) {
   const Compared d = run_both(s, 8000, 500);
   EXPECT_GT(d.breaks, 0);
   EXPECT_GT(d.projectile_contacts, 0u);
+}
+
+// Three small balls driven into an upper corner of a concrete block from above (kinematic), and from two
+// sides: the corner automaton touches all three at once, and adds their contacts in projectile order (an
+// order that two contributions alone would not show: x + y = y + x).
+SceneDef three_balls() {
+  SceneDef s = test::block_scene(12, 12, 4, 0.02);
+  s.materials[0] = *find_builtin_material("concrete");
+  s.objects[0].material = "concrete";
+  s.solver.gravity = {0, 0, -9.81};
+  s.ground.enabled = true;
+  s.ground.height = -0.04;
+  const double edge = 0.11, top = 0.03, clear = 0.0305;  // the corner automaton's centre; a ball's, 0.0005 m off it
+  const DVec3 at[3] = {{edge, edge, top + clear}, {edge + clear, edge, top}, {edge, edge + clear, top}};
+  const DVec3 v[3] = {{0, 0, -2}, {-2, 0, 0}, {0, -2, 0}};
+  for (int k = 0; k < 3; ++k) {
+    ProjectileDef p;
+    p.name = fmt::format("ball{}", k);
+    p.radius = 0.02;
+    p.position = {at[k].x, at[k].y, at[k].z};
+    p.velocity = {v[k].x, v[k].y, v[k].z};
+    p.kinematic = k == 0;
+    s.projectiles.push_back(p);
+  }
+  return s;
+}
+
+// A CUDA grid runs its threads in no set order, so no launch may depend on one: with every launch of the
+// emulation run backwards (and the breaks appended backwards), the states are the CPU's still.
+TEST(CudaEmulation, LaunchesRunBackwardsGiveTheSameBits) {
+  struct Backwards {
+    Backwards() { gpu::HostDevice::reverse = true; }
+    ~Backwards() { gpu::HostDevice::reverse = false; }
+  } backwards;
+  const Compared c = run_both(io::load_default_scene(), 5000, 1000);
+  EXPECT_GT(c.breaks, 0);
+  EXPECT_GT(c.contacts, 0u);
+  const Compared d = run_both(three_balls(), 3000, 100);
+  EXPECT_GT(d.breaks, 0);
+  EXPECT_GT(d.shared, 0u) << "no automaton touched two balls at once";
+  std::printf("three balls: up to %zu automata touching two balls or more at once\n", d.shared);
+}
+
+// On a GPU each copy back to the host waits for the device to finish: a step reads the device once (its
+// status), and only a step that breaks links or rebuilds the contact lists reads more.
+TEST(CudaEmulation, AStepReadsTheDeviceOnceUnlessItBreaksLinksOrRebuildsContacts) {
+  for (SceneDef scene : {io::load_default_scene(), three_balls()}) {
+    scene.solver.backend = SolverDef::Backend::cuda_emulation;
+    Engine e(scene);
+    const auto* dev = dynamic_cast<const gpu::DeviceBackend<gpu::HostDevice>*>(&e.backend());
+    ASSERT_NE(dev, nullptr);
+    int once = 0, more = 0;
+    for (int s = 0; s < 4000; ++s) {
+      const std::size_t reads = gpu::HostDevice::reads, rebuilds = dev->contact_rebuilds();
+      const std::int64_t broken = e.backend().broken_links();
+      ASSERT_EQ(e.backend().step(1).flags, kHealthy);
+      if (dev->contact_rebuilds() == rebuilds && e.backend().broken_links() == broken) {
+        ASSERT_EQ(gpu::HostDevice::reads - reads, 1u) << scene.name << ", step " << s;
+        ++once;
+      } else {
+        ++more;
+      }
+    }
+    std::printf("%s: %d steps read the device once, %d broke links or rebuilt the contact lists\n", scene.name.c_str(),
+                once, more);
+    EXPECT_GT(once, 2000);
+    EXPECT_GT(more, 0);
+  }
 }
 
 // --- On a GPU (skipped, with the reason, without one: scripts/gpu_check.sh runs them on a GPU machine) ---

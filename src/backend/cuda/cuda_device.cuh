@@ -1,16 +1,15 @@
 #pragma once
 // The CUDA device for DeviceBackend (device_backend.hpp): device arrays, kernel launches as grids of one
-// thread per element, and the device-wide primitives from Thrust (CUDA toolkit) with the results of their
-// host twins in host_device.hpp (integer scans and stable sorts, the max and min of values: none depends on
-// the order of evaluation). Compiled by nvcc with --fmad=false (no fused multiply-add, IEEE division and
-// square root), so a thread computes the CPU's bits.
+// thread per element, and the device-wide primitives from CUB (CUDA toolkit) with the results of their
+// host twins in host_device.hpp (integer scans and stable radix sorts, the max and min of values: none
+// depends on the order of evaluation). Everything goes on the default stream in order; the primitives
+// leave their results on the device and keep their scratch memory between calls, so only download waits
+// for the device. Compiled by nvcc with --fmad=false (no fused multiply-add, IEEE division and square
+// root), so a thread computes the CPU's bits.
+#include <cub/device/device_radix_sort.cuh>
+#include <cub/device/device_reduce.cuh>
+#include <cub/device/device_scan.cuh>
 #include <cuda_runtime.h>
-#include <thrust/execution_policy.h>
-#include <thrust/functional.h>
-#include <thrust/reduce.h>
-#include <thrust/scan.h>
-#include <thrust/sort.h>
-#include <thrust/transform_reduce.h>
 
 #include <cstddef>
 #include <cstdint>
@@ -38,12 +37,14 @@ __global__ void fill_kernel(T* p, std::size_t n, T value) {
   if (i < n) p[i] = value;
 }
 
-// x where x > 0, else 0 (NaN included): the host twin's max ignores NaN the same way.
-struct NonNegative {
-  __host__ __device__ float operator()(float x) const { return x > 0.0f ? x : 0.0f; }
-};
+// The larger of a and b, each taken as 0 where not > 0 (NaN included), as the host twin's max: the same
+// result in any order of evaluation.
 struct Larger {
-  __host__ __device__ float operator()(float a, float b) const { return a > b ? a : b; }
+  __host__ __device__ float operator()(float a, float b) const {
+    a = a > 0.0f ? a : 0.0f;
+    b = b > 0.0f ? b : 0.0f;
+    return a > b ? a : b;
+  }
 };
 struct Smaller {
   __host__ __device__ std::uint32_t operator()(std::uint32_t a, std::uint32_t b) const { return a < b ? a : b; }
@@ -111,9 +112,10 @@ struct CudaDevice {
     fill_kernel<<<static_cast<unsigned>((n + kBlock - 1) / kBlock), kBlock>>>(b.data(), n, value);
     cuda_check(cudaGetLastError(), "fill");
   }
+  // p[0 .. n - 1] = 0.
   template <class T>
-  static void copy(Buffer<T>& to, const Buffer<T>& from, std::size_t n) {
-    if (n) cuda_check(cudaMemcpy(to.data(), from.data(), n * sizeof(T), cudaMemcpyDeviceToDevice), "copy");
+  static void clear(T* p, std::size_t n) {
+    if (n) cuda_check(cudaMemsetAsync(p, 0, n * sizeof(T)), "clear");
   }
 
   template <class K>
@@ -123,23 +125,65 @@ struct CudaDevice {
     cuda_check(cudaGetLastError(), "kernel launch");
   }
 
-  static std::uint32_t exclusive_scan(const std::uint32_t* in, std::uint32_t* out, std::size_t n) {
-    if (n == 0) return 0;
-    std::uint32_t last_in = 0;
-    cuda_check(cudaMemcpy(&last_in, in + n - 1, sizeof last_in, cudaMemcpyDeviceToHost), "scan");
-    thrust::exclusive_scan(thrust::device, in, in + n, out);
-    std::uint32_t last_out = 0;
-    cuda_check(cudaMemcpy(&last_out, out + n - 1, sizeof last_out, cudaMemcpyDeviceToHost), "scan");
-    return last_out + last_in;
+  // out[k] = in[0] + ... + in[k - 1] for k = 0 .. n (out[n]: the total); in and out are different arrays.
+  static void exclusive_scan(const std::uint32_t* in, std::uint32_t* out, std::size_t n) {
+    cuda_check(cudaMemsetAsync(out, 0, sizeof(std::uint32_t)), "scan");
+    if (n == 0) return;
+    std::size_t bytes = 0;
+    cuda_check(cub::DeviceScan::InclusiveSum(nullptr, bytes, in, out + 1, n), "scan");
+    cuda_check(cub::DeviceScan::InclusiveSum(scratch(bytes), bytes, in, out + 1, n), "scan");
   }
-  static void stable_sort_by_key(std::uint64_t* keys, std::uint32_t* values, std::size_t n) {
-    if (n) thrust::stable_sort_by_key(thrust::device, keys, keys + n, values);
+  // A stable radix sort of (keys, values) by the key's low key_bits bits (every key is below 2^key_bits).
+  template <class Key>
+  static void stable_sort_by_key(Key* keys, std::uint32_t* values, std::size_t n, int key_bits) {
+    if (n == 0) return;
+    Sorted& o = sorted();
+    o.keys.resize(n * sizeof(Key));
+    o.values.resize(n);
+    Key* keys_out = reinterpret_cast<Key*>(o.keys.data());
+    std::size_t bytes = 0;
+    cuda_check(cub::DeviceRadixSort::SortPairs(nullptr, bytes, keys, keys_out, values, o.values.data(), n, 0, key_bits),
+               "sort");
+    cuda_check(cub::DeviceRadixSort::SortPairs(scratch(bytes), bytes, keys, keys_out, values, o.values.data(), n, 0, key_bits),
+               "sort");
+    cuda_check(cudaMemcpyAsync(keys, keys_out, n * sizeof(Key), cudaMemcpyDeviceToDevice), "sort");
+    cuda_check(cudaMemcpyAsync(values, o.values.data(), n * sizeof(std::uint32_t), cudaMemcpyDeviceToDevice), "sort");
   }
-  static float max_of(const float* x, std::size_t n) {
-    return n ? thrust::transform_reduce(thrust::device, x, x + n, NonNegative{}, 0.0f, Larger{}) : 0.0f;
+  // *to = the largest of n floats, each taken as 0 where not > 0 (0 for none).
+  static void max_into(const float* x, std::size_t n, float* to) {
+    if (n == 0) {
+      cuda_check(cudaMemsetAsync(to, 0, sizeof(float)), "max");
+      return;
+    }
+    std::size_t bytes = 0;
+    cuda_check(cub::DeviceReduce::Reduce(nullptr, bytes, x, to, n, Larger{}, 0.0f), "max");
+    cuda_check(cub::DeviceReduce::Reduce(scratch(bytes), bytes, x, to, n, Larger{}, 0.0f), "max");
   }
-  static std::uint32_t min_of(const std::uint32_t* x, std::size_t n) {
-    return n ? thrust::reduce(thrust::device, x, x + n, std::uint32_t{0xffffffffu}, Smaller{}) : 0xffffffffu;
+  // *to = the smallest of n values (UINT32_MAX for none).
+  static void min_into(const std::uint32_t* x, std::size_t n, std::uint32_t* to) {
+    if (n == 0) {
+      cuda_check(cudaMemsetAsync(to, 0xff, sizeof(std::uint32_t)), "min");
+      return;
+    }
+    std::size_t bytes = 0;
+    cuda_check(cub::DeviceReduce::Reduce(nullptr, bytes, x, to, n, Smaller{}, std::uint32_t{0xffffffffu}), "min");
+    cuda_check(cub::DeviceReduce::Reduce(scratch(bytes), bytes, x, to, n, Smaller{}, std::uint32_t{0xffffffffu}), "min");
+  }
+
+ private:
+  // The primitives' scratch memory and the sort's output, per host thread, grown as needed and kept.
+  struct Sorted {
+    Buffer<unsigned char> keys;
+    Buffer<std::uint32_t> values;
+  };
+  static Sorted& sorted() {
+    static thread_local Sorted s;
+    return s;
+  }
+  static void* scratch(std::size_t bytes) {
+    static thread_local Buffer<unsigned char> b;
+    b.resize(bytes ? bytes : 1);
+    return b.data();
   }
 };
 

@@ -4,11 +4,14 @@
 // DeviceBackend<CudaDevice> runs on a GPU (cuda_device.cuh), DeviceBackend<HostDevice> is its host
 // emulation (host_device.hpp), which tests every line of this logic on a machine without a GPU.
 //
-// The host keeps only scalars during a run (the list sizes, the step, the breaks' records); it reads per
-// step the largest move since the contact rebuild, the first value not finite and the number of breaks,
-// and, on a step with breaks, their slots (to record them and to add their pairs to the contact lists).
-// The whole state comes back only when asked for (state(), download()).
+// The host keeps only scalars during a run (the list sizes, the step, the breaks' records). It reads the
+// device once a step: the step's status (StepStatus: the largest move since the contact rebuild, the
+// first value not finite, the number of breaks, the sizes of the projectiles' next lists). Only a step
+// with breaks reads more (their slots, to record them and to add their pairs to the contact lists), and
+// a step that rebuilds the contact lists (their sizes). The whole state comes back only when asked for
+// (state(), download()).
 #include <algorithm>
+#include <cstddef>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -110,12 +113,14 @@ class DeviceBackend : public StateBackend {
     Dev::upload(proj_material_, pm);
     Dev::upload(proj_zeta_, pz);
     Dev::upload(zeta_projectiles_, m.zeta_projectiles);
-    proj_lists_.resize(np);
-    proj_next_.resize(np);
-    proj_count_.assign(np, 0);
     fsum_.resize(np);
     tsum_.resize(np);
-    scalar_.resize(2);
+    segment_.resize(np + 1);
+    proj_start_.resize(np + 1);
+    proj_start_next_.resize(np + 1);
+    touch_count_.resize(n);
+    touch_offset_.resize(n + 1);
+    status_.resize(1);
     // State and scratch.
     for (auto* b : {&px_, &py_, &pz_, &vx_, &vy_, &vz_, &wx_, &wy_, &wz_}) b->resize(n);
     for (auto* b : {&qw_, &qx_, &qy_, &qz_}) b->resize(n);
@@ -136,10 +141,9 @@ class DeviceBackend : public StateBackend {
     lost_.resize(n);
     move2_.resize(n);
     bad_.resize(n);
-    codes_.resize(L);
-    flag_.resize(std::max(n, L) + 1);
-    place_.resize(std::max(n, L) + 1);
-    list_.resize(std::max(n, L) + 1);
+    breaks_.resize(L);
+    flag_.resize(n + 1);
+    place_.resize(n + 1);
     mean_stress_.resize(n);
     stress_.resize(n);
     f_out_.resize(n);
@@ -150,6 +154,8 @@ class DeviceBackend : public StateBackend {
   }
 
   std::string name() const override { return Dev::kName; }
+  // How many times the contact lists were rebuilt (tests: what a step reads from the device).
+  std::size_t contact_rebuilds() const { return rebuilds_; }
 
   void upload(State s) override {
     S_ = std::move(s);
@@ -196,13 +202,17 @@ class DeviceBackend : public StateBackend {
     ground_count_ = S_.ground_contacts.size();
     const std::size_t np = S_.projectiles.size();
     std::vector<DeviceProjectile> dp(np);
+    std::vector<BodyContact> lists;
+    std::vector<std::uint32_t> start{0};
     for (std::size_t p = 0; p < np; ++p) {
       const ProjectileState& ps = S_.projectiles[p];
       dp[p] = {ps.position, ps.velocity, ps.angular_velocity, ps.orientation, ps.force, ps.ground, ps.work};
-      Dev::upload(proj_lists_[p], ps.contacts);
-      proj_count_[p] = ps.contacts.size();
+      lists.insert(lists.end(), ps.contacts.begin(), ps.contacts.end());
+      start.push_back(static_cast<std::uint32_t>(lists.size()));
     }
     Dev::upload(proj_, dp);
+    Dev::upload(proj_lists_, lists);
+    if (np) Dev::upload(proj_start_, start);
     pair_count_ = S_.projectile_contacts.size();
     Dev::upload(proj_pairs_, S_.projectile_contacts);
     Dev::upload(grip_work_, S_.grip_work);
@@ -222,6 +232,12 @@ class DeviceBackend : public StateBackend {
       Dev::upload(ref_, ref);
       incidence();
     }
+    // What the first step's projectile pass needs: the candidates and the pairs touching now.
+    StepStatus st;
+    st.pair_count = static_cast<std::uint32_t>(pair_count_);
+    Dev::upload(status_, &st, 1);
+    end_of_step();
+    read_status();
   }
 
  protected:
@@ -419,17 +435,54 @@ class DeviceBackend : public StateBackend {
   External external() { return {d(ext_f_), d(ext_t_), d(ext_s_), d(has_ext_)}; }
   GroundReach ground_reach() { return {c(px_), c(py_), c(pz_), c(radius_), M_.up, M_.ground_height, M_.skin}; }
 
-  // Indices k < n with flag[k] set, in order, into out; returns their number.
-  std::uint32_t compact(const std::uint32_t* flag, std::size_t n, std::uint32_t* out, const std::uint32_t* value = nullptr) {
-    const std::uint32_t total = Dev::exclusive_scan(flag, d(place_), n);
-    Dev::launch(n, CompactKernel{flag, c(place_), value, out});
+  // The exclusive scan of in[0 .. n - 1] into out[0 .. n], and its total, read from the device.
+  std::uint32_t scan_total(const std::uint32_t* in, Buf<std::uint32_t>& out, std::size_t n) {
+    Dev::exclusive_scan(in, d(out), n);
+    std::uint32_t total = 0;
+    Dev::download(&total, out, 1, n);
     return total;
+  }
+  // Indices k < n with flag[k] set, in order, into out; returns their number.
+  std::uint32_t compact(const std::uint32_t* flag, std::size_t n, std::uint32_t* out) {
+    const std::uint32_t total = scan_total(flag, place_, n);
+    Dev::launch(n, CompactKernel{flag, c(place_), out});
+    return total;
+  }
+  // A field of the status on the device.
+  template <class T>
+  T* status_field(std::size_t offset) {
+    return reinterpret_cast<T*>(reinterpret_cast<unsigned char*>(d(status_)) + offset);
+  }
+  Touch touch() {
+    return {c(proj_), c(proj_constants_), static_cast<std::uint32_t>(M_.projectiles.size()), c(px_), c(py_), c(pz_),
+            c(radius_)};
+  }
+  LinkEnds link_ends() { return {M_.size(), M_.lattice_slots(), c(neighbour_), c(e_i_), c(e_j_)}; }
+  BreakList break_list() { return {d(breaks_), status_field<std::uint32_t>(offsetof(StepStatus, breaks))}; }
+  // The sound-link counts less the links lost (lost_); *largest: the largest move since the rebuild of an
+  // automaton among them that was boxed in.
+  void lose_links(float* largest) {
+    const std::size_t n = M_.size();
+    Dev::launch(n, LoseLinksKernel{d(lost_), d(intact_count_), c(px_), c(py_), c(pz_), c(ref_), d(move2_)});
+    Dev::max_into(c(move2_), n, largest);
+  }
+  // The bits of the values 0 .. largest.
+  static int bits_for(std::size_t largest) {
+    int b = 1;
+    while (b < 64 && (largest >> b)) ++b;
+    return b;
+  }
+  ProjectilePairs projectile_pairs() {
+    return {c(proj_constants_), static_cast<std::uint32_t>(M_.projectiles.size()), c(contact_), M_.groups.size(),
+            c(zeta_projectiles_)};
   }
 
   void explicit_pass(const cpu::LatticeView& v);
   void contact_pass();
   void projectile_pass();
-  float apply_breaks();
+  void end_of_step();
+  void read_status();
+  float apply_breaks(std::uint32_t nb);
   void rebuild_contacts();
   void incidence();
   void sync();
@@ -469,7 +522,10 @@ class DeviceBackend : public StateBackend {
   // Scratch.
   Buf<float> nx_, ny_, nz_, many_body_, out_, ex_nx_, ex_ny_, ex_nz_, ex_eps_, ex_out_, ex_kappa_, explicit_weight_,
       bend_weight_, move2_;
-  Buf<std::uint32_t> lost_, bad_, codes_, flag_, place_, list_;
+  Buf<std::uint32_t> lost_, bad_, breaks_, flag_, place_;
+  Buf<StepStatus> status_;
+  StepStatus status_h_;  // the last status read
+  std::size_t rebuilds_ = 0;
   // Contact lists (sizes on the host), and the incidence list: (automaton, 2 p + side) sorted, with the
   // start of each automaton's run.
   Buf<ContactPair> contacts_, contacts_next_, fresh_;
@@ -489,15 +545,19 @@ class DeviceBackend : public StateBackend {
   Buf<float> proj_zeta_;
   Buf<float> zeta_projectiles_;
   Buf<DeviceProjectile> proj_;
-  std::vector<Buf<BodyContact>> proj_lists_, proj_next_;
-  std::vector<std::size_t> proj_count_;
+  // The projectiles' contact lists, one after another (projectile p's from proj_start_[p]).
+  Buf<BodyContact> proj_lists_, proj_lists_next_;
+  Buf<std::uint32_t> proj_start_, proj_start_next_;
+  // The candidates: touching counts per automaton and their scan, the (automaton, projectile) entries, the
+  // projectile order (keys, order, where), each one's contact and whether it is kept, and each projectile's
+  // first candidate.
+  Buf<std::uint32_t> touch_count_, touch_offset_, cand_a_, cand_p_, cand_key_, cand_order_, cand_where_, cand_keep_,
+      cand_place_, segment_;
   Buf<BodyContact> cand_next_;
   Buf<ContactOut> cand_out_;
-  Buf<std::uint32_t> cand_keep_;
   Buf<Vec3> fsum_, tsum_;
   Buf<ProjectilePair> proj_pairs_, proj_pairs_next_;
   std::size_t pair_count_ = 0;
-  Buf<std::uint32_t> scalar_;  // [0]: the projectile pairs' count, [1]: the first projectile not finite
   // Contact search.
   Buf<std::uint32_t> exposed_, grid_value_, bucket_begin_, bucket_end_, cand_count_, raw_offset_, raw_;
   Buf<std::uint64_t> grid_key_;
@@ -509,28 +569,58 @@ template <class Dev>
 std::int64_t DeviceBackend<Dev>::one_step() {
   const cpu::LatticeView v = view();
   const std::size_t n = M_.size(), ne = M_.explicit_links.size();
+  Dev::clear(status_field<std::uint32_t>(offsetof(StepStatus, breaks)), 2);  // breaks, touches
   if (ne) explicit_pass(v);
   contact_pass();
   projectile_pass();
-  std::uint32_t bad_projectile = kNone;
-  if (!M_.projectiles.empty()) Dev::download(&bad_projectile, scalar_, 1, 1);
-  // The lattice: many-body terms, links (their breaks in codes_, by slot), automata.
+  // The lattice: many-body terms, links (their breaks into the list), automata.
   Dev::launch(n, ManyBodyKernel{v});
-  Dev::launch(M_.lattice_slots(), LinksKernel{v, d(codes_)});
+  Dev::launch(M_.lattice_slots(), LinksKernel{v, break_list()});
   Dev::launch(n, AutomataKernel{v, d(move2_), d(bad_)});
   if (!M_.grip_velocity.empty())
     Dev::launch(M_.grip_velocity.size(), GripKernel{c(grip_first_), c(grip_members_), d(ext_f_), d(grip_force_),
                                                     d(grip_work_), c(grip_velocity_), M_.dt});
-  float max_move2 = Dev::max_of(c(move2_), n);
-  const std::uint32_t bad = Dev::min_of(c(bad_), n);
-  max_move2 = std::max(max_move2, apply_breaks());
+  Dev::max_into(c(move2_), n, status_field<float>(offsetof(StepStatus, move2)));
+  Dev::min_into(c(bad_), n, status_field<std::uint32_t>(offsetof(StepStatus, bad)));
+  const LinkEnds ends = link_ends();
+  if (softening_) {
+    // Links damaged this step leave their ends' counts of sound links. (Before this step's breaks are
+    // applied, where the CPU does it after: a link counts once either way, the one that comes first marking
+    // it unsound, and the counts and largest move come out the same.)
+    Dev::launch(M_.link_slots(), ExposeDamagedKernel{ends, c(damage_), d(unsound_), d(lost_)});
+    lose_links(status_field<float>(offsetof(StepStatus, move2_lost)));
+  }
+  end_of_step();
+  read_status();  // the one read of a step without breaks
+  const StepStatus st = status_h_;
+  float max_move2 = std::max(st.move2, softening_ ? st.move2_lost : 0.0f);
+  if (st.breaks) max_move2 = std::max(max_move2, apply_breaks(st.breaks));
   ++S_.step;
   S_.time = clock_.time(S_.step, M_.dt);
   // Verlet-style list: rebuild once any automaton has moved half the skin since the last rebuild.
   const float half = 0.5f * M_.skin;
   if (max_move2 > half * half) rebuild_contacts();
-  if (bad != kNone) return bad;
-  return bad_projectile != kNone ? -2 - static_cast<std::int64_t>(bad_projectile) : kAllFinite;
+  if (st.bad != kNone) return st.bad;
+  return !M_.projectiles.empty() && st.bad_projectile != kNone ? -2 - static_cast<std::int64_t>(st.bad_projectile)
+                                                                : kAllFinite;
+}
+
+// What the next step's projectile pass needs from this step's positions: the candidates counted (the
+// status's touches) and the projectile pairs touching.
+template <class Dev>
+void DeviceBackend<Dev>::end_of_step() {
+  const std::size_t np = M_.projectiles.size();
+  if (np == 0) return;
+  Dev::launch(M_.size(), TouchCountKernel{touch(), d(touch_count_), status_field<std::uint32_t>(offsetof(StepStatus, touches))});
+  if (np > 1)
+    Dev::launch(1, ProjectilePairCountKernel{c(proj_), projectile_pairs(),
+                                             status_field<std::uint32_t>(offsetof(StepStatus, touching_pairs))});
+}
+
+template <class Dev>
+void DeviceBackend<Dev>::read_status() {
+  Dev::download(&status_h_, status_, 1);
+  pair_count_ = M_.projectiles.empty() ? 0 : status_h_.pair_count;
 }
 
 template <class Dev>
@@ -540,7 +630,7 @@ void DeviceBackend<Dev>::explicit_pass(const cpu::LatticeView& v) {
   Dev::launch(ne, ExplicitGeometryKernel{v, ev});
   const ExplicitPassView pv = explicit_pass_view();
   Dev::launch(na, ExplicitWeightKernel{pv, c(explicit_automata_), d(explicit_weight_), d(bend_weight_)});
-  Dev::launch(ne, ExplicitLinksKernel{v, ev, d(codes_) + M_.lattice_slots()});
+  Dev::launch(ne, ExplicitLinksKernel{v, ev, break_list()});
   Dev::launch(na, ExplicitGatherKernel{pv, c(explicit_automata_), external(), v.last});
 }
 
@@ -555,65 +645,67 @@ void DeviceBackend<Dev>::contact_pass() {
   if (ground_count_) Dev::launch(ground_count_, GroundKernel{cv, d(ground_), external()});
 }
 
+// The projectiles' pass (CpuBackend::projectile_pass): the candidates the last step's end counted (the
+// status's touches), in projectile order, each one's contact; the kept ones make the new lists and add to
+// their automata in projectile order; each projectile sums its contacts in list order; one thread does the
+// pairs and the motion.
 template <class Dev>
 void DeviceBackend<Dev>::projectile_pass() {
   const std::size_t np = M_.projectiles.size(), n = M_.size();
   if (np == 0) return;
-  const ContactPassView cv = contact_pass_view();
-  const std::size_t G = M_.groups.size();
-  for (std::size_t p = 0; p < np; ++p) {
-    const ProjectileConstants& P = proj_constants_host_[p];
-    const std::uint32_t pp = static_cast<std::uint32_t>(p);
-    Dev::launch(n, TouchKernel{c(proj_), pp, P.radius, c(px_), c(py_), c(pz_), c(radius_), d(flag_)});
-    const std::uint32_t nc = compact(c(flag_), n, d(list_));
-    if (cand_next_.size() < nc) {
-      cand_next_.resize(nc);
-      cand_out_.resize(nc);
-      cand_keep_.resize(nc + 1);
+  const std::uint32_t T = status_h_.touches;
+  for (auto* b : {&cand_a_, &cand_p_, &cand_keep_}) b->resize(T);
+  cand_place_.resize(T + 1);
+  cand_next_.resize(T);
+  cand_out_.resize(T);
+  Candidates cand{c(cand_a_), c(cand_p_), nullptr, nullptr, T};
+  if (T) {
+    Dev::exclusive_scan(c(touch_count_), d(touch_offset_), n);
+    Dev::launch(n, TouchWriteKernel{touch(), c(touch_offset_), d(cand_a_), d(cand_p_)});
+    if (np > 1) {
+      for (auto* b : {&cand_key_, &cand_order_, &cand_where_}) b->resize(T);
+      Dev::launch(T, OrderKeysKernel{c(cand_p_), d(cand_key_), d(cand_order_)});
+      Dev::stable_sort_by_key(d(cand_key_), d(cand_order_), T, bits_for(np - 1));
+      Dev::launch(T, InvertKernel{c(cand_order_), d(cand_where_)});
+      cand.order = c(cand_order_);
+      cand.key = c(cand_key_);
     }
-    Dev::launch(nc, ProjectileContactKernel{c(proj_), pp, P, c(list_), c(proj_lists_[p]),
-                                            static_cast<std::uint32_t>(proj_count_[p]), cv, c(proj_material_) + p * G,
-                                            c(proj_zeta_) + p * G, d(cand_next_), d(cand_out_), d(cand_keep_)});
-    const std::uint32_t kept = Dev::exclusive_scan(c(cand_keep_), d(place_), nc);
-    if (proj_next_[p].size() < kept) proj_next_[p].resize(kept);
-    Dev::launch(nc, ProjectileCommitKernel{c(cand_keep_), c(place_), c(cand_next_), c(cand_out_), d(proj_next_[p]),
-                                           external()});
-    std::swap(proj_lists_[p], proj_next_[p]);
-    proj_count_[p] = kept;
-    Dev::launch(1, ProjectileSumKernel{d(proj_), pp, P, c(cand_keep_), c(cand_out_), nc, d(fsum_), d(tsum_), M_.ground,
-                                       M_.up, M_.ground_height, M_.dt});
   }
-  const ProjectilePairs pairs{c(proj_constants_), static_cast<std::uint32_t>(np), c(contact_), M_.groups.size(),
-                              c(zeta_projectiles_)};
-  if (np > 1) {
-    // The next pair list's size first: a list sized for every pair would grow with np^2.
-    Dev::launch(1, ProjectilePairCountKernel{c(proj_), pairs, d(scalar_)});
-    std::uint32_t touching = 0;
-    Dev::download(&touching, scalar_, 1);
-    if (proj_pairs_next_.size() < touching) proj_pairs_next_.resize(2 * static_cast<std::size_t>(touching));
-  }
-  Dev::launch(1, ProjectileMotionKernel{d(proj_), pairs, c(proj_pairs_), static_cast<std::uint32_t>(pair_count_),
-                                        d(proj_pairs_next_),
-                                        d(scalar_), d(fsum_), d(tsum_), M_.gravity, M_.dt, d(scalar_) + 1});
+  const ContactPassView cv = contact_pass_view();
+  Dev::launch(T, ProjectileContactKernel{c(proj_), c(proj_constants_), cand, c(proj_lists_), c(proj_start_), cv,
+                                         c(proj_material_), c(proj_zeta_), M_.groups.size(), d(cand_next_), d(cand_out_),
+                                         d(cand_keep_)});
+  Dev::exclusive_scan(c(cand_keep_), d(cand_place_), T);
+  proj_lists_next_.resize(T);
+  Dev::launch(T, ProjectileCommitKernel{c(cand_keep_), c(cand_place_), c(cand_next_), d(proj_lists_next_)});
+  Dev::launch(np + 1, ProjectileSegmentKernel{cand, c(cand_place_), d(segment_), d(proj_start_next_)});
+  Dev::launch(T, ProjectileExternalKernel{cand, np > 1 ? c(cand_where_) : nullptr, c(cand_keep_), c(cand_out_), external()});
+  std::swap(proj_lists_, proj_lists_next_);
+  std::swap(proj_start_, proj_start_next_);
+  Dev::launch(np, ProjectileSumKernel{d(proj_), c(proj_constants_), c(segment_), c(cand_keep_), c(cand_out_), d(fsum_),
+                                      d(tsum_), M_.ground, M_.up, M_.ground_height, M_.dt});
+  // The pairs: the next list holds at most the pairs the last step's end found touching.
+  if (proj_pairs_next_.size() < status_h_.touching_pairs) proj_pairs_next_.resize(2 * std::size_t{status_h_.touching_pairs});
+  Dev::launch(1, ProjectileMotionKernel{d(proj_), projectile_pairs(), c(proj_pairs_), static_cast<std::uint32_t>(pair_count_),
+                                        d(proj_pairs_next_), status_field<std::uint32_t>(offsetof(StepStatus, pair_count)),
+                                        d(fsum_), d(tsum_), M_.gravity, M_.dt,
+                                        status_field<std::uint32_t>(offsetof(StepStatus, bad_projectile))});
   std::swap(proj_pairs_, proj_pairs_next_);
-  std::uint32_t count = 0;
-  Dev::download(&count, scalar_, 1);
-  pair_count_ = count;
 }
 
-// The breaks of this step in slot order (codes_), applied at its end (CpuBackend::apply_breaks): returns
-// the largest move since the rebuild of an automaton that was boxed in and lost a link.
+// The step's nb breaks (the break list, in no order), applied at its end in slot order
+// (CpuBackend::apply_breaks): returns the largest move since the rebuild of an automaton that was boxed in
+// and lost a link.
 template <class Dev>
-float DeviceBackend<Dev>::apply_breaks() {
-  const std::size_t n = M_.size(), L = M_.link_slots();
-  Dev::launch(L, FlagCodesKernel{c(codes_), d(flag_)});
-  const std::uint32_t nb = compact(c(flag_), L, d(list_), c(codes_));
-  const LinkEnds ends{n, M_.lattice_slots(), c(neighbour_), c(e_i_), c(e_j_)};
-  if (nb) {
+float DeviceBackend<Dev>::apply_breaks(std::uint32_t nb) {
+  const LinkEnds ends = link_ends();
+  {
     std::vector<std::uint32_t> codes(nb);
-    Dev::download(codes.data(), list_, nb);
-    Dev::launch(nb, BreakKernel{c(list_), ends, d(intact_), softening_ ? d(unsound_) : nullptr, d(utx_), d(uty_), d(utz_),
+    Dev::download(codes.data(), breaks_, nb);
+    Dev::launch(nb, BreakKernel{c(breaks_), ends, d(intact_), softening_ ? d(unsound_) : nullptr, d(utx_), d(uty_), d(utz_),
                                 d(ex_mx_), d(ex_my_), d(ex_mz_), d(lost_)});
+    std::sort(codes.begin(), codes.end(),
+              [](std::uint32_t a, std::uint32_t b) { return (a & ~cpu::kBreakByStress) < (b & ~cpu::kBreakByStress); });
     std::vector<ContactPair> fresh;
     std::vector<std::uint32_t> both;
     for (const std::uint32_t code : codes) {
@@ -669,10 +761,10 @@ float DeviceBackend<Dev>::apply_breaks() {
     }
     incidence();
   }
-  if (softening_) Dev::launch(L, ExposeDamagedKernel{ends, c(damage_), d(unsound_), d(lost_)});
-  if (!nb && !softening_) return 0.0f;
-  Dev::launch(n, LoseLinksKernel{d(lost_), d(intact_count_), c(px_), c(py_), c(pz_), c(ref_), d(move2_)});
-  return Dev::max_of(c(move2_), n);
+  lose_links(status_field<float>(offsetof(StepStatus, move2_lost)));
+  StepStatus st;
+  Dev::download(&st, status_, 1);
+  return st.move2_lost;
 }
 
 // The contact lists from the exposed automata (CpuBackend::rebuild_contacts): a hashed grid of them sorted
@@ -681,6 +773,7 @@ float DeviceBackend<Dev>::apply_breaks() {
 template <class Dev>
 void DeviceBackend<Dev>::rebuild_contacts() {
   const std::size_t n = M_.size();
+  ++rebuilds_;
   Dev::launch(n, ExposedFlagKernel{c(intact_count_), d(flag_)});
   if (exposed_.size() < n + 1) exposed_.resize(n + 1);
   const std::uint32_t nx = compact(c(flag_), n, d(exposed_));
@@ -692,7 +785,7 @@ void DeviceBackend<Dev>::rebuild_contacts() {
   grid_key_.resize(nx);
   grid_value_.resize(nx);
   Dev::launch(nx, GridKeysKernel{grid, c(exposed_), c(px_), c(py_), c(pz_), d(grid_key_), d(grid_value_)});
-  Dev::stable_sort_by_key(d(grid_key_), d(grid_value_), nx);
+  Dev::stable_sort_by_key(d(grid_key_), d(grid_value_), nx, bits_for(buckets - 1));
   bucket_begin_.resize(buckets);
   bucket_end_.resize(buckets);
   Dev::fill(bucket_begin_, 0u);
@@ -705,12 +798,12 @@ void DeviceBackend<Dev>::rebuild_contacts() {
   raw_offset_.resize(nx + 1);
   k.count = d(cand_count_);
   Dev::launch(nx, k);
-  const std::uint32_t raw = Dev::exclusive_scan(c(cand_count_), d(raw_offset_), nx);
+  const std::uint32_t raw = scan_total(c(cand_count_), raw_offset_, nx);
   raw_.resize(raw);
   k.offset = c(raw_offset_);
   k.out = d(raw_);
   Dev::launch(nx, k);
-  const std::uint32_t total = Dev::exclusive_scan(c(cand_count_), d(place_), nx);
+  const std::uint32_t total = scan_total(c(cand_count_), place_, nx);
   contacts_next_.resize(total);
   Dev::launch(nx, WritePairsKernel{c(exposed_), c(raw_), c(raw_offset_), c(cand_count_), c(place_), c(contacts_),
                                    static_cast<std::uint32_t>(contact_count_), d(contacts_next_)});
@@ -718,7 +811,7 @@ void DeviceBackend<Dev>::rebuild_contacts() {
   contact_count_ = total;
   if (M_.ground) {
     Dev::launch(nx, NearGroundFlagKernel{ground_reach(), c(exposed_), d(flag_)});
-    const std::uint32_t ng = Dev::exclusive_scan(c(flag_), d(place_), nx);
+    const std::uint32_t ng = scan_total(c(flag_), place_, nx);
     ground_next_.resize(ng);
     Dev::launch(nx, WriteGroundKernel{c(exposed_), c(flag_), c(place_), c(ground_), static_cast<std::uint32_t>(ground_count_),
                                       d(ground_next_)});
@@ -738,13 +831,13 @@ void DeviceBackend<Dev>::incidence() {
   inc_key_.resize(e);
   inc_value_.resize(e);
   Dev::launch(contact_count_, IncidenceKeysKernel{c(contacts_), d(inc_key_), d(inc_value_)});
-  Dev::stable_sort_by_key(d(inc_key_), d(inc_value_), e);
+  Dev::stable_sort_by_key(d(inc_key_), d(inc_value_), e, bits_for(M_.size() - 1));
   if (flag_.size() < e + 1) {
     flag_.resize(e + 1);
     place_.resize(e + 1);
   }
   Dev::launch(e, RunStartKernel{c(inc_key_), d(flag_)});
-  inc_runs_ = Dev::exclusive_scan(c(flag_), d(place_), e);
+  inc_runs_ = scan_total(c(flag_), place_, e);
   inc_start_.resize(inc_runs_ + 1);
   Dev::launch(e, RunScatterKernel{c(flag_), c(place_), d(inc_start_), e});
 }
@@ -794,8 +887,15 @@ void DeviceBackend<Dev>::sync() {
     ps.force = dp[p].force;
     ps.ground = dp[p].ground;
     ps.work = dp[p].work;
-    ps.contacts.resize(proj_count_[p]);
-    Dev::download(ps.contacts.data(), proj_lists_[p], proj_count_[p]);
+  }
+  if (np) {
+    std::vector<std::uint32_t> start(np + 1);
+    Dev::download(start.data(), proj_start_, np + 1);
+    for (std::size_t p = 0; p < np; ++p) {
+      std::vector<BodyContact>& list = S_.projectiles[p].contacts;
+      list.resize(start[p + 1] - start[p]);
+      Dev::download(list.data(), proj_lists_, list.size(), start[p]);
+    }
   }
   S_.projectile_contacts.resize(pair_count_);
   Dev::download(S_.projectile_contacts.data(), proj_pairs_, pair_count_);

@@ -5,9 +5,10 @@
 // (lattice_kernels.inl's Block<float>, step_kernels.hpp, physics/), so it computes the same bits.
 //
 // Where the CPU adds to an automaton in list order (contacts), the automaton gathers its entries of the
-// list in that order (an incidence list); where the CPU pushes to a list in order (breaks, candidates),
-// each element writes a flag, and an exclusive scan gives its place (a stable compaction). No
-// floating-point atomics; the integer counters below give the same totals in any order.
+// list in that order (an incidence list); where the CPU pushes to a list in order (candidates, the new
+// contact lists), each element writes a count or flag, and an exclusive scan gives its place (a stable
+// compaction); breaks are appended in no order and put in slot order on the host. No floating-point
+// atomics; the integer counters below give the same totals in any order.
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -32,14 +33,39 @@ namespace mca::gpu {
 using Lane = cpu::device_lanes::Block<float>;
 inline constexpr std::uint32_t kNone = 0xffffffffu;
 
-// Adds 1 to a counter shared by threads (integers: the total does not depend on the order).
-MCA_HD void count_up(std::uint32_t* c) {
+// Adds v to a counter shared by threads and returns its value before (integers: the total does not depend
+// on the order, the value returned does).
+MCA_HD std::uint32_t count_add(std::uint32_t* c, std::uint32_t v) {
 #if defined(__CUDA_ARCH__)
-  atomicAdd(c, 1u);
+  return atomicAdd(c, v);
 #else
-  ++*c;
+  const std::uint32_t before = *c;
+  *c += v;
+  return before;
 #endif
 }
+MCA_HD void count_up(std::uint32_t* c) { count_add(c, 1u); }
+
+// The links broken in a step: their codes (slot | kBreakByStress), appended by the link kernels in no
+// order (the host puts them in slot order); a slot breaks at most once a step, so `code` holds every slot.
+struct BreakList {
+  std::uint32_t* code;
+  std::uint32_t* count;
+  MCA_HD void add(std::uint32_t c) const { code[count_add(count, 1u)] = c; }
+};
+
+// What the host reads after each step, in one copy from the device: the step's results that decide what
+// it does next (stop, apply breaks, rebuild the contact lists, size the projectiles' lists).
+struct StepStatus {
+  float move2 = 0;       // the largest squared move since the contact rebuild of an exposed automaton
+  float move2_lost = 0;  // the same of an automaton boxed in until a link was damaged (softening)
+  std::uint32_t bad = kNone;             // the first automaton with a value not finite
+  std::uint32_t bad_projectile = kNone;  // the first projectile with one
+  std::uint32_t breaks = 0;              // links broken (BreakList::count)
+  std::uint32_t touches = 0;  // (projectile, automaton) pairs touching at the step's end: the next step's candidates
+  std::uint32_t touching_pairs = 0;  // projectile pairs touching at the step's end: the next pair list's size at most
+  std::uint32_t pair_count = 0;      // the projectile pair list's size
+};
 
 // --- Explicit links ---
 struct ExplicitGeometryKernel {
@@ -58,15 +84,14 @@ struct ExplicitWeightKernel {
     if (w.shell) bend_weight[a] = w.bend_weight;
   }
 };
-// The forces and the fracture tests of explicit link k; code[k]: its break (slot | kBreakByStress) or kNone.
+// The forces and the fracture tests of explicit link k; its break (slot | kBreakByStress) into the list.
 struct ExplicitLinksKernel {
   cpu::LatticeView v;
   cpu::ExplicitView e;
-  std::uint32_t* code;
+  BreakList breaks;
   MCA_HD void operator()(std::size_t k) const {
     std::uint32_t c = kNone;
-    const std::size_t found = Lane::explicit_links(v, e, k, &c);
-    code[k] = found ? c : kNone;
+    if (Lane::explicit_links(v, e, k, &c)) breaks.add(c);
   }
 };
 
@@ -164,12 +189,11 @@ struct ManyBodyKernel {
 };
 struct LinksKernel {
   cpu::LatticeView v;
-  std::uint32_t* code;  // per lattice slot
+  BreakList breaks;
   MCA_HD void operator()(std::size_t l) const {
     const int axis = static_cast<int>(l / v.n);
     std::uint32_t c = kNone;
-    const std::size_t found = Lane::links(v, axis, l % v.n, &c);
-    code[l] = found ? c : kNone;
+    if (Lane::links(v, axis, l % v.n, &c)) breaks.add(c);
   }
 };
 struct AutomataKernel {
@@ -204,16 +228,12 @@ struct GripKernel {
 };
 
 // --- Compaction ---
-struct FlagCodesKernel {
-  const std::uint32_t* code;
-  std::uint32_t* flag;
-  MCA_HD void operator()(std::size_t k) const { flag[k] = code[k] != kNone ? 1u : 0u; }
-};
 struct CompactKernel {
-  const std::uint32_t *flag, *place, *value;  // value null: the index itself
+  const std::uint32_t* flag;
+  const std::uint32_t* place;
   std::uint32_t* out;
   MCA_HD void operator()(std::size_t k) const {
-    if (flag[k]) out[place[k]] = value ? value[k] : static_cast<std::uint32_t>(k);
+    if (flag[k]) out[place[k]] = static_cast<std::uint32_t>(k);
   }
 };
 
@@ -584,7 +604,8 @@ struct ProjectilePairs {
     return gap.overlap <= 0.0f || !gap.valid ? SphereGap{} : gap;
   }
 };
-// One thread: the number of projectile pairs in contact this step (the size of the next pair list).
+// One thread: the number of projectile pairs in contact at the end of the step (the next pair list's size
+// at most: the next step's pair pass tests the same positions).
 struct ProjectilePairCountKernel {
   const DeviceProjectile* proj;
   ProjectilePairs pairs;
@@ -596,96 +617,181 @@ struct ProjectilePairCountKernel {
     *count = c;
   }
 };
-// Automata the sphere of projectile p touches: |d|^2 < (R + r_a)^2 in float (the CPU's test).
-struct TouchKernel {
+
+// The projectiles' candidates: the automata each sphere touches, |d|^2 < (R + r_a)^2 in float (the CPU's
+// test). They are found at the end of a step (positions do not change until the next step's projectile
+// pass), counted per automaton, and written in (automaton, projectile) order at the next step's start.
+struct Touch {
   const DeviceProjectile* proj;
-  std::uint32_t p;
-  float radius;
+  const ProjectileConstants* P;
+  std::uint32_t np;
   const double *px, *py, *pz;
   const float* r;
-  std::uint32_t* flag;
-  MCA_HD void operator()(std::size_t a) const {
+  MCA_HD bool operator()(std::uint32_t p, std::size_t a) const {
     const Vec3 d = delta(proj[p].position, DVec3{px[a], py[a], pz[a]});
-    const float reach = radius + r[a];
-    flag[a] = dot(d, d) < reach * reach ? 1u : 0u;
+    const float reach = P[p].radius + r[a];
+    return dot(d, d) < reach * reach;
   }
 };
-// Candidate k of projectile p: its contact from the previous list's history; keep[k] = 1 where it stays in
-// the list (touching, or a tangential spring still loaded), and what it adds to the automaton.
+// count[a]: the projectiles touching automaton a; their total adds to *total.
+struct TouchCountKernel {
+  Touch touch;
+  std::uint32_t* count;
+  std::uint32_t* total;
+  MCA_HD void operator()(std::size_t a) const {
+    std::uint32_t c = 0;
+    for (std::uint32_t p = 0; p < touch.np; ++p) c += touch(p, a) ? 1u : 0u;
+    count[a] = c;
+    if (c) count_add(total, c);
+  }
+};
+// Automaton a's entries (a, p) of the candidates in (automaton, projectile) order, from offset[a].
+struct TouchWriteKernel {
+  Touch touch;
+  const std::uint32_t* offset;  // n + 1 entries
+  std::uint32_t *automaton, *projectile;
+  MCA_HD void operator()(std::size_t a) const {
+    std::uint32_t k = offset[a];
+    if (offset[a + 1] == k) return;
+    for (std::uint32_t p = 0; p < touch.np; ++p)
+      if (touch(p, a)) {
+        automaton[k] = static_cast<std::uint32_t>(a);
+        projectile[k++] = p;
+      }
+  }
+};
+// The candidates in (projectile, automaton) order, the CPU's: entry j is candidate order[j] (order null:
+// one projectile, the same order). key[j] is its projectile (null: 0).
+struct Candidates {
+  const std::uint32_t *automaton, *projectile, *order, *key;
+  std::uint32_t size;
+  MCA_HD std::uint32_t at(std::uint32_t j) const { return order ? order[j] : j; }
+  MCA_HD std::uint32_t projectile_of(std::uint32_t j) const { return key ? key[j] : 0u; }
+};
+// The sort's input: key[k] = the projectile of candidate k, order[k] = k; after the sort, where[order[j]] = j.
+struct OrderKeysKernel {
+  const std::uint32_t* projectile;
+  std::uint32_t *key, *order;
+  MCA_HD void operator()(std::size_t k) const {
+    key[k] = projectile[k];
+    order[k] = static_cast<std::uint32_t>(k);
+  }
+};
+struct InvertKernel {
+  const std::uint32_t* order;
+  std::uint32_t* where;
+  MCA_HD void operator()(std::size_t j) const { where[order[j]] = static_cast<std::uint32_t>(j); }
+};
+// Candidate j (in projectile order): its contact from its projectile's previous list (the lists of all
+// projectiles in one array, projectile p's from start[p]); keep[j] = 1 where it stays in the list
+// (touching, or a tangential spring still loaded), with its new history and what it adds to the automaton.
 struct ProjectileContactKernel {
   const DeviceProjectile* proj;
-  std::uint32_t p;
-  ProjectileConstants P;
-  const std::uint32_t* candidates;
+  const ProjectileConstants* P;
+  Candidates cand;
   const BodyContact* old;
-  std::uint32_t old_size;
+  const std::uint32_t* start;  // np + 1 entries
   ContactPassView cv;
-  const ContactMaterial* material;  // per group: projectile_contact(p, g)
-  const float* zeta;                // per group
-  BodyContact* next;                // per candidate
-  ContactOut* out;                  // per candidate: force on the automaton, its torque, the projectile's
+  const ContactMaterial* material;  // per projectile and group: projectile_contact(p, g)
+  const float* zeta;                // per projectile and group
+  std::size_t groups;
+  BodyContact* next;  // per candidate
+  ContactOut* out;    // per candidate: force on the automaton, its torque, the projectile's
   std::uint32_t* keep;
-  MCA_HD void operator()(std::size_t k) const {
-    const std::uint32_t a = candidates[k];
+  MCA_HD void operator()(std::size_t j) const {
+    const std::uint32_t k = cand.at(static_cast<std::uint32_t>(j)), a = cand.automaton[k], p = cand.projectile[k];
     const DeviceProjectile& ps = proj[p];
-    const std::uint32_t o = automata_before(old, old_size, a);
-    const ContactHistory prev = o < old_size && old[o].automaton == a ? old[o].h : ContactHistory{};
-    keep[k] = 0;
+    const ProjectileConstants& Pp = P[p];
+    const BodyContact* list = old + start[p];
+    const std::uint32_t size = start[p + 1] - start[p];
+    const std::uint32_t o = automata_before(list, size, a);
+    const ContactHistory prev = o < size && list[o].automaton == a ? list[o].h : ContactHistory{};
+    keep[j] = 0;
     const float ra = cv.m.radius[a];
-    const SphereGap gap = sphere_gap(cv.pos(a), ps.position, static_cast<double>(P.radius) + ra);
+    const SphereGap gap = sphere_gap(cv.pos(a), ps.position, static_cast<double>(Pp.radius) + ra);
     if (!gap.valid) return;
     const Vec3 nrm = gap.n;
-    const std::size_t g = cv.m.group[a];
-    const ContactSprings springs =
-        body_contact_springs(material[g], zeta[g], ra, P.radius, contact_reduced(cv.m.mass[a], false, P.mass, P.kinematic),
-                             contact_reduced(cv.m.inertia[a], false, P.inertia, P.kinematic));
+    const std::size_t g = static_cast<std::size_t>(p) * groups + cv.m.group[a];
+    const ContactSprings springs = body_contact_springs(
+        material[g], zeta[g], ra, Pp.radius, contact_reduced(cv.m.mass[a], false, Pp.mass, Pp.kinematic),
+        contact_reduced(cv.m.inertia[a], false, Pp.inertia, Pp.kinematic));
     const ContactResult r = contact_between(nrm, gap.overlap, cv.vel(a), cv.ang(a), ra * nrm, ps.velocity,
-                                            ps.angular_velocity, -P.radius * nrm, springs, prev.ut, prev.mr, cv.dt);
+                                            ps.angular_velocity, -Pp.radius * nrm, springs, prev.ut, prev.mr, cv.dt);
     if (r.o.fn <= 0.0f && length(r.o.ut) == 0.0f) return;
-    keep[k] = 1;
-    next[k] = {a, {r.o.ut, r.o.mr}};
-    out[k] = {r.o.force_i, r.torque_i, r.torque_j, nrm, ra, 0.0f, true};
+    keep[j] = 1;
+    next[j] = {a, {r.o.ut, r.o.mr}};
+    out[j] = {r.o.force_i, r.torque_i, r.torque_j, nrm, ra, 0.0f, true};
   }
 };
-// The kept contacts: into the projectile's new list, and each adds to its automaton (once per projectile).
+// The kept contacts into the projectiles' new lists (place: the scan of keep).
 struct ProjectileCommitKernel {
   const std::uint32_t *keep, *place;
   const BodyContact* next;
-  const ContactOut* out;
   BodyContact* list;
-  External ext;
-  MCA_HD void operator()(std::size_t k) const {
-    if (!keep[k]) return;
-    list[place[k]] = next[k];
-    const ContactOut& o = out[k];
-    ext.add(next[k].automaton, o.f, o.ti, sym_outer(o.n, o.f, o.ri));
+  MCA_HD void operator()(std::size_t j) const {
+    if (keep[j]) list[place[j]] = next[j];
   }
 };
-// One thread: projectile p's sums over its kept contacts in list order, then its contact with the ground.
+// For q = 0 .. np: segment[q], the first candidate of projectile q or later, and start[q], where its new list
+// starts.
+struct ProjectileSegmentKernel {
+  Candidates cand;
+  const std::uint32_t* place;  // size + 1 entries
+  std::uint32_t *segment, *start;
+  MCA_HD void operator()(std::size_t q) const {
+    std::uint32_t lo = 0, hi = cand.size;
+    while (lo < hi) {
+      const std::uint32_t mid = lo + (hi - lo) / 2;
+      if (cand.projectile_of(mid) < q) lo = mid + 1;
+      else hi = mid;
+    }
+    segment[q] = lo;
+    start[q] = place[lo];
+  }
+};
+// Each automaton adds its kept projectile contacts in projectile order (the CPU's): the first thread of its
+// run of the candidates in (automaton, projectile) order does it.
+struct ProjectileExternalKernel {
+  Candidates cand;
+  const std::uint32_t* where;  // candidate k's place in projectile order (null: k)
+  const std::uint32_t* keep;
+  const ContactOut* out;
+  External ext;
+  MCA_HD void operator()(std::size_t k0) const {
+    const std::uint32_t* a = cand.automaton;
+    if (k0 > 0 && a[k0 - 1] == a[k0]) return;
+    for (std::size_t k = k0; k < cand.size && a[k] == a[k0]; ++k) {
+      const std::uint32_t j = where ? where[k] : static_cast<std::uint32_t>(k);
+      if (!keep[j]) continue;
+      const ContactOut& o = out[j];
+      ext.add(a[k], o.f, o.ti, sym_outer(o.n, o.f, o.ri));
+    }
+  }
+};
+// Projectile p's sums over its kept contacts in list order, then its contact with the ground.
 struct ProjectileSumKernel {
   DeviceProjectile* proj;
-  std::uint32_t p;
-  ProjectileConstants P;
-  const std::uint32_t *keep;
+  const ProjectileConstants* P;
+  const std::uint32_t *segment, *keep;
   const ContactOut* out;
-  std::uint32_t candidates;
   Vec3 *fsum, *tsum;
   bool ground;
   Vec3 up;
   float ground_height, dt;
-  MCA_HD void operator()(std::size_t) const {
+  MCA_HD void operator()(std::size_t p) const {
     DeviceProjectile& ps = proj[p];
+    const ProjectileConstants& Pp = P[p];
     Vec3 f, t;
-    for (std::uint32_t k = 0; k < candidates; ++k) {
-      if (!keep[k]) continue;
-      f -= out[k].f;
-      t += out[k].tj;
+    for (std::uint32_t j = segment[p]; j < segment[p + 1]; ++j) {
+      if (!keep[j]) continue;
+      f -= out[j].f;
+      t += out[j].tj;
     }
     if (ground) {
       // The ground, as for an automaton: the projectile is the first body.
       const Vec3 nrm = -up;
-      const ContactResult r = contact_between(nrm, ground_overlap(ps.position, up, ground_height, P.radius), ps.velocity,
-                                              ps.angular_velocity, P.radius * nrm, {}, {}, {}, P.ground_springs,
+      const ContactResult r = contact_between(nrm, ground_overlap(ps.position, up, ground_height, Pp.radius), ps.velocity,
+                                              ps.angular_velocity, Pp.radius * nrm, {}, {}, {}, Pp.ground_springs,
                                               ps.ground.ut, ps.ground.mr, dt);
       ps.ground = {r.o.ut, r.o.mr};
       f += r.o.force_i;

@@ -2,13 +2,16 @@
 // The host emulation of the CUDA backend's device: buffers in host memory, a kernel launch as a loop over
 // the thread indices in order, and the device-wide primitives (scan, stable sort by key, max, min) as their
 // serial twins, which give the same results as the CUDA ones (integer scans and sorts, and the max and
-// min of values, do not depend on the order of evaluation). DeviceBackend<HostDevice> runs every line of
-// the CUDA backend's step logic on a machine without a GPU; CI checks it bit for bit against the CPU.
+// min of values, do not depend on the order of evaluation). The primitives' results stay in "device"
+// arrays: the step logic reads them only through download, as it must on a GPU. DeviceBackend<HostDevice>
+// runs every line of the CUDA backend's step logic on a machine without a GPU; CI checks it bit for bit
+// against the CPU.
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <numeric>
+#include <stdexcept>
 #include <utility>
 #include <vector>
 
@@ -46,56 +49,72 @@ struct HostDevice {
   }
   template <class T>
   static void download(T* dst, const Buffer<T>& b, std::size_t n, std::size_t offset = 0) {
+    ++reads;
     if (n) std::memcpy(static_cast<void*>(dst), b.data() + offset, n * sizeof(T));
   }
   template <class T>
   static void fill(Buffer<T>& b, const T& value) {
     for (std::size_t k = 0; k < b.size(); ++k) b.data()[k] = value;
   }
+  // p[0 .. n - 1] = 0.
   template <class T>
-  static void copy(Buffer<T>& to, const Buffer<T>& from, std::size_t n) {
-    if (n) std::memcpy(static_cast<void*>(to.data()), from.data(), n * sizeof(T));
+  static void clear(T* p, std::size_t n) {
+    if (n) std::memset(static_cast<void*>(p), 0, n * sizeof(T));
   }
 
-  // kernel(k) for k = 0 .. n - 1.
+  // kernel(k) for k = 0 .. n - 1, in order; in reverse order where `reverse` is set (tests: a CUDA grid
+  // runs its threads in no order, so no launch may depend on one).
   template <class K>
   static void launch(std::size_t n, const K& kernel) {
-    for (std::size_t k = 0; k < n; ++k) kernel(k);
+    if (reverse)
+      for (std::size_t k = n; k-- > 0;) kernel(k);
+    else
+      for (std::size_t k = 0; k < n; ++k) kernel(k);
   }
 
-  // out[k] = in[0] + ... + in[k - 1]; returns the total. in and out may be the same array.
-  static std::uint32_t exclusive_scan(const std::uint32_t* in, std::uint32_t* out, std::size_t n) {
+  // out[k] = in[0] + ... + in[k - 1] for k = 0 .. n: out[n] is the total (out holds n + 1 values; in and
+  // out are different arrays).
+  static void exclusive_scan(const std::uint32_t* in, std::uint32_t* out, std::size_t n) {
     std::uint32_t sum = 0;
     for (std::size_t k = 0; k < n; ++k) {
-      const std::uint32_t x = in[k];
       out[k] = sum;
-      sum += x;
+      sum += in[k];
     }
-    return sum;
+    out[n] = sum;
   }
-  // Sorts (keys, values) by key, keeping the order of equal keys.
-  static void stable_sort_by_key(std::uint64_t* keys, std::uint32_t* values, std::size_t n) {
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> kv(n);
-    for (std::size_t k = 0; k < n; ++k) kv[k] = {keys[k], values[k]};
+  // Sorts (keys, values) by key, keeping the order of equal keys; every key is below 2^key_bits.
+  template <class Key>
+  static void stable_sort_by_key(Key* keys, std::uint32_t* values, std::size_t n, int key_bits) {
+    std::vector<std::pair<Key, std::uint32_t>> kv(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      if (key_bits < static_cast<int>(8 * sizeof(Key)) && keys[k] >> key_bits)
+        throw std::logic_error("stable_sort_by_key: a key has more than the bits given");
+      kv[k] = {keys[k], values[k]};
+    }
     std::stable_sort(kv.begin(), kv.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     for (std::size_t k = 0; k < n; ++k) {
       keys[k] = kv[k].first;
       values[k] = kv[k].second;
     }
   }
-  // The largest of n floats that are >= 0 or NaN-free (0 for none).
-  static float max_of(const float* x, std::size_t n) {
+  // *to = the largest of n floats, taking each that is not > 0 (NaN included) as 0 (0 for none).
+  static void max_into(const float* x, std::size_t n, float* to) {
     float m = 0;
     for (std::size_t k = 0; k < n; ++k)
       if (x[k] > m) m = x[k];
-    return m;
+    *to = m;
   }
-  // The smallest of n values (UINT32_MAX for none).
-  static std::uint32_t min_of(const std::uint32_t* x, std::size_t n) {
+  // *to = the smallest of n values (UINT32_MAX for none).
+  static void min_into(const std::uint32_t* x, std::size_t n, std::uint32_t* to) {
     std::uint32_t m = UINT32_MAX;
     for (std::size_t k = 0; k < n; ++k) m = std::min(m, x[k]);
-    return m;
+    *to = m;
   }
+
+  // Counted: the copies from the device to the host (each a wait for the device on a GPU), and whether
+  // launches run their threads backwards.
+  static inline std::size_t reads = 0;
+  static inline bool reverse = false;
 };
 
 }  // namespace mca::gpu
