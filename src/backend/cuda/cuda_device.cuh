@@ -112,6 +112,11 @@ struct CudaDevice {
     fill_kernel<<<static_cast<unsigned>((n + kBlock - 1) / kBlock), kBlock>>>(b.data(), n, value);
     cuda_check(cudaGetLastError(), "fill");
   }
+  // to[0 .. n - 1] = from[0 .. n - 1], both on the device.
+  template <class T>
+  static void copy(T* to, const T* from, std::size_t n) {
+    if (n) cuda_check(cudaMemcpyAsync(to, from, n * sizeof(T), cudaMemcpyDeviceToDevice), "copy");
+  }
   // p[0 .. n - 1] = 0.
   template <class T>
   static void clear(T* p, std::size_t n) {

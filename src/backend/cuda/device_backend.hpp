@@ -156,9 +156,15 @@ class DeviceBackend : public StateBackend {
   std::string name() const override { return Dev::kName; }
   // How many times the contact lists were rebuilt (tests: what a step reads from the device).
   std::size_t contact_rebuilds() const { return rebuilds_; }
+  // The state's breaks and those logged on the device since it was last read.
+  std::int64_t broken_links() const override {
+    return StateBackend::broken_links() + static_cast<std::int64_t>(logged_);
+  }
 
   void upload(State s) override {
     S_ = std::move(s);
+    logged_ = 0;
+    logged_steps_.clear();
     clock_.start(S_, M_.dt);
     const std::size_t n = M_.size(), L = M_.link_slots();
     upload3(S_.x, px_, py_, pz_);
@@ -472,6 +478,15 @@ class DeviceBackend : public StateBackend {
     while (b < 64 && (largest >> b)) ++b;
     return b;
   }
+  // b holds `used` values and room for `need` (kept: the new room is a copy).
+  template <class T>
+  static void grow_keeping(Buf<T>& b, std::size_t used, std::size_t need) {
+    if (b.size() >= need) return;
+    Buf<T> bigger;
+    bigger.resize(std::max(need, 2 * b.size()));
+    Dev::copy(bigger.data(), b.data(), used);
+    std::swap(b, bigger);
+  }
   ProjectilePairs projectile_pairs() {
     return {c(proj_constants_), static_cast<std::uint32_t>(M_.projectiles.size()), c(contact_), M_.groups.size(),
             c(zeta_projectiles_)};
@@ -529,15 +544,18 @@ class DeviceBackend : public StateBackend {
   // Contact lists (sizes on the host), and the incidence list: (automaton, 2 p + side) sorted, with the
   // start of each automaton's run.
   Buf<ContactPair> contacts_, contacts_next_, fresh_;
-  Buf<std::uint32_t> ends_;  // the ends of this step's broken links, then those near the ground
-  Buf<std::uint8_t> near_;
+  // A step's breaks: their pairs sorted, and their ends sorted with which join the ground list.
+  Buf<std::uint64_t> fresh_key_;
+  Buf<std::uint32_t> fresh_value_, ends_, ends_value_, ends_flag_, ends_place_;
+  // The breaks' records: their codes, kept on the device until the state is read, and the steps they came in.
+  Buf<std::uint32_t> break_log_;
+  std::size_t logged_ = 0;
+  std::vector<std::pair<std::int64_t, std::uint32_t>> logged_steps_;
   Buf<ContactOut> contact_out_;
   std::size_t contact_count_ = 0;
   Buf<BodyContact> ground_, ground_next_, ground_fresh_;
   std::size_t ground_count_ = 0;
-  Buf<std::uint64_t> inc_key_;
-  Buf<std::uint32_t> inc_value_, inc_start_;
-  std::size_t inc_runs_ = 0;
+  Buf<std::uint32_t> inc_key_, inc_value_, inc_flag_, inc_place_, inc_start_;
   // Projectiles.
   std::vector<ProjectileConstants> proj_constants_host_;
   Buf<ProjectileConstants> proj_constants_;
@@ -569,7 +587,7 @@ template <class Dev>
 std::int64_t DeviceBackend<Dev>::one_step() {
   const cpu::LatticeView v = view();
   const std::size_t n = M_.size(), ne = M_.explicit_links.size();
-  Dev::clear(status_field<std::uint32_t>(offsetof(StepStatus, breaks)), 2);  // breaks, touches
+  Dev::clear(status_field<std::uint32_t>(offsetof(StepStatus, breaks)), 3);  // the counters
   if (ne) explicit_pass(v);
   contact_pass();
   projectile_pass();
@@ -640,7 +658,8 @@ void DeviceBackend<Dev>::contact_pass() {
   if (contact_count_) {
     if (contact_out_.size() < contact_count_) contact_out_.resize(contact_count_);
     Dev::launch(contact_count_, PairContactKernel{cv, d(contacts_), d(contact_out_)});
-    Dev::launch(inc_runs_, ContactGatherKernel{c(inc_start_), c(inc_key_), c(inc_value_), c(contact_out_), external()});
+    Dev::launch(2 * contact_count_, ContactGatherKernel{c(inc_place_) + 2 * contact_count_, c(inc_start_), c(inc_key_),
+                                                        c(inc_value_), c(contact_out_), external()});
   }
   if (ground_count_) Dev::launch(ground_count_, GroundKernel{cv, d(ground_), external()});
 }
@@ -693,77 +712,56 @@ void DeviceBackend<Dev>::projectile_pass() {
   std::swap(proj_pairs_, proj_pairs_next_);
 }
 
-// The step's nb breaks (the break list, in no order), applied at its end in slot order
-// (CpuBackend::apply_breaks): returns the largest move since the rebuild of an automaton that was boxed in
-// and lost a link.
+// The step's nb breaks (the break list, in no order), applied at its end (CpuBackend::apply_breaks), all on
+// the device: the links cleared, their pairs into the contact list, their ends near the ground into the
+// ground list, the codes kept for the records (in slot order when the state is read). Returns the largest
+// move since the rebuild of an automaton that was boxed in and lost a link; one more read of the device.
 template <class Dev>
 float DeviceBackend<Dev>::apply_breaks(std::uint32_t nb) {
+  const std::size_t n = M_.size();
   const LinkEnds ends = link_ends();
-  {
-    std::vector<std::uint32_t> codes(nb);
-    Dev::download(codes.data(), breaks_, nb);
-    Dev::launch(nb, BreakKernel{c(breaks_), ends, d(intact_), softening_ ? d(unsound_) : nullptr, d(utx_), d(uty_), d(utz_),
-                                d(ex_mx_), d(ex_my_), d(ex_mz_), d(lost_)});
-    std::sort(codes.begin(), codes.end(),
-              [](std::uint32_t a, std::uint32_t b) { return (a & ~cpu::kBreakByStress) < (b & ~cpu::kBreakByStress); });
-    std::vector<ContactPair> fresh;
-    std::vector<std::uint32_t> both;
-    for (const std::uint32_t code : codes) {
-      const std::uint32_t l = code & ~cpu::kBreakByStress;
-      const int crit = code & cpu::kBreakByStress ? 1 : 0;
-      const std::uint32_t i = M_.link_i(l), j = M_.link_j(l);
-      S_.breaks.push_back({S_.step, l, static_cast<BreakCriterion>(crit)});
-      ++S_.broken_by[crit];
-      fresh.push_back({i, j, {}});
-      both.push_back(i);
-      both.push_back(j);
-    }
-    // The broken pairs join the contact list (sorted), and their ends near the ground the ground list.
-    std::sort(fresh.begin(), fresh.end(), [](const ContactPair& a, const ContactPair& b) {
-      return a.i != b.i ? a.i < b.i : a.j < b.j;
-    });
-    Dev::upload(fresh_, fresh);
-    contacts_next_.resize(contact_count_ + fresh.size());
-    Dev::launch(contact_count_ + fresh.size(),
-                MergePairsKernel{c(contacts_), c(fresh_), static_cast<std::uint32_t>(contact_count_),
-                                 static_cast<std::uint32_t>(fresh.size()), d(contacts_next_)});
-    std::swap(contacts_, contacts_next_);
-    contact_count_ += fresh.size();
-    if (M_.ground) {
-      Dev::upload(ends_, both);
-      if (near_.size() < both.size()) near_.resize(2 * both.size());
-      Dev::launch(both.size(), NearGroundKernel{ground_reach(), c(ends_), d(near_)});
-      std::vector<std::uint8_t> near_h(both.size());
-      Dev::download(near_h.data(), near_, both.size());
-      std::vector<std::uint32_t> g;
-      for (std::size_t k = 0; k < both.size(); ++k)
-        if (near_h[k]) g.push_back(both[k]);
-      std::sort(g.begin(), g.end());
-      g.erase(std::unique(g.begin(), g.end()), g.end());
-      if (!g.empty()) {
-        Dev::upload(ends_, g);
-        Dev::launch(g.size(), NotListedKernel{c(ends_), c(ground_), static_cast<std::uint32_t>(ground_count_), d(flag_)});
-        std::vector<std::uint32_t> fl(g.size());
-        Dev::download(fl.data(), flag_, g.size());
-        std::vector<BodyContact> add;
-        for (std::size_t k = 0; k < g.size(); ++k)
-          if (fl[k]) add.push_back({g[k], {}});
-        if (!add.empty()) {
-          Dev::upload(ground_fresh_, add);
-          ground_next_.resize(ground_count_ + add.size());
-          Dev::launch(ground_count_ + add.size(),
-                      MergeBodiesKernel{c(ground_), c(ground_fresh_), static_cast<std::uint32_t>(ground_count_),
-                                        static_cast<std::uint32_t>(add.size()), d(ground_next_)});
-          std::swap(ground_, ground_next_);
-          ground_count_ += add.size();
-        }
-      }
-    }
-    incidence();
+  grow_keeping(break_log_, logged_, logged_ + nb);
+  Dev::copy(d(break_log_) + logged_, c(breaks_), nb);
+  logged_ += nb;
+  logged_steps_.push_back({S_.step, nb});
+  Dev::launch(nb, BreakKernel{c(breaks_), ends, d(intact_), softening_ ? d(unsound_) : nullptr, d(utx_), d(uty_), d(utz_),
+                              d(ex_mx_), d(ex_my_), d(ex_mz_), d(lost_)});
+  // The broken pairs join the contact list (sorted).
+  fresh_key_.resize(nb);
+  fresh_value_.resize(nb);
+  fresh_.resize(nb);
+  Dev::launch(nb, BrokenPairKeysKernel{c(breaks_), ends, d(fresh_key_), d(fresh_value_)});
+  Dev::stable_sort_by_key(d(fresh_key_), d(fresh_value_), nb, 32 + bits_for(n - 1));
+  Dev::launch(nb, PairsFromKeysKernel{c(fresh_key_), d(fresh_)});
+  contacts_next_.resize(contact_count_ + nb);
+  Dev::launch(contact_count_ + nb, MergePairsKernel{c(contacts_), c(fresh_), static_cast<std::uint32_t>(contact_count_), nb,
+                                                    d(contacts_next_)});
+  std::swap(contacts_, contacts_next_);
+  contact_count_ += nb;
+  // Their ends near the ground join the ground list (sorted, once each): as many as the status counts.
+  const std::size_t e = 2 * std::size_t{nb};
+  if (M_.ground) {
+    for (auto* b : {&ends_, &ends_value_, &ends_flag_}) b->resize(e);
+    ends_place_.resize(e + 1);
+    ground_fresh_.resize(e);
+    Dev::launch(nb, BrokenEndsKernel{c(breaks_), ends, d(ends_), d(ends_value_)});
+    Dev::stable_sort_by_key(d(ends_), d(ends_value_), e, bits_for(n - 1));
+    Dev::launch(e, GroundJoinFlagKernel{ground_reach(), c(ends_), c(ground_), static_cast<std::uint32_t>(ground_count_),
+                                        d(ends_flag_), status_field<std::uint32_t>(offsetof(StepStatus, ground_joins))});
+    Dev::exclusive_scan(c(ends_flag_), d(ends_place_), e);
+    Dev::launch(e, GroundJoinWriteKernel{c(ends_), c(ends_flag_), c(ends_place_), d(ground_fresh_)});
+    ground_next_.resize(ground_count_ + e);
+    Dev::launch(ground_count_ + e, MergeBodiesKernel{c(ground_), c(ground_fresh_), static_cast<std::uint32_t>(ground_count_),
+                                                     c(ends_place_) + e, d(ground_next_)});
   }
+  incidence();
   lose_links(status_field<float>(offsetof(StepStatus, move2_lost)));
   StepStatus st;
   Dev::download(&st, status_, 1);
+  if (M_.ground) {
+    std::swap(ground_, ground_next_);
+    ground_count_ += st.ground_joins;
+  }
   return st.move2_lost;
 }
 
@@ -826,27 +824,20 @@ void DeviceBackend<Dev>::rebuild_contacts() {
 template <class Dev>
 void DeviceBackend<Dev>::incidence() {
   const std::size_t e = 2 * contact_count_;
-  inc_runs_ = 0;
   if (e == 0) return;
-  inc_key_.resize(e);
-  inc_value_.resize(e);
+  for (auto* b : {&inc_key_, &inc_value_, &inc_flag_}) b->resize(e);
+  for (auto* b : {&inc_place_, &inc_start_}) b->resize(e + 1);
   Dev::launch(contact_count_, IncidenceKeysKernel{c(contacts_), d(inc_key_), d(inc_value_)});
   Dev::stable_sort_by_key(d(inc_key_), d(inc_value_), e, bits_for(M_.size() - 1));
-  if (flag_.size() < e + 1) {
-    flag_.resize(e + 1);
-    place_.resize(e + 1);
-  }
-  Dev::launch(e, RunStartKernel{c(inc_key_), d(flag_)});
-  inc_runs_ = scan_total(c(flag_), place_, e);
-  inc_start_.resize(inc_runs_ + 1);
-  Dev::launch(e, RunScatterKernel{c(flag_), c(place_), d(inc_start_), e});
+  Dev::launch(e, RunStartKernel{c(inc_key_), d(inc_flag_)});
+  Dev::exclusive_scan(c(inc_flag_), d(inc_place_), e);  // the runs: inc_place_[e]
+  Dev::launch(e, RunScatterKernel{c(inc_flag_), c(inc_place_), d(inc_start_), e});
 }
 
 // The host's State from the device arrays.
 template <class Dev>
 void DeviceBackend<Dev>::sync() {
   const std::size_t n = M_.size(), L = M_.link_slots();
-  std::vector<double> x(n), y(n), z(n);
   download3(S_.x, px_, py_, pz_);
   download3(S_.v, vx_, vy_, vz_);
   download3(S_.w, wx_, wy_, wz_);
@@ -901,6 +892,21 @@ void DeviceBackend<Dev>::sync() {
   Dev::download(S_.projectile_contacts.data(), proj_pairs_, pair_count_);
   Dev::download(S_.grip_work.data(), grip_work_, S_.grip_work.size());
   Dev::download(S_.grip_force.data(), grip_force_, S_.grip_force.size());
+  // The breaks' records, each step's in slot order (the CPU's).
+  std::vector<std::uint32_t> codes(logged_);
+  Dev::download(codes.data(), break_log_, logged_);
+  auto code = codes.begin();
+  for (const auto& [step, count] : logged_steps_) {
+    std::sort(code, code + count,
+              [](std::uint32_t a, std::uint32_t b) { return (a & ~cpu::kBreakByStress) < (b & ~cpu::kBreakByStress); });
+    for (const auto end = code + count; code != end; ++code) {
+      const int crit = *code & cpu::kBreakByStress ? 1 : 0;
+      S_.breaks.push_back({step, *code & ~cpu::kBreakByStress, static_cast<BreakCriterion>(crit)});
+      ++S_.broken_by[crit];
+    }
+  }
+  logged_ = 0;
+  logged_steps_.clear();
 }
 
 }  // namespace mca::gpu

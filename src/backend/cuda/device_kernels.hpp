@@ -61,8 +61,10 @@ struct StepStatus {
   float move2_lost = 0;  // the same of an automaton boxed in until a link was damaged (softening)
   std::uint32_t bad = kNone;             // the first automaton with a value not finite
   std::uint32_t bad_projectile = kNone;  // the first projectile with one
-  std::uint32_t breaks = 0;              // links broken (BreakList::count)
-  std::uint32_t touches = 0;  // (projectile, automaton) pairs touching at the step's end: the next step's candidates
+  // Counters, cleared as a step starts.
+  std::uint32_t breaks = 0;       // links broken (BreakList::count)
+  std::uint32_t touches = 0;      // (projectile, automaton) pairs touching at the step's end: the next step's candidates
+  std::uint32_t ground_joins = 0;  // ends of broken links that join the ground list
   std::uint32_t touching_pairs = 0;  // projectile pairs touching at the step's end: the next pair list's size at most
   std::uint32_t pair_count = 0;      // the projectile pair list's size
 };
@@ -129,7 +131,7 @@ struct PairContactKernel {
 // The incidence list: entry e of the sorted (automaton, 2 p + side) list, side 0 for the pair's first body.
 struct IncidenceKeysKernel {
   const ContactPair* pairs;
-  std::uint64_t* key;
+  std::uint32_t* key;
   std::uint32_t* value;
   MCA_HD void operator()(std::size_t p) const {
     key[2 * p] = pairs[p].i;
@@ -140,7 +142,7 @@ struct IncidenceKeysKernel {
 };
 // flag[e] = 1 where entry e starts an automaton's run of the sorted incidence list.
 struct RunStartKernel {
-  const std::uint64_t* key;
+  const std::uint32_t* key;
   std::uint32_t* flag;
   MCA_HD void operator()(std::size_t e) const { flag[e] = e == 0 || key[e] != key[e - 1] ? 1u : 0u; }
 };
@@ -153,15 +155,18 @@ struct RunScatterKernel {
     if (e + 1 == size) start[place[e] + flag[e]] = static_cast<std::uint32_t>(size);
   }
 };
-// Each automaton in the contact list adds its contacts' forces in pair order (the CPU's order).
+// Each automaton in the contact list adds its contacts' forces in pair order (the CPU's order): thread r
+// for run r, launched for as many threads as the list has entries (the runs are counted on the device).
 struct ContactGatherKernel {
+  const std::uint32_t* runs;
   const std::uint32_t* start;  // runs + 1 entries
-  const std::uint64_t* key;
+  const std::uint32_t* key;
   const std::uint32_t* value;
   const ContactOut* out;
   External ext;
   MCA_HD void operator()(std::size_t r) const {
-    const std::uint32_t a = static_cast<std::uint32_t>(key[start[r]]);
+    if (r >= *runs) return;
+    const std::uint32_t a = key[start[r]];
     for (std::uint32_t e = start[r]; e < start[r + 1]; ++e) {
       const std::uint32_t p = value[e] >> 1;
       const ContactOut& o = out[p];
@@ -317,11 +322,37 @@ struct GroundReach {
     return above < static_cast<double>(radius[a]) + skin;
   }
 };
-struct NearGroundKernel {
-  GroundReach g;
-  const std::uint32_t* automata;
-  std::uint8_t* near;
-  MCA_HD void operator()(std::size_t k) const { near[k] = g.near(automata[k]) ? 1 : 0; }
+// The pairs of the broken links (code[k]) as sort keys (i, j) -> i 2^32 + j, for the contact list.
+struct BrokenPairKeysKernel {
+  const std::uint32_t* code;
+  LinkEnds ends;
+  std::uint64_t* key;
+  std::uint32_t* value;
+  MCA_HD void operator()(std::size_t k) const {
+    const std::uint32_t l = code[k] & ~cpu::kBreakByStress;
+    key[k] = static_cast<std::uint64_t>(ends.i(l)) << 32 | ends.j(l);
+    value[k] = static_cast<std::uint32_t>(k);
+  }
+};
+struct PairsFromKeysKernel {
+  const std::uint64_t* key;
+  ContactPair* pairs;
+  MCA_HD void operator()(std::size_t k) const {
+    pairs[k] = {static_cast<std::uint32_t>(key[k] >> 32), static_cast<std::uint32_t>(key[k]), {}};
+  }
+};
+// Both ends of the broken links (code[k]), for the ground list.
+struct BrokenEndsKernel {
+  const std::uint32_t* code;
+  LinkEnds ends;
+  std::uint32_t *automata, *value;
+  MCA_HD void operator()(std::size_t k) const {
+    const std::uint32_t l = code[k] & ~cpu::kBreakByStress;
+    automata[2 * k] = ends.i(l);
+    automata[2 * k + 1] = ends.j(l);
+    value[2 * k] = static_cast<std::uint32_t>(2 * k);
+    value[2 * k + 1] = static_cast<std::uint32_t>(2 * k + 1);
+  }
 };
 
 // --- Sorted lists ---
@@ -365,28 +396,44 @@ struct MergePairsKernel {
     }
   }
 };
+// The same for body lists, list b's size on the device (*nb, at most the threads past na).
 struct MergeBodiesKernel {
   const BodyContact *a, *b;
-  std::uint32_t na, nb;
+  std::uint32_t na;
+  const std::uint32_t* nb;
   BodyContact* out;
   MCA_HD void operator()(std::size_t k) const {
     if (k < na) {
-      out[k + automata_before(b, nb, a[k].automaton)] = a[k];
-    } else {
-      const std::size_t m = k - na;
+      out[k + automata_before(b, *nb, a[k].automaton)] = a[k];
+    } else if (const std::size_t m = k - na; m < *nb) {
       out[m + automata_before(a, na, b[m].automaton + 1)] = b[m];  // after a's entries <= it
     }
   }
 };
-// flag[k] = 1 where automaton list[k] is not yet in the sorted body list `in`.
-struct NotListedKernel {
-  const std::uint32_t* list;
-  const BodyContact* in;
+// In the sorted ends of the broken links: flag[k] = 1 where automata[k] is its first entry, near the
+// ground and not yet in the ground list (CpuBackend::apply_breaks); their number adds to *count.
+struct GroundJoinFlagKernel {
+  GroundReach g;
+  const std::uint32_t* automata;
+  const BodyContact* listed;
   std::uint32_t size;
   std::uint32_t* flag;
+  std::uint32_t* count;
   MCA_HD void operator()(std::size_t k) const {
-    const std::uint32_t p = automata_before(in, size, list[k]);
-    flag[k] = p < size && in[p].automaton == list[k] ? 0u : 1u;
+    const std::uint32_t a = automata[k];
+    flag[k] = 0;
+    if ((k > 0 && automata[k - 1] == a) || !g.near(a)) return;
+    const std::uint32_t p = automata_before(listed, size, a);
+    if (p < size && listed[p].automaton == a) return;
+    flag[k] = 1;
+    count_up(count);
+  }
+};
+struct GroundJoinWriteKernel {
+  const std::uint32_t *automata, *flag, *place;
+  BodyContact* out;
+  MCA_HD void operator()(std::size_t k) const {
+    if (flag[k]) out[place[k]] = {automata[k], {}};
   }
 };
 

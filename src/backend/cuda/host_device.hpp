@@ -56,6 +56,11 @@ struct HostDevice {
   static void fill(Buffer<T>& b, const T& value) {
     for (std::size_t k = 0; k < b.size(); ++k) b.data()[k] = value;
   }
+  // to[0 .. n - 1] = from[0 .. n - 1], both on the device.
+  template <class T>
+  static void copy(T* to, const T* from, std::size_t n) {
+    if (n) std::memcpy(static_cast<void*>(to), from, n * sizeof(T));
+  }
   // p[0 .. n - 1] = 0.
   template <class T>
   static void clear(T* p, std::size_t n) {
