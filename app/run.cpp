@@ -356,7 +356,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
     const double frac = static_cast<double>(sim.step()) / static_cast<double>(L.plan.total_steps);
     const int bar = static_cast<int>(frac * 30);
     say("{}[{}{}] {:3.0f}%  t={:.4g}/{:.4g} s  frame {}/{}  {:.2f} M automaton-steps/s  broken {}  ETA {}{}",
-               tty ? "\r" : "", std::string(bar, '#'), std::string(30 - bar, '.'), 100 * frac, sim.state().time,
+               tty ? "\r" : "", std::string(bar, '#'), std::string(30 - bar, '.'), 100 * frac, sim.time(),
                L.plan.total_steps * static_cast<double>(m.dt), L.frame - 1, L.plan.total_frames, rate / 1e6,
                sim.broken_links(), human_time(eta), tty ? "   " : "\n");
   };

@@ -45,8 +45,10 @@ class Backend {
   // The whole state, brought up to date first where the backend steps its own copy (the CUDA backend: a
   // download of every array; the CPU backend: its arrays gathered into the State).
   virtual const State& state() const = 0;
-  // What a caller needs between calls without the whole state: the step and the links broken so far.
+  // What a caller needs between calls without the whole state: the step, its time and the links broken so
+  // far.
   virtual std::int64_t current_step() const = 0;
+  virtual double current_time() const = 0;
   virtual std::int64_t broken_links() const = 0;
 };
 
@@ -78,6 +80,7 @@ class StateBackend : public Backend {
     return S_;
   }
   std::int64_t current_step() const override { return S_.step; }
+  double current_time() const override { return S_.time; }
   std::int64_t broken_links() const override { return S_.broken_by[0] + S_.broken_by[1]; }
   // one_step() `steps` times, last_step_ set on the last (what is only read between calls, the averaged
   // stress tensor and the applied forces, is written then); stops at the first step whose one_step()

@@ -41,6 +41,7 @@ class Engine {
   const State& state() const { return backend_->state(); }
   // The step and the links broken so far, without bringing the whole state up to date.
   std::int64_t step() const { return backend_->current_step(); }
+  double time() const { return backend_->current_time(); }
   std::int64_t broken_links() const { return backend_->broken_links(); }
   Backend& backend() { return *backend_; }
   const Backend& backend() const { return *backend_; }

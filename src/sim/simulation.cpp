@@ -20,7 +20,7 @@ std::size_t Simulation::automata() const { return impl_->engine.model().size(); 
 std::size_t Simulation::links() const { return impl_->engine.model().link_count(); }
 double Simulation::time_step() const { return impl_->engine.model().dt; }
 int Simulation::steps_per_frame() const { return impl_->engine.steps_per_frame(); }
-double Simulation::time() const { return impl_->engine.state().time; }
+double Simulation::time() const { return impl_->engine.time(); }
 
 StepStatus Simulation::advance(int steps) {
   return impl_->engine.advance(steps).flags == kHealthy ? StepStatus::ok : StepStatus::unstable;
