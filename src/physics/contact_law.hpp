@@ -284,7 +284,7 @@ MCA_HD float contact_reduced(float a, bool a_kinematic, float b, bool b_kinemati
 }
 
 // Elastic energy stored in a contact's springs [J], for the energy bookkeeping.
-inline double contact_energy(const ContactSprings& s, double overlap, Vec3 ut, Vec3 mr, Vec3 n) {
+MCA_HD double contact_energy(const ContactSprings& s, double overlap, Vec3 ut, Vec3 mr, Vec3 n) {
   double e = 0;
   if (overlap > 0) e += 0.5 * s.kn * overlap * overlap;
   e += 0.5 * s.kt * static_cast<double>(dot(ut, ut));

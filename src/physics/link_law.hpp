@@ -308,7 +308,7 @@ MCA_HD VolumeBendingT<T> volume_link_bending(const VolumeBendingInputT<T>& in) {
 }
 
 // The energy M^2 / (2 k) of one axis of the spring (0 for a spring of no stiffness, whose moment stays 0).
-inline double bending_energy(double M, double k) { return k > 0 ? 0.5 * M * M / k : 0.0; }
+MCA_HD double bending_energy(double M, double k) { return k > 0 ? 0.5 * M * M / k : 0.0; }
 
 // The nu part of a shell's bending (surface mode), per automaton as the membrane's many-body term:
 // D nu A (tr K)^2 / 2 with A the automaton's share of the shell (its volume over the thickness) and tr K
