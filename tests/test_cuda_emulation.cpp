@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <functional>
@@ -96,6 +97,26 @@ std::size_t shared_automata(const State& s) {
   return static_cast<std::size_t>(std::count_if(lists.begin(), lists.end(), [](const auto& e) { return e.second > 1; }));
 }
 
+// The energies the CUDA backend sums on the device for Engine's check: each term as compute_energies
+// forms it, summed in another order, so equal to rounding (relative to the energies in play).
+void expect_energies_close(const Energies& device, const Energies& host, std::int64_t step) {
+  const double scale = std::fabs(host.kinetic) + std::fabs(host.elastic) + std::fabs(host.projectile_kinetic) +
+                       std::fabs(host.gravity_work) + std::fabs(host.grip_work) + std::fabs(host.load_work) +
+                       std::fabs(host.projectile_work) + 1e-300;
+  const std::pair<const char*, std::pair<double, double>> fields[] = {
+      {"kinetic", {device.kinetic, host.kinetic}},
+      {"elastic", {device.elastic, host.elastic}},
+      {"contact", {device.contact, host.contact}},
+      {"projectile_kinetic", {device.projectile_kinetic, host.projectile_kinetic}},
+      {"gravity_work", {device.gravity_work, host.gravity_work}},
+      {"grip_work", {device.grip_work, host.grip_work}},
+      {"load_work", {device.load_work, host.load_work}},
+      {"projectile_work", {device.projectile_work, host.projectile_work}}};
+  for (const auto& [name, v] : fields)
+    EXPECT_LE(std::fabs(v.first - v.second), 1e-12 * scale)
+        << name << " after step " << step << ": " << v.first << " on the device, " << v.second << " from the state";
+}
+
 // Runs the scene on backend `first` (the CPU's by default) and on `second` (the CUDA backend's emulation by
 // default), `steps` steps in calls of `chunk`, and checks that the states are equal after every call.
 Compared run_both(SceneDef scene, std::int64_t steps, int chunk, SolverDef::Backend second = SolverDef::Backend::cuda_emulation,
@@ -123,6 +144,7 @@ Compared run_both(SceneDef scene, std::int64_t steps, int chunk, SolverDef::Back
       break;
     }
     EXPECT_EQ(state_hash(a), state_hash(b));
+    expect_energies_close(emu.backend().energies(), compute_energies(emu.model(), b), a.step);
   }
   c.breaks = cpu.state().broken_by[0] + cpu.state().broken_by[1];
   if (equal)

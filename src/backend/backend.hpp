@@ -30,6 +30,19 @@ struct StepHealth {
   double energy = 0, budget = 0;      // kEnergyGrowth: the energy and the budget it exceeded [J]
 };
 
+struct Energies {
+  double kinetic = 0;             // automata, translation + rotation [J]
+  double elastic = 0;             // links (normal, many-body, shear) + contact springs [J]
+  double contact = 0;             // the contact springs' part of `elastic` [J]
+  double projectile_kinetic = 0;  // [J]
+  double gravity_work = 0;        // work gravity did on automata and projectiles since the start [J]
+  double grip_work = 0;           // work the grips did [J]
+  double load_work = 0;           // work the [[load]] forces did [J]
+  double projectile_work = 0;     // work the kinematic projectiles did [J]
+  // What the bodies hold, and what was put in from outside since the start.
+  double total() const { return kinetic + elastic + projectile_kinetic; }
+  double external_work() const { return gravity_work + grip_work + load_work + projectile_work; }
+};
 class Backend {
  public:
   virtual ~Backend() = default;
@@ -49,6 +62,12 @@ class Backend {
   // far.
   virtual std::int64_t current_step() const = 0;
   virtual double current_time() const = 0;
+  // The energies of the current state for Engine's check of the energy, and the run's starting energy
+  // (State::initial_energy). The CPU backend computes them from its state (compute_energies); the CUDA
+  // backend on the device, without bringing the state up to date: each term with the same bits, their
+  // sums in another order (equal to rounding).
+  virtual Energies energies() const = 0;
+  virtual double initial_energy() const = 0;
   virtual std::int64_t broken_links() const = 0;
 };
 
@@ -81,6 +100,7 @@ class StateBackend : public Backend {
   }
   std::int64_t current_step() const override { return S_.step; }
   double current_time() const override { return S_.time; }
+  double initial_energy() const override { return S_.initial_energy; }
   std::int64_t broken_links() const override { return S_.broken_by[0] + S_.broken_by[1]; }
   // one_step() `steps` times, last_step_ set on the last (what is only read between calls, the averaged
   // stress tensor and the applied forces, is written then); stops at the first step whose one_step()
@@ -128,19 +148,6 @@ std::unique_ptr<Backend> make_cuda_backend(const Model& model);
 // intact, projectiles at their start.
 State initial_state(const Model& model);
 
-struct Energies {
-  double kinetic = 0;             // automata, translation + rotation [J]
-  double elastic = 0;             // links (normal, many-body, shear) + contact springs [J]
-  double contact = 0;             // the contact springs' part of `elastic` [J]
-  double projectile_kinetic = 0;  // [J]
-  double gravity_work = 0;        // work gravity did on automata and projectiles since the start [J]
-  double grip_work = 0;           // work the grips did [J]
-  double load_work = 0;           // work the [[load]] forces did [J]
-  double projectile_work = 0;     // work the kinematic projectiles did [J]
-  // What the bodies hold, and what was put in from outside since the start.
-  double total() const { return kinetic + elastic + projectile_kinetic; }
-  double external_work() const { return gravity_work + grip_work + load_work + projectile_work; }
-};
 // Reference (serial, double accumulation) energies of a state, taken at the positions of the last
 // force evaluation with velocities in step with them (see energy.cpp).
 Energies compute_energies(const Model& model, const State& state);

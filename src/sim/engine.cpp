@@ -194,23 +194,23 @@ Engine::Engine(const SceneDef& scene, const State& state, const std::string& sou
 StepHealth Engine::advance(int steps) {
   StepHealth h = backend_->step(steps);
   if (h.flags == kHealthy && step() - last_check_ >= kEnergyCheckInterval) {
-    const State& s = state();
-    last_check_ = s.step;
-    const Energies e = energies();
+    last_check_ = step();
+    const double initial = backend_->initial_energy();
+    const Energies e = backend_->energies();
     // What the bodies hold beyond the start and the work put in (gravity, grips, loads, kinematic
     // projectiles), against 9x the energy the run has dealt in (physics.md sec. 7: 10x what was put in):
     // the start's energy plus every work in magnitude (a body bouncing higher than it fell, from the
     // discrete contact, turns gravity's work negative), and at least the energy that breaks one link of
     // the weakest material (heating below it, such as float rounding in an undamped body far from the
     // origin, can harm nothing).
-    const double excess = e.total() - e.external_work() - s.initial_energy;
-    const double dealt = std::fabs(s.initial_energy) + std::fabs(e.gravity_work) + std::fabs(e.grip_work) +
-                         std::fabs(e.load_work) + std::fabs(e.projectile_work);
+    const double excess = e.total() - e.external_work() - initial;
+    const double dealt = std::fabs(initial) + std::fabs(e.gravity_work) + std::fabs(e.grip_work) + std::fabs(e.load_work) +
+                         std::fabs(e.projectile_work);
     if (excess > 9.0 * std::max(dealt, energy_floor_)) {
       h.flags |= kEnergyGrowth;
-      h.step = s.step;
+      h.step = last_check_;
       h.energy = e.total();
-      h.budget = s.initial_energy + e.external_work();
+      h.budget = initial + e.external_work();
     }
   }
   return h;

@@ -164,6 +164,16 @@ struct CudaDevice {
     cuda_check(cub::DeviceReduce::Reduce(nullptr, bytes, x, to, n, Larger{}, 0.0f), "max");
     cuda_check(cub::DeviceReduce::Reduce(scratch(bytes), bytes, x, to, n, Larger{}, 0.0f), "max");
   }
+  // *to = the sum of n doubles (0 for none), in CUB's order: the same on every run of the same device.
+  static void sum_into(const double* x, std::size_t n, double* to) {
+    if (n == 0) {
+      cuda_check(cudaMemsetAsync(to, 0, sizeof(double)), "sum");
+      return;
+    }
+    std::size_t bytes = 0;
+    cuda_check(cub::DeviceReduce::Sum(nullptr, bytes, x, to, n), "sum");
+    cuda_check(cub::DeviceReduce::Sum(scratch(bytes), bytes, x, to, n), "sum");
+  }
   // *to = the smallest of n values (UINT32_MAX for none).
   static void min_into(const std::uint32_t* x, std::size_t n, std::uint32_t* to) {
     if (n == 0) {

@@ -101,7 +101,7 @@ class DeviceBackend : public StateBackend {
     std::vector<float> pz(np * G);
     for (std::size_t p = 0; p < np; ++p) {
       const ProjectileParams& P = m.projectiles[p];
-      pc[p] = {P.radius, P.mass, P.inertia, P.kinematic, P.group, P.rolling, P.twisting,
+      pc[p] = {P.position, P.radius, P.mass, P.inertia, P.kinematic, P.group, P.rolling, P.twisting,
                body_contact_springs(m.projectile_ground_contact(p), P.zeta_ground, P.radius, INFINITY, P.mass, P.inertia)};
       for (std::size_t g = 0; g < G; ++g) {
         pm[p * G + g] = m.projectile_contact(p, g);
@@ -151,11 +151,19 @@ class DeviceBackend : public StateBackend {
     grip_force_.resize(m.grip_velocity.size());
     grip_work_.resize(m.grip_velocity.size());
     mv_ = model_view();
+    // The shells' bending constants for the energies.
+    if (K_.shells_any) {
+      std::vector<double> shell_c(n, 0.0);
+      for (const std::uint32_t a : K_.explicit_automata)
+        if (!m.random_automaton(a)) shell_c[a] = shell_bending_constant(m, a);
+      Dev::upload(shell_c_, shell_c);
+    }
   }
 
   std::string name() const override { return Dev::kName; }
   // How many times the contact lists were rebuilt (tests: what a step reads from the device).
   std::size_t contact_rebuilds() const { return rebuilds_; }
+  Energies energies() const override { return const_cast<DeviceBackend*>(this)->device_energies(); }
   // The state's breaks and those logged on the device since it was last read.
   std::int64_t broken_links() const override {
     return StateBackend::broken_links() + static_cast<std::int64_t>(logged_);
@@ -454,10 +462,14 @@ class DeviceBackend : public StateBackend {
     Dev::launch(n, CompactKernel{flag, c(place_), out});
     return total;
   }
-  // A field of the status on the device.
+  // A field of a struct on the device (the step's status, the energies' sums).
+  template <class T, class S>
+  static T* field(Buf<S>& b, std::size_t offset) {
+    return reinterpret_cast<T*>(reinterpret_cast<unsigned char*>(b.data()) + offset);
+  }
   template <class T>
   T* status_field(std::size_t offset) {
-    return reinterpret_cast<T*>(reinterpret_cast<unsigned char*>(d(status_)) + offset);
+    return field<T>(status_, offset);
   }
   Touch touch() {
     return {c(proj_), c(proj_constants_), static_cast<std::uint32_t>(M_.projectiles.size()), c(px_), c(py_), c(pz_),
@@ -492,6 +504,36 @@ class DeviceBackend : public StateBackend {
             c(zeta_projectiles_)};
   }
 
+  EnergyView energy_view() {
+    EnergyView v;
+    v.m = mv_;
+    v.neighbour = c(neighbour_);
+    v.link_rest = opt(link_rest_);
+    v.link_inv_rest = opt(link_inv_rest_);
+    v.spacing = M_.spacing;
+    v.lattice_bending = M_.lattice_bending;
+    v.volume = c(volume_);
+    v.grip = c(grip_);
+    v.load = opt(load_);
+    v.k_twist = opt(ex_k_twist_);
+    v.k_in = opt(ex_k_in_);
+    v.k_out = opt(ex_k_out_);
+    v.free_face = opt(free_face_);
+    v.gravity = M_.gravity;
+    v.dt = M_.dt;
+    v.x = {c(px_), c(py_), c(pz_), 1};
+    v.v = {c(vx_), c(vy_), c(vz_), 1};
+    v.w = {c(wx_), c(wy_), c(wz_), 1};
+    v.f = c(f_out_);
+    v.t = c(t_out_);
+    v.intact = c(intact_);
+    v.damage = softening_ ? c(damage_) : nullptr;
+    v.ut = {c(utx_), c(uty_), c(utz_), 1};
+    v.moment = {c(ex_mx_), c(ex_my_), c(ex_mz_), 1};
+    v.sync = S_.f.size() == M_.size() && S_.step > 0;  // (compute_energies')
+    return v;
+  }
+  Energies device_energies();
   void explicit_pass(const cpu::LatticeView& v);
   void contact_pass();
   void projectile_pass();
@@ -541,6 +583,10 @@ class DeviceBackend : public StateBackend {
   Buf<StepStatus> status_;
   StepStatus status_h_;  // the last status read
   std::size_t rebuilds_ = 0;
+  // The energies' terms and sums.
+  Buf<double> shell_c_, e_kinetic_, e_gravity_, e_load_, e_links_, e_many_body_, e_pairs_, e_ground_;
+  Buf<LinkEnergy> e_link_;
+  Buf<EnergySums> e_sums_;
   // Contact lists (sizes on the host), and the incidence list: (automaton, 2 p + side) sorted, with the
   // start of each automaton's run.
   Buf<ContactPair> contacts_, contacts_next_, fresh_;
@@ -832,6 +878,52 @@ void DeviceBackend<Dev>::incidence() {
   Dev::launch(e, RunStartKernel{c(inc_key_), d(inc_flag_)});
   Dev::exclusive_scan(c(inc_flag_), d(inc_place_), e);  // the runs: inc_place_[e]
   Dev::launch(e, RunScatterKernel{c(inc_flag_), c(inc_place_), d(inc_start_), e});
+}
+
+// The energies for Engine's check (Backend::energies): each term on the device with compute_energies'
+// functions, summed there; one read.
+template <class Dev>
+Energies DeviceBackend<Dev>::device_energies() {
+  const std::size_t n = M_.size(), L = M_.link_slots(), np = M_.projectiles.size();
+  const EnergyView ev = energy_view();
+  for (auto* b : {&e_kinetic_, &e_gravity_, &e_many_body_}) b->resize(n);
+  if (!M_.load.empty()) e_load_.resize(n);
+  e_links_.resize(L);
+  e_link_.resize(L);
+  e_pairs_.resize(contact_count_);
+  e_ground_.resize(ground_count_);
+  e_sums_.resize(1);
+  Dev::launch(n, AutomatonEnergyKernel{ev, d(e_kinetic_), d(e_gravity_), M_.load.empty() ? nullptr : d(e_load_)});
+  Dev::launch(L, LinkEnergyKernel{ev, d(e_link_), d(e_links_)});
+  Dev::launch(n, ManyBodyEnergyKernel{ev, c(neighbour_below_), c(e_link_), opt(shell_c_), d(e_many_body_)});
+  Dev::launch(contact_count_, PairEnergyKernel{ev, c(contacts_), d(e_pairs_)});
+  Dev::launch(ground_count_, GroundEnergyKernel{ev, c(ground_), c(ground_contact_), M_.up, M_.ground_height, d(e_ground_)});
+  Dev::launch(1, SerialEnergyKernel{ev, c(proj_), projectile_pairs(), opt(proj_lists_), np ? c(proj_start_) : nullptr,
+                                    opt(proj_material_), M_.ground ? c(ground_contact_) : nullptr, M_.up, M_.ground_height,
+                                    opt(proj_pairs_), static_cast<std::uint32_t>(pair_count_), opt(grip_work_),
+                                    M_.grip_velocity.size(), d(e_sums_)});
+  const auto sum = [&](const Buf<double>& x, std::size_t count, std::size_t offset) {
+    Dev::sum_into(c(x), count, field<double>(e_sums_, offset));
+  };
+  sum(e_kinetic_, n, offsetof(EnergySums, kinetic));
+  sum(e_gravity_, n, offsetof(EnergySums, gravity_work));
+  if (!M_.load.empty()) sum(e_load_, n, offsetof(EnergySums, load_work));
+  sum(e_links_, L, offsetof(EnergySums, links));
+  sum(e_many_body_, n, offsetof(EnergySums, many_body));
+  sum(e_pairs_, contact_count_, offsetof(EnergySums, pairs));
+  sum(e_ground_, ground_count_, offsetof(EnergySums, ground));
+  EnergySums s;
+  Dev::download(&s, e_sums_, 1);
+  Energies e;
+  e.kinetic = s.kinetic;
+  e.contact = s.pairs + s.ground + s.projectile_contact;
+  e.elastic = s.links + s.many_body + e.contact;
+  e.projectile_kinetic = s.projectile_kinetic;
+  e.gravity_work = s.gravity_work + s.projectile_gravity;
+  e.grip_work = s.grip_work;
+  e.load_work = M_.load.empty() ? 0.0 : s.load_work;
+  e.projectile_work = s.projectile_work;
+  return e;
 }
 
 // The host's State from the device arrays.

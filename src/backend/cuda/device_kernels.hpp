@@ -15,6 +15,7 @@
 
 #include "backend/cpu/lanes_scalar.hpp"  // first: Lanes<float>, before core/math.hpp
 #include "backend/cpu/lattice_kernels.hpp"
+#include "backend/energy_terms.hpp"
 #include "backend/step_kernels.hpp"
 #include "core/model_view.hpp"
 #include "core/state.hpp"
@@ -621,6 +622,7 @@ struct DeviceProjectile {
   double work = 0;
 };
 struct ProjectileConstants {
+  DVec3 start;  // where it started (gravity's work)
   float radius = 0, mass = 0, inertia = 0;
   bool kinematic = false;
   int group = 0;
@@ -635,12 +637,17 @@ struct ProjectilePairs {
   const ContactMaterial* contact;  // per pair of groups (Model::contact)
   std::size_t groups;
   const float* zeta;  // Model::zeta_projectiles
-  MCA_HD ContactSprings springs(std::uint32_t p, std::uint32_t q) const {
+  // Model::projectile_pair_contact.
+  MCA_HD ContactMaterial material(std::uint32_t p, std::uint32_t q) const {
     const ProjectileConstants &A = P[p], &B = P[q];
     ContactMaterial c = contact[static_cast<std::size_t>(A.group) * groups + static_cast<std::size_t>(B.group)];
     c.rolling = 0.5f * (A.rolling + B.rolling);
     c.twisting = 0.5f * (A.twisting + B.twisting);
-    return body_contact_springs(c, zeta[static_cast<std::size_t>(p) * np + q], A.radius, B.radius,
+    return c;
+  }
+  MCA_HD ContactSprings springs(std::uint32_t p, std::uint32_t q) const {
+    const ProjectileConstants &A = P[p], &B = P[q];
+    return body_contact_springs(material(p, q), zeta[static_cast<std::size_t>(p) * np + q], A.radius, B.radius,
                                 contact_reduced(A.mass, A.kinematic, B.mass, B.kinematic),
                                 contact_reduced(A.inertia, A.kinematic, B.inertia, B.kinematic));
   }
@@ -905,6 +912,121 @@ struct ProjectileMotionKernel {
         return;
       }
     }
+  }
+};
+
+// --- Energies: Engine's check of the energy, from energy_terms.hpp's terms, summed on the device ---
+struct EnergySums {
+  double kinetic = 0, gravity_work = 0, load_work = 0, links = 0, many_body = 0, pairs = 0, ground = 0;
+  double projectile_kinetic = 0, projectile_gravity = 0, projectile_work = 0, projectile_contact = 0, grip_work = 0;
+};
+struct AutomatonEnergyKernel {
+  EnergyView ev;
+  double *kinetic, *gravity, *load;  // load null: none
+  MCA_HD void operator()(std::size_t a) const {
+    const AutomatonEnergy e = ev.automaton(a);
+    kinetic[a] = e.kinetic;
+    gravity[a] = e.gravity_work;
+    if (load) load[a] = e.load_work;
+  }
+};
+struct LinkEnergyKernel {
+  EnergyView ev;
+  LinkEnergy* link;
+  double* elastic;
+  MCA_HD void operator()(std::size_t l) const {
+    const LinkEnergy e = ev.link(l);
+    link[l] = e;
+    elastic[l] = e.elastic + e.bending;
+  }
+};
+// Automaton a's many-body energy from its links' terms (Model::for_each_link_of's links).
+struct ManyBodyEnergyKernel {
+  EnergyView ev;
+  const std::uint32_t* below;
+  const LinkEnergy* link;
+  const double* shell_c;  // per automaton (null: no shell)
+  double* out;
+  MCA_HD void operator()(std::size_t a) const {
+    const std::size_t n = ev.m.n;
+    ManyBodySums s = ev.sums(a);
+    for (int axis = 0; axis < 3; ++axis) {
+      const std::size_t up = axis * n + a;
+      if (ev.neighbour[up] != Model::kNoLink) EnergyView::add(s, link[up], axis, true);
+      if (below[up] != Model::kNoLink) EnergyView::add(s, link[axis * n + below[up]], axis, false);
+    }
+    if (ev.m.first)
+      for (std::uint32_t x = ev.m.first[a]; x < ev.m.first[a + 1]; ++x) {
+        const std::uint32_t k = ev.m.of[x];
+        EnergyView::add(s, link[3 * n + k], -1, ev.m.ei[k] == a);
+      }
+    const EnergyView::ManyBodyEnergy e = ev.many_body(a, s, shell_c ? shell_c[a] : 0.0);
+    out[a] = e.strain + e.bending;
+  }
+};
+struct PairEnergyKernel {
+  EnergyView ev;
+  const ContactPair* pairs;
+  double* out;
+  MCA_HD void operator()(std::size_t p) const { out[p] = ev.pair_contact(pairs[p]); }
+};
+struct GroundEnergyKernel {
+  EnergyView ev;
+  const BodyContact* list;
+  const ContactMaterial* ground;  // per group
+  Vec3 up;
+  float height;
+  double* out;
+  MCA_HD void operator()(std::size_t k) const { out[k] = ev.ground_contact(list[k], ground, up, height); }
+};
+// One thread: the projectiles' terms and the grips' work, in compute_energies' order.
+struct SerialEnergyKernel {
+  EnergyView ev;
+  const DeviceProjectile* proj;
+  ProjectilePairs pairs;
+  const BodyContact* lists;     // the projectiles' contact lists, one after another
+  const std::uint32_t* start;   // np + 1 entries
+  const ContactMaterial* material;  // per projectile and group: projectile_contact(p, g)
+  const ContactMaterial* ground_material;  // per group (null: no ground)
+  Vec3 up;
+  float height;
+  const ProjectilePair* pair_list;
+  std::uint32_t pair_count;
+  const double* grip_work;
+  std::size_t grips;
+  EnergySums* sums;
+  MCA_HD void operator()(std::size_t) const {
+    const ProjectileConstants* P = pairs.P;
+    double kinetic = 0, gravity = 0, work = 0, contact = 0;
+    for (std::uint32_t p = 0; p < pairs.np; ++p) {
+      const DeviceProjectile& ps = proj[p];
+      kinetic += ev.projectile_kinetic(ps.velocity, ps.angular_velocity, ps.force, P[p].mass, P[p].inertia, P[p].kinematic);
+      const DVec3 xp = ev.projectile_at(ps.position, ps.velocity);
+      if (P[p].kinematic) work += ps.work;
+      else gravity += P[p].mass * dotd(ev.gravity, delta(P[p].start, xp));
+      for (std::uint32_t k = start[p]; k < start[p + 1]; ++k)
+        contact += ev.projectile_contact(lists[k], xp, P[p].radius,
+                                         material[static_cast<std::size_t>(p) * pairs.groups + ev.m.group[lists[k].automaton]]);
+      if (ground_material) {
+        ContactMaterial c = ground_material[P[p].group];  // Model::projectile_ground_contact
+        c.rolling = P[p].rolling;
+        c.twisting = P[p].twisting;
+        contact += EnergyView::on_ground(xp, P[p].radius, c, ps.ground, up, height);
+      }
+    }
+    for (std::uint32_t k = 0; k < pair_count; ++k) {
+      const ProjectilePair& c = pair_list[k];
+      const DeviceProjectile &a = proj[c.p], &b = proj[c.q];
+      contact += EnergyView::projectile_pair(ev.projectile_at(a.position, a.velocity), ev.projectile_at(b.position, b.velocity),
+                                             P[c.p].radius, P[c.q].radius, pairs.material(c.p, c.q), c.h);
+    }
+    double grip = 0;
+    for (std::size_t g = 0; g < grips; ++g) grip += grip_work[g];
+    sums->projectile_kinetic = kinetic;
+    sums->projectile_gravity = gravity;
+    sums->projectile_work = work;
+    sums->projectile_contact = contact;
+    sums->grip_work = grip;
   }
 };
 

@@ -109,6 +109,12 @@ struct HostDevice {
       if (x[k] > m) m = x[k];
     *to = m;
   }
+  // *to = x[0] + ... + x[n - 1] (0 for none), in that order.
+  static void sum_into(const double* x, std::size_t n, double* to) {
+    double s = 0;
+    for (std::size_t k = 0; k < n; ++k) s += x[k];
+    *to = s;
+  }
   // *to = the smallest of n values (UINT32_MAX for none).
   static void min_into(const std::uint32_t* x, std::size_t n, std::uint32_t* to) {
     std::uint32_t m = UINT32_MAX;
