@@ -13,10 +13,12 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "backend/cuda/profile.hpp"
 #include "mca/error.hpp"
 
 namespace mca::gpu {
@@ -101,9 +103,23 @@ struct CudaDevice {
   static void upload(Buffer<T>& b, const std::vector<T, A>& src) {
     upload(b, src.data(), src.size());
   }
+  // A small copy (the step's status) goes through page-locked memory, the quickest way back.
   template <class T>
   static void download(T* dst, const Buffer<T>& b, std::size_t n, std::size_t offset = 0) {
-    if (n) cuda_check(cudaMemcpy(dst, b.data() + offset, n * sizeof(T), cudaMemcpyDeviceToHost), "download");
+    const std::size_t bytes = n * sizeof(T);
+    if (bytes > 0 && bytes <= kStaging) {
+      void* staging = staging_memory();
+      cuda_check(cudaMemcpyAsync(staging, b.data() + offset, bytes, cudaMemcpyDeviceToHost), "download");
+      cuda_check(cudaStreamSynchronize(nullptr), "download");
+      std::memcpy(static_cast<void*>(dst), staging, bytes);
+    } else if (bytes > 0) {
+      cuda_check(cudaMemcpy(dst, b.data() + offset, bytes, cudaMemcpyDeviceToHost), "download");
+    }
+    Timing& t = timing();
+    if (t.profile.on()) {
+      t.profile.read();
+      t.resolve();  // (the copy waited for everything before it)
+    }
   }
   template <class T>
   static void fill(Buffer<T>& b, const T& value) {
@@ -126,7 +142,8 @@ struct CudaDevice {
   template <class K>
   static void launch(std::size_t n, const K& kernel) {
     if (n == 0) return;
-    run_kernel<<<static_cast<unsigned>((n + kBlock - 1) / kBlock), kBlock>>>(kernel, n);
+    static const std::string name = DeviceProfile::name_of<K>();
+    timed(name, [&] { run_kernel<<<static_cast<unsigned>((n + kBlock - 1) / kBlock), kBlock>>>(kernel, n); });
     cuda_check(cudaGetLastError(), "kernel launch");
   }
 
@@ -136,7 +153,8 @@ struct CudaDevice {
     if (n == 0) return;
     std::size_t bytes = 0;
     cuda_check(cub::DeviceScan::InclusiveSum(nullptr, bytes, in, out + 1, n), "scan");
-    cuda_check(cub::DeviceScan::InclusiveSum(scratch(bytes), bytes, in, out + 1, n), "scan");
+    static const std::string name = "scan";
+    timed(name, [&] { cuda_check(cub::DeviceScan::InclusiveSum(scratch(bytes), bytes, in, out + 1, n), "scan"); });
   }
   // A stable radix sort of (keys, values) by the key's low key_bits bits (every key is below 2^key_bits).
   template <class Key>
@@ -149,8 +167,11 @@ struct CudaDevice {
     std::size_t bytes = 0;
     cuda_check(cub::DeviceRadixSort::SortPairs(nullptr, bytes, keys, keys_out, values, o.values.data(), n, 0, key_bits),
                "sort");
-    cuda_check(cub::DeviceRadixSort::SortPairs(scratch(bytes), bytes, keys, keys_out, values, o.values.data(), n, 0, key_bits),
-               "sort");
+    void* temp = scratch(bytes);
+    static const std::string name = "sort";
+    timed(name, [&] {
+      cuda_check(cub::DeviceRadixSort::SortPairs(temp, bytes, keys, keys_out, values, o.values.data(), n, 0, key_bits), "sort");
+    });
     cuda_check(cudaMemcpyAsync(keys, keys_out, n * sizeof(Key), cudaMemcpyDeviceToDevice), "sort");
     cuda_check(cudaMemcpyAsync(values, o.values.data(), n * sizeof(std::uint32_t), cudaMemcpyDeviceToDevice), "sort");
   }
@@ -162,7 +183,9 @@ struct CudaDevice {
     }
     std::size_t bytes = 0;
     cuda_check(cub::DeviceReduce::Reduce(nullptr, bytes, x, to, n, Larger{}, 0.0f), "max");
-    cuda_check(cub::DeviceReduce::Reduce(scratch(bytes), bytes, x, to, n, Larger{}, 0.0f), "max");
+    void* temp = scratch(bytes);
+    static const std::string name = "max";
+    timed(name, [&] { cuda_check(cub::DeviceReduce::Reduce(temp, bytes, x, to, n, Larger{}, 0.0f), "max"); });
   }
   // *to = the sum of n doubles (0 for none), in CUB's order: the same on every run of the same device.
   static void sum_into(const double* x, std::size_t n, double* to) {
@@ -172,7 +195,9 @@ struct CudaDevice {
     }
     std::size_t bytes = 0;
     cuda_check(cub::DeviceReduce::Sum(nullptr, bytes, x, to, n), "sum");
-    cuda_check(cub::DeviceReduce::Sum(scratch(bytes), bytes, x, to, n), "sum");
+    void* temp = scratch(bytes);
+    static const std::string name = "sum";
+    timed(name, [&] { cuda_check(cub::DeviceReduce::Sum(temp, bytes, x, to, n), "sum"); });
   }
   // *to = the smallest of n values (UINT32_MAX for none).
   static void min_into(const std::uint32_t* x, std::size_t n, std::uint32_t* to) {
@@ -182,10 +207,70 @@ struct CudaDevice {
     }
     std::size_t bytes = 0;
     cuda_check(cub::DeviceReduce::Reduce(nullptr, bytes, x, to, n, Smaller{}, std::uint32_t{0xffffffffu}), "min");
-    cuda_check(cub::DeviceReduce::Reduce(scratch(bytes), bytes, x, to, n, Smaller{}, std::uint32_t{0xffffffffu}), "min");
+    void* temp = scratch(bytes);
+    static const std::string name = "min";
+    timed(name, [&] { cuda_check(cub::DeviceReduce::Reduce(temp, bytes, x, to, n, Smaller{}, std::uint32_t{0xffffffffu}), "min"); });
+  }
+
+  // The profile (MCA_PROFILE): the device's time of each launch and primitive, from CUDA events around it,
+  // read at the next copy to the host (which waits for them).
+  static void print_profile(const char* backend, std::int64_t steps, std::int64_t rebuilds) {
+    Timing& t = timing();
+    if (!t.profile.on()) return;
+    if (cudaDeviceSynchronize() == cudaSuccess) t.resolve();
+    t.profile.print(backend, steps, rebuilds);
   }
 
  private:
+  struct Timing {
+    DeviceProfile profile;
+    std::vector<cudaEvent_t> pool;
+    std::vector<std::pair<const std::string*, std::pair<cudaEvent_t, cudaEvent_t>>> pending;
+    cudaEvent_t event() {
+      if (pool.empty()) {
+        cudaEvent_t e = nullptr;
+        cuda_check(cudaEventCreate(&e), "cudaEventCreate");
+        return e;
+      }
+      const cudaEvent_t e = pool.back();
+      pool.pop_back();
+      return e;
+    }
+    void resolve() {
+      for (const auto& [name, ev] : pending) {
+        float ms = 0;
+        if (cudaEventElapsedTime(&ms, ev.first, ev.second) == cudaSuccess) profile.add(*name, 1e-3 * ms);
+        pool.push_back(ev.first);
+        pool.push_back(ev.second);
+      }
+      pending.clear();
+    }
+  };
+  static Timing& timing() {
+    static Timing t;
+    return t;
+  }
+  template <class F>
+  static void timed(const std::string& name, F&& f) {
+    Timing& t = timing();
+    if (!t.profile.on()) return f();
+    const cudaEvent_t a = t.event(), b = t.event();
+    cuda_check(cudaEventRecord(a), "cudaEventRecord");
+    f();
+    cuda_check(cudaEventRecord(b), "cudaEventRecord");
+    t.pending.push_back({&name, {a, b}});
+  }
+
+  static constexpr std::size_t kStaging = 4096;
+  static void* staging_memory() {
+    static void* p = [] {
+      void* m = nullptr;
+      cuda_check(cudaMallocHost(&m, kStaging), "cudaMallocHost");
+      return m;
+    }();
+    return p;
+  }
+
   // The primitives' scratch memory and the sort's output, per host thread, grown as needed and kept.
   struct Sorted {
     Buffer<unsigned char> keys;

@@ -160,6 +160,7 @@ class DeviceBackend : public StateBackend {
     }
   }
 
+  ~DeviceBackend() override { Dev::print_profile(Dev::kName, steps_, static_cast<std::int64_t>(rebuilds_)); }
   std::string name() const override { return Dev::kName; }
   // How many times the contact lists were rebuilt (tests: what a step reads from the device).
   std::size_t contact_rebuilds() const { return rebuilds_; }
@@ -583,6 +584,7 @@ class DeviceBackend : public StateBackend {
   Buf<StepStatus> status_;
   StepStatus status_h_;  // the last status read
   std::size_t rebuilds_ = 0;
+  std::int64_t steps_ = 0;  // stepped by this backend (the profile's)
   // The energies' terms and sums.
   Buf<double> shell_c_, e_kinetic_, e_gravity_, e_load_, e_links_, e_many_body_, e_pairs_, e_ground_;
   Buf<LinkEnergy> e_link_;
@@ -631,6 +633,7 @@ class DeviceBackend : public StateBackend {
 
 template <class Dev>
 std::int64_t DeviceBackend<Dev>::one_step() {
+  ++steps_;
   const cpu::LatticeView v = view();
   const std::size_t n = M_.size(), ne = M_.explicit_links.size();
   Dev::clear(status_field<std::uint32_t>(offsetof(StepStatus, breaks)), 3);  // the counters

@@ -7,6 +7,7 @@
 // runs every line of the CUDA backend's step logic on a machine without a GPU; CI checks it bit for bit
 // against the CPU.
 #include <algorithm>
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -14,6 +15,8 @@
 #include <stdexcept>
 #include <utility>
 #include <vector>
+
+#include "backend/cuda/profile.hpp"
 
 namespace mca::gpu {
 
@@ -50,6 +53,7 @@ struct HostDevice {
   template <class T>
   static void download(T* dst, const Buffer<T>& b, std::size_t n, std::size_t offset = 0) {
     ++reads;
+    profile().read();
     if (n) std::memcpy(static_cast<void*>(dst), b.data() + offset, n * sizeof(T));
   }
   template <class T>
@@ -71,61 +75,97 @@ struct HostDevice {
   // runs its threads in no order, so no launch may depend on one).
   template <class K>
   static void launch(std::size_t n, const K& kernel) {
-    if (reverse)
-      for (std::size_t k = n; k-- > 0;) kernel(k);
-    else
-      for (std::size_t k = 0; k < n; ++k) kernel(k);
+    static const std::string name = DeviceProfile::name_of<K>();
+    timed(name, [&] {
+      if (reverse)
+        for (std::size_t k = n; k-- > 0;) kernel(k);
+      else
+        for (std::size_t k = 0; k < n; ++k) kernel(k);
+    });
   }
 
   // out[k] = in[0] + ... + in[k - 1] for k = 0 .. n: out[n] is the total (out holds n + 1 values; in and
   // out are different arrays).
   static void exclusive_scan(const std::uint32_t* in, std::uint32_t* out, std::size_t n) {
-    std::uint32_t sum = 0;
-    for (std::size_t k = 0; k < n; ++k) {
-      out[k] = sum;
-      sum += in[k];
-    }
-    out[n] = sum;
+    static const std::string name = "scan";
+    timed(name, [&] {
+      std::uint32_t sum = 0;
+      for (std::size_t k = 0; k < n; ++k) {
+        out[k] = sum;
+        sum += in[k];
+      }
+      out[n] = sum;
+    });
   }
   // Sorts (keys, values) by key, keeping the order of equal keys; every key is below 2^key_bits.
   template <class Key>
   static void stable_sort_by_key(Key* keys, std::uint32_t* values, std::size_t n, int key_bits) {
-    std::vector<std::pair<Key, std::uint32_t>> kv(n);
-    for (std::size_t k = 0; k < n; ++k) {
-      if (key_bits < static_cast<int>(8 * sizeof(Key)) && keys[k] >> key_bits)
-        throw std::logic_error("stable_sort_by_key: a key has more than the bits given");
-      kv[k] = {keys[k], values[k]};
-    }
-    std::stable_sort(kv.begin(), kv.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-    for (std::size_t k = 0; k < n; ++k) {
-      keys[k] = kv[k].first;
-      values[k] = kv[k].second;
-    }
+    static const std::string name = "sort";
+    timed(name, [&] {
+      std::vector<std::pair<Key, std::uint32_t>> kv(n);
+      for (std::size_t k = 0; k < n; ++k) {
+        if (key_bits < static_cast<int>(8 * sizeof(Key)) && keys[k] >> key_bits)
+          throw std::logic_error("stable_sort_by_key: a key has more than the bits given");
+        kv[k] = {keys[k], values[k]};
+      }
+      std::stable_sort(kv.begin(), kv.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+      for (std::size_t k = 0; k < n; ++k) {
+        keys[k] = kv[k].first;
+        values[k] = kv[k].second;
+      }
+    });
   }
   // *to = the largest of n floats, taking each that is not > 0 (NaN included) as 0 (0 for none).
   static void max_into(const float* x, std::size_t n, float* to) {
-    float m = 0;
-    for (std::size_t k = 0; k < n; ++k)
-      if (x[k] > m) m = x[k];
-    *to = m;
+    static const std::string name = "max";
+    timed(name, [&] {
+      float m = 0;
+      for (std::size_t k = 0; k < n; ++k)
+        if (x[k] > m) m = x[k];
+      *to = m;
+    });
   }
   // *to = x[0] + ... + x[n - 1] (0 for none), in that order.
   static void sum_into(const double* x, std::size_t n, double* to) {
-    double s = 0;
-    for (std::size_t k = 0; k < n; ++k) s += x[k];
-    *to = s;
+    static const std::string name = "sum";
+    timed(name, [&] {
+      double s = 0;
+      for (std::size_t k = 0; k < n; ++k) s += x[k];
+      *to = s;
+    });
   }
   // *to = the smallest of n values (UINT32_MAX for none).
   static void min_into(const std::uint32_t* x, std::size_t n, std::uint32_t* to) {
-    std::uint32_t m = UINT32_MAX;
-    for (std::size_t k = 0; k < n; ++k) m = std::min(m, x[k]);
-    *to = m;
+    static const std::string name = "min";
+    timed(name, [&] {
+      std::uint32_t m = UINT32_MAX;
+      for (std::size_t k = 0; k < n; ++k) m = std::min(m, x[k]);
+      *to = m;
+    });
   }
 
   // Counted: the copies from the device to the host (each a wait for the device on a GPU), and whether
   // launches run their threads backwards.
   static inline std::size_t reads = 0;
   static inline bool reverse = false;
+
+  // The profile (MCA_PROFILE): the wall time of each launch and primitive.
+  static DeviceProfile& profile() {
+    static DeviceProfile p;
+    return p;
+  }
+  static void print_profile(const char* backend, std::int64_t steps, std::int64_t rebuilds) {
+    profile().print(backend, steps, rebuilds);
+  }
+
+ private:
+  template <class F>
+  static void timed(const std::string& name, F&& f) {
+    if (!profile().on()) return f();
+    const auto t0 = std::chrono::steady_clock::now();
+    f();
+    profile().add(name, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
 };
 
 }  // namespace mca::gpu
