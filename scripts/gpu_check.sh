@@ -84,12 +84,17 @@ else
   note "compute-sanitizer: not on this machine"
 fi
 
-# 3. The benchmarks on the device (contacts and breaking active), and the CPU's on this machine's cores.
+# 3. The benchmarks on the device (contacts and breaking active; floors 4 G automaton-steps/s for wall_357k,
+#    5 G for wall_2m), the device's time per kernel (MCA_PROFILE), and the CPU's on this machine's cores.
 set +e
-timeout 120 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" "$dir/mca" bench wall_357k --backend cuda \
+timeout 120 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" "$dir/mca" bench wall_357k wall_2m --backend cuda \
   --repeats 5 --steps 200 >"$out/bench_cuda.txt" 2>&1
 note "bench cuda (exit $?):"
-tail -3 "$out/bench_cuda.txt" | tee -a "$summary"
+grep -E 'wall_357k|wall_2m|machine' "$out/bench_cuda.txt" | tail -4 | tee -a "$summary"
+MCA_PROFILE=1 timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" "$dir/mca" bench wall_357k --backend cuda \
+  --repeats 1 --steps 200 >"$out/profile_cuda.txt" 2>&1
+note "profile cuda, wall_357k (exit $?; the whole table in profile_cuda.txt):"
+grep -A12 'profile over' "$out/profile_cuda.txt" | tee -a "$summary"
 timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" "$dir/mca" bench wall_357k --backend cpu \
   --repeats 3 --steps 20 >"$out/bench_cpu.txt" 2>&1
 note "bench cpu (exit $?):"

@@ -228,14 +228,15 @@ TEST(CudaEmulation, TheCowShellIsTheCpusBitForBit) {
   EXPECT_GT(c.projectile_contacts, 0u);
 }
 
-// Grips pulling a bar apart (the grips' sums and work), and two balls that meet over a block: one free, one
-// kinematic (the projectile pairs, a kinematic projectile's work).
-TEST(CudaEmulation, GripsAndCollidingBallsAreTheCpusBitForBit) {
+// A bar pulled apart by its grips (the grips' sums and work).
+SceneDef pulled_bar() {
   SceneDef bar = io::load_scene_file(scene_file("tension_bar.toml"));
   bar.grips[1].velocity = {0.5, 0, 0};
-  const Compared c = run_both(bar, 4000, 1000);
-  EXPECT_GT(c.breaks, 0);
-
+  return bar;
+}
+// Two balls that meet over a random-lattice block: one free, one kinematic (the projectile pairs, a
+// kinematic projectile's work).
+SceneDef colliding_balls() {
   SceneDef s = test::block_scene(12, 12, 4, 0.02);
   s.solver.lattice = SolverDef::Lattice::random;
   s.solver.gravity = {0, 0, -9.81};
@@ -254,7 +255,11 @@ TEST(CudaEmulation, GripsAndCollidingBallsAreTheCpusBitForBit) {
   b.velocity = {0, 0, -5};
   b.kinematic = true;
   s.projectiles = {a, b};
-  const Compared d = run_both(s, 8000, 500);
+  return s;
+}
+TEST(CudaEmulation, GripsAndCollidingBallsAreTheCpusBitForBit) {
+  EXPECT_GT(run_both(pulled_bar(), 4000, 1000).breaks, 0);
+  const Compared d = run_both(colliding_balls(), 8000, 500);
   EXPECT_GT(d.breaks, 0);
   EXPECT_GT(d.projectile_contacts, 0u);
 }
@@ -366,6 +371,12 @@ TEST(CudaDevice, TheCowShellIsTheCpusBitForBit) {
   const auto s = cow(why);
   if (!s) GTEST_SKIP() << why;
   EXPECT_GT(run_both(*s, 10000, 500, kCuda).breaks, 0);
+}
+TEST(CudaDevice, GripsAndBallsAreTheCpusBitForBit) {
+  MCA_NEEDS_GPU();
+  EXPECT_GT(run_both(pulled_bar(), 4000, 1000, kCuda).breaks, 0);
+  EXPECT_GT(run_both(colliding_balls(), 8000, 500, kCuda).breaks, 0);
+  EXPECT_GT(run_both(three_balls(), 3000, 100, kCuda).shared, 0u);
 }
 TEST(CudaDevice, TwoRunsAreEqual) {
   MCA_NEEDS_GPU();
