@@ -190,6 +190,10 @@ struct SolverDef {
   double max_memory_gb = 16.0;           // refuse models whose estimate exceeds this
 };
 
+// A backend's name in scene files and options (auto, cpu, cuda, cuda-emulation), and back (none: no such name).
+const char* backend_name(SolverDef::Backend backend);
+std::optional<SolverDef::Backend> parse_backend(const std::string& name);
+
 struct OutputDef {
   double duration = 0.05;       // simulated time [s]
   double frame_rate = 500.0;    // output frames per simulated second

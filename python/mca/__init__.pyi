@@ -135,6 +135,8 @@ class Solver:
     stress_coefficient: float
     lattice: str
     """"random" (the default: a site at a random point of each cell, linked to its Voronoi neighbours) or "cubic" (the paper's lattice)."""
+    backend: str
+    """Where the step runs: "auto" (the default; the CPU until the CUDA backend has run on a GPU), "cpu", "cuda" (an NVIDIA GPU) or "cuda-emulation" (the CUDA backend's algorithm on one core, for tests)."""
     lattice_jitter: float
     """Sites moved by up to this share of d along each axis, in [0, 0.3]; 0: the cubic lattice."""
     link_bending: float
@@ -213,7 +215,7 @@ class Simulation:
 
     One Simulation is used from one Python thread at a time: while advance runs in one thread, advance or
     a read of the state from another raises mca.Error at once (it does not wait)."""
-    def __init__(self, scene: Union[Scene, PathLike], threads: int = 0, backend: str = "cpu") -> None:
+    def __init__(self, scene: Union[Scene, PathLike], threads: int = 0, backend: Optional[str] = None) -> None:
         """Builds the model (threads 0: all cores); raises mca.Error for a scene that cannot be built."""
     @staticmethod
     def resume(path: PathLike, threads: int = 0) -> Simulation:

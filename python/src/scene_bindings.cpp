@@ -657,6 +657,14 @@ void bind_scene(py::module_& m) {
                                                                                                 : SolverDef::Lattice::cubic;
           },
           "\"random\" (the default: random sites, Voronoi neighbours) or \"cubic\" (the paper's)")
+      .def_property(
+          "backend", [](const SolverDef& s) { return std::string(backend_name(s.backend)); },
+          [](SolverDef& s, py::handle value) {
+            const std::string v = to_text(value, "solver.backend", "a str");
+            s.backend = *parse_backend(choice("solver.backend", v, {"auto", "cpu", "cuda", "cuda-emulation"}, "a backend"));
+          },
+          "where the step runs: \"auto\" (the default; the CPU until the CUDA backend has run on a GPU), \"cpu\", "
+          "\"cuda\" (an NVIDIA GPU) or \"cuda-emulation\" (the CUDA backend's algorithm on one core, for tests)")
       .def_property(MCA_KEY(SolverDef, lattice_jitter, "sites moved by up to this share of d, in [0, 0.3] (the cubic lattice); 0: its sites at the cells' centres"))
       .def_property(MCA_KEY(SolverDef, link_bending, "the random lattice's links' bending springs, share of a beam of their section: 0, or in [0.01, 1]; 0.1 the calibrated default"))
       .def_property(MCA_KEY(SolverDef, skin, "contact search skin, share of d, in (0, 0.4]"))

@@ -521,7 +521,7 @@ SceneDef scene_of(const py::handle& scene) {
 }  // namespace
 
 void bind_simulation(py::module_& m) {
-  py::class_<PySimulation> sim(m, "Simulation", R"(A run of a scene: the model built from it and the CPU backend stepping it.
+  py::class_<PySimulation> sim(m, "Simulation", R"(A run of a scene: the model built from it and a backend stepping it.
 
 Arrays are in the model's automaton order (objects in scene order, each in lattice order). Methods that
 return state arrays return copies taken when called; strength_class(), masses() and object_ids() return
@@ -529,16 +529,19 @@ read-only views of the model, which never changes once built; every array stays 
 Simulation is gone.)");
   sim.def(py::init([](const py::handle& scene, py::handle threads_arg, py::handle backend_arg) {
             const int threads = to_int_threads(threads_arg);
-            const std::string backend = to_text(backend_arg, "Simulation: backend", "a str: \"cpu\"");
-            if (backend != "cpu")
-              throw Error(fmt::format("backend '{}' is not available in this build; the backends are: cpu", backend));
-            const SceneDef def = scene_of(scene);
+            SceneDef def = scene_of(scene);
+            if (!backend_arg.is_none())
+              def.solver.backend = backend_from_name(
+                  to_text(backend_arg, "Simulation: backend", "a str: \"auto\", \"cpu\", \"cuda\" or \"cuda-emulation\""),
+                  "Simulation: backend");
             return std::make_unique<PySimulation>(def, app::thread_count(threads));
           }),
-          py::arg("scene"), py::arg("threads") = 0, py::arg("backend") = "cpu",
+          py::arg("scene"), py::arg("threads") = 0, py::arg("backend") = py::none(),
           "Builds the model of `scene` (an mca.Scene or a scene file's path) with `threads` worker threads (0: all "
-          "cores; more than the cores: the cores). Raises mca.Error for a scene that cannot be built, with the "
-          "command's message.")
+          "cores; more than the cores: the cores), stepped by `backend`: \"auto\", \"cpu\", \"cuda\" (an NVIDIA "
+          "GPU) or \"cuda-emulation\" (the CUDA backend's algorithm on one core, for tests), as mca run --backend; "
+          "None: the scene's solver.backend. Raises mca.Error for a scene that cannot be built, or a backend that "
+          "cannot run here, with the command's message.")
       .def_static(
           "resume",
           [](py::handle path, py::handle threads) {

@@ -72,8 +72,8 @@ def test_keys_and_values_checked_when_set():
 
 def test_bad_simulation_arguments():
     scene = mca.Scene.default()
-    with pytest.raises(mca.Error, match="backend 'cuda' is not available"):
-        mca.Simulation(scene, backend="cuda")
+    with pytest.raises(mca.Error, match="Simulation: backend 'gpu': give auto .*, cpu, cuda or cuda-emulation"):
+        mca.Simulation(scene, backend="gpu")
     with pytest.raises(mca.Error, match="--threads -1 is negative"):
         mca.Simulation(scene, threads=-1)
     with pytest.raises(mca.Error, match="the scene has no objects"):
@@ -118,3 +118,22 @@ def test_progress_must_be_callable_before_any_step():
     with pytest.raises(mca.Error, match="progress = 'x' is not callable"):
         sim.advance_to(0.001, progress="x")
     assert sim.step == 0
+
+
+def test_backend_keyword():
+    scene = mca.Scene.default()
+    cpu = mca.Simulation(scene, threads=1, backend="cpu")
+    emulated = mca.Simulation(scene, backend="cuda-emulation")
+    assert cpu.backend.startswith("cpu") and emulated.backend == "cuda-emulation"
+    cpu.advance(40)
+    emulated.advance(40)
+    assert emulated.state_hash() == cpu.state_hash()
+    # None (the default): the scene's own solver.backend.
+    scene.solver.backend = "cuda-emulation"
+    assert mca.Simulation(scene).backend == "cuda-emulation"
+    assert mca.Simulation(scene, backend="cpu").backend.startswith("cpu")
+    # cuda runs where there is a GPU, and says why not where there is none.
+    try:
+        assert mca.Simulation(scene, backend="cuda").backend.startswith("cuda (")
+    except mca.Error as e:
+        assert "NVIDIA" in str(e)

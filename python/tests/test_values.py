@@ -95,8 +95,8 @@ def test_wrong_types_of_simulation_arguments():
                           (1.5, "threads = 1.5 is not a whole number"), (2**40, r"threads = \d+ is out of range")]:
         with pytest.raises(mca.Error, match=said):
             mca.Simulation(scene, threads=threads)
-    with pytest.raises(mca.Error, match=r"Simulation: backend = None is not text; give a str: \"cpu\""):
-        mca.Simulation(scene, backend=None)
+    with pytest.raises(mca.Error, match=r"Simulation: backend = 3 is not text; give a str: \"auto\", \"cpu\""):
+        mca.Simulation(scene, backend=3)
     sim = mca.Simulation(scene, threads=1)
     for steps, said in [(None, "advance: steps = None is not a whole number"), (1.5, "advance: steps = 1.5 is not"),
                         (2**70, r"advance: steps = \d+ is out of range")]:

@@ -9,6 +9,7 @@
 #include <string>
 #include <string_view>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -507,6 +508,25 @@ void validate_scene(const SceneDef& scene) {
                        "position away from the target",
                        vec(*cam.position)));
   c.range("camera.fov", cam.fov, 5, true, 150, true, "in [5, 150] degrees", "use e.g. 40 (the default)");
+}
+
+namespace {
+constexpr std::pair<SolverDef::Backend, const char*> kBackendNames[] = {{SolverDef::Backend::automatic, "auto"},
+                                                                       {SolverDef::Backend::cpu, "cpu"},
+                                                                       {SolverDef::Backend::cuda, "cuda"},
+                                                                       {SolverDef::Backend::cuda_emulation, "cuda-emulation"}};
+}  // namespace
+
+const char* backend_name(SolverDef::Backend backend) {
+  for (const auto& [b, name] : kBackendNames)
+    if (b == backend) return name;
+  return "auto";
+}
+
+std::optional<SolverDef::Backend> parse_backend(const std::string& name) {
+  for (const auto& [b, text] : kBackendNames)
+    if (name == text) return b;
+  return std::nullopt;
 }
 
 }  // namespace mca

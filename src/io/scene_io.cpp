@@ -523,12 +523,7 @@ SceneDef read_scene(const Table& root, const std::string& source) {
     if (auto f = tb->choice("lattice", {"cubic", "random"}, "a lattice")) {
       s.lattice = *f == "random" ? SolverDef::Lattice::random : SolverDef::Lattice::cubic;
     }
-    if (auto f = tb->choice("backend", {"auto", "cpu", "cuda", "cuda-emulation"}, "a backend")) {
-      s.backend = *f == "cpu"              ? SolverDef::Backend::cpu
-                  : *f == "cuda"           ? SolverDef::Backend::cuda
-                  : *f == "cuda-emulation" ? SolverDef::Backend::cuda_emulation
-                                           : SolverDef::Backend::automatic;
-    }
+    if (auto f = tb->choice("backend", {"auto", "cpu", "cuda", "cuda-emulation"}, "a backend")) s.backend = *parse_backend(*f);
     tb->number("lattice_jitter", s.lattice_jitter);
     tb->number("link_bending", s.link_bending);
     if (s.link_bending == 0) s.link_bending = 0;  // -0 is 0 (and printed so)
@@ -881,10 +876,7 @@ std::string scene_to_toml(const SceneDef& s) {
   out += s.solver.lattice == SolverDef::Lattice::random ? "lattice = \"random\"\n" : "lattice = \"cubic\"\n";
   out += fmt::format("lattice_jitter = {}\n", toml_double(s.solver.lattice_jitter));
   out += fmt::format("link_bending = {}\n", toml_double(s.solver.link_bending));
-  out += fmt::format("backend = \"{}\"\n", s.solver.backend == SolverDef::Backend::cpu              ? "cpu"
-                                          : s.solver.backend == SolverDef::Backend::cuda           ? "cuda"
-                                          : s.solver.backend == SolverDef::Backend::cuda_emulation ? "cuda-emulation"
-                                                                                                   : "auto");
+  out += fmt::format("backend = \"{}\"\n", backend_name(s.solver.backend));
   out += fmt::format("skin = {}\n", toml_double(s.solver.skin));
   out += fmt::format("seed = {}\n", static_cast<std::int64_t>(s.solver.seed));
   out += fmt::format("max_memory_gb = {}\n", toml_double(s.solver.max_memory_gb));

@@ -14,10 +14,7 @@ namespace mca {
 void Engine::check_environment() { cpu::select_kernels(); }
 
 SolverDef::Backend backend_from_name(const std::string& name, const std::string& option) {
-  if (name == "auto") return SolverDef::Backend::automatic;
-  if (name == "cpu") return SolverDef::Backend::cpu;
-  if (name == "cuda") return SolverDef::Backend::cuda;
-  if (name == "cuda-emulation") return SolverDef::Backend::cuda_emulation;
+  if (const auto b = parse_backend(name)) return *b;
   throw Error(fmt::format("{} '{}': give auto (the default), cpu, cuda or cuda-emulation", option, name));
 }
 
