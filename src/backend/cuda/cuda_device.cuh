@@ -11,6 +11,7 @@
 #include <cub/device/device_scan.cuh>
 #include <cuda_runtime.h>
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -77,14 +78,17 @@ struct CudaDevice {
     const T* data() const { return p_; }
     std::size_t size() const { return n_; }
     // Discards the contents; memory is allocated only when the buffer grows past what it has held (the lists
-    // that change size every step reuse theirs).
+    // that change size every step reuse theirs), and then half as much again as asked for, so that a list
+    // growing a little every step (the contact list, as links break) is not allocated anew every step
+    // (cudaMalloc and cudaFree wait for the device).
     void resize(std::size_t n) {
       if (n > cap_) {
+        const std::size_t cap = cap_ ? std::max(n, cap_ + cap_ / 2) : n;
         if (p_) cuda_check(cudaFree(p_), "cudaFree");
         p_ = nullptr;
         n_ = cap_ = 0;
-        cuda_check(cudaMalloc(reinterpret_cast<void**>(&p_), n * sizeof(T)), "cudaMalloc");
-        cap_ = n;
+        cuda_check(cudaMalloc(reinterpret_cast<void**>(&p_), cap * sizeof(T)), "cudaMalloc");
+        cap_ = cap;
       }
       n_ = n;
     }
