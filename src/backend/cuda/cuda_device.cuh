@@ -2,7 +2,7 @@
 // The CUDA device for DeviceBackend (device_backend.hpp): device arrays, kernel launches as grids of one
 // thread per element, and the device-wide primitives from CUB (CUDA toolkit) with the results of their
 // host twins in host_device.hpp (integer scans and stable radix sorts, the max and min of values: none
-// depends on the order of evaluation). Everything goes on the default stream in order; the primitives
+// depends on the order of evaluation; the max and min of a launch are its own, run_reduce_kernel). Everything goes on the default stream in order; the primitives
 // leave their results on the device and keep their scratch memory between calls, so only download waits
 // for the device. Compiled by nvcc with --fmad=false (no fused multiply-add, IEEE division and square
 // root), so a thread computes the CPU's bits.
@@ -40,18 +40,40 @@ __global__ void fill_kernel(T* p, std::size_t n, T value) {
   if (i < n) p[i] = value;
 }
 
-// The larger of a and b, each taken as 0 where not > 0 (NaN included), as the host twin's max: the same
-// result in any order of evaluation.
-struct Larger {
-  __host__ __device__ float operator()(float a, float b) const {
-    a = a > 0.0f ? a : 0.0f;
-    b = b > 0.0f ? b : 0.0f;
-    return a > b ? a : b;
+// kernel(i) for each thread i < n, each giving a Reduced (device_kernels.hpp): the largest of the floats
+// (each taken as 0 where not > 0, NaN included) and the smallest of the indices, over the warp by its
+// reduce instructions (sm_80 on), over the block through shared memory, then one atomic each per block into
+// *max_to and *min_to: the bits of non-negative floats order as unsigned integers do, so an integer
+// atomicMax gives the largest float exactly, in any order of the blocks.
+template <class K>
+__global__ void run_reduce_kernel(K k, std::size_t n, float* max_to, std::uint32_t* min_to) {
+  constexpr unsigned kWarps = 256 / 32;
+  __shared__ unsigned warp_max[kWarps], warp_min[kWarps];
+  const std::size_t i = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
+  float m = 0.0f;
+  unsigned low = 0xffffffffu;
+  if (i < n) {
+    const auto r = k(i);
+    m = r.max > 0.0f ? r.max : 0.0f;
+    low = r.min;
   }
-};
-struct Smaller {
-  __host__ __device__ std::uint32_t operator()(std::uint32_t a, std::uint32_t b) const { return a < b ? a : b; }
-};
+  unsigned bits = __reduce_max_sync(0xffffffffu, __float_as_uint(m));
+  low = __reduce_min_sync(0xffffffffu, low);
+  const unsigned warp = threadIdx.x / 32, lane = threadIdx.x % 32;
+  if (lane == 0) {
+    warp_max[warp] = bits;
+    warp_min[warp] = low;
+  }
+  __syncthreads();
+  if (threadIdx.x == 0) {
+    for (unsigned w = 1; w < blockDim.x / 32; ++w) {
+      bits = bits > warp_max[w] ? bits : warp_max[w];
+      low = low < warp_min[w] ? low : warp_min[w];
+    }
+    if (max_to && bits) atomicMax(reinterpret_cast<unsigned*>(max_to), bits);
+    if (min_to && low != 0xffffffffu) atomicMin(reinterpret_cast<unsigned*>(min_to), low);
+  }
+}
 
 struct CudaDevice {
   static constexpr const char* kName = "cuda";
@@ -151,6 +173,19 @@ struct CudaDevice {
     cuda_check(cudaGetLastError(), "kernel launch");
   }
 
+  // kernel(k) for k < n (as launch), each giving a Reduced: *max_to becomes the largest of it and theirs
+  // (each taken as 0 where not > 0), *min_to the smallest (null: not wanted). Blocks of kBlock threads.
+  template <class K>
+  static void launch_reduce(std::size_t n, const K& kernel, float* max_to, std::uint32_t* min_to) {
+    static_assert(kBlock == 256, "run_reduce_kernel's shared arrays hold 8 warps");
+    if (n == 0) return;
+    static const std::string name = DeviceProfile::name_of<K>();
+    timed(name, [&] {
+      run_reduce_kernel<<<static_cast<unsigned>((n + kBlock - 1) / kBlock), kBlock>>>(kernel, n, max_to, min_to);
+    });
+    cuda_check(cudaGetLastError(), "kernel launch");
+  }
+
   // out[k] = in[0] + ... + in[k - 1] for k = 0 .. n (out[n]: the total); in and out are different arrays.
   static void exclusive_scan(const std::uint32_t* in, std::uint32_t* out, std::size_t n) {
     cuda_check(cudaMemsetAsync(out, 0, sizeof(std::uint32_t)), "scan");
@@ -179,18 +214,6 @@ struct CudaDevice {
     cuda_check(cudaMemcpyAsync(keys, keys_out, n * sizeof(Key), cudaMemcpyDeviceToDevice), "sort");
     cuda_check(cudaMemcpyAsync(values, o.values.data(), n * sizeof(std::uint32_t), cudaMemcpyDeviceToDevice), "sort");
   }
-  // *to = the largest of n floats, each taken as 0 where not > 0 (0 for none).
-  static void max_into(const float* x, std::size_t n, float* to) {
-    if (n == 0) {
-      cuda_check(cudaMemsetAsync(to, 0, sizeof(float)), "max");
-      return;
-    }
-    std::size_t bytes = 0;
-    cuda_check(cub::DeviceReduce::Reduce(nullptr, bytes, x, to, n, Larger{}, 0.0f), "max");
-    void* temp = scratch(bytes);
-    static const std::string name = "max";
-    timed(name, [&] { cuda_check(cub::DeviceReduce::Reduce(temp, bytes, x, to, n, Larger{}, 0.0f), "max"); });
-  }
   // *to = the sum of n doubles (0 for none), in CUB's order: the same on every run of the same device.
   static void sum_into(const double* x, std::size_t n, double* to) {
     if (n == 0) {
@@ -203,19 +226,6 @@ struct CudaDevice {
     static const std::string name = "sum";
     timed(name, [&] { cuda_check(cub::DeviceReduce::Sum(temp, bytes, x, to, n), "sum"); });
   }
-  // *to = the smallest of n values (UINT32_MAX for none).
-  static void min_into(const std::uint32_t* x, std::size_t n, std::uint32_t* to) {
-    if (n == 0) {
-      cuda_check(cudaMemsetAsync(to, 0xff, sizeof(std::uint32_t)), "min");
-      return;
-    }
-    std::size_t bytes = 0;
-    cuda_check(cub::DeviceReduce::Reduce(nullptr, bytes, x, to, n, Smaller{}, std::uint32_t{0xffffffffu}), "min");
-    void* temp = scratch(bytes);
-    static const std::string name = "min";
-    timed(name, [&] { cuda_check(cub::DeviceReduce::Reduce(temp, bytes, x, to, n, Smaller{}, std::uint32_t{0xffffffffu}), "min"); });
-  }
-
   // The profile (MCA_PROFILE): the device's time of each launch and primitive, from CUDA events around it,
   // read at the next copy to the host (which waits for them).
   static void print_profile(const char* backend, std::int64_t steps, std::int64_t rebuilds) {

@@ -139,8 +139,6 @@ class DeviceBackend : public StateBackend {
     ext_s_.resize(n);
     intact_count_.resize(n);
     lost_.resize(n);
-    move2_.resize(n);
-    bad_.resize(n);
     breaks_.resize(L);
     flag_.resize(n + 1);
     place_.resize(n + 1);
@@ -251,7 +249,7 @@ class DeviceBackend : public StateBackend {
     StepStatus st;
     st.pair_count = static_cast<std::uint32_t>(pair_count_);
     Dev::upload(status_, &st, 1);
-    end_of_step();
+    end_of_step(true);
     read_status();
   }
 
@@ -478,12 +476,11 @@ class DeviceBackend : public StateBackend {
   }
   LinkEnds link_ends() { return {M_.size(), M_.lattice_slots(), c(neighbour_), c(e_i_), c(e_j_)}; }
   BreakList break_list() { return {d(breaks_), status_field<std::uint32_t>(offsetof(StepStatus, breaks))}; }
-  // The sound-link counts less the links lost (lost_); *largest: the largest move since the rebuild of an
-  // automaton among them that was boxed in.
+  // The sound-link counts less the links lost (lost_); *largest becomes the largest of it and the moves
+  // since the rebuild of the automata among them that were boxed in.
   void lose_links(float* largest) {
     const std::size_t n = M_.size();
-    Dev::launch(n, LoseLinksKernel{d(lost_), d(intact_count_), c(px_), c(py_), c(pz_), c(ref_), d(move2_)});
-    Dev::max_into(c(move2_), n, largest);
+    Dev::launch_reduce(n, LoseLinksKernel{d(lost_), d(intact_count_), c(px_), c(py_), c(pz_), c(ref_)}, largest, nullptr);
   }
   // The bits of the values 0 .. largest.
   static int bits_for(std::size_t largest) {
@@ -538,7 +535,7 @@ class DeviceBackend : public StateBackend {
   void explicit_pass(const cpu::LatticeView& v);
   void contact_pass();
   void projectile_pass();
-  void end_of_step();
+  void end_of_step(bool count_touches);
   void read_status();
   float apply_breaks(std::uint32_t nb);
   void rebuild_contacts();
@@ -579,8 +576,8 @@ class DeviceBackend : public StateBackend {
   Buf<double> grip_work_;
   // Scratch.
   Buf<float> nx_, ny_, nz_, many_body_, out_, ex_nx_, ex_ny_, ex_nz_, ex_eps_, ex_out_, ex_kappa_, explicit_weight_,
-      bend_weight_, move2_;
-  Buf<std::uint32_t> lost_, bad_, breaks_, flag_, place_;
+      bend_weight_;
+  Buf<std::uint32_t> lost_, breaks_, flag_, place_;
   Buf<StepStatus> status_;
   StepStatus status_h_;  // the last status read
   std::size_t rebuilds_ = 0;
@@ -636,19 +633,19 @@ std::int64_t DeviceBackend<Dev>::one_step() {
   ++steps_;
   const cpu::LatticeView v = view();
   const std::size_t n = M_.size(), ne = M_.explicit_links.size();
-  Dev::clear(status_field<std::uint32_t>(offsetof(StepStatus, breaks)), 3);  // the counters
+  Dev::launch(1, ResetStatusKernel{d(status_)});
   if (ne) explicit_pass(v);
   contact_pass();
   projectile_pass();
   // The lattice: many-body terms, links (their breaks into the list), automata.
   Dev::launch(n, ManyBodyKernel{v});
   Dev::launch(M_.lattice_slots(), LinksKernel{v, break_list()});
-  Dev::launch(n, AutomataKernel{v, d(move2_), d(bad_)});
+  const std::size_t np = M_.projectiles.size();
+  Dev::launch_reduce(n, AutomataKernel{v, touch(), np ? d(touch_count_) : nullptr, status_field<std::uint32_t>(offsetof(StepStatus, touches))},
+                     status_field<float>(offsetof(StepStatus, move2)), status_field<std::uint32_t>(offsetof(StepStatus, bad)));
   if (!M_.grip_velocity.empty())
     Dev::launch(M_.grip_velocity.size(), GripKernel{c(grip_first_), c(grip_members_), d(ext_f_), d(grip_force_),
                                                     d(grip_work_), c(grip_velocity_), M_.dt});
-  Dev::max_into(c(move2_), n, status_field<float>(offsetof(StepStatus, move2)));
-  Dev::min_into(c(bad_), n, status_field<std::uint32_t>(offsetof(StepStatus, bad)));
   const LinkEnds ends = link_ends();
   if (softening_) {
     // Links damaged this step leave their ends' counts of sound links. (Before this step's breaks are
@@ -657,7 +654,7 @@ std::int64_t DeviceBackend<Dev>::one_step() {
     Dev::launch(M_.link_slots(), ExposeDamagedKernel{ends, c(damage_), d(unsound_), d(lost_)});
     lose_links(status_field<float>(offsetof(StepStatus, move2_lost)));
   }
-  end_of_step();
+  end_of_step(false);
   read_status();  // the one read of a step without breaks
   const StepStatus st = status_h_;
   float max_move2 = std::max(st.move2, softening_ ? st.move2_lost : 0.0f);
@@ -673,12 +670,14 @@ std::int64_t DeviceBackend<Dev>::one_step() {
 }
 
 // What the next step's projectile pass needs from this step's positions: the candidates counted (the
-// status's touches) and the projectile pairs touching.
+// status's touches: the automata kernel counts them in a step, `count_touches` here after an upload) and
+// the projectile pairs touching.
 template <class Dev>
-void DeviceBackend<Dev>::end_of_step() {
+void DeviceBackend<Dev>::end_of_step(bool count_touches) {
   const std::size_t np = M_.projectiles.size();
   if (np == 0) return;
-  Dev::launch(M_.size(), TouchCountKernel{touch(), d(touch_count_), status_field<std::uint32_t>(offsetof(StepStatus, touches))});
+  if (count_touches)
+    Dev::launch(M_.size(), TouchCountKernel{touch(), d(touch_count_), status_field<std::uint32_t>(offsetof(StepStatus, touches))});
   if (np > 1)
     Dev::launch(1, ProjectilePairCountKernel{c(proj_), projectile_pairs(),
                                              status_field<std::uint32_t>(offsetof(StepStatus, touching_pairs))});

@@ -55,6 +55,13 @@ struct BreakList {
   MCA_HD void add(std::uint32_t c) const { code[count_add(count, 1u)] = c; }
 };
 
+// What a thread of a reducing launch gives (Dev::launch_reduce): a float whose largest over the launch is
+// wanted (each taken as 0 where not > 0, NaN included) and an index whose smallest is (kNone: none).
+struct Reduced {
+  float max = 0;
+  std::uint32_t min = kNone;
+};
+
 // What the host reads after each step, in one copy from the device: the step's results that decide what
 // it does next (stop, apply breaks, rebuild the contact lists, size the projectiles' lists).
 struct StepStatus {
@@ -68,6 +75,11 @@ struct StepStatus {
   std::uint32_t ground_joins = 0;  // ends of broken links that join the ground list
   std::uint32_t touching_pairs = 0;  // projectile pairs touching at the step's end: the next pair list's size at most
   std::uint32_t pair_count = 0;      // the projectile pair list's size
+};
+// One thread: the status as a step starts (its counters and the reductions' starting values).
+struct ResetStatusKernel {
+  StepStatus* status;
+  MCA_HD void operator()(std::size_t) const { *status = StepStatus{}; }
 };
 
 // --- Explicit links ---
@@ -188,6 +200,46 @@ struct GroundKernel {
   }
 };
 
+// --- Projectiles: their state, and the automata they touch ---
+// A projectile's state on the device (ProjectileState without its contact list).
+struct DeviceProjectile {
+  DVec3 position, velocity, angular_velocity;
+  Quat orientation;
+  Vec3 force;
+  ContactHistory ground;
+  double work = 0;
+};
+struct ProjectileConstants {
+  DVec3 start;  // where it started (gravity's work)
+  float radius = 0, mass = 0, inertia = 0;
+  bool kinematic = false;
+  int group = 0;
+  float rolling = 0, twisting = 0;
+  ContactSprings ground_springs;  // with the ground (body_contact_springs of its own)
+};
+// The projectiles' candidates: the automata each sphere touches, |d|^2 < (R + r_a)^2 in float (the CPU's
+// test). They are found at the end of a step (positions do not change until the next step's projectile
+// pass), counted per automaton, and written in (automaton, projectile) order at the next step's start.
+struct Touch {
+  const DeviceProjectile* proj;
+  const ProjectileConstants* P;
+  std::uint32_t np;
+  const double *px, *py, *pz;
+  const float* r;
+  MCA_HD bool operator()(std::uint32_t p, std::size_t a) const {
+    const Vec3 d = delta(proj[p].position, DVec3{px[a], py[a], pz[a]});
+    const float reach = P[p].radius + r[a];
+    return dot(d, d) < reach * reach;
+  }
+  // count[a]: the projectiles touching automaton a; their number adds to *total.
+  MCA_HD void count(std::size_t a, std::uint32_t* counts, std::uint32_t* total) const {
+    std::uint32_t c = 0;
+    for (std::uint32_t p = 0; p < np; ++p) c += (*this)(p, a) ? 1u : 0u;
+    counts[a] = c;
+    if (c) count_add(total, c);
+  }
+};
+
 // --- Lattice ---
 struct ManyBodyKernel {
   cpu::LatticeView v;
@@ -202,15 +254,20 @@ struct LinksKernel {
     if (Lane::links(v, axis, l % v.n, &c)) breaks.add(c);
   }
 };
+// Automaton a's motion; it gives its squared move since the rebuild where exposed (else 0) to the largest,
+// and itself where a value is not finite to the smallest. With projectiles (touch.np > 0), it also counts
+// those its new position touches, for the next step's candidates (TouchCountKernel's work, done here while
+// the position is at hand).
 struct AutomataKernel {
   cpu::LatticeView v;
-  float* move2;         // per automaton: its squared move since the rebuild, where exposed (else 0)
-  std::uint32_t* bad;   // per automaton: itself where a value is not finite, else kNone
-  MCA_HD void operator()(std::size_t a) const {
+  Touch touch;
+  std::uint32_t* touch_count;
+  std::uint32_t* touches;
+  MCA_HD Reduced operator()(std::size_t a) const {
     cpu::AutomataResult r;
     Lane::automata(v, a, r);
-    move2[a] = r.max_move2;
-    bad[a] = r.first_bad >= 0 ? static_cast<std::uint32_t>(a) : kNone;
+    if (touch.np) touch.count(a, touch_count, touches);
+    return {r.max_move2, r.first_bad >= 0 ? static_cast<std::uint32_t>(a) : kNone};
   }
 };
 // Grip g sums the forces its automata put on it, in member order (the CPU's).
@@ -292,24 +349,25 @@ struct ExposeDamagedKernel {
 };
 // Automaton a lost `lost` sound links: boxed in before (count 6), its move since the rebuild counts for the
 // contact list's staleness; the count falls, not below 0 (CpuBackend::lose_link, once per link: the same).
+// It gives its move to the largest (Dev::launch_reduce).
 struct LoseLinksKernel {
   std::uint32_t* lost;
   std::uint8_t* count;
   const double *px, *py, *pz, *ref;
-  float* move2;
-  MCA_HD void operator()(std::size_t a) const {
+  MCA_HD Reduced operator()(std::size_t a) const {
+    Reduced out;
     const std::uint32_t k = lost[a];
-    move2[a] = 0.0f;
-    if (k == 0) return;
+    if (k == 0) return out;
     lost[a] = 0;
     const std::uint8_t c = count[a];
     if (c == 6) {
       const double* r = ref + cpu::tile_index(a, cpu::kRefRows);
       const Vec3 d{static_cast<float>(px[a] - r[0]), static_cast<float>(py[a] - r[cpu::kTile]),
                    static_cast<float>(pz[a] - r[2 * cpu::kTile])};
-      move2[a] = dot(d, d);
+      out.max = dot(d, d);
     }
     count[a] = static_cast<std::uint8_t>(c > k ? c - k : 0u);
+    return out;
   }
 };
 // Whether automaton a is within reach of the ground (CpuBackend::near_ground).
@@ -613,22 +671,6 @@ struct ReferenceKernel {
 };
 
 // --- Projectiles ---
-// A projectile's state on the device (ProjectileState without its contact list).
-struct DeviceProjectile {
-  DVec3 position, velocity, angular_velocity;
-  Quat orientation;
-  Vec3 force;
-  ContactHistory ground;
-  double work = 0;
-};
-struct ProjectileConstants {
-  DVec3 start;  // where it started (gravity's work)
-  float radius = 0, mass = 0, inertia = 0;
-  bool kinematic = false;
-  int group = 0;
-  float rolling = 0, twisting = 0;
-  ContactSprings ground_springs;  // with the ground (body_contact_springs of its own)
-};
 // The projectiles' pair contacts: their springs from the materials' table and the pair's damping ratio, as
 // Model::projectile_pair_contact and the CPU's projectile pass form them (nothing held per pair).
 struct ProjectilePairs {
@@ -672,32 +714,11 @@ struct ProjectilePairCountKernel {
   }
 };
 
-// The projectiles' candidates: the automata each sphere touches, |d|^2 < (R + r_a)^2 in float (the CPU's
-// test). They are found at the end of a step (positions do not change until the next step's projectile
-// pass), counted per automaton, and written in (automaton, projectile) order at the next step's start.
-struct Touch {
-  const DeviceProjectile* proj;
-  const ProjectileConstants* P;
-  std::uint32_t np;
-  const double *px, *py, *pz;
-  const float* r;
-  MCA_HD bool operator()(std::uint32_t p, std::size_t a) const {
-    const Vec3 d = delta(proj[p].position, DVec3{px[a], py[a], pz[a]});
-    const float reach = P[p].radius + r[a];
-    return dot(d, d) < reach * reach;
-  }
-};
-// count[a]: the projectiles touching automaton a; their total adds to *total.
 struct TouchCountKernel {
   Touch touch;
   std::uint32_t* count;
   std::uint32_t* total;
-  MCA_HD void operator()(std::size_t a) const {
-    std::uint32_t c = 0;
-    for (std::uint32_t p = 0; p < touch.np; ++p) c += touch(p, a) ? 1u : 0u;
-    count[a] = c;
-    if (c) count_add(total, c);
-  }
+  MCA_HD void operator()(std::size_t a) const { touch.count(a, count, total); }
 };
 // Automaton a's entries (a, p) of the candidates in (automaton, projectile) order, from offset[a].
 struct TouchWriteKernel {

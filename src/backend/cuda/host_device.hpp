@@ -1,8 +1,9 @@
 #pragma once
 // The host emulation of the CUDA backend's device: buffers in host memory, a kernel launch as a loop over
-// the thread indices in order, and the device-wide primitives (scan, stable sort by key, max, min) as their
-// serial twins, which give the same results as the CUDA ones (integer scans and sorts, and the max and
-// min of values, do not depend on the order of evaluation). The primitives' results stay in "device"
+// the thread indices in order, and the device-wide primitives (scan, stable sort by key, the max and min of
+// a launch, a sum) as their serial twins, which give the same results as the CUDA ones (integer scans and
+// sorts, and the max and min of values, do not depend on the order of evaluation; a sum does, and serves
+// only the energy check). The primitives' results stay in "device"
 // arrays: the step logic reads them only through download, as it must on a GPU. DeviceBackend<HostDevice>
 // runs every line of the CUDA backend's step logic on a machine without a GPU; CI checks it bit for bit
 // against the CPU.
@@ -84,6 +85,28 @@ struct HostDevice {
     });
   }
 
+  // kernel(k) for k = 0 .. n - 1 (as launch), each giving a Reduced: *max_to becomes the largest of it and
+  // theirs (each taken as 0 where not > 0), *min_to the smallest (null: not wanted).
+  template <class K>
+  static void launch_reduce(std::size_t n, const K& kernel, float* max_to, std::uint32_t* min_to) {
+    static const std::string name = DeviceProfile::name_of<K>();
+    timed(name, [&] {
+      float m = max_to ? *max_to : 0.0f;
+      std::uint32_t low = min_to ? *min_to : UINT32_MAX;
+      const auto take = [&](std::size_t k) {
+        const auto r = kernel(k);
+        if (r.max > m) m = r.max;
+        low = std::min(low, r.min);
+      };
+      if (reverse)
+        for (std::size_t k = n; k-- > 0;) take(k);
+      else
+        for (std::size_t k = 0; k < n; ++k) take(k);
+      if (max_to) *max_to = m;
+      if (min_to) *min_to = low;
+    });
+  }
+
   // out[k] = in[0] + ... + in[k - 1] for k = 0 .. n: out[n] is the total (out holds n + 1 values; in and
   // out are different arrays).
   static void exclusive_scan(const std::uint32_t* in, std::uint32_t* out, std::size_t n) {
@@ -115,16 +138,6 @@ struct HostDevice {
       }
     });
   }
-  // *to = the largest of n floats, taking each that is not > 0 (NaN included) as 0 (0 for none).
-  static void max_into(const float* x, std::size_t n, float* to) {
-    static const std::string name = "max";
-    timed(name, [&] {
-      float m = 0;
-      for (std::size_t k = 0; k < n; ++k)
-        if (x[k] > m) m = x[k];
-      *to = m;
-    });
-  }
   // *to = x[0] + ... + x[n - 1] (0 for none), in that order.
   static void sum_into(const double* x, std::size_t n, double* to) {
     static const std::string name = "sum";
@@ -134,16 +147,6 @@ struct HostDevice {
       *to = s;
     });
   }
-  // *to = the smallest of n values (UINT32_MAX for none).
-  static void min_into(const std::uint32_t* x, std::size_t n, std::uint32_t* to) {
-    static const std::string name = "min";
-    timed(name, [&] {
-      std::uint32_t m = UINT32_MAX;
-      for (std::size_t k = 0; k < n; ++k) m = std::min(m, x[k]);
-      *to = m;
-    });
-  }
-
   // Counted: the copies from the device to the host (each a wait for the device on a GPU), and whether
   // launches run their threads backwards.
   static inline std::size_t reads = 0;
