@@ -218,7 +218,7 @@ class Simulation:
     def __init__(self, scene: Union[Scene, PathLike], threads: int = 0, backend: Optional[str] = None) -> None:
         """Builds the model (threads 0: all cores); raises mca.Error for a scene that cannot be built."""
     @staticmethod
-    def resume(path: PathLike, threads: int = 0) -> Simulation:
+    def resume(path: PathLike, threads: int = 0, backend: Optional[str] = None) -> Simulation:
         """Continues from a checkpoint file, or a run folder's newest checkpoint."""
     def advance(self, steps: int, progress: Optional[Callable[[int, int], Any]] = None) -> None:
         """Advances `steps` steps on a stepping thread, without the GIL. Ctrl-C raises KeyboardInterrupt

@@ -10,7 +10,9 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "mca/scene.hpp"
 
@@ -48,6 +50,12 @@ double to_number(py::handle value, const std::string& key, const std::string& wh
 std::int64_t to_whole(py::handle value, const std::string& key, std::int64_t min, std::int64_t max,
                       const std::string& what);
 std::string to_text(py::handle value, const std::string& key, const std::string& what);
+// A key whose value is one of a few words (shape, fill, ...): the value, or the reader's message (with a
+// did-you-mean) for anything else.
+std::string choice(const std::string& key, const std::string& value, const std::vector<std::string>& allowed,
+                   const std::string& what);
+// backend=: None (the scene's own) or auto, cpu, cuda, cuda-emulation.
+std::optional<SolverDef::Backend> to_backend(py::handle value, const std::string& key);
 bool to_bool(py::handle value, const std::string& key, const std::string& what);
 // A path: a str or an os.PathLike naming a str path.
 std::filesystem::path to_path(py::handle value, const std::string& key);

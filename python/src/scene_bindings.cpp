@@ -66,6 +66,8 @@ std::array<double, N> to_array(py::handle value, const std::string& key, const c
   return a;
 }
 
+}  // namespace
+
 // A key whose value is one of a few words (shape, fill, ...): the reader's message for anything else.
 std::string choice(const std::string& key, const std::string& value, const std::vector<std::string>& allowed,
                    const std::string& what) {
@@ -77,7 +79,12 @@ std::string choice(const std::string& key, const std::string& value, const std::
                           text::did_you_mean(value, allowed), list));
 }
 
-}  // namespace
+std::optional<SolverDef::Backend> to_backend(py::handle value, const std::string& key) {
+  if (value.is_none()) return std::nullopt;
+  const std::string v = to_text(value, key, "a str: \"auto\", \"cpu\", \"cuda\" or \"cuda-emulation\"");
+  return parse_backend(choice(key, v, {"auto", "cpu", "cuda", "cuda-emulation"}, "a backend"));
+}
+
 
 // ---- plain values: one conversion per kind (number, whole number, text, bool) ----------------------------
 
@@ -660,8 +667,8 @@ void bind_scene(py::module_& m) {
       .def_property(
           "backend", [](const SolverDef& s) { return std::string(backend_name(s.backend)); },
           [](SolverDef& s, py::handle value) {
-            const std::string v = to_text(value, "solver.backend", "a str");
-            s.backend = *parse_backend(choice("solver.backend", v, {"auto", "cpu", "cuda", "cuda-emulation"}, "a backend"));
+            if (value.is_none()) throw Error("solver.backend = None is not text; give a str");
+            s.backend = *to_backend(value, "solver.backend");
           },
           "where the step runs: \"auto\" (the default; the CPU until the CUDA backend has run on a GPU), \"cpu\", "
           "\"cuda\" (an NVIDIA GPU) or \"cuda-emulation\" (the CUDA backend's algorithm on one core, for tests)")

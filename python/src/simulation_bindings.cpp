@@ -487,7 +487,8 @@ void checkpoint(PySimulation& sim, const std::filesystem::path& path) {
   io::write_checkpoint(path, cp);
 }
 
-std::unique_ptr<PySimulation> resume(const std::filesystem::path& path, int threads) {
+std::unique_ptr<PySimulation> resume(const std::filesystem::path& path, int threads,
+                                     std::optional<SolverDef::Backend> backend) {
   std::filesystem::path file = path;
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) {
@@ -500,7 +501,9 @@ std::unique_ptr<PySimulation> resume(const std::filesystem::path& path, int thre
                               path.string(), (path / "checkpoints").string()));
     file = all.back();
   }
-  const io::Checkpoint cp = io::read_checkpoint(file);
+  io::Checkpoint cp = io::read_checkpoint(file);
+  // Any backend continues any checkpoint with the same bits.
+  if (backend) cp.scene.solver.backend = *backend;
   return std::make_unique<PySimulation>(cp, fmt::format("checkpoint '{}'", file.string()), app::thread_count(threads));
 }
 
@@ -530,10 +533,7 @@ Simulation is gone.)");
   sim.def(py::init([](const py::handle& scene, py::handle threads_arg, py::handle backend_arg) {
             const int threads = to_int_threads(threads_arg);
             SceneDef def = scene_of(scene);
-            if (!backend_arg.is_none())
-              def.solver.backend = backend_from_name(
-                  to_text(backend_arg, "Simulation: backend", "a str: \"auto\", \"cpu\", \"cuda\" or \"cuda-emulation\""),
-                  "Simulation: backend");
+            if (const auto b = to_backend(backend_arg, "Simulation: backend")) def.solver.backend = *b;
             return std::make_unique<PySimulation>(def, app::thread_count(threads));
           }),
           py::arg("scene"), py::arg("threads") = 0, py::arg("backend") = py::none(),
@@ -544,13 +544,14 @@ Simulation is gone.)");
           "cannot run here, with the command's message.")
       .def_static(
           "resume",
-          [](py::handle path, py::handle threads) {
-            return resume(to_path(path, "Simulation.resume: path"), to_int_threads(threads));
+          [](py::handle path, py::handle threads, py::handle backend) {
+            return resume(to_path(path, "Simulation.resume: path"), to_int_threads(threads),
+                          to_backend(backend, "Simulation.resume: backend"));
           },
-          py::arg("path"), py::arg("threads") = 0,
+          py::arg("path"), py::arg("threads") = 0, py::arg("backend") = py::none(),
           "Continues from a checkpoint: a .mcack file (sim.checkpoint, mca run --checkpoint-every), or a run's folder "
           "(its newest checkpoint). The file is checked as `mca resume` checks it; stepping on gives the bits an "
-          "uninterrupted run gives.")
+          "uninterrupted run gives, on any `backend` (as Simulation's; None: the one the run was on).")
       .def(
           "advance",
           [](PySimulation& s, py::handle steps, const py::object& progress) {

@@ -72,8 +72,10 @@ def test_keys_and_values_checked_when_set():
 
 def test_bad_simulation_arguments():
     scene = mca.Scene.default()
-    with pytest.raises(mca.Error, match="Simulation: backend 'gpu': give auto .*, cpu, cuda or cuda-emulation"):
+    with pytest.raises(mca.Error, match='Simulation: backend = "gpu" is not a backend; .*use "auto", "cpu", "cuda" or "cuda-emulation"'):
         mca.Simulation(scene, backend="gpu")
+    with pytest.raises(mca.Error, match="did you mean 'cpu'"):
+        mca.Simulation(scene, backend="CPU")
     with pytest.raises(mca.Error, match="--threads -1 is negative"):
         mca.Simulation(scene, threads=-1)
     with pytest.raises(mca.Error, match="the scene has no objects"):
@@ -120,7 +122,7 @@ def test_progress_must_be_callable_before_any_step():
     assert sim.step == 0
 
 
-def test_backend_keyword():
+def test_backend_keyword(tmp_path):
     scene = mca.Scene.default()
     cpu = mca.Simulation(scene, threads=1, backend="cpu")
     emulated = mca.Simulation(scene, backend="cuda-emulation")
@@ -132,6 +134,14 @@ def test_backend_keyword():
     scene.solver.backend = "cuda-emulation"
     assert mca.Simulation(scene).backend == "cuda-emulation"
     assert mca.Simulation(scene, backend="cpu").backend.startswith("cpu")
+    # A checkpoint continues on any backend with the same bits.
+    path = tmp_path / "at40.mcack"
+    cpu.checkpoint(str(path))
+    cpu.advance(30)
+    resumed = mca.Simulation.resume(path, backend="cuda-emulation")
+    assert resumed.backend == "cuda-emulation"
+    resumed.advance(30)
+    assert resumed.state_hash() == cpu.state_hash()
     # cuda runs where there is a GPU, and says why not where there is none.
     try:
         assert mca.Simulation(scene, backend="cuda").backend.startswith("cuda (")

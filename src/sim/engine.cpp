@@ -185,13 +185,21 @@ Engine::Engine(const SceneDef& scene, const State& state, const std::string& sou
   energy_floor_ = breaking_energy(model_);
   backend_ = make_backend(model_, scene_.solver.backend, scene_.source);
   backend_->upload(state);
-  last_check_ = state.step;
 }
 
+// The energy is checked at every multiple of kEnergyCheckInterval steps of the run, whatever the calls'
+// sizes (mca run's and the Python module's follow the wall clock) and wherever a run was resumed: at the
+// same steps, so with the same outcome, on every backend and machine. A call is split at those steps
+// (how steps are grouped into a backend's calls changes no result).
 StepHealth Engine::advance(int steps) {
-  StepHealth h = backend_->step(steps);
-  if (h.flags == kHealthy && step() - last_check_ >= kEnergyCheckInterval) {
-    last_check_ = step();
+  StepHealth h;
+  while (steps > 0) {
+    const std::int64_t next = (step() / kEnergyCheckInterval + 1) * kEnergyCheckInterval;
+    const int k = static_cast<int>(std::min<std::int64_t>(steps, next - step()));
+    h = backend_->step(k);
+    steps -= k;
+    if (h.flags != kHealthy) return h;
+    if (step() % kEnergyCheckInterval != 0) continue;
     const double initial = backend_->initial_energy();
     const Energies e = backend_->energies();
     // What the bodies hold beyond the start and the work put in (gravity, grips, loads, kinematic
@@ -205,9 +213,10 @@ StepHealth Engine::advance(int steps) {
                          std::fabs(e.projectile_work);
     if (excess > 9.0 * std::max(dealt, energy_floor_)) {
       h.flags |= kEnergyGrowth;
-      h.step = last_check_;
+      h.step = step();
       h.energy = e.total();
       h.budget = initial + e.external_work();
+      return h;
     }
   }
   return h;

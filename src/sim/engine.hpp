@@ -49,7 +49,7 @@ class Engine {
   // Advances n steps. Stops at the first step with a non-finite value (kNonFinite), and flags
   // kEnergyGrowth when kinetic + elastic energy, less the work put in since the start, has grown past
   // 9x the energy the run has dealt in (the start's plus every work, at least one link's breaking
-  // energy); checked after the call once kEnergyCheckInterval steps have passed since the last check.
+  // energy); checked at every multiple of kEnergyCheckInterval steps of the run, where it stops.
   StepHealth advance(int steps);
   Energies energies() const { return compute_energies(model_, state()); }
 
@@ -76,7 +76,6 @@ class Engine {
   std::unique_ptr<Backend> backend_;
   int steps_per_frame_ = 1;
   std::int64_t total_steps_ = 1;
-  std::int64_t last_check_ = 0;  // step of the last energy check
   double energy_floor_ = 0;      // the blow-up check's least reference energy (engine.cpp)
 };
 
