@@ -116,6 +116,8 @@ class DeviceBackend : public StateBackend {
     fsum_.resize(np);
     tsum_.resize(np);
     segment_.resize(np + 1);
+    pair_touch_count_.resize(np);
+    pair_offset_.resize(np + 1);
     proj_start_.resize(np + 1);
     proj_start_next_.resize(np + 1);
     touch_count_.resize(n);
@@ -621,6 +623,8 @@ class DeviceBackend : public StateBackend {
   Buf<Vec3> fsum_, tsum_;
   Buf<ProjectilePair> proj_pairs_, proj_pairs_next_;
   std::size_t pair_count_ = 0;
+  Buf<std::uint32_t> pair_touch_count_, pair_offset_;  // per projectile: its touching pairs (q > p), their scan
+  Buf<ContactOut> pair_out_;
   // Contact search.
   Buf<std::uint32_t> exposed_, grid_value_, bucket_begin_, bucket_end_, cand_count_, raw_offset_, raw_;
   Buf<std::uint64_t> grid_key_;
@@ -679,8 +683,8 @@ void DeviceBackend<Dev>::end_of_step(bool count_touches) {
   if (count_touches)
     Dev::launch(M_.size(), TouchCountKernel{touch(), d(touch_count_), status_field<std::uint32_t>(offsetof(StepStatus, touches))});
   if (np > 1)
-    Dev::launch(1, ProjectilePairCountKernel{c(proj_), projectile_pairs(),
-                                             status_field<std::uint32_t>(offsetof(StepStatus, touching_pairs))});
+    Dev::launch(np, ProjectilePairCountKernel{c(proj_), projectile_pairs(), d(pair_touch_count_),
+                                              status_field<std::uint32_t>(offsetof(StepStatus, touching_pairs))});
 }
 
 template <class Dev>
@@ -751,10 +755,19 @@ void DeviceBackend<Dev>::projectile_pass() {
   std::swap(proj_start_, proj_start_next_);
   Dev::launch(np, ProjectileSumKernel{d(proj_), c(proj_constants_), c(segment_), c(cand_keep_), c(cand_out_), d(fsum_),
                                       d(tsum_), M_.ground, M_.up, M_.ground_height, M_.dt});
-  // The pairs: the next list holds at most the pairs the last step's end found touching.
-  if (proj_pairs_next_.size() < status_h_.touching_pairs) proj_pairs_next_.resize(2 * std::size_t{status_h_.touching_pairs});
-  Dev::launch(1, ProjectileMotionKernel{d(proj_), projectile_pairs(), c(proj_pairs_), static_cast<std::uint32_t>(pair_count_),
-                                        d(proj_pairs_next_), status_field<std::uint32_t>(offsetof(StepStatus, pair_count)),
+  // The pairs the last step's end counted touching, in (p, q) order, each one's contact (its history from
+  // the previous list); then one thread sums them in order and moves the projectiles.
+  const std::uint32_t TP = np > 1 ? status_h_.touching_pairs : 0;
+  if (TP) {
+    Dev::exclusive_scan(c(pair_touch_count_), d(pair_offset_), np);
+    proj_pairs_next_.resize(TP);
+    pair_out_.resize(TP);
+    Dev::launch(np, ProjectilePairWriteKernel{c(proj_), projectile_pairs(), c(pair_offset_), d(proj_pairs_next_)});
+    Dev::launch(TP, ProjectilePairContactKernel{c(proj_), projectile_pairs(), c(proj_pairs_), static_cast<std::uint32_t>(pair_count_),
+                                                d(proj_pairs_next_), d(pair_out_), M_.dt});
+  }
+  Dev::launch(1, ProjectileMotionKernel{d(proj_), c(proj_constants_), static_cast<std::uint32_t>(np), c(proj_pairs_next_),
+                                        c(pair_out_), TP, status_field<std::uint32_t>(offsetof(StepStatus, pair_count)),
                                         d(fsum_), d(tsum_), M_.gravity, M_.dt,
                                         status_field<std::uint32_t>(offsetof(StepStatus, bad_projectile))});
   std::swap(proj_pairs_, proj_pairs_next_);

@@ -700,17 +700,60 @@ struct ProjectilePairs {
     return gap.overlap <= 0.0f || !gap.valid ? SphereGap{} : gap;
   }
 };
-// One thread: the number of projectile pairs in contact at the end of the step (the next pair list's size
-// at most: the next step's pair pass tests the same positions).
+// The projectile pairs in contact (the CPU's pass over all pairs (p, q), p < q, in order), one thread per
+// projectile p: at the end of a step, count[p] of its pairs (q > p) touch, and their number adds to *total
+// (the next step's pair list's size: its pair pass tests the same positions); at the next step's start,
+// write them at offset[p], in q order.
 struct ProjectilePairCountKernel {
   const DeviceProjectile* proj;
   ProjectilePairs pairs;
   std::uint32_t* count;
-  MCA_HD void operator()(std::size_t) const {
+  std::uint32_t* total;
+  MCA_HD void operator()(std::size_t p) const {
     std::uint32_t c = 0;
-    for (std::uint32_t p = 0; p < pairs.np; ++p)
-      for (std::uint32_t q = p + 1; q < pairs.np; ++q) c += pairs.touch(proj, p, q).valid ? 1u : 0u;
-    *count = c;
+    for (std::uint32_t q = static_cast<std::uint32_t>(p) + 1; q < pairs.np; ++q)
+      c += pairs.touch(proj, static_cast<std::uint32_t>(p), q).valid ? 1u : 0u;
+    count[p] = c;
+    if (c) count_add(total, c);
+  }
+};
+struct ProjectilePairWriteKernel {
+  const DeviceProjectile* proj;
+  ProjectilePairs pairs;
+  const std::uint32_t* offset;
+  ProjectilePair* out;
+  MCA_HD void operator()(std::size_t p) const {
+    std::uint32_t k = offset[p];
+    for (std::uint32_t q = static_cast<std::uint32_t>(p) + 1; q < pairs.np; ++q)
+      if (pairs.touch(proj, static_cast<std::uint32_t>(p), q).valid) out[k++] = {static_cast<std::uint32_t>(p), q, {}};
+  }
+};
+// Touching pair k: its contact, from the history the previous list (sorted by (p, q)) held for it.
+struct ProjectilePairContactKernel {
+  const DeviceProjectile* proj;
+  ProjectilePairs pairs;
+  const ProjectilePair* old;
+  std::uint32_t old_size;
+  ProjectilePair* list;  // the pairs in order; their histories are written here
+  ContactOut* out;       // force on p, torques on p and q
+  float dt;
+  MCA_HD void operator()(std::size_t k) const {
+    const std::uint32_t p = list[k].p, q = list[k].q;
+    const ProjectileConstants &A = pairs.P[p], &B = pairs.P[q];
+    std::uint32_t lo = 0, hi = old_size;
+    while (lo < hi) {
+      const std::uint32_t mid = lo + (hi - lo) / 2;
+      if (old[mid].p < p || (old[mid].p == p && old[mid].q < q)) lo = mid + 1;
+      else hi = mid;
+    }
+    const ContactHistory prev = lo < old_size && old[lo].p == p && old[lo].q == q ? old[lo].h : ContactHistory{};
+    const SphereGap gap = pairs.touch(proj, p, q);
+    const DeviceProjectile &a = proj[p], &b = proj[q];
+    const Vec3 nrm = gap.n;
+    const ContactResult r = contact_between(nrm, gap.overlap, a.velocity, a.angular_velocity, A.radius * nrm, b.velocity,
+                                            b.angular_velocity, -B.radius * nrm, pairs.springs(p, q), prev.ut, prev.mr, dt);
+    list[k].h = {r.o.ut, r.o.mr};
+    out[k] = {r.o.force_i, r.torque_i, r.torque_j, nrm, 0.0f, 0.0f, true};
   }
 };
 
@@ -876,42 +919,29 @@ struct ProjectileSumKernel {
     tsum[p] = t;
   }
 };
-// One thread: the projectile pairs (all pairs, in (p, q) order) and the projectiles' motion.
+// One thread: the touching pairs' sums in (p, q) order (the CPU's), and the projectiles' motion.
 // bad[0]: the first projectile with a value not finite, or kNone.
 struct ProjectileMotionKernel {
   DeviceProjectile* proj;
-  ProjectilePairs pairs;
-  const ProjectilePair* old;
-  std::uint32_t old_size;
-  ProjectilePair* next;
-  std::uint32_t* next_size;
+  const ProjectileConstants* P;
+  std::uint32_t np;
+  const ProjectilePair* list;
+  const ContactOut* out;
+  std::uint32_t pairs;
+  std::uint32_t* list_size;
   Vec3 *fsum, *tsum;
   Vec3 gravity;
   float dt;
   std::uint32_t* bad;
   MCA_HD void operator()(std::size_t) const {
-    const ProjectileConstants* P = pairs.P;
-    const std::uint32_t np = pairs.np;
-    std::uint32_t o = 0, count = 0;
-    for (std::uint32_t p = 0; p < np; ++p)
-      for (std::uint32_t q = p + 1; q < np; ++q) {
-        const ProjectileConstants &A = P[p], &B = P[q];
-        const SphereGap gap = pairs.touch(proj, p, q);
-        if (!gap.valid) continue;
-        const DeviceProjectile &a = proj[p], &b = proj[q];
-        while (o < old_size && (old[o].p < p || (old[o].p == p && old[o].q < q))) ++o;
-        const ContactHistory prev = o < old_size && old[o].p == p && old[o].q == q ? old[o].h : ContactHistory{};
-        const Vec3 nrm = gap.n;
-        const ContactResult r = contact_between(nrm, gap.overlap, a.velocity, a.angular_velocity, A.radius * nrm, b.velocity,
-                                                b.angular_velocity, -B.radius * nrm, pairs.springs(p, q), prev.ut,
-                                                prev.mr, dt);
-        next[count++] = {p, q, {r.o.ut, r.o.mr}};
-        fsum[p] += r.o.force_i;
-        fsum[q] -= r.o.force_i;
-        tsum[p] += r.torque_i;
-        tsum[q] += r.torque_j;
-      }
-    *next_size = count;
+    for (std::uint32_t k = 0; k < pairs; ++k) {
+      const std::uint32_t p = list[k].p, q = list[k].q;
+      fsum[p] += out[k].f;
+      fsum[q] -= out[k].f;
+      tsum[p] += out[k].ti;
+      tsum[q] += out[k].tj;
+    }
+    *list_size = pairs;
     *bad = kNone;
     for (std::uint32_t p = 0; p < np; ++p) {
       DeviceProjectile& ps = proj[p];
