@@ -343,7 +343,7 @@ class DeviceBackend : public StateBackend {
     v.ext_f = d(ext_f_);
     v.ext_t = d(ext_t_);
     v.ext_s = d(ext_s_);
-    v.projectiles = 0;  // no marks: the projectile pass tests every automaton
+    v.projectiles = 0;  // no marks: the automata kernel counts the touches itself (AutomataKernel)
     v.intact_count = c(intact_count_);
     v.ref = c(ref_);
     return v;
