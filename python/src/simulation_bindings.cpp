@@ -507,6 +507,18 @@ std::unique_ptr<PySimulation> resume(const std::filesystem::path& path, int thre
   return std::make_unique<PySimulation>(cp, fmt::format("checkpoint '{}'", file.string()), app::thread_count(threads));
 }
 
+// backend=: as to_backend, and "cuda" only where there is a GPU (the message names the argument, not the
+// scene it would be written into).
+std::optional<SolverDef::Backend> backend_here(py::handle v, const std::string& key) {
+  const auto b = to_backend(v, key);
+  std::string why;
+  if (b == SolverDef::Backend::cuda && cuda_device(&why).empty())
+    throw Error(fmt::format("{} = \"cuda\": {}; use \"cpu\" or \"auto\", or a build of mca made where nvcc is found, on "
+                            "a machine with an NVIDIA GPU and its driver",
+                            key, why));
+  return b;
+}
+
 // threads=: a whole number (0: all cores); app::thread_count refuses a negative one.
 int to_int_threads(py::handle v) {
   return static_cast<int>(to_whole(v, "threads", std::numeric_limits<int>::min(), std::numeric_limits<int>::max(),
@@ -533,7 +545,7 @@ Simulation is gone.)");
   sim.def(py::init([](const py::handle& scene, py::handle threads_arg, py::handle backend_arg) {
             const int threads = to_int_threads(threads_arg);
             SceneDef def = scene_of(scene);
-            if (const auto b = to_backend(backend_arg, "Simulation: backend")) def.solver.backend = *b;
+            if (const auto b = backend_here(backend_arg, "Simulation: backend")) def.solver.backend = *b;
             return std::make_unique<PySimulation>(def, app::thread_count(threads));
           }),
           py::arg("scene"), py::arg("threads") = 0, py::arg("backend") = py::none(),
@@ -546,7 +558,7 @@ Simulation is gone.)");
           "resume",
           [](py::handle path, py::handle threads, py::handle backend) {
             return resume(to_path(path, "Simulation.resume: path"), to_int_threads(threads),
-                          to_backend(backend, "Simulation.resume: backend"));
+                          backend_here(backend, "Simulation.resume: backend"));
           },
           py::arg("path"), py::arg("threads") = 0, py::arg("backend") = py::none(),
           "Continues from a checkpoint: a .mcack file (sim.checkpoint, mca run --checkpoint-every), or a run's folder "

@@ -146,4 +146,8 @@ def test_backend_keyword(tmp_path):
     try:
         assert mca.Simulation(scene, backend="cuda").backend.startswith("cuda (")
     except mca.Error as e:
-        assert "NVIDIA" in str(e)
+        assert str(e).startswith('Simulation: backend = "cuda": ') and "NVIDIA" in str(e)
+    try:
+        assert mca.Simulation.resume(path, backend="cuda").backend.startswith("cuda (")
+    except mca.Error as e:
+        assert str(e).startswith('Simulation.resume: backend = "cuda": ') and "NVIDIA" in str(e)
