@@ -159,11 +159,6 @@ struct CudaDevice {
   static void copy(T* to, const T* from, std::size_t n) {
     if (n) cuda_check(cudaMemcpyAsync(to, from, n * sizeof(T), cudaMemcpyDeviceToDevice), "copy");
   }
-  // p[0 .. n - 1] = 0.
-  template <class T>
-  static void clear(T* p, std::size_t n) {
-    if (n) cuda_check(cudaMemsetAsync(p, 0, n * sizeof(T)), "clear");
-  }
 
   template <class K>
   static void launch(std::size_t n, const K& kernel) {

@@ -108,7 +108,6 @@ class DeviceBackend : public StateBackend {
         pz[p * G + g] = P.zeta_automata[g];
       }
     }
-    proj_constants_host_ = pc;
     Dev::upload(proj_constants_, pc);
     Dev::upload(proj_material_, pm);
     Dev::upload(proj_zeta_, pz);
@@ -604,7 +603,6 @@ class DeviceBackend : public StateBackend {
   std::size_t ground_count_ = 0;
   Buf<std::uint32_t> inc_key_, inc_value_, inc_flag_, inc_place_, inc_start_;
   // Projectiles.
-  std::vector<ProjectileConstants> proj_constants_host_;
   Buf<ProjectileConstants> proj_constants_;
   Buf<ContactMaterial> proj_material_;
   Buf<float> proj_zeta_;

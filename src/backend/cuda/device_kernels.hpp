@@ -418,27 +418,27 @@ struct BrokenEndsKernel {
 MCA_HD bool pair_less(std::uint32_t ai, std::uint32_t aj, std::uint32_t bi, std::uint32_t bj) {
   return ai != bi ? ai < bi : aj < bj;
 }
-// The entries of a sorted list less than (i, j) (or not greater, with `or_equal`).
-MCA_HD std::uint32_t pairs_before(const ContactPair* list, std::uint32_t size, std::uint32_t i, std::uint32_t j,
-                                  bool or_equal) {
+// The number of leading entries k < size of a sorted list for which before(k) holds (a binary search: before
+// holds for a prefix of the list).
+template <class Before>
+MCA_HD std::uint32_t count_before(std::uint32_t size, const Before& before) {
   std::uint32_t lo = 0, hi = size;
   while (lo < hi) {
     const std::uint32_t mid = lo + (hi - lo) / 2;
-    const bool before = pair_less(list[mid].i, list[mid].j, i, j) ||
-                        (or_equal && list[mid].i == i && list[mid].j == j);
-    if (before) lo = mid + 1;
+    if (before(mid)) lo = mid + 1;
     else hi = mid;
   }
   return lo;
 }
+// The entries of a sorted list less than (i, j) (or not greater, with `or_equal`).
+MCA_HD std::uint32_t pairs_before(const ContactPair* list, std::uint32_t size, std::uint32_t i, std::uint32_t j,
+                                  bool or_equal) {
+  return count_before(size, [&](std::uint32_t k) {
+    return pair_less(list[k].i, list[k].j, i, j) || (or_equal && list[k].i == i && list[k].j == j);
+  });
+}
 MCA_HD std::uint32_t automata_before(const BodyContact* list, std::uint32_t size, std::uint32_t a) {
-  std::uint32_t lo = 0, hi = size;
-  while (lo < hi) {
-    const std::uint32_t mid = lo + (hi - lo) / 2;
-    if (list[mid].automaton < a) lo = mid + 1;
-    else hi = mid;
-  }
-  return lo;
+  return count_before(size, [&](std::uint32_t k) { return list[k].automaton < a; });
 }
 // std::merge of two sorted pair lists (the first's entries first where equal), one element per thread:
 // threads [0, na) place list a, [na, na + nb) list b.
@@ -740,13 +740,8 @@ struct ProjectilePairContactKernel {
   MCA_HD void operator()(std::size_t k) const {
     const std::uint32_t p = list[k].p, q = list[k].q;
     const ProjectileConstants &A = pairs.P[p], &B = pairs.P[q];
-    std::uint32_t lo = 0, hi = old_size;
-    while (lo < hi) {
-      const std::uint32_t mid = lo + (hi - lo) / 2;
-      if (old[mid].p < p || (old[mid].p == p && old[mid].q < q)) lo = mid + 1;
-      else hi = mid;
-    }
-    const ContactHistory prev = lo < old_size && old[lo].p == p && old[lo].q == q ? old[lo].h : ContactHistory{};
+    const std::uint32_t o = count_before(old_size, [&](std::uint32_t x) { return pair_less(old[x].p, old[x].q, p, q); });
+    const ContactHistory prev = o < old_size && old[o].p == p && old[o].q == q ? old[o].h : ContactHistory{};
     const SphereGap gap = pairs.touch(proj, p, q);
     const DeviceProjectile &a = proj[p], &b = proj[q];
     const Vec3 nrm = gap.n;
@@ -857,14 +852,9 @@ struct ProjectileSegmentKernel {
   const std::uint32_t* place;  // size + 1 entries
   std::uint32_t *segment, *start;
   MCA_HD void operator()(std::size_t q) const {
-    std::uint32_t lo = 0, hi = cand.size;
-    while (lo < hi) {
-      const std::uint32_t mid = lo + (hi - lo) / 2;
-      if (cand.projectile_of(mid) < q) lo = mid + 1;
-      else hi = mid;
-    }
-    segment[q] = lo;
-    start[q] = place[lo];
+    const std::uint32_t first = count_before(cand.size, [&](std::uint32_t j) { return cand.projectile_of(j) < q; });
+    segment[q] = first;
+    start[q] = place[first];
   }
 };
 // Each automaton adds its kept projectile contacts in projectile order (the CPU's): the first thread of its

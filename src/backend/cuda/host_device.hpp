@@ -66,11 +66,6 @@ struct HostDevice {
   static void copy(T* to, const T* from, std::size_t n) {
     if (n) std::memcpy(static_cast<void*>(to), from, n * sizeof(T));
   }
-  // p[0 .. n - 1] = 0.
-  template <class T>
-  static void clear(T* p, std::size_t n) {
-    if (n) std::memset(static_cast<void*>(p), 0, n * sizeof(T));
-  }
 
   // kernel(k) for k = 0 .. n - 1, in order; in reverse order where `reverse` is set (tests: a CUDA grid
   // runs its threads in no order, so no launch may depend on one).
