@@ -36,30 +36,29 @@ mesh::FloatMesh posed_surface(const Model& model, const State& state, const std:
   });
   for (std::size_t v = 0; v < nv; ++v) first_out[v + 1] += first_out[v];
   out.vertices.resize(first_out[nv]);
+  const SurfaceCorners corners = S.corners();
+  const auto same = [&](std::uint32_t f, std::uint32_t g) { return out.face_values[f] == out.face_values[g]; };
+  const auto pose = [&](std::uint32_t a, DVec3& x, Quat& q) {
+    x = state.x[a];
+    q = state.q[a];
+  };
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
     std::vector<std::int32_t> seen(max_corners);
-    std::vector<std::array<double, 4>> acc(max_corners);  // x, y, z sums and count per fragment
+    std::vector<std::uint8_t> placed(max_corners);  // per fragment of the vertex: its position is set
     for (std::size_t v = r.begin(); v < r.end(); ++v) {
       const std::size_t n = fragments_of(v, seen.data());
-      std::fill(acc.begin(), acc.begin() + static_cast<std::ptrdiff_t>(n), std::array<double, 4>{0, 0, 0, 0});
+      std::fill(placed.begin(), placed.begin() + static_cast<std::ptrdiff_t>(n), std::uint8_t{0});
       for (std::uint32_t k = S.first_corner[v]; k < S.first_corner[v + 1]; ++k) {
         const std::uint32_t c = S.corners_of[k];
         const std::size_t f = c / 3;
-        const std::uint32_t a = S.automaton[f];
         std::size_t e = 0;
         while (seen[e] != out.face_values[f]) ++e;
-        const Quat& q = state.q[a];
-        const Vec3& o = S.offset[c];
-        const DVec3 p = rotated({q.w, q.x, q.y, q.z}, {o.x, o.y, o.z});
-        acc[e][0] += state.x[a].x + p.x;
-        acc[e][1] += state.x[a].y + p.y;
-        acc[e][2] += state.x[a].z + p.z;
-        acc[e][3] += 1;
         out.faces[f][c % 3] = first_out[v] + static_cast<std::uint32_t>(e);
+        if (placed[e]) continue;
+        placed[e] = 1;
+        const Vec3 p = posed_corner(corners, c, same, pose);
+        out.vertices[first_out[v] + e] = {p.x, p.y, p.z};
       }
-      for (std::size_t e = 0; e < n; ++e)
-        out.vertices[first_out[v] + e] = {static_cast<float>(acc[e][0] / acc[e][3]), static_cast<float>(acc[e][1] / acc[e][3]),
-                                          static_cast<float>(acc[e][2] / acc[e][3])};
     }
   });
   return out;

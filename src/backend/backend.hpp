@@ -1,12 +1,14 @@
 #pragma once
 // One backend interface, several implementations (CPU now; CUDA later). Every backend computes the
 // same function with the physics headers in src/physics; the CPU backend is the reference.
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
 
 #include "core/model.hpp"
 #include "core/state.hpp"
+#include "render/draw_list.hpp"
 
 namespace mca {
 
@@ -69,6 +71,13 @@ class Backend {
   virtual Energies energies() const = 0;
   virtual double initial_energy() const = 0;
   virtual std::int64_t broken_links() const = 0;
+  // The draw list of the current state (render/draw_list.hpp) where the backend builds it without bringing
+  // the whole state up to date (the CUDA backend: on the device); false where it does not (the CPU
+  // backend, whose state is at hand; the links mode): render::make_snapshot then builds it from state().
+  virtual bool draw_list(const render::SnapshotOptions&, const std::array<double, 3>& /*origin*/,
+                         render::DrawList&) const {
+    return false;
+  }
 };
 
 // What every backend's step shares.

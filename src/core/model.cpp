@@ -8,16 +8,8 @@
 namespace mca {
 
 void automaton_damage(const Model& m, const std::uint8_t* intact, const float* link_damage, float* out) {
-  const std::size_t n = m.size();
-  for (std::size_t a = 0; a < n; ++a) {
-    std::uint32_t links = 0;
-    float lost = 0;
-    m.for_each_link_of(a, [&](std::size_t l) {
-      ++links;
-      lost += !intact[l] ? 1.0f : link_damage ? link_damage[l] : 0.0f;
-    });
-    out[a] = links ? lost / static_cast<float>(links) : 0.0f;
-  }
+  const AutomatonLinks links = m.automaton_links();
+  for (std::size_t a = 0; a < m.size(); ++a) out[a] = automaton_damage_of(links, a, intact, link_damage);
 }
 
 std::size_t estimate_memory_bytes(std::size_t automata, std::size_t explicit_links, std::size_t random_automata) {

@@ -87,6 +87,11 @@ struct MeshSummary {
   double added_mass = 0, mesh_mass = 0, scaled_step = 0;
 };
 
+// The bound surface as plain arrays (a device thread's too).
+struct SurfaceCorners {
+  const std::uint32_t *automaton = nullptr, *corner = nullptr, *first_corner = nullptr, *corners_of = nullptr;
+  const Vec3* offset = nullptr;
+};
 // The input triangles of the mesh objects, each bound to one automaton (paper sec. 5.4): its corners are
 // stored as offsets from that automaton's centre in the automaton's own frame (at the start the world
 // frame: orientations start at identity), so the surface moves and turns with the automata and opens
@@ -99,7 +104,34 @@ struct BoundSurface {
   // The corners of each mesh vertex v: corners_of[first_corner[v] .. first_corner[v + 1]), in order.
   std::vector<std::uint32_t> first_corner, corners_of;
   std::size_t faces() const { return automaton.size(); }
+  SurfaceCorners corners() const {
+    return {automaton.data(), corner.data(), first_corner.data(), corners_of.data(), offset.data()};
+  }
 };
+
+// Where corner c of the bound surface lies in a pose: at the mean of the positions that the corners of its
+// mesh vertex whose triangles are of its fragment are carried to by their automata (each corner's offset
+// turned by its automaton's orientation and added to its centre, in double; summed in corner order).
+// same(f, g): triangles f and g are of one fragment; pose(a, x, q): automaton a's centre and orientation.
+template <class Same, class Pose>
+MCA_HD Vec3 posed_corner(const SurfaceCorners& S, std::uint32_t c, const Same& same, const Pose& pose) {
+  const std::uint32_t v = S.corner[c], f = c / 3;
+  double sx = 0, sy = 0, sz = 0, count = 0;
+  for (std::uint32_t k = S.first_corner[v]; k < S.first_corner[v + 1]; ++k) {
+    const std::uint32_t other = S.corners_of[k];
+    if (!same(f, other / 3)) continue;
+    DVec3 x;
+    Quat q;
+    pose(S.automaton[other / 3], x, q);
+    const Vec3& o = S.offset[other];
+    const DVec3 p = rotated<double>(QuatT<double>{q.w, q.x, q.y, q.z}, DVec3{o.x, o.y, o.z});
+    sx += x.x + p.x;
+    sy += x.y + p.y;
+    sz += x.z + p.z;
+    count += 1;
+  }
+  return {static_cast<float>(sx / count), static_cast<float>(sy / count), static_cast<float>(sz / count)};
+}
 
 struct ModelView;
 
@@ -304,20 +336,12 @@ struct Model {
   float link_area(std::size_t l) const {
     return is_explicit(l) ? explicit_links.area[l - neighbour.size()] : spacing * spacing;
   }
+  // The tables of for_each_link_of as plain arrays (AutomatonLinks, below).
+  struct AutomatonLinks automaton_links() const;
   // Calls f(l) for the slot of each link automaton a has: the lattice ones (at most six: its own along
   // +axis and its lower neighbours' along -axis, axis by axis), then the explicit ones in slot order.
   template <class F>
-  void for_each_link_of(std::size_t a, F&& f) const {
-    const std::size_t n = size();
-    for (std::size_t axis = 0; axis < 3; ++axis) {
-      const std::size_t up = axis * n + a;
-      if (neighbour[up] != kNoLink) f(up);
-      if (neighbour_below[up] != kNoLink) f(axis * n + neighbour_below[up]);
-    }
-    if (!explicit_links.first.empty())
-      for (std::uint32_t k = explicit_links.first[a]; k < explicit_links.first[a + 1]; ++k)
-        f(3 * n + explicit_links.of[k]);
-  }
+  void for_each_link_of(std::size_t a, F&& f) const;
   // Calls f(l, i, j, axis) for every link, in slot order (axis -1 for the explicit ones).
   template <class F>
   void for_each_link(F&& f) const {
@@ -330,6 +354,45 @@ struct Model {
     for (std::size_t k = 0; k < explicit_links.size(); ++k) f(3 * n + k, explicit_links.i[k], explicit_links.j[k], -1);
   }
 };
+
+// The links of automaton a as Model::for_each_link_of gives them, from plain arrays (a device thread's too).
+struct AutomatonLinks {
+  std::size_t n = 0;
+  const std::uint32_t *neighbour = nullptr, *below = nullptr;  // Model::neighbour, neighbour_below
+  const std::uint32_t *first = nullptr, *of = nullptr;          // explicit links (first null: none)
+  template <class F>
+  MCA_HD void for_each(std::size_t a, F&& f) const {
+    for (std::size_t axis = 0; axis < 3; ++axis) {
+      const std::size_t up = axis * n + a;
+      if (neighbour[up] != Model::kNoLink) f(up);
+      if (below[up] != Model::kNoLink) f(axis * n + below[up]);
+    }
+    if (first)
+      for (std::uint32_t k = first[a]; k < first[a + 1]; ++k) f(3 * n + of[k]);
+  }
+};
+
+// The damage of automaton a (automaton_damage): the share of its links that are broken, a
+// softening link's damage counted (damage null: none), 0 without links.
+MCA_HD float automaton_damage_of(const AutomatonLinks& links, std::size_t a, const std::uint8_t* intact,
+                                 const float* damage) {
+  std::uint32_t count = 0;
+  float lost = 0;
+  links.for_each(a, [&](std::size_t l) {
+    ++count;
+    lost += !intact[l] ? 1.0f : damage ? damage[l] : 0.0f;
+  });
+  return count ? lost / static_cast<float>(count) : 0.0f;
+}
+
+inline AutomatonLinks Model::automaton_links() const {
+  return {size(), neighbour.data(), neighbour_below.data(),
+          explicit_links.first.empty() ? nullptr : explicit_links.first.data(), explicit_links.of.data()};
+}
+template <class F>
+void Model::for_each_link_of(std::size_t a, F&& f) const {
+  automaton_links().for_each(a, f);
+}
 
 // The damage of each automaton: the share of its links (those it had at the start) that are broken, 0 for
 // one without links, where a softening link that is damaged but intact counts by its damage
