@@ -17,7 +17,9 @@
 
 #include "backend/cuda/device_backend.hpp"
 #include "backend/cuda/host_device.hpp"
+#include "analysis/fragments.hpp"
 #include "io/scene_io.hpp"
+#include "render/snapshot.hpp"
 #include "sim/engine.hpp"
 #include "support.hpp"
 
@@ -341,6 +343,132 @@ TEST(CudaEmulation, AStepReadsTheDeviceOnceTwiceWithBreaksMoreOnlyToRebuildConta
     EXPECT_GT(twice, 0);
     EXPECT_GT(rebuilt, 0);
   }
+}
+
+// --- The draw list ---
+
+// The snapshot the backend builds from its own arrays (Backend::draw_list) against the one built from its
+// state (render/snapshot.cpp), byte for byte, in every colour mode and draw mode but links (which the
+// host draws), for a few origins; returns what was drawn at most (to show that the test saw something).
+struct Drawn {
+  std::size_t automata = 0, triangles = 0;
+  std::int32_t fragments = 0;
+  float largest_stress = 0;
+};
+std::string first_draw_difference(const render::Snapshot& a, const render::Snapshot& b) {
+  const auto same_vec = [](const auto& x, const auto& y) {
+    return x.size() == y.size() && (x.empty() || std::memcmp(x.data(), y.data(), x.size() * sizeof(x[0])) == 0);
+  };
+  if (a.automata.size() != b.automata.size())
+    return fmt::format("automata drawn: {} against {}", a.automata.size(), b.automata.size());
+  for (std::size_t k = 0; k < a.automata.size(); ++k)
+    if (!same_bits(a.automata[k], b.automata[k])) return fmt::format("automata[{}]", k);
+  if (!same_vec(a.radius, b.radius)) return "radius";
+  if (a.surface.size() != b.surface.size()) return fmt::format("surface: {} corners against {}", a.surface.size(), b.surface.size());
+  for (std::size_t k = 0; k < a.surface.size(); ++k)
+    if (!same_bits(a.surface[k], b.surface[k]))
+      return fmt::format("surface[{}]: ({}, {}, {}) against ({}, {}, {})", k, a.surface[k].x, a.surface[k].y, a.surface[k].z,
+                         b.surface[k].x, b.surface[k].y, b.surface[k].z);
+  if (!same_vec(a.projectiles, b.projectiles)) return "projectiles";
+  if (a.fragments != b.fragments) return fmt::format("fragments: {} against {}", a.fragments, b.fragments);
+  if (a.time != b.time || a.step != b.step || a.broken_links != b.broken_links) return "counters";
+  const render::Legend &p = a.legend, &q = b.legend;
+  if (p.title != q.title || p.continuous != q.continuous || p.min != q.min || p.max != q.max || p.unit != q.unit ||
+      p.swatches != q.swatches || p.ramp != q.ramp)
+    return fmt::format("legend: '{}' {}..{} against '{}' {}..{}", p.title, p.min, p.max, q.title, q.min, q.max);
+  if (a.origin != b.origin || a.cube_size != b.cube_size || a.ground != b.ground || a.up != b.up ||
+      a.ground_height != b.ground_height || a.automata_total != b.automata_total)
+    return "frame";
+  return "";
+}
+Drawn expect_draws_equal(const Engine& sim, const std::string& where) {
+  using render::ColourMode;
+  using render::DrawMode;
+  Drawn seen;
+  const Model& m = sim.model();
+  const std::array<std::array<double, 3>, 2> origins = {{{0, 0, 0}, {0.0371, -1.25, 3e3}}};
+  for (const auto& origin : origins)
+    for (const DrawMode draw : {DrawMode::cubes, DrawMode::spheres, DrawMode::surface})
+      for (const ColourMode colour : {ColourMode::fragment, ColourMode::damage, ColourMode::strength_class, ColourMode::group,
+                                      ColourMode::stress, ColourMode::speed})
+        for (const bool all : {false, true})
+          for (const double scale : {0.0, 2.5}) {
+            if (scale > 0 && colour != ColourMode::stress && colour != ColourMode::speed) continue;
+            render::SnapshotOptions o;
+            o.draw = draw;
+            o.colour = colour;
+            o.all_automata = all;
+            o.scale_max = scale;
+            const std::size_t reads = gpu::HostDevice::reads;
+            render::DrawList probe;
+            EXPECT_TRUE(sim.backend().draw_list(o, origin, probe)) << "the backend left the draw list to the host";
+            EXPECT_LE(gpu::HostDevice::reads - reads, 8u) << "a draw read more of the device than its lists";
+            const render::Snapshot device = render::make_snapshot(m, sim.backend(), o, origin);
+            const State& st = sim.state();
+            const render::Snapshot host =
+                render::make_snapshot(m, st, analysis::label_model_fragments(m, st.intact.data()), o, origin);
+            const std::string d = first_draw_difference(device, host);
+            if (!d.empty()) {
+              ADD_FAILURE() << where << ", " << render::name(draw) << ", colour " << render::name(colour)
+                            << (all ? ", all automata" : "") << ", scale " << scale << ", origin (" << origin[0] << ", "
+                            << origin[1] << ", " << origin[2] << "): the device's draw list differs from the host's in " << d;
+              return seen;
+            }
+            seen.automata = std::max(seen.automata, device.automata.size());
+            seen.triangles = std::max(seen.triangles, device.surface.size() / 3);
+            seen.fragments = std::max(seen.fragments, device.fragments);
+            if (colour == ColourMode::stress && scale == 0) seen.largest_stress = std::max<float>(seen.largest_stress, device.legend.max);
+          }
+  return seen;
+}
+// Runs the scene on the emulation and compares the draw lists after each of `at` steps.
+Drawn draws_equal(SceneDef scene, std::initializer_list<std::int64_t> at,
+                  SolverDef::Backend backend = SolverDef::Backend::cuda_emulation) {
+  scene.solver.backend = backend;
+  Engine sim(scene);
+  Drawn seen;
+  std::int64_t done = 0;
+  for (const std::int64_t step : at) {
+    EXPECT_EQ(sim.advance(static_cast<int>(step - done)).flags, kHealthy);
+    done = step;
+    const Drawn d = expect_draws_equal(sim, fmt::format("{} at step {}", scene.name, step));
+    seen.automata = std::max(seen.automata, d.automata);
+    seen.triangles = std::max(seen.triangles, d.triangles);
+    seen.fragments = std::max(seen.fragments, d.fragments);
+    seen.largest_stress = std::max(seen.largest_stress, d.largest_stress);
+  }
+  return seen;
+}
+
+// The default wall (softening links: damage counts them) before and after the ball broke it.
+TEST(CudaEmulation, TheDrawListIsTheHostSnapshotsOnTheBrokenWall) {
+  const Drawn d = draws_equal(io::load_default_scene(), {0, 1500, 4000});
+  EXPECT_GT(d.fragments, 10) << "the wall did not break up";
+  EXPECT_GT(d.automata, 1000u);
+  EXPECT_GT(d.largest_stress, 0.0f);
+}
+// The cow shell (its bound surface split where it cracked), the bunny on the random lattice (boxed
+// automata), and balls that collide over a block (several projectiles).
+TEST(CudaEmulation, TheDrawListIsTheHostSnapshotsOnSurfacesAndRandomLattices) {
+  std::string why;
+  const auto shell = cow(why);
+  if (!shell) GTEST_SKIP() << why;
+  const Drawn c = draws_equal(*shell, {0, 3000});
+  EXPECT_GT(c.triangles, 5000u);
+  EXPECT_GT(c.fragments, 1);
+  const auto filled = bunny(why);
+  ASSERT_TRUE(filled) << why;
+  EXPECT_GT(draws_equal(*filled, {0, 2500}).fragments, 1);
+  EXPECT_GT(draws_equal(colliding_balls(), {3000}).automata, 0u);
+}
+// A CUDA grid runs its threads in no set order: the fragments' union-find gives each fragment its
+// smallest automaton however its threads ran.
+TEST(CudaEmulation, TheDrawListDoesNotDependOnTheLaunchOrder) {
+  struct Backwards {
+    Backwards() { gpu::HostDevice::reverse = true; }
+    ~Backwards() { gpu::HostDevice::reverse = false; }
+  } backwards;
+  EXPECT_GT(draws_equal(io::load_default_scene(), {4000}).fragments, 10);
 }
 
 // --- On a GPU (skipped, with the reason, without one: scripts/gpu_check.sh runs them on a GPU machine) ---

@@ -56,8 +56,8 @@ mesh::FloatMesh posed_surface(const Model& model, const State& state, const std:
         out.faces[f][c % 3] = first_out[v] + static_cast<std::uint32_t>(e);
         if (placed[e]) continue;
         placed[e] = 1;
-        const Vec3 p = posed_corner(corners, c, same, pose);
-        out.vertices[first_out[v] + e] = {p.x, p.y, p.z};
+        const DVec3 p = posed_corner(corners, c, same, pose);
+        out.vertices[first_out[v] + e] = {static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)};
       }
     }
   });

@@ -109,12 +109,12 @@ struct BoundSurface {
   }
 };
 
-// Where corner c of the bound surface lies in a pose: at the mean of the positions that the corners of its
+// Where corner c of the bound surface lies in a pose (in double; the caller rounds): at the mean of the positions that the corners of its
 // mesh vertex whose triangles are of its fragment are carried to by their automata (each corner's offset
 // turned by its automaton's orientation and added to its centre, in double; summed in corner order).
 // same(f, g): triangles f and g are of one fragment; pose(a, x, q): automaton a's centre and orientation.
 template <class Same, class Pose>
-MCA_HD Vec3 posed_corner(const SurfaceCorners& S, std::uint32_t c, const Same& same, const Pose& pose) {
+MCA_HD DVec3 posed_corner(const SurfaceCorners& S, std::uint32_t c, const Same& same, const Pose& pose) {
   const std::uint32_t v = S.corner[c], f = c / 3;
   double sx = 0, sy = 0, sz = 0, count = 0;
   for (std::uint32_t k = S.first_corner[v]; k < S.first_corner[v + 1]; ++k) {
@@ -130,7 +130,7 @@ MCA_HD Vec3 posed_corner(const SurfaceCorners& S, std::uint32_t c, const Same& s
     sz += x.z + p.z;
     count += 1;
   }
-  return {static_cast<float>(sx / count), static_cast<float>(sy / count), static_cast<float>(sz / count)};
+  return {sx / count, sy / count, sz / count};
 }
 
 struct ModelView;

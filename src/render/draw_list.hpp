@@ -167,6 +167,13 @@ inline double colour_scale(const SnapshotOptions& o, float largest) {
 
 // --- Per automaton ---
 
+// Per object index (Model::object), its automata (what fragment_colour's `whole` is).
+inline std::vector<std::uint32_t> object_sizes(const Model& model) {
+  std::vector<std::uint32_t> size(model.object_names.size() + 1, 0);
+  for (const std::int32_t o : model.object) ++size[static_cast<std::size_t>(o)];
+  return size;
+}
+
 // Whether automaton a can be seen: not enclosed by its neighbours' cubes (a cubic automaton with its six
 // links, one of the random lattice boxed in (`boxed`, null for none) with all of its).
 MCA_HD bool automaton_exposed(const AutomatonLinks& links, std::size_t a, const std::uint8_t* intact,

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include "analysis/surface.hpp"
 
 namespace mca::render {
 namespace {
@@ -76,12 +75,6 @@ std::vector<Rgba> fragment_colours(const Model& model, const analysis::Fragments
   std::vector<Rgba> colour(n);
   for (std::size_t a = 0; a < n; ++a) colour[a] = by_fragment[static_cast<std::size_t>(fragments.id[a])];
   return colour;
-}
-
-std::vector<std::uint32_t> object_sizes(const Model& model) {
-  std::vector<std::uint32_t> size(model.object_names.size() + 1, 0);
-  for (const std::int32_t o : model.object) ++size[static_cast<std::size_t>(o)];
-  return size;
 }
 
 std::vector<std::uint8_t> exposed_automata(const Model& model, const State& state) {
@@ -193,18 +186,20 @@ Snapshot make_snapshot(const Model& model, const State& state, const analysis::F
     }
   }
   if (surface) {
-    const mesh::FloatMesh m = analysis::posed_surface(model, state, fragments.id);
-    s.surface.reserve(3 * m.faces.size());
-    const auto shift = [&](const std::array<float, 3>& v) {
-      return std::array<float, 3>{static_cast<float>(v[0] - origin[0]), static_cast<float>(v[1] - origin[1]),
-                                  static_cast<float>(v[2] - origin[2])};
+    // Each corner where posed_surface puts its vertex, but rounded to float only in the drawing frame (a
+    // mesh far from the world origin keeps its detail).
+    const SurfaceCorners corners = model.surface.corners();
+    const auto same = [&](std::uint32_t f, std::uint32_t g) {
+      return fragments.id[model.surface.automaton[f]] == fragments.id[model.surface.automaton[g]];
     };
-    for (std::size_t f = 0; f < m.faces.size(); ++f) {
-      const Rgba c = colour[model.surface.automaton[f]];
-      for (std::uint32_t v : m.faces[f]) {
-        const auto p = shift(m.vertices[v]);
-        s.surface.push_back({p[0], p[1], p[2], c});
-      }
+    const auto pose = [&](std::uint32_t a, DVec3& x, Quat& q) {
+      x = state.x[a];
+      q = state.q[a];
+    };
+    s.surface.resize(model.surface.corner.size());
+    for (std::uint32_t c = 0; c < s.surface.size(); ++c) {
+      const auto p = local(posed_corner(corners, c, same, pose));
+      s.surface[c] = {p[0], p[1], p[2], colour[model.surface.automaton[c / 3]]};
     }
   }
   if (o.draw == DrawMode::links) {

@@ -79,7 +79,5 @@ std::vector<std::uint8_t> exposed_automata(const Model& model, const State& stat
 
 // Per automaton, the colour of its fragment (fragment_colour).
 std::vector<Rgba> fragment_colours(const Model& model, const analysis::Fragments& fragments);
-// Per object index (Model::object), its automata.
-std::vector<std::uint32_t> object_sizes(const Model& model);
 
 }  // namespace mca::render

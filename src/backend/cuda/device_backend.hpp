@@ -19,6 +19,7 @@
 
 #include "backend/backend.hpp"
 #include "backend/cuda/device_kernels.hpp"
+#include "backend/cuda/draw_kernels.hpp"
 #include "backend/step_constants.hpp"
 
 namespace mca::gpu {
@@ -168,6 +169,13 @@ class DeviceBackend : public StateBackend {
   std::int64_t broken_links() const override {
     return StateBackend::broken_links() + static_cast<std::int64_t>(logged_);
   }
+  // The draw list built on the device (draw_kernels.hpp); the links mode is left to the host.
+  bool draw_list(const render::SnapshotOptions& o, const std::array<double, 3>& origin,
+                 render::DrawList& out) const override {
+    if (o.draw == render::DrawMode::links) return false;
+    const_cast<DeviceBackend*>(this)->draw(o, origin, out);
+    return true;
+  }
 
   void upload(State s) override {
     S_ = std::move(s);
@@ -257,6 +265,7 @@ class DeviceBackend : public StateBackend {
  protected:
   std::int64_t one_step() override;
   void sync_state() const override { const_cast<DeviceBackend*>(this)->sync(); }
+  void draw(const render::SnapshotOptions& o, const std::array<double, 3>& origin, render::DrawList& out);
 
  private:
   template <class T>
@@ -580,6 +589,17 @@ class DeviceBackend : public StateBackend {
       bend_weight_;
   Buf<std::uint32_t> lost_, breaks_, flag_, place_;
   Buf<StepStatus> status_;
+  // The draw list's (made at the first draw): the model's, then the fragments, values, colours and lists.
+  bool draw_ready_ = false;
+  Buf<std::uint8_t> strength_class_, boxed_, carries_;
+  Buf<std::uint32_t> object_size_, surface_automaton_, surface_corner_, first_corner_, corners_of_;
+  Buf<Vec3> surface_offset_;
+  Buf<std::uint32_t> parent_, label_, fragment_size_;
+  Buf<float> draw_value_, draw_radius_;
+  Buf<render::Rgba> colour_;
+  Buf<DrawStatus> draw_status_;
+  Buf<render::Instance> instances_;
+  Buf<render::SurfaceVertex> surface_out_;
   StepStatus status_h_;  // the last status read
   std::size_t rebuilds_ = 0;
   std::int64_t steps_ = 0;  // stepped by this backend (the profile's)
@@ -937,6 +957,85 @@ Energies DeviceBackend<Dev>::device_energies() {
   e.load_work = M_.load.empty() ? 0.0 : s.load_work;
   e.projectile_work = s.projectile_work;
   return e;
+}
+
+// The draw list of the current state (render::make_snapshot's automata, surface, fragments and scale), on
+// the device; then copied to the host: the drawn automata and triangles, not the state.
+template <class Dev>
+void DeviceBackend<Dev>::draw(const render::SnapshotOptions& o, const std::array<double, 3>& origin,
+                              render::DrawList& out) {
+  const Model& m = M_;
+  const std::size_t n = m.size(), L = m.link_slots(), corners = m.surface.corner.size();
+  if (!draw_ready_) {
+    Dev::upload(strength_class_, m.strength_class);
+    Dev::upload(boxed_, m.boxed);
+    Dev::upload(object_size_, render::object_sizes(m));
+    if (corners) {
+      std::vector<std::uint8_t> carries(n, 0);
+      for (const std::uint32_t a : m.surface.automaton) carries[a] = 1;
+      Dev::upload(carries_, carries);
+      Dev::upload(surface_automaton_, m.surface.automaton);
+      Dev::upload(surface_corner_, m.surface.corner);
+      Dev::upload(first_corner_, m.surface.first_corner);
+      Dev::upload(corners_of_, m.surface.corners_of);
+      Dev::upload(surface_offset_, m.surface.offset);
+      surface_out_.resize(corners);
+    }
+    for (auto* b : {&parent_, &label_, &fragment_size_}) b->resize(n);
+    draw_value_.resize(n);
+    colour_.resize(n);
+    draw_status_.resize(1);
+    draw_ready_ = true;
+  }
+  const bool surface = o.draw == render::DrawMode::surface && corners > 0;
+  const bool scaled = o.colour == render::ColourMode::stress || o.colour == render::ColourMode::speed;
+  const DrawStatus zero;
+  Dev::upload(draw_status_, &zero, 1);
+  // Fragments: each automaton's smallest, their sizes and number.
+  const FragmentRoots roots{d(parent_)};
+  Dev::launch(n, FragmentStartKernel{d(parent_), d(fragment_size_)});
+  Dev::launch(L, FragmentUniteKernel{roots, link_ends(), c(intact_)});
+  Dev::launch(n, FragmentLabelKernel{roots, d(label_), d(fragment_size_),
+                                     field<std::uint32_t>(draw_status_, offsetof(DrawStatus, fragments))});
+  if (scaled)
+    Dev::launch_reduce(n, DrawValueKernel{o.colour == render::ColourMode::stress, c(stress_), c(vx_), c(vy_), c(vz_), d(draw_value_)},
+                       field<float>(draw_status_, offsetof(DrawStatus, largest)), nullptr);
+  DrawStatus st;
+  Dev::download(&st, draw_status_, 1);
+  // Colours, then the automata drawn (in automaton order) and the surface's corners.
+  const AutomatonLinks links{n, c(neighbour_), c(neighbour_below_), m.explicit_links.first.empty() ? nullptr : c(e_first_),
+                             c(e_of_)};
+  Dev::launch(n, DrawColourKernel{o.colour, links, c(intact_), softening_ ? c(damage_) : nullptr, c(strength_class_),
+                                  c(group_), c(object_), c(label_), c(fragment_size_), c(object_size_), c(draw_value_),
+                                  render::colour_scale(o, st.largest), d(colour_)});
+  Dev::launch(n, DrawFlagKernel{links, c(intact_), opt(boxed_), surface ? c(carries_) : nullptr, o.all_automata, d(flag_)});
+  const std::uint32_t drawn = scan_total(c(flag_), place_, n);
+  if (instances_.size() < drawn) {
+    instances_.resize(drawn + drawn / 2);
+    draw_radius_.resize(drawn + drawn / 2);
+  }
+  const DrawOrigin at{origin[0], origin[1], origin[2]};
+  Dev::launch(n, DrawAutomataKernel{c(flag_), c(place_), c(px_), c(py_), c(pz_), c(qw_), c(qx_), c(qy_), c(qz_), c(radius_),
+                                    c(colour_), at, d(instances_), d(draw_radius_)});
+  if (surface) {
+    const SurfaceCorners S{c(surface_automaton_), c(surface_corner_), c(first_corner_), c(corners_of_), c(surface_offset_)};
+    Dev::launch(corners, DrawSurfaceKernel{S, c(label_), c(px_), c(py_), c(pz_), c(qw_), c(qx_), c(qy_), c(qz_), c(colour_),
+                                           at, d(surface_out_)});
+  }
+  out.automata.resize(drawn);
+  out.radius.resize(drawn);
+  Dev::download(out.automata.data(), instances_, drawn);
+  Dev::download(out.radius.data(), draw_radius_, drawn);
+  out.surface.resize(surface ? corners : 0);
+  if (surface) Dev::download(out.surface.data(), surface_out_, corners);
+  const std::size_t np = m.projectiles.size();
+  std::vector<DeviceProjectile> dp(np);
+  Dev::download(dp.data(), proj_, np);
+  out.projectiles.resize(np);
+  for (std::size_t p = 0; p < np; ++p) out.projectiles[p] = dp[p].position;
+  out.fragments = static_cast<std::int32_t>(st.fragments);
+  out.largest = st.largest;
+  out.softening = softening_;
 }
 
 // The host's State from the device arrays.
