@@ -114,8 +114,11 @@ double median(std::vector<double> v) {
 
 }  // namespace
 
-int bench_render(const std::vector<std::string>& names, bool json, int threads_requested, int frames) {
+int bench_render(const std::vector<std::string>& names, bool json, int threads_requested, int frames,
+                 const std::optional<int>& steps_per_frame, const std::optional<std::string>& backend) {
   if (frames < 1) throw Error(fmt::format("--frames {} must be at least 1", frames));
+  const int steps = steps_per_frame.value_or(1);
+  if (steps < 1) throw Error(fmt::format("--steps {} must be at least 1 (with --render: steps per frame)", steps));
   const int threads = thread_count(threads_requested);
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   struct Case {
@@ -161,8 +164,9 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
   render::OffscreenTarget target(W, H);
   target.bind();
   if (!json)
-    fmt::print("render benchmark: {}x{} offscreen, {} ({}), {} threads; one step per frame, median of {} frames\n", W,
-               H, render::Renderer::gl_description(), context.source(), threads, frames);
+    fmt::print("render benchmark: {}x{} offscreen, {} ({}), {} threads; {} per frame, median of {} frames\n", W, H,
+               render::Renderer::gl_description(), context.source(), threads,
+               steps == 1 ? std::string("one step") : fmt::format("{} steps", steps), frames);
   nlohmann::json out = nlohmann::json::array();
   std::vector<std::uint8_t> pixels;
   for (const auto& c : chosen) {
@@ -175,6 +179,7 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
       fmt::print(stderr, "{}: skipped: {}\n", c.name, e.what());
       continue;
     }
+    if (backend) scene.solver.backend = backend_from_name(*backend, "--backend");
     Engine sim(scene);
     const Model& m = sim.model();
     const auto framing = render::objects_box(m, sim.state());
@@ -189,10 +194,10 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
     const auto secs = [](clock::time_point a, clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };
     for (int f = 0; f < frames + 1; ++f) {  // the first frame warms the caches and the shaders up
       const auto t0 = clock::now();
-      sim.advance(1);
+      sim.advance(steps);
       const auto t1 = clock::now();
-      const auto frags = analysis::label_model_fragments(m, sim.state().intact.data());
-      const auto snap = render::make_snapshot(m, sim.state(), frags, so, framing.origin);
+      // The backend's draw list where it builds one (the CUDA backend), else from its state.
+      const auto snap = render::make_snapshot(m, sim.backend(), so, framing.origin);
       const auto t2 = clock::now();
       renderer.draw(snap, c.draw, cam, W, H);
       target.read_rgba(pixels);  // waits for the drawing: what a frame of `mca run --render` costs before the PNG
@@ -207,15 +212,16 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
     }
     const double fps = 1.0 / median(total_s);
     if (json) {
-      out.push_back({{"name", c.name}, {"draw", render::name(c.draw)}, {"automata", m.size()},
+      out.push_back({{"name", c.name}, {"draw", render::name(c.draw)}, {"backend", sim.backend().name()},
+                     {"steps_per_frame", steps}, {"automata", m.size()},
                      {"automata_drawn", drawn}, {"triangles", triangles}, {"frames", frames},
                      {"median_step_seconds", median(step_s)}, {"median_snapshot_seconds", median(prep_s)},
                      {"median_draw_seconds", median(draw_s)}, {"frames_per_second", fps}});
     } else {
-      fmt::print("{:<18} {:>8} automata {:>8} drawn {:>8} triangles  step {:7.1f} ms  snapshot {:6.1f} ms  draw+read "
+      fmt::print("{:<18} {:>8} automata {:>8} drawn {:>8} triangles  {} {:7.1f} ms  snapshot {:6.1f} ms  draw+read "
                  "{:6.1f} ms  {:6.2f} frames/s\n",
-                 c.name, m.size(), drawn, triangles, 1e3 * median(step_s), 1e3 * median(prep_s), 1e3 * median(draw_s),
-                 fps);
+                 c.name, m.size(), drawn, triangles, steps == 1 ? "step" : "steps", 1e3 * median(step_s),
+                 1e3 * median(prep_s), 1e3 * median(draw_s), fps);
     }
   }
   if (json) fmt::print("{}\n", out.dump(2));

@@ -51,7 +51,9 @@ int bench(const std::vector<std::string>& names, bool json, int threads, int rep
           const std::optional<std::string>& backend = std::nullopt);
 // `mca bench --render`: frames per second of the offscreen renderer (1280x720) at one step per frame, on
 // the wall benchmarks (cubes, spheres) and the mesh scenes (cubes, the bound surface's triangles).
-int bench_render(const std::vector<std::string>& names, bool json, int threads, int frames);
+int bench_render(const std::vector<std::string>& names, bool json, int threads, int frames,
+                 const std::optional<int>& steps_per_frame = std::nullopt,
+                 const std::optional<std::string>& backend = std::nullopt);
 // Names of the built-in benchmark scenes (those run when none is named).
 std::vector<std::string> bench_names(bool defaults_only = false);
 // Why the backend's instruction set is the one in use (for `mca info` and `mca bench`).

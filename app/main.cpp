@@ -98,13 +98,13 @@ int main(int argc, char** argv) {
   bench->add_flag("--json", bench_json, "Machine-readable output");
   bench->add_option("--threads", bench_threads, "Worker threads (0 = all cores)");
   bench->add_option("--repeats", bench_repeats, "Timed runs per benchmark (the median is reported)");
-  bench->add_option("--steps", bench_steps, "Steps per timed run");
+  auto* bench_steps_opt = bench->add_option("--steps", bench_steps, "Steps per timed run (with --render: per frame, default 1)");
   std::optional<std::string> bench_backend;
   bench->add_option("--backend", bench_backend, "Backend to measure: auto, cpu, cuda, cuda-emulation");
   bool bench_render = false;
   int bench_frames = 10;
   bench->add_flag("--render", bench_render,
-                  "Frames per second of the renderer (1280x720 offscreen, one step per frame): wall_3k, walls_12k, "
+                  "Frames per second of the renderer (1280x720 offscreen, --steps per frame, 1 by default): wall_3k, walls_12k, "
                   "wall_357k, wall_357k_spheres, bunny_cubes, bunny_surface, cow_cubes, cow_surface, armadillo_cubes, "
                   "armadillo_surface");
   bench->add_option("--frames", bench_frames, "Frames timed per render benchmark (the median is reported)");
@@ -153,7 +153,8 @@ int main(int argc, char** argv) {
     if (info->parsed())
       return mca::app::info(info_scene.empty() ? std::nullopt : std::optional<std::string>(info_scene), info_json);
     if (bench->parsed() && bench_render)
-      return mca::app::bench_render(bench_names, bench_json, bench_threads, bench_frames);
+      return mca::app::bench_render(bench_names, bench_json, bench_threads, bench_frames,
+                                    bench_steps_opt->count() ? std::optional<int>(bench_steps) : std::nullopt, bench_backend);
     if (bench->parsed())
       return mca::app::bench(bench_names, bench_json, bench_threads, bench_repeats, bench_steps, bench_backend);
   } catch (const mca::Error& e) {

@@ -144,12 +144,13 @@ void simulate(const SceneDef& scene, Shared& sh, bool lockstep, std::array<doubl
   std::int64_t chunk = 16;
   auto publish = [&] {
     const Model& m = sim->model();
-    const auto frags = analysis::label_model_fragments(m, sim->state().intact.data());
     render::SnapshotOptions o;
     o.colour = static_cast<render::ColourMode>(sh.colour.load());
     o.draw = static_cast<render::DrawMode>(sh.draw.load());
     if (o.draw == render::DrawMode::surface && m.surface.faces() == 0) o.draw = render::DrawMode::cubes;
-    auto snap = std::make_shared<render::Snapshot>(render::make_snapshot(m, sim->state(), frags, o, origin));
+    // The backend's draw list where it builds one (the CUDA backend: no download of the state), else from
+    // its state.
+    auto snap = std::make_shared<render::Snapshot>(render::make_snapshot(m, sim->backend(), o, origin));
     std::unique_lock lock(sh.mutex);
     sh.snapshot = std::move(snap);
     ++sh.sequence;
