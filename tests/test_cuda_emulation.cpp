@@ -2,6 +2,7 @@
 // against the CPU backend, bit for bit: the state of both after every chunk of steps, on scenes with
 // breaking, contacts and the ground active. This is how every line of the CUDA backend's step logic is
 // tested on machines without a GPU.
+#include <epoxy/gl.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -19,6 +20,9 @@
 #include "backend/cuda/host_device.hpp"
 #include "analysis/fragments.hpp"
 #include "io/scene_io.hpp"
+#include "render/camera.hpp"
+#include "render/egl_context.hpp"
+#include "render/renderer.hpp"
 #include "render/snapshot.hpp"
 #include "sim/engine.hpp"
 #include "support.hpp"
@@ -401,7 +405,7 @@ Drawn expect_draws_equal(const Engine& sim, const std::string& where) {
             o.scale_max = scale;
             const std::size_t reads = gpu::HostDevice::reads;
             render::DrawList probe;
-            EXPECT_TRUE(sim.backend().draw_list(o, origin, probe)) << "the backend left the draw list to the host";
+            EXPECT_TRUE(sim.backend().draw_list(o, origin, probe, nullptr)) << "the backend left the draw list to the host";
             EXPECT_LE(gpu::HostDevice::reads - reads, 8u) << "a draw read more of the device than its lists";
             const render::Snapshot device = render::make_snapshot(m, sim.backend(), o, origin);
             const State& st = sim.state();
@@ -471,6 +475,81 @@ TEST(CudaEmulation, TheDrawListDoesNotDependOnTheLaunchOrder) {
   EXPECT_GT(draws_equal(io::load_default_scene(), {4000}).fragments, 10);
 }
 
+// Zero copy: the draw list written by the backend into the renderer's own buffers (mapped into host
+// memory for the emulation; registered with CUDA on a GPU) holds the host snapshot's bytes and draws the
+// same picture, in the cubes and the surface modes; the spheres mode is copied, and says so.
+void expect_shared_draw_is_the_hosts(SceneDef scene, std::int64_t steps, render::DrawMode draw,
+                                     SolverDef::Backend backend = SolverDef::Backend::cuda_emulation) {
+  constexpr int W = 320, H = 180;
+  scene.solver.backend = backend;
+  Engine sim(scene);
+  ASSERT_EQ(sim.advance(static_cast<int>(steps)).flags, kHealthy);
+  render::EglContext context;
+  render::Renderer renderer;
+  render::OffscreenTarget target(W, H);
+  const Model& m = sim.model();
+  const auto framing = render::objects_box(m, sim.state());
+  const auto cam = render::make_camera(sim.scene().camera, m, framing, float(W) / H, "test");
+  render::SnapshotOptions o;
+  o.draw = draw;
+  std::vector<std::uint8_t> shared_pixels, host_pixels;
+  for (int frame = 0; frame < 2; ++frame) {  // the second into the buffers of the first
+    std::string why;
+    const render::Snapshot shared = render::make_snapshot(m, sim.backend(), o, framing.origin, &renderer.draw_target(), &why);
+    const State& st = sim.state();
+    const render::Snapshot host =
+        render::make_snapshot(m, st, analysis::label_model_fragments(m, st.intact.data()), o, framing.origin);
+    const std::string where = fmt::format("{} at step {}, {}", scene.name, st.step, render::name(draw));
+    // On a GPU whose OpenGL context CUDA cannot share (Mesa's, on a machine without NVIDIA's EGL), the
+    // list is copied, and says why.
+    const bool gpu_copies = backend == SolverDef::Backend::cuda && !why.empty();
+    if (draw == render::DrawMode::spheres || gpu_copies) {
+      if (gpu_copies) std::printf("%s: %s\n", where.c_str(), why.c_str());
+      EXPECT_EQ(shared.shared_automata, 0u);
+      EXPECT_FALSE(why.empty()) << where << ": the copy was not explained";
+      EXPECT_EQ(first_draw_difference(shared, host), "") << where;
+      return;
+    }
+    ASSERT_EQ(why, "") << where;
+    EXPECT_TRUE(shared.automata.empty() && shared.surface.empty()) << where << ": copied as well as shared";
+    ASSERT_EQ(shared.shared_automata, host.automata.size()) << where;
+    ASSERT_EQ(shared.shared_corners, host.surface.size()) << where;
+    // The buffers' bytes.
+    const auto read = [&](render::DrawTarget::Which w, std::size_t bytes) {
+      std::vector<std::uint8_t> b(bytes);
+      if (bytes) glGetNamedBufferSubData(renderer.draw_target().buffer(w), 0, static_cast<GLsizeiptr>(bytes), b.data());
+      return b;
+    };
+    const auto bytes_of = [](const auto& v) {
+      const auto* p = reinterpret_cast<const std::uint8_t*>(v.data());
+      return std::vector<std::uint8_t>(p, p + v.size() * sizeof(v[0]));
+    };
+    EXPECT_TRUE(read(render::DrawTarget::automata, host.automata.size() * sizeof(render::Instance)) == bytes_of(host.automata))
+        << where << ": the shared instance buffer is not the host's list";
+    EXPECT_TRUE(read(render::DrawTarget::surface, host.surface.size() * sizeof(render::SurfaceVertex)) == bytes_of(host.surface))
+        << where << ": the shared surface buffer is not the host's list";
+    // The pictures.
+    target.bind();
+    renderer.draw(shared, draw, cam, W, H);
+    target.read_rgba(shared_pixels);
+    renderer.draw(host, draw, cam, W, H);
+    target.read_rgba(host_pixels);
+    EXPECT_TRUE(shared_pixels == host_pixels) << where << ": the picture drawn from the shared buffers differs";
+    std::size_t lit = 0;
+    for (std::size_t k = 0; k < host_pixels.size(); k += 4) lit += host_pixels[k] != host_pixels[0];
+    EXPECT_GT(lit, 1000u) << where << ": next to nothing drawn";
+    ASSERT_EQ(sim.advance(500).flags, kHealthy);
+  }
+}
+TEST(CudaEmulation, TheDrawListWrittenIntoTheRenderersBuffersDrawsTheSamePicture) {
+  expect_shared_draw_is_the_hosts(io::load_default_scene(), 4000, render::DrawMode::cubes);
+  expect_shared_draw_is_the_hosts(io::load_default_scene(), 100, render::DrawMode::spheres);
+  std::string why;
+  const auto shell = cow(why);
+  if (!shell) GTEST_SKIP() << why;
+  expect_shared_draw_is_the_hosts(*shell, 3000, render::DrawMode::surface);
+}
+
 // --- On a GPU (skipped, with the reason, without one: scripts/gpu_check.sh runs them on a GPU machine) ---
 
 #define MCA_NEEDS_GPU()                                                     \
@@ -508,6 +587,22 @@ TEST(CudaDevice, GripsAndBallsAreTheCpusBitForBit) {
   EXPECT_GT(run_both(pulled_bar(), 4000, 1000, kCuda).breaks, 0);
   EXPECT_GT(run_both(colliding_balls(), 8000, 50, kCuda).pairs, 0u);
   EXPECT_GT(run_both(three_balls(), 3000, 100, kCuda).shared, 0u);
+}
+TEST(CudaDevice, TheDrawListIsTheHostSnapshots) {
+  MCA_NEEDS_GPU();
+  EXPECT_GT(draws_equal(io::load_default_scene(), {0, 4000}, kCuda).fragments, 10);
+  std::string why;
+  const auto shell = cow(why);
+  if (!shell) GTEST_SKIP() << why;
+  EXPECT_GT(draws_equal(*shell, {3000}, kCuda).triangles, 5000u);
+}
+TEST(CudaDevice, TheDrawListWrittenIntoTheRenderersBuffersDrawsTheSamePicture) {
+  MCA_NEEDS_GPU();
+  expect_shared_draw_is_the_hosts(io::load_default_scene(), 4000, render::DrawMode::cubes, kCuda);
+  std::string why;
+  const auto shell = cow(why);
+  if (!shell) GTEST_SKIP() << why;
+  expect_shared_draw_is_the_hosts(*shell, 3000, render::DrawMode::surface, kCuda);
 }
 TEST(CudaDevice, TwoRunsAreEqual) {
   MCA_NEEDS_GPU();

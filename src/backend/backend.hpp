@@ -74,8 +74,10 @@ class Backend {
   // The draw list of the current state (render/draw_list.hpp) where the backend builds it without bringing
   // the whole state up to date (the CUDA backend: on the device); false where it does not (the CPU
   // backend, whose state is at hand; the links mode): render::make_snapshot then builds it from state().
-  virtual bool draw_list(const render::SnapshotOptions&, const std::array<double, 3>& /*origin*/,
-                         render::DrawList&) const {
+  // With a target (null: none), the cubes and surface modes are written straight into its buffers where
+  // the backend can (DrawList::shared_automata, shared_corners), else into the list.
+  virtual bool draw_list(const render::SnapshotOptions&, const std::array<double, 3>& /*origin*/, render::DrawList&,
+                         render::DrawTarget* /*target*/) const {
     return false;
   }
 };

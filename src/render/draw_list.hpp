@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "core/math.hpp"
@@ -49,12 +50,32 @@ struct SurfaceVertex {
   Rgba colour;
 };
 
+// The renderer's buffers that a backend writes its draw list into, where it can: zero copy (the paper's
+// sec. 5.4). The CUDA backend registers them with CUDA (CUDA-OpenGL interop) and its kernels write them
+// on the GPU; its host emulation maps them into host memory. Needs the renderer's GL context current.
+class DrawTarget {
+ public:
+  enum Which { automata, surface };  // Instance records (drawn as cubes); SurfaceVertex, 3 per triangle
+  virtual ~DrawTarget() = default;
+  // Buffer `which` holding at least `bytes`: where it holds less, a new buffer (another GL name, its
+  // contents undefined) takes its place. Returns its size in bytes.
+  virtual std::size_t reserve(Which which, std::size_t bytes) = 0;
+  virtual unsigned buffer(Which which) const = 0;  // its GL name
+  // Its first `bytes` mapped into host memory for writing, until unmap.
+  virtual void* map(Which which, std::size_t bytes) = 0;
+  virtual void unmap(Which which) = 0;
+};
+
 // A backend's draw list of its current state (Backend::draw_list): the automata and surface of a
 // Snapshot (snapshot.hpp) and what its legend and counters need.
 struct DrawList {
   std::vector<Instance> automata;
   std::vector<float> radius;
   std::vector<SurfaceVertex> surface;
+  // Written into a DrawTarget's buffers instead of `automata` and `surface` (their radius not kept: the
+  // cubes and surface modes).
+  std::size_t shared_automata = 0, shared_corners = 0;
+  std::string shared_why;  // why a target given was not written (empty: it was, or none was given)
   std::vector<DVec3> projectiles;  // world positions
   std::int32_t fragments = 0;
   float largest = 0;       // stress and speed: the largest finite value (the scale when none is fixed)

@@ -297,6 +297,41 @@ std::string short_number(double v) {
 
 constexpr float kBackground[3] = {34 / 255.0f, 37 / 255.0f, 43 / 255.0f};
 
+// The buffers a backend writes its draw list into (render::DrawTarget): immutable storage, which CUDA can
+// register and the host can map for writing; replaced by a larger one when a list outgrows it.
+class SharedBuffers final : public DrawTarget {
+ public:
+  SharedBuffers() = default;
+  SharedBuffers(const SharedBuffers&) = delete;
+  SharedBuffers& operator=(const SharedBuffers&) = delete;
+  ~SharedBuffers() override {
+    for (const unsigned name : name_)
+      if (name) glDeleteBuffers(1, &name);
+  }
+  std::size_t reserve(Which w, std::size_t bytes) override {
+    if (size_[w] >= bytes) return size_[w];
+    const std::size_t size = std::max(bytes, size_[w] + size_[w] / 2);
+    if (name_[w]) glDeleteBuffers(1, &name_[w]);
+    glCreateBuffers(1, &name_[w]);
+    glNamedBufferStorage(name_[w], static_cast<GLsizeiptr>(size), nullptr, GL_MAP_WRITE_BIT);
+    if (const GLenum e = glGetError(); e != GL_NO_ERROR)
+      throw Error(fmt::format("OpenGL could not make a buffer of {} bytes for the draw list (error 0x{:x})", size, e));
+    size_[w] = size;
+    return size;
+  }
+  unsigned buffer(Which w) const override { return name_[w]; }
+  void* map(Which w, std::size_t bytes) override {
+    void* p = glMapNamedBufferRange(name_[w], 0, static_cast<GLsizeiptr>(bytes), GL_MAP_WRITE_BIT | GL_MAP_INVALIDATE_BUFFER_BIT);
+    if (!p) throw Error(fmt::format("OpenGL could not map the draw list's buffer of {} bytes (error 0x{:x})", bytes, glGetError()));
+    return p;
+  }
+  void unmap(Which w) override { glUnmapNamedBuffer(name_[w]); }
+
+ private:
+  unsigned name_[2] = {0, 0};
+  std::size_t size_[2] = {0, 0};
+};
+
 struct Renderer::Impl {
   unsigned cube_prog, sphere_prog, flat_prog, ground_prog, overlay_prog;
   unsigned cube_vao, cube_vbo, inst_vbo;
@@ -304,7 +339,27 @@ struct Renderer::Impl {
   unsigned flat_vao, flat_vbo;
   unsigned ground_vao, ground_vbo;
   unsigned overlay_vao, overlay_vbo;
+  SharedBuffers shared;
 };
+
+namespace {
+// The cube VAO's per-instance attributes (Instance records) from buffer vbo (the VAO bound).
+void instance_attributes(unsigned vbo) {
+  glBindBuffer(GL_ARRAY_BUFFER, vbo);
+  glVertexAttribPointer(2, 3, GL_FLOAT, GL_FALSE, sizeof(Instance), reinterpret_cast<void*>(offsetof(Instance, x)));
+  glVertexAttribPointer(3, 4, GL_FLOAT, GL_FALSE, sizeof(Instance), reinterpret_cast<void*>(offsetof(Instance, qx)));
+  glVertexAttribPointer(4, 4, GL_UNSIGNED_BYTE, GL_TRUE, sizeof(Instance), reinterpret_cast<void*>(offsetof(Instance, colour)));
+}
+// The flat VAO's per-vertex attributes (SurfaceVertex records) from buffer vbo (the VAO bound).
+void vertex_attributes(unsigned vbo) {
+  glBindBuffer(GL_ARRAY_BUFFER, vbo);
+  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, sizeof(SurfaceVertex), nullptr);
+  glVertexAttribPointer(1, 4, GL_UNSIGNED_BYTE, GL_TRUE, sizeof(SurfaceVertex),
+                        reinterpret_cast<void*>(offsetof(SurfaceVertex, colour)));
+}
+}  // namespace
+
+DrawTarget& Renderer::draw_target() { return impl_->shared; }
 
 std::string Renderer::gl_description() {
   const auto str = [](GLenum e) {
@@ -341,11 +396,7 @@ Renderer::Renderer() : impl_(new Impl) {
   glEnableVertexAttribArray(0);
   glEnableVertexAttribArray(1);
   glGenBuffers(1, &I.inst_vbo);
-  glBindBuffer(GL_ARRAY_BUFFER, I.inst_vbo);
-  glVertexAttribPointer(2, 3, GL_FLOAT, GL_FALSE, sizeof(Instance), reinterpret_cast<void*>(offsetof(Instance, x)));
-  glVertexAttribPointer(3, 4, GL_FLOAT, GL_FALSE, sizeof(Instance), reinterpret_cast<void*>(offsetof(Instance, qx)));
-  glVertexAttribPointer(4, 4, GL_UNSIGNED_BYTE, GL_TRUE, sizeof(Instance),
-                        reinterpret_cast<void*>(offsetof(Instance, colour)));
+  instance_attributes(I.inst_vbo);
   for (int a = 2; a <= 4; ++a) {
     glEnableVertexAttribArray(a);
     glVertexAttribDivisor(a, 1);
@@ -373,10 +424,7 @@ Renderer::Renderer() : impl_(new Impl) {
   glGenVertexArrays(1, &I.flat_vao);
   glBindVertexArray(I.flat_vao);
   glGenBuffers(1, &I.flat_vbo);
-  glBindBuffer(GL_ARRAY_BUFFER, I.flat_vbo);
-  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, sizeof(SurfaceVertex), nullptr);
-  glVertexAttribPointer(1, 4, GL_UNSIGNED_BYTE, GL_TRUE, sizeof(SurfaceVertex),
-                        reinterpret_cast<void*>(offsetof(SurfaceVertex, colour)));
+  vertex_attributes(I.flat_vbo);
   glEnableVertexAttribArray(0);
   glEnableVertexAttribArray(1);
 
@@ -480,7 +528,14 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
     out.insert(out.end(), {x, y, z, r, packed});
   };
 
-  if (!s.automata.empty()) {
+  if (s.shared_automata) {  // written into the shared buffer by the backend
+    common(I.cube_prog);
+    glUniform1f(loc(I.cube_prog, "u_size"), s.cube_size);
+    glBindVertexArray(I.cube_vao);
+    instance_attributes(I.shared.buffer(DrawTarget::automata));
+    glDrawArraysInstanced(GL_TRIANGLES, 0, 36, static_cast<int>(s.shared_automata));
+    instance_attributes(I.inst_vbo);
+  } else if (!s.automata.empty()) {
     if (mode == DrawMode::spheres) {
       std::vector<float> data;
       data.reserve(5 * s.automata.size());
@@ -500,12 +555,19 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
     }
   }
   for (const auto* verts : {&s.surface, &s.links}) {
-    if (verts->empty()) continue;
     const bool lines = verts == &s.links;
+    const bool shared = !lines && s.shared_corners;  // written into the shared buffer by the backend
+    if (verts->empty() && !shared) continue;
     common(I.flat_prog);
     glUniform1i(loc(I.flat_prog, "u_lit"), lines ? 0 : 1);
     glUniform3fv(loc(I.flat_prog, "u_eye"), 1, glm::value_ptr(cam.eye));
     glBindVertexArray(I.flat_vao);
+    if (shared) {
+      vertex_attributes(I.shared.buffer(DrawTarget::surface));
+      glDrawArrays(GL_TRIANGLES, 0, static_cast<int>(s.shared_corners));
+      vertex_attributes(I.flat_vbo);
+      continue;
+    }
     glBindBuffer(GL_ARRAY_BUFFER, I.flat_vbo);
     glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(verts->size() * sizeof(SurfaceVertex)), verts->data(),
                  GL_STREAM_DRAW);

@@ -30,6 +30,9 @@ class Renderer {
   void draw(const Snapshot& snapshot, DrawMode mode, const Camera& camera, int width, int height,
             const Overlay& overlay = {});
 
+  // The buffers a backend writes its draw list into (zero copy: make_snapshot with a target, then draw).
+  DrawTarget& draw_target();
+
   // "OpenGL 4.5 (Core Profile) Mesa ..., llvmpipe ..." for messages and benchmarks.
   static std::string gl_description();
 

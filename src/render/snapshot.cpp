@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <fmt/format.h>
+
 
 namespace mca::render {
 namespace {
@@ -227,12 +229,15 @@ Snapshot make_snapshot(const Model& model, const State& state, const analysis::F
 }
 
 Snapshot make_snapshot(const Model& model, const Backend& backend, const SnapshotOptions& o,
-                       const std::array<double, 3>& origin) {
+                       const std::array<double, 3>& origin, DrawTarget* target, std::string* why_not) {
   DrawList list;
-  if (!backend.draw_list(o, origin, list)) {
+  if (!backend.draw_list(o, origin, list, target)) {
+    if (why_not && target)
+      *why_not = fmt::format("the {} backend's {} mode is drawn from its state", backend.name(), name(o.draw));
     const State& state = backend.state();
     return make_snapshot(model, state, analysis::label_model_fragments(model, state.intact.data()), o, origin);
   }
+  if (why_not) *why_not = list.shared_why;
   Snapshot s = snapshot_frame(model, origin);
   s.time = backend.current_time();
   s.step = backend.current_step();
@@ -242,6 +247,8 @@ Snapshot make_snapshot(const Model& model, const Backend& backend, const Snapsho
   s.automata = std::move(list.automata);
   s.radius = std::move(list.radius);
   s.surface = std::move(list.surface);
+  s.shared_automata = list.shared_automata;
+  s.shared_corners = list.shared_corners;
   add_projectiles(s, model, list.projectiles);
   return s;
 }

@@ -44,6 +44,10 @@ struct Snapshot {
   std::vector<float> radius;       // per drawn automaton (spheres)
   std::vector<SurfaceVertex> surface;  // 3 per triangle
   std::vector<SurfaceVertex> links;    // 2 per intact link (links mode)
+  // Zero copy: the automata (as cubes) and the surface's corners a backend wrote into the renderer's own
+  // buffers (Renderer::draw_target) in place of `automata` and `surface`; the renderer draws them from
+  // there (valid until the next draw list is written into them).
+  std::size_t shared_automata = 0, shared_corners = 0;
   struct Ball {
     float x, y, z, radius;
   };
@@ -65,9 +69,12 @@ Snapshot make_snapshot(const Model& model, const State& state, const analysis::F
                        const SnapshotOptions& options, const std::array<double, 3>& origin);
 
 // The same of a backend's current state: from its draw list where it builds one (the CUDA backend, on
-// the device: no download of the state), else from its state (fragments labelled here).
+// the device: no download of the state), else from its state (fragments labelled here). With a target
+// (Renderer::draw_target, its GL context current), the backend writes the cubes and the surface straight
+// into the renderer's buffers where it can (Snapshot::shared_automata, shared_corners; *why_not, where
+// given, says why it did not).
 Snapshot make_snapshot(const Model& model, const Backend& backend, const SnapshotOptions& options,
-                       const std::array<double, 3>& origin);
+                       const std::array<double, 3>& origin, DrawTarget* target = nullptr, std::string* why_not = nullptr);
 
 // The legend of a colour mode: `softening`, the links soften (damage); `largest`, the largest value drawn
 // (stress, speed: the scale when the options fix none).

@@ -10,6 +10,9 @@
 #include <cub/device/device_reduce.cuh>
 #include <cub/device/device_scan.cuh>
 #include <cuda_runtime.h>
+// CUDA-OpenGL interop (the draw list written into the renderer's buffers): its header wants GL's types.
+#include <GL/gl.h>
+#include <cuda_gl_interop.h>
 
 #include <algorithm>
 #include <cstddef>
@@ -20,6 +23,7 @@
 #include <vector>
 
 #include "backend/cuda/profile.hpp"
+#include "render/draw_list.hpp"
 #include "mca/error.hpp"
 
 namespace mca::gpu {
@@ -78,6 +82,60 @@ __global__ void run_reduce_kernel(K k, std::size_t n, float* max_to, std::uint32
 struct CudaDevice {
   static constexpr const char* kName = "cuda";
   static constexpr unsigned kBlock = 256;
+
+  // A renderer's buffer for the draw list (render::DrawTarget), registered with CUDA (interop): the
+  // kernels write it on the GPU, with no copy through the host. Needs the renderer's GL context current
+  // and on this GPU (NVIDIA's OpenGL; Mesa's llvmpipe, say, cannot share its buffers).
+  struct GlBuffer {
+    cudaGraphicsResource* resource = nullptr;
+    std::size_t capacity = 0;
+    GlBuffer() = default;
+    GlBuffer(const GlBuffer&) = delete;
+    GlBuffer& operator=(const GlBuffer&) = delete;
+    ~GlBuffer() { release(); }
+    void release() {
+      if (resource) cudaGraphicsUnregisterResource(resource);
+      resource = nullptr;
+      capacity = 0;
+    }
+  };
+  // The buffer `which` of the target, holding at least `bytes`, registered and mapped: its device address
+  // (null, and why, where CUDA cannot share it).
+  static void* map_gl(GlBuffer& g, render::DrawTarget& t, render::DrawTarget::Which which, std::size_t bytes,
+                      std::string& why) {
+    const auto fail = [&](const char* what, cudaError_t e) -> void* {
+      why = std::string("CUDA cannot share the renderer's OpenGL buffers (") + what + ": " + cudaGetErrorString(e) +
+            "); the draw list is copied through the host";
+      cudaGetLastError();  // cleared: the step goes on
+      g.release();
+      return nullptr;
+    };
+    if (g.capacity < bytes) {
+      g.release();  // unregistered before the renderer replaces the buffer
+      const std::size_t capacity = t.reserve(which, bytes);
+      const cudaError_t e = cudaGraphicsGLRegisterBuffer(&g.resource, t.buffer(which), cudaGraphicsRegisterFlagsWriteDiscard);
+      if (e != cudaSuccess) {
+        g.resource = nullptr;
+        return fail("cudaGraphicsGLRegisterBuffer", e);
+      }
+      g.capacity = capacity;
+    }
+    cudaError_t e = cudaGraphicsMapResources(1, &g.resource, 0);
+    if (e != cudaSuccess) return fail("cudaGraphicsMapResources", e);
+    void* p = nullptr;
+    std::size_t size = 0;
+    e = cudaGraphicsResourceGetMappedPointer(&p, &size, g.resource);
+    if (e != cudaSuccess) {
+      cudaGraphicsUnmapResources(1, &g.resource, 0);
+      return fail("cudaGraphicsResourceGetMappedPointer", e);
+    }
+    return p;
+  }
+  // Unmapped: the kernels that wrote it are done before OpenGL draws from it (CUDA orders the unmap after
+  // the stream's work).
+  static void unmap_gl(GlBuffer& g, render::DrawTarget&, render::DrawTarget::Which) {
+    cuda_check(cudaGraphicsUnmapResources(1, &g.resource, 0), "cudaGraphicsUnmapResources");
+  }
 
   template <class T>
   class Buffer {

@@ -170,10 +170,10 @@ class DeviceBackend : public StateBackend {
     return StateBackend::broken_links() + static_cast<std::int64_t>(logged_);
   }
   // The draw list built on the device (draw_kernels.hpp); the links mode is left to the host.
-  bool draw_list(const render::SnapshotOptions& o, const std::array<double, 3>& origin,
-                 render::DrawList& out) const override {
+  bool draw_list(const render::SnapshotOptions& o, const std::array<double, 3>& origin, render::DrawList& out,
+                 render::DrawTarget* target) const override {
     if (o.draw == render::DrawMode::links) return false;
-    const_cast<DeviceBackend*>(this)->draw(o, origin, out);
+    const_cast<DeviceBackend*>(this)->draw(o, origin, out, target);
     return true;
   }
 
@@ -265,7 +265,8 @@ class DeviceBackend : public StateBackend {
  protected:
   std::int64_t one_step() override;
   void sync_state() const override { const_cast<DeviceBackend*>(this)->sync(); }
-  void draw(const render::SnapshotOptions& o, const std::array<double, 3>& origin, render::DrawList& out);
+  void draw(const render::SnapshotOptions& o, const std::array<double, 3>& origin, render::DrawList& out,
+            render::DrawTarget* target);
 
  private:
   template <class T>
@@ -600,6 +601,9 @@ class DeviceBackend : public StateBackend {
   Buf<DrawStatus> draw_status_;
   Buf<render::Instance> instances_;
   Buf<render::SurfaceVertex> surface_out_;
+  // A renderer's buffers the list was written into (zero copy), and why they could not be where not.
+  typename Dev::GlBuffer gl_automata_, gl_surface_;
+  std::string gl_why_;
   StepStatus status_h_;  // the last status read
   std::size_t rebuilds_ = 0;
   std::int64_t steps_ = 0;  // stepped by this backend (the profile's)
@@ -963,7 +967,7 @@ Energies DeviceBackend<Dev>::device_energies() {
 // the device; then copied to the host: the drawn automata and triangles, not the state.
 template <class Dev>
 void DeviceBackend<Dev>::draw(const render::SnapshotOptions& o, const std::array<double, 3>& origin,
-                              render::DrawList& out) {
+                              render::DrawList& out, render::DrawTarget* target) {
   const Model& m = M_;
   const std::size_t n = m.size(), L = m.link_slots(), corners = m.surface.corner.size();
   if (!draw_ready_) {
@@ -1010,24 +1014,53 @@ void DeviceBackend<Dev>::draw(const render::SnapshotOptions& o, const std::array
                                   render::colour_scale(o, st.largest), d(colour_)});
   Dev::launch(n, DrawFlagKernel{links, c(intact_), opt(boxed_), surface ? c(carries_) : nullptr, o.all_automata, d(flag_)});
   const std::uint32_t drawn = scan_total(c(flag_), place_, n);
-  if (instances_.size() < drawn) {
-    instances_.resize(drawn + drawn / 2);
-    draw_radius_.resize(drawn + drawn / 2);
+  // Where the list goes: the target's buffers (zero copy), or the device's, then copied to the host.
+  render::Instance* instances = nullptr;
+  render::SurfaceVertex* vertices = nullptr;
+  if (target && o.draw != render::DrawMode::spheres && gl_why_.empty()) {
+    using W = render::DrawTarget;
+    instances = static_cast<render::Instance*>(
+        Dev::map_gl(gl_automata_, *target, W::automata, std::max<std::size_t>(drawn, 1) * sizeof(render::Instance), gl_why_));
+    if (instances && surface) {
+      vertices = static_cast<render::SurfaceVertex*>(
+          Dev::map_gl(gl_surface_, *target, W::surface, corners * sizeof(render::SurfaceVertex), gl_why_));
+      if (!vertices) {
+        Dev::unmap_gl(gl_automata_, *target, W::automata);
+        instances = nullptr;
+      }
+    }
+  }
+  const bool shared = instances != nullptr;
+  if (!shared) {
+    if (instances_.size() < drawn) {
+      instances_.resize(drawn + drawn / 2);
+      draw_radius_.resize(drawn + drawn / 2);
+    }
+    instances = d(instances_);
+    vertices = surface ? d(surface_out_) : nullptr;
   }
   const DrawOrigin at{origin[0], origin[1], origin[2]};
   Dev::launch(n, DrawAutomataKernel{c(flag_), c(place_), c(px_), c(py_), c(pz_), c(qw_), c(qx_), c(qy_), c(qz_), c(radius_),
-                                    c(colour_), at, d(instances_), d(draw_radius_)});
+                                    c(colour_), at, instances, shared ? nullptr : d(draw_radius_)});
   if (surface) {
     const SurfaceCorners S{c(surface_automaton_), c(surface_corner_), c(first_corner_), c(corners_of_), c(surface_offset_)};
     Dev::launch(corners, DrawSurfaceKernel{S, c(label_), c(px_), c(py_), c(pz_), c(qw_), c(qx_), c(qy_), c(qz_), c(colour_),
-                                           at, d(surface_out_)});
+                                           at, vertices});
   }
-  out.automata.resize(drawn);
-  out.radius.resize(drawn);
-  Dev::download(out.automata.data(), instances_, drawn);
-  Dev::download(out.radius.data(), draw_radius_, drawn);
-  out.surface.resize(surface ? corners : 0);
-  if (surface) Dev::download(out.surface.data(), surface_out_, corners);
+  if (shared) {
+    Dev::unmap_gl(gl_automata_, *target, render::DrawTarget::automata);
+    if (surface) Dev::unmap_gl(gl_surface_, *target, render::DrawTarget::surface);
+    out.shared_automata = drawn;
+    out.shared_corners = surface ? corners : 0;
+  } else {
+    out.automata.resize(drawn);
+    out.radius.resize(drawn);
+    Dev::download(out.automata.data(), instances_, drawn);
+    Dev::download(out.radius.data(), draw_radius_, drawn);
+    out.surface.resize(surface ? corners : 0);
+    if (surface) Dev::download(out.surface.data(), surface_out_, corners);
+  }
+  out.shared_why = target && !shared ? (gl_why_.empty() ? "the spheres mode is drawn from a copy" : gl_why_) : "";
   const std::size_t np = m.projectiles.size();
   std::vector<DeviceProjectile> dp(np);
   Dev::download(dp.data(), proj_, np);

@@ -174,13 +174,13 @@ struct DrawAutomataKernel {
   const render::Rgba* colour;
   DrawOrigin o;
   render::Instance* out;
-  float* out_radius;
+  float* out_radius;  // null: not wanted
   MCA_HD void operator()(std::size_t a) const {
     if (!flag[a]) return;
     const std::uint32_t k = place[a];
     out[k] = {render::local(px[a], o.x), render::local(py[a], o.y), render::local(pz[a], o.z), qx[a], qy[a], qz[a], qw[a],
               colour[a]};
-    out_radius[k] = radius[a];
+    if (out_radius) out_radius[k] = radius[a];
   }
 };
 // Corner c of the bound surface (3 per triangle, in triangle order): posed as analysis::posed_surface
