@@ -5,7 +5,8 @@
 #
 #   scripts/gpu_check.sh --bundle FILE.tar.xz   on the build machine (after the release build): mca,
 #                                               mca_tests, every library ldd lists, ld-linux-x86-64.so.2
-#                                               and the cow and bunny models, compressed (about 19 MB;
+#                                               and the cow, bunny and armadillo models, compressed (about
+#                                               20 MB;
 #                                               gpu_bundle.tar.xz at the repository root is ignored by git:
 #                                               carry it)
 #   scripts/gpu_check.sh FILE.tar.xz OUT        on the GPU machine, in the repository root: unpacks it,
@@ -30,7 +31,7 @@ if [[ "${1:-}" == "--bundle" ]]; then
     done
   done
   cp -L /lib64/ld-linux-x86-64.so.2 "$dir/lib/"
-  for m in cow.off bunny00.off; do
+  for m in cow.off bunny00.off armadillo.off; do
     cp -L "${HOME}/.cache/mca/models/$m" "$dir/models/" 2>/dev/null ||
       echo "gpu_check: no $m in ~/.cache/mca/models (scripts/get_models.sh): its checks will be skipped" >&2
   done
@@ -73,6 +74,15 @@ skipped=$(grep -c '^\[  SKIPPED \] .*ms)$' "$out/tests.log" || true)
 note "CudaDevice tests: exit $tests_rc; $passed passed, $failed failed, $skipped skipped"
 grep -E 'equal bit for bit|differs|SKIPPED|Failure' "$out/tests.log" | head -20 | tee -a "$summary" || true
 
+# 1b. The draw list written by CUDA into the renderer's OpenGL buffers (zero copy): needs the driver's
+#     OpenGL (EGL); reported apart, a machine without it skips the test.
+set +e
+timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" "$dir/mca_tests" \
+  --gtest_filter='CudaDeviceGl.*' >"$out/tests_gl.log" 2>&1
+note "CudaDeviceGl test (zero-copy drawing): exit $?; $(grep -cE '^\[       OK \] .*ms\)$' "$out/tests_gl.log") passed, $(grep -cE '^\[  SKIPPED \] .*ms\)$' "$out/tests_gl.log") skipped"
+grep -E 'no OpenGL|cannot share|differs|Failure' "$out/tests_gl.log" | head -5 | tee -a "$summary"
+set -e
+
 # 2. compute-sanitizer on a short run of the default scene (out-of-bounds accesses, races in shared use).
 if command -v compute-sanitizer >/dev/null; then
   set +e
@@ -95,6 +105,11 @@ MCA_PROFILE=1 timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/li
   --repeats 1 --steps 200 >"$out/profile_cuda.txt" 2>&1
 note "profile cuda, wall_357k (exit $?; the whole table in profile_cuda.txt):"
 grep -A12 'profile over' "$out/profile_cuda.txt" | tee -a "$summary"
+# The armadillo drawn as triangles, 100 steps per frame (floor 60 frames/s), and as cubes.
+timeout 90 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" "$dir/mca" bench --render armadillo_surface \
+  armadillo_cubes --backend cuda --steps 100 --frames 10 >"$out/bench_render.txt" 2>&1
+note "bench render cuda (exit $?):"
+tail -5 "$out/bench_render.txt" | tee -a "$summary"
 timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" "$dir/mca" bench wall_357k --backend cpu \
   --repeats 3 --steps 20 >"$out/bench_cpu.txt" 2>&1
 note "bench cpu (exit $?):"

@@ -4,6 +4,8 @@
 #include <cmath>
 
 #include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 
 namespace mca::render {
@@ -199,10 +201,12 @@ Snapshot make_snapshot(const Model& model, const State& state, const analysis::F
       q = state.q[a];
     };
     s.surface.resize(model.surface.corner.size());
-    for (std::uint32_t c = 0; c < s.surface.size(); ++c) {
-      const auto p = local(posed_corner(corners, c, same, pose));
-      s.surface[c] = {p[0], p[1], p[2], colour[model.surface.automaton[c / 3]]};
-    }
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, s.surface.size(), 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+      for (std::size_t c = r.begin(); c < r.end(); ++c) {
+        const auto p = local(posed_corner(corners, static_cast<std::uint32_t>(c), same, pose));
+        s.surface[c] = {p[0], p[1], p[2], colour[model.surface.automaton[c / 3]]};
+      }
+    });
   }
   if (o.draw == DrawMode::links) {
     model.for_each_link([&](std::size_t l, std::uint32_t i, std::uint32_t j, int) {
