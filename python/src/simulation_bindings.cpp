@@ -394,13 +394,13 @@ py::array_t<std::uint8_t> render_to(PySimulation& sim, py::handle path_arg, py::
     for (std::size_t gr = 0; gr < m.groups.size(); ++gr)
       if (used[gr]) scale_max = std::max<double>(scale_max, m.groups[gr].tensile_strength);
   }
-  const State& s = e.state();
   render::SnapshotOptions so;
   so.draw = *draw;
   so.colour = *colour;
   so.scale_max = scale_max;
-  const auto frags = analysis::label_model_fragments(m, s.intact.data());
-  const render::Snapshot snap = render::make_snapshot(m, s, frags, so, sim.framing->origin);
+  // The backend's draw list (the CUDA backend's written into the renderer's buffers where CUDA can share
+  // them), else from its state.
+  const render::Snapshot snap = render::make_snapshot(m, e.backend(), so, sim.framing->origin, &g.renderer.draw_target());
   render::OffscreenTarget target(width, height);
   target.bind();
   g.renderer.draw(snap, *draw, camera, width, height);
