@@ -210,8 +210,8 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
       prep_s.push_back(secs(t1, t2));
       draw_s.push_back(secs(t2, t3));
       total_s.push_back(secs(t0, t3));
-      drawn = snap.shared_automata + snap.automata.size();
-      triangles = (snap.shared_corners + snap.surface.size()) / 3;
+      drawn = snap.drawn_automata();
+      triangles = snap.triangles();
       shared = snap.shared_automata + snap.shared_corners > 0;
     }
     const double fps = 1.0 / median(total_s);

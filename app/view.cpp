@@ -7,6 +7,7 @@
 #include <GLFW/glfw3.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -105,6 +106,11 @@ struct Shared {
   std::atomic<int> shots{0};                         // balls fired so far (since the last restart)
   std::atomic<int> colour{0}, draw{0};
   std::atomic<double> steps_per_second{0};
+  // Zero copy: the simulation thread has the backend write its draw lists into three sets of GL buffers
+  // (render::SharedBuffers, made in a context that shares the window's objects), and the window draws from
+  // them. One is the window's (the snapshot it holds), one the published snapshot's not yet taken, and the
+  // third is free to write. -1: none (a snapshot with its lists in itself).
+  int held = -1, pending = -1;
 };
 
 // Fires a ball: the engine is rebuilt from the scene with one more projectile, continuing from the current
@@ -139,7 +145,20 @@ std::unique_ptr<Engine> with_shot(const Engine& sim, const Command& c, int shot)
   return std::make_unique<Engine>(scene, s, "the viewer's shot", std::nullopt, in_flight);
 }
 
-void simulate(const SceneDef& scene, Shared& sh, bool lockstep, std::array<double, 3> origin) {
+// `context`: a GL context sharing the window's objects, for the draw lists' buffers (null: none).
+void simulate(const SceneDef& scene, Shared& sh, bool lockstep, std::array<double, 3> origin, GLFWwindow* context) {
+  struct Context {  // current on this thread while the buffers live
+    GLFWwindow* c;
+    explicit Context(GLFWwindow* c) : c(c) {
+      if (c) glfwMakeContextCurrent(c);
+    }
+    ~Context() {
+      if (c) glfwMakeContextCurrent(nullptr);
+    }
+  } current(context);
+  std::array<std::unique_ptr<render::SharedBuffers>, 3> buffers;
+  if (context)
+    for (auto& b : buffers) b = std::make_unique<render::SharedBuffers>();
   auto sim = std::make_unique<Engine>(scene);
   std::int64_t chunk = 16;
   auto publish = [&] {
@@ -148,10 +167,20 @@ void simulate(const SceneDef& scene, Shared& sh, bool lockstep, std::array<doubl
     o.colour = static_cast<render::ColourMode>(sh.colour.load());
     o.draw = static_cast<render::DrawMode>(sh.draw.load());
     if (o.draw == render::DrawMode::surface && m.surface.faces() == 0) o.draw = render::DrawMode::cubes;
-    // The backend's draw list where it builds one (the CUDA backend: no download of the state), else from
-    // its state.
-    auto snap = std::make_shared<render::Snapshot>(render::make_snapshot(m, sim->backend(), o, origin));
+    // The backend's draw list where it builds one (the CUDA backend: no download of the state), written
+    // into the free set of buffers where it can; else from its state.
+    int free = -1;
+    if (context) {
+      std::lock_guard lock(sh.mutex);
+      for (free = 0; free == sh.held || free == sh.pending; ++free) {
+      }
+    }
+    auto snap = std::make_shared<render::Snapshot>(
+        render::make_snapshot(m, sim->backend(), o, origin, context ? buffers[static_cast<std::size_t>(free)].get() : nullptr));
+    const bool shared = snap->shared_automata + snap->shared_corners > 0;
+    if (shared) glFinish();  // written before the window's context draws from them
     std::unique_lock lock(sh.mutex);
+    sh.pending = shared ? free : -1;
     sh.snapshot = std::move(snap);
     ++sh.sequence;
     sh.changed.notify_all();
@@ -243,6 +272,11 @@ int view(const ViewOptions& o) {
   if (!win)
     throw Error("mca view: the display gives no OpenGL 4.5 core window (install libgl1-mesa-dri, scripts/setup.sh); "
                 "`mca run --render` renders offscreen without a window");
+  // A hidden context sharing the window's objects, for the simulation thread's draw lists (zero copy);
+  // without one the lists come in the snapshots.
+  glfwWindowHint(GLFW_VISIBLE, GLFW_FALSE);
+  GLFWwindow* sim_context = glfwCreateWindow(16, 16, "mca view: simulation", nullptr, win);
+  glfwWindowHint(GLFW_VISIBLE, GLFW_TRUE);
   glfwMakeContextCurrent(win);
   glfwSwapInterval(o.frames ? 0 : 1);
   render::Renderer renderer;
@@ -319,7 +353,7 @@ int view(const ViewOptions& o) {
   std::thread worker([&] {
     std::string error;
     try {
-      simulate(scene, sh, lockstep, framing.origin);
+      simulate(scene, sh, lockstep, framing.origin, sim_context);
     } catch (const std::exception& e) {
       error = e.what();
     }
@@ -378,6 +412,8 @@ int view(const ViewOptions& o) {
       if (sh.snapshot) {
         snap = std::move(sh.snapshot);
         sh.snapshot.reset();
+        sh.held = sh.pending;  // its buffers (if any) are the window's now; the one it held is free
+        sh.pending = -1;
         // Scripted shots due by this snapshot's time, queued before the simulation goes on (see publish).
         due_at_last = 0;
         while (next_shot < script.size() && script[next_shot].time <= snap->time + half_step) {
@@ -472,7 +508,7 @@ int view(const ViewOptions& o) {
       message = sh.message;
     }
     ov.lines = {fmt::format("{:.0f} fps   {:.0f} steps/s{}", fps, sh.steps_per_second.load(), sh.paused ? "   paused" : ""),
-                fmt::format("automata {}   drawn {}", snap->automata_total, snap->automata.size()),
+                fmt::format("automata {}   drawn {}", snap->automata_total, snap->drawn_automata()),
                 fmt::format("ball {:.0f} m/s  r {:.2f} m  {:.1f} kg   colour {}  draw {}", ball.speed, ball.radius, ball.mass,
                             render::name(static_cast<render::ColourMode>(sh.colour.load())),
                             render::name(static_cast<render::DrawMode>(sh.draw.load())))};

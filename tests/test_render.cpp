@@ -522,6 +522,39 @@ TEST(View, EveryScriptedShotFiresAndFramesAreSimulatedFrames) {
   EXPECT_NE(o.output.find("t = 30.00 ms, 1 shot fired, 2 projectiles"), std::string::npos) << o.output;
 }
 
+// The CUDA backend's view: the simulation thread has the backend write its draw lists into GL buffers of
+// its own context (shared with the window's: zero copy) and the window draws from them. Its emulation's
+// picture is the CPU backend's, pixel for pixel, but for the overlay's rates; a shot rebuilds the engine
+// (and its backend) while the buffers stay.
+TEST(View, TheCudaBackendsDrawListsInSharedBuffersShowTheCpusPicture) {
+  if (shell("command -v xvfb-run").code != 0) GTEST_SKIP() << "xvfb-run is not installed (scripts/setup.sh)";
+  TempDir d;
+  const fs::path script = d.path() / "shots.txt";
+  std::ofstream(script) << "0.004 0.45 0.5\n";
+  std::vector<render::Image> shots;
+  for (const std::string backend : {"cpu", "cuda-emulation"}) {
+    const fs::path png = d.path() / (backend + ".png");
+    const Result r = view_under_xvfb("--size 480x270 --frames 14 --backend " + backend + " --script " + script.string() +
+                                     " --screenshot " + png.string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("t = 26.00 ms, 1 shot fired, 2 projectiles"), std::string::npos) << r.output;
+    shots.push_back(render::read_png(png));
+  }
+  const render::Image &a = shots[0], &b = shots[1];
+  ASSERT_EQ(a.rgba.size(), b.rgba.size());
+  // The overlay's top lines (rates, drawn counts) aside.
+  const int top = 8 + 5 * 11;
+  std::size_t differ = 0, coloured = 0;
+  for (int y = top; y < a.height; ++y)
+    for (int x = 0; x < a.width; ++x) {
+      const Pixel p = at(a, x, y), q = at(b, x, y);
+      differ += p.r != q.r || p.g != q.g || p.b != q.b;
+      coloured += std::max({q.r, q.g, q.b}) - std::min({q.r, q.g, q.b}) > 60;
+    }
+  EXPECT_EQ(differ, 0u) << "pixels below the overlay differ between the cpu and cuda-emulation views";
+  EXPECT_GT(coloured, static_cast<std::size_t>(a.width * a.height / 50)) << "nothing broken drawn";
+}
+
 // A line that is not TIME X Y is refused with its file and line (before any window); a shot after the
 // last frame is reported.
 TEST(View, ScriptLinesAreCheckedAndLateShotsReported) {

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -52,15 +53,21 @@ struct SurfaceVertex {
 
 // The renderer's buffers that a backend writes its draw list into, where it can: zero copy (the paper's
 // sec. 5.4). The CUDA backend registers them with CUDA (CUDA-OpenGL interop) and its kernels write them
-// on the GPU; its host emulation maps them into host memory. Needs the renderer's GL context current.
+// on the GPU; its host emulation maps them into host memory. Needs a GL context current that holds them.
 class DrawTarget {
  public:
   enum Which { automata, surface };  // Instance records (drawn as cubes); SurfaceVertex, 3 per triangle
+  // What a device keeps of a buffer it shares (the CUDA backend's registration with CUDA): held here, so
+  // that it is released before the buffer is replaced or deleted.
+  struct Shared {
+    virtual ~Shared() = default;
+  };
   virtual ~DrawTarget() = default;
   // Buffer `which` holding at least `bytes`: where it holds less, a new buffer (another GL name, its
-  // contents undefined) takes its place. Returns its size in bytes.
+  // contents undefined, its Shared released first) takes its place. Returns its size in bytes.
   virtual std::size_t reserve(Which which, std::size_t bytes) = 0;
   virtual unsigned buffer(Which which) const = 0;  // its GL name
+  virtual std::unique_ptr<Shared>& shared(Which which) = 0;
   // Its first `bytes` mapped into host memory for writing, until unmap.
   virtual void* map(Which which, std::size_t bytes) = 0;
   virtual void unmap(Which which) = 0;

@@ -297,40 +297,33 @@ std::string short_number(double v) {
 
 constexpr float kBackground[3] = {34 / 255.0f, 37 / 255.0f, 43 / 255.0f};
 
-// The buffers a backend writes its draw list into (render::DrawTarget): immutable storage, which CUDA can
-// register and the host can map for writing; replaced by a larger one when a list outgrows it.
-class SharedBuffers final : public DrawTarget {
- public:
-  SharedBuffers() = default;
-  SharedBuffers(const SharedBuffers&) = delete;
-  SharedBuffers& operator=(const SharedBuffers&) = delete;
-  ~SharedBuffers() override {
-    for (const unsigned name : name_)
-      if (name) glDeleteBuffers(1, &name);
-  }
-  std::size_t reserve(Which w, std::size_t bytes) override {
-    if (size_[w] >= bytes) return size_[w];
-    const std::size_t size = std::max(bytes, size_[w] + size_[w] / 2);
+SharedBuffers::~SharedBuffers() {
+  for (int w = 0; w < 2; ++w) {
+    shared_[w].reset();  // released before the buffer goes
     if (name_[w]) glDeleteBuffers(1, &name_[w]);
-    glCreateBuffers(1, &name_[w]);
-    glNamedBufferStorage(name_[w], static_cast<GLsizeiptr>(size), nullptr, GL_MAP_WRITE_BIT);
-    if (const GLenum e = glGetError(); e != GL_NO_ERROR)
-      throw Error(fmt::format("OpenGL could not make a buffer of {} bytes for the draw list (error 0x{:x})", size, e));
-    size_[w] = size;
-    return size;
   }
-  unsigned buffer(Which w) const override { return name_[w]; }
-  void* map(Which w, std::size_t bytes) override {
-    void* p = glMapNamedBufferRange(name_[w], 0, static_cast<GLsizeiptr>(bytes), GL_MAP_WRITE_BIT | GL_MAP_INVALIDATE_BUFFER_BIT);
-    if (!p) throw Error(fmt::format("OpenGL could not map the draw list's buffer of {} bytes (error 0x{:x})", bytes, glGetError()));
-    return p;
-  }
-  void unmap(Which w) override { glUnmapNamedBuffer(name_[w]); }
+}
 
- private:
-  unsigned name_[2] = {0, 0};
-  std::size_t size_[2] = {0, 0};
-};
+std::size_t SharedBuffers::reserve(Which w, std::size_t bytes) {
+  if (size_[w] >= bytes) return size_[w];
+  const std::size_t size = std::max(bytes, size_[w] + size_[w] / 2);
+  shared_[w].reset();
+  if (name_[w]) glDeleteBuffers(1, &name_[w]);
+  glCreateBuffers(1, &name_[w]);
+  glNamedBufferStorage(name_[w], static_cast<GLsizeiptr>(size), nullptr, GL_MAP_WRITE_BIT);
+  if (const GLenum e = glGetError(); e != GL_NO_ERROR)
+    throw Error(fmt::format("OpenGL could not make a buffer of {} bytes for the draw list (error 0x{:x})", size, e));
+  size_[w] = size;
+  return size;
+}
+
+void* SharedBuffers::map(Which w, std::size_t bytes) {
+  void* p = glMapNamedBufferRange(name_[w], 0, static_cast<GLsizeiptr>(bytes), GL_MAP_WRITE_BIT | GL_MAP_INVALIDATE_BUFFER_BIT);
+  if (!p) throw Error(fmt::format("OpenGL could not map the draw list's buffer of {} bytes (error 0x{:x})", bytes, glGetError()));
+  return p;
+}
+
+void SharedBuffers::unmap(Which w) { glUnmapNamedBuffer(name_[w]); }
 
 struct Renderer::Impl {
   unsigned cube_prog, sphere_prog, flat_prog, ground_prog, overlay_prog;
@@ -532,7 +525,7 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
     common(I.cube_prog);
     glUniform1f(loc(I.cube_prog, "u_size"), s.cube_size);
     glBindVertexArray(I.cube_vao);
-    instance_attributes(I.shared.buffer(DrawTarget::automata));
+    instance_attributes(s.shared_automata_buffer);
     glDrawArraysInstanced(GL_TRIANGLES, 0, 36, static_cast<int>(s.shared_automata));
     instance_attributes(I.inst_vbo);
   } else if (!s.automata.empty()) {
@@ -563,7 +556,7 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
     glUniform3fv(loc(I.flat_prog, "u_eye"), 1, glm::value_ptr(cam.eye));
     glBindVertexArray(I.flat_vao);
     if (shared) {
-      vertex_attributes(I.shared.buffer(DrawTarget::surface));
+      vertex_attributes(s.shared_surface_buffer);
       glDrawArrays(GL_TRIANGLES, 0, static_cast<int>(s.shared_corners));
       vertex_attributes(I.flat_vbo);
       continue;

@@ -3,6 +3,7 @@
 // Snapshot through a Camera into the framebuffer bound at the call, with the ground, the projectiles and
 // an overlay (counters, legend). Needs a current GL 4.5 core context (libepoxy loads the functions).
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,28 @@ struct Overlay {
   bool counters = true;  // time, broken links, fragments (top left)
   bool legend = true;    // the colour scale (bottom left)
   std::vector<std::string> lines;  // extra lines under the counters (the viewer's fps, shot settings)
+};
+
+// Buffers that a backend writes its draw list into (render::DrawTarget; make_snapshot with a target):
+// immutable storage, which CUDA can register and the host can map for writing, replaced by a larger one
+// when a list outgrows it. Made, used and destroyed with a GL context current that holds them (the
+// renderer's, or one sharing its objects).
+class SharedBuffers final : public DrawTarget {
+ public:
+  SharedBuffers() = default;
+  SharedBuffers(const SharedBuffers&) = delete;
+  SharedBuffers& operator=(const SharedBuffers&) = delete;
+  ~SharedBuffers() override;
+  std::size_t reserve(Which w, std::size_t bytes) override;
+  unsigned buffer(Which w) const override { return name_[w]; }
+  std::unique_ptr<Shared>& shared(Which w) override { return shared_[w]; }
+  void* map(Which w, std::size_t bytes) override;
+  void unmap(Which w) override;
+
+ private:
+  unsigned name_[2] = {0, 0};
+  std::size_t size_[2] = {0, 0};
+  std::unique_ptr<Shared> shared_[2];
 };
 
 class Renderer {
@@ -30,7 +53,8 @@ class Renderer {
   void draw(const Snapshot& snapshot, DrawMode mode, const Camera& camera, int width, int height,
             const Overlay& overlay = {});
 
-  // The buffers a backend writes its draw list into (zero copy: make_snapshot with a target, then draw).
+  // Buffers of its own that a backend writes its draw list into (zero copy: make_snapshot with a target,
+  // then draw).
   DrawTarget& draw_target();
 
   // "OpenGL 4.5 (Core Profile) Mesa ..., llvmpipe ..." for messages and benchmarks.

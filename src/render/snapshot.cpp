@@ -252,6 +252,8 @@ Snapshot make_snapshot(const Model& model, const Backend& backend, const Snapsho
   s.surface = std::move(list.surface);
   s.shared_automata = list.shared_automata;
   s.shared_corners = list.shared_corners;
+  if (target && s.shared_automata) s.shared_automata_buffer = target->buffer(DrawTarget::automata);
+  if (target && s.shared_corners) s.shared_surface_buffer = target->buffer(DrawTarget::surface);
   add_projectiles(s, model, list.projectiles);
   return s;
 }

@@ -44,10 +44,14 @@ struct Snapshot {
   std::vector<float> radius;       // per drawn automaton (spheres)
   std::vector<SurfaceVertex> surface;  // 3 per triangle
   std::vector<SurfaceVertex> links;    // 2 per intact link (links mode)
-  // Zero copy: the automata (as cubes) and the surface's corners a backend wrote into the renderer's own
-  // buffers (Renderer::draw_target) in place of `automata` and `surface`; the renderer draws them from
-  // there (valid until the next draw list is written into them).
+  // Zero copy: the automata (as cubes) and the surface's corners a backend wrote into a DrawTarget's GL
+  // buffers (these names) in place of `automata` and `surface`; the renderer draws them from there (valid
+  // until the next draw list is written into them).
   std::size_t shared_automata = 0, shared_corners = 0;
+  unsigned shared_automata_buffer = 0, shared_surface_buffer = 0;
+  // What is drawn, from the lists or the shared buffers.
+  std::size_t drawn_automata() const { return shared_automata + automata.size(); }
+  std::size_t triangles() const { return (shared_corners + surface.size()) / 3; }
   struct Ball {
     float x, y, z, radius;
   };

@@ -18,6 +18,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -85,56 +86,54 @@ struct CudaDevice {
 
   // A renderer's buffer for the draw list (render::DrawTarget), registered with CUDA (interop): the
   // kernels write it on the GPU, with no copy through the host. Needs the renderer's GL context current
-  // and on this GPU (NVIDIA's OpenGL; Mesa's llvmpipe, say, cannot share its buffers).
-  struct GlBuffer {
+  // and on this GPU (NVIDIA's OpenGL; Mesa's llvmpipe, say, cannot share its buffers). The registration
+  // is kept with the buffer (DrawTarget::shared), which releases it before replacing or deleting it.
+  struct GlRegistration final : render::DrawTarget::Shared {
     cudaGraphicsResource* resource = nullptr;
-    std::size_t capacity = 0;
-    GlBuffer() = default;
-    GlBuffer(const GlBuffer&) = delete;
-    GlBuffer& operator=(const GlBuffer&) = delete;
-    ~GlBuffer() { release(); }
-    void release() {
+    ~GlRegistration() override {
       if (resource) cudaGraphicsUnregisterResource(resource);
-      resource = nullptr;
-      capacity = 0;
     }
   };
-  // The buffer `which` of the target, holding at least `bytes`, registered and mapped: its device address
+  static cudaGraphicsResource* registered(render::DrawTarget& t, render::DrawTarget::Which which) {
+    auto* r = dynamic_cast<GlRegistration*>(t.shared(which).get());
+    return r ? r->resource : nullptr;
+  }
+  // Buffer `which` of the target, holding at least `bytes`, registered and mapped: its device address
   // (null, and why, where CUDA cannot share it).
-  static void* map_gl(GlBuffer& g, render::DrawTarget& t, render::DrawTarget::Which which, std::size_t bytes,
-                      std::string& why) {
+  static void* map_gl(render::DrawTarget& t, render::DrawTarget::Which which, std::size_t bytes, std::string& why) {
     const auto fail = [&](const char* what, cudaError_t e) -> void* {
       why = std::string("CUDA cannot share the renderer's OpenGL buffers (") + what + ": " + cudaGetErrorString(e) +
             "); the draw list is copied through the host";
       cudaGetLastError();  // cleared: the step goes on
-      g.release();
       return nullptr;
     };
-    if (g.capacity < bytes) {
-      g.release();  // unregistered before the renderer replaces the buffer
-      const std::size_t capacity = t.reserve(which, bytes);
-      const cudaError_t e = cudaGraphicsGLRegisterBuffer(&g.resource, t.buffer(which), cudaGraphicsRegisterFlagsWriteDiscard);
+    t.reserve(which, bytes);
+    if (!registered(t, which)) {
+      auto r = std::make_unique<GlRegistration>();
+      const cudaError_t e = cudaGraphicsGLRegisterBuffer(&r->resource, t.buffer(which), cudaGraphicsRegisterFlagsWriteDiscard);
       if (e != cudaSuccess) {
-        g.resource = nullptr;
+        r->resource = nullptr;
         return fail("cudaGraphicsGLRegisterBuffer", e);
       }
-      g.capacity = capacity;
+      t.shared(which) = std::move(r);
     }
-    cudaError_t e = cudaGraphicsMapResources(1, &g.resource, 0);
+    cudaGraphicsResource* resource = registered(t, which);
+    cudaError_t e = cudaGraphicsMapResources(1, &resource, 0);
     if (e != cudaSuccess) return fail("cudaGraphicsMapResources", e);
     void* p = nullptr;
     std::size_t size = 0;
-    e = cudaGraphicsResourceGetMappedPointer(&p, &size, g.resource);
+    e = cudaGraphicsResourceGetMappedPointer(&p, &size, resource);
     if (e != cudaSuccess) {
-      cudaGraphicsUnmapResources(1, &g.resource, 0);
+      cudaGraphicsUnmapResources(1, &resource, 0);
       return fail("cudaGraphicsResourceGetMappedPointer", e);
     }
     return p;
   }
-  // Unmapped: the kernels that wrote it are done before OpenGL draws from it (CUDA orders the unmap after
-  // the stream's work).
-  static void unmap_gl(GlBuffer& g, render::DrawTarget&, render::DrawTarget::Which) {
-    cuda_check(cudaGraphicsUnmapResources(1, &g.resource, 0), "cudaGraphicsUnmapResources");
+  // Unmapped: the kernels that wrote it are done before OpenGL draws from it (CUDA orders the graphics work
+  // issued after the unmap after the stream's work before it).
+  static void unmap_gl(render::DrawTarget& t, render::DrawTarget::Which which) {
+    cudaGraphicsResource* resource = registered(t, which);
+    cuda_check(cudaGraphicsUnmapResources(1, &resource, 0), "cudaGraphicsUnmapResources");
   }
 
   template <class T>

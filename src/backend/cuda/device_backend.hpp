@@ -601,8 +601,7 @@ class DeviceBackend : public StateBackend {
   Buf<DrawStatus> draw_status_;
   Buf<render::Instance> instances_;
   Buf<render::SurfaceVertex> surface_out_;
-  // A renderer's buffers the list was written into (zero copy), and why they could not be where not.
-  typename Dev::GlBuffer gl_automata_, gl_surface_;
+  // Why the renderer's buffers could not be written (zero copy) where they could not.
   std::string gl_why_;
   StepStatus status_h_;  // the last status read
   std::size_t rebuilds_ = 0;
@@ -1020,12 +1019,12 @@ void DeviceBackend<Dev>::draw(const render::SnapshotOptions& o, const std::array
   if (target && o.draw != render::DrawMode::spheres && gl_why_.empty()) {
     using W = render::DrawTarget;
     instances = static_cast<render::Instance*>(
-        Dev::map_gl(gl_automata_, *target, W::automata, std::max<std::size_t>(drawn, 1) * sizeof(render::Instance), gl_why_));
+        Dev::map_gl(*target, W::automata, std::max<std::size_t>(drawn, 1) * sizeof(render::Instance), gl_why_));
     if (instances && surface) {
       vertices = static_cast<render::SurfaceVertex*>(
-          Dev::map_gl(gl_surface_, *target, W::surface, corners * sizeof(render::SurfaceVertex), gl_why_));
+          Dev::map_gl(*target, W::surface, corners * sizeof(render::SurfaceVertex), gl_why_));
       if (!vertices) {
-        Dev::unmap_gl(gl_automata_, *target, W::automata);
+        Dev::unmap_gl(*target, W::automata);
         instances = nullptr;
       }
     }
@@ -1048,8 +1047,8 @@ void DeviceBackend<Dev>::draw(const render::SnapshotOptions& o, const std::array
                                            at, vertices});
   }
   if (shared) {
-    Dev::unmap_gl(gl_automata_, *target, render::DrawTarget::automata);
-    if (surface) Dev::unmap_gl(gl_surface_, *target, render::DrawTarget::surface);
+    Dev::unmap_gl(*target, render::DrawTarget::automata);
+    if (surface) Dev::unmap_gl(*target, render::DrawTarget::surface);
     out.shared_automata = drawn;
     out.shared_corners = surface ? corners : 0;
   } else {

@@ -143,19 +143,14 @@ struct HostDevice {
       *to = s;
     });
   }
-  // A renderer's buffer for the draw list (render::DrawTarget): its memory is the host's, so it is mapped
-  // into host memory and the kernels write it there.
-  struct GlBuffer {
-    std::size_t capacity = 0;
-  };
-  // The buffer `which` of the target, holding at least `bytes`, mapped for the kernels to write (null, and
-  // why, where it cannot be: never here).
-  static void* map_gl(GlBuffer& g, render::DrawTarget& t, render::DrawTarget::Which which, std::size_t bytes,
-                      std::string& /*why*/) {
-    if (g.capacity < bytes) g.capacity = t.reserve(which, bytes);
+  // A renderer's buffer for the draw list (render::DrawTarget), holding at least `bytes`, mapped for the
+  // kernels to write: its memory is the host's, so it is mapped into host memory (null, and why, where it
+  // cannot be: never here).
+  static void* map_gl(render::DrawTarget& t, render::DrawTarget::Which which, std::size_t bytes, std::string& /*why*/) {
+    t.reserve(which, bytes);
     return t.map(which, bytes);
   }
-  static void unmap_gl(GlBuffer&, render::DrawTarget& t, render::DrawTarget::Which which) { t.unmap(which); }
+  static void unmap_gl(render::DrawTarget& t, render::DrawTarget::Which which) { t.unmap(which); }
 
   // Counted: the copies from the device to the host (each a wait for the device on a GPU), and whether
   // launches run their threads backwards.
