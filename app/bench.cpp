@@ -119,6 +119,9 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
   if (frames < 1) throw Error(fmt::format("--frames {} must be at least 1", frames));
   const int steps = steps_per_frame.value_or(1);
   if (steps < 1) throw Error(fmt::format("--steps {} must be at least 1 (with --render: steps per frame)", steps));
+  // Checked before the OpenGL context is made.
+  const std::optional<SolverDef::Backend> backend_chosen =
+      backend ? std::optional<SolverDef::Backend>(backend_from_name(*backend, "--backend")) : std::nullopt;
   const int threads = thread_count(threads_requested);
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   struct Case {
@@ -179,7 +182,7 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
       fmt::print(stderr, "{}: skipped: {}\n", c.name, e.what());
       continue;
     }
-    if (backend) scene.solver.backend = backend_from_name(*backend, "--backend");
+    if (backend_chosen) scene.solver.backend = *backend_chosen;
     Engine sim(scene);
     const Model& m = sim.model();
     const auto framing = render::objects_box(m, sim.state());
@@ -227,7 +230,11 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
                  "{:6.1f} ms  {:6.2f} frames/s\n",
                  c.name, m.size(), drawn, triangles, steps == 1 ? "step" : "steps", 1e3 * median(step_s),
                  1e3 * median(prep_s), 1e3 * median(draw_s), fps);
-      fmt::print("{:<18} {}\n", "", shared ? "drawn without a copy: the backend wrote the renderer's buffers" : why_not);
+      fmt::print("{:<18} {}\n", "",
+                 shared                ? "drawn without a copy: the backend wrote the renderer's buffers"
+                 : !why_not.empty()    ? why_not
+                 : drawn + triangles == 0 ? "nothing drawn"
+                                       : "drawn from the backend's list, copied");
     }
   }
   if (json) fmt::print("{}\n", out.dump(2));

@@ -109,8 +109,13 @@ struct Shared {
   // Zero copy: the simulation thread has the backend write its draw lists into three sets of GL buffers
   // (render::SharedBuffers, made in a context that shares the window's objects), and the window draws from
   // them. One is the window's (the snapshot it holds), one the published snapshot's not yet taken, and the
-  // third is free to write. -1: none (a snapshot with its lists in itself).
+  // third is free to write. -1: none (a snapshot with its lists in itself). The buffers belong to the
+  // window's thread (they outlive the simulation thread, which may stop on an error while the window still
+  // shows its last snapshot); `drawn` holds, per set, a fence after the window's last draw from it, which
+  // the simulation thread waits for before it writes the set again.
+  std::array<render::SharedBuffers*, 3> buffers{};
   int held = -1, pending = -1;
+  std::array<GLsync, 3> drawn{};
 };
 
 // Fires a ball: the engine is rebuilt from the scene with one more projectile, continuing from the current
@@ -145,9 +150,10 @@ std::unique_ptr<Engine> with_shot(const Engine& sim, const Command& c, int shot)
   return std::make_unique<Engine>(scene, s, "the viewer's shot", std::nullopt, in_flight);
 }
 
-// `context`: a GL context sharing the window's objects, for the draw lists' buffers (null: none).
+// `context`: a GL context sharing the window's objects, for the draw lists' buffers (sh.buffers; null:
+// none).
 void simulate(const SceneDef& scene, Shared& sh, bool lockstep, std::array<double, 3> origin, GLFWwindow* context) {
-  struct Context {  // current on this thread while the buffers live
+  struct Context {  // current on this thread while it runs
     GLFWwindow* c;
     explicit Context(GLFWwindow* c) : c(c) {
       if (c) glfwMakeContextCurrent(c);
@@ -156,9 +162,6 @@ void simulate(const SceneDef& scene, Shared& sh, bool lockstep, std::array<doubl
       if (c) glfwMakeContextCurrent(nullptr);
     }
   } current(context);
-  std::array<std::unique_ptr<render::SharedBuffers>, 3> buffers;
-  if (context)
-    for (auto& b : buffers) b = std::make_unique<render::SharedBuffers>();
   auto sim = std::make_unique<Engine>(scene);
   std::int64_t chunk = 16;
   auto publish = [&] {
@@ -170,13 +173,19 @@ void simulate(const SceneDef& scene, Shared& sh, bool lockstep, std::array<doubl
     // The backend's draw list where it builds one (the CUDA backend: no download of the state), written
     // into the free set of buffers where it can; else from its state.
     int free = -1;
+    GLsync last_draw = nullptr;
     if (context) {
       std::lock_guard lock(sh.mutex);
       for (free = 0; free == sh.held || free == sh.pending; ++free) {
       }
+      std::swap(last_draw, sh.drawn[static_cast<std::size_t>(free)]);
+    }
+    if (last_draw) {  // the window's last draw from this set is done before it is written again
+      glClientWaitSync(last_draw, 0, 1'000'000'000);
+      glDeleteSync(last_draw);
     }
     auto snap = std::make_shared<render::Snapshot>(
-        render::make_snapshot(m, sim->backend(), o, origin, context ? buffers[static_cast<std::size_t>(free)].get() : nullptr));
+        render::make_snapshot(m, sim->backend(), o, origin, context ? sh.buffers[static_cast<std::size_t>(free)] : nullptr));
     const bool shared = snap->shared_automata + snap->shared_corners > 0;
     if (shared) glFinish();  // written before the window's context draws from them
     std::unique_lock lock(sh.mutex);
@@ -280,6 +289,8 @@ int view(const ViewOptions& o) {
   glfwMakeContextCurrent(win);
   glfwSwapInterval(o.frames ? 0 : 1);
   render::Renderer renderer;
+  // The simulation thread's draw lists (zero copy; Shared::buffers), deleted here after it has stopped.
+  std::array<render::SharedBuffers, 3> shared_buffers;
 
   // The camera of the scene (or framed automatically) at the start, then moved by the mouse.
   Engine first(scene);
@@ -349,6 +360,8 @@ int view(const ViewOptions& o) {
   });
 
   Shared sh;
+  if (sim_context)
+    for (std::size_t k = 0; k < 3; ++k) sh.buffers[k] = &shared_buffers[k];
   const bool lockstep = o.frames.has_value();
   std::thread worker([&] {
     std::string error;
@@ -369,6 +382,8 @@ int view(const ViewOptions& o) {
       sh.quit = true;
       sh.changed.notify_all();
       if (t.joinable()) t.join();
+      for (GLsync& f : sh.drawn)
+        if (f) glDeleteSync(f);
     }
   } join{sh, worker};
 
@@ -515,6 +530,16 @@ int view(const ViewOptions& o) {
     if (!message.empty()) ov.lines.push_back(message.substr(0, 120));
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
     renderer.draw(*snap, static_cast<render::DrawMode>(sh.draw.load()), camera(), w, h, ov);
+    if (snap->shared_automata + snap->shared_corners > 0) {
+      // Drawn from the shared buffers: a fence for the simulation thread to wait for before it writes them.
+      std::lock_guard lock(sh.mutex);
+      if (sh.held >= 0) {
+        GLsync& f = sh.drawn[static_cast<std::size_t>(sh.held)];
+        if (f) glDeleteSync(f);
+        f = glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
+        glFlush();
+      }
+    }
     ++shown;
     const bool last = o.frames && shown >= *o.frames;
     if (last && o.screenshot) {

@@ -550,6 +550,38 @@ TEST(CudaEmulation, TheDrawListWrittenIntoTheRenderersBuffersDrawsTheSamePicture
   expect_shared_draw_is_the_hosts(*shell, 3000, render::DrawMode::surface);
 }
 
+// One backend, several targets: each draw goes into the buffers of the target it is given (a backend
+// that kept the state of the first one's buffers mapped a deleted one for the second).
+TEST(CudaEmulation, OneBackendWritesTheTargetItIsGiven) {
+  SceneDef scene = io::load_default_scene();
+  scene.solver.backend = SolverDef::Backend::cuda_emulation;
+  Engine sim(scene);
+  ASSERT_EQ(sim.advance(1500).flags, kHealthy);
+  render::EglContext context;
+  const Model& m = sim.model();
+  const State& st = sim.state();
+  const render::Snapshot host = render::make_snapshot(m, st, analysis::label_model_fragments(m, st.intact.data()), {}, {0, 0, 0});
+  const auto bytes = host.automata.size() * sizeof(render::Instance);
+  const auto expect_holds_the_list = [&](render::DrawTarget& target, const char* which) {
+    std::string why;
+    const render::Snapshot s = render::make_snapshot(m, sim.backend(), {}, {0, 0, 0}, &target, &why);
+    ASSERT_EQ(why, "") << which;
+    ASSERT_EQ(s.shared_automata, host.automata.size()) << which;
+    std::vector<std::uint8_t> b(bytes);
+    glGetNamedBufferSubData(target.buffer(render::DrawTarget::automata), 0, static_cast<GLsizeiptr>(bytes), b.data());
+    EXPECT_EQ(std::memcmp(b.data(), host.automata.data(), bytes), 0) << which << ": not the host's list";
+  };
+  render::Renderer first;
+  expect_holds_the_list(first.draw_target(), "the first renderer");
+  {
+    render::Renderer second;
+    expect_holds_the_list(second.draw_target(), "a second renderer");
+  }
+  render::SharedBuffers third;
+  expect_holds_the_list(third, "buffers of their own");
+  expect_holds_the_list(first.draw_target(), "the first renderer again");
+}
+
 // --- On a GPU (skipped, with the reason, without one: scripts/gpu_check.sh runs them on a GPU machine) ---
 
 #define MCA_NEEDS_GPU()                                                     \

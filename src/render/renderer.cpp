@@ -309,6 +309,8 @@ std::size_t SharedBuffers::reserve(Which w, std::size_t bytes) {
   const std::size_t size = std::max(bytes, size_[w] + size_[w] / 2);
   shared_[w].reset();
   if (name_[w]) glDeleteBuffers(1, &name_[w]);
+  while (glGetError() != GL_NO_ERROR) {
+  }  // earlier errors are not this buffer's
   glCreateBuffers(1, &name_[w]);
   glNamedBufferStorage(name_[w], static_cast<GLsizeiptr>(size), nullptr, GL_MAP_WRITE_BIT);
   if (const GLenum e = glGetError(); e != GL_NO_ERROR)

@@ -601,8 +601,10 @@ class DeviceBackend : public StateBackend {
   Buf<DrawStatus> draw_status_;
   Buf<render::Instance> instances_;
   Buf<render::SurfaceVertex> surface_out_;
-  // Why the renderer's buffers could not be written (zero copy) where they could not.
+  // Why the last target's buffers could not be written (zero copy), and that target (tried again for
+  // another).
   std::string gl_why_;
+  const render::DrawTarget* gl_failed_ = nullptr;
   StepStatus status_h_;  // the last status read
   std::size_t rebuilds_ = 0;
   std::int64_t steps_ = 0;  // stepped by this backend (the profile's)
@@ -1016,18 +1018,25 @@ void DeviceBackend<Dev>::draw(const render::SnapshotOptions& o, const std::array
   // Where the list goes: the target's buffers (zero copy), or the device's, then copied to the host.
   render::Instance* instances = nullptr;
   render::SurfaceVertex* vertices = nullptr;
+  if (target && target != gl_failed_) gl_why_.clear();
   if (target && o.draw != render::DrawMode::spheres && gl_why_.empty()) {
     using W = render::DrawTarget;
     instances = static_cast<render::Instance*>(
         Dev::map_gl(*target, W::automata, std::max<std::size_t>(drawn, 1) * sizeof(render::Instance), gl_why_));
     if (instances && surface) {
-      vertices = static_cast<render::SurfaceVertex*>(
-          Dev::map_gl(*target, W::surface, corners * sizeof(render::SurfaceVertex), gl_why_));
+      try {
+        vertices = static_cast<render::SurfaceVertex*>(
+            Dev::map_gl(*target, W::surface, corners * sizeof(render::SurfaceVertex), gl_why_));
+      } catch (...) {
+        Dev::unmap_gl(*target, W::automata);
+        throw;
+      }
       if (!vertices) {
         Dev::unmap_gl(*target, W::automata);
         instances = nullptr;
       }
     }
+    gl_failed_ = gl_why_.empty() ? nullptr : target;
   }
   const bool shared = instances != nullptr;
   if (!shared) {

@@ -140,7 +140,7 @@ struct DrawColourKernel {
     using render::ColourMode;
     switch (mode) {
       case ColourMode::fragment:
-        colour[a] = render::fragment_colour(label[a], size[label[a]], object_size[object[a]]);
+        colour[a] = render::fragment_colour(label[a], size[label[a]], object_size[object[label[a]]]);
         break;
       case ColourMode::damage: colour[a] = render::ramp_damage(automaton_damage_of(links, a, intact, damage)); break;
       case ColourMode::strength_class: colour[a] = render::class_colour(strength_class[a]); break;
