@@ -181,7 +181,8 @@ void simulate(const SceneDef& scene, Shared& sh, bool lockstep, std::array<doubl
       std::swap(last_draw, sh.drawn[static_cast<std::size_t>(free)]);
     }
     if (last_draw) {  // the window's last draw from this set is done before it is written again
-      glClientWaitSync(last_draw, 0, 1'000'000'000);
+      while (!sh.quit && glClientWaitSync(last_draw, 0, 100'000'000) == GL_TIMEOUT_EXPIRED) {
+      }
       glDeleteSync(last_draw);
     }
     auto snap = std::make_shared<render::Snapshot>(

@@ -68,6 +68,9 @@ class DrawTarget {
   virtual std::size_t reserve(Which which, std::size_t bytes) = 0;
   virtual unsigned buffer(Which which) const = 0;  // its GL name
   virtual std::unique_ptr<Shared>& shared(Which which) = 0;
+  // Why a device could not share these buffers (empty: it has not refused): kept with them, so that a
+  // backend does not try again each frame, and tries a new target afresh.
+  virtual std::string& refused() = 0;
   // Its first `bytes` mapped into host memory for writing, until unmap.
   virtual void* map(Which which, std::size_t bytes) = 0;
   virtual void unmap(Which which) = 0;

@@ -31,6 +31,7 @@ class SharedBuffers final : public DrawTarget {
   std::size_t reserve(Which w, std::size_t bytes) override;
   unsigned buffer(Which w) const override { return name_[w]; }
   std::unique_ptr<Shared>& shared(Which w) override { return shared_[w]; }
+  std::string& refused() override { return refused_; }
   void* map(Which w, std::size_t bytes) override;
   void unmap(Which w) override;
 
@@ -38,6 +39,7 @@ class SharedBuffers final : public DrawTarget {
   unsigned name_[2] = {0, 0};
   std::size_t size_[2] = {0, 0};
   std::unique_ptr<Shared> shared_[2];
+  std::string refused_;
 };
 
 class Renderer {

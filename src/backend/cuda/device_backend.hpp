@@ -601,10 +601,6 @@ class DeviceBackend : public StateBackend {
   Buf<DrawStatus> draw_status_;
   Buf<render::Instance> instances_;
   Buf<render::SurfaceVertex> surface_out_;
-  // Why the last target's buffers could not be written (zero copy), and that target (tried again for
-  // another).
-  std::string gl_why_;
-  const render::DrawTarget* gl_failed_ = nullptr;
   StepStatus status_h_;  // the last status read
   std::size_t rebuilds_ = 0;
   std::int64_t steps_ = 0;  // stepped by this backend (the profile's)
@@ -1018,15 +1014,15 @@ void DeviceBackend<Dev>::draw(const render::SnapshotOptions& o, const std::array
   // Where the list goes: the target's buffers (zero copy), or the device's, then copied to the host.
   render::Instance* instances = nullptr;
   render::SurfaceVertex* vertices = nullptr;
-  if (target && target != gl_failed_) gl_why_.clear();
-  if (target && o.draw != render::DrawMode::spheres && gl_why_.empty()) {
+  if (target && o.draw != render::DrawMode::spheres && target->refused().empty()) {
     using W = render::DrawTarget;
+    std::string& why = target->refused();  // set where the device cannot share them: not tried again
     instances = static_cast<render::Instance*>(
-        Dev::map_gl(*target, W::automata, std::max<std::size_t>(drawn, 1) * sizeof(render::Instance), gl_why_));
+        Dev::map_gl(*target, W::automata, std::max<std::size_t>(drawn, 1) * sizeof(render::Instance), why));
     if (instances && surface) {
       try {
         vertices = static_cast<render::SurfaceVertex*>(
-            Dev::map_gl(*target, W::surface, corners * sizeof(render::SurfaceVertex), gl_why_));
+            Dev::map_gl(*target, W::surface, corners * sizeof(render::SurfaceVertex), why));
       } catch (...) {
         Dev::unmap_gl(*target, W::automata);
         throw;
@@ -1036,7 +1032,6 @@ void DeviceBackend<Dev>::draw(const render::SnapshotOptions& o, const std::array
         instances = nullptr;
       }
     }
-    gl_failed_ = gl_why_.empty() ? nullptr : target;
   }
   const bool shared = instances != nullptr;
   if (!shared) {
@@ -1068,7 +1063,8 @@ void DeviceBackend<Dev>::draw(const render::SnapshotOptions& o, const std::array
     out.surface.resize(surface ? corners : 0);
     if (surface) Dev::download(out.surface.data(), surface_out_, corners);
   }
-  out.shared_why = target && !shared ? (gl_why_.empty() ? "the spheres mode is drawn from a copy" : gl_why_) : "";
+  out.shared_why =
+      target && !shared ? (target->refused().empty() ? "the spheres mode is drawn from a copy" : target->refused()) : "";
   const std::size_t np = m.projectiles.size();
   std::vector<DeviceProjectile> dp(np);
   Dev::download(dp.data(), proj_, np);
