@@ -120,8 +120,7 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
   const int steps = steps_per_frame.value_or(1);
   if (steps < 1) throw Error(fmt::format("--steps {} must be at least 1 (with --render: steps per frame)", steps));
   // Checked before the OpenGL context is made.
-  const std::optional<SolverDef::Backend> backend_chosen =
-      backend ? std::optional<SolverDef::Backend>(backend_from_name(*backend, "--backend")) : std::nullopt;
+  const SolverDef::Backend backend_chosen = backend ? backend_from_name(*backend, "--backend") : SolverDef::Backend::automatic;
   const int threads = thread_count(threads_requested);
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   struct Case {
@@ -182,7 +181,7 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
       fmt::print(stderr, "{}: skipped: {}\n", c.name, e.what());
       continue;
     }
-    if (backend_chosen) scene.solver.backend = *backend_chosen;
+    if (backend) scene.solver.backend = backend_chosen;
     Engine sim(scene);
     const Model& m = sim.model();
     const auto framing = render::objects_box(m, sim.state());
@@ -215,7 +214,7 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
       total_s.push_back(secs(t0, t3));
       drawn = snap.drawn_automata();
       triangles = snap.triangles();
-      shared = snap.shared_automata + snap.shared_corners > 0;
+      shared = snap.drawn_from_shared_buffers();
     }
     const double fps = 1.0 / median(total_s);
     if (json) {

@@ -187,7 +187,7 @@ void simulate(const SceneDef& scene, Shared& sh, bool lockstep, std::array<doubl
     }
     auto snap = std::make_shared<render::Snapshot>(
         render::make_snapshot(m, sim->backend(), o, origin, context ? sh.buffers[static_cast<std::size_t>(free)] : nullptr));
-    const bool shared = snap->shared_automata + snap->shared_corners > 0;
+    const bool shared = snap->drawn_from_shared_buffers();
     if (shared) glFinish();  // written before the window's context draws from them
     std::unique_lock lock(sh.mutex);
     sh.pending = shared ? free : -1;
@@ -531,7 +531,7 @@ int view(const ViewOptions& o) {
     if (!message.empty()) ov.lines.push_back(message.substr(0, 120));
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
     renderer.draw(*snap, static_cast<render::DrawMode>(sh.draw.load()), camera(), w, h, ov);
-    if (snap->shared_automata + snap->shared_corners > 0) {
+    if (snap->drawn_from_shared_buffers()) {
       // Drawn from the shared buffers: a fence for the simulation thread to wait for before it writes them.
       std::lock_guard lock(sh.mutex);
       if (sh.held >= 0) {

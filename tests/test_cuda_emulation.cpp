@@ -475,6 +475,15 @@ TEST(CudaEmulation, TheDrawListDoesNotDependOnTheLaunchOrder) {
   EXPECT_GT(draws_equal(io::load_default_scene(), {4000}).fragments, 10);
 }
 
+// Whether GL buffer `which` of the target begins with the bytes of `list` (read back from OpenGL).
+template <class T>
+bool buffer_holds(render::DrawTarget& target, render::DrawTarget::Which which, const std::vector<T>& list) {
+  const std::size_t bytes = list.size() * sizeof(T);
+  std::vector<std::uint8_t> b(bytes);
+  if (bytes) glGetNamedBufferSubData(target.buffer(which), 0, static_cast<GLsizeiptr>(bytes), b.data());
+  return bytes == 0 || std::memcmp(b.data(), list.data(), bytes) == 0;
+}
+
 // Zero copy: the draw list written by the backend into the renderer's own buffers (mapped into host
 // memory for the emulation; registered with CUDA on a GPU) holds the host snapshot's bytes and draws the
 // same picture, in the cubes and the surface modes; the spheres mode is copied, and says so.
@@ -515,18 +524,9 @@ void expect_shared_draw_is_the_hosts(SceneDef scene, std::int64_t steps, render:
     ASSERT_EQ(shared.shared_automata, host.automata.size()) << where;
     ASSERT_EQ(shared.shared_corners, host.surface.size()) << where;
     // The buffers' bytes.
-    const auto read = [&](render::DrawTarget::Which w, std::size_t bytes) {
-      std::vector<std::uint8_t> b(bytes);
-      if (bytes) glGetNamedBufferSubData(renderer.draw_target().buffer(w), 0, static_cast<GLsizeiptr>(bytes), b.data());
-      return b;
-    };
-    const auto bytes_of = [](const auto& v) {
-      const auto* p = reinterpret_cast<const std::uint8_t*>(v.data());
-      return std::vector<std::uint8_t>(p, p + v.size() * sizeof(v[0]));
-    };
-    EXPECT_TRUE(read(render::DrawTarget::automata, host.automata.size() * sizeof(render::Instance)) == bytes_of(host.automata))
+    EXPECT_TRUE(buffer_holds(renderer.draw_target(), render::DrawTarget::automata, host.automata))
         << where << ": the shared instance buffer is not the host's list";
-    EXPECT_TRUE(read(render::DrawTarget::surface, host.surface.size() * sizeof(render::SurfaceVertex)) == bytes_of(host.surface))
+    EXPECT_TRUE(buffer_holds(renderer.draw_target(), render::DrawTarget::surface, host.surface))
         << where << ": the shared surface buffer is not the host's list";
     // The pictures.
     target.bind();
@@ -561,15 +561,12 @@ TEST(CudaEmulation, OneBackendWritesTheTargetItIsGiven) {
   const Model& m = sim.model();
   const State& st = sim.state();
   const render::Snapshot host = render::make_snapshot(m, st, analysis::label_model_fragments(m, st.intact.data()), {}, {0, 0, 0});
-  const auto bytes = host.automata.size() * sizeof(render::Instance);
   const auto expect_holds_the_list = [&](render::DrawTarget& target, const char* which) {
     std::string why;
     const render::Snapshot s = render::make_snapshot(m, sim.backend(), {}, {0, 0, 0}, &target, &why);
     ASSERT_EQ(why, "") << which;
     ASSERT_EQ(s.shared_automata, host.automata.size()) << which;
-    std::vector<std::uint8_t> b(bytes);
-    glGetNamedBufferSubData(target.buffer(render::DrawTarget::automata), 0, static_cast<GLsizeiptr>(bytes), b.data());
-    EXPECT_EQ(std::memcmp(b.data(), host.automata.data(), bytes), 0) << which << ": not the host's list";
+    EXPECT_TRUE(buffer_holds(target, render::DrawTarget::automata, host.automata)) << which << ": not the host's list";
   };
   render::Renderer first;
   expect_holds_the_list(first.draw_target(), "the first renderer");

@@ -36,12 +36,6 @@ mesh::FloatMesh posed_surface(const Model& model, const State& state, const std:
   });
   for (std::size_t v = 0; v < nv; ++v) first_out[v + 1] += first_out[v];
   out.vertices.resize(first_out[nv]);
-  const SurfaceCorners corners = S.corners();
-  const auto same = [&](std::uint32_t f, std::uint32_t g) { return out.face_values[f] == out.face_values[g]; };
-  const auto pose = [&](std::uint32_t a, DVec3& x, Quat& q) {
-    x = state.x[a];
-    q = state.q[a];
-  };
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
     std::vector<std::int32_t> seen(max_corners);
     std::vector<std::uint8_t> placed(max_corners);  // per fragment of the vertex: its position is set
@@ -56,7 +50,7 @@ mesh::FloatMesh posed_surface(const Model& model, const State& state, const std:
         out.faces[f][c % 3] = first_out[v] + static_cast<std::uint32_t>(e);
         if (placed[e]) continue;
         placed[e] = 1;
-        const DVec3 p = posed_corner(corners, c, same, pose);
+        const DVec3 p = posed_corner(model, state, fragment.data(), c);
         out.vertices[first_out[v] + e] = {static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)};
       }
     }

@@ -18,4 +18,16 @@ namespace mca::analysis {
 // are the fragments.
 mesh::FloatMesh posed_surface(const Model& model, const State& state, const std::vector<std::int32_t>& fragment);
 
+// Corner c of the bound surface in the pose of a state (posed_corner, core/model.hpp), `fragment` per
+// automaton: where posed_surface puts its vertex, in double.
+inline DVec3 posed_corner(const Model& model, const State& state, const std::int32_t* fragment, std::uint32_t c) {
+  const BoundSurface& S = model.surface;
+  const auto same = [&](std::uint32_t f, std::uint32_t g) { return fragment[S.automaton[f]] == fragment[S.automaton[g]]; };
+  const auto pose = [&](std::uint32_t a, DVec3& x, Quat& q) {
+    x = state.x[a];
+    q = state.q[a];
+  };
+  return posed_corner(S.corners(), c, same, pose);
+}
+
 }  // namespace mca::analysis

@@ -109,9 +109,10 @@ struct BoundSurface {
   }
 };
 
-// Where corner c of the bound surface lies in a pose (in double; the caller rounds): at the mean of the positions that the corners of its
-// mesh vertex whose triangles are of its fragment are carried to by their automata (each corner's offset
-// turned by its automaton's orientation and added to its centre, in double; summed in corner order).
+// Where corner c of the bound surface lies in a pose (in double; the caller rounds): at the mean of the
+// positions that the corners of its mesh vertex whose triangles are of its fragment are carried to by
+// their automata (each corner's offset turned by its automaton's orientation and added to its centre;
+// summed in corner order).
 // same(f, g): triangles f and g are of one fragment; pose(a, x, q): automaton a's centre and orientation.
 template <class Same, class Pose>
 MCA_HD DVec3 posed_corner(const SurfaceCorners& S, std::uint32_t c, const Same& same, const Pose& pose) {

@@ -198,6 +198,13 @@ inline double colour_scale(const SnapshotOptions& o, float largest) {
 
 // --- Per automaton ---
 
+// Per automaton, 1 where it carries triangles of the bound surface (drawn as those where the surface is).
+inline std::vector<std::uint8_t> carrying_automata(const Model& model) {
+  std::vector<std::uint8_t> carries(model.size(), 0);
+  for (const std::uint32_t a : model.surface.automaton) carries[a] = 1;
+  return carries;
+}
+
 // Per object index (Model::object), its automata (what fragment_colour's `whole` is).
 inline std::vector<std::uint32_t> object_sizes(const Model& model) {
   std::vector<std::uint32_t> size(model.object_names.size() + 1, 0);

@@ -7,6 +7,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "analysis/surface.hpp"
+
 namespace mca::render {
 namespace {
 
@@ -174,11 +176,7 @@ Snapshot make_snapshot(const Model& model, const State& state, const analysis::F
   if (o.draw != DrawMode::links) {
     // With the surface drawn, automata of mesh objects are shown by their triangles; only automata that
     // carry none (the inner faces of cracks show through the split surface) are drawn as cubes.
-    std::vector<std::uint8_t> carries;
-    if (surface) {
-      carries.assign(n, 0);
-      for (std::uint32_t a : model.surface.automaton) carries[a] = 1;
-    }
+    const std::vector<std::uint8_t> carries = surface ? carrying_automata(model) : std::vector<std::uint8_t>{};
     s.automata.reserve(n / 4);
     for (std::size_t a = 0; a < n; ++a) {
       if (!exposed[a] || (surface && carries[a])) continue;
@@ -191,18 +189,10 @@ Snapshot make_snapshot(const Model& model, const State& state, const analysis::F
   if (surface) {
     // Each corner where posed_surface puts its vertex, but rounded to float only in the drawing frame (a
     // mesh far from the world origin keeps its detail).
-    const SurfaceCorners corners = model.surface.corners();
-    const auto same = [&](std::uint32_t f, std::uint32_t g) {
-      return fragments.id[model.surface.automaton[f]] == fragments.id[model.surface.automaton[g]];
-    };
-    const auto pose = [&](std::uint32_t a, DVec3& x, Quat& q) {
-      x = state.x[a];
-      q = state.q[a];
-    };
     s.surface.resize(model.surface.corner.size());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, s.surface.size(), 4096), [&](const tbb::blocked_range<std::size_t>& r) {
       for (std::size_t c = r.begin(); c < r.end(); ++c) {
-        const auto p = local(posed_corner(corners, static_cast<std::uint32_t>(c), same, pose));
+        const auto p = local(analysis::posed_corner(model, state, fragments.id.data(), static_cast<std::uint32_t>(c)));
         s.surface[c] = {p[0], p[1], p[2], colour[model.surface.automaton[c / 3]]};
       }
     });

@@ -52,6 +52,7 @@ struct Snapshot {
   // What is drawn, from the lists or the shared buffers.
   std::size_t drawn_automata() const { return shared_automata + automata.size(); }
   std::size_t triangles() const { return (shared_corners + surface.size()) / 3; }
+  bool drawn_from_shared_buffers() const { return shared_automata + shared_corners > 0; }
   struct Ball {
     float x, y, z, radius;
   };

@@ -961,7 +961,8 @@ Energies DeviceBackend<Dev>::device_energies() {
 }
 
 // The draw list of the current state (render::make_snapshot's automata, surface, fragments and scale), on
-// the device; then copied to the host: the drawn automata and triangles, not the state.
+// the device; then written into the target's buffers where it can be (zero copy), else copied to the host:
+// the drawn automata and triangles, not the state.
 template <class Dev>
 void DeviceBackend<Dev>::draw(const render::SnapshotOptions& o, const std::array<double, 3>& origin,
                               render::DrawList& out, render::DrawTarget* target) {
@@ -972,9 +973,7 @@ void DeviceBackend<Dev>::draw(const render::SnapshotOptions& o, const std::array
     Dev::upload(boxed_, m.boxed);
     Dev::upload(object_size_, render::object_sizes(m));
     if (corners) {
-      std::vector<std::uint8_t> carries(n, 0);
-      for (const std::uint32_t a : m.surface.automaton) carries[a] = 1;
-      Dev::upload(carries_, carries);
+      Dev::upload(carries_, render::carrying_automata(m));
       Dev::upload(surface_automaton_, m.surface.automaton);
       Dev::upload(surface_corner_, m.surface.corner);
       Dev::upload(first_corner_, m.surface.first_corner);
