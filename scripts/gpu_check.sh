@@ -31,6 +31,13 @@ if [[ "${1:-}" == "--bundle" ]]; then
     done
   done
   cp -L /lib64/ld-linux-x86-64.so.2 "$dir/lib/"
+  # The device's copy bandwidth (the ceiling in docs/benchmarks.md), built with nvcc ($NVCC, else CUDA's).
+  "${NVCC:-/usr/local/cuda/bin/nvcc}" -O2 -arch=sm_80 -o "$dir/copy_bandwidth" scripts/copy_bandwidth.cu
+  # libepoxy opens OpenGL and EGL at run time (ldd does not list them): bring GLVND's vendor-neutral
+  # dispatchers, which then load the GPU machine's own driver (NVIDIA's EGL), never Mesa's.
+  for lib in libEGL.so.1 libGLdispatch.so.0 libOpenGL.so.0 libGL.so.1 libGLX.so.0; do
+    cp -L "/usr/lib/x86_64-linux-gnu/$lib" "$dir/lib/"
+  done
   for m in cow.off bunny00.off armadillo.off; do
     cp -L "${HOME}/.cache/mca/models/$m" "$dir/models/" 2>/dev/null ||
       echo "gpu_check: no $m in ~/.cache/mca/models (scripts/get_models.sh): its checks will be skipped" >&2
@@ -49,7 +56,19 @@ unpacked=$(mktemp -d)
 trap 'rm -rf "$unpacked"' EXIT
 tar -xJf "$bundle" -C "$unpacked"
 dir=$unpacked/bundle
-run() { "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" "$@"; }
+# The bundle's libraries first, then the driver's own where the machine keeps them apart.
+libpath=$dir/lib
+for d in /usr/local/nvidia/lib64 /usr/local/nvidia/lib /usr/lib/x86_64-linux-gnu; do
+  [[ -d $d ]] && libpath=$libpath:$d
+done
+# GLVND finds NVIDIA's EGL through a vendor file; some machines keep it outside GLVND's search path.
+if [[ -z ${__EGL_VENDOR_LIBRARY_FILENAMES:-} ]]; then
+  for f in /usr/share/glvnd/egl_vendor.d/10_nvidia.json /etc/glvnd/egl_vendor.d/10_nvidia.json \
+    /usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json; do
+    if [[ -f $f ]]; then export __EGL_VENDOR_LIBRARY_FILENAMES=$f; break; fi
+  done
+fi
+run() { "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$@"; }
 export MCA_MESH_PATH="$dir/models"
 export MCA_SCENES="$PWD/scenes"  # the tests' scene files, from this copy of the repository
 summary="$out/summary.txt"
@@ -58,13 +77,14 @@ note() { echo "$*" | tee -a "$summary"; }
 
 note "gpu_check $(date -u +%FT%TZ) on $(hostname)"
 nvidia-smi --query-gpu=name,memory.total,driver_version,clocks.sm,clocks.mem --format=csv,noheader 2>&1 | tee -a "$summary" || true
+note "EGL vendor file: ${__EGL_VENDOR_LIBRARY_FILENAMES:-none found}; driver libraries: $( (ldconfig -p 2>/dev/null | grep -oE '(libcuda|libEGL_nvidia)\.so[^ ]*' | sort -u | tr '\n' ' ') || true)"
 run "$dir/mca" info --json >"$out/info.json" 2>&1 || true
-note "mca info: $(grep -o '"cuda_device": *[^,]*' "$out/info.json" || echo '?')"
+note "mca info: $(grep -oE '"(backend|cuda_device)": *"[^"]*"' "$out/info.json" | tr '\n' ' ' || echo '?')"
 
 # 1. The device against the CPU, bit for bit (the first differing field, step and index where not), two
 #    CUDA runs equal, and momentum and energy on the device: the CudaDevice tests.
 set +e
-timeout 150 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" "$dir/mca_tests" \
+timeout 150 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca_tests" \
   --gtest_filter='CudaDevice.*' >"$out/tests.log" 2>&1
 tests_rc=$?
 set -e
@@ -77,7 +97,7 @@ grep -E 'equal bit for bit|differs|SKIPPED|Failure' "$out/tests.log" | head -20 
 # 1b. The draw list written by CUDA into the renderer's OpenGL buffers (zero copy): needs the driver's
 #     OpenGL (EGL); reported apart, a machine without it skips the test.
 set +e
-timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" "$dir/mca_tests" \
+timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca_tests" \
   --gtest_filter='CudaDeviceGl.*' >"$out/tests_gl.log" 2>&1
 note "CudaDeviceGl test (zero-copy drawing): exit $?; $(grep -cE '^\[       OK \] .*ms\)$' "$out/tests_gl.log") passed, $(grep -cE '^\[  SKIPPED \] .*ms\)$' "$out/tests_gl.log") skipped"
 grep -E 'no OpenGL|cannot share|differs|Failure' "$out/tests_gl.log" | head -5 | tee -a "$summary"
@@ -86,8 +106,8 @@ set -e
 # 2. compute-sanitizer on a short run of the default scene (out-of-bounds accesses, races in shared use).
 if command -v compute-sanitizer >/dev/null; then
   set +e
-  timeout 60 compute-sanitizer --tool memcheck --error-exitcode 9 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" \
-    "$dir/mca" run --backend cuda --steps 200 --no-vtk -q --out "$out/sanitized" >"$out/memcheck.log" 2>&1
+  timeout 60 compute-sanitizer --tool memcheck --error-exitcode 9 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" \
+    "$dir/mca" run --backend cuda --steps 200 --no-vtk -q --out "$unpacked/sanitized" >"$out/memcheck.log" 2>&1
   note "compute-sanitizer memcheck: exit $? ($(tail -1 "$out/memcheck.log"))"
   set -e
 else
@@ -97,20 +117,35 @@ fi
 # 3. The benchmarks on the device (contacts and breaking active; floors 4 G automaton-steps/s for wall_357k,
 #    5 G for wall_2m), the device's time per kernel (MCA_PROFILE), and the CPU's on this machine's cores.
 set +e
-timeout 120 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" "$dir/mca" bench wall_357k wall_2m --backend cuda \
-  --repeats 5 --steps 200 >"$out/bench_cuda.txt" 2>&1
+timeout 120 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca" bench wall_357k wall_2m --backend cuda \
+  --repeats 5 --steps 1000 >"$out/bench_cuda.txt" 2>&1
 note "bench cuda (exit $?):"
 grep -E 'wall_357k|wall_2m|machine' "$out/bench_cuda.txt" | tail -4 | tee -a "$summary"
-MCA_PROFILE=1 timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" "$dir/mca" bench wall_357k --backend cuda \
+MCA_PROFILE=1 timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca" bench wall_357k --backend cuda \
   --repeats 1 --steps 200 >"$out/profile_cuda.txt" 2>&1
 note "profile cuda, wall_357k (exit $?; the whole table in profile_cuda.txt):"
 grep -A12 'profile over' "$out/profile_cuda.txt" | tee -a "$summary"
 # The armadillo drawn as triangles, 100 steps per frame (floor 60 frames/s), and as cubes.
-timeout 90 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" "$dir/mca" bench --render armadillo_surface \
+timeout 90 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca" bench --render armadillo_surface \
   armadillo_cubes --backend cuda --steps 100 --frames 10 >"$out/bench_render.txt" 2>&1
 note "bench render cuda (exit $?):"
 tail -5 "$out/bench_render.txt" | tee -a "$summary"
-timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$dir/lib" "$dir/mca" bench wall_357k --backend cpu \
+# The ceiling: the device's copy bandwidth; and the three lattice kernels through Nsight Compute (DRAM and
+# L2 traffic, occupancy), where ncu is on the machine.
+run "$dir/copy_bandwidth" >"$out/copy_bandwidth.txt" 2>&1
+note "$(cat "$out/copy_bandwidth.txt")"
+if command -v ncu >/dev/null; then
+  timeout 120 ncu --clock-control none --kernel-name-base demangled -k 'regex:ManyBodyKernel|LinksKernel|AutomataKernel' \
+    --launch-skip 30 --launch-count 3 --section SpeedOfLight --section MemoryWorkloadAnalysis --section Occupancy \
+    "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca" bench wall_357k --backend cuda --repeats 1 \
+    --steps 40 >"$out/ncu.txt" 2>&1
+  note "ncu, wall_357k's lattice kernels (exit $?; the whole report in ncu.txt):"
+  grep -E 'run_(reduce_)?kernel|Duration|DRAM Throughput|Memory Throughput|L2 Hit Rate|Achieved Occupancy|Mem Busy' \
+    "$out/ncu.txt" | sed 's/^ *//' | tee -a "$summary"
+else
+  note "ncu: not on this machine"
+fi
+timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca" bench wall_357k --backend cpu \
   --repeats 3 --steps 20 >"$out/bench_cpu.txt" 2>&1
 note "bench cpu (exit $?):"
 tail -2 "$out/bench_cpu.txt" | tee -a "$summary"

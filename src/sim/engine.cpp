@@ -30,10 +30,12 @@ std::unique_ptr<Backend> make_backend(const Model& model, SolverDef::Backend kin
                                 source, why));
       return make_cuda_backend(model);
     }
-    case SolverDef::Backend::cpu:
     case SolverDef::Backend::automatic:
-      // auto stays on the CPU: the CUDA backend's device code has passed its host emulation's tests bit for
-      // bit, but has not yet run on a GPU (scripts/gpu_check.sh does that); it is taken when asked for.
+      // The GPU where there is one this build can use (its state is the CPU's bit for bit: the CudaDevice
+      // tests, scripts/gpu_check.sh); the backend's name says which.
+      if (!cuda_device().empty()) return make_cuda_backend(model);
+      break;
+    case SolverDef::Backend::cpu:
       break;
   }
   return make_cpu_backend(model);

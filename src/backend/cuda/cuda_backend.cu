@@ -1,7 +1,9 @@
 // The CUDA backend: DeviceBackend over CudaDevice, and the device it runs on.
 #include <cuda_runtime.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <iterator>
 #include <string>
 
 #include "backend/cuda/cuda_device.cuh"
@@ -25,6 +27,16 @@ std::string cuda_device(std::string* why) {
   cudaDeviceProp p{};
   if (cudaGetDeviceProperties(&p, 0) != cudaSuccess) {
     if (why) *why = "the GPU's properties could not be read";
+    return "";
+  }
+  // The oldest GPU this build's device code runs on (CMAKE_CUDA_ARCHITECTURES: sm_80 by default).
+  constexpr int kArchs[] = {__CUDA_ARCH_LIST__};
+  const int oldest = *std::min_element(std::begin(kArchs), std::end(kArchs));
+  if (100 * p.major + 10 * p.minor < oldest) {
+    if (why)
+      *why = std::string("the GPU (") + p.name + ") has compute capability " + std::to_string(p.major) + "." +
+             std::to_string(p.minor) + "; this build's device code needs " + std::to_string(oldest / 100) + "." +
+             std::to_string(oldest / 10 % 10) + " or newer";
     return "";
   }
   char text[400];

@@ -6,6 +6,7 @@
 // leave their results on the device and keep their scratch memory between calls, so only download waits
 // for the device. Compiled by nvcc with --fmad=false (no fused multiply-add, IEEE division and square
 // root), so a thread computes the CPU's bits.
+#include <cub/block/block_scan.cuh>
 #include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_reduce.cuh>
 #include <cub/device/device_scan.cuh>
@@ -37,6 +38,17 @@ template <class K>
 __global__ void run_kernel(K k, std::size_t n) {
   const std::size_t i = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
   if (i < n) k(i);
+}
+
+// kernel(phase, k) for each phase in turn, the block's threads taking k = 0 .. size(phase) - 1 between
+// them; a barrier after each phase (its writes to global memory are then seen by the block's threads).
+template <class K>
+__global__ void run_block_kernel(K k) {
+  for (int phase = 0; phase < K::kPhases; ++phase) {
+    const std::size_t n = k.size(phase);
+    for (std::size_t i = threadIdx.x; i < n; i += blockDim.x) k(phase, i);
+    __syncthreads();
+  }
 }
 
 template <class T>
@@ -78,6 +90,49 @@ __global__ void run_reduce_kernel(K k, std::size_t n, float* max_to, std::uint32
     if (max_to && bits) atomicMax(reinterpret_cast<unsigned*>(max_to), bits);
     if (min_to && low != 0xffffffffu) atomicMin(reinterpret_cast<unsigned*>(min_to), low);
   }
+}
+
+// The small primitives in one block, one launch each (a step's breaks and their ends, a projectile's
+// candidates: tens to hundreds of elements, where CUB's several launches and host calls cost more than the
+// work). A stable sort's order and a scan's sums are unique, so these give CUB's results (and the host
+// twins').
+constexpr unsigned kSmallSort = 1024, kSmallScanThreads = 1024, kSmallScanItems = 4;
+// Stable sort of n <= kSmallSort (key, value) pairs by key, in place: each element's place is the number
+// of keys below its own plus the number of equal keys before it.
+template <class Key>
+__global__ void small_sort_kernel(Key* keys, std::uint32_t* values, unsigned n) {
+  __shared__ Key k[kSmallSort];
+  __shared__ std::uint32_t v[kSmallSort];
+  const unsigned t = threadIdx.x;
+  if (t < n) {
+    k[t] = keys[t];
+    v[t] = values[t];
+  }
+  __syncthreads();
+  if (t >= n) return;
+  const Key mine = k[t];
+  unsigned place = 0;
+  for (unsigned i = 0; i < n; ++i) place += k[i] < mine || (k[i] == mine && i < t);
+  keys[place] = mine;
+  values[place] = v[t];
+}
+// out[k] = in[0] + ... + in[k - 1] for k = 0 .. n, n <= kSmallScanThreads * kSmallScanItems.
+__global__ void small_scan_kernel(const std::uint32_t* in, std::uint32_t* out, unsigned n) {
+  using Scan = cub::BlockScan<std::uint32_t, kSmallScanThreads>;
+  __shared__ typename Scan::TempStorage temp;
+  const unsigned first = threadIdx.x * kSmallScanItems;
+  std::uint32_t item[kSmallScanItems], sum = 0;
+  for (unsigned j = 0; j < kSmallScanItems; ++j) {
+    item[j] = first + j < n ? in[first + j] : 0u;
+    sum += item[j];
+  }
+  std::uint32_t before = 0, total = 0;
+  Scan(temp).ExclusiveSum(sum, before, total);
+  for (unsigned j = 0; j < kSmallScanItems; ++j) {
+    if (first + j < n) out[first + j] = before;
+    before += item[j];
+  }
+  if (threadIdx.x == 0) out[n] = total;
 }
 
 struct CudaDevice {
@@ -225,6 +280,14 @@ struct CudaDevice {
     cuda_check(cudaGetLastError(), "kernel launch");
   }
 
+  // kernel(phase, k) for its phases in turn (host_device.hpp): one block of kBlock threads.
+  template <class K>
+  static void launch_block(const K& kernel) {
+    static const std::string name = DeviceProfile::name_of<K>();
+    timed(name, [&] { run_block_kernel<<<1, kBlock>>>(kernel); });
+    cuda_check(cudaGetLastError(), "kernel launch");
+  }
+
   // kernel(k) for k < n (as launch), each giving a Reduced: *max_to becomes the largest of it and theirs
   // (each taken as 0 where not > 0), *min_to the smallest (null: not wanted). Blocks of kBlock threads.
   template <class K>
@@ -240,8 +303,13 @@ struct CudaDevice {
 
   // out[k] = in[0] + ... + in[k - 1] for k = 0 .. n (out[n]: the total); in and out are different arrays.
   static void exclusive_scan(const std::uint32_t* in, std::uint32_t* out, std::size_t n) {
+    if (n <= std::size_t{kSmallScanThreads} * kSmallScanItems) {
+      static const std::string small = "scan, one block";
+      timed(small, [&] { small_scan_kernel<<<1, kSmallScanThreads>>>(in, out, static_cast<unsigned>(n)); });
+      cuda_check(cudaGetLastError(), "scan");
+      return;
+    }
     cuda_check(cudaMemsetAsync(out, 0, sizeof(std::uint32_t)), "scan");
-    if (n == 0) return;
     std::size_t bytes = 0;
     cuda_check(cub::DeviceScan::InclusiveSum(nullptr, bytes, in, out + 1, n), "scan");
     static const std::string name = "scan";
@@ -251,6 +319,12 @@ struct CudaDevice {
   template <class Key>
   static void stable_sort_by_key(Key* keys, std::uint32_t* values, std::size_t n, int key_bits) {
     if (n == 0) return;
+    if (n <= kSmallSort) {
+      static const std::string small = "sort, one block";
+      timed(small, [&] { small_sort_kernel<<<1, kSmallSort>>>(keys, values, static_cast<unsigned>(n)); });
+      cuda_check(cudaGetLastError(), "sort");
+      return;
+    }
     Sorted& o = sorted();
     o.keys.resize(n * sizeof(Key));
     o.values.resize(n);

@@ -551,6 +551,8 @@ class DeviceBackend : public StateBackend {
   float apply_breaks(std::uint32_t nb);
   void rebuild_contacts();
   void incidence();
+  void merge_incidence(std::size_t old, std::size_t fresh);
+  void incidence_runs();
   void sync();
 
   const Model& M_;
@@ -610,7 +612,7 @@ class DeviceBackend : public StateBackend {
   Buf<EnergySums> e_sums_;
   // Contact lists (sizes on the host), and the incidence list: (automaton, 2 p + side) sorted, with the
   // start of each automaton's run.
-  Buf<ContactPair> contacts_, contacts_next_, fresh_;
+  Buf<ContactPair> contacts_, contacts_next_;
   // A step's breaks: their pairs sorted, and their ends sorted with which join the ground list.
   Buf<std::uint64_t> fresh_key_;
   Buf<std::uint32_t> fresh_value_, ends_, ends_value_, ends_flag_, ends_place_;
@@ -622,7 +624,9 @@ class DeviceBackend : public StateBackend {
   std::size_t contact_count_ = 0;
   Buf<BodyContact> ground_, ground_next_, ground_fresh_;
   std::size_t ground_count_ = 0;
-  Buf<std::uint32_t> inc_key_, inc_value_, inc_flag_, inc_place_, inc_start_;
+  Buf<std::uint32_t> inc_key_, inc_value_, inc_flag_, inc_place_, inc_start_, inc_key_next_, inc_value_next_;
+  // apply_breaks' merge: each old pair's new index, the fresh pairs' incidence entries.
+  Buf<std::uint32_t> moved_, fresh_inc_key_, fresh_inc_value_;
   // Projectiles.
   Buf<ProjectileConstants> proj_constants_;
   Buf<ContactMaterial> proj_material_;
@@ -767,16 +771,24 @@ void DeviceBackend<Dev>::projectile_pass() {
                                          d(cand_keep_)});
   Dev::exclusive_scan(c(cand_keep_), d(cand_place_), T);
   proj_lists_next_.resize(T);
-  Dev::launch(T, ProjectileCommitKernel{c(cand_keep_), c(cand_place_), c(cand_next_), d(proj_lists_next_)});
-  Dev::launch(np + 1, ProjectileSegmentKernel{cand, c(cand_place_), d(segment_), d(proj_start_next_)});
-  Dev::launch(T, ProjectileExternalKernel{cand, np > 1 ? c(cand_where_) : nullptr, c(cand_keep_), c(cand_out_), external()});
+  Dev::launch(T, ProjectileCommitExternalKernel{
+                    ProjectileCommitKernel{c(cand_keep_), c(cand_place_), c(cand_next_), d(proj_lists_next_)},
+                    ProjectileExternalKernel{cand, np > 1 ? c(cand_where_) : nullptr, c(cand_keep_), c(cand_out_), external()}});
+  // The pairs the last step's end counted touching, in (p, q) order, each one's contact (its history from
+  // the previous list); then one thread sums them in order and moves the projectiles: in the block of the
+  // projectiles' sums where no pairs touch, else after the pairs' contacts.
+  const std::uint32_t TP = np > 1 ? status_h_.touching_pairs : 0;
+  const ProjectileMotionKernel motion{d(proj_), c(proj_constants_), static_cast<std::uint32_t>(np), c(proj_pairs_next_),
+                                      c(pair_out_), TP, status_field<std::uint32_t>(offsetof(StepStatus, pair_count)),
+                                      d(fsum_), d(tsum_), M_.gravity, M_.dt,
+                                      status_field<std::uint32_t>(offsetof(StepStatus, bad_projectile))};
+  Dev::launch_block(ProjectileSumsKernel{ProjectileSegmentKernel{cand, c(cand_place_), d(segment_), d(proj_start_next_)},
+                                         ProjectileSumKernel{d(proj_), c(proj_constants_), c(segment_), c(cand_keep_),
+                                                             c(cand_out_), d(fsum_), d(tsum_), M_.ground, M_.up,
+                                                             M_.ground_height, M_.dt},
+                                         motion, static_cast<std::uint32_t>(np), TP == 0});
   std::swap(proj_lists_, proj_lists_next_);
   std::swap(proj_start_, proj_start_next_);
-  Dev::launch(np, ProjectileSumKernel{d(proj_), c(proj_constants_), c(segment_), c(cand_keep_), c(cand_out_), d(fsum_),
-                                      d(tsum_), M_.ground, M_.up, M_.ground_height, M_.dt});
-  // The pairs the last step's end counted touching, in (p, q) order, each one's contact (its history from
-  // the previous list); then one thread sums them in order and moves the projectiles.
-  const std::uint32_t TP = np > 1 ? status_h_.touching_pairs : 0;
   if (TP) {
     Dev::exclusive_scan(c(pair_touch_count_), d(pair_offset_), np);
     proj_pairs_next_.resize(TP);
@@ -784,11 +796,11 @@ void DeviceBackend<Dev>::projectile_pass() {
     Dev::launch(np, ProjectilePairWriteKernel{c(proj_), projectile_pairs(), c(pair_offset_), d(proj_pairs_next_)});
     Dev::launch(TP, ProjectilePairContactKernel{c(proj_), projectile_pairs(), c(proj_pairs_), static_cast<std::uint32_t>(pair_count_),
                                                 d(proj_pairs_next_), d(pair_out_), M_.dt});
+    ProjectileMotionKernel after = motion;
+    after.list = c(proj_pairs_next_);
+    after.out = c(pair_out_);
+    Dev::launch(1, after);
   }
-  Dev::launch(1, ProjectileMotionKernel{d(proj_), c(proj_constants_), static_cast<std::uint32_t>(np), c(proj_pairs_next_),
-                                        c(pair_out_), TP, status_field<std::uint32_t>(offsetof(StepStatus, pair_count)),
-                                        d(fsum_), d(tsum_), M_.gravity, M_.dt,
-                                        status_field<std::uint32_t>(offsetof(StepStatus, bad_projectile))});
   std::swap(proj_pairs_, proj_pairs_next_);
 }
 
@@ -798,33 +810,35 @@ void DeviceBackend<Dev>::projectile_pass() {
 // move since the rebuild of an automaton that was boxed in and lost a link; one more read of the device.
 template <class Dev>
 float DeviceBackend<Dev>::apply_breaks(std::uint32_t nb) {
-  const std::size_t n = M_.size();
+  const std::size_t n = M_.size(), old_pairs = contact_count_;
   const LinkEnds ends = link_ends();
   grow_keeping(break_log_, logged_, logged_ + nb);
-  Dev::copy(d(break_log_) + logged_, c(breaks_), nb);
-  logged_ += nb;
-  logged_steps_.push_back({S_.step, nb});
-  Dev::launch(nb, BreakKernel{c(breaks_), ends, d(intact_), softening_ ? d(unsound_) : nullptr, d(utx_), d(uty_), d(utz_),
-                              d(ex_mx_), d(ex_my_), d(ex_mz_), d(lost_)});
-  // The broken pairs join the contact list (sorted).
   fresh_key_.resize(nb);
   fresh_value_.resize(nb);
-  fresh_.resize(nb);
-  Dev::launch(nb, BrokenPairKeysKernel{c(breaks_), ends, d(fresh_key_), d(fresh_value_)});
+  const std::size_t e = 2 * std::size_t{nb};
+  if (M_.ground)
+    for (auto* b : {&ends_, &ends_value_, &ends_flag_}) b->resize(e);
+  Dev::launch(nb, BreaksKernel{d(break_log_) + logged_,
+                               BreakKernel{c(breaks_), ends, d(intact_), softening_ ? d(unsound_) : nullptr, d(utx_), d(uty_),
+                                           d(utz_), d(ex_mx_), d(ex_my_), d(ex_mz_), d(lost_)},
+                               BrokenPairKeysKernel{c(breaks_), ends, d(fresh_key_), d(fresh_value_)},
+                               BrokenEndsKernel{c(breaks_), ends, M_.ground ? d(ends_) : nullptr, M_.ground ? d(ends_value_) : nullptr}});
+  logged_ += nb;
+  logged_steps_.push_back({S_.step, nb});
+  // The broken pairs join the contact list (sorted), their ends the incidence list (merged below).
   Dev::stable_sort_by_key(d(fresh_key_), d(fresh_value_), nb, 32 + bits_for(n - 1));
-  Dev::launch(nb, PairsFromKeysKernel{c(fresh_key_), d(fresh_)});
-  contacts_next_.resize(contact_count_ + nb);
-  Dev::launch(contact_count_ + nb, MergePairsKernel{c(contacts_), c(fresh_), static_cast<std::uint32_t>(contact_count_), nb,
-                                                    d(contacts_next_)});
+  contacts_next_.resize(old_pairs + nb);
+  moved_.resize(old_pairs);
+  fresh_inc_key_.resize(e);
+  fresh_inc_value_.resize(e);
+  Dev::launch(old_pairs + nb, MergeFreshPairsKernel{c(contacts_), c(fresh_key_), static_cast<std::uint32_t>(old_pairs), nb,
+                                                    d(contacts_next_), d(moved_), d(fresh_inc_key_), d(fresh_inc_value_)});
   std::swap(contacts_, contacts_next_);
   contact_count_ += nb;
   // Their ends near the ground join the ground list (sorted, once each): as many as the status counts.
-  const std::size_t e = 2 * std::size_t{nb};
   if (M_.ground) {
-    for (auto* b : {&ends_, &ends_value_, &ends_flag_}) b->resize(e);
     ends_place_.resize(e + 1);
     ground_fresh_.resize(e);
-    Dev::launch(nb, BrokenEndsKernel{c(breaks_), ends, d(ends_), d(ends_value_)});
     Dev::stable_sort_by_key(d(ends_), d(ends_value_), e, bits_for(n - 1));
     Dev::launch(e, GroundJoinFlagKernel{ground_reach(), c(ends_), c(ground_), static_cast<std::uint32_t>(ground_count_),
                                         d(ends_flag_), status_field<std::uint32_t>(offsetof(StepStatus, ground_joins))});
@@ -834,7 +848,7 @@ float DeviceBackend<Dev>::apply_breaks(std::uint32_t nb) {
     Dev::launch(ground_count_ + e, MergeBodiesKernel{c(ground_), c(ground_fresh_), static_cast<std::uint32_t>(ground_count_),
                                                      c(ends_place_) + e, d(ground_next_)});
   }
-  incidence();
+  merge_incidence(2 * old_pairs, e);
   lose_links(status_field<float>(offsetof(StepStatus, move2_lost)));
   StepStatus st;
   Dev::download(&st, status_, 1);
@@ -905,10 +919,35 @@ template <class Dev>
 void DeviceBackend<Dev>::incidence() {
   const std::size_t e = 2 * contact_count_;
   if (e == 0) return;
-  for (auto* b : {&inc_key_, &inc_value_, &inc_flag_}) b->resize(e);
-  for (auto* b : {&inc_place_, &inc_start_}) b->resize(e + 1);
+  for (auto* b : {&inc_key_, &inc_value_}) b->resize(e);
   Dev::launch(contact_count_, IncidenceKeysKernel{c(contacts_), d(inc_key_), d(inc_value_)});
   Dev::stable_sort_by_key(d(inc_key_), d(inc_value_), e, bits_for(M_.size() - 1));
+  incidence_runs();
+}
+
+// The same after apply_breaks merged fresh pairs into the list: the old list's `old` entries renamed and
+// merged with the `fresh` ones (MergeFreshPairsKernel's), which are sorted here (a few per step, where
+// sorting the whole list again would take the step's longest sort).
+template <class Dev>
+void DeviceBackend<Dev>::merge_incidence(std::size_t old, std::size_t fresh) {
+  const std::size_t e = old + fresh;
+  if (fresh == 0) return;
+  Dev::stable_sort_by_key(d(fresh_inc_key_), d(fresh_inc_value_), fresh, bits_for(M_.size() - 1));
+  for (auto* b : {&inc_key_next_, &inc_value_next_}) b->resize(e);
+  Dev::launch(e, MergeIncidenceKernel{c(inc_key_), c(inc_value_), c(moved_), static_cast<std::uint32_t>(old), c(fresh_inc_key_),
+                                      c(fresh_inc_value_), static_cast<std::uint32_t>(fresh), d(inc_key_next_),
+                                      d(inc_value_next_)});
+  std::swap(inc_key_, inc_key_next_);
+  std::swap(inc_value_, inc_value_next_);
+  incidence_runs();
+}
+
+// The runs of the incidence list (one per automaton in it): where each starts, and their number.
+template <class Dev>
+void DeviceBackend<Dev>::incidence_runs() {
+  const std::size_t e = 2 * contact_count_;
+  inc_flag_.resize(e);
+  for (auto* b : {&inc_place_, &inc_start_}) b->resize(e + 1);
   Dev::launch(e, RunStartKernel{c(inc_key_), d(inc_flag_)});
   Dev::exclusive_scan(c(inc_flag_), d(inc_place_), e);  // the runs: inc_place_[e]
   Dev::launch(e, RunScatterKernel{c(inc_flag_), c(inc_place_), d(inc_start_), e});

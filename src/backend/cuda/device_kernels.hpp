@@ -393,13 +393,6 @@ struct BrokenPairKeysKernel {
     value[k] = static_cast<std::uint32_t>(k);
   }
 };
-struct PairsFromKeysKernel {
-  const std::uint64_t* key;
-  ContactPair* pairs;
-  MCA_HD void operator()(std::size_t k) const {
-    pairs[k] = {static_cast<std::uint32_t>(key[k] >> 32), static_cast<std::uint32_t>(key[k]), {}};
-  }
-};
 // Both ends of the broken links (code[k]), for the ground list.
 struct BrokenEndsKernel {
   const std::uint32_t* code;
@@ -411,6 +404,20 @@ struct BrokenEndsKernel {
     automata[2 * k + 1] = ends.j(l);
     value[2 * k] = static_cast<std::uint32_t>(2 * k);
     value[2 * k + 1] = static_cast<std::uint32_t>(2 * k + 1);
+  }
+};
+// A step's breaks, one thread each: the code kept for the records, the link cleared (BreakKernel), its
+// pair's key for the contact list, and where there is ground, its two ends for the ground list.
+struct BreaksKernel {
+  std::uint32_t* log;
+  BreakKernel clear;
+  BrokenPairKeysKernel pair;
+  BrokenEndsKernel ends;  // automata null: no ground
+  MCA_HD void operator()(std::size_t k) const {
+    log[k] = clear.codes[k];
+    clear(k);
+    pair(k);
+    if (ends.automata) ends(k);
   }
 };
 
@@ -440,22 +447,70 @@ MCA_HD std::uint32_t pairs_before(const ContactPair* list, std::uint32_t size, s
 MCA_HD std::uint32_t automata_before(const BodyContact* list, std::uint32_t size, std::uint32_t a) {
   return count_before(size, [&](std::uint32_t k) { return list[k].automaton < a; });
 }
-// std::merge of two sorted pair lists (the first's entries first where equal), one element per thread:
-// threads [0, na) place list a, [na, na + nb) list b.
-struct MergePairsKernel {
-  const ContactPair *a, *b;
+// The step's broken pairs (keys i << 32 | j, sorted) merged into the sorted contact list a (std::merge: a's
+// entries first where equal), each fresh pair with no history, one element per thread: threads [0, na)
+// place list a, [na, na + nb) the fresh pairs. Each thread also gives where its pair went: an old pair's
+// new index (moved), a fresh pair's two incidence entries (automaton, 2 q + side; in fresh order, so
+// sorted by automaton they keep the order of q) for MergeIncidenceKernel.
+struct MergeFreshPairsKernel {
+  const ContactPair* a;
+  const std::uint64_t* b;
   std::uint32_t na, nb;
   ContactPair* out;
+  std::uint32_t* moved;
+  std::uint32_t *inc_key, *inc_value;
   MCA_HD void operator()(std::size_t k) const {
     if (k < na) {
-      out[k + pairs_before(b, nb, a[k].i, a[k].j, false)] = a[k];
+      const std::uint64_t key = static_cast<std::uint64_t>(a[k].i) << 32 | a[k].j;
+      const std::uint32_t q = static_cast<std::uint32_t>(k) + count_before(nb, [&](std::uint32_t m) { return b[m] < key; });
+      out[q] = a[k];
+      moved[k] = q;
     } else {
-      const std::size_t m = k - na;
-      out[m + pairs_before(a, na, b[m].i, b[m].j, true)] = b[m];
+      const std::uint32_t m = static_cast<std::uint32_t>(k - na);
+      const std::uint32_t i = static_cast<std::uint32_t>(b[m] >> 32), j = static_cast<std::uint32_t>(b[m]);
+      const std::uint32_t q = m + pairs_before(a, na, i, j, true);
+      out[q] = {i, j, {}};
+      inc_key[2 * m] = i;
+      inc_value[2 * m] = 2 * q;
+      inc_key[2 * m + 1] = j;
+      inc_value[2 * m + 1] = 2 * q + 1;
     }
   }
 };
-// The same for body lists, list b's size on the device (*nb, at most the threads past na).
+// The incidence list after MergeFreshPairsKernel, without sorting it again: the old entries (automaton,
+// 2 p + side), sorted, each p renamed to its new index (moved only grows, so they stay sorted), merged
+// with the fresh pairs' entries (sorted by automaton, stably). Each entry goes to its index plus the
+// number of the other list's entries before it; no two entries name the same pair side, so there are no
+// ties. The list comes out as IncidenceKeysKernel and a stable sort by automaton make it of the merged pairs.
+struct MergeIncidenceKernel {
+  const std::uint32_t *key, *value, *moved;
+  std::uint32_t e;
+  const std::uint32_t *fresh_key, *fresh_value;
+  std::uint32_t f;
+  std::uint32_t *out_key, *out_value;
+  MCA_HD static bool less(std::uint32_t a, std::uint32_t v, std::uint32_t b, std::uint32_t w) {
+    return a != b ? a < b : v < w;
+  }
+  MCA_HD std::uint32_t renamed(std::uint32_t x) const { return 2 * moved[value[x] >> 1] + (value[x] & 1u); }
+  MCA_HD void operator()(std::size_t k) const {
+    std::uint32_t a, v, place;
+    if (k < e) {
+      const auto x = static_cast<std::uint32_t>(k);
+      a = key[x];
+      v = renamed(x);
+      place = x + count_before(f, [&](std::uint32_t y) { return less(fresh_key[y], fresh_value[y], a, v); });
+    } else {
+      const auto y = static_cast<std::uint32_t>(k - e);
+      a = fresh_key[y];
+      v = fresh_value[y];
+      place = y + count_before(e, [&](std::uint32_t x) { return less(key[x], renamed(x), a, v); });
+    }
+    out_key[place] = a;
+    out_value[place] = v;
+  }
+};
+// std::merge of two sorted body lists (a's entries first where equal), one element per thread: threads
+// [0, na) place list a, the next ones list b, whose size is on the device (*nb, at most those threads).
 struct MergeBodiesKernel {
   const BodyContact *a, *b;
   std::uint32_t na;
@@ -953,6 +1008,31 @@ struct ProjectileMotionKernel {
         return;
       }
     }
+  }
+};
+// Commit and External over the same candidates, in one launch.
+struct ProjectileCommitExternalKernel {
+  ProjectileCommitKernel commit;
+  ProjectileExternalKernel external;
+  MCA_HD void operator()(std::size_t k) const {
+    commit(k);
+    external(k);
+  }
+};
+// The end of the projectile pass in one block: each projectile's first candidate and new list's start,
+// then its sums, then (`move`: where no projectile pairs touch) the motion of them all.
+struct ProjectileSumsKernel {
+  static constexpr int kPhases = 3;
+  ProjectileSegmentKernel segment;
+  ProjectileSumKernel sum;
+  ProjectileMotionKernel motion;
+  std::uint32_t np;
+  bool move;
+  MCA_HD std::size_t size(int phase) const { return phase == 0 ? np + 1 : phase == 1 ? np : move ? 1 : 0; }
+  MCA_HD void operator()(int phase, std::size_t k) const {
+    if (phase == 0) segment(k);
+    else if (phase == 1) sum(k);
+    else motion(k);
   }
 };
 

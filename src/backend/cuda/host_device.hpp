@@ -81,6 +81,22 @@ struct HostDevice {
     });
   }
 
+  // kernel(phase, k) for each phase in turn (K::kPhases of them), k = 0 .. kernel.size(phase) - 1 in each
+  // (in reverse order where `reverse` is set): on a GPU one block, a barrier between phases.
+  template <class K>
+  static void launch_block(const K& kernel) {
+    static const std::string name = DeviceProfile::name_of<K>();
+    timed(name, [&] {
+      for (int phase = 0; phase < K::kPhases; ++phase) {
+        const std::size_t n = kernel.size(phase);
+        if (reverse)
+          for (std::size_t k = n; k-- > 0;) kernel(phase, k);
+        else
+          for (std::size_t k = 0; k < n; ++k) kernel(phase, k);
+      }
+    });
+  }
+
   // kernel(k) for k = 0 .. n - 1 (as launch), each giving a Reduced: *max_to becomes the largest of it and
   // theirs (each taken as 0 where not > 0), *min_to the smallest (null: not wanted).
   template <class K>
