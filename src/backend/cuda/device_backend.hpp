@@ -122,7 +122,7 @@ class DeviceBackend : public StateBackend {
     proj_start_next_.resize(np + 1);
     touch_count_.resize(n);
     touch_offset_.resize(n + 1);
-    status_.resize(1);
+    status_.resize(2);
     // State and scratch.
     for (auto* b : {&px_, &py_, &pz_, &vx_, &vy_, &vz_, &wx_, &wy_, &wz_}) b->resize(n);
     for (auto* b : {&qw_, &qx_, &qy_, &qz_}) b->resize(n);
@@ -255,9 +255,10 @@ class DeviceBackend : public StateBackend {
       incidence();
     }
     // What the first step's projectile pass needs: the candidates and the pairs touching now.
-    StepStatus st;
-    st.pair_count = static_cast<std::uint32_t>(pair_count_);
-    Dev::upload(status_, &st, 1);
+    // (The other status, cleared, is the first step's.)
+    StepStatus st[2];
+    st[status_at_].pair_count = static_cast<std::uint32_t>(pair_count_);
+    Dev::upload(status_, st, 2);
     end_of_step(true);
     read_status();
   }
@@ -479,7 +480,7 @@ class DeviceBackend : public StateBackend {
   }
   template <class T>
   T* status_field(std::size_t offset) {
-    return field<T>(status_, offset);
+    return field<T>(status_, status_at_ * sizeof(StepStatus) + offset);
   }
   Touch touch() {
     return {c(proj_), c(proj_constants_), static_cast<std::uint32_t>(M_.projectiles.size()), c(px_), c(py_), c(pz_),
@@ -552,7 +553,6 @@ class DeviceBackend : public StateBackend {
   void rebuild_contacts();
   void incidence();
   void merge_incidence(std::size_t old, std::size_t fresh);
-  void incidence_runs();
   void sync();
 
   const Model& M_;
@@ -603,6 +603,9 @@ class DeviceBackend : public StateBackend {
   Buf<DrawStatus> draw_status_;
   Buf<render::Instance> instances_;
   Buf<render::SurfaceVertex> surface_out_;
+  // The step's status: status_[status_at_]. Steps use the two in turn, each clearing the next one's (the
+  // many-body kernel's first thread), after the host has read it and before anything writes it.
+  std::size_t status_at_ = 0;
   StepStatus status_h_;  // the last status read
   std::size_t rebuilds_ = 0;
   std::int64_t steps_ = 0;  // stepped by this backend (the profile's)
@@ -624,7 +627,7 @@ class DeviceBackend : public StateBackend {
   std::size_t contact_count_ = 0;
   Buf<BodyContact> ground_, ground_next_, ground_fresh_;
   std::size_t ground_count_ = 0;
-  Buf<std::uint32_t> inc_key_, inc_value_, inc_flag_, inc_place_, inc_start_, inc_key_next_, inc_value_next_;
+  Buf<std::uint32_t> inc_key_, inc_value_, inc_key_next_, inc_value_next_;
   // apply_breaks' merge: each old pair's new index, the fresh pairs' incidence entries.
   Buf<std::uint32_t> moved_, fresh_inc_key_, fresh_inc_value_;
   // Projectiles.
@@ -660,12 +663,12 @@ std::int64_t DeviceBackend<Dev>::one_step() {
   ++steps_;
   const cpu::LatticeView v = view();
   const std::size_t n = M_.size(), ne = M_.explicit_links.size();
-  Dev::launch(1, ResetStatusKernel{d(status_)});
+  status_at_ ^= 1;
   if (ne) explicit_pass(v);
   contact_pass();
   projectile_pass();
   // The lattice: many-body terms, links (their breaks into the list), automata.
-  Dev::launch(n, ManyBodyKernel{v});
+  Dev::launch(n, ManyBodyKernel{v, d(status_) + (status_at_ ^ 1)});
   Dev::launch(M_.lattice_slots(), LinksKernel{v, break_list()});
   const std::size_t np = M_.projectiles.size();
   Dev::launch_reduce(n, AutomataKernel{v, touch(), np ? d(touch_count_) : nullptr, status_field<std::uint32_t>(offsetof(StepStatus, touches))},
@@ -712,7 +715,7 @@ void DeviceBackend<Dev>::end_of_step(bool count_touches) {
 
 template <class Dev>
 void DeviceBackend<Dev>::read_status() {
-  Dev::download(&status_h_, status_, 1);
+  Dev::download(&status_h_, status_, 1, status_at_);
   pair_count_ = M_.projectiles.empty() ? 0 : status_h_.pair_count;
 }
 
@@ -733,8 +736,8 @@ void DeviceBackend<Dev>::contact_pass() {
   if (contact_count_) {
     if (contact_out_.size() < contact_count_) contact_out_.resize(contact_count_);
     Dev::launch(contact_count_, PairContactKernel{cv, d(contacts_), d(contact_out_)});
-    Dev::launch(2 * contact_count_, ContactGatherKernel{c(inc_place_) + 2 * contact_count_, c(inc_start_), c(inc_key_),
-                                                        c(inc_value_), c(contact_out_), external()});
+    Dev::launch(2 * contact_count_, ContactGatherKernel{c(inc_key_), c(inc_value_), static_cast<std::uint32_t>(2 * contact_count_),
+                                                        c(contact_out_), external()});
   }
   if (ground_count_) Dev::launch(ground_count_, GroundKernel{cv, d(ground_), external()});
 }
@@ -769,7 +772,7 @@ void DeviceBackend<Dev>::projectile_pass() {
   Dev::launch(T, ProjectileContactKernel{c(proj_), c(proj_constants_), cand, c(proj_lists_), c(proj_start_), cv,
                                          c(proj_material_), c(proj_zeta_), M_.groups.size(), d(cand_next_), d(cand_out_),
                                          d(cand_keep_)});
-  Dev::exclusive_scan(c(cand_keep_), d(cand_place_), T);
+  if (T) Dev::exclusive_scan(c(cand_keep_), d(cand_place_), T);  // (none: ProjectileSegmentKernel's starts are 0)
   proj_lists_next_.resize(T);
   Dev::launch(T, ProjectileCommitExternalKernel{
                     ProjectileCommitKernel{c(cand_keep_), c(cand_place_), c(cand_next_), d(proj_lists_next_)},
@@ -851,7 +854,7 @@ float DeviceBackend<Dev>::apply_breaks(std::uint32_t nb) {
   merge_incidence(2 * old_pairs, e);
   lose_links(status_field<float>(offsetof(StepStatus, move2_lost)));
   StepStatus st;
-  Dev::download(&st, status_, 1);
+  Dev::download(&st, status_, 1, status_at_);
   if (M_.ground) {
     std::swap(ground_, ground_next_);
     ground_count_ += st.ground_joins;
@@ -922,7 +925,6 @@ void DeviceBackend<Dev>::incidence() {
   for (auto* b : {&inc_key_, &inc_value_}) b->resize(e);
   Dev::launch(contact_count_, IncidenceKeysKernel{c(contacts_), d(inc_key_), d(inc_value_)});
   Dev::stable_sort_by_key(d(inc_key_), d(inc_value_), e, bits_for(M_.size() - 1));
-  incidence_runs();
 }
 
 // The same after apply_breaks merged fresh pairs into the list: the old list's `old` entries renamed and
@@ -939,18 +941,6 @@ void DeviceBackend<Dev>::merge_incidence(std::size_t old, std::size_t fresh) {
                                       d(inc_value_next_)});
   std::swap(inc_key_, inc_key_next_);
   std::swap(inc_value_, inc_value_next_);
-  incidence_runs();
-}
-
-// The runs of the incidence list (one per automaton in it): where each starts, and their number.
-template <class Dev>
-void DeviceBackend<Dev>::incidence_runs() {
-  const std::size_t e = 2 * contact_count_;
-  inc_flag_.resize(e);
-  for (auto* b : {&inc_place_, &inc_start_}) b->resize(e + 1);
-  Dev::launch(e, RunStartKernel{c(inc_key_), d(inc_flag_)});
-  Dev::exclusive_scan(c(inc_flag_), d(inc_place_), e);  // the runs: inc_place_[e]
-  Dev::launch(e, RunScatterKernel{c(inc_flag_), c(inc_place_), d(inc_start_), e});
 }
 
 // The energies for Engine's check (Backend::energies): each term on the device with compute_energies'

@@ -76,11 +76,6 @@ struct StepStatus {
   std::uint32_t touching_pairs = 0;  // projectile pairs touching at the step's end: the next pair list's size at most
   std::uint32_t pair_count = 0;      // the projectile pair list's size
 };
-// One thread: the status as a step starts (its counters and the reductions' starting values).
-struct ResetStatusKernel {
-  StepStatus* status;
-  MCA_HD void operator()(std::size_t) const { *status = StepStatus{}; }
-};
 
 // --- Explicit links ---
 struct ExplicitGeometryKernel {
@@ -153,34 +148,18 @@ struct IncidenceKeysKernel {
     value[2 * p + 1] = static_cast<std::uint32_t>(2 * p + 1);
   }
 };
-// flag[e] = 1 where entry e starts an automaton's run of the sorted incidence list.
-struct RunStartKernel {
-  const std::uint32_t* key;
-  std::uint32_t* flag;
-  MCA_HD void operator()(std::size_t e) const { flag[e] = e == 0 || key[e] != key[e - 1] ? 1u : 0u; }
-};
-struct RunScatterKernel {
-  const std::uint32_t *flag, *place;
-  std::uint32_t* start;  // runs + 1 entries: the last is the list's size
-  std::size_t size;
-  MCA_HD void operator()(std::size_t e) const {
-    if (flag[e]) start[place[e]] = static_cast<std::uint32_t>(e);
-    if (e + 1 == size) start[place[e] + flag[e]] = static_cast<std::uint32_t>(size);
-  }
-};
-// Each automaton in the contact list adds its contacts' forces in pair order (the CPU's order): thread r
-// for run r, launched for as many threads as the list has entries (the runs are counted on the device).
+// Each automaton in the contact list adds its contacts' forces in pair order (the CPU's order): the thread
+// of the entry that starts its run of the sorted incidence list (entries [0, size)) walks the run.
 struct ContactGatherKernel {
-  const std::uint32_t* runs;
-  const std::uint32_t* start;  // runs + 1 entries
   const std::uint32_t* key;
   const std::uint32_t* value;
+  std::uint32_t size;
   const ContactOut* out;
   External ext;
-  MCA_HD void operator()(std::size_t r) const {
-    if (r >= *runs) return;
-    const std::uint32_t a = key[start[r]];
-    for (std::uint32_t e = start[r]; e < start[r + 1]; ++e) {
+  MCA_HD void operator()(std::size_t e0) const {
+    const std::uint32_t a = key[e0];
+    if (e0 > 0 && key[e0 - 1] == a) return;
+    for (std::size_t e = e0; e < size && key[e] == a; ++e) {
       const std::uint32_t p = value[e] >> 1;
       const ContactOut& o = out[p];
       if (!o.on) continue;
@@ -241,9 +220,14 @@ struct Touch {
 };
 
 // --- Lattice ---
+// Its first thread also clears the next step's status (its counters and the reductions' starting values).
 struct ManyBodyKernel {
   cpu::LatticeView v;
-  MCA_HD void operator()(std::size_t a) const { Lane::many_body(v, a); }
+  StepStatus* next_status;
+  MCA_HD void operator()(std::size_t a) const {
+    if (a == 0) *next_status = StepStatus{};
+    Lane::many_body(v, a);
+  }
 };
 struct LinksKernel {
   cpu::LatticeView v;
@@ -909,7 +893,7 @@ struct ProjectileSegmentKernel {
   MCA_HD void operator()(std::size_t q) const {
     const std::uint32_t first = count_before(cand.size, [&](std::uint32_t j) { return cand.projectile_of(j) < q; });
     segment[q] = first;
-    start[q] = place[first];
+    start[q] = cand.size ? place[first] : 0;
   }
 };
 // Each automaton adds its kept projectile contacts in projectile order (the CPU's): the first thread of its
