@@ -669,7 +669,7 @@ std::int64_t DeviceBackend<Dev>::one_step() {
   projectile_pass();
   // The lattice: many-body terms, links (their breaks into the list), automata.
   Dev::launch(n, ManyBodyKernel{v, d(status_) + (status_at_ ^ 1)});
-  Dev::launch(M_.lattice_slots(), LinksKernel{v, break_list()});
+  if (M_.lattice_slots()) Dev::launch(n, LinksKernel{v, break_list()});  // (3 n slots: 3 per automaton)
   const std::size_t np = M_.projectiles.size();
   Dev::launch_reduce(n, AutomataKernel{v, touch(), np ? d(touch_count_) : nullptr, status_field<std::uint32_t>(offsetof(StepStatus, touches))},
                      status_field<float>(offsetof(StepStatus, move2)), status_field<std::uint32_t>(offsetof(StepStatus, bad)));

@@ -229,13 +229,20 @@ struct ManyBodyKernel {
     Lane::many_body(v, a);
   }
 };
+// Automaton a's three links (its slots along x, y and z), one after another: its own position, velocity and
+// spin, read for the first, are in the cache for the other two (a thread per slot read them three times
+// from memory). Each warp still reads consecutive elements of every array.
 struct LinksKernel {
   cpu::LatticeView v;
   BreakList breaks;
-  MCA_HD void operator()(std::size_t l) const {
-    const int axis = static_cast<int>(l / v.n);
-    std::uint32_t c = kNone;
-    if (Lane::links(v, axis, l % v.n, &c)) breaks.add(c);
+  MCA_HD void operator()(std::size_t a) const {
+#ifdef __CUDA_ARCH__
+#pragma unroll
+#endif
+    for (int axis = 0; axis < 3; ++axis) {
+      std::uint32_t c = kNone;
+      if (Lane::links(v, axis, a, &c)) breaks.add(c);
+    }
   }
 };
 // Automaton a's motion; it gives its squared move since the rebuild where exposed (else 0) to the largest,
