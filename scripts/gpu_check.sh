@@ -12,7 +12,8 @@
 #   scripts/gpu_check.sh FILE.tar.xz OUT        on the GPU machine, in the repository root: unpacks it,
 #                                               runs the checks, writes logs and OUT/summary.txt (under 4
 #                                               minutes); exits 0 only when every CudaDevice test ran and
-#                                               passed (3 when they were skipped: no GPU)
+#                                               passed and a checkpoint resumed across backends gave the
+#                                               same bits (3 when the tests were skipped: no GPU)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -103,6 +104,28 @@ note "CudaDeviceGl test (zero-copy drawing): exit $?; $(grep -cE '^\[       OK \
 grep -E 'no OpenGL|cannot share|differs|Failure' "$out/tests_gl.log" | head -5 | tee -a "$summary"
 set -e
 
+# 1c. A run checkpointed on one backend resumes on the other with the same bits: 3,000 steps of the default
+#     scene straight on each, and from each one's checkpoint (step 2,422) on the other.
+hash_of() { (grep -o '"state_hash": *"[^"]*"' "$1/summary.json" 2>/dev/null || true) | cut -d'"' -f4; }
+resume_ok=1
+for pair in "cpu cuda" "cuda cpu"; do
+  set -- $pair
+  d=$unpacked/resume_$1
+  set +e
+  timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca" run --steps 3000 --checkpoint-every 1 \
+    --no-vtk -q --backend "$1" --out "$d" >>"$out/resume.log" 2>&1
+  cp -r "$d" "${d}_resumed" 2>/dev/null
+  rm -f "${d}_resumed/summary.json"  # (the resumed run writes its own)
+  timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca" resume "${d}_resumed" --backend "$2" \
+    >>"$out/resume.log" 2>&1
+  set -e
+  straight=$(hash_of "$d") resumed=$(hash_of "${d}_resumed")
+  [[ -n $straight && $straight == "$resumed" ]] || resume_ok=0
+  note "3,000 steps on $1: state_hash ${straight:-none}; resumed on $2 from $1's checkpoint: ${resumed:-none}"
+done
+[[ $(hash_of "$unpacked/resume_cpu") == "$(hash_of "$unpacked/resume_cuda")" ]] || resume_ok=0
+note "resume across backends: $([[ $resume_ok == 1 ]] && echo "the same bits" || echo "DIFFERENT (resume.log)")"
+
 # 2. compute-sanitizer on a short run of the default scene (out-of-bounds accesses, races in shared use).
 if command -v compute-sanitizer >/dev/null; then
   set +e
@@ -155,4 +178,5 @@ if [[ $skipped -ne 0 ]]; then
   note "NOT CHECKED: $skipped CudaDevice tests were skipped (see tests.log: no GPU, or no models)"
   exit 3
 fi
-note "every CudaDevice test ran and passed"
+if [[ $resume_ok -ne 1 ]]; then exit 4; fi
+note "every CudaDevice test ran and passed; a checkpoint resumed across backends gave the same bits"

@@ -670,7 +670,7 @@ void bind_scene(py::module_& m) {
             if (value.is_none()) throw Error("solver.backend = None is not text; give a str");
             s.backend = *to_backend(value, "solver.backend");
           },
-          "where the step runs: \"auto\" (the default; the CPU until the CUDA backend has run on a GPU), \"cpu\", "
+          "where the step runs: \"auto\" (the default: an NVIDIA GPU where there is one, else the CPU), \"cpu\", "
           "\"cuda\" (an NVIDIA GPU) or \"cuda-emulation\" (the CUDA backend's algorithm on one core, for tests)")
       .def_property(MCA_KEY(SolverDef, lattice_jitter, "sites moved by up to this share of d, in [0, 0.3] (the cubic lattice); 0: its sites at the cells' centres"))
       .def_property(MCA_KEY(SolverDef, link_bending, "the random lattice's links' bending springs, share of a beam of their section: 0, or in [0.01, 1]; 0.1 the calibrated default"))
