@@ -132,6 +132,10 @@ if command -v compute-sanitizer >/dev/null; then
   timeout 60 compute-sanitizer --tool memcheck --error-exitcode 9 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" \
     "$dir/mca" run --backend cuda --steps 200 --no-vtk -q --out "$unpacked/sanitized" >"$out/memcheck.log" 2>&1
   note "compute-sanitizer memcheck: exit $? ($(tail -1 "$out/memcheck.log"))"
+  # Shared memory's races in the one-block kernels (small sorts and scans, the projectile pass's end).
+  timeout 90 compute-sanitizer --tool racecheck --error-exitcode 9 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" \
+    "$dir/mca" run --backend cuda --steps 100 --no-vtk -q --out "$unpacked/racechecked" >"$out/racecheck.log" 2>&1
+  note "compute-sanitizer racecheck: exit $? ($(tail -1 "$out/racecheck.log"))"
   set -e
 else
   note "compute-sanitizer: not on this machine"

@@ -613,8 +613,8 @@ class DeviceBackend : public StateBackend {
   Buf<double> shell_c_, e_kinetic_, e_gravity_, e_load_, e_links_, e_many_body_, e_pairs_, e_ground_;
   Buf<LinkEnergy> e_link_;
   Buf<EnergySums> e_sums_;
-  // Contact lists (sizes on the host), and the incidence list: (automaton, 2 p + side) sorted, with the
-  // start of each automaton's run.
+  // Contact lists (sizes on the host), and the incidence list: (automaton, 2 p + side) sorted (and the
+  // next one, for its merge).
   Buf<ContactPair> contacts_, contacts_next_;
   // A step's breaks: their pairs sorted, and their ends sorted with which join the ground list.
   Buf<std::uint64_t> fresh_key_;
