@@ -37,7 +37,8 @@ int main(int argc, char** argv) {
   auto* steps_opt = run->add_option("--steps", steps, "Run exactly this many steps");
   dur_opt->excludes(steps_opt);
   run->add_option("--backend", ro.backend,
-                  "Where the step runs: auto (the default: the CPU), cpu, cuda (an NVIDIA GPU), cuda-emulation (the CUDA "
+                  "Where the step runs: auto (the default: an NVIDIA GPU where there is one, else the CPU; MCA_BACKEND "
+                  "changes it), cpu, cuda (an NVIDIA GPU), cuda-emulation (the CUDA "
                   "backend's algorithm on one CPU core, for checking; slow); overrides solver.backend");
   auto* seed_opt = run->add_option("--seed", seed_text, "Seed of the strength classes (overrides solver.seed), 0 .. 2^64-1");
   auto* ck_opt = run->add_option("--checkpoint-every", checkpoint_every, "Write a checkpoint every N frames");

@@ -555,6 +555,23 @@ TEST(Cli, UnknownInstructionSetIsRefusedBeforeAnythingIsWritten) {
   EXPECT_EQ(nlohmann::json::parse(info.output)["backend"], "cpu-sse2");
 }
 
+// MCA_BACKEND says what backend auto stands for (the tests set cpu: test_environment.cpp); a value that is no
+// backend is refused, naming the variable, before anything is written.
+TEST(Cli, McaBackendSaysWhatAutoStandsFor) {
+  const Result emulated = shell("MCA_BACKEND=cuda-emulation " + std::string(MCA_BINARY) + " info --json");
+  ASSERT_EQ(emulated.code, 0) << emulated.output;
+  EXPECT_EQ(nlohmann::json::parse(emulated.output)["backend"], "cuda-emulation");
+  const Result cpu = shell("MCA_BACKEND=cpu MCA_SIMD=sse2 " + std::string(MCA_BINARY) + " info --json");
+  ASSERT_EQ(cpu.code, 0) << cpu.output;
+  EXPECT_EQ(nlohmann::json::parse(cpu.output)["backend"], "cpu-sse2");
+  const fs::path d = fresh_dir("mca_backend");
+  const Result bad = shell("MCA_BACKEND=gpu " + std::string(MCA_BINARY) + " run --steps 5 -q --out " + d.string());
+  EXPECT_NE(bad.code, 0) << bad.output;
+  EXPECT_NE(bad.output.find("MCA_BACKEND = 'gpu'"), std::string::npos) << bad.output;
+  EXPECT_NE(bad.output.find("cuda-emulation"), std::string::npos) << bad.output;
+  EXPECT_FALSE(fs::exists(d)) << "an output folder was made";
+}
+
 // Writes `text` as a scene in a fresh folder `name`, then reads `mca info --json` of it and runs it: the
 // info and the run's summary.json.
 void info_and_run(const std::string& name, const std::string& text, nlohmann::json& info, nlohmann::json& summary) {

@@ -640,6 +640,11 @@ TEST(CudaDeviceGl, TheDrawListWrittenIntoTheRenderersBuffersDrawsTheSamePicture)
   if (!shell) GTEST_SKIP() << why;
   expect_shared_draw_is_the_hosts(*shell, 3000, render::DrawMode::surface, kCuda);
 }
+TEST(CudaDevice, TheSortsScansAndBlockLaunchesAreTheirSerialResults) {
+  MCA_NEEDS_GPU();
+  EXPECT_EQ(cuda_primitives_check(), "");
+}
+
 TEST(CudaDevice, TwoRunsAreEqual) {
   MCA_NEEDS_GPU();
   run_both(io::load_default_scene(), 6000, 3000, kCuda, kCuda);

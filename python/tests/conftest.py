@@ -9,6 +9,10 @@ import subprocess
 
 import pytest
 
+# The CPU backend where a scene or Simulation leaves the backend on auto (which takes an NVIDIA GPU where
+# there is one): these are the CPU's checks; MCA_BACKEND set by hand runs them elsewhere.
+os.environ.setdefault("MCA_BACKEND", "cpu")
+
 SOURCE_DIR = pathlib.Path(os.environ.get("MCA_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2]))
 MCA_BINARY = pathlib.Path(os.environ.get("MCA_BINARY", SOURCE_DIR / "build" / "release" / "mca"))
 

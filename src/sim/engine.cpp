@@ -1,6 +1,7 @@
 #include "sim/engine.hpp"
 
 #include <cmath>
+#include <cstdlib>
 #include <fmt/format.h>
 
 #include "backend/cpu/lattice_kernels.hpp"
@@ -30,11 +31,30 @@ std::unique_ptr<Backend> make_backend(const Model& model, SolverDef::Backend kin
                                 source, why));
       return make_cuda_backend(model);
     }
-    case SolverDef::Backend::automatic:
+    case SolverDef::Backend::automatic: {
+      // MCA_BACKEND, where set, says what auto stands for on this machine (the tests set cpu, so that their
+      // checks of the CPU backend stay on the CPU on a GPU machine).
+      if (const char* env = std::getenv("MCA_BACKEND"); env && *env) {
+        const auto b = parse_backend(env);
+        if (!b)
+          throw Error(fmt::format("{}: MCA_BACKEND = '{}' (what backend \"auto\" stands for): give auto, cpu, cuda or "
+                                  "cuda-emulation, or unset it",
+                                  source, env));
+        if (*b != SolverDef::Backend::automatic) return make_backend(model, *b, source + " (auto, MCA_BACKEND)");
+      }
       // The GPU where there is one this build can use (its state is the CPU's bit for bit: the CudaDevice
-      // tests, scripts/gpu_check.sh); the backend's name says which.
-      if (!cuda_device().empty()) return make_cuda_backend(model);
+      // tests, scripts/gpu_check.sh), else the CPU; the backend's name says which. A GPU that cannot take
+      // the model (its memory) leaves it to the CPU, saying why.
+      const std::string device = cuda_device();
+      if (!device.empty()) {
+        try {
+          return make_cuda_backend(model);
+        } catch (const Error& e) {
+          fmt::print(stderr, "mca: the GPU ({}) cannot take the model ({}); the CPU steps it\n", device, e.what());
+        }
+      }
       break;
+    }
     case SolverDef::Backend::cpu:
       break;
   }

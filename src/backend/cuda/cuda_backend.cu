@@ -4,7 +4,9 @@
 #include <algorithm>
 #include <cstdio>
 #include <iterator>
+#include <random>
 #include <string>
+#include <vector>
 
 #include "backend/cuda/cuda_device.cuh"
 #include "backend/cuda/device_backend.hpp"
@@ -39,6 +41,16 @@ std::string cuda_device(std::string* why) {
              std::to_string(oldest / 10 % 10) + " or newer";
     return "";
   }
+  // And a kernel image for it (a build for other GPUs, without PTX, has none).
+  cudaFuncAttributes kernel{};
+  if (const cudaError_t k = cudaFuncGetAttributes(&kernel, gpu::small_scan_kernel); k != cudaSuccess) {
+    cudaGetLastError();
+    if (why)
+      *why = std::string("this build's device code does not run on the GPU (") + p.name + ", compute capability " +
+             std::to_string(p.major) + "." + std::to_string(p.minor) + "; CUDA: " + cudaGetErrorString(k) +
+             "): build mca with CMAKE_CUDA_ARCHITECTURES naming it";
+    return "";
+  }
   char text[400];
   std::snprintf(text, sizeof text, "%s, %.0f GiB, compute capability %d.%d", p.name,
                 static_cast<double>(p.totalGlobalMem) / (1024.0 * 1024.0 * 1024.0), p.major, p.minor);
@@ -61,6 +73,106 @@ std::unique_ptr<Backend> make_cuda_backend(const Model& model) {
   const std::string device = cuda_device(&why);
   if (device.empty()) throw Error("the CUDA backend needs an NVIDIA GPU: " + why);
   return std::make_unique<CudaBackend>(model, device);
+}
+
+namespace {
+using Dev = gpu::CudaDevice;
+
+template <class Key>
+std::string sort_differs(std::size_t n, int key_bits, Key mod, std::mt19937_64& rng) {
+  std::vector<Key> keys(n);
+  std::vector<std::uint32_t> values(n);
+  std::vector<std::pair<Key, std::uint32_t>> expected(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    keys[i] = static_cast<Key>(rng() % mod);
+    values[i] = static_cast<std::uint32_t>(i);
+    expected[i] = {keys[i], values[i]};
+  }
+  std::stable_sort(expected.begin(), expected.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  Dev::Buffer<Key> k;
+  Dev::Buffer<std::uint32_t> v;
+  Dev::upload(k, keys);
+  Dev::upload(v, values);
+  Dev::stable_sort_by_key(k.data(), v.data(), n, key_bits);
+  Dev::download(keys.data(), k, n);
+  Dev::download(values.data(), v, n);
+  for (std::size_t i = 0; i < n; ++i)
+    if (keys[i] != expected[i].first || values[i] != expected[i].second)
+      return "stable_sort_by_key of " + std::to_string(n) + " " + std::to_string(8 * sizeof(Key)) + "-bit keys below " +
+             std::to_string(mod) + ": element " + std::to_string(i) + " is (" + std::to_string(keys[i]) + ", " +
+             std::to_string(values[i]) + "), not (" + std::to_string(expected[i].first) + ", " +
+             std::to_string(expected[i].second) + ")";
+  return "";
+}
+
+std::string scan_differs(std::size_t n, std::mt19937_64& rng) {
+  std::vector<std::uint32_t> in(n), out(n + 1, 0xdeadbeefu), expected(n + 1);
+  std::uint32_t sum = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    in[i] = static_cast<std::uint32_t>(rng() % 3);
+    expected[i] = sum;
+    sum += in[i];
+  }
+  expected[n] = sum;
+  Dev::Buffer<std::uint32_t> a, b;
+  Dev::upload(a, in);
+  Dev::upload(b, out);  // (not zeros: every element must be written)
+  Dev::exclusive_scan(a.data(), b.data(), n);
+  Dev::download(out.data(), b, n + 1);
+  for (std::size_t i = 0; i <= n; ++i)
+    if (out[i] != expected[i])
+      return "exclusive_scan of " + std::to_string(n) + ": element " + std::to_string(i) + " is " + std::to_string(out[i]) +
+             ", not " + std::to_string(expected[i]);
+  return "";
+}
+
+// Phase 0 writes a, phase 1 reads what other threads wrote there, phase 2 one thread sums it.
+struct PhasesKernel {
+  static constexpr int kPhases = 3;
+  std::uint32_t *a, *b;
+  unsigned long long* sum;
+  std::uint32_t n;
+  __host__ __device__ std::size_t size(int phase) const { return phase == 2 ? 1 : n; }
+  __host__ __device__ void operator()(int phase, std::size_t k) const {
+    if (phase == 0) {
+      a[k] = static_cast<std::uint32_t>(k) + 1;
+    } else if (phase == 1) {
+      b[k] = a[n - 1 - k];
+    } else {
+      unsigned long long s = 0;
+      for (std::uint32_t i = 0; i < n; ++i) s += b[i];
+      *sum = s;
+    }
+  }
+};
+}  // namespace
+
+std::string cuda_primitives_check() {
+  std::string why;
+  if (cuda_device(&why).empty()) throw Error("the CUDA backend needs an NVIDIA GPU: " + why);
+  std::mt19937_64 rng(7);
+  for (const std::size_t n : {0, 1, 2, 31, 33, 255, 257, 1000, 1023, 1024, 1025, 4095, 4096, 4097, 100000}) {
+    for (std::string d : {sort_differs<std::uint32_t>(n, 12, 1u << 12, rng), sort_differs<std::uint32_t>(n, 3, 5u, rng),
+                          sort_differs<std::uint64_t>(n, 52, std::uint64_t{1} << 52, rng),
+                          sort_differs<std::uint64_t>(n, 40, std::uint64_t{7}, rng), scan_differs(n, rng)})
+      if (!d.empty()) return d;
+  }
+  for (const std::uint32_t n : {1u, 255u, 256u, 257u, 5000u}) {
+    Dev::Buffer<std::uint32_t> a, b;
+    Dev::Buffer<unsigned long long> sum;
+    a.resize(n);
+    b.resize(n);
+    sum.resize(1);
+    for (int rep = 0; rep < 20; ++rep) {
+      Dev::launch_block(PhasesKernel{a.data(), b.data(), sum.data(), n});
+      unsigned long long got = 0;
+      Dev::download(&got, sum, 1);
+      if (got != std::uint64_t{n} * (n + 1) / 2)
+        return "launch_block of " + std::to_string(n) + " threads' work per phase: the sum is " + std::to_string(got) +
+               ", not " + std::to_string(std::uint64_t{n} * (n + 1) / 2);
+    }
+  }
+  return "";
 }
 
 }  // namespace mca

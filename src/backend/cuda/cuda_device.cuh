@@ -100,7 +100,7 @@ constexpr unsigned kSmallSort = 1024, kSmallScanThreads = 1024, kSmallScanItems 
 // Stable sort of n <= kSmallSort (key, value) pairs by key, in place: each element's place is the number
 // of keys below its own plus the number of equal keys before it.
 template <class Key>
-__global__ void small_sort_kernel(Key* keys, std::uint32_t* values, unsigned n) {
+__global__ void __launch_bounds__(kSmallSort) small_sort_kernel(Key* keys, std::uint32_t* values, unsigned n) {
   __shared__ Key k[kSmallSort];
   __shared__ std::uint32_t v[kSmallSort];
   const unsigned t = threadIdx.x;
@@ -117,7 +117,7 @@ __global__ void small_sort_kernel(Key* keys, std::uint32_t* values, unsigned n) 
   values[place] = v[t];
 }
 // out[k] = in[0] + ... + in[k - 1] for k = 0 .. n, n <= kSmallScanThreads * kSmallScanItems.
-__global__ void small_scan_kernel(const std::uint32_t* in, std::uint32_t* out, unsigned n) {
+static __global__ void __launch_bounds__(kSmallScanThreads) small_scan_kernel(const std::uint32_t* in, std::uint32_t* out, unsigned n) {
   using Scan = cub::BlockScan<std::uint32_t, kSmallScanThreads>;
   __shared__ typename Scan::TempStorage temp;
   const unsigned first = threadIdx.x * kSmallScanItems;

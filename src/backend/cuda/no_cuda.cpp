@@ -15,4 +15,10 @@ std::unique_ptr<Backend> make_cuda_backend(const Model&) {
   throw Error("the CUDA backend is not available: " + why);
 }
 
+std::string cuda_primitives_check() {
+  std::string why;
+  cuda_device(&why);
+  throw Error("the CUDA backend is not available: " + why);
+}
+
 }  // namespace mca
