@@ -133,10 +133,14 @@ if command -v compute-sanitizer >/dev/null; then
   timeout 60 compute-sanitizer --tool memcheck --error-exitcode 9 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" \
     "$dir/mca" run --backend cuda --steps 200 --no-vtk -q --out "$unpacked/sanitized" >"$out/memcheck.log" 2>&1
   note "compute-sanitizer memcheck: exit $? ($(tail -1 "$out/memcheck.log"))"
-  # Shared memory's races in the one-block kernels (small sorts and scans, the projectile pass's end).
+  # Shared memory's races in the one-block kernels (small sorts and scans, the projectile pass's end): their
+  # own test, then a run (its progress in the log: how far it came).
+  timeout 60 compute-sanitizer --tool racecheck --error-exitcode 9 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" \
+    "$dir/mca_tests" --gtest_filter='CudaDevice.TheSortsScansAndBlockLaunchesAreTheirSerialResults' >"$out/racecheck.log" 2>&1
+  note "compute-sanitizer racecheck, the one-block primitives' test: exit $? ($(tail -1 "$out/racecheck.log"))"
   timeout 90 compute-sanitizer --tool racecheck --error-exitcode 9 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" \
-    "$dir/mca" run --backend cuda --steps 100 --no-vtk -q --out "$unpacked/racechecked" >"$out/racecheck.log" 2>&1
-  note "compute-sanitizer racecheck: exit $? ($(tail -1 "$out/racecheck.log"))"
+    "$dir/mca" run --backend cuda --steps 100 --no-vtk --out "$unpacked/racechecked" >"$out/racecheck_run.log" 2>&1
+  note "compute-sanitizer racecheck, 100 steps of the default scene: exit $? ($(tail -1 "$out/racecheck_run.log"))"
   set -e
 else
   note "compute-sanitizer: not on this machine"
