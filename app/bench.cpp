@@ -116,6 +116,7 @@ double median(std::vector<double> v) {
 
 int bench_render(const std::vector<std::string>& names, bool json, int threads_requested, int frames,
                  const std::optional<int>& steps_per_frame, const std::optional<std::string>& backend) {
+  Engine::check_environment();
   if (frames < 1) throw Error(fmt::format("--frames {} must be at least 1", frames));
   const int steps = steps_per_frame.value_or(1);
   if (steps < 1) throw Error(fmt::format("--steps {} must be at least 1 (with --render: steps per frame)", steps));
@@ -249,6 +250,7 @@ std::vector<std::string> bench_names(bool defaults_only) {
 
 int bench(const std::vector<std::string>& names, bool json, int threads_requested, int repeats, int steps,
           const std::optional<std::string>& backend) {
+  Engine::check_environment();  // a bad MCA_SIMD or MCA_BACKEND, before any model is built
   auto all = scenes();
   std::vector<BenchScene> chosen;
   if (names.empty())
@@ -269,8 +271,8 @@ int bench(const std::vector<std::string>& names, bool json, int threads_requeste
     if (backend) b.scene.solver.backend = backend_from_name(*backend, "--backend");
     Engine sim(b.scene);
     if (!json && first)
-      fmt::print("machine: {} hardware threads, using {}; backend {} ({}); median of {} runs of {} steps each\n",
-                 std::thread::hardware_concurrency(), threads, sim.backend().name(), simd_note(), repeats, steps);
+      fmt::print("machine: {} hardware threads, using {}; backend {}; median of {} runs of {} steps each\n",
+                 std::thread::hardware_concurrency(), threads, backend_text(sim.backend().name()), repeats, steps);
     first = false;
     sim.advance(b.warmup_steps);
     const State snapshot = sim.state();

@@ -56,7 +56,8 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads, 
                  const std::optional<std::string>& backend = std::nullopt);
 // Names of the built-in benchmark scenes (those run when none is named).
 std::vector<std::string> bench_names(bool defaults_only = false);
-// Why the backend's instruction set is the one in use (for `mca info` and `mca bench`).
-std::string simd_note();
+// A backend's name for `mca info` and `mca bench`: the CPU backend's with why its instruction set is the one
+// in use.
+std::string backend_text(const std::string& name);
 
 }  // namespace mca::app

@@ -12,10 +12,11 @@
 
 namespace mca::app {
 
-std::string simd_note() {
+std::string backend_text(const std::string& name) {
+  if (name.rfind("cpu", 0) != 0) return name;  // (the instruction sets are the CPU backend's)
   const char* forced = std::getenv("MCA_SIMD");
-  if (forced && *forced) return fmt::format("instruction set chosen by MCA_SIMD={}", forced);
-  return "the widest instruction set this processor runs; MCA_SIMD=scalar, sse2, avx2 or avx512 picks another";
+  if (forced && *forced) return fmt::format("{} (instruction set chosen by MCA_SIMD={})", name, forced);
+  return name + " (the widest instruction set this processor runs; MCA_SIMD=scalar, sse2, avx2 or avx512 picks another)";
 }
 
 namespace {
@@ -77,9 +78,14 @@ int info(const std::optional<std::string>& path, bool json) {
   if (!json) building.emplace();
   // A scene that asks for the CUDA backend is described on a machine without a GPU too (on the CPU, which
   // computes the same state), saying why its backend cannot run here.
+  Engine::check_environment();  // a bad MCA_SIMD or MCA_BACKEND, before the model is built
   std::string gpu_why;
   const std::string gpu = cuda_device(&gpu_why);
-  const bool cuda_missing = scene.solver.backend == SolverDef::Backend::cuda && gpu.empty();
+  // The backend asked for: the scene's, or for auto what MCA_BACKEND names.
+  const SolverDef::Backend asked = scene.solver.backend == SolverDef::Backend::automatic
+                                       ? backend_from_environment().value_or(SolverDef::Backend::automatic)
+                                       : scene.solver.backend;
+  const bool cuda_missing = asked == SolverDef::Backend::cuda && gpu.empty();
   SceneDef probe = scene;
   if (cuda_missing) probe.solver.backend = SolverDef::Backend::cpu;
   const Engine sim(probe);
@@ -209,9 +215,10 @@ int info(const std::optional<std::string>& path, bool json) {
   fmt::print("materials        {}\n", fmt::join(m.group_names, ", "));
   fmt::print("projectiles      {}\n", m.projectiles.size());
   if (cuda_missing)
-    fmt::print("backend          cuda (solver.backend), which cannot run here: {}\n", gpu_why);
+    fmt::print("backend          cuda ({}), which cannot run here: {}\n",
+               scene.solver.backend == SolverDef::Backend::cuda ? "solver.backend" : "MCA_BACKEND", gpu_why);
   else
-    fmt::print("backend          {} ({})\n", sim.backend().name(), simd_note());
+    fmt::print("backend          {}\n", backend_text(sim.backend().name()));
   fmt::print("cuda             {}\n", gpu.empty() ? gpu_why : gpu + " (--backend cuda)");
   std::string parts = fmt::format("arrays {:.1f} MB: {:.0f} bytes per automaton, links included", memory.arrays / 1e6,
                                   (bytes - static_cast<double>(estimate_memory_bytes(0))) / static_cast<double>(m.size()));

@@ -609,6 +609,7 @@ int run(const RunOptions& o) {
 
 int resume(const std::string& out_dir, int threads_requested, bool quiet, bool no_render,
            const std::optional<std::string>& backend) {
+  Engine::check_environment();  // a bad MCA_SIMD or MCA_BACKEND, before anything is read or written
   // An empty path would silently mean the current folder.
   if (out_dir.empty()) throw Error("mca resume: the folder is empty (\"\"); give the --out folder of the run to continue");
   const std::filesystem::path dir(out_dir);

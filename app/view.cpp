@@ -261,6 +261,7 @@ struct Input {
 }  // namespace
 
 int view(const ViewOptions& o) {
+  Engine::check_environment();  // a bad MCA_SIMD or MCA_BACKEND, before a window opens
   SceneDef scene = o.scene ? io::load_scene_file(*o.scene) : io::load_default_scene();
   if (o.backend) scene.solver.backend = backend_from_name(*o.backend, "--backend");
   const std::vector<Shot> script = o.script ? read_script(*o.script) : std::vector<Shot>{};

@@ -105,24 +105,25 @@ note "CudaDeviceGl test (zero-copy drawing): exit $?; $(grep -cE '^\[       OK \
 grep -E 'no OpenGL|cannot share|differs|Failure' "$out/tests_gl.log" | head -5 | tee -a "$summary"
 set -e
 
-# 1c. A run checkpointed on one backend resumes on the other with the same bits: 3,000 steps of the default
-#     scene straight on each, and from each one's checkpoint (step 2,422) on the other.
+# 1c. A run checkpointed on one backend resumes on the other with the same bits: 6,000 steps of the default
+#     scene straight on each, and each one's run continued on the other from its first checkpoint (frame 1,
+#     step 4,845; the last one, of the finished run, removed).
 hash_of() { (grep -o '"state_hash": *"[^"]*"' "$1/summary.json" 2>/dev/null || true) | cut -d'"' -f4; }
 resume_ok=1
 for pair in "cpu cuda" "cuda cpu"; do
   set -- $pair
   d=$unpacked/resume_$1
   set +e
-  timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca" run --steps 3000 --checkpoint-every 1 \
+  timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca" run --steps 6000 --checkpoint-every 1 \
     --no-vtk -q --backend "$1" --out "$d" >>"$out/resume.log" 2>&1
   cp -r "$d" "${d}_resumed" 2>/dev/null
-  rm -f "${d}_resumed/summary.json"  # (the resumed run writes its own)
+  rm -f "${d}_resumed/summary.json" "$(ls "${d}_resumed"/checkpoints/*.mcack 2>/dev/null | sort | tail -1)"
   timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca" resume "${d}_resumed" --backend "$2" \
     >>"$out/resume.log" 2>&1
   set -e
   straight=$(hash_of "$d") resumed=$(hash_of "${d}_resumed")
   [[ -n $straight && $straight == "$resumed" ]] || resume_ok=0
-  note "3,000 steps on $1: state_hash ${straight:-none}; resumed on $2 from $1's checkpoint: ${resumed:-none}"
+  note "6,000 steps on $1: state_hash ${straight:-none}; continued on $2 from $1's checkpoint at step 4,845: ${resumed:-none}"
 done
 [[ $(hash_of "$unpacked/resume_cpu") == "$(hash_of "$unpacked/resume_cuda")" ]] || resume_ok=0
 note "resume across backends: $([[ $resume_ok == 1 ]] && echo "the same bits" || echo "DIFFERENT (resume.log)")"

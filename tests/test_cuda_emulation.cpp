@@ -579,6 +579,32 @@ TEST(CudaEmulation, OneBackendWritesTheTargetItIsGiven) {
   expect_holds_the_list(first.draw_target(), "the first renderer again");
 }
 
+// A run stopped on backend `first` and continued on `second` from its state (what mca resume does with a
+// checkpoint: Engine(scene, state), the state uploaded mid-run, contact lists and histories included): the
+// straight CPU run's state bit for bit.
+void resumes_across(SceneDef scene, SolverDef::Backend first, SolverDef::Backend second, int before, int after) {
+  scene.solver.backend = SolverDef::Backend::cpu;
+  Engine straight(scene);
+  ASSERT_EQ(straight.advance(before + after).flags, kHealthy);
+  scene.solver.backend = first;
+  Engine a(scene);
+  ASSERT_EQ(a.advance(before).flags, kHealthy);
+  ASSERT_FALSE(a.state().contacts.empty());
+  scene.solver.backend = second;
+  Engine b(scene, a.state());
+  ASSERT_EQ(b.advance(after).flags, kHealthy);
+  const std::string d = first_difference(straight.state(), b.state());
+  EXPECT_TRUE(d.empty()) << scene.name << ": stopped on " << a.backend().name() << " at step " << before << ", continued on "
+                         << b.backend().name() << ": differs from the straight run after step " << straight.state().step
+                         << ", first in " << d;
+  EXPECT_GT(b.state().broken_by[0] + b.state().broken_by[1], a.state().broken_by[0] + a.state().broken_by[1]);
+}
+
+TEST(CudaEmulation, AStateResumesAcrossBackendsWithTheSameBits) {
+  resumes_across(io::load_default_scene(), SolverDef::Backend::cpu, SolverDef::Backend::cuda_emulation, 3000, 1500);
+  resumes_across(io::load_default_scene(), SolverDef::Backend::cuda_emulation, SolverDef::Backend::cpu, 3000, 1500);
+}
+
 // --- On a GPU (skipped, with the reason, without one: scripts/gpu_check.sh runs them on a GPU machine) ---
 
 #define MCA_NEEDS_GPU()                                                     \
@@ -643,6 +669,12 @@ TEST(CudaDeviceGl, TheDrawListWrittenIntoTheRenderersBuffersDrawsTheSamePicture)
 TEST(CudaDevice, TheSortsScansAndBlockLaunchesAreTheirSerialResults) {
   MCA_NEEDS_GPU();
   EXPECT_EQ(cuda_primitives_check(), "");
+}
+
+TEST(CudaDevice, AStateResumesAcrossBackendsWithTheSameBits) {
+  MCA_NEEDS_GPU();
+  resumes_across(io::load_default_scene(), SolverDef::Backend::cpu, kCuda, 3000, 1500);
+  resumes_across(io::load_default_scene(), kCuda, SolverDef::Backend::cpu, 3000, 1500);
 }
 
 TEST(CudaDevice, TwoRunsAreEqual) {

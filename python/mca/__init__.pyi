@@ -136,7 +136,7 @@ class Solver:
     lattice: str
     """"random" (the default: a site at a random point of each cell, linked to its Voronoi neighbours) or "cubic" (the paper's lattice)."""
     backend: str
-    """Where the step runs: "auto" (the default: an NVIDIA GPU where there is one, else the CPU), "cpu", "cuda" (an NVIDIA GPU) or "cuda-emulation" (the CUDA backend's algorithm on one core, for tests)."""
+    """Where the step runs: "auto" (the default: an NVIDIA GPU where there is one, else the CPU; the environment variable MCA_BACKEND changes what it stands for), "cpu", "cuda" (an NVIDIA GPU) or "cuda-emulation" (the CUDA backend's algorithm on one core, for tests)."""
     lattice_jitter: float
     """Sites moved by up to this share of d along each axis, in [0, 0.3]; 0: the cubic lattice."""
     link_bending: float

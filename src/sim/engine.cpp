@@ -12,53 +12,83 @@
 
 namespace mca {
 
-void Engine::check_environment() { cpu::select_kernels(); }
+void Engine::check_environment() {
+  cpu::select_kernels();
+  backend_from_environment();
+}
 
 SolverDef::Backend backend_from_name(const std::string& name, const std::string& option) {
   if (const auto b = parse_backend(name)) return *b;
   throw Error(fmt::format("{} '{}': give auto (the default), cpu, cuda or cuda-emulation", option, name));
 }
 
-std::unique_ptr<Backend> make_backend(const Model& model, SolverDef::Backend kind, const std::string& source) {
+std::optional<SolverDef::Backend> backend_from_environment() {
+  const char* env = std::getenv("MCA_BACKEND");
+  if (!env || !*env) return std::nullopt;
+  const auto b = parse_backend(env);
+  if (!b)
+    throw Error(fmt::format("MCA_BACKEND = '{}' (what backend \"auto\" stands for): give auto, cpu, cuda or "
+                            "cuda-emulation, or unset it",
+                            env));
+  if (*b == SolverDef::Backend::automatic) return std::nullopt;
+  return b;
+}
+
+std::unique_ptr<Backend> start_backend(const Model& model, SolverDef::Backend kind, const std::string& source,
+                                       const State& state) {
+  std::unique_ptr<Backend> b;
   switch (kind) {
     case SolverDef::Backend::cuda_emulation:
-      return make_cuda_emulation_backend(model);
+      b = make_cuda_emulation_backend(model);
+      break;
     case SolverDef::Backend::cuda: {
       std::string why;
       if (cuda_device(&why).empty())
         throw Error(fmt::format("{}: solver.backend = \"cuda\" (or --backend cuda): {}; use backend \"cpu\" or "
                                 "\"auto\", or a build of mca made where nvcc is found, on a machine with an NVIDIA GPU and its driver",
                                 source, why));
-      return make_cuda_backend(model);
+      b = make_cuda_backend(model);
+      break;
     }
     case SolverDef::Backend::automatic: {
       // MCA_BACKEND, where set, says what auto stands for on this machine (the tests set cpu, so that their
       // checks of the CPU backend stay on the CPU on a GPU machine).
-      if (const char* env = std::getenv("MCA_BACKEND"); env && *env) {
-        const auto b = parse_backend(env);
-        if (!b)
-          throw Error(fmt::format("{}: MCA_BACKEND = '{}' (what backend \"auto\" stands for): give auto, cpu, cuda or "
-                                  "cuda-emulation, or unset it",
-                                  source, env));
-        if (*b != SolverDef::Backend::automatic) return make_backend(model, *b, source + " (auto, MCA_BACKEND)");
+      std::optional<SolverDef::Backend> named;
+      try {
+        named = backend_from_environment();
+      } catch (const Error& e) {
+        throw Error(fmt::format("{}: {}", source, e.what()));
       }
+      if (named == SolverDef::Backend::cuda) {
+        std::string why;
+        if (cuda_device(&why).empty())
+          throw Error(fmt::format("{}: backend \"auto\" with MCA_BACKEND = 'cuda': {}; unset MCA_BACKEND or set it to cpu",
+                                  source, why));
+      }
+      if (named) return start_backend(model, *named, source, state);
       // The GPU where there is one this build can use (its state is the CPU's bit for bit: the CudaDevice
       // tests, scripts/gpu_check.sh), else the CPU; the backend's name says which. A GPU that cannot take
-      // the model (its memory) leaves it to the CPU, saying why.
+      // the model and its state (its memory) leaves them to the CPU, saying why.
       const std::string device = cuda_device();
       if (!device.empty()) {
         try {
-          return make_cuda_backend(model);
+          b = make_cuda_backend(model);
+          b->upload(state);
+          return b;
         } catch (const Error& e) {
+          b.reset();
           fmt::print(stderr, "mca: the GPU ({}) cannot take the model ({}); the CPU steps it\n", device, e.what());
         }
       }
+      b = make_cpu_backend(model);
       break;
     }
     case SolverDef::Backend::cpu:
+      b = make_cpu_backend(model);
       break;
   }
-  return make_cpu_backend(model);
+  b->upload(state);
+  return b;
 }
 
 namespace {
@@ -174,8 +204,7 @@ double breaking_energy(const Model& m) {
 Engine::Engine(const SceneDef& scene) : scene_(scene) {
   model_ = build_for_frames(scene_, steps_per_frame_, total_steps_);
   energy_floor_ = breaking_energy(model_);
-  backend_ = make_backend(model_, scene_.solver.backend, scene_.source);
-  backend_->upload(initial_state(model_));
+  backend_ = start_backend(model_, scene_.solver.backend, scene_.source, initial_state(model_));
   // A run's energy budget starts from its first state (contact springs included, so after the upload
   // that builds the contact lists); a resumed run keeps its checkpoint's.
   backend_->set_initial_energy(energies().total());
@@ -205,8 +234,7 @@ Engine::Engine(const SceneDef& scene, const State& state, const std::string& sou
   }
   check_state(model_, state, source);
   energy_floor_ = breaking_energy(model_);
-  backend_ = make_backend(model_, scene_.solver.backend, scene_.source);
-  backend_->upload(state);
+  backend_ = start_backend(model_, scene_.solver.backend, scene_.source, state);
 }
 
 // The energy is checked at every multiple of kEnergyCheckInterval steps of the run, whatever the calls'

@@ -61,8 +61,9 @@ class Engine {
   // Frames in the scene's duration (at least 1).
   std::int64_t frame_count() const { return (total_steps_ + steps_per_frame_ - 1) / steps_per_frame_; }
 
-  // Checks what the environment asks of the backend (MCA_SIMD: an instruction set this processor runs),
-  // so that a command can refuse a bad setting before it writes anything. Throws mca::Error.
+  // Checks what the environment asks of the backend (MCA_SIMD: an instruction set this processor runs;
+  // MCA_BACKEND: a backend), so that a command can refuse a bad setting before it writes anything. Throws
+  // mca::Error.
   static void check_environment();
 
   static constexpr std::int64_t kEnergyCheckInterval = 256;
@@ -79,9 +80,15 @@ class Engine {
   double energy_floor_ = 0;      // the blow-up check's least reference energy (engine.cpp)
 };
 
-// The backend a scene asks for (SolverDef::backend): auto is the CPU in this build; cuda is an error (a
-// mca::Error naming `source` and the fix).
-std::unique_ptr<Backend> make_backend(const Model& model, SolverDef::Backend kind, const std::string& source);
+// The backend a scene asks for (SolverDef::backend), with `state` uploaded. auto: what MCA_BACKEND names,
+// else the GPU where there is one this build can use and that takes the model and state, else the CPU.
+// cuda without a GPU is an mca::Error naming `source` and the fix.
+std::unique_ptr<Backend> start_backend(const Model& model, SolverDef::Backend kind, const std::string& source,
+                                       const State& state);
+// What backend auto stands for where the environment variable MCA_BACKEND names one (cpu, cuda,
+// cuda-emulation); nullopt where it is unset, empty or auto. An mca::Error naming the variable and the
+// choices for a value that is none.
+std::optional<SolverDef::Backend> backend_from_environment();
 // The backend named by `name` (auto, cpu, cuda, cuda-emulation), for the --backend option; an mca::Error
 // naming `option` and the choices otherwise.
 SolverDef::Backend backend_from_name(const std::string& name, const std::string& option);
