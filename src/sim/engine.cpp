@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <utility>
 #include <fmt/format.h>
 
 #include "backend/cpu/lattice_kernels.hpp"
@@ -35,7 +36,7 @@ std::optional<SolverDef::Backend> backend_from_environment() {
 }
 
 std::unique_ptr<Backend> start_backend(const Model& model, SolverDef::Backend kind, const std::string& source,
-                                       const State& state) {
+                                       State state) {
   std::unique_ptr<Backend> b;
   switch (kind) {
     case SolverDef::Backend::cuda_emulation:
@@ -65,7 +66,7 @@ std::unique_ptr<Backend> start_backend(const Model& model, SolverDef::Backend ki
           throw Error(fmt::format("{}: backend \"auto\" with MCA_BACKEND = 'cuda': {}; unset MCA_BACKEND or set it to cpu",
                                   source, why));
       }
-      if (named) return start_backend(model, *named, source, state);
+      if (named) return start_backend(model, *named, source, std::move(state));
       // The GPU where there is one this build can use (its state is the CPU's bit for bit: the CudaDevice
       // tests, scripts/gpu_check.sh), else the CPU; the backend's name says which. A GPU that cannot take
       // the model and its state (its memory) leaves them to the CPU, saying why.
@@ -73,7 +74,7 @@ std::unique_ptr<Backend> start_backend(const Model& model, SolverDef::Backend ki
       if (!device.empty()) {
         try {
           b = make_cuda_backend(model);
-          b->upload(state);
+          b->upload(state);  // (a copy: the CPU's, should the GPU refuse it)
           return b;
         } catch (const Error& e) {
           b.reset();
@@ -87,7 +88,7 @@ std::unique_ptr<Backend> start_backend(const Model& model, SolverDef::Backend ki
       b = make_cpu_backend(model);
       break;
   }
-  b->upload(state);
+  b->upload(std::move(state));
   return b;
 }
 

@@ -84,7 +84,7 @@ class Engine {
 // else the GPU where there is one this build can use and that takes the model and state, else the CPU.
 // cuda without a GPU is an mca::Error naming `source` and the fix.
 std::unique_ptr<Backend> start_backend(const Model& model, SolverDef::Backend kind, const std::string& source,
-                                       const State& state);
+                                       State state);
 // What backend auto stands for where the environment variable MCA_BACKEND names one (cpu, cuda,
 // cuda-emulation); nullopt where it is unset, empty or auto. An mca::Error naming the variable and the
 // choices for a value that is none.
