@@ -76,9 +76,9 @@ int info(const std::optional<std::string>& path, bool json) {
   // joined to it) gets the JSON alone.
   std::optional<lattice::BuildProgress> building;
   if (!json) building.emplace();
-  // A scene that asks for the CUDA backend is described on a machine without a GPU too (on the CPU, which
-  // computes the same state), saying why its backend cannot run here.
   Engine::check_environment();  // a bad MCA_SIMD or MCA_BACKEND, before the model is built
+  // A scene that asks for the CUDA backend (or MCA_BACKEND=cuda) is described on a machine without a GPU too
+  // (on the CPU, which computes the same state), saying why its backend cannot run here.
   std::string gpu_why;
   const std::string gpu = cuda_device(&gpu_why);
   // The backend asked for: the scene's, or for auto what MCA_BACKEND names.
