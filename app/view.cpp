@@ -294,12 +294,25 @@ int view(const ViewOptions& o) {
   // The simulation thread's draw lists (zero copy; Shared::buffers), deleted here after it has stopped.
   std::array<render::SharedBuffers, 3> shared_buffers;
 
-  // The camera of the scene (or framed automatically) at the start, then moved by the mouse.
-  Engine first(scene);
-  const bool has_surface = first.model().surface.faces() > 0;
-  const render::Framing framing = render::objects_box(first.model(), first.state());
-  const render::Camera start = render::make_camera(scene.camera, first.model(), framing,
-                                                   static_cast<float>(o.width) / static_cast<float>(o.height), scene.source);
+  // The camera of the scene (or framed automatically) at the start, then moved by the mouse, and what the
+  // window needs of the model: from an engine on the CPU, let go at once (the simulation thread builds the
+  // scene's own; a second one on the GPU would hold the model's device memory for the whole session).
+  bool has_surface = false;
+  render::Framing framing;
+  render::Camera start;
+  double dt = 0;
+  std::size_t scene_projectiles = 0;
+  {
+    SceneDef probe = scene;
+    probe.solver.backend = SolverDef::Backend::cpu;
+    const Engine first(probe);
+    has_surface = first.model().surface.faces() > 0;
+    framing = render::objects_box(first.model(), first.state());
+    start = render::make_camera(scene.camera, first.model(), framing, static_cast<float>(o.width) / static_cast<float>(o.height),
+                                scene.source);
+    dt = static_cast<double>(first.model().dt);
+    scene_projectiles = first.model().projectiles.size();
+  }
   Input in;
   {
     const glm::vec3 d = start.eye - start.target;
@@ -393,8 +406,7 @@ int view(const ViewOptions& o) {
   std::size_t next_shot = 0;
   // A shot is due with the first snapshot at or after its time. Snapshot times are whole steps of a float
   // time step (0.002 s comes out as 0.0019999999), so a time within half a step of a snapshot's is its.
-  const double half_step = 0.5 * static_cast<double>(first.model().dt);
-  const std::size_t scene_projectiles = first.model().projectiles.size();
+  const double half_step = 0.5 * dt;
   std::size_t due_at_last = 0;  // scripted shots queued with the newest snapshot (in the state from the next)
   std::int64_t shown = 0;
   std::shared_ptr<const render::Snapshot> snap;
