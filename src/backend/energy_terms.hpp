@@ -29,7 +29,8 @@ template <class T>
 struct Components {
   const T *x = nullptr, *y = nullptr, *z = nullptr;
   std::size_t stride = 1;
-  static Components of(const Vec3T<T>* v) { return {&v->x, &v->y, &v->z, 3}; }
+  // (An empty vector's data() may be null: no member of it is named then.)
+  static Components of(const Vec3T<T>* v) { return v ? Components{&v->x, &v->y, &v->z, 3} : Components{}; }
   MCA_HD Vec3T<T> operator[](std::size_t k) const { return {x[k * stride], y[k * stride], z[k * stride]}; }
 };
 
