@@ -70,7 +70,10 @@ if [[ -z ${__EGL_VENDOR_LIBRARY_FILENAMES:-} ]]; then
     if [[ -f $f ]]; then export __EGL_VENDOR_LIBRARY_FILENAMES=$f; break; fi
   done
 fi
-run() { "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$@"; }
+# A bundled program runs through the bundle's loader: "${loader[@]}" PROGRAM ARGS (also under timeout and
+# compute-sanitizer, which cannot call a function).
+loader=("$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath")
+run() { "${loader[@]}" "$@"; }
 export MCA_MESH_PATH="$dir/models"
 export MCA_SCENES="$PWD/scenes"  # the tests' scene files, from this copy of the repository
 summary="$out/summary.txt"
@@ -86,7 +89,7 @@ note "mca info: $(grep -oE '"(backend|cuda_device)": *"[^"]*"' "$out/info.json" 
 # 1. The device against the CPU, bit for bit (the first differing field, step and index where not), two
 #    CUDA runs equal, and momentum and energy on the device: the CudaDevice tests.
 set +e
-timeout 150 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca_tests" \
+timeout 150 "${loader[@]}" "$dir/mca_tests" \
   --gtest_filter='CudaDevice.*' >"$out/tests.log" 2>&1
 tests_rc=$?
 set -e
@@ -99,7 +102,7 @@ grep -E 'equal bit for bit|differs|SKIPPED|Failure' "$out/tests.log" | head -20 
 # 1b. The draw list written by CUDA into the renderer's OpenGL buffers (zero copy): needs the driver's
 #     OpenGL (EGL); reported apart, a machine without it skips the test.
 set +e
-timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca_tests" \
+timeout 60 "${loader[@]}" "$dir/mca_tests" \
   --gtest_filter='CudaDeviceGl.*' >"$out/tests_gl.log" 2>&1
 note "CudaDeviceGl test (zero-copy drawing): exit $?; $(grep -cE '^\[       OK \] .*ms\)$' "$out/tests_gl.log") passed, $(grep -cE '^\[  SKIPPED \] .*ms\)$' "$out/tests_gl.log") skipped"
 grep -E 'no OpenGL|cannot share|differs|Failure' "$out/tests_gl.log" | head -5 | tee -a "$summary"
@@ -114,11 +117,11 @@ for pair in "cpu cuda" "cuda cpu"; do
   set -- $pair
   d=$unpacked/resume_$1
   set +e
-  timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca" run --steps 6000 --checkpoint-every 1 \
+  timeout 60 "${loader[@]}" "$dir/mca" run --steps 6000 --checkpoint-every 1 \
     --no-vtk -q --backend "$1" --out "$d" >>"$out/resume.log" 2>&1
   cp -r "$d" "${d}_resumed" 2>/dev/null
   rm -f "${d}_resumed/summary.json" "$(ls "${d}_resumed"/checkpoints/*.mcack 2>/dev/null | sort | tail -1)"
-  timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca" resume "${d}_resumed" --backend "$2" \
+  timeout 60 "${loader[@]}" "$dir/mca" resume "${d}_resumed" --backend "$2" \
     >>"$out/resume.log" 2>&1
   set -e
   straight=$(hash_of "$d") resumed=$(hash_of "${d}_resumed")
@@ -131,15 +134,15 @@ note "resume across backends: $([[ $resume_ok == 1 ]] && echo "the same bits" ||
 # 2. compute-sanitizer on a short run of the default scene (out-of-bounds accesses, races in shared use).
 if command -v compute-sanitizer >/dev/null; then
   set +e
-  timeout 60 compute-sanitizer --tool memcheck --error-exitcode 9 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" \
+  timeout 60 compute-sanitizer --tool memcheck --error-exitcode 9 "${loader[@]}" \
     "$dir/mca" run --backend cuda --steps 200 --no-vtk -q --out "$unpacked/sanitized" >"$out/memcheck.log" 2>&1
   note "compute-sanitizer memcheck: exit $? ($(tail -1 "$out/memcheck.log"))"
   # Shared memory's races in the one-block kernels (small sorts and scans, the projectile pass's end): their
   # own test, then a run (its progress in the log: how far it came).
-  timeout 60 compute-sanitizer --tool racecheck --error-exitcode 9 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" \
+  timeout 60 compute-sanitizer --tool racecheck --error-exitcode 9 "${loader[@]}" \
     "$dir/mca_tests" --gtest_filter='CudaDevice.TheSortsScansAndBlockLaunchesAreTheirSerialResults' >"$out/racecheck.log" 2>&1
   note "compute-sanitizer racecheck, the one-block primitives' test: exit $? ($(tail -1 "$out/racecheck.log"))"
-  timeout 90 compute-sanitizer --tool racecheck --error-exitcode 9 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" \
+  timeout 90 compute-sanitizer --tool racecheck --error-exitcode 9 "${loader[@]}" \
     "$dir/mca" run --backend cuda --steps 100 --no-vtk --out "$unpacked/racechecked" >"$out/racecheck_run.log" 2>&1
   note "compute-sanitizer racecheck, 100 steps of the default scene: exit $? ($(tail -1 "$out/racecheck_run.log"))"
   set -e
@@ -150,16 +153,16 @@ fi
 # 3. The benchmarks on the device (contacts and breaking active; floors 4 G automaton-steps/s for wall_357k,
 #    5 G for wall_2m), the device's time per kernel (MCA_PROFILE), and the CPU's on this machine's cores.
 set +e
-timeout 120 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca" bench wall_357k wall_2m --backend cuda \
+timeout 120 "${loader[@]}" "$dir/mca" bench wall_357k wall_2m --backend cuda \
   --repeats 5 --steps 1000 >"$out/bench_cuda.txt" 2>&1
 note "bench cuda (exit $?):"
 grep -E 'wall_357k|wall_2m|machine' "$out/bench_cuda.txt" | tail -4 | tee -a "$summary"
-MCA_PROFILE=1 timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca" bench wall_357k --backend cuda \
+MCA_PROFILE=1 timeout 60 "${loader[@]}" "$dir/mca" bench wall_357k --backend cuda \
   --repeats 1 --steps 200 >"$out/profile_cuda.txt" 2>&1
 note "profile cuda, wall_357k (exit $?; the whole table in profile_cuda.txt):"
 grep -A12 'profile over' "$out/profile_cuda.txt" | tee -a "$summary"
 # The armadillo drawn as triangles, 100 steps per frame (floor 60 frames/s), and as cubes.
-timeout 90 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca" bench --render armadillo_surface \
+timeout 90 "${loader[@]}" "$dir/mca" bench --render armadillo_surface \
   armadillo_cubes --backend cuda --steps 100 --frames 10 >"$out/bench_render.txt" 2>&1
 note "bench render cuda (exit $?):"
 tail -5 "$out/bench_render.txt" | tee -a "$summary"
@@ -170,7 +173,7 @@ note "$(cat "$out/copy_bandwidth.txt")"
 if command -v ncu >/dev/null; then
   timeout 120 ncu --clock-control none --kernel-name-base demangled -k 'regex:ManyBodyKernel|LinksKernel|AutomataKernel' \
     --launch-skip 30 --launch-count 3 --section SpeedOfLight --section MemoryWorkloadAnalysis --section Occupancy \
-    "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca" bench wall_357k --backend cuda --repeats 1 \
+    "${loader[@]}" "$dir/mca" bench wall_357k --backend cuda --repeats 1 \
     --steps 40 >"$out/ncu.txt" 2>&1
   note "ncu, wall_357k's lattice kernels (exit $?; the whole report in ncu.txt):"
   grep -E 'run_(reduce_)?kernel|Duration|DRAM Throughput|Memory Throughput|L2 Hit Rate|Achieved Occupancy|Mem Busy' \
@@ -178,7 +181,7 @@ if command -v ncu >/dev/null; then
 else
   note "ncu: not on this machine"
 fi
-timeout 60 "$dir/lib/ld-linux-x86-64.so.2" --library-path "$libpath" "$dir/mca" bench wall_357k --backend cpu \
+timeout 60 "${loader[@]}" "$dir/mca" bench wall_357k --backend cpu \
   --repeats 3 --steps 20 >"$out/bench_cpu.txt" 2>&1
 note "bench cpu (exit $?):"
 tail -2 "$out/bench_cpu.txt" | tee -a "$summary"

@@ -154,10 +154,10 @@ std::unique_ptr<Backend> make_cuda_emulation_backend(const Model& model);
 std::string cuda_device(std::string* why = nullptr);
 // The CUDA backend on that GPU; throws mca::Error with the reason when there is none.
 std::unique_ptr<Backend> make_cuda_backend(const Model& model);
-// The CUDA device's own primitives against their serial results on random inputs: stable sorts (one
-// block up to 1,024 elements, CUB above; ties, 32- and 64-bit keys), scans (one block up to 4,096, CUB
-// above) and one-block launches of several phases. "" where all agree, else the first difference (a
-// CudaDevice test; throws mca::Error without a GPU).
+// The CUDA device's own primitives against their serial twins (the emulation's, host_device.hpp) on random
+// inputs: stable sorts (one block up to 1,024 elements, CUB above; ties, 32- and 64-bit keys), scans (one
+// block up to 4,096, CUB above) and one-block launches of several phases. "" where all agree, else the
+// first difference (a CudaDevice test; throws mca::Error without a GPU).
 std::string cuda_primitives_check();
 
 // Initial state of a model: automata at rest in the lattice (with their object's velocity), all links

@@ -37,6 +37,21 @@ std::optional<SolverDef::Backend> backend_from_environment() {
 
 std::unique_ptr<Backend> start_backend(const Model& model, SolverDef::Backend kind, const std::string& source,
                                        State state) {
+  // MCA_BACKEND, where set, says what auto stands for on this machine (the tests set cpu, so that their
+  // checks of the CPU backend stay on the CPU on a GPU machine).
+  bool by_environment = false;
+  if (kind == SolverDef::Backend::automatic) {
+    std::optional<SolverDef::Backend> named;
+    try {
+      named = backend_from_environment();
+    } catch (const Error& e) {
+      throw Error(fmt::format("{}: {}", source, e.what()));
+    }
+    if (named) {
+      kind = *named;
+      by_environment = true;
+    }
+  }
   std::unique_ptr<Backend> b;
   switch (kind) {
     case SolverDef::Backend::cuda_emulation:
@@ -45,28 +60,17 @@ std::unique_ptr<Backend> start_backend(const Model& model, SolverDef::Backend ki
     case SolverDef::Backend::cuda: {
       std::string why;
       if (cuda_device(&why).empty())
-        throw Error(fmt::format("{}: solver.backend = \"cuda\" (or --backend cuda): {}; use backend \"cpu\" or "
-                                "\"auto\", or a build of mca made where nvcc is found, on a machine with an NVIDIA GPU and its driver",
-                                source, why));
+        throw Error(by_environment
+                        ? fmt::format("{}: backend \"auto\" with MCA_BACKEND = 'cuda': {}; unset MCA_BACKEND or set it to cpu",
+                                      source, why)
+                        : fmt::format("{}: solver.backend = \"cuda\" (or --backend cuda): {}; use backend \"cpu\" or "
+                                      "\"auto\", or a build of mca made where nvcc is found, on a machine with an NVIDIA GPU "
+                                      "and its driver",
+                                      source, why));
       b = make_cuda_backend(model);
       break;
     }
     case SolverDef::Backend::automatic: {
-      // MCA_BACKEND, where set, says what auto stands for on this machine (the tests set cpu, so that their
-      // checks of the CPU backend stay on the CPU on a GPU machine).
-      std::optional<SolverDef::Backend> named;
-      try {
-        named = backend_from_environment();
-      } catch (const Error& e) {
-        throw Error(fmt::format("{}: {}", source, e.what()));
-      }
-      if (named == SolverDef::Backend::cuda) {
-        std::string why;
-        if (cuda_device(&why).empty())
-          throw Error(fmt::format("{}: backend \"auto\" with MCA_BACKEND = 'cuda': {}; unset MCA_BACKEND or set it to cpu",
-                                  source, why));
-      }
-      if (named) return start_backend(model, *named, source, std::move(state));
       // The GPU where there is one this build can use (its state is the CPU's bit for bit: the CudaDevice
       // tests, scripts/gpu_check.sh), else the CPU; the backend's name says which. A GPU that cannot take
       // the model and its state (its memory) leaves them to the CPU, saying why.

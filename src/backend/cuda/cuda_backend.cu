@@ -10,6 +10,7 @@
 
 #include "backend/cuda/cuda_device.cuh"
 #include "backend/cuda/device_backend.hpp"
+#include "backend/cuda/host_device.hpp"
 
 namespace mca {
 
@@ -66,29 +67,35 @@ class CudaBackend final : public gpu::DeviceBackend<gpu::CudaDevice> {
  private:
   std::string device_;
 };
+
+// The GPU's description (cuda_device), or an mca::Error saying why there is none.
+std::string required_device() {
+  std::string why;
+  std::string device = cuda_device(&why);
+  if (device.empty()) throw Error("the CUDA backend needs an NVIDIA GPU: " + why);
+  return device;
+}
 }  // namespace
 
 std::unique_ptr<Backend> make_cuda_backend(const Model& model) {
-  std::string why;
-  const std::string device = cuda_device(&why);
-  if (device.empty()) throw Error("the CUDA backend needs an NVIDIA GPU: " + why);
-  return std::make_unique<CudaBackend>(model, device);
+  return std::make_unique<CudaBackend>(model, required_device());
 }
 
 namespace {
 using Dev = gpu::CudaDevice;
+using Twin = gpu::HostDevice;  // the primitives' serial twins (host_device.hpp), the emulation's
 
 template <class Key>
 std::string sort_differs(std::size_t n, int key_bits, Key mod, std::mt19937_64& rng) {
   std::vector<Key> keys(n);
   std::vector<std::uint32_t> values(n);
-  std::vector<std::pair<Key, std::uint32_t>> expected(n);
   for (std::size_t i = 0; i < n; ++i) {
     keys[i] = static_cast<Key>(rng() % mod);
     values[i] = static_cast<std::uint32_t>(i);
-    expected[i] = {keys[i], values[i]};
   }
-  std::stable_sort(expected.begin(), expected.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<Key> expected_keys = keys;
+  std::vector<std::uint32_t> expected_values = values;
+  Twin::stable_sort_by_key(expected_keys.data(), expected_values.data(), n, key_bits);
   Dev::Buffer<Key> k;
   Dev::Buffer<std::uint32_t> v;
   Dev::upload(k, keys);
@@ -97,23 +104,18 @@ std::string sort_differs(std::size_t n, int key_bits, Key mod, std::mt19937_64& 
   Dev::download(keys.data(), k, n);
   Dev::download(values.data(), v, n);
   for (std::size_t i = 0; i < n; ++i)
-    if (keys[i] != expected[i].first || values[i] != expected[i].second)
+    if (keys[i] != expected_keys[i] || values[i] != expected_values[i])
       return "stable_sort_by_key of " + std::to_string(n) + " " + std::to_string(8 * sizeof(Key)) + "-bit keys below " +
              std::to_string(mod) + ": element " + std::to_string(i) + " is (" + std::to_string(keys[i]) + ", " +
-             std::to_string(values[i]) + "), not (" + std::to_string(expected[i].first) + ", " +
-             std::to_string(expected[i].second) + ")";
+             std::to_string(values[i]) + "), not (" + std::to_string(expected_keys[i]) + ", " +
+             std::to_string(expected_values[i]) + ")";
   return "";
 }
 
 std::string scan_differs(std::size_t n, std::mt19937_64& rng) {
   std::vector<std::uint32_t> in(n), out(n + 1, 0xdeadbeefu), expected(n + 1);
-  std::uint32_t sum = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    in[i] = static_cast<std::uint32_t>(rng() % 3);
-    expected[i] = sum;
-    sum += in[i];
-  }
-  expected[n] = sum;
+  for (auto& x : in) x = static_cast<std::uint32_t>(rng() % 3);
+  Twin::exclusive_scan(in.data(), expected.data(), n);
   Dev::Buffer<std::uint32_t> a, b;
   Dev::upload(a, in);
   Dev::upload(b, out);  // (not zeros: every element must be written)
@@ -148,8 +150,7 @@ struct PhasesKernel {
 }  // namespace
 
 std::string cuda_primitives_check() {
-  std::string why;
-  if (cuda_device(&why).empty()) throw Error("the CUDA backend needs an NVIDIA GPU: " + why);
+  required_device();
   std::mt19937_64 rng(7);
   for (const std::size_t n : {0, 1, 2, 31, 33, 255, 257, 1000, 1023, 1024, 1025, 4095, 4096, 4097, 100000}) {
     for (std::string d : {sort_differs<std::uint32_t>(n, 12, 1u << 12, rng), sort_differs<std::uint32_t>(n, 3, 5u, rng),

@@ -799,7 +799,7 @@ void DeviceBackend<Dev>::projectile_pass() {
     Dev::launch(np, ProjectilePairWriteKernel{c(proj_), projectile_pairs(), c(pair_offset_), d(proj_pairs_next_)});
     Dev::launch(TP, ProjectilePairContactKernel{c(proj_), projectile_pairs(), c(proj_pairs_), static_cast<std::uint32_t>(pair_count_),
                                                 d(proj_pairs_next_), d(pair_out_), M_.dt});
-    ProjectileMotionKernel after = motion;
+    ProjectileMotionKernel after = motion;  // on the pair lists as resized
     after.list = c(proj_pairs_next_);
     after.out = c(pair_out_);
     Dev::launch(1, after);

@@ -9,16 +9,16 @@ std::string cuda_device(std::string* why) {
   return "";
 }
 
-std::unique_ptr<Backend> make_cuda_backend(const Model&) {
+namespace {
+[[noreturn]] void unavailable() {
   std::string why;
   cuda_device(&why);
   throw Error("the CUDA backend is not available: " + why);
 }
+}  // namespace
 
-std::string cuda_primitives_check() {
-  std::string why;
-  cuda_device(&why);
-  throw Error("the CUDA backend is not available: " + why);
-}
+std::unique_ptr<Backend> make_cuda_backend(const Model&) { unavailable(); }
+
+std::string cuda_primitives_check() { unavailable(); }
 
 }  // namespace mca
