@@ -273,6 +273,75 @@ TEST(CudaEmulation, GripsAndCollidingBallsAreTheCpusBitForBit) {
   EXPECT_GT(d.pairs, 0u) << "the balls never met";
 }
 
+// The two ways the CUDA backend runs a lattice without explicit links (MCA_CUDA_LATTICE, read as a backend
+// is made): one fused kernel, each automaton computing its six links (the default), or the links and
+// automata kernels apart. Each is the CPU's bit for bit on the cubic wall as it is (instant break,
+// clustered classes) and jittered, with softening, spread and exponentially strengthening links; the fused
+// one also with every launch run backwards and resumed across backends. The random lattice (explicit
+// links) takes the split kernels whatever the variable says.
+void resumes_across(SceneDef scene, SolverDef::Backend first, SolverDef::Backend second, int before, int after);
+struct LatticeKernels {
+  explicit LatticeKernels(const char* how) { setenv("MCA_CUDA_LATTICE", how, 1); }
+  ~LatticeKernels() { unsetenv("MCA_CUDA_LATTICE"); }
+};
+SceneDef cubic_wall() {  // its ball moved to 1 cm from the wall
+  SceneDef s = io::load_scene_file(scene_file("wall_ball_cubic.toml"));
+  for (auto& p : s.projectiles) p.position[1] = -0.31;
+  return s;
+}
+SceneDef soft_jittered_cubic_wall() {
+  SceneDef s = cubic_wall();
+  MaterialDef c = *find_builtin_material("concrete");
+  c.fracture_energy = 100;
+  c.weibull_modulus = 6;
+  c.strengthening = StrengtheningLaw::exponential;
+  c.strengthening_alpha = 50;
+  s.materials.push_back(c);
+  s.solver.lattice_jitter = 0.25;
+  s.name += "_soft_jittered";
+  return s;
+}
+bool fused_lattice(SceneDef scene) {
+  scene.solver.backend = SolverDef::Backend::cuda_emulation;
+  Engine e(scene);
+  const auto* dev = dynamic_cast<const gpu::DeviceBackend<gpu::HostDevice>*>(&e.backend());
+  return dev && dev->fused_lattice();
+}
+TEST(CudaEmulation, TheFusedAndSplitLatticeKernelsAreTheCpusBitForBit) {
+  const SceneDef walls[] = {cubic_wall(), soft_jittered_cubic_wall()};
+  for (const char* how : {"fused", "split"}) {
+    LatticeKernels kernels(how);
+    EXPECT_EQ(fused_lattice(walls[0]), std::string(how) == "fused") << how;
+    EXPECT_FALSE(fused_lattice(io::load_default_scene())) << how << ": the random lattice";
+    for (const SceneDef& s : walls) {
+      SCOPED_TRACE(fmt::format("MCA_CUDA_LATTICE={}, {}", how, s.name));
+      const Compared c = run_both(s, 1500, 500);
+      EXPECT_GT(c.breaks, 0);
+      EXPECT_GT(c.projectile_contacts, 0u);
+    }
+  }
+  EXPECT_TRUE(fused_lattice(walls[1])) << "the default";
+  {
+    struct Backwards {
+      Backwards() { gpu::HostDevice::reverse = true; }
+      ~Backwards() { gpu::HostDevice::reverse = false; }
+    } backwards;
+    EXPECT_GT(run_both(walls[1], 1500, 500).breaks, 0);
+  }
+  resumes_across(walls[1], SolverDef::Backend::cpu, SolverDef::Backend::cuda_emulation, 900, 600);
+  resumes_across(walls[1], SolverDef::Backend::cuda_emulation, SolverDef::Backend::cpu, 900, 600);
+}
+TEST(CudaEmulation, AnUnknownLatticeKernelChoiceIsRefused) {
+  LatticeKernels kernels("fast");
+  try {
+    Engine::check_environment();
+    ADD_FAILURE() << "MCA_CUDA_LATTICE=fast was taken";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("MCA_CUDA_LATTICE = 'fast'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("fused"), std::string::npos) << e.what();
+  }
+}
+
 // Three small balls driven into an upper corner of a concrete block from above (kinematic), and from two
 // sides: the corner automaton touches all three at once, and adds their contacts in projectile order (an
 // order that two contributions alone would not show: x + y = y + x).
@@ -618,6 +687,17 @@ constexpr auto kCuda = SolverDef::Backend::cuda;
 TEST(CudaDevice, TheDefaultWallIsTheCpusBitForBit) {
   MCA_NEEDS_GPU();
   EXPECT_GT(run_both(io::load_default_scene(), 6000, 1000, kCuda).breaks, 0);
+}
+TEST(CudaDevice, TheFusedAndSplitLatticeKernelsAreTheCpusBitForBit) {
+  MCA_NEEDS_GPU();
+  for (const char* how : {"fused", "split"}) {
+    LatticeKernels kernels(how);
+    for (const SceneDef& s : {cubic_wall(), soft_jittered_cubic_wall()}) {
+      SCOPED_TRACE(fmt::format("MCA_CUDA_LATTICE={}, {}", how, s.name));
+      EXPECT_GT(run_both(s, 3000, 1000, kCuda).breaks, 0);
+    }
+  }
+  resumes_across(soft_jittered_cubic_wall(), kCuda, SolverDef::Backend::cpu, 900, 600);
 }
 TEST(CudaDevice, FourWallsAreTheCpusBitForBit) {
   MCA_NEEDS_GPU();

@@ -149,6 +149,11 @@ std::unique_ptr<Backend> make_cpu_backend(const Model& model);
 // the same bits as the CUDA backend and, by construction and test, as the CPU backend. Slow (one core,
 // no SIMD): for tests of the GPU algorithm on machines without a GPU.
 std::unique_ptr<Backend> make_cuda_emulation_backend(const Model& model);
+// How the CUDA backend (and its emulation) runs a step's links and automata on a lattice without explicit
+// links: in one kernel, each automaton computing its six links (fused, the default), or in two, the links'
+// results through memory (split), as the environment variable MCA_CUDA_LATTICE says; the same bits either
+// way (docs/benchmarks.md compares their speed). An mca::Error naming the variable for another value.
+bool cuda_fused_lattice();
 // The GPU the CUDA backend would run on (its name, memory and compute capability), or "" with the reason in
 // *why: a build without CUDA device code, no driver, no device.
 std::string cuda_device(std::string* why = nullptr);

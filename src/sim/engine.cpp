@@ -16,6 +16,7 @@ namespace mca {
 void Engine::check_environment() {
   cpu::select_kernels();
   backend_from_environment();
+  cuda_fused_lattice();
 }
 
 SolverDef::Backend backend_from_name(const std::string& name, const std::string& option) {

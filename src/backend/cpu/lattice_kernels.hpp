@@ -125,6 +125,21 @@ struct LatticeView {
   const double* ref = nullptr;
 };
 
+// Where the automata kernel writes the state it changes that links also read: the LatticeView's own arrays
+// (in_place) on the CPU, whose links kernel has run for the whole lattice by then; another copy of each in
+// the CUDA backend's fused kernel, whose threads recompute their neighbours' links from the state before
+// the step while others move on (backend/cuda/device_kernels.hpp, FusedLatticeKernel).
+struct StateNext {
+  double *px = nullptr, *py = nullptr, *pz = nullptr;
+  double *vx = nullptr, *vy = nullptr, *vz = nullptr, *wx = nullptr, *wy = nullptr, *wz = nullptr;
+  float* mean_stress = nullptr;
+  float *utx = nullptr, *uty = nullptr, *utz = nullptr;  // by link slot (the fused kernel's)
+  float* damage = nullptr;                               // (softening)
+  MCA_HD static StateNext in_place(const LatticeView& v) {
+    return {v.px, v.py, v.pz, v.vx, v.vy, v.vz, v.wx, v.wy, v.wz, v.mean_stress, v.utx, v.uty, v.utz, v.damage};
+  }
+};
+
 // The explicit links (surface mode, Model::ExplicitLinks) as the explicit kernels see them: per link
 // (structure of arrays) its ends, constants and this step's results; the automata's state is the
 // LatticeView's. Link k is in slot slot0 + k of the LatticeView's per-slot arrays (intact, ut).

@@ -217,12 +217,19 @@ struct Block {
     });
   }
 
-  // links: forces of the links in slots off + [a0, a0 + W); breaks go to out[], in slot order.
-  static MCA_LANE std::size_t links(const LatticeView& v, int axis, std::size_t a0, std::uint32_t* out) {
+  // What the links in slots axis * n + [a0, a0 + W) give their ends and leave behind: the direction, the
+  // force on the first end (the second takes its opposite), the torque on each end, the trace of the stress
+  // term; the shear displacement and damage for the next step (the old ones where not alive or broken);
+  // which break, and which of those by displacement; the rest length.
+  struct LinkTerms {
+    Vec3T<X> n, force, torque, ut;
+    X trace = 0.0f, damage = 0.0f, r0 = 0.0f;
+    M broke{}, by_displacement{};
+  };
+  // The terms of those links, whose far ends are f and of which `alive` are intact, from the state before
+  // the step (the LatticeView's).
+  static MCA_LANE LinkTerms link_terms(const LatticeView& v, int axis, std::size_t a0, const Far& f, const M& alive) {
     const std::size_t off = static_cast<std::size_t>(axis) * v.n, l0 = off + a0;
-    const auto alive = L::load_bytes(v.intact + l0) != 0.0f;
-    if (!L::any(alive)) return 0;
-    const Far f = far_ends(v, axis, a0);
     const auto g = geometry(v, f, a0, off);
     const Vec3T<X> n = g.n;
     const X eps = g.eps;
@@ -230,7 +237,6 @@ struct Block {
     const X r0 = v.rest ? to_float(L::load(v.rest + l0)) : X(v.r0);
     const X inv_r0 = v.rest ? L::load(v.inv_rest + l0) : X(v.inv_r0);
     const std::size_t s0 = static_cast<std::size_t>(axis) * v.ns + a0;  // in the scratch arrays
-    if (v.last) store3(n, v.nx, v.ny, v.nz, s0);  // for the averaged stress
     const X mb_i = L::load(v.many_body + s0), mb_j = at(v.many_body + (s0 - a0), f);
     const X G = pair_value(v, a0, f, &PairConstants::G);
     X kt = pair_value(v, a0, f, &PairConstants::kt);
@@ -286,6 +292,9 @@ struct Block {
       strain = strain * w;
     }
     const X p = 0.5f * (L::load(v.mean_stress + a0) + at(v.mean_stress, f));
+    LinkTerms t;
+    t.n = n;
+    t.r0 = r0;
     Vec3T<X> force = o.force_i;
     M by_displacement{}, broke{};
     if (v.softening) {
@@ -299,7 +308,7 @@ struct Block {
       const auto b = link_softening_test(eps * r0, r0, o.sigma, o.tau2, p, tensile, tensile / compressive, strain,
                                          v.stress_coefficient, soft, damage);
       force = softened_force(in, o, damage);
-      L::store(select(alive, b.damage, damage), v.damage + l0);
+      t.damage = select(alive, b.damage, damage);
       by_displacement = b.displacement;
       broke = alive && (b.displacement || b.stress);
     } else {
@@ -308,21 +317,37 @@ struct Block {
       by_displacement = b.displacement;
       broke = alive && (b.displacement || b.stress);
     }
-    std::size_t count = 0;
-    if (L::any(broke))
-      for (std::size_t k = 0; k < W; ++k)
-        if (L::lane(broke, k))
-          out[count++] = static_cast<std::uint32_t>(l0 + k) | (L::lane(by_displacement, k) ? 0u : kBreakByStress);
+    t.broke = broke;
+    t.by_displacement = by_displacement;
     // What both ends gather: the force, the torque (r/2) n x F_t = (r/2) n x F (n x n = 0, r = r0 (1 + eps))
     // and the trace of the Love average term (r0/2) sym(n (x) F) of physics.md sec. 3.
     const Vec3T<X> hf = force * (0.5f * r0);
-    const Vec3T<X> torque = cross(n, hf) * (1.0f + eps);
-    float* res = out_of(v, static_cast<std::size_t>(axis));
-    put3(force, res, kOutRows, kOutFx, a0);
-    put3(torque, res, kOutRows, kOutTx, a0);
-    put(dot(n, hf), res, kOutRows, kOutTrace, a0);
+    t.force = force;
+    t.torque = cross(n, hf) * (1.0f + eps);
+    t.trace = dot(n, hf);
     // A link that breaks keeps its displacement until the caller clears it; a broken one keeps its zero.
-    store3(select(alive && !broke, o.ut, in.ut), v.utx, v.uty, v.utz, l0);
+    t.ut = select(alive && !broke, o.ut, in.ut);
+    return t;
+  }
+
+  // links: forces of the links in slots off + [a0, a0 + W); breaks go to out[], in slot order.
+  static MCA_LANE std::size_t links(const LatticeView& v, int axis, std::size_t a0, std::uint32_t* out) {
+    const std::size_t l0 = static_cast<std::size_t>(axis) * v.n + a0;
+    const auto alive = L::load_bytes(v.intact + l0) != 0.0f;
+    if (!L::any(alive)) return 0;
+    const LinkTerms t = link_terms(v, axis, a0, far_ends(v, axis, a0), alive);
+    if (v.last) store3(t.n, v.nx, v.ny, v.nz, static_cast<std::size_t>(axis) * v.ns + a0);  // for the averaged stress
+    if (v.softening) L::store(t.damage, v.damage + l0);
+    std::size_t count = 0;
+    if (L::any(t.broke))
+      for (std::size_t k = 0; k < W; ++k)
+        if (L::lane(t.broke, k))
+          out[count++] = static_cast<std::uint32_t>(l0 + k) | (L::lane(t.by_displacement, k) ? 0u : kBreakByStress);
+    float* res = out_of(v, static_cast<std::size_t>(axis));
+    put3(t.force, res, kOutRows, kOutFx, a0);
+    put3(t.torque, res, kOutRows, kOutTx, a0);
+    put(t.trace, res, kOutRows, kOutTrace, a0);
+    store3(t.ut, v.utx, v.uty, v.utz, l0);
     return count;
   }
 
@@ -523,14 +548,34 @@ struct Block {
     s.zx = select(m, s.zx + a.zx, s.zx);
   }
 
+  // What an automaton has gathered before its contacts and loads: its weight, then its links' forces,
+  // torques and the traces of their stress terms, and on the last step those terms themselves.
+  struct Gathered {
+    Vec3T<X> f, t;
+    Sym3T<X> s_links;
+    X trace = 0.0f;
+  };
+  static MCA_LANE Gathered weight(const LatticeView& v, std::size_t a0) {
+    const X m = v.uniform_bodies ? X(v.body[0]) : L::load(v.mass + a0);
+    Gathered g;
+    g.f = Vec3T<X>{X(v.gravity.x), X(v.gravity.y), X(v.gravity.z)} * m;
+    return g;
+  }
+  // The automata in the lanes `live` take a link's terms: as its upper end (below) the force's opposite,
+  // as its first end the force; the torque and trace either way; the stress term on the last step, which
+  // `n` gives (a function: the direction is read only then).
+  template <class N>
+  static MCA_LANE void take(const LatticeView& v, Gathered& g, const M& live, bool below, const Vec3T<X>& F,
+                            const Vec3T<X>& torque, const X& trace, const X& half, const N& n) {
+    g.f = select(live, below ? g.f - F : g.f + F, g.f);
+    g.t = select(live, g.t + torque, g.t);
+    g.trace = select(live, g.trace + trace, g.trace);
+    if (v.last) add_if(live, g.s_links, sym_outer(n(), F, half));
+  }
+
   // automata: gather, contacts and loads, integrate, for automata [a0, a0 + W).
   static MCA_LANE void automata(const LatticeView& v, std::size_t a0, AutomataResult& r) {
-    const X m = v.uniform_bodies ? X(v.body[0]) : L::load(v.mass + a0);
-    Vec3T<X> f = Vec3T<X>{X(v.gravity.x), X(v.gravity.y), X(v.gravity.z)} * m;
-    Vec3T<X> t;
-    Sym3T<X> s;        // contacts, ground, projectiles: every step
-    Sym3T<X> s_links;  // links: on the last step only
-    X trace = 0.0f;    // trace of the links' part: every step
+    Gathered g = weight(v, a0);
     const float half_r0 = 0.5f * v.r0;
     // The links below (-z, -y, -x: this automaton is their upper end), then its own (+x, +y, +z).
     for (int axis = 2; axis >= 0; --axis) {
@@ -540,29 +585,30 @@ struct Block {
       const auto live = bytes_at(v.intact + off, fb) * fb.has != 0.0f;
       if (!L::any(live)) continue;
       const float* res = out_of(v, static_cast<std::size_t>(axis));
-      const Vec3T<X> F = far3(res, kOutRows, kOutFx, fb);
-      f = select(live, f - F, f);
-      t = select(live, t + far3(res, kOutRows, kOutTx, fb), t);
-      trace = select(live, trace + row_far(res, kOutRows, kOutTrace, fb), trace);
-      if (v.last) {
-        const X half = v.rest ? 0.5f * to_float(at(v.rest + off, fb)) : X(half_r0);
-        add_if(live, s_links, sym_outer(soa_far3(v.nx + so, v.ny + so, v.nz + so, fb), F, half));
-      }
+      const X half = v.rest && v.last ? 0.5f * to_float(at(v.rest + off, fb)) : X(half_r0);
+      take(v, g, live, true, far3(res, kOutRows, kOutFx, fb), far3(res, kOutRows, kOutTx, fb),
+           row_far(res, kOutRows, kOutTrace, fb), half, [&] { return soa_far3(v.nx + so, v.ny + so, v.nz + so, fb); });
     }
     for (int axis = 0; axis < 3; ++axis) {
       const std::size_t l0 = static_cast<std::size_t>(axis) * v.n + a0, s0 = static_cast<std::size_t>(axis) * v.ns + a0;
       const auto live = L::load_bytes(v.intact + l0) != 0.0f;
       if (!L::any(live)) continue;
       const float* res = out_of(v, static_cast<std::size_t>(axis));
-      const Vec3T<X> F = own3(res, kOutRows, kOutFx, a0);
-      f = select(live, f + F, f);
-      t = select(live, t + own3(res, kOutRows, kOutTx, a0), t);
-      trace = select(live, trace + own(res, kOutRows, kOutTrace, a0), trace);
-      if (v.last) {
-        const X half = v.rest ? 0.5f * to_float(L::load(v.rest + l0)) : X(half_r0);
-        add_if(live, s_links, sym_outer(load3(v.nx, v.ny, v.nz, s0), F, half));
-      }
+      const X half = v.rest && v.last ? 0.5f * to_float(L::load(v.rest + l0)) : X(half_r0);
+      take(v, g, live, false, own3(res, kOutRows, kOutFx, a0), own3(res, kOutRows, kOutTx, a0),
+           own(res, kOutRows, kOutTrace, a0), half, [&] { return load3(v.nx, v.ny, v.nz, s0); });
     }
+    move(v, a0, g, StateNext::in_place(v), r);
+  }
+
+  // The rest of the automata kernel, once the links are gathered: contacts and loads, the averaged and mean
+  // stress, integration, grips, the checks and marks; the new state goes to o.
+  static MCA_LANE void move(const LatticeView& v, std::size_t a0, Gathered& g, const StateNext& o, AutomataResult& r) {
+    Vec3T<X>& f = g.f;
+    Vec3T<X>& t = g.t;
+    const Sym3T<X>& s_links = g.s_links;
+    const X& trace = g.trace;
+    Sym3T<X> s;  // contacts, ground, projectiles: every step
     const auto ext = L::load_bytes(v.has_ext + a0) != 0.0f;
     if (L::any(ext)) {
       f = select(ext, f + lanes_of(v.ext_f, a0), f);
@@ -596,7 +642,7 @@ struct Block {
     // From the traces on every step, so the dynamics do not depend on how steps are grouped into calls.
     // (A random-lattice automaton's ext_s holds its links' part only on a call's last step, the
     // explicit gather's: its mean stress, read by no criterion, is whole only then.)
-    L::store((trace + s.xx + s.yy + s.zz) * inv_v * (1.0f / 3.0f), v.mean_stress + a0);
+    L::store((trace + s.xx + s.yy + s.zz) * inv_v * (1.0f / 3.0f), o.mean_stress + a0);
     BodyT<X, D> body{{L::load(v.px + a0), L::load(v.py + a0), L::load(v.pz + a0)},
                      load3(v.vx, v.vy, v.vz, a0),
                      load3(v.wx, v.wy, v.wz, a0),
@@ -637,11 +683,11 @@ struct Block {
         v.f_out[a0 + k] = {L::lane(f.x, k), L::lane(f.y, k), L::lane(f.z, k)};
         v.t_out[a0 + k] = {L::lane(t.x, k), L::lane(t.y, k), L::lane(t.z, k)};
       }
-    L::store(body.x.x, v.px + a0);
-    L::store(body.x.y, v.py + a0);
-    L::store(body.x.z, v.pz + a0);
-    store3(body.v, v.vx, v.vy, v.vz, a0);
-    store3(body.w, v.wx, v.wy, v.wz, a0);
+    L::store(body.x.x, o.px + a0);
+    L::store(body.x.y, o.py + a0);
+    L::store(body.x.z, o.pz + a0);
+    store3(body.v, o.vx, o.vy, o.vz, a0);
+    store3(body.w, o.wx, o.wy, o.wz, a0);
     L::store(body.q.w, v.qw + a0);
     L::store(body.q.x, v.qx + a0);
     L::store(body.q.y, v.qy + a0);

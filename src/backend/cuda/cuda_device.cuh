@@ -63,7 +63,7 @@ __global__ void fill_kernel(T* p, std::size_t n, T value) {
 // *max_to and *min_to: the bits of non-negative floats order as unsigned integers do, so an integer
 // atomicMax gives the largest float exactly, in any order of the blocks.
 template <class K>
-__global__ void run_reduce_kernel(K k, std::size_t n, float* max_to, std::uint32_t* min_to) {
+__device__ __forceinline__ void reduce_thread(const K& k, std::size_t n, float* max_to, std::uint32_t* min_to) {
   constexpr unsigned kWarps = 256 / 32;
   __shared__ unsigned warp_max[kWarps], warp_min[kWarps];
   const std::size_t i = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
@@ -90,6 +90,17 @@ __global__ void run_reduce_kernel(K k, std::size_t n, float* max_to, std::uint32
     if (max_to && bits) atomicMax(reinterpret_cast<unsigned*>(max_to), bits);
     if (min_to && low != 0xffffffffu) atomicMin(reinterpret_cast<unsigned*>(min_to), low);
   }
+}
+template <class K>
+__global__ void run_reduce_kernel(K k, std::size_t n, float* max_to, std::uint32_t* min_to) {
+  reduce_thread(k, n, max_to, min_to);
+}
+// The same for a kernel that asks for K::kMinBlocks blocks of 256 threads on a multiprocessor at once
+// (the compiler then keeps its registers to what that leaves).
+template <class K>
+__global__ void __launch_bounds__(256, K::kMinBlocks) run_bounded_reduce_kernel(K k, std::size_t n, float* max_to,
+                                                                                  std::uint32_t* min_to) {
+  reduce_thread(k, n, max_to, min_to);
 }
 
 // The small primitives in one block, one launch each (a step's breaks and their ends, a projectile's
@@ -295,8 +306,12 @@ struct CudaDevice {
     static_assert(kBlock == 256, "run_reduce_kernel's shared arrays hold 8 warps");
     if (n == 0) return;
     static const std::string name = DeviceProfile::name_of<K>();
+    const unsigned blocks = static_cast<unsigned>((n + kBlock - 1) / kBlock);
     timed(name, [&] {
-      run_reduce_kernel<<<static_cast<unsigned>((n + kBlock - 1) / kBlock), kBlock>>>(kernel, n, max_to, min_to);
+      if constexpr (requires { K::kMinBlocks; })
+        run_bounded_reduce_kernel<<<blocks, kBlock>>>(kernel, n, max_to, min_to);
+      else
+        run_reduce_kernel<<<blocks, kBlock>>>(kernel, n, max_to, min_to);
     });
     cuda_check(cudaGetLastError(), "kernel launch");
   }

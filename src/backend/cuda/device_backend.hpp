@@ -129,7 +129,16 @@ class DeviceBackend : public StateBackend {
     ref_.resize(cpu::tiled_size(n, cpu::kRefRows));
     for (auto* b : {&utx_, &uty_, &utz_}) b->resize(L);
     for (auto* b : {&nx_, &ny_, &nz_, &many_body_}) b->resize(3 * cpu::scratch_stride(n));
-    out_.resize(3 * cpu::tiled_size(n, cpu::kOutRows));
+    // The fused lattice kernel where there are no explicit links (their slots would need copying too), with
+    // the second copy of what it writes that its neighbours read; else the links' results through memory.
+    fused_ = ne == 0 && M_.lattice_slots() > 0 && cuda_fused_lattice();
+    if (fused_) {
+      for (auto& b : next_d_) b.resize(n);
+      next_f_[0].resize(n);
+      for (int k = 1; k < 4; ++k) next_f_[k].resize(L);
+    } else {
+      out_.resize(3 * cpu::tiled_size(n, cpu::kOutRows));
+    }
     for (auto* b : {&ex_nx_, &ex_ny_, &ex_nz_, &ex_eps_, &ex_mx_, &ex_my_, &ex_mz_}) b->resize(ne);
     if (K_.shells_any) ex_kappa_.resize(ne);
     ex_out_.resize(cpu::tiled_size(ne, cpu::kExplicitOutRows));
@@ -162,6 +171,8 @@ class DeviceBackend : public StateBackend {
 
   ~DeviceBackend() override { Dev::print_profile(Dev::kName, steps_, static_cast<std::int64_t>(rebuilds_)); }
   std::string name() const override { return Dev::kName; }
+  // Whether a step's links and automata are one kernel (FusedLatticeKernel) or two (cuda_fused_lattice).
+  bool fused_lattice() const { return fused_; }
   // How many times the contact lists were rebuilt (tests: what a step reads from the device).
   std::size_t contact_rebuilds() const { return rebuilds_; }
   Energies energies() const override { return const_cast<DeviceBackend*>(this)->device_energies(); }
@@ -205,6 +216,7 @@ class DeviceBackend : public StateBackend {
     upload3(S_.link_ut, utx_, uty_, utz_);
     upload3(S_.link_moment, ex_mx_, ex_my_, ex_mz_);
     softening_ = !S_.link_damage.empty();
+    if (fused_) next_f_[4].resize(S_.link_damage.size());
     if (softening_) {
       std::vector<std::uint8_t> unsound(L);
       for (std::size_t l = 0; l < L; ++l) unsound[l] = !S_.intact[l] || S_.link_damage[l] > 0;
@@ -486,6 +498,13 @@ class DeviceBackend : public StateBackend {
     return {c(proj_), c(proj_constants_), static_cast<std::uint32_t>(M_.projectiles.size()), c(px_), c(py_), c(pz_),
             c(radius_)};
   }
+  // The fused kernel's results become the state (the order of next_d_ and next_f_: StateNext's).
+  void swap_next() {
+    Buf<double>* const d[9] = {&px_, &py_, &pz_, &vx_, &vy_, &vz_, &wx_, &wy_, &wz_};
+    Buf<float>* const f[5] = {&mean_stress_, &utx_, &uty_, &utz_, &damage_};
+    for (int k = 0; k < 9; ++k) std::swap(*d[k], next_d_[k]);
+    for (int k = 0; k < 5; ++k) std::swap(*f[k], next_f_[k]);
+  }
   LinkEnds link_ends() { return {M_.size(), M_.lattice_slots(), c(neighbour_), c(e_i_), c(e_j_)}; }
   BreakList break_list() { return {d(breaks_), status_field<std::uint32_t>(offsetof(StepStatus, breaks))}; }
   // The sound-link counts less the links lost (lost_); *largest becomes the largest of it and the moves
@@ -587,6 +606,11 @@ class DeviceBackend : public StateBackend {
   Buf<Sym3> stress_, ext_s_;
   Buf<Vec3> f_out_, t_out_, ext_f_, ext_t_, grip_force_;
   Buf<double> grip_work_;
+  // The fused lattice kernel's other copy of what it writes (StateNext): positions, velocities and spins;
+  // mean stress, shear displacements and damage; swapped with the state's after it (swap_next).
+  bool fused_ = false;
+  Buf<double> next_d_[9];
+  Buf<float> next_f_[5];
   // Scratch.
   Buf<float> nx_, ny_, nz_, many_body_, out_, ex_nx_, ex_ny_, ex_nz_, ex_eps_, ex_out_, ex_kappa_, explicit_weight_,
       bend_weight_;
@@ -669,10 +693,25 @@ std::int64_t DeviceBackend<Dev>::one_step() {
   projectile_pass();
   // The lattice: many-body terms, links (their breaks into the list), automata.
   Dev::launch(n, ManyBodyKernel{v, d(status_) + (status_at_ ^ 1)});
-  if (M_.lattice_slots()) Dev::launch(n, LinksKernel{v, break_list()});  // (3 n slots: 3 per automaton)
   const std::size_t np = M_.projectiles.size();
-  Dev::launch_reduce(n, AutomataKernel{v, touch(), np ? d(touch_count_) : nullptr, status_field<std::uint32_t>(offsetof(StepStatus, touches))},
-                     status_field<float>(offsetof(StepStatus, move2)), status_field<std::uint32_t>(offsetof(StepStatus, bad)));
+  std::uint32_t* const touch_count = np ? d(touch_count_) : nullptr;
+  std::uint32_t* const touches = status_field<std::uint32_t>(offsetof(StepStatus, touches));
+  float* const move2 = status_field<float>(offsetof(StepStatus, move2));
+  std::uint32_t* const bad = status_field<std::uint32_t>(offsetof(StepStatus, bad));
+  if (fused_) {
+    const cpu::StateNext next{d(next_d_[0]), d(next_d_[1]), d(next_d_[2]), d(next_d_[3]), d(next_d_[4]),
+                              d(next_d_[5]), d(next_d_[6]), d(next_d_[7]), d(next_d_[8]), d(next_f_[0]),
+                              d(next_f_[1]), d(next_f_[2]), d(next_f_[3]), softening_ ? d(next_f_[4]) : nullptr};
+    Touch t = touch();
+    t.px = next.px;
+    t.py = next.py;
+    t.pz = next.pz;
+    Dev::launch_reduce(n, FusedLatticeKernel{v, next, break_list(), t, touch_count, touches}, move2, bad);
+    swap_next();
+  } else {
+    if (M_.lattice_slots()) Dev::launch(n, LinksKernel{v, break_list()});  // (3 n slots: 3 per automaton)
+    Dev::launch_reduce(n, AutomataKernel{v, touch(), touch_count, touches}, move2, bad);
+  }
   if (!M_.grip_velocity.empty())
     Dev::launch(M_.grip_velocity.size(), GripKernel{c(grip_first_), c(grip_members_), d(ext_f_), d(grip_force_),
                                                     d(grip_work_), c(grip_velocity_), M_.dt});

@@ -261,6 +261,55 @@ struct AutomataKernel {
     return {r.max_move2, r.first_bad >= 0 ? static_cast<std::uint32_t>(a) : kNone};
   }
 };
+// The links and automata kernels in one (the backend's choice where it has no explicit links): automaton a
+// computes its three own links and, again with the same bits, the three it is the upper end of, from the
+// state before the step (v), gathers them in the automata kernel's order and moves, writing the state its
+// neighbours' threads still read (positions, velocities, spins, mean stress; its links' shear displacement
+// and damage) to next. No link results go through memory, and the many-body terms are the step's (the
+// kernel before). Its own links' breaks go to the list, as from the links kernel.
+struct FusedLatticeKernel {
+  // Three blocks of 256 threads on a multiprocessor (CudaDevice::launch_reduce): 80 registers, no spills
+  // (ptxas -v, sm_90), where unbounded it takes 120 and two blocks.
+  static constexpr int kMinBlocks = 3;
+  cpu::LatticeView v;
+  cpu::StateNext next;
+  BreakList breaks;
+  Touch touch;  // positions: next's
+  std::uint32_t* touch_count;
+  std::uint32_t* touches;
+  MCA_HD Reduced operator()(std::size_t a) const {
+    Lane::Gathered g = Lane::weight(v, a);
+    const std::size_t n = v.n;
+    for (int axis = 2; axis >= 0; --axis) {  // the links below: as their first end's thread computes them
+      const std::size_t off = static_cast<std::size_t>(axis) * n;
+      const std::uint32_t b = v.below[off + a];
+      if (b == Model::kNoLink || !v.intact[off + b]) continue;
+      const Lane::LinkTerms k = Lane::link_terms(v, axis, b, Lane::Far{static_cast<std::uint32_t>(a), 1.0f, false, 0}, true);
+      Lane::take(v, g, true, true, k.force, k.torque, k.trace, 0.5f * k.r0, [&] { return k.n; });
+    }
+    for (int axis = 0; axis < 3; ++axis) {  // its own
+      const std::size_t l = static_cast<std::size_t>(axis) * n + a;
+      if (!v.intact[l]) {
+        next.utx[l] = v.utx[l];
+        next.uty[l] = v.uty[l];
+        next.utz[l] = v.utz[l];
+        if (v.softening) next.damage[l] = v.damage[l];
+        continue;
+      }
+      const Lane::LinkTerms k = Lane::link_terms(v, axis, a, Lane::far_ends(v, axis, a), true);
+      next.utx[l] = k.ut.x;
+      next.uty[l] = k.ut.y;
+      next.utz[l] = k.ut.z;
+      if (v.softening) next.damage[l] = k.damage;
+      if (k.broke) breaks.add(static_cast<std::uint32_t>(l) | (k.by_displacement ? 0u : cpu::kBreakByStress));
+      Lane::take(v, g, true, false, k.force, k.torque, k.trace, 0.5f * k.r0, [&] { return k.n; });
+    }
+    cpu::AutomataResult r;
+    Lane::move(v, a, g, next, r);
+    if (touch.np) touch.count(a, touch_count, touches);
+    return {r.max_move2, r.first_bad >= 0 ? static_cast<std::uint32_t>(a) : kNone};
+  }
+};
 // Grip g sums the forces its automata put on it, in member order (the CPU's).
 struct GripKernel {
   const std::uint32_t *first, *members;
