@@ -157,10 +157,15 @@ timeout 120 "${loader[@]}" "$dir/mca" bench wall_357k wall_2m --backend cuda \
   --repeats 5 --steps 1000 >"$out/bench_cuda.txt" 2>&1
 note "bench cuda (exit $?):"
 grep -E 'wall_357k|wall_2m|machine' "$out/bench_cuda.txt" | tail -4 | tee -a "$summary"
+# The same with the links and automata kernels apart (MCA_CUDA_LATTICE=split), the fused kernel's A/B.
+MCA_CUDA_LATTICE=split timeout 90 "${loader[@]}" "$dir/mca" bench wall_357k wall_2m --backend cuda \
+  --repeats 3 --steps 1000 >"$out/bench_cuda_split.txt" 2>&1
+note "bench cuda, MCA_CUDA_LATTICE=split (exit $?):"
+grep -E 'wall_357k|wall_2m' "$out/bench_cuda_split.txt" | tail -2 | tee -a "$summary"
 MCA_PROFILE=1 timeout 60 "${loader[@]}" "$dir/mca" bench wall_357k --backend cuda \
   --repeats 1 --steps 200 >"$out/profile_cuda.txt" 2>&1
 note "profile cuda, wall_357k (exit $?; the whole table in profile_cuda.txt):"
-grep -A12 'profile over' "$out/profile_cuda.txt" | tee -a "$summary"
+grep -A14 'profile over' "$out/profile_cuda.txt" | tee -a "$summary"
 # The armadillo drawn as triangles, 100 steps per frame (floor 60 frames/s), and as cubes.
 timeout 90 "${loader[@]}" "$dir/mca" bench --render armadillo_surface \
   armadillo_cubes --backend cuda --steps 100 --frames 10 >"$out/bench_render.txt" 2>&1
@@ -171,12 +176,12 @@ tail -5 "$out/bench_render.txt" | tee -a "$summary"
 run "$dir/copy_bandwidth" >"$out/copy_bandwidth.txt" 2>&1
 note "$(cat "$out/copy_bandwidth.txt")"
 if command -v ncu >/dev/null; then
-  timeout 120 ncu --clock-control none --kernel-name-base demangled -k 'regex:ManyBodyKernel|LinksKernel|AutomataKernel' \
-    --launch-skip 30 --launch-count 3 --section SpeedOfLight --section MemoryWorkloadAnalysis --section Occupancy \
+  timeout 120 ncu --clock-control none --kernel-name-base demangled -k 'regex:ManyBodyKernel|FusedLatticeKernel' \
+    --launch-skip 20 --launch-count 2 --section SpeedOfLight --section MemoryWorkloadAnalysis --section Occupancy \
     "${loader[@]}" "$dir/mca" bench wall_357k --backend cuda --repeats 1 \
     --steps 40 >"$out/ncu.txt" 2>&1
   note "ncu, wall_357k's lattice kernels (exit $?; the whole report in ncu.txt):"
-  grep -E 'run_(reduce_)?kernel|Duration|DRAM Throughput|Memory Throughput|L2 Hit Rate|Achieved Occupancy|Mem Busy' \
+  grep -E 'run_(bounded_)?(reduce_)?kernel|Duration|DRAM Throughput|Memory Throughput|L2 Hit Rate|Achieved Occupancy|Mem Busy' \
     "$out/ncu.txt" | sed 's/^ *//' | tee -a "$summary"
 else
   note "ncu: not on this machine"
