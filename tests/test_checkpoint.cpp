@@ -382,6 +382,35 @@ TEST(Checkpoint, OlderFormatIsRefusedWithAClearMessage) {
   fs::remove(p);
 }
 
+// A run folder's checkpoint is its own whatever backend wrote it (a run resumed on another backend writes
+// that one into its checkpoints, and must resume again), and another scene's is refused.
+TEST(Checkpoint, AFoldersCheckpointIsItsOwnWhateverBackendWroteIt) {
+  const fs::path dir = temp_file("run_folder");
+  fs::create_directories(dir);
+  SceneDef scene = struck_wall();
+  scene.solver.backend = SolverDef::Backend::cpu;
+  {
+    std::ofstream out(dir / "scene.toml");
+    out << io::scene_to_toml(scene);
+  }
+  const fs::path file = dir / "checkpoints" / io::checkpoint_name(2);
+  io::Checkpoint cp;
+  cp.scene = scene;
+  for (const auto b : {SolverDef::Backend::cpu, SolverDef::Backend::cuda_emulation, SolverDef::Backend::cuda,
+                       SolverDef::Backend::automatic}) {
+    cp.scene.solver.backend = b;
+    EXPECT_NO_THROW(io::check_checkpoint_scene(cp, file, dir));
+  }
+  cp.scene.solver.seed += 1;
+  try {
+    io::check_checkpoint_scene(cp, file, dir);
+    ADD_FAILURE() << "another scene's checkpoint was taken";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("seed"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
 TEST(Checkpoint, NamesSortByFrameNumberPastAMillion) {
   EXPECT_EQ(io::checkpoint_name(7), "frame_000007.mcack");
   EXPECT_EQ(io::checkpoint_name(999999), "frame_999999.mcack");

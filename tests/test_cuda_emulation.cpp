@@ -342,6 +342,44 @@ TEST(CudaEmulation, AnUnknownLatticeKernelChoiceIsRefused) {
   }
 }
 
+// A step's breaks in one block where they are few (SmallBreaksKernel), through the sorts and scans where
+// they are more: a concrete slab dropped flat onto the ground at 60 m/s breaks hundreds of links in a step
+// and few in others, on the cubic lattice (the fused kernel) and the random one (explicit links).
+TEST(CudaEmulation, FewAndManyBreaksInAStepAreTheCpusBitForBit) {
+  for (const auto lattice : {SolverDef::Lattice::cubic, SolverDef::Lattice::random}) {
+    SceneDef s = test::block_scene(24, 24, 3, 0.02, *find_builtin_material("concrete"));
+    s.name = lattice == SolverDef::Lattice::cubic ? "dropped_slab" : "dropped_slab_random";
+    s.solver.lattice = lattice;
+    s.objects[0].position = {0, 0, 0.031};
+    s.objects[0].velocity = {0, 0, -60};
+    s.ground.enabled = true;
+    s.ground.height = 0;
+    s.solver.backend = SolverDef::Backend::cpu;
+    Engine cpu(s);
+    s.solver.backend = SolverDef::Backend::cuda_emulation;
+    Engine emu(s);
+    const auto* dev = dynamic_cast<const gpu::DeviceBackend<gpu::HostDevice>*>(&emu.backend());
+    ASSERT_NE(dev, nullptr);
+    std::int64_t most = 0, small_steps = 0, last = 0;
+    for (int k = 0; k < 300; ++k) {
+      ASSERT_EQ(cpu.advance(1).flags, kHealthy);
+      ASSERT_EQ(emu.advance(1).flags, kHealthy);
+      const State &a = cpu.state(), &b = emu.state();
+      const std::int64_t broken = a.broken_by[0] + a.broken_by[1], now = broken - last;
+      last = broken;
+      most = std::max(most, now);
+      if (now > 0 && now <= static_cast<std::int64_t>(gpu::kSmallBreaks)) ++small_steps;
+      const std::string d = first_difference(a, b);
+      ASSERT_TRUE(d.empty()) << s.name << ": differs after step " << a.step << ", first in " << d;
+    }
+    std::printf("%s: 300 steps equal bit for bit; %lld links broken, up to %lld in a step; %lld steps with %u or fewer, %zu with more\n",
+                s.name.c_str(), static_cast<long long>(last), static_cast<long long>(most),
+                static_cast<long long>(small_steps), gpu::kSmallBreaks, dev->large_break_steps());
+    EXPECT_GT(dev->large_break_steps(), 0u);
+    EXPECT_GT(small_steps, 0);
+  }
+}
+
 // Three small balls driven into an upper corner of a concrete block from above (kinematic), and from two
 // sides: the corner automaton touches all three at once, and adds their contacts in projectile order (an
 // order that two contributions alone would not show: x + y = y + x).

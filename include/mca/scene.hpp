@@ -179,11 +179,11 @@ struct SolverDef {
   // (at 1: E +1.5 %, nu -2.2 %, a pulled block 27 % weaker). 0 (the lattice of before them, its own
   // strength factor), or in [0.01, 1]; the cubic lattice has none.
   double link_bending = 0.1;
-  // Where the step runs: auto (the CPU, until the CUDA backend's device code has run on a GPU), cpu, cuda
-  // (an NVIDIA GPU; an error without one), or cuda-emulation (the CUDA backend's algorithm run on one CPU
-  // core, thread by thread: the same bits as both, for checking the GPU path without a GPU; slower).
-  // The CPU backend and the emulation give the same state bit for bit (tested), and a run saved on one
-  // resumes on the other; the CUDA backend is built to (its tests run on a GPU: scripts/gpu_check.sh).
+  // Where the step runs: auto (the GPU where there is one this build can use, else the CPU; MCA_BACKEND
+  // says otherwise), cpu, cuda (an NVIDIA GPU; an error without one), or cuda-emulation (the CUDA
+  // backend's algorithm run on one CPU core, thread by thread, for checking the GPU path without a GPU;
+  // slower). The three give the same state bit for bit (tested; on a GPU by scripts/gpu_check.sh), and a
+  // run saved on one resumes on another. Not part of the scene a checkpoint must match.
   enum class Backend { automatic, cpu, cuda, cuda_emulation } backend = Backend::automatic;
   double skin = 0.3;                     // contact search skin, share of d, in (0, 0.4]
   std::uint64_t seed = 1;

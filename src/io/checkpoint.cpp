@@ -301,9 +301,13 @@ void check_checkpoint_scene(const Checkpoint& cp, const std::filesystem::path& c
                             "cannot be told to be this run's (mca run writes scene.toml into every run folder); "
                             "restore scene.toml, or {}",
                             checkpoint.string(), own.string(), fix));
-  // Both as the writer gives them back: every key, in one order, numbers in their shortest form.
-  const std::string mine = scene_to_toml(load_scene_file(own));
-  const std::string theirs = scene_to_toml(cp.scene);
+  // Both as the writer gives them back: every key, in one order, numbers in their shortest form. Where the
+  // step runs is not the scene (every backend continues a checkpoint with the same bits; a run resumed on
+  // another backend writes that one into its checkpoints).
+  SceneDef own_scene = load_scene_file(own), cp_scene = cp.scene;
+  own_scene.solver.backend = cp_scene.solver.backend = SolverDef::Backend::automatic;
+  const std::string mine = scene_to_toml(own_scene);
+  const std::string theirs = scene_to_toml(cp_scene);
   if (mine == theirs) return;
   std::size_t a = 0, b = 0;
   std::string line_mine, line_theirs, section;

@@ -53,6 +53,14 @@ std::unique_ptr<Backend> start_backend(const Model& model, SolverDef::Backend ki
       by_environment = true;
     }
   }
+  // (A bad MCA_CUDA_LATTICE is an error here, not a GPU that cannot take the model.)
+  if (kind != SolverDef::Backend::cpu) {
+    try {
+      cuda_fused_lattice();
+    } catch (const Error& e) {
+      throw Error(fmt::format("{}: {}", source, e.what()));
+    }
+  }
   std::unique_ptr<Backend> b;
   switch (kind) {
     case SolverDef::Backend::cuda_emulation:

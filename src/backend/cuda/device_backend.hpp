@@ -128,7 +128,7 @@ class DeviceBackend : public StateBackend {
     for (auto* b : {&qw_, &qx_, &qy_, &qz_}) b->resize(n);
     ref_.resize(cpu::tiled_size(n, cpu::kRefRows));
     for (auto* b : {&utx_, &uty_, &utz_}) b->resize(L);
-    for (auto* b : {&nx_, &ny_, &nz_, &many_body_}) b->resize(3 * cpu::scratch_stride(n));
+    many_body_.resize(3 * cpu::scratch_stride(n));
     // The fused lattice kernel where there are no explicit links (their slots would need copying too), with
     // the second copy of what it writes that its neighbours read; else the links' results through memory.
     fused_ = ne == 0 && M_.lattice_slots() > 0 && cuda_fused_lattice();
@@ -136,8 +136,9 @@ class DeviceBackend : public StateBackend {
       for (auto& b : next_d_) b.resize(n);
       next_f_[0].resize(n);
       for (int k = 1; k < 4; ++k) next_f_[k].resize(L);
-    } else {
+    } else {  // the links' results and directions (for the averaged stress) through memory
       out_.resize(3 * cpu::tiled_size(n, cpu::kOutRows));
+      for (auto* b : {&nx_, &ny_, &nz_}) b->resize(3 * cpu::scratch_stride(n));
     }
     for (auto* b : {&ex_nx_, &ex_ny_, &ex_nz_, &ex_eps_, &ex_mx_, &ex_my_, &ex_mz_}) b->resize(ne);
     if (K_.shells_any) ex_kappa_.resize(ne);
@@ -173,6 +174,8 @@ class DeviceBackend : public StateBackend {
   std::string name() const override { return Dev::kName; }
   // Whether a step's links and automata are one kernel (FusedLatticeKernel) or two (cuda_fused_lattice).
   bool fused_lattice() const { return fused_; }
+  // How many steps had more breaks than SmallBreaksKernel takes (tests: both ways are the CPU's).
+  std::size_t large_break_steps() const { return large_break_steps_; }
   // How many times the contact lists were rebuilt (tests: what a step reads from the device).
   std::size_t contact_rebuilds() const { return rebuilds_; }
   Energies energies() const override { return const_cast<DeviceBackend*>(this)->device_energies(); }
@@ -571,7 +574,8 @@ class DeviceBackend : public StateBackend {
   float apply_breaks(std::uint32_t nb);
   void rebuild_contacts();
   void incidence();
-  void merge_incidence(std::size_t old, std::size_t fresh);
+  void merge_incidence(std::size_t old, std::size_t fresh, bool sorted);
+  float read_breaks_status();
   void sync();
 
   const Model& M_;
@@ -609,6 +613,7 @@ class DeviceBackend : public StateBackend {
   // The fused lattice kernel's other copy of what it writes (StateNext): positions, velocities and spins;
   // mean stress, shear displacements and damage; swapped with the state's after it (swap_next).
   bool fused_ = false;
+  std::size_t large_break_steps_ = 0;
   Buf<double> next_d_[9];
   Buf<float> next_f_[5];
   // Scratch.
@@ -654,6 +659,9 @@ class DeviceBackend : public StateBackend {
   Buf<std::uint32_t> inc_key_, inc_value_, inc_key_next_, inc_value_next_;
   // apply_breaks' merge: each old pair's new index, the fresh pairs' incidence entries.
   Buf<std::uint32_t> moved_, fresh_inc_key_, fresh_inc_value_;
+  // SmallBreaksKernel's unsorted keys, ends and incidence entries.
+  Buf<std::uint64_t> raw_key_;
+  Buf<std::uint32_t> raw_end_, raw_inc_key_, raw_inc_value_;
   // Projectiles.
   Buf<ProjectileConstants> proj_constants_;
   Buf<ContactMaterial> proj_material_;
@@ -858,12 +866,48 @@ float DeviceBackend<Dev>::apply_breaks(std::uint32_t nb) {
   fresh_key_.resize(nb);
   fresh_value_.resize(nb);
   const std::size_t e = 2 * std::size_t{nb};
+  const BreakKernel clear{c(breaks_), ends, d(intact_), softening_ ? d(unsound_) : nullptr, d(utx_), d(uty_),
+                          d(utz_), d(ex_mx_), d(ex_my_), d(ex_mz_), d(lost_)};
+  float* const move2_lost = status_field<float>(offsetof(StepStatus, move2_lost));
+  std::uint32_t* const joins = status_field<std::uint32_t>(offsetof(StepStatus, ground_joins));
+  if (nb <= kSmallBreaks) {
+    // Few breaks: one block, then the merges (two launches) instead of some eleven launches.
+    raw_key_.resize(nb);
+    for (auto* b : {&raw_end_, &ends_, &ends_value_, &ends_flag_, &raw_inc_key_, &raw_inc_value_, &fresh_inc_key_,
+                    &fresh_inc_value_})
+      b->resize(e);
+    ground_fresh_.resize(e);
+    ends_place_.resize(e + 1);
+    Dev::launch_block(SmallBreaksKernel{
+        BreaksKernel{d(break_log_) + logged_, clear, BrokenPairKeysKernel{c(breaks_), ends, d(raw_key_), d(fresh_value_)},
+                     BrokenEndsKernel{c(breaks_), ends, d(raw_end_), d(ends_value_)}},
+        nb, c(raw_key_), d(fresh_key_), c(raw_end_), d(ends_), c(contacts_), static_cast<std::uint32_t>(old_pairs),
+        d(raw_inc_key_), d(raw_inc_value_), d(fresh_inc_key_), d(fresh_inc_value_),
+        GroundJoinFlagKernel{ground_reach(), c(ends_), c(ground_), static_cast<std::uint32_t>(ground_count_),
+                             M_.ground ? d(ends_flag_) : nullptr, joins},
+        d(ends_place_), GroundJoinWriteKernel{c(ends_), c(ends_flag_), c(ends_place_), d(ground_fresh_)},
+        LoseLinksKernel{d(lost_), d(intact_count_), c(px_), c(py_), c(pz_), c(ref_)}, move2_lost});
+    logged_ += nb;
+    logged_steps_.push_back({S_.step, nb});
+    contacts_next_.resize(old_pairs + nb);
+    moved_.resize(old_pairs);
+    const std::size_t ground_threads = M_.ground ? ground_count_ + e : 0;
+    if (M_.ground) ground_next_.resize(ground_threads);
+    Dev::launch(old_pairs + nb + ground_threads,
+                MergeBreaksKernel{MergeFreshPairsKernel{c(contacts_), c(fresh_key_), static_cast<std::uint32_t>(old_pairs), nb,
+                                                        d(contacts_next_), d(moved_), nullptr, nullptr},
+                                  old_pairs + nb,
+                                  MergeBodiesKernel{c(ground_), c(ground_fresh_), static_cast<std::uint32_t>(ground_count_),
+                                                    c(ends_place_) + e, d(ground_next_)}});
+    std::swap(contacts_, contacts_next_);
+    contact_count_ += nb;
+    merge_incidence(2 * old_pairs, e, true);
+    return read_breaks_status();
+  }
+  ++large_break_steps_;
   if (M_.ground)
     for (auto* b : {&ends_, &ends_value_, &ends_flag_}) b->resize(e);
-  Dev::launch(nb, BreaksKernel{d(break_log_) + logged_,
-                               BreakKernel{c(breaks_), ends, d(intact_), softening_ ? d(unsound_) : nullptr, d(utx_), d(uty_),
-                                           d(utz_), d(ex_mx_), d(ex_my_), d(ex_mz_), d(lost_)},
-                               BrokenPairKeysKernel{c(breaks_), ends, d(fresh_key_), d(fresh_value_)},
+  Dev::launch(nb, BreaksKernel{d(break_log_) + logged_, clear, BrokenPairKeysKernel{c(breaks_), ends, d(fresh_key_), d(fresh_value_)},
                                BrokenEndsKernel{c(breaks_), ends, M_.ground ? d(ends_) : nullptr, M_.ground ? d(ends_value_) : nullptr}});
   logged_ += nb;
   logged_steps_.push_back({S_.step, nb});
@@ -883,15 +927,22 @@ float DeviceBackend<Dev>::apply_breaks(std::uint32_t nb) {
     ground_fresh_.resize(e);
     Dev::stable_sort_by_key(d(ends_), d(ends_value_), e, bits_for(n - 1));
     Dev::launch(e, GroundJoinFlagKernel{ground_reach(), c(ends_), c(ground_), static_cast<std::uint32_t>(ground_count_),
-                                        d(ends_flag_), status_field<std::uint32_t>(offsetof(StepStatus, ground_joins))});
+                                        d(ends_flag_), joins});
     Dev::exclusive_scan(c(ends_flag_), d(ends_place_), e);
     Dev::launch(e, GroundJoinWriteKernel{c(ends_), c(ends_flag_), c(ends_place_), d(ground_fresh_)});
     ground_next_.resize(ground_count_ + e);
     Dev::launch(ground_count_ + e, MergeBodiesKernel{c(ground_), c(ground_fresh_), static_cast<std::uint32_t>(ground_count_),
                                                      c(ends_place_) + e, d(ground_next_)});
   }
-  merge_incidence(2 * old_pairs, e);
-  lose_links(status_field<float>(offsetof(StepStatus, move2_lost)));
+  merge_incidence(2 * old_pairs, e, false);
+  lose_links(move2_lost);
+  return read_breaks_status();
+}
+
+// After the breaks: the ground list's new size and the largest move of an automaton that lost its last
+// link (the status's); the second read of a step with breaks.
+template <class Dev>
+float DeviceBackend<Dev>::read_breaks_status() {
   StepStatus st;
   Dev::download(&st, status_, 1, status_at_);
   if (M_.ground) {
@@ -970,10 +1021,10 @@ void DeviceBackend<Dev>::incidence() {
 // merged with the `fresh` ones (MergeFreshPairsKernel's), which are sorted here (a few per step, where
 // sorting the whole list again would take the step's longest sort).
 template <class Dev>
-void DeviceBackend<Dev>::merge_incidence(std::size_t old, std::size_t fresh) {
+void DeviceBackend<Dev>::merge_incidence(std::size_t old, std::size_t fresh, bool sorted) {
   const std::size_t e = old + fresh;
   if (fresh == 0) return;
-  Dev::stable_sort_by_key(d(fresh_inc_key_), d(fresh_inc_value_), fresh, bits_for(M_.size() - 1));
+  if (!sorted) Dev::stable_sort_by_key(d(fresh_inc_key_), d(fresh_inc_value_), fresh, bits_for(M_.size() - 1));
   for (auto* b : {&inc_key_next_, &inc_value_next_}) b->resize(e);
   Dev::launch(e, MergeIncidenceKernel{c(inc_key_), c(inc_value_), c(moved_), static_cast<std::uint32_t>(old), c(fresh_inc_key_),
                                       c(fresh_inc_value_), static_cast<std::uint32_t>(fresh), d(inc_key_next_),

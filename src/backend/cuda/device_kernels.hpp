@@ -46,6 +46,16 @@ MCA_HD std::uint32_t count_add(std::uint32_t* c, std::uint32_t v) {
 #endif
 }
 MCA_HD void count_up(std::uint32_t* c) { count_add(c, 1u); }
+// *to becomes the larger of it and v where v > 0 (not NaN), as a reducing launch takes its largest: the
+// bits of non-negative floats order as unsigned integers do, so the result does not depend on the order.
+MCA_HD void max_up(float* to, float v) {
+  if (!(v > 0.0f)) return;
+#if defined(__CUDA_ARCH__)
+  atomicMax(reinterpret_cast<unsigned*>(to), __float_as_uint(v));
+#else
+  if (v > *to) *to = v;
+#endif
+}
 
 // The links broken in a step: their codes (slot | kBreakByStress), appended by the link kernels in no
 // order (the host puts them in slot order); a slot breaks at most once a step, so `code` holds every slot.
@@ -510,6 +520,7 @@ struct MergeFreshPairsKernel {
       const std::uint32_t i = static_cast<std::uint32_t>(b[m] >> 32), j = static_cast<std::uint32_t>(b[m]);
       const std::uint32_t q = m + pairs_before(a, na, i, j, true);
       out[q] = {i, j, {}};
+      if (!inc_key) return;
       inc_key[2 * m] = i;
       inc_value[2 * m] = 2 * q;
       inc_key[2 * m + 1] = j;
@@ -588,6 +599,96 @@ struct GroundJoinWriteKernel {
   BodyContact* out;
   MCA_HD void operator()(std::size_t k) const {
     if (flag[k]) out[place[k]] = {automata[k], {}};
+  }
+};
+
+// The place of element k among keys[0 .. n - 1] in their stable sort: the keys less than its own, and the
+// equal ones before it (a block's sort of a few hundred elements, SmallBreaksKernel, without a sort's
+// launches; the same order as Dev::stable_sort_by_key).
+template <class T>
+MCA_HD std::uint32_t stable_rank(const T* keys, std::uint32_t n, std::uint32_t k) {
+  const T key = keys[k];
+  std::uint32_t r = 0;
+  for (std::uint32_t m = 0; m < n; ++m) r += keys[m] < key || (keys[m] == key && m < k) ? 1u : 0u;
+  return r;
+}
+
+// A step's breaks where they are few (at most kSmallBreaks), in one block, as phases: what BreaksKernel,
+// the sorts of the broken pairs' keys and of their ends, the fresh pairs' incidence entries
+// (MergeFreshPairsKernel's) and their sort, GroundJoinFlagKernel, the scan, GroundJoinWriteKernel and
+// LoseLinksKernel do in ten launches or more, each element's place in a sort or scan counted (stable_rank)
+// instead. The merges into the long lists follow (MergeBreaksKernel, MergeIncidenceKernel).
+inline constexpr std::uint32_t kSmallBreaks = 256;
+struct SmallBreaksKernel {
+  static constexpr int kPhases = 5;
+  BreaksKernel breaks;  // its pair keys and ends (always) into the raw arrays below, in break order
+  std::uint32_t nb;
+  const std::uint64_t* raw_key;
+  std::uint64_t* key;  // the broken pairs' keys, sorted
+  const std::uint32_t* raw_end;
+  std::uint32_t* end;  // their ends, sorted
+  const ContactPair* contacts;  // the contact list before the merge
+  std::uint32_t pairs;
+  std::uint32_t *raw_inc_key, *raw_inc_value, *inc_key, *inc_value;  // the fresh incidence entries, sorted
+  GroundJoinFlagKernel join;  // (join.flag null: no ground)
+  std::uint32_t* place;       // the flags' exclusive scan, 2 nb + 1 entries
+  GroundJoinWriteKernel write;
+  LoseLinksKernel lose;
+  float* move2_lost;
+  MCA_HD std::size_t size(int phase) const {
+    const std::size_t b = nb, e = 2 * b;
+    switch (phase) {
+      case 0: return b;
+      case 1: return b + e;
+      case 2: return e + b;
+      case 3: return e + 1 + e;
+      default: return join.flag ? e : 0;
+    }
+  }
+  MCA_HD void operator()(int phase, std::size_t i) const {
+    const std::uint32_t e = 2 * nb, k = static_cast<std::uint32_t>(i);
+    if (phase == 0) {
+      breaks(k);
+    } else if (phase == 1) {
+      if (k < nb) key[stable_rank(raw_key, nb, k)] = raw_key[k];
+      else end[stable_rank(raw_end, e, k - nb)] = raw_end[k - nb];
+    } else if (phase == 2) {
+      if (k < e) {
+        if (join.flag) join(k);
+        if (k == 0 || end[k - 1] != end[k]) max_up(move2_lost, lose(end[k]).max);  // once per automaton
+      } else {
+        const std::uint32_t m = k - e, a = static_cast<std::uint32_t>(key[m] >> 32), b = static_cast<std::uint32_t>(key[m]);
+        const std::uint32_t q = m + pairs_before(contacts, pairs, a, b, true);
+        raw_inc_key[2 * m] = a;
+        raw_inc_value[2 * m] = 2 * q;
+        raw_inc_key[2 * m + 1] = b;
+        raw_inc_value[2 * m + 1] = 2 * q + 1;
+      }
+    } else if (phase == 3) {
+      if (k <= e) {
+        if (!join.flag) return;
+        std::uint32_t c = 0;
+        for (std::uint32_t m = 0; m < k; ++m) c += join.flag[m];
+        place[k] = c;
+      } else {
+        const std::uint32_t y = k - e - 1, r = stable_rank(raw_inc_key, e, y);
+        inc_key[r] = raw_inc_key[y];
+        inc_value[r] = raw_inc_value[y];
+      }
+    } else {
+      write(k);
+    }
+  }
+};
+// The broken pairs merged into the contact list (threads [0, pairs)) and their ends near the ground into
+// the ground list (the rest), in one launch, after SmallBreaksKernel.
+struct MergeBreaksKernel {
+  MergeFreshPairsKernel pairs;  // (its incidence entries: SmallBreaksKernel's)
+  std::size_t pair_threads;
+  MergeBodiesKernel ground;
+  MCA_HD void operator()(std::size_t k) const {
+    if (k < pair_threads) pairs(k);
+    else ground(k - pair_threads);
   }
 };
 
