@@ -195,6 +195,7 @@ class DeviceBackend : public StateBackend {
     S_ = std::move(s);
     logged_ = 0;
     logged_steps_.clear();
+    broke_last_step_ = false;
     clock_.start(S_, M_.dt);
     const std::size_t n = M_.size(), L = M_.link_slots();
     upload3(S_.x, px_, py_, pz_);
@@ -508,6 +509,11 @@ class DeviceBackend : public StateBackend {
     for (int k = 0; k < 9; ++k) std::swap(*d[k], next_d_[k]);
     for (int k = 0; k < 5; ++k) std::swap(*f[k], next_f_[k]);
   }
+  // Clears the step's broken links (BreakKernel), their lost links counted at their ends.
+  BreakKernel clear_links() {
+    return {c(breaks_), link_ends(), d(intact_), softening_ ? d(unsound_) : nullptr, d(utx_), d(uty_), d(utz_),
+            d(ex_mx_), d(ex_my_), d(ex_mz_), d(lost_)};
+  }
   LinkEnds link_ends() { return {M_.size(), M_.lattice_slots(), c(neighbour_), c(e_i_), c(e_j_)}; }
   BreakList break_list() { return {d(breaks_), status_field<std::uint32_t>(offsetof(StepStatus, breaks))}; }
   // The sound-link counts less the links lost (lost_); *largest becomes the largest of it and the moves
@@ -571,11 +577,12 @@ class DeviceBackend : public StateBackend {
   void projectile_pass();
   void end_of_step(bool count_touches);
   void read_status();
-  float apply_breaks(std::uint32_t nb);
+  float apply_breaks(const StepStatus& st, bool launched);
   void rebuild_contacts();
   void incidence();
-  void merge_incidence(std::size_t old, std::size_t fresh, bool sorted);
-  float read_breaks_status();
+  void merge_incidence(std::size_t old, std::size_t fresh);
+  void launch_small_breaks();
+  float finish_small_breaks(const StepStatus& st);
   void sync();
 
   const Model& M_;
@@ -614,6 +621,7 @@ class DeviceBackend : public StateBackend {
   // mean stress, shear displacements and damage; swapped with the state's after it (swap_next).
   bool fused_ = false;
   std::size_t large_break_steps_ = 0;
+  bool broke_last_step_ = false;  // (one_step: launch_small_breaks before the status is read)
   Buf<double> next_d_[9];
   Buf<float> next_f_[5];
   // Scratch.
@@ -732,10 +740,15 @@ std::int64_t DeviceBackend<Dev>::one_step() {
     lose_links(status_field<float>(offsetof(StepStatus, move2_lost)));
   }
   end_of_step(false);
-  read_status();  // the one read of a step without breaks
+  // Breaks come in runs of steps: after a step with breaks, the next one's (if few) are applied before
+  // the status is read, so the step reads the device once.
+  const bool launched = broke_last_step_;
+  if (launched) launch_small_breaks();
+  read_status();  // the one read of a step without breaks, or with few after a step with breaks
   const StepStatus st = status_h_;
+  broke_last_step_ = st.breaks != 0;
   float max_move2 = std::max(st.move2, softening_ ? st.move2_lost : 0.0f);
-  if (st.breaks) max_move2 = std::max(max_move2, apply_breaks(st.breaks));
+  if (st.breaks) max_move2 = std::max(max_move2, apply_breaks(st, launched));
   ++S_.step;
   S_.time = clock_.time(S_.step, M_.dt);
   // Verlet-style list: rebuild once any automaton has moved half the skin since the last rebuild.
@@ -854,60 +867,32 @@ void DeviceBackend<Dev>::projectile_pass() {
   std::swap(proj_pairs_, proj_pairs_next_);
 }
 
-// The step's nb breaks (the break list, in no order), applied at its end (CpuBackend::apply_breaks), all on
-// the device: the links cleared, their pairs into the contact list, their ends near the ground into the
-// ground list, the codes kept for the records (in slot order when the state is read). Returns the largest
-// move since the rebuild of an automaton that was boxed in and lost a link; one more read of the device.
+// The step's breaks (st.breaks of them: the break list, in no order), applied at its end
+// (CpuBackend::apply_breaks), all on the device: the links cleared, their pairs into the contact list, their
+// ends near the ground into the ground list, the codes kept for the records (in slot order when the state is
+// read). Up to kSmallBreaks of them take launch_small_breaks' three launches, made before the status was
+// read where `launched` (no more reads), else now (one more read); more take some eleven launches and one
+// more read. Returns the largest move since the rebuild of an automaton that was boxed in and lost a link.
 template <class Dev>
-float DeviceBackend<Dev>::apply_breaks(std::uint32_t nb) {
+float DeviceBackend<Dev>::apply_breaks(const StepStatus& st, bool launched) {
+  const std::uint32_t nb = st.breaks;
+  if (nb <= kSmallBreaks) {
+    if (launched) return finish_small_breaks(st);
+    launch_small_breaks();
+    StepStatus after;
+    Dev::download(&after, status_, 1, status_at_);
+    return finish_small_breaks(after);
+  }
   const std::size_t n = M_.size(), old_pairs = contact_count_;
   const LinkEnds ends = link_ends();
   grow_keeping(break_log_, logged_, logged_ + nb);
   fresh_key_.resize(nb);
   fresh_value_.resize(nb);
   const std::size_t e = 2 * std::size_t{nb};
-  const BreakKernel clear{c(breaks_), ends, d(intact_), softening_ ? d(unsound_) : nullptr, d(utx_), d(uty_),
-                          d(utz_), d(ex_mx_), d(ex_my_), d(ex_mz_), d(lost_)};
-  float* const move2_lost = status_field<float>(offsetof(StepStatus, move2_lost));
-  std::uint32_t* const joins = status_field<std::uint32_t>(offsetof(StepStatus, ground_joins));
-  if (nb <= kSmallBreaks) {
-    // Few breaks: one block, then the merges (two launches) instead of some eleven launches.
-    raw_key_.resize(nb);
-    for (auto* b : {&raw_end_, &ends_, &ends_value_, &ends_flag_, &raw_inc_key_, &raw_inc_value_, &fresh_inc_key_,
-                    &fresh_inc_value_})
-      b->resize(e);
-    ground_fresh_.resize(e);
-    ends_place_.resize(e + 1);
-    Dev::launch_block(SmallBreaksKernel{
-        BreaksKernel{d(break_log_) + logged_, clear, BrokenPairKeysKernel{c(breaks_), ends, d(raw_key_), d(fresh_value_)},
-                     BrokenEndsKernel{c(breaks_), ends, d(raw_end_), d(ends_value_)}},
-        nb, c(raw_key_), d(fresh_key_), c(raw_end_), d(ends_), c(contacts_), static_cast<std::uint32_t>(old_pairs),
-        d(raw_inc_key_), d(raw_inc_value_), d(fresh_inc_key_), d(fresh_inc_value_),
-        GroundJoinFlagKernel{ground_reach(), c(ends_), c(ground_), static_cast<std::uint32_t>(ground_count_),
-                             M_.ground ? d(ends_flag_) : nullptr, joins},
-        d(ends_place_), GroundJoinWriteKernel{c(ends_), c(ends_flag_), c(ends_place_), d(ground_fresh_)},
-        LoseLinksKernel{d(lost_), d(intact_count_), c(px_), c(py_), c(pz_), c(ref_)}, move2_lost});
-    logged_ += nb;
-    logged_steps_.push_back({S_.step, nb});
-    contacts_next_.resize(old_pairs + nb);
-    moved_.resize(old_pairs);
-    const std::size_t ground_threads = M_.ground ? ground_count_ + e : 0;
-    if (M_.ground) ground_next_.resize(ground_threads);
-    Dev::launch(old_pairs + nb + ground_threads,
-                MergeBreaksKernel{MergeFreshPairsKernel{c(contacts_), c(fresh_key_), static_cast<std::uint32_t>(old_pairs), nb,
-                                                        d(contacts_next_), d(moved_), nullptr, nullptr},
-                                  old_pairs + nb,
-                                  MergeBodiesKernel{c(ground_), c(ground_fresh_), static_cast<std::uint32_t>(ground_count_),
-                                                    c(ends_place_) + e, d(ground_next_)}});
-    std::swap(contacts_, contacts_next_);
-    contact_count_ += nb;
-    merge_incidence(2 * old_pairs, e, true);
-    return read_breaks_status();
-  }
   ++large_break_steps_;
   if (M_.ground)
     for (auto* b : {&ends_, &ends_value_, &ends_flag_}) b->resize(e);
-  Dev::launch(nb, BreaksKernel{d(break_log_) + logged_, clear, BrokenPairKeysKernel{c(breaks_), ends, d(fresh_key_), d(fresh_value_)},
+  Dev::launch(nb, BreaksKernel{d(break_log_) + logged_, clear_links(), BrokenPairKeysKernel{c(breaks_), ends, d(fresh_key_), d(fresh_value_)},
                                BrokenEndsKernel{c(breaks_), ends, M_.ground ? d(ends_) : nullptr, M_.ground ? d(ends_value_) : nullptr}});
   logged_ += nb;
   logged_steps_.push_back({S_.step, nb});
@@ -927,24 +912,83 @@ float DeviceBackend<Dev>::apply_breaks(std::uint32_t nb) {
     ground_fresh_.resize(e);
     Dev::stable_sort_by_key(d(ends_), d(ends_value_), e, bits_for(n - 1));
     Dev::launch(e, GroundJoinFlagKernel{ground_reach(), c(ends_), c(ground_), static_cast<std::uint32_t>(ground_count_),
-                                        d(ends_flag_), joins});
+                                        d(ends_flag_), status_field<std::uint32_t>(offsetof(StepStatus, ground_joins))});
     Dev::exclusive_scan(c(ends_flag_), d(ends_place_), e);
     Dev::launch(e, GroundJoinWriteKernel{c(ends_), c(ends_flag_), c(ends_place_), d(ground_fresh_)});
     ground_next_.resize(ground_count_ + e);
     Dev::launch(ground_count_ + e, MergeBodiesKernel{c(ground_), c(ground_fresh_), static_cast<std::uint32_t>(ground_count_),
                                                      c(ends_place_) + e, d(ground_next_)});
   }
-  merge_incidence(2 * old_pairs, e, false);
-  lose_links(move2_lost);
-  return read_breaks_status();
+  merge_incidence(2 * old_pairs, e);
+  lose_links(status_field<float>(offsetof(StepStatus, move2_lost)));
+  StepStatus after;
+  Dev::download(&after, status_, 1, status_at_);
+  if (M_.ground) {
+    std::swap(ground_, ground_next_);
+    ground_count_ += after.ground_joins;
+  }
+  return after.move2_lost;
 }
 
-// After the breaks: the ground list's new size and the largest move of an automaton that lost its last
-// link (the status's); the second read of a step with breaks.
+// A step's breaks where there are at most kSmallBreaks: SmallBreaksKernel, then the merges into the contact
+// and ground lists (MergeBreaksKernel) and the incidence list (MergeSmallIncidenceKernel), sized for that
+// many and taking their number from the step's status on the device, so that they can be launched before the
+// host has read it (they do nothing where there are none or more); the lists stay the old ones until
+// finish_small_breaks.
 template <class Dev>
-float DeviceBackend<Dev>::read_breaks_status() {
-  StepStatus st;
-  Dev::download(&st, status_, 1, status_at_);
+void DeviceBackend<Dev>::launch_small_breaks() {
+  const std::size_t old_pairs = contact_count_, e = 2 * std::size_t{kSmallBreaks};
+  const LinkEnds ends = link_ends();
+  grow_keeping(break_log_, logged_, logged_ + kSmallBreaks);
+  for (auto* b : {&fresh_key_, &raw_key_}) b->resize(kSmallBreaks);
+  fresh_value_.resize(kSmallBreaks);
+  for (auto* b : {&raw_end_, &ends_, &ends_value_, &ends_flag_, &raw_inc_key_, &raw_inc_value_, &fresh_inc_key_,
+                  &fresh_inc_value_})
+    b->resize(e);
+  ground_fresh_.resize(e);
+  ends_place_.resize(e + 1);
+  const std::uint32_t* const count = status_field<std::uint32_t>(offsetof(StepStatus, breaks));
+  std::uint32_t* const joins = status_field<std::uint32_t>(offsetof(StepStatus, ground_joins));
+  Dev::launch_block(SmallBreaksKernel{
+      BreaksKernel{d(break_log_) + logged_, clear_links(), BrokenPairKeysKernel{c(breaks_), ends, d(raw_key_), d(fresh_value_)},
+                   BrokenEndsKernel{c(breaks_), ends, d(raw_end_), d(ends_value_)}},
+      count, c(raw_key_), d(fresh_key_), c(raw_end_), d(ends_), c(contacts_), static_cast<std::uint32_t>(old_pairs),
+      d(raw_inc_key_), d(raw_inc_value_), d(fresh_inc_key_), d(fresh_inc_value_),
+      GroundJoinFlagKernel{ground_reach(), c(ends_), c(ground_), static_cast<std::uint32_t>(ground_count_),
+                           M_.ground ? d(ends_flag_) : nullptr, joins},
+      d(ends_place_), GroundJoinWriteKernel{c(ends_), c(ends_flag_), c(ends_place_), d(ground_fresh_)},
+      LoseLinksKernel{d(lost_), d(intact_count_), c(px_), c(py_), c(pz_), c(ref_)},
+      status_field<float>(offsetof(StepStatus, move2_lost))});
+  contacts_next_.resize(old_pairs + kSmallBreaks);
+  moved_.resize(old_pairs);
+  const std::size_t ground_threads = M_.ground ? ground_count_ + e : 0;
+  if (M_.ground) ground_next_.resize(ground_threads);
+  Dev::launch(old_pairs + kSmallBreaks + ground_threads,
+              MergeBreaksKernel{count,
+                                MergeFreshPairsKernel{c(contacts_), c(fresh_key_), static_cast<std::uint32_t>(old_pairs), 0,
+                                                      d(contacts_next_), d(moved_), nullptr, nullptr},
+                                old_pairs + kSmallBreaks,
+                                MergeBodiesKernel{c(ground_), c(ground_fresh_), static_cast<std::uint32_t>(ground_count_),
+                                                  joins, d(ground_next_)}});
+  for (auto* b : {&inc_key_next_, &inc_value_next_}) b->resize(2 * old_pairs + e);
+  Dev::launch(2 * old_pairs + e,
+              MergeSmallIncidenceKernel{count, MergeIncidenceKernel{c(inc_key_), c(inc_value_), c(moved_),
+                                                                    static_cast<std::uint32_t>(2 * old_pairs),
+                                                                    c(fresh_inc_key_), c(fresh_inc_value_), 0,
+                                                                    d(inc_key_next_), d(inc_value_next_)}});
+}
+
+// After launch_small_breaks, with a status read after it (st.breaks of them, at most kSmallBreaks): the
+// merged lists become the lists, the breaks' records are kept. Returns the largest move since the rebuild
+// of an automaton that was boxed in and lost a link.
+template <class Dev>
+float DeviceBackend<Dev>::finish_small_breaks(const StepStatus& st) {
+  logged_ += st.breaks;
+  logged_steps_.push_back({S_.step, st.breaks});
+  std::swap(contacts_, contacts_next_);
+  contact_count_ += st.breaks;
+  std::swap(inc_key_, inc_key_next_);
+  std::swap(inc_value_, inc_value_next_);
   if (M_.ground) {
     std::swap(ground_, ground_next_);
     ground_count_ += st.ground_joins;
@@ -1021,10 +1065,10 @@ void DeviceBackend<Dev>::incidence() {
 // merged with the `fresh` ones (MergeFreshPairsKernel's), which are sorted here (a few per step, where
 // sorting the whole list again would take the step's longest sort).
 template <class Dev>
-void DeviceBackend<Dev>::merge_incidence(std::size_t old, std::size_t fresh, bool sorted) {
+void DeviceBackend<Dev>::merge_incidence(std::size_t old, std::size_t fresh) {
   const std::size_t e = old + fresh;
   if (fresh == 0) return;
-  if (!sorted) Dev::stable_sort_by_key(d(fresh_inc_key_), d(fresh_inc_value_), fresh, bits_for(M_.size() - 1));
+  Dev::stable_sort_by_key(d(fresh_inc_key_), d(fresh_inc_value_), fresh, bits_for(M_.size() - 1));
   for (auto* b : {&inc_key_next_, &inc_value_next_}) b->resize(e);
   Dev::launch(e, MergeIncidenceKernel{c(inc_key_), c(inc_value_), c(moved_), static_cast<std::uint32_t>(old), c(fresh_inc_key_),
                                       c(fresh_inc_value_), static_cast<std::uint32_t>(fresh), d(inc_key_next_),

@@ -617,12 +617,15 @@ MCA_HD std::uint32_t stable_rank(const T* keys, std::uint32_t n, std::uint32_t k
 // the sorts of the broken pairs' keys and of their ends, the fresh pairs' incidence entries
 // (MergeFreshPairsKernel's) and their sort, GroundJoinFlagKernel, the scan, GroundJoinWriteKernel and
 // LoseLinksKernel do in ten launches or more, each element's place in a sort or scan counted (stable_rank)
-// instead. The merges into the long lists follow (MergeBreaksKernel, MergeIncidenceKernel).
+// instead. The merges into the long lists follow (MergeBreaksKernel, MergeSmallIncidenceKernel). All three
+// read the number of breaks from the device (the step's status), so they can be launched before the host
+// has read it; they do nothing where there are none or more than kSmallBreaks.
 inline constexpr std::uint32_t kSmallBreaks = 256;
+MCA_HD std::uint32_t small_breaks(const std::uint32_t* breaks) { return *breaks <= kSmallBreaks ? *breaks : 0u; }
 struct SmallBreaksKernel {
   static constexpr int kPhases = 5;
   BreaksKernel breaks;  // its pair keys and ends (always) into the raw arrays below, in break order
-  std::uint32_t nb;
+  const std::uint32_t* count;  // the step's breaks (StepStatus::breaks)
   const std::uint64_t* raw_key;
   std::uint64_t* key;  // the broken pairs' keys, sorted
   const std::uint32_t* raw_end;
@@ -636,7 +639,8 @@ struct SmallBreaksKernel {
   LoseLinksKernel lose;
   float* move2_lost;
   MCA_HD std::size_t size(int phase) const {
-    const std::size_t b = nb, e = 2 * b;
+    const std::size_t b = small_breaks(count), e = 2 * b;
+    if (b == 0) return 0;
     switch (phase) {
       case 0: return b;
       case 1: return b + e;
@@ -646,7 +650,7 @@ struct SmallBreaksKernel {
     }
   }
   MCA_HD void operator()(int phase, std::size_t i) const {
-    const std::uint32_t e = 2 * nb, k = static_cast<std::uint32_t>(i);
+    const std::uint32_t nb = small_breaks(count), e = 2 * nb, k = static_cast<std::uint32_t>(i);
     if (phase == 0) {
       breaks(k);
     } else if (phase == 1) {
@@ -680,15 +684,33 @@ struct SmallBreaksKernel {
     }
   }
 };
-// The broken pairs merged into the contact list (threads [0, pairs)) and their ends near the ground into
-// the ground list (the rest), in one launch, after SmallBreaksKernel.
+// After SmallBreaksKernel, in one launch: the broken pairs merged into the contact list (threads [0,
+// pair_threads): the old list's, then at most kSmallBreaks fresh ones) and their ends near the ground into
+// the ground list (the rest; its fresh entries' number: the status's ground joins).
 struct MergeBreaksKernel {
-  MergeFreshPairsKernel pairs;  // (its incidence entries: SmallBreaksKernel's)
+  const std::uint32_t* count;   // the step's breaks
+  MergeFreshPairsKernel pairs;  // (nb: the count; its incidence entries: SmallBreaksKernel's)
   std::size_t pair_threads;
   MergeBodiesKernel ground;
   MCA_HD void operator()(std::size_t k) const {
-    if (k < pair_threads) pairs(k);
-    else ground(k - pair_threads);
+    MergeFreshPairsKernel p = pairs;
+    p.nb = small_breaks(count);
+    if (p.nb == 0) return;
+    if (k < pair_threads) {
+      if (k < p.na + p.nb) p(k);
+    } else {
+      ground(k - pair_threads);
+    }
+  }
+};
+// MergeIncidenceKernel after SmallBreaksKernel: its fresh entries, two per break, as many as the count says.
+struct MergeSmallIncidenceKernel {
+  const std::uint32_t* count;
+  MergeIncidenceKernel merge;
+  MCA_HD void operator()(std::size_t k) const {
+    MergeIncidenceKernel m = merge;
+    m.f = 2 * small_breaks(count);
+    if (m.f != 0 && k < m.e + m.f) m(k);
   }
 };
 
