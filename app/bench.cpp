@@ -270,9 +270,15 @@ int bench(const std::vector<std::string>& names, bool json, int threads_requeste
   for (auto& b : chosen) {
     if (backend) b.scene.solver.backend = backend_from_name(*backend, "--backend");
     Engine sim(b.scene);
-    if (!json && first)
-      fmt::print("machine: {} hardware threads, using {}; backend {}; median of {} runs of {} steps each\n",
-                 std::thread::hardware_concurrency(), threads, backend_text(sim.backend().name()), repeats, steps);
+    if (!json && first) {
+      // The threads are the CPU backend's; the emulation steps on one, the GPU on the device.
+      const std::string name = sim.backend().name();
+      const std::string used = name.rfind("cpu", 0) == 0              ? fmt::format("using {}", threads)
+                               : name.rfind("cuda-emulation", 0) == 0 ? std::string("the emulation uses one")
+                                                                       : std::string("the step runs on the GPU");
+      fmt::print("machine: {} hardware threads, {}; backend {}; median of {} runs of {} steps each\n",
+                 std::thread::hardware_concurrency(), used, backend_text(name), repeats, steps);
+    }
     first = false;
     sim.advance(b.warmup_steps);
     const State snapshot = sim.state();

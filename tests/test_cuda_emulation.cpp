@@ -342,42 +342,125 @@ TEST(CudaEmulation, AnUnknownLatticeKernelChoiceIsRefused) {
   }
 }
 
+// Runs `scene` on the CPU and on `second`, `chunks` calls of `chunk` steps, checking that the states are
+// equal after each; `each` sees the CPU's state after each call.
+template <class Each>
+void compare_in_chunks(SceneDef scene, SolverDef::Backend second, int chunks, int chunk, Each&& each,
+                       const std::function<void(const Engine&)>& after = {}) {
+  scene.solver.backend = SolverDef::Backend::cpu;
+  Engine cpu(scene);
+  scene.solver.backend = second;
+  Engine other(scene);
+  for (int k = 0; k < chunks; ++k) {
+    ASSERT_EQ(cpu.advance(chunk).flags, kHealthy);
+    ASSERT_EQ(other.advance(chunk).flags, kHealthy);
+    each(cpu.state());
+    const std::string d = first_difference(cpu.state(), other.state());
+    ASSERT_TRUE(d.empty()) << scene.name << " on " << other.backend().name() << ": differs after step "
+                           << cpu.state().step << ", first in " << d;
+  }
+  if (after) after(other);
+}
+
 // A step's breaks in one block where they are few (SmallBreaksKernel), through the sorts and scans where
 // they are more: a concrete slab dropped flat onto the ground at 60 m/s breaks hundreds of links in a step
-// and few in others, on the cubic lattice (the fused kernel) and the random one (explicit links).
-TEST(CudaEmulation, FewAndManyBreaksInAStepAreTheCpusBitForBit) {
+// and few in others, on the cubic lattice (the fused kernel) and the random one (explicit links). Returns
+// the steps with few breaks and the most in a step.
+SceneDef dropped_slab(SolverDef::Lattice lattice) {
+  SceneDef s = test::block_scene(24, 24, 3, 0.02, *find_builtin_material("concrete"));
+  s.name = lattice == SolverDef::Lattice::cubic ? "dropped_slab" : "dropped_slab_random";
+  s.solver.lattice = lattice;
+  s.objects[0].position = {0, 0, 0.031};
+  s.objects[0].velocity = {0, 0, -60};
+  s.ground.enabled = true;
+  s.ground.height = 0;
+  return s;
+}
+void few_and_many_breaks(SolverDef::Backend second) {
   for (const auto lattice : {SolverDef::Lattice::cubic, SolverDef::Lattice::random}) {
-    SceneDef s = test::block_scene(24, 24, 3, 0.02, *find_builtin_material("concrete"));
-    s.name = lattice == SolverDef::Lattice::cubic ? "dropped_slab" : "dropped_slab_random";
-    s.solver.lattice = lattice;
-    s.objects[0].position = {0, 0, 0.031};
-    s.objects[0].velocity = {0, 0, -60};
-    s.ground.enabled = true;
-    s.ground.height = 0;
-    s.solver.backend = SolverDef::Backend::cpu;
-    Engine cpu(s);
-    s.solver.backend = SolverDef::Backend::cuda_emulation;
-    Engine emu(s);
-    const auto* dev = dynamic_cast<const gpu::DeviceBackend<gpu::HostDevice>*>(&emu.backend());
-    ASSERT_NE(dev, nullptr);
+    const SceneDef s = dropped_slab(lattice);
     std::int64_t most = 0, small_steps = 0, last = 0;
-    for (int k = 0; k < 300; ++k) {
-      ASSERT_EQ(cpu.advance(1).flags, kHealthy);
-      ASSERT_EQ(emu.advance(1).flags, kHealthy);
-      const State &a = cpu.state(), &b = emu.state();
-      const std::int64_t broken = a.broken_by[0] + a.broken_by[1], now = broken - last;
-      last = broken;
-      most = std::max(most, now);
-      if (now > 0 && now <= static_cast<std::int64_t>(gpu::kSmallBreaks)) ++small_steps;
-      const std::string d = first_difference(a, b);
-      ASSERT_TRUE(d.empty()) << s.name << ": differs after step " << a.step << ", first in " << d;
-    }
-    std::printf("%s: 300 steps equal bit for bit; %lld links broken, up to %lld in a step; %lld steps with %u or fewer, %zu with more\n",
+    std::size_t large = 0;
+    compare_in_chunks(
+        s, second, 300, 1,
+        [&](const State& a) {
+          const std::int64_t broken = a.broken_by[0] + a.broken_by[1], now = broken - last;
+          last = broken;
+          most = std::max(most, now);
+          if (now > 0 && now <= static_cast<std::int64_t>(gpu::kSmallBreaks)) ++small_steps;
+        },
+        [&](const Engine& e) {
+          if (const auto* dev = dynamic_cast<const gpu::DeviceBackend<gpu::HostDevice>*>(&e.backend()))
+            large = dev->large_break_steps();
+        });
+    std::printf("%s: 300 steps equal bit for bit; %lld links broken, up to %lld in a step, %lld steps with %u or fewer\n",
                 s.name.c_str(), static_cast<long long>(last), static_cast<long long>(most),
-                static_cast<long long>(small_steps), gpu::kSmallBreaks, dev->large_break_steps());
-    EXPECT_GT(dev->large_break_steps(), 0u);
+                static_cast<long long>(small_steps), gpu::kSmallBreaks);
+    EXPECT_GT(most, static_cast<std::int64_t>(gpu::kSmallBreaks));
     EXPECT_GT(small_steps, 0);
+    if (second == SolverDef::Backend::cuda_emulation) {
+      EXPECT_GT(large, 0u);
+    }
   }
+}
+TEST(CudaEmulation, FewAndManyBreaksInAStepAreTheCpusBitForBit) {
+  few_and_many_breaks(SolverDef::Backend::cuda_emulation);
+}
+
+// The projectiles' candidates from the lattice kernel's list (sorted by automaton), and written again from
+// the counts where they are more than it had room for: 49 balls driven into a slab. Returns the most
+// projectile contacts at once.
+std::size_t hail(SolverDef::Backend second, const std::function<void(const Engine&)>& after = {}) {
+  SceneDef s = test::block_scene(40, 40, 3, 0.025, *find_builtin_material("concrete"));
+  s.name = "hail";
+  s.objects[0].position = {0, 0, 0};
+  for (int i = 0; i < 7; ++i)
+    for (int j = 0; j < 7; ++j) {
+      ProjectileDef p;
+      p.name = fmt::format("ball{}_{}", i, j);
+      p.radius = 0.06;
+      p.position = {-0.42 + 0.14 * i, -0.42 + 0.14 * j, 0.0375 + 0.06 + 0.001};
+      p.velocity = {0, 0, -15};
+      s.projectiles.push_back(p);
+    }
+  std::size_t most = 0;
+  compare_in_chunks(
+      s, second, 60, 10,
+      [&](const State& a) {
+        std::size_t touching = 0;
+        for (const auto& p : a.projectiles) touching += p.contacts.size();
+        most = std::max(most, touching);
+      },
+      after);
+  return most;
+}
+// In the emulation the list has room for 8 at first (then twice the most seen), and every launch runs
+// backwards (run forwards, the automata would list their entries in order, and the sort would have
+// nothing to do).
+TEST(CudaEmulation, ProjectileCandidatesListedOrCountedAreTheCpusBitForBit) {
+  struct SmallRoomBackwards {
+    SmallRoomBackwards() {
+      gpu::DeviceBackend<gpu::HostDevice>::first_touch_room = 8;
+      gpu::HostDevice::reverse = true;
+    }
+    ~SmallRoomBackwards() {
+      gpu::DeviceBackend<gpu::HostDevice>::first_touch_room = 1024;
+      gpu::HostDevice::reverse = false;
+    }
+  } setting;
+  std::size_t sorted = 0, rewritten = 0;
+  const std::size_t most = hail(SolverDef::Backend::cuda_emulation, [&](const Engine& e) {
+    const auto* dev = dynamic_cast<const gpu::DeviceBackend<gpu::HostDevice>*>(&e.backend());
+    ASSERT_NE(dev, nullptr);
+    sorted = dev->candidates_sorted();
+    rewritten = dev->candidates_rewritten();
+  });
+  std::printf("hail: 600 steps equal bit for bit; up to %zu projectile contacts; candidates listed in %zu steps, "
+              "written again in %zu\n",
+              most, sorted, rewritten);
+  EXPECT_GT(most, 8u);
+  EXPECT_GT(sorted, 100u);
+  EXPECT_GT(rewritten, 1u);
 }
 
 // Three small balls driven into an upper corner of a concrete block from above (kinematic), and from two
@@ -421,12 +504,10 @@ TEST(CudaEmulation, LaunchesRunBackwardsGiveTheSameBits) {
   std::printf("three balls: up to %zu automata touching two balls or more at once\n", d.shared);
 }
 
-// On a GPU each copy back to the host waits for the device to finish: a step reads the device once (its
-// status), a step with breaks twice (the status, then what the breaks changed), and only a step that
-// rebuilds the contact lists reads more (the new lists' sizes).
-// A step reads the device once: without breaks, and with few (up to kSmallBreaks) after a step with
-// breaks (they are applied before the status is read); twice with breaks after a step without, or with
-// many; more only to rebuild the contact lists.
+// On a GPU each copy back to the host waits for the device to finish. A step reads the device once (its
+// status): without breaks, and with few (up to kSmallBreaks) after a step with breaks (they are applied
+// before the status is read); twice with breaks after a step without, or with many (the status, then what
+// the breaks changed); more only to rebuild the contact lists (the new lists' sizes).
 TEST(CudaEmulation, AStepReadsTheDeviceOnceTwiceWithBreaksMoreOnlyToRebuildContacts) {
   for (SceneDef scene : {io::load_default_scene(), three_balls()}) {
     scene.solver.backend = SolverDef::Backend::cuda_emulation;
@@ -748,6 +829,14 @@ TEST(CudaDevice, TheFusedAndSplitLatticeKernelsAreTheCpusBitForBit) {
     }
   }
   resumes_across(soft_jittered_cubic_wall(), kCuda, SolverDef::Backend::cpu, 900, 600);
+}
+TEST(CudaDevice, FewAndManyBreaksInAStepAreTheCpusBitForBit) {
+  MCA_NEEDS_GPU();
+  few_and_many_breaks(kCuda);
+}
+TEST(CudaDevice, ProjectileCandidatesListedByTheLatticeKernelAreTheCpusBitForBit) {
+  MCA_NEEDS_GPU();
+  EXPECT_GT(hail(kCuda), 8u);
 }
 TEST(CudaDevice, FourWallsAreTheCpusBitForBit) {
   MCA_NEEDS_GPU();

@@ -6,9 +6,10 @@
 //
 // The host keeps only scalars during a run (the list sizes, the step, the breaks' records). It reads the
 // device once a step: the step's status (StepStatus: the largest move since the contact rebuild, the
-// first value not finite, the number of breaks, the sizes of the projectiles' next lists). Only a step
-// with breaks reads more (their slots, to record them and to add their pairs to the contact lists), and
-// a step that rebuilds the contact lists (their sizes). The whole state comes back only when asked for
+// first value not finite, the number of breaks, the sizes of the projectiles' next lists). Breaks are
+// applied on the device; a step with breaks reads once more (the ground list's growth, the largest move of
+// the automata that lost links) unless they are few and follow a step with breaks (apply_breaks), and a
+// step that rebuilds the contact lists reads their sizes. The whole state comes back only when asked for
 // (state(), download()).
 #include <algorithm>
 #include <cstddef>
@@ -121,6 +122,7 @@ class DeviceBackend : public StateBackend {
     proj_start_.resize(np + 1);
     proj_start_next_.resize(np + 1);
     touch_count_.resize(n);
+    if (np) for (auto* b : {&touch_a_, &touch_p_}) b->resize(first_touch_room);
     touch_offset_.resize(n + 1);
     status_.resize(2);
     // State and scratch.
@@ -174,6 +176,13 @@ class DeviceBackend : public StateBackend {
   std::string name() const override { return Dev::kName; }
   // Whether a step's links and automata are one kernel (FusedLatticeKernel) or two (cuda_fused_lattice).
   bool fused_lattice() const { return fused_; }
+  // The room in the lattice kernel's list of the projectiles' next candidates at first (then twice the most
+  // seen); the tests make it small.
+  static inline std::size_t first_touch_room = 1024;
+  // How many steps took the projectiles' candidates from the lattice kernel's list, and how many wrote them
+  // again from the counts (after an upload, or more than the list had room for) (tests: both ways).
+  std::size_t candidates_sorted() const { return candidates_sorted_; }
+  std::size_t candidates_rewritten() const { return candidates_rewritten_; }
   // How many steps had more breaks than SmallBreaksKernel takes (tests: both ways are the CPU's).
   std::size_t large_break_steps() const { return large_break_steps_; }
   // How many times the contact lists were rebuilt (tests: what a step reads from the device).
@@ -514,6 +523,7 @@ class DeviceBackend : public StateBackend {
     return {c(breaks_), link_ends(), d(intact_), softening_ ? d(unsound_) : nullptr, d(utx_), d(uty_), d(utz_),
             d(ex_mx_), d(ex_my_), d(ex_mz_), d(lost_)};
   }
+  TouchList touch_list() { return {d(touch_a_), d(touch_p_), static_cast<std::uint32_t>(touch_a_.size())}; }
   LinkEnds link_ends() { return {M_.size(), M_.lattice_slots(), c(neighbour_), c(e_i_), c(e_j_)}; }
   BreakList break_list() { return {d(breaks_), status_field<std::uint32_t>(offsetof(StepStatus, breaks))}; }
   // The sound-link counts less the links lost (lost_); *largest becomes the largest of it and the moves
@@ -682,6 +692,11 @@ class DeviceBackend : public StateBackend {
   // The candidates: touching counts per automaton and their scan, the (automaton, projectile) entries, the
   // projectile order (keys, order, where), each one's contact and whether it is kept, and each projectile's
   // first candidate.
+  // The lattice kernel's list of the next candidates (touch_a_, touch_p_; TouchList) and how many entries it
+  // had room for (0: the touches were counted without it).
+  std::size_t candidates_sorted_ = 0, candidates_rewritten_ = 0;
+  Buf<std::uint32_t> touch_a_, touch_p_;
+  std::size_t appended_ = 0;
   Buf<std::uint32_t> touch_count_, touch_offset_, cand_a_, cand_p_, cand_key_, cand_order_, cand_where_, cand_keep_,
       cand_place_, segment_;
   Buf<BodyContact> cand_next_;
@@ -722,12 +737,13 @@ std::int64_t DeviceBackend<Dev>::one_step() {
     t.px = next.px;
     t.py = next.py;
     t.pz = next.pz;
-    Dev::launch_reduce(n, FusedLatticeKernel{v, next, break_list(), t, touch_count, touches}, move2, bad);
+    Dev::launch_reduce(n, FusedLatticeKernel{v, next, break_list(), t, touch_count, touches, touch_list()}, move2, bad);
     swap_next();
   } else {
     if (M_.lattice_slots()) Dev::launch(n, LinksKernel{v, break_list()});  // (3 n slots: 3 per automaton)
-    Dev::launch_reduce(n, AutomataKernel{v, touch(), touch_count, touches}, move2, bad);
+    Dev::launch_reduce(n, AutomataKernel{v, touch(), touch_count, touches, touch_list()}, move2, bad);
   }
+  appended_ = np ? touch_a_.size() : 0;
   if (!M_.grip_velocity.empty())
     Dev::launch(M_.grip_velocity.size(), GripKernel{c(grip_first_), c(grip_members_), d(ext_f_), d(grip_force_),
                                                     d(grip_work_), c(grip_velocity_), M_.dt});
@@ -766,8 +782,10 @@ template <class Dev>
 void DeviceBackend<Dev>::end_of_step(bool count_touches) {
   const std::size_t np = M_.projectiles.size();
   if (np == 0) return;
-  if (count_touches)
+  if (count_touches) {
     Dev::launch(M_.size(), TouchCountKernel{touch(), d(touch_count_), status_field<std::uint32_t>(offsetof(StepStatus, touches))});
+    appended_ = 0;  // counted, not listed
+  }
   if (np > 1)
     Dev::launch(np, ProjectilePairCountKernel{c(proj_), projectile_pairs(), d(pair_touch_count_),
                                               status_field<std::uint32_t>(offsetof(StepStatus, touching_pairs))});
@@ -811,14 +829,33 @@ void DeviceBackend<Dev>::projectile_pass() {
   const std::size_t np = M_.projectiles.size(), n = M_.size();
   if (np == 0) return;
   const std::uint32_t T = status_h_.touches;
-  for (auto* b : {&cand_a_, &cand_p_, &cand_keep_}) b->resize(T);
+  // The lattice kernel's list of the candidates, where it had room for them all (sorted below), else
+  // written again from the counts; then room for twice as many in the next one.
+  const bool listed = T <= appended_;
+  if (listed) {
+    std::swap(cand_a_, touch_a_);
+    std::swap(cand_p_, touch_p_);
+  } else {
+    for (auto* b : {&cand_a_, &cand_p_}) b->resize(T);
+  }
+  if (touch_a_.size() < 2 * std::size_t{T})
+    for (auto* b : {&touch_a_, &touch_p_}) b->resize(2 * std::size_t{T});
+  cand_keep_.resize(T);
   cand_place_.resize(T + 1);
   cand_next_.resize(T);
   cand_out_.resize(T);
   Candidates cand{c(cand_a_), c(cand_p_), nullptr, nullptr, T};
   if (T) {
-    Dev::exclusive_scan(c(touch_count_), d(touch_offset_), n);
-    Dev::launch(n, TouchWriteKernel{touch(), c(touch_offset_), d(cand_a_), d(cand_p_)});
+    if (listed) {
+      // Each automaton's entries in projectile order, the automata in no order: a stable sort by automaton
+      // gives the (automaton, projectile) order.
+      Dev::stable_sort_by_key(d(cand_a_), d(cand_p_), T, bits_for(n - 1));
+      ++candidates_sorted_;
+    } else {
+      ++candidates_rewritten_;
+      Dev::exclusive_scan(c(touch_count_), d(touch_offset_), n);
+      Dev::launch(n, TouchWriteKernel{touch(), c(touch_offset_), d(cand_a_), d(cand_p_)});
+    }
     if (np > 1) {
       for (auto* b : {&cand_key_, &cand_order_, &cand_where_}) b->resize(T);
       Dev::launch(T, OrderKeysKernel{c(cand_p_), d(cand_key_), d(cand_order_)});

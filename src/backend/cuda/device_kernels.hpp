@@ -209,6 +209,13 @@ struct ProjectileConstants {
 // The projectiles' candidates: the automata each sphere touches, |d|^2 < (R + r_a)^2 in float (the CPU's
 // test). They are found at the end of a step (positions do not change until the next step's projectile
 // pass), counted per automaton, and written in (automaton, projectile) order at the next step's start.
+// The (automaton, projectile) entries of the projectiles' next candidates, as the lattice kernels append
+// them (Touch::count), up to `capacity`.
+struct TouchList {
+  std::uint32_t* automaton = nullptr;
+  std::uint32_t* projectile = nullptr;
+  std::uint32_t capacity = 0;
+};
 struct Touch {
   const DeviceProjectile* proj;
   const ProjectileConstants* P;
@@ -220,12 +227,24 @@ struct Touch {
     const float reach = P[p].radius + r[a];
     return dot(d, d) < reach * reach;
   }
-  // count[a]: the projectiles touching automaton a; their number adds to *total.
-  MCA_HD void count(std::size_t a, std::uint32_t* counts, std::uint32_t* total) const {
+  // Automaton a's entries (a, p), for the projectiles p it touches in order, from entry k on.
+  MCA_HD void write(std::size_t a, std::uint32_t k, std::uint32_t* automaton, std::uint32_t* projectile) const {
+    for (std::uint32_t p = 0; p < np; ++p)
+      if ((*this)(p, a)) {
+        automaton[k] = static_cast<std::uint32_t>(a);
+        projectile[k++] = p;
+      }
+  }
+  // count[a]: the projectiles touching automaton a; their number adds to *total. Where a list is given,
+  // its entries go there too, after those of the automata that counted before it (in no order of automata;
+  // the list is whole where the total is at most its capacity).
+  MCA_HD void count(std::size_t a, std::uint32_t* counts, std::uint32_t* total, const TouchList& list = {}) const {
     std::uint32_t c = 0;
     for (std::uint32_t p = 0; p < np; ++p) c += (*this)(p, a) ? 1u : 0u;
     counts[a] = c;
-    if (c) count_add(total, c);
+    if (c == 0) return;
+    const std::uint32_t k = count_add(total, c);
+    if (list.automaton && k + c <= list.capacity) write(a, k, list.automaton, list.projectile);
   }
 };
 
@@ -258,16 +277,17 @@ struct LinksKernel {
 // Automaton a's motion; it gives its squared move since the rebuild where exposed (else 0) to the largest,
 // and itself where a value is not finite to the smallest. With projectiles (touch.np > 0), it also counts
 // those its new position touches, for the next step's candidates (TouchCountKernel's work, done here while
-// the position is at hand).
+// the position is at hand), and appends its entries to the list (TouchWriteKernel's, where it has room).
 struct AutomataKernel {
   cpu::LatticeView v;
   Touch touch;
   std::uint32_t* touch_count;
   std::uint32_t* touches;
+  TouchList list;
   MCA_HD Reduced operator()(std::size_t a) const {
     cpu::AutomataResult r;
     Lane::automata(v, a, r);
-    if (touch.np) touch.count(a, touch_count, touches);
+    if (touch.np) touch.count(a, touch_count, touches, list);
     return {r.max_move2, r.first_bad >= 0 ? static_cast<std::uint32_t>(a) : kNone};
   }
 };
@@ -287,6 +307,7 @@ struct FusedLatticeKernel {
   Touch touch;  // positions: next's
   std::uint32_t* touch_count;
   std::uint32_t* touches;
+  TouchList list;
   MCA_HD Reduced operator()(std::size_t a) const {
     Lane::Gathered g = Lane::weight(v, a);
     const std::size_t n = v.n;
@@ -316,7 +337,7 @@ struct FusedLatticeKernel {
     }
     cpu::AutomataResult r;
     Lane::move(v, a, g, next, r);
-    if (touch.np) touch.count(a, touch_count, touches);
+    if (touch.np) touch.count(a, touch_count, touches, list);
     return {r.max_move2, r.first_bad >= 0 ? static_cast<std::uint32_t>(a) : kNone};
   }
 };
@@ -982,13 +1003,7 @@ struct TouchWriteKernel {
   const std::uint32_t* offset;  // n + 1 entries
   std::uint32_t *automaton, *projectile;
   MCA_HD void operator()(std::size_t a) const {
-    std::uint32_t k = offset[a];
-    if (offset[a + 1] == k) return;
-    for (std::uint32_t p = 0; p < touch.np; ++p)
-      if (touch(p, a)) {
-        automaton[k] = static_cast<std::uint32_t>(a);
-        projectile[k++] = p;
-      }
+    if (offset[a + 1] != offset[a]) touch.write(a, offset[a], automaton, projectile);
   }
 };
 // The candidates in (projectile, automaton) order, the CPU's: entry j is candidate order[j] (order null:
