@@ -630,8 +630,6 @@ class DeviceBackend : public StateBackend {
   // The fused lattice kernel's other copy of what it writes (StateNext): positions, velocities and spins;
   // mean stress, shear displacements and damage; swapped with the state's after it (swap_next).
   bool fused_ = false;
-  std::size_t large_break_steps_ = 0;
-  bool broke_last_step_ = false;  // (one_step: launch_small_breaks before the status is read)
   Buf<double> next_d_[9];
   Buf<float> next_f_[5];
   // Scratch.
@@ -677,9 +675,12 @@ class DeviceBackend : public StateBackend {
   Buf<std::uint32_t> inc_key_, inc_value_, inc_key_next_, inc_value_next_;
   // apply_breaks' merge: each old pair's new index, the fresh pairs' incidence entries.
   Buf<std::uint32_t> moved_, fresh_inc_key_, fresh_inc_value_;
-  // SmallBreaksKernel's unsorted keys, ends and incidence entries.
+  // SmallBreaksKernel's unsorted keys, ends and incidence entries; whether the last step broke links
+  // (one_step then launches it before the status is read); the steps with more breaks than it takes.
   Buf<std::uint64_t> raw_key_;
   Buf<std::uint32_t> raw_end_, raw_inc_key_, raw_inc_value_;
+  bool broke_last_step_ = false;
+  std::size_t large_break_steps_ = 0;
   // Projectiles.
   Buf<ProjectileConstants> proj_constants_;
   Buf<ContactMaterial> proj_material_;
@@ -689,14 +690,14 @@ class DeviceBackend : public StateBackend {
   // The projectiles' contact lists, one after another (projectile p's from proj_start_[p]).
   Buf<BodyContact> proj_lists_, proj_lists_next_;
   Buf<std::uint32_t> proj_start_, proj_start_next_;
+  // The lattice kernel's list of the next candidates (touch_a_, touch_p_; TouchList) and how many entries it
+  // had room for (0: the touches were counted without it); the steps that sorted it or wrote it again.
+  Buf<std::uint32_t> touch_a_, touch_p_;
+  std::size_t appended_ = 0;
+  std::size_t candidates_sorted_ = 0, candidates_rewritten_ = 0;
   // The candidates: touching counts per automaton and their scan, the (automaton, projectile) entries, the
   // projectile order (keys, order, where), each one's contact and whether it is kept, and each projectile's
   // first candidate.
-  // The lattice kernel's list of the next candidates (touch_a_, touch_p_; TouchList) and how many entries it
-  // had room for (0: the touches were counted without it).
-  std::size_t candidates_sorted_ = 0, candidates_rewritten_ = 0;
-  Buf<std::uint32_t> touch_a_, touch_p_;
-  std::size_t appended_ = 0;
   Buf<std::uint32_t> touch_count_, touch_offset_, cand_a_, cand_p_, cand_key_, cand_order_, cand_where_, cand_keep_,
       cand_place_, segment_;
   Buf<BodyContact> cand_next_;
