@@ -434,7 +434,7 @@ std::size_t hail(SolverDef::Backend second, const std::function<void(const Engin
       after);
   return most;
 }
-// In the emulation the list has room for 8 at first (then twice the most seen), and every launch runs
+// In the emulation the list has room for 8 at first (then at least twice the last step's), and every launch runs
 // backwards (run forwards, the automata would list their entries in order, and the sort would have
 // nothing to do).
 TEST(CudaEmulation, ProjectileCandidatesListedOrCountedAreTheCpusBitForBit) {
@@ -460,7 +460,7 @@ TEST(CudaEmulation, ProjectileCandidatesListedOrCountedAreTheCpusBitForBit) {
               most, sorted, rewritten);
   EXPECT_GT(most, 8u);
   EXPECT_GT(sorted, 100u);
-  EXPECT_GT(rewritten, 1u);
+  EXPECT_GT(rewritten, 0u);  // (more than the room of 8: the first step after the upload touches nothing)
 }
 
 // Three small balls driven into an upper corner of a concrete block from above (kinematic), and from two

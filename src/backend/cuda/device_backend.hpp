@@ -176,8 +176,8 @@ class DeviceBackend : public StateBackend {
   std::string name() const override { return Dev::kName; }
   // Whether a step's links and automata are one kernel (FusedLatticeKernel) or two (cuda_fused_lattice).
   bool fused_lattice() const { return fused_; }
-  // The room in the lattice kernel's list of the projectiles' next candidates at first (then twice the most
-  // seen); the tests make it small.
+  // The room in the lattice kernel's list of the projectiles' next candidates at first (then at least twice
+  // the last step's candidates); the tests make it small.
   static inline std::size_t first_touch_room = 1024;
   // How many steps took the projectiles' candidates from the lattice kernel's list, and how many wrote them
   // again from the counts (after an upload, or more than the list had room for) (tests: both ways).
@@ -593,6 +593,7 @@ class DeviceBackend : public StateBackend {
   void merge_incidence(std::size_t old, std::size_t fresh);
   void launch_small_breaks();
   float finish_small_breaks(const StepStatus& st);
+  float merged_ground(const StepStatus& st);
   void sync();
 
   const Model& M_;
@@ -831,16 +832,18 @@ void DeviceBackend<Dev>::projectile_pass() {
   if (np == 0) return;
   const std::uint32_t T = status_h_.touches;
   // The lattice kernel's list of the candidates, where it had room for them all (sorted below), else
-  // written again from the counts; then room for twice as many in the next one.
+  // written again from the counts; then room for at least twice as many in the next one (the list's
+  // capacity is a 32-bit count).
   const bool listed = T <= appended_;
-  if (listed) {
+  if (listed && T) {
     std::swap(cand_a_, touch_a_);
     std::swap(cand_p_, touch_p_);
-  } else {
+  } else if (!listed) {
     for (auto* b : {&cand_a_, &cand_p_}) b->resize(T);
   }
-  if (touch_a_.size() < 2 * std::size_t{T})
-    for (auto* b : {&touch_a_, &touch_p_}) b->resize(2 * std::size_t{T});
+  const std::size_t room = std::min<std::size_t>(2 * std::size_t{T}, UINT32_MAX);
+  if (touch_a_.size() < room)
+    for (auto* b : {&touch_a_, &touch_p_}) b->resize(room);
   cand_keep_.resize(T);
   cand_place_.resize(T + 1);
   cand_next_.resize(T);
@@ -961,11 +964,18 @@ float DeviceBackend<Dev>::apply_breaks(const StepStatus& st, bool launched) {
   lose_links(status_field<float>(offsetof(StepStatus, move2_lost)));
   StepStatus after;
   Dev::download(&after, status_, 1, status_at_);
+  return merged_ground(after);
+}
+
+// After a step's breaks, with a status read after them: the merged ground list becomes the list. Returns the
+// largest move since the rebuild of an automaton that was boxed in and lost a link.
+template <class Dev>
+float DeviceBackend<Dev>::merged_ground(const StepStatus& st) {
   if (M_.ground) {
     std::swap(ground_, ground_next_);
-    ground_count_ += after.ground_joins;
+    ground_count_ += st.ground_joins;
   }
-  return after.move2_lost;
+  return st.move2_lost;
 }
 
 // A step's breaks where there are at most kSmallBreaks: SmallBreaksKernel, then the merges into the contact
@@ -1017,8 +1027,7 @@ void DeviceBackend<Dev>::launch_small_breaks() {
 }
 
 // After launch_small_breaks, with a status read after it (st.breaks of them, at most kSmallBreaks): the
-// merged lists become the lists, the breaks' records are kept. Returns the largest move since the rebuild
-// of an automaton that was boxed in and lost a link.
+// merged lists become the lists, the breaks' records are kept (the return: merged_ground's).
 template <class Dev>
 float DeviceBackend<Dev>::finish_small_breaks(const StepStatus& st) {
   logged_ += st.breaks;
@@ -1027,11 +1036,7 @@ float DeviceBackend<Dev>::finish_small_breaks(const StepStatus& st) {
   contact_count_ += st.breaks;
   std::swap(inc_key_, inc_key_next_);
   std::swap(inc_value_, inc_value_next_);
-  if (M_.ground) {
-    std::swap(ground_, ground_next_);
-    ground_count_ += st.ground_joins;
-  }
-  return st.move2_lost;
+  return merged_ground(st);
 }
 
 // The contact lists from the exposed automata (CpuBackend::rebuild_contacts): a hashed grid of them sorted
