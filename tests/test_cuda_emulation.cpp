@@ -124,10 +124,17 @@ void expect_energies_close(const Energies& device, const Energies& host, std::in
         << name << " after step " << step << ": " << v.first << " on the device, " << v.second << " from the state";
 }
 
+// What a caller of run_both watches: `each` sees the first backend's state after every call, `after` the
+// second backend's engine at the end.
+struct Watch {
+  std::function<void(const State&)> each;
+  std::function<void(const Engine&)> after;
+};
+
 // Runs the scene on backend `first` (the CPU's by default) and on `second` (the CUDA backend's emulation by
 // default), `steps` steps in calls of `chunk`, and checks that the states are equal after every call.
 Compared run_both(SceneDef scene, std::int64_t steps, int chunk, SolverDef::Backend second = SolverDef::Backend::cuda_emulation,
-                  SolverDef::Backend first = SolverDef::Backend::cpu) {
+                  SolverDef::Backend first = SolverDef::Backend::cpu, const Watch& watch = {}) {
   scene.solver.backend = first;
   Engine cpu(scene);
   scene.solver.backend = second;
@@ -144,6 +151,7 @@ Compared run_both(SceneDef scene, std::int64_t steps, int chunk, SolverDef::Back
     for (const auto& p : a.projectiles) c.projectile_contacts = std::max(c.projectile_contacts, p.contacts.size());
     c.shared = std::max(c.shared, shared_automata(a));
     c.pairs = std::max(c.pairs, a.projectile_contacts.size());
+    if (watch.each) watch.each(a);
     const std::string d = first_difference(a, b);
     if (!d.empty()) {
       ADD_FAILURE() << scene.name << ": the state of " << emu.backend().name() << " differs from that of "
@@ -155,6 +163,7 @@ Compared run_both(SceneDef scene, std::int64_t steps, int chunk, SolverDef::Back
     expect_energies_close(emu.backend().energies(), compute_energies(emu.model(), b), a.step);
   }
   c.breaks = cpu.state().broken_by[0] + cpu.state().broken_by[1];
+  if (watch.after) watch.after(emu);
   if (equal)
     std::printf("%s, %s against %s: %lld steps equal bit for bit; %lld links broken, up to %zu pair contacts, %zu on the ground, %zu "
               "under a projectile\n",
@@ -342,26 +351,6 @@ TEST(CudaEmulation, AnUnknownLatticeKernelChoiceIsRefused) {
   }
 }
 
-// Runs `scene` on the CPU and on `second`, `chunks` calls of `chunk` steps, checking that the states are
-// equal after each; `each` sees the CPU's state after each call.
-template <class Each>
-void compare_in_chunks(SceneDef scene, SolverDef::Backend second, int chunks, int chunk, Each&& each,
-                       const std::function<void(const Engine&)>& after = {}) {
-  scene.solver.backend = SolverDef::Backend::cpu;
-  Engine cpu(scene);
-  scene.solver.backend = second;
-  Engine other(scene);
-  for (int k = 0; k < chunks; ++k) {
-    ASSERT_EQ(cpu.advance(chunk).flags, kHealthy);
-    ASSERT_EQ(other.advance(chunk).flags, kHealthy);
-    each(cpu.state());
-    const std::string d = first_difference(cpu.state(), other.state());
-    ASSERT_TRUE(d.empty()) << scene.name << " on " << other.backend().name() << ": differs after step "
-                           << cpu.state().step << ", first in " << d;
-  }
-  if (after) after(other);
-}
-
 // A step's breaks in one block where they are few (SmallBreaksKernel), through the sorts and scans where
 // they are more: a concrete slab dropped flat onto the ground at 60 m/s breaks hundreds of links in a step
 // and few in others, on the cubic lattice (the fused kernel) and the random one (explicit links). Returns
@@ -381,18 +370,17 @@ void few_and_many_breaks(SolverDef::Backend second) {
     const SceneDef s = dropped_slab(lattice);
     std::int64_t most = 0, small_steps = 0, last = 0;
     std::size_t large = 0;
-    compare_in_chunks(
-        s, second, 300, 1,
-        [&](const State& a) {
-          const std::int64_t broken = a.broken_by[0] + a.broken_by[1], now = broken - last;
-          last = broken;
-          most = std::max(most, now);
-          if (now > 0 && now <= static_cast<std::int64_t>(gpu::kSmallBreaks)) ++small_steps;
-        },
-        [&](const Engine& e) {
-          if (const auto* dev = dynamic_cast<const gpu::DeviceBackend<gpu::HostDevice>*>(&e.backend()))
-            large = dev->large_break_steps();
-        });
+    run_both(s, 300, 1, second, SolverDef::Backend::cpu,
+             {[&](const State& a) {
+                const std::int64_t broken = a.broken_by[0] + a.broken_by[1], now = broken - last;
+                last = broken;
+                most = std::max(most, now);
+                if (now > 0 && now <= static_cast<std::int64_t>(gpu::kSmallBreaks)) ++small_steps;
+              },
+              [&](const Engine& e) {
+                if (const auto* dev = dynamic_cast<const gpu::DeviceBackend<gpu::HostDevice>*>(&e.backend()))
+                  large = dev->large_break_steps();
+              }});
     std::printf("%s: 300 steps equal bit for bit; %lld links broken, up to %lld in a step, %lld steps with %u or fewer\n",
                 s.name.c_str(), static_cast<long long>(last), static_cast<long long>(most),
                 static_cast<long long>(small_steps), gpu::kSmallBreaks);
@@ -424,14 +412,13 @@ std::size_t hail(SolverDef::Backend second, const std::function<void(const Engin
       s.projectiles.push_back(p);
     }
   std::size_t most = 0;
-  compare_in_chunks(
-      s, second, 60, 10,
-      [&](const State& a) {
-        std::size_t touching = 0;
-        for (const auto& p : a.projectiles) touching += p.contacts.size();
-        most = std::max(most, touching);
-      },
-      after);
+  run_both(s, 600, 10, second, SolverDef::Backend::cpu,
+           {[&](const State& a) {
+              std::size_t touching = 0;
+              for (const auto& p : a.projectiles) touching += p.contacts.size();
+              most = std::max(most, touching);
+            },
+            after});
   return most;
 }
 // In the emulation the list has room for 8 at first (then at least twice the last step's), and every launch runs

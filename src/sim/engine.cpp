@@ -36,31 +36,32 @@ std::optional<SolverDef::Backend> backend_from_environment() {
   return b;
 }
 
+namespace {
+// check(), its mca::Error (a bad environment variable) prefixed with `source`, the scene or checkpoint
+// whose backend is being started.
+template <class Check>
+auto for_source(const std::string& source, Check check) {
+  try {
+    return check();
+  } catch (const Error& e) {
+    throw Error(fmt::format("{}: {}", source, e.what()));
+  }
+}
+}  // namespace
+
 std::unique_ptr<Backend> start_backend(const Model& model, SolverDef::Backend kind, const std::string& source,
                                        State state) {
   // MCA_BACKEND, where set, says what auto stands for on this machine (the tests set cpu, so that their
   // checks of the CPU backend stay on the CPU on a GPU machine).
   bool by_environment = false;
   if (kind == SolverDef::Backend::automatic) {
-    std::optional<SolverDef::Backend> named;
-    try {
-      named = backend_from_environment();
-    } catch (const Error& e) {
-      throw Error(fmt::format("{}: {}", source, e.what()));
-    }
-    if (named) {
+    if (const auto named = for_source(source, backend_from_environment)) {
       kind = *named;
       by_environment = true;
     }
   }
   // (A bad MCA_CUDA_LATTICE is an error here, not a GPU that cannot take the model.)
-  if (kind != SolverDef::Backend::cpu) {
-    try {
-      cuda_fused_lattice();
-    } catch (const Error& e) {
-      throw Error(fmt::format("{}: {}", source, e.what()));
-    }
-  }
+  if (kind != SolverDef::Backend::cpu) for_source(source, cuda_fused_lattice);
   std::unique_ptr<Backend> b;
   switch (kind) {
     case SolverDef::Backend::cuda_emulation:
