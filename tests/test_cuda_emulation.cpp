@@ -495,21 +495,29 @@ TEST(CudaEmulation, LaunchesRunBackwardsGiveTheSameBits) {
 // status): without breaks, and with few (up to kSmallBreaks) after a step with breaks (they are applied
 // before the status is read); twice with breaks after a step without, or with many (the status, then what
 // the breaks changed); more only to rebuild the contact lists (the new lists' sizes).
+// Each step but the first uses the many-body terms the step before launched behind its status's copy,
+// unless that step applied breaks after the read (it read twice); a state uploaded into the backend has them
+// computed again.
 TEST(CudaEmulation, AStepReadsTheDeviceOnceTwiceWithBreaksMoreOnlyToRebuildContacts) {
   for (SceneDef scene : {io::load_default_scene(), three_balls()}) {
     scene.solver.backend = SolverDef::Backend::cuda_emulation;
     Engine e(scene);
-    const auto* dev = dynamic_cast<const gpu::DeviceBackend<gpu::HostDevice>*>(&e.backend());
+    auto* dev = dynamic_cast<gpu::DeviceBackend<gpu::HostDevice>*>(&e.backend());
     ASSERT_NE(dev, nullptr);
     int once = 0, once_breaking = 0, twice = 0, rebuilt = 0;
     std::size_t rebuild_reads = 0;
-    bool broke = false;
+    bool broke = false, read_twice = true;
+    std::optional<State> half;
     for (int s = 0; s < 4000; ++s) {
+      if (s == 2000) half = e.state();
       const std::size_t reads = gpu::HostDevice::reads, rebuilds = dev->contact_rebuilds();
+      const std::size_t early = dev->early_many_body_steps();
       const std::int64_t broken = e.backend().broken_links();
       ASSERT_EQ(e.backend().step(1).flags, kHealthy);
+      ASSERT_EQ(dev->early_many_body_steps() - early, read_twice ? 0u : 1u) << scene.name << ", step " << s;
       const std::size_t r = gpu::HostDevice::reads - reads;
       const std::int64_t now = e.backend().broken_links() - broken;
+      read_twice = now > 0 && r == 2;
       if (dev->contact_rebuilds() != rebuilds) {
         ++rebuilt;
         rebuild_reads += r;
@@ -533,6 +541,16 @@ TEST(CudaEmulation, AStepReadsTheDeviceOnceTwiceWithBreaksMoreOnlyToRebuildConta
     EXPECT_GT(once_breaking, 0);
     EXPECT_GT(twice, 0);
     EXPECT_GT(rebuilt, 0);
+    // Step 2000's state uploaded into the backend at step 4000, then stepped: the state a backend started
+    // from it reaches.
+    const std::size_t early = dev->early_many_body_steps();
+    dev->upload(*half);
+    ASSERT_EQ(e.backend().step(2).flags, kHealthy);
+    EXPECT_EQ(dev->early_many_body_steps() - early, 1u);
+    Engine fresh(scene, *half);
+    ASSERT_EQ(fresh.advance(2).flags, kHealthy);
+    const std::string d = first_difference(fresh.state(), e.state());
+    EXPECT_TRUE(d.empty()) << scene.name << ": step 2000's state uploaded at step 4000 differs after 2 steps, first in " << d;
   }
 }
 

@@ -9,8 +9,9 @@
 // first value not finite, the number of breaks, the sizes of the projectiles' next lists). Breaks are
 // applied on the device; a step with breaks reads once more (the ground list's growth, the largest move of
 // the automata that lost links) unless they are few and follow a step with breaks (apply_breaks), and a
-// step that rebuilds the contact lists reads their sizes. The whole state comes back only when asked for
-// (state(), download()).
+// step that rebuilds the contact lists reads their sizes. The next step's many-body terms are launched
+// behind the status's copy, so that the device is not idle while the host reads it. The whole state comes
+// back only when asked for (state(), download()).
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
@@ -185,6 +186,8 @@ class DeviceBackend : public StateBackend {
   std::size_t candidates_rewritten() const { return candidates_rewritten_; }
   // How many steps had more breaks than SmallBreaksKernel takes (tests: both ways are the CPU's).
   std::size_t large_break_steps() const { return large_break_steps_; }
+  // How many steps had their many-body terms launched by the step before (tests: which do).
+  std::size_t early_many_body_steps() const { return early_many_body_steps_; }
   // How many times the contact lists were rebuilt (tests: what a step reads from the device).
   std::size_t contact_rebuilds() const { return rebuilds_; }
   Energies energies() const override { return const_cast<DeviceBackend*>(this)->device_energies(); }
@@ -205,6 +208,7 @@ class DeviceBackend : public StateBackend {
     logged_ = 0;
     logged_steps_.clear();
     broke_last_step_ = false;
+    early_many_body_ = false;
     clock_.start(S_, M_.dt);
     const std::size_t n = M_.size(), L = M_.link_slots();
     upload3(S_.x, px_, py_, pz_);
@@ -586,7 +590,12 @@ class DeviceBackend : public StateBackend {
   void contact_pass();
   void projectile_pass();
   void end_of_step(bool count_touches);
-  void read_status();
+  // The step's status into status_h_; after_copy() launches what the device may do while the host waits.
+  template <class F>
+  void read_status(F&& after_copy);
+  void read_status() {
+    read_status([] {});
+  }
   float apply_breaks(const StepStatus& st, bool launched);
   void rebuild_contacts();
   void incidence();
@@ -682,6 +691,10 @@ class DeviceBackend : public StateBackend {
   Buf<std::uint32_t> raw_end_, raw_inc_key_, raw_inc_value_;
   bool broke_last_step_ = false;
   std::size_t large_break_steps_ = 0;
+  // Whether this step's many-body terms were launched by the last step, behind its status's copy, and the
+  // links and positions they read have not changed since (one_step).
+  bool early_many_body_ = false;
+  std::size_t early_many_body_steps_ = 0;
   // Projectiles.
   Buf<ProjectileConstants> proj_constants_;
   Buf<ContactMaterial> proj_material_;
@@ -721,11 +734,17 @@ std::int64_t DeviceBackend<Dev>::one_step() {
   const cpu::LatticeView v = view();
   const std::size_t n = M_.size(), ne = M_.explicit_links.size();
   status_at_ ^= 1;
+  // The lattice's many-body terms, unless the last step launched them (early_many_body_). Before the
+  // explicit, contact and projectile passes, where the CPU computes them after: those do not write what
+  // they read, nor read what they write.
+  if (early_many_body_) ++early_many_body_steps_;
+  else Dev::launch(n, ManyBodyKernel{v});
+  early_many_body_ = false;
   if (ne) explicit_pass(v);
   contact_pass();
   projectile_pass();
-  // The lattice: many-body terms, links (their breaks into the list), automata.
-  Dev::launch(n, ManyBodyKernel{v, d(status_) + (status_at_ ^ 1)});
+  // The lattice: links (their breaks into the list) and automata.
+  StepStatus* const next_status = d(status_) + (status_at_ ^ 1);
   const std::size_t np = M_.projectiles.size();
   std::uint32_t* const touch_count = np ? d(touch_count_) : nullptr;
   std::uint32_t* const touches = status_field<std::uint32_t>(offsetof(StepStatus, touches));
@@ -739,11 +758,12 @@ std::int64_t DeviceBackend<Dev>::one_step() {
     t.px = next.px;
     t.py = next.py;
     t.pz = next.pz;
-    Dev::launch_reduce(n, FusedLatticeKernel{v, next, break_list(), t, touch_count, touches, touch_list()}, move2, bad);
+    Dev::launch_reduce(n, FusedLatticeKernel{v, next, break_list(), t, touch_count, touches, touch_list(), next_status},
+                       move2, bad);
     swap_next();
   } else {
     if (M_.lattice_slots()) Dev::launch(n, LinksKernel{v, break_list()});  // (3 n slots: 3 per automaton)
-    Dev::launch_reduce(n, AutomataKernel{v, touch(), touch_count, touches, touch_list()}, move2, bad);
+    Dev::launch_reduce(n, AutomataKernel{v, touch(), touch_count, touches, touch_list(), next_status}, move2, bad);
   }
   appended_ = np ? touch_a_.size() : 0;
   if (!M_.grip_velocity.empty())
@@ -762,7 +782,14 @@ std::int64_t DeviceBackend<Dev>::one_step() {
   // the status is read, so the step reads the device once.
   const bool launched = broke_last_step_;
   if (launched) launch_small_breaks();
-  read_status();  // the one read of a step without breaks, or with few after a step with breaks
+  // The one read of a step without breaks, or with few after a step with breaks. The next step's many-body
+  // terms are launched behind the copy, so that the device computes them while the host waits for it and
+  // decides what to launch next (the next step launches them again where apply_breaks changed the links
+  // after the read).
+  read_status([&] {
+    Dev::launch(n, ManyBodyKernel{view()});
+    early_many_body_ = true;
+  });
   const StepStatus st = status_h_;
   broke_last_step_ = st.breaks != 0;
   float max_move2 = std::max(st.move2, softening_ ? st.move2_lost : 0.0f);
@@ -794,8 +821,9 @@ void DeviceBackend<Dev>::end_of_step(bool count_touches) {
 }
 
 template <class Dev>
-void DeviceBackend<Dev>::read_status() {
-  Dev::download(&status_h_, status_, 1, status_at_);
+template <class F>
+void DeviceBackend<Dev>::read_status(F&& after_copy) {
+  Dev::download_then(&status_h_, status_, 1, status_at_, after_copy);
   pair_count_ = M_.projectiles.empty() ? 0 : status_h_.pair_count;
 }
 
@@ -917,8 +945,9 @@ void DeviceBackend<Dev>::projectile_pass() {
 template <class Dev>
 float DeviceBackend<Dev>::apply_breaks(const StepStatus& st, bool launched) {
   const std::uint32_t nb = st.breaks;
+  if (nb <= kSmallBreaks && launched) return finish_small_breaks(st);
+  early_many_body_ = false;  // the links change after the next step's many-body terms were launched
   if (nb <= kSmallBreaks) {
-    if (launched) return finish_small_breaks(st);
     launch_small_breaks();
     StepStatus after;
     Dev::download(&after, status_, 1, status_at_);

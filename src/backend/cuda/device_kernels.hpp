@@ -79,7 +79,7 @@ struct StepStatus {
   float move2_lost = 0;  // the same of an automaton boxed in until a link was damaged (softening)
   std::uint32_t bad = kNone;             // the first automaton with a value not finite
   std::uint32_t bad_projectile = kNone;  // the first projectile with one
-  // Counters, cleared as a step starts.
+  // Counters, cleared by the last step's lattice kernel (AutomataKernel, FusedLatticeKernel).
   std::uint32_t breaks = 0;       // links broken (BreakList::count)
   std::uint32_t touches = 0;      // (projectile, automaton) pairs touching at the step's end: the next step's candidates
   std::uint32_t ground_joins = 0;  // ends of broken links that join the ground list
@@ -250,13 +250,10 @@ struct Touch {
 
 // --- Lattice ---
 // Its first thread also clears the next step's status (its counters and the reductions' starting values).
+// The many-body terms of automaton a (they read positions, links and damage; write only the terms).
 struct ManyBodyKernel {
   cpu::LatticeView v;
-  StepStatus* next_status;
-  MCA_HD void operator()(std::size_t a) const {
-    if (a == 0) *next_status = StepStatus{};
-    Lane::many_body(v, a);
-  }
+  MCA_HD void operator()(std::size_t a) const { Lane::many_body(v, a); }
 };
 // Automaton a's three links (its slots along x, y and z), one after another: its own position, velocity and
 // spin, read for the first, are in the cache for the other two (a thread per slot read them three times
@@ -278,13 +275,16 @@ struct LinksKernel {
 // and itself where a value is not finite to the smallest. With projectiles (touch.np > 0), it also counts
 // those its new position touches, for the next step's candidates (TouchCountKernel's work, done here while
 // the position is at hand), and appends its entries to the list (TouchWriteKernel's, where it has room).
+// Its first thread clears the next step's status (the host has read it: it was this one's last step's).
 struct AutomataKernel {
   cpu::LatticeView v;
   Touch touch;
   std::uint32_t* touch_count;
   std::uint32_t* touches;
   TouchList list;
+  StepStatus* next_status;
   MCA_HD Reduced operator()(std::size_t a) const {
+    if (a == 0) *next_status = StepStatus{};
     cpu::AutomataResult r;
     Lane::automata(v, a, r);
     if (touch.np) touch.count(a, touch_count, touches, list);
@@ -296,7 +296,8 @@ struct AutomataKernel {
 // state before the step (v), gathers them in the automata kernel's order and moves, writing the state its
 // neighbours' threads still read (positions, velocities, spins, mean stress; its links' shear displacement
 // and damage) to next. No link results go through memory, and the many-body terms are the step's (the
-// kernel before). Its own links' breaks go to the list, as from the links kernel.
+// kernel before). Its own links' breaks go to the list, as from the links kernel; its first thread clears the
+// next step's status, as the automata kernel's.
 struct FusedLatticeKernel {
   // Three blocks of 256 threads on a multiprocessor (CudaDevice::launch_reduce): 80 registers, no spills
   // (ptxas -v, sm_90), where unbounded it takes 120 and two blocks.
@@ -308,7 +309,9 @@ struct FusedLatticeKernel {
   std::uint32_t* touch_count;
   std::uint32_t* touches;
   TouchList list;
+  StepStatus* next_status;
   MCA_HD Reduced operator()(std::size_t a) const {
+    if (a == 0) *next_status = StepStatus{};
     Lane::Gathered g = Lane::weight(v, a);
     const std::size_t n = v.n;
     for (int axis = 2; axis >= 0; --axis) {  // the links below: as their first end's thread computes them

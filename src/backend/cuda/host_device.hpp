@@ -58,6 +58,13 @@ struct HostDevice {
     profile().read();
     if (n) std::memcpy(static_cast<void*>(dst), b.data() + offset, n * sizeof(T));
   }
+  // download (of a few values), with after() launching more work behind the copy, before the host waits
+  // for it (on a GPU: the device is not idle while the host reads and decides what to launch next).
+  template <class T, class F>
+  static void download_then(T* dst, const Buffer<T>& b, std::size_t n, std::size_t offset, F&& after) {
+    download(dst, b, n, offset);
+    after();
+  }
   template <class T>
   static void fill(Buffer<T>& b, const T& value) {
     for (std::size_t k = 0; k < b.size(); ++k) b.data()[k] = value;
