@@ -16,6 +16,7 @@
 #include <cuda_gl_interop.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -258,8 +259,9 @@ struct CudaDevice {
   static void download(T* dst, const Buffer<T>& b, std::size_t n, std::size_t offset = 0) {
     const std::size_t bytes = n * sizeof(T);
     if (bytes <= kStaging) return download_then(dst, b, n, offset, [] {});
+    const auto t0 = std::chrono::steady_clock::now();
     cuda_check(cudaMemcpy(dst, b.data() + offset, bytes, cudaMemcpyDeviceToHost), "download");
-    read_done();
+    read_done(t0);
   }
   // A small download with after() launching more work behind the copy, before the host waits for the copy
   // (not for that work): the device is not idle while the host reads and decides what to launch next.
@@ -277,12 +279,14 @@ struct CudaDevice {
       cuda_check(cudaMemcpyAsync(staging, b.data() + offset, bytes, cudaMemcpyDeviceToHost), "download");
       cuda_check(cudaEventRecord(copied), "download");
       after();
+      const auto t0 = std::chrono::steady_clock::now();
       cuda_check(cudaEventSynchronize(copied), "download");
       std::memcpy(static_cast<void*>(dst), staging, bytes);
+      read_done(t0);
     } else {
       after();
+      read_done(std::chrono::steady_clock::now());
     }
-    read_done();
   }
   template <class T>
   static void fill(Buffer<T>& b, const T& value) {
@@ -421,11 +425,13 @@ struct CudaDevice {
     static Timing t;
     return t;
   }
-  // A copy to the host is done: counted, and the launches before it timed (MCA_PROFILE).
-  static void read_done() {
+  // A copy to the host, waited for since `since`, is done: counted with the wait, and the launches before it
+  // timed (MCA_PROFILE).
+  static void read_done(std::chrono::steady_clock::time_point since) {
     Timing& t = timing();
     if (t.profile.on()) {
       t.profile.read();
+      t.profile.waited(std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count());
       t.resolve();
     }
   }

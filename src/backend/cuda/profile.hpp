@@ -36,6 +36,9 @@ class DeviceProfile {
     ++e.calls;
   }
   void read() { ++reads_; }
+  // The time the host spent waiting for a copy from the device (the rest of a step it spends issuing work:
+  // where that wait is short, the step is bound by the host's launches, not by the device).
+  void waited(double seconds) { waited_ += seconds; }
   // Prints the table for `steps` steps of a backend called `backend`, and starts again.
   void print(const char* backend, std::int64_t steps, std::int64_t rebuilds) {
     if (!on_ || steps == 0 || entries_.empty()) return;
@@ -55,9 +58,11 @@ class DeviceProfile {
       std::fprintf(stderr, "  %-28s %9.2f us/step %8.2f us/call %7.2f calls/step %5.1f %%\n", name.c_str(), 1e6 * e.seconds * per,
                    1e6 * e.seconds / static_cast<double>(e.calls), static_cast<double>(e.calls) * per,
                    total > 0 ? 100 * e.seconds / total : 0.0);
+    std::fprintf(stderr, "  the host waited %.1f us/step for the device at its reads\n", 1e6 * waited_ * per);
     std::fprintf(stderr, "  contact lists rebuilt %lld times\n", static_cast<long long>(rebuilds));
     entries_.clear();
     reads_ = 0;
+    waited_ = 0;
   }
 
  private:
@@ -68,6 +73,7 @@ class DeviceProfile {
   bool on_ = std::getenv("MCA_PROFILE") != nullptr;
   std::map<std::string, Entry> entries_;
   std::int64_t reads_ = 0;
+  double waited_ = 0;
 };
 
 }  // namespace mca::gpu
