@@ -423,31 +423,40 @@ std::size_t hail(SolverDef::Backend second, const std::function<void(const Engin
 }
 // In the emulation the list has room for 8 at first (then at least twice the last step's), and every launch runs
 // backwards (run forwards, the automata would list their entries in order, and the sort would have
-// nothing to do).
+// nothing to do). The contacts of up to 16 candidates take one block (ProjectilePassKernel, its scan in 4
+// chunks: up to 4 candidates in each, or none), more take four launches.
 TEST(CudaEmulation, ProjectileCandidatesListedOrCountedAreTheCpusBitForBit) {
   struct SmallRoomBackwards {
     SmallRoomBackwards() {
       gpu::DeviceBackend<gpu::HostDevice>::first_touch_room = 8;
+      gpu::DeviceBackend<gpu::HostDevice>::small_candidates = 16;
+      gpu::DeviceBackend<gpu::HostDevice>::pass_chunks = 4;
       gpu::HostDevice::reverse = true;
     }
     ~SmallRoomBackwards() {
       gpu::DeviceBackend<gpu::HostDevice>::first_touch_room = 1024;
+      gpu::DeviceBackend<gpu::HostDevice>::small_candidates = gpu::kSmallCandidates;
+      gpu::DeviceBackend<gpu::HostDevice>::pass_chunks = gpu::ProjectilePassKernel::kChunks;
       gpu::HostDevice::reverse = false;
     }
   } setting;
-  std::size_t sorted = 0, rewritten = 0;
+  std::size_t sorted = 0, rewritten = 0, one_block = 0;
   const std::size_t most = hail(SolverDef::Backend::cuda_emulation, [&](const Engine& e) {
     const auto* dev = dynamic_cast<const gpu::DeviceBackend<gpu::HostDevice>*>(&e.backend());
     ASSERT_NE(dev, nullptr);
     sorted = dev->candidates_sorted();
     rewritten = dev->candidates_rewritten();
+    one_block = dev->candidates_in_one_block();
   });
+  const std::size_t with = sorted + rewritten;
   std::printf("hail: 600 steps equal bit for bit; up to %zu projectile contacts; candidates listed in %zu steps, "
-              "written again in %zu\n",
-              most, sorted, rewritten);
+              "written again in %zu; their contacts in one block in %zu, in four launches in %zu\n",
+              most, sorted, rewritten, one_block, with - one_block);
   EXPECT_GT(most, 8u);
   EXPECT_GT(sorted, 100u);
   EXPECT_GT(rewritten, 0u);  // (more than the room of 8: the first step after the upload touches nothing)
+  EXPECT_GT(one_block, 0u);
+  EXPECT_GT(with - one_block, 100u);
 }
 
 // Three small balls driven into an upper corner of a concrete block from above (kinematic), and from two

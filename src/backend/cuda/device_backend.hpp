@@ -180,10 +180,16 @@ class DeviceBackend : public StateBackend {
   // The room in the lattice kernel's list of the projectiles' next candidates at first (then at least twice
   // the last step's candidates); the tests make it small.
   static inline std::size_t first_touch_room = 1024;
+  // The most candidates whose contacts, commit and sums take one block (ProjectilePassKernel), the rest
+  // four launches; the tests make it small.
+  static inline std::size_t small_candidates = kSmallCandidates;
+  static inline std::size_t pass_chunks = ProjectilePassKernel::kChunks;  // (its scan's chunks)
   // How many steps took the projectiles' candidates from the lattice kernel's list, and how many wrote them
   // again from the counts (after an upload, or more than the list had room for) (tests: both ways).
   std::size_t candidates_sorted() const { return candidates_sorted_; }
   std::size_t candidates_rewritten() const { return candidates_rewritten_; }
+  // How many steps with candidates took one block for their contacts (tests: both ways).
+  std::size_t candidates_in_one_block() const { return candidates_in_one_block_; }
   // How many steps had more breaks than SmallBreaksKernel takes (tests: both ways are the CPU's).
   std::size_t large_break_steps() const { return large_break_steps_; }
   // How many steps had their many-body terms launched by the step before (tests: which do).
@@ -705,15 +711,16 @@ class DeviceBackend : public StateBackend {
   Buf<BodyContact> proj_lists_, proj_lists_next_;
   Buf<std::uint32_t> proj_start_, proj_start_next_;
   // The lattice kernel's list of the next candidates (touch_a_, touch_p_; TouchList) and how many entries it
-  // had room for (0: the touches were counted without it); the steps that sorted it or wrote it again.
+  // had room for (0: the touches were counted without it); the steps that sorted it or wrote it again, and
+  // those that took one block for their contacts.
   Buf<std::uint32_t> touch_a_, touch_p_;
   std::size_t appended_ = 0;
-  std::size_t candidates_sorted_ = 0, candidates_rewritten_ = 0;
+  std::size_t candidates_sorted_ = 0, candidates_rewritten_ = 0, candidates_in_one_block_ = 0;
   // The candidates: touching counts per automaton and their scan, the (automaton, projectile) entries, the
   // projectile order (keys, order, where), each one's contact and whether it is kept, and each projectile's
   // first candidate.
   Buf<std::uint32_t> touch_count_, touch_offset_, cand_a_, cand_p_, cand_key_, cand_order_, cand_where_, cand_keep_,
-      cand_place_, segment_;
+      cand_place_, segment_, chunk_sum_;
   Buf<BodyContact> cand_next_;
   Buf<ContactOut> cand_out_;
   Buf<Vec3> fsum_, tsum_;
@@ -898,14 +905,13 @@ void DeviceBackend<Dev>::projectile_pass() {
     }
   }
   const ContactPassView cv = contact_pass_view();
-  Dev::launch(T, ProjectileContactKernel{c(proj_), c(proj_constants_), cand, c(proj_lists_), c(proj_start_), cv,
-                                         c(proj_material_), c(proj_zeta_), M_.groups.size(), d(cand_next_), d(cand_out_),
-                                         d(cand_keep_)});
-  if (T) Dev::exclusive_scan(c(cand_keep_), d(cand_place_), T);  // (none: ProjectileSegmentKernel's starts are 0)
   proj_lists_next_.resize(T);
-  Dev::launch(T, ProjectileCommitExternalKernel{
-                    ProjectileCommitKernel{c(cand_keep_), c(cand_place_), c(cand_next_), d(proj_lists_next_)},
-                    ProjectileExternalKernel{cand, np > 1 ? c(cand_where_) : nullptr, c(cand_keep_), c(cand_out_), external()}});
+  const ProjectileContactKernel contact{c(proj_), c(proj_constants_), cand, c(proj_lists_), c(proj_start_), cv,
+                                        c(proj_material_), c(proj_zeta_), M_.groups.size(), d(cand_next_), d(cand_out_),
+                                        d(cand_keep_)};
+  const ProjectileCommitExternalKernel commit{
+      ProjectileCommitKernel{c(cand_keep_), c(cand_place_), c(cand_next_), d(proj_lists_next_)},
+      ProjectileExternalKernel{cand, np > 1 ? c(cand_where_) : nullptr, c(cand_keep_), c(cand_out_), external()}};
   // The pairs the last step's end counted touching, in (p, q) order, each one's contact (its history from
   // the previous list); then one thread sums them in order and moves the projectiles: in the block of the
   // projectiles' sums where no pairs touch, else after the pairs' contacts.
@@ -914,11 +920,23 @@ void DeviceBackend<Dev>::projectile_pass() {
                                       c(pair_out_), TP, status_field<std::uint32_t>(offsetof(StepStatus, pair_count)),
                                       d(fsum_), d(tsum_), M_.gravity, M_.dt,
                                       status_field<std::uint32_t>(offsetof(StepStatus, bad_projectile))};
-  Dev::launch_block(ProjectileSumsKernel{ProjectileSegmentKernel{cand, c(cand_place_), d(segment_), d(proj_start_next_)},
-                                         ProjectileSumKernel{d(proj_), c(proj_constants_), c(segment_), c(cand_keep_),
-                                                             c(cand_out_), d(fsum_), d(tsum_), M_.ground, M_.up,
-                                                             M_.ground_height, M_.dt},
-                                         motion, static_cast<std::uint32_t>(np), TP == 0});
+  const ProjectileSumsKernel sums{ProjectileSegmentKernel{cand, c(cand_place_), d(segment_), d(proj_start_next_)},
+                                  ProjectileSumKernel{d(proj_), c(proj_constants_), c(segment_), c(cand_keep_), c(cand_out_),
+                                                      d(fsum_), d(tsum_), M_.ground, M_.up, M_.ground_height, M_.dt},
+                                  motion, static_cast<std::uint32_t>(np), TP == 0};
+  // The contacts, the scan of those kept, their commit and the sums: in one block where the candidates are
+  // few, else in four launches.
+  if (T <= small_candidates) {
+    if (T) ++candidates_in_one_block_;
+    chunk_sum_.resize(pass_chunks);
+    Dev::launch_block(ProjectilePassKernel{contact, static_cast<std::uint32_t>(pass_chunks), d(chunk_sum_), d(cand_place_), T,
+                                           commit, sums});
+  } else {
+    Dev::launch(T, contact);
+    Dev::exclusive_scan(c(cand_keep_), d(cand_place_), T);
+    Dev::launch(T, commit);
+    Dev::launch_block(sums);
+  }
   std::swap(proj_lists_, proj_lists_next_);
   std::swap(proj_start_, proj_start_next_);
   if (TP) {

@@ -1216,6 +1216,55 @@ struct ProjectileSumsKernel {
     else motion(k);
   }
 };
+// The projectile pass after its candidates' order where they are few (at most kSmallCandidates), in one block,
+// as phases: each candidate's contact (ProjectileContactKernel), the scan of what is kept (each of `chunks`
+// chunks summed, then placed after the sums of the chunks before it), the kept contacts into the new lists
+// and onto their automata (ProjectileCommitExternalKernel), and ProjectileSumsKernel's phases: four launches
+// in one.
+inline constexpr std::uint32_t kSmallCandidates = 1024;
+struct ProjectilePassKernel {
+  static constexpr int kPhases = 7;
+  static constexpr std::uint32_t kChunks = 256;  // one to each thread of a block (the tests take fewer)
+  ProjectileContactKernel contact;
+  std::uint32_t chunks;
+  std::uint32_t* chunk_sum;  // `chunks` entries
+  std::uint32_t* place;      // the scan of contact.keep: candidates + 1 entries
+  std::uint32_t candidates;
+  ProjectileCommitExternalKernel commit;
+  ProjectileSumsKernel sums;
+  MCA_HD std::size_t size(int phase) const {
+    switch (phase) {
+      case 0: return candidates;
+      case 1:
+      case 2: return candidates ? chunks : 0;
+      case 3: return candidates;
+      default: return sums.size(phase - 4);
+    }
+  }
+  MCA_HD void operator()(int phase, std::size_t k) const {
+    const std::uint32_t n = candidates, per = (n + chunks - 1) / chunks, c = static_cast<std::uint32_t>(k);
+    const std::uint32_t first = c * per < n ? c * per : n, last = first + per < n ? first + per : n;
+    if (phase == 0) {
+      contact(k);
+    } else if (phase == 1) {
+      std::uint32_t sum = 0;
+      for (std::uint32_t j = first; j < last; ++j) sum += contact.keep[j];
+      chunk_sum[c] = sum;
+    } else if (phase == 2) {
+      std::uint32_t at = 0;
+      for (std::uint32_t b = 0; b < c; ++b) at += chunk_sum[b];
+      for (std::uint32_t j = first; j < last; ++j) {
+        place[j] = at;
+        at += contact.keep[j];
+      }
+      if (c == chunks - 1) place[n] = at;  // the total
+    } else if (phase == 3) {
+      commit(k);
+    } else {
+      sums(phase - 4, k);
+    }
+  }
+};
 
 // --- Energies: Engine's check of the energy, from energy_terms.hpp's terms, summed on the device ---
 struct EnergySums {
