@@ -851,10 +851,12 @@ void DeviceBackend<Dev>::contact_pass() {
   if (contact_count_) {
     if (contact_out_.size() < contact_count_) contact_out_.resize(contact_count_);
     Dev::launch(contact_count_, PairContactKernel{cv, d(contacts_), d(contact_out_)});
-    Dev::launch(2 * contact_count_, ContactGatherKernel{c(inc_key_), c(inc_value_), static_cast<std::uint32_t>(2 * contact_count_),
-                                                        c(contact_out_), external()});
   }
-  if (ground_count_) Dev::launch(ground_count_, GroundKernel{cv, d(ground_), external()});
+  const std::size_t e = 2 * contact_count_;
+  Dev::launch(e + ground_count_,
+              ContactsOntoAutomataKernel{ContactGatherKernel{c(inc_key_), c(inc_value_), static_cast<std::uint32_t>(e),
+                                                             c(contact_out_), external()},
+                                         GroundKernel{cv, d(ground_), external()}, static_cast<std::uint32_t>(ground_count_)});
 }
 
 // The projectiles' pass (CpuBackend::projectile_pass): the candidates the last step's end counted (the

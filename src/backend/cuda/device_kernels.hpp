@@ -521,6 +521,28 @@ MCA_HD std::uint32_t pairs_before(const ContactPair* list, std::uint32_t size, s
 MCA_HD std::uint32_t automata_before(const BodyContact* list, std::uint32_t size, std::uint32_t a) {
   return count_before(size, [&](std::uint32_t k) { return list[k].automaton < a; });
 }
+// The pair contacts (threads [0, pairs.size): ContactGatherKernel's) and the ground contacts (the rest: one
+// per entry of the ground list, `ground_size` of them) onto their automata in one launch, each automaton's
+// pair contacts first, then its ground contact (the CPU's order): by the thread of its first incidence entry
+// where it has pair contacts, else by its ground entry's thread.
+struct ContactsOntoAutomataKernel {
+  ContactGatherKernel pairs;
+  GroundKernel ground;
+  std::uint32_t ground_size;
+  MCA_HD void operator()(std::size_t k) const {
+    const std::uint32_t* key = pairs.key;
+    if (k < pairs.size) {
+      if (k > 0 && key[k - 1] == key[k]) return;
+      pairs(k);
+      const std::uint32_t a = key[k], g = automata_before(ground.list, ground_size, a);
+      if (g < ground_size && ground.list[g].automaton == a) ground(g);
+    } else {
+      const std::uint32_t g = static_cast<std::uint32_t>(k - pairs.size), a = ground.list[g].automaton;
+      const std::uint32_t e = count_before(pairs.size, [&](std::uint32_t m) { return key[m] < a; });
+      if (e == pairs.size || key[e] != a) ground(g);
+    }
+  }
+};
 // The step's broken pairs (keys i << 32 | j, sorted) merged into the sorted contact list a (std::merge: a's
 // entries first where equal), each fresh pair with no history, one element per thread: threads [0, na)
 // place list a, [na, na + nb) the fresh pairs. Each thread also gives where its pair went: an old pair's
