@@ -959,7 +959,7 @@ void DeviceBackend<Dev>::projectile_pass() {
 // The step's breaks (st.breaks of them: the break list, in no order), applied at its end
 // (CpuBackend::apply_breaks), all on the device: the links cleared, their pairs into the contact list, their
 // ends near the ground into the ground list, the codes kept for the records (in slot order when the state is
-// read). Up to kSmallBreaks of them take launch_small_breaks' three launches, made before the status was
+// read). Up to kSmallBreaks of them take launch_small_breaks' two launches, made before the status was
 // read where `launched` (no more reads), else now (one more read); more take some eleven launches and one
 // more read. Returns the largest move since the rebuild of an automaton that was boxed in and lost a link.
 template <class Dev>
@@ -1027,11 +1027,10 @@ float DeviceBackend<Dev>::merged_ground(const StepStatus& st) {
   return st.move2_lost;
 }
 
-// A step's breaks where there are at most kSmallBreaks: SmallBreaksKernel, then the merges into the contact
-// and ground lists (MergeBreaksKernel) and the incidence list (MergeSmallIncidenceKernel), sized for that
-// many and taking their number from the step's status on the device, so that they can be launched before the
-// host has read it (they do nothing where there are none or more); the lists stay the old ones until
-// finish_small_breaks.
+// A step's breaks where there are at most kSmallBreaks: SmallBreaksKernel, then the merges into the contact,
+// ground and incidence lists (MergeBreaksKernel), sized for that many and taking their number from the step's
+// status on the device, so that they can be launched before the host has read it (they do nothing where there
+// are none or more); the lists stay the old ones until finish_small_breaks.
 template <class Dev>
 void DeviceBackend<Dev>::launch_small_breaks() {
   const std::size_t old_pairs = contact_count_, e = 2 * std::size_t{kSmallBreaks};
@@ -1057,22 +1056,21 @@ void DeviceBackend<Dev>::launch_small_breaks() {
       LoseLinksKernel{d(lost_), d(intact_count_), c(px_), c(py_), c(pz_), c(ref_)},
       status_field<float>(offsetof(StepStatus, move2_lost))});
   contacts_next_.resize(old_pairs + kSmallBreaks);
-  moved_.resize(old_pairs);
   const std::size_t ground_threads = M_.ground ? ground_count_ + e : 0;
   if (M_.ground) ground_next_.resize(ground_threads);
-  Dev::launch(old_pairs + kSmallBreaks + ground_threads,
+  for (auto* b : {&inc_key_next_, &inc_value_next_}) b->resize(2 * old_pairs + e);
+  MergeIncidenceKernel incidence{c(inc_key_), c(inc_value_), nullptr, static_cast<std::uint32_t>(2 * old_pairs),
+                                 c(fresh_inc_key_), c(fresh_inc_value_), 0, d(inc_key_next_), d(inc_value_next_)};
+  incidence.pairs = c(contacts_);
+  incidence.fresh_pairs = c(fresh_key_);
+  Dev::launch(old_pairs + kSmallBreaks + ground_threads + 2 * old_pairs + e,
               MergeBreaksKernel{count,
                                 MergeFreshPairsKernel{c(contacts_), c(fresh_key_), static_cast<std::uint32_t>(old_pairs), 0,
-                                                      d(contacts_next_), d(moved_), nullptr, nullptr},
+                                                      d(contacts_next_), nullptr, nullptr, nullptr},
                                 old_pairs + kSmallBreaks,
                                 MergeBodiesKernel{c(ground_), c(ground_fresh_), static_cast<std::uint32_t>(ground_count_),
-                                                  joins, d(ground_next_)}});
-  for (auto* b : {&inc_key_next_, &inc_value_next_}) b->resize(2 * old_pairs + e);
-  Dev::launch(2 * old_pairs + e,
-              MergeSmallIncidenceKernel{count, MergeIncidenceKernel{c(inc_key_), c(inc_value_), c(moved_),
-                                                                    static_cast<std::uint32_t>(2 * old_pairs),
-                                                                    c(fresh_inc_key_), c(fresh_inc_value_), 0,
-                                                                    d(inc_key_next_), d(inc_value_next_)}});
+                                                  joins, d(ground_next_)},
+                                ground_threads, incidence});
 }
 
 // After launch_small_breaks, with a status read after it (st.breaks of them, at most kSmallBreaks): the

@@ -560,7 +560,7 @@ struct MergeFreshPairsKernel {
       const std::uint64_t key = static_cast<std::uint64_t>(a[k].i) << 32 | a[k].j;
       const std::uint32_t q = static_cast<std::uint32_t>(k) + count_before(nb, [&](std::uint32_t m) { return b[m] < key; });
       out[q] = a[k];
-      moved[k] = q;
+      if (moved) moved[k] = q;
     } else {
       const std::uint32_t m = static_cast<std::uint32_t>(k - na);
       const std::uint32_t i = static_cast<std::uint32_t>(b[m] >> 32), j = static_cast<std::uint32_t>(b[m]);
@@ -585,10 +585,20 @@ struct MergeIncidenceKernel {
   const std::uint32_t *fresh_key, *fresh_value;
   std::uint32_t f;
   std::uint32_t *out_key, *out_value;
+  // Where moved is null: an old pair's new index counted here, as MergeFreshPairsKernel counts it, from the
+  // old list and the fresh pairs' sorted keys (so that this need not follow that kernel's launch).
+  const ContactPair* pairs = nullptr;
+  const std::uint64_t* fresh_pairs = nullptr;
+  std::uint32_t fresh_pair_count = 0;
   MCA_HD static bool less(std::uint32_t a, std::uint32_t v, std::uint32_t b, std::uint32_t w) {
     return a != b ? a < b : v < w;
   }
-  MCA_HD std::uint32_t renamed(std::uint32_t x) const { return 2 * moved[value[x] >> 1] + (value[x] & 1u); }
+  MCA_HD std::uint32_t moved_to(std::uint32_t p) const {
+    if (moved) return moved[p];
+    const std::uint64_t k = static_cast<std::uint64_t>(pairs[p].i) << 32 | pairs[p].j;
+    return p + count_before(fresh_pair_count, [&](std::uint32_t m) { return fresh_pairs[m] < k; });
+  }
+  MCA_HD std::uint32_t renamed(std::uint32_t x) const { return 2 * moved_to(value[x] >> 1) + (value[x] & 1u); }
   MCA_HD void operator()(std::size_t k) const {
     std::uint32_t a, v, place;
     if (k < e) {
@@ -663,9 +673,9 @@ MCA_HD std::uint32_t stable_rank(const T* keys, std::uint32_t n, std::uint32_t k
 // the sorts of the broken pairs' keys and of their ends, the fresh pairs' incidence entries
 // (MergeFreshPairsKernel's) and their sort, GroundJoinFlagKernel, the scan, GroundJoinWriteKernel and
 // LoseLinksKernel do in ten launches or more, each element's place in a sort or scan counted (stable_rank)
-// instead. The merges into the long lists follow (MergeBreaksKernel, MergeSmallIncidenceKernel). All three
-// read the number of breaks from the device (the step's status), so they can be launched before the host
-// has read it; they do nothing where there are none or more than kSmallBreaks.
+// instead. The merges into the long lists follow (MergeBreaksKernel). Both read the number of breaks from
+// the device (the step's status), so they can be launched before the host has read it; they do nothing
+// where there are none or more than kSmallBreaks.
 inline constexpr std::uint32_t kSmallBreaks = 256;
 MCA_HD std::uint32_t small_breaks(const std::uint32_t* breaks) { return *breaks <= kSmallBreaks ? *breaks : 0u; }
 struct SmallBreaksKernel {
@@ -731,32 +741,33 @@ struct SmallBreaksKernel {
   }
 };
 // After SmallBreaksKernel, in one launch: the broken pairs merged into the contact list (threads [0,
-// pair_threads): the old list's, then at most kSmallBreaks fresh ones) and their ends near the ground into
-// the ground list (the rest; its fresh entries' number: the status's ground joins).
+// pair_threads): the old list's, then at most kSmallBreaks fresh ones), their ends near the ground into the
+// ground list (the next ground_threads; its fresh entries' number: the status's ground joins), and the fresh
+// pairs' incidence entries into the incidence list (the rest: the old list's, then two per break; each old
+// pair's new index counted by its own threads, MergeIncidenceKernel without `moved`).
 struct MergeBreaksKernel {
   const std::uint32_t* count;   // the step's breaks
   MergeFreshPairsKernel pairs;  // (nb: the count; its incidence entries: SmallBreaksKernel's)
   std::size_t pair_threads;
   MergeBodiesKernel ground;
+  std::size_t ground_threads;
+  MergeIncidenceKernel incidence;  // (f, fresh_pair_count: from the count)
   MCA_HD void operator()(std::size_t k) const {
-    MergeFreshPairsKernel p = pairs;
-    p.nb = small_breaks(count);
-    if (p.nb == 0) return;
+    const std::uint32_t nb = small_breaks(count);
+    if (nb == 0) return;
     if (k < pair_threads) {
+      MergeFreshPairsKernel p = pairs;
+      p.nb = nb;
       if (k < p.na + p.nb) p(k);
-    } else {
+    } else if (k < pair_threads + ground_threads) {
       ground(k - pair_threads);
+    } else {
+      MergeIncidenceKernel m = incidence;
+      m.f = 2 * nb;
+      m.fresh_pair_count = nb;
+      k -= pair_threads + ground_threads;
+      if (k < m.e + m.f) m(k);
     }
-  }
-};
-// MergeIncidenceKernel after SmallBreaksKernel: its fresh entries, two per break, as many as the count says.
-struct MergeSmallIncidenceKernel {
-  const std::uint32_t* count;
-  MergeIncidenceKernel merge;
-  MCA_HD void operator()(std::size_t k) const {
-    MergeIncidenceKernel m = merge;
-    m.f = 2 * small_breaks(count);
-    if (m.f != 0 && k < m.e + m.f) m(k);
   }
 };
 
