@@ -269,19 +269,14 @@ struct CudaDevice {
   static void download_then(T* dst, const Buffer<T>& b, std::size_t n, std::size_t offset, F&& after) {
     const std::size_t bytes = n * sizeof(T);
     if (bytes > kStaging) throw std::logic_error("download_then: more than the staging memory holds");
-    void* staging = staging_memory();
     if (bytes) {
-      static const cudaEvent_t copied = [] {
-        cudaEvent_t e = nullptr;
-        cuda_check(cudaEventCreateWithFlags(&e, cudaEventDisableTiming), "cudaEventCreate");
-        return e;
-      }();
-      cuda_check(cudaMemcpyAsync(staging, b.data() + offset, bytes, cudaMemcpyDeviceToHost), "download");
-      cuda_check(cudaEventRecord(copied), "download");
+      const Staging& staging = staging_memory();
+      cuda_check(cudaMemcpyAsync(staging.memory, b.data() + offset, bytes, cudaMemcpyDeviceToHost), "download");
+      cuda_check(cudaEventRecord(staging.copied), "download");
       after();
       const auto t0 = std::chrono::steady_clock::now();
-      cuda_check(cudaEventSynchronize(copied), "download");
-      std::memcpy(static_cast<void*>(dst), staging, bytes);
+      cuda_check(cudaEventSynchronize(staging.copied), "download");
+      std::memcpy(static_cast<void*>(dst), staging.memory, bytes);
       read_done(t0);
     } else {
       after();
@@ -422,7 +417,7 @@ struct CudaDevice {
     }
   };
   static Timing& timing() {
-    static Timing t;
+    static thread_local Timing t;  // (per host thread, as the staging memory)
     return t;
   }
   // A copy to the host, waited for since `since`, is done: counted with the wait, and the launches before it
@@ -446,14 +441,26 @@ struct CudaDevice {
     t.pending.push_back({&name, {a, b}});
   }
 
+  // Page-locked memory for small copies, and the event that marks a copy done: per host thread (Python steps
+  // simulations in threads of their own, the interpreter's lock released).
   static constexpr std::size_t kStaging = 4096;
-  static void* staging_memory() {
-    static void* p = [] {
-      void* m = nullptr;
-      cuda_check(cudaMallocHost(&m, kStaging), "cudaMallocHost");
-      return m;
-    }();
-    return p;
+  struct Staging {
+    void* memory = nullptr;
+    cudaEvent_t copied = nullptr;
+    Staging() {
+      cuda_check(cudaMallocHost(&memory, kStaging), "cudaMallocHost");
+      cuda_check(cudaEventCreateWithFlags(&copied, cudaEventDisableTiming), "cudaEventCreate");
+    }
+    Staging(const Staging&) = delete;
+    Staging& operator=(const Staging&) = delete;
+    ~Staging() {
+      if (copied) cudaEventDestroy(copied);
+      if (memory) cudaFreeHost(memory);
+    }
+  };
+  static const Staging& staging_memory() {
+    static thread_local const Staging s;
+    return s;
   }
 
   // The primitives' scratch memory and the sort's output, per host thread, grown as needed and kept.

@@ -175,14 +175,14 @@ struct HostDevice {
   }
   static void unmap_gl(render::DrawTarget& t, render::DrawTarget::Which which) { t.unmap(which); }
 
-  // Counted: the copies from the device to the host (each a wait for the device on a GPU), and whether
-  // launches run their threads backwards.
-  static inline std::size_t reads = 0;
+  // Counted (per host thread): the copies from the device to the host (each a wait for the device on a
+  // GPU); and whether launches run their threads backwards.
+  static inline thread_local std::size_t reads = 0;
   static inline bool reverse = false;
 
   // The profile (MCA_PROFILE): the wall time of each launch and primitive.
   static DeviceProfile& profile() {
-    static DeviceProfile p;
+    static thread_local DeviceProfile p;  // (per host thread: Python steps simulations in threads of their own)
     return p;
   }
   static void print_profile(const char* backend, std::int64_t steps, std::int64_t rebuilds) {
