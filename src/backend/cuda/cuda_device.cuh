@@ -261,7 +261,7 @@ struct CudaDevice {
     if (bytes <= kStaging) return download_then(dst, b, n, offset, [] {});
     const auto t0 = std::chrono::steady_clock::now();
     cuda_check(cudaMemcpy(dst, b.data() + offset, bytes, cudaMemcpyDeviceToHost), "download");
-    read_done(t0);
+    read_done(t0, timing().pending.size());
   }
   // A small download with after() launching more work behind the copy, before the host waits for the copy
   // (not for that work): the device is not idle while the host reads and decides what to launch next.
@@ -269,6 +269,7 @@ struct CudaDevice {
   static void download_then(T* dst, const Buffer<T>& b, std::size_t n, std::size_t offset, F&& after) {
     const std::size_t bytes = n * sizeof(T);
     if (bytes > kStaging) throw std::logic_error("download_then: more than the staging memory holds");
+    const std::size_t before = timing().pending.size();  // the launches timed before the copy
     if (bytes) {
       const Staging& staging = staging_memory();
       cuda_check(cudaMemcpyAsync(staging.memory, b.data() + offset, bytes, cudaMemcpyDeviceToHost), "download");
@@ -277,10 +278,10 @@ struct CudaDevice {
       const auto t0 = std::chrono::steady_clock::now();
       cuda_check(cudaEventSynchronize(staging.copied), "download");
       std::memcpy(static_cast<void*>(dst), staging.memory, bytes);
-      read_done(t0);
+      read_done(t0, before);
     } else {
       after();
-      read_done(std::chrono::steady_clock::now());
+      read_done(std::chrono::steady_clock::now(), before);
     }
   }
   template <class T>
@@ -385,7 +386,7 @@ struct CudaDevice {
   static void print_profile(const char* backend, std::int64_t steps, std::int64_t rebuilds) {
     Timing& t = timing();
     if (!t.profile.on()) return;
-    if (cudaDeviceSynchronize() == cudaSuccess) t.resolve();
+    if (cudaDeviceSynchronize() == cudaSuccess) t.resolve(t.pending.size());
     t.profile.print(backend, steps, rebuilds);
   }
 
@@ -404,30 +405,30 @@ struct CudaDevice {
       pool.pop_back();
       return e;
     }
-    // (Waits for the launches timed: those after a copy may still run.)
-    void resolve() {
-      for (const auto& [name, ev] : pending) {
+    // The first `done` launches timed, which have run (those after them may still run: they stay pending).
+    void resolve(std::size_t done) {
+      for (std::size_t k = 0; k < done; ++k) {
+        const auto& [name, ev] = pending[k];
         float ms = 0;
-        cuda_check(cudaEventSynchronize(ev.second), "cudaEventSynchronize");
         if (cudaEventElapsedTime(&ms, ev.first, ev.second) == cudaSuccess) profile.add(*name, 1e-3 * ms);
         pool.push_back(ev.first);
         pool.push_back(ev.second);
       }
-      pending.clear();
+      pending.erase(pending.begin(), pending.begin() + static_cast<std::ptrdiff_t>(done));
     }
   };
   static Timing& timing() {
     static thread_local Timing t;  // (per host thread, as the staging memory)
     return t;
   }
-  // A copy to the host, waited for since `since`, is done: counted with the wait, and the launches before it
-  // timed (MCA_PROFILE).
-  static void read_done(std::chrono::steady_clock::time_point since) {
+  // A copy to the host, waited for since `since`, is done: counted with the wait, and the launches timed
+  // before it (the first `before` of those pending) resolved (MCA_PROFILE).
+  static void read_done(std::chrono::steady_clock::time_point since, std::size_t before) {
     Timing& t = timing();
     if (t.profile.on()) {
       t.profile.read();
       t.profile.waited(std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count());
-      t.resolve();
+      t.resolve(before);
     }
   }
   template <class F>

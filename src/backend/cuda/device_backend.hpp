@@ -665,7 +665,7 @@ class DeviceBackend : public StateBackend {
   Buf<render::Instance> instances_;
   Buf<render::SurfaceVertex> surface_out_;
   // The step's status: status_[status_at_]. Steps use the two in turn, each clearing the next one's (the
-  // many-body kernel's first thread), after the host has read it and before anything writes it.
+  // lattice kernel's first thread), after the host has read it and before anything writes it.
   std::size_t status_at_ = 0;
   StepStatus status_h_;  // the last status read
   std::size_t rebuilds_ = 0;

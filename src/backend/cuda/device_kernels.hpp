@@ -249,7 +249,6 @@ struct Touch {
 };
 
 // --- Lattice ---
-// Its first thread also clears the next step's status (its counters and the reductions' starting values).
 // The many-body terms of automaton a (they read positions, links and damage; write only the terms).
 struct ManyBodyKernel {
   cpu::LatticeView v;
@@ -275,7 +274,8 @@ struct LinksKernel {
 // and itself where a value is not finite to the smallest. With projectiles (touch.np > 0), it also counts
 // those its new position touches, for the next step's candidates (TouchCountKernel's work, done here while
 // the position is at hand), and appends its entries to the list (TouchWriteKernel's, where it has room).
-// Its first thread clears the next step's status (the host has read it: it was this one's last step's).
+// Its first thread clears the next step's status (its counters and the reductions' starting values; the host
+// has read it: it was this one's last step's).
 struct AutomataKernel {
   cpu::LatticeView v;
   Touch touch;
