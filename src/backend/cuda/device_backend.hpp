@@ -135,6 +135,9 @@ class DeviceBackend : public StateBackend {
     // The fused lattice kernel where there are no explicit links (their slots would need copying too), with
     // the second copy of what it writes that its neighbours read; else the links' results through memory.
     fused_ = ne == 0 && M_.lattice_slots() > 0 && cuda_fused_lattice();
+    // Lattice links (the random lattice and surface mode have none: their many-body terms, which only the
+    // lattice links read, are never computed).
+    lattice_links_ = std::any_of(m.neighbour.begin(), m.neighbour.end(), [](std::uint32_t j) { return j != Model::kNoLink; });
     if (fused_) {
       for (auto& b : next_d_) b.resize(n);
       next_f_[0].resize(n);
@@ -602,6 +605,13 @@ class DeviceBackend : public StateBackend {
   void read_status() {
     read_status([] {});
   }
+  // The next step's many-body terms, launched behind the copy of a step's last status (the links and
+  // positions they read are then the next step's).
+  void launch_next_many_body() {
+    if (!lattice_links_) return;
+    Dev::launch(M_.size(), ManyBodyKernel{view()});
+    early_many_body_ = true;
+  }
   float apply_breaks(const StepStatus& st, bool launched);
   void rebuild_contacts();
   void incidence();
@@ -697,10 +707,11 @@ class DeviceBackend : public StateBackend {
   Buf<std::uint32_t> raw_end_, raw_inc_key_, raw_inc_value_;
   bool broke_last_step_ = false;
   std::size_t large_break_steps_ = 0;
-  // Whether this step's many-body terms were launched by the last step, behind its status's copy, and the
-  // links and positions they read have not changed since (one_step).
+  // Whether this step's many-body terms were launched by the last step, behind the copy of its last status
+  // (after which nothing changes the links and positions they read; an upload does).
   bool early_many_body_ = false;
   std::size_t early_many_body_steps_ = 0;
+  bool lattice_links_ = false;
   // Projectiles.
   Buf<ProjectileConstants> proj_constants_;
   Buf<ContactMaterial> proj_material_;
@@ -745,7 +756,7 @@ std::int64_t DeviceBackend<Dev>::one_step() {
   // explicit, contact and projectile passes, where the CPU computes them after: those do not write what
   // they read, nor read what they write.
   if (early_many_body_) ++early_many_body_steps_;
-  else Dev::launch(n, ManyBodyKernel{v});
+  else if (lattice_links_) Dev::launch(n, ManyBodyKernel{v});
   early_many_body_ = false;
   if (ne) explicit_pass(v);
   contact_pass();
@@ -791,12 +802,8 @@ std::int64_t DeviceBackend<Dev>::one_step() {
   if (launched) launch_small_breaks();
   // The one read of a step without breaks, or with few after a step with breaks. The next step's many-body
   // terms are launched behind the copy, so that the device computes them while the host waits for it and
-  // decides what to launch next (the next step launches them again where apply_breaks changed the links
-  // after the read).
-  read_status([&] {
-    Dev::launch(n, ManyBodyKernel{view()});
-    early_many_body_ = true;
-  });
+  // decides what to launch next (again behind apply_breaks' read, where it changes the links after this one).
+  read_status([&] { launch_next_many_body(); });
   const StepStatus st = status_h_;
   broke_last_step_ = st.breaks != 0;
   float max_move2 = std::max(st.move2, softening_ ? st.move2_lost : 0.0f);
@@ -966,11 +973,10 @@ template <class Dev>
 float DeviceBackend<Dev>::apply_breaks(const StepStatus& st, bool launched) {
   const std::uint32_t nb = st.breaks;
   if (nb <= kSmallBreaks && launched) return finish_small_breaks(st);
-  early_many_body_ = false;  // the links change after the next step's many-body terms were launched
   if (nb <= kSmallBreaks) {
     launch_small_breaks();
     StepStatus after;
-    Dev::download(&after, status_, 1, status_at_);
+    Dev::download_then(&after, status_, 1, status_at_, [&] { launch_next_many_body(); });
     return finish_small_breaks(after);
   }
   const std::size_t n = M_.size(), old_pairs = contact_count_;
@@ -1012,7 +1018,7 @@ float DeviceBackend<Dev>::apply_breaks(const StepStatus& st, bool launched) {
   merge_incidence(2 * old_pairs, e);
   lose_links(status_field<float>(offsetof(StepStatus, move2_lost)));
   StepStatus after;
-  Dev::download(&after, status_, 1, status_at_);
+  Dev::download_then(&after, status_, 1, status_at_, [&] { launch_next_many_body(); });
   return merged_ground(after);
 }
 
