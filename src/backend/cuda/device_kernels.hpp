@@ -610,7 +610,11 @@ struct MergeIncidenceKernel {
       const auto y = static_cast<std::uint32_t>(k - e);
       a = fresh_key[y];
       v = fresh_value[y];
-      place = y + count_before(e, [&](std::uint32_t x) { return less(key[x], renamed(x), a, v); });
+      // The old entries before it: those of automata below a (by key alone), then those of a's run renamed
+      // below v (in order: renaming keeps it).
+      std::uint32_t x = count_before(e, [&](std::uint32_t m) { return key[m] < a; });
+      while (x < e && key[x] == a && renamed(x) < v) ++x;
+      place = y + x;
     }
     out_key[place] = a;
     out_value[place] = v;
