@@ -269,7 +269,7 @@ struct CudaDevice {
   static void download_then(T* dst, const Buffer<T>& b, std::size_t n, std::size_t offset, F&& after) {
     const std::size_t bytes = n * sizeof(T);
     if (bytes > kStaging) throw std::logic_error("download_then: more than the staging memory holds");
-    const std::size_t before = timing().pending.size();  // the launches timed before the copy
+    const std::size_t before = timing().pending.size();  // the launches timed before the copy (done after it)
     if (bytes) {
       const Staging& staging = staging_memory();
       cuda_check(cudaMemcpyAsync(staging.memory, b.data() + offset, bytes, cudaMemcpyDeviceToHost), "download");
@@ -279,9 +279,9 @@ struct CudaDevice {
       cuda_check(cudaEventSynchronize(staging.copied), "download");
       std::memcpy(static_cast<void*>(dst), staging.memory, bytes);
       read_done(t0, before);
-    } else {
+    } else {  // (no copy, so no wait: nothing launched is known to have run)
       after();
-      read_done(std::chrono::steady_clock::now(), before);
+      read_done(std::chrono::steady_clock::now(), 0);
     }
   }
   template <class T>
