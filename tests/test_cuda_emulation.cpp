@@ -517,8 +517,7 @@ TEST(CudaEmulation, AStepReadsTheDeviceOnceTwiceWithBreaksMoreOnlyToRebuildConta
     int once = 0, once_breaking = 0, twice = 0, rebuilt = 0;
     std::size_t rebuild_reads = 0;
     bool broke = false;
-    const auto& nb = e.model().neighbour;
-    const bool lattice = std::any_of(nb.begin(), nb.end(), [](std::uint32_t j) { return j != Model::kNoLink; });
+    const bool lattice = e.model().has_lattice_links();
     EXPECT_EQ(lattice, scene.name != "wall_ball") << scene.name;
     std::optional<State> half;
     for (int s = 0; s < 4000; ++s) {

@@ -307,6 +307,10 @@ struct Model {
     return c;
   }
   std::size_t lattice_slots() const { return neighbour.size(); }
+  // Whether any lattice link exists (a model of the random lattice or of surface-mode objects only has none).
+  bool has_lattice_links() const {
+    return std::any_of(neighbour.begin(), neighbour.end(), [](std::uint32_t j) { return j != kNoLink; });
+  }
   // Some lattice automaton's material softens (fracture_energy > 0; a projectile's or a surface-mode
   // object's material does not count: they have no lattice links; the random lattice's automata count,
   // their explicit links soften): the state keeps each link's damage (State::link_damage; 0 on a

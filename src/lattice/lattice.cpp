@@ -1629,9 +1629,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
   }
   for (std::size_t a = 0; a < n; ++a) M.total_mass += M.mass[a];
   assign_link_strengths(M, scene.solver.seed);
-  const bool lattice_links = std::any_of(M.neighbour.begin(), M.neighbour.end(),
-                                         [](std::uint32_t j) { return j != Model::kNoLink; });
-  if (scene.solver.lattice_jitter > 0 && lattice_links) {  // (a scene of surface-mode objects only has none)
+  if (scene.solver.lattice_jitter > 0 && M.has_lattice_links()) {  // (a scene of surface-mode objects only has none)
     M.lattice_stiffness = jitter_stiffness(scene.solver.lattice_jitter);
     M.lattice_lambda = M.lattice_stiffness;
     // Each lattice link's rest length is the distance of its moved sites (in double: the strain at rest is

@@ -137,7 +137,7 @@ class DeviceBackend : public StateBackend {
     fused_ = ne == 0 && M_.lattice_slots() > 0 && cuda_fused_lattice();
     // Lattice links (the random lattice and surface mode have none: their many-body terms, which only the
     // lattice links read, are never computed).
-    lattice_links_ = std::any_of(m.neighbour.begin(), m.neighbour.end(), [](std::uint32_t j) { return j != Model::kNoLink; });
+    lattice_links_ = m.has_lattice_links();
     if (fused_) {
       for (auto& b : next_d_) b.resize(n);
       next_f_[0].resize(n);
