@@ -615,7 +615,7 @@ class DeviceBackend : public StateBackend {
   float apply_breaks(const StepStatus& st, bool launched);
   void rebuild_contacts();
   void incidence();
-  void merge_incidence(std::size_t old, std::size_t fresh);
+  void merge_incidence(std::size_t old, std::size_t fresh, const ContactPair* old_pairs, std::uint32_t fresh_pairs);
   void launch_small_breaks();
   float finish_small_breaks(const StepStatus& st);
   float merged_ground(const StepStatus& st);
@@ -699,8 +699,8 @@ class DeviceBackend : public StateBackend {
   Buf<BodyContact> ground_, ground_next_, ground_fresh_;
   std::size_t ground_count_ = 0;
   Buf<std::uint32_t> inc_key_, inc_value_, inc_key_next_, inc_value_next_;
-  // apply_breaks' merge: each old pair's new index, the fresh pairs' incidence entries.
-  Buf<std::uint32_t> moved_, fresh_inc_key_, fresh_inc_value_;
+  // apply_breaks' merge: the fresh pairs' incidence entries.
+  Buf<std::uint32_t> fresh_inc_key_, fresh_inc_value_;
   // SmallBreaksKernel's unsorted keys, ends and incidence entries; whether the last step broke links
   // (one_step then launches it before the status is read); the steps with more breaks than it takes.
   Buf<std::uint64_t> raw_key_;
@@ -995,11 +995,10 @@ float DeviceBackend<Dev>::apply_breaks(const StepStatus& st, bool launched) {
   // The broken pairs join the contact list (sorted), their ends the incidence list (merged below).
   Dev::stable_sort_by_key(d(fresh_key_), d(fresh_value_), nb, 32 + bits_for(n - 1));
   contacts_next_.resize(old_pairs + nb);
-  moved_.resize(old_pairs);
   fresh_inc_key_.resize(e);
   fresh_inc_value_.resize(e);
   Dev::launch(old_pairs + nb, MergeFreshPairsKernel{c(contacts_), c(fresh_key_), static_cast<std::uint32_t>(old_pairs), nb,
-                                                    d(contacts_next_), d(moved_), d(fresh_inc_key_), d(fresh_inc_value_)});
+                                                    d(contacts_next_), d(fresh_inc_key_), d(fresh_inc_value_)});
   std::swap(contacts_, contacts_next_);
   contact_count_ += nb;
   // Their ends near the ground join the ground list (sorted, once each): as many as the status counts.
@@ -1015,7 +1014,7 @@ float DeviceBackend<Dev>::apply_breaks(const StepStatus& st, bool launched) {
     Dev::launch(ground_count_ + e, MergeBodiesKernel{c(ground_), c(ground_fresh_), static_cast<std::uint32_t>(ground_count_),
                                                      c(ends_place_) + e, d(ground_next_)});
   }
-  merge_incidence(2 * old_pairs, e);
+  merge_incidence(2 * old_pairs, e, c(contacts_next_), nb);  // (the old list, swapped out above)
   lose_links(status_field<float>(offsetof(StepStatus, move2_lost)));
   StepStatus after;
   Dev::download_then(&after, status_, 1, status_at_, [&] { launch_next_many_body(); });
@@ -1065,14 +1064,13 @@ void DeviceBackend<Dev>::launch_small_breaks() {
   const std::size_t ground_threads = M_.ground ? ground_count_ + e : 0;
   if (M_.ground) ground_next_.resize(ground_threads);
   for (auto* b : {&inc_key_next_, &inc_value_next_}) b->resize(2 * old_pairs + e);
-  MergeIncidenceKernel incidence{c(inc_key_), c(inc_value_), nullptr, static_cast<std::uint32_t>(2 * old_pairs),
-                                 c(fresh_inc_key_), c(fresh_inc_value_), 0, d(inc_key_next_), d(inc_value_next_)};
-  incidence.pairs = c(contacts_);
-  incidence.fresh_pairs = c(fresh_key_);
+  const MergeIncidenceKernel incidence{c(inc_key_), c(inc_value_), static_cast<std::uint32_t>(2 * old_pairs),
+                                       c(fresh_inc_key_), c(fresh_inc_value_), 0, d(inc_key_next_), d(inc_value_next_),
+                                       c(contacts_), c(fresh_key_), 0};
   Dev::launch(old_pairs + kSmallBreaks + ground_threads + 2 * old_pairs + e,
               MergeBreaksKernel{count,
                                 MergeFreshPairsKernel{c(contacts_), c(fresh_key_), static_cast<std::uint32_t>(old_pairs), 0,
-                                                      d(contacts_next_), nullptr, nullptr, nullptr},
+                                                      d(contacts_next_), nullptr, nullptr},
                                 old_pairs + kSmallBreaks,
                                 MergeBodiesKernel{c(ground_), c(ground_fresh_), static_cast<std::uint32_t>(ground_count_),
                                                   joins, d(ground_next_)},
@@ -1161,14 +1159,15 @@ void DeviceBackend<Dev>::incidence() {
 // merged with the `fresh` ones (MergeFreshPairsKernel's), which are sorted here (a few per step, where
 // sorting the whole list again would take the step's longest sort).
 template <class Dev>
-void DeviceBackend<Dev>::merge_incidence(std::size_t old, std::size_t fresh) {
+void DeviceBackend<Dev>::merge_incidence(std::size_t old, std::size_t fresh, const ContactPair* old_pairs,
+                                         std::uint32_t fresh_pairs) {
   const std::size_t e = old + fresh;
   if (fresh == 0) return;
   Dev::stable_sort_by_key(d(fresh_inc_key_), d(fresh_inc_value_), fresh, bits_for(M_.size() - 1));
   for (auto* b : {&inc_key_next_, &inc_value_next_}) b->resize(e);
-  Dev::launch(e, MergeIncidenceKernel{c(inc_key_), c(inc_value_), c(moved_), static_cast<std::uint32_t>(old), c(fresh_inc_key_),
+  Dev::launch(e, MergeIncidenceKernel{c(inc_key_), c(inc_value_), static_cast<std::uint32_t>(old), c(fresh_inc_key_),
                                       c(fresh_inc_value_), static_cast<std::uint32_t>(fresh), d(inc_key_next_),
-                                      d(inc_value_next_)});
+                                      d(inc_value_next_), old_pairs, c(fresh_key_), fresh_pairs});
   std::swap(inc_key_, inc_key_next_);
   std::swap(inc_value_, inc_value_next_);
 }

@@ -545,22 +545,20 @@ struct ContactsOntoAutomataKernel {
 };
 // The step's broken pairs (keys i << 32 | j, sorted) merged into the sorted contact list a (std::merge: a's
 // entries first where equal), each fresh pair with no history, one element per thread: threads [0, na)
-// place list a, [na, na + nb) the fresh pairs. Each thread also gives where its pair went: an old pair's
-// new index (moved), a fresh pair's two incidence entries (automaton, 2 q + side; in fresh order, so
-// sorted by automaton they keep the order of q) for MergeIncidenceKernel.
+// place list a, [na, na + nb) the fresh pairs. A fresh pair's thread also gives its two incidence entries
+// (automaton, 2 q + side; in fresh order, so sorted by automaton they keep the order of q) for
+// MergeIncidenceKernel (inc_key null: not wanted).
 struct MergeFreshPairsKernel {
   const ContactPair* a;
   const std::uint64_t* b;
   std::uint32_t na, nb;
   ContactPair* out;
-  std::uint32_t* moved;
   std::uint32_t *inc_key, *inc_value;
   MCA_HD void operator()(std::size_t k) const {
     if (k < na) {
       const std::uint64_t key = static_cast<std::uint64_t>(a[k].i) << 32 | a[k].j;
       const std::uint32_t q = static_cast<std::uint32_t>(k) + count_before(nb, [&](std::uint32_t m) { return b[m] < key; });
       out[q] = a[k];
-      if (moved) moved[k] = q;
     } else {
       const std::uint32_t m = static_cast<std::uint32_t>(k - na);
       const std::uint32_t i = static_cast<std::uint32_t>(b[m] >> 32), j = static_cast<std::uint32_t>(b[m]);
@@ -574,27 +572,27 @@ struct MergeFreshPairsKernel {
     }
   }
 };
-// The incidence list after MergeFreshPairsKernel, without sorting it again: the old entries (automaton,
-// 2 p + side), sorted, each p renamed to its new index (moved only grows, so they stay sorted), merged
-// with the fresh pairs' entries (sorted by automaton, stably). Each entry goes to its index plus the
-// number of the other list's entries before it; no two entries name the same pair side, so there are no
-// ties. The list comes out as IncidenceKeysKernel and a stable sort by automaton make it of the merged pairs.
+// The incidence list after MergeFreshPairsKernel's merge, without sorting it again: the old entries
+// (automaton, 2 p + side), sorted, each p renamed to its new index (moved_to only grows, so they stay
+// sorted), merged with the fresh pairs' entries (sorted by automaton, stably). Each entry goes to its index
+// plus the number of the other list's entries before it; no two entries name the same pair side, so there
+// are no ties. The list comes out as IncidenceKeysKernel and a stable sort by automaton make it of the merged
+// pairs.
 struct MergeIncidenceKernel {
-  const std::uint32_t *key, *value, *moved;
+  const std::uint32_t *key, *value;
   std::uint32_t e;
   const std::uint32_t *fresh_key, *fresh_value;
   std::uint32_t f;
   std::uint32_t *out_key, *out_value;
-  // Where moved is null: an old pair's new index counted here, as MergeFreshPairsKernel counts it, from the
-  // old list and the fresh pairs' sorted keys (so that this need not follow that kernel's launch).
-  const ContactPair* pairs = nullptr;
-  const std::uint64_t* fresh_pairs = nullptr;
-  std::uint32_t fresh_pair_count = 0;
+  const ContactPair* pairs;        // the old contact list
+  const std::uint64_t* fresh_pairs;  // the fresh pairs' keys, sorted
+  std::uint32_t fresh_pair_count;
   MCA_HD static bool less(std::uint32_t a, std::uint32_t v, std::uint32_t b, std::uint32_t w) {
     return a != b ? a < b : v < w;
   }
+  // Old pair p's new index, counted as MergeFreshPairsKernel counts it (so that this need not follow its
+  // launch).
   MCA_HD std::uint32_t moved_to(std::uint32_t p) const {
-    if (moved) return moved[p];
     const std::uint64_t k = static_cast<std::uint64_t>(pairs[p].i) << 32 | pairs[p].j;
     return p + count_before(fresh_pair_count, [&](std::uint32_t m) { return fresh_pairs[m] < k; });
   }
@@ -748,7 +746,7 @@ struct SmallBreaksKernel {
 // pair_threads): the old list's, then at most kSmallBreaks fresh ones), their ends near the ground into the
 // ground list (the next ground_threads; its fresh entries' number: the status's ground joins), and the fresh
 // pairs' incidence entries into the incidence list (the rest: the old list's, then two per break; each old
-// pair's new index counted by its own threads, MergeIncidenceKernel without `moved`).
+// pair's new index counted by its own threads, MergeIncidenceKernel's moved_to).
 struct MergeBreaksKernel {
   const std::uint32_t* count;   // the step's breaks
   MergeFreshPairsKernel pairs;  // (nb: the count; its incidence entries: SmallBreaksKernel's)
