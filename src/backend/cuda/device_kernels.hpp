@@ -554,6 +554,14 @@ struct MergeFreshPairsKernel {
   std::uint32_t na, nb;
   ContactPair* out;
   std::uint32_t *inc_key, *inc_value;
+  // Fresh pair m, (i, j) at index q of the merged list: its two incidence entries.
+  MCA_HD static void incidence(std::uint32_t m, std::uint32_t i, std::uint32_t j, std::uint32_t q, std::uint32_t* key,
+                               std::uint32_t* value) {
+    key[2 * m] = i;
+    value[2 * m] = 2 * q;
+    key[2 * m + 1] = j;
+    value[2 * m + 1] = 2 * q + 1;
+  }
   MCA_HD void operator()(std::size_t k) const {
     if (k < na) {
       const std::uint64_t key = static_cast<std::uint64_t>(a[k].i) << 32 | a[k].j;
@@ -564,11 +572,7 @@ struct MergeFreshPairsKernel {
       const std::uint32_t i = static_cast<std::uint32_t>(b[m] >> 32), j = static_cast<std::uint32_t>(b[m]);
       const std::uint32_t q = m + pairs_before(a, na, i, j, true);
       out[q] = {i, j, {}};
-      if (!inc_key) return;
-      inc_key[2 * m] = i;
-      inc_value[2 * m] = 2 * q;
-      inc_key[2 * m + 1] = j;
-      inc_value[2 * m + 1] = 2 * q + 1;
+      if (inc_key) incidence(m, i, j, q, inc_key, inc_value);
     }
   }
 };
@@ -720,11 +724,7 @@ struct SmallBreaksKernel {
         if (k == 0 || end[k - 1] != end[k]) max_up(move2_lost, lose(end[k]).max);  // once per automaton
       } else {
         const std::uint32_t m = k - e, a = static_cast<std::uint32_t>(key[m] >> 32), b = static_cast<std::uint32_t>(key[m]);
-        const std::uint32_t q = m + pairs_before(contacts, pairs, a, b, true);
-        raw_inc_key[2 * m] = a;
-        raw_inc_value[2 * m] = 2 * q;
-        raw_inc_key[2 * m + 1] = b;
-        raw_inc_value[2 * m + 1] = 2 * q + 1;
+        MergeFreshPairsKernel::incidence(m, a, b, m + pairs_before(contacts, pairs, a, b, true), raw_inc_key, raw_inc_value);
       }
     } else if (phase == 3) {
       if (k <= e) {
