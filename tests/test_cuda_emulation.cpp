@@ -131,6 +131,15 @@ struct Watch {
   std::function<void(const Engine&)> after;
 };
 
+// Every launch of the emulation runs its threads backwards while one lives (a CUDA grid runs its threads in
+// no set order, so no launch may depend on one).
+struct Backwards {
+  Backwards() { gpu::HostDevice::reverse = true; }
+  ~Backwards() { gpu::HostDevice::reverse = false; }
+  Backwards(const Backwards&) = delete;
+  Backwards& operator=(const Backwards&) = delete;
+};
+
 // Runs the scene on backend `first` (the CPU's by default) and on `second` (the CUDA backend's emulation by
 // default), `steps` steps in calls of `chunk`, and checks that the states are equal after every call.
 Compared run_both(SceneDef scene, std::int64_t steps, int chunk, SolverDef::Backend second = SolverDef::Backend::cuda_emulation,
@@ -331,10 +340,7 @@ TEST(CudaEmulation, TheFusedAndSplitLatticeKernelsAreTheCpusBitForBit) {
   }
   EXPECT_TRUE(fused_lattice(walls[1])) << "the default";
   {
-    struct Backwards {
-      Backwards() { gpu::HostDevice::reverse = true; }
-      ~Backwards() { gpu::HostDevice::reverse = false; }
-    } backwards;
+    const Backwards backwards;
     EXPECT_GT(run_both(walls[1], 1500, 500).breaks, 0);
   }
   resumes_across(walls[1], SolverDef::Backend::cpu, SolverDef::Backend::cuda_emulation, 900, 600);
@@ -431,14 +437,13 @@ TEST(CudaEmulation, ProjectileCandidatesListedOrCountedAreTheCpusBitForBit) {
       gpu::DeviceBackend<gpu::HostDevice>::first_touch_room = 8;
       gpu::DeviceBackend<gpu::HostDevice>::small_candidates = 16;
       gpu::DeviceBackend<gpu::HostDevice>::pass_chunks = 4;
-      gpu::HostDevice::reverse = true;
     }
     ~SmallRoomBackwards() {
       gpu::DeviceBackend<gpu::HostDevice>::first_touch_room = 1024;
       gpu::DeviceBackend<gpu::HostDevice>::small_candidates = gpu::kSmallCandidates;
       gpu::DeviceBackend<gpu::HostDevice>::pass_chunks = gpu::ProjectilePassKernel::kChunks;
-      gpu::HostDevice::reverse = false;
     }
+    const Backwards backwards;
   } setting;
   std::size_t sorted = 0, rewritten = 0, one_block = 0;
   const std::size_t most = hail(SolverDef::Backend::cuda_emulation, [&](const Engine& e) {
@@ -487,10 +492,7 @@ SceneDef three_balls() {
 // A CUDA grid runs its threads in no set order, so no launch may depend on one: with every launch of the
 // emulation run backwards (and the breaks appended backwards), the states are the CPU's still.
 TEST(CudaEmulation, LaunchesRunBackwardsGiveTheSameBits) {
-  struct Backwards {
-    Backwards() { gpu::HostDevice::reverse = true; }
-    ~Backwards() { gpu::HostDevice::reverse = false; }
-  } backwards;
+  const Backwards backwards;
   const Compared c = run_both(io::load_default_scene(), 5000, 1000);
   EXPECT_GT(c.breaks, 0);
   EXPECT_GT(c.contacts, 0u);
@@ -684,10 +686,7 @@ TEST(CudaEmulation, TheDrawListIsTheHostSnapshotsOnSurfacesAndRandomLattices) {
 // A CUDA grid runs its threads in no set order: the fragments' union-find gives each fragment its
 // smallest automaton however its threads ran.
 TEST(CudaEmulation, TheDrawListDoesNotDependOnTheLaunchOrder) {
-  struct Backwards {
-    Backwards() { gpu::HostDevice::reverse = true; }
-    ~Backwards() { gpu::HostDevice::reverse = false; }
-  } backwards;
+  const Backwards backwards;
   EXPECT_GT(draws_equal(io::load_default_scene(), {4000}).fragments, 10);
 }
 
