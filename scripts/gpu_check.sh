@@ -157,11 +157,14 @@ timeout 120 "${loader[@]}" "$dir/mca" bench wall_357k wall_2m --backend cuda \
   --repeats 5 --steps 1000 >"$out/bench_cuda.txt" 2>&1
 note "bench cuda (exit $?):"
 grep -E 'wall_357k|wall_2m|machine' "$out/bench_cuda.txt" | tail -4 | tee -a "$summary"
-# The same with the links and automata kernels apart (MCA_CUDA_LATTICE=split), the fused kernel's A/B.
-MCA_CUDA_LATTICE=split timeout 90 "${loader[@]}" "$dir/mca" bench wall_357k wall_2m --backend cuda \
-  --repeats 3 --steps 1000 >"$out/bench_cuda_split.txt" 2>&1
-note "bench cuda, MCA_CUDA_LATTICE=split (exit $?):"
-grep -E 'wall_357k|wall_2m' "$out/bench_cuda_split.txt" | tail -2 | tee -a "$summary"
+# The same with the links and automata kernels apart (MCA_CUDA_LATTICE=split), the fused kernel's A/B,
+# and with the fused kernel's registers bounded for 2 and 4 blocks a multiprocessor (the default: 3).
+for how in split fused:2 fused:4; do
+  MCA_CUDA_LATTICE=$how timeout 90 "${loader[@]}" "$dir/mca" bench wall_357k wall_2m --backend cuda \
+    --repeats 3 --steps 1000 >"$out/bench_cuda_${how/:/}.txt" 2>&1
+  note "bench cuda, MCA_CUDA_LATTICE=$how (exit $?):"
+  grep -E 'wall_357k|wall_2m' "$out/bench_cuda_${how/:/}.txt" | tail -2 | tee -a "$summary"
+done
 MCA_PROFILE=1 timeout 60 "${loader[@]}" "$dir/mca" bench wall_357k --backend cuda \
   --repeats 1 --steps 200 >"$out/profile_cuda.txt" 2>&1
 note "profile cuda, wall_357k (exit $?; the whole table in profile_cuda.txt):"

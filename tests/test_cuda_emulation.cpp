@@ -13,6 +13,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <tuple>
 
 #include <fmt/format.h>
 
@@ -347,13 +348,24 @@ TEST(CudaEmulation, TheFusedAndSplitLatticeKernelsAreTheCpusBitForBit) {
   resumes_across(walls[1], SolverDef::Backend::cuda_emulation, SolverDef::Backend::cpu, 900, 600);
 }
 TEST(CudaEmulation, AnUnknownLatticeKernelChoiceIsRefused) {
-  LatticeKernels kernels("fast");
-  try {
-    Engine::check_environment();
-    ADD_FAILURE() << "MCA_CUDA_LATTICE=fast was taken";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("MCA_CUDA_LATTICE = 'fast'"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("fused"), std::string::npos) << e.what();
+  for (const char* how : {"fast", "fused:5", "fused:1", "fused:", "fused:3x", "Fused"}) {
+    LatticeKernels kernels(how);
+    try {
+      Engine::check_environment();
+      ADD_FAILURE() << "MCA_CUDA_LATTICE=" << how << " was taken";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(fmt::format("MCA_CUDA_LATTICE = '{}'", how)), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("fused:4"), std::string::npos) << e.what();
+    }
+  }
+  // What is taken: the fused kernel's blocks per multiprocessor (3 unless given), or the split kernels.
+  const std::tuple<const char*, bool, int> taken[] = {{"", true, 3},        {"fused", true, 3}, {"fused:2", true, 2},
+                                                      {"fused:3", true, 3}, {"fused:4", true, 4}, {"split", false, 3}};
+  for (const auto& [how, fused, blocks] : taken) {
+    LatticeKernels kernels(how);
+    const CudaLattice got = cuda_lattice();
+    EXPECT_EQ(got.fused, fused) << how;
+    EXPECT_EQ(got.blocks, blocks) << how;
   }
 }
 
@@ -836,7 +848,8 @@ TEST(CudaDevice, TheDefaultWallIsTheCpusBitForBit) {
 }
 TEST(CudaDevice, TheFusedAndSplitLatticeKernelsAreTheCpusBitForBit) {
   MCA_NEEDS_GPU();
-  for (const char* how : {"fused", "split"}) {
+  // (fused:2 and fused:4 are the same kernel compiled with other register bounds.)
+  for (const char* how : {"fused", "split", "fused:2", "fused:4"}) {
     LatticeKernels kernels(how);
     for (const SceneDef& s : {cubic_wall(), soft_jittered_cubic_wall()}) {
       SCOPED_TRACE(fmt::format("MCA_CUDA_LATTICE={}, {}", how, s.name));

@@ -150,10 +150,16 @@ std::unique_ptr<Backend> make_cpu_backend(const Model& model);
 // no SIMD): for tests of the GPU algorithm on machines without a GPU.
 std::unique_ptr<Backend> make_cuda_emulation_backend(const Model& model);
 // How the CUDA backend (and its emulation) runs a step's links and automata on a lattice without explicit
-// links: in one kernel, each automaton computing its six links (fused, the default), or in two, the links'
-// results through memory (split), as the environment variable MCA_CUDA_LATTICE says; the same bits either
+// links, as the environment variable MCA_CUDA_LATTICE says: in one kernel, each automaton computing its six
+// links (fused, the default), or in two, the links' results through memory (split). "fused:B" asks the
+// compiler to keep the fused kernel's registers to what B blocks of 256 threads on a multiprocessor leave
+// (B = 2, 3 or 4; fused is fused:3), for measuring occupancy against spills on a GPU. The same bits every
 // way (docs/benchmarks.md compares their speed). An mca::Error naming the variable for another value.
-bool cuda_fused_lattice();
+struct CudaLattice {
+  bool fused = true;
+  int blocks = 3;  // the fused kernel's blocks per multiprocessor
+};
+CudaLattice cuda_lattice();
 // The GPU the CUDA backend would run on (its name, memory and compute capability), or "" with the reason in
 // *why: a build without CUDA device code, no driver, no device.
 std::string cuda_device(std::string* why = nullptr);

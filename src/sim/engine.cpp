@@ -16,7 +16,7 @@ namespace mca {
 void Engine::check_environment() {
   cpu::select_kernels();
   backend_from_environment();
-  cuda_fused_lattice();
+  cuda_lattice();
 }
 
 SolverDef::Backend backend_from_name(const std::string& name, const std::string& option) {
@@ -61,7 +61,7 @@ std::unique_ptr<Backend> start_backend(const Model& model, SolverDef::Backend ki
     }
   }
   // (A bad MCA_CUDA_LATTICE is an error here, not a GPU that cannot take the model.)
-  if (kind != SolverDef::Backend::cpu) for_source(source, cuda_fused_lattice);
+  if (kind != SolverDef::Backend::cpu) for_source(source, cuda_lattice);
   std::unique_ptr<Backend> b;
   switch (kind) {
     case SolverDef::Backend::cuda_emulation:

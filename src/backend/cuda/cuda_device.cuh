@@ -97,11 +97,11 @@ template <class K>
 __global__ void run_reduce_kernel(K k, std::size_t n, float* max_to, std::uint32_t* min_to) {
   reduce_thread(k, n, max_to, min_to);
 }
-// The same for a kernel that asks for K::kMinBlocks blocks of 256 threads on a multiprocessor at once
-// (the compiler then keeps its registers to what that leaves).
-template <class K>
-__global__ void __launch_bounds__(256, K::kMinBlocks) run_bounded_reduce_kernel(K k, std::size_t n, float* max_to,
-                                                                                  std::uint32_t* min_to) {
+// The same for a kernel that asks for MinBlocks blocks of 256 threads on a multiprocessor at once (the
+// compiler then keeps its registers to what that leaves).
+template <int MinBlocks, class K>
+__global__ void __launch_bounds__(256, MinBlocks) run_bounded_reduce_kernel(K k, std::size_t n, float* max_to,
+                                                                              std::uint32_t* min_to) {
   reduce_thread(k, n, max_to, min_to);
 }
 
@@ -322,9 +322,11 @@ struct CudaDevice {
     static const std::string name = DeviceProfile::name_of<K>();
     const unsigned blocks = static_cast<unsigned>((n + kBlock - 1) / kBlock);
     timed(name, [&] {
-      if constexpr (requires { K::kMinBlocks; })
-        run_bounded_reduce_kernel<<<blocks, kBlock>>>(kernel, n, max_to, min_to);
-      else
+      if constexpr (requires { kernel.blocks; }) {  // the blocks it asks for on a multiprocessor
+        if (kernel.blocks == 2) run_bounded_reduce_kernel<2><<<blocks, kBlock>>>(kernel, n, max_to, min_to);
+        else if (kernel.blocks == 4) run_bounded_reduce_kernel<4><<<blocks, kBlock>>>(kernel, n, max_to, min_to);
+        else run_bounded_reduce_kernel<3><<<blocks, kBlock>>>(kernel, n, max_to, min_to);
+      } else
         run_reduce_kernel<<<blocks, kBlock>>>(kernel, n, max_to, min_to);
     });
     cuda_check(cudaGetLastError(), "kernel launch");

@@ -134,7 +134,9 @@ class DeviceBackend : public StateBackend {
     many_body_.resize(3 * cpu::scratch_stride(n));
     // The fused lattice kernel where there are no explicit links (their slots would need copying too), with
     // the second copy of what it writes that its neighbours read; else the links' results through memory.
-    fused_ = ne == 0 && M_.lattice_slots() > 0 && cuda_fused_lattice();
+    const CudaLattice how = cuda_lattice();
+    fused_ = ne == 0 && M_.lattice_slots() > 0 && how.fused;
+    fused_blocks_ = how.blocks;
     // Lattice links (the random lattice and surface mode have none: their many-body terms, which only the
     // lattice links read, are never computed).
     lattice_links_ = m.has_lattice_links();
@@ -178,7 +180,7 @@ class DeviceBackend : public StateBackend {
 
   ~DeviceBackend() override { Dev::print_profile(Dev::kName, steps_, static_cast<std::int64_t>(rebuilds_)); }
   std::string name() const override { return Dev::kName; }
-  // Whether a step's links and automata are one kernel (FusedLatticeKernel) or two (cuda_fused_lattice).
+  // Whether a step's links and automata are one kernel (FusedLatticeKernel) or two (cuda_lattice).
   bool fused_lattice() const { return fused_; }
   // The room in the lattice kernel's list of the projectiles' next candidates at first (then at least twice
   // the last step's candidates); the tests make it small.
@@ -656,6 +658,7 @@ class DeviceBackend : public StateBackend {
   // The fused lattice kernel's other copy of what it writes (StateNext): positions, velocities and spins;
   // mean stress, shear displacements and damage; swapped with the state's after it (swap_next).
   bool fused_ = false;
+  int fused_blocks_ = 3;  // its blocks per multiprocessor (FusedLatticeKernel::blocks)
   Buf<double> next_d_[9];
   Buf<float> next_f_[5];
   // Scratch.
@@ -776,7 +779,7 @@ std::int64_t DeviceBackend<Dev>::one_step() {
     t.px = next.px;
     t.py = next.py;
     t.pz = next.pz;
-    Dev::launch_reduce(n, FusedLatticeKernel{v, next, break_list(), t, touch_count, touches, touch_list(), next_status},
+    Dev::launch_reduce(n, FusedLatticeKernel{v, next, break_list(), t, touch_count, touches, touch_list(), next_status, fused_blocks_},
                        move2, bad);
     swap_next();
   } else {

@@ -299,9 +299,6 @@ struct AutomataKernel {
 // kernel before). Its own links' breaks go to the list, as from the links kernel; its first thread clears the
 // next step's status, as the automata kernel's.
 struct FusedLatticeKernel {
-  // Three blocks of 256 threads on a multiprocessor (CudaDevice::launch_reduce): 80 registers, no spills
-  // (ptxas -v, sm_90), where unbounded it takes 120 and two blocks.
-  static constexpr int kMinBlocks = 3;
   cpu::LatticeView v;
   cpu::StateNext next;
   BreakList breaks;
@@ -310,6 +307,10 @@ struct FusedLatticeKernel {
   std::uint32_t* touches;
   TouchList list;
   StepStatus* next_status;
+  // The blocks of 256 threads a multiprocessor is to hold at once (CudaDevice::launch_reduce; the host
+  // ignores it): 3 (the default) takes 80 registers and no spills, 2 takes 120 (unbounded), 4 takes 64 and
+  // spills 116 bytes (ptxas -v, sm_90). MCA_CUDA_LATTICE=fused:B chooses (cuda_lattice).
+  int blocks = 3;
   MCA_HD Reduced operator()(std::size_t a) const {
     if (a == 0) *next_status = StepStatus{};
     Lane::Gathered g = Lane::weight(v, a);

@@ -13,12 +13,17 @@ std::unique_ptr<Backend> make_cuda_emulation_backend(const Model& model) {
   return std::make_unique<gpu::DeviceBackend<gpu::HostDevice>>(model);
 }
 
-bool cuda_fused_lattice() {
+CudaLattice cuda_lattice() {
   const char* given = std::getenv("MCA_CUDA_LATTICE");
-  if (!given || !*given || std::string_view(given) == "fused") return true;
-  if (std::string_view(given) == "split") return false;
-  throw Error(fmt::format("MCA_CUDA_LATTICE = '{}' (how the CUDA backend runs the lattice): give fused (the default) or "
-                          "split, or unset it",
+  if (!given || !*given) return {};
+  const std::string_view how(given);
+  if (how == "split") return {false, 3};
+  if (how == "fused") return {};
+  for (const int blocks : {2, 3, 4})
+    if (how == fmt::format("fused:{}", blocks)) return {true, blocks};
+  throw Error(fmt::format("MCA_CUDA_LATTICE = '{}' (how the CUDA backend runs the lattice): give fused (the default), "
+                          "fused:2, fused:3 or fused:4 (the fused kernel's blocks per multiprocessor; fused is fused:3) "
+                          "or split, or unset it",
                           given));
 }
 
