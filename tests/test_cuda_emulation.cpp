@@ -14,6 +14,7 @@
 #include <optional>
 #include <string>
 #include <tuple>
+#include <type_traits>
 
 #include <fmt/format.h>
 
@@ -325,6 +326,42 @@ bool fused_lattice(SceneDef scene) {
   Engine e(scene);
   const auto* dev = dynamic_cast<const gpu::DeviceBackend<gpu::HostDevice>*>(&e.backend());
   return dev && dev->fused_lattice();
+}
+// The steps the fused kernel ran compiled for a plain lattice step (is_plain), in `calls` calls of `steps`.
+std::size_t plain_steps(SceneDef scene, int calls, int steps) {
+  scene.solver.backend = SolverDef::Backend::cuda_emulation;
+  Engine e(scene);
+  for (int k = 0; k < calls; ++k) e.advance(steps);
+  const auto* dev = dynamic_cast<const gpu::DeviceBackend<gpu::HostDevice>*>(&e.backend());
+  return dev ? dev->plain_lattice_steps() : 0;
+}
+// A plain step (none of a strengthening law, softening, rest lengths of their own, spread strengths, grips,
+// loads, nor a call's last step) takes the lattice kernels compiled for it: the cubic wall's every step but
+// each call's last; never the jittered wall with softening, spread and strengthening links, nor grips.
+TEST(CudaEmulation, PlainLatticeStepsTakeTheKernelsCompiledForThem) {
+  EXPECT_EQ(plain_steps(cubic_wall(), 3, 10), 27u);
+  EXPECT_EQ(plain_steps(soft_jittered_cubic_wall(), 3, 10), 0u);
+  SceneDef gripped = cubic_wall();  // its bottom row held
+  GripDef hold;
+  hold.min = {-1.1, -0.2, 0.0};
+  hold.max = {1.1, 0.2, 0.06};
+  gripped.grips.push_back(hold);
+  EXPECT_EQ(plain_steps(gripped, 3, 10), 0u);
+  // Each field that makes a step not plain, alone; plain() clears it.
+  std::apply(
+      [](auto... field) {
+        auto check = [](auto f) {
+          cpu::LatticeView v;
+          EXPECT_TRUE(gpu::is_plain(v));
+          using T = std::remove_reference_t<decltype(v.*f)>;
+          if constexpr (std::is_same_v<T, bool>) v.*f = true;
+          else v.*f = reinterpret_cast<T>(std::uintptr_t{64});
+          EXPECT_FALSE(gpu::is_plain(v));
+          EXPECT_TRUE(gpu::is_plain(gpu::plain(v)));
+        };
+        (check(field), ...);
+      },
+      gpu::not_plain_fields());
 }
 TEST(CudaEmulation, TheFusedAndSplitLatticeKernelsAreTheCpusBitForBit) {
   const SceneDef walls[] = {cubic_wall(), soft_jittered_cubic_wall()};

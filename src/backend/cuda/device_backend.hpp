@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "backend/backend.hpp"
@@ -182,6 +183,8 @@ class DeviceBackend : public StateBackend {
   std::string name() const override { return Dev::kName; }
   // Whether a step's links and automata are one kernel (FusedLatticeKernel) or two (cuda_lattice).
   bool fused_lattice() const { return fused_; }
+  // The steps the fused kernel ran compiled for a plain lattice step (is_plain).
+  std::size_t plain_lattice_steps() const { return plain_lattice_steps_; }
   // The room in the lattice kernel's list of the projectiles' next candidates at first (then at least twice
   // the last step's candidates); the tests make it small.
   static inline std::size_t first_touch_room = 1024;
@@ -611,8 +614,17 @@ class DeviceBackend : public StateBackend {
   // positions they read are then the next step's).
   void launch_next_many_body() {
     if (!lattice_links_) return;
-    Dev::launch(M_.size(), ManyBodyKernel{view()});
+    launch_many_body(view());
     early_many_body_ = true;
+  }
+  // A lattice kernel K<true> where the view is plain (is_plain), else K<false>: f(std::bool_constant<...>).
+  template <class F>
+  void plain_or_not(const cpu::LatticeView& v, F&& f) {
+    if (is_plain(v)) f(std::true_type{});
+    else f(std::false_type{});
+  }
+  void launch_many_body(const cpu::LatticeView& v) {
+    plain_or_not(v, [&](auto plain) { Dev::launch(M_.size(), ManyBodyKernel<plain()>{v}); });
   }
   float apply_breaks(const StepStatus& st, bool launched);
   void rebuild_contacts();
@@ -659,6 +671,7 @@ class DeviceBackend : public StateBackend {
   // mean stress, shear displacements and damage; swapped with the state's after it (swap_next).
   bool fused_ = false;
   int fused_blocks_ = 3;  // its blocks per multiprocessor (FusedLatticeKernel::blocks)
+  std::size_t plain_lattice_steps_ = 0;  // the steps it ran as FusedLatticeKernel<true> (is_plain)
   Buf<double> next_d_[9];
   Buf<float> next_f_[5];
   // Scratch.
@@ -759,7 +772,7 @@ std::int64_t DeviceBackend<Dev>::one_step() {
   // explicit, contact and projectile passes, where the CPU computes them after: those do not write what
   // they read, nor read what they write.
   if (early_many_body_) ++early_many_body_steps_;
-  else if (lattice_links_) Dev::launch(n, ManyBodyKernel{v});
+  else if (lattice_links_) launch_many_body(v);
   early_many_body_ = false;
   if (ne) explicit_pass(v);
   contact_pass();
@@ -779,8 +792,12 @@ std::int64_t DeviceBackend<Dev>::one_step() {
     t.px = next.px;
     t.py = next.py;
     t.pz = next.pz;
-    Dev::launch_reduce(n, FusedLatticeKernel{v, next, break_list(), t, touch_count, touches, touch_list(), next_status, fused_blocks_},
-                       move2, bad);
+    plain_or_not(v, [&](auto plain) {
+      if (plain()) ++plain_lattice_steps_;
+      Dev::launch_reduce(n, FusedLatticeKernel<plain()>{v, next, break_list(), t, touch_count, touches, touch_list(),
+                                                        next_status, fused_blocks_},
+                         move2, bad);
+    });
     swap_next();
   } else {
     if (M_.lattice_slots()) Dev::launch(n, LinksKernel{v, break_list()});  // (3 n slots: 3 per automaton)

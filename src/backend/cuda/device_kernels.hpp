@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <tuple>
 
 #include "backend/cpu/lanes_scalar.hpp"  // first: Lanes<float>, before core/math.hpp
 #include "backend/cpu/lattice_kernels.hpp"
@@ -249,10 +250,35 @@ struct Touch {
 };
 
 // --- Lattice ---
+// A plain lattice step: no group with a strengthening law, no softening, no rest lengths of their own (the
+// cubic lattice), no spread link strengths, no grips, no loads, and not a call's last step (which writes
+// the averaged stress and the forces): the benchmark walls' steps. The lattice kernels below are compiled
+// twice, Plain or not; the Plain ones read the view through plain(), whose constants let the compiler drop
+// those branches and the registers they hold (the many-body kernel takes 40 registers instead of 64, so 6
+// blocks of 256 threads on a multiprocessor instead of 4; ptxas -v, sm_90). Launched only for a plain view
+// (is_plain: plain() then changes nothing), they compute the same bits from the same text.
+// The view's fields that make a step not plain: each false or null in a plain one.
+MCA_HD constexpr auto not_plain_fields() {
+  using V = cpu::LatticeView;
+  return std::tuple{&V::strengthening, &V::softening, &V::last, &V::rest, &V::inv_rest, &V::link_strength, &V::grip, &V::load};
+}
+MCA_HD cpu::LatticeView plain(cpu::LatticeView v) {
+  std::apply([&](auto... field) { ((v.*field = {}), ...); }, not_plain_fields());
+  return v;
+}
+inline bool is_plain(const cpu::LatticeView& v) {
+  return std::apply([&](auto... field) { return (!(v.*field) && ...); }, not_plain_fields());
+}
+template <bool Plain>
+MCA_HD decltype(auto) launched_view(const cpu::LatticeView& v) {
+  if constexpr (Plain) return plain(v);  // a copy
+  else return (v);                       // the view itself (a copy costs registers)
+}
 // The many-body terms of automaton a (they read positions, links and damage; write only the terms).
+template <bool Plain>
 struct ManyBodyKernel {
-  cpu::LatticeView v;
-  MCA_HD void operator()(std::size_t a) const { Lane::many_body(v, a); }
+  cpu::LatticeView view;
+  MCA_HD void operator()(std::size_t a) const { Lane::many_body(launched_view<Plain>(view), a); }
 };
 // Automaton a's three links (its slots along x, y and z), one after another: its own position, velocity and
 // spin, read for the first, are in the cache for the other two (a thread per slot read them three times
@@ -293,13 +319,14 @@ struct AutomataKernel {
 };
 // The links and automata kernels in one (the backend's choice where it has no explicit links): automaton a
 // computes its three own links and, again with the same bits, the three it is the upper end of, from the
-// state before the step (v), gathers them in the automata kernel's order and moves, writing the state its
+// state before the step (view), gathers them in the automata kernel's order and moves, writing the state its
 // neighbours' threads still read (positions, velocities, spins, mean stress; its links' shear displacement
 // and damage) to next. No link results go through memory, and the many-body terms are the step's (the
 // kernel before). Its own links' breaks go to the list, as from the links kernel; its first thread clears the
 // next step's status, as the automata kernel's.
+template <bool Plain>
 struct FusedLatticeKernel {
-  cpu::LatticeView v;
+  cpu::LatticeView view;
   cpu::StateNext next;
   BreakList breaks;
   Touch touch;  // positions: next's
@@ -309,9 +336,11 @@ struct FusedLatticeKernel {
   StepStatus* next_status;
   // The blocks of 256 threads a multiprocessor is to hold at once (CudaDevice::launch_reduce; the host
   // ignores it): 3 (the default) takes 80 registers and no spills, 2 takes 120 (unbounded), 4 takes 64 and
-  // spills 116 bytes (ptxas -v, sm_90). MCA_CUDA_LATTICE=fused:B chooses (cuda_lattice).
+  // spills 116 bytes; compiled for a plain step, 80, 106, and 64 with 8 bytes spilled (ptxas -v, sm_90).
+  // MCA_CUDA_LATTICE=fused:B chooses (cuda_lattice).
   int blocks = 3;
   MCA_HD Reduced operator()(std::size_t a) const {
+    const auto& v = launched_view<Plain>(view);
     if (a == 0) *next_status = StepStatus{};
     Lane::Gathered g = Lane::weight(v, a);
     const std::size_t n = v.n;
