@@ -279,9 +279,11 @@ int bench(const std::vector<std::string>& names, bool json, int threads_requeste
       // The CUDA backend's lattice kernels as chosen (cuda_lattice; a lattice with explicit links takes
       // the split ones whatever the choice).
       const CudaLattice how = cuda_lattice();
-      const std::string lattice = name.rfind("cpu", 0) == 0 ? std::string()
-                                  : how.fused                ? fmt::format(" (lattice kernels fused:{})", how.blocks)
-                                                             : std::string(" (lattice kernels split)");
+      const std::string lattice =
+          name.rfind("cpu", 0) == 0
+              ? std::string()
+              : how.fused ? fmt::format(" (lattice kernels fused:{} where a lattice has no explicit links)", how.blocks)
+                          : std::string(" (lattice kernels split)");
       fmt::print("machine: {} hardware threads, {}; backend {}{}; median of {} runs of {} steps each\n",
                  std::thread::hardware_concurrency(), used, backend_text(name), lattice, repeats, steps);
     }

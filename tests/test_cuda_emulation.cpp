@@ -15,6 +15,7 @@
 #include <string>
 #include <tuple>
 #include <type_traits>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -300,9 +301,16 @@ TEST(CudaEmulation, GripsAndCollidingBallsAreTheCpusBitForBit) {
 // one also with every launch run backwards and resumed across backends. The random lattice (explicit
 // links) takes the split kernels whatever the variable says.
 void resumes_across(SceneDef scene, SolverDef::Backend first, SolverDef::Backend second, int before, int after);
-struct LatticeKernels {
-  explicit LatticeKernels(const char* how) { setenv("MCA_CUDA_LATTICE", how, 1); }
-  ~LatticeKernels() { unsetenv("MCA_CUDA_LATTICE"); }
+struct LatticeKernels {  // (the variable as it was restored after)
+  explicit LatticeKernels(const char* how) {
+    if (const char* before = std::getenv("MCA_CUDA_LATTICE")) before_ = before;
+    setenv("MCA_CUDA_LATTICE", how, 1);
+  }
+  ~LatticeKernels() {
+    if (before_) setenv("MCA_CUDA_LATTICE", before_->c_str(), 1);
+    else unsetenv("MCA_CUDA_LATTICE");
+  }
+  std::optional<std::string> before_;
 };
 SceneDef cubic_wall() {  // its ball moved to 1 cm from the wall
   SceneDef s = io::load_scene_file(scene_file("wall_ball_cubic.toml"));
@@ -327,26 +335,31 @@ bool fused_lattice(SceneDef scene) {
   const auto* dev = dynamic_cast<const gpu::DeviceBackend<gpu::HostDevice>*>(&e.backend());
   return dev && dev->fused_lattice();
 }
-// The steps the fused kernel ran compiled for a plain lattice step (is_plain), in `calls` calls of `steps`.
-std::size_t plain_steps(SceneDef scene, int calls, int steps) {
+// The steps the fused kernel ran compiled for a plain lattice step (is_plain), in `calls` calls of `steps`,
+// and the launches of the many-body kernel so compiled.
+std::pair<std::size_t, std::size_t> plain_steps(SceneDef scene, int calls, int steps) {
   scene.solver.backend = SolverDef::Backend::cuda_emulation;
   Engine e(scene);
   for (int k = 0; k < calls; ++k) e.advance(steps);
   const auto* dev = dynamic_cast<const gpu::DeviceBackend<gpu::HostDevice>*>(&e.backend());
-  return dev ? dev->plain_lattice_steps() : 0;
+  if (!dev) return {};
+  return {dev->plain_lattice_steps(), dev->plain_many_body_steps()};
 }
 // A plain step (none of a strengthening law, softening, rest lengths of their own, spread strengths, grips,
 // loads, nor a call's last step) takes the lattice kernels compiled for it: the cubic wall's every step but
-// each call's last; never the jittered wall with softening, spread and strengthening links, nor grips.
+// each call's last (the many-body kernel, which does not write what the last step writes, every step and
+// the one after); never the jittered wall with softening, spread and strengthening links, nor grips.
 TEST(CudaEmulation, PlainLatticeStepsTakeTheKernelsCompiledForThem) {
-  EXPECT_EQ(plain_steps(cubic_wall(), 3, 10), 27u);
-  EXPECT_EQ(plain_steps(soft_jittered_cubic_wall(), 3, 10), 0u);
+  const LatticeKernels kernels("fused");
+  using Counts = std::pair<std::size_t, std::size_t>;
+  EXPECT_EQ(plain_steps(cubic_wall(), 3, 10), Counts(27, 31));
+  EXPECT_EQ(plain_steps(soft_jittered_cubic_wall(), 3, 10), Counts(0, 0));
   SceneDef gripped = cubic_wall();  // its bottom row held
   GripDef hold;
   hold.min = {-1.1, -0.2, 0.0};
   hold.max = {1.1, 0.2, 0.06};
   gripped.grips.push_back(hold);
-  EXPECT_EQ(plain_steps(gripped, 3, 10), 0u);
+  EXPECT_EQ(plain_steps(gripped, 3, 10), Counts(0, 0));
   // Each field that makes a step not plain, alone; plain() clears it.
   std::apply(
       [](auto... field) {

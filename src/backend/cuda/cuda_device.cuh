@@ -322,9 +322,9 @@ struct CudaDevice {
     static const std::string name = DeviceProfile::name_of<K>();
     const unsigned blocks = static_cast<unsigned>((n + kBlock - 1) / kBlock);
     timed(name, [&] {
-      if constexpr (requires { kernel.blocks; }) {  // the blocks it asks for on a multiprocessor
-        if (kernel.blocks == 2) run_bounded_reduce_kernel<2><<<blocks, kBlock>>>(kernel, n, max_to, min_to);
-        else if (kernel.blocks == 4) run_bounded_reduce_kernel<4><<<blocks, kBlock>>>(kernel, n, max_to, min_to);
+      if constexpr (requires { kernel.sm_blocks; }) {  // the blocks it asks for on a multiprocessor: 2, 3 or 4
+        if (kernel.sm_blocks == 2) run_bounded_reduce_kernel<2><<<blocks, kBlock>>>(kernel, n, max_to, min_to);
+        else if (kernel.sm_blocks == 4) run_bounded_reduce_kernel<4><<<blocks, kBlock>>>(kernel, n, max_to, min_to);
         else run_bounded_reduce_kernel<3><<<blocks, kBlock>>>(kernel, n, max_to, min_to);
       } else
         run_reduce_kernel<<<blocks, kBlock>>>(kernel, n, max_to, min_to);

@@ -183,8 +183,9 @@ class DeviceBackend : public StateBackend {
   std::string name() const override { return Dev::kName; }
   // Whether a step's links and automata are one kernel (FusedLatticeKernel) or two (cuda_lattice).
   bool fused_lattice() const { return fused_; }
-  // The steps the fused kernel ran compiled for a plain lattice step (is_plain).
+  // The steps the fused kernel ran compiled for a plain lattice step (is_plain), and the many-body kernel.
   std::size_t plain_lattice_steps() const { return plain_lattice_steps_; }
+  std::size_t plain_many_body_steps() const { return plain_many_body_steps_; }
   // The room in the lattice kernel's list of the projectiles' next candidates at first (then at least twice
   // the last step's candidates); the tests make it small.
   static inline std::size_t first_touch_room = 1024;
@@ -623,8 +624,13 @@ class DeviceBackend : public StateBackend {
     if (is_plain(v)) f(std::true_type{});
     else f(std::false_type{});
   }
-  void launch_many_body(const cpu::LatticeView& v) {
-    plain_or_not(v, [&](auto plain) { Dev::launch(M_.size(), ManyBodyKernel<plain()>{v}); });
+  // (The many-body terms do not read `last`: a call's last step is plain for them.)
+  void launch_many_body(cpu::LatticeView v) {
+    v.last = false;
+    plain_or_not(v, [&](auto plain) {
+      if (plain()) ++plain_many_body_steps_;
+      Dev::launch(M_.size(), ManyBodyKernel<plain()>{v});
+    });
   }
   float apply_breaks(const StepStatus& st, bool launched);
   void rebuild_contacts();
@@ -670,8 +676,9 @@ class DeviceBackend : public StateBackend {
   // The fused lattice kernel's other copy of what it writes (StateNext): positions, velocities and spins;
   // mean stress, shear displacements and damage; swapped with the state's after it (swap_next).
   bool fused_ = false;
-  int fused_blocks_ = 3;  // its blocks per multiprocessor (FusedLatticeKernel::blocks)
+  int fused_blocks_ = 3;  // its blocks per multiprocessor (FusedLatticeKernel::sm_blocks)
   std::size_t plain_lattice_steps_ = 0;  // the steps it ran as FusedLatticeKernel<true> (is_plain)
+  std::size_t plain_many_body_steps_ = 0;  // the launches of ManyBodyKernel<true>
   Buf<double> next_d_[9];
   Buf<float> next_f_[5];
   // Scratch.

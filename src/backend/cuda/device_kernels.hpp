@@ -338,7 +338,7 @@ struct FusedLatticeKernel {
   // ignores it): 3 (the default) takes 80 registers and no spills, 2 takes 120 (unbounded), 4 takes 64 and
   // spills 116 bytes; compiled for a plain step, 80, 106, and 64 with 8 bytes spilled (ptxas -v, sm_90).
   // MCA_CUDA_LATTICE=fused:B chooses (cuda_lattice).
-  int blocks = 3;
+  int sm_blocks = 3;
   MCA_HD Reduced operator()(std::size_t a) const {
     const auto& v = launched_view<Plain>(view);
     if (a == 0) *next_status = StepStatus{};
