@@ -150,6 +150,7 @@ else
   note "compute-sanitizer: not on this machine"
 fi
 
+note "(${SECONDS} s so far)"
 # 3. The benchmarks on the device (contacts and breaking active; floors 4 G automaton-steps/s for wall_357k,
 #    5 G for wall_2m), the device's time per kernel (MCA_PROFILE), and the CPU's on this machine's cores.
 set +e
@@ -195,6 +196,7 @@ timeout 60 "${loader[@]}" "$dir/mca" bench wall_357k --backend cpu \
   --repeats 3 --steps 20 >"$out/bench_cpu.txt" 2>&1
 note "bench cpu (exit $?):"
 tail -2 "$out/bench_cpu.txt" | tee -a "$summary"
+note "gpu_check took ${SECONDS} s"
 set -e
 if [[ $tests_rc -ne 0 ]]; then exit "$tests_rc"; fi
 if [[ $skipped -ne 0 ]]; then
