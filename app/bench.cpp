@@ -273,17 +273,17 @@ int bench(const std::vector<std::string>& names, bool json, int threads_requeste
     if (!json && first) {
       // The threads are the CPU backend's; the emulation steps on one, the GPU on the device.
       const std::string name = sim.backend().name();
-      const std::string used = name.rfind("cpu", 0) == 0              ? fmt::format("using {}", threads)
+      const bool cpu = name.rfind("cpu", 0) == 0;
+      const std::string used = cpu                                    ? fmt::format("using {}", threads)
                                : name.rfind("cuda-emulation", 0) == 0 ? std::string("the emulation uses one")
                                                                        : std::string("the step runs on the GPU");
       // The CUDA backend's lattice kernels as chosen (cuda_lattice; a lattice with explicit links takes
       // the split ones whatever the choice).
       const CudaLattice how = cuda_lattice();
       const std::string lattice =
-          name.rfind("cpu", 0) == 0
-              ? std::string()
-              : how.fused ? fmt::format(" (lattice kernels fused:{} where a lattice has no explicit links)", how.blocks)
-                          : std::string(" (lattice kernels split)");
+          cpu         ? std::string()
+          : how.fused ? fmt::format(" (lattice kernels fused:{} where a lattice has no explicit links)", how.blocks)
+                      : std::string(" (lattice kernels split)");
       fmt::print("machine: {} hardware threads, {}; backend {}{}; median of {} runs of {} steps each\n",
                  std::thread::hardware_concurrency(), used, backend_text(name), lattice, repeats, steps);
     }
