@@ -37,16 +37,6 @@ std::string lattice_name(const Model& m, double jitter) {
   return kind == "cubic" && jitter > 0 ? fmt::format("cubic (lattice_jitter {:g})", jitter) : kind;
 }
 
-std::string human_bytes(double bytes) {
-  const char* units[] = {"bytes", "KB", "MB", "GB", "TB", "PB", "EB"};
-  int u = 0;
-  while (bytes >= 999.5 && u < 6) {
-    bytes /= 1000;
-    ++u;
-  }
-  return u == 0 ? fmt::format("{:.0f} bytes", bytes) : fmt::format("{:.3g} {}", bytes, units[u]);
-}
-
 OutputEstimate estimate_output(const Model& m, const OutputDef& o, std::int64_t frames, int render_width,
                                int render_height) {
   OutputEstimate e;

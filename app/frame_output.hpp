@@ -12,6 +12,7 @@
 #include "backend/backend.hpp"
 #include "core/model.hpp"
 #include "core/state.hpp"
+#include "core/text.hpp"
 #include "mca/scene.hpp"
 
 namespace mca::app {
@@ -43,8 +44,7 @@ struct OutputEstimate {
 // render_height: the picture size of --render (0: not rendered).
 OutputEstimate estimate_output(const Model& model, const OutputDef& output, std::int64_t frames, int render_width = 0,
                                int render_height = 0);
-// "1.72 TB", "430 KB": bytes in SI units, three figures.
-std::string human_bytes(double bytes);
+using text::human_bytes;
 // The lattice of the model's volume fills: "random", "cubic", or "" when every object is in surface mode;
 // lattice_name as mca run and mca info print it, "random (link_bending 0.1)" for the random one, "cubic
 // (lattice_jitter 0.25)" for a jittered cubic one (`jitter`: the scene's solver.lattice_jitter).

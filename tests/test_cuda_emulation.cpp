@@ -32,6 +32,8 @@
 
 namespace mca {
 namespace {
+using test::ForceEnv;
+using test::error_of;
 
 // The first field and index where two states differ (bitwise), or "" when they are equal.
 template <class T>
@@ -301,16 +303,8 @@ TEST(CudaEmulation, GripsAndCollidingBallsAreTheCpusBitForBit) {
 // one also with every launch run backwards and resumed across backends. The random lattice (explicit
 // links) takes the split kernels whatever the variable says.
 void resumes_across(SceneDef scene, SolverDef::Backend first, SolverDef::Backend second, int before, int after);
-struct LatticeKernels {  // (the variable as it was restored after)
-  explicit LatticeKernels(const char* how) {
-    if (const char* before = std::getenv("MCA_CUDA_LATTICE")) before_ = before;
-    setenv("MCA_CUDA_LATTICE", how, 1);
-  }
-  ~LatticeKernels() {
-    if (before_) setenv("MCA_CUDA_LATTICE", before_->c_str(), 1);
-    else unsetenv("MCA_CUDA_LATTICE");
-  }
-  std::optional<std::string> before_;
+struct LatticeKernels : ForceEnv {  // (the variable as it was restored after)
+  explicit LatticeKernels(const char* how) : ForceEnv("MCA_CUDA_LATTICE", how) {}
 };
 SceneDef cubic_wall() {  // its ball moved to 1 cm from the wall
   SceneDef s = io::load_scene_file(scene_file("wall_ball_cubic.toml"));
@@ -880,6 +874,92 @@ void resumes_across(SceneDef scene, SolverDef::Backend first, SolverDef::Backend
 TEST(CudaEmulation, AStateResumesAcrossBackendsWithTheSameBits) {
   resumes_across(io::load_default_scene(), SolverDef::Backend::cpu, SolverDef::Backend::cuda_emulation, 3000, 1500);
   resumes_across(io::load_default_scene(), SolverDef::Backend::cuda_emulation, SolverDef::Backend::cpu, 3000, 1500);
+}
+
+// A GPU whose memory is full (the emulation playing one of MCA_EMULATED_GPU_MEMORY_MB): a model that does
+// not fit is refused as the backend is made; one that fits at the start and outgrows the GPU as its
+// contact lists grow stops inside a step with the error that says what to do, then refuses to step or be
+// read, and its last saved state resumes on the CPU with the bits of a straight run. The device arrays are
+// counted as a GPU holds them, and given back.
+TEST(CudaEmulation, AFullGpuStopsARunWhichResumesOnTheCpuWithTheSameBits) {
+  SceneDef scene = io::load_default_scene();
+  const int chunk = 500, steps = 6000;
+  const std::size_t before = gpu::DeviceMemory::held();
+  std::size_t start = 0, first = 0, most = 0;  // held at the start, at the most in the first call, in the run
+  {
+    scene.solver.backend = SolverDef::Backend::cuda_emulation;
+    Engine emu(scene);
+    start = gpu::DeviceMemory::held() - before;
+    gpu::DeviceMemory::reset_peak();
+    for (int done = 0; done < steps; done += chunk) {
+      ASSERT_EQ(emu.advance(chunk).flags, kHealthy);
+      if (done == 0) first = gpu::DeviceMemory::peak() - before;
+    }
+    most = gpu::DeviceMemory::peak() - before;
+  }
+  EXPECT_EQ(gpu::DeviceMemory::held(), before) << "every device array given back";
+  std::printf("the default wall on the device: %.2f MB at the start, %.2f MB at the most in the first %d steps, %.2f MB in "
+              "%d steps\n",
+              start / 1e6, first / 1e6, chunk, most / 1e6, steps);
+  ASSERT_GT(most, first + (first >> 5)) << "the contact lists grow after the first call";
+
+  // Too little for the start: refused as the backend is made, saying what to do.
+  {
+    const ForceEnv gpu("MCA_EMULATED_GPU_MEMORY_MB", fmt::format("{:.6f}", (before + start / 2) / 1e6).c_str());
+    const std::string e = error_of([&] { Engine emu(scene); });
+    EXPECT_NE(e.find("the GPU's memory is full"), std::string::npos) << e;
+    EXPECT_NE(e.find("--backend cpu"), std::string::npos) << e;
+    EXPECT_EQ(gpu::DeviceMemory::held(), before) << "the arrays made before are given back";
+  }
+  // Room for the start, not for the most: the run stops inside a step.
+  scene.solver.backend = SolverDef::Backend::cpu;
+  Engine straight(scene);
+  ASSERT_EQ(straight.advance(steps).flags, kHealthy);
+  std::optional<State> saved;
+  {
+    const ForceEnv gpu("MCA_EMULATED_GPU_MEMORY_MB", fmt::format("{:.6f}", (before + (first + most) / 2) / 1e6).c_str());
+    scene.solver.backend = SolverDef::Backend::cuda_emulation;
+    Engine emu(scene);
+    std::string e;
+    for (int done = 0; done < steps && e.empty(); done += chunk) {
+      e = error_of([&] { emu.advance(chunk); });
+      if (e.empty()) saved = emu.state();
+    }
+    EXPECT_NE(e.find("the GPU's memory is full"), std::string::npos) << e;
+    EXPECT_NE(e.find("mca resume DIR --backend cpu"), std::string::npos) << e;
+    ASSERT_TRUE(saved) << "the first call fitted";
+    ASSERT_LT(saved->step, steps);
+    for (const auto& [what, call] : std::initializer_list<std::pair<const char*, std::function<void()>>>{
+             {"advance", [&] { emu.advance(1); }},
+             {"state", [&] { (void)emu.state(); }},
+             {"energies", [&] { (void)emu.backend().energies(); }}}) {
+      const std::string again = error_of(call);
+      long long at = 0;
+      EXPECT_EQ(std::sscanf(again.c_str(), "this simulation stopped inside step %lld,", &at), 1) << what << ": " << again;
+      EXPECT_GT(at, saved->step) << what << ": " << again;
+      EXPECT_LE(at, saved->step + chunk) << what << ": " << again;
+      EXPECT_NE(again.find("the GPU's memory is full"), std::string::npos) << what << ": " << again;
+    }
+  }
+  EXPECT_EQ(gpu::DeviceMemory::held(), before);
+  scene.solver.backend = SolverDef::Backend::cpu;
+  Engine resumed(scene, *saved);
+  ASSERT_EQ(resumed.advance(static_cast<int>(steps - saved->step)).flags, kHealthy);
+  const std::string d = first_difference(straight.state(), resumed.state());
+  EXPECT_TRUE(d.empty()) << "resumed on the CPU from step " << saved->step << ": differs from the straight run, first in " << d;
+}
+TEST(CudaEmulation, AnEmulatedGpuMemoryThatIsNotANumberIsRefused) {
+  for (const char* given : {"0", "-1", "abc", "12MB", "1e400", "nan", " 5"}) {
+    const ForceEnv gpu("MCA_EMULATED_GPU_MEMORY_MB", given);
+    const std::string e = error_of([] { gpu::emulated_gpu_memory(); });
+    EXPECT_NE(e.find(fmt::format("MCA_EMULATED_GPU_MEMORY_MB = '{}'", given)), std::string::npos) << e;
+  }
+  const ForceEnv gpu("MCA_EMULATED_GPU_MEMORY_MB", "2.5");
+  EXPECT_EQ(gpu::emulated_gpu_memory(), std::optional<std::size_t>(2'500'000));
+  EXPECT_EQ(gpu::grown_capacity(0, 10), 10u);
+  EXPECT_EQ(gpu::grown_capacity(10, 11), 15u);
+  EXPECT_EQ(gpu::grown_capacity(10, 40), 40u);
+  EXPECT_EQ(gpu::grown_capacity(10, 4), 10u);
 }
 
 // --- On a GPU (skipped, with the reason, without one: scripts/gpu_check.sh runs them on a GPU machine) ---

@@ -5,8 +5,10 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <type_traits>
 
 #include "core/model.hpp"
+#include "mca/error.hpp"
 #include "core/state.hpp"
 #include "render/draw_list.hpp"
 
@@ -103,6 +105,7 @@ class StateBackend : public Backend {
   void download(State& s) const override { s = state(); }
   void set_initial_energy(double energy) override { S_.initial_energy = energy; }
   const State& state() const override {
+    check_usable();
     if (stale_) {
       sync_state();
       stale_ = false;
@@ -117,11 +120,12 @@ class StateBackend : public Backend {
   // stress tensor and the applied forces, is written then); stops at the first step whose one_step()
   // returns other than kAllFinite: an automaton (>= 0) or -2 - p for projectile p with a value not finite.
   StepHealth step(int steps) override {
+    check_usable();
     StepHealth h;
     for (int k = 0; k < steps; ++k) {
       last_step_ = k + 1 == steps;
       stale_ = true;
-      const std::int64_t bad = one_step();
+      const std::int64_t bad = or_fail([&] { return "inside step " + std::to_string(S_.step + 1); }, [&] { return one_step(); });
       if (bad != kAllFinite) {
         h.flags |= kNonFinite;
         h.step = S_.step;
@@ -136,10 +140,28 @@ class StateBackend : public Backend {
  protected:
   static constexpr std::int64_t kAllFinite = -1;
   virtual std::int64_t one_step() = 0;
+  // f(), where an error (a GPU whose memory is full, a host out of memory) leaves the state incomplete: it
+  // is thrown on as it came, and from then on check_usable() throws an mca::Error saying so, naming
+  // where (`where()`: "inside step 12"). step() and the state's reads check.
+  template <class Where, class F>
+  std::invoke_result_t<F&> or_fail(Where&& where, F&& f) {
+    try {
+      return f();
+    } catch (const std::exception& e) {
+      failed_ = "this simulation stopped " + where() +
+                ", which left its state incomplete: it cannot step further or be read (start again from the scene "
+                "or from a checkpoint saved before); the cause: " + e.what();
+      throw;
+    }
+  }
+  void check_usable() const {
+    if (!failed_.empty()) throw Error(failed_);
+  }
   // Brings S_'s arrays up to date with the backend's own (called by state() after a step).
   virtual void sync_state() const = 0;
   mutable State S_;
   mutable bool stale_ = false;  // S_'s arrays are behind the backend's own
+  std::string failed_;          // why a step failed (empty: none did)
   bool last_step_ = true;
   StepClock clock_;
 };

@@ -94,4 +94,14 @@ std::string suggestion(std::string_view word, const std::vector<std::string>& ca
   return fmt::format("; allowed: {}", fmt::join(candidates, ", "));
 }
 
+std::string human_bytes(double bytes) {
+  const char* units[] = {"bytes", "KB", "MB", "GB", "TB", "PB", "EB"};
+  int u = 0;
+  while (bytes >= 999.5 && u < 6) {
+    bytes /= 1000;
+    ++u;
+  }
+  return u == 0 ? fmt::format("{:.0f} bytes", bytes) : fmt::format("{:.3g} {}", bytes, units[u]);
+}
+
 }  // namespace mca::text

@@ -25,4 +25,7 @@ std::string suggestion(std::string_view word, const std::vector<std::string>& ca
 // The "; did you mean 'x'?" of suggestion, or "" when no candidate is close.
 std::string did_you_mean(std::string_view word, const std::vector<std::string>& candidates);
 
+// A size for a message: "512 bytes", "430 KB", "1.72 TB" (3 digits; units of 1000).
+std::string human_bytes(double bytes);
+
 }  // namespace mca::text

@@ -26,6 +26,7 @@
 #include <utility>
 #include <vector>
 
+#include "backend/cuda/device_memory.hpp"
 #include "backend/cuda/profile.hpp"
 #include "render/draw_list.hpp"
 #include "mca/error.hpp"
@@ -220,21 +221,30 @@ struct CudaDevice {
     }
     ~Buffer() {
       if (p_) cudaFree(p_);
+      DeviceMemory::remove(cap_ * sizeof(T));
     }
     T* data() { return p_; }
     const T* data() const { return p_; }
     std::size_t size() const { return n_; }
     // Discards the contents; memory is allocated only when the buffer grows past what it has held (the lists
-    // that change size every step reuse theirs), and then half as much again as asked for, so that a list
-    // growing a little every step (the contact list, as links break) is not allocated anew every step
-    // (cudaMalloc and cudaFree wait for the device).
+    // that change size every step reuse theirs), and then by grown_capacity (cudaMalloc and cudaFree wait
+    // for the device). A GPU without the memory gives out_of_device_memory's error.
     void resize(std::size_t n) {
       if (n > cap_) {
-        const std::size_t cap = cap_ ? std::max(n, cap_ + cap_ / 2) : n;
+        const std::size_t cap = grown_capacity(cap_, n);
         if (p_) cuda_check(cudaFree(p_), "cudaFree");
+        DeviceMemory::remove(cap_ * sizeof(T));
         p_ = nullptr;
         n_ = cap_ = 0;
-        cuda_check(cudaMalloc(reinterpret_cast<void**>(&p_), cap * sizeof(T)), "cudaMalloc");
+        if (const cudaError_t e = cudaMalloc(reinterpret_cast<void**>(&p_), cap * sizeof(T)); e != cudaSuccess) {
+          p_ = nullptr;
+          if (e != cudaErrorMemoryAllocation) cuda_check(e, "cudaMalloc");
+          cudaGetLastError();  // (not a sticky error: the device goes on)
+          std::size_t free = 0, total = 0;
+          cudaMemGetInfo(&free, &total);
+          throw out_of_device_memory(cap * sizeof(T), free, total);
+        }
+        DeviceMemory::add(cap * sizeof(T));
         cap_ = cap;
       }
       n_ = n;

@@ -205,7 +205,11 @@ class DeviceBackend : public StateBackend {
   std::size_t early_many_body_steps() const { return early_many_body_steps_; }
   // How many times the contact lists were rebuilt (tests: what a step reads from the device).
   std::size_t contact_rebuilds() const { return rebuilds_; }
-  Energies energies() const override { return const_cast<DeviceBackend*>(this)->device_energies(); }
+  // (check_usable: after a failed step the device arrays may be gone.)
+  Energies energies() const override {
+    check_usable();
+    return const_cast<DeviceBackend*>(this)->device_energies();
+  }
   // The state's breaks and those logged on the device since it was last read.
   std::int64_t broken_links() const override {
     return StateBackend::broken_links() + static_cast<std::int64_t>(logged_);
@@ -214,11 +218,24 @@ class DeviceBackend : public StateBackend {
   bool draw_list(const render::SnapshotOptions& o, const std::array<double, 3>& origin, render::DrawList& out,
                  render::DrawTarget* target) const override {
     if (o.draw == render::DrawMode::links) return false;
+    check_usable();
     const_cast<DeviceBackend*>(this)->draw(o, origin, out, target);
     return true;
   }
 
   void upload(State s) override {
+    check_usable();
+    or_fail([] { return std::string("while its state went to the device"); }, [&] { upload_state(std::move(s)); });
+  }
+
+ protected:
+  std::int64_t one_step() override;
+  void sync_state() const override { const_cast<DeviceBackend*>(this)->sync(); }
+  void draw(const render::SnapshotOptions& o, const std::array<double, 3>& origin, render::DrawList& out,
+            render::DrawTarget* target);
+
+ private:
+  void upload_state(State s) {
     S_ = std::move(s);
     logged_ = 0;
     logged_steps_.clear();
@@ -307,13 +324,6 @@ class DeviceBackend : public StateBackend {
     read_status();
   }
 
- protected:
-  std::int64_t one_step() override;
-  void sync_state() const override { const_cast<DeviceBackend*>(this)->sync(); }
-  void draw(const render::SnapshotOptions& o, const std::array<double, 3>& origin, render::DrawList& out,
-            render::DrawTarget* target);
-
- private:
   template <class T>
   static T* d(Buf<T>& b) {
     return b.data();

@@ -1,9 +1,12 @@
 // The CUDA backend's host emulation: DeviceBackend over HostDevice (see host_device.hpp).
+#include <charconv>
 #include <cstdlib>
 #include <fmt/format.h>
 #include <string_view>
 
 #include "backend/cuda/device_backend.hpp"
+#include "backend/cuda/device_memory.hpp"
+#include "core/text.hpp"
 #include "backend/cuda/host_device.hpp"
 #include "mca/error.hpp"
 
@@ -26,5 +29,33 @@ CudaLattice cuda_lattice() {
                           "or split, or unset it",
                           given));
 }
+
+namespace gpu {
+
+std::optional<std::size_t> emulated_gpu_memory() {
+  const char* given = std::getenv("MCA_EMULATED_GPU_MEMORY_MB");
+  if (!given || !*given) return std::nullopt;
+  const std::string_view text(given);
+  double mb = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), mb);
+  constexpr double kMost = 1e9;  // MB: a GPU of 1 PB
+  if (ec != std::errc() || end != text.data() + text.size() || !(mb >= 0.001 && mb <= kMost))
+    throw Error(fmt::format("MCA_EMULATED_GPU_MEMORY_MB = '{}' (the memory of the GPU the cuda-emulation backend plays): "
+                            "give a number of MB (1e6 bytes) from 0.001 to 1e9, or unset it",
+                            given));
+  return static_cast<std::size_t>(mb * 1e6);
+}
+
+Error out_of_device_memory(std::size_t asked, std::size_t free, std::size_t total) {
+  const auto mb = [](std::size_t bytes) { return text::human_bytes(static_cast<double>(bytes)); };
+  return Error(fmt::format(
+      "the GPU's memory is full: mca asked for {} more, holding {} there, and the GPU has {} free of {} (other "
+      "programs may hold some). This scene needs more GPU memory: use backend \"cpu\" (--backend cpu, or "
+      "solver.backend; a run stopped by this continues from its last checkpoint with mca resume DIR --backend cpu), "
+      "a larger solver.spacing, or a GPU with more memory",
+      mb(asked), mb(DeviceMemory::held()), mb(free), mb(total)));
+}
+
+}  // namespace gpu
 
 }  // namespace mca

@@ -17,6 +17,7 @@
 #include <utility>
 #include <vector>
 
+#include "backend/cuda/device_memory.hpp"
 #include "backend/cuda/profile.hpp"
 #include "render/draw_list.hpp"
 
@@ -27,20 +28,44 @@ struct HostDevice {
 
   // A device array. The step logic reads and writes it only through kernels and the copies below, as it
   // must a CUDA device array.
+  // Its memory is counted as a CUDA device array's (DeviceMemory: the capacity of grown_capacity), and
+  // where MCA_EMULATED_GPU_MEMORY_MB is set, growing past it is refused as a full GPU refuses it.
   template <class T>
   class Buffer {
    public:
+    Buffer() = default;
+    Buffer(const Buffer&) = delete;
+    Buffer& operator=(const Buffer&) = delete;
+    Buffer(Buffer&& o) noexcept : v_(std::move(o.v_)), cap_(std::exchange(o.cap_, 0)) { o.v_.clear(); }
+    Buffer& operator=(Buffer&& o) noexcept {
+      std::swap(v_, o.v_);
+      std::swap(cap_, o.cap_);
+      return *this;
+    }
+    ~Buffer() { DeviceMemory::remove(cap_ * sizeof(T)); }
     T* data() { return v_.empty() ? nullptr : v_.data(); }
     const T* data() const { return v_.empty() ? nullptr : v_.data(); }
     std::size_t size() const { return v_.size(); }
     // Discards the contents.
     void resize(std::size_t n) {
+      if (n > cap_) {
+        const std::size_t cap = grown_capacity(cap_, n);
+        DeviceMemory::remove(cap_ * sizeof(T));
+        cap_ = 0;
+        v_ = {};
+        if (const auto gpu = emulated_gpu_memory();
+            gpu && (cap * sizeof(T) > *gpu || DeviceMemory::held() > *gpu - cap * sizeof(T)))
+          throw out_of_device_memory(cap * sizeof(T), *gpu - std::min(*gpu, DeviceMemory::held()), *gpu);
+        DeviceMemory::add(cap * sizeof(T));
+        cap_ = cap;
+      }
       v_.clear();
       v_.resize(n);
     }
 
    private:
     std::vector<T> v_;
+    std::size_t cap_ = 0;  // the elements a CUDA device array would hold
   };
 
   template <class T>

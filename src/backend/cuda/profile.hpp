@@ -16,6 +16,8 @@
 #include <utility>
 #include <vector>
 
+#include "backend/cuda/device_memory.hpp"
+
 namespace mca::gpu {
 
 class DeviceProfile {
@@ -60,6 +62,8 @@ class DeviceProfile {
                    total > 0 ? 100 * e.seconds / total : 0.0);
     std::fprintf(stderr, "  the host waited %.1f us/step for the device at its reads\n", 1e6 * waited_ * per);
     std::fprintf(stderr, "  contact lists rebuilt %lld times\n", static_cast<long long>(rebuilds));
+    std::fprintf(stderr, "  device arrays: %.1f MB held, %.1f MB at the most (all simulations of the process)\n",
+                 static_cast<double>(DeviceMemory::held()) / (1 << 20), static_cast<double>(DeviceMemory::peak()) / (1 << 20));
     entries_.clear();
     reads_ = 0;
     waited_ = 0;

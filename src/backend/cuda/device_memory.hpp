@@ -1,0 +1,50 @@
+#pragma once
+// The device memory the CUDA backend's arrays hold, counted the same way by both devices (cuda_device.cuh,
+// host_device.hpp), so the emulation's figure is the GPU's; and the error for an allocation that does not
+// fit, which says what to do.
+#include <algorithm>
+#include <atomic>
+#include <cstddef>
+#include <optional>
+
+#include "mca/error.hpp"
+
+namespace mca::gpu {
+
+// The elements a device array of capacity `cap` holds after being asked for `n`: its capacity where n
+// fits, else n, and where it held some before, at least half as much again (a list growing a little every
+// step, as the contact list when links break, is not allocated anew every step).
+constexpr std::size_t grown_capacity(std::size_t cap, std::size_t n) {
+  return n <= cap ? cap : cap ? std::max(n, cap + cap / 2) : n;
+}
+
+// The bytes held by every device array of the process (all its simulations, as on one GPU), and the most
+// held at once.
+class DeviceMemory {
+ public:
+  static void add(std::size_t bytes) {
+    const std::size_t now = held_.fetch_add(bytes) + bytes;
+    std::size_t peak = peak_.load();
+    while (now > peak && !peak_.compare_exchange_weak(peak, now)) {
+    }
+  }
+  static void remove(std::size_t bytes) { held_.fetch_sub(bytes); }
+  static std::size_t held() { return held_.load(); }
+  static std::size_t peak() { return peak_.load(); }
+  // The peak starts again from what is held now.
+  static void reset_peak() { peak_.store(held_.load()); }
+
+ private:
+  static inline std::atomic<std::size_t> held_{0}, peak_{0};
+};
+
+// The memory of the GPU the host emulation plays, in bytes: MCA_EMULATED_GPU_MEMORY_MB (a number of MB,
+// 1e6 bytes), where set (none where not: the host's memory is the limit); an mca::Error naming the
+// variable for a value that is not a number from 0.001 to 1e9.
+std::optional<std::size_t> emulated_gpu_memory();
+
+// The error for `asked` more bytes that the device could not give, with `free` of `total` bytes free and
+// DeviceMemory::held() held by mca's arrays.
+Error out_of_device_memory(std::size_t asked, std::size_t free, std::size_t total);
+
+}  // namespace mca::gpu
