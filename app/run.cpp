@@ -369,7 +369,19 @@ int run_loop(Loop& L, FrameWriter& writer) {
     StepHealth h;
     while (sim.step() < frame_end && h.flags == kHealthy) {
       const auto t0 = std::chrono::steady_clock::now();
-      h = sim.advance(static_cast<int>(std::min(chunk, frame_end - sim.step())));
+      try {
+        h = sim.advance(static_cast<int>(std::min(chunk, frame_end - sim.step())));
+      } catch (const Error& e) {
+        // The machine refused a step (a GPU whose memory is full): the state is part of a step, so no
+        // summary or checkpoint is written from it; the newest checkpoint continues the run.
+        const auto saved = io::list_checkpoints(L.dir / "checkpoints");
+        if (tty) fmt::print(stderr, "\n");
+        fmt::print(stderr, "error: {}\nThe run stopped inside frame {}; {}.\n", e.what(), L.frame,
+                   saved.empty() ? fmt::format("no checkpoint was saved (--checkpoint-every N saves them): start it again")
+                                 : fmt::format("continue from the newest checkpoint ({}) with: mca resume {} --backend cpu",
+                                               saved.back().filename().string(), L.dir.string()));
+        return 2;
+      }
       const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (took < 0.1 && chunk < (std::int64_t{1} << 30)) chunk *= 2;
       else if (took > 0.5 && chunk > 1) chunk /= 2;

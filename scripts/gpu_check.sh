@@ -171,7 +171,7 @@ MCA_PROFILE=1 timeout 60 "${loader[@]}" "$dir/mca" bench wall_357k --backend cud
 note "profile cuda, wall_357k (exit $?; the whole table in profile_cuda.txt):"
 grep -A14 'profile over' "$out/profile_cuda.txt" | tee -a "$summary"
 # (Where the host waits little for the device at its reads, a step is bound by the host's launches.)
-grep -E 'host waited|automaton-steps/s' "$out/profile_cuda.txt" | tee -a "$summary"
+grep -E 'host waited|device arrays|automaton-steps/s' "$out/profile_cuda.txt" | tee -a "$summary"
 # The armadillo drawn as triangles, 100 steps per frame (floor 60 frames/s), and as cubes.
 timeout 90 "${loader[@]}" "$dir/mca" bench --render armadillo_surface \
   armadillo_cubes --backend cuda --steps 100 --frames 10 >"$out/bench_render.txt" 2>&1

@@ -1048,6 +1048,10 @@ TEST(CudaDevice, TheSortsScansAndBlockLaunchesAreTheirSerialResults) {
   MCA_NEEDS_GPU();
   EXPECT_EQ(cuda_primitives_check(), "");
 }
+TEST(CudaDevice, AnArrayLargerThanTheGpuIsRefusedWithTheFullGpusError) {
+  MCA_NEEDS_GPU();
+  EXPECT_EQ(cuda_memory_check(), "");
+}
 
 TEST(CudaDevice, AStateResumesAcrossBackendsWithTheSameBits) {
   MCA_NEEDS_GPU();

@@ -192,6 +192,10 @@ std::unique_ptr<Backend> make_cuda_backend(const Model& model);
 // block up to 4,096, CUB above) and one-block launches of several phases. "" where all agree, else the
 // first difference (a CudaDevice test; throws mca::Error without a GPU).
 std::string cuda_primitives_check();
+// A device array larger than the GPU: "" where it is refused with the full GPU's mca::Error, nothing
+// counted as held, and the device then goes on (an array of 1 MB made and read back); else what went
+// wrong (a CudaDevice test; throws mca::Error without a GPU).
+std::string cuda_memory_check();
 
 // Initial state of a model: automata at rest in the lattice (with their object's velocity), all links
 // intact, projectiles at their start.

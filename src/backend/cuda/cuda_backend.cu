@@ -176,4 +176,30 @@ std::string cuda_primitives_check() {
   return "";
 }
 
+std::string cuda_memory_check() {
+  required_device();
+  std::size_t free = 0, total = 0;
+  gpu::cuda_check(cudaMemGetInfo(&free, &total), "cudaMemGetInfo");
+  const std::size_t held = gpu::DeviceMemory::held();
+  Dev::Buffer<double> big;
+  try {
+    big.resize(total / sizeof(double) * 2);  // twice the GPU
+    return "an array of twice the GPU's " + std::to_string(total) + " bytes was made";
+  } catch (const Error& e) {
+    if (std::string(e.what()).find("the GPU's memory is full") == std::string::npos)
+      return std::string("the error is not the full GPU's: ") + e.what();
+  }
+  if (gpu::DeviceMemory::held() != held)
+    return "the refused array is counted: " + std::to_string(gpu::DeviceMemory::held() - held) + " bytes more held";
+  std::vector<std::uint32_t> values(1 << 18), back(values.size());
+  for (std::size_t i = 0; i < values.size(); ++i) values[i] = static_cast<std::uint32_t>(i * 2654435761u);
+  Dev::Buffer<std::uint32_t> b;
+  Dev::upload(b, values);
+  Dev::download(back.data(), b, back.size());
+  if (back != values) return "an array made after the refusal does not read back what was written";
+  if (gpu::DeviceMemory::held() != held + values.size() * sizeof(std::uint32_t))
+    return "an array of 1 MB is not counted as 1 MB held";
+  return "";
+}
+
 }  // namespace mca

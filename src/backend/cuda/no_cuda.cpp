@@ -21,4 +21,6 @@ std::unique_ptr<Backend> make_cuda_backend(const Model&) { unavailable(); }
 
 std::string cuda_primitives_check() { unavailable(); }
 
+std::string cuda_memory_check() { unavailable(); }
+
 }  // namespace mca

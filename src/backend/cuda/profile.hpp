@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "backend/cuda/device_memory.hpp"
+#include "core/text.hpp"
 
 namespace mca::gpu {
 
@@ -62,8 +63,9 @@ class DeviceProfile {
                    total > 0 ? 100 * e.seconds / total : 0.0);
     std::fprintf(stderr, "  the host waited %.1f us/step for the device at its reads\n", 1e6 * waited_ * per);
     std::fprintf(stderr, "  contact lists rebuilt %lld times\n", static_cast<long long>(rebuilds));
-    std::fprintf(stderr, "  device arrays: %.1f MB held, %.1f MB at the most (all simulations of the process)\n",
-                 static_cast<double>(DeviceMemory::held()) / (1 << 20), static_cast<double>(DeviceMemory::peak()) / (1 << 20));
+    std::fprintf(stderr, "  device arrays: %s held, %s at the most (all simulations of the process)\n",
+                 text::human_bytes(static_cast<double>(DeviceMemory::held())).c_str(),
+                 text::human_bytes(static_cast<double>(DeviceMemory::peak())).c_str());
     entries_.clear();
     reads_ = 0;
     waited_ = 0;
