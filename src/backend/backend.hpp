@@ -8,8 +8,8 @@
 #include <type_traits>
 
 #include "core/model.hpp"
-#include "mca/error.hpp"
 #include "core/state.hpp"
+#include "mca/error.hpp"
 #include "render/draw_list.hpp"
 
 namespace mca {

@@ -231,20 +231,21 @@ struct CudaDevice {
     // for the device). A GPU without the memory gives out_of_device_memory's error.
     void resize(std::size_t n) {
       if (n > cap_) {
-        const std::size_t cap = grown_capacity(cap_, n);
-        if (p_) cuda_check(cudaFree(p_), "cudaFree");
+        const std::size_t cap = grown_capacity(cap_, n), bytes = bytes_of<T>(cap);
         DeviceMemory::remove(cap_ * sizeof(T));
+        const cudaError_t freed = p_ ? cudaFree(p_) : cudaSuccess;
         p_ = nullptr;
         n_ = cap_ = 0;
-        if (const cudaError_t e = cudaMalloc(reinterpret_cast<void**>(&p_), cap * sizeof(T)); e != cudaSuccess) {
+        cuda_check(freed, "cudaFree");
+        if (const cudaError_t e = cudaMalloc(reinterpret_cast<void**>(&p_), bytes); e != cudaSuccess) {
           p_ = nullptr;
           if (e != cudaErrorMemoryAllocation) cuda_check(e, "cudaMalloc");
           cudaGetLastError();  // (not a sticky error: the device goes on)
           std::size_t free = 0, total = 0;
           cudaMemGetInfo(&free, &total);
-          throw out_of_device_memory(cap * sizeof(T), free, total);
+          throw out_of_device_memory(bytes, free, total);
         }
-        DeviceMemory::add(cap * sizeof(T));
+        DeviceMemory::add(bytes);
         cap_ = cap;
       }
       n_ = n;

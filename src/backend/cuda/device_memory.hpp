@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <atomic>
 #include <cstddef>
+#include <cstdint>
 #include <optional>
+#include <string>
 
 #include "mca/error.hpp"
 
@@ -16,6 +18,15 @@ namespace mca::gpu {
 // step, as the contact list when links break, is not allocated anew every step).
 constexpr std::size_t grown_capacity(std::size_t cap, std::size_t n) {
   return n <= cap ? cap : cap ? std::max(n, cap + cap / 2) : n;
+}
+// The bytes of `n` elements of T; an mca::Error where they do not fit in a size_t (never for a model whose
+// sizes were checked as it was built).
+template <class T>
+std::size_t bytes_of(std::size_t n) {
+  if (n > SIZE_MAX / sizeof(T))
+    throw Error("a device array of " + std::to_string(n) + " elements of " + std::to_string(sizeof(T)) +
+                " bytes: more bytes than an address holds");
+  return n * sizeof(T);
 }
 
 // The bytes held by every device array of the process (all its simulations, as on one GPU), and the most

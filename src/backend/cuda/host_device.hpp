@@ -49,14 +49,13 @@ struct HostDevice {
     // Discards the contents.
     void resize(std::size_t n) {
       if (n > cap_) {
-        const std::size_t cap = grown_capacity(cap_, n);
+        const std::size_t cap = grown_capacity(cap_, n), bytes = bytes_of<T>(cap);
         DeviceMemory::remove(cap_ * sizeof(T));
         cap_ = 0;
         v_ = {};
-        if (const auto gpu = emulated_gpu_memory();
-            gpu && (cap * sizeof(T) > *gpu || DeviceMemory::held() > *gpu - cap * sizeof(T)))
-          throw out_of_device_memory(cap * sizeof(T), *gpu - std::min(*gpu, DeviceMemory::held()), *gpu);
-        DeviceMemory::add(cap * sizeof(T));
+        if (const auto gpu = emulated_gpu_memory(); gpu && (bytes > *gpu || DeviceMemory::held() > *gpu - bytes))
+          throw out_of_device_memory(bytes, *gpu - std::min(*gpu, DeviceMemory::held()), *gpu);
+        DeviceMemory::add(bytes);
         cap_ = cap;
       }
       v_.clear();
