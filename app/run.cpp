@@ -20,6 +20,7 @@
 #include "app/frame_output.hpp"
 #include "app/render_output.hpp"
 #include "core/files.hpp"
+#include "core/text.hpp"
 #include "analysis/crack_isotropy.hpp"
 #include "io/checkpoint.hpp"
 #include "io/measures_json.hpp"
@@ -376,10 +377,14 @@ int run_loop(Loop& L, FrameWriter& writer) {
         // summary or checkpoint is written from it; the newest checkpoint continues the run.
         const auto saved = io::list_checkpoints(L.dir / "checkpoints");
         if (tty) fmt::print(stderr, "\n");
-        fmt::print(stderr, "error: {}\nThe run stopped inside frame {}; {}.\n", e.what(), L.frame,
-                   saved.empty() ? fmt::format("no checkpoint was saved (--checkpoint-every N saves them): start it again")
-                                 : fmt::format("continue from the newest checkpoint ({}) with: mca resume {} --backend cpu",
-                                               saved.back().filename().string(), L.dir.string()));
+        fmt::print(stderr, "error: {}\nThe run stopped inside frame {}; {}\n", e.what(), L.frame,
+                   !saved.empty() ? fmt::format("continue it from the newest checkpoint ({}) with:\n  mca resume {} --backend cpu",
+                                                saved.back().filename().string(), text::shell_word(L.dir.string()))
+                   : L.checkpoint_every > 0
+                       ? std::string("no checkpoint was saved yet (the first at a frame's end): start it again with "
+                                     "--backend cpu")
+                       : std::string("no checkpoint was saved (--checkpoint-every N saves them): start it again with "
+                                     "--backend cpu"));
         return 2;
       }
       const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -396,7 +401,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
             saved.empty() ? std::string("none was saved: start the run again (with --checkpoint-every N to be able "
                                         "to resume)")
                           : fmt::format("continue from the newest ({}) with: mca resume {}",
-                                        saved.back().filename().string(), L.dir.string()));
+                                        saved.back().filename().string(), text::shell_word(L.dir.string())));
         return 128 + sig;
       }
       progress(elapsed(), false);
@@ -422,7 +427,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
       write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads,
                     "interrupted");
       say("{}interrupted by {} after frame {}; a checkpoint is saved. Continue with: mca resume {}\n",
-          tty ? "\n" : "", signal_name(sig), L.frame - 1, L.dir.string());
+          tty ? "\n" : "", signal_name(sig), L.frame - 1, text::shell_word(L.dir.string()));
       return 128 + sig;
     }
   }

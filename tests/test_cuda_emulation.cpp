@@ -28,7 +28,9 @@
 #include "render/renderer.hpp"
 #include "render/snapshot.hpp"
 #include "sim/engine.hpp"
+#include "shell.hpp"
 #include "support.hpp"
+#include "temp_dir.hpp"
 
 namespace mca {
 namespace {
@@ -876,77 +878,163 @@ TEST(CudaEmulation, AStateResumesAcrossBackendsWithTheSameBits) {
   resumes_across(io::load_default_scene(), SolverDef::Backend::cuda_emulation, SolverDef::Backend::cpu, 3000, 1500);
 }
 
-// A GPU whose memory is full (the emulation playing one of MCA_EMULATED_GPU_MEMORY_MB): a model that does
-// not fit is refused as the backend is made; one that fits at the start and outgrows the GPU as its
-// contact lists grow stops inside a step with the error that says what to do, then refuses to step or be
-// read, and its last saved state resumes on the CPU with the bits of a straight run. The device arrays are
-// counted as a GPU holds them, and given back.
+// A GPU whose memory is full (the emulation playing one of MCA_EMULATED_GPU_MEMORY_MB), on the default
+// wall in frames of about 1,000 steps: a model that does not fit is refused as the backend is made; the
+// first energy check's arrays that do not fit, and a step whose contact lists outgrow the GPU, stop the
+// simulation with the error that says what to do, at the step where the memory ran out, and it then
+// refuses to step or be read; its state saved before resumes on the CPU with the bits of a straight run,
+// and so does `mca run`'s newest checkpoint, which the run's message names with the command to use (its
+// folder's name quoted for the shell). The device arrays are counted as a GPU holds them, and given back.
+std::string emulated_gpu(std::size_t bytes) { return fmt::format("{:.6f}", static_cast<double>(bytes) / 1e6); }
 TEST(CudaEmulation, AFullGpuStopsARunWhichResumesOnTheCpuWithTheSameBits) {
   SceneDef scene = io::load_default_scene();
-  const int chunk = 500, steps = 6000;
+  scene.output.frame_rate = 1000;
+  scene.output.duration = 0.006;
   const std::size_t before = gpu::DeviceMemory::held();
-  std::size_t start = 0, first = 0, most = 0;  // held at the start, at the most in the first call, in the run
-  {
-    scene.solver.backend = SolverDef::Backend::cuda_emulation;
-    Engine emu(scene);
-    start = gpu::DeviceMemory::held() - before;
-    gpu::DeviceMemory::reset_peak();
-    for (int done = 0; done < steps; done += chunk) {
-      ASSERT_EQ(emu.advance(chunk).flags, kHealthy);
-      if (done == 0) first = gpu::DeviceMemory::peak() - before;
+  const auto peak = [&] { return gpu::DeviceMemory::peak() - before; };
+  struct Emulated {  // the emulation's engine, and its peak counted from when it was made
+    explicit Emulated(SceneDef s) : sim((s.solver.backend = SolverDef::Backend::cuda_emulation, s)) {
+      gpu::DeviceMemory::reset_peak();
     }
-    most = gpu::DeviceMemory::peak() - before;
+    Engine sim;
+  };
+  std::int64_t spf = 0, total = 0;
+  std::size_t start = 0, before_check = 0, after_check = 0, frame1 = 0, most = 0;
+  std::vector<std::size_t> after;  // the peak after each step (and its energy check) from frame 1's end on
+  {
+    Emulated e(scene);
+    spf = e.sim.steps_per_frame();
+    total = e.sim.total_steps();
+    start = peak();
+    ASSERT_EQ(e.sim.advance(255).flags, kHealthy);
+    before_check = peak();
+    ASSERT_EQ(e.sim.advance(1).flags, kHealthy);  // (the first energy check, at step 256)
+    after_check = peak();
+    ASSERT_EQ(e.sim.advance(static_cast<int>(spf - 256)).flags, kHealthy);
+    frame1 = peak();
+    while (e.sim.step() < total) {
+      ASSERT_EQ(e.sim.advance(1).flags, kHealthy);
+      after.push_back(peak());
+    }
+    most = peak();
   }
   EXPECT_EQ(gpu::DeviceMemory::held(), before) << "every device array given back";
-  std::printf("the default wall on the device: %.2f MB at the start, %.2f MB at the most in the first %d steps, %.2f MB in "
-              "%d steps\n",
-              start / 1e6, first / 1e6, chunk, most / 1e6, steps);
-  ASSERT_GT(most, first + (first >> 5)) << "the contact lists grow after the first call";
+  std::printf("the default wall on the device: %.2f MB at the start, %.2f MB to step 255, %.2f MB at step 256, %.2f MB in "
+              "frame 1 (%lld steps), %.2f MB in %lld steps\n",
+              start / 1e6, before_check / 1e6, after_check / 1e6, frame1 / 1e6, static_cast<long long>(spf), most / 1e6,
+              static_cast<long long>(total));
+  ASSERT_GT(after_check, before_check + 100'000) << "the energy check's arrays";
+  ASSERT_GT(most, frame1 + (frame1 >> 5)) << "the contact lists grow after frame 1";
+  scene.solver.backend = SolverDef::Backend::cpu;
+  Engine straight(scene);
+  ASSERT_EQ(straight.advance(static_cast<int>(total)).flags, kHealthy);
 
   // Too little for the start: refused as the backend is made, saying what to do.
   {
-    const ForceEnv gpu("MCA_EMULATED_GPU_MEMORY_MB", fmt::format("{:.6f}", (before + start / 2) / 1e6).c_str());
-    const std::string e = error_of([&] { Engine emu(scene); });
+    const ForceEnv gpu("MCA_EMULATED_GPU_MEMORY_MB", emulated_gpu(before + start / 2).c_str());
+    const std::string e = error_of([&] { Emulated emu(scene); });
     EXPECT_NE(e.find("the GPU's memory is full"), std::string::npos) << e;
     EXPECT_NE(e.find("--backend cpu"), std::string::npos) << e;
     EXPECT_EQ(gpu::DeviceMemory::held(), before) << "the arrays made before are given back";
   }
-  // Room for the start, not for the most: the run stops inside a step.
-  scene.solver.backend = SolverDef::Backend::cpu;
-  Engine straight(scene);
-  ASSERT_EQ(straight.advance(steps).flags, kHealthy);
-  std::optional<State> saved;
-  {
-    const ForceEnv gpu("MCA_EMULATED_GPU_MEMORY_MB", fmt::format("{:.6f}", (before + (first + most) / 2) / 1e6).c_str());
-    scene.solver.backend = SolverDef::Backend::cuda_emulation;
-    Engine emu(scene);
-    std::string e;
-    for (int done = 0; done < steps && e.empty(); done += chunk) {
-      e = error_of([&] { emu.advance(chunk); });
-      if (e.empty()) saved = emu.state();
-    }
-    EXPECT_NE(e.find("the GPU's memory is full"), std::string::npos) << e;
-    EXPECT_NE(e.find("mca resume DIR --backend cpu"), std::string::npos) << e;
-    ASSERT_TRUE(saved) << "the first call fitted";
-    ASSERT_LT(saved->step, steps);
+  // What a simulation stopped by a full GPU answers: the error it named (`stopped`: "inside step N," or
+  // "at step N, computing its energies"), every time.
+  const auto refuses = [](const Engine& sim, const std::string& stopped) {
     for (const auto& [what, call] : std::initializer_list<std::pair<const char*, std::function<void()>>>{
-             {"advance", [&] { emu.advance(1); }},
-             {"state", [&] { (void)emu.state(); }},
-             {"energies", [&] { (void)emu.backend().energies(); }}}) {
-      const std::string again = error_of(call);
-      long long at = 0;
-      EXPECT_EQ(std::sscanf(again.c_str(), "this simulation stopped inside step %lld,", &at), 1) << what << ": " << again;
-      EXPECT_GT(at, saved->step) << what << ": " << again;
-      EXPECT_LE(at, saved->step + chunk) << what << ": " << again;
-      EXPECT_NE(again.find("the GPU's memory is full"), std::string::npos) << what << ": " << again;
+             {"advance", [&] { const_cast<Engine&>(sim).advance(1); }},
+             {"state", [&] { (void)sim.state(); }},
+             {"energies", [&] { (void)sim.backend().energies(); }}}) {
+      const std::string e = error_of(call);
+      EXPECT_EQ(e.rfind("this simulation stopped " + stopped, 0), 0u) << what << ": " << e;
+      EXPECT_NE(e.find("the GPU's memory is full"), std::string::npos) << what << ": " << e;
     }
+  };
+  // Room for the start, not for the first energy check's arrays.
+  {
+    const ForceEnv gpu("MCA_EMULATED_GPU_MEMORY_MB", emulated_gpu(before + (before_check + after_check) / 2).c_str());
+    Emulated emu(scene);
+    ASSERT_EQ(emu.sim.advance(255).flags, kHealthy);
+    const std::string e = error_of([&] { emu.sim.advance(10); });
+    EXPECT_EQ(e.rfind("the GPU's memory is full", 0), 0u) << e;
+    EXPECT_EQ(emu.sim.step(), 256) << "the step is whole; the check after it failed";
+    refuses(emu.sim, "at step 256, computing its energies");
+  }
+  // Room for the steps to one after frame 1 whose own arrays grow (not an energy check's step): the run
+  // stops inside that step, where the memory ran out (step `stopped`).
+  std::optional<State> saved;  // the state after the last whole call
+  std::int64_t stopped = 0, grows = 0;
+  for (std::size_t k = 1; k < after.size() && !grows; ++k)
+    if (after[k] > after[k - 1] && (spf + 1 + static_cast<std::int64_t>(k)) % Engine::kEnergyCheckInterval != 0)
+      grows = spf + 1 + static_cast<std::int64_t>(k);
+  ASSERT_GT(grows, 0) << "no step after frame 1 grows the device arrays";
+  const std::string room = emulated_gpu(before + after[static_cast<std::size_t>(grows - spf - 2)]);
+  {
+    const ForceEnv gpu("MCA_EMULATED_GPU_MEMORY_MB", room.c_str());
+    Emulated emu(scene);
+    std::string e;
+    while (e.empty() && emu.sim.step() < total) {
+      e = error_of([&] { emu.sim.advance(static_cast<int>(spf)); });
+      if (e.empty()) saved = emu.sim.state();
+    }
+    EXPECT_EQ(e.rfind("the GPU's memory is full", 0), 0u) << e;
+    EXPECT_NE(e.find("mca resume DIR --backend cpu"), std::string::npos) << e;
+    ASSERT_TRUE(saved) << "frame 1 fitted";
+    const std::string again = error_of([&] { (void)emu.sim.state(); });
+    long long at = 0;
+    if (std::sscanf(again.c_str(), "this simulation stopped inside step %lld,", &at) == 1) {
+      EXPECT_EQ(emu.sim.step(), at - 1) << "the last whole step";
+      refuses(emu.sim, fmt::format("inside step {},", at));
+    } else {
+      ASSERT_EQ(std::sscanf(again.c_str(), "this simulation stopped at step %lld, computing its energies", &at), 1) << again;
+      EXPECT_EQ(emu.sim.step(), at);
+      EXPECT_EQ(at % Engine::kEnergyCheckInterval, 0);
+      refuses(emu.sim, fmt::format("at step {}, computing its energies", at));
+    }
+    stopped = at;
+    std::printf("with %s MB: stopped at step %lld (%s)\n", room.c_str(), at, again.substr(0, again.find(':')).c_str());
+    EXPECT_EQ(stopped, grows);
+    EXPECT_EQ(again.rfind(fmt::format("this simulation stopped inside step {},", grows), 0), 0u) << again;
+    EXPECT_GT(stopped, saved->step);
+    EXPECT_LE(stopped, saved->step + spf);
   }
   EXPECT_EQ(gpu::DeviceMemory::held(), before);
+  {
+    Emulated e(scene);  // without the limit: the step named is the first beyond it
+    ASSERT_EQ(e.sim.advance(static_cast<int>(stopped - 1)).flags, kHealthy);
+    EXPECT_LE(before + peak(), static_cast<std::size_t>(std::llround(std::stod(room) * 1e6)));
+    ASSERT_EQ(e.sim.advance(1).flags, kHealthy);
+    EXPECT_GT(before + peak(), static_cast<std::size_t>(std::llround(std::stod(room) * 1e6)));
+  }
   scene.solver.backend = SolverDef::Backend::cpu;
   Engine resumed(scene, *saved);
-  ASSERT_EQ(resumed.advance(static_cast<int>(steps - saved->step)).flags, kHealthy);
+  ASSERT_EQ(resumed.advance(static_cast<int>(total - saved->step)).flags, kHealthy);
   const std::string d = first_difference(straight.state(), resumed.state());
   EXPECT_TRUE(d.empty()) << "resumed on the CPU from step " << saved->step << ": differs from the straight run, first in " << d;
+
+  // mca run, stopped so: exit code 2, no summary, the newest checkpoint and the command that continues it.
+  const test::TempDir tmp;
+  const auto file = tmp.path() / "wall.toml", out = tmp.path() / "my run";
+  {
+    std::ofstream(file) << io::scene_to_toml(scene);
+  }
+  const test::Result r = test::shell("MCA_EMULATED_GPU_MEMORY_MB=" + room + " " + MCA_BINARY + " run " + file.string() +
+                                     " --backend cuda-emulation --checkpoint-every 1 --quiet --out '" + out.string() + "'");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("error: the GPU's memory is full"), std::string::npos) << r.output;
+  const auto frames_done = (stopped - 1) / spf;
+  ASSERT_GE(frames_done, 1);
+  const std::string command = "mca resume '" + out.string() + "' --backend cpu";
+  EXPECT_NE(r.output.find(fmt::format("The run stopped inside frame {}; continue it from the newest checkpoint "
+                                      "(frame_{:06d}.mcack) with:\n  {}\n",
+                                      frames_done + 1, frames_done, command)),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(std::filesystem::exists(out / "summary.json"));
+  const test::Result resume = test::shell(std::string(MCA_BINARY) + command.substr(3) + " --quiet");
+  ASSERT_EQ(resume.code, 0) << resume.output;
+  EXPECT_NE(test::slurp(out / "summary.json").find(fmt::format("\"state_hash\": \"{:016x}\"", state_hash(straight.state()))),
+            std::string::npos)
+      << "mca resume --backend cpu from the newest checkpoint: not the straight run's state";
 }
 TEST(CudaEmulation, AnEmulatedGpuMemoryThatIsNotANumberIsRefused) {
   for (const char* given : {"0", "-1", "abc", "12MB", "1e400", "nan", " 5"}) {

@@ -436,6 +436,7 @@ void remove_matching(const std::filesystem::path& dir, const std::string& prefix
 // removes the frames and stats an earlier run left there (as a new run does; other files stay).
 std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
   const Engine& e = sim.engine();
+  const State& s = e.state();  // (first: a simulation that cannot be read touches no folder)
   if (!sim.output || sim.output->dir != std::filesystem::absolute(dir)) {
     sim.output.reset();  // releases the folder before
     if (dir.empty()) throw Error("write_frame: the folder is empty (\"\"); give the output folder");
@@ -457,7 +458,6 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
     sim.output = std::move(out);
   }
   OutputFolder& out = *sim.output;
-  const State& s = e.state();
   const auto frags = out.writer->fragments(s);
   const std::string row = out.writer->format_row(out.writer->stats(out.next_frame, s, frags));
   out.writer->write_frame(out.next_frame, s, frags);
@@ -581,7 +581,10 @@ Simulation is gone.)");
           "(sim.step or an array raises mca.Error), so use done and total; progress must be callable or None "
           "(checked before any step). One Simulation is used from one Python thread at a time: advance or a read "
           "from another thread while it runs raises mca.Error (it does not wait). Raises mca.Error when the run "
-          "becomes unstable (the command's message; the state is the unstable step's).")
+          "becomes unstable (the command's message; the state is the unstable step's), and when a step cannot be "
+          "done (a GPU whose memory is full; the message says what to do): the simulation then steps and is read no "
+          "more (mca.Error naming the step it stopped in; sim.step is the last whole step), and a state saved "
+          "before (checkpoint, Simulation.resume) continues, with backend=\"cpu\".")
       .def(
           "advance_to",
           [](PySimulation& s, py::handle time_arg, const py::object& progress) {
@@ -819,7 +822,7 @@ Simulation is gone.)");
       .def("__repr__", [](const PySimulation& s) {
         const Engine& e = s.engine();
         return fmt::format("<mca.Simulation {}: {} automata, step {} (t = {:.6g} s), {} threads>",
-                           text::quoted(e.scene().name), e.model().size(), e.state().step, e.state().time, s.threads());
+                           text::quoted(e.scene().name), e.model().size(), e.step(), e.time(), s.threads());
       });
 
   m.def("render", &render_to, py::arg("sim"), py::arg("path") = py::none(), py::arg("colour") = "fragment",

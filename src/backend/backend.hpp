@@ -125,7 +125,13 @@ class StateBackend : public Backend {
     for (int k = 0; k < steps; ++k) {
       last_step_ = k + 1 == steps;
       stale_ = true;
-      const std::int64_t bad = or_fail([&] { return "inside step " + std::to_string(S_.step + 1); }, [&] { return one_step(); });
+      const std::int64_t done = S_.step;
+      const double time = S_.time;
+      const std::int64_t bad = or_fail([&] { return one_step(); }, [&] {
+        S_.step = done;  // (the step it stopped in is not done)
+        S_.time = time;
+        return "inside step " + std::to_string(done + 1) + ", which left its state part of a step";
+      });
       if (bad != kAllFinite) {
         h.flags |= kNonFinite;
         h.step = S_.step;
@@ -140,17 +146,18 @@ class StateBackend : public Backend {
  protected:
   static constexpr std::int64_t kAllFinite = -1;
   virtual std::int64_t one_step() = 0;
-  // f(), where an error (a GPU whose memory is full, a host out of memory) leaves the state incomplete: it
-  // is thrown on as it came, and from then on check_usable() throws an mca::Error saying so, naming
-  // where (`where()`: "inside step 12"). step() and the state's reads check.
-  template <class Where, class F>
-  std::invoke_result_t<F&> or_fail(Where&& where, F&& f) {
+  // f(), where an error (a GPU whose memory is full, a host out of memory) can leave the device's arrays or
+  // the state incomplete: it is thrown on as it came, and from then on check_usable() throws an mca::Error
+  // that says so, and where (`where()`, called then: "inside step 12, which left ..."). step(), the state's
+  // reads and the CUDA backend's energies, drawing and upload check.
+  template <class F, class Where>
+  std::invoke_result_t<F&> or_fail(F&& f, Where&& where) {
     try {
       return f();
     } catch (const std::exception& e) {
       failed_ = "this simulation stopped " + where() +
-                ", which left its state incomplete: it cannot step further or be read (start again from the scene "
-                "or from a checkpoint saved before); the cause: " + e.what();
+                ": it cannot step further or be read (start again from the scene or from a checkpoint saved "
+                "before); the cause: " + e.what();
       throw;
     }
   }

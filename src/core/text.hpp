@@ -28,4 +28,8 @@ std::string did_you_mean(std::string_view word, const std::vector<std::string>& 
 // A size for a message: "512 bytes", "430 KB", "1.72 TB" (3 digits; units of 1000).
 std::string human_bytes(double bytes);
 
+// `s` as one word of a POSIX shell's command line, for a command a message suggests: as it is where every
+// character is a letter, digit or one of _ - . / + , : = @ %, else in single quotes ('my run', 'it'\''s').
+std::string shell_word(std::string_view s);
+
 }  // namespace mca::text

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "backend/cpu/lattice_kernels.hpp"
+#include "backend/cuda/device_memory.hpp"
 #include "core/fnv.hpp"
 #include "lattice/lattice.hpp"
 #include "mca/error.hpp"
@@ -17,6 +18,7 @@ void Engine::check_environment() {
   cpu::select_kernels();
   backend_from_environment();
   cuda_lattice();
+  gpu::emulated_gpu_memory();
 }
 
 SolverDef::Backend backend_from_name(const std::string& name, const std::string& option) {
@@ -60,8 +62,12 @@ std::unique_ptr<Backend> start_backend(const Model& model, SolverDef::Backend ki
       by_environment = true;
     }
   }
-  // (A bad MCA_CUDA_LATTICE is an error here, not a GPU that cannot take the model.)
-  if (kind != SolverDef::Backend::cpu) for_source(source, cuda_lattice);
+  // (A bad MCA_CUDA_LATTICE or MCA_EMULATED_GPU_MEMORY_MB is an error here, not a GPU that cannot take the
+  // model.)
+  if (kind != SolverDef::Backend::cpu) {
+    for_source(source, cuda_lattice);
+    for_source(source, gpu::emulated_gpu_memory);
+  }
   std::unique_ptr<Backend> b;
   switch (kind) {
     case SolverDef::Backend::cuda_emulation:

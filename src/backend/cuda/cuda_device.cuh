@@ -242,7 +242,10 @@ struct CudaDevice {
           if (e != cudaErrorMemoryAllocation) cuda_check(e, "cudaMalloc");
           cudaGetLastError();  // (not a sticky error: the device goes on)
           std::size_t free = 0, total = 0;
-          cudaMemGetInfo(&free, &total);
+          if (cudaMemGetInfo(&free, &total) != cudaSuccess) {
+            cudaGetLastError();
+            free = total = 0;  // (unknown)
+          }
           throw out_of_device_memory(bytes, free, total);
         }
         DeviceMemory::add(bytes);

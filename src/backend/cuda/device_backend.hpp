@@ -206,9 +206,12 @@ class DeviceBackend : public StateBackend {
   // How many times the contact lists were rebuilt (tests: what a step reads from the device).
   std::size_t contact_rebuilds() const { return rebuilds_; }
   // (check_usable: after a failed step the device arrays may be gone.)
+  // (The energy check's own arrays grow on the device too: a full GPU stops the simulation there as well.)
   Energies energies() const override {
     check_usable();
-    return const_cast<DeviceBackend*>(this)->device_energies();
+    auto* self = const_cast<DeviceBackend*>(this);
+    return self->or_fail([&] { return self->device_energies(); },
+                         [&] { return "at step " + std::to_string(S_.step) + ", computing its energies"; });
   }
   // The state's breaks and those logged on the device since it was last read.
   std::int64_t broken_links() const override {
@@ -225,7 +228,8 @@ class DeviceBackend : public StateBackend {
 
   void upload(State s) override {
     check_usable();
-    or_fail([] { return std::string("while its state went to the device"); }, [&] { upload_state(std::move(s)); });
+    or_fail([&] { upload_state(std::move(s)); },
+            [] { return std::string("as its state went to the device, which left the device's copy part of it"); });
   }
 
  protected:

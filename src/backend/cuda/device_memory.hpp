@@ -1,7 +1,8 @@
 #pragma once
 // The device memory the CUDA backend's arrays hold, counted the same way by both devices (cuda_device.cuh,
-// host_device.hpp), so the emulation's figure is the GPU's; and the error for an allocation that does not
-// fit, which says what to do.
+// host_device.hpp), so the emulation's figure is the GPU's but for what only the GPU has (the scratch memory
+// of CUB's sorts and scans and the sorts' output, kept per host thread); and the error for an allocation
+// that does not fit, which says what to do.
 #include <algorithm>
 #include <atomic>
 #include <cstddef>
@@ -54,8 +55,8 @@ class DeviceMemory {
 // variable for a value that is not a number from 0.001 to 1e9.
 std::optional<std::size_t> emulated_gpu_memory();
 
-// The error for `asked` more bytes that the device could not give, with `free` of `total` bytes free and
-// DeviceMemory::held() held by mca's arrays.
+// The error for `asked` more bytes that the device could not give, with `free` of `total` bytes free
+// (total 0: not known) and DeviceMemory::held() held by mca's arrays.
 Error out_of_device_memory(std::size_t asked, std::size_t free, std::size_t total);
 
 }  // namespace mca::gpu

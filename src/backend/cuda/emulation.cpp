@@ -1,5 +1,6 @@
 // The CUDA backend's host emulation: DeviceBackend over HostDevice (see host_device.hpp).
 #include <charconv>
+#include <cmath>
 #include <cstdlib>
 #include <fmt/format.h>
 #include <string_view>
@@ -43,17 +44,18 @@ std::optional<std::size_t> emulated_gpu_memory() {
     throw Error(fmt::format("MCA_EMULATED_GPU_MEMORY_MB = '{}' (the memory of the GPU the cuda-emulation backend plays): "
                             "give a number of MB (1e6 bytes) from 0.001 to 1e9, or unset it",
                             given));
-  return static_cast<std::size_t>(mb * 1e6);
+  return static_cast<std::size_t>(std::llround(mb * 1e6));
 }
 
 Error out_of_device_memory(std::size_t asked, std::size_t free, std::size_t total) {
   const auto mb = [](std::size_t bytes) { return text::human_bytes(static_cast<double>(bytes)); };
   return Error(fmt::format(
-      "the GPU's memory is full: mca asked for {} more, holding {} there, and the GPU has {} free of {} (other "
-      "programs may hold some). This scene needs more GPU memory: use backend \"cpu\" (--backend cpu, or "
-      "solver.backend; a run stopped by this continues from its last checkpoint with mca resume DIR --backend cpu), "
-      "a larger solver.spacing, or a GPU with more memory",
-      mb(asked), mb(DeviceMemory::held()), mb(free), mb(total)));
+      "the GPU's memory is full: mca asked for {} more, holding {} there, and {} (other programs may hold some). "
+      "This scene needs more GPU memory: use backend \"cpu\" (--backend cpu, or solver.backend; a run stopped by "
+      "this continues from its last checkpoint with mca resume DIR --backend cpu), a larger solver.spacing, or a "
+      "GPU with more memory",
+      mb(asked), mb(DeviceMemory::held()),
+      total ? fmt::format("the GPU has {} free of {}", mb(free), mb(total)) : std::string("the GPU's free memory could not be read")));
 }
 
 }  // namespace gpu
