@@ -16,6 +16,7 @@
 #include <fmt/format.h>
 
 #include "backend/backend.hpp"
+#include "core/text.hpp"
 #include "io/checkpoint.hpp"
 #include "io/scene_io.hpp"
 #include "sim/engine.hpp"
@@ -652,6 +653,18 @@ material = "glass"
   EXPECT_LT(estimate, 0.95 * peak) << "the run's estimate alone now covers rubble: the test no longer needs the term";
   EXPECT_GT(shattered, 0.95 * peak);
   EXPECT_LT(shattered, 1.5 * peak);
+}
+
+// A folder in a command a message suggests (mca resume DIR) is one word of the shell's command line: as it
+// is where that is safe, else quoted so that the shell gives it back unchanged.
+TEST(Cli, AFolderInASuggestedCommandIsQuotedForTheShell) {
+  EXPECT_EQ(mca::text::shell_word("out/wall_ball-2.x"), "out/wall_ball-2.x");
+  EXPECT_EQ(mca::text::shell_word("my run"), "'my run'");
+  EXPECT_EQ(mca::text::shell_word(""), "''");
+  for (const char* word : {"my run", "it's", "$HOME", "a\\b", "x;y", "*", "tab\there", "''", "new\nline", "-n"}) {
+    const Result r = shell("printf '%s' " + mca::text::shell_word(word));
+    EXPECT_EQ(r.output, word) << mca::text::shell_word(word);
+  }
 }
 
 }  // namespace

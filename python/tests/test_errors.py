@@ -151,3 +151,34 @@ def test_backend_keyword(tmp_path):
         assert mca.Simulation.resume(path, backend="cuda").backend.startswith("cuda (")
     except mca.Error as e:
         assert str(e).startswith('Simulation.resume: backend = "cuda": ') and "NVIDIA" in str(e)
+
+
+def test_a_simulation_stopped_by_a_full_gpu_refuses_and_touches_no_folder(tmp_path, monkeypatch):
+    # The emulation plays a GPU of 10 MB: the default wall's arrays take 8.6 MB, and the first energy
+    # check's (step 256) 3 MB more (CudaEmulation.AFullGpuStopsARunWhichResumesOnTheCpuWithTheSameBits).
+    scene = mca.Scene.default()
+    keep = tmp_path / "keep"
+    cpu = mca.Simulation(scene, threads=1, backend="cpu")
+    for _ in range(2):
+        cpu.write_frame(keep)
+        cpu.advance(10)
+    cpu.close_output()
+    listing = sorted(str(p.relative_to(keep)) for p in keep.rglob("*"))
+    monkeypatch.setenv("MCA_EMULATED_GPU_MEMORY_MB", "10")
+    sim = mca.Simulation(scene, backend="cuda-emulation")
+    with pytest.raises(mca.Error, match=r"^the GPU's memory is full: .*use backend \"cpu\""):
+        sim.advance(300)
+    assert sim.step == 256
+    assert "step 256" in repr(sim)
+    stopped = r"^this simulation stopped at step 256, computing its energies: .*the GPU's memory is full"
+    for call in (lambda: sim.advance(1), sim.positions, sim.state_hash, lambda: sim.write_frame(keep),
+                 lambda: sim.checkpoint(tmp_path / "x.mcack"), lambda: mca.render(sim)):
+        with pytest.raises(mca.Error, match=stopped):
+            call()
+    assert sorted(str(p.relative_to(keep)) for p in keep.rglob("*")) == listing
+    assert not (tmp_path / "x.mcack").exists()
+    # A state saved before continues on the CPU.
+    monkeypatch.delenv("MCA_EMULATED_GPU_MEMORY_MB")
+    fresh = mca.Simulation(scene, backend="cuda-emulation")
+    fresh.advance(20)
+    assert fresh.state_hash() == cpu.state_hash()
