@@ -205,8 +205,8 @@ class DeviceBackend : public StateBackend {
   std::size_t early_many_body_steps() const { return early_many_body_steps_; }
   // How many times the contact lists were rebuilt (tests: what a step reads from the device).
   std::size_t contact_rebuilds() const { return rebuilds_; }
-  // (check_usable: after a failed step the device arrays may be gone.)
-  // (The energy check's own arrays grow on the device too: a full GPU stops the simulation there as well.)
+  // (check_usable: after a failed step the device arrays may be gone. The energy check's own arrays grow on
+  // the device too, so a full GPU can stop the simulation here as well.)
   Energies energies() const override {
     check_usable();
     auto* self = const_cast<DeviceBackend*>(this);

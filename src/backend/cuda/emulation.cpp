@@ -7,8 +7,8 @@
 
 #include "backend/cuda/device_backend.hpp"
 #include "backend/cuda/device_memory.hpp"
-#include "core/text.hpp"
 #include "backend/cuda/host_device.hpp"
+#include "core/text.hpp"
 #include "mca/error.hpp"
 
 namespace mca {

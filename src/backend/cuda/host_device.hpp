@@ -27,9 +27,9 @@ struct HostDevice {
   static constexpr const char* kName = "cuda-emulation";
 
   // A device array. The step logic reads and writes it only through kernels and the copies below, as it
-  // must a CUDA device array.
-  // Its memory is counted as a CUDA device array's (DeviceMemory: the capacity of grown_capacity), and
-  // where MCA_EMULATED_GPU_MEMORY_MB is set, growing past it is refused as a full GPU refuses it.
+  // must a CUDA device array. Its memory is counted as a CUDA device array's (DeviceMemory, with the
+  // capacity of grown_capacity), and where MCA_EMULATED_GPU_MEMORY_MB is set, growing past it is refused
+  // as a full GPU refuses it.
   template <class T>
   class Buffer {
    public:
