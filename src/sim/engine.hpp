@@ -62,8 +62,9 @@ class Engine {
   std::int64_t frame_count() const { return (total_steps_ + steps_per_frame_ - 1) / steps_per_frame_; }
 
   // Checks what the environment asks of the backend (MCA_SIMD: an instruction set this processor runs;
-  // MCA_BACKEND: a backend; MCA_CUDA_LATTICE: fused, fused:2, fused:3, fused:4 or split), so that a command can refuse a bad setting before it writes anything. Throws
-  // mca::Error.
+  // MCA_BACKEND: a backend; MCA_CUDA_LATTICE: fused, fused:2, fused:3, fused:4 or split;
+  // MCA_EMULATED_GPU_MEMORY_MB: a number of MB), so that a command can refuse a bad setting before it writes
+  // anything. Throws mca::Error.
   static void check_environment();
 
   static constexpr std::int64_t kEnergyCheckInterval = 256;
