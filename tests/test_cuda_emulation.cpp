@@ -6,16 +6,20 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <functional>
 #include <map>
 #include <optional>
 #include <string>
+#include <thread>
 #include <tuple>
 #include <type_traits>
 #include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -938,6 +942,7 @@ TEST(CudaEmulation, AFullGpuStopsARunWhichResumesOnTheCpuWithTheSameBits) {
   const auto refuses = [](const Engine& sim, const std::string& stopped) {
     for (const auto& [what, call] : std::initializer_list<std::pair<const char*, std::function<void()>>>{
              {"advance", [&] { const_cast<Engine&>(sim).advance(1); }},
+             {"advance 0 steps", [&] { const_cast<Engine&>(sim).advance(0); }},
              {"state", [&] { (void)sim.state(); }},
              {"energies", [&] { (void)sim.backend().energies(); }}}) {
       const std::string e = error_of(call);
@@ -1045,6 +1050,22 @@ TEST(CudaEmulation, AnEmulatedGpuMemoryThatIsNotANumberIsRefused) {
   EXPECT_EQ(gpu::grown_capacity(10, 11), 15u);
   EXPECT_EQ(gpu::grown_capacity(10, 40), 40u);
   EXPECT_EQ(gpu::grown_capacity(10, 4), 10u);
+}
+// Threads growing arrays at once against an emulated GPU's memory: together they take no more than it holds.
+TEST(CudaEmulation, ThreadsGrowingArraysAtOnceStayWithinTheEmulatedGpusMemory) {
+  const std::size_t limit = gpu::DeviceMemory::held() + 1000;
+  std::atomic<int> taken{0};
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 8; ++t)
+    threads.emplace_back([&] {
+      for (int k = 0; k < 2000; ++k)
+        if (gpu::DeviceMemory::add_within(7, limit)) ++taken;
+    });
+  for (std::thread& t : threads) t.join();
+  EXPECT_EQ(taken.load(), 1000 / 7);
+  EXPECT_LE(gpu::DeviceMemory::held(), limit);
+  gpu::DeviceMemory::remove(static_cast<std::size_t>(taken.load()) * 7);
+  EXPECT_FALSE(gpu::DeviceMemory::add_within(SIZE_MAX, limit));
 }
 
 // --- On a GPU (skipped, with the reason, without one: scripts/gpu_check.sh runs them on a GPU machine) ---

@@ -207,6 +207,7 @@ class PySimulation {
       // falls as a run goes on (contacts, breaking, a busier machine), and a slice planned at the rate of
       // the quiet first steps ran for 15 s.
       std::int64_t chunk = per_step_ > 0 ? std::min(slice_steps(per_step_), 2 * last_slice_) : 1, taken = 0;
+      if (steps == 0) engine_->advance(0);  // (no step; a simulation that stopped says so, as on every call)
       while (taken < steps && !stop_) {
         const int n = static_cast<int>(std::min(chunk, steps - taken));
         const auto t0 = std::chrono::steady_clock::now();
@@ -593,16 +594,16 @@ Simulation is gone.)");
             const Engine& e = s.engine();
             const double dt = static_cast<double>(e.model().dt);
             if (!std::isfinite(time)) throw Error(fmt::format("advance_to({}): not a finite time", time));
-            const double steps = std::round((time - e.state().time) / dt);
+            const double steps = std::round((time - e.time()) / dt);
             if (steps > static_cast<double>(Engine::kMaxSteps))
               throw Error(fmt::format("advance_to({}): {:.3g} steps of {:.4g} s would not end; give an earlier time",
                                       time, steps, dt));
-            if (steps > 0) s.advance(static_cast<std::int64_t>(steps), progress);
+            s.advance(steps > 0 ? static_cast<std::int64_t>(steps) : 0, progress);
           },
           py::arg("time"), py::arg("progress") = py::none(),
           "Advances to the step nearest the simulated time `time` [s] (nothing when it has passed); as advance.")
       .def_property_readonly("step", [](const PySimulation& s) { return s.engine().step(); }, "steps taken")
-      .def_property_readonly("time", [](const PySimulation& s) { return s.engine().state().time; }, "simulated time [s]")
+      .def_property_readonly("time", [](const PySimulation& s) { return s.engine().time(); }, "simulated time [s]")
       .def_property_readonly("time_step", [](const PySimulation& s) { return static_cast<double>(s.engine().model().dt); },
                              "the time step [s]")
       .def_property_readonly("steps_per_frame", [](const PySimulation& s) { return s.engine().steps_per_frame(); },

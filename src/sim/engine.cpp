@@ -263,6 +263,7 @@ Engine::Engine(const SceneDef& scene, const State& state, const std::string& sou
 // same steps, so with the same outcome, on every backend and machine. A call is split at those steps
 // (how steps are grouped into a backend's calls changes no result).
 StepHealth Engine::advance(int steps) {
+  if (steps <= 0) return backend_->step(0);  // (no step; a simulation that stopped says so, as on every call)
   StepHealth h;
   while (steps > 0) {
     const std::int64_t next = (step() / kEnergyCheckInterval + 1) * kEnergyCheckInterval;

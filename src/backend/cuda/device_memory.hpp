@@ -35,10 +35,17 @@ std::size_t bytes_of(std::size_t n) {
 class DeviceMemory {
  public:
   static void add(std::size_t bytes) {
-    const std::size_t now = held_.fetch_add(bytes) + bytes;
-    std::size_t peak = peak_.load();
-    while (now > peak && !peak_.compare_exchange_weak(peak, now)) {
-    }
+    raise_peak(held_.fetch_add(bytes) + bytes);
+  }
+  // add(bytes) where what is held stays within `limit`, in one atomic step (threads growing arrays at once
+  // cannot pass it together); false, counting nothing, where it would not.
+  static bool add_within(std::size_t bytes, std::size_t limit) {
+    std::size_t held = held_.load();
+    do {
+      if (bytes > limit || held > limit - bytes) return false;
+    } while (!held_.compare_exchange_weak(held, held + bytes));
+    raise_peak(held + bytes);
+    return true;
   }
   static void remove(std::size_t bytes) { held_.fetch_sub(bytes); }
   static std::size_t held() { return held_.load(); }
@@ -47,6 +54,11 @@ class DeviceMemory {
   static void reset_peak() { peak_.store(held_.load()); }
 
  private:
+  static void raise_peak(std::size_t now) {
+    std::size_t peak = peak_.load();
+    while (now > peak && !peak_.compare_exchange_weak(peak, now)) {
+    }
+  }
   static inline std::atomic<std::size_t> held_{0}, peak_{0};
 };
 

@@ -53,9 +53,12 @@ struct HostDevice {
         DeviceMemory::remove(cap_ * sizeof(T));
         cap_ = 0;
         v_ = {};
-        if (const auto gpu = emulated_gpu_memory(); gpu && (bytes > *gpu || DeviceMemory::held() > *gpu - bytes))
-          throw out_of_device_memory(bytes, *gpu - std::min(*gpu, DeviceMemory::held()), *gpu);
-        DeviceMemory::add(bytes);
+        if (const auto gpu = emulated_gpu_memory()) {
+          if (!DeviceMemory::add_within(bytes, *gpu))
+            throw out_of_device_memory(bytes, *gpu - std::min(*gpu, DeviceMemory::held()), *gpu);
+        } else {
+          DeviceMemory::add(bytes);
+        }
         cap_ = cap;
       }
       v_.clear();
