@@ -263,6 +263,18 @@ void remove_own_files(const std::filesystem::path& dir, const std::string& prefi
   for (const auto& p : doomed) std::filesystem::remove(p);
 }
 
+// What a run writes at its end from its last state (the summary also when interrupted): the summary,
+// fragments.csv, the fragment meshes and the plots. One left by an earlier session describes a state the
+// folder no longer ends at, so a new run and a resume remove them before they step: a resume that stops on
+// an error, like a new run, then leaves none.
+void remove_end_outputs(const std::filesystem::path& dir) {
+  std::filesystem::remove(dir / "summary.json");
+  std::filesystem::remove(dir / "fragments.csv");
+  remove_own_files(dir / "fragments", "fragment_", ".ply");
+  for (const char* plot : {"energies.png", "broken_links.png", "fragment_masses.png"})
+    std::filesystem::remove(dir / "render" / plot);
+}
+
 // Whether `line` is a whole stats.csv row of `frame`: its frame number first, then numbers, as many cells
 // as the header.
 bool whole_stats_row(const std::string& line, std::int64_t frame, std::size_t cells) {
@@ -398,8 +410,10 @@ int run_loop(Loop& L, FrameWriter& writer) {
         say("{}interrupted by {} inside frame {} (step {} of the run); checkpoints are saved at frame ends only, so "
             "{}\n",
             tty ? "\n" : "", signal_name(sig), L.frame, sim.state().step,
-            saved.empty() ? std::string("none was saved: start the run again (with --checkpoint-every N to be able "
-                                        "to resume)")
+            saved.empty() ? L.checkpoint_every > 0
+                                ? std::string("none was saved yet (the first at a frame's end): start the run again")
+                                : std::string("none was saved: start the run again (with --checkpoint-every N to be "
+                                              "able to resume)")
                           : fmt::format("continue from the newest ({}) with: mca resume {}",
                                         saved.back().filename().string(), text::shell_word(L.dir.string())));
         return 128 + sig;
@@ -473,8 +487,9 @@ int run(const RunOptions& o) {
     throw Error("--out is empty; give the output folder, or leave out --out for the default out/<scene name>");
   if (o.steps && (*o.steps <= 0 || *o.steps > kMaxSteps))
     throw Error(fmt::format("--steps {} is out of range: must be 1..{:.0e} (a run of more steps would not end); "
-                            "give a smaller number of steps, or --duration",
-                            *o.steps, static_cast<double>(kMaxSteps)));
+                            "give {}, or --duration",
+                            *o.steps, static_cast<double>(kMaxSteps),
+                            *o.steps <= 0 ? "at least one step" : "a smaller number of steps"));
   RenderOptions ro;
   if (o.render) {
     std::tie(ro.width, ro.height) = parse_render_size(o.render_size);
@@ -582,29 +597,24 @@ int run(const RunOptions& o) {
   io::write_file_atomic(dir / "scene.toml", [&](std::ostream& os) { os << io::scene_to_toml(scene); }, false);
   // Outputs of an earlier run in this folder would mix with this one's; only files this program writes
   // are removed, anything else a user keeps there stays.
-  std::filesystem::remove(dir / "summary.json");
-  std::filesystem::remove(dir / "fragments.csv");
+  remove_end_outputs(dir);
   remove_own_files(dir / "checkpoints", "frame_", ".mcack");
   remove_own_files(dir / "frames", "automata_", ".vtu");
   remove_own_files(dir / "frames", "projectiles_", ".vtu");
   remove_own_files(dir / "surface", "surface_", ".ply");
   remove_own_files(dir / "surface", "surface_", ".obj");
-  remove_own_files(dir / "fragments", "fragment_", ".ply");
   // The collections too: this run may write no projectile frames (no projectiles) or no frames at all
   // (--no-vtk), and a collection left from an earlier run would list frames that were just removed.
   std::filesystem::remove(dir / "automata.pvd");
   std::filesystem::remove(dir / "projectiles.pvd");
   // The pictures: an unrendered run removes an earlier rendering whole (render.json too: a resume must not
-  // render), a rendered one has replaced its frames, video and sheet (RenderOutput); the plots go either
-  // way (tools/plot_run.py may not run this time).
+  // render), a rendered one has replaced its frames, video and sheet (RenderOutput).
   if (!render) {
     std::filesystem::remove(dir / "render" / "render.json");
     std::filesystem::remove(dir / "render" / "video.mp4");
     std::filesystem::remove(dir / "render" / "contact_sheet.png");
     remove_own_files(dir / "render", "frame_", ".png");
   }
-  for (const char* plot : {"energies.png", "broken_links.png", "fragment_masses.png"})
-    std::filesystem::remove(dir / "render" / plot);
   remove_stale_temporaries(dir);
   // Folders of outputs this run may not write, left empty by the removals (the writers make them again).
   for (const char* sub : {"frames", "surface", "fragments", "checkpoints", "render"}) {
@@ -713,6 +723,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
                "missing from it\n",
                (dir / "stats.csv").string(), rows.size(), cp.frame, rows.size(), cp.frame - 1);
   writer.start_stats(rows);
+  remove_end_outputs(dir);
   return run_loop(L, writer);
 }
 
