@@ -1,11 +1,13 @@
 // `mca info`: what a scene will cost before running it.
 #include <cstdlib>
 #include <fmt/format.h>
+#include <memory>
 #include <optional>
 #include <nlohmann/json.hpp>
 
 #include "app/commands.hpp"
 #include "app/frame_output.hpp"
+#include "backend/cuda/device_memory.hpp"
 #include "io/scene_io.hpp"
 #include "lattice/lattice.hpp"
 #include "sim/engine.hpp"
@@ -88,8 +90,23 @@ int info(const std::optional<std::string>& path, bool json) {
   const bool cuda_missing = asked == SolverDef::Backend::cuda && gpu.empty();
   SceneDef probe = scene;
   if (cuda_missing) probe.solver.backend = SolverDef::Backend::cpu;
-  const Engine sim(probe);
+  // A GPU (or the emulation's, MCA_EMULATED_GPU_MEMORY_MB) whose memory cannot hold the model and its state:
+  // the scene is described on the CPU, saying so.
+  std::string gpu_full;
+  std::unique_ptr<Engine> engine;
+  try {
+    engine = std::make_unique<Engine>(probe);
+  } catch (const gpu::DeviceMemoryFull& e) {
+    gpu_full = e.what();
+    probe.solver.backend = SolverDef::Backend::cpu;
+    engine = std::make_unique<Engine>(probe);
+  }
+  const Engine& sim = *engine;
   building.reset();
+  // The device arrays the GPU backend holds at the start (none on the CPU).
+  const bool on_gpu = sim.backend().name().rfind("cuda", 0) == 0;
+  const std::size_t gpu_bytes = on_gpu ? gpu::DeviceMemory::held() : 0;
+  const std::string asked_name = asked == SolverDef::Backend::cuda_emulation ? "cuda-emulation" : "cuda";
   const Model& m = sim.model();
   const std::int64_t frames = sim.frame_count();
   const std::int64_t steps = sim.total_steps();
@@ -119,7 +136,11 @@ int info(const std::optional<std::string>& path, bool json) {
     j["frames"] = frames;
     j["steps"] = steps;
     j["duration"] = scene.output.duration;
-    j["backend"] = cuda_missing ? std::string("cuda (not available here)") : sim.backend().name();
+    j["backend"] = cuda_missing        ? std::string("cuda (not available here)")
+                   : !gpu_full.empty() ? asked_name + " (the scene does not fit in the GPU's memory)"
+                                       : sim.backend().name();
+    j["gpu_memory_bytes"] = on_gpu ? nlohmann::json(gpu_bytes) : nlohmann::json(nullptr);
+    if (!gpu_full.empty()) j["gpu_memory_full"] = gpu_full;
     j["cuda_device"] = gpu.empty() ? nlohmann::json(nullptr) : nlohmann::json(gpu);
     if (gpu.empty()) j["cuda_unavailable"] = gpu_why;
     j["memory_bytes"] = memory.total();
@@ -217,8 +238,14 @@ int info(const std::optional<std::string>& path, bool json) {
   if (cuda_missing)
     fmt::print("backend          cuda ({}), which cannot run here: {}\n",
                scene.solver.backend == SolverDef::Backend::cuda ? "solver.backend" : "MCA_BACKEND", gpu_why);
+  else if (!gpu_full.empty())
+    fmt::print("backend          {}, whose GPU cannot hold the scene (described here on the CPU): {}\n", asked_name,
+               gpu_full);
   else
     fmt::print("backend          {}\n", backend_text(sim.backend().name()));
+  if (on_gpu)
+    fmt::print("gpu memory       {} of device arrays at the start (the contact lists grow as the objects break)\n",
+               human_bytes(static_cast<double>(gpu_bytes)));
   fmt::print("cuda             {}\n", gpu.empty() ? gpu_why : gpu + " (--backend cuda)");
   std::string parts = fmt::format("arrays {:.1f} MB: {:.0f} bytes per automaton, links included", memory.arrays / 1e6,
                                   (bytes - static_cast<double>(estimate_memory_bytes(0))) / static_cast<double>(m.size()));

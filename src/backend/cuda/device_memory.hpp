@@ -67,8 +67,15 @@ class DeviceMemory {
 // variable for a value that is not a number from 0.001 to 1e9.
 std::optional<std::size_t> emulated_gpu_memory();
 
+// A device array the GPU's memory cannot hold (mca info catches it to describe the scene on the CPU).
+class DeviceMemoryFull : public Error {
+ public:
+  using Error::Error;
+};
+
 // The error for `asked` more bytes that the device could not give, with `free` of `total` bytes free
-// (total 0: not known) and DeviceMemory::held() held by mca's arrays.
-Error out_of_device_memory(std::size_t asked, std::size_t free, std::size_t total);
+// (total 0: not known) and DeviceMemory::held() held by mca's arrays; `emulated`: the GPU is the host
+// emulation's (MCA_EMULATED_GPU_MEMORY_MB).
+DeviceMemoryFull out_of_device_memory(std::size_t asked, std::size_t free, std::size_t total, bool emulated = false);
 
 }  // namespace mca::gpu

@@ -47,15 +47,19 @@ std::optional<std::size_t> emulated_gpu_memory() {
   return static_cast<std::size_t>(std::llround(mb * 1e6));
 }
 
-Error out_of_device_memory(std::size_t asked, std::size_t free, std::size_t total) {
+DeviceMemoryFull out_of_device_memory(std::size_t asked, std::size_t free, std::size_t total, bool emulated) {
   const auto mb = [](std::size_t bytes) { return text::human_bytes(static_cast<double>(bytes)); };
-  return Error(fmt::format(
-      "the GPU's memory is full: mca asked for {} more, holding {} there, and {} (other programs may hold some). "
-      "This scene needs more GPU memory: use backend \"cpu\" (--backend cpu, or solver.backend; a run stopped by "
-      "this continues from its last checkpoint with mca resume DIR --backend cpu), a larger solver.spacing, or a "
-      "GPU with more memory",
-      mb(asked), mb(DeviceMemory::held()),
-      total ? fmt::format("the GPU has {} free of {}", mb(free), mb(total)) : std::string("the GPU's free memory could not be read")));
+  const std::string room = !total   ? std::string("the GPU's free memory could not be read")
+                           : emulated ? fmt::format("the emulated GPU (MCA_EMULATED_GPU_MEMORY_MB) has {} free of {}",
+                                                    mb(free), mb(total))
+                                      : fmt::format("the GPU has {} free of {} (other programs may hold some)", mb(free),
+                                                    mb(total));
+  return DeviceMemoryFull(fmt::format(
+      "the GPU's memory is full: mca asked for {} more, holding {} there, and {}. This scene needs more GPU memory: "
+      "use backend \"cpu\" (--backend cpu, or solver.backend; a run stopped by this continues from its last "
+      "checkpoint with mca resume DIR --backend cpu), a larger solver.spacing, or {}",
+      mb(asked), mb(DeviceMemory::held()), room,
+      emulated ? "a larger MCA_EMULATED_GPU_MEMORY_MB (or none)" : "a GPU with more memory"));
 }
 
 }  // namespace gpu

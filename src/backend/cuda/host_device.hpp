@@ -55,7 +55,7 @@ struct HostDevice {
         v_ = {};
         if (const auto gpu = emulated_gpu_memory()) {
           if (!DeviceMemory::add_within(bytes, *gpu))
-            throw out_of_device_memory(bytes, *gpu - std::min(*gpu, DeviceMemory::held()), *gpu);
+            throw out_of_device_memory(bytes, *gpu - std::min(*gpu, DeviceMemory::held()), *gpu, true);
         } else {
           DeviceMemory::add(bytes);
         }
