@@ -112,6 +112,18 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+// One benchmark (`run`). An error (a GPU whose memory is full, a run that cannot go on) names the benchmark;
+// with --json, the results of those before it are printed first (not lost with the error).
+template <class F>
+void run_named(const std::string& name, bool json, const nlohmann::json& done, F&& run) {
+  try {
+    run();
+  } catch (const Error& e) {
+    if (json && !done.empty()) fmt::print("{}\n", done.dump(2));
+    throw Error(fmt::format("benchmark '{}': {}", name, e.what()));
+  }
+}
+
 }  // namespace
 
 int bench_render(const std::vector<std::string>& names, bool json, int threads_requested, int frames,
@@ -173,69 +185,71 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
   nlohmann::json out = nlohmann::json::array();
   std::vector<std::uint8_t> pixels;
   for (const auto& c : chosen) {
-    SceneDef scene;
-    try {
-      scene = c.scene();
-    } catch (const Error& e) {
-      // The mesh scenes need the paper's models (scripts/get_models.sh): the scene file's reader says so;
-      // skip the case and go on. Other errors (MCA_SIMD, MCA_SWEEP, a bad model) stop the benchmark.
-      fmt::print(stderr, "{}: skipped: {}\n", c.name, e.what());
-      continue;
-    }
-    if (backend) scene.solver.backend = backend_chosen;
-    Engine sim(scene);
-    const Model& m = sim.model();
-    const auto framing = render::objects_box(m, sim.state());
-    const auto cam = render::make_camera(sim.scene().camera, m, framing, float(W) / H, sim.scene().source);
-    sim.advance(c.warmup);
-    render::SnapshotOptions so;
-    so.draw = c.draw;
-    so.colour = render::ColourMode::fragment;
-    std::vector<double> step_s, prep_s, draw_s, read_s, total_s;
-    std::size_t drawn = 0, triangles = 0;
-    bool shared = false;  // the list was written into the renderer's buffers (zero copy)
-    std::string why_not;
-    using clock = std::chrono::steady_clock;
-    const auto secs = [](clock::time_point a, clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };
-    for (int f = 0; f < frames + 1; ++f) {  // the first frame warms the caches and the shaders up
-      const auto t0 = clock::now();
-      sim.advance(steps);
-      const auto t1 = clock::now();
-      // The backend's draw list where it builds one (the CUDA backend: written into the renderer's buffers
-      // where CUDA can share them), else from its state.
-      const auto snap = render::make_snapshot(m, sim.backend(), so, framing.origin, &renderer.draw_target(), &why_not);
-      const auto t2 = clock::now();
-      renderer.draw(snap, c.draw, cam, W, H);
-      target.read_rgba(pixels);  // waits for the drawing: what a frame of `mca run --render` costs before the PNG
-      const auto t3 = clock::now();
-      if (f == 0) continue;
-      step_s.push_back(secs(t0, t1));
-      prep_s.push_back(secs(t1, t2));
-      draw_s.push_back(secs(t2, t3));
-      total_s.push_back(secs(t0, t3));
-      drawn = snap.drawn_automata();
-      triangles = snap.triangles();
-      shared = snap.drawn_from_shared_buffers();
-    }
-    const double fps = 1.0 / median(total_s);
-    if (json) {
-      out.push_back({{"name", c.name}, {"draw", render::name(c.draw)}, {"backend", sim.backend().name()},
-                     {"steps_per_frame", steps}, {"automata", m.size()},
-                     {"automata_drawn", drawn}, {"triangles", triangles}, {"frames", frames},
-                     {"median_step_seconds", median(step_s)}, {"median_snapshot_seconds", median(prep_s)},
-                     {"median_draw_seconds", median(draw_s)}, {"frames_per_second", fps}, {"zero_copy", shared},
-                     {"zero_copy_note", why_not}});
-    } else {
-      fmt::print("{:<18} {:>8} automata {:>8} drawn {:>8} triangles  {} {:7.1f} ms  snapshot {:6.1f} ms  draw+read "
-                 "{:6.1f} ms  {:6.2f} frames/s\n",
-                 c.name, m.size(), drawn, triangles, steps == 1 ? "step" : "steps", 1e3 * median(step_s),
-                 1e3 * median(prep_s), 1e3 * median(draw_s), fps);
-      fmt::print("{:<18} {}\n", "",
-                 shared                ? "drawn without a copy: the backend wrote the renderer's buffers"
-                 : !why_not.empty()    ? why_not
-                 : drawn + triangles == 0 ? "nothing drawn"
-                                       : "drawn from the backend's list, copied");
-    }
+    run_named(c.name, json, out, [&] {
+      SceneDef scene;
+      try {
+        scene = c.scene();
+      } catch (const Error& e) {
+        // The mesh scenes need the paper's models (scripts/get_models.sh): the scene file's reader says so;
+        // skip the case and go on. Other errors (MCA_SIMD, MCA_SWEEP, a bad model) stop the benchmark.
+        fmt::print(stderr, "{}: skipped: {}\n", c.name, e.what());
+        return;
+      }
+      if (backend) scene.solver.backend = backend_chosen;
+      Engine sim(scene);
+      const Model& m = sim.model();
+      const auto framing = render::objects_box(m, sim.state());
+      const auto cam = render::make_camera(sim.scene().camera, m, framing, float(W) / H, sim.scene().source);
+      sim.advance(c.warmup);
+      render::SnapshotOptions so;
+      so.draw = c.draw;
+      so.colour = render::ColourMode::fragment;
+      std::vector<double> step_s, prep_s, draw_s, read_s, total_s;
+      std::size_t drawn = 0, triangles = 0;
+      bool shared = false;  // the list was written into the renderer's buffers (zero copy)
+      std::string why_not;
+      using clock = std::chrono::steady_clock;
+      const auto secs = [](clock::time_point a, clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };
+      for (int f = 0; f < frames + 1; ++f) {  // the first frame warms the caches and the shaders up
+        const auto t0 = clock::now();
+        sim.advance(steps);
+        const auto t1 = clock::now();
+        // The backend's draw list where it builds one (the CUDA backend: written into the renderer's buffers
+        // where CUDA can share them), else from its state.
+        const auto snap = render::make_snapshot(m, sim.backend(), so, framing.origin, &renderer.draw_target(), &why_not);
+        const auto t2 = clock::now();
+        renderer.draw(snap, c.draw, cam, W, H);
+        target.read_rgba(pixels);  // waits for the drawing: what a frame of `mca run --render` costs before the PNG
+        const auto t3 = clock::now();
+        if (f == 0) continue;
+        step_s.push_back(secs(t0, t1));
+        prep_s.push_back(secs(t1, t2));
+        draw_s.push_back(secs(t2, t3));
+        total_s.push_back(secs(t0, t3));
+        drawn = snap.drawn_automata();
+        triangles = snap.triangles();
+        shared = snap.drawn_from_shared_buffers();
+      }
+      const double fps = 1.0 / median(total_s);
+      if (json) {
+        out.push_back({{"name", c.name}, {"draw", render::name(c.draw)}, {"backend", sim.backend().name()},
+                       {"steps_per_frame", steps}, {"automata", m.size()},
+                       {"automata_drawn", drawn}, {"triangles", triangles}, {"frames", frames},
+                       {"median_step_seconds", median(step_s)}, {"median_snapshot_seconds", median(prep_s)},
+                       {"median_draw_seconds", median(draw_s)}, {"frames_per_second", fps}, {"zero_copy", shared},
+                       {"zero_copy_note", why_not}});
+      } else {
+        fmt::print("{:<18} {:>8} automata {:>8} drawn {:>8} triangles  {} {:7.1f} ms  snapshot {:6.1f} ms  draw+read "
+                   "{:6.1f} ms  {:6.2f} frames/s\n",
+                   c.name, m.size(), drawn, triangles, steps == 1 ? "step" : "steps", 1e3 * median(step_s),
+                   1e3 * median(prep_s), 1e3 * median(draw_s), fps);
+        fmt::print("{:<18} backend {}; {}\n", "", sim.backend().name(),
+                   shared                ? "drawn without a copy: the backend wrote the renderer's buffers"
+                   : !why_not.empty()    ? why_not
+                   : drawn + triangles == 0 ? "nothing drawn"
+                                         : "drawn from the backend's list, copied");
+      }
+    });
   }
   if (json) fmt::print("{}\n", out.dump(2));
   return 0;
@@ -268,63 +282,65 @@ int bench(const std::vector<std::string>& names, bool json, int threads_requeste
   nlohmann::json out = nlohmann::json::array();
   bool first = true;
   for (auto& b : chosen) {
-    if (backend) b.scene.solver.backend = backend_from_name(*backend, "--backend");
-    Engine sim(b.scene);
-    if (!json && first) {
-      // The threads are the CPU backend's; the emulation steps on one, the GPU on the device.
-      const std::string name = sim.backend().name();
-      const bool cpu = name.rfind("cpu", 0) == 0;
-      const std::string used = cpu                                    ? fmt::format("using {}", threads)
-                               : name.rfind("cuda-emulation", 0) == 0 ? std::string("the emulation uses one")
-                                                                       : std::string("the step runs on the GPU");
-      // The CUDA backend's lattice kernels as chosen (cuda_lattice; a lattice with explicit links takes
-      // the split ones whatever the choice).
-      const CudaLattice how = cuda_lattice();
-      const std::string lattice =
-          cpu         ? std::string()
-          : how.fused ? fmt::format(" (lattice kernels fused:{} where a lattice has no explicit links)", how.blocks)
-                      : std::string(" (lattice kernels split)");
-      fmt::print("machine: {} hardware threads, {}; backend {}{}; median of {} runs of {} steps each\n",
-                 std::thread::hardware_concurrency(), used, backend_text(name), lattice, repeats, steps);
-    }
-    first = false;
-    sim.advance(b.warmup_steps);
-    const State snapshot = sim.state();
-    const std::size_t n = sim.model().size();
-    std::vector<double> rates, walls;
-    std::int64_t broken_before = snapshot.broken_by[0] + snapshot.broken_by[1], broken_after = 0;
-    std::size_t contacts = 0;
-    for (int r = 0; r < repeats; ++r) {
-      sim.backend().upload(snapshot);
-      const auto t0 = std::chrono::steady_clock::now();
-      sim.advance(steps);
-      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      walls.push_back(wall);
-      rates.push_back(static_cast<double>(n) * steps / wall);
-      broken_after = sim.state().broken_by[0] + sim.state().broken_by[1];
-      contacts = sim.state().contacts.size();
-    }
-    const double med = median(rates);
-    if (json) {
-      out.push_back({{"name", b.name}, {"description", b.description}, {"automata", n},
-                     {"links", sim.model().link_count()}, {"steps", steps}, {"repeats", repeats}, {"threads", threads},
-                     {"backend", sim.backend().name()},
-                     {"median_wall_seconds", median(walls)}, {"automaton_steps_per_second", med},
-                     {"all_automaton_steps_per_second", rates},
-                     {"links_broken_during_timed_steps", broken_after - broken_before},
-                     {"contact_pairs_at_end", contacts}});
-    } else {
-      fmt::print("{:<10} {:>8} automata {:>8} links  {} steps  {:.3f} s  {:7.2f} M automaton-steps/s  "
-                 "(runs: {:.2f}; {} links broke in the timed steps, {} contact pairs)\n",
-                 b.name, n, sim.model().link_count(), steps, median(walls), med / 1e6,
-                 fmt::join(std::vector<double>([&] {
-                             std::vector<double> m;
-                             for (double r : rates) m.push_back(r / 1e6);
-                             return m;
-                           }()),
-                           " "),
-                 broken_after - broken_before, contacts);
-    }
+    run_named(b.name, json, out, [&] {
+      if (backend) b.scene.solver.backend = backend_from_name(*backend, "--backend");
+      Engine sim(b.scene);
+      if (!json && first) {
+        // The threads are the CPU backend's; the emulation steps on one, the GPU on the device.
+        const std::string name = sim.backend().name();
+        const bool cpu = name.rfind("cpu", 0) == 0;
+        const std::string used = cpu                                    ? fmt::format("using {}", threads)
+                                 : name.rfind("cuda-emulation", 0) == 0 ? std::string("the emulation uses one")
+                                                                         : std::string("the step runs on the GPU");
+        // The CUDA backend's lattice kernels as chosen (cuda_lattice; a lattice with explicit links takes
+        // the split ones whatever the choice).
+        const CudaLattice how = cuda_lattice();
+        const std::string lattice =
+            cpu         ? std::string()
+            : how.fused ? fmt::format(" (lattice kernels fused:{} where a lattice has no explicit links)", how.blocks)
+                        : std::string(" (lattice kernels split)");
+        fmt::print("machine: {} hardware threads, {}; backend {}{}; median of {} runs of {} steps each\n",
+                   std::thread::hardware_concurrency(), used, backend_text(name), lattice, repeats, steps);
+      }
+      first = false;
+      sim.advance(b.warmup_steps);
+      const State snapshot = sim.state();
+      const std::size_t n = sim.model().size();
+      std::vector<double> rates, walls;
+      std::int64_t broken_before = snapshot.broken_by[0] + snapshot.broken_by[1], broken_after = 0;
+      std::size_t contacts = 0;
+      for (int r = 0; r < repeats; ++r) {
+        sim.backend().upload(snapshot);
+        const auto t0 = std::chrono::steady_clock::now();
+        sim.advance(steps);
+        const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        walls.push_back(wall);
+        rates.push_back(static_cast<double>(n) * steps / wall);
+        broken_after = sim.state().broken_by[0] + sim.state().broken_by[1];
+        contacts = sim.state().contacts.size();
+      }
+      const double med = median(rates);
+      if (json) {
+        out.push_back({{"name", b.name}, {"description", b.description}, {"automata", n},
+                       {"links", sim.model().link_count()}, {"steps", steps}, {"repeats", repeats}, {"threads", threads},
+                       {"backend", sim.backend().name()},
+                       {"median_wall_seconds", median(walls)}, {"automaton_steps_per_second", med},
+                       {"all_automaton_steps_per_second", rates},
+                       {"links_broken_during_timed_steps", broken_after - broken_before},
+                       {"contact_pairs_at_end", contacts}});
+      } else {
+        fmt::print("{:<10} {:>8} automata {:>8} links  {} steps  {:.3f} s  {:7.2f} M automaton-steps/s  "
+                   "(runs: {:.2f}; {} links broke in the timed steps, {} contact pairs)\n",
+                   b.name, n, sim.model().link_count(), steps, median(walls), med / 1e6,
+                   fmt::join(std::vector<double>([&] {
+                               std::vector<double> m;
+                               for (double r : rates) m.push_back(r / 1e6);
+                               return m;
+                             }()),
+                             " "),
+                   broken_after - broken_before, contacts);
+      }
+    });
   }
   if (json) fmt::print("{}\n", out.dump(2));
   return 0;
