@@ -7,6 +7,7 @@
 
 #include "backend/cpu/lattice_kernels.hpp"
 #include "backend/cuda/device_memory.hpp"
+#include "core/environment.hpp"
 #include "core/fnv.hpp"
 #include "lattice/lattice.hpp"
 #include "mca/error.hpp"
@@ -19,6 +20,7 @@ void Engine::check_environment() {
   backend_from_environment();
   cuda_lattice();
   gpu::emulated_gpu_memory();
+  profile_requested();
 }
 
 SolverDef::Backend backend_from_name(const std::string& name, const std::string& option) {
@@ -62,8 +64,9 @@ std::unique_ptr<Backend> start_backend(const Model& model, SolverDef::Backend ki
       by_environment = true;
     }
   }
-  // (A bad MCA_CUDA_LATTICE or MCA_EMULATED_GPU_MEMORY_MB is an error here, not a GPU that cannot take the
-  // model.)
+  // (A bad MCA_PROFILE, MCA_CUDA_LATTICE or MCA_EMULATED_GPU_MEMORY_MB is an error here, not a GPU that cannot
+  // take the model.)
+  for_source(source, profile_requested);
   if (kind != SolverDef::Backend::cpu) {
     for_source(source, cuda_lattice);
     for_source(source, gpu::emulated_gpu_memory);

@@ -35,6 +35,7 @@
 #include "backend/cpu/lattice_kernels.hpp"
 #include "backend/step_constants.hpp"
 #include "backend/step_kernels.hpp"
+#include "core/environment.hpp"
 #include "core/model_view.hpp"
 #include "grid/uniform_grid.hpp"
 #include "mca/error.hpp"
@@ -83,7 +84,7 @@ void parallel_chunks(std::size_t n, F&& body) {
 // Wall time per pass, summed over steps, printed when the backend is destroyed if MCA_PROFILE is set.
 struct PassProfile {
   static constexpr int kPasses = 6;
-  bool on = std::getenv("MCA_PROFILE") != nullptr;
+  bool on = profile_requested();
   const char* set = "";
   double seconds[kPasses] = {};
   std::int64_t steps = 0, rebuilds = 0;

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "backend/cuda/device_memory.hpp"
+#include "core/environment.hpp"
 #include "core/text.hpp"
 
 namespace mca::gpu {
@@ -76,7 +77,7 @@ class DeviceProfile {
     double seconds = 0;
     std::int64_t calls = 0;
   };
-  bool on_ = std::getenv("MCA_PROFILE") != nullptr;
+  bool on_ = profile_requested();
   std::map<std::string, Entry> entries_;
   std::int64_t reads_ = 0;
   double waited_ = 0;
