@@ -22,10 +22,13 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "backend/cuda/device_backend.hpp"
 #include "backend/cuda/host_device.hpp"
 #include "analysis/fragments.hpp"
+#include "core/environment.hpp"
+#include "io/checkpoint.hpp"
 #include "io/scene_io.hpp"
 #include "render/camera.hpp"
 #include "render/egl_context.hpp"
@@ -1032,11 +1035,26 @@ TEST(CudaEmulation, AFullGpuStopsARunWhichResumesOnTheCpuWithTheSameBits) {
             std::string::npos)
       << r.output;
   EXPECT_FALSE(std::filesystem::exists(out / "summary.json"));
+  const auto newest = out / "checkpoints" / fmt::format("frame_{:06d}.mcack", frames_done);
+  std::filesystem::copy_file(newest, tmp.path() / "kept.mcack");  // (for the resume below)
   const test::Result resume = test::shell(std::string(MCA_BINARY) + command.substr(3) + " --quiet");
   ASSERT_EQ(resume.code, 0) << resume.output;
   EXPECT_NE(test::slurp(out / "summary.json").find(fmt::format("\"state_hash\": \"{:016x}\"", state_hash(straight.state()))),
             std::string::npos)
       << "mca resume --backend cpu from the newest checkpoint: not the straight run's state";
+  // The same resume on the full GPU again (from the same checkpoint, the later ones removed): it stops as the
+  // run did, and leaves no summary or fragments.csv of the finished session before (they would say
+  // "finished").
+  for (const auto& c : io::list_checkpoints(out / "checkpoints")) std::filesystem::remove(c);
+  std::filesystem::copy_file(tmp.path() / "kept.mcack", newest);
+  ASSERT_TRUE(std::filesystem::exists(out / "fragments.csv"));
+  const test::Result full = test::shell("MCA_EMULATED_GPU_MEMORY_MB=" + room + " " + MCA_BINARY + command.substr(3, command.size() - 17) +
+                                        " --backend cuda-emulation --quiet");
+  EXPECT_EQ(full.code, 2) << full.output;
+  EXPECT_NE(full.output.find(fmt::format("The run stopped inside frame {};", frames_done + 1)), std::string::npos)
+      << full.output;
+  EXPECT_FALSE(std::filesystem::exists(out / "summary.json"));
+  EXPECT_FALSE(std::filesystem::exists(out / "fragments.csv"));
 }
 TEST(CudaEmulation, AnEmulatedGpuMemoryThatIsNotANumberIsRefused) {
   for (const char* given : {"0", "-1", "abc", "12MB", "1e400", "nan", " 5"}) {
@@ -1051,6 +1069,72 @@ TEST(CudaEmulation, AnEmulatedGpuMemoryThatIsNotANumberIsRefused) {
   EXPECT_EQ(gpu::grown_capacity(10, 40), 40u);
   EXPECT_EQ(gpu::grown_capacity(10, 4), 10u);
 }
+// mca info on a GPU backend says what its device arrays hold at the start, and describes a scene whose GPU
+// cannot hold it (on the CPU), saying so; mca bench names the benchmark a full GPU stopped, after the results
+// of those before it.
+TEST(CudaEmulation, InfoAndBenchSayWhereTheGpusMemoryIsTooSmall) {
+  const std::string info = std::string(MCA_BINARY) + " info --json";
+  {
+    const test::Result r = test::shell("MCA_BACKEND=cuda-emulation " + info + " 2>/dev/null");
+    ASSERT_EQ(r.code, 0) << r.output;
+    const auto j = nlohmann::json::parse(r.output);
+    EXPECT_EQ(j["backend"], "cuda-emulation");
+    // The default wall's arrays: 8.6 MB (docs/benchmarks.md, "Device memory").
+    EXPECT_GT(j["gpu_memory_bytes"].get<double>(), 8e6);
+    EXPECT_LT(j["gpu_memory_bytes"].get<double>(), 9e6);
+    EXPECT_FALSE(j.contains("gpu_memory_full"));
+  }
+  {
+    const test::Result r = test::shell("MCA_EMULATED_GPU_MEMORY_MB=1 MCA_BACKEND=cuda-emulation " + info + " 2>/dev/null");
+    ASSERT_EQ(r.code, 0) << r.output;
+    const auto j = nlohmann::json::parse(r.output);
+    EXPECT_EQ(j["backend"], "cuda-emulation (the scene does not fit in the GPU's memory)");
+    EXPECT_TRUE(j["gpu_memory_bytes"].is_null());
+    EXPECT_EQ(j["gpu_memory_full"].get<std::string>().rfind("the GPU's memory is full: ", 0), 0u) << j.dump();
+    EXPECT_NE(j["gpu_memory_full"].get<std::string>().find("free of 1 MB"), std::string::npos) << j.dump();
+    EXPECT_EQ(j["automata"], 4800);  // described all the same
+  }
+  {
+    const test::Result r = test::shell("MCA_EMULATED_GPU_MEMORY_MB=1 " + std::string(MCA_BINARY) + " info 2>&1");
+    ASSERT_EQ(r.code, 0) << r.output;  // (a scene on the CPU: the emulated GPU's size is not used)
+    EXPECT_EQ(r.output.find("gpu memory"), std::string::npos) << r.output;
+  }
+  // wall_3k fits in 4 MB, walls_12k does not.
+  const test::Result r = test::shell("MCA_EMULATED_GPU_MEMORY_MB=4 " + std::string(MCA_BINARY) +
+                                     " bench wall_3k walls_12k --backend cuda-emulation --steps 5 --repeats 1 --json "
+                                     "2>/dev/null; echo rc=$?");
+  const auto rc = r.output.rfind("rc=");
+  ASSERT_NE(rc, std::string::npos) << r.output;
+  EXPECT_EQ(r.output.substr(rc), "rc=2\n");
+  const auto j = nlohmann::json::parse(r.output.substr(0, rc));
+  ASSERT_EQ(j.size(), 1u) << r.output;
+  EXPECT_EQ(j[0]["name"], "wall_3k");
+  const test::Result text = test::shell("MCA_EMULATED_GPU_MEMORY_MB=4 " + std::string(MCA_BINARY) +
+                                        " bench wall_3k walls_12k --backend cuda-emulation --steps 5 --repeats 1 2>&1");
+  EXPECT_EQ(text.code, 2);
+  EXPECT_NE(text.output.find("error: benchmark 'walls_12k': the GPU's memory is full"), std::string::npos) << text.output;
+}
+
+// MCA_PROFILE: 0 or empty is off, 1 on, anything else refused before anything is built.
+TEST(CudaEmulation, AProfileSettingThatIsNeitherZeroNorOneIsRefused) {
+  for (const char* given : {"2", "yes", "true", " 1", "01"}) {
+    const ForceEnv profile("MCA_PROFILE", given);
+    const std::string e = error_of([] { Engine::check_environment(); });
+    EXPECT_NE(e.find(fmt::format("MCA_PROFILE = '{}'", given)), std::string::npos) << e;
+  }
+  for (const auto& [given, on] : {std::pair{"", false}, {"0", false}, {"1", true}}) {
+    const ForceEnv profile("MCA_PROFILE", given);
+    EXPECT_EQ(profile_requested(), on) << given;
+  }
+  const test::Result r = test::shell("MCA_PROFILE=0 " + std::string(MCA_BINARY) +
+                                     " bench wall_3k --backend cuda-emulation --steps 5 --repeats 1 2>&1");
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(r.output.find("profile"), std::string::npos) << r.output;
+  const test::Result on = test::shell("MCA_PROFILE=1 " + std::string(MCA_BINARY) +
+                                      " bench wall_3k --backend cuda-emulation --steps 5 --repeats 1 2>&1");
+  EXPECT_NE(on.output.find("device arrays:"), std::string::npos) << on.output;
+}
+
 // Threads growing arrays at once against an emulated GPU's memory: together they take no more than it holds.
 TEST(CudaEmulation, ThreadsGrowingArraysAtOnceStayWithinTheEmulatedGpusMemory) {
   const std::size_t limit = gpu::DeviceMemory::held() + 1000;
