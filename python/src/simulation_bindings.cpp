@@ -822,8 +822,9 @@ Simulation is gone.)");
            "CPU time).")
       .def("__repr__", [](const PySimulation& s) {
         const Engine& e = s.engine();
-        return fmt::format("<mca.Simulation {}: {} automata, step {} (t = {:.6g} s), {} threads>",
-                           text::quoted(e.scene().name), e.model().size(), e.step(), e.time(), s.threads());
+        return fmt::format("<mca.Simulation {}: {} automata, step {} (t = {:.6g} s), {} threads{}>",
+                           text::quoted(e.scene().name), e.model().size(), e.step(), e.time(), s.threads(),
+                           e.backend().stopped().empty() ? "" : ", stopped: it steps and is read no more");
       });
 
   m.def("render", &render_to, py::arg("sim"), py::arg("path") = py::none(), py::arg("colour") = "fragment",

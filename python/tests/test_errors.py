@@ -169,7 +169,7 @@ def test_a_simulation_stopped_by_a_full_gpu_refuses_and_touches_no_folder(tmp_pa
     with pytest.raises(mca.Error, match=r"^the GPU's memory is full: .*use backend \"cpu\""):
         sim.advance(300)
     assert sim.step == 256 and sim.time == 256 * sim.time_step
-    assert "step 256" in repr(sim)
+    assert "step 256" in repr(sim) and "stopped" in repr(sim) and "stopped" not in repr(cpu)
     stopped = r"^this simulation stopped at step 256, computing its energies: .*the GPU's memory is full"
     for call in (lambda: sim.advance(1), lambda: sim.advance(0), lambda: sim.advance_to(0.0), sim.positions, sim.state_hash, lambda: sim.write_frame(keep),
                  lambda: sim.checkpoint(tmp_path / "x.mcack"), lambda: mca.render(sim)):

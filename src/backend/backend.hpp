@@ -73,6 +73,9 @@ class Backend {
   virtual Energies energies() const = 0;
   virtual double initial_energy() const = 0;
   virtual std::int64_t broken_links() const = 0;
+  // Why the backend stopped, where a step, a read or an upload failed (a GPU whose memory is full): the
+  // error every call then raises; empty where none did.
+  virtual std::string stopped() const { return {}; }
   // The draw list of the current state (render/draw_list.hpp) where the backend builds it without bringing
   // the whole state up to date (the CUDA backend: on the device); false where it does not (the CPU
   // backend, whose state is at hand; the links mode): render::make_snapshot then builds it from state().
@@ -116,6 +119,7 @@ class StateBackend : public Backend {
   double current_time() const override { return S_.time; }
   double initial_energy() const override { return S_.initial_energy; }
   std::int64_t broken_links() const override { return S_.broken_by[0] + S_.broken_by[1]; }
+  std::string stopped() const override { return failed_; }
   // one_step() `steps` times, last_step_ set on the last (what is only read between calls, the averaged
   // stress tensor and the applied forces, is written then); stops at the first step whose one_step()
   // returns other than kAllFinite: an automaton (>= 0) or -2 - p for projectile p with a value not finite.
