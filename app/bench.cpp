@@ -121,6 +121,9 @@ void run_named(const std::string& name, bool json, const nlohmann::json& done, F
   } catch (const Error& e) {
     if (json && !done.empty()) fmt::print("{}\n", done.dump(2));
     throw Error(fmt::format("benchmark '{}': {}", name, e.what()));
+  } catch (...) {  // (the host out of memory: as it came, for its own message)
+    if (json && !done.empty()) fmt::print("{}\n", done.dump(2));
+    throw;
   }
 }
 
@@ -277,13 +280,14 @@ int bench(const std::vector<std::string>& names, bool json, int threads_requeste
   }
   if (repeats < 1) throw Error(fmt::format("--repeats {} must be at least 1", repeats));
   if (steps < 1) throw Error(fmt::format("--steps {} must be at least 1", steps));
+  const SolverDef::Backend backend_chosen = backend ? backend_from_name(*backend, "--backend") : SolverDef::Backend::automatic;
   const int threads = thread_count(threads_requested);
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   nlohmann::json out = nlohmann::json::array();
   bool first = true;
   for (auto& b : chosen) {
     run_named(b.name, json, out, [&] {
-      if (backend) b.scene.solver.backend = backend_from_name(*backend, "--backend");
+      if (backend) b.scene.solver.backend = backend_chosen;
       Engine sim(b.scene);
       if (!json && first) {
         // The threads are the CPU backend's; the emulation steps on one, the GPU on the device.

@@ -88,25 +88,31 @@ int info(const std::optional<std::string>& path, bool json) {
                                        ? backend_from_environment().value_or(SolverDef::Backend::automatic)
                                        : scene.solver.backend;
   const bool cuda_missing = asked == SolverDef::Backend::cuda && gpu.empty();
+  const char* asked_by = scene.solver.backend == SolverDef::Backend::automatic ? "MCA_BACKEND" : "solver.backend";
+  // The model is built once, with the CPU backend; the GPU backend a run would take (the emulation where
+  // asked for) is then started beside it, for what its device arrays hold, or for why it cannot hold them.
   SceneDef probe = scene;
-  if (cuda_missing) probe.solver.backend = SolverDef::Backend::cpu;
-  // A GPU (or the emulation's, MCA_EMULATED_GPU_MEMORY_MB) whose memory cannot hold the model and its state:
-  // the scene is described on the CPU, saying so.
-  std::string gpu_full;
-  std::unique_ptr<Engine> engine;
-  try {
-    engine = std::make_unique<Engine>(probe);
-  } catch (const gpu::DeviceMemoryFull& e) {
-    gpu_full = e.what();
-    probe.solver.backend = SolverDef::Backend::cpu;
-    engine = std::make_unique<Engine>(probe);
-  }
-  const Engine& sim = *engine;
+  probe.solver.backend = SolverDef::Backend::cpu;
+  const Engine sim(probe);
   building.reset();
-  // The device arrays the GPU backend holds at the start (none on the CPU).
-  const bool on_gpu = sim.backend().name().rfind("cuda", 0) == 0;
-  const std::size_t gpu_bytes = on_gpu ? gpu::DeviceMemory::held() : 0;
-  const std::string asked_name = asked == SolverDef::Backend::cuda_emulation ? "cuda-emulation" : "cuda";
+  std::string backend_name = sim.backend().name(), gpu_full;
+  std::optional<std::size_t> gpu_bytes;
+  if (asked == SolverDef::Backend::cuda_emulation || (!gpu.empty() && asked != SolverDef::Backend::cpu)) {
+    const SolverDef::Backend kind = asked == SolverDef::Backend::automatic ? SolverDef::Backend::cuda : asked;
+    try {
+      // (as a new run starts it: from the first state, which it then reads for its energy)
+      const auto b = start_backend(sim.model(), kind, scene.source, initial_state(sim.model()));
+      (void)b->state();
+      backend_name = b->name();
+      gpu_bytes = gpu::DeviceMemory::held();
+    } catch (const Error& e) {
+      // (auto leaves a model the GPU refuses to the CPU, whatever the reason, as a run does)
+      if (asked != SolverDef::Backend::automatic && !dynamic_cast<const gpu::DeviceMemoryFull*>(&e)) throw;
+      gpu_full = e.what();
+      if (asked != SolverDef::Backend::automatic)
+        backend_name = kind == SolverDef::Backend::cuda_emulation ? "cuda-emulation" : "cuda";
+    }
+  }
   const Model& m = sim.model();
   const std::int64_t frames = sim.frame_count();
   const std::int64_t steps = sim.total_steps();
@@ -136,10 +142,11 @@ int info(const std::optional<std::string>& path, bool json) {
     j["frames"] = frames;
     j["steps"] = steps;
     j["duration"] = scene.output.duration;
-    j["backend"] = cuda_missing        ? std::string("cuda (not available here)")
-                   : !gpu_full.empty() ? asked_name + " (the scene does not fit in the GPU's memory)"
-                                       : sim.backend().name();
-    j["gpu_memory_bytes"] = on_gpu ? nlohmann::json(gpu_bytes) : nlohmann::json(nullptr);
+    const bool refused = !gpu_full.empty() && asked != SolverDef::Backend::automatic;
+    j["backend"] = cuda_missing ? std::string("cuda (not available here)")
+                   : refused    ? backend_name + " (the scene does not fit in the GPU's memory)"
+                                : backend_name;
+    j["gpu_memory_bytes"] = gpu_bytes ? nlohmann::json(*gpu_bytes) : nlohmann::json(nullptr);
     if (!gpu_full.empty()) j["gpu_memory_full"] = gpu_full;
     j["cuda_device"] = gpu.empty() ? nlohmann::json(nullptr) : nlohmann::json(gpu);
     if (gpu.empty()) j["cuda_unavailable"] = gpu_why;
@@ -238,14 +245,18 @@ int info(const std::optional<std::string>& path, bool json) {
   if (cuda_missing)
     fmt::print("backend          cuda ({}), which cannot run here: {}\n",
                scene.solver.backend == SolverDef::Backend::cuda ? "solver.backend" : "MCA_BACKEND", gpu_why);
+  else if (!gpu_full.empty() && asked != SolverDef::Backend::automatic)
+    fmt::print("backend          {} ({}), whose GPU cannot hold the scene (described here on the CPU): {}\n",
+               backend_name, asked_by, gpu_full);
   else if (!gpu_full.empty())
-    fmt::print("backend          {}, whose GPU cannot hold the scene (described here on the CPU): {}\n", asked_name,
-               gpu_full);
+    fmt::print("backend          {}: auto leaves the scene to the CPU, as the GPU cannot hold it: {}\n",
+               backend_text(backend_name), gpu_full);
   else
-    fmt::print("backend          {}\n", backend_text(sim.backend().name()));
-  if (on_gpu)
-    fmt::print("gpu memory       {} of device arrays at the start (the contact lists grow as the objects break)\n",
-               human_bytes(static_cast<double>(gpu_bytes)));
+    fmt::print("backend          {}\n", backend_text(backend_name));
+  if (gpu_bytes)
+    fmt::print("gpu memory       {} of device arrays at the start: a run takes more (the steps' working lists, and "
+               "the contact lists as the objects break)\n",
+               human_bytes(static_cast<double>(*gpu_bytes)));
   fmt::print("cuda             {}\n", gpu.empty() ? gpu_why : gpu + " (--backend cuda)");
   std::string parts = fmt::format("arrays {:.1f} MB: {:.0f} bytes per automaton, links included", memory.arrays / 1e6,
                                   (bytes - static_cast<double>(estimate_memory_bytes(0))) / static_cast<double>(m.size()));

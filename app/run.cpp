@@ -263,16 +263,33 @@ void remove_own_files(const std::filesystem::path& dir, const std::string& prefi
   for (const auto& p : doomed) std::filesystem::remove(p);
 }
 
+// Removes a file of an earlier session where it is there; an error that names it where it cannot be removed
+// (a path through a file, as a file named `render`, holds none: nothing to remove).
+void remove_output(const std::filesystem::path& p) {
+  std::error_code ec;
+  std::filesystem::remove(p, ec);
+  if (ec && ec != std::errc::not_a_directory)
+    throw Error(fmt::format("cannot remove '{}', an output of an earlier run in this folder ({}); remove it by hand "
+                            "or use another --out folder",
+                            p.string(), ec.message()));
+}
+
 // What a run writes at its end from its last state (the summary also when interrupted): the summary,
-// fragments.csv, the fragment meshes and the plots. One left by an earlier session describes a state the
-// folder no longer ends at, so a new run and a resume remove them before they step: a resume that stops on
-// an error, like a new run, then leaves none.
-void remove_end_outputs(const std::filesystem::path& dir) {
-  std::filesystem::remove(dir / "summary.json");
-  std::filesystem::remove(dir / "fragments.csv");
+// fragments.csv, the fragment meshes and (`plots`) the plots of tools/plot_run.py. One left by an earlier
+// session describes a state the folder no longer ends at, so a new run and a resume remove them before they
+// step: a resume that stops on an error, like a new run, then leaves none. Returns the plots removed.
+int remove_end_outputs(const std::filesystem::path& dir, bool plots = true) {
+  remove_output(dir / "summary.json");
+  remove_output(dir / "fragments.csv");
   remove_own_files(dir / "fragments", "fragment_", ".ply");
-  for (const char* plot : {"energies.png", "broken_links.png", "fragment_masses.png"})
-    std::filesystem::remove(dir / "render" / plot);
+  int removed = 0;
+  if (plots)
+    for (const char* plot : {"energies.png", "broken_links.png", "fragment_masses.png"}) {
+      std::error_code ec;
+      removed += std::filesystem::is_regular_file(dir / "render" / plot, ec);
+      remove_output(dir / "render" / plot);
+    }
+  return removed;
 }
 
 // Whether `line` is a whole stats.csv row of `frame`: its frame number first, then numbers, as many cells
@@ -374,6 +391,13 @@ int run_loop(Loop& L, FrameWriter& writer) {
                sim.broken_links(), human_time(eta), tty ? "   " : "\n");
   };
 
+  // Why no checkpoint continues the run (none saved yet, inside frame L.frame), and what to do instead.
+  const auto no_checkpoint = [&](const char* instead) {
+    const std::int64_t every = L.checkpoint_every;
+    return every > 0 ? fmt::format("no checkpoint was saved yet (the first at the end of frame {}): {}",
+                                   (L.frame + every - 1) / every * every, instead)
+                     : fmt::format("no checkpoint was saved (--checkpoint-every N saves them): {}", instead);
+  };
   // Steps go to the engine in chunks of about a quarter of a second, so that a long frame (up to 1e9
   // steps) still shows progress and answers Ctrl-C; how steps are grouped into calls changes no result.
   std::int64_t chunk = 16;
@@ -392,11 +416,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
         fmt::print(stderr, "error: {}\nThe run stopped inside frame {}; {}\n", e.what(), L.frame,
                    !saved.empty() ? fmt::format("continue it from the newest checkpoint ({}) with:\n  mca resume {} --backend cpu",
                                                 saved.back().filename().string(), text::shell_word(L.dir.string()))
-                   : L.checkpoint_every > 0
-                       ? std::string("no checkpoint was saved yet (the first at a frame's end): start it again with "
-                                     "--backend cpu")
-                       : std::string("no checkpoint was saved (--checkpoint-every N saves them): start it again with "
-                                     "--backend cpu"));
+                                  : no_checkpoint("start it again with --backend cpu"));
         return 2;
       }
       const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -410,10 +430,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
         say("{}interrupted by {} inside frame {} (step {} of the run); checkpoints are saved at frame ends only, so "
             "{}\n",
             tty ? "\n" : "", signal_name(sig), L.frame, sim.state().step,
-            saved.empty() ? L.checkpoint_every > 0
-                                ? std::string("none was saved yet (the first at a frame's end): start the run again")
-                                : std::string("none was saved: start the run again (with --checkpoint-every N to be "
-                                              "able to resume)")
+            saved.empty() ? no_checkpoint("start the run again")
                           : fmt::format("continue from the newest ({}) with: mca resume {}",
                                         saved.back().filename().string(), text::shell_word(L.dir.string())));
         return 128 + sig;
@@ -485,11 +502,11 @@ int thread_count(int requested) {
 int run(const RunOptions& o) {
   if (o.out && o.out->empty())
     throw Error("--out is empty; give the output folder, or leave out --out for the default out/<scene name>");
-  if (o.steps && (*o.steps <= 0 || *o.steps > kMaxSteps))
+  if (o.steps && *o.steps <= 0) throw Error(fmt::format("--steps {}: give at least one step, or leave it out", *o.steps));
+  if (o.steps && *o.steps > kMaxSteps)
     throw Error(fmt::format("--steps {} is out of range: must be 1..{:.0e} (a run of more steps would not end); "
-                            "give {}, or --duration",
-                            *o.steps, static_cast<double>(kMaxSteps),
-                            *o.steps <= 0 ? "at least one step" : "a smaller number of steps"));
+                            "give a smaller number of steps, or --duration",
+                            *o.steps, static_cast<double>(kMaxSteps)));
   RenderOptions ro;
   if (o.render) {
     std::tie(ro.width, ro.height) = parse_render_size(o.render_size);
@@ -605,14 +622,14 @@ int run(const RunOptions& o) {
   remove_own_files(dir / "surface", "surface_", ".obj");
   // The collections too: this run may write no projectile frames (no projectiles) or no frames at all
   // (--no-vtk), and a collection left from an earlier run would list frames that were just removed.
-  std::filesystem::remove(dir / "automata.pvd");
-  std::filesystem::remove(dir / "projectiles.pvd");
+  remove_output(dir / "automata.pvd");
+  remove_output(dir / "projectiles.pvd");
   // The pictures: an unrendered run removes an earlier rendering whole (render.json too: a resume must not
   // render), a rendered one has replaced its frames, video and sheet (RenderOutput).
   if (!render) {
-    std::filesystem::remove(dir / "render" / "render.json");
-    std::filesystem::remove(dir / "render" / "video.mp4");
-    std::filesystem::remove(dir / "render" / "contact_sheet.png");
+    remove_output(dir / "render" / "render.json");
+    remove_output(dir / "render" / "video.mp4");
+    remove_output(dir / "render" / "contact_sheet.png");
     remove_own_files(dir / "render", "frame_", ".png");
   }
   remove_stale_temporaries(dir);
@@ -682,7 +699,8 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   const Plan plan = resume_plan(cp, sim.steps_per_frame(), source);
   // A run that had reached its last frame (one that finished, or was stopped there) has no step left: its
   // outputs (summary, fragments, video) are finished again from that frame, with the same results.
-  if (cp.state.step == plan.total_steps && !quiet)
+  const bool steps_left = cp.state.step < plan.total_steps;
+  if (!steps_left && !quiet)
     fmt::print(stderr, "mca: the checkpoint holds the run's last frame ({}, step {}): no step is left to run; its "
                "outputs are finished again from it\n",
                cp.frame - 1, cp.state.step);
@@ -693,11 +711,15 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   check_output_fits(estimate_output(sim.model(), cp.scene.output, plan.total_frames + 1 - cp.frame,
                                     will_render ? rendered->width : 0, will_render ? rendered->height : 0),
                     dir, cp.scene);
+  // Rows past the checkpoint (frames the interrupted run wrote after it) are dropped: they are written
+  // again as the run continues. Read before any file is touched: a stats file that cannot be read stops
+  // the resume with the folder as it was.
+  auto rows = read_back_stats(dir, cp.frame, FrameWriter::stats_header(sim.model()).size());
   std::unique_ptr<RenderOutput> render;
   if (const auto& ro = rendered) {
     if (!no_render) {
       render = std::make_unique<RenderOutput>(dir, sim, *ro, plan.total_frames, quiet, cp.frame);
-    } else {
+    } else if (steps_left) {  // (with none left, the rendering is whole and stays so)
       // Its frames stop here: a later resume must not take the folder for a whole rendering.
       std::filesystem::remove(dir / "render" / "render.json");
       fmt::print(stderr, "warning: --no-render: {} keeps the frames drawn so far (0..{}); the frames this run adds "
@@ -710,10 +732,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   Loop L{sim, dir, threads, quiet, cp.scene.output.checkpoint_every, plan, 0, 0.0, render.get()};
   L.frame = cp.frame;
   L.wall_before = cp.wall_seconds;
-  // Rows past the checkpoint (frames the interrupted run wrote after it) are dropped: they are written
-  // again as the run continues. The checkpoint's own frame's row is the checkpoint's state's: one lost or
-  // cut short is made again from it.
-  auto rows = read_back_stats(dir, cp.frame, FrameWriter::stats_header(sim.model()).size());
+  // The checkpoint's own frame's row is the checkpoint's state's: one lost or cut short is made again from it.
   if (static_cast<std::int64_t>(rows.size()) == cp.frame - 1) {
     const auto frags = writer.fragments(sim.state());
     rows.push_back(writer.format_row(writer.stats(cp.frame - 1, sim.state(), frags)));
@@ -723,7 +742,13 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
                "missing from it\n",
                (dir / "stats.csv").string(), rows.size(), cp.frame, rows.size(), cp.frame - 1);
   writer.start_stats(rows);
-  remove_end_outputs(dir);
+  // The plots are made again only by a rendered run; a run with no step left keeps them (and its stats).
+  if (remove_end_outputs(dir, steps_left) > 0 && !render && !quiet)
+    fmt::print(stderr, "mca: the plots in {} showed the run up to frame {} and are removed; python3 {} {} draws "
+               "them again when the run ends\n",
+               (dir / "render").string(), cp.frame - 1,
+               text::shell_word((std::filesystem::path(MCA_TOOLS_DIR) / "plot_run.py").string()),
+               text::shell_word(dir.string()));
   return run_loop(L, writer);
 }
 

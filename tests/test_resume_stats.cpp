@@ -6,7 +6,9 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "shell.hpp"
@@ -105,26 +107,83 @@ TEST(ResumeStats, RowsPastTheCheckpointAndTornRowsAreCutBack) {
   EXPECT_EQ(got[3], rows[5]);
 }
 
+// Every file under dir with its size and time of writing, for "left as it was".
+std::map<std::string, std::pair<std::uintmax_t, fs::file_time_type>> listing(const fs::path& dir) {
+  std::map<std::string, std::pair<std::uintmax_t, fs::file_time_type>> out;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.is_regular_file()) out[fs::relative(e.path(), dir).string()] = {e.file_size(), e.last_write_time()};
+  return out;
+}
+
 // A stats.csv that is not a regular file (a FIFO blocked the resume for ever, a link to /dev/zero read
-// without end) is refused as the run's other inputs are, naming it and the fix.
+// without end, a folder) is refused as the run's other inputs are, naming it and the fix, before any file
+// is touched: a rendered run's video, contact sheet and pictures used to go first (and with --no-render,
+// render.json).
 TEST(ResumeStats, AStatsFileThatIsNotARegularFileIsRefused) {
   mca::test::TempDir t;
   const fs::path scene = small_scene(t.path());
   const fs::path base = t.path() / "base";
-  ASSERT_EQ(run_mca("run " + scene.string() + " --out " + base.string() + " -q --no-vtk --checkpoint-every 2").code, 0);
+  ASSERT_EQ(run_mca("run " + scene.string() + " --out " + base.string() +
+                    " -q --no-vtk --checkpoint-every 2 --render --render-size 160x90")
+                .code,
+            0);
+  ASSERT_TRUE(fs::exists(base / "render" / "contact_sheet.png"));
+  ASSERT_TRUE(fs::remove(base / "checkpoints" / "frame_000004.mcack"));  // (frames are left to run)
   int k = 0;
-  for (const char* kind : {"fifo", "zero"}) {
+  for (const char* kind : {"fifo", "zero", "folder", "folder, --no-render"}) {
     SCOPED_TRACE(kind);
     const fs::path out = t.path() / ("case" + std::to_string(k++));
     fs::copy(base, out, fs::copy_options::recursive);
     fs::remove(out / "stats.csv");
     if (std::string(kind) == "fifo") ASSERT_EQ(mca::test::shell("mkfifo " + (out / "stats.csv").string()).code, 0);
-    else fs::create_symlink("/dev/zero", out / "stats.csv");
-    const Result r = mca::test::shell("timeout 20 " + std::string(MCA_BINARY) + " resume " + out.string() + " -q");
+    else if (std::string(kind) == "zero") fs::create_symlink("/dev/zero", out / "stats.csv");
+    else fs::create_directory(out / "stats.csv");
+    const auto before = listing(out);
+    const bool no_render = std::string(kind).find("no-render") != std::string::npos;
+    const Result r = mca::test::shell("timeout 20 " + std::string(MCA_BINARY) + " resume " + out.string() + " -q" +
+                                      (no_render ? " --no-render" : ""));
     EXPECT_EQ(r.code, 2) << r.output;
     EXPECT_NE(r.output.find("stats.csv"), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("remove it"), std::string::npos) << r.output;
+    EXPECT_EQ(listing(out), before) << "the folder changed";
   }
+}
+
+// A resume removes what the earlier session wrote at its end (summary, fragments.csv, fragment meshes and,
+// unless it draws them again, the plots) before it steps, so that one stopped by an error leaves none that
+// would say "finished"; a run with no step left keeps its plots, and with --no-render its whole rendering.
+TEST(ResumeStats, AResumeRemovesTheEarlierEndAndAFinishedRunKeepsItsPlots) {
+  mca::test::TempDir t;
+  const fs::path scene = small_scene(t.path());
+  const fs::path base = t.path() / "base";
+  ASSERT_EQ(run_mca("run " + scene.string() + " --out " + base.string() +
+                    " -q --no-vtk --checkpoint-every 2 --render --render-size 160x90")
+                .code,
+            0);
+  const std::vector<std::string> plots = {"energies.png", "broken_links.png", "fragment_masses.png"};
+  if (!fs::exists(base / "render" / "energies.png")) GTEST_SKIP() << "no plots here (python3-matplotlib)";
+  // Finished: nothing to run, every output stays (the summary is written again).
+  const fs::path finished = t.path() / "finished";
+  fs::copy(base, finished, fs::copy_options::recursive);
+  const auto drawn = listing(finished / "render");
+  const Result f = run_mca("resume " + finished.string() + " --no-render");
+  ASSERT_EQ(f.code, 0) << f.output;
+  EXPECT_EQ(f.output.find("warning: --no-render"), std::string::npos) << f.output;
+  EXPECT_EQ(listing(finished / "render"), drawn);
+  for (const char* kept : {"summary.json", "fragments.csv"}) EXPECT_TRUE(fs::exists(finished / kept)) << kept;
+  // Frames left, not drawn: the plots of the earlier end go, saying so (a resume stopped by a full GPU:
+  // CudaEmulation.AFullGpuStopsARunWhichResumesOnTheCpuWithTheSameBits).
+  const fs::path left = t.path() / "left";
+  fs::copy(base, left, fs::copy_options::recursive);
+  ASSERT_TRUE(fs::remove(left / "checkpoints" / "frame_000004.mcack"));
+  const Result l = run_mca("resume " + left.string() + " --no-render");
+  ASSERT_EQ(l.code, 0) << l.output;
+  EXPECT_NE(l.output.find("the plots in " + (left / "render").string() + " showed the run up to frame 2 and are removed"),
+            std::string::npos)
+      << l.output;
+  for (const auto& p : plots) EXPECT_FALSE(fs::exists(left / "render" / p)) << p;
+  EXPECT_TRUE(fs::exists(left / "render" / "video.mp4"));  // (the frames drawn so far stay, as the warning says)
+  EXPECT_NE(read(left / "summary.json").find("\"status\": \"finished\""), std::string::npos);
 }
 
 }  // namespace

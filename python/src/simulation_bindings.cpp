@@ -98,6 +98,7 @@ class PySimulation {
     return *engine_;
   }
   const std::shared_ptr<Engine>& shared() const { return engine_; }
+  bool advancing() const { return advancing_; }
   int threads() const { return threads_; }
   double wall() const {
     join();
@@ -821,10 +822,15 @@ Simulation is gone.)");
            "times it. Returns [(module_wall, command_wall, module_cpu, command_cpu), ...] in seconds (cpu: the process's "
            "CPU time).")
       .def("__repr__", [](const PySimulation& s) {
+        if (s.advancing()) {  // (the scene and the model do not change while it steps; its step does)
+          const Engine& e = *s.shared();
+          return fmt::format("<mca.Simulation {}: {} automata, advancing, {} threads>", text::quoted(e.scene().name),
+                             e.model().size(), s.threads());
+        }
         const Engine& e = s.engine();
         return fmt::format("<mca.Simulation {}: {} automata, step {} (t = {:.6g} s), {} threads{}>",
                            text::quoted(e.scene().name), e.model().size(), e.step(), e.time(), s.threads(),
-                           e.backend().stopped().empty() ? "" : ", stopped: it steps and is read no more");
+                           e.backend().stopped().empty() ? "" : ", stopped: it can no longer step or be read");
       });
 
   m.def("render", &render_to, py::arg("sim"), py::arg("path") = py::none(), py::arg("colour") = "fragment",

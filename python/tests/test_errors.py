@@ -122,6 +122,20 @@ def test_progress_must_be_callable_before_any_step():
     assert sim.step == 0
 
 
+def test_a_simulation_advancing_refuses_reads_and_its_repr_says_so():
+    sim = mca.Simulation(mca.Scene.default(), threads=1)
+    seen = []
+
+    def progress(done, total):
+        seen.append(repr(sim))
+        with pytest.raises(mca.Error, match="the simulation is advancing"):
+            sim.positions()
+
+    sim.advance(300, progress=progress)
+    assert seen and all("advancing" in r and '"wall_ball"' in r for r in seen), seen
+    assert "advancing" not in repr(sim) and "step 300" in repr(sim)
+
+
 def test_backend_keyword(tmp_path):
     scene = mca.Scene.default()
     cpu = mca.Simulation(scene, threads=1, backend="cpu")
