@@ -156,16 +156,16 @@ void check_output_fits(const OutputEstimate& e, const std::filesystem::path& dir
   if (e.vtk_frame > 0) parts.push_back(fmt::format("VTK {}", human_bytes(e.vtk_frame)));
   if (e.surface_frame > 0) parts.push_back(fmt::format("surface {}", human_bytes(e.surface_frame)));
   if (e.render_frame > 0) parts.push_back(fmt::format("pictures {}", human_bytes(e.render_frame)));
+  // (stats.csv is a row a frame, in per_run: with --no-vtk a run of billions of frames is its rows alone)
   throw Error(fmt::format(
-      "{}: the run would write about {} into {} ({} frames of {} each{}, at output.frame_rate = {:g} frames per "
-      "simulated second for output.duration = {:g} s), more than the {} free there (an earlier run's files there, "
-      "which this run replaces, count as used); lower output.frame_rate, "
-      "shorten output.duration (or --steps), leave out the VTK frames (--no-vtk or output.vtk = false), or free "
-      "disk space",
-      scene.source, human_bytes(e.total()), dir.string(), e.frames, human_bytes(e.frame()),
-      parts.empty() ? std::string() : ": " + fmt::format("{}", fmt::join(parts, ", ")),
-      scene.output.frame_rate,
-      scene.output.duration, human_bytes(free)));
+      "{}: the run would write about {} into {} ({} frames{}, at output.frame_rate = {:g} frames per simulated "
+      "second; {} for stats.csv, its row a frame, the collections, the summary and two checkpoints), more than the "
+      "{} free there (an earlier run's files there, which this run replaces, count as used); lower "
+      "output.frame_rate, shorten output.duration (or --steps), {}or free disk space",
+      scene.source, human_bytes(e.total()), dir.string(), e.frames,
+      e.frame() > 0 ? fmt::format(" of {} each: {}", human_bytes(e.frame()), fmt::join(parts, ", ")) : std::string(),
+      scene.output.frame_rate, human_bytes(e.per_run), human_bytes(free),
+      e.vtk_frame > 0 ? "leave out the VTK frames (--no-vtk or output.vtk = false), " : ""));
 }
 
 FrameWriter::FrameWriter(std::filesystem::path dir, const Model& model, const OutputDef& output)
