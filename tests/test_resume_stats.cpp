@@ -115,18 +115,22 @@ std::map<std::string, std::pair<std::uintmax_t, fs::file_time_type>> listing(con
   return out;
 }
 
+// The small wall run to its end into `out`, drawn (--render, small pictures) and checkpointed every two
+// frames (frames 2 and 4, the last).
+void rendered_run(const fs::path& dir, const fs::path& out) {
+  const Result r = run_mca("run " + small_scene(dir).string() + " --out " + out.string() +
+                           " -q --no-vtk --checkpoint-every 2 --render --render-size 160x90");
+  ASSERT_EQ(r.code, 0) << r.output;
+}
+
 // A stats.csv that is not a regular file (a FIFO blocked the resume for ever, a link to /dev/zero read
 // without end, a folder) is refused as the run's other inputs are, naming it and the fix, before any file
 // is touched: a rendered run's video, contact sheet and pictures used to go first (and with --no-render,
 // render.json).
 TEST(ResumeStats, AStatsFileThatIsNotARegularFileIsRefused) {
   mca::test::TempDir t;
-  const fs::path scene = small_scene(t.path());
   const fs::path base = t.path() / "base";
-  ASSERT_EQ(run_mca("run " + scene.string() + " --out " + base.string() +
-                    " -q --no-vtk --checkpoint-every 2 --render --render-size 160x90")
-                .code,
-            0);
+  ASSERT_NO_FATAL_FAILURE(rendered_run(t.path(), base));
   ASSERT_TRUE(fs::exists(base / "render" / "contact_sheet.png"));
   ASSERT_TRUE(fs::remove(base / "checkpoints" / "frame_000004.mcack"));  // (frames are left to run)
   int k = 0;
@@ -154,12 +158,8 @@ TEST(ResumeStats, AStatsFileThatIsNotARegularFileIsRefused) {
 // would say "finished"; a run with no step left keeps its plots, and with --no-render its whole rendering.
 TEST(ResumeStats, AResumeRemovesTheEarlierEndAndAFinishedRunKeepsItsPlots) {
   mca::test::TempDir t;
-  const fs::path scene = small_scene(t.path());
   const fs::path base = t.path() / "base";
-  ASSERT_EQ(run_mca("run " + scene.string() + " --out " + base.string() +
-                    " -q --no-vtk --checkpoint-every 2 --render --render-size 160x90")
-                .code,
-            0);
+  ASSERT_NO_FATAL_FAILURE(rendered_run(t.path(), base));
   const std::vector<std::string> plots = {"energies.png", "broken_links.png", "fragment_masses.png"};
   if (!fs::exists(base / "render" / "energies.png")) GTEST_SKIP() << "no plots here (python3-matplotlib)";
   // Finished: nothing to run, every output stays (the summary is written again).

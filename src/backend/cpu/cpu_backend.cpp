@@ -81,7 +81,7 @@ void parallel_chunks(std::size_t n, F&& body) {
   tbb::parallel_for(std::size_t{0}, count, chunk);
 }
 
-// Wall time per pass, summed over steps, printed when the backend is destroyed if MCA_PROFILE is set.
+// Wall time per pass, summed over steps, printed when the backend is destroyed where MCA_PROFILE=1.
 struct PassProfile {
   static constexpr int kPasses = 6;
   bool on = profile_requested();
