@@ -271,8 +271,10 @@ void RenderOutput::finish() {
   }
 }
 
+std::filesystem::path plot_script() { return std::filesystem::path(MCA_TOOLS_DIR) / "plot_run.py"; }
+
 bool run_plot_script(const std::filesystem::path& dir, bool quiet) {
-  const std::filesystem::path script = std::filesystem::path(MCA_TOOLS_DIR) / "plot_run.py";
+  const std::filesystem::path script = plot_script();
   const std::string shown = fmt::format("python3 {} {}", script.string(), dir.string());
   if (!std::filesystem::exists(script)) {
     fmt::print(stderr, "warning: no plots: {} is missing (it comes with the source tree)\n", script.string());

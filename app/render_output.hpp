@@ -94,6 +94,8 @@ class RenderOutput {
   double seconds_ = 0;
 };
 
+// tools/plot_run.py of the source tree this program was built from.
+std::filesystem::path plot_script();
 // Runs tools/plot_run.py on a run's folder (energies, broken links, fragment masses as PNG in render/).
 // Prints a message and returns false when python3, matplotlib or the script is missing or it fails.
 bool run_plot_script(const std::filesystem::path& dir, bool quiet);

@@ -263,15 +263,16 @@ void remove_own_files(const std::filesystem::path& dir, const std::string& prefi
   for (const auto& p : doomed) std::filesystem::remove(p);
 }
 
-// Removes a file of an earlier session where it is there; an error that names it where it cannot be removed
-// (a path through a file, as a file named `render`, holds none: nothing to remove).
-void remove_output(const std::filesystem::path& p) {
+// Removes a file of an earlier session where it is there (whether it was); an error that names it where it
+// cannot be removed (a path through a file, as a file named `render`, holds none: nothing to remove).
+bool remove_output(const std::filesystem::path& p) {
   std::error_code ec;
-  std::filesystem::remove(p, ec);
+  const bool removed = std::filesystem::remove(p, ec);
   if (ec && ec != std::errc::not_a_directory)
     throw Error(fmt::format("cannot remove '{}', an output of an earlier run in this folder ({}); remove it by hand "
                             "or use another --out folder",
                             p.string(), ec.message()));
+  return removed;
 }
 
 // What a run writes at its end from its last state (the summary also when interrupted): the summary,
@@ -284,11 +285,8 @@ int remove_end_outputs(const std::filesystem::path& dir, bool plots = true) {
   remove_own_files(dir / "fragments", "fragment_", ".ply");
   int removed = 0;
   if (plots)
-    for (const char* plot : {"energies.png", "broken_links.png", "fragment_masses.png"}) {
-      std::error_code ec;
-      removed += std::filesystem::is_regular_file(dir / "render" / plot, ec);
-      remove_output(dir / "render" / plot);
-    }
+    for (const char* plot : {"energies.png", "broken_links.png", "fragment_masses.png"})
+      removed += remove_output(dir / "render" / plot);
   return removed;
 }
 
@@ -747,7 +745,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
     fmt::print(stderr, "mca: the plots in {} showed the run up to frame {} and are removed; python3 {} {} draws "
                "them again when the run ends\n",
                (dir / "render").string(), cp.frame - 1,
-               text::shell_word((std::filesystem::path(MCA_TOOLS_DIR) / "plot_run.py").string()),
+               text::shell_word(plot_script().string()),
                text::shell_word(dir.string()));
   return run_loop(L, writer);
 }

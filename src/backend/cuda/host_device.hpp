@@ -53,12 +53,9 @@ struct HostDevice {
         DeviceMemory::remove(cap_ * sizeof(T));
         cap_ = 0;
         v_ = {};
-        if (const auto gpu = emulated_gpu_memory()) {
-          if (!DeviceMemory::add_within(bytes, *gpu))
-            throw out_of_device_memory(bytes, *gpu - std::min(*gpu, DeviceMemory::held()), *gpu, true);
-        } else {
-          DeviceMemory::add(bytes);
-        }
+        const std::size_t gpu = emulated_gpu_memory().value_or(SIZE_MAX);  // (none set: no limit)
+        if (!DeviceMemory::add_within(bytes, gpu))
+          throw out_of_device_memory(bytes, gpu - std::min(gpu, DeviceMemory::held()), gpu, true);
         cap_ = cap;
       }
       v_.clear();
