@@ -1069,6 +1069,29 @@ TEST(CudaEmulation, AnEmulatedGpuMemoryThatIsNotANumberIsRefused) {
   EXPECT_EQ(gpu::grown_capacity(10, 40), 40u);
   EXPECT_EQ(gpu::grown_capacity(10, 4), 10u);
 }
+// Where the CUDA runtime cannot start on the machine's driver (Debian 12's own driver, 535, is for CUDA 12.2;
+// nvcc 13's runtime needs the 580 series), the reason says which driver there is, which one is needed and the
+// ways out; without a driver it says that none is installed.
+TEST(CudaEmulation, ADriverTooOldForTheRuntimeIsNamedWithTheOneItNeeds) {
+  const std::string old = cuda_driver_problem(12020, 13000);
+  EXPECT_NE(old.find("the NVIDIA driver supports CUDA 12.2 and this build's CUDA runtime 13.0 needs a driver for CUDA "
+                     "13 or later (NVIDIA's 580 series or newer): update the driver, or build mca with a CUDA toolkit "
+                     "of version 12.2 or older"),
+            std::string::npos)
+      << old;
+  const std::string none = cuda_driver_problem(0, 12080);
+  EXPECT_NE(none.find("no NVIDIA driver is installed"), std::string::npos) << none;
+  EXPECT_NE(none.find("runtime 12.8 needs a driver for CUDA 12 or later (NVIDIA's 525 series or newer)"), std::string::npos)
+      << none;
+  const std::string later = cuda_driver_problem(13000, 14010);
+  EXPECT_NE(later.find("supports CUDA 13.0 and this build's CUDA runtime 14.1 needs a driver for CUDA 14 or later:"),
+            std::string::npos)
+      << later;
+  EXPECT_EQ(later.find("series"), std::string::npos) << later;  // (no series named that is not known)
+  const std::string same = cuda_driver_problem(13000, 13010);
+  EXPECT_NE(same.find("the NVIDIA driver, for CUDA 13.0, is too old for this build's CUDA runtime 13.1"), std::string::npos)
+      << same;
+}
 // mca info on a GPU backend says what its device arrays hold at the start, and describes a scene whose GPU
 // cannot hold it (on the CPU), saying so; mca bench names the benchmark a full GPU stopped, after the results
 // of those before it.

@@ -18,10 +18,10 @@ std::string cuda_device(std::string* why) {
   int count = 0;
   const cudaError_t e = cudaGetDeviceCount(&count);
   if (e != cudaSuccess || count == 0) {
+    int driver = 0;
+    if (e == cudaErrorInsufficientDriver && cudaDriverGetVersion(&driver) != cudaSuccess) driver = 0;
     if (why)
-      *why = e == cudaErrorInsufficientDriver
-                 ? std::string("no NVIDIA driver found, or one older than this build's CUDA runtime needs (CUDA: ") +
-                       cudaGetErrorString(e) + ")"
+      *why = e == cudaErrorInsufficientDriver ? cuda_driver_problem(driver, CUDART_VERSION)
              : e == cudaErrorNoDevice || e == cudaSuccess ? std::string("no NVIDIA GPU is present")
                                                           : std::string("the NVIDIA driver reports no usable GPU (CUDA: ") +
                                                                 cudaGetErrorString(e) + ")";

@@ -31,6 +31,28 @@ CudaLattice cuda_lattice() {
                           given));
 }
 
+std::string cuda_driver_problem(int driver, int runtime) {
+  const auto version = [](int v) { return fmt::format("{}.{}", v / 1000, v % 1000 / 10); };
+  const int major = runtime / 1000;
+  // The first driver series of each CUDA major version (NVIDIA's release notes, "CUDA Toolkit and Minimum
+  // Required Driver Version"): a runtime of that major version runs on it and every later one.
+  const char* series = major == 11 ? "450" : major == 12 ? "525" : major == 13 ? "580" : nullptr;
+  const std::string needs =
+      series ? fmt::format("a driver for CUDA {} or later (NVIDIA's {} series or newer)", major, series)
+             : fmt::format("a driver for CUDA {} or later", major);
+  if (driver <= 0)
+    return fmt::format("no NVIDIA driver is installed (its library, libcuda.so.1, was not found); this build's CUDA "
+                       "runtime {} needs {}",
+                       version(runtime), needs);
+  if (driver / 1000 >= major)  // (the runtime's verdict, though the driver's major version is its own)
+    return fmt::format("the NVIDIA driver, for CUDA {}, is too old for this build's CUDA runtime {}, which needs {}: "
+                       "update the driver",
+                       version(driver), version(runtime), needs);
+  return fmt::format("the NVIDIA driver supports CUDA {} and this build's CUDA runtime {} needs {}: update the driver, "
+                     "or build mca with a CUDA toolkit of version {} or older (CMAKE_CUDA_COMPILER naming its nvcc)",
+                     version(driver), version(runtime), needs, version(driver));
+}
+
 namespace gpu {
 
 std::optional<std::size_t> emulated_gpu_memory() {

@@ -5,7 +5,8 @@
 namespace mca {
 
 std::string cuda_device(std::string* why) {
-  if (why) *why = "this build of mca has no CUDA device code (nvcc was not found when it was built, or MCA_CUDA=OFF)";
+  // (MCA_NO_DEVICE_CODE_WHY: CMakeLists.txt's reason, such as "no nvcc found" or an nvcc older than CUDA 12)
+  if (why) *why = std::string("this build of mca has no CUDA device code (when it was built: ") + MCA_NO_DEVICE_CODE_WHY + ")";
   return "";
 }
 
