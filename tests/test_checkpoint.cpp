@@ -279,6 +279,15 @@ TEST(Checkpoint, StateCheckRefusesEachBrokenInvariant) {
   };
   ASSERT_LT(first_broken(f.state), f.state.intact.size());
   ASSERT_GE(f.state.contacts.size(), 2u);
+  // Ground contacts where the scene has no ground (the same lattice without it): they would act as a ground
+  // at height 0 for the rest of the run (found by a hostile review).
+  ASSERT_FALSE(f.state.ground_contacts.empty());
+  SceneDef no_ground = f.scene;
+  no_ground.ground.enabled = false;
+  const Engine bare(no_ground);
+  ASSERT_EQ(bare.model().link_slots(), m.link_slots());
+  EXPECT_NE(test::error_of([&] { check_state(bare.model(), f.state, source); }).find("ground contacts are saved, and the scene has no ground"),
+            std::string::npos);
   for (const auto& [expected, edit] : breaks) {
     SCOPED_TRACE(expected);
     State s = f.state;

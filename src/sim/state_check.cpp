@@ -256,7 +256,10 @@ void check_state(const Model& m, const State& s, const std::string& source) {
     }
     if (!finite(p.h)) c.fail(fmt::format("contact {} has a non-finite spring history", k));
   }
-  // The ground's: automata sorted without repeats.
+  // The ground's: automata sorted without repeats, and none where there is no ground (the ground pass runs
+  // over the list as it is: an entry would be a ground nobody set).
+  if (!m.ground && !s.ground_contacts.empty())
+    c.fail(fmt::format("{} ground contacts are saved, and the scene has no ground", s.ground_contacts.size()));
   for (std::size_t k = 0; k < s.ground_contacts.size(); ++k) {
     const BodyContact& b = s.ground_contacts[k];
     if (b.automaton >= n) c.fail(fmt::format("ground contact {} names automaton {} of {}", k, b.automaton, n));
