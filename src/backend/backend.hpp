@@ -67,9 +67,9 @@ class Backend {
   virtual std::int64_t current_step() const = 0;
   virtual double current_time() const = 0;
   // The energies of the current state for Engine's check of the energy, and the run's starting energy
-  // (State::initial_energy). The CPU backend computes them from its state (compute_energies); the CUDA
-  // backend on the device, without bringing the state up to date: each term with the same bits, their
-  // sums in another order (equal to rounding).
+  // (State::initial_energy). The same bits on every backend (check_energies: compute_energies' terms summed
+  // by a fixed tree), so the check stops a run at the same step on each; the CUDA backend computes them on
+  // the device, without bringing the state up to date.
   virtual Energies energies() const = 0;
   virtual double initial_energy() const = 0;
   virtual std::int64_t broken_links() const = 0;
@@ -222,5 +222,9 @@ State initial_state(const Model& model);
 Energies compute_energies(const Model& model, const State& state);
 // Energies of exactly the positions and velocities given.
 Energies compute_energies_at(const Model& model, const State& state);
+// compute_energies' energies as Engine's check of the energy takes them on every backend (Backend::energies):
+// the same terms, summed by chunk_sum's fixed tree (energy_terms.hpp) as the CUDA backend sums them on the
+// device, so that a run stops or goes on at the same step on each (equal to compute_energies' to rounding).
+Energies check_energies(const Model& model, const State& state);
 
 }  // namespace mca

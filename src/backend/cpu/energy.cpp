@@ -142,4 +142,78 @@ Energies compute_energies(const Model& m, const State& s) {
 
 Energies compute_energies_at(const Model& m, const State& s) { return energies_of(m, s, false); }
 
+Energies check_energies(const Model& m, const State& s) {
+  const std::size_t n = m.size(), L = m.link_slots(), ne = m.explicit_links.size();
+  std::vector<float> k_twist(ne), k_in(ne), k_out(ne);
+  for (std::size_t k = 0; k < ne; ++k) {
+    const LinkBendingConstants bc = m.explicit_bending(k);
+    k_twist[k] = bc.k_twist;
+    k_in[k] = bc.k_in;
+    k_out[k] = bc.k_out;
+  }
+  const bool sync = s.f.size() == n && s.step > 0;
+  const EnergyView ev = energy_view(m, s, sync, k_twist.data(), k_in.data(), k_out.data());
+  // The terms, a value per element, by the device's kernels (energy_terms.hpp) run here element by element.
+  std::vector<double> kinetic(n), gravity(n), load(m.load.empty() ? 0 : n), links(L), many_body(n),
+      pairs(s.contacts.size()), ground(s.ground_contacts.size());
+  std::vector<LinkEnergy> link(L);
+  std::vector<double> shell_c;  // (the device's: every automaton of a shell, the links it has left or not)
+  if (ne > 0) {
+    shell_c.assign(n, 0.0);
+    for (std::size_t a = 0; a < n; ++a)
+      if (m.explicit_links.first[a + 1] > m.explicit_links.first[a] && !m.random_automaton(a))
+        shell_c[a] = shell_bending_constant(m, a);
+  }
+  const AutomatonEnergyKernel automaton{ev, kinetic.data(), gravity.data(), load.empty() ? nullptr : load.data()};
+  for (std::size_t a = 0; a < n; ++a) automaton(a);
+  const LinkEnergyKernel link_energy{ev, link.data(), links.data()};
+  for (std::size_t l = 0; l < L; ++l) link_energy(l);
+  const ManyBodyEnergyKernel many{ev, m.neighbour_below.data(), link.data(), shell_c.empty() ? nullptr : shell_c.data(),
+                                  many_body.data()};
+  for (std::size_t a = 0; a < n; ++a) many(a);
+  const PairEnergyKernel pair{ev, s.contacts.data(), pairs.data()};
+  for (std::size_t k = 0; k < pairs.size(); ++k) pair(k);
+  const GroundEnergyKernel on_ground{ev, s.ground_contacts.data(), m.ground_contact.data(), m.up, m.ground_height,
+                                     ground.data()};
+  for (std::size_t k = 0; k < ground.size(); ++k) on_ground(k);
+  const auto sum = [](std::vector<double> x) {
+    std::size_t count = x.size();
+    for (; count > kSumChunk; count = sum_chunks(count))
+      for (std::size_t c = 0; c < sum_chunks(count); ++c) x[c] = chunk_sum(x.data(), count, c);  // (in place: over a chunk summed before)
+    return chunk_sum(x.data(), count, 0);
+  };
+  // The projectiles and grips serially, in compute_energies' order (the device's one thread).
+  double p_kinetic = 0, p_gravity = 0, p_work = 0, p_contact = 0, grip = 0;
+  for (std::size_t p = 0; p < m.projectiles.size(); ++p) {
+    const auto& P = m.projectiles[p];
+    const auto& ps = s.projectiles[p];
+    p_kinetic += ev.projectile_kinetic(ps.velocity, ps.angular_velocity, ps.force, P.mass, P.inertia, P.kinematic);
+    const DVec3 xp = ev.projectile_at(ps.position, ps.velocity);
+    if (P.kinematic) p_work += ps.work;
+    else p_gravity += P.mass * dotd(m.gravity, delta(P.position, xp));
+    for (const auto& c : ps.contacts)
+      p_contact += ev.projectile_contact(c, xp, P.radius, m.projectile_contact(p, m.group[c.automaton]));
+    if (m.ground)
+      p_contact += EnergyView::on_ground(xp, P.radius, m.projectile_ground_contact(p), ps.ground, m.up, m.ground_height);
+  }
+  for (const auto& c : s.projectile_contacts) {
+    const auto &A = m.projectiles[c.p], &B = m.projectiles[c.q];
+    const auto &a = s.projectiles[c.p], &b = s.projectiles[c.q];
+    p_contact += EnergyView::projectile_pair(ev.projectile_at(a.position, a.velocity), ev.projectile_at(b.position, b.velocity),
+                                             A.radius, B.radius, m.projectile_pair_contact(c.p, c.q), c.h);
+  }
+  for (double w : s.grip_work) grip += w;
+  // Put together as DeviceBackend::device_energies does.
+  Energies e;
+  e.kinetic = sum(std::move(kinetic));
+  e.contact = sum(std::move(pairs)) + sum(std::move(ground)) + p_contact;
+  e.elastic = sum(std::move(links)) + sum(std::move(many_body)) + e.contact;
+  e.projectile_kinetic = p_kinetic;
+  e.gravity_work = sum(std::move(gravity)) + p_gravity;
+  e.grip_work = grip;
+  e.load_work = load.empty() ? 0.0 : sum(std::move(load));
+  e.projectile_work = p_work;
+  return e;
+}
+
 }  // namespace mca

@@ -8,7 +8,6 @@
 // root), so a thread computes the CPU's bits.
 #include <cub/block/block_scan.cuh>
 #include <cub/device/device_radix_sort.cuh>
-#include <cub/device/device_reduce.cuh>
 #include <cub/device/device_scan.cuh>
 #include <cuda_runtime.h>
 // CUDA-OpenGL interop (the draw list written into the renderer's buffers): its header wants GL's types.
@@ -384,18 +383,6 @@ struct CudaDevice {
     });
     cuda_check(cudaMemcpyAsync(keys, keys_out, n * sizeof(Key), cudaMemcpyDeviceToDevice), "sort");
     cuda_check(cudaMemcpyAsync(values, o.values.data(), n * sizeof(std::uint32_t), cudaMemcpyDeviceToDevice), "sort");
-  }
-  // *to = the sum of n doubles (0 for none), in CUB's order: the same on every run of the same device.
-  static void sum_into(const double* x, std::size_t n, double* to) {
-    if (n == 0) {
-      cuda_check(cudaMemsetAsync(to, 0, sizeof(double)), "sum");
-      return;
-    }
-    std::size_t bytes = 0;
-    cuda_check(cub::DeviceReduce::Sum(nullptr, bytes, x, to, n), "sum");
-    void* temp = scratch(bytes);
-    static const std::string name = "sum";
-    timed(name, [&] { cuda_check(cub::DeviceReduce::Sum(temp, bytes, x, to, n), "sum"); });
   }
   // The profile (MCA_PROFILE): the device's time of each launch and primitive, from CUDA events around it,
   // read at the next copy to the host (which waits for them).

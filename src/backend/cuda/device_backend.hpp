@@ -718,7 +718,7 @@ class DeviceBackend : public StateBackend {
   std::size_t rebuilds_ = 0;
   std::int64_t steps_ = 0;  // stepped by this backend (the profile's)
   // The energies' terms and sums.
-  Buf<double> shell_c_, e_kinetic_, e_gravity_, e_load_, e_links_, e_many_body_, e_pairs_, e_ground_;
+  Buf<double> shell_c_, e_kinetic_, e_gravity_, e_load_, e_links_, e_many_body_, e_pairs_, e_ground_, e_level_;
   Buf<LinkEnergy> e_link_;
   Buf<EnergySums> e_sums_;
   // Contact lists (sizes on the host), and the incidence list: (automaton, 2 p + side) sorted (and the
@@ -1214,7 +1214,8 @@ void DeviceBackend<Dev>::merge_incidence(std::size_t old, std::size_t fresh, con
 }
 
 // The energies for Engine's check (Backend::energies): each term on the device with compute_energies'
-// functions, summed there; one read.
+// functions, the arrays summed there by chunk_sum's fixed tree and put together as check_energies does, so
+// the check decides on the CPU's bits; one read.
 template <class Dev>
 Energies DeviceBackend<Dev>::device_energies() {
   const std::size_t n = M_.size(), L = M_.link_slots(), np = M_.projectiles.size();
@@ -1235,8 +1236,18 @@ Energies DeviceBackend<Dev>::device_energies() {
                                     opt(proj_material_), M_.ground ? c(ground_contact_) : nullptr, M_.up, M_.ground_height,
                                     opt(proj_pairs_), static_cast<std::uint32_t>(pair_count_), opt(grip_work_),
                                     M_.grip_velocity.size(), d(e_sums_)});
+  // Each array by chunk_sum's fixed tree (energy_terms.hpp), as check_energies sums it: the levels of chunk
+  // sums in e_level_ (its two halves in turn), the last chunk's sum into the field.
+  e_level_.resize(2 * sum_chunks(std::max<std::size_t>({n, L, contact_count_, ground_count_})));
   const auto sum = [&](const Buf<double>& x, std::size_t count, std::size_t offset) {
-    Dev::sum_into(c(x), count, field<double>(e_sums_, offset));
+    const double* from = c(x);
+    for (int half = 0; count > kSumChunk; half ^= 1) {
+      double* to = d(e_level_) + half * (e_level_.size() / 2);
+      Dev::launch(sum_chunks(count), ChunkSumKernel{from, count, to});
+      from = to;
+      count = sum_chunks(count);
+    }
+    Dev::launch(1, ChunkSumKernel{from, count, field<double>(e_sums_, offset)});
   };
   sum(e_kinetic_, n, offsetof(EnergySums, kinetic));
   sum(e_gravity_, n, offsetof(EnergySums, gravity_work));

@@ -1,9 +1,8 @@
 #pragma once
 // The host emulation of the CUDA backend's device: buffers in host memory, a kernel launch as a loop over
 // the thread indices in order, and the device-wide primitives (scan, stable sort by key, the max and min of
-// a launch, a sum) as their serial twins, which give the same results as the CUDA ones (integer scans and
-// sorts, and the max and min of values, do not depend on the order of evaluation; a sum does, and serves
-// only the energy check). The primitives' results stay in "device"
+// a launch) as their serial twins, which give the same results as the CUDA ones (integer scans and sorts,
+// and the max and min of values, do not depend on the order of evaluation). The primitives' results stay in "device"
 // arrays: the step logic reads them only through download, as it must on a GPU. DeviceBackend<HostDevice>
 // runs every line of the CUDA backend's step logic on a machine without a GPU; CI checks it bit for bit
 // against the CPU.
@@ -179,15 +178,6 @@ struct HostDevice {
         keys[k] = kv[k].first;
         values[k] = kv[k].second;
       }
-    });
-  }
-  // *to = x[0] + ... + x[n - 1] (0 for none), in that order.
-  static void sum_into(const double* x, std::size_t n, double* to) {
-    static const std::string name = "sum";
-    timed(name, [&] {
-      double s = 0;
-      for (std::size_t k = 0; k < n; ++k) s += x[k];
-      *to = s;
     });
   }
   // A renderer's buffer for the draw list (render::DrawTarget), holding at least `bytes`, mapped for the
