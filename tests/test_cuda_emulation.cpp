@@ -316,8 +316,23 @@ SceneDef colliding_balls() {
   s.projectiles = {a, b};
   return s;
 }
+// A cantilever held at one end under a [[load]] at the other, no gravity (the load's work in the energy
+// check).
+SceneDef loaded_cantilever() {
+  SceneDef s = test::block_scene(20, 2, 2, 0.01);
+  s.name = "loaded_cantilever";
+  GripDef hold;
+  test::layer_box(20, 0, 0, 0.01, hold.min, hold.max);
+  s.grips.push_back(hold);
+  LoadDef load;
+  test::layer_box(20, 19, 0, 0.01, load.min, load.max);
+  load.force = {0, 0, -200};
+  s.loads.push_back(load);
+  return s;
+}
 TEST(CudaEmulation, GripsAndCollidingBallsAreTheCpusBitForBit) {
   EXPECT_GT(run_both(pulled_bar(), 4000, 1000).breaks, 0);
+  run_both(loaded_cantilever(), 1500, 256);
   const Compared d = run_both(colliding_balls(), 8000, 50);
   EXPECT_GT(d.breaks, 0);
   EXPECT_GT(d.projectile_contacts, 0u);
@@ -1250,6 +1265,7 @@ TEST(CudaDevice, TheCowShellIsTheCpusBitForBit) {
 TEST(CudaDevice, GripsAndBallsAreTheCpusBitForBit) {
   MCA_NEEDS_GPU();
   EXPECT_GT(run_both(pulled_bar(), 4000, 1000, kCuda).breaks, 0);
+  run_both(loaded_cantilever(), 1500, 256, kCuda);
   EXPECT_GT(run_both(colliding_balls(), 8000, 50, kCuda).pairs, 0u);
   EXPECT_GT(run_both(three_balls(), 3000, 100, kCuda).shared, 0u);
 }

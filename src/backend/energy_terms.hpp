@@ -286,72 +286,9 @@ struct EnergyView {
 // The bending constant of automaton a's shell (bending_many_body_constant), for one with shell links.
 double shell_bending_constant(const Model& m, std::size_t a);
 
-// --- Engine's check of the energy (Backend::energies): each term of an array per element (one thread each on
-// a GPU), the arrays summed by chunk_sum's fixed tree, so that every backend takes the check's decision on the
-// same bits (check_energies on the CPU, DeviceBackend::device_energies) ---
-struct AutomatonEnergyKernel {
-  EnergyView ev;
-  double *kinetic, *gravity, *load;  // load null: none
-  MCA_HD void operator()(std::size_t a) const {
-    const AutomatonEnergy e = ev.automaton(a);
-    kinetic[a] = e.kinetic;
-    gravity[a] = e.gravity_work;
-    if (load) load[a] = e.load_work;
-  }
-};
-struct LinkEnergyKernel {
-  EnergyView ev;
-  LinkEnergy* link;
-  double* elastic;
-  MCA_HD void operator()(std::size_t l) const {
-    const LinkEnergy e = ev.link(l);
-    link[l] = e;
-    elastic[l] = e.elastic + e.bending;
-  }
-};
-// Automaton a's many-body energy from its links' terms (Model::for_each_link_of's links).
-struct ManyBodyEnergyKernel {
-  EnergyView ev;
-  const std::uint32_t* below;
-  const LinkEnergy* link;
-  const double* shell_c;  // per automaton (null: no shell)
-  double* out;
-  MCA_HD void operator()(std::size_t a) const {
-    const std::size_t n = ev.m.n;
-    ManyBodySums s = ev.sums(a);
-    for (int axis = 0; axis < 3; ++axis) {
-      const std::size_t up = axis * n + a;
-      if (ev.neighbour[up] != Model::kNoLink) EnergyView::add(s, link[up], axis, true);
-      if (below[up] != Model::kNoLink) EnergyView::add(s, link[axis * n + below[up]], axis, false);
-    }
-    if (ev.m.first)
-      for (std::uint32_t x = ev.m.first[a]; x < ev.m.first[a + 1]; ++x) {
-        const std::uint32_t k = ev.m.of[x];
-        EnergyView::add(s, link[3 * n + k], -1, ev.m.ei[k] == a);
-      }
-    const EnergyView::ManyBodyEnergy e = ev.many_body(a, s, shell_c ? shell_c[a] : 0.0);
-    out[a] = e.strain + e.bending;
-  }
-};
-struct PairEnergyKernel {
-  EnergyView ev;
-  const ContactPair* pairs;
-  double* out;
-  MCA_HD void operator()(std::size_t p) const { out[p] = ev.pair_contact(pairs[p]); }
-};
-struct GroundEnergyKernel {
-  EnergyView ev;
-  const BodyContact* list;
-  const ContactMaterial* ground;  // per group
-  Vec3 up;
-  float height;
-  double* out;
-  MCA_HD void operator()(std::size_t k) const { out[k] = ev.ground_contact(list[k], ground, up, height); }
-};
-
-// The fixed tree of the energy check's sums: an array of n values is cut into chunks of kSumChunk, each summed
-// in order (chunk_sum); the chunks' sums are summed the same way, until one chunk is left. Every backend sums so
-// (on a GPU a thread per chunk), so the sums do not depend on threads or devices.
+// The fixed tree of the energy check's sums (Backend::energies), the same on every backend: an array of n
+// values is cut into chunks of kSumChunk, each summed in order (chunk_sum); the chunks' sums are summed the
+// same way, until one chunk is left (on a GPU a thread per chunk: ChunkSumKernel; check_energies on the CPU).
 constexpr std::size_t kSumChunk = 256;
 MCA_HD std::size_t sum_chunks(std::size_t n) { return (n + kSumChunk - 1) / kSumChunk; }
 MCA_HD double chunk_sum(const double* x, std::size_t n, std::size_t chunk) {
@@ -360,11 +297,5 @@ MCA_HD double chunk_sum(const double* x, std::size_t n, std::size_t chunk) {
   for (std::size_t k = first; k < last; ++k) s += x[k];
   return s;
 }
-struct ChunkSumKernel {
-  const double* x;
-  std::size_t n;
-  double* out;  // a value per chunk
-  MCA_HD void operator()(std::size_t chunk) const { out[chunk] = chunk_sum(x, n, chunk); }
-};
 
 }  // namespace mca

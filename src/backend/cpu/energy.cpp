@@ -142,6 +142,33 @@ Energies compute_energies(const Model& m, const State& s) {
 
 Energies compute_energies_at(const Model& m, const State& s) { return energies_of(m, s, false); }
 
+namespace {
+// The fixed tree's sum (chunk_sum) of values given one at a time in order, keeping only the chunks' sums.
+class TreeSum {
+ public:
+  void add(double v) {
+    s_ += v;
+    if (++count_ % kSumChunk == 0) {
+      chunks_.push_back(s_);
+      s_ = 0;
+    }
+  }
+  double total() {
+    if (count_ <= kSumChunk) return s_ + (chunks_.empty() ? 0.0 : chunks_[0]);  // (one of them is 0)
+    if (count_ % kSumChunk) chunks_.push_back(s_);
+    std::size_t n = chunks_.size();
+    for (; n > kSumChunk; n = sum_chunks(n))
+      for (std::size_t c = 0; c < sum_chunks(n); ++c) chunks_[c] = chunk_sum(chunks_.data(), n, c);  // (in place: over a chunk summed before)
+    return chunk_sum(chunks_.data(), n, 0);
+  }
+
+ private:
+  double s_ = 0;
+  std::size_t count_ = 0;
+  std::vector<double> chunks_;
+};
+}  // namespace
+
 Energies check_energies(const Model& m, const State& s) {
   const std::size_t n = m.size(), L = m.link_slots(), ne = m.explicit_links.size();
   std::vector<float> k_twist(ne), k_in(ne), k_out(ne);
@@ -151,38 +178,41 @@ Energies check_energies(const Model& m, const State& s) {
     k_in[k] = bc.k_in;
     k_out[k] = bc.k_out;
   }
-  const bool sync = s.f.size() == n && s.step > 0;
-  const EnergyView ev = energy_view(m, s, sync, k_twist.data(), k_in.data(), k_out.data());
-  // The terms, a value per element, by the device's kernels (energy_terms.hpp) run here element by element.
-  std::vector<double> kinetic(n), gravity(n), load(m.load.empty() ? 0 : n), links(L), many_body(n),
-      pairs(s.contacts.size()), ground(s.ground_contacts.size());
-  std::vector<LinkEnergy> link(L);
-  std::vector<double> shell_c;  // (the device's: every automaton of a shell, the links it has left or not)
-  if (ne > 0) {
-    shell_c.assign(n, 0.0);
-    for (std::size_t a = 0; a < n; ++a)
-      if (m.explicit_links.first[a + 1] > m.explicit_links.first[a] && !m.random_automaton(a))
-        shell_c[a] = shell_bending_constant(m, a);
+  const EnergyView ev = energy_view(m, s, s.f.size() == n && s.step > 0, k_twist.data(), k_in.data(), k_out.data());
+  // Each term as the CUDA backend's kernels form it (AutomatonEnergyKernel, LinkEnergyKernel and the others in
+  // device_kernels.hpp), taken in element order into the fixed tree, so with the device's bits.
+  TreeSum kinetic, gravity, load, links, many_body, pairs, ground;
+  for (std::size_t a = 0; a < n; ++a) {
+    const AutomatonEnergy x = ev.automaton(a);
+    kinetic.add(x.kinetic);
+    gravity.add(x.gravity_work);
+    load.add(x.load_work);
   }
-  const AutomatonEnergyKernel automaton{ev, kinetic.data(), gravity.data(), load.empty() ? nullptr : load.data()};
-  for (std::size_t a = 0; a < n; ++a) automaton(a);
-  const LinkEnergyKernel link_energy{ev, link.data(), links.data()};
-  for (std::size_t l = 0; l < L; ++l) link_energy(l);
-  const ManyBodyEnergyKernel many{ev, m.neighbour_below.data(), link.data(), shell_c.empty() ? nullptr : shell_c.data(),
-                                  many_body.data()};
-  for (std::size_t a = 0; a < n; ++a) many(a);
-  const PairEnergyKernel pair{ev, s.contacts.data(), pairs.data()};
-  for (std::size_t k = 0; k < pairs.size(); ++k) pair(k);
-  const GroundEnergyKernel on_ground{ev, s.ground_contacts.data(), m.ground_contact.data(), m.up, m.ground_height,
-                                     ground.data()};
-  for (std::size_t k = 0; k < ground.size(); ++k) on_ground(k);
-  const auto sum = [](std::vector<double> x) {
-    std::size_t count = x.size();
-    for (; count > kSumChunk; count = sum_chunks(count))
-      for (std::size_t c = 0; c < sum_chunks(count); ++c) x[c] = chunk_sum(x.data(), count, c);  // (in place: over a chunk summed before)
-    return chunk_sum(x.data(), count, 0);
-  };
-  // The projectiles and grips serially, in compute_energies' order (the device's one thread).
+  // Every slot, a link or not; each link's many-body parts onto its ends, as ManyBodyEnergyKernel gathers them
+  // (per end, its lattice links per axis and its explicit links in increasing order).
+  std::vector<ManyBodySums> sums(n);
+  for (std::size_t a = 0; a < n; ++a) sums[a] = ev.sums(a);
+  for (std::size_t l = 0; l < L; ++l) {
+    const LinkEnergy x = ev.link(l);
+    links.add(x.elastic + x.bending);
+    if (!m.link_exists(l)) continue;
+    if (l < 3 * n) {
+      EnergyView::add(sums[l % n], x, static_cast<int>(l / n), true);
+      EnergyView::add(sums[m.neighbour[l]], x, static_cast<int>(l / n), false);
+    } else {
+      EnergyView::add(sums[m.explicit_links.i[l - 3 * n]], x, -1, true);
+      EnergyView::add(sums[m.explicit_links.j[l - 3 * n]], x, -1, false);
+    }
+  }
+  for (std::size_t a = 0; a < n; ++a) {
+    // (the device's shell constants: every automaton of a shell, whether it has links left or not)
+    const bool shell = ne > 0 && m.explicit_links.first[a + 1] > m.explicit_links.first[a] && !m.random_automaton(a);
+    const EnergyView::ManyBodyEnergy x = ev.many_body(a, sums[a], shell ? shell_bending_constant(m, a) : 0.0);
+    many_body.add(x.strain + x.bending);
+  }
+  for (const auto& c : s.contacts) pairs.add(ev.pair_contact(c));
+  for (const auto& c : s.ground_contacts) ground.add(ev.ground_contact(c, m.ground_contact.data(), m.up, m.ground_height));
+  // The projectiles and grips serially, in compute_energies' order (SerialEnergyKernel's one thread).
   double p_kinetic = 0, p_gravity = 0, p_work = 0, p_contact = 0, grip = 0;
   for (std::size_t p = 0; p < m.projectiles.size(); ++p) {
     const auto& P = m.projectiles[p];
@@ -205,13 +235,13 @@ Energies check_energies(const Model& m, const State& s) {
   for (double w : s.grip_work) grip += w;
   // Put together as DeviceBackend::device_energies does.
   Energies e;
-  e.kinetic = sum(std::move(kinetic));
-  e.contact = sum(std::move(pairs)) + sum(std::move(ground)) + p_contact;
-  e.elastic = sum(std::move(links)) + sum(std::move(many_body)) + e.contact;
+  e.kinetic = kinetic.total();
+  e.contact = pairs.total() + ground.total() + p_contact;
+  e.elastic = links.total() + many_body.total() + e.contact;
   e.projectile_kinetic = p_kinetic;
-  e.gravity_work = sum(std::move(gravity)) + p_gravity;
+  e.gravity_work = gravity.total() + p_gravity;
   e.grip_work = grip;
-  e.load_work = load.empty() ? 0.0 : sum(std::move(load));
+  e.load_work = m.load.empty() ? 0.0 : load.total();
   e.projectile_work = p_work;
   return e;
 }

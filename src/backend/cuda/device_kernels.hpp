@@ -1336,6 +1336,72 @@ struct EnergySums {
   double kinetic = 0, gravity_work = 0, load_work = 0, links = 0, many_body = 0, pairs = 0, ground = 0;
   double projectile_kinetic = 0, projectile_gravity = 0, projectile_work = 0, projectile_contact = 0, grip_work = 0;
 };
+struct AutomatonEnergyKernel {
+  EnergyView ev;
+  double *kinetic, *gravity, *load;  // load null: none
+  MCA_HD void operator()(std::size_t a) const {
+    const AutomatonEnergy e = ev.automaton(a);
+    kinetic[a] = e.kinetic;
+    gravity[a] = e.gravity_work;
+    if (load) load[a] = e.load_work;
+  }
+};
+struct LinkEnergyKernel {
+  EnergyView ev;
+  LinkEnergy* link;
+  double* elastic;
+  MCA_HD void operator()(std::size_t l) const {
+    const LinkEnergy e = ev.link(l);
+    link[l] = e;
+    elastic[l] = e.elastic + e.bending;
+  }
+};
+// Automaton a's many-body energy from its links' terms (Model::for_each_link_of's links).
+struct ManyBodyEnergyKernel {
+  EnergyView ev;
+  const std::uint32_t* below;
+  const LinkEnergy* link;
+  const double* shell_c;  // per automaton (null: no shell)
+  double* out;
+  MCA_HD void operator()(std::size_t a) const {
+    const std::size_t n = ev.m.n;
+    ManyBodySums s = ev.sums(a);
+    for (int axis = 0; axis < 3; ++axis) {
+      const std::size_t up = axis * n + a;
+      if (ev.neighbour[up] != Model::kNoLink) EnergyView::add(s, link[up], axis, true);
+      if (below[up] != Model::kNoLink) EnergyView::add(s, link[axis * n + below[up]], axis, false);
+    }
+    if (ev.m.first)
+      for (std::uint32_t x = ev.m.first[a]; x < ev.m.first[a + 1]; ++x) {
+        const std::uint32_t k = ev.m.of[x];
+        EnergyView::add(s, link[3 * n + k], -1, ev.m.ei[k] == a);
+      }
+    const EnergyView::ManyBodyEnergy e = ev.many_body(a, s, shell_c ? shell_c[a] : 0.0);
+    out[a] = e.strain + e.bending;
+  }
+};
+struct PairEnergyKernel {
+  EnergyView ev;
+  const ContactPair* pairs;
+  double* out;
+  MCA_HD void operator()(std::size_t p) const { out[p] = ev.pair_contact(pairs[p]); }
+};
+struct GroundEnergyKernel {
+  EnergyView ev;
+  const BodyContact* list;
+  const ContactMaterial* ground;  // per group
+  Vec3 up;
+  float height;
+  double* out;
+  MCA_HD void operator()(std::size_t k) const { out[k] = ev.ground_contact(list[k], ground, up, height); }
+};
+// A chunk's sum of an array (chunk_sum: the energy check's fixed tree), for each chunk.
+struct ChunkSumKernel {
+  const double* x;
+  std::size_t n;
+  double* out;  // a value per chunk
+  MCA_HD void operator()(std::size_t chunk) const { out[chunk] = chunk_sum(x, n, chunk); }
+};
 // One thread: the projectiles' terms and the grips' work, in compute_energies' order.
 struct SerialEnergyKernel {
   EnergyView ev;
