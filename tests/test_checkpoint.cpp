@@ -286,7 +286,17 @@ TEST(Checkpoint, StateCheckRefusesEachBrokenInvariant) {
   no_ground.ground.enabled = false;
   const Engine bare(no_ground);
   ASSERT_EQ(bare.model().link_slots(), m.link_slots());
-  EXPECT_NE(test::error_of([&] { check_state(bare.model(), f.state, source); }).find("ground contacts are saved, and the scene has no ground"),
+  EXPECT_NE(test::error_of([&] { check_state(bare.model(), f.state, source); })
+                .find("the state has ground contacts (" + std::to_string(f.state.ground_contacts.size()) +
+                      "), and the scene has no ground"),
+            std::string::npos);
+  State no_lists = f.state;
+  no_lists.ground_contacts.clear();
+  for (auto& p : no_lists.projectiles) p.ground = {};
+  EXPECT_NO_THROW(check_state(bare.model(), no_lists, source));
+  no_lists.projectiles[0].ground.ut.x = 0.5f;  // (moves nothing without a ground: only the state's bits)
+  EXPECT_NE(test::error_of([&] { check_state(bare.model(), no_lists, source); })
+                .find("projectile 0 has a ground contact's history, and the scene has no ground"),
             std::string::npos);
   for (const auto& [expected, edit] : breaks) {
     SCOPED_TRACE(expected);

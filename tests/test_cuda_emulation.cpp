@@ -1109,21 +1109,33 @@ TEST(CudaEmulation, AnEmulatedGpuMemoryThatIsNotANumberIsRefused) {
 TEST(CudaEmulation, ADriverTooOldForTheRuntimeIsNamedWithTheOneItNeeds) {
   const std::string old = cuda_driver_problem(12020, 13000);
   EXPECT_NE(old.find("the NVIDIA driver supports CUDA 12.2 and this build's CUDA runtime 13.0 needs a driver for CUDA "
-                     "13 or later (NVIDIA's 580 series or newer): update the driver, or build mca with a CUDA toolkit "
-                     "of version 12.2 or older"),
+                     "13 or later (NVIDIA's 580 series or newer): update the driver, or build mca with a CUDA 12 toolkit"),
             std::string::npos)
       << old;
+  // Older than the device code takes: no toolkit of its version is offered.
+  const std::string older = cuda_driver_problem(11040, 13000);
+  EXPECT_NE(older.find("supports CUDA 11.4 and this build's CUDA runtime 13.0 needs a driver for CUDA 13 or later "
+                       "(NVIDIA's 580 series or newer): update the driver (mca's device code needs CUDA 12 or newer)"),
+            std::string::npos)
+      << older;
+  EXPECT_EQ(older.find("toolkit"), std::string::npos) << older;
   const std::string none = cuda_driver_problem(0, 12080);
   EXPECT_NE(none.find("no NVIDIA driver is installed"), std::string::npos) << none;
   EXPECT_NE(none.find("runtime 12.8 needs a driver for CUDA 12 or later (NVIDIA's 525 series or newer)"), std::string::npos)
       << none;
+  const std::string unread = cuda_driver_problem(-1, 13000);
+  EXPECT_NE(unread.find("could not be asked for its version"), std::string::npos) << unread;
+  EXPECT_EQ(unread.find("no NVIDIA driver is installed"), std::string::npos) << unread;
   const std::string later = cuda_driver_problem(13000, 14010);
-  EXPECT_NE(later.find("supports CUDA 13.0 and this build's CUDA runtime 14.1 needs a driver for CUDA 14 or later:"),
+  EXPECT_NE(later.find("supports CUDA 13.0 and this build's CUDA runtime 14.1 needs a driver for CUDA 14 or later: "
+                       "update the driver, or build mca with a CUDA 13 toolkit"),
             std::string::npos)
       << later;
   EXPECT_EQ(later.find("series"), std::string::npos) << later;  // (no series named that is not known)
   const std::string same = cuda_driver_problem(13000, 13010);
-  EXPECT_NE(same.find("the NVIDIA driver, for CUDA 13.0, is too old for this build's CUDA runtime 13.1"), std::string::npos)
+  EXPECT_NE(same.find("the NVIDIA driver, for CUDA 13.0, reports that it is too old for this build's CUDA runtime "
+                      "13.1: update it to the newest driver for CUDA 13 or later (NVIDIA's 580 series or newer)"),
+            std::string::npos)
       << same;
 }
 // mca info on a GPU backend says what its device arrays hold at the start, and describes a scene whose GPU

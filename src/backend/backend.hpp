@@ -197,9 +197,9 @@ CudaLattice cuda_lattice();
 // *why: a build without CUDA device code, no driver, no device.
 std::string cuda_device(std::string* why = nullptr);
 // Why a CUDA runtime of version `runtime` cannot start on a driver of version `driver` (both as CUDA gives them,
-// 1000 * major + 10 * minor; a driver of 0: none installed), for cuda_device's reason: which driver it needs (a
-// runtime of CUDA 12 or 13 runs on the driver series of that major version or later: 525 and 580) and the ways
-// out.
+// 1000 * major + 10 * minor; a driver of 0: none installed, -1: its version not read), for cuda_device's
+// reason: which driver it needs (a runtime of CUDA 12 or 13 runs on the driver series of that major version or
+// later: 525 and 580) and the ways out.
 std::string cuda_driver_problem(int driver, int runtime);
 // The CUDA backend on that GPU; throws mca::Error with the reason when there is none.
 std::unique_ptr<Backend> make_cuda_backend(const Model& model);

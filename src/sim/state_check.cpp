@@ -1,6 +1,7 @@
 #include "sim/state_check.hpp"
 
 #include <cmath>
+#include <cstring>
 #include <fmt/format.h>
 #include <type_traits>
 #include <vector>
@@ -259,7 +260,7 @@ void check_state(const Model& m, const State& s, const std::string& source) {
   // The ground's: automata sorted without repeats, and none where there is no ground (the ground pass runs
   // over the list as it is: an entry would be a ground nobody set).
   if (!m.ground && !s.ground_contacts.empty())
-    c.fail(fmt::format("{} ground contacts are saved, and the scene has no ground", s.ground_contacts.size()));
+    c.fail(fmt::format("the state has ground contacts ({}), and the scene has no ground", s.ground_contacts.size()));
   for (std::size_t k = 0; k < s.ground_contacts.size(); ++k) {
     const BodyContact& b = s.ground_contacts[k];
     if (b.automaton >= n) c.fail(fmt::format("ground contact {} names automaton {} of {}", k, b.automaton, n));
@@ -286,6 +287,9 @@ void check_state(const Model& m, const State& s, const std::string& source) {
     }
     if (!finite(ps.ground) || !std::isfinite(ps.work))
       c.fail(fmt::format("projectile {} has a non-finite ground contact or work", p));
+    const ContactHistory none{};
+    if (!m.ground && std::memcmp(&ps.ground, &none, sizeof none) != 0)
+      c.fail(fmt::format("projectile {} has a ground contact's history, and the scene has no ground", p));
   }
   const std::size_t np = m.projectiles.size();
   for (std::size_t k = 0; k < s.projectile_contacts.size(); ++k) {

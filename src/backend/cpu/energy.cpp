@@ -153,12 +153,13 @@ class TreeSum {
       s_ = 0;
     }
   }
-  double total() {
+  // (once: the chunks' sums are summed in place)
+  double total() && {
     if (count_ <= kSumChunk) return s_ + (chunks_.empty() ? 0.0 : chunks_[0]);  // (one of them is 0)
     if (count_ % kSumChunk) chunks_.push_back(s_);
     std::size_t n = chunks_.size();
     for (; n > kSumChunk; n = sum_chunks(n))
-      for (std::size_t c = 0; c < sum_chunks(n); ++c) chunks_[c] = chunk_sum(chunks_.data(), n, c);  // (in place: over a chunk summed before)
+      for (std::size_t c = 0; c < sum_chunks(n); ++c) chunks_[c] = chunk_sum(chunks_.data(), n, c);  // (over a chunk summed before)
     return chunk_sum(chunks_.data(), n, 0);
   }
 
@@ -235,13 +236,13 @@ Energies check_energies(const Model& m, const State& s) {
   for (double w : s.grip_work) grip += w;
   // Put together as DeviceBackend::device_energies does.
   Energies e;
-  e.kinetic = kinetic.total();
-  e.contact = pairs.total() + ground.total() + p_contact;
-  e.elastic = links.total() + many_body.total() + e.contact;
+  e.kinetic = std::move(kinetic).total();
+  e.contact = std::move(pairs).total() + std::move(ground).total() + p_contact;
+  e.elastic = std::move(links).total() + std::move(many_body).total() + e.contact;
   e.projectile_kinetic = p_kinetic;
-  e.gravity_work = gravity.total() + p_gravity;
+  e.gravity_work = std::move(gravity).total() + p_gravity;
   e.grip_work = grip;
-  e.load_work = m.load.empty() ? 0.0 : load.total();
+  e.load_work = m.load.empty() ? 0.0 : std::move(load).total();
   e.projectile_work = p_work;
   return e;
 }

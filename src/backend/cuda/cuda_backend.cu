@@ -18,8 +18,8 @@ std::string cuda_device(std::string* why) {
   int count = 0;
   const cudaError_t e = cudaGetDeviceCount(&count);
   if (e != cudaSuccess || count == 0) {
-    int driver = 0;
-    if (e == cudaErrorInsufficientDriver && cudaDriverGetVersion(&driver) != cudaSuccess) driver = 0;
+    int driver = 0;  // (0: none installed; -1: not read)
+    if (e == cudaErrorInsufficientDriver && cudaDriverGetVersion(&driver) != cudaSuccess) driver = -1;
     if (why)
       *why = e == cudaErrorInsufficientDriver ? cuda_driver_problem(driver, CUDART_VERSION)
              : e == cudaErrorNoDevice || e == cudaSuccess ? std::string("no NVIDIA GPU is present")

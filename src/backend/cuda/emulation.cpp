@@ -40,17 +40,27 @@ std::string cuda_driver_problem(int driver, int runtime) {
   const std::string needs =
       series ? fmt::format("a driver for CUDA {} or later (NVIDIA's {} series or newer)", major, series)
              : fmt::format("a driver for CUDA {} or later", major);
-  if (driver <= 0)
+  if (driver == 0)
     return fmt::format("no NVIDIA driver is installed (its library, libcuda.so.1, was not found); this build's CUDA "
                        "runtime {} needs {}",
                        version(runtime), needs);
-  if (driver / 1000 >= major)  // (the runtime's verdict, though the driver's major version is its own)
-    return fmt::format("the NVIDIA driver, for CUDA {}, is too old for this build's CUDA runtime {}, which needs {}: "
-                       "update the driver",
-                       version(driver), version(runtime), needs);
-  return fmt::format("the NVIDIA driver supports CUDA {} and this build's CUDA runtime {} needs {}: update the driver, "
-                     "or build mca with a CUDA toolkit of version {} or older (CMAKE_CUDA_COMPILER naming its nvcc)",
-                     version(driver), version(runtime), needs, version(driver));
+  if (driver < 0)
+    return fmt::format("the NVIDIA driver did not start this build's CUDA runtime {} and could not be asked for its "
+                       "version; the runtime needs {}",
+                       version(runtime), needs);
+  if (driver / 1000 >= major)  // (the runtime's verdict, though the driver is of its major version)
+    return fmt::format("the NVIDIA driver, for CUDA {}, reports that it is too old for this build's CUDA runtime {}: "
+                       "update it to the newest {}",
+                       version(driver), version(runtime), needs.substr(2));
+  // The device code needs CUDA 12 or newer (CMakeLists.txt), and a toolkit of the driver's major version runs
+  // on it.
+  const std::string rebuild =
+      driver / 1000 >= 12 ? fmt::format(", or build mca with a CUDA {} toolkit (CMAKE_CUDA_COMPILER naming its nvcc)",
+                                        driver / 1000)
+                          : std::string(" (mca's device code needs CUDA 12 or newer)");
+  return fmt::format("the NVIDIA driver supports CUDA {} and this build's CUDA runtime {} needs {}: update the "
+                     "driver{}",
+                     version(driver), version(runtime), needs, rebuild);
 }
 
 namespace gpu {
