@@ -313,6 +313,21 @@ inline SceneDef pulled_bar(int n, double d, const MaterialDef& mat, double speed
   return sc;
 }
 
+// A cantilever of 20 x 2 x 2 automata 1 cm apart, held at one end by a grip and under a [[load]] of 200 N
+// down at the other, no gravity.
+inline SceneDef loaded_cantilever() {
+  SceneDef s = block_scene(20, 2, 2, 0.01);
+  s.name = "loaded_cantilever";
+  GripDef hold;
+  layer_box(20, 0, 0, 0.01, hold.min, hold.max);
+  s.grips.push_back(hold);
+  LoadDef load;
+  layer_box(20, 19, 0, 0.01, load.min, load.max);
+  load.force = {0, 0, -200};
+  s.loads.push_back(load);
+  return s;
+}
+
 // Uniformly random velocities in [-v_scale, v_scale] and angular velocities in [-w_scale, w_scale] on
 // every automaton (a fixed seed: the same numbers every run).
 inline void randomise_velocities(Engine& sim, double v_scale, double w_scale, unsigned seed) {

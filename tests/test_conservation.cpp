@@ -248,15 +248,7 @@ TEST(Energy, StrengtheningKeepsTheEnergy) {
 // A cantilever under a [[load]] with no gravity: the load's work is counted, so the run is not taken for
 // a blow-up (it stopped at its first frame) and kinetic + elastic - load work is conserved.
 TEST(Energy, ALoadsWorkIsCounted) {
-  SceneDef s = block_scene(20, 2, 2, 0.01);
-  GripDef hold;
-  test::layer_box(20, 0, 0, 0.01, hold.min, hold.max);
-  s.grips.push_back(hold);
-  LoadDef load;
-  test::layer_box(20, 19, 0, 0.01, load.min, load.max);
-  load.force = {0, 0, -200};
-  s.loads.push_back(load);
-  Engine sim(s);
+  Engine sim(test::loaded_cantilever());
   double worst = 0, most_work = 0;
   for (int k = 0; k < 50; ++k) {
     const StepHealth h = sim.advance(Engine::kEnergyCheckInterval);

@@ -121,17 +121,19 @@ std::size_t shared_automata(const State& s) {
 // The energies Engine's check takes from each backend (Backend::energies): the same bits, so that a run stops
 // or goes on at the same step on each (a checkpoint whose starting energy put the check on the edge stopped
 // the CPU's run and not the emulation's, found by a hostile review).
+// Each field of two Energies, named.
+std::vector<std::pair<const char*, std::pair<double, double>>> energy_fields(const Energies& a, const Energies& b) {
+  return {{"kinetic", {a.kinetic, b.kinetic}},
+          {"elastic", {a.elastic, b.elastic}},
+          {"contact", {a.contact, b.contact}},
+          {"projectile_kinetic", {a.projectile_kinetic, b.projectile_kinetic}},
+          {"gravity_work", {a.gravity_work, b.gravity_work}},
+          {"grip_work", {a.grip_work, b.grip_work}},
+          {"load_work", {a.load_work, b.load_work}},
+          {"projectile_work", {a.projectile_work, b.projectile_work}}};
+}
 void expect_same_energies(const Energies& second, const Energies& first, std::int64_t step) {
-  const std::pair<const char*, std::pair<double, double>> fields[] = {
-      {"kinetic", {second.kinetic, first.kinetic}},
-      {"elastic", {second.elastic, first.elastic}},
-      {"contact", {second.contact, first.contact}},
-      {"projectile_kinetic", {second.projectile_kinetic, first.projectile_kinetic}},
-      {"gravity_work", {second.gravity_work, first.gravity_work}},
-      {"grip_work", {second.grip_work, first.grip_work}},
-      {"load_work", {second.load_work, first.load_work}},
-      {"projectile_work", {second.projectile_work, first.projectile_work}}};
-  for (const auto& [name, v] : fields)
+  for (const auto& [name, v] : energy_fields(second, first))
     EXPECT_TRUE(same_bits(v.first, v.second)) << name << " of the energy check after step " << step << ": "
                                               << fmt::format("{:a} against {:a}", v.first, v.second);
 }
@@ -141,16 +143,7 @@ void expect_energies_close(const Energies& device, const Energies& host, std::in
   const double scale = std::fabs(host.kinetic) + std::fabs(host.elastic) + std::fabs(host.projectile_kinetic) +
                        std::fabs(host.gravity_work) + std::fabs(host.grip_work) + std::fabs(host.load_work) +
                        std::fabs(host.projectile_work) + 1e-300;
-  const std::pair<const char*, std::pair<double, double>> fields[] = {
-      {"kinetic", {device.kinetic, host.kinetic}},
-      {"elastic", {device.elastic, host.elastic}},
-      {"contact", {device.contact, host.contact}},
-      {"projectile_kinetic", {device.projectile_kinetic, host.projectile_kinetic}},
-      {"gravity_work", {device.gravity_work, host.gravity_work}},
-      {"grip_work", {device.grip_work, host.grip_work}},
-      {"load_work", {device.load_work, host.load_work}},
-      {"projectile_work", {device.projectile_work, host.projectile_work}}};
-  for (const auto& [name, v] : fields)
+  for (const auto& [name, v] : energy_fields(device, host))
     EXPECT_LE(std::fabs(v.first - v.second), 1e-12 * scale)
         << name << " after step " << step << ": " << v.first << " on the device, " << v.second << " from the state";
 }
@@ -316,23 +309,9 @@ SceneDef colliding_balls() {
   s.projectiles = {a, b};
   return s;
 }
-// A cantilever held at one end under a [[load]] at the other, no gravity (the load's work in the energy
-// check).
-SceneDef loaded_cantilever() {
-  SceneDef s = test::block_scene(20, 2, 2, 0.01);
-  s.name = "loaded_cantilever";
-  GripDef hold;
-  test::layer_box(20, 0, 0, 0.01, hold.min, hold.max);
-  s.grips.push_back(hold);
-  LoadDef load;
-  test::layer_box(20, 19, 0, 0.01, load.min, load.max);
-  load.force = {0, 0, -200};
-  s.loads.push_back(load);
-  return s;
-}
 TEST(CudaEmulation, GripsAndCollidingBallsAreTheCpusBitForBit) {
   EXPECT_GT(run_both(pulled_bar(), 4000, 1000).breaks, 0);
-  run_both(loaded_cantilever(), 1500, 256);
+  run_both(test::loaded_cantilever(), 1500, 256);  // (the load's work in the energy check)
   const Compared d = run_both(colliding_balls(), 8000, 50);
   EXPECT_GT(d.breaks, 0);
   EXPECT_GT(d.projectile_contacts, 0u);
@@ -1277,7 +1256,7 @@ TEST(CudaDevice, TheCowShellIsTheCpusBitForBit) {
 TEST(CudaDevice, GripsAndBallsAreTheCpusBitForBit) {
   MCA_NEEDS_GPU();
   EXPECT_GT(run_both(pulled_bar(), 4000, 1000, kCuda).breaks, 0);
-  run_both(loaded_cantilever(), 1500, 256, kCuda);
+  run_both(test::loaded_cantilever(), 1500, 256, kCuda);
   EXPECT_GT(run_both(colliding_balls(), 8000, 50, kCuda).pairs, 0u);
   EXPECT_GT(run_both(three_balls(), 3000, 100, kCuda).shared, 0u);
 }

@@ -66,6 +66,37 @@ double shell_bending_constant(const Model& m, std::size_t a) {
 
 namespace {
 
+// The projectiles' terms in compute_energies' order (the CUDA backend's SerialEnergyKernel's): for each
+// projectile its kinetic energy, then its work (kinematic) or gravity's, its contacts and its ground contact;
+// then the projectile pairs. Each handed to the caller's sum of its kind.
+struct ProjectileTerms {
+  double kinetic = 0, gravity = 0, work = 0, contact = 0;
+};
+template <class Add>
+void for_each_projectile_term(const Model& m, const State& s, const EnergyView& at, Add&& add) {
+  for (std::size_t p = 0; p < m.projectiles.size(); ++p) {
+    const auto& P = m.projectiles[p];
+    const auto& ps = s.projectiles[p];
+    add(&ProjectileTerms::kinetic,
+        at.projectile_kinetic(ps.velocity, ps.angular_velocity, ps.force, P.mass, P.inertia, P.kinematic));
+    const DVec3 xp = at.projectile_at(ps.position, ps.velocity);
+    if (P.kinematic) add(&ProjectileTerms::work, ps.work);
+    else add(&ProjectileTerms::gravity, P.mass * dotd(m.gravity, delta(P.position, xp)));
+    for (const auto& c : ps.contacts)
+      add(&ProjectileTerms::contact, at.projectile_contact(c, xp, P.radius, m.projectile_contact(p, m.group[c.automaton])));
+    if (m.ground)
+      add(&ProjectileTerms::contact,
+          EnergyView::on_ground(xp, P.radius, m.projectile_ground_contact(p), ps.ground, m.up, m.ground_height));
+  }
+  for (const auto& c : s.projectile_contacts) {
+    const auto &A = m.projectiles[c.p], &B = m.projectiles[c.q];
+    const auto &a = s.projectiles[c.p], &b = s.projectiles[c.q];
+    add(&ProjectileTerms::contact,
+        EnergyView::projectile_pair(at.projectile_at(a.position, a.velocity), at.projectile_at(b.position, b.velocity),
+                                    A.radius, B.radius, m.projectile_pair_contact(c.p, c.q), c.h));
+  }
+}
+
 Energies energies_of(const Model& m, const State& s, bool sync) {
   // The explicit links' bending constants (Model::explicit_bending).
   const std::size_t ne = m.explicit_links.size();
@@ -107,27 +138,13 @@ Energies energies_of(const Model& m, const State& s, bool sync) {
   double contact = 0;
   for (const auto& c : s.contacts) contact += at.pair_contact(c);
   for (const auto& c : s.ground_contacts) contact += at.ground_contact(c, m.ground_contact.data(), m.up, m.ground_height);
-  for (std::size_t p = 0; p < m.projectiles.size(); ++p) {
-    const auto& P = m.projectiles[p];
-    const auto& ps = s.projectiles[p];
-    e.projectile_kinetic += at.projectile_kinetic(ps.velocity, ps.angular_velocity, ps.force, P.mass, P.inertia, P.kinematic);
-    const DVec3 xp = at.projectile_at(ps.position, ps.velocity);
-    if (P.kinematic) {
-      e.projectile_work += ps.work;
-    } else {
-      e.gravity_work += P.mass * dotd(m.gravity, delta(P.position, xp));
-    }
-    for (const auto& c : ps.contacts)
-      contact += at.projectile_contact(c, xp, P.radius, m.projectile_contact(p, m.group[c.automaton]));
-    if (m.ground)
-      contact += EnergyView::on_ground(xp, P.radius, m.projectile_ground_contact(p), ps.ground, m.up, m.ground_height);
-  }
-  for (const auto& c : s.projectile_contacts) {
-    const auto &A = m.projectiles[c.p], &B = m.projectiles[c.q];
-    const auto &a = s.projectiles[c.p], &b = s.projectiles[c.q];
-    contact += EnergyView::projectile_pair(at.projectile_at(a.position, a.velocity), at.projectile_at(b.position, b.velocity),
-                                           A.radius, B.radius, m.projectile_pair_contact(c.p, c.q), c.h);
-  }
+  // (into the running sums: the projectiles' gravity work onto the automata's, their contacts onto the others)
+  for_each_projectile_term(m, s, at, [&](double ProjectileTerms::*kind, double v) {
+    if (kind == &ProjectileTerms::kinetic) e.projectile_kinetic += v;
+    else if (kind == &ProjectileTerms::work) e.projectile_work += v;
+    else if (kind == &ProjectileTerms::gravity) e.gravity_work += v;
+    else contact += v;
+  });
   e.contact = contact;
   e.elastic += contact;
   for (double w : s.grip_work) e.grip_work += w;
@@ -213,37 +230,21 @@ Energies check_energies(const Model& m, const State& s) {
   }
   for (const auto& c : s.contacts) pairs.add(ev.pair_contact(c));
   for (const auto& c : s.ground_contacts) ground.add(ev.ground_contact(c, m.ground_contact.data(), m.up, m.ground_height));
-  // The projectiles and grips serially, in compute_energies' order (SerialEnergyKernel's one thread).
-  double p_kinetic = 0, p_gravity = 0, p_work = 0, p_contact = 0, grip = 0;
-  for (std::size_t p = 0; p < m.projectiles.size(); ++p) {
-    const auto& P = m.projectiles[p];
-    const auto& ps = s.projectiles[p];
-    p_kinetic += ev.projectile_kinetic(ps.velocity, ps.angular_velocity, ps.force, P.mass, P.inertia, P.kinematic);
-    const DVec3 xp = ev.projectile_at(ps.position, ps.velocity);
-    if (P.kinematic) p_work += ps.work;
-    else p_gravity += P.mass * dotd(m.gravity, delta(P.position, xp));
-    for (const auto& c : ps.contacts)
-      p_contact += ev.projectile_contact(c, xp, P.radius, m.projectile_contact(p, m.group[c.automaton]));
-    if (m.ground)
-      p_contact += EnergyView::on_ground(xp, P.radius, m.projectile_ground_contact(p), ps.ground, m.up, m.ground_height);
-  }
-  for (const auto& c : s.projectile_contacts) {
-    const auto &A = m.projectiles[c.p], &B = m.projectiles[c.q];
-    const auto &a = s.projectiles[c.p], &b = s.projectiles[c.q];
-    p_contact += EnergyView::projectile_pair(ev.projectile_at(a.position, a.velocity), ev.projectile_at(b.position, b.velocity),
-                                             A.radius, B.radius, m.projectile_pair_contact(c.p, c.q), c.h);
-  }
+  // The projectiles and grips serially, each kind on its own (SerialEnergyKernel's one thread).
+  ProjectileTerms p;
+  for_each_projectile_term(m, s, ev, [&](double ProjectileTerms::*kind, double v) { p.*kind += v; });
+  double grip = 0;
   for (double w : s.grip_work) grip += w;
   // Put together as DeviceBackend::device_energies does.
   Energies e;
   e.kinetic = std::move(kinetic).total();
-  e.contact = std::move(pairs).total() + std::move(ground).total() + p_contact;
+  e.contact = std::move(pairs).total() + std::move(ground).total() + p.contact;
   e.elastic = std::move(links).total() + std::move(many_body).total() + e.contact;
-  e.projectile_kinetic = p_kinetic;
-  e.gravity_work = std::move(gravity).total() + p_gravity;
+  e.projectile_kinetic = p.kinetic;
+  e.gravity_work = std::move(gravity).total() + p.gravity;
   e.grip_work = grip;
   e.load_work = m.load.empty() ? 0.0 : std::move(load).total();
-  e.projectile_work = p_work;
+  e.projectile_work = p.work;
   return e;
 }
 
