@@ -179,11 +179,13 @@ struct EnergyView {
     return e;
   }
 
-  // What link l (its energy e) adds to the sums of end a (first: a is its first end).
+  // What link l (its energy e) adds to the sums of end a (first: a is its first end); axis -1 for an explicit
+  // link, which is never of the lattice's kind.
   MCA_HD static void add(ManyBodySums& s, const LinkEnergy& e, int axis, bool first) {
     const double x = first ? e.si : e.sj;
     switch (e.kind) {
       case LinkEnergy::lattice:
+        if (axis < 0) break;
         s.axis[axis] += x;
         ++s.count[axis];
         break;

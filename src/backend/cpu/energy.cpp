@@ -25,8 +25,23 @@ namespace mca {
 // by O(omega dt). Computed per access rather than in a copy of the state (which doubled the peak memory of
 // a run at every frame).
 namespace {
-EnergyView energy_view(const Model& m, const State& s, bool sync, const float* k_twist, const float* k_in,
-                       const float* k_out) {
+// The explicit links' bending constants (Model::explicit_bending), as the terms read them.
+struct LinkBendingTables {
+  std::vector<float> k_twist, k_in, k_out;
+  explicit LinkBendingTables(const Model& m) {
+    const std::size_t ne = m.explicit_links.size();
+    k_twist.resize(ne);
+    k_in.resize(ne);
+    k_out.resize(ne);
+    for (std::size_t k = 0; k < ne; ++k) {
+      const LinkBendingConstants bc = m.explicit_bending(k);
+      k_twist[k] = bc.k_twist;
+      k_in[k] = bc.k_in;
+      k_out[k] = bc.k_out;
+    }
+  }
+};
+EnergyView energy_view(const Model& m, const State& s, bool sync, const LinkBendingTables& bending) {
   EnergyView v;
   v.m = m.view();
   v.neighbour = m.neighbour.data();
@@ -37,9 +52,9 @@ EnergyView energy_view(const Model& m, const State& s, bool sync, const float* k
   v.volume = m.volume.data();
   v.grip = m.grip.data();
   v.load = m.load.empty() ? nullptr : m.load.data();
-  v.k_twist = k_twist;
-  v.k_in = k_in;
-  v.k_out = k_out;
+  v.k_twist = bending.k_twist.data();
+  v.k_in = bending.k_in.data();
+  v.k_out = bending.k_out.data();
   v.free_face = m.free_face.empty() ? nullptr : m.free_face.data();
   v.gravity = m.gravity;
   v.dt = m.dt;
@@ -98,16 +113,8 @@ void for_each_projectile_term(const Model& m, const State& s, const EnergyView& 
 }
 
 Energies energies_of(const Model& m, const State& s, bool sync) {
-  // The explicit links' bending constants (Model::explicit_bending).
-  const std::size_t ne = m.explicit_links.size();
-  std::vector<float> k_twist(ne), k_in(ne), k_out(ne);
-  for (std::size_t k = 0; k < ne; ++k) {
-    const LinkBendingConstants bc = m.explicit_bending(k);
-    k_twist[k] = bc.k_twist;
-    k_in[k] = bc.k_in;
-    k_out[k] = bc.k_out;
-  }
-  const EnergyView at = energy_view(m, s, sync, k_twist.data(), k_in.data(), k_out.data());
+  const LinkBendingTables bending(m);
+  const EnergyView at = energy_view(m, s, sync, bending);
   Energies e;
   const std::size_t n = m.size();
   for (std::size_t a = 0; a < n; ++a) {
@@ -189,14 +196,8 @@ class TreeSum {
 
 Energies check_energies(const Model& m, const State& s) {
   const std::size_t n = m.size(), L = m.link_slots(), ne = m.explicit_links.size();
-  std::vector<float> k_twist(ne), k_in(ne), k_out(ne);
-  for (std::size_t k = 0; k < ne; ++k) {
-    const LinkBendingConstants bc = m.explicit_bending(k);
-    k_twist[k] = bc.k_twist;
-    k_in[k] = bc.k_in;
-    k_out[k] = bc.k_out;
-  }
-  const EnergyView ev = energy_view(m, s, s.f.size() == n && s.step > 0, k_twist.data(), k_in.data(), k_out.data());
+  const LinkBendingTables bending(m);
+  const EnergyView ev = energy_view(m, s, s.f.size() == n && s.step > 0, bending);
   // Each term as the CUDA backend's kernels form it (AutomatonEnergyKernel, LinkEnergyKernel and the others in
   // device_kernels.hpp), taken in element order into the fixed tree, so with the device's bits.
   TreeSum kinetic, gravity, load, links, many_body, pairs, ground;
