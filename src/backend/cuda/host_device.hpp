@@ -2,8 +2,8 @@
 // The host emulation of the CUDA backend's device: buffers in host memory, a kernel launch as a loop over
 // the thread indices in order, and the device-wide primitives (scan, stable sort by key, the max and min of
 // a launch) as their serial twins, which give the same results as the CUDA ones (integer scans and sorts,
-// and the max and min of values, do not depend on the order of evaluation). The primitives' results stay in "device"
-// arrays: the step logic reads them only through download, as it must on a GPU. DeviceBackend<HostDevice>
+// and the max and min of values, do not depend on the order of evaluation). The primitives' results stay in
+// "device" arrays: the step logic reads them only through download, as it must on a GPU. DeviceBackend<HostDevice>
 // runs every line of the CUDA backend's step logic on a machine without a GPU; CI checks it bit for bit
 // against the CPU.
 #include <algorithm>
