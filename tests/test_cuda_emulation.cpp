@@ -118,9 +118,6 @@ std::size_t shared_automata(const State& s) {
   return static_cast<std::size_t>(std::count_if(lists.begin(), lists.end(), [](const auto& e) { return e.second > 1; }));
 }
 
-// The energies Engine's check takes from each backend (Backend::energies): the same bits, so that a run stops
-// or goes on at the same step on each (a checkpoint whose starting energy put the check on the edge stopped
-// the CPU's run and not the emulation's, found by a hostile review).
 // Each field of two Energies, named.
 std::vector<std::pair<const char*, std::pair<double, double>>> energy_fields(const Energies& a, const Energies& b) {
   return {{"kinetic", {a.kinetic, b.kinetic}},
@@ -132,6 +129,9 @@ std::vector<std::pair<const char*, std::pair<double, double>>> energy_fields(con
           {"load_work", {a.load_work, b.load_work}},
           {"projectile_work", {a.projectile_work, b.projectile_work}}};
 }
+// The energies Engine's check takes from each backend (Backend::energies): the same bits, so that a run stops
+// or goes on at the same step on each (a checkpoint whose starting energy put the check on the edge stopped
+// the CPU's run and not the emulation's, found by a hostile review).
 void expect_same_energies(const Energies& second, const Energies& first, std::int64_t step) {
   for (const auto& [name, v] : energy_fields(second, first))
     EXPECT_TRUE(same_bits(v.first, v.second)) << name << " of the energy check after step " << step << ": "

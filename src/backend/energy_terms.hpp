@@ -287,6 +287,9 @@ struct EnergyView {
 
 // The bending constant of automaton a's shell (bending_many_body_constant), for one with shell links.
 double shell_bending_constant(const Model& m, std::size_t a);
+// That constant as the energy check takes it (check_energies, and the CUDA backend's per-automaton array):
+// for every automaton of a shell, the links it has left or not; 0 for the others.
+double shell_check_constant(const Model& m, std::size_t a);
 
 // The fixed tree of the energy check's sums (Backend::energies), the same on every backend: an array of n
 // values is cut into chunks of kSumChunk, each summed in order (chunk_sum); the chunks' sums are summed the

@@ -79,6 +79,11 @@ double shell_bending_constant(const Model& m, std::size_t a) {
   return bending_many_body_constant(g.youngs, g.poisson, E.area[l0] / E.edge[l0], m.volume[a]);
 }
 
+double shell_check_constant(const Model& m, std::size_t a) {
+  const auto& E = m.explicit_links;
+  return !E.first.empty() && E.first[a + 1] > E.first[a] && !m.random_automaton(a) ? shell_bending_constant(m, a) : 0.0;
+}
+
 namespace {
 
 // The projectiles' terms in compute_energies' order (the CUDA backend's SerialEnergyKernel's): for each
@@ -179,8 +184,8 @@ class TreeSum {
   }
   // (once: the chunks' sums are summed in place)
   double total() && {
-    if (count_ <= kSumChunk) return s_ + (chunks_.empty() ? 0.0 : chunks_[0]);  // (one of them is 0)
-    if (count_ % kSumChunk) chunks_.push_back(s_);
+    // The last chunk's sum (0 for none); up to one chunk, 0 + its sum is its sum (a sum from +0 is never -0).
+    if (count_ % kSumChunk || count_ == 0) chunks_.push_back(s_);
     std::size_t n = chunks_.size();
     for (; n > kSumChunk; n = sum_chunks(n))
       for (std::size_t c = 0; c < sum_chunks(n); ++c) chunks_[c] = chunk_sum(chunks_.data(), n, c);  // (over a chunk summed before)
@@ -195,22 +200,22 @@ class TreeSum {
 }  // namespace
 
 Energies check_energies(const Model& m, const State& s) {
-  const std::size_t n = m.size(), L = m.link_slots(), ne = m.explicit_links.size();
+  const std::size_t n = m.size(), L = m.link_slots();
   const LinkBendingTables bending(m);
   const EnergyView ev = energy_view(m, s, s.f.size() == n && s.step > 0, bending);
   // Each term as the CUDA backend's kernels form it (AutomatonEnergyKernel, LinkEnergyKernel and the others in
   // device_kernels.hpp), taken in element order into the fixed tree, so with the device's bits.
   TreeSum kinetic, gravity, load, links, many_body, pairs, ground;
+  std::vector<ManyBodySums> sums(n);
   for (std::size_t a = 0; a < n; ++a) {
     const AutomatonEnergy x = ev.automaton(a);
     kinetic.add(x.kinetic);
     gravity.add(x.gravity_work);
     load.add(x.load_work);
+    sums[a] = ev.sums(a);
   }
   // Every slot, a link or not; each link's many-body parts onto its ends, as ManyBodyEnergyKernel gathers them
   // (per end, its lattice links per axis and its explicit links in increasing order).
-  std::vector<ManyBodySums> sums(n);
-  for (std::size_t a = 0; a < n; ++a) sums[a] = ev.sums(a);
   for (std::size_t l = 0; l < L; ++l) {
     const LinkEnergy x = ev.link(l);
     links.add(x.elastic + x.bending);
@@ -224,9 +229,7 @@ Energies check_energies(const Model& m, const State& s) {
     }
   }
   for (std::size_t a = 0; a < n; ++a) {
-    // (the device's shell constants: every automaton of a shell, whether it has links left or not)
-    const bool shell = ne > 0 && m.explicit_links.first[a + 1] > m.explicit_links.first[a] && !m.random_automaton(a);
-    const EnergyView::ManyBodyEnergy x = ev.many_body(a, sums[a], shell ? shell_bending_constant(m, a) : 0.0);
+    const EnergyView::ManyBodyEnergy x = ev.many_body(a, sums[a], shell_check_constant(m, a));
     many_body.add(x.strain + x.bending);
   }
   for (const auto& c : s.contacts) pairs.add(ev.pair_contact(c));

@@ -170,11 +170,10 @@ class DeviceBackend : public StateBackend {
     grip_force_.resize(m.grip_velocity.size());
     grip_work_.resize(m.grip_velocity.size());
     mv_ = model_view();
-    // The shells' bending constants for the energies.
+    // The shells' bending constants for the energies (0 off the explicit automata).
     if (K_.shells_any) {
       std::vector<double> shell_c(n, 0.0);
-      for (const std::uint32_t a : K_.explicit_automata)
-        if (!m.random_automaton(a)) shell_c[a] = shell_bending_constant(m, a);
+      for (const std::uint32_t a : K_.explicit_automata) shell_c[a] = shell_check_constant(m, a);
       Dev::upload(shell_c_, shell_c);
     }
   }
