@@ -290,12 +290,9 @@ int bench(const std::vector<std::string>& names, bool json, int threads_requeste
       if (backend) b.scene.solver.backend = backend_chosen;
       Engine sim(b.scene);
       if (!json && first) {
-        // The threads are the CPU backend's; the emulation steps on one, the GPU on the device.
         const std::string name = sim.backend().name();
         const bool cpu = name.rfind("cpu", 0) == 0;
-        const std::string used = cpu                                    ? fmt::format("using {}", threads)
-                                 : name.rfind("cuda-emulation", 0) == 0 ? std::string("the emulation uses one")
-                                                                         : std::string("the step runs on the GPU");
+        const std::string used = "steps on " + steps_run_on(name, threads);
         // The CUDA backend's lattice kernels as chosen (cuda_lattice; a lattice with explicit links takes
         // the split ones whatever the choice).
         const CudaLattice how = cuda_lattice();

@@ -43,6 +43,9 @@ struct ViewOptions {
 int view(const ViewOptions& options);
 // Worker threads for --threads N: all cores for 0, at most the cores there are; negative is an error.
 int thread_count(int requested);
+// Where a backend's steps run, for the progress lines: "2 threads" (the CPU backend's worker threads), "one
+// core" (cuda-emulation steps on one whatever the threads), "the GPU" (cuda).
+std::string steps_run_on(const std::string& backend, int threads);
 // Renders the frames it adds when the run was rendered (render/render.json), unless no_render.
 int resume(const std::string& out_dir, int threads, bool quiet, bool no_render = false,
            const std::optional<std::string>& backend = std::nullopt);

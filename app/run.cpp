@@ -479,11 +479,12 @@ int run_loop(Loop& L, FrameWriter& writer) {
   }
   if (!L.quiet) {
     const State& s = sim.state();
-    fmt::print(stderr, "{}done: {} automata, {} steps in {:.1f} s ({:.2f} M automaton-steps/s on {} threads, backend {}); "
+    fmt::print(stderr, "{}done: {} automata, {} steps in {:.1f} s ({:.2f} M automaton-steps/s on {}, backend {}); "
                "broken links {} (displacement {}, stress {}); {} fragments.\noutput: {}\n",
                tty ? "\n" : "", m.size(), s.step - first_step, wall,
-               wall > 0 ? (s.step - first_step) * static_cast<double>(m.size()) / wall / 1e6 : 0.0, L.threads,
-               sim.backend().name(), s.broken_by[0] + s.broken_by[1], s.broken_by[0], s.broken_by[1], frags.count, L.dir.string());
+               wall > 0 ? (s.step - first_step) * static_cast<double>(m.size()) / wall / 1e6 : 0.0,
+               steps_run_on(sim.backend().name(), L.threads), sim.backend().name(), s.broken_by[0] + s.broken_by[1],
+               s.broken_by[0], s.broken_by[1], frags.count, L.dir.string());
   }
   return 0;
 }
@@ -495,6 +496,11 @@ int thread_count(int requested) {
   // More threads than the machine runs at once would not run: the count reported is the one used.
   const int cores = tbb::info::default_concurrency();
   return requested == 0 ? cores : std::min(requested, cores);
+}
+
+std::string steps_run_on(const std::string& backend, int threads) {
+  if (backend.rfind("cpu", 0) == 0) return fmt::format("{} thread{}", threads, threads == 1 ? "" : "s");
+  return backend.rfind("cuda-emulation", 0) == 0 ? "one core" : "the GPU";
 }
 
 int run(const RunOptions& o) {
@@ -599,10 +605,10 @@ int run(const RunOptions& o) {
     const Model& m = sim.model();
     const std::string name = lattice_name(m, scene.solver.lattice_jitter);
     const std::string lattice = name.empty() ? "" : fmt::format(" on the {} lattice", name);
-    fmt::print(stderr, "mca: {} automata{}, {} links, time step {:.4g} s, {} steps per frame, {} frames, {} steps, "
-               "{} threads; about {} of output\n",
+    fmt::print(stderr, "mca: {} automata{}, {} links, time step {:.4g} s, {} steps per frame, {} frames, {} steps "
+               "on {}; about {} of output\n",
                m.size(), lattice, m.link_count(), m.dt, sim.steps_per_frame(), plan.total_frames, plan.total_steps,
-               threads, human_bytes(estimate.total()));
+               steps_run_on(sim.backend().name(), threads), human_bytes(estimate.total()));
   }
   // The renderer before any output: a missing OpenGL or a camera that sees nothing stops here.
   std::unique_ptr<RenderOutput> render;

@@ -10,8 +10,8 @@ OUT.obj   the automata (or surface) and the projectiles of every frame through B
           per frame (OUT0.obj, OUT1.obj, ...: the name with the frame number; y up as OBJ readers expect, the
           colours as vertex colours), which every Blender can write;
 OUT.png   one frame (the last one, or --frame N) rendered with the Workbench (--engine workbench, the
-          default: a second or two), Eevee (--engine eevee: its shaders take a few seconds to compile) or
-          Cycles on the CPU (--engine cycles, --samples N);
+          default: a few seconds), Eevee (--engine eevee: 15 s to a minute on 2 CPU cores, most of it
+          compiling its shaders) or Cycles on the CPU (--engine cycles, --samples N);
 OUT.blend the scene saved as a .blend.
 
 Options: --frame N (the frame of a .png; default: the last), --frames N (import only the first N frames),
