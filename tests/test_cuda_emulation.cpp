@@ -318,6 +318,38 @@ TEST(CudaEmulation, GripsAndCollidingBallsAreTheCpusBitForBit) {
   EXPECT_GT(d.pairs, 0u) << "the balls never met";
 }
 
+// A ball breaking a block on the ground 9.4e5 m from the origin (a scene may go to 1e6 m), off every axis,
+// where a position's last place is 1.2e-10 m: the CUDA backend's arithmetic on positions (the links'
+// lengths, contacts, the ground, the projectile) keeps the CPU's order there too, on both lattices.
+SceneDef far_from_origin(SolverDef::Lattice lattice) {
+  const Vec3d at{-5.7e5, 4.1e5, 6.2e5};
+  SceneDef s = test::block_scene(6, 4, 6, 0.05, *find_builtin_material("concrete"));
+  s.name = lattice == SolverDef::Lattice::cubic ? "far_from_origin_cubic" : "far_from_origin_random";
+  s.solver.lattice = lattice;
+  s.solver.gravity = {0, 0, -9.81};
+  s.ground.enabled = true;
+  s.ground.height = at[2];
+  s.objects[0].position = {at[0], at[1], at[2] + 0.15};
+  ProjectileDef ball;
+  ball.name = "ball";
+  ball.radius = 0.05;
+  ball.position = {at[0], at[1] - 0.2, at[2] + 0.15};
+  ball.velocity = {0, 30, 0};
+  s.projectiles = {ball};
+  return s;
+}
+void far_from_origin_on(SolverDef::Backend second) {
+  for (const auto lattice : {SolverDef::Lattice::cubic, SolverDef::Lattice::random}) {
+    const Compared c = run_both(far_from_origin(lattice), 2000, 100, second);
+    EXPECT_GT(c.breaks, 0);
+    EXPECT_GT(c.ground, 0u);
+    EXPECT_GT(c.projectile_contacts, 0u);
+  }
+}
+TEST(CudaEmulation, AnObjectFarFromTheOriginIsTheCpusBitForBit) {
+  far_from_origin_on(SolverDef::Backend::cuda_emulation);
+}
+
 // The two ways the CUDA backend runs a lattice without explicit links (MCA_CUDA_LATTICE, read as a backend
 // is made): one fused kernel, each automaton computing its six links (the default), or the links and
 // automata kernels apart. Each is the CPU's bit for bit on the cubic wall as it is (instant break,
@@ -1259,6 +1291,10 @@ TEST(CudaDevice, GripsAndBallsAreTheCpusBitForBit) {
   run_both(test::loaded_cantilever(), 1500, 256, kCuda);
   EXPECT_GT(run_both(colliding_balls(), 8000, 50, kCuda).pairs, 0u);
   EXPECT_GT(run_both(three_balls(), 3000, 100, kCuda).shared, 0u);
+}
+TEST(CudaDevice, AnObjectFarFromTheOriginIsTheCpusBitForBit) {
+  MCA_NEEDS_GPU();
+  far_from_origin_on(kCuda);
 }
 TEST(CudaDevice, TheDrawListIsTheHostSnapshots) {
   MCA_NEEDS_GPU();
