@@ -1,7 +1,9 @@
 // Values at the extremes get messages with the right numbers and a fix (no inf, nan or a step of 0 s), and
 // each documented range of docs/scene-format.md holds at its edges: the edge works, past it is refused.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -138,6 +140,54 @@ TEST(RangeEdges, TheSmallestTimeStepWorks) {
   EXPECT_HAS(scene_error("[solver]\ntime_step = 1.0001"), "solver.time_step = 1.0001 is out of range");
   // The upper edge is read, and refused by the step's own bound (it is far above this cube's critical step).
   EXPECT_HAS(engine_error("[solver]\ntime_step = 1"), "solver.time_step");
+}
+
+// A given time step counts a frame's steps as written: time_step = 1e-6 is 9.99999997e-7 as a float, and
+// frames of 2e-6 s were three steps of it (the hostile review of 2026-12-05).
+TEST(RangeEdges, AGivenTimeStepFillsAFrameWithTheStepsItSays) {
+  EXPECT_EQ(Engine(cube("[solver]\ntime_step = 1e-6\n[output]\nframe_rate = 5e5\nduration = 1e-4")).steps_per_frame(), 2);
+  EXPECT_EQ(Engine(cube("[solver]\ntime_step = 1e-6\n[output]\nframe_rate = 1e6\nduration = 1e-4")).steps_per_frame(), 1);
+  EXPECT_EQ(Engine(cube("[solver]\ntime_step = 3e-7\n[output]\nframe_rate = 1e5\nduration = 1e-4")).steps_per_frame(), 34);
+}
+
+// A ground 570 km up, at a height a float does not hold (570000.03 was 570000.0: a block standing on it
+// fell 3 cm; 570000.06 was 570000.0625, and a block standing on it was refused as 2.5 mm inside it).
+TEST(RangeEdges, AGroundFarFromTheOriginIsWhereTheSceneSays) {
+  for (const char* height : {"570000.03", "570000.06"}) {
+    const double h = std::stod(height);
+    const std::string scene = fmt::format(
+        "[solver]\nspacing = 0.05\nlattice = \"cubic\"\n[ground]\nenabled = true\nheight = {}\n[[object]]\n"
+        "size = [0.15, 0.15, 0.15]\nposition = [0, 0, {:.17g}]\n[output]\nduration = 0.02\n",
+        height, h + 0.075);
+    Engine e(io::parse_scene(scene, "far_ground.toml"));
+    EXPECT_EQ(e.model().ground_height, h);
+    EXPECT_EQ(e.advance(static_cast<int>(e.total_steps())).flags, kHealthy);
+    double fastest = 0;
+    for (const DVec3& v : e.state().v) fastest = std::max(fastest, std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z));
+    EXPECT_LT(fastest, 1e-3) << "ground.height = " << height;  // (it fell at 0.4 m/s)
+  }
+}
+
+// The cubic lattice refuses Poisson ratios below -0.2 on the materials it fills (bodies at rest flew apart
+// from -0.26); the random lattice and surface mode take the whole range.
+TEST(RangeEdges, TheCubicLatticeRefusesPoissonRatiosItIsUnstableAt) {
+  auto scene = [](const char* lattice, const char* nu, bool region) {
+    return fmt::format(
+        "[solver]\nlattice = \"{}\"\n[[material]]\nname = \"auxetic\"\nbase = \"concrete\"\npoisson_ratio = {}\n"
+        "[[object]]\nsize = [0.3, 0.3, 0.3]\nposition = [0, 0, 0.5]\nmaterial = \"{}\"\n{}",
+        lattice, nu, region ? "concrete" : "auxetic",
+        region ? "[[object.region]]\nshape = \"box\"\ncenter = [0, 0, 0.5]\nsize = [0.1, 0.1, 0.1]\nmaterial = \"auxetic\"\n"
+               : "");
+  };
+  auto error = [](const std::string& s) { return error_of([&] { io::parse_scene(s, "auxetic.toml"); }); };
+  std::string m = error(scene("cubic", "-0.21", false));
+  EXPECT_HAS(m, "object[0].material = \"auxetic\" has poisson_ratio = -0.21, and the cubic lattice");
+  EXPECT_HAS(m, "is unstable below -0.2");
+  EXPECT_HAS(m, "lattice = \"random\"");
+  EXPECT_HAS(error(scene("cubic", "-0.9", true)), "object[0].region[0].material = \"auxetic\" has poisson_ratio = -0.9");
+  EXPECT_EQ(error(scene("cubic", "-0.2", true)), "");
+  EXPECT_EQ(error(scene("random", "-0.99", false)), "");
+  EXPECT_EQ(error(scene("random", "-0.99", true)), "");
 }
 
 // Item 5: output.frame_rate = 1e-6 (frames a million seconds apart) was refused for a frame of 4e11

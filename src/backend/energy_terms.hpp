@@ -249,12 +249,12 @@ struct EnergyView {
   }
   // A body of radius r at x on the ground (up, height: the model's).
   MCA_HD static double on_ground(DVec3 x, float r, const ContactMaterial& material, const ContactHistory& h, Vec3 up,
-                                 float height) {
+                                 double height) {
     const ContactSprings cs = body_contact_springs(material, 0.0f, r, INFINITY, 1.0f, 1.0f);
     return contact_energy(cs, ground_overlap(x, up, height, r), h.ut, h.mr, -up);
   }
   // ground: the ground's contact material per group.
-  MCA_HD double ground_contact(const BodyContact& c, const ContactMaterial* ground, Vec3 up, float height) const {
+  MCA_HD double ground_contact(const BodyContact& c, const ContactMaterial* ground, Vec3 up, double height) const {
     const std::uint32_t a = c.automaton;
     return on_ground(at(a), m.radius[a], ground[m.group[a]], c.h, up, height);
   }

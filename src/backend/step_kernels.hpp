@@ -138,7 +138,8 @@ struct ContactPassView {
   const float *zeta_pair = nullptr, *zeta_ground = nullptr;
   const ContactMaterial* ground_contact = nullptr;  // per group
   Vec3 up;
-  float ground_height = 0, dt = 0;
+  double ground_height = 0;  // (double: the positions' precision)
+  float dt = 0;
 
   MCA_HD DVec3 pos(std::size_t a) const { return {px[a], py[a], pz[a]}; }
   MCA_HD DVec3 vel(std::size_t a) const { return {vx[a], vy[a], vz[a]}; }

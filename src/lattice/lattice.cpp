@@ -583,8 +583,8 @@ void refuse_bodies_in_the_ground(const SceneDef& scene, const Shapes& S, const M
                         n[0], n[1], n[2], d, n[0] * d, n[1] * d, n[2] * d);
     }
     throw Error(fmt::format(
-        "{}: object '{}' starts {:.4g} m inside the ground (its automaton at [{:.6g}, {:.6g}, {:.6g}], radius {:g} m, "
-        "below ground.height = {:g} along the up axis); move the object up by at least {:.4g} m{}",
+        "{}: object '{}' starts {:.4g} m inside the ground (its automaton at [{:.10g}, {:.10g}, {:.10g}], radius {:g} "
+        "m, below ground.height = {} along the up axis); move the object up by at least {:.4g} m{}",
         scene.source, o.name, deepest, M.position0[at].x, M.position0[at].y, M.position0[at].z, M.radius[at],
         M.ground_height, deepest, why));
   }
@@ -1651,7 +1651,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
   const float gl = length(M.gravity);
   M.up = gl > 0 ? M.gravity * (-1.0f / gl) : Vec3{0, 0, 1};
   M.ground = scene.ground.enabled;
-  M.ground_height = static_cast<float>(scene.ground.height);
+  M.ground_height = scene.ground.height;
   if (M.ground) refuse_bodies_in_the_ground(scene, S, M, placed);
   set_contact_materials(M, scene);
   M.skin = static_cast<float>(scene.solver.skin * d);

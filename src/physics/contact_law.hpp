@@ -163,8 +163,9 @@ MCA_HD SphereGap sphere_gap(DVec3 a, DVec3 b, double r_sum) {
           static_cast<float>(r_sum - dist), true};
 }
 
-// The overlap of a sphere of radius r at x with the ground plane of height h along up (double, as above).
-MCA_HD float ground_overlap(DVec3 x, Vec3 up, float h, float r) {
+// The overlap of a sphere of radius r at x with the ground plane of height h along up (double, as above: a
+// ground far from the origin keeps the positions' precision).
+MCA_HD float ground_overlap(DVec3 x, Vec3 up, double h, float r) {
   return static_cast<float>(static_cast<double>(r) - (x.x * up.x + x.y * up.y + x.z * up.z - h));
 }
 

@@ -120,8 +120,10 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
                        std::size_t placed = 0) {
   Model m = lattice::build_model(scene, placed);
   double frame = 1.0 / scene.output.frame_rate;
-  const double stable = m.dt;
   const bool given = scene.solver.time_step > 0;
+  // A frame's steps are counted from the step as given, not from its float (time_step = 1e-6 is
+  // 9.99999997e-7 in float, which made frames of 2e-6 s three steps).
+  const double stable = given ? scene.solver.time_step : m.dt;
   if (given && frame < stable * (1 - 1e-9)) {
     throw Error(fmt::format("{}: output.frame_rate = {:g} asks for frames of {:.3g} s, shorter than solver.time_step = "
                             "{:g} s; lower output.frame_rate to at most {:.6g}, or remove solver.time_step",

@@ -160,7 +160,11 @@ std::uint64_t model_fingerprint(const Model& m) {
   f.add(m.projectiles);
   f.add(m.grip_velocity);
   f.add<std::uint8_t>(m.ground);
-  f.add(m.ground_height);
+  // The ground's height was a float: a height a float holds hashes as it did (earlier checkpoints resume),
+  // another also as the double it now is.
+  const float ground_height = static_cast<float>(m.ground_height);
+  f.add(ground_height);
+  if (static_cast<double>(ground_height) != m.ground_height) f.add(m.ground_height);
   f.add(m.contact);
   f.add(m.ground_contact);
   f.add(m.zeta_pair);

@@ -479,7 +479,8 @@ struct GroundReach {
   const double *px, *py, *pz;
   const float* radius;
   Vec3 up;
-  float height, skin;
+  double height;
+  float skin;
   MCA_HD bool near(std::uint32_t a) const {
     const double above = px[a] * up.x + py[a] * up.y + pz[a] * up.z - height;
     return above < static_cast<double>(radius[a]) + skin;
@@ -1186,7 +1187,8 @@ struct ProjectileSumKernel {
   Vec3 *fsum, *tsum;
   bool ground;
   Vec3 up;
-  float ground_height, dt;
+  double ground_height;
+  float dt;
   MCA_HD void operator()(std::size_t p) const {
     DeviceProjectile& ps = proj[p];
     const ProjectileConstants& Pp = P[p];
@@ -1391,7 +1393,7 @@ struct GroundEnergyKernel {
   const BodyContact* list;
   const ContactMaterial* ground;  // per group
   Vec3 up;
-  float height;
+  double height;
   double* out;
   MCA_HD void operator()(std::size_t k) const { out[k] = ev.ground_contact(list[k], ground, up, height); }
 };
@@ -1412,7 +1414,7 @@ struct SerialEnergyKernel {
   const ContactMaterial* material;  // per projectile and group: projectile_contact(p, g)
   const ContactMaterial* ground_material;  // per group (null: no ground)
   Vec3 up;
-  float height;
+  double height;
   const ProjectilePair* pair_list;
   std::uint32_t pair_count;
   const double* grip_work;
