@@ -241,5 +241,65 @@ TEST(RangeEdges, ShellThicknessAtItsBounds) {
   }
 }
 
+// From the hostile review of 2026-12-05: values inside their documented ranges that broke a run.
+// - Two automata of 1.1 km (concrete) were NaN at their first step: the links' dashpots formed k m_i m_j in
+//   float, 3.4e38 (and the contacts' rolling dashpots k_r j past 1.1 km, which made the critical step NaN
+//   and the step a frame). A body of them now stands still, with the links' damping on or off, on both
+//   lattices, and one settles on the ground.
+TEST(RangeEdges, AutomataOfKilometresStandStill) {
+  for (const char* spacing : {"1100", "1e5"}) {
+    const double d = std::stod(spacing);
+    const std::string scene = fmt::format(
+        "[solver]\nspacing = {}\nlattice = \"cubic\"\n[ground]\nenabled = true\n[[material]]\nname = \"heavy\"\n"
+        "base = \"concrete\"\ndensity = 1e5\n[[object]]\nmaterial = \"heavy\"\nsize = [{}, {}, {}]\n"
+        "position = [0, 0, {}]\n",
+        spacing, 2 * d, d, d, 0.5 * d);
+    Engine e(io::parse_scene(scene, "huge_on_ground.toml"));
+    EXPECT_TRUE(std::isfinite(e.model().critical_dt)) << spacing;
+    EXPECT_LT(e.model().dt, e.model().critical_dt) << spacing;
+    EXPECT_EQ(e.advance(50).flags, kHealthy) << spacing;
+  }
+  for (const char* spacing : {"1100", "1e4", "1e5"}) {
+    for (const char* damping : {"0", "0.1"}) {
+      for (const char* lattice : {"cubic", "random"}) {
+        const std::string scene = fmt::format(
+            "[solver]\nspacing = {0}\nlattice = \"{2}\"\nlink_damping = {1}\ngravity = [0, 0, 0]\n"
+            "[[object]]\nsize = [{3}, {0}, {0}]\n",
+            spacing, damping, lattice, 2 * std::stod(spacing));
+        Engine e(io::parse_scene(scene, "huge.toml"));
+        EXPECT_TRUE(std::isfinite(e.model().critical_dt)) << spacing << " " << damping << " " << lattice;
+        EXPECT_EQ(e.advance(10).flags, kHealthy) << spacing << " " << damping << " " << lattice;
+        for (const DVec3& v : e.state().v) EXPECT_EQ(v.x * v.x + v.y * v.y + v.z * v.z, 0.0) << spacing;
+      }
+    }
+  }
+}
+
+// - A load of 1e39 N became an infinite float force and a NaN run; it is refused, naming the load.
+TEST(RangeEdges, ALoadBeyondFloatIsRefused) {
+  auto load = [](const char* name, const char* force) {
+    return fmt::format("[[load]]\nname = \"{}\"\nmin = [-1, -1, -1]\nmax = [1, 1, 1]\nforce = [0, 0, {}]\n", name, force);
+  };
+  std::string m = engine_error(load("push", "-1e39"));
+  EXPECT_HAS(m, "load[0] 'push'.force = [0, 0, -1e+39] does not fit the float32 arithmetic of the solver");
+  EXPECT_EQ(engine_error(load("push", "-1e38")), "");
+  m = engine_error(load("push", "-3e38") + load("again", "-3e38"));
+  EXPECT_HAS(m, "load[1] 'again'.force = [0, 0, -3e+38] (with the loads before it on the same automata)");
+}
+
+// - An extent of exactly half the spacing (one cell) was refused as less than half of it (the spacing is a
+//   float); a projectile's material was refused for a strengthening law it never uses (it has no links).
+TEST(RangeEdges, HalfACellAndAProjectilesStrengtheningAreTaken) {
+  EXPECT_EQ(engine_error("[solver]\nspacing = 0.05\n[[object]]\nsize = [0.025, 0.1, 0.1]\nposition = [0, 0, -2]"), "");
+  EXPECT_HAS(engine_error("[solver]\nspacing = 0.05\n[[object]]\nsize = [0.0249, 0.1, 0.1]\nposition = [0, 0, -2]"),
+             "less than half the spacing");
+  const std::string strengthening =
+      "[[material]]\nname = \"stiff\"\nbase = \"steel\"\nstrengthening = \"exponential\"\n"
+      "strengthening_alpha = 100\n";
+  EXPECT_EQ(engine_error(strengthening + "[[projectile]]\nmaterial = \"stiff\"\nradius = 0.05\nposition = [0, -1, 0.5]"), "");
+  EXPECT_HAS(engine_error(strengthening + "[[object]]\nsize = [0.1, 0.1, 0.1]\nposition = [0, 0, -2]\nmaterial = \"stiff\""),
+             "strengthening_alpha = 100 makes the exponential law reach a factor of");
+}
+
 }  // namespace
 }  // namespace mca

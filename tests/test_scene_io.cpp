@@ -406,6 +406,10 @@ TEST(SceneIo, WrongTypeNamesKeyLineAndTypes) {
 
   const std::string integer = parse_error(kMinimal + "[solver]\nseed = 1.5\n");
   EXPECT_HAS(integer, "solver.seed is a float (1.5), expected an integer");
+  // 2^64 - 1 is no TOML integer: the message says how a seed above 2^63 - 1 is written.
+  const std::string huge = parse_error("[solver]\nseed = 18446744073709551615\n" + kMinimal);
+  EXPECT_HAS(huge, "TOML syntax error");
+  EXPECT_HAS(huge, "18446744073709551615 is -1");
 
   const std::string table = parse_error("[object]\nname = \"x\"\n");
   EXPECT_HAS(table, "write each block as [[object]], not [object]");

@@ -807,8 +807,14 @@ SceneDef parse_scene(std::string_view toml_text, const std::string& source) {
     root = toml::parse(toml_text, source);
   } catch (const toml::parse_error& e) {
     const toml::source_region& r = e.source();
-    throw Error(fmt::format("{}:{}:{}: TOML syntax error: {}", source, r.begin.line, r.begin.column,
-                            e.description()));
+    // TOML's integers are signed 64-bit: a seed above 2^63 - 1 is written as its two's complement.
+    const std::string_view what = e.description();
+    const bool too_large = what.find("not representable in 64 bits") != std::string_view::npos;
+    throw Error(fmt::format("{}:{}:{}: TOML syntax error: {}{}", source, r.begin.line, r.begin.column, what,
+                            too_large ? "; TOML integers are -2^63 .. 2^63-1 (write a larger number as a float, "
+                                        "e.g. 1e20; a seed above 2^63-1 as its two's complement: "
+                                        "18446744073709551615 is -1, docs/scene-format.md)"
+                                      : ""));
   }
   const Reader reader(source);
   SceneDef scene = read_scene(Table(reader, root, "", "the top level"), source);

@@ -368,9 +368,9 @@ GroupParams group_params(const SceneDef& scene, const MaterialDef& m, const std:
   if (g.strengthening.law != 0) {
     g.strengthening.cap = static_cast<float>(class_factor_max * std::max(m.fracture_strain, m.compressive_strength / E));
     // The time step shrinks with the square root of the largest factor: refuse laws that would stiffen
-    // the material more than 1e4-fold before it breaks.
+    // the material more than 1e4-fold before it breaks (a projectile's material has no links to stiffen).
     const double f = strengthening_factor(g.strengthening, g.strengthening.cap);
-    if (!(f <= 1e4)) {
+    if (automata && !(f <= 1e4)) {
       throw Error(fmt::format(
           "{}: {}.strengthening_alpha = {:g} makes the {} law reach a factor of {:.3g} at the largest strain a link "
           "of it can have ({:.3g}: fracture_strain, or compressive_strength / youngs_modulus, times the largest "
@@ -1109,13 +1109,14 @@ std::int64_t checked_automata_count(const SceneDef& scene, const Shapes& S, doub
                             scene.solver.target_automata > 0 ? "lower solver.target_automata" : "increase solver.spacing"));
   };
   const double n_volume = 0.5 * shapes_volume(scene, S) / (d * d * d);
-  // An extent under half a cell would round to no cell; it becomes one, a body far larger than asked.
+  // An extent under half a cell would round to no cell; it becomes one, a body far larger than asked. (Half
+  // a cell itself is one, and the spacing is a float: size = 0.025 at spacing 0.05 was refused.)
   for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) {
     if (S.surface_of(oi)) continue;
     double ext[3] = {0, 0, 0};
     shape_extents(scene.objects[oi], S.of(oi), ext);
     for (int a = 0; a < 3; ++a)
-      if (ext[a] < 0.5 * d) {
+      if (ext[a] < 0.5 * d * (1 - 1e-6)) {
         throw Error(fmt::format("{}: object[{}] '{}' is {:.4g} x {:.4g} x {:.4g} m, {:.4g} m along its local {}, less than "
                                 "half the spacing {:.4g} m: its lattice would be a cell of {:.4g} m there; {} or make "
                                 "the object larger",
@@ -1396,6 +1397,13 @@ void add_boundaries(Model& M, const SceneDef& scene, double d) {
       if (inside_box(M.position0[a], ld.min, ld.max)) {
         M.load[a] += to_vec3(ld.force);
         ++held;
+        const Vec3& f = M.load[a];
+        if (!(std::isfinite(f.x) && std::isfinite(f.y) && std::isfinite(f.z))) {
+          throw Error(fmt::format("{}: load[{}] '{}'.force = {}{} does not fit the float32 arithmetic of the "
+                                  "solver (at most 3.4e38 N along an axis on an automaton); give a smaller force",
+                                  scene.source, l, ld.name, fmt_vec(ld.force),
+                                  l > 0 ? " (with the loads before it on the same automata)" : ""));
+        }
       }
     }
     if (held == 0) {

@@ -123,13 +123,13 @@ MCA_HD ContactSprings contact_springs(const ContactMaterial& c, float zeta, floa
   ContactSprings s;
   s.kn = c.youngs * length;
   s.kt = kShearFactor * c.shear * length;
-  s.cn = 2.0f * zeta * std::sqrt(s.kn * m_eff);
+  s.cn = 2.0f * zeta * product_root(s.kn, m_eff);  // (product_root: bodies of a kilometre)
   s.mu = c.friction;
   s.kr = 2.25f * s.kn * c.rolling * c.rolling * radius * radius;
-  s.cr = 2.0f * kRollingDampingRatio * std::sqrt(s.kr * j_eff);
+  s.cr = 2.0f * kRollingDampingRatio * product_root(s.kr, j_eff);
   s.roll_limit = c.rolling * radius;
   s.kw = 2.25f * s.kn * c.twisting * c.twisting * radius * radius;
-  s.cw = 2.0f * kRollingDampingRatio * std::sqrt(s.kw * j_eff);
+  s.cw = 2.0f * kRollingDampingRatio * product_root(s.kw, j_eff);
   s.twist_limit = c.twisting * radius;
   return s;
 }
@@ -142,7 +142,13 @@ MCA_HD ContactSprings body_contact_springs(const ContactMaterial& c, float zeta,
   return contact_springs(c, zeta, 2.0f * std::fmin(ra, rb), rb == INFINITY ? ra : ra * rb / (ra + rb), m_eff, j_eff);
 }
 
-MCA_HD float reduced(float a, float b) { return a * b / (a + b); }
+// a b / (a + b), in float as it always was; where a b leaves float (masses of 1.8e19 kg, moments of inertia
+// of bodies of a kilometre), from the double product (product_root's reason).
+MCA_HD float reduced(float a, float b) {
+  const float p = a * b;
+  if (p <= 3.4028235e38f) return p / (a + b);
+  return static_cast<float>(static_cast<double>(a) * b / (static_cast<double>(a) + b));
+}
 
 // The overlap of two spheres of radii summing to r_sum at centres a and b, and the unit normal from a to
 // b, formed in double: the overlap of a resting contact, m g / k_n (1e-9 m for a 5 cm concrete
