@@ -148,6 +148,16 @@ TEST(RangeEdges, AGivenTimeStepFillsAFrameWithTheStepsItSays) {
   EXPECT_EQ(Engine(cube("[solver]\ntime_step = 1e-6\n[output]\nframe_rate = 5e5\nduration = 1e-4")).steps_per_frame(), 2);
   EXPECT_EQ(Engine(cube("[solver]\ntime_step = 1e-6\n[output]\nframe_rate = 1e6\nduration = 1e-4")).steps_per_frame(), 1);
   EXPECT_EQ(Engine(cube("[solver]\ntime_step = 3e-7\n[output]\nframe_rate = 1e5\nduration = 1e-4")).steps_per_frame(), 34);
+  // Frames of many steps: the ratio's rounding is spared relative to it, and the run's steps are counted from
+  // the step as written too (12,000,001 steps made an eleventh frame of one step; found by the second review).
+  Engine a(cube("[solver]\ntime_step = 1.08e-6\n[output]\nframe_rate = 0.77160493827160494\nduration = 12.96"));
+  EXPECT_EQ(a.total_steps(), 12'000'000);
+  EXPECT_EQ(a.frame_count(), 10);
+  EXPECT_EQ(Engine(cube("[solver]\ntime_step = 5.12e-9\n[output]\nframe_rate = 10\nduration = 1e-6")).steps_per_frame(),
+            19'531'250);
+  Engine b(cube("[solver]\ntime_step = 1e-12\n[output]\nframe_rate = 1e3\nduration = 0.001"));
+  EXPECT_EQ(b.steps_per_frame(), 1'000'000'000);
+  EXPECT_EQ(b.frame_count(), 1);
 }
 
 // A ground 570 km up, at a height a float does not hold (570000.03 was 570000.0: a block standing on it
@@ -165,6 +175,24 @@ TEST(RangeEdges, AGroundFarFromTheOriginIsWhereTheSceneSays) {
     double fastest = 0;
     for (const DVec3& v : e.state().v) fastest = std::max(fastest, std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z));
     EXPECT_LT(fastest, 1e-3) << "ground.height = " << height;  // (it fell at 0.4 m/s)
+  }
+  // Up off the axes is a float unit vector, 1.7e-8 longer or shorter than 1 (gravity (-1, 0, -1)): the
+  // plane is x . up = h |up|, and a ball resting on a ground at 999,000 m is neither in it (it was refused as
+  // 1.7 cm inside) nor above it.
+  for (const char* h : {"999000", "-999000", "1000"}) {
+    // up = (1, 0, 1) / sqrt(2); the ball's centre its radius above the plane, the block 10 m above it.
+    const double g = 9.81 / std::sqrt(2.0), ball = (std::stod(h) + 0.05) / std::sqrt(2.0),
+                 block = (std::stod(h) + 10) / std::sqrt(2.0);
+    const std::string scene = fmt::format(
+        "[solver]\ngravity = [{0}, 0, {0}]\n[ground]\nenabled = true\nheight = {1}\n[[object]]\n"
+        "size = [0.2, 0.2, 0.2]\nposition = [{3:.17g}, 0, {3:.17g}]\n[[projectile]]\nradius = 0.05\n"
+        "position = [{2:.17g}, 0, {2:.17g}]\n[output]\nduration = 0.004\n",
+        -g, h, ball, block);
+    SceneDef sd = io::parse_scene(scene, "diagonal_ground.toml");
+    Engine e(sd);
+    EXPECT_EQ(e.advance(static_cast<int>(e.total_steps())).flags, kHealthy) << h;
+    const DVec3 v = e.state().projectiles[0].velocity;
+    EXPECT_LT(std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z), 1e-3) << "ground.height = " << h;
   }
 }
 
@@ -186,6 +214,8 @@ TEST(RangeEdges, TheCubicLatticeRefusesPoissonRatiosItIsUnstableAt) {
   EXPECT_HAS(m, "lattice = \"random\"");
   EXPECT_HAS(error(scene("cubic", "-0.9", true)), "object[0].region[0].material = \"auxetic\" has poisson_ratio = -0.9");
   EXPECT_EQ(error(scene("cubic", "-0.2", true)), "");
+  EXPECT_HAS(error("[solver]\nlattice_jitter = 0.2\n" + scene("cubic", "-0.5", false).substr(9)),
+             "and remove lattice_jitter");
   EXPECT_EQ(error(scene("random", "-0.99", false)), "");
   EXPECT_EQ(error(scene("random", "-0.99", true)), "");
 }

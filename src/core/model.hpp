@@ -271,7 +271,7 @@ struct Model {
   std::vector<DVec3> grip_velocity;
   std::vector<std::string> grip_names;
   bool ground = false;
-  double ground_height = 0;  // along up (double: the positions' precision far from the origin)
+  double ground_height = 0;  // the plane x . up = ground_height (double: the positions' precision far out)
   Vec3 gravity;
   Vec3 up{0, 0, 1};
   float spacing = 0;             // lattice spacing d

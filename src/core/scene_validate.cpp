@@ -183,8 +183,11 @@ void check_heterogeneity(const Checker& c, const HeterogeneityDef& h, const std:
 }  // namespace
 
 // The lowest Poisson ratio the cubic lattice is stable at (measured: bodies at rest from 1 x 1 x 2 to
-// 6 x 6 x 6 automata, plates and lines, jittered or not, on the ground; the default wall struck).
+// 6 x 6 x 6 automata, plates and lines, jittered or not, on the ground; the default wall struck), and
+// the lowest surface mode's shells take (a sphere's shell dropped 1.3 mm onto the ground broke 70 of its
+// 480 links at -0.9, all at -0.95, none from -0.85 up).
 constexpr double kCubicMinPoisson = -0.2;
+constexpr double kSurfaceMinPoisson = -0.8;
 
 const MaterialDef& resolve_material(const SceneDef& scene, const std::string& name, const std::string& key) {
   for (const MaterialDef& m : scene.materials) {
@@ -400,15 +403,23 @@ void validate_scene(const SceneDef& scene) {
     // The cubic lattice (jittered or not) with a Poisson ratio below kCubicMinPoisson: its many-body term's
     // negative Lame lambda made bodies at rest fly apart (2 x 2 x 2 automata from -0.26, larger ones from
     // -0.5 to -0.7, every link broken at -0.99). The random lattice and surface mode take the whole range.
-    const bool cubic_fill = scene.solver.lattice == SolverDef::Lattice::cubic &&
-                            !(o.shape == Shape::mesh && o.fill == MeshFill::surface);
+    const bool surface = o.shape == Shape::mesh && o.fill == MeshFill::surface;
+    const bool cubic_fill = scene.solver.lattice == SolverDef::Lattice::cubic && !surface;
     auto cubic_poisson = [&](const MaterialDef& m, const std::string& key) {
-      if (cubic_fill && m.poisson_ratio < kCubicMinPoisson && m.poisson_ratio > -1) {
+      if (!(m.poisson_ratio > -1)) return;  // (out of range: said with the material)
+      if (cubic_fill && m.poisson_ratio < kCubicMinPoisson) {
         c.fail(fmt::format("{} = \"{}\" has poisson_ratio = {}, and the cubic lattice (solver.lattice = \"cubic\") "
                            "is unstable below {} (a body at rest flies apart); give the material a ratio of {} or "
-                           "more, or fill the object with the random lattice (lattice = \"random\" in [solver]), "
+                           "more, or fill the object with the random lattice (lattice = \"random\" in [solver]{}), "
                            "which takes ratios down to -1",
-                           key, m.name, num(m.poisson_ratio), kCubicMinPoisson, kCubicMinPoisson));
+                           key, m.name, num(m.poisson_ratio), kCubicMinPoisson, kCubicMinPoisson,
+                           scene.solver.lattice_jitter > 0 ? ", and remove lattice_jitter" : ""));
+      } else if (surface && m.poisson_ratio < kSurfaceMinPoisson) {
+        c.fail(fmt::format("{} = \"{}\" has poisson_ratio = {}, and a surface-mode shell (fill = \"surface\") breaks "
+                           "up below {} (a sphere's shell dropped 1.3 mm shattered at -0.95); give the material a "
+                           "ratio of {} or more, or fill the mesh with the random lattice (remove fill = "
+                           "\"surface\"; solver.lattice = \"random\", the default), which takes ratios down to -1",
+                           key, m.name, num(m.poisson_ratio), kSurfaceMinPoisson, kSurfaceMinPoisson));
       }
     };
     cubic_poisson(resolve_material(scene, o.material, p + ".material"), p + ".material");

@@ -811,9 +811,9 @@ SceneDef parse_scene(std::string_view toml_text, const std::string& source) {
     const std::string_view what = e.description();
     const bool too_large = what.find("not representable in 64 bits") != std::string_view::npos;
     throw Error(fmt::format("{}:{}:{}: TOML syntax error: {}{}", source, r.begin.line, r.begin.column, what,
-                            too_large ? "; TOML integers are -2^63 .. 2^63-1 (write a larger number as a float, "
-                                        "e.g. 1e20; a seed above 2^63-1 as its two's complement: "
-                                        "18446744073709551615 is -1, docs/scene-format.md)"
+                            too_large ? "; TOML integers are -2^63 .. 2^63-1 (a seed above 2^63-1 is written as its "
+                                        "two's complement: 18446744073709551615 is -1, docs/scene-format.md; a "
+                                        "key that takes a number takes a float, 1e20)"
                                       : ""));
   }
   const Reader reader(source);

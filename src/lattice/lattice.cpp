@@ -586,15 +586,15 @@ void refuse_bodies_in_the_ground(const SceneDef& scene, const Shapes& S, const M
         "{}: object '{}' starts {:.4g} m inside the ground (its automaton at [{:.10g}, {:.10g}, {:.10g}], radius {:g} "
         "m, below ground.height = {} along the up axis); move the object up by at least {:.4g} m{}",
         scene.source, o.name, deepest, M.position0[at].x, M.position0[at].y, M.position0[at].z, M.radius[at],
-        M.ground_height, deepest, why));
+        scene.ground.height, deepest, why));
   }
   for (std::size_t p = placed; p < M.projectiles.size(); ++p) {
     const ProjectileParams& P = M.projectiles[p];
     const double overlap = ground_overlap(P.position, M.up, M.ground_height, P.radius);
     if (overlap > 1e-6 * P.radius) {
-      throw Error(fmt::format("{}: projectile[{}] '{}' starts {:.4g} m inside the ground; move it up by at least "
-                              "that much",
-                              scene.source, p, P.name, overlap));
+      throw Error(fmt::format("{}: projectile[{}] '{}' starts {:.4g} m inside the ground (ground.height = {} along "
+                              "the up axis); move it up by at least that much",
+                              scene.source, p, P.name, overlap, scene.ground.height));
     }
   }
 }
@@ -1659,7 +1659,12 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
   const float gl = length(M.gravity);
   M.up = gl > 0 ? M.gravity * (-1.0f / gl) : Vec3{0, 0, 1};
   M.ground = scene.ground.enabled;
-  M.ground_height = scene.ground.height;
+  // The plane x . up = h |up|: up is a float unit vector, whose length differs from 1 by up to 1e-7 off the
+  // axes (gravity (-1, 0, -1): 1.7e-8), which put a ground at 999,000 m 1.7 cm off where the scene says.
+  // Along an axis |up| is 1 and the height as given.
+  const double up_length = std::sqrt(static_cast<double>(M.up.x) * M.up.x + static_cast<double>(M.up.y) * M.up.y +
+                                     static_cast<double>(M.up.z) * M.up.z);
+  M.ground_height = scene.ground.height * up_length;
   if (M.ground) refuse_bodies_in_the_ground(scene, S, M, placed);
   set_contact_materials(M, scene);
   M.skin = static_cast<float>(scene.solver.skin * d);

@@ -290,13 +290,22 @@ MCA_HD float contact_reduced(float a, bool a_kinematic, float b, bool b_kinemati
   return a_kinematic ? b : (b_kinematic ? a : reduced(a, b));
 }
 
+// a . b of float vectors in double.
+MCA_HD double dot_in_double(Vec3 a, Vec3 b) {
+  return static_cast<double>(a.x) * b.x + static_cast<double>(a.y) * b.y + static_cast<double>(a.z) * b.z;
+}
+
 // Elastic energy stored in a contact's springs [J], for the energy bookkeeping.
 MCA_HD double contact_energy(const ContactSprings& s, double overlap, Vec3 ut, Vec3 mr, Vec3 n) {
   double e = 0;
   if (overlap > 0) e += 0.5 * s.kn * overlap * overlap;
-  e += 0.5 * s.kt * static_cast<double>(dot(ut, ut));
-  const double mn = dot(mr, n);
-  const double mt2 = static_cast<double>(dot(mr, mr)) - mn * mn;
+  // The squares in float as they always were; where one leaves float (a rolling moment past 1.8e19 N m:
+  // bodies of tens of kilometres on the ground, whose energy check read inf and stopped the run), in double.
+  const float uu = dot(ut, ut), mm = dot(mr, mr);
+  const bool in_float = uu <= 3.4028235e38f && mm <= 3.4028235e38f;
+  e += 0.5 * s.kt * (in_float ? static_cast<double>(uu) : dot_in_double(ut, ut));
+  const double mn = in_float ? static_cast<double>(dot(mr, n)) : dot_in_double(mr, n);
+  const double mt2 = (in_float ? static_cast<double>(mm) : dot_in_double(mr, mr)) - mn * mn;
   if (s.kr > 0) e += 0.5 * mt2 / s.kr;
   if (s.kw > 0) e += 0.5 * mn * mn / s.kw;
   return e;

@@ -135,8 +135,11 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
   // 9.99999998e-13 in float, which made a frame of 1 ms 1,000,000,001 steps and refused the documented
   // frame_rate = 1000 while naming it as the fix).
   constexpr double kMaxFrameSteps = 1e9 * (1 + 1e-6);
-  if (std::ceil(frame / stable - 1e-9) > kMaxFrameSteps && scene.output.duration < frame) frame = scene.output.duration;
-  const double steps = std::max(1.0, std::ceil(frame / stable - 1e-9));
+  // (Whole steps a frame, spared the ratio's last bits: 1e-9 of a step, or 1e-12 of the count where the
+  // frame is more than 1,000 steps.)
+  auto whole_steps = [&](double f) { const double r = f / stable; return std::ceil(r - std::max(1e-9, 1e-12 * r)); };
+  if (whole_steps(frame) > kMaxFrameSteps && scene.output.duration < frame) frame = scene.output.duration;
+  const double steps = std::max(1.0, whole_steps(frame));
   if (steps > kMaxFrameSteps) {
     const double rate = steps / 1e9 / frame;  // the frame rate at which a frame is 1e9 steps
     if (given)
@@ -167,7 +170,8 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
                             frames_set_it ? " or a lower output.frame_rate" : ""));
   }
   if (!given) lattice::set_time_step(m, static_cast<float>(step));
-  const double total = std::round(scene.output.duration / static_cast<double>(m.dt));
+  // (A given step counts the run's steps as it counts a frame's: from the value as written.)
+  const double total = std::round(scene.output.duration / (given ? stable : static_cast<double>(m.dt)));
   if (!(total <= static_cast<double>(Engine::kMaxSteps))) {  // the float step a hair shorter than the double
     throw Error(fmt::format("{}: output.duration = {:g} s is {:.3g} steps of {:.3g} s, more than the {:.0e} a run "
                             "can take; give a shorter output.duration (or --duration)",
