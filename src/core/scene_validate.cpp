@@ -402,7 +402,8 @@ void validate_scene(const SceneDef& scene) {
     c.finite(p + ".velocity", o.velocity);
     // The cubic lattice (jittered or not) with a Poisson ratio below kCubicMinPoisson: its many-body term's
     // negative Lame lambda made bodies at rest fly apart (2 x 2 x 2 automata from -0.26, larger ones from
-    // -0.5 to -0.7, every link broken at -0.99). The random lattice and surface mode take the whole range.
+    // -0.5 to -0.7, every link broken at -0.99). Surface mode's shells from kSurfaceMinPoisson; the random
+    // lattice takes the whole range.
     const bool surface = o.shape == Shape::mesh && o.fill == MeshFill::surface;
     const bool cubic_fill = scene.solver.lattice == SolverDef::Lattice::cubic && !surface;
     auto cubic_poisson = [&](const MaterialDef& m, const std::string& key) {
