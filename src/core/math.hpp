@@ -22,6 +22,10 @@
 
 namespace mca {
 
+// The largest finite float (std::numeric_limits<float>::max(), spelled out for device code): x <= kFloatMax
+// is false for inf and NaN.
+inline constexpr float kFloatMax = 3.4028235e38f;
+
 // Scalar forms of the lane helpers.
 MCA_HD float select(bool m, float a, float b) { return m ? a : b; }
 MCA_HD double select(bool m, double a, double b) { return m ? a : b; }

@@ -406,7 +406,7 @@ void validate_scene(const SceneDef& scene) {
     // lattice takes the whole range.
     const bool surface = o.shape == Shape::mesh && o.fill == MeshFill::surface;
     const bool cubic_fill = scene.solver.lattice == SolverDef::Lattice::cubic && !surface;
-    auto cubic_poisson = [&](const MaterialDef& m, const std::string& key) {
+    auto poisson_of_fill = [&](const MaterialDef& m, const std::string& key) {
       if (!(m.poisson_ratio > -1)) return;  // (out of range: said with the material)
       if (cubic_fill && m.poisson_ratio < kCubicMinPoisson) {
         c.fail(fmt::format("{} = \"{}\" has poisson_ratio = {}, and the cubic lattice (solver.lattice = \"cubic\") "
@@ -423,7 +423,7 @@ void validate_scene(const SceneDef& scene) {
                            key, m.name, num(m.poisson_ratio), kSurfaceMinPoisson, kSurfaceMinPoisson));
       }
     };
-    cubic_poisson(resolve_material(scene, o.material, p + ".material"), p + ".material");
+    poisson_of_fill(resolve_material(scene, o.material, p + ".material"), p + ".material");
     if (o.heterogeneity) check_heterogeneity(c, *o.heterogeneity, p + ".heterogeneity");
     for (std::size_t r = 0; r < o.regions.size(); ++r) {
       const RegionDef& g = o.regions[r];
@@ -450,7 +450,7 @@ void validate_scene(const SceneDef& scene) {
         c.fail(fmt::format("{}.mesh is given but the region's shape is not \"mesh\"; add shape = \"mesh\"", rp));
       }
       c.finite(rp + ".center", g.center);
-      cubic_poisson(resolve_material(scene, g.material, rp + ".material"), rp + ".material");
+      poisson_of_fill(resolve_material(scene, g.material, rp + ".material"), rp + ".material");
     }
   }
 

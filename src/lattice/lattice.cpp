@@ -1662,9 +1662,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
   // The plane x . up = h |up|: up is a float unit vector, whose length differs from 1 by up to 1e-7 off the
   // axes (gravity (-1, 0, -1): 1.7e-8), which put a ground at 999,000 m 1.7 cm off where the scene says.
   // Along an axis |up| is 1 and the height as given.
-  const double up_length = std::sqrt(static_cast<double>(M.up.x) * M.up.x + static_cast<double>(M.up.y) * M.up.y +
-                                     static_cast<double>(M.up.z) * M.up.z);
-  M.ground_height = scene.ground.height * up_length;
+  M.ground_height = scene.ground.height * length(to_dvec3(M.up));
   if (M.ground) refuse_bodies_in_the_ground(scene, S, M, placed);
   set_contact_materials(M, scene);
   M.skin = static_cast<float>(scene.solver.skin * d);

@@ -146,7 +146,7 @@ MCA_HD ContactSprings body_contact_springs(const ContactMaterial& c, float zeta,
 // of bodies of a kilometre), from the double product (product_root's reason).
 MCA_HD float reduced(float a, float b) {
   const float p = a * b;
-  if (p <= 3.4028235e38f) return p / (a + b);
+  if (p <= kFloatMax) return p / (a + b);
   return static_cast<float>(static_cast<double>(a) * b / (static_cast<double>(a) + b));
 }
 
@@ -290,11 +290,6 @@ MCA_HD float contact_reduced(float a, bool a_kinematic, float b, bool b_kinemati
   return a_kinematic ? b : (b_kinematic ? a : reduced(a, b));
 }
 
-// a . b of float vectors in double.
-MCA_HD double dot_in_double(Vec3 a, Vec3 b) {
-  return static_cast<double>(a.x) * b.x + static_cast<double>(a.y) * b.y + static_cast<double>(a.z) * b.z;
-}
-
 // Elastic energy stored in a contact's springs [J], for the energy bookkeeping.
 MCA_HD double contact_energy(const ContactSprings& s, double overlap, Vec3 ut, Vec3 mr, Vec3 n) {
   double e = 0;
@@ -302,10 +297,11 @@ MCA_HD double contact_energy(const ContactSprings& s, double overlap, Vec3 ut, V
   // The squares in float as they always were; where one leaves float (a rolling moment past 1.8e19 N m:
   // bodies of tens of kilometres on the ground, whose energy check read inf and stopped the run), in double.
   const float uu = dot(ut, ut), mm = dot(mr, mr);
-  const bool in_float = uu <= 3.4028235e38f && mm <= 3.4028235e38f;
-  e += 0.5 * s.kt * (in_float ? static_cast<double>(uu) : dot_in_double(ut, ut));
-  const double mn = in_float ? static_cast<double>(dot(mr, n)) : dot_in_double(mr, n);
-  const double mt2 = (in_float ? static_cast<double>(mm) : dot_in_double(mr, mr)) - mn * mn;
+  const bool in_float = uu <= kFloatMax && mm <= kFloatMax;
+  const DVec3 dut = to_dvec3(ut), dmr = to_dvec3(mr);
+  e += 0.5 * s.kt * (in_float ? static_cast<double>(uu) : dot(dut, dut));
+  const double mn = in_float ? static_cast<double>(dot(mr, n)) : dot(dmr, to_dvec3(n));
+  const double mt2 = (in_float ? static_cast<double>(mm) : dot(dmr, dmr)) - mn * mn;
   if (s.kr > 0) e += 0.5 * mt2 / s.kr;
   if (s.kw > 0) e += 0.5 * mn * mn / s.kw;
   return e;

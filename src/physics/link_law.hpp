@@ -363,13 +363,13 @@ struct LinkDashpots {
 // links' dashpots NaN and a body at rest NaN at its first step), from the double product. sqrt(a b):
 MCA_HD float product_root(float a, float b) {
   const float p = a * b;
-  if (p <= 3.4028235e38f) return std::sqrt(p);
+  if (p <= kFloatMax) return std::sqrt(p);
   return static_cast<float>(std::sqrt(static_cast<double>(a) * b));
 }
 // and sqrt(k m_i m_j / (m_i + m_j)):
 MCA_HD float reduced_root(float k, float m_i, float m_j) {
   const float p = k * m_i * m_j;
-  if (p <= 3.4028235e38f) return std::sqrt(p / (m_i + m_j));
+  if (p <= kFloatMax) return std::sqrt(p / (m_i + m_j));
   return static_cast<float>(std::sqrt(static_cast<double>(k) * m_i * m_j / (static_cast<double>(m_i) + m_j)));
 }
 

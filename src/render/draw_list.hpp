@@ -108,7 +108,7 @@ MCA_HD Rgba rgb(float r, float g, float b) { return {colour_byte(r), colour_byte
 // Piecewise-linear interpolation between N equally spaced stops (t outside [0, 1] clamped, not finite: 0).
 template <std::size_t N>
 MCA_HD Rgba ramp(const float (&stops)[N][3], float t) {
-  t = t == t && t <= 3.4028235e38f && t >= -3.4028235e38f ? (t < 0.0f ? 0.0f : t > 1.0f ? 1.0f : t) : 0.0f;
+  t = t == t && t <= kFloatMax && t >= -kFloatMax ? (t < 0.0f ? 0.0f : t > 1.0f ? 1.0f : t) : 0.0f;
   const float x = t * (N - 1);
   std::size_t k = static_cast<std::size_t>(x);
   if (k > N - 2) k = N - 2;
@@ -187,7 +187,7 @@ MCA_HD Rgba fragment_colour(std::uint32_t first, std::size_t size, std::size_t w
 }
 
 // The continuous modes (stress, speed): the value's colour on a scale of 0 to top.
-MCA_HD float finite_or_zero(float v) { return v == v && v <= 3.4028235e38f && v >= -3.4028235e38f ? v : 0.0f; }
+MCA_HD float finite_or_zero(float v) { return v == v && v <= kFloatMax && v >= -kFloatMax ? v : 0.0f; }
 MCA_HD float speed_of(double vx, double vy, double vz) { return static_cast<float>(length(DVec3{vx, vy, vz})); }
 MCA_HD Rgba scaled_colour(float v, double top) { return ramp_viridis(static_cast<float>(v / top)); }
 // The top of the scale: the one fixed by the options, else the largest finite value, at least 1 kPa of
