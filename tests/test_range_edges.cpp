@@ -10,6 +10,7 @@
 #include <mca/error.hpp>
 #include <mca/scene.hpp>
 
+#include "core/text.hpp"
 #include "io/scene_io.hpp"
 #include "lattice/lattice.hpp"
 #include "mesh_fixtures.hpp"
@@ -347,6 +348,35 @@ TEST(RangeEdges, HalfACellAndAProjectilesStrengtheningAreTaken) {
   EXPECT_EQ(engine_error(strengthening + "[[projectile]]\nmaterial = \"stiff\"\nradius = 0.05\nposition = [0, -1, 0.5]"), "");
   EXPECT_HAS(engine_error(strengthening + "[[object]]\nsize = [0.1, 0.1, 0.1]\nposition = [0, 0, -2]\nmaterial = \"stiff\""),
              "strengthening_alpha = 100 makes the exponential law reach a factor of");
+}
+
+// A value refused just past its bound prints apart from it: 0.02499997 against half the spacing, 0.025,
+// where both printed as 0.025 ("0.025 m ... less than half the spacing 0.05 m"), and likewise a time
+// step a hair above the critical one, a frame a hair shorter than the step, a speed a hair past its limit.
+TEST(RangeEdges, AValueJustPastItsBoundPrintsApartFromIt) {
+  std::string m = engine_error("[solver]\nspacing = 0.05\n[[object]]\nsize = [0.02499997, 0.1, 0.1]\nposition = [0, 0, -2]");
+  EXPECT_HAS(m, "0.02499997 m along its local x, less than half the spacing 0.05 m (0.025 m)");
+  const double critical = Engine(cube()).model().critical_dt;
+  const double step = critical * (1 + 1e-6);
+  m = engine_error(fmt::format("[solver]\ntime_step = {}", text::num(step)));
+  EXPECT_HAS(m, fmt::format("solver.time_step = {} s is above the critical step {} s", text::num(step),
+                            text::distinct(step, critical).b));
+  EXPECT_NE(text::distinct(step, critical).a, text::distinct(step, critical).b);
+  m = engine_error("[solver]\ntime_step = 1e-6\n[output]\nframe_rate = 1000000.01");
+  EXPECT_HAS(m, "asks for frames of 9.9999999e-07 s, shorter than solver.time_step = 1e-6 s");
+  Engine slow(cube("[[projectile]]\nradius = 0.05\nposition = [0, -1, 0.5]\nvelocity = [0, 1, 0]"));
+  const double limit = 0.1 * slow.model().spacing / slow.model().dt;
+  m = engine_error(fmt::format("[[projectile]]\nradius = 0.05\nposition = [0, -1, 0.5]\nvelocity = [0, {}, 0]",
+                               text::num(limit * (1 + 1e-6))));
+  const text::Distinct speed = text::distinct(limit * (1 + 1e-6), limit);
+  EXPECT_NE(speed.a, speed.b);
+  EXPECT_HAS(m, fmt::format("starts at {} m/s", speed.a));
+  EXPECT_HAS(m, fmt::format("Lower its speed below {} m/s", speed.b));
+  // Apart as far as they differ, and no further.
+  EXPECT_EQ(text::distinct(0.02499997, 0.025).a, "0.02499997");
+  EXPECT_EQ(text::distinct(0.1234, 0.5).a, "0.1234");
+  EXPECT_EQ(text::distinct(0.5, 0.5).b, "0.5");
+  EXPECT_EQ(text::distinct(1.0 / 3.0, std::nextafter(1.0 / 3.0, 1.0)).a, "0.3333333333333333");
 }
 
 }  // namespace

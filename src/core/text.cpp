@@ -26,6 +26,13 @@ std::string num(double v) {
   return fmt::format("{}", v);
 }
 
+Distinct distinct(double a, double b, int digits) {
+  for (int p = digits;; ++p) {
+    Distinct d{fmt::format("{:.{}g}", a, p), fmt::format("{:.{}g}", b, p)};
+    if (d.a != d.b || a == b || p >= 17) return d;
+  }
+}
+
 std::string escaped(std::string_view s) {
   std::string out;
   for (const char ch : s) {

@@ -11,6 +11,14 @@ namespace mca::text {
 // (3e+10, 1.5e-4) so that moduli and strains stay readable.
 std::string num(double v);
 
+// `a` and `b` for a message that compares them, each to `digits` significant digits ("{:.4g}"), or to as
+// many more as make them differ where they differ: a value just past a bound reads 0.02499997 against
+// 0.025, not "0.025 is less than 0.025".
+struct Distinct {
+  std::string a, b;
+};
+Distinct distinct(double a, double b, int digits = 4);
+
 // `s` as the inside of a TOML basic string: quote, backslash and control characters escaped.
 std::string escaped(std::string_view s);
 // `s` as a TOML basic string: escaped(s) in double quotes.

@@ -284,9 +284,9 @@ std::pair<double, double> class_factor_range(const SceneDef& scene) {
 float as_float32(const SceneDef& scene, const std::string& what, double v, const std::string& fix) {
   const double a = std::fabs(v);
   if (!(a >= std::numeric_limits<float>::min() && a <= std::numeric_limits<float>::max())) {
-    throw Error(fmt::format("{}: {} = {:.6g} does not fit the float32 arithmetic of the solver (magnitudes from "
-                            "1.2e-38 to 3.4e38); {}",
-                            scene.source, what, v, fix));
+    throw Error(fmt::format("{}: {} = {} does not fit the float32 arithmetic of the solver (magnitudes from "
+                            "1.1754944e-38 to 3.4028235e38); {}",
+                            scene.source, what, text::num(v), fix));
   }
   return static_cast<float>(v);
 }
@@ -329,15 +329,16 @@ GroupParams group_params(const SceneDef& scene, const MaterialDef& m, const std:
   const double weakest = class_factors.first * spread;
   const double breaking = weakest * std::min(m.fracture_strain, m.tensile_strength / m.youngs_modulus);
   if (automata && breaking < kMinBreakingStrain) {
+    const text::Distinct bd = text::distinct(breaking, kMinBreakingStrain, 3);
     throw Error(fmt::format(
-        "{}: {} breaks at a strain of {:.3g} (the smaller of fracture_strain = {:g} and tensile_strength / "
-        "youngs_modulus = {:g} / {:g}, times the weakest class factor {:g}{}), below the {:g} that the float32 "
+        "{}: {} breaks at a strain of {} (the smaller of fracture_strain = {:g} and tensile_strength / "
+        "youngs_modulus = {:g} / {:g}, times the weakest class factor {:g}{}), below the {} that the float32 "
         "arithmetic of the solver resolves; check youngs_modulus (Pa) and the strengths, or raise them{}",
-        scene.source, q, breaking, m.fracture_strain, m.tensile_strength, m.youngs_modulus, class_factors.first,
+        scene.source, q, bd.a, m.fracture_strain, m.tensile_strength, m.youngs_modulus, class_factors.first,
         modulus > 0 ? fmt::format(" and the factor {:.3g} one link in 1e9 falls below at weibull_modulus = {:g}", spread,
                                   modulus)
                     : "",
-        kMinBreakingStrain,
+        bd.b,
         modulus > 0 ? fmt::format("; or narrow the links' spread: a larger weibull_modulus (the smallest of the "
                                   "materials' sets it for all: {:g}; at 6 the factor is {:.3g}), or 0 for none",
                                   modulus, weibull_factor(1e-9, 6.0))
@@ -1117,10 +1118,11 @@ std::int64_t checked_automata_count(const SceneDef& scene, const Shapes& S, doub
     shape_extents(scene.objects[oi], S.of(oi), ext);
     for (int a = 0; a < 3; ++a)
       if (ext[a] < 0.5 * d * (1 - 1e-6)) {
-        throw Error(fmt::format("{}: object[{}] '{}' is {:.4g} x {:.4g} x {:.4g} m, {:.4g} m along its local {}, less than "
-                                "half the spacing {:.4g} m: its lattice would be a cell of {:.4g} m there; {} or make "
-                                "the object larger",
-                                scene.source, oi, scene.objects[oi].name, ext[0], ext[1], ext[2], ext[a], "xyz"[a], d, d,
+        const text::Distinct hd = text::distinct(ext[a], 0.5 * d);
+        throw Error(fmt::format("{}: object[{}] '{}' is {:.4g} x {:.4g} x {:.4g} m, {} m along its local {}, less than "
+                                "half the spacing {:.4g} m ({} m): its lattice would be a cell of {:.4g} m there; {} or "
+                                "make the object larger",
+                                scene.source, oi, scene.objects[oi].name, ext[0], ext[1], ext[2], hd.a, "xyz"[a], d, hd.b, d,
                                 scene.solver.target_automata > 0
                                     ? fmt::format("raise solver.target_automata (it sets the spacing; about {:.3g} "
                                                   "gives {:.3g} m)",
@@ -1538,10 +1540,11 @@ void choose_time_step(Model& M, const SceneDef& scene) {
   M.dt_limited_by = critical.limited_by;
   if (scene.solver.time_step > 0) {
     if (scene.solver.time_step > critical.dt) {
-      throw Error(fmt::format("{}: solver.time_step = {:g} s is above the critical step {:.4g} s of this scene (set by "
+      throw Error(fmt::format("{}: solver.time_step = {} s is above the critical step {} s of this scene (set by "
                               "{}), where the integration becomes unstable; remove solver.time_step to use "
                               "solver.safety x the critical step, or set it below {:.4g}",
-                              scene.source, scene.solver.time_step, critical.dt, critical.limited_by,
+                              scene.source, text::num(scene.solver.time_step),
+                              text::distinct(scene.solver.time_step, critical.dt).b, critical.limited_by,
                               scene.solver.safety * critical.dt));
     }
     set_time_step(M, static_cast<float>(scene.solver.time_step));

@@ -9,6 +9,7 @@
 #include "backend/cuda/device_memory.hpp"
 #include "core/environment.hpp"
 #include "core/fnv.hpp"
+#include "core/text.hpp"
 #include "lattice/lattice.hpp"
 #include "mca/error.hpp"
 #include "sim/state_check.hpp"
@@ -125,9 +126,10 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
   // 9.99999997e-7 in float, which made frames of 2e-6 s three steps).
   const double stable = given ? scene.solver.time_step : m.dt;
   if (given && frame < stable * (1 - 1e-9)) {
-    throw Error(fmt::format("{}: output.frame_rate = {:g} asks for frames of {:.3g} s, shorter than solver.time_step = "
-                            "{:g} s; lower output.frame_rate to at most {:.6g}, or remove solver.time_step",
-                            scene.source, scene.output.frame_rate, frame, scene.solver.time_step, 1.0 / stable));
+    throw Error(fmt::format("{}: output.frame_rate = {} asks for frames of {} s, shorter than solver.time_step = "
+                            "{} s; lower output.frame_rate to at most {:.6g}, or remove solver.time_step",
+                            scene.source, text::num(scene.output.frame_rate), text::distinct(frame, stable, 3).a,
+                            text::num(scene.solver.time_step), 1.0 / stable));
   }
   // A frame longer than the run is the run: its only frames are the first and the last (output.frame_rate
   // = 1e-6 over 0.05 s), however many steps a whole frame would take.
@@ -204,10 +206,12 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
     if (v > fastest) { fastest = v; which = fmt::format("grip '{}'", g.name); }
   }
   if (!(fastest * m.dt <= 0.1 * m.spacing)) {
-    throw Error(fmt::format("{}: {} starts at {:.4g} m/s, which crosses {:.3g} m per time step of {:.3g} s, more than a "
-                            "tenth of the spacing ({:g} m): contacts would be skipped. Lower its speed below {:.4g} m/s, "
-                            "or lower solver.safety or solver.time_step",
-                            scene.source, which, fastest, fastest * m.dt, m.dt, m.spacing, 0.1 * m.spacing / m.dt));
+    const text::Distinct speed = text::distinct(fastest, 0.1 * m.spacing / m.dt);
+    const text::Distinct reach = text::distinct(fastest * m.dt, 0.1 * m.spacing, 3);
+    throw Error(fmt::format("{}: {} starts at {} m/s, which crosses {} m per time step of {:.3g} s, more than a tenth "
+                            "of the spacing ({} m of {:g} m): contacts would be skipped. Lower its speed below {} m/s, or "
+                            "lower solver.safety or solver.time_step",
+                            scene.source, which, speed.a, reach.a, m.dt, reach.b, m.spacing, speed.b));
   }
   return m;
 }
