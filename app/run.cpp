@@ -172,8 +172,9 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
   j["steps"] = s.step;
   j["steps_per_frame"] = sim.steps_per_frame();
   j["simulated_time"] = s.time;
-  j["threads"] = threads;
+  j["threads"] = threads;  // (the worker threads given: the CPU backend's step, the frames' analysis and files)
   j["backend"] = sim.backend().name();
+  j["steps_run_on"] = steps_run_on(sim.backend().name(), threads);  // as the closing line says it
   j["wall_seconds"] = wall;
   j["session_steps"] = session_steps;
   j["session_wall_seconds"] = session_wall;

@@ -185,6 +185,8 @@ TEST(Cli, ARunCheckpointedOnOneBackendResumesOnAnotherWithTheSameBits) {
   const auto ja = nlohmann::json::parse(read(a / "summary.json"));
   const auto jc = nlohmann::json::parse(read(c / "summary.json"));
   EXPECT_EQ(jc["backend"], "cuda-emulation");
+  EXPECT_EQ(jc["steps_run_on"], "one core");
+  EXPECT_EQ(ja["steps_run_on"], fmt::format("{} thread{}", ja["threads"].get<int>(), ja["threads"] == 1 ? "" : "s"));
   EXPECT_EQ(ja["state_hash"], jc["state_hash"]);
   EXPECT_EQ(read(a / "stats.csv"), read(c / "stats.csv"));
 

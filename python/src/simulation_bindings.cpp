@@ -615,7 +615,9 @@ Simulation is gone.)");
                              "automata in the model")
       .def_property_readonly("link_count", [](const PySimulation& s) { return s.engine().model().link_count(); },
                              "links at the start (intact and broken)")
-      .def_property_readonly("threads", &PySimulation::threads, "worker threads used while stepping")
+      .def_property_readonly("threads", &PySimulation::threads,
+                             "worker threads (threads=0 gives every core): the cpu backend steps on them; cuda-emulation "
+                             "steps on one core, cuda on the GPU (see backend)")
       .def_property_readonly("backend", [](const PySimulation& s) { return s.engine().backend().name(); },
                              "the backend stepping the model")
       .def_property_readonly("scene", [](const PySimulation& s) { return PyScene::from_def(s.engine().scene()); },
