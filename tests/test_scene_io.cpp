@@ -410,6 +410,12 @@ TEST(SceneIo, WrongTypeNamesKeyLineAndTypes) {
   const std::string huge = parse_error("[solver]\nseed = 18446744073709551615\n" + kMinimal);
   EXPECT_HAS(huge, "TOML syntax error");
   EXPECT_HAS(huge, "18446744073709551615 is -1");
+  EXPECT_HAS(huge, "'18446744073709551615' is not representable in 64 bits");
+  // A negative one is quoted with its sign (toml++ drops it).
+  EXPECT_HAS(parse_error("[solver]\nseed = -9223372036854775809\n" + kMinimal),
+             "'-9223372036854775809' is not representable in 64 bits");
+  EXPECT_HAS(parse_error("[solver]\nseed = 0\nspacing = -99999999999999999999 # -1\n" + kMinimal),
+             "'-99999999999999999999' is not representable");
 
   const std::string table = parse_error("[object]\nname = \"x\"\n");
   EXPECT_HAS(table, "write each block as [[object]], not [object]");

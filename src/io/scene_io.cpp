@@ -800,6 +800,19 @@ const char* shape_name(Shape s) {
   }
 }
 
+namespace {
+// Line `n` (from 1) of `text`, without its end; empty past the last.
+std::string_view line_of(std::string_view text, std::size_t n) {
+  std::size_t at = 0;
+  for (; n > 1; --n) {
+    at = text.find('\n', at);
+    if (at == std::string_view::npos) return {};
+    ++at;
+  }
+  return text.substr(at, text.find('\n', at) - at);
+}
+}  // namespace
+
 SceneDef parse_scene(std::string_view toml_text, const std::string& source) {
   check_keys(toml_text, source);
   toml::table root;
@@ -808,8 +821,15 @@ SceneDef parse_scene(std::string_view toml_text, const std::string& source) {
   } catch (const toml::parse_error& e) {
     const toml::source_region& r = e.source();
     // TOML's integers are signed 64-bit: a seed above 2^63 - 1 is written as its two's complement.
-    const std::string_view what = e.description();
-    const bool too_large = what.find("not representable in 64 bits") != std::string_view::npos;
+    std::string what(e.description());
+    const bool too_large = what.find("not representable in 64 bits") != std::string::npos;
+    // (toml++ quotes the digits of a negative one without its sign: '9223372036854775809' for
+    // -9223372036854775809; the line says which was written.)
+    const std::size_t q0 = what.find('\''), q1 = q0 == std::string::npos ? q0 : what.find('\'', q0 + 1);
+    if (too_large && q1 != std::string::npos && q1 > q0 + 1 && what[q0 + 1] != '-') {
+      const std::string_view line = line_of(toml_text, r.begin.line);
+      if (line.find("-" + what.substr(q0 + 1, q1 - q0 - 1)) != std::string_view::npos) what.insert(q0 + 1, "-");
+    }
     throw Error(fmt::format("{}:{}:{}: TOML syntax error: {}{}", source, r.begin.line, r.begin.column, what,
                             too_large ? "; TOML integers are -2^63 .. 2^63-1 (a seed above 2^63-1 is written as its "
                                         "two's complement: 18446744073709551615 is -1, docs/scene-format.md; a "
