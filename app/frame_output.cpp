@@ -177,13 +177,13 @@ FrameWriter::FrameWriter(std::filesystem::path dir, const Model& model, const Ou
       surface_format_(output.surface_format),
       fragment_meshes_(output.fragments),
       fragment_min_automata_(output.fragment_min_automata) {
-  if (vtk_) std::filesystem::create_directories(dir_ / "frames");
-  if (surface_) std::filesystem::create_directories(dir_ / "surface");
+  if (vtk_) io::output_subfolder(dir_, "frames");
+  if (surface_) io::output_subfolder(dir_, "surface");
 }
 
 std::size_t FrameWriter::write_fragment_meshes(const State& s, const analysis::Fragments& frags) {
   if (!fragment_meshes_) return 0;
-  std::filesystem::create_directories(dir_ / "fragments");
+  io::output_subfolder(dir_, "fragments");
   const auto meshes = analysis::fragment_meshes(model_, s, frags, fragment_min_automata_);
   for (const auto& fm : meshes) {
     const mesh::FloatMesh out = mesh::to_float(fm.mesh);

@@ -347,8 +347,7 @@ struct Loop {
 
 void save_checkpoint(const Loop& L, FrameWriter& writer, double wall) {
   writer.sync_stats();  // the rows up to it first: a resume from it reads them back
-  const auto ckdir = L.dir / "checkpoints";
-  std::filesystem::create_directories(ckdir);
+  const auto ckdir = io::output_subfolder(L.dir, "checkpoints");
   io::Checkpoint cp;
   cp.scene = L.sim.scene();
   cp.state = L.sim.state();
@@ -577,6 +576,7 @@ int run(const RunOptions& o) {
     }
   }
   io::prepare_output_dir(dir);
+  io::check_output_subfolders(dir);
   const io::OutputLock lock(dir);
   // The run writes the scene as run to <dir>/scene.toml: never over the scene file it reads.
   if (o.scene) {
@@ -675,6 +675,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   }
   const io::OutputLock lock(dir);
   remove_stale_temporaries(dir);
+  io::check_output_subfolders(dir);
   const auto ckdir = dir / "checkpoints";
   const auto all = io::list_checkpoints(ckdir);
   if (all.empty())

@@ -390,6 +390,43 @@ fs::path checkpointed_run(const fs::path& d) {
 
 }  // namespace
 
+// A file where a run writes a folder (frames, checkpoints, ...) is refused before anything is written, with
+// the exit code of bad input: found at the first write into it, it gave a raw filesystem error (exit 1),
+// partway through a run and with no checkpoint (the hostile review of 2026-12-05). A resume is refused the
+// same way, and leaves the folder as it was.
+TEST(Cli, AFileWhereARunWritesAFolderIsRefusedBeforeItStarts) {
+  const fs::path d = fresh_dir("file_as_folder");
+  for (const char* sub : {"frames", "checkpoints", "fragments", "surface", "render"}) {
+    SCOPED_TRACE(sub);
+    const fs::path out = d / sub;
+    fs::create_directories(out);
+    std::ofstream(out / sub) << "x\n";
+    const Result r = run_mca("run " + small_scene(d).string() + " --out " + out.string() + " -q --checkpoint-every 2");
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find(fmt::format("'{}' is there and is not a folder: the run writes", (out / sub).string())),
+              std::string::npos)
+        << r.output;
+    EXPECT_NE(r.output.find("move or remove it, or choose another output folder"), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("filesystem error"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(out / "scene.toml"));
+    EXPECT_FALSE(fs::exists(out / "stats.csv"));
+    EXPECT_EQ(read(out / sub), "x\n");
+  }
+  // A resume whose frames folder became a file.
+  const fs::path ck = checkpointed_run(d);
+  ASSERT_FALSE(ck.empty());
+  const fs::path out = d / "out";
+  fs::remove(out / "summary.json");
+  std::ofstream(out / "frames") << "x\n";
+  const std::string stats = read(out / "stats.csv");
+  const Result r = run_mca("resume " + out.string() + " -q");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("frames' is there and is not a folder: the run writes the VTK frames"), std::string::npos)
+      << r.output;
+  EXPECT_EQ(read(out / "stats.csv"), stats);
+  EXPECT_FALSE(fs::exists(out / "summary.json"));
+}
+
 // The embedded scene of a checkpoint edited in place (same length): the rebuilt model is not the one
 // the state was saved from. Resuming must refuse, not run on (or crash on) a mismatched state.
 TEST(Cli, TamperedCheckpointIsRefusedOnResume) {

@@ -196,3 +196,17 @@ def test_a_simulation_stopped_by_a_full_gpu_refuses_and_touches_no_folder(tmp_pa
     fresh = mca.Simulation(scene, backend="cuda-emulation")
     fresh.advance(20)
     assert fresh.state_hash() == cpu.state_hash()
+
+
+def test_write_frame_into_a_folder_whose_frames_folder_is_a_file(tmp_path):
+    # A file named `frames` gave a bare RuntimeError (a filesystem error); it is mca.Error, naming it and
+    # the fix, before anything is written.
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "frames").write_text("x\n")
+    sim = mca.Simulation(mca.Scene.default(), threads=1, backend="cpu")
+    with pytest.raises(mca.Error, match=r"frames' is there and is not a folder: the run writes the VTK frames"):
+        sim.write_frame(out)
+    assert sorted(p.name for p in out.iterdir()) == ["frames"]
+    (out / "frames").unlink()
+    assert sim.write_frame(out) == 0

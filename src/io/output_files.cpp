@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <utility>
 #include <atomic>
 #include <cerrno>
 #include <csignal>
@@ -69,6 +70,45 @@ void prepare_output_dir(const fs::path& dir) {
     }
   }
   if (!fs::remove(probe, ec) || ec) throw fail(ec ? ec.message() : "could not remove a probe file");
+}
+
+namespace {
+// What a run writes into each of its subfolders, for messages.
+constexpr std::pair<const char*, const char*> kSubfolders[] = {
+    {"frames", "the VTK frames"},          {"surface", "the bound surface's frames"},
+    {"fragments", "the fragments' meshes"}, {"checkpoints", "its checkpoints"},
+    {"render", "the rendered frames"}};
+
+std::string subfolder_use(const std::string& name) {
+  for (const auto& [n, use] : kSubfolders)
+    if (name == n) return use;
+  return "its files";
+}
+}  // namespace
+
+void check_output_subfolders(const fs::path& dir) {
+  for (const auto& [name, use] : kSubfolders) {
+    std::error_code ec;
+    const fs::path sub = dir / name;
+    if (fs::exists(fs::symlink_status(sub, ec)) && !fs::is_directory(sub, ec)) {
+      throw Error(fmt::format("'{}' is there and is not a folder: the run writes {} into a folder of that name; move "
+                              "or remove it, or choose another output folder",
+                              sub.string(), use));
+    }
+  }
+}
+
+fs::path output_subfolder(const fs::path& dir, const std::string& name) {
+  const fs::path sub = dir / name;
+  std::error_code ec;
+  fs::create_directories(sub, ec);
+  if (ec || !fs::is_directory(sub)) {
+    throw Error(fmt::format("cannot make the folder '{}' for {}: {}; move or remove what is there, or choose another "
+                            "output folder",
+                            sub.string(), subfolder_use(name),
+                            ec ? ec.message() : std::string("it is there and is not a folder")));
+  }
+  return sub;
 }
 
 std::string scene_folder_name(const std::string& scene_name) {

@@ -13,6 +13,14 @@ namespace mca::io {
 // bad --out folder fails before the simulation spends any time. Throws mca::Error naming the folder.
 void prepare_output_dir(const std::filesystem::path& dir);
 
+// The folders a run writes into inside its output folder (frames, surface, fragments, checkpoints, render):
+// one that is there as something else (a file named `frames`) is refused, naming it and the fix, before
+// anything is written. Found late, it stopped a run partway, with no checkpoint, in a raw error.
+void check_output_subfolders(const std::filesystem::path& dir);
+// `dir / name`, made where it is missing; mca::Error naming it, what goes there and the fix where it
+// cannot be (a file of that name, permissions).
+std::filesystem::path output_subfolder(const std::filesystem::path& dir, const std::string& name);
+
 // Holds the output folder's lock (flock on the folder itself, no file added) for its lifetime: a second
 // mca run or resume into the same folder is refused while one writes there (two runs at once mixed their
 // frames, stats and summaries, and both exited 0). Throws mca::Error naming the folder.
