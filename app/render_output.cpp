@@ -273,7 +273,7 @@ void RenderOutput::finish() {
 
 std::filesystem::path plot_script() { return std::filesystem::path(MCA_TOOLS_DIR) / "plot_run.py"; }
 
-bool run_plot_script(const std::filesystem::path& dir, bool quiet) {
+bool run_plot_script(const std::filesystem::path& dir, bool quiet, const std::atomic<int>* stop) {
   const std::filesystem::path script = plot_script();
   const std::string shown = fmt::format("python3 {} {}", script.string(), dir.string());
   if (!std::filesystem::exists(script)) {
@@ -289,7 +289,14 @@ bool run_plot_script(const std::filesystem::path& dir, bool quiet) {
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
   pid_t pid = 0;
-  const int rc = posix_spawnp(&pid, python.c_str(), nullptr, nullptr, argv.data(), environ);
+  posix_spawnattr_t attr;
+  posix_spawnattr_init(&attr);
+  if (stop) {  // (its own process group: a terminal's Ctrl-C reaches this program only, which stops it)
+    posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
+    posix_spawnattr_setpgroup(&attr, 0);
+  }
+  const int rc = posix_spawnp(&pid, python.c_str(), nullptr, &attr, argv.data(), environ);
+  posix_spawnattr_destroy(&attr);
   if (rc != 0) {
     fmt::print(stderr, "warning: no plots: python3 cannot be started ({}); install it with `apt-get install python3 "
                        "python3-matplotlib` (scripts/setup.sh does), then run: {}\n",
@@ -304,6 +311,12 @@ bool run_plot_script(const std::filesystem::path& dir, bool quiet) {
   for (;;) {
     const pid_t done = ::waitpid(pid, &status, WNOHANG);
     if (done == pid || (done < 0 && errno != EINTR)) break;
+    if (stop && stop->load() != 0) {
+      ::kill(-pid, SIGTERM);
+      while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+      }
+      return false;
+    }
     if (seconds_since(t0) > kPlotTimeout) {
       ::kill(pid, SIGKILL);
       while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {

@@ -3,6 +3,7 @@
 // ffmpeg) and contact_sheet.png, then the plots of tools/plot_run.py. Only reads the state.
 #include <chrono>
 #include <cstdint>
+#include <atomic>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -98,6 +99,9 @@ class RenderOutput {
 std::filesystem::path plot_script();
 // Runs tools/plot_run.py on a run's folder (energies, broken links, fragment masses as PNG in render/).
 // Prints a message and returns false when python3, matplotlib or the script is missing or it fails.
-bool run_plot_script(const std::filesystem::path& dir, bool quiet);
+// `stop`, where given: a stop signal (Ctrl-C) the caller's handler records; the script runs in a process
+// group of its own (a terminal's Ctrl-C is not its), and is stopped when the caller's comes: false, and
+// no message (the caller says it was interrupted).
+bool run_plot_script(const std::filesystem::path& dir, bool quiet, const std::atomic<int>* stop = nullptr);
 
 }  // namespace mca::app

@@ -475,7 +475,16 @@ int run_loop(Loop& L, FrameWriter& writer) {
   if (L.render) {
     if (tty) fmt::print(stderr, "\n");
     L.render->finish();
-    run_plot_script(L.dir, L.quiet);
+    if (g_stop_signal == 0) run_plot_script(L.dir, L.quiet, &g_stop_signal);
+  }
+  // A stop signal after the last step: the run and its files are whole, what is left of its end is not made.
+  if (const int sig = g_stop_signal; sig != 0) {
+    say("{}interrupted by {} after the run's last frame ({}): {}\n", tty ? "\n" : "", signal_name(sig), L.frame - 1,
+        L.render ? fmt::format("its outputs are complete but for the plots in render/, not made: python3 {} {} "
+                               "makes them",
+                               text::shell_word(plot_script().string()), text::shell_word(L.dir.string()))
+                 : std::string("its outputs are complete"));
+    return 128 + sig;
   }
   if (!L.quiet) {
     const State& s = sim.state();

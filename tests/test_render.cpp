@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <csignal>
+#include <chrono>
+#include <atomic>
 
 #include <cstdlib>
 #include <filesystem>
@@ -248,6 +251,29 @@ TEST(Render, WithoutFfmpegThePngsAreWrittenAndTheMessageSaysHowToGetTheVideo) {
   EXPECT_NE(r.output.find("apt-get install ffmpeg"), std::string::npos) << r.output;
   EXPECT_TRUE(fs::exists(d.path() / "render" / "frame_000001.png"));
   EXPECT_FALSE(fs::exists(d.path() / "render" / "video.mp4"));
+}
+
+// A Ctrl-C while the plots are made stops the plot script (in a process group of its own: a terminal's
+// Ctrl-C printed its Python traceback) without a warning; `mca run` then exits 130 (it had exited 0,
+// calling the user's Ctrl-C a failed plot: found by the hostile review of 2026-12-05).
+TEST(Render, AStopSignalStopsThePlotScript) {
+  TempDir d;
+  const Result r = run_mca(std::string("run ") + kCubicWall + " -q --steps 10 --render --render-size 64x48 --out " +
+                           d.path().string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  const fs::path plot = d.path() / "render" / "energies.png";
+  ASSERT_TRUE(fs::exists(plot));
+  fs::remove(plot);
+  std::atomic<int> stop{SIGINT};
+  testing::internal::CaptureStderr();
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_FALSE(app::run_plot_script(d.path(), true, &stop));
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 10.0);
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+  EXPECT_FALSE(fs::exists(plot));
+  stop = 0;
+  EXPECT_TRUE(app::run_plot_script(d.path(), true, &stop));
+  EXPECT_TRUE(fs::exists(plot));
 }
 
 // An ffmpeg that fails (no libx264: exits 1 with a message) or writes nothing (exits 0) costs the video
