@@ -376,11 +376,61 @@ def _fragment_meshes(run, collection):
     return out
 
 
+# The kinds of Blender data an import makes, objects first (each removed before what it uses).
+_MADE = ("objects", "collections", "meshes", "materials", "node_groups", "cameras", "lights", "actions", "worlds",
+         "images", "curves")
+# The scene's settings an import sets.
+_SET = ("frame_start", "frame_end", "camera", "world", "render.fps", "render.fps_base", "display.shading.color_type",
+        "display_settings.display_device", "view_settings.view_transform")
+
+
+def _get(owner, dotted):
+    for name in dotted.split("."):
+        owner = getattr(owner, name)
+    return owner
+
+
+def _set(owner, dotted, value):
+    *path, name = dotted.split(".")
+    for p in path:
+        owner = getattr(owner, p)
+    setattr(owner, name, value)
+
+
+def _undo_on_failure(scene):
+    """What the data and `scene` hold now; the returned function takes back whatever an import added and
+    set since (a failed import must not leave half a run in the file, nor a second try's .001 copies)."""
+    before = {kind: {d.as_pointer() for d in getattr(bpy.data, kind)} for kind in _MADE}
+    settings = {key: _get(scene, key) for key in _SET}
+
+    def undo():
+        for kind in _MADE:
+            data = getattr(bpy.data, kind)
+            for d in [d for d in data if d.as_pointer() not in before[kind]]:
+                data.remove(d)
+        for key, value in settings.items():
+            try:
+                _set(scene, key, value)
+            except (AttributeError, ReferenceError, TypeError, ValueError):
+                pass  # (a setting that cannot be put back as it was stays as the import left it)
+
+    return undo
+
+
 def import_run(context, path, max_frames=None):
     """Reads the run folder `path` and builds it into the current scene; returns an Imported. Raises
-    reader.RunError with a message for the user."""
+    reader.RunError with a message for the user; an import that fails leaves the file as it was."""
     start = time.perf_counter()
     run = reader.Run(path, max_frames=max_frames)
+    undo = _undo_on_failure(context.scene)
+    try:
+        return _build(context, run, start)
+    except BaseException:
+        undo()
+        raise
+
+
+def _build(context, run, start):
     scene = context.scene
     result = Imported(run)
     name = run.scene.get("name") or os.path.basename(run.dir.rstrip(os.sep))

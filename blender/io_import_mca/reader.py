@@ -622,6 +622,14 @@ class Run:
                 raise RunError(f"{os.path.join(self.dir, rel)} holds {len(points)} automata, frame 0 "
                                f"{len(self.frames[0]['points'])}: frames of different runs are mixed in the folder; "
                                "run mca again into an empty folder")
+            # Indices that size arrays (a fragment id of 2^31 made numpy allocate 16 GB): each in 0..N-1.
+            for key in ("fragment", "object"):
+                ids = np.asarray(fields[key])
+                bad = np.flatnonzero((ids < 0) | (ids >= max(len(points), 1)))
+                if len(bad):
+                    raise RunError(f"{os.path.join(self.dir, rel)}: array '{key}' holds {ids[bad[0]]} at automaton "
+                                   f"{bad[0]}, outside 0..{len(points) - 1} (an id per automaton): the frame is "
+                                   "damaged; run mca again")
             self.frames.append(dict(points=points, **fields))
         # Frames of mca before the orientation was written: the rotations are reconstructed.
         self.has_orientation = all("orientation" in f for f in self.frames)

@@ -238,6 +238,8 @@ def case_bad_input(case_dir):
         "fov_zero": "scene.toml: [camera] fov = 0.0 is not a number of degrees",
         "frames_file": "a folder on its path is a file",
         "frame_folder": "automata_000001.vtu is a folder",
+        "fragment_huge": "automata_000002.vtu: array 'fragment' holds 2147483647 at automaton 5, outside 0..",
+        "object_negative": "automata_000002.vtu: array 'object' holds -1 at automaton 5, outside 0..",
         "does_not_exist": os.path.join(case_dir, "does_not_exist") + " does not exist",
     }
     for name, words in expect.items():
@@ -281,6 +283,33 @@ def case_bad_input(case_dir):
               "an unforeseen failure is one line naming the run folder")
     finally:
         reader.Run = real
+    # A failure while building (the fragment meshes, after the frames' objects are made) takes back what the
+    # import made and set: a second try made .001 copies beside the first's leftovers.
+    from io_import_mca import build
+    kinds = ("objects", "collections", "meshes", "materials", "node_groups", "cameras", "lights", "actions")
+    before = {k: sorted(d.name for d in getattr(bpy.data, k)) for k in kinds}
+    scene = bpy.context.scene
+    settings = (scene.frame_start, scene.frame_end, scene.render.fps, scene.camera)
+    real_fragments = build._fragment_meshes
+
+    def fail_late(*args, **kwargs):
+        check(bpy.data.objects.get("mca automata 000000") is not None, "the frames were built before the failure")
+        raise ZeroDivisionError("float division by zero")
+    build._fragment_meshes = fail_late
+    try:
+        for attempt in range(2):
+            try:
+                bpy.ops.import_scene.mca_run(directory=os.path.join(case_dir, "no_summary") + "/")
+                check(False, "the failure while building was refused")
+            except RuntimeError as e:
+                check("ZeroDivisionError" in str(e), f"the failure while building is reported ({str(e).strip()})")
+            after = {k: sorted(d.name for d in getattr(bpy.data, k)) for k in kinds}
+            check(after == before, f"a failed import (try {attempt + 1}) leaves the data as it was: "
+                                   f"{ {k: sorted(set(after[k]) - set(before[k])) for k in kinds} }")
+            check((scene.frame_start, scene.frame_end, scene.render.fps, scene.camera) == settings,
+                  "a failed import leaves the scene's settings as they were")
+    finally:
+        build._fragment_meshes = real_fragments
 
 
 def case_missing_numpy(run_dir):

@@ -8,6 +8,7 @@ Cases setup_* make the run folders under DIR (ctest fixtures), the others import
 
 import argparse
 import os
+import re
 import shutil
 import struct
 import subprocess
@@ -118,6 +119,21 @@ def copy_run(src, dst):
     shutil.copytree(src, dst)
 
 
+def patch_int32(vtu, array, index, value):
+    """Sets element `index` of the Int32 point array `array` of an mca frame (appended raw data, UInt64
+    block headers) to `value`."""
+    with open(vtu, "rb") as f:
+        data = bytearray(f.read())
+    marker = data.find(b"<AppendedData")
+    start = data.find(b"_", marker) + 1
+    m = re.search(rb'<DataArray type="Int32" Name="' + array.encode() + rb'"[^>]*offset="(\d+)"', data[:marker])
+    assert m, (vtu, array)
+    at = start + int(m.group(1)) + 8 + 4 * index
+    data[at:at + 4] = struct.pack("<i", value)
+    with open(vtu, "wb") as f:
+        f.write(data)
+
+
 def make_bad_inputs(a):
     """Broken run folders, each made from the short run."""
     short = os.path.join(a.work, "short")
@@ -203,6 +219,12 @@ def make_bad_inputs(a):
     copy_run(short, d)
     os.remove(os.path.join(d, "frames", "automata_000001.vtu"))
     os.makedirs(os.path.join(d, "frames", "automata_000001.vtu"))
+    # Ids that size arrays, damaged: a fragment id of 2^31 - 1 made the importer allocate 16 GB (killed for
+    # its memory), a negative one failed in numpy.
+    for name, array, value in (("fragment_huge", "fragment", 2**31 - 1), ("object_negative", "object", -1)):
+        d = os.path.join(bad, name)
+        copy_run(short, d)
+        patch_int32(os.path.join(d, "frames", "automata_000002.vtu"), array, 5, value)
     d = os.path.join(bad, "no_projectiles")  # the balls' collection left behind: imports without balls, warned
     copy_run(short, d)
     os.remove(os.path.join(d, "projectiles.pvd"))
