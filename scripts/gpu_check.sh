@@ -142,9 +142,16 @@ if command -v compute-sanitizer >/dev/null; then
   timeout 60 compute-sanitizer --tool racecheck --error-exitcode 9 "${loader[@]}" \
     "$dir/mca_tests" --gtest_filter='CudaDevice.TheSortsScansAndBlockLaunchesAreTheirSerialResults' >"$out/racecheck.log" 2>&1
   note "compute-sanitizer racecheck, the one-block primitives' test: exit $? ($(tail -1 "$out/racecheck.log"))"
-  timeout 90 compute-sanitizer --tool racecheck --error-exitcode 9 "${loader[@]}" \
+  # (MCA_CUDA_SYNC=1: each launch waited for, so a kernel that fails is named; an earlier 100-step run under
+  # racecheck ended with exit 11 and no message.)
+  MCA_CUDA_SYNC=1 timeout 90 compute-sanitizer --tool racecheck --error-exitcode 9 "${loader[@]}" \
     "$dir/mca" run --backend cuda --steps 100 --no-vtk --out "$unpacked/racechecked" >"$out/racecheck_run.log" 2>&1
   note "compute-sanitizer racecheck, 100 steps of the default scene: exit $? ($(tail -1 "$out/racecheck_run.log"))"
+  # Device memory read before it is written (the emulation fills fresh arrays with 0xFF bytes, a GPU leaves
+  # what was there), on the first steps of the default scene.
+  MCA_CUDA_SYNC=1 timeout 60 compute-sanitizer --tool initcheck --error-exitcode 9 "${loader[@]}" \
+    "$dir/mca" run --backend cuda --steps 60 --no-vtk -q --out "$unpacked/initchecked" >"$out/initcheck.log" 2>&1
+  note "compute-sanitizer initcheck, 60 steps of the default scene: exit $? ($(tail -1 "$out/initcheck.log"))"
   set -e
 else
   note "compute-sanitizer: not on this machine"

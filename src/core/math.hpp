@@ -10,6 +10,7 @@
 // the same IEEE operations in the same order as the scalar code, so every backend computes the same bits.
 // Branches on values are written as select(mask, a, b), which computes both sides.
 #include <cmath>
+#include <cstdint>
 #include <type_traits>
 
 #if defined(__CUDACC__)
@@ -25,6 +26,19 @@ namespace mca {
 // The largest finite float (std::numeric_limits<float>::max(), spelled out for device code): x <= kFloatMax
 // is false for inf and NaN.
 inline constexpr float kFloatMax = 3.4028235e38f;
+
+// The cell of coordinate v in a grid of cells 1 / inv wide (the contact search's, on every backend), clamped
+// to +-2^52 cells, far beyond any position a run reaches (a damaged checkpoint or the step that found a
+// non-finite position may hold one; NaN goes to the lowest), so that the conversion and the neighbour
+// offsets cannot overflow (a conversion out of range is undefined, and a GPU and a CPU give different
+// integers for it). Far points share the edge cells, which costs only time: callers test the distance of
+// every candidate.
+MCA_HD std::int64_t grid_cell(double v, double inv) {
+  constexpr double kLimit = 4503599627370496.0;  // 2^52
+  const double c = std::floor(v * inv);
+  if (!(c >= -kLimit)) return static_cast<std::int64_t>(-kLimit);  // NaN too
+  return static_cast<std::int64_t>(kLimit < c ? kLimit : c);
+}
 
 // Scalar forms of the lane helpers.
 MCA_HD float select(bool m, float a, float b) { return m ? a : b; }

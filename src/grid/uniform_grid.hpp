@@ -65,15 +65,8 @@ class UniformGrid {
           f(b);
         }
   }
-  // Clamped to +-2^52 cells, far beyond any position a run reaches (a damaged checkpoint may hold one;
-  // NaN goes to the lowest), so that the conversion and the neighbour offsets cannot overflow. Far points
-  // share the edge cells, which costs only time: callers test the distance of every candidate.
-  std::int64_t cell_of(double v) const {
-    constexpr double kLimit = 4503599627370496.0;  // 2^52
-    const double c = std::floor(v * inv_cell_);
-    if (!(c >= -kLimit)) return static_cast<std::int64_t>(-kLimit);  // NaN too
-    return static_cast<std::int64_t>(std::min(c, kLimit));
-  }
+  // (Clamped to +-2^52 cells: grid_cell, core/math.hpp.)
+  std::int64_t cell_of(double v) const { return grid_cell(v, inv_cell_); }
   std::uint32_t bucket(std::int64_t i, std::int64_t j, std::int64_t k) const {
     const std::uint64_t h = static_cast<std::uint64_t>(i) * 73856093ull ^ static_cast<std::uint64_t>(j) * 19349663ull ^
                             static_cast<std::uint64_t>(k) * 83492791ull;

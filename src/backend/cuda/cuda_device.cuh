@@ -18,6 +18,7 @@
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <memory>
 #include <stdexcept>
@@ -34,6 +35,17 @@ namespace mca::gpu {
 
 inline void cuda_check(cudaError_t e, const char* what) {
   if (e != cudaSuccess) throw Error(std::string("CUDA: ") + what + ": " + cudaGetErrorString(e));
+}
+
+// After a launch: the launch's own error; and with MCA_CUDA_SYNC=1, the kernel's, waited for (a kernel that
+// faults is otherwise reported by the next call that waits for the device, under that call's name).
+inline void launched(const std::string& name) {
+  cuda_check(cudaGetLastError(), ("launching " + name).c_str());
+  static const bool wait = [] {
+    const char* given = std::getenv("MCA_CUDA_SYNC");
+    return given != nullptr && std::string(given) == "1";
+  }();
+  if (wait) cuda_check(cudaDeviceSynchronize(), name.c_str());
 }
 
 template <class K>
@@ -302,7 +314,7 @@ struct CudaDevice {
     const std::size_t n = b.size();
     if (n == 0) return;
     fill_kernel<<<static_cast<unsigned>((n + kBlock - 1) / kBlock), kBlock>>>(b.data(), n, value);
-    cuda_check(cudaGetLastError(), "fill");
+    launched("fill");
   }
   // to[0 .. n - 1] = from[0 .. n - 1], both on the device.
   template <class T>
@@ -315,7 +327,7 @@ struct CudaDevice {
     if (n == 0) return;
     static const std::string name = DeviceProfile::name_of<K>();
     timed(name, [&] { run_kernel<<<static_cast<unsigned>((n + kBlock - 1) / kBlock), kBlock>>>(kernel, n); });
-    cuda_check(cudaGetLastError(), "kernel launch");
+    launched(name);
   }
 
   // kernel(phase, k) for its phases in turn (host_device.hpp): one block of kBlock threads.
@@ -323,7 +335,7 @@ struct CudaDevice {
   static void launch_block(const K& kernel) {
     static const std::string name = DeviceProfile::name_of<K>();
     timed(name, [&] { run_block_kernel<<<1, kBlock>>>(kernel); });
-    cuda_check(cudaGetLastError(), "kernel launch");
+    launched(name);
   }
 
   // kernel(k) for k < n (as launch), each giving a Reduced: *max_to becomes the largest of it and theirs
@@ -342,7 +354,7 @@ struct CudaDevice {
       } else
         run_reduce_kernel<<<blocks, kBlock>>>(kernel, n, max_to, min_to);
     });
-    cuda_check(cudaGetLastError(), "kernel launch");
+    launched(name);
   }
 
   // out[k] = in[0] + ... + in[k - 1] for k = 0 .. n (out[n]: the total); in and out are different arrays.
@@ -350,7 +362,7 @@ struct CudaDevice {
     if (n <= std::size_t{kSmallScanThreads} * kSmallScanItems) {
       static const std::string small = "scan, one block";
       timed(small, [&] { small_scan_kernel<<<1, kSmallScanThreads>>>(in, out, static_cast<unsigned>(n)); });
-      cuda_check(cudaGetLastError(), "scan");
+      launched(small);
       return;
     }
     cuda_check(cudaMemsetAsync(out, 0, sizeof(std::uint32_t)), "scan");
@@ -366,7 +378,7 @@ struct CudaDevice {
     if (n <= kSmallSort) {
       static const std::string small = "sort, one block";
       timed(small, [&] { small_sort_kernel<<<1, kSmallSort>>>(keys, values, static_cast<unsigned>(n)); });
-      cuda_check(cudaGetLastError(), "sort");
+      launched(small);
       return;
     }
     Sorted& o = sorted();

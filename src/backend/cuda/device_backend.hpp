@@ -131,6 +131,7 @@ class DeviceBackend : public StateBackend {
     for (auto* b : {&px_, &py_, &pz_, &vx_, &vy_, &vz_, &wx_, &wy_, &wz_}) b->resize(n);
     for (auto* b : {&qw_, &qx_, &qy_, &qz_}) b->resize(n);
     ref_.resize(cpu::tiled_size(n, cpu::kRefRows));
+    Dev::fill(ref_, 0.0);  // (the tiles' padding, which no kernel writes, is downloaded with the rows)
     for (auto* b : {&utx_, &uty_, &utz_}) b->resize(L);
     many_body_.resize(3 * cpu::scratch_stride(n));
     // The fused lattice kernel where there are no explicit links (their slots would need copying too), with
@@ -570,7 +571,9 @@ class DeviceBackend : public StateBackend {
     while (b < 64 && (largest >> b)) ++b;
     return b;
   }
-  // b holds `used` values and room for `need` (kept: the new room is a copy).
+  // b holds `used` values and room for `need` (kept: the new room is a copy). (On a GPU the old memory is
+  // freed when `bigger` goes, with the copy from it queued: cudaFree waits for the device first. Memory
+  // freed in stream order, cudaFreeAsync or a pool, would need the copy's stream.)
   template <class T>
   static void grow_keeping(Buf<T>& b, std::size_t used, std::size_t need) {
     if (b.size() >= need) return;
@@ -1322,20 +1325,33 @@ void DeviceBackend<Dev>::draw(const render::SnapshotOptions& o, const std::array
   // Where the list goes: the target's buffers (zero copy), or the device's, then copied to the host.
   render::Instance* instances = nullptr;
   render::SurfaceVertex* vertices = nullptr;
+  using W = render::DrawTarget;
+  // What is mapped is unmapped also where a map or a launch between throws: a buffer left mapped is refused
+  // by every later map, and OpenGL must not draw from or delete a buffer CUDA holds. (The error thrown is
+  // the first one's.)
+  struct Mapped {
+    W* target = nullptr;
+    bool automata = false, surface = false;
+    ~Mapped() {
+      for (const auto& [held, which] : {std::pair{surface, W::surface}, std::pair{automata, W::automata}}) {
+        try {
+          if (held) Dev::unmap_gl(*target, which);
+        } catch (...) {
+        }
+      }
+    }
+  } mapped{target};
   if (target && o.draw != render::DrawMode::spheres && target->refused().empty()) {
-    using W = render::DrawTarget;
     std::string& why = target->refused();  // set where the device cannot share them: not tried again
     instances = static_cast<render::Instance*>(
         Dev::map_gl(*target, W::automata, std::max<std::size_t>(drawn, 1) * sizeof(render::Instance), why));
+    mapped.automata = instances != nullptr;
     if (instances && surface) {
-      try {
-        vertices = static_cast<render::SurfaceVertex*>(
-            Dev::map_gl(*target, W::surface, corners * sizeof(render::SurfaceVertex), why));
-      } catch (...) {
-        Dev::unmap_gl(*target, W::automata);
-        throw;
-      }
+      vertices = static_cast<render::SurfaceVertex*>(
+          Dev::map_gl(*target, W::surface, corners * sizeof(render::SurfaceVertex), why));
+      mapped.surface = vertices != nullptr;
       if (!vertices) {
+        mapped.automata = false;
         Dev::unmap_gl(*target, W::automata);
         instances = nullptr;
       }
@@ -1359,8 +1375,10 @@ void DeviceBackend<Dev>::draw(const render::SnapshotOptions& o, const std::array
                                            at, vertices});
   }
   if (shared) {
-    Dev::unmap_gl(*target, render::DrawTarget::automata);
-    if (surface) Dev::unmap_gl(*target, render::DrawTarget::surface);
+    mapped.automata = false;
+    Dev::unmap_gl(*target, W::automata);
+    mapped.surface = false;
+    if (surface) Dev::unmap_gl(*target, W::surface);
     out.shared_automata = drawn;
     out.shared_corners = surface ? corners : 0;
   } else {

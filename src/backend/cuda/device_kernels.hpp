@@ -815,7 +815,7 @@ struct ExposedFlagKernel {
 struct HashGrid {
   double inv_h = 0;
   std::uint64_t mask = 0;
-  MCA_HD std::int64_t cell(double x) const { return static_cast<std::int64_t>(floor(x * inv_h)); }
+  MCA_HD std::int64_t cell(double x) const { return grid_cell(x, inv_h); }  // (clamped, as the CPU's grid)
   MCA_HD std::uint64_t bucket(std::int64_t x, std::int64_t y, std::int64_t z) const {
     const std::uint64_t h = static_cast<std::uint64_t>(x) * 73856093ull ^ static_cast<std::uint64_t>(y) * 19349663ull ^
                             static_cast<std::uint64_t>(z) * 83492791ull;

@@ -42,10 +42,14 @@ struct HostDevice {
       return *this;
     }
     ~Buffer() { DeviceMemory::remove(cap_ * sizeof(T)); }
-    T* data() { return v_.empty() ? nullptr : v_.data(); }
-    const T* data() const { return v_.empty() ? nullptr : v_.data(); }
+    // Null until memory is first held, as a CUDA device array's (an emptied one keeps its address there).
+    T* data() { return cap_ ? v_.data() : nullptr; }
+    const T* data() const { return cap_ ? v_.data() : nullptr; }
     std::size_t size() const { return v_.size(); }
-    // Discards the contents.
+    // Discards the contents: what it then holds is bytes of 0xFF (a NaN in a float or double, 0xffffffff
+    // in an index), as arbitrary as a GPU's fresh or reused memory, so that a kernel reading an element
+    // before one is written there gives a different result here than on the CPU (the emulation zeroed it,
+    // and such a read would have passed every test here and failed on a GPU).
     void resize(std::size_t n) {
       if (n > cap_) {
         const std::size_t cap = grown_capacity(cap_, n), bytes = bytes_of<T>(cap);
@@ -59,6 +63,7 @@ struct HostDevice {
       }
       v_.clear();
       v_.resize(n);
+      if (n) std::memset(static_cast<void*>(v_.data()), 0xFF, n * sizeof(T));
     }
 
    private:
