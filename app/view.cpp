@@ -430,7 +430,10 @@ int view(const ViewOptions& o) {
     sh.changed.notify_all();
   };
   bool died = false;  // the simulation thread stopped on an error
-  while (!glfwWindowShouldClose(win)) {
+  // Ctrl-C in the terminal (or SIGTERM, SIGHUP) closes the window as Q does, with the closing line (it
+  // ended the process without one), and the exit code of a signal.
+  const std::atomic<int>& stop = catch_stop_signals();
+  while (!glfwWindowShouldClose(win) && stop == 0) {
     glfwPollEvents();
     int w = 0, h = 0;
     glfwGetFramebufferSize(win, &w, &h);
@@ -530,18 +533,20 @@ int view(const ViewOptions& o) {
       fps_frames = 0;
       fps_t0 = std::chrono::steady_clock::now();
     }
+    // (In the first half second: the frames so far over their time, not 0.)
+    const double shown_fps = fps > 0 ? fps : since > 0 ? fps_frames / since : 0.0;
     render::Overlay ov;
     std::string message;
     {
       std::lock_guard lock(sh.mutex);
       message = sh.message;
     }
-    ov.lines = {fmt::format("{:.0f} fps   {:.0f} steps/s{}", fps, sh.steps_per_second.load(), sh.paused ? "   paused" : ""),
+    ov.lines = {fmt::format("{:.0f} fps   {:.0f} steps/s{}", shown_fps, sh.steps_per_second.load(), sh.paused ? "   paused" : ""),
                 fmt::format("automata {}   drawn {}", snap->automata_total, snap->drawn_automata()),
                 fmt::format("ball {:.0f} m/s  r {:.2f} m  {:.1f} kg   colour {}  draw {}", ball.speed, ball.radius, ball.mass,
                             render::name(static_cast<render::ColourMode>(sh.colour.load())),
                             render::name(static_cast<render::DrawMode>(sh.draw.load())))};
-    if (!message.empty()) ov.lines.push_back(message.substr(0, 120));
+    if (!message.empty()) ov.lines.push_back(message.substr(0, 400));
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
     renderer.draw(*snap, static_cast<render::DrawMode>(sh.draw.load()), camera(), w, h, ov);
     if (snap->drawn_from_shared_buffers()) {
@@ -567,7 +572,7 @@ int view(const ViewOptions& o) {
     }
     glfwSwapBuffers(win);
     glfwSetWindowTitle(win, fmt::format("mca view: {}  t = {:.2f} ms  broken {}  fragments {}  {:.0f} fps", scene.name,
-                                        1e3 * snap->time, snap->broken_links, snap->fragments, fps)
+                                        1e3 * snap->time, snap->broken_links, snap->fragments, shown_fps)
                                 .c_str());
     if (last) break;
   }
@@ -590,12 +595,14 @@ int view(const ViewOptions& o) {
                "{} in no frame; give one more --frames to see {}\n",
                due_at_last == 1 ? std::string("1 shot") : fmt::format("{} shots", due_at_last), snap ? 1e3 * snap->time : 0.0,
                due_at_last == 1 ? "is" : "are", due_at_last == 1 ? "it" : "them");
+  const int sig = stop;
   if (!o.quiet)
-    fmt::print(stderr, "mca view: {} shown, t = {:.2f} ms, {} fired, {}, broken links {}, fragments {}{}\n",
-               count(static_cast<std::size_t>(shown), "frame"), snap ? 1e3 * snap->time : 0.0, count(fired, "shot"),
-               count(projectiles, "projectile"), snap ? snap->broken_links : 0, snap ? snap->fragments : 0,
-               o.screenshot ? fmt::format("; screenshot {}", *o.screenshot) : "");
-  return 0;
+    fmt::print(stderr, "mca view: {}{} shown, t = {:.2f} ms, {} fired, {}, broken links {}, fragments {}{}\n",
+               sig ? fmt::format("closed by {}: ", signal_name(sig)) : "", count(static_cast<std::size_t>(shown), "frame"),
+               snap ? 1e3 * snap->time : 0.0, count(fired, "shot"), count(projectiles, "projectile"),
+               snap ? snap->broken_links : 0, snap ? snap->fragments : 0,
+               o.screenshot && o.frames && shown >= *o.frames ? fmt::format("; screenshot {}", *o.screenshot) : "");
+  return sig ? 128 + sig : 0;
 }
 
 }  // namespace mca::app

@@ -601,6 +601,18 @@ TEST(View, ScriptLinesAreCheckedAndLateShotsReported) {
             std::string::npos) << late.output;
 }
 
+// Ctrl-C in the terminal closes the viewer as Q does, with its closing line, and the exit code of the
+// signal (it ended the process without a word: the hostile review of 2026-12-05).
+TEST(View, CtrlCClosesTheViewWithItsSummary) {
+  if (shell("command -v xvfb-run").code != 0) GTEST_SKIP() << "xvfb-run is not installed (scripts/setup.sh)";
+  const Result r = shell("timeout 120 xvfb-run -a -s '-screen 0 1280x720x24' sh -c '" + std::string(MCA_BINARY) +
+                         " view " + kCubicWall + " --size 160x90 --frames 1000000 & p=$!; sleep 6; kill -INT $p; "
+                         "wait $p; echo \"exit $?\"'");
+  EXPECT_NE(r.output.find("mca view: closed by SIGINT (Ctrl-C): "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(" frames shown, t = "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("exit 130"), std::string::npos) << r.output;
+}
+
 TEST(View, BadSizeAndScreenshotNamesAreRefusedWithTheViewersOptions) {
   const Result size = run_mca("view --size 7x5 --frames 1");
   EXPECT_EQ(size.code, 2) << size.output;

@@ -586,9 +586,22 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
       o.text(margin, y, fmt::format("broken links {}   fragments {}", s.broken_links, s.fragments), scale);
       y += line_h;
     }
-    for (const std::string& l : overlay.lines) {
-      o.text(margin, y, l, scale);
-      y += line_h;
+    // A line wider than the window goes on over as many as it takes, broken at spaces (a long message ran
+    // off a 640-pixel window).
+    const auto fits = static_cast<std::size_t>(
+        std::max(20.0f, (static_cast<float>(width) - 2 * margin) / static_cast<float>(kGlyphAdvance * scale)));
+    for (std::string_view l : overlay.lines) {
+      while (!l.empty()) {
+        std::size_t cut = l.size();
+        if (cut > fits) {
+          cut = l.rfind(' ', fits);
+          if (cut == std::string_view::npos || cut == 0) cut = fits;
+        }
+        o.text(margin, y, l.substr(0, cut), scale);
+        y += line_h;
+        l.remove_prefix(cut);
+        while (!l.empty() && l.front() == ' ') l.remove_prefix(1);
+      }
     }
   }
   if (overlay.legend) {
