@@ -1,8 +1,10 @@
 #pragma once
 // The `mca` subcommands, as functions the CLI (main.cpp) and the end-to-end tests call.
+#include <atomic>
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace mca::app {
@@ -42,7 +44,11 @@ struct ViewOptions {
 // `mca view`: the live viewer (GLFW window). Throws mca::Error when there is no display.
 int view(const ViewOptions& options);
 // Worker threads for --threads N: all cores for 0, at most the cores there are; negative is an error.
-int thread_count(int requested);
+int thread_count(int requested, std::string_view given_as = "--threads ");
+// From now on SIGINT (Ctrl-C), SIGTERM and SIGHUP are recorded in the flag returned (reset to 0 here), for
+// the command to stop at its next check; and a signal's name for messages ("SIGINT (Ctrl-C)").
+const std::atomic<int>& catch_stop_signals();
+std::string_view signal_name(int sig);
 // Where a backend's steps run, for the progress lines: "2 threads" (the CPU backend's worker threads), "one
 // core" (cuda-emulation steps on one whatever the threads), "the GPU" (cuda).
 std::string steps_run_on(const std::string& backend, int threads);

@@ -359,7 +359,7 @@ void FrameWriter::start_stats(const std::vector<std::string>& rows) {
   }, false);
   stats_fd_ = ::open(path.c_str(), O_WRONLY | O_APPEND | O_CLOEXEC);
   if (stats_fd_ < 0)
-    throw Error(fmt::format("could not open '{}' to append to it: {}; check the --out folder", path.string(),
+    throw Error(fmt::format("could not open '{}' to append to it: {}; check the output folder", path.string(),
                             std::strerror(errno)));
 }
 
@@ -372,7 +372,7 @@ void FrameWriter::append_stats(const std::string& row) {
     const ssize_t n = ::write(stats_fd_, line.data() + done, line.size() - done);
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0)
-      throw Error(fmt::format("could not write '{}': {}; check free disk space and the --out folder", path.string(),
+      throw Error(fmt::format("could not write '{}': {}; check free disk space and the output folder", path.string(),
                               n < 0 ? std::strerror(errno) : "nothing written"));
     done += static_cast<std::size_t>(n);
   }
@@ -380,7 +380,7 @@ void FrameWriter::append_stats(const std::string& row) {
 
 void FrameWriter::sync_stats() {
   if (stats_fd_ >= 0 && ::fdatasync(stats_fd_) != 0)
-    throw Error(fmt::format("could not write '{}' to the disk: {}; check free disk space and the --out folder",
+    throw Error(fmt::format("could not write '{}' to the disk: {}; check free disk space and the output folder",
                             (dir_ / "stats.csv").string(), std::strerror(errno)));
 }
 

@@ -110,7 +110,7 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
   const Model& m = sim.model();
   if (options.draw == render::DrawMode::surface && m.surface.faces() == 0)
     throw Error(fmt::format("--render-draw surface needs an object of shape \"mesh\" (its triangles are drawn); scene "
-                            "'{}' has none: use --render-draw cubes or spheres",
+                            "'{}' has none: use --render-draw cubes, spheres or links",
                             sim.scene().source));
   // Everything that can fail comes before the folder is touched: the context, the shaders, the camera.
   context_ = std::make_unique<render::EglContext>();

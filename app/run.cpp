@@ -34,12 +34,31 @@
 namespace mca::app {
 namespace {
 
-// The signal that stops the run, 0 while none came: SIGINT (Ctrl-C), SIGTERM (kill, a batch system's time
-// limit) and SIGHUP (the terminal closed) alike end it at the next chunk of steps with its summary, and
-// with a checkpoint when at a frame's end.
+// The signal that stops the run (or the view), 0 while none came: SIGINT (Ctrl-C), SIGTERM (kill, a batch
+// system's time limit) and SIGHUP (the terminal closed) alike end a run at the next chunk of steps with its
+// summary, and with a checkpoint when at a frame's end.
 std::atomic<int> g_stop_signal{0};
 static_assert(std::atomic<int>::is_always_lock_free, "set from a signal handler");
 extern "C" void on_stop_signal(int sig) { g_stop_signal = sig; }
+
+}  // namespace
+
+const std::atomic<int>& catch_stop_signals() {
+  g_stop_signal = 0;
+  for (const int sig : {SIGINT, SIGTERM, SIGHUP}) std::signal(sig, on_stop_signal);
+  return g_stop_signal;
+}
+
+std::string_view signal_name(int sig) {
+  switch (sig) {
+    case SIGINT: return "SIGINT (Ctrl-C)";
+    case SIGTERM: return "SIGTERM";
+    case SIGHUP: return "SIGHUP (the terminal closed)";
+    default: return "a signal";
+  }
+}
+
+namespace {
 
 // The build of the model (a mesh fill or a large lattice can take minutes) does not look at g_stop_signal:
 // a signal then ends the process at once, saying so (it used to end it without a word). Nothing of the run
@@ -63,15 +82,6 @@ struct BuildSignals {
   BuildSignals(const BuildSignals&) = delete;
   BuildSignals& operator=(const BuildSignals&) = delete;
 };
-
-std::string_view signal_name(int sig) {
-  switch (sig) {
-    case SIGINT: return "SIGINT (Ctrl-C)";
-    case SIGTERM: return "SIGTERM";
-    case SIGHUP: return "SIGHUP (the terminal closed)";
-    default: return "a signal";
-  }
-}
 
 // Progress and the messages of a stopped run go to stderr without throwing: after SIGHUP the terminal is
 // gone and writes to it fail (EIO), where fmt::print would throw past the summary and the checkpoint.
@@ -369,8 +379,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
   const auto start = std::chrono::steady_clock::now();
   const std::int64_t first_step = sim.state().step;
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
-  g_stop_signal = 0;
-  for (const int sig : {SIGINT, SIGTERM, SIGHUP}) std::signal(sig, on_stop_signal);
+  const std::atomic<int>& stop = catch_stop_signals();
   double last_print = -1;
   const int spf = sim.steps_per_frame();
 
@@ -390,11 +399,22 @@ int run_loop(Loop& L, FrameWriter& writer) {
   };
 
   // Why no checkpoint continues the run (none saved yet, inside frame L.frame), and what to do instead.
-  const auto no_checkpoint = [&](const char* instead) {
+  const auto no_checkpoint = [&](const std::string& instead) {
     const std::int64_t every = L.checkpoint_every;
     return every > 0 ? fmt::format("no checkpoint was saved yet (the first at the end of frame {}): {}",
                                    (L.frame + every - 1) / every * every, instead)
                      : fmt::format("no checkpoint was saved (--checkpoint-every N saves them): {}", instead);
+  };
+  // A run stopped by an error (exit 2): the message, and how the newest checkpoint continues it (`fix`:
+  // what to do first; `flags`: of mca resume and of a new start).
+  const auto stopped = [&](const Error& e, const std::string& where, const std::string& fix, const std::string& flags) {
+    const auto saved = io::list_checkpoints(L.dir / "checkpoints");
+    if (tty) fmt::print(stderr, "\n");
+    fmt::print(stderr, "error: {}\nThe run stopped {}; {}\n", e.what(), where,
+               !saved.empty() ? fmt::format("{}continue it from the newest checkpoint ({}) with:\n  mca resume {}{}", fix,
+                                            saved.back().filename().string(), text::shell_word(L.dir.string()), flags)
+                              : fix + no_checkpoint(flags.empty() ? "start it again" : "start it again with" + flags));
+    return 2;
   };
   // Steps go to the engine in chunks of about a quarter of a second, so that a long frame (up to 1e9
   // steps) still shows progress and answers Ctrl-C; how steps are grouped into calls changes no result.
@@ -409,18 +429,12 @@ int run_loop(Loop& L, FrameWriter& writer) {
       } catch (const Error& e) {
         // The machine refused a step (a GPU whose memory is full): the state is part of a step, so no
         // summary or checkpoint is written from it; the newest checkpoint continues the run.
-        const auto saved = io::list_checkpoints(L.dir / "checkpoints");
-        if (tty) fmt::print(stderr, "\n");
-        fmt::print(stderr, "error: {}\nThe run stopped inside frame {}; {}\n", e.what(), L.frame,
-                   !saved.empty() ? fmt::format("continue it from the newest checkpoint ({}) with:\n  mca resume {} --backend cpu",
-                                                saved.back().filename().string(), text::shell_word(L.dir.string()))
-                                  : no_checkpoint("start it again with --backend cpu"));
-        return 2;
+        return stopped(e, fmt::format("inside frame {}", L.frame), "", " --backend cpu");
       }
       const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (took < 0.1 && chunk < (std::int64_t{1} << 30)) chunk *= 2;
       else if (took > 0.5 && chunk > 1) chunk /= 2;
-      if (const int sig = g_stop_signal; sig != 0 && h.flags == kHealthy && sim.step() < frame_end) {
+      if (const int sig = stop; sig != 0 && h.flags == kHealthy && sim.step() < frame_end) {
         // Checkpoints hold frame boundaries only: stop here, and point to the newest one.
         const auto saved = io::list_checkpoints(L.dir / "checkpoints");
         write_summary(L.dir, sim, writer.fragments(sim.state()), L.wall_before, elapsed(),
@@ -443,15 +457,23 @@ int run_loop(Loop& L, FrameWriter& writer) {
                  L.frame - 1, L.dir.string());
       return 3;
     }
-    writer.write_frame(L.frame, sim.state(), frags);
-    if (L.render) L.render->write_frame(L.frame, sim.state(), frags);
-    writer.append_stats(writer.format_row(st));
-    ++L.frame;
-    const double wall = elapsed();
-    if (L.checkpoint_every > 0 && (L.frame - 1) % L.checkpoint_every == 0)
-      save_checkpoint(L, writer, L.wall_before + wall);
+    // A write that fails (a full disk) stops the run, naming the newest checkpoint, which continues it.
+    const std::int64_t writing = L.frame;
+    double wall = 0;
+    try {
+      writer.write_frame(L.frame, sim.state(), frags);
+      if (L.render) L.render->write_frame(L.frame, sim.state(), frags);
+      writer.append_stats(writer.format_row(st));
+      ++L.frame;
+      wall = elapsed();
+      if (L.checkpoint_every > 0 && (L.frame - 1) % L.checkpoint_every == 0)
+        save_checkpoint(L, writer, L.wall_before + wall);
+    } catch (const Error& e) {
+      return stopped(e, fmt::format("writing frame {}", writing), "once the disk has room (or the cause above is fixed), ",
+                     "");
+    }
     progress(wall, sim.state().step >= L.plan.total_steps);
-    if (const int sig = g_stop_signal; sig != 0) {
+    if (const int sig = stop; sig != 0) {
       save_checkpoint(L, writer, L.wall_before + wall);
       write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads,
                     "interrupted");
@@ -475,10 +497,10 @@ int run_loop(Loop& L, FrameWriter& writer) {
   if (L.render) {
     if (tty) fmt::print(stderr, "\n");
     L.render->finish();
-    if (g_stop_signal == 0) run_plot_script(L.dir, L.quiet, &g_stop_signal);
+    if (stop == 0) run_plot_script(L.dir, L.quiet, &stop);
   }
   // A stop signal after the last step: the run and its files are whole, what is left of its end is not made.
-  if (const int sig = g_stop_signal; sig != 0) {
+  if (const int sig = stop; sig != 0) {
     say("{}interrupted by {} after the run's last frame ({}): {}\n", tty ? "\n" : "", signal_name(sig), L.frame - 1,
         L.render ? fmt::format("its outputs are complete but for the plots in render/, not made: python3 {} {} "
                                "makes them",
@@ -500,8 +522,8 @@ int run_loop(Loop& L, FrameWriter& writer) {
 
 }  // namespace
 
-int thread_count(int requested) {
-  if (requested < 0) throw Error(fmt::format("--threads {} is negative; give 0 (all cores) or a count", requested));
+int thread_count(int requested, std::string_view given_as) {
+  if (requested < 0) throw Error(fmt::format("{}{} is negative; give 0 (all cores) or a count", given_as, requested));
   // More threads than the machine runs at once would not run: the count reported is the one used.
   const int cores = tbb::info::default_concurrency();
   return requested == 0 ? cores : std::min(requested, cores);
@@ -688,8 +710,8 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   const auto ckdir = dir / "checkpoints";
   const auto all = io::list_checkpoints(ckdir);
   if (all.empty())
-    throw Error(fmt::format("no checkpoint in '{}': a run writes them with --checkpoint-every N (or when stopped "
-                            "with Ctrl-C); pass that run's --out folder",
+    throw Error(fmt::format("no checkpoint in '{}': a run writes them with --checkpoint-every N (and when Ctrl-C "
+                            "stops it at the end of a frame); pass that run's --out folder",
                             ckdir.string()));
   io::Checkpoint cp = io::read_checkpoint(all.back());
   // A checkpoint copied in from another run would write its scene's frames and summary into this folder.

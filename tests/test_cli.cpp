@@ -427,6 +427,31 @@ TEST(Cli, AFileWhereARunWritesAFolderIsRefusedBeforeItStarts) {
   EXPECT_FALSE(fs::exists(out / "summary.json"));
 }
 
+// A write that fails mid-run (here a folder where frame 3's file goes; a full disk alike) stops the run
+// with exit 2, naming the newest checkpoint and the command that continues it; once the cause is gone the
+// resume ends with the uninterrupted run's bits.
+TEST(Cli, AWriteThatFailsMidRunNamesTheCheckpointThatContinuesIt) {
+  const fs::path d = fresh_dir("write_fails");
+  const fs::path scene = small_scene(d);
+  ASSERT_EQ(run_mca("run " + scene.string() + " --out " + (d / "whole").string() + " -q").code, 0);
+  const fs::path out = d / "out";
+  fs::create_directories(out / "frames" / "automata_000003.vtu" / "x");
+  const Result r = run_mca("run " + scene.string() + " --out " + out.string() + " -q --checkpoint-every 1");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("automata_000003.vtu"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(fmt::format("The run stopped writing frame 3; once the disk has room (or the cause above is "
+                                      "fixed), continue it from the newest checkpoint (frame_000002.mcack) with:\n"
+                                      "  mca resume {}",
+                                      out.string())),
+            std::string::npos)
+      << r.output;
+  fs::remove_all(out / "frames" / "automata_000003.vtu");
+  const Result resumed = run_mca("resume " + out.string() + " -q");
+  ASSERT_EQ(resumed.code, 0) << resumed.output;
+  EXPECT_EQ(nlohmann::json::parse(read(out / "summary.json"))["state_hash"],
+            nlohmann::json::parse(read(d / "whole" / "summary.json"))["state_hash"]);
+}
+
 // The embedded scene of a checkpoint edited in place (same length): the rebuilt model is not the one
 // the state was saved from. Resuming must refuse, not run on (or crash on) a mismatched state.
 TEST(Cli, TamperedCheckpointIsRefusedOnResume) {

@@ -159,7 +159,7 @@ TEST(InputFiles, APathThatCannotBeFollowedNamesTheReason) {
   const fs::path long_name = t.path() / std::string(300, 'a');
   r = mca_limited("run -q --steps 1 --out " + long_name.string());
   EXPECT_EQ(r.code, 2) << r.output;
-  EXPECT_HAS(r.output, "is not usable: File name too long; choose another --out folder");
+  EXPECT_HAS(r.output, "is not usable: File name too long; choose another output folder (--out)");
   EXPECT_EQ(r.output.find("filesystem error"), std::string::npos) << r.output;
 }
 

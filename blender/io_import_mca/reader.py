@@ -114,12 +114,13 @@ _VTK_TYPES = {"Float32": "<f4", "Float64": "<f8", "Int8": "<i1", "UInt8": "<u1",
 _ATTR = re.compile(r'(\w+)="([^"]*)"')
 
 
-def read_vtu(path, names=None):
+def read_vtu(path, names=None, listed_by="automata.pvd"):
     """Points and point fields of a .vtu written by mca (appended raw binary, UInt64 block headers).
 
     Returns (points (N, 3) float32, {field name: array (N,) or (N, components)}). `names`: the fields to
-    read (all when None)."""
-    data = _read_bytes(path, f"{path} is missing (the run's automata.pvd lists it): the run folder is incomplete; "
+    read (all when None); `listed_by`: the collection that names the file (for the message when it is
+    missing)."""
+    data = _read_bytes(path, f"{path} is missing (the run's {listed_by} lists it): the run folder is incomplete; "
                              "run mca again or copy the whole folder")
     marker = data.find(b"<AppendedData")
     start = data.find(b"_", marker) + 1 if marker >= 0 else 0
@@ -693,7 +694,7 @@ class Run:
                            "incomplete; run mca again")
         out = []
         for _, rel in entries:
-            points, fields = read_vtu(os.path.join(self.dir, rel), {"radius"})
+            points, fields = read_vtu(os.path.join(self.dir, rel), {"radius"}, "projectiles.pvd")
             if "radius" not in fields:
                 raise RunError(f"{os.path.join(self.dir, rel)} has no field radius")
             out.append((points, fields["radius"]))

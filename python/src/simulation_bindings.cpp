@@ -376,7 +376,7 @@ py::array_t<std::uint8_t> render_to(PySimulation& sim, py::handle path_arg, py::
   if (!draw) throw Error(fmt::format("draw '{}' is not a draw mode; give one of: {}", draw_name, render::draw_mode_names()));
   if (*draw == render::DrawMode::surface && m.surface.faces() == 0)
     throw Error(fmt::format("draw \"surface\" needs an object of shape \"mesh\" (its triangles are drawn); scene '{}' "
-                            "has none: use draw=\"cubes\" or \"spheres\"",
+                            "has none: use draw=\"cubes\", \"spheres\" or \"links\"",
                             e.scene().source));
   Gl& g = gl();
   if (!sim.framing) sim.framing = render::objects_box(m, initial_state(m));
@@ -507,7 +507,8 @@ std::unique_ptr<PySimulation> resume(const std::filesystem::path& path, int thre
   io::Checkpoint cp = io::read_checkpoint(file);
   // Any backend continues any checkpoint with the same bits.
   if (backend) cp.scene.solver.backend = *backend;
-  return std::make_unique<PySimulation>(cp, fmt::format("checkpoint '{}'", file.string()), app::thread_count(threads));
+  return std::make_unique<PySimulation>(cp, fmt::format("checkpoint '{}'", file.string()),
+                                        app::thread_count(threads, "threads="));
 }
 
 // backend=: as to_backend, and "cuda" only where there is a GPU (the message names the argument, not the
@@ -549,7 +550,7 @@ Simulation is gone.)");
             const int threads = to_int_threads(threads_arg);
             SceneDef def = scene_of(scene);
             if (const auto b = backend_here(backend_arg, "Simulation: backend")) def.solver.backend = *b;
-            return std::make_unique<PySimulation>(def, app::thread_count(threads));
+            return std::make_unique<PySimulation>(def, app::thread_count(threads, "threads="));
           }),
           py::arg("scene"), py::arg("threads") = 0, py::arg("backend") = py::none(),
           "Builds the model of `scene` (an mca.Scene or a scene file's path) with `threads` worker threads (0: all "

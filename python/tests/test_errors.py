@@ -76,7 +76,7 @@ def test_bad_simulation_arguments():
         mca.Simulation(scene, backend="gpu")
     with pytest.raises(mca.Error, match="did you mean 'cpu'"):
         mca.Simulation(scene, backend="CPU")
-    with pytest.raises(mca.Error, match="--threads -1 is negative"):
+    with pytest.raises(mca.Error, match="^threads=-1 is negative"):
         mca.Simulation(scene, threads=-1)
     with pytest.raises(mca.Error, match="the scene has no objects"):
         mca.Simulation(mca.Scene())

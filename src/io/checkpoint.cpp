@@ -270,8 +270,11 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   sum.bytes(data.data(), data.size() - kTail);
   std::uint64_t stored = 0;
   std::memcpy(&stored, data.data() + data.size() - kTail, sizeof stored);
-  if (stored != sum.h || std::memcmp(data.data() + data.size() - sizeof kMagic, kMagic, sizeof kMagic) != 0)
-    r.damaged("its checksum does not match its contents");
+  // (A file without its end marker was cut short: a copy or a transfer that stopped; mca itself writes to
+  // a temporary name and renames.)
+  if (std::memcmp(data.data() + data.size() - sizeof kMagic, kMagic, sizeof kMagic) != 0)
+    r.damaged(fmt::format("cut short: its {} bytes do not end with the end marker", data.size()));
+  if (stored != sum.h) r.damaged("its checksum does not match its contents");
   r.at = sizeof kMagic;
   Checkpoint cp;
   r(cp.scene_toml);

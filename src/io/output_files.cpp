@@ -32,7 +32,7 @@ OutputLock::OutputLock(const std::filesystem::path& dir) {
     fd_ = -1;
     if (e == EWOULDBLOCK) {
       throw Error(fmt::format("another mca run or resume is writing into '{}' (it holds the folder's lock); wait for "
-                              "it to end, or give another --out",
+                              "it to end, or give another output folder (--out)",
                               dir.string()));
     }
     throw Error(fmt::format("cannot lock the output folder '{}': {}", dir.string(), std::strerror(e)));
@@ -46,7 +46,7 @@ OutputLock::~OutputLock() {
 void prepare_output_dir(const fs::path& dir) {
   const auto fail = [&](const std::string& reason) {
     return Error(fmt::format(
-        "output folder '{}' is not usable: {}; choose another --out folder or fix its permissions",
+        "output folder '{}' is not usable: {}; choose another output folder (--out) or fix its permissions",
         dir.string(), reason));
   };
 
@@ -204,7 +204,7 @@ void write_file_atomic(const fs::path& path, const std::function<void(std::ostre
   const auto fail = [&](const std::string& reason, bool io_failure = true) {
     discard_tmp();
     return Error(fmt::format("could not write '{}': {}{}", path.string(), reason,
-                             io_failure ? "; check free disk space and the --out folder" : ""));
+                             io_failure ? "; check free disk space and the output folder" : ""));
   };
 
   std::ofstream out;
@@ -251,7 +251,7 @@ void write_file_atomic(const fs::path& path, const std::function<void(std::ostre
     try {
       sync_path(path.has_parent_path() ? path.parent_path() : fs::path("."), true);
     } catch (const std::system_error& e) {
-      throw Error(fmt::format("could not write '{}': {}; check the disk and the --out folder", path.string(),
+      throw Error(fmt::format("could not write '{}': {}; check the disk and the output folder", path.string(),
                               e.what()));
     }
   }
