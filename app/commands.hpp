@@ -45,8 +45,9 @@ struct ViewOptions {
 int view(const ViewOptions& options);
 // Worker threads for --threads N: all cores for 0, at most the cores there are; negative is an error.
 int thread_count(int requested, std::string_view given_as = "--threads ");
-// From now on SIGINT (Ctrl-C), SIGTERM and SIGHUP are recorded in the flag returned (reset to 0 here), for
-// the command to stop at its next check; and a signal's name for messages ("SIGINT (Ctrl-C)").
+// From now on SIGINT (Ctrl-C), SIGTERM and SIGHUP are recorded in the flag returned (0 while none came; one
+// that came before a second call stays), for the command to stop at its next check; and a signal's name for
+// messages ("SIGINT (Ctrl-C)").
 const std::atomic<int>& catch_stop_signals();
 std::string_view signal_name(int sig);
 // Where a backend's steps run, for the progress lines: "2 threads" (the CPU backend's worker threads), "one

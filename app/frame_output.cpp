@@ -168,6 +168,23 @@ void check_output_fits(const OutputEstimate& e, const std::filesystem::path& dir
       e.vtk_frame > 0 ? "leave out the VTK frames (--no-vtk or output.vtk = false), " : ""));
 }
 
+std::vector<std::string> frame_subfolders(const SceneDef& scene) {
+  std::vector<std::string> names;
+  if (scene.output.vtk) names.emplace_back("frames");
+  if (scene.output.surface && std::any_of(scene.objects.begin(), scene.objects.end(),
+                                          [](const ObjectDef& o) { return o.shape == Shape::mesh; }))
+    names.emplace_back("surface");
+  return names;
+}
+
+std::vector<std::string> run_subfolders(const SceneDef& scene, bool render) {
+  std::vector<std::string> names = frame_subfolders(scene);
+  if (scene.output.fragments) names.emplace_back("fragments");
+  names.emplace_back("checkpoints");  // (also without --checkpoint-every: Ctrl-C at a frame's end saves one)
+  if (render) names.emplace_back("render");
+  return names;
+}
+
 FrameWriter::FrameWriter(std::filesystem::path dir, const Model& model, const OutputDef& output)
     : dir_(std::move(dir)),
       model_(model),

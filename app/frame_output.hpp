@@ -72,6 +72,12 @@ struct MemoryEstimate {
 MemoryEstimate estimate_memory(const Model& model, const OutputDef& output, int render_width = 0,
                                int render_height = 0);
 
+// The subfolders of the output folder that FrameWriter writes each frame into: frames (output.vtk), surface
+// (output.surface and a mesh object); and those of a run's end and stops: fragments (output.fragments),
+// checkpoints. (For io::check_output_subfolders.)
+std::vector<std::string> frame_subfolders(const SceneDef& scene);
+std::vector<std::string> run_subfolders(const SceneDef& scene, bool render);
+
 class FrameWriter {
  public:
   // Writes what `output` asks for: VTK frames (vtk, links) and the bound surface (surface, surface_format).

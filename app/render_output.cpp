@@ -315,6 +315,7 @@ bool run_plot_script(const std::filesystem::path& dir, bool quiet, const std::at
       ::kill(-pid, SIGTERM);
       while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
       }
+      io::remove_stale_temporaries(dir / "render");  // (a plot it was writing)
       return false;
     }
     if (seconds_since(t0) > kPlotTimeout) {

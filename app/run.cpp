@@ -44,7 +44,6 @@ extern "C" void on_stop_signal(int sig) { g_stop_signal = sig; }
 }  // namespace
 
 const std::atomic<int>& catch_stop_signals() {
-  g_stop_signal = 0;
   for (const int sig : {SIGINT, SIGTERM, SIGHUP}) std::signal(sig, on_stop_signal);
   return g_stop_signal;
 }
@@ -182,9 +181,9 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
   j["steps"] = s.step;
   j["steps_per_frame"] = sim.steps_per_frame();
   j["simulated_time"] = s.time;
-  j["threads"] = threads;  // (the worker threads given: the CPU backend's step, the frames' analysis and files)
+  j["threads"] = threads;  // (the worker threads: the CPU backend's step, the frames' analysis and files)
   j["backend"] = sim.backend().name();
-  j["steps_run_on"] = steps_run_on(sim.backend().name(), threads);  // as the closing line says it
+  j["steps_run_on"] = steps_run_on(sim.backend().name(), threads);  // (this session's, as its closing line says)
   j["wall_seconds"] = wall;
   j["session_steps"] = session_steps;
   j["session_wall_seconds"] = session_wall;
@@ -398,22 +397,25 @@ int run_loop(Loop& L, FrameWriter& writer) {
                sim.broken_links(), human_time(eta), tty ? "   " : "\n");
   };
 
-  // Why no checkpoint continues the run (none saved yet, inside frame L.frame), and what to do instead.
-  const auto no_checkpoint = [&](const std::string& instead) {
+  // Why no checkpoint continues the run (none saved yet, inside or writing frame `frame`), and what to do
+  // instead.
+  const auto no_checkpoint = [&](std::int64_t frame, const std::string& instead) {
     const std::int64_t every = L.checkpoint_every;
     return every > 0 ? fmt::format("no checkpoint was saved yet (the first at the end of frame {}): {}",
-                                   (L.frame + every - 1) / every * every, instead)
+                                   (frame + every - 1) / every * every, instead)
                      : fmt::format("no checkpoint was saved (--checkpoint-every N saves them): {}", instead);
   };
-  // A run stopped by an error (exit 2): the message, and how the newest checkpoint continues it (`fix`:
-  // what to do first; `flags`: of mca resume and of a new start).
-  const auto stopped = [&](const Error& e, const std::string& where, const std::string& fix, const std::string& flags) {
+  // A run stopped by an error in frame `frame` (exit 2): the message, and how the newest checkpoint continues
+  // it (`fix`: what to do first; `flags`: of mca resume and of a new start).
+  const auto stopped = [&](const Error& e, const std::string& where, std::int64_t frame, const std::string& fix,
+                           const std::string& flags) {
     const auto saved = io::list_checkpoints(L.dir / "checkpoints");
     if (tty) fmt::print(stderr, "\n");
     fmt::print(stderr, "error: {}\nThe run stopped {}; {}\n", e.what(), where,
                !saved.empty() ? fmt::format("{}continue it from the newest checkpoint ({}) with:\n  mca resume {}{}", fix,
                                             saved.back().filename().string(), text::shell_word(L.dir.string()), flags)
-                              : fix + no_checkpoint(flags.empty() ? "start it again" : "start it again with" + flags));
+                              : no_checkpoint(frame, fix + (flags.empty() ? "start it again"
+                                                                          : "start it again with" + flags)));
     return 2;
   };
   // Steps go to the engine in chunks of about a quarter of a second, so that a long frame (up to 1e9
@@ -429,7 +431,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
       } catch (const Error& e) {
         // The machine refused a step (a GPU whose memory is full): the state is part of a step, so no
         // summary or checkpoint is written from it; the newest checkpoint continues the run.
-        return stopped(e, fmt::format("inside frame {}", L.frame), "", " --backend cpu");
+        return stopped(e, fmt::format("inside frame {}", L.frame), L.frame, "", " --backend cpu");
       }
       const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (took < 0.1 && chunk < (std::int64_t{1} << 30)) chunk *= 2;
@@ -442,7 +444,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
         say("{}interrupted by {} inside frame {} (step {} of the run); checkpoints are saved at frame ends only, so "
             "{}\n",
             tty ? "\n" : "", signal_name(sig), L.frame, sim.state().step,
-            saved.empty() ? no_checkpoint("start the run again")
+            saved.empty() ? no_checkpoint(L.frame, "start the run again")
                           : fmt::format("continue from the newest ({}) with: mca resume {}",
                                         saved.back().filename().string(), text::shell_word(L.dir.string())));
         return 128 + sig;
@@ -469,8 +471,8 @@ int run_loop(Loop& L, FrameWriter& writer) {
       if (L.checkpoint_every > 0 && (L.frame - 1) % L.checkpoint_every == 0)
         save_checkpoint(L, writer, L.wall_before + wall);
     } catch (const Error& e) {
-      return stopped(e, fmt::format("writing frame {}", writing), "once the disk has room (or the cause above is fixed), ",
-                     "");
+      return stopped(e, fmt::format("writing frame {}", writing), writing,
+                     "once the disk has room (or the cause above is fixed), ", "");
     }
     progress(wall, sim.state().step >= L.plan.total_steps);
     if (const int sig = stop; sig != 0) {
@@ -502,7 +504,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
   // A stop signal after the last step: the run and its files are whole, what is left of its end is not made.
   if (const int sig = stop; sig != 0) {
     say("{}interrupted by {} after the run's last frame ({}): {}\n", tty ? "\n" : "", signal_name(sig), L.frame - 1,
-        L.render ? fmt::format("its outputs are complete but for the plots in render/, not made: python3 {} {} "
+        L.render ? fmt::format("its outputs are complete but for the plots in render/, not all made: python3 {} {} "
                                "makes them",
                                text::shell_word(plot_script().string()), text::shell_word(L.dir.string()))
                  : std::string("its outputs are complete"));
@@ -607,7 +609,7 @@ int run(const RunOptions& o) {
     }
   }
   io::prepare_output_dir(dir);
-  io::check_output_subfolders(dir);
+  io::check_output_subfolders(dir, run_subfolders(scene, o.render));
   const io::OutputLock lock(dir);
   // The run writes the scene as run to <dir>/scene.toml: never over the scene file it reads.
   if (o.scene) {
@@ -625,6 +627,7 @@ int run(const RunOptions& o) {
   build_signals.emplace();
   Engine sim(scene);
   build_signals.reset();
+  catch_stop_signals();  // (from here a signal is the run's to answer: the renderer's set-up, frame 0)
   building.reset();
   const Plan plan = make_plan(sim, o.steps);
   // What the run will write must fit the disk (frame_rate = 1e9 plans 4,000,000 frames, terabytes).
@@ -673,7 +676,9 @@ int run(const RunOptions& o) {
   for (const char* sub : {"frames", "surface", "fragments", "checkpoints", "render"}) {
     std::error_code ec;
     if (render && std::string_view(sub) == "render") continue;  // made for this run's pictures
-    if (std::filesystem::is_directory(dir / sub, ec) && std::filesystem::is_empty(dir / sub, ec) && !ec)
+    // (A symbolic link, to a folder on another disk, stays: removing it lost the redirection without a word.)
+    if (!std::filesystem::is_symlink(dir / sub, ec) && std::filesystem::is_directory(dir / sub, ec) &&
+        std::filesystem::is_empty(dir / sub, ec) && !ec)
       std::filesystem::remove(dir / sub, ec);
   }
   FrameWriter writer(dir, sim.model(), scene.output);
@@ -706,7 +711,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   }
   const io::OutputLock lock(dir);
   remove_stale_temporaries(dir);
-  io::check_output_subfolders(dir);
+  io::check_output_subfolders(dir, {"checkpoints"});
   const auto ckdir = dir / "checkpoints";
   const auto all = io::list_checkpoints(ckdir);
   if (all.empty())
@@ -732,6 +737,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   build_signals.emplace();
   Engine sim(cp.scene, cp.state, source, cp.model_fingerprint);
   build_signals.reset();
+  catch_stop_signals();  // (from here a signal is the run's to answer: the renderer's set-up, frame 0)
   building.reset();
   const Plan plan = resume_plan(cp, sim.steps_per_frame(), source);
   // A run that had reached its last frame (one that finished, or was stopped there) has no step left: its
@@ -745,6 +751,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   // comes before any output, as for a new run.
   const auto rendered = load_render_options(dir);
   const bool will_render = rendered && !no_render;
+  io::check_output_subfolders(dir, run_subfolders(cp.scene, will_render));
   check_output_fits(estimate_output(sim.model(), cp.scene.output, plan.total_frames + 1 - cp.frame,
                                     will_render ? rendered->width : 0, will_render ? rendered->height : 0),
                     dir, cp.scene);

@@ -396,27 +396,57 @@ fs::path checkpointed_run(const fs::path& d) {
 // same way, and leaves the folder as it was.
 TEST(Cli, AFileWhereARunWritesAFolderIsRefusedBeforeItStarts) {
   const fs::path d = fresh_dir("file_as_folder");
-  for (const char* sub : {"frames", "checkpoints", "fragments", "surface", "render"}) {
+  // The small scene with fragment meshes (output.fragments).
+  const fs::path scene = small_scene(d);
+  {
+    std::string text = read(scene);
+    text.replace(text.find("[output]\n"), 9, "[output]\nfragments = true\n");
+    std::ofstream(scene) << text;
+  }
+  for (const char* sub : {"frames", "checkpoints", "fragments", "render"}) {
     SCOPED_TRACE(sub);
     const fs::path out = d / sub;
     fs::create_directories(out);
     std::ofstream(out / sub) << "x\n";
-    const Result r = run_mca("run " + small_scene(d).string() + " --out " + out.string() + " -q --checkpoint-every 2");
+    const Result r = run_mca("run " + scene.string() + " --out " + out.string() + " -q --render --render-size 64x48");
     EXPECT_EQ(r.code, 2) << r.output;
     EXPECT_NE(r.output.find(fmt::format("'{}' is there and is not a folder: the run writes", (out / sub).string())),
               std::string::npos)
         << r.output;
-    EXPECT_NE(r.output.find("move or remove it, or choose another output folder"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("into a folder of that name; move or remove it"), std::string::npos) << r.output;
     EXPECT_EQ(r.output.find("filesystem error"), std::string::npos) << r.output;
     EXPECT_FALSE(fs::exists(out / "scene.toml"));
     EXPECT_FALSE(fs::exists(out / "stats.csv"));
     EXPECT_EQ(read(out / sub), "x\n");
   }
+  // Files named as folders a run does not write are left alone (render without --render, surface without a
+  // mesh, frames with --no-vtk: refused before, with a message saying the run wrote there).
+  {
+    const fs::path out = d / "unused";
+    fs::create_directories(out);
+    for (const char* sub : {"render", "surface", "frames"}) std::ofstream(out / sub) << "x\n";
+    const Result r = run_mca("run " + small_scene(d, "", "plain").string() + " --out " + out.string() + " -q --no-vtk");
+    EXPECT_EQ(r.code, 0) << r.output;
+    for (const char* sub : {"render", "surface", "frames"}) EXPECT_EQ(read(out / sub), "x\n") << sub;
+  }
+  // A link to an empty folder elsewhere (another disk), where this run writes no frames, stays a link (it
+  // was removed as an empty folder of outputs, and the redirection lost without a word).
+  {
+    const fs::path out = d / "linked", elsewhere = d / "elsewhere";
+    fs::create_directories(out);
+    fs::create_directories(elsewhere);
+    fs::create_directory_symlink(elsewhere, out / "frames");
+    const Result r = run_mca("run " + small_scene(d, "", "plain").string() + " --out " + out.string() + " -q --no-vtk");
+    EXPECT_EQ(r.code, 0) << r.output;
+    EXPECT_TRUE(fs::is_symlink(out / "frames"));
+  }
   // A resume whose frames folder became a file.
-  const fs::path ck = checkpointed_run(d);
-  ASSERT_FALSE(ck.empty());
-  const fs::path out = d / "out";
+  const fs::path out = d / "resumed";
+  ASSERT_EQ(run_mca("run " + small_scene(d, "", "plain").string() + " --out " + out.string() + " -q --checkpoint-every 2")
+                .code,
+            0);
   fs::remove(out / "summary.json");
+  fs::remove_all(out / "frames");
   std::ofstream(out / "frames") << "x\n";
   const std::string stats = read(out / "stats.csv");
   const Result r = run_mca("resume " + out.string() + " -q");

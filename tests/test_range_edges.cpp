@@ -371,7 +371,23 @@ TEST(RangeEdges, AValueJustPastItsBoundPrintsApartFromIt) {
   const text::Distinct speed = text::distinct(limit * (1 + 1e-6), limit);
   EXPECT_NE(speed.a, speed.b);
   EXPECT_HAS(m, fmt::format("starts at {} m/s", speed.a));
-  EXPECT_HAS(m, fmt::format("Lower its speed below {} m/s", speed.b));
+  EXPECT_HAS(m, fmt::format("Lower its speed below {} m/s", text::at_most(limit, 4)));
+  // Advice rounded the safe way: at most 909090 frames a second for a step of 1.1e-6 s (909091, rounded up,
+  // was refused again), and that is taken.
+  m = engine_error("[solver]\ntime_step = 1.1e-6\n[output]\nframe_rate = 1e7");
+  EXPECT_HAS(m, "lower output.frame_rate to at most 909090,");
+  EXPECT_EQ(engine_error("[solver]\ntime_step = 1.1e-6\n[output]\nframe_rate = 909090"), "");
+  EXPECT_EQ(text::at_most(909090.909, 6), "909090");
+  EXPECT_EQ(text::at_least(909090.2, 6), "909091");
+  EXPECT_EQ(text::at_most(2.0, 3), "2");
+  EXPECT_EQ(text::at_least(0.0012341, 4), "0.001235");
+  // A value that rounds to the largest float is taken; past it, refused naming the float's bounds in full.
+  const std::string dense = "[[material]]\nname = \"strong\"\nbase = \"concrete\"\ncompressive_strength = {}\n"
+                            "[[object]]\nsize = [0.1, 0.1, 0.1]\nposition = [0, 0, -2]\nmaterial = \"strong\"";
+  EXPECT_EQ(engine_error(fmt::format(fmt::runtime(dense), "3.40282349e38")), "");
+  EXPECT_HAS(engine_error(fmt::format(fmt::runtime(dense), "3.4028236e38")),
+             "compressive_strength = 3.4028236e38 does not fit the float32 arithmetic of the solver (magnitudes from "
+             "1.1754943508222875e-38 to 3.4028234663852886e38)");
   // Apart as far as they differ, and no further.
   EXPECT_EQ(text::distinct(0.02499997, 0.025).a, "0.02499997");
   EXPECT_EQ(text::distinct(0.1234, 0.5).a, "0.1234");

@@ -416,6 +416,12 @@ TEST(SceneIo, WrongTypeNamesKeyLineAndTypes) {
              "'-9223372036854775809' is not representable in 64 bits");
   EXPECT_HAS(parse_error("[solver]\nseed = 0\nspacing = -99999999999999999999 # -1\n" + kMinimal),
              "'-99999999999999999999' is not representable");
+  // The sign is the number's own, not one elsewhere on the line (the second review).
+  for (const char* line : {"seed = 9223372036854775809  # was -9223372036854775809",
+                           "seed = [9223372036854775809, -9223372036854775809]"})
+    EXPECT_HAS(parse_error(std::string("[solver]\n") + line + "\n" + kMinimal),
+               "'9223372036854775809' is not representable");
+  EXPECT_HAS(parse_error("[solver]\nseed = -9_223_372_036_854_775_809\n" + kMinimal), "'-9");
 
   const std::string table = parse_error("[object]\nname = \"x\"\n");
   EXPECT_HAS(table, "write each block as [[object]], not [object]");

@@ -207,14 +207,8 @@ V convert(py::handle v, const std::string& key, const std::string& doc) {
     constexpr auto lo = static_cast<std::int64_t>(std::numeric_limits<V>::min());
     constexpr auto hi = static_cast<std::int64_t>(
         std::min<std::uint64_t>(std::numeric_limits<V>::max(), std::numeric_limits<std::int64_t>::max()));
-    // The bound it is past (the key's own range, narrower, is the scene check's: validate, or building a
-    // Simulation); a value that is no whole number is named as such by to_whole whatever this says.
-    const int below = PyIndex_Check(v.ptr()) && !is_bool(v) ? PyObject_RichCompareBool(v.ptr(), py::int_(0).ptr(), Py_LT) : 0;
-    if (below < 0) PyErr_Clear();
-    const bool negative = below == 1;
-    return static_cast<V>(to_whole(v, key, lo, hi,
-                                   negative ? fmt::format("a whole number of at least {} ({})", lo, doc)
-                                            : fmt::format("a whole number of at most {} ({})", hi, doc)));
+    // (The key's own range, narrower than its type's, is in `doc` and is the scene check's.)
+    return static_cast<V>(to_whole(v, key, lo, hi, fmt::format("a whole number ({})", doc)));
   }
 }
 

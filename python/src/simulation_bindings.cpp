@@ -445,7 +445,7 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
     auto out = std::make_unique<OutputFolder>();
     out->dir = std::filesystem::absolute(dir);
     io::prepare_output_dir(out->dir);
-    io::check_output_subfolders(out->dir);
+    io::check_output_subfolders(out->dir, app::frame_subfolders(e.scene()));
     out->lock = std::make_unique<io::OutputLock>(out->dir);
     io::remove_stale_temporaries(out->dir);
     std::filesystem::remove(out->dir / "stats.csv");

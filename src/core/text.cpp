@@ -33,6 +33,25 @@ Distinct distinct(double a, double b, int digits) {
   }
 }
 
+namespace {
+// x to `digits` significant digits, moved by a unit of the last digit towards `down` or up where rounding
+// went past x.
+std::string rounded(double x, int digits, bool down) {
+  std::string s = fmt::format("{:.{}g}", x, digits);
+  if (!std::isfinite(x) || x == 0) return s;
+  for (int tries = 0; tries < 3; ++tries) {
+    const double v = std::strtod(s.c_str(), nullptr);
+    if (down ? v <= x : v >= x) return s;
+    const double unit = std::pow(10.0, std::floor(std::log10(std::fabs(v))) - digits + 1);
+    s = fmt::format("{:.{}g}", down ? v - unit : v + unit, digits);
+  }
+  return s;
+}
+}  // namespace
+
+std::string at_most(double x, int digits) { return rounded(x, digits, true); }
+std::string at_least(double x, int digits) { return rounded(x, digits, false); }
+
 std::string escaped(std::string_view s) {
   std::string out;
   for (const char ch : s) {

@@ -19,6 +19,12 @@ struct Distinct {
 };
 Distinct distinct(double a, double b, int digits = 4);
 
+// `x` to `digits` significant digits ("{:.6g}"), rounded down (at_most) or up (at_least): a bound a message
+// advises ("lower output.frame_rate to at most 909090") must not be past it once rounded (909091 was
+// refused again).
+std::string at_most(double x, int digits);
+std::string at_least(double x, int digits);
+
 // `s` as the inside of a TOML basic string: quote, backslash and control characters escaped.
 std::string escaped(std::string_view s);
 // `s` as a TOML basic string: escaped(s) in double quotes.

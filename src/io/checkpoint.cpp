@@ -273,7 +273,9 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   // (A file without its end marker was cut short: a copy or a transfer that stopped; mca itself writes to
   // a temporary name and renames.)
   if (std::memcmp(data.data() + data.size() - sizeof kMagic, kMagic, sizeof kMagic) != 0)
-    r.damaged(fmt::format("cut short: its {} bytes do not end with the end marker", data.size()));
+    r.damaged(fmt::format("its {} bytes do not end with the end marker: cut short, or bytes added or changed at its "
+                          "end",
+                          data.size()));
   if (stored != sum.h) r.damaged("its checksum does not match its contents");
   r.at = sizeof kMagic;
   Checkpoint cp;

@@ -86,14 +86,14 @@ std::string subfolder_use(const std::string& name) {
 }
 }  // namespace
 
-void check_output_subfolders(const fs::path& dir) {
-  for (const auto& [name, use] : kSubfolders) {
+void check_output_subfolders(const fs::path& dir, const std::vector<std::string>& names) {
+  for (const std::string& name : names) {
     std::error_code ec;
     const fs::path sub = dir / name;
     if (fs::exists(fs::symlink_status(sub, ec)) && !fs::is_directory(sub, ec)) {
       throw Error(fmt::format("'{}' is there and is not a folder: the run writes {} into a folder of that name; move "
-                              "or remove it, or choose another output folder",
-                              sub.string(), use));
+                              "or remove it",
+                              sub.string(), subfolder_use(name)));
     }
   }
 }
@@ -103,8 +103,7 @@ fs::path output_subfolder(const fs::path& dir, const std::string& name) {
   std::error_code ec;
   fs::create_directories(sub, ec);
   if (ec || !fs::is_directory(sub)) {
-    throw Error(fmt::format("cannot make the folder '{}' for {}: {}; move or remove what is there, or choose another "
-                            "output folder",
+    throw Error(fmt::format("cannot make the folder '{}' for {}: {}; move or remove what is there",
                             sub.string(), subfolder_use(name),
                             ec ? ec.message() : std::string("it is there and is not a folder")));
   }

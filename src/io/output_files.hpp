@@ -6,6 +6,7 @@
 #include <functional>
 #include <ostream>
 #include <string>
+#include <vector>
 
 namespace mca::io {
 
@@ -13,10 +14,11 @@ namespace mca::io {
 // bad --out folder fails before the simulation spends any time. Throws mca::Error naming the folder.
 void prepare_output_dir(const std::filesystem::path& dir);
 
-// The folders a run writes into inside its output folder (frames, surface, fragments, checkpoints, render):
-// one that is there as something else (a file named `frames`) is refused, naming it and the fix, before
-// anything is written. Found late, it stopped a run partway, with no checkpoint, in a raw error.
-void check_output_subfolders(const std::filesystem::path& dir);
+// The folders `names` (of frames, surface, fragments, checkpoints, render) that a run will write into inside
+// its output folder: one that is there as something else (a file named `frames`) is refused, naming it and
+// the fix, before anything is written. Found late, it stopped a run partway, with no checkpoint, in a raw
+// error. (A name the run does not write is not looked at.)
+void check_output_subfolders(const std::filesystem::path& dir, const std::vector<std::string>& names);
 // `dir / name`, made where it is missing; mca::Error naming it, what goes there and the fix where it
 // cannot be (a file of that name, permissions).
 std::filesystem::path output_subfolder(const std::filesystem::path& dir, const std::string& name);

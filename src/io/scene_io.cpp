@@ -824,11 +824,14 @@ SceneDef parse_scene(std::string_view toml_text, const std::string& source) {
     std::string what(e.description());
     const bool too_large = what.find("not representable in 64 bits") != std::string::npos;
     // (toml++ quotes the digits of a negative one without its sign: '9223372036854775809' for
-    // -9223372036854775809; the line says which was written.)
+    // -9223372036854775809. The number ends where the error is reported: a '-' before its digits, and
+    // underscores, is its sign.)
     const std::size_t q0 = what.find('\''), q1 = q0 == std::string::npos ? q0 : what.find('\'', q0 + 1);
-    if (too_large && q1 != std::string::npos && q1 > q0 + 1 && what[q0 + 1] != '-') {
+    if (too_large && q1 != std::string::npos && q1 > q0 + 1 && what[q0 + 1] != '-' && r.begin.column >= 1) {
       const std::string_view line = line_of(toml_text, r.begin.line);
-      if (line.find("-" + what.substr(q0 + 1, q1 - q0 - 1)) != std::string_view::npos) what.insert(q0 + 1, "-");
+      std::size_t at = std::min<std::size_t>(r.begin.column - 1, line.size());
+      while (at > 0 && ((line[at - 1] >= '0' && line[at - 1] <= '9') || line[at - 1] == '_')) --at;
+      if (at > 0 && line[at - 1] == '-') what = what.substr(0, q0 + 1) + "-" + what.substr(q0 + 1);
     }
     throw Error(fmt::format("{}:{}:{}: TOML syntax error: {}{}", source, r.begin.line, r.begin.column, what,
                             too_large ? "; TOML integers are -2^63 .. 2^63-1 (a seed above 2^63-1 is written as its "

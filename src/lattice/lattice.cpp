@@ -283,10 +283,13 @@ std::pair<double, double> class_factor_range(const SceneDef& scene) {
 // 1e-50 or a modulus of 1e39 would otherwise become 0 or inf and the run NaN.
 float as_float32(const SceneDef& scene, const std::string& what, double v, const std::string& fix) {
   const double a = std::fabs(v);
-  if (!(a >= std::numeric_limits<float>::min() && a <= std::numeric_limits<float>::max())) {
-    throw Error(fmt::format("{}: {} = {} does not fit the float32 arithmetic of the solver (magnitudes from "
-                            "1.1754944e-38 to 3.4028235e38); {}",
-                            scene.source, what, text::num(v), fix));
+  // Up to where it rounds to the largest float (half a unit of its last place above it: 2^103).
+  constexpr double kMax = std::numeric_limits<float>::max(), kRoundsToMax = kMax + 0x1p103;
+  if (!(a >= std::numeric_limits<float>::min() && a < kRoundsToMax)) {
+    throw Error(fmt::format("{}: {} = {} does not fit the float32 arithmetic of the solver (magnitudes from {} to "
+                            "{}); {}",
+                            scene.source, what, text::num(v), text::num(std::numeric_limits<float>::min()),
+                            text::num(kMax), fix));
   }
   return static_cast<float>(v);
 }

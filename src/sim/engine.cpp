@@ -127,9 +127,9 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
   const double stable = given ? scene.solver.time_step : m.dt;
   if (given && frame < stable * (1 - 1e-9)) {
     throw Error(fmt::format("{}: output.frame_rate = {} asks for frames of {} s, shorter than solver.time_step = "
-                            "{} s; lower output.frame_rate to at most {:.6g}, or remove solver.time_step",
+                            "{} s; lower output.frame_rate to at most {}, or remove solver.time_step",
                             scene.source, text::num(scene.output.frame_rate), text::distinct(frame, stable, 3).a,
-                            text::num(scene.solver.time_step), 1.0 / stable));
+                            text::num(scene.solver.time_step), text::at_most(1.0 / stable, 6)));
   }
   // A frame longer than the run is the run: its only frames are the first and the last (output.frame_rate
   // = 1e-6 over 0.05 s), however many steps a whole frame would take.
@@ -143,18 +143,18 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
   if (whole_steps(frame) > kMaxFrameSteps && scene.output.duration < frame) frame = scene.output.duration;
   const double steps = std::max(1.0, whole_steps(frame));
   if (steps > kMaxFrameSteps) {
-    const double rate = steps / 1e9 / frame;  // the frame rate at which a frame is 1e9 steps
+    const double rate = steps / kMaxFrameSteps / frame;  // the frame rate at which a frame is 1e9 steps (give or take)
     if (given)
       throw Error(fmt::format("{}: a frame of {:.3g} s (output.frame_rate = {:g}) is {:.3g} steps of solver.time_step = "
-                              "{:g} s, more than the 1e9 a frame can take; raise output.frame_rate to at least {:.3g}, "
+                              "{:g} s, more than the 1e9 a frame can take; raise output.frame_rate to at least {}, "
                               "or give a larger solver.time_step",
-                              scene.source, frame, scene.output.frame_rate, steps, stable, rate));
+                              scene.source, frame, scene.output.frame_rate, steps, stable, text::at_least(rate, 3)));
     throw Error(fmt::format("{}: a frame of {:.3g} s (output.frame_rate = {:g}) would take {:.3g} steps of {:.3g} s: "
                             "the critical time step is {:.3g} s, set by {}. Check the scene's numbers (densities, "
-                            "moduli, sizes and their units), or raise output.frame_rate to at least {:.3g} so a frame "
+                            "moduli, sizes and their units), or raise output.frame_rate to at least {} so a frame "
                             "is at most 1e9 steps",
                             scene.source, frame, scene.output.frame_rate, steps, stable, m.critical_dt, m.dt_limited_by,
-                            rate));
+                            text::at_least(rate, 3)));
   }
   steps_per_frame = static_cast<int>(steps);
   // The automatic step is shortened so that a whole number of steps fills each frame. The count of steps
@@ -190,10 +190,10 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
   double fastest = 0;
   std::string which;
   for (const auto& o : scene.objects) {
-    const double v = std::sqrt(o.velocity[0] * o.velocity[0] + o.velocity[1] * o.velocity[1] + o.velocity[2] * o.velocity[2]);
+    const double v = std::hypot(o.velocity[0], o.velocity[1], o.velocity[2]);
     if (v > fastest) { fastest = v; which = fmt::format("object '{}'", o.name); }
   }
-  auto norm = [](const Vec3d& v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); };
+  auto norm = [](const Vec3d& v) { return std::hypot(v[0], v[1], v[2]); };  // (1e300 is no inf)
   for (const auto& p : scene.projectiles) {
     const double v = norm(p.velocity);
     if (v > fastest) { fastest = v; which = fmt::format("projectile '{}'", p.name); }
@@ -211,7 +211,8 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
     throw Error(fmt::format("{}: {} starts at {} m/s, which crosses {} m per time step of {:.3g} s, more than a tenth "
                             "of the spacing ({} m of {:g} m): contacts would be skipped. Lower its speed below {} m/s, or "
                             "lower solver.safety or solver.time_step",
-                            scene.source, which, speed.a, reach.a, m.dt, reach.b, m.spacing, speed.b));
+                            scene.source, which, speed.a, reach.a, m.dt, reach.b, m.spacing,
+                            text::at_most(0.1 * m.spacing / m.dt, 4)));
   }
   return m;
 }
