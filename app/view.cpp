@@ -601,7 +601,11 @@ int view(const ViewOptions& o) {
                sig ? fmt::format("closed by {}: ", signal_name(sig)) : "", count(static_cast<std::size_t>(shown), "frame"),
                snap ? 1e3 * snap->time : 0.0, count(fired, "shot"), count(projectiles, "projectile"),
                snap ? snap->broken_links : 0, snap ? snap->fragments : 0,
-               o.screenshot && o.frames && shown >= *o.frames ? fmt::format("; screenshot {}", *o.screenshot) : "");
+               !o.screenshot ? std::string()
+               : o.frames && shown >= *o.frames
+                   ? fmt::format("; screenshot {}", *o.screenshot)
+                   : fmt::format("; no screenshot: {} is of frame {}, and the view closed before", *o.screenshot,
+                                 o.frames ? *o.frames : 0));
   return sig ? 128 + sig : 0;
 }
 

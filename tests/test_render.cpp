@@ -606,11 +606,15 @@ TEST(View, ScriptLinesAreCheckedAndLateShotsReported) {
 TEST(View, CtrlCClosesTheViewWithItsSummary) {
   if (shell("command -v xvfb-run").code != 0) GTEST_SKIP() << "xvfb-run is not installed (scripts/setup.sh)";
   const Result r = shell("timeout 120 xvfb-run -a -s '-screen 0 1280x720x24' sh -c '" + std::string(MCA_BINARY) +
-                         " view " + kCubicWall + " --size 160x90 --frames 1000000 & p=$!; sleep 6; kill -INT $p; "
+                         " view " + kCubicWall + " --size 160x90 --frames 1000000 --screenshot never.png & p=$!; sleep 6; "
+                         "kill -INT $p; "
                          "wait $p; echo \"exit $?\"'");
   EXPECT_NE(r.output.find("mca view: closed by SIGINT (Ctrl-C): "), std::string::npos) << r.output;
   EXPECT_NE(r.output.find(" frames shown, t = "), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("exit 130"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("; no screenshot: never.png is of frame 1000000, and the view closed before"),
+            std::string::npos)
+      << r.output;
 }
 
 TEST(View, BadSizeAndScreenshotNamesAreRefusedWithTheViewersOptions) {
