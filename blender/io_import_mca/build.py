@@ -52,10 +52,13 @@ class Imported:
 # ---------------------------------------------------------------------------------------------------------
 
 def _colour_material():
-    mat = bpy.data.materials.get("mca colour")
+    # The one an earlier import made (marked as the importer's: a material of the user's that happens to be
+    # named "mca colour" is left alone, and the new one is named "mca colour.001").
+    mat = next((m for m in bpy.data.materials if m.get("mca_colour_material")), None)
     if mat is not None:
         return mat
     mat = bpy.data.materials.new("mca colour")
+    mat["mca_colour_material"] = 1
     mat.use_nodes = True
     nt = mat.node_tree
     bsdf = nt.nodes.get("Principled BSDF")

@@ -50,9 +50,16 @@ def import_checks(run_dir, surface):
     """Imports a run and checks what it made."""
     from io_import_mca import build
     clear()
+    # A material of the user's that happens to be named as the importer's is left alone.
+    own = bpy.data.materials.new("mca colour")
+    own.diffuse_color = (0.1, 0.2, 0.3, 1.0)
     t0 = time.perf_counter()
     result = build.import_run(bpy.context, run_dir)
     seconds = time.perf_counter() - t0
+    used = {s.material for o in bpy.data.objects if o.type == "MESH" for s in o.material_slots if s.material}
+    check(own not in used and max(abs(a - b) for a, b in zip(own.diffuse_color, (0.1, 0.2, 0.3, 1.0))) < 1e-6 and
+          not own.get("mca_colour_material"),
+          f"the user's own 'mca colour' is left alone (the import uses {sorted(m.name for m in used)})")
     print(f"import: {result.frames} frames in {seconds:.2f} s")
     scene = bpy.context.scene
     frames = pvd_frames(run_dir)
