@@ -34,7 +34,7 @@ Distinct distinct(double a, double b, int digits) {
 }
 
 namespace {
-// x to `digits` significant digits, moved by a unit of the last digit towards `down` or up where rounding
+// x to `digits` significant digits, moved one unit of the last digit down (`down`) or up where the rounding
 // went past x.
 std::string rounded(double x, int digits, bool down) {
   std::string s = fmt::format("{:.{}g}", x, digits);
