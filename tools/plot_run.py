@@ -29,9 +29,19 @@ def read_csv(path):
 
 
 def save(fig, path):
+    """fig as PNG at path, through a temporary name; a write that fails (a full disk) ends the script with
+    one line naming the file and the reason, and leaves no temporary."""
     tmp = f"{path}.{os.getpid()}.0.tmp"
-    fig.savefig(tmp, dpi=100, format="png")
-    os.replace(tmp, path)
+    try:
+        fig.savefig(tmp, dpi=100, format="png")
+        os.replace(tmp, path)
+    except OSError as e:
+        try:
+            os.remove(tmp)
+        except OSError:
+            pass
+        raise SystemExit(f"plot_run.py: could not write {path}: {e.strerror or e}; check free disk space and the "
+                         "output folder")
 
 
 def mass_distribution_figure(plt, dist, title):
