@@ -1,6 +1,6 @@
 #pragma once
-// A 5 x 7 pixel bitmap font for the renderer's overlay (time, counters, legend labels): upper-case
-// letters, digits and the punctuation numbers need. Lower-case letters are drawn as upper-case.
+// A 5 x 7 pixel bitmap font for the renderer's overlay (time, counters, legend labels, messages): every
+// printable ASCII character. Lower-case letters are drawn as upper-case.
 #include <cstdint>
 #include <string_view>
 
@@ -10,8 +10,8 @@ constexpr int kGlyphWidth = 5, kGlyphHeight = 7;
 // Horizontal advance of one character in font pixels (the glyph and one pixel of space).
 constexpr int kGlyphAdvance = kGlyphWidth + 1;
 
-// The glyph of c: row r (0 = top) has bit (4 - x) set where pixel x is lit. Characters without a glyph
-// come back as a hollow box, so a missing one shows instead of vanishing.
+// The glyph of c: row r (0 = top) has bit (4 - x) set where pixel x is lit. Any other byte (a control
+// character, each byte of a UTF-8 character) is drawn as '?', so it shows instead of vanishing.
 const std::uint8_t* glyph(char c);
 
 // Width of a line of text in font pixels.
