@@ -535,13 +535,15 @@ int view(const ViewOptions& o) {
     }
     // (In the first half second: the frames so far over their time, not 0.)
     const double shown_fps = fps > 0 ? fps : since > 0 ? fps_frames / since : 0.0;
+    // (A frame that waits seconds for the simulation, as with --frames on a large scene, is 0.3 fps, not 0.)
+    const std::string fps_text = shown_fps < 9.95 ? fmt::format("{:.1f}", shown_fps) : fmt::format("{:.0f}", shown_fps);
     render::Overlay ov;
     std::string message;
     {
       std::lock_guard lock(sh.mutex);
       message = sh.message;
     }
-    ov.lines = {fmt::format("{:.0f} fps   {:.0f} steps/s{}", shown_fps, sh.steps_per_second.load(), sh.paused ? "   paused" : ""),
+    ov.lines = {fmt::format("{} fps   {:.0f} steps/s{}", fps_text, sh.steps_per_second.load(), sh.paused ? "   paused" : ""),
                 fmt::format("automata {}   drawn {}", snap->automata_total, snap->drawn_automata()),
                 fmt::format("ball {:.0f} m/s  r {:.2f} m  {:.1f} kg   colour {}  draw {}", ball.speed, ball.radius, ball.mass,
                             render::name(static_cast<render::ColourMode>(sh.colour.load())),
@@ -571,8 +573,8 @@ int view(const ViewOptions& o) {
       });
     }
     glfwSwapBuffers(win);
-    glfwSetWindowTitle(win, fmt::format("mca view: {}  t = {:.2f} ms  broken {}  fragments {}  {:.0f} fps", scene.name,
-                                        1e3 * snap->time, snap->broken_links, snap->fragments, shown_fps)
+    glfwSetWindowTitle(win, fmt::format("mca view: {}  t = {:.2f} ms  broken {}  fragments {}  {} fps", scene.name,
+                                        1e3 * snap->time, snap->broken_links, snap->fragments, fps_text)
                                 .c_str());
     if (last) break;
   }

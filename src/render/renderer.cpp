@@ -578,6 +578,7 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
   const int scale = std::max(1, static_cast<int>(std::lround(height / 360.0)));
   const float line_h = (kGlyphHeight + 4) * scale;
   const float margin = 8.0f * scale;
+  float text_end = 0;  // where the lines at the top end
   if (overlay.counters || !overlay.lines.empty()) {
     float y = margin;
     if (overlay.counters) {
@@ -603,12 +604,16 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
         while (!l.empty() && l.front() == ' ') l.remove_prefix(1);
       }
     }
+    text_end = y;
   }
-  if (overlay.legend) {
-    const Legend& L = s.legend;
+  const Legend& L = s.legend;
+  const bool bar = L.continuous && L.ramp;
+  const float bar_h = 8.0f * scale;
+  // The legend only where it fits below the lines at the top (in a small window they would overlap).
+  if (overlay.legend && static_cast<float>(height) - margin - 2 * line_h - (bar ? bar_h + 3.0f * scale : 0) >= text_end) {
     float y = static_cast<float>(height) - margin;
-    if (L.continuous && L.ramp) {
-      const float bar_w = 160.0f * scale, bar_h = 8.0f * scale;
+    if (bar) {
+      const float bar_w = 160.0f * scale;
       y -= line_h;
       const std::string lo = short_number(L.min), hi = short_number(L.max) + " " + L.unit;
       o.text(margin, y, lo, scale);
