@@ -273,7 +273,7 @@ void RenderOutput::finish() {
 
 std::filesystem::path plot_script() { return std::filesystem::path(MCA_TOOLS_DIR) / "plot_run.py"; }
 
-bool run_plot_script(const std::filesystem::path& dir, bool quiet, const std::atomic<int>* stop) {
+bool run_plot_script(const std::filesystem::path& dir, bool quiet, const std::atomic<int>& stop) {
   const std::filesystem::path script = plot_script();
   const std::string shown = fmt::format("python3 {} {}", script.string(), dir.string());
   if (!std::filesystem::exists(script)) {
@@ -285,18 +285,9 @@ bool run_plot_script(const std::filesystem::path& dir, bool quiet, const std::at
   const std::string python = std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
   std::vector<std::string> args = {python, script.string(), dir.string()};
   if (quiet) args.push_back("--quiet");
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
+  // (A group of its own: a terminal's Ctrl-C reaches this program only, which stops the script.)
   pid_t pid = 0;
-  posix_spawnattr_t attr;
-  posix_spawnattr_init(&attr);
-  if (stop) {  // (its own process group: a terminal's Ctrl-C reaches this program only, which stops it)
-    posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
-    posix_spawnattr_setpgroup(&attr, 0);
-  }
-  const int rc = posix_spawnp(&pid, python.c_str(), nullptr, &attr, argv.data(), environ);
-  posix_spawnattr_destroy(&attr);
+  const int rc = render::spawn_own_group(pid, args, nullptr, true);
   if (rc != 0) {
     fmt::print(stderr, "warning: no plots: python3 cannot be started ({}); install it with `apt-get install python3 "
                        "python3-matplotlib` (scripts/setup.sh does), then run: {}\n",
@@ -311,7 +302,7 @@ bool run_plot_script(const std::filesystem::path& dir, bool quiet, const std::at
   for (;;) {
     const pid_t done = ::waitpid(pid, &status, WNOHANG);
     if (done == pid || (done < 0 && errno != EINTR)) break;
-    if (stop && stop->load() != 0) {
+    if (stop.load() != 0) {
       ::kill(-pid, SIGTERM);
       while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
       }

@@ -99,9 +99,9 @@ class RenderOutput {
 std::filesystem::path plot_script();
 // Runs tools/plot_run.py on a run's folder (energies, broken links, fragment masses as PNG in render/).
 // Prints a message and returns false when python3, matplotlib or the script is missing or it fails.
-// `stop`, where given: a stop signal (Ctrl-C) the caller's handler records; the script runs in a process
-// group of its own (a terminal's Ctrl-C is not its), and is stopped when the caller's comes: false, and
-// no message (the caller says it was interrupted).
-bool run_plot_script(const std::filesystem::path& dir, bool quiet, const std::atomic<int>* stop = nullptr);
+// `stop`: a stop signal (Ctrl-C) the caller's handler records; the script runs in a process group of its
+// own (a terminal's Ctrl-C is not its), and is stopped when the caller's comes: false, and no message
+// (the caller says it was interrupted).
+bool run_plot_script(const std::filesystem::path& dir, bool quiet, const std::atomic<int>& stop);
 
 }  // namespace mca::app

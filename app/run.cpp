@@ -499,7 +499,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
   if (L.render) {
     if (tty) fmt::print(stderr, "\n");
     L.render->finish();
-    if (stop == 0) run_plot_script(L.dir, L.quiet, &stop);
+    if (stop == 0) run_plot_script(L.dir, L.quiet, stop);
   }
   // A stop signal after the last step: the run and its files are whole, what is left of its end is not made.
   if (const int sig = stop; sig != 0) {

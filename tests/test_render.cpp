@@ -276,12 +276,12 @@ TEST(Render, AStopSignalStopsThePlotScript) {
   std::atomic<int> stop{SIGINT};
   testing::internal::CaptureStderr();
   const auto t0 = std::chrono::steady_clock::now();
-  EXPECT_FALSE(app::run_plot_script(d.path(), true, &stop));
+  EXPECT_FALSE(app::run_plot_script(d.path(), true, stop));
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 10.0);
   EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
   EXPECT_FALSE(fs::exists(plot));
   stop = 0;
-  EXPECT_TRUE(app::run_plot_script(d.path(), true, &stop));
+  EXPECT_TRUE(app::run_plot_script(d.path(), true, stop));
   EXPECT_TRUE(fs::exists(plot));
 }
 

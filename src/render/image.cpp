@@ -135,6 +135,23 @@ std::optional<std::filesystem::path> find_ffmpeg() {
   return std::nullopt;
 }
 
+int spawn_own_group(pid_t& pid, const std::vector<std::string>& args, const posix_spawn_file_actions_t* actions,
+                    bool search_path) {
+  std::vector<char*> argv;
+  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  posix_spawnattr_t attr;
+  posix_spawnattr_init(&attr);
+  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
+  posix_spawnattr_setpgroup(&attr, 0);
+  pid_t child = 0;
+  const int rc = search_path ? posix_spawnp(&child, argv[0], actions, &attr, argv.data(), environ)
+                             : posix_spawn(&child, argv[0], actions, &attr, argv.data(), environ);
+  posix_spawnattr_destroy(&attr);
+  pid = child;
+  return rc;
+}
+
 VideoEncoder::VideoEncoder(const std::filesystem::path& ffmpeg, const std::filesystem::path& path,
                            const std::filesystem::path& temporary, int width, int height, double fps)
     : path_(path), temporary_(temporary), width_(width), height_(height) {
@@ -147,9 +164,6 @@ VideoEncoder::VideoEncoder(const std::filesystem::path& ffmpeg, const std::files
       // yuv420p halves the colour resolution: odd sizes are rounded down to even ones.
       "-vf", "crop=trunc(iw/2)*2:trunc(ih/2)*2", "-c:v", "libx264", "-preset", "veryfast", "-crf", "20",
       "-pix_fmt", "yuv420p", "-movflags", "+faststart", "-f", "mp4", temporary_.string()};
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
   int fds[2];
   if (::pipe2(fds, O_CLOEXEC) != 0) throw Error(fmt::format("cannot make a pipe to ffmpeg: {}", std::strerror(errno)));
   posix_spawn_file_actions_t actions;
@@ -157,15 +171,10 @@ VideoEncoder::VideoEncoder(const std::filesystem::path& ffmpeg, const std::files
   posix_spawn_file_actions_adddup2(&actions, fds[0], 0);
   posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
   posix_spawn_file_actions_adddup2(&actions, log_fd_, 2);
-  // In a process group of its own: a terminal's Ctrl-C is the run's to answer (it stops at a frame's end and
-  // ends the encoder itself), not ffmpeg's (killed by it, the video of a run that had finished was lost).
-  posix_spawnattr_t attr;
-  posix_spawnattr_init(&attr);
-  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
-  posix_spawnattr_setpgroup(&attr, 0);
+  // (A group of its own: a terminal's Ctrl-C is the run's to answer, which stops at a frame's end and ends
+  // the encoder itself; killed by it, the video of a run that had finished was lost.)
   pid_t pid = 0;
-  const int rc = posix_spawn(&pid, argv[0], &actions, &attr, argv.data(), environ);
-  posix_spawnattr_destroy(&attr);
+  const int rc = spawn_own_group(pid, args, &actions, false);
   posix_spawn_file_actions_destroy(&actions);
   ::close(fds[0]);
   if (rc != 0) {

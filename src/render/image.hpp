@@ -2,6 +2,7 @@
 // Images and video of rendered frames: PNG encoding (libpng), a contact sheet of a few frames, and the
 // MP4 made by piping raw RGBA frames into ffmpeg.
 #include <cstdint>
+#include <spawn.h>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -28,6 +29,12 @@ Image tile(const std::vector<Image>& tiles, int columns, int gap);
 
 // The full path of ffmpeg from PATH, or nothing.
 std::optional<std::filesystem::path> find_ffmpeg();
+
+// Starts the program args[0] (looked up on PATH where `search_path`) with `actions` (may be null), in a
+// process group of its own: a terminal's Ctrl-C then reaches this program only, which answers it (ends
+// the child's work itself or stops it). Returns posix_spawn's error, 0 when it started, and sets `pid`.
+int spawn_own_group(pid_t& pid, const std::vector<std::string>& args, const posix_spawn_file_actions_t* actions,
+                    bool search_path);
 
 // An H.264 MP4 (yuv420p, plays in browsers) written by ffmpeg from frames piped to it as raw RGBA. The
 // file goes to `temporary` and is renamed onto `path` by finish(), so an interrupted run leaves no half
