@@ -685,9 +685,15 @@ int run(const RunOptions& o) {
   Loop L{sim, dir, threads, o.quiet, scene.output.checkpoint_every, plan, 0, 0.0, render.get()};
   // Frame 0: the initial state.
   const auto frags = writer.fragments(sim.state());
-  writer.write_frame(0, sim.state(), frags);
-  if (render) render->write_frame(0, sim.state(), frags);
-  writer.start_stats({writer.format_row(writer.stats(0, sim.state(), frags))});
+  try {
+    writer.write_frame(0, sim.state(), frags);
+    if (render) render->write_frame(0, sim.state(), frags);
+    writer.start_stats({writer.format_row(writer.stats(0, sim.state(), frags))});
+  } catch (const Error& e) {  // (a full disk: as a write that fails later, but no step was made)
+    throw Error(fmt::format("{}\nThe run stopped writing frame 0, before its first step; once the disk has room (or "
+                            "the cause above is fixed), start it again",
+                            e.what()));
+  }
   L.frame = 1;
   return run_loop(L, writer);
 }

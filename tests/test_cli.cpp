@@ -480,6 +480,16 @@ TEST(Cli, AWriteThatFailsMidRunNamesTheCheckpointThatContinuesIt) {
   ASSERT_EQ(resumed.code, 0) << resumed.output;
   EXPECT_EQ(nlohmann::json::parse(read(out / "summary.json"))["state_hash"],
             nlohmann::json::parse(read(d / "whole" / "summary.json"))["state_hash"]);
+  // Frame 0, before any step: nothing to resume; the run is started again.
+  const fs::path first = d / "first";
+  fs::create_directories(first / "frames" / "automata_000000.vtu" / "x");
+  const Result r0 = run_mca("run " + scene.string() + " --out " + first.string() + " -q");
+  EXPECT_EQ(r0.code, 2) << r0.output;
+  EXPECT_NE(r0.output.find("automata_000000.vtu"), std::string::npos) << r0.output;
+  EXPECT_NE(r0.output.find("The run stopped writing frame 0, before its first step; once the disk has room (or the "
+                           "cause above is fixed), start it again"),
+            std::string::npos)
+      << r0.output;
 }
 
 // The embedded scene of a checkpoint edited in place (same length): the rebuilt model is not the one
