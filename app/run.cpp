@@ -650,7 +650,15 @@ int run(const RunOptions& o) {
   if (o.render) render = std::make_unique<RenderOutput>(dir, sim, ro, plan.total_frames, o.quiet);
   created.keep = true;
   // The scene as run (overrides applied), so the folder says what produced it.
-  io::write_file_atomic(dir / "scene.toml", [&](std::ostream& os) { os << io::scene_to_toml(scene); }, false);
+  // A step count is not a key of the scene: a comment at the top says it (resuming reads the count from
+  // the checkpoints).
+  io::write_file_atomic(dir / "scene.toml", [&](std::ostream& os) {
+    if (o.steps)
+      os << fmt::format("# This run: --steps {} ({:.6g} s of simulated time), not output.duration below; "
+                        "`mca run scene.toml --steps {}` repeats it\n",
+                        *o.steps, static_cast<double>(*o.steps) * sim.model().dt, *o.steps);
+    os << io::scene_to_toml(scene);
+  }, false);
   // Outputs of an earlier run in this folder would mix with this one's; only files this program writes
   // are removed, anything else a user keeps there stays.
   remove_end_outputs(dir);

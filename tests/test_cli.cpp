@@ -140,6 +140,18 @@ TEST(Cli, RunWritesFramesStatsAndSummary) {
   }
   EXPECT_EQ(rows, 5);
   EXPECT_NE(read(out / "automata.pvd").find("frames/automata_000004.vtu"), std::string::npos);
+  EXPECT_EQ(read(out / "scene.toml").rfind("# Written by mca", 0), 0u);
+  // A step count is not a key of the scene: the folder's scene.toml names it at its top, and the command
+  // it gives repeats the run.
+  const fs::path cut = d / "cut", again = d / "again";
+  ASSERT_EQ(run_mca("run " + scene.string() + " --steps 37 --no-vtk -q --out " + cut.string()).code, 0);
+  const std::string text = read(cut / "scene.toml");
+  EXPECT_EQ(text.rfind("# This run: --steps 37 (", 0), 0u) << text;
+  EXPECT_NE(text.find("`mca run scene.toml --steps 37` repeats it\n# Written by mca"), std::string::npos) << text;
+  ASSERT_EQ(run_mca("run " + (cut / "scene.toml").string() + " --steps 37 --no-vtk -q --out " + again.string()).code, 0);
+  EXPECT_EQ(nlohmann::json::parse(read(cut / "summary.json"))["state_hash"],
+            nlohmann::json::parse(read(again / "summary.json"))["state_hash"]);
+  EXPECT_EQ(nlohmann::json::parse(read(cut / "summary.json"))["steps"], 37);
 }
 
 TEST(Cli, ResumedRunEndsBitwiseEqualToAnUninterruptedOne) {
