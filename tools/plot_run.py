@@ -8,7 +8,8 @@
                               power law n(m) ~ m^-tau over its range, and the published exponents of 3D
                               brittle impact fragmentation, tau 1.5-2.1, as a shaded band
 
-Reads stats.csv and summary.json. Each file is written under a temporary name and renamed.
+Reads stats.csv and summary.json; a folder without them, or with them damaged, ends the script with one
+line before anything is drawn. Each file is written under a temporary name and renamed.
 Usage: python3 tools/plot_run.py OUT_DIR [--quiet]
 """
 import csv
@@ -20,12 +21,63 @@ import textwrap
 TAU_BAND = (1.5, 2.1)  # published 3D brittle impact fragmentation exponents (issue 21)
 
 
-def read_csv(path):
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    if not rows:
-        raise SystemExit(f"plot_run.py: {path} has no rows")
-    return rows
+COLUMNS = ["time", "kinetic_energy", "elastic_energy", "contact_energy", "projectile_kinetic_energy",
+           "total_energy", "energy_balance", "broken_total", "broken_displacement", "broken_stress", "fragments"]
+
+
+def number(text):
+    try:
+        v = float(text)
+    except (TypeError, ValueError):
+        return None
+    return v if v == v else None  # (nan: not a number to plot)
+
+
+def read_run(out):
+    """stats.csv's rows (the columns plotted, as floats) and summary.json of run folder `out`; anything missing
+    or damaged ends the script with one line naming the file, before any plot is drawn."""
+    if not os.path.isdir(out):
+        raise SystemExit(f"plot_run.py: {out} is not a folder; give the output folder of an mca run")
+    path = os.path.join(out, "stats.csv")
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            rows = list(csv.DictReader(f))
+    except FileNotFoundError:
+        raise SystemExit(f"plot_run.py: {out} has no stats.csv: not the output folder of an mca run, or one that "
+                         "stopped before its first frame")
+    except (OSError, UnicodeDecodeError, csv.Error) as e:
+        raise SystemExit(f"plot_run.py: cannot read {path}: {e}")
+    missing = [c for c in COLUMNS if rows and c not in rows[0]]
+    if not rows or missing:
+        raise SystemExit(f"plot_run.py: {path} has " + ("no rows" if not rows else f"no column {missing[0]}") +
+                         ": not written by this mca, or damaged")
+    table = []
+    for k, r in enumerate(rows):
+        values = {c: number(r.get(c)) for c in COLUMNS}
+        if None in values.values():
+            bad = next(c for c in COLUMNS if values[c] is None)
+            if k == len(rows) - 1 and k > 0:  # a last row cut short (a copy, a disk that filled): left out
+                print(f"plot_run.py: warning: the last row of {path} is cut short (no {bad}); plotted without it",
+                      file=sys.stderr)
+                break
+            raise SystemExit(f"plot_run.py: {path}, row {k + 1}: {bad} is {r.get(bad)!r}, not a number: damaged")
+        table.append(values)
+    path = os.path.join(out, "summary.json")
+    try:
+        with open(path, encoding="utf-8") as f:
+            summary = json.load(f)
+    except FileNotFoundError:
+        raise SystemExit(f"plot_run.py: {out} has no summary.json: the run was killed before its end (mca writes it "
+                         "at the end, at a Ctrl-C and when a run stops on an error); its checkpoints, if any, "
+                         f"continue it: mca resume {out}")
+    except (OSError, UnicodeDecodeError, ValueError) as e:
+        raise SystemExit(f"plot_run.py: cannot read {path}: {e}")
+    if not isinstance(summary, dict):
+        raise SystemExit(f"plot_run.py: {path} is not a JSON object: not written by mca, or damaged")
+    if not isinstance(summary.get("fragment_mass_distribution"), dict):
+        raise SystemExit(f"plot_run.py: {path} has no fragment_mass_distribution (written by an older mca, or "
+                         "damaged): run the scene again")
+    return table, summary
 
 
 def save(fig, path):
@@ -130,13 +182,16 @@ def main(argv):
         print("plot_run.py: matplotlib is not installed; install it with `apt-get install python3-matplotlib` "
               "(scripts/setup.sh does)", file=sys.stderr)
         return 3
-    stats = read_csv(os.path.join(out, "stats.csv"))
+    stats, summary = read_run(out)
     render = os.path.join(out, "render")
-    os.makedirs(render, exist_ok=True)
-    t = [1e3 * float(r["time"]) for r in stats]
+    try:
+        os.makedirs(render, exist_ok=True)
+    except OSError as e:
+        raise SystemExit(f"plot_run.py: cannot make {render}: {e.strerror or e}")
+    t = [1e3 * r["time"] for r in stats]
 
     def col(name):
-        return [float(r[name]) for r in stats]
+        return [r[name] for r in stats]
 
     def top_of(name):  # an axis from 0 to a little above the column's largest value (1 when all are 0)
         return max(1.0, 1.05 * max(col(name), default=0))
@@ -176,14 +231,14 @@ def main(argv):
     save(fig, os.path.join(render, "broken_links.png"))
     plt.close(fig)
 
-    with open(os.path.join(out, "summary.json"), encoding="utf-8") as f:
-        summary = json.load(f)
-    dist = summary.get("fragment_mass_distribution")
-    if dist is None:
-        raise SystemExit(f"plot_run.py: {os.path.join(out, 'summary.json')} has no fragment_mass_distribution "
-                         "(written by an older mca): run the scene again")
-    plot_mass_distribution(plt, dist, os.path.join(render, "fragment_masses.png"),
-                           f"Fragment masses at the end: {summary.get('scene', '')}")
+    # (summary.json is written at the run's end, or where it stopped: an interrupted run's is not the end.)
+    when = "at the end"
+    if summary.get("status") != "finished":
+        t_end = number(summary.get("simulated_time"))
+        when = f"at t = {1e3 * t_end:.4g} ms (the run {summary.get('status', 'stopped')})" if t_end is not None else \
+            f"where the run stopped ({summary.get('status', 'not finished')})"
+    plot_mass_distribution(plt, summary["fragment_mass_distribution"], os.path.join(render, "fragment_masses.png"),
+                           f"Fragment masses {when}: {summary.get('scene', '')}")
     if not quiet:
         print(f"plots: energies.png, broken_links.png, fragment_masses.png in {render}", file=sys.stderr)
     return 0

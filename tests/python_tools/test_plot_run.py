@@ -86,7 +86,7 @@ def write_run(out, dist):
             "total_energy", "energy_balance", "broken_displacement", "broken_stress", "broken_total", "fragments"]
     rows = [",".join(cols)] + [",".join(str(i * (c != "time") + 0.001 * i * (c == "time")) for c in cols) for i in range(3)]
     (out / "stats.csv").write_text("\n".join(rows) + "\n")
-    summary = {"scene": "fake"}
+    summary = {"scene": "fake", "status": "finished"}
     if dist is not None:
         summary["fragment_mass_distribution"] = dist
     (out / "summary.json").write_text(json.dumps(summary))
@@ -107,3 +107,45 @@ def test_a_summary_without_the_distribution_is_refused_by_name(tmp_path):
     with pytest.raises(SystemExit) as e:
         plot_run.main(["plot_run.py", str(tmp_path), "--quiet"])
     assert "fragment_mass_distribution" in str(e.value)
+
+
+def refusal(path):
+    with pytest.raises(SystemExit) as e:
+        plot_run.main(["plot_run.py", str(path), "--quiet"])
+    return str(e.value)
+
+
+def test_a_folder_that_is_not_a_whole_run_is_refused_in_one_line_before_anything_is_drawn(tmp_path):
+    assert "is not a folder" in refusal(tmp_path / "none")
+    (tmp_path / "empty").mkdir()
+    assert "has no stats.csv" in refusal(tmp_path / "empty")
+    # A run killed before its end (no summary.json): the message names mca resume, and no plot is drawn.
+    killed = tmp_path / "killed"
+    killed.mkdir()
+    write_run(killed, distribution(killed, [1, 1, 2]))
+    (killed / "summary.json").unlink()
+    message = refusal(killed)
+    assert "has no summary.json" in message and f"mca resume {killed}" in message
+    assert not (killed / "render").exists()
+    (killed / "summary.json").write_text("[]")
+    assert "is not a JSON object" in refusal(killed)
+    (killed / "summary.json").write_text('{"scene": ')
+    assert "cannot read" in refusal(killed)
+    # A damaged row inside stats.csv is refused by its number.
+    write_run(killed, distribution(killed, [1, 1, 2]))
+    rows = (killed / "stats.csv").read_text().splitlines()
+    cells = rows[2].split(",")
+    cells[2] = "x"  # kinetic_energy
+    rows[2] = ",".join(cells)
+    (killed / "stats.csv").write_text("\n".join(rows) + "\n")
+    assert "row 2" in refusal(killed)
+    assert not (killed / "render").exists()
+
+
+def test_a_last_row_cut_short_is_left_out_with_a_warning(tmp_path, capsys):
+    write_run(tmp_path, distribution(tmp_path, [1, 1, 2]))
+    text = (tmp_path / "stats.csv").read_text()
+    (tmp_path / "stats.csv").write_text(text[: len(text) - 9])
+    assert plot_run.main(["plot_run.py", str(tmp_path), "--quiet"]) == 0
+    assert "the last row" in capsys.readouterr().err
+    assert (tmp_path / "render" / "energies.png").exists()
