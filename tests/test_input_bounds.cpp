@@ -399,6 +399,37 @@ TEST(InputBounds, AMeshOfPartsFarApartIsCheckedByItsWholeBox) {
   s.objects[1].name = "far";
   s.objects[1].position = {13.5, 13.5, 13.5};
   EXPECT_EQ(mca::lattice::build_model(s).size(), 432u);
+  // Whatever solver.max_memory_gb says, the box must fit the machine's memory: 11 TB of cells were built
+  // until the kernel killed the process.
+  mca::mesh::TriMesh apart = mca::test::cube_mesh(0.15);
+  for (const auto& v : mca::test::cube_mesh(0.15, {500, 500, 500}).vertices) apart.vertices.push_back(v);
+  for (const auto& f : far.faces) apart.faces.push_back({f[0] + 8, f[1] + 8, f[2] + 8});
+  mca::test::write_mesh_file(t.path() / "apart.off", apart);
+  mca::SceneDef a = mesh_scene((t.path() / "apart.off").string(), 0.05);
+  a.solver.max_memory_gb = 1e5;
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::string ma = error_of([&] { mca::lattice::build_model(a); });
+  EXPECT_HAS(ma, "its bounding box holds 10006 x 10006 x 10006 cells");
+  EXPECT_HAS(ma, "more than this machine's");
+  EXPECT_HAS(ma, "or run it on a larger machine");
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 5.0);
+}
+
+// Surface-mode automata are counted at their own cost (a triangle and its 1.5 explicit links), not the
+// random lattice's, and a shell too large is told to take fewer triangles: no spacing changes its count.
+TEST(InputBounds, ASurfaceModeObjectIsPricedAndAdvisedByItsTriangles) {
+  mca::test::TempDir t;
+  mca::test::write_mesh_file(t.path() / "ball.off", mca::test::sphere_mesh(0.5, 6));  // 81,920 triangles
+  mca::SceneDef s = mesh_scene((t.path() / "ball.off").string(), 0.05);
+  s.objects[0].fill = mca::MeshFill::surface;
+  s.solver.max_memory_gb = 0.1;
+  const std::string m = error_of([&] { mca::lattice::build_model(s); });
+  EXPECT_HAS(m, "for 8.192e+04 automata of surface-mode objects (one a triangle), over solver.max_memory_gb = 0.1");
+  EXPECT_HAS(m, "give the surface-mode objects meshes of fewer triangles");
+  EXPECT_EQ(m.find("spacing of about"), std::string::npos) << m;
+  // At 0.2 GB it fits (about 134 MB; at the random lattice's 2.6 KB an automaton it was refused).
+  s.solver.max_memory_gb = 0.2;
+  EXPECT_EQ(mca::lattice::build_model(s).size(), 81920u);
 }
 
 // The last resort: a bad_alloc that escapes the checks is a clear message, not "std::bad_alloc".

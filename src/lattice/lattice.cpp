@@ -126,6 +126,12 @@ void lattice_frame(const ObjectDef& o, const MeshObject* m, double d, std::int64
   }
 }
 
+// The memory this machine has (0 when it cannot tell).
+double physical_memory_bytes() {
+  const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && size > 0 ? static_cast<double>(pages) * static_cast<double>(size) : 0.0;
+}
+
 // Whether the cell centre (x, y, z) of the object frame lies in the shape.
 bool inside_shape(const ObjectDef& o, double x, double y, double z) {
   if (o.shape == Shape::sphere) return x * x + y * y + z * z <= o.radius * o.radius;
@@ -148,15 +154,21 @@ const MeshFillResult& mesh_fill(const SceneDef& scene, const Shapes& S, std::siz
     // the build died of a bare std::bad_alloc.
     const double cells = static_cast<double>(box.n[0]) * static_cast<double>(box.n[1]) * static_cast<double>(box.n[2]);
     const double per_cell = 11.0 + 2.0 * static_cast<double>(scene.objects[oi].regions.size());
-    const double limit = scene.solver.max_memory_gb * 1e9;
+    // (Within solver.max_memory_gb, and within the machine's memory whatever that says: 30 GB of cells on a
+    // 24 GB machine had the build killed by the kernel after two minutes.)
+    const double setting = scene.solver.max_memory_gb * 1e9, machine = physical_memory_bytes();
+    const bool by_machine = machine > 0 && 0.9 * machine < setting;
+    const double limit = by_machine ? 0.9 * machine : setting;
     if (cells * per_cell > limit) {
       const double solid = S.of(oi)->volume() / (d * d * d);
       throw Error(fmt::format(
           "{}: object[{}] '{}': its bounding box holds {} x {} x {} cells at spacing {:.4g} m ({:.3g} GB at {:g} bytes "
-          "per cell while its lattice is built), over solver.max_memory_gb = {:g}; increase solver.spacing (a "
-          "spacing of about {:.3g} m fits) or raise solver.max_memory_gb{}",
+          "per cell while its lattice is built), {}; increase solver.spacing (a spacing of about {:.3g} m fits){}{}",
           scene.source, oi, scene.objects[oi].name, box.n[0], box.n[1], box.n[2], d, cells * per_cell / 1e9, per_cell,
-          scene.solver.max_memory_gb, d * std::cbrt(cells * per_cell / limit) * 1.05,
+          by_machine ? fmt::format("more than this machine's {:.1f} GB of memory", machine / 1e9)
+                     : fmt::format("over solver.max_memory_gb = {:g}", scene.solver.max_memory_gb),
+          d * std::cbrt(cells * per_cell / limit) * 1.05,
+          by_machine ? " or run it on a larger machine" : " or raise solver.max_memory_gb",
           solid < 0.01 * cells
               ? fmt::format(". The mesh fills {:.2g} % of its box: if it is made of parts far apart, give each part an "
                             "object of its own",
@@ -411,12 +423,6 @@ double shapes_volume(const SceneDef& scene, const Shapes& S) {
   return volume;
 }
 
-// The memory this machine has (0 when it cannot tell).
-double physical_memory_bytes() {
-  const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGE_SIZE);
-  return pages > 0 && size > 0 ? static_cast<double>(pages) * static_cast<double>(size) : 0.0;
-}
-
 // The spacing that gives about 10,000 automata, for messages about scenes far too coarse or too fine.
 std::string ten_thousand_hint(const SceneDef& scene, const Shapes& S) {
   return fmt::format("about {:.3g} m gives 10,000 automata", std::cbrt(shapes_volume(scene, S) / 1e4));
@@ -446,33 +452,55 @@ std::string smaller_model(const SceneDef& scene, double d, double automata, doub
   return fmt::format("increase solver.spacing (memory falls with its cube: a spacing of about {:.3g} m fits)", fits);
 }
 
-void refuse_over_memory(const SceneDef& scene, double d, double automata, bool approximate) {
-  const double per = bytes_per_automaton(scene);
-  const double bytes = per * automata + static_cast<double>(estimate_memory_bytes(0));
+// The memory a run holds per automaton of a surface-mode object: its triangle's automaton and about 1.5
+// explicit links (a closed mesh has 1.5 edges per triangle).
+double bytes_per_surface_automaton() {
+  return static_cast<double>(estimate_memory_bytes(1000, 1500, 0) - estimate_memory_bytes(0)) / 1000;
+}
+
+// Refuses a model over solver.max_memory_gb or the machine's memory: `automata` lattice automata at spacing d
+// (a lower bound when `approximate`: half the volume's count) and `surface` automata of surface-mode
+// objects, one per triangle, whatever the spacing.
+void refuse_over_memory(const SceneDef& scene, double d, double automata, bool approximate, double surface) {
+  const double per = bytes_per_automaton(scene), per_surface = bytes_per_surface_automaton();
+  const double fixed = static_cast<double>(estimate_memory_bytes(0));
+  const double bytes = per * automata + per_surface * surface + fixed;
   const double limit = scene.solver.max_memory_gb * 1e9;
-  if (limit <= static_cast<double>(estimate_memory_bytes(0))) {
+  if (limit <= fixed) {
     throw Error(fmt::format("{}: solver.max_memory_gb = {} leaves nothing for a model: the program takes {} GB "
                             "without one; raise solver.max_memory_gb above it, e.g. to 16 (the default)",
-                            scene.source, text::num(scene.solver.max_memory_gb),
-                            text::num(static_cast<double>(estimate_memory_bytes(0)) / 1e9)));
+                            scene.source, text::num(scene.solver.max_memory_gb), text::num(fixed / 1e9)));
   }
+  // What is over `cap` bytes, and the fix: the lattice's spacing where the surface-mode objects leave it
+  // room (their counts are their meshes' triangles, which no spacing changes), else fewer triangles.
+  const auto over = [&](double cap) {
+    const std::string lattice = fmt::format("{}{:.4g} automata at spacing {:.4g} m", approximate ? "at least " : "",
+                                            automata, d);
+    const std::string shells = fmt::format("{:.4g} automata of surface-mode objects (one a triangle)", surface);
+    const std::string count = surface <= 0 ? lattice : automata <= 0 ? shells : lattice + " and " + shells;
+    const double room = cap - per_surface * surface;
+    const std::string fix =
+        automata > 0 && room > fixed + per * (approximate ? 2 * automata : automata) * 0.01
+            ? smaller_model(scene, d, approximate ? 2 * automata : automata,
+                            spacing_that_fits(d, automata, approximate, room, per))
+            : fmt::format("give the surface-mode objects meshes of fewer triangles (about {:.3g} in all fit, at "
+                          "{:.0f} bytes each; solver.spacing does not change their count)",
+                          std::max(0.0, (cap - fixed - per * automata) / per_surface), per_surface);
+    return std::pair{count, fix};
+  };
   if (bytes > limit) {
-    throw Error(fmt::format(
-        "{}: the scene needs {:.3g} GB for {}{:.4g} automata at spacing {:.4g} m, over solver.max_memory_gb = "
-        "{:g}; {} or raise solver.max_memory_gb if the machine has it",
-        scene.source, bytes / 1e9, approximate ? "at least " : "", automata, d, scene.solver.max_memory_gb,
-        smaller_model(scene, d, approximate ? 2 * automata : automata,
-                      spacing_that_fits(d, automata, approximate, limit, per))));
+    const auto [count, fix] = over(limit);
+    throw Error(fmt::format("{}: the scene needs {:.3g} GB for {}, over solver.max_memory_gb = {:g}; {} or raise "
+                            "solver.max_memory_gb if the machine has it",
+                            scene.source, bytes / 1e9, count, scene.solver.max_memory_gb, fix));
   }
   // A model larger than the machine's memory would swap for hours before failing.
   const double machine = physical_memory_bytes();
   if (machine > 0 && bytes > 0.9 * machine) {
-    throw Error(fmt::format(
-        "{}: the scene needs {:.3g} GB for {}{:.4g} automata at spacing {:.4g} m, more than this machine's "
-        "{:.1f} GB of memory; {} or run it on a larger machine",
-        scene.source, bytes / 1e9, approximate ? "at least " : "", automata, d, machine / 1e9,
-        smaller_model(scene, d, approximate ? 2 * automata : automata,
-                      spacing_that_fits(d, automata, approximate, 0.9 * machine, per))));
+    const auto [count, fix] = over(0.9 * machine);
+    throw Error(fmt::format("{}: the scene needs {:.3g} GB for {}, more than this machine's {:.1f} GB of memory; {} or "
+                            "run it on a larger machine",
+                            scene.source, bytes / 1e9, count, machine / 1e9, fix));
   }
 }
 
@@ -1049,7 +1077,7 @@ double spacing_for_target(const SceneDef& scene, const Shapes& S, std::int64_t t
     // d^3 up to the cells cut by the surface, so d <- d (n / target)^(1/3) lands within 2 % in one or two
     // fills. The spacing is rounded to float as build_model will, so its fill is the one kept.
     double d = static_cast<double>(static_cast<float>(std::cbrt(volume / static_cast<double>(target))));
-    refuse_over_memory(scene, d, static_cast<double>(target), false);
+    refuse_over_memory(scene, d, static_cast<double>(target), false, 0);
     for (int it = 0; it < 6; ++it) {
       const std::int64_t n = try_spacing(d);
       if (std::llabs(n - target) * 200 <= target) break;  // within 0.5 %
@@ -1134,10 +1162,13 @@ std::int64_t checked_automata_count(const SceneDef& scene, const Shapes& S, doub
                                                   ten_thousand_hint(scene, S))));
       }
   }
-  refuse_over_memory(scene, d, n_volume, true);
-  refuse_count(n_volume, true);
+  double surface = 0;  // (surface-mode objects: their triangles' count, whatever the spacing)
+  for (std::size_t oi = 0; oi < scene.objects.size(); ++oi)
+    if (const SurfaceCells* sc = S.surface_of(oi)) surface += static_cast<double>(sc->face.size());
+  refuse_over_memory(scene, d, n_volume, true, surface);
+  refuse_count(n_volume + surface, true);
   const std::int64_t n_est = count_automata(scene, S, d);
-  refuse_over_memory(scene, d, static_cast<double>(n_est), false);
+  refuse_over_memory(scene, d, static_cast<double>(n_est) - surface, false, surface);
   refuse_count(static_cast<double>(n_est), false);
   return n_est;
 }
