@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <sys/stat.h>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
@@ -148,10 +149,34 @@ TEST(MeshLoader, AGltfReadsBuffersBesideItAndNothingElse) {
   // A buffer outside the mesh's folder, by a relative or an absolute path, is not read.
   std::ofstream(t.path() / "model" / "up.gltf") << gltf("../secret.bin");
   std::ofstream(t.path() / "model" / "absolute.gltf") << gltf((t.path() / "secret.bin").string());
-  for (const char* name : {"up.gltf", "absolute.gltf"}) {
-    const std::string e = error_of([&] { mesh::read_mesh((t.path() / "model" / name).string()); });
-    EXPECT_NE(e.find("cannot be read as a .gltf mesh"), std::string::npos) << name << ": " << e;
+  // (assimp looks for an absolute path inside the mesh's folder, where it is not.)
+  const std::string up = error_of([&] { mesh::read_mesh((t.path() / "model" / "up.gltf").string()); });
+  EXPECT_NE(up.find(fmt::format("cannot be read: it names {}, outside the mesh's folder",
+                                fs::weakly_canonical(t.path() / "secret.bin").string())),
+            std::string::npos)
+      << up;
+  const std::string absolute = error_of([&] { mesh::read_mesh((t.path() / "model" / "absolute.gltf").string()); });
+  EXPECT_NE(absolute.find("cannot be read as a .gltf mesh: GLTF: could not open referenced file"), std::string::npos)
+      << absolute;
+  // A FIFO or a folder in the mesh's folder is not opened (a FIFO hung the read for ever).
+  ASSERT_EQ(::mkfifo((t.path() / "model" / "fifo.bin").c_str(), 0600), 0);
+  fs::create_directories(t.path() / "model" / "folder.bin");
+  for (const char* uri : {"fifo.bin", "folder.bin"}) {
+    std::ofstream(t.path() / "model" / "odd.gltf") << gltf(uri);
+    const std::string e = error_of([&] { mesh::read_mesh((t.path() / "model" / "odd.gltf").string()); });
+    EXPECT_NE(e.find("which is not a regular file (a FIFO, a device or a folder)"), std::string::npos) << uri << ": " << e;
   }
+  // The buffers count against the memory limit as the mesh file does (a 3 GB buffer took 3 GB under 0.5).
+  {
+    std::ofstream(t.path() / "model" / "big.bin").close();
+    fs::resize_file(t.path() / "model" / "big.bin", 200'000'000);  // sparse: no disk used
+  }
+  std::ofstream(t.path() / "model" / "big.gltf") << gltf("big.bin");
+  const std::string e = error_of([&] { mesh::read_mesh((t.path() / "model" / "big.gltf").string(), 0.5e9); });
+  EXPECT_NE(e.find("big.bin (200 MB), and reading it with the rest would take about 1.2 GB, over "
+                   "solver.max_memory_gb = 0.5"),
+            std::string::npos)
+      << e;
 }
 
 TEST(MeshLoader, TheFilesUnitsDoNotChangeTheMesh) {

@@ -21,6 +21,7 @@
 #include <string_view>
 #include <numeric>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "core/files.hpp"
 #include "core/fnv.hpp"
@@ -77,17 +78,43 @@ void only_reader_for(Assimp::Importer& importer, const std::string& ext) {
     if (importer.UnregisterLoader(imp) == aiReturn_SUCCESS) delete imp;  // unregistered, the importer is ours to free
 }
 
-// The files a mesh may make assimp open: those in its own folder and below (a glTF's buffers, an OBJ's
-// material library), nothing else. A mesh file comes from anywhere; one naming "/etc/shadow" or
-// "../../secret" as a buffer would otherwise turn that file's bytes into vertices written to the output.
-// An empty folder allows nothing (data read from memory).
+// What reading a mesh costs beyond its bytes: per vertex its coordinates, the weld's table and the
+// indices (about 120 bytes), per triangle its corners and the edge tables of the topology (about 150);
+// assimp holds its own copy of the mesh besides (about 6 times the bytes of an STL or glTF).
+constexpr double kBytesPerVertex = 120, kBytesPerTriangle = 150, kAssimpBytesPerFileByte = 6;
+
+// The files a mesh may make assimp open: regular files in its own folder and below (a glTF's buffers, an
+// OBJ's material library), nothing else. A mesh file comes from anywhere; one naming "/etc/shadow" or
+// "../../secret" as a buffer would otherwise turn that file's bytes into vertices written to the output,
+// one naming a FIFO there would hang the read for ever, and one naming a file of 20 GB would have assimp
+// read it whole: the files opened count against the memory limit, as the mesh file itself does. An
+// empty folder allows nothing (data read from memory). Why a file was not opened is kept (`refusal`): it
+// is the message where the import then fails.
 class FolderIOSystem : public Assimp::DefaultIOSystem {
  public:
-  explicit FolderIOSystem(std::filesystem::path folder) : folder_(std::move(folder)) {}
+  FolderIOSystem(std::filesystem::path folder, double max_memory_bytes)
+      : folder_(std::move(folder)), max_bytes_(max_memory_bytes) {}
   bool Exists(const char* file) const override { return allowed(file) && DefaultIOSystem::Exists(file); }
   Assimp::IOStream* Open(const char* file, const char* mode) override {
-    return allowed(file) ? DefaultIOSystem::Open(file, mode) : nullptr;
+    if (!allowed(file)) return nullptr;
+    std::error_code ec;
+    const std::filesystem::path p = std::filesystem::canonical(file, ec);
+    if (!ec && !opened_.count(p.string())) {
+      const auto size = static_cast<double>(std::filesystem::file_size(p, ec));
+      if (ec) return nullptr;
+      if (kAssimpBytesPerFileByte * (read_ + size) > max_bytes_) {
+        refusal_ = fmt::format("it names {} ({:.4g} MB), and reading it with the rest would take about {:.3g} GB, over "
+                               "solver.max_memory_gb = {:g}; raise solver.max_memory_gb if the machine has the "
+                               "memory, or export the model with smaller buffers",
+                               p.string(), size / 1e6, kAssimpBytesPerFileByte * (read_ + size) / 1e9, max_bytes_ / 1e9);
+        return nullptr;
+      }
+      read_ += size;
+      opened_.insert(p.string());
+    }
+    return DefaultIOSystem::Open(file, mode);
   }
+  const std::string& refusal() const { return refusal_; }
 
  private:
   bool allowed(const char* file) const {
@@ -96,9 +123,26 @@ class FolderIOSystem : public Assimp::DefaultIOSystem {
     const std::filesystem::path p = std::filesystem::weakly_canonical(file, ec);
     if (ec) return false;
     const auto rel = p.lexically_relative(folder_);
-    return !rel.empty() && *rel.begin() != "..";
+    if (rel.empty() || *rel.begin() == "..") {
+      refusal_ = fmt::format("it names {}, outside the mesh's folder {}: mca reads only files in the mesh's folder "
+                             "and below; copy the file there and name it relative to the mesh",
+                             p.string(), folder_.string());
+      return false;
+    }
+    // (A FIFO or a device would block the read, or never end it.)
+    if (std::filesystem::exists(p, ec) && !std::filesystem::is_regular_file(p, ec)) {
+      refusal_ = fmt::format("it names {}, which is not a regular file (a FIFO, a device or a folder); give it the "
+                             "file it should read",
+                             p.string());
+      return false;
+    }
+    return true;
   }
   std::filesystem::path folder_;
+  double max_bytes_;
+  double read_ = 0;
+  std::unordered_set<std::string> opened_;
+  mutable std::string refusal_;
 };
 
 constexpr unsigned kSteps = aiProcess_RemoveComponent | aiProcess_Triangulate | aiProcess_PreTransformVertices |
@@ -506,7 +550,7 @@ std::string read_file(const std::string& path, std::uint64_t size);
 // Reads with assimp (from the file, or from `bytes` when given): STL, glTF and GLB, whose coordinates are
 // float32 in the file.
 TriMesh import_assimp(const std::string& name, const std::string& ext, const std::string* bytes,
-                      const std::string& path) {
+                      const std::string& path, double max_memory_bytes) {
   if (bytes && ext == "glb") check_glb(*bytes, bytes->size(), name);
   if (ext == "gltf" || ext == "glb") {
     // The JSON: the whole .gltf, or the .glb's first chunk (check_glb: its length fits the file).
@@ -525,20 +569,19 @@ TriMesh import_assimp(const std::string& name, const std::string& ext, const std
   configure(importer);
   only_reader_for(importer, ext);
   std::error_code ec;
-  importer.SetIOHandler(new FolderIOSystem(  // the importer owns it
-      bytes ? std::filesystem::path() : std::filesystem::weakly_canonical(path, ec).parent_path()));
+  auto* io = new FolderIOSystem(bytes ? std::filesystem::path() : std::filesystem::weakly_canonical(path, ec).parent_path(),
+                                max_memory_bytes);
+  importer.SetIOHandler(io);  // (the importer owns it)
   const aiScene* raw = bytes ? importer.ReadFileFromMemory(bytes->data(), bytes->size(), kRawSteps, ext.c_str())
                              : importer.ReadFile(path, kRawSteps);
-  if (!raw || (raw->mFlags & AI_SCENE_FLAGS_INCOMPLETE && raw->mNumMeshes == 0)) fail_import(importer, name, ext);
+  if (!raw || (raw->mFlags & AI_SCENE_FLAGS_INCOMPLETE && raw->mNumMeshes == 0)) {
+    if (!io->refusal().empty()) throw Error(fmt::format("{}: cannot be read: {}", name, io->refusal()));
+    fail_import(importer, name, ext);
+  }
   const aiScene* scene = importer.ApplyPostProcessing(kSteps);
   if (!scene) fail_import(importer, name, ext);
   return convert(scene, name);
 }
-
-// What reading a mesh costs beyond its bytes: per vertex its coordinates, the weld's table and the
-// indices (about 120 bytes), per triangle its corners and the edge tables of the topology (about 150);
-// assimp holds its own copy of the mesh besides (about 6 times the bytes of an STL or glTF).
-constexpr double kBytesPerVertex = 120, kBytesPerTriangle = 150, kAssimpBytesPerFileByte = 6;
 
 void refuse_over_memory(const std::string& name, double need, double max_bytes, const std::string& what) {
   if (need <= max_bytes) return;
@@ -632,7 +675,7 @@ TriMesh import(const std::string& name, const std::string& ext, const std::strin
                                                                                    : detail::read_ply(b, name);
     return finish(std::move(r.mesh), name, r.points_and_lines);
   }
-  return import_assimp(name, ext, bytes, path);
+  return import_assimp(name, ext, bytes, path, max_bytes);
 }
 
 std::string read_file(const std::string& path, std::uint64_t size) {
