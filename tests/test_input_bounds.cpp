@@ -356,6 +356,28 @@ TEST(InputBounds, MeshCoordinatesFarOutAreReadInDouble) {
   // Near the origin the same STL is fine.
   mca::test::write_mesh_file(t.path() / "near.stl", mca::test::cube_mesh(0.15));
   EXPECT_EQ(mca::lattice::build_model(mesh_scene((t.path() / "near.stl").string(), 0.05)).size(), 216u);
+  // Georeferenced coordinates in double (UTM: millions of metres): a sphere of 5 cm triangles is no degenerate
+  // mesh there (it was, by an area measured against the coordinates, not the triangle), and fills as at
+  // the origin.
+  const auto filled = [&](mca::mesh::Point at) {
+    mca::mesh::TriMesh ball = mca::test::sphere_mesh(1.0, 5);  // 20,480 triangles of about 5 cm
+    for (auto& v : ball.vertices)
+      for (int k = 0; k < 3; ++k) v[k] += at[k];
+    std::string text;
+    for (const auto& v : ball.vertices) text += fmt::format("v {} {} {}\n", v[0], v[1], v[2]);
+    for (const auto& f : ball.faces) text += fmt::format("f {} {} {}\n", f[0] + 1, f[1] + 1, f[2] + 1);
+    return mca::lattice::build_model(mesh_scene(write_file(t.path() / "ball.obj", text), 0.1)).size();
+  };
+  EXPECT_EQ(filled({512345.25, 5412345.5, 230}), filled({0, 0, 0}));
+  // Coordinates whose areas leave a double are refused as such, not as degenerate triangles.
+  for (double scale : {1e300, 1e-300}) {
+    std::string cube;
+    for (const auto& v : mca::test::cube_mesh(1.0).vertices)
+      cube += fmt::format("v {} {} {}\n", v[0] * scale, v[1] * scale, v[2] * scale);
+    for (const auto& f : mca::test::cube_mesh(1.0).faces) cube += fmt::format("f {} {} {}\n", f[0] + 1, f[1] + 1, f[2] + 1);
+    const std::string e = error_of([&] { mca::lattice::build_model(mesh_scene(write_file(t.path() / "odd.obj", cube), 0.05)); });
+    EXPECT_HAS(e, "beyond what mca computes with (areas and volumes leave the range of a double)");
+  }
 }
 
 // Item 18: OBJ numbers written ".3" and COFF files with comments (and colours without alpha) are read.

@@ -480,7 +480,7 @@ void refuse_over_memory(const SceneDef& scene, double d, double automata, bool a
     const std::string count = surface <= 0 ? lattice : automata <= 0 ? shells : lattice + " and " + shells;
     const double room = cap - per_surface * surface;
     const std::string fix =
-        automata > 0 && room > fixed + per * (approximate ? 2 * automata : automata) * 0.01
+        surface <= 0 || (automata > 0 && room > 2 * fixed)
             ? smaller_model(scene, d, approximate ? 2 * automata : automata,
                             spacing_that_fits(d, automata, approximate, room, per))
             : fmt::format("give the surface-mode objects meshes of fewer triangles (about {:.3g} in all fit, at "

@@ -92,12 +92,7 @@ bool same_shell(const mesh::Shell& a, const mesh::Shell& b) {
   return std::fabs(a.volume - b.volume) <= 1e-6 * std::max(a.volume, b.volume);
 }
 
-// Whether a triangle has no area (a repeated corner, or corners on a line), by topology()'s measure.
-bool degenerate(const mesh::TriMesh& m, const mesh::Triangle& f) {
-  const mesh::Point &a = m.vertices[f[0]], &b = m.vertices[f[1]], &c = m.vertices[f[2]];
-  const double scale = std::max({std::fabs(a[0]), std::fabs(a[1]), std::fabs(a[2]), 1e-300});
-  return f[0] == f[1] || f[1] == f[2] || f[0] == f[2] || mesh::twice_area(a, b, c) <= 1e-14 * scale * scale;
-}
+
 
 // A shell joined to another only through edges of more than two triangles (two cubes sharing an edge)
 // is filled as one surface, and the fill of that surface puts cells outside both next to the shared
@@ -168,7 +163,7 @@ Solid make_solid(std::string file, mesh::TriMesh m) {
   // removed a cell): skipped like a repeated shell.
   for (std::size_t a = 0; a < n; ++a)
     if (std::all_of(s.shells[a].faces.begin(), s.shells[a].faces.end(),
-                    [&](std::uint32_t f) { return degenerate(m, m.faces[f]); }))
+                    [&](std::uint32_t f) { return mesh::zero_area(m, m.faces[f]); }))
       s.depth[a] = -1;
   for (std::size_t a = 0; a < n; ++a)
     for (std::size_t b = 0; b < a && s.depth[a] >= 0; ++b)

@@ -17,6 +17,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <iterator>
+#include <limits>
 #include <sstream>
 #include <string_view>
 #include <numeric>
@@ -476,18 +477,26 @@ TriMesh finish(TriMesh m, const std::string& name, std::size_t points) {
                             name, m.vertices.size(),
                             points > 0 ? fmt::format(" (only {} points and lines)", points) : std::string()));
   }
+  const Bounds b = bounds(m);
+  double far = 0;
+  for (int a = 0; a < 3; ++a) far = std::max({far, std::fabs(b.lo[a]), std::fabs(b.hi[a])});
+  // Areas and volumes are squares and cubes of the coordinates: beyond 1e100 (or a model under 1e-100
+  // across) they leave a double, and every triangle would read as degenerate.
+  if (far > 1e100 || b.largest_extent() < 1e-100) {
+    throw Error(fmt::format("{}: its coordinates reach {:.3g} for a model {:.3g} across, beyond what mca computes with "
+                            "(areas and volumes leave the range of a double); scale the model in the file (object "
+                            "scale and fit_size apply after it is read)",
+                            name, far, b.largest_extent()));
+  }
   const Topology t = topology(m);
   if (t.degenerate_faces == m.faces.size()) {
-    const Bounds b = bounds(m);
-    double far = 0;
-    for (int a = 0; a < 3; ++a) far = std::max({far, std::fabs(b.lo[a]), std::fabs(b.hi[a])});
     throw Error(fmt::format("{}: all {} triangles are degenerate (zero area: their corners lie on a line or "
                             "coincide); the file holds no surface{}",
                             name, m.faces.size(),
                             far > 1e4 * b.largest_extent()
-                                ? fmt::format(" (its coordinates reach {:.3g} for a model {:.3g} across: single-precision "
-                                              "coordinates that far out cannot tell its corners apart; move it to the "
-                                              "origin in the file)",
+                                ? fmt::format(" (its coordinates reach {:.3g} for a model {:.3g} across: coordinates "
+                                              "that far out, rounded to single precision (STL, glTF, a PLY of floats), "
+                                              "cannot tell its corners apart; move it to the origin in the file)",
                                               far, b.largest_extent())
                                 : std::string()));
   }
@@ -762,6 +771,20 @@ double twice_area(const Point& a, const Point& b, const Point& c) {
   return std::sqrt(x * x + y * y + z * z);
 }
 
+bool zero_area(const TriMesh& m, const Triangle& f) {
+  if (f[0] == f[1] || f[1] == f[2] || f[0] == f[2]) return true;
+  const Point &a = m.vertices[f[0]], &b = m.vertices[f[1]], &c = m.vertices[f[2]];
+  double edge = 0, far = 0;
+  for (int k = 0; k < 3; ++k) {
+    edge = std::max({edge, std::fabs(b[k] - a[k]), std::fabs(c[k] - b[k]), std::fabs(a[k] - c[k])});
+    far = std::max({far, std::fabs(a[k]), std::fabs(b[k]), std::fabs(c[k])});
+  }
+  // (Coordinates rounded by up to eps |x| move a line's corners off it by that much: an area of about
+  // that times the edge.)
+  constexpr double eps = std::numeric_limits<double>::epsilon();
+  return twice_area(a, b, c) <= std::max(1e-14 * edge * edge, 16 * eps * far * edge);
+}
+
 namespace {
 
 std::uint32_t find_root(std::vector<std::uint32_t>& parent, std::uint32_t x) {
@@ -775,9 +798,7 @@ Topology topology(const TriMesh& m) {
   std::unordered_map<std::uint64_t, std::uint32_t> uses;
   uses.reserve(m.faces.size() * 2);
   for (const Triangle& f : m.faces) {
-    const Point &a = m.vertices[f[0]], &b = m.vertices[f[1]], &c = m.vertices[f[2]];
-    const double scale = std::max({std::fabs(a[0]), std::fabs(a[1]), std::fabs(a[2]), 1e-300});
-    if (f[0] == f[1] || f[1] == f[2] || f[0] == f[2] || twice_area(a, b, c) <= 1e-14 * scale * scale) {
+    if (zero_area(m, f)) {
       ++t.degenerate_faces;
       if (f[0] == f[1] || f[1] == f[2] || f[0] == f[2]) continue;
     }

@@ -49,6 +49,12 @@ Bounds bounds(const TriMesh& m);
 // Twice the area of the triangle a b c (the length of the cross product of two of its edges).
 double twice_area(const Point& a, const Point& b, const Point& c);
 
+// Whether the triangle of corners `f` of m has no area: a repeated corner, or corners on a line to within
+// the rounding of their coordinates (its area against its longest edge; where the corners lie far from
+// the origin, against what rounding them to double could make of a line: a triangle of 5 cm at 5e6 m
+// from the origin has an area).
+bool zero_area(const TriMesh& m, const Triangle& f);
+
 struct Topology {
   std::size_t edges = 0;
   std::size_t boundary_edges = 0;      // used by one triangle: a hole's rim
