@@ -23,7 +23,8 @@
    y then z for x, x then y for z). The lattice axes are taken to be the scene's axes (objects not
    rotated).
 
-2. Fragment masses, from fragments.csv. With N automata and M their mass: the single automata (count and
+2. Fragment masses, from fragments.csv, where the run ended or stopped (summary.json's time, printed), whatever
+   frame the damage is measured on. With N automata and M their mass: the single automata (count and
    mass share), the mass share of fragments of at least 10 automata and at most N/10 ("between 10
    automata and a tenth of the object"), the largest fragment's share, and a power law n(m) ~ m^-tau
    fitted to the number density of fragment masses in logarithmic bins. Masses are counted in automata,
@@ -310,6 +311,15 @@ def fragment_measure(run_dir, fit_max=None):
     if not os.path.exists(path):
         raise RunError(f"{run_dir}: no fragments.csv")
     automata, mass = read_fragments(path)
+    # fragments.csv holds the fragments where the run ended or stopped: summary.json says when.
+    when = {"time": None, "status": None}
+    try:
+        with open(os.path.join(run_dir, "summary.json"), encoding="utf-8") as f:
+            summary = json.load(f)
+        if isinstance(summary, dict) and isinstance(summary.get("simulated_time"), (int, float)):
+            when = {"time": float(summary["simulated_time"]), "status": str(summary.get("status", ""))}
+    except (OSError, ValueError):
+        pass
     n_total = int(automata.sum())
     m_total = float(mass.sum())
     m_unit = m_total / n_total
@@ -339,7 +349,7 @@ def fragment_measure(run_dir, fit_max=None):
         "above_tenth_sizes": sorted((int(a) for a in automata[big]), reverse=True),
         # the heaviest fragment (the first of equal ones, as fragments.csv lists them)
         "largest_automata": int(automata[int(np.argmax(mass))]), "largest_mass_share": float(mass.max() / m_total),
-        "bins": bins, "fit": fit,
+        "bins": bins, "fit": fit, "time": when["time"], "status": when["status"],
     }
 
 
@@ -416,7 +426,14 @@ def report(res):
             lines.append(f"  axis/diagonal ratio: {d['axis_diagonal_ratio']:.2f}")
     f = res.get("fragments")
     if f:
-        lines.append(f"fragments: {f['fragments']} of {f['automata']} automata ({f['mass']:.1f} kg)")
+        when = "at the run's end" if f.get("status") in (None, "finished") else f"where the run stopped: {f['status']}"
+        if f.get("time") is not None:
+            when += f", t = {f['time'] * 1e3:.1f} ms"
+        # (the damage above may be of an earlier frame: say so, the two are not of one moment)
+        if d and f.get("time") is not None and abs(d["time"] - f["time"]) > 1e-9 * max(1.0, f["time"]):
+            when += f"; not frame {d['frame']}"
+        lines.append(f"fragments ({when}; fragments.csv): {f['fragments']} of {f['automata']} automata "
+                     f"({f['mass']:.1f} kg)")
         lines.append(f"  single automata: {f['single_count']} ({100 * f['single_mass_share']:.1f} % of the mass); "
                      f"2-9 automata: {f['small_2_9_count']} ({100 * f['small_2_9_mass_share']:.1f} %)")
         lines.append(f"  10 to {f['mid_range_automata'][1]:g} automata: {f['mid_count']} "
@@ -460,6 +477,9 @@ def main(argv=None):
     try:
         if not os.path.isdir(a.run_dir):
             raise RunError(f"{a.run_dir} is not a folder")
+        for opt, out in (("--json", a.json), ("--plot", a.plot)):
+            if out and not os.path.isdir(os.path.dirname(os.path.abspath(out))):
+                raise RunError(f"{opt} {out}: the folder {os.path.dirname(os.path.abspath(out))} does not exist")
         if not a.no_damage:
             res["damage"] = damage_measure(a.run_dir, a.frame, a.time,
                                            None if a.normal is None else AXES.index(a.normal), a.centre,
@@ -473,8 +493,12 @@ def main(argv=None):
         return 2
     print(report(res))
     if a.json:
-        with open(a.json, "w") as f:
-            json.dump(res, f, indent=1, allow_nan=False)  # NaN or Infinity would not be JSON
+        try:
+            with open(a.json, "w") as f:
+                json.dump(res, f, indent=1, allow_nan=False)  # NaN or Infinity would not be JSON
+        except OSError as e:
+            print(f"fracture_metrics.py: could not write {a.json}: {e.strerror or e}", file=sys.stderr)
+            return 2
     return 0
 
 

@@ -358,3 +358,24 @@ def test_no_fit_gives_a_reason(tmp_path):
     f = fm.fragment_measure(str(tmp_path))
     assert f["fit"]["tau"] is None and "0 non-empty bins of at most 10 automata" in f["fit"]["reason"]
     assert "no fit (0 non-empty bins" in fm.report({"fragments": f})
+
+
+def test_the_fragments_say_when_they_are_from(tmp_path, capsys):
+    """fragments.csv holds where the run ended: the report says so, and that an earlier frame's damage is
+    not of that moment."""
+    run = fake_run(tmp_path)
+    write_fragments(run / "fragments.csv", [1, 1, 2, 50])
+    (run / "summary.json").write_text(json.dumps({"simulated_time": 0.002, "status": "finished"}))
+    assert fm.main([str(run)]) == 0
+    out = capsys.readouterr().out
+    assert "fragments (at the run's end, t = 2.0 ms; fragments.csv)" in out
+    assert fm.main([str(run), "--frame", "0"]) == 0
+    assert "fragments (at the run's end, t = 2.0 ms; not frame 0; fragments.csv)" in capsys.readouterr().out
+    (run / "summary.json").write_text(json.dumps({"simulated_time": 0.002, "status": "interrupted"}))
+    assert fm.main([str(run), "--json", str(tmp_path / "m.json")]) == 0
+    assert "where the run stopped: interrupted, t = 2.0 ms" in capsys.readouterr().out
+    res = json.loads((tmp_path / "m.json").read_text())
+    assert res["fragments"]["time"] == 0.002 and res["fragments"]["status"] == "interrupted"
+    # An output into a folder that does not exist is refused before anything is measured.
+    assert fm.main([str(run), "--json", str(tmp_path / "none" / "m.json")]) == 2
+    assert "does not exist" in capsys.readouterr().err
