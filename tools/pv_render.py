@@ -11,6 +11,7 @@ The printed summary (time steps, points, cells, arrays with ranges) is what Para
 makes this a check of the writer against the real client as well as a quick look at a run.
 """
 import argparse
+import math
 import os
 import sys
 
@@ -46,7 +47,10 @@ def pick_time(times, spec):
     if spec == "last":
         return times[-1]
     if spec.startswith("#"):
-        index = int(spec[1:])
+        try:
+            index = int(spec[1:])
+        except ValueError:
+            fail(f"--time {spec!r}: #INDEX takes a whole number, e.g. #3 (or -1 for the last)")
         if not -len(times) <= index < len(times):
             fail(f"--time {spec}: the series has {len(times)} steps")
         return times[index]
@@ -54,6 +58,8 @@ def pick_time(times, spec):
         wanted = float(spec)
     except ValueError:
         fail(f"--time {spec!r}: use first, last, #INDEX or a time value")
+    if not math.isfinite(wanted):
+        fail(f"--time {spec!r}: a time value is a finite number of seconds")
     return min(times, key=lambda t: abs(t - wanted))
 
 
@@ -65,6 +71,8 @@ def main():
         width, height = (int(v) for v in args.size.lower().split("x"))
     except ValueError:
         fail(f"--size {args.size!r}: use WIDTHxHEIGHT, e.g. 1280x720")
+    if not (16 <= width <= 16384 and 16 <= height <= 16384):
+        fail(f"--size {args.size}: give 16 to 16384 pixels each way")
 
     if args.input.lower().endswith(".pvd"):
         reader = PVDReader(FileName=os.path.abspath(args.input))
@@ -85,6 +93,11 @@ def main():
     info = reader.GetDataInformation()
     point_info = reader.PointData
     names = list(point_info.keys())
+    # A frame the reader could not read (missing, cut short: ParaView logs its error and goes on) gives an
+    # empty picture: as a check of what was written, that is a failure.
+    if info.GetNumberOfPoints() == 0:
+        fail(f"{args.input}: ParaView read no points at time {time if time is not None else 'n/a'} (see its error "
+             "above: a frame file missing, cut short or damaged)")
     print(f"file: {args.input}")
     print(f"time steps: {len(times)}" + (f" ({', '.join(f'{t:g}' for t in times)})" if times else ""))
     print(f"shown time: {time if time is not None else 'n/a'}")
