@@ -28,10 +28,15 @@ from plot_run import TAU_BAND, save  # noqa: E402
 def distribution(run):
     path = os.path.join(run, "summary.json")
     try:
-        with open(path) as f:
-            dist = json.load(f).get("fragment_mass_distribution")
+        with open(path, encoding="utf-8") as f:
+            summary = json.load(f)
     except (OSError, ValueError) as e:
         raise SystemExit(f"fragment_spectra.py: cannot read {path}: {e}")
+    if not isinstance(summary, dict):
+        raise SystemExit(f"fragment_spectra.py: {path} is not a JSON object: not written by mca, or damaged")
+    dist = summary.get("fragment_mass_distribution")
+    if dist is not None and not isinstance(dist, dict):
+        raise SystemExit(f"fragment_spectra.py: {path}: fragment_mass_distribution is not an object: damaged")
     if not dist or dist.get("reason"):
         raise SystemExit(f"fragment_spectra.py: {path} has no fragment mass distribution"
                          f"{': ' + dist['reason'] if dist and dist.get('reason') else ''}")
@@ -42,11 +47,16 @@ def parse_group(text):
     title, sep, runs = text.rpartition("=")  # (a title may hold "=", the runs do not)
     if not sep or not runs:
         raise SystemExit(f"fragment_spectra.py: a group is TITLE=LABEL:RUN,...; got {text!r}")
+    # (',', '=' and a first ':' are the syntax's: a folder named with them is given through a link.)
+    names = ("; a folder whose name holds ',' or '=' cannot be given in this form: give a symbolic link to it, or "
+             "rename it")
     out = []
     for item in runs.split(","):
         label, sep, run = item.partition(":")
         if not sep:
-            raise SystemExit(f"fragment_spectra.py: a run is LABEL:RUN_DIR; got {item!r}")
+            raise SystemExit(f"fragment_spectra.py: a run is LABEL:RUN_DIR; got {item!r}{names}")
+        if not os.path.isdir(run):
+            raise SystemExit(f"fragment_spectra.py: {run!r} (the run labelled {label!r}) is not a folder{names}")
         out.append((label, run))
     return title, out
 
@@ -57,9 +67,13 @@ def main(argv):
     ap.add_argument("groups", nargs="+")
     args = ap.parse_args(argv)
     groups = [parse_group(g) for g in args.groups]
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise SystemExit("fragment_spectra.py: matplotlib is not installed; install it with `apt-get install "
+                         "python3-matplotlib` (scripts/setup.sh does)")
 
     fig, axes = plt.subplots(1, len(groups), figsize=(6.5 * len(groups), 5), sharey=True, squeeze=False)
     for ax, (title, runs) in zip(axes[0], groups):

@@ -46,7 +46,15 @@ def test_a_run_without_a_distribution_is_a_clear_error(tmp_path):
     assert r.returncode != 0
     assert "has no fragment mass distribution" in r.stderr
     r = run_tool("--out", str(tmp_path / "f.png"), f"t=A:{tmp_path / 'missing'}")
-    assert r.returncode != 0 and "cannot read" in r.stderr
+    assert r.returncode != 0 and "(the run labelled 'A') is not a folder" in r.stderr
+    # A summary that is not an object, and a folder named with the syntax's ',' or '=': one line each.
+    (tmp_path / "list").mkdir()
+    (tmp_path / "list" / "summary.json").write_text("[]")
+    r = run_tool("--out", str(tmp_path / "f.png"), f"t=A:{tmp_path / 'list'}")
+    assert r.returncode != 0 and "is not a JSON object" in r.stderr and "Traceback" not in r.stderr
+    (tmp_path / "g=100,v30").mkdir()
+    r = run_tool("--out", str(tmp_path / "f.png"), f"t=A:{tmp_path / 'g=100,v30'}")
+    assert r.returncode != 0 and "give a symbolic link to it" in r.stderr
     r = run_tool("--out", str(tmp_path / "f.png"), "no groups here")
     assert r.returncode != 0 and "TITLE=LABEL:RUN" in r.stderr
     assert not (tmp_path / "f.png").exists()
