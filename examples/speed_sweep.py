@@ -9,7 +9,13 @@ import sys
 
 import mca
 
-duration = float(sys.argv[1]) if len(sys.argv) > 1 else 0.02  # simulated seconds
+try:
+    duration = float(sys.argv[1]) if len(sys.argv) > 1 else 0.02  # simulated seconds
+except ValueError:
+    duration = float("nan")
+if not 0 < duration < float("inf"):
+    sys.exit(f"speed_sweep.py: the duration {sys.argv[1]!r} is not a positive number of simulated seconds; "
+             "e.g. 0.02")
 base = mca.Scene.default()  # scenes/wall_ball.toml: the ball flies along +y at 30 m/s
 for speed in (30.0, 60.0, 120.0):
     scene = base.copy()

@@ -597,6 +597,9 @@ Simulation is gone.)");
             const Engine& e = s.engine();
             const double dt = static_cast<double>(e.model().dt);
             if (!std::isfinite(time)) throw Error(fmt::format("advance_to({}): not a finite time", time));
+            // (A time before the run's start is a mistake, a sign or a unit, not a time that has passed.)
+            if (time < 0)
+              throw Error(fmt::format("advance_to({}): a simulated time is 0 or more (a run starts at t = 0)", time));
             const double steps = std::round((time - e.time()) / dt);
             if (steps > static_cast<double>(Engine::kMaxSteps))
               throw Error(fmt::format("advance_to({}): {:.3g} steps of {:.4g} s would not end; give an earlier time",
@@ -604,7 +607,8 @@ Simulation is gone.)");
             s.advance(steps > 0 ? static_cast<std::int64_t>(steps) : 0, progress);
           },
           py::arg("time"), py::arg("progress") = py::none(),
-          "Advances to the step nearest the simulated time `time` [s] (nothing when it has passed); as advance.")
+          "Advances to the step nearest the simulated time `time` [s] (nothing when it has passed; a negative time "
+          "raises mca.Error); as advance.")
       .def_property_readonly("step", [](const PySimulation& s) { return s.engine().step(); }, "steps taken")
       .def_property_readonly("time", [](const PySimulation& s) { return s.engine().time(); }, "simulated time [s]")
       .def_property_readonly("time_step", [](const PySimulation& s) { return static_cast<double>(s.engine().model().dt); },

@@ -12,3 +12,11 @@ def test_speed_sweep_example(source_dir):
     broken = [int(line.split("m/s:")[1].split()[0]) for line in lines]
     # A faster ball breaks more links.
     assert broken[0] < broken[1] < broken[2], r.stdout
+
+
+def test_speed_sweep_refuses_a_duration_that_is_no_time(source_dir):
+    for bad in ("abc", "-1", "0", "inf"):
+        r = subprocess.run([sys.executable, str(source_dir / "examples" / "speed_sweep.py"), bad],
+                           capture_output=True, text=True, timeout=60)
+        assert r.returncode == 1 and "is not a positive number of simulated seconds" in r.stderr, (bad, r.stderr)
+        assert "Traceback" not in r.stderr

@@ -104,6 +104,8 @@ def test_wrong_types_of_simulation_arguments():
             sim.advance(steps)
     with pytest.raises(mca.Error, match="advance_to: time = 'soon' is not a number"):
         sim.advance_to("soon")
+    with pytest.raises(mca.Error, match=r"advance_to\(-1\): a simulated time is 0 or more"):
+        sim.advance_to(-1)
     with pytest.raises(mca.Error, match=r"render: colour = None is not text; give a str: one of"):
         mca.render(sim, colour=None)
     with pytest.raises(mca.Error, match=r"render: size = 'big' is not two whole numbers; give \(width, height\)"):
