@@ -182,9 +182,10 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
   render::OffscreenTarget target(W, H);
   target.bind();
   if (!json)
-    fmt::print("render benchmark: {}x{} offscreen, {} ({}), {} threads; {} per frame, median of {} frames\n", W, H,
+    fmt::print("render benchmark: {}x{} offscreen, {} ({}), {} threads; {} per frame, {}\n", W, H,
                render::Renderer::gl_description(), context.source(), threads,
-               steps == 1 ? std::string("one step") : fmt::format("{} steps", steps), frames);
+               steps == 1 ? std::string("one step") : fmt::format("{} steps", steps),
+               frames == 1 ? std::string("one frame") : fmt::format("median of {} frames", frames));
   nlohmann::json out = nlohmann::json::array();
   std::vector<std::uint8_t> pixels;
   for (const auto& c : chosen) {
@@ -300,8 +301,10 @@ int bench(const std::vector<std::string>& names, bool json, int threads_requeste
             cpu         ? std::string()
             : how.fused ? fmt::format(" (lattice kernels fused:{} where a lattice has no explicit links)", how.blocks)
                         : std::string(" (lattice kernels split)");
-        fmt::print("machine: {} hardware threads, {}; backend {}{}; median of {} runs of {} steps each\n",
-                   std::thread::hardware_concurrency(), used, backend_text(name), lattice, repeats, steps);
+        fmt::print("machine: {} hardware threads, {}; backend {}{}; {}\n", std::thread::hardware_concurrency(), used,
+                   backend_text(name), lattice,
+                   repeats == 1 ? fmt::format("one run of {} steps", steps)
+                                : fmt::format("median of {} runs of {} steps each", repeats, steps));
       }
       first = false;
       sim.advance(b.warmup_steps);
