@@ -58,6 +58,12 @@ OutputEstimate estimate_output(const Model& m, const OutputDef& o, std::int64_t 
   if (o.surface && m.surface.faces() > 0) {
     const auto v = static_cast<double>(m.surface.vertices), f = static_cast<double>(m.surface.faces());
     e.surface_frame = o.surface_format == OutputDef::SurfaceFormat::obj ? 36 * v + 24 * f : 300 + 12 * v + 17 * f;
+    // With the VTK frames, its PolyData too (frames/surface_NNNNNN.vtp: 12 bytes a vertex; a triangle's three
+    // Int64 indices, its offset and its fragment, 36 bytes) and surface.pvd's entries.
+    if (o.vtk) {
+      e.vtk_frame += 1100 + 12 * v + 36 * f;
+      e.per_run += 90.0 * static_cast<double>(frames);
+    }
   }
   // A rendered frame: the PNG (compression level 1) of the bunny at 1280x720 is 0.52 MB, 0.57 bytes a pixel
   // (a mostly flat background); the H.264 video adds a few per cent. Once: the contact sheet (six tiles at
@@ -243,6 +249,16 @@ void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis
       if (obj) mesh::write_obj(os, m);
       else mesh::write_ply(os, m);
     });
+    // With the VTK frames, the same surface for ParaView, whose PLY reader drops the faces' fragment and
+    // whose file series of PLY counts frames, not seconds: a PolyData with a `fragment` cell array, in
+    // surface.pvd at the frame's time.
+    if (vtk_) {
+      const std::string name = fmt::format("frames/surface_{:06d}.vtp", frame);
+      io::write_vtp(dir_ / name, m.vertices.size(), m.vertices.empty() ? nullptr : m.vertices.front().data(), m.faces,
+                    m.face_value_name, m.face_values);
+      surface_pvd_.emplace_back(s.time, name);
+      io::write_pvd(dir_ / "surface.pvd", surface_pvd_);
+    }
   }
   if (!vtk_) return;
   const std::size_t n = model_.size();
@@ -320,12 +336,23 @@ void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis
   }
 }
 
+void FrameWriter::remove_frames(const std::filesystem::path& dir) {
+  io::remove_own_files(dir / "frames", "automata_", ".vtu");
+  io::remove_own_files(dir / "frames", "projectiles_", ".vtu");
+  io::remove_own_files(dir / "frames", "surface_", ".vtp");
+  io::remove_own_files(dir / "surface", "surface_", ".ply");
+  io::remove_own_files(dir / "surface", "surface_", ".obj");
+  for (const char* pvd : {"automata.pvd", "projectiles.pvd", "surface.pvd"}) io::remove_output(dir / pvd);
+}
+
 void FrameWriter::restore(std::int64_t frames, double frame_interval) {
   automata_pvd_.clear();
   projectile_pvd_.clear();
+  surface_pvd_.clear();
   if (!vtk_) return;
   for (std::int64_t f = 0; f < frames; ++f) {
     automata_pvd_.emplace_back(f * frame_interval, fmt::format("frames/automata_{:06d}.vtu", f));
+    if (surface_) surface_pvd_.emplace_back(f * frame_interval, fmt::format("frames/surface_{:06d}.vtp", f));
     if (!model_.projectiles.empty())
       projectile_pvd_.emplace_back(f * frame_interval, fmt::format("frames/projectiles_{:06d}.vtu", f));
   }

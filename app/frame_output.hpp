@@ -98,6 +98,9 @@ class FrameWriter {
   // Puts the rows appended so far on the disk (fdatasync), before a checkpoint that a resume reads them
   // back to: a crash after the checkpoint then cannot have lost them.
   void sync_stats();
+  // Removes the frames an earlier run or session left in `dir`: the VTK frames and bound surfaces of every
+  // format, and their collections (this run may write none of them: --no-vtk, no projectiles, no mesh).
+  static void remove_frames(const std::filesystem::path& dir);
   // Rebuild the .pvd lists after a resume (frames 0..frames-1 exist on disk).
   void restore(std::int64_t frames, double frame_interval);
   static std::vector<std::string> stats_header(const Model& model);
@@ -114,7 +117,7 @@ class FrameWriter {
   OutputDef::SurfaceFormat surface_format_;
   bool fragment_meshes_;
   std::int64_t fragment_min_automata_;
-  std::vector<std::pair<double, std::string>> automata_pvd_, projectile_pvd_;
+  std::vector<std::pair<double, std::string>> automata_pvd_, projectile_pvd_, surface_pvd_;
   int stats_fd_ = -1;  // stats.csv, open for appending after start_stats
 };
 

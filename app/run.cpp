@@ -34,6 +34,9 @@
 namespace mca::app {
 namespace {
 
+using io::remove_output;
+using io::remove_own_files;
+
 // The signal that stops the run (or the view), 0 while none came: SIGINT (Ctrl-C), SIGTERM (kill, a batch
 // system's time limit) and SIGHUP (the terminal closed) alike end a run at the next chunk of steps with its
 // summary, and with a checkpoint when at a frame's end.
@@ -260,29 +263,6 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
 void remove_stale_temporaries(const std::filesystem::path& dir) {
   for (const char* sub : {"", "frames", "surface", "fragments", "checkpoints", "render"})
     io::remove_stale_temporaries(dir / sub);
-}
-
-void remove_own_files(const std::filesystem::path& dir, const std::string& prefix, const std::string& extension) {
-  std::error_code ec;
-  if (!std::filesystem::is_directory(dir, ec)) return;
-  std::vector<std::filesystem::path> doomed;
-  for (const auto& e : std::filesystem::directory_iterator(dir)) {
-    const std::string name = e.path().filename().string();
-    if (e.is_regular_file() && name.rfind(prefix, 0) == 0 && e.path().extension() == extension) doomed.push_back(e.path());
-  }
-  for (const auto& p : doomed) std::filesystem::remove(p);
-}
-
-// Removes a file of an earlier session where it is there (whether it was); an error that names it where it
-// cannot be removed (a path through a file, as a file named `render`, holds none: nothing to remove).
-bool remove_output(const std::filesystem::path& p) {
-  std::error_code ec;
-  const bool removed = std::filesystem::remove(p, ec);
-  if (ec && ec != std::errc::not_a_directory)
-    throw Error(fmt::format("cannot remove '{}', an output of an earlier run in this folder ({}); remove it by hand "
-                            "or use another --out folder",
-                            p.string(), ec.message()));
-  return removed;
 }
 
 // What a run writes at its end from its last state (the summary also when interrupted): the summary,
@@ -663,14 +643,7 @@ int run(const RunOptions& o) {
   // are removed, anything else a user keeps there stays.
   remove_end_outputs(dir);
   remove_own_files(dir / "checkpoints", "frame_", ".mcack");
-  remove_own_files(dir / "frames", "automata_", ".vtu");
-  remove_own_files(dir / "frames", "projectiles_", ".vtu");
-  remove_own_files(dir / "surface", "surface_", ".ply");
-  remove_own_files(dir / "surface", "surface_", ".obj");
-  // The collections too: this run may write no projectile frames (no projectiles) or no frames at all
-  // (--no-vtk), and a collection left from an earlier run would list frames that were just removed.
-  remove_output(dir / "automata.pvd");
-  remove_output(dir / "projectiles.pvd");
+  FrameWriter::remove_frames(dir);
   // The pictures: an unrendered run removes an earlier rendering whole (render.json too: a resume must not
   // render), a rendered one has replaced its frames, video and sheet (RenderOutput).
   if (!render) {

@@ -22,6 +22,7 @@
 #include "mesh_fixtures.hpp"
 #include "support.hpp"
 #include "shell.hpp"
+#include "small_scene.hpp"
 #include "temp_dir.hpp"
 
 namespace mca {
@@ -595,6 +596,57 @@ velocity = [1, 0, 0]
   const test::Result no_mesh = test::run_mca("run " + (t.path() / "box.toml").string() + " -q");
   EXPECT_NE(no_mesh.code, 0);
   EXPECT_NE(no_mesh.output.find("output.surface = true, but no object is a mesh"), std::string::npos) << no_mesh.output;
+}
+
+// With the VTK frames, the surface is also a PolyData per frame in surface.pvd, at the frames' times, its
+// triangles carrying their fragment as a cell array (ParaView's PLY reader drops the faces' fragment, and
+// a series of PLY files counts frames, not seconds); a resume lists them all, and a run without VTK
+// frames removes them.
+TEST(Surface, WithTheVtkFramesTheSurfaceIsAPolyDataInSurfacePvd) {
+  TempDir t;
+  test::write_mesh_file(t.path() / "rock.stl", test::sphere_mesh(1.0, 3));
+  std::ofstream(t.path() / "rock.toml") << R"(
+[solver]
+spacing = 0.1
+[output]
+duration = 0.002
+frame_rate = 2000
+surface = true
+[[object]]
+shape = "mesh"
+mesh = "rock.stl"
+velocity = [1, 0, 0]
+)";
+  const fs::path out = t.path() / "out";
+  // A write that fails at frame 3 (a folder where its file goes) stops the run; the resume finishes it.
+  fs::create_directories(out / "frames" / "automata_000003.vtu" / "x");
+  const std::string run = "run " + (t.path() / "rock.toml").string() + " -q --out " + out.string();
+  ASSERT_EQ(test::run_mca(run + " --checkpoint-every 1").code, 2);
+  fs::remove_all(out / "frames" / "automata_000003.vtu");
+  const test::Result r = test::run_mca("resume " + out.string() + " -q");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto timesteps = [&](const char* pvd) {
+    std::vector<std::string> found;
+    const std::string text = test::read(out / pvd);
+    for (std::size_t at = text.find("timestep=\""); at != std::string::npos; at = text.find("timestep=\"", at + 1))
+      found.push_back(text.substr(at + 10, text.find('"', at + 10) - at - 10));
+    return found;
+  };
+  EXPECT_EQ(timesteps("surface.pvd"), timesteps("automata.pvd"));
+  ASSERT_EQ(timesteps("surface.pvd").size(), 5u);
+  for (int frame = 0; frame <= 4; ++frame) {
+    const std::string name = fmt::format("frames/surface_{:06d}.vtp", frame);
+    EXPECT_NE(test::read(out / "surface.pvd").find(name), std::string::npos) << name;
+    const std::string vtp = test::read(out / name);
+    EXPECT_NE(vtp.find("<VTKFile type=\"PolyData\""), std::string::npos) << name;
+    EXPECT_NE(vtp.find("NumberOfPolys=\"1280\""), std::string::npos) << name;
+    EXPECT_NE(vtp.find("<DataArray type=\"Int32\" Name=\"fragment\""), std::string::npos) << name;
+  }
+  // A run without VTK frames leaves no surface PolyData or collection of an earlier one.
+  ASSERT_EQ(test::run_mca(run + " --no-vtk").code, 0);
+  EXPECT_FALSE(fs::exists(out / "surface.pvd"));
+  EXPECT_FALSE(fs::exists(out / "frames" / "surface_000000.vtp"));
+  EXPECT_TRUE(fs::exists(out / "surface" / "surface_000004.ply"));
 }
 
 TEST(FragmentMeshes, AreClosedAndTheirVolumesSumToTheObjects) {

@@ -183,6 +183,29 @@ TEST(VtkWriter, RejectsBadFieldsAndLines) {
   EXPECT_FALSE(has_tmp_file(dir.path()));
 }
 
+TEST(VtkWriter, TrianglesAndTheirValuesReadBack) {
+  TempDir dir;
+  const Sample s;
+  const fs::path file = dir.path() / "surface.vtp";
+  const std::vector<std::array<std::uint32_t, 3>> triangles{{0, 1, 2}, {2, 3, 4}};
+  mca::io::write_vtp(file, Sample::n, s.xyz.data(), triangles, "fragment", {7, -1});
+  const ParsedVtu p = parse_vtu(file);
+  EXPECT_NE(p.header.find("<VTKFile type=\"PolyData\""), std::string::npos);
+  EXPECT_NE(p.header.find("NumberOfPoints=\"5\" NumberOfVerts=\"0\" NumberOfLines=\"0\" NumberOfStrips=\"0\" "
+                          "NumberOfPolys=\"2\""),
+            std::string::npos);
+  EXPECT_NE(p.header.find("<CellData>"), std::string::npos);
+  EXPECT_EQ(p.values<float>("Points"), s.xyz);
+  EXPECT_EQ(p.values<std::int64_t>("connectivity"), (std::vector<std::int64_t>{0, 1, 2, 2, 3, 4}));
+  EXPECT_EQ(p.values<std::int64_t>("offsets"), (std::vector<std::int64_t>{3, 6}));
+  EXPECT_EQ(p.values<std::int32_t>("fragment"), (std::vector<std::int32_t>{7, -1}));
+  // An index past the points, or values not one a triangle, is refused before anything is written.
+  const fs::path bad = dir.path() / "bad.vtp";
+  EXPECT_THROW(mca::io::write_vtp(bad, Sample::n, s.xyz.data(), {{0, 1, 5}}, "fragment", {}), std::invalid_argument);
+  EXPECT_THROW(mca::io::write_vtp(bad, Sample::n, s.xyz.data(), triangles, "fragment", {1}), std::invalid_argument);
+  EXPECT_FALSE(fs::exists(bad));
+}
+
 TEST(VtkWriter, FieldNamesAreEscaped) {
   TempDir dir;
   const Sample s;

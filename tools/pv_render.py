@@ -4,7 +4,8 @@ Usage (no display needed):
     xvfb-run -a pvbatch tools/pv_render.py OUT/series.pvd out.png [--field NAME] [--time last]
         [--size 1280x720] [--point-size 6]
 
---field   point array to colour by (vectors by magnitude); default: 'damage' if present, else the first
+--field   array to colour by, of the points or the cells (surface.pvd's fragment; vectors by magnitude);
+          default: 'damage' if present, else the first
 --time    'first', 'last' (default), a step index such as '#3', or a time value (the nearest step is used)
 
 The printed summary (time steps, points, cells, arrays with ranges) is what ParaView itself read, which
@@ -102,16 +103,25 @@ def main():
     print(f"time steps: {len(times)}" + (f" ({', '.join(f'{t:g}' for t in times)})" if times else ""))
     print(f"shown time: {time if time is not None else 'n/a'}")
     print(f"points: {info.GetNumberOfPoints()}  cells: {info.GetNumberOfCells()}")
-    print(f"point arrays: {len(names)}")
-    for name in names:
-        array = point_info[name]
-        ranges = ", ".join(f"[{lo:g}, {hi:g}]" for lo, hi in
-                           (array.GetRange(c) for c in range(array.GetNumberOfComponents())))
-        print(f"  {name}: {array.GetNumberOfComponents()} component(s) {VTK_TYPE_NAMES.get(array.GetDataType(), array.GetDataType())} range {ranges}")
+    # (The automata's arrays are the points'; the surface's fragment, surface.pvd, its triangles'.)
+    cell_info = reader.CellData
+    arrays = {name: ("POINTS", point_info[name]) for name in names}
+    arrays.update({name: ("CELLS", cell_info[name]) for name in cell_info.keys() if name not in arrays})
+    for title, where in (("point arrays", "POINTS"), ("cell arrays", "CELLS")):
+        listed = [name for name, (w, _) in arrays.items() if w == where]
+        if where == "CELLS" and not listed:
+            continue
+        print(f"{title}: {len(listed)}")
+        for name in listed:
+            array = arrays[name][1]
+            ranges = ", ".join(f"[{lo:g}, {hi:g}]" for lo, hi in
+                               (array.GetRange(c) for c in range(array.GetNumberOfComponents())))
+            print(f"  {name}: {array.GetNumberOfComponents()} component(s) {VTK_TYPE_NAMES.get(array.GetDataType(), array.GetDataType())} range {ranges}")
 
+    names = list(arrays)
     field = args.field or ("damage" if "damage" in names else (names[0] if names else None))
     if args.field and args.field not in names:
-        fail(f"--field {args.field}: not a point array here; choose one of {', '.join(names) or '(none)'}")
+        fail(f"--field {args.field}: not an array here; choose one of {', '.join(names) or '(none)'}")
 
     view = GetActiveViewOrCreate("RenderView")
     view.ViewSize = [width, height]
@@ -124,11 +134,12 @@ def main():
     display.RenderPointsAsSpheres = 1
     display.LineWidth = 1.0
     if field:
-        components = point_info[field].GetNumberOfComponents()
+        where, array = arrays[field]
+        components = array.GetNumberOfComponents()
         if components > 1:
-            ColorBy(display, ("POINTS", field, "Magnitude"))
+            ColorBy(display, (where, field, "Magnitude"))
         else:
-            ColorBy(display, ("POINTS", field))
+            ColorBy(display, (where, field))
         display.RescaleTransferFunctionToDataRange(False, True)
         display.SetScalarBarVisibility(view, True)
         print(f"coloured by: {field}" + (" (magnitude)" if components > 1 else ""))

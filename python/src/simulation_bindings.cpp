@@ -421,18 +421,6 @@ py::array_t<std::uint8_t> render_to(PySimulation& sim, py::handle path_arg, py::
 
 // ---- outputs -------------------------------------------------------------------------------------------------
 
-void remove_matching(const std::filesystem::path& dir, const std::string& prefix, const std::string& extension) {
-  std::error_code ec;
-  if (!std::filesystem::is_directory(dir, ec)) return;
-  std::vector<std::filesystem::path> doomed;
-  for (const auto& f : std::filesystem::directory_iterator(dir)) {
-    const std::string name = f.path().filename().string();
-    if (f.is_regular_file() && name.rfind(prefix, 0) == 0 && f.path().extension() == extension)
-      doomed.push_back(f.path());
-  }
-  for (const auto& p : doomed) std::filesystem::remove(p);
-}
-
 // Frame `next_frame` of `dir` as `mca run` writes it: the VTK frames and their collections, the bound
 // surface (output.surface), a row of stats.csv; the first frame in a folder also writes scene.toml and
 // removes the frames and stats an earlier run left there (as a new run does; other files stay).
@@ -449,12 +437,7 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
     out->lock = std::make_unique<io::OutputLock>(out->dir);
     io::remove_stale_temporaries(out->dir);
     std::filesystem::remove(out->dir / "stats.csv");
-    std::filesystem::remove(out->dir / "automata.pvd");
-    std::filesystem::remove(out->dir / "projectiles.pvd");
-    remove_matching(out->dir / "frames", "automata_", ".vtu");
-    remove_matching(out->dir / "frames", "projectiles_", ".vtu");
-    remove_matching(out->dir / "surface", "surface_", ".ply");
-    remove_matching(out->dir / "surface", "surface_", ".obj");
+    app::FrameWriter::remove_frames(out->dir);
     io::write_file_atomic(out->dir / "scene.toml", [&](std::ostream& os) { os << io::scene_to_toml(e.scene()); },
                           false);
     out->writer = std::make_unique<app::FrameWriter>(out->dir, e.model(), e.scene().output);

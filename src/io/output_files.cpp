@@ -149,7 +149,7 @@ long temporary_owner(const std::string& name) {
   };
   if (!digits(pid) || !digits(counter)) return 0;
   // Only temporaries of the files a run writes: a user's "notes.2024.01.tmp" is left alone.
-  static const std::string_view ours[] = {".vtu", ".pvd", ".csv", ".json", ".toml", ".mcack", ".ply", ".obj", ".png", ".mp4"};
+  static const std::string_view ours[] = {".vtu", ".vtp", ".pvd", ".csv", ".json", ".toml", ".mcack", ".ply", ".obj", ".png", ".mp4"};
   const std::string target = stem.substr(0, pid_dot);
   if (std::none_of(std::begin(ours), std::end(ours), [&](std::string_view ext) {
         return target.size() > ext.size() && target.compare(target.size() - ext.size(), ext.size(), ext) == 0;
@@ -254,6 +254,27 @@ void write_file_atomic(const fs::path& path, const std::function<void(std::ostre
                               e.what()));
     }
   }
+}
+
+void remove_own_files(const std::filesystem::path& dir, const std::string& prefix, const std::string& extension) {
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir, ec)) return;
+  std::vector<std::filesystem::path> doomed;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    if (e.is_regular_file() && name.rfind(prefix, 0) == 0 && e.path().extension() == extension) doomed.push_back(e.path());
+  }
+  for (const auto& p : doomed) std::filesystem::remove(p);
+}
+
+bool remove_output(const std::filesystem::path& p) {
+  std::error_code ec;
+  const bool removed = std::filesystem::remove(p, ec);
+  if (ec && ec != std::errc::not_a_directory)
+    throw Error(fmt::format("cannot remove '{}', an output of an earlier run in this folder ({}); remove it by hand "
+                            "or use another --out folder",
+                            p.string(), ec.message()));
+  return removed;
 }
 
 }  // namespace mca::io

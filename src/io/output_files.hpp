@@ -63,8 +63,16 @@ void write_file_atomic(const std::filesystem::path& path,
 std::filesystem::path temporary_path(const std::filesystem::path& path);
 
 // Removes the temporary files write_file_atomic left in `dir` (not below) for the outputs of a run
-// (.vtu, .pvd, .csv, .json, .toml, .mcack, .ply, .obj, .png, .mp4) when their process is gone (a killed run); those of running
+// (.vtu, .vtp, .pvd, .csv, .json, .toml, .mcack, .ply, .obj, .png, .mp4) when their process is gone (a killed run); those of running
 // processes and every other file stay. A missing folder is fine.
 void remove_stale_temporaries(const std::filesystem::path& dir);
+
+// Removes the regular files of `dir` (not below) named `prefix`...`extension`: the outputs of an earlier run
+// of that kind (frames/automata_*.vtu). A missing folder is fine.
+void remove_own_files(const std::filesystem::path& dir, const std::string& prefix, const std::string& extension);
+
+// Removes a file of an earlier session where it is there; returns whether it was. An error that names it
+// where it cannot be removed (a path through a file, as a file named `render`, holds none: nothing to remove).
+bool remove_output(const std::filesystem::path& p);
 
 }  // namespace mca::io

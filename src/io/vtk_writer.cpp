@@ -171,6 +171,57 @@ void write_vtu(const std::filesystem::path& path, std::size_t n_points, const fl
     write_vtu_impl<std::int64_t>(path, n_points, xyz, fields, lines, "Int64");
 }
 
+void write_vtp(const std::filesystem::path& path, std::size_t n_points, const float* xyz,
+               const std::vector<std::array<std::uint32_t, 3>>& triangles, const std::string& cell_name,
+               const std::vector<std::int32_t>& cell_values) {
+  if (n_points > 0 && xyz == nullptr) throw std::invalid_argument("write_vtp: xyz is null");
+  if (!cell_values.empty() && cell_values.size() != triangles.size())
+    throw std::invalid_argument(fmt::format("write_vtp: {} values for {} triangles", cell_values.size(), triangles.size()));
+  for (const auto& t : triangles)
+    if (t[0] >= n_points || t[1] >= n_points || t[2] >= n_points)
+      throw std::invalid_argument(fmt::format("write_vtp: triangle ({}, {}, {}) refers past {} points", t[0], t[1], t[2],
+                                              n_points));
+  // (Int64 connectivity: three indices a triangle, beyond Int32 only in meshes no one writes, and one type.)
+  std::vector<std::int64_t> connectivity(3 * triangles.size()), offsets(triangles.size());
+  for (std::size_t k = 0; k < triangles.size(); ++k) {
+    for (int c = 0; c < 3; ++c) connectivity[3 * k + c] = triangles[k][c];
+    offsets[k] = static_cast<std::int64_t>(3 * k + 3);
+  }
+  Appended appended;
+  std::string xml;
+  xml += "<?xml version=\"1.0\"?>\n";
+  xml += "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n";
+  xml += "  <PolyData>\n";
+  xml += fmt::format("    <Piece NumberOfPoints=\"{}\" NumberOfVerts=\"0\" NumberOfLines=\"0\" NumberOfStrips=\"0\" "
+                     "NumberOfPolys=\"{}\">\n",
+                     n_points, triangles.size());
+  if (!cell_values.empty()) {
+    xml += "      <CellData>\n";
+    xml += fmt::format("        <DataArray type=\"Int32\" Name=\"{}\" format=\"appended\" offset=\"{}\"/>\n",
+                       xml_escape(cell_name), appended.add(cell_values.data(), cell_values.size() * sizeof(std::int32_t)));
+    xml += "      </CellData>\n";
+  }
+  xml += "      <Points>\n";
+  xml += fmt::format("        <DataArray type=\"Float32\" Name=\"Points\" NumberOfComponents=\"3\" format=\"appended\" "
+                     "offset=\"{}\"/>\n",
+                     appended.add(xyz, static_cast<std::uint64_t>(n_points) * 3 * sizeof(float)));
+  xml += "      </Points>\n";
+  xml += "      <Polys>\n";
+  xml += fmt::format("        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"appended\" offset=\"{}\"/>\n",
+                     appended.add(connectivity.data(), connectivity.size() * sizeof(std::int64_t)));
+  xml += fmt::format("        <DataArray type=\"Int64\" Name=\"offsets\" format=\"appended\" offset=\"{}\"/>\n",
+                     appended.add(offsets.data(), offsets.size() * sizeof(std::int64_t)));
+  xml += "      </Polys>\n";
+  xml += "    </Piece>\n";
+  xml += "  </PolyData>\n";
+  xml += "  <AppendedData encoding=\"raw\">\n   _";
+  write_file_atomic(path, [&](std::ostream& out) {
+    out.write(xml.data(), static_cast<std::streamsize>(xml.size()));
+    appended.write(out);
+    out << "\n  </AppendedData>\n</VTKFile>\n";
+  });
+}
+
 void write_pvd(const std::filesystem::path& path,
                const std::vector<std::pair<double, std::string>>& time_and_relative_file) {
   std::string xml;

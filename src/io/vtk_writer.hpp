@@ -29,6 +29,14 @@ void write_vtu(const std::filesystem::path& path, std::size_t n_points, const fl
                const std::vector<PointField>& fields,
                const std::vector<std::array<std::uint32_t, 2>>* lines = nullptr);
 
+// Writes a PolyData (.vtp) of triangles: `xyz` n_points * 3 floats, `triangles` point indices, and one Int32
+// value per triangle as the cell array `cell_name` (none where `cell_values` is empty). Throws
+// std::invalid_argument for an index past the points or a count of values that is not the triangles', and
+// mca::Error when the file cannot be written.
+void write_vtp(const std::filesystem::path& path, std::size_t n_points, const float* xyz,
+               const std::vector<std::array<std::uint32_t, 3>>& triangles, const std::string& cell_name,
+               const std::vector<std::int32_t>& cell_values);
+
 // Writes a ParaView Collection (.pvd) listing (time, file) pairs; file names are written as given,
 // normally relative to the .pvd's own folder.
 void write_pvd(const std::filesystem::path& path,
