@@ -85,7 +85,13 @@ TEST(MeshLoader, BadFilesAreClearErrorsNamingTheFile) {
   EXPECT_NE(err(nan).find("not a finite number"), std::string::npos) << err(nan);
   const std::string flat = write("line.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n");
   EXPECT_NE(err(flat).find("degenerate"), std::string::npos) << err(flat);
-  for (const std::string& p : {xyz, empty, lie, lie2, cloud, nan, flat}) EXPECT_NE(err(p).find(p), std::string::npos) << err(p);
+  const std::string negative = write("negative.off", "OFF\n-8 12 0\n");
+  EXPECT_NE(err(negative).find("the header's vertex count '-8' is not 0 or more"), std::string::npos) << err(negative);
+  const std::string renamed = write("renamed.obj", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+  EXPECT_NE(err(renamed).find("starts with 'OFF': an OFF file, not OBJ; give it the extension .off"), std::string::npos)
+      << err(renamed);
+  for (const std::string& p : {xyz, empty, lie, lie2, cloud, nan, flat, negative, renamed})
+    EXPECT_NE(err(p).find(p), std::string::npos) << err(p);
 }
 
 TEST(MeshLoader, CutShortOrBadIndexFilesAreErrorsNotCrashes) {

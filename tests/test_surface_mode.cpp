@@ -163,6 +163,34 @@ TEST(SurfaceMode, RepeatedTrianglesAndNonManifoldEdges) {
   }
 }
 
+// A triangle whose centroid is another's (its point reflection through it: no vertex shared, so no
+// duplicate to drop) would be an automaton of no size: refused, naming both triangles.
+TEST(SurfaceMode, TrianglesOfOneCentroidAreRefused) {
+  TempDir t;
+  mesh::TriMesh m = test::sphere_mesh(0.2, 2);
+  const auto f = m.faces[5];
+  mesh::Point c{};
+  for (int k = 0; k < 3; ++k) c[k] = (m.vertices[f[0]][k] + m.vertices[f[1]][k] + m.vertices[f[2]][k]) / 3;
+  const auto n = static_cast<std::uint32_t>(m.vertices.size());
+  for (int v = 0; v < 3; ++v) {
+    mesh::Point p{};
+    for (int k = 0; k < 3; ++k) p[k] = 2 * c[k] - m.vertices[f[v]][k];
+    m.vertices.push_back(p);
+  }
+  m.faces.push_back({n, n + 1, n + 2});
+  test::write_mesh_file(t.path() / "folded.off", m);
+  const std::string e = error_of([&] { lattice::build_model(surface_scene(t.path() / "folded.off")); });
+  EXPECT_NE(e.find(fmt::format("the centroid of triangle 5 of {}", (t.path() / "folded.off").string())),
+            std::string::npos)
+      << e;
+  EXPECT_NE(e.find(fmt::format("from triangle {}'s", m.faces.size() - 1)), std::string::npos) << e;
+  EXPECT_NE(e.find("Remove Duplicate Faces"), std::string::npos) << e;
+  // The sphere alone builds.
+  m.faces.pop_back();
+  test::write_mesh_file(t.path() / "whole.off", m);
+  EXPECT_EQ(lattice::build_model(surface_scene(t.path() / "whole.off")).size(), m.faces.size());
+}
+
 // An open, flat mesh (a square sheet of 2 x 8 x 8 triangles) is what surface mode is for: accepted,
 // and its boundary triangles have fewer links.
 TEST(SurfaceMode, AnOpenFlatSheetIsAccepted) {

@@ -856,6 +856,7 @@ void add_surface_object(Model& M, const SceneDef& scene, const MeshObject& mo, c
   for (std::size_t k = 0; k < count; ++k) {
     const DVec3 x = M.position0[first + k];
     double nearest = INFINITY;
+    std::size_t nearest_j = k;
     grid.for_each_candidate(x, [&](std::uint32_t j) {
       if (j == k) return;
       const DVec3 dd = ddelta(x, M.position0[first + j]);
@@ -864,11 +865,27 @@ void add_surface_object(Model& M, const SceneDef& scene, const MeshObject& mo, c
         // Linked pairs are left out (they touch by construction).
         const std::array<std::uint32_t, 2> key{static_cast<std::uint32_t>(std::min<std::size_t>(k, j)),
                                                static_cast<std::uint32_t>(std::max<std::size_t>(k, j))};
-        if (!std::binary_search(sc.link.begin(), sc.link.end(), key)) nearest = dist;
+        if (!std::binary_search(sc.link.begin(), sc.link.end(), key)) {
+          nearest = dist;
+          nearest_j = j;
+        }
       }
     });
     const std::size_t a = first + k;
     M.radius[a] = static_cast<float>(std::min(radius[k], 0.49 * nearest));
+    // Two triangles whose centroids (nearly) coincide, a duplicate or a fold of the mesh, would make an
+    // automaton of no size that nothing can touch (a radius of 2e-17 m was taken without a word).
+    if (!(M.radius[a] >= 1e-4 * size[k])) {
+      throw Error(fmt::format(
+          "{}: object '{}': the centroid of triangle {} of {} lies {:.3g} m from {}, where its links are {:.3g} m "
+          "long on average: its automaton would be a sphere of {:.3g} m that nothing touches. The mesh has duplicate "
+          "or overlapping triangles there; clean it (MeshLab: Filters > Cleaning and Repairing > Remove Duplicate "
+          "Faces, Remove Zero Area Faces)",
+          scene.source, o.name, sc.face[k], o.mesh, 0.49 * nearest < radius[k] ? nearest : 2 * radius[k],
+          0.49 * nearest < radius[k] ? fmt::format("triangle {}'s", sc.face[nearest_j])
+                                     : std::string("a triangle it shares an edge with"),
+          2 * size[k], static_cast<double>(M.radius[a])));
+    }
     // As a cube whose side is its mean link length (a lattice automaton: m d^2 / 6), whatever its
     // contact radius.
     M.inertia[a] = as_float32(scene, fmt::format("the moment of inertia of the automaton of triangle {} of object '{}'", sc.face[k], o.name),

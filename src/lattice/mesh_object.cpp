@@ -281,7 +281,9 @@ void drop_unlinked(std::vector<std::uint8_t>& inside, const mesh::CellBox& box, 
 }
 
 // Holes up to about a cell wide are closed by the signed distance's band; wider ones let the outside in.
-void refuse_wide_holes(const SceneDef& scene, std::size_t index, const Solid& s, const std::string& what, double d) {
+// (`region`: a region's mesh, which has no fill of its own.)
+void refuse_wide_holes(const SceneDef& scene, std::size_t index, const Solid& s, const std::string& what, double d,
+                       bool region) {
   const double hole = s.topology.largest_hole;
   if (s.topology.holes == 0 || hole <= 1.5 * d) return;
   const bool target = scene.solver.target_automata > 0;
@@ -289,9 +291,10 @@ void refuse_wide_holes(const SceneDef& scene, std::size_t index, const Solid& s,
       "{}: {} {} is open: {} boundary edges in {} hole{}, the largest {:.4g} m across ({:.3g} cells at spacing {:.4g} m), "
       "and a volume fill needs a closed surface (holes under about a cell are closed). Repair the mesh (MeshLab: "
       "Filters > Remeshing > Close Holes; Blender: Mesh > Clean Up > Fill Holes), use a coarser spacing (above "
-      "{:.3g} m{}), or fill = \"surface\" for a shell of one automaton per triangle, which needs no closed surface",
+      "{:.3g} m{}){}",
       where(scene, index), what, s.file, s.topology.boundary_edges, s.topology.holes, s.topology.holes == 1 ? "" : "s",
-      hole, hole / d, d, hole / 1.5, target ? ": a smaller solver.target_automata" : ": solver.spacing"));
+      hole, hole / d, d, hole / 1.5, target ? ": a smaller solver.target_automata" : ": solver.spacing",
+      region ? "" : ", or fill = \"surface\" for a shell of one automaton per triangle, which needs no closed surface"));
 }
 
 // A format that stores float32 (STL, glTF) has rounded each coordinate to 2^-24 of its magnitude: a model
@@ -370,7 +373,7 @@ MeshFillResult fill_mesh_object(const SceneDef& scene, std::size_t index, const 
                                 const mesh::CellBox& box) {
   const double d = box.d;
   refuse_float32_rounding(scene, index, m, d, "spacing");
-  refuse_wide_holes(scene, index, m.solid, "the mesh", d);
+  refuse_wide_holes(scene, index, m.solid, "the mesh", d, false);
   const auto t0 = std::chrono::steady_clock::now();
   MeshFillResult r;
   r.inside = solid_cells(m.solid, box, true);
@@ -399,7 +402,7 @@ MeshFillResult fill_mesh_object(const SceneDef& scene, std::size_t index, const 
   for (std::size_t k = 0; k < m.regions.size(); ++k) {
     r.regions.emplace_back();
     if (!m.regions[k]) continue;
-    refuse_wide_holes(scene, index, *m.regions[k], fmt::format("region[{}] mesh", k), d);
+    refuse_wide_holes(scene, index, *m.regions[k], fmt::format("region[{}] mesh", k), d, true);
     r.regions.back() = solid_cells(*m.regions[k], box);
     std::int64_t in_region = 0;
     for (std::size_t c = 0; c < r.inside.size(); ++c) in_region += r.inside[c] & r.regions.back()[c];

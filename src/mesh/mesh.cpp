@@ -631,6 +631,12 @@ void check_head(std::string_view head, std::uint64_t size, const std::string& ex
     if (nul) throw Error(fmt::format("{}: holds NUL bytes: not a text file, so not an OFF file", name));
   } else if (ext == "obj") {
     if (nul) throw Error(fmt::format("{}: holds NUL bytes: not a text file, so not an OBJ file", name));
+    // Another text format under the name .obj (its reader would find no 'v' line and call it empty).
+    const std::string_view w = first_word("#");
+    const bool off = w.size() >= 3 && w.size() <= 5 && w.substr(w.size() - 3) == "OFF";
+    if (off || w == "ply" || w == "solid")
+      throw Error(fmt::format("{}: starts with '{}': {} file, not OBJ; give it the extension .{}", name, w,
+                              off ? "an OFF" : w == "ply" ? "a PLY" : "an ASCII STL", off ? "off" : w == "ply" ? "ply" : "stl"));
   } else if (ext == "stl") {
     std::uint32_t n = 0;
     if (head.size() >= 84) std::memcpy(&n, head.data() + 80, 4);

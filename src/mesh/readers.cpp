@@ -86,7 +86,8 @@ std::uint64_t header_count(std::string_view w, const std::string& name, const ch
                             name, what, w));
   }
   if (!digits || !to_integer(w, v) || v < 0) {
-    throw Error(fmt::format("{}: the header's {} count '{}' is not a whole number; the file is damaged", name, what, w));
+    throw Error(fmt::format("{}: the header's {} count '{}' is not {}; the file is damaged", name, what, w,
+                            !w.empty() && w[0] == '-' && to_integer(w, v) ? "0 or more" : "a whole number"));
   }
   if (static_cast<std::uint64_t>(v) > kMaxCount)
     throw Error(fmt::format("{}: the header declares {} {}, more than mca reads (4e9)", name, v, what));
