@@ -165,8 +165,9 @@ TEST(Lattice, OverlappingObjectsAreRefusedTouchingOnesAccepted) {
   second.position = {0.3, 0, 0};  // 0.1 m into the first
   s.objects.push_back(second);
   std::string msg = build_error(s);
-  EXPECT_NE(msg.find("'second' overlaps object 'block'"), std::string::npos) << msg;
-  EXPECT_NE(msg.find("move them apart"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("'second' overlaps object 'block': 128 pairs of their automata overlap"), std::string::npos) << msg;
+  // (two layers of 8 x 8 at one place: the deepest overlap is a whole automaton's reach)
+  EXPECT_NE(msg.find("move them apart (by at least 0.05 m"), std::string::npos) << msg;
   s.objects[1].position = {0, 0, 0};  // the same place
   EXPECT_NE(build_error(s).find("overlaps"), std::string::npos);
   s.objects[1].position = {0.4, 0, 0};  // face to face: touching
@@ -200,6 +201,17 @@ TEST(Lattice, BodiesInsideTheGroundOrEachOtherAreRefused) {
   s.projectiles = {a};
   s.projectiles[0].position = {1, 0, 0.05};
   EXPECT_NE(build_error(s).find("inside the ground"), std::string::npos);
+  // A ball inside the block: how far back along its path it clears every automaton it overlaps, and that
+  // distance is enough (one refusal, not several).
+  s.projectiles[0].position = {0, -0.1, 0.125};  // the block's faces at y = -0.15, its automata 0.025 m in
+  s.projectiles[0].velocity = {0, 30, 0};
+  msg = build_error(s);
+  const auto at = msg.find("m further back along its path clears what it overlaps now");
+  ASSERT_NE(at, std::string::npos) << msg;
+  const double back = std::stod(msg.substr(msg.rfind('(', at) + 1));
+  EXPECT_GT(back, 0.1) << msg;  // its centre 0.05 m inside the faces, its radius 0.1 m
+  s.projectiles[0].position = {0, -0.1 - back, 0.125};
+  EXPECT_EQ(build_error(s), "");
 }
 
 // Values a scene can give but the solver cannot honour are refused with the reason: an extent under half a
