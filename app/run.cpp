@@ -280,6 +280,22 @@ int remove_end_outputs(const std::filesystem::path& dir, bool plots = true) {
   return removed;
 }
 
+// Folders of outputs this session may not write, left empty by the removals (the writers make them again);
+// `rendering`: render/ is made for this session's pictures. A resume, whose writer has made its folders
+// already, passes only those of the end's outputs (`ends_only`).
+void remove_empty_output_folders(const std::filesystem::path& dir, bool rendering, bool ends_only = false) {
+  static const char* const all[] = {"frames", "surface", "fragments", "checkpoints", "render"};
+  for (const char* sub : all) {
+    if (ends_only && std::string_view(sub) != "fragments" && std::string_view(sub) != "render") continue;
+    std::error_code ec;
+    if (rendering && std::string_view(sub) == "render") continue;
+    // (A symbolic link, to a folder on another disk, stays: removing it lost the redirection without a word.)
+    if (!std::filesystem::is_symlink(dir / sub, ec) && std::filesystem::is_directory(dir / sub, ec) &&
+        std::filesystem::is_empty(dir / sub, ec) && !ec)
+      std::filesystem::remove(dir / sub, ec);
+  }
+}
+
 // Whether `line` is a whole stats.csv row of `frame`: its frame number first, then numbers, as many cells
 // as the header.
 bool whole_stats_row(const std::string& line, std::int64_t frame, std::size_t cells) {
@@ -653,15 +669,7 @@ int run(const RunOptions& o) {
     remove_own_files(dir / "render", "frame_", ".png");
   }
   remove_stale_temporaries(dir);
-  // Folders of outputs this run may not write, left empty by the removals (the writers make them again).
-  for (const char* sub : {"frames", "surface", "fragments", "checkpoints", "render"}) {
-    std::error_code ec;
-    if (render && std::string_view(sub) == "render") continue;  // made for this run's pictures
-    // (A symbolic link, to a folder on another disk, stays: removing it lost the redirection without a word.)
-    if (!std::filesystem::is_symlink(dir / sub, ec) && std::filesystem::is_directory(dir / sub, ec) &&
-        std::filesystem::is_empty(dir / sub, ec) && !ec)
-      std::filesystem::remove(dir / sub, ec);
-  }
+  remove_empty_output_folders(dir, render != nullptr);
   FrameWriter writer(dir, sim.model(), scene.output);
   Loop L{sim, dir, threads, o.quiet, scene.output.checkpoint_every, plan, 0, 0.0, render.get()};
   // Frame 0: the initial state.
@@ -780,6 +788,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
                (dir / "render").string(), cp.frame - 1,
                text::shell_word(plot_script().string()),
                text::shell_word(dir.string()));
+  remove_empty_output_folders(dir, render != nullptr, true);
   return run_loop(L, writer);
 }
 

@@ -488,8 +488,13 @@ TEST(Cli, AWriteThatFailsMidRunNamesTheCheckpointThatContinuesIt) {
             std::string::npos)
       << r.output;
   fs::remove_all(out / "frames" / "automata_000003.vtu");
+  // A plot of the run so far is removed by the resume (it would show the state before), and the folder it
+  // leaves empty with it.
+  fs::create_directories(out / "render");
+  std::ofstream(out / "render" / "energies.png") << "a plot";
   const Result resumed = run_mca("resume " + out.string() + " -q");
   ASSERT_EQ(resumed.code, 0) << resumed.output;
+  EXPECT_FALSE(fs::exists(out / "render"));
   EXPECT_EQ(nlohmann::json::parse(read(out / "summary.json"))["state_hash"],
             nlohmann::json::parse(read(d / "whole" / "summary.json"))["state_hash"]);
   // Frame 0, before any step: nothing to resume; the run is started again.
