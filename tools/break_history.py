@@ -189,10 +189,12 @@ def analyse(run_dir, frame=None):
     spread = (last - first)[single]
     # position across the wall and from the impact
     scene = fm.read_scene(run_dir)
+    origin = "the impact"
     try:
         normal, centre = fm.impact_geometry(scene)
     except fm.RunError:  # no projectile (a pulled bar): distances from the object's centre, normal y
         normal, centre = 1, pos.mean(axis=0)
+        origin = "the automata's centre (no projectile: no impact)"
     across = np.rint((pos[:, normal] - pos[:, normal].min()) / spacing).astype(int)
     pa, pb = fm.in_plane_axes(normal)
     radius = np.hypot(pos[:, pa] - centre[pa], pos[:, pb] - centre[pb])
@@ -255,7 +257,7 @@ def analyse(run_dir, frame=None):
     gaps_last = np.array([g[-1] for g in gaps if len(g)])
     # the same for the singles' own final step: all their links broke in one step?
     res = {
-        "run": os.path.abspath(run_dir), "frame": k, "time": t_frame, "time_step": dt, "spacing": spacing,
+        "run": os.path.abspath(run_dir), "origin": origin, "frame": k, "time": t_frame, "time_step": dt, "spacing": spacing,
         "automata": n, "breaks": int(len(rec)), "breaks_by": by, "first_break_step": first_step,
         "singles": int(single.sum()),
         "links_per_automaton": {"singles": share_table(degree, single, range(7)),},
@@ -322,13 +324,14 @@ def report(r):
              f"{c['stress']}; all breaks: displacement {100 * a['displacement'] / max(a['displacement'] + a['stress'], 1):.1f} %")
     L.append("  class (singles of all automata; share of the singles/of all): " +
              ", ".join(f"{k}: {v[0]} of {v[2]} {v[1]:.2f}/{v[3]:.2f}" for k, v in r["single_class"].items()))
-    L.append("  the same beyond 0.25 m from the impact (without the plug): " +
+    L.append(f"  the same beyond 0.25 m from {r['origin']}" + (" (without the plug): " if r["origin"] == "the impact" else ": ") +
              ", ".join(f"{k}: {v[0]} of {v[2]} {v[1]:.2f}/{v[3]:.2f}" for k, v in r["single_class_beyond_0.25_m"].items()))
     L.append("  its links by class, single against neighbour: " + ", ".join(f"{k} {v}" for k, v in r["single_link_weaker_end"].items()))
-    L.append("  layer across the wall (0 = impact face; singles of all automata; share of the singles/of all): " +
+    L.append("  layer across the wall (0 = " + ("impact face" if r["origin"] == "the impact" else "the face at lowest y") +
+             "; singles of all automata; share of the singles/of all): " +
              ", ".join(f"{k}: {v[0]} of {v[2]} {v[1]:.2f}/{v[3]:.2f}" for k, v in r["single_layer_across"].items()))
     rb = r["single_radius_bins_m"]
-    L.append("  distance from the impact in the plane [m]: " +
+    L.append(f"  distance from {r['origin']} in the plane [m]: " +
              ", ".join(f"{rb[int(k)]:g}-{rb[int(k) + 1]:g}: {v[0]} of {v[2]} {v[1]:.2f}/{v[3]:.2f}" for k, v in r["single_radius"].items()))
     L.append("  last link broke after the first break [s]: " +
              ", ".join(f"{k}: {v}" for k, v in r["single_last_break_after_first_break_s"].items()))
