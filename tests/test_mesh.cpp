@@ -567,23 +567,17 @@ TEST(Surface, WrittenPlyAndObjReadBackWithTheSameCounts) {
   }
 }
 
+// A rock of 1,280 triangles moving, its surface written (`output`: more keys of [output]), in t: rock.toml.
+void write_rock_scene(const TempDir& t, const std::string& output) {
+  test::write_mesh_file(t.path() / "rock.stl", test::sphere_mesh(1.0, 3));
+  std::ofstream(t.path() / "rock.toml") << "[solver]\nspacing = 0.1\n[output]\nduration = 0.002\nframe_rate = 2000\n"
+                                           "surface = true\n"
+                                        << output << "[[object]]\nshape = \"mesh\"\nmesh = \"rock.stl\"\nvelocity = [1, 0, 0]\n";
+}
+
 TEST(Surface, ARunWritesOneSurfaceFilePerFrame) {
   TempDir t;
-  test::write_mesh_file(t.path() / "rock.stl", test::sphere_mesh(1.0, 3));
-  std::ofstream(t.path() / "rock.toml") << R"(
-[solver]
-spacing = 0.1
-[output]
-duration = 0.002
-frame_rate = 2000
-surface = true
-surface_format = "obj"
-fragments = true
-[[object]]
-shape = "mesh"
-mesh = "rock.stl"
-velocity = [1, 0, 0]
-)";
+  write_rock_scene(t, "surface_format = \"obj\"\nfragments = true\n");
   const test::Result r = test::run_mca("run " + (t.path() / "rock.toml").string() + " -q --no-vtk --out " +
                                        (t.path() / "out").string());
   ASSERT_EQ(r.code, 0) << r.output;
@@ -610,19 +604,7 @@ velocity = [1, 0, 0]
 // frames removes them.
 TEST(Surface, WithTheVtkFramesTheSurfaceIsAPolyDataInSurfacePvd) {
   TempDir t;
-  test::write_mesh_file(t.path() / "rock.stl", test::sphere_mesh(1.0, 3));
-  std::ofstream(t.path() / "rock.toml") << R"(
-[solver]
-spacing = 0.1
-[output]
-duration = 0.002
-frame_rate = 2000
-surface = true
-[[object]]
-shape = "mesh"
-mesh = "rock.stl"
-velocity = [1, 0, 0]
-)";
+  write_rock_scene(t, "");
   const fs::path out = t.path() / "out";
   // A write that fails at frame 3 (a folder where its file goes) stops the run; the resume finishes it.
   fs::create_directories(out / "frames" / "automata_000003.vtu" / "x");

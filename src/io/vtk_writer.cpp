@@ -63,6 +63,20 @@ class Appended {
   std::uint64_t end_ = 0;
 };
 
+// Writes `xml` (a file's head up to its piece's last element) closed as a `type` file, then the appended
+// blocks, through a temporary name.
+void write_appended_file(const std::filesystem::path& path, std::string xml, const char* type,
+                         const Appended& appended) {
+  xml += "    </Piece>\n";
+  xml += fmt::format("  </{}>\n", type);
+  xml += "  <AppendedData encoding=\"raw\">\n   _";
+  write_file_atomic(path, [&](std::ostream& out) {
+    out.write(xml.data(), static_cast<std::streamsize>(xml.size()));
+    appended.write(out);
+    out << "\n  </AppendedData>\n</VTKFile>\n";
+  });
+}
+
 // Connectivity, offsets and cell types of the vertex cells followed by the line cells.
 template <class Index>
 struct Cells {
@@ -131,15 +145,7 @@ void write_vtu_impl(const std::filesystem::path& path, std::size_t n_points, con
   cell_array(index_type, "offsets", cells.offsets.data(), cells.offsets.size() * sizeof(Index));
   cell_array("UInt8", "types", cells.types.data(), cells.types.size());
   xml += "      </Cells>\n";
-  xml += "    </Piece>\n";
-  xml += "  </UnstructuredGrid>\n";
-  xml += "  <AppendedData encoding=\"raw\">\n   _";
-
-  write_file_atomic(path, [&](std::ostream& out) {
-    out.write(xml.data(), static_cast<std::streamsize>(xml.size()));
-    appended.write(out);
-    out << "\n  </AppendedData>\n</VTKFile>\n";
-  });
+  write_appended_file(path, xml, "UnstructuredGrid", appended);
 }
 
 }  // namespace
@@ -212,14 +218,7 @@ void write_vtp(const std::filesystem::path& path, std::size_t n_points, const fl
   xml += fmt::format("        <DataArray type=\"Int64\" Name=\"offsets\" format=\"appended\" offset=\"{}\"/>\n",
                      appended.add(offsets.data(), offsets.size() * sizeof(std::int64_t)));
   xml += "      </Polys>\n";
-  xml += "    </Piece>\n";
-  xml += "  </PolyData>\n";
-  xml += "  <AppendedData encoding=\"raw\">\n   _";
-  write_file_atomic(path, [&](std::ostream& out) {
-    out.write(xml.data(), static_cast<std::streamsize>(xml.size()));
-    appended.write(out);
-    out << "\n  </AppendedData>\n</VTKFile>\n";
-  });
+  write_appended_file(path, xml, "PolyData", appended);
 }
 
 void write_pvd(const std::filesystem::path& path,
