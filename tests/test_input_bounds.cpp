@@ -353,6 +353,27 @@ TEST(InputBounds, MeshCoordinatesFarOutAreReadInDouble) {
   const std::string m = error_of([&] { mca::lattice::build_model(mesh_scene((t.path() / "far.stl").string(), 0.05)); });
   EXPECT_HAS(m, "stores float32 coordinates");
   EXPECT_HAS(m, "Recentre the model");
+  // So does a PLY whose header makes its coordinates floats (read as 1e6 in double, it was filled in silence
+  // with its corners moved).
+  std::string fply = fmt::format("ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\n"
+                                 "property float y\nproperty float z\nelement face {}\n"
+                                 "property list uchar int vertex_indices\nend_header\n",
+                                 cube.vertices.size(), cube.faces.size());
+  for (const auto& v : cube.vertices)
+    for (double c : v) {
+      const auto f = static_cast<float>(c);
+      fply.append(reinterpret_cast<const char*>(&f), 4);
+    }
+  for (const auto& f : cube.faces) {
+    fply += '\3';
+    for (auto i : f) {
+      const auto k = static_cast<std::int32_t>(i);
+      fply.append(reinterpret_cast<const char*>(&k), 4);
+    }
+  }
+  const std::string mf = error_of(
+      [&] { mca::lattice::build_model(mesh_scene(write_file(t.path() / "far_float.ply", fply), 0.05)); });
+  EXPECT_HAS(mf, "stores float32 coordinates");
   // Near the origin the same STL is fine.
   mca::test::write_mesh_file(t.path() / "near.stl", mca::test::cube_mesh(0.15));
   EXPECT_EQ(mca::lattice::build_model(mesh_scene((t.path() / "near.stl").string(), 0.05)).size(), 216u);

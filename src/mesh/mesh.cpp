@@ -707,6 +707,24 @@ std::string read_file(const std::string& path, std::uint64_t size) {
 bool float32_format(const std::string& path_or_extension) {
   std::string e = lower_extension(path_or_extension);
   if (e.empty()) e = path_or_extension;
+  if (e == "ply") {
+    // A PLY says in its header: its vertices' x as float (float32) or double. (A file that cannot be read
+    // here is refused by the reader.)
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path_or_extension, ec)) return false;
+    const std::string head = read_file(path_or_extension, std::min<std::uint64_t>(
+                                                              std::filesystem::file_size(path_or_extension, ec), 1 << 16));
+    std::istringstream lines(head.substr(0, head.find("end_header")));
+    bool vertex = false;
+    for (std::string line; std::getline(lines, line);) {
+      std::istringstream w(line);
+      std::string a, b, c;
+      w >> a >> b >> c;
+      if (a == "element") vertex = b == "vertex";
+      if (vertex && a == "property" && c == "x") return b == "float" || b == "float32";
+    }
+    return false;
+  }
   return e == "stl" || e == "gltf" || e == "glb";
 }
 

@@ -34,8 +34,9 @@ TriMesh read_mesh(const std::string& path, double max_memory_bytes = 16e9);
 TriMesh read_mesh_memory(const void* data, std::size_t size, const std::string& extension, const std::string& name,
                          double max_memory_bytes = 16e9);
 
-// Whether the format of this file (or this extension) stores float32 coordinates (STL, glTF, GLB): a
-// model far from the file's origin has lost precision there already.
+// Whether the format of this file (or this extension) stores float32 coordinates (STL, glTF, GLB, and a PLY
+// file whose header makes its vertices' x a float): a model far from the file's origin has lost precision
+// there already.
 bool float32_format(const std::string& path_or_extension);
 
 struct Bounds {
