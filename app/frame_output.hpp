@@ -71,6 +71,10 @@ struct MemoryEstimate {
 };
 MemoryEstimate estimate_memory(const Model& model, const OutputDef& output, int render_width = 0,
                                int render_height = 0);
+// Refuses a run whose peak (e.run(): the arrays, the mesh objects, the surface and fragment meshes it writes,
+// the renderer) exceeds solver.max_memory_gb or 90 % of the machine's memory, naming the parts and the fix
+// of the largest. (The build checks the arrays before it allocates them; this is the rest.)
+void check_memory_fits(const MemoryEstimate& e, const SceneDef& scene);
 
 // The subfolders of the output folder that FrameWriter writes each frame into: frames (output.vtk), surface
 // (output.surface and a mesh object); and those of a run's end and stops: fragments (output.fragments),

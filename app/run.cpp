@@ -630,6 +630,8 @@ int run(const RunOptions& o) {
   const OutputEstimate estimate = estimate_output(sim.model(), scene.output, plan.total_frames + 1,
                                                   o.render ? ro.width : 0, o.render ? ro.height : 0);
   check_output_fits(estimate, dir, scene);
+  check_memory_fits(estimate_memory(sim.model(), scene.output, o.render ? ro.width : 0, o.render ? ro.height : 0),
+                    scene);
   if (!o.quiet) {
     // Which lattice the volume fills are on (the default changed to the random one: a scene written for the
     // cubic lattice that does not say so runs on the random one).
@@ -750,6 +752,9 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   check_output_fits(estimate_output(sim.model(), cp.scene.output, plan.total_frames + 1 - cp.frame,
                                     will_render ? rendered->width : 0, will_render ? rendered->height : 0),
                     dir, cp.scene);
+  check_memory_fits(estimate_memory(sim.model(), cp.scene.output, will_render ? rendered->width : 0,
+                                    will_render ? rendered->height : 0),
+                    cp.scene);
   // Rows past the checkpoint (frames the interrupted run wrote after it) are dropped: they are written
   // again as the run continues. Read before any file is touched: a stats file that cannot be read stops
   // the resume with the folder as it was.

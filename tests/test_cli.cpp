@@ -509,6 +509,27 @@ TEST(Cli, AWriteThatFailsMidRunNamesTheCheckpointThatContinuesIt) {
       << r0.output;
 }
 
+// The run's peak memory, not only its arrays, is held to solver.max_memory_gb before anything is written:
+// a shell's fragment meshes that needed 21 GB under a limit of 4 ran out of memory at the run's end.
+TEST(Cli, ARunWhosePeakExceedsTheMemoryLimitIsRefusedBeforeItStarts) {
+  const fs::path d = fresh_dir("memory_peak");
+  const fs::path small = small_scene(d);
+  std::string text = read(small);
+  text.replace(text.find("[solver]\n"), 9, "[solver]\nmax_memory_gb = 0.1\n");
+  const fs::path scene = d / "limited.toml";
+  std::ofstream(scene) << text;
+  // The arrays fit (about 45 MB); the renderer's 120 MB at 1280x720 do not.
+  const Result r = run_mca("run " + scene.string() + " --render --out " + (d / "out").string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("at its peak (rendering"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("over solver.max_memory_gb = 0.1; render smaller pictures (--render-size) or leave out "
+                          "--render"),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(fs::exists(d / "out"));
+  EXPECT_EQ(run_mca("run " + scene.string() + " -q --no-vtk --out " + (d / "out").string()).code, 0);
+}
+
 // The embedded scene of a checkpoint edited in place (same length): the rebuilt model is not the one
 // the state was saved from. Resuming must refuse, not run on (or crash on) a mismatched state.
 TEST(Cli, TamperedCheckpointIsRefusedOnResume) {

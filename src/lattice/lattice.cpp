@@ -126,11 +126,14 @@ void lattice_frame(const ObjectDef& o, const MeshObject* m, double d, std::int64
   }
 }
 
-// The memory this machine has (0 when it cannot tell).
+}  // namespace
+
 double physical_memory_bytes() {
   const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGE_SIZE);
   return pages > 0 && size > 0 ? static_cast<double>(pages) * static_cast<double>(size) : 0.0;
 }
+
+namespace {
 
 // Whether the cell centre (x, y, z) of the object frame lies in the shape.
 bool inside_shape(const ObjectDef& o, double x, double y, double z) {

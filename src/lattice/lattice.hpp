@@ -19,6 +19,10 @@ double spacing_for_target(const SceneDef& scene, std::int64_t target);
 // The spacing a scene asks for (target_automata wins over spacing when given).
 double scene_spacing(const SceneDef& scene);
 
+// The memory this machine has (0 when it cannot tell). A run may take 90 % of it, whatever
+// solver.max_memory_gb says.
+double physical_memory_bytes();
+
 // Model::lattice_stiffness of a lattice of jitter a (SolverDef::lattice_jitter): the factor on its moduli
 // that gives a block of it the input Young's modulus.
 float jitter_stiffness(double a);
