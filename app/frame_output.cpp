@@ -57,7 +57,10 @@ OutputEstimate estimate_output(const Model& m, const OutputDef& o, std::int64_t 
   // The bound surface (analysis::posed_surface) at frame 0: one vertex per mesh vertex, each triangle with
   // its fragment number. PLY: 12 bytes a vertex, 17 a face; OBJ: about 36 and 24 characters.
   if (o.surface && m.surface.faces() > 0) {
-    const auto v = static_cast<double>(m.surface.vertices), f = static_cast<double>(m.surface.faces());
+    // (Split between fragments, a triangle takes its own corners: a shell broken to pieces has up to three
+    // vertices a triangle, 162 became 960 for 320 triangles; counted so, the disk check's bound.)
+    const auto f = static_cast<double>(m.surface.faces());
+    const double v = std::max(static_cast<double>(m.surface.vertices), 3 * f);
     e.surface_frame = o.surface_format == OutputDef::SurfaceFormat::obj ? 36 * v + 24 * f : 300 + 12 * v + 17 * f;
     // With the VTK frames, its PolyData too (frames/surface_NNNNNN.vtp: 12 bytes a vertex; a triangle's three
     // Int64 indices, its offset and its fragment, 36 bytes) and surface.pvd's entries.
@@ -74,12 +77,24 @@ OutputEstimate estimate_output(const Model& m, const OutputDef& o, std::int64_t 
     e.render_frame = 0.6 * pixels;
     e.per_run += 0.75 * pixels + 200000;
   }
-  // stats.csv: at most 12 characters a cell, 17 cells and three a grip. summary.json about 14 KB;
-  // fragments.csv at most a row per automaton (every automaton its own fragment), about 130 characters.
+  // stats.csv: at most 12 characters a cell, 17 cells and three a grip. summary.json about 14 KB, and with
+  // scene.toml about 450 bytes a projectile; fragments.csv at most a row per automaton (every automaton its
+  // own fragment), about 300 characters (measured 290).
   e.per_run += 12.0 * (17 + 3 * static_cast<double>(m.grip_names.size())) * static_cast<double>(frames);
-  e.per_run += 20000 + 130 * n;
-  // Two checkpoints are kept: the state, about 200 bytes an automaton and 40 an explicit link.
-  if (o.checkpoint_every > 0) e.per_run += 2 * (200 * n + 40 * static_cast<double>(m.explicit_links.size()) + 20000);
+  e.per_run += 20000 + 450 * static_cast<double>(m.projectiles.size()) + 300 * n;
+  // Two checkpoints are kept, and a third is written before the oldest goes: the state, about 250 bytes an
+  // automaton (measured) and 40 an explicit link.
+  if (o.checkpoint_every > 0) {
+    e.checkpoints = 3 * (250 * n + 40 * static_cast<double>(m.explicit_links.size()) + 20000);
+    e.per_run += e.checkpoints;
+  }
+  // The fragment meshes at the end (output.fragments): their surfaces, at most every automaton's in fragments
+  // of more than fragment_min_automata; 1.6 KB an automaton when each is its own (measured: 30,000 single
+  // automata, 48 MB), less as pieces grow (a surface over a volume).
+  if (o.fragments) {
+    e.fragment_meshes = 1600 * n / std::cbrt(static_cast<double>(o.fragment_min_automata) + 1);
+    e.per_run += e.fragment_meshes;
+  }
   return e;
 }
 
@@ -194,15 +209,18 @@ void check_output_fits(const OutputEstimate& e, const std::filesystem::path& dir
   if (e.surface_frame > 0) parts.push_back(fmt::format("surface {}", human_bytes(e.surface_frame)));
   if (e.render_frame > 0) parts.push_back(fmt::format("pictures {}", human_bytes(e.render_frame)));
   // (stats.csv is a row a frame, in per_run: with --no-vtk a run of billions of frames is its rows alone)
+  std::vector<std::string> once = {"stats.csv, its row a frame", "fragments.csv", "the summary"};
+  if (e.checkpoints > 0) once.push_back(fmt::format("checkpoints {}", human_bytes(e.checkpoints)));
+  if (e.fragment_meshes > 0) once.push_back(fmt::format("fragment meshes {}", human_bytes(e.fragment_meshes)));
   throw Error(fmt::format(
       "{}: the run would write about {} into {} ({} frames{}, at output.frame_rate = {:g} frames per simulated "
-      "second; {} for stats.csv, its row a frame, the collections, the summary and two checkpoints), more than the "
-      "{} free there (an earlier run's files there, which this run replaces, count as used); lower "
-      "output.frame_rate, shorten output.duration (or --steps), {}or free disk space",
+      "second; {} for {}), more than the {} free there (an earlier run's files there, which this run replaces, "
+      "count as used); lower output.frame_rate, shorten output.duration (or --steps), {}{}or free disk space",
       scene.source, human_bytes(e.total()), dir.string(), e.frames,
       e.frame() > 0 ? fmt::format(" of {} each: {}", human_bytes(e.frame()), fmt::join(parts, ", ")) : std::string(),
-      scene.output.frame_rate, human_bytes(e.per_run), human_bytes(free),
-      e.vtk_frame > 0 ? "leave out the VTK frames (--no-vtk or output.vtk = false), " : ""));
+      scene.output.frame_rate, human_bytes(e.per_run), fmt::join(once, ", "), human_bytes(free),
+      e.vtk_frame > 0 ? "leave out the VTK frames (--no-vtk or output.vtk = false), " : "",
+      e.fragment_meshes > 0 ? "raise output.fragment_min_automata or leave out the fragment meshes, " : ""));
 }
 
 std::vector<std::string> frame_subfolders(const SceneDef& scene) {

@@ -36,7 +36,9 @@ struct OutputEstimate {
   double vtk_frame = 0;        // bytes of one frame's automata and projectiles .vtu
   double surface_frame = 0;    // one frame's surface file (output.surface)
   double render_frame = 0;     // one frame's PNG and its share of the video (--render)
-  double per_run = 0;          // stats.csv, the .pvd collections, summary, fragments.csv, two checkpoints
+  double per_run = 0;          // stats.csv, the .pvd collections, summary, fragments.csv, checkpoints, fragment meshes
+  double checkpoints = 0;      // of per_run: the checkpoints on disk at once
+  double fragment_meshes = 0;  // of per_run: the fragment meshes at the end (output.fragments)
   double frame() const { return vtk_frame + surface_frame + render_frame; }
   double total() const { return static_cast<double>(frames) * frame() + per_run; }
 };
