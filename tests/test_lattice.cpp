@@ -1,6 +1,8 @@
 // The lattice builder: shapes, placement, regions, target counts, and the scene checks it makes.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include <chrono>
 #include <cmath>
 #include <numbers>
@@ -167,7 +169,8 @@ TEST(Lattice, OverlappingObjectsAreRefusedTouchingOnesAccepted) {
   std::string msg = build_error(s);
   EXPECT_NE(msg.find("'second' overlaps object 'block': 128 pairs of their automata overlap"), std::string::npos) << msg;
   // (two layers of 8 x 8 at one place: the deepest overlap is a whole automaton's reach)
-  EXPECT_NE(msg.find("move them apart (by at least 0.05 m"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("move them apart (by at least 0.05 m; 0.1001 m along x parts their boxes)"), std::string::npos)
+      << msg;
   s.objects[1].position = {0, 0, 0};  // the same place
   EXPECT_NE(build_error(s).find("overlaps"), std::string::npos);
   s.objects[1].position = {0.4, 0, 0};  // face to face: touching
@@ -206,11 +209,25 @@ TEST(Lattice, BodiesInsideTheGroundOrEachOtherAreRefused) {
   s.projectiles[0].position = {0, -0.1, 0.125};  // the block's faces at y = -0.15, its automata 0.025 m in
   s.projectiles[0].velocity = {0, 30, 0};
   msg = build_error(s);
-  const auto at = msg.find("m further back along its path clears what it overlaps now");
+  const auto at = msg.find("m further back along its path clears it");
   ASSERT_NE(at, std::string::npos) << msg;
   const double back = std::stod(msg.substr(msg.rfind('(', at) + 1));
   EXPECT_GT(back, 0.1) << msg;  // its centre 0.05 m inside the faces, its radius 0.1 m
   s.projectiles[0].position = {0, -0.1 - back, 0.125};
+  EXPECT_EQ(build_error(s), "");
+  // Flying away from the block it is inside: the message says so; at rest: the way straight out, which
+  // clears it.
+  s.projectiles[0].position = {0, -0.1, 0.125};
+  s.projectiles[0].velocity = {0, -30, 0};
+  EXPECT_NE(build_error(s).find("its velocity leads out of the object: check its direction"), std::string::npos)
+      << build_error(s);
+  s.projectiles[0].velocity = {0, 0, 0};
+  msg = build_error(s);
+  const auto rest = msg.find("it is at rest: a move by ");
+  ASSERT_NE(rest, std::string::npos) << msg;
+  double w[3] = {0, 0, 0};
+  ASSERT_EQ(std::sscanf(msg.c_str() + rest, "it is at rest: a move by [%lf, %lf, %lf]", &w[0], &w[1], &w[2]), 3) << msg;
+  s.projectiles[0].position = {w[0], -0.1 + w[1], 0.125 + w[2]};
   EXPECT_EQ(build_error(s), "");
 }
 

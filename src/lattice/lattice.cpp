@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <fmt/format.h>
 #include <limits>
@@ -592,14 +593,25 @@ void refuse_overlaps(const SceneDef& scene, const Model& M) {
       if (overlapping > 0) {
         const ObjectDef &oq = scene.objects[M.object[dq]], &oh = scene.objects[M.object[dh]];
         const DVec3 p = M.position0[dq], ph = M.position0[dh];
+        // What surely parts them: their boxes (automata with their radii) apart along the axis where they
+        // overlap least (the deepest pair's depth is at most a touching distance, however deep the overlap).
+        int axis = 0;
+        double part = INFINITY;
+        for (int k = 0; k < 3; ++k) {
+          const double o = std::min(A.hi[k], B.hi[k]) - std::max(A.lo[k], B.lo[k]);
+          if (o < part) {
+            part = o;
+            axis = k;
+          }
+        }
         throw Error(fmt::format(
             "{}: object '{}' overlaps object '{}': {} pair{} of their automata overlap, the deepest at [{:.6g}, "
             "{:.6g}, {:.6g}] and [{:.6g}, {:.6g}, {:.6g}], {:.4g} m apart, {:.4g} m closer than the {:.4g} m at "
             "which automata touch. Objects may touch but not overlap (overlapping automata would start compressed "
-            "and throw the objects apart); move them apart (by at least {:.4g} m, more where one reaches into the "
-            "other), or make one object with [[object.region]] blocks for two materials",
+            "and throw the objects apart); move them apart (by at least {:.4g} m; {:.4g} m along {} parts their "
+            "boxes), or make one object with [[object.region]] blocks for two materials",
             scene.source, oq.name, oh.name, overlapping, overlapping == 1 ? "" : "s", p.x, p.y, p.z, ph.x, ph.y, ph.z,
-            deepest_dist, deepest, deepest_reach, deepest));
+            deepest_dist, deepest, deepest_reach, deepest, part * 1.001, "xyz"[axis]));
       }
     }
   }
@@ -1534,12 +1546,11 @@ void add_projectiles(Model& M, const SceneDef& scene, std::size_t placed, GroupT
         automata_grid.build(M.position0.data(), n, largest_ball + largest_automaton);
         grid_built = true;
       }
-      // The automaton it overlaps most deeply, and how far back along its path (against its velocity) it
-      // clears every one it overlaps: the first one's depth was too little, and three refusals in a row
-      // moved the cow's ball 2 cm.
+      // The automaton it overlaps most deeply; and the advice: how far back along its path (against its
+      // velocity) the ball is clear of every automaton, found by sweeping that line through all of them (the
+      // depth of the first one found was too little: three refusals in a row moved the cow's ball 2 cm).
       std::size_t a = n;
-      double deepest = 0, back = 0;
-      const double speed = std::sqrt(dot(pp.velocity, pp.velocity));
+      double deepest = 0;
       automata_grid.for_each_candidate(pp.position, [&](std::uint32_t c) {
         const DVec3 dd = ddelta(pp.position, M.position0[c]);
         const double reach = pd.radius + M.radius[c];
@@ -1549,19 +1560,72 @@ void add_projectiles(Model& M, const SceneDef& scene, std::size_t placed, GroupT
           a = c;
           deepest = gap;
         }
-        if (speed > 0) {  // |dd - s u| = reach, u the velocity's direction: the larger root s
-          const double ru = dot(dd, pp.velocity) / speed;
-          back = std::max(back, -ru + std::sqrt(std::max(0.0, ru * ru - dot(dd, dd) + reach * reach)));
-        }
       });
       if (a < n) {
+        // The first distance s >= 0 along `u` (a unit vector) at which the ball is clear of every automaton:
+        // each one it would overlap takes an interval of s out (|x_c - p - s u| < reach).
+        const auto clear_along = [&](const DVec3& u) {
+          std::vector<std::pair<double, double>> taken;
+          for (std::size_t c = 0; c < n; ++c) {
+            const DVec3 dd = ddelta(pp.position, M.position0[c]);
+            const double reach = pd.radius + M.radius[c], du = dot(dd, u);
+            const double disc = du * du - dot(dd, dd) + reach * reach;
+            if (disc > 0) taken.emplace_back(du - std::sqrt(disc), du + std::sqrt(disc));
+          }
+          std::sort(taken.begin(), taken.end());
+          double s = 0;
+          for (const auto& [lo, hi] : taken) {
+            if (lo >= s) break;
+            s = std::max(s, hi);
+          }
+          return s;
+        };
+        // A distance rounded up to three significant digits, as printed: following the advice clears it.
+        const auto up3 = [](double x) {
+          if (!(x > 0)) return 0.0;
+          const double unit = std::pow(10.0, std::floor(std::log10(x)) - 2);
+          return std::ceil(x / unit) * unit;
+        };
+        const auto clear_at = [&](const DVec3& q) {
+          for (std::size_t c = 0; c < n; ++c) {
+            const DVec3 dd = ddelta(q, M.position0[c]);
+            const double reach = pd.radius + M.radius[c];
+            if (dot(dd, dd) < reach * reach) return false;
+          }
+          return true;
+        };
+        // Straight out: along the line from the automaton it overlaps most to its centre, as a displacement
+        // whose printed digits are checked to clear it.
+        DVec3 w = ddelta(M.position0[a], pp.position);
+        const double len = std::sqrt(dot(w, w));
+        w = len > 0 ? w * (1.0 / len) : DVec3{0, 0, 1};
+        std::string straight;
+        for (double out = clear_along(w), tries = 0; tries < 20; out *= 1.01, ++tries) {
+          const std::string text = fmt::format("[{:.4g}, {:.4g}, {:.4g}] m", w.x * out, w.y * out, w.z * out);
+          DVec3 moved{};
+          if (std::sscanf(text.c_str(), "[%lf, %lf, %lf]", &moved.x, &moved.y, &moved.z) != 3) break;
+          straight = text;
+          if (clear_at(pp.position + moved)) break;
+        }
+        const double speed = std::sqrt(dot(pp.velocity, pp.velocity));
+        std::string advice;
+        if (speed > 0) {
+          const DVec3 u = pp.velocity * (1.0 / speed);
+          const double behind = clear_along(u * -1.0), ahead = clear_along(u), back = up3(behind);
+          const double out = clear_along(w);
+          advice = fmt::format("{:.3g} m further back along its path clears it{}{}", back,
+                               out < 0.5 * behind ? fmt::format(", as does a move by {} (straight out)", straight)
+                                                  : std::string(),
+                               ahead < 0.999 * behind ? "; its velocity leads out of the object: check its direction"
+                                                      : std::string());
+        } else {
+          advice = fmt::format("it is at rest: a move by {} (straight out) clears it", straight);
+        }
         throw Error(fmt::format(
             "{}: {}.position = {} puts '{}' (radius {:g} m) inside object '{}': it overlaps the automaton at "
             "[{:.4g}, {:.4g}, {:.4g}] by {:.3g} m; move the projectile clear of the object ({})",
             scene.source, key, fmt_vec(pd.position), pd.name, pd.radius, M.object_names[M.object[a]],
-            M.position0[a].x, M.position0[a].y, M.position0[a].z, deepest,
-            speed > 0 ? fmt::format("{:.3g} m further back along its path clears what it overlaps now", back * 1.001)
-                      : fmt::format("by at least {:.3g} m", deepest)));
+            M.position0[a].x, M.position0[a].y, M.position0[a].z, deepest, advice));
       }
     }
     M.projectiles.push_back(pp);
