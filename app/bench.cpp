@@ -303,8 +303,8 @@ int bench(const std::vector<std::string>& names, bool json, int threads_requeste
                         : std::string(" (lattice kernels split)");
         fmt::print("machine: {} hardware threads, {}; backend {}{}; {}\n", std::thread::hardware_concurrency(), used,
                    backend_text(name), lattice,
-                   repeats == 1 ? fmt::format("one run of {} steps", steps)
-                                : fmt::format("median of {} runs of {} steps each", repeats, steps));
+                   repeats == 1 ? fmt::format("one run of {} step{}", steps, steps == 1 ? "" : "s")
+                                : fmt::format("median of {} runs of {} step{} each", repeats, steps, steps == 1 ? "" : "s"));
       }
       first = false;
       sim.advance(b.warmup_steps);

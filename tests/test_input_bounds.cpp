@@ -453,7 +453,7 @@ TEST(InputBounds, AMeshOfPartsFarApartIsCheckedByItsWholeBox) {
   const auto t0 = std::chrono::steady_clock::now();
   const std::string ma = error_of([&] { mca::lattice::build_model(a); });
   EXPECT_HAS(ma, "its bounding box holds 10006 x 10006 x 10006 cells");
-  EXPECT_HAS(ma, "more than this machine's");
+  EXPECT_HAS(ma, "a run may take of this machine's");
   EXPECT_HAS(ma, "or run it on a larger machine");
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 5.0);
 }

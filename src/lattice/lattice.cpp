@@ -169,7 +169,8 @@ const MeshFillResult& mesh_fill(const SceneDef& scene, const Shapes& S, std::siz
           "{}: object[{}] '{}': its bounding box holds {} x {} x {} cells at spacing {:.4g} m ({:.3g} GB at {:g} bytes "
           "per cell while its lattice is built), {}; increase solver.spacing (a spacing of about {:.3g} m fits){}{}",
           scene.source, oi, scene.objects[oi].name, box.n[0], box.n[1], box.n[2], d, cells * per_cell / 1e9, per_cell,
-          by_machine ? fmt::format("more than this machine's {:.1f} GB of memory", machine / 1e9)
+          by_machine ? fmt::format("more than the {:.1f} GB a run may take of this machine's {:.1f} GB (90 %)",
+                                   0.9 * machine / 1e9, machine / 1e9)
                      : fmt::format("over solver.max_memory_gb = {:g}", scene.solver.max_memory_gb),
           d * std::cbrt(cells * per_cell / limit) * 1.05,
           by_machine ? " or run it on a larger machine" : " or raise solver.max_memory_gb",
@@ -502,9 +503,9 @@ void refuse_over_memory(const SceneDef& scene, double d, double automata, bool a
   const double machine = physical_memory_bytes();
   if (machine > 0 && bytes > 0.9 * machine) {
     const auto [count, fix] = over(0.9 * machine);
-    throw Error(fmt::format("{}: the scene needs {:.3g} GB for {}, more than this machine's {:.1f} GB of memory; {} or "
-                            "run it on a larger machine",
-                            scene.source, bytes / 1e9, count, machine / 1e9, fix));
+    throw Error(fmt::format("{}: the scene needs {:.3g} GB for {}, more than the {:.1f} GB a run may take of this "
+                            "machine's {:.1f} GB of memory (90 %); {} or run it on a larger machine",
+                            scene.source, bytes / 1e9, count, 0.9 * machine / 1e9, machine / 1e9, fix));
   }
 }
 

@@ -480,9 +480,15 @@ TriMesh finish(TriMesh m, const std::string& name, std::size_t points) {
   const Bounds b = bounds(m);
   double far = 0;
   for (int a = 0; a < 3; ++a) far = std::max({far, std::fabs(b.lo[a]), std::fabs(b.hi[a])});
-  // Areas and volumes are squares and cubes of the coordinates: beyond 1e100 (or a model under 1e-100
-  // across) they leave a double, and every triangle would read as degenerate.
-  if (far > 1e100 || b.largest_extent() < 1e-100) {
+  if (b.largest_extent() == 0) {
+    throw Error(fmt::format("{}: all its {} vertices lie at one point ({:.6g}, {:.6g}, {:.6g}): the file holds no "
+                            "surface; export the model again",
+                            name, m.vertices.size(), b.lo[0], b.lo[1], b.lo[2]));
+  }
+  // Areas and volumes are squares and cubes of the coordinates, and an area's test squares its edges'
+  // products: beyond 1e75 (or a model under 1e-75 across) they leave a double, and every triangle would read
+  // as degenerate.
+  if (far > 1e75 || b.largest_extent() < 1e-75) {
     throw Error(fmt::format("{}: its coordinates reach {:.3g} for a model {:.3g} across, beyond what mca computes with "
                             "(areas and volumes leave the range of a double); scale the model in the file (object "
                             "scale and fit_size apply after it is read)",

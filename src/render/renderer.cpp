@@ -581,17 +581,17 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
   float text_end = 0;  // where the lines at the top end
   if (overlay.counters || !overlay.lines.empty()) {
     float y = margin;
+    std::vector<std::string> lines;
     if (overlay.counters) {
-      o.text(margin, y, fmt::format("t = {:.2f} ms", 1e3 * s.time), scale);
-      y += line_h;
-      o.text(margin, y, fmt::format("broken links {}   fragments {}", s.broken_links, s.fragments), scale);
-      y += line_h;
+      lines.push_back(fmt::format("t = {:.2f} ms", 1e3 * s.time));
+      lines.push_back(fmt::format("broken links {}   fragments {}", s.broken_links, s.fragments));
     }
+    lines.insert(lines.end(), overlay.lines.begin(), overlay.lines.end());
     // A line wider than the window goes on over as many as it takes, broken at spaces (a long message ran
-    // off a 640-pixel window).
+    // off a 640-pixel window, and a small window cut "fragments 327" to read 32).
     const auto fits = static_cast<std::size_t>(
-        std::max(20.0f, (static_cast<float>(width) - 2 * margin) / static_cast<float>(kGlyphAdvance * scale)));
-    for (std::string_view l : overlay.lines) {
+        std::max(8.0f, (static_cast<float>(width) - 2 * margin) / static_cast<float>(kGlyphAdvance * scale)));
+    for (std::string_view l : lines) {
       while (!l.empty()) {
         std::size_t cut = l.size();
         if (cut > fits) {
