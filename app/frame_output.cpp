@@ -9,6 +9,7 @@
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <fstream>
+#include <optional>
 #include <unistd.h>
 
 #include "analysis/fragment_meshes.hpp"
@@ -291,23 +292,14 @@ FrameStats FrameWriter::stats(std::int64_t frame, const State& s, const analysis
 }
 
 void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis::Fragments& frags) {
+  std::optional<mesh::FloatMesh> posed;
   if (surface_) {
-    const mesh::FloatMesh m = analysis::posed_surface(model_, s, frags.id);
+    const mesh::FloatMesh& m = posed.emplace(analysis::posed_surface(model_, s, frags.id));
     const bool obj = surface_format_ == OutputDef::SurfaceFormat::obj;
     io::write_file_atomic(dir_ / surface_name(frame, surface_format_), [&](std::ostream& os) {
       if (obj) mesh::write_obj(os, m);
       else mesh::write_ply(os, m);
     });
-    // With the VTK frames, the same surface for ParaView, whose PLY reader drops the faces' fragment and
-    // whose file series of PLY counts frames, not seconds: a PolyData with a `fragment` cell array, in
-    // surface.pvd at the frame's time.
-    if (vtk_) {
-      const std::string name = fmt::format("frames/surface_{:06d}.vtp", frame);
-      io::write_vtp(dir_ / name, m.vertices.size(), m.vertices.empty() ? nullptr : m.vertices.front().data(), m.faces,
-                    m.face_value_name, m.face_values);
-      surface_pvd_.emplace_back(s.time, name);
-      io::write_pvd(dir_ / "surface.pvd", surface_pvd_);
-    }
   }
   if (!vtk_) return;
   const std::size_t n = model_.size();
@@ -364,6 +356,17 @@ void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis
   automata_pvd_.emplace_back(s.time, name);
   io::write_pvd(dir_ / "automata.pvd", automata_pvd_);
 
+  // With the VTK frames, the surface for ParaView, whose PLY reader drops the faces' fragment and whose file
+  // series of PLY counts frames, not seconds: a PolyData with a `fragment` cell array, in surface.pvd at the
+  // frame's time (after the frame's automata: a frame whose automata cannot be written lists no surface).
+  if (posed) {
+    const std::string name = fmt::format("frames/surface_{:06d}.vtp", frame);
+    io::write_vtp(dir_ / name, posed->vertices.size(), posed->vertices.empty() ? nullptr : posed->vertices.front().data(),
+                  posed->faces, posed->face_value_name, posed->face_values);
+    surface_pvd_.emplace_back(s.time, name);
+    io::write_pvd(dir_ / "surface.pvd", surface_pvd_);
+  }
+
   if (!model_.projectiles.empty()) {
     const std::size_t np = model_.projectiles.size();
     std::vector<float> pxyz(3 * np), pvel(3 * np), prad(np);
@@ -392,6 +395,11 @@ void FrameWriter::remove_frames(const std::filesystem::path& dir) {
   io::remove_own_files(dir / "surface", "surface_", ".ply");
   io::remove_own_files(dir / "surface", "surface_", ".obj");
   for (const char* pvd : {"automata.pvd", "projectiles.pvd", "surface.pvd"}) io::remove_output(dir / pvd);
+}
+
+void FrameWriter::remove_stale_temporaries(const std::filesystem::path& dir) {
+  for (const char* sub : {"", "frames", "surface", "fragments", "checkpoints", "render"})
+    io::remove_stale_temporaries(dir / sub);
 }
 
 void FrameWriter::restore(std::int64_t frames, double frame_interval) {

@@ -107,6 +107,9 @@ class FrameWriter {
   // Removes the frames an earlier run or session left in `dir`: the VTK frames and bound surfaces of every
   // format, and their collections (this run may write none of them: --no-vtk, no projectiles, no mesh).
   static void remove_frames(const std::filesystem::path& dir);
+  // Removes the temporary files a killed run left in `dir` and the folders it writes into (their names are
+  // unique per process, so nothing else would ever replace them).
+  static void remove_stale_temporaries(const std::filesystem::path& dir);
   // Rebuild the .pvd lists after a resume (frames 0..frames-1 exist on disk).
   void restore(std::int64_t frames, double frame_interval);
   static std::vector<std::string> stats_header(const Model& model);

@@ -258,13 +258,6 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
   io::write_file_atomic(dir / "summary.json", [&](std::ostream& os) { os << j.dump(2) << "\n"; }, false);
 }
 
-// Temporary files a killed run left behind (their names are unique per process, so nothing else
-// would ever replace them).
-void remove_stale_temporaries(const std::filesystem::path& dir) {
-  for (const char* sub : {"", "frames", "surface", "fragments", "checkpoints", "render"})
-    io::remove_stale_temporaries(dir / sub);
-}
-
 // What a run writes at its end from its last state (the summary also when interrupted): the summary,
 // fragments.csv, the fragment meshes and (`plots`) the plots of tools/plot_run.py. One left by an earlier
 // session describes a state the folder no longer ends at, so a new run and a resume remove them before they
@@ -670,7 +663,7 @@ int run(const RunOptions& o) {
     remove_output(dir / "render" / "contact_sheet.png");
     remove_own_files(dir / "render", "frame_", ".png");
   }
-  remove_stale_temporaries(dir);
+  FrameWriter::remove_stale_temporaries(dir);
   remove_empty_output_folders(dir, render != nullptr);
   FrameWriter writer(dir, sim.model(), scene.output);
   Loop L{sim, dir, threads, o.quiet, scene.output.checkpoint_every, plan, 0, 0.0, render.get()};
@@ -707,7 +700,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
                             out_dir, why));
   }
   const io::OutputLock lock(dir);
-  remove_stale_temporaries(dir);
+  FrameWriter::remove_stale_temporaries(dir);
   io::check_output_subfolders(dir, {"checkpoints"});
   const auto ckdir = dir / "checkpoints";
   const auto all = io::list_checkpoints(ckdir);

@@ -435,7 +435,7 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
     io::prepare_output_dir(out->dir);
     io::check_output_subfolders(out->dir, app::frame_subfolders(e.scene()));
     out->lock = std::make_unique<io::OutputLock>(out->dir);
-    io::remove_stale_temporaries(out->dir);
+    app::FrameWriter::remove_stale_temporaries(out->dir);
     std::filesystem::remove(out->dir / "stats.csv");
     app::FrameWriter::remove_frames(out->dir);
     io::write_file_atomic(out->dir / "scene.toml", [&](std::ostream& os) { os << io::scene_to_toml(e.scene()); },
