@@ -91,6 +91,8 @@ def read_pvd(path):
 
 def pick_frame(frames, frame=None, time=None):
     if time is not None:
+        if not (math.isfinite(time) and time >= 0):
+            raise RunError(f"--time {time}: a simulated time is a finite number of seconds, 0 or more")
         k = int(np.argmin([abs(t - time) for t, _ in frames]))
     elif frame is not None:
         k = frame if frame >= 0 else len(frames) + frame
@@ -398,7 +400,8 @@ def plot_spectrum(frag, path, title=""):
         sys.path.insert(0, here)
     import plot_run
 
-    plot_run.plot_mass_distribution(plt, summary_form(frag), path, title or "Fragment mass spectrum")
+    plot_run.plot_mass_distribution(plt, summary_form(frag), path, title or "Fragment mass spectrum",
+                                    "fracture_metrics.py")
 
 
 # ---------------------------------------------------------------- report

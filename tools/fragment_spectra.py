@@ -109,7 +109,7 @@ def main(argv):
         ax.legend(fontsize=8, loc="lower left")
     axes[0][0].set_ylabel("n(m): fragments per kg of mass range")
     fig.tight_layout()
-    save(fig, args.out)
+    save(fig, args.out, "fragment_spectra.py")
     plt.close(fig)
     return 0
 

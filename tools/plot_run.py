@@ -80,7 +80,7 @@ def read_run(out):
     return table, summary
 
 
-def save(fig, path):
+def save(fig, path, tool="plot_run.py"):
     """fig as PNG at path, through a temporary name; a write that fails (a full disk) ends the script with
     one line naming the file and the reason, and leaves no temporary."""
     tmp = f"{path}.{os.getpid()}.0.tmp"
@@ -92,7 +92,7 @@ def save(fig, path):
             os.remove(tmp)
         except OSError:
             pass
-        raise SystemExit(f"plot_run.py: could not write {path}: {e.strerror or e}; check free disk space and the "
+        raise SystemExit(f"{tool}: could not write {path}: {e.strerror or e}; check free disk space and the "
                          "output folder")
 
 
@@ -159,10 +159,10 @@ def mass_distribution_figure(plt, dist, title):
     return fig
 
 
-def plot_mass_distribution(plt, dist, path, title):
-    """mass_distribution_figure written to path."""
+def plot_mass_distribution(plt, dist, path, title, tool="plot_run.py"):
+    """mass_distribution_figure written to path (`tool`: the script named in an error)."""
     fig = mass_distribution_figure(plt, dist, title)
-    save(fig, path)
+    save(fig, path, tool)
     plt.close(fig)
 
 
