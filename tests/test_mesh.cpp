@@ -156,7 +156,9 @@ TEST(MeshLoader, AGltfReadsBuffersBesideItAndNothingElse) {
   // A buffer outside the mesh's folder, by a relative or an absolute path, is not read.
   std::ofstream(t.path() / "model" / "up.gltf") << gltf("../secret.bin");
   std::ofstream(t.path() / "model" / "absolute.gltf") << gltf((t.path() / "secret.bin").string());
-  // (assimp looks for an absolute path inside the mesh's folder, where it is not.)
+  // (assimp looks for an absolute path inside the mesh's folder, where it is not; and, refused a path outside
+  // it, for a file of its name inside, which is another file: refused too.)
+  fs::copy_file(t.path() / "model" / "tetra.bin", t.path() / "model" / "secret.bin");
   const std::string up = error_of([&] { mesh::read_mesh((t.path() / "model" / "up.gltf").string()); });
   EXPECT_NE(up.find(fmt::format("cannot be read: it names {}, outside the mesh's folder",
                                 fs::weakly_canonical(t.path() / "secret.bin").string())),

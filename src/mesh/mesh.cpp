@@ -98,6 +98,10 @@ class FolderIOSystem : public Assimp::DefaultIOSystem {
   bool Exists(const char* file) const override { return allowed(file) && DefaultIOSystem::Exists(file); }
   Assimp::IOStream* Open(const char* file, const char* mode) override {
     if (!allowed(file)) return nullptr;
+    // (assimp, refused a buffer outside the folder, tries a file of its name in the folder: another file, read
+    // in silence in its stead.)
+    if (!refused_names_.empty() && refused_names_.count(std::filesystem::path(file).filename().string()))
+      return nullptr;
     std::error_code ec;
     const std::filesystem::path p = std::filesystem::canonical(file, ec);
     if (!ec && !opened_.count(p.string())) {
@@ -125,6 +129,7 @@ class FolderIOSystem : public Assimp::DefaultIOSystem {
     if (ec) return false;
     const auto rel = p.lexically_relative(folder_);
     if (rel.empty() || *rel.begin() == "..") {
+      refused_names_.insert(p.filename().string());
       refusal_ = fmt::format("it names {}, outside the mesh's folder {}: mca reads only files in the mesh's folder "
                              "and below; copy the file there and name it relative to the mesh",
                              p.string(), folder_.string());
@@ -143,6 +148,7 @@ class FolderIOSystem : public Assimp::DefaultIOSystem {
   double max_bytes_;
   double read_ = 0;
   std::unordered_set<std::string> opened_;
+  mutable std::unordered_set<std::string> refused_names_;
   mutable std::string refusal_;
 };
 
