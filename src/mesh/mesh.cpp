@@ -98,11 +98,23 @@ class FolderIOSystem : public Assimp::DefaultIOSystem {
   bool Exists(const char* file) const override { return allowed(file) && DefaultIOSystem::Exists(file); }
   Assimp::IOStream* Open(const char* file, const char* mode) override {
     if (!allowed(file)) return nullptr;
-    // (assimp, refused a buffer outside the folder, tries a file of its name in the folder: another file, read
-    // in silence in its stead.)
-    if (!refused_names_.empty() && refused_names_.count(std::filesystem::path(file).filename().string()))
-      return nullptr;
+    // (assimp, refused a buffer outside the folder or not finding it where it is named, tries a file of its
+    // name in the folder: another file, which it would read in silence in its stead.)
+    const std::string name = std::filesystem::path(file).filename().string();
     std::error_code ec;
+    if (!std::filesystem::exists(file, ec)) {
+      // (assimp puts the folder before every name, an absolute one too: "folder//abs/path".)
+      const std::string f = file, prefix = folder_.string() + "/";
+      const bool absolute = f.rfind(prefix, 0) == 0 && f.size() > prefix.size() && f[prefix.size()] == '/';
+      if (refusal_.empty())
+        refusal_ = absolute ? fmt::format("it names the absolute path {}; mca reads the files a mesh names relative to "
+                                          "its folder: name it so",
+                                          f.substr(prefix.size()))
+                            : fmt::format("it names {}, which is not there; give it the file it should read", f);
+      refused_names_.insert(name);
+      return nullptr;
+    }
+    if (refused_names_.count(name)) return nullptr;
     const std::filesystem::path p = std::filesystem::canonical(file, ec);
     if (!ec && !opened_.count(p.string())) {
       const auto size = static_cast<double>(std::filesystem::file_size(p, ec));
