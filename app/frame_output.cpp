@@ -170,10 +170,9 @@ MemoryEstimate estimate_memory(const Model& m, const OutputDef& o, int render_wi
 }
 
 void check_memory_fits(const MemoryEstimate& e, const SceneDef& scene) {
-  const double setting = scene.solver.max_memory_gb * 1e9, machine = lattice::physical_memory_bytes();
-  const bool by_machine = machine > 0 && 0.9 * machine < setting;
-  const double limit = by_machine ? 0.9 * machine : setting, need = e.run();
-  if (need <= limit) return;
+  const lattice::MemoryLimit limit = lattice::memory_limit(scene);
+  const double need = e.run();
+  if (need <= limit.bytes) return;
   struct Part {
     double bytes;
     const char* name;
@@ -189,14 +188,9 @@ void check_memory_fits(const MemoryEstimate& e, const SceneDef& scene) {
   std::sort(parts.begin(), parts.end(), [](const Part& a, const Part& b) { return a.bytes > b.bytes; });
   std::vector<std::string> listed;
   for (const Part& p : parts) listed.push_back(fmt::format("{} {}", p.name, human_bytes(p.bytes)));
-  throw Error(fmt::format(
-      "{}: the run would hold about {} at its peak ({}; mca info gives the figures), {}; {}, or {}", scene.source,
-      human_bytes(need), fmt::join(listed, ", "),
-      by_machine ? fmt::format("more than the {} a run may take of this machine's {} of memory (90 %)",
-                               human_bytes(limit), human_bytes(machine))
-                 : fmt::format("over solver.max_memory_gb = {:g}", scene.solver.max_memory_gb),
-      parts.front().fix,
-      by_machine ? "run it on a larger machine" : "raise solver.max_memory_gb if the machine has the memory"));
+  throw Error(fmt::format("{}: the run would hold about {} at its peak ({}; mca info gives the figures), {}; {}, or {}",
+                          scene.source, human_bytes(need), fmt::join(listed, ", "), limit.over, parts.front().fix,
+                          limit.instead));
 }
 
 void check_output_fits(const OutputEstimate& e, const std::filesystem::path& dir, const SceneDef& scene) {

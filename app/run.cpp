@@ -273,6 +273,16 @@ int remove_end_outputs(const std::filesystem::path& dir, bool plots = true) {
   return removed;
 }
 
+// What a session writes (`frames` more, pictures of render_width x render_height, 0 for none) must fit the
+// disk in `dir`, and its peak the memory (check_output_fits, check_memory_fits); returns the disk estimate.
+OutputEstimate check_run_fits(const Model& m, const SceneDef& scene, std::int64_t frames, int render_width,
+                              int render_height, const std::filesystem::path& dir) {
+  const OutputEstimate estimate = estimate_output(m, scene.output, frames, render_width, render_height);
+  check_output_fits(estimate, dir, scene);
+  check_memory_fits(estimate_memory(m, scene.output, render_width, render_height), scene);
+  return estimate;
+}
+
 // Folders of outputs this session may not write, left empty by the removals (the writers make them again);
 // `rendering`: render/ is made for this session's pictures. A resume, whose writer has made its folders
 // already, passes only those of the end's outputs (`ends_only`).
@@ -620,11 +630,8 @@ int run(const RunOptions& o) {
   building.reset();
   const Plan plan = make_plan(sim, o.steps);
   // What the run will write must fit the disk (frame_rate = 1e9 plans 4,000,000 frames, terabytes).
-  const OutputEstimate estimate = estimate_output(sim.model(), scene.output, plan.total_frames + 1,
-                                                  o.render ? ro.width : 0, o.render ? ro.height : 0);
-  check_output_fits(estimate, dir, scene);
-  check_memory_fits(estimate_memory(sim.model(), scene.output, o.render ? ro.width : 0, o.render ? ro.height : 0),
-                    scene);
+  const OutputEstimate estimate =
+      check_run_fits(sim.model(), scene, plan.total_frames + 1, o.render ? ro.width : 0, o.render ? ro.height : 0, dir);
   if (!o.quiet) {
     // Which lattice the volume fills are on (the default changed to the random one: a scene written for the
     // cubic lattice that does not say so runs on the random one).
@@ -742,12 +749,8 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   const auto rendered = load_render_options(dir);
   const bool will_render = rendered && !no_render;
   io::check_output_subfolders(dir, run_subfolders(cp.scene, will_render));
-  check_output_fits(estimate_output(sim.model(), cp.scene.output, plan.total_frames + 1 - cp.frame,
-                                    will_render ? rendered->width : 0, will_render ? rendered->height : 0),
-                    dir, cp.scene);
-  check_memory_fits(estimate_memory(sim.model(), cp.scene.output, will_render ? rendered->width : 0,
-                                    will_render ? rendered->height : 0),
-                    cp.scene);
+  check_run_fits(sim.model(), cp.scene, plan.total_frames + 1 - cp.frame, will_render ? rendered->width : 0,
+                 will_render ? rendered->height : 0, dir);
   // Rows past the checkpoint (frames the interrupted run wrote after it) are dropped: they are written
   // again as the run continues. Read before any file is touched: a stats file that cannot be read stops
   // the resume with the folder as it was.

@@ -129,9 +129,17 @@ void lattice_frame(const ObjectDef& o, const MeshObject* m, double d, std::int64
 
 }  // namespace
 
-double physical_memory_bytes() {
-  const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGE_SIZE);
-  return pages > 0 && size > 0 ? static_cast<double>(pages) * static_cast<double>(size) : 0.0;
+MemoryLimit memory_limit(const SceneDef& scene) {
+  const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGE_SIZE);  // (0 where it cannot tell)
+  const double machine = pages > 0 && size > 0 ? static_cast<double>(pages) * static_cast<double>(size) : 0.0;
+  const double setting = scene.solver.max_memory_gb * 1e9;
+  if (machine > 0 && 0.9 * machine < setting)
+    return {0.9 * machine,
+            fmt::format("more than the {:.1f} GB a run may take of this machine's {:.1f} GB (90 %)", 0.9 * machine / 1e9,
+                        machine / 1e9),
+            "run it on a larger machine"};
+  return {setting, fmt::format("over solver.max_memory_gb = {:g}", scene.solver.max_memory_gb),
+          "raise solver.max_memory_gb if the machine has it"};
 }
 
 namespace {
@@ -160,20 +168,15 @@ const MeshFillResult& mesh_fill(const SceneDef& scene, const Shapes& S, std::siz
     const double per_cell = 11.0 + 2.0 * static_cast<double>(scene.objects[oi].regions.size());
     // (Within solver.max_memory_gb, and within the machine's memory whatever that says: 30 GB of cells on a
     // 24 GB machine had the build killed by the kernel after two minutes.)
-    const double setting = scene.solver.max_memory_gb * 1e9, machine = physical_memory_bytes();
-    const bool by_machine = machine > 0 && 0.9 * machine < setting;
-    const double limit = by_machine ? 0.9 * machine : setting;
-    if (cells * per_cell > limit) {
+    const MemoryLimit limit = memory_limit(scene);
+    if (cells * per_cell > limit.bytes) {
       const double solid = S.of(oi)->volume() / (d * d * d);
       throw Error(fmt::format(
           "{}: object[{}] '{}': its bounding box holds {} x {} x {} cells at spacing {:.4g} m ({:.3g} GB at {:g} bytes "
-          "per cell while its lattice is built), {}; increase solver.spacing (a spacing of about {:.3g} m fits){}{}",
+          "per cell while its lattice is built), {}; increase solver.spacing (a spacing of about {:.3g} m fits) or "
+          "{}{}",
           scene.source, oi, scene.objects[oi].name, box.n[0], box.n[1], box.n[2], d, cells * per_cell / 1e9, per_cell,
-          by_machine ? fmt::format("more than the {:.1f} GB a run may take of this machine's {:.1f} GB (90 %)",
-                                   0.9 * machine / 1e9, machine / 1e9)
-                     : fmt::format("over solver.max_memory_gb = {:g}", scene.solver.max_memory_gb),
-          d * std::cbrt(cells * per_cell / limit) * 1.05,
-          by_machine ? " or run it on a larger machine" : " or raise solver.max_memory_gb",
+          limit.over, d * std::cbrt(cells * per_cell / limit.bytes) * 1.05, limit.instead,
           solid < 0.01 * cells
               ? fmt::format(". The mesh fills {:.2g} % of its box: if it is made of parts far apart, give each part an "
                             "object of its own",
@@ -493,19 +496,11 @@ void refuse_over_memory(const SceneDef& scene, double d, double automata, bool a
                           std::max(0.0, (cap - fixed - per * automata) / per_surface), per_surface);
     return std::pair{count, fix};
   };
-  if (bytes > limit) {
-    const auto [count, fix] = over(limit);
-    throw Error(fmt::format("{}: the scene needs {:.3g} GB for {}, over solver.max_memory_gb = {:g}; {} or raise "
-                            "solver.max_memory_gb if the machine has it",
-                            scene.source, bytes / 1e9, count, scene.solver.max_memory_gb, fix));
-  }
-  // A model larger than the machine's memory would swap for hours before failing.
-  const double machine = physical_memory_bytes();
-  if (machine > 0 && bytes > 0.9 * machine) {
-    const auto [count, fix] = over(0.9 * machine);
-    throw Error(fmt::format("{}: the scene needs {:.3g} GB for {}, more than the {:.1f} GB a run may take of this "
-                            "machine's {:.1f} GB of memory (90 %); {} or run it on a larger machine",
-                            scene.source, bytes / 1e9, count, 0.9 * machine / 1e9, machine / 1e9, fix));
+  const MemoryLimit cap = memory_limit(scene);
+  if (bytes > cap.bytes) {
+    const auto [count, fix] = over(cap.bytes);
+    throw Error(fmt::format("{}: the scene needs {:.3g} GB for {}, {}; {} or {}", scene.source, bytes / 1e9, count,
+                            cap.over, fix, cap.instead));
   }
 }
 
@@ -1581,12 +1576,6 @@ void add_projectiles(Model& M, const SceneDef& scene, std::size_t placed, GroupT
           }
           return s;
         };
-        // A distance rounded up to three significant digits, as printed: following the advice clears it.
-        const auto up3 = [](double x) {
-          if (!(x > 0)) return 0.0;
-          const double unit = std::pow(10.0, std::floor(std::log10(x)) - 2);
-          return std::ceil(x / unit) * unit;
-        };
         const auto clear_at = [&](const DVec3& q) {
           for (std::size_t c = 0; c < n; ++c) {
             const DVec3 dd = ddelta(q, M.position0[c]);
@@ -1600,9 +1589,10 @@ void add_projectiles(Model& M, const SceneDef& scene, std::size_t placed, GroupT
         DVec3 w = ddelta(M.position0[a], pp.position);
         const double len = std::sqrt(dot(w, w));
         w = len > 0 ? w * (1.0 / len) : DVec3{0, 0, 1};
+        const double out = clear_along(w);
         std::string straight;
-        for (double out = clear_along(w), tries = 0; tries < 20; out *= 1.01, ++tries) {
-          const std::string text = fmt::format("[{:.4g}, {:.4g}, {:.4g}] m", w.x * out, w.y * out, w.z * out);
+        for (double move = out, tries = 0; tries < 20; move *= 1.01, ++tries) {
+          const std::string text = fmt::format("[{:.4g}, {:.4g}, {:.4g}] m", w.x * move, w.y * move, w.z * move);
           DVec3 moved{};
           if (std::sscanf(text.c_str(), "[%lf, %lf, %lf]", &moved.x, &moved.y, &moved.z) != 3) break;
           straight = text;
@@ -1612,9 +1602,9 @@ void add_projectiles(Model& M, const SceneDef& scene, std::size_t placed, GroupT
         std::string advice;
         if (speed > 0) {
           const DVec3 u = pp.velocity * (1.0 / speed);
-          const double behind = clear_along(u * -1.0), ahead = clear_along(u), back = up3(behind);
-          const double out = clear_along(w);
-          advice = fmt::format("{:.3g} m further back along its path clears it{}{}", back,
+          const double behind = clear_along(u * -1.0), ahead = clear_along(u);
+          // (rounded up as printed: following the advice clears it)
+          advice = fmt::format("{} m further back along its path clears it{}{}", text::at_least(behind, 3),
                                out < 0.5 * behind ? fmt::format(", as does a move by {} (straight out)", straight)
                                                   : std::string(),
                                ahead < 0.999 * behind ? "; its velocity leads out of the object: check its direction"

@@ -19,9 +19,16 @@ double spacing_for_target(const SceneDef& scene, std::int64_t target);
 // The spacing a scene asks for (target_automata wins over spacing when given).
 double scene_spacing(const SceneDef& scene);
 
-// The memory this machine has (0 when it cannot tell). A run may take 90 % of it, whatever
-// solver.max_memory_gb says.
-double physical_memory_bytes();
+// The memory a run may take: solver.max_memory_gb, or 90 % of this machine's memory where that is less (a
+// model larger than the machine would swap for hours before failing, or be killed). For messages, what a
+// need is then over ("over solver.max_memory_gb = 4", "more than the 22.8 GB a run may take of this
+// machine's 25.3 GB (90 %)") and the fix beside a smaller model ("raise solver.max_memory_gb if the machine
+// has it", "run it on a larger machine").
+struct MemoryLimit {
+  double bytes = 0;
+  std::string over, instead;
+};
+MemoryLimit memory_limit(const SceneDef& scene);
 
 // Model::lattice_stiffness of a lattice of jitter a (SolverDef::lattice_jitter): the factor on its moduli
 // that gives a block of it the input Young's modulus.

@@ -92,8 +92,6 @@ bool same_shell(const mesh::Shell& a, const mesh::Shell& b) {
   return std::fabs(a.volume - b.volume) <= 1e-6 * std::max(a.volume, b.volume);
 }
 
-
-
 // A shell joined to another only through edges of more than two triangles (two cubes sharing an edge)
 // is filled as one surface, and the fill of that surface puts cells outside both next to the shared
 // edge (12 for two cubes of 10 cells). Such a shell is split into the pieces its edges of exactly two

@@ -144,11 +144,9 @@ int spawn_own_group(pid_t& pid, const std::vector<std::string>& args, const posi
   posix_spawnattr_init(&attr);
   posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
   posix_spawnattr_setpgroup(&attr, 0);
-  pid_t child = 0;
-  const int rc = search_path ? posix_spawnp(&child, argv[0], actions, &attr, argv.data(), environ)
-                             : posix_spawn(&child, argv[0], actions, &attr, argv.data(), environ);
+  const int rc = search_path ? posix_spawnp(&pid, argv[0], actions, &attr, argv.data(), environ)
+                             : posix_spawn(&pid, argv[0], actions, &attr, argv.data(), environ);
   posix_spawnattr_destroy(&attr);
-  pid = child;
   return rc;
 }
 

@@ -189,11 +189,11 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
   // stay below a tenth of the spacing per step (30 m/s at the default step is 1e-3 of it).
   double fastest = 0;
   std::string which;
+  auto norm = [](const Vec3d& v) { return std::hypot(v[0], v[1], v[2]); };  // (1e300 is no inf)
   for (const auto& o : scene.objects) {
-    const double v = std::hypot(o.velocity[0], o.velocity[1], o.velocity[2]);
+    const double v = norm(o.velocity);
     if (v > fastest) { fastest = v; which = fmt::format("object '{}'", o.name); }
   }
-  auto norm = [](const Vec3d& v) { return std::hypot(v[0], v[1], v[2]); };  // (1e300 is no inf)
   for (const auto& p : scene.projectiles) {
     const double v = norm(p.velocity);
     if (v > fastest) { fastest = v; which = fmt::format("projectile '{}'", p.name); }
