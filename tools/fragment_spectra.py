@@ -17,24 +17,16 @@ Example (docs/fracture-study.md, section 5):
 A run folder whose summary.json is missing or has no distribution ends it with a message and exit status 1.
 """
 import argparse
-import json
 import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from plot_run import TAU_BAND, save  # noqa: E402
+from plot_run import TAU_BAND, read_summary, save  # noqa: E402
 
 
 def distribution(run):
     path = os.path.join(run, "summary.json")
-    try:
-        with open(path, encoding="utf-8") as f:
-            summary = json.load(f)
-    except (OSError, ValueError) as e:
-        raise SystemExit(f"fragment_spectra.py: cannot read {path}: {e}")
-    if not isinstance(summary, dict):
-        raise SystemExit(f"fragment_spectra.py: {path} is not a JSON object: not written by mca, or damaged")
-    dist = summary.get("fragment_mass_distribution")
+    dist = read_summary(run, "fragment_spectra.py").get("fragment_mass_distribution")
     if dist is not None and not isinstance(dist, dict):
         raise SystemExit(f"fragment_spectra.py: {path}: fragment_mass_distribution is not an object: damaged")
     if not dist or dist.get("reason"):

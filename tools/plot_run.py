@@ -62,22 +62,29 @@ def read_run(out):
                 break
             raise SystemExit(f"plot_run.py: {path}, row {k + 1}: {bad} is {r.get(bad)!r}, not a number: damaged")
         table.append(values)
+    summary = read_summary(out, "plot_run.py")
+    if not isinstance(summary.get("fragment_mass_distribution"), dict):
+        raise SystemExit(f"plot_run.py: {os.path.join(out, 'summary.json')} has no fragment_mass_distribution "
+                         "(written by an older mca, or damaged): run the scene again")
+    return table, summary
+
+
+def read_summary(out, tool):
+    """summary.json of run folder `out` as a dict; a missing, unreadable or damaged one ends the script with one
+    line (`tool`: the script it names)."""
     path = os.path.join(out, "summary.json")
     try:
         with open(path, encoding="utf-8") as f:
             summary = json.load(f)
     except FileNotFoundError:
-        raise SystemExit(f"plot_run.py: {out} has no summary.json: the run was killed before its end (mca writes it "
-                         "at the end, at a Ctrl-C and when a run stops on an error); its checkpoints, if any, "
-                         f"continue it: mca resume {out}")
+        raise SystemExit(f"{tool}: {out} has no summary.json: the run was killed before its end (mca writes it at "
+                         "the end, at a Ctrl-C and when a run stops on an error); its checkpoints, if any, continue "
+                         f"it: mca resume {out}")
     except (OSError, UnicodeDecodeError, ValueError) as e:
-        raise SystemExit(f"plot_run.py: cannot read {path}: {e}")
+        raise SystemExit(f"{tool}: cannot read {path}: {e}")
     if not isinstance(summary, dict):
-        raise SystemExit(f"plot_run.py: {path} is not a JSON object: not written by mca, or damaged")
-    if not isinstance(summary.get("fragment_mass_distribution"), dict):
-        raise SystemExit(f"plot_run.py: {path} has no fragment_mass_distribution (written by an older mca, or "
-                         "damaged): run the scene again")
-    return table, summary
+        raise SystemExit(f"{tool}: {path} is not a JSON object: not written by mca, or damaged")
+    return summary
 
 
 def save(fig, path, tool="plot_run.py"):
