@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <mutex>
 #include <tbb/parallel_for.h>
 
 #include "grid/uniform_grid.hpp"
@@ -149,13 +150,25 @@ void collapse_zero_length_edges(mesh::TriMesh& m, double tiny) {
 
 std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const Fragments& fragments,
                                           std::int64_t min_automata, int cells_per_spacing) {
+  std::vector<FragmentMesh> out;
+  std::mutex lock;
+  for_each_fragment_mesh(m, s, fragments, min_automata, [&](FragmentMesh&& fm) {
+    const std::lock_guard<std::mutex> hold(lock);
+    out.push_back(std::move(fm));
+  }, cells_per_spacing);
+  std::sort(out.begin(), out.end(), [](const FragmentMesh& a, const FragmentMesh& b) { return a.fragment < b.fragment; });
+  return out;
+}
+
+void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fragments, std::int64_t min_automata,
+                            const std::function<void(FragmentMesh&&)>& sink, int cells_per_spacing) {
   const double d = m.spacing, h = d / cells_per_spacing;
   std::vector<std::vector<std::uint32_t>> members(static_cast<std::size_t>(fragments.count));
   for (std::size_t a = 0; a < m.size(); ++a) members[static_cast<std::size_t>(fragments.id[a])].push_back(static_cast<std::uint32_t>(a));
   std::vector<std::int32_t> chosen;
   for (std::int32_t f = 0; f < fragments.count; ++f)
     if (static_cast<std::int64_t>(members[static_cast<std::size_t>(f)].size()) > min_automata) chosen.push_back(f);
-  if (chosen.empty()) return {};
+  if (chosen.empty()) return;
 
   // Per object: its grid, and its starting surface's signed distance where it has one.
   const std::size_t n_obj = m.object_names.size();
@@ -217,7 +230,6 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
       cells[o]->build(m.cell0.data(), ids.size(), d, ids.data());
     }
   }
-  std::vector<FragmentMesh> out(chosen.size());
   tbb::parallel_for(std::size_t{0}, chosen.size(), [&](std::size_t k) {
     const std::int32_t frag = chosen[k];
     const auto& mem = members[static_cast<std::size_t>(frag)];
@@ -311,16 +323,14 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
       if (g.surface) return {std::max(surface_at(x, y, z), cube - d), split};
       return {cube, split};
     };
-    std::vector<float> field(static_cast<std::size_t>(fb.cells()));
-    tbb::parallel_for(std::int64_t{0}, fb.n[2], [&](std::int64_t kk) {  // each voxel on its own: any order
-      std::size_t cell = static_cast<std::size_t>(kk * fb.n[1] * fb.n[0]);
+    mesh::TriMesh solid = mesh::polygonize(fb, [&](std::int64_t kk, float* plane) {  // each voxel on its own
+      std::size_t cell = 0;
       for (std::int64_t jj = 0; jj < fb.n[1]; ++jj)
         for (std::int64_t ii = 0; ii < fb.n[0]; ++ii, ++cell) {
           const Terms t = terms(fb.origin[0] + ii * hf, fb.origin[1] + jj * hf, fb.origin[2] + kk * hf);
-          field[cell] = static_cast<float>(std::clamp(std::max(t.outer, t.split) / hf, -2.0, 2.0));
+          plane[cell] = static_cast<float>(std::clamp(std::max(t.outer, t.split) / hf, -2.0, 2.0));
         }
     });
-    mesh::TriMesh solid = mesh::polygonize(field, fb);
     // Polygonizing places each vertex at the mean of its voxel's crossings of the sampled field, which
     // bevels a convex edge or corner by about a voxel (a box's pieces kept 95 to 99 % of their cells). Each
     // vertex is moved onto the field's own zero, max(outer, split) evaluated exactly rather than sampled:
@@ -384,9 +394,8 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
       v = {c1[0] + t.x, c1[1] + t.y, c1[2] + t.z};
     }
     fm.volume = mesh::signed_volume(fm.mesh);
-    out[k] = std::move(fm);
+    sink(std::move(fm));
   });
-  return out;
 }
 
 }  // namespace mca::analysis

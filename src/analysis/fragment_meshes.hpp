@@ -7,6 +7,7 @@
 // (boxes, spheres, cylinders). The solid is polygonized (OpenVDB),
 // then carried to the fragment's pose (its automata's mean rotation and centre).
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "analysis/fragments.hpp"
@@ -30,5 +31,11 @@ struct FragmentMesh {
 // (docs/model-notes.md). No triangle has zero area.
 std::vector<FragmentMesh> fragment_meshes(const Model& model, const State& state, const Fragments& fragments,
                                           std::int64_t min_automata, int cells_per_spacing = 3);
+
+// The same meshes, each handed to `sink` as soon as it is made and then let go (a run of many pieces holds
+// a few at a time, not all of them). `sink` is called from several threads at once, in no set order.
+void for_each_fragment_mesh(const Model& model, const State& state, const Fragments& fragments,
+                            std::int64_t min_automata, const std::function<void(FragmentMesh&&)>& sink,
+                            int cells_per_spacing = 3);
 
 }  // namespace mca::analysis

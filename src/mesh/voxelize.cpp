@@ -3,6 +3,7 @@
 #include <mutex>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/MeshToVolume.h>
+#include <openvdb/tools/SignedFloodFill.h>
 #include <openvdb/tools/VolumeToMesh.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -49,18 +50,42 @@ float SignedDistance::at(std::int64_t i, std::int64_t j, std::int64_t k) const {
   return grid_->grid->tree().getValue(openvdb::Coord(static_cast<int>(i), static_cast<int>(j), static_cast<int>(k)));
 }
 
-TriMesh polygonize(const std::vector<float>& field, const CellBox& box) {
+TriMesh polygonize(const CellBox& box, const std::function<void(std::int64_t k, float* values)>& plane) {
   static std::once_flag once;
   std::call_once(once, [] { openvdb::initialize(); });
-  auto grid = openvdb::FloatGrid::create(2.0f);  // outside; the field is in cells, clamped to +-2
+  // The field is in cells, clamped to +-2: 2 outside (the background), -2 deep inside. Stored are the voxels
+  // between, and those at +-2 beside a voxel of another value (a field that jumps from -2 to 2 between two
+  // voxels keeps both); the sign flood fill then makes the rest of the inside tiles of -2. The grid holds
+  // the values a grid of every inside voxel holds, in memory that grows with the surface, not the volume.
+  // The planes are made a chunk at a time, with the plane on either side (made twice: the same values).
+  auto grid = openvdb::FloatGrid::create(2.0f);
   {
+    const std::int64_t nx = box.n[0], ny = box.n[1], nz = box.n[2];
+    constexpr std::int64_t kChunk = 32;
+    const auto per_plane = static_cast<std::size_t>(nx * ny);
+    std::vector<float> slab((kChunk + 2) * per_plane);
     auto acc = grid->getAccessor();
-    std::size_t c = 0;
-    for (std::int64_t k = 0; k < box.n[2]; ++k)
-      for (std::int64_t j = 0; j < box.n[1]; ++j)
-        for (std::int64_t i = 0; i < box.n[0]; ++i, ++c)
-          if (field[c] < 2.0f) acc.setValue(openvdb::Coord(static_cast<int>(i), static_cast<int>(j), static_cast<int>(k)), field[c]);
+    for (std::int64_t k0 = 0; k0 < nz; k0 += kChunk) {
+      const std::int64_t k1 = std::min(nz, k0 + kChunk);
+      const std::int64_t lo = std::max<std::int64_t>(0, k0 - 1), hi = std::min(nz, k1 + 1);  // planes held
+      tbb::parallel_for(lo, hi, [&](std::int64_t k) { plane(k, slab.data() + static_cast<std::size_t>(k - lo) * per_plane); });
+      const auto side = [&](std::int64_t i, std::int64_t j, std::int64_t k) {  // -1 inside, 1 outside, 0 between
+        if (i < 0 || j < 0 || k < 0 || i >= nx || j >= ny || k >= nz) return 1;  // beyond the box: outside
+        const float f = slab[static_cast<std::size_t>(k - lo) * per_plane + static_cast<std::size_t>(j * nx + i)];
+        return f <= -2.0f ? -1 : f >= 2.0f ? 1 : 0;
+      };
+      for (std::int64_t k = k0; k < k1; ++k)
+        for (std::int64_t j = 0; j < ny; ++j)
+          for (std::int64_t i = 0; i < nx; ++i) {
+            const int own = side(i, j, k);
+            if (own == 0 || side(i - 1, j, k) != own || side(i + 1, j, k) != own || side(i, j - 1, k) != own ||
+                side(i, j + 1, k) != own || side(i, j, k - 1) != own || side(i, j, k + 1) != own)
+              acc.setValue(openvdb::Coord(static_cast<int>(i), static_cast<int>(j), static_cast<int>(k)),
+                           slab[static_cast<std::size_t>(k - lo) * per_plane + static_cast<std::size_t>(j * nx + i)]);
+          }
+    }
   }
+  openvdb::tools::signedFloodFill(grid->tree());
   std::vector<openvdb::Vec3s> points;
   std::vector<openvdb::Vec3I> triangles;
   std::vector<openvdb::Vec4I> quads;

@@ -3,6 +3,7 @@
 // on the lattice, inside where it is negative). Behind this plain interface: a file that includes OpenVDB
 // takes about 20 s to compile.
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -44,9 +45,10 @@ class SignedDistance {
   std::unique_ptr<Grid> grid_;
 };
 
-// The closed surface where a field over the cell centres of `box` (x fastest) crosses zero, negative
-// inside, as outward-facing triangles in the box's coordinates. The field must be positive on the box's
-// outer cells for the surface to close.
-TriMesh polygonize(const std::vector<float>& field, const CellBox& box);
+// The closed surface where a field over the cell centres of `box` crosses zero, negative inside, as
+// outward-facing triangles in the box's coordinates. The field must be positive on the box's outer cells
+// for the surface to close. `plane(k, values)` writes the field's plane k (x fastest, n[0] * n[1] values);
+// it is called from several threads at once, for a few planes at a time, so the whole field is never held.
+TriMesh polygonize(const CellBox& box, const std::function<void(std::int64_t k, float* values)>& plane);
 
 }  // namespace mca::mesh
