@@ -9,6 +9,7 @@
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <fstream>
+#include <mutex>
 #include <optional>
 #include <unistd.h>
 
@@ -25,6 +26,11 @@ namespace {
 // The renderer's memory (estimate_memory), from the peaks of runs with and without --render.
 constexpr double kRenderFixedBytes = 100e6, kRenderBytesPerPixel = 24, kRenderBytesPerAutomaton = 400,
                  kRenderBytesPerTriangle = 500;
+// The fragment meshes' memory per voxel of a piece's surface (estimate_memory), from the peaks of runs with
+// and without output.fragments: 160 to 240 bytes for volume fills (the armadillo, the bunny, a box in 2,745
+// pieces), 390 to 570 for shells (the cow, spheres of 20,480 and 81,920 triangles), which are meshed on
+// both sides.
+constexpr double kFragmentBytesPerSurfaceVoxel = 250, kFragmentBytesPerShellVoxel = 600;
 }  // namespace
 
 std::string lattice_kind(const Model& m) {
@@ -134,13 +140,15 @@ MemoryEstimate estimate_memory(const Model& m, const OutputDef& o, int render_wi
   // A frame's posed surface and the bytes written from it: measured 1.9 MB for the bunny's 1.73 MB frames.
   if (o.surface && m.surface.faces() > 0)
     e.surface_output = 1.1 * estimate_output(m, o, 1).surface_frame;
-  // Fragment meshes: each piece's voxel field (the spacing over 3, finer for small pieces), its OpenVDB
-  // grid and the object's signed distance, largest for the main body of an object: counted as the box of
-  // the largest object, 15 bytes a voxel (measured: 31 MB for the bunny's, 2.05 M voxels).
+  // Fragment meshes (analysis/fragment_meshes.cpp): each piece is meshed and written on its own, so the
+  // peak is the largest piece's. What it holds grows with its surface in voxels of a third of the spacing
+  // (the field's band in OpenVDB, the mesh and its smoothing, the object's signed distance), plus a slab of
+  // 34 planes of the field across its box. A piece's surface is counted as its object's doubled (the crack
+  // faces of a half): a mesh object's triangles, another object's box.
   if (o.fragments && m.size() > 0) {
     const double d = m.spacing, h = d / 3;
-    std::vector<std::array<double, 6>> box(m.object_names.size(),
-                                           {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY});
+    const std::size_t n_obj = m.object_names.size();
+    std::vector<std::array<double, 6>> box(n_obj, {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY});
     for (std::size_t a = 0; a < m.size(); ++a) {
       auto& b = box[static_cast<std::size_t>(m.object[a])];
       const double p[3] = {m.position0[a].x, m.position0[a].y, m.position0[a].z};
@@ -149,14 +157,26 @@ MemoryEstimate estimate_memory(const Model& m, const OutputDef& o, int render_wi
         b[3 + c] = std::max(b[3 + c], p[c]);
       }
     }
-    double voxels = 0;
-    for (const auto& b : box) {
-      if (!(b[0] <= b[3])) continue;
-      double v = 1;
-      for (int c = 0; c < 3; ++c) v *= std::ceil((b[3 + c] - b[c] + 2.4 * d) / h) + 1;
-      voxels = std::max(voxels, v);
+    std::vector<double> area(n_obj, 0.0);  // m^2
+    for (std::size_t f = 0; f < m.surface.faces(); ++f) {
+      const Vec3* c = &m.surface.offset[3 * f];
+      area[static_cast<std::size_t>(m.object[m.surface.automaton[f]])] += 0.5 * length(cross(c[1] - c[0], c[2] - c[0]));
     }
-    e.fragment_meshes = 15 * voxels;
+    double peak = 0;
+    for (std::size_t o = 0; o < n_obj; ++o) {
+      const auto& b = box[o];
+      if (!(b[0] <= b[3])) continue;
+      double side[3];
+      for (int c = 0; c < 3; ++c) side[c] = b[3 + c] - b[c] + 2.4 * d;
+      if (area[o] == 0) area[o] = 2 * (side[0] * side[1] + side[1] * side[2] + side[2] * side[0]);
+      const double plane = (std::ceil(side[0] / h) + 1) * (std::ceil(side[1] / h) + 1);
+      const bool shell = std::any_of(m.meshes.begin(), m.meshes.end(), [&](const MeshSummary& ms) {
+        return ms.surface && static_cast<std::size_t>(ms.object) == o;
+      });
+      const double per_voxel = shell ? kFragmentBytesPerShellVoxel : kFragmentBytesPerSurfaceVoxel;
+      peak = std::max(peak, per_voxel * 2 * area[o] / (h * h) + 34 * 4 * plane);
+    }
+    e.fragment_meshes = peak;
   }
   // The renderer: Mesa's OpenGL (llvmpipe and its compiled shaders) and EGL, the picture's buffers, and
   // per frame the snapshot and its vertex buffers (a cube per automaton, or three vertices per triangle of
@@ -248,16 +268,27 @@ FrameWriter::FrameWriter(std::filesystem::path dir, const Model& model, const Ou
   if (surface_) io::output_subfolder(dir_, "surface");
 }
 
-std::size_t FrameWriter::write_fragment_meshes(const State& s, const analysis::Fragments& frags) {
+std::size_t FrameWriter::write_fragment_meshes(const State& s, const analysis::Fragments& frags,
+                                              const std::function<void(std::size_t, std::size_t)>& each) {
   if (!fragment_meshes_) return 0;
   io::output_subfolder(dir_, "fragments");
-  const auto meshes = analysis::fragment_meshes(model_, s, frags, fragment_min_automata_);
-  for (const auto& fm : meshes) {
+  std::vector<std::int64_t> size(static_cast<std::size_t>(frags.count), 0);
+  for (auto id : frags.id) ++size[static_cast<std::size_t>(id)];
+  const auto total = static_cast<std::size_t>(
+      std::count_if(size.begin(), size.end(), [&](std::int64_t n) { return n > fragment_min_automata_; }));
+  // Each mesh is written as it is made and let go: a shattered run's thousands of pieces are not all held.
+  std::size_t written = 0;
+  std::mutex lock;
+  analysis::for_each_fragment_mesh(model_, s, frags, fragment_min_automata_, [&](analysis::FragmentMesh&& fm) {
     const mesh::FloatMesh out = mesh::to_float(fm.mesh);
+    fm.mesh = {};
     io::write_file_atomic(dir_ / fmt::format("fragments/fragment_{:03d}.ply", fm.fragment),
                           [&](std::ostream& os) { mesh::write_ply(os, out); });
-  }
-  return meshes.size();
+    const std::lock_guard<std::mutex> hold(lock);
+    ++written;
+    if (each) each(written, total);
+  });
+  return written;
 }
 
 std::string FrameWriter::surface_name(std::int64_t frame, OutputDef::SurfaceFormat format) {

@@ -137,17 +137,15 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
   io::prepare_output_dir(dir_);
   io::remove_stale_temporaries(dir_);
   // An earlier run's frames go, but those a resumed run keeps (frame_NNNNNN.png, NNNNNN < first_frame).
+  // (Only names of the run's own form: a user's render/frame_cover.png stays.)
+  std::vector<std::filesystem::path> doomed;
   for (const auto& e : std::filesystem::directory_iterator(dir_)) {
     const std::string name = e.path().filename().string();
-    if (e.is_regular_file() && name.rfind("frame_", 0) == 0 && e.path().extension() == ".png") {
-      std::int64_t number = -1;
-      const auto r = std::from_chars(name.data() + 6, name.data() + name.size() - 4, number);
-      const bool kept = r.ec == std::errc() && r.ptr == name.data() + name.size() - 4 && number >= 0 &&
-                        number < first_frame && name == frame_name(number);
-      if (!kept) std::filesystem::remove(e.path());
-    }
+    const auto number = io::numbered(name, "frame_", ".png");
+    if (e.is_regular_file() && number && !(*number < first_frame && name == frame_name(*number))) doomed.push_back(e.path());
   }
-  for (const char* old : {"video.mp4", "contact_sheet.png"}) std::filesystem::remove(dir_ / old);
+  for (const auto& p : doomed) io::remove_output(p);
+  for (const char* old : {"video.mp4", "contact_sheet.png"}) io::remove_output(dir_ / old);
   if (first_frame == 0) save_render_options(dir, options);
   if (const auto ffmpeg = render::find_ffmpeg()) {
     try {
@@ -285,6 +283,7 @@ bool run_plot_script(const std::filesystem::path& dir, bool quiet, const std::at
   const std::string python = std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
   std::vector<std::string> args = {python, script.string(), dir.string()};
   if (quiet) args.push_back("--quiet");
+  args.push_back(fmt::format("--parent={}", ::getpid()));  // it ends with this process, even one killed
   // (A group of its own: a terminal's Ctrl-C reaches this program only, which stops the script.)
   pid_t pid = 0;
   const int rc = render::spawn_own_group(pid, args, nullptr, true);

@@ -1,5 +1,6 @@
 // `mca run` and `mca resume`: step a scene frame by frame, write outputs, show progress.
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -7,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <optional>
 #include <fstream>
 #include <string_view>
@@ -273,6 +275,82 @@ int remove_end_outputs(const std::filesystem::path& dir, bool plots = true) {
   return removed;
 }
 
+// The files a run writes into its folder: by name, and numbered (folder, prefix + digits + extension).
+constexpr const char* kRunFiles[] = {"scene.toml", "summary.json", "stats.csv", "fragments.csv", "automata.pvd",
+                                     "projectiles.pvd", "surface.pvd", "render/render.json", "render/video.mp4",
+                                     "render/contact_sheet.png", "render/energies.png", "render/broken_links.png",
+                                     "render/fragment_masses.png"};
+constexpr std::array<std::array<const char*, 3>, 8> kRunNumberedFiles = {{{"frames", "automata_", ".vtu"},
+                                                                          {"frames", "projectiles_", ".vtu"},
+                                                                          {"frames", "surface_", ".vtp"},
+                                                                          {"surface", "surface_", ".ply"},
+                                                                          {"surface", "surface_", ".obj"},
+                                                                          {"fragments", "fragment_", ".ply"},
+                                                                          {"checkpoints", "frame_", ".mcack"},
+                                                                          {"render", "frame_", ".png"}}};
+
+// A new run replaces an earlier run's files in its folder. It refuses a folder whose files of those names
+// are not a run's (no scene.toml of mca's: a user's summary.json, a folder of another program), and one
+// whose run did not finish and can be resumed (checkpoints, and no summary of a finished run): one
+// command typed for another must not cost either.
+// The first 4 KB of a run folder's scene.toml (empty without one): whether mca wrote it, and the step
+// count of a --steps run (the comment at its top).
+struct SceneHead {
+  bool by_mca = false;
+  std::optional<std::int64_t> steps;
+};
+SceneHead read_scene_head(const std::filesystem::path& dir) {
+  std::string head;
+  if (std::ifstream in(dir / "scene.toml"); in) {
+    head.resize(4096);
+    in.read(head.data(), static_cast<std::streamsize>(head.size()));
+    head.resize(static_cast<std::size_t>(in.gcount()));
+  }
+  SceneHead h;
+  const std::size_t mark = head.find(io::kWrittenByMca);
+  h.by_mca = mark != std::string::npos && head.find('\n') + 1 >= mark;  // on the first line, or after the comment
+  long long steps = 0;
+  if (h.by_mca && std::sscanf(head.c_str(), "# This run: --steps %lld ", &steps) == 1) h.steps = steps;
+  return h;
+}
+
+void check_folder_is_a_runs(const std::filesystem::path& dir) {
+  const std::string folder = text::shell_word(dir.string());
+  std::error_code ec;
+  if (read_scene_head(dir).by_mca) {
+    const auto saved = io::list_checkpoints(dir / "checkpoints");
+    if (saved.empty()) return;
+    std::string status;
+    if (std::ifstream in(dir / "summary.json"); in) {
+      const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+      if (j.is_object() && j.contains("status") && j["status"].is_string()) status = j["status"].get<std::string>();
+    }
+    if (status == "finished") return;
+    throw Error(fmt::format("{} holds a run that did not finish (its newest checkpoint: {}); continue it with: mca "
+                            "resume {}. To start it afresh instead, remove its checkpoints first (rm -r {}), or give "
+                            "another --out folder",
+                            dir.string(), saved.back().filename().string(), folder,
+                            text::shell_word((dir / "checkpoints").string())));
+  }
+  std::vector<std::string> found;
+  for (const char* name : kRunFiles)
+    if (std::filesystem::exists(dir / name, ec)) found.push_back(name);
+  for (const auto& [sub, prefix, extension] : kRunNumberedFiles) {
+    if (!std::filesystem::is_directory(dir / sub, ec)) continue;
+    for (const auto& e : std::filesystem::directory_iterator(dir / sub, ec))
+      if (io::numbered(e.path().filename().string(), prefix, extension) && e.is_regular_file(ec))
+        found.push_back(fmt::format("{}/{}", sub, e.path().filename().string()));
+  }
+  if (found.empty()) return;
+  const std::size_t shown = std::min<std::size_t>(found.size(), 4);
+  throw Error(fmt::format(
+      "{} holds {}{}, of the names a run of mca writes, but no run of mca (its scene.toml {}); the run would replace "
+      "or remove them. Give another --out folder, or move them out of this one",
+      dir.string(), fmt::join(found.begin(), found.begin() + static_cast<std::ptrdiff_t>(shown), ", "),
+      found.size() > shown ? fmt::format(" and {} more", found.size() - shown) : "",
+      std::filesystem::exists(dir / "scene.toml", ec) ? "was not written by mca" : "is missing"));
+}
+
 // What a session writes (`frames` more, pictures of render_width x render_height, 0 for none) must fit the
 // disk in `dir`, and its peak the memory (check_output_fits, check_memory_fits); returns the disk estimate.
 OutputEstimate check_run_fits(const Model& m, const SceneDef& scene, std::int64_t frames, int render_width,
@@ -351,9 +429,10 @@ struct Loop {
   std::int64_t frame = 0;      // frames written so far
   double wall_before = 0;      // wall seconds of earlier sessions (resume)
   RenderOutput* render = nullptr;  // --render
+  bool warned_removal = false;     // an older checkpoint could not be removed (said once)
 };
 
-void save_checkpoint(const Loop& L, FrameWriter& writer, double wall) {
+void save_checkpoint(Loop& L, FrameWriter& writer, double wall) {
   writer.sync_stats();  // the rows up to it first: a resume from it reads them back
   const auto ckdir = io::output_subfolder(L.dir, "checkpoints");
   io::Checkpoint cp;
@@ -366,8 +445,17 @@ void save_checkpoint(const Loop& L, FrameWriter& writer, double wall) {
   io::write_checkpoint(ckdir / io::checkpoint_name(L.frame - 1), cp);
   // Keep the two newest: the newest may still be refused on resume (a damaged disk, an edit), and then
   // the one before is the way back.
+  // One that cannot be removed (a file made immutable, a folder's permissions) costs its disk space, not
+  // the run: a warning, once.
   const auto all = io::list_checkpoints(ckdir);
-  for (std::size_t k = 0; k + 2 < all.size(); ++k) std::filesystem::remove(all[k]);
+  for (std::size_t k = 0; k + 2 < all.size(); ++k) {
+    std::error_code ec;
+    if (std::filesystem::remove(all[k], ec) || !ec || L.warned_removal) continue;
+    L.warned_removal = true;
+    fmt::print(stderr, "{}warning: cannot remove the older checkpoint '{}' ({}); the run goes on and keeps it, "
+               "with the others that cannot be removed: remove them by hand to free the disk\n",
+               !L.quiet && isatty(STDERR_FILENO) ? "\n" : "", all[k].string(), ec.message());
+  }
 }
 
 int run_loop(Loop& L, FrameWriter& writer) {
@@ -485,9 +573,37 @@ int run_loop(Loop& L, FrameWriter& writer) {
   }
   const double wall = elapsed();
   const auto frags = writer.fragments(sim.state());
-  write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads,
-                "finished");
-  const std::size_t meshes = writer.write_fragment_meshes(sim.state(), frags);
+  // The end's outputs: the fragment meshes (thousands of pieces take a minute: progress, and a stop signal
+  // ends them at the next piece), then the summary, whose peak memory counts them.
+  struct MeshesStopped {};
+  std::size_t meshes = 0;
+  try {
+    auto shown = std::chrono::steady_clock::now();
+    meshes = writer.write_fragment_meshes(sim.state(), frags, [&](std::size_t done, std::size_t total) {
+      if (stop != 0) throw MeshesStopped{};
+      const auto now = std::chrono::steady_clock::now();
+      if (!tty || (now - shown < std::chrono::milliseconds(250) && done < total)) return;
+      shown = now;
+      fmt::print(stderr, "\rfragment meshes: {} of {}", done, total);
+    });
+    write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads, "finished");
+  } catch (const MeshesStopped&) {
+    const int sig = stop;
+    try {
+      save_checkpoint(L, writer, L.wall_before + wall);
+      write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads,
+                    "interrupted");
+    } catch (const Error& e) {
+      return stopped(e, "after its last step", L.frame - 1, "", "");
+    }
+    say("{}interrupted by {} while writing the fragment meshes, after the run's last step; a checkpoint of it "
+        "is saved, and mca resume {} writes them\n",
+        tty ? "\n" : "", signal_name(sig), text::shell_word(L.dir.string()));
+    return 128 + sig;
+  } catch (const Error& e) {
+    return stopped(e, "writing its end (the fragment meshes, summary.json, fragments.csv) after its last step",
+                   L.frame - 1, "once the disk has room (or the cause above is fixed), ", "");
+  }
   if (!L.quiet && sim.scene().output.fragments) {
     fmt::print(stderr, "{}{}\n", tty ? "\n" : "",
                meshes > 0 ? fmt::format("{} fragment meshes in fragments/", meshes)
@@ -618,6 +734,7 @@ int run(const RunOptions& o) {
                               "folder, or rename the scene file",
                               dir.string(), *o.scene));
   }
+  check_folder_is_a_runs(dir);
 
   if (!o.quiet) fmt::print(stderr, "mca: scene '{}' ({}): building...\n", scene.name, scene.source);
   std::optional<lattice::BuildProgress> building;
@@ -737,6 +854,13 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   catch_stop_signals();  // (from here a signal is the run's to answer: the renderer's set-up, frame 0)
   building.reset();
   const Plan plan = resume_plan(cp, sim.steps_per_frame(), source);
+  // The folder's run is of a step count too (its --steps, or its duration's): a checkpoint of the same scene
+  // run for another count ends the folder at that one's end, past or short of its frames.
+  if (const auto given = read_scene_head(dir).steps; given.value_or(sim.total_steps()) != plan.total_steps)
+    throw Error(fmt::format("{} is of a run of {} steps, and the run in {} is of {} (its scene.toml's {}): it was "
+                            "copied in from another run; remove it, or resume the run it belongs to in its own folder",
+                            source, plan.total_steps, dir.string(), given.value_or(sim.total_steps()),
+                            given ? "--steps" : "output.duration"));
   // A run that had reached its last frame (one that finished, or was stopped there) has no step left: its
   // outputs (summary, fragments, video) are finished again from that frame, with the same results.
   const bool steps_left = cp.state.step < plan.total_steps;
@@ -761,7 +885,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
       render = std::make_unique<RenderOutput>(dir, sim, *ro, plan.total_frames, quiet, cp.frame);
     } else if (steps_left) {  // (with none left, the rendering is whole and stays so)
       // Its frames stop here: a later resume must not take the folder for a whole rendering.
-      std::filesystem::remove(dir / "render" / "render.json");
+      remove_output(dir / "render" / "render.json");
       fmt::print(stderr, "warning: --no-render: {} keeps the frames drawn so far (0..{}); the frames this run adds "
                  "are not drawn, and no video is made\n",
                  (dir / "render").string(), cp.frame - 1);

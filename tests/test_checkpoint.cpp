@@ -2,6 +2,8 @@
 // a run on a state that does not fit the model), and identical runs write identical files.
 #include <gtest/gtest.h>
 
+#include <chrono>
+
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -209,6 +211,38 @@ TEST(Checkpoint, DamagedFilesAreRefusedOrSafe) {
   EXPECT_GT(refused, 100);
   EXPECT_GT(accepted, 20);
   std::printf("damaged and re-signed checkpoints: %d refused, %d accepted\n", refused, accepted);
+}
+
+// A file of a checkpoint's name that is far larger than any checkpoint (20 GB behind a checkpoint's header:
+// sparse here, so it takes no disk) is refused from its end and its size, without being read: it took 27 s
+// and the machine's memory to be refused.
+TEST(Checkpoint, AHugeFileIsRefusedWithoutBeingRead) {
+  const Fixture& f = fixture();
+  const fs::path p = temp_file("huge.mcack");
+  const auto sparse = [&](std::uint64_t size, bool end_marker) {
+    { std::ofstream(p, std::ios::binary) << f.bytes.substr(0, 16); }
+    fs::resize_file(p, size);
+    if (end_marker) {
+      std::fstream out(p, std::ios::binary | std::ios::in | std::ios::out);
+      out.seekp(static_cast<std::streamoff>(size - 8));
+      out.write(f.bytes.data() + f.bytes.size() - 8, 8);
+    }
+  };
+  const auto refused_at_once = [&] {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::string m = test::error_of([&] { io::read_checkpoint(p); });
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 1.0);
+    return m;
+  };
+  sparse(20'000'000'000ull, false);
+  EXPECT_NE(refused_at_once().find("its 20000000000 bytes do not end with the end marker"), std::string::npos);
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+  if (static_cast<double>(pages) * static_cast<double>(page) < 1e12) {
+    sparse(1'000'000'000'000ull, true);  // its end is a checkpoint's: only its size tells
+    const std::string m = refused_at_once();
+    EXPECT_NE(m.find("holds 1000.0 GB, more than this machine's memory can read back"), std::string::npos) << m;
+  }
+  fs::remove(p);
 }
 
 // Each invariant of a state, broken on its own, is refused with a message naming the source and the

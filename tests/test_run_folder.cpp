@@ -83,6 +83,8 @@ TEST(RunFolder, ResumeRefusesACheckpointOfAnotherScene) {
 TEST(RunFolder, NewRunRemovesAnEarlierRunsFragmentsAndPictures) {
   TempDir t;
   const fs::path out = t.path() / "out";
+  // An earlier run (its scene.toml: the folder holds a run of mca), and what a rendered one left.
+  ASSERT_EQ(run_mca("run " + small_scene(t.path()).string() + " --out " + out.string() + " -q --steps 2").code, 0);
   fs::create_directories(out / "render");
   for (const char* f : {"fragments.csv", "render/frame_000000.png", "render/frame_000031.png", "render/video.mp4",
                         "render/contact_sheet.png", "render/energies.png", "render/broken_links.png",

@@ -10,7 +10,9 @@
 
 Reads stats.csv and summary.json; a folder without them, or with them damaged, ends the script with one
 line before anything is drawn. Each file is written under a temporary name and renamed.
-Usage: python3 tools/plot_run.py OUT_DIR [--quiet]
+Usage: python3 tools/plot_run.py OUT_DIR [--quiet] [--parent=PID]
+(--parent: mca's process id; the script ends when that process does, killed or not, so that it never
+writes into the folder of a later run.)
 """
 import csv
 import json
@@ -173,7 +175,26 @@ def plot_mass_distribution(plt, dist, path, title, tool="plot_run.py"):
     plt.close(fig)
 
 
+def end_with_parent(argv):
+    """With --parent=PID, asks Linux to stop this process when that one ends (PR_SET_PDEATHSIG), and ends
+    at once where it has ended already."""
+    pids = [a.split("=", 1)[1] for a in argv[1:] if a.startswith("--parent=")]
+    if not pids:
+        return
+    import ctypes
+    import signal
+
+    pr_set_pdeathsig = 1
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGTERM, 0, 0, 0)
+    except (OSError, AttributeError):
+        pass  # not Linux: the parent's own time limit and stop remain
+    if str(os.getppid()) != pids[0]:
+        sys.exit(0)
+
+
 def main(argv):
+    end_with_parent(argv)
     args = [a for a in argv[1:] if not a.startswith("--")]
     quiet = "--quiet" in argv
     if len(args) != 1:

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iterator>
 #include <string_view>
+#include <unistd.h>
 #include <utility>
 #include <type_traits>
 
@@ -141,15 +142,24 @@ struct Writer {
   void item(const T& v) { fields(*this, v); }
 };
 
+[[noreturn]] void damaged_checkpoint(const std::filesystem::path& path, const std::string& what) {
+  throw Error(fmt::format("checkpoint '{}' is damaged ({}); use an earlier checkpoint (remove this one) or start "
+                          "the run again",
+                          path.string(), what));
+}
+
+// A file without its end marker was cut short: a copy or a transfer that stopped (mca itself writes to a
+// temporary name and renames).
+std::string no_end_marker(std::uint64_t size) {
+  return fmt::format("its {} bytes do not end with the end marker: cut short, or bytes added or changed at its end",
+                     size);
+}
+
 struct Reader {
   const std::string& data;
   const std::filesystem::path& path;
   std::size_t at = 0;
-  [[noreturn]] void damaged(const std::string& what) const {
-    throw Error(fmt::format("checkpoint '{}' is damaged ({}); use an earlier checkpoint (remove this one) or start "
-                            "the run again",
-                            path.string(), what));
-  }
+  [[noreturn]] void damaged(const std::string& what) const { damaged_checkpoint(path, what); }
   // n items of at least `size` bytes must follow; written without products so a damaged count cannot
   // overflow, and checked before any allocation, so it cannot allocate more than the file holds.
   void need(std::uint64_t n, std::size_t size = 1) {
@@ -207,17 +217,9 @@ std::vector<std::filesystem::path> list_checkpoints(const std::filesystem::path&
   std::vector<std::pair<std::int64_t, std::filesystem::path>> found;
   std::error_code ec;
   if (!std::filesystem::is_directory(dir, ec)) return {};
-  for (const auto& e : std::filesystem::directory_iterator(dir, ec)) {
-    const std::string name = e.path().filename().string();
-    if (name.size() <= prefix.size() + suffix.size() || name.compare(0, prefix.size(), prefix) != 0 ||
-        name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0 || !e.is_regular_file(ec))
-      continue;
-    const std::string digits = name.substr(prefix.size(), name.size() - prefix.size() - suffix.size());
-    // 18 digits at most: the number fits an int64 without a check.
-    if (digits.size() > 18 || !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }))
-      continue;
-    found.emplace_back(std::stoll(digits), e.path());
-  }
+  for (const auto& e : std::filesystem::directory_iterator(dir, ec))
+    if (const auto n = io::numbered(e.path().filename().string(), prefix, suffix); n && e.is_regular_file(ec))
+      found.emplace_back(*n, e.path());
   // Equal numbers ("frame_12" and "frame_000012") are ordered by name, so the order never depends on
   // the folder's listing order.
   std::sort(found.begin(), found.end());
@@ -260,6 +262,22 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
                             "mca that wrote it, or start the run again",
                             path.string(), head[7], kMagic[7]));
   }
+  // Its end marker and its size before it is read whole: a file of the name that is something else, 20 GB
+  // behind a checkpoint's header, took 27 s and the machine's memory to be refused.
+  in.seekg(0, std::ios::end);
+  const auto size = static_cast<std::uint64_t>(in.tellg());
+  char tail[sizeof kMagic] = {};
+  if (size >= sizeof head + sizeof tail) {
+    in.seekg(static_cast<std::streamoff>(size - sizeof tail));
+    in.read(tail, sizeof tail);
+  }
+  if (!in || std::memcmp(tail, kMagic, sizeof kMagic) != 0) damaged_checkpoint(path, no_end_marker(size));
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+  if (pages > 0 && page > 0 && static_cast<double>(size) > 0.9 * static_cast<double>(pages) * static_cast<double>(page))
+    throw Error(fmt::format("checkpoint '{}' holds {:.1f} GB, more than this machine's memory can read back ({:.1f} "
+                            "GB); resume it on a larger machine",
+                            path.string(), static_cast<double>(size) / 1e9,
+                            static_cast<double>(pages) * static_cast<double>(page) / 1e9));
   in.seekg(0);
   const std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   Reader r{data, path};
@@ -270,12 +288,8 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   sum.bytes(data.data(), data.size() - kTail);
   std::uint64_t stored = 0;
   std::memcpy(&stored, data.data() + data.size() - kTail, sizeof stored);
-  // (A file without its end marker was cut short: a copy or a transfer that stopped; mca itself writes to
-  // a temporary name and renames.)
-  if (std::memcmp(data.data() + data.size() - sizeof kMagic, kMagic, sizeof kMagic) != 0)
-    r.damaged(fmt::format("its {} bytes do not end with the end marker: cut short, or bytes added or changed at its "
-                          "end",
-                          data.size()));
+  if (std::memcmp(data.data() + data.size() - sizeof kMagic, kMagic, sizeof kMagic) != 0)  // (changed meanwhile)
+    r.damaged(no_end_marker(data.size()));
   if (stored != sum.h) r.damaged("its checksum does not match its contents");
   r.at = sizeof kMagic;
   Checkpoint cp;

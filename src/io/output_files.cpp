@@ -256,15 +256,26 @@ void write_file_atomic(const fs::path& path, const std::function<void(std::ostre
   }
 }
 
+std::optional<std::int64_t> numbered(const std::string& name, std::string_view prefix, std::string_view extension) {
+  if (name.size() <= prefix.size() + extension.size() || name.compare(0, prefix.size(), prefix) != 0 ||
+      name.compare(name.size() - extension.size(), extension.size(), extension) != 0)
+    return std::nullopt;
+  const std::string_view digits(name.data() + prefix.size(), name.size() - prefix.size() - extension.size());
+  // 18 digits at most: the number fits an int64 without a check.
+  if (digits.size() > 18 || !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }))
+    return std::nullopt;
+  std::int64_t n = 0;
+  for (char c : digits) n = 10 * n + (c - '0');
+  return n;
+}
+
 void remove_own_files(const std::filesystem::path& dir, const std::string& prefix, const std::string& extension) {
   std::error_code ec;
   if (!std::filesystem::is_directory(dir, ec)) return;
   std::vector<std::filesystem::path> doomed;
-  for (const auto& e : std::filesystem::directory_iterator(dir)) {
-    const std::string name = e.path().filename().string();
-    if (e.is_regular_file() && name.rfind(prefix, 0) == 0 && e.path().extension() == extension) doomed.push_back(e.path());
-  }
-  for (const auto& p : doomed) std::filesystem::remove(p);
+  for (const auto& e : std::filesystem::directory_iterator(dir, ec))
+    if (e.is_regular_file(ec) && numbered(e.path().filename().string(), prefix, extension)) doomed.push_back(e.path());
+  for (const auto& p : doomed) remove_output(p);
 }
 
 bool remove_output(const std::filesystem::path& p) {

@@ -3,6 +3,9 @@
 // job, a full disk); readers such as ParaView must then see either the previous complete file or none,
 // never a truncated one, so every output goes to a temporary name first and is renamed into place.
 #include <filesystem>
+#include <cstdint>
+#include <string_view>
+#include <optional>
 #include <functional>
 #include <ostream>
 #include <string>
@@ -67,8 +70,13 @@ std::filesystem::path temporary_path(const std::filesystem::path& path);
 // processes and every other file stay. A missing folder is fine.
 void remove_stale_temporaries(const std::filesystem::path& dir);
 
-// Removes the regular files of `dir` (not below) named `prefix`...`extension`: the outputs of an earlier run
-// of that kind (frames/automata_*.vtu). A missing folder is fine.
+// The number of a file named as a run numbers its outputs, `prefix` + 1 to 18 digits + `extension`
+// (automata_000012.vtu: 12); none for any other name (automata_mine.vtu).
+std::optional<std::int64_t> numbered(const std::string& name, std::string_view prefix, std::string_view extension);
+
+// Removes the regular files of `dir` (not below) named `prefix` + digits + `extension`: the outputs of an
+// earlier run of that kind (frames/automata_000012.vtu); a user's frames/automata_mine.vtu stays. A missing
+// folder is fine; a file that cannot be removed is an error that names it (remove_output).
 void remove_own_files(const std::filesystem::path& dir, const std::string& prefix, const std::string& extension);
 
 // Removes a file of an earlier session where it is there; returns whether it was. An error that names it

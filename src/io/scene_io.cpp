@@ -889,7 +889,7 @@ SceneDef load_default_scene() {
 
 std::string scene_to_toml(const SceneDef& s) {
   std::string out;
-  out += "# Written by mca (scene_to_toml); every key is given. Format: docs/scene-format.md\n";
+  out += fmt::format("{}; every key is given. Format: docs/scene-format.md\n", kWrittenByMca);
   out += fmt::format("name = {}\n", toml_string(s.name));
 
   out += "\n[solver]\n";

@@ -35,6 +35,9 @@ Shape to_shape(const std::string& s);
 
 // The complete scene as TOML, every key written, such that parse_scene(scene_to_toml(s), s.source)
 // gives back s exactly (doubles are written in their shortest round-tripping form).
+// Its first line (after a run's comment on its step count) is kWrittenByMca: a folder whose scene.toml
+// has it holds a run of mca.
 std::string scene_to_toml(const SceneDef& scene);
+inline constexpr std::string_view kWrittenByMca = "# Written by mca (scene_to_toml)";
 
 }  // namespace mca::io

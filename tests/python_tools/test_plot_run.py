@@ -149,3 +149,42 @@ def test_a_last_row_cut_short_is_left_out_with_a_warning(tmp_path, capsys):
     assert plot_run.main(["plot_run.py", str(tmp_path), "--quiet"]) == 0
     assert "the last row" in capsys.readouterr().err
     assert (tmp_path / "render" / "energies.png").exists()
+
+
+def test_with_parent_it_ends_with_that_process_and_draws_nothing_after(tmp_path):
+    """--parent=PID (mca passes its own): a script whose parent is gone (mca killed with -9) ends without
+    drawing, so it never writes into the folder of a later run. Here the parent, a shell, is killed 0.3 s
+    after it started the script, which is then importing matplotlib, past its request for the death signal
+    (without it, the plots were drawn a second later); a script slower to start finds its parent gone. Either
+    way no plot is written and it ends within seconds."""
+    import subprocess
+    import time
+
+    dist = distribution(tmp_path, sample_power_law(1.8, 127, 1e3) + [5000])
+    write_run(tmp_path, dist)
+    script = os.path.join(os.path.dirname(__file__), "..", "..", "tools", "plot_run.py")
+    pidfile = tmp_path / "child.pid"
+    parent = subprocess.Popen(["/bin/sh", "-c", f'{sys.executable} {script} {tmp_path} --quiet --parent=$$ & '
+                               f'echo $! > {pidfile}; sleep 0.3; kill -9 $$'])
+    parent.wait()
+    child = int(pidfile.read_text())
+    for _ in range(200):  # up to 10 s
+        try:
+            with open(f"/proc/{child}/stat") as f:
+                if f.read().split(")")[-1].split()[0] == "Z":
+                    break
+        except FileNotFoundError:
+            break
+        time.sleep(0.05)
+    else:
+        pytest.fail("the plot script outlived its parent by 10 s")
+    time.sleep(0.5)
+    assert not (tmp_path / "render").exists() or not list((tmp_path / "render").glob("*.png"))
+
+
+def test_with_another_process_as_parent_it_ends_at_once(tmp_path):
+    write_run(tmp_path, distribution(tmp_path, sample_power_law(1.8, 127, 1e3) + [5000]))
+    with pytest.raises(SystemExit) as e:
+        plot_run.main(["plot_run.py", str(tmp_path), "--quiet", f"--parent={os.getpid() + 1000000}"])
+    assert e.value.code == 0
+    assert not (tmp_path / "render").exists()
