@@ -33,6 +33,21 @@ constexpr double kRenderFixedBytes = 100e6, kRenderBytesPerPixel = 24, kRenderBy
 constexpr double kFragmentBytesPerSurfaceVoxel = 250, kFragmentBytesPerShellVoxel = 600;
 }  // namespace
 
+std::string far_out_note(const Model& m, const SceneDef& scene) {
+  double r = 0;
+  for (const DVec3& p : m.position0) r = std::max(r, std::sqrt(p.x * p.x + p.y * p.y + p.z * p.z));
+  for (const ProjectileDef& p : scene.projectiles)
+    r = std::max(r, std::sqrt(p.position[0] * p.position[0] + p.position[1] * p.position[1] + p.position[2] * p.position[2]));
+  if (!(r > 1e3)) return "";
+  // A coordinate of size r moves in steps of its unit in the last place: a step's v dt under half of it is lost.
+  const double ulp = std::nextafter(r, INFINITY) - r;
+  return fmt::format("the scene reaches {:.3g} m from the origin, where its double positions resolve {:.2g} m: a step "
+                     "of {:.3g} s moves nothing slower than about {:.2g} m/s there, and a body at rest can gain energy "
+                     "(docs/model-notes.md, \"Far from the origin\"); within 1 km of the origin a scene behaves as at "
+                     "it: move its objects, projectiles and ground there",
+                     r, ulp, static_cast<double>(m.dt), 0.5 * ulp / static_cast<double>(m.dt));
+}
+
 std::string lattice_kind(const Model& m) {
   if (!m.object_random.empty()) return "random";
   const bool volume = std::find(m.object_surface.begin(), m.object_surface.end(), 0) != m.object_surface.end();

@@ -51,6 +51,10 @@ using text::human_bytes;
 // The lattice of the model's volume fills: "random", "cubic", or "" when every object is in surface mode;
 // lattice_name as mca run and mca info print it, "random (link_bending 0.1)" for the random one, "cubic
 // (lattice_jitter 0.25)" for a jittered cubic one (`jitter`: the scene's solver.lattice_jitter).
+// A scene that reaches beyond 1 km from the origin: what its double positions resolve there and the
+// slowest speed a step moves (a body at rest can gain energy there; docs/model-notes.md, "Far from the
+// origin"), for mca run and mca info to print; empty for a scene within 1 km.
+std::string far_out_note(const Model& model, const SceneDef& scene);
 std::string lattice_kind(const Model& model);
 std::string lattice_name(const Model& model, double jitter = 0);
 // Throws mca::Error when the estimate exceeds the space free in `dir` (which exists): the bytes, the frames and

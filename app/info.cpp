@@ -136,6 +136,7 @@ int info(const std::optional<std::string>& path, bool json) {
     j["time_step"] = m.dt;
     j["critical_time_step"] = m.critical_dt;
     j["time_step_limited_by"] = m.dt_limited_by;
+    if (const std::string note = far_out_note(m, scene); !note.empty()) j["far_from_origin"] = note;
     j["simulated_time"] = static_cast<double>(steps) * m.dt;
     j["frame_interval"] = sim.frame_interval();
     j["steps_per_frame"] = sim.steps_per_frame();
@@ -232,6 +233,7 @@ int info(const std::optional<std::string>& path, bool json) {
              scene.solver.time_step > 0 ? std::string("given by solver.time_step")
                                         : fmt::format("solver.safety = {:g}, fitted to whole steps per frame",
                                                       scene.solver.safety));
+  if (const std::string note = far_out_note(m, scene); !note.empty()) fmt::print("note             {}\n", note);
   // With solver.time_step given, a frame is a whole number of steps and may differ from 1 / frame_rate.
   fmt::print("steps per frame  {} ({} frames, one every {:.6g} s; {} steps: {:.6g} s simulated for output.duration = "
              "{:g} s)\n",

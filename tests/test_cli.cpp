@@ -321,6 +321,39 @@ TEST(Cli, InfoReportsTheModel) {
   EXPECT_NE(text.output.find("lattice          random (link_bending 0.1)"), std::string::npos) << text.output;
 }
 
+// Far from the origin a step loses slow motion (docs/model-notes.md, "Far from the origin"): a scene that
+// reaches beyond 1 km gets a note in mca info (text and JSON) and mca run with the resolution there and the
+// slowest speed a step moves; within 1 km none.
+TEST(Cli, AFarSceneGetsANoteOfWhatItsPositionsResolve) {
+  const fs::path d = fresh_dir("far_note");
+  const fs::path near = small_scene(d, "", "near");
+  std::string text = read(near);
+  for (const char* key : {"position = [0, 0, 0.25]", "position = [0, -0.17, 0.25]"}) {
+    const std::size_t at = text.find(key);
+    ASSERT_NE(at, std::string::npos) << key;
+    text.replace(at, std::strlen("position = [0"), "position = [700000");
+  }
+  text += "\n";
+  const fs::path far = d / "far.toml";
+  std::ofstream(far) << text;
+  const Result info = run_mca("info " + far.string());
+  ASSERT_EQ(info.code, 0) << info.output;
+  EXPECT_NE(info.output.find("note             the scene reaches 7e+05 m from the origin, where its double positions "
+                             "resolve 1.2e-10 m: a step of "),
+            std::string::npos)
+      << info.output;
+  EXPECT_NE(info.output.find("move its objects, projectiles and ground there"), std::string::npos) << info.output;
+  const Result json = run_mca("info " + far.string() + " --json");
+  ASSERT_EQ(json.code, 0) << json.output;
+  EXPECT_TRUE(nlohmann::json::parse(json.output).contains("far_from_origin"));
+  const Result run = run_mca("run " + far.string() + " --steps 2 --no-vtk --out " + (d / "out").string());
+  ASSERT_EQ(run.code, 0) << run.output;
+  EXPECT_NE(run.output.find("note: the scene reaches 7e+05 m"), std::string::npos) << run.output;
+  const Result near_info = run_mca("info " + near.string() + " --json");
+  ASSERT_EQ(near_info.code, 0) << near_info.output;
+  EXPECT_FALSE(nlohmann::json::parse(near_info.output).contains("far_from_origin"));
+}
+
 TEST(Cli, BadInputFailsWithAClearMessage) {
   const fs::path d = fresh_dir("bad");
   // Missing scene file: names the file.

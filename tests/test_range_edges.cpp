@@ -395,5 +395,37 @@ TEST(RangeEdges, AValueJustPastItsBoundPrintsApartFromIt) {
   EXPECT_EQ(text::distinct(1.0 / 3.0, std::nextafter(1.0 / 3.0, 1.0)).a, "0.3333333333333333");
 }
 
+// The step at a small spacing is the dashpots' (a damping_time is a time: a finer lattice's modes are
+// overdamped, and the step falls with the square of the spacing); what sets it says so, with the factor.
+// At the default spacing they are not named.
+TEST(RangeEdges, TheStepNamesTheDashpotsWhereTheyShortenIt) {
+  const auto limited_by = [](const std::string& extra) {
+    const Engine sim(io::parse_scene(extra + "\n[[object]]\nsize = [0.004, 0.004, 0.004]\n", "edge.toml"));
+    return lattice::critical_time_step(sim.model()).limited_by;
+  };
+  const std::string fine = limited_by("[solver]\nspacing = 0.001\nlattice = \"cubic\"\n[output]\nduration = 1e-6");
+  EXPECT_HAS(fine, "the links and contacts of the automata, shortened ");
+  EXPECT_HAS(fine, " times by their dashpots (the materials' damping_time, solver.link_damping)");
+  const double factor = std::stod(fine.substr(fine.find("shortened ") + 10));
+  EXPECT_GT(factor, 10);
+  EXPECT_LT(factor, 30);
+  const std::string undamped =
+      limited_by("[solver]\nspacing = 0.001\nlattice = \"cubic\"\n[output]\nduration = 1e-6\n"
+                 "[[material]]\nname = \"concrete\"\ndamping_time = 0\n");
+  EXPECT_EQ(undamped, "the links and contacts of the automata");
+  const Engine coarse(cube("[solver]\nlattice = \"cubic\""));
+  EXPECT_EQ(lattice::critical_time_step(coarse.model()).limited_by, "the links and contacts of the automata");
+}
+
+// A friction is kept in float32: 1e39 (infinite there) is refused, the largest float32 is taken.
+TEST(RangeEdges, AFrictionPastFloat32IsRefused) {
+  for (const char* table : {"[[material]]\nname = \"concrete\"\n", "[ground]\nenabled = true\n"}) {
+    const std::string m = scene_error(std::string(table) + "friction = 1e39\n");
+    EXPECT_HAS(m, "friction = 1e39");
+    EXPECT_HAS(m, "must be >= 0 and at most 3.4e38 (the largest float32)");
+    EXPECT_NO_THROW(cube(std::string(table) + "friction = 3.4e38\n"));
+  }
+}
+
 }  // namespace
 }  // namespace mca

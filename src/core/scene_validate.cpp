@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <string>
 #include <string_view>
 #include <unordered_map>
@@ -28,6 +29,10 @@ using text::num;
 using text::suggestion;
 
 std::string vec(const Vec3d& v) { return fmt::format("[{}, {}, {}]", num(v[0]), num(v[1]), num(v[2])); }
+
+// A coefficient the solver keeps in float32 (a friction of 1e39 became infinite there).
+constexpr double kFloatMax = std::numeric_limits<float>::max();
+constexpr const char* kFrictionRange = ">= 0 and at most 3.4e38 (the largest float32)";
 
 class Checker {
  public:
@@ -102,7 +107,7 @@ void check_material(const Checker& c, const MaterialDef& m, std::size_t i) {
   }
   range("fracture_strain", m.fracture_strain, 0, false, INFINITY, false, "> 0",
         "use about 1.5 x tensile_strength / youngs_modulus so the stress criterion governs in slow tension");
-  range("friction", m.friction, 0, true, INFINITY, false, ">= 0", "use e.g. 0.6 for concrete, 0 for frictionless");
+  range("friction", m.friction, 0, true, kFloatMax, true, kFrictionRange, "use e.g. 0.6 for concrete, 0 for frictionless");
   range("restitution", m.restitution, 0.01, true, 1, true, "in [0.01, 1]",
         "use e.g. 0.2 for concrete, 1 for elastic (below 0.01 the contact dashpot would have to be so stiff that "
         "it sets the time step)");
@@ -521,7 +526,8 @@ void validate_scene(const SceneDef& scene) {
   // Ground.
   c.finite("ground.height", scene.ground.height);
   c.position("ground.height", {0, 0, scene.ground.height});
-  c.non_negative("ground.friction", scene.ground.friction, "use e.g. 0.6, or 0 for a frictionless ground");
+  c.range("ground.friction", scene.ground.friction, 0, true, kFloatMax, true, kFrictionRange,
+          "use e.g. 0.6, or 0 for a frictionless ground");
   c.range("ground.restitution", scene.ground.restitution, 0.01, true, 1, true, "in [0.01, 1]", "use e.g. 0.3");
   c.range("ground.rolling_friction", scene.ground.rolling_friction, 0, true, 1, true, "in [0, 1]",
           "use 0.3 (the default), 0 for none");
