@@ -11,6 +11,7 @@
 #include <fstream>
 #include <mutex>
 #include <optional>
+#include <tbb/task_arena.h>
 #include <unistd.h>
 
 #include "analysis/fragment_meshes.hpp"
@@ -30,7 +31,7 @@ constexpr double kRenderFixedBytes = 100e6, kRenderBytesPerPixel = 24, kRenderBy
 // and without output.fragments: 160 to 240 bytes for volume fills (the armadillo, the bunny, a box in 2,745
 // pieces), 390 to 570 for shells (the cow, spheres of 20,480 and 81,920 triangles), which are meshed on
 // both sides.
-constexpr double kFragmentBytesPerSurfaceVoxel = 250, kFragmentBytesPerShellVoxel = 600;
+constexpr double kFragmentBytesPerSurfaceVoxel = 250, kFragmentBytesPerShellVoxel = 600, kFragmentBytesPerThread = 6e6;
 }  // namespace
 
 std::string far_out_note(const Model& m, const SceneDef& scene) {
@@ -41,10 +42,11 @@ std::string far_out_note(const Model& m, const SceneDef& scene) {
   if (!(r > 1e3)) return "";
   // A coordinate of size r moves in steps of its unit in the last place: a step's v dt under half of it is lost.
   const double ulp = std::nextafter(r, INFINITY) - r;
-  return fmt::format("the scene reaches {:.3g} m from the origin, where its double positions resolve {:.2g} m: a step "
-                     "of {:.3g} s moves nothing slower than about {:.2g} m/s there, and a body at rest can gain energy "
-                     "(docs/model-notes.md, \"Far from the origin\"); within 1 km of the origin a scene behaves as at "
-                     "it: move its objects, projectiles and ground there",
+  return fmt::format("the scene reaches {:.0f} m from the origin, where its double positions resolve {:.2g} m: a step "
+                     "of {:.3g} s moves nothing slower than about {:.2g} m/s there, and a body at rest keeps small "
+                     "speeds it does not move by (on the cubic lattice, gaining energy: docs/model-notes.md, \"Far "
+                     "from the origin\"); a scene within 1 km of the origin behaves as at it: move its objects, "
+                     "projectiles and ground there",
                      r, ulp, static_cast<double>(m.dt), 0.5 * ulp / static_cast<double>(m.dt));
 }
 
@@ -155,11 +157,13 @@ MemoryEstimate estimate_memory(const Model& m, const OutputDef& o, int render_wi
   // A frame's posed surface and the bytes written from it: measured 1.9 MB for the bunny's 1.73 MB frames.
   if (o.surface && m.surface.faces() > 0)
     e.surface_output = 1.1 * estimate_output(m, o, 1).surface_frame;
-  // Fragment meshes (analysis/fragment_meshes.cpp): each piece is meshed and written on its own, so the
-  // peak is the largest piece's. What it holds grows with its surface in voxels of a third of the spacing
-  // (the field's band in OpenVDB, the mesh and its smoothing, the object's signed distance), plus a slab of
-  // 34 planes of the field across its box. A piece's surface is counted as its object's doubled (the crack
-  // faces of a half): a mesh object's triangles, another object's box.
+  // Fragment meshes (analysis/fragment_meshes.cpp): each piece is meshed and written on its own, those of
+  // more than kMeshedAlone automata one at a time, so the peak is the largest piece's, or as many small
+  // pieces as threads side by side. What a piece holds grows with its surface in voxels of a third of the
+  // spacing (the field's band in OpenVDB, the mesh and its smoothing, the object's signed distance), plus
+  // a slab of 34 planes of the field across its box. A piece's surface is counted as its object's doubled
+  // (the crack faces of a half): a mesh object's triangles, another object's box; a small piece's as a cube
+  // of kMeshedAlone cells (finer voxels for fewer automata keep it about that).
   if (o.fragments && m.size() > 0) {
     const double d = m.spacing, h = d / 3;
     const std::size_t n_obj = m.object_names.size();
@@ -177,7 +181,7 @@ MemoryEstimate estimate_memory(const Model& m, const OutputDef& o, int render_wi
       const Vec3* c = &m.surface.offset[3 * f];
       area[static_cast<std::size_t>(m.object[m.surface.automaton[f]])] += 0.5 * length(cross(c[1] - c[0], c[2] - c[0]));
     }
-    double peak = 0;
+    double peak = 0, small = 0;
     for (std::size_t o = 0; o < n_obj; ++o) {
       const auto& b = box[o];
       if (!(b[0] <= b[3])) continue;
@@ -190,8 +194,13 @@ MemoryEstimate estimate_memory(const Model& m, const OutputDef& o, int render_wi
       });
       const double per_voxel = shell ? kFragmentBytesPerShellVoxel : kFragmentBytesPerSurfaceVoxel;
       peak = std::max(peak, per_voxel * 2 * area[o] / (h * h) + 34 * 4 * plane);
+      const double side_cells = std::cbrt(static_cast<double>(analysis::kMeshedAlone)), across = (side_cells + 2.4) * 3 + 1;
+      small = std::max(small, per_voxel * 2 * 6 * side_cells * side_cells * 9 + 34 * 4 * across * across);
     }
-    e.fragment_meshes = peak;
+    // Each thread beyond the first adds its own buffers (OpenVDB's mesher, the allocator's arenas): measured
+    // 4 to 6 MB on a second thread, whatever the piece (8,000 or 64,000 automata).
+    const double threads = tbb::this_task_arena::max_concurrency();
+    e.fragment_meshes = std::max(peak, threads * small) + kFragmentBytesPerThread * (threads - 1);
   }
   // The renderer: Mesa's OpenGL (llvmpipe and its compiled shaders) and EGL, the picture's buffers, and
   // per frame the snapshot and its vertex buffers (a cube per automaton, or three vertices per triangle of

@@ -338,7 +338,7 @@ TEST(Cli, AFarSceneGetsANoteOfWhatItsPositionsResolve) {
   std::ofstream(far) << text;
   const Result info = run_mca("info " + far.string());
   ASSERT_EQ(info.code, 0) << info.output;
-  EXPECT_NE(info.output.find("note             the scene reaches 7e+05 m from the origin, where its double positions "
+  EXPECT_NE(info.output.find("note             the scene reaches 700000 m from the origin, where its double positions "
                              "resolve 1.2e-10 m: a step of "),
             std::string::npos)
       << info.output;
@@ -348,7 +348,7 @@ TEST(Cli, AFarSceneGetsANoteOfWhatItsPositionsResolve) {
   EXPECT_TRUE(nlohmann::json::parse(json.output).contains("far_from_origin"));
   const Result run = run_mca("run " + far.string() + " --steps 2 --no-vtk --out " + (d / "out").string());
   ASSERT_EQ(run.code, 0) << run.output;
-  EXPECT_NE(run.output.find("note: the scene reaches 7e+05 m"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("note: the scene reaches 700000 m"), std::string::npos) << run.output;
   const Result near_info = run_mca("info " + near.string() + " --json");
   ASSERT_EQ(near_info.code, 0) << near_info.output;
   EXPECT_FALSE(nlohmann::json::parse(near_info.output).contains("far_from_origin"));

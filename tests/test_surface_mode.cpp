@@ -543,6 +543,20 @@ TEST(SurfaceMode, FragmentMeshesAreClosedPiecesOfTheShell) {
   EXPECT_NEAR(sum / shell, 1.0, 0.1);
 }
 
+// A shell thicker than its triangles reaches past the box of its piece's automata: each piece is still a
+// closed mesh (the voxels beyond the box are kept outside; the fill carried the inside's sign past it and
+// opened a piece of the cow's shell).
+TEST(SurfaceMode, FragmentMeshesOfAThickShellAreClosed) {
+  TempDir t;
+  SceneDef s = shell_scene(t, 0.2, 3);
+  s.objects[0].shell_thickness = 0.08;
+  const Engine sim(s);
+  const Model& m = sim.model();
+  const auto meshes = analysis::fragment_meshes(m, sim.state(), test::cut_by_x(m, {-0.07, 0.05}), 8);
+  ASSERT_EQ(meshes.size(), 3u);
+  for (const auto& fm : meshes) EXPECT_TRUE(mesh::topology(fm.mesh).closed()) << "fragment " << fm.fragment;
+}
+
 }  // namespace
 }  // namespace mca
 

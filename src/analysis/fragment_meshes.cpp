@@ -230,7 +230,7 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
       cells[o]->build(m.cell0.data(), ids.size(), d, ids.data());
     }
   }
-  tbb::parallel_for(std::size_t{0}, chosen.size(), [&](std::size_t k) {
+  const auto mesh_one = [&](std::size_t k) {
     const std::int32_t frag = chosen[k];
     const auto& mem = members[static_cast<std::size_t>(frag)];
     const auto obj = static_cast<std::size_t>(m.object[mem[0]]);
@@ -395,7 +395,16 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
     }
     fm.volume = mesh::signed_volume(fm.mesh);
     sink(std::move(fm));
-  });
+  };
+  // Pieces of more than kMeshedAlone automata one at a time (each fills the machine with its own loops,
+  // and what it holds grows with its surface: four boxes meshed side by side on two threads held twice one's
+  // memory), then the rest side by side.
+  std::vector<std::size_t> small;
+  for (std::size_t k = 0; k < chosen.size(); ++k) {
+    if (static_cast<std::int64_t>(members[static_cast<std::size_t>(chosen[k])].size()) > kMeshedAlone) mesh_one(k);
+    else small.push_back(k);
+  }
+  tbb::parallel_for(std::size_t{0}, small.size(), [&](std::size_t i) { mesh_one(small[i]); });
 }
 
 }  // namespace mca::analysis

@@ -17,6 +17,8 @@
 
 namespace mca::analysis {
 
+inline constexpr std::int64_t kMeshedAlone = 512;
+
 struct FragmentMesh {
   std::int32_t fragment = 0;  // Fragments id
   std::int64_t automata = 0;
@@ -34,6 +36,7 @@ std::vector<FragmentMesh> fragment_meshes(const Model& model, const State& state
 
 // The same meshes, each handed to `sink` as soon as it is made and then let go (a run of many pieces holds
 // a few at a time, not all of them). `sink` is called from several threads at once, in no set order.
+// Pieces of more than kMeshedAlone automata are meshed one at a time, the others side by side.
 void for_each_fragment_mesh(const Model& model, const State& state, const Fragments& fragments,
                             std::int64_t min_automata, const std::function<void(FragmentMesh&&)>& sink,
                             int cells_per_spacing = 3);

@@ -275,7 +275,8 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
   if (pages > 0 && page > 0 && static_cast<double>(size) > 0.9 * static_cast<double>(pages) * static_cast<double>(page))
     throw Error(fmt::format("checkpoint '{}' holds {:.1f} GB, more than this machine's memory can read back ({:.1f} "
-                            "GB); resume it on a larger machine",
+                            "GB): resume it on a larger machine, or, if it is no checkpoint of this run, remove it to "
+                            "resume from the one before",
                             path.string(), static_cast<double>(size) / 1e9,
                             static_cast<double>(pages) * static_cast<double>(page) / 1e9));
   in.seekg(0);

@@ -82,6 +82,17 @@ TriMesh polygonize(const CellBox& box, const std::function<void(std::int64_t k, 
                 side(i, j + 1, k) != own || side(i, j, k - 1) != own || side(i, j, k + 1) != own)
               acc.setValue(openvdb::Coord(static_cast<int>(i), static_cast<int>(j), static_cast<int>(k)),
                            slab[static_cast<std::size_t>(k - lo) * per_plane + static_cast<std::size_t>(j * nx + i)]);
+            // A field not outside on the box's outer voxels (a shell piece reaching past its box) is closed
+            // by the background beyond: those voxels are stored at 2, so that the fill does not carry the
+            // inside's sign past the box (it opened shell pieces there).
+            if (own == 1 || (i > 0 && j > 0 && k > 0 && i < nx - 1 && j < ny - 1 && k < nz - 1)) continue;
+            for (std::int64_t dk = -1; dk <= 1; ++dk)
+              for (std::int64_t dj = -1; dj <= 1; ++dj)
+                for (std::int64_t di = -1; di <= 1; ++di) {
+                  const std::int64_t a = i + di, b = j + dj, c = k + dk;
+                  if (a < 0 || b < 0 || c < 0 || a >= nx || b >= ny || c >= nz)
+                    acc.setValue(openvdb::Coord(static_cast<int>(a), static_cast<int>(b), static_cast<int>(c)), 2.0f);
+                }
           }
     }
   }
