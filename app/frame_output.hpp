@@ -48,13 +48,13 @@ struct OutputEstimate {
 OutputEstimate estimate_output(const Model& model, const OutputDef& output, std::int64_t frames, int render_width = 0,
                                int render_height = 0);
 using text::human_bytes;
+// A scene that reaches beyond 1 km from the origin: what its double positions resolve there and the
+// slowest speed a step moves (docs/model-notes.md, "Far from the origin"), for mca run and mca info to
+// print; empty for a scene within 1 km.
+std::string far_out_note(const Model& model, const SceneDef& scene);
 // The lattice of the model's volume fills: "random", "cubic", or "" when every object is in surface mode;
 // lattice_name as mca run and mca info print it, "random (link_bending 0.1)" for the random one, "cubic
 // (lattice_jitter 0.25)" for a jittered cubic one (`jitter`: the scene's solver.lattice_jitter).
-// A scene that reaches beyond 1 km from the origin: what its double positions resolve there and the
-// slowest speed a step moves (a body at rest can gain energy there; docs/model-notes.md, "Far from the
-// origin"), for mca run and mca info to print; empty for a scene within 1 km.
-std::string far_out_note(const Model& model, const SceneDef& scene);
 std::string lattice_kind(const Model& model);
 std::string lattice_name(const Model& model, double jitter = 0);
 // Throws mca::Error when the estimate exceeds the space free in `dir` (which exists): the bytes, the frames and
@@ -119,10 +119,8 @@ class FrameWriter {
   void restore(std::int64_t frames, double frame_interval);
   static std::vector<std::string> stats_header(const Model& model);
   // At the end of a run (output.fragments): fragments/fragment_NNN.ply for each fragment of more than
-  // output.fragment_min_automata automata. Returns how many were written.
-  // Writes the meshes of the fragments of more than output.fragment_min_automata automata, each as it is
-  // made; returns how many. `each(done, total)` is called after each is written (one call at a time; it
-  // may throw to stop the rest).
+  // output.fragment_min_automata automata, each written as it is made; returns how many. `each(done,
+  // total)` is called after each is written (one call at a time; it may throw to stop the rest).
   std::size_t write_fragment_meshes(const State& s, const analysis::Fragments& frags,
                                     const std::function<void(std::size_t done, std::size_t total)>& each = {});
   // The bound surface's file of a frame, relative to the output folder.

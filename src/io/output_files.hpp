@@ -2,13 +2,13 @@
 // Output folders and crash-safe file writes. A run may be interrupted at any moment (Ctrl-C, a killed
 // job, a full disk); readers such as ParaView must then see either the previous complete file or none,
 // never a truncated one, so every output goes to a temporary name first and is renamed into place.
-#include <filesystem>
 #include <cstdint>
-#include <string_view>
-#include <optional>
+#include <filesystem>
 #include <functional>
+#include <optional>
 #include <ostream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace mca::io {

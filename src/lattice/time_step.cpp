@@ -108,7 +108,7 @@ double critical_step(double w2, double c) { return w2 > 0 ? (std::sqrt(4 * w2 + 
 
 // The step of stiffness w2 and damping c, named: where the dashpots shorten it by half again or more, they
 // are named with the factor (a material's damping_time is a time, so at a small spacing, whose modes are
-// fast, it overdamps them: the step falls with the square of the spacing, 17 times shorter at 1 mm).
+// fast, it overdamps them: the step falls with the square of the spacing, 20 times shorter at 1 mm).
 void set_step(TimeStepBound& out, double w2, double c, const std::string& springs) {
   out.dt = critical_step(w2, c);
   out.limited_by = springs;
