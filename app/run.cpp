@@ -289,10 +289,6 @@ constexpr std::array<std::array<const char*, 3>, 8> kRunNumberedFiles = {{{"fram
                                                                           {"checkpoints", "frame_", ".mcack"},
                                                                           {"render", "frame_", ".png"}}};
 
-// A new run replaces an earlier run's files in its folder. It refuses a folder whose files of those names
-// are not a run's (no scene.toml of mca's: a user's summary.json, a folder of another program), and one
-// whose run did not finish and can be resumed (checkpoints, and no summary of a finished run): one
-// command typed for another must not cost either.
 // The first 4 KB of a run folder's scene.toml (empty without one): whether mca wrote it, and the step
 // count of a --steps run (the comment at its top).
 struct SceneHead {
@@ -314,6 +310,10 @@ SceneHead read_scene_head(const std::filesystem::path& dir) {
   return h;
 }
 
+// A new run replaces an earlier run's files in its folder. It refuses a folder whose files of those names
+// are not a run's (no scene.toml of mca's: a user's summary.json, a folder of another program), and one
+// whose run did not finish and can be resumed (checkpoints, and no summary of a finished run): one
+// command typed for another must not cost either.
 void check_folder_is_a_runs(const std::filesystem::path& dir) {
   const std::string folder = text::shell_word(dir.string());
   std::error_code ec;

@@ -2,6 +2,7 @@
 
 #include <cstdlib>
 #include <string_view>
+#include <unistd.h>
 
 #include <fmt/format.h>
 
@@ -17,6 +18,11 @@ bool profile_requested() {
   throw Error(fmt::format("MCA_PROFILE = '{}': give 1 (print the time of each pass of the step when the backend "
                           "ends) or 0, or unset it",
                           v));
+}
+
+double machine_memory_bytes() {
+  const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && size > 0 ? static_cast<double>(pages) * static_cast<double>(size) : 0.0;
 }
 
 }  // namespace mca

@@ -7,10 +7,10 @@
 #include <fstream>
 #include <iterator>
 #include <string_view>
-#include <unistd.h>
 #include <utility>
 #include <type_traits>
 
+#include "core/environment.hpp"
 #include "core/files.hpp"
 #include "core/fnv.hpp"
 #include "io/output_files.hpp"
@@ -272,13 +272,11 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
     in.read(tail, sizeof tail);
   }
   if (!in || std::memcmp(tail, kMagic, sizeof kMagic) != 0) damaged_checkpoint(path, no_end_marker(size));
-  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
-  if (pages > 0 && page > 0 && static_cast<double>(size) > 0.9 * static_cast<double>(pages) * static_cast<double>(page))
+  if (const double machine = machine_memory_bytes(); machine > 0 && static_cast<double>(size) > 0.9 * machine)
     throw Error(fmt::format("checkpoint '{}' holds {:.1f} GB, more than this machine's memory can read back ({:.1f} "
                             "GB): resume it on a larger machine, or, if it is no checkpoint of this run, remove it to "
                             "resume from the one before",
-                            path.string(), static_cast<double>(size) / 1e9,
-                            static_cast<double>(pages) * static_cast<double>(page) / 1e9));
+                            path.string(), static_cast<double>(size) / 1e9, machine / 1e9));
   in.seekg(0);
   const std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   Reader r{data, path};

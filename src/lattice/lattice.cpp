@@ -11,9 +11,9 @@
 #include <memory>
 #include <numbers>
 #include <optional>
-#include <unistd.h>
 #include <unordered_map>
 
+#include "core/environment.hpp"
 #include "core/text.hpp"
 #include "grid/uniform_grid.hpp"
 #include "core/rng.hpp"
@@ -130,8 +130,7 @@ void lattice_frame(const ObjectDef& o, const MeshObject* m, double d, std::int64
 }  // namespace
 
 MemoryLimit memory_limit(const SceneDef& scene) {
-  const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGE_SIZE);  // (0 where it cannot tell)
-  const double machine = pages > 0 && size > 0 ? static_cast<double>(pages) * static_cast<double>(size) : 0.0;
+  const double machine = machine_memory_bytes();  // (0 where it cannot tell)
   const double setting = scene.solver.max_memory_gb * 1e9;
   if (machine > 0 && 0.9 * machine < setting)
     return {0.9 * machine,
