@@ -287,6 +287,13 @@ TEST(Checkpoint, StateCheckRefusesEachBrokenInvariant) {
       {"projectiles are saved", [](State& s) { s.projectiles.push_back(s.projectiles[0]); }},
       {"step counter", [](State& s) { s.step = -1; }},
       {"time", [](State& s) { s.time = std::numeric_limits<double>::infinity(); }},
+      // A time the steps do not make (a re-signed edit was resumed at it).
+      {"the time is 5 s at step", [](State& s) { s.time = 5.0; }},
+      {"where steps of", [&](State& s) { s.time = static_cast<double>(s.step + 1) * m.dt; }},
+      {"q[0] has length 0, and an orientation is a unit quaternion", [](State& s) { s.q[0] = {0, 0, 0, 0}; }},
+      {"q[4] has length 1e+30", [](State& s) { s.q[4] = {1e30f, 0, 0, 0}; }},
+      {"q[2] has length 1.01", [](State& s) { s.q[2] = {1.01f, 0, 0, 0}; }},
+      {"projectile 0's orientation has length 2", [](State& s) { s.projectiles[0].orientation = {2, 0, 0, 0}; }},
       {"x[3]", [](State& s) { s.x[3].y = std::numeric_limits<double>::quiet_NaN(); }},
       {"v[0]", [&](State& s) { s.v[0].z = nan; }},
       {"q[5]", [&](State& s) { s.q[5].w = std::numeric_limits<float>::infinity(); }},
@@ -349,6 +356,27 @@ TEST(Checkpoint, StateCheckRefusesEachBrokenInvariant) {
       EXPECT_NE(what.find(expected), std::string::npos) << what;
       EXPECT_NE(what.find("start the run again"), std::string::npos) << what;
     }
+  }
+}
+
+// The energy the blow-up check measures against is the run's first state's, which the checkpoint's scene
+// gives again: an edited one (1e300 turned the check off, -1e300 stopped the run as unstable) is refused.
+TEST(Checkpoint, AnEditedStartingEnergyIsRefused) {
+  const Fixture& f = fixture();
+  const Engine original(f.scene);
+  const std::uint64_t fingerprint = model_fingerprint(original.model());
+  const std::string source = "checkpoint 'x/frame_000002.mcack'";
+  ASSERT_NE(f.state.initial_energy, 0.0);
+  EXPECT_EQ(f.state.initial_energy, original.state().initial_energy);
+  EXPECT_NO_THROW(Engine(f.scene, f.state, source, fingerprint));
+  for (const double edited : {1e300, -1e300, 0.0, f.state.initial_energy * 1.001}) {
+    SCOPED_TRACE(edited);
+    State s = f.state;
+    s.initial_energy = edited;
+    const std::string e = test::error_of([&] { Engine(f.scene, s, source, fingerprint); });
+    EXPECT_EQ(e.rfind(source + ": the saved state does not fit the model of its scene: its run's starting energy is "
+                      "saved as ", 0), 0u) << e;
+    EXPECT_NE(e.find(fmt::format("the scene's first state holds {} J", f.state.initial_energy)), std::string::npos) << e;
   }
 }
 

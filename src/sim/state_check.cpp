@@ -84,6 +84,14 @@ bool finite(const Sym3& s) {
   return finite(s.xx) && finite(s.yy) && finite(s.zz) && finite(s.xy) && finite(s.yz) && finite(s.zx);
 }
 
+// Integration keeps each orientation normalised to float rounding (core/math.hpp).
+// (A float, so that it prints as short as the numbers it is made of.)
+float length(const Quat& q) {
+  const double w = q.w, x = q.x, y = q.y, z = q.z;
+  return static_cast<float>(std::sqrt(w * w + x * x + y * y + z * z));
+}
+bool unit(const Quat& q) { return std::fabs(length(q) - 1.0f) <= 1e-3f; }
+
 class StateChecker {
  public:
   StateChecker(const Model& m, const std::string& source) : m_(m), source_(source) {}
@@ -187,6 +195,10 @@ void check_state(const Model& m, const State& s, const std::string& source) {
 
   if (s.step < 0) c.fail(fmt::format("the step counter is {}", s.step));
   if (!std::isfinite(s.time) || s.time < 0) c.fail(fmt::format("the time is {}", s.time));
+  // The clock is the step count times the step (a resumed run adds its steps to its checkpoint's time).
+  const double clock = static_cast<double>(s.step) * m.dt;
+  if (!(std::fabs(s.time - clock) <= 1e-6 * (clock + m.dt)))
+    c.fail(fmt::format("the time is {} s at step {}, where steps of {} s make {} s", s.time, s.step, m.dt, clock));
 
   // Per automaton.
   c.size("x", s.x, n, "automata");
@@ -208,6 +220,8 @@ void check_state(const Model& m, const State& s, const std::string& source) {
   c.all_finite("f", s.f);
   c.all_finite("t", s.t);
   c.all_finite("x_at_rebuild", s.x_at_rebuild);
+  for (std::size_t k = 0; k < n; ++k)
+    if (!unit(s.q[k])) c.fail(fmt::format("q[{}] has length {}, and an orientation is a unit quaternion", k, length(s.q[k])));
 
   // Per link. Links only ever break (all are intact at the start), and each break is recorded once, so
   // the broken links, the break records and the counters by criterion are three views of one set.
@@ -281,6 +295,9 @@ void check_state(const Model& m, const State& s, const std::string& source) {
     if (!finite(ps.position) || !finite(ps.velocity) || !finite(ps.angular_velocity) || !finite(ps.orientation) ||
         !finite(ps.force))
       c.fail(fmt::format("projectile {} has a non-finite position, velocity, orientation or force", p));
+    if (!unit(ps.orientation))
+      c.fail(fmt::format("projectile {}'s orientation has length {}, and an orientation is a unit quaternion", p,
+                         length(ps.orientation)));
     for (std::size_t k = 0; k < ps.contacts.size(); ++k) {
       const BodyContact& b = ps.contacts[k];
       if (b.automaton >= n)
