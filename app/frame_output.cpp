@@ -451,17 +451,39 @@ void FrameWriter::remove_stale_temporaries(const std::filesystem::path& dir) {
     io::remove_stale_temporaries(dir / sub);
 }
 
-void FrameWriter::restore(std::int64_t frames, double frame_interval) {
+std::vector<std::int64_t> FrameWriter::restore(std::int64_t frames, const std::function<double(std::int64_t)>& time_of) {
   automata_pvd_.clear();
   projectile_pvd_.clear();
   surface_pvd_.clear();
-  if (!vtk_) return;
+  std::vector<std::int64_t> missing;
+  const auto there = [&](const std::string& name) { return std::filesystem::is_regular_file(dir_ / name); };
   for (std::int64_t f = 0; f < frames; ++f) {
-    automata_pvd_.emplace_back(f * frame_interval, fmt::format("frames/automata_{:06d}.vtu", f));
-    if (surface_) surface_pvd_.emplace_back(f * frame_interval, fmt::format("frames/surface_{:06d}.vtp", f));
-    if (!model_.projectiles.empty())
-      projectile_pvd_.emplace_back(f * frame_interval, fmt::format("frames/projectiles_{:06d}.vtu", f));
+    const double t = time_of(f);
+    bool whole = !surface_ || there(surface_name(f, surface_format_));
+    if (vtk_) {
+      const std::string automata = fmt::format("frames/automata_{:06d}.vtu", f);
+      if (there(automata)) automata_pvd_.emplace_back(t, automata);
+      else whole = false;
+      if (surface_) {
+        const std::string name = fmt::format("frames/surface_{:06d}.vtp", f);
+        if (there(name)) surface_pvd_.emplace_back(t, name);
+        else whole = false;
+      }
+      if (!model_.projectiles.empty()) {
+        const std::string name = fmt::format("frames/projectiles_{:06d}.vtu", f);
+        if (there(name)) projectile_pvd_.emplace_back(t, name);
+        else whole = false;
+      }
+    }
+    if (!whole) missing.push_back(f);
   }
+  // Written now, not with the next frame: a run with no frame left to write keeps them.
+  if (vtk_) {
+    io::write_pvd(dir_ / "automata.pvd", automata_pvd_);
+    if (surface_) io::write_pvd(dir_ / "surface.pvd", surface_pvd_);
+    if (!model_.projectiles.empty()) io::write_pvd(dir_ / "projectiles.pvd", projectile_pvd_);
+  }
+  return missing;
 }
 
 std::vector<std::string> FrameWriter::stats_header(const Model& model) {

@@ -15,7 +15,9 @@
 #include <spawn.h>
 #include <sys/wait.h>
 
+#include "analysis/fragments.hpp"
 #include "backend/backend.hpp"
+#include "core/text.hpp"
 #include "io/output_files.hpp"
 #include "mca/error.hpp"
 #include "render/egl_context.hpp"
@@ -163,29 +165,38 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
                video_command());
   }
   // A resumed run: the frames written before go into the video and the contact sheet from their PNGs.
+  // The checkpoint's own frame is drawn again where its PNG is gone; an earlier one cannot be (no state of
+  // it is left), and then there is no whole video to make.
+  std::vector<std::int64_t> lost;
+  std::string why;
   for (std::int64_t f = 0; f < first_frame; ++f) {
     const std::filesystem::path png = dir_ / frame_name(f);
     render::Image im;
     try {
       im = render::read_png(png);
+      if (im.width != options.width || im.height != options.height)
+        throw Error(fmt::format("{} is {}x{}, not the run's {}x{}", png.string(), im.width, im.height, options.width,
+                                options.height));
     } catch (const Error& e) {
-      if (video_) {
-        fmt::print(stderr, "warning: {} cannot be read ({}): the video will not be written (the PNG frames still are)\n",
-                   png.string(), e.what());
-        video_.reset();
+      if (f == first_frame - 1 && !std::filesystem::exists(png)) {
+        write_frame(f, sim.state(), analysis::label_model_fragments(m, sim.state().intact.data()));
+        continue;
       }
-      continue;
-    }
-    if (im.width != options.width || im.height != options.height) {
-      if (video_) {
-        fmt::print(stderr, "warning: {} is {}x{}, not the run's {}x{}: the video will not be written (the PNG frames still are)\n", png.string(),
-                   im.width, im.height, options.width, options.height);
-        video_.reset();
-      }
+      if (lost.empty()) why = e.what();
+      lost.push_back(f);
       continue;
     }
     add_to_video(im);
     keep_for_sheet(f, im);
+  }
+  if (!lost.empty()) {
+    fmt::print(stderr, "warning: {} frame{} drawn before the checkpoint cannot be read (frame{} {}; {}): {}the contact "
+               "sheet leaves {} out, and a resume cannot draw {} again\n",
+               lost.size(), lost.size() > 1 ? "s" : "", lost.size() > 1 ? "s" : "", text::number_runs(lost), why,
+               video_ ? "render/video.mp4 will not be written, " : "", lost.size() > 1 ? "them" : "it",
+               lost.size() > 1 ? "them" : "it");
+    video_.reset();
+    lost_ = static_cast<std::int64_t>(lost.size());
   }
   if (!quiet_)
     fmt::print(stderr, "mca: rendering {}x{} ({}, colour by {}) with {} ({}) into {}{}\n", options.width,
@@ -260,9 +271,10 @@ void RenderOutput::finish() {
   if (!tiles.empty()) write_bytes(dir_ / "contact_sheet.png", render::encode_png(render::tile(tiles, kSheetColumns, 4)));
   seconds_ += seconds_since(t0);
   if (!quiet_) {
-    fmt::print(stderr, "render: {} frames (frame_NNNNNN.png) and contact_sheet.png in {} ({:.1f} s of drawing and "
+    fmt::print(stderr, "render: {} frames (frame_NNNNNN.png) and contact_sheet.png in {}{} ({:.1f} s of drawing and "
                "writing)\n",
-               frames_ + 1, dir_.string(), seconds_);
+               frames_ + 1 - lost_, dir_.string(), lost_ ? fmt::format(", {} lost before a resume", lost_) : "",
+               seconds_);
     if (std::filesystem::exists(dir_ / "video.mp4"))
       fmt::print(stderr, "video: {} ({} frames at {:g} frames/s: {:.1f} s)\n", (dir_ / "video.mp4").string(),
                  frames_ + 1, fps_, static_cast<double>(frames_ + 1) / fps_);

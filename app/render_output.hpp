@@ -83,6 +83,7 @@ class RenderOutput {
   RenderOptions options_;
   bool quiet_;
   std::int64_t frames_;
+  std::int64_t lost_ = 0;  // frames drawn before a resume whose PNG is gone or unreadable
   std::unique_ptr<render::EglContext> context_;
   std::unique_ptr<render::Renderer> renderer_;
   std::unique_ptr<render::OffscreenTarget> target_;

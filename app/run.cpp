@@ -893,7 +893,10 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
     }
   }
   FrameWriter writer(dir, sim.model(), cp.scene.output);
-  writer.restore(cp.frame, sim.frame_interval());
+  // Frame f is at the step the run wrote it at (min(f spf, total)), at that step's time.
+  auto missing = writer.restore(cp.frame, [&](std::int64_t f) {
+    return static_cast<double>(std::min(f * sim.steps_per_frame(), plan.total_steps)) * sim.model().dt;
+  });
   Loop L{sim, dir, threads, quiet, cp.scene.output.checkpoint_every, plan, 0, 0.0, render.get()};
   L.frame = cp.frame;
   L.wall_before = cp.wall_seconds;
@@ -906,6 +909,16 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
     fmt::print(stderr, "warning: {} has {} of the {} rows up to the checkpoint; the rows of frames {}..{} will be "
                "missing from it\n",
                (dir / "stats.csv").string(), rows.size(), cp.frame, rows.size(), cp.frame - 1);
+  // So are the checkpoint's own frame's files; those of earlier frames are gone for good (no state of them
+  // is left), and the collections leave them out.
+  if (!missing.empty() && missing.back() == cp.frame - 1) {
+    writer.write_frame(cp.frame - 1, sim.state(), writer.fragments(sim.state()));
+    missing.pop_back();
+  }
+  if (!missing.empty())
+    fmt::print(stderr, "warning: {} lacks files of {} of the {} frames before the checkpoint (frame{} {}); the .pvd "
+               "collections list the frames that are whole, and a resume cannot write the others again\n",
+               dir.string(), missing.size(), cp.frame - 1, missing.size() > 1 ? "s" : "", text::number_runs(missing));
   writer.start_stats(rows);
   // The plots are made again only by a rendered run; a run with no step left keeps them (and its stats).
   if (remove_end_outputs(dir, steps_left) > 0 && !render && !quiet)

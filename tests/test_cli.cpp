@@ -974,4 +974,17 @@ TEST(Cli, AFolderInASuggestedCommandIsQuotedForTheShell) {
   }
 }
 
+// Frame numbers in a message (frames lost before a resume) as runs, and a long list cut short.
+TEST(Cli, NumbersInAMessageAreGivenAsRuns) {
+  using mca::text::number_runs;
+  EXPECT_EQ(number_runs({}), "");
+  EXPECT_EQ(number_runs({7}), "7");
+  EXPECT_EQ(number_runs({0, 1}), "0, 1");
+  EXPECT_EQ(number_runs({0, 1, 2, 5, 7, 8, 9, 10}), "0..2, 5, 7..10");
+  EXPECT_EQ(number_runs({1, 3, 5, 7, 9, 10}, 2), "1, 3, and 4 more");
+  std::vector<std::int64_t> many(1000000);
+  for (std::size_t k = 0; k < many.size(); ++k) many[k] = 2 * static_cast<std::int64_t>(k);
+  EXPECT_EQ(number_runs(many).size(), std::string("0, 2, 4, 6, 8, 10, 12, 14, and 999992 more").size());
+}
+
 }  // namespace

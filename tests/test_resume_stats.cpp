@@ -1,7 +1,8 @@
 // `mca resume` cuts stats.csv back to the checkpoint's rows, whatever the stopped run left past them or
 // cut short, so that the resumed run's stats.csv is an uninterrupted run's. A torn row used to be kept
-// as a row of its own.
+// as a row of its own. Frames removed before the checkpoint are left out of what lists them.
 #include <gtest/gtest.h>
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <filesystem>
@@ -184,6 +185,66 @@ TEST(ResumeStats, AResumeRemovesTheEarlierEndAndAFinishedRunKeepsItsPlots) {
   for (const auto& p : plots) EXPECT_FALSE(fs::exists(left / "render" / p)) << p;
   EXPECT_TRUE(fs::exists(left / "render" / "video.mp4"));  // (the frames drawn so far stay, as the warning says)
   EXPECT_NE(read(left / "summary.json").find("\"status\": \"finished\""), std::string::npos);
+}
+
+// Frames removed from a run's folder before its checkpoint: the checkpoint's own frame (VTK and PNG) is
+// written again from its state, as the run wrote it; an earlier one cannot be, and the resume says so, the
+// .pvd collections leave it out (they listed the missing files) and no video is made of a rendering with a
+// hole. Also when no step is left and no frame is written, where the collections used to stay as they were.
+TEST(ResumeStats, FramesRemovedBeforeTheCheckpointAreLeftOutAndItsOwnIsWrittenAgain) {
+  mca::test::TempDir t;
+  const fs::path scene = small_scene(t.path());
+  const fs::path base = t.path() / "base";
+  const Result b = run_mca("run " + scene.string() + " --out " + base.string() +
+                           " -q --checkpoint-every 2 --render --render-size 160x90");
+  ASSERT_EQ(b.code, 0) << b.output;
+  const std::string pvd = read(base / "automata.pvd");
+  ASSERT_NE(pvd.find("automata_000004.vtu"), std::string::npos) << pvd;
+  for (const bool finished : {false, true}) {
+    SCOPED_TRACE(finished ? "no step left" : "steps left");
+    const fs::path out = t.path() / (finished ? "finished" : "left");
+    fs::copy(base, out, fs::copy_options::recursive);
+    if (!finished) {
+      ASSERT_TRUE(fs::remove(out / "checkpoints" / "frame_000004.mcack"));
+    }
+    const int own = finished ? 4 : 2;
+    const std::string own_vtu = fmt::format("frames/automata_{:06d}.vtu", own);
+    const std::string own_png = fmt::format("render/frame_{:06d}.png", own);
+    std::vector<std::string> gone = {"frames/automata_000001.vtu", "render/frame_000001.png"};
+    if (!finished) gone.insert(gone.end(), {own_vtu, own_png});  // (with none, the .pvd is written by the frame)
+    for (const auto& g : gone) ASSERT_TRUE(fs::remove(out / g)) << g;
+    const Result r = run_mca("resume " + out.string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find(fmt::format("warning: {} lacks files of 1 of the {} frames before the checkpoint (frame 1)",
+                                        out.string(), own)),
+              std::string::npos)
+        << r.output;
+    EXPECT_NE(r.output.find("warning: 1 frame drawn before the checkpoint cannot be read (frame 1; "), std::string::npos)
+        << r.output;
+    EXPECT_NE(r.output.find("render: 4 frames (frame_NNNNNN.png) and contact_sheet.png in " + (out / "render").string() +
+                            ", 1 lost before a resume"),
+              std::string::npos)
+        << r.output;
+    EXPECT_FALSE(fs::exists(out / "render" / "video.mp4"));
+    // The checkpoint's own frame is the run's, byte for byte.
+    EXPECT_EQ(read(out / own_vtu), read(base / own_vtu));
+    EXPECT_EQ(read(out / own_png), read(base / own_png));
+    std::string expected = pvd;
+    const std::size_t at = expected.find("    <DataSet timestep=\"0.001");
+    ASSERT_NE(at, std::string::npos) << pvd;
+    expected.erase(at, expected.find('\n', at) + 1 - at);
+    EXPECT_EQ(read(out / "automata.pvd"), expected);
+    EXPECT_EQ(read(out / "stats.csv"), read(base / "stats.csv"));
+  }
+  // Nothing removed: the collections are the run's.
+  const fs::path whole = t.path() / "whole";
+  fs::copy(base, whole, fs::copy_options::recursive);
+  ASSERT_TRUE(fs::remove(whole / "checkpoints" / "frame_000004.mcack"));
+  const Result w = run_mca("resume " + whole.string() + " -q");
+  ASSERT_EQ(w.code, 0) << w.output;
+  EXPECT_EQ(w.output.find("warning"), std::string::npos) << w.output;
+  EXPECT_EQ(read(whole / "automata.pvd"), pvd);
+  EXPECT_TRUE(fs::exists(whole / "render" / "video.mp4"));
 }
 
 }  // namespace

@@ -120,6 +120,20 @@ std::string suggestion(std::string_view word, const std::vector<std::string>& ca
   return fmt::format("; allowed: {}", fmt::join(candidates, ", "));
 }
 
+std::string number_runs(const std::vector<std::int64_t>& sorted, std::size_t most) {
+  std::string out;
+  std::size_t runs = 0, k = 0;
+  for (; k < sorted.size() && runs < most; ++runs) {
+    std::size_t end = k;
+    while (end + 1 < sorted.size() && sorted[end + 1] == sorted[end] + 1) ++end;
+    out += fmt::format("{}{}", runs ? ", " : "", sorted[k]);
+    if (end > k) out += fmt::format("{}{}", end == k + 1 ? ", " : "..", sorted[end]);
+    k = end + 1;
+  }
+  if (k < sorted.size()) out += fmt::format(", and {} more", sorted.size() - k);
+  return out;
+}
+
 std::string human_bytes(double bytes) {
   const char* units[] = {"bytes", "KB", "MB", "GB", "TB", "PB", "EB"};
   int u = 0;

@@ -1,6 +1,7 @@
 #pragma once
 // Text for messages and scene files, shared by the scene reader and writer (src/io) and validate_scene
 // (src/core), so that a number or a name reads the same in every message.
+#include <cstdint>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -38,6 +39,9 @@ std::size_t edit_distance(std::string_view a, std::string_view b);
 std::string suggestion(std::string_view word, const std::vector<std::string>& candidates);
 // The "; did you mean 'x'?" of suggestion, or "" when no candidate is close.
 std::string did_you_mean(std::string_view word, const std::vector<std::string>& candidates);
+
+// Sorted numbers as runs for a message: "0, 3..7, 12"; past `most` runs, ", and N more".
+std::string number_runs(const std::vector<std::int64_t>& sorted, std::size_t most = 8);
 
 // A size for a message: "512 bytes", "430 KB", "1.72 TB" (3 digits; units of 1000).
 std::string human_bytes(double bytes);
