@@ -66,22 +66,28 @@ namespace {
 
 // The build of the model (a mesh fill or a large lattice can take minutes) does not look at g_stop_signal:
 // a signal then ends the process at once, saying so (it used to end it without a word). Nothing of the run
-// has been written by then; a resumed run's folder is as it was.
+// has been written by then; a resumed run's folder is as it was, and the folders a new run made for its
+// output are removed again (rmdir is async-signal-safe, and removes only a folder that is empty).
+std::vector<std::string> g_made_for_the_run;  // deepest first; set before the handler, read only by it
 extern "C" void on_build_signal(int sig) {
+  for (const std::string& folder : g_made_for_the_run)
+    if (rmdir(folder.c_str()) != 0) break;
   static const char kMessage[] = "\nmca: stopped by a signal while building the model, before the first step; "
                                  "nothing was written\n";
   if (write(STDERR_FILENO, kMessage, sizeof kMessage - 1) < 0) {
   }
   _exit(128 + sig);
 }
-// While one lives, SIGINT, SIGTERM and SIGHUP end a build as above; then their default action again, until
-// run_loop takes them.
+// While one lives, SIGINT, SIGTERM and SIGHUP end a build as above, removing the (empty) folders `made`;
+// then their default action again, until run_loop takes them.
 struct BuildSignals {
-  BuildSignals() {
+  explicit BuildSignals(const std::vector<std::filesystem::path>& made = {}) {
+    g_made_for_the_run.assign(made.begin(), made.end());
     for (const int sig : {SIGINT, SIGTERM, SIGHUP}) std::signal(sig, on_build_signal);
   }
   ~BuildSignals() {
     for (const int sig : {SIGINT, SIGTERM, SIGHUP}) std::signal(sig, SIG_DFL);
+    g_made_for_the_run.clear();
   }
   BuildSignals(const BuildSignals&) = delete;
   BuildSignals& operator=(const BuildSignals&) = delete;
@@ -169,15 +175,18 @@ void write_fragments_csv(const std::filesystem::path& path, const std::vector<an
 // `wall_before`: the wall seconds of the sessions before this one (a resume's checkpoint); `session_wall`
 // and `session_steps`: this session's own, which give the rate (the steps of a resume over the whole
 // wall time would understate it by the share of the earlier sessions).
+// `resumed_from`: the checkpoint this session started from (a resume), else empty; the scene of a resumed
+// run is its folder's scene.toml (which the checkpoint's was checked to be).
 void write_summary(const std::filesystem::path& dir, const Engine& sim, const analysis::Fragments& frags,
                    double wall_before, double session_wall, std::int64_t session_steps, int threads,
-                   const std::string& status) {
+                   const std::string& status, const std::filesystem::path& resumed_from) {
   const double wall = wall_before + session_wall;
   const Model& m = sim.model();
   const State& s = sim.state();
   nlohmann::json j;
   j["scene"] = sim.scene().name;
-  j["scene_file"] = sim.scene().source;
+  j["scene_file"] = resumed_from.empty() ? sim.scene().source : (dir / "scene.toml").string();
+  if (!resumed_from.empty()) j["resumed_from"] = resumed_from.string();
   j["status"] = status;
   j["automata"] = m.size();
   j["links"] = m.link_count();
@@ -430,6 +439,7 @@ struct Loop {
   double wall_before = 0;      // wall seconds of earlier sessions (resume)
   RenderOutput* render = nullptr;  // --render
   bool warned_removal = false;     // an older checkpoint could not be removed (said once)
+  std::filesystem::path resumed_from;  // the checkpoint a resume started from
 };
 
 void save_checkpoint(Loop& L, FrameWriter& writer, double wall) {
@@ -527,7 +537,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
         // Checkpoints hold frame boundaries only: stop here, and point to the newest one.
         const auto saved = io::list_checkpoints(L.dir / "checkpoints");
         write_summary(L.dir, sim, writer.fragments(sim.state()), L.wall_before, elapsed(),
-                      sim.state().step - first_step, L.threads, "interrupted");
+                      sim.state().step - first_step, L.threads, "interrupted", L.resumed_from);
         say("{}interrupted by {} inside frame {} (step {} of the run); checkpoints are saved at frame ends only, so "
             "{}\n",
             tty ? "\n" : "", signal_name(sig), L.frame, sim.state().step,
@@ -565,7 +575,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
     if (const int sig = stop; sig != 0) {
       save_checkpoint(L, writer, L.wall_before + wall);
       write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads,
-                    "interrupted");
+                    "interrupted", L.resumed_from);
       say("{}interrupted by {} after frame {}; a checkpoint is saved. Continue with: mca resume {}\n",
           tty ? "\n" : "", signal_name(sig), L.frame - 1, text::shell_word(L.dir.string()));
       return 128 + sig;
@@ -586,13 +596,13 @@ int run_loop(Loop& L, FrameWriter& writer) {
       shown = now;
       fmt::print(stderr, "\rfragment meshes: {} of {}", done, total);
     });
-    write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads, "finished");
+    write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads, "finished", L.resumed_from);
   } catch (const MeshesStopped&) {
     const int sig = stop;
     try {
       save_checkpoint(L, writer, L.wall_before + wall);
       write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads,
-                    "interrupted");
+                    "interrupted", L.resumed_from);
     } catch (const Error& e) {
       return stopped(e, "after its last step", L.frame - 1, "", "");
     }
@@ -740,7 +750,7 @@ int run(const RunOptions& o) {
   std::optional<lattice::BuildProgress> building;
   if (!o.quiet) building.emplace();
   std::optional<BuildSignals> build_signals;
-  build_signals.emplace();
+  build_signals.emplace(created.made);
   Engine sim(scene);
   build_signals.reset();
   catch_stop_signals();  // (from here a signal is the run's to answer: the renderer's set-up, frame 0)
@@ -791,7 +801,7 @@ int run(const RunOptions& o) {
   FrameWriter::remove_stale_temporaries(dir);
   remove_empty_output_folders(dir, render != nullptr);
   FrameWriter writer(dir, sim.model(), scene.output);
-  Loop L{sim, dir, threads, o.quiet, scene.output.checkpoint_every, plan, 0, 0.0, render.get()};
+  Loop L{sim, dir, threads, o.quiet, scene.output.checkpoint_every, plan, 0, 0.0, render.get(), false, {}};
   // Frame 0: the initial state.
   const auto frags = writer.fragments(sim.state());
   try {
@@ -897,7 +907,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   auto missing = writer.restore(cp.frame, [&](std::int64_t f) {
     return static_cast<double>(std::min(f * sim.steps_per_frame(), plan.total_steps)) * sim.model().dt;
   });
-  Loop L{sim, dir, threads, quiet, cp.scene.output.checkpoint_every, plan, 0, 0.0, render.get()};
+  Loop L{sim, dir, threads, quiet, cp.scene.output.checkpoint_every, plan, 0, 0.0, render.get(), false, all.back()};
   L.frame = cp.frame;
   L.wall_before = cp.wall_seconds;
   // The checkpoint's own frame's row is the checkpoint's state's: one lost or cut short is made again from it.

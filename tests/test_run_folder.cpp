@@ -64,6 +64,12 @@ TEST(RunFolder, ResumeRefusesACheckpointOfAnotherScene) {
   const Result missing = run_mca("resume " + a.string() + " -q");
   EXPECT_EQ(missing.code, 2) << missing.output;
   EXPECT_NE(missing.output.find("scene.toml is missing"), std::string::npos) << missing.output;
+  // One that is a folder is named as such (it was "missing").
+  fs::create_directory(a / "scene.toml");
+  const Result folder = run_mca("resume " + a.string() + " -q");
+  EXPECT_EQ(folder.code, 2) << folder.output;
+  EXPECT_NE(folder.output.find("scene.toml is a directory, not the run's scene file"), std::string::npos)
+      << folder.output;
   // The folder's own checkpoint resumes (twice: the checkpoints a resume writes carry the scene as read back).
   for (const fs::path& ck : checkpoints(b)) fs::remove(ck);
   ASSERT_EQ(run_mca("run " + other.string() + " --out " + b.string() + " -q --checkpoint-every 1").code, 0);
@@ -117,7 +123,7 @@ TEST(RunFolder, NewRunRemovesAnEarlierRunsFragmentsAndPictures) {
 }
 
 // The rate of a resumed run is its own steps over its own wall time: the earlier sessions' wall time (here
-// made a million seconds) must not divide it.
+// made a million seconds) must not divide it. (A wall time of a million seconds is one a checkpoint may hold.)
 TEST(RunFolder, ResumedRateIsTheSessionsOwn) {
   TempDir t;
   const fs::path out = t.path() / "out";
@@ -140,6 +146,9 @@ TEST(RunFolder, ResumedRateIsTheSessionsOwn) {
   EXPECT_LT(session, 1e3);
   EXPECT_DOUBLE_EQ(j["automaton_steps_per_second"].get<double>(),
                    static_cast<double>(steps) * j["automata"].get<double>() / session);
+  // Its scene is the folder's scene.toml (it named the checkpoint's embedded scene), and its checkpoint is named.
+  EXPECT_EQ(j["scene_file"], (out / "scene.toml").string());
+  EXPECT_EQ(j["resumed_from"], cks.front().string());
 }
 
 // Two runs into one folder at once mixed their frames, stats and summaries, and both exited 0: while one

@@ -105,21 +105,27 @@ TEST(Signals, SigtermAndSighupStopARunAsCtrlCDoes) {
 
 // A signal while the model is built ends the process at once with a message and 128 + the signal; it
 // used to end it without a word (found by the hostile review). A box of about a million automata takes
-// seconds to build; the signal comes after one.
+// seconds to build; the signal comes after one. The folders the run made for its output go again (they
+// were left empty), and a folder that was there stays.
 TEST(Signals, ASignalDuringTheBuildEndsItWithAMessage) {
   mca::test::TempDir t;
   const fs::path scene = t.path() / "big.toml";
   std::ofstream(scene) << "[solver]\ntarget_automata = 1000000\n[[object]]\nname = \"b\"\n"
                           "size = [2, 0.4, 2]\nposition = [0, 0, 1.1]\n";
-  const fs::path out = t.path() / "out";
-  const mca::test::Result r = mca::test::shell("( " + std::string(MCA_BINARY) + " run " + scene.string() + " --out " +
-                                               out.string() + " & p=$!; sleep 1; kill -TERM $p; wait $p; echo rc=$? )");
-  EXPECT_NE(r.output.find("mca: stopped by a signal while building the model, before the first step; nothing was "
-                          "written"),
-            std::string::npos)
-      << r.output;
-  EXPECT_NE(r.output.find("rc=143"), std::string::npos) << r.output;
-  EXPECT_FALSE(fs::exists(out / "summary.json"));
+  fs::create_directories(t.path() / "there");
+  for (const fs::path& out : {t.path() / "new" / "deeper" / "out", t.path() / "there"}) {
+    SCOPED_TRACE(out.string());
+    const mca::test::Result r = mca::test::shell("( " + std::string(MCA_BINARY) + " run " + scene.string() + " --out " +
+                                                 out.string() + " & p=$!; sleep 1; kill -TERM $p; wait $p; echo rc=$? )");
+    EXPECT_NE(r.output.find("mca: stopped by a signal while building the model, before the first step; nothing was "
+                            "written"),
+              std::string::npos)
+        << r.output;
+    EXPECT_NE(r.output.find("rc=143"), std::string::npos) << r.output;
+  }
+  EXPECT_FALSE(fs::exists(t.path() / "new"));
+  EXPECT_TRUE(fs::is_directory(t.path() / "there"));
+  EXPECT_TRUE(fs::is_empty(t.path() / "there"));
 }
 
 }  // namespace

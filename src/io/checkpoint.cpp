@@ -314,11 +314,14 @@ void check_checkpoint_scene(const Checkpoint& cp, const std::filesystem::path& c
       "if no checkpoint of its own is left); to run its scene, start it with mca run",
       checkpoint.parent_path().string());
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(own, ec))
-    throw Error(fmt::format("checkpoint '{}': {} is missing, so the folder's scene is unknown and the checkpoint "
+  if (!std::filesystem::is_regular_file(own, ec)) {
+    const std::string kind = files::non_regular_kind(own);
+    throw Error(fmt::format("checkpoint '{}': {} {}, so the folder's scene is unknown and the checkpoint "
                             "cannot be told to be this run's (mca run writes scene.toml into every run folder); "
                             "restore scene.toml, or {}",
-                            checkpoint.string(), own.string(), fix));
+                            checkpoint.string(), own.string(),
+                            kind.empty() ? "is missing" : fmt::format("is {}, not the run's scene file", kind), fix));
+  }
   // Both as the writer gives them back: every key, in one order, numbers in their shortest form. Where the
   // step runs is not the scene (every backend continues a checkpoint with the same bits; a run resumed on
   // another backend writes that one into its checkpoints).
