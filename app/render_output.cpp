@@ -105,8 +105,8 @@ std::optional<RenderOptions> load_render_options(const std::filesystem::path& ou
 }
 
 RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, const RenderOptions& options,
-                           std::int64_t frames, bool quiet, std::int64_t first_frame)
-    : dir_(dir / "render"), sim_(sim), options_(options), quiet_(quiet), frames_(frames) {
+                           std::int64_t frames, bool quiet, std::int64_t first_frame, const std::atomic<int>* stop)
+    : dir_(dir / "render"), sim_(sim), options_(options), quiet_(quiet), stop_(stop), frames_(frames) {
   check_render_size(options.width, options.height);
   render::VideoEncoder::time_limit();  // a bad MCA_FFMPEG_TIMEOUT is refused before anything is written
   const Model& m = sim.model();
@@ -153,7 +153,7 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
     try {
       video_ = std::make_unique<render::VideoEncoder>(*ffmpeg, dir_ / "video.mp4",
                                                       io::temporary_path(dir_ / "video.mp4"), options.width,
-                                                      options.height, fps_);
+                                                      options.height, fps_, stop_);
     } catch (const Error& e) {
       drop_video(e.what());
     }
@@ -216,7 +216,8 @@ void RenderOutput::add_to_video(const render::Image& im) {
   try {
     video_->add_frame(im);
   } catch (const Error& e) {
-    drop_video(e.what());
+    if (stopping()) video_.reset();  // (the run stops at this frame's end; its resume makes the video)
+    else drop_video(e.what());
   }
 }
 
@@ -262,7 +263,14 @@ void RenderOutput::finish() {
       video_->finish();
       video_.reset();
     } catch (const Error& e) {
-      drop_video(e.what());
+      if (stopping()) {
+        video_.reset();
+        video_stopped_ = true;
+        fmt::print(stderr, "mca: {}/video.mp4 is not written: {}. Make it from the frames with: {}\n", dir_.string(),
+                   e.what(), video_command());
+      } else {
+        drop_video(e.what());
+      }
     }
   }
   std::vector<render::Image> tiles;

@@ -54,9 +54,10 @@ class RenderOutput {
   // frames the run will write after frame 0 (for the contact sheet and the video's frame rate). The camera
   // is framed on the model's starting state. A resumed run passes `first_frame`, the frames already
   // written: those PNGs are kept and go into the video and the contact sheet again (the later ones are
-  // removed, as the run writes them again).
+  // removed, as the run writes them again). `stop`, where given, is the run's stop signal (catch_stop_signals):
+  // once it is set, ffmpeg is not waited for (the video of a stopped run is made by its resume).
   RenderOutput(const std::filesystem::path& dir, const Engine& sim, const RenderOptions& options, std::int64_t frames,
-               bool quiet, std::int64_t first_frame = 0);
+               bool quiet, std::int64_t first_frame = 0, const std::atomic<int>* stop = nullptr);
   ~RenderOutput();
   RenderOutput(const RenderOutput&) = delete;
   RenderOutput& operator=(const RenderOutput&) = delete;
@@ -65,6 +66,8 @@ class RenderOutput {
   void write_frame(std::int64_t frame, const State& state, const analysis::Fragments& fragments);
   // Finishes the video and writes the contact sheet and the plots (after summary.json and fragments.csv).
   void finish();
+  // Whether finish() stopped ffmpeg on the stop signal (the video is not written).
+  bool video_stopped() const { return video_stopped_; }
   // Wall time spent rendering and writing pictures so far [s].
   double seconds() const { return seconds_; }
   const render::Camera& camera() const { return camera_; }
@@ -78,10 +81,13 @@ class RenderOutput {
   void add_to_video(const render::Image& im);
   void drop_video(const std::string& why);
   std::string video_command() const;
+  bool stopping() const { return stop_ && stop_->load() != 0; }
   std::filesystem::path dir_;
   const Engine& sim_;
   RenderOptions options_;
   bool quiet_;
+  const std::atomic<int>* stop_;
+  bool video_stopped_ = false;
   std::int64_t frames_;
   std::int64_t lost_ = 0;  // frames drawn before a resume whose PNG is gone or unreadable
   std::unique_ptr<render::EglContext> context_;

@@ -629,8 +629,9 @@ int run_loop(Loop& L, FrameWriter& writer) {
   // A stop signal after the last step: the run and its files are whole, what is left of its end is not made.
   if (const int sig = stop; sig != 0) {
     say("{}interrupted by {} after the run's last frame ({}): {}\n", tty ? "\n" : "", signal_name(sig), L.frame - 1,
-        L.render ? fmt::format("its outputs are complete but for the plots in render/, not all made: python3 {} {} "
+        L.render ? fmt::format("its outputs are complete but for {}the plots in render/, not all made: python3 {} {} "
                                "makes them",
+                               L.render->video_stopped() ? "the video (the command above makes it) and " : "",
                                text::shell_word(plot_script().string()), text::shell_word(L.dir.string()))
                  : std::string("its outputs are complete"));
     return 128 + sig;
@@ -753,7 +754,8 @@ int run(const RunOptions& o) {
   build_signals.emplace(created.made);
   Engine sim(scene);
   build_signals.reset();
-  catch_stop_signals();  // (from here a signal is the run's to answer: the renderer's set-up, frame 0)
+  const std::atomic<int>& stop = catch_stop_signals();  // (from here a signal is the run's to answer: the
+                                                        // renderer's set-up, frame 0)
   building.reset();
   const Plan plan = make_plan(sim, o.steps);
   // What the run will write must fit the disk (frame_rate = 1e9 plans 4,000,000 frames, terabytes).
@@ -773,7 +775,7 @@ int run(const RunOptions& o) {
   }
   // The renderer before any output: a missing OpenGL or a camera that sees nothing stops here.
   std::unique_ptr<RenderOutput> render;
-  if (o.render) render = std::make_unique<RenderOutput>(dir, sim, ro, plan.total_frames, o.quiet);
+  if (o.render) render = std::make_unique<RenderOutput>(dir, sim, ro, plan.total_frames, o.quiet, 0, &stop);
   created.keep = true;
   // The scene as run (overrides applied), so the folder says what produced it.
   // A step count is not a key of the scene: a comment at the top says it (resuming reads the count from
@@ -862,7 +864,8 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   build_signals.emplace();
   Engine sim(cp.scene, cp.state, source, cp.model_fingerprint);
   build_signals.reset();
-  catch_stop_signals();  // (from here a signal is the run's to answer: the renderer's set-up, frame 0)
+  const std::atomic<int>& stop = catch_stop_signals();  // (from here a signal is the run's to answer: the
+                                                        // renderer's set-up, frame 0)
   building.reset();
   const Plan plan = resume_plan(cp, sim.steps_per_frame(), source);
   // The folder's run is of a step count too (its --steps, or its duration's): a checkpoint of the same scene
@@ -893,7 +896,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   std::unique_ptr<RenderOutput> render;
   if (const auto& ro = rendered) {
     if (!no_render) {
-      render = std::make_unique<RenderOutput>(dir, sim, *ro, plan.total_frames, quiet, cp.frame);
+      render = std::make_unique<RenderOutput>(dir, sim, *ro, plan.total_frames, quiet, cp.frame, &stop);
     } else if (steps_left) {  // (with none left, the rendering is whole and stays so)
       // Its frames stop here: a later resume must not take the folder for a whole rendering.
       remove_output(dir / "render" / "render.json");

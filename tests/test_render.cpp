@@ -315,6 +315,48 @@ TEST(Render, AFailingFfmpegDropsTheVideoAndTheRunGoesOn) {
   }
 }
 
+// A stop signal is not held up by ffmpeg (it waited up to MCA_FFMPEG_TIMEOUT, 120 s by default, found by
+// the hostile review): one that never finishes the file after the run's last frame is stopped, the run
+// says the video is not written and how to make it, and ends with 128 + the signal; one that takes no
+// frame is stopped too, and the run ends as any run stopped inside a frame.
+TEST(Render, AStopSignalDoesNotWaitForFfmpeg) {
+  const struct {
+    const char* body;
+    const char* size;
+    const char* signal_after;  // the file whose writing the signal follows
+    std::vector<std::string> said;
+  } cases[] = {
+      {"cat > /dev/null; exec sleep 1000", "64x48", "summary.json",
+       {"is not written: a stop signal came before ffmpeg finished", "Make it from the frames with: ffmpeg",
+        "interrupted by SIGTERM after the run's last frame (2): its outputs are complete but for the video (the "
+        "command above makes it) and the plots"}},
+      // (frames of 1.2 MB: the pipe takes none of them whole; the run waits in frame 0's)
+      {"exec sleep 1000", "640x480", "render/frame_000000.png", {"interrupted by SIGTERM inside frame 1"}},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.body);
+    TempDir d;
+    const fs::path bin = d.path() / "bin", out = d.path() / "out";
+    fs::create_directories(bin);
+    std::ofstream(bin / "ffmpeg") << "#!/bin/sh\n" << c.body << "\n";
+    fs::permissions(bin / "ffmpeg", fs::perms::owner_all);
+    // The time from the signal to the end is measured.
+    const Result r = shell("MCA_FFMPEG_TIMEOUT=60 PATH=" + bin.string() + ":/usr/bin:/bin " +
+                           std::string(MCA_BINARY) + " run " + kCubicWall +
+                           " -q --duration 0.004 --render --render-size " + c.size + " --out " + out.string() +
+                           " & p=$!; for i in $(seq 400); do [ -f " + (out / c.signal_after).string() +
+                           " ] && break; sleep 0.05; done; sleep 0.5; t0=$(date +%s%N); kill -TERM $p; wait $p; "
+                           "echo rc=$? ms=$((($(date +%s%N) - t0) / 1000000))");
+    EXPECT_NE(r.output.find("rc=143"), std::string::npos) << r.output;
+    const auto ms = r.output.find("ms=");
+    ASSERT_NE(ms, std::string::npos) << r.output;
+    EXPECT_LT(std::stoi(r.output.substr(ms + 3)), 5000) << r.output;
+    for (const auto& said : c.said) EXPECT_NE(r.output.find(said), std::string::npos) << said << "\n" << r.output;
+    EXPECT_FALSE(fs::exists(out / "render" / "video.mp4"));
+    for (const auto& e : fs::directory_iterator(out / "render")) EXPECT_NE(e.path().extension(), ".tmp") << e.path();
+  }
+}
+
 // A folder named ffmpeg earlier on PATH is not the program: the one after it makes the video.
 TEST(Render, AFolderNamedFfmpegOnThePathIsPassedOver) {
   if (!render::find_ffmpeg()) GTEST_SKIP() << "ffmpeg is not installed";

@@ -151,8 +151,9 @@ int spawn_own_group(pid_t& pid, const std::vector<std::string>& args, const posi
 }
 
 VideoEncoder::VideoEncoder(const std::filesystem::path& ffmpeg, const std::filesystem::path& path,
-                           const std::filesystem::path& temporary, int width, int height, double fps)
-    : path_(path), temporary_(temporary), width_(width), height_(height) {
+                           const std::filesystem::path& temporary, int width, int height, double fps,
+                           const std::atomic<int>* interrupt)
+    : path_(path), temporary_(temporary), width_(width), height_(height), interrupt_(interrupt) {
   // ffmpeg's messages go to an anonymous in-memory file, read back when it fails.
   log_fd_ = ::memfd_create("ffmpeg-messages", MFD_CLOEXEC);
   if (log_fd_ < 0) throw Error(fmt::format("cannot make a file for ffmpeg's messages: {}", std::strerror(errno)));
@@ -218,16 +219,17 @@ void VideoEncoder::stop() {
   if (pipe_ >= 0) ::close(pipe_);
   pipe_ = -1;
   int status = 0;
-  bool stuck = false;
+  bool stuck = false, stopped = false;
   if (pid_ > 0) {
     // ffmpeg ends when its input does; one that does not within the limit is stopped (a stuck encoder
-    // must not hold the run's end for ever).
+    // must not hold the run's end for ever), as is one a stop signal leaves unfinished.
     const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(time_limit());
     for (;;) {
       const pid_t r = ::waitpid(pid_, &status, WNOHANG);
       if (r == pid_ || (r < 0 && errno != EINTR)) break;
-      if (std::chrono::steady_clock::now() > until) {
-        stuck = true;
+      stuck = std::chrono::steady_clock::now() > until;
+      stopped = interrupted();
+      if (stuck || stopped) {
         ::kill(pid_, SIGKILL);
         while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
         }
@@ -237,6 +239,8 @@ void VideoEncoder::stop() {
     }
   }
   pid_ = -1;
+  if (stopped)
+    throw Error(fmt::format("a stop signal came before ffmpeg finished '{}', and ffmpeg was stopped", path_.string()));
   if (stuck)
     throw Error(fmt::format("ffmpeg did not finish '{}' within {} s and was stopped", path_.string(), time_limit()));
   if (!(WIFEXITED(status) && WEXITSTATUS(status) == 0)) {
@@ -258,10 +262,18 @@ void VideoEncoder::add_frame(const Image& frame) {
   const std::uint8_t* p = frame.rgba.data();
   std::size_t left = frame.rgba.size();
   while (left > 0) {
-    // An ffmpeg that takes nothing for the limit is stuck: stopped, with its messages in the error.
+    // An ffmpeg that takes nothing for the limit is stuck: stopped, with its messages in the error; so is
+    // one still waited for when a stop signal comes.
     pollfd pfd{pipe_, POLLOUT, 0};
     int ready = 0;
-    while ((ready = ::poll(&pfd, 1, time_limit() * 1000)) < 0 && errno == EINTR) {
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(time_limit());
+    bool stopped = false;
+    while (((ready = ::poll(&pfd, 1, 100)) < 0 && errno == EINTR) || ready == 0) {
+      stopped = interrupted();
+      if (stopped || std::chrono::steady_clock::now() > until) {
+        ready = 0;
+        break;
+      }
     }
     if (ready == 0) {
       ::kill(pid_, SIGKILL);
@@ -269,6 +281,10 @@ void VideoEncoder::add_frame(const Image& frame) {
         stop();
       } catch (const Error&) {  // "killed": the reason is this one
       }
+      if (stopped)
+        throw Error(fmt::format("a stop signal came while ffmpeg took no frame, and ffmpeg was stopped; '{}' is not "
+                                "written",
+                                path_.string()));
       throw Error(fmt::format("ffmpeg took no frame for {} s and was stopped; '{}' is not written", time_limit(),
                               path_.string()));
     }

@@ -1,6 +1,7 @@
 #pragma once
 // Images and video of rendered frames: PNG encoding (libpng), a contact sheet of a few frames, and the
 // MP4 made by piping raw RGBA frames into ffmpeg.
+#include <atomic>
 #include <cstdint>
 #include <spawn.h>
 #include <filesystem>
@@ -45,9 +46,12 @@ class VideoEncoder {
   // stopped [s]: 120, or MCA_FFMPEG_TIMEOUT (whole seconds, 1 to 86400; anything else set there throws
   // mca::Error naming it and the fix, so a command can refuse it before it writes anything).
   static int time_limit();
-  // Starts ffmpeg. Throws mca::Error when it cannot be started.
+  // Starts ffmpeg. Throws mca::Error when it cannot be started. Where `interrupt` is given, a wait for
+  // ffmpeg (a frame it does not take, the file it finishes) gives up within 0.1 s of *interrupt becoming
+  // non-zero (a stop signal): ffmpeg is stopped and mca::Error thrown, as at its time limit.
   VideoEncoder(const std::filesystem::path& ffmpeg, const std::filesystem::path& path,
-               const std::filesystem::path& temporary, int width, int height, double fps);
+               const std::filesystem::path& temporary, int width, int height, double fps,
+               const std::atomic<int>* interrupt = nullptr);
   ~VideoEncoder();  // without finish(): stops ffmpeg and removes the temporary file
   VideoEncoder(const VideoEncoder&) = delete;
   VideoEncoder& operator=(const VideoEncoder&) = delete;
@@ -59,6 +63,7 @@ class VideoEncoder {
 
  private:
   void stop();
+  bool interrupted() const { return interrupt_ && interrupt_->load() != 0; }
   std::filesystem::path path_, temporary_;
   int log_fd_ = -1;  // ffmpeg's messages
   bool finished_ = false;
@@ -66,6 +71,7 @@ class VideoEncoder {
   int pipe_ = -1;
   int pid_ = -1;
   int frames_ = 0;
+  const std::atomic<int>* interrupt_;
 };
 
 }  // namespace mca::render
