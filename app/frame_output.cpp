@@ -437,18 +437,73 @@ void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis
   }
 }
 
-void FrameWriter::remove_frames(const std::filesystem::path& dir) {
-  io::remove_own_files(dir / "frames", "automata_", ".vtu");
-  io::remove_own_files(dir / "frames", "projectiles_", ".vtu");
-  io::remove_own_files(dir / "frames", "surface_", ".vtp");
-  io::remove_own_files(dir / "surface", "surface_", ".ply");
-  io::remove_own_files(dir / "surface", "surface_", ".obj");
-  for (const char* pvd : {"automata.pvd", "projectiles.pvd", "surface.pvd"}) io::remove_output(dir / pvd);
+namespace {
+
+constexpr RunFile kRunFiles[] = {
+    {RunPart::scene, "", "scene.toml", ""},
+    {RunPart::stats, "", "stats.csv", ""},
+    {RunPart::end, "", "summary.json", ""},
+    {RunPart::end, "", "fragments.csv", ""},
+    {RunPart::end, "fragments", "fragment_", ".ply"},
+    {RunPart::plots, "render", "energies.png", ""},
+    {RunPart::plots, "render", "broken_links.png", ""},
+    {RunPart::plots, "render", "fragment_masses.png", ""},
+    {RunPart::frames, "", "automata.pvd", ""},
+    {RunPart::frames, "", "projectiles.pvd", ""},
+    {RunPart::frames, "", "surface.pvd", ""},
+    {RunPart::frames, "frames", "automata_", ".vtu"},
+    {RunPart::frames, "frames", "projectiles_", ".vtu"},
+    {RunPart::frames, "frames", "surface_", ".vtp"},
+    {RunPart::frames, "surface", "surface_", ".ply"},
+    {RunPart::frames, "surface", "surface_", ".obj"},
+    {RunPart::checkpoints, "checkpoints", "frame_", ".mcack"},
+    {RunPart::rendering, "render", "render.json", ""},
+    {RunPart::rendering, "render", "video.mp4", ""},
+    {RunPart::rendering, "render", "contact_sheet.png", ""},
+    {RunPart::rendering, "render", "frame_", ".png"},
+};
+
+}  // namespace
+
+std::vector<std::string> run_files_in(const std::filesystem::path& dir, std::initializer_list<RunPart> parts) {
+  std::vector<std::string> found;
+  std::error_code ec;
+  for (const RunFile& f : kRunFiles) {
+    if (std::find(parts.begin(), parts.end(), f.part) == parts.end()) continue;
+    const std::filesystem::path folder = dir / f.folder;
+    const std::string prefix = *f.folder ? std::string(f.folder) + "/" : std::string();
+    if (!*f.extension) {
+      // (exists, not is_regular_file: a folder of the name is not left alone by a removal either)
+      if (std::filesystem::exists(folder / f.name, ec)) found.push_back(prefix + f.name);
+      continue;
+    }
+    if (!std::filesystem::is_directory(folder, ec)) continue;
+    std::vector<std::string> names;
+    for (const auto& e : std::filesystem::directory_iterator(folder, ec))
+      if (io::numbered(e.path().filename().string(), f.name, f.extension) && e.is_regular_file(ec))
+        names.push_back(prefix + e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    found.insert(found.end(), names.begin(), names.end());
+  }
+  return found;
+}
+
+std::size_t remove_run_files(const std::filesystem::path& dir, std::initializer_list<RunPart> parts) {
+  std::size_t removed = 0;
+  for (const std::string& name : run_files_in(dir, parts)) removed += io::remove_output(dir / name);
+  return removed;
+}
+
+std::vector<std::string> run_file_folders() {
+  std::vector<std::string> folders;
+  for (const RunFile& f : kRunFiles)
+    if (*f.folder && std::find(folders.begin(), folders.end(), f.folder) == folders.end()) folders.emplace_back(f.folder);
+  return folders;
 }
 
 void FrameWriter::remove_stale_temporaries(const std::filesystem::path& dir) {
-  for (const char* sub : {"", "frames", "surface", "fragments", "checkpoints", "render"})
-    io::remove_stale_temporaries(dir / sub);
+  io::remove_stale_temporaries(dir);
+  for (const std::string& sub : run_file_folders()) io::remove_stale_temporaries(dir / sub);
 }
 
 std::vector<std::int64_t> FrameWriter::restore(std::int64_t frames, const std::function<double(std::int64_t)>& time_of) {

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <initializer_list>
 #include <string>
 #include <utility>
 #include <vector>
@@ -89,6 +90,31 @@ void check_memory_fits(const MemoryEstimate& e, const SceneDef& scene);
 std::vector<std::string> frame_subfolders(const SceneDef& scene);
 std::vector<std::string> run_subfolders(const SceneDef& scene, bool render);
 
+// What a run writes into its folder, by part. One table serves the check of a folder before a run (files
+// of these names and no run of mca there are refused) and every removal of an earlier run's files.
+enum class RunPart : std::uint8_t {
+  scene,        // scene.toml (written over, never removed)
+  stats,        // stats.csv (written over)
+  end,          // summary.json, fragments.csv and the fragment meshes: the run's end
+  plots,        // the plots of tools/plot_run.py in render/
+  frames,       // the VTK frames, the bound surfaces and their .pvd collections
+  checkpoints,  // checkpoints/frame_NNNNNN.mcack
+  rendering,    // render/: render.json, the PNG frames, video.mp4, contact_sheet.png
+};
+struct RunFile {
+  RunPart part;
+  const char* folder;     // "" for the run's folder itself
+  const char* name;       // the file's name, or the prefix of a numbered one
+  const char* extension;  // "" for a fixed name; else a numbered one's: name + 1 to 18 digits + extension
+};
+// The files of `parts` that `dir` holds, relative to it (numbered ones only of the run's own form:
+// frames/automata_000012.vtu, not frames/automata_mine.vtu), in the table's order.
+std::vector<std::string> run_files_in(const std::filesystem::path& dir, std::initializer_list<RunPart> parts);
+// Removes them (an error naming a file that cannot be removed); returns how many there were.
+std::size_t remove_run_files(const std::filesystem::path& dir, std::initializer_list<RunPart> parts);
+// The table's folders below the run's: frames, surface, fragments, checkpoints, render.
+std::vector<std::string> run_file_folders();
+
 class FrameWriter {
  public:
   // Writes what `output` asks for: VTK frames (vtk, links) and the bound surface (surface, surface_format).
@@ -111,7 +137,7 @@ class FrameWriter {
   void sync_stats();
   // Removes the frames an earlier run or session left in `dir`: the VTK frames and bound surfaces of every
   // format, and their collections (this run may write none of them: --no-vtk, no projectiles, no mesh).
-  static void remove_frames(const std::filesystem::path& dir);
+  static void remove_frames(const std::filesystem::path& dir) { remove_run_files(dir, {RunPart::frames}); }
   // Removes the temporary files a killed run left in `dir` and the folders it writes into (their names are
   // unique per process, so nothing else would ever replace them).
   static void remove_stale_temporaries(const std::filesystem::path& dir);

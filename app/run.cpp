@@ -37,7 +37,6 @@ namespace mca::app {
 namespace {
 
 using io::remove_output;
-using io::remove_own_files;
 
 // The signal that stops the run (or the view), 0 while none came: SIGINT (Ctrl-C), SIGTERM (kill, a batch
 // system's time limit) and SIGHUP (the terminal closed) alike end a run at the next chunk of steps with its
@@ -274,29 +273,9 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
 // session describes a state the folder no longer ends at, so a new run and a resume remove them before they
 // step: a resume that stops on an error, like a new run, then leaves none. Returns the plots removed.
 int remove_end_outputs(const std::filesystem::path& dir, bool plots = true) {
-  remove_output(dir / "summary.json");
-  remove_output(dir / "fragments.csv");
-  remove_own_files(dir / "fragments", "fragment_", ".ply");
-  int removed = 0;
-  if (plots)
-    for (const char* plot : {"energies.png", "broken_links.png", "fragment_masses.png"})
-      removed += remove_output(dir / "render" / plot);
-  return removed;
+  remove_run_files(dir, {RunPart::end});
+  return plots ? static_cast<int>(remove_run_files(dir, {RunPart::plots})) : 0;
 }
-
-// The files a run writes into its folder: by name, and numbered (folder, prefix + digits + extension).
-constexpr const char* kRunFiles[] = {"scene.toml", "summary.json", "stats.csv", "fragments.csv", "automata.pvd",
-                                     "projectiles.pvd", "surface.pvd", "render/render.json", "render/video.mp4",
-                                     "render/contact_sheet.png", "render/energies.png", "render/broken_links.png",
-                                     "render/fragment_masses.png"};
-constexpr std::array<std::array<const char*, 3>, 8> kRunNumberedFiles = {{{"frames", "automata_", ".vtu"},
-                                                                          {"frames", "projectiles_", ".vtu"},
-                                                                          {"frames", "surface_", ".vtp"},
-                                                                          {"surface", "surface_", ".ply"},
-                                                                          {"surface", "surface_", ".obj"},
-                                                                          {"fragments", "fragment_", ".ply"},
-                                                                          {"checkpoints", "frame_", ".mcack"},
-                                                                          {"render", "frame_", ".png"}}};
 
 // The first 4 KB of a run folder's scene.toml (empty without one): whether mca wrote it, and the step
 // count of a --steps run (the comment at its top).
@@ -341,15 +320,9 @@ void check_folder_is_a_runs(const std::filesystem::path& dir) {
                             dir.string(), saved.back().filename().string(), folder,
                             text::shell_word((dir / "checkpoints").string())));
   }
-  std::vector<std::string> found;
-  for (const char* name : kRunFiles)
-    if (std::filesystem::exists(dir / name, ec)) found.push_back(name);
-  for (const auto& [sub, prefix, extension] : kRunNumberedFiles) {
-    if (!std::filesystem::is_directory(dir / sub, ec)) continue;
-    for (const auto& e : std::filesystem::directory_iterator(dir / sub, ec))
-      if (io::numbered(e.path().filename().string(), prefix, extension) && e.is_regular_file(ec))
-        found.push_back(fmt::format("{}/{}", sub, e.path().filename().string()));
-  }
+  const std::vector<std::string> found =
+      run_files_in(dir, {RunPart::scene, RunPart::stats, RunPart::end, RunPart::plots, RunPart::frames,
+                         RunPart::checkpoints, RunPart::rendering});
   if (found.empty()) return;
   const std::size_t shown = std::min<std::size_t>(found.size(), 4);
   throw Error(fmt::format(
@@ -374,11 +347,10 @@ OutputEstimate check_run_fits(const Model& m, const SceneDef& scene, std::int64_
 // `rendering`: render/ is made for this session's pictures. A resume, whose writer has made its folders
 // already, passes only those of the end's outputs (`ends_only`).
 void remove_empty_output_folders(const std::filesystem::path& dir, bool rendering, bool ends_only = false) {
-  static const char* const all[] = {"frames", "surface", "fragments", "checkpoints", "render"};
-  for (const char* sub : all) {
-    if (ends_only && std::string_view(sub) != "fragments" && std::string_view(sub) != "render") continue;
+  for (const std::string& sub : run_file_folders()) {
+    if (ends_only && sub != "fragments" && sub != "render") continue;
     std::error_code ec;
-    if (rendering && std::string_view(sub) == "render") continue;
+    if (rendering && sub == "render") continue;
     // (A symbolic link, to a folder on another disk, stays: removing it lost the redirection without a word.)
     if (!std::filesystem::is_symlink(dir / sub, ec) && std::filesystem::is_directory(dir / sub, ec) &&
         std::filesystem::is_empty(dir / sub, ec) && !ec)
@@ -789,17 +761,10 @@ int run(const RunOptions& o) {
   }, false);
   // Outputs of an earlier run in this folder would mix with this one's; only files this program writes
   // are removed, anything else a user keeps there stays.
-  remove_end_outputs(dir);
-  remove_own_files(dir / "checkpoints", "frame_", ".mcack");
-  FrameWriter::remove_frames(dir);
+  remove_run_files(dir, {RunPart::end, RunPart::plots, RunPart::checkpoints, RunPart::frames});
   // The pictures: an unrendered run removes an earlier rendering whole (render.json too: a resume must not
   // render), a rendered one has replaced its frames, video and sheet (RenderOutput).
-  if (!render) {
-    remove_output(dir / "render" / "render.json");
-    remove_output(dir / "render" / "video.mp4");
-    remove_output(dir / "render" / "contact_sheet.png");
-    remove_own_files(dir / "render", "frame_", ".png");
-  }
+  if (!render) remove_run_files(dir, {RunPart::rendering});
   FrameWriter::remove_stale_temporaries(dir);
   remove_empty_output_folders(dir, render != nullptr);
   FrameWriter writer(dir, sim.model(), scene.output);
