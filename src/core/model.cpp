@@ -61,9 +61,10 @@ std::size_t estimate_rubble_bytes(std::size_t automata, std::size_t random_autom
   // adds its ground contacts. Measured: 0.4 m glass cubes at 1 cm (64,000 automata) thrown on the ground at
   // 80 m/s, 1.5 ms, 2 threads, peaked at 305 MB (random lattice, 387,404 of 468,007 links broken) and 145
   // MB (cubic) against 210 and 91 MB from estimate_memory_bytes: 1,480 and 838 bytes an automaton more. With
-  // every link broken (a random block of 12,350 automata at 4 cm, all 86,451 links) 1,990 more: counted at
-  // 2,000, and the cubic lattice's at 950.
-  constexpr std::size_t per_random_automaton = 2000, per_automaton = 950;
+  // every link broken (a random block of 12,350 automata at 4 cm, all 86,451 links) 1,990 more. A box of
+  // 29,791 automata at 2 cm dropped on the ground at 300 m/s, every automaton its own fragment: 2,249 more
+  // (random) and 1,071 (cubic): counted at 2,300 and 1,100.
+  constexpr std::size_t per_random_automaton = 2300, per_automaton = 1100;
   return (automata - random_automata) * per_automaton + random_automata * per_random_automaton;
 }
 
