@@ -17,13 +17,14 @@ writes into the folder of a later run.)
 import csv
 import json
 import os
+import math
 import sys
 import textwrap
 
 TAU_BAND = (1.5, 2.1)  # published 3D brittle impact fragmentation exponents (issue 21)
 
 
-COLUMNS = ["time", "kinetic_energy", "elastic_energy", "contact_energy", "projectile_kinetic_energy",
+COLUMNS = ["frame", "time", "kinetic_energy", "elastic_energy", "contact_energy", "projectile_kinetic_energy",
            "total_energy", "energy_balance", "broken_total", "broken_displacement", "broken_stress", "fragments"]
 
 
@@ -32,7 +33,7 @@ def number(text):
         v = float(text)
     except (TypeError, ValueError):
         return None
-    return v if v == v else None  # (nan: not a number to plot)
+    return v if math.isfinite(v) else None  # (nan, inf: not a number to plot)
 
 
 def read_run(out):
@@ -62,7 +63,14 @@ def read_run(out):
                 print(f"plot_run.py: warning: the last row of {path} is cut short (no {bad}); plotted without it",
                       file=sys.stderr)
                 break
-            raise SystemExit(f"plot_run.py: {path}, row {k + 1}: {bad} is {r.get(bad)!r}, not a number: damaged")
+            raise SystemExit(f"plot_run.py: {path}, row {k + 1}: {bad} is {r.get(bad)!r}, not a finite number: "
+                             "damaged")
+        # Frames in order, each once (a resume that lost rows leaves a gap, never a repeat).
+        if table and not (values["frame"] > table[-1]["frame"] and values["time"] > table[-1]["time"]):
+            last = table[-1]
+            raise SystemExit(f"plot_run.py: {path}, row {k + 1}: frame {values['frame']:g} at time "
+                             f"{values['time']:g} s does not follow frame {last['frame']:g} at {last['time']:g} s: "
+                             "rows repeated or out of order, damaged or edited")
         table.append(values)
     summary = read_summary(out, "plot_run.py")
     if not isinstance(summary.get("fragment_mass_distribution"), dict):

@@ -142,6 +142,23 @@ def test_a_folder_that_is_not_a_whole_run_is_refused_in_one_line_before_anything
     assert not (killed / "render").exists()
 
 
+def test_rows_out_of_order_repeated_or_infinite_are_refused_by_number(tmp_path):
+    write_run(tmp_path, distribution(tmp_path, [1, 1, 2]))
+    rows = (tmp_path / "stats.csv").read_text().splitlines()
+    (tmp_path / "stats.csv").write_text("\n".join(rows + [rows[-1]]) + "\n")
+    assert "row 4: frame 2 at time 0.002 s does not follow frame 2 at 0.002 s" in refusal(tmp_path)
+    (tmp_path / "stats.csv").write_text("\n".join([rows[0], rows[2], rows[1], rows[3]]) + "\n")
+    assert "row 2: frame 0 " in refusal(tmp_path)
+    cells = rows[2].split(",")
+    cells[2] = "inf"  # kinetic_energy
+    (tmp_path / "stats.csv").write_text("\n".join([rows[0], rows[1], ",".join(cells), rows[3]]) + "\n")
+    assert "row 2: kinetic_energy is 'inf', not a finite number" in refusal(tmp_path)
+    assert not (tmp_path / "render").exists()
+    # A gap (rows a resume could not make again) is plotted.
+    (tmp_path / "stats.csv").write_text("\n".join([rows[0], rows[1], rows[3]]) + "\n")
+    assert plot_run.main(["plot_run.py", str(tmp_path), "--quiet"]) == 0
+
+
 def test_a_last_row_cut_short_is_left_out_with_a_warning(tmp_path, capsys):
     write_run(tmp_path, distribution(tmp_path, [1, 1, 2]))
     text = (tmp_path / "stats.csv").read_text()
