@@ -353,6 +353,13 @@ TEST(InputBounds, MeshCoordinatesFarOutAreReadInDouble) {
   const std::string m = error_of([&] { mca::lattice::build_model(mesh_scene((t.path() / "far.stl").string(), 0.05)); });
   EXPECT_HAS(m, "stores float32 coordinates");
   EXPECT_HAS(m, "Recentre the model");
+  // At 1e12 a float steps by 65,536 m: the cube is rounded flat along x, and the rounding is named (it was
+  // called a flat mesh).
+  mca::test::write_mesh_file(t.path() / "far12.stl", mca::test::cube_mesh(0.15, {1e12, 0, 0}));
+  const std::string m12 =
+      error_of([&] { mca::lattice::build_model(mesh_scene((t.path() / "far12.stl").string(), 0.05)); });
+  EXPECT_HAS(m12, "stores float32 coordinates, and they reach 1e+12");
+  EXPECT_EQ(m12.find("is flat"), std::string::npos) << m12;
   // So does a PLY whose header makes its coordinates floats (read as 1e6 in double, it was filled in silence
   // with its corners moved).
   std::string fply = fmt::format("ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\n"

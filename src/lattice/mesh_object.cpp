@@ -311,7 +311,8 @@ void refuse_float32_rounding(const SceneDef& scene, std::size_t index, const Mes
       "Orientation > Transform: Translate, Center; Blender: Object > Set Origin > Origin to Geometry, then location "
       "0) and place it with position, or export it as OBJ, OFF or PLY with double coordinates, which mca reads in "
       "double",
-      where(scene, index), m.solid.file, m.file_reach, m.file_bounds.largest_extent(), moved, 100 * moved / length,
+      where(scene, index), scene.objects[index].mesh, m.file_reach, m.file_bounds.largest_extent(), moved,
+      100 * moved / length,
       what, length));
 }
 
@@ -333,6 +334,9 @@ MeshObject prepare_mesh_object(const SceneDef& scene, std::size_t index) {
   const bool surface = o.fill == MeshFill::surface;
   for (int a = 0; a < 3 && !surface; ++a) {
     if (!(e[a] > 1e-9 * largest)) {
+      // A float file far out: the extent may be rounding's, not the model's (a ball 1 m across at 1e12 was
+      // called flat along x, where a float steps by 65,536).
+      refuse_float32_rounding(scene, index, m, largest * m.scale, "model's size");
       throw Error(fmt::format("{}: the mesh {} is flat: its extent along {} is {:g} (the box is {} in the file's "
                               "units), a surface with no inside to fill with automata; give a closed solid, or "
                               "fill = \"surface\" for one automaton per triangle",
