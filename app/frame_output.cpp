@@ -510,27 +510,26 @@ std::vector<std::int64_t> FrameWriter::restore(std::int64_t frames, const std::f
   automata_pvd_.clear();
   projectile_pvd_.clear();
   surface_pvd_.clear();
+  // A frame is listed whole or not at all: collections that each left out their own missing files no
+  // longer lined up (a reader pairs their entries), and a frame written again was listed twice.
   std::vector<std::int64_t> missing;
   const auto there = [&](const std::string& name) { return std::filesystem::is_regular_file(dir_ / name); };
   for (std::int64_t f = 0; f < frames; ++f) {
-    const double t = time_of(f);
-    bool whole = !surface_ || there(surface_name(f, surface_format_));
-    if (vtk_) {
-      const std::string automata = fmt::format("frames/automata_{:06d}.vtu", f);
-      if (there(automata)) automata_pvd_.emplace_back(t, automata);
-      else whole = false;
-      if (surface_) {
-        const std::string name = fmt::format("frames/surface_{:06d}.vtp", f);
-        if (there(name)) surface_pvd_.emplace_back(t, name);
-        else whole = false;
-      }
-      if (!model_.projectiles.empty()) {
-        const std::string name = fmt::format("frames/projectiles_{:06d}.vtu", f);
-        if (there(name)) projectile_pvd_.emplace_back(t, name);
-        else whole = false;
-      }
+    const std::string automata = fmt::format("frames/automata_{:06d}.vtu", f);
+    const std::string surface = fmt::format("frames/surface_{:06d}.vtp", f);
+    const std::string projectiles = fmt::format("frames/projectiles_{:06d}.vtu", f);
+    const bool whole = (!surface_ || there(surface_name(f, surface_format_))) &&
+                       (!vtk_ || (there(automata) && (!surface_ || there(surface)) &&
+                                  (model_.projectiles.empty() || there(projectiles))));
+    if (!whole) {
+      missing.push_back(f);
+      continue;
     }
-    if (!whole) missing.push_back(f);
+    if (!vtk_) continue;
+    const double t = time_of(f);
+    automata_pvd_.emplace_back(t, automata);
+    if (surface_) surface_pvd_.emplace_back(t, surface);
+    if (!model_.projectiles.empty()) projectile_pvd_.emplace_back(t, projectiles);
   }
   // Written now, not with the next frame: a run with no frame left to write keeps them.
   if (vtk_) {

@@ -165,8 +165,8 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
                video_command());
   }
   // A resumed run: the frames written before go into the video and the contact sheet from their PNGs.
-  // The checkpoint's own frame is drawn again where its PNG is gone; an earlier one cannot be (no state of
-  // it is left), and then there is no whole video to make.
+  // The checkpoint's own frame is drawn again where its PNG is gone or cannot be taken; an earlier one cannot
+  // be (no state of it is left), and then there is no whole video to make.
   std::vector<std::int64_t> lost;
   std::string why;
   for (std::int64_t f = 0; f < first_frame; ++f) {
@@ -178,8 +178,15 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
         throw Error(fmt::format("{} is {}x{}, not the run's {}x{}", png.string(), im.width, im.height, options.width,
                                 options.height));
     } catch (const Error& e) {
-      if (f == first_frame - 1 && !std::filesystem::exists(png)) {
-        write_frame(f, sim.state(), analysis::label_model_fragments(m, sim.state().intact.data()));
+      if (f == first_frame - 1) {
+        try {
+          write_frame(f, sim.state(), analysis::label_model_fragments(m, sim.state().intact.data()));
+        } catch (const Error& w) {
+          throw Error(fmt::format("{}\nThe resume stopped drawing the checkpoint's frame {} again, before its first "
+                                  "step; once the disk has room (or the cause above is fixed), continue it with: mca "
+                                  "resume {}",
+                                  w.what(), f, text::shell_word(dir.string())));
+        }
         continue;
       }
       if (lost.empty()) why = e.what();
@@ -207,8 +214,11 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
 }
 
 std::string RenderOutput::video_command() const {
-  return fmt::format("ffmpeg -framerate {:g} -i {}/frame_%06d.png -c:v libx264 -pix_fmt yuv420p {}/video.mp4", fps_,
-                     dir_.string(), dir_.string());
+  // As the run's own encoder makes it (render::VideoEncoder): even sizes for yuv420p, the file replaced.
+  return fmt::format("ffmpeg -y -framerate {:g} -i {} -vf 'crop=trunc(iw/2)*2:trunc(ih/2)*2' -c:v libx264 -pix_fmt "
+                     "yuv420p {}",
+                     fps_, text::shell_word((dir_ / "frame_%06d.png").string()),
+                     text::shell_word((dir_ / "video.mp4").string()));
 }
 
 void RenderOutput::add_to_video(const render::Image& im) {

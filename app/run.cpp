@@ -69,8 +69,8 @@ namespace {
 // output are removed again (rmdir is async-signal-safe, and removes only a folder that is empty).
 std::vector<std::string> g_made_for_the_run;  // deepest first; set before the handler, read only by it
 extern "C" void on_build_signal(int sig) {
-  for (const std::string& folder : g_made_for_the_run)
-    if (rmdir(folder.c_str()) != 0) break;
+  // (Every one: "out/" and "a/./b" list a folder twice, and a name that fails is no reason to keep the rest.)
+  for (const std::string& folder : g_made_for_the_run) rmdir(folder.c_str());
   static const char kMessage[] = "\nmca: stopped by a signal while building the model, before the first step; "
                                  "nothing was written\n";
   if (write(STDERR_FILENO, kMessage, sizeof kMessage - 1) < 0) {
@@ -892,12 +892,10 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
     fmt::print(stderr, "warning: {} has {} of the {} rows up to the checkpoint; the rows of frames {}..{} will be "
                "missing from it\n",
                (dir / "stats.csv").string(), rows.size(), cp.frame, rows.size(), cp.frame - 1);
-  // So are the checkpoint's own frame's files; those of earlier frames are gone for good (no state of them
-  // is left), and the collections leave them out.
-  if (!missing.empty() && missing.back() == cp.frame - 1) {
-    writer.write_frame(cp.frame - 1, sim.state(), writer.fragments(sim.state()));
-    missing.pop_back();
-  }
+  // So are the checkpoint's own frame's files (below); those of earlier frames are gone for good (no state
+  // of them is left), and the collections leave them out.
+  const bool own_frame_lost = !missing.empty() && missing.back() == cp.frame - 1;
+  if (own_frame_lost) missing.pop_back();
   if (!missing.empty())
     fmt::print(stderr, "warning: {} lacks files of {} of the {} frames before the checkpoint (frame{} {}); the .pvd "
                "collections list the frames that are whole, and a resume cannot write the others again\n",
@@ -911,6 +909,16 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
                text::shell_word(plot_script().string()),
                text::shell_word(dir.string()));
   remove_empty_output_folders(dir, render != nullptr, true);
+  // (After the earlier end is gone: a folder whose frame could not be written again says "finished" nowhere.)
+  if (own_frame_lost) {
+    try {
+      writer.write_frame(cp.frame - 1, sim.state(), writer.fragments(sim.state()));
+    } catch (const Error& e) {
+      throw Error(fmt::format("{}\nThe resume stopped writing the checkpoint's frame {} again, before its first step; "
+                              "once the disk has room (or the cause above is fixed), continue it with: mca resume {}",
+                              e.what(), cp.frame - 1, text::shell_word(dir.string())));
+    }
+  }
   return run_loop(L, writer);
 }
 

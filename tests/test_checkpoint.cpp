@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -287,10 +288,8 @@ TEST(Checkpoint, StateCheckRefusesEachBrokenInvariant) {
       {"projectiles are saved", [](State& s) { s.projectiles.push_back(s.projectiles[0]); }},
       {"step counter", [](State& s) { s.step = -1; }},
       {"time", [](State& s) { s.time = std::numeric_limits<double>::infinity(); }},
-      // A time the steps do not make (a re-signed edit was resumed at it).
-      {"the time is 5 s at step", [](State& s) { s.time = 5.0; }},
-      {"where steps of", [&](State& s) { s.time = static_cast<double>(s.step + 1) * m.dt; }},
-      {"q[0] has length 0, and an orientation is a unit quaternion", [](State& s) { s.q[0] = {0, 0, 0, 0}; }},
+      // Orientations the integration cannot make (a re-signed zero quaternion was resumed from).
+      {"q[0] has length 0, and an orientation's is above 0 and at most 1", [](State& s) { s.q[0] = {0, 0, 0, 0}; }},
       {"q[4] has length 1e+30", [](State& s) { s.q[4] = {1e30f, 0, 0, 0}; }},
       {"q[2] has length 1.01", [](State& s) { s.q[2] = {1.01f, 0, 0, 0}; }},
       {"projectile 0's orientation has length 2", [](State& s) { s.projectiles[0].orientation = {2, 0, 0, 0}; }},
@@ -359,25 +358,62 @@ TEST(Checkpoint, StateCheckRefusesEachBrokenInvariant) {
   }
 }
 
-// The energy the blow-up check measures against is the run's first state's, which the checkpoint's scene
-// gives again: an edited one (1e300 turned the check off, -1e300 stopped the run as unstable) is refused.
-TEST(Checkpoint, AnEditedStartingEnergyIsRefused) {
+// A checkpoint's clock and the energy the blow-up check measures against are its run's: its steps make its
+// time, and its scene gives the first state's energy again. Edited ones (a time of 5 s; a budget of 1e300
+// turned the check off, -1e300 stopped the run as unstable) are refused. A state that is no checkpoint (mca
+// view's shots, whose model's step changes under it) keeps its own time.
+TEST(Checkpoint, AnEditedClockOrStartingEnergyIsRefused) {
   const Fixture& f = fixture();
   const Engine original(f.scene);
-  const std::uint64_t fingerprint = model_fingerprint(original.model());
+  const Model& m = original.model();
+  const std::uint64_t fingerprint = model_fingerprint(m);
   const std::string source = "checkpoint 'x/frame_000002.mcack'";
   ASSERT_NE(f.state.initial_energy, 0.0);
   EXPECT_EQ(f.state.initial_energy, original.state().initial_energy);
   EXPECT_NO_THROW(Engine(f.scene, f.state, source, fingerprint));
+  const auto refusal = [&](const std::function<void(State&)>& edit) {
+    State s = f.state;
+    edit(s);
+    const std::string e = test::error_of([&] { Engine(f.scene, s, source, fingerprint); });
+    EXPECT_EQ(e.rfind(source + ": the saved state does not fit the model of its scene: ", 0), 0u) << e;
+    return e;
+  };
   for (const double edited : {1e300, -1e300, 0.0, f.state.initial_energy * 1.001}) {
     SCOPED_TRACE(edited);
-    State s = f.state;
-    s.initial_energy = edited;
-    const std::string e = test::error_of([&] { Engine(f.scene, s, source, fingerprint); });
-    EXPECT_EQ(e.rfind(source + ": the saved state does not fit the model of its scene: its run's starting energy is "
-                      "saved as ", 0), 0u) << e;
-    EXPECT_NE(e.find(fmt::format("the scene's first state holds {} J", f.state.initial_energy)), std::string::npos) << e;
+    const std::string e = refusal([&](State& s) { s.initial_energy = edited; });
+    EXPECT_NE(e.find(fmt::format("its run's starting energy is saved as {} J, and the scene's first state holds {} J",
+                                 edited, f.state.initial_energy)),
+              std::string::npos)
+        << e;
   }
+  EXPECT_NE(refusal([](State& s) { s.time = 5.0; }).find("the time is 5 s at step"), std::string::npos);
+  EXPECT_NE(refusal([&](State& s) { s.time = static_cast<double>(s.step + 1) * m.dt; }).find("where steps of"),
+            std::string::npos);
+  State shot = f.state;
+  shot.time *= 1.5;
+  EXPECT_NO_THROW(check_state(m, shot, source));
+  EXPECT_NO_THROW(Engine(f.scene, shot, "the viewer's shot", std::nullopt));
+}
+
+// A small ball spinning as fast as its scene allows (its surface at a tenth of the spacing a step: 0.5 rad a
+// step) settles at an orientation's length of 0.9987, short of 1 (the integration's renormalisation): its
+// run's checkpoints resume (a check of unit length within 1e-3 refused them all).
+TEST(Checkpoint, AFastSpinningBallsCheckpointResumes) {
+  SceneDef s = struck_wall();
+  s.projectiles[0].radius = 0.01;
+  s.projectiles[0].position = {0, -0.4, 0.15};
+  s.projectiles[0].velocity = {0, 1, 0};
+  Engine probe(s);
+  const double spin = 0.0999 * probe.model().spacing / probe.model().dt / 0.01;
+  s.projectiles[0].angular_velocity = {0, 0, spin};
+  Engine sim(s);
+  sim.advance(200);
+  const Quat q = sim.state().projectiles[0].orientation;
+  const double length = std::sqrt(double(q.w) * q.w + double(q.x) * q.x + double(q.y) * q.y + double(q.z) * q.z);
+  std::printf("a ball of 1 cm at %.3g rad/s, %.2f rad a step: orientation's length %.6f\n", spin,
+              spin * sim.model().dt, length);
+  EXPECT_LT(length, 0.9995) << "the spin no longer moves the length off 1: the test measures nothing";
+  EXPECT_NO_THROW(Engine(s, sim.state(), "checkpoint 'spin'", model_fingerprint(sim.model())));
 }
 
 TEST(Checkpoint, ModelFingerprintTellsModelsApart) {

@@ -188,7 +188,8 @@ VideoEncoder::VideoEncoder(const std::filesystem::path& ffmpeg, const std::files
 
 VideoEncoder::~VideoEncoder() {
   if (pid_ > 0) {
-    ::kill(pid_, SIGTERM);
+    // (Its process group, which spawn_own_group made: an ffmpeg run by a wrapper script goes with it.)
+    ::kill(-pid_, SIGTERM);
     try {
       stop();
     } catch (const Error&) {  // the run's own error is the one to report
@@ -230,7 +231,7 @@ void VideoEncoder::stop() {
       stuck = std::chrono::steady_clock::now() > until;
       stopped = interrupted();
       if (stuck || stopped) {
-        ::kill(pid_, SIGKILL);
+        ::kill(-pid_, SIGKILL);
         while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
         }
         break;
@@ -276,7 +277,7 @@ void VideoEncoder::add_frame(const Image& frame) {
       }
     }
     if (ready == 0) {
-      ::kill(pid_, SIGKILL);
+      ::kill(-pid_, SIGKILL);
       try {
         stop();
       } catch (const Error&) {  // "killed": the reason is this one

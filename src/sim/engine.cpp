@@ -269,20 +269,22 @@ Engine::Engine(const SceneDef& scene, const State& state, const std::string& sou
   }
   check_state(model_, state, source);
   energy_floor_ = breaking_energy(model_);
-  // A checkpoint's energy budget is its run's first state's energy (the first constructor's), which the
-  // rebuilt model gives again: an edited one would have turned the blow-up check off, or tripped it at the
-  // first check. (The CPU's bits are every backend's; the contact lists need an upload.)
-  if (fingerprint) {
-    const double first =
-        compute_energies(model_, start_backend(model_, SolverDef::Backend::cpu, scene_.source, initial_state(model_))->state())
-            .total();
-    if (!(std::fabs(state.initial_energy - first) <= 1e-6 * std::fabs(first) + energy_floor_))
-      throw Error(fmt::format("{}: the saved state does not fit the model of its scene: its run's starting energy is "
-                              "saved as {} J, and the scene's first state holds {} J; the file is damaged or was "
-                              "edited: use an earlier checkpoint (remove this one) or start the run again",
-                              source, state.initial_energy, first));
+  if (!fingerprint) {
+    backend_ = start_backend(model_, scene_.solver.backend, scene_.source, state);
+    return;
   }
-  backend_ = start_backend(model_, scene_.solver.backend, scene_.source, state);
+  // A checkpoint: its clock is its run's, and its energy budget is its run's first state's energy (the
+  // first constructor's), which the backend computes again from the rebuilt model before it takes the
+  // checkpoint's state (an edited budget would have turned the blow-up check off, or tripped it at once).
+  check_run_clock(model_, state, source);
+  backend_ = start_backend(model_, scene_.solver.backend, scene_.source, initial_state(model_));
+  const double first = energies().total();  // (as the first constructor's)
+  if (!(std::fabs(state.initial_energy - first) <= 1e-6 * std::fabs(first) + energy_floor_))
+    throw Error(fmt::format("{}: the saved state does not fit the model of its scene: its run's starting energy is "
+                            "saved as {} J, and the scene's first state holds {} J; the file is damaged or was "
+                            "edited: use an earlier checkpoint (remove this one) or start the run again",
+                            source, state.initial_energy, first));
+  backend_->upload(state);
 }
 
 // The energy is checked at every multiple of kEnergyCheckInterval steps of the run, whatever the calls'

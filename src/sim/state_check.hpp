@@ -21,4 +21,9 @@ std::uint64_t model_fingerprint(const Model& model);
 // with `source` (e.g. "checkpoint 'run/checkpoints/frame_000010.mcack'") that says what is wrong.
 void check_state(const Model& model, const State& state, const std::string& source);
 
+// What a checkpoint of a run holds beyond what check_state asks of every state (a state taken from a running
+// simulation, as mca view's shots are, keeps its time while the model's step changes): its time is its step
+// count times the model's step. Throws as check_state does.
+void check_run_clock(const Model& model, const State& state, const std::string& source);
+
 }  // namespace mca
