@@ -497,7 +497,8 @@ std::size_t remove_run_files(const std::filesystem::path& dir, std::initializer_
 std::vector<std::string> run_file_folders() {
   std::vector<std::string> folders;
   for (const RunFile& f : kRunFiles)
-    if (*f.folder && std::find(folders.begin(), folders.end(), f.folder) == folders.end()) folders.emplace_back(f.folder);
+    if (*f.folder && std::find(folders.begin(), folders.end(), f.folder) == folders.end())
+      folders.emplace_back(f.folder);
   return folders;
 }
 
@@ -506,7 +507,8 @@ void FrameWriter::remove_stale_temporaries(const std::filesystem::path& dir) {
   for (const std::string& sub : run_file_folders()) io::remove_stale_temporaries(dir / sub);
 }
 
-std::vector<std::int64_t> FrameWriter::restore(std::int64_t frames, const std::function<double(std::int64_t)>& time_of) {
+std::vector<std::int64_t> FrameWriter::restore(std::int64_t frames,
+                                               const std::function<double(std::int64_t)>& time_of) {
   automata_pvd_.clear();
   projectile_pvd_.clear();
   surface_pvd_.clear();

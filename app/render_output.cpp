@@ -147,8 +147,11 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
     if (e.is_regular_file() && number && !(*number < first_frame && name == frame_name(*number))) doomed.push_back(e.path());
   }
   for (const auto& p : doomed) io::remove_output(p);
-  for (const char* old : {"video.mp4", "contact_sheet.png"}) io::remove_output(dir_ / old);
-  if (first_frame == 0) save_render_options(dir, options);
+  // (A resumed run's video and sheet go below, where it can make them again.)
+  if (first_frame == 0) {
+    for (const char* old : {"video.mp4", "contact_sheet.png"}) io::remove_output(dir_ / old);
+    save_render_options(dir, options);
+  }
   if (const auto ffmpeg = render::find_ffmpeg()) {
     try {
       video_ = std::make_unique<render::VideoEncoder>(*ffmpeg, dir_ / "video.mp4",
@@ -165,8 +168,8 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
                video_command());
   }
   // A resumed run: the frames written before go into the video and the contact sheet from their PNGs.
-  // The checkpoint's own frame is drawn again where its PNG is gone or cannot be taken; an earlier one cannot
-  // be (no state of it is left), and then there is no whole video to make.
+  // The checkpoint's own frame is drawn again where its PNG is gone or cannot be taken (draw_checkpoint_frame);
+  // an earlier one cannot be (no state of it is left), and then there is no whole video to make.
   std::vector<std::int64_t> lost;
   std::string why;
   for (std::int64_t f = 0; f < first_frame; ++f) {
@@ -178,15 +181,8 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
         throw Error(fmt::format("{} is {}x{}, not the run's {}x{}", png.string(), im.width, im.height, options.width,
                                 options.height));
     } catch (const Error& e) {
-      if (f == first_frame - 1) {
-        try {
-          write_frame(f, sim.state(), analysis::label_model_fragments(m, sim.state().intact.data()));
-        } catch (const Error& w) {
-          throw Error(fmt::format("{}\nThe resume stopped drawing the checkpoint's frame {} again, before its first "
-                                  "step; once the disk has room (or the cause above is fixed), continue it with: mca "
-                                  "resume {}",
-                                  w.what(), f, text::shell_word(dir.string())));
-        }
+      if (f == first_frame - 1) {  // (drawn by draw_checkpoint_frame, once the earlier end is removed)
+        checkpoint_frame_ = f;
         continue;
       }
       if (lost.empty()) why = e.what();
@@ -197,13 +193,21 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
     keep_for_sheet(f, im);
   }
   if (!lost.empty()) {
-    fmt::print(stderr, "warning: {} frame{} drawn before the checkpoint cannot be read (frame{} {}; {}): {}the contact "
-               "sheet leaves {} out, and a resume cannot draw {} again\n",
-               lost.size(), lost.size() > 1 ? "s" : "", lost.size() > 1 ? "s" : "", text::number_runs(lost), why,
-               video_ ? "render/video.mp4 will not be written, " : "", lost.size() > 1 ? "them" : "it",
-               lost.size() > 1 ? "them" : "it");
+    // No whole video or sheet can be made again; an earlier session's, where it made them, are of the whole
+    // run (a resume continues it bit for bit): kept (a finished run's complete video was removed).
+    const bool video_kept = std::filesystem::is_regular_file(dir_ / "video.mp4");
+    sheet_kept_ = std::filesystem::is_regular_file(dir_ / "contact_sheet.png");
+    const char* them = lost.size() > 1 ? "them" : "it";
+    fmt::print(stderr, "warning: {} frame{} drawn before the checkpoint cannot be read (frame{} {}; {}), and a resume "
+               "cannot draw {} again: {}{}\n",
+               lost.size(), lost.size() > 1 ? "s" : "", lost.size() > 1 ? "s" : "", text::number_runs(lost), why, them,
+               video_kept ? "render/video.mp4 of the run's earlier session is kept, "
+                          : (video_ ? "render/video.mp4 will not be written, " : ""),
+               sheet_kept_ ? "as is its contact_sheet.png" : fmt::format("the contact sheet leaves {} out", them));
     video_.reset();
     lost_ = static_cast<std::int64_t>(lost.size());
+  } else if (first_frame > 0) {
+    for (const char* old : {"video.mp4", "contact_sheet.png"}) io::remove_output(dir_ / old);  // (made again)
   }
   if (!quiet_)
     fmt::print(stderr, "mca: rendering {}x{} ({}, colour by {}) with {} ({}) into {}{}\n", options.width,
@@ -214,11 +218,15 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
 }
 
 std::string RenderOutput::video_command() const {
-  // As the run's own encoder makes it (render::VideoEncoder): even sizes for yuv420p, the file replaced.
-  return fmt::format("ffmpeg -y -framerate {:g} -i {} -vf 'crop=trunc(iw/2)*2:trunc(ih/2)*2' -c:v libx264 -pix_fmt "
-                     "yuv420p {}",
-                     fps_, text::shell_word((dir_ / "frame_%06d.png").string()),
-                     text::shell_word((dir_ / "video.mp4").string()));
+  // As the run's own encoder makes it (render::VideoEncoder): even sizes for yuv420p, its quality and layout,
+  // the file replaced; a path that starts with "-" is given as ./-... (ffmpeg took it for an option).
+  const auto path = [](const std::filesystem::path& p) {
+    const std::string s = p.string();
+    return text::shell_word(s.rfind('-', 0) == 0 ? "./" + s : s);
+  };
+  return fmt::format("ffmpeg -y -framerate {:g} -i {} -vf 'crop=trunc(iw/2)*2:trunc(ih/2)*2' -c:v libx264 -preset "
+                     "veryfast -crf 20 -pix_fmt yuv420p -movflags +faststart {}",
+                     fps_, path(dir_ / "frame_%06d.png"), path(dir_ / "video.mp4"));
 }
 
 void RenderOutput::add_to_video(const render::Image& im) {
@@ -246,6 +254,12 @@ void RenderOutput::keep_for_sheet(std::int64_t frame, const render::Image& im) {
 }
 
 RenderOutput::~RenderOutput() = default;
+
+void RenderOutput::draw_checkpoint_frame(const State& state) {
+  if (checkpoint_frame_ < 0) return;
+  write_frame(checkpoint_frame_, state, analysis::label_model_fragments(sim_.model(), state.intact.data()));
+  checkpoint_frame_ = -1;
+}
 
 void RenderOutput::write_frame(std::int64_t frame, const State& state, const analysis::Fragments& fragments) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -286,7 +300,8 @@ void RenderOutput::finish() {
   std::vector<render::Image> tiles;
   for (auto& [frame, im] : sheet_) tiles.push_back(std::move(im));
   sheet_.clear();
-  if (!tiles.empty()) write_bytes(dir_ / "contact_sheet.png", render::encode_png(render::tile(tiles, kSheetColumns, 4)));
+  if (!tiles.empty() && !sheet_kept_)
+    write_bytes(dir_ / "contact_sheet.png", render::encode_png(render::tile(tiles, kSheetColumns, 4)));
   seconds_ += seconds_since(t0);
   if (!quiet_) {
     fmt::print(stderr, "render: {} frames (frame_NNNNNN.png) and contact_sheet.png in {}{} ({:.1f} s of drawing and "

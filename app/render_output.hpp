@@ -62,6 +62,9 @@ class RenderOutput {
   RenderOutput(const RenderOutput&) = delete;
   RenderOutput& operator=(const RenderOutput&) = delete;
 
+  // A resumed run whose checkpoint's own PNG was gone or unreadable: draws it again from the checkpoint's
+  // state, into the video after the frames before it (before any later frame); else nothing.
+  void draw_checkpoint_frame(const State& state);
   // Renders frame `frame` (0 = the initial state) to render/frame_NNNNNN.png and the video.
   void write_frame(std::int64_t frame, const State& state, const analysis::Fragments& fragments);
   // Finishes the video and writes the contact sheet and the plots (after summary.json and fragments.csv).
@@ -89,7 +92,9 @@ class RenderOutput {
   const std::atomic<int>* stop_;
   bool video_stopped_ = false;
   std::int64_t frames_;
-  std::int64_t lost_ = 0;  // frames drawn before a resume whose PNG is gone or unreadable
+  std::int64_t lost_ = 0;     // frames drawn before a resume whose PNG is gone or unreadable
+  bool sheet_kept_ = false;  // then an earlier session's contact sheet, which finish() leaves as it is
+  std::int64_t checkpoint_frame_ = -1;  // the checkpoint's own frame where its PNG is to be drawn again
   std::unique_ptr<render::EglContext> context_;
   std::unique_ptr<render::Renderer> renderer_;
   std::unique_ptr<render::OffscreenTarget> target_;

@@ -573,7 +573,8 @@ int run_loop(Loop& L, FrameWriter& writer) {
       shown = now;
       fmt::print(stderr, "\rfragment meshes: {} of {}", done, total);
     });
-    write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads, "finished", L.resumed_from);
+    write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads, "finished",
+                  L.resumed_from);
   } catch (const MeshesStopped&) {
     const int sig = stop;
     try {
@@ -708,6 +709,8 @@ int run(const RunOptions& o) {
     for (std::filesystem::path f = std::filesystem::absolute(dir); !f.empty(); f = f.parent_path()) {
       const bool there = std::filesystem::exists(f, ec);
       if (there || (ec && ec != std::errc::no_such_file_or_directory)) break;
+      // (A name through ".." may come to be a folder that is there: new/../E is E once new is made.)
+      if (f.lexically_normal() != f && std::filesystem::exists(f.lexically_normal(), ec)) continue;
       created.made.push_back(f);
     }
   }
@@ -897,9 +900,10 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   const bool own_frame_lost = !missing.empty() && missing.back() == cp.frame - 1;
   if (own_frame_lost) missing.pop_back();
   if (!missing.empty())
-    fmt::print(stderr, "warning: {} lacks files of {} of the {} frames before the checkpoint (frame{} {}); the .pvd "
-               "collections list the frames that are whole, and a resume cannot write the others again\n",
-               dir.string(), missing.size(), cp.frame - 1, missing.size() > 1 ? "s" : "", text::number_runs(missing));
+    fmt::print(stderr, "warning: {} lacks files of {} of the {} frames before the checkpoint (frame{} {}); {}a "
+               "resume cannot write them again\n",
+               dir.string(), missing.size(), cp.frame - 1, missing.size() > 1 ? "s" : "", text::number_runs(missing),
+               cp.scene.output.vtk ? "the .pvd collections list the frames that are whole, and " : "");
   writer.start_stats(rows);
   // The plots are made again only by a rendered run; a run with no step left keeps them (and its stats).
   if (remove_end_outputs(dir, steps_left) > 0 && !render && !quiet)
@@ -910,14 +914,13 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
                text::shell_word(dir.string()));
   remove_empty_output_folders(dir, render != nullptr, true);
   // (After the earlier end is gone: a folder whose frame could not be written again says "finished" nowhere.)
-  if (own_frame_lost) {
-    try {
-      writer.write_frame(cp.frame - 1, sim.state(), writer.fragments(sim.state()));
-    } catch (const Error& e) {
-      throw Error(fmt::format("{}\nThe resume stopped writing the checkpoint's frame {} again, before its first step; "
-                              "once the disk has room (or the cause above is fixed), continue it with: mca resume {}",
-                              e.what(), cp.frame - 1, text::shell_word(dir.string())));
-    }
+  try {
+    if (own_frame_lost) writer.write_frame(cp.frame - 1, sim.state(), writer.fragments(sim.state()));
+    if (render) render->draw_checkpoint_frame(sim.state());
+  } catch (const Error& e) {
+    throw Error(fmt::format("{}\nThe resume stopped writing the checkpoint's frame {} again, before its first step; "
+                            "once the disk has room (or the cause above is fixed), continue it with: mca resume {}",
+                            e.what(), cp.frame - 1, text::shell_word(dir.string())));
   }
   return run_loop(L, writer);
 }

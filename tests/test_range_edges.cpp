@@ -427,5 +427,21 @@ TEST(RangeEdges, AFrictionPastFloat32IsRefused) {
   }
 }
 
+// A ball's orientation turns by |angular_velocity| dt a step, integrated to first order: past 2.8 rad a step it
+// became NaN while the run finished (a ball of 0.1 mm at its surface speed's limit). More than 0.5 rad a
+// step is refused, with the spin that fits.
+TEST(RangeEdges, ABallSpinningPastHalfARadianAStepIsRefused) {
+  const std::string ball = "[[projectile]]\nradius = 0.0001\nposition = [0, -0.5, 0.5]\nangular_velocity = [0, 0, ";
+  const Engine probe(cube(ball + "0]\n"));
+  const double dt = probe.model().dt;
+  const std::string m = engine_error(ball + fmt::format("{}]\n", 0.51 / dt));
+  EXPECT_HAS(m, "turns it by 0.51 rad per time step");
+  EXPECT_HAS(m, "more than the 0.5 rad its orientation's integration follows; lower its angular_velocity below");
+  Engine spun(cube(ball + fmt::format("{}]\n", 0.5 / dt)));
+  spun.advance(100);
+  const Quat q = spun.state().projectiles[0].orientation;
+  EXPECT_TRUE(std::isfinite(q.w) && std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z));
+}
+
 }  // namespace
 }  // namespace mca

@@ -190,7 +190,8 @@ TEST(ResumeStats, AResumeRemovesTheEarlierEndAndAFinishedRunKeepsItsPlots) {
 // Frames removed from a run's folder before its checkpoint: the checkpoint's own frame (VTK and PNG) is
 // written again from its state, as the run wrote it; an earlier one cannot be, and the resume says so, the
 // .pvd collections leave it out (they listed the missing files) and no video is made of a rendering with a
-// hole. Also when no step is left and no frame is written, where the collections used to stay as they were.
+// hole (the earlier session's, of the whole run, is kept). Also when no step is left and no frame is
+// written, where the collections used to stay as they were.
 TEST(ResumeStats, FramesRemovedBeforeTheCheckpointAreLeftOutAndItsOwnIsWrittenAgain) {
   mca::test::TempDir t;
   const fs::path scene = small_scene(t.path());
@@ -229,7 +230,13 @@ TEST(ResumeStats, FramesRemovedBeforeTheCheckpointAreLeftOutAndItsOwnIsWrittenAg
                             ", 1 lost before a resume"),
               std::string::npos)
         << r.output;
-    EXPECT_FALSE(fs::exists(out / "render" / "video.mp4"));
+    // No whole video can be made again: the finished run's, of every frame, is kept, as is its contact sheet
+    // (the video was removed).
+    EXPECT_NE(r.output.find("render/video.mp4 of the run's earlier session is kept, as is its contact_sheet.png"),
+              std::string::npos)
+        << r.output;
+    for (const char* kept : {"render/video.mp4", "render/contact_sheet.png"})
+      EXPECT_EQ(read(out / kept), read(base / kept)) << kept;
     // The checkpoint's own frame is the run's, byte for byte.
     for (const auto& f : {own_vtu, own_ball, own_png}) EXPECT_EQ(read(out / f), read(base / f)) << f;
     // Both collections leave frame 1 out (the ball's file of it is there), and list every other frame once.

@@ -113,10 +113,12 @@ TEST(Signals, ASignalDuringTheBuildEndsItWithAMessage) {
   std::ofstream(scene) << "[solver]\ntarget_automata = 1000000\n[[object]]\nname = \"b\"\n"
                           "size = [2, 0.4, 2]\nposition = [0, 0, 1.1]\n";
   fs::create_directories(t.path() / "there");
+  fs::create_directories(t.path() / "E");  // (reached through a folder the run makes: new2/../E)
   // (A trailing slash, "." and ".." name a folder twice on the way: they kept the folders above it.)
   const std::string base = t.path().string();
   for (const fs::path& out : {t.path() / "new" / "deeper" / "out", t.path() / "there", fs::path(base + "/slash/a/"),
-                              fs::path(base + "/dot/./a"), fs::path(base + "/up/x/../a")}) {
+                              fs::path(base + "/dot/./a"), fs::path(base + "/up/x/../a"),
+                              fs::path(base + "/new2/../E")}) {
     SCOPED_TRACE(out.string());
     const mca::test::Result r = mca::test::shell("( " + std::string(MCA_BINARY) + " run " + scene.string() + " --out " +
                                                  out.string() + " & p=$!; sleep 1; kill -TERM $p; wait $p; echo rc=$? )");
@@ -126,7 +128,8 @@ TEST(Signals, ASignalDuringTheBuildEndsItWithAMessage) {
         << r.output;
     EXPECT_NE(r.output.find("rc=143"), std::string::npos) << r.output;
   }
-  for (const char* made : {"new", "slash", "dot", "up"}) EXPECT_FALSE(fs::exists(t.path() / made)) << made;
+  for (const char* made : {"new", "slash", "dot", "up", "new2"}) EXPECT_FALSE(fs::exists(t.path() / made)) << made;
+  EXPECT_TRUE(fs::is_directory(t.path() / "E"));
   EXPECT_TRUE(fs::is_directory(t.path() / "there"));
   EXPECT_TRUE(fs::is_empty(t.path() / "there"));
 }

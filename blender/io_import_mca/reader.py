@@ -87,6 +87,12 @@ def _check_version(text, supported, kind, path):
 # ---------------------------------------------------------------------------------------------------------
 # VTK XML
 
+def frame_number(rel, index):
+    """The number of a frame's file as mca names it (frames/automata_000012.vtu: 12), else its index."""
+    m = re.search(r"_(\d+)\.vtu$", rel)
+    return int(m.group(1)) if m else index
+
+
 def read_pvd(path):
     """The (time, file) entries of a .pvd collection, the file relative to the collection's folder."""
     try:
@@ -640,7 +646,7 @@ class Run:
         self.projectiles = self._read_projectiles(len(entries))
         self.spacing = self._spacing()
         self.fps, self.render_size = self._render_options()
-        self.surface_files = self._surface_files(len(entries))
+        self.surface_files = self._surface_files([frame_number(rel, k) for k, (_, rel) in enumerate(entries)])
         self.fragment_files = self._fragment_files()
 
     # -- the files around the frames
@@ -731,12 +737,14 @@ class Run:
                                      f"{fps:g} frames/s")
         return fps, size
 
-    def _surface_files(self, frames):
+    def _surface_files(self, numbers):
+        """The bound surface of each frame, by the frame's number (a resumed run's collections leave out a
+        frame whose files were lost, and its surface file would have been paired with the next frame)."""
         folder = os.path.join(self.dir, "surface")
         if not os.path.isdir(folder):
             return []
         files = []
-        for k in range(frames):
+        for k in numbers:
             for ext in ("ply", "obj"):
                 p = os.path.join(folder, f"surface_{k:06d}.{ext}")
                 if os.path.isfile(p):

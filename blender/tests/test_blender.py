@@ -446,6 +446,31 @@ def check_rotations(a):
             sys.exit(f"frame {k}: the reconstructed rotations are far from the frames' orientations")
 
 
+def check_surface_gap(a):
+    """A resumed run whose frame 1 was lost leaves it out of every collection (mca resume): the importer takes
+    each frame's bound surface by the frame's number, not by its place in the collection."""
+    reader = load_reader()
+    d = os.path.join(a.work, "surface_gap")
+    copy_run(os.path.join(a.work, "surface"), d)
+    for pvd in ("automata.pvd", "projectiles.pvd", "surface.pvd"):
+        path = os.path.join(d, pvd)
+        if not os.path.exists(path):
+            continue
+        with open(path) as f:
+            lines = f.readlines()
+        kept = [line for line in lines if "_000001." not in line]
+        assert len(kept) == len(lines) - 1, (path, "frame 1 not listed once")
+        with open(path, "w") as f:
+            f.writelines(kept)
+    os.remove(os.path.join(d, "frames", "automata_000001.vtu"))
+    run = reader.Run(d)
+    got = [os.path.basename(p) for p in run.surface_files]
+    want = [f"surface_{k:06d}.ply" for k in [0] + list(range(2, len(got) + 1))]
+    print("surface files of the frames:", got)
+    if got != want:
+        sys.exit(f"the frames' surfaces are {got}, not {want}: paired by place, not by frame")
+
+
 def main():
     p = argparse.ArgumentParser()
     p.add_argument("--mca", required=True)
@@ -563,6 +588,8 @@ def main():
         check_colours(a)
     elif case == "rotations":
         check_rotations(a)
+    elif case == "surface_gap":
+        check_surface_gap(a)
     else:
         sys.exit(f"unknown case {case}")
 

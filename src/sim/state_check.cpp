@@ -90,9 +90,9 @@ float length(const Quat& q) {
   return static_cast<float>(std::sqrt(w * w + x * x + y * y + z * z));
 }
 // The integration's renormalisation (one Newton step, core/math.hpp) never lengthens an orientation past 1
-// (but for float rounding), and keeps a turning one short of it: one that turns by w dt a step settles at
-// sqrt((3 - 2 / sqrt(1 + e)) / (1 + e)), e = (w dt / 2)^2, which a fast enough spin takes towards 0 (a ball
-// of 1 cm at 8.7e5 rad/s, 0.46 rad a step: 0.99873; the scene bounds a ball's surface speed, not its spin).
+// (but for float rounding: 1e-3 is allowed), and keeps a turning one short of it: one that turns by w dt a
+// step settles at sqrt((3 - 2 / sqrt(1 + e)) / (1 + e)), e = (w dt / 2)^2 (a ball of 1 cm at 8.7e5 rad/s,
+// 0.46 rad a step: 0.99873; a scene's balls turn 0.5 rad a step at most, engine.cpp).
 bool an_orientation(const Quat& q) { return length(q) > 0.0f && length(q) <= 1.001f; }
 
 class StateChecker {
@@ -229,7 +229,8 @@ void check_state(const Model& m, const State& s, const std::string& source) {
   c.all_finite("x_at_rebuild", s.x_at_rebuild);
   for (std::size_t k = 0; k < n; ++k)
     if (!an_orientation(s.q[k]))
-      c.fail(fmt::format("q[{}] has length {}, and an orientation's is above 0 and at most 1", k, length(s.q[k])));
+      c.fail(fmt::format("q[{}] has length {}, and an orientation's is above 0 and at most 1 (1.001 with rounding)",
+                         k, length(s.q[k])));
 
   // Per link. Links only ever break (all are intact at the start), and each break is recorded once, so
   // the broken links, the break records and the counters by criterion are three views of one set.
@@ -304,7 +305,8 @@ void check_state(const Model& m, const State& s, const std::string& source) {
         !finite(ps.force))
       c.fail(fmt::format("projectile {} has a non-finite position, velocity, orientation or force", p));
     if (!an_orientation(ps.orientation))
-      c.fail(fmt::format("projectile {}'s orientation has length {}, and an orientation's is above 0 and at most 1",
+      c.fail(fmt::format("projectile {}'s orientation has length {}, and an orientation's is above 0 and at most 1 "
+                         "(1.001 with rounding)",
                          p, length(ps.orientation)));
     for (std::size_t k = 0; k < ps.contacts.size(); ++k) {
       const BodyContact& b = ps.contacts[k];
