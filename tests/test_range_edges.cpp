@@ -427,9 +427,9 @@ TEST(RangeEdges, AFrictionPastFloat32IsRefused) {
   }
 }
 
-// A ball's orientation turns by |angular_velocity| dt a step, integrated to first order: past 2.8 rad a step it
-// became NaN while the run finished (a ball of 0.1 mm at its surface speed's limit). More than 0.5 rad a
-// step is refused, with the spin that fits.
+// A ball's orientation turns by |angular_velocity| dt a step, integrated to first order: past 3.3 rad a step it
+// became NaN while the run finished (a ball of 1 mm at 3.5 rad a step, its surface within the speed limit).
+// More than 0.5 rad a step is refused, with the spin that fits.
 TEST(RangeEdges, ABallSpinningPastHalfARadianAStepIsRefused) {
   const std::string ball = "[[projectile]]\nradius = 0.0001\nposition = [0, -0.5, 0.5]\nangular_velocity = [0, 0, ";
   const Engine probe(cube(ball + "0]\n"));
