@@ -11,7 +11,9 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <iterator>
 #include <string>
+#include <thread>
 
 #include <glm/mat4x4.hpp>
 #include <glm/vec4.hpp>
@@ -43,6 +45,12 @@ namespace fs = std::filesystem;
 using test::Result;
 using test::run_mca;
 using test::shell;
+
+// A file's text, or "" where it cannot be read.
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
 using test::TempDir;
 
 // The background the renderer clears to (renderer.cpp kBackground).
@@ -326,7 +334,8 @@ TEST(Render, AStopSignalDoesNotWaitForFfmpeg) {
     const char* signal_after;  // the file whose writing the signal follows
     std::vector<std::string> said;
   } cases[] = {
-      {"cat > /dev/null; exec sleep 1000", "65x49", "summary.json",
+      // (A wrapper script whose ffmpeg is its child: the child goes with it, by the process group.)
+      {"cat > /dev/null; sleep 1000 & echo $! > \"$0.child\"; wait", "65x49", "summary.json",
        {"is not written: a stop signal came before ffmpeg finished", "Make it from the frames with: ffmpeg",
         "interrupted by SIGTERM after the run's last frame (2): its outputs are complete but for the video (the "
         "command above makes it) and the plots"}},
@@ -352,6 +361,19 @@ TEST(Render, AStopSignalDoesNotWaitForFfmpeg) {
     ASSERT_NE(ms, std::string::npos) << r.output;
     EXPECT_LT(std::stoi(r.output.substr(ms + 3)), 2000) << r.output;  // (ffmpeg goes within 0.1 s; then the end)
     for (const auto& said : c.said) EXPECT_NE(r.output.find(said), std::string::npos) << said << "\n" << r.output;
+    if (fs::exists(bin / "ffmpeg.child")) {
+      const std::string pid = read_text(bin / "ffmpeg.child");
+      ASSERT_FALSE(pid.empty());
+      // Gone, or a zombie its new parent has not reaped yet.
+      const auto alive = [&] {
+        const std::string stat = read_text(fs::path("/proc") / std::to_string(std::stoi(pid)) / "stat");
+        const auto paren = stat.rfind(')');
+        return paren != std::string::npos && paren + 2 < stat.size() && stat[paren + 2] != 'Z';
+      };
+      for (int k = 0; k < 40 && alive(); ++k) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      EXPECT_FALSE(alive()) << "the wrapper's child " << pid << " outlived mca";
+      if (alive()) shell("kill -9 " + pid);
+    }
     EXPECT_FALSE(fs::exists(out / "render" / "video.mp4"));
     for (const auto& e : fs::directory_iterator(out / "render")) EXPECT_NE(e.path().extension(), ".tmp") << e.path();
     // The command it names makes the video (of the odd size too, cropped as the run's encoder does).
