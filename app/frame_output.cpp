@@ -296,10 +296,7 @@ std::size_t FrameWriter::write_fragment_meshes(const State& s, const analysis::F
                                               const std::function<void(std::size_t, std::size_t)>& each) {
   if (!fragment_meshes_) return 0;
   io::output_subfolder(dir_, "fragments");
-  std::vector<std::int64_t> size(static_cast<std::size_t>(frags.count), 0);
-  for (auto id : frags.id) ++size[static_cast<std::size_t>(id)];
-  const auto total = static_cast<std::size_t>(
-      std::count_if(size.begin(), size.end(), [&](std::int64_t n) { return n > fragment_min_automata_; }));
+  const std::size_t total = analysis::meshed_fragments(frags, fragment_min_automata_).size();
   // Each mesh is written as it is made and let go: a shattered run's thousands of pieces are not all held.
   std::size_t written = 0;
   std::mutex lock;

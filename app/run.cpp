@@ -1,6 +1,5 @@
 // `mca run` and `mca resume`: step a scene frame by frame, write outputs, show progress.
 #include <algorithm>
-#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>

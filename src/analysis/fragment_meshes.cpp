@@ -160,15 +160,22 @@ std::vector<FragmentMesh> fragment_meshes(const Model& m, const State& s, const 
   return out;
 }
 
+std::vector<std::int32_t> meshed_fragments(const Fragments& fragments, std::int64_t min_automata) {
+  std::vector<std::int64_t> size(static_cast<std::size_t>(fragments.count), 0);
+  for (const std::int32_t id : fragments.id) ++size[static_cast<std::size_t>(id)];
+  std::vector<std::int32_t> chosen;
+  for (std::int32_t f = 0; f < fragments.count; ++f)
+    if (size[static_cast<std::size_t>(f)] > min_automata) chosen.push_back(f);
+  return chosen;
+}
+
 void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fragments, std::int64_t min_automata,
                             const std::function<void(FragmentMesh&&)>& sink, int cells_per_spacing) {
   const double d = m.spacing, h = d / cells_per_spacing;
+  const std::vector<std::int32_t> chosen = meshed_fragments(fragments, min_automata);
+  if (chosen.empty()) return;
   std::vector<std::vector<std::uint32_t>> members(static_cast<std::size_t>(fragments.count));
   for (std::size_t a = 0; a < m.size(); ++a) members[static_cast<std::size_t>(fragments.id[a])].push_back(static_cast<std::uint32_t>(a));
-  std::vector<std::int32_t> chosen;
-  for (std::int32_t f = 0; f < fragments.count; ++f)
-    if (static_cast<std::int64_t>(members[static_cast<std::size_t>(f)].size()) > min_automata) chosen.push_back(f);
-  if (chosen.empty()) return;
 
   // Per object: its grid, and its starting surface's signed distance where it has one.
   const std::size_t n_obj = m.object_names.size();

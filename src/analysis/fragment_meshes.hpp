@@ -34,6 +34,10 @@ struct FragmentMesh {
 std::vector<FragmentMesh> fragment_meshes(const Model& model, const State& state, const Fragments& fragments,
                                           std::int64_t min_automata, int cells_per_spacing = 3);
 
+// The fragments those meshes are of: the ids of the fragments of more than `min_automata` automata, in id
+// order.
+std::vector<std::int32_t> meshed_fragments(const Fragments& fragments, std::int64_t min_automata);
+
 // The same meshes, each handed to `sink` as soon as it is made and then let go (a run of many pieces holds
 // a few at a time, not all of them). `sink` is called from several threads at once, in no set order.
 // Pieces of more than kMeshedAlone automata are meshed one at a time, the others side by side.

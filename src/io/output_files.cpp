@@ -269,15 +269,6 @@ std::optional<std::int64_t> numbered(const std::string& name, std::string_view p
   return n;
 }
 
-void remove_own_files(const std::filesystem::path& dir, const std::string& prefix, const std::string& extension) {
-  std::error_code ec;
-  if (!std::filesystem::is_directory(dir, ec)) return;
-  std::vector<std::filesystem::path> doomed;
-  for (const auto& e : std::filesystem::directory_iterator(dir, ec))
-    if (e.is_regular_file(ec) && numbered(e.path().filename().string(), prefix, extension)) doomed.push_back(e.path());
-  for (const auto& p : doomed) remove_output(p);
-}
-
 bool remove_output(const std::filesystem::path& p) {
   std::error_code ec;
   const bool removed = std::filesystem::remove(p, ec);

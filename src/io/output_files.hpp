@@ -74,11 +74,6 @@ void remove_stale_temporaries(const std::filesystem::path& dir);
 // (automata_000012.vtu: 12); none for any other name (automata_mine.vtu).
 std::optional<std::int64_t> numbered(const std::string& name, std::string_view prefix, std::string_view extension);
 
-// Removes the regular files of `dir` (not below) named `prefix` + digits + `extension`: the outputs of an
-// earlier run of that kind (frames/automata_000012.vtu); a user's frames/automata_mine.vtu stays. A missing
-// folder is fine; a file that cannot be removed is an error that names it (remove_output).
-void remove_own_files(const std::filesystem::path& dir, const std::string& prefix, const std::string& extension);
-
 // Removes a file of an earlier session where it is there; returns whether it was. An error that names it
 // where it cannot be removed (a path through a file, as a file named `render`, holds none: nothing to remove).
 bool remove_output(const std::filesystem::path& p);
