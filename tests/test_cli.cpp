@@ -433,7 +433,7 @@ TEST(Cli, UnstableRunStopsWithTheCauseAndKeepsTheLastGoodFrame) {
   EXPECT_EQ(r.code, 3) << r.output;
   EXPECT_NE(r.output.find("unstable"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("solver.safety"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find(fmt::format("non-finite position or velocity at automaton {}", a)), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(fmt::format("non-finite position, velocity or orientation at automaton {}", a)), std::string::npos) << r.output;
   EXPECT_TRUE(fs::exists(out / "frames" / fmt::format("automata_{:06d}.vtu", cp.frame - 1)));
   EXPECT_FALSE(fs::exists(out / "summary.json"));
 }

@@ -443,5 +443,38 @@ TEST(RangeEdges, ABallSpinningPastHalfARadianAStepIsRefused) {
   EXPECT_TRUE(std::isfinite(q.w) && std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z));
 }
 
+// An orientation that becomes NaN while the spin stays finite (the renormalisation past about 3 rad a step)
+// stops the run as unstable, as a NaN position or velocity does: an automaton's (spun through its state: a
+// scene cannot ask for it) ran on with NaN orientations and the run said it finished, and so did a ball's
+// (a checkpoint's state is checked on upload; a step is not). On both backends that the CI runs.
+TEST(RangeEdges, AnOrientationThatBecomesNaNStopsTheRun) {
+  for (const auto backend : {SolverDef::Backend::cpu, SolverDef::Backend::cuda_emulation}) {
+    SceneDef s = test::block_scene(1, 1, 1, 0.05);
+    s.solver.backend = backend;
+    ProjectileDef ball;
+    ball.radius = 0.01;
+    ball.position = {0, -1, 0};
+    s.projectiles = {ball};
+    {
+      Engine sim(s);
+      test::set_rigid_motion(sim, {}, {0, 0, 4.0 / sim.model().dt});
+      const StepHealth h = sim.advance(100);
+      EXPECT_EQ(h.flags, kNonFinite);
+      EXPECT_EQ(h.automaton, 0);
+      EXPECT_HAS(instability_message(sim, h), "a non-finite position, velocity or orientation at automaton 0");
+    }
+    Engine sim(s);
+    State st = sim.state();
+    st.projectiles[0].angular_velocity = {4.0 / sim.model().dt, 0, 0};
+    sim.backend().upload(std::move(st));
+    const StepHealth h = sim.advance(100);
+    EXPECT_EQ(h.flags, kNonFinite);
+    EXPECT_EQ(h.projectile, 0);
+    EXPECT_GT(h.step, 1);  // (the spin itself is finite)
+    const Quat q = sim.state().projectiles[0].orientation;
+    EXPECT_FALSE(std::isfinite(q.w + q.x + q.y + q.z));
+  }
+}
+
 }  // namespace
 }  // namespace mca

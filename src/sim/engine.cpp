@@ -361,8 +361,8 @@ std::string instability_message(const Engine& sim, const StepHealth& h) {
   const State& s = sim.state();
   std::string what;
   if (h.flags & kNonFinite)
-    what = h.automaton >= 0 ? fmt::format("a non-finite position or velocity at automaton {}", h.automaton)
-                            : fmt::format("a non-finite position or velocity of projectile '{}'",
+    what = h.automaton >= 0 ? fmt::format("a non-finite position, velocity or orientation at automaton {}", h.automaton)
+                            : fmt::format("a non-finite position, velocity or orientation of projectile '{}'",
                                           m.projectiles[static_cast<std::size_t>(h.projectile)].name);
   else
     what = fmt::format("kinetic + elastic energy is {:.3g} J where the start and the work put in since give {:.3g} J",

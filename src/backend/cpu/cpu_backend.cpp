@@ -125,6 +125,7 @@ class PassTimer {
 };
 
 bool finite(DVec3 a) { return std::isfinite(a.x + a.y + a.z); }
+bool finite(Quat q) { return std::isfinite(q.w + q.x + q.y + q.z); }
 
 bool pair_less(const ContactPair& a, const ContactPair& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; }
 
@@ -840,7 +841,7 @@ std::int64_t CpuBackend::projectile_pass() {
       ps.orientation = integrate_orientation(ps.orientation, to_vec3(ps.angular_velocity), dt);
     }
     ps.position += ps.velocity * static_cast<double>(dt);
-    if (!finite(ps.position) || !finite(ps.velocity) || !finite(ps.angular_velocity))
+    if (!finite(ps.position) || !finite(ps.velocity) || !finite(ps.angular_velocity) || !finite(ps.orientation))
       return -2 - static_cast<std::int64_t>(p);
   }
   return kAllFinite;

@@ -212,7 +212,7 @@ inline constexpr std::uint32_t kBreakByStress = 1u << 31;
 
 struct AutomataResult {
   float max_move2 = 0;          // largest squared move of an exposed automaton since the rebuild
-  std::int64_t first_bad = -1;  // the first automaton with a non-finite position or velocity, or -1
+  std::int64_t first_bad = -1;  // the first automaton with a non-finite position, velocity or orientation, or -1
   bool near = false;            // some automaton of the range is near a projectile (LatticeView::near)
 };
 

@@ -693,12 +693,16 @@ struct Block {
     L::store(body.q.y, v.qy + a0);
     L::store(body.q.z, v.qz + a0);
     // x - x is 0 for a finite x and NaN for inf or NaN; inf or NaN in any component spreads to the sums.
+    // The orientation too: its renormalisation turns a finite spin of more than about 3 rad a step into
+    // NaN, which the spin itself does not show.
     const D place = body.x.x + body.x.y + body.x.z;
     const D motion = body.v.x + body.v.y + body.v.z + body.w.x + body.w.y + body.w.z;
-    if (r.first_bad < 0 && !(L::all(place - place == 0.0) && L::all(motion - motion == 0.0)))
+    const X turn = body.q.w + body.q.x + body.q.y + body.q.z;
+    if (r.first_bad < 0 &&
+        !(L::all(place - place == 0.0) && L::all(motion - motion == 0.0) && L::all(turn - turn == 0.0f)))
       for (std::size_t k = 0; k < W && r.first_bad < 0; ++k)
         if (!(std::isfinite(L::lane(body.x.x, k) + L::lane(body.x.y, k) + L::lane(body.x.z, k)) &&
-              std::isfinite(L::lane(motion, k))))
+              std::isfinite(L::lane(motion, k)) && std::isfinite(L::lane(turn, k))))
           r.first_bad = static_cast<std::int64_t>(a0 + k);
     // Only exposed automata are in the contact lists (see rebuild_contacts), so only their motion can make
     // them stale.

@@ -1251,7 +1251,8 @@ struct ProjectileMotionKernel {
       const double x = ps.position.x + ps.position.y + ps.position.z;
       const double v = ps.velocity.x + ps.velocity.y + ps.velocity.z;
       const double w = ps.angular_velocity.x + ps.angular_velocity.y + ps.angular_velocity.z;
-      if (!(x - x == 0.0 && v - v == 0.0 && w - w == 0.0)) {
+      const float q = ps.orientation.w + ps.orientation.x + ps.orientation.y + ps.orientation.z;
+      if (!(x - x == 0.0 && v - v == 0.0 && w - w == 0.0 && q - q == 0.0f)) {
         *bad = p;  // the step stops here, as the CPU's does
         return;
       }
