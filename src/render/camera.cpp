@@ -166,7 +166,7 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
       throw Error(fmt::format("{}: [camera] position = {} is {:.3g} m below the ground (ground.height = {:g} along the "
                               "up direction): the view would be of the ground's underside; raise the position above "
                               "the ground",
-                              source, shown(eye), -height, model.ground_height));
+                              source, shown(eye), -height, model.ground_height + model.ground_lowered));
   }
   // Depth range: from just short of the box (or of the target) to far behind it, the ground included.
   const float depth = std::max(dc, dist);
