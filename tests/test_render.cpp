@@ -20,6 +20,7 @@
 
 #include "app/commands.hpp"
 #include "app/render_output.hpp"
+#include "core/text.hpp"
 #include "io/default_scene.hpp"
 #include "io/scene_io.hpp"
 #include "mca/error.hpp"
@@ -321,6 +322,29 @@ TEST(Render, AFailingFfmpegDropsTheVideoAndTheRunGoesOn) {
     EXPECT_FALSE(fs::exists(out / "render" / "video.mp4")) << body;
     for (const auto& e : fs::directory_iterator(out / "render")) EXPECT_NE(e.path().extension(), ".tmp") << e.path();
   }
+}
+
+// The command that warning gives makes the video when pasted into a shell, in a folder whose name holds
+// spaces, a quote, a dollar sign and a star (each one word of the command, quoted as the shell needs).
+TEST(Render, TheVideoCommandOfTheWarningMakesTheVideoInAnOddlyNamedFolder) {
+  TempDir d;
+  const fs::path bin = d.path() / "bin", out = d.path() / "it's a run $HOME *";
+  fs::create_directories(bin);
+  std::ofstream(bin / "ffmpeg") << "#!/bin/sh\ncat > /dev/null; echo \"Unknown encoder 'libx264'\" >&2; exit 1\n";
+  fs::permissions(bin / "ffmpeg", fs::perms::owner_all);
+  const Result r = shell("PATH=" + bin.string() + ":/usr/bin:/bin " + std::string(MCA_BINARY) + " run " + kCubicWall +
+                         " -q --duration 0.004 --render --render-size 64x48 --out " + text::shell_word(out.string()));
+  ASSERT_EQ(r.code, 0) << r.output;
+  ASSERT_FALSE(fs::exists(out / "render" / "video.mp4"));
+  const std::string lead = "an ffmpeg that has libx264: ";
+  const auto at = r.output.find(lead);
+  ASSERT_NE(at, std::string::npos) << r.output;
+  const std::string command = r.output.substr(at + lead.size(), r.output.find('\n', at) - at - lead.size());
+  const Result made = shell(command + " -loglevel error");
+  ASSERT_EQ(made.code, 0) << command << ": " << made.output;
+  ASSERT_TRUE(fs::exists(out / "render" / "video.mp4")) << command;
+  EXPECT_GT(fs::file_size(out / "render" / "video.mp4"), 0u);
+  EXPECT_EQ(std::distance(fs::directory_iterator(d.path()), fs::directory_iterator{}), 2) << "the command wrote elsewhere";
 }
 
 // A stop signal is not held up by ffmpeg (it waited up to MCA_FFMPEG_TIMEOUT, 120 s by default, found by
