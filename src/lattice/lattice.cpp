@@ -1365,10 +1365,34 @@ void link_random(Model& M, const SceneDef& scene, std::size_t oi, std::size_t fi
   M.links += v.link.size();
 }
 
+// The contact radius of the cubic lattice's automata: d / 2, but never reaching past the faces of an
+// object's lattice of n cells of the scene's spacing (`given`, centred on its position). The centres are laid
+// out with d, the spacing rounded to float; where that rounded up, an object's outer centres lie (n - 1) (d -
+// given) / 2 further out than the scene's spacing puts them, and a sphere of d / 2 reached past its faces
+// by that and by the float rounding of the radius: a box standing on another started pressed into it by
+// 3e-9 m at d = 0.05, a preload that threw a light box off the one below at 8 mm/s. One radius for every
+// object (the step's constants take bodies of one radius as one), rounded down to a float.
+float lattice_contact_radius(const SceneDef& scene, const Shapes& S, double given, double d) {
+  double room = 0.5 * d;
+  for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) {
+    if (S.surface_of(oi)) continue;
+    std::int64_t n[3];
+    double origin[3];
+    lattice_frame(scene.objects[oi], S.of(oi), d, n, origin);
+    for (int a = 0; a < 3; ++a)
+      room = std::min(room, 0.5 * (static_cast<double>(n[a]) * given - static_cast<double>(n[a] - 1) * d));
+  }
+  float r = static_cast<float>(room);
+  if (static_cast<double>(r) > room) r = std::nextafter(r, 0.0f);
+  return r;
+}
+
 // Object oi filled with a lattice of spacing d in its own frame: the cells inside it, their links to
-// their face neighbours, and for a mesh its bound surface and summary.
+// their face neighbours, and for a mesh its bound surface and summary. `contact`: the cubic lattice's
+// contact radius (lattice_contact_radius).
 void fill_lattice(Model& M, const SceneDef& scene, const Shapes& S, std::size_t oi, const Mat3& R, int base_group,
-                  const std::vector<int>& region_groups, std::vector<Vec3>& local, AxisNeighbours& nb, double d) {
+                  const std::vector<int>& region_groups, std::vector<Vec3>& local, AxisNeighbours& nb, double d,
+                  float contact) {
   const ObjectDef& o = scene.objects[oi];
   const std::string okey = fmt::format("object[{}]", oi);
   const float fd = static_cast<float>(d);
@@ -1398,7 +1422,7 @@ void fill_lattice(Model& M, const SceneDef& scene, const Shapes& S, std::size_t 
         // its radius is what is left of d / 2 after the largest move, so no two automata start in contact
         // and a link that breaks leaves its pair apart (regions and classes keep the cell's centre).
         Vec3d site = wp;
-        float radius = 0.5f * fd;
+        float radius = contact;
         if (random) {
           // (Regions and classes keep the cell's centre, as for a jittered site.)
           const auto& s = rs.inside[M.size() - first];
@@ -1414,7 +1438,7 @@ void fill_lattice(Model& M, const SceneDef& scene, const Shapes& S, std::size_t 
           }
           const Vec3d turned = R.apply(move);
           site = {wp[0] + turned[0], wp[1] + turned[1], wp[2] + turned[2]};
-          radius = static_cast<float>(0.5 * d - largest);
+          radius = std::min(contact, static_cast<float>(0.5 * d - largest));
         }
         if (random) {  // (the automata before it, of other objects, hold their own centres)
           M.cell0.insert(M.cell0.end(), M.position0.begin() + static_cast<std::ptrdiff_t>(M.cell0.size()), M.position0.end());
@@ -1741,7 +1765,9 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
   BuildProgress::stage("reading the meshes");
   const Shapes S = prepare_shapes(scene);
   if (scene.solver.target_automata > 0) BuildProgress::stage("finding the spacing for solver.target_automata");
-  const double d = static_cast<double>(static_cast<float>(S.any_lattice ? scene_spacing(scene, S) : surface_spacing(S)));
+  const double given = S.any_lattice ? scene_spacing(scene, S) : surface_spacing(S);
+  const double d = static_cast<double>(static_cast<float>(given));
+  const float contact = lattice_contact_radius(scene, S, given, d);
   Model M;
   M.spacing = static_cast<float>(d);
   const std::int64_t n_est = checked_automata_count(scene, S, d);
@@ -1781,7 +1807,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
     if (scene.solver.lattice == SolverDef::Lattice::random) M.object_random.push_back(S.surface_of(oi) ? 0 : 1);
     std::vector<Vec3> local;  // the automata's centres in the object's frame, for the strength classes
     if (S.surface_of(oi)) fill_surface(M, scene, S, oi, R, base_group, region_groups, local, nb, d);
-    else fill_lattice(M, scene, S, oi, R, base_group, region_groups, local, nb, d);
+    else fill_lattice(M, scene, S, oi, R, base_group, region_groups, local, nb, d, contact);
     const HeterogeneityDef& het = o.heterogeneity ? *o.heterogeneity : scene.heterogeneity;
     for (auto cl : assign_classes(local, het, scene.solver.seed, static_cast<std::uint32_t>(oi))) {
       M.strength_class.push_back(cl);
