@@ -395,8 +395,8 @@ TEST(Checkpoint, AnEditedClockOrStartingEnergyIsRefused) {
   EXPECT_NO_THROW(Engine(f.scene, shot, "the viewer's shot", std::nullopt));
 }
 
-// A small ball spinning about as fast as its scene allows (0.49 rad a step) settles at an orientation's length
-// of 0.9987, short of 1 (the integration's renormalisation): its run's checkpoints resume (a check of unit
+// A small ball spinning about as fast as one part of its turn (0.49 rad a step) settles at an orientation's
+// length of 0.9987, short of 1 (the integration's renormalisation): its run's checkpoints resume (a check of unit
 // length within 1e-3 refused them all).
 TEST(Checkpoint, AFastSpinningBallsCheckpointResumes) {
   SceneDef s = struck_wall();
@@ -404,7 +404,7 @@ TEST(Checkpoint, AFastSpinningBallsCheckpointResumes) {
   s.projectiles[0].position = {0, -0.4, 0.15};
   s.projectiles[0].velocity = {0, 1, 0};
   Engine probe(s);
-  const double dt = probe.model().dt;  // (at most 0.5 rad a step, and its surface at a tenth of the spacing)
+  const double dt = probe.model().dt;  // (0.5 rad a step is one part, and its surface at a tenth of the spacing)
   const double spin = std::min(0.49 / dt, 0.0999 * probe.model().spacing / dt / 0.01);
   s.projectiles[0].angular_velocity = {0, 0, spin};
   Engine sim(s);

@@ -184,9 +184,12 @@ TEST(Lattice, OverlappingObjectsAreRefusedTouchingOnesAccepted) {
 }
 
 // A body placed on the ground starts touching it, not pressed into it by the rounding of its centres and
-// radii to float: the plane goes down by that rounding (1.5e-9 m for this cube, 1.1e-8 m for the default
-// wall). Pressed in, the cube started with 5.3e-8 J in its ground contacts whatever its density, and at
-// density 0.1 that threw it off the ground at 8 mm/s within 600 steps.
+// radii to float: the plane goes down by the objects' rounding (1.1e-8 m for the default wall before its
+// contact radius was rounded down), and a ball goes up by its own. Pressed in, a cube started with 5.3e-8 J
+// in its ground contacts whatever its density, and at density 0.1 that threw it off the ground at 8 mm/s
+// within 600 steps. A ball's rounding is its own: a ball of 15.954 m (4.7e-7 m larger in float) lowered the
+// plane under a box beside it, which dropped and bounced off at 2.4 mm/s; and the viewer's balls in flight,
+// one pressed into the ground by its landing, lowered it by that (5.6e-5 m) with the next shot.
 TEST(Lattice, ABodyPlacedOnTheGroundStartsTouchingItNotPressedIn) {
   for (const auto lattice : {SolverDef::Lattice::cubic, SolverDef::Lattice::random})
     for (const double density : {0.1, 2400.0}) {
@@ -196,13 +199,17 @@ TEST(Lattice, ABodyPlacedOnTheGroundStartsTouchingItNotPressedIn) {
       s.objects[0].position = {0, 0, 0.1};  // the bottom face on the ground
       s.ground.enabled = true;
       s.solver.gravity = {0, 0, -9.81};
+      const double lowered = lattice::build_model(s).ground_lowered;
       ProjectileDef ball;
       ball.radius = 0.2;
-      ball.position = {1, 0, 0.2};  // resting on the ground
-      s.projectiles = {ball};
+      ball.position = {1, 0, 0.2};  // resting on the ground (0.2 is 0.200000003 in float)
+      ProjectileDef big;
+      big.radius = 15.954;  // (15.9540005 in float)
+      big.position = {30, 0, 15.954};
+      s.projectiles = {ball, big};
       Engine sim(s);
       const Model& m = sim.model();
-      EXPECT_GT(m.ground_lowered, 0) << what;
+      EXPECT_EQ(m.ground_lowered, lowered) << what << ": the balls' rounding is not the objects'";
       EXPECT_LE(m.ground_lowered, 1e-6 * 0.05) << what;
       EXPECT_EQ(m.ground_height + m.ground_lowered, 0.0) << what;
       double deepest = -INFINITY;
@@ -210,7 +217,11 @@ TEST(Lattice, ABodyPlacedOnTheGroundStartsTouchingItNotPressedIn) {
         deepest = std::max<double>(deepest, ground_overlap(m.position0[a], m.up, m.ground_height, m.radius[a]));
       EXPECT_LE(deepest, 0.0) << what;
       EXPECT_GT(deepest, -1e-7) << what << ": it touches the ground";
-      EXPECT_LE(ground_overlap(m.projectiles[0].position, m.up, m.ground_height, m.projectiles[0].radius), 0.0f) << what;
+      for (const ProjectileParams& P : m.projectiles) {
+        const float overlap = ground_overlap(P.position, m.up, m.ground_height, P.radius);
+        EXPECT_LE(overlap, 0.0f) << what << ", " << P.radius;
+        EXPECT_GT(overlap, -1e-6f * P.radius) << what << ", " << P.radius << ": it touches the ground";
+      }
       EXPECT_EQ(sim.energies().contact, 0.0) << what;
       double rising = 0;
       for (int k = 0; k < 20; ++k) {
@@ -220,10 +231,15 @@ TEST(Lattice, ABodyPlacedOnTheGroundStartsTouchingItNotPressedIn) {
           mv += m.mass[a] * sim.state().v[a].z;
           mass += m.mass[a];
         }
-        rising = std::max({rising, mv / mass, sim.state().projectiles[0].velocity.z});
+        rising = std::max({rising, mv / mass, sim.state().projectiles[0].velocity.z, sim.state().projectiles[1].velocity.z});
       }
       // Falling onto it from rest, neither moves up faster than gravity would move it in the time.
       EXPECT_LT(rising, 9.81 * sim.state().time) << what;
+      // A ball in flight (before `placed`) is where the state has it, pressed into the ground perhaps: it
+      // is neither refused nor lifted, and the plane stays.
+      s.projectiles[0].position = {1, 0, 0.2 - 1e-4};
+      EXPECT_EQ(lattice::build_model(s, 1).ground_height, m.ground_height) << what;
+      EXPECT_EQ(lattice::build_model(s, 1).projectiles[0].position.z, 0.2 - 1e-4) << what;
     }
 }
 

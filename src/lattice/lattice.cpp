@@ -603,10 +603,11 @@ void refuse_overlaps(const SceneDef& scene, const Model& M) {
             "{}: object '{}' overlaps object '{}': {} pair{} of their automata overlap, the deepest at [{:.6g}, "
             "{:.6g}, {:.6g}] and [{:.6g}, {:.6g}, {:.6g}], {:.4g} m apart, {:.4g} m closer than the {:.4g} m at "
             "which automata touch. Objects may touch but not overlap (overlapping automata would start compressed "
-            "and throw the objects apart); move them apart (by at least {:.4g} m; {:.4g} m along {} parts their "
+            "and throw the objects apart); move them apart (by at least {} m; {} m along {} parts their "
             "boxes), or make one object with [[object.region]] blocks for two materials",
             scene.source, oq.name, oh.name, overlapping, overlapping == 1 ? "" : "s", p.x, p.y, p.z, ph.x, ph.y, ph.z,
-            deepest_dist, deepest, deepest_reach, deepest, part * 1.001, "xyz"[axis]));
+            deepest_dist, deepest, deepest_reach, text::at_least(deepest, 4), text::at_least(part * 1.001, 4),
+            "xyz"[axis]));
       }
     }
   }
@@ -617,11 +618,15 @@ void refuse_overlaps(const SceneDef& scene, const Model& M) {
 // into 180 pieces at t = 0). A body placed on the ground starts pressed into it by the rounding of its
 // centres and radii to float (1.1e-8 m for the default wall at d = 0.05): a preload of k delta, five times
 // an automaton's weight there, which threw a light or stiff body off the ground (a 0.2 m cube of density 0.1
-// left it at 8 mm/s). Up to 1e-6 d (1e-6 of a projectile's radius) that rounding is taken out by lowering
-// the plane until nothing overlaps it; deeper is the scene's error.
-double deepest_in_the_ground(const Model& M, std::size_t& automaton, std::size_t& projectile) {
+// left it at 8 mm/s). Up to 1e-6 d that rounding is taken out of the objects by lowering the plane until none
+// of their automata overlaps it (one plane keeps a stack's placing: an object lifted alone pressed into the
+// one on it), and out of each projectile placed now, up to 1e-6 of its radius, by lifting it (a ball's
+// rounding, which grows with its radius, lowered the plane under every other body). Deeper is the scene's
+// error. Projectiles before `placed` are in flight where the state has them (the viewer's earlier shots,
+// one perhaps pressed into the ground by its landing): they take no part.
+double deepest_in_the_ground(const Model& M, std::size_t& automaton) {
   double deepest = 0;
-  automaton = projectile = SIZE_MAX;
+  automaton = 0;
   for (std::size_t a = 0; a < M.size(); ++a) {
     const double overlap = ground_overlap(M.position0[a], M.up, M.ground_height, M.radius[a]);
     if (overlap > deepest) {
@@ -629,29 +634,26 @@ double deepest_in_the_ground(const Model& M, std::size_t& automaton, std::size_t
       automaton = a;
     }
   }
-  for (std::size_t p = 0; p < M.projectiles.size(); ++p) {
-    const ProjectileParams& P = M.projectiles[p];
-    const double overlap = ground_overlap(P.position, M.up, M.ground_height, P.radius);
-    if (overlap > deepest) {
-      deepest = overlap;
-      automaton = SIZE_MAX;
-      projectile = p;
-    }
-  }
   return deepest;
+}
+
+// Moves a body up, or the ground down, by `overlap()` until that is no more than 0. The overlap is rounded
+// to float from a double difference, so a move of exactly the overlap can leave a few units of the last
+// place of the height or of the centre (`reach()`: their size); each further move adds those.
+template <class Overlap, class Move, class Reach>
+bool take_out_rounding(Overlap&& overlap, Move&& move, Reach&& reach) {
+  for (int i = 0; i < 8; ++i) {
+    const double o = overlap();
+    if (!(o > 0)) return true;
+    move(o + 4 * std::numeric_limits<double>::epsilon() * reach());
+  }
+  return !(overlap() > 0);
 }
 
 void settle_on_the_ground(const SceneDef& scene, const Shapes& S, Model& M, std::size_t placed) {
   const double d = M.spacing;
-  double deepest = 0;
   std::size_t at = 0;
-  for (std::size_t a = 0; a < M.size(); ++a) {
-    const double overlap = ground_overlap(M.position0[a], M.up, M.ground_height, M.radius[a]);
-    if (overlap > deepest) {
-      deepest = overlap;
-      at = a;
-    }
-  }
+  const double deepest = deepest_in_the_ground(M, at);
   if (deepest > 1e-6 * d) {
     const auto oi = static_cast<std::size_t>(M.object[at]);
     const ObjectDef& o = scene.objects[oi];
@@ -668,35 +670,39 @@ void settle_on_the_ground(const SceneDef& scene, const Shapes& S, Model& M, std:
     }
     throw Error(fmt::format(
         "{}: object '{}' starts {:.4g} m inside the ground (its automaton at [{:.10g}, {:.10g}, {:.10g}], radius {:g} "
-        "m, below ground.height = {} along the up axis); move the object up by at least {:.4g} m{}",
+        "m, below ground.height = {} along the up axis); move the object up by at least {} m{}",
         scene.source, o.name, deepest, M.position0[at].x, M.position0[at].y, M.position0[at].z, M.radius[at],
-        scene.ground.height, deepest, why));
+        scene.ground.height, text::at_least(deepest, 4), why));
   }
   for (std::size_t p = placed; p < M.projectiles.size(); ++p) {
     const ProjectileParams& P = M.projectiles[p];
     const double overlap = ground_overlap(P.position, M.up, M.ground_height, P.radius);
     if (overlap > 1e-6 * P.radius) {
       throw Error(fmt::format("{}: projectile[{}] '{}' starts {:.4g} m inside the ground (ground.height = {} along "
-                              "the up axis); move it up by at least that much",
-                              scene.source, p, P.name, overlap, scene.ground.height));
+                              "the up axis); move it up by at least {} m",
+                              scene.source, p, P.name, overlap, scene.ground.height, text::at_least(overlap, 4)));
     }
   }
-  // What is left is rounding: the plane goes down by it. The overlap is rounded to float from a double
-  // difference, so a step of exactly the overlap can leave a few units of the last place of the plane's
-  // height or of a centre; each further step adds those.
+  // What is left is rounding.
+  const auto unsettled = [&](const std::string& what) {
+    return Error(fmt::format("{}: {} could not be made to start touching the ground rather than pressed into it by the "
+                             "rounding of its position (internal: please report the scene)",
+                             scene.source, what));
+  };
   const double given = M.ground_height;
-  std::size_t a, p;
-  for (int i = 0; i < 8; ++i) {
-    const double deepest = deepest_in_the_ground(M, a, p);
-    if (!(deepest > 0)) break;
-    const double reach = std::abs(M.ground_height) + (a != SIZE_MAX ? length(M.position0[a]) : length(M.projectiles[p].position));
-    M.ground_height -= deepest + 4 * std::numeric_limits<double>::epsilon() * reach;
-  }
-  if (deepest_in_the_ground(M, a, p) > 0)
-    throw Error(fmt::format("{}: the bodies placed on the ground could not be made to start touching it rather than "
-                            "pressed into it by the rounding of their positions (internal: please report the scene)",
-                            scene.source));
+  std::size_t a = 0;
+  if (!take_out_rounding([&] { return deepest_in_the_ground(M, a); }, [&](double by) { M.ground_height -= by; },
+                         [&] { return std::abs(M.ground_height) + length(M.position0[a]); }))
+    throw unsettled(fmt::format("object '{}'", scene.objects[static_cast<std::size_t>(M.object[a])].name));
   M.ground_lowered = given - M.ground_height;
+  for (std::size_t p = placed; p < M.projectiles.size(); ++p) {
+    ProjectileParams& P = M.projectiles[p];
+    const DVec3 up = to_dvec3(M.up);
+    if (!take_out_rounding([&] { return static_cast<double>(ground_overlap(P.position, M.up, M.ground_height, P.radius)); },
+                           [&](double by) { P.position += up * by; },
+                           [&] { return std::abs(M.ground_height) + length(P.position); }))
+      throw unsettled(fmt::format("projectile[{}] '{}'", p, P.name));
+  }
 }
 
 // Binds each triangle of a mesh object to the automaton nearest its centroid (sec. 5.4). The object's

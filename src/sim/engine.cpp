@@ -214,18 +214,18 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
                             scene.source, which, speed.a, reach.a, m.dt, reach.b, m.spacing,
                             text::at_most(0.1 * m.spacing / m.dt, 4)));
   }
-  // A ball's orientation turns by |angular_velocity| dt a step, integrated to first order and renormalised
-  // by one Newton step (core/math.hpp): at 0.5 rad a step its length settles at 0.9987; past about 1.8 it
-  // no longer settles, and past 3.3 it turned into NaN (a ball of 1 mm at 3.5 rad a step, its surface within
-  // the speed limit above, did while its run finished).
+  // A ball's orientation turns by |angular_velocity| dt a step, in parts of at most 0.5 rad, each integrated
+  // to first order and renormalised (core/math.hpp, integrate_projectile_orientation), up to 32 rad a step;
+  // past that it is not followed (in one step, past 3.3 rad it turned into NaN: a ball of 1 mm at 3.5 rad a
+  // step, its surface within the speed limit above, did while its run finished).
   for (const auto& p : scene.projectiles) {
     const double turn = norm(p.angular_velocity) * m.dt;
-    if (turn > 0.5)
+    if (turn > kLargestProjectileTurn)
       throw Error(fmt::format("{}: projectile '{}' spins at {:.4g} rad/s, which turns it by {:.3g} rad per time step "
-                              "of {:.3g} s, more than the 0.5 rad its orientation's integration follows; lower its "
+                              "of {:.3g} s, more than the {:g} rad its orientation's integration follows; lower its "
                               "angular_velocity below {} rad/s, or lower solver.safety or solver.time_step",
-                              scene.source, p.name, norm(p.angular_velocity), turn, m.dt,
-                              text::at_most(0.5 / m.dt, 4)));
+                              scene.source, p.name, norm(p.angular_velocity), turn, m.dt, kLargestProjectileTurn,
+                              text::at_most(kLargestProjectileTurn / m.dt, 4)));
   }
   return m;
 }
@@ -360,11 +360,20 @@ std::string instability_message(const Engine& sim, const StepHealth& h) {
   const Model& m = sim.model();
   const State& s = sim.state();
   std::string what;
-  if (h.flags & kNonFinite)
-    what = h.automaton >= 0 ? fmt::format("a non-finite position, velocity or orientation at automaton {}", h.automaton)
-                            : fmt::format("a non-finite position, velocity or orientation of projectile '{}'",
-                                          m.projectiles[static_cast<std::size_t>(h.projectile)].name);
-  else
+  if (h.flags & kNonFinite && h.automaton < 0 && h.projectile >= 0 &&
+      static_cast<std::size_t>(h.projectile) < s.projectiles.size()) {
+    // Only its orientation not finite: a spin past what the orientation's integration follows.
+    const ProjectileState& ps = s.projectiles[static_cast<std::size_t>(h.projectile)];
+    const double spin = length(ps.angular_velocity) * m.dt;
+    what = fmt::format("a non-finite position, velocity or orientation of projectile '{}'",
+                       m.projectiles[static_cast<std::size_t>(h.projectile)].name);
+    if (std::isfinite(spin) && std::isfinite(length(ps.position)) && std::isfinite(length(ps.velocity)))
+      what += fmt::format(" (its orientation: it spins {:.3g} rad per time step, past the {:g} its orientation's "
+                          "integration follows)",
+                          spin, kLargestProjectileTurn);
+  } else if (h.flags & kNonFinite) {
+    what = fmt::format("a non-finite position, velocity or orientation at automaton {}", h.automaton);
+  } else
     what = fmt::format("kinetic + elastic energy is {:.3g} J where the start and the work put in since give {:.3g} J",
                        h.energy, h.budget);
   return fmt::format("the run became unstable at step {} (t = {:.6g} s): {}. Likely causes: a time step set by hand "

@@ -92,7 +92,7 @@ float length(const Quat& q) {
 // The integration's renormalisation (one Newton step, core/math.hpp) never lengthens an orientation past 1
 // (but for float rounding: 1e-3 is allowed), and keeps a turning one short of it: one that turns by w dt a
 // step settles at sqrt((3 - 2 / sqrt(1 + e)) / (1 + e)), e = (w dt / 2)^2 (a ball of 1 cm at 8.7e5 rad/s,
-// 0.46 rad a step: 0.99873; a scene's balls turn 0.5 rad a step at most, engine.cpp).
+// 0.46 rad a step: 0.99873; a ball turns in parts of 0.5 rad a step at most, core/math.hpp).
 bool an_orientation(const Quat& q) { return length(q) > 0.0f && length(q) <= 1.001f; }
 
 class StateChecker {

@@ -838,7 +838,7 @@ std::int64_t CpuBackend::projectile_pass() {
     } else {
       ps.velocity += (fsum[p] * (1.0f / P.mass) + M_.gravity) * dt;
       ps.angular_velocity += tsum[p] * (dt / P.inertia);
-      ps.orientation = integrate_orientation(ps.orientation, to_vec3(ps.angular_velocity), dt);
+      ps.orientation = integrate_projectile_orientation(ps.orientation, to_vec3(ps.angular_velocity), dt);
     }
     ps.position += ps.velocity * static_cast<double>(dt);
     if (!finite(ps.position) || !finite(ps.velocity) || !finite(ps.angular_velocity) || !finite(ps.orientation))

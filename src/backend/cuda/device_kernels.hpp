@@ -1245,7 +1245,7 @@ struct ProjectileMotionKernel {
       } else {
         ps.velocity += (fsum[p] * (1.0f / P[p].mass) + gravity) * dt;
         ps.angular_velocity += tsum[p] * (dt / P[p].inertia);
-        ps.orientation = integrate_orientation(ps.orientation, to_vec3(ps.angular_velocity), dt);
+        ps.orientation = integrate_projectile_orientation(ps.orientation, to_vec3(ps.angular_velocity), dt);
       }
       ps.position += ps.velocity * static_cast<double>(dt);
       const double x = ps.position.x + ps.position.y + ps.position.z;
