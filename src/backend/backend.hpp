@@ -17,7 +17,8 @@ namespace mca {
 // Health flags a step returns (never an exception from inside a step). Each says what to change.
 enum HealthFlag : std::uint32_t {
   kHealthy = 0,
-  // A position, velocity, spin or orientation became NaN or infinite: the time step is too large for the stiffest
+  // A position, velocity, spin or orientation became NaN or infinite, or a ball's spin passed what its
+  // orientation's integration follows (kLargestProjectileTurn): the time step is too large for the stiffest
   // spring (lower solver.safety or solver.time_step), or a material constant is extreme.
   kNonFinite = 1u << 0,
   // Kinetic + elastic energy grew past 10x the energy the run had at its start plus the work put in

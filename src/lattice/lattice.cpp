@@ -613,12 +613,20 @@ void refuse_overlaps(const SceneDef& scene, const Model& M) {
   }
 }
 
+// x rounded down to a float: a contact radius that reaches no further than the one a scene gives (a ball of
+// radius 0.136 is 0.136000007 in float, and one placed on another started pressed into it by 7e-9 m, which
+// threw it off at 0.07 m/s).
+float float_at_most(double x) {
+  const float r = static_cast<float>(x);
+  return static_cast<double>(r) > x ? std::nextafter(r, 0.0f) : r;
+}
+
 // Nothing may start inside the ground: an automaton pressed into it by delta starts with the energy
 // k delta^2 / 2 of its contact (a box 5 mm into the ground, its lattice a row taller than its size, broke
 // into 180 pieces at t = 0). A body placed on the ground starts pressed into it by the rounding of its
-// centres and radii to float (1.1e-8 m for the default wall at d = 0.05): a preload of k delta, five times
-// an automaton's weight there, which threw a light or stiff body off the ground (a 0.2 m cube of density 0.1
-// left it at 8 mm/s). Up to 1e-6 d that rounding is taken out of the objects by lowering the plane until none
+// centres and radii to float (the default wall by 1.1e-8 m at d = 0.05, before lattice_contact_radius): a
+// preload of k delta, five times an automaton's weight there, which threw a light or stiff body off the
+// ground (a 0.2 m cube of density 0.1 left it at 8 mm/s). Up to 1e-6 d that rounding is taken out of the objects by lowering the plane until none
 // of their automata overlaps it (one plane keeps a stack's placing: an object lifted alone pressed into the
 // one on it), and out of each projectile placed now, up to 1e-6 of its radius, by lifting it (a ball's
 // rounding, which grows with its radius, lowered the plane under every other body). Deeper is the scene's
@@ -1388,9 +1396,7 @@ float lattice_contact_radius(const SceneDef& scene, const Shapes& S, double give
     for (int a = 0; a < 3; ++a)
       room = std::min(room, 0.5 * (static_cast<double>(n[a]) * given - static_cast<double>(n[a] - 1) * d));
   }
-  float r = static_cast<float>(room);
-  if (static_cast<double>(r) > room) r = std::nextafter(r, 0.0f);
-  return r;
+  return float_at_most(room);
 }
 
 // Object oi filled with a lattice of spacing d in its own frame: the cells inside it, their links to
@@ -1595,7 +1601,7 @@ void add_projectiles(Model& M, const SceneDef& scene, std::size_t placed, GroupT
     pp.name = pd.name;
     pp.group = groups.of(pd.material, key + ".material", false);
     const double rho = pd.density > 0 ? pd.density : M.groups[pp.group].density;
-    pp.radius = static_cast<float>(pd.radius);
+    pp.radius = float_at_most(pd.radius);  // (touching as placed: the checks below take the radius as given)
     const double mass = rho * 4.0 / 3.0 * std::numbers::pi * pd.radius * pd.radius * pd.radius;
     const std::string fix = fmt::format("check its radius (m) and density (kg/m^3); the automata here weigh {:.3g} kg",
                                         M.mass.empty() ? 0.0 : M.mass[0]);

@@ -218,13 +218,15 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
   // to first order and renormalised (core/math.hpp, integrate_projectile_orientation), up to 32 rad a step;
   // past that it is not followed (in one step, past 3.3 rad it turned into NaN: a ball of 1 mm at 3.5 rad a
   // step, its surface within the speed limit above, did while its run finished).
+  // (A kinematic ball's orientation is not integrated: it keeps its spin, and its surface speed is checked.)
   for (const auto& p : scene.projectiles) {
     const double turn = norm(p.angular_velocity) * m.dt;
-    if (turn > kLargestProjectileTurn)
-      throw Error(fmt::format("{}: projectile '{}' spins at {:.4g} rad/s, which turns it by {:.3g} rad per time step "
+    if (!p.kinematic && turn > kLargestProjectileTurn)
+      throw Error(fmt::format("{}: projectile '{}' spins at {:.4g} rad/s, which turns it by {} rad per time step "
                               "of {:.3g} s, more than the {:g} rad its orientation's integration follows; lower its "
                               "angular_velocity below {} rad/s, or lower solver.safety or solver.time_step",
-                              scene.source, p.name, norm(p.angular_velocity), turn, m.dt, kLargestProjectileTurn,
+                              scene.source, p.name, norm(p.angular_velocity),
+                              text::distinct(turn, kLargestProjectileTurn, 3).a, m.dt, kLargestProjectileTurn,
                               text::at_most(kLargestProjectileTurn / m.dt, 4)));
   }
   return m;
@@ -362,15 +364,17 @@ std::string instability_message(const Engine& sim, const StepHealth& h) {
   std::string what;
   if (h.flags & kNonFinite && h.automaton < 0 && h.projectile >= 0 &&
       static_cast<std::size_t>(h.projectile) < s.projectiles.size()) {
-    // Only its orientation not finite: a spin past what the orientation's integration follows.
+    // Its position and motion finite: a spin past what its orientation's integration follows (which its
+    // contacts gave it), its orientation perhaps not finite for that.
     const ProjectileState& ps = s.projectiles[static_cast<std::size_t>(h.projectile)];
-    const double spin = length(ps.angular_velocity) * m.dt;
-    what = fmt::format("a non-finite position, velocity or orientation of projectile '{}'",
-                       m.projectiles[static_cast<std::size_t>(h.projectile)].name);
+    const std::string& name = m.projectiles[static_cast<std::size_t>(h.projectile)].name;
+    const double spin = projectile_turn(to_vec3(ps.angular_velocity), m.dt);
     if (std::isfinite(spin) && std::isfinite(length(ps.position)) && std::isfinite(length(ps.velocity)))
-      what += fmt::format(" (its orientation: it spins {:.3g} rad per time step, past the {:g} its orientation's "
-                          "integration follows)",
-                          spin, kLargestProjectileTurn);
+      what = fmt::format("projectile '{}' spins {} rad per time step, past the {:g} rad its orientation's integration "
+                         "follows",
+                         name, text::distinct(spin, kLargestProjectileTurn, 3).a, kLargestProjectileTurn);
+    else
+      what = fmt::format("a non-finite position, velocity or orientation of projectile '{}'", name);
   } else if (h.flags & kNonFinite) {
     what = fmt::format("a non-finite position, velocity or orientation at automaton {}", h.automaton);
   } else

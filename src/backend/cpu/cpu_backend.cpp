@@ -839,6 +839,8 @@ std::int64_t CpuBackend::projectile_pass() {
       ps.velocity += (fsum[p] * (1.0f / P.mass) + M_.gravity) * dt;
       ps.angular_velocity += tsum[p] * (dt / P.inertia);
       ps.orientation = integrate_projectile_orientation(ps.orientation, to_vec3(ps.angular_velocity), dt);
+      if (!(projectile_turn(to_vec3(ps.angular_velocity), dt) <= kLargestProjectileTurn))
+        return -2 - static_cast<std::int64_t>(p);  // (a turn its orientation does not follow)
     }
     ps.position += ps.velocity * static_cast<double>(dt);
     if (!finite(ps.position) || !finite(ps.velocity) || !finite(ps.angular_velocity) || !finite(ps.orientation))

@@ -1246,6 +1246,10 @@ struct ProjectileMotionKernel {
         ps.velocity += (fsum[p] * (1.0f / P[p].mass) + gravity) * dt;
         ps.angular_velocity += tsum[p] * (dt / P[p].inertia);
         ps.orientation = integrate_projectile_orientation(ps.orientation, to_vec3(ps.angular_velocity), dt);
+        if (!(projectile_turn(to_vec3(ps.angular_velocity), dt) <= kLargestProjectileTurn)) {
+          *bad = p;  // (a turn its orientation does not follow; the step stops here, as the CPU's does)
+          return;
+        }
       }
       ps.position += ps.velocity * static_cast<double>(dt);
       const double x = ps.position.x + ps.position.y + ps.position.z;
