@@ -273,8 +273,8 @@ struct Model {
   bool ground = false;
   double ground_height = 0;  // the plane x . up = ground_height (double: the positions' precision far out)
   // How far the plane lies below the scene's ground.height (times |up|): the float rounding of the centres and
-  // radii of bodies placed on the ground (at most 1e-6 of the spacing), which would start them pressed into it
-  // (lattice.cpp, settle_on_the_ground). 0 where nothing is placed on the ground.
+  // contact radii of the objects placed on the ground (at most 1e-6 of the spacing), which would start them
+  // pressed into it (lattice.cpp, settle_on_the_ground). 0 where none is left.
   double ground_lowered = 0;
   Vec3 gravity;
   Vec3 up{0, 0, 1};

@@ -623,15 +623,16 @@ float float_at_most(double x) {
 
 // Nothing may start inside the ground: an automaton pressed into it by delta starts with the energy
 // k delta^2 / 2 of its contact (a box 5 mm into the ground, its lattice a row taller than its size, broke
-// into 180 pieces at t = 0). A body placed on the ground starts pressed into it by the rounding of its
+// into 180 pieces at t = 0). A body placed on the ground started pressed into it by the rounding of its
 // centres and radii to float (the default wall by 1.1e-8 m at d = 0.05, before lattice_contact_radius): a
 // preload of k delta, five times an automaton's weight there, which threw a light or stiff body off the
-// ground (a 0.2 m cube of density 0.1 left it at 8 mm/s). Up to 1e-6 d that rounding is taken out of the objects by lowering the plane until none
-// of their automata overlaps it (one plane keeps a stack's placing: an object lifted alone pressed into the
-// one on it), and out of each projectile placed now, up to 1e-6 of its radius, by lifting it (a ball's
-// rounding, which grows with its radius, lowered the plane under every other body). Deeper is the scene's
-// error. Projectiles before `placed` are in flight where the state has them (the viewer's earlier shots,
-// one perhaps pressed into the ground by its landing): they take no part.
+// ground (a 0.2 m cube of density 0.1 left it at 8 mm/s). What rounding the contact radii leave (up to
+// 1e-6 d) is taken out of the objects by lowering the plane until none of their automata overlaps it (one
+// plane keeps a stack's placing: an object lifted alone pressed into the one on it). A ball's radius is
+// rounded down (float_at_most); what a tilted plane leaves (up to 1e-6 of its radius) lifts that ball alone
+// (a ball's rounding, which grows with its radius, lowered the plane under every other body). Deeper is the
+// scene's error. Projectiles before `placed` are in flight where the state has them (the viewer's earlier
+// shots, one perhaps pressed into the ground by its landing): they take no part.
 double deepest_in_the_ground(const Model& M, std::size_t& automaton) {
   double deepest = 0;
   automaton = 0;
@@ -1379,7 +1380,8 @@ void link_random(Model& M, const SceneDef& scene, std::size_t oi, std::size_t fi
   M.links += v.link.size();
 }
 
-// The contact radius of the cubic lattice's automata: d / 2, but never reaching past the faces of an
+// The contact radius of a lattice's automata (cubic and random; a jittered site's is at most this): d / 2,
+// but never reaching past the faces of an
 // object's lattice of n cells of the scene's spacing (`given`, centred on its position). The centres are laid
 // out with d, the spacing rounded to float; where that rounded up, an object's outer centres lie (n - 1) (d -
 // given) / 2 further out than the scene's spacing puts them, and a sphere of d / 2 reached past its faces
@@ -1400,7 +1402,7 @@ float lattice_contact_radius(const SceneDef& scene, const Shapes& S, double give
 }
 
 // Object oi filled with a lattice of spacing d in its own frame: the cells inside it, their links to
-// their face neighbours, and for a mesh its bound surface and summary. `contact`: the cubic lattice's
+// their face neighbours, and for a mesh its bound surface and summary. `contact`: the lattice's
 // contact radius (lattice_contact_radius).
 void fill_lattice(Model& M, const SceneDef& scene, const Shapes& S, std::size_t oi, const Mat3& R, int base_group,
                   const std::vector<int>& region_groups, std::vector<Vec3>& local, AxisNeighbours& nb, double d,
