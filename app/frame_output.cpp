@@ -8,7 +8,10 @@
 #include <cstring>
 #include <fcntl.h>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <cstdio>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <mutex>
 #include <optional>
 #include <tbb/task_arena.h>
@@ -16,8 +19,11 @@
 
 #include "analysis/fragment_meshes.hpp"
 #include "analysis/surface.hpp"
+#include "core/text.hpp"
 #include "lattice/lattice.hpp"
+#include "io/checkpoint.hpp"
 #include "io/output_files.hpp"
+#include "io/scene_io.hpp"
 #include "io/vtk_writer.hpp"
 #include "mca/error.hpp"
 
@@ -499,6 +505,52 @@ std::vector<std::string> run_file_folders() {
   return folders;
 }
 
+SceneHead read_scene_head(const std::filesystem::path& dir) {
+  std::string head;
+  if (std::ifstream in(dir / "scene.toml"); in) {
+    head.resize(4096);
+    in.read(head.data(), static_cast<std::streamsize>(head.size()));
+    head.resize(static_cast<std::size_t>(in.gcount()));
+  }
+  SceneHead h;
+  const std::size_t mark = head.find(io::kWrittenByMca);
+  h.by_mca = mark != std::string::npos && head.find('\n') + 1 >= mark;  // on the first line, or after the comment
+  long long steps = 0;
+  if (h.by_mca && std::sscanf(head.c_str(), "# This run: --steps %lld ", &steps) == 1) h.steps = steps;
+  return h;
+}
+
+void check_folder_is_a_runs(const std::filesystem::path& dir, std::string_view another) {
+  const std::string folder = text::shell_word(dir.string());
+  std::error_code ec;
+  if (read_scene_head(dir).by_mca) {
+    const auto saved = io::list_checkpoints(dir / "checkpoints");
+    if (saved.empty()) return;
+    std::string status;
+    if (std::ifstream in(dir / "summary.json"); in) {
+      const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+      if (j.is_object() && j.contains("status") && j["status"].is_string()) status = j["status"].get<std::string>();
+    }
+    if (status == "finished") return;
+    throw Error(fmt::format("{} holds a run that did not finish (its newest checkpoint: {}); continue it with: mca "
+                            "resume {}. To start it afresh instead, remove its checkpoints first (rm -r {}), or give "
+                            "{}",
+                            dir.string(), saved.back().filename().string(), folder,
+                            text::shell_word((dir / "checkpoints").string()), another));
+  }
+  const std::vector<std::string> found =
+      run_files_in(dir, {RunPart::scene, RunPart::stats, RunPart::end, RunPart::plots, RunPart::frames,
+                         RunPart::checkpoints, RunPart::rendering});
+  if (found.empty()) return;
+  const std::size_t shown = std::min<std::size_t>(found.size(), 4);
+  throw Error(fmt::format(
+      "{} holds {}{}, of the names a run of mca writes, but no run of mca (its scene.toml {}); the run would replace "
+      "or remove them. Give {}, or move them out of this one",
+      dir.string(), fmt::join(found.begin(), found.begin() + static_cast<std::ptrdiff_t>(shown), ", "),
+      found.size() > shown ? fmt::format(" and {} more", found.size() - shown) : "",
+      std::filesystem::exists(dir / "scene.toml", ec) ? "was not written by mca" : "is missing", another));
+}
+
 void FrameWriter::remove_stale_temporaries(const std::filesystem::path& dir) {
   io::remove_stale_temporaries(dir);
   for (const std::string& sub : run_file_folders()) io::remove_stale_temporaries(dir / sub);
@@ -592,21 +644,29 @@ void FrameWriter::append_stats(const std::string& row) {
   const auto path = dir_ / "stats.csv";
   if (stats_fd_ < 0) throw Error(fmt::format("'{}' was not started (start_stats)", path.string()));
   const std::string line = row + "\n";
+  // A write can take part of the row before the disk fills: the file is then cut back to where the row
+  // began, so that it holds whole rows only.
+  const off_t before = ::lseek(stats_fd_, 0, SEEK_END);
   std::size_t done = 0;
   while (done < line.size()) {
     const ssize_t n = ::write(stats_fd_, line.data() + done, line.size() - done);
     if (n < 0 && errno == EINTR) continue;
-    if (n <= 0)
-      throw Error(fmt::format("could not write '{}': {}; check free disk space and the output folder", path.string(),
-                              n < 0 ? std::strerror(errno) : "nothing written"));
+    if (n <= 0) {
+      const int err = n < 0 ? errno : ENOSPC;  // (a write of nothing: no room)
+      if (done > 0 && before >= 0) (void)!::ftruncate(stats_fd_, before);
+      throw Error(fmt::format("could not write '{}': {}; {}", path.string(),
+                              n < 0 ? std::strerror(err) : "nothing written", io::write_failure_fix(err)));
+    }
     done += static_cast<std::size_t>(n);
   }
 }
 
 void FrameWriter::sync_stats() {
-  if (stats_fd_ >= 0 && ::fdatasync(stats_fd_) != 0)
-    throw Error(fmt::format("could not write '{}' to the disk: {}; check free disk space and the output folder",
-                            (dir_ / "stats.csv").string(), std::strerror(errno)));
+  if (stats_fd_ >= 0 && ::fdatasync(stats_fd_) != 0) {
+    const int err = errno;
+    throw Error(fmt::format("could not write '{}' to the disk: {}; {}", (dir_ / "stats.csv").string(),
+                            std::strerror(err), io::write_failure_fix(err)));
+  }
 }
 
 }  // namespace mca::app

@@ -6,7 +6,9 @@
 #include <filesystem>
 #include <functional>
 #include <initializer_list>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -114,6 +116,21 @@ std::vector<std::string> run_files_in(const std::filesystem::path& dir, std::ini
 std::size_t remove_run_files(const std::filesystem::path& dir, std::initializer_list<RunPart> parts);
 // The table's folders below the run's: frames, surface, fragments, checkpoints, render.
 std::vector<std::string> run_file_folders();
+
+// The first 4 KB of a run folder's scene.toml (empty without one): whether mca wrote it, and the step
+// count of a --steps run (the comment at its top).
+struct SceneHead {
+  bool by_mca = false;
+  std::optional<std::int64_t> steps;
+};
+SceneHead read_scene_head(const std::filesystem::path& dir);
+
+// A new run replaces an earlier run's files in its folder. It refuses a folder whose files of those names
+// are not a run's (no scene.toml of mca's: a user's summary.json, a folder of another program), and one
+// whose run did not finish and can be resumed (checkpoints, and no summary of a finished run): one
+// command typed for another must not cost either. `another`: the fix's other folder ("another --out
+// folder"; the Python module's write_frame names its own).
+void check_folder_is_a_runs(const std::filesystem::path& dir, std::string_view another = "another --out folder");
 
 class FrameWriter {
  public:

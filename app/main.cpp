@@ -3,12 +3,31 @@
 #include <charconv>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <new>
 #include <fmt/format.h>
 
 #include "app/commands.hpp"
 #include "app/render_output.hpp"
 #include "mca/error.hpp"
+
+namespace {
+// An integer option's text, checked before CLI11 converts it: a whole number from lo to hi, else a message
+// with the text as typed and what to give (CLI11's own says only "Could not convert", and it took a number
+// past 64 bits for the largest one).
+CLI::Validator whole_number(std::int64_t lo, std::int64_t hi, std::string what) {
+  return CLI::Validator(
+      [=](std::string& text) {
+        std::int64_t v = 0;
+        const char* end = text.data() + text.size();
+        const auto [ptr, ec] = std::from_chars(text.data(), end, v);
+        if (!text.empty() && ec == std::errc() && ptr == end && v >= lo && v <= hi) return std::string();
+        return fmt::format("{} is not a whole number from {} to {}; give {}", text, lo, hi, what);
+      },
+      "");
+}
+constexpr std::int64_t kIntMax = std::numeric_limits<int>::max();
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"mca: fracture of heterogeneous materials with movable cellular automata"};
@@ -32,16 +51,18 @@ int main(int argc, char** argv) {
       "SCENE");
   run->add_option("scene", scene_path, "Scene file (TOML, see docs/scene-format.md)")->check(not_empty);
   auto* out_opt = run->add_option("--out", out_dir, "Output folder (default out/<scene name>, see docs/scene-format.md)");
-  run->add_option("--threads", ro.threads, "Worker threads (0 = all cores)");
+  run->add_option("--threads", ro.threads, "Worker threads (0 = all cores)")->check(whole_number(0, kIntMax, "0 (all cores) or a count of worker threads"));
   auto* dur_opt = run->add_option("--duration", duration, "Simulated time [s] (overrides output.duration)");
-  auto* steps_opt = run->add_option("--steps", steps, "Run exactly this many steps");
+  auto* steps_opt = run->add_option("--steps", steps, "Run exactly this many steps")
+                         ->check(whole_number(1, std::numeric_limits<std::int64_t>::max(), "a number of steps"));
   dur_opt->excludes(steps_opt);
   run->add_option("--backend", ro.backend,
                   "Where the step runs: auto (the default: an NVIDIA GPU where there is one, else the CPU; MCA_BACKEND "
                   "changes it), cpu, cuda (an NVIDIA GPU), cuda-emulation (the CUDA "
                   "backend's algorithm on one CPU core, for checking; slow); overrides solver.backend");
   auto* seed_opt = run->add_option("--seed", seed_text, "Seed of the strength classes (overrides solver.seed), 0 .. 2^64-1");
-  auto* ck_opt = run->add_option("--checkpoint-every", checkpoint_every, "Write a checkpoint every N frames");
+  auto* ck_opt = run->add_option("--checkpoint-every", checkpoint_every, "Write a checkpoint every N frames")
+                      ->check(whole_number(0, kIntMax, "0 (none) or a number of frames"));
   bool no_vtk = false;
   run->add_flag("--no-vtk", no_vtk, "Do not write per-frame VTK files (stats and summary only)");
   run->add_flag("-q,--quiet", ro.quiet, "No progress output");
@@ -61,7 +82,7 @@ int main(int argc, char** argv) {
   bool resume_quiet = false;
   auto* resume = app.add_subcommand("resume", "Continue a run from the newest checkpoint in its output folder");
   resume->add_option("dir", resume_dir, "Output folder of the run")->required();
-  resume->add_option("--threads", resume_threads, "Worker threads (0 = all cores)");
+  resume->add_option("--threads", resume_threads, "Worker threads (0 = all cores)")->check(whole_number(0, kIntMax, "0 (all cores) or a count of worker threads"));
   resume->add_flag("-q,--quiet", resume_quiet, "No progress output");
   std::optional<std::string> resume_backend;
   resume->add_option("--backend", resume_backend, "Continue on this backend (auto, cpu, cuda, cuda-emulation): the same bits");
@@ -82,9 +103,10 @@ int main(int argc, char** argv) {
                                           "keys in the README)");
   view->add_option("scene", view_scene, "Scene file (default: the built-in scene)")->check(not_empty);
   view->add_option("--size", view_size, "Window size, WIDTHxHEIGHT (default 1280x720)");
-  view->add_option("--threads", vo.threads, "Worker threads (0 = all cores)");
+  view->add_option("--threads", vo.threads, "Worker threads (0 = all cores)")->check(whole_number(0, kIntMax, "0 (all cores) or a count of worker threads"));
   view->add_option("--backend", vo.backend, "Where the step runs: auto, cpu, cuda, cuda-emulation (overrides solver.backend)");
-  auto* frames_opt = view->add_option("--frames", view_frames, "Show this many frames (one output frame of the scene each), then exit");
+  auto* frames_opt = view->add_option("--frames", view_frames, "Show this many frames (one output frame of the scene each), then exit")
+                         ->check(whole_number(1, kIntMax, "a number of frames"));
   view->add_option("--screenshot", view_screenshot, "With --frames: write the last frame as PNG")->needs(frames_opt);
   view->add_option("--script", view_script, "Timed shots: lines 'TIME X Y' (simulated s; aim as shares of the window)");
   view->add_flag("-q,--quiet", vo.quiet, "No summary at the end");
@@ -97,9 +119,11 @@ int main(int argc, char** argv) {
                     fmt::format("Benchmarks to run: {} (default: {})", fmt::join(mca::app::bench_names(), ", "),
                                 fmt::join(mca::app::bench_names(true), ", ")));
   bench->add_flag("--json", bench_json, "Machine-readable output");
-  bench->add_option("--threads", bench_threads, "Worker threads (0 = all cores)");
-  bench->add_option("--repeats", bench_repeats, "Timed runs per benchmark (the median is reported)");
-  auto* bench_steps_opt = bench->add_option("--steps", bench_steps, "Steps per timed run (with --render: per frame, default 1)");
+  bench->add_option("--threads", bench_threads, "Worker threads (0 = all cores)")->check(whole_number(0, kIntMax, "0 (all cores) or a count of worker threads"));
+  bench->add_option("--repeats", bench_repeats, "Timed runs per benchmark (the median is reported)")
+      ->check(whole_number(1, kIntMax, "a number of timed runs"));
+  auto* bench_steps_opt = bench->add_option("--steps", bench_steps, "Steps per timed run (with --render: per frame, default 1)")
+                               ->check(whole_number(1, kIntMax, "a number of steps"));
   std::optional<std::string> bench_backend;
   bench->add_option("--backend", bench_backend, "Backend to measure: auto, cpu, cuda, cuda-emulation");
   bool bench_render = false;
@@ -108,7 +132,8 @@ int main(int argc, char** argv) {
                   "Frames per second of the renderer (1280x720 offscreen, --steps per frame, 1 by default): wall_3k, walls_12k, "
                   "wall_357k, wall_357k_spheres, bunny_cubes, bunny_surface, cow_cubes, cow_surface, armadillo_cubes, "
                   "armadillo_surface");
-  bench->add_option("--frames", bench_frames, "Frames timed per render benchmark (the median is reported)");
+  bench->add_option("--frames", bench_frames, "Frames timed per render benchmark (the median is reported)")
+      ->check(whole_number(1, kIntMax, "a number of frames"));
 
   // A command line that does not parse is a user error like any other: exit code 2 (CLI11's own codes
   // are 100 and up), 0 for --help and --version.

@@ -17,6 +17,7 @@
 
 #include "analysis/fragments.hpp"
 #include "backend/backend.hpp"
+#include "core/files.hpp"
 #include "core/text.hpp"
 #include "io/output_files.hpp"
 #include "mca/error.hpp"
@@ -74,18 +75,28 @@ void save_render_options(const std::filesystem::path& out_dir, const RenderOptio
 
 std::optional<RenderOptions> load_render_options(const std::filesystem::path& out_dir) {
   const std::filesystem::path file = out_dir / "render" / "render.json";
-  if (!std::filesystem::exists(file)) return std::nullopt;
+  std::error_code ec;
+  if (!std::filesystem::exists(std::filesystem::symlink_status(file, ec))) return std::nullopt;
   const auto fail = [&](const std::string& what) {
     return Error(fmt::format("{}: {}; the file is damaged or was edited: remove it to resume without rendering, or "
                              "restore it",
                              file.string(), what));
   };
+  if (const std::string kind = files::non_regular_kind(file); !kind.empty())
+    throw fail(fmt::format("it is {}, not the file of the run's rendering options", kind));
   RenderOptions o;
   try {
     std::ifstream in(file);
     const nlohmann::json j = nlohmann::json::parse(in);
-    o.width = j.at("width").get<int>();
-    o.height = j.at("height").get<int>();
+    // (Read as numbers first: a width of 1e300 is no int, and get<int> would wrap it.)
+    const auto pixels = [&](const char* key) {
+      const double v = j.at(key).get<double>();
+      if (!(v >= 16 && v <= 8192 && v == std::floor(v)))
+        throw fail(fmt::format("{} {} is not a whole number of pixels from 16 to 8192", key, text::num(v)));
+      return static_cast<int>(v);
+    };
+    o.width = pixels("width");
+    o.height = pixels("height");
     const auto colour = render::parse_colour_mode(j.at("colour").get<std::string>());
     const auto draw = render::parse_draw_mode(j.at("draw").get<std::string>());
     if (!colour || !draw) throw fail("an unknown colour or draw mode");

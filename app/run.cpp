@@ -281,62 +281,6 @@ int remove_end_outputs(const std::filesystem::path& dir, bool plots = true) {
   return plots ? static_cast<int>(remove_run_files(dir, {RunPart::plots})) : 0;
 }
 
-// The first 4 KB of a run folder's scene.toml (empty without one): whether mca wrote it, and the step
-// count of a --steps run (the comment at its top).
-struct SceneHead {
-  bool by_mca = false;
-  std::optional<std::int64_t> steps;
-};
-SceneHead read_scene_head(const std::filesystem::path& dir) {
-  std::string head;
-  if (std::ifstream in(dir / "scene.toml"); in) {
-    head.resize(4096);
-    in.read(head.data(), static_cast<std::streamsize>(head.size()));
-    head.resize(static_cast<std::size_t>(in.gcount()));
-  }
-  SceneHead h;
-  const std::size_t mark = head.find(io::kWrittenByMca);
-  h.by_mca = mark != std::string::npos && head.find('\n') + 1 >= mark;  // on the first line, or after the comment
-  long long steps = 0;
-  if (h.by_mca && std::sscanf(head.c_str(), "# This run: --steps %lld ", &steps) == 1) h.steps = steps;
-  return h;
-}
-
-// A new run replaces an earlier run's files in its folder. It refuses a folder whose files of those names
-// are not a run's (no scene.toml of mca's: a user's summary.json, a folder of another program), and one
-// whose run did not finish and can be resumed (checkpoints, and no summary of a finished run): one
-// command typed for another must not cost either.
-void check_folder_is_a_runs(const std::filesystem::path& dir) {
-  const std::string folder = text::shell_word(dir.string());
-  std::error_code ec;
-  if (read_scene_head(dir).by_mca) {
-    const auto saved = io::list_checkpoints(dir / "checkpoints");
-    if (saved.empty()) return;
-    std::string status;
-    if (std::ifstream in(dir / "summary.json"); in) {
-      const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
-      if (j.is_object() && j.contains("status") && j["status"].is_string()) status = j["status"].get<std::string>();
-    }
-    if (status == "finished") return;
-    throw Error(fmt::format("{} holds a run that did not finish (its newest checkpoint: {}); continue it with: mca "
-                            "resume {}. To start it afresh instead, remove its checkpoints first (rm -r {}), or give "
-                            "another --out folder",
-                            dir.string(), saved.back().filename().string(), folder,
-                            text::shell_word((dir / "checkpoints").string())));
-  }
-  const std::vector<std::string> found =
-      run_files_in(dir, {RunPart::scene, RunPart::stats, RunPart::end, RunPart::plots, RunPart::frames,
-                         RunPart::checkpoints, RunPart::rendering});
-  if (found.empty()) return;
-  const std::size_t shown = std::min<std::size_t>(found.size(), 4);
-  throw Error(fmt::format(
-      "{} holds {}{}, of the names a run of mca writes, but no run of mca (its scene.toml {}); the run would replace "
-      "or remove them. Give another --out folder, or move them out of this one",
-      dir.string(), fmt::join(found.begin(), found.begin() + static_cast<std::ptrdiff_t>(shown), ", "),
-      found.size() > shown ? fmt::format(" and {} more", found.size() - shown) : "",
-      std::filesystem::exists(dir / "scene.toml", ec) ? "was not written by mca" : "is missing"));
-}
-
 // What a session writes (`frames` more, pictures of render_width x render_height, 0 for none) must fit the
 // disk in `dir`, and its peak the memory (check_output_fits, check_memory_fits); returns the disk estimate.
 OutputEstimate check_run_fits(const Model& m, const SceneDef& scene, std::int64_t frames, int render_width,
@@ -672,7 +616,8 @@ int run(const RunOptions& o) {
       std::any_of(scene.objects.begin(), scene.objects.end(), [](const ObjectDef& d) { return d.shape == Shape::mesh; }))
     ro.draw = render::DrawMode::surface;
   if (o.duration) {
-    if (!(*o.duration > 0)) throw Error(fmt::format("--duration {} must be a positive number of seconds", *o.duration));
+    if (!(*o.duration > 0) || !std::isfinite(*o.duration))
+      throw Error(fmt::format("--duration {} must be a positive, finite number of seconds", *o.duration));
     scene.output.duration = *o.duration;
   }
   if (o.seed) scene.solver.seed = *o.seed;
@@ -809,8 +754,8 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
                             out_dir, why));
   }
   const io::OutputLock lock(dir);
+  io::check_output_subfolders(dir, {"checkpoints"});  // (first: no subfolder a link out of the folder)
   FrameWriter::remove_stale_temporaries(dir);
-  io::check_output_subfolders(dir, {"checkpoints"});
   const auto ckdir = dir / "checkpoints";
   const auto all = io::list_checkpoints(ckdir);
   if (all.empty())
@@ -819,9 +764,10 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
                             ckdir.string()));
   io::Checkpoint cp = io::read_checkpoint(all.back());
   // A checkpoint copied in from another run would write its scene's frames and summary into this folder.
-  io::check_checkpoint_scene(cp, all.back(), dir);
-  // Any backend continues any checkpoint with the same bits.
-  if (backend) cp.scene.solver.backend = backend_from_name(*backend, "--backend");
+  const SolverDef::Backend folder_backend = io::check_checkpoint_scene(cp, all.back(), dir);
+  // Any backend continues any checkpoint with the same bits: --backend for this session, else the folder's
+  // scene.toml's (the checkpoint's is that of the session that wrote it, which may have been told another).
+  cp.scene.solver.backend = backend ? backend_from_name(*backend, "--backend") : folder_backend;
   const int threads = thread_count(threads_requested);
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   if (!quiet)
@@ -876,6 +822,18 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
                  "are not drawn, and no video is made\n",
                  (dir / "render").string(), cp.frame - 1);
     }
+  } else if (steps_left) {
+    // Frames drawn by an earlier session without the options they were drawn with: this one cannot go on.
+    std::size_t drawn = 0;
+    std::error_code ec;
+    for (const auto& e : std::filesystem::directory_iterator(dir / "render", ec))
+      if (io::numbered(e.path().filename().string(), "frame_", ".png")) ++drawn;
+    if (drawn > 0)
+      fmt::print(stderr, "warning: {} holds {} rendered frames but no render.json (the options a rendered run draws "
+                 "with; a resume with --no-render removes it): the frames this resume adds are not drawn, and no "
+                 "video is made; to draw them, stop this resume and restore render.json, or start the run again "
+                 "with --render\n",
+                 (dir / "render").string(), drawn);
   }
   FrameWriter writer(dir, sim.model(), cp.scene.output);
   // Frame f is at the step the run wrote it at (min(f spf, total)), at that step's time.

@@ -202,6 +202,21 @@ TEST(Cli, ARunCheckpointedOnOneBackendResumesOnAnotherWithTheSameBits) {
   EXPECT_EQ(ja["steps_run_on"], fmt::format("{} thread{}", ja["threads"].get<int>(), ja["threads"] == 1 ? "" : "s"));
   EXPECT_EQ(ja["state_hash"], jc["state_hash"]);
   EXPECT_EQ(read(a / "stats.csv"), read(c / "stats.csv"));
+  // --backend holds for its resume only: a plain resume after it runs where the folder's scene.toml says
+  // (cpu, from the run's --backend), though the checkpoints that resume wrote name cuda-emulation. Before, the
+  // override stuck to every later resume, which ran on one core without a word (the hostile review of
+  // 2026-12-06).
+  // (From the last checkpoint, which the cuda-emulation resume wrote: no step is left, and the outputs are
+  // finished again on the backend the resume takes.)
+  for (const char* again : {"", " --backend cuda-emulation"}) {
+    SCOPED_TRACE(again);
+    fs::remove(c / "summary.json");
+    const Result plain = run_mca("resume " + c.string() + " -q" + again);
+    ASSERT_EQ(plain.code, 0) << plain.output;
+    const auto jp = nlohmann::json::parse(read(c / "summary.json"));
+    EXPECT_EQ(jp["backend"].get<std::string>().rfind(*again ? "cuda-emulation" : "cpu", 0), 0u) << jp["backend"];
+    EXPECT_EQ(ja["state_hash"], jp["state_hash"]);
+  }
 
   const Result bad = run_mca("run " + scene.string() + " --out " + (d / "x").string() + " -q --backend gpu");
   EXPECT_EQ(bad.code, 2);
@@ -395,6 +410,30 @@ TEST(Cli, BadInputFailsWithAClearMessage) {
   r = run_mca("run --duration -1");
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.output.find("--duration"), std::string::npos) << r.output;
+  // An infinite duration is the option's, not the scene file's (it was blamed on the scene).
+  r = run_mca("run --duration inf --out " + (d / "o4").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("--duration inf must be a positive, finite number of seconds"), std::string::npos)
+      << r.output;
+  // Integer options past their type are named as typed, with the range and what to give (CLI11 said
+  // "Could not convert", and took 99999999999999999999 steps for 9223372036854775807: the hostile review of
+  // 2026-12-06).
+  for (const auto& [args, part] : std::vector<std::pair<std::string, std::string>>{
+           {"run --threads 2147483648", "--threads: 2147483648 is not a whole number from 0 to 2147483647; give 0 (all "
+                                        "cores) or a count of worker threads"},
+           {"run --checkpoint-every 3000000000", "3000000000 is not a whole number from 0 to 2147483647; give 0 "
+                                                 "(none) or a number of frames"},
+           {"run --steps 99999999999999999999", "99999999999999999999 is not a whole number from 1 to "
+                                                "9223372036854775807; give a number of steps"},
+           {"run --steps 1.5", "1.5 is not a whole number from 1"},
+           {"resume x --threads -1", "-1 is not a whole number from 0 to 2147483647"},
+           {"bench --repeats 0", "0 is not a whole number from 1 to 2147483647; give a number of timed runs"},
+           {"view --frames 1e3", "1e3 is not a whole number from 1 to 2147483647; give a number of frames"}}) {
+    r = run_mca(args);
+    EXPECT_EQ(r.code, 2) << args;
+    EXPECT_NE(r.output.find(part), std::string::npos) << args << ": " << r.output;
+    EXPECT_EQ(r.output.find("Could not convert"), std::string::npos) << args << ": " << r.output;
+  }
   r = run_mca("bench no_such_bench");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("wall_357k"), std::string::npos) << r.output;
@@ -546,16 +585,51 @@ TEST(Cli, AFileWhereARunWritesAFolderIsRefusedBeforeItStarts) {
     EXPECT_EQ(r.code, 0) << r.output;
     for (const char* sub : {"render", "surface", "frames"}) EXPECT_EQ(read(out / sub), "x\n") << sub;
   }
-  // A link to an empty folder elsewhere (another disk), where this run writes no frames, stays a link (it
-  // was removed as an empty folder of outputs, and the redirection lost without a word).
-  {
-    const fs::path out = d / "linked", elsewhere = d / "elsewhere";
-    fs::create_directories(out);
+  // A subfolder that is a link to a folder elsewhere is refused, whether this run writes there or not, and
+  // the link and what it points at are left as they were: a run clears an earlier run's files out of every
+  // subfolder, and through a link it removed and wrote files outside its output folder (a folder of another
+  // run's frames, checkpoints or pictures: the hostile review of 2026-12-06). A resume is refused alike.
+  for (const char* sub : {"frames", "checkpoints", "render", "surface", "fragments"}) {
+    SCOPED_TRACE(sub);
+    const fs::path out = d / (std::string("linked_") + sub), elsewhere = d / (std::string("elsewhere_") + sub);
+    // A finished run's folder (a new run replaces its files), its subfolder a link.
+    ASSERT_EQ(run_mca("run " + small_scene(d, "", "plain").string() + " --out " + out.string() + " -q").code, 0);
+    fs::remove_all(out / sub);
     fs::create_directories(elsewhere);
+    for (const char* f : {"automata_000001.vtu", "frame_000003.mcack", "frame_000002.png", "video.mp4",
+                          "fragment_001.ply", "surface_000001.ply"})
+      std::ofstream(elsewhere / f) << "theirs\n";
+    fs::create_directory_symlink(elsewhere, out / sub);
+    for (const char* extra : {"", " --checkpoint-every 1"}) {
+      const Result r =
+          run_mca("run " + small_scene(d, "", "plain").string() + " --out " + out.string() + " -q --no-vtk" + extra);
+      EXPECT_EQ(r.code, 2) << r.output;
+      EXPECT_NE(r.output.find(fmt::format("'{}' is a symbolic link (to '{}'): a run writes", (out / sub).string(),
+                                          elsewhere.string())),
+                std::string::npos)
+          << r.output;
+      EXPECT_NE(r.output.find("writes and removes nothing outside its output folder; replace the link with a folder"),
+                std::string::npos)
+          << r.output;
+    }
+    EXPECT_TRUE(fs::is_symlink(out / sub));
+    std::size_t theirs = 0;
+    for (const auto& e : fs::directory_iterator(elsewhere)) theirs += read(e.path()) == "theirs\n";
+    EXPECT_EQ(theirs, 6u);
+  }
+  {
+    const fs::path out = d / "linked_resume", elsewhere = d / "elsewhere_resume";
+    ASSERT_EQ(
+        run_mca("run " + small_scene(d, "", "plain").string() + " --out " + out.string() + " -q --checkpoint-every 2")
+            .code,
+        0);
+    fs::rename(out / "frames", elsewhere);
     fs::create_directory_symlink(elsewhere, out / "frames");
-    const Result r = run_mca("run " + small_scene(d, "", "plain").string() + " --out " + out.string() + " -q --no-vtk");
-    EXPECT_EQ(r.code, 0) << r.output;
-    EXPECT_TRUE(fs::is_symlink(out / "frames"));
+    const std::size_t before = static_cast<std::size_t>(std::distance(fs::directory_iterator(elsewhere), {}));
+    const Result r = run_mca("resume " + out.string() + " -q");
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("is a symbolic link"), std::string::npos) << r.output;
+    EXPECT_EQ(static_cast<std::size_t>(std::distance(fs::directory_iterator(elsewhere), {})), before);
   }
   // A resume whose frames folder became a file.
   const fs::path out = d / "resumed";

@@ -7,9 +7,12 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <csignal>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "mca/error.hpp"
 #include "support.hpp"
 
 namespace mca {
@@ -59,6 +62,45 @@ TEST(FrameOutput, StatsGetOneAppendedRowPerFrame) {
     w.append_stats("1,y");
     EXPECT_EQ(slurp(csv).substr(slurp(csv).find('\n') + 1), "0,z\n1,y\n");
   }
+  fs::remove_all(dir);
+}
+
+// A row the disk takes only part of (the disk fills in the middle of it) is cut off again: stats.csv holds
+// whole rows only. Before, a full disk left "30,0.030" under a header of 17 fields (the hostile review of
+// 2026-12-06). The disk filling is played by the process's file size limit, which lets a write take what fits
+// and fails the next one (EFBIG; SIGXFSZ ignored).
+TEST(FrameOutput, ARowTheDiskTakesOnlyPartOfIsCutOffAgain) {
+  const fs::path dir = fs::temp_directory_path() / ("mca_test_frame_output_full_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  Engine sim(test::block_scene(2, 2, 2));
+  OutputDef no_frames;
+  no_frames.vtk = false;
+  app::FrameWriter w(dir, sim.model(), no_frames);
+  w.start_stats({"0,a"});
+  const fs::path csv = dir / "stats.csv";
+  const std::string before = slurp(csv);
+  const std::string row(200, '7');
+  rlimit old{};
+  ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &old), 0);
+  const auto old_handler = std::signal(SIGXFSZ, SIG_IGN);
+  rlimit small = old;
+  small.rlim_cur = before.size() + 50;  // room for 50 of the row's 201 bytes
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &small), 0);
+  std::string message;
+  try {
+    w.append_stats(row);
+  } catch (const Error& e) {
+    message = e.what();
+  }
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &old), 0);
+  std::signal(SIGXFSZ, old_handler);
+  EXPECT_NE(message.find("could not write '" + csv.string() + "'"), std::string::npos) << message;
+  EXPECT_NE(message.find("size limit"), std::string::npos) << message;
+  EXPECT_EQ(slurp(csv), before);
+  // The file goes on from there once there is room.
+  w.append_stats("1,b");
+  EXPECT_EQ(slurp(csv), before + "1,b\n");
   fs::remove_all(dir);
 }
 

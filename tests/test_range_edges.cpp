@@ -80,6 +80,26 @@ TEST(RangeEdges, AnExtremeFrameRateIsRefusedWithItsValue) {
   expect_sane(m);
 }
 
+// solver.safety far down its range (0, 1]: from about 1e-40 the float32 step rounded to 0, a frame became
+// NaN steps, taken as one step of the whole frame (95 times the critical step): a run of two frames ended
+// with exit 0 and a kinetic energy of -11,536 J (the hostile review of 2026-12-06). Refused for the frame's
+// step count down to about 1e-39, and below for the step that float32 cannot hold.
+TEST(RangeEdges, ASafetySoSmallThatTheStepLeavesFloatIsRefused) {
+  for (const char* v : {"1e-40", "1e-100", "5e-324"}) {
+    SCOPED_TRACE(v);
+    const std::string m = engine_error(std::string("[solver]\nsafety = ") + v);
+    EXPECT_HAS(m, std::string("edge.toml: solver.safety = ") + v + " makes the time step ");
+    EXPECT_HAS(m, "below the 1.2e-38 s a float32 step holds; raise solver.safety (0.5 is the default)");
+  }
+  // Just above: refused for the frame's count of steps, as before.
+  EXPECT_HAS(engine_error("[solver]\nsafety = 1e-30"), "would take");
+  // And a small safety that fits is taken: its step is that share of the critical one.
+  const SceneDef s = cube("[solver]\nsafety = 0.001\n[output]\nduration = 0.0001\nframe_rate = 10000");
+  const Engine e(s);
+  EXPECT_LE(e.model().dt, 0.001 * e.model().critical_dt * (1 + 1e-6));
+  EXPECT_GT(e.model().dt, 0.0009 * e.model().critical_dt);
+}
+
 // Item 4: max_memory_gb = 0.04 was "less than the 0.04 GB the program takes".
 TEST(RangeEdges, AMemoryLimitThatLeavesNothingSaysSo) {
   std::string m = engine_error("[solver]\nmax_memory_gb = 0.042");

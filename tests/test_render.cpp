@@ -258,6 +258,31 @@ TEST(Render, AResumedRunRendersTheFramesItAdds) {
   EXPECT_TRUE(fs::exists(rd / app::RenderOutput::frame_name(5)));
   // Its frames stopped there: a later resume does not take the folder for a whole rendering.
   EXPECT_FALSE(fs::exists(rd / "render.json"));
+  // A later resume says that it does not draw, and why (it went on without a word: the hostile review of
+  // 2026-12-06).
+  fs::remove(dir / "checkpoints" / "frame_000006.mcack");
+  const Result later = run_mca("resume -q " + dir.string());
+  ASSERT_EQ(later.code, 0) << later.output;
+  EXPECT_NE(later.output.find(fmt::format("warning: {} holds 6 rendered frames but no render.json", rd.string())),
+            std::string::npos)
+      << later.output;
+  EXPECT_NE(later.output.find("the frames this resume adds are not drawn"), std::string::npos) << later.output;
+  EXPECT_EQ(hash(), through);
+  // A folder where render.json goes is named, with the fix (it was a raw stream error, exit 1).
+  fs::remove(dir / "checkpoints" / "frame_000006.mcack");
+  fs::create_directory(rd / "render.json");
+  const Result folder = run_mca("resume -q " + dir.string());
+  EXPECT_EQ(folder.code, 2) << folder.output;
+  EXPECT_NE(folder.output.find((rd / "render.json").string() + ": it is a directory"), std::string::npos)
+      << folder.output;
+  EXPECT_NE(folder.output.find("remove it to resume without rendering"), std::string::npos) << folder.output;
+  fs::remove(rd / "render.json");
+  // A width past int (1e300) is named as written, not wrapped to -2147483648.
+  std::ofstream(rd / "render.json") << R"({"width": 1e300, "height": 180, "colour": "damage", "draw": "cubes", "fps": 10})";
+  const Result wide = run_mca("resume -q " + dir.string());
+  EXPECT_EQ(wide.code, 2) << wide.output;
+  EXPECT_NE(wide.output.find("width 1e300 is not a whole number of pixels from 16 to 8192"), std::string::npos)
+      << wide.output;
 }
 
 TEST(Render, WithoutFfmpegThePngsAreWrittenAndTheMessageSaysHowToGetTheVideo) {

@@ -306,8 +306,8 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   return cp;
 }
 
-void check_checkpoint_scene(const Checkpoint& cp, const std::filesystem::path& checkpoint,
-                            const std::filesystem::path& run_dir) {
+SolverDef::Backend check_checkpoint_scene(const Checkpoint& cp, const std::filesystem::path& checkpoint,
+                                          const std::filesystem::path& run_dir) {
   const std::filesystem::path own = run_dir / "scene.toml";
   const std::string fix = fmt::format(
       "resume it in the folder of the run that wrote it, or remove it from {} (and start this folder's run again "
@@ -326,10 +326,11 @@ void check_checkpoint_scene(const Checkpoint& cp, const std::filesystem::path& c
   // step runs is not the scene (every backend continues a checkpoint with the same bits; a run resumed on
   // another backend writes that one into its checkpoints).
   SceneDef own_scene = load_scene_file(own), cp_scene = cp.scene;
+  const SolverDef::Backend own_backend = own_scene.solver.backend;
   own_scene.solver.backend = cp_scene.solver.backend = SolverDef::Backend::automatic;
   const std::string mine = scene_to_toml(own_scene);
   const std::string theirs = scene_to_toml(cp_scene);
-  if (mine == theirs) return;
+  if (mine == theirs) return own_backend;
   std::size_t a = 0, b = 0;
   std::string line_mine, line_theirs, section;
   for (;;) {

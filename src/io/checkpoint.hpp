@@ -40,8 +40,10 @@ Checkpoint read_checkpoint(const std::filesystem::path& path);
 // run, which `mca run` writes) must be the checkpoint's scene, key for key. A checkpoint of another scene
 // copied into the folder would write that scene's frames, stats and summary beside the folder's own.
 // Throws mca::Error naming both files, the first key that differs and the fix; a folder without
-// scene.toml is refused too (it is not a run's folder, or its scene was removed).
-void check_checkpoint_scene(const Checkpoint& cp, const std::filesystem::path& checkpoint,
+// scene.toml is refused too (it is not a run's folder, or its scene was removed). Where the step runs is not
+// compared: returns the folder's solver.backend, which a resume without --backend takes (not the
+// checkpoint's, which is the backend of the session that wrote it).
+SolverDef::Backend check_checkpoint_scene(const Checkpoint& cp, const std::filesystem::path& checkpoint,
                             const std::filesystem::path& run_dir);
 
 }  // namespace mca::io

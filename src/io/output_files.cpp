@@ -87,6 +87,19 @@ std::string subfolder_use(const std::string& name) {
 }  // namespace
 
 void check_output_subfolders(const fs::path& dir, const std::vector<std::string>& names) {
+  // A run clears an earlier run's files out of every subfolder, whatever it writes itself: a subfolder
+  // that is a symbolic link would have it remove and write files outside the output folder.
+  for (const auto& [name, use] : kSubfolders) {
+    std::error_code ec;
+    const fs::path sub = dir / name;
+    if (fs::is_symlink(fs::symlink_status(sub, ec))) {
+      const fs::path target = fs::read_symlink(sub, ec);
+      throw Error(fmt::format("'{}' is a symbolic link{}: a run writes {} there and removes an earlier run's, and it "
+                              "writes and removes nothing outside its output folder; replace the link with a folder, "
+                              "or give the run an output folder there (--out)",
+                              sub.string(), ec ? std::string() : fmt::format(" (to '{}')", target.string()), use));
+    }
+  }
   for (const std::string& name : names) {
     std::error_code ec;
     const fs::path sub = dir / name;
@@ -192,6 +205,25 @@ fs::path temporary_path(const fs::path& path) {
   return tmp;
 }
 
+std::string write_failure_fix(int err) {
+  switch (err) {
+    case ENOSPC:
+    case EDQUOT:
+      return "free disk space (or quota) for the output folder";
+    case EROFS:
+      return "the output folder is on a read-only file system: give the run a writable one";
+    case EFBIG:
+      return "the file reached a size limit (the process's, ulimit -f, or the file system's)";
+    case EISDIR:
+      return "a folder stands at the file's name: move or remove it";
+    case EACCES:
+    case EPERM:
+      return "check the output folder's permissions";
+    default:
+      return "check the disk and the output folder";
+  }
+}
+
 void write_file_atomic(const fs::path& path, const std::function<void(std::ostream&)>& write,
                        bool binary, Durability durability) {
   const fs::path tmp = temporary_path(path);
@@ -200,22 +232,26 @@ void write_file_atomic(const fs::path& path, const std::function<void(std::ostre
     std::error_code ignored;
     fs::remove(tmp, ignored);
   };
-  const auto fail = [&](const std::string& reason, bool io_failure = true) {
+  // err: the failure's error number (0: not one of the file's, the caller's own).
+  const auto fail = [&](const std::string& reason, int err) {
     discard_tmp();
     return Error(fmt::format("could not write '{}': {}{}", path.string(), reason,
-                             io_failure ? "; check free disk space and the output folder" : ""));
+                             err ? "; " + write_failure_fix(err) : std::string()));
   };
 
   std::ofstream out;
   const auto mode = std::ios::out | std::ios::trunc | (binary ? std::ios::binary : std::ios::openmode{});
   out.open(tmp, mode);
-  if (!out) throw fail(fmt::format("cannot create '{}': {}", tmp.string(), std::strerror(errno)));
+  if (!out) {
+    const int err = errno;
+    throw fail(fmt::format("cannot create '{}': {}", tmp.string(), std::strerror(err)), err);
+  }
 
   try {
     write(out);
   } catch (const std::exception& e) {
     out.close();
-    throw fail(e.what(), false);
+    throw fail(e.what(), 0);
   } catch (...) {
     out.close();
     discard_tmp();
@@ -224,13 +260,16 @@ void write_file_atomic(const fs::path& path, const std::function<void(std::ostre
 
   out.flush();
   if (!out) {
-    const std::string reason = std::strerror(errno);
+    const int err = errno;
     out.close();
-    throw fail(fmt::format("writing failed ({})", reason));
+    throw fail(fmt::format("writing failed ({})", std::strerror(err)), err);
   }
   // close() writes out the last buffered bytes; a full disk can surface only here.
   out.close();
-  if (!out) throw fail(fmt::format("closing failed ({})", std::strerror(errno)));
+  if (!out) {
+    const int err = errno;
+    throw fail(fmt::format("closing failed ({})", std::strerror(err)), err);
+  }
 
   // The data must be on the disk before the rename is: otherwise a power loss can leave the new name
   // pointing at an empty or partial file.
@@ -238,20 +277,20 @@ void write_file_atomic(const fs::path& path, const std::function<void(std::ostre
     try {
       sync_path(tmp, false);
     } catch (const std::system_error& e) {
-      throw fail(e.what());
+      throw fail(e.what(), e.code().value());
     }
   }
 
   std::error_code ec;
   fs::rename(tmp, path, ec);
-  if (ec) throw fail(fmt::format("cannot rename '{}' onto it: {}", tmp.string(), ec.message()));
+  if (ec) throw fail(fmt::format("cannot rename '{}' onto it: {}", tmp.string(), ec.message()), ec.value());
   if (durability == Durability::synced) {
     // The rename is an entry in the folder: only a synced folder keeps it.
     try {
       sync_path(path.has_parent_path() ? path.parent_path() : fs::path("."), true);
     } catch (const std::system_error& e) {
-      throw Error(fmt::format("could not write '{}': {}; check the disk and the output folder", path.string(),
-                              e.what()));
+      throw Error(fmt::format("could not write '{}': {}; {}", path.string(), e.what(),
+                              write_failure_fix(e.code().value())));
     }
   }
 }

@@ -20,7 +20,8 @@ void prepare_output_dir(const std::filesystem::path& dir);
 // The folders `names` (of frames, surface, fragments, checkpoints, render) that a run will write into inside
 // its output folder: one that is there as something else (a file named `frames`) is refused, naming it and
 // the fix, before anything is written. Found late, it stopped a run partway, with no checkpoint, in a raw
-// error. (A name the run does not write is not looked at.)
+// error. Every one of those subfolders that is a symbolic link is refused, written or not: a run clears an
+// earlier run's files out of each, and would remove and write files outside its output folder through it.
 void check_output_subfolders(const std::filesystem::path& dir, const std::vector<std::string>& names);
 // `dir / name`, made where it is missing; mca::Error naming it, what goes there and the fix where it
 // cannot be (a file of that name, permissions).
@@ -60,6 +61,10 @@ enum class Durability {
 void write_file_atomic(const std::filesystem::path& path,
                        const std::function<void(std::ostream&)>& write, bool binary = true,
                        Durability durability = Durability::renamed);
+
+// What to do about a write that failed with the error number `err`, after "; ": free disk space (a full disk
+// or quota), a read-only file system, a folder at the file's name, or the output folder in general.
+std::string write_failure_fix(int err);
 
 // A temporary name for `path` in the same folder, as write_file_atomic uses: `path` + ".<pid>.<n>.tmp". For
 // files written by another program (the video, by ffmpeg) and renamed into place by the caller.

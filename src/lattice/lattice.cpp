@@ -1765,7 +1765,16 @@ void choose_time_step(Model& M, const SceneDef& scene) {
     }
     set_time_step(M, static_cast<float>(scene.solver.time_step));
   } else {
-    set_time_step(M, static_cast<float>(scene.solver.safety * critical.dt));
+    // The step is kept in float32: a safety so small that it leaves float's normal range (1.2e-38 s) would
+    // round it to 0 (a frame of NaN steps, taken as one step of a whole frame) or to a few bits.
+    const double step = scene.solver.safety * critical.dt;
+    if (!(static_cast<float>(step) >= std::numeric_limits<float>::min())) {
+      throw Error(fmt::format("{}: solver.safety = {} makes the time step {:.3g} s ({} x the critical step {:.4g} s), "
+                              "below the {:.2g} s a float32 step holds; raise solver.safety (0.5 is the default)",
+                              scene.source, text::num(scene.solver.safety), step, text::num(scene.solver.safety),
+                              critical.dt, static_cast<double>(std::numeric_limits<float>::min())));
+    }
+    set_time_step(M, static_cast<float>(step));
   }
 }
 
