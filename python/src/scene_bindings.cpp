@@ -1,6 +1,7 @@
 // mca.Scene and its parts: the definition structs of include/mca/scene.hpp under the key names of
 // docs/scene-format.md, read and written by the scene reader and writer of src/io and checked by
 // validate_scene, so a scene built in Python gets the messages a scene file gets.
+#include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
@@ -30,41 +31,23 @@ namespace {
 
 std::string type_name(py::handle h) { return py::str(py::type::handle_of(h).attr("__name__")); }
 
-// [x, y, z] from any sequence of three numbers (a list, a tuple, a numpy array).
-Vec3d to_vec3(py::handle value, const std::string& key) {
-  if (!py::isinstance<py::sequence>(value) || py::isinstance<py::str>(value) || py::len(value) != 3)
-    throw Error(fmt::format("{} = {} is not three numbers; give [x, y, z]", key, py::str(py::repr(value)).cast<std::string>()));
-  Vec3d v{};
-  const auto seq = py::reinterpret_borrow<py::sequence>(value);
-  for (std::size_t k = 0; k < 3; ++k) {
-    try {
-      v[k] = py::float_(seq[k]).cast<double>();
-    } catch (const py::error_already_set&) {
-      throw Error(fmt::format("{} = {}: component {} is not a number; give [x, y, z]", key,
-                              py::str(py::repr(value)).cast<std::string>(), k));
-    }
-  }
-  return v;
-}
-py::tuple from_vec3(const Vec3d& v) { return py::make_tuple(v[0], v[1], v[2]); }
-
+// N numbers from any sequence of them (a list, a tuple, a one-dimensional numpy array), each a number as
+// to_number takes it: not text, bytes (b"abc" was taken as its three character codes) or bools.
 template <std::size_t N>
 std::array<double, N> to_array(py::handle value, const std::string& key, const char* form) {
-  if (!py::isinstance<py::sequence>(value) || py::isinstance<py::str>(value) || py::len(value) != N)
-    throw Error(fmt::format("{} = {} is not {} numbers; give {}", key, py::str(py::repr(value)).cast<std::string>(), N,
-                            form));
+  const bool flat = !py::isinstance<py::array>(value) || py::reinterpret_borrow<py::array>(value).ndim() == 1;
+  if (!py::isinstance<py::sequence>(value) || PyUnicode_Check(value.ptr()) || PyBytes_Check(value.ptr()) ||
+      PyByteArray_Check(value.ptr()) || !flat || py::len(value) != N)
+    throw Error(fmt::format("{} = {} is not {} numbers; give {}", key, shown(value),
+                            N == 3 ? "three" : N == 4 ? "four" : std::to_string(N), form));
   std::array<double, N> a{};
   const auto seq = py::reinterpret_borrow<py::sequence>(value);
-  for (std::size_t k = 0; k < N; ++k) {
-    try {
-      a[k] = py::float_(seq[k]).cast<double>();
-    } catch (const py::error_already_set&) {
-      throw Error(fmt::format("{} = {}: component {} is not a number; give {}", key,
-                              py::str(py::repr(value)).cast<std::string>(), k, form));
-    }
-  }
+  for (std::size_t k = 0; k < N; ++k)
+    a[k] = to_number(seq[k], fmt::format("{} = {}: component {}", key, shown(value), k), form);
   return a;
 }
+Vec3d to_vec3(py::handle value, const std::string& key) { return to_array<3>(value, key, "[x, y, z]"); }
+py::tuple from_vec3(const Vec3d& v) { return py::make_tuple(v[0], v[1], v[2]); }
 
 }  // namespace
 
@@ -146,7 +129,14 @@ std::int64_t to_whole(py::handle v, const std::string& key, std::int64_t min, st
 
 std::string to_text(py::handle v, const std::string& key, const std::string& what) {
   if (!PyUnicode_Check(v.ptr())) throw Error(fmt::format("{} = {} is not text; give {}", key, shown(v), what));
-  return v.cast<std::string>();
+  Py_ssize_t size = 0;
+  const char* utf8 = PyUnicode_AsUTF8AndSize(v.ptr(), &size);
+  if (!utf8) {  // (a lone surrogate: the name of a file that is not UTF-8, as os.listdir gives it)
+    PyErr_Clear();
+    throw Error(fmt::format("{} = {} is text that is not valid Unicode (a lone surrogate); give {}", key, shown(v),
+                            what));
+  }
+  return std::string(utf8, static_cast<std::size_t>(size));
 }
 
 bool to_bool(py::handle v, const std::string& key, const std::string& what) {
@@ -155,10 +145,16 @@ bool to_bool(py::handle v, const std::string& key, const std::string& what) {
 }
 
 std::filesystem::path to_path(py::handle v, const std::string& key) {
-  if (PyUnicode_Check(v.ptr())) return v.cast<std::string>();
-  if (py::hasattr(v, "__fspath__")) {
-    const py::object p = py::module_::import("os").attr("fspath")(v);
-    if (PyUnicode_Check(p.ptr())) return p.cast<std::string>();
+  if (PyUnicode_Check(v.ptr()) || py::hasattr(v, "__fspath__")) {
+    // The file system's bytes of the name (os.fsencode): a name that is not UTF-8, which os.listdir gives
+    // with lone surrogates, is the file's own name again.
+    py::object b;
+    try {
+      b = py::module_::import("os").attr("fsencode")(v);
+    } catch (const py::error_already_set&) {
+      throw Error(fmt::format("{} = {} is not a path; give a str or a pathlib.Path", key, shown(v)));
+    }
+    if (PyBytes_Check(b.ptr())) return std::string(py::reinterpret_borrow<py::bytes>(b));
   }
   throw Error(fmt::format("{} = {} is not a path; give a str or a pathlib.Path", key, shown(v)));
 }

@@ -91,10 +91,11 @@ class PySimulation {
   // The engine, for reading: after the slice a Ctrl-C left running has ended. Refused while another
   // Python thread is in advance (the state is the backend's own arrays).
   const Engine& engine() const {
-    if (advancing_)
-      throw Error("the simulation is advancing (in another thread, or this is advance's progress callback, which "
-                  "gets done and total); read its state when advance returns");
+    refuse_while_advancing();
     join();
+    // Another thread may have begun an advance while this one waited for the slice (without the GIL); from
+    // here this thread holds the GIL, so none can begin until it has read.
+    refuse_while_advancing();
     return *engine_;
   }
   const std::shared_ptr<Engine>& shared() const { return engine_; }
@@ -120,7 +121,12 @@ class PySimulation {
     stop_ = false;
     done_ = 0;
     running_ = true;
-    worker_ = std::thread([this, steps] { step_slices(steps); });
+    {
+      // (Not while another thread joins the last one: join() holds the lock.)
+      py::gil_scoped_release nogil;
+      std::lock_guard<std::mutex> lock(join_mutex_);
+      worker_ = std::thread([this, steps] { step_slices(steps); });
+    }
     std::int64_t reported = 0;
     for (;;) {
       {
@@ -240,13 +246,25 @@ class PySimulation {
     return static_cast<std::int64_t>(std::clamp(kSliceSeconds / per_step, 1.0, 1073741824.0));
   }
 
+  void refuse_while_advancing() const {
+    if (advancing_)
+      throw Error("the simulation is advancing (in another thread, or this is advance's progress callback, which "
+                  "gets done and total); read its state when advance returns");
+  }
+
+  // Waits for the stepping thread's last slice. Two Python threads may wait at once (a read in one, an
+  // advance in the other, after a Ctrl-C left a slice running): one joins, under join_mutex_, and the other
+  // then finds nothing to join (joining one thread twice hung the second for good).
   void join() const {
-    if (!worker_.joinable()) return;
+    const auto wait = [&] {
+      std::lock_guard<std::mutex> lock(join_mutex_);
+      if (worker_.joinable()) worker_.join();
+    };
     if (PyGILState_Check()) {
       py::gil_scoped_release nogil;
-      worker_.join();
+      wait();
     } else {
-      worker_.join();
+      wait();
     }
   }
 
@@ -268,6 +286,7 @@ class PySimulation {
   int threads_;
   std::shared_ptr<Engine> engine_;
   mutable std::thread worker_;
+  mutable std::mutex join_mutex_;  // held while worker_ is joined or replaced
   std::mutex mutex_;
   std::condition_variable finished_;
   std::atomic<bool> running_{false};  // the stepping thread is going (set false under mutex_, for finished_)
@@ -424,17 +443,34 @@ py::array_t<std::uint8_t> render_to(PySimulation& sim, py::handle path_arg, py::
 // Frame `next_frame` of `dir` as `mca run` writes it: the VTK frames and their collections, the bound
 // surface (output.surface), a row of stats.csv; the first frame in a folder also writes scene.toml and
 // removes the frames and stats an earlier run left there (as a new run does; other files stay).
+// A folder as one path however it is spelt ("out", "out/", "./out", through a link): the folder a
+// Simulation writes into is known by it (spelt otherwise, it was taken for another folder, and started
+// afresh: its frames removed).
+std::filesystem::path folder_path(const std::filesystem::path& dir) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path absolute = fs::absolute(dir, ec);
+  if (ec) throw Error(fmt::format("write_frame: the folder '{}' has no absolute path: {}", dir.string(), ec.message()));
+  fs::path p = fs::weakly_canonical(absolute, ec);
+  if (ec) p = absolute.lexically_normal();
+  if (!p.has_filename() && p.has_parent_path() && p != p.root_path()) p = p.parent_path();  // ("out/")
+  return p;
+}
+
 std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
   const Engine& e = sim.engine();
   const State& s = e.state();  // (first: a simulation that cannot be read touches no folder)
-  if (!sim.output || sim.output->dir != std::filesystem::absolute(dir)) {
+  if (dir.empty()) throw Error("write_frame: the folder is empty (\"\"); give the output folder");
+  if (!sim.output || sim.output->dir != folder_path(dir)) {
     sim.output.reset();  // releases the folder before
-    if (dir.empty()) throw Error("write_frame: the folder is empty (\"\"); give the output folder");
     auto out = std::make_unique<OutputFolder>();
-    out->dir = std::filesystem::absolute(dir);
-    io::prepare_output_dir(out->dir);
+    io::prepare_output_dir(folder_path(dir));
+    out->dir = folder_path(dir);  // (now that it is there, with any link in it resolved)
     io::check_output_subfolders(out->dir, app::frame_subfolders(e.scene()));
     out->lock = std::make_unique<io::OutputLock>(out->dir);
+    // As a new run: not a folder of files of a run's names that no run of mca wrote, nor a run that did
+    // not finish (its frames would go, and its checkpoints could no longer be resumed).
+    app::check_folder_is_a_runs(out->dir, "write_frame another folder");
     app::FrameWriter::remove_stale_temporaries(out->dir);
     std::filesystem::remove(out->dir / "stats.csv");
     app::FrameWriter::remove_frames(out->dir);
@@ -515,7 +551,7 @@ int to_int_threads(py::handle v) {
 SceneDef scene_of(const py::handle& scene) {
   if (py::isinstance<PyScene>(scene)) return scene.cast<const PyScene&>().to_def();
   if (py::isinstance<py::str>(scene) || py::hasattr(scene, "__fspath__"))
-    return io::load_scene_file(py::str(py::module_::import("os").attr("fspath")(scene)).cast<std::string>());
+    return io::load_scene_file(to_path(scene, "Simulation: scene"));
   throw Error(fmt::format("Simulation(scene=...): a {} is not a scene; give an mca.Scene or the path of a scene file",
                           py::str(py::type::handle_of(scene).attr("__name__")).cast<std::string>()));
 }

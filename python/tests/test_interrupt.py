@@ -52,3 +52,47 @@ def test_ctrl_c_raises_keyboard_interrupt_quickly():
         if p.poll() is None:
             p.kill()
             p.wait()
+
+
+RACE = textwrap.dedent(
+    """
+    import _thread, threading, time
+    import mca
+    sim = mca.Simulation(mca.Scene.default(), threads=1)
+    sim.advance(10)
+    for trial in range(3):
+        threading.Thread(target=lambda: (time.sleep(0.3), _thread.interrupt_main())).start()
+        try:
+            sim.advance(10**6)
+        except KeyboardInterrupt:
+            pass
+        got = []
+        def read():
+            try:
+                got.append(sim.positions().shape[0])
+            except mca.Error as e:
+                got.append("advancing" if "advancing" in str(e) else str(e))
+        reader = threading.Thread(target=read)
+        reader.start()
+        sim.advance(5)
+        reader.join()
+        print("trial", trial, got, flush=True)
+    print("done", flush=True)
+    """
+)
+
+
+def test_a_read_racing_an_advance_after_ctrl_c_does_not_hang():
+    """After a Ctrl-C leaves a slice running, a read in one thread and an advance in another both waited for
+    it by joining the same thread, and the read hung for good (3 of 3 tries: the hostile review of
+    2026-12-06). Now one waits for the slice and the other finds it gone; the read gets the positions or
+    mca.Error (the simulation is advancing), never a hang."""
+    p = subprocess.run([sys.executable, "-c", RACE], capture_output=True, text=True, env=os.environ.copy(),
+                       timeout=180)
+    assert p.returncode == 0, p.stderr
+    lines = p.stdout.splitlines()
+    assert lines[-1] == "done", p.stdout + p.stderr
+    trials = [l for l in lines if l.startswith("trial")]
+    assert len(trials) == 3
+    for line in trials:
+        assert line.endswith("[4800]") or line.endswith("['advancing']"), line

@@ -111,3 +111,45 @@ def test_render_and_checkpoint_refuse_bad_paths(tmp_path):
         sim.checkpoint("")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d.png"]
     assert list((tmp_path / "d.png").iterdir()) == []
+
+
+def test_write_frame_refuses_the_folders_a_new_run_refuses(tmp_path, mca_binary):
+    """write_frame makes the checks of a new run before it removes anything (it replaced a user's files in a
+    folder of no run of mca, and removed the frames of a run that did not finish, which then could not be
+    resumed: the hostile review of 2026-12-06)."""
+    sim = mca.Simulation(mca.Scene.default(), threads=1)
+    foreign = tmp_path / "foreign"
+    (foreign / "frames").mkdir(parents=True)
+    (foreign / "frames" / "automata_000000.vtu").write_text("my own data")
+    with pytest.raises(mca.Error, match=r"holds frames/automata_000000\.vtu, of the names a run of mca writes, but "
+                                        r"no run of mca .*Give write_frame another folder"):
+        sim.write_frame(foreign)
+    assert (foreign / "frames" / "automata_000000.vtu").read_text() == "my own data"
+    assert not (foreign / "scene.toml").exists()
+    # A run stopped before its end: its checkpoints, and no summary of a finished run.
+    unfinished = tmp_path / "unfinished"
+    run_command(mca_binary, "run", "--steps", 2 * sim.steps_per_frame, "--checkpoint-every", 1, "--quiet", "--out",
+                unfinished)
+    (unfinished / "summary.json").unlink()
+    frames = sorted(p.name for p in (unfinished / "frames").iterdir())
+    with pytest.raises(mca.Error, match=r"holds a run that did not finish .*mca resume"):
+        sim.write_frame(unfinished)
+    assert sorted(p.name for p in (unfinished / "frames").iterdir()) == frames
+    run_command(mca_binary, "resume", "--quiet", unfinished)  # (still resumes)
+
+
+def test_write_frame_knows_its_folder_however_it_is_spelt(tmp_path, monkeypatch):
+    """"out/" or "./out" after "out" is the same folder: its frames go on (it was taken for another folder and
+    started afresh, its frames removed: the hostile review of 2026-12-06)."""
+    monkeypatch.chdir(tmp_path)
+    sim = mca.Simulation(mca.Scene.default(), threads=1)
+    assert sim.write_frame("out") == 0
+    sim.advance(1)
+    assert sim.write_frame("out/") == 1
+    sim.advance(1)
+    assert sim.write_frame("./out") == 2
+    assert sim.write_frame(tmp_path / "x" / ".." / "out") == 3
+    assert [p.name for p in sorted((tmp_path / "out" / "frames").glob("automata_*.vtu"))] == [
+        f"automata_00000{k}.vtu" for k in range(4)]
+    with pytest.raises(mca.Error, match=r'write_frame: the folder is empty \(""\)'):
+        sim.write_frame("")

@@ -1,5 +1,7 @@
 """A value of the wrong type for a key or an argument raises mca.Error naming the key, the value and what
 to give (as the three-number keys do), not pybind11's "incompatible function arguments"."""
+import os
+
 import numpy as np
 import pytest
 
@@ -156,3 +158,37 @@ def test_the_lattice_is_chosen_and_round_trips():
     scene.solver.lattice = "cubic"
     assert mca.Scene.from_toml(scene.to_toml()).solver.lattice == "cubic"
     assert mca.Solver(lattice="cubic").lattice == "cubic"
+
+
+def test_a_list_of_numbers_takes_numbers_only():
+    """Each component as a single-number key takes it: b"abc" was taken as its three character codes, ("1",
+    "2", "3") and (True, False, True) as numbers, and an array of shape (3, 1) as three (the hostile review
+    of 2026-12-06)."""
+    scene = mca.Scene.default()
+    ball = scene.projectiles[0]
+    for bad in (b"abc", bytearray(b"abc"), np.zeros((3, 1))):
+        with pytest.raises(mca.Error, match=r"(?s)projectile\.velocity = .* is not three numbers; give \[x, y, z\]"):
+            ball.velocity = bad
+    with pytest.raises(mca.Error, match=r"projectile\.velocity = \('1', '2', '3'\): component 0 = '1' is not a "
+                                        r"number; give \[x, y, z\]"):
+        ball.velocity = ("1", "2", "3")
+    with pytest.raises(mca.Error, match=r"component 1 = False is not a number"):
+        ball.velocity = (1.0, False, 1.0)
+    with pytest.raises(mca.Error, match=r"heterogeneity\.shares = .*: component 3 = 'x' is not a number"):
+        scene.heterogeneity.shares = (0.25, 0.25, 0.25, "x")
+    ball.velocity = np.array([1.0, 2.0, 3.0], dtype=np.float32)
+    assert ball.velocity == (1.0, 2.0, 3.0)
+    ball.velocity = [0, 30, 0.5]
+    assert ball.velocity == (0.0, 30.0, 0.5)
+
+
+def test_text_that_is_not_valid_unicode_is_an_error_and_a_path_is_the_files_own_name(tmp_path):
+    """A lone surrogate (os.listdir's name of a file that is not UTF-8) raised pybind11's RuntimeError; as text
+    it is mca.Error naming the key, and as a path it is the file's own bytes (the hostile review of
+    2026-12-06)."""
+    with pytest.raises(mca.Error, match=r"is text that is not valid Unicode \(a lone surrogate\)"):
+        mca.Scene("a\udc80b")
+    name = os.fsdecode(b"sc\xe8ne.toml")  # 'sc\udce8ne.toml'
+    (tmp_path / name).write_text(mca.Scene.default().to_toml())
+    assert mca.Scene.load(tmp_path / name) == mca.Scene.default()
+    assert mca.Scene.load(str(tmp_path / name)) == mca.Scene.default()
