@@ -13,6 +13,7 @@ import json
 import math
 import os
 import re
+import stat
 import xml.etree.ElementTree as ET
 
 try:
@@ -58,8 +59,25 @@ def _unreadable(path, e):
     return RunError(f"{path} cannot be read ({e.strerror or e}): check its permissions")
 
 
+_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a character device"),
+          (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+
+
 def _read_bytes(path, missing):
-    """The bytes of a file of the run; `missing`: the message when it does not exist."""
+    """The bytes of a file of the run; `missing`: the message when it does not exist. Only a regular file is
+    read (through a link too): a FIFO would wait for ever, and /dev/zero fill the memory."""
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise RunError(missing)
+    except OSError as e:
+        raise _unreadable(path, e)
+    if not stat.S_ISREG(st.st_mode):
+        if stat.S_ISDIR(st.st_mode):
+            raise _unreadable(path, IsADirectoryError())
+        kind = next((k for test, k in _KINDS if test(st.st_mode)), "not a regular file")
+        raise RunError(f"{path} is {kind}, not a file of the run (mca writes regular files): copy the run's whole "
+                       "folder again, or run mca again")
     try:
         with open(path, "rb") as f:
             return f.read()
@@ -67,6 +85,25 @@ def _read_bytes(path, missing):
         raise RunError(missing)
     except OSError as e:
         raise _unreadable(path, e)
+
+
+def _damaged(path, e):
+    """The RunError for a file of the run whose header or layout does not parse (a field cut, a count that is
+    not a number): the file named, with what went wrong."""
+    return RunError(f"{path} is cut short or damaged ({type(e).__name__}: {e}); it is not as mca writes it: run "
+                    "mca again")
+
+
+def _check_finite(path, name, arr, what="automaton"):
+    """mca writes finite values only: a NaN or infinity is a damaged file (named, with the array and the
+    element)."""
+    if arr.dtype.kind == "f":
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            k = int(np.flatnonzero(bad.reshape(len(arr), -1).any(axis=1))[0]) if arr.ndim > 1 else \
+                int(np.flatnonzero(bad)[0])
+            raise RunError(f"{path}: array '{name}' holds {arr[k]} at {what} {k}: mca writes finite values only; the "
+                           "file is damaged: run mca again")
 
 
 def _version(text, path):
@@ -112,6 +149,11 @@ def read_pvd(path):
             entries.append((float(ds.get("timestep")), ds.get("file")))
         except (TypeError, ValueError):
             raise RunError(f"{path}: a DataSet has no timestep or file")
+        # A frame is a file of the run's folder: not a path that leaves it (/etc/passwd, ../elsewhere).
+        rel = entries[-1][1]
+        if not rel or os.path.isabs(rel) or ".." in re.split(r"[/\\]", rel):
+            raise RunError(f"{path}: a DataSet's file '{rel}' lies outside the run folder (mca lists its frames as "
+                           "frames/NAME.vtu): the collection is damaged or was edited; run mca again")
     return entries
 
 
@@ -149,6 +191,22 @@ def read_vtu(path, names=None, listed_by="automata.pvd"):
         n = int(dict(_ATTR.findall(piece.group(1)))["NumberOfPoints"])
     except (AttributeError, KeyError, ValueError):
         raise RunError(f"{path} has no NumberOfPoints")
+    if n < 0:
+        raise RunError(f"{path}: NumberOfPoints {n} is negative: the file is damaged; run mca again")
+    try:
+        points, fields = _vtu_arrays(path, data, header, start, n, names)
+    except (KeyError, ValueError, IndexError, OverflowError, TypeError) as e:
+        raise _damaged(path, e)
+    if points is None:
+        raise RunError(f"{path} has no points")
+    _check_finite(path, "Points", points, "point")
+    for name, arr in fields.items():
+        _check_finite(path, name, arr)
+    return points, fields
+
+
+def _vtu_arrays(path, data, header, start, n, names):
+    """(points, fields) of read_vtu from the header's DataArrays and the appended data."""
     points = None
     fields = {}
     section = None
@@ -180,8 +238,6 @@ def read_vtu(path, names=None, listed_by="automata.pvd"):
             points = arr
         else:
             fields[a["Name"]] = arr
-    if points is None:
-        raise RunError(f"{path} has no points")
     return points, fields
 
 
@@ -206,6 +262,9 @@ def read_ply(path):
     for l in lines:
         w = l.split()
         if w[:1] == ["element"]:
+            if len(w) != 3 or not w[2].isdigit():
+                raise RunError(f"{path}: header line '{l}' is not 'element NAME COUNT' as mca writes it; the file "
+                               "is damaged: run mca again")
             element = w[1]
             if element == "vertex":
                 nv = int(w[2])
@@ -229,6 +288,7 @@ def read_ply(path):
     faces = np.frombuffer(data, fdt, nf, body + 12 * nv)
     if nf and (np.any(faces["n"] != 3) or faces["v"].min() < 0 or faces["v"].max() >= nv):
         raise RunError(f"{path}: faces that are not triangles of its vertices (mca writes triangles)")
+    _check_finite(path, "vertex", verts, "vertex")
     return verts, np.ascontiguousarray(faces["v"]), (np.ascontiguousarray(faces["value"]) if value else None)
 
 
@@ -238,17 +298,24 @@ def read_obj(path):
     verts, faces, values = [], [], []
     group = -1
     for k, line in enumerate(text.splitlines(), 1):
-        if line.startswith("v "):
-            verts.append(line[2:])
-        elif line.startswith("f "):
-            faces.append(line[2:])
-            values.append(group)
+        if line.startswith(("v ", "f ")):
+            # Three fields a line, as mca writes: one line of two would shift every vertex or face after it.
+            if len(line[2:].split()) != 3:
+                raise RunError(f"{path}:{k}: '{line.strip()}' is not a line of three fields (v x y z, f a b c) as "
+                               "mca writes it; the file is damaged: run mca again")
+            if line[0] == "v":
+                verts.append(line[2:])
+            else:
+                faces.append(line[2:])
+                values.append(group)
         elif line.startswith("g "):
             name = line[2:].strip()
             try:
                 group = int(name.rsplit("_", 1)[1])
             except (IndexError, ValueError):
                 raise RunError(f"{path}:{k}: group '{name}' is not the fragment_N mca writes")
+            if not 0 <= group < 2 ** 31:
+                raise RunError(f"{path}:{k}: group '{name}' is not a fragment number mca writes (0 to 2^31 - 1)")
     try:
         v = np.array(" ".join(verts).split(), dtype=np.float32).reshape(-1, 3)
         f = np.array(" ".join(faces).split(), dtype=np.int64).reshape(-1, 3) - 1
@@ -256,6 +323,7 @@ def read_obj(path):
         raise RunError(f"{path}: vertices or faces that are not the triangles mca writes (v x y z, f a b c)")
     if len(f) and (f.min() < 0 or f.max() >= len(v)):
         raise RunError(f"{path}: a face refers to a vertex it does not have; the file is cut short or damaged")
+    _check_finite(path, "vertex", v, "vertex")
     return v, f.astype(np.int32), np.array(values, dtype=np.int32)
 
 
@@ -330,6 +398,7 @@ def srgb_to_linear(c):
 def up_axis(scene):
     """The up direction: opposite gravity; z with gravity off (docs/scene-format.md, Coordinates)."""
     g = np.array(scene.get("solver", {}).get("gravity", [0.0, 0.0, -9.81]), float)
+    g = g / max(np.abs(g).max(), 1e-300)  # (scaled first: a gravity of 1e308 has a norm past float)
     n = np.linalg.norm(g)
     return -g / n if n > 0 else np.array([0.0, 0.0, 1.0])
 
@@ -632,6 +701,9 @@ class Run:
             # Indices that size arrays (a fragment id of 2^31 made numpy allocate 16 GB): each in 0..N-1.
             for key in ("fragment", "object"):
                 ids = np.asarray(fields[key])
+                if ids.dtype.kind not in "iu":
+                    raise RunError(f"{os.path.join(self.dir, rel)}: array '{key}' is of {ids.dtype}, not the "
+                                   "integers mca writes (an id per automaton): the frame is damaged; run mca again")
                 bad = np.flatnonzero((ids < 0) | (ids >= max(len(points), 1)))
                 if len(bad):
                     raise RunError(f"{os.path.join(self.dir, rel)}: array '{key}' holds {ids[bad[0]]} at automaton "
@@ -644,6 +716,7 @@ class Run:
             self.warnings.append("the frames carry no orientation (written by an older mca): the cubes' rotations "
                                  "are reconstructed from the fragments' motion and the angular velocities")
         self.projectiles = self._read_projectiles(len(entries))
+        entries = entries[:len(self.frames)]
         self.spacing = self._spacing()
         self.fps, self.render_size = self._render_options()
         self.surface_files = self._surface_files([frame_number(rel, k) for k, (_, rel) in enumerate(entries)])
@@ -676,7 +749,9 @@ class Run:
             raise RunError(f"{path} is not the summary mca writes (a JSON object, not {type(summary).__name__}): "
                            "run mca again")
         for key, ok, what in (("status", lambda v: isinstance(v, str), "a string"),
-                              ("simulated_time", _number, "a number"), ("spacing", _number, "a number")):
+                              ("simulated_time", _number, "a number"),
+                              ("spacing", lambda v: _number(v) and 1e-9 <= v <= 1e9,
+                               "a spacing from 1e-9 to 1e9 m (solver.spacing's range)")):
             if key in summary and not ok(summary[key]):
                 raise RunError(f"{path}: \"{key}\" is {summary[key]!r}, not {what}: not the summary mca writes; "
                                "run mca again")
@@ -696,13 +771,24 @@ class Run:
             return None
         entries = read_pvd(pvd)[:frames]
         if len(entries) < frames:
-            raise RunError(f"{pvd} lists {len(entries)} frames, automata.pvd {frames}: the run folder is "
-                           "incomplete; run mca again")
+            if self.summary is not None or not entries:
+                raise RunError(f"{pvd} lists {len(entries)} frames, automata.pvd {frames}: the run folder is "
+                               "incomplete; run mca again")
+            # A run still going writes automata.pvd before projectiles.pvd: the frames both list are taken.
+            self.warnings.append(f"{pvd} lists {len(entries)} frames, automata.pvd {frames} (the run is still "
+                                 f"writing): importing the first {len(entries)}")
+            del self.frames[len(entries):]
+            del self.times[len(entries):]
         out = []
         for _, rel in entries:
             points, fields = read_vtu(os.path.join(self.dir, rel), {"radius"}, "projectiles.pvd")
             if "radius" not in fields:
                 raise RunError(f"{os.path.join(self.dir, rel)} has no field radius")
+            bad = np.flatnonzero(~(np.asarray(fields["radius"]) > 0))
+            if len(bad):
+                raise RunError(f"{os.path.join(self.dir, rel)}: array 'radius' holds {fields['radius'][bad[0]]} at "
+                               f"projectile {bad[0]}: mca writes balls of a positive radius; the frame is damaged: "
+                               "run mca again")
             out.append((points, fields["radius"]))
         return out
 
@@ -724,8 +810,9 @@ class Run:
                     raise ValueError(f"a JSON {type(r).__name__}, not an object")
                 w, h, f = r.get("width"), r.get("height"), r.get("fps")
                 for key, v in (("width", w), ("height", h)):
-                    if not (isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 65536):
-                        raise ValueError(f"{key} {v!r} is not a whole number of pixels")
+                    if not (isinstance(v, int) and not isinstance(v, bool) and 16 <= v <= 8192):
+                        raise ValueError(f"{key} {v!r} is not a whole number of pixels from 16 to 8192 (what mca "
+                                         "draws)")
                 if f is not None and not (_number(f) and 0 <= f <= 240):
                     raise ValueError(f"fps {f!r} is not a rate from 0 (the default) to 240")
                 size = (w, h)
@@ -760,8 +847,8 @@ class Run:
         out = {}
         if os.path.isdir(folder):
             for name in sorted(os.listdir(folder)):
-                m = re.fullmatch(r"fragment_(\d+)\.ply", name)
-                if m:
+                m = re.fullmatch(r"fragment_(\d{1,10})\.ply", name)
+                if m and int(m.group(1)) < 2 ** 31:  # (a fragment number mca writes; others are not its files)
                     out[int(m.group(1))] = os.path.join(folder, name)
         return out
 

@@ -248,6 +248,13 @@ def case_bad_input(case_dir):
         "fragment_huge": "automata_000002.vtu: array 'fragment' holds 2147483647 at automaton 5, outside 0..",
         "object_negative": "automata_000002.vtu: array 'object' holds -1 at automaton 5, outside 0..",
         "does_not_exist": os.path.join(case_dir, "does_not_exist") + " does not exist",
+        "frame_fifo": "automata_000001.vtu is a FIFO (named pipe), not a file of the run",
+        "frame_dev_zero": "automata_000001.vtu is a character device, not a file of the run",
+        "pvd_absolute": "a DataSet's file '/etc/passwd' lies outside the run folder",
+        "pvd_dot_dot": "a DataSet's file '../short/frames/automata_000001.vtu' lies outside the run folder",
+        "nan_points": "at point 7: mca writes finite values only; the file is damaged",
+        "fragment_float": "automata_000002.vtu: array 'fragment' is of float32, not the integers mca writes",
+        "no_offset": "automata_000002.vtu is cut short or damaged (KeyError: 'offset')",
     }
     for name, words in expect.items():
         path = os.path.join(case_dir, name)
@@ -265,7 +272,8 @@ def case_bad_input(case_dir):
     # Render options that would divide by zero: the defaults, warned; a run without its balls' collection (the
     # scene has a ball): imported without balls, warned.
     for name, words in (("render_zero", "render.json is not the render options mca writes"),
-                        ("no_projectiles", "projectiles.pvd is missing, though the scene has 1 projectile")):
+                        ("no_projectiles", "projectiles.pvd is missing, though the scene has 1 projectile"),
+                        ("projectiles_behind", "(the run is still writing): importing the first")):
         try:
             bpy.ops.import_scene.mca_run(directory=os.path.join(case_dir, name) + "/")
         except RuntimeError as e:

@@ -119,19 +119,29 @@ def copy_run(src, dst):
     shutil.copytree(src, dst)
 
 
-def patch_int32(vtu, array, index, value):
-    """Sets element `index` of the Int32 point array `array` of an mca frame (appended raw data, UInt64
-    block headers) to `value`."""
+def patch_int32(vtu, array, index, value, vtk_type="Int32", form="<i"):
+    """Sets element `index` of the point array `array` (of `vtk_type`, one value of `form` an element) of an mca
+    frame (appended raw data, UInt64 block headers) to `value`."""
     with open(vtu, "rb") as f:
         data = bytearray(f.read())
     marker = data.find(b"<AppendedData")
     start = data.find(b"_", marker) + 1
-    m = re.search(rb'<DataArray type="Int32" Name="' + array.encode() + rb'"[^>]*offset="(\d+)"', data[:marker])
+    m = re.search(rb'<DataArray type="' + vtk_type.encode() + rb'" Name="' + array.encode() + rb'"[^>]*offset="(\d+)"',
+                  data[:marker])
     assert m, (vtu, array)
-    at = start + int(m.group(1)) + 8 + 4 * index
-    data[at:at + 4] = struct.pack("<i", value)
+    size = struct.calcsize(form)
+    at = start + int(m.group(1)) + 8 + size * index
+    data[at:at + size] = struct.pack(form, value)
     with open(vtu, "wb") as f:
         f.write(data)
+
+
+def replace_in(path, old, new):
+    with open(path, "rb") as f:
+        data = f.read()
+    assert old in data, (path, old)
+    with open(path, "wb") as f:
+        f.write(data.replace(old, new, 1))
 
 
 def make_bad_inputs(a):
@@ -228,6 +238,46 @@ def make_bad_inputs(a):
     d = os.path.join(bad, "no_projectiles")  # the balls' collection left behind: imports without balls, warned
     copy_run(short, d)
     os.remove(os.path.join(d, "projectiles.pvd"))
+    # Files that are not files of a run (the hostile review of 2026-12-06): a FIFO hung Blender for good,
+    # /dev/zero filled its memory, and a collection's frame could lie anywhere (/etc/passwd was opened).
+    d = os.path.join(bad, "frame_fifo")
+    copy_run(short, d)
+    os.remove(os.path.join(d, "frames", "automata_000001.vtu"))
+    os.mkfifo(os.path.join(d, "frames", "automata_000001.vtu"))
+    d = os.path.join(bad, "frame_dev_zero")
+    copy_run(short, d)
+    os.remove(os.path.join(d, "frames", "automata_000001.vtu"))
+    os.symlink("/dev/zero", os.path.join(d, "frames", "automata_000001.vtu"))
+    for name, file in (("pvd_absolute", b"/etc/passwd"), ("pvd_dot_dot", b"../short/frames/automata_000001.vtu")):
+        d = os.path.join(bad, name)
+        copy_run(short, d)
+        replace_in(os.path.join(d, "automata.pvd"), b'file="frames/automata_000001.vtu"', b'file="' + file + b'"')
+    # Values mca never writes: a NaN position, a fragment id stored as a float, an array's offset missing.
+    d = os.path.join(bad, "nan_points")
+    copy_run(short, d)
+    patch_int32(os.path.join(d, "frames", "automata_000002.vtu"), "Points", 3 * 7 + 1, float("nan"), "Float32", "<f")
+    d = os.path.join(bad, "fragment_float")
+    copy_run(short, d)
+    replace_in(os.path.join(d, "frames", "automata_000002.vtu"), b'type="Int32" Name="fragment"',
+               b'type="Float32" Name="fragment"')
+    d = os.path.join(bad, "no_offset")
+    copy_run(short, d)
+    vtu = os.path.join(d, "frames", "automata_000002.vtu")
+    with open(vtu, "rb") as f:
+        data = f.read()
+    m = re.search(rb'(<DataArray type="Int32" Name="fragment"[^>]*) offset="\d+"', data)
+    with open(vtu, "wb") as f:
+        f.write(data[:m.start()] + m.group(1) + data[m.end():])
+    # A run still going writes automata.pvd before projectiles.pvd: imported to the frames both list, warned.
+    d = os.path.join(bad, "projectiles_behind")
+    copy_run(short, d)
+    os.remove(os.path.join(d, "summary.json"))
+    pvd = os.path.join(d, "projectiles.pvd")
+    with open(pvd) as f:
+        lines = f.read().splitlines(keepends=True)
+    last = max(k for k, l in enumerate(lines) if "<DataSet" in l)
+    with open(pvd, "w") as f:
+        f.writelines(lines[:last] + lines[last + 1:])
     return bad
 
 
