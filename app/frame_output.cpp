@@ -301,6 +301,7 @@ FrameWriter::FrameWriter(std::filesystem::path dir, const Model& model, const Ou
 std::size_t FrameWriter::write_fragment_meshes(const State& s, const analysis::Fragments& frags,
                                               const std::function<void(std::size_t, std::size_t)>& each) {
   if (!fragment_meshes_) return 0;
+  io::check_no_linked_subfolders(dir_);
   io::output_subfolder(dir_, "fragments");
   const std::size_t total = analysis::meshed_fragments(frags, fragment_min_automata_).size();
   // Each mesh is written as it is made and let go: a shattered run's thousands of pieces are not all held.
@@ -344,6 +345,8 @@ FrameStats FrameWriter::stats(std::int64_t frame, const State& s, const analysis
 }
 
 void FrameWriter::write_frame(std::int64_t frame, const State& s, const analysis::Fragments& frags) {
+  // (Checked at the start as well: a subfolder made a link while the run went on is not written through.)
+  io::check_no_linked_subfolders(dir_);
   std::optional<mesh::FloatMesh> posed;
   if (surface_) {
     const mesh::FloatMesh& m = posed.emplace(analysis::posed_surface(model_, s, frags.id));

@@ -154,7 +154,14 @@ class FrameWriter {
   void sync_stats();
   // Removes the frames an earlier run or session left in `dir`: the VTK frames and bound surfaces of every
   // format, and their collections (this run may write none of them: --no-vtk, no projectiles, no mesh).
-  static void remove_frames(const std::filesystem::path& dir) { remove_run_files(dir, {RunPart::frames}); }
+  // An earlier run's outputs in `dir`, before a new run there (mca run, or the Python module's first
+  // write_frame): its end (summary, fragments.csv and meshes), plots, checkpoints, frames and stats, and its
+  // rendering unless `rendering` (a rendered run replaces its pictures itself). Only files of a run's
+  // names go: anything else a user keeps there stays.
+  static void remove_earlier_run(const std::filesystem::path& dir, bool rendering) {
+    remove_run_files(dir, {RunPart::end, RunPart::plots, RunPart::checkpoints, RunPart::frames, RunPart::stats});
+    if (!rendering) remove_run_files(dir, {RunPart::rendering});
+  }
   // Removes the temporary files a killed run left in `dir` and the folders it writes into (their names are
   // unique per process, so nothing else would ever replace them).
   static void remove_stale_temporaries(const std::filesystem::path& dir);

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <string_view>
 #include <new>
 #include <fmt/format.h>
 
@@ -18,10 +19,14 @@ namespace {
 CLI::Validator whole_number(std::int64_t lo, std::int64_t hi, std::string what) {
   return CLI::Validator(
       [=](std::string& text) {
+        // (Spaces around it and a leading '+' are taken, as CLI11 took them.)
+        const std::size_t first = text.find_first_not_of(" \t"), last = text.find_last_not_of(" \t");
+        std::string_view t =
+            first == std::string::npos ? std::string_view() : std::string_view(text).substr(first, last - first + 1);
+        if (t.size() > 1 && t[0] == '+' && t[1] != '-') t.remove_prefix(1);
         std::int64_t v = 0;
-        const char* end = text.data() + text.size();
-        const auto [ptr, ec] = std::from_chars(text.data(), end, v);
-        if (!text.empty() && ec == std::errc() && ptr == end && v >= lo && v <= hi) return std::string();
+        const auto [ptr, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
+        if (!t.empty() && ec == std::errc() && ptr == t.data() + t.size() && v >= lo && v <= hi) return std::string();
         return fmt::format("{} is not a whole number from {} to {}; give {}", text, lo, hi, what);
       },
       "");

@@ -20,6 +20,7 @@
 #include "app/commands.hpp"
 #include "app/frame_output.hpp"
 #include "app/render_output.hpp"
+#include "backend/backend.hpp"
 #include "core/files.hpp"
 #include "core/text.hpp"
 #include "analysis/crack_isotropy.hpp"
@@ -141,6 +142,15 @@ Plan resume_plan(const io::Checkpoint& cp, int spf, const std::string& source) {
   if (cp.frame < 1 || cp.frame - 1 > p.total_frames)
     throw fail(fmt::format("frame {} is outside the run's frames 0..{}", cp.frame - 1, p.total_frames));
   const std::int64_t step = std::min(p.total_steps, (cp.frame - 1) * spf);
+  // A state between two frames is a checkpoint the Python module saved where its user stopped
+  // (mca.Simulation.checkpoint), not a damaged one: mca resume continues a run from a frame.
+  if (cp.state.step != step && cp.state.step > 0 && cp.state.step < p.total_steps && cp.state.step % spf != 0)
+    throw Error(fmt::format("{}: its state is at step {}, between frames {} and {} (steps {} and {}): it was saved "
+                            "between frames (by mca.Simulation.checkpoint), and mca resume continues a run from "
+                            "the end of a frame; continue it with mca.Simulation.resume in Python, or remove it to "
+                            "resume from the checkpoint before",
+                            source, cp.state.step, cp.state.step / spf, cp.state.step / spf + 1,
+                            cp.state.step / spf * spf, std::min(p.total_steps, (cp.state.step / spf + 1) * spf)));
   if (cp.state.step != step)
     throw fail(fmt::format("its state is at step {}, but frame {} is at step {}", cp.state.step, cp.frame - 1, step));
   if (!(cp.wall_seconds >= 0 && cp.wall_seconds <= 1e10))  // (1e10 s: three centuries)
@@ -711,12 +721,10 @@ int run(const RunOptions& o) {
                         *o.steps, static_cast<double>(*o.steps) * sim.model().dt, *o.steps);
     os << io::scene_to_toml(scene);
   }, false);
-  // Outputs of an earlier run in this folder would mix with this one's; only files this program writes
-  // are removed, anything else a user keeps there stays.
-  remove_run_files(dir, {RunPart::end, RunPart::plots, RunPart::checkpoints, RunPart::frames});
-  // The pictures: an unrendered run removes an earlier rendering whole (render.json too: a resume must not
-  // render), a rendered one has replaced its frames, video and sheet (RenderOutput).
-  if (!render) remove_run_files(dir, {RunPart::rendering});
+  // Outputs of an earlier run in this folder would mix with this one's. The pictures: an unrendered run
+  // removes an earlier rendering whole (render.json too: a resume must not render), a rendered one has
+  // replaced its frames, video and sheet (RenderOutput).
+  FrameWriter::remove_earlier_run(dir, render != nullptr);
   FrameWriter::remove_stale_temporaries(dir);
   remove_empty_output_folders(dir, render != nullptr);
   FrameWriter writer(dir, sim.model(), scene.output);
@@ -768,6 +776,13 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   // Any backend continues any checkpoint with the same bits: --backend for this session, else the folder's
   // scene.toml's (the checkpoint's is that of the session that wrote it, which may have been told another).
   cp.scene.solver.backend = backend ? backend_from_name(*backend, "--backend") : folder_backend;
+  if (!backend && folder_backend == SolverDef::Backend::cuda) {
+    std::string why;
+    if (cuda_device(&why).empty())
+      throw Error(fmt::format("{}: solver.backend = \"cuda\", where this resume would run: {}; continue it on the CPU "
+                              "with the same bits: mca resume {} --backend cpu",
+                              (dir / "scene.toml").string(), why, text::shell_word(dir.string())));
+  }
   const int threads = thread_count(threads_requested);
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   if (!quiet)

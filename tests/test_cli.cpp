@@ -229,6 +229,19 @@ TEST(Cli, ARunCheckpointedOnOneBackendResumesOnAnotherWithTheSameBits) {
     EXPECT_EQ(no_gpu.code, 2);
     EXPECT_NE(no_gpu.output.find("solver.backend = \"cuda\" (or --backend cuda): " + why), std::string::npos)
         << no_gpu.output;
+    // A folder whose scene.toml says cuda, resumed where there is no GPU: the message names scene.toml, not
+    // the checkpoint's embedded scene (which says where the session that wrote it ran), and the fix.
+    std::string text = read(c / "scene.toml");
+    const std::size_t at = text.find("backend = \"cpu\"");
+    ASSERT_NE(at, std::string::npos) << text;
+    std::ofstream(c / "scene.toml") << text.replace(at, 15, "backend = \"cuda\"");
+    const Result resumed = run_mca("resume " + c.string() + " -q");
+    EXPECT_EQ(resumed.code, 2) << resumed.output;
+    EXPECT_NE(resumed.output.find((c / "scene.toml").string() + ": solver.backend = \"cuda\", where this resume "
+                                  "would run: " + why),
+              std::string::npos)
+        << resumed.output;
+    EXPECT_NE(resumed.output.find("mca resume " + c.string() + " --backend cpu"), std::string::npos) << resumed.output;
   }
 }
 
@@ -433,6 +446,11 @@ TEST(Cli, BadInputFailsWithAClearMessage) {
     EXPECT_EQ(r.code, 2) << args;
     EXPECT_NE(r.output.find(part), std::string::npos) << args << ": " << r.output;
     EXPECT_EQ(r.output.find("Could not convert"), std::string::npos) << args << ": " << r.output;
+  }
+  // As CLI11 took them before the check: a leading '+' or space.
+  for (const char* steps : {"+1", "' 1'"}) {
+    r = run_mca(std::string("run --steps ") + steps + " -q --no-vtk --out " + (d / "plus").string());
+    EXPECT_EQ(r.code, 0) << steps << ": " << r.output;
   }
   r = run_mca("bench no_such_bench");
   EXPECT_EQ(r.code, 2);

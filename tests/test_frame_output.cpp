@@ -33,15 +33,26 @@ ino_t inode(const fs::path& p) {
   return st.st_ino;
 }
 
-TEST(FrameOutput, StatsGetOneAppendedRowPerFrame) {
-  const fs::path dir = fs::temp_directory_path() / ("mca_test_frame_output_" + std::to_string(::getpid()));
+// An empty folder of this test process.
+fs::path fresh_folder(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
+  return dir;
+}
+
+// What a run writes without VTK frames: stats.csv (and the end's files).
+OutputDef stats_only() {
+  OutputDef o;
+  o.vtk = false;
+  return o;
+}
+
+TEST(FrameOutput, StatsGetOneAppendedRowPerFrame) {
+  const fs::path dir = fresh_folder("mca_test_frame_output");
   Engine sim(test::block_scene(2, 2, 2));
   {
-    OutputDef no_frames;
-    no_frames.vtk = false;
-    app::FrameWriter w(dir, sim.model(), no_frames);
+    app::FrameWriter w(dir, sim.model(), stats_only());
     w.start_stats({"0,a", "1,b"});  // a resume starts with the rows up to its checkpoint
     const fs::path csv = dir / "stats.csv";
     const ino_t first = inode(csv);
@@ -70,13 +81,9 @@ TEST(FrameOutput, StatsGetOneAppendedRowPerFrame) {
 // 2026-12-06). The disk filling is played by the process's file size limit, which lets a write take what fits
 // and fails the next one (EFBIG; SIGXFSZ ignored).
 TEST(FrameOutput, ARowTheDiskTakesOnlyPartOfIsCutOffAgain) {
-  const fs::path dir = fs::temp_directory_path() / ("mca_test_frame_output_full_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = fresh_folder("mca_test_frame_output_full");
   Engine sim(test::block_scene(2, 2, 2));
-  OutputDef no_frames;
-  no_frames.vtk = false;
-  app::FrameWriter w(dir, sim.model(), no_frames);
+  app::FrameWriter w(dir, sim.model(), stats_only());
   w.start_stats({"0,a"});
   const fs::path csv = dir / "stats.csv";
   const std::string before = slurp(csv);

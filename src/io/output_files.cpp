@@ -55,19 +55,18 @@ void prepare_output_dir(const fs::path& dir) {
   if (ec) throw fail(ec.message());
   if (!fs::is_directory(dir, ec)) throw fail("it exists and is not a folder");
 
-  // Permission bits do not tell the whole story (read-only mounts, ACLs, quotas), so try a real file.
-  const fs::path probe = dir / ".mca_write_probe";
-  {
-    std::ofstream out(probe, std::ios::binary | std::ios::trunc);
-    if (!out) throw fail(std::strerror(errno));
-    out << "probe";
-    out.flush();
-    if (!out) {
-      const std::string reason = std::strerror(errno);
-      out.close();
-      fs::remove(probe, ec);
-      throw fail(reason);
-    }
+  // Permission bits do not tell the whole story (read-only mounts, ACLs, quotas), so try a real file: a new
+  // one of this process's name, never through a link there (one to a user's file was emptied and written).
+  const fs::path probe = dir / fmt::format(".mca_write_probe.{}", ::getpid());
+  fs::remove(probe, ec);  // (a link itself, not what it points at)
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0600);
+  if (fd < 0) throw fail(std::strerror(errno));
+  const bool written = ::write(fd, "probe", 5) == 5;
+  const int err = errno;
+  ::close(fd);
+  if (!written) {
+    fs::remove(probe, ec);
+    throw fail(std::strerror(err));
   }
   if (!fs::remove(probe, ec) || ec) throw fail(ec ? ec.message() : "could not remove a probe file");
 }
@@ -86,9 +85,7 @@ std::string subfolder_use(const std::string& name) {
 }
 }  // namespace
 
-void check_output_subfolders(const fs::path& dir, const std::vector<std::string>& names) {
-  // A run clears an earlier run's files out of every subfolder, whatever it writes itself: a subfolder
-  // that is a symbolic link would have it remove and write files outside the output folder.
+void check_no_linked_subfolders(const fs::path& dir) {
   for (const auto& [name, use] : kSubfolders) {
     std::error_code ec;
     const fs::path sub = dir / name;
@@ -100,6 +97,12 @@ void check_output_subfolders(const fs::path& dir, const std::vector<std::string>
                               sub.string(), ec ? std::string() : fmt::format(" (to '{}')", target.string()), use));
     }
   }
+}
+
+void check_output_subfolders(const fs::path& dir, const std::vector<std::string>& names) {
+  // A run clears an earlier run's files out of every subfolder, whatever it writes itself: a subfolder
+  // that is a symbolic link would have it remove and write files outside the output folder.
+  check_no_linked_subfolders(dir);
   for (const std::string& name : names) {
     std::error_code ec;
     const fs::path sub = dir / name;

@@ -23,6 +23,9 @@ void prepare_output_dir(const std::filesystem::path& dir);
 // error. Every one of those subfolders that is a symbolic link is refused, written or not: a run clears an
 // earlier run's files out of each, and would remove and write files outside its output folder through it.
 void check_output_subfolders(const std::filesystem::path& dir, const std::vector<std::string>& names);
+// That check of links alone, made again before each frame's files are written (a subfolder made a link
+// while the run went on).
+void check_no_linked_subfolders(const std::filesystem::path& dir);
 // `dir / name`, made where it is missing; mca::Error naming it, what goes there and the fix where it
 // cannot be (a file of that name, permissions).
 std::filesystem::path output_subfolder(const std::filesystem::path& dir, const std::string& name);
