@@ -9,7 +9,19 @@ PYBIND11_MODULE(_mca, m) {
             "Python module; import mca)";
   // Every mca::Error (a bad scene, a bad checkpoint, an unstable run) arrives as mca.Error with the message
   // the command prints: the file, the key, the bad value and the fix.
-  pybind11::register_exception<mca::Error>(m, "Error");
+  // A message that names a file whose name is not UTF-8 holds its bytes as \xNN (decoded strictly it came
+  // back empty).
+  static pybind11::exception<mca::Error> error(m, "Error");
+  pybind11::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const mca::Error& e) {
+      const std::string what = e.what();
+      const pybind11::object message = pybind11::reinterpret_steal<pybind11::object>(
+          PyUnicode_DecodeUTF8(what.data(), static_cast<Py_ssize_t>(what.size()), "backslashreplace"));
+      PyErr_SetObject(error.ptr(), message.ptr());
+    }
+  });
   mca::python::bind_scene(m);
   mca::python::bind_simulation(m);
 }

@@ -743,7 +743,11 @@ validates it too.)");
           "name", [](const PyScene& s) { return s.name; },
           [](PyScene& s, py::handle v) { s.name = to_text(v, "scene.name", "a str"); }, "the scene's name (summary.json, the default output folder)")
       .def_property(
-          "source", [](const PyScene& s) { return s.source; },
+          "source",
+          [](const PyScene& s) {  // (as os.fsdecode: a file name that is not UTF-8 keeps its bytes)
+            return py::reinterpret_steal<py::str>(
+                PyUnicode_DecodeFSDefaultAndSize(s.source.data(), static_cast<Py_ssize_t>(s.source.size())));
+          },
           [](PyScene& s, py::handle v) { s.source = to_text(v, "scene.source", "a str"); }, "what messages call the scene (the file it came from)")
       .def_property(
           "materials", [](const PyScene& s) { return s.materials; },
@@ -875,8 +879,11 @@ validates it too.)");
           [](const PyScene& a, const PyScene& b) { return io::scene_to_toml(a.to_def()) == io::scene_to_toml(b.to_def()); },
           py::is_operator(), "Equal when every key is (their to_toml() texts are equal).")
       .def("__repr__", [](const PyScene& s) {
-        return fmt::format("<mca.Scene {} from {}: {} objects, {} projectiles>", text::quoted(s.name), s.source,
-                           s.objects.size(), s.projectiles.size());
+        const std::string r = fmt::format("<mca.Scene {} from {}: {} objects, {} projectiles>", text::quoted(s.name),
+                                          s.source, s.objects.size(), s.projectiles.size());
+        // (a file name that is not UTF-8: its bytes as \xNN)
+        return py::reinterpret_steal<py::str>(
+            PyUnicode_DecodeUTF8(r.data(), static_cast<Py_ssize_t>(r.size()), "backslashreplace"));
       });
   scene.attr("__hash__") = py::none();
 }

@@ -461,7 +461,9 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
   const Engine& e = sim.engine();
   const State& s = e.state();  // (first: a simulation that cannot be read touches no folder)
   if (dir.empty()) throw Error("write_frame: the folder is empty (\"\"); give the output folder");
-  if (!sim.output || sim.output->dir != folder_path(dir)) {
+  std::error_code ec;  // (the same folder through another mount: the same device and inode)
+  const bool same = sim.output && (sim.output->dir == folder_path(dir) || std::filesystem::equivalent(sim.output->dir, dir, ec));
+  if (!same) {
     sim.output.reset();  // releases the folder before
     auto out = std::make_unique<OutputFolder>();
     io::prepare_output_dir(folder_path(dir));
@@ -472,8 +474,9 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
     // not finish (its frames would go, and its checkpoints could no longer be resumed).
     app::check_folder_is_a_runs(out->dir, "write_frame another folder");
     app::FrameWriter::remove_stale_temporaries(out->dir);
-    std::filesystem::remove(out->dir / "stats.csv");
-    app::FrameWriter::remove_frames(out->dir);
+    // An earlier run's outputs, as mca run removes them: its summary.json and fragment meshes were left, and
+    // the Blender importer took the old run's spacing and pieces for this one's.
+    app::FrameWriter::remove_earlier_run(out->dir, false);
     io::write_file_atomic(out->dir / "scene.toml", [&](std::ostream& os) { os << io::scene_to_toml(e.scene()); },
                           false);
     out->writer = std::make_unique<app::FrameWriter>(out->dir, e.model(), e.scene().output);

@@ -1,5 +1,6 @@
 """Checkpoints, frames and pictures as the command writes them."""
 import json
+import os
 import struct
 import xml.etree.ElementTree as ET
 
@@ -153,3 +154,67 @@ def test_write_frame_knows_its_folder_however_it_is_spelt(tmp_path, monkeypatch)
         f"automata_00000{k}.vtu" for k in range(4)]
     with pytest.raises(mca.Error, match=r'write_frame: the folder is empty \(""\)'):
         sim.write_frame("")
+
+
+def test_mca_resume_names_a_checkpoint_saved_between_frames(tmp_path, mca_binary):
+    """A checkpoint the module saved between two frames is no damaged file: mca resume says where it was
+    saved and that mca.Simulation.resume continues it (it said 'the file is damaged or was edited': the
+    hostile review of 2026-12-06)."""
+    sim = mca.Simulation(mca.Scene.default(), threads=1)
+    out = tmp_path / "run"
+    sim.write_frame(out)
+    sim.advance(500)
+    sim.write_frame(out)
+    (out / "checkpoints").mkdir()
+    sim.checkpoint(out / "checkpoints" / "frame_000001.mcack")
+    sim.close_output()
+    r = __import__("subprocess").run([str(mca_binary), "resume", "--quiet", str(out)], capture_output=True, text=True)
+    assert r.returncode == 2, r.stderr
+    assert f"its state is at step 500, between frames 0 and 1 (steps 0 and {sim.steps_per_frame})" in r.stderr
+    assert "continue it with mca.Simulation.resume in Python" in r.stderr
+    assert "damaged" not in r.stderr
+    assert mca.Simulation.resume(out / "checkpoints" / "frame_000001.mcack").step == 500
+
+
+def test_write_frame_writes_nothing_through_links(tmp_path):
+    """Neither the folder's write probe nor a subfolder made a link after the first frame is written through
+    (a probe link emptied a user's file; frames went on into a linked frames/: the hostile review of
+    2026-12-06)."""
+    precious = tmp_path / "precious.txt"
+    precious.write_text("keep me\n")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / f".mca_write_probe.{os.getpid()}").symlink_to(precious)
+    sim = mca.Simulation(mca.Scene.default(), threads=1)
+    assert sim.write_frame(out) == 0
+    assert precious.read_text() == "keep me\n"
+    elsewhere = tmp_path / "elsewhere"
+    (out / "frames").rename(elsewhere)
+    (out / "frames").symlink_to(elsewhere)
+    before = sorted(p.name for p in elsewhere.iterdir())
+    sim.advance(1)
+    with pytest.raises(mca.Error, match=r"frames' is a symbolic link .*writes and removes nothing outside its output"):
+        sim.write_frame(out)
+    assert sorted(p.name for p in elsewhere.iterdir()) == before
+
+
+def test_write_frame_into_a_finished_runs_folder_removes_that_runs_outputs(tmp_path, mca_binary):
+    """The first frame removes what an earlier run left, as mca run does: its summary.json, fragments.csv,
+    fragment meshes and checkpoints stayed, and the Blender importer took the old run's spacing and pieces
+    for the new frames (the hostile review of 2026-12-06)."""
+    out = tmp_path / "run"
+    scene = mca.Scene.default()
+    scene.output.fragments = True
+    scene_file = tmp_path / "with_meshes.toml"
+    scene.save(scene_file)
+    run_command(mca_binary, "run", scene_file, "--steps", 10, "--checkpoint-every", 1, "--quiet", "--out", out)
+    for name in ("summary.json", "fragments.csv", "checkpoints"):
+        assert (out / name).exists(), name
+    assert list((out / "fragments").glob("fragment_*.ply"))
+    mine = out / "notes.txt"
+    mine.write_text("mine\n")
+    sim = mca.Simulation(mca.Scene.default(), threads=1)
+    assert sim.write_frame(out) == 0
+    assert not (out / "summary.json").exists() and not (out / "fragments.csv").exists()
+    assert not list(out.glob("fragments/fragment_*.ply")) and not list(out.glob("checkpoints/*.mcack"))
+    assert mine.read_text() == "mine\n"

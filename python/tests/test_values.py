@@ -192,3 +192,19 @@ def test_text_that_is_not_valid_unicode_is_an_error_and_a_path_is_the_files_own_
     (tmp_path / name).write_text(mca.Scene.default().to_toml())
     assert mca.Scene.load(tmp_path / name) == mca.Scene.default()
     assert mca.Scene.load(str(tmp_path / name)) == mca.Scene.default()
+
+
+def test_a_file_name_that_is_not_utf8_is_named_in_messages(tmp_path):
+    """An error naming such a file came back as mca.Error('') and Scene.source or repr raised
+    UnicodeDecodeError (the hostile review of 2026-12-06): the messages show its bytes as \\xNN, and source
+    gives the name back as os.fsdecode does."""
+    name = os.fsdecode(b"sc\xe8ne.toml")
+    path = tmp_path / name
+    path.write_text(mca.Scene.default().to_toml().replace("spacing =", "spacnig =", 1))
+    with pytest.raises(mca.Error) as e:
+        mca.Scene.load(path)
+    assert "sc\\xe8ne.toml" in str(e.value) and "spacing" in str(e.value)
+    path.write_text(mca.Scene.default().to_toml())
+    scene = mca.Scene.load(path)
+    assert scene.source == str(path)
+    assert "sc\\xe8ne.toml" in repr(scene)
