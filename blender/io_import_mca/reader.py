@@ -133,11 +133,7 @@ def frame_number(rel, index):
 def read_pvd(path):
     """The (time, file) entries of a .pvd collection, the file relative to the collection's folder."""
     try:
-        root = ET.parse(path).getroot()
-    except FileNotFoundError:
-        raise RunError(f"{path} is missing")
-    except OSError as e:
-        raise _unreadable(path, e)
+        root = ET.fromstring(_read_bytes(path, f"{path} is missing"))  # (a regular file only: not a FIFO)
     except ET.ParseError as e:
         raise RunError(f"{path} is not a complete VTK collection ({e}); it may be cut short: run mca again")
     if root.tag != "VTKFile" or root.get("type") != "Collection":
@@ -149,6 +145,11 @@ def read_pvd(path):
             entries.append((float(ds.get("timestep")), ds.get("file")))
         except (TypeError, ValueError):
             raise RunError(f"{path}: a DataSet has no timestep or file")
+        t = entries[-1][0]
+        if not math.isfinite(t) or (len(entries) > 1 and t < entries[-2][0]):
+            raise RunError(f"{path}: a DataSet's timestep {ds.get('timestep')} is not a time after the one before "
+                           "(mca lists its frames in time order): the collection is damaged or was edited; run mca "
+                           "again")
         # A frame is a file of the run's folder: not a path that leaves it (/etc/passwd, ../elsewhere).
         rel = entries[-1][1]
         if not rel or os.path.isabs(rel) or ".." in re.split(r"[/\\]", rel):
@@ -671,7 +672,7 @@ class Run:
         self.dir, where = run_folder(path)
         pvd = os.path.join(self.dir, "automata.pvd")
         scene_file = os.path.join(self.dir, "scene.toml")
-        if not os.path.isfile(pvd):
+        if not os.path.lexists(pvd):
             if os.path.isfile(scene_file):
                 raise RunError(f"{where} holds no frames (no automata.pvd): the run wrote none (output.vtk = false "
                                "or --no-vtk, or it stopped before its first frame); run it again with VTK frames")

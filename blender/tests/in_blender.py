@@ -250,6 +250,7 @@ def case_bad_input(case_dir):
         "does_not_exist": os.path.join(case_dir, "does_not_exist") + " does not exist",
         "frame_fifo": "automata_000001.vtu is a FIFO (named pipe), not a file of the run",
         "frame_dev_zero": "automata_000001.vtu is a character device, not a file of the run",
+        "projectiles_fifo": "projectiles.pvd is a FIFO (named pipe), not a file of the run",
         "pvd_absolute": "a DataSet's file '/etc/passwd' lies outside the run folder",
         "pvd_dot_dot": "a DataSet's file '../short/frames/automata_000001.vtu' lies outside the run folder",
         "nan_points": "at point 7: mca writes finite values only; the file is damaged",

@@ -248,6 +248,10 @@ def make_bad_inputs(a):
     copy_run(short, d)
     os.remove(os.path.join(d, "frames", "automata_000001.vtu"))
     os.symlink("/dev/zero", os.path.join(d, "frames", "automata_000001.vtu"))
+    d = os.path.join(bad, "projectiles_fifo")  # (the collections are read as the frames are: it hung too)
+    copy_run(short, d)
+    os.remove(os.path.join(d, "projectiles.pvd"))
+    os.mkfifo(os.path.join(d, "projectiles.pvd"))
     for name, file in (("pvd_absolute", b"/etc/passwd"), ("pvd_dot_dot", b"../short/frames/automata_000001.vtu")):
         d = os.path.join(bad, name)
         copy_run(short, d)
