@@ -152,8 +152,6 @@ class FrameWriter {
   // Puts the rows appended so far on the disk (fdatasync), before a checkpoint that a resume reads them
   // back to: a crash after the checkpoint then cannot have lost them.
   void sync_stats();
-  // Removes the frames an earlier run or session left in `dir`: the VTK frames and bound surfaces of every
-  // format, and their collections (this run may write none of them: --no-vtk, no projectiles, no mesh).
   // An earlier run's outputs in `dir`, before a new run there (mca run, or the Python module's first
   // write_frame): its end (summary, fragments.csv and meshes), plots, checkpoints, frames and stats, and its
   // rendering unless `rendering` (a rendered run replaces its pictures itself). Only files of a run's

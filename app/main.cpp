@@ -32,6 +32,7 @@ CLI::Validator whole_number(std::int64_t lo, std::int64_t hi, std::string what) 
       "");
 }
 constexpr std::int64_t kIntMax = std::numeric_limits<int>::max();
+const CLI::Validator kThreads = whole_number(0, kIntMax, "0 (all cores) or a count of worker threads");
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -56,7 +57,8 @@ int main(int argc, char** argv) {
       "SCENE");
   run->add_option("scene", scene_path, "Scene file (TOML, see docs/scene-format.md)")->check(not_empty);
   auto* out_opt = run->add_option("--out", out_dir, "Output folder (default out/<scene name>, see docs/scene-format.md)");
-  run->add_option("--threads", ro.threads, "Worker threads (0 = all cores)")->check(whole_number(0, kIntMax, "0 (all cores) or a count of worker threads"));
+  run->add_option("--threads", ro.threads, "Worker threads (0 = all cores)")
+      ->check(kThreads);
   auto* dur_opt = run->add_option("--duration", duration, "Simulated time [s] (overrides output.duration)");
   auto* steps_opt = run->add_option("--steps", steps, "Run exactly this many steps")
                          ->check(whole_number(1, std::numeric_limits<std::int64_t>::max(), "a number of steps"));
@@ -87,7 +89,8 @@ int main(int argc, char** argv) {
   bool resume_quiet = false;
   auto* resume = app.add_subcommand("resume", "Continue a run from the newest checkpoint in its output folder");
   resume->add_option("dir", resume_dir, "Output folder of the run")->required();
-  resume->add_option("--threads", resume_threads, "Worker threads (0 = all cores)")->check(whole_number(0, kIntMax, "0 (all cores) or a count of worker threads"));
+  resume->add_option("--threads", resume_threads, "Worker threads (0 = all cores)")
+      ->check(kThreads);
   resume->add_flag("-q,--quiet", resume_quiet, "No progress output");
   std::optional<std::string> resume_backend;
   resume->add_option("--backend", resume_backend, "Continue on this backend (auto, cpu, cuda, cuda-emulation): the same bits");
@@ -108,7 +111,8 @@ int main(int argc, char** argv) {
                                           "keys in the README)");
   view->add_option("scene", view_scene, "Scene file (default: the built-in scene)")->check(not_empty);
   view->add_option("--size", view_size, "Window size, WIDTHxHEIGHT (default 1280x720)");
-  view->add_option("--threads", vo.threads, "Worker threads (0 = all cores)")->check(whole_number(0, kIntMax, "0 (all cores) or a count of worker threads"));
+  view->add_option("--threads", vo.threads, "Worker threads (0 = all cores)")
+      ->check(kThreads);
   view->add_option("--backend", vo.backend, "Where the step runs: auto, cpu, cuda, cuda-emulation (overrides solver.backend)");
   auto* frames_opt = view->add_option("--frames", view_frames, "Show this many frames (one output frame of the scene each), then exit")
                          ->check(whole_number(1, kIntMax, "a number of frames"));
@@ -124,7 +128,8 @@ int main(int argc, char** argv) {
                     fmt::format("Benchmarks to run: {} (default: {})", fmt::join(mca::app::bench_names(), ", "),
                                 fmt::join(mca::app::bench_names(true), ", ")));
   bench->add_flag("--json", bench_json, "Machine-readable output");
-  bench->add_option("--threads", bench_threads, "Worker threads (0 = all cores)")->check(whole_number(0, kIntMax, "0 (all cores) or a count of worker threads"));
+  bench->add_option("--threads", bench_threads, "Worker threads (0 = all cores)")
+      ->check(kThreads);
   bench->add_option("--repeats", bench_repeats, "Timed runs per benchmark (the median is reported)")
       ->check(whole_number(1, kIntMax, "a number of timed runs"));
   auto* bench_steps_opt = bench->add_option("--steps", bench_steps, "Steps per timed run (with --render: per frame, default 1)")

@@ -309,7 +309,7 @@ void remove_empty_output_folders(const std::filesystem::path& dir, bool renderin
     if (ends_only && sub != "fragments" && sub != "render") continue;
     std::error_code ec;
     if (rendering && sub == "render") continue;
-    // (A symbolic link, to a folder on another disk, stays: removing it lost the redirection without a word.)
+    // (A symbolic link is never removed: a subfolder that is one is refused before, check_output_subfolders.)
     if (!std::filesystem::is_symlink(dir / sub, ec) && std::filesystem::is_directory(dir / sub, ec) &&
         std::filesystem::is_empty(dir / sub, ec) && !ec)
       std::filesystem::remove(dir / sub, ec);

@@ -44,6 +44,6 @@ Checkpoint read_checkpoint(const std::filesystem::path& path);
 // compared: returns the folder's solver.backend, which a resume without --backend takes (not the
 // checkpoint's, which is the backend of the session that wrote it).
 SolverDef::Backend check_checkpoint_scene(const Checkpoint& cp, const std::filesystem::path& checkpoint,
-                            const std::filesystem::path& run_dir);
+                                          const std::filesystem::path& run_dir);
 
 }  // namespace mca::io

@@ -235,7 +235,8 @@ void write_file_atomic(const fs::path& path, const std::function<void(std::ostre
     std::error_code ignored;
     fs::remove(tmp, ignored);
   };
-  // err: the failure's error number (0: not one of the file's, the caller's own).
+  // err: the failure's error number (EIO where a stream failed without one), or 0 for the caller's own
+  // error (no advice about the disk).
   const auto fail = [&](const std::string& reason, int err) {
     discard_tmp();
     return Error(fmt::format("could not write '{}': {}{}", path.string(), reason,
@@ -246,7 +247,7 @@ void write_file_atomic(const fs::path& path, const std::function<void(std::ostre
   const auto mode = std::ios::out | std::ios::trunc | (binary ? std::ios::binary : std::ios::openmode{});
   out.open(tmp, mode);
   if (!out) {
-    const int err = errno;
+    const int err = errno ? errno : EIO;
     throw fail(fmt::format("cannot create '{}': {}", tmp.string(), std::strerror(err)), err);
   }
 
@@ -263,14 +264,14 @@ void write_file_atomic(const fs::path& path, const std::function<void(std::ostre
 
   out.flush();
   if (!out) {
-    const int err = errno;
+    const int err = errno ? errno : EIO;
     out.close();
     throw fail(fmt::format("writing failed ({})", std::strerror(err)), err);
   }
   // close() writes out the last buffered bytes; a full disk can surface only here.
   out.close();
   if (!out) {
-    const int err = errno;
+    const int err = errno ? errno : EIO;
     throw fail(fmt::format("closing failed ({})", std::strerror(err)), err);
   }
 
@@ -286,7 +287,7 @@ void write_file_atomic(const fs::path& path, const std::function<void(std::ostre
 
   std::error_code ec;
   fs::rename(tmp, path, ec);
-  if (ec) throw fail(fmt::format("cannot rename '{}' onto it: {}", tmp.string(), ec.message()), ec.value());
+  if (ec) throw fail(fmt::format("cannot rename '{}' onto it: {}", tmp.string(), ec.message()), ec.value() ? ec.value() : EIO);
   if (durability == Durability::synced) {
     // The rename is an entry in the folder: only a synced folder keeps it.
     try {
