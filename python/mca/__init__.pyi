@@ -282,9 +282,11 @@ class Simulation:
     def state_hash(self) -> str:
         """summary.json's state_hash: 16 hex digits."""
     def write_frame(self, out: PathLike) -> int:
-        """Writes the next frame of folder `out` as `mca run --out` does; returns its number. Only one folder
-        is written at a time: giving another folder releases the first, and giving the first again starts it
-        afresh (frame 0, its earlier frames and stats.csv removed)."""
+        """Writes the next frame of folder `out` as `mca run --out` does; returns its number. The first frame
+        in a folder makes a new run's checks and removes what an earlier run left there. Only one folder is
+        written at a time (however it is spelt: "out", "out/", "./out"): giving another folder releases the
+        first, and giving the first again starts it afresh (frame 0, its earlier frames and stats.csv
+        removed)."""
     def close_output(self) -> None:
         """Releases the folder of write_frame."""
     def checkpoint(self, path: PathLike) -> None:

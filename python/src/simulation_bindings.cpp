@@ -440,9 +440,6 @@ py::array_t<std::uint8_t> render_to(PySimulation& sim, py::handle path_arg, py::
 
 // ---- outputs -------------------------------------------------------------------------------------------------
 
-// Frame `next_frame` of `dir` as `mca run` writes it: the VTK frames and their collections, the bound
-// surface (output.surface), a row of stats.csv; the first frame in a folder also writes scene.toml and
-// removes the frames and stats an earlier run left there (as a new run does; other files stay).
 // A folder as one path however it is spelt ("out", "out/", "./out", through a link): the folder a
 // Simulation writes into is known by it (spelt otherwise, it was taken for another folder, and started
 // afresh: its frames removed).
@@ -457,12 +454,16 @@ std::filesystem::path folder_path(const std::filesystem::path& dir) {
   return p;
 }
 
+// Frame `next_frame` of `dir` as `mca run` writes it: the VTK frames and their collections, the bound
+// surface (output.surface), a row of stats.csv; the first frame in a folder makes a new run's checks, writes
+// scene.toml and removes what an earlier run left there (as a new run does; other files stay).
 std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
   const Engine& e = sim.engine();
   const State& s = e.state();  // (first: a simulation that cannot be read touches no folder)
   if (dir.empty()) throw Error("write_frame: the folder is empty (\"\"); give the output folder");
   std::error_code ec;  // (the same folder through another mount: the same device and inode)
-  const bool same = sim.output && (sim.output->dir == folder_path(dir) || std::filesystem::equivalent(sim.output->dir, dir, ec));
+  const bool same =
+      sim.output && (sim.output->dir == folder_path(dir) || std::filesystem::equivalent(sim.output->dir, dir, ec));
   if (!same) {
     sim.output.reset();  // releases the folder before
     auto out = std::make_unique<OutputFolder>();
@@ -825,10 +826,12 @@ Simulation is gone.)");
           py::arg("out"),
           "Writes the state as the next frame of the folder `out`, as `mca run --out` writes a frame: "
           "frames/automata_NNNNNN.vtu, projectiles, the .pvd collections, the bound surface (output.surface), a row "
-          "of stats.csv. The first call for a folder numbers from 0, writes scene.toml and removes the frames and "
-          "stats an earlier run left there; the folder stays locked (as a run's) until another folder is given, "
-          "close_output() or the Simulation goes; giving the first folder again starts it afresh (frame 0, its "
-          "earlier frames and stats removed). Returns the frame number.")
+          "of stats.csv. The first call for a folder numbers from 0, refuses what mca run refuses (a folder of "
+          "another program's files of a run's names, a run that did not finish, a subfolder that is a link), "
+          "writes scene.toml and removes what an earlier run left there (frames, stats, summary, fragments, "
+          "checkpoints, pictures); the folder (however it is spelt) stays locked (as a run's) until another "
+          "folder is given, close_output() or the Simulation goes; giving the first folder again starts it afresh "
+          "(frame 0, its earlier frames and stats removed). Returns the frame number.")
       .def(
           "close_output", [](PySimulation& s) { s.output.reset(); },
           "Releases the folder of write_frame (its files stay).")
