@@ -365,10 +365,15 @@ py::array_t<std::uint8_t> render_to(PySimulation& sim, py::handle path_arg, py::
   if (!path_arg.is_none()) {
     path = to_path(path_arg, "render: path");
     check_file_path(*path, "render: path", "PNG");
-    if (path->extension() != ".png" && path->extension() != ".PNG")
-      throw Error(fmt::format("render: path = '{}' does not end in .png; the picture is written as PNG, so give a "
-                              "name ending in .png",
-                              path->string()));
+    // (By the name's text: for ".png" alone, std::filesystem's extension is empty, and the message said the
+    // path did not end in .png.)
+    const std::string name = path->filename().string();
+    const bool bare = name == ".png" || name == ".PNG";
+    if (bare || !(name.size() > 4 && (name.ends_with(".png") || name.ends_with(".PNG"))))
+      throw Error(fmt::format("render: path = '{}' {}; the picture is written as PNG, so give a name ending in .png "
+                              "(e.g. frame.png)",
+                              path->string(), bare ? "is the extension .png alone, with no name before it"
+                                                   : "does not end in .png"));
   }
   const std::string colour_text = to_text(colour_arg, "render: colour", "a str: one of " + render::colour_mode_names());
   std::optional<std::string> draw_text;

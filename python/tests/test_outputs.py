@@ -100,6 +100,8 @@ def test_render_draws_the_state(tmp_path):
 
 def test_render_and_checkpoint_refuse_bad_paths(tmp_path):
     sim = mca.Simulation(mca.Scene.default(), threads=1)
+    with pytest.raises(mca.Error, match=r"render: path = '\.png' is the extension \.png alone, with no name before"):
+        mca.render(sim, ".png")
     with pytest.raises(mca.Error, match=r"render: path = '.*x\.jpg' does not end in \.png"):
         mca.render(sim, tmp_path / "x.jpg", size=(64, 48))
     assert not (tmp_path / "x.jpg").exists()
