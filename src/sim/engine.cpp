@@ -181,7 +181,7 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
   }
   if (total < 1) {
     throw Error(fmt::format("{}: output.duration = {:g} s is shorter than half a time step ({:.3g} s); give a duration "
-                            "of at least one step",
+                            "(or --duration) of at least one step",
                             scene.source, scene.output.duration, m.dt));
   }
   total_steps = static_cast<std::int64_t>(total);
