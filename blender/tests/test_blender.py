@@ -119,7 +119,7 @@ def copy_run(src, dst):
     shutil.copytree(src, dst)
 
 
-def patch_int32(vtu, array, index, value, vtk_type="Int32", form="<i"):
+def patch_point_value(vtu, array, index, value, vtk_type="Int32", form="<i"):
     """Sets element `index` of the point array `array` (of `vtk_type`, one value of `form` an element) of an mca
     frame (appended raw data, UInt64 block headers) to `value`."""
     with open(vtu, "rb") as f:
@@ -234,7 +234,7 @@ def make_bad_inputs(a):
     for name, array, value in (("fragment_huge", "fragment", 2**31 - 1), ("object_negative", "object", -1)):
         d = os.path.join(bad, name)
         copy_run(short, d)
-        patch_int32(os.path.join(d, "frames", "automata_000002.vtu"), array, 5, value)
+        patch_point_value(os.path.join(d, "frames", "automata_000002.vtu"), array, 5, value)
     d = os.path.join(bad, "no_projectiles")  # the balls' collection left behind: imports without balls, warned
     copy_run(short, d)
     os.remove(os.path.join(d, "projectiles.pvd"))
@@ -259,7 +259,7 @@ def make_bad_inputs(a):
     # Values mca never writes: a NaN position, a fragment id stored as a float, an array's offset missing.
     d = os.path.join(bad, "nan_points")
     copy_run(short, d)
-    patch_int32(os.path.join(d, "frames", "automata_000002.vtu"), "Points", 3 * 7 + 1, float("nan"), "Float32", "<f")
+    patch_point_value(os.path.join(d, "frames", "automata_000002.vtu"), "Points", 3 * 7 + 1, float("nan"), "Float32", "<f")
     d = os.path.join(bad, "fragment_float")
     copy_run(short, d)
     replace_in(os.path.join(d, "frames", "automata_000002.vtu"), b'type="Int32" Name="fragment"',

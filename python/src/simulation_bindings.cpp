@@ -466,14 +466,14 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
   const Engine& e = sim.engine();
   const State& s = e.state();  // (first: a simulation that cannot be read touches no folder)
   if (dir.empty()) throw Error("write_frame: the folder is empty (\"\"); give the output folder");
+  const std::filesystem::path folder = folder_path(dir);
   std::error_code ec;  // (the same folder through another mount: the same device and inode)
-  const bool same =
-      sim.output && (sim.output->dir == folder_path(dir) || std::filesystem::equivalent(sim.output->dir, dir, ec));
+  const bool same = sim.output && (sim.output->dir == folder || std::filesystem::equivalent(sim.output->dir, dir, ec));
   if (!same) {
     sim.output.reset();  // releases the folder before
     auto out = std::make_unique<OutputFolder>();
-    io::prepare_output_dir(folder_path(dir));
-    out->dir = folder_path(dir);  // (now that it is there, with any link in it resolved)
+    out->dir = folder;
+    io::prepare_output_dir(out->dir);
     io::check_output_subfolders(out->dir, app::frame_subfolders(e.scene()));
     out->lock = std::make_unique<io::OutputLock>(out->dir);
     // As a new run: not a folder of files of a run's names that no run of mca wrote, nor a run that did
