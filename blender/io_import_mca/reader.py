@@ -63,28 +63,86 @@ _KINDS = ((stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a character de
           (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
 
 
-def _read_bytes(path, missing):
-    """The bytes of a file of the run; `missing`: the message when it does not exist. Only a regular file is
-    read (through a link too): a FIFO would wait for ever, and /dev/zero fill the memory."""
-    try:
-        st = os.stat(path)
-    except FileNotFoundError:
-        raise RunError(missing)
-    except OSError as e:
-        raise _unreadable(path, e)
-    if not stat.S_ISREG(st.st_mode):
-        if stat.S_ISDIR(st.st_mode):
-            raise _unreadable(path, IsADirectoryError())
-        kind = next((k for test, k in _KINDS if test(st.st_mode)), "not a regular file")
-        raise RunError(f"{path} is {kind}, not a file of the run (mca writes regular files): copy the run's whole "
-                       "folder again, or run mca again")
-    try:
-        with open(path, "rb") as f:
-            return f.read()
-    except FileNotFoundError:
-        raise RunError(missing)
-    except OSError as e:
-        raise _unreadable(path, e)
+# The most that is read of a file of the run before its layout is known: the XML head of a frame (mca's:
+# about 2 KB) or a mesh's PLY header; and the largest text files mca writes. A file past these is not one
+# of the run's (a sparse file of 20 GB, a device): it is refused, not read whole into Blender's memory.
+_HEAD_MAX = 1 << 20
+SCENE_MAX = 64 << 20  # mca reads scene files of up to 64 MB (src/io/scene_io.cpp)
+TEXT_MAX = 1 << 30    # summary.json (about 20 KB and 0.5 KB a ball), a collection (about 90 bytes a frame)
+LINE_MAX = 4096       # a line of an OBJ mca writes (v x y z, f a b c, g fragment_N: under 100 characters)
+
+
+class _RegularFile:
+    """A file of the run opened for reading, with its size: only a regular file (through a link too) is
+    opened; a FIFO would wait for ever, and /dev/zero fill the memory. `missing`: the message when it does
+    not exist. A context manager that closes the file."""
+
+    def __init__(self, path, missing):
+        try:
+            st = os.stat(path)  # (before opening: a device is not even opened)
+        except FileNotFoundError:
+            raise RunError(missing)
+        except OSError as e:
+            raise _unreadable(path, e)
+        _check_regular(path, st)
+        try:  # O_NONBLOCK: a FIFO put at the name after the check above opens without waiting for a writer
+            fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+        except FileNotFoundError:
+            raise RunError(missing)
+        except OSError as e:
+            raise _unreadable(path, e)
+        try:
+            st = os.fstat(fd)
+            _check_regular(path, st)
+            os.set_blocking(fd, True)
+        except BaseException:
+            os.close(fd)
+            raise
+        self.file = os.fdopen(fd, "rb")
+        self.size = st.st_size
+        self.path = path
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.file.close()
+
+    def read_at(self, offset, count):
+        """`count` bytes from `offset`; a file that holds fewer (cut short since its size was taken) is
+        damaged."""
+        try:
+            self.file.seek(offset)
+            data = self.file.read(count)
+        except OSError as e:
+            raise _unreadable(self.path, e)
+        if len(data) != count:
+            raise RunError(f"{self.path} is cut short (it ends before byte {offset + count:,}): run mca again")
+        return data
+
+    def read_head(self):
+        """Up to _HEAD_MAX bytes from the start."""
+        return self.read_at(0, min(self.size, _HEAD_MAX))
+
+
+def _check_regular(path, st):
+    if stat.S_ISREG(st.st_mode):
+        return
+    if stat.S_ISDIR(st.st_mode):
+        raise _unreadable(path, IsADirectoryError())
+    kind = next((k for test, k in _KINDS if test(st.st_mode)), "not a regular file")
+    raise RunError(f"{path} is {kind}, not a file of the run (mca writes regular files): copy the run's whole "
+                   "folder again, or run mca again")
+
+
+def _read_bytes(path, missing, limit=TEXT_MAX):
+    """The bytes of a text file of the run (a regular file, of at most `limit` bytes); `missing`: the message
+    when it does not exist."""
+    with _RegularFile(path, missing) as f:
+        if f.size > limit:
+            raise RunError(f"{path} is {f.size:,} bytes, more than mca writes there ({limit:,} at most): it is "
+                           "not a file of the run; copy the run's whole folder again, or run mca again")
+        return f.read_at(0, f.size)
 
 
 def _damaged(path, e):
@@ -169,13 +227,21 @@ def read_vtu(path, names=None, listed_by="automata.pvd"):
     Returns (points (N, 3) float32, {field name: array (N,) or (N, components)}). `names`: the fields to
     read (all when None); `listed_by`: the collection that names the file (for the message when it is
     missing)."""
-    data = _read_bytes(path, f"{path} is missing (the run's {listed_by} lists it): the run folder is incomplete; "
-                             "run mca again or copy the whole folder")
-    marker = data.find(b"<AppendedData")
-    start = data.find(b"_", marker) + 1 if marker >= 0 else 0
+    with _RegularFile(path, f"{path} is missing (the run's {listed_by} lists it): the run folder is incomplete; "
+                            "run mca again or copy the whole folder") as f:
+        return _read_vtu(f, names)
+
+
+def _read_vtu(f, names):
+    """read_vtu from the open file `f` (a _RegularFile): its XML head, then the arrays asked for."""
+    path = f.path
+    head = f.read_head()
+    marker = head.find(b"<AppendedData")
+    start = head.find(b"_", marker) + 1 if marker >= 0 else 0
     if marker < 0 or start == 0:
-        raise RunError(f"{path} is cut short or not a VTK file written by mca (no appended data): run mca again")
-    header = data[:marker].decode("utf-8", "replace")
+        raise RunError(f"{path} is cut short or not a VTK file written by mca (no appended data"
+                       f"{' in its first MB' if len(head) == _HEAD_MAX else ''}): run mca again")
+    header = head[:marker].decode("utf-8", "replace")
     m = re.search(r"<VTKFile([^>]*)>", header)
     if not m:
         raise RunError(f"{path} is not a VTK XML file")
@@ -195,7 +261,7 @@ def read_vtu(path, names=None, listed_by="automata.pvd"):
     if n < 0:
         raise RunError(f"{path}: NumberOfPoints {n} is negative: the file is damaged; run mca again")
     try:
-        points, fields = _vtu_arrays(path, data, header, start, n, names)
+        points, fields = _vtu_arrays(f, header, start, n, names)
     except (KeyError, ValueError, IndexError, OverflowError, TypeError) as e:
         raise _damaged(path, e)
     if points is None:
@@ -206,8 +272,10 @@ def read_vtu(path, names=None, listed_by="automata.pvd"):
     return points, fields
 
 
-def _vtu_arrays(path, data, header, start, n, names):
-    """(points, fields) of read_vtu from the header's DataArrays and the appended data."""
+def _vtu_arrays(f, header, start, n, names):
+    """(points, fields) of read_vtu from the header's DataArrays and the appended data of the open file `f`
+    (a _RegularFile): each array is read from its offset, and only the arrays asked for."""
+    path = f.path
     points = None
     fields = {}
     section = None
@@ -225,15 +293,17 @@ def _vtu_arrays(path, data, header, start, n, names):
             raise RunError(f"{path}: array '{a.get('Name')}' is {a.get('format')} {a.get('type')}, not an appended "
                            "array of a known type")
         comps = int(a.get("NumberOfComponents", "1"))
+        if int(a["offset"]) < 0 or comps < 1:
+            raise ValueError(f"array '{a.get('Name')}': offset {a['offset']}, {comps} components")
         offset = start + int(a["offset"])
-        if offset + 8 > len(data):
+        if offset + 8 > f.size:
             raise RunError(f"{path} is cut short (array '{a.get('Name')}' lies past its end): run mca again")
-        nbytes = int(np.frombuffer(data, "<u8", 1, offset)[0])
+        nbytes = int.from_bytes(f.read_at(offset, 8), "little")
         dtype = np.dtype(_VTK_TYPES[a["type"]])
-        if nbytes != n * comps * dtype.itemsize or offset + 8 + nbytes > len(data):
+        if nbytes != n * comps * dtype.itemsize or offset + 8 + nbytes > f.size:
             raise RunError(f"{path} is cut short or damaged (array '{a.get('Name')}' holds {nbytes} bytes for "
                            f"{n} points of {comps} x {dtype.itemsize}): run mca again")
-        arr = np.frombuffer(data, dtype, n * comps, offset + 8)
+        arr = np.frombuffer(f.read_at(offset + 8, nbytes), dtype, n * comps)
         arr = arr.reshape(n, comps) if comps > 1 else arr
         if section == "Points":
             points = arr
@@ -247,11 +317,18 @@ def _vtu_arrays(path, data, header, start, n, names):
 
 def read_ply(path):
     """(vertices (V, 3) float32, triangles (F, 3) int32, per-face values or None) of a PLY written by mca."""
-    data = _read_bytes(path, f"{path} is missing")
-    end = data.find(b"end_header\n")
-    if not data.startswith(b"ply\n") or end < 0:
+    with _RegularFile(path, f"{path} is missing") as f:
+        return _read_ply(f)
+
+
+def _read_ply(f):
+    """read_ply from the open file `f` (a _RegularFile): its header, then exactly the data it declares."""
+    path = f.path
+    head = f.read_head()
+    end = head.find(b"end_header\n")
+    if not head.startswith(b"ply\n") or end < 0:
         raise RunError(f"{path} is not a PLY file (or its header is cut short)")
-    lines = data[:end].decode("ascii", "replace").splitlines()
+    lines = head[:end].decode("ascii", "replace").splitlines()
     body = end + len(b"end_header\n")
     fmt_line = next((l for l in lines if l.startswith("format ")), "")
     if fmt_line != "format " + PLY_FORMAT:
@@ -283,10 +360,11 @@ def read_ply(path):
         raise RunError(f"{path}: the header has no vertex or face count")
     fdt = np.dtype([("n", "u1"), ("v", "<i4", (3,))] + ([("value", "<i4")] if value else []))
     need = body + 12 * nv + fdt.itemsize * nf
-    if len(data) < need:
-        raise RunError(f"{path} is cut short ({len(data)} bytes, its header declares {need}): run mca again")
-    verts = np.frombuffer(data, "<f4", 3 * nv, body).reshape(nv, 3)
-    faces = np.frombuffer(data, fdt, nf, body + 12 * nv)
+    if f.size < need:
+        raise RunError(f"{path} is cut short ({f.size} bytes, its header declares {need}): run mca again")
+    data = f.read_at(body, need - body)
+    verts = np.frombuffer(data, "<f4", 3 * nv, 0).reshape(nv, 3)
+    faces = np.frombuffer(data, fdt, nf, 12 * nv)
     if nf and (np.any(faces["n"] != 3) or faces["v"].min() < 0 or faces["v"].max() >= nv):
         raise RunError(f"{path}: faces that are not triangles of its vertices (mca writes triangles)")
     _check_finite(path, "vertex", verts, "vertex")
@@ -295,10 +373,29 @@ def read_ply(path):
 
 def read_obj(path):
     """The same as read_ply for a surface written as OBJ (groups `fragment_N`)."""
-    text = _read_bytes(path, f"{path} is missing").decode("ascii", "replace")
+    with _RegularFile(path, f"{path} is missing") as f:
+        return _read_obj(f)
+
+
+def _obj_lines(f):
+    """The lines of the open OBJ `f` (a _RegularFile), numbered from 1, read a line at a time: a line longer
+    than mca writes is a damaged file (a sparse file of 20 GB is one such line)."""
+    try:
+        for k, raw in enumerate(iter(lambda: f.file.readline(LINE_MAX + 1), b""), 1):
+            if len(raw) > LINE_MAX:
+                raise RunError(f"{f.path}:{k}: a line longer than {LINE_MAX} characters, which mca never writes; the "
+                               "file is damaged: run mca again")
+            yield k, raw.decode("ascii", "replace").rstrip("\r\n")
+    except OSError as e:
+        raise _unreadable(f.path, e)
+
+
+def _read_obj(f):
+    """read_obj from the open file `f` (a _RegularFile)."""
+    path = f.path
     verts, faces, values = [], [], []
     group = -1
-    for k, line in enumerate(text.splitlines(), 1):
+    for k, line in _obj_lines(f):
         if line.startswith(("v ", "f ")):
             # Three fields a line, as mca writes: one line of two would shift every vertex or face after it.
             if len(line[2:].split()) != 3:
@@ -319,13 +416,13 @@ def read_obj(path):
                 raise RunError(f"{path}:{k}: group '{name}' is not a fragment number mca writes (0 to 2^31 - 1)")
     try:
         v = np.array(" ".join(verts).split(), dtype=np.float32).reshape(-1, 3)
-        f = np.array(" ".join(faces).split(), dtype=np.int64).reshape(-1, 3) - 1
+        tri = np.array(" ".join(faces).split(), dtype=np.int64).reshape(-1, 3) - 1
     except ValueError:
         raise RunError(f"{path}: vertices or faces that are not the triangles mca writes (v x y z, f a b c)")
-    if len(f) and (f.min() < 0 or f.max() >= len(v)):
+    if len(tri) and (tri.min() < 0 or tri.max() >= len(v)):
         raise RunError(f"{path}: a face refers to a vertex it does not have; the file is cut short or damaged")
     _check_finite(path, "vertex", v, "vertex")
-    return v, f.astype(np.int32), np.array(values, dtype=np.int32)
+    return v, tri.astype(np.int32), np.array(values, dtype=np.int32)
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -730,7 +827,7 @@ class Run:
                                  "defaults")
             return {}
         try:
-            scene = tomllib.loads(_read_bytes(scene_file, f"{scene_file} is missing").decode("utf-8"))
+            scene = tomllib.loads(_read_bytes(scene_file, f"{scene_file} is missing", SCENE_MAX).decode("utf-8"))
         except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
             raise RunError(f"{scene_file}: {e}; it should be the scene exactly as run: run mca again")
         check_scene(scene, scene_file)
@@ -806,7 +903,7 @@ class Run:
         path = os.path.join(self.dir, "render", "render.json")
         if os.path.lexists(path):
             try:
-                r = json.loads(_read_bytes(path, f"{path} is missing").decode("utf-8"))
+                r = json.loads(_read_bytes(path, f"{path} is missing", _HEAD_MAX).decode("utf-8"))  # (mca: 100 bytes)
                 if not isinstance(r, dict):
                     raise ValueError(f"a JSON {type(r).__name__}, not an object")
                 w, h, f = r.get("width"), r.get("height"), r.get("fps")

@@ -256,6 +256,8 @@ def case_bad_input(case_dir):
         "nan_points": "at point 7: mca writes finite values only; the file is damaged",
         "fragment_float": "automata_000002.vtu: array 'fragment' is of float32, not the integers mca writes",
         "no_offset": "automata_000002.vtu is cut short or damaged (KeyError: 'offset')",
+        "frame_sparse": "automata_000001.vtu is cut short or not a VTK file written by mca (no appended data in its "
+                        "first MB)",
     }
     for name, words in expect.items():
         path = os.path.join(case_dir, name)

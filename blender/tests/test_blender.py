@@ -272,6 +272,11 @@ def make_bad_inputs(a):
     m = re.search(rb'(<DataArray type="Int32" Name="fragment"[^>]*) offset="\d+"', data)
     with open(vtu, "wb") as f:
         f.write(data[:m.start()] + m.group(1) + data[m.end():])
+    # A frame of 20 GB of zeros (a sparse file): refused at its first MB, not read whole into memory.
+    d = os.path.join(bad, "frame_sparse")
+    copy_run(short, d)
+    os.truncate(os.path.join(d, "frames", "automata_000001.vtu"), 0)
+    os.truncate(os.path.join(d, "frames", "automata_000001.vtu"), 20 << 30)
     # A run still going writes automata.pvd before projectiles.pvd: imported to the frames both list, warned.
     d = os.path.join(bad, "projectiles_behind")
     copy_run(short, d)
@@ -525,6 +530,86 @@ def check_surface_gap(a):
         sys.exit(f"the frames' surfaces are {got}, not {want}: paired by place, not by frame")
 
 
+def check_large_files(a):
+    """Files far larger than mca writes (sparse files of 20 GB, which a hostile folder or a damaged disk gives)
+    are refused or read only as far as their headers declare, never read whole: the importer held the whole
+    file in memory before. A frame or a mesh with 20 GB after its data reads as the file without them."""
+    import numpy as np
+    import resource
+    reader = load_reader()
+    big = 20 << 30
+    d = os.path.join(a.work, "large")
+    shutil.rmtree(d, ignore_errors=True)
+    try:
+        copy_run(os.path.join(a.work, "surface"), d)
+        want = reader.Run(os.path.join(a.work, "surface"))
+        rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+        # Data after what the headers declare: read as the files without it.
+        for name in ("frames/automata_000002.vtu", "surface/surface_000001.ply"):
+            os.truncate(os.path.join(d, name), big)
+        got = reader.Run(d)
+        for key in ("points", "fragment", "object", "radius", "damage"):
+            if not np.array_equal(got.frames[2][key], want.frames[2][key]):
+                sys.exit(f"frame 2's {key} differs once 20 GB follow its data")
+        ply = [reader.read_ply(os.path.join(r, "surface", "surface_000001.ply")) for r in (d, want.dir)]
+        if not all(np.array_equal(x, y) for x, y in zip(ply[0][:2], ply[1][:2])):
+            sys.exit("the surface's PLY differs once 20 GB follow its data")
+        # The OBJ reader on the same surface, written as OBJ (groups fragment_N), then with 20 GB of zeros after
+        # it: one line of 20 GB, refused at its first 4 KB.
+        v, f, values = ply[1]
+        obj = os.path.join(d, "surface", "surface_000001.obj")
+        with open(obj, "w") as out:
+            out.write("".join(f"v {x:.9g} {y:.9g} {z:.9g}\n" for x, y, z in v.tolist()))
+            group = None
+            for tri, g in zip(f.tolist(), (values if values is not None else np.zeros(len(f), int)).tolist()):
+                if g != group:
+                    out.write(f"g fragment_{g}\n")
+                    group = g
+                out.write(f"f {tri[0] + 1} {tri[1] + 1} {tri[2] + 1}\n")
+        with open(obj, "rb") as fh:
+            lines = fh.read().count(b"\n")
+        ov, of, _ = reader.read_obj(obj)
+        if not (np.array_equal(ov, v) and np.array_equal(of, f)):
+            sys.exit("the OBJ of the surface reads otherwise than its PLY")
+        os.truncate(obj, big)
+
+        def refused(call, words):
+            try:
+                call()
+            except reader.RunError as e:
+                print(f"refused: {e}")
+                if words not in str(e):
+                    sys.exit(f"'{e}' does not say '{words}'")
+                return
+            sys.exit(f"read without an error, though '{words}'")
+
+        refused(lambda: reader.read_obj(obj), f"surface_000001.obj:{lines + 1}: a line longer than 4096 characters, "
+                                              "which mca never writes")
+        # Whole files of zeros, and text files past what mca writes.
+        for name in ("frames/automata_000003.vtu", "summary.json", "automata.pvd"):
+            path = os.path.join(d, name)
+            os.truncate(path, 0)
+            os.truncate(path, big)
+        refused(lambda: reader.read_vtu(os.path.join(d, "frames", "automata_000003.vtu")),
+                "automata_000003.vtu is cut short or not a VTK file written by mca (no appended data in its first MB)")
+        refused(lambda: reader.read_pvd(os.path.join(d, "automata.pvd")),
+                "automata.pvd is 21,474,836,480 bytes, more than mca writes there (1,073,741,824 at most)")
+        scene = os.path.join(d, "scene.toml")
+        with open(scene, "rb") as fh:
+            text = fh.read()
+        os.truncate(scene, 65 << 20)
+        refused(lambda: reader.Run(d), "scene.toml is 68,157,440 bytes, more than mca writes there (67,108,864 at most)")
+        with open(scene, "wb") as fh:
+            fh.write(text)
+        refused(lambda: reader.Run(d), "summary.json is 21,474,836,480 bytes, more than mca writes there")
+        grown = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - rss0) / 1024
+        print(f"peak memory grew by {grown:.0f} MB")
+        if grown > 200:
+            sys.exit(f"reading the large files grew the peak memory by {grown:.0f} MB")
+    finally:
+        shutil.rmtree(d, ignore_errors=True)  # (20 GB files, sparse: a copy of the folder would not be)
+
+
 def main():
     p = argparse.ArgumentParser()
     p.add_argument("--mca", required=True)
@@ -644,6 +729,8 @@ def main():
         check_rotations(a)
     elif case == "surface_gap":
         check_surface_gap(a)
+    elif case == "large_files":
+        check_large_files(a)
     else:
         sys.exit(f"unknown case {case}")
 
