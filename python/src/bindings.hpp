@@ -60,7 +60,45 @@ bool to_bool(py::handle value, const std::string& key, const std::string& what);
 // A path: a str or an os.PathLike naming a str path.
 std::filesystem::path to_path(py::handle value, const std::string& key);
 
+// An argument the binding converts itself (with to_path, to_whole, ...; pybind11 would refuse a wrong type
+// with its own message, not mca's), shown by help() and in errors as `Shown::name`, the type the .pyi stubs
+// give, instead of pybind11's "handle": Given<py_type::path> for a path.
+template <typename Shown>
+struct Given {
+  py::handle value;
+  operator py::handle() const { return value; }  // NOLINT(google-explicit-constructor): for to_path and the rest
+};
+namespace py_type {
+#define MCA_SHOWN_TYPE(tag, text)                                      \
+  struct tag {                                                        \
+    static constexpr auto name = py::detail::const_name(text);        \
+  }
+MCA_SHOWN_TYPE(path, "Union[str, os.PathLike]");
+MCA_SHOWN_TYPE(optional_path, "Optional[Union[str, os.PathLike]]");
+MCA_SHOWN_TYPE(scene_or_path, "Union[Scene, str, os.PathLike]");
+MCA_SHOWN_TYPE(integer, "int");
+MCA_SHOWN_TYPE(number, "float");
+MCA_SHOWN_TYPE(str, "str");
+MCA_SHOWN_TYPE(optional_str, "Optional[str]");
+MCA_SHOWN_TYPE(progress, "Optional[Callable[[int, int], Any]]");
+MCA_SHOWN_TYPE(size, "Tuple[int, int]");
+#undef MCA_SHOWN_TYPE
+}  // namespace py_type
+
 void bind_scene(py::module_& m);
 void bind_simulation(py::module_& m);
 
 }  // namespace mca::python
+
+namespace pybind11::detail {
+// Given<Shown> takes any object as it is (None too); its name is Shown::name.
+template <typename Shown>
+struct type_caster<mca::python::Given<Shown>> {
+  PYBIND11_TYPE_CASTER(mca::python::Given<Shown>, Shown::name);
+  bool load(handle src, bool) {
+    value.value = src;
+    return true;
+  }
+  static handle cast(const mca::python::Given<Shown>& g, return_value_policy, handle) { return g.value.inc_ref(); }
+};
+}  // namespace pybind11::detail

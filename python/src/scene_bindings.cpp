@@ -452,7 +452,7 @@ void bind_scene(py::module_& m) {
                             "Weibull modulus of the links' own strengths, 0 (no spread) or in [1, 100]"))
       .def_static(
           "builtin",
-          [](py::handle name_arg) {
+          [](Given<py_type::str> name_arg) {
             const std::string name = to_text(name_arg, "Material.builtin: name", "a str: concrete, glass, ceramic, granite or steel");
             const MaterialDef* d = find_builtin_material(name);
             if (!d) {
@@ -719,18 +719,18 @@ void bind_scene(py::module_& m) {
 Read one with Scene.load(path), Scene.from_toml(text) or Scene.default(); or start from Scene(name) and
 add objects, projectiles, materials. validate() checks it with the command's messages; a Simulation
 validates it too.)");
-  scene.def(py::init([](py::handle name) {
+  scene.def(py::init([](Given<py_type::str> name) {
               PyScene s;
               s.name = to_text(name, "Scene: name", "a str");
               return s;
             }),
             py::arg("name") = "scene", "An empty scene (no objects) with every default.")
       .def_static(
-          "load", [](py::handle path) { return PyScene::from_def(io::load_scene_file(to_path(path, "Scene.load: path"))); },
+          "load", [](Given<py_type::path> path) { return PyScene::from_def(io::load_scene_file(to_path(path, "Scene.load: path"))); },
           py::arg("path"), "Reads a scene file (TOML); mesh paths are resolved as the command resolves them.")
       .def_static(
           "from_toml",
-          [](py::handle text, py::handle source) {
+          [](Given<py_type::str> text, Given<py_type::str> source) {
             return PyScene::from_def(io::parse_scene(to_text(text, "Scene.from_toml: text", "the scene's TOML as a str"),
                                                      to_text(source, "Scene.from_toml: source", "a str naming the text")));
           },
@@ -813,10 +813,10 @@ validates it too.)");
           "Appends an mca.Load with the keys given and returns it.")
       .def(
           "add_material",
-          [](PyScene& s, py::handle name_arg, py::handle base_arg, const py::kwargs& kw) {
+          [](PyScene& s, Given<py_type::str> name_arg, Given<py_type::optional_str> base_arg, const py::kwargs& kw) {
             const std::string name = to_text(name_arg, "add_material: name", "a str naming the material");
             std::optional<std::string> base;
-            if (!base_arg.is_none())
+            if (!base_arg.value.is_none())
               base = to_text(base_arg, "add_material: base", "a str: an earlier scene material or a built-in");
             for (std::size_t k = 0; k < s.materials.size(); ++k)
               if (py::isinstance<MaterialDef>(s.materials[k]) && s.materials[k].cast<const MaterialDef&>().name == name)
@@ -860,7 +860,7 @@ validates it too.)");
           "reads it back to the same scene.")
       .def(
           "save",
-          [](const PyScene& s, py::handle path_arg) {
+          [](const PyScene& s, Given<py_type::path> path_arg) {
             const std::filesystem::path path = to_path(path_arg, "Scene.save: path");
             const std::string text = io::scene_to_toml(s.to_def());
             FILE* f = std::fopen(path.c_str(), "wb");

@@ -359,8 +359,10 @@ void check_progress(const py::object& progress) {
                             shown(progress)));
 }
 
-py::array_t<std::uint8_t> render_to(PySimulation& sim, py::handle path_arg, py::handle colour_arg, py::handle draw_arg,
-                                    py::handle size_arg) {
+py::array_t<std::uint8_t> render_to(PySimulation& sim, Given<py_type::optional_path> path_given,
+                                    Given<py_type::str> colour_arg, Given<py_type::optional_str> draw_given,
+                                    Given<py_type::size> size_given) {
+  const py::handle path_arg = path_given, draw_arg = draw_given, size_arg = size_given;
   std::optional<std::filesystem::path> path;
   if (!path_arg.is_none()) {
     path = to_path(path_arg, "render: path");
@@ -574,7 +576,8 @@ Arrays are in the model's automaton order (objects in scene order, each in latti
 return state arrays return copies taken when called; strength_class(), masses() and object_ids() return
 read-only views of the model, which never changes once built; every array stays valid after the
 Simulation is gone.)");
-  sim.def(py::init([](const py::handle& scene, py::handle threads_arg, py::handle backend_arg) {
+  sim.def(py::init([](Given<py_type::scene_or_path> scene, Given<py_type::integer> threads_arg,
+                       Given<py_type::optional_str> backend_arg) {
             const int threads = to_int_threads(threads_arg);
             SceneDef def = scene_of(scene);
             if (const auto b = backend_here(backend_arg, "Simulation: backend")) def.solver.backend = *b;
@@ -588,7 +591,7 @@ Simulation is gone.)");
           "cannot run here, with the command's message.")
       .def_static(
           "resume",
-          [](py::handle path, py::handle threads, py::handle backend) {
+          [](Given<py_type::path> path, Given<py_type::integer> threads, Given<py_type::optional_str> backend) {
             return resume(to_path(path, "Simulation.resume: path"), to_int_threads(threads),
                           backend_here(backend, "Simulation.resume: backend"));
           },
@@ -598,7 +601,8 @@ Simulation is gone.)");
           "uninterrupted run gives, on any `backend` (as Simulation's; None: the one the run was on).")
       .def(
           "advance",
-          [](PySimulation& s, py::handle steps, const py::object& progress) {
+          [](PySimulation& s, Given<py_type::integer> steps, Given<py_type::progress> progress_arg) {
+            const auto progress = py::reinterpret_borrow<py::object>(progress_arg.value);
             check_progress(progress);
             s.advance(to_whole(steps, "advance: steps", std::numeric_limits<std::int64_t>::min(),
                                std::numeric_limits<std::int64_t>::max(),
@@ -619,8 +623,9 @@ Simulation is gone.)");
           "before (checkpoint, Simulation.resume) continues, with backend=\"cpu\".")
       .def(
           "advance_to",
-          [](PySimulation& s, py::handle time_arg, const py::object& progress) {
+          [](PySimulation& s, Given<py_type::number> time_arg, Given<py_type::progress> progress_arg) {
             const double time = to_number(time_arg, "advance_to: time", "a simulated time [s]");
+            const auto progress = py::reinterpret_borrow<py::object>(progress_arg.value);
             check_progress(progress);
             const Engine& e = s.engine();
             const double dt = static_cast<double>(e.model().dt);
@@ -827,7 +832,7 @@ Simulation is gone.)");
           "The FNV-1a hash of the whole state as 16 hex digits, summary.json's state_hash (equal hashes: bitwise "
           "equal states).")
       .def(
-          "write_frame", [](PySimulation& s, py::handle out) { return write_frame(s, to_path(out, "write_frame: out")); },
+          "write_frame", [](PySimulation& s, Given<py_type::path> out) { return write_frame(s, to_path(out, "write_frame: out")); },
           py::arg("out"),
           "Writes the state as the next frame of the folder `out`, as `mca run --out` writes a frame: "
           "frames/automata_NNNNNN.vtu, projectiles, the .pvd collections, the bound surface (output.surface), a row "
@@ -841,7 +846,7 @@ Simulation is gone.)");
           "close_output", [](PySimulation& s) { s.output.reset(); },
           "Releases the folder of write_frame (its files stay).")
       .def(
-          "checkpoint", [](PySimulation& s, py::handle path) { checkpoint(s, to_path(path, "checkpoint: path")); },
+          "checkpoint", [](PySimulation& s, Given<py_type::path> path) { checkpoint(s, to_path(path, "checkpoint: path")); },
           py::arg("path"),
           "Saves the scene and the whole state to the file `path` (.mcack, the command's format; not a folder); Simulation.resume(path) "
           "continues bitwise as if uninterrupted. `mca resume` continues it in a run folder when it was saved at a "

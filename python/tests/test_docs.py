@@ -40,3 +40,21 @@ def test_stubs_list_what_the_module_has():
         if name == "Error":
             actual = set()  # BaseException's args and with_traceback
         assert stubbed == actual, f"{name}: stub only {stubbed - actual}, module only {actual - stubbed}"
+
+
+def test_signatures_name_the_types_the_stubs_give():
+    """help() shows each argument's type as the stubs give it (str, int, a path), never pybind11's `handle`
+    for the arguments the module converts itself."""
+    signatures = []
+    for name in mca.__all__:
+        obj = getattr(mca, name)
+        calls = [obj] if not inspect.isclass(obj) else [getattr(obj, m) for m in public(obj) + ["__init__"]]
+        signatures += [line for c in calls for line in (c.__doc__ or "").splitlines() if "(" in line and "->" in line]
+    assert signatures
+    shown = [s for s in signatures if "handle" in s]
+    assert not shown, "\n".join(shown)
+    joined = "\n".join(signatures)
+    for want in ("load(path: Union[str, os.PathLike])", "advance(self: mca._mca.Simulation, steps: int, progress: "
+                 "Optional[Callable[[int, int], Any]] = None)", "scene: Union[Scene, str, os.PathLike], threads: int = 0, "
+                 "backend: Optional[str] = None", "size: Tuple[int, int] = (1280, 720)"):
+        assert want in joined
