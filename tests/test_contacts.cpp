@@ -262,6 +262,43 @@ TEST(Contacts, ABallBouncesOnTheGround) {
   }
 }
 
+// A ball bouncing on the ground at restitution 1 keeps bouncing: the discrete contact gains or loses up to
+// about one percent a bounce (by where in a step it touches), and the blow-up check measured that against
+// gravity's net work, near nothing at the top of a bounce, so a ball that had gained 0.2 J of 42 J was
+// stopped as unstable at its fourth bounce (a hostile review, 2026-12-06). The check also weighs the fall
+// the bodies could make (Engine::advance); the test asserts that the old measure would have stopped it.
+TEST(Contacts, ABallBouncingAtRestitutionOneIsNotStoppedAsUnstable) {
+  SceneDef s = ball_scene(1.0);
+  s.solver.gravity = {0, 0, -9.81};
+  s.ground.enabled = true;
+  s.ground.restitution = 1.0;
+  s.projectiles.push_back(ball("ball", {0, 0, 1.05}, {0, 0, 0}, 0.05));
+  s.projectiles.back().material = "steel";
+  Engine sim(s);
+  const double floor = breaking_energy(sim.model());
+  int bounces = 0, old_stops = 0;
+  bool falling = true;
+  for (std::int64_t k = 0; k < 4.5 / sim.model().dt; k += Engine::kEnergyCheckInterval) {
+    const StepHealth h = sim.advance(static_cast<int>(Engine::kEnergyCheckInterval));
+    ASSERT_EQ(h.flags, kHealthy) << "stopped at " << sim.time() << " s after " << bounces << " bounces: "
+                                 << instability_message(sim, h);
+    const Energies e = sim.backend().energies();
+    const double excess = e.total() - e.external_work() - sim.backend().initial_energy();
+    const double old_dealt = std::fabs(sim.backend().initial_energy()) + std::fabs(e.gravity_work);
+    if (excess > 9.0 * std::max(old_dealt, floor)) ++old_stops;
+    const bool down = sim.state().projectiles[0].velocity.z < 0;
+    if (falling && !down) {
+      ++bounces;
+      std::printf("bounce %d: excess %.4g J\n", bounces, excess);
+    }
+    falling = down;
+  }
+  std::printf("restitution 1: %d bounces in 4.5 s, %d energy checks the old measure would have stopped at\n", bounces,
+              old_stops);
+  EXPECT_GE(bounces, 4);
+  EXPECT_GT(old_stops, 0) << "the case no longer meets what it was written for";
+}
+
 // Two balls head-on: momentum is exchanged (equal masses and e = 1 swap their velocities; in general
 // the relative speed after is e times that before) and the total is kept. They passed through each other.
 TEST(Contacts, TwoBallsExchangeMomentum) {

@@ -251,9 +251,32 @@ double breaking_energy(const Model& m) {
   return std::isfinite(least) ? least : 0.0;
 }
 
+// What gravity would put into the bodies if each fell from where it starts to the lowest point of the scene
+// (the ground, else the lowest starting point of any automaton or projectile): the blow-up check's measure
+// of the energy that gravity deals in. Its net work alone is not one: a ball bouncing back to where it fell
+// from has taken none in net, and the one percent a bounce may gain at restitution 1 (the discrete contact)
+// read as ten times the energy put in (a ball of 42 J near the top of its fourth bounce stopped its run).
+namespace {
+double fall_energy(const Model& m) {
+  const double gx = m.gravity.x, gy = m.gravity.y, gz = m.gravity.z;
+  const double g = std::sqrt(gx * gx + gy * gy + gz * gz);
+  if (!(g > 0)) return 0.0;
+  const auto height = [&](const DVec3& x) { return x.x * m.up.x + x.y * m.up.y + x.z * m.up.z; };
+  double lowest = m.ground ? m.ground_height : INFINITY;
+  for (std::size_t a = 0; a < m.size(); ++a) lowest = std::min(lowest, height(m.position0[a]) - m.radius[a]);
+  for (const auto& p : m.projectiles) lowest = std::min(lowest, height(p.position) - p.radius);
+  double fall = 0;
+  for (std::size_t a = 0; a < m.size(); ++a) fall += m.mass[a] * g * std::max(0.0, height(m.position0[a]) - lowest);
+  for (const auto& p : m.projectiles)
+    if (!p.kinematic) fall += p.mass * g * std::max(0.0, height(p.position) - lowest);
+  return std::isfinite(fall) ? fall : 0.0;
+}
+}  // namespace
+
 Engine::Engine(const SceneDef& scene) : scene_(scene) {
   model_ = build_for_frames(scene_, steps_per_frame_, total_steps_);
   energy_floor_ = breaking_energy(model_);
+  fall_energy_ = fall_energy(model_);
   backend_ = start_backend(model_, scene_.solver.backend, scene_.source, initial_state(model_));
   // A run's energy budget starts from its first state (contact springs included, so after the upload
   // that builds the contact lists); a resumed run keeps its checkpoint's.
@@ -284,6 +307,7 @@ Engine::Engine(const SceneDef& scene, const State& state, const std::string& sou
   }
   check_state(model_, state, source);
   energy_floor_ = breaking_energy(model_);
+  fall_energy_ = fall_energy(model_);
   if (!fingerprint) {
     backend_ = start_backend(model_, scene_.solver.backend, scene_.source, state);
     return;
@@ -321,12 +345,12 @@ StepHealth Engine::advance(int steps) {
     // What the bodies hold beyond the start and the work put in (gravity, grips, loads, kinematic
     // projectiles), against 9x the energy the run has dealt in (physics.md sec. 7: 10x what was put in):
     // the start's energy plus every work in magnitude (a body bouncing higher than it fell, from the
-    // discrete contact, turns gravity's work negative), and at least the energy that breaks one link of
-    // the weakest material (heating below it, such as float rounding in an undamped body far from the
-    // origin, can harm nothing).
+    // discrete contact, turns gravity's work negative) and what gravity would give the bodies falling to
+    // the lowest point (fall_energy), and at least the energy that breaks one link of the weakest material
+    // (heating below it, such as float rounding in an undamped body far from the origin, can harm nothing).
     const double excess = e.total() - e.external_work() - initial;
     const double dealt = std::fabs(initial) + std::fabs(e.gravity_work) + std::fabs(e.grip_work) + std::fabs(e.load_work) +
-                         std::fabs(e.projectile_work);
+                         std::fabs(e.projectile_work) + fall_energy_;
     if (excess > 9.0 * std::max(dealt, energy_floor_)) {
       h.flags |= kEnergyGrowth;
       h.step = step();

@@ -79,6 +79,7 @@ class Engine {
   int steps_per_frame_ = 1;
   std::int64_t total_steps_ = 1;
   double energy_floor_ = 0;      // the blow-up check's least reference energy (engine.cpp)
+  double fall_energy_ = 0;       // and gravity's part of it: the bodies' fall to the lowest point (engine.cpp)
 };
 
 // The backend a scene asks for (SolverDef::backend), with `state` uploaded. auto: what MCA_BACKEND names,
@@ -93,6 +94,10 @@ std::optional<SolverDef::Backend> backend_from_environment();
 // The backend named by `name` (auto, cpu, cuda, cuda-emulation), for the --backend option; an mca::Error
 // naming `option` and the choices otherwise.
 SolverDef::Backend backend_from_name(const std::string& name, const std::string& option);
+
+// The energy that breaks one link of the weakest material in use: the blow-up check's least reference
+// energy (Engine::advance).
+double breaking_energy(const Model& m);
 
 // What a step whose health is not kHealthy found, its likely causes and the fix, beginning "the run became
 // unstable at step ..." (the message of `mca run` and of the Python module).
