@@ -299,6 +299,43 @@ TEST(Contacts, ABallBouncingAtRestitutionOneIsNotStoppedAsUnstable) {
   EXPECT_GT(old_stops, 0) << "the case no longer meets what it was written for";
 }
 
+// The cubic lattice's automata are spheres of radius d/2 on a square grid: a straight channel 0.207 d wide
+// runs between four of them along each axis. A ball that fits in it crossed an intact wall untouched (a
+// hostile review: 5 mm at 50 m/s through d = 5 cm, nothing broken); one is refused, naming the least radius,
+// and one a little larger, aimed the same way, is stopped by the wall.
+TEST(Contacts, ABallThatFitsBetweenTheCubicLatticesAutomataIsRefused) {
+  const double d = 0.05;
+  const auto shot = [&](double radius) {
+    MaterialDef m = test::test_material();
+    SceneDef s = empty_scene(m);
+    s.materials[0].name = "contactmat";
+    ObjectDef wall = cube(s.materials[0], {0, 0, 0}, {0, 0, 0}, 4, d);
+    wall.size = {12 * d, 4 * d, 12 * d};
+    s.objects.push_back(wall);
+    // aimed along y at the channel between four automata (their centres at odd multiples of d/2)
+    s.projectiles.push_back(ball("ball", {0, -2 * d - radius - 1e-4, 0}, {0, 50, 0}, radius));
+    s.projectiles.back().material = "steel";
+    s.output.duration = 0.01;
+    return s;
+  };
+  try {
+    Engine sim(shot(0.2 * d));
+    FAIL() << "a ball of 0.2 d was taken";
+  } catch (const Error& e) {
+    const std::string w = e.what();
+    EXPECT_NE(w.find("projectile[0] 'ball' has a radius of 0.01 m, less than the 0.01036 m (0.207 of the spacing"),
+              std::string::npos) << w;
+    EXPECT_NE(w.find("give it a radius of at least 0.01036 m, or a spacing of at most 0.04828 m"), std::string::npos) << w;
+  }
+  Engine sim(shot(0.21 * d));
+  const auto& ball = sim.state().projectiles[0];
+  sim.advance(static_cast<int>(0.006 / sim.model().dt));  // 30 cm at 50 m/s: through the 20 cm wall
+  std::printf("a ball of 0.21 d at 50 m/s: at y = %.4f m, %.2f m/s; %lld links broken\n", ball.position.y,
+              ball.velocity.y, static_cast<long long>(sim.state().broken_by[0] + sim.state().broken_by[1]));
+  EXPECT_LT(ball.position.y, 2 * d) << "through the wall";
+  EXPECT_LT(ball.velocity.y, 25.0);
+}
+
 // Two balls head-on: momentum is exchanged (equal masses and e = 1 swap their velocities; in general
 // the relative speed after is e times that before) and the total is kept. They passed through each other.
 TEST(Contacts, TwoBallsExchangeMomentum) {
