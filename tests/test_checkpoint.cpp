@@ -400,18 +400,19 @@ TEST(Checkpoint, AnEditedClockOrStartingEnergyIsRefused) {
 // length within 1e-3 refused them all).
 TEST(Checkpoint, AFastSpinningBallsCheckpointResumes) {
   SceneDef s = struck_wall();
-  s.projectiles[0].radius = 0.01;
+  const double r = 0.0104;  // (0.208 of the spacing: a smaller ball would pass between the automata)
+  s.projectiles[0].radius = r;
   s.projectiles[0].position = {0, -0.4, 0.15};
   s.projectiles[0].velocity = {0, 1, 0};
   Engine probe(s);
   const double dt = probe.model().dt;  // (0.5 rad a step is one part, and its surface at a tenth of the spacing)
-  const double spin = std::min(0.49 / dt, 0.0999 * probe.model().spacing / dt / 0.01);
+  const double spin = std::min(0.49 / dt, 0.0999 * probe.model().spacing / dt / r);
   s.projectiles[0].angular_velocity = {0, 0, spin};
   Engine sim(s);
   sim.advance(200);
   const Quat q = sim.state().projectiles[0].orientation;
   const double length = std::sqrt(double(q.w) * q.w + double(q.x) * q.x + double(q.y) * q.y + double(q.z) * q.z);
-  std::printf("a ball of 1 cm at %.3g rad/s, %.2f rad a step: orientation's length %.6f\n", spin,
+  std::printf("a ball of %.4g m at %.3g rad/s, %.2f rad a step: orientation's length %.6f\n", r, spin,
               spin * sim.model().dt, length);
   EXPECT_LT(length, 0.9995) << "the spin no longer moves the length off 1: the test measures nothing";
   EXPECT_NO_THROW(Engine(s, sim.state(), "checkpoint 'spin'", model_fingerprint(sim.model())));

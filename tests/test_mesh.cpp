@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -127,6 +128,47 @@ TEST(MeshLoader, CutShortOrBadIndexFilesAreErrorsNotCrashes) {
   std::ofstream(t.path() / "index.off") << "OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 3000000000\n";
   const std::string e = error_of([&] { mesh::read_mesh((t.path() / "index.off").string()); });
   EXPECT_NE(e.find("face 1 uses vertex '3000000000', but the file has 4 vertices"), std::string::npos) << e;
+}
+
+// The counts a PLY or OFF header declares are weighed before the file is read: a sparse file of 4 GB (no
+// disk space) declaring 3e8 vertices was read whole, 4.2 GB of memory, before it was refused for them (a
+// hostile review). The limit is also 90 % of the machine's memory where that is less than max_memory_gb.
+TEST(MeshLoader, AHugeFileIsWeighedByItsHeaderBeforeItIsRead) {
+  TempDir t;
+  const auto sparse = [&](const std::string& name, const std::string& header, std::uint64_t size) {
+    const fs::path p = t.path() / name;
+    std::ofstream(p, std::ios::binary) << header;
+    fs::resize_file(p, size);
+    return p.string();
+  };
+  const std::string ply = sparse("big.ply",
+                                 "ply\nformat binary_little_endian 1.0\nelement vertex 300000000\nproperty float x\n"
+                                 "property float y\nproperty float z\nelement face 1\nproperty list uchar int "
+                                 "vertex_indices\nend_header\n",
+                                 std::uint64_t{4} << 30);
+  // (a text file: its first 64 KB without NUL bytes, which the signature check refuses at once)
+  const std::string off =
+      sparse("big.off", "OFF\n# a comment\n300000000 1 0\n" + std::string(1 << 16, '\n'), std::uint64_t{4} << 30);
+  const auto peak_kb = [] {
+    rusage u{};
+    getrusage(RUSAGE_SELF, &u);
+    return u.ru_maxrss;
+  };
+  for (const std::string& path : {ply, off}) {
+    const long before = peak_kb();
+    const std::string e = error_of([&] { mesh::read_mesh(path, 16e9); });
+    const long grown = (peak_kb() - before) / 1024;
+    std::printf("%s: peak memory +%ld MB: %s\n", path.c_str(), grown, e.c_str());
+    EXPECT_NE(e.find("reading it would take about 40.3 GB (a file of 4.295 GB declaring 300000000 vertices and 1 "
+                     "faces), over solver.max_memory_gb = 16"),
+              std::string::npos)
+        << e;
+    EXPECT_LT(grown, 100) << "read before it was weighed";
+  }
+  // The machine's memory where it is the smaller limit (no machine has 1e15 bytes).
+  const std::string e = error_of([&] { mesh::read_mesh(ply, 1e15); });
+  EXPECT_NE(e.find("a run may take of this machine's"), std::string::npos) << e;
+  EXPECT_NE(e.find("run it on a larger machine, or simplify the mesh"), std::string::npos) << e;
 }
 
 TEST(MeshLoader, AGltfReadsBuffersBesideItAndNothingElse) {

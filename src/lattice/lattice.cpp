@@ -1607,16 +1607,6 @@ void add_projectiles(Model& M, const SceneDef& scene, std::size_t placed, GroupT
   for (std::size_t p = 0; p < scene.projectiles.size(); ++p) {
     const ProjectileDef& pd = scene.projectiles[p];
     const std::string key = fmt::format("projectile[{}]", p);
-    if (cubic_volume && pd.radius < channel) {
-      throw Error(fmt::format("{}: {} '{}' has a radius of {} m, less than the {} m (0.207 of the spacing {:g} m) "
-                              "of the channels between the cubic lattice's automata: it would pass through a body "
-                              "without touching it; give it a radius of at least {} m, or a spacing of at most {} "
-                              "m, or solver.lattice = \"random\"",
-                              scene.source, key, pd.name, text::distinct(pd.radius, channel).a,
-                              text::distinct(pd.radius, channel).b, static_cast<double>(M.spacing),
-                              text::at_least(channel, 4),
-                              text::at_most(pd.radius / (std::numbers::sqrt2 / 2 - 0.5), 4)));
-    }
     ProjectileParams pp;
     pp.name = pd.name;
     pp.group = groups.of(pd.material, key + ".material", false);
@@ -1628,6 +1618,16 @@ void add_projectiles(Model& M, const SceneDef& scene, std::size_t placed, GroupT
     pp.mass = as_float32(scene, key + " mass", mass, fix);
     pp.inertia = as_float32(scene, key + " moment of inertia", 0.4 * mass * pd.radius * pd.radius, fix);
     as_float32(scene, key + ".radius", pd.radius, fix);
+    if (cubic_volume && pd.radius < channel) {
+      throw Error(fmt::format("{}: {} '{}' has a radius of {} m, less than the {} m (0.207 of the spacing {:g} m) "
+                              "of the channels between the cubic lattice's automata: it would pass through a body "
+                              "without touching it; give it a radius of at least {} m, or a spacing of at most {} "
+                              "m, or solver.lattice = \"random\"",
+                              scene.source, key, pd.name, text::distinct(pd.radius, channel).a,
+                              text::distinct(pd.radius, channel).b, static_cast<double>(M.spacing),
+                              text::at_least(channel, 4),
+                              text::at_most(pd.radius / (std::numbers::sqrt2 / 2 - 0.5), 4)));
+    }
     pp.kinematic = pd.kinematic;
     pp.rolling = static_cast<float>(pd.rolling_friction);
     pp.twisting = static_cast<float>(pd.twisting_friction);

@@ -24,6 +24,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "core/environment.hpp"
 #include "core/files.hpp"
 #include "core/fnv.hpp"
 #include "mesh/readers.hpp"
@@ -616,15 +617,55 @@ TriMesh import_assimp(const std::string& name, const std::string& ext, const std
   return convert(scene, name);
 }
 
+// What reading may take: solver.max_memory_gb, and 90 % of the machine's memory where that is less (as
+// lattice::memory_limit bounds a model): a sparse file of 30 GB under the default 16 GB was read whole on a
+// machine of 23 GB, until the system's memory ran out.
 void refuse_over_memory(const std::string& name, double need, double max_bytes, const std::string& what) {
-  if (need <= max_bytes) return;
-  throw Error(fmt::format("{}: reading it would take about {:.3g} GB ({}), over solver.max_memory_gb = {:g}; raise "
-                          "solver.max_memory_gb if the machine has the memory, or simplify the mesh (MeshLab: "
-                          "Filters > Remeshing, Simplification and Reconstruction > Quadric Edge Collapse Decimation)",
-                          name, need / 1e9, what, max_bytes / 1e9));
+  const double machine = machine_memory_bytes();
+  const bool by_machine = machine > 0 && 0.9 * machine < max_bytes;
+  if (need <= (by_machine ? 0.9 * machine : max_bytes)) return;
+  const std::string over =
+      by_machine ? fmt::format("more than the {:.1f} GB a run may take of this machine's {:.1f} GB (90 %); run it on a "
+                               "larger machine",
+                               0.9 * machine / 1e9, machine / 1e9)
+                 : fmt::format("over solver.max_memory_gb = {:g}; raise solver.max_memory_gb if the machine has the "
+                               "memory",
+                               max_bytes / 1e9);
+  throw Error(fmt::format("{}: reading it would take about {:.3g} GB ({}), {}, or simplify the mesh (MeshLab: Filters > "
+                          "Remeshing, Simplification and Reconstruction > Quadric Edge Collapse Decimation)",
+                          name, need / 1e9, what, over));
 }
 
-std::string mb(double bytes) { return fmt::format("{:.4g} MB", bytes / 1e6); }
+// The vertex and face counts a PLY or OFF file declares in its first bytes (`head`), to weigh the file
+// before it is read (zero where they are not there: the reader then says what is wrong).
+Declared declared_counts(std::string_view head, const std::string& ext, const std::string& name) {
+  Declared d;
+  std::istringstream in{std::string(head.substr(0, ext == "ply" ? head.find("end_header") : head.size()))};
+  if (ext == "ply") {
+    for (std::string line; std::getline(in, line);) {
+      std::istringstream w(line);
+      std::string key, element, count;
+      w >> key >> element >> count;
+      if (key != "element" || (element != "vertex" && element != "face")) continue;
+      (element == "vertex" ? d.vertices : d.faces) = to_count(count, name, element.c_str());
+    }
+  } else if (ext == "off") {
+    std::vector<std::string> words;  // the words of the lines that are not comments, until the counts
+    for (std::string line; words.size() < 3 && std::getline(in, line);) {
+      std::istringstream w(line.substr(0, line.find('#')));
+      for (std::string word; w >> word;) words.push_back(word);
+    }
+    if (words.size() >= 3 && words[0].ends_with("OFF") &&
+        words[1].find_first_not_of("0123456789") == std::string::npos &&
+        words[2].find_first_not_of("0123456789") == std::string::npos) {
+      d.vertices = to_count(words[1], name, "vertex");
+      d.faces = to_count(words[2], name, "face");
+    }
+  }
+  return d;
+}
+
+std::string mb(double bytes) { return bytes >= 1e9 ? fmt::format("{:.4g} GB", bytes / 1e9) : fmt::format("{:.4g} MB", bytes / 1e6); }
 
 // The format's signature in the first bytes of the file (`head`; `size`: the whole file's), checked before
 // the file is read: a file of zeros or of another format is refused at once, whatever its size.
@@ -765,9 +806,19 @@ TriMesh read_mesh(const std::string& path, double max_memory_bytes) {
   const std::uint64_t size = std::filesystem::file_size(path, ec);
   if (size == 0) throw Error(fmt::format("{}: the file is empty", path));
   // The signature first, from the first 64 KB; then the size against the memory limit; then the file.
-  check_head(read_file(path, std::min<std::uint64_t>(size, 1 << 16)), size, ext, path);
+  const std::string head = read_file(path, std::min<std::uint64_t>(size, 1 << 16));
+  check_head(head, size, ext, path);
   if (ext == "off" || ext == "obj" || ext == "ply") {
-    refuse_over_memory(path, static_cast<double>(size), max_memory_bytes, fmt::format("a file of {}", mb(size)));
+    // The counts a header declares weighed before the file is read (a sparse file of 4 GB declaring 3e8
+    // vertices was read whole, then refused for them).
+    const Declared d = declared_counts(head, ext, path);
+    refuse_over_memory(path,
+                       static_cast<double>(size) + kBytesPerVertex * static_cast<double>(d.vertices) +
+                           kBytesPerTriangle * static_cast<double>(d.faces),
+                       max_memory_bytes,
+                       d.vertices || d.faces
+                           ? fmt::format("a file of {} declaring {} vertices and {} faces", mb(size), d.vertices, d.faces)
+                           : fmt::format("a file of {}", mb(size)));
     const std::string bytes = read_file(path, size);
     return import(path, ext, &bytes, path, max_memory_bytes);
   }
