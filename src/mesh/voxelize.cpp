@@ -1,5 +1,7 @@
 #include "mesh/voxelize.hpp"
 
+#include <algorithm>
+#include <array>
 #include <mutex>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/MeshToVolume.h>
@@ -25,13 +27,35 @@ struct Adapter {
   }
 };
 
+// The triangles of `faces` (all where null) with each repeat left out: the same three vertices, in any
+// order, give the same distances, and OpenVDB voxelizes every copy (a cube of 12 triangles each given
+// 300,000 times took 201 s to fill, against 0.9 s for a sphere of 359,000 triangles).
+std::vector<std::uint32_t> unique_triangles(const TriMesh& m, const std::vector<std::uint32_t>* faces) {
+  const std::size_t n = faces ? faces->size() : m.faces.size();
+  std::vector<std::array<std::uint32_t, 4>> keys(n);  // sorted vertices, face
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::uint32_t f = faces ? (*faces)[k] : static_cast<std::uint32_t>(k);
+    std::array<std::uint32_t, 3> v = m.faces[f];
+    std::sort(v.begin(), v.end());
+    keys[k] = {v[0], v[1], v[2], f};
+  }
+  std::sort(keys.begin(), keys.end());
+  std::vector<std::uint32_t> out;
+  out.reserve(n);
+  for (std::size_t k = 0; k < n; ++k)
+    if (k == 0 || !std::equal(keys[k].begin(), keys[k].begin() + 3, keys[k - 1].begin())) out.push_back(keys[k][3]);
+  std::sort(out.begin(), out.end());  // (in the mesh's order, as before)
+  return out;
+}
+
 openvdb::FloatGrid::Ptr distance_grid(const TriMesh& m, const CellBox& box, float band,
                                       const std::vector<std::uint32_t>* faces = nullptr) {
   static std::once_flag once;
   std::call_once(once, [] { openvdb::initialize(); });
   const auto xform = openvdb::math::Transform::createLinearTransform(box.d);
+  const std::vector<std::uint32_t> unique = unique_triangles(m, faces);
   // The sign is flood-filled from the band through the rest of the grid.
-  return openvdb::tools::meshToVolume<openvdb::FloatGrid>(Adapter{&m, &box, faces}, *xform, band, band);
+  return openvdb::tools::meshToVolume<openvdb::FloatGrid>(Adapter{&m, &box, &unique}, *xform, band, band);
 }
 
 }  // namespace
