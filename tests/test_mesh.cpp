@@ -324,6 +324,20 @@ TEST(MeshFill, AnAxisAlignedCubeGivesTheBoxLatticeExactly) {
   EXPECT_NEAR(m.meshes[0].file_lo[1], 5.9, 1e-6);
 }
 
+// Models of a millimetre down to a micrometre fill as large ones do: OpenVDB refuses a voxel of under 3e-15
+// in volume ("ArithmeticError: Non-zero scale values required" was every volume fill at a spacing of
+// 1e-5 m and below), so such cells are voxelized in units of a cell.
+TEST(MeshFill, TinyModelsFillAsLargeOnesDo) {
+  TempDir t;
+  for (const double size : {1e-3, 1e-4, 1e-6}) {
+    test::write_mesh_file(t.path() / "cube.off", test::cube_mesh(size / 2));
+    const Model m = lattice::build_model(mesh_scene(t.path() / "cube.off", size / 10));
+    SceneDef b = test::block_scene(10, 10, 10, size / 10);
+    EXPECT_EQ(m.size(), 1000u) << "a cube of " << size << " m";
+    EXPECT_EQ(m.link_count(), lattice::build_model(b).link_count()) << "a cube of " << size << " m";
+  }
+}
+
 TEST(MeshFill, AClosedSphereFillsItsVolumeWithin2Percent) {
   TempDir t;
   const double r = 0.2, d = 0.01;

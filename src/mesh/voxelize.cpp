@@ -48,11 +48,16 @@ std::vector<std::uint32_t> unique_triangles(const TriMesh& m, const std::vector<
   return out;
 }
 
+// The grid's voxel size: the cell's, or 1 (distances in cells) for cells under 0.1 mm, which OpenVDB cannot
+// take (it refuses a voxel whose volume is under 3e-15: "ArithmeticError: Non-zero scale values required",
+// every volume fill at a spacing of 1e-5 m and below). The points are given in cells either way (Adapter).
+double grid_scale(const CellBox& box) { return box.d >= 1e-4 ? box.d : 1.0; }
+
 openvdb::FloatGrid::Ptr distance_grid(const TriMesh& m, const CellBox& box, float band,
                                       const std::vector<std::uint32_t>* faces = nullptr) {
   static std::once_flag once;
   std::call_once(once, [] { openvdb::initialize(); });
-  const auto xform = openvdb::math::Transform::createLinearTransform(box.d);
+  const auto xform = openvdb::math::Transform::createLinearTransform(grid_scale(box));
   const std::vector<std::uint32_t> unique = unique_triangles(m, faces);
   // The sign is flood-filled from the band through the rest of the grid.
   return openvdb::tools::meshToVolume<openvdb::FloatGrid>(Adapter{&m, &box, &unique}, *xform, band, band);
@@ -62,16 +67,20 @@ openvdb::FloatGrid::Ptr distance_grid(const TriMesh& m, const CellBox& box, floa
 
 struct SignedDistance::Grid {
   openvdb::FloatGrid::Ptr grid;
+  float unit;  // the mesh's units per unit of the grid's values (grid_scale)
 };
 
 SignedDistance::SignedDistance(const TriMesh& m, const CellBox& box, float band)
-    : grid_(std::make_unique<Grid>(Grid{distance_grid(m, box, band)})) {}
+    : grid_(std::make_unique<Grid>(
+          Grid{distance_grid(m, box, band), grid_scale(box) == 1.0 ? static_cast<float>(box.d) : 1.0f})) {}
 
 SignedDistance::~SignedDistance() = default;
 
 float SignedDistance::at(std::int64_t i, std::int64_t j, std::int64_t k) const {
   // The tree's own lookup (a ValueAccessor would be faster but is not safe to share between threads).
-  return grid_->grid->tree().getValue(openvdb::Coord(static_cast<int>(i), static_cast<int>(j), static_cast<int>(k)));
+  const float v =
+      grid_->grid->tree().getValue(openvdb::Coord(static_cast<int>(i), static_cast<int>(j), static_cast<int>(k)));
+  return grid_->unit == 1.0f ? v : v * grid_->unit;
 }
 
 TriMesh polygonize(const CellBox& box, const std::function<void(std::int64_t k, float* values)>& plane) {
