@@ -14,6 +14,7 @@
 
 #include "analysis/fragments.hpp"
 #include "app/commands.hpp"
+#include "io/json_text.hpp"
 #include "io/scene_io.hpp"
 #include "mca/error.hpp"
 #include "render/camera.hpp"
@@ -119,10 +120,10 @@ void run_named(const std::string& name, bool json, const nlohmann::json& done, F
   try {
     run();
   } catch (const Error& e) {
-    if (json && !done.empty()) fmt::print("{}\n", done.dump(2));
+    if (json && !done.empty()) fmt::print("{}\n", io::json_text(done));
     throw Error(fmt::format("benchmark '{}': {}", name, e.what()));
   } catch (...) {  // (the host out of memory: as it came, for its own message)
-    if (json && !done.empty()) fmt::print("{}\n", done.dump(2));
+    if (json && !done.empty()) fmt::print("{}\n", io::json_text(done));
     throw;
   }
 }
@@ -255,7 +256,7 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
       }
     });
   }
-  if (json) fmt::print("{}\n", out.dump(2));
+  if (json) fmt::print("{}\n", io::json_text(out));
   return 0;
 }
 
@@ -346,7 +347,7 @@ int bench(const std::vector<std::string>& names, bool json, int threads_requeste
       }
     });
   }
-  if (json) fmt::print("{}\n", out.dump(2));
+  if (json) fmt::print("{}\n", io::json_text(out));
   return 0;
 }
 

@@ -8,6 +8,7 @@
 #include "app/commands.hpp"
 #include "app/frame_output.hpp"
 #include "backend/cuda/device_memory.hpp"
+#include "io/json_text.hpp"
 #include "io/scene_io.hpp"
 #include "lattice/lattice.hpp"
 #include "sim/engine.hpp"
@@ -213,7 +214,7 @@ int info(const std::optional<std::string>& path, bool json) {
     j["strength_classes"] = classes;
     j["materials"] = m.group_names;
     j["projectiles"] = m.projectiles.size();
-    fmt::print("{}\n", j.dump(2));
+    fmt::print("{}\n", io::json_text(j));
     return 0;
   }
   fmt::print("scene            {} ({})\n", scene.name, scene.source);

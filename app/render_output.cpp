@@ -19,6 +19,7 @@
 #include "backend/backend.hpp"
 #include "core/files.hpp"
 #include "core/text.hpp"
+#include "io/json_text.hpp"
 #include "io/output_files.hpp"
 #include "mca/error.hpp"
 #include "render/egl_context.hpp"
@@ -70,7 +71,7 @@ std::string RenderOutput::frame_name(std::int64_t frame) { return fmt::format("f
 void save_render_options(const std::filesystem::path& out_dir, const RenderOptions& o) {
   const nlohmann::json j = {{"width", o.width}, {"height", o.height}, {"colour", render::name(o.colour)},
                             {"draw", render::name(o.draw)}, {"fps", o.fps}};
-  io::write_file_atomic(out_dir / "render" / "render.json", [&](std::ostream& os) { os << j.dump(2) << "\n"; });
+  io::write_file_atomic(out_dir / "render" / "render.json", [&](std::ostream& os) { os << io::json_text(j) << "\n"; });
 }
 
 std::optional<RenderOptions> load_render_options(const std::filesystem::path& out_dir) {

@@ -25,6 +25,7 @@
 #include "core/text.hpp"
 #include "analysis/crack_isotropy.hpp"
 #include "io/checkpoint.hpp"
+#include "io/json_text.hpp"
 #include "io/measures_json.hpp"
 #include "io/output_files.hpp"
 #include "io/scene_io.hpp"
@@ -279,7 +280,7 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
   }
   j["projectiles"] = proj;
   j["state_hash"] = fmt::format("{:016x}", state_hash(s));
-  io::write_file_atomic(dir / "summary.json", [&](std::ostream& os) { os << j.dump(2) << "\n"; }, false);
+  io::write_file_atomic(dir / "summary.json", [&](std::ostream& os) { os << io::json_text(j) << "\n"; }, false);
 }
 
 // What a run writes at its end from its last state (the summary also when interrupted): the summary,

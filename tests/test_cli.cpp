@@ -1066,6 +1066,37 @@ TEST(Cli, AFolderInASuggestedCommandIsQuotedForTheShell) {
   }
 }
 
+// Paths that are not UTF-8 (file systems take any bytes): a mesh found at one is refused before the run,
+// naming the file with its bad bytes shown, because the run writes the path into its scene.toml, which
+// TOML wants in UTF-8 (the run went on, and neither its scene.toml nor its checkpoints could be read
+// again); a scene file at one runs, and summary.json shows its path with U+FFFD for the bad bytes (the
+// run took every step, then failed to write summary.json: a hostile review, 2026-12-06).
+TEST(Cli, PathsThatAreNotUtf8AreRefusedOrShown) {
+  EXPECT_TRUE(mca::text::is_utf8("caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x98\x80"));
+  for (const char* bad : {"d\xff", "\xc3", "\xc0\xaf", "\xed\xa0\x80", "\xf4\x90\x80\x80", "\xe2\x82"})
+    EXPECT_FALSE(mca::text::is_utf8(bad)) << mca::text::utf8_shown(bad);
+  EXPECT_EQ(mca::text::utf8_shown("d\xff/caf\xc3\xa9"), "d\\xff/caf\xc3\xa9");
+  const fs::path d = fresh_dir("utf8") / "d\xff";
+  const fs::path scene = small_scene(d);
+  const Result r = run_mca("run " + mca::text::shell_word(scene.string()) + " --out " +
+                           mca::text::shell_word((d / "out").string()) + " --threads 2 --no-vtk");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto j = nlohmann::json::parse(read(d / "out" / "summary.json"));
+  EXPECT_NE(j["scene_file"].get<std::string>().find("d\xef\xbf\xbd/small.toml"), std::string::npos) << j["scene_file"];
+  mca::test::write_mesh_file(d / "rock.off", mca::test::sphere_mesh(0.2, 2));
+  const fs::path mesh_scene = small_scene(d, "[[object]]\nname = \"rock\"\nshape = \"mesh\"\nmesh = \"rock.off\"\n"
+                                             "position = [0, 0, 1.5]\n", "rock");
+  const Result m = run_mca("run " + mca::text::shell_word(mesh_scene.string()) + " --out " +
+                           mca::text::shell_word((d / "rock_out").string()));
+  EXPECT_EQ(m.code, 2) << m.output;
+  EXPECT_NE(m.output.find("object[1].mesh = \"rock.off\": the file was found at a path that is not UTF-8 text"),
+            std::string::npos)
+      << m.output;
+  EXPECT_NE(m.output.find("d\\xff/rock.off); mca writes the path into the run's scene.toml"), std::string::npos)
+      << m.output;
+  EXPECT_FALSE(fs::exists(d / "rock_out" / "scene.toml"));
+}
+
 // Frame numbers in a message (frames lost before a resume) as runs, and a long list cut short.
 TEST(Cli, NumbersInAMessageAreGivenAsRuns) {
   using mca::text::number_runs;

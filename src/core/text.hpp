@@ -46,6 +46,12 @@ std::string number_runs(const std::vector<std::int64_t>& sorted, std::size_t mos
 // A size for a message: "512 bytes", "430 KB", "1.72 TB" (3 digits; units of 1000).
 std::string human_bytes(double bytes);
 
+// Whether `s` is UTF-8 text (what TOML and JSON files hold): a path of a file system that takes any bytes
+// may not be.
+bool is_utf8(std::string_view s);
+// `s` for a message: its UTF-8 as it is, each other byte as \xNN.
+std::string utf8_shown(std::string_view s);
+
 // `s` as one word of a POSIX shell's command line, for a command a message suggests: as it is where every
 // character is a letter, digit or one of _ - . / + , : = @ %, else in single quotes ('my run', 'it'\''s').
 std::string shell_word(std::string_view s);

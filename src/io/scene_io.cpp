@@ -376,10 +376,19 @@ void read_mesh_path(const Table& tb, std::string& out, bool resolve) {
                                               tb.key("mesh")));
   }
   const auto candidates = mesh_file_candidates(out, tb.reader().source());
+  const std::string given = out;
   std::error_code ec;
   for (const auto& c : candidates) {
     if (std::filesystem::is_regular_file(c, ec)) {
       out = std::filesystem::absolute(c, ec).lexically_normal().string();
+      // The run writes the path into its scene.toml, which TOML wants in UTF-8: a path of other bytes made
+      // a run whose scene.toml and checkpoints no resume could read.
+      if (!text::is_utf8(out)) {
+        tb.reader().fail(n->source(), fmt::format("{} = \"{}\": the file was found at a path that is not UTF-8 text "
+                                                  "({}); mca writes the path into the run's scene.toml, which must "
+                                                  "be UTF-8: rename the file or its folder",
+                                                  tb.key("mesh"), given, text::utf8_shown(out)));
+      }
       return;
     }
     if (ec && ec != std::errc::no_such_file_or_directory) {  // a loop of symbolic links, a name too long
