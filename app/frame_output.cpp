@@ -285,6 +285,18 @@ std::vector<std::string> run_subfolders(const SceneDef& scene, bool render) {
   return names;
 }
 
+std::vector<std::pair<std::string, std::string>> mesh_inputs(const SceneDef& scene) {
+  std::vector<std::pair<std::string, std::string>> out;
+  for (std::size_t o = 0; o < scene.objects.size(); ++o) {
+    const ObjectDef& obj = scene.objects[o];
+    if (obj.shape == Shape::mesh) out.emplace_back(fmt::format("{}: object[{}].mesh", scene.source, o), obj.mesh);
+    for (std::size_t r = 0; r < obj.regions.size(); ++r)
+      if (!obj.regions[r].mesh.empty())
+        out.emplace_back(fmt::format("{}: object[{}].region[{}].mesh", scene.source, o, r), obj.regions[r].mesh);
+  }
+  return out;
+}
+
 FrameWriter::FrameWriter(std::filesystem::path dir, const Model& model, const OutputDef& output)
     : dir_(std::move(dir)),
       model_(model),

@@ -91,6 +91,9 @@ void check_memory_fits(const MemoryEstimate& e, const SceneDef& scene);
 // checkpoints. (For io::check_output_subfolders.)
 std::vector<std::string> frame_subfolders(const SceneDef& scene);
 std::vector<std::string> run_subfolders(const SceneDef& scene, bool render);
+// The mesh files a scene reads (objects' and regions'), each with the key that names it
+// (io::check_inputs_outside_subfolders).
+std::vector<std::pair<std::string, std::string>> mesh_inputs(const SceneDef& scene);
 
 // What a run writes into its folder, by part. One table serves the check of a folder before a run (files
 // of these names and no run of mca there are refused) and every removal of an earlier run's files.

@@ -671,6 +671,7 @@ int run(const RunOptions& o) {
   }
   io::prepare_output_dir(dir);
   io::check_output_subfolders(dir, run_subfolders(scene, o.render));
+  io::check_inputs_outside_subfolders(dir, mesh_inputs(scene));
   const io::OutputLock lock(dir);
   // The run writes the scene as run to <dir>/scene.toml: never over the scene file it reads.
   if (o.scene) {
@@ -821,6 +822,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   const auto rendered = load_render_options(dir);
   const bool will_render = rendered && !no_render;
   io::check_output_subfolders(dir, run_subfolders(cp.scene, will_render));
+  io::check_inputs_outside_subfolders(dir, mesh_inputs(cp.scene));
   check_run_fits(sim.model(), cp.scene, plan.total_frames + 1 - cp.frame, will_render ? rendered->width : 0,
                  will_render ? rendered->height : 0, dir);
   // Rows past the checkpoint (frames the interrupted run wrote after it) are dropped: they are written

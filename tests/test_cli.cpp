@@ -1097,6 +1097,33 @@ TEST(Cli, PathsThatAreNotUtf8AreRefusedOrShown) {
   EXPECT_FALSE(fs::exists(d / "rock_out" / "scene.toml"));
 }
 
+// A mesh the scene reads that lies where the run writes and clears (an earlier run's fragment mesh in the
+// output folder's fragments/) is refused before the run: the run read it, then wrote over it (a hostile
+// review, 2026-12-06).
+TEST(Cli, AMeshInsideTheRunsOwnSubfoldersIsRefused) {
+  const fs::path d = fresh_dir("own_mesh");
+  fs::create_directories(d / "out" / "fragments");
+  mca::test::write_mesh_file(d / "out" / "fragments" / "fragment_000.ply", mca::test::sphere_mesh(0.2, 2));
+  const std::string before = read(d / "out" / "fragments" / "fragment_000.ply");
+  const fs::path scene = small_scene(d, "[[object]]\nname = \"rock\"\nshape = \"mesh\"\n"
+                                        "mesh = \"out/fragments/fragment_000.ply\"\nposition = [0, 0, 1.5]\n");
+  const Result r = run_mca("run " + scene.string() + " --out " + (d / "out").string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("small.toml: object[1].mesh = '" + (d / "out" / "fragments" / "fragment_000.ply").string() +
+                          "' lies in '" + (d / "out" / "fragments").string() + "', where the run writes the fragments' "
+                          "meshes"),
+            std::string::npos)
+      << r.output;
+  EXPECT_EQ(read(d / "out" / "fragments" / "fragment_000.ply"), before);
+  EXPECT_FALSE(fs::exists(d / "out" / "scene.toml"));
+  // Beside the output folder's subfolders it is the run's to read.
+  fs::rename(d / "out" / "fragments" / "fragment_000.ply", d / "out" / "rock.ply");
+  const fs::path beside = small_scene(d, "[[object]]\nname = \"rock\"\nshape = \"mesh\"\nmesh = \"out/rock.ply\"\n"
+                                         "position = [0, 0, 1.5]\n", "beside");
+  const Result b = run_mca("run " + beside.string() + " --out " + (d / "out").string() + " --threads 2 --no-vtk");
+  EXPECT_EQ(b.code, 0) << b.output;
+}
+
 // Frame numbers in a message (frames lost before a resume) as runs, and a long list cut short.
 TEST(Cli, NumbersInAMessageAreGivenAsRuns) {
   using mca::text::number_runs;

@@ -99,6 +99,24 @@ void check_no_linked_subfolders(const fs::path& dir) {
   }
 }
 
+void check_inputs_outside_subfolders(const fs::path& dir, const std::vector<std::pair<std::string, std::string>>& inputs) {
+  for (const auto& [key, path] : inputs) {
+    std::error_code ec;
+    const fs::path file = fs::weakly_canonical(path, ec);
+    if (ec) continue;
+    for (const auto& [name, use] : kSubfolders) {
+      const fs::path sub = fs::weakly_canonical(dir / name, ec);
+      if (ec) continue;
+      const auto rel = file.lexically_relative(sub);
+      if (rel.empty() || *rel.begin() == "..") continue;
+      throw Error(fmt::format("{} = '{}' lies in '{}', where the run writes {} and removes an earlier run's: it would "
+                              "remove or overwrite the file it reads; copy the file out of the output folder and give "
+                              "that path, or give the run another output folder (--out)",
+                              key, path, (dir / name).string(), use));
+    }
+  }
+}
+
 void check_output_subfolders(const fs::path& dir, const std::vector<std::string>& names) {
   // A run clears an earlier run's files out of every subfolder, whatever it writes itself: a subfolder
   // that is a symbolic link would have it remove and write files outside the output folder.

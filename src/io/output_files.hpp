@@ -9,6 +9,7 @@
 #include <ostream>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace mca::io {
@@ -26,6 +27,12 @@ void check_output_subfolders(const std::filesystem::path& dir, const std::vector
 // That check of links alone, made again before each frame's files are written (a subfolder made a link
 // while the run went on).
 void check_no_linked_subfolders(const std::filesystem::path& dir);
+// Refuses a file the run reads (`inputs`: what names it, such as "object[0].mesh", and its path) that lies
+// in a subfolder of `dir` the run writes and clears (frames, surface, fragments, checkpoints, render): the
+// run would remove or overwrite its own input (a fragment mesh of an earlier run given as the mesh was
+// read, then written over).
+void check_inputs_outside_subfolders(const std::filesystem::path& dir,
+                                     const std::vector<std::pair<std::string, std::string>>& inputs);
 // `dir / name`, made where it is missing; mca::Error naming it, what goes there and the fix where it
 // cannot be (a file of that name, permissions).
 std::filesystem::path output_subfolder(const std::filesystem::path& dir, const std::string& name);
