@@ -55,6 +55,9 @@ using text::human_bytes;
 // slowest speed a step moves (docs/model-notes.md, "Far from the origin"), for mca run and mca info to
 // print; empty for a scene within 1 km.
 std::string far_out_note(const Model& model, const SceneDef& scene);
+// Notes on mesh objects whose mass misses their mesh's: a volume fill of few automata (their cells hold
+// under 0.8 or over 1.25 times the volume the mesh encloses), a shell heavier than the solid it bounds.
+std::vector<std::string> mesh_mass_notes(const Model& model);
 // The lattice of the model's volume fills: "random", "cubic", or "" when every object is in surface mode;
 // lattice_name as mca run and mca info print it, "random (link_bending 0.1)" for the random one, "cubic
 // (lattice_jitter 0.25)" for a jittered cubic one (`jitter`: the scene's solver.lattice_jitter).

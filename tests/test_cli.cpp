@@ -382,6 +382,44 @@ TEST(Cli, AFarSceneGetsANoteOfWhatItsPositionsResolve) {
   EXPECT_FALSE(nlohmann::json::parse(near_info.output).contains("far_from_origin"));
 }
 
+// A mesh object whose mass misses its mesh's gets a note in mca info (text and JSON) and mca run: a volume
+// fill of few automata (a sphere of radius 0.2 m at a spacing of 0.15 m), a shell
+// thicker than the body it bounds (a cube of 1 m in 12 triangles: 0.52 m thick, three times the solid's
+// mass). Neither was said (a hostile review, 2026-12-06). A fill of many automata gets none.
+TEST(Cli, AMeshObjectWhoseMassMissesItsMeshsGetsANote) {
+  const fs::path d = fresh_dir("mass_note");
+  fs::create_directories(d);
+  mca::test::write_mesh_file(d / "ball.off", mca::test::sphere_mesh(0.2, 3));
+  mca::test::write_mesh_file(d / "cube.off", mca::test::cube_mesh(0.5));
+  const auto scene = [&](const std::string& name, const std::string& object) {
+    std::ofstream(d / (name + ".toml")) << "[solver]\nspacing = 0.15\ngravity = [0, 0, 0]\n[[object]]\nshape = \"mesh\"\n"
+                                        << object;
+    return (d / (name + ".toml")).string();
+  };
+  const Result fill = run_mca("info " + scene("fill", "mesh = \"ball.off\"\n"));
+  ASSERT_EQ(fill.code, 0) << fill.output;
+  EXPECT_NE(fill.output.find("note             object 'object': its "), std::string::npos) << fill.output;
+  EXPECT_NE(fill.output.find("the spacing is coarse for it, and its mass is off by as much; a spacing of about"),
+            std::string::npos)
+      << fill.output;
+  const Result shell = run_mca("info " + scene("shell", "mesh = \"cube.off\"\nfill = \"surface\"\n"));
+  ASSERT_EQ(shell.code, 0) << shell.output;
+  EXPECT_NE(shell.output.find("more than the solid it bounds would (2400 kg): the shell is thicker than the body"),
+            std::string::npos)
+      << shell.output;
+  const Result json = run_mca("info " + (d / "shell.toml").string() + " --json");
+  ASSERT_EQ(json.code, 0) << json.output;
+  EXPECT_EQ(nlohmann::json::parse(json.output)["mesh_mass_notes"].size(), 1u);
+  const Result run = run_mca("run " + (d / "fill.toml").string() + " --steps 2 --no-vtk --out " + (d / "out").string());
+  ASSERT_EQ(run.code, 0) << run.output;
+  EXPECT_NE(run.output.find("note: object 'object': its "), std::string::npos) << run.output;
+  std::ofstream(d / "fine.toml") << "[solver]\nspacing = 0.02\ngravity = [0, 0, 0]\n[[object]]\nshape = \"mesh\"\n"
+                                    "mesh = \"ball.off\"\n";
+  const Result fine = run_mca("info " + (d / "fine.toml").string() + " --json");
+  ASSERT_EQ(fine.code, 0) << fine.output;
+  EXPECT_FALSE(nlohmann::json::parse(fine.output).contains("mesh_mass_notes"));
+}
+
 TEST(Cli, BadInputFailsWithAClearMessage) {
   const fs::path d = fresh_dir("bad");
   // Missing scene file: names the file.

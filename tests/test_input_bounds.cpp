@@ -565,7 +565,7 @@ TEST(InputBounds, TheTimeStepDoesNotFallWithTheNumberOfFarApartBalls) {
     for (int i = 0; i < balls; ++i) {
       mca::ProjectileDef p;
       p.name = fmt::format("ball{}", i);
-      p.radius = 0.02;
+      p.radius = 0.025;  // (at least 0.207 d: a smaller one would pass between the cubic lattice's automata)
       p.material = "testmat";
       p.position = {-50.0 + 5.0 * (i % 20), 5.0, 5.0 * (1 + i / 20)};
       s.projectiles.push_back(p);

@@ -93,6 +93,34 @@ TEST(MeshLoader, BadFilesAreClearErrorsNamingTheFile) {
       << err(renamed);
   for (const std::string& p : {xyz, empty, lie, lie2, cloud, nan, flat, negative, renamed})
     EXPECT_NE(err(p).find(p), std::string::npos) << err(p);
+  // Files that hold more, or less, than they say: the triangles past a PLY's declared count, or lost from an
+  // ASCII STL cut short, were left out without a word (a hostile review, 2026-12-06).
+  const std::string tet = "0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n";
+  const std::string under = write("under.ply",
+                                  "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+                                  "property float z\nelement face 3\nproperty list uchar int vertex_indices\n"
+                                  "end_header\n" + tet + "3 1 2 3\n\n");
+  EXPECT_NE(err(under).find("declares 4 vertices and 3 faces but has more lines after them ('3 1 2 3')"),
+            std::string::npos)
+      << err(under);
+  test::write_mesh_file(t.path() / "cube.ply", test::cube_mesh(1.0));
+  const std::string ply = test::slurp(t.path() / "cube.ply");
+  const std::string padded = write("padded.ply", ply + std::string(4, '\0') + "\n");
+  EXPECT_EQ(mesh::read_mesh(padded).faces.size(), 12u);  // (padding is no face)
+  std::string extra = ply + ply.substr(ply.size() - 13);  // one face more than declared
+  const std::string trailing = write("trailing.ply", extra);
+  EXPECT_NE(err(trailing).find("13 bytes follow the 8 vertices and 12 faces its header declares"), std::string::npos)
+      << err(trailing);
+  test::write_mesh_file(t.path() / "cube.ascii.stl", test::cube_mesh(1.0));
+  const std::string stl = test::slurp(t.path() / "cube.ascii.stl");
+  const std::string cut = write("cut.stl", stl.substr(0, stl.size() / 2));
+  EXPECT_NE(err(cut).find("an ASCII STL that does not end with 'endsolid': the file is cut short"), std::string::npos)
+      << err(cut);
+  std::vector<char> bytes(stl.begin(), stl.begin() + static_cast<std::ptrdiff_t>(stl.size() / 2));
+  EXPECT_NE(error_of([&] { mesh::read_mesh_memory(bytes.data(), bytes.size(), "stl", "cut in memory"); })
+                .find("cut in memory: an ASCII STL that does not end with 'endsolid'"),
+            std::string::npos);
+  EXPECT_EQ(mesh::read_mesh((t.path() / "cube.ascii.stl").string()).faces.size(), 12u);
 }
 
 TEST(MeshLoader, CutShortOrBadIndexFilesAreErrorsNotCrashes) {

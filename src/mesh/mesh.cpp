@@ -296,6 +296,17 @@ Declared check_ply(const std::string& bytes, const std::string& name) {
         }
       }
     }
+    // A line past the elements (a header that declares fewer than the file holds): the faces beyond its
+    // count were left out without a word. (The OFF reader refuses the same.)
+    for (std::size_t nl; at < bytes.size(); at = nl + 1) {
+      nl = std::min(bytes.find('\n', at), bytes.size());
+      const std::string_view row = std::string_view(bytes).substr(at, nl - at);
+      if (row.find_first_not_of(" \t\r") != std::string_view::npos) {
+        throw Error(fmt::format("{}: declares {} vertices and {} faces but has more lines after them ('{}'): its "
+                                "header's counts are wrong or the file is damaged; export the model again",
+                                name, d.vertices, d.faces, row.substr(0, 60)));
+      }
+    }
   } else if (format == "binary_little_endian" || format == "binary_big_endian") {
     const bool big = format == "binary_big_endian";
     std::uint64_t at = body;
@@ -326,6 +337,14 @@ Declared check_ply(const std::string& bytes, const std::string& name) {
         }
         if (at > bytes.size()) throw cut_short(e, i);
       }
+    }
+    // Bytes past the elements (a header that declares fewer than the file holds): the faces beyond its
+    // count were left out without a word. (Padding, line ends or zeros, is no face.)
+    if (at < bytes.size() && std::string_view(bytes).substr(at).find_first_not_of(std::string_view(" \t\r\n\0", 5)) !=
+                                 std::string_view::npos) {
+      throw Error(fmt::format("{}: {} bytes follow the {} vertices and {} faces its header declares: its counts are "
+                              "wrong or the file is damaged; export the model again",
+                              name, bytes.size() - at, d.vertices, d.faces));
     }
   } else {
     throw Error(fmt::format("{}: the PLY header's format '{}' is not ascii, binary_little_endian or "
@@ -637,17 +656,23 @@ void refuse_over_memory(const std::string& name, double need, double max_bytes, 
 }
 
 // The vertex and face counts a PLY or OFF file declares in its first bytes (`head`), to weigh the file
-// before it is read (zero where they are not there: the reader then says what is wrong).
-Declared declared_counts(std::string_view head, const std::string& ext, const std::string& name) {
+// before it is read: each at most what `size` bytes can hold (an element takes a byte or more; counts the
+// file cannot hold are the reader's to refuse, with its own message), and zero where they are not there or
+// not whole numbers (the reader then says what is wrong).
+Declared declared_counts(std::string_view head, const std::string& ext, std::uint64_t size) {
   Declared d;
+  const auto count = [&](const std::string& word) -> std::uint64_t {
+    if (word.empty() || word.size() > 19 || word.find_first_not_of("0123456789") != std::string::npos) return 0;
+    return std::min<std::uint64_t>(std::stoull(word), size);
+  };
   std::istringstream in{std::string(head.substr(0, ext == "ply" ? head.find("end_header") : head.size()))};
   if (ext == "ply") {
     for (std::string line; std::getline(in, line);) {
       std::istringstream w(line);
-      std::string key, element, count;
-      w >> key >> element >> count;
-      if (key != "element" || (element != "vertex" && element != "face")) continue;
-      (element == "vertex" ? d.vertices : d.faces) = to_count(count, name, element.c_str());
+      std::string key, element, n;
+      w >> key >> element >> n;
+      if (key == "element" && element == "vertex") d.vertices = count(n);
+      if (key == "element" && element == "face") d.faces = count(n);
     }
   } else if (ext == "off") {
     std::vector<std::string> words;  // the words of the lines that are not comments, until the counts
@@ -655,17 +680,33 @@ Declared declared_counts(std::string_view head, const std::string& ext, const st
       std::istringstream w(line.substr(0, line.find('#')));
       for (std::string word; w >> word;) words.push_back(word);
     }
-    if (words.size() >= 3 && words[0].ends_with("OFF") &&
-        words[1].find_first_not_of("0123456789") == std::string::npos &&
-        words[2].find_first_not_of("0123456789") == std::string::npos) {
-      d.vertices = to_count(words[1], name, "vertex");
-      d.faces = to_count(words[2], name, "face");
+    if (words.size() >= 3 && words[0].ends_with("OFF")) {
+      d.vertices = count(words[1]);
+      d.faces = count(words[2]);
     }
   }
   return d;
 }
 
 std::string mb(double bytes) { return bytes >= 1e9 ? fmt::format("{:.4g} GB", bytes / 1e9) : fmt::format("{:.4g} MB", bytes / 1e6); }
+
+// Whether an STL of `size` bytes whose first bytes are `head` is binary: 84 + 50 N bytes for the N
+// triangles its header declares.
+bool stl_binary(std::string_view head, std::uint64_t size) {
+  std::uint32_t n = 0;
+  if (head.size() >= 84) std::memcpy(&n, head.data() + 80, 4);
+  return size >= 84 && 84 + 50 * static_cast<std::uint64_t>(n) == size;
+}
+
+// An ASCII STL ends with "endsolid" (`tail`: its last bytes): one cut short lost its last triangles without
+// a word from assimp (half of them in a file cut in half).
+void check_stl_end(std::string_view tail, const std::string& name) {
+  if (tail.find("endsolid") == std::string_view::npos) {
+    throw Error(fmt::format("{}: an ASCII STL that does not end with 'endsolid': the file is cut short; export it "
+                            "again",
+                            name));
+  }
+}
 
 // The format's signature in the first bytes of the file (`head`; `size`: the whole file's), checked before
 // the file is read: a file of zeros or of another format is refused at once, whatever its size.
@@ -705,7 +746,7 @@ void check_head(std::string_view head, std::uint64_t size, const std::string& ex
   } else if (ext == "stl") {
     std::uint32_t n = 0;
     if (head.size() >= 84) std::memcpy(&n, head.data() + 80, 4);
-    const bool binary = size >= 84 && 84 + 50 * static_cast<std::uint64_t>(n) == size;
+    const bool binary = stl_binary(head, size);
     const bool ascii = !nul && first_word("") == "solid";
     if (!binary && !ascii) {
       throw Error(fmt::format("{}: cannot be read as a .stl mesh: it is neither a binary STL (84 + 50 N bytes for the N "
@@ -811,7 +852,7 @@ TriMesh read_mesh(const std::string& path, double max_memory_bytes) {
   if (ext == "off" || ext == "obj" || ext == "ply") {
     // The counts a header declares weighed before the file is read (a sparse file of 4 GB declaring 3e8
     // vertices was read whole, then refused for them).
-    const Declared d = declared_counts(head, ext, path);
+    const Declared d = declared_counts(head, ext, size);
     refuse_over_memory(path,
                        static_cast<double>(size) + kBytesPerVertex * static_cast<double>(d.vertices) +
                            kBytesPerTriangle * static_cast<double>(d.faces),
@@ -824,6 +865,14 @@ TriMesh read_mesh(const std::string& path, double max_memory_bytes) {
   }
   refuse_over_memory(path, kAssimpBytesPerFileByte * static_cast<double>(size), max_memory_bytes,
                      fmt::format("a file of {}, read by assimp", mb(size)));
+  if (ext == "stl" && !stl_binary(head, size)) {
+    const std::uint64_t tail = std::min<std::uint64_t>(size, 1 << 12);
+    std::ifstream in(path, std::ios::binary);
+    std::string end(tail, '\0');
+    in.seekg(static_cast<std::streamoff>(size - tail));
+    in.read(end.data(), static_cast<std::streamsize>(tail));
+    check_stl_end(end, path);
+  }
   return import(path, ext, nullptr, path, max_memory_bytes);
 }
 
@@ -840,6 +889,7 @@ TriMesh read_mesh_memory(const void* data, std::size_t size, const std::string& 
   if (ext != "off" && ext != "obj" && ext != "ply")
     refuse_over_memory(name, kAssimpBytesPerFileByte * static_cast<double>(size), max_memory_bytes,
                        fmt::format("{} of data, read by assimp", mb(size)));
+  if (ext == "stl" && !stl_binary(view, size)) check_stl_end(view.substr(size - std::min<std::size_t>(size, 1 << 12)), name);
   const std::string bytes(view);
   return import(name, ext, &bytes, name, max_memory_bytes);
 }
