@@ -92,6 +92,15 @@ std::vector<std::string> mesh_mass_notes(const Model& m) {
   return notes;
 }
 
+std::string step_note(const Model& m) {
+  const double ratio = m.objects_critical_dt / m.critical_dt;
+  if (!(ratio >= 10) || m.dt_limited_by.rfind("projectile", 0) != 0) return "";
+  return fmt::format("the critical time step ({:.3g} s) is set by {}, {:.0f} times shorter than the objects' own "
+                     "({:.3g} s): the run takes that many times the steps; a larger or denser ball (or a kinematic "
+                     "one) lets it take the objects' step",
+                     m.critical_dt, m.dt_limited_by, ratio, m.objects_critical_dt);
+}
+
 std::string lattice_kind(const Model& m) {
   if (!m.object_random.empty()) return "random";
   const bool volume = std::find(m.object_surface.begin(), m.object_surface.end(), 0) != m.object_surface.end();

@@ -58,6 +58,9 @@ std::string far_out_note(const Model& model, const SceneDef& scene);
 // Notes on mesh objects whose mass misses their mesh's: a volume fill of few automata (their cells hold
 // under 0.8 or over 1.25 times the volume the mesh encloses), a shell heavier than the solid it bounds.
 std::vector<std::string> mesh_mass_notes(const Model& model);
+// A note where a projectile sets a critical step ten times or more shorter than the objects' own (a ball
+// of 1 um beside a wall: 95 million steps for 10 ms); "" otherwise.
+std::string step_note(const Model& model);
 // The lattice of the model's volume fills: "random", "cubic", or "" when every object is in surface mode;
 // lattice_name as mca run and mca info print it, "random (link_bending 0.1)" for the random one, "cubic
 // (lattice_jitter 0.25)" for a jittered cubic one (`jitter`: the scene's solver.lattice_jitter).

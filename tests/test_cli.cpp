@@ -420,6 +420,32 @@ TEST(Cli, AMeshObjectWhoseMassMissesItsMeshsGetsANote) {
   EXPECT_FALSE(nlohmann::json::parse(fine.output).contains("mesh_mass_notes"));
 }
 
+// A ball that sets a critical step far shorter than the objects' own (a ball of 1 um beside a wall: a
+// step of 9e-11 s, 95 million steps for 10 ms) gets a note in mca info and mca run saying so; the run did
+// not say why it was slow (a hostile review, 2026-12-06).
+TEST(Cli, ABallThatSetsAFarShorterStepGetsANote) {
+  const fs::path d = fresh_dir("step_note");
+  fs::create_directories(d);
+  std::ofstream(d / "tiny.toml") << "[solver]\nspacing = 0.05\nlattice = \"random\"\ngravity = [0, 0, 0]\n"
+                                    "[output]\nduration = 0.01\nvtk = false\n[[object]]\nshape = \"box\"\n"
+                                    "size = [0.6, 0.2, 0.6]\n[[projectile]]\nradius = 1e-6\n"
+                                    "position = [0, -0.1002, 0]\nvelocity = [0, 10, 0]\n";
+  const Result info = run_mca("info " + (d / "tiny.toml").string());
+  ASSERT_EQ(info.code, 0) << info.output;
+  EXPECT_NE(info.output.find("note             the critical time step (1.83e-10 s) is set by projectile 'ball' (mass "
+                             "3.29e-14 kg) against the automata it can touch, 19"),
+            std::string::npos)
+      << info.output;
+  EXPECT_NE(info.output.find("times shorter than the objects' own (3.62e-06 s)"), std::string::npos) << info.output;
+  const Result run = run_mca("run " + (d / "tiny.toml").string() + " --steps 1 --out " + (d / "out").string());
+  ASSERT_EQ(run.code, 0) << run.output;
+  EXPECT_NE(run.output.find("note: the critical time step (1.83e-10 s) is set by projectile 'ball'"), std::string::npos)
+      << run.output;
+  const Result plain = run_mca("info --json");
+  ASSERT_EQ(plain.code, 0) << plain.output;
+  EXPECT_FALSE(nlohmann::json::parse(plain.output).contains("step_note"));
+}
+
 TEST(Cli, BadInputFailsWithAClearMessage) {
   const fs::path d = fresh_dir("bad");
   // Missing scene file: names the file.

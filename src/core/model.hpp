@@ -282,6 +282,7 @@ struct Model {
   float dt = 0;                  // time step
   double critical_dt = 0;        // critical step of the integration (lattice/time_step.cpp)
   std::string dt_limited_by;     // what sets the critical step
+  double objects_critical_dt = 0;  // the automata's own critical step, before the projectiles' (for a note)
   float skin = 0;                // contact search skin [m]
   float link_damping = 0, local_damping = 0, stress_coefficient = 1;
   double total_mass = 0;

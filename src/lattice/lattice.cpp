@@ -1772,6 +1772,7 @@ void choose_time_step(Model& M, const SceneDef& scene) {
   const TimeStepBound critical = critical_time_step(M);
   M.critical_dt = critical.dt;
   M.dt_limited_by = critical.limited_by;
+  M.objects_critical_dt = critical.objects_dt;
   if (scene.solver.time_step > 0) {
     if (scene.solver.time_step > critical.dt) {
       throw Error(fmt::format("{}: solver.time_step = {} s is above the critical step {} s of this scene (set by "

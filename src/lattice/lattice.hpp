@@ -41,6 +41,7 @@ float jitter_stiffness(double a);
 struct TimeStepBound {
   double dt = 0;
   std::string limited_by;
+  double objects_dt = 0;  // the automata's own bound, before the projectiles'
 };
 TimeStepBound critical_time_step(const Model& model, std::size_t ranges = 0);
 // Per automaton of explicit links (a surface-mode object's or the random lattice's): the critical step of

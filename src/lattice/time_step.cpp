@@ -542,6 +542,7 @@ TimeStepBound critical_time_step(const Model& M, std::size_t ranges) {
   const SurfaceBound surface = surface_bound(M, fmax, ranges);
   if (!std::isfinite(m_min)) {  // no lattice automata
     set_step(out, surface.omega2, surface.damping, explicit_bound_name(M));
+    out.objects_dt = out.dt;
     projectile_bounds(M, used, out, surface);
     return out;
   }
@@ -699,6 +700,7 @@ TimeStepBound critical_time_step(const Model& M, std::size_t ranges) {
   // Surface-mode automata touch lattice ones only through contacts: Weyl again.
   set_step(out, omega2 + surface.omega2, damping + surface.damping,
            surface.omega2 > omega2 ? explicit_bound_name(M) : "the links and contacts of the automata");
+  out.objects_dt = out.dt;
   projectile_bounds(M, used, out, surface);
   return out;
 }
