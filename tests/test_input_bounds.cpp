@@ -257,6 +257,10 @@ TEST(InputBounds, AHeaderCountTooLargeIsCalledTooLarge) {
   EXPECT_HAS(m, "more than mca reads");
   m = read_error(write_file(t.path() / "word.off", "OFF\nmany 1 0\n0 0 0\n"));
   EXPECT_HAS(m, "'many' is not a whole number");
+  // (a PLY's too: it was "not a number")
+  m = read_error(write_file(t.path() / "huge.ply", "ply\nformat ascii 1.0\nelement vertex 1000000000000\n"
+                                                  "property float x\nproperty float y\nproperty float z\nend_header\n"));
+  EXPECT_HAS(m, "the header declares 1000000000000 'vertex' elements, more than mca reads (4e9)");
 }
 
 TEST(InputBounds, MeshFilesOfTheWrongKindAreRefusedByTheirFirstBytes) {

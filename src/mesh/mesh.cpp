@@ -176,11 +176,15 @@ struct Declared {
 
 std::uint64_t to_count(const std::string& token, const std::string& name, const char* what) {
   std::uint64_t v = 0;
-  if (token.empty() || token.size() > 12 || token.find_first_not_of("0123456789") != std::string::npos) {
+  if (token.empty() || token.find_first_not_of("0123456789") != std::string::npos) {
     throw Error(fmt::format("{}: the header's {} count '{}' is not a number; the file is damaged", name, what, token));
   }
+  if (token.size() > 12) {  // (as OFF's: a whole number too large, not "not a number")
+    throw Error(fmt::format("{}: the header declares {} '{}' elements, more than mca reads (4e9)", name, token, what));
+  }
   v = std::stoull(token);
-  if (v > 0xfffffff0ull) throw Error(fmt::format("{}: the header declares {} {}, more than mca reads (4e9)", name, v, what));
+  if (v > 0xfffffff0ull)
+    throw Error(fmt::format("{}: the header declares {} '{}' elements, more than mca reads (4e9)", name, v, what));
   return v;
 }
 
