@@ -76,6 +76,8 @@ std::vector<std::string> mesh_mass_notes(const Model& m) {
     }
     // A shell of the default thickness (the mean link length) around a mesh of few, large triangles is
     // thicker than the body it bounds (a cube of 1 m in 12 triangles: 0.52 m, three times the solid's mass).
+    // An open mesh (a panel, a box without a lid) bounds no solid: no note.
+    if (ms.boundary_edges > 0 || ms.non_manifold_edges > 0) continue;
     double mass = 0, solid = 0;
     for (std::size_t a = 0; a < m.size(); ++a) {
       if (static_cast<std::size_t>(m.object[a]) != o) continue;

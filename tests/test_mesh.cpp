@@ -107,6 +107,9 @@ TEST(MeshLoader, BadFilesAreClearErrorsNamingTheFile) {
   const std::string ply = test::slurp(t.path() / "cube.ply");
   const std::string padded = write("padded.ply", ply + std::string(4, '\0') + "\n");
   EXPECT_EQ(mesh::read_mesh(padded).faces.size(), 12u);  // (padding is no face)
+  const std::string ascii_padded = write("ascii_padded.ply", test::slurp(under).substr(0, test::slurp(under).find("3 1 2 3")) +
+                                                               std::string(3, '\0') + "\x1a");
+  EXPECT_EQ(mesh::read_mesh(ascii_padded).faces.size(), 3u);
   std::string extra = ply + ply.substr(ply.size() - 13);  // one face more than declared
   const std::string trailing = write("trailing.ply", extra);
   EXPECT_NE(err(trailing).find("13 bytes follow the 8 vertices and 12 faces its header declares"), std::string::npos)
@@ -114,13 +117,18 @@ TEST(MeshLoader, BadFilesAreClearErrorsNamingTheFile) {
   test::write_mesh_file(t.path() / "cube.ascii.stl", test::cube_mesh(1.0));
   const std::string stl = test::slurp(t.path() / "cube.ascii.stl");
   const std::string cut = write("cut.stl", stl.substr(0, stl.size() / 2));
-  EXPECT_NE(err(cut).find("an ASCII STL that does not end with 'endsolid': the file is cut short"), std::string::npos)
-      << err(cut);
+  EXPECT_NE(err(cut).find("an ASCII STL whose last line is not its closing 'endsolid'"), std::string::npos) << err(cut);
   std::vector<char> bytes(stl.begin(), stl.begin() + static_cast<std::ptrdiff_t>(stl.size() / 2));
   EXPECT_NE(error_of([&] { mesh::read_mesh_memory(bytes.data(), bytes.size(), "stl", "cut in memory"); })
-                .find("cut in memory: an ASCII STL that does not end with 'endsolid'"),
+                .find("cut in memory: an ASCII STL whose last line is not its closing 'endsolid'"),
             std::string::npos);
+  // A second solid cut short behind a whole first one (its "endsolid" lies in the file's last bytes).
+  const std::string second = write("second.stl", stl + stl.substr(0, stl.size() / 2));
+  EXPECT_NE(err(second).find("an ASCII STL whose last line is not its closing 'endsolid'"), std::string::npos)
+      << err(second);
   EXPECT_EQ(mesh::read_mesh((t.path() / "cube.ascii.stl").string()).faces.size(), 12u);
+  // Blank lines after it, many, are no text (more than the 4 KB first looked at).
+  EXPECT_EQ(mesh::read_mesh(write("blank_end.stl", stl + std::string(20000, '\n') + "  \r\n")).faces.size(), 12u);
 }
 
 TEST(MeshLoader, CutShortOrBadIndexFilesAreErrorsNotCrashes) {

@@ -221,18 +221,27 @@ _VTK_TYPES = {"Float32": "<f4", "Float64": "<f8", "Int8": "<i1", "UInt8": "<u1",
 _ATTR = re.compile(r'(\w+)="([^"]*)"')
 
 
-def read_vtu(path, names=None, listed_by="automata.pvd"):
+def read_vtu(path, names=None, listed_by="automata.pvd", expect=None):
     """Points and point fields of a .vtu written by mca (appended raw binary, UInt64 block headers).
 
     Returns (points (N, 3) float32, {field name: array (N,) or (N, components)}). `names`: the fields to
     read (all when None); `listed_by`: the collection that names the file (for the message when it is
-    missing)."""
+    missing); `expect`: None, or (N, what says so) for a frame whose count the run gives (its summary, its
+    first frame), checked before any array is read."""
     with _RegularFile(path, f"{path} is missing (the run's {listed_by} lists it): the run folder is incomplete; "
                             "run mca again or copy the whole folder") as f:
-        return _read_vtu(f, names)
+        return _read_vtu(f, names, expect)
 
 
-def _read_vtu(f, names):
+def _memory_bytes():
+    """The machine's memory in bytes (0 where the system does not say)."""
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return 0
+
+
+def _read_vtu(f, names, expect=None):
     """read_vtu from the open file `f` (a _RegularFile): its XML head, then the arrays asked for."""
     path = f.path
     head = f.read_head()
@@ -260,6 +269,16 @@ def _read_vtu(f, names):
         raise RunError(f"{path} has no NumberOfPoints")
     if n < 0:
         raise RunError(f"{path}: NumberOfPoints {n} is negative: the file is damaged; run mca again")
+    if expect is not None and n != expect[0]:
+        raise RunError(f"{path} holds {n} automata, {expect[1]} {expect[0]}: frames of different runs are mixed in "
+                       "the folder, or the frame is damaged; run mca again into an empty folder")
+    # A header's count, read as it says, must fit: a frame declaring 5e8 points (6 GB of a sparse file of
+    # zeros) was read whole before Blender ran out of memory. The importer holds every frame; one frame of
+    # more than a quarter of the machine's memory is not a run it can import here.
+    memory = _memory_bytes()
+    if memory and n * 64 > memory / 4:
+        raise RunError(f"{path} declares {n} points, about {n * 64 / 1e9:.3g} GB of arrays, more than a quarter of this "
+                       f"machine's {memory / 1e9:.3g} GB: the frame is damaged, or the run too large to import here")
     try:
         points, fields = _vtu_arrays(f, header, start, n, names)
     except (KeyError, ValueError, IndexError, OverflowError, TypeError) as e:
@@ -786,16 +805,16 @@ class Run:
         self.times = [t for t, _ in entries]
         wanted = {"fragment", "object", "radius", "angular_velocity", "damage", "displacement"}
         self.frames = []
+        # Each frame's count checked against the run's before its arrays are read (summary.json's, else frame 0's).
+        count = self.summary.get("automata") if self.summary else None
+        expect = (count, "where summary.json says") if isinstance(count, int) and not isinstance(count, bool) else None
         for t, rel in entries:
-            points, fields = read_vtu(os.path.join(self.dir, rel), wanted | {"orientation"})
+            points, fields = read_vtu(os.path.join(self.dir, rel), wanted | {"orientation"}, expect=expect)
+            expect = (len(points), "frame 0")
             missing = sorted(wanted - fields.keys())
             if missing:
                 raise RunError(f"{os.path.join(self.dir, rel)} has no field {', '.join(missing)}: not a frame of "
                                "the automata written by mca")
-            if self.frames and len(points) != len(self.frames[0]["points"]):
-                raise RunError(f"{os.path.join(self.dir, rel)} holds {len(points)} automata, frame 0 "
-                               f"{len(self.frames[0]['points'])}: frames of different runs are mixed in the folder; "
-                               "run mca again into an empty folder")
             # Indices that size arrays (a fragment id of 2^31 made numpy allocate 16 GB): each in 0..N-1.
             for key in ("fragment", "object"):
                 ids = np.asarray(fields[key])

@@ -602,6 +602,22 @@ def check_large_files(a):
         with open(scene, "wb") as fh:
             fh.write(text)
         refused(lambda: reader.Run(d), "summary.json is 21,474,836,480 bytes, more than mca writes there")
+        # A header that declares 4e9 points with a matching array (48 GB, sparse): refused by its count
+        # against the run's and against the machine's memory, before the array is read (a frame of 5e8 was
+        # read whole, 6 GB, before Blender ran out of memory).
+        n = 4 * 10 ** 9
+        lying = os.path.join(d, "frames", "automata_000004.vtu")
+        head = ('<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" '
+                f'header_type="UInt64">\n<UnstructuredGrid>\n<Piece NumberOfPoints="{n}" NumberOfCells="0">\n'
+                '<Points>\n<DataArray type="Float32" NumberOfComponents="3" format="appended" offset="0"/>\n'
+                '</Points>\n</Piece>\n</UnstructuredGrid>\n<AppendedData encoding="raw">\n_').encode()
+        with open(lying, "wb") as fh:
+            fh.write(head + (12 * n).to_bytes(8, "little"))
+        os.truncate(lying, len(head) + 8 + 12 * n)
+        refused(lambda: reader.read_vtu(lying, expect=(4800, "frame 0")),
+                f"automata_000004.vtu holds {n} automata, frame 0 4800: frames of different runs are mixed")
+        refused(lambda: reader.read_vtu(lying), f"automata_000004.vtu declares {n} points, about 256 GB of arrays, "
+                                                "more than a quarter of this machine's")
         grown = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - rss0) / 1024
         print(f"peak memory grew by {grown:.0f} MB")
         if grown > 200:

@@ -477,6 +477,8 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
     out->dir = folder;
     io::prepare_output_dir(out->dir);
     io::check_output_subfolders(out->dir, app::frame_subfolders(e.scene()));
+    // (as mca run: a mesh the scene read, lying where the earlier run's files are removed, would go)
+    io::check_inputs_outside_subfolders(out->dir, app::mesh_inputs(e.scene()));
     out->lock = std::make_unique<io::OutputLock>(out->dir);
     // As a new run: not a folder of files of a run's names that no run of mca wrote, nor a run that did
     // not finish (its frames would go, and its checkpoints could no longer be resumed).

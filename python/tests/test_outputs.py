@@ -141,6 +141,25 @@ def test_write_frame_refuses_the_folders_a_new_run_refuses(tmp_path, mca_binary)
     run_command(mca_binary, "resume", "--quiet", unfinished)  # (still resumes)
 
 
+def test_write_frame_refuses_a_folder_whose_subfolders_hold_the_scenes_mesh(tmp_path):
+    """A mesh the scene read, in a subfolder write_frame clears (an earlier run's fragment mesh), is refused
+    before anything is removed: it was deleted, and the folder's scene.toml named a file no longer there
+    (a hostile review, 2026-12-06; mca run and mca resume refuse the same)."""
+    out = tmp_path / "out"
+    (out / "fragments").mkdir(parents=True)
+    mesh = out / "fragments" / "fragment_000.off"
+    mesh.write_text("OFF\n8 6 0\n" + "".join(f"{x} {y} {z}\n" for z in (0, 0.2) for y in (0, 0.2) for x in (0, 0.2)) +
+                    "4 0 2 3 1\n4 4 5 7 6\n4 0 1 5 4\n4 2 6 7 3\n4 0 4 6 2\n4 1 3 7 5\n")
+    scene = mca.Scene.from_toml(f'[solver]\nspacing = 0.05\n[[object]]\nname = "rock"\nshape = "mesh"\n'
+                                f'mesh = "{mesh}"\n')
+    sim = mca.Simulation(scene, threads=1)
+    with pytest.raises(mca.Error, match=r"object\[0\]\.mesh = '.*fragment_000\.off' lies in '.*fragments', where the "
+                                        r"run writes the fragments' meshes"):
+        sim.write_frame(out)
+    assert mesh.exists()
+    assert not (out / "scene.toml").exists()
+
+
 def test_write_frame_knows_its_folder_however_it_is_spelt(tmp_path, monkeypatch):
     """"out/" or "./out" after "out" is the same folder: its frames go on (it was taken for another folder and
     started afresh, its frames removed: the hostile review of 2026-12-06)."""

@@ -1621,12 +1621,15 @@ void add_projectiles(Model& M, const SceneDef& scene, std::size_t placed, GroupT
     if (cubic_volume && pd.radius < channel) {
       throw Error(fmt::format("{}: {} '{}' has a radius of {} m, less than the {} m (0.207 of the spacing {:g} m) "
                               "of the channels between the cubic lattice's automata: it would pass through a body "
-                              "without touching it; give it a radius of at least {} m, or a spacing of at most {} "
-                              "m, or solver.lattice = \"random\"",
+                              "without touching it; give it a radius of at least {} m, or {}, or solver.lattice = "
+                              "\"random\"",
                               scene.source, key, pd.name, text::distinct(pd.radius, channel).a,
                               text::distinct(pd.radius, channel).b, static_cast<double>(M.spacing),
                               text::at_least(channel, 4),
-                              text::at_most(pd.radius / (std::numbers::sqrt2 / 2 - 0.5), 4)));
+                              scene.solver.target_automata > 0
+                                  ? std::string("more solver.target_automata (a finer spacing)")
+                                  : fmt::format("a spacing of at most {} m",
+                                                text::at_most(pd.radius / (std::numbers::sqrt2 / 2 - 0.5), 4))));
     }
     pp.kinematic = pd.kinematic;
     pp.rolling = static_cast<float>(pd.rolling_friction);

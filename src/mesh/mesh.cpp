@@ -27,6 +27,7 @@
 #include "core/environment.hpp"
 #include "core/files.hpp"
 #include "core/fnv.hpp"
+#include "core/text.hpp"
 #include "mesh/readers.hpp"
 #include "mca/error.hpp"
 
@@ -302,13 +303,14 @@ Declared check_ply(const std::string& bytes, const std::string& name) {
     }
     // A line past the elements (a header that declares fewer than the file holds): the faces beyond its
     // count were left out without a word. (The OFF reader refuses the same.)
+    // (Padding, NUL or end-of-file bytes, is no face.)
     for (std::size_t nl; at < bytes.size(); at = nl + 1) {
       nl = std::min(bytes.find('\n', at), bytes.size());
       const std::string_view row = std::string_view(bytes).substr(at, nl - at);
-      if (row.find_first_not_of(" \t\r") != std::string_view::npos) {
+      if (row.find_first_not_of(std::string_view(" \t\r\0\x1a", 5)) != std::string_view::npos) {
         throw Error(fmt::format("{}: declares {} vertices and {} faces but has more lines after them ('{}'): its "
                                 "header's counts are wrong or the file is damaged; export the model again",
-                                name, d.vertices, d.faces, row.substr(0, 60)));
+                                name, d.vertices, d.faces, text::utf8_shown(row.substr(0, 60))));
       }
     }
   } else if (format == "binary_little_endian" || format == "binary_big_endian") {
@@ -702,13 +704,22 @@ bool stl_binary(std::string_view head, std::uint64_t size) {
   return size >= 84 && 84 + 50 * static_cast<std::uint64_t>(n) == size;
 }
 
-// An ASCII STL ends with "endsolid" (`tail`: its last bytes): one cut short lost its last triangles without
-// a word from assimp (half of them in a file cut in half).
+// An ASCII STL's last line that is not blank opens with "endsolid" (`tail`: the file's last bytes, up to
+// 1 MB): one cut short lost its last triangles without a word from assimp (half of them in a file cut in
+// half; a second solid cut short behind a whole first one).
 void check_stl_end(std::string_view tail, const std::string& name) {
-  if (tail.find("endsolid") == std::string_view::npos) {
-    throw Error(fmt::format("{}: an ASCII STL that does not end with 'endsolid': the file is cut short; export it "
-                            "again",
-                            name));
+  const std::size_t last = tail.find_last_not_of(" \t\r\n");
+  std::string_view line;
+  if (last != std::string_view::npos) {
+    const std::size_t start = tail.find_last_of('\n', last);
+    const std::size_t first = start == std::string_view::npos ? 0 : start + 1;
+    line = tail.substr(first, last + 1 - first);
+    line.remove_prefix(std::min(line.size(), line.find_first_not_of(" \t")));
+  }
+  if (line.substr(0, 8) != "endsolid") {
+    throw Error(fmt::format("{}: an ASCII STL whose last line is not its closing 'endsolid' ('{}'): the file is cut "
+                            "short, or text follows its last solid; export it again",
+                            name, text::utf8_shown(line.substr(0, 60))));
   }
 }
 
@@ -870,7 +881,7 @@ TriMesh read_mesh(const std::string& path, double max_memory_bytes) {
   refuse_over_memory(path, kAssimpBytesPerFileByte * static_cast<double>(size), max_memory_bytes,
                      fmt::format("a file of {}, read by assimp", mb(size)));
   if (ext == "stl" && !stl_binary(head, size)) {
-    const std::uint64_t tail = std::min<std::uint64_t>(size, 1 << 12);
+    const std::uint64_t tail = std::min<std::uint64_t>(size, 1 << 20);
     std::ifstream in(path, std::ios::binary);
     std::string end(tail, '\0');
     in.seekg(static_cast<std::streamoff>(size - tail));
@@ -893,7 +904,7 @@ TriMesh read_mesh_memory(const void* data, std::size_t size, const std::string& 
   if (ext != "off" && ext != "obj" && ext != "ply")
     refuse_over_memory(name, kAssimpBytesPerFileByte * static_cast<double>(size), max_memory_bytes,
                        fmt::format("{} of data, read by assimp", mb(size)));
-  if (ext == "stl" && !stl_binary(view, size)) check_stl_end(view.substr(size - std::min<std::size_t>(size, 1 << 12)), name);
+  if (ext == "stl" && !stl_binary(view, size)) check_stl_end(view.substr(size - std::min<std::size_t>(size, 1 << 20)), name);
   const std::string bytes(view);
   return import(name, ext, &bytes, name, max_memory_bytes);
 }

@@ -266,7 +266,8 @@ double fall_energy(const Model& m) {
   for (std::size_t a = 0; a < m.size(); ++a) lowest = std::min(lowest, height(m.position0[a]) - m.radius[a]);
   for (const auto& p : m.projectiles) lowest = std::min(lowest, height(p.position) - p.radius);
   double fall = 0;
-  for (std::size_t a = 0; a < m.size(); ++a) fall += m.mass[a] * g * std::max(0.0, height(m.position0[a]) - lowest);
+  for (std::size_t a = 0; a < m.size(); ++a)  // (an automaton a grip holds does not fall)
+    if (m.grip.empty() || m.grip[a] < 0) fall += m.mass[a] * g * std::max(0.0, height(m.position0[a]) - lowest);
   for (const auto& p : m.projectiles)
     if (!p.kinematic) fall += p.mass * g * std::max(0.0, height(p.position) - lowest);
   return std::isfinite(fall) ? fall : 0.0;
