@@ -65,12 +65,12 @@ std::vector<std::string> mesh_mass_notes(const Model& m) {
     const std::string name = o < m.object_names.size() ? m.object_names[o] : std::to_string(o);
     if (!ms.surface) {
       // A volume fill holds a cell of d^3 an automaton: few of them miss the shape by a share of a cell
-      // each (a bunny of 0.025 m^3 in 3 automata of 0.3 m held 0.081 m^3, 3.3 times its mass).
+      // each (a bunny of 0.025 m^3 in 3 automata of 0.3 m held 0.081 m^3, 3.2 times its mass).
       const double held = static_cast<double>(ms.automata) * d * d * d, ratio = held / ms.volume;
       if (ratio > 0.8 && ratio < 1.25) continue;
-      notes.push_back(fmt::format("object '{}': its {} automata at spacing {:.4g} m hold {:.4g} m^3 where its mesh encloses "
-                                  "{:.4g} m^3 ({:.2f} times): the spacing is coarse for it, and its mass is off by as "
-                                  "much; a spacing of about {:.3g} m gives it 1,000 automata",
+      notes.push_back(fmt::format("object '{}': its {} automata at spacing {:.4g} m hold {:.4g} m^3 where its mesh "
+                                  "encloses {:.4g} m^3 ({:.2f} times): the spacing is coarse for it, and its mass is "
+                                  "off by as much; a spacing of about {:.3g} m gives it 1,000 automata",
                                   name, ms.automata, d, held, ms.volume, ratio, std::cbrt(ms.volume / 1000)));
       continue;
     }

@@ -726,7 +726,10 @@ validates it too.)");
             }),
             py::arg("name") = "scene", "An empty scene (no objects) with every default.")
       .def_static(
-          "load", [](Given<py_type::path> path) { return PyScene::from_def(io::load_scene_file(to_path(path, "Scene.load: path"))); },
+          "load",
+          [](Given<py_type::path> path) {
+            return PyScene::from_def(io::load_scene_file(to_path(path, "Scene.load: path")));
+          },
           py::arg("path"), "Reads a scene file (TOML); mesh paths are resolved as the command resolves them.")
       .def_static(
           "from_toml",

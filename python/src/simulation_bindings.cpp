@@ -834,7 +834,8 @@ Simulation is gone.)");
           "The FNV-1a hash of the whole state as 16 hex digits, summary.json's state_hash (equal hashes: bitwise "
           "equal states).")
       .def(
-          "write_frame", [](PySimulation& s, Given<py_type::path> out) { return write_frame(s, to_path(out, "write_frame: out")); },
+          "write_frame",
+          [](PySimulation& s, Given<py_type::path> out) { return write_frame(s, to_path(out, "write_frame: out")); },
           py::arg("out"),
           "Writes the state as the next frame of the folder `out`, as `mca run --out` writes a frame: "
           "frames/automata_NNNNNN.vtu, projectiles, the .pvd collections, the bound surface (output.surface), a row "
@@ -848,7 +849,8 @@ Simulation is gone.)");
           "close_output", [](PySimulation& s) { s.output.reset(); },
           "Releases the folder of write_frame (its files stay).")
       .def(
-          "checkpoint", [](PySimulation& s, Given<py_type::path> path) { checkpoint(s, to_path(path, "checkpoint: path")); },
+          "checkpoint",
+          [](PySimulation& s, Given<py_type::path> path) { checkpoint(s, to_path(path, "checkpoint: path")); },
           py::arg("path"),
           "Saves the scene and the whole state to the file `path` (.mcack, the command's format; not a folder); Simulation.resume(path) "
           "continues bitwise as if uninterrupted. `mca resume` continues it in a run folder when it was saved at a "

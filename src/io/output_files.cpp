@@ -99,7 +99,8 @@ void check_no_linked_subfolders(const fs::path& dir) {
   }
 }
 
-void check_inputs_outside_subfolders(const fs::path& dir, const std::vector<std::pair<std::string, std::string>>& inputs) {
+void check_inputs_outside_subfolders(const fs::path& dir,
+                                     const std::vector<std::pair<std::string, std::string>>& inputs) {
   for (const auto& [key, path] : inputs) {
     std::error_code ec;
     const fs::path file = fs::weakly_canonical(path, ec);

@@ -694,7 +694,9 @@ Declared declared_counts(std::string_view head, const std::string& ext, std::uin
   return d;
 }
 
-std::string mb(double bytes) { return bytes >= 1e9 ? fmt::format("{:.4g} GB", bytes / 1e9) : fmt::format("{:.4g} MB", bytes / 1e6); }
+std::string mb(double bytes) {
+  return bytes >= 1e9 ? fmt::format("{:.4g} GB", bytes / 1e9) : fmt::format("{:.4g} MB", bytes / 1e6);
+}
 
 // Whether an STL of `size` bytes whose first bytes are `head` is binary: 84 + 50 N bytes for the N
 // triangles its header declares.
@@ -904,7 +906,8 @@ TriMesh read_mesh_memory(const void* data, std::size_t size, const std::string& 
   if (ext != "off" && ext != "obj" && ext != "ply")
     refuse_over_memory(name, kAssimpBytesPerFileByte * static_cast<double>(size), max_memory_bytes,
                        fmt::format("{} of data, read by assimp", mb(size)));
-  if (ext == "stl" && !stl_binary(view, size)) check_stl_end(view.substr(size - std::min<std::size_t>(size, 1 << 20)), name);
+  if (ext == "stl" && !stl_binary(view, size))
+    check_stl_end(view.substr(size - std::min<std::size_t>(size, 1 << 20)), name);
   const std::string bytes(view);
   return import(name, ext, &bytes, name, max_memory_bytes);
 }
