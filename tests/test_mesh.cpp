@@ -423,6 +423,37 @@ TEST(MeshFill, FlippedAndDoubledTrianglesChangeNothing) {
   EXPECT_EQ(c.link_count(), r.link_count());
 }
 
+// A seam whose sides meet without sharing vertices (a T-junction) and a mesh whose triangles share no
+// vertex are named as such, with welding as the fix: both read as holes as wide as the model, with the
+// advice of a coarser spacing that would not have helped (a hostile review, 2026-12-06).
+TEST(MeshFill, ASeamOrAnUnweldedMeshIsNamedSo) {
+  TempDir t;
+  std::ofstream(t.path() / "tjunction.off")
+      << "OFF\n9 13 0\n-0.5 -0.5 -0.5\n0.5 -0.5 -0.5\n0.5 0.5 -0.5\n-0.5 0.5 -0.5\n-0.5 -0.5 0.5\n0.5 -0.5 0.5\n"
+         "0.5 0.5 0.5\n-0.5 0.5 0.5\n0 -0.5 0.5\n3 0 2 1\n3 0 3 2\n3 0 1 5\n3 0 5 4\n3 1 2 6\n3 1 6 5\n3 2 3 7\n"
+         "3 2 7 6\n3 3 0 4\n3 3 4 7\n3 4 8 7\n3 8 6 7\n3 8 5 6\n";
+  std::string e = error_of([&] { lattice::build_model(mesh_scene(t.path() / "tjunction.off", 0.1)); });
+  EXPECT_NE(e.find("the largest 1 m long but about 0 m wide: a seam whose two sides meet without sharing their "
+                   "vertices"),
+            std::string::npos)
+      << e;
+  EXPECT_NE(e.find("Merge Close Vertices"), std::string::npos) << e;
+  EXPECT_EQ(e.find("coarser spacing"), std::string::npos) << e;
+  // Every triangle with corners of its own (a soup: each vertex written once per triangle, a hair apart).
+  const mesh::TriMesh cube = test::cube_mesh(0.5);
+  std::string soup = fmt::format("OFF\n{} {} 0\n", 3 * cube.faces.size(), cube.faces.size());
+  for (std::size_t f = 0; f < cube.faces.size(); ++f)
+    for (auto v : cube.faces[f]) {
+      const auto& p = cube.vertices[v];
+      soup += fmt::format("{:.17g} {} {}\n", p[0] + 1e-12 * static_cast<double>(f + 1), p[1], p[2]);
+    }
+  for (std::size_t f = 0; f < cube.faces.size(); ++f) soup += fmt::format("3 {} {} {}\n", 3 * f, 3 * f + 1, 3 * f + 2);
+  std::ofstream(t.path() / "soup.off") << soup;
+  e = error_of([&] { lattice::build_model(mesh_scene(t.path() / "soup.off", 0.1)); });
+  EXPECT_NE(e.find("none of its 36 edges is shared by two triangles, so its vertices are not welded"), std::string::npos)
+      << e;
+}
+
 TEST(MeshFill, AnOpenMeshIsRefusedUnlessItsHolesAreUnderACell) {
   TempDir t;
   mesh::TriMesh cube = test::cube_mesh(0.1);

@@ -998,9 +998,36 @@ Topology topology(const TriMesh& m) {
     }
   }
   t.holes = rims.size();
+  std::uint32_t largest = 0;
   for (const auto& [root, b] : rims) {
     const Point e = b.extent();
-    t.largest_hole = std::max(t.largest_hole, std::sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]));
+    const double across = std::sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+    if (across > t.largest_hole || t.largest_hole == 0) largest = root;
+    t.largest_hole = std::max(t.largest_hole, across);
+  }
+  // The largest rim's width: 4 A / P of its vector area A and length P (a round hole's diameter, twice a
+  // slot's width; near 0 for a seam whose two sides meet without sharing vertices, a T-junction or
+  // vertices a hair apart, which the extent above reads as a hole as wide as the seam is long). Each rim
+  // edge runs as its one triangle runs it; about the rim's box centre (far from the origin).
+  if (t.holes > 0) {
+    const Point c = rims.at(largest).centre();
+    double area[3] = {0, 0, 0}, length = 0;
+    for (const Triangle& f : m.faces) {
+      if (zero_area(m, f) && (f[0] == f[1] || f[1] == f[2] || f[0] == f[2])) continue;
+      for (int e = 0; e < 3; ++e) {
+        const std::uint32_t u = f[e], v = f[(e + 1) % 3];
+        if (uses[u < v ? (std::uint64_t{u} << 32 | v) : (std::uint64_t{v} << 32 | u)] != 1) continue;
+        if (find_root(parent, u) != largest) continue;
+        const double a[3] = {m.vertices[u][0] - c[0], m.vertices[u][1] - c[1], m.vertices[u][2] - c[2]};
+        const double b[3] = {m.vertices[v][0] - c[0], m.vertices[v][1] - c[1], m.vertices[v][2] - c[2]};
+        area[0] += 0.5 * (a[1] * b[2] - a[2] * b[1]);
+        area[1] += 0.5 * (a[2] * b[0] - a[0] * b[2]);
+        area[2] += 0.5 * (a[0] * b[1] - a[1] * b[0]);
+        length += std::sqrt((b[0] - a[0]) * (b[0] - a[0]) + (b[1] - a[1]) * (b[1] - a[1]) + (b[2] - a[2]) * (b[2] - a[2]));
+      }
+    }
+    const double A = std::sqrt(area[0] * area[0] + area[1] * area[1] + area[2] * area[2]);
+    t.largest_hole_width = length > 0 ? 4 * A / length : 0;
   }
   return t;
 }

@@ -63,6 +63,7 @@ struct Topology {
   std::size_t degenerate_faces = 0;    // zero area or a repeated vertex
   std::size_t holes = 0;               // connected loops of boundary edges
   double largest_hole = 0;             // largest extent of one hole's rim (its bounding box diagonal)
+  double largest_hole_width = 0;       // that rim's width, 4 area / length (near 0 for a seam: mesh.cpp)
   bool closed() const { return boundary_edges == 0 && non_manifold_edges == 0; }
 };
 Topology topology(const TriMesh& m);
