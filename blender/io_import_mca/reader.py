@@ -85,8 +85,11 @@ class _RegularFile:
         except OSError as e:
             raise _unreadable(path, e)
         _check_regular(path, st)
-        try:  # O_NONBLOCK: a FIFO put at the name after the check above opens without waiting for a writer
-            fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+        # O_NONBLOCK (POSIX): a FIFO put at the name after the check above opens without waiting for a writer;
+        # O_BINARY (Windows): no line-end translation.
+        nonblock = getattr(os, "O_NONBLOCK", 0)
+        try:
+            fd = os.open(path, os.O_RDONLY | getattr(os, "O_BINARY", 0) | nonblock)
         except FileNotFoundError:
             raise RunError(missing)
         except OSError as e:
@@ -94,7 +97,8 @@ class _RegularFile:
         try:
             st = os.fstat(fd)
             _check_regular(path, st)
-            os.set_blocking(fd, True)
+            if nonblock:
+                os.set_blocking(fd, True)
         except BaseException:
             os.close(fd)
             raise
