@@ -25,4 +25,15 @@ double machine_memory_bytes() {
   return pages > 0 && size > 0 ? static_cast<double>(pages) * static_cast<double>(size) : 0.0;
 }
 
+MemoryLimit memory_limit(double setting_bytes) {
+  const double machine = machine_memory_bytes();  // (0 where it cannot tell)
+  if (machine > 0 && 0.9 * machine < setting_bytes)
+    return {0.9 * machine,
+            fmt::format("more than the {:.1f} GB a run may take of this machine's {:.1f} GB (90 %)", 0.9 * machine / 1e9,
+                        machine / 1e9),
+            "run it on a larger machine"};
+  return {setting_bytes, fmt::format("over solver.max_memory_gb = {:g}", setting_bytes / 1e9),
+          "raise solver.max_memory_gb if the machine has it"};
+}
+
 }  // namespace mca

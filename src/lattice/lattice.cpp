@@ -129,17 +129,7 @@ void lattice_frame(const ObjectDef& o, const MeshObject* m, double d, std::int64
 
 }  // namespace
 
-MemoryLimit memory_limit(const SceneDef& scene) {
-  const double machine = machine_memory_bytes();  // (0 where it cannot tell)
-  const double setting = scene.solver.max_memory_gb * 1e9;
-  if (machine > 0 && 0.9 * machine < setting)
-    return {0.9 * machine,
-            fmt::format("more than the {:.1f} GB a run may take of this machine's {:.1f} GB (90 %)", 0.9 * machine / 1e9,
-                        machine / 1e9),
-            "run it on a larger machine"};
-  return {setting, fmt::format("over solver.max_memory_gb = {:g}", scene.solver.max_memory_gb),
-          "raise solver.max_memory_gb if the machine has it"};
-}
+MemoryLimit memory_limit(const SceneDef& scene) { return mca::memory_limit(scene.solver.max_memory_gb * 1e9); }
 
 namespace {
 

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "core/environment.hpp"
 #include "core/model.hpp"
 #include "mca/scene.hpp"
 
@@ -19,15 +20,8 @@ double spacing_for_target(const SceneDef& scene, std::int64_t target);
 // The spacing a scene asks for (target_automata wins over spacing when given).
 double scene_spacing(const SceneDef& scene);
 
-// The memory a run may take: solver.max_memory_gb, or 90 % of this machine's memory where that is less (a
-// model larger than the machine would swap for hours before failing, or be killed). For messages, what a
-// need is then over ("over solver.max_memory_gb = 4", "more than the 22.8 GB a run may take of this
-// machine's 25.3 GB (90 %)") and the fix beside a smaller model ("raise solver.max_memory_gb if the machine
-// has it", "run it on a larger machine").
-struct MemoryLimit {
-  double bytes = 0;
-  std::string over, instead;
-};
+// The memory a run of `scene` may take (mca::memory_limit of its solver.max_memory_gb).
+using mca::MemoryLimit;
 MemoryLimit memory_limit(const SceneDef& scene);
 
 // Model::lattice_stiffness of a lattice of jitter a (SolverDef::lattice_jitter): the factor on its moduli

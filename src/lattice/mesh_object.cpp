@@ -453,20 +453,10 @@ SurfaceCells surface_cells(const SceneDef& scene, std::size_t index, const MeshO
   SurfaceCells c;
   // A triangle given twice (the same three vertices) would put two automata at one point: the repeat is
   // left out.
-  std::vector<std::array<std::uint32_t, 4>> keys;  // sorted vertices, face
-  keys.reserve(tm.faces.size());
-  for (std::size_t f = 0; f < tm.faces.size(); ++f) {
-    std::array<std::uint32_t, 3> v = tm.faces[f];
-    std::sort(v.begin(), v.end());
-    keys.push_back({v[0], v[1], v[2], static_cast<std::uint32_t>(f)});
-  }
-  std::sort(keys.begin(), keys.end());
-  std::vector<std::uint8_t> repeat(tm.faces.size(), 0);
-  for (std::size_t k = 1; k < keys.size(); ++k)
-    if (keys[k][0] == keys[k - 1][0] && keys[k][1] == keys[k - 1][1] && keys[k][2] == keys[k - 1][2]) {
-      repeat[keys[k][3]] = 1;
-      ++c.duplicate_faces;
-    }
+  std::vector<std::uint8_t> repeat(tm.faces.size(), 1);
+  const std::vector<std::uint32_t> unique = mesh::unique_triangles(tm);
+  for (const std::uint32_t f : unique) repeat[f] = 0;
+  c.duplicate_faces = tm.faces.size() - unique.size();
   for (std::size_t f = 0; f < tm.faces.size(); ++f) {
     const auto& a = tm.vertices[tm.faces[f][0]];
     const auto& b = tm.vertices[tm.faces[f][1]];

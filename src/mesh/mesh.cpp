@@ -1,6 +1,7 @@
 #include "mesh/mesh.hpp"
 
 #include <algorithm>
+#include <array>
 #include <assimp/BaseImporter.h>
 #include <assimp/DefaultIOSystem.h>
 #include <assimp/Importer.hpp>
@@ -642,23 +643,15 @@ TriMesh import_assimp(const std::string& name, const std::string& ext, const std
   return convert(scene, name);
 }
 
-// What reading may take: solver.max_memory_gb, and 90 % of the machine's memory where that is less (as
-// lattice::memory_limit bounds a model): a sparse file of 30 GB under the default 16 GB was read whole on a
-// machine of 23 GB, until the system's memory ran out.
+// What reading may take: solver.max_memory_gb, and 90 % of the machine's memory where that is less (as a
+// model: mca::memory_limit): a sparse file of 30 GB under the default 16 GB was read whole on a machine of
+// 23 GB, until the system's memory ran out.
 void refuse_over_memory(const std::string& name, double need, double max_bytes, const std::string& what) {
-  const double machine = machine_memory_bytes();
-  const bool by_machine = machine > 0 && 0.9 * machine < max_bytes;
-  if (need <= (by_machine ? 0.9 * machine : max_bytes)) return;
-  const std::string over =
-      by_machine ? fmt::format("more than the {:.1f} GB a run may take of this machine's {:.1f} GB (90 %); run it on a "
-                               "larger machine",
-                               0.9 * machine / 1e9, machine / 1e9)
-                 : fmt::format("over solver.max_memory_gb = {:g}; raise solver.max_memory_gb if the machine has the "
-                               "memory",
-                               max_bytes / 1e9);
-  throw Error(fmt::format("{}: reading it would take about {:.3g} GB ({}), {}, or simplify the mesh (MeshLab: Filters > "
-                          "Remeshing, Simplification and Reconstruction > Quadric Edge Collapse Decimation)",
-                          name, need / 1e9, what, over));
+  const MemoryLimit limit = memory_limit(max_bytes);
+  if (need <= limit.bytes) return;
+  throw Error(fmt::format("{}: reading it would take about {:.3g} GB ({}), {}; {}, or simplify the mesh (MeshLab: "
+                          "Filters > Remeshing, Simplification and Reconstruction > Quadric Edge Collapse Decimation)",
+                          name, need / 1e9, what, limit.over, limit.instead));
 }
 
 // The vertex and face counts a PLY or OFF file declares in its first bytes (`head`), to weigh the file
@@ -1032,6 +1025,24 @@ Topology topology(const TriMesh& m) {
   return t;
 }
 
+std::vector<std::uint32_t> unique_triangles(const TriMesh& m, const std::vector<std::uint32_t>* faces) {
+  const std::size_t n = faces ? faces->size() : m.faces.size();
+  std::vector<std::array<std::uint32_t, 4>> keys(n);  // sorted vertices, face
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::uint32_t f = faces ? (*faces)[k] : static_cast<std::uint32_t>(k);
+    std::array<std::uint32_t, 3> v = m.faces[f];
+    std::sort(v.begin(), v.end());
+    keys[k] = {v[0], v[1], v[2], f};
+  }
+  std::sort(keys.begin(), keys.end());
+  std::vector<std::uint32_t> out;
+  out.reserve(n);
+  for (std::size_t k = 0; k < n; ++k)
+    if (k == 0 || !std::equal(keys[k].begin(), keys[k].begin() + 3, keys[k - 1].begin())) out.push_back(keys[k][3]);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
 std::vector<Shell> shells(const TriMesh& m) {
   // Triangles joined through shared edges (two surfaces touching at a vertex stay two shells).
   const std::size_t nf = m.faces.size();
@@ -1061,19 +1072,7 @@ std::vector<Shell> shells(const TriMesh& m) {
     // Edges -> (face, direction); a manifold shell has each edge twice.
     std::unordered_map<std::uint64_t, std::vector<std::pair<std::uint32_t, bool>>> edges;
     // A triangle repeated (the same three vertices, a doubled surface) counts once.
-    std::vector<std::array<std::uint32_t, 3>> sorted;
-    for (auto f : sh.faces) {
-      std::array<std::uint32_t, 3> t = m.faces[f];
-      std::sort(t.begin(), t.end());
-      sorted.push_back(t);
-    }
-    std::vector<std::uint32_t> order(sh.faces.size());
-    std::iota(order.begin(), order.end(), 0u);
-    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return sorted[a] < sorted[b]; });
-    std::vector<std::uint32_t> unique_faces;
-    for (std::size_t k = 0; k < order.size(); ++k)
-      if (k == 0 || sorted[order[k]] != sorted[order[k - 1]]) unique_faces.push_back(sh.faces[order[k]]);
-    std::sort(unique_faces.begin(), unique_faces.end());
+    const std::vector<std::uint32_t> unique_faces = unique_triangles(m, &sh.faces);
     for (auto f : unique_faces) {
       const Triangle& t = m.faces[f];
       for (int e = 0; e < 3; ++e) {

@@ -68,6 +68,10 @@ struct Topology {
 };
 Topology topology(const TriMesh& m);
 
+// The triangles of `faces` (all of m's where null), in increasing order, each repeat left out: a triangle
+// of the same three vertices as an earlier one, in any order (a doubled surface, a file that repeats them).
+std::vector<std::uint32_t> unique_triangles(const TriMesh& m, const std::vector<std::uint32_t>* faces = nullptr);
+
 // A connected piece of a mesh's surface (triangles joined through shared vertices).
 struct Shell {
   std::vector<std::uint32_t> faces;  // indices into TriMesh::faces, increasing

@@ -1,7 +1,5 @@
 #include "mesh/voxelize.hpp"
 
-#include <algorithm>
-#include <array>
 #include <mutex>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/MeshToVolume.h>
@@ -27,27 +25,6 @@ struct Adapter {
   }
 };
 
-// The triangles of `faces` (all where null) with each repeat left out: the same three vertices, in any
-// order, give the same distances, and OpenVDB voxelizes every copy (a cube of 12 triangles each given
-// 300,000 times took 201 s to fill, against 0.9 s for a sphere of 359,000 triangles).
-std::vector<std::uint32_t> unique_triangles(const TriMesh& m, const std::vector<std::uint32_t>* faces) {
-  const std::size_t n = faces ? faces->size() : m.faces.size();
-  std::vector<std::array<std::uint32_t, 4>> keys(n);  // sorted vertices, face
-  for (std::size_t k = 0; k < n; ++k) {
-    const std::uint32_t f = faces ? (*faces)[k] : static_cast<std::uint32_t>(k);
-    std::array<std::uint32_t, 3> v = m.faces[f];
-    std::sort(v.begin(), v.end());
-    keys[k] = {v[0], v[1], v[2], f};
-  }
-  std::sort(keys.begin(), keys.end());
-  std::vector<std::uint32_t> out;
-  out.reserve(n);
-  for (std::size_t k = 0; k < n; ++k)
-    if (k == 0 || !std::equal(keys[k].begin(), keys[k].begin() + 3, keys[k - 1].begin())) out.push_back(keys[k][3]);
-  std::sort(out.begin(), out.end());  // (in the mesh's order, as before)
-  return out;
-}
-
 // The grid's voxel size: the cell's, or 1 (distances in cells) for cells under 0.1 mm, which OpenVDB cannot
 // take (it refuses a voxel whose volume is under 3e-15: "ArithmeticError: Non-zero scale values required",
 // every volume fill at a spacing of 1e-5 m and below). The points are given in cells either way (Adapter).
@@ -58,6 +35,9 @@ openvdb::FloatGrid::Ptr distance_grid(const TriMesh& m, const CellBox& box, floa
   static std::once_flag once;
   std::call_once(once, [] { openvdb::initialize(); });
   const auto xform = openvdb::math::Transform::createLinearTransform(grid_scale(box));
+  // Each triangle once: the same three vertices give the same distances, and OpenVDB voxelizes every copy
+  // (a cube of 12 triangles each given 300,000 times took 201 s to fill, against 0.9 s for a sphere of
+  // 359,000 triangles).
   const std::vector<std::uint32_t> unique = unique_triangles(m, faces);
   // The sign is flood-filled from the band through the rest of the grid.
   return openvdb::tools::meshToVolume<openvdb::FloatGrid>(Adapter{&m, &box, &unique}, *xform, band, band);
