@@ -274,6 +274,25 @@ TEST(InputBounds, MeshFilesOfTheWrongKindAreRefusedByTheirFirstBytes) {
   EXPECT_HAS(read_error(write_file(t.path() / "z.glb", zeros)), "not a .glb file");
 }
 
+// A binary glTF of `json` and, where given, a BIN chunk of `bin` (each padded to 4 bytes as the format asks).
+std::string glb_of(std::string json, std::string bin = {}) {
+  while (json.size() % 4) json += ' ';
+  while (bin.size() % 4) bin += '\0';
+  std::string b = "glTF";
+  auto u32 = [&](std::uint32_t v) { b.append(reinterpret_cast<const char*>(&v), 4); };
+  u32(2);
+  u32(static_cast<std::uint32_t>(20 + json.size() + (bin.empty() ? 0 : 8 + bin.size())));
+  u32(static_cast<std::uint32_t>(json.size()));
+  u32(0x4E4F534A);  // "JSON"
+  b += json;
+  if (!bin.empty()) {
+    u32(static_cast<std::uint32_t>(bin.size()));
+    u32(0x004E4942);  // "BIN"
+    b += bin;
+  }
+  return b;
+}
+
 // assimp walks a glTF's node hierarchy and its JSON recursively: a 449 KB chain of 20,000 nodes, or a
 // deep nest of arrays, overflowed the stack (exit 139). Both are refused before assimp sees the file, as
 // .gltf and as .glb; a mesh of ordinary depth still reads.
@@ -284,21 +303,69 @@ TEST(InputBounds, DeepGltfHierarchiesAreRefusedBeforeAssimp) {
   for (int i = 0; i < n; ++i) chain += i + 1 < n ? fmt::format(R"({{"children":[{}]}},)", i + 1) : std::string("{}");
   chain += "]}";
   EXPECT_HAS(read_error(write_file(t.path() / "chain.gltf", chain)), "20000 levels deep");
-  auto glb = [](std::string json) {
-    while (json.size() % 4) json += ' ';
-    std::string b = "glTF";
-    auto u32 = [&](std::uint32_t v) { b.append(reinterpret_cast<const char*>(&v), 4); };
-    u32(2);
-    u32(static_cast<std::uint32_t>(20 + json.size()));
-    u32(static_cast<std::uint32_t>(json.size()));
-    u32(0x4E4F534A);  // "JSON"
-    return b + json;
-  };
-  EXPECT_HAS(read_error(write_file(t.path() / "chain.glb", glb(chain))), "20000 levels deep");
+  EXPECT_HAS(read_error(write_file(t.path() / "chain.glb", glb_of(chain))), "20000 levels deep");
   const std::string nest = R"({"asset":{"version":"2.0"},"extras":)" + std::string(100000, '[') + std::string(100000, ']') + "}";
   EXPECT_HAS(read_error(write_file(t.path() / "nest.gltf", nest)), "nested deeper than");
   const std::string loop = R"({"asset":{"version":"2.0"},"nodes":[{"children":[1]},{"children":[0]}]})";
   EXPECT_HAS(read_error(write_file(t.path() / "loop.gltf", loop)), "a cycle");
+}
+
+// assimp drops a glTF triangle that names a vertex past its primitive's without a word: a cube whose 13th
+// triangle (a repeat) named vertex 1000 read as a whole cube, and one whose 12th did read as open.
+TEST(InputBounds, GltfTrianglesNamingVerticesTheyDoNotHaveAreRefused) {
+  mca::test::TempDir t;
+  const float pos[24] = {-1, -1, -1, 1, -1, -1, 1, 1, -1, -1, 1, -1, -1, -1, 1, 1, -1, 1, 1, 1, 1, -1, 1, 1};
+  const std::vector<std::uint32_t> cube = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
+                                           1, 2, 6, 1, 6, 5, 2, 3, 7, 2, 7, 6, 3, 0, 4, 3, 4, 7};
+  auto glb = [&](const std::vector<std::uint32_t>& idx) {
+    std::string bin(reinterpret_cast<const char*>(pos), sizeof pos);
+    bin.append(reinterpret_cast<const char*>(idx.data()), idx.size() * 4);
+    const std::string json = fmt::format(
+        R"({{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],)"
+        R"( "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1}}]}}],)"
+        R"( "buffers": [{{"byteLength": {}}}],)"
+        R"( "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 96}}, {{"buffer": 0, "byteOffset": 96, "byteLength": {}}}],)"
+        R"( "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 8, "type": "VEC3", "min": [-1, -1, -1], "max": [1, 1, 1]}},)"
+        R"( {{"bufferView": 1, "componentType": 5125, "count": {}, "type": "SCALAR"}}]}})",
+        bin.size(), idx.size() * 4, idx.size());
+    return glb_of(json, bin);
+  };
+  EXPECT_EQ(mca::mesh::read_mesh(write_file(t.path() / "cube.glb", glb(cube))).faces.size(), 12u);
+  std::vector<std::uint32_t> repeat = cube;
+  repeat.insert(repeat.end(), {0, 2, 1000});
+  EXPECT_HAS(read_error(write_file(t.path() / "repeat.glb", glb(repeat))),
+             "1 of the 13 triangles of meshes[0].primitives[0] uses vertices it does not have (it has 8): the file is "
+             "damaged");
+  std::vector<std::uint32_t> last = cube;
+  last.back() = 1000;
+  EXPECT_HAS(read_error(write_file(t.path() / "last.glb", glb(last))), "1 of the 12 triangles");
+  // Indices that are not whole triangles (assimp left the rest out, with a log line).
+  std::vector<std::uint32_t> extra = cube;
+  extra.push_back(0);
+  EXPECT_HAS(read_error(write_file(t.path() / "extra.glb", glb(extra))),
+             "meshes[0].primitives[0] lists 37 indices, which is not a whole number of triangles");
+}
+
+// Text meshes as some editors and exporters write them: after a UTF-8 byte order mark (read), as binary OFF
+// (named so; it read "holds NUL bytes"), an OBJ numbered from 0 (named so; it read "not a vertex number").
+TEST(InputBounds, ByteOrderMarksBinaryOffAndObjNumberedFromZero) {
+  mca::test::TempDir t;
+  const std::string bom = "\xEF\xBB\xBF";
+  const auto cube = mca::test::cube_mesh(1.0);
+  for (const char* ext : {"off", "obj"}) {
+    const fs::path plain = t.path() / fmt::format("cube.{}", ext);
+    mca::test::write_mesh_file(plain, cube);
+    std::ifstream in(plain, std::ios::binary);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string marked = write_file(t.path() / fmt::format("bom.{}", ext), bom + text);
+    EXPECT_EQ(error_of([&] { EXPECT_EQ(mca::mesh::read_mesh(marked).faces.size(), 12u) << ext; }), "") << ext;
+  }
+  std::string binary = "OFF BINARY\n";
+  binary += std::string(40, '\0');
+  EXPECT_HAS(read_error(write_file(t.path() / "binary.off", binary)),
+             "is a binary OFF file ('OFF BINARY'); mca reads OFF as text");
+  EXPECT_HAS(read_error(write_file(t.path() / "zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 0 2 1\n")),
+             "line 5 ('f 0 2 1'): corner '0' is vertex 0, but an OBJ numbers its vertices from 1");
 }
 
 TEST(InputBounds, MeshReadingIsBoundBySolverMaxMemoryGb) {

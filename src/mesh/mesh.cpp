@@ -17,6 +17,7 @@
 #include <fmt/format.h>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <iterator>
 #include <limits>
 #include <sstream>
@@ -390,7 +391,82 @@ void check_glb(const std::string& head, std::uint64_t size, const std::string& n
 // nested 100,000 deep) overflowed its stack. Exporters write a few levels of each.
 constexpr int kMaxJsonDepth = 64, kMaxNodeDepth = 256;
 
-void check_gltf_json(std::string_view json, const std::string& name) {
+// The triangles a glTF primitive's indices (or, without indices, its vertices) make, as the file declares
+// them: assimp makes one mesh of each primitive, in file order, and drops a triangle that uses a vertex the
+// primitive does not have without a word (a log line only).
+struct GltfPrimitive {
+  std::size_t mesh = 0, primitive = 0;
+  std::uint64_t triangles = 0;
+};
+
+// The primitives of `j`'s meshes, in file order; nullopt where the JSON does not say (assimp then refuses
+// it, or makes meshes of its own count). Modes other than triangles, strips and fans count 0 (not checked).
+std::optional<std::vector<GltfPrimitive>> gltf_primitives(const nlohmann::json& j, const std::string& name) {
+  const auto count_of = [&](const nlohmann::json& accessor) -> std::optional<std::uint64_t> {
+    if (!accessor.is_number_unsigned() || !j.contains("accessors") || !j["accessors"].is_array()) return {};
+    const std::uint64_t k = accessor.get<std::uint64_t>();
+    if (k >= j["accessors"].size()) return {};
+    const auto& a = j["accessors"][k];
+    if (!a.is_object() || !a.contains("count") || !a["count"].is_number_unsigned()) return {};
+    return a["count"].get<std::uint64_t>();
+  };
+  if (!j.contains("meshes") || !j["meshes"].is_array()) return {};
+  std::vector<GltfPrimitive> all;
+  for (std::size_t m = 0; m < j["meshes"].size(); ++m) {
+    const auto& mesh = j["meshes"][m];
+    if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array()) return {};
+    for (std::size_t p = 0; p < mesh["primitives"].size(); ++p) {
+      const auto& prim = mesh["primitives"][p];
+      if (!prim.is_object()) return {};
+      const nlohmann::json mode = prim.contains("mode") ? prim["mode"] : nlohmann::json(4u);
+      if (!mode.is_number_unsigned()) return {};
+      std::optional<std::uint64_t> n;
+      if (prim.contains("indices")) n = count_of(prim["indices"]);
+      else if (prim.contains("attributes") && prim["attributes"].is_object() && prim["attributes"].contains("POSITION"))
+        n = count_of(prim["attributes"]["POSITION"]);
+      if (!n) return {};
+      GltfPrimitive g{m, p, 0};
+      const auto corners = prim.contains("indices") ? "indices" : "vertices";
+      switch (mode.get<std::uint64_t>()) {
+        case 4:  // triangles
+          if (*n % 3 != 0) {
+            throw Error(fmt::format("{}: meshes[{}].primitives[{}] lists {} {}, which is not a whole number of "
+                                    "triangles (3 each): the file is damaged; export the model again",
+                                    name, m, p, *n, corners));
+          }
+          g.triangles = *n / 3;
+          break;
+        case 5:  // a strip
+        case 6:  // a fan
+          g.triangles = *n >= 3 ? *n - 2 : 0;
+          break;
+        default:
+          break;
+      }
+      all.push_back(g);
+    }
+  }
+  return all;
+}
+
+// A glTF's triangles that assimp read (`raw`, before any step) against those its file declares: assimp
+// drops a triangle that names a vertex past the primitive's, and a mesh missing triangles fills wrong (or,
+// where they were repeats, passes for whole).
+void check_gltf_triangles(const aiScene& raw, const std::vector<GltfPrimitive>& declared, const std::string& name) {
+  if (raw.mNumMeshes != declared.size()) return;  // not one mesh a primitive: nothing to compare
+  for (std::size_t k = 0; k < declared.size(); ++k) {
+    const aiMesh& m = *raw.mMeshes[k];
+    if (m.mNumFaces >= declared[k].triangles) continue;  // (0 declared: a mode not checked)
+    const std::uint64_t lost = declared[k].triangles - m.mNumFaces;
+    throw Error(fmt::format("{}: {} of the {} triangles of meshes[{}].primitives[{}] {} vertices it does not have "
+                            "(it has {}): the file is damaged; export the model again",
+                            name, lost, declared[k].triangles, declared[k].mesh, declared[k].primitive,
+                            lost == 1 ? "uses" : "use", m.mNumVertices));
+  }
+}
+
+// Checks a glTF's JSON before assimp reads it (below), and returns its primitives (gltf_primitives).
+std::optional<std::vector<GltfPrimitive>> check_gltf_json(std::string_view json, const std::string& name) {
   int depth = 0;
   bool in_string = false;
   for (std::size_t i = 0; i < json.size(); ++i) {
@@ -411,7 +487,9 @@ void check_gltf_json(std::string_view json, const std::string& name) {
     }
   }
   const nlohmann::json j = nlohmann::json::parse(json, nullptr, false);
-  if (j.is_discarded() || !j.is_object() || !j.contains("nodes") || !j["nodes"].is_array()) return;  // assimp says
+  if (j.is_discarded() || !j.is_object()) return {};  // assimp says
+  auto primitives = gltf_primitives(j, name);
+  if (!j.contains("nodes") || !j["nodes"].is_array()) return primitives;
   const auto& nodes = j["nodes"];
   const std::size_t n = nodes.size();
   // Each node's children, and the depth of the deepest chain below the roots (iteratively).
@@ -467,6 +545,7 @@ void check_gltf_json(std::string_view json, const std::string& name) {
                             "Blender: select all, Object > Parent > Clear and Keep Transformation), then export again",
                             name, deepest, at, kMaxNodeDepth));
   }
+  return primitives;
 }
 
 // Joins vertices at exactly the same coordinates (STL and most OBJ files store one per face corner), in
@@ -546,7 +625,8 @@ TriMesh finish(TriMesh m, const std::string& name, std::size_t points) {
                             name, m.faces.size(),
                             far > 1e4 * b.largest_extent()
                                 ? fmt::format(" (its coordinates reach {:.3g} for a model {:.3g} across: coordinates "
-                                              "that far out, rounded to single precision (STL, glTF, a PLY of floats), "
+                                              "that far out, rounded to the file's precision (about 7 digits in an STL, a "
+                                              "glTF or a PLY of floats; 16 in a text format or a PLY of doubles), "
                                               "cannot tell its corners apart; move it to the origin in the file)",
                                               far, b.largest_extent())
                                 : std::string()));
@@ -612,17 +692,18 @@ std::string read_file(const std::string& path, std::uint64_t size);
 TriMesh import_assimp(const std::string& name, const std::string& ext, const std::string* bytes,
                       const std::string& path, double max_memory_bytes) {
   if (bytes && ext == "glb") check_glb(*bytes, bytes->size(), name);
+  std::optional<std::vector<GltfPrimitive>> primitives;
   if (ext == "gltf" || ext == "glb") {
     // The JSON: the whole .gltf, or the .glb's first chunk (check_glb: its length fits the file).
     std::error_code ec;
     const std::string file = bytes ? std::string() : read_file(path, std::filesystem::file_size(path, ec));
     const std::string_view all = bytes ? std::string_view(*bytes) : std::string_view(file);
     if (ext == "gltf") {
-      check_gltf_json(all, name);
+      primitives = check_gltf_json(all, name);
     } else if (all.size() >= 20) {
       std::uint32_t length = 0;
       std::memcpy(&length, all.data() + 12, 4);
-      check_gltf_json(all.substr(20, length), name);
+      primitives = check_gltf_json(all.substr(20, length), name);
     }
   }
   Assimp::Importer importer;
@@ -638,6 +719,7 @@ TriMesh import_assimp(const std::string& name, const std::string& ext, const std
     if (!io->refusal().empty()) throw Error(fmt::format("{}: cannot be read: {}", name, io->refusal()));
     fail_import(importer, name, ext);
   }
+  if (primitives) check_gltf_triangles(*raw, *primitives, name);
   const aiScene* scene = importer.ApplyPostProcessing(kSteps);
   if (!scene) fail_import(importer, name, ext);
   return convert(scene, name);
@@ -722,8 +804,10 @@ void check_stl_end(std::string_view tail, const std::string& name) {
 // the file is read: a file of zeros or of another format is refused at once, whatever its size.
 void check_head(std::string_view head, std::uint64_t size, const std::string& ext, const std::string& name) {
   const bool nul = head.find('\0') != std::string_view::npos;
+  // A UTF-8 byte order mark, which some Windows editors write before text (the readers skip it too).
+  const std::size_t bom = head.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0;
   auto first_word = [&](std::string_view comment) {
-    std::size_t i = 0;
+    std::size_t i = bom;
     for (;;) {
       while (i < head.size() && std::isspace(static_cast<unsigned char>(head[i]))) ++i;
       if (i < head.size() && comment.find(head[i]) != std::string_view::npos) {
@@ -744,6 +828,13 @@ void check_head(std::string_view head, std::uint64_t size, const std::string& ex
     const std::string_view w = first_word("#");
     if (w.empty() ? head.size() == size : w.size() < 3 || w.substr(w.size() - 3) != "OFF")
       throw Error(fmt::format("{}: does not start with OFF: not an OFF file", name));
+    // "OFF BINARY": the binary variant, whose numbers are bytes after that line.
+    const std::string_view line = head.substr(0, head.find('\n'));
+    if (line.find("BINARY") != std::string_view::npos) {
+      throw Error(fmt::format("{}: is a binary OFF file ('{}'); mca reads OFF as text: convert it (e.g. in MeshLab: "
+                              "File > Export Mesh As, .off or .ply)",
+                              name, text::utf8_shown(line.substr(0, 40))));
+    }
     if (nul) throw Error(fmt::format("{}: holds NUL bytes: not a text file, so not an OFF file", name));
   } else if (ext == "obj") {
     if (nul) throw Error(fmt::format("{}: holds NUL bytes: not a text file, so not an OBJ file", name));
@@ -765,8 +856,7 @@ void check_head(std::string_view head, std::uint64_t size, const std::string& ex
                               name, n, size));
     }
   } else if (ext == "gltf") {
-    std::string_view t = head;
-    if (t.substr(0, 3) == "\xEF\xBB\xBF") t.remove_prefix(3);  // a UTF-8 byte order mark
+    const std::string_view t = head.substr(bom);
     const std::size_t i = t.find_first_not_of(" \t\r\n");
     if (nul || i == std::string_view::npos || t[i] != '{')
       throw Error(fmt::format("{}: does not start with '{{': not a glTF file (JSON)", name));

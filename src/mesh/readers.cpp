@@ -20,7 +20,9 @@ constexpr std::uint64_t kMaxCount = 0xfffffff0ull;  // vertices and faces are ad
 // Lines of a text buffer with their numbers; comments (from `comment`) cut off, blank lines skipped.
 class Lines {
  public:
-  Lines(std::string_view b, const std::string& name, char comment) : b_(b), name_(name), comment_(comment) {}
+  // (A UTF-8 byte order mark before the first line, which some Windows editors write, is skipped.)
+  Lines(std::string_view b, const std::string& name, char comment)
+      : b_(b), name_(name), comment_(comment), at_(b.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0) {}
 
   // The next line that has a word; false at the end.
   bool next() {
@@ -214,9 +216,15 @@ ReadResult read_obj(std::string_view bytes, const std::string& name) {
         // "v", "v/t", "v//n", "v/t/n": the vertex is the first number.
         const std::string_view c = w[k].substr(0, w[k].find('/'));
         std::int64_t idx = 0;
-        if (!to_integer(c, idx) || idx == 0) {
+        if (!to_integer(c, idx)) {
           throw Error(fmt::format("{}: line {} ('{}'): corner '{}' is not a vertex number (1 is the first, -1 the "
                                   "last so far); the file is damaged",
+                                  name, in.number(), in.text(), w[k]));
+        }
+        if (idx == 0) {  // numbered from 0, as some hand-written exporters do
+          throw Error(fmt::format("{}: line {} ('{}'): corner '{}' is vertex 0, but an OBJ numbers its vertices from "
+                                  "1 (-1 is the last so far): the program that wrote it counted from 0; export it "
+                                  "again, or add 1 to every face's vertex numbers",
                                   name, in.number(), in.text(), w[k]));
         }
         if (idx < 0) {  // from the end of the vertices read so far
