@@ -103,6 +103,21 @@ std::string step_note(const Model& m) {
                      m.critical_dt, m.dt_limited_by, ratio, m.objects_critical_dt);
 }
 
+std::string surface_format_note(const OutputDef& o) {
+  if (o.surface || o.surface_format != OutputDef::SurfaceFormat::obj) return "";
+  return "output.surface_format = \"obj\" writes nothing: output.surface is false (set surface = true to write the "
+         "mesh objects' triangles each frame)";
+}
+
+std::vector<std::string> scene_notes(const Model& m, const SceneDef& scene) {
+  std::vector<std::string> notes;
+  if (std::string n = far_out_note(m, scene); !n.empty()) notes.push_back(std::move(n));
+  for (std::string& n : mesh_mass_notes(m)) notes.push_back(std::move(n));
+  if (std::string n = step_note(m); !n.empty()) notes.push_back(std::move(n));
+  if (std::string n = surface_format_note(scene.output); !n.empty()) notes.push_back(std::move(n));
+  return notes;
+}
+
 std::string lattice_kind(const Model& m) {
   if (!m.object_random.empty()) return "random";
   const bool volume = std::find(m.object_surface.begin(), m.object_surface.end(), 0) != m.object_surface.end();

@@ -61,6 +61,11 @@ std::vector<std::string> mesh_mass_notes(const Model& model);
 // A note where a projectile sets a critical step ten times or more shorter than the objects' own (a ball
 // of 1 um beside a wall: 95 million steps for 10 ms); "" otherwise.
 std::string step_note(const Model& model);
+// A note where output.surface_format is "obj" but output.surface is false, so that nothing is written in
+// it; "" otherwise (the default "ply" cannot be told from one given).
+std::string surface_format_note(const OutputDef& output);
+// Every note above that applies, in the order mca info and mca run print them.
+std::vector<std::string> scene_notes(const Model& model, const SceneDef& scene);
 // The lattice of the model's volume fills: "random", "cubic", or "" when every object is in surface mode;
 // lattice_name as mca run and mca info print it, "random (link_bending 0.1)" for the random one, "cubic
 // (lattice_jitter 0.25)" for a jittered cubic one (`jitter`: the scene's solver.lattice_jitter).

@@ -140,6 +140,7 @@ int info(const std::optional<std::string>& path, bool json) {
     if (const std::string note = far_out_note(m, scene); !note.empty()) j["far_from_origin"] = note;
     if (const auto notes = mesh_mass_notes(m); !notes.empty()) j["mesh_mass_notes"] = notes;
     if (const std::string note = step_note(m); !note.empty()) j["step_note"] = note;
+    if (const std::string note = surface_format_note(scene.output); !note.empty()) j["surface_format_note"] = note;
     j["simulated_time"] = static_cast<double>(steps) * m.dt;
     j["frame_interval"] = sim.frame_interval();
     j["steps_per_frame"] = sim.steps_per_frame();
@@ -236,9 +237,7 @@ int info(const std::optional<std::string>& path, bool json) {
              scene.solver.time_step > 0 ? std::string("given by solver.time_step")
                                         : fmt::format("solver.safety = {:g}, fitted to whole steps per frame",
                                                       scene.solver.safety));
-  if (const std::string note = far_out_note(m, scene); !note.empty()) fmt::print("note             {}\n", note);
-  for (const std::string& note : mesh_mass_notes(m)) fmt::print("note             {}\n", note);
-  if (const std::string note = step_note(m); !note.empty()) fmt::print("note             {}\n", note);
+  for (const std::string& note : scene_notes(m, scene)) fmt::print("note             {}\n", note);
   // With solver.time_step given, a frame is a whole number of steps and may differ from 1 / frame_rate.
   fmt::print("steps per frame  {} ({} frames, one every {:.6g} s; {} steps: {:.6g} s simulated for output.duration = "
              "{:g} s)\n",

@@ -707,9 +707,7 @@ int run(const RunOptions& o) {
                "on {}; about {} of output\n",
                m.size(), lattice, m.link_count(), m.dt, sim.steps_per_frame(), plan.total_frames, plan.total_steps,
                steps_run_on(sim.backend().name(), threads), human_bytes(estimate.total()));
-    if (const std::string note = far_out_note(m, scene); !note.empty()) fmt::print(stderr, "note: {}\n", note);
-    for (const std::string& note : mesh_mass_notes(m)) fmt::print(stderr, "note: {}\n", note);
-    if (const std::string note = step_note(m); !note.empty()) fmt::print(stderr, "note: {}\n", note);
+    for (const std::string& note : scene_notes(m, scene)) fmt::print(stderr, "note: {}\n", note);
   }
   // The renderer before any output: a missing OpenGL or a camera that sees nothing stops here.
   std::unique_ptr<RenderOutput> render;

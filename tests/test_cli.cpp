@@ -446,6 +446,55 @@ TEST(Cli, ABallThatSetsAFarShorterStepGetsANote) {
   EXPECT_FALSE(nlohmann::json::parse(plain.output).contains("step_note"));
 }
 
+// Keys that did nothing, or advice that could not be taken, said so only by silence (a hostile review of
+// meshes, 2026-12-06): output.surface_format = "obj" without output.surface gets a note; an angle of 1e300
+// degrees is refused; an object too small for any spacing mca takes is told to grow, not to take a spacing
+// of 1e-12 m (which solver.spacing refuses).
+TEST(Cli, KeysThatDoNothingAndAdviceThatCannotBeTakenAreNamed) {
+  const fs::path d = fresh_dir("inert_keys");
+  fs::create_directories(d);
+  const std::string box = "[[object]]\nshape = \"box\"\nsize = [0.2, 0.2, 0.2]\nposition = [0, 0, 0.2]\n";
+  std::ofstream(d / "obj.toml") << "[output]\nsurface_format = \"obj\"\nvtk = false\n" << box;
+  const Result info = run_mca("info " + (d / "obj.toml").string());
+  ASSERT_EQ(info.code, 0) << info.output;
+  EXPECT_NE(info.output.find("note             output.surface_format = \"obj\" writes nothing: output.surface is "
+                             "false"),
+            std::string::npos)
+      << info.output;
+  const Result json = run_mca("info " + (d / "obj.toml").string() + " --json");
+  ASSERT_EQ(json.code, 0) << json.output;
+  EXPECT_TRUE(nlohmann::json::parse(json.output).contains("surface_format_note")) << json.output;
+  const Result run = run_mca("run " + (d / "obj.toml").string() + " --steps 1 --out " + (d / "out").string());
+  ASSERT_EQ(run.code, 0) << run.output;
+  EXPECT_NE(run.output.find("note: output.surface_format = \"obj\" writes nothing"), std::string::npos) << run.output;
+  const Result plain = run_mca("info --json");
+  ASSERT_EQ(plain.code, 0) << plain.output;
+  EXPECT_FALSE(nlohmann::json::parse(plain.output).contains("surface_format_note"));
+
+  std::ofstream(d / "turns.toml") << box << "rotation = [1e300, 0, 0]\n";
+  const Result turns = run_mca("info " + (d / "turns.toml").string());
+  EXPECT_EQ(turns.code, 2) << turns.output;
+  EXPECT_NE(turns.output.find("object[0].rotation = [1e300, 0, 0] has an angle of more than 1e6 degrees"),
+            std::string::npos)
+      << turns.output;
+  std::ofstream(d / "ok_turns.toml") << box << "rotation = [720, -45, 1e6]\n";
+  EXPECT_EQ(run_mca("info " + (d / "ok_turns.toml").string()).code, 0);
+
+  std::ofstream(d / "speck.toml") << "[[object]]\nshape = \"box\"\nsize = [1e-12, 1e-12, 1e-12]\n";
+  const Result speck = run_mca("info " + (d / "speck.toml").string());
+  EXPECT_EQ(speck.code, 2) << speck.output;
+  EXPECT_NE(speck.output.find("no spacing solver.spacing may be (1e-09 m at least) fits it: make the object larger"),
+            std::string::npos)
+      << speck.output;
+  std::ofstream(d / "grain.toml") << "[[object]]\nshape = \"box\"\nsize = [1e-8, 1e-8, 1e-8]\n";
+  const Result grain = run_mca("info " + (d / "grain.toml").string());
+  EXPECT_EQ(grain.code, 2) << grain.output;
+  EXPECT_NE(grain.output.find("decrease solver.spacing (to 1e-08 m or less; 10,000 automata would take a spacing of "
+                              "4.64e-10 m, less than solver.spacing may be (1e-09 m): scale the objects up"),
+            std::string::npos)
+      << grain.output;
+}
+
 TEST(Cli, BadInputFailsWithAClearMessage) {
   const fs::path d = fresh_dir("bad");
   // Missing scene file: names the file.

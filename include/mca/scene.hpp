@@ -150,7 +150,9 @@ struct GroundDef {
 };
 
 struct SolverDef {
-  double spacing = 0.05;                 // lattice spacing d [m], > 0
+  // The spacings a scene may give (solver.spacing), in metres.
+  static constexpr double kMinSpacing = 1e-9, kMaxSpacing = 1e9;
+  double spacing = 0.05;                 // lattice spacing d [m], in [kMinSpacing, kMaxSpacing]
   std::int64_t target_automata = 0;      // > 0: choose d so the count lands within 2 %
   double safety = 0.5;                   // C: the step is C x the critical step (time_step.cpp), in (0, 1]
   double time_step = 0.0;                // 0: automatic; else used as given (must be <= the stable one)

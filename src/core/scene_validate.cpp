@@ -216,7 +216,8 @@ void validate_scene(const SceneDef& scene) {
   // Solver.
   // The spacing is stored in float32, and memory and counts go with its cube: 1e-300 became a spacing of
   // 0 and "inf GB" in the messages. Below a nanometre a lattice of continuum cells means nothing.
-  c.range("solver.spacing", scene.solver.spacing, 1e-9, true, 1e9, true, "in [1e-9, 1e9] [m]",
+  c.range("solver.spacing", scene.solver.spacing, SolverDef::kMinSpacing, true, SolverDef::kMaxSpacing, true,
+          "in [1e-9, 1e9] [m]",
           "give the lattice spacing in metres, e.g. 0.05");
   // 1.8e8 automata is the most a model holds (links are addressed with 29 bits); a larger target would
   // only make the search for its spacing count lattices of absurd size.
@@ -404,6 +405,12 @@ void validate_scene(const SceneDef& scene) {
     }
     c.position(p + ".position", o.position);
     c.finite(p + ".rotation", o.rotation);
+    // (An angle of 1e300 degrees was taken, modulo a turn, as whatever its rounding left.)
+    for (double angle : o.rotation)
+      if (std::fabs(angle) > 1e6)
+        c.fail(fmt::format("{}.rotation = {} has an angle of more than 1e6 degrees (2,778 turns), which no model means "
+                           "(a slip of the exponent?); give each angle in degrees, within [-360, 360]",
+                           p, vec(o.rotation)));
     c.finite(p + ".velocity", o.velocity);
     // The cubic lattice (jittered or not) with a Poisson ratio below kCubicMinPoisson: its many-body term's
     // negative Lame lambda made bodies at rest fly apart (2 x 2 x 2 automata from -0.26, larger ones from

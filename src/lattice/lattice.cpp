@@ -422,7 +422,7 @@ double shapes_volume(const SceneDef& scene, const Shapes& S) {
 
 // The spacing that gives about 10,000 automata, for messages about scenes far too coarse or too fine.
 std::string ten_thousand_hint(const SceneDef& scene, const Shapes& S) {
-  return fmt::format("about {:.3g} m gives 10,000 automata", std::cbrt(shapes_volume(scene, S) / 1e4));
+  return ten_thousand_spacing(shapes_volume(scene, S));
 }
 
 // The memory a run holds per automaton of the scene's lattice: with the random lattice's explicit links
@@ -1240,16 +1240,23 @@ std::int64_t checked_automata_count(const SceneDef& scene, const Shapes& S, doub
     for (int a = 0; a < 3; ++a)
       if (ext[a] < 0.5 * d * (1 - 1e-6)) {
         const text::Distinct hd = text::distinct(ext[a], 0.5 * d);
+        // A spacing of ext or less fits (of 2 ext or less, at most half a cell); none does below half the least.
+        const double fits = std::max(ext[a], SolverDef::kMinSpacing);
+        std::string fix;
+        if (ext[a] < 0.5 * SolverDef::kMinSpacing)
+          fix = fmt::format("no spacing solver.spacing may be ({:g} m at least) fits it: make the object larger",
+                            SolverDef::kMinSpacing);
+        else if (scene.solver.target_automata > 0)
+          fix = fmt::format("raise solver.target_automata (it sets the spacing; about {:.3g} gives {:.3g} m) or make "
+                            "the object larger",
+                            scene.solver.target_automata * std::pow(d / fits, 3.0), fits);
+        else
+          fix = fmt::format("decrease solver.spacing (to {:.3g} m{}; {}) or make the object larger", fits,
+                            fits > SolverDef::kMinSpacing ? " or less" : "", ten_thousand_hint(scene, S));
         throw Error(fmt::format("{}: object[{}] '{}' is {:.4g} x {:.4g} x {:.4g} m, {} m along its local {}, less than "
-                                "half the spacing {:.4g} m ({} m): its lattice would be a cell of {:.4g} m there; {} or "
-                                "make the object larger",
-                                scene.source, oi, scene.objects[oi].name, ext[0], ext[1], ext[2], hd.a, "xyz"[a], d, hd.b, d,
-                                scene.solver.target_automata > 0
-                                    ? fmt::format("raise solver.target_automata (it sets the spacing; about {:.3g} "
-                                                  "gives {:.3g} m)",
-                                                  scene.solver.target_automata * std::pow(d / ext[a], 3.0), ext[a])
-                                    : fmt::format("decrease solver.spacing (to {:.3g} m or less; {})", ext[a],
-                                                  ten_thousand_hint(scene, S))));
+                                "half the spacing {:.4g} m ({} m): its lattice would be a cell of {:.4g} m there; {}",
+                                scene.source, oi, scene.objects[oi].name, ext[0], ext[1], ext[2], hd.a, "xyz"[a], d,
+                                hd.b, d, fix));
       }
   }
   double surface = 0;  // (surface-mode objects: their triangles' count, whatever the spacing)

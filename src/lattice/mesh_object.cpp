@@ -341,6 +341,17 @@ void refuse_float32_rounding(const SceneDef& scene, std::size_t index, const Mes
 
 }  // namespace
 
+std::string ten_thousand_spacing(double volume) {
+  const double s = std::cbrt(std::max(volume, 1e-300) / 1e4);
+  if (s >= SolverDef::kMinSpacing && s <= SolverDef::kMaxSpacing)
+    return fmt::format("about {:.3g} m gives 10,000 automata", s);
+  const bool small = s < SolverDef::kMinSpacing;
+  return fmt::format("10,000 automata would take a spacing of {:.3g} m, {} than solver.spacing may be ({:g} m): scale "
+                     "the objects {} (object.scale or fit_size for a mesh, the sizes of a shape)",
+                     s, small ? "less" : "more", small ? SolverDef::kMinSpacing : SolverDef::kMaxSpacing,
+                     small ? "up" : "down");
+}
+
 MeshObject prepare_mesh_object(const SceneDef& scene, std::size_t index) {
   const ObjectDef& o = scene.objects[index];
   const std::string key = fmt::format("object[{}].mesh", index);
@@ -407,10 +418,9 @@ MeshFillResult fill_mesh_object(const SceneDef& scene, std::size_t index, const 
   const double expected = m.volume() / (d * d * d);
   if (r.count == 0) {
     throw Error(fmt::format("{}: the mesh {} ({:.4g} x {:.4g} x {:.4g} m after scaling, {:.4g} m^3) holds no lattice "
-                            "cell at spacing {:.4g} m; decrease solver.spacing (about {:.3g} m gives 10,000 automata) "
-                            "or scale the mesh up",
+                            "cell at spacing {:.4g} m; decrease solver.spacing ({}) or scale the mesh up",
                             where(scene, index), m.solid.file, m.extent(0), m.extent(1), m.extent(2), m.volume(), d,
-                            std::cbrt(std::max(m.volume(), 1e-300) / 1e4)));
+                            ten_thousand_spacing(m.volume())));
   }
   // A surface whose sign cannot be told (crossing shells, open seams) fills far less or more than it
   // encloses; the enclosed volume is exact for manifold shells only.
