@@ -8,6 +8,7 @@
 #include "app/commands.hpp"
 #include "app/frame_output.hpp"
 #include "backend/cuda/device_memory.hpp"
+#include "core/text.hpp"
 #include "io/json_text.hpp"
 #include "io/scene_io.hpp"
 #include "lattice/lattice.hpp"
@@ -31,16 +32,18 @@ std::string box_text(const std::array<double, 3>& lo, const std::array<double, 3
 
 void print_mesh(const MeshSummary& ms, const std::string& object, std::size_t automata, double mass_scaling) {
   fmt::print("mesh             {} (object {})\n", ms.path, object);
+  using text::count;
   fmt::print("  vertices       {}, faces {}\n", ms.vertices, ms.faces);
   if (ms.boundary_edges == 0 && ms.non_manifold_edges == 0) {
     fmt::print("  surface        closed (no boundary or non-manifold edges){}\n",
-               ms.degenerate_faces ? fmt::format("; {} degenerate faces", ms.degenerate_faces) : std::string());
+               ms.degenerate_faces ? "; " + count(ms.degenerate_faces, "degenerate face") : std::string());
   } else {
-    fmt::print("  surface        {} boundary edges in {} holes, {} non-manifold edges, {} degenerate faces\n",
-               ms.boundary_edges, ms.holes, ms.non_manifold_edges, ms.degenerate_faces);
+    fmt::print("  surface        {} in {}, {}, {}\n", count(ms.boundary_edges, "boundary edge"), count(ms.holes, "hole"),
+               count(ms.non_manifold_edges, "non-manifold edge"), count(ms.degenerate_faces, "degenerate face"));
   }
   if (ms.shells > 1)
-    fmt::print("  shells         {} connected surfaces, {} of them around cavities (left empty)\n", ms.shells, ms.cavities);
+    fmt::print("  shells         {} connected surfaces, {} around cavities (left empty)\n", ms.shells,
+               ms.cavities == 1 ? std::string("1 of them") : fmt::format("{} of them", ms.cavities));
   fmt::print("  in the file    {}\n", box_text(ms.file_lo, ms.file_hi, ""));
   fmt::print("  in the scene   {} (scale {:.6g}), volume {:.4g} m^3\n", box_text(ms.lo, ms.hi, " m"), ms.scale,
              ms.volume);
@@ -61,10 +64,10 @@ void print_mesh(const MeshSummary& ms, const std::string& object, std::size_t au
   } else {
     fmt::print("  automata       {} (cells inside found in {:.2f} s)\n", automata, ms.fill_seconds);
     if (ms.dropped_automata > 0) {
-      fmt::print("  dropped        {} cells inside the mesh, in {} piece{}, that no lattice link joins to the body (the "
-                 "mesh is thinner than a cell between them; they would fall off at t = 0): the object starts as one "
-                 "piece per solid\n",
-                 ms.dropped_automata, ms.dropped_pieces, ms.dropped_pieces == 1 ? "" : "s");
+      fmt::print("  dropped        {} inside the mesh, in {}, that no lattice link joins to the body (the mesh is "
+                 "thinner than a cell between them; they would fall off at t = 0): the object starts as one piece per "
+                 "solid\n",
+                 count(ms.dropped_automata, "cell"), count(ms.dropped_pieces, "piece"));
     } else {
       fmt::print("  dropped        none (every cell inside is linked to the body)\n");
     }

@@ -31,6 +31,7 @@
 #include "analysis/fragments.hpp"
 #include "app/commands.hpp"
 #include "core/files.hpp"
+#include "core/text.hpp"
 #include "io/output_files.hpp"
 #include "io/scene_io.hpp"
 #include "mca/error.hpp"
@@ -587,7 +588,7 @@ int view(const ViewOptions& o) {
     std::lock_guard lock(sh.mutex);
     throw Error(fmt::format("mca view: the simulation stopped after {} frames: {}", shown, sh.message));
   }
-  const auto count = [](std::size_t n, const char* what) { return fmt::format("{} {}{}", n, what, n == 1 ? "" : "s"); };
+  using text::count;
   // Counted in the last frame shown (the simulation thread runs a frame ahead and may have fired more): its
   // projectiles are the scene's and the shots fired since the start (or the last restart).
   const std::size_t projectiles = snap ? snap->projectiles.size() : 0;
@@ -595,7 +596,7 @@ int view(const ViewOptions& o) {
   if (due_at_last > 0 && o.frames && !o.quiet)
     fmt::print(stderr, "mca view: {} due at the last frame shown (t = {:.2f} ms) went into the simulation after it and "
                "{} in no frame; give one more --frames to see {}\n",
-               due_at_last == 1 ? std::string("1 shot") : fmt::format("{} shots", due_at_last), snap ? 1e3 * snap->time : 0.0,
+               count(due_at_last, "shot"), snap ? 1e3 * snap->time : 0.0,
                due_at_last == 1 ? "is" : "are", due_at_last == 1 ? "it" : "them");
   const int sig = stop;
   if (!o.quiet)

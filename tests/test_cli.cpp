@@ -449,7 +449,7 @@ TEST(Cli, ABallThatSetsAFarShorterStepGetsANote) {
 // Keys that did nothing, or advice that could not be taken, said so only by silence (a hostile review of
 // meshes, 2026-12-06): output.surface_format = "obj" without output.surface gets a note; an angle of 1e300
 // degrees is refused; an object too small for any spacing mca takes is told to grow, not to take a spacing
-// of 1e-12 m (which solver.spacing refuses).
+// of 1e-12 m (which solver.spacing refuses); mca info's mesh counts read "1 hole", not "1 holes".
 TEST(Cli, KeysThatDoNothingAndAdviceThatCannotBeTakenAreNamed) {
   const fs::path d = fresh_dir("inert_keys");
   fs::create_directories(d);
@@ -479,6 +479,18 @@ TEST(Cli, KeysThatDoNothingAndAdviceThatCannotBeTakenAreNamed) {
       << turns.output;
   std::ofstream(d / "ok_turns.toml") << box << "rotation = [720, -45, 1e6]\n";
   EXPECT_EQ(run_mca("info " + (d / "ok_turns.toml").string()).code, 0);
+
+  // A box without its lid in surface mode: its counts in the singular where they are one.
+  std::ofstream(d / "lidless.off") << "OFF\n8 10 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n"
+                                      "3 0 2 1\n3 0 3 2\n3 0 1 5\n3 0 5 4\n3 1 2 6\n3 1 6 5\n3 2 3 7\n3 2 7 6\n"
+                                      "3 3 0 4\n3 3 4 7\n";
+  std::ofstream(d / "lidless.toml") << "[[object]]\nshape = \"mesh\"\nmesh = \"lidless.off\"\nfill = \"surface\"\n"
+                                       "fit_size = 0.3\nposition = [0, 0, 0.3]\n";
+  const Result lidless = run_mca("info " + (d / "lidless.toml").string());
+  ASSERT_EQ(lidless.code, 0) << lidless.output;
+  EXPECT_NE(lidless.output.find("surface        4 boundary edges in 1 hole, 0 non-manifold edges, 0 degenerate faces"),
+            std::string::npos)
+      << lidless.output;
 
   std::ofstream(d / "speck.toml") << "[[object]]\nshape = \"box\"\nsize = [1e-12, 1e-12, 1e-12]\n";
   const Result speck = run_mca("info " + (d / "speck.toml").string());

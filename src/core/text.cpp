@@ -134,6 +134,13 @@ std::string number_runs(const std::vector<std::int64_t>& sorted, std::size_t mos
   return out;
 }
 
+std::string count(std::uint64_t n, std::string_view word) {
+  const std::size_t bar = word.find('|');
+  const std::string_view one = word.substr(0, bar);
+  if (n == 1) return fmt::format("1 {}", one);
+  return bar == std::string_view::npos ? fmt::format("{} {}s", n, one) : fmt::format("{} {}", n, word.substr(bar + 1));
+}
+
 std::string human_bytes(double bytes) {
   const char* units[] = {"bytes", "KB", "MB", "GB", "TB", "PB", "EB"};
   int u = 0;

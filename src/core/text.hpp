@@ -43,6 +43,10 @@ std::string did_you_mean(std::string_view word, const std::vector<std::string>& 
 // Sorted numbers as runs for a message: "0, 3..7, 12"; past `most` runs, ", and N more".
 std::string number_runs(const std::vector<std::int64_t>& sorted, std::size_t most = 8);
 
+// `n` and a noun for a message: "1 hole", "3 holes" (`word` takes an s, or gives its plural after a '|':
+// "automaton|automata").
+std::string count(std::uint64_t n, std::string_view word);
+
 // A size for a message: "512 bytes", "430 KB", "1.72 TB" (3 digits; units of 1000).
 std::string human_bytes(double bytes);
 
