@@ -266,6 +266,12 @@ TEST(MeshLoader, AGltfReadsBuffersBesideItAndNothingElse) {
                    "solver.max_memory_gb = 0.5"),
             std::string::npos)
       << e;
+  // And against the machine's memory where that is less (a limit of 1e15 bytes was the only bound).
+  fs::resize_file(t.path() / "model" / "big.bin", 1'000'000'000'000);  // sparse
+  const std::string machine = error_of([&] { mesh::read_mesh((t.path() / "model" / "big.gltf").string(), 1e15); });
+  EXPECT_NE(machine.find("a run may take of this machine's"), std::string::npos) << machine;
+  EXPECT_NE(machine.find("; run it on a larger machine, or export the model with smaller buffers"), std::string::npos)
+      << machine;
 }
 
 TEST(MeshLoader, TheFilesUnitsDoNotChangeTheMesh) {

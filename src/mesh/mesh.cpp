@@ -123,11 +123,12 @@ class FolderIOSystem : public Assimp::DefaultIOSystem {
     if (!ec && !opened_.count(p.string())) {
       const auto size = static_cast<double>(std::filesystem::file_size(p, ec));
       if (ec) return nullptr;
-      if (kAssimpBytesPerFileByte * (read_ + size) > max_bytes_) {
-        refusal_ = fmt::format("it names {} ({:.4g} MB), and reading it with the rest would take about {:.3g} GB, over "
-                               "solver.max_memory_gb = {:g}; raise solver.max_memory_gb if the machine has the "
-                               "memory, or export the model with smaller buffers",
-                               p.string(), size / 1e6, kAssimpBytesPerFileByte * (read_ + size) / 1e9, max_bytes_ / 1e9);
+      // (Bounded as the mesh file is: refuse_over_memory.)
+      if (const MemoryLimit limit = memory_limit(max_bytes_); kAssimpBytesPerFileByte * (read_ + size) > limit.bytes) {
+        refusal_ = fmt::format("it names {} ({:.4g} MB), and reading it with the rest would take about {:.3g} GB, {}; "
+                               "{}, or export the model with smaller buffers",
+                               p.string(), size / 1e6, kAssimpBytesPerFileByte * (read_ + size) / 1e9, limit.over,
+                               limit.instead);
         return nullptr;
       }
       read_ += size;
