@@ -543,29 +543,57 @@ constexpr RunFile kRunFiles[] = {
     {RunPart::rendering, "render", "frame_", ".png"},
 };
 
-}  // namespace
-
-std::vector<std::string> run_files_in(const std::filesystem::path& dir, std::initializer_list<RunPart> parts) {
-  std::vector<std::string> found;
+// Calls `found(name, regular, numbered)` for each entry of `dir` at a name of `parts` (relative to dir, in
+// the table's order): whether it is a regular file (through a link) or something else (a folder, a FIFO),
+// and whether the name is a numbered one.
+template <class Found>
+void visit_run_names(const std::filesystem::path& dir, std::initializer_list<RunPart> parts, Found found) {
   std::error_code ec;
   for (const RunFile& f : kRunFiles) {
     if (std::find(parts.begin(), parts.end(), f.part) == parts.end()) continue;
     const std::filesystem::path folder = dir / f.folder;
     const std::string prefix = *f.folder ? std::string(f.folder) + "/" : std::string();
     if (!*f.extension) {
-      // (exists, not is_regular_file: a folder of the name is not left alone by a removal either)
-      if (std::filesystem::exists(folder / f.name, ec)) found.push_back(prefix + f.name);
+      if (std::filesystem::exists(folder / f.name, ec))
+        found(prefix + f.name, std::filesystem::is_regular_file(folder / f.name, ec), false);
       continue;
     }
     if (!std::filesystem::is_directory(folder, ec)) continue;
-    std::vector<std::string> names;
+    std::vector<std::pair<std::string, bool>> names;
     for (const auto& e : std::filesystem::directory_iterator(folder, ec))
-      if (io::numbered(e.path().filename().string(), f.name, f.extension) && e.is_regular_file(ec))
-        names.push_back(prefix + e.path().filename().string());
+      if (io::numbered(e.path().filename().string(), f.name, f.extension))
+        names.emplace_back(prefix + e.path().filename().string(), e.is_regular_file(ec));
     std::sort(names.begin(), names.end());
-    found.insert(found.end(), names.begin(), names.end());
+    for (const auto& [name, regular] : names) found(name, regular, true);
   }
+}
+
+constexpr std::initializer_list<RunPart> kAllParts = {RunPart::scene,  RunPart::stats,       RunPart::end,
+                                                      RunPart::plots,  RunPart::frames,      RunPart::checkpoints,
+                                                      RunPart::rendering};
+
+}  // namespace
+
+std::vector<std::string> run_files_in(const std::filesystem::path& dir, std::initializer_list<RunPart> parts) {
+  std::vector<std::string> found;
+  // (A fixed name is listed whatever is there: a folder of the name is not left alone by a removal either;
+  // a numbered one only as a regular file.)
+  visit_run_names(dir, parts, [&](const std::string& name, bool regular, bool numbered) {
+    if (regular || !numbered) found.push_back(name);
+  });
   return found;
+}
+
+void check_run_names_are_files(const std::filesystem::path& dir) {
+  visit_run_names(dir, kAllParts, [&](const std::string& name, bool regular, bool) {
+    if (regular) return;
+    std::error_code ec;
+    const bool folder = std::filesystem::is_directory(dir / name, ec);
+    throw Error(fmt::format("'{}' is {} at the name of a file a run writes or replaces there: the run would stop "
+                            "when it came to it (a checkpoint or a frame hours in); move or remove it, or write to "
+                            "another folder",
+                            (dir / name).string(), folder ? "a folder" : "not a regular file (a FIFO, a device, a broken link)"));
+  });
 }
 
 std::size_t remove_run_files(const std::filesystem::path& dir, std::initializer_list<RunPart> parts) {

@@ -128,6 +128,9 @@ struct RunFile {
 std::vector<std::string> run_files_in(const std::filesystem::path& dir, std::initializer_list<RunPart> parts);
 // Removes them (an error naming a file that cannot be removed); returns how many there were.
 std::size_t remove_run_files(const std::filesystem::path& dir, std::initializer_list<RunPart> parts);
+// Refuses a folder (or anything but a regular file) at a name of the table in `dir`: the run would stop when
+// it came to write that file (a checkpoint at frame 2,000, hours in) or to replace it.
+void check_run_names_are_files(const std::filesystem::path& dir);
 // The table's folders below the run's: frames, surface, fragments, checkpoints, render.
 std::vector<std::string> run_file_folders();
 

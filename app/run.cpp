@@ -682,6 +682,7 @@ int run(const RunOptions& o) {
                               dir.string(), *o.scene));
   }
   check_folder_is_a_runs(dir);
+  check_run_names_are_files(dir);
 
   if (!o.quiet) fmt::print(stderr, "mca: scene '{}' ({}): building...\n", scene.name, scene.source);
   std::optional<lattice::BuildProgress> building;
@@ -822,6 +823,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   const auto rendered = load_render_options(dir);
   const bool will_render = rendered && !no_render;
   io::check_output_subfolders(dir, run_subfolders(cp.scene, will_render));
+  check_run_names_are_files(dir);
   io::check_inputs_outside_subfolders(dir, mesh_inputs(cp.scene));
   check_run_fits(sim.model(), cp.scene, plan.total_frames + 1 - cp.frame, will_render ? rendered->width : 0,
                  will_render ? rendered->height : 0, dir);

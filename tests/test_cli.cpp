@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+#include <sys/stat.h>
 #include <sys/wait.h>
 
 #include <fmt/format.h>
@@ -32,6 +33,7 @@ namespace fs = std::filesystem;
 
 using mca::test::Result;
 using mca::test::run_mca;
+using mca::test::run_mca_full_at;
 using mca::test::shell;
 using mca::test::read;
 using mca::test::small_scene;
@@ -791,25 +793,25 @@ TEST(Cli, AFileWhereARunWritesAFolderIsRefusedBeforeItStarts) {
   EXPECT_FALSE(fs::exists(out / "summary.json"));
 }
 
-// A write that fails mid-run (here a folder where frame 3's file goes; a full disk alike) stops the run
-// with exit 2, naming the newest checkpoint and the command that continues it; once the cause is gone the
-// resume ends with the uninterrupted run's bits.
+// A write that fails mid-run (here a full disk at frame 3's file) stops the run with exit 2, naming the
+// newest checkpoint and the command that continues it; once the cause is gone the resume ends with the
+// uninterrupted run's bits.
 TEST(Cli, AWriteThatFailsMidRunNamesTheCheckpointThatContinuesIt) {
   const fs::path d = fresh_dir("write_fails");
   const fs::path scene = small_scene(d);
   ASSERT_EQ(run_mca("run " + scene.string() + " --out " + (d / "whole").string() + " -q").code, 0);
   const fs::path out = d / "out";
-  fs::create_directories(out / "frames" / "automata_000003.vtu" / "x");
-  const Result r = run_mca("run " + scene.string() + " --out " + out.string() + " -q --checkpoint-every 1");
+  const Result r =
+      run_mca_full_at("frames/automata_000003.vtu", "run " + scene.string() + " --out " + out.string() + " -q --checkpoint-every 1");
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_NE(r.output.find("automata_000003.vtu"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("No space left on device"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find(fmt::format("The run stopped writing frame 3; once the disk has room (or the cause above is "
                                       "fixed), continue it from the newest checkpoint (frame_000002.mcack) with:\n"
                                       "  mca resume {}",
                                       out.string())),
             std::string::npos)
       << r.output;
-  fs::remove_all(out / "frames" / "automata_000003.vtu");
   // A plot of the run so far is removed by the resume (it would show the state before), and the folder it
   // leaves empty with it.
   fs::create_directories(out / "render");
@@ -821,14 +823,47 @@ TEST(Cli, AWriteThatFailsMidRunNamesTheCheckpointThatContinuesIt) {
             nlohmann::json::parse(read(d / "whole" / "summary.json"))["state_hash"]);
   // Frame 0, before any step: nothing to resume; the run is started again.
   const fs::path first = d / "first";
-  fs::create_directories(first / "frames" / "automata_000000.vtu" / "x");
-  const Result r0 = run_mca("run " + scene.string() + " --out " + first.string() + " -q");
+  const Result r0 = run_mca_full_at("frames/automata_000000.vtu", "run " + scene.string() + " --out " + first.string() + " -q");
   EXPECT_EQ(r0.code, 2) << r0.output;
   EXPECT_NE(r0.output.find("automata_000000.vtu"), std::string::npos) << r0.output;
   EXPECT_NE(r0.output.find("The run stopped writing frame 0, before its first step; once the disk has room (or the "
                            "cause above is fixed), start it again"),
             std::string::npos)
       << r0.output;
+}
+
+// A folder (or a FIFO) at the name of a file the run will write stopped the run only when it came to it: at
+// frame 2,000's checkpoint, hours in. A run and a resume refuse it before they start, and leave the folder
+// as it was.
+TEST(Cli, AFolderAtTheNameOfAFileTheRunWillWriteIsRefusedBeforeItStarts) {
+  const fs::path d = fresh_dir("folder_at_name");
+  const fs::path scene = small_scene(d);
+  for (const char* name : {"checkpoints/frame_002000.mcack", "frames/automata_000005.vtu", "summary.json"}) {
+    SCOPED_TRACE(name);
+    const fs::path out = d / "out";
+    fs::remove_all(out);
+    ASSERT_EQ(run_mca("run " + scene.string() + " --out " + out.string() + " -q --no-vtk").code, 0);
+    fs::remove(out / name);
+    fs::create_directories(out / name / "mine");
+    const Result r = run_mca("run " + scene.string() + " --out " + out.string() + " -q --checkpoint-every 1");
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find(fmt::format("'{}' is a folder at the name of a file a run writes or replaces there: the "
+                                        "run would stop when it came to it",
+                                        (out / name).string())),
+              std::string::npos)
+        << r.output;
+    EXPECT_TRUE(fs::is_directory(out / name / "mine"));
+  }
+  // A resume alike (a FIFO at a frame's name: opening it would block).
+  const fs::path out = d / "resumed";
+  ASSERT_EQ(run_mca("run " + scene.string() + " --out " + out.string() + " -q --checkpoint-every 2").code, 0);
+  fs::remove(out / "summary.json");
+  ASSERT_EQ(::mkfifo((out / "frames" / "automata_000099.vtu").c_str(), 0600), 0);
+  const Result r = run_mca("resume " + out.string() + " -q");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("automata_000099.vtu' is not a regular file (a FIFO, a device, a broken link)"),
+            std::string::npos)
+      << r.output;
 }
 
 // The run's peak memory, not only its arrays, is held to solver.max_memory_gb before anything is written:

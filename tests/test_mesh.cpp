@@ -755,11 +755,9 @@ TEST(Surface, WithTheVtkFramesTheSurfaceIsAPolyDataInSurfacePvd) {
   TempDir t;
   write_rock_scene(t, "");
   const fs::path out = t.path() / "out";
-  // A write that fails at frame 3 (a folder where its file goes) stops the run; the resume finishes it.
-  fs::create_directories(out / "frames" / "automata_000003.vtu" / "x");
+  // A write that fails at frame 3 (a full disk) stops the run; the resume finishes it.
   const std::string run = "run " + (t.path() / "rock.toml").string() + " -q --out " + out.string();
-  ASSERT_EQ(test::run_mca(run + " --checkpoint-every 1").code, 2);
-  fs::remove_all(out / "frames" / "automata_000003.vtu");
+  ASSERT_EQ(test::run_mca_full_at("frames/automata_000003.vtu", run + " --checkpoint-every 1").code, 2);
   const test::Result r = test::run_mca("resume " + out.string() + " -q");
   ASSERT_EQ(r.code, 0) << r.output;
   const auto timesteps = [&](const char* pvd) {
