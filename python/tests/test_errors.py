@@ -210,3 +210,14 @@ def test_write_frame_into_a_folder_whose_frames_folder_is_a_file(tmp_path):
     assert sorted(p.name for p in out.iterdir()) == ["frames"]
     (out / "frames").unlink()
     assert sim.write_frame(out) == 0
+
+
+def test_write_frame_into_a_folder_with_a_folder_at_a_frames_name(tmp_path):
+    # A folder where a later frame goes stopped the writes only at that frame; it is refused at the first.
+    out = tmp_path / "out"
+    (out / "frames" / "automata_000007.vtu" / "mine").mkdir(parents=True)
+    sim = mca.Simulation(mca.Scene.default(), threads=1, backend="cpu")
+    with pytest.raises(mca.Error, match=r"automata_000007.vtu' is a folder at the name of a file a run writes"):
+        sim.write_frame(out)
+    assert (out / "frames" / "automata_000007.vtu" / "mine").is_dir()
+    assert sorted(p.name for p in out.iterdir()) == ["frames"]
