@@ -346,6 +346,58 @@ TEST(InputBounds, GltfTrianglesNamingVerticesTheyDoNotHaveAreRefused) {
              "meshes[0].primitives[0] lists 37 indices, which is not a whole number of triangles");
 }
 
+// What assimp takes as missing or does not apply, refused before it reads (the hostile review of
+// 2026-12-06): a mode of 4.0, "4" or null let a triangle past the check above (assimp read them as the
+// default, triangles), a lines primitive of mode 1.0 read as a closed cube, a key given twice picked another
+// primitive, and instanced, quantized or morphed meshes read as one base shape or garbage.
+TEST(InputBounds, GltfFieldsOfTheWrongTypeAndGeometryExtensionsAreRefused) {
+  mca::test::TempDir t;
+  const float pos[24] = {-1, -1, -1, 1, -1, -1, 1, 1, -1, -1, 1, -1, -1, -1, 1, 1, -1, 1, 1, 1, 1, -1, 1, 1};
+  const std::uint32_t idx[36] = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
+                                 1, 2, 6, 1, 6, 5, 2, 3, 7, 2, 7, 6, 3, 0, 4, 3, 4, 7};
+  const std::string scalar = R"("componentType": 5125, "type": "SCALAR")";  // the index accessor's own type
+  std::string bin(reinterpret_cast<const char*>(pos), sizeof pos);
+  bin.append(reinterpret_cast<const char*>(idx), sizeof idx);
+  // The cube with `primitive` added to its primitive, `top` to the file and `mesh` to its mesh, its index
+  // accessor's type given by `accessor` (empty: scalar).
+  auto cube = [&](const std::string& primitive, const std::string& accessor = "", const std::string& top = "",
+                  const std::string& mesh = "") {
+    return glb_of(fmt::format(
+        R"({{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],)"
+        R"( "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1{}}}]{}}}],)"
+        R"( "buffers": [{{"byteLength": 240}}],)"
+        R"( "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 96}}, {{"buffer": 0, "byteOffset": 96, "byteLength": 144}}],)"
+        R"( "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 8, "type": "VEC3", "min": [-1, -1, -1], "max": [1, 1, 1]}},)"
+        R"( {{"bufferView": 1, "count": 36, {}}}]{}}})",
+        primitive, mesh, accessor.empty() ? scalar : accessor, top), bin);
+  };
+  int k = 0;
+  auto error = [&](const std::string& glb) { return read_error(write_file(t.path() / fmt::format("c{}.glb", k++), glb)); };
+  EXPECT_EQ(error(cube(R"(, "mode": 4)")), "");
+  for (const char* mode : {"4.0", "\"4\"", "null", "1.0"})
+    EXPECT_HAS(error(cube(fmt::format(R"(, "mode": {})", mode))),
+               fmt::format("meshes[0].primitives[0].mode is {}, where glTF gives a whole number 0 or more (the reader "
+                           "mca uses would take it as missing)",
+                           mode));
+  EXPECT_HAS(error(cube(R"(, "mode": 7)")), "meshes[0].primitives[0].mode is 7; glTF's modes are 0 to 6");
+  EXPECT_HAS(error(cube(R"(, "mode": 1, "mode": 4)")), "its JSON gives the key \"mode\" twice in one object");
+  EXPECT_HAS(error(cube("", R"("componentType": 5125.0, "type": "SCALAR")")), "accessors[1].componentType is 5125.0");
+  EXPECT_HAS(error(cube("", R"("componentType": 5125, "type": "VEC3")")),
+             "meshes[0].primitives[0].indices names accessors[1], of type \"VEC3\"");
+  EXPECT_HAS(error(cube("", "", R"(, "extensionsUsed": ["EXT_mesh_gpu_instancing"])")),
+             "uses the glTF extension EXT_mesh_gpu_instancing: instances of its meshes");
+  EXPECT_HAS(error(cube("", "", R"(, "extensionsRequired": ["KHR_mesh_quantization"])")),
+             "requires the glTF extension KHR_mesh_quantization");
+  EXPECT_HAS(error(cube("", "", R"(, "extensionsRequired": ["EXT_unheard_of"])")),
+             "requires the glTF extension EXT_unheard_of, which the reader mca uses does not know");
+  // A material extension changes no shape: required or not, the cube reads.
+  EXPECT_EQ(error(cube("", "", R"(, "extensionsRequired": ["KHR_materials_unlit"], "extensionsUsed": ["KHR_materials_unlit"])")), "");
+  // Morph targets at weight 0 leave the base shape, which the reader takes; weighted, they change it.
+  EXPECT_EQ(error(cube(R"(, "targets": [{"POSITION": 0}])", "", "", R"(, "weights": [0])")), "");
+  EXPECT_HAS(error(cube(R"(, "targets": [{"POSITION": 0}])", "", "", R"(, "weights": [0.5])")),
+             "meshes[0] is shaped by its morph targets (weights not 0)");
+}
+
 // Text meshes as some editors and exporters write them: after a UTF-8 byte order mark (read), as binary OFF
 // (named so; it read "holds NUL bytes"), an OBJ numbered from 0 (named so; it read "not a vertex number").
 TEST(InputBounds, ByteOrderMarksBinaryOffAndObjNumberedFromZero) {

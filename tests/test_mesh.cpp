@@ -231,6 +231,14 @@ TEST(MeshLoader, AGltfReadsBuffersBesideItAndNothingElse) {
   };
   std::ofstream(t.path() / "model" / "beside.gltf") << gltf("tetra.bin");
   EXPECT_EQ(mesh::read_mesh((t.path() / "model" / "beside.gltf").string()).faces.size(), 4u);
+  // A name with URI escapes, as Blender writes one with a space ("my%20model.bin" is "my model.bin"); an
+  // escaped way out of the folder is still refused.
+  fs::copy_file(t.path() / "model" / "tetra.bin", t.path() / "model" / "my model.bin");
+  std::ofstream(t.path() / "model" / "escaped.gltf") << gltf("my%20model.bin");
+  EXPECT_EQ(mesh::read_mesh((t.path() / "model" / "escaped.gltf").string()).faces.size(), 4u);
+  std::ofstream(t.path() / "model" / "escaped_up.gltf") << gltf("%2E%2E%2Fsecret.bin");
+  const std::string escaped_up = error_of([&] { mesh::read_mesh((t.path() / "model" / "escaped_up.gltf").string()); });
+  EXPECT_NE(escaped_up.find("outside the mesh's folder"), std::string::npos) << escaped_up;
   // A buffer outside the mesh's folder, by a relative or an absolute path, is not read.
   std::ofstream(t.path() / "model" / "up.gltf") << gltf("../secret.bin");
   std::ofstream(t.path() / "model" / "absolute.gltf") << gltf((t.path() / "secret.bin").string());

@@ -16,8 +16,6 @@
 #include <filesystem>
 #include <fmt/format.h>
 #include <fstream>
-#include <nlohmann/json.hpp>
-#include <optional>
 #include <iterator>
 #include <limits>
 #include <sstream>
@@ -30,6 +28,7 @@
 #include "core/files.hpp"
 #include "core/fnv.hpp"
 #include "core/text.hpp"
+#include "mesh/gltf_check.hpp"
 #include "mesh/readers.hpp"
 #include "mca/error.hpp"
 
@@ -99,8 +98,13 @@ class FolderIOSystem : public Assimp::DefaultIOSystem {
  public:
   FolderIOSystem(std::filesystem::path folder, double max_memory_bytes)
       : folder_(std::move(folder)), max_bytes_(max_memory_bytes) {}
-  bool Exists(const char* file) const override { return allowed(file) && DefaultIOSystem::Exists(file); }
-  Assimp::IOStream* Open(const char* file, const char* mode) override {
+  bool Exists(const char* given) const override {
+    const std::string file = on_disk(given);
+    return allowed(file.c_str()) && DefaultIOSystem::Exists(file.c_str());
+  }
+  Assimp::IOStream* Open(const char* given, const char* mode) override {
+    const std::string decoded = on_disk(given);
+    const char* file = decoded.c_str();
     if (!allowed(file)) return nullptr;
     // (assimp, refused a buffer outside the folder or not finding it where it is named, tries a file of its
     // name in the folder: another file, which it would read in silence in its stead.)
@@ -139,6 +143,27 @@ class FolderIOSystem : public Assimp::DefaultIOSystem {
   const std::string& refusal() const { return refusal_; }
 
  private:
+  // `given` with its URI escapes decoded ("my%20model.bin" is "my model.bin", as Blender writes a buffer's
+  // name), where no file has the name as given and one has it decoded (assimp does not decode them).
+  static std::string on_disk(const char* given) {
+    if (!given) return {};
+    const std::string f = given;
+    if (f.find('%') == std::string::npos) return f;
+    std::string d;
+    const auto hex = [](char c) {
+      return c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : c >= 'A' && c <= 'F' ? c - 'A' + 10 : -1;
+    };
+    for (std::size_t i = 0; i < f.size(); ++i) {
+      if (f[i] == '%' && i + 2 < f.size() && hex(f[i + 1]) >= 0 && hex(f[i + 2]) >= 0) {
+        d += static_cast<char>(hex(f[i + 1]) * 16 + hex(f[i + 2]));
+        i += 2;
+      } else {
+        d += f[i];
+      }
+    }
+    std::error_code ec;
+    return !std::filesystem::exists(f, ec) && std::filesystem::exists(d, ec) ? d : f;
+  }
   bool allowed(const char* file) const {
     if (folder_.empty() || !file) return false;
     std::error_code ec;
@@ -387,168 +412,6 @@ void check_glb(const std::string& head, std::uint64_t size, const std::string& n
   }
 }
 
-// A glTF's JSON (a .gltf file, or a .glb's first chunk) before assimp reads it: assimp parses the JSON
-// and walks the node hierarchy recursively, and a file of 449 KB (a chain of 20,000 nodes, or arrays
-// nested 100,000 deep) overflowed its stack. Exporters write a few levels of each.
-constexpr int kMaxJsonDepth = 64, kMaxNodeDepth = 256;
-
-// The triangles a glTF primitive's indices (or, without indices, its vertices) make, as the file declares
-// them: assimp makes one mesh of each primitive, in file order, and drops a triangle that uses a vertex the
-// primitive does not have without a word (a log line only).
-struct GltfPrimitive {
-  std::size_t mesh = 0, primitive = 0;
-  std::uint64_t triangles = 0;
-};
-
-// The primitives of `j`'s meshes, in file order; nullopt where the JSON does not say (assimp then refuses
-// it, or makes meshes of its own count). Modes other than triangles, strips and fans count 0 (not checked).
-std::optional<std::vector<GltfPrimitive>> gltf_primitives(const nlohmann::json& j, const std::string& name) {
-  const auto count_of = [&](const nlohmann::json& accessor) -> std::optional<std::uint64_t> {
-    if (!accessor.is_number_unsigned() || !j.contains("accessors") || !j["accessors"].is_array()) return {};
-    const std::uint64_t k = accessor.get<std::uint64_t>();
-    if (k >= j["accessors"].size()) return {};
-    const auto& a = j["accessors"][k];
-    if (!a.is_object() || !a.contains("count") || !a["count"].is_number_unsigned()) return {};
-    return a["count"].get<std::uint64_t>();
-  };
-  if (!j.contains("meshes") || !j["meshes"].is_array()) return {};
-  std::vector<GltfPrimitive> all;
-  for (std::size_t m = 0; m < j["meshes"].size(); ++m) {
-    const auto& mesh = j["meshes"][m];
-    if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array()) return {};
-    for (std::size_t p = 0; p < mesh["primitives"].size(); ++p) {
-      const auto& prim = mesh["primitives"][p];
-      if (!prim.is_object()) return {};
-      const nlohmann::json mode = prim.contains("mode") ? prim["mode"] : nlohmann::json(4u);
-      if (!mode.is_number_unsigned()) return {};
-      std::optional<std::uint64_t> n;
-      if (prim.contains("indices")) n = count_of(prim["indices"]);
-      else if (prim.contains("attributes") && prim["attributes"].is_object() && prim["attributes"].contains("POSITION"))
-        n = count_of(prim["attributes"]["POSITION"]);
-      if (!n) return {};
-      GltfPrimitive g{m, p, 0};
-      const auto corners = prim.contains("indices") ? "indices" : "vertices";
-      switch (mode.get<std::uint64_t>()) {
-        case 4:  // triangles
-          if (*n % 3 != 0) {
-            throw Error(fmt::format("{}: meshes[{}].primitives[{}] lists {} {}, which is not a whole number of "
-                                    "triangles (3 each): the file is damaged; export the model again",
-                                    name, m, p, *n, corners));
-          }
-          g.triangles = *n / 3;
-          break;
-        case 5:  // a strip
-        case 6:  // a fan
-          g.triangles = *n >= 3 ? *n - 2 : 0;
-          break;
-        default:
-          break;
-      }
-      all.push_back(g);
-    }
-  }
-  return all;
-}
-
-// A glTF's triangles that assimp read (`raw`, before any step) against those its file declares: assimp
-// drops a triangle that names a vertex past the primitive's, and a mesh missing triangles fills wrong (or,
-// where they were repeats, passes for whole).
-void check_gltf_triangles(const aiScene& raw, const std::vector<GltfPrimitive>& declared, const std::string& name) {
-  if (raw.mNumMeshes != declared.size()) return;  // not one mesh a primitive: nothing to compare
-  for (std::size_t k = 0; k < declared.size(); ++k) {
-    const aiMesh& m = *raw.mMeshes[k];
-    if (m.mNumFaces >= declared[k].triangles) continue;  // (0 declared: a mode not checked)
-    const std::uint64_t lost = declared[k].triangles - m.mNumFaces;
-    throw Error(fmt::format("{}: {} of the {} triangles of meshes[{}].primitives[{}] {} vertices it does not have "
-                            "(it has {}): the file is damaged; export the model again",
-                            name, lost, declared[k].triangles, declared[k].mesh, declared[k].primitive,
-                            lost == 1 ? "uses" : "use", m.mNumVertices));
-  }
-}
-
-// Checks a glTF's JSON before assimp reads it (below), and returns its primitives (gltf_primitives).
-std::optional<std::vector<GltfPrimitive>> check_gltf_json(std::string_view json, const std::string& name) {
-  int depth = 0;
-  bool in_string = false;
-  for (std::size_t i = 0; i < json.size(); ++i) {
-    const char c = json[i];
-    if (in_string) {
-      if (c == '\\') ++i;
-      else if (c == '"') in_string = false;
-    } else if (c == '"') {
-      in_string = true;
-    } else if (c == '[' || c == '{') {
-      if (++depth > kMaxJsonDepth) {
-        throw Error(fmt::format("{}: its JSON is nested deeper than {} levels (at byte {}); a glTF exporter writes "
-                                "a few: the file is damaged or not a glTF file",
-                                name, kMaxJsonDepth, i));
-      }
-    } else if (c == ']' || c == '}') {
-      --depth;
-    }
-  }
-  const nlohmann::json j = nlohmann::json::parse(json, nullptr, false);
-  if (j.is_discarded() || !j.is_object()) return {};  // assimp says
-  auto primitives = gltf_primitives(j, name);
-  if (!j.contains("nodes") || !j["nodes"].is_array()) return primitives;
-  const auto& nodes = j["nodes"];
-  const std::size_t n = nodes.size();
-  // Each node's children, and the depth of the deepest chain below the roots (iteratively).
-  std::vector<std::vector<std::size_t>> children(n);
-  std::vector<char> is_child(n, 0);
-  for (std::size_t k = 0; k < n; ++k) {
-    if (!nodes[k].is_object() || !nodes[k].contains("children") || !nodes[k]["children"].is_array()) continue;
-    for (const auto& c : nodes[k]["children"]) {
-      if (!c.is_number_unsigned() || c.get<std::uint64_t>() >= n) {
-        throw Error(fmt::format("{}: nodes[{}] names a child {} that is not one of its {} nodes: the file is damaged",
-                                name, k, c.dump(), n));
-      }
-      children[k].push_back(c.get<std::size_t>());
-      is_child[c.get<std::size_t>()] = 1;
-    }
-  }
-  std::vector<int> state(n, 0);  // 0 unseen, 1 on the current path, 2 done
-  std::vector<std::pair<std::size_t, std::size_t>> stack;  // node, next child to visit
-  std::size_t deepest = 0, at = 0;
-  auto walk = [&](std::size_t root) {
-    stack.push_back({root, 0});
-    state[root] = 1;
-    while (!stack.empty()) {
-      auto& [node, next] = stack.back();
-      if (stack.size() > deepest) {
-        deepest = stack.size();
-        at = node;
-      }
-      if (next == children[node].size()) {
-        state[node] = 2;
-        stack.pop_back();
-        continue;
-      }
-      const std::size_t c = children[node][next++];
-      if (state[c] == 1) {
-        throw Error(fmt::format("{}: its node hierarchy has a cycle (nodes[{}] is among its own ancestors): the file "
-                                "is damaged",
-                                name, c));
-      }
-      if (state[c] == 0) {
-        state[c] = 1;
-        stack.push_back({c, 0});
-      }
-    }
-  };
-  for (std::size_t k = 0; k < n; ++k)
-    if (!is_child[k] && state[k] == 0) walk(k);
-  for (std::size_t k = 0; k < n; ++k)  // nodes only on cycles have no root
-    if (state[k] == 0) walk(k);
-  if (deepest > static_cast<std::size_t>(kMaxNodeDepth)) {
-    throw Error(fmt::format("{}: its node hierarchy is {} levels deep (down to nodes[{}]); mca reads up to {} levels "
-                            "(the reader recurses once per level): flatten it in the program that wrote it (in "
-                            "Blender: select all, Object > Parent > Clear and Keep Transformation), then export again",
-                            name, deepest, at, kMaxNodeDepth));
-  }
-  return primitives;
-}
-
 // Joins vertices at exactly the same coordinates (STL and most OBJ files store one per face corner), in
 // order of first appearance.
 void weld(TriMesh& m) {
@@ -693,7 +556,7 @@ std::string read_file(const std::string& path, std::uint64_t size);
 TriMesh import_assimp(const std::string& name, const std::string& ext, const std::string* bytes,
                       const std::string& path, double max_memory_bytes) {
   if (bytes && ext == "glb") check_glb(*bytes, bytes->size(), name);
-  std::optional<std::vector<GltfPrimitive>> primitives;
+  std::vector<GltfPrimitive> primitives;
   if (ext == "gltf" || ext == "glb") {
     // The JSON: the whole .gltf, or the .glb's first chunk (check_glb: its length fits the file).
     std::error_code ec;
@@ -720,7 +583,7 @@ TriMesh import_assimp(const std::string& name, const std::string& ext, const std
     if (!io->refusal().empty()) throw Error(fmt::format("{}: cannot be read: {}", name, io->refusal()));
     fail_import(importer, name, ext);
   }
-  if (primitives) check_gltf_triangles(*raw, *primitives, name);
+  if (ext == "gltf" || ext == "glb") check_gltf_triangles(*raw, primitives, name);
   const aiScene* scene = importer.ApplyPostProcessing(kSteps);
   if (!scene) fail_import(importer, name, ext);
   return convert(scene, name);

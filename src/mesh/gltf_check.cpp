@@ -1,0 +1,358 @@
+#include "mesh/gltf_check.hpp"
+
+#include <assimp/scene.h>
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <utility>
+
+#include "mca/error.hpp"
+
+namespace mca::mesh {
+namespace {
+
+using Json = nlohmann::json;
+
+// Exporters write a few levels of each; assimp recursed once per level (a file of 449 KB, a chain of
+// 20,000 nodes or arrays nested 100,000 deep, overflowed its stack).
+constexpr int kMaxJsonDepth = 64, kMaxNodeDepth = 256;
+
+// Extensions that change a mesh's shape or number, which the reader mca uses (assimp 5.2) does not apply:
+// it read the mesh as if they were not there (one instance of many, quantized positions as garbage).
+struct GeometryExtension {
+  const char* name;
+  const char* what;
+  bool even_if_optional;  // refused when only used: what a reader without it shows is not the model
+};
+constexpr std::array<GeometryExtension, 3> kGeometryExtensions = {{
+    {"EXT_mesh_gpu_instancing",
+     "instances of its meshes (the reader mca uses would read each mesh once): export with the instances made "
+     "real (in Blender: Object > Apply > Make Instances Real)",
+     true},
+    {"KHR_mesh_quantization",
+     "quantized vertex positions (integers the reader mca uses does not scale back): export without "
+     "quantization (gltfpack: -noq)",
+     true},
+    {"EXT_meshopt_compression",
+     "compressed buffers (meshoptimizer) that the reader mca uses does not decode: export without compression "
+     "(gltfpack: leave out -c)",
+     false},
+}};
+
+// Extensions that only change how a model looks, not its shape: a file may require them.
+bool appearance_only(const std::string& e) {
+  for (const char* prefix : {"KHR_materials_", "KHR_texture_", "EXT_texture_", "MSFT_texture_", "KHR_lights_"})
+    if (e.rfind(prefix, 0) == 0) return true;
+  return e == "KHR_xmp_json_ld";
+}
+
+class Checker {
+ public:
+  Checker(const Json& j, const std::string& name) : j_(j), name_(name) {}
+
+  [[noreturn]] void damaged(const std::string& what) const {
+    throw Error(fmt::format("{}: {}: the file is damaged or its exporter wrote it wrong; export the model again", name_,
+                            what));
+  }
+
+  // A field glTF gives as a whole number 0 or more (an index or a count), if there: the reader mca uses
+  // takes any other JSON value (4.0, "4", null) as missing.
+  void whole(const Json& object, const char* key, const std::string& path) const {
+    if (!object.is_object() || !object.contains(key)) return;
+    const Json& v = object[key];
+    if (!v.is_number_unsigned())
+      damaged(fmt::format("{}.{} is {}, where glTF gives a whole number 0 or more (the reader mca uses would take it "
+                          "as missing)",
+                          path, key, v.dump()));
+  }
+  void whole_each(const Json& object, const char* key, const std::string& path) const {
+    if (!object.is_object() || !object.contains(key) || !object[key].is_array()) return;
+    const Json& a = object[key];
+    for (std::size_t k = 0; k < a.size(); ++k)
+      if (!a[k].is_number_unsigned())
+        damaged(fmt::format("{}.{}[{}] is {}, where glTF gives a whole number 0 or more", path, key, k, a[k].dump()));
+  }
+  // The array `key` of the file's top level (empty where it is not there or not an array).
+  const Json& list(const char* key) const {
+    static const Json none = Json::array();
+    return j_.contains(key) && j_[key].is_array() ? j_[key] : none;
+  }
+
+  void fields() const {
+    whole(j_, "scene", "the file's");
+    const Json& scenes = list("scenes");
+    for (std::size_t i = 0; i < scenes.size(); ++i) whole_each(scenes[i], "nodes", fmt::format("scenes[{}]", i));
+    const Json& nodes = list("nodes");
+    for (std::size_t i = 0; i < nodes.size(); ++i)
+      for (const char* key : {"mesh", "camera", "skin"}) whole(nodes[i], key, fmt::format("nodes[{}]", i));
+    const Json& meshes = list("meshes");
+    for (std::size_t m = 0; m < meshes.size(); ++m) {
+      if (!meshes[m].is_object() || !meshes[m].contains("primitives") || !meshes[m]["primitives"].is_array()) continue;
+      const Json& prims = meshes[m]["primitives"];
+      for (std::size_t p = 0; p < prims.size(); ++p) {
+        const std::string path = fmt::format("meshes[{}].primitives[{}]", m, p);
+        for (const char* key : {"indices", "material", "mode"}) whole(prims[p], key, path);
+        if (prims[p].is_object() && prims[p].contains("attributes") && prims[p]["attributes"].is_object())
+          for (const auto& [attribute, v] : prims[p]["attributes"].items())
+            whole(prims[p]["attributes"], attribute.c_str(), path + ".attributes");
+      }
+    }
+    const Json& accessors = list("accessors");
+    for (std::size_t i = 0; i < accessors.size(); ++i) {
+      const std::string path = fmt::format("accessors[{}]", i);
+      for (const char* key : {"bufferView", "byteOffset", "componentType", "count"}) whole(accessors[i], key, path);
+      if (!accessors[i].is_object() || !accessors[i].contains("sparse")) continue;
+      const Json& sparse = accessors[i]["sparse"];
+      whole(sparse, "count", path + ".sparse");
+      for (const char* part : {"indices", "values"}) {
+        if (!sparse.is_object() || !sparse.contains(part)) continue;
+        for (const char* key : {"bufferView", "byteOffset", "componentType"})
+          whole(sparse[part], key, fmt::format("{}.sparse.{}", path, part));
+      }
+    }
+    const Json& views = list("bufferViews");
+    for (std::size_t i = 0; i < views.size(); ++i)
+      for (const char* key : {"buffer", "byteOffset", "byteLength", "byteStride", "target"})
+        whole(views[i], key, fmt::format("bufferViews[{}]", i));
+    const Json& buffers = list("buffers");
+    for (std::size_t i = 0; i < buffers.size(); ++i) whole(buffers[i], "byteLength", fmt::format("buffers[{}]", i));
+  }
+
+  void extensions() const {
+    std::set<std::string> required, used;
+    for (const auto& [key, into] : {std::pair<const char*, std::set<std::string>*>{"extensionsRequired", &required},
+                                    {"extensionsUsed", &used}})
+      for (const Json& e : list(key))
+        if (e.is_string()) into->insert(e.get<std::string>());
+    for (const GeometryExtension& g : kGeometryExtensions) {
+      const bool req = required.count(g.name) > 0;
+      if (req || (g.even_if_optional && used.count(g.name)))
+        throw Error(fmt::format("{}: {} the glTF extension {}: {}", name_, req ? "requires" : "uses", g.name, g.what));
+    }
+    for (const std::string& e : required) {
+      if (appearance_only(e) || e == "KHR_draco_mesh_compression") continue;  // (Draco: assimp's own message)
+      throw Error(fmt::format("{}: requires the glTF extension {}, which the reader mca uses does not know: what it "
+                              "would read may not be the model; export it without {}",
+                              name_, e, e));
+    }
+  }
+
+  // The accessor `index` names for `what` (validated by fields: a whole number), which must be there.
+  const Json& accessor(const Json& index, const std::string& what) const {
+    const Json& accessors = list("accessors");
+    const std::uint64_t k = index.get<std::uint64_t>();
+    if (k >= accessors.size())
+      damaged(fmt::format("{} names accessors[{}], but the file has {} accessors", what, k, accessors.size()));
+    return accessors[k];
+  }
+
+  std::vector<GltfPrimitive> primitives() const {
+    std::vector<GltfPrimitive> all;
+    const Json& meshes = list("meshes");
+    for (std::size_t m = 0; m < meshes.size(); ++m) {
+      const Json& mesh = meshes[m];
+      if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array()) continue;
+      morphs(mesh, m);
+      for (std::size_t p = 0; p < mesh["primitives"].size(); ++p) {
+        const Json& prim = mesh["primitives"][p];
+        const std::string path = fmt::format("meshes[{}].primitives[{}]", m, p);
+        GltfPrimitive g{m, p, 0};
+        const std::uint64_t mode = prim.is_object() && prim.contains("mode") ? prim["mode"].get<std::uint64_t>() : 4;
+        if (mode > 6)
+          damaged(fmt::format("{}.mode is {}; glTF's modes are 0 to 6 (0 points, 1 to 3 lines, 4 triangles, 5 a "
+                              "strip, 6 a fan)",
+                              path, mode));
+        const bool indexed = prim.is_object() && prim.contains("indices");
+        std::uint64_t n = 0;
+        if (indexed) {
+          const Json& a = accessor(prim["indices"], path + ".indices");
+          const std::uint64_t type = a.value("componentType", std::uint64_t{0});
+          if (a.value("type", std::string()) != "SCALAR" || (type != 5121 && type != 5123 && type != 5125))
+            damaged(fmt::format("{}.indices names accessors[{}], of type {} and componentType {}, where indices are "
+                                "SCALAR of unsigned bytes, shorts or ints (5121, 5123, 5125)",
+                                path, prim["indices"].get<std::uint64_t>(), a.value("type", Json()).dump(),
+                                a.value("componentType", Json()).dump()));
+          n = a.value("count", std::uint64_t{0});
+        }
+        if (prim.is_object() && prim.contains("attributes") && prim["attributes"].is_object() &&
+            prim["attributes"].contains("POSITION")) {
+          const Json& a = accessor(prim["attributes"]["POSITION"], path + ".attributes.POSITION");
+          if (a.value("type", std::string()) != "VEC3" || a.value("componentType", std::uint64_t{0}) != 5126)
+            damaged(fmt::format("{}.attributes.POSITION names accessors[{}], of type {} and componentType {}, where "
+                                "positions are VEC3 of floats (5126)",
+                                path, prim["attributes"]["POSITION"].get<std::uint64_t>(),
+                                a.value("type", Json()).dump(), a.value("componentType", Json()).dump()));
+          if (!indexed) n = a.value("count", std::uint64_t{0});
+        }
+        if (mode == 4) {
+          if (n % 3 != 0)
+            damaged(fmt::format("{} lists {} {}, which is not a whole number of triangles (3 each)", path, n,
+                                indexed ? "indices" : "vertices"));
+          g.triangles = n / 3;
+        } else if (mode == 5 || mode == 6) {
+          g.triangles = n >= 3 ? n - 2 : 0;
+        }
+        all.push_back(g);
+      }
+    }
+    return all;
+  }
+
+  // A mesh whose morph targets are weighted (its own weights or a node's): assimp reads its base shape.
+  void morphs(const Json& mesh, std::size_t m) const {
+    const bool targets = std::any_of(mesh["primitives"].begin(), mesh["primitives"].end(), [](const Json& p) {
+      return p.is_object() && p.contains("targets") && p["targets"].is_array() && !p["targets"].empty();
+    });
+    if (!targets) return;
+    auto weighted = [](const Json& o) {
+      if (!o.is_object() || !o.contains("weights") || !o["weights"].is_array()) return false;
+      return std::any_of(o["weights"].begin(), o["weights"].end(),
+                         [](const Json& w) { return !w.is_number() || w.get<double>() != 0; });
+    };
+    bool by_node = false;
+    for (const Json& node : list("nodes"))
+      by_node = by_node || (node.is_object() && node.contains("mesh") && node["mesh"].get<std::uint64_t>() == m &&
+                            weighted(node));
+    if (weighted(mesh) || by_node)
+      throw Error(fmt::format("{}: meshes[{}] is shaped by its morph targets (weights not 0), which the reader mca "
+                              "uses does not apply (it reads the base shape): apply them in the program that wrote "
+                              "it (in Blender: Object > Apply > Visual Geometry to Mesh, or apply the shape keys), "
+                              "then export again",
+                              name_, m));
+  }
+
+  // The node hierarchy: children that are nodes, no cycle, at most kMaxNodeDepth levels (iteratively).
+  void hierarchy() const {
+    const Json& nodes = list("nodes");
+    const std::size_t n = nodes.size();
+    std::vector<std::vector<std::size_t>> children(n);
+    std::vector<char> is_child(n, 0);
+    for (std::size_t k = 0; k < n; ++k) {
+      if (!nodes[k].is_object() || !nodes[k].contains("children") || !nodes[k]["children"].is_array()) continue;
+      for (const auto& c : nodes[k]["children"]) {
+        if (!c.is_number_unsigned() || c.get<std::uint64_t>() >= n) {
+          throw Error(fmt::format("{}: nodes[{}] names a child {} that is not one of its {} nodes: the file is "
+                                  "damaged",
+                                  name_, k, c.dump(), n));
+        }
+        children[k].push_back(c.get<std::size_t>());
+        is_child[c.get<std::size_t>()] = 1;
+      }
+    }
+    std::vector<int> state(n, 0);  // 0 unseen, 1 on the current path, 2 done
+    std::vector<std::pair<std::size_t, std::size_t>> stack;  // node, next child to visit
+    std::size_t deepest = 0, at = 0;
+    auto walk = [&](std::size_t root) {
+      stack.push_back({root, 0});
+      state[root] = 1;
+      while (!stack.empty()) {
+        auto& [node, next] = stack.back();
+        if (stack.size() > deepest) {
+          deepest = stack.size();
+          at = node;
+        }
+        if (next == children[node].size()) {
+          state[node] = 2;
+          stack.pop_back();
+          continue;
+        }
+        const std::size_t c = children[node][next++];
+        if (state[c] == 1) {
+          throw Error(fmt::format("{}: its node hierarchy has a cycle (nodes[{}] is among its own ancestors): the "
+                                  "file is damaged",
+                                  name_, c));
+        }
+        if (state[c] == 0) {
+          state[c] = 1;
+          stack.push_back({c, 0});
+        }
+      }
+    };
+    for (std::size_t k = 0; k < n; ++k)
+      if (!is_child[k] && state[k] == 0) walk(k);
+    for (std::size_t k = 0; k < n; ++k)  // nodes only on cycles have no root
+      if (state[k] == 0) walk(k);
+    if (deepest > static_cast<std::size_t>(kMaxNodeDepth)) {
+      throw Error(fmt::format("{}: its node hierarchy is {} levels deep (down to nodes[{}]); mca reads up to {} "
+                              "levels (the reader recurses once per level): flatten it in the program that wrote it "
+                              "(in Blender: select all, Object > Parent > Clear and Keep Transformation), then export "
+                              "again",
+                              name_, deepest, at, kMaxNodeDepth));
+    }
+  }
+
+ private:
+  const Json& j_;
+  const std::string& name_;
+};
+
+// Refuses JSON nested deeper than kMaxJsonDepth (before it is parsed: the parser recurses too).
+void check_depth(std::string_view json, const std::string& name) {
+  int depth = 0;
+  bool in_string = false;
+  for (std::size_t i = 0; i < json.size(); ++i) {
+    const char c = json[i];
+    if (in_string) {
+      if (c == '\\') ++i;
+      else if (c == '"') in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > kMaxJsonDepth) {
+        throw Error(fmt::format("{}: its JSON is nested deeper than {} levels (at byte {}); a glTF exporter writes "
+                                "a few: the file is damaged or not a glTF file",
+                                name, kMaxJsonDepth, i));
+      }
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+}
+
+}  // namespace
+
+std::vector<GltfPrimitive> check_gltf_json(std::string_view json, const std::string& name) {
+  check_depth(json, name);
+  // A key given twice in one object ("mode": 1, "mode": 4): readers differ in which they take (the reader mca
+  // uses took the first, a check the last).
+  std::vector<std::set<std::string>> keys;
+  std::string twice;
+  const auto watch = [&](int, Json::parse_event_t event, Json& parsed) {
+    if (event == Json::parse_event_t::object_start) keys.emplace_back();
+    else if (event == Json::parse_event_t::object_end && !keys.empty()) keys.pop_back();
+    else if (event == Json::parse_event_t::key && !keys.empty() && twice.empty() &&
+             !keys.back().insert(parsed.get<std::string>()).second)
+      twice = parsed.get<std::string>();
+    return true;
+  };
+  const Json j = Json::parse(json, watch, false);
+  if (j.is_discarded() || !j.is_object()) return {};  // assimp says
+  if (!twice.empty()) {
+    throw Error(fmt::format("{}: its JSON gives the key \"{}\" twice in one object; readers differ in which they "
+                            "take: the file is damaged or its exporter wrote it wrong; export the model again",
+                            name, twice));
+  }
+  const Checker check(j, name);
+  check.hierarchy();
+  check.fields();
+  check.extensions();
+  return check.primitives();
+}
+
+void check_gltf_triangles(const aiScene& raw, const std::vector<GltfPrimitive>& declared, const std::string& name) {
+  if (raw.mNumMeshes != declared.size()) return;  // not one mesh a primitive: nothing to compare
+  for (std::size_t k = 0; k < declared.size(); ++k) {
+    const aiMesh& m = *raw.mMeshes[k];
+    if (m.mNumFaces >= declared[k].triangles) continue;  // (0 declared: points or lines, not compared)
+    const std::uint64_t lost = declared[k].triangles - m.mNumFaces;
+    throw Error(fmt::format("{}: {} of the {} triangles of meshes[{}].primitives[{}] {} vertices it does not have "
+                            "(it has {}): the file is damaged; export the model again",
+                            name, lost, declared[k].triangles, declared[k].mesh, declared[k].primitive,
+                            lost == 1 ? "uses" : "use", m.mNumVertices));
+  }
+}
+
+}  // namespace mca::mesh
