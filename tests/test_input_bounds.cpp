@@ -398,8 +398,9 @@ TEST(InputBounds, GltfFieldsOfTheWrongTypeAndGeometryExtensionsAreRefused) {
              "meshes[0] is shaped by its morph targets (weights not 0)");
 }
 
-// Text meshes as some editors and exporters write them: after a UTF-8 byte order mark (read), as binary OFF
-// (named so; it read "holds NUL bytes"), an OBJ numbered from 0 (named so; it read "not a vertex number").
+// Text meshes as some editors and exporters write them: after a UTF-8 byte order mark (read, at any line's
+// start; named where the reader does not take it), in UTF-16 (named), as binary OFF (named so; it read "holds
+// NUL bytes"), an OBJ numbered from 0 (named so; it read "not a vertex number").
 TEST(InputBounds, ByteOrderMarksBinaryOffAndObjNumberedFromZero) {
   mca::test::TempDir t;
   const std::string bom = "\xEF\xBB\xBF";
@@ -412,10 +413,27 @@ TEST(InputBounds, ByteOrderMarksBinaryOffAndObjNumberedFromZero) {
     const std::string marked = write_file(t.path() / fmt::format("bom.{}", ext), bom + text);
     EXPECT_EQ(error_of([&] { EXPECT_EQ(mca::mesh::read_mesh(marked).faces.size(), 12u) << ext; }), "") << ext;
   }
+  // Two such files joined end to end: the second's first line was read as an unknown keyword and left out.
+  const std::string tetra = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf -4 -2 -3\nf -4 -3 -1\nf -4 -1 -2\nf -3 -2 -1\n";
+  const mca::mesh::TriMesh two = mca::mesh::read_mesh(write_file(t.path() / "two.obj", bom + tetra + bom + tetra));
+  EXPECT_EQ(two.faces.size(), 8u);
+  EXPECT_EQ(two.vertices.size(), 4u);  // (welded: the same four)
+  // Where the reader does not take one, or the text is UTF-16, it is named.
+  EXPECT_HAS(read_error(write_file(t.path() / "bom.ply", bom + "ply\nformat ascii 1.0\n")),
+             "starts with a UTF-8 byte order mark (bytes EF BB BF), which the reader of PLY files does not take");
+  EXPECT_HAS(read_error(write_file(t.path() / "wide.off", std::string("\xFF\xFEO\0F\0F\0\n\0", 10))),
+             "is text in UTF-16");
   std::string binary = "OFF BINARY\n";
   binary += std::string(40, '\0');
   EXPECT_HAS(read_error(write_file(t.path() / "binary.off", binary)),
              "is a binary OFF file ('OFF BINARY'); mca reads OFF as text");
+  // After a comment line, in any case; a comment that says "binary" is no binary OFF.
+  EXPECT_HAS(read_error(write_file(t.path() / "binary2.off", "# exported\nOFF Binary\n" + std::string(40, '\0'))),
+             "is a binary OFF file ('OFF Binary')");
+  EXPECT_EQ(mca::mesh::read_mesh(write_file(t.path() / "comment.off", "OFF # not BINARY\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n"
+                                                                      "0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"))
+                .faces.size(),
+            4u);
   EXPECT_HAS(read_error(write_file(t.path() / "zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 0 2 1\n")),
              "line 5 ('f 0 2 1'): corner '0' is vertex 0, but an OBJ numbers its vertices from 1");
 }

@@ -668,8 +668,21 @@ void check_stl_end(std::string_view tail, const std::string& name) {
 // the file is read: a file of zeros or of another format is refused at once, whatever its size.
 void check_head(std::string_view head, std::uint64_t size, const std::string& ext, const std::string& name) {
   const bool nul = head.find('\0') != std::string_view::npos;
-  // A UTF-8 byte order mark, which some Windows editors write before text (the readers skip it too).
+  // A UTF-8 byte order mark, which some Windows editors write before text: skipped before the text formats
+  // (their readers skip it too), named before PLY and glTF, whose readers do not take it.
   const std::size_t bom = head.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0;
+  const bool text_format = ext == "off" || ext == "obj" || (ext == "stl" && !stl_binary(head, size));
+  if (bom && (ext == "ply" || ext == "gltf"))
+    throw Error(fmt::format("{}: starts with a UTF-8 byte order mark (bytes EF BB BF), which the reader of {} files "
+                            "does not take: save it without one (as \"UTF-8\", not \"UTF-8 with BOM\")",
+                            name, ext == "ply" ? "PLY" : "glTF"));
+  // Text in UTF-16 (a byte order mark FF FE or FE FF, then two bytes a character), as some Windows programs
+  // save it.
+  if ((text_format || ext == "ply" || ext == "gltf") &&
+      (head.substr(0, 2) == "\xFF\xFE" || head.substr(0, 2) == "\xFE\xFF"))
+    throw Error(fmt::format("{}: is text in UTF-16 (it starts with a UTF-16 byte order mark); mca reads it in ASCII or "
+                            "UTF-8: save it as UTF-8",
+                            name));
   auto first_word = [&](std::string_view comment) {
     std::size_t i = bom;
     for (;;) {
@@ -692,12 +705,24 @@ void check_head(std::string_view head, std::uint64_t size, const std::string& ex
     const std::string_view w = first_word("#");
     if (w.empty() ? head.size() == size : w.size() < 3 || w.substr(w.size() - 3) != "OFF")
       throw Error(fmt::format("{}: does not start with OFF: not an OFF file", name));
-    // "OFF BINARY": the binary variant, whose numbers are bytes after that line.
-    const std::string_view line = head.substr(0, head.find('\n'));
-    if (line.find("BINARY") != std::string_view::npos) {
-      throw Error(fmt::format("{}: is a binary OFF file ('{}'); mca reads OFF as text: convert it (e.g. in MeshLab: "
-                              "File > Export Mesh As, .off or .ply)",
-                              name, text::utf8_shown(line.substr(0, 40))));
+    // "OFF BINARY": the binary variant, whose numbers are bytes after that line (the key's line, its comment
+    // left out).
+    if (!w.empty()) {
+      const std::size_t from = static_cast<std::size_t>(w.data() - head.data());
+      const std::size_t end = head.find('\n', from);
+      std::string_view line = head.substr(from, end == std::string_view::npos ? end : end - from);
+      line = line.substr(0, line.find('#'));
+      std::string upper(line);
+      for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+      std::istringstream words(upper);
+      std::string word;
+      bool binary = false;
+      while (words >> word) binary = binary || word == "BINARY";
+      if (binary) {
+        throw Error(fmt::format("{}: is a binary OFF file ('{}'); mca reads OFF as text: convert it (e.g. in MeshLab: "
+                                "File > Export Mesh As, .off or .ply)",
+                                name, text::utf8_shown(line.substr(0, 40))));
+      }
     }
     if (nul) throw Error(fmt::format("{}: holds NUL bytes: not a text file, so not an OFF file", name));
   } else if (ext == "obj") {

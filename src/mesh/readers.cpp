@@ -20,9 +20,7 @@ constexpr std::uint64_t kMaxCount = 0xfffffff0ull;  // vertices and faces are ad
 // Lines of a text buffer with their numbers; comments (from `comment`) cut off, blank lines skipped.
 class Lines {
  public:
-  // (A UTF-8 byte order mark before the first line, which some Windows editors write, is skipped.)
-  Lines(std::string_view b, const std::string& name, char comment)
-      : b_(b), name_(name), comment_(comment), at_(b.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0) {}
+  Lines(std::string_view b, const std::string& name, char comment) : b_(b), name_(name), comment_(comment) {}
 
   // The next line that has a word; false at the end.
   bool next() {
@@ -35,6 +33,9 @@ class Lines {
       }
       std::string_view line = b_.substr(at_, nl - at_);
       at_ = nl + 1;
+      // A UTF-8 byte order mark, which some Windows editors write before text, at the start of a line (files
+      // joined end to end carry one each): skipped (after it the line read as an unknown keyword).
+      while (line.substr(0, 3) == "\xEF\xBB\xBF") line.remove_prefix(3);
       if (const std::size_t c = line.find(comment_); c != std::string_view::npos) line = line.substr(0, c);
       words_.clear();
       std::size_t i = 0;
