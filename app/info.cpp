@@ -51,8 +51,10 @@ void print_mesh(const MeshSummary& ms, const std::string& object, std::size_t au
     fmt::print("  automata       {}, one per triangle (fill = \"surface\"), shell {:.4g} m thick\n", automata,
                ms.shell_thickness);
     fmt::print("  links          {} across shared edges{}{}\n", ms.links,
-               ms.unlinked_edges ? fmt::format("; {} non-manifold edges left unlinked", ms.unlinked_edges) : std::string(),
-               ms.duplicate_faces ? fmt::format("; {} repeated triangles left out", ms.duplicate_faces) : std::string());
+               ms.unlinked_edges ? fmt::format("; {} left unlinked", count(ms.unlinked_edges, "non-manifold edge"))
+                                 : std::string(),
+               ms.duplicate_faces ? fmt::format("; {} left out", count(ms.duplicate_faces, "repeated triangle"))
+                                  : std::string());
     if (mass_scaling > 0) {
       fmt::print("  mass scaling   {} automata given {:.4g} kg, {:.3g} % of the shell's {:.4g} kg, to reach a critical step of "
                  "{:.4g} s ({:g} x the shell's median; solver.mass_scaling, 0 for none)\n",
@@ -65,9 +67,10 @@ void print_mesh(const MeshSummary& ms, const std::string& object, std::size_t au
     fmt::print("  automata       {} (cells inside found in {:.2f} s)\n", automata, ms.fill_seconds);
     if (ms.dropped_automata > 0) {
       fmt::print("  dropped        {} inside the mesh, in {}, that no lattice link joins to the body (the mesh is "
-                 "thinner than a cell between them; they would fall off at t = 0): the object starts as one piece per "
+                 "thinner than a cell between them; {} would fall off at t = 0): the object starts as one piece per "
                  "solid\n",
-                 count(ms.dropped_automata, "cell"), count(ms.dropped_pieces, "piece"));
+                 count(ms.dropped_automata, "cell"), count(ms.dropped_pieces, "piece"),
+                 ms.dropped_automata == 1 ? "it" : "they");
     } else {
       fmt::print("  dropped        none (every cell inside is linked to the body)\n");
     }

@@ -493,6 +493,14 @@ TEST(Cli, KeysThatDoNothingAndAdviceThatCannotBeTakenAreNamed) {
   EXPECT_NE(lidless.output.find("surface        4 boundary edges in 1 hole, 0 non-manifold edges, 0 degenerate faces"),
             std::string::npos)
       << lidless.output;
+  {
+    std::string twice = read(d / "lidless.off");
+    twice.replace(twice.find("8 10 0"), 6, "8 11 0");
+    std::ofstream(d / "lidless.off") << twice << "3 0 2 1\n";  // one triangle given twice
+  }
+  const Result repeated = run_mca("info " + (d / "lidless.toml").string());
+  ASSERT_EQ(repeated.code, 0) << repeated.output;
+  EXPECT_NE(repeated.output.find("; 1 repeated triangle left out"), std::string::npos) << repeated.output;
 
   std::ofstream(d / "speck.toml") << "[[object]]\nshape = \"box\"\nsize = [1e-12, 1e-12, 1e-12]\n";
   const Result speck = run_mca("info " + (d / "speck.toml").string());

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 #include <map>
 
+#include "core/text.hpp"
 #include "mca/error.hpp"
 
 namespace mca::lattice {
@@ -298,23 +299,23 @@ void refuse_wide_holes(const SceneDef& scene, std::size_t index, const Solid& s,
   }
   if (width < 0.1 * hole) {
     throw Error(fmt::format(
-        "{}: {} {} is open: {} boundary edges in {} hole{}, the largest {:.4g} m long but about {:.3g} m wide: a "
+        "{}: {} {} is open: {} in {}, the largest {:.4g} m long but about {:.3g} m wide: a "
         "seam whose two sides meet without sharing their vertices (a T-junction: a vertex on another triangle's "
         "edge, or vertices a hair apart), and a volume fill needs a closed surface. Weld the mesh (MeshLab: Filters "
         "> Cleaning and Repairing > Merge Close Vertices, then Remove T-Vertices; Blender: Mesh > Clean Up > Merge "
         "by Distance){}",
-        where(scene, index), what, s.file, s.topology.boundary_edges, s.topology.holes, s.topology.holes == 1 ? "" : "s",
-        hole, width,
+        where(scene, index), what, s.file, text::count(s.topology.boundary_edges, "boundary edge"),
+        text::count(s.topology.holes, "hole"), hole, width,
         region ? "" : ", or fill = \"surface\" for a shell of one automaton per triangle, which needs no closed surface"));
   }
   const bool target = scene.solver.target_automata > 0;
   throw Error(fmt::format(
-      "{}: {} {} is open: {} boundary edges in {} hole{}, the largest {:.4g} m across ({:.3g} cells at spacing {:.4g} m), "
+      "{}: {} {} is open: {} in {}, the largest {:.4g} m across ({:.3g} cells at spacing {:.4g} m), "
       "and a volume fill needs a closed surface (holes under about a cell are closed). Repair the mesh (MeshLab: "
       "Filters > Remeshing > Close Holes; Blender: Mesh > Clean Up > Fill Holes), use a coarser spacing (above "
       "{:.3g} m{}){}",
-      where(scene, index), what, s.file, s.topology.boundary_edges, s.topology.holes, s.topology.holes == 1 ? "" : "s",
-      hole, hole / d, d, hole / 1.5, target ? ": a smaller solver.target_automata" : ": solver.spacing",
+      where(scene, index), what, s.file, text::count(s.topology.boundary_edges, "boundary edge"),
+      text::count(s.topology.holes, "hole"), hole, hole / d, d, hole / 1.5, target ? ": a smaller solver.target_automata" : ": solver.spacing",
       region ? "" : ", or fill = \"surface\" for a shell of one automaton per triangle, which needs no closed surface"));
 }
 

@@ -469,9 +469,11 @@ TriMesh finish(TriMesh m, const std::string& name, std::size_t points) {
   double far = 0;
   for (int a = 0; a < 3; ++a) far = std::max({far, std::fabs(b.lo[a]), std::fabs(b.hi[a])});
   if (b.largest_extent() == 0) {
-    throw Error(fmt::format("{}: all its {} vertices lie at one point ({:.6g}, {:.6g}, {:.6g}): the file holds no "
-                            "surface; export the model again",
-                            name, m.vertices.size(), b.lo[0], b.lo[1], b.lo[2]));
+    throw Error(fmt::format("{}: {} at one point ({:.6g}, {:.6g}, {:.6g}): the file holds no surface; export the "
+                            "model again",
+                            name, m.vertices.size() == 1 ? std::string("its one vertex lies")
+                                                         : fmt::format("all its {} vertices lie", m.vertices.size()),
+                            b.lo[0], b.lo[1], b.lo[2]));
   }
   // Areas and volumes are squares and cubes of the coordinates, and an area's test squares its edges'
   // products: beyond 1e75 (or a model under 1e-75 across) they leave a double, and every triangle would read
