@@ -103,10 +103,15 @@ std::string step_note(const Model& m) {
                      m.critical_dt, m.dt_limited_by, ratio, m.objects_critical_dt);
 }
 
-std::string surface_format_note(const OutputDef& o) {
+std::string surface_format_note(const SceneDef& scene) {
+  const OutputDef& o = scene.output;
   if (o.surface || o.surface_format != OutputDef::SurfaceFormat::obj) return "";
-  return "output.surface_format = \"obj\" writes nothing: output.surface is false (set surface = true to write the "
-         "mesh objects' triangles each frame)";
+  const bool mesh = std::any_of(scene.objects.begin(), scene.objects.end(),
+                                [](const ObjectDef& ob) { return ob.shape == Shape::mesh; });
+  return mesh ? "output.surface_format = \"obj\" writes nothing: output.surface is false (set surface = true to write "
+                "the mesh objects' triangles each frame)"
+              : "output.surface_format = \"obj\" writes nothing: the surface outputs are the triangles of mesh "
+                "objects, and the scene has none";
 }
 
 std::vector<std::string> scene_notes(const Model& m, const SceneDef& scene) {
@@ -114,7 +119,7 @@ std::vector<std::string> scene_notes(const Model& m, const SceneDef& scene) {
   if (std::string n = far_out_note(m, scene); !n.empty()) notes.push_back(std::move(n));
   for (std::string& n : mesh_mass_notes(m)) notes.push_back(std::move(n));
   if (std::string n = step_note(m); !n.empty()) notes.push_back(std::move(n));
-  if (std::string n = surface_format_note(scene.output); !n.empty()) notes.push_back(std::move(n));
+  if (std::string n = surface_format_note(scene); !n.empty()) notes.push_back(std::move(n));
   return notes;
 }
 

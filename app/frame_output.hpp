@@ -61,9 +61,10 @@ std::vector<std::string> mesh_mass_notes(const Model& model);
 // A note where a projectile sets a critical step ten times or more shorter than the objects' own (a ball
 // of 1 um beside a wall: 95 million steps for 10 ms); "" otherwise.
 std::string step_note(const Model& model);
-// A note where output.surface_format is "obj" but output.surface is false, so that nothing is written in
-// it; "" otherwise (the default "ply" cannot be told from one given).
-std::string surface_format_note(const OutputDef& output);
+// A note where output.surface_format is "obj" but output.surface is false (or the scene has no mesh object
+// whose surface it could write), so that nothing is written in it; "" otherwise (the default "ply" cannot
+// be told from one given).
+std::string surface_format_note(const SceneDef& scene);
 // Every note above that applies, in the order mca info and mca run print them.
 std::vector<std::string> scene_notes(const Model& model, const SceneDef& scene);
 // The lattice of the model's volume fills: "random", "cubic", or "" when every object is in surface mode;

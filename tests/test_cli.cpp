@@ -459,8 +459,8 @@ TEST(Cli, KeysThatDoNothingAndAdviceThatCannotBeTakenAreNamed) {
   std::ofstream(d / "obj.toml") << "[output]\nsurface_format = \"obj\"\nvtk = false\n" << box;
   const Result info = run_mca("info " + (d / "obj.toml").string());
   ASSERT_EQ(info.code, 0) << info.output;
-  EXPECT_NE(info.output.find("note             output.surface_format = \"obj\" writes nothing: output.surface is "
-                             "false"),
+  EXPECT_NE(info.output.find("note             output.surface_format = \"obj\" writes nothing: the surface outputs "
+                             "are the triangles of mesh objects, and the scene has none"),
             std::string::npos)
       << info.output;
   const Result json = run_mca("info " + (d / "obj.toml").string() + " --json");
@@ -501,6 +501,14 @@ TEST(Cli, KeysThatDoNothingAndAdviceThatCannotBeTakenAreNamed) {
   const Result repeated = run_mca("info " + (d / "lidless.toml").string());
   ASSERT_EQ(repeated.code, 0) << repeated.output;
   EXPECT_NE(repeated.output.find("; 1 repeated triangle left out"), std::string::npos) << repeated.output;
+  // With a mesh object, the note says which key writes its surface.
+  std::ofstream(d / "lidless_obj.toml") << "[output]\nsurface_format = \"obj\"\n" << read(d / "lidless.toml");
+  const Result obj_mesh = run_mca("info " + (d / "lidless_obj.toml").string());
+  ASSERT_EQ(obj_mesh.code, 0) << obj_mesh.output;
+  EXPECT_NE(obj_mesh.output.find("output.surface_format = \"obj\" writes nothing: output.surface is false (set "
+                                 "surface = true"),
+            std::string::npos)
+      << obj_mesh.output;
 
   std::ofstream(d / "speck.toml") << "[[object]]\nshape = \"box\"\nsize = [1e-12, 1e-12, 1e-12]\n";
   const Result speck = run_mca("info " + (d / "speck.toml").string());
