@@ -398,6 +398,26 @@ TEST(InputBounds, GltfFieldsOfTheWrongTypeAndGeometryExtensionsAreRefused) {
              "meshes[0] is shaped by its morph targets (weights not 0)");
 }
 
+// A model far from its file's origin, rounded away: the message names the file's own precision (it named
+// single precision for every format, text too), and a text file that wrote too few digits gets the hint
+// when it reads as flat.
+TEST(InputBounds, AFarModelRoundedAwayIsToldByItsFilesPrecision) {
+  mca::test::TempDir t;
+  // A tetrahedron 1 across at 1e15 in text: the digits are there, but a double at 1e15 steps by 0.125, and
+  // the corners' area test sees none. (Files of floats far out are refused before, by the rounding of their
+  // corners against the spacing.)
+  const std::string off = "OFF\n4 4 0\n1e15 0 0\n1.0000000000000001e15 0 0\n1e15 1 0\n1e15 0 1\n"
+                          "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+  EXPECT_HAS(read_error(write_file(t.path() / "far.off", off)), "rounded to the digits the file writes (16 at most count)");
+  // Seven digits written at 1e6 for a model 1 mm across: flat along x, with the hint.
+  const std::string seven = "OFF\n4 4 0\n1000000 0 0\n1000000 0.001 0\n1000000 0 0.001\n1000000 0.001 0.001\n"
+                            "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+  mca::SceneDef s = mesh_scene(write_file(t.path() / "seven.off", seven), 1e-4);
+  EXPECT_HAS(error_of([&] { mca::lattice::build_model(s); }),
+             "Its coordinates reach 1e+06 for a model 0.001 across: if it is not flat, the digits the file writes do "
+             "not tell its corners apart that far out");
+}
+
 // Text meshes as some editors and exporters write them: after a UTF-8 byte order mark (read, at any line's
 // start; named where the reader does not take it), in UTF-16 (named), as binary OFF (named so; it read "holds
 // NUL bytes"), an OBJ numbered from 0 (named so; it read "not a vertex number").

@@ -372,10 +372,17 @@ MeshObject prepare_mesh_object(const SceneDef& scene, std::size_t index) {
       // A float file far out: the extent may be rounding's, not the model's (a ball 1 m across at 1e12 was
       // called flat along x, where a float steps by 65,536).
       refuse_float32_rounding(scene, index, m, largest * m.scale, "model's size");
+      // (A text file far out may have written too few digits to tell its corners apart.)
       throw Error(fmt::format("{}: the mesh {} is flat: its extent along {} is {:g} (the box is {} in the file's "
                               "units), a surface with no inside to fill with automata; give a closed solid, or "
-                              "fill = \"surface\" for one automaton per triangle",
-                              where(scene, index), o.mesh, "xyz"[a], e[a], extent_text(e, "")));
+                              "fill = \"surface\" for one automaton per triangle{}",
+                              where(scene, index), o.mesh, "xyz"[a], e[a], extent_text(e, ""),
+                              m.file_reach > 1e4 * largest
+                                  ? fmt::format(". Its coordinates reach {:.3g} for a model {:.3g} across: if it is not "
+                                                "flat, the digits the file writes do not tell its corners apart that "
+                                                "far out; move it to the origin in the file",
+                                                m.file_reach, largest)
+                                  : std::string()));
     }
   }
   if (!std::isfinite(largest * m.scale) || largest * m.scale > 1e7) {

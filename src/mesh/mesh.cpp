@@ -446,7 +446,11 @@ void weld(TriMesh& m) {
 
 // What every reader's mesh goes through: finite coordinates, identical vertices welded, some triangle
 // that is not degenerate. `points`: elements of fewer than three corners the reader left out.
-TriMesh finish(TriMesh m, const std::string& name, std::size_t points) {
+// `precision`: to what the file rounds its coordinates, for a message (kSingle, kDouble, kText).
+constexpr const char* kSingle = "the 7 digits of the file's single precision";
+constexpr const char* kDouble = "the 16 digits of the file's double precision";
+constexpr const char* kText = "the digits the file writes (16 at most count)";
+TriMesh finish(TriMesh m, const std::string& name, std::size_t points, const char* precision) {
   for (std::size_t v = 0; v < m.vertices.size(); ++v) {
     const Point& p = m.vertices[v];
     if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
@@ -491,10 +495,9 @@ TriMesh finish(TriMesh m, const std::string& name, std::size_t points) {
                             name, m.faces.size(),
                             far > 1e4 * b.largest_extent()
                                 ? fmt::format(" (its coordinates reach {:.3g} for a model {:.3g} across: coordinates "
-                                              "that far out, rounded to the file's precision (about 7 digits in an STL, a "
-                                              "glTF or a PLY of floats; 16 in a text format or a PLY of doubles), "
-                                              "cannot tell its corners apart; move it to the origin in the file)",
-                                              far, b.largest_extent())
+                                              "that far out, rounded to {}, cannot tell its corners apart; move it "
+                                              "to the origin in the file)",
+                                              far, b.largest_extent(), precision)
                                 : std::string()));
   }
   return m;
@@ -528,7 +531,7 @@ TriMesh convert(const aiScene* scene, const std::string& name) {
       m.faces.push_back(t);
     }
   }
-  return finish(std::move(m), name, points);
+  return finish(std::move(m), name, points, kSingle);  // (assimp's formats here store float32)
 }
 
 [[noreturn]] void fail_import(const Assimp::Importer& importer, const std::string& name, const std::string& ext) {
@@ -785,7 +788,8 @@ TriMesh import(const std::string& name, const std::string& ext, const std::strin
     }
     detail::ReadResult r = ext == "off" ? detail::read_off(b, name, check) : ext == "obj" ? detail::read_obj(b, name)
                                                                                    : detail::read_ply(b, name);
-    return finish(std::move(r.mesh), name, r.points_and_lines);
+    return finish(std::move(r.mesh), name, r.points_and_lines,
+                  ext != "ply" ? kText : r.float32 ? kSingle : kDouble);
   }
   return import_assimp(name, ext, bytes, path, max_bytes);
 }

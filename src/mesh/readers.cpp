@@ -400,6 +400,8 @@ ReadResult read_ply(std::string_view bytes, const std::string& name) {
     if (is_vertex && (axis[0] < 0 || axis[1] < 0 || axis[2] < 0)) {
       throw Error(fmt::format("{}: the PLY vertex element has no x, y and z properties", name));
     }
+    if (is_vertex)
+      r.float32 = std::any_of(axis, axis + 3, [&](int a) { return e.properties[static_cast<std::size_t>(a)].item == Type::f32; });
     if (is_vertex) m.vertices.reserve(e.count);
     if (is_face) m.faces.reserve(e.count);
     for (std::uint64_t i = 0; i < e.count; ++i) {

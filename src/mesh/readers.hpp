@@ -17,6 +17,7 @@ namespace mca::mesh::detail {
 struct ReadResult {
   TriMesh mesh;
   std::size_t points_and_lines = 0;  // elements of fewer than three corners (left out)
+  bool float32 = false;              // the file stores its coordinates in single precision (a PLY of floats)
 };
 
 // OFF, COFF, NOFF, CNOFF, STOFF (the corners' colours, normals and texture coordinates are skipped).
