@@ -513,16 +513,59 @@ TEST(Cli, KeysThatDoNothingAndAdviceThatCannotBeTakenAreNamed) {
   std::ofstream(d / "speck.toml") << "[[object]]\nshape = \"box\"\nsize = [1e-12, 1e-12, 1e-12]\n";
   const Result speck = run_mca("info " + (d / "speck.toml").string());
   EXPECT_EQ(speck.code, 2) << speck.output;
-  EXPECT_NE(speck.output.find("no spacing solver.spacing may be (1e-09 m at least) fits it: make the object larger"),
+  EXPECT_NE(speck.output.find("no spacing fits it: the least spacing this scene's materials take (1.17e-08 m: below "
+                              "it an automaton's mass or moment of inertia, rho d^5 / 6, leaves the range of float32"),
             std::string::npos)
       << speck.output;
+  EXPECT_NE(speck.output.find("is more than twice its size; make the object larger"), std::string::npos) << speck.output;
   std::ofstream(d / "grain.toml") << "[[object]]\nshape = \"box\"\nsize = [1e-8, 1e-8, 1e-8]\n";
   const Result grain = run_mca("info " + (d / "grain.toml").string());
   EXPECT_EQ(grain.code, 2) << grain.output;
-  EXPECT_NE(grain.output.find("decrease solver.spacing (to 1e-08 m or less; 10,000 automata would take a spacing of "
-                              "4.64e-10 m, less than solver.spacing may be (1e-09 m): scale the objects up"),
+  EXPECT_NE(grain.output.find("decrease solver.spacing (to 1.17e-08 m; 10,000 automata would take a spacing of "
+                              "4.64e-10 m, less than the least spacing this scene's materials take (1.17e-08 m"),
             std::string::npos)
       << grain.output;
+  EXPECT_NE(grain.output.find("scale the objects up (object.scale or fit_size for a mesh, the sizes of a shape)"),
+            std::string::npos)
+      << grain.output;
+  // The spacing it names is one the scene takes: followed, the box builds.
+  std::ofstream(d / "grain_followed.toml") << "[solver]\nspacing = 1.17e-8\n"
+                                           << "[[object]]\nshape = \"box\"\nsize = [1e-8, 1e-8, 1e-8]\n";
+  const Result followed = run_mca("info " + (d / "grain_followed.toml").string());
+  EXPECT_EQ(followed.output.find("float32"), std::string::npos) << followed.output;
+  EXPECT_EQ(followed.output.find("half the spacing"), std::string::npos) << followed.output;
+  // A target that would take a spacing past them is named so, with the count that fits, which builds.
+  std::ofstream(d / "far_target.toml") << "[solver]\ntarget_automata = 1000000\n[[object]]\nshape = \"sphere\"\n"
+                                          "radius = 1.5e-7\n";
+  const Result target = run_mca("info " + (d / "far_target.toml").string());
+  EXPECT_EQ(target.code, 2) << target.output;
+  EXPECT_NE(target.output.find("solver.target_automata = 1000000 takes a spacing of "), std::string::npos) << target.output;
+  EXPECT_NE(target.output.find(" m, less than the least spacing this scene's materials take (1.17e-08 m"),
+            std::string::npos)
+      << target.output;
+  const std::size_t at = target.output.find("or ask for fewer automata (about ");
+  ASSERT_NE(at, std::string::npos) << target.output;
+  const long fewer = std::lround(std::stod(target.output.substr(at + 33)));
+  std::ofstream(d / "far_target.toml") << "[solver]\ntarget_automata = " << fewer << "\n[[object]]\nshape = \"sphere\"\n"
+                                          "radius = 1.5e-7\n[output]\nframe_rate = 1e7\nduration = 1e-7\n";
+  const Result fewer_run = run_mca("info " + (d / "far_target.toml").string());
+  EXPECT_EQ(fewer_run.code, 0) << fewer_run.output;
+  // Too large for memory at any spacing the materials take: no spacing, and no memory, is advised.
+  std::ofstream(d / "huge.toml") << "[[object]]\nshape = \"box\"\nsize = [1e12, 1e12, 1e12]\n";
+  const Result huge = run_mca("info " + (d / "huge.toml").string());
+  EXPECT_EQ(huge.code, 2) << huge.output;
+  EXPECT_NE(huge.output.find("no spacing makes it fit: it would take 5.79e+09 m, more than the largest spacing this "
+                             "scene's materials take (1.15e+07 m"),
+            std::string::npos)
+      << huge.output;
+  EXPECT_EQ(huge.output.find("raise solver.max_memory_gb"), std::string::npos) << huge.output;
+  // A spacing past them given as such: the float32 refusal names the range of the material's density.
+  std::ofstream(d / "coarse.toml") << "[solver]\nspacing = 2e7\n[[object]]\nshape = \"box\"\n"
+                                      "size = [1e8, 1e8, 1e8]\n";
+  const Result coarse = run_mca("info " + (d / "coarse.toml").string());
+  EXPECT_EQ(coarse.code, 2) << coarse.output;
+  EXPECT_NE(coarse.output.find("at this density the spacing must lie from 1.17e-08 to 1.15e+07 m"), std::string::npos)
+      << coarse.output;
 }
 
 TEST(Cli, BadInputFailsWithAClearMessage) {

@@ -160,12 +160,18 @@ const MeshFillResult& mesh_fill(const SceneDef& scene, const Shapes& S, std::siz
     const MemoryLimit limit = memory_limit(scene);
     if (cells * per_cell > limit.bytes) {
       const double solid = S.of(oi)->volume() / (d * d * d);
+      const double fits = d * std::cbrt(cells * per_cell / limit.bytes) * 1.05;
+      const SpacingRange range = spacing_range(scene);
       throw Error(fmt::format(
           "{}: object[{}] '{}': its bounding box holds {} x {} x {} cells at spacing {:.4g} m ({:.3g} GB at {:g} bytes "
-          "per cell while its lattice is built), {}; increase solver.spacing (a spacing of about {:.3g} m fits) or "
-          "{}{}",
+          "per cell while its lattice is built), {}; {} or {}{}",
           scene.source, oi, scene.objects[oi].name, box.n[0], box.n[1], box.n[2], d, cells * per_cell / 1e9, per_cell,
-          limit.over, d * std::cbrt(cells * per_cell / limit.bytes) * 1.05, limit.instead,
+          limit.over,
+          fits > range.hi ? fmt::format("no spacing makes it fit (it would take {:.3g} m, more than {}): scale the "
+                                        "mesh down",
+                                        fits, spacing_bound(range, false))
+                          : fmt::format("increase solver.spacing (a spacing of about {:.3g} m fits)", fits),
+          limit.instead,
           solid < 0.01 * cells
               ? fmt::format(". The mesh fills {:.2g} % of its box: if it is made of parts far apart, give each part an "
                             "object of its own",
@@ -422,7 +428,7 @@ double shapes_volume(const SceneDef& scene, const Shapes& S) {
 
 // The spacing that gives about 10,000 automata, for messages about scenes far too coarse or too fine.
 std::string ten_thousand_hint(const SceneDef& scene, const Shapes& S) {
-  return ten_thousand_spacing(shapes_volume(scene, S));
+  return ten_thousand_spacing(shapes_volume(scene, S), spacing_range(scene));
 }
 
 // The memory a run holds per automaton of the scene's lattice: with the random lattice's explicit links
@@ -444,6 +450,9 @@ double spacing_that_fits(double d, double automata, bool approximate, double lim
 // solver.target_automata chooses the spacing, a lower target (the count falls with the cube of the spacing).
 // `automata` is the count spacing_that_fits took (twice a lower bound from the volume).
 std::string smaller_model(const SceneDef& scene, double d, double automata, double fits) {
+  if (const SpacingRange range = spacing_range(scene); fits > range.hi)
+    return fmt::format("no spacing makes it fit: it would take {:.3g} m, more than {}; scale the objects down",
+                       fits, spacing_bound(range, false));
   if (scene.solver.target_automata > 0)
     return fmt::format("lower solver.target_automata (about {:.3g} fits)", automata * std::pow(d / fits, 3.0));
   return fmt::format("increase solver.spacing (memory falls with its cube: a spacing of about {:.3g} m fits)", fits);
@@ -488,8 +497,10 @@ void refuse_over_memory(const SceneDef& scene, double d, double automata, bool a
   const MemoryLimit cap = memory_limit(scene);
   if (bytes > cap.bytes) {
     const auto [count, fix] = over(cap.bytes);
-    throw Error(fmt::format("{}: the scene needs {:.3g} GB for {}, {}; {} or {}", scene.source, bytes / 1e9, count,
-                            cap.over, fix, cap.instead));
+    // (Where no spacing fits, more memory would not either.)
+    const bool none = fix.rfind("no spacing", 0) == 0;
+    throw Error(fmt::format("{}: the scene needs {:.3g} GB for {}, {}; {}{}", scene.source, bytes / 1e9, count,
+                            cap.over, fix, none ? std::string() : " or " + cap.instead));
   }
 }
 
@@ -1186,6 +1197,22 @@ double spacing_for_target(const SceneDef& scene, const Shapes& S, std::int64_t t
       else hi = mid;
     }
   }
+  // A spacing the materials' float32 numbers do not take (an object of 1e-13 m, of 1e9 m): the model could
+  // not be built at any count near the target.
+  if (const SpacingRange range = spacing_range(scene); best_d < range.lo || best_d > range.hi) {
+    const bool small = best_d < range.lo;
+    // The count at that bound, where a model can have it, 10 % inside it (lattice counts step with the spacing).
+    const double at_bound =
+        (small ? 0.9 : 1.1) * static_cast<double>(target) * std::pow(best_d / (small ? range.lo : range.hi), 3.0);
+    throw Error(fmt::format("{}: solver.target_automata = {} takes a spacing of {:.3g} m, {} than {}: scale the "
+                            "objects {} (object.scale or fit_size for a mesh, the sizes of a shape){}",
+                            scene.source, target, best_d, small ? "less" : "more", spacing_bound(range, small),
+                            small ? "up" : "down",
+                            at_bound >= 1 && at_bound <= 1.8e8
+                                ? fmt::format(", or ask for {} automata (about {:.3g} at that spacing)",
+                                              small ? "fewer" : "more", at_bound)
+                                : std::string()));
+  }
   if (static_cast<double>(std::llabs(best_n - target)) > 0.02 * static_cast<double>(target)) {
     throw Error(fmt::format(
         "{}: solver.target_automata = {} cannot be met within 2 %: the closest count is {} (spacing {:.6g} m), "
@@ -1212,6 +1239,57 @@ double spacing_for_target(const SceneDef& scene, std::int64_t target) {
 }
 
 double scene_spacing(const SceneDef& scene) { return scene_spacing(scene, prepare_shapes(scene)); }
+
+SpacingRange spacing_range(double density) {
+  SpacingRange r;
+  constexpr double kMin = std::numeric_limits<float>::min(), kMax = std::numeric_limits<float>::max();
+  if (!(density > 0)) return r;
+  // (With room for the random lattice's cells, whose volumes spread about d^3: 1.5 times the least spacing,
+  // 0.75 times the largest, a factor of 7.6 and 0.24 in rho d^5.)
+  const double lo = 1.5 * std::max(std::pow(6 * kMin / density, 0.2), std::cbrt(kMin / density));
+  const double hi = 0.75 * std::min(std::pow(6 * kMax / density, 0.2), std::cbrt(kMax / density));
+  if (lo > r.lo) r = {lo, r.hi, true, false};
+  if (hi < r.hi) {
+    r.hi = hi;
+    r.hi_float32 = true;
+  }
+  return r;
+}
+
+SpacingRange spacing_range(const SceneDef& scene) {
+  SpacingRange r;
+  const auto narrow = [&](const std::string& material, const std::string& key) {
+    const SpacingRange m = spacing_range(resolve_material(scene, material, key).density);
+    if (m.lo > r.lo) r.lo = m.lo, r.lo_float32 = m.lo_float32;
+    if (m.hi < r.hi) r.hi = m.hi, r.hi_float32 = m.hi_float32;
+  };
+  for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) {
+    const ObjectDef& o = scene.objects[oi];
+    if (o.shape == Shape::mesh && o.fill == MeshFill::surface) continue;  // (no lattice automata)
+    const std::string key = fmt::format("object[{}].material", oi);
+    narrow(o.material, key);
+    for (std::size_t k = 0; k < o.regions.size(); ++k)
+      if (!o.regions[k].material.empty()) narrow(o.regions[k].material, fmt::format("object[{}].region[{}].material", oi, k));
+  }
+  return r;
+}
+
+std::string spacing_bound(const SpacingRange& r, bool least) {
+  if (!(least ? r.lo_float32 : r.hi_float32))
+    return fmt::format("the {} solver.spacing may be ({:g} m)", least ? "least" : "largest", least ? r.lo : r.hi);
+  return fmt::format("the {} spacing this scene's materials take ({:.3g} m: {} it an automaton's mass or moment of "
+                     "inertia, rho d^5 / 6, leaves the range of float32, the solver's arithmetic)",
+                     least ? "least" : "largest", least ? r.lo : r.hi, least ? "below" : "above");
+}
+
+std::string ten_thousand_spacing(double volume, const SpacingRange& range) {
+  const double s = std::cbrt(std::max(volume, 1e-300) / 1e4);
+  if (s >= range.lo && s <= range.hi) return fmt::format("about {:.3g} m gives 10,000 automata", s);
+  const bool small = s < range.lo;
+  return fmt::format("10,000 automata would take a spacing of {:.3g} m, {} than {}: scale the objects {} "
+                     "(object.scale or fit_size for a mesh, the sizes of a shape)",
+                     s, small ? "less" : "more", spacing_bound(range, small), small ? "up" : "down");
+}
 
 namespace {
 
@@ -1241,18 +1319,19 @@ std::int64_t checked_automata_count(const SceneDef& scene, const Shapes& S, doub
       if (ext[a] < 0.5 * d * (1 - 1e-6)) {
         const text::Distinct hd = text::distinct(ext[a], 0.5 * d);
         // A spacing of ext or less fits (of 2 ext or less, at most half a cell); none does below half the least.
-        const double fits = std::max(ext[a], SolverDef::kMinSpacing);
+        const SpacingRange range = spacing_range(scene);
+        const double fits = std::max(ext[a], range.lo);
         std::string fix;
-        if (ext[a] < 0.5 * SolverDef::kMinSpacing)
-          fix = fmt::format("no spacing solver.spacing may be ({:g} m at least) fits it: make the object larger",
-                            SolverDef::kMinSpacing);
+        if (ext[a] < 0.5 * range.lo)
+          fix = fmt::format("no spacing fits it: {} is more than twice its size; make the object larger",
+                            spacing_bound(range, true));
         else if (scene.solver.target_automata > 0)
           fix = fmt::format("raise solver.target_automata (it sets the spacing; about {:.3g} gives {:.3g} m) or make "
                             "the object larger",
                             scene.solver.target_automata * std::pow(d / fits, 3.0), fits);
         else
           fix = fmt::format("decrease solver.spacing (to {:.3g} m{}; {}) or make the object larger", fits,
-                            fits > SolverDef::kMinSpacing ? " or less" : "", ten_thousand_hint(scene, S));
+                            fits > range.lo ? " or less" : "", ten_thousand_hint(scene, S));
         throw Error(fmt::format("{}: object[{}] '{}' is {:.4g} x {:.4g} x {:.4g} m, {} m along its local {}, less than "
                                 "half the spacing {:.4g} m ({} m): its lattice would be a cell of {:.4g} m there; {}",
                                 scene.source, oi, scene.objects[oi].name, ext[0], ext[1], ext[2], hd.a, "xyz"[a], d,
@@ -1289,7 +1368,10 @@ class GroupTable {
     const int idx = static_cast<int>(M.groups.size());
     M.groups.push_back(group_params(scene, m, key, class_factors_, automata));
     const double mass = m.density * d * d * d;
-    const std::string fix = fmt::format("check the density (kg/m^3) and solver.spacing ({:g} m)", d);
+    const SpacingRange range = spacing_range(m.density);
+    const std::string fix = fmt::format("check the density (kg/m^3) and solver.spacing ({:g} m): at this density the "
+                                        "spacing must lie from {:.3g} to {:.3g} m",
+                                        d, range.lo, range.hi);
     if (automata) {
       as_float32(scene, fmt::format("the mass of an automaton of material \"{}\"", name), mass, fix);
       as_float32(scene, fmt::format("the moment of inertia of an automaton of material \"{}\"", name), mass * d * d / 6,
@@ -1352,10 +1434,11 @@ void link_random(Model& M, const SceneDef& scene, std::size_t oi, std::size_t fi
   for (std::size_t k = 0; k < count; ++k) {
     const std::size_t a = first + k;
     const double volume = v.volume[k];
-    const std::string what = fmt::format("the mass of automaton {} of object '{}'", k, o.name);
-    M.mass[a] = as_float32(scene, what, M.groups[M.group[a]].density * volume, fix);
+    M.mass[a] = as_float32(scene, fmt::format("the mass of automaton {} of object '{}'", k, o.name),
+                           M.groups[M.group[a]].density * volume, fix);
     const double side = std::cbrt(volume);
-    M.inertia[a] = as_float32(scene, what, M.mass[a] * side * side / 6.0, fix);  // a cube of its volume
+    M.inertia[a] = as_float32(scene, fmt::format("the moment of inertia of automaton {} of object '{}'", k, o.name),
+                              M.mass[a] * side * side / 6.0, fix);  // a cube of its volume
     M.volume[a] = static_cast<float>(volume);
     M.boxed.push_back(v.interior[k] && rs.deep[k]);
     M.free_face.push_back(static_cast<float>(v.free_face[k]));

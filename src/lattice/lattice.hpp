@@ -20,6 +20,22 @@ double spacing_for_target(const SceneDef& scene, std::int64_t target);
 // The spacing a scene asks for (target_automata wins over spacing when given).
 double scene_spacing(const SceneDef& scene);
 
+// The spacings a scene's lattice can take: solver.spacing's range (SolverDef::kMinSpacing..kMaxSpacing),
+// narrowed so that an automaton's mass (rho d^3) and moment of inertia (rho d^5 / 6) are normal float32
+// numbers for every material that fills lattice automata (with room for the random lattice's cells, larger
+// and smaller than d^3), for advice that can be followed. For concrete (2,400 kg/m^3): 1.2e-8 to 1.1e7 m.
+struct SpacingRange {
+  double lo = SolverDef::kMinSpacing, hi = SolverDef::kMaxSpacing;
+  bool lo_float32 = false, hi_float32 = false;  // whether float32 sets the bound (else solver.spacing's range)
+};
+SpacingRange spacing_range(const SceneDef& scene);
+SpacingRange spacing_range(double density);
+// "the least spacing (7.9e-09 m: ...)" for a message: the bound and what sets it.
+std::string spacing_bound(const SpacingRange& r, bool least);
+// For messages: "about S m gives 10,000 automata" for objects of `volume` m^3 (S = cbrt(volume / 1e4)),
+// or, where S lies outside `range`, that no spacing does and the objects must be scaled.
+std::string ten_thousand_spacing(double volume, const SpacingRange& range);
+
 // The memory a run of `scene` may take (mca::memory_limit of its solver.max_memory_gb).
 using mca::MemoryLimit;
 MemoryLimit memory_limit(const SceneDef& scene);

@@ -1,5 +1,7 @@
 #include "lattice/mesh_object.hpp"
 
+#include "lattice/lattice.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -342,17 +344,6 @@ void refuse_float32_rounding(const SceneDef& scene, std::size_t index, const Mes
 
 }  // namespace
 
-std::string ten_thousand_spacing(double volume) {
-  const double s = std::cbrt(std::max(volume, 1e-300) / 1e4);
-  if (s >= SolverDef::kMinSpacing && s <= SolverDef::kMaxSpacing)
-    return fmt::format("about {:.3g} m gives 10,000 automata", s);
-  const bool small = s < SolverDef::kMinSpacing;
-  return fmt::format("10,000 automata would take a spacing of {:.3g} m, {} than solver.spacing may be ({:g} m): scale "
-                     "the objects {} (object.scale or fit_size for a mesh, the sizes of a shape)",
-                     s, small ? "less" : "more", small ? SolverDef::kMinSpacing : SolverDef::kMaxSpacing,
-                     small ? "up" : "down");
-}
-
 MeshObject prepare_mesh_object(const SceneDef& scene, std::size_t index) {
   const ObjectDef& o = scene.objects[index];
   const std::string key = fmt::format("object[{}].mesh", index);
@@ -428,7 +419,7 @@ MeshFillResult fill_mesh_object(const SceneDef& scene, std::size_t index, const 
     throw Error(fmt::format("{}: the mesh {} ({:.4g} x {:.4g} x {:.4g} m after scaling, {:.4g} m^3) holds no lattice "
                             "cell at spacing {:.4g} m; decrease solver.spacing ({}) or scale the mesh up",
                             where(scene, index), m.solid.file, m.extent(0), m.extent(1), m.extent(2), m.volume(), d,
-                            ten_thousand_spacing(m.volume())));
+                            ten_thousand_spacing(m.volume(), spacing_range(scene))));
   }
   // A surface whose sign cannot be told (crossing shells, open seams) fills far less or more than it
   // encloses; the enclosed volume is exact for manifold shells only.

@@ -46,10 +46,6 @@ struct MeshObject {
 // the scene, the object and the file: unreadable, empty or flat meshes.
 MeshObject prepare_mesh_object(const SceneDef& scene, std::size_t index);
 
-// For messages: "about S m gives 10,000 automata" for objects of `volume` m^3 (S = cbrt(volume / 1e4)),
-// or, where S lies outside the spacings a scene may give (SolverDef::kMinSpacing..kMaxSpacing), that no
-// spacing does and the objects must be scaled.
-std::string ten_thousand_spacing(double volume);
 
 // The cells of `box` (object frame) inside the object's mesh, and per mesh region the cells inside the
 // region's mesh (empty for other regions). Throws mca::Error for an open mesh whose holes are wider than a
