@@ -68,10 +68,17 @@ std::vector<std::string> mesh_mass_notes(const Model& m) {
       // each (a bunny of 0.025 m^3 in 3 automata of 0.3 m held 0.081 m^3, 3.2 times its mass).
       const double held = static_cast<double>(ms.automata) * d * d * d, ratio = held / ms.volume;
       if (ratio > 0.8 && ratio < 1.25) continue;
-      notes.push_back(fmt::format("object '{}': its {} automata at spacing {:.4g} m hold {:.4g} m^3 where its mesh "
-                                  "encloses {:.4g} m^3 ({:.2f} times): the spacing is coarse for it, and its mass is "
-                                  "off by as much; a spacing of about {:.3g} m gives it 1,000 automata",
-                                  name, ms.automata, d, held, ms.volume, ratio, std::cbrt(ms.volume / 1000)));
+      // (An open mesh fills only at spacings wider than its holes: a finer one is refused until they are closed.)
+      const std::string finer =
+          ms.boundary_edges > 0
+              ? std::string("a finer spacing needs its holes closed first (it is open: MeshLab, Filters > Remeshing > "
+                            "Close Holes)")
+              : fmt::format("a spacing of about {:.3g} m gives it 1,000 automata", std::cbrt(ms.volume / 1000));
+      notes.push_back(fmt::format("object '{}': its {} at spacing {:.4g} m {} {:.4g} m^3 where its mesh encloses "
+                                  "{:.4g} m^3 ({:.2f} times): the spacing is coarse for it, and its mass is off by as "
+                                  "much; {}",
+                                  name, text::count(ms.automata, "automaton|automata"), d,
+                                  ms.automata == 1 ? "holds" : "hold", held, ms.volume, ratio, finer));
       continue;
     }
     // A shell of the default thickness (the mean link length) around a mesh of few, large triangles is
@@ -559,7 +566,8 @@ void visit_run_names(const std::filesystem::path& dir, std::initializer_list<Run
     const std::filesystem::path folder = dir / f.folder;
     const std::string prefix = *f.folder ? std::string(f.folder) + "/" : std::string();
     if (!*f.extension) {
-      if (std::filesystem::exists(folder / f.name, ec))
+      // (A broken link is there too: exists() follows it.)
+      if (std::filesystem::exists(std::filesystem::symlink_status(folder / f.name, ec)))
         found(prefix + f.name, std::filesystem::is_regular_file(folder / f.name, ec), false);
       continue;
     }

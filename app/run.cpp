@@ -570,12 +570,12 @@ int run_loop(Loop& L, FrameWriter& writer) {
   }
   if (!L.quiet) {
     const State& s = sim.state();
-    fmt::print(stderr, "{}done: {} automata, {} steps in {:.1f} s ({:.2f} M automaton-steps/s on {}, backend {}); "
-               "broken links {} (displacement {}, stress {}); {} fragments.\noutput: {}\n",
-               tty ? "\n" : "", m.size(), s.step - first_step, wall,
+    fmt::print(stderr, "{}done: {}, {} in {:.1f} s ({:.2f} M automaton-steps/s on {}, backend {}); "
+               "broken links {} (displacement {}, stress {}); {}.\noutput: {}\n",
+               tty ? "\n" : "", text::count(m.size(), "automaton|automata"), text::count(s.step - first_step, "step"), wall,
                wall > 0 ? (s.step - first_step) * static_cast<double>(m.size()) / wall / 1e6 : 0.0,
                steps_run_on(sim.backend().name(), L.threads), sim.backend().name(), s.broken_by[0] + s.broken_by[1],
-               s.broken_by[0], s.broken_by[1], frags.count, L.dir.string());
+               s.broken_by[0], s.broken_by[1], text::count(frags.count, "fragment"), L.dir.string());
   }
   return 0;
 }
@@ -704,9 +704,10 @@ int run(const RunOptions& o) {
     const Model& m = sim.model();
     const std::string name = lattice_name(m, scene.solver.lattice_jitter);
     const std::string lattice = name.empty() ? "" : fmt::format(" on the {} lattice", name);
-    fmt::print(stderr, "mca: {} automata{}, {} links, time step {:.4g} s, {} steps per frame, {} frames, {} steps "
-               "on {}; about {} of output\n",
-               m.size(), lattice, m.link_count(), m.dt, sim.steps_per_frame(), plan.total_frames, plan.total_steps,
+    fmt::print(stderr, "mca: {}{}, {}, time step {:.4g} s, {} per frame, {}, {} on {}; about {} of output\n",
+               text::count(m.size(), "automaton|automata"), lattice, text::count(m.link_count(), "link"), m.dt,
+               text::count(sim.steps_per_frame(), "step"), text::count(plan.total_frames, "frame"),
+               text::count(plan.total_steps, "step"),
                steps_run_on(sim.backend().name(), threads), human_bytes(estimate.total()));
     for (const std::string& note : scene_notes(m, scene)) fmt::print(stderr, "note: {}\n", note);
   }

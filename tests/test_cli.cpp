@@ -517,7 +517,13 @@ TEST(Cli, KeysThatDoNothingAndAdviceThatCannotBeTakenAreNamed) {
                               "it an automaton's mass or moment of inertia, rho d^5 / 6, leaves the range of float32"),
             std::string::npos)
       << speck.output;
-  EXPECT_NE(speck.output.find("is more than twice its size; make the object larger"), std::string::npos) << speck.output;
+  EXPECT_NE(speck.output.find("is more than twice its thinnest side; make the object larger"), std::string::npos) << speck.output;
+  // Its thinnest side decides, whichever side is named first (a cylinder 6e-9 m long and 3e-9 m across was
+  // told a spacing its diameter then refused).
+  std::ofstream(d / "needle.toml") << "[[object]]\nshape = \"cylinder\"\nradius = 1.5e-9\nheight = 6e-9\n";
+  const Result needle = run_mca("info " + (d / "needle.toml").string());
+  EXPECT_EQ(needle.code, 2) << needle.output;
+  EXPECT_NE(needle.output.find("no spacing fits it"), std::string::npos) << needle.output;
   std::ofstream(d / "grain.toml") << "[[object]]\nshape = \"box\"\nsize = [1e-8, 1e-8, 1e-8]\n";
   const Result grain = run_mca("info " + (d / "grain.toml").string());
   EXPECT_EQ(grain.code, 2) << grain.output;
@@ -913,7 +919,8 @@ TEST(Cli, AFolderAtTheNameOfAFileTheRunWillWriteIsRefusedBeforeItStarts) {
         << r.output;
     EXPECT_TRUE(fs::is_directory(out / name / "mine"));
   }
-  // A resume alike (a FIFO at a frame's name: opening it would block).
+  // A resume alike (a FIFO at a frame's name: opening it would block; a broken link at stats.csv: its rows
+  // were lost without a word).
   const fs::path out = d / "resumed";
   ASSERT_EQ(run_mca("run " + scene.string() + " --out " + out.string() + " -q --checkpoint-every 2").code, 0);
   fs::remove(out / "summary.json");
@@ -923,6 +930,26 @@ TEST(Cli, AFolderAtTheNameOfAFileTheRunWillWriteIsRefusedBeforeItStarts) {
   EXPECT_NE(r.output.find("automata_000099.vtu' is not a regular file (a FIFO, a device, a broken link)"),
             std::string::npos)
       << r.output;
+  fs::remove(out / "frames" / "automata_000099.vtu");
+  fs::rename(out / "stats.csv", d / "stats.csv");
+  fs::create_symlink(d / "nowhere.csv", out / "stats.csv");
+  const Result link = run_mca("resume " + out.string() + " -q");
+  EXPECT_EQ(link.code, 2) << link.output;
+  EXPECT_NE(link.output.find("stats.csv' is not a regular file (a FIFO, a device, a broken link)"), std::string::npos)
+      << link.output;
+  fs::remove(out / "stats.csv");
+  fs::rename(d / "stats.csv", out / "stats.csv");
+  // A file of a checkpoint's name that is none, newest: named, with the way to the one before.
+  std::ofstream(out / "checkpoints" / "frame_000099.mcack") << "junk";
+  const Result junk = run_mca("resume " + out.string() + " -q");
+  EXPECT_EQ(junk.code, 2) << junk.output;
+  EXPECT_NE(junk.output.find("frame_000099.mcack' is not an mca checkpoint (bad header): move it out of its folder, or "
+                             "remove it, to use the checkpoint before it"),
+            std::string::npos)
+      << junk.output;
+  fs::remove(out / "checkpoints" / "frame_000099.mcack");
+  const Result resumed = run_mca("resume " + out.string() + " -q");
+  EXPECT_EQ(resumed.code, 0) << resumed.output;
 }
 
 // The run's peak memory, not only its arrays, is held to solver.max_memory_gb before anything is written:

@@ -239,6 +239,15 @@ TEST(MeshLoader, AGltfReadsBuffersBesideItAndNothingElse) {
   std::ofstream(t.path() / "model" / "escaped_up.gltf") << gltf("%2E%2E%2Fsecret.bin");
   const std::string escaped_up = error_of([&] { mesh::read_mesh((t.path() / "model" / "escaped_up.gltf").string()); });
   EXPECT_NE(escaped_up.find("outside the mesh's folder"), std::string::npos) << escaped_up;
+  // %00 is not decoded ("nul%00.bin" read the file "nul"); a data URI in capitals is named, shortened.
+  fs::copy_file(t.path() / "model" / "tetra.bin", t.path() / "model" / "nul");
+  std::ofstream(t.path() / "model" / "nul.gltf") << gltf("nul%00.bin");
+  const std::string nul = error_of([&] { mesh::read_mesh((t.path() / "model" / "nul.gltf").string()); });
+  EXPECT_NE(nul.find("nul%00.bin, which is not there"), std::string::npos) << nul;
+  std::ofstream(t.path() / "model" / "upper.gltf") << gltf("DATA:application/octet-stream;base64," + std::string(100000, 'A'));
+  const std::string upper = error_of([&] { mesh::read_mesh((t.path() / "model" / "upper.gltf").string()); });
+  EXPECT_LT(upper.size(), 1000u) << upper.size();
+  EXPECT_NE(upper.find("a data URI the reader mca uses takes only in lower case"), std::string::npos) << upper;
   // A buffer outside the mesh's folder, by a relative or an absolute path, is not read.
   std::ofstream(t.path() / "model" / "up.gltf") << gltf("../secret.bin");
   std::ofstream(t.path() / "model" / "absolute.gltf") << gltf((t.path() / "secret.bin").string());
@@ -274,6 +283,19 @@ TEST(MeshLoader, AGltfReadsBuffersBesideItAndNothingElse) {
                    "solver.max_memory_gb = 0.5"),
             std::string::npos)
       << e;
+  // Each buffer that names the file counts (assimp reads it once a buffer: twelve buffers naming one file of
+  // 1 GB took 13 GB under a limit of 7).
+  {
+    std::string twice = gltf("big.bin");
+    const std::string one = R"({"byteLength": 96, "uri": "big.bin"})";
+    twice.replace(twice.find(one), one.size(), one + ", " + one);
+    twice.replace(twice.find(R"({"buffer": 0, "byteOffset": 48)"), 12, R"({"buffer": 1)");
+    std::ofstream(t.path() / "model" / "twice.gltf") << twice;
+    const std::string e2 = error_of([&] { mesh::read_mesh((t.path() / "model" / "twice.gltf").string(), 2e9); });
+    EXPECT_NE(e2.find("reading it with the rest would take about 2.4 GB"), std::string::npos) << e2;
+    EXPECT_EQ(error_of([&] { mesh::read_mesh((t.path() / "model" / "big.gltf").string(), 2e9); }).find("would take"),
+              std::string::npos);
+  }
   // And against the machine's memory where that is less (a limit of 1e15 bytes was the only bound).
   fs::resize_file(t.path() / "model" / "big.bin", 1'000'000'000'000);  // sparse
   const std::string machine = error_of([&] { mesh::read_mesh((t.path() / "model" / "big.gltf").string(), 1e15); });

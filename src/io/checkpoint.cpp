@@ -253,11 +253,16 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   // refused without being read whole (it took 18 s and 4 GB).
   char head[16] = {};
   in.read(head, sizeof head);
+  // (A file of a checkpoint's name that is none: a resume takes the newest name, so it must go.)
+  const auto not_one = [&] {
+    return Error(fmt::format("'{}' is not an mca checkpoint (bad header): move it out of its folder, or remove it, to "
+                             "use the checkpoint before it",
+                             path.string()));
+  };
   if (in.gcount() < static_cast<std::streamsize>(sizeof head) || std::memcmp(head, kMagicPrefix, sizeof kMagicPrefix) != 0)
-    throw Error(fmt::format("'{}' is not an mca checkpoint (bad header)", path.string()));
+    throw not_one();
   if (head[7] != kMagic[7]) {
-    if (head[7] < '0' || head[7] > '9')
-      throw Error(fmt::format("'{}' is not an mca checkpoint (bad header)", path.string()));
+    if (head[7] < '0' || head[7] > '9') throw not_one();
     throw Error(fmt::format("checkpoint '{}' has format {} and this mca reads format {}; resume the run with the "
                             "mca that wrote it, or start the run again",
                             path.string(), head[7], kMagic[7]));

@@ -1208,9 +1208,13 @@ double spacing_for_target(const SceneDef& scene, const Shapes& S, std::int64_t t
                             "objects {} (object.scale or fit_size for a mesh, the sizes of a shape){}",
                             scene.source, target, best_d, small ? "less" : "more", spacing_bound(range, small),
                             small ? "up" : "down",
-                            at_bound >= 1 && at_bound <= 1.8e8
+                            at_bound >= 100 && at_bound <= 1.8e8
                                 ? fmt::format(", or ask for {} automata (about {:.3g} at that spacing)",
                                               small ? "fewer" : "more", at_bound)
+                            : small && at_bound < 100
+                                // (So few that lattice counts jump past any target: a spacing says it exactly.)
+                                ? fmt::format(", or give solver.spacing ({:.3g} m or more) instead of a count",
+                                              range.lo)
                                 : std::string()));
   }
   if (static_cast<double>(std::llabs(best_n - target)) > 0.02 * static_cast<double>(target)) {
@@ -1315,20 +1319,28 @@ std::int64_t checked_automata_count(const SceneDef& scene, const Shapes& S, doub
     if (S.surface_of(oi)) continue;
     double ext[3] = {0, 0, 0};
     shape_extents(scene.objects[oi], S.of(oi), ext);
+    // (The fix is for its thinnest side, whichever side is named: a cylinder 6e-9 m long and 3e-9 across was
+    // told a spacing that its diameter then refused.)
+    const double thinnest = std::min({ext[0], ext[1], ext[2]});
     for (int a = 0; a < 3; ++a)
       if (ext[a] < 0.5 * d * (1 - 1e-6)) {
         const text::Distinct hd = text::distinct(ext[a], 0.5 * d);
         // A spacing of ext or less fits (of 2 ext or less, at most half a cell); none does below half the least.
         const SpacingRange range = spacing_range(scene);
-        const double fits = std::max(ext[a], range.lo);
+        const double fits = std::max(thinnest, range.lo);
         std::string fix;
-        if (ext[a] < 0.5 * range.lo)
-          fix = fmt::format("no spacing fits it: {} is more than twice its size; make the object larger",
+        if (thinnest < 0.5 * range.lo)
+          fix = fmt::format("no spacing fits it: {} is more than twice its thinnest side; make the object larger",
                             spacing_bound(range, true));
-        else if (scene.solver.target_automata > 0)
+        else if (const double count = scene.solver.target_automata * std::pow(d / fits, 3.0);
+                 scene.solver.target_automata > 0 && count >= 100)
           fix = fmt::format("raise solver.target_automata (it sets the spacing; about {:.3g} gives {:.3g} m) or make "
                             "the object larger",
-                            scene.solver.target_automata * std::pow(d / fits, 3.0), fits);
+                            count, fits);
+        else if (scene.solver.target_automata > 0)  // (so few that lattice counts jump past any target)
+          fix = fmt::format("give solver.spacing ({:.3g} m{}) instead of solver.target_automata, or make the object "
+                            "larger",
+                            fits, fits > range.lo ? " or less" : "");
         else
           fix = fmt::format("decrease solver.spacing (to {:.3g} m{}; {}) or make the object larger", fits,
                             fits > range.lo ? " or less" : "", ten_thousand_hint(scene, S));

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <array>
 #include <nlohmann/json.hpp>
+#include <cmath>
+#include <optional>
 #include <set>
 #include <utility>
 
@@ -27,14 +29,10 @@ struct GeometryExtension {
   const char* what;
   bool even_if_optional;  // refused when only used: what a reader without it shows is not the model
 };
-constexpr std::array<GeometryExtension, 3> kGeometryExtensions = {{
+constexpr std::array<GeometryExtension, 2> kGeometryExtensions = {{
     {"EXT_mesh_gpu_instancing",
      "instances of its meshes (the reader mca uses would read each mesh once): export with the instances made "
      "real (in Blender: Object > Apply > Make Instances Real)",
-     true},
-    {"KHR_mesh_quantization",
-     "quantized vertex positions (integers the reader mca uses does not scale back): export without "
-     "quantization (gltfpack: -noq)",
      true},
     {"EXT_meshopt_compression",
      "compressed buffers (meshoptimizer) that the reader mca uses does not decode: export without compression "
@@ -42,11 +40,12 @@ constexpr std::array<GeometryExtension, 3> kGeometryExtensions = {{
      false},
 }};
 
-// Extensions that only change how a model looks, not its shape: a file may require them.
-bool appearance_only(const std::string& e) {
+// Extensions a file may require: those that only change how a model looks, and those whose effect on the
+// shape is checked here (KHR_mesh_quantization: positions must be floats; Draco: decoded by assimp).
+bool may_require(const std::string& e) {
   for (const char* prefix : {"KHR_materials_", "KHR_texture_", "EXT_texture_", "MSFT_texture_", "KHR_lights_"})
     if (e.rfind(prefix, 0) == 0) return true;
-  return e == "KHR_xmp_json_ld";
+  return e == "KHR_xmp_json_ld" || e == "KHR_mesh_quantization" || e == "KHR_draco_mesh_compression";
 }
 
 class Checker {
@@ -60,21 +59,34 @@ class Checker {
 
   // A field glTF gives as a whole number 0 or more (an index or a count), if there: the reader mca uses
   // takes any other JSON value (4.0, "4", null) as missing.
+  // (-0 is 0, as the reader mca uses takes it; 36e0 or 36.0 is not a whole number to it.)
+  static bool whole_number(const Json& v) {
+    return v.is_number_unsigned() || (v.is_number_integer() && v.get<std::int64_t>() >= 0);
+  }
+  static std::string field(const std::string& path, const std::string& key) { return path.empty() ? key : path + "." + key; }
+  static std::string written_as(const Json& v) {
+    if (v.is_number_float() && v.get<double>() >= 0 && v.get<double>() == std::floor(v.get<double>()) &&
+        v.get<double>() < 1e15)
+      return fmt::format("; write it as {}", static_cast<std::uint64_t>(v.get<double>()));
+    return "";
+  }
   void whole(const Json& object, const char* key, const std::string& path) const {
     if (!object.is_object() || !object.contains(key)) return;
     const Json& v = object[key];
-    if (!v.is_number_unsigned())
-      damaged(fmt::format("{}.{} is {}, where glTF gives a whole number 0 or more (the reader mca uses would take it "
+    if (!whole_number(v))
+      damaged(fmt::format("{} is {}, where glTF gives a whole number 0 or more{} (the reader mca uses would take it "
                           "as missing)",
-                          path, key, v.dump()));
+                          field(path, key), v.dump(), written_as(v)));
   }
   void whole_each(const Json& object, const char* key, const std::string& path) const {
     if (!object.is_object() || !object.contains(key) || !object[key].is_array()) return;
     const Json& a = object[key];
     for (std::size_t k = 0; k < a.size(); ++k)
-      if (!a[k].is_number_unsigned())
-        damaged(fmt::format("{}.{}[{}] is {}, where glTF gives a whole number 0 or more", path, key, k, a[k].dump()));
+      if (!whole_number(a[k]))
+        damaged(fmt::format("{}[{}] is {}, where glTF gives a whole number 0 or more{}", field(path, key), k,
+                            a[k].dump(), written_as(a[k])));
   }
+  static std::uint64_t number(const Json& v) { return static_cast<std::uint64_t>(v.get<std::int64_t>()); }
   // The array `key` of the file's top level (empty where it is not there or not an array).
   const Json& list(const char* key) const {
     static const Json none = Json::array();
@@ -82,7 +94,7 @@ class Checker {
   }
 
   void fields() const {
-    whole(j_, "scene", "the file's");
+    whole(j_, "scene", "");
     const Json& scenes = list("scenes");
     for (std::size_t i = 0; i < scenes.size(); ++i) whole_each(scenes[i], "nodes", fmt::format("scenes[{}]", i));
     const Json& nodes = list("nodes");
@@ -127,13 +139,17 @@ class Checker {
                                     {"extensionsUsed", &used}})
       for (const Json& e : list(key))
         if (e.is_string()) into->insert(e.get<std::string>());
+    // (A node may carry one without the file listing it, which is invalid; it is used all the same.)
+    for (const Json& node : list("nodes"))
+      if (node.is_object() && node.contains("extensions") && node["extensions"].is_object())
+        for (const auto& [e, v] : node["extensions"].items()) used.insert(e);
     for (const GeometryExtension& g : kGeometryExtensions) {
       const bool req = required.count(g.name) > 0;
       if (req || (g.even_if_optional && used.count(g.name)))
         throw Error(fmt::format("{}: {} the glTF extension {}: {}", name_, req ? "requires" : "uses", g.name, g.what));
     }
     for (const std::string& e : required) {
-      if (appearance_only(e) || e == "KHR_draco_mesh_compression") continue;  // (Draco: assimp's own message)
+      if (may_require(e)) continue;
       throw Error(fmt::format("{}: requires the glTF extension {}, which the reader mca uses does not know: what it "
                               "would read may not be the model; export it without {}",
                               name_, e, e));
@@ -143,7 +159,7 @@ class Checker {
   // The accessor `index` names for `what` (validated by fields: a whole number), which must be there.
   const Json& accessor(const Json& index, const std::string& what) const {
     const Json& accessors = list("accessors");
-    const std::uint64_t k = index.get<std::uint64_t>();
+    const std::uint64_t k = number(index);
     if (k >= accessors.size())
       damaged(fmt::format("{} names accessors[{}], but the file has {} accessors", what, k, accessors.size()));
     return accessors[k];
@@ -160,7 +176,7 @@ class Checker {
         const Json& prim = mesh["primitives"][p];
         const std::string path = fmt::format("meshes[{}].primitives[{}]", m, p);
         GltfPrimitive g{m, p, 0};
-        const std::uint64_t mode = prim.is_object() && prim.contains("mode") ? prim["mode"].get<std::uint64_t>() : 4;
+        const std::uint64_t mode = prim.is_object() && prim.contains("mode") ? number(prim["mode"]) : 4;
         if (mode > 6)
           damaged(fmt::format("{}.mode is {}; glTF's modes are 0 to 6 (0 points, 1 to 3 lines, 4 triangles, 5 a "
                               "strip, 6 a fan)",
@@ -169,23 +185,24 @@ class Checker {
         std::uint64_t n = 0;
         if (indexed) {
           const Json& a = accessor(prim["indices"], path + ".indices");
-          const std::uint64_t type = a.value("componentType", std::uint64_t{0});
+          const std::uint64_t type = a.contains("componentType") ? number(a["componentType"]) : 0;
           if (a.value("type", std::string()) != "SCALAR" || (type != 5121 && type != 5123 && type != 5125))
             damaged(fmt::format("{}.indices names accessors[{}], of type {} and componentType {}, where indices are "
                                 "SCALAR of unsigned bytes, shorts or ints (5121, 5123, 5125)",
-                                path, prim["indices"].get<std::uint64_t>(), a.value("type", Json()).dump(),
+                                path, number(prim["indices"]), a.value("type", Json()).dump(),
                                 a.value("componentType", Json()).dump()));
-          n = a.value("count", std::uint64_t{0});
+          n = a.contains("count") ? number(a["count"]) : 0;
         }
         if (prim.is_object() && prim.contains("attributes") && prim["attributes"].is_object() &&
             prim["attributes"].contains("POSITION")) {
           const Json& a = accessor(prim["attributes"]["POSITION"], path + ".attributes.POSITION");
-          if (a.value("type", std::string()) != "VEC3" || a.value("componentType", std::uint64_t{0}) != 5126)
+          if (a.value("type", std::string()) != "VEC3" || !a.contains("componentType") || number(a["componentType"]) != 5126)
             damaged(fmt::format("{}.attributes.POSITION names accessors[{}], of type {} and componentType {}, where "
-                                "positions are VEC3 of floats (5126)",
-                                path, prim["attributes"]["POSITION"].get<std::uint64_t>(),
+                                "positions are VEC3 of floats (5126; quantized positions, KHR_mesh_quantization, the "
+                                "reader mca uses does not scale back: export without, e.g. gltfpack -noq)",
+                                path, number(prim["attributes"]["POSITION"]),
                                 a.value("type", Json()).dump(), a.value("componentType", Json()).dump()));
-          if (!indexed) n = a.value("count", std::uint64_t{0});
+          if (!indexed) n = a.contains("count") ? number(a["count"]) : 0;
         }
         if (mode == 4) {
           if (n % 3 != 0)
@@ -201,22 +218,35 @@ class Checker {
     return all;
   }
 
-  // A mesh whose morph targets are weighted (its own weights or a node's): assimp reads its base shape.
+  // A mesh whose morph targets are weighted (a node's weights, else its own): assimp reads its base shape.
   void morphs(const Json& mesh, std::size_t m) const {
     const bool targets = std::any_of(mesh["primitives"].begin(), mesh["primitives"].end(), [](const Json& p) {
       return p.is_object() && p.contains("targets") && p["targets"].is_array() && !p["targets"].empty();
     });
     if (!targets) return;
-    auto weighted = [](const Json& o) {
-      if (!o.is_object() || !o.contains("weights") || !o["weights"].is_array()) return false;
-      return std::any_of(o["weights"].begin(), o["weights"].end(),
-                         [](const Json& w) { return !w.is_number() || w.get<double>() != 0; });
+    // Whether `o`'s weights (if it has them) shape the mesh; nullopt where it gives none.
+    auto weighted = [&](const Json& o, const std::string& path) -> std::optional<bool> {
+      if (!o.is_object() || !o.contains("weights")) return std::nullopt;
+      if (!o["weights"].is_array()) damaged(fmt::format("{}.weights is {}, where glTF gives an array of numbers", path, o["weights"].dump()));
+      bool any = false;
+      for (std::size_t k = 0; k < o["weights"].size(); ++k) {
+        const Json& w = o["weights"][k];
+        if (!w.is_number())
+          damaged(fmt::format("{}.weights[{}] is {}, where glTF gives a number", path, k, w.dump()));
+        any = any || w.get<double>() != 0;
+      }
+      return any;
     };
-    bool by_node = false;
-    for (const Json& node : list("nodes"))
-      by_node = by_node || (node.is_object() && node.contains("mesh") && node["mesh"].get<std::uint64_t>() == m &&
-                            weighted(node));
-    if (weighted(mesh) || by_node)
+    const std::optional<bool> own = weighted(mesh, fmt::format("meshes[{}]", m));
+    bool shaped = false, placed = false;
+    const Json& nodes = list("nodes");
+    for (std::size_t k = 0; k < nodes.size(); ++k) {
+      if (!nodes[k].is_object() || !nodes[k].contains("mesh") || number(nodes[k]["mesh"]) != m) continue;
+      placed = true;
+      shaped = shaped || weighted(nodes[k], fmt::format("nodes[{}]", k)).value_or(own.value_or(false));
+    }
+    if (!placed) shaped = own.value_or(false);
+    if (shaped)
       throw Error(fmt::format("{}: meshes[{}] is shaped by its morph targets (weights not 0), which the reader mca "
                               "uses does not apply (it reads the base shape): apply them in the program that wrote "
                               "it (in Blender: Object > Apply > Visual Geometry to Mesh, or apply the shape keys), "
@@ -233,13 +263,13 @@ class Checker {
     for (std::size_t k = 0; k < n; ++k) {
       if (!nodes[k].is_object() || !nodes[k].contains("children") || !nodes[k]["children"].is_array()) continue;
       for (const auto& c : nodes[k]["children"]) {
-        if (!c.is_number_unsigned() || c.get<std::uint64_t>() >= n) {
+        if (!whole_number(c) || number(c) >= n) {
           throw Error(fmt::format("{}: nodes[{}] names a child {} that is not one of its {} nodes: the file is "
                                   "damaged",
                                   name_, k, c.dump(), n));
         }
-        children[k].push_back(c.get<std::size_t>());
-        is_child[c.get<std::size_t>()] = 1;
+        children[k].push_back(static_cast<std::size_t>(number(c)));
+        is_child[static_cast<std::size_t>(number(c))] = 1;
       }
     }
     std::vector<int> state(n, 0);  // 0 unseen, 1 on the current path, 2 done
@@ -314,7 +344,9 @@ void check_depth(std::string_view json, const std::string& name) {
 
 }  // namespace
 
-std::vector<GltfPrimitive> check_gltf_json(std::string_view json, const std::string& name) {
+GltfDeclared check_gltf_json(std::string_view json, const std::string& name) {
+  // (A .glb's JSON chunk is padded to 4 bytes, with spaces or, as some writers do, NULs.)
+  while (!json.empty() && (json.back() == '\0' || json.back() == ' ')) json.remove_suffix(1);
   check_depth(json, name);
   // A key given twice in one object ("mode": 1, "mode": 4): readers differ in which they take (the reader mca
   // uses took the first, a check the last).
@@ -328,8 +360,15 @@ std::vector<GltfPrimitive> check_gltf_json(std::string_view json, const std::str
       twice = parsed.get<std::string>();
     return true;
   };
-  const Json j = Json::parse(json, watch, false);
-  if (j.is_discarded() || !j.is_object()) return {};  // assimp says
+  Json j;
+  try {
+    j = Json::parse(json, watch);
+  } catch (const Json::exception& e) {  // (the byte where it fails, and what it found there)
+    throw Error(fmt::format("{}: its JSON does not parse ({}): the file is damaged, or not a glTF file", name,
+                            e.what()));
+  }
+  if (!j.is_object())
+    throw Error(fmt::format("{}: its JSON is {}, not an object: not a glTF file", name, j.type_name()));
   if (!twice.empty()) {
     throw Error(fmt::format("{}: its JSON gives the key \"{}\" twice in one object; readers differ in which they "
                             "take: the file is damaged or its exporter wrote it wrong; export the model again",
@@ -339,7 +378,16 @@ std::vector<GltfPrimitive> check_gltf_json(std::string_view json, const std::str
   check.hierarchy();
   check.fields();
   check.extensions();
-  return check.primitives();
+  // Meshes no scene places (glTF allows a file without scenes; the reader mca uses reads nothing of it).
+  if (check.list("scenes").empty() && !check.list("meshes").empty())
+    throw Error(fmt::format("{}: has meshes but no scene to place them, and the reader mca uses reads a glTF's "
+                            "scene: export it with its objects in a scene",
+                            name));
+  GltfDeclared d;
+  d.primitives = check.primitives();
+  for (const char* key : {"extensionsUsed", "extensionsRequired"})
+    for (const Json& e : check.list(key)) d.draco = d.draco || (e.is_string() && e.get<std::string>() == "KHR_draco_mesh_compression");
+  return d;
 }
 
 void check_gltf_triangles(const aiScene& raw, const std::vector<GltfPrimitive>& declared, const std::string& name) {

@@ -20,10 +20,16 @@ struct GltfPrimitive {
   std::uint64_t triangles = 0;
 };
 
-// Checks the JSON of a .gltf file or a .glb's first chunk (`name`: the file, for messages) and returns its
-// primitives. Throws mca::Error naming the field, its value and the fix. JSON that does not parse is left
-// to assimp, which says why (an empty list then).
-std::vector<GltfPrimitive> check_gltf_json(std::string_view json, const std::string& name);
+// What a glTF's JSON declares: its primitives, and whether it uses Draco compression (assimp's decoding of
+// it fails on meshes of more than 65,535 vertices, with a message that blames the file).
+struct GltfDeclared {
+  std::vector<GltfPrimitive> primitives;
+  bool draco = false;
+};
+
+// Checks the JSON of a .gltf file or a .glb's first chunk (`name`: the file, for messages) and returns what
+// it declares. Throws mca::Error naming the field, its value and the fix, or where the JSON does not parse.
+GltfDeclared check_gltf_json(std::string_view json, const std::string& name);
 
 // assimp's meshes (`raw`, read with no step after) against `declared`: a triangle assimp dropped is an
 // error naming its primitive. Compares nothing where assimp made another count of meshes.

@@ -96,13 +96,30 @@ constexpr double kBytesPerVertex = 120, kBytesPerTriangle = 150, kAssimpBytesPer
 // is the message where the import then fails.
 class FolderIOSystem : public Assimp::DefaultIOSystem {
  public:
-  FolderIOSystem(std::filesystem::path folder, double max_memory_bytes)
-      : folder_(std::move(folder)), max_bytes_(max_memory_bytes) {}
+  // `mesh`: the mesh file itself (counted against the limit before: refuse_over_memory).
+  FolderIOSystem(std::filesystem::path folder, double max_memory_bytes, const std::string& mesh = {})
+      : folder_(std::move(folder)), max_bytes_(max_memory_bytes) {
+    std::error_code ec;
+    if (!mesh.empty()) mesh_ = std::filesystem::canonical(mesh, ec).string();
+  }
   bool Exists(const char* given) const override {
     const std::string file = on_disk(given);
     return allowed(file.c_str()) && DefaultIOSystem::Exists(file.c_str());
   }
   Assimp::IOStream* Open(const char* given, const char* mode) override {
+    // (A data URI in capitals, "DATA:...", is a file name to assimp: its whole base64 was shown.)
+    if (given && !folder_.empty()) {
+      const std::string f = given, prefix = folder_.string() + "/";
+      std::string scheme = f.rfind(prefix, 0) == 0 ? f.substr(prefix.size(), 5) : std::string();
+      for (char& c : scheme) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      if (scheme == "data:") {
+        if (refusal_.empty())
+          refusal_ = fmt::format("it names {}, a data URI the reader mca uses takes only in lower case (\"data:\"): "
+                                 "write its scheme so",
+                                 shortened(f.substr(prefix.size())));
+        return nullptr;
+      }
+    }
     const std::string decoded = on_disk(given);
     const char* file = decoded.c_str();
     if (!allowed(file)) return nullptr;
@@ -117,14 +134,17 @@ class FolderIOSystem : public Assimp::DefaultIOSystem {
       if (refusal_.empty())
         refusal_ = absolute ? fmt::format("it names the absolute path {}; mca reads the files a mesh names relative to "
                                           "its folder: name it so",
-                                          f.substr(prefix.size()))
-                            : fmt::format("it names {}, which is not there; give it the file it should read", f);
+                                          shortened(f.substr(prefix.size())))
+                            : fmt::format("it names {}, which is not there; give it the file it should read",
+                                          shortened(f));
       refused_names_.insert(name);
       return nullptr;
     }
     if (refused_names_.count(name)) return nullptr;
+    // Each buffer that names a file is read on its own, the same file too (twelve buffers naming one file of
+    // 1 GB took 13 GB).
     const std::filesystem::path p = std::filesystem::canonical(file, ec);
-    if (!ec && !opened_.count(p.string())) {
+    if (!ec && p.string() != mesh_) {
       const auto size = static_cast<double>(std::filesystem::file_size(p, ec));
       if (ec) return nullptr;
       // (Bounded as the mesh file is: refuse_over_memory.)
@@ -136,13 +156,16 @@ class FolderIOSystem : public Assimp::DefaultIOSystem {
         return nullptr;
       }
       read_ += size;
-      opened_.insert(p.string());
     }
     return DefaultIOSystem::Open(file, mode);
   }
   const std::string& refusal() const { return refusal_; }
 
  private:
+  // A name for a message: at most 200 characters (a data URI can be megabytes).
+  static std::string shortened(const std::string& s) {
+    return s.size() <= 200 ? text::utf8_shown(s) : text::utf8_shown(s.substr(0, 200)) + "...";
+  }
   // `given` with its URI escapes decoded ("my%20model.bin" is "my model.bin", as Blender writes a buffer's
   // name), where no file has the name as given and one has it decoded (assimp does not decode them).
   static std::string on_disk(const char* given) {
@@ -161,6 +184,8 @@ class FolderIOSystem : public Assimp::DefaultIOSystem {
         d += f[i];
       }
     }
+    // (%00 would end the name early: "nul%00.bin" named the file "nul".)
+    if (d.find('\0') != std::string::npos) return f;
     std::error_code ec;
     return !std::filesystem::exists(f, ec) && std::filesystem::exists(d, ec) ? d : f;
   }
@@ -189,7 +214,7 @@ class FolderIOSystem : public Assimp::DefaultIOSystem {
   std::filesystem::path folder_;
   double max_bytes_;
   double read_ = 0;
-  std::unordered_set<std::string> opened_;
+  std::string mesh_;
   mutable std::unordered_set<std::string> refused_names_;
   mutable std::string refusal_;
 };
@@ -540,9 +565,12 @@ TriMesh convert(const aiScene* scene, const std::string& name) {
                             "meshed first, e.g. by Poisson reconstruction in MeshLab or CloudCompare)",
                             name));
   }
+  // (assimp's message may quote megabytes: a data URI it took for a file name.)
+  std::string why = importer.GetErrorString();
+  if (why.size() > 300) why = text::utf8_shown(std::string_view(why).substr(0, 300)) + "...";
   throw Error(fmt::format("{}: cannot be read as a .{} mesh: {}; check that the file is a {} file (the extension "
                           "picks the reader) and not damaged",
-                          name, ext, importer.GetErrorString(), ext == "glb" ? "binary glTF" : ext));
+                          name, ext, why, ext == "glb" ? "binary glTF" : ext));
 }
 
 }  // namespace
@@ -561,18 +589,18 @@ std::string read_file(const std::string& path, std::uint64_t size);
 TriMesh import_assimp(const std::string& name, const std::string& ext, const std::string* bytes,
                       const std::string& path, double max_memory_bytes) {
   if (bytes && ext == "glb") check_glb(*bytes, bytes->size(), name);
-  std::vector<GltfPrimitive> primitives;
+  GltfDeclared declared;
   if (ext == "gltf" || ext == "glb") {
     // The JSON: the whole .gltf, or the .glb's first chunk (check_glb: its length fits the file).
     std::error_code ec;
     const std::string file = bytes ? std::string() : read_file(path, std::filesystem::file_size(path, ec));
     const std::string_view all = bytes ? std::string_view(*bytes) : std::string_view(file);
     if (ext == "gltf") {
-      primitives = check_gltf_json(all, name);
+      declared = check_gltf_json(all, name);
     } else if (all.size() >= 20) {
       std::uint32_t length = 0;
       std::memcpy(&length, all.data() + 12, 4);
-      primitives = check_gltf_json(all.substr(20, length), name);
+      declared = check_gltf_json(all.substr(20, length), name);
     }
   }
   Assimp::Importer importer;
@@ -580,15 +608,21 @@ TriMesh import_assimp(const std::string& name, const std::string& ext, const std
   only_reader_for(importer, ext);
   std::error_code ec;
   auto* io = new FolderIOSystem(bytes ? std::filesystem::path() : std::filesystem::weakly_canonical(path, ec).parent_path(),
-                                max_memory_bytes);
+                                max_memory_bytes, bytes ? std::string() : path);
   importer.SetIOHandler(io);  // (the importer owns it)
   const aiScene* raw = bytes ? importer.ReadFileFromMemory(bytes->data(), bytes->size(), kRawSteps, ext.c_str())
                              : importer.ReadFile(path, kRawSteps);
   if (!raw || (raw->mFlags & AI_SCENE_FLAGS_INCOMPLETE && raw->mNumMeshes == 0)) {
     if (!io->refusal().empty()) throw Error(fmt::format("{}: cannot be read: {}", name, io->refusal()));
+    // (assimp's Draco decoding fails on a mesh of more than 65,535 vertices, and says the file is damaged.)
+    if (declared.draco)
+      throw Error(fmt::format("{}: cannot be read: it is compressed with Draco (KHR_draco_mesh_compression), and the "
+                              "reader mca uses failed on it ({}); it decodes Draco meshes of up to 65,535 vertices: "
+                              "export the model without Draco compression (in Blender: untick Compression)",
+                              name, importer.GetErrorString()));
     fail_import(importer, name, ext);
   }
-  if (ext == "gltf" || ext == "glb") check_gltf_triangles(*raw, primitives, name);
+  if (ext == "gltf" || ext == "glb") check_gltf_triangles(*raw, declared.primitives, name);
   const aiScene* scene = importer.ApplyPostProcessing(kSteps);
   if (!scene) fail_import(importer, name, ext);
   return convert(scene, name);
@@ -650,6 +684,23 @@ bool stl_binary(std::string_view head, std::uint64_t size) {
   return size >= 84 && 84 + 50 * static_cast<std::uint64_t>(n) == size;
 }
 
+// A UTF-8 byte order mark, which some Windows editors write before text.
+constexpr std::string_view kBom = "\xEF\xBB\xBF";
+
+// `text` without the byte order marks at the starts of its lines (files saved with one, then joined end to
+// end: assimp's STL reader took a second solid's "\xEF\xBB\xBFsolid" for the end and left it out).
+std::string without_line_boms(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  for (std::size_t at = 0; at < text.size();) {
+    while (text.substr(at, 3) == kBom) at += 3;
+    const std::size_t nl = std::min(text.find('\n', at), text.size());
+    out.append(text.substr(at, nl + 1 - at));
+    at = nl + 1;
+  }
+  return out;
+}
+
 // An ASCII STL's last line that is not blank opens with "endsolid" (`tail`: the file's last bytes, up to
 // 1 MB): one cut short lost its last triangles without a word from assimp (half of them in a file cut in
 // half; a second solid cut short behind a whole first one).
@@ -660,6 +711,7 @@ void check_stl_end(std::string_view tail, const std::string& name) {
     const std::size_t start = tail.find_last_of('\n', last);
     const std::size_t first = start == std::string_view::npos ? 0 : start + 1;
     line = tail.substr(first, last + 1 - first);
+    while (line.substr(0, 3) == kBom) line.remove_prefix(3);
     line.remove_prefix(std::min(line.size(), line.find_first_not_of(" \t")));
   }
   if (line.substr(0, 8) != "endsolid") {
@@ -675,7 +727,7 @@ void check_head(std::string_view head, std::uint64_t size, const std::string& ex
   const bool nul = head.find('\0') != std::string_view::npos;
   // A UTF-8 byte order mark, which some Windows editors write before text: skipped before the text formats
   // (their readers skip it too), named before PLY and glTF, whose readers do not take it.
-  const std::size_t bom = head.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0;
+  const std::size_t bom = head.substr(0, 3) == kBom ? 3 : 0;
   const bool text_format = ext == "off" || ext == "obj" || (ext == "stl" && !stl_binary(head, size));
   if (bom && (ext == "ply" || ext == "gltf"))
     throw Error(fmt::format("{}: starts with a UTF-8 byte order mark (bytes EF BB BF), which the reader of {} files "
@@ -683,11 +735,13 @@ void check_head(std::string_view head, std::uint64_t size, const std::string& ex
                             name, ext == "ply" ? "PLY" : "glTF"));
   // Text in UTF-16 (a byte order mark FF FE or FE FF, then two bytes a character), as some Windows programs
   // save it.
+  const bool utf32 = head.substr(0, 4) == std::string_view("\xFF\xFE\0\0", 4) ||
+                     head.substr(0, 4) == std::string_view("\0\0\xFE\xFF", 4);
   if ((text_format || ext == "ply" || ext == "gltf") &&
-      (head.substr(0, 2) == "\xFF\xFE" || head.substr(0, 2) == "\xFE\xFF"))
-    throw Error(fmt::format("{}: is text in UTF-16 (it starts with a UTF-16 byte order mark); mca reads it in ASCII or "
+      (utf32 || head.substr(0, 2) == "\xFF\xFE" || head.substr(0, 2) == "\xFE\xFF"))
+    throw Error(fmt::format("{}: is text in UTF-{} (it starts with its byte order mark); mca reads it in ASCII or "
                             "UTF-8: save it as UTF-8",
-                            name));
+                            name, utf32 ? 32 : 16));
   auto first_word = [&](std::string_view comment) {
     std::size_t i = bom;
     for (;;) {
@@ -867,6 +921,13 @@ TriMesh read_mesh(const std::string& path, double max_memory_bytes) {
     in.seekg(static_cast<std::streamoff>(size - tail));
     in.read(end.data(), static_cast<std::streamsize>(tail));
     check_stl_end(end, path);
+    // Byte order marks at lines' starts are left out before assimp reads it (from memory: an STL names no
+    // other file).
+    const std::string bytes = read_file(path, size);
+    if (bytes.find(kBom) != std::string::npos) {
+      const std::string text = without_line_boms(bytes);
+      return import(path, ext, &text, path, max_memory_bytes);
+    }
   }
   return import(path, ext, nullptr, path, max_memory_bytes);
 }
@@ -884,9 +945,10 @@ TriMesh read_mesh_memory(const void* data, std::size_t size, const std::string& 
   if (ext != "off" && ext != "obj" && ext != "ply")
     refuse_over_memory(name, kAssimpBytesPerFileByte * static_cast<double>(size), max_memory_bytes,
                        fmt::format("{} of data, read by assimp", mb(size)));
-  if (ext == "stl" && !stl_binary(view, size))
-    check_stl_end(view.substr(size - std::min<std::size_t>(size, 1 << 20)), name);
-  const std::string bytes(view);
+  const bool ascii_stl = ext == "stl" && !stl_binary(view, size);
+  if (ascii_stl) check_stl_end(view.substr(size - std::min<std::size_t>(size, 1 << 20)), name);
+  const std::string bytes = ascii_stl && view.find(kBom) != std::string_view::npos ? without_line_boms(view)
+                                                                                   : std::string(view);
   return import(name, ext, &bytes, name, max_memory_bytes);
 }
 

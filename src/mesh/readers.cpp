@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "core/text.hpp"
 #include "mca/error.hpp"
 
 namespace mca::mesh::detail {
@@ -118,7 +119,7 @@ ReadResult read_off(std::string_view bytes, const std::string& name,
   if (prefix.find_first_not_of("STCN") != std::string_view::npos) {
     throw Error(fmt::format("{}: is a '{}' file (vertices of 4 or n dimensions, or binary); mca reads OFF, COFF, NOFF, "
                             "CNOFF and STOFF with three coordinates per vertex: convert it (e.g. with MeshLab)",
-                            name, key));
+                            name, text::utf8_shown(key)));
   }
   std::vector<std::string_view> counts(in.words().begin() + 1, in.words().end());
   if (counts.size() < 2) {
