@@ -605,7 +605,8 @@ void check_run_names_are_files(const std::filesystem::path& dir) {
     throw Error(fmt::format("'{}' is {} at the name of a file a run writes or replaces there: the run would stop "
                             "when it came to it (a checkpoint or a frame hours in); move or remove it, or write to "
                             "another folder",
-                            (dir / name).string(), folder ? "a folder" : "not a regular file (a FIFO, a device, a broken link)"));
+                            (dir / name).string(),
+                            folder ? "a folder" : "not a regular file (a FIFO, a device, a broken link)"));
   });
 }
 

@@ -42,8 +42,7 @@ void print_mesh(const MeshSummary& ms, const std::string& object, std::size_t au
                count(ms.non_manifold_edges, "non-manifold edge"), count(ms.degenerate_faces, "degenerate face"));
   }
   if (ms.shells > 1)
-    fmt::print("  shells         {} connected surfaces, {} around cavities (left empty)\n", ms.shells,
-               ms.cavities == 1 ? std::string("1 of them") : fmt::format("{} of them", ms.cavities));
+    fmt::print("  shells         {} connected surfaces, {} of them around cavities (left empty)\n", ms.shells, ms.cavities);
   fmt::print("  in the file    {}\n", box_text(ms.file_lo, ms.file_hi, ""));
   fmt::print("  in the scene   {} (scale {:.6g}), volume {:.4g} m^3\n", box_text(ms.lo, ms.hi, " m"), ms.scale,
              ms.volume);

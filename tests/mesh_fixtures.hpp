@@ -126,6 +126,42 @@ inline mesh::TriMesh torus_mesh(double R, double r, int nu = 64, int nv = 32) {
   return m;
 }
 
+// A binary glTF of `json` and, where given, a BIN chunk of `bin` (each padded to 4 bytes as the format asks).
+inline std::string glb_of(std::string json, std::string bin = {}) {
+  while (json.size() % 4) json += ' ';
+  while (bin.size() % 4) bin += '\0';
+  std::string b = "glTF";
+  auto u32 = [&](std::uint32_t v) { b.append(reinterpret_cast<const char*>(&v), 4); };
+  u32(2);
+  u32(static_cast<std::uint32_t>(20 + json.size() + (bin.empty() ? 0 : 8 + bin.size())));
+  u32(static_cast<std::uint32_t>(json.size()));
+  u32(0x4E4F534A);  // "JSON"
+  b += json;
+  if (!bin.empty()) {
+    u32(static_cast<std::uint32_t>(bin.size()));
+    u32(0x004E4942);  // "BIN"
+    b += bin;
+  }
+  return b;
+}
+
+// The JSON of a glTF of one primitive in one buffer: `vertices` float32 positions (within lo..hi), then
+// `indices` uint32 indices; `uri`: the buffer's `, "uri": ...` (empty: a .glb's BIN chunk).
+inline std::string gltf_json(std::size_t vertices, std::size_t indices, const mesh::Point& lo, const mesh::Point& hi,
+                             const std::string& uri = {}) {
+  const std::size_t vbytes = 12 * vertices, ibytes = 4 * indices;
+  return fmt::format(
+      R"({{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],)"
+      R"( "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1}}]}}],)"
+      R"( "buffers": [{{"byteLength": {}{}}}],)"
+      R"( "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": {}}}, {{"buffer": 0, "byteOffset": {}, "byteLength": {}}}],)"
+      R"( "accessors": [{{"bufferView": 0, "componentType": 5126, "count": {}, "type": "VEC3", "min": [{}, {}, {}], "max": [{}, {}, {}]}},)"
+      R"( {{"bufferView": 1, "componentType": 5125, "count": {}, "type": "SCALAR"}}]}})",
+      vbytes + ibytes, uri, vbytes, vbytes, ibytes, vertices, static_cast<float>(lo[0]), static_cast<float>(lo[1]),
+      static_cast<float>(lo[2]), static_cast<float>(hi[0]), static_cast<float>(hi[1]), static_cast<float>(hi[2]),
+      indices);
+}
+
 // Writes `m` as `path`; the format follows the extension (.off, .obj, .ply: binary; .ascii.ply, .stl:
 // binary; .ascii.stl, .gltf, .glb).
 inline void write_mesh_file(const std::filesystem::path& path, const mesh::TriMesh& m) {
@@ -175,7 +211,6 @@ inline void write_mesh_file(const std::filesystem::path& path, const mesh::TriMe
         const float f = static_cast<float>(x);
         bin.append(reinterpret_cast<const char*>(&f), 4);
       }
-    const std::size_t vbytes = bin.size();
     for (const auto& f : m.faces) bin.append(reinterpret_cast<const char*>(f.data()), 12);
     mesh::Bounds b = mesh::bounds(m);
     const bool glb = ends(".glb");
@@ -194,31 +229,9 @@ inline void write_mesh_file(const std::filesystem::path& path, const mesh::TriMe
       }
       uri = fmt::format(R"(, "uri": "data:application/octet-stream;base64,{}")", enc);
     }
-    std::string json = fmt::format(
-        R"({{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],)"
-        R"( "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1}}]}}],)"
-        R"( "buffers": [{{"byteLength": {}{}}}],)"
-        R"( "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": {}}}, {{"buffer": 0, "byteOffset": {}, "byteLength": {}}}],)"
-        R"( "accessors": [{{"bufferView": 0, "componentType": 5126, "count": {}, "type": "VEC3", "min": [{}, {}, {}], "max": [{}, {}, {}]}},)"
-        R"( {{"bufferView": 1, "componentType": 5125, "count": {}, "type": "SCALAR"}}]}})",
-        bin.size(), uri, vbytes, vbytes, bin.size() - vbytes, m.vertices.size(), static_cast<float>(b.lo[0]),
-        static_cast<float>(b.lo[1]), static_cast<float>(b.lo[2]), static_cast<float>(b.hi[0]), static_cast<float>(b.hi[1]),
-        static_cast<float>(b.hi[2]), 3 * m.faces.size());
-    if (!glb) {
-      out << json;
-    } else {
-      while (json.size() % 4) json += ' ';
-      while (bin.size() % 4) bin += '\0';
-      const std::uint32_t total = 12 + 8 + static_cast<std::uint32_t>(json.size()) + 8 + static_cast<std::uint32_t>(bin.size());
-      const std::uint32_t head[3] = {0x46546C67u, 2, total};
-      out.write(reinterpret_cast<const char*>(head), 12);
-      const std::uint32_t jh[2] = {static_cast<std::uint32_t>(json.size()), 0x4E4F534Au};
-      out.write(reinterpret_cast<const char*>(jh), 8);
-      out << json;
-      const std::uint32_t bh[2] = {static_cast<std::uint32_t>(bin.size()), 0x004E4942u};
-      out.write(reinterpret_cast<const char*>(bh), 8);
-      out << bin;
-    }
+    const std::string json = gltf_json(m.vertices.size(), 3 * m.faces.size(), b.lo, b.hi, uri);
+    if (!glb) out << json;
+    else out << glb_of(json, bin);
   }
 }
 

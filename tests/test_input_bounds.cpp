@@ -274,24 +274,7 @@ TEST(InputBounds, MeshFilesOfTheWrongKindAreRefusedByTheirFirstBytes) {
   EXPECT_HAS(read_error(write_file(t.path() / "z.glb", zeros)), "not a .glb file");
 }
 
-// A binary glTF of `json` and, where given, a BIN chunk of `bin` (each padded to 4 bytes as the format asks).
-std::string glb_of(std::string json, std::string bin = {}) {
-  while (json.size() % 4) json += ' ';
-  while (bin.size() % 4) bin += '\0';
-  std::string b = "glTF";
-  auto u32 = [&](std::uint32_t v) { b.append(reinterpret_cast<const char*>(&v), 4); };
-  u32(2);
-  u32(static_cast<std::uint32_t>(20 + json.size() + (bin.empty() ? 0 : 8 + bin.size())));
-  u32(static_cast<std::uint32_t>(json.size()));
-  u32(0x4E4F534A);  // "JSON"
-  b += json;
-  if (!bin.empty()) {
-    u32(static_cast<std::uint32_t>(bin.size()));
-    u32(0x004E4942);  // "BIN"
-    b += bin;
-  }
-  return b;
-}
+using mca::test::glb_of;
 
 // assimp walks a glTF's node hierarchy and its JSON recursively: a 449 KB chain of 20,000 nodes, or a
 // deep nest of arrays, overflowed the stack (exit 139). Both are refused before assimp sees the file, as
@@ -320,15 +303,7 @@ TEST(InputBounds, GltfTrianglesNamingVerticesTheyDoNotHaveAreRefused) {
   auto glb = [&](const std::vector<std::uint32_t>& idx) {
     std::string bin(reinterpret_cast<const char*>(pos), sizeof pos);
     bin.append(reinterpret_cast<const char*>(idx.data()), idx.size() * 4);
-    const std::string json = fmt::format(
-        R"({{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],)"
-        R"( "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1}}]}}],)"
-        R"( "buffers": [{{"byteLength": {}}}],)"
-        R"( "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 96}}, {{"buffer": 0, "byteOffset": 96, "byteLength": {}}}],)"
-        R"( "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 8, "type": "VEC3", "min": [-1, -1, -1], "max": [1, 1, 1]}},)"
-        R"( {{"bufferView": 1, "componentType": 5125, "count": {}, "type": "SCALAR"}}]}})",
-        bin.size(), idx.size() * 4, idx.size());
-    return glb_of(json, bin);
+    return glb_of(mca::test::gltf_json(8, idx.size(), {-1, -1, -1}, {1, 1, 1}), bin);
   };
   EXPECT_EQ(mca::mesh::read_mesh(write_file(t.path() / "cube.glb", glb(cube))).faces.size(), 12u);
   std::vector<std::uint32_t> repeat = cube;

@@ -1332,15 +1332,10 @@ std::int64_t checked_automata_count(const SceneDef& scene, const Shapes& S, doub
         if (thinnest < 0.5 * range.lo)
           fix = fmt::format("no spacing fits it: {} is more than twice its thinnest side; make the object larger",
                             spacing_bound(range, true));
-        else if (const double count = scene.solver.target_automata * std::pow(d / fits, 3.0);
-                 scene.solver.target_automata > 0 && count >= 100)
+        else if (scene.solver.target_automata > 0)
           fix = fmt::format("raise solver.target_automata (it sets the spacing; about {:.3g} gives {:.3g} m) or make "
                             "the object larger",
-                            count, fits);
-        else if (scene.solver.target_automata > 0)  // (so few that lattice counts jump past any target)
-          fix = fmt::format("give solver.spacing ({:.3g} m{}) instead of solver.target_automata, or make the object "
-                            "larger",
-                            fits, fits > range.lo ? " or less" : "");
+                            scene.solver.target_automata * std::pow(d / fits, 3.0), fits);
         else
           fix = fmt::format("decrease solver.spacing (to {:.3g} m{}; {}) or make the object larger", fits,
                             fits > range.lo ? " or less" : "", ten_thousand_hint(scene, S));

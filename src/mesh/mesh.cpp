@@ -559,18 +559,22 @@ TriMesh convert(const aiScene* scene, const std::string& name) {
   return finish(std::move(m), name, points, kSingle);  // (assimp's formats here store float32)
 }
 
+// assimp's message, for one of ours: at most 300 characters (it may quote megabytes: a data URI it took for a
+// file name).
+std::string assimp_error(const Assimp::Importer& importer) {
+  const std::string why = importer.GetErrorString();
+  return why.size() <= 300 ? why : text::utf8_shown(std::string_view(why).substr(0, 300)) + "...";
+}
+
 [[noreturn]] void fail_import(const Assimp::Importer& importer, const std::string& name, const std::string& ext) {
   if (std::string(importer.GetErrorString()).find("contains no faces") != std::string::npos) {
     throw Error(fmt::format("{}: vertices but no triangles; mca needs a surface of triangles (a point cloud must be "
                             "meshed first, e.g. by Poisson reconstruction in MeshLab or CloudCompare)",
                             name));
   }
-  // (assimp's message may quote megabytes: a data URI it took for a file name.)
-  std::string why = importer.GetErrorString();
-  if (why.size() > 300) why = text::utf8_shown(std::string_view(why).substr(0, 300)) + "...";
   throw Error(fmt::format("{}: cannot be read as a .{} mesh: {}; check that the file is a {} file (the extension "
                           "picks the reader) and not damaged",
-                          name, ext, why, ext == "glb" ? "binary glTF" : ext));
+                          name, ext, assimp_error(importer), ext == "glb" ? "binary glTF" : ext));
 }
 
 }  // namespace
@@ -619,7 +623,7 @@ TriMesh import_assimp(const std::string& name, const std::string& ext, const std
       throw Error(fmt::format("{}: cannot be read: it is compressed with Draco (KHR_draco_mesh_compression), and the "
                               "reader mca uses failed on it ({}); it decodes Draco meshes of up to 65,535 vertices: "
                               "export the model without Draco compression (in Blender: untick Compression)",
-                              name, importer.GetErrorString()));
+                              name, assimp_error(importer)));
     fail_import(importer, name, ext);
   }
   if (ext == "gltf" || ext == "glb") check_gltf_triangles(*raw, declared.primitives, name);
@@ -733,8 +737,8 @@ void check_head(std::string_view head, std::uint64_t size, const std::string& ex
     throw Error(fmt::format("{}: starts with a UTF-8 byte order mark (bytes EF BB BF), which the reader of {} files "
                             "does not take: save it without one (as \"UTF-8\", not \"UTF-8 with BOM\")",
                             name, ext == "ply" ? "PLY" : "glTF"));
-  // Text in UTF-16 (a byte order mark FF FE or FE FF, then two bytes a character), as some Windows programs
-  // save it.
+  // Text in UTF-16 or UTF-32 (a byte order mark FF FE or FE FF, then two or four bytes a character), as some
+  // Windows programs save it.
   const bool utf32 = head.substr(0, 4) == std::string_view("\xFF\xFE\0\0", 4) ||
                      head.substr(0, 4) == std::string_view("\0\0\xFE\xFF", 4);
   if ((text_format || ext == "ply" || ext == "gltf") &&
