@@ -296,17 +296,28 @@ std::pair<double, double> class_factor_range(const SceneDef& scene) {
 
 // The step computes in float32 (math.hpp): a value it stores must be a normal, finite float. A density of
 // 1e-50 or a modulus of 1e39 would otherwise become 0 or inf and the run NaN.
-float as_float32(const SceneDef& scene, const std::string& what, double v, const std::string& fix) {
+bool fits_float32(double v) {
   const double a = std::fabs(v);
   // Up to where it rounds to the largest float (half a unit of its last place above it: 2^103).
-  constexpr double kMax = std::numeric_limits<float>::max(), kRoundsToMax = kMax + 0x1p103;
-  if (!(a >= std::numeric_limits<float>::min() && a < kRoundsToMax)) {
+  constexpr double kRoundsToMax = std::numeric_limits<float>::max() + 0x1p103;
+  return a >= std::numeric_limits<float>::min() && a < kRoundsToMax;
+}
+
+float as_float32(const SceneDef& scene, const std::string& what, double v, const std::string& fix) {
+  if (!fits_float32(v)) {
     throw Error(fmt::format("{}: {} = {} does not fit the float32 arithmetic of the solver (magnitudes from {} to "
                             "{}); {}",
                             scene.source, what, text::num(v), text::num(std::numeric_limits<float>::min()),
-                            text::num(kMax), fix));
+                            text::num(std::numeric_limits<float>::max()), fix));
   }
   return static_cast<float>(v);
+}
+
+// as_float32 for a value of each automaton: `what()` names it only where it does not fit (naming every
+// automaton's mass and moment of inertia formatted two strings an automaton while a model was built).
+template <class What>
+float automaton_float32(const SceneDef& scene, const What& what, double v, const std::string& fix) {
+  return fits_float32(v) ? static_cast<float>(v) : as_float32(scene, what(), v, fix);
 }
 
 }  // namespace
@@ -449,13 +460,21 @@ double spacing_that_fits(double d, double automata, bool approximate, double lim
 // The fix for a model too large at spacing d, `fits` the spacing that would fit: a larger spacing, or, where
 // solver.target_automata chooses the spacing, a lower target (the count falls with the cube of the spacing).
 // `automata` is the count spacing_that_fits took (twice a lower bound from the volume).
-std::string smaller_model(const SceneDef& scene, double d, double automata, double fits) {
+// A fix of a model over the memory it may take, and whether more memory would be one too.
+struct MemoryFix {
+  std::string text;
+  bool more_memory_helps = true;
+};
+
+MemoryFix smaller_model(const SceneDef& scene, double d, double automata, double fits) {
+  // (Where no spacing fits, more memory would not either.)
   if (const SpacingRange range = spacing_range(scene); fits > range.hi)
-    return fmt::format("no spacing makes it fit: it would take {:.3g} m, more than {}; scale the objects down",
-                       fits, spacing_bound(range, false));
+    return {fmt::format("no spacing makes it fit: it would take {:.3g} m, more than {}; scale the objects down",
+                        fits, spacing_bound(range, false)),
+            false};
   if (scene.solver.target_automata > 0)
-    return fmt::format("lower solver.target_automata (about {:.3g} fits)", automata * std::pow(d / fits, 3.0));
-  return fmt::format("increase solver.spacing (memory falls with its cube: a spacing of about {:.3g} m fits)", fits);
+    return {fmt::format("lower solver.target_automata (about {:.3g} fits)", automata * std::pow(d / fits, 3.0))};
+  return {fmt::format("increase solver.spacing (memory falls with its cube: a spacing of about {:.3g} m fits)", fits)};
 }
 
 // The memory a run holds per automaton of a surface-mode object: its triangle's automaton and about 1.5
@@ -485,22 +504,20 @@ void refuse_over_memory(const SceneDef& scene, double d, double automata, bool a
     const std::string shells = fmt::format("{:.4g} automata of surface-mode objects (one a triangle)", surface);
     const std::string count = surface <= 0 ? lattice : automata <= 0 ? shells : lattice + " and " + shells;
     const double room = cap - per_surface * surface;
-    const std::string fix =
+    const MemoryFix fix =
         surface <= 0 || (automata > 0 && room > 2 * fixed)
             ? smaller_model(scene, d, approximate ? 2 * automata : automata,
                             spacing_that_fits(d, automata, approximate, room, per))
-            : fmt::format("give the surface-mode objects meshes of fewer triangles (about {:.3g} in all fit, at "
-                          "{:.0f} bytes each; solver.spacing does not change their count)",
-                          std::max(0.0, (cap - fixed - per * automata) / per_surface), per_surface);
+            : MemoryFix{fmt::format("give the surface-mode objects meshes of fewer triangles (about {:.3g} in all "
+                                    "fit, at {:.0f} bytes each; solver.spacing does not change their count)",
+                                    std::max(0.0, (cap - fixed - per * automata) / per_surface), per_surface)};
     return std::pair{count, fix};
   };
   const MemoryLimit cap = memory_limit(scene);
   if (bytes > cap.bytes) {
     const auto [count, fix] = over(cap.bytes);
-    // (Where no spacing fits, more memory would not either.)
-    const bool none = fix.rfind("no spacing", 0) == 0;
     throw Error(fmt::format("{}: the scene needs {:.3g} GB for {}, {}; {}{}", scene.source, bytes / 1e9, count,
-                            cap.over, fix, none ? std::string() : " or " + cap.instead));
+                            cap.over, fix.text, fix.more_memory_helps ? " or " + cap.instead : std::string()));
   }
 }
 
@@ -858,6 +875,8 @@ void add_surface_object(Model& M, const SceneDef& scene, const MeshObject& mo, c
     lumped[l[0]] += 0.5 * sc.area[l[1]] / links_of[l[1]];
     lumped[l[1]] += 0.5 * sc.area[l[0]] / links_of[l[0]];
   }
+  const std::string mass_fix =
+      fmt::format("check the density (kg/m^3), the mesh's scale and shell_thickness ({:g} m)", t);
   for (std::size_t k = 0; k < count; ++k) {
     const mesh::Point& c = sc.centroid[k];
     const Vec3d r = R.apply({c[0], c[1], c[2]});
@@ -867,9 +886,9 @@ void add_surface_object(Model& M, const SceneDef& scene, const MeshObject& mo, c
       if (o.regions[rr].shape == Shape::mesh ? inside_solid(*mo.regions[rr], c) : inside_region(o.regions[rr], wp))
         g = region_groups[rr];
     const double volume = lumped[k] * t;
-    const std::string fix = fmt::format("check the density (kg/m^3), the mesh's scale and shell_thickness ({:g} m)", t);
-    const float mass = as_float32(scene, fmt::format("the mass of the automaton of triangle {} of object '{}'", sc.face[k], o.name),
-                                  M.groups[g].density * volume, fix);
+    const float mass = automaton_float32(
+        scene, [&] { return fmt::format("the mass of the automaton of triangle {} of object '{}'", sc.face[k], o.name); },
+        M.groups[g].density * volume, mass_fix);
     M.position0.push_back(to_dvec3(wp));
     M.velocity0.push_back(to_dvec3(o.velocity));
     M.mass.push_back(mass);
@@ -937,6 +956,7 @@ void add_surface_object(Model& M, const SceneDef& scene, const MeshObject& mo, c
   UniformGrid grid;
   grid.build(M.position0.data() + first, count, 2.0 * largest);
   std::vector<std::uint32_t> linked;
+  const std::string inertia_fix = fmt::format("check the mesh's scale and shell_thickness ({:g} m)", t);
   for (std::size_t k = 0; k < count; ++k) {
     const DVec3 x = M.position0[first + k];
     double nearest = INFINITY;
@@ -972,9 +992,12 @@ void add_surface_object(Model& M, const SceneDef& scene, const MeshObject& mo, c
     }
     // As a cube whose side is its mean link length (a lattice automaton: m d^2 / 6), whatever its
     // contact radius.
-    M.inertia[a] = as_float32(scene, fmt::format("the moment of inertia of the automaton of triangle {} of object '{}'", sc.face[k], o.name),
-                              M.mass[a] * (2.0 * size[k]) * (2.0 * size[k]) / 6.0,
-                              fmt::format("check the mesh's scale and shell_thickness ({:g} m)", t));
+    M.inertia[a] = automaton_float32(
+        scene,
+        [&] {
+          return fmt::format("the moment of inertia of the automaton of triangle {} of object '{}'", sc.face[k], o.name);
+        },
+        M.mass[a] * (2.0 * size[k]) * (2.0 * size[k]) / 6.0, inertia_fix);
   }
   // Each triangle rides with its own automaton.
   BoundSurface& B = M.surface;
@@ -1252,7 +1275,10 @@ SpacingRange spacing_range(double density) {
   // 0.75 times the largest, a factor of 7.6 and 0.24 in rho d^5.)
   const double lo = 1.5 * std::max(std::pow(6 * kMin / density, 0.2), std::cbrt(kMin / density));
   const double hi = 0.75 * std::min(std::pow(6 * kMax / density, 0.2), std::cbrt(kMax / density));
-  if (lo > r.lo) r = {lo, r.hi, true, false};
+  if (lo > r.lo) {
+    r.lo = lo;
+    r.lo_float32 = true;
+  }
   if (hi < r.hi) {
     r.hi = hi;
     r.hi_float32 = true;
@@ -1441,11 +1467,13 @@ void link_random(Model& M, const SceneDef& scene, std::size_t oi, std::size_t fi
   for (std::size_t k = 0; k < count; ++k) {
     const std::size_t a = first + k;
     const double volume = v.volume[k];
-    M.mass[a] = as_float32(scene, fmt::format("the mass of automaton {} of object '{}'", k, o.name),
-                           M.groups[M.group[a]].density * volume, fix);
+    M.mass[a] = automaton_float32(
+        scene, [&] { return fmt::format("the mass of automaton {} of object '{}'", k, o.name); },
+        M.groups[M.group[a]].density * volume, fix);
     const double side = std::cbrt(volume);
-    M.inertia[a] = as_float32(scene, fmt::format("the moment of inertia of automaton {} of object '{}'", k, o.name),
-                              M.mass[a] * side * side / 6.0, fix);  // a cube of its volume
+    M.inertia[a] = automaton_float32(  // a cube of its volume
+        scene, [&] { return fmt::format("the moment of inertia of automaton {} of object '{}'", k, o.name); },
+        M.mass[a] * side * side / 6.0, fix);
     M.volume[a] = static_cast<float>(volume);
     M.boxed.push_back(v.interior[k] && rs.deep[k]);
     M.free_face.push_back(static_cast<float>(v.free_face[k]));

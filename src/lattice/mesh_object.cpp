@@ -287,38 +287,39 @@ void refuse_wide_holes(const SceneDef& scene, std::size_t index, const Solid& s,
                        bool region) {
   const double hole = s.topology.largest_hole;
   if (s.topology.holes == 0 || hole <= 1.5 * d) return;
+  // Every refusal below: where it is, what is open, and (an object's mesh, not a region's) the fill that
+  // needs no closed surface.
+  const std::string open = fmt::format("{}: {} {} is open", where(scene, index), what, s.file);
+  const std::string rims = fmt::format("{} in {}", text::count(s.topology.boundary_edges, "boundary edge"),
+                                       text::count(s.topology.holes, "hole"));
+  const std::string or_surface =
+      region ? "" : ", or fill = \"surface\" for a shell of one automaton per triangle, which needs no closed surface";
   // A seam (the rim encloses next to no area: its sides meet without sharing vertices) is no opening a
   // coarser spacing would close over: the mesh wants welding.
   const double width = s.topology.largest_hole_width;
   if (s.topology.boundary_edges == s.topology.edges) {  // (no edge shared: every triangle a rim of its own)
     throw Error(fmt::format(
-        "{}: {} {} is open: none of its {} edges is shared by two triangles, so its vertices are not welded "
-        "(each triangle has corners of its own, apart by a hair or more), and a volume fill needs a closed "
-        "surface. Weld the mesh (MeshLab: Filters > Cleaning and Repairing > Merge Close Vertices; Blender: Mesh > "
-        "Clean Up > Merge by Distance){}",
-        where(scene, index), what, s.file, s.topology.edges,
-        region ? "" : ", or fill = \"surface\" for a shell of one automaton per triangle, which needs no closed surface"));
+        "{}: none of its {} edges is shared by two triangles, so its vertices are not welded (each triangle has "
+        "corners of its own, apart by a hair or more), and a volume fill needs a closed surface. Weld the mesh "
+        "(MeshLab: Filters > Cleaning and Repairing > Merge Close Vertices; Blender: Mesh > Clean Up > Merge by "
+        "Distance){}",
+        open, s.topology.edges, or_surface));
   }
   if (width < 0.1 * hole) {
     throw Error(fmt::format(
-        "{}: {} {} is open: {} in {}, the largest {:.4g} m long but about {:.3g} m wide: a "
-        "seam whose two sides meet without sharing their vertices (a T-junction: a vertex on another triangle's "
-        "edge, or vertices a hair apart), and a volume fill needs a closed surface. Weld the mesh (MeshLab: Filters "
-        "> Cleaning and Repairing > Merge Close Vertices, then Remove T-Vertices; Blender: Mesh > Clean Up > Merge "
-        "by Distance){}",
-        where(scene, index), what, s.file, text::count(s.topology.boundary_edges, "boundary edge"),
-        text::count(s.topology.holes, "hole"), hole, width,
-        region ? "" : ", or fill = \"surface\" for a shell of one automaton per triangle, which needs no closed surface"));
+        "{}: {}, the largest {:.4g} m long but about {:.3g} m wide: a seam whose two sides meet without sharing "
+        "their vertices (a T-junction: a vertex on another triangle's edge, or vertices a hair apart), and a volume "
+        "fill needs a closed surface. Weld the mesh (MeshLab: Filters > Cleaning and Repairing > Merge Close "
+        "Vertices, then Remove T-Vertices; Blender: Mesh > Clean Up > Merge by Distance){}",
+        open, rims, hole, width, or_surface));
   }
   const bool target = scene.solver.target_automata > 0;
   throw Error(fmt::format(
-      "{}: {} {} is open: {} in {}, the largest {:.4g} m across ({:.3g} cells at spacing {:.4g} m), "
-      "and a volume fill needs a closed surface (holes under about a cell are closed). Repair the mesh (MeshLab: "
-      "Filters > Remeshing > Close Holes; Blender: Mesh > Clean Up > Fill Holes), use a coarser spacing (above "
-      "{:.3g} m{}){}",
-      where(scene, index), what, s.file, text::count(s.topology.boundary_edges, "boundary edge"),
-      text::count(s.topology.holes, "hole"), hole, hole / d, d, hole / 1.5, target ? ": a smaller solver.target_automata" : ": solver.spacing",
-      region ? "" : ", or fill = \"surface\" for a shell of one automaton per triangle, which needs no closed surface"));
+      "{}: {}, the largest {:.4g} m across ({:.3g} cells at spacing {:.4g} m), and a volume fill needs a closed "
+      "surface (holes under about a cell are closed). Repair the mesh (MeshLab: Filters > Remeshing > Close Holes; "
+      "Blender: Mesh > Clean Up > Fill Holes), use a coarser spacing (above {:.3g} m{}){}",
+      open, rims, hole, hole / d, d, hole / 1.5, target ? ": a smaller solver.target_automata" : ": solver.spacing",
+      or_surface));
 }
 
 // A format that stores float32 (STL, glTF) has rounded each coordinate to 2^-24 of its magnitude: a model
