@@ -87,6 +87,8 @@ class Checker {
                             a[k].dump(), written_as(a[k])));
   }
   static std::uint64_t number(const Json& v) { return static_cast<std::uint64_t>(v.get<std::int64_t>()); }
+  // An accessor's element count (checked by fields), 0 where it gives none.
+  static std::uint64_t count(const Json& accessor) { return accessor.contains("count") ? number(accessor["count"]) : 0; }
   // The array `key` of the file's top level (empty where it is not there or not an array).
   const Json& list(const char* key) const {
     static const Json none = Json::array();
@@ -133,7 +135,9 @@ class Checker {
     for (std::size_t i = 0; i < buffers.size(); ++i) whole(buffers[i], "byteLength", fmt::format("buffers[{}]", i));
   }
 
-  void extensions() const {
+  // Refuses the extensions the reader mca uses does not apply to the shape; returns whether the file uses
+  // Draco compression.
+  bool extensions() const {
     std::set<std::string> required, used;
     for (const auto& [key, into] : {std::pair<const char*, std::set<std::string>*>{"extensionsRequired", &required},
                                     {"extensionsUsed", &used}})
@@ -154,6 +158,7 @@ class Checker {
                               "would read may not be the model; export it without {}",
                               name_, e, e));
     }
+    return used.count("KHR_draco_mesh_compression") > 0 || required.count("KHR_draco_mesh_compression") > 0;
   }
 
   // The accessor `index` names for `what` (validated by fields: a whole number), which must be there.
@@ -191,7 +196,7 @@ class Checker {
                                 "SCALAR of unsigned bytes, shorts or ints (5121, 5123, 5125)",
                                 path, number(prim["indices"]), a.value("type", Json()).dump(),
                                 a.value("componentType", Json()).dump()));
-          n = a.contains("count") ? number(a["count"]) : 0;
+          n = count(a);
         }
         if (prim.is_object() && prim.contains("attributes") && prim["attributes"].is_object() &&
             prim["attributes"].contains("POSITION")) {
@@ -202,7 +207,7 @@ class Checker {
                                 "reader mca uses does not scale back: export without, e.g. gltfpack -noq)",
                                 path, number(prim["attributes"]["POSITION"]),
                                 a.value("type", Json()).dump(), a.value("componentType", Json()).dump()));
-          if (!indexed) n = a.contains("count") ? number(a["count"]) : 0;
+          if (!indexed) n = count(a);
         }
         if (mode == 4) {
           if (n % 3 != 0)
@@ -377,16 +382,14 @@ GltfDeclared check_gltf_json(std::string_view json, const std::string& name) {
   const Checker check(j, name);
   check.hierarchy();
   check.fields();
-  check.extensions();
+  GltfDeclared d;
+  d.draco = check.extensions();
   // Meshes no scene places (glTF allows a file without scenes; the reader mca uses reads nothing of it).
   if (check.list("scenes").empty() && !check.list("meshes").empty())
     throw Error(fmt::format("{}: has meshes but no scene to place them, and the reader mca uses reads a glTF's "
                             "scene: export it with its objects in a scene",
                             name));
-  GltfDeclared d;
   d.primitives = check.primitives();
-  for (const char* key : {"extensionsUsed", "extensionsRequired"})
-    for (const Json& e : check.list(key)) d.draco = d.draco || (e.is_string() && e.get<std::string>() == "KHR_draco_mesh_compression");
   return d;
 }
 

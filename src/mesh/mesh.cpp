@@ -17,6 +17,7 @@
 #include <fmt/format.h>
 #include <fstream>
 #include <iterator>
+#include <optional>
 #include <limits>
 #include <sstream>
 #include <string_view>
@@ -108,15 +109,14 @@ class FolderIOSystem : public Assimp::DefaultIOSystem {
   }
   Assimp::IOStream* Open(const char* given, const char* mode) override {
     // (A data URI in capitals, "DATA:...", is a file name to assimp: its whole base64 was shown.)
-    if (given && !folder_.empty()) {
-      const std::string f = given, prefix = folder_.string() + "/";
-      std::string scheme = f.rfind(prefix, 0) == 0 ? f.substr(prefix.size(), 5) : std::string();
+    if (const std::string named = as_named(given); named.size() >= 5) {
+      std::string scheme = named.substr(0, 5);
       for (char& c : scheme) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
       if (scheme == "data:") {
         if (refusal_.empty())
           refusal_ = fmt::format("it names {}, a data URI the reader mca uses takes only in lower case (\"data:\"): "
                                  "write its scheme so",
-                                 shortened(f.substr(prefix.size())));
+                                 shortened(named));
         return nullptr;
       }
     }
@@ -128,15 +128,15 @@ class FolderIOSystem : public Assimp::DefaultIOSystem {
     const std::string name = std::filesystem::path(file).filename().string();
     std::error_code ec;
     if (!std::filesystem::exists(file, ec)) {
-      // (assimp puts the folder before every name, an absolute one too: "folder//abs/path".)
-      const std::string f = file, prefix = folder_.string() + "/";
-      const bool absolute = f.rfind(prefix, 0) == 0 && f.size() > prefix.size() && f[prefix.size()] == '/';
+      // (An absolute name: "folder//abs/path".)
+      const std::string named = as_named(file);
       if (refusal_.empty())
-        refusal_ = absolute ? fmt::format("it names the absolute path {}; mca reads the files a mesh names relative to "
-                                          "its folder: name it so",
-                                          shortened(f.substr(prefix.size())))
-                            : fmt::format("it names {}, which is not there; give it the file it should read",
-                                          shortened(f));
+        refusal_ = !named.empty() && named[0] == '/'
+                       ? fmt::format("it names the absolute path {}; mca reads the files a mesh names relative to "
+                                     "its folder: name it so",
+                                     shortened(named))
+                       : fmt::format("it names {}, which is not there; give it the file it should read",
+                                     shortened(file));
       refused_names_.insert(name);
       return nullptr;
     }
@@ -162,6 +162,13 @@ class FolderIOSystem : public Assimp::DefaultIOSystem {
   const std::string& refusal() const { return refusal_; }
 
  private:
+  // The name as the file gave it: assimp puts the mesh's folder and "/" before every name (an absolute one
+  // too); empty where `path` does not start so.
+  std::string as_named(const char* path) const {
+    if (!path || folder_.empty()) return {};
+    const std::string f = path, prefix = folder_.string() + "/";
+    return f.rfind(prefix, 0) == 0 ? f.substr(prefix.size()) : std::string();
+  }
   // A name for a message: at most 200 characters (a data URI can be megabytes).
   static std::string shortened(const std::string& s) {
     return s.size() <= 200 ? text::utf8_shown(s) : text::utf8_shown(s.substr(0, 200)) + "...";
@@ -688,8 +695,7 @@ bool stl_binary(std::string_view head, std::uint64_t size) {
   return size >= 84 && 84 + 50 * static_cast<std::uint64_t>(n) == size;
 }
 
-// A UTF-8 byte order mark, which some Windows editors write before text.
-constexpr std::string_view kBom = "\xEF\xBB\xBF";
+using detail::kBom;
 
 // `text` without the byte order marks at the starts of its lines (files saved with one, then joined end to
 // end: assimp's STL reader took a second solid's "\xEF\xBB\xBFsolid" for the end and left it out).
@@ -697,7 +703,7 @@ std::string without_line_boms(std::string_view text) {
   std::string out;
   out.reserve(text.size());
   for (std::size_t at = 0; at < text.size();) {
-    while (text.substr(at, 3) == kBom) at += 3;
+    while (text.substr(at, kBom.size()) == kBom) at += kBom.size();
     const std::size_t nl = std::min(text.find('\n', at), text.size());
     out.append(text.substr(at, nl + 1 - at));
     at = nl + 1;
@@ -715,7 +721,7 @@ void check_stl_end(std::string_view tail, const std::string& name) {
     const std::size_t start = tail.find_last_of('\n', last);
     const std::size_t first = start == std::string_view::npos ? 0 : start + 1;
     line = tail.substr(first, last + 1 - first);
-    while (line.substr(0, 3) == kBom) line.remove_prefix(3);
+    while (line.substr(0, kBom.size()) == kBom) line.remove_prefix(kBom.size());
     line.remove_prefix(std::min(line.size(), line.find_first_not_of(" \t")));
   }
   if (line.substr(0, 8) != "endsolid") {
@@ -725,13 +731,22 @@ void check_stl_end(std::string_view tail, const std::string& name) {
   }
 }
 
+// An ASCII STL's text for assimp: its end checked (check_stl_end), the byte order marks at its lines'
+// starts left out (without_line_boms); nullopt where it has none (the text as it is). (From memory: an STL
+// names no other file.)
+std::optional<std::string> ascii_stl_text(std::string_view bytes, const std::string& name) {
+  check_stl_end(bytes.substr(bytes.size() - std::min<std::size_t>(bytes.size(), 1 << 20)), name);
+  if (bytes.find(kBom) == std::string_view::npos) return std::nullopt;
+  return without_line_boms(bytes);
+}
+
 // The format's signature in the first bytes of the file (`head`; `size`: the whole file's), checked before
 // the file is read: a file of zeros or of another format is refused at once, whatever its size.
 void check_head(std::string_view head, std::uint64_t size, const std::string& ext, const std::string& name) {
   const bool nul = head.find('\0') != std::string_view::npos;
   // A UTF-8 byte order mark, which some Windows editors write before text: skipped before the text formats
   // (their readers skip it too), named before PLY and glTF, whose readers do not take it.
-  const std::size_t bom = head.substr(0, 3) == kBom ? 3 : 0;
+  const std::size_t bom = head.substr(0, kBom.size()) == kBom ? kBom.size() : 0;
   const bool text_format = ext == "off" || ext == "obj" || (ext == "stl" && !stl_binary(head, size));
   if (bom && (ext == "ply" || ext == "gltf"))
     throw Error(fmt::format("{}: starts with a UTF-8 byte order mark (bytes EF BB BF), which the reader of {} files "
@@ -919,19 +934,9 @@ TriMesh read_mesh(const std::string& path, double max_memory_bytes) {
   refuse_over_memory(path, kAssimpBytesPerFileByte * static_cast<double>(size), max_memory_bytes,
                      fmt::format("a file of {}, read by assimp", mb(size)));
   if (ext == "stl" && !stl_binary(head, size)) {
-    const std::uint64_t tail = std::min<std::uint64_t>(size, 1 << 20);
-    std::ifstream in(path, std::ios::binary);
-    std::string end(tail, '\0');
-    in.seekg(static_cast<std::streamoff>(size - tail));
-    in.read(end.data(), static_cast<std::streamsize>(tail));
-    check_stl_end(end, path);
-    // Byte order marks at lines' starts are left out before assimp reads it (from memory: an STL names no
-    // other file).
-    const std::string bytes = read_file(path, size);
-    if (bytes.find(kBom) != std::string::npos) {
-      const std::string text = without_line_boms(bytes);
-      return import(path, ext, &text, path, max_memory_bytes);
-    }
+    // (Read here for its end and its byte order marks; without any, assimp reads the file itself.)
+    if (const std::optional<std::string> text = ascii_stl_text(read_file(path, size), path))
+      return import(path, ext, &*text, path, max_memory_bytes);
   }
   return import(path, ext, nullptr, path, max_memory_bytes);
 }
@@ -949,10 +954,9 @@ TriMesh read_mesh_memory(const void* data, std::size_t size, const std::string& 
   if (ext != "off" && ext != "obj" && ext != "ply")
     refuse_over_memory(name, kAssimpBytesPerFileByte * static_cast<double>(size), max_memory_bytes,
                        fmt::format("{} of data, read by assimp", mb(size)));
-  const bool ascii_stl = ext == "stl" && !stl_binary(view, size);
-  if (ascii_stl) check_stl_end(view.substr(size - std::min<std::size_t>(size, 1 << 20)), name);
-  const std::string bytes = ascii_stl && view.find(kBom) != std::string_view::npos ? without_line_boms(view)
-                                                                                   : std::string(view);
+  std::optional<std::string> text;
+  if (ext == "stl" && !stl_binary(view, size)) text = ascii_stl_text(view, name);
+  const std::string bytes = text ? std::move(*text) : std::string(view);
   return import(name, ext, &bytes, name, max_memory_bytes);
 }
 

@@ -36,7 +36,7 @@ class Lines {
       at_ = nl + 1;
       // A UTF-8 byte order mark, which some Windows editors write before text, at the start of a line (files
       // joined end to end carry one each): skipped (after it the line read as an unknown keyword).
-      while (line.substr(0, 3) == "\xEF\xBB\xBF") line.remove_prefix(3);
+      while (line.substr(0, kBom.size()) == kBom) line.remove_prefix(kBom.size());
       if (const std::size_t c = line.find(comment_); c != std::string_view::npos) line = line.substr(0, c);
       words_.clear();
       std::size_t i = 0;
@@ -401,9 +401,11 @@ ReadResult read_ply(std::string_view bytes, const std::string& name) {
     if (is_vertex && (axis[0] < 0 || axis[1] < 0 || axis[2] < 0)) {
       throw Error(fmt::format("{}: the PLY vertex element has no x, y and z properties", name));
     }
-    if (is_vertex)
-      r.float32 = std::any_of(axis, axis + 3, [&](int a) { return e.properties[static_cast<std::size_t>(a)].item == Type::f32; });
-    if (is_vertex) m.vertices.reserve(e.count);
+    if (is_vertex) {
+      r.float32 = std::any_of(axis, axis + 3,
+                              [&](int a) { return e.properties[static_cast<std::size_t>(a)].item == Type::f32; });
+      m.vertices.reserve(e.count);
+    }
     if (is_face) m.faces.reserve(e.count);
     for (std::uint64_t i = 0; i < e.count; ++i) {
       Point p{};

@@ -14,6 +14,10 @@
 
 namespace mca::mesh::detail {
 
+// A UTF-8 byte order mark, which some Windows editors write before text (and files joined end to end
+// carry at their parts' starts).
+inline constexpr std::string_view kBom = "\xEF\xBB\xBF";
+
 struct ReadResult {
   TriMesh mesh;
   std::size_t points_and_lines = 0;  // elements of fewer than three corners (left out)
