@@ -639,7 +639,11 @@ SceneHead read_scene_head(const std::filesystem::path& dir) {
   return h;
 }
 
-void check_folder_is_a_runs(const std::filesystem::path& dir, std::string_view another) {
+namespace {
+
+// check_folder_is_a_runs on the run a folder holds: files of its names that no run of mca wrote, or a run
+// that did not finish.
+void check_earlier_run(const std::filesystem::path& dir, std::string_view another) {
   const std::string folder = text::shell_word(dir.string());
   std::error_code ec;
   if (read_scene_head(dir).by_mca) {
@@ -668,6 +672,13 @@ void check_folder_is_a_runs(const std::filesystem::path& dir, std::string_view a
       dir.string(), fmt::join(found.begin(), found.begin() + static_cast<std::ptrdiff_t>(shown), ", "),
       found.size() > shown ? fmt::format(" and {} more", found.size() - shown) : "",
       std::filesystem::exists(dir / "scene.toml", ec) ? "was not written by mca" : "is missing", another));
+}
+
+}  // namespace
+
+void check_folder_is_a_runs(const std::filesystem::path& dir, std::string_view another) {
+  check_earlier_run(dir, another);
+  check_run_names_are_files(dir);
 }
 
 void FrameWriter::remove_stale_temporaries(const std::filesystem::path& dir) {

@@ -146,8 +146,9 @@ SceneHead read_scene_head(const std::filesystem::path& dir);
 // A new run replaces an earlier run's files in its folder. It refuses a folder whose files of those names
 // are not a run's (no scene.toml of mca's: a user's summary.json, a folder of another program), and one
 // whose run did not finish and can be resumed (checkpoints, and no summary of a finished run): one
-// command typed for another must not cost either. `another`: the fix's other folder ("another --out
-// folder"; the Python module's write_frame names its own).
+// command typed for another must not cost either; and one with something not a file at a name the run
+// writes (check_run_names_are_files). `another`: the fix's other folder ("another --out folder"; the Python
+// module's write_frame names its own).
 void check_folder_is_a_runs(const std::filesystem::path& dir, std::string_view another = "another --out folder");
 
 class FrameWriter {

@@ -682,7 +682,6 @@ int run(const RunOptions& o) {
                               dir.string(), *o.scene));
   }
   check_folder_is_a_runs(dir);
-  check_run_names_are_files(dir);
 
   if (!o.quiet) fmt::print(stderr, "mca: scene '{}' ({}): building...\n", scene.name, scene.source);
   std::optional<lattice::BuildProgress> building;

@@ -483,7 +483,6 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
     // As a new run: not a folder of files of a run's names that no run of mca wrote, nor a run that did
     // not finish (its frames would go, and its checkpoints could no longer be resumed).
     app::check_folder_is_a_runs(out->dir, "write_frame another folder");
-    app::check_run_names_are_files(out->dir);
     app::FrameWriter::remove_stale_temporaries(out->dir);
     // An earlier run's outputs, as mca run removes them: its summary.json and fragment meshes were left, and
     // the Blender importer took the old run's spacing and pieces for this one's.
