@@ -135,6 +135,50 @@ TEST(RangeEdges, TargetAutomataAtItsLimit) {
   EXPECT_EQ(m.find("solver.spacing"), std::string::npos) << m;
 }
 
+// The advice on solver.target_automata is followed once and the scene builds: a target too small for a thin
+// object names a count (a 2 mm plate was told 1.1e7 automata, scaled by the cube from the target, which then
+// could not be met within 2 %), and the count no spacing meets names the spacing that gives the closest (the
+// closest count as a target was met by no spacing either: a rod went 126, 136, 139 automata, and a thin sphere
+// was named before the thinner plate beside it).
+TEST(RangeEdges, TargetAutomataAdviceIsFollowedOnce) {
+  const std::string plate = "[[object]]\nsize = [1.0, 1.0, 0.002]\nposition = [0, 0, 1]\n";
+  const std::string rod = "[[object]]\nshape = \"cylinder\"\nradius = 0.05\nheight = 20.0\nposition = [0, 0, 1]\n";
+  const std::string thin_rod = "[[object]]\nshape = \"cylinder\"\nradius = 0.0005\nheight = 20.0\nposition = [0, 0, 1]\n";
+  const std::string two = "[[object]]\nshape = \"sphere\"\nradius = 0.01\nposition = [0, 0, 1]\n"
+                          "[[object]]\nsize = [3.0, 0.004, 3.0]\nposition = [0, 0, 3]\n";
+  struct Case {
+    std::string objects;
+    int target;
+    const char* advice;  // what the first refusal says
+  };
+  for (const Case& c : {Case{plate, 100, "raise solver.target_automata (it sets the spacing; about "},
+                        Case{thin_rod, 100, "raise solver.target_automata (it sets the spacing; about "},
+                        Case{two, 10, "raise solver.target_automata (it sets the spacing; about "},
+                        Case{rod, 13300, "cannot be met within 2 %"}}) {
+    const auto build = [&](const std::string& solver) {
+      // (The cubic lattice builds faster; the counts and the advice are the same on both.)
+      return error_of([&] {
+        Engine e(io::parse_scene("[solver]\nlattice = \"cubic\"\n" + solver + "\n" + c.objects, "edge.toml"));
+      });
+    };
+    const std::string m = build(fmt::format("target_automata = {}", c.target));
+    SCOPED_TRACE(m);
+    EXPECT_HAS(m, c.advice);
+    expect_sane(m);
+    std::string followed;
+    if (const std::size_t at = m.find("; about "); at != std::string::npos && m.find(" gives ", at) != std::string::npos)
+      followed = fmt::format("target_automata = {}", static_cast<long long>(std::stod(m.substr(at + 8))));
+    else if (const std::size_t sp = m.find("at solver.spacing = "); sp != std::string::npos)
+      followed = "spacing = " + m.substr(sp + 20, m.find(':', sp) - sp - 20);
+    ASSERT_FALSE(followed.empty());
+    EXPECT_EQ(build(followed), "") << followed;
+  }
+  // The sphere and the plate: the sphere is named (the first too thin), the count is for the plate's 4 mm.
+  const std::string m = error_of([&] { Engine e(io::parse_scene("[solver]\ntarget_automata = 10\n" + two, "edge.toml")); });
+  EXPECT_HAS(m, "object[0] 'object' is 0.02 x 0.02 x 0.02 m");
+  EXPECT_HAS(m, "gives 0.006 m)");
+}
+
 // Item 5: solver.time_step = 1e-12, the documented minimum, ran with a contact damping ratio of 2e-17 (the
 // calibration's simulated contact outlasted its loop) and, at the default frame rate, is 2e9 steps a
 // frame: the message names the frame rate that fits.

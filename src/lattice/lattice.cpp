@@ -1184,11 +1184,90 @@ std::int64_t count_automata(const SceneDef& scene, const Shapes& S, double spaci
   return n;
 }
 
+// The count at a spacing without filling a mesh (its signed-distance grid at a fine spacing can be large):
+// a mesh object's from its volume, the shapes' counted.
+double estimated_count(const SceneDef& scene, const Shapes& S, double spacing) {
+  double n = 0;
+  for (std::size_t oi = 0; oi < scene.objects.size(); ++oi)
+    n += scene.objects[oi].shape == Shape::mesh && !S.surface_of(oi)
+             ? S.of(oi)->volume() / (spacing * spacing * spacing)
+             : static_cast<double>(object_count(scene, S, oi, spacing));
+  return n;
+}
+
+// The spacing d (a float), which gives n automata, in as few digits as give the same count (the model takes
+// the spacing as a float).
+std::string spacing_written(const SceneDef& scene, const Shapes& S, double d, std::int64_t n) {
+  for (int digits = 6; digits < 17; ++digits) {
+    const std::string text = fmt::format("{:.{}g}", d, digits);
+    const double read = static_cast<double>(static_cast<float>(std::stod(text)));
+    if (read == d || count_automata(scene, S, read) == n) return text;
+  }
+  return fmt::format("{:.17g}", d);
+}
+
+// Refuses an object thinner than half the spacing d along a side of its lattice.
+void refuse_thin_objects(const SceneDef& scene, const Shapes& S, double d) {
+  // An extent under half a cell would round to no cell; it becomes one, a body far larger than asked. (Half
+  // a cell itself is one, and the spacing is a float: size = 0.025 at spacing 0.05 was refused.)
+  struct Thin {
+    std::size_t object = 0;
+    int axis = -1;
+    double ext[3] = {0, 0, 0};
+  } named;
+  // The fix is for the thinnest side of every object, whichever side is named (a cylinder 6e-9 m long and 3e-9
+  // across was told a spacing that its diameter then refused; a thin sphere beside a thinner plate was told a
+  // spacing that the plate then refused); an object that no spacing fits is named first.
+  const SpacingRange range = spacing_range(scene);
+  double thinnest = INFINITY;
+  for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) {
+    if (S.surface_of(oi)) continue;
+    Thin t{oi};
+    shape_extents(scene.objects[oi], S.of(oi), t.ext);
+    const double least = std::min({t.ext[0], t.ext[1], t.ext[2]});
+    thinnest = std::min(thinnest, least);
+    for (int a = 0; a < 3 && t.axis < 0; ++a)
+      if (t.ext[a] < 0.5 * d * (1 - 1e-6)) t.axis = a;
+    if (t.axis >= 0 && (named.axis < 0 || (least < 0.5 * range.lo &&
+                                           std::min({named.ext[0], named.ext[1], named.ext[2]}) >= 0.5 * range.lo)))
+      named = t;
+  }
+  if (named.axis < 0) return;
+  const double* ext = named.ext;
+  const double own = std::min({ext[0], ext[1], ext[2]});
+  const int a = named.axis;
+  const text::Distinct hd = text::distinct(ext[a], 0.5 * d);
+  // A spacing of the thinnest side or less fits (of twice it or less, at most half a cell); none does below half
+  // the least spacing.
+  const double fits = std::max(thinnest, range.lo);
+  std::string fix;
+  if (own < 0.5 * range.lo)
+    fix = fmt::format("no spacing fits it: {} is more than twice its thinnest side; make the object larger",
+                      spacing_bound(range, true));
+  else if (scene.solver.target_automata > 0) {
+    // The count at 1.5 times the thinnest side, halfway between the side and twice it (the largest spacing
+    // taken): the target chooses a spacing within a few % of it, away from either end. Counted, not scaled by
+    // the cube from the target: a plate's count grows as the square of 1 / spacing (one layer of cells), so the
+    // cube asked a 2 mm plate for 1.1e7 automata, which then could not be met within 2 %.
+    const double at = std::max(1.5 * thinnest, range.lo);
+    fix = fmt::format("raise solver.target_automata (it sets the spacing; about {:.3g} gives {:.3g} m) or make "
+                      "the object larger",
+                      estimated_count(scene, S, at), at);
+  } else
+    fix = fmt::format("decrease solver.spacing (to {:.3g} m{}; {}) or make the object larger", fits,
+                      fits > range.lo ? " or less" : "", ten_thousand_hint(scene, S));
+  throw Error(fmt::format("{}: object[{}] '{}' is {:.4g} x {:.4g} x {:.4g} m, {} m along its local {}, less than "
+                          "half the spacing {:.4g} m ({} m): its lattice would be a cell of {:.4g} m there; {}",
+                          scene.source, named.object, scene.objects[named.object].name, ext[0], ext[1], ext[2], hd.a,
+                          "xyz"[a], d, hd.b, d, fix));
+}
+
 double spacing_for_target(const SceneDef& scene, const Shapes& S, std::int64_t target) {
   const double volume = shapes_volume(scene, S);
   double best_d = 0;
   std::int64_t best_n = -1;
   auto try_spacing = [&](double d) {
+    d = static_cast<double>(static_cast<float>(d));  // (as build_model takes it: the count built is the one seen)
     const std::int64_t n = count_automata(scene, S, d);
     if (best_n < 0 || std::llabs(n - target) < std::llabs(best_n - target)) {
       best_n = n;
@@ -1241,11 +1320,17 @@ double spacing_for_target(const SceneDef& scene, const Shapes& S, std::int64_t t
                                 : std::string()));
   }
   if (static_cast<double>(std::llabs(best_n - target)) > 0.02 * static_cast<double>(target)) {
+    // An object too thin for the spacings near the target is what to fix first (its count there jumps).
+    refuse_thin_objects(scene, S, best_d);
+    // The spacing, not that count as a target: counts do not fall steadily with the spacing (a row of cells
+    // enters or leaves a round shape), so the search for the count it found, from another start, found
+    // another count, and the advice was followed round after round. The spacing as written gives the count.
+    const std::string written = spacing_written(scene, S, best_d, best_n);
     throw Error(fmt::format(
-        "{}: solver.target_automata = {} cannot be met within 2 %: the closest count is {} (spacing {:.6g} m), "
-        "since the lattice counts of these shapes jump in steps; set solver.target_automata = {} or give "
-        "solver.spacing instead",
-        scene.source, target, best_n, best_d, best_n));
+        "{}: solver.target_automata = {} cannot be met within 2 %: the lattice counts of these shapes jump in "
+        "steps near it; the closest is {} automata, at solver.spacing = {}: give that spacing instead of "
+        "solver.target_automata",
+        scene.source, target, best_n, written));
   }
   return best_d;
 }
@@ -1339,38 +1424,7 @@ std::int64_t checked_automata_count(const SceneDef& scene, const Shapes& S, doub
                             scene.solver.target_automata > 0 ? "lower solver.target_automata" : "increase solver.spacing"));
   };
   const double n_volume = 0.5 * shapes_volume(scene, S) / (d * d * d);
-  // An extent under half a cell would round to no cell; it becomes one, a body far larger than asked. (Half
-  // a cell itself is one, and the spacing is a float: size = 0.025 at spacing 0.05 was refused.)
-  for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) {
-    if (S.surface_of(oi)) continue;
-    double ext[3] = {0, 0, 0};
-    shape_extents(scene.objects[oi], S.of(oi), ext);
-    // (The fix is for its thinnest side, whichever side is named: a cylinder 6e-9 m long and 3e-9 across was
-    // told a spacing that its diameter then refused.)
-    const double thinnest = std::min({ext[0], ext[1], ext[2]});
-    for (int a = 0; a < 3; ++a)
-      if (ext[a] < 0.5 * d * (1 - 1e-6)) {
-        const text::Distinct hd = text::distinct(ext[a], 0.5 * d);
-        // A spacing of ext or less fits (of 2 ext or less, at most half a cell); none does below half the least.
-        const SpacingRange range = spacing_range(scene);
-        const double fits = std::max(thinnest, range.lo);
-        std::string fix;
-        if (thinnest < 0.5 * range.lo)
-          fix = fmt::format("no spacing fits it: {} is more than twice its thinnest side; make the object larger",
-                            spacing_bound(range, true));
-        else if (scene.solver.target_automata > 0)
-          fix = fmt::format("raise solver.target_automata (it sets the spacing; about {:.3g} gives {:.3g} m) or make "
-                            "the object larger",
-                            scene.solver.target_automata * std::pow(d / fits, 3.0), fits);
-        else
-          fix = fmt::format("decrease solver.spacing (to {:.3g} m{}; {}) or make the object larger", fits,
-                            fits > range.lo ? " or less" : "", ten_thousand_hint(scene, S));
-        throw Error(fmt::format("{}: object[{}] '{}' is {:.4g} x {:.4g} x {:.4g} m, {} m along its local {}, less than "
-                                "half the spacing {:.4g} m ({} m): its lattice would be a cell of {:.4g} m there; {}",
-                                scene.source, oi, scene.objects[oi].name, ext[0], ext[1], ext[2], hd.a, "xyz"[a], d,
-                                hd.b, d, fix));
-      }
-  }
+  refuse_thin_objects(scene, S, d);
   double surface = 0;  // (surface-mode objects: their triangles' count, whatever the spacing)
   for (std::size_t oi = 0; oi < scene.objects.size(); ++oi)
     if (const SurfaceCells* sc = S.surface_of(oi)) surface += static_cast<double>(sc->face.size());
