@@ -814,6 +814,9 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   // A run that had reached its last frame (one that finished, or was stopped there) has no step left: its
   // outputs (summary, fragments, video) are finished again from that frame, with the same results.
   const bool steps_left = cp.state.step < plan.total_steps;
+  // The scene's notes, as the run said them when it began (a resume's log may be the only one read).
+  if (steps_left && !quiet)
+    for (const std::string& note : scene_notes(sim.model(), cp.scene)) fmt::print(stderr, "note: {}\n", note);
   if (!steps_left && !quiet)
     fmt::print(stderr, "mca: the checkpoint holds the run's last frame ({}, step {}): no step is left to run; its "
                "outputs are finished again from it\n",

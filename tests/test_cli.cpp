@@ -469,6 +469,21 @@ TEST(Cli, KeysThatDoNothingAndAdviceThatCannotBeTakenAreNamed) {
   const Result run = run_mca("run " + (d / "obj.toml").string() + " --steps 1 --out " + (d / "out").string());
   ASSERT_EQ(run.code, 0) << run.output;
   EXPECT_NE(run.output.find("note: output.surface_format = \"obj\" writes nothing"), std::string::npos) << run.output;
+  // A resumed run says its notes again (its log may be the only one read).
+  const fs::path cut = d / "cut";
+  std::ofstream(d / "frames.toml") << "[output]\nsurface_format = \"obj\"\nvtk = false\nframe_rate = 1000\n"
+                                      "duration = 0.003\n"
+                                   << box;
+  ASSERT_EQ(run_mca("run " + (d / "frames.toml").string() + " --checkpoint-every 1 -q --out " + cut.string()).code, 0);
+  std::vector<fs::path> cks;
+  for (const auto& e : fs::directory_iterator(cut / "checkpoints")) cks.push_back(e.path());
+  std::sort(cks.begin(), cks.end());
+  ASSERT_GE(cks.size(), 2u);
+  fs::remove(cks.back());
+  const Result resumed = run_mca("resume " + cut.string());
+  ASSERT_EQ(resumed.code, 0) << resumed.output;
+  EXPECT_NE(resumed.output.find("note: output.surface_format = \"obj\" writes nothing"), std::string::npos)
+      << resumed.output;
   const Result plain = run_mca("info --json");
   ASSERT_EQ(plain.code, 0) << plain.output;
   EXPECT_FALSE(nlohmann::json::parse(plain.output).contains("surface_format_note"));
