@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <thread>
 #include <sys/resource.h>
@@ -319,6 +320,41 @@ TEST(InputBounds, GltfTrianglesNamingVerticesTheyDoNotHaveAreRefused) {
   extra.push_back(0);
   EXPECT_HAS(read_error(write_file(t.path() / "extra.glb", glb(extra))),
              "meshes[0].primitives[0] lists 37 indices, which is not a whole number of triangles");
+}
+
+// A .glb may hold its JSON alone, its buffers data URIs or files beside it (as glTF allows): assimp read the
+// buffers from a binary chunk there and refused it ("Buffer view ... is out of range"). Such a file reads as
+// its JSON would as a .gltf, its files from the mesh's folder and below only; a buffer that needs the binary
+// chunk it lacks is named.
+TEST(InputBounds, AGlbOfItsJsonAloneReadsItsBuffersFromUrisInItsFolder) {
+  mca::test::TempDir t;
+  const float pos[24] = {-1, -1, -1, 1, -1, -1, 1, 1, -1, -1, 1, -1, -1, -1, 1, 1, -1, 1, 1, 1, 1, -1, 1, 1};
+  const std::vector<std::uint32_t> cube = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
+                                           1, 2, 6, 1, 6, 5, 2, 3, 7, 2, 7, 6, 3, 0, 4, 3, 4, 7};
+  std::string bin(reinterpret_cast<const char*>(pos), sizeof pos);
+  bin.append(reinterpret_cast<const char*>(cube.data()), cube.size() * 4);
+  const fs::path sub = t.path() / "sub";
+  fs::create_directories(sub);
+  write_file(sub / "cube.bin", bin);
+  write_file(t.path() / "outside.bin", bin);
+  const auto alone = [&](const std::string& uri) {
+    return glb_of(mca::test::gltf_json(8, cube.size(), {-1, -1, -1}, {1, 1, 1}, uri));
+  };
+  // The .gltf the fixtures write (its buffer a base64 data URI) as a .glb's JSON, and a file beside it.
+  const fs::path embedded = t.path() / "embedded.gltf";
+  mca::test::write_mesh_file(embedded, mca::test::cube_mesh(0.15));
+  std::ifstream in(embedded);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_NE(text.find("data:application/octet-stream;base64,"), std::string::npos);
+  EXPECT_EQ(mca::mesh::read_mesh(write_file(sub / "data.glb", glb_of(text))).faces.size(),
+            mca::mesh::read_mesh(embedded.string()).faces.size());
+  EXPECT_EQ(mca::mesh::read_mesh(write_file(sub / "file.glb", alone(R"(, "uri": "cube.bin")"))).faces.size(), 12u);
+  EXPECT_HAS(read_error(write_file(sub / "out.glb", alone(R"(, "uri": "../outside.bin")"))),
+             "outside the mesh's folder");
+  EXPECT_HAS(read_error(write_file(sub / "missing.glb", alone(R"(, "uri": "none.bin")"))),
+             (sub / "none.bin").string() + ", which is not there");
+  EXPECT_HAS(read_error(write_file(sub / "chunk.glb", alone(""))),
+             "buffers[0] has no uri, so its bytes are the file's binary chunk, and the file ends after its JSON");
 }
 
 // What assimp takes as missing or does not apply, refused before it reads (the hostile review of

@@ -349,7 +349,7 @@ void check_depth(std::string_view json, const std::string& name) {
 
 }  // namespace
 
-GltfDeclared check_gltf_json(std::string_view json, const std::string& name) {
+GltfDeclared check_gltf_json(std::string_view json, const std::string& name, bool no_binary_chunk) {
   // (A .glb's JSON chunk is padded to 4 bytes, with spaces or, as some writers do, NULs.)
   while (!json.empty() && (json.back() == '\0' || json.back() == ' ')) json.remove_suffix(1);
   check_depth(json, name);
@@ -390,6 +390,16 @@ GltfDeclared check_gltf_json(std::string_view json, const std::string& name) {
                             "scene: export it with its objects in a scene",
                             name));
   d.primitives = check.primitives();
+  // (assimp: "Buffer view with offset/length (96/72) is out of range".)
+  if (no_binary_chunk) {
+    const Json& buffers = check.list("buffers");
+    for (std::size_t i = 0; i < buffers.size(); ++i)
+      if (buffers[i].is_object() && !buffers[i].contains("uri") && buffers[i].contains("byteLength") &&
+          buffers[i]["byteLength"].is_number() && buffers[i]["byteLength"].get<double>() > 0)
+        throw Error(fmt::format("{}: buffers[{}] has no uri, so its bytes are the file's binary chunk, and the file "
+                                "ends after its JSON: it is cut short or damaged; export the model again",
+                                name, i));
+  }
   return d;
 }
 

@@ -29,7 +29,8 @@ struct GltfDeclared {
 
 // Checks the JSON of a .gltf file or a .glb's first chunk (`name`: the file, for messages) and returns what
 // it declares. Throws mca::Error naming the field, its value and the fix, or where the JSON does not parse.
-GltfDeclared check_gltf_json(std::string_view json, const std::string& name);
+// `no_binary_chunk`: a .glb that ends after its JSON chunk (a buffer without a uri then has no bytes).
+GltfDeclared check_gltf_json(std::string_view json, const std::string& name, bool no_binary_chunk = false);
 
 // assimp's meshes (`raw`, read with no step after) against `declared`: a triangle assimp dropped is an
 // error naming its primitive. Compares nothing where assimp made another count of meshes.

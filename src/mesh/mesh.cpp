@@ -103,11 +103,18 @@ class FolderIOSystem : public Assimp::DefaultIOSystem {
     std::error_code ec;
     if (!mesh.empty()) mesh_ = std::filesystem::canonical(mesh, ec).string();
   }
-  bool Exists(const char* given) const override {
+  // Names come bare (a .gltf read from memory: "buf.bin"): the mesh's folder is put before them, as assimp puts
+  // it before the names of a file it opens.
+  void names_come_bare() { bare_ = true; }
+  bool Exists(const char* bare) const override {
+    const std::string named = in_folder(bare);
+    const char* given = named.c_str();
     const std::string file = on_disk(given);
     return allowed(file.c_str()) && DefaultIOSystem::Exists(file.c_str());
   }
-  Assimp::IOStream* Open(const char* given, const char* mode) override {
+  Assimp::IOStream* Open(const char* bare, const char* mode) override {
+    const std::string named_in_folder = in_folder(bare);
+    const char* given = named_in_folder.c_str();
     // (A data URI in capitals, "DATA:...", is a file name to assimp: its whole base64 was shown.)
     if (const std::string named = as_named(given); named.size() >= 5) {
       std::string scheme = named.substr(0, 5);
@@ -162,6 +169,10 @@ class FolderIOSystem : public Assimp::DefaultIOSystem {
   const std::string& refusal() const { return refusal_; }
 
  private:
+  std::string in_folder(const char* name) const {
+    if (!name) return {};
+    return bare_ && !folder_.empty() ? folder_.string() + "/" + name : std::string(name);
+  }
   // The name as the file gave it: assimp puts the mesh's folder and "/" before every name (an absolute one
   // too); empty where `path` does not start so.
   std::string as_named(const char* path) const {
@@ -219,6 +230,7 @@ class FolderIOSystem : public Assimp::DefaultIOSystem {
     return true;
   }
   std::filesystem::path folder_;
+  bool bare_ = false;
   double max_bytes_;
   double read_ = 0;
   std::string mesh_;
@@ -601,6 +613,10 @@ TriMesh import_assimp(const std::string& name, const std::string& ext, const std
                       const std::string& path, double max_memory_bytes) {
   if (bytes && ext == "glb") check_glb(*bytes, bytes->size(), name);
   GltfDeclared declared;
+  // A .glb of its JSON chunk alone, without a binary one (its buffers data URIs or files beside it, as glTF
+  // allows): assimp reads a buffer's bytes from a binary chunk there and refused it ("Buffer view out of
+  // range"); it is read as the .gltf its JSON is.
+  std::string json_only;
   if (ext == "gltf" || ext == "glb") {
     // The JSON: the whole .gltf, or the .glb's first chunk (check_glb: its length fits the file).
     std::error_code ec;
@@ -609,9 +625,13 @@ TriMesh import_assimp(const std::string& name, const std::string& ext, const std
     if (ext == "gltf") {
       declared = check_gltf_json(all, name);
     } else if (all.size() >= 20) {
-      std::uint32_t length = 0;
+      std::uint32_t length = 0, total = 0;
       std::memcpy(&length, all.data() + 12, 4);
-      declared = check_gltf_json(all.substr(20, length), name);
+      std::memcpy(&total, all.data() + 8, 4);
+      // (A chunk's header is 8 bytes: a total with no room for one more holds no binary chunk.)
+      const bool alone = static_cast<std::uint64_t>(total) < std::uint64_t{28} + length;
+      declared = check_gltf_json(all.substr(20, length), name, alone);
+      if (alone) json_only = all.substr(20, length);
     }
   }
   Assimp::Importer importer;
@@ -620,9 +640,11 @@ TriMesh import_assimp(const std::string& name, const std::string& ext, const std
   std::error_code ec;
   auto* io = new FolderIOSystem(bytes ? std::filesystem::path() : std::filesystem::weakly_canonical(path, ec).parent_path(),
                                 max_memory_bytes, bytes ? std::string() : path);
+  if (!json_only.empty()) io->names_come_bare();
   importer.SetIOHandler(io);  // (the importer owns it)
-  const aiScene* raw = bytes ? importer.ReadFileFromMemory(bytes->data(), bytes->size(), kRawSteps, ext.c_str())
-                             : importer.ReadFile(path, kRawSteps);
+  const aiScene* raw = !json_only.empty() ? importer.ReadFileFromMemory(json_only.data(), json_only.size(), kRawSteps, "gltf")
+                       : bytes           ? importer.ReadFileFromMemory(bytes->data(), bytes->size(), kRawSteps, ext.c_str())
+                                         : importer.ReadFile(path, kRawSteps);
   if (!raw || (raw->mFlags & AI_SCENE_FLAGS_INCOMPLETE && raw->mNumMeshes == 0)) {
     if (!io->refusal().empty()) throw Error(fmt::format("{}: cannot be read: {}", name, io->refusal()));
     // (assimp's Draco decoding fails on a mesh of more than 65,535 vertices, and says the file is damaged.)
