@@ -394,6 +394,18 @@ TEST(MeshFill, AnAxisAlignedCubeGivesTheBoxLatticeExactly) {
   EXPECT_NEAR(m.meshes[0].lo[0], 0.9, 1e-6);  // the file's coordinates are float32
   EXPECT_NEAR(m.meshes[0].hi[2], 3.1, 1e-6);
   EXPECT_NEAR(m.meshes[0].file_lo[1], 5.9, 1e-6);
+  // A vertex no triangle uses is not the model's: not in its bounds in the file nor in the scene (mca info's
+  // "in the scene" read 100 x 1 x 1 m for a unit cube beside a stray vertex).
+  mesh::TriMesh stray = test::cube_mesh(0.1, {5, 6, 7});
+  stray.vertices.push_back({105, 6, 7});
+  test::write_mesh_file(t.path() / "stray.off", stray);
+  SceneDef st = mesh_scene(t.path() / "stray.off", 0.02);
+  st.objects[0].position = {1, 2, 3};
+  const Model with_stray = lattice::build_model(st);
+  ASSERT_EQ(with_stray.meshes.size(), 1u);
+  EXPECT_EQ(with_stray.size(), 1000u);
+  EXPECT_NEAR(with_stray.meshes[0].hi[0], 1.1, 1e-12);
+  EXPECT_NEAR(with_stray.meshes[0].file_hi[0], 5.1, 1e-12);
 }
 
 // Models of a millimetre down to a micrometre fill as large ones do: OpenVDB refuses a voxel of under 3e-15

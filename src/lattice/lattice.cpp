@@ -813,7 +813,14 @@ MeshSummary mesh_summary(const MeshObject& mo, std::size_t oi, const std::string
       std::count_if(mo.solid.depth.begin(), mo.solid.depth.end(), [](int k) { return k > 0 && k % 2 == 1; }));
   ms.lo = {INFINITY, INFINITY, INFINITY};
   ms.hi = {-INFINITY, -INFINITY, -INFINITY};
-  for (const auto& v : mo.solid.mesh.vertices) {
+  // The vertices triangles use, as the bounds in the file (a stray vertex is not the model: one at x = 100 beside
+  // a unit cube read "100 x 1 x 1 m").
+  std::vector<bool> used(mo.solid.mesh.vertices.size(), false);
+  for (const mesh::Triangle& t : mo.solid.mesh.faces)
+    for (auto v : t) used[v] = true;
+  for (std::size_t i = 0; i < used.size(); ++i) {
+    if (!used[i]) continue;
+    const auto& v = mo.solid.mesh.vertices[i];
     const Vec3d r = R.apply({v[0], v[1], v[2]});
     for (int a = 0; a < 3; ++a) {
       ms.lo[a] = std::min(ms.lo[a], r[a] + position[a]);
