@@ -322,17 +322,21 @@ TEST(Render, AStopSignalStopsThePlotScript) {
 // An ffmpeg that fails (no libx264: exits 1 with a message) or writes nothing (exits 0) costs the video
 // only: a warning with its message and the command, and the run finishes with every other output.
 TEST(Render, AFailingFfmpegDropsTheVideoAndTheRunGoesOn) {
-  // The last two are stuck (one takes no frame, one never ends): stopped after MCA_FFMPEG_TIMEOUT seconds.
+  // The last three are stuck (one takes no frame, one never ends): stopped after MCA_FFMPEG_TIMEOUT seconds,
+  // also where a frame is larger than the pipe to ffmpeg (64 KB; 320x180 is 230 KB: its write blocked for ever).
   for (const std::string body : {"cat > /dev/null; echo \"Unknown encoder 'libx264'\" >&2; exit 1",
                                  "echo \"Unknown encoder 'libx264'\" >&2; exit 1", "cat > /dev/null; exit 0",
-                                 "exec sleep 1000", "cat > /dev/null; exec sleep 1000"}) {
+                                 "exec sleep 1000", "cat > /dev/null; exec sleep 1000", "exec sleep 1001"}) {
+    const std::string size = body == "exec sleep 1001" ? "320x180" : "64x48";
     TempDir d;
     const fs::path bin = d.path() / "bin", out = d.path() / "out";
     fs::create_directories(bin);
     std::ofstream(bin / "ffmpeg") << "#!/bin/sh\n" << body << "\n";
     fs::permissions(bin / "ffmpeg", fs::perms::owner_all);
-    const Result r = shell("MCA_FFMPEG_TIMEOUT=2 PATH=" + bin.string() + ":/usr/bin:/bin " + std::string(MCA_BINARY) +
-                           " run " + kCubicWall + " -q --duration 0.004 --render --render-size 64x48 --out " + out.string());
+    // (Under a time limit of its own: the hang was for ever.)
+    const Result r = shell("MCA_FFMPEG_TIMEOUT=2 PATH=" + bin.string() + ":/usr/bin:/bin timeout 120 " +
+                           std::string(MCA_BINARY) + " run " + kCubicWall + " -q --duration 0.004 --render --render-size " +
+                           size + " --out " + out.string());
     ASSERT_EQ(r.code, 0) << body << ": " << r.output;
     if (body.find("sleep") != std::string::npos) {
       EXPECT_NE(r.output.find("was stopped"), std::string::npos) << body << ": " << r.output;

@@ -165,6 +165,15 @@ VideoEncoder::VideoEncoder(const std::filesystem::path& ffmpeg, const std::files
       "-pix_fmt", "yuv420p", "-movflags", "+faststart", "-f", "mp4", temporary_.string()};
   int fds[2];
   if (::pipe2(fds, O_CLOEXEC) != 0) throw Error(fmt::format("cannot make a pipe to ffmpeg: {}", std::strerror(errno)));
+  // Writes that never block: a frame is larger than the pipe (3.7 MB at 1280x720, the pipe 64 KB), and a write
+  // of it to an ffmpeg that takes nothing blocked for ever, past the time limit add_frame keeps by polling. (The
+  // read end, ffmpeg's input, is a description of its own and stays blocking.)
+  if (const int flags = ::fcntl(fds[1], F_GETFL); flags < 0 || ::fcntl(fds[1], F_SETFL, flags | O_NONBLOCK) < 0) {
+    const int e = errno;
+    ::close(fds[0]);
+    ::close(fds[1]);
+    throw Error(fmt::format("cannot make the pipe to ffmpeg non-blocking: {}", std::strerror(e)));
+  }
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_adddup2(&actions, fds[0], 0);
@@ -182,6 +191,7 @@ VideoEncoder::VideoEncoder(const std::filesystem::path& ffmpeg, const std::files
   }
   pid_ = pid;
   pipe_ = fds[1];
+
   // A dead ffmpeg must give a write error (EPIPE), not kill the run with SIGPIPE.
   std::signal(SIGPIPE, SIG_IGN);
 }
@@ -290,7 +300,7 @@ void VideoEncoder::add_frame(const Image& frame) {
                               path_.string()));
     }
     const ssize_t n = ::write(pipe_, p, left);
-    if (n < 0 && errno == EINTR) continue;
+    if (n < 0 && (errno == EINTR || errno == EAGAIN || errno == EWOULDBLOCK)) continue;
     if (n <= 0) {
       stop();  // throws with ffmpeg's message
       throw Error(fmt::format("ffmpeg stopped taking frames for '{}'", path_.string()));
