@@ -244,7 +244,7 @@ int info(const std::optional<std::string>& path, bool json) {
                                                       scene.solver.safety));
   for (const std::string& note : scene_notes(m, scene)) fmt::print("note             {}\n", note);
   // With solver.time_step given, a frame is a whole number of steps and may differ from 1 / frame_rate.
-  fmt::print("steps per frame  {} ({} frames, one every {:.6g} s; {} steps: {:.6g} s simulated for output.duration = "
+  fmt::print("steps per frame  {} ({} frames after frame 0, one every {:.6g} s; {} steps: {:.6g} s simulated for output.duration = "
              "{:g} s)\n",
              sim.steps_per_frame(), frames, sim.frame_interval(), steps, static_cast<double>(steps) * m.dt,
              scene.output.duration);

@@ -162,7 +162,7 @@ std::filesystem::path to_path(py::handle v, const std::string& key) {
 namespace {
 
 // A plain key of a table: the value converted by its kind, so a wrong type names the key. Whole numbers are
-// held to their field's range (the seed to 0 .. 2^64 - 1).
+// held to their field's range (the seed to -2^63 .. 2^64 - 1, as a scene file's).
 const char* table_of(const MaterialDef*) { return "material"; }
 const char* table_of(const HeterogeneityDef*) { return "heterogeneity"; }
 const char* table_of(const RegionDef*) { return "region"; }
@@ -183,8 +183,10 @@ V convert(py::handle v, const std::string& key, const std::string& doc) {
   } else if constexpr (std::is_same_v<V, std::string>) {
     return to_text(v, key, fmt::format("a str ({})", doc));
   } else if constexpr (std::is_same_v<V, std::uint64_t>) {
-    // The seed: unsigned 64-bit, as the reader takes it (a scene file's negative seed is its two's complement).
-    const std::string what = fmt::format("a whole number from 0 to 2^64 - 1 ({})", doc);
+    // The seed: unsigned 64-bit, as the reader takes it; a negative one is its two's complement, as in a scene
+    // file (docs/scene-format.md: -1 is 18446744073709551615).
+    const std::string what =
+        fmt::format("a whole number from -2^63 to 2^64 - 1, a negative one standing for its two's complement ({})", doc);
     if (is_bool(v) || !PyIndex_Check(v.ptr()))
       throw Error(fmt::format("{} = {} is not a whole number; give {}", key, shown(v), what));
     const py::object i = py::reinterpret_steal<py::object>(PyNumber_Index(v.ptr()));
@@ -195,7 +197,12 @@ V convert(py::handle v, const std::string& key, const std::string& doc) {
     const unsigned long long x = PyLong_AsUnsignedLongLong(i.ptr());
     if (x == static_cast<unsigned long long>(-1) && PyErr_Occurred()) {
       PyErr_Clear();
-      throw Error(fmt::format("{} = {} is out of range; give {}", key, shown(v), what));
+      const long long negative = PyLong_AsLongLong(i.ptr());
+      if (negative == -1 && PyErr_Occurred()) {
+        PyErr_Clear();
+        throw Error(fmt::format("{} = {} is out of range; give {}", key, shown(v), what));
+      }
+      return static_cast<V>(negative);  // (below 0: 2^64 + negative)
     }
     return static_cast<V>(x);
   } else {

@@ -82,13 +82,19 @@ def test_seed_holds_what_the_reader_reads_back():
     assert mca.Scene.from_toml(scene.to_toml()).solver.seed == 2**63
     scene.solver.seed = 2**64 - 1
     assert mca.Scene.from_toml(scene.to_toml()).solver.seed == 2**64 - 1
-    with pytest.raises(mca.Error, match=r"solver\.seed = 18446744073709551616 is out of range; give a whole number from 0 to 2\^64 - 1"):
+    with pytest.raises(mca.Error, match=r"solver\.seed = 18446744073709551616 is out of range; give a whole number from -2\^63 to 2\^64 - 1"):
         scene.solver.seed = 2**64
-    with pytest.raises(mca.Error, match=r"solver\.seed = -1 is out of range"):
-        scene.solver.seed = -1
+    # A negative seed is its two's complement, as a scene file's (-1 is 2^64 - 1), to -2^63.
+    scene.solver.seed = -1
+    assert scene.solver.seed == 2**64 - 1
+    assert mca.Scene.from_toml(scene.to_toml().replace("seed = 18446744073709551615", "seed = -1")).solver.seed == 2**64 - 1
+    scene.solver.seed = -(2**63)
+    assert scene.solver.seed == 2**63
+    with pytest.raises(mca.Error, match=r"solver\.seed = -9223372036854775809 is out of range"):
+        scene.solver.seed = -(2**63) - 1
     with pytest.raises(mca.Error, match=r"solver\.seed = 1\.0 is not a whole number"):
         scene.solver.seed = 1.0
-    assert scene.solver.seed == 2**64 - 1
+    assert scene.solver.seed == 2**63
 
 
 def test_wrong_types_of_simulation_arguments():

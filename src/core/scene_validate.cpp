@@ -264,7 +264,8 @@ void validate_scene(const SceneDef& scene) {
   c.range("solver.stress_coefficient", scene.solver.stress_coefficient, 1e-3, true, 1e3, true, "in [1e-3, 1e3]",
           "use 1 (the default)");
   c.range("solver.lattice_jitter", scene.solver.lattice_jitter, 0, true, 0.3, true, "in [0, 0.3] (share of the spacing)",
-          "use 0 for the paper's cubic lattice, 0.25 for a lattice whose cracks do not follow its planes");
+          "use 0 for the paper's cubic lattice (for cracks that do not follow the lattice's planes, lattice = "
+          "\"random\", the default, not jitter)");
   if (scene.solver.lattice == SolverDef::Lattice::random && scene.solver.lattice_jitter > 0) {
     c.fail(fmt::format("solver.lattice_jitter = {} moves the sites of the cubic lattice, and solver.lattice is "
                        "\"random\" (the default since 2026-12-03), whose sites are random already; to jitter the "
