@@ -281,7 +281,9 @@ void RenderOutput::write_frame(std::int64_t frame, const State& state, const ana
   so.scale_max = scale_max_;
   const render::Snapshot snap = render::make_snapshot(sim_.model(), state, fragments, so, framing_.origin);
   target_->bind();
-  renderer_->draw(snap, options_.draw, camera_, options_.width, options_.height);
+  render::Overlay overlay;
+  overlay.time_resolution = sim_.frame_interval();
+  renderer_->draw(snap, options_.draw, camera_, options_.width, options_.height, overlay);
   render::Image im;
   im.width = options_.width;
   im.height = options_.height;

@@ -301,7 +301,7 @@ int view(const ViewOptions& o) {
   bool has_surface = false;
   render::Framing framing;
   render::Camera start;
-  double dt = 0;
+  double dt = 0, resolution = 0;  // the step; the time between frames, which the shown times' decimals show
   std::size_t scene_projectiles = 0;
   {
     SceneDef probe = scene;
@@ -312,6 +312,7 @@ int view(const ViewOptions& o) {
     start = render::make_camera(scene.camera, first.model(), framing, static_cast<float>(o.width) / static_cast<float>(o.height),
                                 scene.source);
     dt = static_cast<double>(first.model().dt);
+    resolution = first.frame_interval();
     scene_projectiles = first.model().projectiles.size();
   }
   Input in;
@@ -539,6 +540,7 @@ int view(const ViewOptions& o) {
     // (A frame that waits seconds for the simulation, as with --frames on a large scene, is 0.3 fps, not 0.)
     const std::string fps_text = shown_fps < 9.95 ? fmt::format("{:.1f}", shown_fps) : fmt::format("{:.0f}", shown_fps);
     render::Overlay ov;
+    ov.time_resolution = resolution;
     std::string message;
     {
       std::lock_guard lock(sh.mutex);
@@ -574,15 +576,16 @@ int view(const ViewOptions& o) {
       });
     }
     glfwSwapBuffers(win);
-    glfwSetWindowTitle(win, fmt::format("mca view: {}  t = {:.2f} ms  broken {}  fragments {}  {} fps", scene.name,
-                                        1e3 * snap->time, snap->broken_links, snap->fragments, fps_text)
+    glfwSetWindowTitle(win, fmt::format("mca view: {}  t = {}  broken {}  fragments {}  {} fps", scene.name,
+                                        text::milliseconds(snap->time, resolution), snap->broken_links, snap->fragments,
+                                        fps_text)
                                 .c_str());
     if (last) break;
   }
   if (next_shot < script.size())
-    fmt::print(stderr, "warning: --script {}: {} not fired: the view ended at t = {:.2f} ms, before t = {:.2f} ms{}\n",
+    fmt::print(stderr, "warning: --script {}: {} not fired: the view ended at t = {}, before t = {}{}\n",
                *o.script, script.size() - next_shot == 1 ? std::string("1 shot was") : fmt::format("{} shots were", script.size() - next_shot),
-               snap ? 1e3 * snap->time : 0.0, 1e3 * script[next_shot].time,
+               text::milliseconds(snap ? snap->time : 0.0, resolution), text::milliseconds(script[next_shot].time, resolution),
                o.frames ? "; give more --frames (one per output frame of the scene)" : "");
   if (died) {
     std::lock_guard lock(sh.mutex);
@@ -594,15 +597,15 @@ int view(const ViewOptions& o) {
   const std::size_t projectiles = snap ? snap->projectiles.size() : 0;
   const std::size_t fired = projectiles > scene_projectiles ? projectiles - scene_projectiles : 0;
   if (due_at_last > 0 && o.frames && !o.quiet)
-    fmt::print(stderr, "mca view: {} due at the last frame shown (t = {:.2f} ms) went into the simulation after it and "
+    fmt::print(stderr, "mca view: {} due at the last frame shown (t = {}) went into the simulation after it and "
                "{} in no frame; give one more --frames to see {}\n",
-               count(due_at_last, "shot"), snap ? 1e3 * snap->time : 0.0,
+               count(due_at_last, "shot"), text::milliseconds(snap ? snap->time : 0.0, resolution),
                due_at_last == 1 ? "is" : "are", due_at_last == 1 ? "it" : "them");
   const int sig = stop;
   if (!o.quiet)
-    fmt::print(stderr, "mca view: {}{} shown, t = {:.2f} ms, {} fired, {}, broken links {}, fragments {}{}\n",
+    fmt::print(stderr, "mca view: {}{} shown, t = {}, {} fired, {}, broken links {}, fragments {}{}\n",
                sig ? fmt::format("closed by {}: ", signal_name(sig)) : "", count(static_cast<std::size_t>(shown), "frame"),
-               snap ? 1e3 * snap->time : 0.0, count(fired, "shot"), count(projectiles, "projectile"),
+               text::milliseconds(snap ? snap->time : 0.0, resolution), count(fired, "shot"), count(projectiles, "projectile"),
                snap ? snap->broken_links : 0, snap ? snap->fragments : 0,
                !o.screenshot ? std::string()
                : o.frames && shown >= *o.frames

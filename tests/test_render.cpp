@@ -565,6 +565,82 @@ TEST(Render, CameraInsideTheObjectsOrLookingAwayIsAnError) {
   EXPECT_NO_THROW(render::make_camera(two.camera, sim.model(), f, 16.0f / 9, two.source));
 }
 
+// A view straight down the up axis is lit as one a hair off it (the key light's side was the cross product of
+// the view and up: NaN, and the picture unlit); a camera under the ground looking straight up is refused (the
+// check took the camera's own up, turned off the axis for such a view); the automatic camera frames a ball
+// it would be in (a 3 m ball beside the wall held it, and the ball was not drawn), and a camera placed in a
+// ball is refused (hostile review of the pictures, 2026-12-06).
+TEST(Render, ViewsAlongTheUpAxisAndBallsAroundTheCamera) {
+  constexpr int W = 160, H = 90;
+  Offscreen off(W, H);
+  const auto draw_from = [&](const SceneDef& s, const Vec3d& at_point) {
+    Engine sim(s);
+    const auto framing = render::objects_box(sim.model(), sim.state());
+    const auto cam = render::make_camera(s.camera, sim.model(), framing, float(W) / H, s.source);
+    const render::Image im = off.draw(sim, framing, cam);
+    const glm::vec2 px = project(cam, framing, at_point, W, H);
+    EXPECT_TRUE(px.x > 0 && px.x < W && px.y > 0 && px.y < H) << px.x << " " << px.y;
+    return at(im, int(px.x), int(px.y));
+  };
+  SceneDef s = test::cubic_wall_scene();
+  const Vec3d ground{0.9, 0.6, 0.0}, wall_top{0.5, 0.0, 1.5};
+  s.camera.target = Vec3d{0, 0, 0.75};
+  for (const Vec3d& p : {ground, wall_top}) {
+    s.camera.position = Vec3d{0, 0, 10};
+    const Pixel down = draw_from(s, p);
+    s.camera.position = Vec3d{0, 0.001, 10};
+    const Pixel off_axis = draw_from(s, p);
+    EXPECT_NEAR(down.r + down.g + down.b, off_axis.r + off_axis.g + off_axis.b, 12)
+        << down.r << " " << down.g << " " << down.b << " against " << off_axis.r << " " << off_axis.g << " " << off_axis.b;
+  }
+  const auto refused = [&](const SceneDef& c, const std::string& words) {
+    Engine sim(c);
+    const auto framing = render::objects_box(sim.model(), sim.state());
+    expect_error([&] { render::make_camera(c.camera, sim.model(), framing, float(W) / H, "cam.toml"); }, words, words);
+  };
+  s.camera.position = Vec3d{0, 0, -5};
+  refused(s, "below the ground");
+  s.camera.position = Vec3d{0, -0.4, 0.75};  // the ball's centre
+  refused(s, "is inside projectile 'ball' (radius 0.2 m");
+  s.camera.position = Vec3d{0, 0, 0.75};  // the wall's centre, where it looks by default
+  s.camera.target.reset();
+  refused(s, "inside an object's bounding box");
+  // The automatic camera and a ball of 3 m against the wall's face: outside it, the ball drawn (red).
+  SceneDef big = test::cubic_wall_scene();
+  big.projectiles[0].radius = 3;
+  big.projectiles[0].position = {0, -3.2, 3};
+  Engine sim(big);
+  const auto framing = render::objects_box(sim.model(), sim.state());
+  const auto cam = render::make_camera(big.camera, sim.model(), framing, float(W) / H, big.source);
+  const glm::dvec3 eye = glm::dvec3(cam.eye) + glm::dvec3(framing.origin[0], framing.origin[1], framing.origin[2]);
+  EXPECT_GT(glm::length(eye - glm::dvec3(0, -3.2, 3)), 3.0);
+  const Pixel ball = draw_from(big, {0, -3.2, 3});
+  EXPECT_GT(ball.r, 2 * ball.g);
+  EXPECT_GT(ball.r, 2 * ball.b);
+}
+
+// The overlay's time shows the time between frames: a run of frames 10 ns apart read "t = 0.00 ms" in each.
+TEST(Render, TheTimeShownResolvesTheFrames) {
+  EXPECT_EQ(text::milliseconds(0.005, 0.005), "5.00 ms");
+  EXPECT_EQ(text::milliseconds(0.0, 0.005), "0.00 ms");
+  EXPECT_EQ(text::milliseconds(6e-8, 1e-8), "0.000060 ms");
+  EXPECT_EQ(text::milliseconds(7.5e-6, 2.5e-6), "0.0075 ms");
+  EXPECT_EQ(text::milliseconds(0.0015, 0.0005), "1.50 ms");
+  // Without a resolution (a picture of its own): three digits of the time.
+  EXPECT_EQ(text::milliseconds(0.0123), "12.30 ms");
+  EXPECT_EQ(text::milliseconds(6e-8), "0.0000600 ms");
+}
+
+// Materials past the palette's ten take colours of their own (the eleventh was the first's), each apart from
+// every other by a visible step.
+TEST(Render, EveryMaterialHasAColourOfItsOwn) {
+  for (std::size_t a = 0; a < 24; ++a)
+    for (std::size_t b = 0; b < a; ++b) {
+      const render::Rgba x = render::group_colour(a), y = render::group_colour(b);
+      EXPECT_GT(std::abs(x[0] - y[0]) + std::abs(x[1] - y[1]) + std::abs(x[2] - y[2]), 25) << a << " and " << b;
+    }
+}
+
 // Fragment ids are renumbered by mass every frame; a piece's colour must not follow them (the video
 // flickered): from one frame to the next, an automaton whose piece keeps its smallest automaton keeps its
 // colour, while the ids of many such automata change.

@@ -151,6 +151,14 @@ std::string human_bytes(double bytes) {
   return u == 0 ? fmt::format("{:.0f} bytes", bytes) : fmt::format("{:.3g} {}", bytes, units[u]);
 }
 
+std::string milliseconds(double seconds, double resolution) {
+  const double step_ms = 1e3 * (resolution > 0 ? resolution : std::abs(seconds) / 100);
+  int decimals = 2;
+  if (step_ms > 0 && std::isfinite(step_ms))
+    decimals = static_cast<int>(std::clamp(std::ceil(-std::log10(step_ms) + 0.5), 2.0, 12.0));  // (0.0025 ms: 4)
+  return fmt::format("{:.{}f} ms", 1e3 * seconds, decimals);
+}
+
 std::string shell_word(std::string_view s) {
   const bool plain = !s.empty() && std::all_of(s.begin(), s.end(), [](char c) {
     return std::isalnum(static_cast<unsigned char>(c)) || std::string_view("_-./+,:=@%").find(c) != std::string_view::npos;

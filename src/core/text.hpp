@@ -50,6 +50,11 @@ std::string count(std::uint64_t n, std::string_view word);
 // A size for a message: "512 bytes", "430 KB", "1.72 TB" (3 digits; units of 1000).
 std::string human_bytes(double bytes);
 
+// A simulated time in milliseconds, "12.35 ms", with the decimals that show `resolution` seconds (the time
+// between the frames shown; 0: three digits of `seconds` itself), at least two: a run of frames 10 ns apart
+// read "0.00 ms" in every frame.
+std::string milliseconds(double seconds, double resolution = 0);
+
 // Whether `s` is UTF-8 text (what TOML and JSON files hold): a path of a file system that takes any bytes
 // may not be.
 bool is_utf8(std::string_view s);

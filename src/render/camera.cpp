@@ -92,18 +92,40 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
     const glm::vec3 f = -back, r = glm::normalize(glm::cross(f, cam.up)), u = glm::cross(r, f);
     constexpr float margin = 1.12f;
     float dist = 0;
-    for (const glm::vec3& c : corners) {
+    const auto frame = [&](const glm::vec3& c) {
       const glm::vec3 d = c - cam.target;
       const float x = glm::dot(d, r), y = glm::dot(d, u), z = glm::dot(d, f);
       dist = std::max({dist, margin * std::abs(x) / tan_h - z, margin * std::abs(y) / tan_v - z});
+    };
+    for (const glm::vec3& c : corners) frame(c);
+    dist = std::max(dist, 1e-3f);
+    // A ball the camera would be in or next to (within half its radius) is framed too, its box's corners as
+    // the objects' (a ball of 3 m beside the wall held the automatic camera, and was not drawn); the balls
+    // farther off are left out of the framing (the default's, 0.1 m from the wall's face, would widen it).
+    std::vector<bool> framed(model.projectiles.size(), false);
+    for (bool more = true; more;) {
+      more = false;
+      for (std::size_t k = 0; k < model.projectiles.size(); ++k) {
+        const auto& p = model.projectiles[k];
+        const glm::vec3 c = glm::vec3(glm::dvec3(p.position.x, p.position.y, p.position.z) - origin);
+        if (framed[k] || glm::length(cam.target + back * dist - c) >= 1.5f * p.radius) continue;
+        framed[k] = more = true;
+        for (int q = 0; q < 8; ++q)
+          frame(c + p.radius * glm::vec3(q & 1 ? 1 : -1, q & 2 ? 1 : -1, q & 4 ? 1 : -1));
+      }
     }
-    cam.eye = cam.target + back * std::max(dist, 1e-3f);
+    cam.eye = cam.target + back * dist;
   }
-  const float dist = glm::length(cam.target - cam.eye);
-  if (!(dist > 1e-6f))
-    throw Error(fmt::format("{}: [camera] position = target = {}: the camera needs a direction to look in; move the "
-                            "position away from the target (or leave out position for an automatic view)",
-                            source, shown(glm::dvec3(cam.eye) + origin)));
+  // Inside a ball at frame 0: the ball is not drawn from inside, and the view is of its inner side.
+  if (def.position)
+    for (const auto& p : model.projectiles) {
+      const glm::dvec3 c(p.position.x, p.position.y, p.position.z), eye = glm::dvec3(cam.eye) + origin;
+      if (glm::length(eye - c) < p.radius)
+        throw Error(fmt::format("{}: [camera] position = {} is inside projectile '{}' (radius {:.3g} m at {}, frame "
+                                "0): the ball would not be seen; move the camera outside it, or leave out position for "
+                                "an automatic view",
+                                source, shown(eye), p.name, p.radius, shown(c)));
+    }
   // Inside an object's own box (not the box around all of them: a camera between two walls is fine).
   for (const auto& [lo, hi] : fr.object_box)
     if (glm::all(glm::greaterThan(cam.eye, lo)) && glm::all(glm::lessThan(cam.eye, hi)))
@@ -112,10 +134,16 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
                               "or leave out position for an automatic view",
                               source, shown(glm::dvec3(cam.eye) + origin), shown(glm::dvec3(lo) + origin),
                               shown(glm::dvec3(hi) + origin)));
+  const float dist = glm::length(cam.target - cam.eye);
+  if (!(dist > 1e-6f))
+    throw Error(fmt::format("{}: [camera] position = target = {}: the camera needs a direction to look in; move the "
+                            "position away from the target (or leave out position for an automatic view)",
+                            source, shown(glm::dvec3(cam.eye) + origin)));
   // Who chose the view, for the messages below: a scene's [camera], or the automatic framing.
   const std::string camera_name =
       def.position || def.target ? "the [camera]" : "the automatic camera (the scene has no [camera] position or target)";
   const glm::vec3 f = (cam.target - cam.eye) / dist;
+  const glm::vec3 world_up = cam.up;
   // A camera looking along the up axis: another up for lookAt.
   if (std::abs(glm::dot(f, cam.up)) > 0.999f) cam.up = horizontal(glm::vec3(0, 1, 0), cam.up);
   const glm::vec3 to_c = centre - cam.eye;
@@ -161,7 +189,9 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
   // Under the ground the view is of the ground's underside: refused.
   if (def.position && model.ground) {
     const glm::dvec3 eye = glm::dvec3(cam.eye) + origin;
-    const double height = glm::dot(eye, glm::dvec3(cam.up)) - model.ground_height;
+    // (The world's up: a view along the up axis has another up of its own, and one from under the ground
+    // looking straight up was taken as above it.)
+    const double height = glm::dot(eye, glm::dvec3(world_up)) - model.ground_height;
     if (height < 0)
       throw Error(fmt::format("{}: [camera] position = {} is {:.3g} m below the ground (ground.height = {:g} along the "
                               "up direction): the view would be of the ground's underside; raise the position above "
@@ -171,6 +201,12 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
   // Depth range: from just short of the box (or of the target) to far behind it, the ground included.
   const float depth = std::max(dc, dist);
   cam.near = std::max(1e-3f, std::min(0.5f * (dc - radius), 0.05f * depth));
+  // Nearer still where a ball is nearer (it was cut away by the near plane).
+  for (const auto& p : model.projectiles) {
+    const float gap = glm::length(glm::vec3(glm::dvec3(p.position.x, p.position.y, p.position.z) - origin) - cam.eye) -
+                      p.radius;
+    if (gap > 0) cam.near = std::max(1e-3f, std::min(cam.near, 0.5f * gap));
+  }
   cam.far = 40.0f * (depth + radius);
   return cam;
 }

@@ -143,32 +143,12 @@ MCA_HD Rgba class_colour(int c) {
   }
 }
 
-// Material k's colour: a categorical palette (well separated hues, readable on the dark background).
-MCA_HD Rgba group_colour(std::size_t k) {
-  const float palette[10][3] = {{0.30f, 0.55f, 0.85f}, {0.95f, 0.55f, 0.15f}, {0.35f, 0.75f, 0.35f},
-                                {0.85f, 0.25f, 0.25f}, {0.65f, 0.45f, 0.80f}, {0.60f, 0.40f, 0.30f},
-                                {0.90f, 0.50f, 0.75f}, {0.75f, 0.75f, 0.20f}, {0.20f, 0.75f, 0.80f},
-                                {0.55f, 0.55f, 0.55f}};
-  const float* c = palette[k % 10];
-  return rgb(c[0], c[1], c[2]);
-}
-
 // Fragment colours that stay with a piece from frame to frame (the fragment ids are renumbered by mass
 // every frame): concrete grey for the main body of an object (a fragment holding more than half of its
 // object's automata), else a hue from a hash of the piece's smallest automaton index.
 MCA_HD Rgba main_body_colour() { return rgb(0.72f, 0.71f, 0.68f); }
-MCA_HD Rgba piece_colour(std::uint32_t first_automaton) {
-  // A well-mixed hash of the index (murmur3's finaliser): pieces that split from neighbouring automata get
-  // far-apart hues; saturation and value vary a little so that close hues still differ.
-  std::uint32_t x = first_automaton + 0x9e3779b9u;
-  x ^= x >> 16;
-  x *= 0x85ebca6bu;
-  x ^= x >> 13;
-  x *= 0xc2b2ae35u;
-  x ^= x >> 16;
-  const float h = static_cast<float>(x & 0xffffu) / 65536.0f * 6.0f;
-  const float s = 0.55f + 0.25f * static_cast<float>((x >> 16) & 0xffu) / 255.0f;
-  const float v = 0.80f + 0.15f * static_cast<float>(x >> 24) / 255.0f;
+// A colour from its hue h in [0, 6) (red, yellow, green, cyan, blue, magenta), saturation and value.
+MCA_HD Rgba hsv(float h, float s, float v) {
   const int k = static_cast<int>(h);
   const float f = h - static_cast<float>(k), p = v * (1 - s), q = v * (1 - s * f), u = v * (1 - s * (1 - f));
   switch (k % 6) {
@@ -180,6 +160,34 @@ MCA_HD Rgba piece_colour(std::uint32_t first_automaton) {
     default: return rgb(v, p, q);
   }
 }
+MCA_HD Rgba piece_colour(std::uint32_t first_automaton) {
+  // A well-mixed hash of the index (murmur3's finaliser): pieces that split from neighbouring automata get
+  // far-apart hues; saturation and value vary a little so that close hues still differ.
+  std::uint32_t x = first_automaton + 0x9e3779b9u;
+  x ^= x >> 16;
+  x *= 0x85ebca6bu;
+  x ^= x >> 13;
+  x *= 0xc2b2ae35u;
+  x ^= x >> 16;
+  return hsv(static_cast<float>(x & 0xffffu) / 65536.0f * 6.0f, 0.55f + 0.25f * static_cast<float>((x >> 16) & 0xffu) / 255.0f,
+             0.80f + 0.15f * static_cast<float>(x >> 24) / 255.0f);
+}
+// Material k's colour: a categorical palette (well separated hues, readable on the dark background).
+MCA_HD Rgba group_colour(std::size_t k) {
+  const float palette[10][3] = {{0.30f, 0.55f, 0.85f}, {0.95f, 0.55f, 0.15f}, {0.35f, 0.75f, 0.35f},
+                                {0.85f, 0.25f, 0.25f}, {0.65f, 0.45f, 0.80f}, {0.60f, 0.40f, 0.30f},
+                                {0.90f, 0.50f, 0.75f}, {0.75f, 0.75f, 0.20f}, {0.20f, 0.75f, 0.80f},
+                                {0.55f, 0.55f, 0.55f}};
+  // Past ten: hues a golden angle apart, lighter and darker by turns (the palette repeated: the eleventh was the
+  // first's colour).
+  if (k >= 10) {
+    const float turn = static_cast<float>(k) * 0.6180340f;
+    return hsv(6.0f * (turn - static_cast<float>(static_cast<std::uint64_t>(turn))), 0.65f, k % 2 ? 0.70f : 0.92f);
+  }
+  const float* c = palette[k];
+  return rgb(c[0], c[1], c[2]);
+}
+
 // The colour of an automaton's fragment: `first` its smallest automaton, `size` its automata, `whole` its
 // object's.
 MCA_HD Rgba fragment_colour(std::uint32_t first, std::size_t size, std::size_t whole) {

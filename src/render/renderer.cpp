@@ -12,6 +12,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
 
+#include "core/text.hpp"
 #include "mca/error.hpp"
 #include "render/font.hpp"
 
@@ -467,7 +468,12 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
   const glm::vec3 up = glm::normalize(glm::vec3(s.up[0], s.up[1], s.up[2]));
   // The key light: from above, over the camera's left shoulder.
   const glm::vec3 fwd = glm::normalize(cam.target - cam.eye);
-  const glm::vec3 right = glm::normalize(glm::cross(fwd, up));
+  // (A view along the up axis has no side from it: the camera's own up, which make_camera turns off the axis
+  // for such a view, gives one; the light's right was NaN and the picture unlit.)
+  glm::vec3 side = glm::cross(fwd, up);
+  if (glm::length(side) < 1e-3f) side = glm::cross(fwd, cam.up);
+  if (glm::length(side) < 1e-3f) side = glm::cross(fwd, std::abs(fwd.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0));
+  const glm::vec3 right = glm::normalize(side);
   const glm::vec3 light = glm::normalize(-0.8f * fwd - 0.4f * right + 0.8f * up);
   auto common = [&](unsigned prog) {
     glUseProgram(prog);
@@ -583,7 +589,7 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
     float y = margin;
     std::vector<std::string> lines;
     if (overlay.counters) {
-      lines.push_back(fmt::format("t = {:.2f} ms", 1e3 * s.time));
+      lines.push_back("t = " + text::milliseconds(s.time, overlay.time_resolution));
       lines.push_back(fmt::format("broken links {}   fragments {}", s.broken_links, s.fragments));
     }
     lines.insert(lines.end(), overlay.lines.begin(), overlay.lines.end());
@@ -609,8 +615,27 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
   const Legend& L = s.legend;
   const bool bar = L.continuous && L.ramp;
   const float bar_h = 8.0f * scale;
+  // The swatches in rows that fit the picture's width (twelve materials with long names ran off its edge):
+  // each row's first swatch and the end of the last.
+  const auto swatch_width = [&](const std::string& label) {
+    return static_cast<float>((kGlyphHeight + 4) * scale) + static_cast<float>(text_width(label) * scale) + 12.0f * scale;
+  };
+  std::vector<std::size_t> row_starts;
+  if (!bar) {
+    float x = margin;
+    for (std::size_t k = 0; k < L.swatches.size(); ++k) {
+      const float w = swatch_width(L.swatches[k].first);
+      if (row_starts.empty() || (x + w > static_cast<float>(width) - margin + 12.0f * scale && x > margin)) {
+        row_starts.push_back(k);
+        x = margin;
+      }
+      x += w;
+    }
+    if (row_starts.empty()) row_starts.push_back(0);
+  }
+  const float legend_h = bar ? 2 * line_h + bar_h + 3.0f * scale : static_cast<float>(row_starts.size() + 1) * line_h;
   // The legend only where it fits below the lines at the top (in a small window they would overlap).
-  if (overlay.legend && static_cast<float>(height) - margin - 2 * line_h - (bar ? bar_h + 3.0f * scale : 0) >= text_end) {
+  if (overlay.legend && static_cast<float>(height) - margin - legend_h >= text_end) {
     float y = static_cast<float>(height) - margin;
     if (bar) {
       const float bar_w = 160.0f * scale;
@@ -627,12 +652,17 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
       y -= line_h;
       o.text(margin, y, L.title, scale);
     } else {
-      float x = margin;
-      y -= line_h;
-      for (const auto& [label, colour] : L.swatches) {
-        o.rect(x, y - scale, x + kGlyphHeight * scale, y + (kGlyphHeight - 1) * scale, colour);
-        x += (kGlyphHeight + 4) * scale;
-        x += o.text(x, y, label, scale) + 12.0f * scale;
+      // The last row lowest.
+      for (std::size_t r = row_starts.size(); r-- > 0;) {
+        const std::size_t end = r + 1 < row_starts.size() ? row_starts[r + 1] : L.swatches.size();
+        float x = margin;
+        y -= line_h;
+        for (std::size_t k = row_starts[r]; k < end; ++k) {
+          const auto& [label, colour] = L.swatches[k];
+          o.rect(x, y - scale, x + kGlyphHeight * scale, y + (kGlyphHeight - 1) * scale, colour);
+          x += (kGlyphHeight + 4) * scale;
+          x += o.text(x, y, label, scale) + 12.0f * scale;
+        }
       }
       y -= line_h;
       o.text(margin, y, L.title, scale);

@@ -16,6 +16,8 @@ struct Overlay {
   bool counters = true;  // time, broken links, fragments (top left)
   bool legend = true;    // the colour scale (bottom left)
   std::vector<std::string> lines;  // extra lines under the counters (the viewer's fps, shot settings)
+  double time_resolution = 0;      // the time between the frames shown, which the time's decimals show (s; 0:
+                                   // three digits of the time: text::milliseconds)
 };
 
 // Buffers that a backend writes its draw list into (render::DrawTarget; make_snapshot with a target):
