@@ -158,6 +158,9 @@ int main(int argc, char** argv) {
       if (out_opt->count()) ro.out = out_dir;  // given but empty is an error, not the default
       if (dur_opt->count()) ro.duration = duration;
       if (steps_opt->count()) ro.steps = steps;
+      // (Given empty, it was taken as not given, while an empty --render-colour was refused.)
+      if (run->get_option("--render-draw")->count() > 0 && ro.render_draw.empty())
+        throw mca::Error(fmt::format("--render-draw is empty; give one of: {}", mca::render::draw_mode_names()));
       if (seed_opt->count()) {
         // Digits only and within 64 bits: "1e23" or 2^64 must not become another seed silently.
         std::uint64_t seed = 0;
@@ -175,7 +178,8 @@ int main(int argc, char** argv) {
       if (!view_scene.empty()) vo.scene = view_scene;
       std::tie(vo.width, vo.height) = mca::app::parse_render_size(view_size, "--size");
       if (frames_opt->count()) vo.frames = view_frames;
-      if (!view_screenshot.empty()) {
+      // (Given empty, it wrote nothing without a word.)
+      if (view->get_option("--screenshot")->count() > 0) {
         if (std::filesystem::path(view_screenshot).extension() != ".png")
           throw mca::Error(fmt::format("--screenshot {}: the screenshot is written as PNG; give a name ending in .png",
                                        view_screenshot));

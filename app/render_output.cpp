@@ -68,6 +68,18 @@ std::pair<int, int> parse_render_size(const std::string& text, const std::string
 
 std::string RenderOutput::frame_name(std::int64_t frame) { return fmt::format("frame_{:06d}.png", frame); }
 
+void RenderOutput::remove_frames_from(const std::filesystem::path& render_dir, std::int64_t first_frame) {
+  // (Only names of the run's own form: a user's render/frame_cover.png stays.)
+  std::vector<std::filesystem::path> doomed;
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator(render_dir, ec)) {
+    const std::string name = e.path().filename().string();
+    const auto number = io::numbered(name, "frame_", ".png");
+    if (e.is_regular_file() && number && !(*number < first_frame && name == frame_name(*number))) doomed.push_back(e.path());
+  }
+  for (const auto& p : doomed) io::remove_output(p);
+}
+
 void save_render_options(const std::filesystem::path& out_dir, const RenderOptions& o) {
   const nlohmann::json j = {{"width", o.width}, {"height", o.height}, {"colour", render::name(o.colour)},
                             {"draw", render::name(o.draw)}, {"fps", o.fps}};
@@ -150,15 +162,7 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
 
   io::prepare_output_dir(dir_);
   io::remove_stale_temporaries(dir_);
-  // An earlier run's frames go, but those a resumed run keeps (frame_NNNNNN.png, NNNNNN < first_frame).
-  // (Only names of the run's own form: a user's render/frame_cover.png stays.)
-  std::vector<std::filesystem::path> doomed;
-  for (const auto& e : std::filesystem::directory_iterator(dir_)) {
-    const std::string name = e.path().filename().string();
-    const auto number = io::numbered(name, "frame_", ".png");
-    if (e.is_regular_file() && number && !(*number < first_frame && name == frame_name(*number))) doomed.push_back(e.path());
-  }
-  for (const auto& p : doomed) io::remove_output(p);
+  remove_frames_from(dir_, first_frame);
   // (A resumed run's video and sheet go below, where it can make them again.)
   if (first_frame == 0) {
     for (const char* old : {"video.mp4", "contact_sheet.png"}) io::remove_output(dir_ / old);
@@ -323,8 +327,8 @@ void RenderOutput::finish() {
                frames_ + 1 - lost_, dir_.string(), lost_ ? fmt::format(", {} lost before a resume", lost_) : "",
                seconds_);
     if (std::filesystem::exists(dir_ / "video.mp4"))
-      fmt::print(stderr, "video: {} ({} frames at {:g} frames/s: {:.1f} s)\n", (dir_ / "video.mp4").string(),
-                 frames_ + 1, fps_, static_cast<double>(frames_ + 1) / fps_);
+      fmt::print(stderr, "video: {} ({} frames at {:g} frames/s: {:.3g} s)\n", (dir_ / "video.mp4").string(),
+                 frames_ + 1, fps_, static_cast<double>(frames_ + 1) / fps_);  // (3 frames at 240/s read "0.0 s")
   }
 }
 

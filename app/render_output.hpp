@@ -76,6 +76,9 @@ class RenderOutput {
   const render::Camera& camera() const { return camera_; }
 
   static std::string frame_name(std::int64_t frame);
+  // Removes the frames a run drew, those from `first_frame` on (an earlier run's, or those an interrupted run
+  // drew past the checkpoint a resume starts from).
+  static void remove_frames_from(const std::filesystem::path& render_dir, std::int64_t first_frame);
 
  private:
   void keep_for_sheet(std::int64_t frame, const render::Image& im);

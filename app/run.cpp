@@ -839,8 +839,10 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
     if (!no_render) {
       render = std::make_unique<RenderOutput>(dir, sim, *ro, plan.total_frames, quiet, cp.frame, &stop);
     } else if (steps_left) {  // (with none left, the rendering is whole and stays so)
-      // Its frames stop here: a later resume must not take the folder for a whole rendering.
+      // Its frames stop here: a later resume must not take the folder for a whole rendering. (Those the
+      // interrupted run drew past the checkpoint go, as its rows there do.)
       remove_output(dir / "render" / "render.json");
+      RenderOutput::remove_frames_from(dir / "render", cp.frame);
       fmt::print(stderr, "warning: --no-render: {} keeps the frames drawn so far (0..{}); the frames this run adds "
                  "are not drawn, and no video is made\n",
                  (dir / "render").string(), cp.frame - 1);

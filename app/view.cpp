@@ -23,6 +23,8 @@
 #include <sstream>
 #include <thread>
 
+#include <unistd.h>
+
 #include <fmt/format.h>
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
@@ -86,6 +88,15 @@ struct Ball {
   float speed = 40;   // m/s
   float radius = 0.1f;  // m
   float mass = 32;    // kg (steel, r = 0.1 m)
+  // Within what a scene's projectile may be (the keys had no bounds: a ball made 60 times faster, or so heavy
+  // for its size that its density left the range a scene takes, was refused with a scene file's advice):
+  // 1 m/s to 3 km/s, 1 mm to 100 m, a density of 0.1 to 1e5 kg/m^3 (the mass follows a changed radius).
+  void keep_in_range() {
+    speed = std::clamp(speed, 1.0f, 3000.0f);
+    radius = std::clamp(radius, 1e-3f, 100.0f);
+    const float volume = 4.18879f * radius * radius * radius;
+    mass = std::clamp(mass, 0.1001f * volume, 0.999e5f * volume);
+  }
 };
 
 struct Command {
@@ -221,7 +232,11 @@ void simulate(const SceneDef& scene, Shared& sh, bool lockstep, std::array<doubl
       } catch (const Error& e) {
         std::lock_guard lock(sh.mutex);
         const bool shot = c.kind == Command::shoot;
-        sh.message = shot ? fmt::format("shot not fired: {}", e.what()) : std::string(e.what());
+        // (The scene's check of the ball named the scene file and its keys; the viewer's are the fix.)
+        sh.message = shot ? fmt::format("shot not fired (a ball of {:.3g} m/s, r {:.3g} m, {:.3g} kg; Up/Down, Left/Right "
+                                        "and PageUp/PageDown change it): {}",
+                                        c.ball.speed, c.ball.radius, c.ball.mass, e.what())
+                          : std::string(e.what());
         if (lockstep) fmt::print(stderr, "warning: {}\n", sh.message);
       }
     }
@@ -267,6 +282,20 @@ int view(const ViewOptions& o) {
   if (o.backend) scene.solver.backend = backend_from_name(*o.backend, "--backend");
   const std::vector<Shot> script = o.script ? read_script(*o.script) : std::vector<Shot>{};
   if (o.frames && *o.frames < 1) throw Error(fmt::format("--frames {} must be at least 1", *o.frames));
+  // Where the screenshot goes, before the frames are shown (it was found at the end, after them all).
+  if (o.screenshot) {
+    namespace fs = std::filesystem;
+    const fs::path shot(*o.screenshot), folder = shot.parent_path().empty() ? fs::path(".") : shot.parent_path();
+    std::error_code ec;
+    if (fs::is_directory(shot, ec))
+      throw Error(fmt::format("--screenshot {}: it is a folder; give a file name ending in .png", *o.screenshot));
+    if (!fs::is_directory(folder, ec))
+      throw Error(fmt::format("--screenshot {}: its folder {} does not exist; make it, or give a file in another",
+                              *o.screenshot, folder.string()));
+    if (::access(folder.c_str(), W_OK | X_OK) != 0)
+      throw Error(fmt::format("--screenshot {}: its folder {} cannot be written ({}); give a file in another",
+                              *o.screenshot, folder.string(), std::strerror(errno)));
+  }
   const int threads = thread_count(o.threads);
   tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
   if (!glfwInit())
@@ -520,6 +549,7 @@ int view(const ViewOptions& o) {
         case GLFW_KEY_Q: glfwSetWindowShouldClose(win, GLFW_TRUE); break;
         default: break;
       }
+      ball.keep_in_range();
       std::lock_guard lock(sh.mutex);
       sh.changed.notify_all();
     }

@@ -79,6 +79,22 @@ TEST(ViewScript, AFolderOrAMissingFileIsRefused) {
   }
 }
 
+// A screenshot that cannot be written is refused before any frame is shown (it was found after them all,
+// naming a temporary file), and one given empty is refused (it wrote nothing without a word).
+TEST(ViewScript, AScreenshotThatCannotBeWrittenIsRefusedAtTheStart) {
+  TempDir t;
+  for (const auto& [name, words] : std::vector<std::pair<std::string, std::string>>{
+           {(t.path() / "none" / "x.png").string(), "does not exist"},
+           {(t.path() / "a.png").string(), "is a folder"},
+           {"''", "give a name ending in .png"}}) {
+    if (words == "is a folder") fs::create_directories(t.path() / "a.png");
+    const Result r = shell("env -u DISPLAY -u WAYLAND_DISPLAY " + std::string(MCA_BINARY) +
+                           " view --frames 1 --screenshot " + name);
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find(words), std::string::npos) << r.output;
+  }
+}
+
 Result view_under_xvfb(const std::string& args) {
   return shell("timeout 120 xvfb-run -a -s '-screen 0 1280x720x24' " + std::string(MCA_BINARY) + " view " + args);
 }
