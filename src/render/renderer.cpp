@@ -581,7 +581,9 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
 
   // Overlay.
   OverlayBuilder o;
-  const int scale = std::max(1, static_cast<int>(std::lround(height / 360.0)));
+  // (By the narrower side of a 16:9 picture: a tall narrow one, 100x4000, took the scale of its height and
+  // showed a glyph of each line.)
+  const int scale = std::max(1, static_cast<int>(std::lround(std::min(height / 360.0, width / 640.0))));
   const float line_h = (kGlyphHeight + 4) * scale;
   const float margin = 8.0f * scale;
   float text_end = 0;  // where the lines at the top end
