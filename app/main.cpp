@@ -1,5 +1,6 @@
 // The `mca` command: run, resume, info, bench.
 #include <CLI/CLI.hpp>
+#include <cctype>
 #include <charconv>
 #include <cstdio>
 #include <filesystem>
@@ -180,7 +181,10 @@ int main(int argc, char** argv) {
       if (frames_opt->count()) vo.frames = view_frames;
       // (Given empty, it wrote nothing without a word.)
       if (view->get_option("--screenshot")->count() > 0) {
-        if (std::filesystem::path(view_screenshot).extension() != ".png")
+        if (view_screenshot.empty()) throw mca::Error("--screenshot is empty; give a file name ending in .png");
+        std::string ext = std::filesystem::path(view_screenshot).extension().string();
+        for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+        if (ext != ".png")
           throw mca::Error(fmt::format("--screenshot {}: the screenshot is written as PNG; give a name ending in .png",
                                        view_screenshot));
         vo.screenshot = view_screenshot;

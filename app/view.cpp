@@ -607,7 +607,7 @@ int view(const ViewOptions& o) {
     }
     glfwSwapBuffers(win);
     glfwSetWindowTitle(win, fmt::format("mca view: {}  t = {}  broken {}  fragments {}  {} fps", scene.name,
-                                        text::milliseconds(snap->time, resolution), snap->broken_links, snap->fragments,
+                                        text::sim_time(snap->time, resolution), snap->broken_links, snap->fragments,
                                         fps_text)
                                 .c_str());
     if (last) break;
@@ -615,7 +615,7 @@ int view(const ViewOptions& o) {
   if (next_shot < script.size())
     fmt::print(stderr, "warning: --script {}: {} not fired: the view ended at t = {}, before t = {}{}\n",
                *o.script, script.size() - next_shot == 1 ? std::string("1 shot was") : fmt::format("{} shots were", script.size() - next_shot),
-               text::milliseconds(snap ? snap->time : 0.0, resolution), text::milliseconds(script[next_shot].time, resolution),
+               text::sim_time(snap ? snap->time : 0.0, resolution), text::sim_time(script[next_shot].time, resolution),
                o.frames ? "; give more --frames (one per output frame of the scene)" : "");
   if (died) {
     std::lock_guard lock(sh.mutex);
@@ -629,13 +629,13 @@ int view(const ViewOptions& o) {
   if (due_at_last > 0 && o.frames && !o.quiet)
     fmt::print(stderr, "mca view: {} due at the last frame shown (t = {}) went into the simulation after it and "
                "{} in no frame; give one more --frames to see {}\n",
-               count(due_at_last, "shot"), text::milliseconds(snap ? snap->time : 0.0, resolution),
+               count(due_at_last, "shot"), text::sim_time(snap ? snap->time : 0.0, resolution),
                due_at_last == 1 ? "is" : "are", due_at_last == 1 ? "it" : "them");
   const int sig = stop;
   if (!o.quiet)
     fmt::print(stderr, "mca view: {}{} shown, t = {}, {} fired, {}, broken links {}, fragments {}{}\n",
                sig ? fmt::format("closed by {}: ", signal_name(sig)) : "", count(static_cast<std::size_t>(shown), "frame"),
-               text::milliseconds(snap ? snap->time : 0.0, resolution), count(fired, "shot"), count(projectiles, "projectile"),
+               text::sim_time(snap ? snap->time : 0.0, resolution), count(fired, "shot"), count(projectiles, "projectile"),
                snap ? snap->broken_links : 0, snap ? snap->fragments : 0,
                !o.screenshot ? std::string()
                : o.frames && shown >= *o.frames

@@ -355,6 +355,16 @@ TEST(InputBounds, AGlbOfItsJsonAloneReadsItsBuffersFromUrisInItsFolder) {
              (sub / "none.bin").string() + ", which is not there");
   EXPECT_HAS(read_error(write_file(sub / "chunk.glb", alone(""))),
              "buffers[0] has no uri, so its bytes are the file's binary chunk, and the file ends after its JSON");
+  // Also one of 0 bytes that a view reads; and a file whose binary chunk is there, its header's total wrong, is
+  // not said to end after its JSON.
+  std::string zero = mca::test::gltf_json(8, cube.size(), {-1, -1, -1}, {1, 1, 1});
+  const std::size_t length_at = zero.find("\"byteLength\": ");  // (the buffer's, the first)
+  zero.replace(length_at, zero.find('}', length_at) - length_at, "\"byteLength\": 0");
+  EXPECT_HAS(read_error(write_file(sub / "zero.glb", glb_of(zero))), "buffers[0] has no uri");
+  std::string lying = glb_of(mca::test::gltf_json(8, cube.size(), {-1, -1, -1}, {1, 1, 1}), bin);
+  const std::uint32_t twelve = 12;
+  std::memcpy(lying.data() + 8, &twelve, 4);
+  EXPECT_EQ(read_error(write_file(sub / "lying.glb", lying)).find("ends after its JSON"), std::string::npos);
 }
 
 // What assimp takes as missing or does not apply, refused before it reads (the hostile review of

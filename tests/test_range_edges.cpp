@@ -173,6 +173,34 @@ TEST(RangeEdges, TargetAutomataAdviceIsFollowedOnce) {
     ASSERT_FALSE(followed.empty());
     EXPECT_EQ(build(followed), "") << followed;
   }
+  // A plate no target may ask for (1 km by 0.1 mm: about 4e13 automata) is told so, not given that count.
+  const std::string vast = error_of([&] {
+    Engine e(io::parse_scene("[solver]\ntarget_automata = 1000\n[[object]]\nsize = [1000.0, 1000.0, 0.0001]\n"
+                             "position = [0, 0, 1]\n",
+                             "edge.toml"));
+  });
+  EXPECT_HAS(vast, "automata, more than the 178956970 a model can hold; make the object thicker or smaller");
+  EXPECT_EQ(vast.find("raise solver.target_automata"), std::string::npos) << vast;
+  // A thin closed mesh is named as thin, with the count, before its fill (which read "its inside cannot be
+  // told from its outside").
+  test::TempDir t;
+  mesh::TriMesh plate_mesh = test::cube_mesh(0.5);
+  for (auto& v : plate_mesh.vertices) v[2] *= 0.002;  // 1 x 1 x 0.002 m
+  test::write_mesh_file(t.path() / "plate.off", plate_mesh);
+  const std::string mesh_plate = "[[object]]\nshape = \"mesh\"\nmesh = \"" + (t.path() / "plate.off").string() +
+                                 "\"\nposition = [0, 0, 1]\n";
+  const std::string thin_mesh = error_of([&] {
+    Engine e(io::parse_scene("[solver]\nlattice = \"cubic\"\ntarget_automata = 10000\n" + mesh_plate, "edge.toml"));
+  });
+  EXPECT_HAS(thin_mesh, "less than half the spacing");
+  EXPECT_HAS(thin_mesh, "raise solver.target_automata (it sets the spacing; about ");
+  // Given a spacing instead: the count at the spacing named, not the spacing of 10,000 automata (0.00585 m, which
+  // the plate is too thin for).
+  const std::string spaced = error_of([&] {
+    Engine e(io::parse_scene("[solver]\nlattice = \"cubic\"\nspacing = 0.0058\n" + mesh_plate, "edge.toml"));
+  });
+  EXPECT_HAS(spaced, "decrease solver.spacing (to 0.002 m or less; about ");
+  EXPECT_EQ(spaced.find("10,000 automata"), std::string::npos) << spaced;
   // The sphere and the plate: the sphere is named (the first too thin), the count is for the plate's 4 mm.
   const std::string m = error_of([&] { Engine e(io::parse_scene("[solver]\ntarget_automata = 10\n" + two, "edge.toml")); });
   EXPECT_HAS(m, "object[0] 'object' is 0.02 x 0.02 x 0.02 m");

@@ -623,14 +623,17 @@ TEST(Render, ViewsAlongTheUpAxisAndBallsAroundTheCamera) {
 
 // The overlay's time shows the time between frames: a run of frames 10 ns apart read "t = 0.00 ms" in each.
 TEST(Render, TheTimeShownResolvesTheFrames) {
-  EXPECT_EQ(text::milliseconds(0.005, 0.005), "5.00 ms");
-  EXPECT_EQ(text::milliseconds(0.0, 0.005), "0.00 ms");
-  EXPECT_EQ(text::milliseconds(6e-8, 1e-8), "0.000060 ms");
-  EXPECT_EQ(text::milliseconds(7.5e-6, 2.5e-6), "0.0075 ms");
-  EXPECT_EQ(text::milliseconds(0.0015, 0.0005), "1.50 ms");
+  EXPECT_EQ(text::sim_time(0.005, 0.005), "5.00 ms");
+  EXPECT_EQ(text::sim_time(0.0, 0.005), "0.00 ms");
+  EXPECT_EQ(text::sim_time(6e-8, 1e-8), "0.000060 ms");
+  EXPECT_EQ(text::sim_time(7.5e-6, 2.5e-6), "0.0075 ms");
+  EXPECT_EQ(text::sim_time(0.0015, 0.0005), "1.50 ms");
   // Without a resolution (a picture of its own): three digits of the time.
-  EXPECT_EQ(text::milliseconds(0.0123), "12.30 ms");
-  EXPECT_EQ(text::milliseconds(6e-8), "0.0000600 ms");
+  EXPECT_EQ(text::sim_time(0.0123), "12.30 ms");
+  EXPECT_EQ(text::sim_time(6e-8), "0.0000600 ms");
+  // Frames 10 s apart, in seconds (they read "20000.00 ms").
+  EXPECT_EQ(text::sim_time(20, 10), "20.00 s");
+  EXPECT_EQ(text::sim_time(12.5), "12.50 s");
 }
 
 // Materials past the palette's ten take colours of their own (the eleventh was the first's), each apart from

@@ -86,7 +86,7 @@ TEST(ViewScript, AScreenshotThatCannotBeWrittenIsRefusedAtTheStart) {
   for (const auto& [name, words] : std::vector<std::pair<std::string, std::string>>{
            {(t.path() / "none" / "x.png").string(), "does not exist"},
            {(t.path() / "a.png").string(), "is a folder"},
-           {"''", "give a name ending in .png"}}) {
+           {"''", "--screenshot is empty"}}) {
     if (words == "is a folder") fs::create_directories(t.path() / "a.png");
     const Result r = shell("env -u DISPLAY -u WAYLAND_DISPLAY " + std::string(MCA_BINARY) +
                            " view --frames 1 --screenshot " + name);

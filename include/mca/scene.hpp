@@ -152,6 +152,9 @@ struct GroundDef {
 struct SolverDef {
   // The spacings a scene may give (solver.spacing), in metres.
   static constexpr double kMinSpacing = 1e-9, kMaxSpacing = 1e9;
+  // The most automata a model of lattice fills holds (links are addressed with 29 bits in the backends'
+  // adjacency, 3 links an automaton), and so the largest target_automata.
+  static constexpr std::int64_t kMaxAutomata = (std::int64_t{1} << 29) / 3;
   double spacing = 0.05;                 // lattice spacing d [m], in [kMinSpacing, kMaxSpacing]
   std::int64_t target_automata = 0;      // > 0: choose d so the count lands within 2 %
   double safety = 0.5;                   // C: the step is C x the critical step (time_step.cpp), in (0, 1]

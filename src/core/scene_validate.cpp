@@ -221,7 +221,7 @@ void validate_scene(const SceneDef& scene) {
           "give the lattice spacing in metres, e.g. 0.05");
   // 1.8e8 automata is the most a model holds (links are addressed with 29 bits); a larger target would
   // only make the search for its spacing count lattices of absurd size.
-  if (scene.solver.target_automata > 178'956'970) {
+  if (scene.solver.target_automata > SolverDef::kMaxAutomata) {
     c.fail(fmt::format("solver.target_automata = {} is out of range: at most 178956970 (1.8e8) automata fit a model; "
                        "give a smaller target",
                        scene.solver.target_automata));

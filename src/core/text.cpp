@@ -151,12 +151,14 @@ std::string human_bytes(double bytes) {
   return u == 0 ? fmt::format("{:.0f} bytes", bytes) : fmt::format("{:.3g} {}", bytes, units[u]);
 }
 
-std::string milliseconds(double seconds, double resolution) {
-  const double step_ms = 1e3 * (resolution > 0 ? resolution : std::abs(seconds) / 100);
+std::string sim_time(double seconds, double resolution) {
+  const bool in_seconds = resolution > 0 ? resolution >= 0.1 : std::abs(seconds) >= 10;
+  const double unit = in_seconds ? 1.0 : 1e3;
+  const double step = unit * (resolution > 0 ? resolution : std::abs(seconds) / 100);
   int decimals = 2;
-  if (step_ms > 0 && std::isfinite(step_ms))
-    decimals = static_cast<int>(std::clamp(std::ceil(-std::log10(step_ms) + 0.5), 2.0, 12.0));  // (0.0025 ms: 4)
-  return fmt::format("{:.{}f} ms", 1e3 * seconds, decimals);
+  if (step > 0 && std::isfinite(step))
+    decimals = static_cast<int>(std::clamp(std::ceil(-std::log10(step) + 0.5), 2.0, 12.0));  // (0.0025 ms: 4)
+  return fmt::format("{:.{}f} {}", unit * seconds, decimals, in_seconds ? "s" : "ms");
 }
 
 std::string shell_word(std::string_view s) {

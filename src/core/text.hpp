@@ -50,10 +50,11 @@ std::string count(std::uint64_t n, std::string_view word);
 // A size for a message: "512 bytes", "430 KB", "1.72 TB" (3 digits; units of 1000).
 std::string human_bytes(double bytes);
 
-// A simulated time in milliseconds, "12.35 ms", with the decimals that show `resolution` seconds (the time
-// between the frames shown; 0: three digits of `seconds` itself), at least two: a run of frames 10 ns apart
-// read "0.00 ms" in every frame.
-std::string milliseconds(double seconds, double resolution = 0);
+// A simulated time, "12.35 ms", with the decimals that show `resolution` seconds (the time between the frames
+// shown; 0: three digits of `seconds` itself), at least two: a run of frames 10 ns apart read "0.00 ms" in
+// every frame. In seconds where frames are 0.1 s or more apart (or, without a resolution, from 10 s on): frames
+// 10 s apart read "20000.00 ms".
+std::string sim_time(double seconds, double resolution = 0);
 
 // Whether `s` is UTF-8 text (what TOML and JSON files hold): a path of a file system that takes any bytes
 // may not be.

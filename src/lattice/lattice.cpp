@@ -1202,15 +1202,21 @@ double estimated_count(const SceneDef& scene, const Shapes& S, double spacing) {
   return n;
 }
 
-// The spacing d (a float), which gives n automata, in as few digits as give the same count (the model takes
-// the spacing as a float).
-std::string spacing_written(const SceneDef& scene, const Shapes& S, double d, std::int64_t n) {
-  for (int digits = 6; digits < 17; ++digits) {
+// The spacing d (a float) in as few digits as read back as it (the model takes the spacing as a float; nine
+// digits always do).
+std::string spacing_written(double d) {
+  for (int digits = 6; digits < 9; ++digits) {
     const std::string text = fmt::format("{:.{}g}", d, digits);
-    const double read = static_cast<double>(static_cast<float>(std::stod(text)));
-    if (read == d || count_automata(scene, S, read) == n) return text;
+    if (static_cast<double>(static_cast<float>(std::stod(text))) == d) return text;
   }
-  return fmt::format("{:.17g}", d);
+  return fmt::format("{:.9g}", d);
+}
+
+// ", a model of about 15 GB" where a count of automata is a large model (a million or more), for advice that
+// leads to one: the thinnest object sets the spacing for all (a rod of 0.8 mm beside a plate of 1 m^2).
+std::string size_of_model(const SceneDef& scene, double automata) {
+  if (automata < 1e6) return {};
+  return fmt::format(", a model of about {}", text::human_bytes(automata * bytes_per_automaton(scene)));
 }
 
 // Refuses an object thinner than half the spacing d along a side of its lattice.
@@ -1256,13 +1262,25 @@ void refuse_thin_objects(const SceneDef& scene, const Shapes& S, double d) {
     // taken): the target chooses a spacing within a few % of it, away from either end. Counted, not scaled by
     // the cube from the target: a plate's count grows as the square of 1 / spacing (one layer of cells), so the
     // cube asked a 2 mm plate for 1.1e7 automata, which then could not be met within 2 %.
-    const double at = std::max(1.5 * thinnest, range.lo);
-    fix = fmt::format("raise solver.target_automata (it sets the spacing; about {:.3g} gives {:.3g} m) or make "
-                      "the object larger",
-                      estimated_count(scene, S, at), at);
-  } else
+    const double at = std::max(1.5 * thinnest, range.lo), count = estimated_count(scene, S, at);
+    fix = count <= static_cast<double>(SolverDef::kMaxAutomata)
+              ? fmt::format("raise solver.target_automata (it sets the spacing; about {:.3g} gives {:.3g} m{}) or make "
+                            "the object larger",
+                            count, at, size_of_model(scene, count))
+              // (A count no target may ask for: a plate of 1 km by 1 mm.)
+              : fmt::format("a spacing that fits it ({:.3g} m) gives about {:.3g} automata, more than the {} a model "
+                            "can hold; make the object thicker or smaller",
+                            at, count, SolverDef::kMaxAutomata);
+  } else {
+    // The spacing of 10,000 automata where the objects take it, else the count at the spacing named (a thin
+    // plate was told the spacing of 10,000 automata, which it is too thin for).
+    const double count = estimated_count(scene, S, fits);
     fix = fmt::format("decrease solver.spacing (to {:.3g} m{}; {}) or make the object larger", fits,
-                      fits > range.lo ? " or less" : "", ten_thousand_hint(scene, S));
+                      fits > range.lo ? " or less" : "",
+                      std::cbrt(std::max(shapes_volume(scene, S), 1e-300) / 1e4) <= fits
+                          ? ten_thousand_hint(scene, S)
+                          : fmt::format("about {:.3g} automata there{}", count, size_of_model(scene, count)));
+  }
   throw Error(fmt::format("{}: object[{}] '{}' is {:.4g} x {:.4g} x {:.4g} m, {} m along its local {}, less than "
                           "half the spacing {:.4g} m ({} m): its lattice would be a cell of {:.4g} m there; {}",
                           scene.source, named.object, scene.objects[named.object].name, ext[0], ext[1], ext[2], hd.a,
@@ -1289,6 +1307,8 @@ double spacing_for_target(const SceneDef& scene, const Shapes& S, std::int64_t t
     double d = static_cast<double>(static_cast<float>(std::cbrt(volume / static_cast<double>(target))));
     refuse_over_memory(scene, d, static_cast<double>(target), false, 0);
     for (int it = 0; it < 6; ++it) {
+      // (A mesh thinner than half the spacing is not filled: its inside was "told from its outside" by no cell.)
+      refuse_thin_objects(scene, S, d);
       const std::int64_t n = try_spacing(d);
       if (std::llabs(n - target) * 200 <= target) break;  // within 0.5 %
       d = static_cast<double>(static_cast<float>(d * std::cbrt(static_cast<double>(n) / static_cast<double>(target))));
@@ -1332,7 +1352,7 @@ double spacing_for_target(const SceneDef& scene, const Shapes& S, std::int64_t t
     // The spacing, not that count as a target: counts do not fall steadily with the spacing (a row of cells
     // enters or leaves a round shape), so the search for the count it found, from another start, found
     // another count, and the advice was followed round after round. The spacing as written gives the count.
-    const std::string written = spacing_written(scene, S, best_d, best_n);
+    const std::string written = spacing_written(best_d);
     throw Error(fmt::format(
         "{}: solver.target_automata = {} cannot be met within 2 %: the lattice counts of these shapes jump in "
         "steps near it; the closest is {} automata, at solver.spacing = {}: give that spacing instead of "
@@ -1421,8 +1441,7 @@ std::int64_t checked_automata_count(const SceneDef& scene, const Shapes& S, doub
   // Memory: first from the shapes' volume (so an absurd spacing is refused at once: a lattice fills a
   // shape to within a few cells of its surface, so half the volume estimate is a safe lower bound), then
   // from the exact count.
-  // Links are addressed with 29 bits in the backends' adjacency (3 links per automaton).
-  constexpr double kMaxAutomata = static_cast<double>((std::int64_t{1} << 29) / 3);
+  constexpr auto kMaxAutomata = static_cast<double>(SolverDef::kMaxAutomata);  // (the backends' link addressing)
   auto refuse_count = [&](double n, bool approximate) {
     if (n <= kMaxAutomata) return;
     throw Error(fmt::format("{}: {}{:.4g} automata at spacing {:.4g} m are more than this build supports (about "

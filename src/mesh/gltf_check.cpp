@@ -393,12 +393,26 @@ GltfDeclared check_gltf_json(std::string_view json, const std::string& name, boo
   // (assimp: "Buffer view with offset/length (96/72) is out of range".)
   if (no_binary_chunk) {
     const Json& buffers = check.list("buffers");
-    for (std::size_t i = 0; i < buffers.size(); ++i)
-      if (buffers[i].is_object() && !buffers[i].contains("uri") && buffers[i].contains("byteLength") &&
-          buffers[i]["byteLength"].is_number() && buffers[i]["byteLength"].get<double>() > 0)
+    const Json& views = check.list("bufferViews");
+    for (std::size_t i = 0; i < buffers.size(); ++i) {
+      if (!buffers[i].is_object()) continue;
+      // (One of no bytes that no view reads is harmless.)
+      const bool read = std::any_of(views.begin(), views.end(), [&](const Json& v) {
+        return v.is_object() && v.contains("buffer") && v["buffer"].is_number() && v["buffer"].get<double>() == static_cast<double>(i);
+      });
+      const bool sized = buffers[i].contains("byteLength") && buffers[i]["byteLength"].is_number() &&
+                         buffers[i]["byteLength"].get<double>() > 0;
+      if (!buffers[i].contains("uri") && (read || sized))
         throw Error(fmt::format("{}: buffers[{}] has no uri, so its bytes are the file's binary chunk, and the file "
                                 "ends after its JSON: it is cut short or damaged; export the model again",
                                 name, i));
+      // (The reader mca uses reads such a JSON from memory, under a name of its own, which a uri could name.)
+      if (buffers[i].contains("uri") && buffers[i]["uri"].is_string() &&
+          buffers[i]["uri"].get<std::string>().rfind("$$$___magic___$$$", 0) == 0)
+        throw Error(fmt::format("{}: buffers[{}] names a file whose name begins with $$$___magic___$$$, which the "
+                                "reader mca uses keeps for itself; rename the file",
+                                name, i));
+    }
   }
   return d;
 }

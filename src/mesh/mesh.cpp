@@ -625,11 +625,11 @@ TriMesh import_assimp(const std::string& name, const std::string& ext, const std
     if (ext == "gltf") {
       declared = check_gltf_json(all, name);
     } else if (all.size() >= 20) {
-      std::uint32_t length = 0, total = 0;
+      std::uint32_t length = 0;
       std::memcpy(&length, all.data() + 12, 4);
-      std::memcpy(&total, all.data() + 8, 4);
-      // (A chunk's header is 8 bytes: a total with no room for one more holds no binary chunk.)
-      const bool alone = static_cast<std::uint64_t>(total) < std::uint64_t{28} + length;
+      // (A chunk's header is 8 bytes: a file with no room for one more after its JSON holds no binary chunk. Its
+      // bytes, not its header's total, which may be wrong while a binary chunk follows.)
+      const bool alone = all.size() < std::uint64_t{28} + length;
       declared = check_gltf_json(all.substr(20, length), name, alone);
       if (alone) json_only = all.substr(20, length);
     }

@@ -191,7 +191,6 @@ VideoEncoder::VideoEncoder(const std::filesystem::path& ffmpeg, const std::files
   }
   pid_ = pid;
   pipe_ = fds[1];
-
   // A dead ffmpeg must give a write error (EPIPE), not kill the run with SIGPIPE.
   std::signal(SIGPIPE, SIG_IGN);
 }

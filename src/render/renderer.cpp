@@ -591,7 +591,7 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
     float y = margin;
     std::vector<std::string> lines;
     if (overlay.counters) {
-      lines.push_back("t = " + text::milliseconds(s.time, overlay.time_resolution));
+      lines.push_back("t = " + text::sim_time(s.time, overlay.time_resolution));
       lines.push_back(fmt::format("broken links {}   fragments {}", s.broken_links, s.fragments));
     }
     lines.insert(lines.end(), overlay.lines.begin(), overlay.lines.end());
@@ -617,25 +617,38 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
   const Legend& L = s.legend;
   const bool bar = L.continuous && L.ramp;
   const float bar_h = 8.0f * scale;
-  // The swatches in rows that fit the picture's width (twelve materials with long names ran off its edge):
-  // each row's first swatch and the end of the last.
-  const auto swatch_width = [&](const std::string& label) {
-    return static_cast<float>((kGlyphHeight + 4) * scale) + static_cast<float>(text_width(label) * scale) + 12.0f * scale;
+  // The swatches in lines that fit the picture's width (twelve materials with long names ran off its edge); a
+  // label wider than the picture goes on over the lines below it, under its start (cut at the edge, five read
+  // "MATERIAL_NUMBE"). Each item: its swatch (or none, for a label's continuation) and its text.
+  const float box_w = static_cast<float>((kGlyphHeight + 4) * scale), gap = 12.0f * scale;
+  struct Item {
+    const Rgba* colour;
+    std::string text;
   };
-  std::vector<std::size_t> row_starts;
+  std::vector<std::vector<Item>> legend_lines;
   if (!bar) {
-    float x = margin;
-    for (std::size_t k = 0; k < L.swatches.size(); ++k) {
-      const float w = swatch_width(L.swatches[k].first);
-      if (row_starts.empty() || (x + w > static_cast<float>(width) - margin + 12.0f * scale && x > margin)) {
-        row_starts.push_back(k);
+    const float right = static_cast<float>(width) - margin;
+    const auto room = static_cast<std::size_t>(
+        std::max(1.0f, (right - margin - box_w) / static_cast<float>(kGlyphAdvance * scale)));
+    float x = right;  // (a new line at the first swatch)
+    for (const auto& [label, colour] : L.swatches) {
+      const float w = box_w + static_cast<float>(text_width(label) * scale);
+      if (legend_lines.empty() || x + w > right) {
+        legend_lines.emplace_back();
         x = margin;
       }
-      x += w;
+      if (label.size() <= room) {
+        legend_lines.back().push_back({&colour, label});
+        x += w + gap;
+        continue;
+      }
+      legend_lines.back().push_back({&colour, label.substr(0, room)});
+      for (std::size_t at = room; at < label.size(); at += room) legend_lines.push_back({{nullptr, label.substr(at, room)}});
+      x = right;  // (the next swatch on a line of its own)
     }
-    if (row_starts.empty()) row_starts.push_back(0);
+    if (legend_lines.empty()) legend_lines.emplace_back();
   }
-  const float legend_h = bar ? 2 * line_h + bar_h + 3.0f * scale : static_cast<float>(row_starts.size() + 1) * line_h;
+  const float legend_h = bar ? 2 * line_h + bar_h + 3.0f * scale : static_cast<float>(legend_lines.size() + 1) * line_h;
   // The legend only where it fits below the lines at the top (in a small window they would overlap).
   if (overlay.legend && static_cast<float>(height) - margin - legend_h >= text_end) {
     float y = static_cast<float>(height) - margin;
@@ -654,16 +667,14 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
       y -= line_h;
       o.text(margin, y, L.title, scale);
     } else {
-      // The last row lowest.
-      for (std::size_t r = row_starts.size(); r-- > 0;) {
-        const std::size_t end = r + 1 < row_starts.size() ? row_starts[r + 1] : L.swatches.size();
+      // The last line lowest.
+      for (std::size_t r = legend_lines.size(); r-- > 0;) {
         float x = margin;
         y -= line_h;
-        for (std::size_t k = row_starts[r]; k < end; ++k) {
-          const auto& [label, colour] = L.swatches[k];
-          o.rect(x, y - scale, x + kGlyphHeight * scale, y + (kGlyphHeight - 1) * scale, colour);
-          x += (kGlyphHeight + 4) * scale;
-          x += o.text(x, y, label, scale) + 12.0f * scale;
+        for (const Item& item : legend_lines[r]) {
+          if (item.colour) o.rect(x, y - scale, x + kGlyphHeight * scale, y + (kGlyphHeight - 1) * scale, *item.colour);
+          x += box_w;
+          x += o.text(x, y, item.text, scale) + gap;
         }
       }
       y -= line_h;

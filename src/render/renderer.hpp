@@ -17,7 +17,7 @@ struct Overlay {
   bool legend = true;    // the colour scale (bottom left)
   std::vector<std::string> lines;  // extra lines under the counters (the viewer's fps, shot settings)
   double time_resolution = 0;      // the time between the frames shown, which the time's decimals show (s; 0:
-                                   // three digits of the time: text::milliseconds)
+                                   // three digits of the time: text::sim_time)
 };
 
 // Buffers that a backend writes its draw list into (render::DrawTarget; make_snapshot with a target):
