@@ -1219,8 +1219,9 @@ std::string size_of_model(const SceneDef& scene, double automata) {
   return fmt::format(", a model of about {}", text::human_bytes(automata * bytes_per_automaton(scene)));
 }
 
-// Refuses an object thinner than half the spacing d along a side of its lattice.
-void refuse_thin_objects(const SceneDef& scene, const Shapes& S, double d) {
+// Refuses an object thinner than half the spacing d along a side of its lattice (`meshes_only`: a mesh object
+// only, whose fill at d fails; the advice still fits every object).
+void refuse_thin_objects(const SceneDef& scene, const Shapes& S, double d, bool meshes_only = false) {
   // An extent under half a cell would round to no cell; it becomes one, a body far larger than asked. (Half
   // a cell itself is one, and the spacing is a float: size = 0.025 at spacing 0.05 was refused.)
   struct Thin {
@@ -1239,6 +1240,7 @@ void refuse_thin_objects(const SceneDef& scene, const Shapes& S, double d) {
     shape_extents(scene.objects[oi], S.of(oi), t.ext);
     const double least = std::min({t.ext[0], t.ext[1], t.ext[2]});
     thinnest = std::min(thinnest, least);
+    if (meshes_only && scene.objects[oi].shape != Shape::mesh) continue;
     for (int a = 0; a < 3 && t.axis < 0; ++a)
       if (t.ext[a] < 0.5 * d * (1 - 1e-6)) t.axis = a;
     if (t.axis >= 0 && (named.axis < 0 || (least < 0.5 * range.lo &&
@@ -1307,8 +1309,9 @@ double spacing_for_target(const SceneDef& scene, const Shapes& S, std::int64_t t
     double d = static_cast<double>(static_cast<float>(std::cbrt(volume / static_cast<double>(target))));
     refuse_over_memory(scene, d, static_cast<double>(target), false, 0);
     for (int it = 0; it < 6; ++it) {
-      // (A mesh thinner than half the spacing is not filled: its inside was "told from its outside" by no cell.)
-      refuse_thin_objects(scene, S, d);
+      // (A mesh thinner than half the spacing is not filled: its inside was "told from its outside" by no cell.
+      // A shape's count is exact however thin: it is checked at the spacing chosen.)
+      refuse_thin_objects(scene, S, d, true);
       const std::int64_t n = try_spacing(d);
       if (std::llabs(n - target) * 200 <= target) break;  // within 0.5 %
       d = static_cast<double>(static_cast<float>(d * std::cbrt(static_cast<double>(n) / static_cast<double>(target))));
