@@ -143,10 +143,6 @@ MCA_HD Rgba class_colour(int c) {
   }
 }
 
-// Fragment colours that stay with a piece from frame to frame (the fragment ids are renumbered by mass
-// every frame): concrete grey for the main body of an object (a fragment holding more than half of its
-// object's automata), else a hue from a hash of the piece's smallest automaton index.
-MCA_HD Rgba main_body_colour() { return rgb(0.72f, 0.71f, 0.68f); }
 // A colour from its hue h in [0, 6) (red, yellow, green, cyan, blue, magenta), saturation and value.
 MCA_HD Rgba hsv(float h, float s, float v) {
   const int k = static_cast<int>(h);
@@ -160,6 +156,11 @@ MCA_HD Rgba hsv(float h, float s, float v) {
     default: return rgb(v, p, q);
   }
 }
+
+// Fragment colours that stay with a piece from frame to frame (the fragment ids are renumbered by mass
+// every frame): concrete grey for the main body of an object (a fragment holding more than half of its
+// object's automata), else a hue from a hash of the piece's smallest automaton index.
+MCA_HD Rgba main_body_colour() { return rgb(0.72f, 0.71f, 0.68f); }
 MCA_HD Rgba piece_colour(std::uint32_t first_automaton) {
   // A well-mixed hash of the index (murmur3's finaliser): pieces that split from neighbouring automata get
   // far-apart hues; saturation and value vary a little so that close hues still differ.
@@ -172,6 +173,7 @@ MCA_HD Rgba piece_colour(std::uint32_t first_automaton) {
   return hsv(static_cast<float>(x & 0xffffu) / 65536.0f * 6.0f, 0.55f + 0.25f * static_cast<float>((x >> 16) & 0xffu) / 255.0f,
              0.80f + 0.15f * static_cast<float>(x >> 24) / 255.0f);
 }
+
 // Material k's colour: a categorical palette (well separated hues, readable on the dark background).
 MCA_HD Rgba group_colour(std::size_t k) {
   const float palette[10][3] = {{0.30f, 0.55f, 0.85f}, {0.95f, 0.55f, 0.15f}, {0.35f, 0.75f, 0.35f},
