@@ -424,18 +424,25 @@ DVec3 to_dvec3(const Vec3d& v) { return {v[0], v[1], v[2]}; }
 
 std::string fmt_vec(const Vec3d& v) { return fmt::format("[{:g}, {:g}, {:g}]", v[0], v[1], v[2]); }
 
+// The volume object oi fills with a lattice (0 for a surface-mode object: a count of its own, whatever the
+// spacing).
+double object_volume(const SceneDef& scene, const Shapes& S, std::size_t oi) {
+  const ObjectDef& o = scene.objects[oi];
+  if (S.surface_of(oi)) return 0;
+  if (o.shape == Shape::mesh) return S.of(oi)->volume();
+  if (o.shape == Shape::box) return o.size[0] * o.size[1] * o.size[2];
+  if (o.shape == Shape::sphere) return 4.0 / 3.0 * std::numbers::pi * std::pow(o.radius, 3);
+  return std::numbers::pi * o.radius * o.radius * o.height;
+}
+
 double shapes_volume(const SceneDef& scene, const Shapes& S) {
   double volume = 0;
-  for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) {
-    const ObjectDef& o = scene.objects[oi];
-    if (S.surface_of(oi)) continue;  // a count of its own, whatever the spacing
-    if (o.shape == Shape::mesh) volume += S.of(oi)->volume();
-    else if (o.shape == Shape::box) volume += o.size[0] * o.size[1] * o.size[2];
-    else if (o.shape == Shape::sphere) volume += 4.0 / 3.0 * std::numbers::pi * std::pow(o.radius, 3);
-    else volume += std::numbers::pi * o.radius * o.radius * o.height;
-  }
+  for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) volume += object_volume(scene, S, oi);
   return volume;
 }
+
+// The spacing that gives about 10,000 automata in `volume`.
+double ten_thousand_d(double volume) { return std::cbrt(std::max(volume, 1e-300) / 1e4); }
 
 // The spacing that gives about 10,000 automata, for messages about scenes far too coarse or too fine.
 std::string ten_thousand_hint(const SceneDef& scene, const Shapes& S) {
@@ -1191,14 +1198,24 @@ std::int64_t count_automata(const SceneDef& scene, const Shapes& S, double spaci
   return n;
 }
 
-// The count at a spacing without filling a mesh (its signed-distance grid at a fine spacing can be large):
-// a mesh object's from its volume, the shapes' counted.
+// The count at a spacing, for advice, without work that grows with it: a box's and a surface-mode object's
+// counted, a sphere's or cylinder's counted where its lattice has few rows (a rod, a disc: the thin shapes
+// whose count the volume misjudges), else from its volume as a mesh's (filling it would take a signed-distance
+// grid; a sphere of 10 m at 1 mm has 4e8 rows, and its count held a refusal for 28 s).
 double estimated_count(const SceneDef& scene, const Shapes& S, double spacing) {
   double n = 0;
-  for (std::size_t oi = 0; oi < scene.objects.size(); ++oi)
-    n += scene.objects[oi].shape == Shape::mesh && !S.surface_of(oi)
-             ? S.of(oi)->volume() / (spacing * spacing * spacing)
-             : static_cast<double>(object_count(scene, S, oi, spacing));
+  for (std::size_t oi = 0; oi < scene.objects.size(); ++oi) {
+    const ObjectDef& o = scene.objects[oi];
+    bool counted = S.surface_of(oi) || o.shape == Shape::box;
+    if (!counted && o.shape != Shape::mesh) {
+      std::int64_t cells[3];
+      double origin[3];
+      lattice_frame(o, nullptr, spacing, cells, origin);
+      counted = static_cast<double>(cells[1]) * static_cast<double>(cells[2]) <= 1e6;
+    }
+    n += counted ? static_cast<double>(object_count(scene, S, oi, spacing))
+                 : object_volume(scene, S, oi) / (spacing * spacing * spacing);
+  }
   return n;
 }
 
@@ -1276,12 +1293,15 @@ void refuse_thin_objects(const SceneDef& scene, const Shapes& S, double d, bool 
   } else {
     // The spacing of 10,000 automata where the objects take it, else the count at the spacing named (a thin
     // plate was told the spacing of 10,000 automata, which it is too thin for).
-    const double count = estimated_count(scene, S, fits);
+    std::string there;
+    if (ten_thousand_d(shapes_volume(scene, S)) <= fits) {
+      there = ten_thousand_hint(scene, S);
+    } else {
+      const double count = estimated_count(scene, S, fits);
+      there = fmt::format("about {:.3g} automata there{}", count, size_of_model(scene, count));
+    }
     fix = fmt::format("decrease solver.spacing (to {:.3g} m{}; {}) or make the object larger", fits,
-                      fits > range.lo ? " or less" : "",
-                      std::cbrt(std::max(shapes_volume(scene, S), 1e-300) / 1e4) <= fits
-                          ? ten_thousand_hint(scene, S)
-                          : fmt::format("about {:.3g} automata there{}", count, size_of_model(scene, count)));
+                      fits > range.lo ? " or less" : "", there);
   }
   throw Error(fmt::format("{}: object[{}] '{}' is {:.4g} x {:.4g} x {:.4g} m, {} m along its local {}, less than "
                           "half the spacing {:.4g} m ({} m): its lattice would be a cell of {:.4g} m there; {}",
@@ -1428,7 +1448,7 @@ std::string spacing_bound(const SpacingRange& r, bool least) {
 }
 
 std::string ten_thousand_spacing(double volume, const SpacingRange& range) {
-  const double s = std::cbrt(std::max(volume, 1e-300) / 1e4);
+  const double s = ten_thousand_d(volume);
   if (s >= range.lo && s <= range.hi) return fmt::format("about {:.3g} m gives 10,000 automata", s);
   const bool small = s < range.lo;
   return fmt::format("10,000 automata would take a spacing of {:.3g} m, {} than {}: scale the objects {} "

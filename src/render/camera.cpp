@@ -72,6 +72,10 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
   }();
   const float radius = 0.5f * glm::length(fr.box_hi - fr.box_lo);
   const float tan_v = std::tan(glm::radians(cam.fov) / 2), tan_h = tan_v * aspect;
+  // A projectile's centre at frame 0, in the drawing frame (relative to the framing's origin).
+  const auto ball_centre = [&](const ProjectileParams& p) {
+    return glm::vec3(glm::dvec3(p.position.x, p.position.y, p.position.z) - origin);
+  };
 
   if (def.position) {
     cam.eye = glm::vec3(glm::dvec3((*def.position)[0], (*def.position)[1], (*def.position)[2]) - origin);
@@ -81,7 +85,7 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
     glm::vec3 front(0, -1, 0);
     if (!model.projectiles.empty()) {
       glm::vec3 mean(0);
-      for (const auto& p : model.projectiles) mean += glm::vec3(glm::dvec3(p.position.x, p.position.y, p.position.z) - origin);
+      for (const auto& p : model.projectiles) mean += ball_centre(p);
       front = mean / static_cast<float>(model.projectiles.size()) - cam.target;
     }
     front = horizontal(front, cam.up);
@@ -107,7 +111,7 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
       more = false;
       for (std::size_t k = 0; k < model.projectiles.size(); ++k) {
         const auto& p = model.projectiles[k];
-        const glm::vec3 c = glm::vec3(glm::dvec3(p.position.x, p.position.y, p.position.z) - origin);
+        const glm::vec3 c = ball_centre(p);
         if (framed[k] || glm::length(cam.target + back * dist - c) >= 1.5f * p.radius) continue;
         framed[k] = more = true;
         for (int q = 0; q < 8; ++q)
@@ -203,8 +207,7 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
   cam.near = std::max(1e-3f, std::min(0.5f * (dc - radius), 0.05f * depth));
   // Nearer still where a ball is nearer (it was cut away by the near plane).
   for (const auto& p : model.projectiles) {
-    const float gap = glm::length(glm::vec3(glm::dvec3(p.position.x, p.position.y, p.position.z) - origin) - cam.eye) -
-                      p.radius;
+    const float gap = glm::length(ball_centre(p) - cam.eye) - p.radius;
     if (gap > 0) cam.near = std::max(1e-3f, std::min(cam.near, 0.5f * gap));
   }
   cam.far = 40.0f * (depth + radius);
