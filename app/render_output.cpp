@@ -263,10 +263,20 @@ void RenderOutput::drop_video(const std::string& why) {
              why, video_command());
 }
 
+std::vector<std::int64_t> RenderOutput::sheet_frames(std::int64_t frames) {
+  std::vector<std::int64_t> picks;
+  constexpr std::int64_t n = kSheetTiles - 1;
+  for (std::int64_t k = 0; k <= n; ++k) {
+    const std::int64_t f = (2 * frames * k + n) / (2 * n);  // k F / n, rounded half up
+    if (picks.empty() || picks.back() != f) picks.push_back(f);
+  }
+  return picks;
+}
+
 void RenderOutput::keep_for_sheet(std::int64_t frame, const render::Image& im) {
-  // The contact sheet: frames 0, F/5, 2F/5, ..., F, each at half size.
-  for (int k = 0; k < kSheetTiles; ++k)
-    if (frame == (frames_ * k) / (kSheetTiles - 1)) sheet_[frame] = render::shrink(im, 2);
+  // The contact sheet's frames, each at half size.
+  const auto picks = sheet_frames(frames_);
+  if (std::binary_search(picks.begin(), picks.end(), frame)) sheet_[frame] = render::shrink(im, 2);
 }
 
 RenderOutput::~RenderOutput() = default;

@@ -8,6 +8,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <vector>
 #include <string>
 
 #include "analysis/fragments.hpp"
@@ -76,6 +77,9 @@ class RenderOutput {
   const render::Camera& camera() const { return camera_; }
 
   static std::string frame_name(std::int64_t frame);
+  // The frames of the contact sheet of a run of frames 0..`frames`: 0, F/5, 2F/5, ..., F, each the nearest
+  // frame (7 frames give 0, 1, 2, 4, 5, 6), ascending, none twice.
+  static std::vector<std::int64_t> sheet_frames(std::int64_t frames);
   // Removes the frames a run drew, those from `first_frame` on (an earlier run's, or those an interrupted run
   // drew past the checkpoint a resume starts from).
   static void remove_frames_from(const std::filesystem::path& render_dir, std::int64_t first_frame);

@@ -168,6 +168,18 @@ TEST(Render, FontHasEveryCharacterTheOverlayWrites) {
   EXPECT_EQ(render::text_width("AB"), 2 * render::kGlyphAdvance - 1);
 }
 
+// The contact sheet's six frames stand as evenly as whole frames can: each the frame nearest k F / 5.
+TEST(Render, TheContactSheetTakesFramesEvenlyApart) {
+  using V = std::vector<std::int64_t>;
+  EXPECT_EQ(app::RenderOutput::sheet_frames(30), (V{0, 6, 12, 18, 24, 30}));
+  EXPECT_EQ(app::RenderOutput::sheet_frames(6), (V{0, 1, 2, 4, 5, 6}));  // (it took 0, 1, 2, 3, 4, 6)
+  EXPECT_EQ(app::RenderOutput::sheet_frames(7), (V{0, 1, 3, 4, 6, 7}));
+  EXPECT_EQ(app::RenderOutput::sheet_frames(2), (V{0, 1, 2}));
+  EXPECT_EQ(app::RenderOutput::sheet_frames(0), (V{0}));
+  EXPECT_EQ(app::RenderOutput::sheet_frames(1000000000000), (V{0, 200000000000, 400000000000, 600000000000,
+                                                                800000000000, 1000000000000}));
+}
+
 // `mca run --render` on a short run: the frames, the video and the contact sheet; the same final state
 // as without --render.
 TEST(Render, RunWritesFramesVideoAndContactSheetAndChangesNoResult) {
