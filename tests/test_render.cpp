@@ -616,6 +616,8 @@ TEST(Render, ViewsAlongTheUpAxisAndBallsAroundTheCamera) {
   refused(s, "below the ground");
   s.camera.position = Vec3d{0, -0.4, 0.75};  // the ball's centre
   refused(s, "is inside projectile 'ball' (radius 0.2 m");
+  s.camera.position = Vec3d{0.0125, -0.4125, 0.7625};  // the position as written, not to 3 digits
+  refused(s, "position = [0.0125, -0.4125, 0.7625] is inside projectile 'ball'");
   s.camera.position = Vec3d{0, 0, 0.75};  // the wall's centre, where it looks by default
   s.camera.target.reset();
   refused(s, "inside an object's bounding box");

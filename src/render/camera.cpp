@@ -13,7 +13,7 @@
 namespace mca::render {
 namespace {
 
-std::string shown(const glm::dvec3& v) { return fmt::format("[{:.3g}, {:.3g}, {:.3g}]", v.x, v.y, v.z); }
+std::string shown(const glm::dvec3& v) { return fmt::format("[{:.6g}, {:.6g}, {:.6g}]", v.x, v.y, v.z); }
 
 // A unit vector perpendicular to `up`, near `hint`.
 glm::vec3 horizontal(glm::vec3 hint, glm::vec3 up) {
