@@ -95,7 +95,9 @@ struct Ball {
     speed = std::clamp(speed, 1.0f, 3000.0f);
     radius = std::clamp(radius, 1e-3f, 100.0f);
     const float volume = 4.18879f * radius * radius * radius;
-    mass = std::clamp(mass, 0.1001f * volume, 0.999e5f * volume);
+    // (inside the bounds by a thousandth: the density a scene is given back from the mass is rounded)
+    mass = std::clamp(mass, float(MaterialDef::kMinDensity * 1.001) * volume,
+                      float(MaterialDef::kMaxDensity * 0.999) * volume);
   }
 };
 

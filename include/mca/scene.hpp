@@ -17,7 +17,8 @@ struct MaterialDef {
   std::string name = "concrete";
   double youngs_modulus = 30e9;         // E [Pa], > 0
   double poisson_ratio = 0.2;           // nu, in (-1, 0.5)
-  double density = 2400.0;              // rho [kg/m^3], > 0
+  static constexpr double kMinDensity = 0.1, kMaxDensity = 1e5;  // [kg/m^3]: of a material and a ball
+  double density = 2400.0;              // rho [kg/m^3], in [kMinDensity, kMaxDensity]
   double tensile_strength = 3.0e6;      // sigma_b in tension [Pa], > 0
   double compressive_strength = 30e6;   // [Pa], >= tensile; equal to tensile -> von Mises criterion
   double fracture_strain = 1.5e-4;      // eps_b of the displacement criterion, > 0
@@ -111,7 +112,7 @@ struct ProjectileDef {
   std::string name = "ball";
   double radius = 0.1;             // [m]
   std::string material = "steel";  // stiffness, friction, restitution; density unless given below
-  double density = 0.0;            // [kg/m^3]; 0 = the material's
+  double density = 0.0;            // [kg/m^3]; 0 = the material's, else in MaterialDef's bounds
   Vec3d position = {0, 0, 0};
   Vec3d velocity = {0, 0, 0};
   Vec3d angular_velocity = {0, 0, 0};  // [rad/s]

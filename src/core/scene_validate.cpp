@@ -96,7 +96,9 @@ void check_material(const Checker& c, const MaterialDef& m, std::size_t i) {
         "use e.g. 30e9 for concrete, 200e9 for steel (the unit is Pa, not GPa)");
   range("poisson_ratio", m.poisson_ratio, -1, false, 0.5, false, "in (-1, 0.5) (0.5 is incompressible)",
         "use e.g. 0.2 for concrete");
-  range("density", m.density, 0.1, true, 1e5, true, "in [0.1, 1e5] [kg/m^3]", "use e.g. 2400 for concrete");
+  range("density", m.density, MaterialDef::kMinDensity, true, MaterialDef::kMaxDensity, true,
+        fmt::format("in [{}, {}] [kg/m^3]", num(MaterialDef::kMinDensity), num(MaterialDef::kMaxDensity)),
+        "use e.g. 2400 for concrete");
   range("tensile_strength", m.tensile_strength, 0, false, INFINITY, false, "> 0 [Pa]",
         "use e.g. 3e6 for concrete (the unit is Pa, not MPa)");
   if (!std::isfinite(m.compressive_strength) || m.compressive_strength < m.tensile_strength) {
@@ -474,7 +476,9 @@ void validate_scene(const SceneDef& scene) {
     c.positive(p + ".radius", b.radius, "give the ball radius in metres, e.g. 0.12");
     resolve_material(scene, b.material, p + ".material");
     if (b.density != 0)
-      c.range(p + ".density", b.density, 0.1, true, 1e5, true, "0 (the material's) or in [0.1, 1e5] [kg/m^3]",
+      c.range(p + ".density", b.density, MaterialDef::kMinDensity, true, MaterialDef::kMaxDensity, true,
+              fmt::format("0 (the material's) or in [{}, {}] [kg/m^3]", num(MaterialDef::kMinDensity),
+                          num(MaterialDef::kMaxDensity)),
               "use 0 to take the material's density, or e.g. 7850 for steel");
     c.position(p + ".position", b.position);
     c.finite(p + ".velocity", b.velocity);
