@@ -367,6 +367,40 @@ TEST(Render, AFailingFfmpegDropsTheVideoAndTheRunGoesOn) {
   }
 }
 
+// The time limit is on ffmpeg writing nothing, not on all of its finishing: one that takes 3 s to finish the
+// file, writing to it every 0.4 s, makes the video under a limit of 1 s (it was stopped, and the video lost);
+// one that writes once and then nothing is stopped.
+TEST(Render, AnFfmpegStillWritingAsItFinishesIsWaitedFor) {
+  const std::string finish = "for a; do last=$a; done; cat > /dev/null; ";
+  for (const bool writing : {true, false}) {
+    TempDir d;
+    const fs::path bin = d.path() / "bin", out = d.path() / "out";
+    fs::create_directories(bin);
+    std::ofstream(bin / "ffmpeg") << "#!/bin/sh\n"
+                                  << finish
+                                  << (writing ? "for i in 1 2 3 4 5 6 7 8; do printf x >> \"$last\"; sleep 0.4; done"
+                                              : "printf x >> \"$last\"; exec sleep 1000")
+                                  << "\n";
+    fs::permissions(bin / "ffmpeg", fs::perms::owner_all);
+    const Result r = shell("MCA_FFMPEG_TIMEOUT=1 PATH=" + bin.string() + ":/usr/bin:/bin timeout 120 " +
+                           std::string(MCA_BINARY) + " run " + kCubicWall +
+                           " -q --duration 0.004 --render --render-size 64x48 --out " + out.string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    if (writing) {
+      EXPECT_EQ(r.output.find("warning"), std::string::npos) << r.output;
+      ASSERT_TRUE(fs::exists(out / "render" / "video.mp4")) << r.output;
+      EXPECT_EQ(fs::file_size(out / "render" / "video.mp4"), 8u);
+    } else {
+      EXPECT_NE(r.output.find("ffmpeg wrote nothing to '" + (out / "render" / "video.mp4").string() +
+                              "' for 1 s while finishing it and was stopped"),
+                std::string::npos)
+          << r.output;
+      EXPECT_FALSE(fs::exists(out / "render" / "video.mp4"));
+    }
+    for (const auto& e : fs::directory_iterator(out / "render")) EXPECT_NE(e.path().extension(), ".tmp") << e.path();
+  }
+}
+
 // The command that warning gives makes the video when pasted into a shell, in a folder whose name holds
 // spaces, a quote, a dollar sign and a star (each one word of the command, quoted as the shell needs).
 TEST(Render, TheVideoCommandOfTheWarningMakesTheVideoInAnOddlyNamedFolder) {

@@ -1,5 +1,6 @@
 #include "render/image.hpp"
 
+#include <array>
 #include <charconv>
 #include <string_view>
 
@@ -13,6 +14,7 @@
 #include <png.h>
 #include <spawn.h>
 #include <sys/mman.h>
+#include <sys/stat.h>
 #include <poll.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -219,7 +221,7 @@ int VideoEncoder::time_limit() {
   if (t.find_first_not_of("0123456789") != std::string_view::npos || ec != std::errc() ||
       ptr != t.data() + t.size() || v < 1 || v > 86400)
     throw Error(fmt::format("MCA_FFMPEG_TIMEOUT = {}: not a whole number of seconds from 1 to 86400 (how long ffmpeg "
-                            "may take a frame or finish the video); give e.g. MCA_FFMPEG_TIMEOUT=300, or unset it "
+                            "may go without taking a frame, or without writing while it finishes the video); give e.g. MCA_FFMPEG_TIMEOUT=300, or unset it "
                             "for 120 s",
                             text));
   return v;
@@ -231,12 +233,26 @@ void VideoEncoder::stop() {
   int status = 0;
   bool stuck = false, stopped = false;
   if (pid_ > 0) {
-    // ffmpeg ends when its input does; one that does not within the limit is stopped (a stuck encoder
-    // must not hold the run's end for ever), as is one a stop signal leaves unfinished.
-    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(time_limit());
+    // ffmpeg ends when its input does, after it has encoded the frames it holds and written the index; one
+    // that writes nothing to the file for the limit is stopped (a stuck encoder must not hold the run's end
+    // for ever), as is one a stop signal leaves unfinished. (The limit was on the whole finish: a slow ffmpeg
+    // still writing a large video was stopped.) What was written is told by the file's size and time.
+    const auto written = [this] {
+      struct stat st {};
+      return ::stat(temporary_.c_str(), &st) == 0
+                 ? std::array<long long, 3>{static_cast<long long>(st.st_size), static_cast<long long>(st.st_mtim.tv_sec),
+                                            static_cast<long long>(st.st_mtim.tv_nsec)}
+                 : std::array<long long, 3>{-1, 0, 0};
+    };
+    auto last = written();
+    auto until = std::chrono::steady_clock::now() + std::chrono::seconds(time_limit());
     for (;;) {
       const pid_t r = ::waitpid(pid_, &status, WNOHANG);
       if (r == pid_ || (r < 0 && errno != EINTR)) break;
+      if (const auto now = written(); now != last) {
+        last = now;
+        until = std::chrono::steady_clock::now() + std::chrono::seconds(time_limit());
+      }
       stuck = std::chrono::steady_clock::now() > until;
       stopped = interrupted();
       if (stuck || stopped) {
@@ -252,7 +268,8 @@ void VideoEncoder::stop() {
   if (stopped)
     throw Error(fmt::format("a stop signal came before ffmpeg finished '{}', and ffmpeg was stopped", path_.string()));
   if (stuck)
-    throw Error(fmt::format("ffmpeg did not finish '{}' within {} s and was stopped", path_.string(), time_limit()));
+    throw Error(fmt::format("ffmpeg wrote nothing to '{}' for {} s while finishing it and was stopped", path_.string(),
+                            time_limit()));
   if (!(WIFEXITED(status) && WEXITSTATUS(status) == 0)) {
     std::string why;
     char buf[4096];

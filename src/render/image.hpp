@@ -42,8 +42,8 @@ int spawn_own_group(pid_t& pid, const std::vector<std::string>& args, const posi
 // video under the final name.
 class VideoEncoder {
  public:
-  // How long ffmpeg may take to accept a frame, or to finish the file after the last one, before it is
-  // stopped [s]: 120, or MCA_FFMPEG_TIMEOUT (whole seconds, 1 to 86400; anything else set there throws
+  // How long ffmpeg may go without taking any of a frame, or without writing to the file while it finishes
+  // it after the last frame, before it is stopped [s]: 120, or MCA_FFMPEG_TIMEOUT (whole seconds, 1 to 86400; anything else set there throws
   // mca::Error naming it and the fix, so a command can refuse it before it writes anything).
   static int time_limit();
   // Starts ffmpeg. Throws mca::Error when it cannot be started. Where `interrupt` is given, a wait for
