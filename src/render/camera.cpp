@@ -90,35 +90,73 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
     }
     front = horizontal(front, cam.up);
     const glm::vec3 side = glm::normalize(glm::cross(cam.up, front));
-    const float az = glm::radians(35.0f), el = glm::radians(25.0f);
-    const glm::vec3 back = std::cos(el) * (std::cos(az) * front + std::sin(az) * side) + std::sin(el) * cam.up;
-    // The nearest distance at which every corner of the box lies inside the view, with a margin.
-    const glm::vec3 f = -back, r = glm::normalize(glm::cross(f, cam.up)), u = glm::cross(r, f);
-    constexpr float margin = 1.12f;
-    float dist = 0;
-    const auto frame = [&](const glm::vec3& c) {
-      const glm::vec3 d = c - cam.target;
-      const float x = glm::dot(d, r), y = glm::dot(d, u), z = glm::dot(d, f);
-      dist = std::max({dist, margin * std::abs(x) / tan_h - z, margin * std::abs(y) / tan_v - z});
-    };
-    for (const glm::vec3& c : corners) frame(c);
-    dist = std::max(dist, 1e-3f);
-    // A ball the camera would be in or next to (within half its radius) is framed too, its box's corners as
-    // the objects' (a ball of 3 m beside the wall held the automatic camera, and was not drawn); the balls
-    // farther off are left out of the framing (the default's, 0.1 m from the wall's face, would widen it).
-    std::vector<bool> framed(model.projectiles.size(), false);
-    for (bool more = true; more;) {
-      more = false;
-      for (std::size_t k = 0; k < model.projectiles.size(); ++k) {
-        const auto& p = model.projectiles[k];
-        const glm::vec3 c = ball_centre(p);
-        if (framed[k] || glm::length(cam.target + back * dist - c) >= 1.5f * p.radius) continue;
-        framed[k] = more = true;
-        for (int q = 0; q < 8; ++q)
-          frame(c + p.radius * glm::vec3(q & 1 ? 1 : -1, q & 2 ? 1 : -1, q & 4 ? 1 : -1));
+    // The eye looking from azimuth `az_deg` (about the up axis, from `front`) and elevation `el_deg`.
+    const auto place = [&](float az_deg, float el_deg) {
+      const float az = glm::radians(az_deg), el = glm::radians(el_deg);
+      const glm::vec3 back = std::cos(el) * (std::cos(az) * front + std::sin(az) * side) + std::sin(el) * cam.up;
+      // The nearest distance at which every corner of the box lies inside the view, with a margin.
+      const glm::vec3 f = -back, r = glm::normalize(glm::cross(f, cam.up)), u = glm::cross(r, f);
+      constexpr float margin = 1.12f;
+      float dist = 0;
+      const auto frame = [&](const glm::vec3& c) {
+        const glm::vec3 d = c - cam.target;
+        const float x = glm::dot(d, r), y = glm::dot(d, u), z = glm::dot(d, f);
+        dist = std::max({dist, margin * std::abs(x) / tan_h - z, margin * std::abs(y) / tan_v - z});
+      };
+      for (const glm::vec3& c : corners) frame(c);
+      dist = std::max(dist, 1e-3f);
+      // A ball the camera would be in or next to (within half its radius) is framed too, its box's corners as
+      // the objects' (a ball of 3 m beside the wall held the automatic camera, and was not drawn); the balls
+      // farther off are left out of the framing (the default's, 0.1 m from the wall's face, would widen it).
+      std::vector<bool> framed(model.projectiles.size(), false);
+      for (bool more = true; more;) {
+        more = false;
+        for (std::size_t k = 0; k < model.projectiles.size(); ++k) {
+          const auto& p = model.projectiles[k];
+          const glm::vec3 c = ball_centre(p);
+          if (framed[k] || glm::length(cam.target + back * dist - c) >= 1.5f * p.radius) continue;
+          framed[k] = more = true;
+          for (int q = 0; q < 8; ++q)
+            frame(c + p.radius * glm::vec3(q & 1 ? 1 : -1, q & 2 ? 1 : -1, q & 4 ? 1 : -1));
+        }
       }
-    }
-    cam.eye = cam.target + back * dist;
+      return cam.target + back * dist;
+    };
+    // The objects' points (each object's box's corners and centre) a ball stands in front of, seen from `eye`.
+    const auto hidden = [&](const glm::vec3& eye) {
+      int n = 0;
+      for (const auto& [lo, hi] : fr.object_box)
+        for (int k = 0; k < 9; ++k) {
+          const glm::vec3 q = k == 8 ? 0.5f * (lo + hi)
+                                     : glm::vec3(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z);
+          const glm::vec3 sight = q - eye;
+          const float length2 = glm::dot(sight, sight);
+          for (const auto& p : model.projectiles) {
+            const glm::vec3 c = ball_centre(p);
+            const float t = length2 > 0 ? std::clamp(glm::dot(c - eye, sight) / length2, 0.0f, 1.0f) : 0.0f;
+            if (glm::length(eye + t * sight - c) < p.radius) {
+              ++n;
+              break;
+            }
+          }
+        }
+      return n;
+    };
+    // Balls that hide a quarter or more of those points from the 3/4 view (a ball of 3 m before the wall hid
+    // all of it): the first other view that hides the fewest, turned further about the up axis and higher.
+    cam.eye = place(35, 25);
+    int fewest = hidden(cam.eye);
+    if (4 * fewest >= 9 * static_cast<int>(fr.object_box.size()))
+      for (const auto& [az, el] : {std::pair{-35.0f, 25.0f}, {35.0f, 50.0f}, {-35.0f, 50.0f}, {60.0f, 40.0f},
+                                   {-60.0f, 40.0f}, {0.0f, 75.0f}, {145.0f, 25.0f}, {-145.0f, 25.0f},
+                                   {90.0f, 25.0f}, {-90.0f, 25.0f}, {180.0f, 25.0f}}) {
+        if (fewest == 0) break;
+        const glm::vec3 eye = place(az, el);
+        if (const int n = hidden(eye); n < fewest) {
+          fewest = n;
+          cam.eye = eye;
+        }
+      }
   }
   // Inside a ball at frame 0: the ball is not drawn from inside, and the view is of its inner side.
   if (def.position)
