@@ -171,8 +171,19 @@ def mass_distribution_figure(plt, dist, title):
                  f"10 automata to N/10 {100 * mid['mass_share']:.1f} %, largest {100 * dist['largest']['mass_share']:.1f} % "
                  "of the mass", fontsize=10)
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8, loc="upper right")  # n(m) falls to the right: the corner the points leave empty
     fig.tight_layout()
+    # The legend in the upper right, the corner n(m) falling to the right leaves empty, else in the first other
+    # corner clear of the points (a lone fragment's point stood under it).
+    points = [ax.transData.transform(p) for bins in (inside, outside) for p in zip(*xy(bins))]
+    for loc in ("upper right", "lower left", "upper left", "lower right"):
+        legend = ax.legend(fontsize=8, loc=loc)
+        fig.canvas.draw()
+        box = legend.get_window_extent().padded(8)
+        if not any(box.contains(x, y) for x, y in points):
+            break
+    else:
+        legend.remove()
+        ax.legend(fontsize=8, loc="upper right")
     return fig
 
 

@@ -81,6 +81,25 @@ def test_no_fit_says_why(tmp_path):
     plt.close(fig)
 
 
+def test_the_legend_stands_clear_of_the_points(tmp_path):
+    """A lone fragment's point stood under the legend in the upper right: the legend goes to a corner clear of
+    every point (the upper right where that is clear, as for a spectrum falling to the right)."""
+    for sizes, corner in (([480], None), (sample_power_law(1.8, 127, 1e4) + [20000], "upper right")):
+        dist = distribution(tmp_path, sizes)
+        fig = plot_run.mass_distribution_figure(plt, dist, "legend")
+        ax = fig.axes[0]
+        fig.canvas.draw()
+        box = ax.get_legend().get_window_extent()
+        points = [ax.transData.transform(p) for ln in ax.get_lines() if ln.get_label().startswith("n(m)")
+                  for p in zip(*ln.get_data())]
+        assert points
+        assert not any(box.contains(x, y) for x, y in points), (sizes[:3], box, points)
+        if corner:
+            axes = ax.get_window_extent()
+            assert box.x1 > axes.x0 + 0.8 * axes.width and box.y1 > axes.y0 + 0.8 * axes.height, corner
+        plt.close(fig)
+
+
 def write_run(out, dist):
     cols = ["frame", "time", "kinetic_energy", "elastic_energy", "contact_energy", "projectile_kinetic_energy",
             "total_energy", "energy_balance", "broken_displacement", "broken_stress", "broken_total", "fragments"]
