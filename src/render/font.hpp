@@ -1,6 +1,6 @@
 #pragma once
 // A 5 x 7 pixel bitmap font for the renderer's overlay (time, counters, legend labels, messages): every
-// printable ASCII character. Lower-case letters are drawn as upper-case.
+// printable ASCII character, lower case with its x-height of 5 pixels (g, j, p, q and y end on the last row).
 #include <cstdint>
 #include <string_view>
 
