@@ -8,6 +8,7 @@
 #include <atomic>
 
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -77,13 +78,13 @@ class Offscreen {
  public:
   Offscreen(int w, int h) : w_(w), h_(h), target_(w, h) {}
   render::Image draw(const Engine& sim, const render::Framing& f, const render::Camera& cam,
-                     render::ColourMode colour = render::ColourMode::fragment) {
+                     render::ColourMode colour = render::ColourMode::fragment, const render::Overlay& overlay = {}) {
     const auto frags = analysis::label_model_fragments(sim.model(), sim.state().intact.data());
     render::SnapshotOptions o;
     o.colour = colour;
     const auto snap = render::make_snapshot(sim.model(), sim.state(), frags, o, f.origin);
     target_.bind();
-    renderer_.draw(snap, render::DrawMode::cubes, cam, w_, h_);
+    renderer_.draw(snap, render::DrawMode::cubes, cam, w_, h_, overlay);
     render::Image im{w_, h_, {}};
     target_.read_rgba(im.rgba);
     return im;
@@ -684,6 +685,34 @@ TEST(Render, ViewsAlongTheUpAxisAndBallsAroundTheCamera) {
       EXPECT_LT(wall.r, wall.g + 30) << c->projectiles[0].radius << " m ball, at " << p[0] << " " << p[2] << ": "
                                      << wall.r << " " << wall.g << " " << wall.b;
     }
+}
+
+// The lines at the top stop at half the picture's height (the viewer's five lines, wrapped, covered a window
+// of 120x60); the first is drawn however small the picture.
+TEST(Render, TheOverlayLeavesTheLowerHalfOfASmallPicture) {
+  const SceneDef s = test::cubic_wall_scene();
+  Engine sim(s);
+  const auto framing = render::objects_box(sim.model(), sim.state());
+  render::Overlay text;
+  text.legend = false;
+  text.lines = {"31 fps   2400 steps/s   paused", "automata 4800   drawn 2800",
+                "ball 40 m/s  r 0.10 m  32.0 kg   colour fragment  draw cubes", "a message of the last shot, long"};
+  render::Overlay none = text;
+  none.counters = false;
+  none.lines.clear();
+  for (const auto& [W, H] : {std::pair{120, 60}, {160, 90}, {64, 20}}) {
+    Offscreen off(W, H);
+    const auto cam = render::make_camera(s.camera, sim.model(), framing, float(W) / H, s.source);
+    const render::Image with = off.draw(sim, framing, cam, render::ColourMode::fragment, text);
+    const render::Image without = off.draw(sim, framing, cam, render::ColourMode::fragment, none);
+    int lowest = -1;  // the lowest row the text changed
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x)
+        if (std::memcmp(&with.rgba[4 * (std::size_t(y) * W + x)], &without.rgba[4 * (std::size_t(y) * W + x)], 3))
+          lowest = y;
+    EXPECT_GE(lowest, 8) << W << "x" << H << ": no text";
+    EXPECT_LE(lowest, std::max(H / 2, 8 + render::kGlyphHeight)) << W << "x" << H;
+  }
 }
 
 // The overlay's time shows the time between frames: a run of frames 10 ns apart read "t = 0.00 ms" in each.

@@ -596,11 +596,13 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
     }
     lines.insert(lines.end(), overlay.lines.begin(), overlay.lines.end());
     // A line wider than the window goes on over as many as it takes, broken at spaces (a long message ran
-    // off a 640-pixel window, and a small window cut "fragments 327" to read 32).
+    // off a 640-pixel window, and a small window cut "fragments 327" to read 32); the lines stop at half
+    // the picture's height, the first one drawn whatever it takes (a viewer of 120x60 was text all over).
     const auto fits = static_cast<std::size_t>(
         std::max(8.0f, (static_cast<float>(width) - 2 * margin) / static_cast<float>(kGlyphAdvance * scale)));
+    const float bottom = 0.5f * static_cast<float>(height);
     for (std::string_view l : lines) {
-      while (!l.empty()) {
+      while (!l.empty() && (y == margin || y + line_h <= bottom)) {
         std::size_t cut = l.size();
         if (cut > fits) {
           cut = l.rfind(' ', fits);
