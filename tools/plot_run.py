@@ -120,8 +120,8 @@ def mass_distribution_figure(plt, dist, title):
     "fit" and "N/10"; the band is the collection labelled "published band"."""
     fig, ax = plt.subplots(figsize=(8, 5))
     if dist.get("reason"):
-        ax.text(0.5, 0.5, f"no fragment mass distribution: {dist['reason']}", ha="center", va="center",
-                transform=ax.transAxes)
+        ax.text(0.5, 0.5, textwrap.fill(f"no fragment mass distribution: {dist['reason']}", 90), ha="center",
+                va="center", transform=ax.transAxes)
         ax.set_axis_off()
         ax.set_title(title)
         fig.tight_layout()
@@ -173,8 +173,11 @@ def mass_distribution_figure(plt, dist, title):
     ax.grid(alpha=0.3, which="both")
     fig.tight_layout()
     # The legend in the upper right, the corner n(m) falling to the right leaves empty, else in the first other
-    # corner clear of the points (a lone fragment's point stood under it).
+    # corner clear of the points and the fit's line (a lone fragment's point stood under it), else below the
+    # plot.
     points = [ax.transData.transform(p) for bins in (inside, outside) for p in zip(*xy(bins))]
+    points += [ax.transData.transform(p) for ln in ax.get_lines() if ln.get_label().startswith("fit:")
+               for p in zip(*ln.get_data())]
     for loc in ("upper right", "lower left", "upper left", "lower right"):
         legend = ax.legend(fontsize=8, loc=loc)
         fig.canvas.draw()
@@ -183,7 +186,9 @@ def mass_distribution_figure(plt, dist, title):
             break
     else:
         legend.remove()
-        ax.legend(fontsize=8, loc="upper right")
+        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2)
+        fig.set_size_inches(8, 6)
+        fig.tight_layout()
     return fig
 
 

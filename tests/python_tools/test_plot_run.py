@@ -100,6 +100,28 @@ def test_the_legend_stands_clear_of_the_points(tmp_path):
         plt.close(fig)
 
 
+def test_a_legend_no_corner_leaves_room_for_goes_below_the_plot(tmp_path):
+    """Points in all four corners: the legend goes below the axes (it stood over a point in the upper right)."""
+    dist = distribution(tmp_path, sample_power_law(1.8, 127, 1e4) + [20000])
+    full = [b for b in dist["bins"] if b["count"] > 0]
+    top = max(b["number_density"] for b in full) * 10
+    for b, density in ((full[1], top * 1e-9), (full[-2], top * 1e-9), (full[-1], top)):
+        b["number_density"] = density
+    full[0]["number_density"] = top
+    fig = plot_run.mass_distribution_figure(plt, dist, "corners")
+    ax = fig.axes[0]
+    fig.canvas.draw()
+    assert ax.get_legend().get_window_extent().y1 <= ax.get_window_extent().y0
+    plt.close(fig)
+
+
+def test_a_long_reason_is_wrapped(tmp_path):
+    fig = plot_run.mass_distribution_figure(plt, {"reason": "no fragments " * 30}, "reason")
+    (text,) = fig.axes[0].texts
+    assert max(len(line) for line in text.get_text().splitlines()) <= 90
+    plt.close(fig)
+
+
 def write_run(out, dist):
     cols = ["frame", "time", "kinetic_energy", "elastic_energy", "contact_energy", "projectile_kinetic_energy",
             "total_energy", "energy_balance", "broken_displacement", "broken_stress", "broken_total", "fragments"]
