@@ -312,7 +312,7 @@ void RenderOutput::finish() {
   const auto t0 = std::chrono::steady_clock::now();
   if (video_) {
     try {
-      video_->finish();
+      video_->finish(!quiet_);
       video_.reset();
     } catch (const Error& e) {
       if (stopping()) {

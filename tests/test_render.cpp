@@ -370,8 +370,8 @@ TEST(Render, AFailingFfmpegDropsTheVideoAndTheRunGoesOn) {
 }
 
 // The time limit is on ffmpeg writing nothing, not on all of its finishing: one that takes 3 s to finish the
-// file, writing to it every 0.4 s, makes the video under a limit of 1 s (it was stopped, and the video lost);
-// one that writes once and then nothing is stopped.
+// file, writing to it every 0.4 s, makes the video under a limit of 1 s (it was stopped, and the video lost),
+// and the wait is said; one that writes once and then nothing is stopped.
 TEST(Render, AnFfmpegStillWritingAsItFinishesIsWaitedFor) {
   const std::string finish = "for a; do last=$a; done; cat > /dev/null; ";
   for (const bool writing : {true, false}) {
@@ -385,11 +385,16 @@ TEST(Render, AnFfmpegStillWritingAsItFinishesIsWaitedFor) {
                                   << "\n";
     fs::permissions(bin / "ffmpeg", fs::perms::owner_all);
     const Result r = shell("MCA_FFMPEG_TIMEOUT=1 PATH=" + bin.string() + ":/usr/bin:/bin timeout 120 " +
-                           std::string(MCA_BINARY) + " run " + kCubicWall +
-                           " -q --duration 0.004 --render --render-size 64x48 --out " + out.string());
+                           std::string(MCA_BINARY) + " run " + kCubicWall + (writing ? "" : " -q") +
+                           " --duration 0.004 --render --render-size 64x48 --out " + out.string());
     ASSERT_EQ(r.code, 0) << r.output;
     if (writing) {
       EXPECT_EQ(r.output.find("warning"), std::string::npos) << r.output;
+      // (A wait of more than 2 s is said: the run showed nothing after its last frame.)
+      EXPECT_NE(r.output.find("render: waiting for ffmpeg to finish " + (out / "render" / "video.mp4").string() +
+                              " (stopped if it writes nothing for 1 s)"),
+                std::string::npos)
+          << r.output;
       ASSERT_TRUE(fs::exists(out / "render" / "video.mp4")) << r.output;
       EXPECT_EQ(fs::file_size(out / "render" / "video.mp4"), 8u);
     } else {

@@ -8,6 +8,7 @@
 #include <csignal>
 #include <chrono>
 #include <cstdlib>
+#include <cstdio>
 #include <cstring>
 
 #include <fcntl.h>
@@ -227,7 +228,7 @@ int VideoEncoder::time_limit() {
   return v;
 }
 
-void VideoEncoder::stop() {
+void VideoEncoder::stop(bool say_when_slow) {
   if (pipe_ >= 0) ::close(pipe_);
   pipe_ = -1;
   int status = 0;
@@ -245,13 +246,19 @@ void VideoEncoder::stop() {
                  : std::array<long long, 3>{-1, 0, 0};
     };
     auto last = written();
-    auto until = std::chrono::steady_clock::now() + std::chrono::seconds(time_limit());
-    for (;;) {
+    const auto start = std::chrono::steady_clock::now();
+    auto until = start + std::chrono::seconds(time_limit());
+    for (bool said = !say_when_slow;;) {
       const pid_t r = ::waitpid(pid_, &status, WNOHANG);
       if (r == pid_ || (r < 0 && errno != EINTR)) break;
       if (const auto now = written(); now != last) {
         last = now;
         until = std::chrono::steady_clock::now() + std::chrono::seconds(time_limit());
+      }
+      if (!said && std::chrono::steady_clock::now() - start > std::chrono::seconds(2)) {
+        said = true;
+        fmt::print(stderr, "render: waiting for ffmpeg to finish {} (stopped if it writes nothing for {} s)\n",
+                   path_.string(), time_limit());
       }
       stuck = std::chrono::steady_clock::now() > until;
       stopped = interrupted();
@@ -327,8 +334,8 @@ void VideoEncoder::add_frame(const Image& frame) {
   ++frames_;
 }
 
-void VideoEncoder::finish() {
-  stop();
+void VideoEncoder::finish(bool say_when_slow) {
+  stop(say_when_slow);
   std::error_code ec;
   std::filesystem::rename(temporary_, path_, ec);
   if (ec) throw Error(fmt::format("cannot rename '{}' onto '{}': {}", temporary_.string(), path_.string(), ec.message()));

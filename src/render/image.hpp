@@ -57,12 +57,14 @@ class VideoEncoder {
   VideoEncoder& operator=(const VideoEncoder&) = delete;
   // Throws mca::Error when ffmpeg has stopped taking frames (its messages are in the error).
   void add_frame(const Image& frame);
-  // Closes the pipe, waits for ffmpeg and renames the file into place. Throws mca::Error on failure.
-  void finish();
+  // Closes the pipe, waits for ffmpeg and renames the file into place. Throws mca::Error on failure. With
+  // `say_when_slow`, a wait of more than 2 s is said on stderr once (a run showed nothing after its last
+  // frame while a slow ffmpeg finished a large video).
+  void finish(bool say_when_slow = false);
   int frames() const { return frames_; }
 
  private:
-  void stop();
+  void stop(bool say_when_slow = false);
   bool interrupted() const { return interrupt_ && interrupt_->load() != 0; }
   std::filesystem::path path_, temporary_;
   int log_fd_ = -1;  // ffmpeg's messages
