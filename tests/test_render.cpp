@@ -155,16 +155,29 @@ TEST(Render, FontHasEveryCharacterTheOverlayWrites) {
   for (int a = 32; a <= 126; ++a) {
     const std::uint8_t* g = render::glyph(static_cast<char>(a));
     int lit = 0;
-    for (int r = 0; r < render::kGlyphHeight; ++r) lit += g[r] != 0;
+    for (int r = 0; r < render::kGlyphRows; ++r) lit += g[r] != 0;
     EXPECT_EQ(lit > 0, a != ' ') << "'" << static_cast<char>(a) << "'";
     for (int b = 32; b < a; ++b) {
-      EXPECT_FALSE(std::equal(g, g + render::kGlyphHeight, render::glyph(static_cast<char>(b))))
+      EXPECT_FALSE(std::equal(g, g + render::kGlyphRows, render::glyph(static_cast<char>(b))))
           << "'" << static_cast<char>(a) << "' is drawn as '" << static_cast<char>(b) << "'";
     }
   }
   // The x-height: a lower-case letter without an ascender has its top two rows empty.
   for (const char c : std::string_view("acegmnopqrsuvwxyz"))
     EXPECT_EQ(render::glyph(c)[0] | render::glyph(c)[1], 0) << c;
+  // Descenders below the line for g, j, p, q and y (raised onto it, g read as 9 and y as 4), none elsewhere.
+  for (int a = 32; a <= 126; ++a) {
+    const std::uint8_t* g = render::glyph(static_cast<char>(a));
+    const bool descends = std::string_view("gjpqy").find(static_cast<char>(a)) != std::string_view::npos;
+    EXPECT_EQ(g[render::kGlyphHeight] != 0 && g[render::kGlyphHeight + 1] != 0, descends) << static_cast<char>(a);
+    if (!descends) {
+      EXPECT_EQ(g[render::kGlyphHeight] | g[render::kGlyphHeight + 1], 0) << static_cast<char>(a);
+    }
+  }
+  // A UTF-8 character is one '?', not one per byte ("\xc3\x84\xc3\xb1\xe6\x97\xa5" is "Äñ日").
+  EXPECT_EQ(render::one_glyph_per_character("steel \xc3\x84\xc3\xb1\xe6\x97\xa5 \xf0\x9f\x98\x80!"), "steel ??? ?!");
+  EXPECT_EQ(render::one_glyph_per_character("a\x80\xbf b \xe6\x97"), "a?? b ?");  // stray, cut short
+  EXPECT_EQ(render::one_glyph_per_character("tab\there"), "tab\there");           // (glyph() shows it as '?')
   EXPECT_EQ(render::glyph('\t'), render::glyph('?'));
   EXPECT_EQ(render::glyph(static_cast<char>(0xc3)), render::glyph('?'));
   EXPECT_EQ(render::text_width("AB"), 2 * render::kGlyphAdvance - 1);

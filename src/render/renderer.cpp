@@ -274,7 +274,7 @@ struct OverlayBuilder {
       float cx = x + off;
       for (char ch : s) {
         const std::uint8_t* g = glyph(ch);
-        for (int r = 0; r < kGlyphHeight; ++r)
+        for (int r = 0; r < kGlyphRows; ++r)
           for (int b = 0; b < kGlyphWidth; ++b)
             if (g[r] & (1 << (kGlyphWidth - 1 - b)))
               rect(cx + b * scale, y + off + r * scale, cx + (b + 1) * scale, y + off + (r + 1) * scale, col);
@@ -594,7 +594,7 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
       lines.push_back("t = " + text::sim_time(s.time, overlay.time_resolution));
       lines.push_back(fmt::format("broken links {}   fragments {}", s.broken_links, s.fragments));
     }
-    lines.insert(lines.end(), overlay.lines.begin(), overlay.lines.end());
+    for (const std::string& l : overlay.lines) lines.push_back(one_glyph_per_character(l));
     // A line wider than the window goes on over as many as it takes, broken at spaces (a long message ran
     // off a 640-pixel window, and a small window cut "fragments 327" to read 32); the lines stop at half
     // the picture's height, the first one drawn whatever it takes (a viewer of 120x60 was text all over).
@@ -633,7 +633,8 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
     const auto room = static_cast<std::size_t>(
         std::max(1.0f, (right - margin - box_w) / static_cast<float>(kGlyphAdvance * scale)));
     float x = right;  // (a new line at the first swatch)
-    for (const auto& [label, colour] : L.swatches) {
+    for (const auto& [name, colour] : L.swatches) {
+      const std::string label = one_glyph_per_character(name);
       const float w = box_w + static_cast<float>(text_width(label) * scale);
       if (legend_lines.empty() || x + w > right) {
         legend_lines.emplace_back();
