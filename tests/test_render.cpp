@@ -703,6 +703,15 @@ TEST(Render, ViewsAlongTheUpAxisAndBallsAroundTheCamera) {
       EXPECT_LT(wall.r, wall.g + 30) << c->projectiles[0].radius << " m ball, at " << p[0] << " " << p[2] << ": "
                                      << wall.r << " " << wall.g << " " << wall.b;
     }
+  // A cube of 0.2 m beside a ball of 3 m: every view of the cube stood within 1.5 radii of the ball's centre,
+  // the camera drew back to frame the ball, and the scene was refused (the cube "only a speck").
+  SceneDef tiny = big;
+  tiny.objects[0].size = {0.2, 0.2, 0.2};
+  tiny.objects[0].position = {0, 0, 0.1};
+  tiny.projectiles[0].position = {0, -3.15, 3.01};
+  const Pixel cube = draw_from(tiny, {0, 0, 0.1});
+  EXPECT_FALSE(is_background(cube));
+  EXPECT_LT(cube.r, cube.g + 30) << cube.r << " " << cube.g << " " << cube.b;
 }
 
 // The lines at the top stop at half the picture's height (the viewer's five lines, wrapped, covered a window

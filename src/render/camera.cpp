@@ -1,7 +1,9 @@
 #include "render/camera.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 
 #include <fmt/format.h>
 #include <glm/geometric.hpp>
@@ -90,11 +92,12 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
     }
     front = horizontal(front, cam.up);
     const glm::vec3 side = glm::normalize(glm::cross(cam.up, front));
-    // The eye looking from azimuth `az_deg` (about the up axis, from `front`) and elevation `el_deg`.
-    const auto place = [&](float az_deg, float el_deg) {
+    // The eye looking from azimuth `az_deg` (about the up axis, from `front`) and elevation `el_deg`, as near
+    // as the objects' box fits the picture with a margin; with `frame_balls`, the balls it would be in or
+    // next to are framed too.
+    const auto place = [&](float az_deg, float el_deg, bool frame_balls) {
       const float az = glm::radians(az_deg), el = glm::radians(el_deg);
       const glm::vec3 back = std::cos(el) * (std::cos(az) * front + std::sin(az) * side) + std::sin(el) * cam.up;
-      // The nearest distance at which every corner of the box lies inside the view, with a margin.
       const glm::vec3 f = -back, r = glm::normalize(glm::cross(f, cam.up)), u = glm::cross(r, f);
       constexpr float margin = 1.12f;
       float dist = 0;
@@ -105,11 +108,8 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
       };
       for (const glm::vec3& c : corners) frame(c);
       dist = std::max(dist, 1e-3f);
-      // A ball the camera would be in or next to (within half its radius) is framed too, its box's corners as
-      // the objects' (a ball of 3 m beside the wall held the automatic camera, and was not drawn); the balls
-      // farther off are left out of the framing (the default's, 0.1 m from the wall's face, would widen it).
       std::vector<bool> framed(model.projectiles.size(), false);
-      for (bool more = true; more;) {
+      for (bool more = frame_balls; more;) {
         more = false;
         for (std::size_t k = 0; k < model.projectiles.size(); ++k) {
           const auto& p = model.projectiles[k];
@@ -122,14 +122,21 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
       }
       return cam.target + back * dist;
     };
-    // The objects' points (each object's box's corners and centre) a ball stands in front of, seen from `eye`.
+    // In a ball or at its surface (within a tenth of its radius): the ball is not drawn from inside. (A ball
+    // nearer than that which hides the objects is counted by `hidden`.)
+    const auto by_a_ball = [&](const glm::vec3& eye) {
+      return std::any_of(model.projectiles.begin(), model.projectiles.end(),
+                         [&](const ProjectileParams& p) { return glm::length(eye - ball_centre(p)) < 1.1f * p.radius; });
+    };
+    // The objects' points a ball stands in front of, seen from `eye`: of each object's box, 27 (its corners,
+    // the middles of its edges and faces, its centre: the corners alone passed a view of a face mostly hidden).
+    constexpr int kPoints = 27;
     const auto hidden = [&](const glm::vec3& eye) {
       int n = 0;
       for (const auto& [lo, hi] : fr.object_box)
-        for (int k = 0; k < 9; ++k) {
-          const glm::vec3 q = k == 8 ? 0.5f * (lo + hi)
-                                     : glm::vec3(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z);
-          const glm::vec3 sight = q - eye;
+        for (int k = 0; k < kPoints; ++k) {
+          const glm::vec3 w(static_cast<float>(k % 3), static_cast<float>(k / 3 % 3), static_cast<float>(k / 9));
+          const glm::vec3 sight = lo + 0.5f * w * (hi - lo) - eye;
           const float length2 = glm::dot(sight, sight);
           for (const auto& p : model.projectiles) {
             const glm::vec3 c = ball_centre(p);
@@ -142,21 +149,27 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
         }
       return n;
     };
-    // Balls that hide a quarter or more of those points from the 3/4 view (a ball of 3 m before the wall hid
-    // all of it): the first other view that hides the fewest, turned further about the up axis and higher.
-    cam.eye = place(35, 25);
-    int fewest = hidden(cam.eye);
-    if (4 * fewest >= 9 * static_cast<int>(fr.object_box.size()))
-      for (const auto& [az, el] : {std::pair{-35.0f, 25.0f}, {35.0f, 50.0f}, {-35.0f, 50.0f}, {60.0f, 40.0f},
-                                   {-60.0f, 40.0f}, {0.0f, 75.0f}, {145.0f, 25.0f}, {-145.0f, 25.0f},
-                                   {90.0f, 25.0f}, {-90.0f, 25.0f}, {180.0f, 25.0f}}) {
-        if (fewest == 0) break;
-        const glm::vec3 eye = place(az, el);
-        if (const int n = hidden(eye); n < fewest) {
-          fewest = n;
-          cam.eye = eye;
-        }
+    // The 3/4 view, unless the camera would stand by a ball, or balls stand before a quarter or more of those
+    // points (a ball of 3 m before the wall hid all of it; beside a cube of 0.2 m it held the camera, which
+    // drew back to frame it until the cube was a speck): then the first of the other views (the other side,
+    // higher, from behind, side on, from above) clear of the balls that hides none, else the one by no ball
+    // that hides fewest; by a ball in every one, the 3/4 view framing that ball.
+    constexpr std::array<std::array<float, 2>, 12> views = {{{35, 25}, {-35, 25}, {35, 50}, {-35, 50}, {145, 25},
+                                                              {-145, 25}, {60, 40}, {-60, 40}, {90, 25}, {-90, 25},
+                                                              {180, 25}, {0, 75}}};
+    const int quarter = (kPoints * static_cast<int>(fr.object_box.size()) + 3) / 4;
+    int fewest = std::numeric_limits<int>::max();
+    for (std::size_t k = 0; k < views.size(); ++k) {
+      const glm::vec3 eye = place(views[k][0], views[k][1], false);
+      if (by_a_ball(eye)) continue;
+      const int n = hidden(eye);
+      if (n < fewest) {
+        fewest = n;
+        cam.eye = eye;
       }
+      if (n == 0 || (k == 0 && n < quarter)) break;
+    }
+    if (fewest == std::numeric_limits<int>::max()) cam.eye = place(views[0][0], views[0][1], true);
   }
   // Inside a ball at frame 0: the ball is not drawn from inside, and the view is of its inner side.
   if (def.position)
