@@ -709,9 +709,26 @@ TEST(Render, ViewsAlongTheUpAxisAndBallsAroundTheCamera) {
   tiny.objects[0].size = {0.2, 0.2, 0.2};
   tiny.objects[0].position = {0, 0, 0.1};
   tiny.projectiles[0].position = {0, -3.15, 3.01};
-  const Pixel cube = draw_from(tiny, {0, 0, 0.1});
-  EXPECT_FALSE(is_background(cube));
-  EXPECT_LT(cube.r, cube.g + 30) << cube.r << " " << cube.g << " " << cube.b;
+  // ... and under a ball of 2 m just above it (every view of it at 25 degrees or more is in the ball: it is
+  // seen from near the horizon).
+  SceneDef above = tiny;
+  above.projectiles[0].radius = 2;
+  above.projectiles[0].position = {0, 0, 2.25};
+  for (const SceneDef* c : {&tiny, &above}) {
+    const Pixel cube = draw_from(*c, {0, 0, 0.1});
+    EXPECT_FALSE(is_background(cube));
+    EXPECT_LT(cube.r, cube.g + 30) << c->projectiles[0].position[2] << ": " << cube.r << " " << cube.g << " " << cube.b;
+  }
+  // Balls before the wall and behind it: their mean, at the wall, gave no side, and the camera looked along
+  // the x axis at the wall's edge; it looks at its face from the first ball's side.
+  SceneDef both = test::cubic_wall_scene();
+  both.projectiles.push_back(both.projectiles[0]);
+  both.projectiles[1].name = "behind";
+  both.projectiles[1].position = {0, 0.4, 0.75};
+  Engine two(both);
+  const auto f2 = render::objects_box(two.model(), two.state());
+  const glm::vec3 view = render::make_camera(both.camera, two.model(), f2, float(W) / H, both.source).eye;
+  EXPECT_LT(view.y, -std::abs(view.x)) << view.x << " " << view.y;  // (the 3/4 view: y = -1.43 x)
 }
 
 // The lines at the top stop at half the picture's height (the viewer's five lines, wrapped, covered a window

@@ -89,6 +89,10 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
       glm::vec3 mean(0);
       for (const auto& p : model.projectiles) mean += ball_centre(p);
       front = mean / static_cast<float>(model.projectiles.size()) - cam.target;
+      // Balls on every side (one before the wall, one behind) leave no side: the first ball's (their mean's,
+      // near the target, gave the x axis, side on to the wall).
+      const glm::vec3 level = front - glm::dot(front, cam.up) * cam.up;
+      if (glm::length(level) < 0.1f * radius) front = ball_centre(model.projectiles[0]) - cam.target;
     }
     front = horizontal(front, cam.up);
     const glm::vec3 side = glm::normalize(glm::cross(cam.up, front));
@@ -122,11 +126,14 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
       }
       return cam.target + back * dist;
     };
-    // In a ball or at its surface (within a tenth of its radius): the ball is not drawn from inside. (A ball
-    // nearer than that which hides the objects is counted by `hidden`.)
+    // In a ball or at its surface (within a twentieth of the distance to the target): the ball is not drawn
+    // from inside. (A ball near the camera that hides the objects is counted by `hidden`; a margin of a tenth
+    // of the radius put every view of a cube under a ball of 2 m in it.)
     const auto by_a_ball = [&](const glm::vec3& eye) {
-      return std::any_of(model.projectiles.begin(), model.projectiles.end(),
-                         [&](const ProjectileParams& p) { return glm::length(eye - ball_centre(p)) < 1.1f * p.radius; });
+      const float margin = 0.05f * glm::length(eye - cam.target);
+      return std::any_of(model.projectiles.begin(), model.projectiles.end(), [&](const ProjectileParams& p) {
+        return glm::length(eye - ball_centre(p)) < p.radius + margin;
+      });
     };
     // The objects' points a ball stands in front of, seen from `eye`: of each object's box, 27 (its corners,
     // the middles of its edges and faces, its centre: the corners alone passed a view of a face mostly hidden).
@@ -149,15 +156,16 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
         }
       return n;
     };
-    // The 3/4 view, unless the camera would stand by a ball, or balls stand before a quarter or more of those
+    // The 3/4 view, unless the camera would stand in a ball, or balls stand before half or more of those
     // points (a ball of 3 m before the wall hid all of it; beside a cube of 0.2 m it held the camera, which
-    // drew back to frame it until the cube was a speck): then the first of the other views (the other side,
-    // higher, from behind, side on, from above) clear of the balls that hides none, else the one by no ball
-    // that hides fewest; by a ball in every one, the 3/4 view framing that ball.
-    constexpr std::array<std::array<float, 2>, 12> views = {{{35, 25}, {-35, 25}, {35, 50}, {-35, 50}, {145, 25},
-                                                              {-145, 25}, {60, 40}, {-60, 40}, {90, 25}, {-90, 25},
-                                                              {180, 25}, {0, 75}}};
-    const int quarter = (kPoints * static_cast<int>(fr.object_box.size()) + 3) / 4;
+    // drew back to frame it until the cube was a speck; a ball touching the face hides less): then the first
+    // of the other views (the other side, higher, from behind, side on, from above, then near the horizon,
+    // under a ball above the objects) clear of the balls that hides none, else the one in no ball that hides
+    // fewest; in a ball in every one, the 3/4 view framing that ball.
+    constexpr std::array<std::array<float, 2>, 18> views = {
+        {{35, 25}, {-35, 25}, {35, 50}, {-35, 50}, {145, 25}, {-145, 25}, {60, 40}, {-60, 40}, {90, 25},
+         {-90, 25}, {180, 25}, {0, 75}, {35, 5}, {-35, 5}, {145, 5}, {-145, 5}, {90, 5}, {-90, 5}}};
+    const int half = (kPoints * static_cast<int>(fr.object_box.size()) + 1) / 2;
     int fewest = std::numeric_limits<int>::max();
     for (std::size_t k = 0; k < views.size(); ++k) {
       const glm::vec3 eye = place(views[k][0], views[k][1], false);
@@ -167,7 +175,7 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
         fewest = n;
         cam.eye = eye;
       }
-      if (n == 0 || (k == 0 && n < quarter)) break;
+      if (n == 0 || (k == 0 && n < half)) break;
     }
     if (fewest == std::numeric_limits<int>::max()) cam.eye = place(views[0][0], views[0][1], true);
   }
@@ -231,8 +239,10 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
   // from a distance where they span a few pixels): under a twentieth of the field of view, as good as none.
   // The narrower field counts: a tall, narrow picture (16x512) frames the objects across its width, and
   // they span little of its height, which is no speck.
+  // (The automatic camera's own choice never refuses a scene: where every view of the objects is in a ball,
+  // it frames that ball from afar, and a speck is the picture it can give.)
   const float fov_narrow = std::min(glm::radians(cam.fov), 2 * std::atan(tan_h));
-  if (2 * spread < fov_narrow / 20)
+  if ((def.position || def.target) && 2 * spread < fov_narrow / 20)
     throw Error(fmt::format("{}: {} at {} looking at {} sees the objects only as a speck: their box {} .. {} "
                             "spans {:.2g} degrees of the view's {:.3g} (the narrower of its height and width) at {:.3g} "
                             "m; point target at the objects (or leave it out to look at their centre), or give a "
