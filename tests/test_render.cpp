@@ -183,6 +183,18 @@ TEST(Render, FontHasEveryCharacterTheOverlayWrites) {
   EXPECT_EQ(render::text_width("AB"), 2 * render::kGlyphAdvance - 1);
 }
 
+// Long lines and legend labels wrap at spaces (a label was cut at the width: "piggy" read "pi" over "ggy",
+// and a line after the cut began with a space).
+TEST(Render, TextWrapsAtSpaces) {
+  using V = std::vector<std::string_view>;
+  EXPECT_EQ(render::wrap_text("big piggy bank", 6), (V{"big", "piggy", "bank"}));
+  EXPECT_EQ(render::wrap_text("a   b", 2), (V{"a", "b"}));
+  EXPECT_EQ(render::wrap_text("abcdefgh ij", 3), (V{"abc", "def", "gh", "ij"}));  // a word longer than a line
+  EXPECT_EQ(render::wrap_text("fits", 4), (V{"fits"}));
+  EXPECT_EQ(render::wrap_text("", 4), V{});
+  EXPECT_EQ(render::wrap_text("ab", 0), (V{"a", "b"}));  // (a width of 0 is taken as 1)
+}
+
 // The contact sheet's six frames stand as evenly as whole frames can: each the frame nearest k F / 5.
 TEST(Render, TheContactSheetTakesFramesEvenlyApart) {
   using V = std::vector<std::int64_t>;

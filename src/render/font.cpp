@@ -2,6 +2,8 @@
 // two rows: the descenders of g, j, p, q and y; zero in the others).
 #include "render/font.hpp"
 
+#include <algorithm>
+
 namespace mca::render {
 namespace {
 
@@ -112,6 +114,23 @@ const std::uint8_t* glyph(char c) {
 
 int text_width(std::string_view text) {
   return text.empty() ? 0 : static_cast<int>(text.size()) * kGlyphAdvance - 1;
+}
+
+std::vector<std::string_view> wrap_text(std::string_view text, std::size_t width) {
+  width = std::max<std::size_t>(width, 1);
+  std::vector<std::string_view> out;
+  while (!text.empty()) {
+    std::size_t cut = text.size();
+    if (cut > width) {
+      cut = text.rfind(' ', width);
+      while (cut != std::string_view::npos && cut > 0 && text[cut - 1] == ' ') --cut;  // (the run's first space)
+      if (cut == std::string_view::npos || cut == 0) cut = width;
+    }
+    out.push_back(text.substr(0, cut));
+    text.remove_prefix(cut);
+    while (!text.empty() && text.front() == ' ') text.remove_prefix(1);
+  }
+  return out;
 }
 
 std::string one_glyph_per_character(std::string_view text) {

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace mca::render {
 
@@ -23,5 +24,9 @@ int text_width(std::string_view text);
 // `text` with each UTF-8 character (of 2 to 4 bytes) as one '?' (each of its bytes was a '?': "Äñ" read
 // "????"), so that a byte is a glyph; other bytes as they are (glyph() draws control characters as '?').
 std::string one_glyph_per_character(std::string_view text);
+
+// `text` in lines of at most `width` characters (at least 1), broken at spaces where there are (a word longer
+// than a line at the width), each line without the spaces it was broken at; none for an empty text.
+std::vector<std::string_view> wrap_text(std::string_view text, std::size_t width);
 
 }  // namespace mca::render

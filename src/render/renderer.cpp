@@ -601,27 +601,20 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
     const auto fits = static_cast<std::size_t>(
         std::max(8.0f, (static_cast<float>(width) - 2 * margin) / static_cast<float>(kGlyphAdvance * scale)));
     const float bottom = 0.5f * static_cast<float>(height);
-    for (std::string_view l : lines) {
-      while (!l.empty() && (y == margin || y + line_h <= bottom)) {
-        std::size_t cut = l.size();
-        if (cut > fits) {
-          cut = l.rfind(' ', fits);
-          if (cut == std::string_view::npos || cut == 0) cut = fits;
-        }
-        o.text(margin, y, l.substr(0, cut), scale);
+    for (const std::string& l : lines)
+      for (const std::string_view part : wrap_text(l, fits)) {
+        if (y != margin && y + line_h > bottom) break;
+        o.text(margin, y, part, scale);
         y += line_h;
-        l.remove_prefix(cut);
-        while (!l.empty() && l.front() == ' ') l.remove_prefix(1);
       }
-    }
     text_end = y;
   }
   const Legend& L = s.legend;
   const bool bar = L.continuous && L.ramp;
   const float bar_h = 8.0f * scale;
   // The swatches in lines that fit the picture's width (twelve materials with long names ran off its edge); a
-  // label wider than the picture goes on over the lines below it, under its start (cut at the edge, five read
-  // "MATERIAL_NUMBE"). Each item: its swatch (or none, for a label's continuation) and its text.
+  // label wider than the picture goes on over the lines below it, under its start, broken at spaces (cut at
+  // the edge, five read "MATERIAL_NUMBE"). Each item: its swatch (or none, for a label's continuation) and its text.
   const float box_w = static_cast<float>((kGlyphHeight + 4) * scale), gap = 12.0f * scale;
   struct Item {
     const Rgba* colour;
@@ -645,8 +638,10 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
         x += w + gap;
         continue;
       }
-      legend_lines.back().push_back({&colour, label.substr(0, room)});
-      for (std::size_t at = room; at < label.size(); at += room) legend_lines.push_back({{nullptr, label.substr(at, room)}});
+      // (Broken at spaces: cut at the width, "piggy" read "pi" over "ggy".)
+      const auto parts = wrap_text(label, room);
+      legend_lines.back().push_back({&colour, std::string(parts[0])});
+      for (std::size_t k = 1; k < parts.size(); ++k) legend_lines.push_back({{nullptr, std::string(parts[k])}});
       x = right;  // (the next swatch on a line of its own)
     }
     if (legend_lines.empty()) legend_lines.emplace_back();
