@@ -144,7 +144,8 @@ std::string one_glyph_per_character(std::string_view text) {
     }
     // A lead byte takes the continuation bytes (10xxxxxx) its form announces; a stray one is a '?' alone.
     const std::size_t more = b >= 0xf0 && b < 0xf8 ? 3 : b >= 0xe0 && b < 0xf0 ? 2 : b >= 0xc0 && b < 0xe0 ? 1 : 0;
-    for (std::size_t m = 0; m < more && k < text.size() && (static_cast<unsigned char>(text[k]) & 0xc0) == 0x80; ++m) ++k;
+    for (std::size_t m = 0; m < more && k < text.size() && (static_cast<unsigned char>(text[k]) & 0xc0) == 0x80; ++m)
+      ++k;
     out += '?';
   }
   return out;

@@ -14,8 +14,8 @@ constexpr int kGlyphWidth = 5, kGlyphHeight = 7, kGlyphRows = 9;
 // Horizontal advance of one character in font pixels (the glyph and one pixel of space).
 constexpr int kGlyphAdvance = kGlyphWidth + 1;
 
-// The glyph of c, kGlyphRows rows: row r (0 = top) has bit (4 - x) set where pixel x is lit. Any other byte (a control
-// character, each byte of a UTF-8 character) is drawn as '?', so it shows instead of vanishing.
+// The glyph of c, kGlyphRows rows: row r (0 = top) has bit (4 - x) set where pixel x is lit. Any other byte
+// (a control character, each byte of a UTF-8 character) is drawn as '?', so it shows instead of vanishing.
 const std::uint8_t* glyph(char c);
 
 // Width of a line of text in font pixels.

@@ -222,8 +222,8 @@ int VideoEncoder::time_limit() {
   if (t.find_first_not_of("0123456789") != std::string_view::npos || ec != std::errc() ||
       ptr != t.data() + t.size() || v < 1 || v > 86400)
     throw Error(fmt::format("MCA_FFMPEG_TIMEOUT = {}: not a whole number of seconds from 1 to 86400 (how long ffmpeg "
-                            "may go without taking a frame, or without writing while it finishes the video); give e.g. MCA_FFMPEG_TIMEOUT=300, or unset it "
-                            "for 120 s",
+                            "may go without taking a frame, or without writing while it finishes the video); give "
+                            "e.g. MCA_FFMPEG_TIMEOUT=300, or unset it for 120 s",
                             text));
   return v;
 }
@@ -240,10 +240,9 @@ void VideoEncoder::stop(bool say_when_slow) {
     // still writing a large video was stopped.) What was written is told by the file's size and time.
     const auto written = [this] {
       struct stat st {};
-      return ::stat(temporary_.c_str(), &st) == 0
-                 ? std::array<long long, 3>{static_cast<long long>(st.st_size), static_cast<long long>(st.st_mtim.tv_sec),
-                                            static_cast<long long>(st.st_mtim.tv_nsec)}
-                 : std::array<long long, 3>{-1, 0, 0};
+      if (::stat(temporary_.c_str(), &st) != 0) return std::array<long long, 3>{-1, 0, 0};
+      return std::array<long long, 3>{static_cast<long long>(st.st_size), static_cast<long long>(st.st_mtim.tv_sec),
+                                      static_cast<long long>(st.st_mtim.tv_nsec)};
     };
     auto last = written();
     const auto start = std::chrono::steady_clock::now();

@@ -43,8 +43,9 @@ int spawn_own_group(pid_t& pid, const std::vector<std::string>& args, const posi
 class VideoEncoder {
  public:
   // How long ffmpeg may go without taking any of a frame, or without writing to the file while it finishes
-  // it after the last frame, before it is stopped [s]: 120, or MCA_FFMPEG_TIMEOUT (whole seconds, 1 to 86400; anything else set there throws
-  // mca::Error naming it and the fix, so a command can refuse it before it writes anything).
+  // it after the last frame, before it is stopped [s]: 120, or MCA_FFMPEG_TIMEOUT (whole seconds, 1 to
+  // 86400; anything else set there throws mca::Error naming it and the fix, so a command can refuse it
+  // before it writes anything).
   static int time_limit();
   // Starts ffmpeg. Throws mca::Error when it cannot be started. Where `interrupt` is given, a wait for
   // ffmpeg (a frame it does not take, the file it finishes) gives up within 0.1 s of *interrupt becoming
