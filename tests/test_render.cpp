@@ -13,6 +13,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <iterator>
+#include <random>
 #include <string>
 #include <thread>
 
@@ -731,6 +732,17 @@ TEST(Render, ViewsAlongTheUpAxisAndBallsAroundTheCamera) {
     EXPECT_FALSE(is_background(cube));
     EXPECT_LT(cube.r, cube.g + 30) << c->projectiles[0].position[2] << ": " << cube.r << " " << cube.g << " " << cube.b;
   }
+  // A slab of 2 cm 1 cm under a ball of 100 m: every view is in the ball, and the 3/4 view drawn back to frame
+  // it sees the slab as a speck: the automatic camera's own choice, taken, not refused.
+  SceneDef slab = test::cubic_wall_scene();
+  slab.solver.spacing = 0.01;
+  slab.objects[0].size = {0.2, 0.2, 0.02};
+  slab.objects[0].position = {0, 0, 0.01};
+  slab.projectiles[0].radius = 100;
+  slab.projectiles[0].position = {0, 0, 100.03};
+  Engine under(slab);
+  const auto f3 = render::objects_box(under.model(), under.state());
+  EXPECT_NO_THROW(render::make_camera(slab.camera, under.model(), f3, float(W) / H, slab.source));
   // Balls before the wall and behind it: their mean, at the wall, gave no side, and the camera looked along
   // the x axis at the wall's edge; it looks at its face from the first ball's side.
   SceneDef both = test::cubic_wall_scene();
@@ -769,6 +781,60 @@ TEST(Render, TheOverlayLeavesTheLowerHalfOfASmallPicture) {
     EXPECT_GE(lowest, 8) << W << "x" << H << ": no text";
     EXPECT_LE(lowest, std::max(H / 2, 8 + render::kGlyphHeight)) << W << "x" << H;
   }
+}
+
+// The automatic camera is never refused, and looks at the objects, however balls stand around them: 60
+// scenes of one to three boxes (0.2 to 2 m) on the ground and one to four balls (radius 5 cm to 5 m) next to
+// them at random, beside, above, over an edge (hostile reviews: a cube under a 2 m ball, beside a 3 m ball,
+// were refused as specks).
+TEST(Render, TheAutomaticCameraTakesEveryScene) {
+  std::mt19937 rng(20261206);
+  const auto uniform = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
+  int built = 0;
+  for (int attempt = 0; built < 200 && attempt < 5000; ++attempt) {
+    SceneDef s = test::cubic_wall_scene();
+    s.solver.spacing = 0.1;
+    s.objects.resize(1 + attempt % 3, s.objects[0]);
+    for (std::size_t k = 0; k < s.objects.size(); ++k) {
+      ObjectDef& o = s.objects[k];
+      o.name = "box" + std::to_string(k);
+      const auto side = [&] { return std::exp(uniform(std::log(0.2), std::log(2.0))); };
+      o.size = {side(), side(), side()};
+      o.position = {uniform(-3, 3), uniform(-3, 3), 0.5 * o.size[2]};
+    }
+    const ProjectileDef ball = s.projectiles[0];
+    s.projectiles.clear();
+    for (int k = 0; k < 1 + attempt % 4; ++k) {
+      // Next to a box, in a random direction: beside it, above it, over its edge.
+      ProjectileDef b = ball;
+      b.name = "ball" + std::to_string(k);
+      b.radius = std::exp(uniform(std::log(0.05), std::log(5.0)));
+      const ObjectDef& o = s.objects[static_cast<std::size_t>(k) % s.objects.size()];
+      const double phi = uniform(0, 6.2832), up = k % 2 ? uniform(0.7, 1) : uniform(-0.2, 1);
+      const double reach = 0.5 * std::sqrt(o.size[0] * o.size[0] + o.size[1] * o.size[1] + o.size[2] * o.size[2]) +
+                           b.radius + uniform(0.01, 0.1);
+      const double flat = std::sqrt(1 - up * up);
+      b.position = {o.position[0] + reach * flat * std::cos(phi), o.position[1] + reach * flat * std::sin(phi),
+                    std::max(b.radius + 0.01, o.position[2] + reach * up)};
+      s.projectiles.push_back(b);
+    }
+    std::unique_ptr<Engine> sim;
+    try {
+      sim = std::make_unique<Engine>(s);
+    } catch (const Error&) {
+      continue;  // balls overlapping the boxes or each other: another scene
+    }
+    ++built;
+    const auto framing = render::objects_box(sim->model(), sim->state());
+    render::Camera cam;
+    ASSERT_NO_THROW(cam = render::make_camera(s.camera, sim->model(), framing, 16.0f / 9, s.source)) << attempt;
+    ASSERT_TRUE(std::isfinite(cam.eye.x) && std::isfinite(cam.eye.y) && std::isfinite(cam.eye.z)) << attempt;
+    // The objects' box lies ahead of the camera, its centre within the field of view.
+    const glm::vec3 centre = 0.5f * (framing.box_lo + framing.box_hi);
+    const glm::vec3 f = glm::normalize(cam.target - cam.eye), to = glm::normalize(centre - cam.eye);
+    EXPECT_GT(glm::dot(f, to), std::cos(0.5f * cam.fov * 3.14159265f / 180)) << attempt;
+  }
+  EXPECT_EQ(built, 200);
 }
 
 // The overlay's time shows the time between frames: a run of frames 10 ns apart read "t = 0.00 ms" in each.
