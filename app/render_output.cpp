@@ -146,6 +146,7 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
   camera_ = render::make_camera(sim.scene().camera, m, framing_,
                                 static_cast<float>(options.width) / static_cast<float>(options.height),
                                 sim.scene().source);
+  if (!camera_.note.empty() && !quiet) fmt::print(stderr, "note: {}\n", camera_.note);
   // Continuous colours on one scale for the whole run: speeds up to the fastest initial speed, stresses
   // up to the strongest tensile strength (where the stress criterion breaks links of full-strength class).
   if (options.colour == render::ColourMode::speed) {

@@ -342,6 +342,7 @@ int view(const ViewOptions& o) {
     framing = render::objects_box(first.model(), first.state());
     start = render::make_camera(scene.camera, first.model(), framing, static_cast<float>(o.width) / static_cast<float>(o.height),
                                 scene.source);
+    if (!start.note.empty()) fmt::print(stderr, "note: {}\n", start.note);
     dt = static_cast<double>(first.model().dt);
     resolution = first.frame_interval();
     scene_projectiles = first.model().projectiles.size();

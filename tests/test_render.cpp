@@ -837,6 +837,46 @@ TEST(Render, TheAutomaticCameraTakesEveryScene) {
   EXPECT_EQ(built, 200);
 }
 
+// Objects far apart framed together: the automatic camera says which one it shows as a speck (two cubes 100 m
+// apart were two dots, without a word); a scene's own camera, and the wall's view, have no note.
+TEST(Render, TheAutomaticCameraNamesAnObjectItShowsAsASpeck) {
+  SceneDef s = test::cubic_wall_scene();
+  s.objects.resize(2, s.objects[0]);
+  s.objects[0].size = {0.2, 0.2, 0.2};
+  s.objects[0].position = {-50, 0, 0.1};
+  s.objects[1].name = "right cube";
+  s.objects[1].size = {0.4, 0.4, 0.4};
+  s.objects[1].position = {50, 0, 0.2};
+  s.projectiles[0].radius = 0.05;
+  s.projectiles[0].position = {-50, -0.3, 0.1};
+  const auto note = [](const SceneDef& c) {
+    Engine sim(c);
+    const auto framing = render::objects_box(sim.model(), sim.state());
+    return render::make_camera(c.camera, sim.model(), framing, 16.0f / 9, c.source).note;
+  };
+  const std::string n = note(s);
+  EXPECT_NE(n.find("sees object 'right cube' as a speck (0.3 degrees of the view's 40: the objects' box is 100 m "
+                   "across); give the scene a [camera] target (and position) to look at it"),
+            std::string::npos)
+      << n;
+  EXPECT_EQ(note(test::cubic_wall_scene()), "");
+  SceneDef own = s;
+  own.camera.target = Vec3d{50, 0, 0.2};
+  EXPECT_EQ(note(own), "");
+  // Said by the run, once, unless quiet.
+  TempDir d;
+  const fs::path scene = d.path() / "far.toml";
+  std::ofstream(scene) << io::scene_to_toml(s);
+  const Result r = run_mca("run " + scene.string() + " --steps 1 --no-vtk --render --render-size 64x36 --out " +
+                           (d.path() / "out").string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("note: the automatic camera at "), std::string::npos) << r.output;
+  const Result q = run_mca("run " + scene.string() + " -q --steps 1 --no-vtk --render --render-size 64x36 --out " +
+                           (d.path() / "quiet").string());
+  ASSERT_EQ(q.code, 0) << q.output;
+  EXPECT_EQ(q.output.find("note:"), std::string::npos) << q.output;
+}
+
 // The overlay's time shows the time between frames: a run of frames 10 ns apart read "t = 0.00 ms" in each.
 TEST(Render, TheTimeShownResolvesTheFrames) {
   EXPECT_EQ(text::sim_time(0.005, 0.005), "5.00 ms");

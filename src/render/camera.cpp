@@ -55,7 +55,10 @@ Framing objects_box(const Model& model, const State& state) {
     ohi[o] = glm::max(ohi[o], p);
   }
   for (std::size_t o = 0; o < objects; ++o)
-    if (olo[o].x <= ohi[o].x) f.object_box.push_back({glm::vec3(olo[o] - c - h), glm::vec3(ohi[o] - c + h)});
+    if (olo[o].x <= ohi[o].x) {
+      f.object_box.push_back({glm::vec3(olo[o] - c - h), glm::vec3(ohi[o] - c + h)});
+      f.object_name.push_back(model.object_names[o]);
+    }
   return f;
 }
 
@@ -251,6 +254,30 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
                             shown(glm::dvec3(cam.target) + origin), shown(glm::dvec3(fr.box_lo) + origin),
                             shown(glm::dvec3(fr.box_hi) + origin), glm::degrees(2 * spread),
                             glm::degrees(fov_narrow), dc));
+  // The automatic camera's speck: the whole box or, of objects far apart framed together, the smallest
+  // object under a twentieth of the field (two cubes of 0.2 m 100 m apart were two dots, without a word).
+  if (!def.position && !def.target) {
+    float least = 2 * spread;
+    std::size_t smallest = fr.object_box.size();
+    for (std::size_t k = 0; k < fr.object_box.size(); ++k) {
+      const auto& [lo, hi] = fr.object_box[k];
+      const float d = glm::length(0.5f * (lo + hi) - cam.eye), r = 0.5f * glm::length(hi - lo);
+      const float angle = d > r ? 2 * std::asin(r / d) : 6.2832f;
+      if (angle < least) {
+        least = angle;
+        smallest = k;
+      }
+    }
+    if (least < fov_narrow / 20)
+      cam.note = fmt::format(
+          "the automatic camera at {} sees {} as a speck ({:.2g} degrees of the view's {:.3g}{}); give the scene a "
+          "[camera] target (and position) to look at it",
+          shown(glm::dvec3(cam.eye) + origin),
+          smallest < fr.object_name.size() ? fmt::format("object '{}'", fr.object_name[smallest]) : "the objects",
+          glm::degrees(least), glm::degrees(fov_narrow),
+          smallest < fr.object_name.size() ? fmt::format(": the objects' box is {:.3g} m across", 2 * radius)
+                                           : ", framing a ball it would be in");
+  }
   // Under the ground the view is of the ground's underside: refused.
   if (def.position && model.ground) {
     const glm::dvec3 eye = glm::dvec3(cam.eye) + origin;

@@ -19,6 +19,9 @@ struct Camera {
   glm::vec3 eye{0, -5, 0}, target{0, 0, 0}, up{0, 0, 1};
   float fov = 40;        // vertical field of view [degrees]
   float near = 0.01f, far = 1000;
+  // A word for the user about the view the automatic camera chose ("" where none): an object it shows as a
+  // speck (objects far apart framed together).
+  std::string note;
   glm::mat4 view() const;
   glm::mat4 projection(float aspect) const;
 };
@@ -27,6 +30,7 @@ struct Framing {
   std::array<double, 3> origin{};     // world centre of the objects' box at frame 0
   glm::vec3 box_lo{0}, box_hi{0};     // the box, relative to origin
   std::vector<std::array<glm::vec3, 2>> object_box;  // per object: its own box (low, high), relative to origin
+  std::vector<std::string> object_name;              // the name of each of object_box's objects
 };
 
 // The box of the automata centres (grown by half a spacing) in `state`.
