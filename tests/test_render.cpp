@@ -742,7 +742,12 @@ TEST(Render, ViewsAlongTheUpAxisAndBallsAroundTheCamera) {
   slab.projectiles[0].position = {0, 0, 100.03};
   Engine under(slab);
   const auto f3 = render::objects_box(under.model(), under.state());
-  EXPECT_NO_THROW(render::make_camera(slab.camera, under.model(), f3, float(W) / H, slab.source));
+  render::Camera far_back;
+  EXPECT_NO_THROW(far_back = render::make_camera(slab.camera, under.model(), f3, float(W) / H, slab.source));
+  EXPECT_NE(far_back.note.find("sees object 'wall' as a speck"), std::string::npos) << far_back.note;
+  EXPECT_NE(far_back.note.find("every view of the objects is in a ball, and it is drawn back to frame the ball"),
+            std::string::npos)
+      << far_back.note;
   // Balls before the wall and behind it: their mean, at the wall, gave no side, and the camera looked along
   // the x axis at the wall's edge; it looks at its face from the first ball's side.
   SceneDef both = test::cubic_wall_scene();

@@ -82,6 +82,7 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
     return glm::vec3(glm::dvec3(p.position.x, p.position.y, p.position.z) - origin);
   };
 
+  bool drawn_back = false;  // the automatic camera in a ball in every view, drawn back to frame it
   if (def.position) {
     cam.eye = glm::vec3(glm::dvec3((*def.position)[0], (*def.position)[1], (*def.position)[2]) - origin);
   } else {
@@ -180,7 +181,8 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
       }
       if (n == 0 || (k == 0 && n < half)) break;
     }
-    if (fewest == std::numeric_limits<int>::max()) cam.eye = place(views[0][0], views[0][1], true);
+    drawn_back = fewest == std::numeric_limits<int>::max();
+    if (drawn_back) cam.eye = place(views[0][0], views[0][1], true);
   }
   // Inside a ball at frame 0: the ball is not drawn from inside, and the view is of its inner side.
   if (def.position)
@@ -214,7 +216,12 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
   if (std::abs(glm::dot(f, cam.up)) > 0.999f) cam.up = horizontal(glm::vec3(0, 1, 0), cam.up);
   const glm::vec3 to_c = centre - cam.eye;
   const float dc = glm::length(to_c);
-  const float spread = dc > radius ? std::asin(radius / dc) : 3.1416f;
+  // The angle a sphere of radius r about c spans from the eye (a full turn from inside it).
+  const auto span = [&](const glm::vec3& c, float r) {
+    const float d = glm::length(c - cam.eye);
+    return d > r ? 2 * std::asin(r / d) : 6.2832f;
+  };
+  const float spread = 0.5f * span(centre, radius);
   // Sees none of the box: all its corners lie outside the same side of the view's pyramid (behind the
   // camera, or left, right, below or above the field of view).
   {
@@ -254,29 +261,20 @@ Camera make_camera(const CameraDef& def, const Model& model, const Framing& fr, 
                             shown(glm::dvec3(cam.target) + origin), shown(glm::dvec3(fr.box_lo) + origin),
                             shown(glm::dvec3(fr.box_hi) + origin), glm::degrees(2 * spread),
                             glm::degrees(fov_narrow), dc));
-  // The automatic camera's speck: the whole box or, of objects far apart framed together, the smallest
-  // object under a twentieth of the field (two cubes of 0.2 m 100 m apart were two dots, without a word).
-  if (!def.position && !def.target) {
-    float least = 2 * spread;
-    std::size_t smallest = fr.object_box.size();
-    for (std::size_t k = 0; k < fr.object_box.size(); ++k) {
-      const auto& [lo, hi] = fr.object_box[k];
-      const float d = glm::length(0.5f * (lo + hi) - cam.eye), r = 0.5f * glm::length(hi - lo);
-      const float angle = d > r ? 2 * std::asin(r / d) : 6.2832f;
-      if (angle < least) {
-        least = angle;
-        smallest = k;
-      }
-    }
-    if (least < fov_narrow / 20)
+  // The automatic camera's speck: the object it shows smallest under a twentieth of the field (two cubes of
+  // 0.2 m 100 m apart were two dots, without a word; or every view was in a ball).
+  if (!def.position && !def.target && !fr.object_box.empty()) {
+    std::vector<float> spans;
+    for (const auto& [lo, hi] : fr.object_box) spans.push_back(span(0.5f * (lo + hi), 0.5f * glm::length(hi - lo)));
+    const auto smallest = static_cast<std::size_t>(std::min_element(spans.begin(), spans.end()) - spans.begin());
+    if (spans[smallest] < fov_narrow / 20)
       cam.note = fmt::format(
-          "the automatic camera at {} sees {} as a speck ({:.2g} degrees of the view's {:.3g}{}); give the scene a "
-          "[camera] target (and position) to look at it",
-          shown(glm::dvec3(cam.eye) + origin),
-          smallest < fr.object_name.size() ? fmt::format("object '{}'", fr.object_name[smallest]) : "the objects",
-          glm::degrees(least), glm::degrees(fov_narrow),
-          smallest < fr.object_name.size() ? fmt::format(": the objects' box is {:.3g} m across", 2 * radius)
-                                           : ", framing a ball it would be in");
+          "the automatic camera at {} sees object '{}' as a speck ({:.2g} degrees of the view's {:.3g}: {}); give the "
+          "scene a [camera] target (and position) to look at it",
+          shown(glm::dvec3(cam.eye) + origin), fr.object_name[smallest], glm::degrees(spans[smallest]),
+          glm::degrees(fov_narrow),
+          drawn_back ? "every view of the objects is in a ball, and it is drawn back to frame the ball"
+                     : fmt::format("the objects' box is {:.3g} m across", 2 * radius));
   }
   // Under the ground the view is of the ground's underside: refused.
   if (def.position && model.ground) {
