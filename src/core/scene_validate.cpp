@@ -224,9 +224,9 @@ void validate_scene(const SceneDef& scene) {
   // 1.8e8 automata is the most a model holds (links are addressed with 29 bits); a larger target would
   // only make the search for its spacing count lattices of absurd size.
   if (scene.solver.target_automata > SolverDef::kMaxAutomata) {
-    c.fail(fmt::format("solver.target_automata = {} is out of range: at most 178956970 (1.8e8) automata fit a model; "
-                       "give a smaller target",
-                       scene.solver.target_automata));
+    c.fail(fmt::format("solver.target_automata = {} is out of range: at most {} (1.8e8) automata fit a model; give a "
+                       "smaller target",
+                       scene.solver.target_automata, SolverDef::kMaxAutomata));
   }
   if (scene.solver.target_automata > 0 && !scene.objects.empty() &&
       std::all_of(scene.objects.begin(), scene.objects.end(),
