@@ -150,11 +150,13 @@ def mass_distribution_figure(plt, dist, title):
         xs = [x0 * (x1 / x0) ** (i / 49) for i in range(50)]
         ax.fill_between(xs, [y0 * (x / x0) ** -TAU_BAND[0] for x in xs], [y0 * (x / x0) ** -TAU_BAND[1] for x in xs],
                         color="orange", alpha=0.25, lw=0, label=f"published band, tau {TAU_BAND[0]}-{TAU_BAND[1]}")
+    fit_points = []  # the fit's line, which the legend keeps clear of
     if fit["tau"] is not None:
         k0, k1 = fit["range_kg"]
         xs = [k0 * (k1 / k0) ** (i / 19) for i in range(20)]
         # log10 n = log10_prefactor - tau log10 m, m in automata and n per automaton; per kg: over unit
         ys = [10 ** fit["log10_prefactor"] * (x / unit) ** -fit["tau"] / unit for x in xs]
+        fit_points = list(zip(xs, ys))
         se = "" if fit["tau_stderr"] is None else f" +- {fit['tau_stderr']:.2f}"
         r2 = "-" if fit["r2"] is None else f"{fit['r2']:.3f}"
         ax.plot(xs, ys, "-", color="C3", lw=2,
@@ -176,8 +178,7 @@ def mass_distribution_figure(plt, dist, title):
     # corner clear of the points and the fit's line (a lone fragment's point stood under it), else below the
     # plot.
     points = [ax.transData.transform(p) for bins in (inside, outside) for p in zip(*xy(bins))]
-    points += [ax.transData.transform(p) for ln in ax.get_lines() if ln.get_label().startswith("fit:")
-               for p in zip(*ln.get_data())]
+    points += [ax.transData.transform(p) for p in fit_points]
     for loc in ("upper right", "lower left", "upper left", "lower right"):
         legend = ax.legend(fontsize=8, loc=loc)
         fig.canvas.draw()
