@@ -788,6 +788,48 @@ TEST(Render, TheOverlayLeavesTheLowerHalfOfASmallPicture) {
   }
 }
 
+// A legend keeps to the lower half of the picture: a label takes two lines at most (ending "..."), and
+// swatches past half the height give way to a line that counts them (a material named with 159 characters
+// covered a picture of 320x180; a dozen long names would have filled it).
+TEST(Render, TheLegendKeepsToTheLowerHalfOfThePicture) {
+  const SceneDef s = test::cubic_wall_scene();
+  Engine sim(s);
+  const auto framing = render::objects_box(sim.model(), sim.state());
+  const auto frags = analysis::label_model_fragments(sim.model(), sim.state().intact.data());
+  render::SnapshotOptions o;
+  o.colour = render::ColourMode::group;
+  const std::string word = "concrete of the north wall poured in two lifts ";
+  for (const auto& [W, H] : {std::pair{320, 180}, {640, 360}, {1280, 720}})
+    for (const std::size_t swatches : {1, 3, 12}) {
+      render::EglContext context;
+      render::Renderer renderer;
+      render::OffscreenTarget target(W, H);
+      const auto cam = render::make_camera(s.camera, sim.model(), framing, float(W) / H, s.source);
+      auto snap = render::make_snapshot(sim.model(), sim.state(), frags, o, framing.origin);
+      snap.legend.swatches.clear();
+      for (std::size_t k = 0; k < swatches; ++k)
+        snap.legend.swatches.push_back({word + word + word + std::to_string(k), render::group_colour(k)});
+      const auto draw = [&](bool legend) {
+        render::Overlay overlay;
+        overlay.counters = false;
+        overlay.legend = legend;
+        target.bind();
+        renderer.draw(snap, render::DrawMode::cubes, cam, W, H, overlay);
+        render::Image im{W, H, {}};
+        target.read_rgba(im.rgba);
+        return im;
+      };
+      const render::Image with = draw(true), without = draw(false);
+      int highest = H;  // the highest row the legend changed
+      for (int y = H; y-- > 0;)
+        for (int x = 0; x < W; ++x)
+          if (std::memcmp(&with.rgba[4 * (std::size_t(y) * W + x)], &without.rgba[4 * (std::size_t(y) * W + x)], 3))
+            highest = y;
+      EXPECT_LT(highest, H - 20) << W << "x" << H << ", " << swatches << " swatches: no legend";
+      EXPECT_GE(highest, H / 2) << W << "x" << H << ", " << swatches << " swatches";
+    }
+}
+
 // The automatic camera is never refused, and looks at the objects, however balls stand around them: 60
 // scenes of one to three boxes (0.2 to 2 m) on the ground and one to four balls (radius 5 cm to 5 m) next to
 // them at random, beside, above, over an edge (hostile reviews: a cube under a 2 m ball, beside a 3 m ball,

@@ -638,13 +638,34 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
         x += w + gap;
         continue;
       }
-      // (Broken at spaces: cut at the width, "piggy" read "pi" over "ggy".)
+      // (Broken at spaces: cut at the width, "piggy" read "pi" over "ggy"; two lines at most, the second
+      // ending in "..." where more is left: a name of 159 characters covered a picture of 320x180.)
+      constexpr std::size_t kLabelLines = 2;
       const auto parts = wrap_text(label, room);
-      legend_lines.back().push_back({&colour, std::string(parts[0])});
-      for (std::size_t k = 1; k < parts.size(); ++k) legend_lines.push_back({{nullptr, std::string(parts[k])}});
+      for (std::size_t k = 0; k < std::min(parts.size(), kLabelLines); ++k) {
+        std::string part(parts[k]);
+        if (k + 1 == kLabelLines && parts.size() > kLabelLines)
+          part = part.substr(0, std::min(part.size(), room > 3 ? room - 3 : 0)) + "...";
+        if (k == 0)
+          legend_lines.back().push_back({&colour, std::move(part)});
+        else
+          legend_lines.push_back({{nullptr, std::move(part)}});
+      }
       x = right;  // (the next swatch on a line of its own)
     }
     if (legend_lines.empty()) legend_lines.emplace_back();
+    // At most half the picture's height with its title: the lines beyond give way to one that counts the
+    // swatches left out (many long names filled the picture).
+    const auto fit = static_cast<std::size_t>(std::max(2.0f, (0.5f * static_cast<float>(height) - margin) / line_h - 1));
+    if (legend_lines.size() > fit) {
+      std::size_t cut = fit - 1;  // (a label's continuation goes with its first line)
+      while (legend_lines[cut].front().colour == nullptr) --cut;
+      std::size_t left_out = 0;
+      for (std::size_t r = cut; r < legend_lines.size(); ++r)
+        for (const Item& item : legend_lines[r]) left_out += item.colour != nullptr;
+      legend_lines.resize(cut);
+      legend_lines.push_back({{nullptr, fmt::format("and {} more", left_out)}});
+    }
   }
   const float legend_h = bar ? 2 * line_h + bar_h + 3.0f * scale : static_cast<float>(legend_lines.size() + 1) * line_h;
   // The legend only where it fits below the lines at the top (in a small window they would overlap).
