@@ -130,6 +130,14 @@ def mass_distribution_figure(plt, dist, title):
     fit = dist["power_law"]
     fit_max = fit["fit_max_automata"]
     full = [b for b in dist["bins"] if b["count"] > 0]
+    # A bin whose mass or density is not a positive finite number (a hand-edited or damaged summary) has no
+    # place on log axes: left out, with a word (matplotlib dropped it silently).
+    drawable = [b for b in full if all((number(b.get(k)) or 0) > 0 for k in ("abscissa_kg", "number_density"))]
+    if len(drawable) < len(full):
+        print(f"plot_run.py: warning: {len(full) - len(drawable)} of the {len(full)} non-empty bins of "
+              "fragment_mass_distribution have a mass or density that is not a positive number (damaged or edited): "
+              "drawn without them", file=sys.stderr)
+        full = drawable
     inside = [b for b in full if b["automata_max"] <= fit_max]
     outside = [b for b in full if b["automata_max"] > fit_max]
 

@@ -115,6 +115,23 @@ def test_a_legend_no_corner_leaves_room_for_goes_below_the_plot(tmp_path):
     plt.close(fig)
 
 
+def test_bins_that_cannot_be_drawn_are_left_out_with_a_word(tmp_path, capsys):
+    """A bin with a NaN, infinite, zero or missing density or mass (a hand-edited summary) was dropped from the
+    log axes without a word: it is left out with a warning that counts it, and the rest is drawn."""
+    dist = distribution(tmp_path, sample_power_law(1.8, 127, 1e4))
+    full = [b for b in dist["bins"] if b["count"] > 0]
+    full[1]["number_density"] = float("nan")
+    full[2]["number_density"] = 0
+    full[3]["abscissa_kg"] = float("inf")
+    del full[4]["number_density"]
+    fig = plot_run.mass_distribution_figure(plt, dist, "damaged")
+    err = capsys.readouterr().err
+    assert f"4 of the {len(full)} non-empty bins" in err, err
+    points = [p for ln in fig.axes[0].get_lines() if ln.get_label().startswith("n(m)") for p in zip(*ln.get_data())]
+    assert len(points) == len(full) - 4 and all(math.isfinite(x) and math.isfinite(y) for x, y in points)
+    plt.close(fig)
+
+
 def test_a_long_reason_is_wrapped(tmp_path):
     fig = plot_run.mass_distribution_figure(plt, {"reason": "no fragments " * 30}, "reason")
     (text,) = fig.axes[0].texts
