@@ -368,7 +368,8 @@ TEST(Render, AFailingFfmpegDropsTheVideoAndTheRunGoesOn) {
   // also where a frame is larger than the pipe to ffmpeg (64 KB; 320x180 is 230 KB: its write blocked for ever).
   for (const std::string body : {"cat > /dev/null; echo \"Unknown encoder 'libx264'\" >&2; exit 1",
                                  "echo \"Unknown encoder 'libx264'\" >&2; exit 1", "cat > /dev/null; exit 0",
-                                 "exec sleep 1000", "cat > /dev/null; exec sleep 1000", "exec sleep 1001"}) {
+                                 "exec sleep 1000", "cat > /dev/null; exec sleep 1000", "exec sleep 1001",
+                                 "for a; do last=$a; done; cat > /dev/null; printf 'not a video' > \"$last\""}) {
     const std::string size = body == "exec sleep 1001" ? "320x180" : "64x48";
     TempDir d;
     const fs::path bin = d.path() / "bin", out = d.path() / "out";
@@ -388,6 +389,10 @@ TEST(Render, AFailingFfmpegDropsTheVideoAndTheRunGoesOn) {
     if (body.find("exit 1") != std::string::npos) {
       EXPECT_NE(r.output.find("Unknown encoder 'libx264'"), std::string::npos) << r.output;
     }
+    if (body.find("exit 0") != std::string::npos || body.find("printf") != std::string::npos) {
+      // (Ended well, no video: a file of 11 bytes was kept as the video.)
+      EXPECT_NE(r.output.find("ffmpeg ended without error but wrote no MP4 video"), std::string::npos) << r.output;
+    }
     for (const char* f : {"summary.json", "stats.csv", "fragments.csv", "render/frame_000002.png", "render/contact_sheet.png"})
       EXPECT_TRUE(fs::exists(out / f)) << body << ": " << f;
     EXPECT_FALSE(fs::exists(out / "render" / "video.mp4")) << body;
@@ -406,6 +411,7 @@ TEST(Render, AnFfmpegStillWritingAsItFinishesIsWaitedFor) {
     fs::create_directories(bin);
     std::ofstream(bin / "ffmpeg") << "#!/bin/sh\n"
                                   << finish
+                                  << "printf '\\000\\000\\000\\010ftyp' > \"$last\"; "
                                   << (writing ? "for i in 1 2 3 4 5 6 7 8; do printf x >> \"$last\"; sleep 0.4; done"
                                               : "printf x >> \"$last\"; exec sleep 1000")
                                   << "\n";
@@ -422,7 +428,7 @@ TEST(Render, AnFfmpegStillWritingAsItFinishesIsWaitedFor) {
                 std::string::npos)
           << r.output;
       ASSERT_TRUE(fs::exists(out / "render" / "video.mp4")) << r.output;
-      EXPECT_EQ(fs::file_size(out / "render" / "video.mp4"), 8u);
+      EXPECT_EQ(fs::file_size(out / "render" / "video.mp4"), 16u);
     } else {
       EXPECT_NE(r.output.find("ffmpeg wrote nothing to '" + (out / "render" / "video.mp4").string() +
                               "' for 1 s while finishing it and was stopped"),
