@@ -639,6 +639,15 @@ SceneHead read_scene_head(const std::filesystem::path& dir) {
   return h;
 }
 
+std::string summary_status(const std::filesystem::path& dir) {
+  std::string status;
+  if (std::ifstream in(dir / "summary.json"); in) {
+    const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+    if (j.is_object() && j.contains("status") && j["status"].is_string()) status = j["status"].get<std::string>();
+  }
+  return status;
+}
+
 namespace {
 
 // check_folder_is_a_runs on the run a folder holds: files of its names that no run of mca wrote, or a run
@@ -649,12 +658,7 @@ void check_earlier_run(const std::filesystem::path& dir, std::string_view anothe
   if (read_scene_head(dir).by_mca) {
     const auto saved = io::list_checkpoints(dir / "checkpoints");
     if (saved.empty()) return;
-    std::string status;
-    if (std::ifstream in(dir / "summary.json"); in) {
-      const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
-      if (j.is_object() && j.contains("status") && j["status"].is_string()) status = j["status"].get<std::string>();
-    }
-    if (status == "finished") return;
+    if (summary_status(dir) == "finished") return;
     throw Error(fmt::format("{} holds a run that did not finish (its newest checkpoint: {}); continue it with: mca "
                             "resume {}. To start it afresh instead, remove its checkpoints first (rm -r {}), or give "
                             "{}",

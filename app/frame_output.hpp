@@ -143,6 +143,10 @@ struct SceneHead {
 };
 SceneHead read_scene_head(const std::filesystem::path& dir);
 
+// The status summary.json in dir gives ("finished", "interrupted", ...; empty where there is none or it is
+// not one of mca's).
+std::string summary_status(const std::filesystem::path& dir);
+
 // A new run replaces an earlier run's files in its folder. It refuses a folder whose files of those names
 // are not a run's (no scene.toml of mca's: a user's summary.json, a folder of another program), and one
 // whose run did not finish and can be resumed (checkpoints, and no summary of a finished run): one

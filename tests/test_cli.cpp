@@ -331,6 +331,19 @@ TEST(Cli, ResumingAFinishedRunSaysNoStepIsLeft) {
   const auto after = nlohmann::json::parse(read(out / "summary.json"));
   EXPECT_EQ(before["state_hash"], after["state_hash"]);
   EXPECT_EQ(before["steps"], after["steps"]);
+  // A finished run whose newest checkpoint is before its end: the frames after it are run again, and the
+  // resume says so (it said nothing; the hostile review of 2026-12-06).
+  const fs::path early = d / "early";
+  ASSERT_EQ(run_mca("run " + small_scene(d).string() + " --out " + early.string() + " -q --checkpoint-every 3").code, 0);
+  const auto first = nlohmann::json::parse(read(early / "summary.json"));
+  const Result again = run_mca("resume " + early.string());
+  ASSERT_EQ(again.code, 0) << again.output;
+  EXPECT_NE(again.output.find("mca: the run in " + early.string() + " has finished (its summary.json says so), and "
+                              "its newest checkpoint is of frame 3 (the run ends at frame 4): the resume runs the "
+                              "frames after it again"),
+            std::string::npos)
+      << again.output;
+  EXPECT_EQ(first["state_hash"], nlohmann::json::parse(read(early / "summary.json"))["state_hash"]);
 }
 
 TEST(Cli, InfoReportsTheModel) {
