@@ -65,6 +65,10 @@ std::string step_note(const Model& model);
 // whose surface it could write), so that nothing is written in it; "" otherwise (the default "ply" cannot
 // be told from one given).
 std::string surface_format_note(const SceneDef& scene);
+// A note for each material the automata use whose links reach fracture_strain before the strain at which
+// the stress criterion ends them in tension (c tensile_strength / youngs_modulus): they break by
+// displacement, weaker than the strength says, their softening cut short.
+std::vector<std::string> strain_limit_notes(const Model& model);
 // Every note above that applies, in the order mca info and mca run print them.
 std::vector<std::string> scene_notes(const Model& model, const SceneDef& scene);
 // The lattice of the model's volume fills: "random", "cubic", or "" when every object is in surface mode;

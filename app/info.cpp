@@ -144,6 +144,7 @@ int info(const std::optional<std::string>& path, bool json) {
     j["time_step_limited_by"] = m.dt_limited_by;
     if (const std::string note = far_out_note(m, scene); !note.empty()) j["far_from_origin"] = note;
     if (const auto notes = mesh_mass_notes(m); !notes.empty()) j["mesh_mass_notes"] = notes;
+    if (const auto notes = strain_limit_notes(m); !notes.empty()) j["strain_limit_notes"] = notes;
     if (const std::string note = step_note(m); !note.empty()) j["step_note"] = note;
     if (const std::string note = surface_format_note(scene); !note.empty()) j["surface_format_note"] = note;
     j["simulated_time"] = static_cast<double>(steps) * m.dt;

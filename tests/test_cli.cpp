@@ -461,6 +461,53 @@ TEST(Cli, ABallThatSetsAFarShorterStepGetsANote) {
   EXPECT_FALSE(nlohmann::json::parse(plain.output).contains("step_note"));
 }
 
+// A material that raises its strength (or a stress_coefficient that raises every one) and keeps its base's
+// fracture_strain breaks by displacement first: weaker than its strength says, its softening cut short,
+// without a word (a hostile review, 2026-12-06: concrete at 9 MPa broke more links than at 3 MPa). mca info
+// and mca run name it and the fracture_strain that gives the stress criterion back; the built-in materials
+// and a material whose strains are equal get no note.
+TEST(Cli, AMaterialThatBreaksByDisplacementBeforeItsStrengthGetsANote) {
+  const fs::path d = fresh_dir("strain_note");
+  fs::create_directories(d);
+  const auto scene = [&](const std::string& name, const std::string& material, const std::string& solver = "") {
+    std::ofstream(d / (name + ".toml")) << "[solver]\nspacing = 0.05\n" << solver << "[output]\nduration = 0.001\n"
+                                        << "[[material]]\nname = \"strong\"\nbase = \"concrete\"\n" << material
+                                        << "[[object]]\nsize = [0.3, 0.3, 0.3]\nmaterial = \"strong\"\n";
+    return (d / (name + ".toml")).string();
+  };
+  const Result strong = run_mca("info " + scene("strong", "tensile_strength = 9e6\n"));
+  ASSERT_EQ(strong.code, 0) << strong.output;
+  EXPECT_NE(strong.output.find("note             material \"strong\": its links reach fracture_strain = 0.00015 "
+                               "before the strain at which the stress criterion ends them in tension "
+                               "(tensile_strength / youngs_modulus = 0.0003): they break by displacement, at about "
+                               "4.5 MPa instead of 9 MPa; for the stress criterion to govern, as in the built-in "
+                               "materials, set its fracture_strain = 0.00045"),
+            std::string::npos)
+      << strong.output;
+  const Result soft = run_mca("info " + scene("soft", "fracture_energy = 100\n", "stress_coefficient = 2\n") + " --json");
+  ASSERT_EQ(soft.code, 0) << soft.output;
+  const auto notes = nlohmann::json::parse(soft.output)["strain_limit_notes"];
+  ASSERT_EQ(notes.size(), 1u) << soft.output;
+  EXPECT_NE(notes[0].get<std::string>().find("(solver.stress_coefficient 2 x tensile_strength / youngs_modulus = "
+                                             "0.0002, both times the softening's factor): they break by displacement, "
+                                             "before their softening has taken fracture_energy"),
+            std::string::npos)
+      << notes[0];
+  const Result run = run_mca("run " + (d / "strong.toml").string() + " --steps 1 --no-vtk --out " + (d / "out").string());
+  ASSERT_EQ(run.code, 0) << run.output;
+  EXPECT_NE(run.output.find("note: material \"strong\": its links reach fracture_strain"), std::string::npos)
+      << run.output;
+  for (const std::string& fine : {std::string("tensile_strength = 9e6\nfracture_strain = 4.5e-4\n"),
+                                  std::string("tensile_strength = 4.5e6\n"), std::string()}) {
+    const Result r = run_mca("info " + scene("fine", fine) + " --json");
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_FALSE(nlohmann::json::parse(r.output).contains("strain_limit_notes")) << fine;
+  }
+  const Result plain = run_mca("info --json");
+  ASSERT_EQ(plain.code, 0) << plain.output;
+  EXPECT_FALSE(nlohmann::json::parse(plain.output).contains("strain_limit_notes"));
+}
+
 // Keys that did nothing, or advice that could not be taken, said so only by silence (a hostile review of
 // meshes, 2026-12-06): output.surface_format = "obj" without output.surface gets a note; an angle of 1e300
 // degrees is refused; an object too small for any spacing mca takes is told to grow, not to take a spacing
