@@ -296,17 +296,41 @@ SceneDef colliding_balls() {
   s.ground.height = -0.04;
   s.materials[0] = *find_builtin_material("concrete");
   s.objects[0].material = "concrete";
-  ProjectileDef a, b;
-  a.name = "a";
+  ProjectileDef a, b;  // (names from std::string: g++ 12 warned a false -Wrestrict on "a")
+  a.name = std::string(1, 'a');
   a.radius = 0.04;
   a.position = {-0.085, 0, 0.085};
   a.velocity = {20, 0, 0};
-  b.name = "b";
+  b.name = std::string(1, 'b');
   b.radius = 0.04;
   b.position = {0.0, 0, 0.085};
   b.velocity = {0, 0, -5};
   b.kinematic = true;
   s.projectiles = {a, b};
+  return s;
+}
+// A block held whole by a grip, struck by a free block from above and a free ball from the side: every
+// contact is with a held automaton (the free one's own mass in the dashpots), on both lattices.
+SceneDef held_anvil(SolverDef::Lattice lattice) {
+  SceneDef s = test::block_scene(6, 6, 3, 0.02, *find_builtin_material("concrete"));
+  s.solver.lattice = lattice;
+  s.objects[0].name = "anvil";
+  ObjectDef hammer = s.objects[0];
+  hammer.name = "hammer";
+  hammer.size = {0.06, 0.06, 0.06};
+  hammer.position = {0.01, 0.005, 0.0605};
+  hammer.velocity = {0, 0, -5};
+  s.objects.push_back(hammer);
+  GripDef hold;
+  hold.min = {-0.07, -0.07, -0.031};
+  hold.max = {0.07, 0.07, 0.031};
+  s.grips = {hold};
+  ProjectileDef ball;
+  ball.name = "ball";
+  ball.radius = 0.03;
+  ball.position = {-0.0905, 0.0, 0.0};
+  ball.velocity = {10, 0, 0};
+  s.projectiles = {ball};
   return s;
 }
 TEST(CudaEmulation, GripsAndCollidingBallsAreTheCpusBitForBit) {
@@ -316,6 +340,11 @@ TEST(CudaEmulation, GripsAndCollidingBallsAreTheCpusBitForBit) {
   EXPECT_GT(d.breaks, 0);
   EXPECT_GT(d.projectile_contacts, 0u);
   EXPECT_GT(d.pairs, 0u) << "the balls never met";
+  for (const auto lattice : {SolverDef::Lattice::cubic, SolverDef::Lattice::random}) {
+    const Compared h = run_both(held_anvil(lattice), 3000, 100);
+    EXPECT_GT(h.contacts, 0u);
+    EXPECT_GT(h.projectile_contacts, 0u);
+  }
 }
 
 // A ball breaking a block on the ground 9.4e5 m from the origin (a scene may go to 1e6 m), off every axis,
@@ -1290,6 +1319,8 @@ TEST(CudaDevice, GripsAndBallsAreTheCpusBitForBit) {
   EXPECT_GT(run_both(pulled_bar(), 4000, 1000, kCuda).breaks, 0);
   run_both(test::loaded_cantilever(), 1500, 256, kCuda);
   EXPECT_GT(run_both(colliding_balls(), 8000, 50, kCuda).pairs, 0u);
+  for (const auto lattice : {SolverDef::Lattice::cubic, SolverDef::Lattice::random})
+    EXPECT_GT(run_both(held_anvil(lattice), 3000, 100, kCuda).projectile_contacts, 0u);
   EXPECT_GT(run_both(three_balls(), 3000, 100, kCuda).shared, 0u);
 }
 TEST(CudaDevice, AnObjectFarFromTheOriginIsTheCpusBitForBit) {

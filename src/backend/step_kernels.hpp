@@ -136,6 +136,7 @@ struct ContactPassView {
   // Springs per pair of groups and per group on the ground (null: bodies of their own, from the model).
   const ContactSprings *pair_springs = nullptr, *ground_springs = nullptr;
   const float *zeta_pair = nullptr, *zeta_ground = nullptr;
+  const float* zeta_pair_held = nullptr;  // Model::zeta_pair_held (null: no grips)
   const ContactMaterial* ground_contact = nullptr;  // per group
   Vec3 up;
   double ground_height = 0;  // (double: the positions' precision)
@@ -167,12 +168,27 @@ MCA_HD ContactOut pair_contact(const ContactPassView& v, ContactPair& cp) {
   }
   const Vec3 n = gap.n;
   const std::size_t gi = m.group[i], gj = m.group[j];
-  const ContactResult r =
-      contact_between(n, gap.overlap, v.vel(i), v.ang(i), ri * n, v.vel(j), v.ang(j), -rj * n,
-                      v.pair_springs ? v.pair_springs[gi * m.groups + gj] : m.pair_contact_springs(i, j, l, v.zeta_pair[gi * m.groups + gj]),
-                      cp.h.ut, cp.h.mr, v.dt);
+  const ContactResult r = contact_between(
+      n, gap.overlap, v.vel(i), v.ang(i), ri * n, v.vel(j), v.ang(j), -rj * n,
+      m.held(i) != m.held(j) ? m.held_pair_contact_springs(i, j, l, v.zeta_pair_held)
+      : v.pair_springs       ? v.pair_springs[gi * m.groups + gj]
+                             : m.pair_contact_springs(i, j, l, v.zeta_pair[gi * m.groups + gj]),
+      cp.h.ut, cp.h.mr, v.dt);
   cp.h = {r.o.ut, r.o.mr};
   return {r.o.force_i, r.torque_i, r.torque_j, n, ri, rj, true};
+}
+
+// The springs of automaton a's contact with a projectile (radius, mass, moment of inertia, kinematic) of
+// contact material c: zeta its damping ratio with a's group, zeta_held that with a held automaton of it
+// (used where a grip holds a: the ball's own mass moves alone, as a kinematic ball's does against a free
+// automaton; against a kinematic ball the automaton's own, held or not).
+MCA_HD ContactSprings projectile_contact_springs(const ModelView& m, std::size_t a, const ContactMaterial& c, float zeta,
+                                                 float zeta_held, float radius, float mass, float inertia,
+                                                 bool kinematic) {
+  const bool held = m.held(a) && !kinematic;
+  return body_contact_springs(c, held ? zeta_held : zeta, m.radius[a], radius,
+                              contact_reduced(m.mass[a], held, mass, kinematic),
+                              contact_reduced(m.inertia[a], held, inertia, kinematic));
 }
 
 // The ground's contact with the automaton of bc (the automaton is the first body).

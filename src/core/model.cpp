@@ -89,6 +89,7 @@ ModelView Model::view() const {
   v.area = explicit_links.area.data();
   v.group_params = groups.data();
   v.contact = contact.data();
+  v.grip = grip_velocity.empty() ? nullptr : grip.data();
   v.lattice_stiffness = lattice_stiffness;
   v.lattice_lambda = lattice_lambda;
   return v;
@@ -114,6 +115,10 @@ LinkBendingConstants Model::explicit_bending(std::size_t k) const {
 
 ContactSprings Model::pair_contact_springs(std::size_t i, std::size_t j, std::int64_t l, float zeta) const {
   return view().pair_contact_springs(i, j, l, zeta);
+}
+
+ContactSprings Model::held_pair_contact_springs(std::size_t i, std::size_t j, std::int64_t l) const {
+  return view().held_pair_contact_springs(i, j, l, zeta_pair_held.data());
 }
 
 }  // namespace mca

@@ -54,8 +54,9 @@ struct ProjectileParams {
   int group = 0;             // material of the projectile (index into Model::groups)
   bool kinematic = false;
   float rolling = 0, twisting = 0;  // its rolling and twisting resistance (ProjectileDef)
-  // Damping ratios of its contacts with automata (per group) and the ground (see Model::zeta_pair).
-  std::vector<float> zeta_automata;
+  // Damping ratios of its contacts with automata (per group) and the ground (see Model::zeta_pair); with
+  // automata a grip holds (per group; its own mass moves alone; empty in a scene without grips).
+  std::vector<float> zeta_automata, zeta_held;
   float zeta_ground = 0;
   DVec3 position;
   DVec3 velocity, angular_velocity;
@@ -205,7 +206,9 @@ struct Model {
   // Damping ratios of the contact dashpots calibrated for the time step dt (lattice::set_time_step): the
   // clipped law integrated at dt returns each pair's restitution. Automata of groups a, b:
   // zeta_pair[a * groups + b]; on the ground: zeta_ground[a]; projectiles p, q: zeta_projectiles[p * P + q].
-  std::vector<float> zeta_pair, zeta_ground, zeta_projectiles;
+  // An automaton of group a against one of group b that a grip holds (nothing moves it: the free one's own
+  // mass, as against the ground): zeta_pair_held[a * groups + b], empty in a scene without grips.
+  std::vector<float> zeta_pair, zeta_ground, zeta_projectiles, zeta_pair_held;
   std::vector<std::string> group_names;
   std::vector<std::string> object_names;
   // Per object: its lattice's axes (local x, y, z) in the world, unit vectors.
@@ -258,6 +261,10 @@ struct Model {
   // normal dashpot has the damping ratio zeta: the backend's (zeta_pair), the time step's (the contact
   // material's continuous-time one) and the energy's (whose springs alone count) are this one.
   ContactSprings pair_contact_springs(std::size_t i, std::size_t j, std::int64_t l, float zeta) const;
+  // Those of a contact between automata i and j of which one is held by a grip: the free one's mass and
+  // moment of inertia, not the pair's reduced ones (the held one moves with its grip whatever the contact
+  // does), and zeta from zeta_pair_held.
+  ContactSprings held_pair_contact_springs(std::size_t i, std::size_t j, std::int64_t l) const;
   // The bending and twisting spring of explicit link k: a shell's (link_bending_constants) or a random-lattice
   // link's (volume_bending_constants, its moduli with the lattice's factor; all zeros at lattice_bending 0):
   // the backend's and the energy's are this one.

@@ -1169,6 +1169,11 @@ std::size_t set_time_step(Model& M, float dt) {
     for (std::size_t b = 0; b < G; ++b) M.zeta_pair[a * G + b] = zeta(M.contact_material(a, b), d, mass(a) * mass(b) / (mass(a) + mass(b)));
     M.zeta_ground[a] = zeta(M.ground_contact[a], d, mass(a));
   }
+  // Against an automaton a grip holds, the free one's mass moves alone (as on the ground).
+  const bool grips = !M.grip_velocity.empty();
+  M.zeta_pair_held.assign(grips ? G * G : 0, 0.0f);
+  for (std::size_t a = 0; grips && a < G; ++a)
+    for (std::size_t b = 0; b < G; ++b) M.zeta_pair_held[a * G + b] = zeta(M.contact_material(a, b), d, mass(a));
   M.zeta_projectiles.assign(P * P, 0.0f);
   for (std::size_t p = 0; p < P; ++p) {
     ProjectileParams& A = M.projectiles[p];
@@ -1176,6 +1181,12 @@ std::size_t set_time_step(Model& M, float dt) {
     for (std::size_t g = 0; g < G; ++g)
       A.zeta_automata[g] = zeta(M.projectile_contact(p, g), 2 * std::min<double>(0.5 * d, A.radius),
                                 A.kinematic ? mass(g) : mass(g) * A.mass / (mass(g) + A.mass));
+    // A held automaton: the ball's mass moves alone (a kinematic ball's contact with one keeps the
+    // automaton's, as with a free one: nothing moves either).
+    A.zeta_held.assign(grips ? G : 0, 0.0f);
+    for (std::size_t g = 0; grips && g < G; ++g)
+      A.zeta_held[g] = A.kinematic ? A.zeta_automata[g]
+                                   : zeta(M.projectile_contact(p, g), 2 * std::min<double>(0.5 * d, A.radius), A.mass);
     A.zeta_ground = zeta(M.projectile_ground_contact(p), 2.0 * A.radius, A.mass);
     for (std::size_t q = 0; q < P; ++q) {
       const ProjectileParams& B = M.projectiles[q];

@@ -61,6 +61,7 @@ struct Fnv : Fnv1a {
     add(p.angular_velocity);
     add(p.zeta_automata);
     add(p.zeta_ground);
+    if (!p.zeta_held.empty()) add(p.zeta_held);  // (with grips only: the other scenes' checkpoints resume)
   }
   // The count first, so that arrays of different lengths cannot run into each other.
   template <class T>
@@ -189,6 +190,7 @@ std::uint64_t model_fingerprint(const Model& m) {
   f.add(m.zeta_pair);
   f.add(m.zeta_ground);
   f.add(m.zeta_projectiles);
+  if (!m.zeta_pair_held.empty()) f.add(m.zeta_pair_held);  // (with grips only, as above)
   f.add(m.gravity);
   f.add(m.up);
   f.add(m.spacing);

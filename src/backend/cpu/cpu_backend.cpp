@@ -607,6 +607,7 @@ ContactPassView CpuBackend::contact_pass_view() const {
   v.pair_springs = K_.uniform_bodies ? K_.pair_springs.data() : nullptr;
   v.ground_springs = K_.uniform_bodies ? K_.ground_springs.data() : nullptr;
   v.zeta_pair = M_.zeta_pair.data();
+  v.zeta_pair_held = M_.zeta_pair_held.empty() ? nullptr : M_.zeta_pair_held.data();
   v.zeta_ground = M_.zeta_ground.data();
   v.ground_contact = M_.ground_contact.data();
   v.up = M_.up;
@@ -773,9 +774,10 @@ std::int64_t CpuBackend::projectile_pass() {
         const SphereGap gap = sphere_gap(pos(a), c, static_cast<double>(P.radius) + ra);  // automaton to projectile
         if (!gap.valid) continue;
         const Vec3 nrm = gap.n;
-        const ContactSprings springs = body_contact_springs(
-            M_.projectile_contact(p, M_.group[a]), P.zeta_automata[M_.group[a]], ra, P.radius,
-            contact_reduced(M_.mass[a], false, P.mass, P.kinematic), contact_reduced(M_.inertia[a], false, P.inertia, P.kinematic));
+        const std::uint8_t g = M_.group[a];
+        const ContactSprings springs =
+            projectile_contact_springs(MV_, a, M_.projectile_contact(p, g), P.zeta_automata[g],
+                                       P.zeta_held.empty() ? 0.0f : P.zeta_held[g], P.radius, P.mass, P.inertia, P.kinematic);
         const ContactResult r = contact_between(nrm, gap.overlap, vel(a), ang(a), ra * nrm, ps.velocity, ps.angular_velocity,
                                                 -P.radius * nrm, springs, prev.ut, prev.mr, dt);
         const ContactOutput& o = r.o;

@@ -65,6 +65,7 @@ class DeviceBackend : public StateBackend {
     Dev::upload(ground_contact_, m.ground_contact);
     Dev::upload(zeta_pair_, m.zeta_pair);
     Dev::upload(zeta_ground_, m.zeta_ground);
+    Dev::upload(zeta_pair_held_, m.zeta_pair_held);
     // The step's constants.
     Dev::upload(inv_mass_, K_.inv_mass);
     Dev::upload(inv_inertia_, K_.inv_inertia);
@@ -102,7 +103,7 @@ class DeviceBackend : public StateBackend {
     const std::size_t np = m.projectiles.size();
     std::vector<ProjectileConstants> pc(np);
     std::vector<ContactMaterial> pm(np * G);
-    std::vector<float> pz(np * G);
+    std::vector<float> pz(np * G), pzh(m.grip_velocity.empty() ? 0 : np * G);
     for (std::size_t p = 0; p < np; ++p) {
       const ProjectileParams& P = m.projectiles[p];
       pc[p] = {P.position, P.radius, P.mass, P.inertia, P.kinematic, P.group, P.rolling, P.twisting,
@@ -110,11 +111,13 @@ class DeviceBackend : public StateBackend {
       for (std::size_t g = 0; g < G; ++g) {
         pm[p * G + g] = m.projectile_contact(p, g);
         pz[p * G + g] = P.zeta_automata[g];
+        if (!pzh.empty()) pzh[p * G + g] = P.zeta_held[g];
       }
     }
     Dev::upload(proj_constants_, pc);
     Dev::upload(proj_material_, pm);
     Dev::upload(proj_zeta_, pz);
+    Dev::upload(proj_zeta_held_, pzh);
     Dev::upload(zeta_projectiles_, m.zeta_projectiles);
     fsum_.resize(np);
     tsum_.resize(np);
@@ -362,6 +365,7 @@ class DeviceBackend : public StateBackend {
     v.area = c(e_area_);
     v.group_params = c(groups_);
     v.contact = c(contact_);
+    v.grip = M_.grip_velocity.empty() ? nullptr : c(grip_);
     v.lattice_stiffness = M_.lattice_stiffness;
     v.lattice_lambda = M_.lattice_lambda;
     return v;
@@ -484,6 +488,7 @@ class DeviceBackend : public StateBackend {
     v.ground_springs = K_.uniform_bodies ? c(ground_springs_) : nullptr;
     v.zeta_pair = c(zeta_pair_);
     v.zeta_ground = c(zeta_ground_);
+    v.zeta_pair_held = opt(zeta_pair_held_);
     v.ground_contact = c(ground_contact_);
     v.up = M_.up;
     v.ground_height = M_.ground_height;
@@ -663,7 +668,8 @@ class DeviceBackend : public StateBackend {
   bool softening_ = false;
   // Model.
   Buf<DVec3> position0_, grip_velocity_;
-  Buf<float> mass_, radius_, inertia_, volume_, link_inv_rest_, link_strength_, e_area_, free_face_, zeta_pair_, zeta_ground_;
+  Buf<float> mass_, radius_, inertia_, volume_, link_inv_rest_, link_strength_, e_area_, free_face_, zeta_pair_, zeta_ground_,
+      zeta_pair_held_;
   Buf<std::uint8_t> group_, object_random_;
   Buf<std::int32_t> object_;
   Buf<std::int16_t> grip_;
@@ -754,7 +760,7 @@ class DeviceBackend : public StateBackend {
   // Projectiles.
   Buf<ProjectileConstants> proj_constants_;
   Buf<ContactMaterial> proj_material_;
-  Buf<float> proj_zeta_;
+  Buf<float> proj_zeta_, proj_zeta_held_;
   Buf<float> zeta_projectiles_;
   Buf<DeviceProjectile> proj_;
   // The projectiles' contact lists, one after another (projectile p's from proj_start_[p]).
@@ -959,7 +965,7 @@ void DeviceBackend<Dev>::projectile_pass() {
   const ContactPassView cv = contact_pass_view();
   proj_lists_next_.resize(T);
   const ProjectileContactKernel contact{c(proj_), c(proj_constants_), cand, c(proj_lists_), c(proj_start_), cv,
-                                        c(proj_material_), c(proj_zeta_), M_.groups.size(), d(cand_next_), d(cand_out_),
+                                        c(proj_material_), c(proj_zeta_), opt(proj_zeta_held_), M_.groups.size(), d(cand_next_), d(cand_out_),
                                         d(cand_keep_)};
   const ProjectileCommitExternalKernel commit{
       ProjectileCommitKernel{c(cand_keep_), c(cand_place_), c(cand_next_), d(proj_lists_next_)},

@@ -1109,6 +1109,7 @@ struct ProjectileContactKernel {
   ContactPassView cv;
   const ContactMaterial* material;  // per projectile and group: projectile_contact(p, g)
   const float* zeta;                // per projectile and group
+  const float* zeta_held;           // per projectile and group, with held automata (null: no grips)
   std::size_t groups;
   BodyContact* next;  // per candidate
   ContactOut* out;    // per candidate: force on the automaton, its torque, the projectile's
@@ -1127,9 +1128,9 @@ struct ProjectileContactKernel {
     if (!gap.valid) return;
     const Vec3 nrm = gap.n;
     const std::size_t g = static_cast<std::size_t>(p) * groups + cv.m.group[a];
-    const ContactSprings springs = body_contact_springs(
-        material[g], zeta[g], ra, Pp.radius, contact_reduced(cv.m.mass[a], false, Pp.mass, Pp.kinematic),
-        contact_reduced(cv.m.inertia[a], false, Pp.inertia, Pp.kinematic));
+    const ContactSprings springs = projectile_contact_springs(cv.m, a, material[g], zeta[g],
+                                                              zeta_held ? zeta_held[g] : 0.0f, Pp.radius, Pp.mass,
+                                                              Pp.inertia, Pp.kinematic);
     const ContactResult r = contact_between(nrm, gap.overlap, cv.vel(a), cv.ang(a), ra * nrm, ps.velocity,
                                             ps.angular_velocity, -Pp.radius * nrm, springs, prev.ut, prev.mr, cv.dt);
     if (r.o.fn <= 0.0f && length(r.o.ut) == 0.0f) return;
