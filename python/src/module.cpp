@@ -1,4 +1,5 @@
 // The Python module `mca`: its C++ half, imported by python/mca/__init__.py as mca._mca.
+#include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
 #include "mca/error.hpp"
@@ -22,6 +23,16 @@ PYBIND11_MODULE(_mca, m) {
       PyErr_SetObject(error.ptr(), message.ptr());
     }
   });
+  // numpy's C API is set up here, while the import holds the GIL and no other thread can be in the module:
+  // pybind11 sets it up at the first array, under a static's guard, and two threads reading their first
+  // arrays at once deadlocked (one in the guard waiting for the GIL, the other holding it waiting for the
+  // guard). Without numpy the module imports, and the arrays' functions say what is missing.
+  try {
+    pybind11::module_::import("numpy");
+    (void)pybind11::dtype::of<double>();
+  } catch (pybind11::error_already_set& e) {
+    if (!e.matches(PyExc_ImportError)) throw;
+  }
   mca::python::bind_scene(m);
   mca::python::bind_simulation(m);
 }

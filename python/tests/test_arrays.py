@@ -88,3 +88,27 @@ def test_progress_callback_and_advance_to():
     assert sim.time == pytest.approx(0.002, abs=sim.time_step / 2)
     sim.advance_to(0.001)  # in the past: nothing
     assert sim.time == pytest.approx(0.002, abs=sim.time_step / 2)
+
+
+def test_first_arrays_read_by_several_threads_at_once(tmp_path):
+    """Two threads reading their own simulations' first arrays, numpy not imported by the script: pybind11
+    set numpy up at the first array under a lock while holding the GIL, and the threads deadlocked (a hostile
+    review, 2026-12-06: five runs of five). The module sets numpy up at its import."""
+    import os
+    import subprocess
+    import sys
+    script = (
+        "import sys, threading\n"
+        "import mca\n"
+        "sc = mca.Scene.default()\n"
+        "sc.output.duration = 0.001\n"
+        "sims = [mca.Simulation(sc, threads=1) for _ in range(4)]\n"
+        "ts = [threading.Thread(target=lambda s=s: [s.positions() for _ in range(20)]) for s in sims]\n"
+        "[t.start() for t in ts]\n"
+        "[t.join() for t in ts]\n"
+        "print('done')\n")
+    env = dict(os.environ, PYTHONPATH=os.path.dirname(os.path.dirname(mca.__file__)))
+    for _ in range(3):
+        r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60, env=env,
+                           cwd=tmp_path)
+        assert r.returncode == 0 and r.stdout.strip() == "done", (r.returncode, r.stdout, r.stderr[-2000:])
