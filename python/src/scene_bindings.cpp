@@ -154,7 +154,15 @@ std::filesystem::path to_path(py::handle v, const std::string& key) {
     } catch (const py::error_already_set&) {
       throw Error(fmt::format("{} = {} is not a path; give a str or a pathlib.Path", key, shown(v)));
     }
-    if (PyBytes_Check(b.ptr())) return std::string(py::reinterpret_borrow<py::bytes>(b));
+    if (PyBytes_Check(b.ptr())) {
+      std::string bytes = py::reinterpret_borrow<py::bytes>(b);
+      // (As open() does: the system would end the name at the NUL, and "notes.txt\0.mcack" wrote notes.txt.)
+      if (bytes.find('\0') != std::string::npos)
+        throw Error(fmt::format("{} = {} holds a NUL character (embedded null byte), which no file name can; give "
+                                "the path without it",
+                                key, shown(v)));
+      return bytes;
+    }
   }
   throw Error(fmt::format("{} = {} is not a path; give a str or a pathlib.Path", key, shown(v)));
 }

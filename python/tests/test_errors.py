@@ -221,3 +221,24 @@ def test_write_frame_into_a_folder_with_a_folder_at_a_frames_name(tmp_path):
         sim.write_frame(out)
     assert (out / "frames" / "automata_000007.vtu" / "mine").is_dir()
     assert sorted(p.name for p in out.iterdir()) == ["frames"]
+
+
+def test_a_path_with_a_nul_character_is_refused(tmp_path, monkeypatch):
+    """The system ends a name at a NUL: "notes.txt\\0.mcack" wrote the checkpoint over notes.txt, a scene was
+    saved to and loaded from the name before the NUL, a frame folder's "\\0/../.." was cut off (a hostile
+    review, 2026-12-06). Every path is refused as open() refuses it; so is a mesh path holding one."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "notes.txt").write_text("mine\n")
+    scene = mca.Scene.default()
+    sim = mca.Simulation(scene, threads=1)
+    for call in (lambda: sim.checkpoint("notes.txt\0.mcack"), lambda: scene.save("notes.txt\0.toml"),
+                 lambda: mca.Scene.load("notes.txt\0.toml"), lambda: sim.write_frame("out\0/../elsewhere"),
+                 lambda: mca.Simulation.resume("notes.txt\0.mcack"), lambda: mca.render(sim, "p.png\0.txt")):
+        with pytest.raises(mca.Error, match="holds a NUL character"):
+            call()
+    assert (tmp_path / "notes.txt").read_text() == "mine\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+    scene.objects[0].shape = "mesh"
+    scene.objects[0].mesh = "x.obj\0.stl"
+    with pytest.raises(mca.Error, match=r"object\[0\].mesh holds a control character \(a line break, tab or NUL\)"):
+        mca.Simulation(scene, threads=1)

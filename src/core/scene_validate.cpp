@@ -74,6 +74,12 @@ class Checker {
   void non_negative(const std::string& key, double v, const std::string& fix) const {
     range(key, v, 0.0, true, INFINITY, false, ">= 0", fix);
   }
+  // A file's path without control characters: a NUL ended it early ("x.obj\0.stl" opened x.obj; a scene
+  // built in Python), a line break broke the messages naming it (the scene file's reader refuses them too).
+  void file_path(const std::string& key, const std::string& path) const {
+    if (std::any_of(path.begin(), path.end(), [](char ch) { return static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f; }))
+      fail(fmt::format("{} holds a control character (a line break, tab or NUL); give the mesh file's path", key));
+  }
 
  private:
   const SceneDef& scene_;
@@ -368,6 +374,7 @@ void validate_scene(const SceneDef& scene) {
                              "relative to the scene file)",
                              p));
         }
+        c.file_path(p + ".mesh", o.mesh);
         c.positive(p + ".scale", o.scale, "give the factor from the file's units to metres, e.g. 0.001 for millimetres");
         if (!std::isfinite(o.fit_size) || o.fit_size < 0) {
           c.fail(fmt::format("{}.fit_size = {:g} is out of range: it must be > 0 [m] (the largest extent the mesh is "
@@ -458,6 +465,7 @@ void validate_scene(const SceneDef& scene) {
                              rp));
         }
         if (g.mesh.empty()) c.fail(fmt::format("{} has shape = \"mesh\" but no mesh file; add mesh = \"path\"", rp));
+        c.file_path(rp + ".mesh", g.mesh);
       } else {
         c.fail(fmt::format("{}.shape: a region is a \"box\", a \"sphere\" or a \"mesh\"", rp));
       }
