@@ -285,8 +285,8 @@ class Simulation:
         """Writes the next frame of folder `out` as `mca run --out` does; returns its number. The first frame
         in a folder makes a new run's checks and removes what an earlier run left there. Only one folder is
         written at a time (however it is spelt: "out", "out/", "./out"): giving another folder releases the
-        first, and giving the first again starts it afresh (frame 0, its earlier frames and stats.csv
-        removed)."""
+        first (once the other has passed its checks: a folder refused leaves the first as it was), and giving
+        the first again starts it afresh (frame 0, its earlier frames and stats.csv removed)."""
     def close_output(self) -> None:
         """Releases the folder of write_frame."""
     def checkpoint(self, path: PathLike) -> None:

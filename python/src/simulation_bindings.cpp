@@ -472,7 +472,8 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
   std::error_code ec;  // (the same folder through another mount: the same device and inode)
   const bool same = sim.output && (sim.output->dir == folder || std::filesystem::equivalent(sim.output->dir, dir, ec));
   if (!same) {
-    sim.output.reset();  // releases the folder before
+    // The folder before is released once the new one has passed its checks: a folder refused kept none, and
+    // the next write_frame into the one before started it afresh, its frames removed.
     auto out = std::make_unique<OutputFolder>();
     out->dir = folder;
     io::prepare_output_dir(out->dir);
@@ -483,6 +484,7 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
     // As a new run: not a folder of files of a run's names that no run of mca wrote, nor a run that did
     // not finish (its frames would go, and its checkpoints could no longer be resumed).
     app::check_folder_is_a_runs(out->dir, "write_frame another folder");
+    sim.output.reset();
     app::FrameWriter::remove_stale_temporaries(out->dir);
     // An earlier run's outputs, as mca run removes them: its summary.json and fragment meshes were left, and
     // the Blender importer took the old run's spacing and pieces for this one's.
@@ -843,7 +845,7 @@ Simulation is gone.)");
           "another program's files of a run's names, a run that did not finish, a subfolder that is a link), "
           "writes scene.toml and removes what an earlier run left there (frames, stats, summary, fragments, "
           "checkpoints, pictures); the folder (however it is spelt) stays locked (as a run's) until another "
-          "folder is given, close_output() or the Simulation goes; giving the first folder again starts it afresh "
+          "folder is given and passes these checks, close_output() or the Simulation goes; giving the first folder again starts it afresh "
           "(frame 0, its earlier frames and stats removed). Returns the frame number.")
       .def(
           "close_output", [](PySimulation& s) { s.output.reset(); },

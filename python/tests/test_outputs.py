@@ -239,3 +239,19 @@ def test_write_frame_into_a_finished_runs_folder_removes_that_runs_outputs(tmp_p
     assert not (out / "summary.json").exists() and not (out / "fragments.csv").exists()
     assert not list(out.glob("fragments/fragment_*.ply")) and not list(out.glob("checkpoints/*.mcack"))
     assert mine.read_text() == "mine\n"
+
+
+def test_a_folder_write_frame_refuses_leaves_the_one_before(tmp_path):
+    """A folder refused (here a file) released the one before, and the next frame there started it afresh,
+    its frames and stats removed (a hostile review, 2026-12-06): the one before is kept, and goes on."""
+    sim = mca.Simulation(mca.Scene.default(), threads=1)
+    out = tmp_path / "out"
+    for k in range(3):
+        assert sim.write_frame(out) == k
+        sim.advance(1)
+    (tmp_path / "a_file").write_text("x\n")
+    with pytest.raises(mca.Error, match="is not usable"):
+        sim.write_frame(tmp_path / "a_file")
+    assert sim.write_frame(out) == 3
+    assert len(list((out / "frames").glob("automata_*.vtu"))) == 4
+    assert (out / "stats.csv").read_text().count("\n") == 5
