@@ -847,7 +847,7 @@ class Run:
     def _read_scene(self, scene_file):
         if not os.path.lexists(scene_file):
             self.warnings.append(f"{scene_file} is missing: the ground, the camera and the up axis take mca's "
-                                 "defaults")
+                                 "defaults, and every automaton is drawn (the lattice is not known)")
             return {}
         try:
             scene = tomllib.loads(_read_bytes(scene_file, f"{scene_file} is missing", SCENE_MAX).decode("utf-8"))
@@ -986,8 +986,10 @@ class Run:
     def exposed(self):
         """Per frame, a bool per automaton: the automata the renderer draws (fewer than six intact links):
         those on their object's surface at the start and those with a broken link. On the random lattice
-        (solver.lattice = "random"), whose automata have no six neighbours at the spacing, every one."""
-        if self.scene.get("solver", {}).get("lattice", "cubic") == "random":
+        (solver.lattice = "random"), whose automata have no six neighbours at the spacing, every one; also
+        where the lattice is not known (no scene.toml: the cubic rule left holes in a random lattice's faces,
+        mca's default)."""
+        if self.scene.get("solver", {}).get("lattice") != "cubic":
             return [np.ones(len(f["damage"]), bool) for f in self.frames]
         start = exposed_at_start(self.initial_positions(), self.frames[0]["object"], self.spacing)
         return [start | (f["damage"] > 0) for f in self.frames]

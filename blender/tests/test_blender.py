@@ -530,6 +530,30 @@ def check_surface_gap(a):
         sys.exit(f"the frames' surfaces are {got}, not {want}: paired by place, not by frame")
 
 
+def check_unknown_lattice(a):
+    """A run folder without scene.toml: the lattice is not known, and every automaton is drawn (the cubic
+    rule, taken as the default, hid a third of a random-lattice wall's faces: a see-through picture; a
+    hostile review, 2026-12-06), with a warning that says so; with its scene.toml the cubic wall draws fewer."""
+    reader = load_reader()
+    for name, lattice in (("random", "random"), ("short", "cubic")):
+        d = os.path.join(a.work, f"{name}_without_scene")
+        shutil.rmtree(d, ignore_errors=True)
+        copy_run(os.path.join(a.work, name), d)
+        os.remove(os.path.join(d, "scene.toml"))
+        run = reader.Run(d)
+        drawn = [int(e.sum()) for e in run.exposed()]
+        automata = len(run.frames[0]["damage"])
+        print(f"{name} ({lattice}) without scene.toml: {drawn} of {automata} automata drawn; {run.warnings}")
+        if drawn != [automata] * len(drawn):
+            sys.exit(f"{name} without scene.toml drew {drawn} of {automata} automata, not every one")
+        if not any("every automaton is drawn (the lattice is not known)" in w for w in run.warnings):
+            sys.exit(f"no warning says every automaton is drawn: {run.warnings}")
+        known = [int(e.sum()) for e in reader.Run(os.path.join(a.work, name)).exposed()]
+        if (lattice == "cubic") != (known[0] < automata):
+            sys.exit(f"{name} with its scene.toml ({lattice}) drew {known[0]} of {automata} at frame 0")
+        shutil.rmtree(d, ignore_errors=True)
+
+
 def check_large_files(a):
     """Files far larger than mca writes (sparse files of 20 GB, which a hostile folder or a damaged disk gives)
     are refused or read only as far as their headers declare, never read whole: the importer held the whole
@@ -745,6 +769,8 @@ def main():
         check_rotations(a)
     elif case == "surface_gap":
         check_surface_gap(a)
+    elif case == "unknown_lattice":
+        check_unknown_lattice(a)
     elif case == "large_files":
         check_large_files(a)
     else:
