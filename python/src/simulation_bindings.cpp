@@ -111,7 +111,9 @@ class PySimulation {
     if (steps > Engine::kMaxSteps)
       throw Error(fmt::format("advance({}): more than {:.0e} steps would not end; give fewer", steps,
                               static_cast<double>(Engine::kMaxSteps)));
-    if (advancing_.exchange(true)) throw Error("the simulation is advancing in another thread; one advance at a time");
+    if (advancing_.exchange(true))
+      throw Error("the simulation is advancing (in another thread, or this is advance's progress callback); one "
+                  "advance at a time");
     struct Done {
       std::atomic<bool>& b;
       ~Done() { b = false; }
@@ -381,7 +383,13 @@ py::array_t<std::uint8_t> render_to(PySimulation& sim, Given<py_type::optional_p
   std::optional<std::string> draw_text;
   if (!draw_arg.is_none()) draw_text = to_text(draw_arg, "render: draw", "a str: one of " + render::draw_mode_names());
   const std::string size_what = "(width, height), two whole numbers of pixels";
-  if (!py::isinstance<py::sequence>(size_arg) || PyUnicode_Check(size_arg.ptr()) || py::len(size_arg) != 2)
+  // (The size of a sequence that has none, a numpy array of no dimension, is an error to clear: it raised
+  // a TypeError.)
+  Py_ssize_t size_count = -1;
+  if (py::isinstance<py::sequence>(size_arg) && !PyUnicode_Check(size_arg.ptr()) &&
+      (size_count = PySequence_Size(size_arg.ptr())) < 0)
+    PyErr_Clear();
+  if (size_count != 2)
     throw Error(fmt::format("render: size = {} is not two whole numbers; give {}", shown(size_arg), size_what));
   const auto size_seq = py::reinterpret_borrow<py::sequence>(size_arg);
   const int width = static_cast<int>(to_whole(size_seq[0], "render: size[0]", std::numeric_limits<int>::min(),

@@ -242,3 +242,22 @@ def test_a_path_with_a_nul_character_is_refused(tmp_path, monkeypatch):
     scene.objects[0].mesh = "x.obj\0.stl"
     with pytest.raises(mca.Error, match=r"object\[0\].mesh holds a control character \(a line break, tab or NUL\)"):
         mca.Simulation(scene, threads=1)
+
+
+def test_values_past_every_range_are_named_as_given(tmp_path):
+    """A position of 1e308 was "inf m from the origin" (its square overflowed), the ground's height was shown as
+    a vector, and a render size of a numpy array of no dimension raised a bare TypeError (a hostile review,
+    2026-12-06)."""
+    scene = mca.Scene.default()
+    scene.objects[0].position = (1e308, 0, 0)
+    with pytest.raises(mca.Error, match=r"object\[0\].position = \[1e308, 0, 0\] is 1e308 m from the origin"):
+        mca.Simulation(scene, threads=1)
+    scene = mca.Scene.default()
+    scene.ground.height = 1e300
+    with pytest.raises(mca.Error, match=r"ground.height = 1e300 is more than 1e6 m from the origin"):
+        mca.Simulation(scene, threads=1)
+    import numpy as np
+    sim = mca.Simulation(mca.Scene.default(), threads=1)
+    for size in (np.array(3), np.array([3]), 3):
+        with pytest.raises(mca.Error, match="render: size = .* is not two whole numbers"):
+            mca.render(sim, size=size)

@@ -53,13 +53,22 @@ class Checker {
   // Positions within 1e6 m of the origin (a distance, as docs/scene-format.md says): there a double
   // resolves 1e-10 m, a strain of 2e-9 on a 5 cm link; further out the rounding of the centres shows in
   // the strains (at 1e7 m a body at rest starts strained).
+  // (hypot: the squares of 1e308 overflowed, and the message said "inf m from the origin".)
   void position(const std::string& key, const Vec3d& v) const {
     finite(key, v);
-    const double r = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    const double r = std::hypot(v[0], v[1], v[2]);
     if (r > 1e6)
       fail(fmt::format("{} = {} is {} m from the origin, more than 1e6 m from the origin, where the solver's double "
                        "positions no longer resolve small strains; move the scene's origin near the objects",
                        key, vec(v), num(r)));
+  }
+  // A height along the up axis (the ground's), as a number.
+  void position(const std::string& key, double h) const {
+    finite(key, h);
+    if (std::fabs(h) > 1e6)
+      fail(fmt::format("{} = {} is more than 1e6 m from the origin, where the solver's double positions no longer "
+                       "resolve small strains; move the scene's origin near the objects",
+                       key, num(h)));
   }
 
   // Checks lo < v (or lo <= v) and v < hi (or v <= hi); the range text and the fix go in the message.
@@ -544,8 +553,7 @@ void validate_scene(const SceneDef& scene) {
   }
 
   // Ground.
-  c.finite("ground.height", scene.ground.height);
-  c.position("ground.height", {0, 0, scene.ground.height});
+  c.position("ground.height", scene.ground.height);
   c.range("ground.friction", scene.ground.friction, 0, true, kFloatMax, true, kFrictionRange,
           "use e.g. 0.6, or 0 for a frictionless ground");
   c.range("ground.restitution", scene.ground.restitution, 0.01, true, 1, true, "in [0.01, 1]", "use e.g. 0.3");
