@@ -183,7 +183,7 @@ def main():
     result = build.import_run(bpy.context, run_dir, max_frames=opts["frames"])
     for w in result.run.warnings:
         print(f"mca_cli: warning: {w}", file=sys.stderr)
-    print(f"mca_cli: imported {result.frames} frames from {result.run.dir} in {time.perf_counter() - t0:.2f} s")
+    print(f"mca_cli: imported {result.frames} frame{'' if result.frames == 1 else 's'} from {result.run.dir} in {time.perf_counter() - t0:.2f} s")
     STAGE[0] = f"while writing {out} from"
     t0 = time.perf_counter()
     if ext == ".abc":
@@ -204,7 +204,8 @@ def main():
         files = [f"{stem}{k}.obj" for k in range(scene.frame_start, scene.frame_end + 1)]
         for w in files:
             written(w, "Blender's OBJ exporter")
-        print(f"mca_cli: wrote {files[0]} to {files[-1]} in {time.perf_counter() - t0:.2f} s")
+        what = files[0] if len(files) == 1 else f"{files[0]} to {files[-1]}"
+        print(f"mca_cli: wrote {what} in {time.perf_counter() - t0:.2f} s")
     elif ext == ".png":
         frame = render(scene, out, opts, result.frames)
         print(f"mca_cli: rendered frame {frame} (t = {result.run.times[frame]:.4g} s) with {opts['engine']} to {out} in "

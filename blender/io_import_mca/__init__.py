@@ -59,7 +59,7 @@ class IMPORT_SCENE_OT_mca_run(bpy.types.Operator, ImportHelper):
             return {"CANCELLED"}
         for w in result.run.warnings:
             self.report({"WARNING"}, f"mca run: {w}")
-        self.report({"INFO"}, f"mca run: {result.frames} frames of {len(result.run.frames[0]['points'])} automata "
+        self.report({"INFO"}, f"mca run: {result.frames} frame{'' if result.frames == 1 else 's'} of {len(result.run.frames[0]['points'])} automata "
                               f"from {result.run.dir} in {result.seconds:.2f} s")
         return {"FINISHED"}
 

@@ -831,6 +831,8 @@ class Run:
                                    f"{bad[0]}, outside 0..{len(points) - 1} (an id per automaton): the frame is "
                                    "damaged; run mca again")
             self.frames.append(dict(points=points, **fields))
+            if len(self.frames) == 1:
+                self._check_frames_fit(len(entries), self.frame_count)
         # Frames of mca before the orientation was written: the rotations are reconstructed.
         self.has_orientation = all("orientation" in f for f in self.frames)
         if not self.has_orientation:
@@ -842,6 +844,20 @@ class Run:
         self.fps, self.render_size = self._render_options()
         self.surface_files = self._surface_files([frame_number(rel, k) for k, (_, rel) in enumerate(entries)])
         self.fragment_files = self._fragment_files()
+
+    def _check_frames_fit(self, frames, run_frames):
+        """The importer holds every frame it reads: frames as large as the first, more than a quarter of the
+        machine's memory together, are refused before the second is read (30,000 frames of 4,800 automata
+        grew to 6.8 GB and ended in a MemoryError blamed on a bug)."""
+        memory = _memory_bytes()
+        each = sum(np.asarray(a).nbytes for a in self.frames[0].values())
+        if memory and frames * each > memory / 4:
+            fit = max(1, int(memory / 4 // max(each, 1)))
+            raise RunError(f"{frames:,} frames of {len(self.frames[0]['points']):,} automata would take about "
+                           f"{frames * each / 1e9:.3g} GB of arrays, more than a quarter of this machine's "
+                           f"{memory / 1e9:.3g} GB: import fewer frames (at most about {fit:,}: the importer's Frames "
+                           "setting, or --frames N in mca_cli.py)"
+                           + ("" if frames == run_frames else f"; the run has {run_frames:,}"))
 
     # -- the files around the frames
     def _read_scene(self, scene_file):

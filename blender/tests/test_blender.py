@@ -554,6 +554,29 @@ def check_unknown_lattice(a):
         shutil.rmtree(d, ignore_errors=True)
 
 
+def check_many_frames(a):
+    """Frames that together take more than a quarter of the machine's memory are refused after the first is
+    read, with how many fit and the setting that imports fewer (30,000 frames grew to 6.8 GB and ended in a
+    MemoryError called a bug); as many as fit are imported. The machine is made small for the test."""
+    reader = load_reader()
+    short = os.path.join(a.work, "short")
+    frames = reader.Run(short).frame_count
+    first = reader.Run(short, max_frames=1).frames[0]
+    each, automata = sum(v.nbytes for v in first.values()), len(first["points"])
+    reader._memory_bytes = lambda: 4 * each * (frames - 1)  # a quarter holds all but one frame
+    try:
+        reader.Run(short)
+    except reader.RunError as e:
+        print(f"refused: {e}")
+        want = f"{frames:,} frames of {automata:,} automata would take about"
+        if want not in str(e) or f"at most about {frames - 1:,}" not in str(e) or "--frames N" not in str(e):
+            sys.exit(f"'{e}' does not say '{want}', how many fit and how to import fewer")
+    else:
+        sys.exit(f"{frames} frames read where {frames - 1} fit")
+    if len(reader.Run(short, max_frames=frames - 1).frames) != frames - 1:
+        sys.exit("the frames that fit were not imported")
+
+
 def check_large_files(a):
     """Files far larger than mca writes (sparse files of 20 GB, which a hostile folder or a damaged disk gives)
     are refused or read only as far as their headers declare, never read whole: the importer held the whole
@@ -769,6 +792,8 @@ def main():
         check_rotations(a)
     elif case == "surface_gap":
         check_surface_gap(a)
+    elif case == "many_frames":
+        check_many_frames(a)
     elif case == "unknown_lattice":
         check_unknown_lattice(a)
     elif case == "large_files":
