@@ -56,6 +56,22 @@ struct OutputFolder {
   std::int64_t next_frame = 0;
 };
 
+// f() without the GIL, which is taken back in this function's body rather than in a destructor: at the
+// interpreter's exit a daemon thread taking the GIL back is ended by a forced unwind (pthread_exit), which
+// the destructor of py::gil_scoped_release, noexcept, turned into std::terminate ("terminate called without
+// an active exception", exit code 134, for a script whose daemon thread was in advance).
+template <class F>
+void without_gil(F&& f) {
+  PyThreadState* const state = PyEval_SaveThread();
+  try {
+    f();
+  } catch (...) {
+    PyEval_RestoreThread(state);
+    throw;
+  }
+  PyEval_RestoreThread(state);
+}
+
 // Stepping runs on a thread of its own, in slices (calls of Engine::advance) of about kSliceSeconds, while
 // the calling thread waits without the GIL and wakes every 50 ms to check for Ctrl-C and report progress.
 // Ctrl-C raises KeyboardInterrupt at once and asks the stepping thread to stop after its slice; whatever
@@ -70,14 +86,12 @@ class PySimulation {
   PySimulation(const SceneDef& scene, int threads) : threads_(threads) {
     Engine::check_environment();
     tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads_));
-    py::gil_scoped_release nogil;
-    engine_ = std::make_shared<Engine>(scene);
+    without_gil([&] { engine_ = std::make_shared<Engine>(scene); });
   }
   PySimulation(const io::Checkpoint& cp, const std::string& source, int threads) : threads_(threads) {
     Engine::check_environment();
     tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads_));
-    py::gil_scoped_release nogil;
-    engine_ = std::make_shared<Engine>(cp.scene, cp.state, source, cp.model_fingerprint);
+    without_gil([&] { engine_ = std::make_shared<Engine>(cp.scene, cp.state, source, cp.model_fingerprint); });
     wall_ = cp.wall_seconds;
   }
   ~PySimulation() {
@@ -114,28 +128,32 @@ class PySimulation {
     if (advancing_.exchange(true))
       throw Error("the simulation is advancing (in another thread, or this is advance's progress callback); one "
                   "advance at a time");
+    // However advance ends, the slices stop (a slice still running is one a Ctrl-C left, or one of a daemon
+    // thread the interpreter's exit ended; a finished advance has none, and the next one starts afresh).
     struct Done {
       std::atomic<bool>& b;
-      ~Done() { b = false; }
-    } done_guard{advancing_};
+      std::atomic<bool>& stop;
+      ~Done() {
+        stop = true;
+        b = false;
+      }
+    } done_guard{advancing_, stop_};
     join();
     report_left_over();
     stop_ = false;
     done_ = 0;
     running_ = true;
-    {
-      // (Not while another thread joins the last one: join() holds the lock.)
-      py::gil_scoped_release nogil;
+    // (Not while another thread joins the last one: join() holds the lock.)
+    without_gil([&] {
       std::lock_guard<std::mutex> lock(join_mutex_);
       worker_ = std::thread([this, steps] { step_slices(steps); });
-    }
+    });
     std::int64_t reported = 0;
     for (;;) {
-      {
-        py::gil_scoped_release nogil;
+      without_gil([&] {
         std::unique_lock<std::mutex> lock(mutex_);
         finished_.wait_for(lock, std::chrono::milliseconds(50), [this] { return !running_; });
-      }
+      });
       const bool finished = !running_;
       // Ctrl-C (or an exception from the callback): raised now; the slice in flight ends on its own.
       if (PyErr_CheckSignals() != 0) {
@@ -190,15 +208,14 @@ class PySimulation {
       p.module_wall = seconds(t0);
       p.module_cpu = cpu_seconds() - c0;
       engine_->backend().upload(snapshot);
-      {
-        py::gil_scoped_release nogil;
+      without_gil([&] {
         tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads_));
         t0 = std::chrono::steady_clock::now();
         c0 = cpu_seconds();
         engine_->advance(static_cast<int>(steps));
         p.command_wall = seconds(t0);
         p.command_cpu = cpu_seconds() - c0;
-      }
+      });
       out.push_back(p);
     }
     return out;
@@ -263,8 +280,7 @@ class PySimulation {
       if (worker_.joinable()) worker_.join();
     };
     if (PyGILState_Check()) {
-      py::gil_scoped_release nogil;
-      wait();
+      without_gil(wait);
     } else {
       wait();
     }

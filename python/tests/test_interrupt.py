@@ -96,3 +96,21 @@ def test_a_read_racing_an_advance_after_ctrl_c_does_not_hang():
     assert len(trials) == 3
     for line in trials:
         assert line.endswith("[4800]") or line.endswith("['advancing']"), line
+
+
+def test_an_exit_while_a_daemon_thread_advances_is_clean(tmp_path):
+    """The interpreter's exit ends a daemon thread that is in advance as it takes the GIL back; that ending,
+    a forced unwind, passed through a noexcept destructor and aborted the process ("terminate called without
+    an active exception", exit code 134, in every try; a hostile review, 2026-12-06)."""
+    script = (
+        "import threading, time\n"
+        "import mca\n"
+        "sim = mca.Simulation(mca.Scene.default(), threads=1)\n"
+        "threading.Thread(target=lambda: sim.advance(10**7), daemon=True).start()\n"
+        "time.sleep(float(__import__('sys').argv[1]))\n"
+        "print('main exits', flush=True)\n")
+    for wait in ("0.1", "0.4", "1"):
+        r = subprocess.run([sys.executable, "-c", script, wait], capture_output=True, text=True, timeout=120,
+                           env=os.environ.copy(), cwd=tmp_path)
+        assert r.returncode == 0 and "terminate" not in r.stderr, (wait, r.returncode, r.stderr[-1000:])
+        assert r.stdout == "main exits\n"
