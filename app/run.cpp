@@ -825,8 +825,8 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   // rewrote the summary as a resume's).
   if (steps_left && !quiet && summary_status(dir) == "finished")
     fmt::print(stderr, "mca: the run in {} has finished (its summary.json says so), and its newest checkpoint is of "
-               "frame {} (the run ends at frame {}): the resume runs the frames after it again, with the same bits, and writes the run's "
-               "end again (its summary then that of a resumed run)\n",
+               "frame {} (the run ends at frame {}): the resume runs the frames after it again, with the same "
+               "bits, and writes the run's end again (its summary then that of a resumed run)\n",
                dir.string(), cp.frame - 1, plan.total_frames);
   // A rendered run goes on rendering, as it began (render/render.json), unless told not to; the renderer
   // comes before any output, as for a new run.

@@ -117,8 +117,4 @@ ContactSprings Model::pair_contact_springs(std::size_t i, std::size_t j, std::in
   return view().pair_contact_springs(i, j, l, zeta);
 }
 
-ContactSprings Model::held_pair_contact_springs(std::size_t i, std::size_t j, std::int64_t l) const {
-  return view().held_pair_contact_springs(i, j, l, zeta_pair_held.data());
-}
-
 }  // namespace mca

@@ -261,10 +261,6 @@ struct Model {
   // normal dashpot has the damping ratio zeta: the backend's (zeta_pair), the time step's (the contact
   // material's continuous-time one) and the energy's (whose springs alone count) are this one.
   ContactSprings pair_contact_springs(std::size_t i, std::size_t j, std::int64_t l, float zeta) const;
-  // Those of a contact between automata i and j of which one is held by a grip: the free one's mass and
-  // moment of inertia, not the pair's reduced ones (the held one moves with its grip whatever the contact
-  // does), and zeta from zeta_pair_held.
-  ContactSprings held_pair_contact_springs(std::size_t i, std::size_t j, std::int64_t l) const;
   // The bending and twisting spring of explicit link k: a shell's (link_bending_constants) or a random-lattice
   // link's (volume_bending_constants, its moduli with the lattice's factor; all zeros at lattice_bending 0):
   // the backend's and the energy's are this one.

@@ -64,8 +64,8 @@ struct ModelView {
                            reduced(radius[i], radius[j]), reduced(mass[i], mass[j]), reduced(inertia[i], inertia[j]));
   }
   // Where one of the pair is held (held(i) != held(j)): the free one's mass and moment of inertia move
-  // alone, as against the ground or a kinematic ball (the pair's reduced ones gave a ball bouncing off a
-  // held automaton a restitution of 0.48 for the pair's 0.40); zeta_held: Model::zeta_pair_held.
+  // alone, as against the ground or a kinematic ball (the pair's reduced ones gave an automaton bouncing
+  // off a held one a restitution of 0.275 for the pair's 0.20); zeta_held: Model::zeta_pair_held.
   MCA_HD ContactSprings held_pair_contact_springs(std::size_t i, std::size_t j, std::int64_t l,
                                                   const float* zeta_held) const {
     const std::size_t f = held(i) ? j : i, h = held(i) ? i : j;

@@ -1516,10 +1516,11 @@ class GroupTable {
     M.groups.push_back(group_params(scene, m, key, class_factors_, automata));
     const double mass = m.density * d * d * d;
     const SpacingRange range = spacing_range(m.density);
-    const std::string fix = fmt::format("check the density (kg/m^3) and solver.spacing ({:g} m): at this density the "
-                                        "spacing is safe from {:.3g} to {:.3g} m (with room for the random lattice's smaller and "
-                                        "larger cells: a cubic lattice goes a little past it)",
-                                        d, range.lo, range.hi);
+    const std::string fix =
+        fmt::format("check the density (kg/m^3) and solver.spacing ({:g} m): at this density the spacing is safe from "
+                    "{:.3g} to {:.3g} m (with room for the random lattice's smaller and larger cells: a cubic lattice "
+                    "goes a little past it)",
+                    d, range.lo, range.hi);
     if (automata) {
       as_float32(scene, fmt::format("the mass of an automaton of material \"{}\"", name), mass, fix);
       as_float32(scene, fmt::format("the moment of inertia of an automaton of material \"{}\"", name), mass * d * d / 6,
