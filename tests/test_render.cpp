@@ -392,6 +392,10 @@ TEST(Render, AFailingFfmpegDropsTheVideoAndTheRunGoesOn) {
     if (body.find("exit 0") != std::string::npos || body.find("printf") != std::string::npos) {
       // (Ended well, no video: a file of 11 bytes was kept as the video.)
       EXPECT_NE(r.output.find("ffmpeg ended without error but wrote no MP4 video"), std::string::npos) << r.output;
+      EXPECT_NE(r.output.find(body.find("printf") != std::string::npos ? "it does not begin with an MP4 file's" :
+                                                                         "(it wrote no file)"),
+                std::string::npos)
+          << r.output;
     }
     for (const char* f : {"summary.json", "stats.csv", "fragments.csv", "render/frame_000002.png", "render/contact_sheet.png"})
       EXPECT_TRUE(fs::exists(out / f)) << body << ": " << f;

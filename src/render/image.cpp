@@ -338,11 +338,15 @@ void VideoEncoder::finish(bool say_when_slow) {
   stop(say_when_slow);
   // An MP4 file opens with its "ftyp" box (ISO 14496-12, 4.3): a program named ffmpeg that ends well and
   // leaves something else (a wrapper, a stand-in) has made no video.
+  // (Only the head is read: a file that opens as an MP4 and is damaged after it is not told.)
   char head[8] = {};
-  if (std::ifstream f(temporary_, std::ios::binary); !f.read(head, sizeof head) || std::memcmp(head + 4, "ftyp", 4) != 0)
-    throw Error(fmt::format("ffmpeg ended without error but wrote no MP4 video to '{}' (it does not begin with an "
-                            "MP4 file's \"ftyp\" box): is the ffmpeg on the PATH the real one?",
-                            path_.string()));
+  std::ifstream f(temporary_, std::ios::binary);
+  const bool opened = f.is_open();
+  if (!opened || !f.read(head, sizeof head) || std::memcmp(head + 4, "ftyp", 4) != 0)
+    throw Error(fmt::format("ffmpeg ended without error but wrote no MP4 video to '{}' ({}): is the ffmpeg on the "
+                            "PATH the real one?",
+                            path_.string(),
+                            opened ? "it does not begin with an MP4 file's \"ftyp\" box" : "it wrote no file"));
   std::error_code ec;
   std::filesystem::rename(temporary_, path_, ec);
   if (ec) throw Error(fmt::format("cannot rename '{}' onto '{}': {}", temporary_.string(), path_.string(), ec.message()));
