@@ -798,10 +798,11 @@ TEST(Render, TheOverlayLeavesTheLowerHalfOfASmallPicture) {
   }
 }
 
-// A legend keeps to the lower half of the picture: a label takes two lines at most (ending "..."), and
-// swatches past half the height give way to a line that counts them (a material named with 159 characters
-// covered a picture of 320x180; a dozen long names would have filled it).
-TEST(Render, TheLegendKeepsToTheLowerHalfOfThePicture) {
+// A legend keeps to the lower third of the picture: a label takes two lines at most (ending "..."), and
+// swatches past a third of the height give way to a line that counts them (a material named with 159
+// characters covered a picture of 320x180; 60 long names filled the lower half of 1280x720); the first
+// swatch is always shown (at 160x90 the legend named none).
+TEST(Render, TheLegendKeepsToTheLowerThirdOfThePicture) {
   const SceneDef s = test::cubic_wall_scene();
   Engine sim(s);
   const auto framing = render::objects_box(sim.model(), sim.state());
@@ -809,8 +810,8 @@ TEST(Render, TheLegendKeepsToTheLowerHalfOfThePicture) {
   render::SnapshotOptions o;
   o.colour = render::ColourMode::group;
   const std::string word = "concrete of the north wall poured in two lifts ";
-  for (const auto& [W, H] : {std::pair{320, 180}, {640, 360}, {1280, 720}})
-    for (const std::size_t swatches : {1, 3, 12}) {
+  for (const auto& [W, H] : {std::pair{160, 90}, {320, 180}, {640, 360}, {1280, 720}})
+    for (const std::size_t swatches : {1, 3, 12, 60}) {
       render::EglContext context;
       render::Renderer renderer;
       render::OffscreenTarget target(W, H);
@@ -818,7 +819,8 @@ TEST(Render, TheLegendKeepsToTheLowerHalfOfThePicture) {
       auto snap = render::make_snapshot(sim.model(), sim.state(), frags, o, framing.origin);
       snap.legend.swatches.clear();
       for (std::size_t k = 0; k < swatches; ++k)
-        snap.legend.swatches.push_back({word + word + word + std::to_string(k), render::group_colour(k)});
+        snap.legend.swatches.push_back({word + word + word + std::to_string(k),
+                                        render::Rgba{255, static_cast<std::uint8_t>(k), 255, 255}});
       const auto draw = [&](bool legend) {
         render::Overlay overlay;
         overlay.counters = false;
@@ -835,8 +837,15 @@ TEST(Render, TheLegendKeepsToTheLowerHalfOfThePicture) {
         for (int x = 0; x < W; ++x)
           if (std::memcmp(&with.rgba[4 * (std::size_t(y) * W + x)], &without.rgba[4 * (std::size_t(y) * W + x)], 3))
             highest = y;
+      const int scale = std::max(1, static_cast<int>(std::lround(std::min(H / 360.0, W / 640.0))));
       EXPECT_LT(highest, H - 20) << W << "x" << H << ", " << swatches << " swatches: no legend";
-      EXPECT_GE(highest, H / 2) << W << "x" << H << ", " << swatches << " swatches";
+      // (Two lines and the title at least: on 160x90, half the picture.)
+      const int two_lines = H - (8 + 3 * (render::kGlyphHeight + 4) + 4) * scale;
+      EXPECT_GE(highest, std::min(2 * H / 3 - 4 * scale, two_lines)) << W << "x" << H << ", " << swatches << " swatches";
+      bool first = false;  // the first swatch's colour
+      for (std::size_t p = 0; p + 3 < with.rgba.size(); p += 4)
+        first = first || (with.rgba[p] == 255 && with.rgba[p + 1] == 0 && with.rgba[p + 2] == 255);
+      EXPECT_TRUE(first) << W << "x" << H << ", " << swatches << " swatches: the first is not shown";
     }
 }
 

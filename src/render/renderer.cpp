@@ -654,12 +654,19 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
       x = right;  // (the next swatch on a line of its own)
     }
     if (legend_lines.empty()) legend_lines.emplace_back();
-    // At most half the picture's height with its title: the lines beyond give way to one that counts the
-    // swatches left out (many long names filled the picture).
-    const auto fit = static_cast<std::size_t>(std::max(2.0f, (0.5f * static_cast<float>(height) - margin) / line_h - 1));
+    // At most a third of the picture's height with its title (two lines at least): the lines beyond give way
+    // to one that counts the swatches left out (many long names filled the picture, over the objects). A
+    // label's continuation goes with its first line, but for the first swatch's, which is cut short (at
+    // 160x90 the legend named none).
+    const auto fit = static_cast<std::size_t>(std::max(2.0f, (static_cast<float>(height) / 3 - margin) / line_h - 1));
     if (legend_lines.size() > fit) {
-      std::size_t cut = fit - 1;  // (a label's continuation goes with its first line)
-      while (legend_lines[cut].front().colour == nullptr) --cut;
+      std::size_t cut = fit - 1;
+      while (cut > 1 && legend_lines[cut].front().colour == nullptr) --cut;
+      if (legend_lines[cut].front().colour == nullptr) {
+        std::string& t = legend_lines[0].back().text;
+        if (t.size() + 3 > room) t.resize(room > 3 ? room - 3 : 0);
+        t += "...";
+      }
       std::size_t left_out = 0;
       for (std::size_t r = cut; r < legend_lines.size(); ++r)
         for (const Item& item : legend_lines[r]) left_out += item.colour != nullptr;
@@ -671,8 +678,19 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
   // The legend only where it fits below the lines at the top (in a small window they would overlap).
   if (overlay.legend && static_cast<float>(height) - margin - legend_h >= text_end) {
     float y = static_cast<float>(height) - margin;
+    // A translucent panel of the background's colour behind it: its text stays readable over the objects,
+    // which show through.
+    const float bar_w = 160.0f * scale;
+    float legend_w = static_cast<float>(text_width(L.title) * scale);
+    if (bar) legend_w = std::max(legend_w, bar_w);
+    for (const auto& line : legend_lines) {
+      float w = 0;
+      for (const Item& item : line) w += (w > 0 ? gap : 0.0f) + box_w + static_cast<float>(text_width(item.text) * scale);
+      legend_w = std::max(legend_w, w);
+    }
+    const float pad = 4.0f * scale;
+    o.rect(margin - pad, y - legend_h - pad, margin + legend_w + pad, y + pad, Rgba{34, 37, 43, 170});
     if (bar) {
-      const float bar_w = 160.0f * scale;
       y -= line_h;
       const std::string lo = short_number(L.min), hi = short_number(L.max) + " " + L.unit;
       o.text(margin, y, lo, scale);
