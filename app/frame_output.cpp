@@ -140,8 +140,8 @@ std::vector<std::string> strain_limit_notes(const Model& m) {
     notes.push_back(fmt::format(
         "material \"{}\": its links reach fracture_strain = {:.3g} before the strain at which the stress criterion "
         "ends them in tension ({}tensile_strength / youngs_modulus = {:.3g}{}): they break by displacement, {}; for "
-        "the stress criterion to govern, as in the built-in materials, set its fracture_strain = {:.3g} (1.5 times "
-        "that strain)",
+        "the stress criterion to govern, set fracture_strain = {:.3g} in its [[material]] (1.5 times that strain, the "
+        "rule the built-in materials follow at stress_coefficient 1)",
         name, p.fracture_strain, c == 1 ? "" : fmt::format("solver.stress_coefficient {:g} x ", c), at_strength,
         p.fracture_energy > 0 ? ", both times the softening's factor" : "",
         p.fracture_energy > 0 ? "before their softening has taken fracture_energy"

@@ -245,10 +245,13 @@ int info(const std::optional<std::string>& path, bool json) {
                                                       scene.solver.safety));
   for (const std::string& note : scene_notes(m, scene)) fmt::print("note             {}\n", note);
   // With solver.time_step given, a frame is a whole number of steps and may differ from 1 / frame_rate.
-  fmt::print("steps per frame  {} ({} frames after frame 0, one every {:.6g} s; {} steps: {:.6g} s simulated for output.duration = "
-             "{:g} s)\n",
-             sim.steps_per_frame(), frames, sim.frame_interval(), steps, static_cast<double>(steps) * m.dt,
-             scene.output.duration);
+  // (A run shorter than a frame has its last frame at its end: "1 frames" of 1003 steps read as a
+  // contradiction of the 501 steps beside it.)
+  fmt::print("steps per frame  {} ({} after frame 0, one every {:.6g} s{}; {} steps: {:.6g} s simulated for "
+             "output.duration = {:g} s)\n",
+             sim.steps_per_frame(), text::count(frames, "frame|frames"), sim.frame_interval(),
+             steps < sim.steps_per_frame() ? ", the run shorter than one: its last frame at its end" : "", steps,
+             static_cast<double>(steps) * m.dt, scene.output.duration);
   std::array<std::size_t, 4> classes{};
   for (auto c : m.strength_class) ++classes[c - 1];
   fmt::print("strength classes {} / {} / {} / {} (classes 1..4)\n", classes[0], classes[1], classes[2], classes[3]);

@@ -480,8 +480,9 @@ TEST(Cli, AMaterialThatBreaksByDisplacementBeforeItsStrengthGetsANote) {
   EXPECT_NE(strong.output.find("note             material \"strong\": its links reach fracture_strain = 0.00015 "
                                "before the strain at which the stress criterion ends them in tension "
                                "(tensile_strength / youngs_modulus = 0.0003): they break by displacement, at about "
-                               "4.5 MPa instead of 9 MPa; for the stress criterion to govern, as in the built-in "
-                               "materials, set its fracture_strain = 0.00045"),
+                               "4.5 MPa instead of 9 MPa; for the stress criterion to govern, set fracture_strain = "
+                               "0.00045 in its [[material]] (1.5 times that strain, the rule the built-in materials "
+                               "follow at stress_coefficient 1)"),
             std::string::npos)
       << strong.output;
   const Result soft = run_mca("info " + scene("soft", "fracture_energy = 100\n", "stress_coefficient = 2\n") + " --json");
