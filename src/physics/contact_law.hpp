@@ -110,8 +110,8 @@ inline float discrete_damping_ratio(double e, double omega_dt) {
 }
 
 // The springs and dashpots of one contact. length = 2 min(r_1, r_2); radius = r_1 r_2 / (r_1 + r_2);
-// m_eff, j_eff: reduced mass and moment of inertia (the body's own against the ground or a kinematic
-// projectile).
+// m_eff, j_eff: reduced mass and moment of inertia (the body's own against the ground, a kinematic
+// projectile or an automaton a grip holds).
 struct ContactSprings {
   float kn, kt, cn, mu;
   float kr, cr, roll_limit;   // rolling spring, its dashpot, mu_r R (times F_n: the torque cap)
