@@ -86,7 +86,7 @@ class Checker {
   // A file's path without control characters: a NUL ended it early ("x.obj\0.stl" opened x.obj; a scene
   // built in Python), a line break broke the messages naming it (the scene file's reader refuses them too).
   void file_path(const std::string& key, const std::string& path) const {
-    if (std::any_of(path.begin(), path.end(), [](char ch) { return static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f; }))
+    if (std::any_of(path.begin(), path.end(), text::is_control))
       fail(fmt::format("{} holds a control character (a line break, tab or NUL); give the mesh file's path", key));
   }
 
@@ -527,8 +527,7 @@ void validate_scene(const SceneDef& scene) {
     // would shift every column after it, a quote or line break would break the file for CSV readers,
     // and two equal names would give columns that cannot be told apart.
     for (const char ch : g.name) {
-      const auto u = static_cast<unsigned char>(ch);
-      if (ch == ',' || ch == '"' || u < 0x20 || u == 0x7f) {
+      if (ch == ',' || ch == '"' || text::is_control(ch)) {
         c.fail(fmt::format("{}.name = \"{}\" has {}, which would break the stats.csv header (its force columns "
                            "are named after the grip); rename the grip with letters, digits, spaces, '_' or '-'",
                            p, escaped(g.name), ch == ',' ? "a comma" : ch == '"' ? "a quote" : "a control character"));

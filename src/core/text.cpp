@@ -65,7 +65,7 @@ std::string escaped(std::string_view s) {
       case '\f': out += "\\f"; break;
       case '\r': out += "\\r"; break;
       default:
-        if (c < 0x20 || c == 0x7f) {
+        if (is_control(ch)) {
           out += fmt::format("\\u{:04X}", static_cast<unsigned>(c));
         } else {
           out += ch;

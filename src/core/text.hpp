@@ -8,6 +8,13 @@
 
 namespace mca::text {
 
+// A control character (C0 or DEL: NUL, tab, line breaks, ...), which names and paths in messages and files
+// must not hold.
+constexpr bool is_control(char ch) {
+  const auto c = static_cast<unsigned char>(ch);
+  return c < 0x20 || c == 0x7f;
+}
+
 // Shortest text that reads back as the same double; exponent form for large and tiny magnitudes
 // (3e+10, 1.5e-4) so that moduli and strains stay readable.
 std::string num(double v);

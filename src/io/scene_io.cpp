@@ -370,7 +370,7 @@ void read_mesh_path(const Table& tb, std::string& out, bool resolve) {
   if (!tb.string("mesh", out) || !resolve) return;
   const toml::node* n = tb.get("mesh");
   if (out.empty()) tb.reader().fail(n->source(), fmt::format("{} is empty; give the mesh file's path", tb.key("mesh")));
-  if (std::any_of(out.begin(), out.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; })) {
+  if (std::any_of(out.begin(), out.end(), text::is_control)) {
     tb.reader().fail(n->source(), fmt::format("{} holds a control character (a line break, tab or NUL); give the "
                                               "mesh file's path",
                                               tb.key("mesh")));
