@@ -621,6 +621,11 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
     std::string text;
   };
   std::vector<std::vector<Item>> legend_lines;
+  // A label's line that ends where more of it is left out: "..." within the room.
+  const auto cut_short = [](std::string& t, std::size_t room) {
+    if (t.size() + 3 > room) t.resize(room > 3 ? room - 3 : 0);
+    t += "...";
+  };
   if (!bar) {
     const float right = static_cast<float>(width) - margin;
     const auto room = static_cast<std::size_t>(
@@ -644,8 +649,7 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
       const auto parts = wrap_text(label, room);
       for (std::size_t k = 0; k < std::min(parts.size(), kLabelLines); ++k) {
         std::string part(parts[k]);
-        if (k + 1 == kLabelLines && parts.size() > kLabelLines)
-          part = part.substr(0, std::min(part.size(), room > 3 ? room - 3 : 0)) + "...";
+        if (k + 1 == kLabelLines && parts.size() > kLabelLines) cut_short(part, room);
         if (k == 0)
           legend_lines.back().push_back({&colour, std::move(part)});
         else
@@ -662,11 +666,7 @@ void Renderer::draw(const Snapshot& s, DrawMode mode, const Camera& cam, int wid
     if (legend_lines.size() > fit) {
       std::size_t cut = fit - 1;
       while (cut > 1 && legend_lines[cut].front().colour == nullptr) --cut;
-      if (legend_lines[cut].front().colour == nullptr) {
-        std::string& t = legend_lines[0].back().text;
-        if (t.size() + 3 > room) t.resize(room > 3 ? room - 3 : 0);
-        t += "...";
-      }
+      if (legend_lines[cut].front().colour == nullptr) cut_short(legend_lines[0].back().text, room);
       std::size_t left_out = 0;
       for (std::size_t r = cut; r < legend_lines.size(); ++r)
         for (const Item& item : legend_lines[r]) left_out += item.colour != nullptr;
