@@ -642,9 +642,17 @@ void check_run_names_are_files(const std::filesystem::path& dir) {
   });
 }
 
+std::size_t stage_run_files(io::StagedRemoval& removal, const std::filesystem::path& dir,
+                            std::initializer_list<RunPart> parts) {
+  std::size_t staged = 0;
+  for (const std::string& name : run_files_in(dir, parts)) staged += removal.stage(dir / name);
+  return staged;
+}
+
 std::size_t remove_run_files(const std::filesystem::path& dir, std::initializer_list<RunPart> parts) {
-  std::size_t removed = 0;
-  for (const std::string& name : run_files_in(dir, parts)) removed += io::remove_output(dir / name);
+  io::StagedRemoval removal;
+  const std::size_t removed = stage_run_files(removal, dir, parts);
+  removal.commit();
   return removed;
 }
 

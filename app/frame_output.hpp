@@ -17,6 +17,7 @@
 #include "core/model.hpp"
 #include "core/state.hpp"
 #include "core/text.hpp"
+#include "io/output_files.hpp"
 #include "mca/scene.hpp"
 
 namespace mca::app {
@@ -131,8 +132,11 @@ struct RunFile {
 // The files of `parts` that `dir` holds, relative to it (numbered ones only of the run's own form:
 // frames/automata_000012.vtu, not frames/automata_mine.vtu), in the table's order.
 std::vector<std::string> run_files_in(const std::filesystem::path& dir, std::initializer_list<RunPart> parts);
-// Removes them (an error naming a file that cannot be removed); returns how many there were.
+// Removes them, all or none (an error naming a file that cannot be removed); returns how many there were.
 std::size_t remove_run_files(const std::filesystem::path& dir, std::initializer_list<RunPart> parts);
+// Sets them aside in `removal` (removed at its commit, put back if it is not made); returns how many.
+std::size_t stage_run_files(io::StagedRemoval& removal, const std::filesystem::path& dir,
+                            std::initializer_list<RunPart> parts);
 // Refuses a folder (or anything but a regular file) at a name of the table in `dir`: the run would stop when
 // it came to write that file (a checkpoint at frame 2,000, hours in) or to replace it.
 void check_run_names_are_files(const std::filesystem::path& dir);
@@ -184,8 +188,15 @@ class FrameWriter {
   // rendering unless `rendering` (a rendered run replaces its pictures itself). Only files of a run's
   // names go: anything else a user keeps there stays.
   static void remove_earlier_run(const std::filesystem::path& dir, bool rendering) {
-    remove_run_files(dir, {RunPart::end, RunPart::plots, RunPart::checkpoints, RunPart::frames, RunPart::stats});
-    if (!rendering) remove_run_files(dir, {RunPart::rendering});
+    io::StagedRemoval removal;
+    stage_earlier_run(removal, dir, rendering);
+    removal.commit();
+  }
+  // The same files set aside in `removal`, for a run that removes them once it has passed what can still
+  // stop it (its renderer, its scene file).
+  static void stage_earlier_run(io::StagedRemoval& removal, const std::filesystem::path& dir, bool rendering) {
+    stage_run_files(removal, dir, {RunPart::end, RunPart::plots, RunPart::checkpoints, RunPart::frames, RunPart::stats});
+    if (!rendering) stage_run_files(removal, dir, {RunPart::rendering});
   }
   // Removes the temporary files a killed run left in `dir` and the folders it writes into (their names are
   // unique per process, so nothing else would ever replace them).

@@ -286,10 +286,11 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
 // What a run writes at its end from its last state (the summary also when interrupted): the summary,
 // fragments.csv, the fragment meshes and (`plots`) the plots of tools/plot_run.py. One left by an earlier
 // session describes a state the folder no longer ends at, so a new run and a resume remove them before they
-// step: a resume that stops on an error, like a new run, then leaves none. Returns the plots removed.
-int remove_end_outputs(const std::filesystem::path& dir, bool plots = true) {
-  remove_run_files(dir, {RunPart::end});
-  return plots ? static_cast<int>(remove_run_files(dir, {RunPart::plots})) : 0;
+// step: a resume that stops on an error, like a new run, then leaves none. Sets them aside in `removal`
+// (`plots`: the plots too); returns the plots set aside.
+std::size_t stage_end_outputs(io::StagedRemoval& removal, const std::filesystem::path& dir, bool plots) {
+  stage_run_files(removal, dir, {RunPart::end});
+  return plots ? stage_run_files(removal, dir, {RunPart::plots}) : 0;
 }
 
 // What a session writes (`frames` more, pictures of render_width x render_height, 0 for none) must fit the
@@ -710,6 +711,13 @@ int run(const RunOptions& o) {
                steps_run_on(sim.backend().name(), threads), human_bytes(estimate.total()));
     for (const std::string& note : scene_notes(m, scene)) fmt::print(stderr, "note: {}\n", note);
   }
+  // Outputs of an earlier run in this folder would mix with this one's: all of them (its pictures too: a
+  // rendered run draws its own, an unrendered one must not leave a rendering a resume would go on with) are
+  // set aside first, all or none, and removed once the renderer has started and the scene is written; a
+  // run that stops before leaves the folder as it was.
+  io::StagedRemoval earlier;
+  stage_run_files(earlier, dir, {RunPart::end, RunPart::plots, RunPart::checkpoints, RunPart::frames, RunPart::stats,
+                                 RunPart::rendering});
   // The renderer before any output: a missing OpenGL or a camera that sees nothing stops here.
   std::unique_ptr<RenderOutput> render;
   if (o.render) render = std::make_unique<RenderOutput>(dir, sim, ro, plan.total_frames, o.quiet, 0, &stop);
@@ -724,10 +732,7 @@ int run(const RunOptions& o) {
                         *o.steps, static_cast<double>(*o.steps) * sim.model().dt, *o.steps);
     os << io::scene_to_toml(scene);
   }, false);
-  // Outputs of an earlier run in this folder would mix with this one's. The pictures: an unrendered run
-  // removes an earlier rendering whole (render.json too: a resume must not render), a rendered one has
-  // replaced its frames, video and sheet (RenderOutput).
-  FrameWriter::remove_earlier_run(dir, render != nullptr);
+  earlier.commit();
   FrameWriter::remove_stale_temporaries(dir);
   remove_empty_output_folders(dir, render != nullptr);
   FrameWriter writer(dir, sim.model(), scene.output);
@@ -841,6 +846,11 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   // again as the run continues. Read before any file is touched: a stats file that cannot be read stops
   // the resume with the folder as it was.
   auto rows = read_back_stats(dir, cp.frame, FrameWriter::stats_header(sim.model()).size());
+  // The earlier end (the plots too, where steps are left) is set aside here, all or none: a resume that
+  // stops before its collections and stats are written again leaves it as it was. (The plots are made again
+  // only by a rendered run; a run with no step left keeps them, and its stats.)
+  io::StagedRemoval earlier_end;
+  const std::size_t plots_removed = stage_end_outputs(earlier_end, dir, steps_left);
   std::unique_ptr<RenderOutput> render;
   if (const auto& ro = rendered) {
     if (!no_render) {
@@ -894,8 +904,8 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
                dir.string(), missing.size(), cp.frame - 1, missing.size() > 1 ? "s" : "", text::number_runs(missing),
                cp.scene.output.vtk ? "the .pvd collections list the frames that are whole, and " : "");
   writer.start_stats(rows);
-  // The plots are made again only by a rendered run; a run with no step left keeps them (and its stats).
-  if (remove_end_outputs(dir, steps_left) > 0 && !render && !quiet)
+  earlier_end.commit();
+  if (plots_removed > 0 && !render && !quiet)
     fmt::print(stderr, "mca: the plots in {} showed the run up to frame {} and are removed; python3 {} {} draws "
                "them again when the run ends\n",
                (dir / "render").string(), cp.frame - 1,

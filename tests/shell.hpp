@@ -28,11 +28,17 @@ inline Result shell(const std::string& command) {
 
 inline Result run_mca(const std::string& args) { return shell(std::string(MCA_BINARY) + " " + args); }
 
-// mca on a disk that is full when it comes to write the file whose path ends in `at` (the preloaded
-// tests/fault/full_disk.cpp). (ASan, where the build has it, asks to be loaded first; the preload is.)
-inline Result run_mca_full_at(const std::string& at, const std::string& args) {
-  return shell("LD_PRELOAD=" + std::string(MCA_FULL_DISK) + " MCA_TEST_FULL_AT=" + at +
+// mca with a file-system fault at one file (the preloaded tests/fault/file_faults.cpp): `fault` is
+// MCA_TEST_FULL_AT (the disk is full when it comes to write the file whose path ends in `at`) or
+// MCA_TEST_PINNED_AT (that file cannot be removed or renamed). (ASan, where the build has it, asks to be
+// loaded first; the preload is.)
+inline Result run_mca_with_fault(const std::string& fault, const std::string& at, const std::string& args) {
+  return shell("LD_PRELOAD=" + std::string(MCA_FILE_FAULTS) + " " + fault + "=" + at +
                " ASAN_OPTIONS=verify_asan_link_order=0 " + std::string(MCA_BINARY) + " " + args);
+}
+
+inline Result run_mca_full_at(const std::string& at, const std::string& args) {
+  return run_mca_with_fault("MCA_TEST_FULL_AT", at, args);
 }
 
 }  // namespace mca::test

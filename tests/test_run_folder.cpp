@@ -1,10 +1,12 @@
 // What a run folder holds across runs and resumes: a resume continues only its own run's checkpoint, a new
 // run leaves nothing of an earlier one, the rate of a resumed session is its own.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -120,6 +122,72 @@ TEST(RunFolder, NewRunRemovesAnEarlierRunsFragmentsAndPictures) {
   ASSERT_TRUE(fs::exists(out / "stats.csv"));
   EXPECT_FALSE(fs::exists(out / "fragments.csv"));
   EXPECT_FALSE(fs::exists(out / "summary.json"));
+}
+
+// Every file under `dir` with its bytes.
+std::map<std::string, std::string> folder_contents(const fs::path& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.is_regular_file()) files[fs::relative(e.path(), dir).string()] = read(e.path());
+  return files;
+}
+
+// What differs between two folder_contents, a file a line ("" when nothing does).
+std::string changes(const std::map<std::string, std::string>& before, const std::map<std::string, std::string>& after) {
+  std::string out;
+  for (const auto& [name, bytes] : before) {
+    const auto it = after.find(name);
+    if (it == after.end()) out += "gone: " + name + "\n";
+    else if (it->second != bytes) out += "changed: " + name + "\n";
+  }
+  for (const auto& [name, bytes] : after)
+    if (!before.count(name)) out += "new: " + name + "\n";
+  return out;
+}
+
+// A run or a resume refused because an earlier run's file cannot be removed (an immutable file, a folder
+// the user may not write: played here by a preloaded fault, which holds as root too) removed the files
+// before it first, the summary and stats among them: the folder was left as neither run. They are set
+// aside, all or none, and put back when the session stops before it writes anything of its own (a scene
+// file that cannot be written, a renderer that cannot start).
+TEST(RunFolder, AnEarlierRunThatCannotBeRemovedIsLeftWhole) {
+  TempDir t;
+  const fs::path out = t.path() / "out";
+  const std::string run = "run " + small_scene(t.path()).string() + " --out " + out.string() + " -q";
+  ASSERT_EQ(run_mca(run + " --checkpoint-every 2").code, 0);
+  fs::create_directories(out / "render");
+  std::ofstream(out / "render" / "energies.png") << "a plot\n";
+  const auto before = folder_contents(out);
+  ASSERT_TRUE(before.count("summary.json") && before.count("frames/automata_000002.vtu")) << before.size();
+  Result r = test::run_mca_with_fault("MCA_TEST_PINNED_AT", "frames/automata_000002.vtu", run);
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find(fmt::format("cannot remove '{}', an output of an earlier run in this folder (Operation not "
+                                      "permitted); nothing was removed",
+                                      (out / "frames" / "automata_000002.vtu").string())),
+            std::string::npos)
+      << r.output;
+  EXPECT_EQ(changes(before, folder_contents(out)), "");
+  // The scene file cannot be written (a full disk at it): the earlier run is put back.
+  r = test::run_mca_full_at("scene.toml", run);
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_EQ(changes(before, folder_contents(out)), "");
+  // A resume with steps left sets aside the run's end and its plots: one that cannot be removed leaves them all.
+  const auto cks = checkpoints(out);
+  ASSERT_GE(cks.size(), 2u);
+  fs::remove(cks.back());
+  const auto resumable = folder_contents(out);
+  r = test::run_mca_with_fault("MCA_TEST_PINNED_AT", "fragments.csv", "resume " + out.string() + " -q");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("fragments.csv', an output of an earlier run in this folder (Operation not permitted); "
+                          "nothing was removed"),
+            std::string::npos)
+      << r.output;
+  EXPECT_EQ(changes(resumable, folder_contents(out)), "");
+  // Without the fault both go through.
+  ASSERT_EQ(run_mca("resume " + out.string() + " -q").code, 0);
+  EXPECT_FALSE(fs::exists(out / "render" / "energies.png"));
+  ASSERT_EQ(run_mca(run).code, 0);
+  EXPECT_FALSE(fs::exists(out / "checkpoints" / cks.front().filename()));
 }
 
 // The rate of a resumed run is its own steps over its own wall time: the earlier sessions' wall time (here

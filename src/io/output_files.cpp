@@ -331,14 +331,51 @@ std::optional<std::int64_t> numbered(const std::string& name, std::string_view p
   return n;
 }
 
+namespace {
+Error removal_error(const fs::path& p, const std::error_code& ec, bool nothing_removed) {
+  return Error(fmt::format("cannot remove '{}', an output of an earlier run in this folder ({}); {}remove it by hand "
+                           "or use another --out folder",
+                           p.string(), ec.message(), nothing_removed ? "nothing was removed: " : ""));
+}
+}  // namespace
+
 bool remove_output(const std::filesystem::path& p) {
   std::error_code ec;
   const bool removed = std::filesystem::remove(p, ec);
-  if (ec && ec != std::errc::not_a_directory)
-    throw Error(fmt::format("cannot remove '{}', an output of an earlier run in this folder ({}); remove it by hand "
-                            "or use another --out folder",
-                            p.string(), ec.message()));
+  if (ec && ec != std::errc::not_a_directory) throw removal_error(p, ec, false);
   return removed;
+}
+
+bool StagedRemoval::stage(const fs::path& p) {
+  std::error_code ec;
+  const fs::file_status status = fs::symlink_status(p, ec);
+  if (!fs::exists(status)) {
+    if (!ec || ec == std::errc::no_such_file_or_directory || ec == std::errc::not_a_directory) return false;
+  } else if (fs::is_directory(status) && !fs::is_empty(p, ec) && !ec) {
+    ec = std::make_error_code(std::errc::directory_not_empty);
+  } else {
+    ec.clear();
+    const fs::path tmp = temporary_path(p);
+    fs::rename(p, tmp, ec);
+    if (!ec) {
+      staged_.emplace_back(p, tmp);
+      return true;
+    }
+  }
+  restore();
+  throw removal_error(p, ec, true);
+}
+
+void StagedRemoval::commit() {
+  std::error_code ec;
+  for (const auto& [name, tmp] : staged_) fs::remove(tmp, ec);
+  staged_.clear();
+}
+
+void StagedRemoval::restore() noexcept {
+  std::error_code ec;
+  for (auto it = staged_.rbegin(); it != staged_.rend(); ++it) fs::rename(it->second, it->first, ec);
+  staged_.clear();
 }
 
 }  // namespace mca::io

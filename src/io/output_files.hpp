@@ -93,4 +93,28 @@ std::optional<std::int64_t> numbered(const std::string& name, std::string_view p
 // where it cannot be removed (a path through a file, as a file named `render`, holds none: nothing to remove).
 bool remove_output(const std::filesystem::path& p);
 
+// The files of an earlier session that a session removes, removed all or none: each is first renamed to a
+// temporary name beside it (temporary_path's, so a killed process's are removed as its other temporaries),
+// and removed only at commit(). Where one cannot be (a read-only folder, an immutable file), those set aside
+// go back to their names and the error of remove_output names it; so does the destructor put them back when
+// the session stops before commit() (a renderer that cannot start, a scene file that cannot be written).
+class StagedRemoval {
+ public:
+  StagedRemoval() = default;
+  StagedRemoval(const StagedRemoval&) = delete;
+  StagedRemoval& operator=(const StagedRemoval&) = delete;
+  ~StagedRemoval() { restore(); }
+  // Sets `p` aside where it is there (as remove_output: a path through a file holds nothing); returns
+  // whether it was. A folder that holds files is refused, as remove_output refuses it.
+  bool stage(const std::filesystem::path& p);
+  // Removes what was set aside (one that cannot be removed now stays as a temporary of this process, which
+  // the next session removes).
+  void commit();
+  // Puts what was set aside back at its name, the last first.
+  void restore() noexcept;
+
+ private:
+  std::vector<std::pair<std::filesystem::path, std::filesystem::path>> staged_;  // (name, temporary name)
+};
+
 }  // namespace mca::io
