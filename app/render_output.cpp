@@ -236,11 +236,8 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
 
 std::string RenderOutput::video_command() const {
   // As the run's own encoder makes it (render::VideoEncoder): even sizes for yuv420p, its quality and layout,
-  // the file replaced; a path that starts with "-" is given as ./-... (ffmpeg took it for an option).
-  const auto path = [](const std::filesystem::path& p) {
-    const std::string s = p.string();
-    return text::shell_word(s.rfind('-', 0) == 0 ? "./" + s : s);
-  };
+  // the file replaced; a relative path behind "./", as the encoder gives it (render::ffmpeg_file).
+  const auto path = [](const std::filesystem::path& p) { return text::shell_word(render::ffmpeg_file(p)); };
   return fmt::format("ffmpeg -y -framerate {:g} -i {} -vf 'crop=trunc(iw/2)*2:trunc(ih/2)*2' -c:v libx264 -preset "
                      "veryfast -crf 20 -pix_fmt yuv420p -movflags +faststart {}",
                      fps_, path(dir_ / "frame_%06d.png"), path(dir_ / "video.mp4"));

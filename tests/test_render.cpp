@@ -467,6 +467,24 @@ TEST(Render, TheVideoCommandOfTheWarningMakesTheVideoInAnOddlyNamedFolder) {
   EXPECT_EQ(std::distance(fs::directory_iterator(d.path()), fs::directory_iterator{}), 2) << "the command wrote elsewhere";
 }
 
+// A relative output folder that ffmpeg read as an option ("-odd") or a protocol ("run:1", an ISO time) left
+// the run without its video (a warning, exit 0); "tcp:host:port" had ffmpeg open a connection. The run's
+// encoder and the command its warning gives name such a path "./" first.
+TEST(Render, AnOutputFolderFfmpegWouldTakeForAnOptionOrAProtocolGetsItsVideo) {
+  if (!render::find_ffmpeg()) GTEST_SKIP() << "ffmpeg is not installed: no video to check";
+  TempDir d;
+  for (const std::string out : {"-odd", "2026-12-06T23:15:00", "run:1"}) {
+    SCOPED_TRACE(out);
+    const Result r = shell("cd " + d.path().string() + " && " + std::string(MCA_BINARY) + " run " + kCubicWall +
+                           " -q --duration 0.004 --render --render-size 64x48 --out=" + text::shell_word(out));
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_EQ(r.output.find("warning"), std::string::npos) << r.output;
+    EXPECT_TRUE(fs::exists(d.path() / out / "render" / "video.mp4"));
+  }
+  EXPECT_EQ(render::ffmpeg_file("run:1/render/video.mp4"), "./run:1/render/video.mp4");
+  EXPECT_EQ(render::ffmpeg_file("/tmp/run:1/video.mp4"), "/tmp/run:1/video.mp4");
+}
+
 // A stop signal is not held up by ffmpeg (it waited up to MCA_FFMPEG_TIMEOUT, 120 s by default, found by
 // the hostile review): one that never finishes the file after the run's last frame is stopped, the run
 // says the video is not written and how to make it, and ends with 128 + the signal; one that takes no

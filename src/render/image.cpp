@@ -154,6 +154,10 @@ int spawn_own_group(pid_t& pid, const std::vector<std::string>& args, const posi
   return rc;
 }
 
+std::string ffmpeg_file(const std::filesystem::path& p) {
+  return p.is_relative() ? "./" + p.string() : p.string();
+}
+
 VideoEncoder::VideoEncoder(const std::filesystem::path& ffmpeg, const std::filesystem::path& path,
                            const std::filesystem::path& temporary, int width, int height, double fps,
                            const std::atomic<int>* interrupt)
@@ -166,7 +170,7 @@ VideoEncoder::VideoEncoder(const std::filesystem::path& ffmpeg, const std::files
       "-s", fmt::format("{}x{}", width, height), "-framerate", fmt::format("{:g}", fps), "-i", "-",
       // yuv420p halves the colour resolution: odd sizes are rounded down to even ones.
       "-vf", "crop=trunc(iw/2)*2:trunc(ih/2)*2", "-c:v", "libx264", "-preset", "veryfast", "-crf", "20",
-      "-pix_fmt", "yuv420p", "-movflags", "+faststart", "-f", "mp4", temporary_.string()};
+      "-pix_fmt", "yuv420p", "-movflags", "+faststart", "-f", "mp4", ffmpeg_file(temporary_)};
   int fds[2];
   if (::pipe2(fds, O_CLOEXEC) != 0) throw Error(fmt::format("cannot make a pipe to ffmpeg: {}", std::strerror(errno)));
   // Writes that never block: a frame is larger than the pipe (3.7 MB at 1280x720, the pipe 64 KB), and a write

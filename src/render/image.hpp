@@ -31,6 +31,10 @@ Image tile(const std::vector<Image>& tiles, int columns, int gap);
 // The full path of ffmpeg from PATH, or nothing.
 std::optional<std::filesystem::path> find_ffmpeg();
 
+// A file's path as ffmpeg is to read it: a relative one behind "./", so that ffmpeg takes it for neither an
+// option ("-odd/...") nor a protocol ("run:1/...", an ISO time "2026-12-06T23:15:00/...", "tcp:...").
+std::string ffmpeg_file(const std::filesystem::path& p);
+
 // Starts the program args[0] (looked up on PATH where `search_path`) with `actions` (may be null), in a
 // process group of its own: a terminal's Ctrl-C then reaches this program only, which answers it (ends
 // the child's work itself or stops it). Returns posix_spawn's error, 0 when it started, and sets `pid`.
