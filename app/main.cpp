@@ -2,6 +2,7 @@
 #include <CLI/CLI.hpp>
 #include <cctype>
 #include <charconv>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <limits>
@@ -37,6 +38,9 @@ const CLI::Validator kThreads = whole_number(0, kIntMax, "0 (all cores) or a cou
 }  // namespace
 
 int main(int argc, char** argv) {
+  // A file that reaches the process's size limit (ulimit -f) must give a write error that names it (EFBIG),
+  // not kill the run with SIGXFSZ mid-file.
+  std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{"mca: fracture of heterogeneous materials with movable cellular automata"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "mca 0.1.0");

@@ -973,6 +973,22 @@ TEST(Cli, AWriteThatFailsMidRunNamesTheCheckpointThatContinuesIt) {
       << r0.output;
 }
 
+// A file that reaches the process's size limit (ulimit -f) killed the run with SIGXFSZ (exit 153, no word,
+// a temporary file left); it is a write error that names the file, as a full disk is.
+TEST(Cli, AFileSizeLimitIsAWriteErrorThatNamesTheFile) {
+  const fs::path d = fresh_dir("file_size_limit");
+  const fs::path scene = small_scene(d), out = d / "out";
+  const Result r = shell("ulimit -f 60; " + std::string(MCA_BINARY) + " run " + scene.string() + " --out " +
+                         out.string() + " -q --checkpoint-every 1");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("could not write '" + out.string() + "/"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("': writing failed (File too large); the file reached a size limit (the process's, ulimit "
+                          "-f, or the file system's)"),
+            std::string::npos)
+      << r.output;
+  for (const auto& e : fs::recursive_directory_iterator(out)) EXPECT_NE(e.path().extension(), ".tmp") << e.path();
+}
+
 // A folder (or a FIFO) at the name of a file the run will write stopped the run only when it came to it: at
 // frame 2,000's checkpoint, hours in. A run and a resume refuse it before they start, and leave the folder
 // as it was.
