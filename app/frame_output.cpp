@@ -224,11 +224,18 @@ OutputEstimate estimate_output(const Model& m, const OutputDef& o, std::int64_t 
     e.checkpoints = 3 * (250 * n + 40 * static_cast<double>(m.explicit_links.size()) + 20000);
     e.per_run += e.checkpoints;
   }
-  // The fragment meshes at the end (output.fragments): their surfaces, at most every automaton's in fragments
-  // of more than fragment_min_automata; 1.6 KB an automaton when each is its own (measured: 30,000 single
-  // automata, 48 MB), less as pieces grow (a surface over a volume).
+  // The fragment meshes at the end (output.fragments), at most: every automaton in a piece of the fewest
+  // automata meshed, fragment_min_automata + 1 (the most surface a volume can have). A piece's mesh (binary
+  // PLY) takes about 60 bytes per square voxel of its surface, its voxel the spacing over
+  // analysis::voxels_per_spacing (8 for pieces of 27 automata and fewer); a piece of k automata has a
+  // surface of at least 6 k^(2/3) d^2. Measured (bytes a square voxel): 38 to 46 for pieces of 1 to 15 cubic
+  // cells, 47 to 56 for random-lattice cells, 59 and 66 for random-lattice pieces of 7 and 173 automata
+  // bounded by a mesh; single cells took 15 KB (cubic) and 18 to 22 KB (random) each, where this counted
+  // 1.6 KB until a review filled a disk with them at a run's end.
   if (o.fragments) {
-    e.fragment_meshes = 1600 * n / std::cbrt(static_cast<double>(o.fragment_min_automata) + 1);
+    const double k = static_cast<double>(o.fragment_min_automata) + 1;
+    const double voxels = analysis::voxels_per_spacing(o.fragment_min_automata + 1);
+    e.fragment_meshes = n * 60 * 6 * voxels * voxels / std::cbrt(k);
     e.per_run += e.fragment_meshes;
   }
   return e;

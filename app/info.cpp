@@ -176,6 +176,7 @@ int info(const std::optional<std::string>& path, bool json) {
     j["output_bytes"] = output.total();
     j["output_bytes_per_frame"] = output.frame();
     j["output_bytes_with_render"] = rendered.total();
+    j["output_bytes_fragment_meshes"] = output.fragment_meshes;
     j["total_mass"] = m.total_mass;
     nlohmann::json objs = nlohmann::json::array();
     std::vector<std::size_t> count(m.object_names.size(), 0);
@@ -295,8 +296,14 @@ int info(const std::optional<std::string>& path, bool json) {
   if (output.vtk_frame > 0) per_frame += fmt::format("VTK {}", human_bytes(output.vtk_frame));
   if (output.surface_frame > 0)
     per_frame += fmt::format("{}surface {}", per_frame.empty() ? "" : ", ", human_bytes(output.surface_frame));
-  fmt::print("output estimate  {} ({} frames{}; --render at 1280x720 adds {})\n", human_bytes(output.total()),
-             frames + 1, per_frame.empty() ? std::string() : fmt::format(" of {}", per_frame),
+  // (The fragment meshes: a bound, every piece of the fewest automata meshed; a run's are usually far less.)
+  const std::string meshes =
+      output.fragment_meshes > 0
+          ? fmt::format("; the fragment meshes at most {}, were every piece of {}", human_bytes(output.fragment_meshes),
+                        text::count(scene.output.fragment_min_automata + 1, "automaton|automata"))
+          : std::string();
+  fmt::print("output estimate  {} ({} frames{}{}; --render at 1280x720 adds {})\n", human_bytes(output.total()),
+             frames + 1, per_frame.empty() ? std::string() : fmt::format(" of {}", per_frame), meshes,
              human_bytes(rendered.total() - output.total()));
   return 0;
 }

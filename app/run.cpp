@@ -519,6 +519,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
   // ends them at the next piece), then the summary, whose peak memory counts them.
   struct MeshesStopped {};
   std::size_t meshes = 0;
+  bool meshes_done = false;
   try {
     auto shown = std::chrono::steady_clock::now();
     meshes = writer.write_fragment_meshes(sim.state(), frags, [&](std::size_t done, std::size_t total) {
@@ -528,6 +529,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
       shown = now;
       fmt::print(stderr, "\rfragment meshes: {} of {}", done, total);
     });
+    meshes_done = true;
     write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads, "finished",
                   L.resumed_from);
   } catch (const MeshesStopped&) {
@@ -544,6 +546,25 @@ int run_loop(Loop& L, FrameWriter& writer) {
         tty ? "\n" : "", signal_name(sig), text::shell_word(L.dir.string()));
     return 128 + sig;
   } catch (const Error& e) {
+    // A fragment mesh that cannot be written (a disk that filled, the meshes past the estimate's room): the
+    // run's steps are done, so its last state is kept as a checkpoint, in the room the meshes written so far
+    // took, and a resume writes the end from it, as after a stop signal here.
+    if (!meshes_done) {
+      try {
+        remove_run_files(L.dir, {RunPart::end});
+        save_checkpoint(L, writer, L.wall_before + wall);
+        write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads,
+                      "interrupted", L.resumed_from);
+        if (tty) fmt::print(stderr, "\n");
+        fmt::print(stderr, "error: {}\nThe run stopped writing its fragment meshes, after its last step; those it had "
+                   "written are removed, and a checkpoint of its last frame is saved: once the disk has room (or the "
+                   "cause above is fixed), write them (and summary.json, fragments.csv) with:\n  mca resume {}\n",
+                   e.what(), text::shell_word(L.dir.string()));
+        return 2;
+      } catch (const Error&) {
+        // (No room for the checkpoint either: as any write that fails after the last step.)
+      }
+    }
     return stopped(e, "writing its end (the fragment meshes, summary.json, fragments.csv) after its last step",
                    L.frame - 1, "once the disk has room (or the cause above is fixed), ", "");
   }

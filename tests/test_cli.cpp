@@ -989,6 +989,75 @@ TEST(Cli, AFileSizeLimitIsAWriteErrorThatNamesTheFile) {
   for (const auto& e : fs::recursive_directory_iterator(out)) EXPECT_NE(e.path().extension(), ".tmp") << e.path();
 }
 
+// A fragment mesh that cannot be written (a disk that fills at the run's end: the disk check counted single
+// cells' meshes at a tenth of their size) lost the run: no summary, no fragments.csv, no checkpoint of its
+// last state unless --checkpoint-every. The meshes written so far make room for a checkpoint of the last
+// frame, and the resume writes the end from it, with the uninterrupted run's bits.
+TEST(Cli, AFragmentMeshThatCannotBeWrittenLeavesACheckpointThatWritesTheEnd) {
+  const fs::path d = fresh_dir("mesh_fails");
+  const fs::path scene = small_scene(d);
+  {
+    std::string text = read(scene);
+    text.replace(text.find("[output]\n"), 9, "[output]\nfragments = true\nfragment_min_automata = 0\n");
+    std::ofstream(scene) << text;
+  }
+  const fs::path whole = d / "whole", out = d / "out";
+  ASSERT_EQ(run_mca("run " + scene.string() + " --out " + whole.string() + " -q").code, 0);
+  ASSERT_TRUE(fs::exists(whole / "fragments" / "fragment_001.ply"));
+  const Result r = run_mca_full_at("fragments/fragment_001.ply", "run " + scene.string() + " --out " + out.string() + " -q");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("fragment_001.ply"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("The run stopped writing its fragment meshes, after its last step; those it had written are "
+                          "removed, and a checkpoint of its last frame is saved: once the disk has room (or the cause "
+                          "above is fixed), write them (and summary.json, fragments.csv) with:\n  mca resume " +
+                          out.string()),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(fs::exists(out / "fragments" / "fragment_000.ply"));
+  EXPECT_EQ(nlohmann::json::parse(read(out / "summary.json"))["status"], "interrupted");
+  const Result resumed = run_mca("resume " + out.string() + " -q");
+  ASSERT_EQ(resumed.code, 0) << resumed.output;
+  const auto summary = nlohmann::json::parse(read(out / "summary.json"));
+  EXPECT_EQ(summary["status"], "finished");
+  EXPECT_EQ(summary["state_hash"], nlohmann::json::parse(read(whole / "summary.json"))["state_hash"]);
+  EXPECT_EQ(read(out / "fragments" / "fragment_001.ply"), read(whole / "fragments" / "fragment_001.ply"));
+  EXPECT_EQ(read(out / "fragments.csv"), read(whole / "fragments.csv"));
+}
+
+// The disk check's bound on the fragment meshes holds a run shattered to single cells, on both lattices
+// (it counted 1.6 KB a cell where one takes 15 to 22 KB), and mca info names it.
+TEST(Cli, TheFragmentMeshesFitTheirEstimate) {
+  const fs::path d = fresh_dir("mesh_estimate");
+  for (const char* lattice : {"random", "cubic"}) {
+    SCOPED_TRACE(lattice);
+    const fs::path scene = small_scene(d, "", lattice);
+    {
+      std::string text = read(scene);
+      text.replace(text.find("[output]\n"), 9, "[output]\nvtk = false\nfragments = true\nfragment_min_automata = 0\n");
+      text.replace(text.find("[solver]\n"), 9, std::string("[solver]\nlattice = \"") + lattice + "\"\n");
+      text.replace(text.find("velocity = [0, 60, 0]"), 21, "velocity = [0, 200, 0]");
+      std::ofstream(scene) << text;
+    }
+    const Result info = run_mca("info " + scene.string() + " --json");
+    ASSERT_EQ(info.code, 0) << info.output;
+    const double bound = nlohmann::json::parse(info.output)["output_bytes_fragment_meshes"].get<double>();
+    const fs::path out = d / (std::string("out_") + lattice);
+    ASSERT_EQ(run_mca("run " + scene.string() + " --out " + out.string() + " -q").code, 0);
+    double written = 0, singles = 0;
+    for (const auto& e : fs::directory_iterator(out / "fragments")) written += static_cast<double>(e.file_size());
+    const auto summary = nlohmann::json::parse(read(out / "summary.json"));
+    for (const auto& bin : summary["fragment_sizes"])
+      if (bin["automata_max"] == 1) singles = bin["fragments"].get<double>();
+    EXPECT_GT(singles, 0.5 * summary["automata"].get<double>()) << "not shattered: " << singles;
+    EXPECT_LT(written, bound);
+    EXPECT_GT(written, 0.4 * bound) << "the bound is far above a shattered run's meshes";
+    const Result text = run_mca("info " + scene.string());
+    EXPECT_NE(text.output.find("the fragment meshes at most " + mca::text::human_bytes(bound) + ", were every piece of 1 automaton"),
+              std::string::npos)
+        << text.output;
+  }
+}
+
 // A folder (or a FIFO) at the name of a file the run will write stopped the run only when it came to it: at
 // frame 2,000's checkpoint, hours in. A run and a resume refuse it before they start, and leave the folder
 // as it was.

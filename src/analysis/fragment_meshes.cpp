@@ -169,6 +169,11 @@ std::vector<std::int32_t> meshed_fragments(const Fragments& fragments, std::int6
   return chosen;
 }
 
+int voxels_per_spacing(std::int64_t automata, int cells_per_spacing) {
+  const double cbrt_n = std::cbrt(static_cast<double>(std::max<std::int64_t>(automata, 1)));
+  return std::clamp(static_cast<int>(std::ceil(24.0 / cbrt_n)), cells_per_spacing, 8);
+}
+
 void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fragments, std::int64_t min_automata,
                             const std::function<void(FragmentMesh&&)>& sink, int cells_per_spacing) {
   const double d = m.spacing, h = d / cells_per_spacing;
@@ -244,12 +249,8 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
     const ObjectGrid& g = grids[obj];
     const auto& axes = m.object_axes[obj];
     const bool random = random_object(obj);
-    // The fragment's voxels: its automata's box, padded by the mesh shell and a margin. Small pieces get
-    // finer voxels (8 per spacing at 27 automata and fewer, 3 from 512): polygonizing bevels a solid's edges
-    // by about a voxel, which at 3 voxels per spacing shaved a third off a piece of one cell.
-    const double cbrt_n = std::cbrt(static_cast<double>(mem.size()));
-    const int per_cell = std::clamp(static_cast<int>(std::ceil(24.0 / cbrt_n)), cells_per_spacing, 8);
-    const double hf = d / per_cell;
+    // The fragment's voxels: its automata's box, padded by the mesh shell and a margin.
+    const double hf = d / voxels_per_spacing(static_cast<std::int64_t>(mem.size()), cells_per_spacing);
     double lo_p[3] = {INFINITY, INFINITY, INFINITY}, hi_p[3] = {-INFINITY, -INFINITY, -INFINITY};
     const double reach = random ? 1.8 * d : 1.2 * d;  // an automaton's solid lies within sqrt(3) d or d / 2
     for (auto a : mem) {

@@ -19,6 +19,11 @@ namespace mca::analysis {
 
 inline constexpr std::int64_t kMeshedAlone = 512;
 
+// Voxels per spacing for a piece of `automata` automata: small pieces get finer voxels (8 at 27 automata and
+// fewer, `cells_per_spacing` from 512), since polygonizing bevels a solid's edges by about a voxel (at 3 per
+// spacing it shaved a third off a piece of one cell).
+int voxels_per_spacing(std::int64_t automata, int cells_per_spacing = 3);
+
 struct FragmentMesh {
   std::int32_t fragment = 0;  // Fragments id
   std::int64_t automata = 0;
