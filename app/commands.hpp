@@ -56,7 +56,7 @@ std::string steps_run_on(const std::string& backend, int threads);
 // Renders the frames it adds when the run was rendered (render/render.json), unless no_render.
 int resume(const std::string& out_dir, int threads, bool quiet, bool no_render = false,
            const std::optional<std::string>& backend = std::nullopt);
-int info(const std::optional<std::string>& scene, bool json);
+int info(const std::optional<std::string>& scene, bool json, const std::optional<std::string>& backend = std::nullopt);
 int bench(const std::vector<std::string>& names, bool json, int threads, int repeats, int steps,
           const std::optional<std::string>& backend = std::nullopt);
 // `mca bench --render`: frames per second of the offscreen renderer (1280x720) at one step per frame, on

@@ -78,8 +78,9 @@ void print_mesh(const MeshSummary& ms, const std::string& object, std::size_t au
 
 }  // namespace
 
-int info(const std::optional<std::string>& path, bool json) {
-  const SceneDef scene = path ? io::load_scene_file(*path) : io::load_default_scene();
+int info(const std::optional<std::string>& path, bool json, const std::optional<std::string>& backend) {
+  SceneDef scene = path ? io::load_scene_file(*path) : io::load_default_scene();
+  if (backend) scene.solver.backend = backend_from_name(*backend, "--backend");
   // Progress of a long build on stderr, not with --json: a program reading the output (often with stderr
   // joined to it) gets the JSON alone.
   std::optional<lattice::BuildProgress> building;
@@ -94,7 +95,9 @@ int info(const std::optional<std::string>& path, bool json) {
                                        ? backend_from_environment().value_or(SolverDef::Backend::automatic)
                                        : scene.solver.backend;
   const bool cuda_missing = asked == SolverDef::Backend::cuda && gpu.empty();
-  const char* asked_by = scene.solver.backend == SolverDef::Backend::automatic ? "MCA_BACKEND" : "solver.backend";
+  const char* asked_by = backend                                               ? "--backend"
+                         : scene.solver.backend == SolverDef::Backend::automatic ? "MCA_BACKEND"
+                                                                                 : "solver.backend";
   // The model is built once, with the CPU backend; the GPU backend a run would take (the emulation where
   // asked for) is then started beside it, for what its device arrays hold, or for why it cannot hold them.
   SceneDef probe = scene;
@@ -154,9 +157,10 @@ int info(const std::optional<std::string>& path, bool json) {
     j["steps"] = steps;
     j["duration"] = scene.output.duration;
     const bool refused = !gpu_full.empty() && asked != SolverDef::Backend::automatic;
-    j["backend"] = cuda_missing ? std::string("cuda (not available here)")
-                   : refused    ? backend_name + " (the scene does not fit in the GPU's memory)"
-                                : backend_name;
+    // The backend's name alone (as summary.json gives it), and whether it can run the scene here (why not:
+    // cuda_unavailable, gpu_memory_full).
+    j["backend"] = cuda_missing ? std::string("cuda") : backend_name;
+    j["backend_runs_here"] = !cuda_missing && !refused;
     j["gpu_memory_bytes"] = gpu_bytes ? nlohmann::json(*gpu_bytes) : nlohmann::json(nullptr);
     if (!gpu_full.empty()) j["gpu_memory_full"] = gpu_full;
     j["cuda_device"] = gpu.empty() ? nlohmann::json(nullptr) : nlohmann::json(gpu);
@@ -260,7 +264,7 @@ int info(const std::optional<std::string>& path, bool json) {
   fmt::print("projectiles      {}\n", m.projectiles.size());
   if (cuda_missing)
     fmt::print("backend          cuda ({}), which cannot run here: {}\n",
-               scene.solver.backend == SolverDef::Backend::cuda ? "solver.backend" : "MCA_BACKEND", gpu_why);
+               asked_by, gpu_why);
   else if (!gpu_full.empty() && asked != SolverDef::Backend::automatic)
     fmt::print("backend          {} ({}), whose GPU cannot hold the scene (described here on the CPU): {}\n",
                backend_name, asked_by, gpu_full);

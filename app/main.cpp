@@ -108,6 +108,9 @@ int main(int argc, char** argv) {
   auto* info = app.add_subcommand("info", "Automata, links, time step, steps per frame and memory of a scene");
   info->add_option("scene", info_scene, "Scene file (default: the built-in scene)")->check(not_empty);
   info->add_flag("--json", info_json, "Machine-readable output");
+  std::optional<std::string> info_backend;
+  info->add_option("--backend", info_backend,
+                   "Describe the scene on this backend (auto, cpu, cuda, cuda-emulation; overrides solver.backend)");
 
   mca::app::ViewOptions vo;
   std::string view_scene, view_size = "1280x720", view_screenshot, view_script;
@@ -199,7 +202,8 @@ int main(int argc, char** argv) {
     if (resume->parsed())
       return mca::app::resume(resume_dir, resume_threads, resume_quiet, resume_no_render, resume_backend);
     if (info->parsed())
-      return mca::app::info(info_scene.empty() ? std::nullopt : std::optional<std::string>(info_scene), info_json);
+      return mca::app::info(info_scene.empty() ? std::nullopt : std::optional<std::string>(info_scene), info_json,
+                            info_backend);
     if (bench->parsed() && bench_render)
       return mca::app::bench_render(bench_names, bench_json, bench_threads, bench_frames,
                                     bench_steps_opt->count() ? std::optional<int>(bench_steps) : std::nullopt, bench_backend);

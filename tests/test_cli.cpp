@@ -1319,6 +1319,29 @@ TEST(Cli, McaBackendSaysWhatAutoStandsFor) {
   EXPECT_FALSE(fs::exists(d)) << "an output folder was made";
 }
 
+// `mca info --backend` as run's (it had none: `mca info --backend cuda-emulation SCENE` took the backend for
+// the scene); over MCA_BACKEND and solver.backend. Its JSON "backend" is a name, as summary.json's.
+TEST(Cli, InfoTakesTheBackendAsRunDoes) {
+  const Result emulated = shell("MCA_BACKEND=cpu " + std::string(MCA_BINARY) + " info --backend cuda-emulation --json");
+  ASSERT_EQ(emulated.code, 0) << emulated.output;
+  EXPECT_EQ(nlohmann::json::parse(emulated.output)["backend"], "cuda-emulation");
+  EXPECT_TRUE(nlohmann::json::parse(emulated.output)["gpu_memory_bytes"].is_number());
+  const Result bad = run_mca("info --backend gpu");
+  EXPECT_EQ(bad.code, 2) << bad.output;
+  EXPECT_NE(bad.output.find("--backend 'gpu'"), std::string::npos) << bad.output;
+  std::string why;
+  if (!mca::cuda_device(&why).empty()) return;  // (a GPU here: cuda runs)
+  const Result cuda = run_mca("info --backend cuda --json");
+  ASSERT_EQ(cuda.code, 0) << cuda.output;
+  const auto j = nlohmann::json::parse(cuda.output);
+  EXPECT_EQ(j["backend"], "cuda");  // (it read "cuda (not available here)")
+  EXPECT_EQ(j["backend_runs_here"], false);
+  EXPECT_EQ(j["cuda_unavailable"], why);
+  const Result text = run_mca("info --backend cuda");
+  EXPECT_NE(text.output.find("backend          cuda (--backend), which cannot run here: " + why), std::string::npos)
+      << text.output;
+}
+
 // Writes `text` as a scene in a fresh folder `name`, then reads `mca info --json` of it and runs it: the
 // info and the run's summary.json.
 void info_and_run(const std::string& name, const std::string& text, nlohmann::json& info, nlohmann::json& summary) {
