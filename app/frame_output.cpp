@@ -332,6 +332,10 @@ MemoryEstimate estimate_memory(const Model& m, const OutputDef& o, int render_wi
   return e;
 }
 
+double emulated_gpu_bytes(const std::string& backend_name, std::size_t held) {
+  return backend_name.rfind("cuda-emulation", 0) == 0 ? static_cast<double>(held) : 0.0;
+}
+
 void check_memory_fits(const MemoryEstimate& e, const SceneDef& scene) {
   const lattice::MemoryLimit limit = lattice::memory_limit(scene);
   const double need = e.run();
@@ -346,7 +350,9 @@ void check_memory_fits(const MemoryEstimate& e, const SceneDef& scene) {
       {e.meshes, "mesh objects", "use meshes of fewer triangles"},
       {e.surface_output, "surface output", "leave out the surface output (output.surface = false)"},
       {e.fragment_meshes, "fragment meshes", "leave out the fragment meshes (output.fragments = false)"},
-      {e.render, "rendering", "render smaller pictures (--render-size) or leave out --render"}};
+      {e.render, "rendering", "render smaller pictures (--render-size) or leave out --render"},
+      {e.emulated_gpu, "the emulated GPU's arrays",
+       "run it on the CPU backend (--backend cpu: the same bits, without the emulation's copy of the state)"}};
   std::erase_if(parts, [](const Part& p) { return p.bytes <= 0; });
   std::sort(parts.begin(), parts.end(), [](const Part& a, const Part& b) { return a.bytes > b.bytes; });
   std::vector<std::string> listed;

@@ -125,9 +125,10 @@ int info(const std::optional<std::string>& path, bool json, const std::optional<
   const Model& m = sim.model();
   const std::int64_t frames = sim.frame_count();
   const std::int64_t steps = sim.total_steps();
-  const MemoryEstimate memory = estimate_memory(m, scene.output);
+  MemoryEstimate memory = estimate_memory(m, scene.output);
   const double bytes = memory.arrays;  // the arrays, the options' per-slot ones included
-  const MemoryEstimate memory_rendered = estimate_memory(m, scene.output, 1280, 720);
+  MemoryEstimate memory_rendered = estimate_memory(m, scene.output, 1280, 720);
+  memory.emulated_gpu = memory_rendered.emulated_gpu = emulated_gpu_bytes(backend_name, gpu_bytes.value_or(0));
   // What a run writes (frame 0 and `frames` more), and the pictures --render adds at its default size.
   const OutputEstimate output = estimate_output(m, scene.output, frames + 1);
   const OutputEstimate rendered = estimate_output(m, scene.output, frames + 1, 1280, 720);
@@ -283,6 +284,7 @@ int info(const std::optional<std::string>& path, bool json, const std::optional<
   if (memory.meshes > 0) parts += fmt::format("; mesh objects {:.1f} MB", memory.meshes / 1e6);
   if (memory.surface_output > 0) parts += fmt::format("; output.surface {:.1f} MB", memory.surface_output / 1e6);
   if (memory.fragment_meshes > 0) parts += fmt::format("; output.fragments {:.1f} MB", memory.fragment_meshes / 1e6);
+  if (memory.emulated_gpu > 0) parts += fmt::format("; the emulated GPU's arrays {:.1f} MB", memory.emulated_gpu / 1e6);
   if (memory.build > memory.run())
     fmt::print("memory estimate  {:.1f} MB at the peak of the build (the arrays over the mesh objects' boxes of "
                "cells and the model's {:.1f} MB: parts of a mesh far apart are a box of mostly empty cells, give each "

@@ -19,6 +19,7 @@
 
 #include "app/commands.hpp"
 #include "app/frame_output.hpp"
+#include "backend/cuda/device_memory.hpp"
 #include "app/render_output.hpp"
 #include "backend/backend.hpp"
 #include "core/files.hpp"
@@ -295,11 +296,14 @@ std::size_t stage_end_outputs(io::StagedRemoval& removal, const std::filesystem:
 
 // What a session writes (`frames` more, pictures of render_width x render_height, 0 for none) must fit the
 // disk in `dir`, and its peak the memory (check_output_fits, check_memory_fits); returns the disk estimate.
-OutputEstimate check_run_fits(const Model& m, const SceneDef& scene, std::int64_t frames, int render_width,
+OutputEstimate check_run_fits(const Engine& sim, const SceneDef& scene, std::int64_t frames, int render_width,
                               int render_height, const std::filesystem::path& dir) {
+  const Model& m = sim.model();
   const OutputEstimate estimate = estimate_output(m, scene.output, frames, render_width, render_height);
   check_output_fits(estimate, dir, scene);
-  check_memory_fits(estimate_memory(m, scene.output, render_width, render_height), scene);
+  MemoryEstimate memory = estimate_memory(m, scene.output, render_width, render_height);
+  memory.emulated_gpu = emulated_gpu_bytes(sim.backend().name(), gpu::DeviceMemory::held());
+  check_memory_fits(memory, scene);
   return estimate;
 }
 
@@ -718,7 +722,7 @@ int run(const RunOptions& o) {
   const Plan plan = make_plan(sim, o.steps);
   // What the run will write must fit the disk (frame_rate = 1e9 plans 4,000,000 frames, terabytes).
   const OutputEstimate estimate =
-      check_run_fits(sim.model(), scene, plan.total_frames + 1, o.render ? ro.width : 0, o.render ? ro.height : 0, dir);
+      check_run_fits(sim, scene, plan.total_frames + 1, o.render ? ro.width : 0, o.render ? ro.height : 0, dir);
   if (!o.quiet) {
     // Which lattice the volume fills are on (the default changed to the random one: a scene written for the
     // cubic lattice that does not say so runs on the random one).
@@ -861,7 +865,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   io::check_output_subfolders(dir, run_subfolders(cp.scene, will_render));
   check_run_names_are_files(dir);
   io::check_inputs_outside_subfolders(dir, mesh_inputs(cp.scene));
-  check_run_fits(sim.model(), cp.scene, plan.total_frames + 1 - cp.frame, will_render ? rendered->width : 0,
+  check_run_fits(sim, cp.scene, plan.total_frames + 1 - cp.frame, will_render ? rendered->width : 0,
                  will_render ? rendered->height : 0, dir);
   // Rows past the checkpoint (frames the interrupted run wrote after it) are dropped: they are written
   // again as the run continues. Read before any file is touched: a stats file that cannot be read stops

@@ -11,7 +11,10 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <functional>
+#include <iterator>
 #include <map>
 #include <optional>
 #include <string>
@@ -1224,6 +1227,31 @@ TEST(CudaEmulation, InfoAndBenchSayWhereTheGpusMemoryIsTooSmall) {
                                         " bench wall_3k walls_12k --backend cuda-emulation --steps 5 --repeats 1 2>&1");
   EXPECT_EQ(text.code, 2);
   EXPECT_NE(text.output.find("error: benchmark 'walls_12k': the GPU's memory is full"), std::string::npos) << text.output;
+}
+
+// The emulation keeps its device arrays in the host's memory: the memory estimate and solver.max_memory_gb
+// count them (a review ran a wall at 187 MB under a limit of 160 MB that mca info put at 141 MB). A limit
+// between the two estimates refuses the emulation's run and lets the CPU's go.
+TEST(CudaEmulation, TheEmulatedGpusArraysCountInTheMemoryEstimate) {
+  const test::TempDir tmp;
+  const double cpu_bytes = nlohmann::json::parse(test::run_mca("info --json --backend cpu").output)["memory_bytes"].get<double>();
+  const auto emulated = nlohmann::json::parse(test::run_mca("info --json --backend cuda-emulation").output);
+  const double gpu_bytes = emulated["gpu_memory_bytes"].get<double>();
+  EXPECT_DOUBLE_EQ(emulated["memory_bytes"].get<double>(), cpu_bytes + gpu_bytes);
+  const std::filesystem::path scene = tmp.path() / "capped.toml";
+  std::ifstream in(scene_file("wall_ball.toml"));
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  text.replace(text.find("[solver]\n"), 9,
+               fmt::format("[solver]\nmax_memory_gb = {:.6f}\n", (cpu_bytes + 0.5 * gpu_bytes) / 1e9));
+  std::ofstream(scene) << text;
+  const test::Result refused = test::run_mca("run " + scene.string() + " --steps 1 -q --no-vtk --backend cuda-emulation --out " +
+                                             (tmp.path() / "emulated").string());
+  EXPECT_EQ(refused.code, 2) << refused.output;
+  EXPECT_NE(refused.output.find("the emulated GPU's arrays"), std::string::npos) << refused.output;
+  EXPECT_NE(refused.output.find("over solver.max_memory_gb"), std::string::npos) << refused.output;
+  const test::Result cpu = test::run_mca("run " + scene.string() + " --steps 1 -q --no-vtk --backend cpu --out " +
+                                         (tmp.path() / "cpu").string());
+  EXPECT_EQ(cpu.code, 0) << cpu.output;
 }
 
 // MCA_PROFILE: 0 or empty is off, 1 on, anything else refused before anything is built.
