@@ -1254,6 +1254,21 @@ TEST(CudaEmulation, TheEmulatedGpusArraysCountInTheMemoryEstimate) {
   EXPECT_EQ(cpu.code, 0) << cpu.output;
 }
 
+// MCA_CUDA_SYNC alike (it took "true" or "yes" for off without a word).
+TEST(CudaEmulation, ACudaSyncSettingThatIsNeitherZeroNorOneIsRefused) {
+  for (const char* given : {"2", "yes", "true", " 1"}) {
+    const ForceEnv sync("MCA_CUDA_SYNC", given);
+    const std::string e = error_of([] { Engine::check_environment(); });
+    EXPECT_NE(e.find(fmt::format("MCA_CUDA_SYNC = '{}': give 1", given)), std::string::npos) << e;
+  }
+  for (const auto& [given, on] : {std::pair{"", false}, {"0", false}, {"1", true}}) {
+    const ForceEnv sync("MCA_CUDA_SYNC", given);
+    EXPECT_EQ(cuda_sync_requested(), on) << given;
+  }
+  const test::Result r = test::shell("MCA_CUDA_SYNC=yes " + std::string(MCA_BINARY) + " info");
+  EXPECT_EQ(r.code, 2) << r.output;
+}
+
 // MCA_PROFILE: 0 or empty is off, 1 on, anything else refused before anything is built.
 TEST(CudaEmulation, AProfileSettingThatIsNeitherZeroNorOneIsRefused) {
   for (const char* given : {"2", "yes", "true", " 1", "01"}) {

@@ -10,14 +10,23 @@
 
 namespace mca {
 
-bool profile_requested() {
-  const char* env = std::getenv("MCA_PROFILE");
+namespace {
+// An on/off variable: unset, empty or 0 off, 1 on; anything else an mca::Error naming it and what 1 does.
+bool switched_on(const char* name, const char* what_one_does) {
+  const char* env = std::getenv(name);
   const std::string_view v = env ? env : "";
   if (v.empty() || v == "0") return false;
   if (v == "1") return true;
-  throw Error(fmt::format("MCA_PROFILE = '{}': give 1 (print the time of each pass of the step when the backend "
-                          "ends) or 0, or unset it",
-                          v));
+  throw Error(fmt::format("{} = '{}': give 1 ({}) or 0, or unset it", name, v, what_one_does));
+}
+}  // namespace
+
+bool profile_requested() {
+  return switched_on("MCA_PROFILE", "print the time of each pass of the step when the backend ends");
+}
+
+bool cuda_sync_requested() {
+  return switched_on("MCA_CUDA_SYNC", "the CUDA backend waits for each kernel, so that an error names the kernel");
 }
 
 double machine_memory_bytes() {

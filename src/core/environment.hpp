@@ -8,6 +8,11 @@ namespace mca {
 // CUDA backend also its reads and device memory). Any other value is an mca::Error naming it.
 bool profile_requested();
 
+// MCA_CUDA_SYNC: unset, empty or 0: off; 1: the CUDA backend waits for each kernel after its launch, so that a
+// kernel that fails is named (it is otherwise reported by the next call that waits). Any other value is an
+// mca::Error naming it (a "true" or "yes" was taken for off without a word).
+bool cuda_sync_requested();
+
 // The machine's physical memory in bytes, 0 where the system does not say.
 double machine_memory_bytes();
 

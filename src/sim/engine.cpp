@@ -22,6 +22,7 @@ void Engine::check_environment() {
   cuda_lattice();
   gpu::emulated_gpu_memory();
   profile_requested();
+  cuda_sync_requested();
 }
 
 SolverDef::Backend backend_from_name(const std::string& name, const std::string& option) {

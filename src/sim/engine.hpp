@@ -63,8 +63,8 @@ class Engine {
 
   // Checks what the environment asks of the backend (MCA_SIMD: an instruction set this processor runs;
   // MCA_BACKEND: a backend; MCA_CUDA_LATTICE: fused, fused:2, fused:3, fused:4 or split;
-  // MCA_EMULATED_GPU_MEMORY_MB: a number of MB; MCA_PROFILE: 0 or 1), so that a command can refuse a bad setting before it writes
-  // anything. Throws mca::Error.
+  // MCA_EMULATED_GPU_MEMORY_MB: a number of MB; MCA_PROFILE, MCA_CUDA_SYNC: 0 or 1), so that a command can refuse a
+  // bad setting before it writes anything. Throws mca::Error.
   static void check_environment();
 
   static constexpr std::int64_t kEnergyCheckInterval = 256;

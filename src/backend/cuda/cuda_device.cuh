@@ -29,6 +29,7 @@
 #include "backend/cuda/device_memory.hpp"
 #include "backend/cuda/profile.hpp"
 #include "render/draw_list.hpp"
+#include "core/environment.hpp"
 #include "mca/error.hpp"
 
 namespace mca::gpu {
@@ -41,10 +42,7 @@ inline void cuda_check(cudaError_t e, const char* what) {
 // faults is otherwise reported by the next call that waits for the device, under that call's name).
 inline void launched(const std::string& name) {
   cuda_check(cudaGetLastError(), ("launching " + name).c_str());
-  static const bool wait = [] {
-    const char* given = std::getenv("MCA_CUDA_SYNC");
-    return given != nullptr && std::string(given) == "1";
-  }();
+  static const bool wait = cuda_sync_requested();  // (checked with the others by Engine::check_environment)
   if (wait) cuda_check(cudaDeviceSynchronize(), name.c_str());
 }
 
