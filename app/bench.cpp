@@ -324,11 +324,18 @@ int bench(const std::vector<std::string>& names, bool json, int threads_requeste
         broken_after = sim.state().broken_by[0] + sim.state().broken_by[1];
         contacts = sim.state().contacts.size();
       }
-      const double med = median(rates);
+      // The rate of the median run (of an even count, the mean of the two middle runs' times): steps over
+      // median_wall_seconds, as the two figures printed beside each other must agree.
+      const double med = static_cast<double>(n) * steps / median(walls);
+      const std::string name = sim.backend().name();
       if (json) {
+        const CudaLattice how = cuda_lattice();
         out.push_back({{"name", b.name}, {"description", b.description}, {"automata", n},
                        {"links", sim.model().link_count()}, {"steps", steps}, {"repeats", repeats}, {"threads", threads},
-                       {"backend", sim.backend().name()},
+                       {"backend", name}, {"steps_run_on", steps_run_on(name, threads)},
+                       {"cuda_lattice", name.rfind("cpu", 0) == 0 ? nlohmann::json(nullptr)
+                                        : how.fused ? nlohmann::json(fmt::format("fused:{}", how.blocks))
+                                                    : nlohmann::json("split")},
                        {"median_wall_seconds", median(walls)}, {"automaton_steps_per_second", med},
                        {"all_automaton_steps_per_second", rates},
                        {"links_broken_during_timed_steps", broken_after - broken_before},

@@ -138,20 +138,23 @@ int main(int argc, char** argv) {
   bench->add_flag("--json", bench_json, "Machine-readable output");
   bench->add_option("--threads", bench_threads, "Worker threads (0 = all cores)")
       ->check(kThreads);
-  bench->add_option("--repeats", bench_repeats, "Timed runs per benchmark (the median is reported)")
-      ->check(whole_number(1, kIntMax, "a number of timed runs"));
+  auto* bench_repeats_opt = bench->add_option("--repeats", bench_repeats, "Timed runs per benchmark (the median is reported)")
+                                 ->check(whole_number(1, kIntMax, "a number of timed runs"));
   auto* bench_steps_opt = bench->add_option("--steps", bench_steps, "Steps per timed run (with --render: per frame, default 1)")
                                ->check(whole_number(1, kIntMax, "a number of steps"));
   std::optional<std::string> bench_backend;
   bench->add_option("--backend", bench_backend, "Backend to measure: auto, cpu, cuda, cuda-emulation");
   bool bench_render = false;
   int bench_frames = 10;
-  bench->add_flag("--render", bench_render,
+  auto* bench_render_opt = bench->add_flag("--render", bench_render,
                   "Frames per second of the renderer (1280x720 offscreen, --steps per frame, 1 by default): wall_3k, walls_12k, "
                   "wall_357k, wall_357k_spheres, bunny_cubes, bunny_surface, cow_cubes, cow_surface, armadillo_cubes, "
                   "armadillo_surface");
+  // (Each of --repeats and --frames belongs to one kind of benchmark: given to the other, it was ignored.)
   bench->add_option("--frames", bench_frames, "Frames timed per render benchmark (the median is reported)")
-      ->check(whole_number(1, kIntMax, "a number of frames"));
+      ->check(whole_number(1, kIntMax, "a number of frames"))
+      ->needs(bench_render_opt);
+  bench_repeats_opt->excludes(bench_render_opt);
 
   // A command line that does not parse is a user error like any other: exit code 2 (CLI11's own codes
   // are 100 and up), 0 for --help and --version.

@@ -709,6 +709,8 @@ TEST(Cli, BadInputFailsWithAClearMessage) {
            {"run --steps 1.5", "1.5 is not a whole number from 1"},
            {"resume x --threads -1", "-1 is not a whole number from 0 to 2147483647"},
            {"bench --repeats 0", "0 is not a whole number from 1 to 2147483647; give a number of timed runs"},
+           {"bench --frames 3 wall_3k", "--frames requires --render"},  // (each was ignored by the other kind)
+           {"bench --render --repeats 3 wall_3k", "--repeats excludes --render"},
            {"view --frames 1e3", "1e3 is not a whole number from 1 to 2147483647; give a number of frames"}}) {
     r = run_mca(args);
     EXPECT_EQ(r.code, 2) << args;
@@ -723,6 +725,17 @@ TEST(Cli, BadInputFailsWithAClearMessage) {
   r = run_mca("bench no_such_bench");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("wall_357k"), std::string::npos) << r.output;
+  // The rate is the median run's: steps over median_wall_seconds, also of an even count of runs (it was the
+  // mean of the two middle rates, not the rate of the two middle times).
+  r = run_mca("bench wall_3k --steps 2 --repeats 2 --json --threads 1");
+  ASSERT_EQ(r.code, 0) << r.output;
+  {
+    const auto j = nlohmann::json::parse(r.output)[0];
+    EXPECT_DOUBLE_EQ(j["automaton_steps_per_second"].get<double>(),
+                     j["automata"].get<double>() * 2 / j["median_wall_seconds"].get<double>());
+    EXPECT_EQ(j["steps_run_on"], "1 thread");
+    EXPECT_TRUE(j["cuda_lattice"].is_null());
+  }
   r = run_mca("resume " + (d / "empty").string());
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("checkpoint"), std::string::npos) << r.output;

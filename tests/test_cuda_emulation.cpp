@@ -1223,6 +1223,8 @@ TEST(CudaEmulation, InfoAndBenchSayWhereTheGpusMemoryIsTooSmall) {
   const auto j = nlohmann::json::parse(r.output.substr(0, rc));
   ASSERT_EQ(j.size(), 1u) << r.output;
   EXPECT_EQ(j[0]["name"], "wall_3k");
+  EXPECT_EQ(j[0]["steps_run_on"], "one core");
+  EXPECT_EQ(j[0]["cuda_lattice"], "fused:3");
   const test::Result text = test::shell("MCA_EMULATED_GPU_MEMORY_MB=4 " + std::string(MCA_BINARY) +
                                         " bench wall_3k walls_12k --backend cuda-emulation --steps 5 --repeats 1 2>&1");
   EXPECT_EQ(text.code, 2);
