@@ -87,7 +87,9 @@ DeviceMemoryFull out_of_device_memory(std::size_t asked, std::size_t free, std::
                                       : fmt::format("the GPU has {} free of {} (other programs may hold some)", mb(free),
                                                     mb(total));
   return DeviceMemoryFull(fmt::format(
-      "the GPU's memory is full: mca asked for {} more, holding {} there, and {}. This scene needs more GPU memory: "
+      "the GPU's memory is full: mca asked for {} more, holding {} there (all of this process's simulations: in "
+      "Python, each Simulation still alive, or an array view of one, holds its own), and {}. This scene needs more GPU "
+      "memory: "
       "use backend \"cpu\" (--backend cpu, or solver.backend; a run stopped by this continues from its last "
       "checkpoint with mca resume DIR --backend cpu), a larger solver.spacing, or {}",
       mb(asked), mb(DeviceMemory::held()), room,
