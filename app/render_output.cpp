@@ -10,6 +10,7 @@
 #include <thread>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <spawn.h>
@@ -326,14 +327,25 @@ void RenderOutput::finish() {
   std::vector<render::Image> tiles;
   for (auto& [frame, im] : sheet_) tiles.push_back(std::move(im));
   sheet_.clear();
-  if (!tiles.empty() && !sheet_kept_)
-    write_bytes(dir_ / "contact_sheet.png", render::encode_png(render::tile(tiles, kSheetColumns, 4)));
+  // The sheet is made of frames on the disk: one that cannot be written is a warning naming them, as a
+  // video that cannot be made is (the run and its frames are whole).
+  bool sheet = !tiles.empty() && !sheet_kept_;
+  if (sheet) {
+    try {
+      write_bytes(dir_ / "contact_sheet.png", render::encode_png(render::tile(tiles, kSheetColumns, 4)));
+    } catch (const Error& e) {
+      sheet = false;
+      std::vector<std::string> names;
+      for (const std::int64_t f : sheet_frames(frames_)) names.push_back(frame_name(f));
+      fmt::print(stderr, "warning: {}; the contact sheet is not written: it shows {} in {} (at half size, {} a row)\n",
+                 e.what(), fmt::join(names, ", "), dir_.string(), kSheetColumns);
+    }
+  }
   seconds_ += seconds_since(t0);
   if (!quiet_) {
-    fmt::print(stderr, "render: {} frames (frame_NNNNNN.png) and contact_sheet.png in {}{} ({:.1f} s of drawing and "
-               "writing)\n",
-               frames_ + 1 - lost_, dir_.string(), lost_ ? fmt::format(", {} lost before a resume", lost_) : "",
-               seconds_);
+    fmt::print(stderr, "render: {} frames (frame_NNNNNN.png){} in {}{} ({:.1f} s of drawing and writing)\n",
+               frames_ + 1 - lost_, sheet || sheet_kept_ ? " and contact_sheet.png" : "", dir_.string(),
+               lost_ ? fmt::format(", {} lost before a resume", lost_) : "", seconds_);
     if (std::filesystem::exists(dir_ / "video.mp4"))
       fmt::print(stderr, "video: {} ({} frames at {:g} frames/s: {:.3g} s)\n", (dir_ / "video.mp4").string(),
                  frames_ + 1, fps_, static_cast<double>(frames_ + 1) / fps_);  // (3 frames at 240/s read "0.0 s")

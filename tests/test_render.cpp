@@ -467,6 +467,25 @@ TEST(Render, TheVideoCommandOfTheWarningMakesTheVideoInAnOddlyNamedFolder) {
   EXPECT_EQ(std::distance(fs::directory_iterator(d.path()), fs::directory_iterator{}), 2) << "the command wrote elsewhere";
 }
 
+// A contact sheet that cannot be written (a full disk at it) stopped the run with exit 2 after its summary
+// said "finished", with no word on how to have it; it is a warning naming the frames it shows, as a video
+// that cannot be made is.
+TEST(Render, AContactSheetThatCannotBeWrittenIsAWarningNamingItsFrames) {
+  TempDir d;
+  const fs::path out = d.path() / "out";
+  const Result r = test::run_mca_full_at("render/contact_sheet.png", "run " + kCubicWall +
+                                                                         " -q --duration 0.004 --render --render-size 64x48 --out " +
+                                                                         out.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("No space left on device"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("the contact sheet is not written: it shows frame_000000.png, frame_000001.png, "
+                          "frame_000002.png in " + (out / "render").string()),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(fs::exists(out / "render" / "contact_sheet.png"));
+  EXPECT_TRUE(fs::exists(out / "render" / "frame_000002.png"));
+}
+
 // A relative output folder that ffmpeg read as an option ("-odd") or a protocol ("run:1", an ISO time) left
 // the run without its video (a warning, exit 0); "tcp:host:port" had ffmpeg open a connection. The run's
 // encoder and the command its warning gives name such a path "./" first.
