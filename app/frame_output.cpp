@@ -121,6 +121,36 @@ std::string surface_format_note(const SceneDef& scene) {
                 "objects, and the scene has none";
 }
 
+std::string coarse_surface_note(const Model& m, const SceneDef& scene) {
+  // The bound surface opens only between whole triangles, each carried by one automaton: a volume-filled
+  // mesh of triangles spanning several automata shows none of the cracks inside them (a box of 12 triangles
+  // shattered into dozens of pieces stayed a closed box in surface.pvd). Surface-mode objects are their
+  // triangles, one automaton each.
+  if (!scene.output.surface || m.surface.faces() == 0) return "";
+  std::vector<char> shell(scene.objects.size());
+  for (const MeshSummary& ms : m.meshes)
+    if (ms.surface && ms.object >= 0 && static_cast<std::size_t>(ms.object) < shell.size()) shell[ms.object] = 1;
+  const double limit = 3 * m.spacing;
+  std::size_t volume_faces = 0, coarse = 0;
+  double longest = 0;
+  for (std::size_t f = 0; f < m.surface.faces(); ++f) {
+    if (shell[static_cast<std::size_t>(m.object[m.surface.automaton[f]])]) continue;
+    ++volume_faces;
+    const Vec3* c = &m.surface.offset[3 * f];
+    const double edge = std::max({static_cast<double>(length(c[1] - c[0])), static_cast<double>(length(c[2] - c[1])),
+                                  static_cast<double>(length(c[0] - c[2]))});
+    longest = std::max(longest, edge);
+    if (edge > limit) ++coarse;
+  }
+  if (coarse == 0 || 10 * coarse < volume_faces) return "";
+  return fmt::format(
+      "output.surface: {} of the {} triangles of the volume-filled mesh objects are longer than 3 spacings (up to "
+      "{:.3g} m at spacing {:.3g} m); the surface opens only between whole triangles, each carried by one automaton, "
+      "so the cracks inside them do not show in surface.pvd; subdivide the mesh to about the spacing (Blender's "
+      "Subdivide or Remesh) for a surface that opens with the lattice",
+      coarse, volume_faces, longest, m.spacing);
+}
+
 std::vector<std::string> strain_limit_notes(const Model& m) {
   // In uniaxial tension the stress criterion ends a link at the strain c sigma_t / E, the displacement
   // criterion at eps_b (class factors and link strengths scale both alike, softening both by its factor
@@ -159,6 +189,7 @@ std::vector<std::string> scene_notes(const Model& m, const SceneDef& scene) {
   for (std::string& n : mesh_mass_notes(m)) notes.push_back(std::move(n));
   if (std::string n = step_note(m); !n.empty()) notes.push_back(std::move(n));
   if (std::string n = surface_format_note(scene); !n.empty()) notes.push_back(std::move(n));
+  if (std::string n = coarse_surface_note(m, scene); !n.empty()) notes.push_back(std::move(n));
   return notes;
 }
 

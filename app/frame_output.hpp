@@ -66,6 +66,9 @@ std::string step_note(const Model& model);
 // whose surface it could write), so that nothing is written in it; "" otherwise (the default "ply" cannot
 // be told from one given).
 std::string surface_format_note(const SceneDef& scene);
+// output.surface on volume-filled mesh objects of triangles longer than 3 spacings (a tenth of them or
+// more): the surface opens only between whole triangles, so the cracks inside them do not show; "" else.
+std::string coarse_surface_note(const Model& model, const SceneDef& scene);
 // A note for each material the automata use whose links reach fracture_strain before the strain at which
 // the stress criterion ends them in tension (c tensile_strength / youngs_modulus): they break by
 // displacement, weaker than the strength says, their softening cut short.

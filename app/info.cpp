@@ -151,6 +151,7 @@ int info(const std::optional<std::string>& path, bool json, const std::optional<
     if (const auto notes = strain_limit_notes(m); !notes.empty()) j["strain_limit_notes"] = notes;
     if (const std::string note = step_note(m); !note.empty()) j["step_note"] = note;
     if (const std::string note = surface_format_note(scene); !note.empty()) j["surface_format_note"] = note;
+    if (const std::string note = coarse_surface_note(m, scene); !note.empty()) j["coarse_surface_note"] = note;
     j["simulated_time"] = static_cast<double>(steps) * m.dt;
     j["frame_interval"] = sim.frame_interval();
     j["steps_per_frame"] = sim.steps_per_frame();

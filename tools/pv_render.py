@@ -4,8 +4,8 @@ Usage (no display needed):
     xvfb-run -a pvbatch tools/pv_render.py OUT/series.pvd out.png [--field NAME] [--time last]
         [--size 1280x720] [--point-size 6]
 
---field   array to colour by, of the points or the cells (surface.pvd's fragment; vectors by magnitude);
-          default: 'damage' if present, else the first
+--field   array to colour by, of the points or the cells (surface.pvd's fragment; vectors by magnitude;
+          fragment by a hue of its own for each id); default: 'damage' if present, else the first
 --time    'first', 'last' (default), a step index such as '#3', or a time value (the nearest step is used)
 
 The printed summary (time steps, points, cells, arrays with ranges) is what ParaView itself read, which
@@ -16,8 +16,15 @@ import math
 import os
 import sys
 
-from paraview.simple import (ColorBy, GetActiveViewOrCreate, GetDisplayProperties, OpenDataFile,
-                             PVDReader, ResetCamera, SaveScreenshot, Show, UpdatePipeline)
+from paraview.simple import (Calculator, ColorBy, GetActiveViewOrCreate, GetColorTransferFunction,
+                             GetDisplayProperties, OpenDataFile, PVDReader, ResetCamera, SaveScreenshot, Show,
+                             UpdatePipeline)
+
+# Arrays that number things (a fragment's id, heaviest first): coloured by a hue spread from the id, so that
+# neighbouring ids (the largest pieces, 0, 1, 2, ...) differ, where a continuous map over 0..N-1 gave the
+# first few of hundreds one blue.
+LABEL_ARRAYS = {"fragment"}
+GOLDEN = 0.6180339887498949
 
 
 def parse_args():
@@ -127,13 +134,29 @@ def main():
     view.ViewSize = [width, height]
     if time is not None:
         view.ViewTime = time
-    display = Show(reader, view)
+    shown = reader
+    label = field in LABEL_ARRAYS
+    if label:
+        where = arrays[field][0]
+        hue_name = f"{field}_hue"
+        shown = Calculator(Input=reader, ResultArrayName=hue_name,
+                           Function=f"{field}*{GOLDEN}-floor({field}*{GOLDEN})",
+                           AttributeType="Point Data" if where == "POINTS" else "Cell Data")
+        UpdatePipeline(proxy=shown, **({} if time is None else {"time": time}))
+    display = Show(shown, view)
     # Vertex cells draw as points and the optional link lines as lines under 'Surface'.
     display.SetRepresentationType("Surface")
     display.PointSize = args.point_size
     display.RenderPointsAsSpheres = 1
     display.LineWidth = 1.0
-    if field:
+    if field and label:
+        ColorBy(display, (where, hue_name))
+        lut = GetColorTransferFunction(hue_name)
+        lut.ApplyPreset("Rainbow Uniform", True)
+        lut.RescaleTransferFunction(0.0, 1.0)
+        display.SetScalarBarVisibility(view, False)  # (a hue per id: no scale to read)
+        print(f"coloured by: {field} (a hue per id)")
+    elif field:
         where, array = arrays[field]
         components = array.GetNumberOfComponents()
         if components > 1:
