@@ -782,7 +782,21 @@ std::vector<std::int64_t> FrameWriter::restore(std::int64_t frames,
   // A frame is listed whole or not at all: collections that each left out their own missing files no
   // longer lined up (a reader pairs their entries), and a frame written again was listed twice.
   std::vector<std::int64_t> missing;
-  const auto there = [&](const std::string& name) { return std::filesystem::is_regular_file(dir_ / name); };
+  // A file is there whole: a regular file, not empty, and a VTK file ending as the writer ends it (an empty
+  // or cut-short frame, an interrupted copy of the folder, was listed, and ParaView read no points there).
+  const auto there = [&](const std::string& name) {
+    const std::filesystem::path p = dir_ / name;
+    std::error_code ec;
+    const auto size = std::filesystem::file_size(p, ec);
+    if (ec || size == 0 || !std::filesystem::is_regular_file(p, ec)) return false;
+    const std::string_view end = "</VTKFile>\n";
+    if (!name.ends_with(".vtu") && !name.ends_with(".vtp")) return true;
+    if (size < end.size()) return false;
+    std::ifstream in(p, std::ios::binary);
+    std::string tail(end.size(), '\0');
+    in.seekg(static_cast<std::streamoff>(size - end.size()));
+    return static_cast<bool>(in.read(tail.data(), static_cast<std::streamsize>(tail.size()))) && tail == end;
+  };
   for (std::int64_t f = 0; f < frames; ++f) {
     const std::string automata = fmt::format("frames/automata_{:06d}.vtu", f);
     const std::string surface = fmt::format("frames/surface_{:06d}.vtp", f);

@@ -213,8 +213,9 @@ class FrameWriter {
   // unique per process, so nothing else would ever replace them).
   static void remove_stale_temporaries(const std::filesystem::path& dir);
   // Rebuilds the .pvd collections after a resume from the frames 0..frames-1 whose files are all on disk
-  // (frame f at time_of(f)), and writes them; returns the frames of which a file is missing (removed since
-  // the run wrote it), which every collection leaves out.
+  // whole (frame f at time_of(f)), and writes them; returns the frames of which a file is missing (removed
+  // since the run wrote it), empty or cut short (a VTK file that does not end as written), which every
+  // collection leaves out.
   std::vector<std::int64_t> restore(std::int64_t frames, const std::function<double(std::int64_t)>& time_of);
   static std::vector<std::string> stats_header(const Model& model);
   // At the end of a run (output.fragments): fragments/fragment_NNN.ply for each fragment of more than

@@ -924,8 +924,8 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   const bool own_frame_lost = !missing.empty() && missing.back() == cp.frame - 1;
   if (own_frame_lost) missing.pop_back();
   if (!missing.empty())
-    fmt::print(stderr, "warning: {} lacks files of {} of the {} frames before the checkpoint (frame{} {}); {}a "
-               "resume cannot write them again\n",
+    fmt::print(stderr, "warning: {} lacks whole files (missing, empty or cut short) of {} of the {} frames before "
+               "the checkpoint (frame{} {}); {}a resume cannot write them again\n",
                dir.string(), missing.size(), cp.frame - 1, missing.size() > 1 ? "s" : "", text::number_runs(missing),
                cp.scene.output.vtk ? "the .pvd collections list the frames that are whole, and " : "");
   writer.start_stats(rows);
