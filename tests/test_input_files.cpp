@@ -156,6 +156,15 @@ TEST(InputFiles, APathThatCannotBeFollowedNamesTheReason) {
   r = mca_limited("resume " + a.string());
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_HAS(r.output, "'" + a.string() + "' cannot be reached (" + loop + ")");
+  // A link to a folder not made yet said "File exists ... fix its permissions".
+  fs::create_symlink(t.path() / "not_yet", t.path() / "scratch");
+  r = mca_limited("run -q --steps 1 --out " + (t.path() / "scratch").string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_HAS(r.output, "is not usable: it is a symbolic link to '" + (t.path() / "not_yet").string() +
+                           "', which does not exist; make that folder first (mkdir -p " + (t.path() / "not_yet").string() + ")");
+  r = mca_limited("run -q --steps 1 --out " + a.string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_HAS(r.output, "is not usable: " + loop);
   const fs::path long_name = t.path() / std::string(300, 'a');
   r = mca_limited("run -q --steps 1 --out " + long_name.string());
   EXPECT_EQ(r.code, 2) << r.output;

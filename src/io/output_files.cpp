@@ -17,6 +17,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/text.hpp"
 #include "mca/error.hpp"
 
 namespace mca::io {
@@ -51,6 +52,12 @@ void prepare_output_dir(const fs::path& dir) {
   };
 
   std::error_code ec;
+  // A link to a folder not made yet (a scratch disk's): "File exists" said neither.
+  if (fs::is_symlink(fs::symlink_status(dir, ec)) && !fs::exists(dir, ec) && !ec) {  // (a loop sets ec)
+    const fs::path target = fs::read_symlink(dir, ec);
+    throw fail(fmt::format("it is a symbolic link to '{}', which does not exist; make that folder first (mkdir -p {})",
+                           target.string(), text::shell_word((dir.parent_path() / target).lexically_normal().string())));
+  }
   fs::create_directories(dir, ec);
   if (ec) throw fail(ec.message());
   if (!fs::is_directory(dir, ec)) throw fail("it exists and is not a folder");
