@@ -43,4 +43,14 @@ velocity = [0, 60, 0]
   return p;
 }
 
+// small_scene with more keys in its [output] table (each line "key = value\n").
+inline std::filesystem::path small_scene_with_output(const std::filesystem::path& dir, const std::string& keys,
+                                                     const std::string& name = "small") {
+  const std::filesystem::path p = small_scene(dir, "", name);
+  std::string text = read(p);
+  text.replace(text.find("[output]\n"), 9, "[output]\n" + keys);
+  std::ofstream(p) << text;
+  return p;
+}
+
 }  // namespace mca::test

@@ -852,12 +852,7 @@ fs::path checkpointed_run(const fs::path& d) {
 TEST(Cli, AFileWhereARunWritesAFolderIsRefusedBeforeItStarts) {
   const fs::path d = fresh_dir("file_as_folder");
   // The small scene with fragment meshes (output.fragments).
-  const fs::path scene = small_scene(d);
-  {
-    std::string text = read(scene);
-    text.replace(text.find("[output]\n"), 9, "[output]\nfragments = true\n");
-    std::ofstream(scene) << text;
-  }
+  const fs::path scene = mca::test::small_scene_with_output(d, "fragments = true\n");
   for (const char* sub : {"frames", "checkpoints", "fragments", "render"}) {
     SCOPED_TRACE(sub);
     const fs::path out = d / sub;
@@ -1008,12 +1003,7 @@ TEST(Cli, AFileSizeLimitIsAWriteErrorThatNamesTheFile) {
 // frame, and the resume writes the end from it, with the uninterrupted run's bits.
 TEST(Cli, AFragmentMeshThatCannotBeWrittenLeavesACheckpointThatWritesTheEnd) {
   const fs::path d = fresh_dir("mesh_fails");
-  const fs::path scene = small_scene(d);
-  {
-    std::string text = read(scene);
-    text.replace(text.find("[output]\n"), 9, "[output]\nfragments = true\nfragment_min_automata = 0\n");
-    std::ofstream(scene) << text;
-  }
+  const fs::path scene = mca::test::small_scene_with_output(d, "fragments = true\nfragment_min_automata = 0\n");
   const fs::path whole = d / "whole", out = d / "out";
   ASSERT_EQ(run_mca("run " + scene.string() + " --out " + whole.string() + " -q").code, 0);
   ASSERT_TRUE(fs::exists(whole / "fragments" / "fragment_001.ply"));
@@ -1043,10 +1033,10 @@ TEST(Cli, TheFragmentMeshesFitTheirEstimate) {
   const fs::path d = fresh_dir("mesh_estimate");
   for (const char* lattice : {"random", "cubic"}) {
     SCOPED_TRACE(lattice);
-    const fs::path scene = small_scene(d, "", lattice);
+    const fs::path scene =
+        mca::test::small_scene_with_output(d, "vtk = false\nfragments = true\nfragment_min_automata = 0\n", lattice);
     {
       std::string text = read(scene);
-      text.replace(text.find("[output]\n"), 9, "[output]\nvtk = false\nfragments = true\nfragment_min_automata = 0\n");
       text.replace(text.find("[solver]\n"), 9, std::string("[solver]\nlattice = \"") + lattice + "\"\n");
       text.replace(text.find("velocity = [0, 60, 0]"), 21, "velocity = [0, 200, 0]");
       std::ofstream(scene) << text;
