@@ -107,6 +107,17 @@ std::vector<BenchScene> scenes() {
   };
 }
 
+// Where a benchmark's steps ran, for --json: the backend, "2 threads" / "one core" / "the GPU", and the
+// CUDA backend's lattice kernels as chosen (MCA_CUDA_LATTICE; null on the CPU).
+nlohmann::json where_steps_ran(const std::string& backend, int threads) {
+  const CudaLattice how = cuda_lattice();
+  return {{"backend", backend},
+          {"steps_run_on", steps_run_on(backend, threads)},
+          {"cuda_lattice", backend.rfind("cpu", 0) == 0 ? nlohmann::json(nullptr)
+                           : how.fused                  ? nlohmann::json(fmt::format("fused:{}", how.blocks))
+                                                        : nlohmann::json("split")}};
+}
+
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   const std::size_t n = v.size();
@@ -237,12 +248,14 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
       }
       const double fps = 1.0 / median(total_s);
       if (json) {
-        out.push_back({{"name", c.name}, {"draw", render::name(c.draw)}, {"backend", sim.backend().name()},
-                       {"steps_per_frame", steps}, {"automata", m.size()},
-                       {"automata_drawn", drawn}, {"triangles", triangles}, {"frames", frames},
-                       {"median_step_seconds", median(step_s)}, {"median_snapshot_seconds", median(prep_s)},
-                       {"median_draw_seconds", median(draw_s)}, {"frames_per_second", fps}, {"zero_copy", shared},
-                       {"zero_copy_note", why_not}});
+        nlohmann::json j = {{"name", c.name}, {"draw", render::name(c.draw)},
+                            {"steps_per_frame", steps}, {"automata", m.size()},
+                            {"automata_drawn", drawn}, {"triangles", triangles}, {"frames", frames},
+                            {"median_step_seconds", median(step_s)}, {"median_snapshot_seconds", median(prep_s)},
+                            {"median_draw_seconds", median(draw_s)}, {"frames_per_second", fps}, {"zero_copy", shared},
+                            {"zero_copy_note", why_not}};
+        j.update(where_steps_ran(sim.backend().name(), threads));
+        out.push_back(std::move(j));
       } else {
         fmt::print("{:<18} {:>8} automata {:>8} drawn {:>8} triangles  {} {:7.1f} ms  snapshot {:6.1f} ms  draw+read "
                    "{:6.1f} ms  {:6.2f} frames/s\n",
@@ -327,19 +340,15 @@ int bench(const std::vector<std::string>& names, bool json, int threads_requeste
       // The rate of the median run (of an even count, the mean of the two middle runs' times): steps over
       // median_wall_seconds, as the two figures printed beside each other must agree.
       const double med = static_cast<double>(n) * steps / median(walls);
-      const std::string name = sim.backend().name();
       if (json) {
-        const CudaLattice how = cuda_lattice();
-        out.push_back({{"name", b.name}, {"description", b.description}, {"automata", n},
-                       {"links", sim.model().link_count()}, {"steps", steps}, {"repeats", repeats}, {"threads", threads},
-                       {"backend", name}, {"steps_run_on", steps_run_on(name, threads)},
-                       {"cuda_lattice", name.rfind("cpu", 0) == 0 ? nlohmann::json(nullptr)
-                                        : how.fused ? nlohmann::json(fmt::format("fused:{}", how.blocks))
-                                                    : nlohmann::json("split")},
-                       {"median_wall_seconds", median(walls)}, {"automaton_steps_per_second", med},
-                       {"all_automaton_steps_per_second", rates},
-                       {"links_broken_during_timed_steps", broken_after - broken_before},
-                       {"contact_pairs_at_end", contacts}});
+        nlohmann::json j = {{"name", b.name}, {"description", b.description}, {"automata", n},
+                            {"links", sim.model().link_count()}, {"steps", steps}, {"repeats", repeats},
+                            {"threads", threads}, {"median_wall_seconds", median(walls)},
+                            {"automaton_steps_per_second", med}, {"all_automaton_steps_per_second", rates},
+                            {"links_broken_during_timed_steps", broken_after - broken_before},
+                            {"contact_pairs_at_end", contacts}};
+        j.update(where_steps_ran(sim.backend().name(), threads));
+        out.push_back(std::move(j));
       } else {
         fmt::print("{:<10} {:>8} automata {:>8} links  {} steps  {:.3f} s  {:7.2f} M automaton-steps/s  "
                    "(runs: {:.2f}; {} links broke in the timed steps, {} contact pairs)\n",
