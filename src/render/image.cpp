@@ -146,7 +146,14 @@ int spawn_own_group(pid_t& pid, const std::vector<std::string>& args, const posi
   argv.push_back(nullptr);
   posix_spawnattr_t attr;
   posix_spawnattr_init(&attr);
-  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
+  // The signals mca ignores for itself (a file at the size limit, a pipe whose reader is gone) are the
+  // child's as by default: an ffmpeg that ignored SIGXFSZ kept a video cut at the limit and ended with 0.
+  sigset_t defaults;
+  sigemptyset(&defaults);
+  sigaddset(&defaults, SIGXFSZ);
+  sigaddset(&defaults, SIGPIPE);
+  posix_spawnattr_setsigdefault(&attr, &defaults);
+  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP | POSIX_SPAWN_SETSIGDEF);
   posix_spawnattr_setpgroup(&attr, 0);
   const int rc = search_path ? posix_spawnp(&pid, argv[0], actions, &attr, argv.data(), environ)
                              : posix_spawn(&pid, argv[0], actions, &attr, argv.data(), environ);
@@ -288,8 +295,11 @@ void VideoEncoder::stop(bool say_when_slow) {
     for (off_t at = 0; (n = ::pread(log_fd_, buf, sizeof buf, at)) > 0 && why.size() < 16384; at += n)
       why.append(buf, static_cast<std::size_t>(n));
     while (!why.empty() && (why.back() == '\n' || why.back() == '\r')) why.pop_back();
-    throw Error(fmt::format("ffmpeg could not write '{}' ({}): {}", path_.string(),
-                            WIFEXITED(status) ? fmt::format("exit code {}", WEXITSTATUS(status)) : std::string("killed"),
+    // (Killed by a signal: which, in words: "File size limit exceeded" where the video reached ulimit -f.)
+    const std::string how = WIFEXITED(status)     ? fmt::format("exit code {}", WEXITSTATUS(status))
+                            : WIFSIGNALED(status) ? fmt::format("killed: {}", ::strsignal(WTERMSIG(status)))
+                                                  : std::string("killed");
+    throw Error(fmt::format("ffmpeg could not write '{}' ({}): {}", path_.string(), how,
                             why.empty() ? std::string("no message") : why));
   }
 }
