@@ -368,6 +368,7 @@ double emulated_gpu_bytes(const std::string& backend_name, std::size_t held) {
 }
 
 void check_memory_fits(const MemoryEstimate& e, const SceneDef& scene) {
+  static constexpr const char* kEmulatedPart = "the emulated GPU's arrays";
   const lattice::MemoryLimit limit = lattice::memory_limit(scene);
   const double need = e.run();
   if (need <= limit.bytes) return;
@@ -382,14 +383,19 @@ void check_memory_fits(const MemoryEstimate& e, const SceneDef& scene) {
       {e.surface_output, "surface output", "leave out the surface output (output.surface = false)"},
       {e.fragment_meshes, "fragment meshes", "leave out the fragment meshes (output.fragments = false)"},
       {e.render, "rendering", "render smaller pictures (--render-size) or leave out --render"},
-      {e.emulated_gpu, "the emulated GPU's arrays",
+      {e.emulated_gpu, kEmulatedPart,
        "run it on the CPU backend (--backend cpu: the same bits, without the emulation's copy of the state)"}};
   std::erase_if(parts, [](const Part& p) { return p.bytes <= 0; });
   std::sort(parts.begin(), parts.end(), [](const Part& a, const Part& b) { return a.bytes > b.bytes; });
   std::vector<std::string> listed;
   for (const Part& p : parts) listed.push_back(fmt::format("{} {}", p.name, human_bytes(p.bytes)));
+  // The fix of the largest part; of the emulated GPU's where the run fits without them, however small.
+  const bool emulation_over = e.emulated_gpu > 0 && need - e.emulated_gpu <= limit.bytes;
+  const Part& fix = emulation_over ? *std::find_if(parts.begin(), parts.end(),
+                                                   [&](const Part& p) { return p.name == kEmulatedPart; })
+                                   : parts.front();
   throw Error(fmt::format("{}: the run would hold about {} at its peak ({}; mca info gives the figures), {}; {}, or {}",
-                          scene.source, human_bytes(need), fmt::join(listed, ", "), limit.over, parts.front().fix,
+                          scene.source, human_bytes(need), fmt::join(listed, ", "), limit.over, fix.fix,
                           limit.instead));
 }
 
@@ -769,9 +775,10 @@ void check_folder_is_a_runs(const std::filesystem::path& dir, std::string_view a
   check_run_names_are_files(dir);
 }
 
-void FrameWriter::remove_stale_temporaries(const std::filesystem::path& dir) {
-  io::remove_stale_temporaries(dir);
-  for (const std::string& sub : run_file_folders()) io::remove_stale_temporaries(dir / sub);
+std::size_t FrameWriter::remove_stale_temporaries(const std::filesystem::path& dir) {
+  std::size_t restored = io::remove_stale_temporaries(dir);
+  for (const std::string& sub : run_file_folders()) restored += io::remove_stale_temporaries(dir / sub);
+  return restored;
 }
 
 std::vector<std::int64_t> FrameWriter::restore(std::int64_t frames,
@@ -782,20 +789,22 @@ std::vector<std::int64_t> FrameWriter::restore(std::int64_t frames,
   // A frame is listed whole or not at all: collections that each left out their own missing files no
   // longer lined up (a reader pairs their entries), and a frame written again was listed twice.
   std::vector<std::int64_t> missing;
-  // A file is there whole: a regular file, not empty, and a VTK file ending as the writer ends it (an empty
-  // or cut-short frame, an interrupted copy of the folder, was listed, and ParaView read no points there).
+  // A file is there whole: a regular file, not empty, and a VTK file ending as the writer ends it, with
+  // "</VTKFile>" (then white space alone: an editor's newline is fine). An empty or cut-short frame, an
+  // interrupted copy of the folder, was listed, and ParaView read no points there.
   const auto there = [&](const std::string& name) {
     const std::filesystem::path p = dir_ / name;
     std::error_code ec;
     const auto size = std::filesystem::file_size(p, ec);
     if (ec || size == 0 || !std::filesystem::is_regular_file(p, ec)) return false;
-    const std::string_view end = "</VTKFile>\n";
     if (!name.ends_with(".vtu") && !name.ends_with(".vtp")) return true;
-    if (size < end.size()) return false;
+    const std::size_t n = std::min<std::size_t>(size, 64);
     std::ifstream in(p, std::ios::binary);
-    std::string tail(end.size(), '\0');
-    in.seekg(static_cast<std::streamoff>(size - end.size()));
-    return static_cast<bool>(in.read(tail.data(), static_cast<std::streamsize>(tail.size()))) && tail == end;
+    std::string tail(n, '\0');
+    in.seekg(static_cast<std::streamoff>(size - n));
+    if (!in.read(tail.data(), static_cast<std::streamsize>(n))) return false;
+    tail.erase(tail.find_last_not_of(" \t\r\n") + 1);
+    return tail.ends_with("</VTKFile>");
   };
   for (std::int64_t f = 0; f < frames; ++f) {
     const std::string automata = fmt::format("frames/automata_{:06d}.vtu", f);

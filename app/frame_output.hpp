@@ -140,6 +140,11 @@ struct RunFile {
   const char* name;       // the file's name, or the prefix of a numbered one
   const char* extension;  // "" for a fixed name; else a numbered one's: name + 1 to 18 digits + extension
 };
+// What a new run in a folder removes of an earlier run there: all it wrote but the scene file, which it
+// writes over (a rendered run draws its own pictures, an unrendered one must not leave a rendering that a
+// resume would go on with).
+inline constexpr std::initializer_list<RunPart> kEarlierRun = {RunPart::end,    RunPart::plots, RunPart::checkpoints,
+                                                               RunPart::frames, RunPart::stats, RunPart::rendering};
 // The files of `parts` that `dir` holds, relative to it (numbered ones only of the run's own form:
 // frames/automata_000012.vtu, not frames/automata_mine.vtu), in the table's order.
 std::vector<std::string> run_files_in(const std::filesystem::path& dir, std::initializer_list<RunPart> parts);
@@ -194,24 +199,10 @@ class FrameWriter {
   // Puts the rows appended so far on the disk (fdatasync), before a checkpoint that a resume reads them
   // back to: a crash after the checkpoint then cannot have lost them.
   void sync_stats();
-  // An earlier run's outputs in `dir`, before a new run there (mca run, or the Python module's first
-  // write_frame): its end (summary, fragments.csv and meshes), plots, checkpoints, frames and stats, and its
-  // rendering unless `rendering` (a rendered run replaces its pictures itself). Only files of a run's
-  // names go: anything else a user keeps there stays.
-  static void remove_earlier_run(const std::filesystem::path& dir, bool rendering) {
-    io::StagedRemoval removal;
-    stage_earlier_run(removal, dir, rendering);
-    removal.commit();
-  }
-  // The same files set aside in `removal`, for a run that removes them once it has passed what can still
-  // stop it (its renderer, its scene file).
-  static void stage_earlier_run(io::StagedRemoval& removal, const std::filesystem::path& dir, bool rendering) {
-    stage_run_files(removal, dir, {RunPart::end, RunPart::plots, RunPart::checkpoints, RunPart::frames, RunPart::stats});
-    if (!rendering) stage_run_files(removal, dir, {RunPart::rendering});
-  }
   // Removes the temporary files a killed run left in `dir` and the folders it writes into (their names are
-  // unique per process, so nothing else would ever replace them).
-  static void remove_stale_temporaries(const std::filesystem::path& dir);
+  // unique per process, so nothing else would ever replace them), and puts back the files a killed session
+  // had set aside there (io::StagedRemoval); returns how many went back. First thing under the folder's lock.
+  static std::size_t remove_stale_temporaries(const std::filesystem::path& dir);
   // Rebuilds the .pvd collections after a resume from the frames 0..frames-1 whose files are all on disk
   // whole (frame f at time_of(f)), and writes them; returns the frames of which a file is missing (removed
   // since the run wrote it), empty or cut short (a VTK file that does not end as written), which every

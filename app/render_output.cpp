@@ -69,7 +69,8 @@ std::pair<int, int> parse_render_size(const std::string& text, const std::string
 
 std::string RenderOutput::frame_name(std::int64_t frame) { return fmt::format("frame_{:06d}.png", frame); }
 
-void RenderOutput::remove_frames_from(const std::filesystem::path& render_dir, std::int64_t first_frame) {
+void RenderOutput::remove_frames_from(const std::filesystem::path& render_dir, std::int64_t first_frame,
+                                      io::StagedRemoval& removal) {
   // (Only names of the run's own form: a user's render/frame_cover.png stays.)
   std::vector<std::filesystem::path> doomed;
   std::error_code ec;
@@ -78,7 +79,7 @@ void RenderOutput::remove_frames_from(const std::filesystem::path& render_dir, s
     const auto number = io::numbered(name, "frame_", ".png");
     if (e.is_regular_file() && number && !(*number < first_frame && name == frame_name(*number))) doomed.push_back(e.path());
   }
-  for (const auto& p : doomed) io::remove_output(p);
+  for (const auto& p : doomed) removal.stage(p);
 }
 
 void save_render_options(const std::filesystem::path& out_dir, const RenderOptions& o) {
@@ -130,7 +131,8 @@ std::optional<RenderOptions> load_render_options(const std::filesystem::path& ou
 }
 
 RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, const RenderOptions& options,
-                           std::int64_t frames, bool quiet, std::int64_t first_frame, const std::atomic<int>* stop)
+                           std::int64_t frames, bool quiet, std::int64_t first_frame, const std::atomic<int>* stop,
+                           io::StagedRemoval& removal)
     : dir_(dir / "render"), sim_(sim), options_(options), quiet_(quiet), stop_(stop), frames_(frames) {
   check_render_size(options.width, options.height);
   render::VideoEncoder::time_limit();  // a bad MCA_FFMPEG_TIMEOUT is refused before anything is written
@@ -164,10 +166,10 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
 
   io::prepare_output_dir(dir_);
   io::remove_stale_temporaries(dir_);
-  remove_frames_from(dir_, first_frame);
+  remove_frames_from(dir_, first_frame, removal);
   // (A resumed run's video and sheet go below, where it can make them again.)
   if (first_frame == 0) {
-    for (const char* old : {"video.mp4", "contact_sheet.png"}) io::remove_output(dir_ / old);
+    for (const char* old : {"video.mp4", "contact_sheet.png"}) removal.stage(dir_ / old);
     save_render_options(dir, options);
   }
   if (const auto ffmpeg = render::find_ffmpeg()) {
@@ -225,7 +227,7 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
     video_.reset();
     lost_ = static_cast<std::int64_t>(lost.size());
   } else if (first_frame > 0) {
-    for (const char* old : {"video.mp4", "contact_sheet.png"}) io::remove_output(dir_ / old);  // (made again)
+    for (const char* old : {"video.mp4", "contact_sheet.png"}) removal.stage(dir_ / old);  // (made again)
   }
   if (!quiet_)
     fmt::print(stderr, "mca: rendering {}x{} ({}, colour by {}) with {} ({}) into {}{}\n", options.width,
@@ -238,10 +240,13 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
 std::string RenderOutput::video_command() const {
   // As the run's own encoder makes it (render::VideoEncoder): even sizes for yuv420p, its quality and layout,
   // the file replaced; a relative path behind "./", as the encoder gives it (render::ffmpeg_file).
-  const auto path = [](const std::filesystem::path& p) { return text::shell_word(render::ffmpeg_file(p)); };
+  // The frames' pattern is ffmpeg's: a % in the folder's name is given as %%.
+  std::string frames;
+  for (const char c : render::ffmpeg_file(dir_)) frames += c == '%' ? std::string("%%") : std::string(1, c);
   return fmt::format("ffmpeg -y -framerate {:g} -i {} -vf 'crop=trunc(iw/2)*2:trunc(ih/2)*2' -c:v libx264 -preset "
                      "veryfast -crf 20 -pix_fmt yuv420p -movflags +faststart {}",
-                     fps_, path(dir_ / "frame_%06d.png"), path(dir_ / "video.mp4"));
+                     fps_, text::shell_word(frames + "/frame_%06d.png"),
+                     text::shell_word(render::ffmpeg_file(dir_ / "video.mp4")));
 }
 
 void RenderOutput::add_to_video(const render::Image& im) {

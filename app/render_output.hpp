@@ -12,6 +12,7 @@
 #include <string>
 
 #include "analysis/fragments.hpp"
+#include "io/output_files.hpp"
 #include "render/camera.hpp"
 #include "render/image.hpp"
 #include "render/snapshot.hpp"
@@ -57,8 +58,10 @@ class RenderOutput {
   // written: those PNGs are kept and go into the video and the contact sheet again (the later ones are
   // removed, as the run writes them again). `stop`, where given, is the run's stop signal (catch_stop_signals):
   // once it is set, ffmpeg is not waited for (the video of a stopped run is made by its resume).
+  // The pictures of an earlier session it replaces (its frames from first_frame on, its video and sheet) are
+  // set aside in `removal`, which the session commits once it is under way.
   RenderOutput(const std::filesystem::path& dir, const Engine& sim, const RenderOptions& options, std::int64_t frames,
-               bool quiet, std::int64_t first_frame = 0, const std::atomic<int>* stop = nullptr);
+               bool quiet, std::int64_t first_frame, const std::atomic<int>* stop, io::StagedRemoval& removal);
   ~RenderOutput();
   RenderOutput(const RenderOutput&) = delete;
   RenderOutput& operator=(const RenderOutput&) = delete;
@@ -80,9 +83,10 @@ class RenderOutput {
   // The frames of the contact sheet of a run of frames 0..`frames`: 0, F/5, 2F/5, ..., F, each the nearest
   // frame (7 frames give 0, 1, 2, 4, 5, 6), ascending, none twice.
   static std::vector<std::int64_t> sheet_frames(std::int64_t frames);
-  // Removes the frames a run drew, those from `first_frame` on (an earlier run's, or those an interrupted run
-  // drew past the checkpoint a resume starts from).
-  static void remove_frames_from(const std::filesystem::path& render_dir, std::int64_t first_frame);
+  // Sets aside in `removal` the frames a run drew, those from `first_frame` on (an earlier run's, or those an
+  // interrupted run drew past the checkpoint a resume starts from).
+  static void remove_frames_from(const std::filesystem::path& render_dir, std::int64_t first_frame,
+                                 io::StagedRemoval& removal);
 
  private:
   void keep_for_sheet(std::int64_t frame, const render::Image& im);

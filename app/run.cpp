@@ -19,9 +19,9 @@
 
 #include "app/commands.hpp"
 #include "app/frame_output.hpp"
-#include "backend/cuda/device_memory.hpp"
 #include "app/render_output.hpp"
 #include "backend/backend.hpp"
+#include "backend/cuda/device_memory.hpp"
 #include "core/files.hpp"
 #include "core/text.hpp"
 #include "analysis/crack_isotropy.hpp"
@@ -294,6 +294,15 @@ std::size_t stage_end_outputs(io::StagedRemoval& removal, const std::filesystem:
   return plots ? stage_run_files(removal, dir, {RunPart::plots}) : 0;
 }
 
+// Says that `restored` files of the run in `dir` went back to their names (set aside by a session killed
+// before it had removed them).
+void say_restored(const std::filesystem::path& dir, std::size_t restored, bool quiet) {
+  if (restored > 0 && !quiet)
+    fmt::print(stderr, "mca: {} of the run in {} went back to their names: a session killed as it began had set "
+               "them aside\n",
+               text::count(restored, "file"), dir.string());
+}
+
 // What a session writes (`frames` more, pictures of render_width x render_height, 0 for none) must fit the
 // disk in `dir`, and its peak the memory (check_output_fits, check_memory_fits); returns the disk estimate.
 OutputEstimate check_run_fits(const Engine& sim, const SceneDef& scene, std::int64_t frames, int render_width,
@@ -554,20 +563,31 @@ int run_loop(Loop& L, FrameWriter& writer) {
     // run's steps are done, so its last state is kept as a checkpoint, in the room the meshes written so far
     // took, and a resume writes the end from it, as after a stop signal here.
     if (!meshes_done) {
+      std::string no_checkpoint_why;
       try {
         remove_run_files(L.dir, {RunPart::end});
         save_checkpoint(L, writer, L.wall_before + wall);
+      } catch (const Error& ce) {
+        no_checkpoint_why = ce.what();
+      }
+      // (The summary and fragments.csv, where they fit, whichever way: the run's results.)
+      try {
         write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads,
                       "interrupted", L.resumed_from);
+      } catch (const Error&) {
+      }
+      if (no_checkpoint_why.empty()) {
         if (tty) fmt::print(stderr, "\n");
         fmt::print(stderr, "error: {}\nThe run stopped writing its fragment meshes, after its last step; those it had "
                    "written are removed, and a checkpoint of its last frame is saved: once the disk has room (or the "
                    "cause above is fixed), write them (and summary.json, fragments.csv) with:\n  mca resume {}\n",
                    e.what(), text::shell_word(L.dir.string()));
         return 2;
-      } catch (const Error&) {
-        // (No room for the checkpoint either: as any write that fails after the last step.)
       }
+      return stopped(e, fmt::format("writing its fragment meshes, after its last step, and could not save a "
+                                    "checkpoint of its last frame either ({})",
+                                    no_checkpoint_why),
+                     L.frame - 1, "once the disk has room (or the cause above is fixed), ", "");
     }
     return stopped(e, "writing its end (the fragment meshes, summary.json, fragments.csv) after its last step",
                    L.frame - 1, "once the disk has room (or the cause above is fixed), ", "");
@@ -699,6 +719,8 @@ int run(const RunOptions& o) {
   io::check_output_subfolders(dir, run_subfolders(scene, o.render));
   io::check_inputs_outside_subfolders(dir, mesh_inputs(scene));
   const io::OutputLock lock(dir);
+  // (First: the files of an earlier run that a killed session had set aside are that run's again.)
+  say_restored(dir, FrameWriter::remove_stale_temporaries(dir), o.quiet);
   // The run writes the scene as run to <dir>/scene.toml: never over the scene file it reads.
   if (o.scene) {
     std::error_code ec;
@@ -736,16 +758,15 @@ int run(const RunOptions& o) {
                steps_run_on(sim.backend().name(), threads), human_bytes(estimate.total()));
     for (const std::string& note : scene_notes(m, scene)) fmt::print(stderr, "note: {}\n", note);
   }
-  // Outputs of an earlier run in this folder would mix with this one's: all of them (its pictures too: a
-  // rendered run draws its own, an unrendered one must not leave a rendering a resume would go on with) are
-  // set aside first, all or none, and removed once the renderer has started and the scene is written; a
-  // run that stops before leaves the folder as it was.
+  // Outputs of an earlier run in this folder would mix with this one's: they are set aside first, all or
+  // none, and removed once the renderer has started and the scene is written; a run that stops before
+  // leaves the folder as it was.
   io::StagedRemoval earlier;
-  stage_run_files(earlier, dir, {RunPart::end, RunPart::plots, RunPart::checkpoints, RunPart::frames, RunPart::stats,
-                                 RunPart::rendering});
+  stage_run_files(earlier, dir, kEarlierRun);
+  earlier.stage(dir / "scene.toml");  // (written anew below: the earlier one goes back with the rest)
   // The renderer before any output: a missing OpenGL or a camera that sees nothing stops here.
   std::unique_ptr<RenderOutput> render;
-  if (o.render) render = std::make_unique<RenderOutput>(dir, sim, ro, plan.total_frames, o.quiet, 0, &stop);
+  if (o.render) render = std::make_unique<RenderOutput>(dir, sim, ro, plan.total_frames, o.quiet, 0, &stop, earlier);
   created.keep = true;
   // The scene as run (overrides applied), so the folder says what produced it.
   // A step count is not a key of the scene: a comment at the top says it (resuming reads the count from
@@ -757,8 +778,12 @@ int run(const RunOptions& o) {
                         *o.steps, static_cast<double>(*o.steps) * sim.model().dt, *o.steps);
     os << io::scene_to_toml(scene);
   }, false);
+  // A stop signal so far: no run has begun, and the earlier one goes back whole.
+  if (const int sig = stop; sig != 0) {
+    fmt::print(stderr, "mca: interrupted by {} before the run began: {} is as it was\n", signal_name(sig), dir.string());
+    return 128 + sig;
+  }
   earlier.commit();
-  FrameWriter::remove_stale_temporaries(dir);
   remove_empty_output_folders(dir, render != nullptr);
   FrameWriter writer(dir, sim.model(), scene.output);
   Loop L{sim, dir, threads, o.quiet, scene.output.checkpoint_every, plan, 0, 0.0, render.get(), false, {}};
@@ -796,7 +821,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   }
   const io::OutputLock lock(dir);
   io::check_output_subfolders(dir, {"checkpoints"});  // (first: no subfolder a link out of the folder)
-  FrameWriter::remove_stale_temporaries(dir);
+  say_restored(dir, FrameWriter::remove_stale_temporaries(dir), quiet);
   const auto ckdir = dir / "checkpoints";
   const auto all = io::list_checkpoints(ckdir);
   if (all.empty())
@@ -871,20 +896,21 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   // again as the run continues. Read before any file is touched: a stats file that cannot be read stops
   // the resume with the folder as it was.
   auto rows = read_back_stats(dir, cp.frame, FrameWriter::stats_header(sim.model()).size());
-  // The earlier end (the plots too, where steps are left) is set aside here, all or none: a resume that
-  // stops before its collections and stats are written again leaves it as it was. (The plots are made again
-  // only by a rendered run; a run with no step left keeps them, and its stats.)
+  // The earlier end (the plots too, where steps are left; the frames the renderer draws again, its video and
+  // sheet) is set aside here, all or none: a resume that stops before its collections and stats are written
+  // again leaves it as it was. (The plots are made again only by a rendered run; a run with no step left
+  // keeps them, and its stats.)
   io::StagedRemoval earlier_end;
   const std::size_t plots_removed = stage_end_outputs(earlier_end, dir, steps_left);
   std::unique_ptr<RenderOutput> render;
   if (const auto& ro = rendered) {
     if (!no_render) {
-      render = std::make_unique<RenderOutput>(dir, sim, *ro, plan.total_frames, quiet, cp.frame, &stop);
+      render = std::make_unique<RenderOutput>(dir, sim, *ro, plan.total_frames, quiet, cp.frame, &stop, earlier_end);
     } else if (steps_left) {  // (with none left, the rendering is whole and stays so)
       // Its frames stop here: a later resume must not take the folder for a whole rendering. (Those the
       // interrupted run drew past the checkpoint go, as its rows there do.)
-      remove_output(dir / "render" / "render.json");
-      RenderOutput::remove_frames_from(dir / "render", cp.frame);
+      earlier_end.stage(dir / "render" / "render.json");
+      RenderOutput::remove_frames_from(dir / "render", cp.frame, earlier_end);
       fmt::print(stderr, "warning: --no-render: {} keeps the frames drawn so far (0..{}); the frames this run adds "
                  "are not drawn, and no video is made\n",
                  (dir / "render").string(), cp.frame - 1);

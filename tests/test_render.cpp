@@ -445,10 +445,11 @@ TEST(Render, AnFfmpegStillWritingAsItFinishesIsWaitedFor) {
 }
 
 // The command that warning gives makes the video when pasted into a shell, in a folder whose name holds
-// spaces, a quote, a dollar sign and a star (each one word of the command, quoted as the shell needs).
+// spaces, a quote, a dollar sign, a star and a % (each one word of the command, quoted as the shell needs;
+// the % doubled in the frames' pattern, where ffmpeg read "50%d" as a number).
 TEST(Render, TheVideoCommandOfTheWarningMakesTheVideoInAnOddlyNamedFolder) {
   TempDir d;
-  const fs::path bin = d.path() / "bin", out = d.path() / "it's a run $HOME *";
+  const fs::path bin = d.path() / "bin", out = d.path() / "it's a 50%d run $HOME *";
   fs::create_directories(bin);
   std::ofstream(bin / "ffmpeg") << "#!/bin/sh\ncat > /dev/null; echo \"Unknown encoder 'libx264'\" >&2; exit 1\n";
   fs::permissions(bin / "ffmpeg", fs::perms::owner_all);
@@ -502,6 +503,21 @@ TEST(Render, AnOutputFolderFfmpegWouldTakeForAnOptionOrAProtocolGetsItsVideo) {
   }
   EXPECT_EQ(render::ffmpeg_file("run:1/render/video.mp4"), "./run:1/render/video.mp4");
   EXPECT_EQ(render::ffmpeg_file("/tmp/run:1/video.mp4"), "/tmp/run:1/video.mp4");
+}
+
+// mca ignores SIGXFSZ (a file at ulimit -f is a write error that names it) and SIGPIPE; ffmpeg inherited
+// that, and a video at the limit was kept cut short with exit 0. ffmpeg starts with both as by default
+// (here a stand-in that tells what it was given, then fails).
+TEST(Render, FfmpegStartsWithTheSignalsMcaIgnoresAsByDefault) {
+  TempDir d;
+  const fs::path bin = d.path() / "bin";
+  fs::create_directories(bin);
+  std::ofstream(bin / "ffmpeg") << "#!/bin/bash\ncat > /dev/null; echo \"signals [$(trap -p XFSZ PIPE)]\" >&2; exit 1\n";
+  fs::permissions(bin / "ffmpeg", fs::perms::owner_all);
+  const Result r = shell("PATH=" + bin.string() + ":/usr/bin:/bin " + std::string(MCA_BINARY) + " run " + kCubicWall +
+                         " -q --duration 0.004 --render --render-size 64x48 --out " + (d.path() / "out").string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("(exit code 1): signals []"), std::string::npos) << r.output;
 }
 
 // A stop signal is not held up by ffmpeg (it waited up to MCA_FFMPEG_TIMEOUT, 120 s by default, found by

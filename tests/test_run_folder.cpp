@@ -183,11 +183,60 @@ TEST(RunFolder, AnEarlierRunThatCannotBeRemovedIsLeftWhole) {
             std::string::npos)
       << r.output;
   EXPECT_EQ(changes(resumable, folder_contents(out)), "");
+  // A rendered resume sets aside the pictures it draws again (the frames past the checkpoint, the video, the
+  // sheet) with the rest: one that cannot be removed leaves them all (it had removed the frames first).
+  {
+    const fs::path drawn = t.path() / "drawn";
+    ASSERT_EQ(run_mca("run " + small_scene(t.path()).string() + " --out " + drawn.string() +
+                      " -q --checkpoint-every 2 --render --render-size 64x48")
+                  .code,
+              0);
+    fs::remove(checkpoints(drawn).back());
+    const auto rendered = folder_contents(drawn);
+    ASSERT_TRUE(rendered.count("render/frame_000004.png") && rendered.count("render/video.mp4")) << rendered.size();
+    r = test::run_mca_with_fault("MCA_TEST_PINNED_AT", "render/video.mp4", "resume " + drawn.string() + " -q");
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_EQ(changes(rendered, folder_contents(drawn)), "");
+  }
   // Without the fault both go through.
   ASSERT_EQ(run_mca("resume " + out.string() + " -q").code, 0);
   EXPECT_FALSE(fs::exists(out / "render" / "energies.png"));
   ASSERT_EQ(run_mca(run).code, 0);
   EXPECT_FALSE(fs::exists(out / "checkpoints" / cks.front().filename()));
+}
+
+// A session killed while it set an earlier run's files aside left them under names the next session took
+// for a dead process's temporaries and removed: a resume then lost the frames and stats before the
+// checkpoint (exit 0, a warning), or found no checkpoint. The next session puts them back, and says so;
+// where a file stands at the name again (written by the killed session), the one set aside goes.
+TEST(RunFolder, FilesAKilledSessionSetAsideGoBack) {
+  TempDir t;
+  const fs::path out = t.path() / "out", whole = t.path() / "whole";
+  const std::string scene = small_scene(t.path()).string();
+  ASSERT_EQ(run_mca("run " + scene + " --out " + whole.string() + " -q").code, 0);
+  ASSERT_EQ(run_mca("run " + scene + " --out " + out.string() + " -q --checkpoint-every 2").code, 0);
+  fs::remove(checkpoints(out).back());
+  const auto resumable = folder_contents(out);
+  // As a session killed as it began leaves them (the pid of no process: past the system's largest).
+  const std::string dead = ".4194305.";
+  int n = 0;
+  for (const char* name : {"stats.csv", "frames/automata_000001.vtu", "checkpoints/frame_000002.mcack",
+                           "automata.pvd", "summary.json"})
+    fs::rename(out / name, out / (std::string(name) + dead + std::to_string(n++) + ".aside"));
+  // One whose name holds a file again: that file stays, the one set aside goes.
+  std::ofstream(out / "frames" / ("automata_000000.vtu" + dead + "9.aside")) << "older\n";
+  const Result r = run_mca("resume " + out.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("mca: 5 files of the run in " + out.string() + " went back to their names: a session "
+                          "killed as it began had set them aside"),
+            std::string::npos)
+      << r.output;
+  EXPECT_EQ(r.output.find("warning"), std::string::npos) << r.output;
+  EXPECT_EQ(nlohmann::json::parse(read(out / "summary.json"))["state_hash"],
+            nlohmann::json::parse(read(whole / "summary.json"))["state_hash"]);
+  EXPECT_EQ(read(out / "stats.csv"), read(whole / "stats.csv"));
+  EXPECT_EQ(read(out / "frames" / "automata_000000.vtu"), resumable.at("frames/automata_000000.vtu"));
+  for (const auto& e : fs::recursive_directory_iterator(out)) EXPECT_NE(e.path().extension(), ".aside") << e.path();
 }
 
 // The rate of a resumed run is its own steps over its own wall time: the earlier sessions' wall time (here

@@ -52,11 +52,20 @@ void prepare_output_dir(const fs::path& dir) {
   };
 
   std::error_code ec;
-  // A link to a folder not made yet (a scratch disk's): "File exists" said neither.
-  if (fs::is_symlink(fs::symlink_status(dir, ec)) && !fs::exists(dir, ec) && !ec) {  // (a loop sets ec)
-    const fs::path target = fs::read_symlink(dir, ec);
+  // A link to a folder not made yet (a scratch disk's): "File exists" said neither. (Given with a trailing
+  // separator, the link is the name without it.)
+  const fs::path link = dir.has_filename() || !dir.has_parent_path() ? dir : dir.parent_path();
+  if (fs::is_symlink(fs::symlink_status(link, ec)) && !fs::exists(link, ec) && !ec) {  // (a loop sets ec)
+    // The folder to make is where the chain of links ends.
+    fs::path end = link;
+    for (int hops = 0; hops < 40 && fs::is_symlink(fs::symlink_status(end, ec)); ++hops) {
+      const fs::path target = fs::read_symlink(end, ec);
+      if (ec) break;
+      end = target.is_absolute() ? target : (end.parent_path() / target).lexically_normal();
+    }
     throw fail(fmt::format("it is a symbolic link to '{}', which does not exist; make that folder first (mkdir -p {})",
-                           target.string(), text::shell_word((dir.parent_path() / target).lexically_normal().string())));
+                           fs::read_symlink(link, ec).string(),
+                           text::shell_word(end.is_absolute() ? end.string() : "./" + end.string())));
   }
   fs::create_directories(dir, ec);
   if (ec) throw fail(ec.message());
@@ -175,9 +184,9 @@ std::string scene_folder_name(const std::string& scene_name) {
 
 namespace {
 
-// "<name>.<pid>.<n>.tmp" -> pid, or 0 when the name is not one of write_file_atomic's temporaries.
-long temporary_owner(const std::string& name) {
-  constexpr std::string_view suffix = ".tmp";
+// "<name>.<pid>.<n><suffix>" -> pid, or 0 when the name is not one of the files a run writes with that suffix
+// (".tmp": write_file_atomic's temporaries; ".aside": StagedRemoval's files set aside).
+long temporary_owner(const std::string& name, std::string_view suffix = ".tmp") {
   if (name.size() <= suffix.size() || name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0) return 0;
   const std::string stem = name.substr(0, name.size() - suffix.size());
   const auto counter_dot = stem.rfind('.');
@@ -212,18 +221,44 @@ void sync_path(const fs::path& p, bool folder) {
 
 }  // namespace
 
-void remove_stale_temporaries(const fs::path& dir) {
+namespace {
+// kill(pid, 0) fails with ESRCH only when no such process exists (a pid reused since is taken as alive: its
+// files are left, which is safe).
+bool gone(long pid) {
+  return pid > 0 && (pid > std::numeric_limits<pid_t>::max() ||
+                     (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH));
+}
+
+constexpr std::string_view kAside = ".aside";
+}  // namespace
+
+std::size_t remove_stale_temporaries(const fs::path& dir) {
   std::error_code ec;
-  if (!fs::is_directory(dir, ec)) return;
-  std::vector<fs::path> doomed;
+  if (!fs::is_directory(dir, ec)) return 0;
+  std::vector<fs::path> doomed, aside;
   for (const auto& e : fs::directory_iterator(dir, ec)) {
-    const long pid = temporary_owner(e.path().filename().string());
-    // kill(pid, 0) fails with ESRCH only when no such process exists (a pid reused since is kept: safe).
-    if (pid > 0 && e.is_regular_file(ec) && (pid > std::numeric_limits<pid_t>::max() ||
-                                             (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH)))
-      doomed.push_back(e.path());
+    const std::string name = e.path().filename().string();
+    if (gone(temporary_owner(name)) && e.is_regular_file(ec)) doomed.push_back(e.path());
+    if (gone(temporary_owner(name, kAside)) && !e.is_symlink(ec)) aside.push_back(e.path());
   }
   for (const auto& p : doomed) fs::remove(p, ec);
+  // A session killed while it set an earlier run's files aside (StagedRemoval) left them so: each goes back
+  // to its name, unless a file stands there again (written by that session, which then had removed them).
+  std::size_t restored = 0;
+  for (const auto& p : aside) {
+    const std::string name = p.filename().string();
+    std::string original = name.substr(0, name.size() - kAside.size());
+    original.erase(original.rfind('.'));
+    original.erase(original.rfind('.'));
+    const fs::path to = p.parent_path() / original;
+    if (fs::exists(fs::symlink_status(to, ec))) {
+      fs::remove(p, ec);
+      continue;
+    }
+    fs::rename(p, to, ec);
+    restored += !ec;
+  }
+  return restored;
 }
 
 fs::path temporary_path(const fs::path& path) {
@@ -362,7 +397,11 @@ bool StagedRemoval::stage(const fs::path& p) {
     ec = std::make_error_code(std::errc::directory_not_empty);
   } else {
     ec.clear();
-    const fs::path tmp = temporary_path(p);
+    // (Not temporary_path's ".tmp": a killed session's files set aside go back to their names, where its
+    // temporaries are removed; remove_stale_temporaries.)
+    static std::atomic<std::uint64_t> counter{0};
+    fs::path tmp = p;
+    tmp += fmt::format(".{}.{}{}", ::getpid(), counter++, kAside);
     fs::rename(p, tmp, ec);
     if (!ec) {
       staged_.emplace_back(p, tmp);

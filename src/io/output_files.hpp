@@ -82,8 +82,9 @@ std::filesystem::path temporary_path(const std::filesystem::path& path);
 
 // Removes the temporary files write_file_atomic left in `dir` (not below) for the outputs of a run
 // (.vtu, .vtp, .pvd, .csv, .json, .toml, .mcack, .ply, .obj, .png, .mp4) when their process is gone (a killed run); those of running
-// processes and every other file stay. A missing folder is fine.
-void remove_stale_temporaries(const std::filesystem::path& dir);
+// processes and every other file stay. A missing folder is fine. The files a killed session had set aside
+// (StagedRemoval) go back to their names, where no file stands there again; returns how many went back.
+std::size_t remove_stale_temporaries(const std::filesystem::path& dir);
 
 // The number of a file named as a run numbers its outputs, `prefix` + 1 to 18 digits + `extension`
 // (automata_000012.vtu: 12); none for any other name (automata_mine.vtu).
@@ -94,8 +95,8 @@ std::optional<std::int64_t> numbered(const std::string& name, std::string_view p
 bool remove_output(const std::filesystem::path& p);
 
 // The files of an earlier session that a session removes, removed all or none: each is first renamed to a
-// temporary name beside it (temporary_path's, so a killed process's are removed as its other temporaries),
-// and removed only at commit(). Where one cannot be (a read-only folder, an immutable file), those set aside
+// name beside it (its own + ".<pid>.<n>.aside"; a killed session's go back to their names at the next
+// session's remove_stale_temporaries), and removed only at commit(). Where one cannot be (a read-only folder, an immutable file), those set aside
 // go back to their names and the error of remove_output names it; so does the destructor put them back when
 // the session stops before commit() (a renderer that cannot start, a scene file that cannot be written).
 class StagedRemoval {
@@ -107,8 +108,8 @@ class StagedRemoval {
   // Sets `p` aside where it is there (as remove_output: a path through a file holds nothing); returns
   // whether it was. A folder that holds files is refused, as remove_output refuses it.
   bool stage(const std::filesystem::path& p);
-  // Removes what was set aside (one that cannot be removed now stays as a temporary of this process, which
-  // the next session removes).
+  // Removes what was set aside (one that cannot be removed now stays, and goes back to its name at the next
+  // session, where none stands there).
   void commit();
   // Puts what was set aside back at its name, the last first.
   void restore() noexcept;
