@@ -700,7 +700,7 @@ std::size_t stage_run_files(io::StagedRemoval& removal, const std::filesystem::p
 }
 
 std::size_t remove_run_files(const std::filesystem::path& dir, std::initializer_list<RunPart> parts) {
-  io::StagedRemoval removal;
+  io::StagedRemoval removal(dir);
   const std::size_t removed = stage_run_files(removal, dir, parts);
   removal.commit();
   return removed;
@@ -775,10 +775,33 @@ void check_folder_is_a_runs(const std::filesystem::path& dir, std::string_view a
   check_run_names_are_files(dir);
 }
 
-std::size_t FrameWriter::remove_stale_temporaries(const std::filesystem::path& dir) {
-  std::size_t restored = io::remove_stale_temporaries(dir);
-  for (const std::string& sub : run_file_folders()) restored += io::remove_stale_temporaries(dir / sub);
-  return restored;
+void FrameWriter::remove_stale_temporaries(const std::filesystem::path& dir) {
+  io::remove_stale_temporaries(dir);
+  for (const std::string& sub : run_file_folders()) io::remove_stale_temporaries(dir / sub);
+}
+
+std::vector<std::string> set_aside_notes(const std::filesystem::path& dir, const io::SetAsideFound& found) {
+  std::vector<std::string> notes;
+  const auto one = [](std::size_t n, const char* single, const char* plural) { return n == 1 ? single : plural; };
+  if (found.restored > 0)
+    notes.push_back(fmt::format("{} of the run in {} that a session killed before it began had set aside {} back at "
+                                "{}",
+                                text::count(found.restored, "file"), dir.string(), one(found.restored, "is", "are"),
+                                one(found.restored, "its name", "their names")));
+  if (found.removed > 0)
+    notes.push_back(fmt::format("{} of an earlier run in {} that a session killed as it removed them had set aside "
+                                "{} removed",
+                                text::count(found.removed, "file"), dir.string(), one(found.removed, "is", "are")));
+  return notes;
+}
+
+io::SetAsideFound FrameWriter::put_back_set_aside(const std::filesystem::path& dir) {
+  // (Only names of the table: a user's notes.txt.1.2.mca-aside is left alone.)
+  return io::put_back_set_aside(dir, run_file_folders(), [](const std::string& folder, const std::string& name) {
+    return std::any_of(std::begin(kRunFiles), std::end(kRunFiles), [&](const RunFile& f) {
+      return folder == f.folder && (*f.extension ? io::numbered(name, f.name, f.extension).has_value() : name == f.name);
+    });
+  });
 }
 
 std::vector<std::int64_t> FrameWriter::restore(std::int64_t frames,

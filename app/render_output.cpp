@@ -171,6 +171,7 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
   if (first_frame == 0) {
     for (const char* old : {"video.mp4", "contact_sheet.png"}) removal.stage(dir_ / old);
     save_render_options(dir, options);
+    removal.written(dir_ / "render.json");
   }
   if (const auto ffmpeg = render::find_ffmpeg()) {
     try {

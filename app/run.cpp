@@ -294,13 +294,13 @@ std::size_t stage_end_outputs(io::StagedRemoval& removal, const std::filesystem:
   return plots ? stage_run_files(removal, dir, {RunPart::plots}) : 0;
 }
 
-// Says that `restored` files of the run in `dir` went back to their names (set aside by a session killed
-// before it had removed them).
-void say_restored(const std::filesystem::path& dir, std::size_t restored, bool quiet) {
-  if (restored > 0 && !quiet)
-    fmt::print(stderr, "mca: {} of the run in {} went back to their names: a session killed as it began had set "
-               "them aside\n",
-               text::count(restored, "file"), dir.string());
+// The first thing a session does in its folder, under the lock: the files of an earlier run that a killed
+// session had set aside go back to their names (or, where it had begun to remove them, go), and a dead
+// session's temporary files go.
+void recover_folder(const std::filesystem::path& dir, bool quiet) {
+  for (const std::string& said : set_aside_notes(dir, FrameWriter::put_back_set_aside(dir)))
+    if (!quiet) fmt::print(stderr, "mca: {}\n", said);
+  FrameWriter::remove_stale_temporaries(dir);
 }
 
 // What a session writes (`frames` more, pictures of render_width x render_height, 0 for none) must fit the
@@ -719,8 +719,7 @@ int run(const RunOptions& o) {
   io::check_output_subfolders(dir, run_subfolders(scene, o.render));
   io::check_inputs_outside_subfolders(dir, mesh_inputs(scene));
   const io::OutputLock lock(dir);
-  // (First: the files of an earlier run that a killed session had set aside are that run's again.)
-  say_restored(dir, FrameWriter::remove_stale_temporaries(dir), o.quiet);
+  recover_folder(dir, o.quiet);
   // The run writes the scene as run to <dir>/scene.toml: never over the scene file it reads.
   if (o.scene) {
     std::error_code ec;
@@ -761,7 +760,7 @@ int run(const RunOptions& o) {
   // Outputs of an earlier run in this folder would mix with this one's: they are set aside first, all or
   // none, and removed once the renderer has started and the scene is written; a run that stops before
   // leaves the folder as it was.
-  io::StagedRemoval earlier;
+  io::StagedRemoval earlier(dir);
   stage_run_files(earlier, dir, kEarlierRun);
   earlier.stage(dir / "scene.toml");  // (written anew below: the earlier one goes back with the rest)
   // The renderer before any output: a missing OpenGL or a camera that sees nothing stops here.
@@ -778,6 +777,7 @@ int run(const RunOptions& o) {
                         *o.steps, static_cast<double>(*o.steps) * sim.model().dt, *o.steps);
     os << io::scene_to_toml(scene);
   }, false);
+  earlier.written(dir / "scene.toml");
   // A stop signal so far: no run has begun, and the earlier one goes back whole.
   if (const int sig = stop; sig != 0) {
     fmt::print(stderr, "mca: interrupted by {} before the run began: {} is as it was\n", signal_name(sig), dir.string());
@@ -821,7 +821,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   }
   const io::OutputLock lock(dir);
   io::check_output_subfolders(dir, {"checkpoints"});  // (first: no subfolder a link out of the folder)
-  say_restored(dir, FrameWriter::remove_stale_temporaries(dir), quiet);
+  recover_folder(dir, quiet);
   const auto ckdir = dir / "checkpoints";
   const auto all = io::list_checkpoints(ckdir);
   if (all.empty())
@@ -900,7 +900,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   // sheet) is set aside here, all or none: a resume that stops before its collections and stats are written
   // again leaves it as it was. (The plots are made again only by a rendered run; a run with no step left
   // keeps them, and its stats.)
-  io::StagedRemoval earlier_end;
+  io::StagedRemoval earlier_end(dir);
   const std::size_t plots_removed = stage_end_outputs(earlier_end, dir, steps_left);
   std::unique_ptr<RenderOutput> render;
   if (const auto& ro = rendered) {

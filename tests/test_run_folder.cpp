@@ -11,6 +11,7 @@
 #include <sstream>
 #include <string>
 #include <vector>
+#include <unistd.h>
 
 #include "io/checkpoint.hpp"
 #include "shell.hpp"
@@ -207,8 +208,10 @@ TEST(RunFolder, AnEarlierRunThatCannotBeRemovedIsLeftWhole) {
 
 // A session killed while it set an earlier run's files aside left them under names the next session took
 // for a dead process's temporaries and removed: a resume then lost the frames and stats before the
-// checkpoint (exit 0, a warning), or found no checkpoint. The next session puts them back, and says so;
-// where a file stands at the name again (written by the killed session), the one set aside goes.
+// checkpoint (exit 0, a warning), or found no checkpoint. The next session puts them back (over what the
+// killed one wrote at their names: its scene file) and says so, whatever their process id (another pid
+// namespace's, or one reused since, looks alive); where the killed session had begun to remove them (its
+// marker in the folder), the rest go. A user's files of such names are left alone.
 TEST(RunFolder, FilesAKilledSessionSetAsideGoBack) {
   TempDir t;
   const fs::path out = t.path() / "out", whole = t.path() / "whole";
@@ -216,27 +219,42 @@ TEST(RunFolder, FilesAKilledSessionSetAsideGoBack) {
   ASSERT_EQ(run_mca("run " + scene + " --out " + whole.string() + " -q").code, 0);
   ASSERT_EQ(run_mca("run " + scene + " --out " + out.string() + " -q --checkpoint-every 2").code, 0);
   fs::remove(checkpoints(out).back());
+  std::ofstream(out / "notes.txt.1.2.mca-aside") << "mine\n";
+  std::ofstream(out / "stats.csv.20240101.1.aside") << "mine\n";
   const auto resumable = folder_contents(out);
-  // As a session killed as it began leaves them (the pid of no process: past the system's largest).
-  const std::string dead = ".4194305.";
+  // As a killed session leaves them, its pid that of this test (alive) or of no process.
+  const std::string alive = "." + std::to_string(::getpid()) + ".", dead = ".4194305.";
   int n = 0;
   for (const char* name : {"stats.csv", "frames/automata_000001.vtu", "checkpoints/frame_000002.mcack",
-                           "automata.pvd", "summary.json"})
-    fs::rename(out / name, out / (std::string(name) + dead + std::to_string(n++) + ".aside"));
-  // One whose name holds a file again: that file stays, the one set aside goes.
-  std::ofstream(out / "frames" / ("automata_000000.vtu" + dead + "9.aside")) << "older\n";
+                           "automata.pvd", "scene.toml"})
+    fs::rename(out / name, out / (std::string(name) + (n % 2 ? dead : alive) + std::to_string(n++) + ".mca-aside"));
+  std::ofstream(out / "scene.toml") << "# the killed session's scene\n";
   const Result r = run_mca("resume " + out.string());
   ASSERT_EQ(r.code, 0) << r.output;
-  EXPECT_NE(r.output.find("mca: 5 files of the run in " + out.string() + " went back to their names: a session "
-                          "killed as it began had set them aside"),
+  EXPECT_NE(r.output.find("mca: 5 files of the run in " + out.string() + " that a session killed before it began had "
+                          "set aside are back at their names"),
             std::string::npos)
       << r.output;
   EXPECT_EQ(r.output.find("warning"), std::string::npos) << r.output;
   EXPECT_EQ(nlohmann::json::parse(read(out / "summary.json"))["state_hash"],
             nlohmann::json::parse(read(whole / "summary.json"))["state_hash"]);
   EXPECT_EQ(read(out / "stats.csv"), read(whole / "stats.csv"));
-  EXPECT_EQ(read(out / "frames" / "automata_000000.vtu"), resumable.at("frames/automata_000000.vtu"));
-  for (const auto& e : fs::recursive_directory_iterator(out)) EXPECT_NE(e.path().extension(), ".aside") << e.path();
+  EXPECT_EQ(read(out / "scene.toml"), resumable.at("scene.toml"));
+  EXPECT_EQ(read(out / "notes.txt.1.2.mca-aside"), "mine\n");
+  EXPECT_EQ(read(out / "stats.csv.20240101.1.aside"), "mine\n");
+  // Killed as it removed them (its marker there): what is left of them goes, the files at their names stay.
+  const std::string summary = read(out / "summary.json");
+  std::ofstream(out / "summary.json.4194305.7.mca-aside") << "the earlier run's\n";
+  std::ofstream(out / ".mca-committing.4194305");
+  const Result again = run_mca("resume " + out.string());
+  ASSERT_EQ(again.code, 0) << again.output;
+  EXPECT_NE(again.output.find("mca: 1 file of an earlier run in " + out.string() + " that a session killed as it "
+                              "removed them had set aside is removed"),
+            std::string::npos)
+      << again.output;
+  EXPECT_FALSE(fs::exists(out / ".mca-committing.4194305"));
+  for (const auto& e : fs::recursive_directory_iterator(out))
+    EXPECT_FALSE(e.path().filename().string().ends_with(".4194305.7.mca-aside")) << e.path();
 }
 
 // The rate of a resumed run is its own steps over its own wall time: the earlier sessions' wall time (here

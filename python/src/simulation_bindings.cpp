@@ -505,7 +505,10 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
     // (as mca run: a mesh the scene read, lying where the earlier run's files are removed, would go)
     io::check_inputs_outside_subfolders(out->dir, app::mesh_inputs(e.scene()));
     out->lock = std::make_unique<io::OutputLock>(out->dir);
-    // (First: the files of an earlier run that a killed session had set aside are that run's again.)
+    // (First: the files of an earlier run that a killed session had set aside are that run's again, and a
+    // dead session's temporaries go.)
+    for (const std::string& said : app::set_aside_notes(out->dir, app::FrameWriter::put_back_set_aside(out->dir)))
+      if (PyErr_WarnEx(PyExc_UserWarning, said.c_str(), 1) != 0) throw py::error_already_set();
     app::FrameWriter::remove_stale_temporaries(out->dir);
     // As a new run: not a folder of files of a run's names that no run of mca wrote, nor a run that did
     // not finish (its frames would go, and its checkpoints could no longer be resumed).
@@ -514,11 +517,12 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
     // An earlier run's outputs, as mca run removes them (its summary.json and fragment meshes were left, and
     // the Blender importer took the old run's spacing and pieces for this one's): set aside, all or none,
     // and removed once the scene is written (a scene that cannot be written leaves the earlier run whole).
-    io::StagedRemoval earlier;
+    io::StagedRemoval earlier(out->dir);
     app::stage_run_files(earlier, out->dir, app::kEarlierRun);
     earlier.stage(out->dir / "scene.toml");
     io::write_file_atomic(out->dir / "scene.toml", [&](std::ostream& os) { os << io::scene_to_toml(e.scene()); },
                           false);
+    earlier.written(out->dir / "scene.toml");
     earlier.commit();
     out->writer = std::make_unique<app::FrameWriter>(out->dir, e.model(), e.scene().output);
     sim.output = std::move(out);

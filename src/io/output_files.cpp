@@ -184,9 +184,9 @@ std::string scene_folder_name(const std::string& scene_name) {
 
 namespace {
 
-// "<name>.<pid>.<n><suffix>" -> pid, or 0 when the name is not one of the files a run writes with that suffix
-// (".tmp": write_file_atomic's temporaries; ".aside": StagedRemoval's files set aside).
-long temporary_owner(const std::string& name, std::string_view suffix = ".tmp") {
+// "<name>.<pid>.<n>.tmp" -> pid, or 0 when the name is not one of write_file_atomic's temporaries.
+long temporary_owner(const std::string& name) {
+  constexpr std::string_view suffix = ".tmp";
   if (name.size() <= suffix.size() || name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0) return 0;
   const std::string stem = name.substr(0, name.size() - suffix.size());
   const auto counter_dot = stem.rfind('.');
@@ -229,36 +229,80 @@ bool gone(long pid) {
                      (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH));
 }
 
-constexpr std::string_view kAside = ".aside";
+bool all_digits(std::string_view t) {
+  return !t.empty() && t.size() <= 18 && std::all_of(t.begin(), t.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+// StagedRemoval's names: a file set aside is NAME.<pid>.<n>.mca-aside beside it; the output folder holds
+// .mca-committing.<pid> while a session removes what it set aside.
+constexpr std::string_view kAside = ".mca-aside", kCommitting = ".mca-committing.", kProbe = ".mca_write_probe.";
+
+// "NAME.<pid>.<n>.mca-aside" -> NAME, or "" for any other name.
+std::string set_aside_name(const std::string& name) {
+  if (!name.ends_with(kAside)) return "";
+  const std::string stem = name.substr(0, name.size() - kAside.size());
+  const auto counter_dot = stem.rfind('.');
+  if (counter_dot == std::string::npos || counter_dot == 0 || !all_digits(stem.substr(counter_dot + 1))) return "";
+  const auto pid_dot = stem.rfind('.', counter_dot - 1);
+  if (pid_dot == std::string::npos || pid_dot == 0 || !all_digits(stem.substr(pid_dot + 1, counter_dot - pid_dot - 1)))
+    return "";
+  return stem.substr(0, pid_dot);
+}
 }  // namespace
 
-std::size_t remove_stale_temporaries(const fs::path& dir) {
+void remove_stale_temporaries(const fs::path& dir) {
   std::error_code ec;
-  if (!fs::is_directory(dir, ec)) return 0;
-  std::vector<fs::path> doomed, aside;
+  if (!fs::is_directory(dir, ec)) return;
+  std::vector<fs::path> doomed;
   for (const auto& e : fs::directory_iterator(dir, ec)) {
     const std::string name = e.path().filename().string();
-    if (gone(temporary_owner(name)) && e.is_regular_file(ec)) doomed.push_back(e.path());
-    if (gone(temporary_owner(name, kAside)) && !e.is_symlink(ec)) aside.push_back(e.path());
+    // (A write probe of prepare_output_dir, left by a session killed at it, too.)
+    const long probe = name.starts_with(kProbe) && all_digits(name.substr(kProbe.size()))
+                           ? std::stol(name.substr(kProbe.size()))
+                           : 0;
+    if ((gone(temporary_owner(name)) || gone(probe)) && e.is_regular_file(ec)) doomed.push_back(e.path());
   }
   for (const auto& p : doomed) fs::remove(p, ec);
-  // A session killed while it set an earlier run's files aside (StagedRemoval) left them so: each goes back
-  // to its name, unless a file stands there again (written by that session, which then had removed them).
-  std::size_t restored = 0;
-  for (const auto& p : aside) {
-    const std::string name = p.filename().string();
-    std::string original = name.substr(0, name.size() - kAside.size());
-    original.erase(original.rfind('.'));
-    original.erase(original.rfind('.'));
-    const fs::path to = p.parent_path() / original;
-    if (fs::exists(fs::symlink_status(to, ec))) {
-      fs::remove(p, ec);
-      continue;
+}
+
+SetAsideFound put_back_set_aside(const fs::path& root, const std::vector<std::string>& folders,
+                                 const std::function<bool(const std::string&, const std::string&)>& ours) {
+  SetAsideFound found;
+  std::error_code ec;
+  // Sessions take the folder's lock first and call this before anything else, so what is set aside here is
+  // a killed session's (whatever its process id says: one of another pid namespace, or one reused since,
+  // looks alive); one session's at most, as each session before it put back or removed its predecessor's.
+  std::vector<fs::path> markers;
+  for (const auto& e : fs::directory_iterator(root, ec))
+    if (const std::string name = e.path().filename().string();
+        name.starts_with(kCommitting) && all_digits(name.substr(kCommitting.size())))
+      markers.push_back(e.path());
+  const bool committing = !markers.empty();
+  std::vector<std::string> in = {""};
+  in.insert(in.end(), folders.begin(), folders.end());
+  for (const std::string& folder : in) {
+    const fs::path d = folder.empty() ? root : root / folder;
+    if (!fs::is_directory(fs::symlink_status(d, ec))) continue;  // (never through a link)
+    std::vector<std::pair<fs::path, std::string>> aside;
+    for (const auto& e : fs::directory_iterator(d, ec)) {
+      const std::string original = set_aside_name(e.path().filename().string());
+      if (!original.empty() && ours(folder, original)) aside.emplace_back(e.path(), original);
     }
-    fs::rename(p, to, ec);
-    restored += !ec;
+    std::sort(aside.begin(), aside.end());
+    for (const auto& [p, original] : aside) {
+      if (committing) {
+        // It had begun to remove them: its run had begun, and what is left of them goes.
+        found.removed += fs::remove(p, ec);
+      } else {
+        // Killed before: its run had not begun, and the earlier one comes back whole, over what it had
+        // written at those names (its scene file).
+        fs::rename(p, d / original, ec);
+        found.restored += !ec;
+      }
+    }
   }
-  return restored;
+  for (const auto& m : markers) fs::remove(m, ec);
+  return found;
 }
 
 fs::path temporary_path(const fs::path& path) {
@@ -398,7 +442,7 @@ bool StagedRemoval::stage(const fs::path& p) {
   } else {
     ec.clear();
     // (Not temporary_path's ".tmp": a killed session's files set aside go back to their names, where its
-    // temporaries are removed; remove_stale_temporaries.)
+    // temporaries are removed; put_back_set_aside.)
     static std::atomic<std::uint64_t> counter{0};
     fs::path tmp = p;
     tmp += fmt::format(".{}.{}{}", ::getpid(), counter++, kAside);
@@ -414,12 +458,20 @@ bool StagedRemoval::stage(const fs::path& p) {
 
 void StagedRemoval::commit() {
   std::error_code ec;
+  written_.clear();
+  if (staged_.empty()) return;
+  // The marker first: a session killed among the removals leaves the rest to be removed, not put back.
+  const fs::path marker = root_ / fmt::format("{}{}", kCommitting, ::getpid());
+  if (const int fd = ::open(marker.c_str(), O_WRONLY | O_CREAT | O_NOFOLLOW | O_CLOEXEC, 0600); fd >= 0) ::close(fd);
   for (const auto& [name, tmp] : staged_) fs::remove(tmp, ec);
+  fs::remove(marker, ec);
   staged_.clear();
 }
 
 void StagedRemoval::restore() noexcept {
   std::error_code ec;
+  for (const auto& p : written_) fs::remove(p, ec);
+  written_.clear();
   for (auto it = staged_.rbegin(); it != staged_.rend(); ++it) fs::rename(it->second, it->first, ec);
   staged_.clear();
 }

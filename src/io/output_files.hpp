@@ -81,10 +81,19 @@ std::string write_failure_fix(int err);
 std::filesystem::path temporary_path(const std::filesystem::path& path);
 
 // Removes the temporary files write_file_atomic left in `dir` (not below) for the outputs of a run
-// (.vtu, .vtp, .pvd, .csv, .json, .toml, .mcack, .ply, .obj, .png, .mp4) when their process is gone (a killed run); those of running
-// processes and every other file stay. A missing folder is fine. The files a killed session had set aside
-// (StagedRemoval) go back to their names, where no file stands there again; returns how many went back.
-std::size_t remove_stale_temporaries(const std::filesystem::path& dir);
+// (.vtu, .vtp, .pvd, .csv, .json, .toml, .mcack, .ply, .obj, .png, .mp4) when their process is gone (a killed run), and
+// prepare_output_dir's write probes; those of running processes and every other file stay. A missing folder
+// is fine.
+void remove_stale_temporaries(const std::filesystem::path& dir);
+
+// What a killed session had set aside (StagedRemoval) in `root` and its `folders`, of the names `ours(folder,
+// name)` takes for a run's: put back at their names (over what it had written there) where it was killed
+// before it began to remove them, else removed. For a session to call first, under the folder's lock.
+struct SetAsideFound {
+  std::size_t restored = 0, removed = 0;
+};
+SetAsideFound put_back_set_aside(const std::filesystem::path& root, const std::vector<std::string>& folders,
+                                 const std::function<bool(const std::string& folder, const std::string& name)>& ours);
 
 // The number of a file named as a run numbers its outputs, `prefix` + 1 to 18 digits + `extension`
 // (automata_000012.vtu: 12); none for any other name (automata_mine.vtu).
@@ -95,27 +104,32 @@ std::optional<std::int64_t> numbered(const std::string& name, std::string_view p
 bool remove_output(const std::filesystem::path& p);
 
 // The files of an earlier session that a session removes, removed all or none: each is first renamed to a
-// name beside it (its own + ".<pid>.<n>.aside"; a killed session's go back to their names at the next
-// session's remove_stale_temporaries), and removed only at commit(). Where one cannot be (a read-only folder, an immutable file), those set aside
-// go back to their names and the error of remove_output names it; so does the destructor put them back when
-// the session stops before commit() (a renderer that cannot start, a scene file that cannot be written).
+// name beside it (its own + ".<pid>.<n>.mca-aside"), and removed only at commit(). Where one cannot be (a
+// read-only folder, an immutable file), those set aside go back to their names and the error of
+// remove_output names it; so does the destructor put them back when the session stops before commit() (a
+// renderer that cannot start, a scene file that cannot be written, a stop signal), and remove the files
+// the session wrote meanwhile (written()). A session killed before commit() leaves them for the next
+// (put_back_set_aside); one killed in it, a marker in `root` (the output folder) that says to remove them.
 class StagedRemoval {
  public:
-  StagedRemoval() = default;
+  explicit StagedRemoval(std::filesystem::path root) : root_(std::move(root)) {}
   StagedRemoval(const StagedRemoval&) = delete;
   StagedRemoval& operator=(const StagedRemoval&) = delete;
   ~StagedRemoval() { restore(); }
   // Sets `p` aside where it is there (as remove_output: a path through a file holds nothing); returns
   // whether it was. A folder that holds files is refused, as remove_output refuses it.
   bool stage(const std::filesystem::path& p);
-  // Removes what was set aside (one that cannot be removed now stays, and goes back to its name at the next
-  // session, where none stands there).
+  // A file the session wrote before commit() (its scene file, render.json): removed by restore().
+  void written(const std::filesystem::path& p) { written_.push_back(p); }
+  // Removes what was set aside (one that cannot be removed now is removed by the next session).
   void commit();
-  // Puts what was set aside back at its name, the last first.
+  // Removes what the session wrote and puts what was set aside back at its name, the last first.
   void restore() noexcept;
 
  private:
+  std::filesystem::path root_;
   std::vector<std::pair<std::filesystem::path, std::filesystem::path>> staged_;  // (name, temporary name)
+  std::vector<std::filesystem::path> written_;
 };
 
 }  // namespace mca::io
