@@ -226,8 +226,11 @@ TEST(RunFolder, FilesAKilledSessionSetAsideGoBack) {
   const std::string alive = "." + std::to_string(::getpid()) + ".", dead = ".4194305.";
   int n = 0;
   for (const char* name : {"stats.csv", "frames/automata_000001.vtu", "checkpoints/frame_000002.mcack",
-                           "automata.pvd", "scene.toml"})
-    fs::rename(out / name, out / (std::string(name) + (n % 2 ? dead : alive) + std::to_string(n++) + ".mca-aside"));
+                           "automata.pvd", "scene.toml"}) {
+    const std::string pid = n % 2 ? dead : alive;
+    fs::rename(out / name, out / (std::string(name) + pid + std::to_string(n) + ".mca-aside"));
+    ++n;
+  }
   std::ofstream(out / "scene.toml") << "# the killed session's scene\n";
   const Result r = run_mca("resume " + out.string());
   ASSERT_EQ(r.code, 0) << r.output;
