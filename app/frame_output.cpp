@@ -714,9 +714,10 @@ std::vector<std::string> run_file_folders() {
   return folders;
 }
 
-SceneHead read_scene_head(const std::filesystem::path& dir) {
+namespace {
+SceneHead scene_head_of(const std::filesystem::path& file) {
   std::string head;
-  if (std::ifstream in(dir / "scene.toml"); in) {
+  if (std::ifstream in(file); in) {
     head.resize(4096);
     in.read(head.data(), static_cast<std::streamsize>(head.size()));
     head.resize(static_cast<std::size_t>(in.gcount()));
@@ -728,6 +729,9 @@ SceneHead read_scene_head(const std::filesystem::path& dir) {
   if (h.by_mca && std::sscanf(head.c_str(), "# This run: --steps %lld ", &steps) == 1) h.steps = steps;
   return h;
 }
+}  // namespace
+
+SceneHead read_scene_head(const std::filesystem::path& dir) { return scene_head_of(dir / "scene.toml"); }
 
 std::string summary_status(const std::filesystem::path& dir) {
   std::string status;
@@ -784,19 +788,26 @@ std::vector<std::string> set_aside_notes(const std::filesystem::path& dir, const
   std::vector<std::string> notes;
   const auto one = [](std::size_t n, const char* single, const char* plural) { return n == 1 ? single : plural; };
   if (found.restored > 0)
-    notes.push_back(fmt::format("{} of the run in {} that a session killed before it began had set aside {} back at "
+    notes.push_back(fmt::format("{} of the run in {} that a session stopped before it began had set aside {} back at "
                                 "{}",
                                 text::count(found.restored, "file"), dir.string(), one(found.restored, "is", "are"),
                                 one(found.restored, "its name", "their names")));
   if (found.removed > 0)
-    notes.push_back(fmt::format("{} of an earlier run in {} that a session killed as it removed them had set aside "
-                                "{} removed",
+    notes.push_back(fmt::format("{} in {} that a session had set aside to remove {} removed",
                                 text::count(found.removed, "file"), dir.string(), one(found.removed, "is", "are")));
   return notes;
 }
 
 io::SetAsideFound FrameWriter::put_back_set_aside(const std::filesystem::path& dir) {
-  // (Only names of the table: a user's notes.txt.1.2.mca-aside is left alone.)
+  // Only in the folder of a run of mca (its scene.toml by mca, or set aside), and only names of the table: a
+  // user's summary.json.1.2.mca-aside in a folder of their own, or notes.txt.1.2.mca-aside, is left alone.
+  bool run = read_scene_head(dir).by_mca;
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (!run && name.starts_with("scene.toml.") && name.ends_with(".mca-aside")) run = scene_head_of(e.path()).by_mca;
+  }
+  if (!run) return {};
   return io::put_back_set_aside(dir, run_file_folders(), [](const std::string& folder, const std::string& name) {
     return std::any_of(std::begin(kRunFiles), std::end(kRunFiles), [&](const RunFile& f) {
       return folder == f.folder && (*f.extension ? io::numbered(name, f.name, f.extension).has_value() : name == f.name);

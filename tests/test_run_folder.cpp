@@ -234,7 +234,7 @@ TEST(RunFolder, FilesAKilledSessionSetAsideGoBack) {
   std::ofstream(out / "scene.toml") << "# the killed session's scene\n";
   const Result r = run_mca("resume " + out.string());
   ASSERT_EQ(r.code, 0) << r.output;
-  EXPECT_NE(r.output.find("mca: 5 files of the run in " + out.string() + " that a session killed before it began had "
+  EXPECT_NE(r.output.find("mca: 5 files of the run in " + out.string() + " that a session stopped before it began had "
                           "set aside are back at their names"),
             std::string::npos)
       << r.output;
@@ -251,13 +251,30 @@ TEST(RunFolder, FilesAKilledSessionSetAsideGoBack) {
   std::ofstream(out / ".mca-committing.4194305");
   const Result again = run_mca("resume " + out.string());
   ASSERT_EQ(again.code, 0) << again.output;
-  EXPECT_NE(again.output.find("mca: 1 file of an earlier run in " + out.string() + " that a session killed as it "
-                              "removed them had set aside is removed"),
+  EXPECT_NE(again.output.find("mca: 1 file in " + out.string() + " that a session had set aside to remove is removed"),
             std::string::npos)
       << again.output;
   EXPECT_FALSE(fs::exists(out / ".mca-committing.4194305"));
   for (const auto& e : fs::recursive_directory_iterator(out))
     EXPECT_FALSE(e.path().filename().string().ends_with(".4194305.7.mca-aside")) << e.path();
+  // One that cannot be put back stops the session, naming it and the fix (left aside, it would later be put
+  // back over a newer run's file).
+  fs::rename(out / "fragments.csv", out / "fragments.csv.4194305.8.mca-aside");
+  fs::create_directories(out / "fragments.csv" / "mine");
+  const Result stuck = run_mca("resume " + out.string());
+  EXPECT_EQ(stuck.code, 2) << stuck.output;
+  EXPECT_NE(stuck.output.find("cannot put back '" + (out / "fragments.csv.4194305.8.mca-aside").string()), std::string::npos)
+      << stuck.output;
+  EXPECT_TRUE(fs::exists(out / "fragments.csv.4194305.8.mca-aside"));
+  // In a folder that holds no run of mca, names of that form are a user's: left alone, and the folder refused.
+  const fs::path mine = t.path() / "mine";
+  fs::create_directories(mine);
+  std::ofstream(mine / "summary.json") << "mine\n";
+  std::ofstream(mine / "summary.json.1.2.mca-aside") << "my backup\n";
+  const Result refused = run_mca("run " + scene + " --out " + mine.string() + " -q");
+  EXPECT_EQ(refused.code, 2) << refused.output;
+  EXPECT_EQ(read(mine / "summary.json"), "mine\n");
+  EXPECT_EQ(read(mine / "summary.json.1.2.mca-aside"), "my backup\n");
 }
 
 // The rate of a resumed run is its own steps over its own wall time: the earlier sessions' wall time (here

@@ -289,19 +289,33 @@ SetAsideFound put_back_set_aside(const fs::path& root, const std::vector<std::st
       if (!original.empty() && ours(folder, original)) aside.emplace_back(e.path(), original);
     }
     std::sort(aside.begin(), aside.end());
+    // Each is put back or removed, or the session stops here: one left aside would be taken later for one
+    // of a session stopped before it began, and put back over a newer run's file.
     for (const auto& [p, original] : aside) {
       if (committing) {
         // It had begun to remove them: its run had begun, and what is left of them goes.
-        found.removed += fs::remove(p, ec);
+        if (!fs::remove(p, ec) || ec)
+          throw Error(fmt::format("cannot remove '{}', a file of an earlier run that a session had set aside to "
+                                  "remove ({}); remove it by hand, then run again",
+                                  p.string(), ec ? ec.message() : "it is gone"));
+        ++found.removed;
       } else {
-        // Killed before: its run had not begun, and the earlier one comes back whole, over what it had
+        // Stopped before: its run had not begun, and the earlier one comes back whole, over what it had
         // written at those names (its scene file).
         fs::rename(p, d / original, ec);
-        found.restored += !ec;
+        if (ec)
+          throw Error(fmt::format("cannot put back '{}', a file of the run in {} that a session stopped before it "
+                                  "began had set aside, at its name '{}' ({}); rename it by hand (mv {} {}), then "
+                                  "run again",
+                                  p.string(), root.string(), original, ec.message(), text::shell_word(p.string()),
+                                  text::shell_word((d / original).string())));
+        ++found.restored;
       }
     }
   }
-  for (const auto& m : markers) fs::remove(m, ec);
+  for (const auto& m : markers)
+    if (!fs::remove(m, ec) && ec)
+      throw Error(fmt::format("cannot remove '{}' ({}); remove it by hand, then run again", m.string(), ec.message()));
   return found;
 }
 
@@ -463,8 +477,10 @@ void StagedRemoval::commit() {
   // The marker first: a session killed among the removals leaves the rest to be removed, not put back.
   const fs::path marker = root_ / fmt::format("{}{}", kCommitting, ::getpid());
   if (const int fd = ::open(marker.c_str(), O_WRONLY | O_CREAT | O_NOFOLLOW | O_CLOEXEC, 0600); fd >= 0) ::close(fd);
-  for (const auto& [name, tmp] : staged_) fs::remove(tmp, ec);
-  fs::remove(marker, ec);
+  // (One that cannot be removed keeps the marker: the next session removes it, never puts it back.)
+  bool all = true;
+  for (const auto& [name, tmp] : staged_) all = fs::remove(tmp, ec) && !ec && all;
+  if (all) fs::remove(marker, ec);
   staged_.clear();
 }
 

@@ -88,7 +88,8 @@ void remove_stale_temporaries(const std::filesystem::path& dir);
 
 // What a killed session had set aside (StagedRemoval) in `root` and its `folders`, of the names `ours(folder,
 // name)` takes for a run's: put back at their names (over what it had written there) where it was killed
-// before it began to remove them, else removed. For a session to call first, under the folder's lock.
+// before it began to remove them, else removed (its marker there, also where a removal had failed). For a
+// session to call first, under the folder's lock; mca::Error naming a file it can put back or remove neither.
 struct SetAsideFound {
   std::size_t restored = 0, removed = 0;
 };
@@ -121,7 +122,8 @@ class StagedRemoval {
   bool stage(const std::filesystem::path& p);
   // A file the session wrote before commit() (its scene file, render.json): removed by restore().
   void written(const std::filesystem::path& p) { written_.push_back(p); }
-  // Removes what was set aside (one that cannot be removed now is removed by the next session).
+  // Removes what was set aside (one that cannot be removed now is removed by the next session: the marker
+  // that says so stays).
   void commit();
   // Removes what the session wrote and puts what was set aside back at its name, the last first.
   void restore() noexcept;
