@@ -38,7 +38,6 @@
 namespace mca::app {
 namespace {
 
-using io::remove_output;
 
 // The signal that stops the run (or the view), 0 while none came: SIGINT (Ctrl-C), SIGTERM (kill, a batch
 // system's time limit) and SIGHUP (the terminal closed) alike end a run at the next chunk of steps with its
@@ -294,13 +293,10 @@ std::size_t stage_end_outputs(io::StagedRemoval& removal, const std::filesystem:
   return plots ? stage_run_files(removal, dir, {RunPart::plots}) : 0;
 }
 
-// The first thing a session does in its folder, under the lock: the files of an earlier run that a killed
-// session had set aside go back to their names (or, where it had begun to remove them, go), and a dead
-// session's temporary files go.
+// FrameWriter::recover_folder, what it says on stderr.
 void recover_folder(const std::filesystem::path& dir, bool quiet) {
-  for (const std::string& said : set_aside_notes(dir, FrameWriter::put_back_set_aside(dir)))
+  for (const std::string& said : FrameWriter::recover_folder(dir))
     if (!quiet) fmt::print(stderr, "mca: {}\n", said);
-  FrameWriter::remove_stale_temporaries(dir);
 }
 
 // What a session writes (`frames` more, pictures of render_width x render_height, 0 for none) must fit the

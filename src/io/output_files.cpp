@@ -184,29 +184,39 @@ std::string scene_folder_name(const std::string& scene_name) {
 
 namespace {
 
-// "<name>.<pid>.<n>.tmp" -> pid, or 0 when the name is not one of write_file_atomic's temporaries.
-long temporary_owner(const std::string& name) {
-  constexpr std::string_view suffix = ".tmp";
-  if (name.size() <= suffix.size() || name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0) return 0;
+bool all_digits(std::string_view t) {
+  return !t.empty() && t.size() <= 18 && std::all_of(t.begin(), t.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+// A name of temporary_path's form, "<name>.<pid>.<n><suffix>": its name and pid.
+struct Owned {
+  std::string name;
+  long pid = 0;
+};
+std::optional<Owned> owned_name(const std::string& name, std::string_view suffix) {
+  if (!name.ends_with(suffix)) return std::nullopt;
   const std::string stem = name.substr(0, name.size() - suffix.size());
   const auto counter_dot = stem.rfind('.');
-  if (counter_dot == std::string::npos || counter_dot == 0) return 0;
+  if (counter_dot == std::string::npos || counter_dot == 0 || !all_digits(stem.substr(counter_dot + 1)))
+    return std::nullopt;
   const auto pid_dot = stem.rfind('.', counter_dot - 1);
-  if (pid_dot == std::string::npos || pid_dot == 0) return 0;
+  if (pid_dot == std::string::npos || pid_dot == 0) return std::nullopt;
   const std::string pid = stem.substr(pid_dot + 1, counter_dot - pid_dot - 1);
-  const std::string counter = stem.substr(counter_dot + 1);
-  const auto digits = [](const std::string& t) {
-    return !t.empty() && t.size() <= 18 && std::all_of(t.begin(), t.end(), [](char c) { return c >= '0' && c <= '9'; });
-  };
-  if (!digits(pid) || !digits(counter)) return 0;
+  if (!all_digits(pid)) return std::nullopt;
+  return Owned{stem.substr(0, pid_dot), std::stol(pid)};
+}
+
+// "<name>.<pid>.<n>.tmp" -> pid, or 0 when the name is not one of write_file_atomic's temporaries.
+long temporary_owner(const std::string& name) {
+  const auto owned = owned_name(name, ".tmp");
+  if (!owned) return 0;
   // Only temporaries of the files a run writes: a user's "notes.2024.01.tmp" is left alone.
   static const std::string_view ours[] = {".vtu", ".vtp", ".pvd", ".csv", ".json", ".toml", ".mcack", ".ply", ".obj", ".png", ".mp4"};
-  const std::string target = stem.substr(0, pid_dot);
   if (std::none_of(std::begin(ours), std::end(ours), [&](std::string_view ext) {
-        return target.size() > ext.size() && target.compare(target.size() - ext.size(), ext.size(), ext) == 0;
+        return owned->name.size() > ext.size() && owned->name.ends_with(ext);
       }))
     return 0;
-  return std::stol(pid);
+  return owned->pid;
 }
 
 // fsync of a file or folder by path (a stream does not expose its descriptor).
@@ -229,24 +239,14 @@ bool gone(long pid) {
                      (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH));
 }
 
-bool all_digits(std::string_view t) {
-  return !t.empty() && t.size() <= 18 && std::all_of(t.begin(), t.end(), [](char c) { return c >= '0' && c <= '9'; });
-}
-
 // StagedRemoval's names: a file set aside is NAME.<pid>.<n>.mca-aside beside it; the output folder holds
 // .mca-committing.<pid> while a session removes what it set aside.
 constexpr std::string_view kAside = ".mca-aside", kCommitting = ".mca-committing.", kProbe = ".mca_write_probe.";
 
 // "NAME.<pid>.<n>.mca-aside" -> NAME, or "" for any other name.
 std::string set_aside_name(const std::string& name) {
-  if (!name.ends_with(kAside)) return "";
-  const std::string stem = name.substr(0, name.size() - kAside.size());
-  const auto counter_dot = stem.rfind('.');
-  if (counter_dot == std::string::npos || counter_dot == 0 || !all_digits(stem.substr(counter_dot + 1))) return "";
-  const auto pid_dot = stem.rfind('.', counter_dot - 1);
-  if (pid_dot == std::string::npos || pid_dot == 0 || !all_digits(stem.substr(pid_dot + 1, counter_dot - pid_dot - 1)))
-    return "";
-  return stem.substr(0, pid_dot);
+  const auto owned = owned_name(name, kAside);
+  return owned ? owned->name : "";
 }
 }  // namespace
 
@@ -319,11 +319,11 @@ SetAsideFound put_back_set_aside(const fs::path& root, const std::vector<std::st
   return found;
 }
 
-fs::path temporary_path(const fs::path& path) {
+fs::path temporary_path(const fs::path& path, std::string_view suffix) {
   // The process id keeps other processes off this name, the counter other calls of this process.
   static std::atomic<std::uint64_t> counter{0};
   fs::path tmp = path;
-  tmp += fmt::format(".{}.{}.tmp", ::getpid(), counter++);
+  tmp += fmt::format(".{}.{}{}", ::getpid(), counter++, suffix);
   return tmp;
 }
 
@@ -431,20 +431,6 @@ std::optional<std::int64_t> numbered(const std::string& name, std::string_view p
   return n;
 }
 
-namespace {
-Error removal_error(const fs::path& p, const std::error_code& ec, bool nothing_removed) {
-  return Error(fmt::format("cannot remove '{}', an output of an earlier run in this folder ({}); {}remove it by hand "
-                           "or use another --out folder",
-                           p.string(), ec.message(), nothing_removed ? "nothing was removed: " : ""));
-}
-}  // namespace
-
-bool remove_output(const std::filesystem::path& p) {
-  std::error_code ec;
-  const bool removed = std::filesystem::remove(p, ec);
-  if (ec && ec != std::errc::not_a_directory) throw removal_error(p, ec, false);
-  return removed;
-}
 
 bool StagedRemoval::stage(const fs::path& p) {
   std::error_code ec;
@@ -455,11 +441,9 @@ bool StagedRemoval::stage(const fs::path& p) {
     ec = std::make_error_code(std::errc::directory_not_empty);
   } else {
     ec.clear();
-    // (Not temporary_path's ".tmp": a killed session's files set aside go back to their names, where its
-    // temporaries are removed; put_back_set_aside.)
-    static std::atomic<std::uint64_t> counter{0};
-    fs::path tmp = p;
-    tmp += fmt::format(".{}.{}{}", ::getpid(), counter++, kAside);
+    // (Not ".tmp": a killed session's files set aside go back to their names, where its temporaries are
+    // removed; put_back_set_aside.)
+    const fs::path tmp = temporary_path(p, kAside);
     fs::rename(p, tmp, ec);
     if (!ec) {
       staged_.emplace_back(p, tmp);
@@ -467,7 +451,9 @@ bool StagedRemoval::stage(const fs::path& p) {
     }
   }
   restore();
-  throw removal_error(p, ec, true);
+  throw Error(fmt::format("cannot remove '{}', an output of an earlier run in this folder ({}); nothing was removed: "
+                          "remove it by hand or use another --out folder",
+                          p.string(), ec.message()));
 }
 
 void StagedRemoval::commit() {

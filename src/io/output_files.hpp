@@ -77,8 +77,9 @@ void write_file_atomic(const std::filesystem::path& path,
 std::string write_failure_fix(int err);
 
 // A temporary name for `path` in the same folder, as write_file_atomic uses: `path` + ".<pid>.<n>.tmp". For
-// files written by another program (the video, by ffmpeg) and renamed into place by the caller.
-std::filesystem::path temporary_path(const std::filesystem::path& path);
+// files written by another program (the video, by ffmpeg) and renamed into place by the caller; with another
+// `suffix`, StagedRemoval's names of files set aside.
+std::filesystem::path temporary_path(const std::filesystem::path& path, std::string_view suffix = ".tmp");
 
 // Removes the temporary files write_file_atomic left in `dir` (not below) for the outputs of a run
 // (.vtu, .vtp, .pvd, .csv, .json, .toml, .mcack, .ply, .obj, .png, .mp4) when their process is gone (a killed run), and
@@ -100,14 +101,10 @@ SetAsideFound put_back_set_aside(const std::filesystem::path& root, const std::v
 // (automata_000012.vtu: 12); none for any other name (automata_mine.vtu).
 std::optional<std::int64_t> numbered(const std::string& name, std::string_view prefix, std::string_view extension);
 
-// Removes a file of an earlier session where it is there; returns whether it was. An error that names it
-// where it cannot be removed (a path through a file, as a file named `render`, holds none: nothing to remove).
-bool remove_output(const std::filesystem::path& p);
-
 // The files of an earlier session that a session removes, removed all or none: each is first renamed to a
 // name beside it (its own + ".<pid>.<n>.mca-aside"), and removed only at commit(). Where one cannot be (a
-// read-only folder, an immutable file), those set aside go back to their names and the error of
-// remove_output names it; so does the destructor put them back when the session stops before commit() (a
+// read-only folder, an immutable file), those set aside go back to their names and an mca::Error names it;
+// so does the destructor put them back when the session stops before commit() (a
 // renderer that cannot start, a scene file that cannot be written, a stop signal), and remove the files
 // the session wrote meanwhile (written()). A session killed before commit() leaves them for the next
 // (put_back_set_aside); one killed in it, a marker in `root` (the output folder) that says to remove them.
@@ -117,8 +114,8 @@ class StagedRemoval {
   StagedRemoval(const StagedRemoval&) = delete;
   StagedRemoval& operator=(const StagedRemoval&) = delete;
   ~StagedRemoval() { restore(); }
-  // Sets `p` aside where it is there (as remove_output: a path through a file holds nothing); returns
-  // whether it was. A folder that holds files is refused, as remove_output refuses it.
+  // Sets `p` aside where it is there (a path through a file, as a file named `render`, holds nothing);
+  // returns whether it was. A folder that holds files is refused: it could not be removed.
   bool stage(const std::filesystem::path& p);
   // A file the session wrote before commit() (its scene file, render.json): removed by restore().
   void written(const std::filesystem::path& p) { written_.push_back(p); }
