@@ -779,11 +779,8 @@ void check_folder_is_a_runs(const std::filesystem::path& dir, std::string_view a
   check_run_names_are_files(dir);
 }
 
-void FrameWriter::remove_stale_temporaries(const std::filesystem::path& dir) {
-  io::remove_stale_temporaries(dir);
-  for (const std::string& sub : run_file_folders()) io::remove_stale_temporaries(dir / sub);
-}
-
+namespace {
+// What put_back_set_aside found in `dir`, said (none where it found nothing).
 std::vector<std::string> set_aside_notes(const std::filesystem::path& dir, const io::SetAsideFound& found) {
   std::vector<std::string> notes;
   const auto one = [](std::size_t n, const char* single, const char* plural) { return n == 1 ? single : plural; };
@@ -798,7 +795,7 @@ std::vector<std::string> set_aside_notes(const std::filesystem::path& dir, const
   return notes;
 }
 
-io::SetAsideFound FrameWriter::put_back_set_aside(const std::filesystem::path& dir) {
+io::SetAsideFound put_back_set_aside(const std::filesystem::path& dir) {
   // Only in the folder of a run of mca (its scene.toml by mca, or set aside), and only names of the table: a
   // user's summary.json.1.2.mca-aside in a folder of their own, or notes.txt.1.2.mca-aside, is left alone.
   bool run = read_scene_head(dir).by_mca;
@@ -813,6 +810,14 @@ io::SetAsideFound FrameWriter::put_back_set_aside(const std::filesystem::path& d
       return folder == f.folder && (*f.extension ? io::numbered(name, f.name, f.extension).has_value() : name == f.name);
     });
   });
+}
+}  // namespace
+
+std::vector<std::string> FrameWriter::recover_folder(const std::filesystem::path& dir) {
+  std::vector<std::string> notes = set_aside_notes(dir, put_back_set_aside(dir));
+  io::remove_stale_temporaries(dir);
+  for (const std::string& sub : run_file_folders()) io::remove_stale_temporaries(dir / sub);
+  return notes;
 }
 
 std::vector<std::int64_t> FrameWriter::restore(std::int64_t frames,

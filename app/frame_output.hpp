@@ -156,8 +156,6 @@ std::size_t stage_run_files(io::StagedRemoval& removal, const std::filesystem::p
 // Refuses a folder (or anything but a regular file) at a name of the table in `dir`: the run would stop when
 // it came to write that file (a checkpoint at frame 2,000, hours in) or to replace it.
 void check_run_names_are_files(const std::filesystem::path& dir);
-// What put_back_set_aside found in `dir`, said (none where it found nothing).
-std::vector<std::string> set_aside_notes(const std::filesystem::path& dir, const io::SetAsideFound& found);
 // The table's folders below the run's: frames, surface, fragments, checkpoints, render.
 std::vector<std::string> run_file_folders();
 
@@ -201,12 +199,12 @@ class FrameWriter {
   // Puts the rows appended so far on the disk (fdatasync), before a checkpoint that a resume reads them
   // back to: a crash after the checkpoint then cannot have lost them.
   void sync_stats();
-  // Removes the temporary files a killed run left in `dir` and the folders it writes into (their names are
-  // unique per process, so nothing else would ever replace them).
-  static void remove_stale_temporaries(const std::filesystem::path& dir);
-  // Puts back (or removes) the files of a run a killed session had set aside in `dir` and its folders
-  // (io::put_back_set_aside). First thing a session does under the folder's lock.
-  static io::SetAsideFound put_back_set_aside(const std::filesystem::path& dir);
+  // The first thing a session (mca run, resume, the Python module's first write_frame) does in its folder,
+  // under its lock: the files of a run that a killed session had set aside in `dir` and its folders go
+  // back to their names, or go where it had begun to remove them (io::put_back_set_aside, only in the
+  // folder of a run of mca), and the temporary files a killed run left go (their names are unique per
+  // process, so nothing else would ever replace them). Returns what it says of the files set aside.
+  static std::vector<std::string> recover_folder(const std::filesystem::path& dir);
   // Rebuilds the .pvd collections after a resume from the frames 0..frames-1 whose files are all on disk
   // whole (frame f at time_of(f)), and writes them; returns the frames of which a file is missing (removed
   // since the run wrote it), empty or cut short (a VTK file that does not end as written), which every

@@ -507,9 +507,8 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
     out->lock = std::make_unique<io::OutputLock>(out->dir);
     // (First: the files of an earlier run that a killed session had set aside are that run's again, and a
     // dead session's temporaries go.)
-    for (const std::string& said : app::set_aside_notes(out->dir, app::FrameWriter::put_back_set_aside(out->dir)))
+    for (const std::string& said : app::FrameWriter::recover_folder(out->dir))
       if (PyErr_WarnEx(PyExc_UserWarning, said.c_str(), 1) != 0) throw py::error_already_set();
-    app::FrameWriter::remove_stale_temporaries(out->dir);
     // As a new run: not a folder of files of a run's names that no run of mca wrote, nor a run that did
     // not finish (its frames would go, and its checkpoints could no longer be resumed).
     app::check_folder_is_a_runs(out->dir, "write_frame another folder");
