@@ -792,6 +792,9 @@ std::vector<std::string> set_aside_notes(const std::filesystem::path& dir, const
   if (found.removed > 0)
     notes.push_back(fmt::format("{} in {} that a session had set aside to remove {} removed",
                                 text::count(found.removed, "file"), dir.string(), one(found.removed, "is", "are")));
+  if (found.withdrawn > 0)
+    notes.push_back(fmt::format("{} that a session stopped before its run began had written in {} {} removed",
+                                text::count(found.withdrawn, "file"), dir.string(), one(found.withdrawn, "is", "are")));
   return notes;
 }
 

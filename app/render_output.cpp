@@ -170,8 +170,8 @@ RenderOutput::RenderOutput(const std::filesystem::path& dir, const Engine& sim, 
   // (A resumed run's video and sheet go below, where it can make them again.)
   if (first_frame == 0) {
     for (const char* old : {"video.mp4", "contact_sheet.png"}) removal.stage(dir_ / old);
+    removal.will_write(dir_ / "render.json");
     save_render_options(dir, options);
-    removal.written(dir_ / "render.json");
   }
   if (const auto ffmpeg = render::find_ffmpeg()) {
     try {

@@ -766,6 +766,7 @@ int run(const RunOptions& o) {
   // The scene as run (overrides applied), so the folder says what produced it.
   // A step count is not a key of the scene: a comment at the top says it (resuming reads the count from
   // the checkpoints).
+  earlier.will_write(dir / "scene.toml");
   io::write_file_atomic(dir / "scene.toml", [&](std::ostream& os) {
     if (o.steps)
       os << fmt::format("# This run: --steps {} ({:.6g} s of simulated time), not output.duration below; "
@@ -773,7 +774,6 @@ int run(const RunOptions& o) {
                         *o.steps, static_cast<double>(*o.steps) * sim.model().dt, *o.steps);
     os << io::scene_to_toml(scene);
   }, false);
-  earlier.written(dir / "scene.toml");
   // A stop signal so far: no run has begun, and the earlier one goes back whole.
   if (const int sig = stop; sig != 0) {
     fmt::print(stderr, "mca: interrupted by {} before the run began: {} is as it was\n", signal_name(sig), dir.string());

@@ -232,12 +232,23 @@ TEST(RunFolder, FilesAKilledSessionSetAsideGoBack) {
     ++n;
   }
   std::ofstream(out / "scene.toml") << "# the killed session's scene\n";
+  // It had also written a file where the earlier run had none (its rendering's options, which would have a
+  // resume of this unrendered run draw): it goes, with its marker.
+  fs::create_directories(out / "render");
+  std::ofstream(out / "render" / "render.json") << "{}\n";
+  std::ofstream(out / "render" / ("render.json" + dead + "5.mca-new"));
   const Result r = run_mca("resume " + out.string());
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("mca: 5 files of the run in " + out.string() + " that a session stopped before it began had "
                           "set aside are back at their names"),
             std::string::npos)
       << r.output;
+  EXPECT_NE(r.output.find("mca: 1 file that a session stopped before its run began had written in " + out.string() +
+                          " is removed"),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(fs::exists(out / "render" / "render.json"));
+  EXPECT_FALSE(fs::exists(out / "render" / ("render.json" + dead + "5.mca-new")));
   EXPECT_EQ(r.output.find("warning"), std::string::npos) << r.output;
   EXPECT_EQ(nlohmann::json::parse(read(out / "summary.json"))["state_hash"],
             nlohmann::json::parse(read(whole / "summary.json"))["state_hash"]);
@@ -249,6 +260,8 @@ TEST(RunFolder, FilesAKilledSessionSetAsideGoBack) {
   const std::string summary = read(out / "summary.json");
   std::ofstream(out / "summary.json.4194305.7.mca-aside") << "the earlier run's\n";
   std::ofstream(out / ".mca-committing.4194305");
+  // (A file it wrote where the earlier run had none is its run's now: its marker goes, the file stays.)
+  std::ofstream(out / "stats.csv.4194305.9.mca-new");
   const Result again = run_mca("resume " + out.string());
   ASSERT_EQ(again.code, 0) << again.output;
   EXPECT_NE(again.output.find("mca: 1 file in " + out.string() + " that a session had set aside to remove is removed"),
@@ -257,6 +270,8 @@ TEST(RunFolder, FilesAKilledSessionSetAsideGoBack) {
   EXPECT_FALSE(fs::exists(out / ".mca-committing.4194305"));
   for (const auto& e : fs::recursive_directory_iterator(out))
     EXPECT_FALSE(e.path().filename().string().ends_with(".4194305.7.mca-aside")) << e.path();
+  EXPECT_FALSE(fs::exists(out / "stats.csv.4194305.9.mca-new"));
+  EXPECT_TRUE(fs::exists(out / "stats.csv"));
   // One that cannot be put back stops the session, naming it and the fix (left aside, it would later be put
   // back over a newer run's file).
   fs::rename(out / "fragments.csv", out / "fragments.csv.4194305.8.mca-aside");

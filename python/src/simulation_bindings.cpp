@@ -519,9 +519,9 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
     io::StagedRemoval earlier(out->dir);
     app::stage_run_files(earlier, out->dir, app::kEarlierRun);
     earlier.stage(out->dir / "scene.toml");
+    earlier.will_write(out->dir / "scene.toml");
     io::write_file_atomic(out->dir / "scene.toml", [&](std::ostream& os) { os << io::scene_to_toml(e.scene()); },
                           false);
-    earlier.written(out->dir / "scene.toml");
     earlier.commit();
     out->writer = std::make_unique<app::FrameWriter>(out->dir, e.model(), e.scene().output);
     sim.output = std::move(out);

@@ -241,11 +241,12 @@ bool gone(long pid) {
 
 // StagedRemoval's names: a file set aside is NAME.<pid>.<n>.mca-aside beside it; the output folder holds
 // .mca-committing.<pid> while a session removes what it set aside.
-constexpr std::string_view kAside = ".mca-aside", kCommitting = ".mca-committing.", kProbe = ".mca_write_probe.";
+constexpr std::string_view kAside = ".mca-aside", kNew = ".mca-new", kCommitting = ".mca-committing.",
+                           kProbe = ".mca_write_probe.";
 
-// "NAME.<pid>.<n>.mca-aside" -> NAME, or "" for any other name.
-std::string set_aside_name(const std::string& name) {
-  const auto owned = owned_name(name, kAside);
+// "NAME.<pid>.<n><suffix>" -> NAME, or "" for any other name.
+std::string owner_of(const std::string& name, std::string_view suffix) {
+  const auto owned = owned_name(name, suffix);
   return owned ? owned->name : "";
 }
 }  // namespace
@@ -283,12 +284,32 @@ SetAsideFound put_back_set_aside(const fs::path& root, const std::vector<std::st
   for (const std::string& folder : in) {
     const fs::path d = folder.empty() ? root : root / folder;
     if (!fs::is_directory(fs::symlink_status(d, ec))) continue;  // (never through a link)
-    std::vector<std::pair<fs::path, std::string>> aside;
+    std::vector<std::pair<fs::path, std::string>> aside, written;
     for (const auto& e : fs::directory_iterator(d, ec)) {
-      const std::string original = set_aside_name(e.path().filename().string());
-      if (!original.empty() && ours(folder, original)) aside.emplace_back(e.path(), original);
+      const std::string name = e.path().filename().string();
+      if (const std::string original = owner_of(name, kAside); !original.empty() && ours(folder, original))
+        aside.emplace_back(e.path(), original);
+      else if (const std::string made = owner_of(name, kNew); !made.empty() && ours(folder, made))
+        written.emplace_back(e.path(), made);
     }
     std::sort(aside.begin(), aside.end());
+    std::sort(written.begin(), written.end());
+    // What it wrote where the earlier run had none: removed where its run had not begun, then the marker.
+    for (const auto& [marker, made] : written) {
+      if (!committing) {
+        const fs::path p = d / made;
+        if (fs::exists(fs::symlink_status(p, ec))) {
+          if (!fs::remove(p, ec) || ec)
+            throw Error(fmt::format("cannot remove '{}', which a session stopped before its run began had written "
+                                    "({}); remove it by hand, then run again",
+                                    p.string(), ec ? ec.message() : "it is gone"));
+          ++found.withdrawn;
+        }
+      }
+      if (!fs::remove(marker, ec) && ec)
+        throw Error(fmt::format("cannot remove '{}' ({}); remove it by hand, then run again", marker.string(),
+                                ec.message()));
+    }
     // Each is put back or removed, or the session stops here: one left aside would be taken later for one
     // of a session stopped before it began, and put back over a newer run's file.
     for (const auto& [p, original] : aside) {
@@ -456,16 +477,34 @@ bool StagedRemoval::stage(const fs::path& p) {
                           p.string(), ec.message()));
 }
 
+void StagedRemoval::will_write(const fs::path& p) {
+  written_.push_back(p);
+  if (std::any_of(staged_.begin(), staged_.end(), [&](const auto& s) { return s.first == p; })) return;
+  // (O_EXCL: the name is this process's own; a marker that cannot be made leaves the file unmarked, as
+  // before markers were.)
+  const fs::path marker = temporary_path(p, kNew);
+  if (const int fd = ::open(marker.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0600); fd >= 0) {
+    ::close(fd);
+    new_markers_.push_back(marker);
+  }
+}
+
 void StagedRemoval::commit() {
   std::error_code ec;
   written_.clear();
-  if (staged_.empty()) return;
+  if (staged_.empty()) {
+    for (const auto& m : new_markers_) fs::remove(m, ec);
+    new_markers_.clear();
+    return;
+  }
   // The marker first: a session killed among the removals leaves the rest to be removed, not put back.
   const fs::path marker = root_ / fmt::format("{}{}", kCommitting, ::getpid());
   if (const int fd = ::open(marker.c_str(), O_WRONLY | O_CREAT | O_NOFOLLOW | O_CLOEXEC, 0600); fd >= 0) ::close(fd);
   // (One that cannot be removed keeps the marker: the next session removes it, never puts it back.)
   bool all = true;
   for (const auto& [name, tmp] : staged_) all = fs::remove(tmp, ec) && !ec && all;
+  for (const auto& m : new_markers_) fs::remove(m, ec);
+  new_markers_.clear();
   if (all) fs::remove(marker, ec);
   staged_.clear();
 }
@@ -474,6 +513,8 @@ void StagedRemoval::restore() noexcept {
   std::error_code ec;
   for (const auto& p : written_) fs::remove(p, ec);
   written_.clear();
+  for (const auto& m : new_markers_) fs::remove(m, ec);
+  new_markers_.clear();
   for (auto it = staged_.rbegin(); it != staged_.rend(); ++it) fs::rename(it->second, it->first, ec);
   staged_.clear();
 }

@@ -89,10 +89,13 @@ void remove_stale_temporaries(const std::filesystem::path& dir);
 
 // What a killed session had set aside (StagedRemoval) in `root` and its `folders`, of the names `ours(folder,
 // name)` takes for a run's: put back at their names (over what it had written there) where it was killed
-// before it began to remove them, else removed (its marker there, also where a removal had failed). For a
-// session to call first, under the folder's lock; mca::Error naming a file it can put back or remove neither.
+// before it began to remove them, else removed (its marker there, also where a removal had failed); a file
+// it wrote where the earlier run had none (its NAME.<pid>.<n>.mca-new beside it) goes too where it was killed
+// before it began. For a session to call first, under the folder's lock; mca::Error naming a file it can put
+// back or remove neither.
 struct SetAsideFound {
   std::size_t restored = 0, removed = 0;
+  std::size_t withdrawn = 0;  // files it had written where the earlier run had none, removed
 };
 SetAsideFound put_back_set_aside(const std::filesystem::path& root, const std::vector<std::string>& folders,
                                  const std::function<bool(const std::string& folder, const std::string& name)>& ours);
@@ -106,7 +109,7 @@ std::optional<std::int64_t> numbered(const std::string& name, std::string_view p
 // read-only folder, an immutable file), those set aside go back to their names and an mca::Error names it;
 // so does the destructor put them back when the session stops before commit() (a
 // renderer that cannot start, a scene file that cannot be written, a stop signal), and remove the files
-// the session wrote meanwhile (written()). A session killed before commit() leaves them for the next
+// the session wrote meanwhile (will_write()). A session killed before commit() leaves them for the next
 // (put_back_set_aside); one killed in it, a marker in `root` (the output folder) that says to remove them.
 class StagedRemoval {
  public:
@@ -117,8 +120,10 @@ class StagedRemoval {
   // Sets `p` aside where it is there (a path through a file, as a file named `render`, holds nothing);
   // returns whether it was. A folder that holds files is refused: it could not be removed.
   bool stage(const std::filesystem::path& p);
-  // A file the session wrote before commit() (its scene file, render.json): removed by restore().
-  void written(const std::filesystem::path& p) { written_.push_back(p); }
+  // A file the session is about to write before commit() (its scene file, render.json): removed by
+  // restore(). Where the earlier run had none at that name, a marker NAME.<pid>.<n>.mca-new beside it says so
+  // until commit(), so that a session killed before then has it removed by the next (put_back_set_aside).
+  void will_write(const std::filesystem::path& p);
   // Removes what was set aside (one that cannot be removed now is removed by the next session: the marker
   // that says so stays).
   void commit();
@@ -129,6 +134,7 @@ class StagedRemoval {
   std::filesystem::path root_;
   std::vector<std::pair<std::filesystem::path, std::filesystem::path>> staged_;  // (name, temporary name)
   std::vector<std::filesystem::path> written_;
+  std::vector<std::filesystem::path> new_markers_;
 };
 
 }  // namespace mca::io
