@@ -34,11 +34,11 @@ tool = load_tool()
 REFERENCES = {}
 
 
-def continuum(poisson, damping_time, cells=12):
-    key = (poisson, damping_time, cells)
+def continuum(poisson, damping_time, cells=12, viscosity="isotropic"):
+    key = (poisson, damping_time, cells, viscosity)
     if key not in REFERENCES:
         r = tool.drop(cells=cells, poisson=poisson, size=SIZE, speed=SPEED, duration=0.45e-3,
-                      damping_time=damping_time)
+                      damping_time=damping_time, viscosity=viscosity)
         REFERENCES[key] = r, tool.first_tension_peak(r["t"], r["strain"])
     return REFERENCES[key]
 
@@ -105,12 +105,18 @@ material = "c"
 def test_the_lattices_middle_is_stretched_as_the_continuums(lattice, spacing, poisson):
     t, strain, leaving = lattice_drop(lattice, spacing, poisson)
     peak = tool.first_tension_peak(t, strain)
-    ref_run, ref = continuum(poisson, 5e-6)  # concrete's damping_time
+    # Concrete's damping_time, the cubic lattice's viscosity on the axes' stretching alone, the random
+    # lattice's on links every way (the isotropic kind). The random lattice's tension grows faster with
+    # Poisson's ratio than the continuum's: 1.20 to 1.25 times it at 0.2 (this test does not measure the
+    # ratio: Physics.BlockInUniaxialStressReturnsYoungsModulusAndPoissonRatio and
+    # RandomLattice.ABlockReturnsTheInputModulusAndPoissonRatio do).
+    axial = lattice == "cubic"
+    ref_run, ref = continuum(poisson, 5e-6, viscosity="axial" if axial else "isotropic")
     print(f"{lattice} lattice at {spacing} m, Poisson's ratio {poisson}: compressed {-strain.min():.3e} "
           f"(continuum {-ref_run['strain'].min():.3e}), first tension {peak} (continuum {ref}), leaving at "
           f"{leaving:.3f} m/s (continuum {ref_run['velocity'][-1]:.3f})")
     assert -strain.min() == pytest.approx(-ref_run["strain"].min(), rel=0.15)
     assert peak is not None
-    assert 0.85 * ref[1] <= peak[1] <= 1.3 * ref[1]
+    assert 0.9 * ref[1] <= peak[1] <= (1.2 if axial else 1.3) * ref[1]
     assert peak[0] == pytest.approx(ref[0], rel=0.1)
     assert leaving == pytest.approx(ref_run["velocity"][-1], rel=0.1)
