@@ -1314,6 +1314,10 @@ TEST(Cli, McaBackendSaysWhatAutoStandsFor) {
   const Result cpu = shell("MCA_BACKEND=cpu MCA_SIMD=sse2 " + std::string(MCA_BINARY) + " info --json");
   ASSERT_EQ(cpu.code, 0) << cpu.output;
   EXPECT_EQ(nlohmann::json::parse(cpu.output)["backend"], "cpu-sse2");
+  // Any case, as MCA_SIMD (which took SSE2 where CPU was refused).
+  const Result upper = shell("MCA_BACKEND=CPU MCA_SIMD=SSE2 " + std::string(MCA_BINARY) + " info --json");
+  ASSERT_EQ(upper.code, 0) << upper.output;
+  EXPECT_EQ(nlohmann::json::parse(upper.output)["backend"], "cpu-sse2");
   const fs::path d = fresh_dir("mca_backend");
   const Result bad = shell("MCA_BACKEND=gpu " + std::string(MCA_BINARY) + " run --steps 5 -q --out " + d.string());
   EXPECT_NE(bad.code, 0) << bad.output;

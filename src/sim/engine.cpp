@@ -1,5 +1,6 @@
 #include "sim/engine.hpp"
 
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <utility>
@@ -33,7 +34,9 @@ SolverDef::Backend backend_from_name(const std::string& name, const std::string&
 std::optional<SolverDef::Backend> backend_from_environment() {
   const char* env = std::getenv("MCA_BACKEND");
   if (!env || !*env) return std::nullopt;
-  const auto b = parse_backend(env);
+  std::string name = env;  // any case, as MCA_SIMD: CPU is cpu
+  for (char& ch : name) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  const auto b = parse_backend(name);
   if (!b)
     throw Error(fmt::format("MCA_BACKEND = '{}' (what backend \"auto\" stands for): give auto, cpu, cuda or "
                             "cuda-emulation, or unset it",
