@@ -799,14 +799,18 @@ std::vector<std::string> set_aside_notes(const std::filesystem::path& dir, const
 }
 
 io::SetAsideFound put_back_set_aside(const std::filesystem::path& dir) {
-  // Only in the folder of a run of mca (its scene.toml by mca, or set aside), and only names of the table: a
+  // Only in the folder of a run of mca (its scene.toml by mca, or set aside, or none yet where a session
+  // marked the one it was about to write: killed there, it left nothing else), and only names of the table: a
   // user's summary.json.1.2.mca-aside in a folder of their own, or notes.txt.1.2.mca-aside, is left alone.
-  bool run = read_scene_head(dir).by_mca;
+  const SceneHead head = read_scene_head(dir);
+  bool run = head.by_mca, marked = false;
   std::error_code ec;
   for (const auto& e : std::filesystem::directory_iterator(dir, ec)) {
     const std::string name = e.path().filename().string();
     if (!run && name.starts_with("scene.toml.") && name.ends_with(".mca-aside")) run = scene_head_of(e.path()).by_mca;
+    if (name.starts_with("scene.toml.") && io::new_marker(e.path())) marked = true;
   }
+  if (!run && marked && !std::filesystem::exists(std::filesystem::symlink_status(dir / "scene.toml", ec))) run = true;
   if (!run) return {};
   return io::put_back_set_aside(dir, run_file_folders(), [](const std::string& folder, const std::string& name) {
     return std::any_of(std::begin(kRunFiles), std::end(kRunFiles), [&](const RunFile& f) {

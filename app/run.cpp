@@ -759,11 +759,8 @@ int run(const RunOptions& o) {
   io::StagedRemoval earlier(dir);
   stage_run_files(earlier, dir, kEarlierRun);
   earlier.stage(dir / "scene.toml");  // (written anew below: the earlier one goes back with the rest)
-  // The renderer before any output: a missing OpenGL or a camera that sees nothing stops here.
-  std::unique_ptr<RenderOutput> render;
-  if (o.render) render = std::make_unique<RenderOutput>(dir, sim, ro, plan.total_frames, o.quiet, 0, &stop, earlier);
-  created.keep = true;
-  // The scene as run (overrides applied), so the folder says what produced it.
+  // The scene as run (overrides applied), so the folder says what produced it. First of what the run writes:
+  // a session killed from here on leaves a folder the next one knows for a run's, and rolls back.
   // A step count is not a key of the scene: a comment at the top says it (resuming reads the count from
   // the checkpoints).
   earlier.will_write(dir / "scene.toml");
@@ -774,6 +771,11 @@ int run(const RunOptions& o) {
                         *o.steps, static_cast<double>(*o.steps) * sim.model().dt, *o.steps);
     os << io::scene_to_toml(scene);
   }, false);
+  // The renderer before any frame: a missing OpenGL or a camera that sees nothing stops here (and the
+  // earlier run goes back, the scene file written above removed).
+  std::unique_ptr<RenderOutput> render;
+  if (o.render) render = std::make_unique<RenderOutput>(dir, sim, ro, plan.total_frames, o.quiet, 0, &stop, earlier);
+  created.keep = true;
   // A stop signal so far: no run has begun, and the earlier one goes back whole.
   if (const int sig = stop; sig != 0) {
     fmt::print(stderr, "mca: interrupted by {} before the run began: {} is as it was\n", signal_name(sig), dir.string());

@@ -292,6 +292,69 @@ TEST(RunFolder, FilesAKilledSessionSetAsideGoBack) {
   EXPECT_EQ(read(mine / "summary.json.1.2.mca-aside"), "my backup\n");
 }
 
+// What a killed session wrote where the earlier run had none is marked (NAME.<pid>.<n>.mca-new) until its
+// commit. A session killed in an empty folder after marking its scene file, before writing it, left only
+// the marker: the next run took the folder for no run's, kept the marker, and a later session removed that
+// run's scene.toml by it; killed after writing render.json but before its scene file, the folder was
+// refused for ever. The scene file is written first now, and a marked scene file makes the folder a run's.
+// A marker whose removal at commit fails keeps the commit's own marker, so that the next session removes
+// it and not the file; only an empty regular file is a marker.
+TEST(RunFolder, FilesAKilledSessionWroteWhereTheEarlierRunHadNoneGo) {
+  TempDir t;
+  const std::string scene = small_scene(t.path()).string();
+  const std::string dead = ".4194305.";
+  // Killed after marking its scene file: the marker alone.
+  const fs::path empty = t.path() / "empty";
+  fs::create_directories(empty);
+  std::ofstream(empty / ("scene.toml" + dead + "0.mca-new"));
+  ASSERT_EQ(run_mca("run " + scene + " --out " + empty.string() + " -q").code, 0);
+  for (const auto& e : fs::recursive_directory_iterator(empty))
+    EXPECT_FALSE(e.path().filename().string().ends_with(".mca-new")) << e.path();
+  const std::string written = read(empty / "scene.toml");
+  ASSERT_EQ(run_mca("run " + scene + " --out " + empty.string() + " -q").code, 0);
+  EXPECT_EQ(read(empty / "scene.toml"), written);
+  // Killed after writing its scene file and render.json into an empty folder: both go, and render/.
+  const fs::path killed = t.path() / "killed";
+  fs::create_directories(killed / "render");
+  fs::copy_file(empty / "scene.toml", killed / "scene.toml");
+  std::ofstream(killed / ("scene.toml" + dead + "0.mca-new"));
+  std::ofstream(killed / "render" / "render.json") << "{}\n";
+  std::ofstream(killed / "render" / ("render.json" + dead + "1.mca-new"));
+  const Result r = run_mca("run " + scene + " --out " + killed.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("mca: 2 files that a session stopped before its run began had written in " +
+                          killed.string() + " are removed"),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(fs::exists(killed / "render")) << "render/ was the killed session's";
+  // Not a marker, whatever its name: a file with something in it, a folder; their files stay.
+  std::ofstream(killed / ("stats.csv" + dead + "2.mca-new")) << "mine\n";
+  fs::create_directories(killed / ("summary.json" + dead + "3.mca-new"));
+  const std::string stats = read(killed / "stats.csv");
+  ASSERT_EQ(run_mca("run " + scene + " --out " + killed.string() + " -q").code, 0);
+  EXPECT_TRUE(fs::exists(killed / "summary.json"));
+  EXPECT_EQ(read(killed / ("stats.csv" + dead + "2.mca-new")), "mine\n");
+  EXPECT_EQ(read(killed / "stats.csv"), stats);
+  // A marker the commit cannot remove (here every .mca-new pinned) keeps the commit's marker: the next
+  // session removes the marker, and the run's render.json stays.
+  const fs::path rendered = t.path() / "rendered";
+  const Result pinned =
+      test::run_mca_with_fault("MCA_TEST_PINNED_AT", ".mca-new", "run " + scene + " --out " + rendered.string() +
+                                                                   " -q --render --render-size 64x48");
+  ASSERT_EQ(pinned.code, 0) << pinned.output;
+  std::size_t committing = 0;
+  for (const auto& e : fs::directory_iterator(rendered))
+    committing += e.path().filename().string().starts_with(".mca-committing.");
+  EXPECT_EQ(committing, 1u);
+  const Result next = run_mca("run " + scene + " --out " + rendered.string() + " -q --render --render-size 64x48");
+  ASSERT_EQ(next.code, 0) << next.output;
+  EXPECT_TRUE(fs::exists(rendered / "render" / "render.json"));
+  for (const auto& e : fs::recursive_directory_iterator(rendered)) {
+    EXPECT_FALSE(e.path().filename().string().ends_with(".mca-new")) << e.path();
+    EXPECT_FALSE(e.path().filename().string().starts_with(".mca-committing.")) << e.path();
+  }
+}
+
 // The rate of a resumed run is its own steps over its own wall time: the earlier sessions' wall time (here
 // made a million seconds) must not divide it. (A wall time of a million seconds is one a checkpoint may hold.)
 TEST(RunFolder, ResumedRateIsTheSessionsOwn) {

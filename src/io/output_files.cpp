@@ -251,6 +251,16 @@ std::string owner_of(const std::string& name, std::string_view suffix) {
 }
 }  // namespace
 
+bool new_marker(const fs::path& p) {
+  std::error_code ec;
+  const fs::file_status status = fs::symlink_status(p, ec);
+  return !ec && fs::is_regular_file(status) && fs::file_size(p, ec) == 0 && !ec &&
+         !owner_of(p.filename().string(), kNew).empty();
+}
+
+namespace {
+}  // namespace
+
 void remove_stale_temporaries(const fs::path& dir) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) return;
@@ -289,7 +299,7 @@ SetAsideFound put_back_set_aside(const fs::path& root, const std::vector<std::st
       const std::string name = e.path().filename().string();
       if (const std::string original = owner_of(name, kAside); !original.empty() && ours(folder, original))
         aside.emplace_back(e.path(), original);
-      else if (const std::string made = owner_of(name, kNew); !made.empty() && ours(folder, made))
+      else if (const std::string made = owner_of(name, kNew); !made.empty() && ours(folder, made) && new_marker(e.path()))
         written.emplace_back(e.path(), made);
     }
     std::sort(aside.begin(), aside.end());
@@ -310,6 +320,9 @@ SetAsideFound put_back_set_aside(const fs::path& root, const std::vector<std::st
         throw Error(fmt::format("cannot remove '{}' ({}); remove it by hand, then run again", marker.string(),
                                 ec.message()));
     }
+    // (A subfolder the killed session made for what it wrote, render/, goes with it where that leaves it
+    // empty.)
+    if (!folder.empty() && !written.empty() && fs::is_empty(d, ec) && !ec) fs::remove(d, ec);
     // Each is put back or removed, or the session stops here: one left aside would be taken later for one
     // of a session stopped before it began, and put back over a newer run's file.
     for (const auto& [p, original] : aside) {
@@ -492,18 +505,16 @@ void StagedRemoval::will_write(const fs::path& p) {
 void StagedRemoval::commit() {
   std::error_code ec;
   written_.clear();
-  if (staged_.empty()) {
-    for (const auto& m : new_markers_) fs::remove(m, ec);
-    new_markers_.clear();
-    return;
-  }
+  if (staged_.empty() && new_markers_.empty()) return;
   // The marker first: a session killed among the removals leaves the rest to be removed, not put back.
   const fs::path marker = root_ / fmt::format("{}{}", kCommitting, ::getpid());
   if (const int fd = ::open(marker.c_str(), O_WRONLY | O_CREAT | O_NOFOLLOW | O_CLOEXEC, 0600); fd >= 0) ::close(fd);
   // (One that cannot be removed keeps the marker: the next session removes it, never puts it back.)
   bool all = true;
   for (const auto& [name, tmp] : staged_) all = fs::remove(tmp, ec) && !ec && all;
-  for (const auto& m : new_markers_) fs::remove(m, ec);
+  // (Its markers of files new to the folder after them, under the same marker: one left would later have a
+  // session remove a file of this run.)
+  for (const auto& m : new_markers_) all = fs::remove(m, ec) && !ec && all;
   new_markers_.clear();
   if (all) fs::remove(marker, ec);
   staged_.clear();
