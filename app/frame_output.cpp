@@ -802,8 +802,7 @@ io::SetAsideFound put_back_set_aside(const std::filesystem::path& dir) {
   // Only in the folder of a run of mca (its scene.toml by mca, or set aside, or none yet where a session
   // marked the one it was about to write: killed there, it left nothing else), and only names of the table: a
   // user's summary.json.1.2.mca-aside in a folder of their own, or notes.txt.1.2.mca-aside, is left alone.
-  const SceneHead head = read_scene_head(dir);
-  bool run = head.by_mca, marked = false;
+  bool run = read_scene_head(dir).by_mca, marked = false;
   std::error_code ec;
   for (const auto& e : std::filesystem::directory_iterator(dir, ec)) {
     const std::string name = e.path().filename().string();

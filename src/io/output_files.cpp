@@ -258,9 +258,6 @@ bool new_marker(const fs::path& p) {
          !owner_of(p.filename().string(), kNew).empty();
 }
 
-namespace {
-}  // namespace
-
 void remove_stale_temporaries(const fs::path& dir) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) return;

@@ -87,15 +87,16 @@ std::filesystem::path temporary_path(const std::filesystem::path& path, std::str
 // is fine.
 void remove_stale_temporaries(const std::filesystem::path& dir);
 
+// Whether `p` is a marker StagedRemoval::will_write makes: NAME.<pid>.<n>.mca-new, an empty regular file
+// (a link, a folder or a file with something in it is not one, whatever its name).
+bool new_marker(const std::filesystem::path& p);
+
 // What a killed session had set aside (StagedRemoval) in `root` and its `folders`, of the names `ours(folder,
 // name)` takes for a run's: put back at their names (over what it had written there) where it was killed
 // before it began to remove them, else removed (its marker there, also where a removal had failed); a file
 // it wrote where the earlier run had none (its NAME.<pid>.<n>.mca-new beside it) goes too where it was killed
 // before it began. For a session to call first, under the folder's lock; mca::Error naming a file it can put
 // back or remove neither.
-// Whether `p` is a marker StagedRemoval::will_write makes: NAME.<pid>.<n>.mca-new, an empty regular file
-// (a link, a folder or a file with something in it is not one, whatever its name).
-bool new_marker(const std::filesystem::path& p);
 struct SetAsideFound {
   std::size_t restored = 0, removed = 0;
   std::size_t withdrawn = 0;  // files it had written where the earlier run had none, removed
