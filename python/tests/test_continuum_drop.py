@@ -3,12 +3,12 @@ elements with nothing of mca's in them; docs/model-notes.md, "Drops").
 
 The compressed cube leaves the ground vibrating, and the vibration stretches its middle. In an elastic
 continuum that takes Poisson's ratio (a 1-D bar leaves clean); mca's materials are also viscous (Kelvin-Voigt,
-damping_time), and the viscosity alone does it too: the dashpots' force at the ground falls to zero while the
-cube is still compressed. The continuum of mca's material (the same viscosity) stretches the middle by
-9.2e-5 at Poisson's ratio 0 and 1.03e-4 at 0.2, 0.21 ms after touching down (at 1 m/s: concrete's tensile
-strength). Both lattices must show that, at both ratios and both spacings, in size and in time, and leave
-the ground as fast; the random lattice's few broken links at that speed (tests/test_impact.cpp, Drops)
-come from it.
+damping_time), and the viscosity alone does it too: it smears the unloading wave, and the cube leaves the
+ground with its parts moving unevenly. The continuum of mca's material (the same viscosity) stretches the
+middle by 9.2e-5 at Poisson's ratio 0 and 1.03e-4 at 0.2, 0.21 ms after touching down (at 1 m/s:
+concrete's tensile strength). Both lattices must show that, at both ratios and both spacings, in size and
+in time, and leave the ground as fast; the random lattice's few broken links at that speed
+(tests/test_impact.cpp, Drops) come from it.
 """
 import importlib.util
 
@@ -22,7 +22,8 @@ SIZE, SPEED = 0.3, 1.0
 
 
 def load_tool():
-    spec = importlib.util.spec_from_file_location("continuum_drop", SOURCE_DIR / "tools" / "continuum_drop.py")
+    path = SOURCE_DIR / "tools" / "continuum_drop.py"
+    spec = importlib.util.spec_from_file_location("continuum_drop", path)
     tool = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(tool)
     return tool
