@@ -706,6 +706,18 @@ std::size_t remove_run_files(const std::filesystem::path& dir, std::initializer_
   return removed;
 }
 
+void remove_empty_output_folders(const std::filesystem::path& dir, bool rendering, bool ends_only) {
+  for (const std::string& sub : run_file_folders()) {
+    if (ends_only && sub != "fragments" && sub != "render") continue;
+    std::error_code ec;
+    if (rendering && sub == "render") continue;
+    // (A symbolic link is never removed: a subfolder that is one is refused before, check_output_subfolders.)
+    if (!std::filesystem::is_symlink(dir / sub, ec) && std::filesystem::is_directory(dir / sub, ec) &&
+        std::filesystem::is_empty(dir / sub, ec) && !ec)
+      std::filesystem::remove(dir / sub, ec);
+  }
+}
+
 std::vector<std::string> run_file_folders() {
   std::vector<std::string> folders;
   for (const RunFile& f : kRunFiles)
@@ -823,6 +835,8 @@ std::vector<std::string> FrameWriter::recover_folder(const std::filesystem::path
   std::vector<std::string> notes = set_aside_notes(dir, put_back_set_aside(dir));
   io::remove_stale_temporaries(dir);
   for (const std::string& sub : run_file_folders()) io::remove_stale_temporaries(dir / sub);
+  // (And a subfolder a stopped or killed session made and left empty, render/: the writers make them again.)
+  remove_empty_output_folders(dir, false);
   return notes;
 }
 

@@ -158,6 +158,10 @@ std::size_t stage_run_files(io::StagedRemoval& removal, const std::filesystem::p
 void check_run_names_are_files(const std::filesystem::path& dir);
 // The table's folders below the run's: frames, surface, fragments, checkpoints, render.
 std::vector<std::string> run_file_folders();
+// Folders of outputs this session may not write, left empty by the removals (the writers make them again);
+// `rendering`: render/ is made for this session's pictures. A resume, whose writer has made its folders
+// already, passes only those of the end's outputs (`ends_only`).
+void remove_empty_output_folders(const std::filesystem::path& dir, bool rendering, bool ends_only = false);
 
 // The first 4 KB of a run folder's scene.toml (empty without one): whether mca wrote it, and the step
 // count of a --steps run (the comment at its top).

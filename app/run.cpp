@@ -312,21 +312,6 @@ OutputEstimate check_run_fits(const Engine& sim, const SceneDef& scene, std::int
   return estimate;
 }
 
-// Folders of outputs this session may not write, left empty by the removals (the writers make them again);
-// `rendering`: render/ is made for this session's pictures. A resume, whose writer has made its folders
-// already, passes only those of the end's outputs (`ends_only`).
-void remove_empty_output_folders(const std::filesystem::path& dir, bool rendering, bool ends_only = false) {
-  for (const std::string& sub : run_file_folders()) {
-    if (ends_only && sub != "fragments" && sub != "render") continue;
-    std::error_code ec;
-    if (rendering && sub == "render") continue;
-    // (A symbolic link is never removed: a subfolder that is one is refused before, check_output_subfolders.)
-    if (!std::filesystem::is_symlink(dir / sub, ec) && std::filesystem::is_directory(dir / sub, ec) &&
-        std::filesystem::is_empty(dir / sub, ec) && !ec)
-      std::filesystem::remove(dir / sub, ec);
-  }
-}
-
 // Whether `line` is a whole stats.csv row of `frame`: its frame number first, then numbers, as many cells
 // as the header.
 bool whole_stats_row(const std::string& line, std::int64_t frame, std::size_t cells) {

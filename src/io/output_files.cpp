@@ -317,9 +317,6 @@ SetAsideFound put_back_set_aside(const fs::path& root, const std::vector<std::st
         throw Error(fmt::format("cannot remove '{}' ({}); remove it by hand, then run again", marker.string(),
                                 ec.message()));
     }
-    // (A subfolder the killed session made for what it wrote, render/, goes with it where that leaves it
-    // empty.)
-    if (!folder.empty() && !written.empty() && fs::is_empty(d, ec) && !ec) fs::remove(d, ec);
     // Each is put back or removed, or the session stops here: one left aside would be taken later for one
     // of a session stopped before it began, and put back over a newer run's file.
     for (const auto& [p, original] : aside) {
