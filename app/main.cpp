@@ -1,6 +1,5 @@
 // The `mca` command: run, resume, info, bench.
 #include <CLI/CLI.hpp>
-#include <cctype>
 #include <charconv>
 #include <csignal>
 #include <cstdio>
@@ -12,6 +11,7 @@
 
 #include "app/commands.hpp"
 #include "app/render_output.hpp"
+#include "core/text.hpp"
 #include "mca/error.hpp"
 
 namespace {
@@ -192,9 +192,7 @@ int main(int argc, char** argv) {
       // (Given empty, it wrote nothing without a word.)
       if (view->get_option("--screenshot")->count() > 0) {
         if (view_screenshot.empty()) throw mca::Error("--screenshot is empty; give a file name ending in .png");
-        std::string ext = std::filesystem::path(view_screenshot).extension().string();
-        for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-        if (ext != ".png")
+        if (mca::text::lower(std::filesystem::path(view_screenshot).extension().string()) != ".png")
           throw mca::Error(fmt::format("--screenshot {}: the screenshot is written as PNG; give a name ending in .png",
                                        view_screenshot));
         vo.screenshot = view_screenshot;

@@ -38,7 +38,6 @@
 namespace mca::app {
 namespace {
 
-
 // The signal that stops the run (or the view), 0 while none came: SIGINT (Ctrl-C), SIGTERM (kill, a batch
 // system's time limit) and SIGHUP (the terminal closed) alike end a run at the next chunk of steps with its
 // summary, and with a checkpoint when at a frame's end.

@@ -38,6 +38,9 @@ std::string escaped(std::string_view s);
 // `s` as a TOML basic string: escaped(s) in double quotes.
 std::string quoted(std::string_view s);
 
+// `s` with its ASCII letters in lower case (the names of environment variables' values, file extensions).
+std::string lower(std::string_view s);
+
 // Levenshtein distance, letters compared without case.
 std::size_t edit_distance(std::string_view a, std::string_view b);
 

@@ -286,6 +286,12 @@ SetAsideFound put_back_set_aside(const fs::path& root, const std::vector<std::st
         name.starts_with(kCommitting) && all_digits(name.substr(kCommitting.size())))
       markers.push_back(e.path());
   const bool committing = !markers.empty();
+  // Removes `p` (", " + what it is, for the message), or stops the session naming it.
+  const auto remove_or_stop = [&](const fs::path& p, std::string_view what) {
+    if (!fs::remove(p, ec) || ec)
+      throw Error(fmt::format("cannot remove '{}'{} ({}); remove it by hand, then run again", p.string(), what,
+                              ec ? ec.message() : "it is gone"));
+  };
   std::vector<std::string> in = {""};
   in.insert(in.end(), folders.begin(), folders.end());
   for (const std::string& folder : in) {
@@ -306,26 +312,18 @@ SetAsideFound put_back_set_aside(const fs::path& root, const std::vector<std::st
       if (!committing) {
         const fs::path p = d / made;
         if (fs::exists(fs::symlink_status(p, ec))) {
-          if (!fs::remove(p, ec) || ec)
-            throw Error(fmt::format("cannot remove '{}', which a session stopped before its run began had written "
-                                    "({}); remove it by hand, then run again",
-                                    p.string(), ec ? ec.message() : "it is gone"));
+          remove_or_stop(p, ", which a session stopped before its run began had written");
           ++found.withdrawn;
         }
       }
-      if (!fs::remove(marker, ec) && ec)
-        throw Error(fmt::format("cannot remove '{}' ({}); remove it by hand, then run again", marker.string(),
-                                ec.message()));
+      remove_or_stop(marker, "");
     }
     // Each is put back or removed, or the session stops here: one left aside would be taken later for one
     // of a session stopped before it began, and put back over a newer run's file.
     for (const auto& [p, original] : aside) {
       if (committing) {
         // It had begun to remove them: its run had begun, and what is left of them goes.
-        if (!fs::remove(p, ec) || ec)
-          throw Error(fmt::format("cannot remove '{}', a file of an earlier run that a session had set aside to "
-                                  "remove ({}); remove it by hand, then run again",
-                                  p.string(), ec ? ec.message() : "it is gone"));
+        remove_or_stop(p, ", a file of an earlier run that a session had set aside to remove");
         ++found.removed;
       } else {
         // Stopped before: its run had not begun, and the earlier one comes back whole, over what it had
@@ -341,9 +339,7 @@ SetAsideFound put_back_set_aside(const fs::path& root, const std::vector<std::st
       }
     }
   }
-  for (const auto& m : markers)
-    if (!fs::remove(m, ec) && ec)
-      throw Error(fmt::format("cannot remove '{}' ({}); remove it by hand, then run again", m.string(), ec.message()));
+  for (const auto& m : markers) remove_or_stop(m, "");
   return found;
 }
 

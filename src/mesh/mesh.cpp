@@ -39,8 +39,7 @@ namespace {
 std::string lower_extension(const std::string& path) {
   std::string e = std::filesystem::path(path).extension().string();
   if (!e.empty() && e[0] == '.') e.erase(0, 1);
-  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return e;
+  return text::lower(e);
 }
 
 bool known_extension(const std::string& e) {
@@ -117,9 +116,7 @@ class FolderIOSystem : public Assimp::DefaultIOSystem {
     const char* given = named_in_folder.c_str();
     // (A data URI in capitals, "DATA:...", is a file name to assimp: its whole base64 was shown.)
     if (const std::string named = as_named(given); named.size() >= 5) {
-      std::string scheme = named.substr(0, 5);
-      for (char& c : scheme) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-      if (scheme == "data:") {
+      if (text::lower(named.substr(0, 5)) == "data:") {
         if (refusal_.empty())
           refusal_ = fmt::format("it names {}, a data URI the reader mca uses takes only in lower case (\"data:\"): "
                                  "write its scheme so",
@@ -965,8 +962,7 @@ TriMesh read_mesh(const std::string& path, double max_memory_bytes) {
 
 TriMesh read_mesh_memory(const void* data, std::size_t size, const std::string& extension, const std::string& name,
                          double max_memory_bytes) {
-  std::string ext = extension;
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  const std::string ext = text::lower(extension);
   if (!known_extension(ext)) {
     throw Error(fmt::format("{}: unknown mesh format '{}'; mca reads {}", name, extension, extension_list()));
   }

@@ -1,6 +1,5 @@
 #include "sim/engine.hpp"
 
-#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <utility>
@@ -34,9 +33,7 @@ SolverDef::Backend backend_from_name(const std::string& name, const std::string&
 std::optional<SolverDef::Backend> backend_from_environment() {
   const char* env = std::getenv("MCA_BACKEND");
   if (!env || !*env) return std::nullopt;
-  std::string name = env;  // any case, as MCA_SIMD: CPU is cpu
-  for (char& ch : name) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-  const auto b = parse_backend(name);
+  const auto b = parse_backend(text::lower(env));  // any case, as MCA_SIMD: CPU is cpu
   if (!b)
     throw Error(fmt::format("MCA_BACKEND = '{}' (what backend \"auto\" stands for): give auto, cpu, cuda or "
                             "cuda-emulation, or unset it",

@@ -17,7 +17,6 @@
 // structures are brought up to date when the state is read (state(), download()).
 #include <algorithm>
 #include <array>
-#include <cctype>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -37,6 +36,7 @@
 #include "backend/step_kernels.hpp"
 #include "core/environment.hpp"
 #include "core/model_view.hpp"
+#include "core/text.hpp"
 #include "grid/uniform_grid.hpp"
 #include "mca/error.hpp"
 #include "physics/contact_law.hpp"
@@ -169,8 +169,7 @@ class CpuBackend final : public StateBackend {
       }
     head_chunks_ = (reach + kChunk - 1) / kChunk;
     if (const char* e = std::getenv("MCA_SWEEP"); e && *e) {
-      std::string how = e;  // any case, as MCA_SIMD
-      for (char& ch : how) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+      const std::string how = text::lower(e);  // any case, as MCA_SIMD
       if (how == "passes") sweep_ = Sweep::passes;
       else if (how == "fused") sweep_ = Sweep::fused;
       else if (how != "auto")

@@ -1,11 +1,11 @@
 // Which build of the lattice kernels runs: the widest instruction set this processor has, or the one
 // the MCA_SIMD environment variable names (to compare, or to step around a processor's fault).
-#include <cctype>
 #include <cstdlib>
 #include <fmt/format.h>
 #include <string>
 
 #include "backend/cpu/lattice_kernels.hpp"
+#include "core/text.hpp"
 #include "mca/error.hpp"
 
 namespace mca::cpu {
@@ -54,8 +54,7 @@ const Kernels& select_kernels() {
   const int count = available_kernels(sets);
   const char* given = std::getenv("MCA_SIMD");
   if (!given || !*given) return *sets[count - 1];
-  std::string want = given;  // any case: AVX2 is avx2
-  for (char& ch : want) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  const std::string want = text::lower(given);  // any case: AVX2 is avx2
   std::string have;
   for (int k = 0; k < count; ++k) {
     if (want == sets[k]->name) return *sets[k];
