@@ -810,6 +810,13 @@ std::vector<std::string> set_aside_notes(const std::filesystem::path& dir, const
   return notes;
 }
 
+// Whether `name` in the run folder's `folder` ("" for the folder itself) is a name of the table.
+bool is_run_file(const std::string& folder, const std::string& name) {
+  return std::any_of(std::begin(kRunFiles), std::end(kRunFiles), [&](const RunFile& f) {
+    return folder == f.folder && (*f.extension ? io::numbered(name, f.name, f.extension).has_value() : name == f.name);
+  });
+}
+
 io::SetAsideFound put_back_set_aside(const std::filesystem::path& dir) {
   // Only in the folder of a run of mca (its scene.toml by mca, or set aside, or none yet where a session
   // marked the one it was about to write: killed there, it left nothing else), and only names of the table: a
@@ -819,17 +826,30 @@ io::SetAsideFound put_back_set_aside(const std::filesystem::path& dir) {
   for (const auto& e : std::filesystem::directory_iterator(dir, ec)) {
     const std::string name = e.path().filename().string();
     if (!run && name.starts_with("scene.toml.") && name.ends_with(".mca-aside")) run = scene_head_of(e.path()).by_mca;
-    if (name.starts_with("scene.toml.") && io::new_marker(e.path())) marked = true;
+    if (io::marked_name(e.path()) == "scene.toml") marked = true;
   }
   if (!run && marked && !std::filesystem::exists(std::filesystem::symlink_status(dir / "scene.toml", ec))) run = true;
   if (!run) return {};
-  return io::put_back_set_aside(dir, run_file_folders(), [](const std::string& folder, const std::string& name) {
-    return std::any_of(std::begin(kRunFiles), std::end(kRunFiles), [&](const RunFile& f) {
-      return folder == f.folder && (*f.extension ? io::numbered(name, f.name, f.extension).has_value() : name == f.name);
-    });
-  });
+  return io::put_back_set_aside(dir, run_file_folders(), is_run_file);
 }
 }  // namespace
+
+void stage_earlier_run(io::StagedRemoval& removal, const std::filesystem::path& dir) {
+  stage_run_files(removal, dir, kEarlierRun);
+  removal.stage(dir / "scene.toml");
+  std::vector<std::filesystem::path> strays;
+  std::error_code ec;
+  std::vector<std::string> folders = run_file_folders();
+  folders.insert(folders.begin(), "");
+  for (const std::string& folder : folders) {
+    const std::filesystem::path d = folder.empty() ? dir : dir / folder;
+    if (!std::filesystem::is_directory(std::filesystem::symlink_status(d, ec))) continue;  // (never through a link)
+    for (const auto& e : std::filesystem::directory_iterator(d, ec))
+      if (const std::string marked = io::marked_name(e.path()); !marked.empty() && is_run_file(folder, marked))
+        strays.push_back(e.path());
+  }
+  for (const auto& p : strays) removal.stage(p);
+}
 
 std::vector<std::string> FrameWriter::recover_folder(const std::filesystem::path& dir) {
   std::vector<std::string> notes = set_aside_notes(dir, put_back_set_aside(dir));
@@ -889,6 +909,16 @@ std::vector<std::int64_t> FrameWriter::restore(std::int64_t frames,
     if (!model_.projectiles.empty()) io::write_pvd(dir_ / "projectiles.pvd", projectile_pvd_);
   }
   return missing;
+}
+
+std::vector<std::string> FrameWriter::restored_files() const {
+  std::vector<std::string> names = {"stats.csv"};
+  if (vtk_) {
+    names.emplace_back("automata.pvd");
+    if (surface_) names.emplace_back("surface.pvd");
+    if (!model_.projectiles.empty()) names.emplace_back("projectiles.pvd");
+  }
+  return names;
 }
 
 std::vector<std::string> FrameWriter::stats_header(const Model& model) {

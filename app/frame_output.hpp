@@ -153,6 +153,11 @@ std::size_t remove_run_files(const std::filesystem::path& dir, std::initializer_
 // Sets them aside in `removal` (removed at its commit, put back if it is not made); returns how many.
 std::size_t stage_run_files(io::StagedRemoval& removal, const std::filesystem::path& dir,
                             std::initializer_list<RunPart> parts);
+// What a new run (mca run, the Python module's first write_frame) sets aside in `removal` before it writes its
+// scene file: the earlier run's files of kEarlierRun, its scene file, and markers of the table's names
+// (StagedRemoval::will_write) that no session of mca left (the one before it cleared any of its own): one
+// kept would have a later session remove this run's file by it.
+void stage_earlier_run(io::StagedRemoval& removal, const std::filesystem::path& dir);
 // Refuses a folder (or anything but a regular file) at a name of the table in `dir`: the run would stop when
 // it came to write that file (a checkpoint at frame 2,000, hours in) or to replace it.
 void check_run_names_are_files(const std::filesystem::path& dir);
@@ -214,6 +219,8 @@ class FrameWriter {
   // since the run wrote it), empty or cut short (a VTK file that does not end as written), which every
   // collection leaves out.
   std::vector<std::int64_t> restore(std::int64_t frames, const std::function<double(std::int64_t)>& time_of);
+  // What restore() and start_stats() write, relative to the folder: stats.csv and the collections.
+  std::vector<std::string> restored_files() const;
   static std::vector<std::string> stats_header(const Model& model);
   // At the end of a run (output.fragments): fragments/fragment_NNN.ply for each fragment of more than
   // output.fragment_min_automata automata, each written as it is made; returns how many. `each(done,

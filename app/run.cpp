@@ -741,8 +741,7 @@ int run(const RunOptions& o) {
   // none, and removed once the renderer has started and the scene is written; a run that stops before
   // leaves the folder as it was.
   io::StagedRemoval earlier(dir);
-  stage_run_files(earlier, dir, kEarlierRun);
-  earlier.stage(dir / "scene.toml");  // (written anew below: the earlier one goes back with the rest)
+  stage_earlier_run(earlier, dir);  // (its scene file written anew below: the earlier one goes back with the rest)
   // The scene as run (overrides applied), so the folder says what produced it. First of what the run writes:
   // a session killed from here on leaves a folder the next one knows for a run's, and rolls back.
   // A step count is not a key of the scene: a comment at the top says it (resuming reads the count from
@@ -911,6 +910,12 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
                  (dir / "render").string(), drawn);
   }
   FrameWriter writer(dir, sim.model(), cp.scene.output);
+  // Its stats and collections, written again below without the entries past the checkpoint, are set aside
+  // with the end: a resume stopped before its commit left them cut back beside the earlier run's summary.
+  for (const std::string& name : writer.restored_files()) {
+    earlier_end.stage(dir / name);
+    earlier_end.will_write(dir / name);
+  }
   // Frame f is at the step the run wrote it at (min(f spf, total)), at that step's time.
   auto missing = writer.restore(cp.frame, [&](std::int64_t f) {
     return static_cast<double>(std::min(f * sim.steps_per_frame(), plan.total_steps)) * sim.model().dt;

@@ -184,6 +184,13 @@ TEST(RunFolder, AnEarlierRunThatCannotBeRemovedIsLeftWhole) {
             std::string::npos)
       << r.output;
   EXPECT_EQ(changes(resumable, folder_contents(out)), "");
+  // A resume rewrites its collections and stats (without the entries past its checkpoint) before it
+  // removes the earlier end: one stopped between the two (here its stats cannot be written) had left the
+  // collections cut back beside the earlier run's summary; they are set aside with the end, and go back.
+  r = test::run_mca_full_at("stats.csv", "resume " + out.string() + " -q");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("stats.csv"), std::string::npos) << r.output;
+  EXPECT_EQ(changes(resumable, folder_contents(out)), "");
   // A rendered resume sets aside the pictures it draws again (the frames past the checkpoint, the video, the
   // sheet) with the rest: one that cannot be removed leaves them all (it had removed the frames first).
   {
@@ -335,6 +342,23 @@ TEST(RunFolder, FilesAKilledSessionWroteWhereTheEarlierRunHadNoneGo) {
   EXPECT_TRUE(fs::exists(killed / "summary.json"));
   EXPECT_EQ(read(killed / ("stats.csv" + dead + "2.mca-new")), "mine\n");
   EXPECT_EQ(read(killed / "stats.csv"), stats);
+  // An empty file of a marker's name for a run file, in a folder that held no run yet, is no session's
+  // (one killed there marked its scene file first): kept, a later session removed the run's file by it,
+  // here the stats a resume reads back. The first run removes those of the table's names.
+  const fs::path fresh = t.path() / "fresh";
+  fs::create_directories(fresh / "frames");
+  std::ofstream(fresh / ("stats.csv" + dead + "4.mca-new"));
+  std::ofstream(fresh / "frames" / ("automata_000001.vtu" + dead + "5.mca-new"));
+  std::ofstream(fresh / ("notes.txt" + dead + "6.mca-new"));
+  ASSERT_EQ(run_mca("run " + scene + " --out " + fresh.string() + " -q --checkpoint-every 2").code, 0);
+  EXPECT_FALSE(fs::exists(fresh / ("stats.csv" + dead + "4.mca-new")));
+  EXPECT_FALSE(fs::exists(fresh / "frames" / ("automata_000001.vtu" + dead + "5.mca-new")));
+  EXPECT_TRUE(fs::exists(fresh / ("notes.txt" + dead + "6.mca-new")));
+  fs::remove(checkpoints(fresh).back());
+  const Result resumed = run_mca("resume " + fresh.string());
+  ASSERT_EQ(resumed.code, 0) << resumed.output;
+  EXPECT_EQ(resumed.output.find("removed"), std::string::npos) << resumed.output;
+  EXPECT_EQ(resumed.output.find("warning"), std::string::npos) << resumed.output;
   // A marker the commit cannot remove (here every .mca-new pinned) keeps the commit's marker: the next
   // session removes the marker, and the run's render.json stays.
   const fs::path rendered = t.path() / "rendered";

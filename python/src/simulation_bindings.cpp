@@ -517,8 +517,7 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
     // the Blender importer took the old run's spacing and pieces for this one's): set aside, all or none,
     // and removed once the scene is written (a scene that cannot be written leaves the earlier run whole).
     io::StagedRemoval earlier(out->dir);
-    app::stage_run_files(earlier, out->dir, app::kEarlierRun);
-    earlier.stage(out->dir / "scene.toml");
+    app::stage_earlier_run(earlier, out->dir);
     earlier.will_write(out->dir / "scene.toml");
     io::write_file_atomic(out->dir / "scene.toml", [&](std::ostream& os) { os << io::scene_to_toml(e.scene()); },
                           false);

@@ -251,11 +251,12 @@ std::string owner_of(const std::string& name, std::string_view suffix) {
 }
 }  // namespace
 
-bool new_marker(const fs::path& p) {
+std::string marked_name(const fs::path& p) {
+  std::string name = owner_of(p.filename().string(), kNew);
+  if (name.empty()) return "";
   std::error_code ec;
   const fs::file_status status = fs::symlink_status(p, ec);
-  return !ec && fs::is_regular_file(status) && fs::file_size(p, ec) == 0 && !ec &&
-         !owner_of(p.filename().string(), kNew).empty();
+  return !ec && fs::is_regular_file(status) && fs::file_size(p, ec) == 0 && !ec ? name : "";
 }
 
 void remove_stale_temporaries(const fs::path& dir) {
@@ -302,7 +303,7 @@ SetAsideFound put_back_set_aside(const fs::path& root, const std::vector<std::st
       const std::string name = e.path().filename().string();
       if (const std::string original = owner_of(name, kAside); !original.empty() && ours(folder, original))
         aside.emplace_back(e.path(), original);
-      else if (const std::string made = owner_of(name, kNew); !made.empty() && ours(folder, made) && new_marker(e.path()))
+      else if (const std::string made = marked_name(e.path()); !made.empty() && ours(folder, made))
         written.emplace_back(e.path(), made);
     }
     std::sort(aside.begin(), aside.end());
