@@ -6,6 +6,7 @@
 #include <random>
 #include <string>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <mca/error.hpp>
@@ -435,6 +436,30 @@ TEST(SceneIo, SyntaxErrorHasLineAndColumn) {
   const std::string msg = parse_error("name = \"x\"\n[solver\nspacing = 1\n", "bad.toml");
   EXPECT_HAS(msg, "bad.toml:2:");
   EXPECT_HAS(msg, "TOML syntax error");
+}
+
+// A scene saved in UTF-16 or UTF-32 (Notepad's "Unicode") read "invalid utf-8 sequence" at 1:1; it is named,
+// and the fix given. A UTF-8 byte order mark is read.
+TEST(SceneIo, ASceneInUtf16OrUtf32IsNamed) {
+  const auto wide = [](const std::string& bom, std::size_t width, bool big) {
+    std::string out = bom;
+    for (const char c : kMinimal) {
+      std::string unit(width, '\0');
+      unit[big ? width - 1 : 0] = c;
+      out += unit;
+    }
+    return out;
+  };
+  const std::pair<std::string, int> cases[] = {{wide("\xFF\xFE", 2, false), 16},
+                                               {wide("\xFE\xFF", 2, true), 16},
+                                               {wide(std::string("\xFF\xFE\0\0", 4), 4, false), 32},
+                                               {wide(std::string("\0\0\xFE\xFF", 4), 4, true), 32}};
+  for (const auto& [text, bits] : cases) {
+    const std::string msg = parse_error(text, "notepad.toml");
+    EXPECT_HAS(msg, fmt::format("notepad.toml: is text in UTF-{} (it starts with its byte order mark)", bits));
+    EXPECT_HAS(msg, "save it as UTF-8");
+  }
+  EXPECT_EQ(parse_error("\xEF\xBB\xBF" + kMinimal), "");
 }
 
 TEST(SceneIo, OutOfRangeYoungsModulus) {

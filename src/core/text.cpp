@@ -217,4 +217,10 @@ std::string utf8_shown(std::string_view s) {
   return out;
 }
 
+int wide_unicode_bom(std::string_view head) {
+  if (head.substr(0, 4) == std::string_view("\xFF\xFE\0\0", 4) || head.substr(0, 4) == std::string_view("\0\0\xFE\xFF", 4))
+    return 32;
+  return head.substr(0, 2) == "\xFF\xFE" || head.substr(0, 2) == "\xFE\xFF" ? 16 : 0;
+}
+
 }  // namespace mca::text

@@ -72,6 +72,10 @@ bool is_utf8(std::string_view s);
 // `s` for a message: its UTF-8 as it is, each other byte as \xNN.
 std::string utf8_shown(std::string_view s);
 
+// 16 or 32 where `head` (a file's first bytes) starts with the byte order mark of UTF-16 or UTF-32 (FF FE, FE
+// FF, FF FE 00 00, 00 00 FE FF), as some Windows programs save text; else 0.
+int wide_unicode_bom(std::string_view head);
+
 // `s` as one word of a POSIX shell's command line, for a command a message suggests: as it is where every
 // character is a letter, digit or one of _ - . / + , : = @ %, else in single quotes ('my run', 'it'\''s').
 std::string shell_word(std::string_view s);

@@ -823,6 +823,11 @@ std::string_view line_of(std::string_view text, std::size_t n) {
 }  // namespace
 
 SceneDef parse_scene(std::string_view toml_text, const std::string& source) {
+  // (toml++ says "invalid utf-8 sequence" at 1:1, and no more.)
+  if (const int wide = text::wide_unicode_bom(toml_text))
+    throw Error(fmt::format("{}: is text in UTF-{} (it starts with its byte order mark); a scene file is TOML, which "
+                            "is UTF-8: save it as UTF-8 (in Notepad: Save as, Encoding \"UTF-8\")",
+                            source, wide));
   check_keys(toml_text, source);
   toml::table root;
   try {

@@ -773,13 +773,10 @@ void check_head(std::string_view head, std::uint64_t size, const std::string& ex
                             name, ext == "ply" ? "PLY" : "glTF"));
   // Text in UTF-16 or UTF-32 (a byte order mark FF FE or FE FF, then two or four bytes a character), as some
   // Windows programs save it.
-  const bool utf32 = head.substr(0, 4) == std::string_view("\xFF\xFE\0\0", 4) ||
-                     head.substr(0, 4) == std::string_view("\0\0\xFE\xFF", 4);
-  if ((text_format || ext == "ply" || ext == "gltf") &&
-      (utf32 || head.substr(0, 2) == "\xFF\xFE" || head.substr(0, 2) == "\xFE\xFF"))
+  if (const int wide = text::wide_unicode_bom(head); wide && (text_format || ext == "ply" || ext == "gltf"))
     throw Error(fmt::format("{}: is text in UTF-{} (it starts with its byte order mark); mca reads it in ASCII or "
                             "UTF-8: save it as UTF-8",
-                            name, utf32 ? 32 : 16));
+                            name, wide));
   auto first_word = [&](std::string_view comment) {
     std::size_t i = bom;
     for (;;) {
