@@ -39,7 +39,11 @@ USAGE = ("usage: blender -b --factory-startup --python blender/mca_cli.py -- RUN
 
 
 class UsageError(Exception):
-    pass
+    """A bad argument: one line on stderr; `usage` adds the usage line where the command's shape was wrong."""
+
+    def __init__(self, message, usage=False):
+        super().__init__(message)
+        self.usage = usage
 
 
 class OutputError(Exception):
@@ -48,7 +52,7 @@ class OutputError(Exception):
 
 def parse(argv):
     if "--" not in argv:
-        raise UsageError("no arguments after '--'")
+        raise UsageError("no arguments after '--'", usage=True)
     args = argv[argv.index("--") + 1:]
     opts = {"frame": None, "frames": None, "size": None, "samples": 8, "engine": "workbench"}
     pos = []
@@ -86,7 +90,7 @@ def parse(argv):
         pos.append(a)
         k += 1
     if len(pos) != 2:
-        raise UsageError(f"expected RUN_DIR and OUT, got {len(pos)} arguments")
+        raise UsageError(f"expected RUN_DIR and OUT, got {len(pos)} arguments", usage=True)
     run_dir, out = pos
     if not run_dir:
         raise UsageError("RUN_DIR is empty: give the folder an `mca run` wrote (its --out)")
@@ -121,6 +125,22 @@ def written(path, what):
     if not os.path.isfile(path):
         raise OutputError(f"{what} wrote no {path} (Blender's messages above say why): check that its folder can be "
                           "written and has room")
+
+
+def check_frame(run_dir, opts):
+    """Refuses --frame past the frames the run lists (those imported: --frames), before the import."""
+    from io_import_mca import reader
+    folder, _ = reader.run_folder(run_dir)
+    pvd = os.path.join(folder, "automata.pvd")
+    if not os.path.isfile(pvd):
+        return  # (the import names what is wrong with the folder)
+    frames = len(reader.read_pvd(pvd))
+    if opts["frames"] is not None:
+        frames = min(frames, opts["frames"])
+    if frames and opts["frame"] >= frames:
+        raise UsageError(f"--frame {opts['frame']}: the run has frames 0 to {frames - 1}" +
+                         (f" (--frames {opts['frames']})" if opts["frames"] is not None and
+                          opts["frames"] == frames else ""))
 
 
 def render(scene, out, opts, frames):
@@ -173,6 +193,8 @@ def main():
                          "OUT.blend instead")
     from io_import_mca import reader
     reader.check_dependencies()
+    if ext == ".png" and opts["frame"] is not None:
+        check_frame(run_dir, opts)
     from io_import_mca import build
     # An empty scene: the factory start-up's cube, light and camera go.
     for obj in list(bpy.data.objects):
@@ -221,7 +243,7 @@ if __name__ == "__main__":
     try:
         main()
     except UsageError as e:
-        print(f"mca_cli: error: {e}\n{USAGE}", file=sys.stderr)
+        print(f"mca_cli: error: {e}" + (f"\n{USAGE}" if e.usage else ""), file=sys.stderr)
         code = 1
     except OutputError as e:
         print(f"mca_cli: error: {e}", file=sys.stderr)

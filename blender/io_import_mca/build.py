@@ -37,6 +37,8 @@ class Imported:
         self.collection = None
         self.automata = None  # the collection of the frames' objects
         self.frame_objects = []  # the object of each frame
+        self.cubes = None  # with a bound surface, the collection of the cubes of objects it does not carry
+        self.cube_objects = []  # their object of each frame
         self.projectiles = []
         self.ground = None
         self.camera = None
@@ -146,16 +148,16 @@ def _shown_at(obj, frame, last):
 # the timeline only switches which object is shown: Blender evaluates each once and then draws it from its
 # cache (a frame's switch takes well under a millisecond).
 
-def _automata_cubes(run, collection):
-    """Per frame, a point per exposed automaton with its rotation (XYZ Euler), colour, fragment, damage and
-    index; the geometry nodes put a cube of the spacing on each."""
+def _automata_cubes(run, collection, only=None):
+    """Per frame, a point per exposed automaton (of those `only` marks, where given) with its rotation (XYZ
+    Euler), colour, fragment, damage and index; the geometry nodes put a cube of the spacing on each."""
     exposed = run.exposed()
     rotations = run.rotations()
     tree = _cube_tree(run.spacing)
     last = len(run.frames) - 1
     out = []
     for k, f in enumerate(run.frames):
-        sel = np.nonzero(exposed[k])[0]
+        sel = np.nonzero(exposed[k] if only is None else exposed[k] & only)[0]
         name = f"mca automata {k:06d}"
         mesh = bpy.data.meshes.new(name)
         mesh.vertices.add(len(sel))
@@ -455,6 +457,13 @@ def _build(context, run, start):
     coll.children.link(result.automata)
     result.frame_objects = (_surface if run.surface_files else _automata_cubes)(run, result.automata)
     result.automata["mca_frames"] = len(run.frames)
+    # Objects that are not meshes have no triangles in the bound surface: cubes, as the renderer draws them.
+    unbound = run.unbound_automata() if run.surface_files else None
+    if unbound is not None and unbound.any():
+        result.cubes = bpy.data.collections.new("mca automata")
+        coll.children.link(result.cubes)
+        result.cube_objects = _automata_cubes(run, result.cubes, unbound)
+        result.cubes["mca_frames"] = len(run.frames)
     result.projectiles = _projectiles(run, coll)
     result.camera, eye, target = _camera(run, coll, scene)
     result.ground = _ground(run, coll, eye, target)

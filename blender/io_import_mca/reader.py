@@ -531,20 +531,24 @@ def exposed_at_start(p0, obj, spacing):
     n = len(p0)
     if n == 0:
         return np.zeros(0, bool)
-    cell = np.floor((p0 - p0.min(axis=0)) / spacing).astype(np.int64)
+    reach = 1.2 * spacing
+    # Cells of the reach: two automata within it are in neighbouring cells. (Cells of the spacing put lattice
+    # sites, at whole multiples of it, one cell low or not by their rounding: neighbours two cells apart were
+    # not looked at, and 1,452 interior automata of the cubic wall counted as its surface's.)
+    cell = np.floor((p0 - p0.min(axis=0)) / reach).astype(np.int64)
     dims = cell.max(axis=0) + 3
     key = ((cell[:, 0] + 1) * dims[1] + (cell[:, 1] + 1)) * dims[2] + (cell[:, 2] + 1)
     order = np.argsort(key, kind="stable")
     skey = key[order]
     count = np.zeros(n, np.int32)
-    reach2 = (1.2 * spacing) ** 2
+    reach2 = reach ** 2
     for dx in (-1, 0, 1):
         for dy in (-1, 0, 1):
             for dz in (-1, 0, 1):
                 nk = key + (dx * dims[1] + dy) * dims[2] + dz
                 lo = np.searchsorted(skey, nk, "left")
                 hi = np.searchsorted(skey, nk, "right")
-                # cells hold one automaton each on a lattice of this spacing; walk the few that hold more
+                # a cell holds one to eight sites of a lattice of this spacing: walk them
                 most = int((hi - lo).max()) if n else 0
                 for k in range(most):
                     has = lo + k < hi
@@ -1009,6 +1013,17 @@ class Run:
             return [np.ones(len(f["damage"]), bool) for f in self.frames]
         start = exposed_at_start(self.initial_positions(), self.frames[0]["object"], self.spacing)
         return [start | (f["damage"] > 0) for f in self.frames]
+
+    def unbound_automata(self):
+        """A bool per automaton: those of objects whose triangles the bound surface does not carry (a box, a
+        sphere, a cylinder: not shape = "mesh"), which the renderer draws as cubes beside the surface. None
+        where the scene is not known (no scene.toml)."""
+        objects = self.scene.get("object") if self.scene else None
+        if not isinstance(objects, list):
+            return None
+        meshes = np.array([isinstance(o, dict) and o.get("shape") == "mesh" for o in objects] + [False], bool)
+        ids = np.minimum(np.asarray(self.frames[0]["object"]), len(objects))
+        return ~meshes[ids]
 
     def rotations(self):
         """Per frame, the automata's orientations (w, x, y, z): the frames' own, else reconstructed."""

@@ -90,7 +90,24 @@ def import_checks(run_dir, surface):
     check(result.ground is not None and result.camera is not None and scene.camera == result.camera,
           "a ground plane and the scene's camera")
     check(result.light is not None and result.light.type == "LIGHT", "a sun light for Eevee and Cycles")
-    expected = frames + balls + 3 + len(result.fragments)
+    # Beside a bound surface, the objects it does not carry (the surface scene's block) are cubes, as the
+    # renderer draws them: they were left out.
+    if surface:
+        unbound = result.run.unbound_automata()
+        check(unbound is not None and 0 < unbound.sum() < len(unbound), f"{int(unbound.sum())} automata of the block")
+        check(result.cubes is not None and result.cubes.name == "mca automata" and
+              [o.name for o in result.cube_objects] == [f"mca automata {k:06d}" for k in range(frames)],
+              f"the block's cubes: an object per frame ({len(result.cube_objects)})")
+        shown = int((result.run.exposed()[0] & unbound).sum())
+        _, cube_faces = evaluated_points(result.cube_objects[0], 0)
+        check(shown > 0 and cube_faces == 6 * shown, f"frame 0: {cube_faces} faces = 6 x {shown} cubes of the block")
+        for k in (0, frames - 1):
+            scene.frame_set(k)
+            check([j for j, o in enumerate(result.cube_objects) if not o.hide_render] == [k],
+                  f"frame {k} shows its cubes only")
+    else:
+        check(result.cubes is None and not result.cube_objects, "no other cubes")
+    expected = frames + balls + 3 + len(result.fragments) + len(result.cube_objects)
     check(len(names) == expected, f"{len(names)} objects, expected {expected}")
 
     # The automata move between frames, and each frame shows only its own.

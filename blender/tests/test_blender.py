@@ -96,6 +96,11 @@ shape = "mesh"
 mesh = "sphere.obj"
 position = [0.0, 0.0, 0.35]
 material = "concrete"
+[[object]]
+name = "block"
+size = [0.2, 0.2, 0.2]
+position = [0.6, 0.0, 0.1]
+material = "glass"
 [[projectile]]
 name = "ball"
 radius = 0.1
@@ -534,6 +539,7 @@ def check_unknown_lattice(a):
     """A run folder without scene.toml: the lattice is not known, and every automaton is drawn (the cubic
     rule, taken as the default, hid a third of a random-lattice wall's faces: a see-through picture; a
     hostile review, 2026-12-06), with a warning that says so; with its scene.toml the cubic wall draws fewer."""
+    import numpy as np
     reader = load_reader()
     for name, lattice in (("random", "random"), ("short", "cubic")):
         d = os.path.join(a.work, f"{name}_without_scene")
@@ -548,9 +554,20 @@ def check_unknown_lattice(a):
             sys.exit(f"{name} without scene.toml drew {drawn} of {automata} automata, not every one")
         if not any("every automaton is drawn (the lattice is not known)" in w for w in run.warnings):
             sys.exit(f"no warning says every automaton is drawn: {run.warnings}")
-        known = [int(e.sum()) for e in reader.Run(os.path.join(a.work, name)).exposed()]
+        whole = reader.Run(os.path.join(a.work, name))
+        known = [int(e.sum()) for e in whole.exposed()]
         if (lattice == "cubic") != (known[0] < automata):
             sys.exit(f"{name} with its scene.toml ({lattice}) drew {known[0]} of {automata} at frame 0")
+        if lattice == "cubic":
+            # The box's faces exactly, as the renderer draws it (fewer than six links): its automata less those
+            # inside (sites at whole spacings, which a grid of cells of the spacing took for one cell lower or
+            # not by their rounding: 4,124 drawn, a hostile review, 2026-12-07).
+            p0 = whole.initial_positions()
+            n = np.rint((p0.max(axis=0) - p0.min(axis=0)) / whole.spacing).astype(int) + 1
+            surface = int(np.prod(n) - np.prod(n - 2))
+            print(f"{name}: a box of {n.tolist()} automata, {surface} on its faces; {known[0]} drawn at frame 0")
+            if int(np.prod(n)) != automata or known[0] != surface:
+                sys.exit(f"{name} drew {known[0]} automata at frame 0, not the {surface} on its faces")
         shutil.rmtree(d, ignore_errors=True)
 
 
@@ -764,7 +781,9 @@ def main():
                  "summary.json is not the summary mca writes"),
                 ("frames/ a file", [os.path.join(bad, "frames_file"), os.path.join(a.work, "x.blend")],
                  "a folder on its path is a file")):
-            cli_refuses(a, name, args, words)
+            r = cli_refuses(a, name, args, words)
+            if "--frame" in args and "mca_cli: imported" in r.stdout:
+                sys.exit("mca_cli.py imported the run before it refused --frame 99")
     elif case == "bad_cli":
         bad_cli(a)
     elif case == "missing_numpy":
