@@ -991,7 +991,29 @@ class Run:
                 m = re.fullmatch(r"fragment_(\d{1,10})\.ply", name)
                 if m and int(m.group(1)) < 2 ** 31:  # (a fragment number mca writes; others are not its files)
                     out[int(m.group(1))] = os.path.join(folder, name)
+        self._check_fragment_files(out)
         return out
+
+    def _check_fragment_files(self, found):
+        """A finished run's meshes are those of the fragments of fragments.csv with more than
+        output.fragment_min_automata automata: one missing is said (it was left out without a word)."""
+        output = self.scene.get("output", {}) if self.scene else {}
+        if not (self.summary and self.summary.get("status") == "finished" and isinstance(output, dict) and
+                output.get("fragments") is True):
+            return
+        least = output.get("fragment_min_automata", 8)
+        path = os.path.join(self.dir, "fragments.csv")
+        try:
+            rows = _read_bytes(path, f"{path} is missing").decode("utf-8").splitlines()[1:]
+            sizes = {int(r.split(",")[0]): int(r.split(",")[1]) for r in rows if r.strip()}
+        except (RunError, ValueError, IndexError):
+            return  # (the meshes are imported as found; fragments.csv is not the importer's to judge)
+        missing = sorted(i for i, n in sizes.items() if n > least and i not in found)
+        if missing:
+            names = ", ".join(f"fragment_{i:03d}.ply" for i in missing[:3]) + (", ..." if len(missing) > 3 else "")
+            self.warnings.append(f"{os.path.join(self.dir, 'fragments')} lacks {len(missing)} of the "
+                                 f"{sum(n > least for n in sizes.values())} fragment meshes fragments.csv calls for "
+                                 f"({names}): they are left out; run mca again to write them")
 
     # -- derived per frame
     def colours(self, k):

@@ -207,6 +207,14 @@ class Scene:
         """Writes to_toml() to a file."""
     def copy(self) -> Scene:
         """A deep copy."""
+    def __copy__(self) -> Scene:
+        """A deep copy (copy.copy)."""
+    def __deepcopy__(self, memo: dict[int, object]) -> Scene:
+        """A deep copy (copy.deepcopy)."""
+    def __getstate__(self) -> tuple[str, str]:
+        """For pickle: the scene's TOML and its source, after validate() (which raises mca.Error here for a
+        scene it refuses)."""
+    def __setstate__(self, state: tuple[str, str]) -> None: ...
     def __eq__(self, other: object) -> bool: ...
 
 class Simulation:

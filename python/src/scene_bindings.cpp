@@ -21,6 +21,7 @@
 
 #include "bindings.hpp"
 #include "core/text.hpp"
+#include "io/output_files.hpp"
 #include "io/scene_io.hpp"
 #include "mca/error.hpp"
 
@@ -881,17 +882,32 @@ validates it too.)");
           [](const PyScene& s, Given<py_type::path> path_arg) {
             const std::filesystem::path path = to_path(path_arg, "Scene.save: path");
             const std::string text = io::scene_to_toml(s.to_def());
-            FILE* f = std::fopen(path.c_str(), "wb");
-            if (!f) throw Error(fmt::format("{}: cannot be written ({}); check the folder exists and is writable",
-                                            path.string(), std::strerror(errno)));
-            const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
-            if (std::fclose(f) != 0 || !ok)
-              throw Error(fmt::format("{}: writing failed ({})", path.string(), std::strerror(errno)));
+            // (To a temporary name, then renamed: a full disk leaves the file that was there, not half a scene.)
+            io::write_file_atomic(path, [&](std::ostream& os) { os << text; }, false);
           },
           py::arg("path"), "Writes to_toml() to a file.")
       .def(
           "copy", [](const PyScene& s) { return PyScene::from_def(s.to_def()); },
           "A deep copy: changing it leaves this scene as it is.")
+      .def("__copy__", [](const PyScene& s) { return PyScene::from_def(s.to_def()); })
+      .def(
+          "__deepcopy__", [](const PyScene& s, const py::object&) { return PyScene::from_def(s.to_def()); },
+          py::arg("memo"))
+      // Pickled as its TOML (what a process pool sends its workers), checked first: a scene that validate()
+      // refuses is refused here, where it was made, and not in the process that reads it.
+      .def(py::pickle(
+          [](const PyScene& s) {
+            const SceneDef def = s.to_def();
+            validate_scene(def);
+            return py::make_tuple(io::scene_to_toml(def), s.source);
+          },
+          [](const py::tuple& t) {
+            if (t.size() != 2 || !py::isinstance<py::str>(t[0]) || !py::isinstance<py::str>(t[1]))
+              throw Error("mca.Scene: the pickled state is not (TOML text, source): not a scene pickled by mca");
+            PyScene s = PyScene::from_def(io::parse_scene(t[0].cast<std::string>(), t[1].cast<std::string>()));
+            s.source = t[1].cast<std::string>();
+            return s;
+          }))
       .def(
           "__eq__",
           [](const PyScene& a, const PyScene& b) { return io::scene_to_toml(a.to_def()) == io::scene_to_toml(b.to_def()); },

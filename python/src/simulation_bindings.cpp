@@ -522,6 +522,7 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
     io::write_file_atomic(out->dir / "scene.toml", [&](std::ostream& os) { os << io::scene_to_toml(e.scene()); },
                           false);
     earlier.commit();
+    app::remove_empty_output_folders(out->dir, false);  // (as mca run: the earlier run's checkpoints/ went)
     out->writer = std::make_unique<app::FrameWriter>(out->dir, e.model(), e.scene().output);
     sim.output = std::move(out);
   }
@@ -563,10 +564,23 @@ std::unique_ptr<PySimulation> resume(const std::filesystem::path& path, int thre
     // A run's folder (its checkpoints/) or a folder of checkpoints: the newest.
     auto all = io::list_checkpoints(path / "checkpoints");
     if (all.empty()) all = io::list_checkpoints(path);
-    if (all.empty())
+    if (all.empty()) {
+      // Checkpoints by other names (sim.checkpoint("out/py/at20ms.mcack")) are not a run's: named, not taken.
+      std::vector<std::string> named;
+      for (const auto& dir : {path, path / "checkpoints"})
+        for (const auto& e : std::filesystem::directory_iterator(dir, ec))
+          if (e.path().extension() == ".mcack" && e.is_regular_file(ec)) named.push_back(e.path().string());
+      std::sort(named.begin(), named.end());
+      if (!named.empty())
+        throw Error(fmt::format("no checkpoint of a run (checkpoints/frame_NNNNNN.mcack) in '{}', which holds {}{}: give "
+                                "the checkpoint's path, e.g. mca.Simulation.resume(\"{}\")",
+                                path.string(), text::utf8_shown(named.front()),
+                                named.size() > 1 ? fmt::format(" and {} more .mcack files", named.size() - 1) : "",
+                                text::utf8_shown(named.front())));
       throw Error(fmt::format("no checkpoint in '{}' or '{}': give a .mcack file, or the --out folder of a run started "
                               "with --checkpoint-every N",
                               path.string(), (path / "checkpoints").string()));
+    }
     file = all.back();
   }
   io::Checkpoint cp = io::read_checkpoint(file);

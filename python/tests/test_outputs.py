@@ -34,6 +34,11 @@ def test_a_damaged_checkpoint_is_refused(tmp_path):
     empty.mkdir()
     with pytest.raises(mca.Error, match="no checkpoint in"):
         mca.Simulation.resume(empty)
+    # A folder of checkpoints by other names (as the README's example saves one) is not a run's: they are
+    # named ("no checkpoint in" it was false).
+    sim.checkpoint(empty / "at20ms.mcack")
+    with pytest.raises(mca.Error, match=r"which holds .*at20ms\.mcack: give the checkpoint's path"):
+        mca.Simulation.resume(empty)
 
 
 def test_resume_a_command_run_folder(tmp_path, mca_binary):
@@ -238,6 +243,8 @@ def test_write_frame_into_a_finished_runs_folder_removes_that_runs_outputs(tmp_p
     assert sim.write_frame(out) == 0
     assert not (out / "summary.json").exists() and not (out / "fragments.csv").exists()
     assert not list(out.glob("fragments/fragment_*.ply")) and not list(out.glob("checkpoints/*.mcack"))
+    # (Its folders left empty go too, as mca run removes them: checkpoints/ stayed.)
+    assert not (out / "checkpoints").exists() and not (out / "fragments").exists()
     assert mine.read_text() == "mine\n"
 
 

@@ -126,6 +126,23 @@ def test_changes_stick_and_copies_are_deep():
         mca.Heterogeneity(preset="low", shares=(0, 0, 0, 1))
 
 
+def test_copy_deepcopy_and_pickle():
+    """copy.copy, copy.deepcopy and pickle (a process pool's workers get their scene pickled) raised
+    "cannot pickle 'mca._mca.Scene' object"; each is deep, and pickling checks the scene where it is made."""
+    import copy
+    import pickle
+    scene = mca.Scene.default()
+    scene.solver.spacing = 0.1
+    for other in (copy.copy(scene), copy.deepcopy(scene), pickle.loads(pickle.dumps(scene))):
+        assert other == scene and other.source == scene.source
+        other.objects[0].size = (3, 3, 3)
+        assert scene.objects[0].size != (3, 3, 3)
+    nested = copy.deepcopy({"a": [scene, scene]})
+    assert nested["a"][0] == scene
+    with pytest.raises(mca.Error, match="no objects"):
+        pickle.dumps(mca.Scene("empty"))
+
+
 def test_save_and_load(tmp_path):
     scene = mca.Scene.default()
     scene.output.duration = 0.01
