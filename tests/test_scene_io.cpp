@@ -551,6 +551,10 @@ TEST(SceneIo, UnknownMaterialWithSuggestion) {
   EXPECT_HAS(base, "scene.toml:8:8:");
   EXPECT_HAS(base, "material[0].base = \"stell\"");
   EXPECT_HAS(base, "did you mean 'steel'?");
+  // A scene's own material of a built-in's name is listed once.
+  const std::string listed = parse_error(kMinimal + "[[material]]\nname = \"concrete\"\n[[material]]\nname = \"x\"\n"
+                                         "base = \"nothing like it\"\n");
+  EXPECT_HAS(listed, "; allowed: concrete, glass, ceramic, granite, steel");
 }
 
 TEST(SceneIo, DuplicateNames) {

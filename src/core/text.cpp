@@ -123,7 +123,11 @@ std::string did_you_mean(std::string_view word, const std::vector<std::string>& 
 std::string suggestion(std::string_view word, const std::vector<std::string>& candidates) {
   std::string s = did_you_mean(word, candidates);
   if (!s.empty()) return s;
-  return fmt::format("; allowed: {}", fmt::join(candidates, ", "));
+  // Each once, in order (a scene's own "concrete" shadows the built-in one of that name).
+  std::vector<std::string_view> once;
+  for (const auto& c : candidates)
+    if (std::find(once.begin(), once.end(), c) == once.end()) once.push_back(c);
+  return fmt::format("; allowed: {}", fmt::join(once, ", "));
 }
 
 std::string number_runs(const std::vector<std::int64_t>& sorted, std::size_t most) {

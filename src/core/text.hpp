@@ -45,7 +45,7 @@ std::string lower(std::string_view s);
 std::size_t edit_distance(std::string_view a, std::string_view b);
 
 // "; did you mean 'x'?" for the closest candidate within a third of the word's length (at least 2
-// edits), else "; allowed: a, b, c".
+// edits), else "; allowed: a, b, c" (each candidate once).
 std::string suggestion(std::string_view word, const std::vector<std::string>& candidates);
 // The "; did you mean 'x'?" of suggestion, or "" when no candidate is close.
 std::string did_you_mean(std::string_view word, const std::vector<std::string>& candidates);
