@@ -20,6 +20,10 @@
 #include "io/output_files.hpp"
 #include "mca/scene.hpp"
 
+namespace mca {
+class Engine;
+}
+
 namespace mca::app {
 
 struct FrameStats {
@@ -187,6 +191,15 @@ std::string summary_status(const std::filesystem::path& dir);
 // writes (check_run_names_are_files). `another`: the fix's other folder ("another --out folder"; the Python
 // module's write_frame names its own).
 void check_folder_is_a_runs(const std::filesystem::path& dir, std::string_view another = "another --out folder");
+
+// The end of a run in `dir` from the engine's state: summary.json (`status`: "finished", "interrupted", ...)
+// and fragments.csv, every fragment heaviest first (mca run at its end, the Python module's
+// close_output(finish=True)). `wall_before`: the wall seconds of the sessions before this one (a resume's
+// checkpoint's); `session_wall` and `session_steps` this session's, which give the rate; `resumed_from`: the
+// checkpoint a resumed session started from (its scene is then the folder's scene.toml), else empty.
+void write_summary(const std::filesystem::path& dir, const Engine& sim, const analysis::Fragments& frags,
+                   double wall_before, double session_wall, std::int64_t session_steps, int threads,
+                   const std::string& status, const std::filesystem::path& resumed_from);
 
 class FrameWriter {
  public:

@@ -158,6 +158,8 @@ Plan resume_plan(const io::Checkpoint& cp, int spf, const std::string& source) {
   return p;
 }
 
+}  // namespace
+
 // Every fragment, heaviest first: one row each (the summary lists the largest).
 void write_fragments_csv(const std::filesystem::path& path, const std::vector<analysis::FragmentInfo>& infos) {
   io::write_file_atomic(
@@ -281,6 +283,8 @@ void write_summary(const std::filesystem::path& dir, const Engine& sim, const an
   j["state_hash"] = fmt::format("{:016x}", state_hash(s));
   io::write_file_atomic(dir / "summary.json", [&](std::ostream& os) { os << io::json_text(j) << "\n"; }, false);
 }
+
+namespace {
 
 // What a run writes at its end from its last state (the summary also when interrupted): the summary,
 // fragments.csv, the fragment meshes and (`plots`) the plots of tools/plot_run.py. One left by an earlier

@@ -295,8 +295,10 @@ class Simulation:
         written at a time (however it is spelt: "out", "out/", "./out"): giving another folder releases the
         first (once the other has passed its checks: a folder refused leaves the first as it was), and giving
         the first again starts it afresh (frame 0, its earlier frames and stats.csv removed)."""
-    def close_output(self) -> None:
-        """Releases the folder of write_frame."""
+    def close_output(self, finish: bool = False) -> None:
+        """Releases the folder of write_frame. finish=True first writes the run's end as mca run does after its
+        last frame, from the state of the last frame written: summary.json ("finished"), fragments.csv and,
+        with output.fragments, the fragment meshes."""
     def checkpoint(self, path: PathLike) -> None:
         """Saves the scene and the whole state (.mcack) to the file `path` (not a folder, not "")."""
 

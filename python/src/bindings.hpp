@@ -79,6 +79,7 @@ MCA_SHOWN_TYPE(scene_or_path, "Union[Scene, str, os.PathLike]");
 MCA_SHOWN_TYPE(integer, "int");
 MCA_SHOWN_TYPE(number, "float");
 MCA_SHOWN_TYPE(str, "str");
+MCA_SHOWN_TYPE(boolean, "bool");
 MCA_SHOWN_TYPE(optional_str, "Optional[str]");
 MCA_SHOWN_TYPE(progress, "Optional[Callable[[int, int], Any]]");
 MCA_SHOWN_TYPE(size, "Tuple[int, int]");

@@ -54,6 +54,7 @@ struct OutputFolder {
   std::unique_ptr<io::OutputLock> lock;
   std::unique_ptr<app::FrameWriter> writer;
   std::int64_t next_frame = 0;
+  std::int64_t last_step = -1;  // the step of the last frame written
 };
 
 // f() without the GIL, which is taken back in this function's body rather than in a destructor: at the
@@ -92,7 +93,8 @@ class PySimulation {
     Engine::check_environment();
     tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads_));
     without_gil([&] { engine_ = std::make_shared<Engine>(cp.scene, cp.state, source, cp.model_fingerprint); });
-    wall_ = cp.wall_seconds;
+    wall_ = first_wall_ = cp.wall_seconds;
+    first_step_ = cp.state.step;
   }
   ~PySimulation() {
     stop_ = true;
@@ -119,6 +121,9 @@ class PySimulation {
     join();
     return wall_;
   }
+  // Where this Simulation began (a checkpoint's step and wall seconds; 0 for a new one).
+  std::int64_t first_step() const { return first_step_; }
+  double first_wall() const { return first_wall_; }
 
   void advance(std::int64_t steps, const py::object& progress) {
     if (steps < 0) throw Error(fmt::format("advance({}): the step count is negative; give 0 or more steps", steps));
@@ -313,6 +318,8 @@ class PySimulation {
   std::exception_ptr error_;
   StepHealth health_;
   double wall_ = 0;  // seconds of stepping, all sessions (a checkpoint's included)
+  double first_wall_ = 0;
+  std::int64_t first_step_ = 0;
   double per_step_ = 0;         // seconds a step took in the last slice
   std::int64_t last_slice_ = 1;  // its steps
 };
@@ -532,7 +539,27 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
   out.writer->write_frame(out.next_frame, s, frags);
   if (out.next_frame == 0) out.writer->start_stats({row});
   else out.writer->append_stats(row);
+  out.last_step = s.step;
   return out.next_frame++;
+}
+
+// close_output(finish=True): the run's end as mca run writes it after its last frame, from the state of the
+// last frame written: the fragment meshes (output.fragments), fragments.csv and summary.json, "finished".
+void finish_output(PySimulation& sim) {
+  const Engine& e = sim.engine();
+  const State& s = e.state();
+  if (!sim.output)
+    throw Error("close_output(finish=True): no folder is open; write_frame(folder) first (the run's end describes "
+                "its last frame)");
+  OutputFolder& out = *sim.output;
+  if (out.last_step != s.step)
+    throw Error(fmt::format("close_output(finish=True): the state is at step {}, past the last frame written to {} "
+                            "(frame {}, step {}); write_frame first, so that the run's end describes its last frame",
+                            s.step, out.dir.string(), out.next_frame - 1, out.last_step));
+  const auto frags = out.writer->fragments(s);
+  out.writer->write_fragment_meshes(s, frags);
+  app::write_summary(out.dir, e, frags, sim.first_wall(), sim.wall() - sim.first_wall(), s.step - sim.first_step(),
+                     sim.threads(), "finished", {});
 }
 
 void checkpoint(PySimulation& sim, const std::filesystem::path& path) {
@@ -893,8 +920,16 @@ Simulation is gone.)");
           "folder is given and passes these checks, close_output() or the Simulation goes; giving the first folder again starts it afresh "
           "(frame 0, its earlier frames and stats removed). Returns the frame number.")
       .def(
-          "close_output", [](PySimulation& s) { s.output.reset(); },
-          "Releases the folder of write_frame (its files stay).")
+          "close_output",
+          [](PySimulation& s, Given<py_type::boolean> finish) {
+            if (to_bool(finish, "close_output: finish", "True or False")) finish_output(s);
+            s.output.reset();
+          },
+          py::arg("finish") = false,
+          "Releases the folder of write_frame (its files stay). finish=True first writes the run's end as mca run "
+          "does after its last frame, from the state of the last frame written (write_frame it first): summary.json "
+          "(status \"finished\"), fragments.csv and, with output.fragments, the fragment meshes; the folder is then a "
+          "finished run to the Blender importer and to mca.")
       .def(
           "checkpoint",
           [](PySimulation& s, Given<py_type::path> path) { checkpoint(s, to_path(path, "checkpoint: path")); },

@@ -248,6 +248,35 @@ def test_write_frame_into_a_finished_runs_folder_removes_that_runs_outputs(tmp_p
     assert mine.read_text() == "mine\n"
 
 
+def test_close_output_finish_writes_the_runs_end(tmp_path):
+    """A folder of write_frame had no summary.json, fragments.csv or fragment meshes, ever: the Blender importer
+    took it for a run still going or killed (the hostile review of 2026-12-07). close_output(finish=True) writes
+    them from the state of the last frame written, as mca run does after its last frame."""
+    out = tmp_path / "py"
+    scene = mca.Scene.default()
+    scene.output.fragments = True
+    sim = mca.Simulation(scene, threads=1)
+    sim.write_frame(out)
+    sim.advance(3600)  # the ball through the wall
+    sim.write_frame(out)
+    sim.advance(1)
+    with pytest.raises(mca.Error, match="past the last frame written"):
+        sim.close_output(finish=True)
+    assert not (out / "summary.json").exists()
+    sim.write_frame(out)
+    sim.close_output(finish=True)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "finished" and summary["state_hash"] == sim.state_hash()
+    assert summary["steps"] == 3601 and summary["session_steps"] == 3601
+    rows = (out / "fragments.csv").read_text().splitlines()[1:]
+    assert len(rows) == summary["fragment_count"] == len(sim.fragments()["id"]) > 1
+    meshes = sorted(p.name for p in (out / "fragments").glob("fragment_*.ply"))
+    big = [int(r.split(",")[0]) for r in rows if int(r.split(",")[1]) > scene.output.fragment_min_automata]
+    assert meshes == [f"fragment_{i:03d}.ply" for i in sorted(big)]
+    with pytest.raises(mca.Error, match="no folder is open"):
+        sim.close_output(finish=True)
+
+
 def test_a_folder_write_frame_refuses_leaves_the_one_before(tmp_path):
     """A folder refused (here a file) released the one before, and the next frame there started it afresh,
     its frames and stats removed (a hostile review, 2026-12-06): the one before is kept, and goes on."""
