@@ -251,9 +251,11 @@ class Simulation:
     @property
     def automata(self) -> int: ...
     @property
-    def link_count(self) -> int: ...
+    def link_count(self) -> int:
+        """Links at the start, intact and broken (len(links()) counts the intact ones)."""
     @property
-    def threads(self) -> int: ...
+    def threads(self) -> int:
+        """Worker threads: threads=0 gives every core; more than the machine's cores are cut to them."""
     @property
     def backend(self) -> str: ...
     @property

@@ -241,6 +241,21 @@ auto key_setter(V T::*member, const char* name, const char* doc) {
       [](PyObjectDef& o, py::handle v) { o.def.member = convert<decltype(ObjectDef::member)>(v, "object." #member, doc); }, \
       doc
 
+// A mesh key's value: a relative path taken from the current folder when it is set, as a scene file's
+// relative paths are resolved when it is read (it was resolved when the Simulation was built, from whatever
+// folder was current then: a script that changed folder in between lost its mesh).
+std::string mesh_path(py::handle v, const std::string& key) {
+  const std::filesystem::path path = to_path(v, key);
+  if (!text::is_utf8(path.string()))
+    throw Error(fmt::format("{} = \"{}\": the path is not UTF-8 text, which a scene (TOML) holds; rename the file or "
+                            "its folder",
+                            key, text::utf8_shown(path.string())));
+  if (path.empty() || !path.is_relative()) return path.string();
+  std::error_code ec;
+  const std::filesystem::path absolute = std::filesystem::absolute(path, ec);
+  return ec ? path.string() : absolute.lexically_normal().string();
+}
+
 // ---- keyword construction: Material(name="weak", tensile_strength=1e6) ----------------------------------
 
 // The keys of a bound class: its properties (what dir() lists that is a `property`).
@@ -536,7 +551,10 @@ void bind_scene(py::module_& m) {
             r.shape = io::to_shape(choice("region.shape", v, {"box", "sphere", "mesh"}, "a region shape"));
           },
           "\"box\", \"sphere\" or \"mesh\"")
-      .def_property(MCA_KEY(RegionDef, mesh, "a closed mesh file (shape \"mesh\"), the path to open"))
+      .def_property(
+          "mesh", [](const RegionDef& r) { return r.mesh; },
+          [](RegionDef& r, py::handle v) { r.mesh = mesh_path(v, "region.mesh"); },
+          "a closed mesh file (shape \"mesh\"), the path to open (a relative one from the current folder when set)")
       .def_property(MCA_KEY(RegionDef, radius, "[m] (sphere)"))
       .def_property(MCA_KEY(RegionDef, material, "the material of the automata inside (required)"));
   vec3(region, "center", &RegionDef::center, "[m], world frame");
@@ -563,8 +581,11 @@ void bind_scene(py::module_& m) {
           [](PyObjectDef& o, py::handle v) { o.def.size = to_vec3(v, "object.size"); }, "[m], full extents (box)")
       .def_property(MCA_OBJECT_KEY(radius, "[m] (sphere, cylinder)"))
       .def_property(MCA_OBJECT_KEY(height, "[m] (cylinder, along its local z)"))
-      .def_property(MCA_OBJECT_KEY(mesh, "a triangle mesh file (shape \"mesh\"): the path to open (a scene file's "
-                                         "relative paths are resolved when it is read)"))
+      .def_property(
+          "mesh", [](const PyObjectDef& o) { return o.def.mesh; },
+          [](PyObjectDef& o, py::handle v) { o.def.mesh = mesh_path(v, "object.mesh"); },
+          "a triangle mesh file (shape \"mesh\"): the path to open (a relative one from the current folder when set, "
+          "as a scene file's relative paths are resolved when it is read)")
       .def_property(MCA_OBJECT_KEY(scale, "file units to metres (mesh), > 0"))
       .def_property(MCA_OBJECT_KEY(fit_size, "[m]: > 0 scales the mesh to this largest extent"))
       .def_property(

@@ -534,6 +534,12 @@ std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
     sim.output = std::move(out);
   }
   OutputFolder& out = *sim.output;
+  if (out.next_frame == 0 && !e.scene().output.vtk && !e.scene().output.surface) {
+    const std::string said = fmt::format("write_frame: output.vtk is false, so {} gets the frames' rows of stats.csv "
+                                         "and no frames (set scene.output.vtk = True for them)",
+                                         out.dir.string());
+    if (PyErr_WarnEx(PyExc_UserWarning, said.c_str(), 1) != 0) throw py::error_already_set();
+  }
   const auto frags = out.writer->fragments(s);
   const std::string row = out.writer->format_row(out.writer->stats(out.next_frame, s, frags));
   out.writer->write_frame(out.next_frame, s, frags);
@@ -731,7 +737,8 @@ Simulation is gone.)");
       .def_property_readonly("link_count", [](const PySimulation& s) { return s.engine().model().link_count(); },
                              "links at the start (intact and broken)")
       .def_property_readonly("threads", &PySimulation::threads,
-                             "worker threads (threads=0 gives every core): the cpu backend steps on them; cuda-emulation "
+                             "worker threads (threads=0 gives every core; more than the machine's cores are cut to "
+                             "them): the cpu backend steps on them; cuda-emulation "
                              "steps on one core, cuda on the GPU (see backend)")
       .def_property_readonly("backend", [](const PySimulation& s) { return s.engine().backend().name(); },
                              "the backend stepping the model")

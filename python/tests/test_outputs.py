@@ -277,6 +277,17 @@ def test_close_output_finish_writes_the_runs_end(tmp_path):
         sim.close_output(finish=True)
 
 
+def test_write_frame_without_vtk_says_it_writes_no_frames(tmp_path):
+    scene = mca.Scene.default()
+    scene.output.vtk = False
+    sim = mca.Simulation(scene, threads=1)
+    with pytest.warns(UserWarning, match="output.vtk is false"):
+        assert sim.write_frame(tmp_path / "rows") == 0
+    assert sim.write_frame(tmp_path / "rows") == 1  # (said once)
+    assert len((tmp_path / "rows" / "stats.csv").read_text().splitlines()) == 3
+    assert not (tmp_path / "rows" / "frames").exists()
+
+
 def test_a_folder_write_frame_refuses_leaves_the_one_before(tmp_path):
     """A folder refused (here a file) released the one before, and the next frame there started it afresh,
     its frames and stats removed (a hostile review, 2026-12-06): the one before is kept, and goes on."""

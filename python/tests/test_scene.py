@@ -1,5 +1,7 @@
 """Scenes from files and from Python: the keys of docs/scene-format.md, and to_toml / from_toml giving
 back the same scene."""
+import pathlib
+
 import pytest
 
 import mca
@@ -141,6 +143,21 @@ def test_copy_deepcopy_and_pickle():
     assert nested["a"][0] == scene
     with pytest.raises(mca.Error, match="no objects"):
         pickle.dumps(mca.Scene("empty"))
+
+
+def test_a_relative_mesh_path_is_taken_from_the_folder_current_when_set(tmp_path, monkeypatch):
+    """A relative mesh path set from Python was resolved when the Simulation was built, from whatever folder
+    was current then (a script that changed folder lost its mesh); a scene file's are resolved when read."""
+    (tmp_path / "cube.obj").write_text(
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+        "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n")
+    monkeypatch.chdir(tmp_path)
+    scene = mca.Scene("meshes")
+    scene.add_object(shape="mesh", mesh="cube.obj", fit_size=0.2, position=(0, 0, 0.2))
+    region = mca.Region(shape="mesh", mesh=pathlib.Path("cube.obj"), material="glass")
+    assert scene.objects[0].mesh == region.mesh == str(tmp_path / "cube.obj")
+    monkeypatch.chdir("/")
+    assert mca.Simulation(scene, threads=1).automata > 0
 
 
 def test_save_and_load(tmp_path):
