@@ -495,7 +495,20 @@ std::filesystem::path folder_path(const std::filesystem::path& dir) {
 // Frame `next_frame` of `dir` as `mca run` writes it: the VTK frames and their collections, the bound
 // surface (output.surface), a row of stats.csv; the first frame in a folder makes a new run's checks, writes
 // scene.toml and removes what an earlier run left there (as a new run does; other files stay).
+std::int64_t write_frame_unworded(PySimulation& sim, const std::filesystem::path& dir);
+
 std::int64_t write_frame(PySimulation& sim, const std::filesystem::path& dir) {
+  try {
+    return write_frame_unworded(sim, dir);
+  } catch (const Error& refused) {
+    // The output checks are the command's, and name its flag: here the folder is write_frame's.
+    std::string what = refused.what();
+    for (std::size_t at; (at = what.find(" (--out)")) != std::string::npos;) what.replace(at, 8, " for write_frame");
+    throw Error(what);
+  }
+}
+
+std::int64_t write_frame_unworded(PySimulation& sim, const std::filesystem::path& dir) {
   const Engine& e = sim.engine();
   const State& s = e.state();  // (first: a simulation that cannot be read touches no folder)
   if (dir.empty()) throw Error("write_frame: the folder is empty (\"\"); give the output folder");
@@ -616,7 +629,7 @@ std::unique_ptr<PySimulation> resume(const std::filesystem::path& path, int thre
     }
     file = all.back();
   }
-  io::Checkpoint cp = io::read_checkpoint(file);
+  io::Checkpoint cp = io::read_checkpoint(file, file != path);
   // Any backend continues any checkpoint with the same bits.
   if (backend) cp.scene.solver.backend = *backend;
   return std::make_unique<PySimulation>(cp, fmt::format("checkpoint '{}'", file.string()),

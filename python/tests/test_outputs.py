@@ -30,6 +30,10 @@ def test_a_damaged_checkpoint_is_refused(tmp_path):
     (tmp_path / "cut.mcack").write_bytes(data[: len(data) // 2])
     with pytest.raises(mca.Error, match="cut.mcack"):
         mca.Simulation.resume(tmp_path / "cut.mcack")
+    # A file the user names that is no checkpoint: the fix is another file, not to move it out of a folder.
+    (tmp_path / "scene.toml").write_text("name = 'x'\n")
+    with pytest.raises(mca.Error, match=r"scene\.toml' is not an mca checkpoint \(bad header\): give a \.mcack file"):
+        mca.Simulation.resume(tmp_path / "scene.toml")
     empty = tmp_path / "empty"
     empty.mkdir()
     with pytest.raises(mca.Error, match="no checkpoint in"):
@@ -219,8 +223,10 @@ def test_write_frame_writes_nothing_through_links(tmp_path):
     (out / "frames").symlink_to(elsewhere)
     before = sorted(p.name for p in elsewhere.iterdir())
     sim.advance(1)
-    with pytest.raises(mca.Error, match=r"frames' is a symbolic link .*writes and removes nothing outside its output"):
+    with pytest.raises(mca.Error, match=r"frames' is a symbolic link .*writes and removes nothing outside its output") \
+            as refused:
         sim.write_frame(out)
+    assert "--out" not in str(refused.value)
     assert sorted(p.name for p in elsewhere.iterdir()) == before
 
 
@@ -297,8 +303,10 @@ def test_a_folder_write_frame_refuses_leaves_the_one_before(tmp_path):
         assert sim.write_frame(out) == k
         sim.advance(1)
     (tmp_path / "a_file").write_text("x\n")
-    with pytest.raises(mca.Error, match="is not usable"):
+    with pytest.raises(mca.Error, match="is not usable") as refused:
         sim.write_frame(tmp_path / "a_file")
+    # (The command's flag is not named: the folder is write_frame's.)
+    assert "--out" not in str(refused.value) and "output folder for write_frame" in str(refused.value)
     assert sim.write_frame(out) == 3
     assert len(list((out / "frames").glob("automata_*.vtu"))) == 4
     assert (out / "stats.csv").read_text().count("\n") == 5

@@ -241,7 +241,7 @@ void write_checkpoint(const std::filesystem::path& path, const Checkpoint& cp) {
   }, true, Durability::synced);  // a resume depends on it: on the disk before the older ones are removed
 }
 
-Checkpoint read_checkpoint(const std::filesystem::path& path) {
+Checkpoint read_checkpoint(const std::filesystem::path& path, bool picked) {
   files::require_regular_file(path, "a checkpoint",
                               "pass the output folder of a run started with --checkpoint-every N");
   std::ifstream in(path, std::ios::binary);
@@ -255,9 +255,10 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   in.read(head, sizeof head);
   // (A file of a checkpoint's name that is none: a resume takes the newest name, so it must go.)
   const auto not_one = [&] {
-    return Error(fmt::format("'{}' is not an mca checkpoint (bad header): move it out of its folder, or remove it, to "
-                             "use the checkpoint before it",
-                             path.string()));
+    return Error(fmt::format("'{}' is not an mca checkpoint (bad header): {}", path.string(),
+                             picked ? "move it out of its folder, or remove it, to use the checkpoint before it"
+                                    : "give a .mcack file that mca wrote (a checkpoint of mca run or "
+                                      "Simulation.checkpoint)"));
   };
   if (in.gcount() < static_cast<std::streamsize>(sizeof head) || std::memcmp(head, kMagicPrefix, sizeof kMagicPrefix) != 0)
     throw not_one();

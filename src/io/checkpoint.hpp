@@ -33,8 +33,10 @@ std::vector<std::filesystem::path> list_checkpoints(const std::filesystem::path&
 // Equal checkpoints give byte-identical files (no padding bytes are written).
 void write_checkpoint(const std::filesystem::path& path, const Checkpoint& cp);
 // Throws mca::Error naming the file when it is missing, truncated, damaged, of an older format or not a
-// checkpoint. Never allocates much more than the file's size, whatever its counts say.
-Checkpoint read_checkpoint(const std::filesystem::path& path);
+// checkpoint. Never allocates much more than the file's size, whatever its counts say. `picked`: the file is
+// the newest of a folder's (a resume's), so that one of its name that is no checkpoint is to be moved away;
+// else the user named it.
+Checkpoint read_checkpoint(const std::filesystem::path& path, bool picked = true);
 
 // A checkpoint belongs to the run whose folder it is resumed in: that folder's scene.toml (the scene as
 // run, which `mca run` writes) must be the checkpoint's scene, key for key. A checkpoint of another scene
