@@ -830,7 +830,11 @@ io::SetAsideFound put_back_set_aside(const std::filesystem::path& dir) {
   }
   if (!run && marked && !std::filesystem::exists(std::filesystem::symlink_status(dir / "scene.toml", ec))) run = true;
   if (!run) return {};
-  return io::put_back_set_aside(dir, run_file_folders(), is_run_file);
+  // (A marker of a run file that a new run had set aside as no session's, stage_earlier_run: back too, as
+  // the folder was.)
+  return io::put_back_set_aside(dir, run_file_folders(), [](const std::string& folder, const std::string& name) {
+    return is_run_file(folder, name) || is_run_file(folder, io::marker_of(name));
+  });
 }
 }  // namespace
 

@@ -359,6 +359,23 @@ TEST(RunFolder, FilesAKilledSessionWroteWhereTheEarlierRunHadNoneGo) {
   ASSERT_EQ(resumed.code, 0) << resumed.output;
   EXPECT_EQ(resumed.output.find("removed"), std::string::npos) << resumed.output;
   EXPECT_EQ(resumed.output.find("warning"), std::string::npos) << resumed.output;
+  // A new run killed after it set such a marker aside (with its own scene file written): the next session
+  // puts the marker back, as the folder was, and its run removes it; no file set aside is left behind.
+  const fs::path again = t.path() / "again";
+  fs::create_directories(again);
+  std::ofstream(again / ("stats.csv" + dead + "7.mca-new" + dead + "8.mca-aside"));
+  fs::copy_file(empty / "scene.toml", again / "scene.toml");  // (the killed session's, by mca)
+  std::ofstream(again / ("scene.toml" + dead + "9.mca-new"));
+  const Result after_kill = run_mca("run " + scene + " --out " + again.string());
+  ASSERT_EQ(after_kill.code, 0) << after_kill.output;
+  EXPECT_NE(after_kill.output.find("1 file of the run in " + again.string() +
+                                   " that a session stopped before it began had set aside is back at its name"),
+            std::string::npos)
+      << after_kill.output;
+  for (const auto& e : fs::recursive_directory_iterator(again)) {
+    EXPECT_FALSE(e.path().filename().string().ends_with(".mca-aside")) << e.path();
+    EXPECT_FALSE(e.path().filename().string().ends_with(".mca-new")) << e.path();
+  }
   // A marker the commit cannot remove (here every .mca-new pinned) keeps the commit's marker: the next
   // session removes the marker, and the run's render.json stays.
   const fs::path rendered = t.path() / "rendered";

@@ -251,8 +251,10 @@ std::string owner_of(const std::string& name, std::string_view suffix) {
 }
 }  // namespace
 
+std::string marker_of(const std::string& name) { return owner_of(name, kNew); }
+
 std::string marked_name(const fs::path& p) {
-  std::string name = owner_of(p.filename().string(), kNew);
+  std::string name = marker_of(p.filename().string());
   if (name.empty()) return "";
   std::error_code ec;
   const fs::file_status status = fs::symlink_status(p, ec);

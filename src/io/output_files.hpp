@@ -90,6 +90,8 @@ void remove_stale_temporaries(const std::filesystem::path& dir);
 // Where `p` is a marker StagedRemoval::will_write makes (NAME.<pid>.<n>.mca-new, an empty regular file: a
 // link, a folder or a file with something in it is not one, whatever its name), the NAME it marks; else "".
 std::string marked_name(const std::filesystem::path& p);
+// The NAME of a marker's file name NAME.<pid>.<n>.mca-new, by the name alone (else "").
+std::string marker_of(const std::string& name);
 
 // What a killed session had set aside (StagedRemoval) in `root` and its `folders`, of the names `ours(folder,
 // name)` takes for a run's: put back at their names (over what it had written there) where it was killed
