@@ -39,6 +39,13 @@ Error.__doc__ = (
     "the message names the file, the key, the bad value and the fix."
 )
 
+
+
+def _scene_from_toml(text, source):
+    """What pickle calls to read a Scene back (Scene.__reduce__): Scene.from_toml(text, source)."""
+    return Scene.from_toml(text, source)
+
+
 __all__ = [
     "Camera",
     "Error",

@@ -211,10 +211,9 @@ class Scene:
         """A deep copy (copy.copy)."""
     def __deepcopy__(self, memo: dict[int, object]) -> Scene:
         """A deep copy (copy.deepcopy)."""
-    def __getstate__(self) -> tuple[str, str]:
-        """For pickle: the scene's TOML and its source, after validate() (which raises mca.Error here for a
-        scene it refuses)."""
-    def __setstate__(self, state: tuple[str, str]) -> None: ...
+    def __reduce__(self) -> tuple[object, tuple[str, str]]:
+        """For pickle: Scene.from_toml of its TOML and its source, tried first (mca.Error here for a scene it
+        would refuse: validate()'s checks, a mesh not found)."""
     def __eq__(self, other: object) -> bool: ...
 
 class Simulation:

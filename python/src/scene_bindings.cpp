@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include <fmt/format.h>
 
 #include "bindings.hpp"
@@ -241,19 +243,29 @@ auto key_setter(V T::*member, const char* name, const char* doc) {
       [](PyObjectDef& o, py::handle v) { o.def.member = convert<decltype(ObjectDef::member)>(v, "object." #member, doc); }, \
       doc
 
-// A mesh key's value: a relative path taken from the current folder when it is set, as a scene file's
-// relative paths are resolved when it is read (it was resolved when the Simulation was built, from whatever
-// folder was current then: a script that changed folder in between lost its mesh).
+// A mesh key's value: a relative path resolved when it is set, as a scene file's are when it is read, from
+// the current folder (for the scene file's), MCA_MESH_PATH and the models cache (it was resolved when the
+// Simulation was built, from whatever folder was current then: a script that changed folder in between
+// lost its mesh).
 std::string mesh_path(py::handle v, const std::string& key) {
   const std::filesystem::path path = to_path(v, key);
   if (!text::is_utf8(path.string()))
     throw Error(fmt::format("{} = \"{}\": the path is not UTF-8 text, which a scene (TOML) holds; rename the file or "
                             "its folder",
                             key, text::utf8_shown(path.string())));
-  if (path.empty() || !path.is_relative()) return path.string();
+  if (path.empty()) return "";
+  // Where a scene file's would be looked for (the current folder standing in for the scene file's, then
+  // MCA_MESH_PATH and the models cache): the first that is a file; else the current folder's.
   std::error_code ec;
-  const std::filesystem::path absolute = std::filesystem::absolute(path, ec);
-  return ec ? path.string() : absolute.lexically_normal().string();
+  const auto candidates = io::mesh_file_candidates(path.string(), "<python>");
+  std::filesystem::path found = candidates.front();
+  for (const auto& c : candidates)
+    if (std::filesystem::is_regular_file(c, ec)) {
+      found = c;
+      break;
+    }
+  const std::filesystem::path absolute = std::filesystem::absolute(found, ec);
+  return ec ? found.string() : absolute.lexically_normal().string();
 }
 
 // ---- keyword construction: Material(name="weak", tensile_strength=1e6) ----------------------------------
@@ -445,6 +457,7 @@ py::object add_to(py::list& list, const char* base, const py::kwargs& kw, const 
 }  // namespace
 
 void bind_scene(py::module_& m) {
+
   // ---- [[material]] ----
   py::class_<MaterialDef> material(m, "Material", "A [[material]] of docs/scene-format.md (SI units).");
   keyword_init(material, "[[material]]");
@@ -554,7 +567,8 @@ void bind_scene(py::module_& m) {
       .def_property(
           "mesh", [](const RegionDef& r) { return r.mesh; },
           [](RegionDef& r, py::handle v) { r.mesh = mesh_path(v, "region.mesh"); },
-          "a closed mesh file (shape \"mesh\"), the path to open (a relative one from the current folder when set)")
+          "a closed mesh file (shape \"mesh\"), the path to open (a relative one resolved when set: the current folder, "
+          "MCA_MESH_PATH, the models cache)")
       .def_property(MCA_KEY(RegionDef, radius, "[m] (sphere)"))
       .def_property(MCA_KEY(RegionDef, material, "the material of the automata inside (required)"));
   vec3(region, "center", &RegionDef::center, "[m], world frame");
@@ -584,8 +598,8 @@ void bind_scene(py::module_& m) {
       .def_property(
           "mesh", [](const PyObjectDef& o) { return o.def.mesh; },
           [](PyObjectDef& o, py::handle v) { o.def.mesh = mesh_path(v, "object.mesh"); },
-          "a triangle mesh file (shape \"mesh\"): the path to open (a relative one from the current folder when set, "
-          "as a scene file's relative paths are resolved when it is read)")
+          "a triangle mesh file (shape \"mesh\"): the path to open (a relative one resolved when set, as a scene file's "
+          "when it is read: the current folder for the scene file's, MCA_MESH_PATH, the models cache)")
       .def_property(MCA_OBJECT_KEY(scale, "file units to metres (mesh), > 0"))
       .def_property(MCA_OBJECT_KEY(fit_size, "[m]: > 0 scales the mesh to this largest extent"))
       .def_property(
@@ -901,10 +915,20 @@ validates it too.)");
       .def(
           "save",
           [](const PyScene& s, Given<py_type::path> path_arg) {
-            const std::filesystem::path path = to_path(path_arg, "Scene.save: path");
+            namespace fs = std::filesystem;
+            const fs::path given = to_path(path_arg, "Scene.save: path");
             const std::string text = io::scene_to_toml(s.to_def());
-            // (To a temporary name, then renamed: a full disk leaves the file that was there, not half a scene.)
+            // To a temporary name, then renamed: a full disk leaves the file that was there, not half a scene.
+            // As writing the file in place would: through a link to the file it names, not over a file the
+            // user may not write, and with the mode the file had.
+            std::error_code ec;
+            const fs::path path = fs::is_symlink(given, ec) ? fs::weakly_canonical(given, ec) : given;
+            const fs::file_status before = fs::status(path, ec);
+            if (fs::exists(before) && ::access(path.c_str(), W_OK) != 0)
+              throw Error(fmt::format("{}: cannot be written ({}); save to another path, or make it writable",
+                                      given.string(), std::strerror(errno)));
             io::write_file_atomic(path, [&](std::ostream& os) { os << text; }, false);
+            if (fs::exists(before)) fs::permissions(path, before.permissions(), ec);
           },
           py::arg("path"), "Writes to_toml() to a file.")
       .def(
@@ -914,21 +938,17 @@ validates it too.)");
       .def(
           "__deepcopy__", [](const PyScene& s, const py::object&) { return PyScene::from_def(s.to_def()); },
           py::arg("memo"))
-      // Pickled as its TOML (what a process pool sends its workers), checked first: a scene that validate()
-      // refuses is refused here, where it was made, and not in the process that reads it.
-      .def(py::pickle(
-          [](const PyScene& s) {
-            const SceneDef def = s.to_def();
-            validate_scene(def);
-            return py::make_tuple(io::scene_to_toml(def), s.source);
-          },
-          [](const py::tuple& t) {
-            if (t.size() != 2 || !py::isinstance<py::str>(t[0]) || !py::isinstance<py::str>(t[1]))
-              throw Error("mca.Scene: the pickled state is not (TOML text, source): not a scene pickled by mca");
-            PyScene s = PyScene::from_def(io::parse_scene(t[0].cast<std::string>(), t[1].cast<std::string>()));
-            s.source = t[1].cast<std::string>();
-            return s;
-          }))
+      // Pickled as its TOML (what a process pool sends its workers): read back by Scene.from_toml, which is
+      // called here first, so that a scene it would refuse (validate_scene's checks, a mesh not found) is
+      // refused where it is pickled, not in the process that reads it. (__reduce__, not py::pickle: pickle's
+      // protocols 0 and 1 aborted the interpreter on the latter.)
+      .def("__reduce__", [](const PyScene& s) {
+        const std::string text = io::scene_to_toml(s.to_def());
+        (void)io::parse_scene(text, s.source);
+        // (mca._scene_from_toml, a Python function: pickle names it by reference, which it cannot do for a
+        // function of this extension, bound to a capsule.)
+        return py::make_tuple(py::module_::import("mca").attr("_scene_from_toml"), py::make_tuple(text, s.source));
+      })
       .def(
           "__eq__",
           [](const PyScene& a, const PyScene& b) { return io::scene_to_toml(a.to_def()) == io::scene_to_toml(b.to_def()); },

@@ -89,7 +89,9 @@ class PySimulation {
     tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads_));
     without_gil([&] { engine_ = std::make_shared<Engine>(scene); });
   }
-  PySimulation(const io::Checkpoint& cp, const std::string& source, int threads) : threads_(threads) {
+  PySimulation(const io::Checkpoint& cp, const std::filesystem::path& file, int threads)
+      : threads_(threads), resumed_from_(file) {
+    const std::string source = fmt::format("checkpoint '{}'", file.string());
     Engine::check_environment();
     tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads_));
     without_gil([&] { engine_ = std::make_shared<Engine>(cp.scene, cp.state, source, cp.model_fingerprint); });
@@ -121,9 +123,11 @@ class PySimulation {
     join();
     return wall_;
   }
-  // Where this Simulation began (a checkpoint's step and wall seconds; 0 for a new one).
+  // Where this Simulation began (a checkpoint's step and wall seconds; 0 for a new one), and the checkpoint
+  // it was resumed from (empty for a new one).
   std::int64_t first_step() const { return first_step_; }
   double first_wall() const { return first_wall_; }
+  const std::filesystem::path& resumed_from() const { return resumed_from_; }
 
   void advance(std::int64_t steps, const py::object& progress) {
     if (steps < 0) throw Error(fmt::format("advance({}): the step count is negative; give 0 or more steps", steps));
@@ -320,6 +324,7 @@ class PySimulation {
   double wall_ = 0;  // seconds of stepping, all sessions (a checkpoint's included)
   double first_wall_ = 0;
   std::int64_t first_step_ = 0;
+  std::filesystem::path resumed_from_;
   double per_step_ = 0;         // seconds a step took in the last slice
   std::int64_t last_slice_ = 1;  // its steps
 };
@@ -578,7 +583,7 @@ void finish_output(PySimulation& sim) {
   const auto frags = out.writer->fragments(s);
   out.writer->write_fragment_meshes(s, frags);
   app::write_summary(out.dir, e, frags, sim.first_wall(), sim.wall() - sim.first_wall(), s.step - sim.first_step(),
-                     sim.threads(), "finished", {});
+                     sim.threads(), "finished", sim.resumed_from());
 }
 
 void checkpoint(PySimulation& sim, const std::filesystem::path& path) {
@@ -632,8 +637,7 @@ std::unique_ptr<PySimulation> resume(const std::filesystem::path& path, int thre
   io::Checkpoint cp = io::read_checkpoint(file, file != path);
   // Any backend continues any checkpoint with the same bits.
   if (backend) cp.scene.solver.backend = *backend;
-  return std::make_unique<PySimulation>(cp, fmt::format("checkpoint '{}'", file.string()),
-                                        app::thread_count(threads, "threads="));
+  return std::make_unique<PySimulation>(cp, file, app::thread_count(threads, "threads="));
 }
 
 // backend=: as to_backend, and "cuda" only where there is a GPU (the message names the argument, not the
@@ -948,8 +952,9 @@ Simulation is gone.)");
           py::arg("finish") = false,
           "Releases the folder of write_frame (its files stay). finish=True first writes the run's end as mca run "
           "does after its last frame, from the state of the last frame written (write_frame it first): summary.json "
-          "(status \"finished\"), fragments.csv and, with output.fragments, the fragment meshes; the folder is then a "
-          "finished run to the Blender importer and to mca.")
+          "(status \"finished\": the run ends where the script ends it, whatever output.duration says), fragments.csv "
+          "and, with output.fragments, the fragment meshes; the folder is then a finished run to the Blender importer "
+          "and to mca.")
       .def(
           "checkpoint",
           [](PySimulation& s, Given<py_type::path> path) { checkpoint(s, to_path(path, "checkpoint: path")); },

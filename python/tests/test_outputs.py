@@ -281,6 +281,15 @@ def test_close_output_finish_writes_the_runs_end(tmp_path):
     assert meshes == [f"fragment_{i:03d}.ply" for i in sorted(big)]
     with pytest.raises(mca.Error, match="no folder is open"):
         sim.close_output(finish=True)
+    # A Simulation resumed from a checkpoint names it, and counts its own steps.
+    sim.checkpoint(tmp_path / "at3601.mcack")
+    resumed = mca.Simulation.resume(tmp_path / "at3601.mcack", threads=1)
+    resumed.advance(5)
+    resumed.write_frame(tmp_path / "resumed")
+    resumed.close_output(finish=True)
+    again = json.loads((tmp_path / "resumed" / "summary.json").read_text())
+    assert again["resumed_from"] == str(tmp_path / "at3601.mcack")
+    assert again["steps"] == 3606 and again["session_steps"] == 5
 
 
 def test_write_frame_without_vtk_says_it_writes_no_frames(tmp_path):

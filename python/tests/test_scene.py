@@ -135,7 +135,8 @@ def test_copy_deepcopy_and_pickle():
     import pickle
     scene = mca.Scene.default()
     scene.solver.spacing = 0.1
-    for other in (copy.copy(scene), copy.deepcopy(scene), pickle.loads(pickle.dumps(scene))):
+    pickled = [pickle.loads(pickle.dumps(scene, protocol)) for protocol in range(pickle.HIGHEST_PROTOCOL + 1)]
+    for other in [copy.copy(scene), copy.deepcopy(scene)] + pickled:  # (protocols 0 and 1 aborted the process)
         assert other == scene and other.source == scene.source
         other.objects[0].size = (3, 3, 3)
         assert scene.objects[0].size != (3, 3, 3)
@@ -143,6 +144,11 @@ def test_copy_deepcopy_and_pickle():
     assert nested["a"][0] == scene
     with pytest.raises(mca.Error, match="no objects"):
         pickle.dumps(mca.Scene("empty"))
+    # A mesh that is not there is refused where the scene is pickled, not where it is read.
+    moved = mca.Scene.default()
+    moved.add_object(name="gone", shape="mesh", mesh="/nonexistent/cow.off", position=(0, 3, 1))
+    with pytest.raises(mca.Error, match="cow.off"):
+        pickle.dumps(moved)
 
 
 def test_a_relative_mesh_path_is_taken_from_the_folder_current_when_set(tmp_path, monkeypatch):
@@ -166,3 +172,13 @@ def test_save_and_load(tmp_path):
     scene.save(tmp_path / "s.toml")
     again = mca.Scene.load(tmp_path / "s.toml")
     assert again == scene and again.source == str(tmp_path / "s.toml")
+    # Written to a temporary name and renamed, as a file written in place would be: through a link to the
+    # file it names (the link stays), and with the mode the file had (a 0600 scene became 0644).
+    import os
+    (tmp_path / "target.toml").write_text("old\n")
+    (tmp_path / "link.toml").symlink_to("target.toml")
+    scene.save(tmp_path / "link.toml")
+    assert (tmp_path / "link.toml").is_symlink() and mca.Scene.load(tmp_path / "target.toml") == scene
+    os.chmod(tmp_path / "s.toml", 0o600)
+    scene.save(tmp_path / "s.toml")
+    assert os.stat(tmp_path / "s.toml").st_mode & 0o777 == 0o600
