@@ -65,7 +65,7 @@ def parse(argv):
         if a.startswith("--"):
             key = a[2:]
             if key not in opts or k + 1 >= len(args):
-                raise UsageError(f"unknown option or missing value: {a}")
+                raise UsageError(f"unknown option or missing value: {a}", usage=True)
             value = args[k + 1]
             try:
                 if key == "engine":
