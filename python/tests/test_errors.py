@@ -239,9 +239,9 @@ def test_a_path_with_a_nul_character_is_refused(tmp_path, monkeypatch):
     assert (tmp_path / "notes.txt").read_text() == "mine\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
     scene.objects[0].shape = "mesh"
-    scene.objects[0].mesh = "x.obj\0.stl"
-    with pytest.raises(mca.Error, match=r"object\[0\].mesh holds a control character \(a line break, tab or NUL\)"):
-        mca.Simulation(scene, threads=1)
+    # (Refused when set: a mesh path set from Python is resolved then, as a scene file's is when read.)
+    with pytest.raises(mca.Error, match=r"object.mesh = .* holds a NUL character"):
+        scene.objects[0].mesh = "x.obj\0.stl"
 
 
 def test_values_past_every_range_are_named_as_given(tmp_path):
