@@ -457,7 +457,6 @@ py::object add_to(py::list& list, const char* base, const py::kwargs& kw, const 
 }  // namespace
 
 void bind_scene(py::module_& m) {
-
   // ---- [[material]] ----
   py::class_<MaterialDef> material(m, "Material", "A [[material]] of docs/scene-format.md (SI units).");
   keyword_init(material, "[[material]]");
