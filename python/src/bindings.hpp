@@ -33,6 +33,8 @@ struct PyObjectDef {
 struct PyScene {
   std::string name = "scene";
   std::string source = "<python>";
+  std::string read_as;  // the scene as read (its TOML), where it came from a file or text: to_def's source
+                        // says where it has been changed since
   py::list materials, objects, projectiles, grips, loads;
   py::object heterogeneity, solver, output, ground, camera;
   PyScene();

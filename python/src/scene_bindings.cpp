@@ -419,13 +419,28 @@ SceneDef PyScene::to_def() const {
   s.solver = value_of<SolverDef>(solver, "scene.solver", "Solver");
   s.output = value_of<OutputDef>(output, "scene.output", "Output");
   s.camera = value_of<CameraDef>(camera, "scene.camera", "Camera");
+  // A scene read from a file, then changed here: its messages must not send the user to the file for a value
+  // it does not hold (a ball placed in the wall from Python was "<built-in>/wall_ball.toml: ...").
+  static constexpr std::string_view kChanged = " (as changed from Python)";
+  if (!read_as.empty() && !s.source.ends_with(kChanged) && io::scene_to_toml(s) != read_as) s.source += kChanged;
   return s;
 }
+
+namespace {
+// A deep copy, with the source and the scene as read (a copy of a scene changed from Python says so).
+PyScene copy_of(const PyScene& s) {
+  PyScene c = PyScene::from_def(s.to_def());
+  c.source = s.source;
+  c.read_as = s.read_as;
+  return c;
+}
+}  // namespace
 
 PyScene PyScene::from_def(const SceneDef& d) {
   PyScene s;
   s.name = d.name;
   s.source = d.source;
+  if (d.source != "<python>") s.read_as = io::scene_to_toml(d);
   s.materials = list_of(d.materials);
   s.heterogeneity = py::cast(d.heterogeneity);
   for (const ObjectDef& o : d.objects) s.objects.append(py::cast(PyObjectDef::from_def(o)));
@@ -801,7 +816,8 @@ validates it too.)");
             return py::reinterpret_steal<py::str>(
                 PyUnicode_DecodeFSDefaultAndSize(s.source.data(), static_cast<Py_ssize_t>(s.source.size())));
           },
-          [](PyScene& s, py::handle v) { s.source = to_text(v, "scene.source", "a str"); }, "what messages call the scene (the file it came from)")
+          [](PyScene& s, py::handle v) { s.source = to_text(v, "scene.source", "a str"); }, "what messages call the scene (the file it came from; once changed from what was read, they add \" (as "
+          "changed from Python)\")")
       .def_property(
           "materials", [](const PyScene& s) { return s.materials; },
           [](PyScene& s, const py::object& v) { s.materials = list_value(v, "scene.materials", "Material"); }, "list of mca.Material ([[material]])")
@@ -930,23 +946,20 @@ validates it too.)");
             if (fs::exists(before)) fs::permissions(path, before.permissions(), ec);
           },
           py::arg("path"), "Writes to_toml() to a file.")
-      .def(
-          "copy", [](const PyScene& s) { return PyScene::from_def(s.to_def()); },
-          "A deep copy: changing it leaves this scene as it is.")
-      .def("__copy__", [](const PyScene& s) { return PyScene::from_def(s.to_def()); })
-      .def(
-          "__deepcopy__", [](const PyScene& s, const py::object&) { return PyScene::from_def(s.to_def()); },
-          py::arg("memo"))
+      .def("copy", &copy_of, "A deep copy: changing it leaves this scene as it is.")
+      .def("__copy__", &copy_of)
+      .def("__deepcopy__", [](const PyScene& s, const py::object&) { return copy_of(s); }, py::arg("memo"))
       // Pickled as its TOML (what a process pool sends its workers): read back by Scene.from_toml, which is
       // called here first, so that a scene it would refuse (validate_scene's checks, a mesh not found) is
       // refused where it is pickled, not in the process that reads it. (__reduce__, not py::pickle: pickle's
       // protocols 0 and 1 aborted the interpreter on the latter.)
       .def("__reduce__", [](const PyScene& s) {
-        const std::string text = io::scene_to_toml(s.to_def());
-        (void)io::parse_scene(text, s.source);
+        const SceneDef def = s.to_def();  // (its source says whether it was changed from Python)
+        const std::string text = io::scene_to_toml(def);
+        (void)io::parse_scene(text, def.source);
         // (mca._scene_from_toml, a Python function: pickle names it by reference, which it cannot do for a
         // function of this extension, bound to a capsule.)
-        return py::make_tuple(py::module_::import("mca").attr("_scene_from_toml"), py::make_tuple(text, s.source));
+        return py::make_tuple(py::module_::import("mca").attr("_scene_from_toml"), py::make_tuple(text, def.source));
       })
       .def(
           "__eq__",
