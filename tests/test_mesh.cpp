@@ -1,7 +1,9 @@
 // Meshes: the loader (every format, every bad file), the volume fill (exact, within 2 %, robust), mesh
 // regions, and mesh objects in scene files.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -56,6 +58,74 @@ TEST(MeshLoader, EveryFormatGivesTheWeldedCube) {
     EXPECT_TRUE(topo.closed()) << name;
     EXPECT_EQ(topo.edges, 18u) << name;
     EXPECT_NEAR(mesh::signed_volume(m), 8.0, 1e-5) << name;
+  }
+}
+
+// Blender's OBJ and PLY exporters write n-gons as they are, concave ones too: a fan from the first corner
+// filled an extruded star's notches (a hostile review, 2026-12-07). A five-pointed star prism, its caps one
+// concave ten-cornered face each (corner 0 a tip, so its fan crossed the notches), read from OBJ, OFF and
+// PLY: its volume is the star's area times its height, and no triangle lies outside the star.
+TEST(MeshLoader, ConcavePolygonsAreSplitInsideThemselves) {
+  const int points = 5;
+  const double outer = 1.0, inner = 0.4, height = 0.5;
+  std::vector<std::array<double, 2>> star;
+  for (int k = 0; k < 2 * points; ++k) {
+    const double r = k % 2 ? inner : outer, a = std::numbers::pi * k / points;
+    star.push_back({r * std::cos(a), r * std::sin(a)});
+  }
+  const int n = 2 * points;
+  double area = 0;
+  for (int k = 0; k < n; ++k) area += star[k][0] * star[(k + 1) % n][1] - star[(k + 1) % n][0] * star[k][1];
+  area /= 2;
+  std::string verts, obj_faces, off_faces;
+  for (const double z : {0.0, height})
+    for (const auto& p : star) verts += fmt::format("{} {} {}\n", p[0], p[1], z);
+  std::vector<std::vector<int>> faces;  // 0-based, outward
+  std::vector<int> bottom, top;
+  for (int k = n - 1; k >= 0; --k) bottom.push_back(k);
+  for (int k = 0; k < n; ++k) top.push_back(n + k);
+  faces.push_back(bottom);
+  faces.push_back(top);
+  for (int k = 0; k < n; ++k) faces.push_back({k, (k + 1) % n, n + (k + 1) % n, n + k});
+  for (const auto& f : faces) {
+    obj_faces += "f";
+    off_faces += std::to_string(f.size());
+    for (const int c : f) {
+      obj_faces += " " + std::to_string(c + 1);
+      off_faces += " " + std::to_string(c);
+    }
+    obj_faces += "\n";
+    off_faces += "\n";
+  }
+  std::string obj_text;
+  for (std::size_t at = 0, next; at < verts.size(); at = next + 1) {
+    next = verts.find('\n', at);
+    obj_text += "v " + verts.substr(at, next - at) + "\n";
+  }
+  obj_text += obj_faces;
+  const std::string off = fmt::format("OFF\n{} {} 0\n", 2 * n, faces.size()) + verts + off_faces;
+  const std::string ply = fmt::format("ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\n"
+                                      "property float z\nelement face {}\nproperty list uchar int vertex_indices\n"
+                                      "end_header\n",
+                                      2 * n, faces.size()) +
+                          verts + off_faces;
+  for (const auto& [ext, text] : {std::pair<std::string, std::string>{"obj", obj_text}, {"off", off}, {"ply", ply}}) {
+    SCOPED_TRACE(ext);
+    const mesh::TriMesh m = mesh::read_mesh_memory(text.data(), text.size(), ext, "star." + ext);
+    EXPECT_NEAR(mesh::signed_volume(m), area * height, 1e-6 * area * height);
+    for (const auto& t : m.faces) {  // every cap triangle's centroid inside the star (even-odd)
+      const auto& a = m.vertices[t[0]];
+      const auto& b = m.vertices[t[1]];
+      const auto& c = m.vertices[t[2]];
+      if (a[2] != b[2] || b[2] != c[2]) continue;
+      const double x = (a[0] + b[0] + c[0]) / 3, y = (a[1] + b[1] + c[1]) / 3;
+      bool in = false;
+      for (int k = 0, j = n - 1; k < n; j = k++)
+        if ((star[k][1] > y) != (star[j][1] > y) &&
+            x < (star[j][0] - star[k][0]) * (y - star[k][1]) / (star[j][1] - star[k][1]) + star[k][0])
+          in = !in;
+      EXPECT_TRUE(in) << "a cap triangle centred at " << x << ", " << y << " lies outside the star";
+    }
   }
 }
 

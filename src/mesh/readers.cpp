@@ -1,6 +1,8 @@
 #include "mesh/readers.hpp"
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <charconv>
 #include <cstdint>
 #include <cstring>
@@ -98,9 +100,85 @@ std::uint64_t header_count(std::string_view w, const std::string& name, const ch
   return static_cast<std::uint64_t>(v);
 }
 
-// Splits the polygon `corners` into triangles (a fan from its first corner).
+// Splits the polygon `corners` into triangles of its winding: a fan from its first corner where it is convex
+// (a triangle, most quads), else by ear clipping in its plane. Blender's OBJ and PLY exporters write
+// n-gons as they are, concave ones too (an extruded star): the fan filled their notches. A polygon the
+// clipping cannot take (its corners not yet read, a plane of no area, one that crosses itself, more than
+// 4,096 corners) is fanned as before.
 void add_polygon(TriMesh& m, const std::vector<std::uint32_t>& corners) {
-  for (std::size_t k = 1; k + 1 < corners.size(); ++k) m.faces.push_back({corners[0], corners[k], corners[k + 1]});
+  const std::size_t n = corners.size();
+  const auto fan = [&](const std::vector<std::uint32_t>& c) {
+    for (std::size_t k = 1; k + 1 < c.size(); ++k) m.faces.push_back({c[0], c[k], c[k + 1]});
+  };
+  if (n <= 3 || n > 4096 ||
+      std::any_of(corners.begin(), corners.end(), [&](std::uint32_t c) { return c >= m.vertices.size(); })) {
+    fan(corners);
+    return;
+  }
+  // Newell's normal, then the corners in the plane of its largest component, turned so the polygon winds
+  // counter-clockwise there.
+  double nn[3] = {0, 0, 0};
+  for (std::size_t k = 0; k < n; ++k) {
+    const Point& a = m.vertices[corners[k]];
+    const Point& b = m.vertices[corners[(k + 1) % n]];
+    nn[0] += (a[1] - b[1]) * (a[2] + b[2]);
+    nn[1] += (a[2] - b[2]) * (a[0] + b[0]);
+    nn[2] += (a[0] - b[0]) * (a[1] + b[1]);
+  }
+  const int axis = std::fabs(nn[0]) >= std::fabs(nn[1]) && std::fabs(nn[0]) >= std::fabs(nn[2]) ? 0
+                   : std::fabs(nn[1]) >= std::fabs(nn[2])                                       ? 1
+                                                                                                : 2;
+  if (!(std::fabs(nn[axis]) > 0)) {
+    fan(corners);
+    return;
+  }
+  const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+  const double turn = nn[axis] > 0 ? 1.0 : -1.0;
+  std::vector<std::array<double, 2>> q(n);
+  for (std::size_t k = 0; k < n; ++k) q[k] = {m.vertices[corners[k]][u], turn * m.vertices[corners[k]][v]};
+  const auto cross = [&](std::size_t a, std::size_t b, std::size_t c) {
+    return (q[b][0] - q[a][0]) * (q[c][1] - q[a][1]) - (q[b][1] - q[a][1]) * (q[c][0] - q[a][0]);
+  };
+  bool convex = true;
+  for (std::size_t k = 0; k < n && convex; ++k) convex = cross(k, (k + 1) % n, (k + 2) % n) >= 0;
+  if (convex) {
+    fan(corners);
+    return;
+  }
+  std::vector<std::size_t> left(n);
+  for (std::size_t k = 0; k < n; ++k) left[k] = k;
+  std::vector<Triangle> ears;
+  while (left.size() > 3) {
+    const std::size_t r = left.size();
+    // An ear: a convex corner whose triangle holds no other corner (inside, or on the diagonal it cuts);
+    // failing one, a corner in line with its neighbours (its triangle of no area keeps the edges joined).
+    std::size_t cut = r;
+    for (int pass = 0; pass < 2 && cut == r; ++pass)
+      for (std::size_t k = 0; k < r && cut == r; ++k) {
+        const std::size_t a = left[(k + r - 1) % r], b = left[k], c = left[(k + 1) % r];
+        const double area = cross(a, b, c);
+        if (pass == 1) {
+          if (area == 0) cut = k;
+          continue;
+        }
+        if (!(area > 0)) continue;
+        bool empty = true;
+        for (std::size_t j = 0; j < r && empty; ++j) {
+          const std::size_t p = left[j];
+          if (p == a || p == b || p == c) continue;
+          empty = !(cross(a, b, p) > 0 && cross(b, c, p) > 0 && cross(c, a, p) >= 0);
+        }
+        if (empty) cut = k;
+      }
+    if (cut == r) {  // it crosses itself: as before
+      fan(corners);
+      return;
+    }
+    ears.push_back({corners[left[(cut + r - 1) % r]], corners[left[cut]], corners[left[(cut + 1) % r]]});
+    left.erase(left.begin() + static_cast<std::ptrdiff_t>(cut));
+  }
+  m.faces.insert(m.faces.end(), ears.begin(), ears.end());
+  m.faces.push_back({corners[left[0]], corners[left[1]], corners[left[2]]});
 }
 
 }  // namespace
