@@ -444,6 +444,32 @@ TEST(MeshFill, ACavityIsLeftEmptyAndAnIslandInItFilled) {
   EXPECT_EQ(pair.meshes[0].cavities, 0u);
 }
 
+// A file of two cubes (0.5 and 0.6 m, as a layout in round numbers puts them): the lattice spans both, so the
+// smaller one's faces lie on planes of cell centres, which OpenVDB's float distances put inside or outside
+// as they fell (6 x 6 x 5 cells, 180 automata, 44 % over: a hostile review, 2026-12-07). A centre on a face
+// is inside on the face's low side and outside on its high side, as a box's cells are: 5 x 5 x 5, on either
+// lattice, and in every format's reading.
+TEST(MeshFill, CellCentresOnAFaceAreTakenAsABoxTakesThem) {
+  TempDir t;
+  mesh::TriMesh two = test::cube_mesh(0.25, {-1, 0, 0});
+  const mesh::TriMesh big = test::cube_mesh(0.3, {1, 0, 0});
+  const auto base = static_cast<std::uint32_t>(two.vertices.size());
+  two.vertices.insert(two.vertices.end(), big.vertices.begin(), big.vertices.end());
+  for (const auto& f : big.faces) two.faces.push_back({f[0] + base, f[1] + base, f[2] + base});
+  for (const char* name : {"two.off", "two.obj", "two.stl"}) {
+    test::write_mesh_file(t.path() / name, two);
+    for (const auto lattice : {SolverDef::Lattice::cubic, SolverDef::Lattice::random}) {
+      SceneDef s = mesh_scene(t.path() / name, 0.1);
+      s.solver.lattice = lattice;
+      const Model m = lattice::build_model(s);
+      std::size_t small = 0;
+      for (std::size_t a = 0; a < m.size(); ++a) small += m.position0[a].x < 0;
+      EXPECT_EQ(small, 125u) << name;
+      EXPECT_EQ(m.size(), 125u + 216u) << name;
+    }
+  }
+}
+
 TEST(MeshFill, AnAxisAlignedCubeGivesTheBoxLatticeExactly) {
   TempDir t;
   test::write_mesh_file(t.path() / "cube.stl", test::cube_mesh(0.1, {5, 6, 7}));  // 0.2 m, far from the origin
