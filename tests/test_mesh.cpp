@@ -129,6 +129,16 @@ TEST(MeshLoader, ConcavePolygonsAreSplitInsideThemselves) {
   }
 }
 
+// A glTF of a scene with no mesh (Blender's export of an Empty) said "cannot be read as a .glb mesh: ;"
+// (assimp gives no reason): it is named as empty.
+TEST(MeshLoader, AGltfWithoutAMeshSaysSo) {
+  const std::string json = R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"name":"Empty"}]})";
+  for (const auto& [ext, bytes] : {std::pair<std::string, std::string>{"glb", test::glb_of(json)}, {"gltf", json}}) {
+    const std::string e = error_of([&] { mesh::read_mesh_memory(bytes.data(), bytes.size(), ext, "empty." + ext); });
+    EXPECT_NE(e.find("empty." + ext + ": holds no mesh (an empty scene"), std::string::npos) << e;
+  }
+}
+
 TEST(MeshLoader, BadFilesAreClearErrorsNamingTheFile) {
   TempDir t;
   auto write = [&](const char* name, const std::string& text) {

@@ -427,12 +427,19 @@ MeshFillResult fill_mesh_object(const SceneDef& scene, std::size_t index, const 
   // (The cells dropped as unlinked count here: a fill that falls apart is refused with its own message.)
   const std::int64_t filled = r.count + r.dropped;
   if (m.solid.manifold && expected > 50 && (filled < 0.5 * expected || filled > 2.0 * expected)) {
+    // A closed surface whose walls are thinner than a cell (a solidified shell of 5 cm at a spacing of 0.1
+    // m) fills so too: its fix is the spacing, not a repair (which it was told).
+    const bool closed = m.solid.topology.boundary_edges == 0 && m.solid.topology.non_manifold_edges == 0;
     throw Error(fmt::format(
         "{}: filling the mesh {} gave {} automata where its enclosed volume {:.4g} m^3 gives about {:.0f} at spacing "
-        "{:.4g} m: its inside cannot be told from its outside ({} boundary edges, {} non-manifold edges). Repair "
-        "the mesh into closed surfaces (MeshLab: Close Holes, Remove Duplicate Faces; Blender: 3D-Print toolbox)",
+        "{:.4g} m: its inside cannot be told from its outside ({} boundary edges, {} non-manifold edges). {}",
         where(scene, index), m.solid.file, filled, m.volume(), expected, d, m.solid.topology.boundary_edges,
-        m.solid.topology.non_manifold_edges));
+        m.solid.topology.non_manifold_edges,
+        closed ? fmt::format("Its surface is closed: its walls are likely thinner than the spacing (or its shells "
+                             "cross each other); decrease solver.spacing (e.g. to {:.3g} m), or thicken the mesh",
+                             d / 2)
+               : std::string("Repair the mesh into closed surfaces (MeshLab: Close Holes, Remove Duplicate Faces; "
+                             "Blender: 3D-Print toolbox)")));
   }
   for (std::size_t k = 0; k < m.regions.size(); ++k) {
     r.regions.emplace_back();

@@ -588,9 +588,13 @@ std::string assimp_error(const Assimp::Importer& importer) {
                             "meshed first, e.g. by Poisson reconstruction in MeshLab or CloudCompare)",
                             name));
   }
+  const std::string why = assimp_error(importer);
+  // (A glTF of a scene without meshes, an exported Empty, reads as no scene and no message.)
+  if (why.empty())
+    throw Error(fmt::format("{}: holds no mesh (an empty scene: export the model's mesh objects with it)", name));
   throw Error(fmt::format("{}: cannot be read as a .{} mesh: {}; check that the file is a {} file (the extension "
                           "picks the reader) and not damaged",
-                          name, ext, assimp_error(importer), ext == "glb" ? "binary glTF" : ext));
+                          name, ext, why, ext == "glb" ? "binary glTF" : ext));
 }
 
 }  // namespace
