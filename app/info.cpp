@@ -54,6 +54,10 @@ void print_mesh(const MeshSummary& ms, const std::string& object, std::size_t au
                                  : std::string(),
                ms.duplicate_faces ? fmt::format("; {} left out", count(ms.duplicate_faces, "repeated triangle"))
                                   : std::string());
+    if (ms.pieces > 1)
+      fmt::print("  pieces         the shell starts as {} pieces, which no link joins (its mesh's separate parts{}): "
+                 "each moves on its own from the first step\n",
+                 ms.pieces, ms.unlinked_edges ? ", and parts meeting only at non-manifold edges" : "");
     if (mass_scaling > 0) {
       fmt::print("  mass scaling   {} automata given {:.4g} kg, {:.3g} % of the shell's {:.4g} kg, to reach a critical step of "
                  "{:.4g} s ({:g} x the shell's median; solver.mass_scaling, 0 for none)\n",
@@ -216,6 +220,7 @@ int info(const std::optional<std::string>& path, bool json, const std::optional<
       if (ms.surface) {
         meshes.back()["links"] = ms.links;
         meshes.back()["unlinked_edges"] = ms.unlinked_edges;
+        meshes.back()["pieces"] = ms.pieces;
         meshes.back()["duplicate_faces"] = ms.duplicate_faces;
         meshes.back()["shell_thickness"] = ms.shell_thickness;
         meshes.back()["mass_scaled_automata"] = ms.mass_scaled;

@@ -407,6 +407,28 @@ TEST(SurfaceMode, AResumedRunEndsInTheSameState) {
   EXPECT_EQ(state_hash(resumed.state()), state_hash(through.state()));
 }
 
+// A shell of separate parts, or of parts meeting only at edges of three or more triangles (Blender's Array
+// modifier without merging), starts as that many pieces, which mca info said nowhere (a hostile review,
+// 2026-12-07: 13 fragments at frame 0 with no link broken): the model counts them.
+TEST(SurfaceMode, AShellOfSeparatePartsIsCountedInPieces) {
+  TempDir t;
+  mesh::TriMesh two = test::sphere_mesh(0.1, 2, {-0.3, 0, 0});
+  const mesh::TriMesh other = test::sphere_mesh(0.1, 2, {0.3, 0, 0});
+  const auto base = static_cast<std::uint32_t>(two.vertices.size());
+  two.vertices.insert(two.vertices.end(), other.vertices.begin(), other.vertices.end());
+  for (const auto& f : other.faces) two.faces.push_back({f[0] + base, f[1] + base, f[2] + base});
+  test::write_mesh_file(t.path() / "two.off", two);
+  test::write_mesh_file(t.path() / "one.off", other);
+  for (const auto& [name, pieces] : {std::pair<const char*, std::size_t>{"two.off", 2}, {"one.off", 1}}) {
+    SceneDef s = test::block_scene(1, 1, 1, 0.02);
+    s.objects[0].shape = Shape::mesh;
+    s.objects[0].mesh = (t.path() / name).string();
+    s.objects[0].fill = MeshFill::surface;
+    const Model m = lattice::build_model(s);
+    EXPECT_EQ(m.meshes[0].pieces, pieces) << name;
+  }
+}
+
 // The paper's cow: 5,804 automata (its triangles) and 8,706 links (its edges).
 // The lattice's link dashpots use the masses of the pair they join: a surface-mode object of the same
 // material elsewhere in the scene (whose automata have masses of their own) leaves a damped block's

@@ -80,6 +80,7 @@ struct MeshSummary {
   std::size_t dropped_automata = 0, dropped_pieces = 0;
   bool surface = false;          // filled in surface mode (one automaton per triangle)
   std::size_t links = 0, unlinked_edges = 0;  // surface mode: explicit links; non-manifold edges left unlinked
+  std::size_t pieces = 0;                     // surface mode: the shell's pieces at the start (by its links)
   std::size_t duplicate_faces = 0;            // surface mode: triangles given twice, left out
   double shell_thickness = 0;    // surface mode [m]
   // Surface mode, solver.mass_scaling: the automata given mass, the mass added [kg] (included in the

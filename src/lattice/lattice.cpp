@@ -1562,6 +1562,7 @@ void fill_surface(Model& M, const SceneDef& scene, const Shapes& S, std::size_t 
   ms.automata = M.size() - first;
   ms.links = sc.link.size();
   ms.unlinked_edges = sc.unlinked_edges;
+  ms.pieces = sc.pieces;
   ms.duplicate_faces = sc.duplicate_faces;
   ms.shell_thickness = sc.thickness;
   M.meshes.push_back(std::move(ms));

@@ -530,6 +530,16 @@ SurfaceCells surface_cells(const SceneDef& scene, std::size_t index, const MeshO
     sum += r0;
   }
   c.mean_link = c.link.empty() ? 0.0 : sum / static_cast<double>(c.link.size());
+  {  // its pieces: a shell of several, or unlinked at non-manifold edges, starts in them (said by mca info)
+    std::vector<std::uint32_t> root(c.face.size());
+    for (std::uint32_t k = 0; k < root.size(); ++k) root[k] = k;
+    const auto find = [&](std::uint32_t x) {
+      while (root[x] != x) x = root[x] = root[root[x]];
+      return x;
+    };
+    for (const auto& l : c.link) root[find(l[1])] = find(l[0]);
+    for (std::uint32_t k = 0; k < root.size(); ++k) c.pieces += find(k) == k;
+  }
   const double t = scene.objects[index].shell_thickness;
   if (t > 0) {
     c.thickness = t;

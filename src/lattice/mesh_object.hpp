@@ -74,6 +74,7 @@ struct SurfaceCells {
   std::vector<std::array<std::uint32_t, 2>> link;  // pairs of automata (indices into face, a < b), sorted
   std::vector<double> edge;             // per link: the length of the shared edge [m]
   std::size_t unlinked_edges = 0;       // non-manifold edges, left without links
+  std::size_t pieces = 0;               // the shell's pieces at the start: its automata joined by its links
   std::size_t duplicate_faces = 0;      // triangles given again (the same three vertices), left out
   double mean_link = 0;                 // mean centroid distance over the links [m] (0 without links)
   double thickness = 0;                 // the shell's: shell_thickness, or mean_link when not given
