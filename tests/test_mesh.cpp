@@ -618,6 +618,17 @@ TEST(MeshFill, AnOpenMeshIsRefusedUnlessItsHolesAreUnderACell) {
   EXPECT_NE(e.find("Close Holes"), std::string::npos) << e;
   EXPECT_NE(e.find("fill = \"surface\""), std::string::npos) << e;
   EXPECT_NE(e.find("open.obj"), std::string::npos) << e;
+  // A triangle hanging off an edge of a closed cube (a fin: the edge of three) is no hole to close: named as
+  // such (here it was a seam to weld; the hostile review's of 2026-12-07, a 1.3 m hole to close).
+  mesh::TriMesh fin = test::cube_mesh(0.1);
+  fin.vertices.push_back({0.3, -0.1, -0.1});
+  fin.faces.push_back({0, 1, static_cast<std::uint32_t>(fin.vertices.size() - 1)});  // on the edge from 0 to 1
+  test::write_mesh_file(t.path() / "fin.off", fin);
+  const std::string f = error_of([&] { lattice::build_model(mesh_scene(t.path() / "fin.off", 0.02)); });
+  EXPECT_NE(f.find("2 boundary edges in 1 hole beside 1 non-manifold edge: faces hanging off the surface"),
+            std::string::npos)
+      << f;
+  EXPECT_EQ(f.find("Close Holes"), std::string::npos) << f;
   // A sphere missing one small triangle (about 0.03 m across at r = 0.2, level 3) fills at d = 0.05 as if closed.
   mesh::TriMesh sphere = test::sphere_mesh(0.2, 3);
   test::write_mesh_file(t.path() / "closed.off", sphere);

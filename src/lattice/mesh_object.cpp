@@ -305,6 +305,16 @@ void refuse_wide_holes(const SceneDef& scene, std::size_t index, const Solid& s,
         "Distance){}",
         open, s.topology.edges, or_surface));
   }
+  // A triangle hanging off an edge of a closed surface (the edge then of three: non-manifold) has its other
+  // two edges free: a "hole" of two edges (told to be closed, or welded as a seam), which neither mends.
+  if (s.topology.non_manifold_edges > 0 && s.topology.boundary_edges <= 2 * s.topology.non_manifold_edges) {
+    throw Error(fmt::format(
+        "{}: {} beside {}: faces hanging off the surface at its non-manifold edges (a stray triangle on an edge), "
+        "not an opening, and a volume fill needs a closed surface. Delete them (Blender: Select > Select All by "
+        "Trait > Non Manifold, then delete the stray faces; MeshLab: Filters > Cleaning and Repairing > Remove "
+        "Faces from Non Manifold Edges){}",
+        open, rims, text::count(s.topology.non_manifold_edges, "non-manifold edge"), or_surface));
+  }
   if (width < 0.1 * hole) {
     throw Error(fmt::format(
         "{}: {}, the largest {:.4g} m long but about {:.3g} m wide: a seam whose two sides meet without sharing "
