@@ -489,49 +489,6 @@ TEST(PaperModels, TheCowInSurfaceModeHasThePapersCount) {
   EXPECT_EQ(j["meshes"][0]["fill"].get<std::string>(), "surface");
 }
 
-// A shell's fragment meshes hold only their own triangles' shell: the cow's large triangles (larger than its
-// spacing) had points whose own automaton was found in the bins looked at while a nearer one of another
-// fragment was not, and the main body's mesh held blocks of the pieces punched out of it, floating 6 to 9 cm
-// from any of its automata (a hostile review, 2026-12-07). At 5 ms, each piece's mesh lies within its
-// triangles' reach of its own automata.
-TEST(PaperModels, TheCowsPiecesHoldOnlyTheirOwnShell) {
-  const fs::path file = fs::path(MCA_SOURCE_DIR) / "scenes" / "cow.toml";
-  SceneDef scene;
-  try {
-    scene = io::load_scene_file(file);
-  } catch (const Error& e) {
-    if (std::string(e.what()).find("get_models.sh") != std::string::npos)
-      GTEST_SKIP() << "the paper's models are not installed (scripts/get_models.sh): " << e.what();
-    throw;
-  }
-  const Model m = lattice::build_model(scene);
-  double reach = 0;
-  for (std::size_t f = 0; f < m.surface.faces(); ++f)
-    for (int c = 0; c < 3; ++c) reach = std::max(reach, static_cast<double>(length(m.surface.offset[3 * f + c])));
-  reach += 0.5 * m.meshes[0].shell_thickness + 0.5 * m.spacing;  // the shell, and a voxel's rounding besides
-  // The scene's first 5 ms: the ball punches a hole into the side.
-  Engine sim(scene);
-  sim.advance(static_cast<std::int64_t>(std::ceil(0.005 / m.dt)));
-  const State& st = sim.state();
-  const analysis::Fragments frags = analysis::label_model_fragments(m, st.intact.data());
-  ASSERT_GT(frags.count, 10);
-  const auto meshes = analysis::fragment_meshes(m, st, frags, 8);
-  ASSERT_GE(meshes.size(), 1u);
-  for (const auto& fm : meshes) {
-    std::vector<DVec3> own;
-    for (std::size_t a = 0; a < m.size(); ++a)
-      if (frags.id[a] == fm.fragment) own.push_back(st.x[a]);
-    double farthest = 0;
-    for (const auto& v : fm.mesh.vertices) {
-      double nearest = INFINITY;
-      for (const DVec3& p : own) nearest = std::min(nearest, length(DVec3{v[0], v[1], v[2]} - p));
-      farthest = std::max(farthest, nearest);
-    }
-    EXPECT_LE(farthest, reach) << "fragment " << fm.fragment << ": a part of its mesh lies " << farthest
-                               << " m from its automata";
-  }
-}
-
 // The cow's sliver triangles set a critical step of 5.9e-8 s (2.9e-8 s steps at safety 0.5, about 5 minutes
 // for the scene); with solver.mass_scaling (default 0.7 of the shell's median automaton's step) its step is
 // at least 1e-7 s for a few per cent more mass (docs/model-notes.md, "Mass scaling").

@@ -18,9 +18,6 @@ struct ObjectGrid {
   mesh::CellBox box;
   std::unique_ptr<mesh::SignedDistance> surface;
   double shell = 0;  // surface mode: half the shell's thickness (the solid is the surface thickened by it)
-  // Surface mode: the farthest a point of the shell lies from the automaton carrying its triangle (a
-  // triangle's farthest corner, then the shell), the size of the bins that find every automaton that near.
-  double reach = 0;
 };
 
 // The rotation of a fragment: the mean of its automata's quaternions, the unit q that maximises
@@ -226,11 +223,6 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
   }
   for (const MeshSummary& ms : m.meshes)
     if (ms.surface) grids[static_cast<std::size_t>(ms.object)].shell = 0.5 * ms.shell_thickness;
-  for (std::size_t f = 0; f < m.surface.faces(); ++f) {
-    ObjectGrid& g = grids[static_cast<std::size_t>(m.object[m.surface.automaton[f]])];
-    if (g.shell <= 0) continue;
-    for (int c = 0; c < 3; ++c) g.reach = std::max(g.reach, static_cast<double>(length(m.surface.offset[3 * f + c])) + g.shell);
-  }
 
   // Each object's automata binned by cells of size d (their starting centres): the 27 cells around a point
   // hold every automaton within d of it, and the terms below keep the nearest. On the random lattice the
@@ -244,10 +236,7 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
     for (std::size_t a = 0; a < m.size(); ++a)
       if (static_cast<std::size_t>(m.object[a]) == o) ids.push_back(static_cast<std::uint32_t>(a));
     buckets[o] = std::make_unique<UniformGrid>();
-    // (A shell's triangles may be larger than d: bins of its reach, or a point of a large triangle found an
-    // automaton of another fragment nearer than its own in a bin not looked at, and took itself for that
-    // fragment's: the cow's main body held blocks of the pieces punched out of it, floating in the hole.)
-    buckets[o]->build(m.position0.data(), ids.size(), random_object(o) ? 2 * d : std::max(d, grids[o].reach), ids.data());
+    buckets[o]->build(m.position0.data(), ids.size(), random_object(o) ? 2 * d : d, ids.data());
     if (random_object(o)) {
       cells[o] = std::make_unique<UniformGrid>();
       cells[o]->build(m.cell0.data(), ids.size(), d, ids.data());
@@ -316,8 +305,7 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
           rival = b;
         }
       });
-      // (A shell's own automaton beyond its reach is not the nearest for sure: that point is no shell's.)
-      if (own == INFINITY || (g.shell > 0 && own > g.reach * g.reach)) return {INFINITY, INFINITY};
+      if (own == INFINITY) return {INFINITY, INFINITY};
       // The distance from the bisector plane of the nearest own and other automata: exact. (The cubic
       // lattice's keeps d for their distance, exact for lattice neighbours; the random lattice's sites may
       // lie a hundredth of d apart, whose bisector the field would cross a hundred times too gently.)
