@@ -169,7 +169,7 @@ class Camera:
 class Scene:
     """A scene: the keys of docs/scene-format.md."""
     name: str
-    source: str  # what messages call it (the file it came from; once changed, with " (as changed from Python)")
+    source: str  # what messages call it: the file it came from, to which they add " (as changed from Python)" once changed
     materials: list[Material]
     objects: list[Object]
     projectiles: list[Projectile]

@@ -307,7 +307,8 @@ void refuse_wide_holes(const SceneDef& scene, std::size_t index, const Solid& s,
   }
   // A triangle hanging off an edge of a closed surface (the edge then of three: non-manifold) has its other
   // two edges free: a "hole" of two edges (told to be closed, or welded as a seam), which neither mends.
-  if (s.topology.non_manifold_edges > 0 && s.topology.boundary_edges <= 2 * s.topology.non_manifold_edges) {
+  // (Every rim of two edges: no opening has so few; a real hole beside edges shared by three is no fin.)
+  if (s.topology.non_manifold_edges > 0 && s.topology.boundary_edges == 2 * s.topology.holes) {
     throw Error(fmt::format(
         "{}: {} beside {}: faces hanging off the surface at its non-manifold edges (a stray triangle on an edge), "
         "not an opening, and a volume fill needs a closed surface. Delete them (Blender: Select > Select All by "
@@ -446,8 +447,10 @@ MeshFillResult fill_mesh_object(const SceneDef& scene, std::size_t index, const 
         where(scene, index), m.solid.file, filled, m.volume(), expected, d, m.solid.topology.boundary_edges,
         m.solid.topology.non_manifold_edges,
         closed ? fmt::format("Its surface is closed: its walls are likely thinner than the spacing (or its shells "
-                             "cross each other); decrease solver.spacing (e.g. to {:.3g} m), or thicken the mesh",
-                             d / 2)
+                             "cross each other); {}, or thicken the mesh",
+                             scene.solver.target_automata > 0
+                                 ? std::string("raise solver.target_automata (about eight times for half the spacing)")
+                                 : fmt::format("decrease solver.spacing (e.g. to {:.3g} m)", d / 2))
                : std::string("Repair the mesh into closed surfaces (MeshLab: Close Holes, Remove Duplicate Faces; "
                              "Blender: 3D-Print toolbox)")));
   }

@@ -134,19 +134,36 @@ void add_polygon(TriMesh& m, const std::vector<std::uint32_t>& corners) {
   }
   const int u = (axis + 1) % 3, v = (axis + 2) % 3;
   const double turn = nn[axis] > 0 ? 1.0 : -1.0;
-  std::vector<std::array<double, 2>> q(n);
-  for (std::size_t k = 0; k < n; ++k) q[k] = {m.vertices[corners[k]][u], turn * m.vertices[corners[k]][v]};
+  // A corner at the point of the one before (written twice) turns by nothing, and hid a reflex turn from the
+  // convexity test (an L fanned across its notch): it is left out, the polygon being the same without it.
+  std::vector<std::uint32_t> kept;
+  std::vector<std::array<double, 2>> q;
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::array<double, 2> p = {m.vertices[corners[k]][u], turn * m.vertices[corners[k]][v]};
+    if (!q.empty() && p == q.back()) continue;
+    kept.push_back(corners[k]);
+    q.push_back(p);
+  }
+  while (q.size() > 1 && q.back() == q.front()) {
+    q.pop_back();
+    kept.pop_back();
+  }
+  if (q.size() < 3) {
+    fan(corners);
+    return;
+  }
+  const std::size_t n2 = q.size();
   const auto cross = [&](std::size_t a, std::size_t b, std::size_t c) {
     return (q[b][0] - q[a][0]) * (q[c][1] - q[a][1]) - (q[b][1] - q[a][1]) * (q[c][0] - q[a][0]);
   };
   bool convex = true;
-  for (std::size_t k = 0; k < n && convex; ++k) convex = cross(k, (k + 1) % n, (k + 2) % n) >= 0;
+  for (std::size_t k = 0; k < n2 && convex; ++k) convex = cross(k, (k + 1) % n2, (k + 2) % n2) >= 0;
   if (convex) {
     fan(corners);
     return;
   }
-  std::vector<std::size_t> left(n);
-  for (std::size_t k = 0; k < n; ++k) left[k] = k;
+  std::vector<std::size_t> left(n2);
+  for (std::size_t k = 0; k < n2; ++k) left[k] = k;
   std::vector<Triangle> ears;
   while (left.size() > 3) {
     const std::size_t r = left.size();
@@ -174,11 +191,11 @@ void add_polygon(TriMesh& m, const std::vector<std::uint32_t>& corners) {
       fan(corners);
       return;
     }
-    ears.push_back({corners[left[(cut + r - 1) % r]], corners[left[cut]], corners[left[(cut + 1) % r]]});
+    ears.push_back({kept[left[(cut + r - 1) % r]], kept[left[cut]], kept[left[(cut + 1) % r]]});
     left.erase(left.begin() + static_cast<std::ptrdiff_t>(cut));
   }
   m.faces.insert(m.faces.end(), ears.begin(), ears.end());
-  m.faces.push_back({corners[left[0]], corners[left[1]], corners[left[2]]});
+  m.faces.push_back({kept[left[0]], kept[left[1]], kept[left[2]]});
 }
 
 }  // namespace
