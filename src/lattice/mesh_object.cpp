@@ -1,5 +1,7 @@
 #include "lattice/mesh_object.hpp"
 
+#include "analysis/fragments.hpp"
+
 #include "lattice/lattice.hpp"
 
 #include <algorithm>
@@ -544,14 +546,13 @@ SurfaceCells surface_cells(const SceneDef& scene, std::size_t index, const MeshO
   }
   c.mean_link = c.link.empty() ? 0.0 : sum / static_cast<double>(c.link.size());
   {  // its pieces: a shell of several, or unlinked at non-manifold edges, starts in them (said by mca info)
-    std::vector<std::uint32_t> root(c.face.size());
-    for (std::uint32_t k = 0; k < root.size(); ++k) root[k] = k;
-    const auto find = [&](std::uint32_t x) {
-      while (root[x] != x) x = root[x] = root[root[x]];
-      return x;
-    };
-    for (const auto& l : c.link) root[find(l[1])] = find(l[0]);
-    for (std::uint32_t k = 0; k < root.size(); ++k) c.pieces += find(k) == k;
+    std::vector<std::uint32_t> ends[2];
+    for (const auto& l : c.link)
+      for (int e = 0; e < 2; ++e) ends[e].push_back(l[e]);
+    const std::vector<std::uint8_t> intact(c.link.size(), 1);
+    c.pieces = static_cast<std::size_t>(
+        analysis::label_fragments(c.face.size(), ends[0].data(), ends[1].data(), intact.data(), c.link.size(), nullptr)
+            .count);
   }
   const double t = scene.objects[index].shell_thickness;
   if (t > 0) {

@@ -107,12 +107,12 @@ std::uint64_t header_count(std::string_view w, const std::string& name, const ch
 // 4,096 corners) is fanned as before.
 void add_polygon(TriMesh& m, const std::vector<std::uint32_t>& corners) {
   const std::size_t n = corners.size();
-  const auto fan = [&](const std::vector<std::uint32_t>& c) {
-    for (std::size_t k = 1; k + 1 < c.size(); ++k) m.faces.push_back({c[0], c[k], c[k + 1]});
+  const auto fan = [&] {
+    for (std::size_t k = 1; k + 1 < n; ++k) m.faces.push_back({corners[0], corners[k], corners[k + 1]});
   };
   if (n <= 3 || n > 4096 ||
       std::any_of(corners.begin(), corners.end(), [&](std::uint32_t c) { return c >= m.vertices.size(); })) {
-    fan(corners);
+    fan();
     return;
   }
   // Newell's normal, then the corners in the plane of its largest component, turned so the polygon winds
@@ -129,7 +129,7 @@ void add_polygon(TriMesh& m, const std::vector<std::uint32_t>& corners) {
                    : std::fabs(nn[1]) >= std::fabs(nn[2])                                       ? 1
                                                                                                 : 2;
   if (!(std::fabs(nn[axis]) > 0)) {
-    fan(corners);
+    fan();
     return;
   }
   const int u = (axis + 1) % 3, v = (axis + 2) % 3;
@@ -149,7 +149,7 @@ void add_polygon(TriMesh& m, const std::vector<std::uint32_t>& corners) {
     kept.pop_back();
   }
   if (q.size() < 3) {
-    fan(corners);
+    fan();
     return;
   }
   const std::size_t n2 = q.size();
@@ -159,7 +159,7 @@ void add_polygon(TriMesh& m, const std::vector<std::uint32_t>& corners) {
   bool convex = true;
   for (std::size_t k = 0; k < n2 && convex; ++k) convex = cross(k, (k + 1) % n2, (k + 2) % n2) >= 0;
   if (convex) {
-    fan(corners);
+    fan();
     return;
   }
   std::vector<std::size_t> left(n2);
@@ -188,7 +188,7 @@ void add_polygon(TriMesh& m, const std::vector<std::uint32_t>& corners) {
         if (empty) cut = k;
       }
     if (cut == r) {  // it crosses itself: as before
-      fan(corners);
+      fan();
       return;
     }
     ears.push_back({kept[left[(cut + r - 1) % r]], kept[left[cut]], kept[left[(cut + 1) % r]]});
