@@ -316,6 +316,8 @@ TEST(Checkpoint, StateCheckRefusesEachBrokenInvariant) {
       {"not in order", [](State& s) { s.contacts.push_back(s.contacts.back()); }},
       {"contact 0 has a non-finite spring history", [&](State& s) { s.contacts[0].h.ut.x = nan; }},
       {"contact 0 has a non-finite spring history", [&](State& s) { s.contacts[0].h.mr.z = nan; }},
+      // A way of touching (ContactPair::face) past the 36 pairs of sides: sides no cell has.
+      {"touches in way 200, which their cells' free sides do not have", [](State& s) { s.contacts[0].face = 200; }},
       {"names automaton", [&](State& s) { s.projectiles[0].contacts.back().automaton = n; }},
       {"not sorted by automaton", [](State& s) {
          s.projectiles[0].contacts.push_back(s.projectiles[0].contacts.front());

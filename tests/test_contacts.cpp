@@ -1,12 +1,14 @@
 // The contact law (physics/contact_law.hpp) against the answers of rigid-body mechanics: restitution of
 // automata, projectiles and the ground; Coulomb friction on an incline; rolling resistance; momentum
-// exchange between projectiles.
+// exchange between projectiles; faces that touch as faces (two bodies meeting, a block on a block).
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
 
+#include "analysis/fragments.hpp"
 #include "support.hpp"
 
 namespace mca {
@@ -187,32 +189,29 @@ TEST(Contacts, ABlockOnAnInclineSlidesOnlyPastTheFrictionAngle) {
   const double slide = incline_slide(35, mu, 0.0, T);
   const double slide_rolling = incline_slide(35, mu, 0.3, T);
   std::printf("incline, mu %.1f: 15 deg moved %.5f m; 35 deg moved %.4f m (rigid block %.4f m), with rolling "
-              "resistance 0.3 %.4f m (rigid block at mu + 0.1: %.4f m)\n",
-              mu, stay, slide, rigid_slide(35, mu, T), slide_rolling, rigid_slide(35, mu + 0.1, T));
+              "resistance 0.3 %.4f m\n",
+              mu, stay, slide, rigid_slide(35, mu, T), slide_rolling);
   EXPECT_LT(std::fabs(stay), 1e-3);
   EXPECT_NEAR(slide / rigid_slide(35, mu, T), 1.0, 0.05);
-  EXPECT_LT(slide_rolling, rigid_slide(35, mu, T));
-  EXPECT_GT(slide_rolling, rigid_slide(35, mu + 0.1, T));
+  // Faces that slide do not roll: rolling resistance does not hold a block back (as spheres, it slid
+  // like a rigid block with mu + 0.06).
+  EXPECT_NEAR(slide_rolling / rigid_slide(35, mu, T), 1.0, 0.05);
 }
 
-// The limit of sphere contacts on flat faces, measured (docs/model-notes.md, "Flat faces are egg-crates"):
-// contacts see automata as spheres, so two lattice faces meet as an egg-crate, and a block stacked cell
-// on cell balances on the spheres' caps. Below the friction angle (mu = 0.6: 31 degrees) it slides off
-// them once, towards the hollows half a cell on, and holds at 25 degrees (0.72 d); at 30 degrees this
-// 2 x 2 x 2 block rides on over the bumps, as a rigid block with mu of about 0.49 would (2.56 d in 0.6 s),
-// while a 5 x 5 x 3 block at d = 2 cm holds there too (0.61 d). The bounds catch a change either way.
-TEST(Contacts, BelowTheFrictionAngleSphereContactsOnFlatFacesSettleOrSlideSlowly) {
+// Flat faces touch as faces (ModelView::contact_faces): below the friction angle (mu = 0.6: 31 degrees) a
+// block of 2 x 2 x 2 automata stacked cell on cell on a held slab holds. As spheres, two faces met as an
+// egg-crate: the block slid off the caps towards the hollows, 0.72 d at 25 degrees, and at 30 degrees rode
+// on over the bumps, 2.56 d in 0.6 s, as a rigid block with mu of about 0.49 would.
+TEST(Contacts, BelowTheFrictionAngleABlockOnFlatFacesHolds) {
   const double mu = 0.6, d = 0.05, T = 0.6;
-  double speed = 0;
-  const double at25 = incline_slide(25, mu, 0.3, T, &speed);
-  std::printf("incline, mu %.1f, 25 deg: moved %.4f m (%.2f d) in %.1f s, mean speed at the end %.2g m/s\n", mu, at25,
-              at25 / d, T, speed);
-  EXPECT_LT(std::fabs(at25), d);
-  EXPECT_LT(speed, 1e-3) << "25 degrees: still moving";
-  const double at30 = incline_slide(30, mu, 0.3, T);
-  std::printf("incline, mu %.1f, 30 deg: moved %.4f m (%.2f d); a rigid block with mu %.2f: %.4f m\n", mu, at30,
-              at30 / d, mu - 0.15, rigid_slide(30, mu - 0.15, T));
-  EXPECT_LT(at30, rigid_slide(30, mu - 0.15, T));
+  for (double deg : {25.0, 30.0}) {
+    double speed = 0;
+    const double moved = incline_slide(deg, mu, 0.3, T, &speed);
+    std::printf("incline, mu %.1f, %.0f deg: moved %.4f m (%.2f d) in %.1f s, mean speed at the end %.2g m/s\n", mu,
+                deg, moved, moved / d, T, speed);
+    EXPECT_LT(std::fabs(moved), 0.25 * d) << deg << " degrees";
+    EXPECT_LT(speed, 1e-3) << deg << " degrees: still moving";
+  }
 }
 
 // A loose automaton rolling on the ground: rolling resistance stops it within a few times its size
@@ -390,6 +389,112 @@ TEST(Contacts, TwoBallsExchangeMomentum) {
     EXPECT_LT(S[0].position.x, S[1].position.x) << "the balls passed through each other";
     EXPECT_NEAR(p1, p0, 1e-5 * std::fabs(p0) + 1e-9);
     EXPECT_NEAR(rel / 3, e, 0.02);
+  }
+}
+
+// Two bodies meeting face to face (docs/model-notes.md, "Faces touch as faces"): two equal concrete cubes
+// head-on at +-1 m/s see a rigid frictionless wall at their mid-plane, what the ground is to one cube at
+// 1 m/s. As spheres, faces whose automata did not line up (the random lattice's, a cube turned about the
+// impact's axis) met at few slanted contacts and chipped: 251 of 590 links broken and 10 pieces on the
+// random lattice, 112 of 288 with a cubic cube turned 10 degrees, where the ground breaks 2 and 0.
+// Momentum and angular momentum stay those of the start (the contact point's arms).
+struct Meeting {
+  std::int64_t broken = 0, links = 0;
+  int pieces = 0;
+  double momentum = 0, angular = 0;  // the change of sum m v over m v, of L over m v times the cube's side
+};
+Meeting cubes_meeting(const std::string& lattice, double turn, bool on_ground) {
+  std::string text = "name = \"meet\"\n[solver]\nspacing = 0.05\nlattice = \"" + lattice +
+                     "\"\ngravity = [0.0, 0.0, 0.0]\n[output]\nduration = 0.02\nframe_rate = 100\nvtk = false\n";
+  if (on_ground)
+    text += "[ground]\nenabled = true\n[[object]]\nname = \"a\"\nsize = [0.2, 0.2, 0.2]\nposition = [0.0, 0.0, 0.1005]\n"
+            "velocity = [0.0, 0.0, -1.0]\n";
+  else
+    text += "[[object]]\nname = \"a\"\nsize = [0.2, 0.2, 0.2]\nposition = [-0.1005, 0.0, 0.0]\nvelocity = [1.0, 0.0, 0.0]\n"
+            "[[object]]\nname = \"b\"\nsize = [0.2, 0.2, 0.2]\nposition = [0.1005, 0.0, 0.0]\nvelocity = [-1.0, 0.0, 0.0]\n"
+            "rotation = [" + std::to_string(turn) + ", 0.0, 0.0]\n";
+  Engine sim(io::parse_scene(text, "meet.toml"));
+  const Model& m = sim.model();
+  const State& st = sim.state();
+  const auto momenta = [&] {
+    std::array<DVec3, 2> pl{};
+    for (std::size_t a = 0; a < m.size(); ++a) {
+      pl[0] += st.v[a] * static_cast<double>(m.mass[a]);
+      pl[1] += cross(st.x[a], st.v[a] * static_cast<double>(m.mass[a])) + st.w[a] * static_cast<double>(m.inertia[a]);
+    }
+    return pl;
+  };
+  const auto start = momenta();
+  EXPECT_EQ(sim.advance(static_cast<int>(0.02 / m.dt)).flags, kHealthy);
+  const auto end = momenta();
+  Meeting r;
+  r.broken = st.broken_by[0] + st.broken_by[1];
+  r.links = static_cast<std::int64_t>(m.links);
+  r.pieces = analysis::label_model_fragments(m, st.intact.data()).count;
+  const double mv = m.total_mass * 1.0;
+  r.momentum = length(end[0] - start[0]) / mv;
+  r.angular = length(end[1] - start[1]) / (mv * 0.2);
+  return r;
+}
+
+TEST(Contacts, TwoBodiesMeetingFaceToFaceBreakAsOneOnTheGround) {
+  for (const char* lattice : {"random", "cubic"}) {
+    const Meeting ground = cubes_meeting(lattice, 0, true);
+    std::printf("%s lattice, a cube on the ground at 1 m/s: %lld of %lld links broken, %d piece(s)\n", lattice,
+                static_cast<long long>(ground.broken), static_cast<long long>(ground.links), ground.pieces);
+    EXPECT_EQ(ground.pieces, 1);
+    for (double turn : {0.0, 10.0, 27.0}) {
+      const Meeting two = cubes_meeting(lattice, turn, false);
+      std::printf("%s lattice, two cubes at +-1 m/s, one turned %g degrees: %lld of %lld links broken, %d pieces; "
+                  "momentum %.2g, angular momentum %.2g\n",
+                  lattice, turn, static_cast<long long>(two.broken), static_cast<long long>(two.links), two.pieces,
+                  two.momentum, two.angular);
+      EXPECT_EQ(two.pieces, 2) << lattice << ", turned " << turn << ": chips";
+      // Two cubes' links against the one cube's, with a margin of 3 % of the links for the random sites.
+      EXPECT_LE(two.broken, 2 * ground.broken + two.links * 3 / 100) << lattice << ", turned " << turn;
+      EXPECT_LT(two.momentum, 1e-6);
+      EXPECT_LT(two.angular, 1e-6);
+    }
+  }
+}
+
+// A block on a block at rest keeps still, on either lattice and turned against it: faces touch as
+// faces, so the upper one neither rolls on the sites of the lower nor sinks into its hollows.
+TEST(Contacts, ABlockStackedOnABlockStaysAtRest) {
+  for (const char* lattice : {"random", "cubic"}) {
+    for (double turn : {0.0, 10.0}) {
+      const std::string text =
+          "name = \"stack\"\n[solver]\nspacing = 0.05\nlattice = \"" + std::string(lattice) +
+          "\"\n[output]\nduration = 0.3\nframe_rate = 10\nvtk = false\n[ground]\nenabled = true\n"
+          "[[object]]\nname = \"base\"\nsize = [0.3, 0.3, 0.1]\nposition = [0.0, 0.0, 0.05]\n"
+          "[[object]]\nname = \"top\"\nsize = [0.2, 0.2, 0.1]\nposition = [0.0, 0.0, 0.15]\nrotation = [0.0, 0.0, " +
+          std::to_string(turn) + "]\n";
+      Engine sim(io::parse_scene(text, "stack.toml"));
+      const Model& m = sim.model();
+      auto top_centre = [&] {
+        DVec3 c{};
+        int k = 0;
+        for (std::size_t a = 0; a < m.size(); ++a)
+          if (m.object[a] == 1) c += sim.state().x[a], ++k;
+        return c * (1.0 / k);
+      };
+      const DVec3 c0 = top_centre();
+      ASSERT_EQ(sim.advance(static_cast<int>(0.3 / m.dt)).flags, kHealthy);
+      const DVec3 moved = top_centre() - c0;
+      double speed = 0, spin = 0;
+      for (std::size_t a = 0; a < m.size(); ++a)
+        if (m.object[a] == 1) {
+          speed = std::max(speed, length(sim.state().v[a]));
+          spin = std::max(spin, length(sim.state().w[a]));
+        }
+      std::printf("%s lattice, a block on a block turned %g degrees, 0.3 s: moved %.2g m across, %.2g m down; "
+                  "fastest automaton %.2g m/s, %.2g rad/s\n",
+                  lattice, turn, std::hypot(moved.x, moved.y), -moved.z, speed, spin);
+      EXPECT_LT(std::hypot(moved.x, moved.y), 1e-5) << lattice << ", turned " << turn;
+      EXPECT_LT(std::fabs(moved.z), 1e-5) << lattice << ", turned " << turn;
+      EXPECT_LT(speed, 1e-3);
+      EXPECT_EQ(sim.state().broken_by[0] + sim.state().broken_by[1], 0);
+    }
   }
 }
 

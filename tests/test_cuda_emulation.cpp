@@ -350,6 +350,38 @@ TEST(CudaEmulation, GripsAndCollidingBallsAreTheCpusBitForBit) {
   }
 }
 
+// Two bodies meeting face to face, turned against each other, fast enough to break links: the faces'
+// contacts (ModelView::contact_faces), their ways of touching (ContactPair::face) and the contact search's
+// wider reach for them are the CPU's.
+SceneDef bodies_meeting(SolverDef::Lattice lattice) {
+  const std::string name = lattice == SolverDef::Lattice::cubic ? "cubic" : "random";
+  SceneDef s = io::parse_scene("name = \"faces_" + name + "\"\n[solver]\nspacing = 0.05\nlattice = \"" + name +
+                                   "\"\ngravity = [0.0, 0.0, -9.81]\n[ground]\nenabled = true\n"
+                                   "[[object]]\nname = \"a\"\nsize = [0.2, 0.2, 0.2]\nposition = [-0.1005, 0.0, 0.1]\n"
+                                   "velocity = [4.0, 0.0, 0.0]\n"
+                                   "[[object]]\nname = \"b\"\nsize = [0.2, 0.15, 0.15]\nposition = [0.104, 0.01, 0.1]\n"
+                                   "velocity = [-4.0, 0.0, 0.0]\nrotation = [10.0, 0.0, 5.0]\n",
+                               "faces.toml");
+  return s;
+}
+TEST(CudaEmulation, BodiesMeetingFaceToFaceAreTheCpusBitForBit) {
+  for (const auto lattice : {SolverDef::Lattice::cubic, SolverDef::Lattice::random}) {
+    std::size_t touching = 0;  // contacts as faces, at the ends of the chunks
+    Watch w;
+    const SceneDef scene = bodies_meeting(lattice);
+    w.each = [&](const State& st) {
+      for (const auto& c : st.contacts) {
+        touching += c.face >= ContactPair::kAsFaces;
+      }
+    };
+    const Compared c = run_both(scene, 4000, 100, SolverDef::Backend::cuda_emulation, SolverDef::Backend::cpu, w);
+    std::printf("%s: %zu face contacts pressing at the chunks' ends\n", scene.name.c_str(), touching);
+    EXPECT_GT(touching, 0u) << "the faces never touched as faces";
+    EXPECT_GT(c.breaks, 0);
+    EXPECT_GT(c.ground, 0u);
+  }
+}
+
 // A ball breaking a block on the ground 9.4e5 m from the origin (a scene may go to 1e6 m), off every axis,
 // where a position's last place is 1.2e-10 m: the CUDA backend's arithmetic on positions (the links'
 // lengths, contacts, the ground, the projectile) keeps the CPU's order there too, on both lattices.

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""How two faces of automata share a load when pressed together: the study behind the remedy that
-docs/model-notes.md ("Two bodies' faces meeting chip each other") names, contacts that see faces.
+"""How two faces of automata share a load when pressed together: the study behind mca's contacts that
+see faces (docs/model-notes.md, "Faces touch as faces"; ModelView::face_pair).
 
 Two square faces of n x n cells (spacing 1) face each other, their automata in the planes of their cells'
 centres: at the cells' centres (the cubic lattice's faces), at a random point of the cell in the face's
@@ -8,10 +8,12 @@ plane (the random lattice's), or a cubic face turned against the other. They are
 the summed normal force is that of a mean overlap of `--overlap` spacings a site (what the ground, which
 meets every site along its normal, gives each). Two contact laws, the spring per unit overlap being 1:
 
-- sphere: mca's (radius 1/2 each): a pair touches where its sites are nearer than 1, along the line
-  between them; the force has a part along the faces, which pushes the face layers sideways;
-- face: along the faces' normal, a pair's spring weighted by the overlap of squares of the spacing centred
-  on the two sites (bilinear: on two grids the weights of a site sum to 1, whatever their offset).
+- sphere: mca's law of automata as spheres (radius 1/2 each), that faces had before: a pair touches
+  where its sites are nearer than 1, along the line between them; the force has a part along the faces,
+  which pushes the face layers sideways;
+- face (mca's since): along the faces' normal, a pair's spring weighted by the overlap of squares of the
+  spacing centred on the two sites (bilinear: on two grids the weights of a site sum to 1, whatever their
+  offset).
 
 Printed per case, over the faces' inner sites (five cells from the edges): the largest normal force of a
 site over the mean, the share of sites that carry none, the 90th percentile over the mean, and the forces

@@ -78,7 +78,15 @@ struct EnergyView {
   const float* damage = nullptr;  // null: no softening
   Components<float> ut;           // per link slot
   Components<float> moment;       // per explicit link
+  // The orientations (for the faces' contacts, m.face; the step's, not turned back with sync: a step turns
+  // an automaton by w dt, which moves no gap of a face contact past float rounding at rest).
+  const float *qw = nullptr, *qx = nullptr, *qy = nullptr, *qz = nullptr;
+  std::size_t q_stride = 1;
   bool sync = false;
+
+  MCA_HD Quat quat(std::size_t a) const {
+    return {qw[a * q_stride], qx[a * q_stride], qy[a * q_stride], qz[a * q_stride]};
+  }
 
   MCA_HD std::size_t lattice_slots() const { return 3 * m.n; }
   MCA_HD DVec3 at(std::size_t a) const {
@@ -243,8 +251,15 @@ struct EnergyView {
   // Contact springs (as in the backend; the dashpots, which only dissipate, do not enter).
   MCA_HD double pair_contact(const ContactPair& c) const {
     const std::int64_t l = m.random_link_at_start(c.i, c.j);
-    const SphereGap gap = sphere_gap(at(c.i), at(c.j), m.contact_reach(c.i, c.j, l));
     const ContactSprings cs = m.pair_contact_springs(c.i, c.j, l, 0.0f);
+    const FaceGap face = c.face >= ContactPair::kAsFaces
+                             ? m.contact_faces(c.i, c.j, c.face, at(c.i), quat(c.i), at(c.j), quat(c.j))
+                             : FaceGap{};
+    if (face.face)
+      return face.overlap > 0.0f && face.weight > 0.0f
+                 ? contact_energy(weighted(cs, face.weight), face.overlap, c.h.ut, c.h.mr, face.n)
+                 : 0.0;
+    const SphereGap gap = sphere_gap(at(c.i), at(c.j), m.contact_reach(c.i, c.j, l));
     return contact_energy(cs, gap.overlap, c.h.ut, c.h.mr, gap.n);
   }
   // A body of radius r at x on the ground (up, height: the model's).

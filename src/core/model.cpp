@@ -92,6 +92,10 @@ ModelView Model::view() const {
   v.grip = grip_velocity.empty() ? nullptr : grip.data();
   v.lattice_stiffness = lattice_stiffness;
   v.lattice_lambda = lattice_lambda;
+  if (!face.empty()) {
+    v.face = face.data();
+    v.axes = object_axes.front().data();
+  }
   return v;
 }
 

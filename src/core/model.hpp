@@ -234,6 +234,13 @@ struct Model {
   // distance to the ghost) [m^3]; 0 inside. Its many-body term takes their normal strain as free
   // (random_many_body).
   std::vector<float> free_face;
+  // Per automaton (empty when none has one): the free sides of its cell at the start, bit 2 axis + s for
+  // the side along +axis (s = 0) or -axis (s = 1) of object_axes: on the cubic lattice where it has no
+  // link, on the random one where the cell beside its own is not of the object (its site lies on that
+  // side: random_lattice.cpp). 0 inside, on a surface-mode shell and on the jittered lattice (whose sites
+  // are moved off the faces). Two automata whose free sides face each other touch as faces do
+  // (ModelView::contact_faces), not as spheres.
+  std::vector<std::uint8_t> face;
   // The distance below which automata i and j touch: r_i + r_j, or, for two automata of the random lattice,
   // the distance of their initial centres when a link joined them at the start, and the smaller of r_i +
   // r_j and that distance otherwise. Its neighbours lie from 0.5 to 2.2 d apart (median 1.28 d): a broken

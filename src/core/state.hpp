@@ -25,6 +25,11 @@ struct ContactHistory {
 struct ContactPair {
   std::uint32_t i, j;  // i < j
   ContactHistory h;
+  // How the pair touches, for two automata with free sides (Model::face): kApart, kAsSpheres, or as faces,
+  // kAsFaces + 6 s_i + s_j by the sides s_i of i and s_j of j it began on (ModelView::face_start); a
+  // contact keeps its way until the pair parts (step_kernels.hpp, pair_contact). 0 for the others.
+  std::uint8_t face = 0;
+  static constexpr std::uint8_t kApart = 0, kAsSpheres = 1, kAsFaces = 2;
 };
 
 // A contact of a projectile or the ground with one automaton (the automaton is the first body).

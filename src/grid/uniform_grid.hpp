@@ -39,6 +39,22 @@ class UniformGrid {
     });
   }
 
+  // Calls f(j) for every point j > i in the (2 cells + 1)^3 cells around p (includes far ones; a point
+  // may be reported more than once, where two cells share a bucket). Ids must ascend, as above.
+  template <class F>
+  void for_each_near_above(DVec3 p, std::uint32_t i, int cells, F&& f) const {
+    const std::int64_t c[3] = {cell_of(p.x), cell_of(p.y), cell_of(p.z)};
+    for (int dz = -cells; dz <= cells; ++dz)
+      for (int dy = -cells; dy <= cells; ++dy)
+        for (int dx = -cells; dx <= cells; ++dx) {
+          const std::uint32_t b = bucket(c[0] + dx, c[1] + dy, c[2] + dz);
+          for (std::uint32_t k = begin_[b + 1]; k > begin_[b];) {
+            if (items_[--k] <= i) break;
+            f(items_[k]);
+          }
+        }
+  }
+
   double cell_size() const { return cell_; }
 
  private:

@@ -20,15 +20,16 @@
 namespace mca::io {
 namespace {
 
-// Format 7: magic, scene TOML, model fingerprint, frame, total steps, wall seconds, the state (fields(State)
+// Format 8: magic, scene TOML, model fingerprint, frame, total steps, wall seconds, the state (fields(State)
 // below), an FNV-1a checksum of all the bytes before it, magic again as an end marker. Numbers are in the
-// writing machine's byte order: a checkpoint is for resuming a run where it was written. Format 6 had no
+// writing machine's byte order: a checkpoint is for resuming a run where it was written. Format 7 had no
+// way a contact touches (ContactPair::face), format 6 had no
 // links' damage (State::link_damage, softening), format 5 had
 // float32 velocities and angular velocities (automata and projectiles), format 4 had no
 // bending moments of explicit links (surface mode), format 3 stored
 // the links one per pair (now: three slots per automaton, core/model.hpp), format 2 had no checksum (a
 // flipped byte in the state was resumed from), format 1 wrote structs with their padding.
-constexpr char kMagic[8] = {'M', 'C', 'A', 'C', 'K', 'P', 'T', '7'};
+constexpr char kMagic[8] = {'M', 'C', 'A', 'C', 'K', 'P', 'T', '8'};
 constexpr char kMagicPrefix[7] = {'M', 'C', 'A', 'C', 'K', 'P', 'T'};
 
 template <class T, class U>
@@ -51,7 +52,7 @@ void fields(A& a, T& v) { a(v.xx, v.yy, v.zz, v.xy, v.yz, v.zx); }
 template <class A, either<ContactHistory> T>
 void fields(A& a, T& v) { a(v.ut, v.mr); }
 template <class A, either<ContactPair> T>
-void fields(A& a, T& v) { a(v.i, v.j, v.h); }
+void fields(A& a, T& v) { a(v.i, v.j, v.h, v.face); }
 template <class A, either<BodyContact> T>
 void fields(A& a, T& v) { a(v.automaton, v.h); }
 template <class A, either<ProjectilePair> T>

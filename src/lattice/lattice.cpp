@@ -12,6 +12,7 @@
 #include <numbers>
 #include <optional>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "core/environment.hpp"
 #include "core/text.hpp"
@@ -2003,6 +2004,65 @@ void set_contact_materials(Model& M, const SceneDef& scene) {
 
 // The time step: solver.time_step as given (refused above the critical step), else solver.safety x the
 // critical step.
+// Model::face: the free sides of the automata's cells. The cubic lattice's from its links (a missing one
+// is a side outside the object); the random lattice's from its cells (Model::cell0), numbered along the
+// object's axes from its first automaton's cell. Not the jittered lattice nor surface-mode shells.
+void mark_faces(Model& M, double d) {
+  const std::size_t n = M.size();
+  std::vector<std::uint8_t> face(n, 0);
+  const auto bit = [](int axis, bool below) { return static_cast<std::uint8_t>(1u << (2 * axis + (below ? 1 : 0))); };
+  std::vector<std::vector<std::uint32_t>> random_automata(M.object_axes.size());
+  const bool jittered = !M.link_rest.empty();
+  for (std::size_t a = 0; a < n; ++a) {
+    const auto o = static_cast<std::size_t>(M.object[a]);
+    if (M.object_surface[o]) continue;
+    if (M.random_automaton(a)) {
+      random_automata[o].push_back(static_cast<std::uint32_t>(a));
+      continue;
+    }
+    if (jittered) continue;
+    for (int axis = 0; axis < 3; ++axis) {
+      const std::size_t slot = static_cast<std::size_t>(axis) * n + a;
+      if (M.neighbour[slot] == Model::kNoLink) face[a] |= bit(axis, false);
+      if (M.neighbour_below[slot] == Model::kNoLink) face[a] |= bit(axis, true);
+    }
+  }
+  // The random lattice's cells per object, their numbers packed 21 bits each.
+  constexpr std::int64_t kHalf = std::int64_t{1} << 20;
+  for (std::size_t o = 0; o < random_automata.size(); ++o) {
+    const auto& list = random_automata[o];
+    if (list.empty()) continue;
+    const DVec3 ref = M.cell0[list.front()];
+    std::vector<std::array<std::int64_t, 3>> cell(list.size());
+    std::unordered_set<std::uint64_t> present;
+    present.reserve(2 * list.size());
+    const auto key = [](const std::array<std::int64_t, 3>& c) {
+      std::uint64_t k = 0;
+      for (std::int64_t v : c) k = (k << 21) | static_cast<std::uint64_t>(v + kHalf);
+      return k;
+    };
+    bool fits = true;
+    for (std::size_t k = 0; k < list.size() && fits; ++k) {
+      const DVec3 r = M.cell0[list[k]] - ref;
+      for (std::size_t axis = 0; axis < 3; ++axis) {
+        const double v = std::round(dot(r, to_dvec3(M.object_axes[o][axis])) / d);
+        fits = fits && std::fabs(v) < static_cast<double>(kHalf - 1);
+        cell[k][axis] = fits ? static_cast<std::int64_t>(v) : 0;
+      }
+      present.insert(key(cell[k]));
+    }
+    if (!fits) continue;  // (a million cells along an axis: no faces)
+    for (std::size_t k = 0; k < list.size(); ++k)
+      for (int axis = 0; axis < 3; ++axis)
+        for (const bool below : {false, true}) {
+          auto c = cell[k];
+          c[static_cast<std::size_t>(axis)] += below ? -1 : 1;
+          if (!present.count(key(c))) face[list[k]] |= bit(axis, below);
+        }
+  }
+  if (std::any_of(face.begin(), face.end(), [](std::uint8_t f) { return f != 0; })) M.face.swap(face);
+}
+
 void choose_time_step(Model& M, const SceneDef& scene) {
   const TimeStepBound critical = critical_time_step(M);
   M.critical_dt = critical.dt;
@@ -2136,6 +2196,7 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
     }
   }
 
+  mark_faces(M, d);
   add_boundaries(M, scene, d);
   add_projectiles(M, scene, placed, groups);
 

@@ -134,6 +134,21 @@ MCA_HD ContactSprings contact_springs(const ContactMaterial& c, float zeta, floa
   return s;
 }
 
+// The springs of a contact that holds the share w (0 to 1) of a contact's area (two faces,
+// ModelView::face_pair): the springs times w, the dashpots times sqrt(w) (the damping ratio of the same
+// masses); the limits are shares of the normal force, which w scales.
+MCA_HD ContactSprings weighted(ContactSprings s, float w) {
+  const float root = std::sqrt(w);
+  s.kn *= w;
+  s.kt *= w;
+  s.kr *= w;
+  s.kw *= w;
+  s.cn *= root;
+  s.cr *= root;
+  s.cw *= root;
+  return s;
+}
+
 // The springs of a contact between bodies of radii ra and rb (rb = INFINITY: the ground), with the
 // reduced mass and moment of inertia of the pair (the body's own against the ground or a kinematic body).
 // zeta: the damping ratio of the normal dashpot (Model's tables, calibrated for the step).

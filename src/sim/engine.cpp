@@ -436,6 +436,7 @@ std::uint64_t state_hash(const State& s) {
     f.pod(c.i);
     f.pod(c.j);
     f.history(c.h);
+    if (c.face != ContactPair::kApart) f.pod(c.face);  // (a state without faces hashes as before)
   });
   f.list(s.ground_contacts, [&](const auto& c) {
     f.pod(c.automaton);

@@ -175,6 +175,8 @@ std::uint64_t model_fingerprint(const Model& m) {
     // sections before, no tag, kept their moments there).
     if (m.lattice_bending > 0.0f) f.add<std::uint8_t>(3);
   }
+  // The faces that touch as faces (since 2026-12-07; before, every pair touched as spheres).
+  if (!m.face.empty()) f.add(m.face);
   // Scene-level numbers. Names are left out: they label outputs and do not shape the state.
   f.add(m.groups);
   f.add(m.projectiles);
@@ -285,6 +287,16 @@ void check_state(const Model& m, const State& s, const std::string& source) {
         c.fail(fmt::format("contacts {} ({}, {}) and {} ({}, {}) are not in order", k - 1, q.i, q.j, k, p.i, p.j));
     }
     if (!finite(p.h)) c.fail(fmt::format("contact {} has a non-finite spring history", k));
+    // Its way of touching: as faces only by free sides of the two cells (Model::face), and a way at all
+    // only between two automata with free sides.
+    if (p.face != ContactPair::kApart && p.i < p.j && p.j < n) {
+      const bool sides = !m.face.empty() && m.face[p.i] && m.face[p.j];
+      const int way = p.face - ContactPair::kAsFaces;
+      if (!sides || (p.face >= ContactPair::kAsFaces &&
+                     (way >= 36 || !(m.face[p.i] & (1u << (way / 6))) || !(m.face[p.j] & (1u << (way % 6))))))
+        c.fail(fmt::format("contact {} ({}, {}) touches in way {}, which their cells' free sides do not have", k, p.i,
+                           p.j, p.face));
+    }
   }
   // The ground's: automata sorted without repeats, and none where there is no ground (the ground pass runs
   // over the list as it is: an entry would be a ground nobody set).

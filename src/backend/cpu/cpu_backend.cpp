@@ -603,6 +603,7 @@ ContactPassView CpuBackend::contact_pass_view() const {
   v.px = px_.data(); v.py = py_.data(); v.pz = pz_.data();
   v.vx = vx_.data(); v.vy = vy_.data(); v.vz = vz_.data();
   v.wx = wx_.data(); v.wy = wy_.data(); v.wz = wz_.data();
+  v.qw = qw_.data(); v.qx = qx_.data(); v.qy = qy_.data(); v.qz = qz_.data();
   v.pair_springs = K_.uniform_bodies ? K_.pair_springs.data() : nullptr;
   v.ground_springs = K_.uniform_bodies ? K_.ground_springs.data() : nullptr;
   v.zeta_pair = M_.zeta_pair.data();
@@ -876,6 +877,7 @@ void CpuBackend::rebuild_contacts() {
     if (intact_count_[a] < 6) exposed_.push_back(static_cast<std::uint32_t>(a));
   const std::size_t n = exposed_.size();
   grid_.build(S_.x.data(), n, 2.0f * K_.r_max + skin, exposed_.data());
+  const int face_cells = face_search_cells(K_.r_max, skin);
   const std::size_t chunks = (n + kChunk - 1) / kChunk;
   std::vector<std::vector<ContactPair>> found(chunks);
   parallel_chunks(n, [&](std::size_t ch, std::size_t b, std::size_t e) {
@@ -889,6 +891,15 @@ void CpuBackend::rebuild_contacts() {
         const float reach = M_.radius[i] + M_.radius[j] + skin;
         if (dot(d, d) < reach * reach && !linked(i, j)) js.push_back(j);
       });
+      // An automaton with free sides: the sites of others that may come to touch it as faces (face_candidate).
+      if (MV_.face && MV_.face[i]) {
+        const Quat qi{qw_[i], qx_[i], qy_[i], qz_[i]};
+        grid_.for_each_near_above(xi, i, face_cells, [&](std::uint32_t j) {
+          if (MV_.face_candidate(i, j, delta(xi, S_.x[j]), qi, Quat{qw_[j], qx_[j], qy_[j], qz_[j]}, skin) &&
+              !linked(i, j))
+            js.push_back(j);
+        });
+      }
       // A random-lattice automaton's broken links: their pairs reach their initial distance
       // (Model::contact_reach), up to 2.2 d, beyond the grid's cells of r_i + r_j + skin.
       const auto& E = M_.explicit_links;
@@ -912,7 +923,7 @@ void CpuBackend::rebuild_contacts() {
   std::size_t o = 0;
   for (auto& c : next) {
     while (o < S_.contacts.size() && pair_less(S_.contacts[o], c)) ++o;
-    if (o < S_.contacts.size() && S_.contacts[o].i == c.i && S_.contacts[o].j == c.j) c.h = S_.contacts[o].h;
+    if (o < S_.contacts.size() && S_.contacts[o].i == c.i && S_.contacts[o].j == c.j) c = S_.contacts[o];
   }
   S_.contacts.swap(next);
   if (M_.ground) {

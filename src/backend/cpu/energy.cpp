@@ -61,6 +61,13 @@ EnergyView energy_view(const Model& m, const State& s, bool sync, const LinkBend
   v.x = Components<double>::of(s.x.data());
   v.v = Components<double>::of(s.v.data());
   v.w = Components<double>::of(s.w.data());
+  if (!s.q.empty()) {
+    v.qw = &s.q.data()->w;
+    v.qx = &s.q.data()->x;
+    v.qy = &s.q.data()->y;
+    v.qz = &s.q.data()->z;
+    v.q_stride = sizeof(Quat) / sizeof(float);
+  }
   v.f = s.f.data();
   v.t = s.t.data();
   v.intact = s.intact.data();

@@ -45,6 +45,12 @@ class DeviceBackend : public StateBackend {
     Dev::upload(group_, m.group);
     Dev::upload(object_, m.object);
     Dev::upload(object_random_, m.object_random);
+    Dev::upload(face_, m.face);
+    if (!m.face.empty()) {
+      std::vector<Vec3> axes;
+      for (const auto& o : m.object_axes) axes.insert(axes.end(), o.begin(), o.end());
+      Dev::upload(axes_, axes);
+    }
     Dev::upload(grip_, m.grip);
     Dev::upload(grip_velocity_, m.grip_velocity);
     Dev::upload(load_, m.load);
@@ -368,6 +374,10 @@ class DeviceBackend : public StateBackend {
     v.grip = M_.grip_velocity.empty() ? nullptr : c(grip_);
     v.lattice_stiffness = M_.lattice_stiffness;
     v.lattice_lambda = M_.lattice_lambda;
+    if (!M_.face.empty()) {
+      v.face = c(face_);
+      v.axes = c(axes_);
+    }
     return v;
   }
 
@@ -484,6 +494,7 @@ class DeviceBackend : public StateBackend {
     v.px = c(px_); v.py = c(py_); v.pz = c(pz_);
     v.vx = c(vx_); v.vy = c(vy_); v.vz = c(vz_);
     v.wx = c(wx_); v.wy = c(wy_); v.wz = c(wz_);
+    v.qw = c(qw_); v.qx = c(qx_); v.qy = c(qy_); v.qz = c(qz_);
     v.pair_springs = K_.uniform_bodies ? c(pair_springs_) : nullptr;
     v.ground_springs = K_.uniform_bodies ? c(ground_springs_) : nullptr;
     v.zeta_pair = c(zeta_pair_);
@@ -612,6 +623,10 @@ class DeviceBackend : public StateBackend {
     v.x = {c(px_), c(py_), c(pz_), 1};
     v.v = {c(vx_), c(vy_), c(vz_), 1};
     v.w = {c(wx_), c(wy_), c(wz_), 1};
+    v.qw = c(qw_);
+    v.qx = c(qx_);
+    v.qy = c(qy_);
+    v.qz = c(qz_);
     v.f = c(f_out_);
     v.t = c(t_out_);
     v.intact = c(intact_);
@@ -670,7 +685,8 @@ class DeviceBackend : public StateBackend {
   Buf<DVec3> position0_, grip_velocity_;
   Buf<float> mass_, radius_, inertia_, volume_, link_inv_rest_, link_strength_, e_area_, free_face_, zeta_pair_, zeta_ground_,
       zeta_pair_held_;
-  Buf<std::uint8_t> group_, object_random_;
+  Buf<std::uint8_t> group_, object_random_, face_;
+  Buf<Vec3> axes_;  // Model::object_axes, with faces
   Buf<std::int32_t> object_;
   Buf<std::int16_t> grip_;
   Buf<Vec3> load_;
@@ -1165,7 +1181,8 @@ void DeviceBackend<Dev>::rebuild_contacts() {
   Dev::launch(nx, BucketRangeKernel{c(grid_key_), nx, d(bucket_begin_), d(bucket_end_)});
   const Linked linked{n, c(neighbour_), c(neighbour_below_), c(intact_), mv_.first, mv_.of, c(e_i_), c(e_j_)};
   CandidatesKernel k{grid, c(exposed_), c(grid_value_), c(bucket_begin_), c(bucket_end_), c(px_), c(py_), c(pz_),
-                     c(radius_), M_.skin, linked, mv_, c(e_r0_), nullptr, nullptr, nullptr};
+                     c(radius_), M_.skin, linked, mv_, c(e_r0_), nullptr, nullptr, nullptr,
+                     c(qw_), c(qx_), c(qy_), c(qz_), face_search_cells(K_.r_max, M_.skin)};
   cand_count_.resize(nx + 1);
   raw_offset_.resize(nx + 1);
   k.count = d(cand_count_);

@@ -879,6 +879,8 @@ struct CandidatesKernel {
   const std::uint32_t* offset;
   std::uint32_t* out;
   std::uint32_t* count;
+  const float *qw, *qx, *qy, *qz;  // orientations (sites of faces: m.face)
+  int face_cells;                  // face_search_cells
   MCA_HD void operator()(std::size_t k) const {
     const std::uint32_t i = exposed[k];
     const DVec3 xi{px[i], py[i], pz[i]};
@@ -901,6 +903,22 @@ struct CandidatesKernel {
             if (dot(d, d) < reach * reach && !linked(i, j)) take(j);
           }
         }
+    // An automaton with free sides: the sites of others that may come to touch it as faces (face_candidate).
+    if (m.face && m.face[i]) {
+      const Quat qi{qw[i], qx[i], qy[i], qz[i]};
+      for (int dz = -face_cells; dz <= face_cells; ++dz)
+        for (int dy = -face_cells; dy <= face_cells; ++dy)
+          for (int dx = -face_cells; dx <= face_cells; ++dx) {
+            const std::uint64_t b = grid.bucket(cx + dx, cy + dy, cz + dz);
+            for (std::uint32_t e = begin[b]; e < end[b]; ++e) {
+              const std::uint32_t j = sorted[e];
+              if (j <= i) continue;
+              if (m.face_candidate(i, j, delta(xi, DVec3{px[j], py[j], pz[j]}), qi, Quat{qw[j], qx[j], qy[j], qz[j]}, skin) &&
+                  !linked(i, j))
+                take(j);
+            }
+          }
+    }
     // A random-lattice automaton's broken links: their pairs reach their initial distance
     // (Model::contact_reach), up to 2.2 d, beyond the grid's cells of r_i + r_j + skin.
     if (m.random_automaton(i) && m.first) {
@@ -941,7 +959,7 @@ struct WritePairsKernel {
       const std::uint32_t j = raw[raw_offset[k] + x];
       ContactPair c{i, j, {}};
       const std::uint32_t p = pairs_before(old, old_size, i, j, false);
-      if (p < old_size && old[p].i == i && old[p].j == j) c.h = old[p].h;
+      if (p < old_size && old[p].i == i && old[p].j == j) c = old[p];  // (its history and way of touching)
       out[place[k] + x] = c;
     }
   }
