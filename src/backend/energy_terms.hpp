@@ -253,7 +253,7 @@ struct EnergyView {
     const std::int64_t l = m.random_link_at_start(c.i, c.j);
     const ContactSprings cs = m.pair_contact_springs(c.i, c.j, l, 0.0f);
     const FaceGap face = c.face >= ContactPair::kAsFaces
-                             ? m.contact_faces(c.i, c.j, c.face, at(c.i), quat(c.i), at(c.j), quat(c.j))
+                             ? m.contact_faces(c.i, c.j, c.face, at(c.i), quat(c.i), at(c.j), quat(c.j), l)
                              : FaceGap{};
     if (face.face)
       return face.overlap > 0.0f && face.weight > 0.0f

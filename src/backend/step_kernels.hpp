@@ -161,7 +161,7 @@ MCA_HD ContactOut pair_contact(const ContactPassView& v, ContactPair& cp) {
            : v.pair_springs       ? v.pair_springs[gi * m.groups + gj]
                                   : m.pair_contact_springs(i, j, l, v.zeta_pair[gi * m.groups + gj]);
   };
-  FaceGap face = m.contact_faces(i, j, cp.face, v.pos(i), v.quat(i), v.pos(j), v.quat(j));
+  FaceGap face = m.contact_faces(i, j, cp.face, v.pos(i), v.quat(i), v.pos(j), v.quat(j), l);
   if (face.face && cp.face == ContactPair::kApart && face.overlap > 0.0f && face.weight > 0.0f) {
     // A contact begins as faces only as the pair meets, holding no more than the pair could bring it in
     // a step or two: the springs' energy w d^2 / 2 of its overlap d and weight w, against that of two

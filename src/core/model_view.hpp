@@ -173,10 +173,10 @@ struct ModelView {
   // have kept their turn keep its lattice: their cells line up, as spheres do (and a body's own automata,
   // which never face each other, cost the contact search and pass nothing: a slab of one cell's
   // thickness listed 1,442 pairs of its top and bottom automata, and ran at a third of the speed).
-  MCA_HD bool may_face(std::size_t i, std::size_t j, const Quat& qi, const Quat& qj) const {
+  // l: random_link_at_start(i, j) (a scan of i's links: a contact looks it up once for all its uses).
+  MCA_HD bool may_face(std::size_t i, std::size_t j, const Quat& qi, const Quat& qj, std::int64_t l) const {
     if (!face || !face[i] || !face[j]) return false;
     if (object[i] == object[j] && fabsf(qi.w * qj.w + qi.x * qj.x + qi.y * qj.y + qi.z * qj.z) > kSameTurn) return false;
-    const std::int64_t l = random_link_at_start(i, j);
     return contact_reach(i, j, l) == static_cast<double>(radius[i]) + radius[j];
   }
   // Automata i and j with free sides as faces, by the way their contact began (ContactPair::face, way): as
@@ -186,9 +186,10 @@ struct ModelView {
   // spheres, automata whose faces stand at 25 degrees to the line between them overlap 0.1 d less: two
   // loose automata meeting at 19 m/s left with 140 times their energy), so a contact begun as spheres
   // stays so.
+  // l: random_link_at_start(i, j), looked up once by the contact's caller.
   MCA_HD FaceGap contact_faces(std::size_t i, std::size_t j, std::uint8_t way, const DVec3& xi, const Quat& qi,
-                               const DVec3& xj, const Quat& qj) const {
-    if (way == ContactPair::kAsSpheres || !may_face(i, j, qi, qj)) return FaceGap{};
+                               const DVec3& xj, const Quat& qj, std::int64_t l) const {
+    if (way == ContactPair::kAsSpheres || !may_face(i, j, qi, qj, l)) return FaceGap{};
     if (way == ContactPair::kApart) return face_start(i, j, xi, qi, xj, qj);
     const int sides = way - ContactPair::kAsFaces;
     return face_pair(i, j, xi, qi, xj, qj, sides / 6, sides % 6);
@@ -202,7 +203,7 @@ struct ModelView {
   // place) misses its faces' partners beyond its spheres' reach till then.
   MCA_HD bool face_candidate(std::size_t i, std::size_t j, const Vec3& d, const Quat& qi, const Quat& qj,
                              float skin) const {
-    if (!may_face(i, j, qi, qj)) return false;
+    if (!face || !face[i] || !face[j] || !may_face(i, j, qi, qj, random_link_at_start(i, j))) return false;
     const float reach = kFaceReach * (radius[i] + radius[j]) + skin;
     if (!(dot(d, d) < reach * reach)) return false;
     Vec3 ni[6], nj[6];
