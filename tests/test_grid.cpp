@@ -2,6 +2,7 @@
 // search. The point sets aim at the grid's weak spots: floor() of negative coordinates, hashed cells
 // that collide, points on or next to cell faces, and coincident points.
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <random>
@@ -239,4 +240,44 @@ TEST(UniformGrid, CandidatesAboveAreTheCandidatesAboveTheQuery) {
     }
   }
   EXPECT_GT(compared, 20000u);  // not vacuous
+}
+
+// for_each_near_above(p, i, cells, reach) (the contact search for the sites of faces) reports every point
+// j > i nearer to p than reach cells, skipping only the cells of the (2 cells + 1)^3 that lie farther: at
+// reaches just inside and beyond a whole number of cells, around the origin (floor of negative
+// coordinates) and a million cells out, and not every cell (the corners of 5 x 5 x 5 at sqrt(3) cells).
+TEST(UniformGrid, NearAboveFindsEveryPointWithinTheReach) {
+  std::mt19937_64 rng(23);
+  const double cell = 0.5;
+  for (const double centre : {0.0, -3.3e5, 5e5}) {
+    std::vector<DVec3> x = uniform_points(rng, 4000, centre - 4.0, centre + 4.0);
+    mca::UniformGrid grid;
+    grid.build(x.data(), x.size(), cell);
+    for (const double reach_cells : {1.7330, 1.999, 2.0, 1.0}) {
+      SCOPED_TRACE(testing::Message() << "centre " << centre << ", reach " << reach_cells);
+      const int cells = static_cast<int>(std::ceil(reach_cells));
+      const double reach = reach_cells * cell;
+      std::size_t found = 0, visited = 0, all = 0;
+      for (std::uint32_t i = 0; i < x.size(); ++i) {
+        std::set<std::uint32_t> near;
+        grid.for_each_near_above(x[i], i, cells, reach_cells, [&](std::uint32_t j) {
+          ASSERT_GT(j, i);
+          near.insert(j);
+          ++visited;
+        });
+        // (Every point of the full block, for the share the skipped cells save.)
+        grid.for_each_near_above(x[i], i, cells, 1e9, [&](std::uint32_t) { ++all; });
+        for (std::uint32_t j = i + 1; j < x.size(); ++j) {
+          if (!(dist2(x[i], x[j]) < reach * reach)) continue;
+          ASSERT_TRUE(near.count(j)) << "query " << i << " misses " << j << " at " << std::sqrt(dist2(x[i], x[j]));
+          ++found;
+        }
+      }
+      EXPECT_GT(found, 5000u);  // not vacuous
+      // The skipped cells: for a reach of sqrt(3) cells, about 61 of the 125 cells are visited.
+      if (cells == 2 && reach_cells < 1.8) {
+        EXPECT_LT(static_cast<double>(visited), 0.7 * static_cast<double>(all));
+      }
+    }
+  }
 }

@@ -149,18 +149,22 @@ struct ContactPassView {
   MCA_HD DVec3 ang(std::size_t a) const { return {wx[a], wy[a], wz[a]}; }
 };
 
-// The contact of the pair cp of the contact list, from the positions at the start of the step; its
-// history is updated in place (zero once apart), and its way of touching (ContactPair::face).
-MCA_HD ContactOut pair_contact(const ContactPassView& v, ContactPair& cp) {
+// The springs of the contact list's pair i, j (l: ModelView::random_link_at_start(i, j)).
+MCA_HD ContactSprings pair_springs_of(const ContactPassView& v, std::uint32_t i, std::uint32_t j, std::int64_t l) {
+  const ModelView& m = v.m;
+  const std::size_t gi = m.group[i], gj = m.group[j];
+  return m.held(i) != m.held(j) ? m.held_pair_contact_springs(i, j, l, v.zeta_pair_held)
+         : v.pair_springs       ? v.pair_springs[gi * m.groups + gj]
+                                : m.pair_contact_springs(i, j, l, v.zeta_pair[gi * m.groups + gj]);
+}
+
+// pair_contact of a pair that may touch as faces (ModelView::may_face): true where it touches as faces or
+// parts as faces (out: its result), false where it touches as spheres or not at all. Few pairs come here
+// (those of two bodies, or of one turned): inlined into pair_contact, its code slowed every other pair's
+// (wall_3k's contact pass by a fifth).
+MCA_HD_CALLED bool face_contact(const ContactPassView& v, ContactPair& cp, std::int64_t l, ContactOut& out) {
   const std::uint32_t i = cp.i, j = cp.j;
   const ModelView& m = v.m;
-  const std::int64_t l = m.random_link_at_start(i, j);  // looked up once: a scan of i's links
-  const std::size_t gi = m.group[i], gj = m.group[j];
-  const auto springs = [&] {
-    return m.held(i) != m.held(j) ? m.held_pair_contact_springs(i, j, l, v.zeta_pair_held)
-           : v.pair_springs       ? v.pair_springs[gi * m.groups + gj]
-                                  : m.pair_contact_springs(i, j, l, v.zeta_pair[gi * m.groups + gj]);
-  };
   FaceGap face = m.contact_faces(i, j, cp.face, v.pos(i), v.quat(i), v.pos(j), v.quat(j), l);
   if (face.face && cp.face == ContactPair::kApart && face.overlap > 0.0f && face.weight > 0.0f) {
     // A contact begins as faces only as the pair meets, holding no more than the pair could bring it in
@@ -178,21 +182,35 @@ MCA_HD ContactOut pair_contact(const ContactPassView& v, ContactPair& cp) {
     const float slide = 2.0f * vt * v.dt / (2.0f * fminf(m.radius[i], m.radius[j]));
     if (!(d <= 0.01f * reach && face.weight * d * d <= close * close + slide * d * d + rest * rest)) face.face = false;
   }
-  if (face.face) {
-    // (Apart as faces is apart as spheres: along n the sites lie no farther apart than they are.)
-    if (!(face.overlap > 0.0f) || !(face.weight > 0.0f)) {
-      cp.h = {};
-      cp.face = ContactPair::kApart;
-      return ContactOut{};
-    }
-    const ContactResult r = contact_between(face.n, face.overlap, v.vel(i), v.ang(i), face.arm_i, v.vel(j), v.ang(j),
-                                            face.arm_j, weighted(springs(), face.weight), cp.h.ut, cp.h.mr, v.dt);
-    cp.h = {r.o.ut, r.o.mr};
-    cp.face = static_cast<std::uint8_t>(ContactPair::kAsFaces + 6 * face.side_i + face.side_j);
-    // The normal force acts at the contact point too, off the line of the centres.
-    const Vec3 fn = r.o.force_i - r.o.ft;
-    return {r.o.force_i, r.torque_i + cross(face.arm_i, fn), r.torque_j - cross(face.arm_j, fn), face.n,
-            m.radius[i], m.radius[j], true};
+  if (!face.face) return false;
+  // (Apart as faces is apart as spheres: along n the sites lie no farther apart than they are.)
+  if (!(face.overlap > 0.0f) || !(face.weight > 0.0f)) {
+    cp.h = {};
+    cp.face = ContactPair::kApart;
+    out = ContactOut{};
+    return true;
+  }
+  const ContactResult r = contact_between(face.n, face.overlap, v.vel(i), v.ang(i), face.arm_i, v.vel(j), v.ang(j),
+                                          face.arm_j, weighted(pair_springs_of(v, i, j, l), face.weight), cp.h.ut,
+                                          cp.h.mr, v.dt);
+  cp.h = {r.o.ut, r.o.mr};
+  cp.face = static_cast<std::uint8_t>(ContactPair::kAsFaces + 6 * face.side_i + face.side_j);
+  // The normal force acts at the contact point too, off the line of the centres.
+  const Vec3 fn = r.o.force_i - r.o.ft;
+  out = {r.o.force_i, r.torque_i + cross(face.arm_i, fn), r.torque_j - cross(face.arm_j, fn), face.n,
+         m.radius[i], m.radius[j], true};
+  return true;
+}
+
+// The contact of the pair cp of the contact list, from the positions at the start of the step; its
+// history is updated in place (zero once apart), and its way of touching (ContactPair::face).
+MCA_HD ContactOut pair_contact(const ContactPassView& v, ContactPair& cp) {
+  const std::uint32_t i = cp.i, j = cp.j;
+  const ModelView& m = v.m;
+  const std::int64_t l = m.random_link_at_start(i, j);  // looked up once: a scan of i's links
+  if (cp.face != ContactPair::kAsSpheres && m.may_face(i, j, v.quat(i), v.quat(j), l)) {
+    ContactOut out;
+    if (face_contact(v, cp, l, out)) return out;
   }
   const double reach = m.contact_reach(i, j, l);
   // The contact point's arms: the radii, or, where the pair reaches further or less far than they do (the
@@ -210,7 +228,8 @@ MCA_HD ContactOut pair_contact(const ContactPassView& v, ContactPair& cp) {
   }
   const Vec3 n = gap.n;
   const ContactResult r =
-      contact_between(n, gap.overlap, v.vel(i), v.ang(i), ri * n, v.vel(j), v.ang(j), -rj * n, springs(), cp.h.ut, cp.h.mr, v.dt);
+      contact_between(n, gap.overlap, v.vel(i), v.ang(i), ri * n, v.vel(j), v.ang(j), -rj * n, pair_springs_of(v, i, j, l),
+                      cp.h.ut, cp.h.mr, v.dt);
   cp.h = {r.o.ut, r.o.mr};
   if (m.face && m.face[i] && m.face[j]) cp.face = ContactPair::kAsSpheres;
   return {r.o.force_i, r.torque_i, r.torque_j, n, ri, rj, true};

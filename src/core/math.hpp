@@ -20,6 +20,13 @@
 // helper made for one could be picked by the linker for another (tests/check_kernel_symbols.sh).
 #define MCA_HD inline __attribute__((always_inline))
 #endif
+// A function of both backends called, not inlined: a rare path whose code, inlined, slowed the common one.
+// Never one a SIMD kernel file calls (tests/check_kernel_symbols.sh).
+#if defined(__CUDACC__)
+#define MCA_HD_CALLED __host__ __device__ __noinline__
+#else
+#define MCA_HD_CALLED inline __attribute__((noinline))
+#endif
 
 namespace mca {
 
@@ -39,6 +46,12 @@ MCA_HD std::int64_t grid_cell(double v, double inv) {
   if (!(c >= -kLimit)) return static_cast<std::int64_t>(-kLimit);  // NaN too
   return static_cast<std::int64_t>(kLimit < c ? kLimit : c);
 }
+
+// Where coordinate v lies in its cell of a grid of cells 1 / inv wide (grid_cell), from 0 to 1; and how
+// many cells lie between it, at f, and the cell o cells from its own: 0 for its own, else the gap to that
+// cell's nearer side. The contact search skips the cells farther than it reaches (face_search_reach).
+MCA_HD double grid_fraction(double v, double inv) { return v * inv - std::floor(v * inv); }
+MCA_HD double grid_cell_gap(double f, int o) { return o > 0 ? o - f : o < 0 ? f - (o + 1) : 0.0; }
 
 // Scalar forms of the lane helpers.
 MCA_HD float select(bool m, float a, float b) { return m ? a : b; }

@@ -28,11 +28,14 @@ inline constexpr float kSameTurn = 0.999048222f;
 // How far two sites of touching faces lie apart at most, in r_i + r_j: sqrt(3) (ModelView::face_candidate).
 inline constexpr float kFaceReach = 1.7320509f;
 
-// How many cells each way of the contact search's grid (cells of 2 r_max + skin) hold the sites of faces
-// that may touch a site's face (ModelView::face_candidate).
-MCA_HD int face_search_cells(float r_max, float skin) {
-  return static_cast<int>(std::ceil((kFaceReach * 2.0f * r_max + skin) / (2.0f * r_max + skin)));
+// How far, in cells of the contact search's grid (2 r_max + skin), lie the sites of faces that may touch a
+// site's face (ModelView::face_candidate), with a thousandth to spare for rounding; and how many cells
+// each way that takes. (The cells beyond the reach, such as the corners of the 5 x 5 x 5 around a site's
+// own, hold none: the search skips them, UniformGrid::for_each_near_above.)
+MCA_HD double face_search_reach(float r_max, float skin) {
+  return 1.001 * (static_cast<double>(kFaceReach) * 2.0 * r_max + skin) / (2.0 * static_cast<double>(r_max) + skin);
 }
+MCA_HD int face_search_cells(float r_max, float skin) { return static_cast<int>(std::ceil(face_search_reach(r_max, skin))); }
 
 struct ModelView {
   std::size_t n = 0;
@@ -203,9 +206,10 @@ struct ModelView {
   // place) misses its faces' partners beyond its spheres' reach till then.
   MCA_HD bool face_candidate(std::size_t i, std::size_t j, const Vec3& d, const Quat& qi, const Quat& qj,
                              float skin) const {
-    if (!face || !face[i] || !face[j] || !may_face(i, j, qi, qj, random_link_at_start(i, j))) return false;
+    if (!face || !face[i] || !face[j]) return false;
     const float reach = kFaceReach * (radius[i] + radius[j]) + skin;
     if (!(dot(d, d) < reach * reach)) return false;
+    if (!may_face(i, j, qi, qj, random_link_at_start(i, j))) return false;
     Vec3 ni[6], nj[6];
     int ki[6], kj[6];
     const int ci = free_sides(i, qi, ni, ki), cj = free_sides(j, qj, nj, kj);

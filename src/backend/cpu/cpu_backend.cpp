@@ -878,6 +878,7 @@ void CpuBackend::rebuild_contacts() {
   const std::size_t n = exposed_.size();
   grid_.build(S_.x.data(), n, 2.0f * K_.r_max + skin, exposed_.data());
   const int face_cells = face_search_cells(K_.r_max, skin);
+  const double face_reach = face_search_reach(K_.r_max, skin);
   const std::size_t chunks = (n + kChunk - 1) / kChunk;
   std::vector<std::vector<ContactPair>> found(chunks);
   parallel_chunks(n, [&](std::size_t ch, std::size_t b, std::size_t e) {
@@ -894,7 +895,7 @@ void CpuBackend::rebuild_contacts() {
       // An automaton with free sides: the sites of others that may come to touch it as faces (face_candidate).
       if (MV_.face && MV_.face[i]) {
         const Quat qi{qw_[i], qx_[i], qy_[i], qz_[i]};
-        grid_.for_each_near_above(xi, i, face_cells, [&](std::uint32_t j) {
+        grid_.for_each_near_above(xi, i, face_cells, face_reach, [&](std::uint32_t j) {
           if (MV_.face_candidate(i, j, delta(xi, S_.x[j]), qi, Quat{qw_[j], qx_[j], qy_[j], qz_[j]}, skin) &&
               !linked(i, j))
             js.push_back(j);

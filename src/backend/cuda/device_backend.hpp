@@ -1182,7 +1182,8 @@ void DeviceBackend<Dev>::rebuild_contacts() {
   const Linked linked{n, c(neighbour_), c(neighbour_below_), c(intact_), mv_.first, mv_.of, c(e_i_), c(e_j_)};
   CandidatesKernel k{grid, c(exposed_), c(grid_value_), c(bucket_begin_), c(bucket_end_), c(px_), c(py_), c(pz_),
                      c(radius_), M_.skin, linked, mv_, c(e_r0_), nullptr, nullptr, nullptr,
-                     c(qw_), c(qx_), c(qy_), c(qz_), face_search_cells(K_.r_max, M_.skin)};
+                     c(qw_), c(qx_), c(qy_), c(qz_), face_search_cells(K_.r_max, M_.skin),
+                     face_search_reach(K_.r_max, M_.skin)};
   cand_count_.resize(nx + 1);
   raw_offset_.resize(nx + 1);
   k.count = d(cand_count_);

@@ -881,6 +881,7 @@ struct CandidatesKernel {
   std::uint32_t* count;
   const float *qw, *qx, *qy, *qz;  // orientations (sites of faces: m.face)
   int face_cells;                  // face_search_cells
+  double face_reach;               // face_search_reach
   MCA_HD void operator()(std::size_t k) const {
     const std::uint32_t i = exposed[k];
     const DVec3 xi{px[i], py[i], pz[i]};
@@ -906,9 +907,18 @@ struct CandidatesKernel {
     // An automaton with free sides: the sites of others that may come to touch it as faces (face_candidate).
     if (m.face && m.face[i]) {
       const Quat qi{qw[i], qx[i], qy[i], qz[i]};
-      for (int dz = -face_cells; dz <= face_cells; ++dz)
-        for (int dy = -face_cells; dy <= face_cells; ++dy)
+      // (The cells beyond the reach hold none: skipped, as UniformGrid::for_each_near_above.)
+      const double fx = grid_fraction(xi.x, grid.inv_h), fy = grid_fraction(xi.y, grid.inv_h),
+                   fz = grid_fraction(xi.z, grid.inv_h), r2 = face_reach * face_reach;
+      for (int dz = -face_cells; dz <= face_cells; ++dz) {
+        const double gz = grid_cell_gap(fz, dz), gz2 = gz * gz;
+        if (gz2 > r2) continue;
+        for (int dy = -face_cells; dy <= face_cells; ++dy) {
+          const double gy = grid_cell_gap(fy, dy), gzy2 = gz2 + gy * gy;
+          if (gzy2 > r2) continue;
           for (int dx = -face_cells; dx <= face_cells; ++dx) {
+            const double gx = grid_cell_gap(fx, dx);
+            if (gzy2 + gx * gx > r2) continue;
             const std::uint64_t b = grid.bucket(cx + dx, cy + dy, cz + dz);
             for (std::uint32_t e = begin[b]; e < end[b]; ++e) {
               const std::uint32_t j = sorted[e];
@@ -918,6 +928,8 @@ struct CandidatesKernel {
                 take(j);
             }
           }
+        }
+      }
     }
     // A random-lattice automaton's broken links: their pairs reach their initial distance
     // (Model::contact_reach), up to 2.2 d, beyond the grid's cells of r_i + r_j + skin.
