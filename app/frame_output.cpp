@@ -36,10 +36,8 @@ constexpr double kRenderFixedBytes = 100e6, kRenderBytesPerPixel = 24, kRenderBy
 // The fragment meshes' memory per voxel of a piece's surface (estimate_memory), from the peaks of runs with
 // and without output.fragments: 160 to 240 bytes for volume fills (the armadillo, the bunny, a box in 2,745
 // pieces), 390 to 570 for shells (the cow, spheres of 20,480 and 81,920 triangles), which are meshed on
-// both sides. Since the change that parts a shell's pieces by the automata that reach a point
-// (2026-12-07), the same heap peak (232.5 MB for the sphere of 20,480, massif) leaves a quarter less
-// resident: 155 against 244 MB for that sphere, 54 against 70 for the cow (the same meshes).
-constexpr double kFragmentBytesPerSurfaceVoxel = 250, kFragmentBytesPerShellVoxel = 450, kFragmentBytesPerThread = 6e6;
+// both sides.
+constexpr double kFragmentBytesPerSurfaceVoxel = 250, kFragmentBytesPerShellVoxel = 600, kFragmentBytesPerThread = 6e6;
 }  // namespace
 
 std::string far_out_note(const Model& m, const SceneDef& scene) {

@@ -18,10 +18,6 @@ struct ObjectGrid {
   mesh::CellBox box;
   std::unique_ptr<mesh::SignedDistance> surface;
   double shell = 0;  // surface mode: half the shell's thickness (the solid is the surface thickened by it)
-  // Surface mode: the farthest a point of the shell lies from the automaton carrying its triangle (a
-  // triangle's farthest corner, then the shell).
-  double reach = 0;
-  double near = 0;  // the size of the bins of its automata (buckets below)
 };
 
 // The rotation of a fragment: the mean of its automata's quaternions, the unit q that maximises
@@ -227,43 +223,12 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
   }
   for (const MeshSummary& ms : m.meshes)
     if (ms.surface) grids[static_cast<std::size_t>(ms.object)].shell = 0.5 * ms.shell_thickness;
-  // A shell automaton's reach: the farthest its triangles' shell lies from it (0 for the others); and the
-  // box of its triangles' shell, from it.
-  std::vector<double> carries(m.size(), 0.0);
-  std::vector<std::array<double, 6>> carried_box(m.size(), {0, 0, 0, 0, 0, 0});
-  for (std::size_t f = 0; f < m.surface.faces(); ++f) {
-    const std::uint32_t a = m.surface.automaton[f];
-    ObjectGrid& g = grids[static_cast<std::size_t>(m.object[a])];
-    if (g.shell <= 0) continue;
-    for (int c = 0; c < 3; ++c) {
-      const Vec3 o = m.surface.offset[3 * f + c];
-      carries[a] = std::max(carries[a], static_cast<double>(length(o)) + g.shell);
-      const double q[3] = {o.x, o.y, o.z};
-      for (int e = 0; e < 3; ++e) {
-        carried_box[a][e] = std::min(carried_box[a][e], q[e] - g.shell);
-        carried_box[a][3 + e] = std::max(carried_box[a][3 + e], q[e] + g.shell);
-      }
-    }
-    g.reach = std::max(g.reach, carries[a]);
-  }
 
   // Each object's automata binned by cells of size d (their starting centres): the 27 cells around a point
   // hold every automaton within d of it, and the terms below keep the nearest. On the random lattice the
   // bins are 2 d (a point of the object has its nearest site within sqrt(3) d: its own cell's holds one),
   // and its cells' centres are binned apart, by d (a point in a cell is within sqrt(3) d / 2 of its centre).
-  // A shell (an automaton per triangle, at its centroid) is parted otherwise: a point of it belongs to the
-  // nearest automaton whose triangles' shell reaches it (carries), and its triangles may be larger than d.
-  // Its bins are the reach of 9 in 10 of its automata (d at least); those reaching farther are binned
-  // again by their reach (far: up to twice the bins in bins of twice, up to four times in bins of four
-  // times, and so on), looked in only for a point with no own automaton within the bins' size. With bins
-  // of d alone, a point of a large triangle took the own automaton found for the nearest while one of
-  // another fragment nearer lay in a bin not looked at (the cow's main body held blocks of the pieces
-  // punched out of it, floating in the hole), and a piece of large triangles ended at its automata's box;
-  // with every automaton in bins of the largest reach, each point scanned nearly all of them where a few
-  // large triangles stand among many small ones (a 1 m box of 16,000 small triangles and a top of two:
-  // 4 min 21 s for one fragment mesh, now 7 s).
   std::vector<std::unique_ptr<UniformGrid>> buckets(n_obj), cells(n_obj);
-  std::vector<std::vector<UniformGrid>> far(n_obj);
   for (auto frag : chosen) {
     const auto o = static_cast<std::size_t>(m.object[members[static_cast<std::size_t>(frag)][0]]);
     if (buckets[o]) continue;
@@ -271,25 +236,10 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
     for (std::size_t a = 0; a < m.size(); ++a)
       if (static_cast<std::size_t>(m.object[a]) == o) ids.push_back(static_cast<std::uint32_t>(a));
     buckets[o] = std::make_unique<UniformGrid>();
-    double bin = random_object(o) ? 2 * d : d;
-    if (grids[o].shell > 0) {
-      std::vector<double> reach;
-      for (const std::uint32_t a : ids) reach.push_back(carries[a]);
-      const auto tenth = reach.begin() + static_cast<std::ptrdiff_t>(0.9 * static_cast<double>(reach.size() - 1));
-      std::nth_element(reach.begin(), tenth, reach.end());
-      bin = std::max(d, *tenth);
-    }
-    grids[o].near = bin;
-    buckets[o]->build(m.position0.data(), ids.size(), bin, ids.data());
+    buckets[o]->build(m.position0.data(), ids.size(), random_object(o) ? 2 * d : d, ids.data());
     if (random_object(o)) {
       cells[o] = std::make_unique<UniformGrid>();
       cells[o]->build(m.cell0.data(), ids.size(), d, ids.data());
-    }
-    for (double lo = bin; grids[o].shell > 0 && lo < grids[o].reach; lo *= 2) {
-      std::vector<std::uint32_t> reaching;
-      for (const std::uint32_t a : ids)
-        if (carries[a] > lo && carries[a] <= 2 * lo) reaching.push_back(a);
-      far[o].emplace_back().build(m.position0.data(), reaching.size(), 2 * lo, reaching.data());
     }
   }
   const auto mesh_one = [&](std::size_t k) {
@@ -299,16 +249,15 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
     const ObjectGrid& g = grids[obj];
     const auto& axes = m.object_axes[obj];
     const bool random = random_object(obj);
-    // The fragment's voxels: its automata's box, padded by the mesh shell and a margin, and a shell's
-    // triangles' shell (which may reach farther: a large triangle).
+    // The fragment's voxels: its automata's box, padded by the mesh shell and a margin.
     const double hf = d / voxels_per_spacing(static_cast<std::int64_t>(mem.size()), cells_per_spacing);
     double lo_p[3] = {INFINITY, INFINITY, INFINITY}, hi_p[3] = {-INFINITY, -INFINITY, -INFINITY};
     const double reach = random ? 1.8 * d : 1.2 * d;  // an automaton's solid lies within sqrt(3) d or d / 2
     for (auto a : mem) {
       const double p[3] = {m.position0[a].x, m.position0[a].y, m.position0[a].z};
       for (int c = 0; c < 3; ++c) {
-        lo_p[c] = std::min(lo_p[c], p[c] + std::min(-reach, carried_box[a][c]));
-        hi_p[c] = std::max(hi_p[c], p[c] + std::max(reach, carried_box[a][3 + c]));
+        lo_p[c] = std::min(lo_p[c], p[c] - reach);
+        hi_p[c] = std::max(hi_p[c], p[c] + reach);
       }
     }
     mesh::CellBox fb;
@@ -340,19 +289,12 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
     struct Terms {
       double outer, split;
     };
-    // (Surface mode: the shell's term first. Where it is 4 voxels or more outside, so is the field, whatever
-    // the bisector: the samples are clamped at 2 voxels, a vertex more than 2 voxels off is not moved, and
-    // the gradient's points lie a twentieth of a voxel from it; the automata are not looked up.)
-    const double off_shell = 4 * hf;
     auto terms = [&](double x, double y, double z) -> Terms {
-      const double shell_term = g.shell > 0 ? std::fabs(surface_at(x, y, z)) - g.shell : 0.0;
-      if (shell_term >= off_shell) return {shell_term, -INFINITY};
       double own = INFINITY, other = INFINITY;
       std::uint32_t nearest = 0, rival = 0;
-      const auto look = [&](std::uint32_t b) {
+      buckets[obj]->for_each_candidate(DVec3{x, y, z}, [&](std::uint32_t b) {
         const double dx = m.position0[b].x - x, dy = m.position0[b].y - y, dz = m.position0[b].z - z;
         const double r2 = dx * dx + dy * dy + dz * dz;
-        if (g.shell > 0 && !(r2 <= carries[b] * carries[b])) return;  // (beyond its triangles' shell)
         if (fragments.id[b] == frag) {
           if (r2 < own) {
             own = r2;
@@ -362,12 +304,7 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
           other = r2;
           rival = b;
         }
-      };
-      buckets[obj]->for_each_candidate(DVec3{x, y, z}, look);
-      // A shell's point with no own automaton reaching it within the bins' size: a point of a large
-      // triangle, where those reaching farther than the bins may (the bins of their reach hold them all).
-      if (!far[obj].empty() && own > g.near * g.near)
-        for (const UniformGrid& reaching : far[obj]) reaching.for_each_candidate(DVec3{x, y, z}, look);
+      });
       if (own == INFINITY) return {INFINITY, INFINITY};
       // The distance from the bisector plane of the nearest own and other automata: exact. (The cubic
       // lattice's keeps d for their distance, exact for lattice neighbours; the random lattice's sites may
@@ -389,7 +326,7 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
       else cube = past_cube(m.position0[nearest]);
       // Surface mode: the shell, the original surface thickened to the shell's thickness on both sides
       // (its automata are on the surface; an open surface's sign means nothing).
-      if (g.shell > 0) return {shell_term, split};
+      if (g.shell > 0) return {std::fabs(surface_at(x, y, z)) - g.shell, split};
       // A mesh object: up to a cell beyond the own cells, where the surface lies between them and the mesh.
       if (g.surface) return {std::max(surface_at(x, y, z), cube - d), split};
       return {cube, split};
