@@ -52,6 +52,24 @@ MCA_HD std::int64_t grid_cell(double v, double inv) {
 // cell's nearer side. The contact search skips the cells farther than it reaches (face_search_reach).
 MCA_HD double grid_fraction(double v, double inv) { return v * inv - std::floor(v * inv); }
 MCA_HD double grid_cell_gap(double f, int o) { return o > 0 ? o - f : o < 0 ? f - (o + 1) : 0.0; }
+// Calls f(dx, dy, dz) for each cell of the (2 cells + 1)^3 around a point's own, at fractions fx, fy, fz of
+// it (grid_fraction), that lies nearer to the point than reach cells, z slowest.
+template <class F>
+MCA_HD void for_each_cell_within(double fx, double fy, double fz, int cells, double reach, F&& f) {
+  const double r2 = reach * reach;
+  for (int dz = -cells; dz <= cells; ++dz) {
+    const double gz = grid_cell_gap(fz, dz), gz2 = gz * gz;
+    if (gz2 > r2) continue;
+    for (int dy = -cells; dy <= cells; ++dy) {
+      const double gy = grid_cell_gap(fy, dy), gzy2 = gz2 + gy * gy;
+      if (gzy2 > r2) continue;
+      for (int dx = -cells; dx <= cells; ++dx) {
+        const double gx = grid_cell_gap(fx, dx);
+        if (gzy2 + gx * gx <= r2) f(dx, dy, dz);
+      }
+    }
+  }
+}
 
 // Scalar forms of the lane helpers.
 MCA_HD float select(bool m, float a, float b) { return m ? a : b; }

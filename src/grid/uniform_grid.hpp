@@ -45,25 +45,14 @@ class UniformGrid {
   template <class F>
   void for_each_near_above(DVec3 p, std::uint32_t i, int cells, double reach_cells, F&& f) const {
     const std::int64_t c[3] = {cell_of(p.x), cell_of(p.y), cell_of(p.z)};
-    const double fx = grid_fraction(p.x, inv_cell_), fy = grid_fraction(p.y, inv_cell_),
-                 fz = grid_fraction(p.z, inv_cell_), r2 = reach_cells * reach_cells;
-    for (int dz = -cells; dz <= cells; ++dz) {
-      const double gz = grid_cell_gap(fz, dz), gz2 = gz * gz;
-      if (gz2 > r2) continue;
-      for (int dy = -cells; dy <= cells; ++dy) {
-        const double gy = grid_cell_gap(fy, dy), gzy2 = gz2 + gy * gy;
-        if (gzy2 > r2) continue;
-        for (int dx = -cells; dx <= cells; ++dx) {
-          const double gx = grid_cell_gap(fx, dx);
-          if (gzy2 + gx * gx > r2) continue;
-          const std::uint32_t b = bucket(c[0] + dx, c[1] + dy, c[2] + dz);
-          for (std::uint32_t k = begin_[b + 1]; k > begin_[b];) {
-            if (items_[--k] <= i) break;
-            f(items_[k]);
-          }
-        }
-      }
-    }
+    for_each_cell_within(grid_fraction(p.x, inv_cell_), grid_fraction(p.y, inv_cell_), grid_fraction(p.z, inv_cell_),
+                         cells, reach_cells, [&](int dx, int dy, int dz) {
+                           const std::uint32_t b = bucket(c[0] + dx, c[1] + dy, c[2] + dz);
+                           for (std::uint32_t k = begin_[b + 1]; k > begin_[b];) {
+                             if (items_[--k] <= i) break;
+                             f(items_[k]);
+                           }
+                         });
   }
 
   double cell_size() const { return cell_; }

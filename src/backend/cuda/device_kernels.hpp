@@ -908,28 +908,18 @@ struct CandidatesKernel {
     if (m.face && m.face[i]) {
       const Quat qi{qw[i], qx[i], qy[i], qz[i]};
       // (The cells beyond the reach hold none: skipped, as UniformGrid::for_each_near_above.)
-      const double fx = grid_fraction(xi.x, grid.inv_h), fy = grid_fraction(xi.y, grid.inv_h),
-                   fz = grid_fraction(xi.z, grid.inv_h), r2 = face_reach * face_reach;
-      for (int dz = -face_cells; dz <= face_cells; ++dz) {
-        const double gz = grid_cell_gap(fz, dz), gz2 = gz * gz;
-        if (gz2 > r2) continue;
-        for (int dy = -face_cells; dy <= face_cells; ++dy) {
-          const double gy = grid_cell_gap(fy, dy), gzy2 = gz2 + gy * gy;
-          if (gzy2 > r2) continue;
-          for (int dx = -face_cells; dx <= face_cells; ++dx) {
-            const double gx = grid_cell_gap(fx, dx);
-            if (gzy2 + gx * gx > r2) continue;
-            const std::uint64_t b = grid.bucket(cx + dx, cy + dy, cz + dz);
-            for (std::uint32_t e = begin[b]; e < end[b]; ++e) {
-              const std::uint32_t j = sorted[e];
-              if (j <= i) continue;
-              if (m.face_candidate(i, j, delta(xi, DVec3{px[j], py[j], pz[j]}), qi, Quat{qw[j], qx[j], qy[j], qz[j]}, skin) &&
-                  !linked(i, j))
-                take(j);
-            }
-          }
-        }
-      }
+      for_each_cell_within(grid_fraction(xi.x, grid.inv_h), grid_fraction(xi.y, grid.inv_h), grid_fraction(xi.z, grid.inv_h),
+                           face_cells, face_reach, [&](int dx, int dy, int dz) {
+                             const std::uint64_t b = grid.bucket(cx + dx, cy + dy, cz + dz);
+                             for (std::uint32_t e = begin[b]; e < end[b]; ++e) {
+                               const std::uint32_t j = sorted[e];
+                               if (j <= i) continue;
+                               if (m.face_candidate(i, j, delta(xi, DVec3{px[j], py[j], pz[j]}), qi,
+                                                    Quat{qw[j], qx[j], qy[j], qz[j]}, skin) &&
+                                   !linked(i, j))
+                                 take(j);
+                             }
+                           });
     }
     // A random-lattice automaton's broken links: their pairs reach their initial distance
     // (Model::contact_reach), up to 2.2 d, beyond the grid's cells of r_i + r_j + skin.
