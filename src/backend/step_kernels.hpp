@@ -158,14 +158,14 @@ MCA_HD ContactSprings pair_springs_of(const ContactPassView& v, std::uint32_t i,
                                 : m.pair_contact_springs(i, j, l, v.zeta_pair[gi * m.groups + gj]);
 }
 
-// pair_contact of a pair that may touch as faces (ModelView::may_face): true where it touches as faces or
-// parts as faces (out: its result), false where it touches as spheres or not at all. Few pairs come here
-// (those of two bodies, or of one turned): inlined into pair_contact, its code slowed every other pair's
-// (wall_3k's contact pass by a fifth).
+// pair_contact of a pair that may touch as faces (its way not kAsSpheres and ModelView::may_face, as the
+// caller found): true where it touches as faces or parts as faces (out: its result), false where it touches
+// as spheres or not at all. Few pairs come here (those of two bodies, or of one turned): inlined into
+// pair_contact, its code slowed every other pair's (wall_3k's contact pass by a fifth).
 MCA_HD_CALLED bool face_contact(const ContactPassView& v, ContactPair& cp, std::int64_t l, ContactOut& out) {
   const std::uint32_t i = cp.i, j = cp.j;
   const ModelView& m = v.m;
-  FaceGap face = m.contact_faces(i, j, cp.face, v.pos(i), v.quat(i), v.pos(j), v.quat(j), l);
+  FaceGap face = m.faces_by_way(i, j, cp.face, v.pos(i), v.quat(i), v.pos(j), v.quat(j));
   if (face.face && cp.face == ContactPair::kApart && face.overlap > 0.0f && face.weight > 0.0f) {
     // A contact begins as faces only as the pair meets, holding no more than the pair could bring it in
     // a step or two: the springs' energy w d^2 / 2 of its overlap d and weight w, against that of two

@@ -193,6 +193,11 @@ struct ModelView {
   MCA_HD FaceGap contact_faces(std::size_t i, std::size_t j, std::uint8_t way, const DVec3& xi, const Quat& qi,
                                const DVec3& xj, const Quat& qj, std::int64_t l) const {
     if (way == ContactPair::kAsSpheres || !may_face(i, j, qi, qj, l)) return FaceGap{};
+    return faces_by_way(i, j, way, xi, qi, xj, qj);
+  }
+  // contact_faces of a pair its caller found may touch as faces (way not kAsSpheres, may_face).
+  MCA_HD FaceGap faces_by_way(std::size_t i, std::size_t j, std::uint8_t way, const DVec3& xi, const Quat& qi,
+                              const DVec3& xj, const Quat& qj) const {
     if (way == ContactPair::kApart) return face_start(i, j, xi, qi, xj, qj);
     const int sides = way - ContactPair::kAsFaces;
     return face_pair(i, j, xi, qi, xj, qj, sides / 6, sides % 6);
