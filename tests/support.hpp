@@ -1,6 +1,7 @@
 #pragma once
 // Small scene builders and measurements shared by the physics tests.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <cstdio>
@@ -9,6 +10,7 @@
 #include <optional>
 #include <random>
 #include <string>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -254,9 +256,28 @@ inline Strain3 middle_strain(const Engine& sim, int n, double d) {
   return r;
 }
 
+// Relaxes sim in rounds of 2,500 steps until what `read` measures (an array of the quantities a test
+// reads off a loaded block) changes by less than `tol` of itself over each of two rounds in a row, for at
+// least 10,000 and at most 50,000 steps. Returns the steps run and the last reading.
+template <class Read>
+auto relax_until_settled(Engine& sim, Read read, double tol = 1e-4) {
+  auto last = read();
+  std::int64_t steps = 0;
+  for (int calm = 0; steps < 50000 && (calm < 2 || steps < 10000);) {
+    sim.advance(2500);
+    steps += 2500;
+    const auto now = read();
+    bool still = true;
+    for (std::size_t i = 0; i < now.size(); ++i) still = still && std::fabs(now[i] - last[i]) <= tol * std::fabs(now[i]);
+    calm = still ? calm + 1 : 0;
+    last = now;
+  }
+  return std::pair{steps, last};
+}
+
 // Uniaxial stress sigma along x on the n^3 block scene sc (spacing d): loads on the automata of its end
-// layers (add_face_loads, free of moment), relaxed with local damping for 50,000 steps. Returns the
-// modulus and Poisson's ratios of the middle half of the block.
+// layers (add_face_loads, free of moment), relaxed with local damping until its moduli settle
+// (relax_until_settled). Returns the modulus and Poisson's ratios of the middle half of the block.
 struct BlockModuli {
   double E, nu_y, nu_z;
 };
@@ -265,9 +286,13 @@ inline BlockModuli uniaxial_block_moduli(SceneDef sc, int n, double d, double si
   const Model at_rest = lattice::build_model(sc);
   for (int side = 0; side < 2; ++side) add_face_loads(sc, at_rest, n, d, margin, 0, side, 0, (side ? 1 : -1) * sigma * n * n * d * d);
   Engine sim(sc);
-  for (int k = 0; k < 100; ++k) sim.advance(500);
-  const Strain3 e = middle_strain(sim, n, d);
-  return {sigma / e.e[0][0], -e.e[1][1] / e.e[0][0], -e.e[2][2] / e.e[0][0]};
+  const auto moduli = [&] {
+    const Strain3 e = middle_strain(sim, n, d);
+    return std::array<double, 3>{sigma / e.e[0][0], -e.e[1][1] / e.e[0][0], -e.e[2][2] / e.e[0][0]};
+  };
+  const auto [steps, m] = relax_until_settled(sim, moduli);
+  std::printf("(the block settled in %lld steps)\n", static_cast<long long>(steps));
+  return {m[0], m[1], m[2]};
 }
 
 // Simple shear tau on the n^3 block scene sc: tractions along x on the faces across y and along y on those
@@ -286,15 +311,20 @@ inline ShearModuli simple_shear_modulus(SceneDef sc, int n, double d, double tau
     add_face_loads(sc, at_rest, n, d, margin, 0, side, 1, f);
   }
   Engine sim(sc);
-  for (int k = 0; k < 100; ++k) sim.advance(500);
-  const double gamma = 2 * middle_strain(sim, n, d).e[0][1];
-  double sxy = 0, volume = 0;
-  for (std::size_t a = 0; a < sim.model().size(); ++a) {
-    if (!in_middle_half(sim.model().position0[a], n, d)) continue;
-    sxy += sim.state().s[a].xy * sim.model().volume[a];  // (volume-weighted: the random lattice's cells differ)
-    volume += sim.model().volume[a];
-  }
-  return {sxy / volume / gamma, tau / gamma};
+  const auto moduli = [&] {
+    const double gamma = 2 * middle_strain(sim, n, d).e[0][1];
+    const State& st = sim.state();
+    double sxy = 0, volume = 0;
+    for (std::size_t a = 0; a < sim.model().size(); ++a) {
+      if (!in_middle_half(sim.model().position0[a], n, d)) continue;
+      sxy += st.s[a].xy * sim.model().volume[a];  // (volume-weighted: the random lattice's cells differ)
+      volume += sim.model().volume[a];
+    }
+    return std::array<double, 2>{sxy / volume / gamma, tau / gamma};
+  };
+  const auto [steps, m] = relax_until_settled(sim, moduli);
+  std::printf("(the block settled in %lld steps)\n", static_cast<long long>(steps));
+  return {m[0], m[1]};
 }
 
 // A bar of n automata along x (one thick, spacing d) of material mat, held at its first automaton by the
