@@ -35,9 +35,9 @@ constexpr double kRenderFixedBytes = 100e6, kRenderBytesPerPixel = 24, kRenderBy
                  kRenderBytesPerTriangle = 500;
 // The fragment meshes' memory per voxel of a piece's surface (estimate_memory), from the peaks of runs with
 // and without output.fragments: 160 to 240 bytes for volume fills (the armadillo, the bunny, a box in 2,745
-// pieces), 390 to 570 for shells (the cow, spheres of 20,480 and 81,920 triangles), which are meshed on
-// both sides.
-constexpr double kFragmentBytesPerSurfaceVoxel = 250, kFragmentBytesPerShellVoxel = 600, kFragmentBytesPerThread = 6e6;
+// pieces), 320 to 380 for shells (the cow, spheres of 20,480 and 81,920 triangles), which are meshed on
+// both sides (390 to 570 until 2026-12-07, when a shell's pieces were cut from its signed distance's grid).
+constexpr double kFragmentBytesPerSurfaceVoxel = 250, kFragmentBytesPerShellVoxel = 400, kFragmentBytesPerThread = 6e6;
 }  // namespace
 
 std::string far_out_note(const Model& m, const SceneDef& scene) {
@@ -262,11 +262,43 @@ OutputEstimate estimate_output(const Model& m, const OutputDef& o, std::int64_t 
   // surface of at least 6 k^(2/3) d^2. Measured (bytes a square voxel): 38 to 46 for pieces of 1 to 15 cubic
   // cells, 47 to 56 for random-lattice cells, 59 and 66 for random-lattice pieces of 7 and 173 automata
   // bounded by a mesh; single cells took 15 KB (cubic) and 18 to 22 KB (random) each, where this counted
-  // 1.6 KB until a review filled a disk with them at a run's end.
+  // 1.6 KB until a review filled a disk with them at a run's end. A shell's automaton: at least that, or its
+  // triangle's two sides and rim (its perimeter times the meshed thickness) in the voxel of a piece of such
+  // triangles (analysis::shell_voxel: finer for a thin shell or a sliver, coarser for a large triangle;
+  // counted as a cell, eight triangles of a 0.8 m plate had 23 KB where their pieces took 0.6 MB each).
   if (o.fragments) {
-    const double k = static_cast<double>(o.fragment_min_automata) + 1;
-    const double voxels = analysis::voxels_per_spacing(o.fragment_min_automata + 1);
-    e.fragment_meshes = n * 60 * 6 * voxels * voxels / std::cbrt(k);
+    const std::int64_t fewest = o.fragment_min_automata + 1;
+    const double k = static_cast<double>(fewest);
+    const double voxels = analysis::voxels_per_spacing(fewest);
+    const double cell = 60 * 6 * voxels * voxels / std::cbrt(k);
+    e.fragment_meshes = n * cell;
+    const std::size_t n_obj = m.object_names.size();
+    std::vector<double> half_shell(n_obj, 0.0), object_area(n_obj, 0.0);
+    std::vector<std::int64_t> object_faces(n_obj, 0);
+    for (const MeshSummary& ms : m.meshes)
+      if (ms.surface) half_shell[static_cast<std::size_t>(ms.object)] = 0.5 * ms.shell_thickness;
+    const auto area_of = [&](std::size_t f) {
+      const Vec3* c = &m.surface.offset[3 * f];
+      return 0.5 * static_cast<double>(length(cross(c[1] - c[0], c[2] - c[0])));
+    };
+    for (std::size_t f = 0; f < m.surface.faces(); ++f) {
+      const auto o = static_cast<std::size_t>(m.object[m.surface.automaton[f]]);
+      object_area[o] += area_of(f);
+      ++object_faces[o];
+    }
+    const double d = m.spacing;
+    for (std::size_t f = 0; f < m.surface.faces(); ++f) {
+      const auto o = static_cast<std::size_t>(m.object[m.surface.automaton[f]]);
+      const double s = half_shell[o];
+      if (s == 0) continue;
+      const Vec3* c = &m.surface.offset[3 * f];
+      const double area = area_of(f);
+      const double edges[3] = {length(c[1] - c[0]), length(c[2] - c[1]), length(c[0] - c[2])};
+      const double rim = edges[0] + edges[1] + edges[2], longest = std::max({edges[0], edges[1], edges[2]});
+      const double h = analysis::shell_voxel(d, s, fewest, k * area, longest > 0 ? 2 * area / longest : 0, object_faces[o],
+                                             object_area[o]);
+      e.fragment_meshes += std::max(0.0, 60 * (2 * area + 2 * rim * std::max(s, h)) / (h * h) - cell);
+    }
     e.per_run += e.fragment_meshes;
   }
   return e;
@@ -467,7 +499,8 @@ FrameWriter::FrameWriter(std::filesystem::path dir, const Model& model, const Ou
 }
 
 std::size_t FrameWriter::write_fragment_meshes(const State& s, const analysis::Fragments& frags,
-                                              const std::function<void(std::size_t, std::size_t)>& each) {
+                                              const std::function<void(std::size_t, std::size_t)>& each,
+                                              const std::function<void()>& poll) {
   if (!fragment_meshes_) return 0;
   io::check_no_linked_subfolders(dir_);
   io::output_subfolder(dir_, "fragments");
@@ -483,7 +516,7 @@ std::size_t FrameWriter::write_fragment_meshes(const State& s, const analysis::F
     const std::lock_guard<std::mutex> hold(lock);
     ++written;
     if (each) each(written, total);
-  });
+  }, 3, poll);
   return written;
 }
 

@@ -237,9 +237,11 @@ class FrameWriter {
   static std::vector<std::string> stats_header(const Model& model);
   // At the end of a run (output.fragments): fragments/fragment_NNN.ply for each fragment of more than
   // output.fragment_min_automata automata, each written as it is made; returns how many. `each(done,
-  // total)` is called after each is written (one call at a time; it may throw to stop the rest).
+  // total)` is called after each is written (one call at a time; it may throw to stop the rest), `poll`
+  // often while a piece is meshed (from several threads; it may throw to stop there).
   std::size_t write_fragment_meshes(const State& s, const analysis::Fragments& frags,
-                                    const std::function<void(std::size_t done, std::size_t total)>& each = {});
+                                    const std::function<void(std::size_t done, std::size_t total)>& each = {},
+                                    const std::function<void()>& poll = {});
   // The bound surface's file of a frame, relative to the output folder.
   static std::string surface_name(std::int64_t frame, OutputDef::SurfaceFormat format);
 

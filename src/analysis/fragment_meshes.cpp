@@ -7,18 +7,29 @@
 #include <tbb/parallel_for.h>
 
 #include "grid/uniform_grid.hpp"
+#include "mesh/near_triangles.hpp"
 #include "mesh/voxelize.hpp"
 
 namespace mca::analysis {
 namespace {
 
 // An object's voxel grid (its automata's starting box, padded) and, for a mesh object, the signed
-// distance of its starting surface on it.
+// distance of its starting surface on it; for a shell (surface mode), its triangles by piece instead.
 struct ObjectGrid {
   mesh::CellBox box;
   std::unique_ptr<mesh::SignedDistance> surface;
   double shell = 0;  // surface mode: half the shell's thickness (the solid is the surface thickened by it)
+  std::unique_ptr<mesh::NearTriangles> triangles;  // surface mode: the starting triangles, by fragment
 };
+
+// A shell's piece is meshed with at most this many voxels on its surface (unless its automata are many:
+// kShellVoxelsPerAutomaton each; shell_voxel), all of an object's pieces with at most kShellObjectVoxels
+// (a thin shell's pieces are meshed finer, down to its thickness), and a piece with at most
+// kShellBoxVoxels in its box: a piece of a few
+// triangles much larger than the spacing (a flat face of a CAD model as two triangles, a cylinder's caps)
+// would otherwise be meshed at the small pieces' eighth of the spacing all over (eight such triangles made
+// 12 million faces). A shell of even triangles as thick as the lattice's voxel never reaches the bounds.
+constexpr double kShellSurfaceVoxels = 2e5, kShellObjectVoxels = 4e6, kShellVoxelsPerAutomaton = 64, kShellBoxVoxels = 2e8;
 
 // The rotation of a fragment: the mean of its automata's quaternions, the unit q that maximises
 // sum (q . q_a)^2 (the largest eigenvector of sum q_a q_a^T, by power iteration from the mean with signs
@@ -174,27 +185,45 @@ int voxels_per_spacing(std::int64_t automata, int cells_per_spacing) {
   return std::clamp(static_cast<int>(std::ceil(24.0 / cbrt_n)), cells_per_spacing, 8);
 }
 
+double shell_voxel(double spacing, double half, std::int64_t automata, double area, double narrowest,
+                   std::int64_t object_automata, double object_area, int cells_per_spacing) {
+  double h = std::min(spacing / voxels_per_spacing(automata, cells_per_spacing), half);
+  if (automata <= 27 && narrowest > 0) h = std::min(h, 0.5 * narrowest);
+  const double piece = std::max(kShellSurfaceVoxels, kShellVoxelsPerAutomaton * static_cast<double>(automata));
+  const double object = std::max(kShellObjectVoxels, kShellVoxelsPerAutomaton * static_cast<double>(object_automata));
+  return std::max({h, half / 8, std::sqrt(2 * area / piece), std::sqrt(2 * object_area / object)});
+}
+
 void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fragments, std::int64_t min_automata,
-                            const std::function<void(FragmentMesh&&)>& sink, int cells_per_spacing) {
+                            const std::function<void(FragmentMesh&&)>& sink, int cells_per_spacing,
+                            const std::function<void()>& poll) {
   const double d = m.spacing, h = d / cells_per_spacing;
   const std::vector<std::int32_t> chosen = meshed_fragments(fragments, min_automata);
   if (chosen.empty()) return;
   std::vector<std::vector<std::uint32_t>> members(static_cast<std::size_t>(fragments.count));
   for (std::size_t a = 0; a < m.size(); ++a) members[static_cast<std::size_t>(fragments.id[a])].push_back(static_cast<std::uint32_t>(a));
 
-  // Per object: its grid, and its starting surface's signed distance where it has one.
+  // Per object: its grid, and its starting surface's signed distance where it has one (a shell's
+  // triangles, by fragment, below).
   const std::size_t n_obj = m.object_names.size();
   std::vector<ObjectGrid> grids(n_obj);
+  for (const MeshSummary& ms : m.meshes)
+    if (ms.surface) grids[static_cast<std::size_t>(ms.object)].shell = 0.5 * ms.shell_thickness;
   std::vector<mesh::TriMesh> rest(n_obj);
+  std::vector<std::vector<std::int32_t>> rest_piece(n_obj);  // each rest triangle's fragment
+  std::vector<std::vector<std::uint32_t>> piece_faces(static_cast<std::size_t>(fragments.count));  // a shell's
   for (std::size_t f = 0; f < m.surface.faces(); ++f) {
     const std::uint32_t a = m.surface.automaton[f];
-    mesh::TriMesh& r = rest[static_cast<std::size_t>(m.object[a])];
+    const auto o = static_cast<std::size_t>(m.object[a]);
+    mesh::TriMesh& r = rest[o];
     const auto base = static_cast<std::uint32_t>(r.vertices.size());
     for (int c = 0; c < 3; ++c) {
-      const Vec3 o = m.surface.offset[3 * f + c];
-      r.vertices.push_back({m.position0[a].x + o.x, m.position0[a].y + o.y, m.position0[a].z + o.z});
+      const Vec3 off = m.surface.offset[3 * f + c];
+      r.vertices.push_back({m.position0[a].x + off.x, m.position0[a].y + off.y, m.position0[a].z + off.z});
     }
+    if (grids[o].shell > 0) piece_faces[static_cast<std::size_t>(fragments.id[a])].push_back(static_cast<std::uint32_t>(r.faces.size()));
     r.faces.push_back({base, base + 1, base + 2});
+    rest_piece[o].push_back(fragments.id[a]);
   }
   // The random lattice's objects (Model::cell0): a site lies anywhere in its cell, and its Voronoi cell
   // reaches up to sqrt(3) d from it; the object's solid is the union of its cells.
@@ -211,7 +240,7 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
   }
   for (std::size_t o = 0; o < n_obj; ++o) {
     const auto& b = object_box[o];
-    if (!(b[0] <= b[3])) continue;
+    if (!(b[0] <= b[3]) || grids[o].shell > 0) continue;
     ObjectGrid& g = grids[o];
     g.box.d = h;
     for (int c = 0; c < 3; ++c) {
@@ -221,17 +250,97 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
     }
     if (!rest[o].faces.empty()) g.surface = std::make_unique<mesh::SignedDistance>(rest[o], g.box, 3.0f);
   }
-  for (const MeshSummary& ms : m.meshes)
-    if (ms.surface) grids[static_cast<std::size_t>(ms.object)].shell = 0.5 * ms.shell_thickness;
 
-  // Each object's automata binned by cells of size d (their starting centres): the 27 cells around a point
-  // hold every automaton within d of it, and the terms below keep the nearest. On the random lattice the
-  // bins are 2 d (a point of the object has its nearest site within sqrt(3) d: its own cell's holds one),
-  // and its cells' centres are binned apart, by d (a point in a cell is within sqrt(3) d / 2 of its centre).
+  // Each piece's voxel and box. A lattice piece: its automata's box, padded by the mesh shell and a margin.
+  // A shell's piece: its triangles' box, padded by the shell (at least a voxel thick, so that a shell
+  // thinner than the voxel is not lost between the samples) and a margin; its voxel shell_voxel's, coarser
+  // where its box would hold over kShellBoxVoxels.
+  struct Plan {
+    double hf = 0, shell = 0;
+    mesh::CellBox box;
+  };
+  std::vector<Plan> plan(chosen.size());
+  std::vector<double> shell_reach(n_obj, 0.0);  // the farthest a shell's pieces ask for their triangles
+  std::vector<double> object_area(n_obj, 0.0);
+  std::vector<std::int64_t> object_faces(n_obj, 0);
+  for (std::size_t o = 0; o < n_obj; ++o) {
+    if (grids[o].shell == 0) continue;
+    for (const mesh::Triangle& t : rest[o].faces) object_area[o] += 0.5 * mesh::twice_area(rest[o].vertices[t[0]], rest[o].vertices[t[1]], rest[o].vertices[t[2]]);
+    object_faces[o] = static_cast<std::int64_t>(rest[o].faces.size());
+  }
+  for (std::size_t k = 0; k < chosen.size(); ++k) {
+    const auto& mem = members[static_cast<std::size_t>(chosen[k])];
+    const auto obj = static_cast<std::size_t>(m.object[mem[0]]);
+    const auto n = static_cast<std::int64_t>(mem.size());
+    Plan& p = plan[k];
+    p.hf = d / voxels_per_spacing(n, cells_per_spacing);
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY}, pad = 0;
+    if (grids[obj].shell > 0) {
+      double area = 0, narrowest = INFINITY;
+      for (const std::uint32_t f : piece_faces[static_cast<std::size_t>(chosen[k])]) {
+        const mesh::Triangle& t = rest[obj].faces[f];
+        const auto& vs = rest[obj].vertices;
+        const double twice = mesh::twice_area(vs[t[0]], vs[t[1]], vs[t[2]]);
+        area += 0.5 * twice;
+        double longest = 0;
+        for (int e = 0; e < 3; ++e) {
+          const auto& a = vs[t[e]];
+          const auto& b = vs[t[(e + 1) % 3]];
+          longest = std::max(longest, std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]));
+        }
+        if (longest > 0) narrowest = std::min(narrowest, twice / longest);
+        for (const std::uint32_t v : t)
+          for (int c = 0; c < 3; ++c) {
+            lo[c] = std::min(lo[c], rest[obj].vertices[v][c]);
+            hi[c] = std::max(hi[c], rest[obj].vertices[v][c]);
+          }
+      }
+      if (!(lo[0] <= hi[0])) {  // (no triangle: nothing to mesh)
+        p.hf = 0;
+        continue;
+      }
+      p.hf = shell_voxel(d, grids[obj].shell, n, area, narrowest == INFINITY ? 0 : narrowest, object_faces[obj],
+                         object_area[obj], cells_per_spacing);
+      for (int round = 0; round < 8; ++round) {
+        p.shell = std::max(grids[obj].shell, p.hf);
+        pad = p.shell + 3 * p.hf;
+        double voxels = 1;
+        for (int c = 0; c < 3; ++c) voxels *= (hi[c] - lo[c] + 2 * pad) / p.hf + 1;
+        if (voxels <= kShellBoxVoxels) break;
+        p.hf *= 1.01 * std::cbrt(voxels / kShellBoxVoxels);
+      }
+      // (Beyond this the field is clamped at two voxels: a point's own triangles within the shell and two
+      // voxels, and others within four voxels more, are all that set it; half a voxel more of each for the
+      // Newton steps' differences.)
+      shell_reach[obj] = std::max(shell_reach[obj], p.shell + 7 * p.hf);
+    } else {
+      pad = random_object(obj) ? 1.8 * d : 1.2 * d;  // an automaton's solid lies within sqrt(3) d or d / 2
+      for (auto a : mem) {
+        const double q[3] = {m.position0[a].x, m.position0[a].y, m.position0[a].z};
+        for (int c = 0; c < 3; ++c) {
+          lo[c] = std::min(lo[c], q[c]);
+          hi[c] = std::max(hi[c], q[c]);
+        }
+      }
+    }
+    p.box.d = p.hf;
+    for (int c = 0; c < 3; ++c) {
+      p.box.origin[c] = lo[c] - pad;
+      p.box.n[c] = static_cast<std::int64_t>(std::ceil((hi[c] - lo[c] + 2 * pad) / p.hf)) + 1;
+    }
+  }
+  for (std::size_t o = 0; o < n_obj; ++o)
+    if (shell_reach[o] > 0) grids[o].triangles = std::make_unique<mesh::NearTriangles>(rest[o], std::move(rest_piece[o]), shell_reach[o]);
+
+  // Each lattice object's automata binned by cells of size d (their starting centres): the 27 cells around
+  // a point hold every automaton within d of it, and the terms below keep the nearest. On the random
+  // lattice the bins are 2 d (a point of the object has its nearest site within sqrt(3) d: its own cell's
+  // holds one), and its cells' centres are binned apart, by d (a point in a cell is within sqrt(3) d / 2 of
+  // its centre).
   std::vector<std::unique_ptr<UniformGrid>> buckets(n_obj), cells(n_obj);
   for (auto frag : chosen) {
     const auto o = static_cast<std::size_t>(m.object[members[static_cast<std::size_t>(frag)][0]]);
-    if (buckets[o]) continue;
+    if (buckets[o] || grids[o].shell > 0) continue;
     std::vector<std::uint32_t> ids;
     for (std::size_t a = 0; a < m.size(); ++a)
       if (static_cast<std::size_t>(m.object[a]) == o) ids.push_back(static_cast<std::uint32_t>(a));
@@ -249,23 +358,10 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
     const ObjectGrid& g = grids[obj];
     const auto& axes = m.object_axes[obj];
     const bool random = random_object(obj);
-    // The fragment's voxels: its automata's box, padded by the mesh shell and a margin.
-    const double hf = d / voxels_per_spacing(static_cast<std::int64_t>(mem.size()), cells_per_spacing);
-    double lo_p[3] = {INFINITY, INFINITY, INFINITY}, hi_p[3] = {-INFINITY, -INFINITY, -INFINITY};
-    const double reach = random ? 1.8 * d : 1.2 * d;  // an automaton's solid lies within sqrt(3) d or d / 2
-    for (auto a : mem) {
-      const double p[3] = {m.position0[a].x, m.position0[a].y, m.position0[a].z};
-      for (int c = 0; c < 3; ++c) {
-        lo_p[c] = std::min(lo_p[c], p[c] - reach);
-        hi_p[c] = std::max(hi_p[c], p[c] + reach);
-      }
-    }
-    mesh::CellBox fb;
-    fb.d = hf;
-    for (int c = 0; c < 3; ++c) {
-      fb.n[c] = static_cast<std::int64_t>(std::ceil((hi_p[c] - lo_p[c]) / hf)) + 1;
-      fb.origin[c] = lo_p[c];
-    }
+    const Plan& plan_k = plan[k];
+    const double hf = plan_k.hf;
+    const mesh::CellBox& fb = plan_k.box;
+    if (hf == 0) return;  // (a shell's piece without triangles)
     // The object's signed distance at a point: trilinear in its grid.
     auto surface_at = [&](double x, double y, double z) {
       const double p[3] = {x, y, z};
@@ -289,7 +385,22 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
     struct Terms {
       double outer, split;
     };
-    auto terms = [&](double x, double y, double z) -> Terms {
+    auto terms = [&](double x, double y, double z, mesh::NearTriangles::Cursor& cursor) -> Terms {
+      // Surface mode: the shell, its piece's starting triangles thickened on both sides (an open surface
+      // has no inside), split from the other pieces' halfway between their triangles: the distance past
+      // the bisector plane of the two triangles' closest points (exact where they are points; half the
+      // distances' difference crossed a crack face above two triangles meeting in a plane quadratically,
+      // x |x| / 4 z at a height z, and the vertices there crowded and folded).
+      if (g.triangles) {
+        // (The sampled field is clamped at two voxels, and the Newton steps look within two and a half.)
+        const auto t = g.triangles->nearest({x, y, z}, frag, plan_k.shell + 2.5 * hf, 4.5 * hf, plan_k.shell - 2.5 * hf, cursor);
+        if (t.own == INFINITY) return {INFINITY, INFINITY};
+        if (t.other == INFINITY) return {t.own - plan_k.shell, -INFINITY};
+        const double ax = t.own_at[0] - t.other_at[0], ay = t.own_at[1] - t.other_at[1], az = t.own_at[2] - t.other_at[2];
+        const double apart = std::sqrt(ax * ax + ay * ay + az * az);
+        const double split = apart > 1e-9 * hf ? (t.own - t.other) * (t.own + t.other) / (2 * apart) : 0.5 * (t.own - t.other);
+        return {t.own - plan_k.shell, split};
+      }
       double own = INFINITY, other = INFINITY;
       std::uint32_t nearest = 0, rival = 0;
       buckets[obj]->for_each_candidate(DVec3{x, y, z}, [&](std::uint32_t b) {
@@ -324,18 +435,17 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
       double cube = INFINITY;
       if (random) cells[obj]->for_each_candidate(DVec3{x, y, z}, [&](std::uint32_t b) { cube = std::min(cube, past_cube(m.cell0[b])); });
       else cube = past_cube(m.position0[nearest]);
-      // Surface mode: the shell, the original surface thickened to the shell's thickness on both sides
-      // (its automata are on the surface; an open surface's sign means nothing).
-      if (g.shell > 0) return {std::fabs(surface_at(x, y, z)) - g.shell, split};
       // A mesh object: up to a cell beyond the own cells, where the surface lies between them and the mesh.
       if (g.surface) return {std::max(surface_at(x, y, z), cube - d), split};
       return {cube, split};
     };
     mesh::TriMesh solid = mesh::polygonize(fb, [&](std::int64_t kk, float* plane) {  // each voxel on its own
+      if (poll) poll();
+      mesh::NearTriangles::Cursor cursor;
       std::size_t cell = 0;
       for (std::int64_t jj = 0; jj < fb.n[1]; ++jj)
         for (std::int64_t ii = 0; ii < fb.n[0]; ++ii, ++cell) {
-          const Terms t = terms(fb.origin[0] + ii * hf, fb.origin[1] + jj * hf, fb.origin[2] + kk * hf);
+          const Terms t = terms(fb.origin[0] + ii * hf, fb.origin[1] + jj * hf, fb.origin[2] + kk * hf, cursor);
           plane[cell] = static_cast<float>(std::clamp(std::max(t.outer, t.split) / hf, -2.0, 2.0));
         }
     });
@@ -344,21 +454,24 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
     // vertex is moved onto the field's own zero, max(outer, split) evaluated exactly rather than sampled:
     // Newton steps along its gradient (central differences a twentieth of a voxel apart; where two faces
     // meet, the difference spans both and the step goes towards their edge). Flat faces do not move.
-    const auto exact = [&](double x, double y, double z) {
-      const Terms t = terms(x, y, z);
+    const auto exact = [&](double x, double y, double z, mesh::NearTriangles::Cursor& cursor) {
+      const Terms t = terms(x, y, z, cursor);
       return std::max(t.outer, t.split);
     };
+    if (poll) poll();
     tbb::parallel_for(std::size_t{0}, solid.vertices.size(), [&](std::size_t v) {
+      if (poll && v % 4096 == 0) poll();
+      mesh::NearTriangles::Cursor cursor;
       mesh::Point& p = solid.vertices[v];
       for (int step = 0; step < 2; ++step) {
-        const double f = exact(p[0], p[1], p[2]);
+        const double f = exact(p[0], p[1], p[2], cursor);
         if (!(std::fabs(f) <= 2 * hf)) break;  // off the field (outside every term): left where it is
         double g[3], g2 = 0;
         for (int c = 0; c < 3; ++c) {
           mesh::Point hi = p, lo = p;
           hi[c] += 0.05 * hf;
           lo[c] -= 0.05 * hf;
-          g[c] = (exact(hi[0], hi[1], hi[2]) - exact(lo[0], lo[1], lo[2])) / (0.1 * hf);
+          g[c] = (exact(hi[0], hi[1], hi[2], cursor) - exact(lo[0], lo[1], lo[2], cursor)) / (0.1 * hf);
           g2 += g[c] * g[c];
         }
         if (!(g2 > 1e-6 && g2 < 1e6)) break;  // no direction (or an infinite term nearby)
@@ -369,10 +482,12 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
     // Smoothing the crack faces (the vertices where the bisector term is the one at zero, well inside the
     // object): Taubin's lambda|mu steps flatten the cell-face staircase without shrinking the piece; the
     // outer surface stays as resampled.
+    if (poll) poll();
     std::vector<std::uint8_t> crack(solid.vertices.size(), 0);
+    mesh::NearTriangles::Cursor cursor;
     for (std::size_t v = 0; v < solid.vertices.size(); ++v) {
       const auto& p = solid.vertices[v];
-      const Terms t = terms(p[0], p[1], p[2]);
+      const Terms t = terms(p[0], p[1], p[2], cursor);
       crack[v] = t.split > t.outer && t.outer < -0.5 * hf;
     }
     smooth(solid, crack, 4, 0.3 * hf);
@@ -402,6 +517,7 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
       v = {c1[0] + t.x, c1[1] + t.y, c1[2] + t.z};
     }
     fm.volume = mesh::signed_volume(fm.mesh);
+    if (poll) poll();
     sink(std::move(fm));
   };
   // Pieces of more than kMeshedAlone automata one at a time (each fills the machine with its own loops,
