@@ -513,7 +513,7 @@ int run_loop(Loop& L, FrameWriter& writer) {
   const double wall = elapsed();
   const auto frags = writer.fragments(sim.state());
   // The end's outputs: the fragment meshes (thousands of pieces take a minute: progress, and a stop signal
-  // ends them at the next piece), then the summary, whose peak memory counts them.
+  // ends them within the piece being meshed), then the summary, whose peak memory counts them.
   struct MeshesStopped {};
   std::size_t meshes = 0;
   bool meshes_done = false;
@@ -525,6 +525,8 @@ int run_loop(Loop& L, FrameWriter& writer) {
       if (!tty || (now - shown < std::chrono::milliseconds(250) && done < total)) return;
       shown = now;
       fmt::print(stderr, "\rfragment meshes: {} of {}", done, total);
+    }, [&] {
+      if (stop != 0) throw MeshesStopped{};
     });
     meshes_done = true;
     write_summary(L.dir, sim, frags, L.wall_before, wall, sim.state().step - first_step, L.threads, "finished",

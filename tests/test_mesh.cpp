@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -1034,6 +1035,36 @@ TEST(FragmentMeshes, OfABoxAreItsCellsAndFollowTheFragmentsPose) {
       EXPECT_NEAR(b.lo[0], -0.15, 1e-3);
       EXPECT_NEAR(b.lo[2], 0.9, 1e-3);
     }
+  }
+}
+
+// What a stop signal does to the meshing at a run's end (mca run passes a poll that throws once a signal
+// came): the exception comes out of for_each_fragment_mesh within the piece being meshed, no piece is
+// handed on after it, and it is thrown from the poll's first call on (a shell's piece of many voxels took
+// 76 s after SIGTERM while each piece was finished first).
+TEST(FragmentMeshes, APollThatThrowsEndsTheMeshingWithinAPiece) {
+  const Engine sim(test::block_scene(24, 24, 24, 0.05));  // one piece of 13,824 automata, meshed alone
+  const Model& m = sim.model();
+  analysis::Fragments one;
+  one.id.assign(m.size(), 0);
+  one.count = 1;
+  std::atomic<int> polls{0}, made{0};
+  analysis::for_each_fragment_mesh(m, sim.state(), one, 0, [&](analysis::FragmentMesh&&) { ++made; }, 3, [&] { ++polls; });
+  const int whole = polls.load();
+  std::printf("one piece of %zu automata: the poll called %d times\n", m.size(), whole);
+  EXPECT_EQ(made.load(), 1);
+  ASSERT_GT(whole, 20);
+  struct Stop {};
+  for (const int at : {1, whole / 2}) {
+    polls = 0;
+    made = 0;
+    EXPECT_THROW(analysis::for_each_fragment_mesh(m, sim.state(), one, 0, [&](analysis::FragmentMesh&&) { ++made; }, 3,
+                                                  [&] {
+                                                    if (++polls >= at) throw Stop{};
+                                                  }),
+                 Stop);
+    EXPECT_EQ(made.load(), 0);
+    EXPECT_LT(polls.load(), at + 16) << "the meshing went on after the poll threw";
   }
 }
 
