@@ -137,6 +137,35 @@ TEST(NearTriangles, FindsTheNearestOwnAndOtherTrianglesWithinTheirLimits) {
   }
 }
 
+// A grid over a region (a class of a shell's pieces, fragment_meshes.cpp) answers as the whole one from
+// points in the region, and finds nothing from points outside it.
+TEST(NearTriangles, AGridOverARegionAnswersAsTheWholeInIt) {
+  const Soup s = soup({0, 0, 0}, 3);
+  const double reach = 0.02;
+  mesh::Bounds region;
+  region.lo = {-0.05, -0.02, -0.1};
+  region.hi = {0.03, 0.04, 0.1};
+  const mesh::NearTriangles whole(s.mesh, s.label, reach), part(s.mesh, s.label, reach, &region);
+  std::printf("listed: %zu over the whole, %zu over the region\n", whole.entries(), part.entries());
+  EXPECT_LT(part.entries(), whole.entries() / 2);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-0.12, 0.12);
+  int inside = 0;
+  mesh::NearTriangles::Cursor a, b;
+  for (int k = 0; k < 3000; ++k) {
+    const Point p{u(rng), u(rng), u(rng)};
+    const auto w = whole.nearest(p, k % 5, reach, reach / 4, -1, a), r = part.nearest(p, k % 5, reach, reach / 4, -1, b);
+    bool in = true;
+    for (int c = 0; c < 3; ++c) in = in && p[c] >= region.lo[c] && p[c] <= region.hi[c];
+    if (in) {
+      ++inside;
+      EXPECT_EQ(r.own, w.own) << "point " << k;
+      EXPECT_EQ(r.other, w.other) << "point " << k;
+    }
+  }
+  EXPECT_GT(inside, 50);
+}
+
 // `deep`: where only the own label's triangles lie near the point's cell, the first own triangle found
 // within it answers (the point is deeper than that); in a cell with others near, the nearest is found.
 TEST(NearTriangles, AnOwnTriangleWithinDeepAnswersWhereNoOtherIsNear) {

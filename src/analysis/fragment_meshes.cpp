@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <tbb/parallel_for.h>
@@ -14,22 +16,21 @@ namespace mca::analysis {
 namespace {
 
 // An object's voxel grid (its automata's starting box, padded) and, for a mesh object, the signed
-// distance of its starting surface on it; for a shell (surface mode), its triangles by piece instead.
+// distance of its starting surface on it (a shell's pieces find their triangles in Plan::triangles).
 struct ObjectGrid {
   mesh::CellBox box;
   std::unique_ptr<mesh::SignedDistance> surface;
   double shell = 0;  // surface mode: half the shell's thickness (the solid is the surface thickened by it)
-  std::unique_ptr<mesh::NearTriangles> triangles;  // surface mode: the starting triangles, by fragment
 };
 
-// A shell's piece is meshed with at most this many voxels on its surface (unless its automata are many:
-// kShellVoxelsPerAutomaton each; shell_voxel), all of an object's pieces with at most kShellObjectVoxels
-// (a thin shell's pieces are meshed finer, down to its thickness), and a piece with at most
-// kShellBoxVoxels in its box: a piece of a few
+// A shell's pieces are meshed with at most kShellVoxelsPerAutomaton voxels on their surface an automaton,
+// or their share by area of kShellSurfaceVoxels where that is more (shell_voxel: all of an object's pieces
+// together at most 64 an automaton and 200,000; a thin shell's pieces are meshed finer, down to its
+// thickness), and a piece with at most kShellBoxVoxels in its box: a piece of a few
 // triangles much larger than the spacing (a flat face of a CAD model as two triangles, a cylinder's caps)
 // would otherwise be meshed at the small pieces' eighth of the spacing all over (eight such triangles made
 // 12 million faces). A shell of even triangles as thick as the lattice's voxel never reaches the bounds.
-constexpr double kShellSurfaceVoxels = 2e5, kShellObjectVoxels = 4e6, kShellVoxelsPerAutomaton = 64, kShellBoxVoxels = 2e8;
+constexpr double kShellSurfaceVoxels = 2e5, kShellVoxelsPerAutomaton = 64, kShellBoxVoxels = 2e8;
 
 // The rotation of a fragment: the mean of its automata's quaternions, the unit q that maximises
 // sum (q . q_a)^2 (the largest eigenvector of sum q_a q_a^T, by power iteration from the mean with signs
@@ -186,12 +187,12 @@ int voxels_per_spacing(std::int64_t automata, int cells_per_spacing) {
 }
 
 double shell_voxel(double spacing, double half, std::int64_t automata, double area, double narrowest,
-                   std::int64_t object_automata, double object_area, int cells_per_spacing) {
+                   double object_area, int cells_per_spacing) {
   double h = std::min(spacing / voxels_per_spacing(automata, cells_per_spacing), half);
   if (automata <= 27 && narrowest > 0) h = std::min(h, 0.5 * narrowest);
-  const double piece = std::max(kShellSurfaceVoxels, kShellVoxelsPerAutomaton * static_cast<double>(automata));
-  const double object = std::max(kShellObjectVoxels, kShellVoxelsPerAutomaton * static_cast<double>(object_automata));
-  return std::max({h, half / 8, std::sqrt(2 * area / piece), std::sqrt(2 * object_area / object)});
+  const double share = object_area > 0 ? std::min(1.0, area / object_area) : 1.0;
+  const double most = std::max(kShellSurfaceVoxels * share, kShellVoxelsPerAutomaton * static_cast<double>(automata));
+  return std::max({h, half / 8, std::sqrt(2 * area / most)});
 }
 
 void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fragments, std::int64_t min_automata,
@@ -258,15 +259,14 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
   struct Plan {
     double hf = 0, shell = 0;
     mesh::CellBox box;
+    const mesh::NearTriangles* triangles = nullptr;  // a shell's: its object's, by fragment
+    double reach = 0;                               // the farthest it asks for them
   };
   std::vector<Plan> plan(chosen.size());
-  std::vector<double> shell_reach(n_obj, 0.0);  // the farthest a shell's pieces ask for their triangles
   std::vector<double> object_area(n_obj, 0.0);
-  std::vector<std::int64_t> object_faces(n_obj, 0);
   for (std::size_t o = 0; o < n_obj; ++o) {
     if (grids[o].shell == 0) continue;
     for (const mesh::Triangle& t : rest[o].faces) object_area[o] += 0.5 * mesh::twice_area(rest[o].vertices[t[0]], rest[o].vertices[t[1]], rest[o].vertices[t[2]]);
-    object_faces[o] = static_cast<std::int64_t>(rest[o].faces.size());
   }
   for (std::size_t k = 0; k < chosen.size(); ++k) {
     const auto& mem = members[static_cast<std::size_t>(chosen[k])];
@@ -299,8 +299,8 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
         p.hf = 0;
         continue;
       }
-      p.hf = shell_voxel(d, grids[obj].shell, n, area, narrowest == INFINITY ? 0 : narrowest, object_faces[obj],
-                         object_area[obj], cells_per_spacing);
+      p.hf = shell_voxel(d, grids[obj].shell, n, area, narrowest == INFINITY ? 0 : narrowest, object_area[obj],
+                         cells_per_spacing);
       for (int round = 0; round < 8; ++round) {
         p.shell = std::max(grids[obj].shell, p.hf);
         pad = p.shell + 3 * p.hf;
@@ -312,7 +312,7 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
       // (Beyond this the field is clamped at two voxels: a point's own triangles within the shell and two
       // voxels, and others within four voxels more, are all that set it; half a voxel more of each for the
       // Newton steps' differences.)
-      shell_reach[obj] = std::max(shell_reach[obj], p.shell + 7 * p.hf);
+      p.reach = p.shell + 7 * p.hf;
     } else {
       pad = random_object(obj) ? 1.8 * d : 1.2 * d;  // an automaton's solid lies within sqrt(3) d or d / 2
       for (auto a : mem) {
@@ -329,8 +329,28 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
       p.box.n[c] = static_cast<std::int64_t>(std::ceil((hi[c] - lo[c] + 2 * pad) / p.hf)) + 1;
     }
   }
-  for (std::size_t o = 0; o < n_obj; ++o)
-    if (shell_reach[o] > 0) grids[o].triangles = std::make_unique<mesh::NearTriangles>(rest[o], std::move(rest_piece[o]), shell_reach[o]);
+  // A shell's triangles, by fragment, for each class of its pieces' reaches (within a factor of two),
+  // over those pieces' boxes: one grid of the largest reach made a fine piece beside a coarse one (a 0.2 m
+  // patch and an 8 m frame of one object) read cells of the frame's size, each listing the whole patch.
+  std::map<std::pair<std::size_t, int>, std::pair<double, mesh::Bounds>> classes;  // (object, class) -> reach, box
+  const auto class_of = [&](std::size_t k) { return std::pair{static_cast<std::size_t>(m.object[members[static_cast<std::size_t>(chosen[k])][0]]), std::ilogb(plan[k].reach)}; };
+  for (std::size_t k = 0; k < chosen.size(); ++k) {
+    if (plan[k].reach == 0) continue;
+    const mesh::CellBox& b = plan[k].box;
+    auto [it, fresh] = classes.try_emplace(class_of(k));
+    auto& [reach, box] = it->second;
+    reach = std::max(reach, plan[k].reach);
+    for (int c = 0; c < 3; ++c) {
+      const double lo = b.origin[c], hi = b.origin[c] + static_cast<double>(b.n[c]) * b.d;
+      box.lo[c] = fresh ? lo : std::min(box.lo[c], lo);
+      box.hi[c] = fresh ? hi : std::max(box.hi[c], hi);
+    }
+  }
+  std::map<std::pair<std::size_t, int>, std::unique_ptr<mesh::NearTriangles>> triangles;
+  for (const auto& [key, what] : classes)
+    triangles[key] = std::make_unique<mesh::NearTriangles>(rest[key.first], rest_piece[key.first], what.first, &what.second);
+  for (std::size_t k = 0; k < chosen.size(); ++k)
+    if (plan[k].reach > 0) plan[k].triangles = triangles.at(class_of(k)).get();
 
   // Each lattice object's automata binned by cells of size d (their starting centres): the 27 cells around
   // a point hold every automaton within d of it, and the terms below keep the nearest. On the random
@@ -391,9 +411,9 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
       // the bisector plane of the two triangles' closest points (exact where they are points; half the
       // distances' difference crossed a crack face above two triangles meeting in a plane quadratically,
       // x |x| / 4 z at a height z, and the vertices there crowded and folded).
-      if (g.triangles) {
+      if (plan_k.triangles) {
         // (The sampled field is clamped at two voxels, and the Newton steps look within two and a half.)
-        const auto t = g.triangles->nearest({x, y, z}, frag, plan_k.shell + 2.5 * hf, 4.5 * hf, plan_k.shell - 2.5 * hf, cursor);
+        const auto t = plan_k.triangles->nearest({x, y, z}, frag, plan_k.shell + 2.5 * hf, 4.5 * hf, plan_k.shell - 2.5 * hf, cursor);
         if (t.own == INFINITY) return {INFINITY, INFINITY};
         if (t.other == INFINITY) return {t.own - plan_k.shell, -INFINITY};
         const double ax = t.own_at[0] - t.other_at[0], ay = t.own_at[1] - t.other_at[1], az = t.own_at[2] - t.other_at[2];
@@ -516,6 +536,11 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
       const DVec3 t = rotated(R, {r[0], r[1], r[2]});
       v = {c1[0] + t.x, c1[1] + t.y, c1[2] + t.z};
     }
+    // Vertices the Newton steps brought within float32's rounding of each other at the pose's coordinates
+    // (at a box's corners) would be one point in the file, their triangles of no area: merged.
+    double far = 0;
+    for (const auto& v : fm.mesh.vertices) far = std::max({far, std::fabs(v[0]), std::fabs(v[1]), std::fabs(v[2])});
+    collapse_zero_length_edges(fm.mesh, 4 * far * std::numeric_limits<float>::epsilon());
     fm.volume = mesh::signed_volume(fm.mesh);
     if (poll) poll();
     sink(std::move(fm));

@@ -27,16 +27,16 @@ int voxels_per_spacing(std::int64_t automata, int cells_per_spacing = 3);
 
 // The voxel of a shell's piece: `automata` automata, its triangles' area `area` (m^2) and the least
 // height of one of them `narrowest` (m), of a shell of half-thickness `half` at the spacing `spacing`,
-// whose object has `object_automata` triangles of `object_area` in all. The lattice's voxel, finer down to
-// the shell's half-thickness and, for a piece of 27 automata or fewer, to half its narrowest triangle's
-// height (a sliver's piece between the samples kept a hundredth of its volume); coarser where the
-// triangles are large, so that the piece's surface takes at most 200,000 voxels or 64 an automaton
-// (eight triangles of a 0.8 m plate made 12 million faces at an eighth of the spacing), and all pieces of
-// the object at most 4 million or 64 an automaton; and at least an eighth of the half-thickness (a shell
-// a hundred spacings thick asked every voxel of its box for every triangle). (A piece whose box would
-// hold over 2e8 voxels is coarser still.)
+// whose object's triangles have `object_area` in all. The lattice's voxel, finer down to the shell's
+// half-thickness and, for a piece of 27 automata or fewer, to half its narrowest triangle's height (a
+// sliver's piece between the samples kept a hundredth of its volume); coarser so that the piece's surface
+// takes at most 64 voxels an automaton, or its share by area of 200,000 where that is more (eight large
+// triangles of a 0.8 m plate made 12 million faces at an eighth of the spacing; a fine patch beside a
+// large frame in one object was meshed at the frame's voxel when the bound was the object's); and at
+// least an eighth of the half-thickness (a shell a hundred spacings thick asked every voxel of its box for
+// every triangle). (A piece whose box would hold over 2e8 voxels is coarser still.)
 double shell_voxel(double spacing, double half, std::int64_t automata, double area, double narrowest,
-                   std::int64_t object_automata, double object_area, int cells_per_spacing = 3);
+                   double object_area, int cells_per_spacing = 3);
 
 struct FragmentMesh {
   std::int32_t fragment = 0;  // Fragments id

@@ -21,7 +21,7 @@ constexpr int kKeyBits = 21;  // per axis: a cell's key packs its three indices 
 
 }  // namespace
 
-NearTriangles::NearTriangles(const TriMesh& m, std::vector<std::int32_t> label, double reach)
+NearTriangles::NearTriangles(const TriMesh& m, std::vector<std::int32_t> label, double reach, const Bounds* region)
     : reach_(reach), cell_(0.5 * reach), label_(std::move(label)) {
   if (label_.size() != m.faces.size()) throw std::invalid_argument("NearTriangles: a label for each face");
   if (!(reach > 0) || !std::isfinite(reach)) throw std::invalid_argument("NearTriangles: the reach must be positive");
@@ -41,14 +41,34 @@ NearTriangles::NearTriangles(const TriMesh& m, std::vector<std::int32_t> label, 
     tri_.push_back(t);
   }
   if (tri_.empty()) return;
-  // The grid: cells of half the reach over the triangles' box and the reach around it (a cell lists the
-  // triangles within 1.43 reaches of its centre; cells of the reach, 1.87: a third more to look at, three
-  // times fewer entries), fewer than 2^21 a side,
-  // and large enough that the triangles' area spans at most kMostCells of them (a triangle lies in about
-  // three layers of cells over its area: a few large triangles and a small reach would list millions).
+  // The triangles listed: those within the reach of the region's box (all without one), and the grid over
+  // both boxes' overlap.
+  std::vector<std::uint8_t> listed_tri(tri_.size(), 1);
+  double region_face = INFINITY;  // the largest face of the region's box: no more of a triangle's area lies in it
+  if (region) {
+    for (std::size_t f = 0; f < tri_.size(); ++f)
+      for (int c = 0; c < 3; ++c)
+        if (tri_[f].lo[c] > region->hi[c] + reach || tri_[f].hi[c] < region->lo[c] - reach) listed_tri[f] = 0;
+    const Point e = region->extent();
+    region_face = std::max({e[0] * e[1], e[1] * e[2], e[2] * e[0]}) + 1e-300;
+    for (int c = 0; c < 3; ++c) {
+      lo[c] = std::max(lo[c], region->lo[c] - reach);
+      hi[c] = std::min(hi[c], region->hi[c] + reach);
+    }
+    if (!(lo[0] <= hi[0] && lo[1] <= hi[1] && lo[2] <= hi[2])) return;  // (nothing near the region)
+  }
+  // The grid: cells of half the reach over that box and the reach around it (a cell lists the triangles
+  // within 1.43 reaches of its centre; cells of the reach, 1.87: a third more to look at, three times fewer
+  // entries), fewer than 2^21 a side, and large enough that the triangles' area spans at most kMostCells of
+  // them (a triangle lies in about three layers of cells over its area: a few large triangles and a small
+  // reach would list millions).
   constexpr double kMostCells = 4e6;
   double area = 0;
-  for (const Triangle& f : m.faces) area += 0.5 * twice_area(m.vertices[f[0]], m.vertices[f[1]], m.vertices[f[2]]);
+  for (std::size_t f = 0; f < tri_.size(); ++f)
+    if (listed_tri[f]) {
+      const Triangle& t = m.faces[f];
+      area += std::min(0.5 * twice_area(m.vertices[t[0]], m.vertices[t[1]], m.vertices[t[2]]), region_face);
+    }
   cell_ = std::max(cell_, std::sqrt(area / kMostCells));
   for (int c = 0; c < 3; ++c) cell_ = std::max(cell_, (hi[c] - lo[c] + 2 * reach) / ((1 << kKeyBits) - 4));
   for (int c = 0; c < 3; ++c) {
@@ -67,6 +87,7 @@ NearTriangles::NearTriangles(const TriMesh& m, std::vector<std::int32_t> label, 
     return static_cast<std::uint64_t>(i) | static_cast<std::uint64_t>(j) << kKeyBits | static_cast<std::uint64_t>(k) << (2 * kKeyBits);
   };
   for (std::uint32_t f = 0; f < tri_.size(); ++f) {
+    if (!listed_tri[f]) continue;
     const Tri& t = tri_[f];
     std::array<std::int64_t, 3> first, last;
     for (int c = 0; c < 3; ++c) {

@@ -15,9 +15,11 @@ namespace mca::mesh {
 
 class NearTriangles {
  public:
-  // The faces of m, face f labelled label[f], for queries within `reach` (> 0) of them. Throws
-  // std::invalid_argument where the labels do not match the faces or the reach is not positive.
-  NearTriangles(const TriMesh& m, std::vector<std::int32_t> label, double reach);
+  // The faces of m, face f labelled label[f], for queries within `reach` (> 0) of them and, where a
+  // region is given, from points in it (a point outside finds nothing; triangles farther than the reach
+  // from it are not listed). Throws std::invalid_argument where the labels do not match the faces or the
+  // reach is not positive.
+  NearTriangles(const TriMesh& m, std::vector<std::int32_t> label, double reach, const Bounds* region = nullptr);
 
   struct Nearest {
     double own = INFINITY;    // to the nearest triangle labelled `own`, where within `own_within`
