@@ -30,7 +30,8 @@ struct ObjectGrid {
 // triangles much larger than the spacing (a flat face of a CAD model as two triangles, a cylinder's caps)
 // would otherwise be meshed at the small pieces' eighth of the spacing all over (eight such triangles made
 // 12 million faces). A shell of even triangles as thick as the lattice's voxel never reaches the bounds.
-constexpr double kShellSurfaceVoxels = 2e5, kShellVoxelsPerAutomaton = 64, kShellBoxVoxels = 2e8;
+constexpr double kShellSurfaceVoxels = 2e5, kShellVoxelsPerAutomaton = 64, kShellCoarserPerAutomaton = 256,
+                 kShellBoxVoxels = 2e8;
 
 // The rotation of a fragment: the mean of its automata's quaternions, the unit q that maximises
 // sum (q . q_a)^2 (the largest eigenvector of sum q_a q_a^T, by power iteration from the mean with signs
@@ -188,11 +189,17 @@ int voxels_per_spacing(std::int64_t automata, int cells_per_spacing) {
 
 double shell_voxel(double spacing, double half, std::int64_t automata, double area, double narrowest,
                    double object_area, int cells_per_spacing) {
-  double h = std::min(spacing / voxels_per_spacing(automata, cells_per_spacing), half);
-  if (automata <= 27 && narrowest > 0) h = std::min(h, 0.5 * narrowest);
-  const double share = object_area > 0 ? std::min(1.0, area / object_area) : 1.0;
-  const double most = std::max(kShellSurfaceVoxels * share, kShellVoxelsPerAutomaton * static_cast<double>(automata));
-  return std::max({h, half / 8, std::sqrt(2 * area / most)});
+  const double share = object_area > 0 ? std::min(1.0, area / object_area) : 1.0, n = static_cast<double>(automata);
+  // The lattice's voxel, coarser where the piece's surface would take more than its share of
+  // kShellSurfaceVoxels and kShellCoarserPerAutomaton voxels an automaton (large triangles), finer for a
+  // small piece's narrowest triangle within that bound, and finer for a thin shell within its share and
+  // kShellVoxelsPerAutomaton an automaton.
+  const double coarse = std::sqrt(2 * area / std::max(kShellSurfaceVoxels * share, kShellCoarserPerAutomaton * n));
+  const double fine = std::sqrt(2 * area / std::max(kShellSurfaceVoxels * share, kShellVoxelsPerAutomaton * n));
+  double h = std::max(spacing / voxels_per_spacing(automata, cells_per_spacing), coarse);
+  if (automata <= 27 && narrowest > 0) h = std::max(std::min(h, 0.5 * narrowest), coarse);
+  h = std::max(std::min(h, half), std::min(h, fine));
+  return std::max(h, half / 8);
 }
 
 void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fragments, std::int64_t min_automata,

@@ -29,10 +29,11 @@ int voxels_per_spacing(std::int64_t automata, int cells_per_spacing = 3);
 // height of one of them `narrowest` (m), of a shell of half-thickness `half` at the spacing `spacing`,
 // whose object's triangles have `object_area` in all. The lattice's voxel, finer down to the shell's
 // half-thickness and, for a piece of 27 automata or fewer, to half its narrowest triangle's height (a
-// sliver's piece between the samples kept a hundredth of its volume); coarser so that the piece's surface
-// takes at most 64 voxels an automaton, or its share by area of 200,000 where that is more (eight large
-// triangles of a 0.8 m plate made 12 million faces at an eighth of the spacing; a fine patch beside a
-// large frame in one object was meshed at the frame's voxel when the bound was the object's); and at
+// sliver's piece between the samples kept a hundredth of its volume); coarser where the piece's surface
+// would take more than 256 voxels an automaton and its share by area of 200,000 (eight large triangles of
+// a 0.8 m plate made 12 million faces at an eighth of the spacing), and finer for a thin shell only within
+// 64 an automaton or that share (a fine patch beside a large frame in one object was meshed at the
+// frame's voxel when the bound was the object's); and at
 // least an eighth of the half-thickness (a shell a hundred spacings thick asked every voxel of its box for
 // every triangle). (A piece whose box would hold over 2e8 voxels is coarser still.)
 double shell_voxel(double spacing, double half, std::int64_t automata, double area, double narrowest,
