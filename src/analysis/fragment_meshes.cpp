@@ -23,13 +23,13 @@ struct ObjectGrid {
   double shell = 0;  // surface mode: half the shell's thickness (the solid is the surface thickened by it)
 };
 
-// A shell's pieces are meshed with at most kShellVoxelsPerAutomaton voxels on their surface an automaton,
-// or their share by area of kShellSurfaceVoxels where that is more (shell_voxel: all of an object's pieces
-// together at most 64 an automaton and 200,000; a thin shell's pieces are meshed finer, down to its
-// thickness), and a piece with at most kShellBoxVoxels in its box: a piece of a few
-// triangles much larger than the spacing (a flat face of a CAD model as two triangles, a cylinder's caps)
-// would otherwise be meshed at the small pieces' eighth of the spacing all over (eight such triangles made
-// 12 million faces). A shell of even triangles as thick as the lattice's voxel never reaches the bounds.
+// A shell's pieces are meshed coarser than the lattice's voxel where their surface would take more than
+// kShellCoarserPerAutomaton voxels an automaton and their share by area of kShellSurfaceVoxels, finer for a
+// thin shell only within kShellVoxelsPerAutomaton an automaton or that share (shell_voxel), and a piece
+// with at most kShellBoxVoxels in its box: a piece of a few triangles much larger than the spacing (a flat
+// face of a CAD model as two triangles, a cylinder's caps) would otherwise be meshed at the small pieces'
+// eighth of the spacing all over (eight such triangles made 12 million faces). A shell of even triangles
+// as thick as the lattice's voxel never reaches the bounds.
 constexpr double kShellSurfaceVoxels = 2e5, kShellVoxelsPerAutomaton = 64, kShellCoarserPerAutomaton = 256,
                  kShellBoxVoxels = 2e8;
 
