@@ -38,6 +38,16 @@ constexpr double kRenderFixedBytes = 100e6, kRenderBytesPerPixel = 24, kRenderBy
 // pieces), 320 to 380 for shells (the cow, spheres of 20,480 and 81,920 triangles), which are meshed on
 // both sides (390 to 570 until 2026-12-07, when a shell's pieces were cut from its signed distance's grid).
 constexpr double kFragmentBytesPerSurfaceVoxel = 250, kFragmentBytesPerShellVoxel = 400, kFragmentBytesPerThread = 6e6;
+
+// The area of each object's bound surface triangles (m^2; 0 for an object without).
+std::vector<double> surface_area_by_object(const Model& m) {
+  std::vector<double> area(m.object_names.size(), 0.0);
+  for (std::size_t f = 0; f < m.surface.faces(); ++f) {
+    const Vec3* c = &m.surface.offset[3 * f];
+    area[static_cast<std::size_t>(m.object[m.surface.automaton[f]])] += 0.5 * static_cast<double>(length(cross(c[1] - c[0], c[2] - c[0])));
+  }
+  return area;
+}
 }  // namespace
 
 std::string far_out_note(const Model& m, const SceneDef& scene) {
@@ -272,22 +282,17 @@ OutputEstimate estimate_output(const Model& m, const OutputDef& o, std::int64_t 
     const double voxels = analysis::voxels_per_spacing(fewest);
     const double cell = 60 * 6 * voxels * voxels / std::cbrt(k);
     e.fragment_meshes = n * cell;
-    const std::size_t n_obj = m.object_names.size();
-    std::vector<double> half_shell(n_obj, 0.0), object_area(n_obj, 0.0);
+    std::vector<double> half_shell(m.object_names.size(), 0.0);
     for (const MeshSummary& ms : m.meshes)
       if (ms.surface) half_shell[static_cast<std::size_t>(ms.object)] = 0.5 * ms.shell_thickness;
-    const auto area_of = [&](std::size_t f) {
-      const Vec3* c = &m.surface.offset[3 * f];
-      return 0.5 * static_cast<double>(length(cross(c[1] - c[0], c[2] - c[0])));
-    };
-    for (std::size_t f = 0; f < m.surface.faces(); ++f) object_area[static_cast<std::size_t>(m.object[m.surface.automaton[f]])] += area_of(f);
+    const std::vector<double> object_area = surface_area_by_object(m);
     const double d = m.spacing;
     for (std::size_t f = 0; f < m.surface.faces(); ++f) {
       const auto o = static_cast<std::size_t>(m.object[m.surface.automaton[f]]);
       const double s = half_shell[o];
       if (s == 0) continue;
       const Vec3* c = &m.surface.offset[3 * f];
-      const double area = area_of(f);
+      const double area = 0.5 * static_cast<double>(length(cross(c[1] - c[0], c[2] - c[0])));
       const double edges[3] = {length(c[1] - c[0]), length(c[2] - c[1]), length(c[0] - c[2])};
       const double rim = edges[0] + edges[1] + edges[2], longest = std::max({edges[0], edges[1], edges[2]});
       const double h = analysis::shell_voxel(d, s, fewest, k * area, longest > 0 ? 2 * area / longest : 0, object_area[o]);
@@ -352,11 +357,7 @@ MemoryEstimate estimate_memory(const Model& m, const OutputDef& o, int render_wi
         b[3 + c] = std::max(b[3 + c], p[c]);
       }
     }
-    std::vector<double> area(n_obj, 0.0);  // m^2
-    for (std::size_t f = 0; f < m.surface.faces(); ++f) {
-      const Vec3* c = &m.surface.offset[3 * f];
-      area[static_cast<std::size_t>(m.object[m.surface.automaton[f]])] += 0.5 * length(cross(c[1] - c[0], c[2] - c[0]));
-    }
+    std::vector<double> area = surface_area_by_object(m);  // m^2
     std::vector<std::int64_t> automata(n_obj, 0);
     for (std::size_t a = 0; a < m.size(); ++a) ++automata[static_cast<std::size_t>(m.object[a])];
     double peak = 0, small = 0;

@@ -220,6 +220,7 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
   std::vector<mesh::TriMesh> rest(n_obj);
   std::vector<std::vector<std::int32_t>> rest_piece(n_obj);  // each rest triangle's fragment
   std::vector<std::vector<std::uint32_t>> piece_faces(static_cast<std::size_t>(fragments.count));  // a shell's
+  std::vector<double> object_area(n_obj, 0.0);  // a shell's triangles' area
   for (std::size_t f = 0; f < m.surface.faces(); ++f) {
     const std::uint32_t a = m.surface.automaton[f];
     const auto o = static_cast<std::size_t>(m.object[a]);
@@ -229,7 +230,10 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
       const Vec3 off = m.surface.offset[3 * f + c];
       r.vertices.push_back({m.position0[a].x + off.x, m.position0[a].y + off.y, m.position0[a].z + off.z});
     }
-    if (grids[o].shell > 0) piece_faces[static_cast<std::size_t>(fragments.id[a])].push_back(static_cast<std::uint32_t>(r.faces.size()));
+    if (grids[o].shell > 0) {
+      piece_faces[static_cast<std::size_t>(fragments.id[a])].push_back(static_cast<std::uint32_t>(r.faces.size()));
+      object_area[o] += 0.5 * mesh::twice_area(r.vertices[base], r.vertices[base + 1], r.vertices[base + 2]);
+    }
     r.faces.push_back({base, base + 1, base + 2});
     rest_piece[o].push_back(fragments.id[a]);
   }
@@ -270,11 +274,6 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
     double reach = 0;                               // the farthest it asks for them
   };
   std::vector<Plan> plan(chosen.size());
-  std::vector<double> object_area(n_obj, 0.0);
-  for (std::size_t o = 0; o < n_obj; ++o) {
-    if (grids[o].shell == 0) continue;
-    for (const mesh::Triangle& t : rest[o].faces) object_area[o] += 0.5 * mesh::twice_area(rest[o].vertices[t[0]], rest[o].vertices[t[1]], rest[o].vertices[t[2]]);
-  }
   for (std::size_t k = 0; k < chosen.size(); ++k) {
     const auto& mem = members[static_cast<std::size_t>(chosen[k])];
     const auto obj = static_cast<std::size_t>(m.object[mem[0]]);

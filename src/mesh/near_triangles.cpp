@@ -149,7 +149,7 @@ Point NearTriangles::closest(const Tri& t, const Point& p) const {
   // Measured from p (OpenVDB's closest point works in the coordinates it is given, and 1e5 m from their
   // origin it was off by up to a centimetre for triangles of one).
   const openvdb::math::Vec3d a = vec(t.a) - vec(p), b = vec(t.b) - vec(p), c = vec(t.c) - vec(p), o(0, 0, 0);
-  openvdb::math::Vec3d x;
+  openvdb::math::Vec3d x(0, 0, 0);
   if (!t.flat) {
     openvdb::math::Vec3d uvw;
     x = openvdb::math::closestPointOnTriangleToPoint(a, b, c, o, uvw);

@@ -26,12 +26,12 @@ class NearTriangles {
     double other = INFINITY;  // to the nearest labelled otherwise, where within `past_own` of own
     Point own_at{0, 0, 0}, other_at{0, 0, 0};  // their closest points to p, less p
   };
-  // The last cell a query read (consecutive queries along a row of voxels mostly read the same one): one
-  // per thread.
   struct Entry {
     float from_centre;  // the triangle's distance from the cell's centre (the cell's list is in its order)
     std::uint32_t triangle;
   };
+  // The last cell a query read (consecutive queries along a row of voxels mostly read the same one): one
+  // per thread.
   struct Cursor {
     std::uint64_t key = ~std::uint64_t{0};
     const Entry* begin = nullptr;
