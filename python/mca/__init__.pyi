@@ -296,10 +296,12 @@ class Simulation:
         written at a time (however it is spelt: "out", "out/", "./out"): giving another folder releases the
         first (once the other has passed its checks: a folder refused leaves the first as it was), and giving
         the first again starts it afresh (frame 0, its earlier frames and stats.csv removed)."""
-    def close_output(self, finish: bool = False) -> None:
+    def close_output(self, finish: bool = False, progress: Optional[Callable[[int, int], Any]] = None) -> None:
         """Releases the folder of write_frame. finish=True first writes the run's end as mca run does after its
         last frame, from the state of the last frame written: summary.json ("finished"), fragments.csv and,
-        with output.fragments, the fragment meshes."""
+        with output.fragments, the fragment meshes, made on a thread of their own: progress(written, meshes)
+        as they are written; Ctrl-C raises KeyboardInterrupt within the piece being meshed, leaving the
+        folder open without summary.json (close_output(finish=True) again writes the end whole)."""
     def checkpoint(self, path: PathLike) -> None:
         """Saves the scene and the whole state (.mcack) to the file `path` (not a folder, not "")."""
 

@@ -84,6 +84,7 @@ void without_gil(F&& f) {
 constexpr double kSliceSeconds = 2.0;
 class PySimulation {
  public:
+  enum class Busy { no, advancing, finishing };
   PySimulation(const SceneDef& scene, int threads) : threads_(threads) {
     Engine::check_environment();
     tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads_));
@@ -107,17 +108,30 @@ class PySimulation {
   PySimulation& operator=(const PySimulation&) = delete;
 
   // The engine, for reading: after the slice a Ctrl-C left running has ended. Refused while another
-  // Python thread is in advance (the state is the backend's own arrays).
+  // Python thread is in advance (the state is the backend's own arrays) or writes the run's end.
   const Engine& engine() const {
-    refuse_while_advancing();
+    refuse_while_busy();
     join();
     // Another thread may have begun an advance while this one waited for the slice (without the GIL); from
     // here this thread holds the GIL, so none can begin until it has read.
-    refuse_while_advancing();
+    refuse_while_busy();
     return *engine_;
   }
   const std::shared_ptr<Engine>& shared() const { return engine_; }
-  bool advancing() const { return advancing_; }
+  bool advancing() const { return busy_ == Busy::advancing; }
+  bool finishing() const { return busy_ == Busy::finishing; }
+  void refuse_while_busy() const {
+    switch (busy_.load()) {
+      case Busy::no:
+        return;
+      case Busy::advancing:
+        throw Error("the simulation is advancing (in another thread, or this is advance's progress callback, which "
+                    "gets done and total); read its state when advance returns");
+      case Busy::finishing:
+        throw Error("the simulation is writing its run's end (close_output(finish=True), in another thread or from "
+                    "its progress callback); use it when that returns");
+    }
+  }
   int threads() const { return threads_; }
   double wall() const {
     join();
@@ -134,19 +148,17 @@ class PySimulation {
     if (steps > Engine::kMaxSteps)
       throw Error(fmt::format("advance({}): more than {:.0e} steps would not end; give fewer", steps,
                               static_cast<double>(Engine::kMaxSteps)));
-    if (advancing_.exchange(true))
-      throw Error("the simulation is advancing (in another thread, or this is advance's progress callback); one "
-                  "advance at a time");
+    claim(Busy::advancing);
     // However advance ends, the slices stop (a slice still running is one a Ctrl-C left, or one of a daemon
     // thread the interpreter's exit ended; a finished advance has none, and the next one starts afresh).
     struct Done {
-      std::atomic<bool>& b;
+      std::atomic<Busy>& b;
       std::atomic<bool>& stop;
       ~Done() {
         stop = true;
-        b = false;
+        b = Busy::no;
       }
-    } done_guard{advancing_, stop_};
+    } done_guard{busy_, stop_};
     join();
     report_left_over();
     stop_ = false;
@@ -183,6 +195,80 @@ class PySimulation {
     }
     join();
     report_left_over();
+  }
+
+  // The run's end (close_output(finish=True)), whose fragment meshes may take a minute: work(poll, each) on a
+  // thread of its own with the Simulation's threads, while this thread waits without the GIL and wakes every
+  // 50 ms for Ctrl-C and progress(done, total) (each(done, total) counts what work has written), as advance
+  // does. Ctrl-C, or progress raising, makes poll and each throw in work, which ends within the piece being
+  // meshed, and is raised once it has. Reads, steps and another end wait for it (they are refused).
+  using Poll = std::function<void()>;
+  using Each = std::function<void(std::size_t done, std::size_t total)>;
+  void finish(const std::function<void(const Poll&, const Each&)>& work, const py::object& progress) {
+    claim(Busy::finishing);
+    struct Release {
+      std::atomic<Busy>& b;
+      ~Release() { b = Busy::no; }
+    } release{busy_};
+    join();
+    struct Stopped {};
+    std::atomic<bool> stop{false}, running{true};
+    std::atomic<std::size_t> done{0}, total{0};
+    std::exception_ptr failed;
+    std::mutex m;
+    std::condition_variable ended;
+    std::thread worker;
+    without_gil([&] {
+      worker = std::thread([&] {
+        try {
+          tbb::global_control gc(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads_));
+          const Poll poll = [&] {
+            if (stop) throw Stopped{};
+          };
+          work(poll, [&](std::size_t d, std::size_t t) {
+            total = t;
+            done = d;
+            poll();
+          });
+        } catch (const Stopped&) {
+        } catch (...) {
+          failed = std::current_exception();
+        }
+        {
+          std::lock_guard<std::mutex> lock(m);
+          running = false;
+        }
+        ended.notify_all();
+      });
+    });
+    // (With the GIL or without it: a daemon thread ended at the interpreter's exit unwinds from taking it back.)
+    const auto end = [&] {
+      stop = true;
+      if (PyGILState_Check()) without_gil([&] { worker.join(); });
+      else worker.join();
+    };
+    try {
+      std::size_t reported = 0;
+      for (;;) {
+        without_gil([&] {
+          std::unique_lock<std::mutex> lock(m);
+          ended.wait_for(lock, std::chrono::milliseconds(50), [&] { return !running; });
+        });
+        const bool finished = !running;
+        if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+        const std::size_t d = done;
+        if (!progress.is_none() && d > reported) {
+          reported = d;
+          progress(d, total.load());
+        }
+        if (finished) break;
+      }
+    } catch (...) {
+      end();
+      throw;
+    }
+    end();
+    if (failed) std::rethrow_exception(failed);
   }
 
   // The module's cost over the command for advance (bench/python_overhead.py): from one snapshot of the
@@ -274,10 +360,14 @@ class PySimulation {
     return static_cast<std::int64_t>(std::clamp(kSliceSeconds / per_step, 1.0, 1073741824.0));
   }
 
-  void refuse_while_advancing() const {
-    if (advancing_)
-      throw Error("the simulation is advancing (in another thread, or this is advance's progress callback, which "
-                  "gets done and total); read its state when advance returns");
+  // What a call that steps or writes the run's end takes first, refused while another holds it.
+  void claim(Busy what) {
+    Busy was = Busy::no;
+    if (busy_.compare_exchange_strong(was, what)) return;
+    if (was == Busy::advancing && what == Busy::advancing)
+      throw Error("the simulation is advancing (in another thread, or this is advance's progress callback); one "
+                  "advance at a time");
+    refuse_while_busy();
   }
 
   // Waits for the stepping thread's last slice. Two Python threads may wait at once (a read in one, an
@@ -317,7 +407,8 @@ class PySimulation {
   std::mutex mutex_;
   std::condition_variable finished_;
   std::atomic<bool> running_{false};  // the stepping thread is going (set false under mutex_, for finished_)
-  std::atomic<bool> stop_{false}, advancing_{false};
+  std::atomic<bool> stop_{false};
+  std::atomic<Busy> busy_{Busy::no};
   std::atomic<std::int64_t> done_{0};
   std::exception_ptr error_;
   StepHealth health_;
@@ -569,7 +660,7 @@ std::int64_t write_frame_unworded(PySimulation& sim, const std::filesystem::path
 
 // close_output(finish=True): the run's end as mca run writes it after its last frame, from the state of the
 // last frame written: the fragment meshes (output.fragments), fragments.csv and summary.json, "finished".
-void finish_output(PySimulation& sim) {
+void finish_output(PySimulation& sim, const py::object& progress) {
   const Engine& e = sim.engine();
   const State& s = e.state();
   if (!sim.output)
@@ -581,7 +672,9 @@ void finish_output(PySimulation& sim) {
                             "(frame {}, step {}); write_frame first, so that the run's end describes its last frame",
                             s.step, out.dir.string(), out.next_frame - 1, out.last_step));
   const auto frags = out.writer->fragments(s);
-  out.writer->write_fragment_meshes(s, frags);
+  sim.finish([&](const PySimulation::Poll& poll, const PySimulation::Each& each) {
+    out.writer->write_fragment_meshes(s, frags, each, poll);
+  }, progress);
   app::write_summary(out.dir, e, frags, sim.first_wall(), sim.wall() - sim.first_wall(), s.step - sim.first_step(),
                      sim.threads(), "finished", sim.resumed_from());
 }
@@ -945,16 +1038,22 @@ Simulation is gone.)");
           "(frame 0, its earlier frames and stats removed). Returns the frame number.")
       .def(
           "close_output",
-          [](PySimulation& s, Given<py_type::boolean> finish) {
-            if (to_bool(finish, "close_output: finish", "True or False")) finish_output(s);
+          [](PySimulation& s, Given<py_type::boolean> finish, Given<py_type::progress> progress_arg) {
+            const auto progress = py::reinterpret_borrow<py::object>(progress_arg.value);
+            check_progress(progress);
+            if (s.finishing()) s.refuse_while_busy();  // (another thread writes the run's end with its writer)
+            if (to_bool(finish, "close_output: finish", "True or False")) finish_output(s, progress);
             s.output.reset();
           },
-          py::arg("finish") = false,
+          py::arg("finish") = false, py::arg("progress") = py::none(),
           "Releases the folder of write_frame (its files stay). finish=True first writes the run's end as mca run "
           "does after its last frame, from the state of the last frame written (write_frame it first): summary.json "
           "(status \"finished\": the run ends where the script ends it, whatever output.duration says), fragments.csv "
           "and, with output.fragments, the fragment meshes; the folder is then a finished run to the Blender importer "
-          "and to mca.")
+          "and to mca. The meshes (a shattered object's thousands of pieces take a minute) are made on a thread of "
+          "their own with the Simulation's threads: progress(meshes written, meshes) is called as they are written, "
+          "and Ctrl-C raises KeyboardInterrupt within the piece being meshed; the folder then stays open without its "
+          "summary.json, and close_output(finish=True) again writes the end whole.")
       .def(
           "checkpoint",
           [](PySimulation& s, Given<py_type::path> path) { checkpoint(s, to_path(path, "checkpoint: path")); },

@@ -114,3 +114,69 @@ def test_an_exit_while_a_daemon_thread_advances_is_clean(tmp_path):
                            env=os.environ.copy(), cwd=tmp_path)
         assert r.returncode == 0 and "terminate" not in r.stderr, (wait, r.returncode, r.stderr[-1000:])
         assert r.stdout == "main exits\n"
+
+
+FINISH = textwrap.dedent(
+    """
+    import json, pathlib, sys, time
+    import mca
+    out = pathlib.Path(sys.argv[1])
+    # One block of 64,000 automata: its fragment mesh takes seconds.
+    scene = mca.Scene.from_toml('[solver]\\nspacing = 0.05\\ngravity = [0, 0, 0]\\n[output]\\nfragments = true\\n'
+                                '[[object]]\\nname = "block"\\nshape = "box"\\nsize = [2.0, 2.0, 2.0]\\n')
+    sim = mca.Simulation(scene, threads=1)
+    sim.write_frame(out)
+    def reads(done, total):
+        try:
+            sim.step
+        except mca.Error as e:
+            print("refused:", e, flush=True)
+            raise
+    try:
+        sim.close_output(finish=True, progress=reads)
+    except mca.Error:
+        pass
+    print("meshing", flush=True)
+    try:
+        sim.close_output(finish=True)
+    except KeyboardInterrupt:
+        t = time.monotonic()
+        print(f"interrupted {t:.6f}", flush=True)
+        assert not (out / "summary.json").exists()
+        seen = []
+        sim.close_output(finish=True, progress=lambda done, total: seen.append((done, total)))
+        assert seen == [(1, 1)], seen
+        assert json.loads((out / "summary.json").read_text())["status"] == "finished"
+        assert (out / "fragments" / "fragment_000.ply").stat().st_size > 0
+        print("finished", flush=True)
+        sys.exit(0)
+    sys.exit(3)
+    """
+)
+
+
+def test_ctrl_c_ends_the_fragment_meshes_of_close_output_quickly(tmp_path):
+    """close_output(finish=True) made the fragment meshes holding the GIL, deaf to Ctrl-C for as long as they
+    took (a shattered object's, a minute). They are made on a thread of their own now: KeyboardInterrupt
+    comes within the piece being meshed, the folder is left without summary.json, and close_output(finish=True)
+    again writes the end whole. The progress callback cannot read the simulation meanwhile (mca.Error)."""
+    p = subprocess.Popen([sys.executable, "-c", FINISH, str(tmp_path / "out")], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, env=os.environ.copy())
+    try:
+        line = p.stdout.readline()
+        assert line.startswith("refused: the simulation is writing its run's end"), line + p.stderr.read()
+        assert p.stdout.readline().strip() == "meshing", p.stderr.read()
+        time.sleep(1.0)  # well inside the meshing (about 5 s on one thread)
+        sent = time.monotonic()
+        p.send_signal(signal.SIGINT)
+        line = p.stdout.readline().split()
+        assert line[:1] == ["interrupted"], p.stderr.read()
+        latency = float(line[1]) - sent
+        assert p.stdout.readline().strip() == "finished", p.stderr.read()
+        assert p.wait(timeout=60) == 0
+        # The meshing polls for the stop every slab of voxels; a loaded machine may delay it a little.
+        assert latency < 0.5, f"KeyboardInterrupt came {latency:.3f} s after SIGINT"
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.wait()
