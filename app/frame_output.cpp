@@ -161,6 +161,31 @@ std::string coarse_surface_note(const Model& m, const SceneDef& scene) {
       coarse, volume_faces, longest, m.spacing);
 }
 
+std::vector<std::string> thin_shell_notes(const Model& m, const SceneDef& scene) {
+  // A shell's fragment meshes are its triangles thickened, sampled in a voxel that its surface bounds from
+  // below (analysis::shell_voxel); a shell thinner than two voxels is meshed two voxels thick (a 0.2 mm shell
+  // on a sphere of 5,120 triangles became 9 mm), which a user reading the meshes' volumes or their look
+  // should be told. (Estimated for the object taken whole, as its memory is: small pieces mesh finer.)
+  std::vector<std::string> notes;
+  if (!scene.output.fragments) return notes;
+  const std::vector<double> area = surface_area_by_object(m);
+  std::vector<std::int64_t> automata(m.object_names.size(), 0);
+  for (std::size_t a = 0; a < m.size(); ++a) ++automata[static_cast<std::size_t>(m.object[a])];
+  for (const MeshSummary& ms : m.meshes) {
+    if (!ms.surface || ms.object < 0 || static_cast<std::size_t>(ms.object) >= area.size()) continue;
+    const auto o = static_cast<std::size_t>(ms.object);
+    const double half = 0.5 * ms.shell_thickness;
+    const double hv = analysis::shell_voxel(m.spacing, half, automata[o], area[o], 0, area[o]);
+    if (!(hv > 1.5 * half)) continue;
+    notes.push_back(fmt::format(
+        "object '{}': its shell_thickness {:.3g} m is meshed about {:.2g} m thick in its fragment meshes "
+        "(output.fragments): the voxel they are sampled in is bounded by the shell's surface ({:.3g} m^2 over {}), "
+        "and {:.2g} m is the finest; fragments.csv gives the pieces' volumes at the shell's thickness",
+        m.object_names[o], ms.shell_thickness, 2 * hv, area[o], text::count(automata[o], "automaton|automata"), hv));
+  }
+  return notes;
+}
+
 std::vector<std::string> strain_limit_notes(const Model& m) {
   // In uniaxial tension the stress criterion ends a link at the strain c sigma_t / E, the displacement
   // criterion at eps_b (class factors and link strengths scale both alike, softening both by its factor
@@ -200,6 +225,7 @@ std::vector<std::string> scene_notes(const Model& m, const SceneDef& scene) {
   if (std::string n = step_note(m); !n.empty()) notes.push_back(std::move(n));
   if (std::string n = surface_format_note(scene); !n.empty()) notes.push_back(std::move(n));
   if (std::string n = coarse_surface_note(m, scene); !n.empty()) notes.push_back(std::move(n));
+  for (std::string& n : thin_shell_notes(m, scene)) notes.push_back(std::move(n));
   return notes;
 }
 

@@ -876,6 +876,43 @@ TEST(SurfaceMode, AShellThinnerThanTheSpacingIsMeshedAtItsThickness) {
   }
 }
 
+// A shell much thinner than its surface lets its fragment meshes' voxel be is meshed thicker than it is;
+// mca info and mca run say how thick (a 0.2 mm shell came out 9 mm thick without a word: a hostile review).
+// The thickness said is the one the object's mesh has taken whole; a shell meshed as thin as it is, or a
+// run without fragment meshes, gets no note.
+TEST(SurfaceMode, AShellMeshedThickerThanItIsGetsANote) {
+  TempDir t;
+  test::write_mesh_file(t.path() / "sheet.obj", test::sheet_mesh(6, 6, 0.05));
+  SceneDef s = surface_scene(t.path() / "sheet.obj", 0.05);
+  s.solver.gravity = {0, 0, 0};
+  s.objects[0].shell_thickness = 0.0004;
+  s.output.fragments = true;
+  const Engine sim(s);
+  const Model& m = sim.model();
+  const auto notes = app::thin_shell_notes(m, s);
+  ASSERT_EQ(notes.size(), 1u);
+  const std::string head = "its shell_thickness 0.0004 m is meshed about ";
+  const auto at = notes[0].find(head);
+  ASSERT_NE(at, std::string::npos) << notes[0];
+  const double said = std::stod(notes[0].substr(at + head.size()));
+  analysis::Fragments f;
+  f.id.assign(m.size(), 0);
+  f.count = 1;
+  const auto meshes = analysis::fragment_meshes(m, sim.state(), f, 0);
+  ASSERT_EQ(meshes.size(), 1u);
+  const auto e = extent_of(meshes[0].mesh);
+  std::printf("%s\nmeshed %.5f m thick\n", notes[0].c_str(), e[5] - e[2]);
+  EXPECT_GT(e[5] - e[2], 0.8 * said);
+  EXPECT_LT(e[5] - e[2], 1.25 * said);
+  EXPECT_GT(said, 2 * s.objects[0].shell_thickness);
+  // As thick as the voxel allows: no note; no fragment meshes: none.
+  s.objects[0].shell_thickness = 0.004;
+  EXPECT_TRUE(app::thin_shell_notes(lattice::build_model(s), s).empty());
+  s.objects[0].shell_thickness = 0.0004;
+  s.output.fragments = false;
+  EXPECT_TRUE(app::thin_shell_notes(m, s).empty());
+}
+
 }  // namespace
 }  // namespace mca
 
