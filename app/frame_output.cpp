@@ -327,10 +327,11 @@ OutputEstimate estimate_output(const Model& m, const OutputDef& o, std::int64_t 
       const double s = half_shell[o];
       if (s == 0) continue;
       const Vec3* c = &m.surface.offset[3 * f];
-      const double area = 0.5 * static_cast<double>(length(cross(c[1] - c[0], c[2] - c[0])));
-      const double edges[3] = {length(c[1] - c[0]), length(c[2] - c[1]), length(c[0] - c[2])};
-      const double rim = edges[0] + edges[1] + edges[2], longest = std::max({edges[0], edges[1], edges[2]});
-      const double h = analysis::shell_voxel(d, s, fewest, k * area, longest > 0 ? 2 * area / longest : 0, object_area[o]);
+      const mesh::Point p[3] = {{c[0].x, c[0].y, c[0].z}, {c[1].x, c[1].y, c[1].z}, {c[2].x, c[2].y, c[2].z}};
+      const double area = 0.5 * mesh::twice_area(p[0], p[1], p[2]);
+      const double rim = length(c[1] - c[0]) + length(c[2] - c[1]) + length(c[0] - c[2]);
+      const double h = analysis::shell_voxel(d, s, fewest, k * area, mesh::height_across_longest_edge(p[0], p[1], p[2]),
+                                             object_area[o]);
       e.fragment_meshes += std::max(0.0, 60 * (2 * area + 2 * rim * std::max(s, h)) / (h * h) - cell);
     }
     e.per_run += e.fragment_meshes;

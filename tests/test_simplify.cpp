@@ -87,15 +87,8 @@ double area(const mesh::TriMesh& m) {
 // Each triangle's height across its longest edge.
 double lowest_height(const mesh::TriMesh& m) {
   double low = INFINITY;
-  for (const auto& f : m.faces) {
-    double longest = 0;
-    for (int c = 0; c < 3; ++c) {
-      const Point& a = m.vertices[f[c]];
-      const Point& b = m.vertices[f[(c + 1) % 3]];
-      longest = std::max(longest, std::hypot(b[0] - a[0], b[1] - a[1], b[2] - a[2]));
-    }
-    low = std::min(low, mesh::twice_area(m.vertices[f[0]], m.vertices[f[1]], m.vertices[f[2]]) / longest);
-  }
+  for (const auto& f : m.faces)
+    low = std::min(low, mesh::height_across_longest_edge(m.vertices[f[0]], m.vertices[f[1]], m.vertices[f[2]]));
   return low;
 }
 

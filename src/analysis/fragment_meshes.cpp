@@ -297,15 +297,9 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
       for (const std::uint32_t f : piece_faces[static_cast<std::size_t>(chosen[k])]) {
         const mesh::Triangle& t = rest[obj].faces[f];
         const auto& vs = rest[obj].vertices;
-        const double twice = mesh::twice_area(vs[t[0]], vs[t[1]], vs[t[2]]);
-        area += 0.5 * twice;
-        double longest = 0;
-        for (int e = 0; e < 3; ++e) {
-          const auto& a = vs[t[e]];
-          const auto& b = vs[t[(e + 1) % 3]];
-          longest = std::max(longest, std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]));
-        }
-        if (longest > 0) narrowest = std::min(narrowest, twice / longest);
+        area += 0.5 * mesh::twice_area(vs[t[0]], vs[t[1]], vs[t[2]]);
+        if (const double height = mesh::height_across_longest_edge(vs[t[0]], vs[t[1]], vs[t[2]]); height > 0)
+          narrowest = std::min(narrowest, height);
         for (const std::uint32_t v : t)
           for (int c = 0; c < 3; ++c) {
             lo[c] = std::min(lo[c], rest[obj].vertices[v][c]);

@@ -1005,6 +1005,13 @@ double twice_area(const Point& a, const Point& b, const Point& c) {
   return std::sqrt(x * x + y * y + z * z);
 }
 
+double height_across_longest_edge(const Point& a, const Point& b, const Point& c) {
+  const double longest = std::max({std::hypot(b[0] - a[0], b[1] - a[1], b[2] - a[2]),
+                                   std::hypot(c[0] - b[0], c[1] - b[1], c[2] - b[2]),
+                                   std::hypot(a[0] - c[0], a[1] - c[1], a[2] - c[2])});
+  return longest > 0 ? twice_area(a, b, c) / longest : 0;
+}
+
 bool zero_area(const TriMesh& m, const Triangle& f) {
   if (f[0] == f[1] || f[1] == f[2] || f[0] == f[2]) return true;
   const Point &a = m.vertices[f[0]], &b = m.vertices[f[1]], &c = m.vertices[f[2]];

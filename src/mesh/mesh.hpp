@@ -49,6 +49,8 @@ Bounds bounds(const TriMesh& m);
 
 // Twice the area of the triangle a b c (the length of the cross product of two of its edges).
 double twice_area(const Point& a, const Point& b, const Point& c);
+// The triangle's height across its longest edge (0 where all three corners are one point): how narrow it is.
+double height_across_longest_edge(const Point& a, const Point& b, const Point& c);
 
 // Whether the triangle of corners `f` of m has no area: a repeated corner, or corners on a line to within
 // the rounding of their coordinates (its area against its longest edge; where the corners lie far from
