@@ -36,8 +36,10 @@ constexpr double kRenderFixedBytes = 100e6, kRenderBytesPerPixel = 24, kRenderBy
 // The fragment meshes' memory per voxel of a piece's surface (estimate_memory), from the peaks of runs with
 // and without output.fragments: 160 to 240 bytes for volume fills (the armadillo, the bunny, a box in 2,745
 // pieces), 320 to 380 for shells (the cow, spheres of 20,480 and 81,920 triangles), which are meshed on
-// both sides (390 to 570 until 2026-12-07, when a shell's pieces were cut from its signed distance's grid).
-constexpr double kFragmentBytesPerSurfaceVoxel = 250, kFragmentBytesPerShellVoxel = 400, kFragmentBytesPerThread = 6e6;
+// both sides (390 to 570 until 2026-12-07, when a shell's pieces were cut from its signed distance's grid);
+// 450 since a flat shell's pieces are merged (mesh::simplify_flat, about 110 bytes a triangle while it runs:
+// a box shell of 4,800 triangles broken by a ball peaked 2 to 5 % over what 400 counted; a hostile review).
+constexpr double kFragmentBytesPerSurfaceVoxel = 250, kFragmentBytesPerShellVoxel = 450, kFragmentBytesPerThread = 6e6;
 
 // The area of each object's bound surface triangles (m^2; 0 for an object without).
 std::vector<double> surface_area_by_object(const Model& m) {
@@ -176,7 +178,7 @@ std::vector<std::string> thin_shell_notes(const Model& m, const SceneDef& scene)
     const auto o = static_cast<std::size_t>(ms.object);
     const double half = 0.5 * ms.shell_thickness;
     const double hv = analysis::shell_voxel(m.spacing, half, automata[o], area[o], 0, area[o]);
-    if (!(hv > 1.5 * half)) continue;
+    if (!(hv > 1.1 * half)) continue;
     notes.push_back(fmt::format(
         "object '{}': its shell_thickness {:.3g} m is meshed about {:.2g} m thick in its fragment meshes "
         "(output.fragments): the voxel they are sampled in is bounded by the shell's surface ({:.3g} m^2 over {}), "
@@ -346,11 +348,11 @@ MemoryEstimate estimate_memory(const Model& m, const OutputDef& o, int render_wi
   e.arrays = static_cast<double>(estimate_memory_bytes(m.size(), m.explicit_links.size(), random));
   e.rubble = static_cast<double>(estimate_rubble_bytes(m.size(), random));
   // The options' per-slot arrays (three lattice slots an automaton): a strength spread's factors (4
-  // bytes), a jittered lattice's rest lengths and inverses (12), softening's damage in the state and in
+  // bytes), a jittered lattice's rest lengths and inverses (12; and its cells' centres, 24 an automaton), softening's damage in the state and in
   // the engine's copy of it (8) and the contact search's flags (1).
   const double slots = static_cast<double>(m.lattice_slots());
   if (!m.link_strength.empty()) e.arrays += 4.0 * slots;
-  if (!m.link_rest.empty()) e.arrays += 12.0 * slots;
+  if (!m.link_rest.empty()) e.arrays += 12.0 * slots + 24.0 * static_cast<double>(m.size());  // (and Model::cell0)
   if (m.softening()) e.arrays += 9.0 * slots;
   // Mesh objects, per triangle: assimp's scene and the welded mesh (vertices, faces, the weld map), the
   // checks' edge tables, the shells, the surface bound to automata (66 bytes) kept for the run; the
@@ -546,10 +548,14 @@ std::size_t FrameWriter::write_fragment_meshes(const State& s, const analysis::F
   std::size_t written = 0;
   std::mutex lock;
   analysis::for_each_fragment_mesh(model_, s, frags, fragment_min_automata_, [&](analysis::FragmentMesh&& fm) {
-    const mesh::FloatMesh out = mesh::to_float(fm.mesh);
-    fm.mesh = {};
-    io::write_file_atomic(dir_ / fmt::format("fragments/fragment_{:03d}.ply", fm.fragment),
-                          [&](std::ostream& os) { mesh::write_ply(os, out); });
+    const auto path = dir_ / fmt::format("fragments/fragment_{:03d}.ply", fm.fragment);
+    if (fm.float32) {
+      const mesh::FloatMesh out = mesh::to_float(fm.mesh);
+      fm.mesh = {};
+      io::write_file_atomic(path, [&](std::ostream& os) { mesh::write_ply(os, out); });
+    } else {
+      io::write_file_atomic(path, [&](std::ostream& os) { mesh::write_ply(os, fm.mesh); });
+    }
     const std::lock_guard<std::mutex> hold(lock);
     ++written;
     if (each) each(written, total);

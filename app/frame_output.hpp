@@ -77,8 +77,9 @@ std::string coarse_surface_note(const Model& model, const SceneDef& scene);
 // the stress criterion ends them in tension (c tensile_strength / youngs_modulus): they break by
 // displacement, weaker than the strength says, their softening cut short.
 std::vector<std::string> strain_limit_notes(const Model& model);
-// With output.fragments, a note for each shell that its fragment meshes thicken (a shell thinner than the
-// voxel its surface bounds them to is meshed that voxel thick on each side): the thickness they will have.
+// With output.fragments, a note for each shell that its fragment meshes thicken by over a tenth (a shell
+// thinner than the voxel its surface bounds them to is meshed that voxel thick on each side): the
+// thickness they will have.
 std::vector<std::string> thin_shell_notes(const Model& model, const SceneDef& scene);
 // Every note above that applies, in the order mca info and mca run print them.
 std::vector<std::string> scene_notes(const Model& model, const SceneDef& scene);

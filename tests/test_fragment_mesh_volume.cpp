@@ -86,6 +86,43 @@ TEST(FragmentMeshVolume, PiecesOfABrokenWallHoldTheirCells) {
   std::printf("%zu pieces of more than 8 automata: volume / cells %.4f to %.4f\n", meshes.size(), low, high);
 }
 
+// On the jittered cubic lattice a piece's solid is its sites' Voronoi cells within the object's cells
+// (Model::cell0), as on the random lattice: each jittered site's own cube left gaps between them, and a
+// jittered box's mesh folded on 204 edges with 15 % of its volume missing (a hostile review). The wall at
+// lattice_jitter 0.3 whole, and broken into 160 pieces: closed, no triangle of zero area, all together the
+// wall within 1.5 % (measured 0.999 whole, 0.988 in pieces), each piece its automata's cells within 15 %
+// (0.90 to 1.12: its sites' Voronoi cells are not their cubic cells).
+TEST(FragmentMeshVolume, PiecesOfAJitteredLatticeAreClosedAndHoldTheirCells) {
+  SceneDef scene = test::cubic_wall_scene();
+  scene.solver.lattice_jitter = 0.3;
+  const Engine sim(scene);
+  const Model& m = sim.model();
+  const double cell = std::pow(static_cast<double>(m.spacing), 3);
+  analysis::Fragments whole;
+  whole.id.assign(m.size(), 0);
+  whole.count = 1;
+  for (const analysis::Fragments& pieces : {whole, voronoi_pieces(m, 160, 7)}) {
+    const auto meshes = analysis::fragment_meshes(m, sim.state(), pieces, 8);
+    ASSERT_FALSE(meshes.empty());
+    double low = 2, high = 0, total = 0;
+    std::int64_t automata = 0;
+    for (const auto& fm : meshes) {
+      const double ratio = fm.volume / (static_cast<double>(fm.automata) * cell);
+      low = std::min(low, ratio);
+      high = std::max(high, ratio);
+      total += fm.volume;
+      automata += fm.automata;
+      EXPECT_NEAR(ratio, 1.0, 0.15) << "fragment " << fm.fragment << " of " << fm.automata << " automata";
+      const mesh::Topology top = mesh::topology(fm.mesh);
+      EXPECT_TRUE(top.closed()) << "fragment " << fm.fragment << ": " << top.non_manifold_edges << " non-manifold edges";
+      EXPECT_EQ(degenerate_faces(fm.mesh, m.spacing / 8), 0u) << "fragment " << fm.fragment;
+    }
+    EXPECT_NEAR(total / (static_cast<double>(automata) * cell), 1.0, 0.015);
+    std::printf("%zu pieces: volume / cells %.4f to %.4f, all %.4f\n", meshes.size(), low, high,
+                total / (static_cast<double>(automata) * cell));
+  }
+}
+
 // On the random lattice a piece's solid is its automata's Voronoi cells: split by the bisectors between
 // sites, bounded by the object's cells (Model::cell0). A wall broken into 160 pieces of about 30 automata, and
 // a sphere (a staircase of cells) into 40: each piece holds its Voronoi cells' volume within 3 % (measured

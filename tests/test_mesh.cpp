@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <set>
+#include <sstream>
 
 #include "analysis/fragment_meshes.hpp"
 #include "analysis/fragments.hpp"
@@ -23,6 +24,7 @@
 #include "lattice/lattice.hpp"
 #include "mca/error.hpp"
 #include "mesh/mesh.hpp"
+#include "mesh/mesh_write.hpp"
 #include "mesh_fixtures.hpp"
 #include "support.hpp"
 #include "shell.hpp"
@@ -1039,6 +1041,47 @@ TEST(FragmentMeshes, OfABoxAreItsCellsAndFollowTheFragmentsPose) {
       EXPECT_NEAR(b.lo[0], -0.15, 1e-3);
       EXPECT_NEAR(b.lo[2], 0.9, 1e-3);
     }
+  }
+}
+
+// A piece far from the origin, where float32 cannot hold its vertices to a hundredth of its voxel, is
+// written in double, whole: float32's rounding merged a box 1e4 m out into a fold of two triangles on one
+// edge, 1e5 m out into 8 triangles holding an eighth of its volume (empty files before its flat faces were
+// merged; a hostile review). Near the origin the same box is float32.
+TEST(FragmentMeshes, APieceFarFromTheOriginIsWrittenInDoubleWhole) {
+  std::vector<mesh::TriMesh> written;
+  for (const mesh::Point at : {mesh::Point{0, 0, 0}, mesh::Point{1e4, 0, 0}, mesh::Point{1e5, 5e4, 2e4}}) {
+    SCOPED_TRACE(testing::Message() << "at x = " << at[0]);
+    SceneDef s = test::block_scene(40, 8, 30, 0.05);
+    s.objects[0].position = {at[0], at[1], at[2]};
+    const Engine sim(s);
+    analysis::Fragments one;
+    one.id.assign(sim.model().size(), 0);
+    one.count = 1;
+    const auto meshes = analysis::fragment_meshes(sim.model(), sim.state(), one, 0);
+    ASSERT_EQ(meshes.size(), 1u);
+    const analysis::FragmentMesh& fm = meshes[0];
+    EXPECT_EQ(fm.float32, at[0] == 0);
+    // As the file holds it, read back.
+    std::ostringstream ply;
+    if (fm.float32) mesh::write_ply(ply, mesh::to_float(fm.mesh));
+    else mesh::write_ply(ply, fm.mesh);
+    const std::string bytes = ply.str();
+    EXPECT_EQ(bytes.find("property double x") != std::string::npos, !fm.float32);
+    mesh::TriMesh back = mesh::read_mesh_memory(bytes.data(), bytes.size(), "ply", "fragment_000.ply");
+    const mesh::Topology top = mesh::topology(back);
+    EXPECT_TRUE(top.closed()) << top.boundary_edges << " boundary, " << top.non_manifold_edges << " non-manifold edges";
+    EXPECT_EQ(top.degenerate_faces, 0u);
+    EXPECT_NEAR(mesh::signed_volume(back) / (2.0 * 0.4 * 1.5), 1.0, 0.003);
+    std::printf("box at x = %g: %zu triangles, %s, volume %.6f m^3\n", at[0], back.faces.size(),
+                fm.float32 ? "float32" : "double", mesh::signed_volume(back));
+    written.push_back(std::move(back));
+  }
+  // The same piece wherever it is (its sampling's rounding differs a little: a few triangles).
+  for (std::size_t k = 1; k < written.size(); ++k) {
+    EXPECT_NEAR(mesh::signed_volume(written[k]), mesh::signed_volume(written[0]), 1e-6);
+    EXPECT_NEAR(static_cast<double>(written[k].faces.size()), static_cast<double>(written[0].faces.size()),
+                0.01 * static_cast<double>(written[0].faces.size()));
   }
 }
 

@@ -339,7 +339,8 @@ def _vtu_arrays(f, header, start, n, names):
 # Meshes
 
 def read_ply(path):
-    """(vertices (V, 3) float32, triangles (F, 3) int32, per-face values or None) of a PLY written by mca."""
+    """(vertices (V, 3) float32, or float64 for a fragment mca wrote in double, triangles (F, 3) int32, per-face
+    values or None) of a PLY written by mca."""
     with _RegularFile(path, f"{path} is missing") as f:
         return _read_ply(f)
 
@@ -373,21 +374,24 @@ def _read_ply(f):
                 nf = int(w[2])
         elif w[:1] == ["property"] and element in props:
             props[element].append(" ".join(w[1:]))
-    if props["vertex"] != ["float x", "float y", "float z"] or not props["face"] or \
-            props["face"][0] != "list uchar int vertex_indices" or len(props["face"]) > 2 or \
+    # (float32 vertices, or double for a fragment far from the origin, which float32 would fold)
+    vtype = {"float": "<f4", "double": "<f8"}.get(props["vertex"][0].split()[0] if props["vertex"] else "")
+    if vtype is None or props["vertex"] != [f"{props['vertex'][0].split()[0]} {a}" for a in "xyz"] or \
+            not props["face"] or props["face"][0] != "list uchar int vertex_indices" or len(props["face"]) > 2 or \
             (len(props["face"]) == 2 and not props["face"][1].startswith("int ")):
         raise RunError(f"{path}: vertex or face properties are not the ones mca writes "
-                       "(float x y z; uchar-int vertex_indices and an optional int)")
+                       "(float or double x y z; uchar-int vertex_indices and an optional int)")
+    vsize = 3 * np.dtype(vtype).itemsize
     value = len(props["face"]) == 2
     if nv is None or nf is None:
         raise RunError(f"{path}: the header has no vertex or face count")
     fdt = np.dtype([("n", "u1"), ("v", "<i4", (3,))] + ([("value", "<i4")] if value else []))
-    need = body + 12 * nv + fdt.itemsize * nf
+    need = body + vsize * nv + fdt.itemsize * nf
     if f.size < need:
         raise RunError(f"{path} is cut short ({f.size} bytes, its header declares {need}): run mca again")
     data = f.read_at(body, need - body)
-    verts = np.frombuffer(data, "<f4", 3 * nv, 0).reshape(nv, 3)
-    faces = np.frombuffer(data, fdt, nf, 12 * nv)
+    verts = np.frombuffer(data, vtype, 3 * nv, 0).reshape(nv, 3)
+    faces = np.frombuffer(data, fdt, nf, vsize * nv)
     if nf and (np.any(faces["n"] != 3) or faces["v"].min() < 0 or faces["v"].max() >= nv):
         raise RunError(f"{path}: faces that are not triangles of its vertices (mca writes triangles)")
     _check_finite(path, "vertex", verts, "vertex")

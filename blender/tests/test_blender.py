@@ -702,6 +702,41 @@ def check_large_files(a):
         shutil.rmtree(d, ignore_errors=True)  # (20 GB files, sparse: a copy of the folder would not be)
 
 
+def check_far_fragments(a):
+    """A fragment far from the origin is written in double (float32 folded it, or left it empty): the add-on's
+    reader takes the double PLY, closed and whole, and mca_cli.py imports the run with it into a .blend."""
+    import numpy as np
+    reader = load_reader()
+    run_dir = os.path.join(a.work, "far")
+    scene = os.path.join(a.work, "far.toml")
+    with open(scene, "w") as f:
+        f.write('name = "far"\n[solver]\nspacing = 0.05\nlattice = "cubic"\ngravity = [0, 0, 0]\n'
+                '[output]\nfragments = true\nduration = 0.0001\n'
+                '[[object]]\nname = "box"\nshape = "box"\nsize = [2.0, 0.4, 1.5]\nposition = [1e5, 5e4, 2e4]\n')
+    mca_run(a, run_dir, scene, "--steps", "2")
+    v, f, _ = reader.read_ply(os.path.join(run_dir, "fragments", "fragment_000.ply"))
+    if v.dtype != np.float64:
+        sys.exit(f"the far fragment was read as {v.dtype}, not the double it is written in")
+    edges = {}
+    for tri in f.tolist():
+        for k in range(3):
+            e = (tri[k], tri[(k + 1) % 3])
+            edges[e] = edges.get(e, 0) + 1
+    if any(n != 1 for n in edges.values()) or any((b, a_) not in edges for a_, b in edges):
+        sys.exit("the far fragment's mesh is not closed (an edge not used once each way)")
+    c = v - v.mean(axis=0)
+    volume = float(np.einsum("ij,ij->i", c[f[:, 0]], np.cross(c[f[:, 1]], c[f[:, 2]])).sum()) / 6
+    if abs(volume / 1.2 - 1) > 0.003:
+        sys.exit(f"the far fragment holds {volume:.4f} m^3 of the box's 1.2")
+    print(f"ok: the fragment 1e5 m out: {len(f)} triangles in double, closed, {volume:.4f} m^3")
+    blend = os.path.join(a.work, "far.blend")
+    if os.path.exists(blend):
+        os.remove(blend)
+    r = run(blender_cmd(a, CLI, run_dir, blend))
+    if r.returncode != 0 or not os.path.isfile(blend) or "Traceback" in r.stderr:
+        sys.exit(f"mca_cli.py did not import the run with the far fragment into {blend} (exit {r.returncode})")
+
+
 def main():
     p = argparse.ArgumentParser()
     p.add_argument("--mca", required=True)
@@ -798,6 +833,8 @@ def main():
                 sys.exit("mca_cli.py imported the run before it refused --frame 99")
     elif case == "bad_cli":
         bad_cli(a)
+    elif case == "far_fragments":
+        check_far_fragments(a)
     elif case == "missing_numpy":
         in_blender(a, "missing_numpy", short)
     elif case == "install":

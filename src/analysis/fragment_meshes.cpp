@@ -36,13 +36,17 @@ constexpr double kShellSurfaceVoxels = 2e5, kShellVoxelsPerAutomaton = 64, kShel
 
 // A piece whose vertices lie mostly (kFlatShare or more) on flat faces or straight edges between them (a
 // box's sides, a crack along a lattice plane, a shell's large triangles' faces) has those merged into large
-// triangles (mesh::simplify_flat): no point of its surface moves by more than kFlatTolerance voxels, and no
+// triangles (mesh::simplify_flat): a collapse moves no point of its surface by over kFlatTolerance voxels, no
 // triangle is left lower than kFlatMinHeight voxels across its longest edge. Measured (docs/benchmarks.md,
 // "Flat faces merged"): the 9 pieces of a 12-triangle box's shell, 436,288 triangles, 24,942 once merged;
 // the cow's pieces have under a tenth of their vertices flat, a sphere's thin shell of 5,120 triangles 0.44
 // (its rims are round), and are left as they are: merged, that shell took 5.5 s beside the meshing's 3 s
 // and 110 bytes a triangle more, for 1.8 times fewer triangles.
 constexpr double kFlatShare = 0.6, kFlatTolerance = 1e-6, kFlatMinHeight = 0.05;
+
+// The most float32's rounding of a piece's coordinates may be, in voxels, for it to be written in float32
+// (FragmentMesh::float32): about 350 m from the origin at the default wall's voxel of 1.7 cm.
+constexpr double kFloat32Rounding = 0.01;
 
 // The rotation of a fragment: the mean of its automata's quaternions, the unit q that maximises
 // sum (q . q_a)^2 (the largest eigenvector of sum q_a q_a^T, by power iteration from the mean with signs
@@ -248,9 +252,13 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
     r.faces.push_back({base, base + 1, base + 2});
     rest_piece[o].push_back(fragments.id[a]);
   }
-  // The random lattice's objects (Model::cell0): a site lies anywhere in its cell, and its Voronoi cell
-  // reaches up to sqrt(3) d from it; the object's solid is the union of its cells.
-  const auto random_object = [&](std::size_t o) { return !m.object_random.empty() && m.object_random[o] != 0; };
+  // The random lattice's objects and the jittered cubic lattice's (Model::cell0): a site lies anywhere in its
+  // cell (within lattice_jitter of its centre), and its Voronoi cell reaches up to sqrt(3) d from it; the
+  // object's solid is the union of its cells. (A jittered site's own cube bounded its piece until a hostile
+  // review found the cubes' gaps: a jittered box's mesh folded on 204 edges, 15 % of its volume missing.)
+  const auto random_object = [&](std::size_t o) {
+    return (!m.object_random.empty() && m.object_random[o] != 0) || (!m.link_rest.empty() && !m.cell0.empty());
+  };
   const std::vector<DVec3>& centre = m.cell0.empty() ? m.position0 : m.cell0;  // each automaton's cell
   std::vector<std::array<double, 6>> object_box(n_obj, {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY});
   for (std::size_t a = 0; a < m.size(); ++a) {
@@ -551,10 +559,15 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
       v = {c1[0] + t.x, c1[1] + t.y, c1[2] + t.z};
     }
     // Vertices the Newton steps brought within float32's rounding of each other at the pose's coordinates
-    // (at a box's corners) would be one point in the file, their triangles of no area: merged.
+    // (at a box's corners) would be one point in the file, their triangles of no area: merged, where that
+    // rounding is under a hundredth of the voxel. Farther from the origin the piece is written in double:
+    // merged at float32's rounding, a box 1e4 m out had a fold of two triangles on one edge, 1e5 m out 8
+    // triangles and an eighth of its volume (unmerged, float32 made such pieces empty; a hostile review).
     double far = 0;
     for (const auto& v : fm.mesh.vertices) far = std::max({far, std::fabs(v[0]), std::fabs(v[1]), std::fabs(v[2])});
-    collapse_zero_length_edges(fm.mesh, 4 * far * std::numeric_limits<float>::epsilon());
+    const double rounding = 4 * far * std::numeric_limits<float>::epsilon();
+    fm.float32 = rounding <= kFloat32Rounding * hf;
+    if (fm.float32) collapse_zero_length_edges(fm.mesh, rounding);
     fm.volume = mesh::signed_volume(fm.mesh);
     if (poll) poll();
     sink(std::move(fm));

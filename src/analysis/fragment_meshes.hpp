@@ -44,6 +44,10 @@ struct FragmentMesh {
   std::int64_t automata = 0;
   mesh::TriMesh mesh;         // world coordinates, the state's pose, outward-facing triangles
   double volume = 0;          // enclosed by the mesh [m^3]
+  // Whether float32 holds its coordinates to a hundredth of its voxel (its vertices within float32's
+  // rounding of each other are then merged: they would be one point in a float32 file); else it is to be
+  // written in double (far from the origin, float32 made the pieces empty or folded).
+  bool float32 = true;
 };
 
 // The fragments of more than `min_automata` automata, in id order (heaviest first). The voxel is the

@@ -219,10 +219,11 @@ struct Model {
   // by explicit links under the volume's law (a many-body term over the Voronoi cell, a bending spring of
   // the link's own section: lattice_bending), not the shell's. Empty when no object is.
   std::vector<std::uint8_t> object_random;
-  // Per automaton, when an object is filled with the random lattice (empty otherwise): the centre of the
-  // cubic cell its site lies in (world, at the start; an automaton of another object: its position0). The
-  // object's solid is the union of these cells (its Voronoi cells, bounded by the mirrored ghosts, fill
-  // exactly them); the fragment meshes (analysis/fragment_meshes.cpp) bound a piece by them.
+  // Per automaton, when an object is filled with the random lattice or the cubic lattice is jittered
+  // (empty otherwise): the centre of the cubic cell its site lies in (world, at the start; an automaton of
+  // another object: its position0). The object's solid is the union of these cells (its Voronoi cells,
+  // bounded by the mirrored ghosts, fill exactly them); the fragment meshes (analysis/fragment_meshes.cpp)
+  // bound a piece by them.
   std::vector<DVec3> cell0;
   // Per automaton, when an object is filled with the random lattice (empty otherwise): 1 for one of its
   // automata whose Voronoi neighbours are all of the object (none on its surface). Such an automaton,

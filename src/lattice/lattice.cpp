@@ -1687,7 +1687,7 @@ void fill_lattice(Model& M, const SceneDef& scene, const Shapes& S, std::size_t 
           site = {wp[0] + turned[0], wp[1] + turned[1], wp[2] + turned[2]};
           radius = std::min(contact, static_cast<float>(0.5 * d - largest));
         }
-        if (random) {  // (the automata before it, of other objects, hold their own centres)
+        if (random || jitter > 0) {  // (the automata before it, of other objects, hold their own centres)
           M.cell0.insert(M.cell0.end(), M.position0.begin() + static_cast<std::ptrdiff_t>(M.cell0.size()), M.position0.end());
           M.cell0.push_back(to_dvec3(wp));
         }
@@ -2159,8 +2159,10 @@ Model build_model(const SceneDef& scene, std::size_t placed) {
   // (A scene of surface-mode objects only has no random lattice, whatever solver.lattice says.)
   if (std::none_of(M.object_random.begin(), M.object_random.end(), [](std::uint8_t r) { return r != 0; }))
     M.object_random.clear();
-  if (!M.object_random.empty()) {
+  // (The automata after the last random or jittered one, of other objects, hold their own centres.)
+  if (!M.cell0.empty())
     M.cell0.insert(M.cell0.end(), M.position0.begin() + static_cast<std::ptrdiff_t>(M.cell0.size()), M.position0.end());
+  if (!M.object_random.empty()) {
     M.boxed.resize(M.size(), 0);
     M.free_face.resize(M.size(), 0.0f);
     M.lattice_stiffness = kRandomStiffness;

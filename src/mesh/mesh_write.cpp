@@ -23,28 +23,42 @@ FloatMesh to_float(const TriMesh& m) {
   return f;
 }
 
-void write_ply(std::ostream& out, const FloatMesh& m) {
-  const bool values = !m.face_values.empty();
+namespace {
+// A binary PLY of the vertices' type (float or double) and int32 triangles, with the optional face values.
+template <class Coordinate>
+void write_ply_of(std::ostream& out, const std::vector<std::array<Coordinate, 3>>& vertices,
+                  const std::vector<std::array<std::uint32_t, 3>>& faces, const std::vector<std::int32_t>& face_values,
+                  const std::string& face_value_name) {
+  static_assert(sizeof(std::array<Coordinate, 3>) == 3 * sizeof(Coordinate));
+  const char* type = sizeof(Coordinate) == 4 ? "float" : "double";
+  const bool values = !face_values.empty();
   out << "ply\nformat binary_little_endian 1.0\ncomment written by mca\n";
-  out << fmt::format("element vertex {}\nproperty float x\nproperty float y\nproperty float z\n", m.vertices.size());
-  out << fmt::format("element face {}\nproperty list uchar int vertex_indices\n", m.faces.size());
-  if (values) out << fmt::format("property int {}\n", m.face_value_name);
+  out << fmt::format("element vertex {}\nproperty {} x\nproperty {} y\nproperty {} z\n", vertices.size(), type, type, type);
+  out << fmt::format("element face {}\nproperty list uchar int vertex_indices\n", faces.size());
+  if (values) out << fmt::format("property int {}\n", face_value_name);
   out << "end_header\n";
   std::string buf;
-  buf.reserve(m.vertices.size() * 12);
-  for (const auto& v : m.vertices) buf.append(reinterpret_cast<const char*>(v.data()), 12);
+  buf.reserve(vertices.size() * 3 * sizeof(Coordinate));
+  for (const auto& v : vertices) buf.append(reinterpret_cast<const char*>(v.data()), 3 * sizeof(Coordinate));
   out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
   buf.clear();
-  for (std::size_t f = 0; f < m.faces.size(); ++f) {
+  for (std::size_t f = 0; f < faces.size(); ++f) {
     buf.push_back(3);
-    for (auto i : m.faces[f]) {
+    for (auto i : faces[f]) {
       const auto s = static_cast<std::int32_t>(i);
       buf.append(reinterpret_cast<const char*>(&s), 4);
     }
-    if (values) buf.append(reinterpret_cast<const char*>(&m.face_values[f]), 4);
+    if (values) buf.append(reinterpret_cast<const char*>(&face_values[f]), 4);
   }
   out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
 }
+}  // namespace
+
+void write_ply(std::ostream& out, const FloatMesh& m) {
+  write_ply_of(out, m.vertices, m.faces, m.face_values, m.face_value_name);
+}
+
+void write_ply(std::ostream& out, const TriMesh& m) { write_ply_of(out, m.vertices, m.faces, {}, ""); }
 
 void write_obj(std::ostream& out, const FloatMesh& m) {
   out << "# written by mca\n";

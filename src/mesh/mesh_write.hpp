@@ -1,6 +1,6 @@
 #pragma once
-// Triangle meshes to streams: binary PLY (little-endian, float32 vertices, int32 indices: what Blender,
-// ParaView, MeshLab and assimp read) and Wavefront OBJ. Callers write through io::write_file_atomic.
+// Triangle meshes to streams: binary PLY (little-endian, float32 vertices, or double where asked, int32
+// indices: what Blender, ParaView, MeshLab and assimp read) and Wavefront OBJ. Callers write through io::write_file_atomic.
 #include <array>
 #include <cstdint>
 #include <ostream>
@@ -23,6 +23,8 @@ struct FloatMesh {
 FloatMesh to_float(const TriMesh& m);
 
 void write_ply(std::ostream& out, const FloatMesh& m);
+// The same with double vertices ("property double x"): a mesh far from the origin, which float32 would fold.
+void write_ply(std::ostream& out, const TriMesh& m);
 void write_obj(std::ostream& out, const FloatMesh& m);
 
 }  // namespace mca::mesh
