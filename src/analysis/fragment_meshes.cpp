@@ -472,8 +472,27 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
         return cheb - 0.5 * d * (1 + 1e-6);
       };
       double cube = INFINITY;
-      if (random) cells[obj]->for_each_candidate(DVec3{x, y, z}, [&](std::uint32_t b) { cube = std::min(cube, past_cube(m.cell0[b])); });
-      else cube = past_cube(m.position0[nearest]);
+      if (random) {
+        cells[obj]->for_each_candidate(DVec3{x, y, z}, [&](std::uint32_t b) { cube = std::min(cube, past_cube(m.cell0[b])); });
+      } else {
+        // Past the nearest own automaton's cube; inside it, its sides with an own cell beyond do not count
+        // (they are inside the piece: with them the field was zero there too, and the Newton steps of the
+        // vertices near them went along them, leaving pits up to a fifth of a voxel deep in an object
+        // turned off the world's axes; a hostile review). (Past such a side, where the nearest own
+        // automaton lies beyond the candidates' reach, far out of the piece, it still counts.)
+        const DVec3& c0 = m.position0[nearest];
+        const double px = x - c0.x, py = y - c0.y, pz = z - c0.z, half = 0.5 * d * (1 + 1e-6);
+        cube = -INFINITY;
+        for (std::size_t k = 0; k < 3; ++k) {
+          const Vec3& e = axes[k];
+          const double along = px * e.x + py * e.y + pz * e.z;
+          for (const bool above : {true, false}) {
+            const std::uint32_t b = (above ? m.neighbour : m.neighbour_below)[k * m.size() + nearest];
+            const double past = (above ? along : -along) - half;
+            if (past > 0 || b == Model::kNoLink || fragments.id[b] != frag) cube = std::max(cube, past);
+          }
+        }
+      }
       // A mesh object: up to a cell beyond the own cells, where the surface lies between them and the mesh.
       if (g.surface) return {std::max(surface_at(x, y, z), cube - d), split};
       return {cube, split};
