@@ -11,6 +11,7 @@
 #include <fmt/ranges.h>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <mutex>
 #include <optional>
@@ -336,6 +337,12 @@ OutputEstimate estimate_output(const Model& m, const OutputDef& o, std::int64_t 
                                              object_area[o]);
       e.fragment_meshes += std::max(0.0, 60 * (2 * area + 2 * rim * std::max(s, h)) / (h * h) - cell);
     }
+    // Pieces far from the origin are written in double (analysis::FragmentMesh::float32): 24 bytes a vertex
+    // where float32 takes 12, about half a vertex a triangle of 13 to 17 bytes (counted where float32's
+    // rounding of the farthest automaton is over a hundredth of the finest voxel, an eighth of the spacing).
+    double far = 0;
+    for (const DVec3& p : m.position0) far = std::max({far, std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
+    if (4 * far * std::numeric_limits<float>::epsilon() > 0.01 * m.spacing / 8) e.fragment_meshes *= 1.5;
     e.per_run += e.fragment_meshes;
   }
   return e;

@@ -81,6 +81,9 @@ inline analysis::Fragments cut_by_x(const Model& m, const std::vector<double>& c
   return f;
 }
 
+// Every automaton of m in one piece (the object whole, as a run's end meshes an unbroken one).
+inline analysis::Fragments one_piece(const Model& m) { return cut_by_x(m, {}); }
+
 // Checks that each fragment mesh is closed and manifold with a positive volume; returns their volumes' sum.
 inline double closed_volume(const std::vector<analysis::FragmentMesh>& meshes) {
   double sum = 0;

@@ -13,6 +13,7 @@
 #include "io/scene_io.hpp"
 #include "mca/error.hpp"
 #include "mesh/mesh.hpp"
+#include "mesh_fixtures.hpp"
 #include "sim/engine.hpp"
 #include "support.hpp"
 
@@ -98,10 +99,7 @@ TEST(FragmentMeshVolume, PiecesOfAJitteredLatticeAreClosedAndHoldTheirCells) {
   const Engine sim(scene);
   const Model& m = sim.model();
   const double cell = std::pow(static_cast<double>(m.spacing), 3);
-  analysis::Fragments whole;
-  whole.id.assign(m.size(), 0);
-  whole.count = 1;
-  for (const analysis::Fragments& pieces : {whole, voronoi_pieces(m, 160, 7)}) {
+  for (const analysis::Fragments& pieces : {test::one_piece(m), voronoi_pieces(m, 160, 7)}) {
     const auto meshes = analysis::fragment_meshes(m, sim.state(), pieces, 8);
     ASSERT_FALSE(meshes.empty());
     double low = 2, high = 0, total = 0;
@@ -220,9 +218,7 @@ TEST(FragmentMeshVolume, SingleAutomataOfARandomLatticeHaveNoSpikes) {
 TEST(FragmentMeshVolume, APieceIsTurnedByItsAutomataNotByItsFirst) {
   const Engine sim(io::load_default_scene());
   const Model& m = sim.model();
-  analysis::Fragments one;
-  one.id.assign(m.size(), 0);
-  one.count = 1;
+  const analysis::Fragments one = test::one_piece(m);
   const State& start = sim.state();
   const auto at_start = analysis::fragment_meshes(m, start, one, 0);
   ASSERT_EQ(at_start.size(), 1u);

@@ -1055,10 +1055,7 @@ TEST(FragmentMeshes, APieceFarFromTheOriginIsWrittenInDoubleWhole) {
     SceneDef s = test::block_scene(40, 8, 30, 0.05);
     s.objects[0].position = {at[0], at[1], at[2]};
     const Engine sim(s);
-    analysis::Fragments one;
-    one.id.assign(sim.model().size(), 0);
-    one.count = 1;
-    const auto meshes = analysis::fragment_meshes(sim.model(), sim.state(), one, 0);
+    const auto meshes = analysis::fragment_meshes(sim.model(), sim.state(), test::one_piece(sim.model()), 0);
     ASSERT_EQ(meshes.size(), 1u);
     const analysis::FragmentMesh& fm = meshes[0];
     EXPECT_EQ(fm.float32, at[0] == 0);
@@ -1095,10 +1092,7 @@ TEST(FragmentMeshes, AnObjectTurnedOffTheAxesHasFlatFaces) {
   s.objects[0].rotation = {30, 45, 10};
   const Engine sim(s);
   const Model& m = sim.model();
-  analysis::Fragments one;
-  one.id.assign(m.size(), 0);
-  one.count = 1;
-  const auto meshes = analysis::fragment_meshes(m, sim.state(), one, 0);
+  const auto meshes = analysis::fragment_meshes(m, sim.state(), test::one_piece(m), 0);
   ASSERT_EQ(meshes.size(), 1u);
   const mesh::TriMesh& tm = meshes[0].mesh;
   EXPECT_TRUE(mesh::topology(tm).closed());

@@ -895,10 +895,7 @@ TEST(SurfaceMode, AShellMeshedThickerThanItIsGetsANote) {
   const auto at = notes[0].find(head);
   ASSERT_NE(at, std::string::npos) << notes[0];
   const double said = std::stod(notes[0].substr(at + head.size()));
-  analysis::Fragments f;
-  f.id.assign(m.size(), 0);
-  f.count = 1;
-  const auto meshes = analysis::fragment_meshes(m, sim.state(), f, 0);
+  const auto meshes = analysis::fragment_meshes(m, sim.state(), test::one_piece(m), 0);
   ASSERT_EQ(meshes.size(), 1u);
   const auto e = extent_of(meshes[0].mesh);
   std::printf("%s\nmeshed %.5f m thick\n", notes[0].c_str(), e[5] - e[2]);

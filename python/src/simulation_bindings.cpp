@@ -362,12 +362,14 @@ class PySimulation {
 
   // What a call that steps or writes the run's end takes first, refused while another holds it.
   void claim(Busy what) {
-    Busy was = Busy::no;
-    if (busy_.compare_exchange_strong(was, what)) return;
-    if (was == Busy::advancing && what == Busy::advancing)
-      throw Error("the simulation is advancing (in another thread, or this is advance's progress callback); one "
-                  "advance at a time");
-    refuse_while_busy();
+    for (;;) {
+      Busy was = Busy::no;
+      if (busy_.compare_exchange_strong(was, what)) return;
+      if (was == Busy::advancing && what == Busy::advancing)
+        throw Error("the simulation is advancing (in another thread, or this is advance's progress callback); one "
+                    "advance at a time");
+      refuse_while_busy();  // (unless what held it has just ended: then again)
+    }
   }
 
   // Waits for the stepping thread's last slice. Two Python threads may wait at once (a read in one, an

@@ -1,5 +1,6 @@
 """Ctrl-C during a long advance raises KeyboardInterrupt within a fraction of a second, and leaves a
 simulation that can go on."""
+import contextlib
 import os
 import signal
 import subprocess
@@ -29,15 +30,31 @@ SCRIPT = textwrap.dedent(
 )
 
 
-def test_ctrl_c_raises_keyboard_interrupt_quickly():
-    p = subprocess.Popen([sys.executable, "-c", SCRIPT], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         env=os.environ.copy())
+@contextlib.contextmanager
+def running(script, *args):
+    """The script in a Python of its own, its output piped; killed if it still runs at the end."""
+    p = subprocess.Popen([sys.executable, "-c", script, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True, env=os.environ.copy())
     try:
+        yield p
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.wait()
+
+
+def interrupt(p, after):
+    """SIGINT to p `after` seconds from now: when it was sent, and the words of p's next line."""
+    time.sleep(after)
+    sent = time.monotonic()
+    p.send_signal(signal.SIGINT)
+    return sent, p.stdout.readline().split()
+
+
+def test_ctrl_c_raises_keyboard_interrupt_quickly():
+    with running(SCRIPT) as p:
         assert p.stdout.readline().strip() == "advancing", p.stderr.read()
-        time.sleep(1.0)  # well inside the long advance
-        sent = time.monotonic()
-        p.send_signal(signal.SIGINT)
-        line = p.stdout.readline().split()
+        sent, line = interrupt(p, 1.0)  # well inside the long advance
         printed = time.monotonic()
         assert line[:1] == ["interrupted"], p.stderr.read()
         latency = float(line[1]) - sent
@@ -48,10 +65,6 @@ def test_ctrl_c_raises_keyboard_interrupt_quickly():
         assert p.wait(timeout=30) == 0
         # The waiting thread checks for signals every 50 ms; a loaded machine may delay it a little.
         assert latency < 0.3, f"KeyboardInterrupt came {latency:.3f} s after SIGINT"
-    finally:
-        if p.poll() is None:
-            p.kill()
-            p.wait()
 
 
 RACE = textwrap.dedent(
@@ -160,23 +173,14 @@ def test_ctrl_c_ends_the_fragment_meshes_of_close_output_quickly(tmp_path):
     took (a shattered object's, a minute). They are made on a thread of their own now: KeyboardInterrupt
     comes within the piece being meshed, the folder is left without summary.json, and close_output(finish=True)
     again writes the end whole. The progress callback cannot read the simulation meanwhile (mca.Error)."""
-    p = subprocess.Popen([sys.executable, "-c", FINISH, str(tmp_path / "out")], stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True, env=os.environ.copy())
-    try:
+    with running(FINISH, str(tmp_path / "out")) as p:
         line = p.stdout.readline()
         assert line.startswith("refused: the simulation is writing its run's end"), line + p.stderr.read()
         assert p.stdout.readline().strip() == "meshing", p.stderr.read()
-        time.sleep(1.0)  # well inside the meshing (about 5 s on one thread)
-        sent = time.monotonic()
-        p.send_signal(signal.SIGINT)
-        line = p.stdout.readline().split()
+        sent, line = interrupt(p, 1.0)  # well inside the meshing (about 5 s on one thread)
         assert line[:1] == ["interrupted"], p.stderr.read()
         latency = float(line[1]) - sent
         assert p.stdout.readline().strip() == "finished", p.stderr.read()
         assert p.wait(timeout=60) == 0
         # The meshing polls for the stop every slab of voxels; a loaded machine may delay it a little.
         assert latency < 0.5, f"KeyboardInterrupt came {latency:.3f} s after SIGINT"
-    finally:
-        if p.poll() is None:
-            p.kill()
-            p.wait()
