@@ -11,7 +11,6 @@
 #include <fmt/ranges.h>
 #include <cstdio>
 #include <fstream>
-#include <limits>
 #include <nlohmann/json.hpp>
 #include <mutex>
 #include <optional>
@@ -50,6 +49,13 @@ std::vector<double> surface_area_by_object(const Model& m) {
     area[static_cast<std::size_t>(m.object[m.surface.automaton[f]])] += 0.5 * static_cast<double>(length(cross(c[1] - c[0], c[2] - c[0])));
   }
   return area;
+}
+
+// Each object's automata.
+std::vector<std::int64_t> automata_by_object(const Model& m) {
+  std::vector<std::int64_t> automata(m.object_names.size(), 0);
+  for (std::size_t a = 0; a < m.size(); ++a) ++automata[static_cast<std::size_t>(m.object[a])];
+  return automata;
 }
 }  // namespace
 
@@ -172,8 +178,7 @@ std::vector<std::string> thin_shell_notes(const Model& m, const SceneDef& scene)
   std::vector<std::string> notes;
   if (!scene.output.fragments) return notes;
   const std::vector<double> area = surface_area_by_object(m);
-  std::vector<std::int64_t> automata(m.object_names.size(), 0);
-  for (std::size_t a = 0; a < m.size(); ++a) ++automata[static_cast<std::size_t>(m.object[a])];
+  const std::vector<std::int64_t> automata = automata_by_object(m);
   for (const MeshSummary& ms : m.meshes) {
     if (!ms.surface || ms.object < 0 || static_cast<std::size_t>(ms.object) >= area.size()) continue;
     const auto o = static_cast<std::size_t>(ms.object);
@@ -337,12 +342,12 @@ OutputEstimate estimate_output(const Model& m, const OutputDef& o, std::int64_t 
                                              object_area[o]);
       e.fragment_meshes += std::max(0.0, 60 * (2 * area + 2 * rim * std::max(s, h)) / (h * h) - cell);
     }
-    // Pieces far from the origin are written in double (analysis::FragmentMesh::float32): 24 bytes a vertex
-    // where float32 takes 12, about half a vertex a triangle of 13 to 17 bytes (counted where float32's
-    // rounding of the farthest automaton is over a hundredth of the finest voxel, an eighth of the spacing).
+    // Pieces far from the origin are written in double (analysis::float32_holds): 24 bytes a vertex where
+    // float32 takes 12, about half a vertex a triangle of 13 to 17 bytes (counted where float32 does not hold
+    // the farthest automaton in the finest voxel, an eighth of the spacing).
     double far = 0;
     for (const DVec3& p : m.position0) far = std::max({far, std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
-    if (4 * far * std::numeric_limits<float>::epsilon() > 0.01 * m.spacing / 8) e.fragment_meshes *= 1.5;
+    if (!analysis::float32_holds(far, m.spacing / 8)) e.fragment_meshes *= 1.5;
     e.per_run += e.fragment_meshes;
   }
   return e;
@@ -403,8 +408,7 @@ MemoryEstimate estimate_memory(const Model& m, const OutputDef& o, int render_wi
       }
     }
     std::vector<double> area = surface_area_by_object(m);  // m^2
-    std::vector<std::int64_t> automata(n_obj, 0);
-    for (std::size_t a = 0; a < m.size(); ++a) ++automata[static_cast<std::size_t>(m.object[a])];
+    const std::vector<std::int64_t> automata = automata_by_object(m);
     double peak = 0, small = 0;
     for (std::size_t o = 0; o < n_obj; ++o) {
       const auto& b = box[o];

@@ -45,8 +45,11 @@ constexpr double kShellSurfaceVoxels = 2e5, kShellVoxelsPerAutomaton = 64, kShel
 constexpr double kFlatShare = 0.6, kFlatTolerance = 1e-6, kFlatMinHeight = 0.05;
 
 // The most float32's rounding of a piece's coordinates may be, in voxels, for it to be written in float32
-// (FragmentMesh::float32): about 350 m from the origin at the default wall's voxel of 1.7 cm.
+// (FragmentMesh::float32, float32_holds): about 350 m from the origin at the default wall's voxel of 1.7 cm.
 constexpr double kFloat32Rounding = 0.01;
+
+// What float32 may make of coordinates up to `far` from the origin: four of its units there.
+double float32_rounding(double far) { return 4 * far * std::numeric_limits<float>::epsilon(); }
 
 // The rotation of a fragment: the mean of its automata's quaternions, the unit q that maximises
 // sum (q . q_a)^2 (the largest eigenvector of sum q_a q_a^T, by power iteration from the mean with signs
@@ -202,6 +205,8 @@ int voxels_per_spacing(std::int64_t automata, int cells_per_spacing) {
   return std::clamp(static_cast<int>(std::ceil(24.0 / cbrt_n)), cells_per_spacing, 8);
 }
 
+bool float32_holds(double far, double voxel) { return float32_rounding(far) <= kFloat32Rounding * voxel; }
+
 double shell_voxel(double spacing, double half, std::int64_t automata, double area, double narrowest,
                    double object_area, int cells_per_spacing) {
   const double share = object_area > 0 ? std::min(1.0, area / object_area) : 1.0, n = static_cast<double>(automata);
@@ -290,7 +295,10 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
     double hf = 0, shell = 0;
     mesh::CellBox box;
     const mesh::NearTriangles* triangles = nullptr;  // a shell's: its object's, by fragment
-    double reach = 0;                               // the farthest it asks for them
+    // The farthest a shell's piece asks for them (0: not a shell's piece): beyond this the field is clamped
+    // at two voxels: a point's own triangles within the shell and two voxels, and others within four voxels
+    // more, are all that set it; half a voxel more of each for the Newton steps' differences.
+    double reach() const { return shell > 0 ? shell + 7 * hf : 0; }
   };
   std::vector<Plan> plan(chosen.size());
   for (std::size_t k = 0; k < chosen.size(); ++k) {
@@ -328,10 +336,6 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
         if (voxels <= kShellBoxVoxels) break;
         p.hf *= 1.01 * std::cbrt(voxels / kShellBoxVoxels);
       }
-      // (Beyond this the field is clamped at two voxels: a point's own triangles within the shell and two
-      // voxels, and others within four voxels more, are all that set it; half a voxel more of each for the
-      // Newton steps' differences.)
-      p.reach = p.shell + 7 * p.hf;
     } else {
       pad = random_object(obj) ? 1.8 * d : 1.2 * d;  // an automaton's solid lies within sqrt(3) d or d / 2
       for (auto a : mem) {
@@ -352,13 +356,13 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
   // over those pieces' boxes: one grid of the largest reach made a fine piece beside a coarse one (a 0.2 m
   // patch and an 8 m frame of one object) read cells of the frame's size, each listing the whole patch.
   std::map<std::pair<std::size_t, int>, std::pair<double, mesh::Bounds>> classes;  // (object, class) -> reach, box
-  const auto class_of = [&](std::size_t k) { return std::pair{static_cast<std::size_t>(m.object[members[static_cast<std::size_t>(chosen[k])][0]]), std::ilogb(plan[k].reach)}; };
+  const auto class_of = [&](std::size_t k) { return std::pair{static_cast<std::size_t>(m.object[members[static_cast<std::size_t>(chosen[k])][0]]), std::ilogb(plan[k].reach())}; };
   for (std::size_t k = 0; k < chosen.size(); ++k) {
-    if (plan[k].reach == 0) continue;
+    if (plan[k].reach() == 0) continue;
     const mesh::CellBox& b = plan[k].box;
     auto [it, fresh] = classes.try_emplace(class_of(k));
     auto& [reach, box] = it->second;
-    reach = std::max(reach, plan[k].reach);
+    reach = std::max(reach, plan[k].reach());
     for (int c = 0; c < 3; ++c) {
       const double lo = b.origin[c], hi = b.origin[c] + static_cast<double>(b.n[c]) * b.d;
       box.lo[c] = fresh ? lo : std::min(box.lo[c], lo);
@@ -369,7 +373,7 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
   for (const auto& [key, what] : classes)
     triangles[key] = std::make_unique<mesh::NearTriangles>(rest[key.first], rest_piece[key.first], what.first, &what.second);
   for (std::size_t k = 0; k < chosen.size(); ++k)
-    if (plan[k].reach > 0) plan[k].triangles = triangles.at(class_of(k)).get();
+    if (plan[k].reach() > 0) plan[k].triangles = triangles.at(class_of(k)).get();
 
   // Each lattice object's automata binned by cells of size d (their starting centres): the 27 cells around
   // a point hold every automaton within d of it, and the terms below keep the nearest. On the random
@@ -462,36 +466,33 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
       const double apart = random ? length(m.position0[nearest] - m.position0[rival]) : d;
       const double split = other == INFINITY ? -INFINITY : (own - other) / (2 * apart);
       // Outside the own cells: past the nearest own automaton's cube, or on the random lattice the union of
-      // the object's cells (the bisectors part them among the fragments).
+      // the object's cells (the bisectors part them among the fragments). Past the cube at c0 of the cubic
+      // lattice's automaton a (kNoLink: every side counts), whose sides with an own cell beyond count only
+      // past them (they are inside the piece: with them the field was zero there too, and the Newton steps
+      // of the vertices near them went along them, leaving pits up to a fifth of a voxel deep in an object
+      // turned off the world's axes; a hostile review; past such a side, where the nearest own automaton
+      // lies beyond the candidates' reach, far out of the piece, it still counts).
       // (A hair inside the cell's faces: a voxel centre exactly on a face between two own cells would
       // read 0, outside, and leave a hollow there.)
-      const auto past_cube = [&](const DVec3& c0) {
+      const auto past_cube = [&](const DVec3& c0, std::uint32_t a) {
         const double px = x - c0.x, py = y - c0.y, pz = z - c0.z;
-        double cheb = 0;
-        for (const Vec3& e : axes) cheb = std::max(cheb, std::fabs(px * e.x + py * e.y + pz * e.z));
-        return cheb - 0.5 * d * (1 + 1e-6);
-      };
-      double cube = INFINITY;
-      if (random) {
-        cells[obj]->for_each_candidate(DVec3{x, y, z}, [&](std::uint32_t b) { cube = std::min(cube, past_cube(m.cell0[b])); });
-      } else {
-        // Past the nearest own automaton's cube; inside it, its sides with an own cell beyond do not count
-        // (they are inside the piece: with them the field was zero there too, and the Newton steps of the
-        // vertices near them went along them, leaving pits up to a fifth of a voxel deep in an object
-        // turned off the world's axes; a hostile review). (Past such a side, where the nearest own
-        // automaton lies beyond the candidates' reach, far out of the piece, it still counts.)
-        const DVec3& c0 = m.position0[nearest];
-        const double px = x - c0.x, py = y - c0.y, pz = z - c0.z, half = 0.5 * d * (1 + 1e-6);
-        cube = -INFINITY;
+        double past = -INFINITY;
         for (std::size_t k = 0; k < 3; ++k) {
           const Vec3& e = axes[k];
           const double along = px * e.x + py * e.y + pz * e.z;
           for (const bool above : {true, false}) {
-            const std::uint32_t b = (above ? m.neighbour : m.neighbour_below)[k * m.size() + nearest];
-            const double past = (above ? along : -along) - half;
-            if (past > 0 || b == Model::kNoLink || fragments.id[b] != frag) cube = std::max(cube, past);
+            const double side = (above ? along : -along) - 0.5 * d * (1 + 1e-6);
+            const std::uint32_t b = a == Model::kNoLink ? Model::kNoLink : (above ? m.neighbour : m.neighbour_below)[k * m.size() + a];
+            if (side > 0 || b == Model::kNoLink || fragments.id[b] != frag) past = std::max(past, side);
           }
         }
+        return past;
+      };
+      double cube = INFINITY;
+      if (random) {
+        cells[obj]->for_each_candidate(DVec3{x, y, z}, [&](std::uint32_t b) { cube = std::min(cube, past_cube(m.cell0[b], Model::kNoLink)); });
+      } else {
+        cube = past_cube(m.position0[nearest], nearest);
       }
       // A mesh object: up to a cell beyond the own cells, where the surface lies between them and the mesh.
       if (g.surface) return {std::max(surface_at(x, y, z), cube - d), split};
@@ -584,9 +585,8 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
     // triangles and an eighth of its volume (unmerged, float32 made such pieces empty; a hostile review).
     double far = 0;
     for (const auto& v : fm.mesh.vertices) far = std::max({far, std::fabs(v[0]), std::fabs(v[1]), std::fabs(v[2])});
-    const double rounding = 4 * far * std::numeric_limits<float>::epsilon();
-    fm.float32 = rounding <= kFloat32Rounding * hf;
-    if (fm.float32) collapse_zero_length_edges(fm.mesh, rounding);
+    fm.float32 = float32_holds(far, hf);
+    if (fm.float32) collapse_zero_length_edges(fm.mesh, float32_rounding(far));
     fm.volume = mesh::signed_volume(fm.mesh);
     if (poll) poll();
     sink(std::move(fm));

@@ -39,6 +39,10 @@ int voxels_per_spacing(std::int64_t automata, int cells_per_spacing = 3);
 double shell_voxel(double spacing, double half, std::int64_t automata, double area, double narrowest,
                    double object_area, int cells_per_spacing = 3);
 
+// Whether float32 holds coordinates up to `far` metres from the origin to a hundredth of `voxel`: a piece
+// whose vertices it does not is written in double (FragmentMesh::float32).
+bool float32_holds(double far, double voxel);
+
 struct FragmentMesh {
   std::int32_t fragment = 0;  // Fragments id
   std::int64_t automata = 0;
