@@ -1,7 +1,8 @@
 // mesh::simplify_flat (a closed mesh's flat parts merged into large triangles, CGAL's edge collapse): a
 // box sampled as a fragment's mesh is, two triangles to a voxel on every side, turned and moved away from
 // the origin, becomes a few large triangles on the same six planes, its volume and area kept; curved parts
-// keep every vertex; a mesh it cannot take is left as it was; a poll that throws stops it.
+// keep every vertex; a mesh it cannot take is left as it was; a poll that throws stops it. And
+// mesh::feature_point (where a voxel's crossings' planes meet: a fragment mesh's sharp edges and corners).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -14,6 +15,7 @@
 
 #include "mesh/mesh.hpp"
 #include "mesh/simplify.hpp"
+#include "mesh/voxelize.hpp"
 #include "mesh_fixtures.hpp"
 
 namespace mca {
@@ -208,6 +210,85 @@ TEST(SimplifyFlat, APollThatThrowsStopsIt) {
     if (++polls == calls / 2) throw Stop{};
   }), Stop);
   EXPECT_EQ(polls, calls / 2);
+}
+
+
+// Planes through crossings on a voxel's edges meet where they meet: one plane takes the crossings' mean onto
+// it, two their line's point nearest that mean, three their corner; a corner beyond the box gives the line
+// of its two strongest planes (the most crossings) where that crosses the box, else nothing; planes within
+// a few degrees of each other count as one.
+TEST(FeaturePoint, PlanesMeetAtTheirLineOrCornerNearestTheirCrossings) {
+  const auto unit = [](Point p) {
+    const double len = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+    return Point{p[0] / len, p[1] / len, p[2] / len};
+  };
+  const auto dot = [](const Point& a, const Point& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
+  // Three turned planes n_i . x = c_i (about a box's corner) and points on each.
+  const Point n[3] = {unit({0.9, 0.3, -0.2}), unit({-0.25, 0.95, 0.1}), unit({0.2, -0.05, 0.98})};
+  const double c[3] = {0.1, -0.2, 0.15};
+  const auto on = [&](int i, Point p) {  // p moved onto plane i along its normal
+    const double off = dot(n[i], p) - c[i];
+    return Point{p[0] - off * n[i][0], p[1] - off * n[i][1], p[2] - off * n[i][2]};
+  };
+  const Point lo{-1, -1, -1}, hi{1, 1, 1};
+  const Point where[6] = {{0.3, -0.4, 0.2}, {-0.5, 0.1, 0.6}, {0.2, 0.7, -0.3}, {-0.6, -0.2, -0.1}, {0.5, 0.5, 0.5}, {0.0, -0.7, 0.4}};
+  const auto crossings = [&](int planes, int count, Point* at, Point* normal) {  // on planes 0 .. planes - 1 in turn
+    for (int k = 0; k < count; ++k) {
+      at[k] = on(k % planes, where[k]);
+      normal[k] = n[k % planes];
+    }
+  };
+  const Point line = unit({n[0][1] * n[1][2] - n[0][2] * n[1][1], n[0][2] * n[1][0] - n[0][0] * n[1][2], n[0][0] * n[1][1] - n[0][1] * n[1][0]});
+  for (int planes = 1; planes <= 3; ++planes) {
+    Point at[6], normal[6], x;
+    crossings(planes, 6, at, normal);
+    Point mean{0, 0, 0};
+    for (const Point& p : at)
+      for (int a = 0; a < 3; ++a) mean[a] += p[a] / 6;
+    ASSERT_TRUE(mesh::feature_point(at, normal, 6, 0.05, lo, hi, x)) << planes << " planes";
+    for (int i = 0; i < planes; ++i) EXPECT_NEAR(dot(n[i], x), c[i], 1e-12) << planes << " planes";
+    const Point moved{x[0] - mean[0], x[1] - mean[1], x[2] - mean[2]};
+    if (planes == 1) {  // along the normal only
+      EXPECT_NEAR(std::fabs(dot(moved, n[0])), std::sqrt(dot(moved, moved)), 1e-12);
+    } else if (planes == 2) {  // nearest the mean: not along the line
+      EXPECT_NEAR(dot(moved, line), 0, 1e-12);
+    }
+  }
+  // The line of planes 0 and 1 where its point nearest the crossings lies beyond a box it crosses: its point
+  // in the box nearest that; a box it misses, or one that the corner of all three misses, gives none.
+  {
+    Point at[6], normal[6], free, x;
+    crossings(2, 4, at, normal);
+    ASSERT_TRUE(mesh::feature_point(at, normal, 4, 0.05, lo, hi, free));
+    Point box_lo, box_hi;  // half-sides of 0.1 about the line's point 0.5 along it
+    for (int a = 0; a < 3; ++a) box_lo[a] = free[a] + 0.5 * line[a] - 0.1, box_hi[a] = free[a] + 0.5 * line[a] + 0.1;
+    ASSERT_TRUE(mesh::feature_point(at, normal, 4, 0.05, box_lo, box_hi, x));
+    EXPECT_NEAR(dot(n[0], x), c[0], 1e-12);
+    EXPECT_NEAR(dot(n[1], x), c[1], 1e-12);
+    const double along = dot(Point{x[0] - free[0], x[1] - free[1], x[2] - free[2]}, line);
+    EXPECT_LT(along, 0.5) << "the box's side nearest the free point";
+    EXPECT_GT(along, 0.5 - 0.1 * std::sqrt(3.0) - 1e-12);
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_GE(x[a], box_lo[a]);
+      EXPECT_LE(x[a], box_hi[a]);
+    }
+    for (int a = 0; a < 3; ++a) box_lo[a] += 3, box_hi[a] += 3;
+    EXPECT_FALSE(mesh::feature_point(at, normal, 4, 0.05, box_lo, box_hi, x)) << "a box the line misses";
+    Point corner;
+    crossings(3, 6, at, normal);
+    ASSERT_TRUE(mesh::feature_point(at, normal, 6, 0.05, lo, hi, corner));
+    const Point near_lo{corner[0] + 0.01, corner[1] - 0.5, corner[2] - 0.5}, near_hi{corner[0] + 1, corner[1] + 0.5, corner[2] + 0.5};
+    EXPECT_FALSE(mesh::feature_point(at, normal, 6, 0.05, near_lo, near_hi, x)) << "a corner just beyond the box";
+  }
+  // Two planes three degrees apart: one, the mean moved along their mean normal only.
+  {
+    const Point a = unit({0, 0, 1}), b = unit({std::sin(0.05), 0, std::cos(0.05)});
+    const Point at[4] = {{0.2, 0.1, 0}, {-0.3, 0.4, 0}, {0.5, -0.2, 0.02}, {-0.1, -0.3, 0.01}};
+    const Point normal[4] = {a, a, b, b};
+    Point x;
+    ASSERT_TRUE(mesh::feature_point(at, normal, 4, 0.05, lo, hi, x));
+    EXPECT_NEAR(x[1], (0.1 + 0.4 - 0.2 - 0.3) / 4, 1e-12) << "moved along y";
+  }
 }
 
 }  // namespace

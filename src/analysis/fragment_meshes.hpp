@@ -5,8 +5,9 @@
 // bounded outside by the object's mesh (mesh objects: the original surface, resampled at a third of the
 // spacing; in surface mode the piece's own triangles thickened to the shell's thickness, parted from the
 // other pieces' halfway between their triangles) or by its automata's cells
-// (boxes, spheres, cylinders). The solid is polygonized (OpenVDB),
-// then carried to the fragment's pose (its automata's mean rotation and centre).
+// (boxes, spheres, cylinders). The solid is polygonized (OpenVDB), its vertices moved onto the field's zero
+// (a primitive's edges and corners where its faces' planes meet), its crack faces smoothed and its flat
+// parts merged, then carried to the fragment's pose (its automata's mean rotation and centre).
 #include <cstdint>
 #include <functional>
 #include <vector>

@@ -74,7 +74,7 @@ class Flatness {
     return moves_within(point_of(sm_.point(v0)), e.planes, e.n, point_of(sm_.point(v1)), tol_);
   }
   // Whether the triangles around v0 that stay when it is moved onto v1 are neither turned over nor lower than
-  // min_height across their longest edge.
+  // min_height across their longest edge (or, one that was lower already, lower than it was).
   bool leaves_good_triangles(VertexIndex v0, VertexIndex v1) const {
     const Point p1 = point_of(sm_.point(v1));
     for (const auto f : CGAL::faces_around_target(sm_.halfedge(v0), sm_)) {
@@ -91,12 +91,14 @@ class Flatness {
       const Point a = cross(minus(before[1], before[0]), minus(before[2], before[0]));
       const Point b = cross(minus(after[1], after[0]), minus(after[2], after[0]));
       if (!(dot(a, b) > 0)) return false;
-      double longest = 0;
-      for (int c = 0; c < 3; ++c) {
-        const Point edge = minus(after[(c + 1) % 3], after[c]);
-        longest = std::max(longest, dot(edge, edge));
-      }
-      if (dot(b, b) < min_height_ * min_height_ * longest) return false;  // (|b| is the height times the edge)
+      // (|b| is the height times the longest edge; squared: of height squared times edge squared)
+      const auto longest = [](const Tri& t) {
+        double l = 0;
+        for (int c = 0; c < 3; ++c) l = std::max(l, dot(minus(t[(c + 1) % 3], t[c]), minus(t[(c + 1) % 3], t[c])));
+        return l;
+      };
+      const double height2 = dot(b, b) / longest(after);
+      if (height2 < min_height_ * min_height_ && height2 < dot(a, a) / longest(before)) return false;
     }
     return true;
   }

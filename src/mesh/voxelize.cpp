@@ -149,6 +149,62 @@ TriMesh polygonize(const CellBox& box, const std::function<void(std::int64_t k, 
   return out;
 }
 
+bool feature_point(const Point* at, const Point* normal, int n, double flat, const Point& lo, const Point& hi, Point& x) {
+  Point mean{0, 0, 0};
+  for (int i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) mean[c] += at[i][c] / n;
+  // A x = b about the mean: A = sum n n^T, b = sum n (n . (p - mean)).
+  openvdb::math::Mat3d A = openvdb::math::Mat3d::zero();
+  openvdb::math::Vec3d b(0, 0, 0);
+  for (int i = 0; i < n; ++i) {
+    const openvdb::math::Vec3d nn(normal[i][0], normal[i][1], normal[i][2]);
+    const double along = nn[0] * (at[i][0] - mean[0]) + nn[1] * (at[i][1] - mean[1]) + nn[2] * (at[i][2] - mean[2]);
+    for (int r = 0; r < 3; ++r) {
+      b[r] += nn[r] * along;
+      for (int c = 0; c < 3; ++c) A(r, c) += nn[r] * nn[c];
+    }
+  }
+  openvdb::math::Mat3d Q;  // its columns the eigenvectors
+  openvdb::math::Vec3d D;
+  if (n == 0 || !openvdb::math::diagonalizeSymmetricMatrix(A, Q, D)) return false;
+  const double strongest = std::max({D[0], D[1], D[2]});
+  if (!(strongest > 0)) return false;
+  bool held[3];
+  int free = 0;
+  for (int e = 0; e < 3; ++e) free += !(held[e] = D[e] >= flat * strongest);
+  x = mean;
+  for (int e = 0; e < 3; ++e) {
+    if (!held[e]) continue;
+    const double k = (Q(0, e) * b[0] + Q(1, e) * b[1] + Q(2, e) * b[2]) / D[e];
+    for (int c = 0; c < 3; ++c) x[c] += k * Q(c, e);
+  }
+  const auto in_box = [&] {
+    for (int c = 0; c < 3; ++c)
+      if (!(x[c] >= lo[c] && x[c] <= hi[c])) return false;
+    return true;
+  };
+  if (in_box()) return true;
+  if (free != 1) return false;  // a corner or a plane's point beyond the box
+  // Along the line (the free direction u) to the part of it in the box nearest the mean, if it crosses it.
+  int e = 0;
+  while (held[e]) ++e;
+  double s_lo = -INFINITY, s_hi = INFINITY;
+  for (int c = 0; c < 3; ++c) {
+    const double u = Q(c, e);
+    if (u == 0) {
+      if (!(x[c] >= lo[c] && x[c] <= hi[c])) return false;
+      continue;
+    }
+    const double s0 = (lo[c] - x[c]) / u, s1 = (hi[c] - x[c]) / u;
+    s_lo = std::max(s_lo, std::min(s0, s1));
+    s_hi = std::min(s_hi, std::max(s0, s1));
+  }
+  if (!(s_lo <= s_hi)) return false;
+  const double s = std::clamp(0.0, s_lo, s_hi);
+  for (int c = 0; c < 3; ++c) x[c] = std::clamp(x[c] + s * Q(c, e), lo[c], hi[c]);  // (the clamp: rounding)
+  return true;
+}
+
 std::vector<std::uint8_t> interior_cells(const TriMesh& m, const CellBox& box, const std::vector<std::uint32_t>* faces) {
   // A band of 3 cells each side.
   const auto grid = distance_grid(m, box, 3.0f, faces);

@@ -51,4 +51,13 @@ class SignedDistance {
 // it is called from several threads at once, for a few planes at a time, so the whole field is never held.
 TriMesh polygonize(const CellBox& box, const std::function<void(std::int64_t k, float* values)>& plane);
 
+// Where the planes through at[i] with unit normals normal[i] (i < n) meet nearest to their points' mean, in
+// the least-squares sense, within the box from lo to hi (dual contouring's quadratic error function, Ju et
+// al. 2002, solved by OpenVDB's symmetric eigendecomposition), into x: along a direction in which the
+// normals' squared components sum to under `flat` times the strongest direction's, x stays at the mean (one
+// plane: the mean moved onto it; two: onto their line; three that meet at a corner: the corner). Where a
+// line's point lies beyond the box: the line's point in the box nearest it. False where no such point lies
+// in the box (a corner or a plane's point beyond it, a line that misses it).
+bool feature_point(const Point* at, const Point* normal, int n, double flat, const Point& lo, const Point& hi, Point& x);
+
 }  // namespace mca::mesh
