@@ -178,17 +178,18 @@ void collapse_zero_length_edges(mesh::TriMesh& m, double tiny) {
   m.faces = std::move(faces);
 }
 
-// Dual contouring's placement (Ju et al. 2002) for the vertices of `m` at its sharp edges and corners. A vertex whose
-// triangles bend by more than kBend, or that the Newton steps left off the field's zero (their differences span two
-// faces within a twentieth of a voxel of an edge), was made by the polygonizing in the voxel of `box` that holds
-// sampled[v], at the mean of the field's crossings of that voxel's edges (of those nearer it than to another vertex of
-// the voxel: one is made for each sheet there). Where the object's outer faces alone cross there, the vertex goes where
-// the planes at the crossings (their exact points, the gradient a ten thousandth of a voxel across) meet nearest to
-// their mean (mesh::feature_point), within kBeyond voxels of its voxel and on the field's zero. The quads are then cut
-// on the diagonal that runs along the edges (see below); a triangle left turned over, edge-on or thinner than a
-// thousandth of a voxel takes its vertices' moves back. `field(p, cursor, &outer)`: the field at p, outer whether its
-// outer term is the one that sets it; `gradient(p, apart, g, cursor)`: its gradient into g from differences `apart`
-// voxels across, its length squared returned.
+// Dual contouring's placement (Ju et al. 2002) for the vertices of `m` at its sharp edges and corners. A vertex
+// whose triangles bend by more than kBend, or that the Newton steps left off the field's zero (their differences
+// span two faces within a twentieth of a voxel of an edge), was made by the polygonizing in the voxel of `box` that
+// holds sampled[v], at the mean of the field's crossings of that voxel's edges (of those nearer it than to another
+// vertex of the voxel: one is made for each sheet there). Where the object's outer faces alone cross there, the
+// vertex goes where the planes at the crossings (their exact points, the gradient a ten thousandth of a voxel
+// across) meet nearest to their mean (mesh::feature_point), within kBeyond voxels of its voxel and on the field's
+// zero. The quads are then cut on the diagonal that runs along the edges (see below); a triangle left turned over,
+// edge-on, thinner than a thousandth of a voxel or facing into the solid takes its vertices' moves (and its quad's
+// diagonal) back. `field(p, cursor, &outer)`: the field at p, outer whether its outer term is the one that sets it;
+// `gradient(p, apart, g, cursor)`: its gradient into g from differences `apart` voxels across, its length squared
+// returned.
 template <class Field, class Gradient>
 void sharp_features(mesh::TriMesh& m, const std::vector<mesh::Point>& sampled, const mesh::CellBox& box,
                     const Field& field, const Gradient& gradient, const std::function<void()>& poll) {
@@ -237,7 +238,10 @@ void sharp_features(mesh::TriMesh& m, const std::vector<mesh::Point>& sampled, c
         bends = cosine(before_normal[around[i]], before_normal[around[j]]) < kBend;
     mesh::NearTriangles::Cursor cursor;
     bool outer = false;
-    if (!bends && std::fabs(field(m.vertices[v], cursor, &outer)) <= 1e-9 * hf) return;
+    const auto& here = m.vertices[v];
+    const double rounding =
+        16 * std::numeric_limits<double>::epsilon() * std::max({std::fabs(here[0]), std::fabs(here[1]), std::fabs(here[2])});
+    if (!bends && std::fabs(field(here, cursor, &outer)) <= std::max(1e-9 * hf, rounding)) return;
     // The voxel: its corners at the very coordinates the polygonizing sampled, inside where the sampled
     // value (float, clamped) is below zero.
     const std::int64_t key = voxel_of[v];
@@ -343,7 +347,18 @@ void sharp_features(mesh::TriMesh& m, const std::vector<mesh::Point>& sampled, c
     return cosine(normal(t), was) > 1e-3 &&
            mesh::height_across_longest_edge(m.vertices[t[0]], m.vertices[t[1]], m.vertices[t[2]]) >= 1e-3 * hf;
   };
-  const std::vector<mesh::Triangle> faces_before = m.faces;
+  // Upright, and facing out of the solid where it lies: the field's gradient at its centre (near a corner
+  // whose voxel holds no vertex for it, a triangle from an edge to a face could turn over within 90 degrees
+  // of its bevel's normal).
+  const auto facing_out = [&](std::size_t f) {
+    const mesh::Triangle& t = m.faces[f];
+    if (!upright(t, before_normal[f])) return false;
+    mesh::Point centre;
+    for (int i = 0; i < 3; ++i) centre[i] = (m.vertices[t[0]][i] + m.vertices[t[1]][i] + m.vertices[t[2]][i]) / 3;
+    double g[3];
+    gradient(centre, 1e-4, g, cursor);
+    return cosine(normal(t), mesh::Point{g[0], g[1], g[2]}) > 0;
+  };
   struct Flip {
     std::uint32_t f1, f2;
     mesh::Triangle t1, t2;  // as they were
@@ -351,6 +366,7 @@ void sharp_features(mesh::TriMesh& m, const std::vector<mesh::Point>& sampled, c
     bool undone = false;
   };
   std::vector<Flip> flips;
+  std::vector<std::vector<std::uint32_t>> flips_at(m.faces.size());  // the flips that cut each face, in order
   for (std::size_t i = 0; i < candidates.size(); ++i) {
     if (poll && i % 4096 == 0) poll();
     const std::uint64_t k = candidates[i];
@@ -370,6 +386,8 @@ void sharp_features(mesh::TriMesh& m, const std::vector<mesh::Point>& sampled, c
     if (!upright(n1, was) || !upright(n2, was)) continue;
     if (upright(t1, w1) && upright(t2, w2) && !(off_zero(n1) + off_zero(n2) < 0.5 * (off_zero(t1) + off_zero(t2))))
       continue;
+    flips_at[f1].push_back(static_cast<std::uint32_t>(flips.size()));
+    flips_at[f2].push_back(static_cast<std::uint32_t>(flips.size()));
     flips.push_back({f1, f2, m.faces[f1], m.faces[f2], w1, w2});
     m.faces[f1] = n1;
     m.faces[f2] = n2;
@@ -379,34 +397,33 @@ void sharp_features(mesh::TriMesh& m, const std::vector<mesh::Point>& sampled, c
     for (auto& f : edge_faces[key(a, d)]) f = f == f2 ? f1 : f;
     for (auto& f : edge_faces[key(b, c)]) f = f == f1 ? f2 : f;
   }
-  // A triangle still turned by the moves takes its moved vertices back, and a quad whose other diagonal is
-  // turned by that takes its own back, until none is (should a quad cut anew since be in the way, the piece
-  // is left as it was).
+  // A triangle still turned by the moves (or facing into the solid) takes its moved vertices back, and a quad
+  // whose other diagonal is turned by that takes its own back (and first, those of the quads cut since that share a triangle with
+  // it), until none is.
+  const std::function<void(std::uint32_t)> undo = [&](std::uint32_t i) {
+    Flip& x = flips[i];
+    for (const std::uint32_t f : {x.f1, x.f2})
+      for (auto later = flips_at[f].rbegin(); later != flips_at[f].rend() && *later > i; ++later)
+        if (!flips[*later].undone) undo(*later);
+    m.faces[x.f1] = x.t1;
+    m.faces[x.f2] = x.t2;
+    before_normal[x.f1] = x.w1;
+    before_normal[x.f2] = x.w2;
+    x.undone = true;
+  };
   for (bool again = true; again;) {
     again = false;
     for (std::size_t f = 0; f < m.faces.size(); ++f) {
       const auto& t = m.faces[f];
-      if ((!moved[t[0]] && !moved[t[1]] && !moved[t[2]]) || upright(t, before_normal[f])) continue;
+      if ((!moved[t[0]] && !moved[t[1]] && !moved[t[2]]) || facing_out(f)) continue;
       for (const auto u : t)
         if (moved[u]) m.vertices[u] = before[u], moved[u] = 0, again = true;
     }
-    std::vector<std::uint8_t> kept_later(m.faces.size(), 0);  // in a later quad's other diagonal, kept
-    for (auto x = flips.rbegin(); x != flips.rend(); ++x) {
-      if (x->undone) continue;
-      if (upright(m.faces[x->f1], before_normal[x->f1]) && upright(m.faces[x->f2], before_normal[x->f2])) {
-        kept_later[x->f1] = kept_later[x->f2] = 1;
-        continue;
-      }
-      if (kept_later[x->f1] || kept_later[x->f2]) {
-        m.vertices = before;
-        m.faces = faces_before;
-        return;
-      }
-      m.faces[x->f1] = x->t1;
-      m.faces[x->f2] = x->t2;
-      before_normal[x->f1] = x->w1;
-      before_normal[x->f2] = x->w2;
-      x->undone = again = true;
+    for (std::uint32_t i = static_cast<std::uint32_t>(flips.size()); i-- > 0;) {
+      const Flip& x = flips[i];
+      if (x.undone || (facing_out(x.f1) && facing_out(x.f2))) continue;
+      undo(i);
+      again = true;
     }
   }
 }
@@ -783,7 +800,8 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
         mesh::Point hi = p, lo = p;
         hi[c] += 0.5 * apart * hf;
         lo[c] -= 0.5 * apart * hf;
-        g[c] = (exact(hi[0], hi[1], hi[2], cursor) - exact(lo[0], lo[1], lo[2], cursor)) / (apart * hf);
+        // (over the points' own distance: far from the origin their rounding is a part of it)
+        g[c] = (exact(hi[0], hi[1], hi[2], cursor) - exact(lo[0], lo[1], lo[2], cursor)) / (hi[c] - lo[c]);
         g2 += g[c] * g[c];
       }
       return g2;
