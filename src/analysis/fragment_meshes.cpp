@@ -398,8 +398,8 @@ void sharp_features(mesh::TriMesh& m, const std::vector<mesh::Point>& sampled, c
     for (auto& f : edge_faces[key(b, c)]) f = f == f1 ? f2 : f;
   }
   // A triangle still turned by the moves (or facing into the solid) takes its moved vertices back, and a quad
-  // whose other diagonal is turned by that takes its own back (and first, those of the quads cut since that share a triangle with
-  // it), until none is.
+  // whose other diagonal is turned by that takes its own back (first those of the quads cut since that share
+  // a triangle with it), until none is.
   const std::function<void(std::uint32_t)> undo = [&](std::uint32_t i) {
     Flip& x = flips[i];
     for (const std::uint32_t f : {x.f1, x.f2})
@@ -412,6 +412,7 @@ void sharp_features(mesh::TriMesh& m, const std::vector<mesh::Point>& sampled, c
     x.undone = true;
   };
   for (bool again = true; again;) {
+    if (poll) poll();
     again = false;
     for (std::size_t f = 0; f < m.faces.size(); ++f) {
       const auto& t = m.faces[f];
