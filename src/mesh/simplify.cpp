@@ -91,7 +91,7 @@ class Flatness {
       const Point a = cross(minus(before[1], before[0]), minus(before[2], before[0]));
       const Point b = cross(minus(after[1], after[0]), minus(after[2], after[0]));
       if (!(dot(a, b) > 0)) return false;
-      // (|b| is the height times the longest edge; squared: of height squared times edge squared)
+      // (|b| is the height times the longest edge)
       const auto longest = [](const Tri& t) {
         double l = 0;
         for (int c = 0; c < 3; ++c) l = std::max(l, dot(minus(t[(c + 1) % 3], t[c]), minus(t[(c + 1) % 3], t[c])));
