@@ -337,11 +337,14 @@ void sharp_features(mesh::TriMesh& m, const std::vector<mesh::Point>& sampled, c
     if (len > 0) n = {n[0] / len, n[1] / len, n[2] / len};
   }
   mesh::NearTriangles::Cursor cursor;
+  const auto centre = [&](const mesh::Triangle& t) {
+    mesh::Point c;
+    for (int i = 0; i < 3; ++i) c[i] = (m.vertices[t[0]][i] + m.vertices[t[1]][i] + m.vertices[t[2]][i]) / 3;
+    return c;
+  };
   const auto off_zero = [&](const mesh::Triangle& t) {
-    mesh::Point centre;
-    for (int i = 0; i < 3; ++i) centre[i] = (m.vertices[t[0]][i] + m.vertices[t[1]][i] + m.vertices[t[2]][i]) / 3;
     bool outer = false;
-    return std::fabs(field(centre, cursor, &outer));
+    return std::fabs(field(centre(t), cursor, &outer));
   };
   const auto upright = [&](const mesh::Triangle& t, const mesh::Point& was) {
     return cosine(normal(t), was) > 1e-3 &&
@@ -353,10 +356,8 @@ void sharp_features(mesh::TriMesh& m, const std::vector<mesh::Point>& sampled, c
   const auto facing_out = [&](std::size_t f) {
     const mesh::Triangle& t = m.faces[f];
     if (!upright(t, before_normal[f])) return false;
-    mesh::Point centre;
-    for (int i = 0; i < 3; ++i) centre[i] = (m.vertices[t[0]][i] + m.vertices[t[1]][i] + m.vertices[t[2]][i]) / 3;
     double g[3];
-    gradient(centre, 1e-4, g, cursor);
+    gradient(centre(t), 1e-4, g, cursor);
     return cosine(normal(t), mesh::Point{g[0], g[1], g[2]}) > 0;
   };
   struct Flip {
