@@ -44,6 +44,9 @@ constexpr double kShellSurfaceVoxels = 2e5, kShellVoxelsPerAutomaton = 64, kShel
 // (its rims are round), and are left as they are: merged, that shell took 5.5 s beside the meshing's 3 s
 // and 110 bytes a triangle more, for 1.8 times fewer triangles.
 constexpr double kFlatShare = 0.6, kFlatTolerance = 1e-6, kFlatMinHeight = 0.05;
+// A lattice's piece (not a shell's) from kLatticeFlatShare: the default wall's large pieces have two flat
+// sides and round crack faces, 0.50 to 0.52 of their vertices flat.
+constexpr double kLatticeFlatShare = 0.3;
 
 // The most float32's rounding of a piece's coordinates may be, in voxels, for it to be written in float32
 // (FragmentMesh::float32, float32_holds): about 350 m from the origin at the default wall's voxel of 1.7 cm.
@@ -849,7 +852,7 @@ void for_each_fragment_mesh(const Model& m, const State& s, const Fragments& fra
     smooth(solid, crack, 4, 0.3 * hf);
     collapse_zero_length_edges(solid, 1e-9 * hf);
     if (poll) poll();
-    if (mesh::flat_vertex_share(solid, kFlatTolerance * hf) >= kFlatShare)
+    if (mesh::flat_vertex_share(solid, kFlatTolerance * hf) >= (plan_k.triangles ? kFlatShare : kLatticeFlatShare))
       mesh::simplify_flat(solid, kFlatTolerance * hf, kFlatMinHeight * hf, poll);
     FragmentMesh fm;
     fm.fragment = frag;
