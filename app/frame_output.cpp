@@ -845,17 +845,17 @@ namespace {
 
 // check_folder_is_a_runs on the run a folder holds: files of its names that no run of mca wrote, or a run
 // that did not finish.
-void check_earlier_run(const std::filesystem::path& dir, std::string_view another) {
+void check_earlier_run(const std::filesystem::path& dir, std::string_view another, std::string_view continue_with) {
   const std::string folder = text::shell_word(dir.string());
   std::error_code ec;
   if (read_scene_head(dir).by_mca) {
     const auto saved = io::list_checkpoints(dir / "checkpoints");
     if (saved.empty()) return;
     if (summary_status(dir) == "finished") return;
-    throw Error(fmt::format("{} holds a run that did not finish (its newest checkpoint: {}); continue it with: mca "
-                            "resume {}. To start it afresh instead, remove its checkpoints first (rm -r {}), or give "
-                            "{}",
-                            dir.string(), saved.back().filename().string(), folder,
+    throw Error(fmt::format("{} holds a run that did not finish (its newest checkpoint: {}); continue it with: {}. To "
+                            "start it afresh instead, remove its checkpoints first (rm -r {}), or give {}",
+                            dir.string(), saved.back().filename().string(),
+                            continue_with.empty() ? "mca resume " + folder : std::string(continue_with),
                             text::shell_word((dir / "checkpoints").string()), another));
   }
   const std::vector<std::string> found =
@@ -873,8 +873,9 @@ void check_earlier_run(const std::filesystem::path& dir, std::string_view anothe
 
 }  // namespace
 
-void check_folder_is_a_runs(const std::filesystem::path& dir, std::string_view another) {
-  check_earlier_run(dir, another);
+void check_folder_is_a_runs(const std::filesystem::path& dir, std::string_view another,
+                            std::string_view continue_with) {
+  check_earlier_run(dir, another, continue_with);
   check_run_names_are_files(dir);
 }
 

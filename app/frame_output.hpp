@@ -193,8 +193,10 @@ std::string summary_status(const std::filesystem::path& dir);
 // whose run did not finish and can be resumed (checkpoints, and no summary of a finished run): one
 // command typed for another must not cost either; and one with something not a file at a name the run
 // writes (check_run_names_are_files). `another`: the fix's other folder ("another --out folder"; the Python
-// module's write_frame names its own).
-void check_folder_is_a_runs(const std::filesystem::path& dir, std::string_view another = "another --out folder");
+// module's write_frame names its own); `continue_with`: how to continue the run that did not finish (empty:
+// "mca resume DIR").
+void check_folder_is_a_runs(const std::filesystem::path& dir, std::string_view another = "another --out folder",
+                            std::string_view continue_with = {});
 
 // The end of a run in `dir` from the engine's state: summary.json (`status`: "finished", "interrupted", ...)
 // and fragments.csv, every fragment heaviest first (mca run at its end, the Python module's

@@ -20,6 +20,7 @@
 #include "app/commands.hpp"
 #include "app/frame_output.hpp"
 #include "app/render_output.hpp"
+#include "app/run_folder.hpp"
 #include "backend/backend.hpp"
 #include "backend/cuda/device_memory.hpp"
 #include "core/files.hpp"
@@ -108,11 +109,6 @@ std::string human_time(double s) {
 
 
 constexpr std::int64_t kMaxSteps = Engine::kMaxSteps;
-
-struct Plan {
-  std::int64_t total_steps = 0;
-  std::int64_t total_frames = 0;  // frames after frame 0
-};
 
 // `steps` is checked against kMaxSteps by run(), before the model is built.
 Plan make_plan(const Engine& sim, const std::optional<std::int64_t>& steps) {
@@ -789,6 +785,120 @@ int run(const RunOptions& o) {
   return run_loop(L, writer);
 }
 
+Plan checkpoint_plan(const std::filesystem::path& dir, const Engine& sim, const io::Checkpoint& cp,
+                     const std::string& source) {
+  const Plan plan = resume_plan(cp, sim.steps_per_frame(), source);
+  // The folder's run is of a step count too (its --steps, or its duration's): a checkpoint of the same scene
+  // run for another count ends the folder at that one's end, past or short of its frames.
+  if (const auto given = read_scene_head(dir).steps; given.value_or(sim.total_steps()) != plan.total_steps)
+    throw Error(fmt::format("{} is of a run of {} steps, and the run in {} is of {} (its scene.toml's {}): it was "
+                            "copied in from another run; remove it, or resume the run it belongs to in its own folder",
+                            source, plan.total_steps, dir.string(), given.value_or(sim.total_steps()),
+                            given ? "--steps" : "output.duration"));
+  return plan;
+}
+
+FolderGoingOn go_on_in_folder(const std::filesystem::path& dir, const Engine& sim, const io::Checkpoint& cp,
+                              const Plan& plan, const GoingOn& how) {
+  const bool steps_left = cp.state.step < plan.total_steps;
+  // A rendered run goes on rendering, as it began (render/render.json), unless told not to; the renderer
+  // comes before any output, as for a new run.
+  const auto rendered = load_render_options(dir);
+  const bool will_render = rendered && how.draw;
+  io::check_output_subfolders(dir, run_subfolders(cp.scene, will_render));
+  check_run_names_are_files(dir);
+  io::check_inputs_outside_subfolders(dir, mesh_inputs(cp.scene));
+  if (how.check_fits)
+    check_run_fits(sim, cp.scene, plan.total_frames + 1 - cp.frame, will_render ? rendered->width : 0,
+                   will_render ? rendered->height : 0, dir);
+  // Rows past the checkpoint (frames the interrupted run wrote after it) are dropped: they are written
+  // again as the run continues. Read before any file is touched: a stats file that cannot be read stops
+  // the resume with the folder as it was.
+  auto rows = read_back_stats(dir, cp.frame, FrameWriter::stats_header(sim.model()).size());
+  // The earlier end (the plots too, where steps are left; the frames the renderer draws again, its video and
+  // sheet) is set aside here, all or none: a resume that stops before its collections and stats are written
+  // again leaves it as it was. (The plots are made again only by a rendered run; a run with no step left
+  // keeps them, and its stats.)
+  io::StagedRemoval earlier_end(dir);
+  const std::size_t plots_removed = stage_end_outputs(earlier_end, dir, steps_left);
+  FolderGoingOn going;
+  if (const auto& ro = rendered) {
+    if (how.draw) {
+      going.render = std::make_unique<RenderOutput>(dir, sim, *ro, plan.total_frames, how.quiet, cp.frame, how.stop,
+                                                    earlier_end);
+    } else if (steps_left) {  // (with none left, the rendering is whole and stays so)
+      // Its frames stop here: a later resume must not take the folder for a whole rendering. (Those the
+      // interrupted run drew past the checkpoint go, as its rows there do.)
+      earlier_end.stage(dir / "render" / "render.json");
+      RenderOutput::remove_frames_from(dir / "render", cp.frame, earlier_end);
+      how.warn(fmt::format("{}: {} keeps the frames drawn so far (0..{}); the frames this run adds are not drawn, "
+                           "and no video is made",
+                           how.not_drawn, (dir / "render").string(), cp.frame - 1));
+    }
+  } else if (steps_left) {
+    // Frames drawn by an earlier session without the options they were drawn with: this one cannot go on.
+    std::size_t drawn = 0;
+    std::error_code ec;
+    for (const auto& e : std::filesystem::directory_iterator(dir / "render", ec))
+      if (io::numbered(e.path().filename().string(), "frame_", ".png")) ++drawn;
+    if (drawn > 0)
+      how.warn(fmt::format("{} holds {} rendered frames but no render.json (the options a rendered run draws with; a "
+                           "resume with --no-render removes it): the frames this resume adds are not drawn, and no "
+                           "video is made; to draw them, stop this resume and restore render.json, or start the run "
+                           "again with --render",
+                           (dir / "render").string(), drawn));
+  }
+  going.writer = std::make_unique<FrameWriter>(dir, sim.model(), cp.scene.output);
+  FrameWriter& writer = *going.writer;
+  // Its stats and collections, written again below without the entries past the checkpoint, are set aside
+  // with the end: a resume stopped before its commit left them cut back beside the earlier run's summary.
+  for (const std::string& name : writer.restored_files()) {
+    earlier_end.stage(dir / name);
+    earlier_end.will_write(dir / name);
+  }
+  // Frame f is at the step the run wrote it at (min(f spf, total)), at that step's time.
+  auto missing = writer.restore(cp.frame, [&](std::int64_t f) {
+    return static_cast<double>(std::min(f * sim.steps_per_frame(), plan.total_steps)) * sim.model().dt;
+  });
+  // The checkpoint's own frame's row is the checkpoint's state's: one lost or cut short is made again from it.
+  if (static_cast<std::int64_t>(rows.size()) == cp.frame - 1) {
+    const auto frags = writer.fragments(sim.state());
+    rows.push_back(writer.format_row(writer.stats(cp.frame - 1, sim.state(), frags)));
+  }
+  if (static_cast<std::int64_t>(rows.size()) < cp.frame)
+    how.warn(fmt::format("{} has {} of the {} rows up to the checkpoint; the rows of frames {}..{} will be missing "
+                         "from it",
+                         (dir / "stats.csv").string(), rows.size(), cp.frame, rows.size(), cp.frame - 1));
+  // So are the checkpoint's own frame's files (below); those of earlier frames are gone for good (no state
+  // of them is left), and the collections leave them out.
+  const bool own_frame_lost = !missing.empty() && missing.back() == cp.frame - 1;
+  if (own_frame_lost) missing.pop_back();
+  if (!missing.empty())
+    how.warn(fmt::format("{} lacks whole files (missing, empty or cut short) of {} of the {} frames before the "
+                         "checkpoint (frame{} {}); {}a resume cannot write them again",
+                         dir.string(), missing.size(), cp.frame - 1, missing.size() > 1 ? "s" : "",
+                         text::number_runs(missing),
+                         cp.scene.output.vtk ? "the .pvd collections list the frames that are whole, and " : ""));
+  writer.start_stats(rows);
+  earlier_end.commit();
+  if (plots_removed > 0 && !going.render && !how.quiet)
+    how.note(fmt::format("the plots in {} showed the run up to frame {} and are removed; python3 {} {} draws them "
+                         "again when the run ends",
+                         (dir / "render").string(), cp.frame - 1, text::shell_word(plot_script().string()),
+                         text::shell_word(dir.string())));
+  remove_empty_output_folders(dir, going.render != nullptr, true);
+  // (After the earlier end is gone: a folder whose frame could not be written again says "finished" nowhere.)
+  try {
+    if (own_frame_lost) writer.write_frame(cp.frame - 1, sim.state(), writer.fragments(sim.state()));
+    if (going.render) going.render->draw_checkpoint_frame(sim.state());
+  } catch (const Error& e) {
+    throw Error(fmt::format("{}\nThe resume stopped writing the checkpoint's frame {} again, before its first step; "
+                            "once the disk has room (or the cause above is fixed), continue it with: mca resume {}",
+                            e.what(), cp.frame - 1, text::shell_word(dir.string())));
+  }
+  return going;
+}
+
 int resume(const std::string& out_dir, int threads_requested, bool quiet, bool no_render,
            const std::optional<std::string>& backend) {
   Engine::check_environment();  // a bad MCA_SIMD or MCA_BACKEND, before anything is read or written
@@ -845,14 +955,7 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
   const std::atomic<int>& stop = catch_stop_signals();  // (from here a signal is the run's to answer: the
                                                         // renderer's set-up, frame 0)
   building.reset();
-  const Plan plan = resume_plan(cp, sim.steps_per_frame(), source);
-  // The folder's run is of a step count too (its --steps, or its duration's): a checkpoint of the same scene
-  // run for another count ends the folder at that one's end, past or short of its frames.
-  if (const auto given = read_scene_head(dir).steps; given.value_or(sim.total_steps()) != plan.total_steps)
-    throw Error(fmt::format("{} is of a run of {} steps, and the run in {} is of {} (its scene.toml's {}): it was "
-                            "copied in from another run; remove it, or resume the run it belongs to in its own folder",
-                            source, plan.total_steps, dir.string(), given.value_or(sim.total_steps()),
-                            given ? "--steps" : "output.duration"));
+  const Plan plan = checkpoint_plan(dir, sim, cp, source);
   // A run that had reached its last frame (one that finished, or was stopped there) has no step left: its
   // outputs (summary, fragments, video) are finished again from that frame, with the same results.
   const bool steps_left = cp.state.step < plan.total_steps;
@@ -870,102 +973,18 @@ int resume(const std::string& out_dir, int threads_requested, bool quiet, bool n
                "frame {} (the run ends at frame {}): the resume runs the frames after it again, with the same "
                "bits, and writes the run's end again (its summary then that of a resumed run)\n",
                dir.string(), cp.frame - 1, plan.total_frames);
-  // A rendered run goes on rendering, as it began (render/render.json), unless told not to; the renderer
-  // comes before any output, as for a new run.
-  const auto rendered = load_render_options(dir);
-  const bool will_render = rendered && !no_render;
-  io::check_output_subfolders(dir, run_subfolders(cp.scene, will_render));
-  check_run_names_are_files(dir);
-  io::check_inputs_outside_subfolders(dir, mesh_inputs(cp.scene));
-  check_run_fits(sim, cp.scene, plan.total_frames + 1 - cp.frame, will_render ? rendered->width : 0,
-                 will_render ? rendered->height : 0, dir);
-  // Rows past the checkpoint (frames the interrupted run wrote after it) are dropped: they are written
-  // again as the run continues. Read before any file is touched: a stats file that cannot be read stops
-  // the resume with the folder as it was.
-  auto rows = read_back_stats(dir, cp.frame, FrameWriter::stats_header(sim.model()).size());
-  // The earlier end (the plots too, where steps are left; the frames the renderer draws again, its video and
-  // sheet) is set aside here, all or none: a resume that stops before its collections and stats are written
-  // again leaves it as it was. (The plots are made again only by a rendered run; a run with no step left
-  // keeps them, and its stats.)
-  io::StagedRemoval earlier_end(dir);
-  const std::size_t plots_removed = stage_end_outputs(earlier_end, dir, steps_left);
-  std::unique_ptr<RenderOutput> render;
-  if (const auto& ro = rendered) {
-    if (!no_render) {
-      render = std::make_unique<RenderOutput>(dir, sim, *ro, plan.total_frames, quiet, cp.frame, &stop, earlier_end);
-    } else if (steps_left) {  // (with none left, the rendering is whole and stays so)
-      // Its frames stop here: a later resume must not take the folder for a whole rendering. (Those the
-      // interrupted run drew past the checkpoint go, as its rows there do.)
-      earlier_end.stage(dir / "render" / "render.json");
-      RenderOutput::remove_frames_from(dir / "render", cp.frame, earlier_end);
-      fmt::print(stderr, "warning: --no-render: {} keeps the frames drawn so far (0..{}); the frames this run adds "
-                 "are not drawn, and no video is made\n",
-                 (dir / "render").string(), cp.frame - 1);
-    }
-  } else if (steps_left) {
-    // Frames drawn by an earlier session without the options they were drawn with: this one cannot go on.
-    std::size_t drawn = 0;
-    std::error_code ec;
-    for (const auto& e : std::filesystem::directory_iterator(dir / "render", ec))
-      if (io::numbered(e.path().filename().string(), "frame_", ".png")) ++drawn;
-    if (drawn > 0)
-      fmt::print(stderr, "warning: {} holds {} rendered frames but no render.json (the options a rendered run draws "
-                 "with; a resume with --no-render removes it): the frames this resume adds are not drawn, and no "
-                 "video is made; to draw them, stop this resume and restore render.json, or start the run again "
-                 "with --render\n",
-                 (dir / "render").string(), drawn);
-  }
-  FrameWriter writer(dir, sim.model(), cp.scene.output);
-  // Its stats and collections, written again below without the entries past the checkpoint, are set aside
-  // with the end: a resume stopped before its commit left them cut back beside the earlier run's summary.
-  for (const std::string& name : writer.restored_files()) {
-    earlier_end.stage(dir / name);
-    earlier_end.will_write(dir / name);
-  }
-  // Frame f is at the step the run wrote it at (min(f spf, total)), at that step's time.
-  auto missing = writer.restore(cp.frame, [&](std::int64_t f) {
-    return static_cast<double>(std::min(f * sim.steps_per_frame(), plan.total_steps)) * sim.model().dt;
-  });
-  Loop L{sim, dir, threads, quiet, cp.scene.output.checkpoint_every, plan, 0, 0.0, render.get(), false, all.back()};
+  GoingOn how;
+  how.draw = !no_render;
+  how.not_drawn = "--no-render";
+  how.quiet = quiet;
+  how.stop = &stop;
+  how.warn = [](const std::string& w) { say("warning: {}\n", w); };
+  how.note = [](const std::string& n) { say("mca: {}\n", n); };
+  FolderGoingOn going = go_on_in_folder(dir, sim, cp, plan, how);
+  Loop L{sim, dir, threads, quiet, cp.scene.output.checkpoint_every, plan, 0, 0.0, going.render.get(), false, all.back()};
   L.frame = cp.frame;
   L.wall_before = cp.wall_seconds;
-  // The checkpoint's own frame's row is the checkpoint's state's: one lost or cut short is made again from it.
-  if (static_cast<std::int64_t>(rows.size()) == cp.frame - 1) {
-    const auto frags = writer.fragments(sim.state());
-    rows.push_back(writer.format_row(writer.stats(cp.frame - 1, sim.state(), frags)));
-  }
-  if (static_cast<std::int64_t>(rows.size()) < cp.frame)
-    fmt::print(stderr, "warning: {} has {} of the {} rows up to the checkpoint; the rows of frames {}..{} will be "
-               "missing from it\n",
-               (dir / "stats.csv").string(), rows.size(), cp.frame, rows.size(), cp.frame - 1);
-  // So are the checkpoint's own frame's files (below); those of earlier frames are gone for good (no state
-  // of them is left), and the collections leave them out.
-  const bool own_frame_lost = !missing.empty() && missing.back() == cp.frame - 1;
-  if (own_frame_lost) missing.pop_back();
-  if (!missing.empty())
-    fmt::print(stderr, "warning: {} lacks whole files (missing, empty or cut short) of {} of the {} frames before "
-               "the checkpoint (frame{} {}); {}a resume cannot write them again\n",
-               dir.string(), missing.size(), cp.frame - 1, missing.size() > 1 ? "s" : "", text::number_runs(missing),
-               cp.scene.output.vtk ? "the .pvd collections list the frames that are whole, and " : "");
-  writer.start_stats(rows);
-  earlier_end.commit();
-  if (plots_removed > 0 && !render && !quiet)
-    fmt::print(stderr, "mca: the plots in {} showed the run up to frame {} and are removed; python3 {} {} draws "
-               "them again when the run ends\n",
-               (dir / "render").string(), cp.frame - 1,
-               text::shell_word(plot_script().string()),
-               text::shell_word(dir.string()));
-  remove_empty_output_folders(dir, render != nullptr, true);
-  // (After the earlier end is gone: a folder whose frame could not be written again says "finished" nowhere.)
-  try {
-    if (own_frame_lost) writer.write_frame(cp.frame - 1, sim.state(), writer.fragments(sim.state()));
-    if (render) render->draw_checkpoint_frame(sim.state());
-  } catch (const Error& e) {
-    throw Error(fmt::format("{}\nThe resume stopped writing the checkpoint's frame {} again, before its first step; "
-                            "once the disk has room (or the cause above is fixed), continue it with: mca resume {}",
-                            e.what(), cp.frame - 1, text::shell_word(dir.string())));
-  }
-  return run_loop(L, writer);
+  return run_loop(L, *going.writer);
 }
 
 }  // namespace mca::app

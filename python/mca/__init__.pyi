@@ -295,7 +295,10 @@ class Simulation:
         in a folder makes a new run's checks and removes what an earlier run left there. Only one folder is
         written at a time (however it is spelt: "out", "out/", "./out"): giving another folder releases the
         first (once the other has passed its checks: a folder refused leaves the first as it was), and giving
-        the first again starts it afresh (frame 0, its earlier frames and stats.csv removed)."""
+        the first again starts it afresh (frame 0, its earlier frames and stats.csv removed). A Simulation
+        resumed from a run folder's newest checkpoint (Simulation.resume(folder)) goes on in that folder, as
+        mca resume does: frames numbered on from the checkpoint's (its own frame is the resumed state: written
+        before advancing, it returns that number and writes nothing), what the run wrote past it replaced."""
     def close_output(self, finish: bool = False, progress: Optional[Callable[[int, int], Any]] = None) -> None:
         """Releases the folder of write_frame. finish=True first writes the run's end as mca run does after its
         last frame, from the state of the last frame written: summary.json ("finished"), fragments.csv and,

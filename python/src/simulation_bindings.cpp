@@ -28,6 +28,7 @@
 #include "app/commands.hpp"
 #include "app/frame_output.hpp"
 #include "app/render_output.hpp"
+#include "app/run_folder.hpp"
 #include "bindings.hpp"
 #include "core/text.hpp"
 #include "io/checkpoint.hpp"
@@ -55,6 +56,9 @@ struct OutputFolder {
   std::unique_ptr<app::FrameWriter> writer;
   std::int64_t next_frame = 0;
   std::int64_t last_step = -1;  // the step of the last frame written
+  // The folder goes on from the checkpoint of its run that the Simulation was resumed from, and no frame
+  // was written since: the checkpoint's own frame (next_frame - 1, at last_step) is the state's.
+  bool at_checkpoint = false;
 };
 
 // f() without the GIL, which is taken back in this function's body rather than in a destructor: at the
@@ -98,6 +102,13 @@ class PySimulation {
     without_gil([&] { engine_ = std::make_shared<Engine>(cp.scene, cp.state, source, cp.model_fingerprint); });
     wall_ = first_wall_ = cp.wall_seconds;
     first_step_ = cp.state.step;
+    // All of the checkpoint but its state, which is the engine's: write_frame goes on in its run's folder.
+    resumed_head_.scene = cp.scene;
+    resumed_head_.frame = cp.frame;
+    resumed_head_.total_steps = cp.total_steps;
+    resumed_head_.wall_seconds = cp.wall_seconds;
+    resumed_head_.model_fingerprint = cp.model_fingerprint;
+    resumed_head_.state.step = cp.state.step;
   }
   ~PySimulation() {
     stop_ = true;
@@ -142,6 +153,8 @@ class PySimulation {
   std::int64_t first_step() const { return first_step_; }
   double first_wall() const { return first_wall_; }
   const std::filesystem::path& resumed_from() const { return resumed_from_; }
+  // The checkpoint it was resumed from without its state (whose step is there), where it was.
+  const io::Checkpoint& resumed_head() const { return resumed_head_; }
 
   void advance(std::int64_t steps, const py::object& progress) {
     if (steps < 0) throw Error(fmt::format("advance({}): the step count is negative; give 0 or more steps", steps));
@@ -418,6 +431,7 @@ class PySimulation {
   double first_wall_ = 0;
   std::int64_t first_step_ = 0;
   std::filesystem::path resumed_from_;
+  io::Checkpoint resumed_head_;
   double per_step_ = 0;         // seconds a step took in the last slice
   std::int64_t last_slice_ = 1;  // its steps
 };
@@ -590,6 +604,61 @@ std::filesystem::path folder_path(const std::filesystem::path& dir) {
   return p;
 }
 
+// Whether `folder` is the run folder of the checkpoint `file` (FOLDER/checkpoints/frame_NNNNNN.mcack).
+bool is_run_folder_of(const std::filesystem::path& file, const std::filesystem::path& folder) {
+  if (file.empty() || !file.has_parent_path() || file.parent_path().filename() != "checkpoints" ||
+      !io::numbered(file.filename().string(), "frame_", ".mcack"))
+    return false;
+  const std::filesystem::path run = file.parent_path().parent_path();
+  std::error_code ec;
+  return folder_path(run.empty() ? "." : run) == folder || std::filesystem::equivalent(run.empty() ? "." : run, folder, ec);
+}
+
+// The run folder `out` (locked, recovered) of the checkpoint the Simulation was resumed from, readied as
+// mca resume readies it (app::go_on_in_folder) for the frames after the checkpoint's; the frames written
+// next are numbered on from it. Returns the warnings to give.
+std::vector<std::string> go_on_in_folder(PySimulation& sim, OutputFolder& out) {
+  const Engine& e = sim.engine();
+  const io::Checkpoint& head = sim.resumed_head();
+  const std::filesystem::path& file = sim.resumed_from();
+  // From the checkpoint resumed, not from one after it: their frames would be gone, and mca resume would go
+  // on from the newest (the fixes keep the folder one run).
+  const auto all = io::list_checkpoints(out.dir / "checkpoints");
+  std::error_code ec;
+  if (all.empty() || !std::filesystem::equivalent(all.back(), file, ec))
+    throw Error(fmt::format(
+        "write_frame: {} is the folder of the run whose checkpoint {} this Simulation was resumed from, and {}: "
+        "going on from that one would leave the checkpoints of a run it no longer is. Resume the newest "
+        "(mca.Simulation.resume(\"{}\")), remove the checkpoints after it, or give write_frame another folder",
+        out.dir.string(), file.filename().string(),
+        all.empty() ? std::string("its checkpoints/ holds no checkpoint now")
+                    : fmt::format("its newest checkpoint is {}", all.back().filename().string()),
+        text::utf8_shown(out.dir.string())));
+  // (mca resume's message for it names this module's resume as the way on.)
+  const std::int64_t spf = e.steps_per_frame(), step = head.state.step;
+  if (step % spf != 0 && step < head.total_steps)
+    throw Error(fmt::format("write_frame: {} is the folder of the run whose checkpoint {} this Simulation was resumed "
+                            "from, and it was saved between two frames (step {}, between frames {} and {}): the run's "
+                            "frames cannot go on from it. Give write_frame another folder (a new run from this "
+                            "state), or resume a checkpoint saved at the end of a frame",
+                            out.dir.string(), file.filename().string(), step, step / spf, step / spf + 1));
+  const std::string source = fmt::format("checkpoint '{}'", file.string());
+  io::check_checkpoint_scene(head, file, out.dir);
+  const app::Plan plan = app::checkpoint_plan(out.dir, e, head, source);
+  std::vector<std::string> said;
+  app::GoingOn how;
+  how.draw = false;
+  how.not_drawn = "write_frame draws no pictures";
+  how.check_fits = false;  // (as write_frame into a new folder: the frames are the caller's to count)
+  how.warn = how.note = [&](const std::string& w) { said.push_back(w); };
+  app::FolderGoingOn going = app::go_on_in_folder(out.dir, e, head, plan, how);
+  out.writer = std::move(going.writer);
+  out.next_frame = head.frame;
+  out.last_step = head.state.step;
+  out.at_checkpoint = true;
+  return said;
+}
+
 // Frame `next_frame` of `dir` as `mca run` writes it: the VTK frames and their collections, the bound
 // surface (output.surface), a row of stats.csv; the first frame in a folder makes a new run's checks, writes
 // scene.toml and removes what an earlier run left there (as a new run does; other files stay).
@@ -618,8 +687,11 @@ std::int64_t write_frame_unworded(PySimulation& sim, const std::filesystem::path
     // the next write_frame into the one before started it afresh, its frames removed.
     auto out = std::make_unique<OutputFolder>();
     out->dir = folder;
+    const bool goes_on = is_run_folder_of(sim.resumed_from(), folder);
     io::prepare_output_dir(out->dir);
-    io::check_output_subfolders(out->dir, app::frame_subfolders(e.scene()));
+    auto subfolders = app::frame_subfolders(e.scene());
+    if (goes_on) subfolders.emplace_back("checkpoints");
+    io::check_output_subfolders(out->dir, subfolders);
     // (as mca run: a mesh the scene read, lying where the earlier run's files are removed, would go)
     io::check_inputs_outside_subfolders(out->dir, app::mesh_inputs(e.scene()));
     out->lock = std::make_unique<io::OutputLock>(out->dir);
@@ -627,9 +699,20 @@ std::int64_t write_frame_unworded(PySimulation& sim, const std::filesystem::path
     // dead session's temporaries go.)
     for (const std::string& said : app::FrameWriter::recover_folder(out->dir))
       if (PyErr_WarnEx(PyExc_UserWarning, said.c_str(), 1) != 0) throw py::error_already_set();
+    if (goes_on) {
+      // (Said once the folder is this Simulation's: a warning raised as an error leaves it whole.)
+      const std::vector<std::string> said = go_on_in_folder(sim, *out);
+      sim.output = std::move(out);
+      for (const std::string& w : said)
+        if (PyErr_WarnEx(PyExc_UserWarning, w.c_str(), 1) != 0) throw py::error_already_set();
+      return write_frame_unworded(sim, dir);
+    }
     // As a new run: not a folder of files of a run's names that no run of mca wrote, nor a run that did
     // not finish (its frames would go, and its checkpoints could no longer be resumed).
-    app::check_folder_is_a_runs(out->dir, "write_frame another folder");
+    app::check_folder_is_a_runs(
+        out->dir, "write_frame another folder",
+        fmt::format("mca.Simulation.resume(\"{0}\") and its write_frame(\"{0}\"), or mca resume {1}",
+                    text::utf8_shown(out->dir.string()), text::shell_word(out->dir.string())));
     sim.output.reset();
     // An earlier run's outputs, as mca run removes them (its summary.json and fragment meshes were left, and
     // the Blender importer took the old run's spacing and pieces for this one's): set aside, all or none,
@@ -645,6 +728,8 @@ std::int64_t write_frame_unworded(PySimulation& sim, const std::filesystem::path
     sim.output = std::move(out);
   }
   OutputFolder& out = *sim.output;
+  if (out.at_checkpoint && s.step == out.last_step) return out.next_frame - 1;  // (its frame already)
+  out.at_checkpoint = false;
   if (out.next_frame == 0 && !e.scene().output.vtk && !e.scene().output.surface) {
     const std::string said = fmt::format("write_frame: output.vtk is false, so {} gets the frames' rows of stats.csv "
                                          "and no frames (set scene.output.vtk = True for them)",
@@ -1037,7 +1122,11 @@ Simulation is gone.)");
           "writes scene.toml and removes what an earlier run left there (frames, stats, summary, fragments, "
           "checkpoints, pictures); the folder (however it is spelt) stays locked (as a run's) until another "
           "folder is given and passes these checks, close_output() or the Simulation goes; giving the first folder again starts it afresh "
-          "(frame 0, its earlier frames and stats removed). Returns the frame number.")
+          "(frame 0, its earlier frames and stats removed). A Simulation resumed from a run folder's newest checkpoint "
+          "(Simulation.resume(folder)) goes on in that folder instead, as mca resume does: its frames are numbered on "
+          "from the checkpoint's (whose own frame is the resumed state: write_frame before advancing returns its "
+          "number and writes nothing), and what the run wrote past the checkpoint (frames, rows, its end, the plots) "
+          "is replaced; its pictures stop (write_frame draws none). Returns the frame number.")
       .def(
           "close_output",
           [](PySimulation& s, Given<py_type::boolean> finish, Given<py_type::progress> progress_arg) {

@@ -144,7 +144,9 @@ def test_write_frame_refuses_the_folders_a_new_run_refuses(tmp_path, mca_binary)
                 unfinished)
     (unfinished / "summary.json").unlink()
     frames = sorted(p.name for p in (unfinished / "frames").iterdir())
-    with pytest.raises(mca.Error, match=r"holds a run that did not finish .*mca resume"):
+    with pytest.raises(mca.Error, match=r"holds a run that did not finish .*; continue it with: mca\.Simulation\."
+                                        r"resume\(\".*unfinished\"\) and its write_frame\(\".*unfinished\"\), or "
+                                        r"mca resume .*unfinished\. To start it afresh"):
         sim.write_frame(unfinished)
     assert sorted(p.name for p in (unfinished / "frames").iterdir()) == frames
     run_command(mca_binary, "resume", "--quiet", unfinished)  # (still resumes)
@@ -203,7 +205,62 @@ def test_mca_resume_names_a_checkpoint_saved_between_frames(tmp_path, mca_binary
     assert f"its state is at step 500, between frames 0 and 1 (steps 0 and {sim.steps_per_frame})" in r.stderr
     assert "continue it with mca.Simulation.resume in Python" in r.stderr
     assert "damaged" not in r.stderr
-    assert mca.Simulation.resume(out / "checkpoints" / "frame_000001.mcack").step == 500
+    resumed = mca.Simulation.resume(out / "checkpoints" / "frame_000001.mcack")
+    assert resumed.step == 500
+    # Nor can its frames go on from it in its folder (the checkpoint's frame would be another state).
+    stats = (out / "stats.csv").read_bytes()
+    with pytest.raises(mca.Error, match=r"was saved between two frames \(step 500, between frames 0 and 1\): the "
+                                        r"run's frames cannot go on from it\. Give write_frame another folder"):
+        resumed.write_frame(out)
+    assert (out / "stats.csv").read_bytes() == stats
+
+
+def test_a_killed_run_goes_on_from_python_in_its_own_folder(tmp_path, mca_binary):
+    """A Simulation resumed from a run folder's checkpoint writes its frames on in that folder, as mca resume
+    does: the frames, rows and collection entries the killed run wrote past the checkpoint are written again,
+    and the folder ends as the run's uninterrupted twin (write_frame refused it as a run that did not finish,
+    naming mca resume: the hostile review of 2026-12-06, F5)."""
+    scene = mca.Scene.default()
+    scene.output.frame_rate = 5000
+    scene_file = tmp_path / "fast.toml"
+    scene.save(scene_file)
+    spf = mca.Simulation(scene, threads=1).steps_per_frame
+    whole, out = tmp_path / "whole", tmp_path / "killed"
+    for folder in (whole, out):
+        run_command(mca_binary, "run", scene_file, "--steps", 4 * spf, "--checkpoint-every", 1, "--quiet", "--out",
+                    folder)
+    # Killed after frame 4 was written, before its checkpoint was: the run's end and that checkpoint missing.
+    (out / "summary.json").unlink()
+    (out / "fragments.csv").unlink()
+    stats = (out / "stats.csv").read_bytes()
+    # From a checkpoint before the newest it cannot go on (the newest would be of frames no longer there).
+    older = mca.Simulation.resume(out / "checkpoints" / "frame_000003.mcack", threads=1)
+    with pytest.raises(mca.Error, match=r"whose checkpoint frame_000003\.mcack this Simulation was resumed from, and "
+                                        r"its newest checkpoint is frame_000004\.mcack: .*remove the checkpoints "
+                                        r"after it, or give write_frame another folder"):
+        older.write_frame(out)
+    assert (out / "stats.csv").read_bytes() == stats and (out / "checkpoints" / "frame_000004.mcack").exists()
+    (out / "checkpoints" / "frame_000004.mcack").unlink()
+    sim = mca.Simulation.resume(out, threads=1)
+    assert sim.step == 3 * spf
+    with pytest.raises(mca.Error, match=r"close_output\(finish=True\): no folder is open"):
+        sim.close_output(finish=True)
+    assert sim.write_frame(out) == 3  # the checkpoint's own frame: already this state's
+    assert sim.write_frame(out / ".") == 3  # (the same folder)
+    sim.advance(spf)
+    assert sim.write_frame(out) == 4
+    sim.close_output(finish=True)
+    ends = [json.loads((folder / "summary.json").read_text()) for folder in (whole, out)]
+    assert ends[1]["status"] == "finished" and ends[1]["state_hash"] == ends[0]["state_hash"]
+    assert ends[1]["resumed_from"] == str(out / "checkpoints" / "frame_000003.mcack")
+    names = ["stats.csv", "automata.pvd", "projectiles.pvd", "fragments.csv"]
+    names += [f"frames/{p.name}" for p in sorted((whole / "frames").iterdir())]
+    assert sorted(p.name for p in (out / "frames").iterdir()) == sorted(p.name for p in (whole / "frames").iterdir())
+    for name in names:
+        assert (out / name).read_bytes() == (whole / name).read_bytes(), name
+    # And mca resume takes the folder on from there (its run finished: its end is written again).
+    run_command(mca_binary, "resume", "--quiet", out)
+    assert json.loads((out / "summary.json").read_text())["state_hash"] == ends[0]["state_hash"]
 
 
 def test_write_frame_writes_nothing_through_links(tmp_path):
