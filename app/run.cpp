@@ -143,8 +143,8 @@ Plan resume_plan(const io::Checkpoint& cp, int spf, const std::string& source) {
   if (cp.state.step != step && cp.state.step > 0 && cp.state.step < p.total_steps && cp.state.step % spf != 0)
     throw Error(fmt::format("{}: its state is at step {}, between frames {} and {} (steps {} and {}): it was saved "
                             "between frames (by mca.Simulation.checkpoint), and mca resume continues a run from "
-                            "the end of a frame; continue it with mca.Simulation.resume in Python, or remove it to "
-                            "resume from the checkpoint before",
+                            "the end of a frame; continue it with mca.Simulation.resume in Python (writing its frames into "
+                            "another folder), or remove it to resume from the checkpoint before",
                             source, cp.state.step, cp.state.step / spf, cp.state.step / spf + 1,
                             cp.state.step / spf * spf, std::min(p.total_steps, (cp.state.step / spf + 1) * spf)));
   if (cp.state.step != step)

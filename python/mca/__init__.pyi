@@ -246,7 +246,8 @@ class Simulation:
     @property
     def steps_per_frame(self) -> int: ...
     @property
-    def total_steps(self) -> int: ...
+    def total_steps(self) -> int:
+        """The run's steps: the scene's output.duration's; resumed from a checkpoint, its run's (mca run --steps N: N)."""
     @property
     def automata(self) -> int: ...
     @property
@@ -297,8 +298,9 @@ class Simulation:
         first (once the other has passed its checks: a folder refused leaves the first as it was), and giving
         the first again starts it afresh (frame 0, its earlier frames and stats.csv removed). A Simulation
         resumed from a run folder's newest checkpoint (Simulation.resume(folder)) goes on in that folder, as
-        mca resume does: frames numbered on from the checkpoint's (its own frame is the resumed state: written
-        before advancing, it returns that number and writes nothing), what the run wrote past it replaced."""
+        mca resume does: the run's frames on its clock (frame k at step k x steps_per_frame, up to
+        total_steps; another step is refused) from the checkpoint's (its own frame is the resumed state:
+        written before advancing, it returns that number), what the run wrote past it replaced."""
     def close_output(self, finish: bool = False, progress: Optional[Callable[[int, int], Any]] = None) -> None:
         """Releases the folder of write_frame. finish=True first writes the run's end as mca run does after its
         last frame, from the state of the last frame written: summary.json ("finished"), fragments.csv and,

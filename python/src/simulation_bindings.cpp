@@ -153,6 +153,10 @@ class PySimulation {
   std::int64_t first_step() const { return first_step_; }
   double first_wall() const { return first_wall_; }
   const std::filesystem::path& resumed_from() const { return resumed_from_; }
+  // The run's steps: the scene's duration's, or those of the run a checkpoint was saved from.
+  std::int64_t total_steps() const {
+    return resumed_from_.empty() ? engine().total_steps() : resumed_head_.total_steps;
+  }
   // The checkpoint it was resumed from without its state (whose step is there), where it was.
   const io::Checkpoint& resumed_head() const { return resumed_head_; }
 
@@ -614,6 +618,37 @@ bool is_run_folder_of(const std::filesystem::path& file, const std::filesystem::
   return folder_path(run.empty() ? "." : run) == folder || std::filesystem::equivalent(run.empty() ? "." : run, folder, ec);
 }
 
+// In the folder of the run it was resumed from, a Simulation writes that run's frames: frame k at step
+// min(k x steps_per_frame, the run's steps), `next` the one after the last written, and up to the run's end;
+// or the checkpoint's own frame at its step (`at_checkpoint`: before any other). Throws, naming the step to
+// write at, where the state is at no such step (the frames would be numbered off the run's clock, stats.csv
+// and the collections pairing them with other frames' times, and mca resume would leave them behind).
+void check_run_clock(const PySimulation& sim, const std::filesystem::path& dir, std::int64_t next, bool at_checkpoint) {
+  const Engine& e = sim.engine();
+  const io::Checkpoint& head = sim.resumed_head();
+  const std::int64_t step = e.state().step, spf = e.steps_per_frame(), total = head.total_steps;
+  if (at_checkpoint && step == head.state.step) return;
+  const std::int64_t frames = total / spf + (total % spf != 0);
+  const std::string how = fmt::format(
+      "write_frame: the run in {} goes on frame by frame as mca resume writes it (frame k at step k x {}, up to its "
+      "end at step {}, frame {})",
+      dir.string(), spf, total, frames);
+  if (next > frames)
+    throw Error(fmt::format("{}, and its last frame is written; this Simulation is at step {}. Give write_frame "
+                            "another folder for frames past the run's end",
+                            how, step));
+  const std::int64_t due = std::min(next * spf, total);
+  if (step < due)
+    throw Error(fmt::format("{}: its next frame, {}, is at step {}, and this Simulation is at step {}; advance({}) "
+                            "first",
+                            how, next, due, step, due - step));
+  if (step > due)
+    throw Error(fmt::format("{}: its next frame, {}, is at step {}, and this Simulation is past it, at step {}. To "
+                            "write the frames from there, resume the folder again (mca.Simulation.resume(\"{}\")); or "
+                            "give write_frame another folder",
+                            how, next, due, step, text::utf8_shown(dir.string())));
+}
+
 // The run folder `out` (locked, recovered) of the checkpoint the Simulation was resumed from, readied as
 // mca resume readies it (app::go_on_in_folder) for the frames after the checkpoint's; the frames written
 // next are numbered on from it. Returns the warnings to give.
@@ -634,6 +669,7 @@ std::vector<std::string> go_on_in_folder(PySimulation& sim, OutputFolder& out) {
         all.empty() ? std::string("its checkpoints/ holds no checkpoint now")
                     : fmt::format("its newest checkpoint is {}", all.back().filename().string()),
         text::utf8_shown(out.dir.string())));
+  io::check_checkpoint_scene(head, file, out.dir);
   // (mca resume's message for it names this module's resume as the way on.)
   const std::int64_t spf = e.steps_per_frame(), step = head.state.step;
   if (step % spf != 0 && step < head.total_steps)
@@ -643,9 +679,13 @@ std::vector<std::string> go_on_in_folder(PySimulation& sim, OutputFolder& out) {
                             "state), or resume a checkpoint saved at the end of a frame",
                             out.dir.string(), file.filename().string(), step, step / spf, step / spf + 1));
   const std::string source = fmt::format("checkpoint '{}'", file.string());
-  io::check_checkpoint_scene(head, file, out.dir);
   const app::Plan plan = app::checkpoint_plan(out.dir, e, head, source);
   std::vector<std::string> said;
+  if (app::summary_status(out.dir) == "finished")
+    said.push_back(fmt::format("the run in {} had finished (its summary.json says so): it goes on from its newest "
+                               "checkpoint (frame {}), and its end (summary.json, fragments.csv, the fragment meshes) "
+                               "is removed; close_output(finish=True) writes it again from the last frame written",
+                               out.dir.string(), head.frame - 1));
   app::GoingOn how;
   how.draw = false;
   how.not_drawn = "write_frame draws no pictures";
@@ -688,6 +728,8 @@ std::int64_t write_frame_unworded(PySimulation& sim, const std::filesystem::path
     auto out = std::make_unique<OutputFolder>();
     out->dir = folder;
     const bool goes_on = is_run_folder_of(sim.resumed_from(), folder);
+    // (Before the folder is touched: one refused is left as it was.)
+    if (goes_on) check_run_clock(sim, folder, sim.resumed_head().frame, true);
     io::prepare_output_dir(out->dir);
     auto subfolders = app::frame_subfolders(e.scene());
     if (goes_on) subfolders.emplace_back("checkpoints");
@@ -729,6 +771,7 @@ std::int64_t write_frame_unworded(PySimulation& sim, const std::filesystem::path
   }
   OutputFolder& out = *sim.output;
   if (out.at_checkpoint && s.step == out.last_step) return out.next_frame - 1;  // (its frame already)
+  if (is_run_folder_of(sim.resumed_from(), out.dir)) check_run_clock(sim, out.dir, out.next_frame, false);
   out.at_checkpoint = false;
   if (out.next_frame == 0 && !e.scene().output.vtk && !e.scene().output.surface) {
     const std::string said = fmt::format("write_frame: output.vtk is false, so {} gets the frames' rows of stats.csv "
@@ -775,7 +818,7 @@ void checkpoint(PySimulation& sim, const std::filesystem::path& path) {
   // The frame clock of `mca resume`: a checkpoint saved at a frame's end (step = k x steps_per_frame) says
   // k + 1 frames were written, which `mca resume` continues from (in a run folder with this scene.toml).
   cp.frame = cp.state.step / e.steps_per_frame() + 1;
-  cp.total_steps = std::max(e.total_steps(), cp.state.step);
+  cp.total_steps = std::max(sim.total_steps(), cp.state.step);
   cp.wall_seconds = sim.wall();
   cp.model_fingerprint = model_fingerprint(e.model());
   if (path.has_parent_path()) {
@@ -815,6 +858,8 @@ std::unique_ptr<PySimulation> resume(const std::filesystem::path& path, int thre
     file = all.back();
   }
   io::Checkpoint cp = io::read_checkpoint(file, file != path);
+  // (Absolute: the folder it is of stays the same after os.chdir, and the summary names it.)
+  if (const auto absolute = std::filesystem::absolute(file, ec); !ec) file = absolute.lexically_normal();
   // Any backend continues any checkpoint with the same bits.
   if (backend) cp.scene.solver.backend = *backend;
   return std::make_unique<PySimulation>(cp, file, app::thread_count(threads, "threads="));
@@ -927,8 +972,9 @@ Simulation is gone.)");
                              "the time step [s]")
       .def_property_readonly("steps_per_frame", [](const PySimulation& s) { return s.engine().steps_per_frame(); },
                              "steps in one output frame of the scene's frame rate")
-      .def_property_readonly("total_steps", [](const PySimulation& s) { return s.engine().total_steps(); },
-                             "steps in the scene's output.duration")
+      .def_property_readonly("total_steps", [](const PySimulation& s) { return s.total_steps(); },
+                             "the run's steps: the scene's output.duration's; for a Simulation resumed from a "
+                             "checkpoint, those of the run it was saved from (mca run --steps N: N)")
       .def_property_readonly("automata", [](const PySimulation& s) { return s.engine().model().size(); },
                              "automata in the model")
       .def_property_readonly("link_count", [](const PySimulation& s) { return s.engine().model().link_count(); },
@@ -1123,10 +1169,11 @@ Simulation is gone.)");
           "checkpoints, pictures); the folder (however it is spelt) stays locked (as a run's) until another "
           "folder is given and passes these checks, close_output() or the Simulation goes; giving the first folder again starts it afresh "
           "(frame 0, its earlier frames and stats removed). A Simulation resumed from a run folder's newest checkpoint "
-          "(Simulation.resume(folder)) goes on in that folder instead, as mca resume does: its frames are numbered on "
-          "from the checkpoint's (whose own frame is the resumed state: write_frame before advancing returns its "
-          "number and writes nothing), and what the run wrote past the checkpoint (frames, rows, its end, the plots) "
-          "is replaced; its pictures stop (write_frame draws none). Returns the frame number.")
+          "(Simulation.resume(folder)) goes on in that folder instead, as mca resume does: it writes the run's frames on "
+          "its clock (frame k at step k x steps_per_frame, up to total_steps; another step is refused, naming the "
+          "one to write at) from the checkpoint's (whose own frame is the resumed state: write_frame before advancing "
+          "returns its number), and what the run wrote past the checkpoint (frames, rows, its end, the plots) is "
+          "replaced; its pictures stop (write_frame draws none). Returns the frame number.")
       .def(
           "close_output",
           [](PySimulation& s, Given<py_type::boolean> finish, Given<py_type::progress> progress_arg) {

@@ -215,11 +215,12 @@ def test_mca_resume_names_a_checkpoint_saved_between_frames(tmp_path, mca_binary
     assert (out / "stats.csv").read_bytes() == stats
 
 
-def test_a_killed_run_goes_on_from_python_in_its_own_folder(tmp_path, mca_binary):
+def test_a_killed_run_goes_on_from_python_in_its_own_folder(tmp_path, mca_binary, monkeypatch):
     """A Simulation resumed from a run folder's checkpoint writes its frames on in that folder, as mca resume
     does: the frames, rows and collection entries the killed run wrote past the checkpoint are written again,
-    and the folder ends as the run's uninterrupted twin (write_frame refused it as a run that did not finish,
-    naming mca resume: the hostile review of 2026-12-06, F5)."""
+    on the run's frame clock and up to its end, and the folder ends as the run's uninterrupted twin
+    (write_frame refused it as a run that did not finish, naming mca resume: the hostile review of
+    2026-12-06, F5; frames off the clock, a relative path after os.chdir and the run's end: 2026-12-08)."""
     scene = mca.Scene.default()
     scene.output.frame_rate = 5000
     scene_file = tmp_path / "fast.toml"
@@ -241,15 +242,35 @@ def test_a_killed_run_goes_on_from_python_in_its_own_folder(tmp_path, mca_binary
         older.write_frame(out)
     assert (out / "stats.csv").read_bytes() == stats and (out / "checkpoints" / "frame_000004.mcack").exists()
     (out / "checkpoints" / "frame_000004.mcack").unlink()
-    sim = mca.Simulation.resume(out, threads=1)
+    # Resumed by a relative path, written from another working folder.
+    monkeypatch.chdir(tmp_path)
+    sim = mca.Simulation.resume("killed", threads=1)
+    monkeypatch.chdir(whole)
     assert sim.step == 3 * spf
+    assert sim.total_steps == 4 * spf  # (the run's --steps, not the scene's duration)
+    # Off the run's clock, refused before the folder is touched.
+    sim.advance(spf // 2)
+    with pytest.raises(mca.Error, match=rf"goes on frame by frame as mca resume writes it .*: its next frame, 4, is at "
+                                        rf"step {4 * spf}, and this Simulation is at step {3 * spf + spf // 2}; "
+                                        rf"advance\({spf - spf // 2}\) first"):
+        sim.write_frame(out)
+    assert (out / "stats.csv").read_bytes() == stats
+    sim = mca.Simulation.resume(out, threads=1)
     with pytest.raises(mca.Error, match=r"close_output\(finish=True\): no folder is open"):
         sim.close_output(finish=True)
     assert sim.write_frame(out) == 3  # the checkpoint's own frame: already this state's
     assert sim.write_frame(out / ".") == 3  # (the same folder)
     sim.advance(spf)
     assert sim.write_frame(out) == 4
-    sim.close_output(finish=True)
+    sim.advance(1)
+    with pytest.raises(mca.Error, match=r"and its last frame is written; this Simulation is at step \d+\. Give "
+                                        r"write_frame another folder for frames past the run's end"):
+        sim.write_frame(out)
+    sim.close_output()
+    ended = mca.Simulation.resume(out, threads=1)
+    ended.advance(spf)
+    assert ended.write_frame(out) == 4
+    ended.close_output(finish=True)
     ends = [json.loads((folder / "summary.json").read_text()) for folder in (whole, out)]
     assert ends[1]["status"] == "finished" and ends[1]["state_hash"] == ends[0]["state_hash"]
     assert ends[1]["resumed_from"] == str(out / "checkpoints" / "frame_000003.mcack")
@@ -258,7 +279,15 @@ def test_a_killed_run_goes_on_from_python_in_its_own_folder(tmp_path, mca_binary
     assert sorted(p.name for p in (out / "frames").iterdir()) == sorted(p.name for p in (whole / "frames").iterdir())
     for name in names:
         assert (out / name).read_bytes() == (whole / name).read_bytes(), name
-    # And mca resume takes the folder on from there (its run finished: its end is written again).
+    # A finished run goes on from its newest checkpoint too, saying that its end is removed.
+    again = mca.Simulation.resume(out, threads=1)
+    with pytest.warns(UserWarning, match=r"had finished \(its summary\.json says so\): it goes on from its newest "
+                                         r"checkpoint \(frame 3\), and its end .* is removed; "
+                                         r"close_output\(finish=True\) writes it again"):
+        assert again.write_frame(out) == 3
+    again.close_output()
+    assert not (out / "summary.json").exists()
+    # And mca resume takes the folder on from there.
     run_command(mca_binary, "resume", "--quiet", out)
     assert json.loads((out / "summary.json").read_text())["state_hash"] == ends[0]["state_hash"]
 
