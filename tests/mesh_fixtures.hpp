@@ -1,5 +1,6 @@
 #pragma once
 // Meshes the tests make themselves (a cube, a sphere, a torus) and write in every format the loader reads.
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -68,15 +69,27 @@ inline mesh::TriMesh sphere_mesh(double r, int levels, mesh::Point c = {0, 0, 0}
   return m;
 }
 
-// The automata of m labelled by the planes x = cuts[k] (increasing): piece k between cuts k - 1 and k.
-inline analysis::Fragments cut_by_x(const Model& m, const std::vector<double>& cuts) {
+// The automata of m labelled piece(position0) in automaton order (0, 1, ...; each label used), as the
+// fragments of a run label them.
+template <class F>
+analysis::Fragments label_pieces(const Model& m, F&& piece) {
   analysis::Fragments f;
   f.id.resize(m.size());
+  f.count = 0;
   for (std::size_t a = 0; a < m.size(); ++a) {
-    std::int32_t k = 0;
-    while (k < static_cast<std::int32_t>(cuts.size()) && m.position0[a].x > cuts[static_cast<std::size_t>(k)]) ++k;
-    f.id[a] = k;
+    f.id[a] = piece(m.position0[a]);
+    f.count = std::max(f.count, f.id[a] + 1);
   }
+  return f;
+}
+
+// The automata of m labelled by the planes x = cuts[k] (increasing): piece k between cuts k - 1 and k.
+inline analysis::Fragments cut_by_x(const Model& m, const std::vector<double>& cuts) {
+  analysis::Fragments f = label_pieces(m, [&](const DVec3& p) {
+    std::int32_t k = 0;
+    while (k < static_cast<std::int32_t>(cuts.size()) && p.x > cuts[static_cast<std::size_t>(k)]) ++k;
+    return k;
+  });
   f.count = static_cast<std::int32_t>(cuts.size()) + 1;
   return f;
 }

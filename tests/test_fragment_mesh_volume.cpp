@@ -176,13 +176,10 @@ TEST(FragmentMeshVolume, SingleAutomataOfARandomLatticeHaveNoSpikes) {
   scene.solver.lattice = SolverDef::Lattice::random;
   const Engine sim(scene);
   const Model& m = sim.model();
-  analysis::Fragments pieces;
-  pieces.id.resize(m.size());
-  pieces.count = 2;
-  for (std::size_t a = 0; a < m.size(); ++a) {
-    const DVec3 p = m.position0[a];
-    pieces.id[a] = std::fabs(p.x) < 0.3 && std::fabs(p.z - 0.75) < 0.3 ? pieces.count++ : p.x < 0 ? 0 : 1;
-  }
+  std::int32_t single = 2;
+  const analysis::Fragments pieces = test::label_pieces(m, [&](const DVec3& p) {
+    return std::fabs(p.x) < 0.3 && std::fabs(p.z - 0.75) < 0.3 ? single++ : p.x < 0 ? 0 : 1;
+  });
   const auto meshes = analysis::fragment_meshes(m, sim.state(), pieces, 0);
   ASSERT_EQ(meshes.size(), static_cast<std::size_t>(pieces.count));
   const double d = m.spacing;

@@ -1053,13 +1053,8 @@ TEST(FragmentMeshes, ASlabsPieceWithARoundCrackFaceHasItsFlatSidesMerged) {
   s.solver.lattice = SolverDef::Lattice::random;
   const Engine sim(s);
   const Model& m = sim.model();
-  analysis::Fragments f;
-  f.id.resize(m.size());
-  f.count = 2;
-  for (std::size_t a = 0; a < m.size(); ++a) {
-    const DVec3& p = m.position0[a];
-    f.id[a] = p.x * p.x + p.z * p.z < 0.6 * 0.6 ? 1 : 0;  // a disk of radius 0.6 m out of the slab
-  }
+  // A disk of radius 0.6 m out of the slab.
+  const auto f = test::label_pieces(m, [](const DVec3& p) { return p.x * p.x + p.z * p.z < 0.6 * 0.6 ? 1 : 0; });
   const auto meshes = analysis::fragment_meshes(m, sim.state(), f, 8);
   ASSERT_EQ(meshes.size(), 2u);
   for (const auto& fm : meshes) {
