@@ -643,10 +643,15 @@ void check_run_clock(const PySimulation& sim, const std::filesystem::path& dir, 
                             "first",
                             how, next, due, step, due - step));
   if (step > due)
-    throw Error(fmt::format("{}: its next frame, {}, is at step {}, and this Simulation is past it, at step {}. To "
-                            "write the frames from there, resume the folder again (mca.Simulation.resume(\"{}\")); or "
-                            "give write_frame another folder",
-                            how, next, due, step, text::utf8_shown(dir.string())));
+    throw Error(fmt::format("{}: its next frame, {}, is at step {}, and this Simulation is past it, at step {}{}. To "
+                            "write its frames, resume the folder again (mca.Simulation.resume(\"{}\"): from that "
+                            "checkpoint, the frames after it stepped again); or give write_frame another folder",
+                            how, next, due, step,
+                            at_checkpoint ? fmt::format(" (the folder goes on from its newest checkpoint, frame {}, "
+                                                        "whatever was written there since)",
+                                                        next - 1)
+                                          : "",
+                            text::utf8_shown(dir.string())));
 }
 
 // The run folder `out` (locked, recovered) of the checkpoint the Simulation was resumed from, readied as
@@ -680,6 +685,8 @@ std::vector<std::string> go_on_in_folder(PySimulation& sim, OutputFolder& out) {
                             out.dir.string(), file.filename().string(), step, step / spf, step / spf + 1));
   const std::string source = fmt::format("checkpoint '{}'", file.string());
   const app::Plan plan = app::checkpoint_plan(out.dir, e, head, source);
+  // (Once the checkpoint is known to be the folder's run's, before anything is removed.)
+  check_run_clock(sim, out.dir, head.frame, true);
   std::vector<std::string> said;
   if (app::summary_status(out.dir) == "finished")
     said.push_back(fmt::format("the run in {} had finished (its summary.json says so): it goes on from its newest "
@@ -728,8 +735,6 @@ std::int64_t write_frame_unworded(PySimulation& sim, const std::filesystem::path
     auto out = std::make_unique<OutputFolder>();
     out->dir = folder;
     const bool goes_on = is_run_folder_of(sim.resumed_from(), folder);
-    // (Before the folder is touched: one refused is left as it was.)
-    if (goes_on) check_run_clock(sim, folder, sim.resumed_head().frame, true);
     io::prepare_output_dir(out->dir);
     auto subfolders = app::frame_subfolders(e.scene());
     if (goes_on) subfolders.emplace_back("checkpoints");
@@ -815,10 +820,14 @@ void checkpoint(PySimulation& sim, const std::filesystem::path& path) {
   io::Checkpoint cp;
   cp.scene = e.scene();
   cp.state = e.state();
-  // The frame clock of `mca resume`: a checkpoint saved at a frame's end (step = k x steps_per_frame) says
-  // k + 1 frames were written, which `mca resume` continues from (in a run folder with this scene.toml).
-  cp.frame = cp.state.step / e.steps_per_frame() + 1;
+  // The frame clock of `mca resume`: a checkpoint saved at a frame's end (step = k x steps_per_frame, or the
+  // run's last step, frame ceil(total / steps_per_frame)) says k + 1 frames were written, which `mca resume`
+  // continues from (in a run folder with this scene.toml). (At a last frame shorter than the others it
+  // counted one frame too few, and mca resume called the file damaged.)
   cp.total_steps = std::max(sim.total_steps(), cp.state.step);
+  const std::int64_t spf = e.steps_per_frame();
+  cp.frame = cp.state.step == cp.total_steps ? cp.total_steps / spf + (cp.total_steps % spf != 0) + 1
+                                             : cp.state.step / spf + 1;
   cp.wall_seconds = sim.wall();
   cp.model_fingerprint = model_fingerprint(e.model());
   if (path.has_parent_path()) {

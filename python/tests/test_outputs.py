@@ -292,6 +292,32 @@ def test_a_killed_run_goes_on_from_python_in_its_own_folder(tmp_path, mca_binary
     assert json.loads((out / "summary.json").read_text())["state_hash"] == ends[0]["state_hash"]
 
 
+def test_a_checkpoint_at_a_runs_short_last_frame_is_its_last_frames(tmp_path, mca_binary):
+    """A checkpoint the module saves at the run's last step, where the last frame is shorter than the others,
+    is of that frame (it counted one frame too few, and mca resume called the file damaged: a hostile review,
+    2026-12-08)."""
+    scene = mca.Scene.default()
+    scene.output.frame_rate = 5000
+    scene_file = tmp_path / "fast.toml"
+    scene.save(scene_file)
+    spf = mca.Simulation(scene, threads=1).steps_per_frame
+    total = 2 * spf + spf // 3
+    out = tmp_path / "run"
+    run_command(mca_binary, "run", scene_file, "--steps", total, "--checkpoint-every", 1, "--quiet", "--out", out)
+    state_hash = json.loads((out / "summary.json").read_text())["state_hash"]
+    sim = mca.Simulation.resume(out / "checkpoints" / "frame_000002.mcack", threads=1)
+    assert sim.total_steps == total
+    sim.advance(total - sim.step)
+    sim.checkpoint(out / "checkpoints" / "frame_000003.mcack")  # (in place of the run's own)
+    run_command(mca_binary, "resume", "--quiet", out)  # its last frame: the outputs finished again
+    assert json.loads((out / "summary.json").read_text())["state_hash"] == state_hash
+    again = mca.Simulation.resume(out, threads=1)
+    with pytest.warns(UserWarning, match="had finished"):
+        assert again.write_frame(out) == 3
+    again.close_output(finish=True)
+    assert json.loads((out / "summary.json").read_text())["state_hash"] == state_hash
+
+
 def test_write_frame_writes_nothing_through_links(tmp_path):
     """Neither the folder's write probe nor a subfolder made a link after the first frame is written through
     (a probe link emptied a user's file; frames went on into a linked frames/: the hostile review of
