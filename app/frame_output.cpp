@@ -40,6 +40,8 @@ constexpr double kRenderFixedBytes = 100e6, kRenderBytesPerPixel = 24, kRenderBy
 // 450 since a flat shell's pieces are merged (mesh::simplify_flat, about 110 bytes a triangle while it runs:
 // a box shell of 4,800 triangles broken by a ball peaked 2 to 5 % over what 400 counted; a hostile review).
 constexpr double kFragmentBytesPerSurfaceVoxel = 250, kFragmentBytesPerShellVoxel = 450, kFragmentBytesPerThread = 6e6;
+// A volume-filled mesh object's least (estimate_memory): on the first thread and on each other.
+constexpr double kMeshFillFixedBytes = 12e6, kMeshFillBytesPerThread = 8e6;
 
 // The area of each object's bound surface triangles (m^2; 0 for an object without).
 std::vector<double> surface_area_by_object(const Model& m) {
@@ -371,6 +373,13 @@ MemoryEstimate estimate_memory(const Model& m, const OutputDef& o, int render_wi
   // fill's distance grids at the spacing are small beside them. Measured: `mca info scenes/bunny.toml`
   // (75,408 triangles) peaks 23 MB above a box of as many automata, 305 bytes a triangle.
   e.meshes = 310.0 * static_cast<double>(m.surface.faces());
+  // A volume fill's signed distance (OpenVDB, on every thread) keeps about 12 MB of pages however small the
+  // mesh, and 8 MB more on each thread beyond the first (measured: a turned 12-triangle cube of 840
+  // automata peaked 8 MB above a box of 1,728 on one thread, 15 MB on two; mca info counted neither).
+  if (std::any_of(m.meshes.begin(), m.meshes.end(), [](const MeshSummary& ms) { return !ms.surface; })) {
+    const double threads = tbb::this_task_arena::max_concurrency();
+    e.meshes = std::max(e.meshes, kMeshFillFixedBytes + kMeshFillBytesPerThread * (threads - 1));
+  }
   // The build: before the run's arrays exist, each volume-filled mesh holds arrays over its whole box of
   // cells (measured: two 0.3 m cubes 100 m apart at 5 mm, 72 M cells, peaked at 829 MB, 794 MB of them
   // the cells', where the run's arrays are 358 MB).

@@ -198,7 +198,7 @@ material = "glass"
 // limit: 7,623 automata at 0.03 m need 47.8 MB, over 45 MB, where the old hint named the spacing of
 // 10,000 automata (0.027 m, finer).
 TEST(InputBounds, MemoryRefusalSuggestsALargerSpacing) {
-  mca::SceneDef s = mca::io::parse_scene(kWall + "[solver]\nspacing = 0.03\nmax_memory_gb = 0.045\n", "m.toml");
+  mca::SceneDef s = mca::io::parse_scene(kWall + "[solver]\nspacing = 0.03\nmax_memory_gb = 0.049\n", "m.toml");
   const std::string m = error_of([&] { mca::lattice::build_model(s); });
   EXPECT_HAS(m, "solver.max_memory_gb");
   EXPECT_HAS(m, "increase solver.spacing");
