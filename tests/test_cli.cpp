@@ -636,7 +636,7 @@ TEST(Cli, KeysThatDoNothingAndAdviceThatCannotBeTakenAreNamed) {
   std::ofstream(d / "huge.toml") << "[[object]]\nshape = \"box\"\nsize = [1e12, 1e12, 1e12]\n";
   const Result huge = run_mca("info " + (d / "huge.toml").string());
   EXPECT_EQ(huge.code, 2) << huge.output;
-  EXPECT_NE(huge.output.find("no spacing makes it fit: it would take 5.79e+09 m, more than the largest spacing this "
+  EXPECT_NE(huge.output.find("no spacing makes it fit: it would take 5.85e+09 m, more than the largest spacing this "
                              "scene's materials take (1.15e+07 m"),
             std::string::npos)
       << huge.output;
