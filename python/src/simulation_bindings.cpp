@@ -59,6 +59,7 @@ struct OutputFolder {
   // The folder goes on from the checkpoint of its run that the Simulation was resumed from, and no frame
   // was written since: the checkpoint's own frame (next_frame - 1, at last_step) is the state's.
   bool at_checkpoint = false;
+  bool run_clock = false;  // the folder goes on as above: its frames on the run's clock (check_run_clock)
 };
 
 // f() without the GIL, which is taken back in this function's body rather than in a destructor: at the
@@ -702,7 +703,7 @@ std::vector<std::string> go_on_in_folder(PySimulation& sim, OutputFolder& out) {
   out.writer = std::move(going.writer);
   out.next_frame = head.frame;
   out.last_step = head.state.step;
-  out.at_checkpoint = true;
+  out.at_checkpoint = out.run_clock = true;
   return said;
 }
 
@@ -776,7 +777,7 @@ std::int64_t write_frame_unworded(PySimulation& sim, const std::filesystem::path
   }
   OutputFolder& out = *sim.output;
   if (out.at_checkpoint && s.step == out.last_step) return out.next_frame - 1;  // (its frame already)
-  if (is_run_folder_of(sim.resumed_from(), out.dir)) check_run_clock(sim, out.dir, out.next_frame, false);
+  if (out.run_clock) check_run_clock(sim, out.dir, out.next_frame, false);
   out.at_checkpoint = false;
   if (out.next_frame == 0 && !e.scene().output.vtk && !e.scene().output.surface) {
     const std::string said = fmt::format("write_frame: output.vtk is false, so {} gets the frames' rows of stats.csv "
