@@ -658,7 +658,7 @@ void check_run_clock(const PySimulation& sim, const std::filesystem::path& dir, 
 // The run folder `out` (locked, recovered) of the checkpoint the Simulation was resumed from, readied as
 // mca resume readies it (app::go_on_in_folder) for the frames after the checkpoint's; the frames written
 // next are numbered on from it. Returns the warnings to give.
-std::vector<std::string> go_on_in_folder(PySimulation& sim, OutputFolder& out) {
+std::vector<std::string> ready_run_folder(PySimulation& sim, OutputFolder& out) {
   const Engine& e = sim.engine();
   const io::Checkpoint& head = sim.resumed_head();
   const std::filesystem::path& file = sim.resumed_from();
@@ -749,7 +749,7 @@ std::int64_t write_frame_unworded(PySimulation& sim, const std::filesystem::path
       if (PyErr_WarnEx(PyExc_UserWarning, said.c_str(), 1) != 0) throw py::error_already_set();
     if (goes_on) {
       // (Said once the folder is this Simulation's: a warning raised as an error leaves it whole.)
-      const std::vector<std::string> said = go_on_in_folder(sim, *out);
+      const std::vector<std::string> said = ready_run_folder(sim, *out);
       sim.output = std::move(out);
       for (const std::string& w : said)
         if (PyErr_WarnEx(PyExc_UserWarning, w.c_str(), 1) != 0) throw py::error_already_set();
