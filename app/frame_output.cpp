@@ -357,6 +357,7 @@ OutputEstimate estimate_output(const Model& m, const OutputDef& o, std::int64_t 
 
 MemoryEstimate estimate_memory(const Model& m, const OutputDef& o, int render_width, int render_height) {
   MemoryEstimate e;
+  const double threads = tbb::this_task_arena::max_concurrency();  // (each holds buffers of its own)
   std::size_t random = 0;
   for (std::size_t a = 0; a < m.size(); ++a) random += m.random_automaton(a);
   e.arrays = static_cast<double>(estimate_memory_bytes(m.size(), m.explicit_links.size(), random));
@@ -376,10 +377,8 @@ MemoryEstimate estimate_memory(const Model& m, const OutputDef& o, int render_wi
   // A volume fill's signed distance (OpenVDB, on every thread) keeps about 12 MB of pages however small the
   // mesh, and 8 MB more on each thread beyond the first (measured: a turned 12-triangle cube of 840
   // automata peaked 8 MB above a box of 1,728 on one thread, 15 MB on two; mca info counted neither).
-  if (std::any_of(m.meshes.begin(), m.meshes.end(), [](const MeshSummary& ms) { return !ms.surface; })) {
-    const double threads = tbb::this_task_arena::max_concurrency();
+  if (std::any_of(m.meshes.begin(), m.meshes.end(), [](const MeshSummary& ms) { return !ms.surface; }))
     e.meshes = std::max(e.meshes, kMeshFillFixedBytes + kMeshFillBytesPerThread * (threads - 1));
-  }
   // The build: before the run's arrays exist, each volume-filled mesh holds arrays over its whole box of
   // cells (measured: two 0.3 m cubes 100 m apart at 5 mm, 72 M cells, peaked at 829 MB, 794 MB of them
   // the cells', where the run's arrays are 358 MB).
@@ -440,7 +439,6 @@ MemoryEstimate estimate_memory(const Model& m, const OutputDef& o, int render_wi
     }
     // Each thread beyond the first adds its own buffers (OpenVDB's mesher, the allocator's arenas): measured
     // 4 to 6 MB on a second thread, whatever the piece (8,000 or 64,000 automata).
-    const double threads = tbb::this_task_arena::max_concurrency();
     e.fragment_meshes = std::max(peak, threads * small) + kFragmentBytesPerThread * (threads - 1);
   }
   // The renderer: Mesa's OpenGL (llvmpipe and its compiled shaders) and EGL, the picture's buffers, and

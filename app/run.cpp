@@ -112,19 +112,14 @@ constexpr std::int64_t kMaxSteps = Engine::kMaxSteps;
 
 // `steps` is checked against kMaxSteps by run(), before the model is built.
 Plan make_plan(const Engine& sim, const std::optional<std::int64_t>& steps) {
-  Plan p;
-  const int spf = sim.steps_per_frame();
-  // The Engine refuses durations past kMaxSteps when it builds the model.
-  p.total_steps = steps ? *steps : sim.total_steps();
-  // Rounded up without forming total_steps + spf - 1.
-  p.total_frames = p.total_steps / spf + (p.total_steps % spf != 0);
-  return p;
+  // (The Engine refuses durations past kMaxSteps when it builds the model.)
+  return plan_of(steps ? *steps : sim.total_steps(), sim.steps_per_frame());
 }
 
 // The frame clock of a checkpoint: the run writes frame k at step min(k * spf, total_steps) and saves a
 // checkpoint right after a frame, with `frame` the count of frames written. Counters that disagree
 // (a damaged or edited file) would make resume list or write absurd numbers of frames.
-Plan resume_plan(const io::Checkpoint& cp, int spf, const std::string& source) {
+Plan resume_plan(const io::Checkpoint& cp, int spf, const std::string& source, std::string_view between_frames) {
   const auto fail = [&](const std::string& what) {
     return Error(fmt::format("{}: {}; the file is damaged or was edited: use an earlier checkpoint (remove this "
                              "one) or start the run again",
@@ -132,9 +127,7 @@ Plan resume_plan(const io::Checkpoint& cp, int spf, const std::string& source) {
   };
   if (cp.total_steps <= 0 || cp.total_steps > kMaxSteps)
     throw fail(fmt::format("the run's step count {} is outside 1..{}", cp.total_steps, kMaxSteps));
-  Plan p;
-  p.total_steps = cp.total_steps;
-  p.total_frames = p.total_steps / spf + (p.total_steps % spf != 0);
+  const Plan p = plan_of(cp.total_steps, spf);
   if (cp.frame < 1 || cp.frame - 1 > p.total_frames)
     throw fail(fmt::format("frame {} is outside the run's frames 0..{}", cp.frame - 1, p.total_frames));
   const std::int64_t step = std::min(p.total_steps, (cp.frame - 1) * spf);
@@ -142,11 +135,14 @@ Plan resume_plan(const io::Checkpoint& cp, int spf, const std::string& source) {
   // (mca.Simulation.checkpoint), not a damaged one: mca resume continues a run from a frame.
   if (cp.state.step != step && cp.state.step > 0 && cp.state.step < p.total_steps && cp.state.step % spf != 0)
     throw Error(fmt::format("{}: its state is at step {}, between frames {} and {} (steps {} and {}): it was saved "
-                            "between frames (by mca.Simulation.checkpoint), and mca resume continues a run from "
-                            "the end of a frame; continue it with mca.Simulation.resume in Python (writing its frames into "
-                            "another folder), or remove it to resume from the checkpoint before",
+                            "between frames (by mca.Simulation.checkpoint), and {}",
                             source, cp.state.step, cp.state.step / spf, cp.state.step / spf + 1,
-                            cp.state.step / spf * spf, std::min(p.total_steps, (cp.state.step / spf + 1) * spf)));
+                            cp.state.step / spf * spf, std::min(p.total_steps, (cp.state.step / spf + 1) * spf),
+                            between_frames.empty()
+                                ? "mca resume continues a run from the end of a frame; continue it with "
+                                  "mca.Simulation.resume in Python (writing its frames into another folder), or "
+                                  "remove it to resume from the checkpoint before"
+                                : between_frames));
   if (cp.state.step != step)
     throw fail(fmt::format("its state is at step {}, but frame {} is at step {}", cp.state.step, cp.frame - 1, step));
   if (!(cp.wall_seconds >= 0 && cp.wall_seconds <= 1e10))  // (1e10 s: three centuries)
@@ -155,6 +151,14 @@ Plan resume_plan(const io::Checkpoint& cp, int spf, const std::string& source) {
 }
 
 }  // namespace
+
+Plan plan_of(std::int64_t total_steps, std::int64_t steps_per_frame) {
+  Plan p;
+  p.total_steps = total_steps;
+  // Rounded up without forming total_steps + steps_per_frame - 1.
+  p.total_frames = total_steps / steps_per_frame + (total_steps % steps_per_frame != 0);
+  return p;
+}
 
 // Every fragment, heaviest first: one row each (the summary lists the largest).
 void write_fragments_csv(const std::filesystem::path& path, const std::vector<analysis::FragmentInfo>& infos) {
@@ -786,8 +790,8 @@ int run(const RunOptions& o) {
 }
 
 Plan checkpoint_plan(const std::filesystem::path& dir, const Engine& sim, const io::Checkpoint& cp,
-                     const std::string& source) {
-  const Plan plan = resume_plan(cp, sim.steps_per_frame(), source);
+                     const std::string& source, std::string_view between_frames) {
+  const Plan plan = resume_plan(cp, sim.steps_per_frame(), source, between_frames);
   // The folder's run is of a step count too (its --steps, or its duration's): a checkpoint of the same scene
   // run for another count ends the folder at that one's end, past or short of its frames.
   if (const auto given = read_scene_head(dir).steps; given.value_or(sim.total_steps()) != plan.total_steps)

@@ -25,12 +25,17 @@ struct Plan {
   std::int64_t total_frames = 0;  // frames after frame 0
 };
 
+// The frames of a run of `total_steps` at `steps_per_frame`: rounded up (its last frame shorter where the
+// steps are no multiple of a frame's).
+Plan plan_of(std::int64_t total_steps, std::int64_t steps_per_frame);
+
 // The frame clock of checkpoint `cp` (read from `source`, "checkpoint 'PATH'") of the run in folder `dir`,
 // stepped by `sim` (built from it): throws mca::Error where its counters disagree (a damaged or edited file),
-// where it was saved between two frames (mca.Simulation.checkpoint), and where the folder's run is of
-// another step count (a checkpoint copied in from another run of the same scene).
+// where it was saved between two frames (mca.Simulation.checkpoint; `between_frames`: what the message
+// then says a run's frames go on from and how to go on, mca resume's where empty), and where the folder's
+// run is of another step count (a checkpoint copied in from another run of the same scene).
 Plan checkpoint_plan(const std::filesystem::path& dir, const Engine& sim, const io::Checkpoint& cp,
-                     const std::string& source);
+                     const std::string& source, std::string_view between_frames = {});
 
 // How a session goes on in the folder.
 struct GoingOn {

@@ -59,7 +59,7 @@ struct OutputFolder {
   // The folder goes on from the checkpoint of its run that the Simulation was resumed from, and no frame
   // was written since: the checkpoint's own frame (next_frame - 1, at last_step) is the state's.
   bool at_checkpoint = false;
-  bool run_clock = false;  // the folder goes on as above: its frames on the run's clock (check_run_clock)
+  std::optional<app::Plan> clock;  // the folder goes on as above: its frames on the run's (check_run_clock)
 };
 
 // f() without the GIL, which is taken back in this function's body rather than in a destructor: at the
@@ -624,12 +624,12 @@ bool is_run_folder_of(const std::filesystem::path& file, const std::filesystem::
 // or the checkpoint's own frame at its step (`at_checkpoint`: before any other). Throws, naming the step to
 // write at, where the state is at no such step (the frames would be numbered off the run's clock, stats.csv
 // and the collections pairing them with other frames' times, and mca resume would leave them behind).
-void check_run_clock(const PySimulation& sim, const std::filesystem::path& dir, std::int64_t next, bool at_checkpoint) {
+void check_run_clock(const PySimulation& sim, const std::filesystem::path& dir, const app::Plan& clock, std::int64_t next,
+                     bool at_checkpoint) {
   const Engine& e = sim.engine();
-  const io::Checkpoint& head = sim.resumed_head();
-  const std::int64_t step = e.state().step, spf = e.steps_per_frame(), total = head.total_steps;
-  if (at_checkpoint && step == head.state.step) return;
-  const std::int64_t frames = total / spf + (total % spf != 0);
+  const std::int64_t step = e.state().step, spf = e.steps_per_frame(), total = clock.total_steps,
+                     frames = clock.total_frames;
+  if (at_checkpoint && step == sim.resumed_head().state.step) return;
   const std::string how = fmt::format(
       "write_frame: the run in {} goes on frame by frame as mca resume writes it (frame k at step k x {}, up to its "
       "end at step {}, frame {})",
@@ -676,18 +676,14 @@ std::vector<std::string> ready_run_folder(PySimulation& sim, OutputFolder& out) 
                     : fmt::format("its newest checkpoint is {}", all.back().filename().string()),
         text::utf8_shown(out.dir.string())));
   io::check_checkpoint_scene(head, file, out.dir);
-  // (mca resume's message for it names this module's resume as the way on.)
-  const std::int64_t spf = e.steps_per_frame(), step = head.state.step;
-  if (step % spf != 0 && step < head.total_steps)
-    throw Error(fmt::format("write_frame: {} is the folder of the run whose checkpoint {} this Simulation was resumed "
-                            "from, and it was saved between two frames (step {}, between frames {} and {}): the run's "
-                            "frames cannot go on from it. Give write_frame another folder (a new run from this "
-                            "state), or resume a checkpoint saved at the end of a frame",
-                            out.dir.string(), file.filename().string(), step, step / spf, step / spf + 1));
+  // (Saved between two frames, mca resume's message names this module's resume as the way on.)
   const std::string source = fmt::format("checkpoint '{}'", file.string());
-  const app::Plan plan = app::checkpoint_plan(out.dir, e, head, source);
+  const app::Plan plan = app::checkpoint_plan(out.dir, e, head, source,
+                                              "a run's frames go on in its folder from the end of a frame: give "
+                                              "write_frame another folder (a new run from this state), or resume a "
+                                              "checkpoint saved at the end of a frame");
   // (Once the checkpoint is known to be the folder's run's, before anything is removed.)
-  check_run_clock(sim, out.dir, head.frame, true);
+  check_run_clock(sim, out.dir, plan, head.frame, true);
   std::vector<std::string> said;
   if (app::summary_status(out.dir) == "finished")
     said.push_back(fmt::format("the run in {} had finished (its summary.json says so): it goes on from its newest "
@@ -703,7 +699,8 @@ std::vector<std::string> ready_run_folder(PySimulation& sim, OutputFolder& out) 
   out.writer = std::move(going.writer);
   out.next_frame = head.frame;
   out.last_step = head.state.step;
-  out.at_checkpoint = out.run_clock = true;
+  out.at_checkpoint = true;
+  out.clock = plan;
   return said;
 }
 
@@ -777,7 +774,7 @@ std::int64_t write_frame_unworded(PySimulation& sim, const std::filesystem::path
   }
   OutputFolder& out = *sim.output;
   if (out.at_checkpoint && s.step == out.last_step) return out.next_frame - 1;  // (its frame already)
-  if (out.run_clock) check_run_clock(sim, out.dir, out.next_frame, false);
+  if (out.clock) check_run_clock(sim, out.dir, *out.clock, out.next_frame, false);
   out.at_checkpoint = false;
   if (out.next_frame == 0 && !e.scene().output.vtk && !e.scene().output.surface) {
     const std::string said = fmt::format("write_frame: output.vtk is false, so {} gets the frames' rows of stats.csv "
@@ -827,7 +824,7 @@ void checkpoint(PySimulation& sim, const std::filesystem::path& path) {
   // counted one frame too few, and mca resume called the file damaged.)
   cp.total_steps = std::max(sim.total_steps(), cp.state.step);
   const std::int64_t spf = e.steps_per_frame();
-  cp.frame = cp.state.step == cp.total_steps ? cp.total_steps / spf + (cp.total_steps % spf != 0) + 1
+  cp.frame = cp.state.step == cp.total_steps ? app::plan_of(cp.total_steps, spf).total_frames + 1
                                              : cp.state.step / spf + 1;
   cp.wall_seconds = sim.wall();
   cp.model_fingerprint = model_fingerprint(e.model());

@@ -209,8 +209,9 @@ def test_mca_resume_names_a_checkpoint_saved_between_frames(tmp_path, mca_binary
     assert resumed.step == 500
     # Nor can its frames go on from it in its folder (the checkpoint's frame would be another state).
     stats = (out / "stats.csv").read_bytes()
-    with pytest.raises(mca.Error, match=r"was saved between two frames \(step 500, between frames 0 and 1\): the "
-                                        r"run's frames cannot go on from it\. Give write_frame another folder"):
+    with pytest.raises(mca.Error, match=r"its state is at step 500, between frames 0 and 1 .*: it was saved between "
+                                        r"frames .*, and a run's frames go on in its folder from the end of a frame: "
+                                        r"give write_frame another folder"):
         resumed.write_frame(out)
     assert (out / "stats.csv").read_bytes() == stats
 
