@@ -412,6 +412,41 @@ TEST(MeshLoader, TheFilesUnitsDoNotChangeTheMesh) {
   }
 }
 
+// A fragment's mesh may hold a speck besides its surface: a closed shell of a few triangles much smaller
+// than the voxel (fragment_meshes drops those under half a voxel). Only shells small along every axis go,
+// and never all of a mesh's.
+TEST(MeshShells, ShellsSmallAlongEveryAxisAreDroppedUnlessAllAre) {
+  auto joined = [](const std::vector<mesh::TriMesh>& parts) {
+    mesh::TriMesh m;
+    for (const auto& p : parts) {
+      const auto base = static_cast<std::uint32_t>(m.vertices.size());
+      m.vertices.insert(m.vertices.end(), p.vertices.begin(), p.vertices.end());
+      for (const auto& f : p.faces) m.faces.push_back({f[0] + base, f[1] + base, f[2] + base});
+    }
+    return m;
+  };
+  // A speck (0.2 across) inside a cube, a cube of 0.6 beside, and a thin bar 0.2 x 0.2 x 2.
+  mesh::TriMesh bar = test::cube_mesh(0.1, {0, 4, 0});
+  for (auto& v : bar.vertices) v[2] *= 10;
+  const mesh::TriMesh big = test::cube_mesh(1), speck = test::cube_mesh(0.1, {0.3, 0, 0}), beside = test::cube_mesh(0.3, {5, 0, 0});
+  mesh::TriMesh m = joined({big, speck, beside, bar});
+  EXPECT_EQ(mesh::drop_small_shells(m, 0.5), 1u);
+  // (the vertices kept, numbered in the order the triangles use them)
+  mesh::TriMesh kept = joined({big, beside, bar});
+  mesh::keep_faces(kept, std::vector<mesh::Triangle>(kept.faces));
+  EXPECT_EQ(m.faces, kept.faces);
+  EXPECT_EQ(m.vertices, kept.vertices);
+  EXPECT_TRUE(mesh::topology(m).closed());
+  // Nothing small: left as it was; every shell small: none dropped.
+  EXPECT_EQ(mesh::drop_small_shells(m, 0.1), 0u);
+  EXPECT_EQ(m.faces, kept.faces);
+  mesh::TriMesh specks = joined({speck, test::cube_mesh(0.1, {3, 0, 0})});
+  const mesh::TriMesh before = specks;
+  EXPECT_EQ(mesh::drop_small_shells(specks, 0.5), 0u);
+  EXPECT_EQ(specks.faces, before.faces);
+  EXPECT_EQ(specks.vertices, before.vertices);
+}
+
 TEST(MeshFill, ACavityIsLeftEmptyAndAnIslandInItFilled) {
   TempDir t;
   auto shells = [](std::vector<std::pair<double, bool>> spheres) {  // radius, facing inward

@@ -1206,6 +1206,58 @@ std::vector<Shell> shells(const TriMesh& m) {
   return out;
 }
 
+void keep_faces(TriMesh& m, std::vector<Triangle>&& faces) {
+  std::vector<std::uint32_t> number(m.vertices.size(), 0xffffffffu);
+  std::vector<Point> vertices;
+  for (auto& t : faces)
+    for (auto& v : t) {
+      if (number[v] == 0xffffffffu) {
+        number[v] = static_cast<std::uint32_t>(vertices.size());
+        vertices.push_back(m.vertices[v]);
+      }
+      v = number[v];
+    }
+  m.vertices = std::move(vertices);
+  m.faces = std::move(faces);
+}
+
+std::size_t drop_small_shells(TriMesh& m, double small) {
+  const std::size_t nv = m.vertices.size();
+  std::vector<std::uint32_t> root(nv);
+  std::iota(root.begin(), root.end(), 0u);
+  for (const auto& f : m.faces)
+    for (int e = 1; e < 3; ++e) {
+      const std::uint32_t a = find_root(root, f[0]), b = find_root(root, f[e]);
+      if (a != b) root[std::max(a, b)] = std::min(a, b);
+    }
+  // Each shell's box, kept at its root (a vertex no triangle uses is a shell of its own, and small).
+  std::vector<Bounds> box(nv, Bounds{{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}});
+  for (std::uint32_t v = 0; v < nv; ++v) {
+    Bounds& b = box[find_root(root, v)];
+    for (int c = 0; c < 3; ++c) {
+      b.lo[c] = std::min(b.lo[c], m.vertices[v][c]);
+      b.hi[c] = std::max(b.hi[c], m.vertices[v][c]);
+    }
+  }
+  std::vector<std::uint8_t> small_shell(nv, 0);
+  std::size_t shells = 0, dropped = 0;
+  for (const auto& f : m.faces) {
+    const std::uint32_t r = find_root(root, f[0]);
+    if (small_shell[r]) continue;
+    const Point e = box[r].extent();
+    small_shell[r] = e[0] < small && e[1] < small && e[2] < small ? 1 : 2;
+    ++shells;
+    dropped += small_shell[r] == 1;
+  }
+  if (dropped == 0 || dropped == shells) return 0;
+  std::vector<Triangle> faces;
+  faces.reserve(m.faces.size());
+  for (const auto& f : m.faces)
+    if (small_shell[find_root(root, f[0])] == 2) faces.push_back(f);
+  keep_faces(m, std::move(faces));
+  return dropped;
+}
+
 double signed_volume(const TriMesh& m) {
   // About the box centre: a model far from the origin would lose its volume to rounding.
   const Point o = bounds(m).centre();

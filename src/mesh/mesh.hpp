@@ -86,6 +86,14 @@ struct Shell {
 // The shells of a mesh, in order of their first triangle.
 std::vector<Shell> shells(const TriMesh& m);
 
+// m with only the triangles `faces` (of m's vertices): the vertices no triangle uses are dropped, the rest
+// numbered in the order the triangles use them.
+void keep_faces(TriMesh& m, std::vector<Triangle>&& faces);
+
+// Drops the shells of m (triangles joined through shared vertices) whose box is under `small` along every
+// axis, unless every shell is; returns how many were dropped (none: m is left as it was).
+std::size_t drop_small_shells(TriMesh& m, double small);
+
 // Enclosed volume by the divergence theorem (positive for outward-facing triangles; meaningful for a
 // closed mesh, approximate for one with small holes).
 double signed_volume(const TriMesh& m);
