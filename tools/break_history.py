@@ -6,7 +6,7 @@ that the last frame writes one):
 
 - the break records (step, link slot, criterion) from the newest checkpoint in checkpoints/: every link
   that broke in the run, with the step it broke in (src/core/state.hpp BreakRecord; the checkpoint format
-  is src/io/checkpoint.cpp, format 6 or 7: the checksum is checked, the records read back from the file's end);
+  is src/io/checkpoint.cpp, formats 6 to 8: the checksum is checked, the records read back from the file's end);
 - frame 0 of automata.pvd for the initial positions, strength classes and objects; link slot l = axis * n
   + a joins automaton a to its lattice neighbour along +axis (core/model.hpp), found here from the
   positions (each object's own lattice, spacing from summary.json; objects must not be rotated);
@@ -35,7 +35,9 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import fracture_metrics as fm  # noqa: E402
 
-MAGICS = (b"MCACKPT6", b"MCACKPT7")  # format 7 adds the links' damage before the records: the tail is the same
+# Format 7 adds the links' damage before the records, format 8 the contact pairs' way of touching: the tail
+# is the same. (tests/python_tools/test_break_history.py reads a checkpoint the built mca writes.)
+MAGICS = (b"MCACKPT6", b"MCACKPT7", b"MCACKPT8")
 RECORD = np.dtype([("step", "<i8"), ("link", "<u4"), ("criterion", "u1")])  # 13 bytes, no padding
 # The checksum is FNV-1a as src/core/fnv.hpp computes it: its offset basis is 1469598103934665603
 # (0x14650fb0739d0383), not the published FNV-1a 64-bit basis 14695981039346656037.
@@ -48,7 +50,7 @@ def fnv1a(data):
         h = ((h ^ b) * FNV_PRIME) & 0xFFFFFFFFFFFFFFFF
     return h
 def read_breaks(path, expected=None, verify=True):
-    """Break records of a format-6 or -7 checkpoint, read from its end: ... breaks (u64 count, 13-byte records),
+    """Break records of a format-6 to -8 checkpoint, read from its end: ... breaks (u64 count, 13-byte records),
     broken_by (2 x i64), initial_energy (f64), grip_work (u64 count, f64 each), grip_force (u64 count,
     3 x f32 each), checksum (u64), magic. Tries grip counts 0..64 and keeps the one whose counts agree
     (the record count with broken_by's sum, the displacement records with broken_by[0]). With verify, the
@@ -56,7 +58,7 @@ def read_breaks(path, expected=None, verify=True):
     with open(path, "rb") as f:
         data = f.read()
     if data[:8] not in MAGICS or data[-8:] != data[:8]:
-        raise fm.RunError(f"{path}: not a format-6 or -7 mca checkpoint (magic {data[:8]!r})")
+        raise fm.RunError(f"{path}: not a format-6 to -8 mca checkpoint (magic {data[:8]!r}; this tool reads {', '.join(m.decode() for m in MAGICS)})")
     if verify and fnv1a(data[:-16]) != struct.unpack_from("<Q", data, len(data) - 16)[0]:
         raise fm.RunError(f"{path}: its checksum does not match its contents")
     end = len(data) - 16  # before checksum and magic

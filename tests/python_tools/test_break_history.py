@@ -3,6 +3,7 @@ broken at known steps by known criteria, and a checkpoint that holds those recor
 import json
 import os
 import struct
+import subprocess
 import sys
 
 import numpy as np
@@ -44,6 +45,44 @@ def test_break_records_are_read_from_the_end(tmp_path):
     with pytest.raises(bh.fm.RunError, match="checksum"):
         bh.read_breaks(p)
     assert len(bh.read_breaks(p, verify=False)[0]) == 3
+
+
+def test_the_checkpoints_mca_writes_are_read(tmp_path):
+    """A checkpoint written by the built mca (MCA_BINARY, set by ctest), not one laid out by this file: the
+    tool follows mca's format, and its records are the run's broken links."""
+    binary = os.environ.get("MCA_BINARY")
+    if not binary:
+        pytest.skip("MCA_BINARY (the built mca) is not set: ctest sets it")
+    scene = tmp_path / "small.toml"
+    scene.write_text("""name = "small"
+[[object]]
+shape = "box"
+size = [0.6, 0.1, 0.6]
+position = [0, 0, 0.35]
+material = "concrete"
+[[projectile]]
+radius = 0.1
+position = [0, -0.151, 0.35]
+velocity = [0, 60, 0]
+material = "steel"
+[output]
+duration = 0.001
+frame_rate = 2000
+vtk = false
+[solver]
+spacing = 0.05
+lattice = "cubic"
+""")
+    out = tmp_path / "run"
+    subprocess.run([binary, "run", str(scene), "--out", str(out), "--threads", "1", "-q", "--checkpoint-every", "1"],
+                   check=True)
+    broken = json.loads((out / "summary.json").read_text())["broken_links"]
+    assert broken["total"] > 0
+    newest = sorted((out / "checkpoints").glob("frame_*.mcack"))[-1]
+    assert newest.read_bytes()[:8] == bh.MAGICS[-1], "mca writes a checkpoint format this tool does not know"
+    rec, by = bh.read_breaks(newest)
+    assert by == {"displacement": broken["displacement"], "stress": broken["stress"]}
+    assert len(rec) == broken["total"]
 
 
 def test_checksum_is_the_projects_fnv1a():
