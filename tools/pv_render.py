@@ -34,7 +34,7 @@ def parse_args():
     p.add_argument("--field", default=None)
     p.add_argument("--time", default="last")
     p.add_argument("--size", default="1280x720")
-    p.add_argument("--point-size", type=float, default=6.0)
+    p.add_argument("--point-size", type=float, default=6.0, help="pixels, 0.5 to 100")
     return p.parse_args()
 
 
@@ -73,8 +73,17 @@ def pick_time(times, spec):
 
 def main():
     args = parse_args()
+    if os.path.isdir(args.input):
+        fail(f"{args.input} is a folder: give a file in it, e.g. {os.path.join(args.input, 'automata.pvd')}")
     if not os.path.isfile(args.input):
         fail(f"{args.input} does not exist")
+    if not args.png.lower().endswith(".png"):
+        fail(f"{args.png}: give a .png file to write")
+    folder = os.path.dirname(os.path.abspath(args.png))
+    if not os.path.isdir(folder):
+        fail(f"{args.png}: its folder {folder} does not exist")
+    if not (math.isfinite(args.point_size) and 0.5 <= args.point_size <= 100):
+        fail(f"--point-size {args.point_size:g}: give 0.5 to 100 pixels")
     try:
         width, height = (int(v) for v in args.size.lower().split("x"))
     except ValueError:
@@ -85,7 +94,10 @@ def main():
     if args.input.lower().endswith(".pvd"):
         reader = PVDReader(FileName=os.path.abspath(args.input))
     else:
-        reader = OpenDataFile(os.path.abspath(args.input))
+        try:
+            reader = OpenDataFile(os.path.abspath(args.input))
+        except RuntimeError as e:  # (ParaView raises where it has no reader for the file)
+            fail(f"ParaView cannot read {args.input} ({e}): give an mca .pvd series or a .vtu/.vtp/.ply file")
     if reader is None:
         fail(f"ParaView has no reader for {args.input}")
 
@@ -171,7 +183,12 @@ def main():
     view.CameraFocalPoint = [0.0, 0.0, 0.0]
     view.CameraViewUp = [0.0, 0.0, 1.0]
     ResetCamera(view)
+    # (ParaView logs a file it could not write and goes on: the file is checked, an old one first removed.)
+    if os.path.exists(args.png):
+        os.remove(args.png)
     SaveScreenshot(args.png, view, ImageResolution=[width, height])
+    if not os.path.isfile(args.png) or os.path.getsize(args.png) == 0:
+        fail(f"could not write {args.png} (see ParaView's error above)")
     print(f"wrote {args.png}")
 
 
