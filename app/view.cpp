@@ -114,6 +114,9 @@ struct Shared {
   std::shared_ptr<const render::Snapshot> snapshot;  // the newest, replaced whole (never written in place)
   std::uint64_t sequence = 0;                        // snapshots published so far
   std::deque<Command> commands;
+  // Commands queued and handled so far (a shot fired or refused), and the shots refused: the window tells
+  // from them what became of the shots it queued.
+  std::uint64_t queued = 0, handled = 0, refused = 0;
   std::string message;                               // the last shot's error, shown in the overlay
   bool finished = false;                             // the simulation thread has stopped (quit or an error)
   std::atomic<bool> quit{false}, paused{false};
@@ -240,7 +243,11 @@ void simulate(const SceneDef& scene, Shared& sh, bool lockstep, std::array<doubl
                                         c.ball.speed, c.ball.radius, c.ball.mass, e.what())
                           : std::string(e.what());
         if (lockstep) fmt::print(stderr, "warning: {}\n", sh.message);
+        if (shot) ++sh.refused;
       }
+      std::lock_guard lock(sh.mutex);
+      ++sh.handled;
+      sh.changed.notify_all();
     }
     if (lockstep) steps = sim->steps_per_frame();
     else if (!sh.paused) steps = static_cast<int>(chunk);
@@ -442,6 +449,7 @@ int view(const ViewOptions& o) {
   // time step (0.002 s comes out as 0.0019999999), so a time within half a step of a snapshot's is its.
   const double half_step = 0.5 * dt;
   std::size_t due_at_last = 0;  // scripted shots queued with the newest snapshot (in the state from the next)
+  std::uint64_t refused_before_last = 0;  // Shared::refused when they were queued
   std::int64_t shown = 0;
   std::shared_ptr<const render::Snapshot> snap;
   auto fps_t0 = std::chrono::steady_clock::now();
@@ -461,6 +469,7 @@ int view(const ViewOptions& o) {
   auto push = [&](const Command& c) {
     std::lock_guard lock(sh.mutex);
     sh.commands.push_back(c);
+    ++sh.queued;
     sh.changed.notify_all();
   };
   bool died = false;  // the simulation thread stopped on an error
@@ -482,8 +491,10 @@ int view(const ViewOptions& o) {
         sh.pending = -1;
         // Scripted shots due by this snapshot's time, queued before the simulation goes on (see publish).
         due_at_last = 0;
+        refused_before_last = sh.refused;
         while (next_shot < script.size() && script[next_shot].time <= snap->time + half_step) {
           sh.commands.push_back(shot_command(script[next_shot].x, script[next_shot].y, w, h));
+          ++sh.queued;
           ++next_shot;
           ++due_at_last;
         }
@@ -519,13 +530,12 @@ int view(const ViewOptions& o) {
         case GLFW_KEY_SPACE: sh.paused = !sh.paused; break;
         case GLFW_KEY_N: {
           sh.paused = true;
-          std::lock_guard lock(sh.mutex);
-          sh.commands.push_back({Command::step, {}, {}, ball});
+          push({Command::step, {}, {}, ball});
           break;
         }
         case GLFW_KEY_R: {
+          push({Command::restart, {}, {}, ball});
           std::lock_guard lock(sh.mutex);
-          sh.commands.push_back({Command::restart, {}, {}, ball});
           sh.message.clear();
           break;
         }
@@ -538,8 +548,7 @@ int view(const ViewOptions& o) {
             // Without mesh objects there is no surface to draw: skip it.
             if (!has_surface && static_cast<render::DrawMode>(sh.draw.load()) == render::DrawMode::surface) cycle(sh.draw, 4);
           }
-          std::lock_guard lock(sh.mutex);
-          sh.commands.push_back({Command::redraw, {}, {}, ball});
+          push({Command::redraw, {}, {}, ball});
           break;
         }
         case GLFW_KEY_UP: ball.speed *= 1.25f; break;
@@ -629,11 +638,19 @@ int view(const ViewOptions& o) {
   // projectiles are the scene's and the shots fired since the start (or the last restart).
   const std::size_t projectiles = snap ? snap->projectiles.size() : 0;
   const std::size_t fired = projectiles > scene_projectiles ? projectiles - scene_projectiles : 0;
-  if (due_at_last > 0 && o.frames && !o.quiet)
+  // The shots due at the last frame shown: fired or refused once the simulation thread has taken them (it
+  // does so before it steps on), each refused one reported by it.
+  std::size_t fired_at_last = due_at_last;
+  if (due_at_last > 0) {
+    std::unique_lock lock(sh.mutex);
+    sh.changed.wait_for(lock, std::chrono::seconds(30), [&] { return sh.handled >= sh.queued || sh.finished; });
+    fired_at_last -= std::min<std::size_t>(due_at_last, sh.refused - refused_before_last);
+  }
+  if (fired_at_last > 0 && o.frames && !o.quiet)
     fmt::print(stderr, "mca view: {} due at the last frame shown (t = {}) went into the simulation after it and "
                "{} in no frame; give one more --frames to see {}\n",
-               count(due_at_last, "shot"), text::sim_time(snap ? snap->time : 0.0, resolution),
-               due_at_last == 1 ? "is" : "are", due_at_last == 1 ? "it" : "them");
+               count(fired_at_last, "shot"), text::sim_time(snap ? snap->time : 0.0, resolution),
+               fired_at_last == 1 ? "is" : "are", fired_at_last == 1 ? "it" : "them");
   const int sig = stop;
   if (!o.quiet)
     fmt::print(stderr, "mca view: {}{} shown, t = {}, {} fired, {}, broken links {}, fragments {}{}\n",

@@ -1188,6 +1188,21 @@ TEST(View, ScriptLinesAreCheckedAndLateShotsReported) {
   ASSERT_EQ(late.code, 0) << late.output;
   EXPECT_NE(late.output.find("1 shot was not fired: the view ended at t = 2.00 ms, before t = 500.00 ms"),
             std::string::npos) << late.output;
+  // Two shots due at the last frame along one ray: the second overlaps the first and is refused, so one
+  // went into the simulation after that frame, not two (a hostile review: a refused one was counted).
+  std::ofstream(script) << "0.002 0.5 0.5\n0.002 0.5 0.5\n";
+  const Result last = view_under_xvfb("--size 64x64 --frames 2 --script " + script.string());
+  ASSERT_EQ(last.code, 0) << last.output;
+  EXPECT_NE(last.output.find("warning: shot not fired"), std::string::npos) << last.output;
+  EXPECT_NE(last.output.find("mca view: 1 shot due at the last frame shown (t = 2.00 ms) went into the simulation after it"),
+            std::string::npos) << last.output;
+  // One alone at the last frame, refused (the ball fired at the first frame is 8 cm along its ray): none
+  // went in.
+  std::ofstream(script) << "0 0.5 0.5\n0.002 0.5 0.5\n";
+  const Result refused = view_under_xvfb("--size 64x64 --frames 2 --script " + script.string());
+  ASSERT_EQ(refused.code, 0) << refused.output;
+  EXPECT_NE(refused.output.find("warning: shot not fired"), std::string::npos) << refused.output;
+  EXPECT_EQ(refused.output.find("due at the last frame"), std::string::npos) << refused.output;
 }
 
 // Ctrl-C in the terminal closes the viewer as Q does, with its closing line, and the exit code of the
