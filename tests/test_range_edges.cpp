@@ -477,6 +477,19 @@ TEST(RangeEdges, AValueJustPastItsBoundPrintsApartFromIt) {
   EXPECT_NE(speed.a, speed.b);
   EXPECT_HAS(m, fmt::format("starts at {} m/s", speed.a));
   EXPECT_HAS(m, fmt::format("Lower its speed below {} m/s", text::at_most(limit, 4)));
+  // A ball's surface spun too fast is told the angular_velocity that fits, in rad/s, within the turn per
+  // step as well (a small ball was told a surface speed, and the spin that gave it was refused again for its
+  // turn per step: a hostile review), and that is taken.
+  for (const char* radius : {"0.05", "1e-4"}) {
+    const std::string ball = fmt::format("[[projectile]]\nradius = {}\nposition = [0, -1, 0.5]\nangular_velocity = [0, 0, {{}}]",
+                                         radius);
+    m = engine_error(fmt::format(fmt::runtime(ball), "1e12"));
+    EXPECT_HAS(m, "the surface of projectile");
+    const std::size_t at = m.find("Lower its angular_velocity below ");
+    ASSERT_NE(at, std::string::npos) << m;
+    const std::string fits = m.substr(at + 33, m.find(" rad/s", at) - at - 33);
+    EXPECT_EQ(engine_error(fmt::format(fmt::runtime(ball), fits)), "") << radius << ": " << fits;
+  }
   // Advice rounded the safe way: at most 909090 frames a second for a step of 1.1e-6 s (909091, rounded up,
   // was refused again), and that is taken.
   m = engine_error("[solver]\ntime_step = 1.1e-6\n[output]\nframe_rate = 1e7");

@@ -190,6 +190,7 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
   // stay below a tenth of the spacing per step (30 m/s at the default step is 1e-3 of it).
   double fastest = 0;
   std::string which;
+  const ProjectileDef* spinning = nullptr;  // where the fastest is a ball's surface: that ball
   auto norm = [](const Vec3d& v) { return std::hypot(v[0], v[1], v[2]); };  // (1e300 is no inf)
   for (const auto& o : scene.objects) {
     const double v = norm(o.velocity);
@@ -197,23 +198,33 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
   }
   for (const auto& p : scene.projectiles) {
     const double v = norm(p.velocity);
-    if (v > fastest) { fastest = v; which = fmt::format("projectile '{}'", p.name); }
+    if (v > fastest) { fastest = v; which = fmt::format("projectile '{}'", p.name); spinning = nullptr; }
     // Its surface turns past the automata it touches at angular_velocity x radius.
     const double w = norm(p.angular_velocity) * p.radius;
-    if (w > fastest) { fastest = w; which = fmt::format("the surface of projectile '{}' (angular_velocity x radius)", p.name); }
+    if (w > fastest) {
+      fastest = w;
+      which = fmt::format("the surface of projectile '{}' (angular_velocity x radius)", p.name);
+      spinning = &p;
+    }
   }
   for (const auto& g : scene.grips) {
     const double v = norm(g.velocity);
-    if (v > fastest) { fastest = v; which = fmt::format("grip '{}'", g.name); }
+    if (v > fastest) { fastest = v; which = fmt::format("grip '{}'", g.name); spinning = nullptr; }
   }
   if (!(fastest * m.dt <= 0.1 * m.spacing)) {
     const text::Distinct speed = text::distinct(fastest, 0.1 * m.spacing / m.dt);
     const text::Distinct reach = text::distinct(fastest * m.dt, 0.1 * m.spacing, 3);
+    // A ball's spin: the angular_velocity that fits, within the turn per step below too.
+    std::string fix = fmt::format("Lower its speed below {} m/s", text::at_most(0.1 * m.spacing / m.dt, 4));
+    if (spinning) {
+      double limit = 0.1 * m.spacing / m.dt / spinning->radius;
+      if (!spinning->kinematic) limit = std::min(limit, kLargestProjectileTurn / static_cast<double>(m.dt));
+      fix = fmt::format("Lower its angular_velocity below {} rad/s", text::at_most(limit, 4));
+    }
     throw Error(fmt::format("{}: {} starts at {} m/s, which crosses {} m per time step of {:.3g} s, more than a tenth "
-                            "of the spacing ({} m of {:g} m): contacts would be skipped. Lower its speed below {} m/s, or "
-                            "lower solver.safety or solver.time_step",
-                            scene.source, which, speed.a, reach.a, m.dt, reach.b, m.spacing,
-                            text::at_most(0.1 * m.spacing / m.dt, 4)));
+                            "of the spacing ({} m of {:g} m): contacts would be skipped. {}, or lower solver.safety "
+                            "or solver.time_step",
+                            scene.source, which, speed.a, reach.a, m.dt, reach.b, m.spacing, fix));
   }
   // A ball's orientation turns by |angular_velocity| dt a step, in parts of at most 0.5 rad, each integrated
   // to first order and renormalised (core/math.hpp, integrate_projectile_orientation), up to 32 rad a step;
