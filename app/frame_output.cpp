@@ -131,6 +131,23 @@ std::string step_note(const Model& m) {
                      m.critical_dt, m.dt_limited_by, ratio, m.objects_critical_dt);
 }
 
+// Frames shorter than the automatic step (safety x critical) make the step: one a frame.
+bool frames_set_the_step(const Model& m, const SceneDef& scene) {
+  return scene.solver.time_step <= 0 && 1.0 / scene.output.frame_rate < scene.solver.safety * m.critical_dt &&
+         1.0 / scene.output.frame_rate < scene.output.duration;
+}
+
+std::string frame_step_note(const Model& m, const SceneDef& scene) {
+  if (!frames_set_the_step(m, scene)) return "";
+  const double stable = scene.solver.safety * m.critical_dt;
+  return fmt::format("output.frame_rate = {:g} asks for frames of {:.3g} s, shorter than the automatic time step "
+                     "({:.4g} s, solver.safety = {:g} of the critical {:.4g} s): each frame is one step, {:.3g} times "
+                     "shorter, and the run takes that many times the steps; a frame_rate of at most {} gives frames "
+                     "of ten steps or more, each within a tenth of the automatic step",
+                     scene.output.frame_rate, 1.0 / scene.output.frame_rate, stable, scene.solver.safety,
+                     m.critical_dt, stable / m.dt, text::at_most(0.1 / stable, 3));
+}
+
 std::string surface_format_note(const SceneDef& scene) {
   const OutputDef& o = scene.output;
   if (o.surface || o.surface_format != OutputDef::SurfaceFormat::obj) return "";
@@ -233,6 +250,7 @@ std::vector<std::string> scene_notes(const Model& m, const SceneDef& scene) {
   if (std::string n = far_out_note(m, scene); !n.empty()) notes.push_back(std::move(n));
   for (std::string& n : mesh_mass_notes(m)) notes.push_back(std::move(n));
   if (std::string n = step_note(m); !n.empty()) notes.push_back(std::move(n));
+  if (std::string n = frame_step_note(m, scene); !n.empty()) notes.push_back(std::move(n));
   if (std::string n = surface_format_note(scene); !n.empty()) notes.push_back(std::move(n));
   if (std::string n = coarse_surface_note(m, scene); !n.empty()) notes.push_back(std::move(n));
   for (std::string& n : thin_shell_notes(m, scene)) notes.push_back(std::move(n));

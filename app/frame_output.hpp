@@ -66,6 +66,9 @@ std::vector<std::string> mesh_mass_notes(const Model& model);
 // A note where a projectile sets a critical step ten times or more shorter than the objects' own (a ball
 // of 1 um beside a wall: 95 million steps for 10 ms); "" otherwise.
 std::string step_note(const Model& model);
+// Frames shorter than the automatic step make it (one step a frame): how many times shorter, and the
+// frame_rate that gives frames of ten steps or more.
+std::string frame_step_note(const Model& m, const SceneDef& scene);
 // A note where output.surface_format is "obj" but output.surface is false (or the scene has no mesh object
 // whose surface it could write), so that nothing is written in it; "" otherwise (the default "ply" cannot
 // be told from one given).
@@ -83,6 +86,9 @@ std::vector<std::string> strain_limit_notes(const Model& model);
 std::vector<std::string> thin_shell_notes(const Model& model, const SceneDef& scene);
 // Every note above that applies, in the order mca info and mca run print them.
 std::vector<std::string> scene_notes(const Model& model, const SceneDef& scene);
+// Whether the scene's frames are shorter than its automatic time step, which they then make (one step a
+// frame; scene_notes says so).
+bool frames_set_the_step(const Model& m, const SceneDef& scene);
 // The lattice of the model's volume fills: "random", "cubic", or "" when every object is in surface mode;
 // lattice_name as mca run and mca info print it, "random (link_bending 0.1)" for the random one, "cubic
 // (lattice_jitter 0.25)" for a jittered cubic one (`jitter`: the scene's solver.lattice_jitter).

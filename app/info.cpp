@@ -154,6 +154,7 @@ int info(const std::optional<std::string>& path, bool json, const std::optional<
     if (const auto notes = mesh_mass_notes(m); !notes.empty()) j["mesh_mass_notes"] = notes;
     if (const auto notes = strain_limit_notes(m); !notes.empty()) j["strain_limit_notes"] = notes;
     if (const std::string note = step_note(m); !note.empty()) j["step_note"] = note;
+    if (const std::string note = frame_step_note(m, scene); !note.empty()) j["frame_step_note"] = note;
     if (const std::string note = surface_format_note(scene); !note.empty()) j["surface_format_note"] = note;
     if (const std::string note = coarse_surface_note(m, scene); !note.empty()) j["coarse_surface_note"] = note;
     j["simulated_time"] = static_cast<double>(steps) * m.dt;
@@ -252,9 +253,12 @@ int info(const std::optional<std::string>& path, bool json, const std::optional<
   // The step as used: safety x critical, shortened to fill frames with whole steps, or given by hand.
   fmt::print("time step        {:.4g} s ({:.3g} of the critical {:.4g} s, set by {}; {})\n", m.dt,
              m.dt / m.critical_dt, m.critical_dt, m.dt_limited_by,
-             scene.solver.time_step > 0 ? std::string("given by solver.time_step")
-                                        : fmt::format("solver.safety = {:g}, fitted to whole steps per frame",
-                                                      scene.solver.safety));
+             scene.solver.time_step > 0         ? std::string("given by solver.time_step")
+             : frames_set_the_step(m, scene) ? fmt::format("one step a frame of output.frame_rate = {:g}, shorter "
+                                                           "than solver.safety = {:g} of the critical step (see the note)",
+                                                           scene.output.frame_rate, scene.solver.safety)
+                                             : fmt::format("solver.safety = {:g}, fitted to whole steps per frame",
+                                                           scene.solver.safety));
   for (const std::string& note : scene_notes(m, scene)) fmt::print("note             {}\n", note);
   // With solver.time_step given, a frame is a whole number of steps and may differ from 1 / frame_rate.
   // (A run shorter than a frame has its last frame at its end: "1 frames" of 1003 steps read as a

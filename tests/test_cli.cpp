@@ -461,6 +461,42 @@ TEST(Cli, ABallThatSetsAFarShorterStepGetsANote) {
   EXPECT_FALSE(nlohmann::json::parse(plain.output).contains("step_note"));
 }
 
+// Frames shorter than the automatic step make it, one step a frame: mca info and mca run say so, how many
+// times shorter, and the frame_rate that gives frames of ten steps (the step was cut ten-fold, or a million-
+// fold at frame_rate = 1e12, while the time step's line named solver.safety: a hostile review).
+TEST(Cli, FramesShorterThanTheAutomaticStepGetANote) {
+  const fs::path d = fresh_dir("frame_step_note");
+  fs::create_directories(d);
+  const std::string scene = "[solver]\nspacing = 0.05\nlattice = \"cubic\"\ngravity = [0, 0, 0]\n[output]\n"
+                            "duration = 1e-4\nvtk = false\nframe_rate = {}\n[[object]]\nshape = \"box\"\n"
+                            "size = [0.2, 0.2, 0.2]\n";
+  std::ofstream(d / "short.toml") << fmt::format(fmt::runtime(scene), "1e7");
+  const Result info = run_mca("info " + (d / "short.toml").string() + " --json");
+  ASSERT_EQ(info.code, 0) << info.output;
+  const auto j = nlohmann::json::parse(info.output);
+  ASSERT_TRUE(j.contains("frame_step_note")) << info.output;
+  const std::string note = j["frame_step_note"];
+  EXPECT_NE(note.find("output.frame_rate = 1e+07 asks for frames of 1e-07 s, shorter than the automatic time step"),
+            std::string::npos) << note;
+  EXPECT_DOUBLE_EQ(j["time_step"].get<double>(), static_cast<double>(1e-7f));
+  const Result text = run_mca("info " + (d / "short.toml").string());
+  EXPECT_NE(text.output.find("one step a frame of output.frame_rate = 1e+07"), std::string::npos) << text.output;
+  const Result run = run_mca("run " + (d / "short.toml").string() + " --steps 1 --out " + (d / "out").string());
+  ASSERT_EQ(run.code, 0) << run.output;
+  EXPECT_NE(run.output.find("note: output.frame_rate = 1e+07 asks for frames"), std::string::npos) << run.output;
+  // The frame_rate it names gives frames of ten steps or more, each within a tenth of the automatic step,
+  // and no note.
+  const std::size_t at = note.find("a frame_rate of at most ") + 24;
+  const std::string rate = note.substr(at, note.find(' ', at) - at);
+  std::ofstream(d / "ten.toml") << fmt::format(fmt::runtime(scene), rate);
+  const Result ten = run_mca("info " + (d / "ten.toml").string() + " --json");
+  ASSERT_EQ(ten.code, 0) << ten.output;
+  const auto t = nlohmann::json::parse(ten.output);
+  EXPECT_FALSE(t.contains("frame_step_note")) << ten.output;
+  EXPECT_GE(t["steps_per_frame"].get<int>(), 10);
+  EXPECT_GE(t["time_step"].get<double>(), 0.9 * 0.5 * t["critical_time_step"].get<double>());
+}
+
 // A material that raises its strength (or a stress_coefficient that raises every one) and keeps its base's
 // fracture_strain breaks by displacement first: weaker than its strength says, its softening cut short,
 // without a word (a hostile review, 2026-12-06: concrete at 9 MPa broke more links than at 3 MPa). mca info
