@@ -304,6 +304,23 @@ TEST(RangeEdges, AGroundFarFromTheOriginIsWhereTheSceneSays) {
 
 // The cubic lattice refuses Poisson ratios below -0.2 on the materials it fills (bodies at rest flew apart
 // from -0.26); the random lattice takes the whole range (surface mode: below).
+// A box placed on the ground, its spacing chosen by solver.target_automata: where that spacing rounds its
+// height to whole cells a part of a cell lower, it starts in the ground, and the refusal names the spacing
+// that fills its height with whole cells (it told a user who never chose the spacing to move the object up:
+// a hostile review), which is taken.
+TEST(RangeEdges, ATargetCountsSpacingThatSinksABoxNamesTheOneThatFitsIt) {
+  const std::string scene = "[solver]\n{}\nlattice = \"cubic\"\n[ground]\nenabled = true\n[[object]]\n"
+                            "size = [0.5, 0.2, 0.5]\nposition = [0, 0, 0.25]\n";
+  const std::string m = error_of([&] { Engine e(io::parse_scene(fmt::format(fmt::runtime(scene), "target_automata = 10000"), "edge.toml")); });
+  EXPECT_HAS(m, "inside the ground");
+  EXPECT_HAS(m, "solver.target_automata = 10000 chose that spacing: give solver.spacing instead, one that fills its "
+                "height of 0.5 m with whole cells (solver.spacing = ");
+  const std::size_t at = m.find("(solver.spacing = ") + 18;
+  const std::string spacing = m.substr(at, m.find(':', at) - at);
+  const Engine e(io::parse_scene(fmt::format(fmt::runtime(scene), "spacing = " + spacing), "edge.toml"));
+  EXPECT_NEAR(static_cast<double>(e.model().size()), 10000.0, 200.0) << spacing;
+}
+
 TEST(RangeEdges, TheCubicLatticeRefusesPoissonRatiosItIsUnstableAt) {
   auto scene = [](const char* lattice, const char* nu, bool region) {
     return fmt::format(

@@ -702,6 +702,20 @@ void settle_on_the_ground(const SceneDef& scene, const Shapes& S, Model& M, std:
       why = fmt::format(". Its lattice is {} x {} x {} cells of {:g} m ({:g} x {:g} x {:g} m): a size is rounded to "
                         "whole cells",
                         n[0], n[1], n[2], d, n[0] * d, n[1] * d, n[2] * d);
+      // A spacing the scene did not give (solver.target_automata chose it): the fix is one that fills the
+      // object's height in whole cells, not a move of an object placed on the ground.
+      if (scene.solver.target_automata > 0) {
+        why += fmt::format("; solver.target_automata = {} chose that spacing: give solver.spacing instead", scene.solver.target_automata);
+        int k = -1;  // an unturned box's axis along up
+        for (int c = 0; c < 3; ++c)
+          if (std::abs((&M.up.x)[c]) == 1.0f) k = c;
+        if (o.shape == Shape::box && k >= 0 && o.rotation[0] == 0 && o.rotation[1] == 0 && o.rotation[2] == 0) {
+          const double height = o.size[static_cast<std::size_t>(k)];
+          const double cells = std::max(1.0, std::round(height / d));
+          why += fmt::format(", one that fills its height of {:g} m with whole cells (solver.spacing = {}: {:g} cells)",
+                             height, text::num(height / cells), cells);
+        }
+      }
     }
     throw Error(fmt::format(
         "{}: object '{}' starts {:.4g} m inside the ground (its automaton at [{:.10g}, {:.10g}, {:.10g}], radius {:g} "
