@@ -14,6 +14,7 @@
 
 #include "analysis/fragments.hpp"
 #include "app/commands.hpp"
+#include "core/text.hpp"
 #include "io/json_text.hpp"
 #include "io/scene_io.hpp"
 #include "mca/error.hpp"
@@ -194,8 +195,8 @@ int bench_render(const std::vector<std::string>& names, bool json, int threads_r
   render::OffscreenTarget target(W, H);
   target.bind();
   if (!json)
-    fmt::print("render benchmark: {}x{} offscreen, {} ({}), {} threads; {} per frame, {}\n", W, H,
-               render::Renderer::gl_description(), context.source(), threads,
+    fmt::print("render benchmark: {}x{} offscreen, {} ({}), {}; {} per frame, {}\n", W, H,
+               render::Renderer::gl_description(), context.source(), text::count(static_cast<std::size_t>(threads), "thread"),
                steps == 1 ? std::string("one step") : fmt::format("{} steps", steps),
                frames == 1 ? std::string("one frame") : fmt::format("median of {} frames", frames));
   nlohmann::json out = nlohmann::json::array();

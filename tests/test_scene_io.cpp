@@ -537,6 +537,11 @@ TEST(SceneIo, ZeroSizeAndRadius) {
   EXPECT_HAS(parse_error("[[object]]\nsize = [1, 0, 1]\n"), "object[0].size = [1, 0, 1] is out of range");
   EXPECT_HAS(parse_error(kMinimal + "[[projectile]]\nradius = -0.1\n"),
              "projectile[0].radius = -0.1 is out of range: must be > 0");
+  // An infinite value is told it must be finite (inf is > 0).
+  EXPECT_HAS(parse_error(kMinimal + "[[projectile]]\nradius = inf\n"),
+             "projectile[0].radius = inf is out of range: must be a finite number > 0");
+  EXPECT_HAS(parse_error("[[material]]\nname = \"x\"\nbase = \"concrete\"\nfracture_strain = inf\n[[object]]\nmaterial = \"x\"\n"),
+             "material[0].fracture_strain = inf (material \"x\") is out of range: must be a finite number > 0");
 }
 
 TEST(SceneIo, UnknownMaterialWithSuggestion) {

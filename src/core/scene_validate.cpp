@@ -75,7 +75,9 @@ class Checker {
   void range(const std::string& key, double v, double lo, bool lo_closed, double hi, bool hi_closed,
              const std::string& range_text, const std::string& fix) const {
     const bool ok = std::isfinite(v) && (lo_closed ? v >= lo : v > lo) && (hi_closed ? v <= hi : v < hi);
-    if (!ok) fail(fmt::format("{} = {} is out of range: must be {}; {}", key, num(v), range_text, fix));
+    if (!ok)
+      fail(fmt::format("{} = {} is out of range: must be {}{}; {}", key, num(v), std::isfinite(v) ? "" : "a finite number ",
+                       range_text, fix));
   }
   void positive(const std::string& key, double v, const std::string& fix) const {
     range(key, v, 0.0, false, INFINITY, false, "> 0", fix);
@@ -103,7 +105,9 @@ void check_material(const Checker& c, const MaterialDef& m, std::size_t i) {
   auto range = [&](const char* k, double v, double lo, bool lc, double hi, bool hc, const std::string& text,
                    const std::string& fix) {
     const bool ok = std::isfinite(v) && (lc ? v >= lo : v > lo) && (hc ? v <= hi : v < hi);
-    if (!ok) c.fail(fmt::format("{}.{} = {} {} is out of range: must be {}; {}", p, k, num(v), q, text, fix));
+    if (!ok)
+      c.fail(fmt::format("{}.{} = {} {} is out of range: must be {}{}; {}", p, k, num(v), q,
+                         std::isfinite(v) ? "" : "a finite number ", text, fix));
   };
   // Physical ranges: from soft rubber to diamond, from aerogel to osmium. Beyond them the numbers are
   // a unit mistake, and their products (masses, stiffnesses, time steps) leave what float32 holds.

@@ -26,7 +26,7 @@ void Engine::check_environment() {
 }
 
 SolverDef::Backend backend_from_name(const std::string& name, const std::string& option) {
-  if (const auto b = parse_backend(name)) return *b;
+  if (const auto b = parse_backend(text::lower(name))) return *b;  // any case, as MCA_BACKEND: CPU is cpu
   throw Error(fmt::format("{} '{}': give auto (the default), cpu, cuda or cuda-emulation", option, name));
 }
 

@@ -99,8 +99,11 @@ struct PassProfile {
     for (int k = 0; k < kPasses; ++k)
       std::fprintf(stderr, "  %-14s %8.3f ms/step  %5.1f %%\n", names[k], 1e3 * seconds[k] / steps,
                    100 * seconds[k] / total);
-    std::fprintf(stderr, "  contact lists rebuilt %lld times (every %.1f steps)\n", static_cast<long long>(rebuilds),
-                 rebuilds ? static_cast<double>(steps) / rebuilds : 0.0);
+    if (rebuilds > 0)
+      std::fprintf(stderr, "  contact lists rebuilt %lld times (every %.1f steps)\n", static_cast<long long>(rebuilds),
+                   static_cast<double>(steps) / rebuilds);
+    else
+      std::fprintf(stderr, "  contact lists not rebuilt\n");
   }
 };
 
