@@ -232,11 +232,12 @@ class Simulation:
         within about 0.05 s while the slice in flight (up to about 2 s) ends in the background; whatever uses
         the simulation next waits for it. progress(done, total) after each slice, while the next slice runs:
         it cannot read the simulation (sim.step, arrays: mca.Error), so use done and total; progress must be
-        callable or None (checked before any step). mca.Error when the run becomes unstable, and when a step
+        callable or None (checked before any step), and an exception it raises ends the advance after the
+        slice in flight (a whole step) and is raised. mca.Error when the run becomes unstable, and when a step
         cannot be done (a GPU whose memory is full): the simulation then steps and is read no more; a state
         saved before (checkpoint, Simulation.resume) continues, with backend="cpu"."""
     def advance_to(self, time: float, progress: Optional[Callable[[int, int], Any]] = None) -> None:
-        """Advances to the step nearest `time` [s]."""
+        """Advances to the step nearest `time` [s]; nothing when that has passed (a negative time: mca.Error)."""
     @property
     def step(self) -> int: ...
     @property

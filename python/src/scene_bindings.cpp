@@ -947,8 +947,9 @@ validates it too.)");
           },
           py::arg("path"), "Writes to_toml() to a file.")
       .def("copy", &copy_of, "A deep copy: changing it leaves this scene as it is.")
-      .def("__copy__", &copy_of)
-      .def("__deepcopy__", [](const PyScene& s, const py::object&) { return copy_of(s); }, py::arg("memo"))
+      .def("__copy__", &copy_of, "A deep copy (copy.copy).")
+      .def("__deepcopy__", [](const PyScene& s, const py::object&) { return copy_of(s); }, py::arg("memo"),
+           "A deep copy (copy.deepcopy).")
       // Pickled as its TOML (what a process pool sends its workers): read back by Scene.from_toml, which is
       // called here first, so that a scene it would refuse (validate_scene's checks, a mesh not found) is
       // refused where it is pickled, not in the process that reads it. (__reduce__, not py::pickle: pickle's
@@ -960,7 +961,8 @@ validates it too.)");
         // (mca._scene_from_toml, a Python function: pickle names it by reference, which it cannot do for a
         // function of this extension, bound to a capsule.)
         return py::make_tuple(py::module_::import("mca").attr("_scene_from_toml"), py::make_tuple(text, def.source));
-      })
+      }, "For pickle: Scene.from_toml of its TOML and its source, tried first (mca.Error here for a scene it would "
+         "refuse: validate()'s checks, a mesh not found).")
       .def(
           "__eq__",
           [](const PyScene& a, const PyScene& b) { return io::scene_to_toml(a.to_def()) == io::scene_to_toml(b.to_def()); },
