@@ -16,7 +16,9 @@ OUT.blend the scene saved as a .blend.
 
 Options: --frame N (the frame of a .png; default: the last), --frames N (import only the first N frames),
 --size WxH (the picture's size; default: the run's render size, 1280x720), --engine workbench|eevee|cycles,
---samples N (anti-aliasing samples of the Workbench, default 8, or samples of Eevee and Cycles).
+--samples N (anti-aliasing samples of the Workbench: 5, 8 (the default), 11, 16 or 32; samples of Eevee and
+Cycles). --size, --engine and --samples are for a .png, --frame too (a .abc, .obj or .blend holds every
+frame imported): given with another output they are refused.
 
 RUN_DIR is the folder an `mca run` wrote (its --out) or its automata.pvd; OUT's folder must exist and be
 writable, and OUT must not be a folder (checked before the import).
@@ -38,6 +40,9 @@ USAGE = ("usage: blender -b --factory-startup --python blender/mca_cli.py -- RUN
          "[--frame N] [--frames N] [--size WxH] [--engine workbench|eevee|cycles] [--samples N]")
 
 
+WORKBENCH_SAMPLES = ("5", "8", "11", "16", "32")  # its anti-aliasing's choices (scene.display.render_aa)
+
+
 class UsageError(Exception):
     """A bad argument: one line on stderr; `usage` adds the usage line where the command's shape was wrong."""
 
@@ -55,6 +60,7 @@ def parse(argv):
         raise UsageError("no arguments after '--'", usage=True)
     args = argv[argv.index("--") + 1:]
     opts = {"frame": None, "frames": None, "size": None, "samples": 8, "engine": "workbench"}
+    given = set()
     pos = []
     k = 0
     while k < len(args):
@@ -85,6 +91,7 @@ def parse(argv):
                 raise UsageError(f"{a} {value}: expected " +
                                  ("WxH, 16 to 16384 each" if key == "size" else "workbench, eevee or cycles" if key == "engine"
                                   else f"a whole number >= {1 if key in ('frames', 'samples') else 0}"))
+            given.add(key)
             k += 2
             continue
         pos.append(a)
@@ -99,6 +106,14 @@ def parse(argv):
     ext = os.path.splitext(out)[1].lower()
     if ext not in (".abc", ".obj", ".png", ".blend"):
         raise UsageError(f"{out}: the output's extension picks what to write: .abc, .obj, .png or .blend")
+    # Options that would change nothing are refused rather than passed over.
+    if "frame" in given and ext != ".png":
+        raise UsageError(f"--frame picks the frame of a .png; {out} holds every frame imported (--frames N: the first N)")
+    if ext != ".png" and given & {"size", "engine", "samples"}:
+        raise UsageError(f"--{sorted(given & {'size', 'engine', 'samples'})[0]} is for a .png; {out} is not rendered")
+    if opts["engine"] == "workbench" and str(opts["samples"]) not in WORKBENCH_SAMPLES:
+        raise UsageError(f"--samples {opts['samples']}: the Workbench's anti-aliasing takes "
+                         f"{', '.join(WORKBENCH_SAMPLES[:-1])} or {WORKBENCH_SAMPLES[-1]} samples")
     return run_dir, out, ext, opts
 
 
@@ -156,8 +171,7 @@ def render(scene, out, opts, frames):
         shading.color_type = "VERTEX"  # the colour attribute: mca's fragment colours
         shading.show_cavity = False
         shading.show_shadows = False
-        aa = str(opts["samples"])
-        scene.display.render_aa = aa if aa in ("5", "8", "11", "16", "32") else "8"
+        scene.display.render_aa = str(opts["samples"])  # (one of WORKBENCH_SAMPLES: checked with the options)
     elif engine == "eevee":  # the material "mca colour" reads the colour attribute
         scene.render.engine = "BLENDER_EEVEE"
         scene.eevee.taa_render_samples = opts["samples"]

@@ -319,6 +319,10 @@ def bad_cli(a):
     for name, args, words in (
             ("--frames 0", [short, os.path.join(out, "y.png"), "--frames", "0"], "expected a whole number >= 1"),
             ("--samples 0", [short, os.path.join(out, "y.png"), "--samples", "0"], "expected a whole number >= 1"),
+            ("--samples 7 with the Workbench", [short, os.path.join(out, "y.png"), "--samples", "7"],
+             "the Workbench's anti-aliasing takes 5, 8, 11, 16 or 32 samples"),
+            ("--frame with a .obj", [short, os.path.join(out, "y.obj"), "--frame", "3"], "--frame picks the frame of a .png"),
+            ("--size with a .blend", [short, os.path.join(out, "y.blend"), "--size", "64x64"], "--size is for a .png"),
             ("an empty RUN_DIR", ["", os.path.join(out, "y.png")], "RUN_DIR is empty"),
             ("a run folder that does not exist", [os.path.join(out, "no_run"), os.path.join(out, "y.blend")],
              os.path.join(out, "no_run") + " does not exist"),
