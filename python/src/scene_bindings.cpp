@@ -347,7 +347,14 @@ py::list list_of(const std::vector<T>& v) {
 py::list list_value(const py::object& v, const std::string& key, const char* cls) {
   if (!py::isinstance<py::list>(v))
     throw Error(fmt::format("{} = {} is not a list; give a list of mca.{}", key, shown(v), cls));
-  return py::reinterpret_borrow<py::list>(v);
+  // Its items are checked now, as a key's value is when it is set (a list appended to later is checked by
+  // validate() and when a Simulation is built).
+  const py::object type = py::module_::import("mca._mca").attr(cls);
+  const auto list = py::reinterpret_borrow<py::list>(v);
+  for (std::size_t k = 0; k < list.size(); ++k)
+    if (!py::isinstance(list[k], type))
+      throw Error(fmt::format("{}[{}] is a {}, not an mca.{}; give a list of mca.{}", key, k, type_name(list[k]), cls, cls));
+  return list;
 }
 template <class T>
 T value_of(const py::object& o, const std::string& key, const char* cls) {

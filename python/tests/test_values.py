@@ -139,6 +139,15 @@ def test_three_number_list_and_path_keys_name_their_table():
         mca.Scene.load(None)
     with pytest.raises(mca.Error, match=r"Scene\.save: path = 3 is not a path"):
         scene.save(3)
+    # A list's items are checked when it is set, as a key's value is (they were taken, and refused only by
+    # validate(): a hostile review).
+    with pytest.raises(mca.Error, match=r"scene\.objects\[1\] is a int, not an mca\.Object; give a list of mca\.Object"):
+        scene.objects = [scene.objects[0], 2]
+    with pytest.raises(mca.Error, match=r"object\.regions\[0\] is a int, not an mca\.Region"):
+        scene.objects[0].regions = [5]
+    with pytest.raises(mca.Error, match=r"scene\.materials\[0\] is a Object, not an mca\.Material"):
+        scene.materials = [mca.Object()]
+    assert len(scene.objects) == 1  # (left as it was)
     scene.objects = list(scene.objects)  # a list is still taken
     scene.validate()
 
