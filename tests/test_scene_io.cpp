@@ -544,6 +544,14 @@ TEST(SceneIo, ZeroSizeAndRadius) {
              "material[0].fracture_strain = inf (material \"x\") is out of range: must be a finite number > 0");
 }
 
+// The scene's name titles pictures, windows and a Blender collection: no control characters (a NUL cut the
+// collection's name short).
+TEST(SceneIo, ASceneNameWithAControlCharacterIsRefused) {
+  EXPECT_HAS(parse_error("name = \"a\\nb\"\n[[object]]\n", "wall.toml"),
+             "wall.toml: name = \"a\\nb\" has a control character (a line break, tab or NUL)");
+  EXPECT_EQ(parse_error("name = \"a b-c_d é\"\n[[object]]\n"), "");
+}
+
 TEST(SceneIo, UnknownMaterialWithSuggestion) {
   const std::string msg = parse_error("[[object]]\nmaterial = \"concret\"\n", "wall.toml");
   EXPECT_HAS(msg, "wall.toml: object[0].material = \"concret\" is not a known material; did you mean 'concrete'?");

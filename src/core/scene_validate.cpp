@@ -233,6 +233,11 @@ const MaterialDef& resolve_material(const SceneDef& scene, const std::string& na
 
 void validate_scene(const SceneDef& scene) {
   const Checker c(scene);
+  // The name titles the run's pictures, windows and summary, and a Blender import's collection (which a
+  // NUL cut short).
+  if (std::any_of(scene.name.begin(), scene.name.end(), text::is_control))
+    c.fail(fmt::format("name = \"{}\" has a control character (a line break, tab or NUL); name the scene with "
+                       "printable characters", escaped(scene.name)));
 
   // Solver.
   // The spacing is stored in float32, and memory and counts go with its cube: 1e-300 became a spacing of
