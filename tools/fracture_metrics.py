@@ -476,6 +476,11 @@ def main(argv=None):
     ap.add_argument("--no-damage", action="store_true")
     ap.add_argument("--no-fragments", action="store_true")
     a = ap.parse_args(argv)
+    for opt, v in (("--r-in", a.r_in), ("--r-out", a.r_out), ("--threshold", a.threshold), ("--fit-max", a.fit_max)):
+        if v is not None and not (math.isfinite(v) and v >= 0):
+            ap.error(f"{opt} {v:g}: give a finite number >= 0")
+    if a.r_in is not None and a.r_out is not None and not a.r_in < a.r_out:
+        ap.error(f"--r-in {a.r_in:g} --r-out {a.r_out:g}: the inner radius must be below the outer one")
     res = {"run": os.path.abspath(a.run_dir)}
     try:
         if not os.path.isdir(a.run_dir):

@@ -247,6 +247,16 @@ def test_missing_folder_is_an_error(tmp_path, capsys):
     assert fm.main([str(tmp_path / "empty")]) == 2
 
 
+def test_radii_that_make_no_annulus_are_refused(tmp_path, capsys):
+    for args, words in ((["--r-in", "0.5", "--r-out", "0.1"], "the inner radius must be below the outer one"),
+                        (["--r-in", "nan"], "--r-in nan: give a finite number >= 0"),
+                        (["--threshold", "-1"], "--threshold -1: give a finite number >= 0")):
+        with pytest.raises(SystemExit) as e:
+            fm.main([str(tmp_path)] + args)
+        assert e.value.code == 2
+        assert words in capsys.readouterr().err
+
+
 def plate(half=0.2, d=0.05, layers=2):
     """Initial positions and radii of a square plate 2 * half wide in the xz plane, centred on the origin,
     `layers` automata of spacing d through y."""
