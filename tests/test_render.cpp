@@ -1183,26 +1183,27 @@ TEST(View, ScriptLinesAreCheckedAndLateShotsReported) {
     EXPECT_NE(r.output.find(script.string() + ":3: '" + bad + "' is not 'TIME X Y'"), std::string::npos) << r.output;
   }
   if (shell("command -v xvfb-run").code != 0) GTEST_SKIP() << "xvfb-run is not installed (scripts/setup.sh)";
-  std::ofstream(script) << "0.5 0.5 0.5\n";
-  const Result late = view_under_xvfb("--size 64x64 --frames 2 --script " + script.string());
-  ASSERT_EQ(late.code, 0) << late.output;
-  EXPECT_NE(late.output.find("1 shot was not fired: the view ended at t = 2.00 ms, before t = 500.00 ms"),
-            std::string::npos) << late.output;
+  // Two frames of 2 ms with the shots of `lines`; the view ends normally.
+  const auto view_with = [&](const std::string& lines) {
+    std::ofstream(script) << lines;
+    const Result r = view_under_xvfb("--size 64x64 --frames 2 --script " + script.string());
+    EXPECT_EQ(r.code, 0) << r.output;
+    return r.output;
+  };
+  const std::string late = view_with("0.5 0.5 0.5\n");
+  EXPECT_NE(late.find("1 shot was not fired: the view ended at t = 2.00 ms, before t = 500.00 ms"), std::string::npos)
+      << late;
   // Two shots due at the last frame along one ray: the second overlaps the first and is refused, so one
   // went into the simulation after that frame, not two (a hostile review: a refused one was counted).
-  std::ofstream(script) << "0.002 0.5 0.5\n0.002 0.5 0.5\n";
-  const Result last = view_under_xvfb("--size 64x64 --frames 2 --script " + script.string());
-  ASSERT_EQ(last.code, 0) << last.output;
-  EXPECT_NE(last.output.find("warning: shot not fired"), std::string::npos) << last.output;
-  EXPECT_NE(last.output.find("mca view: 1 shot due at the last frame shown (t = 2.00 ms) went into the simulation after it"),
-            std::string::npos) << last.output;
+  const std::string last = view_with("0.002 0.5 0.5\n0.002 0.5 0.5\n");
+  EXPECT_NE(last.find("warning: shot not fired"), std::string::npos) << last;
+  EXPECT_NE(last.find("mca view: 1 shot due at the last frame shown (t = 2.00 ms) went into the simulation after it"),
+            std::string::npos) << last;
   // One alone at the last frame, refused (the ball fired at the first frame is 8 cm along its ray): none
   // went in.
-  std::ofstream(script) << "0 0.5 0.5\n0.002 0.5 0.5\n";
-  const Result refused = view_under_xvfb("--size 64x64 --frames 2 --script " + script.string());
-  ASSERT_EQ(refused.code, 0) << refused.output;
-  EXPECT_NE(refused.output.find("warning: shot not fired"), std::string::npos) << refused.output;
-  EXPECT_EQ(refused.output.find("due at the last frame"), std::string::npos) << refused.output;
+  const std::string refused = view_with("0 0.5 0.5\n0.002 0.5 0.5\n");
+  EXPECT_NE(refused.find("warning: shot not fired"), std::string::npos) << refused;
+  EXPECT_EQ(refused.find("due at the last frame"), std::string::npos) << refused;
 }
 
 // Ctrl-C in the terminal closes the viewer as Q does, with its closing line, and the exit code of the
