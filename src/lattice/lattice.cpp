@@ -707,8 +707,9 @@ void settle_on_the_ground(const SceneDef& scene, const Shapes& S, Model& M, std:
       if (scene.solver.target_automata > 0) {
         why += fmt::format("; solver.target_automata = {} chose that spacing: give solver.spacing instead", scene.solver.target_automata);
         int k = -1;  // an unturned box's axis along up
+        const float up[3] = {M.up.x, M.up.y, M.up.z};
         for (int c = 0; c < 3; ++c)
-          if (std::abs((&M.up.x)[c]) == 1.0f) k = c;
+          if (std::abs(up[c]) == 1.0f) k = c;
         if (o.shape == Shape::box && k >= 0 && o.rotation[0] == 0 && o.rotation[1] == 0 && o.rotation[2] == 0) {
           const double height = o.size[static_cast<std::size_t>(k)];
           const double cells = std::max(1.0, std::round(height / d));
