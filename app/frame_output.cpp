@@ -132,9 +132,12 @@ std::string step_note(const Model& m) {
 }
 
 // Frames shorter than the automatic step (safety x critical) make the step: one a frame.
+// (Read off the step taken, so that it agrees with the fitting of steps to frames at the limit: one step a
+// frame, a hundredth or more below safety x critical.)
 bool frames_set_the_step(const Model& m, const SceneDef& scene) {
-  return scene.solver.time_step <= 0 && 1.0 / scene.output.frame_rate < scene.solver.safety * m.critical_dt &&
-         1.0 / scene.output.frame_rate < scene.output.duration;
+  const double frame = 1.0 / scene.output.frame_rate, dt = m.dt;
+  return scene.solver.time_step <= 0 && frame < scene.output.duration && dt >= frame * (1 - 1e-6) &&
+         dt < 0.99 * scene.solver.safety * m.critical_dt;
 }
 
 std::string frame_step_note(const Model& m, const SceneDef& scene) {

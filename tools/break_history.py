@@ -57,7 +57,9 @@ def read_breaks(path, expected=None, verify=True):
     checksum over every byte before it is checked first (pure Python: about 0.4 s a megabyte)."""
     with open(path, "rb") as f:
         data = f.read()
-    if data[:8] not in MAGICS or data[-8:] != data[:8]:
+    if data[:8] in MAGICS and data[-8:] != data[:8]:
+        raise fm.RunError(f"{path}: cut short or damaged (no end marker {data[:8].decode()} at its end)")
+    if data[:8] not in MAGICS:
         raise fm.RunError(f"{path}: not a format-6 to -8 mca checkpoint (magic {data[:8]!r}; this tool reads {', '.join(m.decode() for m in MAGICS)})")
     if verify and fnv1a(data[:-16]) != struct.unpack_from("<Q", data, len(data) - 16)[0]:
         raise fm.RunError(f"{path}: its checksum does not match its contents")

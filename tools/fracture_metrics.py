@@ -240,6 +240,9 @@ def damage_measure(run_dir, frame=None, time=None, normal=None, centre=None, r_i
         rule_in, rule_out, half, scaled = annulus_radii(initial, radius, normal, centre)
         r_in = rule_in if r_in is None else r_in
         r_out = rule_out if r_out is None else r_out
+    if not r_in < r_out:
+        raise RunError(f"the annulus {r_in:g}-{r_out:g} m (--r-in, --r-out, or the rule for the other) is empty: "
+                       "give an inner radius below the outer one")
     res = sector_shares(initial, damage, normal, centre, r_in=r_in, r_out=r_out, **kw)
     res.update({"frame": k, "time": t, "file": os.path.relpath(path, run_dir), "half_width": half,
                 "radii_scaled": scaled})

@@ -77,7 +77,7 @@ def main():
         fail(f"{args.input} is a folder: give a file in it, e.g. {os.path.join(args.input, 'automata.pvd')}")
     if not os.path.isfile(args.input):
         fail(f"{args.input} does not exist")
-    if not args.png.lower().endswith(".png") or os.path.isdir(args.png):
+    if not args.png.endswith(".png") or os.path.isdir(args.png):  # (ParaView's writer takes .png, not .PNG)
         fail(f"{args.png}: give a .png file to write")
     folder = os.path.dirname(os.path.abspath(args.png))
     if not os.path.isdir(folder):

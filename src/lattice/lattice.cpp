@@ -710,11 +710,15 @@ void settle_on_the_ground(const SceneDef& scene, const Shapes& S, Model& M, std:
         const float up[3] = {M.up.x, M.up.y, M.up.z};
         for (int c = 0; c < 3; ++c)
           if (std::abs(up[c]) == 1.0f) k = c;
+        // Where the box itself is placed on or above the ground, and the spacing leaves its height a part of
+        // a cell over: the spacing that fills it with whole cells. (A box placed in the ground is moved up.)
         if (o.shape == Shape::box && k >= 0 && o.rotation[0] == 0 && o.rotation[1] == 0 && o.rotation[2] == 0) {
           const double height = o.size[static_cast<std::size_t>(k)];
+          const double bottom = o.position[static_cast<std::size_t>(k)] * up[k] - 0.5 * height;
           const double cells = std::max(1.0, std::round(height / d));
-          why += fmt::format(", one that fills its height of {:g} m with whole cells (solver.spacing = {}: {:g} cells)",
-                             height, text::num(height / cells), cells);
+          if (bottom >= scene.ground.height - 1e-6 * d && std::abs(cells * d - height) > 1e-6 * d)
+            why += fmt::format(", one that fills its height of {:g} m with whole cells (solver.spacing = {}: {:g} cells)",
+                               height, text::num(height / cells), cells);
         }
       }
     }

@@ -384,6 +384,9 @@ def test_the_fragments_say_when_they_are_from(tmp_path, capsys):
     (run / "summary.json").write_text(json.dumps({"simulated_time": 0.002, "status": "interrupted"}))
     assert fm.main([str(run), "--json", str(tmp_path / "m.json")]) == 0
     assert "where the run stopped: interrupted, t = 2.0 ms" in capsys.readouterr().out
+    # One radius given past the rule's other one: no annulus, an error (it reported 0 automata, exit 0).
+    assert fm.main([str(run), "--r-in", "100"]) == 2
+    assert "is empty: give an inner radius below the outer one" in capsys.readouterr().err
     res = json.loads((tmp_path / "m.json").read_text())
     assert res["fragments"]["time"] == 0.002 and res["fragments"]["status"] == "interrupted"
     # An output into a folder that does not exist is refused before anything is measured.
