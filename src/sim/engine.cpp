@@ -212,12 +212,13 @@ Model build_for_frames(const SceneDef& scene, int& steps_per_frame, std::int64_t
     if (v > fastest) { fastest = v; which = fmt::format("grip '{}'", g.name); spinning = nullptr; }
   }
   if (!(fastest * m.dt <= 0.1 * m.spacing)) {
-    const text::Distinct speed = text::distinct(fastest, 0.1 * m.spacing / m.dt);
+    const double fits = 0.1 * m.spacing / m.dt;  // the fastest speed taken
+    const text::Distinct speed = text::distinct(fastest, fits);
     const text::Distinct reach = text::distinct(fastest * m.dt, 0.1 * m.spacing, 3);
     // A ball's spin: the angular_velocity that fits, within the turn per step below too.
-    std::string fix = fmt::format("Lower its speed below {} m/s", text::at_most(0.1 * m.spacing / m.dt, 4));
+    std::string fix = fmt::format("Lower its speed below {} m/s", text::at_most(fits, 4));
     if (spinning) {
-      double limit = 0.1 * m.spacing / m.dt / spinning->radius;
+      double limit = fits / spinning->radius;
       if (!spinning->kinematic) limit = std::min(limit, kLargestProjectileTurn / static_cast<double>(m.dt));
       fix = fmt::format("Lower its angular_velocity below {} rad/s", text::at_most(limit, 4));
     }
